@@ -1,0 +1,73 @@
+/*
+ * core/common: what every photonfarm module shares — status codes, the error
+ * record that carries a message naming the file/element/row at fault, warning
+ * and log output, and a monotonic clock. Nothing here touches Vulkan, SQLite
+ * or libuv.
+ */
+#ifndef PF_COMMON_H
+#define PF_COMMON_H
+
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+
+/* Every fallible call returns a pf_status: 0 on success, negative on failure. */
+typedef enum pf_status {
+    PF_OK = 0,
+    PF_ERR_IO = -1,          /* file missing, unreadable, unwritable */
+    PF_ERR_FORMAT = -2,      /* file exists but its content is malformed */
+    PF_ERR_INVALID = -3,     /* bad argument or value from the caller/user */
+    PF_ERR_VULKAN = -4,      /* a Vulkan call failed */
+    PF_ERR_NOMEM = -5,       /* allocation failed */
+    PF_ERR_LIMIT = -6,       /* a device or format limit would be exceeded */
+    PF_ERR_UNSUPPORTED = -7, /* valid input we cannot handle */
+    PF_ERR_INTERNAL = -8     /* a bug: an invariant did not hold */
+} pf_status;
+
+#define PF_ERROR_MESSAGE_MAX 1024
+
+/* Filled by a failing call; the message names the cause (file, element, row). */
+typedef struct pf_error {
+    pf_status status;
+    char message[PF_ERROR_MESSAGE_MAX];
+} pf_error;
+
+/* Short name of a status ("io", "format", ...). Never NULL. */
+const char *pf_status_name(pf_status status);
+
+/*
+ * Records status and a printf-style message in err (err may be NULL) and
+ * returns status, so callers can write `return pf_error_set(err, ...)`.
+ */
+pf_status pf_error_set(pf_error *err, pf_status status, const char *format, ...)
+    __attribute__((format(printf, 3, 4)));
+
+/* Prefixes err->message with "prefix: " (context added by an outer caller). */
+void pf_error_prefix(pf_error *err, const char *format, ...)
+    __attribute__((format(printf, 2, 3)));
+
+/* Process exit code for a status: 0 ok, 2 bad usage/input, 1 anything else. */
+int pf_status_exit_code(pf_status status);
+
+typedef enum pf_log_level {
+    PF_LOG_DEBUG = 0,
+    PF_LOG_INFO = 1,
+    PF_LOG_WARN = 2,
+    PF_LOG_ERROR = 3
+} pf_log_level;
+
+/* Where log lines go. The default sink writes "level: message" to stderr. */
+typedef void (*pf_log_sink)(pf_log_level level, const char *message, void *user);
+
+/* Replaces the sink (NULL restores the default). Not thread-safe against logging. */
+void pf_log_set_sink(pf_log_sink sink, void *user);
+/* Lines below min_level are dropped. Default: PF_LOG_INFO. */
+void pf_log_set_level(pf_log_level min_level);
+void pf_log(pf_log_level level, const char *format, ...) __attribute__((format(printf, 2, 3)));
+/* Number of PF_LOG_WARN lines emitted so far (tests assert warnings happened). */
+uint32_t pf_log_warning_count(void);
+
+/* Monotonic clock in milliseconds. */
+double pf_time_ms(void);
+
+#endif

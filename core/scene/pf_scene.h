@@ -1,0 +1,148 @@
+/*
+ * core/scene: scene import (glTF 2.0 .gltf/.glb, OBJ/MTL), animation sampling,
+ * and flat world-space arrays ready to upload to the GPU.
+ *
+ * Units follow glTF: meters; emitted radiance in W/(sr·m²)
+ * (emissiveFactor × KHR_materials_emissive_strength); point/spot intensity in
+ * W/sr; directional light in W/m². Emissive triangles emit from their front
+ * (counter-clockwise) face only.
+ *
+ * Unsupported features produce one PF_LOG_WARN each per scene and map to the
+ * nearest supported thing. Bad files fail with a message naming the file and
+ * the element ("meshes[2].primitives[0].indices: index 90 out of range (30
+ * vertices)"). A scene without a camera gets a default camera framing the
+ * scene's bounds, with a warning.
+ */
+#ifndef PF_SCENE_H
+#define PF_SCENE_H
+
+#include "pf_common.h"
+
+#include <stdint.h>
+
+typedef struct pf_scene pf_scene;
+
+typedef enum pf_material_kind {
+    PF_MATERIAL_LAMBERT = 0, /* diffuse reflectance = albedo */
+    PF_MATERIAL_MIRROR = 1,  /* ideal specular reflection tinted by albedo */
+    PF_MATERIAL_GLASS = 2    /* smooth dielectric with index ior, tinted by albedo */
+} pf_material_kind;
+
+/* std430-compatible (32 bytes): uploaded as-is. */
+typedef struct pf_material {
+    float albedo[3];
+    uint32_t kind;         /* pf_material_kind */
+    float emission[3];     /* emitted radiance, W/(sr·m²); zero if not emissive */
+    float ior;             /* glass only; 1.5 default */
+} pf_material;
+
+typedef enum pf_light_kind {
+    PF_LIGHT_POINT = 0,
+    PF_LIGHT_SPOT = 1,
+    PF_LIGHT_DIRECTIONAL = 2
+} pf_light_kind;
+
+/* std430-compatible (64 bytes). */
+typedef struct pf_light {
+    float position[3];     /* world space (point, spot) */
+    uint32_t kind;         /* pf_light_kind */
+    float direction[3];    /* unit vector the light travels along (spot, directional) */
+    float range;           /* 0 = infinite */
+    float intensity[3];    /* color × intensity: W/sr (point, spot), W/m² (directional) */
+    float cos_inner_cone;  /* spot: full intensity inside this */
+    float cos_outer_cone;  /* spot: zero outside this; smooth falloff between */
+    float padding[3];
+} pf_light;
+
+typedef struct pf_camera {
+    float position[3];
+    float forward[3];      /* unit view direction (-Z of the camera node) */
+    float up[3];           /* unit, orthogonal to forward (+Y of the node) */
+    float right[3];        /* unit, forward × up */
+    float yfov;            /* vertical field of view, radians */
+    float aspect;          /* width/height from the file, 0 = use the image's */
+    float znear, zfar;     /* zfar 0 = infinite */
+} pf_camera;
+
+/*
+ * One frame's scene, world space, flat. vertices and normals hold 3 entries per
+ * triangle (xyz + w padding, w = 0), so triangle t is vertices[3t..3t+2].
+ * Triangles are in a stable order across frames of one scene (node order, then
+ * primitive order), so per-triangle data can be compared frame to frame.
+ */
+typedef struct pf_scene_frame {
+    uint32_t triangle_count;
+    float (*vertices)[4];
+    float (*normals)[4];          /* shading normals (geometric if the file has none) */
+    uint32_t *triangle_material;  /* index into materials */
+    uint32_t *triangle_node;      /* index of the glTF node (or OBJ object) it came from */
+    uint32_t material_count;
+    pf_material *materials;
+    uint32_t light_count;
+    pf_light *lights;
+    uint32_t emissive_triangle_count; /* triangles whose material emits */
+    pf_camera camera;
+    float bounds_min[3], bounds_max[3]; /* of all triangles; zero box if none */
+} pf_scene_frame;
+
+typedef struct pf_scene_info {
+    const char *path;
+    uint32_t node_count;
+    uint32_t mesh_count;
+    uint32_t material_count;
+    uint32_t light_count;          /* punctual lights */
+    uint32_t animation_count;
+    uint32_t triangle_count;       /* per frame (constant across frames) */
+    uint32_t emissive_triangle_count;
+    double fps;                    /* asset.extras.fps, else 24 */
+    uint32_t frame_count;          /* asset.extras.frames, else from the animation length, >= 1 */
+    double duration_seconds;       /* last keyframe time, 0 if static */
+    int has_camera;                /* 0: a default camera frames the scene */
+    int geometry_animated;         /* some animated node carries a mesh */
+    int lights_animated;           /* some animated node carries a light */
+    int camera_animated;
+    int has_specular;              /* any mirror or glass material */
+    int has_emissive;
+} pf_scene_info;
+
+/*
+ * Loads a scene by extension (.gltf, .glb, .obj; case-insensitive). Fails with
+ * PF_ERR_IO (missing/unreadable), PF_ERR_FORMAT (malformed, truncated, wrong
+ * type, NaN/Inf data, indices out of range, zero triangles) naming file and element.
+ */
+pf_status pf_scene_load(const char *path, pf_scene **out, pf_error *err);
+void pf_scene_destroy(pf_scene *scene);
+const pf_scene_info *pf_scene_get_info(const pf_scene *scene);
+
+/* Frame numbers start at 1; frame f is sampled at time (f - 1) / fps. */
+double pf_scene_frame_time(const pf_scene *scene, int64_t frame);
+
+/*
+ * Samples every animation at time_seconds (clamped to each sampler's range),
+ * composes the node hierarchy and fills out with world-space arrays. out is
+ * owned by the caller: release with pf_scene_frame_free. Thread-safe for one
+ * scene used from several threads.
+ */
+pf_status pf_scene_eval(const pf_scene *scene, double time_seconds, pf_scene_frame *out,
+                        pf_error *err);
+void pf_scene_frame_free(pf_scene_frame *frame);
+
+/*
+ * Camera for rendering width×height: when the file gives an aspect ratio that
+ * differs from the image's, yfov is kept and the image's aspect is used (glTF
+ * §3.10.3: the viewport's aspect wins). Writes the half extents of the image
+ * plane at distance 1 in *tan_half_x and *tan_half_y.
+ */
+void pf_camera_image_plane(const pf_camera *camera, uint32_t width, uint32_t height,
+                           float *tan_half_x, float *tan_half_y);
+
+/*
+ * Animation primitives, exposed so tests can check them against hand-computed
+ * values. Quaternions are (x, y, z, w) as in glTF.
+ */
+void pf_quat_slerp(const float a[4], const float b[4], float t, float out[4]);
+/* Cubic Hermite spline as glTF CUBICSPLINE defines it (dt = t_{k+1} - t_k). */
+float pf_cubic_hermite(float v0, float out_tangent0, float v1, float in_tangent1, float dt,
+                       float t);
+
+#endif

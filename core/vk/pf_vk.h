@@ -1,0 +1,129 @@
+/*
+ * core/vk: the Vulkan compute runtime — instance and device choice, storage
+ * buffers, compute pipelines from SPIR-V, command recording with fences, and
+ * GPU timestamp queries. Everything GPU-side in photonfarm goes through here.
+ *
+ * Device choice: a real GPU (discrete > integrated > virtual) when present, else
+ * a CPU device (lavapipe). An explicit selector (CLI --device, or
+ * $PHOTONFARM_DEVICE when the option is NULL) is either a decimal index into
+ * pf_vk_enumerate()'s list or a case-insensitive substring of the device name.
+ *
+ * Validation: when enabled (option, or $PF_VK_VALIDATION=1) the Khronos
+ * validation layer is loaded and every message it emits is printed to stderr
+ * and counted; tests assert the count stays zero. Enabling it when the layer is
+ * not installed is an error, never a silent downgrade.
+ */
+#ifndef PF_VK_H
+#define PF_VK_H
+
+#include "pf_common.h"
+
+#include <stdint.h>
+
+typedef struct pf_vk_context pf_vk_context;
+typedef struct pf_vk_buffer pf_vk_buffer;
+typedef struct pf_vk_pipeline pf_vk_pipeline;
+typedef struct pf_vk_commands pf_vk_commands;
+
+typedef struct pf_vk_device_info {
+    uint32_t index;         /* position in pf_vk_enumerate()'s list */
+    char name[256];
+    char type[16];          /* "discrete", "integrated", "virtual", "cpu", "other" */
+    char driver[256];       /* driver name + info, e.g. "llvmpipe" / "NVIDIA 550.x" */
+    uint32_t vendor_id;
+    uint32_t device_id;
+    uint32_t api_version;   /* VK_MAKE_API_VERSION packed */
+    uint64_t max_storage_buffer_range;   /* lavapipe: 128 MiB */
+    uint64_t device_local_bytes;         /* largest device-local heap */
+    uint32_t max_workgroup_invocations;
+    uint32_t max_workgroup_size[3];
+    uint32_t max_workgroup_count[3];
+    uint32_t max_shared_memory_bytes;
+    uint32_t max_push_constant_bytes;
+    uint32_t subgroup_size;
+    float timestamp_period_ns;           /* ns per timestamp tick */
+    uint32_t timestamp_valid_bits;       /* 0: no compute timestamps */
+    int has_int64;                       /* shaderInt64 */
+    int has_int64_atomics;               /* shaderBufferInt64Atomics */
+} pf_vk_device_info;
+
+typedef struct pf_vk_options {
+    const char *device_selector; /* NULL: $PHOTONFARM_DEVICE, else automatic */
+    int validation;              /* 1 on, 0 off, -1: from $PF_VK_VALIDATION */
+} pf_vk_options;
+
+/* Lists every physical device with its key limits. *devices is malloc'ed; free() it. */
+pf_status pf_vk_enumerate(pf_vk_device_info **devices, uint32_t *count, pf_error *err);
+
+/*
+ * Creates an instance and a logical device with one compute queue on the chosen
+ * device. On failure nothing is left allocated and err names the cause (no
+ * Vulkan loader, no device, selector matching nothing, validation layer missing).
+ */
+pf_status pf_vk_create(const pf_vk_options *options, pf_vk_context **out, pf_error *err);
+void pf_vk_destroy(pf_vk_context *ctx);
+const pf_vk_device_info *pf_vk_info(const pf_vk_context *ctx);
+int pf_vk_validation_enabled(const pf_vk_context *ctx);
+/* Validation messages (warnings and errors) seen since creation. */
+uint32_t pf_vk_validation_message_count(const pf_vk_context *ctx);
+
+/*
+ * A device-local storage buffer of size bytes (label names it in errors).
+ * A size above maxStorageBufferRange is refused with PF_ERR_LIMIT and a message
+ * giving both numbers, the label and the device: callers split big data.
+ */
+pf_status pf_vk_buffer_create(pf_vk_context *ctx, uint64_t size, const char *label,
+                              pf_vk_buffer **out, pf_error *err);
+void pf_vk_buffer_destroy(pf_vk_context *ctx, pf_vk_buffer *buffer);
+uint64_t pf_vk_buffer_size(const pf_vk_buffer *buffer);
+/* Blocking copies through a staging buffer; ranges are checked against the size. */
+pf_status pf_vk_buffer_upload(pf_vk_context *ctx, pf_vk_buffer *buffer, uint64_t offset,
+                              const void *data, uint64_t size, pf_error *err);
+pf_status pf_vk_buffer_download(pf_vk_context *ctx, pf_vk_buffer *buffer, uint64_t offset,
+                                void *data, uint64_t size, pf_error *err);
+
+typedef struct pf_vk_spec_constant {
+    uint32_t constant_id;
+    uint32_t value; /* 32-bit int/uint/float bits */
+} pf_vk_spec_constant;
+
+typedef struct pf_vk_pipeline_desc {
+    const char *name;                 /* shader name, for errors and logs */
+    const uint32_t *spirv;
+    size_t spirv_bytes;
+    uint32_t buffer_count;            /* storage buffers at set 0, bindings 0..n-1 */
+    uint32_t push_constant_bytes;     /* 0..128 */
+    const pf_vk_spec_constant *spec_constants;
+    uint32_t spec_constant_count;
+} pf_vk_pipeline_desc;
+
+pf_status pf_vk_pipeline_create(pf_vk_context *ctx, const pf_vk_pipeline_desc *desc,
+                                pf_vk_pipeline **out, pf_error *err);
+/* Convenience: pipeline from an embedded shader by name (see pf_shaders.h). */
+pf_status pf_vk_pipeline_create_named(pf_vk_context *ctx, const char *shader_name,
+                                      uint32_t buffer_count, uint32_t push_constant_bytes,
+                                      const pf_vk_spec_constant *spec_constants,
+                                      uint32_t spec_constant_count, pf_vk_pipeline **out,
+                                      pf_error *err);
+void pf_vk_pipeline_destroy(pf_vk_context *ctx, pf_vk_pipeline *pipeline);
+
+/*
+ * Command recording: begin, record dispatches/barriers/timestamps, submit (waits
+ * on a fence), read timestamps, destroy. One pf_vk_commands is single-use.
+ */
+pf_status pf_vk_commands_begin(pf_vk_context *ctx, pf_vk_commands **out, pf_error *err);
+pf_status pf_vk_cmd_dispatch(pf_vk_commands *cmds, pf_vk_pipeline *pipeline,
+                             pf_vk_buffer *const *buffers, uint32_t buffer_count,
+                             const void *push_constants, uint32_t push_constant_bytes,
+                             uint32_t groups_x, uint32_t groups_y, uint32_t groups_z,
+                             pf_error *err);
+/* Makes all earlier shader writes visible to later shader reads and writes. */
+void pf_vk_cmd_barrier(pf_vk_commands *cmds);
+/* Writes a GPU timestamp; returns its slot (< 0 when timestamps are unsupported). */
+int pf_vk_cmd_timestamp(pf_vk_commands *cmds);
+pf_status pf_vk_commands_submit(pf_vk_commands *cmds, pf_error *err);
+/* GPU milliseconds between two timestamp slots after submit; negative if unavailable. */
+double pf_vk_commands_elapsed_ms(const pf_vk_commands *cmds, int slot_begin, int slot_end);
+void pf_vk_commands_destroy(pf_vk_commands *cmds);
+
+#endif

@@ -1,0 +1,55 @@
+#include "pf_cli.h"
+
+#include <stdarg.h>
+#include <stdio.h>
+#include <string.h>
+
+typedef struct command {
+    const char *name;
+    int (*run)(int argc, char **argv);
+    const char *summary;
+} command;
+
+static const command commands[] = {
+    {"render", pf_cli_render, "render one frame of a scene to EXR (no queue)"},
+    {"compare", pf_cli_compare, "RMSE / relMSE / max error between two EXR images"},
+    {"devices", pf_cli_devices, "list Vulkan devices and their key limits"},
+};
+
+static void usage(FILE *out)
+{
+    fprintf(out, "usage: photonfarm <command> [options]\n\ncommands:\n");
+    for (size_t i = 0; i < sizeof commands / sizeof commands[0]; i++)
+        fprintf(out, "  %-10s %s\n", commands[i].name, commands[i].summary);
+    fprintf(out, "\n'photonfarm <command> --help' describes a command.\n");
+}
+
+int pf_cli_fail(const char *command_name, int exit_code, const char *format, ...)
+{
+    va_list args;
+    va_start(args, format);
+    fprintf(stderr, "photonfarm %s: ", command_name);
+    vfprintf(stderr, format, args);
+    fputc('\n', stderr);
+    va_end(args);
+    return exit_code;
+}
+
+int main(int argc, char **argv)
+{
+    if (argc < 2) {
+        usage(stderr);
+        return 2;
+    }
+    if (!strcmp(argv[1], "--help") || !strcmp(argv[1], "-h") || !strcmp(argv[1], "help")) {
+        usage(stdout);
+        return 0;
+    }
+    for (size_t i = 0; i < sizeof commands / sizeof commands[0]; i++) {
+        if (!strcmp(argv[1], commands[i].name))
+            return commands[i].run(argc - 1, argv + 1);
+    }
+    fprintf(stderr, "photonfarm: unknown command '%s'\n\n", argv[1]);
+    usage(stderr);
+    return 2;
+}

@@ -1,0 +1,17 @@
+/*
+ * worker: the `photonfarm` executable. Each subcommand lives in its own
+ * cli_<name>.c and returns a process exit code: 0 ok, 1 runtime failure,
+ * 2 bad usage or bad input (DESIGN.md §1).
+ */
+#ifndef PF_CLI_H
+#define PF_CLI_H
+
+int pf_cli_devices(int argc, char **argv);
+int pf_cli_render(int argc, char **argv);
+int pf_cli_compare(int argc, char **argv);
+
+/* Prints "photonfarm <command>: <message>" to stderr and returns exit_code. */
+int pf_cli_fail(const char *command, int exit_code, const char *format, ...)
+    __attribute__((format(printf, 3, 4)));
+
+#endif
