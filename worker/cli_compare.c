@@ -1,9 +1,153 @@
-/* Placeholder until the 'compare' command lands; replaced by its implementation. */
+/*
+ * photonfarm compare A.exr B.exr [--format text|json]: the error of test image A
+ * against reference B (DESIGN.md §8): RMSE, relMSE (ε = PF_RELMSE_EPSILON),
+ * max abs error, and per-channel means of both. Exit 0 ok, 2 bad usage or an
+ * unreadable/mismatched image, 1 anything else.
+ */
 #include "pf_cli.h"
+#include "pf_image.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+static void usage(FILE *out)
+{
+    fprintf(out,
+            "usage: photonfarm compare A.exr B.exr [--format text|json]\n"
+            "\n"
+            "Error of test image A against reference B, over the R, G, B channels\n"
+            "(every channel when the images have no R, G and B):\n"
+            "  RMSE     sqrt(mean (a - b)^2)\n"
+            "  relMSE   mean (a - b)^2 / (b^2 + %g)\n"
+            "  max      max |a - b|\n"
+            "and the mean of every channel in both images. Channels are matched by name;\n"
+            "the images must have the same size and the same channel names.\n"
+            "\n"
+            "exit status: 0 compared, 2 bad usage, unreadable file, size or channel\n"
+            "mismatch, 1 other failures.\n",
+            PF_RELMSE_EPSILON);
+}
+
+/* JSON has no NaN or infinity: those become null. */
+static void print_json_number(double value)
+{
+    if (isfinite(value))
+        printf("%.9g", value);
+    else
+        printf("null");
+}
+
+static void print_json_string(const char *text)
+{
+    putchar('"');
+    for (const unsigned char *p = (const unsigned char *)text; *p; p++) {
+        if (*p == '"' || *p == '\\')
+            printf("\\%c", *p);
+        else if (*p < 0x20)
+            printf("\\u%04x", *p);
+        else
+            putchar(*p);
+    }
+    putchar('"');
+}
+
+static void print_json(const char *path_a, const char *path_b, const pf_image *a,
+                       const pf_image_metrics *metrics)
+{
+    printf("{\"a\": ");
+    print_json_string(path_a);
+    printf(", \"b\": ");
+    print_json_string(path_b);
+    printf(", \"width\": %u, \"height\": %u, \"rmse\": ", a->width, a->height);
+    print_json_number(metrics->rmse);
+    printf(", \"relmse\": ");
+    print_json_number(metrics->relmse);
+    printf(", \"max_abs_error\": ");
+    print_json_number(metrics->max_abs_error);
+    printf(", \"relmse_epsilon\": %g, \"channels\": [", PF_RELMSE_EPSILON);
+    for (uint32_t c = 0; c < metrics->channel_count; c++) {
+        printf("%s{\"name\": ", c ? ", " : "");
+        print_json_string(a->channel_names[c]);
+        printf(", \"mean_a\": ");
+        print_json_number(metrics->mean_a[c]);
+        printf(", \"mean_b\": ");
+        print_json_number(metrics->mean_b[c]);
+        printf("}");
+    }
+    printf("]}\n");
+}
+
+static void print_text(const char *path_a, const char *path_b, const pf_image *a,
+                       const pf_image_metrics *metrics)
+{
+    printf("A: %s\nB: %s (reference)\nsize: %ux%u, %u channels\n", path_a, path_b, a->width,
+           a->height, a->channel_count);
+    printf("RMSE:          %.9g\n", metrics->rmse);
+    printf("relMSE:        %.9g (epsilon %g)\n", metrics->relmse, PF_RELMSE_EPSILON);
+    printf("max abs error: %.9g\n", metrics->max_abs_error);
+    printf("%-24s %16s %16s\n", "channel", "mean A", "mean B");
+    for (uint32_t c = 0; c < metrics->channel_count; c++)
+        printf("%-24s %16.9g %16.9g\n", a->channel_names[c], metrics->mean_a[c],
+               metrics->mean_b[c]);
+}
 
 int pf_cli_compare(int argc, char **argv)
 {
-    (void)argc;
-    (void)argv;
-    return pf_cli_fail("compare", 1, "not built yet");
+    const char *paths[2] = {NULL, NULL};
+    int path_count = 0;
+    int json = 0;
+    for (int i = 1; i < argc; i++) {
+        if (!strcmp(argv[i], "--help") || !strcmp(argv[i], "-h")) {
+            usage(stdout);
+            return 0;
+        }
+        if (!strcmp(argv[i], "--format") || !strncmp(argv[i], "--format=", 9)) {
+            const char *value = argv[i][8] == '=' ? argv[i] + 9 : (i + 1 < argc ? argv[++i] : NULL);
+            if (!value)
+                return pf_cli_fail("compare", 2, "--format needs a value: text or json");
+            if (!strcmp(value, "json"))
+                json = 1;
+            else if (!strcmp(value, "text"))
+                json = 0;
+            else
+                return pf_cli_fail("compare", 2, "--format '%s': expected text or json", value);
+        } else if (argv[i][0] == '-' && argv[i][1] != '\0') {
+            usage(stderr);
+            return pf_cli_fail("compare", 2, "unknown option '%s'", argv[i]);
+        } else if (path_count < 2) {
+            paths[path_count++] = argv[i];
+        } else {
+            usage(stderr);
+            return pf_cli_fail("compare", 2, "too many arguments: '%s'", argv[i]);
+        }
+    }
+    if (path_count != 2) {
+        usage(stderr);
+        return pf_cli_fail("compare", 2, "need two EXR files, got %d", path_count);
+    }
+
+    pf_error err = {0};
+    pf_image a = {0}, b = {0};
+    pf_image_metrics metrics;
+    pf_status status = pf_exr_read(paths[0], &a, NULL, NULL, &err);
+    if (status == PF_OK)
+        status = pf_exr_read(paths[1], &b, NULL, NULL, &err);
+    if (status == PF_OK) {
+        status = pf_image_compare(&a, &b, &metrics, &err);
+        if (status != PF_OK)
+            pf_error_prefix(&err, "%s vs %s", paths[0], paths[1]);
+    }
+    if (status == PF_OK) {
+        if (json)
+            print_json(paths[0], paths[1], &a, &metrics);
+        else
+            print_text(paths[0], paths[1], &a, &metrics);
+    }
+    pf_image_free(&a);
+    pf_image_free(&b);
+    if (status != PF_OK)
+        return pf_cli_fail("compare", pf_status_exit_code(status), "%s", err.message);
+    return fflush(stdout) == 0 ? 0 : pf_cli_fail("compare", 1, "cannot write the report");
 }

@@ -38,13 +38,25 @@ void pf_error_prefix(pf_error *err, const char *format, ...)
     if (!err)
         return;
     char prefix[PF_ERROR_MESSAGE_MAX];
-    char joined[PF_ERROR_MESSAGE_MAX];
     va_list args;
     va_start(args, format);
-    vsnprintf(prefix, sizeof prefix, format, args);
+    int written = vsnprintf(prefix, sizeof prefix, format, args);
     va_end(args);
-    snprintf(joined, sizeof joined, "%s: %s", prefix, err->message);
-    memcpy(err->message, joined, sizeof joined);
+    if (written < 0)
+        return;
+    /* Shift the message right and put "prefix: " in front; the tail is cut if long. */
+    size_t prefix_length = strlen(prefix);
+    size_t message_length = strlen(err->message);
+    size_t room = sizeof err->message - 1;
+    size_t head = prefix_length + 2 < room ? prefix_length + 2 : room;
+    size_t kept = message_length < room - head ? message_length : room - head;
+    memmove(err->message + head, err->message, kept);
+    err->message[head + kept] = '\0';
+    memcpy(err->message, prefix, head < prefix_length ? head : prefix_length);
+    if (head == prefix_length + 2) {
+        err->message[prefix_length] = ':';
+        err->message[prefix_length + 1] = ' ';
+    }
 }
 
 int pf_status_exit_code(pf_status status)

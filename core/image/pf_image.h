@@ -23,7 +23,8 @@ typedef struct pf_image {
     float *pixels;
 } pf_image;
 
-/* Allocates a zeroed image with the given channel names. */
+/* Allocates a zeroed image with the given channel names. PF_ERR_INVALID for a zero
+ * size or a channel name that is empty, longer than 31 characters or repeated. */
 pf_status pf_image_create(pf_image *image, uint32_t width, uint32_t height,
                           uint32_t channel_count, const char *const *channel_names,
                           pf_error *err);
@@ -46,6 +47,14 @@ typedef enum pf_exr_pixel_type {
  * the attributes as string metadata. Written to "<path>.tmp-<pid>-<n>", fsynced,
  * renamed over path, directory fsynced: a reader never sees a partial file, and
  * on failure the temporary is removed and an existing file at path is untouched.
+ * Half pixels are converted with pf_float_to_half (so |x| >= 65520 becomes inf).
+ * EXR stores channels sorted by name; the image's order is kept in a string-vector
+ * attribute "photonfarm/channelOrder" that pf_exr_read restores.
+ * Errors: PF_ERR_INVALID for an empty image, an empty/unterminated/duplicate key or
+ * a reserved EXR header name ("channels", "type", ...), nothing written;
+ * PF_ERR_IO naming path and strerror when the temporary cannot be created, written,
+ * fsynced or renamed. A failed directory fsync is reported after the rename (the
+ * complete file is then already at path).
  */
 pf_status pf_exr_write(const char *path, const pf_image *image, pf_exr_pixel_type pixel_type,
                        const pf_image_attribute *attributes, uint32_t attribute_count,
@@ -54,6 +63,14 @@ pf_status pf_exr_write(const char *path, const pf_image *image, pf_exr_pixel_typ
 /*
  * Reads any scanline or tiled single-part EXR into float channels. If attributes
  * is non-NULL, string attributes are returned in a malloc'ed array (free()).
+ * HALF, FLOAT and UINT channels (UINT exact up to 2^24); tiled files give level 0;
+ * the data window's corner becomes pixel (0, 0). Channel order: the writer's order
+ * when the file has photonfarm/channelOrder, else R, G, B, A first and then the
+ * file's sorted order. Standard header attributes ("type", "name", ...) are not
+ * returned; values longer than 511 characters are cut with a warning.
+ * Errors name the file: PF_ERR_IO (missing, unreadable, not a regular file),
+ * PF_ERR_FORMAT (not an EXR, truncated, corrupt), PF_ERR_UNSUPPORTED (multi-part,
+ * deep, subsampled channels). On failure *out is empty and nothing is allocated.
  */
 pf_status pf_exr_read(const char *path, pf_image *out, pf_image_attribute **attributes,
                       uint32_t *attribute_count, pf_error *err);
@@ -74,11 +91,17 @@ typedef struct pf_image_metrics {
 /*
  * Compares test image a with reference b. Sizes and channel sets must match
  * (else PF_ERR_INVALID naming the mismatch); NaN/Inf pixels make the metrics NaN/Inf.
+ * Channels are matched by name (the order may differ). The error channels are R, G, B
+ * when a has all three, else every channel. mean_b[c] is b's mean of a's channel c.
  */
 pf_status pf_image_compare(const pf_image *a, const pf_image *b, pf_image_metrics *out,
                            pf_error *err);
 
-/* IEEE half conversion (round to nearest even), shared with GPU readback code. */
+/*
+ * IEEE half conversion (round to nearest even), shared with GPU readback code.
+ * Magnitudes above 65504 round to it up to 65520 (the midpoint to 2^16) and become
+ * inf from there; at or below 2^-25 they become (signed) zero; NaN stays a (quiet) NaN.
+ */
 uint16_t pf_float_to_half(float value);
 float pf_half_to_float(uint16_t value);
 

@@ -1,0 +1,45 @@
+/* Error capture and attribute naming shared by the EXR reader and writer (exr_internal.h). */
+#include "exr_internal.h"
+
+#include <stdio.h>
+#include <string.h>
+
+/*
+ * Attribute names the OpenEXR file layout ("Header Attributes") gives a fixed
+ * type and meaning: a user string under one of these names would corrupt the
+ * header or be rejected by readers.
+ */
+static const char *const reserved_attribute_names[] = {
+    "channels",   "compression",        "dataWindow",         "displayWindow",
+    "lineOrder",  "pixelAspectRatio",   "screenWindowCenter", "screenWindowWidth",
+    "tiles",      "type",               "name",               "version",
+    "chunkCount", "maxSamplesPerPixel", PF_EXR_CHANNEL_ORDER_ATTRIBUTE,
+};
+
+void pf_exr_capture_error(exr_const_context_t context, exr_result_t code, const char *message)
+{
+    void *user_data = NULL;
+    /* Without a stream (context creation failed) the message is dropped: the
+     * caller still gets the code and reports its default text. */
+    if (exr_get_user_data(context, &user_data) != EXR_ERR_SUCCESS || !user_data)
+        return;
+    pf_exr_stream *stream = user_data;
+    snprintf(stream->last_message, sizeof stream->last_message, "%s",
+             message ? message : exr_get_default_error_message(code));
+}
+
+const char *pf_exr_message(const pf_exr_stream *stream, exr_result_t code)
+{
+    if (stream->last_message[0])
+        return stream->last_message;
+    return exr_get_default_error_message(code);
+}
+
+int pf_exr_reserved_attribute(const char *name)
+{
+    for (size_t i = 0; i < sizeof reserved_attribute_names / sizeof *reserved_attribute_names; i++) {
+        if (!strcmp(name, reserved_attribute_names[i]))
+            return 1;
+    }
+    return 0;
+}

@@ -1,0 +1,177 @@
+/* pf_image_compare on constructed images whose metrics are known in closed form. */
+#include "pf_image.h"
+#include "pf_test.h"
+
+static const char *const rgba[] = {"R", "G", "B", "A"};
+
+static void fill(pf_image *image, float value)
+{
+    size_t count = (size_t)image->width * image->height * image->channel_count;
+    for (size_t i = 0; i < count; i++)
+        image->pixels[i] = value;
+}
+
+PF_TEST(identical_images_have_zero_error)
+{
+    pf_error err = {0};
+    pf_image a, b;
+    PF_REQUIRE_OK(pf_image_create(&a, 13, 9, 4, rgba, &err), &err);
+    PF_REQUIRE_OK(pf_image_create(&b, 13, 9, 4, rgba, &err), &err);
+    for (size_t i = 0; i < 13 * 9 * 4; i++)
+        a.pixels[i] = b.pixels[i] = (float)(i % 17) * 0.25f;
+    pf_image_metrics metrics;
+    PF_REQUIRE_OK(pf_image_compare(&a, &b, &metrics, &err), &err);
+    PF_CHECK(metrics.rmse == 0.0 && metrics.relmse == 0.0 && metrics.max_abs_error == 0.0);
+    PF_CHECK(metrics.channel_count == 4);
+    for (uint32_t c = 0; c < 4; c++)
+        PF_CHECK(metrics.mean_a[c] == metrics.mean_b[c]);
+    pf_image_free(&a);
+    pf_image_free(&b);
+}
+
+PF_TEST(constant_offset)
+{
+    const float reference = 0.5f, offset = 0.125f; /* exact in binary */
+    pf_error err = {0};
+    pf_image a, b;
+    PF_REQUIRE_OK(pf_image_create(&a, 7, 5, 4, rgba, &err), &err);
+    PF_REQUIRE_OK(pf_image_create(&b, 7, 5, 4, rgba, &err), &err);
+    fill(&b, reference);
+    fill(&a, reference + offset);
+    /* Alpha is outside the error channels: a wild alpha must not move RMSE. */
+    for (size_t p = 0; p < 35; p++)
+        a.pixels[p * 4 + 3] = 100.0f;
+    pf_image_metrics metrics;
+    PF_REQUIRE_OK(pf_image_compare(&a, &b, &metrics, &err), &err);
+    PF_CHECK_NEAR(metrics.rmse, offset, 1e-12);
+    PF_CHECK_NEAR(metrics.relmse,
+                  (double)offset * offset / ((double)reference * reference + PF_RELMSE_EPSILON),
+                  1e-12);
+    PF_CHECK_NEAR(metrics.max_abs_error, offset, 1e-12);
+    PF_CHECK_NEAR(metrics.mean_a[0], reference + offset, 1e-12);
+    PF_CHECK_NEAR(metrics.mean_b[0], reference, 1e-12);
+    PF_CHECK_NEAR(metrics.mean_a[3], 100.0, 1e-12);
+    PF_CHECK_NEAR(metrics.mean_b[3], reference, 1e-12);
+    pf_image_free(&a);
+    pf_image_free(&b);
+}
+
+PF_TEST(single_differing_pixel)
+{
+    const uint32_t width = 10, height = 4, pixels = width * height;
+    pf_error err = {0};
+    pf_image a, b;
+    PF_REQUIRE_OK(pf_image_create(&a, width, height, 3, rgba, &err), &err);
+    PF_REQUIRE_OK(pf_image_create(&b, width, height, 3, rgba, &err), &err);
+    fill(&a, 1.0f);
+    fill(&b, 1.0f);
+    a.pixels[(2 * width + 3) * 3 + 1] = 4.0f; /* G of pixel (3, 2): off by 3 */
+    pf_image_metrics metrics;
+    PF_REQUIRE_OK(pf_image_compare(&a, &b, &metrics, &err), &err);
+    double samples = pixels * 3.0;
+    PF_CHECK_NEAR(metrics.rmse, sqrt(9.0 / samples), 1e-12);
+    PF_CHECK_NEAR(metrics.relmse, 9.0 / (1.0 + PF_RELMSE_EPSILON) / samples, 1e-12);
+    PF_CHECK_NEAR(metrics.max_abs_error, 3.0, 0.0);
+    PF_CHECK_NEAR(metrics.mean_a[1], 1.0 + 3.0 / pixels, 1e-12);
+    PF_CHECK_NEAR(metrics.mean_a[0], 1.0, 0.0);
+    PF_CHECK_NEAR(metrics.mean_b[1], 1.0, 0.0);
+    pf_image_free(&a);
+    pf_image_free(&b);
+}
+
+/* Channels match by name: a reference stored in another order gives the same answer. */
+PF_TEST(channels_match_by_name)
+{
+    static const char *const reordered[] = {"A", "B", "G", "R"};
+    pf_error err = {0};
+    pf_image a, b;
+    PF_REQUIRE_OK(pf_image_create(&a, 2, 2, 4, rgba, &err), &err);
+    PF_REQUIRE_OK(pf_image_create(&b, 2, 2, 4, reordered, &err), &err);
+    for (size_t p = 0; p < 4; p++) {
+        for (int c = 0; c < 4; c++) {
+            a.pixels[p * 4 + c] = (float)(c + 1);
+            b.pixels[p * 4 + (3 - c)] = (float)(c + 1);
+        }
+    }
+    pf_image_metrics metrics;
+    PF_REQUIRE_OK(pf_image_compare(&a, &b, &metrics, &err), &err);
+    PF_CHECK(metrics.rmse == 0.0 && metrics.max_abs_error == 0.0);
+    for (int c = 0; c < 4; c++) {
+        PF_CHECK_NEAR(metrics.mean_a[c], c + 1, 0.0);
+        PF_CHECK_NEAR(metrics.mean_b[c], c + 1, 0.0); /* in a's channel order */
+    }
+    pf_image_free(&a);
+    pf_image_free(&b);
+}
+
+PF_TEST(without_rgb_every_channel_counts)
+{
+    static const char *const depth[] = {"depth.Z", "normal.X"};
+    pf_error err = {0};
+    pf_image a, b;
+    PF_REQUIRE_OK(pf_image_create(&a, 4, 1, 2, depth, &err), &err);
+    PF_REQUIRE_OK(pf_image_create(&b, 4, 1, 2, depth, &err), &err);
+    a.pixels[0] = 2.0f; /* one of 8 samples off by 2 */
+    pf_image_metrics metrics;
+    PF_REQUIRE_OK(pf_image_compare(&a, &b, &metrics, &err), &err);
+    PF_CHECK_NEAR(metrics.rmse, sqrt(4.0 / 8.0), 1e-12);
+    PF_CHECK_NEAR(metrics.relmse, 4.0 / PF_RELMSE_EPSILON / 8.0, 1e-9);
+    PF_CHECK_NEAR(metrics.max_abs_error, 2.0, 0.0);
+    pf_image_free(&a);
+    pf_image_free(&b);
+}
+
+PF_TEST(nan_propagates)
+{
+    pf_error err = {0};
+    pf_image a, b;
+    PF_REQUIRE_OK(pf_image_create(&a, 3, 1, 3, rgba, &err), &err);
+    PF_REQUIRE_OK(pf_image_create(&b, 3, 1, 3, rgba, &err), &err);
+    a.pixels[0] = NAN;
+    a.pixels[4] = 5.0f; /* a larger finite error after the NaN must not hide it */
+    pf_image_metrics metrics;
+    PF_REQUIRE_OK(pf_image_compare(&a, &b, &metrics, &err), &err);
+    PF_CHECK(isnan(metrics.rmse) && isnan(metrics.relmse) && isnan(metrics.max_abs_error));
+    a.pixels[0] = INFINITY;
+    PF_REQUIRE_OK(pf_image_compare(&a, &b, &metrics, &err), &err);
+    PF_CHECK(isinf(metrics.rmse) && isinf(metrics.max_abs_error));
+    pf_image_free(&a);
+    pf_image_free(&b);
+}
+
+PF_TEST(mismatches_are_invalid)
+{
+    pf_error err = {0};
+    pf_image a, b, c, d;
+    PF_REQUIRE_OK(pf_image_create(&a, 640, 480, 4, rgba, &err), &err);
+    PF_REQUIRE_OK(pf_image_create(&b, 320, 240, 4, rgba, &err), &err);
+    PF_REQUIRE_OK(pf_image_create(&c, 640, 480, 3, rgba, &err), &err);
+    static const char *const other[] = {"R", "G", "B", "Z"};
+    PF_REQUIRE_OK(pf_image_create(&d, 640, 480, 4, other, &err), &err);
+    pf_image_metrics metrics;
+    PF_CHECK(pf_image_compare(&a, &b, &metrics, &err) == PF_ERR_INVALID);
+    PF_CHECK_MSG(strstr(err.message, "640x480") && strstr(err.message, "320x240"), "%s",
+                 err.message);
+    PF_CHECK(pf_image_compare(&a, &c, &metrics, &err) == PF_ERR_INVALID);
+    PF_CHECK_MSG(strstr(err.message, "'A'") != NULL, "%s", err.message);
+    PF_CHECK(pf_image_compare(&c, &a, &metrics, &err) == PF_ERR_INVALID);
+    PF_CHECK_MSG(strstr(err.message, "'A'") != NULL, "%s", err.message);
+    PF_CHECK(pf_image_compare(&a, &d, &metrics, &err) == PF_ERR_INVALID);
+    PF_CHECK_MSG(strstr(err.message, "'A'") != NULL, "%s", err.message);
+    pf_image_free(&a);
+    pf_image_free(&b);
+    pf_image_free(&c);
+    pf_image_free(&d);
+}
+
+int main(void)
+{
+    PF_RUN(identical_images_have_zero_error);
+    PF_RUN(constant_offset);
+    PF_RUN(single_differing_pixel);
+    PF_RUN(channels_match_by_name);
+    PF_RUN(without_rgb_every_channel_counts);
+    PF_RUN(nan_propagates);
+    PF_RUN(mismatches_are_invalid);
+    return pf_test_finish();
+}
