@@ -1,0 +1,282 @@
+/* Storage buffers: creation against the device limits, upload and download. */
+#include "pf_vk_internal.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define MIB (1024.0 * 1024.0)
+
+static const VkMemoryPropertyFlags host_coherent =
+    VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
+
+/* First memory type allowed by type_bits that has all of required (and, if possible, preferred). */
+static uint32_t find_memory_type(const pf_vk_context *ctx, uint32_t type_bits,
+                                 VkMemoryPropertyFlags required, VkMemoryPropertyFlags preferred)
+{
+    const VkPhysicalDeviceMemoryProperties *memory = &ctx->memory_properties;
+    for (int pass = 0; pass < 2; pass++) {
+        VkMemoryPropertyFlags wanted = pass == 0 ? required | preferred : required;
+        for (uint32_t type = 0; type < memory->memoryTypeCount; type++) {
+            if ((type_bits & (1u << type)) &&
+                (memory->memoryTypes[type].propertyFlags & wanted) == wanted)
+                return type;
+        }
+    }
+    return UINT32_MAX;
+}
+
+/* A VkBuffer with bound memory; *mapped is set when the memory is host-visible + coherent. */
+static pf_status allocate(pf_vk_context *ctx, uint64_t size, VkBufferUsageFlags usage,
+                          VkMemoryPropertyFlags required, VkMemoryPropertyFlags preferred,
+                          const char *label, VkBuffer *buffer, VkDeviceMemory *memory,
+                          void **mapped, pf_error *err)
+{
+    *buffer = VK_NULL_HANDLE;
+    *memory = VK_NULL_HANDLE;
+    *mapped = NULL;
+    VkBufferCreateInfo info = {
+        .sType = VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO,
+        .size = size,
+        .usage = usage,
+        .sharingMode = VK_SHARING_MODE_EXCLUSIVE,
+    };
+    VkResult result = vkCreateBuffer(ctx->device, &info, NULL, buffer);
+    if (result != VK_SUCCESS) {
+        *buffer = VK_NULL_HANDLE;
+        return pf_error_set(err, PF_ERR_VULKAN, "buffer '%s': vkCreateBuffer(%llu bytes) failed: %s",
+                            label, (unsigned long long)size, pf_vk_result_name(result));
+    }
+    VkMemoryRequirements requirements;
+    vkGetBufferMemoryRequirements(ctx->device, *buffer, &requirements);
+    uint32_t type = find_memory_type(ctx, requirements.memoryTypeBits, required, preferred);
+    if (type == UINT32_MAX) {
+        vkDestroyBuffer(ctx->device, *buffer, NULL);
+        *buffer = VK_NULL_HANDLE;
+        return pf_error_set(err, PF_ERR_UNSUPPORTED,
+                            "buffer '%s': device '%s' has no memory type with flags 0x%x",
+                            label, ctx->info.name, (unsigned)required);
+    }
+    VkMemoryAllocateInfo allocation = {
+        .sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO,
+        .allocationSize = requirements.size,
+        .memoryTypeIndex = type,
+    };
+    result = vkAllocateMemory(ctx->device, &allocation, NULL, memory);
+    if (result != VK_SUCCESS)
+        *memory = VK_NULL_HANDLE; /* a failed call leaves its output undefined */
+    else
+        result = vkBindBufferMemory(ctx->device, *buffer, *memory, 0);
+    VkMemoryPropertyFlags flags = ctx->memory_properties.memoryTypes[type].propertyFlags;
+    if (result == VK_SUCCESS && (flags & host_coherent) == host_coherent &&
+        !(ctx->force_staging && (usage & VK_BUFFER_USAGE_STORAGE_BUFFER_BIT)))
+        result = vkMapMemory(ctx->device, *memory, 0, VK_WHOLE_SIZE, 0, mapped);
+    if (result != VK_SUCCESS) {
+        if (*memory)
+            vkFreeMemory(ctx->device, *memory, NULL);
+        vkDestroyBuffer(ctx->device, *buffer, NULL);
+        *buffer = VK_NULL_HANDLE;
+        *memory = VK_NULL_HANDLE;
+        *mapped = NULL;
+        int out_of_memory = result == VK_ERROR_OUT_OF_DEVICE_MEMORY ||
+                            result == VK_ERROR_OUT_OF_HOST_MEMORY;
+        return pf_error_set(err, out_of_memory ? PF_ERR_NOMEM : PF_ERR_VULKAN,
+                            "buffer '%s': allocating %llu bytes on '%s' failed: %s", label,
+                            (unsigned long long)requirements.size, ctx->info.name,
+                            pf_vk_result_name(result));
+    }
+    return PF_OK;
+}
+
+pf_status pf_vk_buffer_create(pf_vk_context *ctx, uint64_t size, const char *label,
+                              pf_vk_buffer **out, pf_error *err)
+{
+    *out = NULL;
+    if (!label)
+        label = "unnamed";
+    if (size == 0)
+        return pf_error_set(err, PF_ERR_INVALID, "buffer '%s': size 0 (Vulkan buffers need >= 1 byte)",
+                            label);
+    if (size > ctx->info.max_storage_buffer_range)
+        return pf_error_set(err, PF_ERR_LIMIT,
+                            "buffer '%s': %llu bytes (%.1f MiB) exceeds maxStorageBufferRange "
+                            "%llu bytes (%.1f MiB) of device '%s'; split the data into "
+                            "several buffers",
+                            label, (unsigned long long)size, (double)size / MIB,
+                            (unsigned long long)ctx->info.max_storage_buffer_range,
+                            (double)ctx->info.max_storage_buffer_range / MIB, ctx->info.name);
+    pf_vk_buffer *buffer = calloc(1, sizeof *buffer);
+    if (!buffer)
+        return pf_error_set(err, PF_ERR_NOMEM, "buffer '%s': out of host memory", label);
+    snprintf(buffer->label, sizeof buffer->label, "%s", label);
+    buffer->size = size;
+    pf_status status = allocate(
+        ctx, size,
+        VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT |
+            VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+        VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, 0, buffer->label, &buffer->buffer, &buffer->memory,
+        &buffer->mapped, err);
+    if (status != PF_OK) {
+        free(buffer);
+        return status;
+    }
+    *out = buffer;
+    return PF_OK;
+}
+
+void pf_vk_buffer_destroy(pf_vk_context *ctx, pf_vk_buffer *buffer)
+{
+    if (!buffer)
+        return;
+    if (buffer->mapped)
+        vkUnmapMemory(ctx->device, buffer->memory);
+    vkDestroyBuffer(ctx->device, buffer->buffer, NULL);
+    vkFreeMemory(ctx->device, buffer->memory, NULL);
+    free(buffer);
+}
+
+uint64_t pf_vk_buffer_size(const pf_vk_buffer *buffer) { return buffer->size; }
+
+static pf_status check_range(const pf_vk_buffer *buffer, uint64_t offset, const void *data,
+                             uint64_t size, const char *what, pf_error *err)
+{
+    if (size > 0 && !data)
+        return pf_error_set(err, PF_ERR_INVALID, "buffer '%s': %s of %llu bytes with no host data",
+                            buffer->label, what, (unsigned long long)size);
+    if (offset > buffer->size || size > buffer->size - offset)
+        return pf_error_set(err, PF_ERR_INVALID,
+                            "buffer '%s': %s of %llu bytes at offset %llu is outside its "
+                            "%llu bytes",
+                            buffer->label, what, (unsigned long long)size,
+                            (unsigned long long)offset, (unsigned long long)buffer->size);
+    return PF_OK;
+}
+
+/*
+ * One blocking copy between the device buffer and a host-visible staging
+ * buffer. The leading barrier orders it after every earlier submission's
+ * writes; the trailing one makes a download's result visible to the host.
+ */
+static pf_status staged_copy(pf_vk_context *ctx, pf_vk_buffer *buffer, uint64_t offset,
+                             void *host, uint64_t size, int to_device, pf_error *err)
+{
+    VkBuffer staging;
+    VkDeviceMemory staging_memory;
+    void *staging_mapped;
+    pf_status status = allocate(
+        ctx, size, to_device ? VK_BUFFER_USAGE_TRANSFER_SRC_BIT : VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+        host_coherent, to_device ? 0 : VK_MEMORY_PROPERTY_HOST_CACHED_BIT, buffer->label,
+        &staging, &staging_memory, &staging_mapped, err);
+    if (status != PF_OK)
+        return status;
+    if (to_device)
+        memcpy(staging_mapped, host, size);
+
+    VkCommandBuffer command = VK_NULL_HANDLE;
+    VkFence fence = VK_NULL_HANDLE;
+    VkResult result = VK_SUCCESS;
+    const char *failed_call = NULL;
+    pthread_mutex_lock(&ctx->queue_lock);
+    VkCommandBufferAllocateInfo allocation = {
+        .sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO,
+        .commandPool = ctx->transfer_pool,
+        .level = VK_COMMAND_BUFFER_LEVEL_PRIMARY,
+        .commandBufferCount = 1,
+    };
+    result = vkAllocateCommandBuffers(ctx->device, &allocation, &command);
+    failed_call = "vkAllocateCommandBuffers";
+    if (result == VK_SUCCESS) {
+        VkFenceCreateInfo fence_info = {.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO};
+        result = vkCreateFence(ctx->device, &fence_info, NULL, &fence);
+        failed_call = "vkCreateFence";
+    }
+    if (result == VK_SUCCESS) {
+        VkCommandBufferBeginInfo begin = {
+            .sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO,
+            .flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT,
+        };
+        result = vkBeginCommandBuffer(command, &begin);
+        failed_call = "vkBeginCommandBuffer";
+    }
+    if (result == VK_SUCCESS) {
+        VkMemoryBarrier before = {
+            .sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER,
+            .srcAccessMask = VK_ACCESS_MEMORY_WRITE_BIT,
+            .dstAccessMask = VK_ACCESS_TRANSFER_READ_BIT | VK_ACCESS_TRANSFER_WRITE_BIT,
+        };
+        vkCmdPipelineBarrier(command, VK_PIPELINE_STAGE_ALL_COMMANDS_BIT,
+                             VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 1, &before, 0, NULL, 0, NULL);
+        VkBufferCopy region = {
+            .srcOffset = to_device ? 0 : offset,
+            .dstOffset = to_device ? offset : 0,
+            .size = size,
+        };
+        vkCmdCopyBuffer(command, to_device ? staging : buffer->buffer,
+                        to_device ? buffer->buffer : staging, 1, &region);
+        VkMemoryBarrier after = {
+            .sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER,
+            .srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT,
+            .dstAccessMask = VK_ACCESS_HOST_READ_BIT,
+        };
+        vkCmdPipelineBarrier(command, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_HOST_BIT,
+                             0, 1, &after, 0, NULL, 0, NULL);
+        result = vkEndCommandBuffer(command);
+        failed_call = "vkEndCommandBuffer";
+    }
+    if (result == VK_SUCCESS) {
+        VkSubmitInfo submit = {
+            .sType = VK_STRUCTURE_TYPE_SUBMIT_INFO,
+            .commandBufferCount = 1,
+            .pCommandBuffers = &command,
+        };
+        result = vkQueueSubmit(ctx->queue, 1, &submit, fence);
+        failed_call = "vkQueueSubmit";
+    }
+    if (result == VK_SUCCESS) {
+        result = vkWaitForFences(ctx->device, 1, &fence, VK_TRUE, UINT64_MAX);
+        failed_call = "vkWaitForFences";
+    }
+    if (fence)
+        vkDestroyFence(ctx->device, fence, NULL);
+    if (command)
+        vkFreeCommandBuffers(ctx->device, ctx->transfer_pool, 1, &command);
+    pthread_mutex_unlock(&ctx->queue_lock);
+
+    if (result == VK_SUCCESS && !to_device)
+        memcpy(host, staging_mapped, size);
+    vkUnmapMemory(ctx->device, staging_memory);
+    vkDestroyBuffer(ctx->device, staging, NULL);
+    vkFreeMemory(ctx->device, staging_memory, NULL);
+    if (result != VK_SUCCESS)
+        return pf_error_set(err, PF_ERR_VULKAN,
+                            "buffer '%s': %s of %llu bytes: %s failed: %s", buffer->label,
+                            to_device ? "upload" : "download", (unsigned long long)size,
+                            failed_call, pf_vk_result_name(result));
+    return PF_OK;
+}
+
+pf_status pf_vk_buffer_upload(pf_vk_context *ctx, pf_vk_buffer *buffer, uint64_t offset,
+                              const void *data, uint64_t size, pf_error *err)
+{
+    pf_status status = check_range(buffer, offset, data, size, "upload", err);
+    if (status != PF_OK || size == 0)
+        return status;
+    if (buffer->mapped) {
+        memcpy((char *)buffer->mapped + offset, data, size);
+        return PF_OK;
+    }
+    return staged_copy(ctx, buffer, offset, (void *)data, size, 1, err);
+}
+
+pf_status pf_vk_buffer_download(pf_vk_context *ctx, pf_vk_buffer *buffer, uint64_t offset,
+                                void *data, uint64_t size, pf_error *err)
+{
+    pf_status status = check_range(buffer, offset, data, size, "download", err);
+    if (status != PF_OK || size == 0)
+        return status;
+    if (buffer->mapped) {
+        memcpy(data, (const char *)buffer->mapped + offset, size);
+        return PF_OK;
+    }
+    return staged_copy(ctx, buffer, offset, data, size, 0, err);
+}

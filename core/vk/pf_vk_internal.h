@@ -1,0 +1,80 @@
+/*
+ * core/vk private state shared by its files (instance.c, device.c, memory.c,
+ * pipeline.c, commands.c). Nothing outside core/vk includes this, except the
+ * core/vk tests that reach the staging path on devices whose memory is all
+ * host-visible.
+ */
+#ifndef PF_VK_INTERNAL_H
+#define PF_VK_INTERNAL_H
+
+#include "pf_vk.h"
+
+#include <pthread.h>
+#include <stdatomic.h>
+#include <vulkan/vulkan.h>
+
+#define PF_VK_VALIDATION_LAYER "VK_LAYER_KHRONOS_validation"
+/* DESIGN.md §3: Vulkan 1.2 core is the floor. */
+#define PF_VK_MIN_API_VERSION VK_API_VERSION_1_2
+
+struct pf_vk_context {
+    VkInstance instance;
+    VkDebugUtilsMessengerEXT messenger;
+    int validation;
+    atomic_uint validation_messages;
+
+    VkPhysicalDevice physical_device;
+    pf_vk_device_info info;
+    VkPhysicalDeviceMemoryProperties memory_properties;
+    VkDevice device;
+    uint32_t queue_family;
+    VkQueue queue;
+    /* Vulkan requires external synchronization of a queue and a command pool. */
+    pthread_mutex_t queue_lock;
+    VkCommandPool transfer_pool; /* staging copies; guarded by queue_lock */
+    int force_staging;           /* tests: never map buffers directly */
+};
+
+struct pf_vk_buffer {
+    VkBuffer buffer;
+    VkDeviceMemory memory;
+    uint64_t size;
+    void *mapped; /* non-NULL when the memory is host-visible + coherent */
+    char label[64];
+};
+
+struct pf_vk_pipeline {
+    char name[64];
+    VkShaderModule module;
+    VkDescriptorSetLayout set_layout;
+    VkPipelineLayout layout;
+    VkPipeline pipeline;
+    uint32_t buffer_count;
+    uint32_t push_constant_bytes;
+};
+
+/* "vkFoo failed: VK_ERROR_... (-n)" style text for a VkResult. */
+const char *pf_vk_result_name(VkResult result);
+
+/* Fills info from a physical device (instance.c / device.c). */
+void pf_vk_describe_device(VkPhysicalDevice physical_device, uint32_t index,
+                           pf_vk_device_info *info, uint32_t *compute_family);
+
+/*
+ * Instance creation shared by pf_vk_create and pf_vk_enumerate. With validation
+ * on, ctx (which must outlive the instance) receives the messenger's counts.
+ */
+pf_status pf_vk_instance_create(pf_vk_context *ctx, int validation, pf_error *err);
+void pf_vk_instance_destroy(pf_vk_context *ctx);
+
+/* Picks and opens the device (device.c). */
+pf_status pf_vk_device_open(pf_vk_context *ctx, const char *selector, pf_error *err);
+void pf_vk_device_close(pf_vk_context *ctx);
+
+/*
+ * Tests only: with on != 0, buffers created afterwards are never mapped, so
+ * uploads and downloads take the staging path that discrete GPUs use.
+ */
+void pf_vk_force_staging(pf_vk_context *ctx, int on);
+
+#endif

@@ -1,0 +1,33 @@
+/* Helpers shared by the core/vk tests. */
+#ifndef VK_TEST_UTIL_H
+#define VK_TEST_UTIL_H
+
+#include "pf_test.h"
+#include "pf_vk.h"
+
+/* A context as the test environment asks for it (PF_VK_VALIDATION=1 under ctest). */
+static inline pf_vk_context *vk_test_context(pf_error *err)
+{
+    pf_vk_context *ctx = NULL;
+    pf_vk_options options = {.device_selector = NULL, .validation = -1};
+    if (pf_vk_create(&options, &ctx, err) != PF_OK) {
+        fprintf(stderr, "pf_vk_create failed: %s\n", err->message);
+        return NULL;
+    }
+    const char *validation = getenv("PF_VK_VALIDATION");
+    if (validation && !strcmp(validation, "1") && !pf_vk_validation_enabled(ctx)) {
+        fprintf(stderr, "PF_VK_VALIDATION=1 but validation is off\n");
+        pf_test_failures++;
+    }
+    return ctx;
+}
+
+/* Every VULKAN test ends here: zero validation messages, then the context is gone. */
+#define VK_TEST_FINISH(ctx)                                                               \
+    do {                                                                                  \
+        PF_CHECK_MSG(pf_vk_validation_message_count(ctx) == 0, "%u validation messages",  \
+                     pf_vk_validation_message_count(ctx));                                \
+        pf_vk_destroy(ctx);                                                               \
+    } while (0)
+
+#endif
