@@ -1,0 +1,109 @@
+/* SQLite helpers and the transaction runners every jobs/ call goes through. */
+#include "queue_internal.h"
+
+#include <stdio.h>
+#include <string.h>
+#include <time.h>
+#include <unistd.h>
+
+/* BEGIN IMMEDIATE waits busy_timeout inside SQLite; past that we try again a
+ * few times with a short, pid-dependent pause so that several processes that
+ * all timed out do not collide again in lockstep. */
+#define QUEUE_BEGIN_RETRIES 4
+#define QUEUE_RETRY_PAUSE_MS 20
+
+pf_status queue_db_error(pf_queue *queue, pf_error *err, const char *what)
+{
+    return pf_error_set(err, PF_ERR_IO, "%s: %s: %s (sqlite error %d)", queue->path, what,
+                        sqlite3_errmsg(queue->db), sqlite3_extended_errcode(queue->db));
+}
+
+pf_status queue_prepare(pf_queue *queue, const char *sql, sqlite3_stmt **stmt, pf_error *err)
+{
+    if (sqlite3_prepare_v2(queue->db, sql, -1, stmt, NULL) != SQLITE_OK) {
+        *stmt = NULL;
+        return queue_db_error(queue, err, "preparing a statement");
+    }
+    return PF_OK;
+}
+
+pf_status queue_exec(pf_queue *queue, const char *sql, pf_error *err)
+{
+    if (sqlite3_exec(queue->db, sql, NULL, NULL, NULL) != SQLITE_OK)
+        return queue_db_error(queue, err, sql);
+    return PF_OK;
+}
+
+pf_status queue_step_done(pf_queue *queue, sqlite3_stmt *stmt, const char *what, pf_error *err)
+{
+    int rc = sqlite3_step(stmt);
+    pf_status status = PF_OK;
+    if (rc != SQLITE_DONE)
+        status = queue_db_error(queue, err, what);
+    sqlite3_finalize(stmt);
+    return status;
+}
+
+static void pause_ms(int ms)
+{
+    struct timespec pause = {ms / 1000, (long)(ms % 1000) * 1000000L};
+    nanosleep(&pause, NULL);
+}
+
+static pf_status run_transaction(pf_queue *queue, const char *begin_sql, const char *what,
+                                 queue_tx_body body, void *context, pf_error *err)
+{
+    int rc = SQLITE_BUSY;
+    for (int attempt = 0; attempt <= QUEUE_BEGIN_RETRIES; attempt++) {
+        rc = sqlite3_exec(queue->db, begin_sql, NULL, NULL, NULL);
+        if (rc != SQLITE_BUSY && rc != SQLITE_LOCKED)
+            break;
+        pause_ms(QUEUE_RETRY_PAUSE_MS + (int)(getpid() % QUEUE_RETRY_PAUSE_MS));
+    }
+    if (rc == SQLITE_BUSY || rc == SQLITE_LOCKED)
+        return pf_error_set(err, PF_ERR_IO,
+                            "%s: %s: database still locked by another connection after %d "
+                            "waits of %d ms",
+                            queue->path, what, QUEUE_BEGIN_RETRIES + 1,
+                            queue->options.busy_timeout_ms);
+    if (rc != SQLITE_OK)
+        return queue_db_error(queue, err, what);
+
+    pf_status status = body(queue, context, err);
+    if (status == PF_OK) {
+        rc = sqlite3_exec(queue->db, "COMMIT", NULL, NULL, NULL);
+        for (int attempt = 0; rc == SQLITE_BUSY && attempt < QUEUE_BEGIN_RETRIES; attempt++) {
+            pause_ms(QUEUE_RETRY_PAUSE_MS);
+            rc = sqlite3_exec(queue->db, "COMMIT", NULL, NULL, NULL);
+        }
+        if (rc == SQLITE_OK)
+            return PF_OK;
+        status = queue_db_error(queue, err, what);
+    }
+    if (!sqlite3_get_autocommit(queue->db))
+        sqlite3_exec(queue->db, "ROLLBACK", NULL, NULL, NULL);
+    return status;
+}
+
+pf_status queue_write(pf_queue *queue, const char *what, queue_tx_body body, void *context,
+                      pf_error *err)
+{
+    return run_transaction(queue, "BEGIN IMMEDIATE", what, body, context, err);
+}
+
+pf_status queue_read(pf_queue *queue, const char *what, queue_tx_body body, void *context,
+                     pf_error *err)
+{
+    return run_transaction(queue, "BEGIN", what, body, context, err);
+}
+
+const char *queue_column_text(sqlite3_stmt *stmt, int column)
+{
+    const unsigned char *text = sqlite3_column_text(stmt, column);
+    return text ? (const char *)text : "";
+}
+
+void queue_copy_text(char *buffer, size_t size, const char *text)
+{
+    snprintf(buffer, size, "%s", text ? text : "");
+}

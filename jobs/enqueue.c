@@ -1,0 +1,122 @@
+/* Enqueue: a job row and its tasks, chunked into arithmetic runs of frames. */
+#include "queue_internal.h"
+
+#include <string.h>
+
+#define QUEUE_DEFAULT_MAX_ATTEMPTS 3
+
+typedef struct enqueue_context {
+    const pf_queue_job_spec *spec;
+    const pf_frame_list *frames;
+    int max_attempts;
+    int frames_per_task;
+    int64_t job_id;
+} enqueue_context;
+
+static pf_status insert_task(pf_queue *queue, sqlite3_stmt *stmt, int64_t job_id,
+                             const int32_t *frames, size_t count, pf_error *err)
+{
+    int32_t step = count > 1 ? frames[1] - frames[0] : 1;
+    sqlite3_reset(stmt);
+    sqlite3_bind_int64(stmt, 1, job_id);
+    sqlite3_bind_int(stmt, 2, frames[0]);
+    sqlite3_bind_int(stmt, 3, frames[count - 1]);
+    sqlite3_bind_int(stmt, 4, step);
+    sqlite3_bind_int64(stmt, 5, (int64_t)count);
+    if (sqlite3_step(stmt) != SQLITE_DONE)
+        return queue_db_error(queue, err, "inserting a task");
+    return PF_OK;
+}
+
+static pf_status enqueue_body(pf_queue *queue, void *context, pf_error *err)
+{
+    enqueue_context *ctx = context;
+    const pf_queue_job_spec *spec = ctx->spec;
+    int64_t now = pf_queue_now(queue);
+    sqlite3_stmt *stmt;
+    pf_status status = queue_prepare(
+        queue,
+        "INSERT INTO jobs (scene_path, parameters, frame_range, output_pattern, priority, "
+        "max_attempts, frames_per_task, created_at, updated_at) "
+        "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)",
+        &stmt, err);
+    if (status != PF_OK)
+        return status;
+    sqlite3_bind_text(stmt, 1, spec->scene_path, -1, SQLITE_STATIC);
+    sqlite3_bind_text(stmt, 2, spec->parameters_json ? spec->parameters_json : "{}", -1,
+                      SQLITE_STATIC);
+    sqlite3_bind_text(stmt, 3, spec->frame_range, -1, SQLITE_STATIC);
+    sqlite3_bind_text(stmt, 4, spec->output_pattern, -1, SQLITE_STATIC);
+    sqlite3_bind_int(stmt, 5, spec->priority);
+    sqlite3_bind_int(stmt, 6, ctx->max_attempts);
+    sqlite3_bind_int(stmt, 7, ctx->frames_per_task);
+    sqlite3_bind_int64(stmt, 8, now);
+    sqlite3_bind_int64(stmt, 9, now);
+    status = queue_step_done(queue, stmt, "inserting the job", err);
+    if (status != PF_OK)
+        return status;
+    ctx->job_id = sqlite3_last_insert_rowid(queue->db);
+
+    status = queue_prepare(queue,
+                           "INSERT INTO tasks (job_id, first_frame, last_frame, frame_step, "
+                           "frame_count, eligible_at) VALUES (?, ?, ?, ?, ?, 0)",
+                           &stmt, err);
+    if (status != PF_OK)
+        return status;
+    const int32_t *frames = ctx->frames->frames;
+    size_t count = ctx->frames->count, chunk_start = 0;
+    for (size_t i = 1; i <= count && status == PF_OK; i++) {
+        size_t chunk_length = i - chunk_start;
+        bool chunk_ends = i == count || chunk_length == (size_t)ctx->frames_per_task ||
+                          (chunk_length >= 2 && frames[i] - frames[i - 1] !=
+                                                    frames[chunk_start + 1] - frames[chunk_start]);
+        if (chunk_ends) {
+            status = insert_task(queue, stmt, ctx->job_id, frames + chunk_start, chunk_length, err);
+            chunk_start = i;
+        }
+    }
+    sqlite3_finalize(stmt);
+    return status;
+}
+
+pf_status pf_queue_enqueue(pf_queue *queue, const pf_queue_job_spec *spec, int64_t *job_id,
+                           pf_error *err)
+{
+    if (!spec->scene_path || !*spec->scene_path)
+        return pf_error_set(err, PF_ERR_INVALID, "enqueue: the scene path is empty");
+    if (!spec->output_pattern || !*spec->output_pattern)
+        return pf_error_set(err, PF_ERR_INVALID, "enqueue: the output pattern is empty");
+    if (spec->max_attempts < 0 || spec->frames_per_task < 0)
+        return pf_error_set(err, PF_ERR_INVALID,
+                            "enqueue: max attempts (%d) and frames per task (%d) must be "
+                            "positive",
+                            spec->max_attempts, spec->frames_per_task);
+
+    enqueue_context ctx = {
+        .spec = spec,
+        .max_attempts = spec->max_attempts ? spec->max_attempts : QUEUE_DEFAULT_MAX_ATTEMPTS,
+        .frames_per_task = spec->frames_per_task ? spec->frames_per_task : 1,
+    };
+    if (spec->parameters_json) {
+        sqlite3_stmt *stmt;
+        pf_status status = queue_prepare(queue, "SELECT json_valid(?)", &stmt, err);
+        if (status != PF_OK)
+            return status;
+        sqlite3_bind_text(stmt, 1, spec->parameters_json, -1, SQLITE_STATIC);
+        bool valid = sqlite3_step(stmt) == SQLITE_ROW && sqlite3_column_int(stmt, 0) == 1;
+        sqlite3_finalize(stmt);
+        if (!valid)
+            return pf_error_set(err, PF_ERR_INVALID, "enqueue: parameters are not valid JSON: %s",
+                                spec->parameters_json);
+    }
+    pf_frame_list frames;
+    pf_status status = pf_frame_range_parse(spec->frame_range, &frames, err);
+    if (status != PF_OK)
+        return status;
+    ctx.frames = &frames;
+    status = queue_write(queue, "enqueueing a job", enqueue_body, &ctx, err);
+    pf_frame_list_free(&frames);
+    if (status == PF_OK)
+        *job_id = ctx.job_id;
+    return status;
+}

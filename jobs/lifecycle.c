@@ -1,0 +1,201 @@
+/*
+ * Task and job state transitions shared by several calls: a counted failed
+ * attempt (fail, reap) and deriving a job's status from its tasks.
+ */
+#include "queue_internal.h"
+
+#include <string.h>
+
+/* Doubling stops mattering long before 2^40: the cap is reached first. */
+#define QUEUE_BACKOFF_MAX_DOUBLINGS 40
+
+static int64_t backoff_ms(const pf_queue_options *options, int attempt)
+{
+    int doublings = attempt > 1 ? attempt - 1 : 0;
+    if (doublings >= QUEUE_BACKOFF_MAX_DOUBLINGS)
+        return options->backoff_cap_ms;
+    int64_t delay = options->backoff_base_ms;
+    for (int i = 0; i < doublings && delay < options->backoff_cap_ms; i++)
+        delay *= 2;
+    return delay < options->backoff_cap_ms ? delay : options->backoff_cap_ms;
+}
+
+pf_status queue_job_require(pf_queue *queue, int64_t job_id, char *status_text,
+                            size_t status_size, pf_error *err)
+{
+    sqlite3_stmt *stmt;
+    pf_status status = queue_prepare(queue, "SELECT status FROM jobs WHERE id = ?", &stmt, err);
+    if (status != PF_OK)
+        return status;
+    sqlite3_bind_int64(stmt, 1, job_id);
+    int rc = sqlite3_step(stmt);
+    if (rc == SQLITE_ROW) {
+        if (status_text)
+            queue_copy_text(status_text, status_size, queue_column_text(stmt, 0));
+    } else if (rc == SQLITE_DONE) {
+        status = pf_error_set(err, PF_ERR_INVALID, "%s: no job %lld", queue->path,
+                              (long long)job_id);
+    } else {
+        status = queue_db_error(queue, err, "looking up a job");
+    }
+    sqlite3_finalize(stmt);
+    return status;
+}
+
+pf_status queue_job_refresh(pf_queue *queue, int64_t job_id, pf_error *err)
+{
+    /* EXISTS probes on (job_id, status) instead of counting every task: this
+     * runs inside each claim and completion, and a job may have 100,000 tasks. */
+    sqlite3_stmt *stmt;
+    pf_status status = queue_prepare(
+        queue,
+        "SELECT j.status, j.started_at IS NOT NULL,"
+        "  EXISTS (SELECT 1 FROM tasks t WHERE t.job_id = j.id),"
+        "  EXISTS (SELECT 1 FROM tasks t WHERE t.job_id = j.id"
+        "          AND t.status IN ('queued', 'running', 'failed', 'canceled')),"
+        "  EXISTS (SELECT 1 FROM tasks t WHERE t.job_id = j.id"
+        "          AND t.status IN ('queued', 'running')),"
+        "  EXISTS (SELECT 1 FROM tasks t WHERE t.job_id = j.id AND t.status = 'failed') "
+        "FROM jobs j WHERE j.id = ?",
+        &stmt, err);
+    if (status != PF_OK)
+        return status;
+    sqlite3_bind_int64(stmt, 1, job_id);
+    if (sqlite3_step(stmt) != SQLITE_ROW) {
+        status = queue_db_error(queue, err, "deriving a job's status");
+        sqlite3_finalize(stmt);
+        return status;
+    }
+    char current[16];
+    queue_copy_text(current, sizeof current, queue_column_text(stmt, 0));
+    bool started = sqlite3_column_int(stmt, 1), has_tasks = sqlite3_column_int(stmt, 2),
+         has_unfinished = sqlite3_column_int(stmt, 3), has_runnable = sqlite3_column_int(stmt, 4),
+         has_failed = sqlite3_column_int(stmt, 5);
+    sqlite3_finalize(stmt);
+
+    const char *next;
+    if (!strcmp(current, "canceled"))
+        next = "canceled";
+    else if (has_tasks && !has_unfinished)
+        next = "done";
+    else if (!strcmp(current, "paused"))
+        next = "paused";
+    else if (has_failed && !has_runnable)
+        next = "failed";
+    else if (started)
+        next = "running";
+    else
+        next = "queued";
+    if (!strcmp(current, next))
+        return PF_OK;
+
+    status = queue_prepare(queue, "UPDATE jobs SET status = ?, updated_at = ? WHERE id = ?",
+                           &stmt, err);
+    if (status != PF_OK)
+        return status;
+    sqlite3_bind_text(stmt, 1, next, -1, SQLITE_STATIC);
+    sqlite3_bind_int64(stmt, 2, pf_queue_now(queue));
+    sqlite3_bind_int64(stmt, 3, job_id);
+    return queue_step_done(queue, stmt, "updating a job's status", err);
+}
+
+/* Blocks worker_id for job_id once it has failed block_after_failures
+ * distinct tasks of the job since the job's last retry. */
+static pf_status apply_blocklist(pf_queue *queue, int64_t job_id, int64_t worker_id,
+                                 pf_error *err)
+{
+    sqlite3_stmt *stmt;
+    pf_status status = queue_prepare(
+        queue,
+        "INSERT OR IGNORE INTO worker_blocks (job_id, worker_id, blocked_at) "
+        "SELECT ?1, ?2, ?3 WHERE ("
+        "  SELECT count(DISTINCT f.task_id) FROM task_failures f"
+        "  JOIN tasks t ON t.id = f.task_id JOIN jobs j ON j.id = t.job_id"
+        "  WHERE t.job_id = ?1 AND f.worker_id = ?2 AND f.id > j.block_failures_after) >= ?4",
+        &stmt, err);
+    if (status != PF_OK)
+        return status;
+    sqlite3_bind_int64(stmt, 1, job_id);
+    sqlite3_bind_int64(stmt, 2, worker_id);
+    sqlite3_bind_int64(stmt, 3, pf_queue_now(queue));
+    sqlite3_bind_int(stmt, 4, queue->options.block_after_failures);
+    return queue_step_done(queue, stmt, "blocking a worker for a job", err);
+}
+
+pf_status queue_task_attempt_failed(pf_queue *queue, int64_t task_id, const char *error_text,
+                                    pf_error *err)
+{
+    sqlite3_stmt *stmt;
+    pf_status status = queue_prepare(
+        queue,
+        "SELECT t.attempt, t.job_id, t.worker_id, coalesce(w.name, ''), j.max_attempts "
+        "FROM tasks t JOIN jobs j ON j.id = t.job_id LEFT JOIN workers w ON w.id = t.worker_id "
+        "WHERE t.id = ?",
+        &stmt, err);
+    if (status != PF_OK)
+        return status;
+    sqlite3_bind_int64(stmt, 1, task_id);
+    if (sqlite3_step(stmt) != SQLITE_ROW) {
+        status = queue_db_error(queue, err, "reading a failed task");
+        sqlite3_finalize(stmt);
+        return status;
+    }
+    int attempt = sqlite3_column_int(stmt, 0);
+    int64_t job_id = sqlite3_column_int64(stmt, 1);
+    bool has_worker = sqlite3_column_type(stmt, 2) != SQLITE_NULL;
+    int64_t worker_id = sqlite3_column_int64(stmt, 2);
+    char worker_name[PF_QUEUE_NAME_MAX];
+    queue_copy_text(worker_name, sizeof worker_name, queue_column_text(stmt, 3));
+    int max_attempts = sqlite3_column_int(stmt, 4);
+    sqlite3_finalize(stmt);
+    int64_t now = pf_queue_now(queue);
+
+    status = queue_prepare(queue,
+                           "INSERT INTO task_failures (task_id, attempt, worker_id, worker_name, "
+                           "error, failed_at) VALUES (?, ?, ?, ?, ?, ?)",
+                           &stmt, err);
+    if (status != PF_OK)
+        return status;
+    sqlite3_bind_int64(stmt, 1, task_id);
+    sqlite3_bind_int(stmt, 2, attempt);
+    if (has_worker)
+        sqlite3_bind_int64(stmt, 3, worker_id);
+    sqlite3_bind_text(stmt, 4, worker_name, -1, SQLITE_STATIC);
+    sqlite3_bind_text(stmt, 5, error_text, -1, SQLITE_STATIC);
+    sqlite3_bind_int64(stmt, 6, now);
+    status = queue_step_done(queue, stmt, "recording a task failure", err);
+    if (status != PF_OK)
+        return status;
+
+    bool exhausted = attempt >= max_attempts;
+    status = queue_prepare(queue,
+                           exhausted
+                               ? "UPDATE tasks SET status = 'failed', lease_token = NULL, "
+                                 "lease_expires = NULL, finished_at = ?1, last_error = ?2 "
+                                 "WHERE id = ?3"
+                               : "UPDATE tasks SET status = 'queued', lease_token = NULL, "
+                                 "lease_expires = NULL, worker_id = NULL, eligible_at = ?1 + ?4, "
+                                 "last_error = ?2 WHERE id = ?3",
+                           &stmt, err);
+    if (status != PF_OK)
+        return status;
+    sqlite3_bind_int64(stmt, 1, now);
+    sqlite3_bind_text(stmt, 2, error_text, -1, SQLITE_STATIC);
+    sqlite3_bind_int64(stmt, 3, task_id);
+    if (!exhausted)
+        sqlite3_bind_int64(stmt, 4, backoff_ms(&queue->options, attempt));
+    status = queue_step_done(queue, stmt, "requeueing a failed task", err);
+    if (status == PF_OK)
+        status = queue_prepare(
+            queue, "UPDATE workers SET current_task_id = NULL WHERE current_task_id = ?", &stmt,
+            err);
+    if (status == PF_OK) {
+        sqlite3_bind_int64(stmt, 1, task_id);
+        status = queue_step_done(queue, stmt, "clearing a worker's task", err);
+    }
+    if (status == PF_OK && has_worker)
+        status = apply_blocklist(queue, job_id, worker_id, err);
+    if (status == PF_OK)
+        status = queue_job_refresh(queue, job_id, err);
+    return status;
+}

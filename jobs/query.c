@@ -1,0 +1,347 @@
+/* Read-only views for status displays: jobs with progress, tasks, failures, workers. */
+#include "queue_internal.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* A growable array of fixed-size records filled from a query. */
+typedef struct record_array {
+    void *items;
+    size_t count, capacity, item_size;
+} record_array;
+
+static void *record_append(record_array *array)
+{
+    if (array->count == array->capacity) {
+        size_t capacity = array->capacity ? array->capacity * 2 : 16;
+        void *grown = realloc(array->items, capacity * array->item_size);
+        if (!grown)
+            return NULL;
+        array->items = grown;
+        array->capacity = capacity;
+    }
+    void *item = (char *)array->items + array->count++ * array->item_size;
+    memset(item, 0, array->item_size);
+    return item;
+}
+
+static char *dup_column(sqlite3_stmt *stmt, int column)
+{
+    return strdup(queue_column_text(stmt, column));
+}
+
+void pf_queue_job_clear(pf_queue_job *job)
+{
+    free(job->scene_path);
+    free(job->parameters_json);
+    free(job->frame_range);
+    free(job->output_pattern);
+    job->scene_path = job->parameters_json = job->frame_range = job->output_pattern = NULL;
+}
+
+void pf_queue_job_list_free(pf_queue_job *jobs, size_t count)
+{
+    for (size_t i = 0; jobs && i < count; i++)
+        pf_queue_job_clear(&jobs[i]);
+    free(jobs);
+}
+
+typedef struct job_query {
+    int64_t job_id; /* 0: every job */
+    record_array jobs;
+} job_query;
+
+static pf_status read_job_row(pf_queue *queue, sqlite3_stmt *stmt, pf_queue_job *job,
+                              pf_error *err)
+{
+    job->job_id = sqlite3_column_int64(stmt, 0);
+    queue_copy_text(job->status, sizeof job->status, queue_column_text(stmt, 1));
+    job->priority = sqlite3_column_int(stmt, 2);
+    job->max_attempts = sqlite3_column_int(stmt, 3);
+    job->frames_per_task = sqlite3_column_int(stmt, 4);
+    job->scene_path = dup_column(stmt, 5);
+    job->parameters_json = dup_column(stmt, 6);
+    job->frame_range = dup_column(stmt, 7);
+    job->output_pattern = dup_column(stmt, 8);
+    job->created_at = sqlite3_column_int64(stmt, 9);
+    job->updated_at = sqlite3_column_int64(stmt, 10);
+    job->tasks_total = sqlite3_column_int64(stmt, 11);
+    job->tasks_queued = sqlite3_column_int64(stmt, 12);
+    job->tasks_running = sqlite3_column_int64(stmt, 13);
+    job->tasks_done = sqlite3_column_int64(stmt, 14);
+    job->tasks_failed = sqlite3_column_int64(stmt, 15);
+    job->tasks_canceled = sqlite3_column_int64(stmt, 16);
+    job->frames_total = sqlite3_column_int64(stmt, 17);
+    job->frames_done = sqlite3_column_int64(stmt, 18);
+    job->live_workers = sqlite3_column_int(stmt, 19);
+    job->blocked_live_workers = sqlite3_column_int(stmt, 20);
+    if (!job->scene_path || !job->parameters_json || !job->frame_range || !job->output_pattern)
+        return pf_error_set(err, PF_ERR_NOMEM, "%s: out of memory reading job %lld",
+                            queue->path, (long long)job->job_id);
+    bool waiting = job->tasks_queued > 0 &&
+                   (!strcmp(job->status, "queued") || !strcmp(job->status, "running"));
+    if (waiting && job->live_workers > 0 && job->blocked_live_workers == job->live_workers)
+        snprintf(job->note, sizeof job->note,
+                 "no eligible worker: all %d live workers are blocked for this job",
+                 job->live_workers);
+    return PF_OK;
+}
+
+static pf_status job_query_body(pf_queue *queue, void *context, pf_error *err)
+{
+    job_query *query = context;
+    sqlite3_stmt *stmt;
+    pf_status status = queue_prepare(
+        queue,
+        "WITH live AS (SELECT id FROM workers WHERE stopped_at IS NULL AND heartbeat_at >= ?2) "
+        "SELECT j.id, j.status, j.priority, j.max_attempts, j.frames_per_task, j.scene_path,"
+        "  j.parameters, j.frame_range, j.output_pattern, j.created_at, j.updated_at,"
+        "  count(t.id), coalesce(sum(t.status = 'queued'), 0),"
+        "  coalesce(sum(t.status = 'running'), 0), coalesce(sum(t.status = 'done'), 0),"
+        "  coalesce(sum(t.status = 'failed'), 0), coalesce(sum(t.status = 'canceled'), 0),"
+        "  coalesce(sum(t.frame_count), 0),"
+        "  coalesce(sum(CASE WHEN t.status = 'done' THEN t.frame_count END), 0),"
+        "  (SELECT count(*) FROM live),"
+        "  (SELECT count(*) FROM live JOIN worker_blocks b ON b.worker_id = live.id"
+        "   WHERE b.job_id = j.id) "
+        "FROM jobs j LEFT JOIN tasks t ON t.job_id = j.id "
+        "WHERE ?1 = 0 OR j.id = ?1 GROUP BY j.id ORDER BY j.id",
+        &stmt, err);
+    if (status != PF_OK)
+        return status;
+    sqlite3_bind_int64(stmt, 1, query->job_id);
+    sqlite3_bind_int64(stmt, 2, pf_queue_now(queue) - queue->options.worker_alive_ms);
+    int rc;
+    while (status == PF_OK && (rc = sqlite3_step(stmt)) == SQLITE_ROW) {
+        pf_queue_job *job = record_append(&query->jobs);
+        if (!job)
+            status = pf_error_set(err, PF_ERR_NOMEM, "%s: out of memory listing jobs",
+                                  queue->path);
+        else
+            status = read_job_row(queue, stmt, job, err);
+    }
+    if (status == PF_OK && rc != SQLITE_DONE)
+        status = queue_db_error(queue, err, "listing jobs");
+    sqlite3_finalize(stmt);
+    return status;
+}
+
+static pf_status run_job_query(pf_queue *queue, job_query *query, pf_error *err)
+{
+    query->jobs.item_size = sizeof(pf_queue_job);
+    pf_status status = queue_read(queue, "listing jobs", job_query_body, query, err);
+    if (status != PF_OK) {
+        pf_queue_job_list_free(query->jobs.items, query->jobs.count);
+        query->jobs.items = NULL;
+        query->jobs.count = 0;
+    }
+    return status;
+}
+
+pf_status pf_queue_job_get(pf_queue *queue, int64_t job_id, pf_queue_job *out, pf_error *err)
+{
+    memset(out, 0, sizeof *out);
+    if (job_id <= 0)
+        return pf_error_set(err, PF_ERR_INVALID, "%s: no job %lld", queue->path,
+                            (long long)job_id);
+    job_query query = {.job_id = job_id};
+    pf_status status = run_job_query(queue, &query, err);
+    if (status != PF_OK)
+        return status;
+    if (query.jobs.count == 0) {
+        free(query.jobs.items);
+        return pf_error_set(err, PF_ERR_INVALID, "%s: no job %lld", queue->path,
+                            (long long)job_id);
+    }
+    *out = *(pf_queue_job *)query.jobs.items;
+    free(query.jobs.items);
+    return PF_OK;
+}
+
+pf_status pf_queue_job_list(pf_queue *queue, pf_queue_job **jobs, size_t *count, pf_error *err)
+{
+    job_query query = {0};
+    pf_status status = run_job_query(queue, &query, err);
+    *jobs = query.jobs.items;
+    *count = query.jobs.count;
+    return status;
+}
+
+/* ---- tasks, failures, workers ---- */
+
+typedef struct list_query {
+    int64_t job_id;
+    record_array rows;
+} list_query;
+
+/* Steps stmt, handing each row to read; collects results into query->rows. */
+static pf_status collect(pf_queue *queue, sqlite3_stmt *stmt, list_query *query,
+                         void (*read)(sqlite3_stmt *stmt, void *row), const char *what,
+                         pf_error *err)
+{
+    pf_status status = PF_OK;
+    int rc;
+    while ((rc = sqlite3_step(stmt)) == SQLITE_ROW) {
+        void *row = record_append(&query->rows);
+        if (!row) {
+            status = pf_error_set(err, PF_ERR_NOMEM, "%s: out of memory %s", queue->path, what);
+            break;
+        }
+        read(stmt, row);
+    }
+    if (status == PF_OK && rc != SQLITE_DONE)
+        status = queue_db_error(queue, err, what);
+    sqlite3_finalize(stmt);
+    return status;
+}
+
+static void read_task(sqlite3_stmt *stmt, void *row)
+{
+    pf_queue_task_info *task = row;
+    task->task_id = sqlite3_column_int64(stmt, 0);
+    task->first_frame = sqlite3_column_int(stmt, 1);
+    task->last_frame = sqlite3_column_int(stmt, 2);
+    task->frame_step = sqlite3_column_int(stmt, 3);
+    task->frame_count = sqlite3_column_int(stmt, 4);
+    queue_copy_text(task->status, sizeof task->status, queue_column_text(stmt, 5));
+    task->attempt = sqlite3_column_int(stmt, 6);
+    task->worker_id = sqlite3_column_int64(stmt, 7);
+    queue_copy_text(task->worker_name, sizeof task->worker_name, queue_column_text(stmt, 8));
+    task->lease_expires = sqlite3_column_int64(stmt, 9);
+    task->eligible_at = sqlite3_column_int64(stmt, 10);
+    task->started_at = sqlite3_column_int64(stmt, 11);
+    task->finished_at = sqlite3_column_int64(stmt, 12);
+    queue_copy_text(task->last_error, sizeof task->last_error, queue_column_text(stmt, 13));
+}
+
+static pf_status task_list_body(pf_queue *queue, void *context, pf_error *err)
+{
+    list_query *query = context;
+    pf_status status = queue_job_require(queue, query->job_id, NULL, 0, err);
+    sqlite3_stmt *stmt;
+    if (status == PF_OK)
+        status = queue_prepare(
+            queue,
+            "SELECT t.id, t.first_frame, t.last_frame, t.frame_step, t.frame_count, t.status,"
+            "  t.attempt, t.worker_id, w.name, t.lease_expires, t.eligible_at, t.started_at,"
+            "  t.finished_at, t.last_error "
+            "FROM tasks t LEFT JOIN workers w ON w.id = t.worker_id "
+            "WHERE t.job_id = ? ORDER BY t.first_frame",
+            &stmt, err);
+    if (status != PF_OK)
+        return status;
+    sqlite3_bind_int64(stmt, 1, query->job_id);
+    return collect(queue, stmt, query, read_task, "listing tasks", err);
+}
+
+static pf_status run_list(pf_queue *queue, list_query *query, size_t item_size,
+                          queue_tx_body body, void **rows, size_t *count, pf_error *err)
+{
+    query->rows.item_size = item_size;
+    pf_status status = queue_read(queue, "listing", body, query, err);
+    if (status != PF_OK) {
+        free(query->rows.items);
+        query->rows.items = NULL;
+        query->rows.count = 0;
+    }
+    *rows = query->rows.items;
+    *count = query->rows.count;
+    return status;
+}
+
+pf_status pf_queue_task_list(pf_queue *queue, int64_t job_id, pf_queue_task_info **tasks,
+                             size_t *count, pf_error *err)
+{
+    list_query query = {.job_id = job_id};
+    void *rows;
+    pf_status status =
+        run_list(queue, &query, sizeof **tasks, task_list_body, &rows, count, err);
+    *tasks = rows;
+    return status;
+}
+
+static void read_failure(sqlite3_stmt *stmt, void *row)
+{
+    pf_queue_failure *failure = row;
+    failure->task_id = sqlite3_column_int64(stmt, 0);
+    failure->first_frame = sqlite3_column_int(stmt, 1);
+    failure->attempt = sqlite3_column_int(stmt, 2);
+    queue_copy_text(failure->worker_name, sizeof failure->worker_name,
+                    queue_column_text(stmt, 3));
+    queue_copy_text(failure->error, sizeof failure->error, queue_column_text(stmt, 4));
+    failure->failed_at = sqlite3_column_int64(stmt, 5);
+}
+
+static pf_status failure_list_body(pf_queue *queue, void *context, pf_error *err)
+{
+    list_query *query = context;
+    pf_status status = queue_job_require(queue, query->job_id, NULL, 0, err);
+    sqlite3_stmt *stmt;
+    if (status == PF_OK)
+        status = queue_prepare(queue,
+                               "SELECT f.task_id, t.first_frame, f.attempt, f.worker_name, "
+                               "f.error, f.failed_at FROM task_failures f "
+                               "JOIN tasks t ON t.id = f.task_id WHERE t.job_id = ? ORDER BY f.id",
+                               &stmt, err);
+    if (status != PF_OK)
+        return status;
+    sqlite3_bind_int64(stmt, 1, query->job_id);
+    return collect(queue, stmt, query, read_failure, "listing failures", err);
+}
+
+pf_status pf_queue_failure_list(pf_queue *queue, int64_t job_id, pf_queue_failure **failures,
+                                size_t *count, pf_error *err)
+{
+    list_query query = {.job_id = job_id};
+    void *rows;
+    pf_status status =
+        run_list(queue, &query, sizeof **failures, failure_list_body, &rows, count, err);
+    *failures = rows;
+    return status;
+}
+
+static void read_worker(sqlite3_stmt *stmt, void *row)
+{
+    pf_queue_worker_info *worker = row;
+    worker->worker_id = sqlite3_column_int64(stmt, 0);
+    queue_copy_text(worker->name, sizeof worker->name, queue_column_text(stmt, 1));
+    queue_copy_text(worker->host, sizeof worker->host, queue_column_text(stmt, 2));
+    queue_copy_text(worker->device, sizeof worker->device, queue_column_text(stmt, 3));
+    worker->pid = sqlite3_column_int64(stmt, 4);
+    worker->heartbeat_at = sqlite3_column_int64(stmt, 5);
+    worker->started_at = sqlite3_column_int64(stmt, 6);
+    worker->stopped_at = sqlite3_column_int64(stmt, 7);
+    worker->alive = sqlite3_column_int(stmt, 8) != 0;
+    worker->current_task_id = sqlite3_column_int64(stmt, 9);
+    worker->current_job_id = sqlite3_column_int64(stmt, 10);
+    worker->current_frame = sqlite3_column_int(stmt, 11);
+}
+
+static pf_status worker_list_body(pf_queue *queue, void *context, pf_error *err)
+{
+    (void)context;
+    sqlite3_stmt *stmt;
+    pf_status status = queue_prepare(
+        queue,
+        "SELECT w.id, w.name, w.host, w.device, w.pid, w.heartbeat_at, w.started_at,"
+        "  w.stopped_at, w.stopped_at IS NULL AND w.heartbeat_at >= ?, w.current_task_id,"
+        "  t.job_id, t.first_frame "
+        "FROM workers w LEFT JOIN tasks t ON t.id = w.current_task_id ORDER BY w.id",
+        &stmt, err);
+    if (status != PF_OK)
+        return status;
+    sqlite3_bind_int64(stmt, 1, pf_queue_now(queue) - queue->options.worker_alive_ms);
+    return collect(queue, stmt, context, read_worker, "listing workers", err);
+}
+
+pf_status pf_queue_worker_list(pf_queue *queue, pf_queue_worker_info **workers, size_t *count,
+                               pf_error *err)
+{
+    list_query query = {0};
+    void *rows;
+    pf_status status =
+        run_list(queue, &query, sizeof **workers, worker_list_body, &rows, count, err);
+    *workers = rows;
+    return status;
+}

@@ -1,0 +1,59 @@
+/*
+ * Shared internals of jobs/: the connection record, SQLite helpers, the
+ * write-transaction runner, and the task state transitions that several
+ * public calls share (fail/reap, job status derivation).
+ */
+#ifndef PF_QUEUE_INTERNAL_H
+#define PF_QUEUE_INTERNAL_H
+
+#include "pf_queue.h"
+
+#include <sqlite3.h>
+
+struct pf_queue {
+    sqlite3 *db;
+    char *path;
+    pf_queue_options options;
+    pf_queue_clock clock;
+    void *clock_user;
+};
+
+/* PF_ERR_IO "<path>: <what>: <sqlite message>" from the connection's last error. */
+pf_status queue_db_error(pf_queue *queue, pf_error *err, const char *what);
+/* Prepares sql; on failure reports it via queue_db_error. */
+pf_status queue_prepare(pf_queue *queue, const char *sql, sqlite3_stmt **stmt, pf_error *err);
+/* Runs statements without results. */
+pf_status queue_exec(pf_queue *queue, const char *sql, pf_error *err);
+/* Steps a statement expected to finish (SQLITE_DONE) and finalizes it. */
+pf_status queue_step_done(pf_queue *queue, sqlite3_stmt *stmt, const char *what, pf_error *err);
+
+/* The body of a write transaction; returning non-PF_OK rolls everything back. */
+typedef pf_status (*queue_tx_body)(pf_queue *queue, void *context, pf_error *err);
+/* Runs body inside BEGIN IMMEDIATE ... COMMIT, retrying BEGIN when the
+ * database stays locked past busy_timeout. what names the operation in errors. */
+pf_status queue_write(pf_queue *queue, const char *what, queue_tx_body body, void *context,
+                      pf_error *err);
+/* Runs body inside a read transaction (one consistent snapshot). */
+pf_status queue_read(pf_queue *queue, const char *what, queue_tx_body body, void *context,
+                     pf_error *err);
+
+/* Text of a column, "" for NULL. */
+const char *queue_column_text(sqlite3_stmt *stmt, int column);
+/* Copies text into a fixed buffer, truncating. */
+void queue_copy_text(char *buffer, size_t size, const char *text);
+
+/*
+ * Counts a failed attempt of a running task (inside a write transaction):
+ * records the failure, requeues after backoff or fails at max attempts,
+ * clears the worker's current task, applies the per-job blocklist and
+ * refreshes the job's status.
+ */
+pf_status queue_task_attempt_failed(pf_queue *queue, int64_t task_id, const char *error_text,
+                                    pf_error *err);
+/* Derives and stores the job's status from its tasks (inside a write transaction). */
+pf_status queue_job_refresh(pf_queue *queue, int64_t job_id, pf_error *err);
+/* Whether job_id exists (PF_ERR_INVALID naming it when not). */
+pf_status queue_job_require(pf_queue *queue, int64_t job_id, char *status, size_t status_size,
+                            pf_error *err);
+
+#endif

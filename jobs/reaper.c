@@ -1,0 +1,71 @@
+/* The reaper: expired leases go back to the queue as counted failed attempts. */
+#include "queue_internal.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+
+typedef struct expired_task {
+    int64_t task_id;
+    char worker_name[PF_QUEUE_NAME_MAX];
+} expired_task;
+
+typedef struct reap_context {
+    int64_t reaped;
+} reap_context;
+
+static pf_status reap_body(pf_queue *queue, void *context, pf_error *err)
+{
+    reap_context *ctx = context;
+    sqlite3_stmt *stmt;
+    pf_status status = queue_prepare(
+        queue,
+        "SELECT t.id, coalesce(w.name, '?') FROM tasks t LEFT JOIN workers w ON w.id = t.worker_id "
+        "WHERE t.status = 'running' AND t.lease_expires < ? ORDER BY t.id",
+        &stmt, err);
+    if (status != PF_OK)
+        return status;
+    sqlite3_bind_int64(stmt, 1, pf_queue_now(queue));
+    /* Collected first: each reap rewrites the rows the SELECT walks. */
+    expired_task *expired = NULL;
+    size_t count = 0, capacity = 0;
+    int rc;
+    while ((rc = sqlite3_step(stmt)) == SQLITE_ROW) {
+        if (count == capacity) {
+            capacity = capacity ? capacity * 2 : 16;
+            expired_task *grown = realloc(expired, capacity * sizeof *grown);
+            if (!grown) {
+                status = pf_error_set(err, PF_ERR_NOMEM, "%s: out of memory reaping leases",
+                                      queue->path);
+                break;
+            }
+            expired = grown;
+        }
+        expired[count].task_id = sqlite3_column_int64(stmt, 0);
+        queue_copy_text(expired[count].worker_name, sizeof expired[count].worker_name,
+                        queue_column_text(stmt, 1));
+        count++;
+    }
+    if (status == PF_OK && rc != SQLITE_DONE)
+        status = queue_db_error(queue, err, "finding expired leases");
+    sqlite3_finalize(stmt);
+
+    for (size_t i = 0; i < count && status == PF_OK; i++) {
+        char reason[PF_QUEUE_NAME_MAX + 64];
+        snprintf(reason, sizeof reason, "lease expired (worker %s stopped heartbeating)",
+                 expired[i].worker_name);
+        status = queue_task_attempt_failed(queue, expired[i].task_id, reason, err);
+    }
+    free(expired);
+    if (status == PF_OK)
+        ctx->reaped = (int64_t)count;
+    return status;
+}
+
+pf_status pf_queue_reap(pf_queue *queue, int64_t *reaped, pf_error *err)
+{
+    reap_context ctx = {0};
+    pf_status status = queue_write(queue, "reaping expired leases", reap_body, &ctx, err);
+    if (reaped)
+        *reaped = status == PF_OK ? ctx.reaped : 0;
+    return status;
+}

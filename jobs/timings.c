@@ -1,0 +1,197 @@
+/* Stage timing statistics of a job: per stage order statistics, slowest frames. */
+#include "queue_internal.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define TIMING_MEDIAN 0.5
+#define TIMING_P95 0.95
+
+/* Linear interpolation between closest ranks (numpy's default "linear"). */
+static double percentile(const double *sorted, size_t count, double p)
+{
+    double rank = p * (double)(count - 1);
+    size_t low = (size_t)floor(rank), high = (size_t)ceil(rank);
+    return sorted[low] + (sorted[high] - sorted[low]) * (rank - (double)low);
+}
+
+/* Reads one column of doubles (already sorted by the query) into a stat. */
+static pf_status sample_stat(pf_queue *queue, const char *sql, int64_t job_id, const char *stage,
+                             pf_queue_stat *stat, pf_error *err)
+{
+    sqlite3_stmt *stmt;
+    pf_status status = queue_prepare(queue, sql, &stmt, err);
+    if (status != PF_OK)
+        return status;
+    sqlite3_bind_int64(stmt, 1, job_id);
+    sqlite3_bind_text(stmt, 2, stage, -1, SQLITE_STATIC);
+    double *values = NULL;
+    size_t count = 0, capacity = 0;
+    int rc;
+    while ((rc = sqlite3_step(stmt)) == SQLITE_ROW) {
+        if (count == capacity) {
+            capacity = capacity ? capacity * 2 : 64;
+            double *grown = realloc(values, capacity * sizeof *grown);
+            if (!grown) {
+                status = pf_error_set(err, PF_ERR_NOMEM, "%s: out of memory reading timings",
+                                      queue->path);
+                break;
+            }
+            values = grown;
+        }
+        values[count++] = sqlite3_column_double(stmt, 0);
+    }
+    if (status == PF_OK && rc != SQLITE_DONE)
+        status = queue_db_error(queue, err, "reading stage timings");
+    sqlite3_finalize(stmt);
+    memset(stat, 0, sizeof *stat);
+    if (status == PF_OK && count > 0) {
+        stat->count = (int64_t)count;
+        stat->min = values[0];
+        stat->max = values[count - 1];
+        stat->median = percentile(values, count, TIMING_MEDIAN);
+        stat->p95 = percentile(values, count, TIMING_P95);
+        for (size_t i = 0; i < count; i++)
+            stat->total += values[i];
+    }
+    free(values);
+    return status;
+}
+
+typedef struct timings_context {
+    int64_t job_id;
+    size_t slowest_n;
+    pf_queue_timings *out;
+} timings_context;
+
+static pf_status stage_list(pf_queue *queue, timings_context *ctx, pf_error *err)
+{
+    pf_queue_timings *out = ctx->out;
+    sqlite3_stmt *stmt;
+    pf_status status = queue_prepare(
+        queue,
+        "SELECT s.stage, sum(s.skipped = 0), sum(s.skipped != 0) "
+        "FROM stage_timings s JOIN tasks t ON t.id = s.task_id WHERE t.job_id = ? "
+        "GROUP BY s.stage ORDER BY min(s.id)",
+        &stmt, err);
+    if (status != PF_OK)
+        return status;
+    sqlite3_bind_int64(stmt, 1, ctx->job_id);
+    size_t capacity = 0;
+    int rc;
+    while ((rc = sqlite3_step(stmt)) == SQLITE_ROW) {
+        if (out->stage_count == capacity) {
+            capacity = capacity ? capacity * 2 : 16;
+            pf_queue_stage_stats *grown = realloc(out->stages, capacity * sizeof *grown);
+            if (!grown) {
+                status = pf_error_set(err, PF_ERR_NOMEM, "%s: out of memory reading timings",
+                                      queue->path);
+                break;
+            }
+            out->stages = grown;
+        }
+        pf_queue_stage_stats *stage = &out->stages[out->stage_count++];
+        memset(stage, 0, sizeof *stage);
+        queue_copy_text(stage->stage, sizeof stage->stage, queue_column_text(stmt, 0));
+        stage->count = sqlite3_column_int64(stmt, 1);
+        stage->skipped = sqlite3_column_int64(stmt, 2);
+    }
+    if (status == PF_OK && rc != SQLITE_DONE)
+        status = queue_db_error(queue, err, "listing stages");
+    sqlite3_finalize(stmt);
+    return status;
+}
+
+static pf_status slowest_frames(pf_queue *queue, timings_context *ctx, pf_error *err)
+{
+    pf_queue_timings *out = ctx->out;
+    if (ctx->slowest_n == 0)
+        return PF_OK;
+    out->slowest = calloc(ctx->slowest_n, sizeof *out->slowest);
+    if (!out->slowest)
+        return pf_error_set(err, PF_ERR_NOMEM, "%s: out of memory reading timings", queue->path);
+    sqlite3_stmt *stmt;
+    pf_status status = queue_prepare(
+        queue,
+        "SELECT s.task_id, s.frame, total(CASE WHEN s.skipped = 0 THEN s.wall_ms END) AS wall "
+        "FROM stage_timings s JOIN tasks t ON t.id = s.task_id WHERE t.job_id = ? "
+        "GROUP BY s.task_id, s.frame ORDER BY wall DESC, s.frame LIMIT ?",
+        &stmt, err);
+    if (status != PF_OK)
+        return status;
+    sqlite3_bind_int64(stmt, 1, ctx->job_id);
+    sqlite3_bind_int64(stmt, 2, (int64_t)ctx->slowest_n);
+    int rc;
+    while ((rc = sqlite3_step(stmt)) == SQLITE_ROW) {
+        pf_queue_slow_frame *frame = &out->slowest[out->slowest_count++];
+        frame->task_id = sqlite3_column_int64(stmt, 0);
+        frame->frame = sqlite3_column_int(stmt, 1);
+        frame->wall_ms = sqlite3_column_double(stmt, 2);
+    }
+    if (rc != SQLITE_DONE)
+        status = queue_db_error(queue, err, "finding the slowest frames");
+    sqlite3_finalize(stmt);
+    return status;
+}
+
+static pf_status timings_body(pf_queue *queue, void *context, pf_error *err)
+{
+    timings_context *ctx = context;
+    pf_queue_timings *out = ctx->out;
+    pf_status status = queue_job_require(queue, ctx->job_id, NULL, 0, err);
+    if (status == PF_OK)
+        status = stage_list(queue, ctx, err);
+    for (size_t i = 0; status == PF_OK && i < out->stage_count; i++) {
+        pf_queue_stage_stats *stage = &out->stages[i];
+        status = sample_stat(queue,
+                             "SELECT s.wall_ms FROM stage_timings s JOIN tasks t ON t.id = "
+                             "s.task_id WHERE t.job_id = ?1 AND s.stage = ?2 AND s.skipped = 0 "
+                             "ORDER BY s.wall_ms",
+                             ctx->job_id, stage->stage, &stage->wall, err);
+        if (status == PF_OK)
+            status = sample_stat(queue,
+                                 "SELECT s.gpu_ms FROM stage_timings s JOIN tasks t ON t.id = "
+                                 "s.task_id WHERE t.job_id = ?1 AND s.stage = ?2 AND "
+                                 "s.skipped = 0 AND s.gpu_ms IS NOT NULL ORDER BY s.gpu_ms",
+                                 ctx->job_id, stage->stage, &stage->gpu, err);
+        out->total_wall_ms += stage->wall.total;
+        out->total_gpu_ms += stage->gpu.total;
+    }
+    if (status == PF_OK) {
+        sqlite3_stmt *stmt;
+        status = queue_prepare(queue,
+                               "SELECT count(DISTINCT s.frame) FROM stage_timings s JOIN tasks t "
+                               "ON t.id = s.task_id WHERE t.job_id = ?",
+                               &stmt, err);
+        if (status == PF_OK) {
+            sqlite3_bind_int64(stmt, 1, ctx->job_id);
+            if (sqlite3_step(stmt) == SQLITE_ROW)
+                out->frames = sqlite3_column_int64(stmt, 0);
+            else
+                status = queue_db_error(queue, err, "counting timed frames");
+            sqlite3_finalize(stmt);
+        }
+    }
+    if (status == PF_OK)
+        status = slowest_frames(queue, ctx, err);
+    return status;
+}
+
+void pf_queue_timings_free(pf_queue_timings *timings)
+{
+    free(timings->stages);
+    free(timings->slowest);
+    memset(timings, 0, sizeof *timings);
+}
+
+pf_status pf_queue_timings_get(pf_queue *queue, int64_t job_id, size_t slowest_n,
+                               pf_queue_timings *out, pf_error *err)
+{
+    memset(out, 0, sizeof *out);
+    timings_context ctx = {job_id, slowest_n, out};
+    pf_status status = queue_read(queue, "reading stage timings", timings_body, &ctx, err);
+    if (status != PF_OK)
+        pf_queue_timings_free(out);
+    return status;
+}

@@ -1,0 +1,779 @@
+/*
+ * Queue semantics on one connection with a hand-driven clock: enqueue and
+ * chunking, claim order and affinity, leases (heartbeat, expiry, reaping,
+ * fencing), failures with backoff and the per-job blocklist, release, job
+ * control, and timing statistics against hand-computed values.
+ */
+#include "queue_test_util.h"
+
+#include "pf_test.h"
+
+#include <sqlite3.h>
+
+#define START_MS 1000000000000LL
+#define LEASE_MS 10000
+#define BACKOFF_BASE_MS 1000
+#define BACKOFF_CAP_MS 8000
+
+static const pf_queue_options test_options = {
+    .lease_ms = LEASE_MS,
+    .backoff_base_ms = BACKOFF_BASE_MS,
+    .backoff_cap_ms = BACKOFF_CAP_MS,
+    .block_after_failures = 3,
+    .worker_alive_ms = 60000,
+};
+
+static test_clock clock_now;
+
+static pf_queue *open_fresh(const char *name)
+{
+    char path[1200];
+    pf_error err = {0};
+    pf_queue *queue = NULL;
+    clock_now.now = START_MS;
+    PF_CHECK_OK(open_queue(fresh_db_path(name, path, sizeof path), &test_options, &clock_now,
+                           &queue, &err),
+                &err);
+    return queue;
+}
+
+static int64_t enqueue(pf_queue *queue, const char *range, int priority, int frames_per_task,
+                       int max_attempts)
+{
+    pf_queue_job_spec spec = {.scene_path = "scenes/box.gltf",
+                              .parameters_json = "{\"spp\": 4, \"size\": [64, 64]}",
+                              .frame_range = range,
+                              .output_pattern = "out/f_####.exr",
+                              .priority = priority,
+                              .max_attempts = max_attempts,
+                              .frames_per_task = frames_per_task};
+    pf_error err = {0};
+    int64_t job_id = 0;
+    PF_CHECK_OK(pf_queue_enqueue(queue, &spec, &job_id, &err), &err);
+    return job_id;
+}
+
+/* Claims and returns the task (task_id 0 when nothing was claimable). */
+static pf_queue_task claim(pf_queue *queue, int64_t worker, int64_t preferred_job,
+                           int32_t after_frame)
+{
+    pf_queue_task task = {0};
+    bool claimed = false;
+    pf_error err = {0};
+    PF_CHECK_OK(pf_queue_claim(queue, worker, preferred_job, after_frame, &task, &claimed, &err),
+                &err);
+    PF_CHECK(claimed == (task.task_id != 0));
+    return task;
+}
+
+static pf_queue_job job_get(pf_queue *queue, int64_t job_id)
+{
+    pf_queue_job job;
+    pf_error err = {0};
+    PF_CHECK_OK(pf_queue_job_get(queue, job_id, &job, &err), &err);
+    return job;
+}
+
+static void check_job_status(pf_queue *queue, int64_t job_id, const char *expected)
+{
+    pf_queue_job job = job_get(queue, job_id);
+    PF_CHECK_MSG(!strcmp(job.status, expected), "job %lld is %s, expected %s",
+                 (long long)job_id, job.status, expected);
+    pf_queue_job_clear(&job);
+}
+
+static void complete_plain(pf_queue *queue, const pf_queue_task *task)
+{
+    pf_error err = {0};
+    bool repeated = true;
+    PF_CHECK_OK(pf_queue_complete(queue, task->lease_token, NULL, 0, &repeated, &err), &err);
+    PF_CHECK(!repeated);
+}
+
+static size_t failure_count(pf_queue *queue, int64_t job_id)
+{
+    pf_queue_failure *failures = NULL;
+    size_t count = 0;
+    pf_error err = {0};
+    PF_CHECK_OK(pf_queue_failure_list(queue, job_id, &failures, &count, &err), &err);
+    free(failures);
+    return count;
+}
+
+PF_TEST(enqueue_chunks_frames_into_tasks)
+{
+    pf_queue *queue = open_fresh("enqueue.db");
+    PF_REQUIRE(queue);
+    pf_error err = {0};
+
+    int64_t single = enqueue(queue, "1-10", 0, 1, 0);
+    int64_t chunked = enqueue(queue, "1-10", 0, 4, 0);
+    int64_t mixed = enqueue(queue, "1,5,9-12", 0, 2, 0);
+    int64_t stepped = enqueue(queue, "1-48x2", 0, 5, 0);
+
+    pf_queue_job job = job_get(queue, single);
+    PF_CHECK(job.tasks_total == 10 && job.frames_total == 10 && job.tasks_queued == 10);
+    PF_CHECK(!strcmp(job.status, "queued"));
+    PF_CHECK(job.max_attempts == 3); /* the default */
+    PF_CHECK(!strcmp(job.parameters_json, "{\"spp\": 4, \"size\": [64, 64]}"));
+    PF_CHECK(!strcmp(job.frame_range, "1-10"));
+    pf_queue_job_clear(&job);
+
+    struct {
+        int64_t job;
+        size_t count;
+        int32_t first[5], last[5], step[5], frames[5];
+    } expected[] = {
+        {chunked, 3, {1, 5, 9}, {4, 8, 10}, {1, 1, 1}, {4, 4, 2}},
+        /* A chunk is an arithmetic run: 1 and 5 share a task (step 4), 9 cannot join it. */
+        {mixed, 3, {1, 9, 11}, {5, 10, 12}, {4, 1, 1}, {2, 2, 2}},
+        {stepped, 5, {1, 11, 21, 31, 41}, {9, 19, 29, 39, 47}, {2, 2, 2, 2, 2}, {5, 5, 5, 5, 4}},
+    };
+    for (size_t e = 0; e < sizeof expected / sizeof *expected; e++) {
+        pf_queue_task_info *tasks = NULL;
+        size_t count = 0;
+        PF_CHECK_OK(pf_queue_task_list(queue, expected[e].job, &tasks, &count, &err), &err);
+        PF_CHECK_MSG(count == expected[e].count, "job %lld: %zu tasks",
+                     (long long)expected[e].job, count);
+        for (size_t i = 0; i < count && i < expected[e].count; i++) {
+            PF_CHECK(tasks[i].first_frame == expected[e].first[i]);
+            PF_CHECK(tasks[i].last_frame == expected[e].last[i]);
+            PF_CHECK(tasks[i].frame_step == expected[e].step[i]);
+            PF_CHECK(tasks[i].frame_count == expected[e].frames[i]);
+            PF_CHECK(!strcmp(tasks[i].status, "queued") && tasks[i].attempt == 0);
+        }
+        free(tasks);
+    }
+
+    /* Bad specs insert nothing. */
+    pf_queue_job_spec bad = {.scene_path = "s.gltf", .frame_range = "5-1",
+                             .output_pattern = "o_####.exr"};
+    int64_t job_id = 0;
+    PF_CHECK(pf_queue_enqueue(queue, &bad, &job_id, &err) == PF_ERR_INVALID);
+    PF_CHECK(strstr(err.message, "reversed") != NULL);
+    bad.frame_range = "1-5";
+    bad.parameters_json = "{spp: 4";
+    PF_CHECK(pf_queue_enqueue(queue, &bad, &job_id, &err) == PF_ERR_INVALID);
+    PF_CHECK(strstr(err.message, "JSON") != NULL);
+    bad.parameters_json = NULL;
+    bad.output_pattern = "";
+    PF_CHECK(pf_queue_enqueue(queue, &bad, &job_id, &err) == PF_ERR_INVALID);
+    pf_queue_job *jobs = NULL;
+    size_t job_count = 0;
+    PF_CHECK_OK(pf_queue_job_list(queue, &jobs, &job_count, &err), &err);
+    PF_CHECK(job_count == 4);
+    pf_queue_job_list_free(jobs, job_count);
+    pf_queue_close(queue);
+}
+
+PF_TEST(claim_order_priority_job_frame)
+{
+    pf_queue *queue = open_fresh("order.db");
+    PF_REQUIRE(queue);
+    int64_t low_a = enqueue(queue, "1-3", 0, 1, 0);
+    int64_t high = enqueue(queue, "10-11", 5, 1, 0);
+    int64_t low_b = enqueue(queue, "1-2", 0, 1, 0);
+    int64_t worker = register_worker(queue, "w1");
+
+    struct {
+        int64_t job;
+        int32_t frame;
+    } expected[] = {{high, 10}, {high, 11}, {low_a, 1}, {low_a, 2},
+                    {low_a, 3}, {low_b, 1}, {low_b, 2}};
+    for (size_t i = 0; i < sizeof expected / sizeof *expected; i++) {
+        pf_queue_task task = claim(queue, worker, 0, 0);
+        PF_CHECK_MSG(task.job_id == expected[i].job && task.first_frame == expected[i].frame,
+                     "claim %zu: job %lld frame %d, expected job %lld frame %d", i,
+                     (long long)task.job_id, task.first_frame, (long long)expected[i].job,
+                     expected[i].frame);
+        PF_CHECK(task.attempt == 1 && strlen(task.lease_token) == PF_QUEUE_TOKEN_CHARS);
+        PF_CHECK(task.lease_expires == START_MS + LEASE_MS);
+    }
+    PF_CHECK(claim(queue, worker, 0, 0).task_id == 0);
+    check_job_status(queue, high, "running");
+
+    /* Unknown worker: refused, not silently ignored. */
+    pf_queue_task task;
+    bool claimed;
+    pf_error err = {0};
+    PF_CHECK(pf_queue_claim(queue, 999, 0, 0, &task, &claimed, &err) == PF_ERR_INVALID);
+    pf_queue_close(queue);
+}
+
+PF_TEST(claim_prefers_next_frame_of_loaded_job)
+{
+    pf_queue *queue = open_fresh("affinity.db");
+    PF_REQUIRE(queue);
+    int64_t job_a = enqueue(queue, "1-5", 0, 1, 0);
+    int64_t job_b = enqueue(queue, "1-5", 0, 1, 0);
+    int64_t worker = register_worker(queue, "w1");
+
+    pf_queue_task task = claim(queue, worker, job_b, 2);
+    PF_CHECK(task.job_id == job_b && task.first_frame == 3);
+    task = claim(queue, worker, job_b, 3);
+    PF_CHECK(task.job_id == job_b && task.first_frame == 4);
+    task = claim(queue, worker, job_b, 4);
+    PF_CHECK(task.job_id == job_b && task.first_frame == 5);
+    /* Past the end of the job: wrap round to its earlier frames before another job. */
+    task = claim(queue, worker, job_b, 5);
+    PF_CHECK(task.job_id == job_b && task.first_frame == 1);
+    /* No preference: lowest job id first. */
+    task = claim(queue, worker, 0, 0);
+    PF_CHECK(task.job_id == job_a && task.first_frame == 1);
+    /* Priority outranks affinity. */
+    int64_t urgent = enqueue(queue, "7", 1, 1, 0);
+    task = claim(queue, worker, job_b, 1);
+    PF_CHECK(task.job_id == urgent && task.first_frame == 7);
+    task = claim(queue, worker, job_b, 1);
+    PF_CHECK(task.job_id == job_b && task.first_frame == 2);
+    pf_queue_close(queue);
+}
+
+PF_TEST(heartbeat_renews_only_the_current_lease)
+{
+    pf_queue *queue = open_fresh("heartbeat.db");
+    PF_REQUIRE(queue);
+    enqueue(queue, "1", 0, 1, 0);
+    int64_t worker = register_worker(queue, "w1");
+    pf_queue_task task = claim(queue, worker, 0, 0);
+    PF_REQUIRE(task.task_id);
+    pf_error err = {0};
+
+    clock_now.now += 6000;
+    int64_t expires = 0;
+    PF_CHECK_OK(pf_queue_heartbeat(queue, task.lease_token, &expires, &err), &err);
+    PF_CHECK(expires == clock_now.now + LEASE_MS);
+    /* Renewed: not expired where the original lease would have been. */
+    clock_now.now += 6000;
+    int64_t reaped = -1;
+    PF_CHECK_OK(pf_queue_reap(queue, &reaped, &err), &err);
+    PF_CHECK(reaped == 0);
+
+    char stale[PF_QUEUE_TOKEN_CHARS + 1];
+    memset(stale, '0', PF_QUEUE_TOKEN_CHARS);
+    stale[PF_QUEUE_TOKEN_CHARS] = '\0';
+    PF_CHECK(pf_queue_heartbeat(queue, stale, NULL, &err) == PF_ERR_INVALID);
+    PF_CHECK(strstr(err.message, "lease lost") != NULL);
+    pf_queue_close(queue);
+}
+
+PF_TEST(expired_lease_is_reaped_and_old_owner_fenced)
+{
+    pf_queue *queue = open_fresh("reap.db");
+    PF_REQUIRE(queue);
+    int64_t job = enqueue(queue, "1", 0, 1, 0);
+    int64_t first = register_worker(queue, "first");
+    int64_t second = register_worker(queue, "second");
+    pf_error err = {0};
+
+    pf_queue_task old_lease = claim(queue, first, 0, 0);
+    PF_REQUIRE(old_lease.task_id);
+    clock_now.now += LEASE_MS; /* expiry instant: still held */
+    int64_t reaped = -1;
+    PF_CHECK_OK(pf_queue_reap(queue, &reaped, &err), &err);
+    PF_CHECK(reaped == 0);
+    clock_now.now += 1;
+    PF_CHECK_OK(pf_queue_reap(queue, &reaped, &err), &err);
+    PF_CHECK(reaped == 1);
+
+    pf_queue_failure *failures = NULL;
+    size_t count = 0;
+    PF_CHECK_OK(pf_queue_failure_list(queue, job, &failures, &count, &err), &err);
+    PF_CHECK(count == 1);
+    if (count == 1) {
+        PF_CHECK(!strcmp(failures[0].error, "lease expired (worker first stopped heartbeating)"));
+        PF_CHECK(failures[0].attempt == 1 && !strcmp(failures[0].worker_name, "first"));
+    }
+    free(failures);
+
+    /* Backoff after a counted attempt, then the other worker gets it. */
+    PF_CHECK(claim(queue, second, 0, 0).task_id == 0);
+    clock_now.now += BACKOFF_BASE_MS;
+    pf_queue_task new_lease = claim(queue, second, 0, 0);
+    PF_CHECK(new_lease.task_id == old_lease.task_id && new_lease.attempt == 2);
+    PF_CHECK(strcmp(new_lease.lease_token, old_lease.lease_token) != 0);
+
+    /* The old owner can neither renew nor complete, and writes no stage rows. */
+    pf_queue_stage_row row = {.frame = 1, .stage = "render", .wall_ms = 5, .gpu_ms = 4};
+    PF_CHECK(pf_queue_heartbeat(queue, old_lease.lease_token, NULL, &err) == PF_ERR_INVALID);
+    bool repeated = true;
+    PF_CHECK(pf_queue_complete(queue, old_lease.lease_token, &row, 1, &repeated, &err) ==
+             PF_ERR_INVALID);
+    PF_CHECK(strstr(err.message, "lease lost") != NULL);
+    PF_CHECK(!repeated);
+    PF_CHECK(pf_queue_fail(queue, old_lease.lease_token, "late", &err) == PF_ERR_INVALID);
+    PF_CHECK(pf_queue_release(queue, old_lease.lease_token, &err) == PF_ERR_INVALID);
+    pf_queue_timings timings;
+    PF_CHECK_OK(pf_queue_timings_get(queue, job, 4, &timings, &err), &err);
+    PF_CHECK(timings.stage_count == 0 && timings.frames == 0);
+    pf_queue_timings_free(&timings);
+    PF_CHECK(failure_count(queue, job) == 1);
+
+    /* The new owner completes; repeating it is harmless and adds nothing. */
+    PF_CHECK_OK(pf_queue_complete(queue, new_lease.lease_token, &row, 1, &repeated, &err), &err);
+    PF_CHECK(!repeated);
+    PF_CHECK_OK(pf_queue_complete(queue, new_lease.lease_token, &row, 1, &repeated, &err), &err);
+    PF_CHECK(repeated);
+    PF_CHECK_OK(pf_queue_timings_get(queue, job, 4, &timings, &err), &err);
+    PF_CHECK(timings.stage_count == 1 && timings.frames == 1 &&
+             timings.stages[0].count == 1);
+    pf_queue_timings_free(&timings);
+    check_job_status(queue, job, "done");
+    pf_queue_close(queue);
+}
+
+PF_TEST(failures_back_off_then_fail_at_max_attempts)
+{
+    pf_queue *queue = open_fresh("backoff.db");
+    PF_REQUIRE(queue);
+    int64_t job = enqueue(queue, "1", 0, 1, 6);
+    int64_t worker = register_worker(queue, "w1");
+    pf_error err = {0};
+    /* base * 2^(attempt-1), capped at 8000. */
+    const int64_t delays[] = {1000, 2000, 4000, 8000, 8000};
+    const char *errors[] = {"e1", "e2", "e3", "e4", "e5", "e6"};
+
+    for (int attempt = 1; attempt <= 6; attempt++) {
+        pf_queue_task task = claim(queue, worker, 0, 0);
+        PF_REQUIRE(task.task_id);
+        PF_CHECK(task.attempt == attempt);
+        PF_CHECK_OK(pf_queue_fail(queue, task.lease_token, errors[attempt - 1], &err), &err);
+        pf_queue_task_info *tasks = NULL;
+        size_t count = 0;
+        PF_CHECK_OK(pf_queue_task_list(queue, job, &tasks, &count, &err), &err);
+        PF_REQUIRE(count == 1);
+        PF_CHECK(!strcmp(tasks[0].last_error, errors[attempt - 1]));
+        if (attempt < 6) {
+            PF_CHECK(!strcmp(tasks[0].status, "queued"));
+            PF_CHECK_MSG(tasks[0].eligible_at == clock_now.now + delays[attempt - 1],
+                         "attempt %d: eligible after %lld ms", attempt,
+                         (long long)(tasks[0].eligible_at - clock_now.now));
+            check_job_status(queue, job, "running");
+            clock_now.now += delays[attempt - 1] - 1;
+            PF_CHECK(claim(queue, worker, 0, 0).task_id == 0);
+            clock_now.now += 1;
+        } else {
+            PF_CHECK(!strcmp(tasks[0].status, "failed"));
+        }
+        free(tasks);
+    }
+    PF_CHECK(claim(queue, worker, 0, 0).task_id == 0);
+    check_job_status(queue, job, "failed");
+
+    pf_queue_failure *failures = NULL;
+    size_t count = 0;
+    PF_CHECK_OK(pf_queue_failure_list(queue, job, &failures, &count, &err), &err);
+    PF_CHECK(count == 6);
+    for (size_t i = 0; i < count && i < 6; i++) {
+        PF_CHECK(!strcmp(failures[i].error, errors[i]));
+        PF_CHECK(failures[i].attempt == (int)i + 1);
+        PF_CHECK(!strcmp(failures[i].worker_name, "w1"));
+    }
+    free(failures);
+    pf_queue_close(queue);
+}
+
+/* Claims a task of job for worker and fails it. */
+static void claim_and_fail(pf_queue *queue, int64_t worker, int64_t job, const char *error)
+{
+    pf_queue_task task = claim(queue, worker, job, 0);
+    PF_CHECK_MSG(task.job_id == job, "worker %lld got job %lld, expected job %lld",
+                 (long long)worker, (long long)task.job_id, (long long)job);
+    pf_error err = {0};
+    if (task.task_id)
+        PF_CHECK_OK(pf_queue_fail(queue, task.lease_token, error, &err), &err);
+}
+
+PF_TEST(blocklist_after_repeated_failures)
+{
+    pf_queue *queue = open_fresh("blocklist.db");
+    PF_REQUIRE(queue);
+    int64_t job = enqueue(queue, "1-6", 0, 1, 5);
+    int64_t bad = register_worker(queue, "bad");
+    int64_t good = register_worker(queue, "good");
+    pf_error err = {0};
+
+    /* Two distinct tasks failed: not yet blocked. */
+    claim_and_fail(queue, bad, job, "crash 1");
+    claim_and_fail(queue, bad, job, "crash 2");
+    pf_queue_task task = claim(queue, bad, job, 0);
+    PF_CHECK(task.job_id == job);
+    PF_CHECK_OK(pf_queue_fail(queue, task.lease_token, "crash 3", &err), &err);
+    /* Three distinct tasks: blocked, although tasks of the job are waiting. */
+    clock_now.now += BACKOFF_CAP_MS;
+    PF_CHECK(claim(queue, bad, job, 0).task_id == 0);
+    pf_queue_job status = job_get(queue, job);
+    PF_CHECK(status.live_workers == 2 && status.blocked_live_workers == 1);
+    PF_CHECK(status.note[0] == '\0');
+    pf_queue_job_clear(&status);
+
+    /* The block is per job: another job is still served to the bad worker. */
+    int64_t other = enqueue(queue, "1", 0, 1, 0);
+    task = claim(queue, bad, 0, 0);
+    PF_CHECK(task.job_id == other);
+    complete_plain(queue, &task);
+
+    /* Once every live worker is blocked, the job says so. */
+    claim_and_fail(queue, good, job, "good 1");
+    claim_and_fail(queue, good, job, "good 2");
+    claim_and_fail(queue, good, job, "good 3");
+    clock_now.now += BACKOFF_CAP_MS;
+    PF_CHECK(claim(queue, good, job, 0).task_id == 0);
+    status = job_get(queue, job);
+    PF_CHECK(status.blocked_live_workers == 2 && status.tasks_queued > 0);
+    PF_CHECK_MSG(!strcmp(status.note, "no eligible worker: all 2 live workers are blocked for "
+                                      "this job"),
+                 "note: \"%s\"", status.note);
+    pf_queue_job_clear(&status);
+
+    /* Stopped and silent workers are not live and do not change the verdict. */
+    int64_t stopped = register_worker(queue, "stopped");
+    PF_CHECK_OK(pf_queue_worker_stop(queue, stopped, &err), &err);
+    register_worker(queue, "silent");
+    clock_now.now += 30000;
+    PF_CHECK_OK(pf_queue_worker_heartbeat(queue, bad, &err), &err);
+    PF_CHECK_OK(pf_queue_worker_heartbeat(queue, good, &err), &err);
+    clock_now.now += 31000; /* "silent" last heard 61 s ago, alive window 60 s */
+    status = job_get(queue, job);
+    PF_CHECK(status.live_workers == 2 && status.blocked_live_workers == 2);
+    PF_CHECK(status.note[0] != '\0');
+    pf_queue_job_clear(&status);
+    pf_queue_worker_info *workers = NULL;
+    size_t worker_count = 0;
+    PF_CHECK_OK(pf_queue_worker_list(queue, &workers, &worker_count, &err), &err);
+    PF_CHECK(worker_count == 4);
+    for (size_t i = 0; i < worker_count; i++)
+        PF_CHECK_MSG(workers[i].alive == (workers[i].worker_id == bad ||
+                                          workers[i].worker_id == good),
+                     "worker %s alive=%d", workers[i].name, workers[i].alive);
+    free(workers);
+
+    /* A fresh worker can take the job, and the note goes away. */
+    int64_t fresh = register_worker(queue, "fresh");
+    status = job_get(queue, job);
+    PF_CHECK(status.live_workers == 3 && status.note[0] == '\0');
+    pf_queue_job_clear(&status);
+    task = claim(queue, fresh, job, 0);
+    PF_CHECK(task.job_id == job);
+    PF_CHECK_OK(pf_queue_release(queue, task.lease_token, &err), &err);
+
+    /* Retry lifts the blocks, and old failures no longer count towards new ones. */
+    int64_t requeued = -1;
+    PF_CHECK_OK(pf_queue_retry(queue, job, &requeued, &err), &err);
+    PF_CHECK(requeued == 0); /* nothing had failed for good: max attempts is 5 */
+    task = claim(queue, bad, job, 0);
+    PF_CHECK(task.job_id == job);
+    PF_CHECK_OK(pf_queue_fail(queue, task.lease_token, "after retry", &err), &err);
+    clock_now.now += BACKOFF_CAP_MS;
+    PF_CHECK(claim(queue, bad, job, 0).job_id == job);
+    pf_queue_close(queue);
+}
+
+PF_TEST(release_does_not_count_an_attempt)
+{
+    pf_queue *queue = open_fresh("release.db");
+    PF_REQUIRE(queue);
+    int64_t job = enqueue(queue, "1", 0, 1, 1);
+    int64_t worker = register_worker(queue, "w1");
+    pf_error err = {0};
+    for (int round = 0; round < 3; round++) {
+        pf_queue_task task = claim(queue, worker, 0, 0);
+        PF_REQUIRE(task.task_id);
+        PF_CHECK(task.attempt == 1);
+        PF_CHECK_OK(pf_queue_release(queue, task.lease_token, &err), &err);
+        PF_CHECK(pf_queue_release(queue, task.lease_token, &err) == PF_ERR_INVALID);
+        check_job_status(queue, job, "running"); /* claimed once: started */
+    }
+    PF_CHECK(failure_count(queue, job) == 0);
+    /* max_attempts 1 still allows the one real attempt. */
+    pf_queue_task task = claim(queue, worker, 0, 0);
+    PF_CHECK(task.attempt == 1);
+    complete_plain(queue, &task);
+    check_job_status(queue, job, "done");
+    pf_queue_close(queue);
+}
+
+PF_TEST(pause_resume_cancel_retry)
+{
+    pf_queue *queue = open_fresh("control.db");
+    PF_REQUIRE(queue);
+    int64_t job = enqueue(queue, "1-3", 0, 1, 1);
+    int64_t worker = register_worker(queue, "w1");
+    pf_error err = {0};
+
+    /* Pause stops new claims; the running frame may finish. */
+    pf_queue_task running = claim(queue, worker, 0, 0);
+    PF_CHECK_OK(pf_queue_pause(queue, job, &err), &err);
+    check_job_status(queue, job, "paused");
+    PF_CHECK(claim(queue, worker, 0, 0).task_id == 0);
+    PF_CHECK_OK(pf_queue_heartbeat(queue, running.lease_token, NULL, &err), &err);
+    complete_plain(queue, &running);
+    check_job_status(queue, job, "paused");
+    PF_CHECK(pf_queue_pause(queue, job, &err) == PF_ERR_INVALID);
+    PF_CHECK_OK(pf_queue_resume(queue, job, &err), &err);
+    check_job_status(queue, job, "running");
+    PF_CHECK(pf_queue_resume(queue, job, &err) == PF_ERR_INVALID);
+    PF_CHECK(strstr(err.message, "not paused") != NULL);
+
+    /* Cancel revokes the running lease and every queued task. */
+    running = claim(queue, worker, job, 1);
+    PF_CHECK(running.first_frame == 2);
+    PF_CHECK_OK(pf_queue_cancel(queue, job, &err), &err);
+    check_job_status(queue, job, "canceled");
+    PF_CHECK(pf_queue_heartbeat(queue, running.lease_token, NULL, &err) == PF_ERR_INVALID);
+    pf_queue_stage_row row = {.frame = 2, .stage = "render", .wall_ms = 1, .gpu_ms = -1};
+    PF_CHECK(pf_queue_complete(queue, running.lease_token, &row, 1, NULL, &err) ==
+             PF_ERR_INVALID);
+    PF_CHECK(claim(queue, worker, 0, 0).task_id == 0);
+    pf_queue_job status = job_get(queue, job);
+    PF_CHECK(status.tasks_done == 1 && status.tasks_canceled == 2 && status.frames_done == 1);
+    pf_queue_job_clear(&status);
+    PF_CHECK_OK(pf_queue_cancel(queue, job, &err), &err); /* idempotent */
+    PF_CHECK(pf_queue_pause(queue, job, &err) == PF_ERR_INVALID);
+
+    /* Retry revives the canceled tasks with attempts reset. */
+    int64_t requeued = 0;
+    PF_CHECK_OK(pf_queue_retry(queue, job, &requeued, &err), &err);
+    PF_CHECK(requeued == 2);
+    check_job_status(queue, job, "running"); /* one frame already done */
+    pf_queue_task task = claim(queue, worker, 0, 0);
+    PF_CHECK(task.first_frame == 2 && task.attempt == 1);
+
+    /* A failed task (max_attempts 1) fails the job once nothing else can run. */
+    PF_CHECK_OK(pf_queue_fail(queue, task.lease_token, "boom", &err), &err);
+    check_job_status(queue, job, "running");
+    task = claim(queue, worker, 0, 0);
+    PF_CHECK(task.first_frame == 3);
+    complete_plain(queue, &task);
+    check_job_status(queue, job, "failed");
+    PF_CHECK_OK(pf_queue_retry(queue, job, &requeued, &err), &err);
+    PF_CHECK(requeued == 1);
+    check_job_status(queue, job, "running");
+    task = claim(queue, worker, 0, 0);
+    PF_CHECK(task.first_frame == 2 && task.attempt == 1);
+    complete_plain(queue, &task);
+    check_job_status(queue, job, "done");
+    PF_CHECK(pf_queue_cancel(queue, job, &err) == PF_ERR_INVALID);
+
+    /* Unknown jobs are named. */
+    PF_CHECK(pf_queue_cancel(queue, 4242, &err) == PF_ERR_INVALID);
+    PF_CHECK(strstr(err.message, "no job 4242") != NULL);
+    PF_CHECK(pf_queue_pause(queue, 4242, &err) == PF_ERR_INVALID);
+    PF_CHECK(pf_queue_resume(queue, 4242, &err) == PF_ERR_INVALID);
+    PF_CHECK(pf_queue_retry(queue, 4242, NULL, &err) == PF_ERR_INVALID);
+    pf_queue_job missing;
+    PF_CHECK(pf_queue_job_get(queue, 4242, &missing, &err) == PF_ERR_INVALID);
+    pf_queue_close(queue);
+}
+
+PF_TEST(stage_rows_are_validated_all_or_nothing)
+{
+    pf_queue *queue = open_fresh("rows.db");
+    PF_REQUIRE(queue);
+    int64_t job = enqueue(queue, "1-5x2", 0, 3, 0); /* one task: 1, 3, 5 */
+    int64_t worker = register_worker(queue, "w1");
+    pf_queue_task task = claim(queue, worker, 0, 0);
+    PF_REQUIRE(task.frame_count == 3);
+    pf_error err = {0};
+
+    pf_queue_stage_row rows[] = {
+        {.frame = 1, .stage = "render", .wall_ms = 1, .gpu_ms = -1},
+        {.frame = 2, .stage = "render", .wall_ms = 1, .gpu_ms = -1}, /* not in the task */
+    };
+    PF_CHECK(pf_queue_complete(queue, task.lease_token, rows, 2, NULL, &err) == PF_ERR_INVALID);
+    PF_CHECK(strstr(err.message, "stage row 1") && strstr(err.message, "frame 2"));
+    rows[1].frame = 3;
+    rows[1].counters_json = "{not json";
+    PF_CHECK(pf_queue_complete(queue, task.lease_token, rows, 2, NULL, &err) == PF_ERR_INVALID);
+    PF_CHECK(strstr(err.message, "JSON") != NULL);
+    rows[1].counters_json = "{\"rays\": 1000}";
+    rows[1].wall_ms = -3;
+    PF_CHECK(pf_queue_complete(queue, task.lease_token, rows, 2, NULL, &err) == PF_ERR_INVALID);
+    rows[1].wall_ms = 2;
+    rows[1].stage = "";
+    PF_CHECK(pf_queue_complete(queue, task.lease_token, rows, 2, NULL, &err) == PF_ERR_INVALID);
+
+    pf_queue_timings timings;
+    PF_CHECK_OK(pf_queue_timings_get(queue, job, 3, &timings, &err), &err);
+    PF_CHECK(timings.stage_count == 0);
+    pf_queue_timings_free(&timings);
+    check_job_status(queue, job, "running");
+
+    rows[1].stage = "render";
+    PF_CHECK_OK(pf_queue_complete(queue, task.lease_token, rows, 2, NULL, &err), &err);
+    PF_CHECK_OK(pf_queue_timings_get(queue, job, 3, &timings, &err), &err);
+    PF_CHECK(timings.stage_count == 1 && timings.stages[0].count == 2 && timings.frames == 2);
+    pf_queue_timings_free(&timings);
+    check_job_status(queue, job, "done");
+    pf_queue_close(queue);
+}
+
+PF_TEST(timing_statistics_match_hand_computed_values)
+{
+    pf_queue *queue = open_fresh("timings.db");
+    PF_REQUIRE(queue);
+    int64_t job = enqueue(queue, "1-4", 0, 2, 0);
+    int64_t worker = register_worker(queue, "w1");
+    pf_error err = {0};
+    const double none = PF_QUEUE_NO_GPU_MS;
+    pf_queue_stage_row first_rows[] = {
+        {1, "parse", 1, none, NULL, false, NULL},
+        {1, "render", 10, 8, "{\"rays\": 10}", false, NULL},
+        {1, "denoise", 0, none, NULL, true, "disabled"},
+        {2, "parse", 2, none, NULL, false, NULL},
+        {2, "render", 20, 16, NULL, false, NULL},
+        {2, "denoise", 0, none, NULL, true, "disabled"},
+    };
+    pf_queue_stage_row second_rows[] = {
+        {3, "parse", 3, none, NULL, false, NULL},
+        {3, "render", 30, 24, NULL, false, NULL},
+        {3, "denoise", 5, 4, NULL, false, NULL},
+        {4, "parse", 4, none, NULL, false, NULL},
+        {4, "render", 100, none, NULL, false, NULL},
+        {4, "denoise", 0, none, NULL, true, "disabled"},
+    };
+    pf_queue_task task = claim(queue, worker, 0, 0);
+    PF_CHECK_OK(pf_queue_complete(queue, task.lease_token, first_rows, 6, NULL, &err), &err);
+    task = claim(queue, worker, 0, 0);
+    PF_CHECK_OK(pf_queue_complete(queue, task.lease_token, second_rows, 6, NULL, &err), &err);
+
+    pf_queue_timings t;
+    PF_REQUIRE_OK(pf_queue_timings_get(queue, job, 3, &t, &err), &err);
+    PF_REQUIRE(t.stage_count == 3);
+    PF_CHECK(!strcmp(t.stages[0].stage, "parse") && !strcmp(t.stages[1].stage, "render") &&
+             !strcmp(t.stages[2].stage, "denoise"));
+    const double tol = 1e-9;
+    /* parse: wall 1,2,3,4; no GPU. p95 rank 0.95*3 = 2.85 → 3 + 0.85*(4-3). */
+    const pf_queue_stage_stats *parse = &t.stages[0];
+    PF_CHECK(parse->count == 4 && parse->skipped == 0 && parse->gpu.count == 0);
+    PF_CHECK_NEAR(parse->wall.min, 1, tol);
+    PF_CHECK_NEAR(parse->wall.median, 2.5, tol);
+    PF_CHECK_NEAR(parse->wall.p95, 3.85, tol);
+    PF_CHECK_NEAR(parse->wall.max, 4, tol);
+    PF_CHECK_NEAR(parse->wall.total, 10, tol);
+    /* render: wall 10,20,30,100 → median 25, p95 30 + 0.85*70 = 89.5;
+     * GPU 8,16,24 (frame 4 has none) → median 16, p95 rank 1.9 → 16 + 0.9*8 = 23.2. */
+    const pf_queue_stage_stats *render = &t.stages[1];
+    PF_CHECK(render->count == 4 && render->skipped == 0 && render->gpu.count == 3);
+    PF_CHECK_NEAR(render->wall.min, 10, tol);
+    PF_CHECK_NEAR(render->wall.median, 25, tol);
+    PF_CHECK_NEAR(render->wall.p95, 89.5, tol);
+    PF_CHECK_NEAR(render->wall.max, 100, tol);
+    PF_CHECK_NEAR(render->wall.total, 160, tol);
+    PF_CHECK_NEAR(render->gpu.min, 8, tol);
+    PF_CHECK_NEAR(render->gpu.median, 16, tol);
+    PF_CHECK_NEAR(render->gpu.p95, 23.2, tol);
+    PF_CHECK_NEAR(render->gpu.max, 24, tol);
+    PF_CHECK_NEAR(render->gpu.total, 48, tol);
+    /* denoise: ran once (5 ms, GPU 4 ms), skipped three times. */
+    const pf_queue_stage_stats *denoise = &t.stages[2];
+    PF_CHECK(denoise->count == 1 && denoise->skipped == 3 && denoise->gpu.count == 1);
+    PF_CHECK_NEAR(denoise->wall.median, 5, tol);
+    PF_CHECK_NEAR(denoise->wall.p95, 5, tol);
+    PF_CHECK_NEAR(denoise->gpu.max, 4, tol);
+
+    PF_CHECK(t.frames == 4);
+    PF_CHECK_NEAR(t.total_wall_ms, 175, tol);
+    PF_CHECK_NEAR(t.total_gpu_ms, 52, tol);
+    /* Per frame: 1 → 11, 2 → 22, 3 → 38, 4 → 104. */
+    PF_REQUIRE(t.slowest_count == 3);
+    PF_CHECK(t.slowest[0].frame == 4 && t.slowest[1].frame == 3 && t.slowest[2].frame == 2);
+    PF_CHECK_NEAR(t.slowest[0].wall_ms, 104, tol);
+    PF_CHECK_NEAR(t.slowest[1].wall_ms, 38, tol);
+    PF_CHECK_NEAR(t.slowest[2].wall_ms, 22, tol);
+    pf_queue_timings_free(&t);
+
+    PF_CHECK(pf_queue_timings_get(queue, 99, 3, &t, &err) == PF_ERR_INVALID);
+    pf_queue_close(queue);
+}
+
+PF_TEST(reaping_counts_attempts_and_blocks_the_silent_worker)
+{
+    pf_queue *queue = open_fresh("reap_block.db");
+    PF_REQUIRE(queue);
+    int64_t job = enqueue(queue, "1-4", 0, 1, 2);
+    int64_t silent = register_worker(queue, "silent");
+    int64_t other = register_worker(queue, "other");
+    pf_error err = {0};
+
+    /* The silent worker holds three leases and stops heartbeating. */
+    for (int i = 0; i < 3; i++)
+        PF_CHECK(claim(queue, silent, 0, 0).task_id != 0);
+    clock_now.now += LEASE_MS + 1;
+    int64_t reaped = 0;
+    PF_CHECK_OK(pf_queue_reap(queue, &reaped, &err), &err);
+    PF_CHECK(reaped == 3);
+    PF_CHECK(failure_count(queue, job) == 3);
+    clock_now.now += BACKOFF_BASE_MS;
+    PF_CHECK(claim(queue, silent, job, 0).task_id == 0); /* blocked after 3 distinct tasks */
+    pf_queue_worker_info *workers = NULL;
+    size_t count = 0;
+    PF_CHECK_OK(pf_queue_worker_list(queue, &workers, &count, &err), &err);
+    PF_CHECK(count == 2 && workers[0].current_task_id == 0);
+    free(workers);
+
+    /* Reaped at max attempts (2): the task fails for good. */
+    pf_queue_task task = claim(queue, other, 0, 0);
+    PF_CHECK(task.attempt == 2);
+    clock_now.now += LEASE_MS + 1;
+    PF_CHECK_OK(pf_queue_reap(queue, &reaped, &err), &err);
+    PF_CHECK(reaped == 1);
+    pf_queue_job status = job_get(queue, job);
+    PF_CHECK(status.tasks_failed == 1 && status.tasks_queued == 3);
+    PF_CHECK(!strcmp(status.status, "running"));
+    pf_queue_job_clear(&status);
+    pf_queue_close(queue);
+}
+
+PF_TEST(locked_database_is_retried_then_reported)
+{
+    char path[1200];
+    pf_error err = {0};
+    pf_queue *queue = NULL;
+    pf_queue_options options = test_options;
+    options.busy_timeout_ms = 20;
+    clock_now.now = START_MS;
+    PF_REQUIRE_OK(open_queue(fresh_db_path("locked.db", path, sizeof path), &options,
+                             &clock_now, &queue, &err),
+                  &err);
+    enqueue(queue, "1", 0, 1, 0);
+    int64_t worker = register_worker(queue, "w1");
+
+    /* Another connection holds the write lock past every wait and retry. */
+    sqlite3 *holder = NULL;
+    PF_REQUIRE(sqlite3_open(path, &holder) == SQLITE_OK);
+    PF_REQUIRE(sqlite3_exec(holder, "BEGIN IMMEDIATE", NULL, NULL, NULL) == SQLITE_OK);
+    pf_queue_task task;
+    bool claimed = true;
+    PF_CHECK(pf_queue_claim(queue, worker, 0, 0, &task, &claimed, &err) == PF_ERR_IO);
+    PF_CHECK(!claimed);
+    PF_CHECK_MSG(strstr(err.message, path) && strstr(err.message, "locked"), "%s", err.message);
+    /* Reads still work under a writer (WAL). */
+    pf_queue_job job = job_get(queue, 1);
+    PF_CHECK(job.tasks_queued == 1);
+    pf_queue_job_clear(&job);
+
+    sqlite3_exec(holder, "COMMIT", NULL, NULL, NULL);
+    sqlite3_close(holder);
+    task = claim(queue, worker, 0, 0);
+    PF_CHECK(task.task_id != 0 && task.attempt == 1);
+    pf_queue_close(queue);
+}
+
+int main(void)
+{
+    PF_RUN(enqueue_chunks_frames_into_tasks);
+    PF_RUN(claim_order_priority_job_frame);
+    PF_RUN(claim_prefers_next_frame_of_loaded_job);
+    PF_RUN(heartbeat_renews_only_the_current_lease);
+    PF_RUN(expired_lease_is_reaped_and_old_owner_fenced);
+    PF_RUN(failures_back_off_then_fail_at_max_attempts);
+    PF_RUN(blocklist_after_repeated_failures);
+    PF_RUN(release_does_not_count_an_attempt);
+    PF_RUN(pause_resume_cancel_retry);
+    PF_RUN(stage_rows_are_validated_all_or_nothing);
+    PF_RUN(timing_statistics_match_hand_computed_values);
+    PF_RUN(reaping_counts_attempts_and_blocks_the_silent_worker);
+    PF_RUN(locked_database_is_retried_then_reported);
+    return pf_test_finish();
+}
