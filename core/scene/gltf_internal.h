@@ -1,0 +1,72 @@
+/*
+ * Private to the glTF loader: the context shared by gltf_load.c (container,
+ * JSON, meshes, nodes, cameras, lights), gltf_accessors.c (buffers, accessors),
+ * gltf_materials.c and gltf_animation.c, plus the validated JSON and accessor
+ * readers they all use.
+ */
+#ifndef PF_GLTF_INTERNAL_H
+#define PF_GLTF_INTERNAL_H
+
+#include "scene_internal.h"
+
+#include <cjson/cJSON.h>
+#include <stddef.h>
+
+typedef struct gltf_buffer {
+    unsigned char *data; /* owned unless it points into the .glb BIN chunk */
+    size_t size;         /* the buffer's byteLength (data holds at least this) */
+    int owned;
+} gltf_buffer;
+
+typedef struct gltf_context {
+    pf_scene *scene;
+    const char *path;
+    char *file_data;
+    size_t file_size;
+    cJSON *root;
+    const unsigned char *glb_bin; /* BIN chunk of a .glb, NULL otherwise */
+    size_t glb_bin_size;
+    uint32_t buffer_count;
+    gltf_buffer *buffers;
+    uint32_t file_material_count; /* materials in the file; a default may follow */
+    int32_t default_material;     /* index of the grey default, SCENE_NONE until needed */
+} gltf_context;
+
+/* PF_ERR_FORMAT (or the given status) with "path: element: message". */
+pf_status gltf_fail(gltf_context *ctx, pf_error *err, pf_status status, const char *element,
+                    const char *format, ...) __attribute__((format(printf, 5, 6)));
+
+/* Number at key (default if absent); must be a finite number. */
+pf_status gltf_number(gltf_context *ctx, const cJSON *object, const char *key, double fallback,
+                      double *out, const char *element, pf_error *err);
+/* Optional index at key into [0, count): *out = SCENE_NONE if absent. */
+pf_status gltf_index(gltf_context *ctx, const cJSON *object, const char *key, uint32_t count,
+                     int32_t *out, const char *element, pf_error *err);
+/* Array of exactly n finite numbers at key; out unchanged if absent. */
+pf_status gltf_floats(gltf_context *ctx, const cJSON *object, const char *key, int n,
+                      float *out, const char *element, pf_error *err);
+/* Length of the array at key (0 if absent); error if present and not an array. */
+pf_status gltf_array(gltf_context *ctx, const cJSON *object, const char *key,
+                     const cJSON **out, uint32_t *count, const char *element, pf_error *err);
+
+/*
+ * Reads accessor `index` as floats (integer types converted, normalized ones to
+ * [0,1]/[-1,1]); its component count must be `components`. All values must be
+ * finite. *out (count × components) is malloc'ed and owned by the caller.
+ * `element` names what refers to the accessor (for messages).
+ */
+pf_status gltf_read_floats(gltf_context *ctx, int32_t index, uint32_t components, float **out,
+                           uint32_t *count, const char *element, pf_error *err);
+/* Reads an index accessor (SCALAR u8/u16/u32) into malloc'ed *out. */
+pf_status gltf_read_indices(gltf_context *ctx, int32_t index, uint32_t **out, uint32_t *count,
+                            const char *element, pf_error *err);
+
+/* Little-endian u32 at bytes (GLB headers). */
+uint32_t gltf_read_u32le(const unsigned char *bytes);
+
+/* gltf_accessors.c: every entry of "buffers" into ctx->buffers, sizes checked. */
+pf_status gltf_load_buffers(gltf_context *ctx, pf_error *err);
+pf_status gltf_load_materials(gltf_context *ctx, pf_error *err);
+pf_status gltf_load_animations(gltf_context *ctx, pf_error *err);
+
+#endif

@@ -1,0 +1,166 @@
+/*
+ * glTF materials → the three pf_material kinds (DESIGN.md §5):
+ *   glass   KHR_materials_transmission.transmissionFactor > 0, ior from
+ *           KHR_materials_ior (default 1.5), tinted by baseColorFactor;
+ *   mirror  metallicFactor >= 0.5 and roughnessFactor <= MIRROR_ROUGHNESS_MAX
+ *           (both default to 1 in glTF, so a bare material is not a mirror);
+ *   Lambert otherwise, albedo = baseColorFactor.rgb. A metallic but rough
+ *           material has no faithful match and becomes Lambert with a warning.
+ * Emission = emissiveFactor × KHR_materials_emissive_strength.emissiveStrength.
+ * Textures are not sampled: the factors are used, with one warning.
+ */
+#include "gltf_internal.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* Roughness at or below this counts as a perfect mirror: the glTF GGX lobe at
+ * roughness 0.01 (alpha = 1e-4) is narrower than a pixel at any practical
+ * resolution. */
+#define MIRROR_ROUGHNESS_MAX 0.01
+/* glTF metallicFactor at or above this is treated as a metal. */
+#define METALLIC_THRESHOLD 0.5
+/* KHR_materials_ior default. */
+#define GLTF_DEFAULT_IOR 1.5
+
+static const char *const texture_keys[] = {"normalTexture", "occlusionTexture",
+                                           "emissiveTexture"};
+static const char *const pbr_texture_keys[] = {"baseColorTexture", "metallicRoughnessTexture"};
+static const char *const known_material_extensions[] = {
+    "KHR_materials_emissive_strength", "KHR_materials_transmission", "KHR_materials_ior"};
+
+static void warn_unhandled(gltf_context *ctx, const cJSON *material, const cJSON *pbr,
+                           const char *element)
+{
+    int textured = 0;
+    for (size_t k = 0; k < sizeof texture_keys / sizeof *texture_keys; k++)
+        textured |= cJSON_GetObjectItemCaseSensitive(material, texture_keys[k]) != NULL;
+    for (size_t k = 0; k < sizeof pbr_texture_keys / sizeof *pbr_texture_keys; k++)
+        textured |= cJSON_GetObjectItemCaseSensitive(pbr, pbr_texture_keys[k]) != NULL;
+    if (textured)
+        scene_warn_once(ctx->scene, "textures",
+                        "%s: %s: textures are not supported: using the material factors",
+                        ctx->path, element);
+    const cJSON *alpha_mode = cJSON_GetObjectItemCaseSensitive(material, "alphaMode");
+    if (cJSON_IsString(alpha_mode) && strcmp(alpha_mode->valuestring, "OPAQUE") != 0)
+        scene_warn_once(ctx->scene, "alphaMode",
+                        "%s: %s: alphaMode %s is not supported: rendered opaque", ctx->path,
+                        element, alpha_mode->valuestring);
+    const cJSON *extensions = cJSON_GetObjectItemCaseSensitive(material, "extensions");
+    const cJSON *extension;
+    cJSON_ArrayForEach(extension, extensions)
+    {
+        int known = 0;
+        for (size_t k = 0; k < sizeof known_material_extensions / sizeof *known_material_extensions;
+             k++)
+            known |= strcmp(extension->string, known_material_extensions[k]) == 0;
+        if (!known) {
+            char key[256];
+            /* Same key as the extensionsUsed warning: one warning per extension. */
+            snprintf(key, sizeof key, "extension %s", extension->string);
+            scene_warn_once(ctx->scene, key, "%s: %s: material extension %s is not supported: "
+                            "ignored", ctx->path, element, extension->string);
+        }
+    }
+}
+
+static pf_status load_material(gltf_context *ctx, const cJSON *material, const char *element,
+                               pf_material *out, pf_error *err)
+{
+    const cJSON *pbr = cJSON_GetObjectItemCaseSensitive(material, "pbrMetallicRoughness");
+    const cJSON *extensions = cJSON_GetObjectItemCaseSensitive(material, "extensions");
+    const cJSON *strength_ext =
+        cJSON_GetObjectItemCaseSensitive(extensions, "KHR_materials_emissive_strength");
+    const cJSON *transmission_ext =
+        cJSON_GetObjectItemCaseSensitive(extensions, "KHR_materials_transmission");
+    const cJSON *ior_ext = cJSON_GetObjectItemCaseSensitive(extensions, "KHR_materials_ior");
+    char pbr_element[128], ext_element[192];
+    snprintf(pbr_element, sizeof pbr_element, "%s.pbrMetallicRoughness", element);
+
+    float base_color[4] = {1, 1, 1, 1};
+    float emissive[3] = {0, 0, 0};
+    double metallic = 1, roughness = 1, strength = 1, transmission = 0, ior = GLTF_DEFAULT_IOR;
+    pf_status status = gltf_floats(ctx, pbr, "baseColorFactor", 4, base_color, pbr_element, err);
+    if (!status)
+        status = gltf_number(ctx, pbr, "metallicFactor", 1, &metallic, pbr_element, err);
+    if (!status)
+        status = gltf_number(ctx, pbr, "roughnessFactor", 1, &roughness, pbr_element, err);
+    if (!status)
+        status = gltf_floats(ctx, material, "emissiveFactor", 3, emissive, element, err);
+    if (!status) {
+        snprintf(ext_element, sizeof ext_element, "%s.extensions.KHR_materials_emissive_strength",
+                 element);
+        status = gltf_number(ctx, strength_ext, "emissiveStrength", 1, &strength, ext_element,
+                             err);
+    }
+    if (!status) {
+        snprintf(ext_element, sizeof ext_element, "%s.extensions.KHR_materials_transmission",
+                 element);
+        status = gltf_number(ctx, transmission_ext, "transmissionFactor", 0, &transmission,
+                             ext_element, err);
+    }
+    if (!status) {
+        snprintf(ext_element, sizeof ext_element, "%s.extensions.KHR_materials_ior", element);
+        status = gltf_number(ctx, ior_ext, "ior", GLTF_DEFAULT_IOR, &ior, ext_element, err);
+        /* KHR_materials_ior: ior 0 is the legacy "infinite" value; anything else must be >= 1. */
+        if (!status && ior != 0 && ior < 1)
+            status = gltf_fail(ctx, err, PF_ERR_FORMAT, ext_element, "ior %g must be >= 1", ior);
+    }
+    if (status)
+        return status;
+    if (strength < 0 || emissive[0] < 0 || emissive[1] < 0 || emissive[2] < 0)
+        return gltf_fail(ctx, err, PF_ERR_FORMAT, element,
+                         "emissiveFactor and emissiveStrength must be non-negative");
+    warn_unhandled(ctx, material, pbr, element);
+
+    memset(out, 0, sizeof *out);
+    memcpy(out->albedo, base_color, sizeof out->albedo);
+    for (int c = 0; c < 3; c++)
+        out->emission[c] = emissive[c] * (float)strength;
+    out->ior = (float)GLTF_DEFAULT_IOR;
+    if (transmission > 0) {
+        out->kind = PF_MATERIAL_GLASS;
+        out->ior = ior == 0 ? (float)GLTF_DEFAULT_IOR : (float)ior;
+        if (transmission < 1)
+            scene_warn_once(ctx->scene, "partial transmission",
+                            "%s: %s: transmissionFactor %g < 1 is rendered as clear glass",
+                            ctx->path, element, transmission);
+    } else if (metallic >= METALLIC_THRESHOLD && roughness <= MIRROR_ROUGHNESS_MAX) {
+        out->kind = PF_MATERIAL_MIRROR;
+    } else {
+        out->kind = PF_MATERIAL_LAMBERT;
+        if (metallic >= METALLIC_THRESHOLD)
+            scene_warn_once(ctx->scene, "rough metal",
+                            "%s: %s: rough metal (metallic %g, roughness %g) is not supported: "
+                            "rendered as Lambert with its base color",
+                            ctx->path, element, metallic, roughness);
+    }
+    return PF_OK;
+}
+
+pf_status gltf_load_materials(gltf_context *ctx, pf_error *err)
+{
+    pf_scene *scene = ctx->scene;
+    const cJSON *materials;
+    uint32_t count;
+    pf_status status = gltf_array(ctx, ctx->root, "materials", &materials, &count, "", err);
+    if (status || count == 0)
+        return status;
+    scene->materials = calloc(count, sizeof *scene->materials);
+    if (!scene->materials)
+        return gltf_fail(ctx, err, PF_ERR_NOMEM, "materials", "out of memory");
+    scene->material_count = count;
+    ctx->file_material_count = count;
+    for (uint32_t k = 0; k < count; k++) {
+        char element[64];
+        snprintf(element, sizeof element, "materials[%u]", k);
+        const cJSON *material = cJSON_GetArrayItem(materials, (int)k);
+        if (!cJSON_IsObject(material))
+            return gltf_fail(ctx, err, PF_ERR_FORMAT, element, "expected an object");
+        status = load_material(ctx, material, element, &scene->materials[k], err);
+        if (status)
+            return status;
+    }
+    return PF_OK;
+}

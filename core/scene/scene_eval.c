@@ -1,0 +1,465 @@
+/*
+ * The public side of core/scene: loading by extension, finalising what a
+ * loader produced (hierarchy flags, counts, default camera), and evaluating a
+ * frame: sample channels → compose the hierarchy → flat world-space arrays.
+ * Eval only reads the scene, so several threads may evaluate one scene at once.
+ */
+#include "scene_internal.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <strings.h>
+#include <sys/stat.h>
+
+/* Vertical fov of the default camera (no camera in the file): 45°, the usual
+ * viewer default. */
+#define DEFAULT_CAMERA_YFOV 0.78539816f
+/* Default camera near plane as a fraction of its distance to the scene centre. */
+#define DEFAULT_CAMERA_NEAR_FRACTION 1e-3f
+
+void scene_warn_once(pf_scene *scene, const char *key, const char *format, ...)
+{
+    for (uint32_t k = 0; k < scene->warned_count; k++)
+        if (strcmp(scene->warned[k], key) == 0)
+            return;
+    char **grown = realloc(scene->warned, (scene->warned_count + 1) * sizeof *grown);
+    char *copy = strdup(key);
+    if (grown)
+        scene->warned = grown;
+    if (grown && copy)
+        scene->warned[scene->warned_count++] = copy;
+    else
+        free(copy);
+    char message[PF_ERROR_MESSAGE_MAX];
+    va_list args;
+    va_start(args, format);
+    vsnprintf(message, sizeof message, format, args);
+    va_end(args);
+    pf_log(PF_LOG_WARN, "%s", message);
+}
+
+pf_status scene_read_file(const char *path, char **out, size_t *size, pf_error *err)
+{
+    struct stat info;
+    if (stat(path, &info) != 0)
+        return pf_error_set(err, PF_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
+    if (!S_ISREG(info.st_mode))
+        return pf_error_set(err, PF_ERR_IO, "%s: not a regular file", path);
+    FILE *file = fopen(path, "rb");
+    if (!file)
+        return pf_error_set(err, PF_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
+    size_t expected = (size_t)info.st_size;
+    char *data = malloc(expected + 1);
+    if (!data) {
+        fclose(file);
+        return pf_error_set(err, PF_ERR_NOMEM, "%s: out of memory for %zu bytes", path, expected);
+    }
+    size_t read = fread(data, 1, expected, file);
+    int failed = ferror(file);
+    fclose(file);
+    if (failed) {
+        free(data);
+        return pf_error_set(err, PF_ERR_IO, "%s: read error", path);
+    }
+    data[read] = 0;
+    *out = data;
+    *size = read;
+    return PF_OK;
+}
+
+static int has_extension(const char *path, const char *extension)
+{
+    size_t length = strlen(path), extension_length = strlen(extension);
+    return length >= extension_length &&
+           strcasecmp(path + length - extension_length, extension) == 0;
+}
+
+pf_status pf_scene_load(const char *path, pf_scene **out, pf_error *err)
+{
+    *out = NULL;
+    if (!path)
+        return pf_error_set(err, PF_ERR_INVALID, "pf_scene_load: path is NULL");
+    int is_gltf = has_extension(path, ".gltf"), is_glb = has_extension(path, ".glb");
+    int is_obj = has_extension(path, ".obj");
+    if (!is_gltf && !is_glb && !is_obj)
+        return pf_error_set(err, PF_ERR_UNSUPPORTED,
+                            "%s: unknown scene file extension (expected .gltf, .glb or .obj)",
+                            path);
+    pf_scene *scene = calloc(1, sizeof *scene);
+    if (!scene)
+        return pf_error_set(err, PF_ERR_NOMEM, "%s: out of memory", path);
+    scene->path = strdup(path);
+    scene->camera_node = SCENE_NONE;
+    pf_status status = scene->path ? PF_OK : pf_error_set(err, PF_ERR_NOMEM, "out of memory");
+    if (!status)
+        status = is_obj ? scene_load_obj(scene, err) : scene_load_gltf(scene, is_glb, err);
+    if (!status)
+        status = scene_finalize(scene, err);
+    for (uint32_t k = 0; k < scene->warned_count; k++)
+        free(scene->warned[k]);
+    free(scene->warned);
+    scene->warned = NULL;
+    scene->warned_count = 0;
+    if (status) {
+        pf_scene_destroy(scene);
+        return status;
+    }
+    *out = scene;
+    return PF_OK;
+}
+
+void pf_scene_destroy(pf_scene *scene)
+{
+    if (!scene)
+        return;
+    for (uint32_t k = 0; k < scene->mesh_count; k++) {
+        free(scene->meshes[k].positions);
+        free(scene->meshes[k].normals);
+        free(scene->meshes[k].materials);
+    }
+    for (uint32_t k = 0; k < scene->channel_count; k++) {
+        free(scene->channels[k].times);
+        free(scene->channels[k].values);
+    }
+    for (uint32_t k = 0; k < scene->warned_count; k++)
+        free(scene->warned[k]);
+    free(scene->warned);
+    free(scene->channels);
+    free(scene->meshes);
+    free(scene->materials);
+    free(scene->cameras);
+    free(scene->lights);
+    free(scene->nodes);
+    free(scene->order);
+    free(scene->path);
+    free(scene);
+}
+
+const pf_scene_info *pf_scene_get_info(const pf_scene *scene) { return &scene->info; }
+
+double pf_scene_frame_time(const pf_scene *scene, int64_t frame)
+{
+    return (double)(frame - 1) / scene->info.fps;
+}
+
+void pf_camera_image_plane(const pf_camera *camera, uint32_t width, uint32_t height,
+                           float *tan_half_x, float *tan_half_y)
+{
+    float aspect = 1.0f;
+    if (width > 0 && height > 0)
+        aspect = (float)width / (float)height;
+    else if (camera->aspect > 0.0f)
+        aspect = camera->aspect;
+    *tan_half_y = tanf(0.5f * camera->yfov);
+    *tan_half_x = *tan_half_y * aspect;
+}
+
+/* World matrices of every node at time_seconds (nodes outside the scene stay identity). */
+static pf_status world_matrices(const pf_scene *scene, double time_seconds, float (**out)[16],
+                                pf_error *err)
+{
+    uint32_t count = scene->node_count;
+    float(*world)[16] = malloc(((size_t)count + 1) * sizeof *world);
+    float(*trs)[10] = malloc(((size_t)count + 1) * sizeof *trs);
+    if (!world || !trs) {
+        free(world);
+        free(trs);
+        return pf_error_set(err, PF_ERR_NOMEM, "%s: out of memory evaluating nodes", scene->path);
+    }
+    for (uint32_t k = 0; k < count; k++) {
+        memcpy(trs[k], scene->nodes[k].translation, 3 * sizeof(float));
+        memcpy(trs[k] + 3, scene->nodes[k].rotation, 4 * sizeof(float));
+        memcpy(trs[k] + 7, scene->nodes[k].scale, 3 * sizeof(float));
+        scene_mat4_identity(world[k]);
+    }
+    static const uint32_t path_offset[] = {0, 3, 7};
+    for (uint32_t c = 0; c < scene->channel_count; c++) {
+        const scene_channel *channel = &scene->channels[c];
+        scene_channel_sample(channel, time_seconds, trs[channel->node] + path_offset[channel->path]);
+    }
+    for (uint32_t k = 0; k < scene->order_count; k++) {
+        uint32_t index = scene->order[k];
+        const scene_node *node = &scene->nodes[index];
+        float local[16];
+        if (node->has_matrix) {
+            memcpy(local, node->matrix, sizeof local);
+        } else {
+            scene_quat_normalize(trs[index] + 3);
+            scene_mat4_from_trs(trs[index], trs[index] + 3, trs[index] + 7, local);
+        }
+        if (node->parent == SCENE_NONE)
+            memcpy(world[index], local, sizeof local);
+        else
+            scene_mat4_mul(world[node->parent], local, world[index]);
+    }
+    free(trs);
+    *out = world;
+    return PF_OK;
+}
+
+static void camera_from_matrix(const float world[16], const scene_camera_def *def,
+                               pf_camera *camera)
+{
+    static const float origin[3] = {0, 0, 0}, minus_z[3] = {0, 0, -1}, plus_y[3] = {0, 1, 0};
+    scene_mat4_point(world, origin, camera->position);
+    scene_mat4_vector(world, minus_z, camera->forward);
+    scene_mat4_vector(world, plus_y, camera->up);
+    scene_vec3_normalize(camera->forward);
+    /* Gram-Schmidt: a sheared or non-uniformly scaled camera node still yields an
+     * orthonormal frame. */
+    float along = camera->up[0] * camera->forward[0] + camera->up[1] * camera->forward[1] +
+                  camera->up[2] * camera->forward[2];
+    for (int k = 0; k < 3; k++)
+        camera->up[k] -= along * camera->forward[k];
+    scene_vec3_normalize(camera->up);
+    scene_cross(camera->forward, camera->up, camera->right);
+    camera->yfov = def->yfov;
+    camera->aspect = def->aspect;
+    camera->znear = def->znear;
+    camera->zfar = def->zfar;
+}
+
+/* Fills the triangle arrays for every mesh node, in order. */
+static void flatten_triangles(const pf_scene *scene, const float (*world)[16],
+                              pf_scene_frame *out)
+{
+    uint32_t next = 0;
+    for (uint32_t k = 0; k < scene->order_count; k++) {
+        uint32_t index = scene->order[k];
+        const scene_node *node = &scene->nodes[index];
+        if (node->mesh == SCENE_NONE)
+            continue;
+        const scene_mesh *mesh = &scene->meshes[node->mesh];
+        float normal_matrix[9];
+        float det = scene_mat4_normal_matrix(world[index], normal_matrix);
+        /* glTF §3.7.4: a mirroring transform reverses the winding; swapping two
+         * corners keeps the front face (and emission side) where the file meant it. */
+        static const int straight[3] = {0, 1, 2}, swapped[3] = {0, 2, 1};
+        const int *corner_order = det < 0.0f ? swapped : straight;
+        for (uint32_t t = 0; t < mesh->triangle_count; t++, next++) {
+            float geometric[3], edge1[3], edge2[3];
+            for (int c = 0; c < 3; c++) {
+                int source = corner_order[c];
+                float *vertex = out->vertices[3 * (size_t)next + c];
+                scene_mat4_point(world[index], mesh->positions[t] + 3 * source, vertex);
+                vertex[3] = 0.0f;
+                scene_mat3_vector(normal_matrix, mesh->normals[t] + 3 * source,
+                                  out->normals[3 * (size_t)next + c]);
+                out->normals[3 * (size_t)next + c][3] = 0.0f;
+                for (int axis = 0; axis < 3; axis++) {
+                    out->bounds_min[axis] = fminf(out->bounds_min[axis], vertex[axis]);
+                    out->bounds_max[axis] = fmaxf(out->bounds_max[axis], vertex[axis]);
+                }
+            }
+            const float *v = out->vertices[3 * (size_t)next];
+            for (int axis = 0; axis < 3; axis++) {
+                edge1[axis] = v[4 + axis] - v[axis];
+                edge2[axis] = v[8 + axis] - v[axis];
+            }
+            scene_cross(edge1, edge2, geometric);
+            scene_vec3_normalize(geometric);
+            for (int c = 0; c < 3; c++) {
+                float *normal = out->normals[3 * (size_t)next + c];
+                float length = scene_vec3_normalize(normal);
+                /* A zero or degenerate file normal falls back to the face normal. */
+                if (!(length > 0.0f) || !isfinite(length))
+                    memcpy(normal, geometric, sizeof geometric);
+            }
+            out->triangle_material[next] = mesh->materials[t];
+            out->triangle_node[next] = index;
+        }
+    }
+}
+
+pf_status pf_scene_eval(const pf_scene *scene, double time_seconds, pf_scene_frame *out,
+                        pf_error *err)
+{
+    memset(out, 0, sizeof *out);
+    if (!isfinite(time_seconds))
+        return pf_error_set(err, PF_ERR_INVALID, "%s: eval time %g is not finite", scene->path,
+                            time_seconds);
+    float(*world)[16] = NULL;
+    pf_status status = world_matrices(scene, time_seconds, &world, err);
+    if (status)
+        return status;
+    size_t triangles = scene->info.triangle_count;
+    out->triangle_count = scene->info.triangle_count;
+    out->vertices = malloc(3 * triangles * sizeof *out->vertices);
+    out->normals = malloc(3 * triangles * sizeof *out->normals);
+    out->triangle_material = malloc(triangles * sizeof *out->triangle_material);
+    out->triangle_node = malloc(triangles * sizeof *out->triangle_node);
+    out->material_count = scene->material_count;
+    out->materials = malloc(((size_t)scene->material_count + 1) * sizeof *out->materials);
+    out->light_count = scene->info.light_count;
+    out->lights = calloc((size_t)scene->info.light_count + 1, sizeof *out->lights);
+    if (!out->vertices || !out->normals || !out->triangle_material || !out->triangle_node ||
+        !out->materials || !out->lights) {
+        free(world);
+        pf_scene_frame_free(out);
+        return pf_error_set(err, PF_ERR_NOMEM, "%s: out of memory for %zu triangles",
+                            scene->path, triangles);
+    }
+    memcpy(out->materials, scene->materials, scene->material_count * sizeof *out->materials);
+    out->emissive_triangle_count = scene->info.emissive_triangle_count;
+    for (int axis = 0; axis < 3; axis++) {
+        out->bounds_min[axis] = INFINITY;
+        out->bounds_max[axis] = -INFINITY;
+    }
+    flatten_triangles(scene, (const float(*)[16])world, out);
+    if (triangles == 0)
+        for (int axis = 0; axis < 3; axis++)
+            out->bounds_min[axis] = out->bounds_max[axis] = 0.0f;
+
+    uint32_t light = 0;
+    out->camera = scene->default_camera;
+    for (uint32_t k = 0; k < scene->order_count; k++) {
+        uint32_t index = scene->order[k];
+        const scene_node *node = &scene->nodes[index];
+        if ((int32_t)index == scene->camera_node)
+            camera_from_matrix(world[index], &scene->cameras[node->camera], &out->camera);
+        if (node->light == SCENE_NONE)
+            continue;
+        static const float origin[3] = {0, 0, 0}, minus_z[3] = {0, 0, -1};
+        const scene_light_def *def = &scene->lights[node->light];
+        pf_light *target = &out->lights[light++];
+        scene_mat4_point(world[index], origin, target->position);
+        /* KHR_lights_punctual: spot and directional lights shine along the node's -Z. */
+        scene_mat4_vector(world[index], minus_z, target->direction);
+        scene_vec3_normalize(target->direction);
+        target->kind = def->kind;
+        target->range = def->range;
+        memcpy(target->intensity, def->intensity, sizeof target->intensity);
+        target->cos_inner_cone = def->cos_inner_cone;
+        target->cos_outer_cone = def->cos_outer_cone;
+    }
+    free(world);
+    return PF_OK;
+}
+
+void pf_scene_frame_free(pf_scene_frame *frame)
+{
+    if (!frame)
+        return;
+    free(frame->vertices);
+    free(frame->normals);
+    free(frame->triangle_material);
+    free(frame->triangle_node);
+    free(frame->materials);
+    free(frame->lights);
+    memset(frame, 0, sizeof *frame);
+}
+
+/* A camera looking down -Z at the scene's bounds at time 0, far enough back
+ * that the bounding sphere fits the vertical field of view. */
+static pf_status make_default_camera(pf_scene *scene, pf_error *err)
+{
+    pf_scene_frame frame;
+    pf_status status = pf_scene_eval(scene, 0.0, &frame, err);
+    if (status)
+        return status;
+    float center[3], radius_squared = 0.0f;
+    for (int axis = 0; axis < 3; axis++) {
+        center[axis] = 0.5f * (frame.bounds_min[axis] + frame.bounds_max[axis]);
+        float half = 0.5f * (frame.bounds_max[axis] - frame.bounds_min[axis]);
+        radius_squared += half * half;
+    }
+    pf_scene_frame_free(&frame);
+    float radius = sqrtf(radius_squared);
+    if (!(radius > 0.0f))
+        radius = 1.0f;
+    float distance = radius / sinf(0.5f * DEFAULT_CAMERA_YFOV);
+    pf_camera *camera = &scene->default_camera;
+    memset(camera, 0, sizeof *camera);
+    camera->position[0] = center[0];
+    camera->position[1] = center[1];
+    camera->position[2] = center[2] + distance;
+    camera->forward[2] = -1.0f;
+    camera->up[1] = 1.0f;
+    camera->right[0] = 1.0f;
+    camera->yfov = DEFAULT_CAMERA_YFOV;
+    camera->znear = distance * DEFAULT_CAMERA_NEAR_FRACTION;
+    pf_log(PF_LOG_WARN, "%s: no camera: using a default camera framing the scene bounds",
+           scene->path);
+    return PF_OK;
+}
+
+pf_status scene_finalize(pf_scene *scene, pf_error *err)
+{
+    pf_scene_info *info = &scene->info;
+    uint64_t triangles = 0, emissive = 0;
+    uint32_t lights = 0;
+    int *material_used = calloc((size_t)scene->material_count + 1, sizeof *material_used);
+    if (!material_used)
+        return pf_error_set(err, PF_ERR_NOMEM, "%s: out of memory", scene->path);
+    for (uint32_t m = 0; m < scene->mesh_count; m++) {
+        scene_mesh *mesh = &scene->meshes[m];
+        mesh->emissive_count = 0;
+        for (uint32_t t = 0; t < mesh->triangle_count; t++) {
+            const float *emission = scene->materials[mesh->materials[t]].emission;
+            mesh->emissive_count += emission[0] > 0 || emission[1] > 0 || emission[2] > 0;
+        }
+    }
+    for (uint32_t k = 0; k < scene->order_count; k++) {
+        scene_node *node = &scene->nodes[scene->order[k]];
+        node->animated = node->has_channel ||
+                         (node->parent != SCENE_NONE && scene->nodes[node->parent].animated);
+        if (node->mesh != SCENE_NONE) {
+            const scene_mesh *mesh = &scene->meshes[node->mesh];
+            triangles += mesh->triangle_count;
+            emissive += mesh->emissive_count;
+            for (uint32_t t = 0; t < mesh->triangle_count; t++)
+                material_used[mesh->materials[t]] = 1;
+            info->geometry_animated |= node->animated && mesh->triangle_count > 0;
+        }
+        if (node->light != SCENE_NONE) {
+            lights++;
+            info->lights_animated |= node->animated;
+        }
+        if (node->camera != SCENE_NONE && scene->camera_node == SCENE_NONE) {
+            scene->camera_node = (int32_t)scene->order[k];
+            info->camera_animated = node->animated;
+        }
+    }
+    for (uint32_t m = 0; m < scene->material_count; m++)
+        if (material_used[m] && scene->materials[m].kind != PF_MATERIAL_LAMBERT)
+            info->has_specular = 1;
+    free(material_used);
+    if (triangles == 0)
+        return pf_error_set(err, PF_ERR_FORMAT, "%s: no triangles in the scene", scene->path);
+    /* Three vertices of 16 bytes per triangle must stay indexable by uint32. */
+    if (triangles > UINT32_MAX / 3)
+        return pf_error_set(err, PF_ERR_LIMIT, "%s: %llu triangles is more than supported",
+                            scene->path, (unsigned long long)triangles);
+
+    info->fps = scene->fps > 0.0 ? scene->fps : SCENE_DEFAULT_FPS;
+    double duration = 0.0;
+    for (uint32_t c = 0; c < scene->channel_count; c++) {
+        const scene_channel *channel = &scene->channels[c];
+        duration = fmax(duration, (double)channel->times[channel->key_count - 1]);
+    }
+    /* Frame numbers must stay representable; an animation this long is a broken file. */
+    if (!scene->file_frame_count && duration * info->fps >= (double)(UINT32_MAX / 2))
+        return pf_error_set(err, PF_ERR_FORMAT,
+                            "%s: animations: last key at %g s gives more frames than supported",
+                            scene->path, duration);
+    info->path = scene->path;
+    info->node_count = scene->node_count;
+    info->mesh_count = scene->mesh_count;
+    info->material_count = scene->material_count;
+    info->light_count = lights;
+    info->animation_count = scene->animation_count;
+    info->triangle_count = (uint32_t)triangles;
+    info->emissive_triangle_count = (uint32_t)emissive;
+    info->has_emissive = emissive > 0;
+    info->duration_seconds = duration;
+    info->frame_count = scene->file_frame_count
+                            ? scene->file_frame_count
+                            : (uint32_t)llround(duration * info->fps) + 1;
+    info->has_camera = scene->camera_node != SCENE_NONE;
+    if (!info->has_camera)
+        return make_default_camera(scene, err);
+    return PF_OK;
+}

@@ -1,0 +1,138 @@
+/*
+ * Private to core/scene: the loaded, format-independent scene that
+ * pf_scene_eval samples. Loaders (gltf_*.c, obj_load.c) fill it; scene_eval.c
+ * finalises it (hierarchy order, animated flags, counts, default camera) and
+ * evaluates it. Nothing here is parsed again at eval time.
+ */
+#ifndef PF_SCENE_INTERNAL_H
+#define PF_SCENE_INTERNAL_H
+
+#include "pf_scene.h"
+
+#include <stdarg.h>
+#include <stdint.h>
+
+#define SCENE_NONE (-1)
+
+/* Frame rate when asset.extras.fps is absent (glTF has no notion of frames): 24,
+ * the film convention that Blender's glTF exporter also assumes. */
+#define SCENE_DEFAULT_FPS 24.0
+
+/* Triangles of one mesh in its local space, 3 corners per triangle. */
+typedef struct scene_mesh {
+    uint32_t triangle_count;
+    float (*positions)[9];
+    float (*normals)[9];
+    uint32_t *materials;
+    uint32_t emissive_count; /* set by scene_finalize */
+} scene_mesh;
+
+typedef struct scene_node {
+    float translation[3];
+    float rotation[4]; /* x, y, z, w; unit */
+    float scale[3];
+    float matrix[16];  /* column-major; used when has_matrix */
+    int has_matrix;
+    int32_t parent;    /* SCENE_NONE for a root */
+    int32_t mesh, camera, light;
+    int has_channel;   /* an animation channel targets this node */
+    int animated;      /* has_channel here or on an ancestor (scene_finalize) */
+    int in_scene;      /* reached from the scene's roots */
+} scene_node;
+
+typedef struct scene_camera_def {
+    float yfov, aspect, znear, zfar;
+} scene_camera_def;
+
+typedef struct scene_light_def {
+    uint32_t kind; /* pf_light_kind */
+    float intensity[3];
+    float range;
+    float cos_inner_cone, cos_outer_cone;
+} scene_light_def;
+
+typedef enum scene_channel_path {
+    SCENE_PATH_TRANSLATION = 0,
+    SCENE_PATH_ROTATION = 1,
+    SCENE_PATH_SCALE = 2
+} scene_channel_path;
+
+typedef enum scene_interpolation {
+    SCENE_INTERP_STEP = 0,
+    SCENE_INTERP_LINEAR = 1,
+    SCENE_INTERP_CUBICSPLINE = 2
+} scene_interpolation;
+
+/* One animation channel with its sampler's data copied out of the buffers. */
+typedef struct scene_channel {
+    uint32_t node;
+    uint32_t path;          /* scene_channel_path */
+    uint32_t interpolation; /* scene_interpolation */
+    uint32_t key_count;
+    uint32_t components;    /* 3 (translation, scale) or 4 (rotation) */
+    float *times;           /* key_count, non-decreasing */
+    float *values;          /* key_count × components (× 3 for CUBICSPLINE: in, value, out) */
+} scene_channel;
+
+struct pf_scene {
+    pf_scene_info info;
+    char *path;
+
+    uint32_t node_count;
+    scene_node *nodes;
+    uint32_t order_count;   /* nodes of the scene, parents before children (DFS) */
+    uint32_t *order;
+
+    uint32_t mesh_count;
+    scene_mesh *meshes;
+    uint32_t material_count;
+    pf_material *materials;
+    uint32_t camera_def_count;
+    scene_camera_def *cameras;
+    uint32_t light_def_count;
+    scene_light_def *lights;
+    uint32_t channel_count;
+    scene_channel *channels;
+    uint32_t animation_count;
+
+    double fps;             /* 0 until the loader sets it: SCENE_DEFAULT_FPS */
+    uint32_t file_frame_count; /* asset.extras.frames, 0 if absent */
+
+    int32_t camera_node;    /* first camera node in order, SCENE_NONE → default_camera */
+    pf_camera default_camera;
+
+    /* Loader-time bookkeeping for "warn once per feature per scene". */
+    uint32_t warned_count;
+    char **warned;
+};
+
+/* Loaders: fill scene (allocated, zeroed, path set) from the file. */
+pf_status scene_load_gltf(pf_scene *scene, int binary_hint, pf_error *err);
+pf_status scene_load_obj(pf_scene *scene, pf_error *err);
+
+/* Completes a loaded scene: order, flags, counts, default camera, "no triangles". */
+pf_status scene_finalize(pf_scene *scene, pf_error *err);
+
+/* One PF_LOG_WARN per key per scene; the message should name the feature. */
+void scene_warn_once(pf_scene *scene, const char *key, const char *format, ...)
+    __attribute__((format(printf, 3, 4)));
+
+/* Reads a whole file; *out is NUL-terminated (not counted in *size). PF_ERR_IO names path. */
+pf_status scene_read_file(const char *path, char **out, size_t *size, pf_error *err);
+
+/* animation_math.c */
+void scene_mat4_identity(float m[16]);
+void scene_mat4_from_trs(const float t[3], const float r[4], const float s[3], float m[16]);
+void scene_mat4_mul(const float a[16], const float b[16], float out[16]);
+void scene_mat4_point(const float m[16], const float p[3], float out[3]);
+void scene_mat4_vector(const float m[16], const float v[3], float out[3]);
+/* Inverse transpose of the upper 3×3 (for normals), column-major 3×3; returns its det. */
+float scene_mat4_normal_matrix(const float m[16], float out[9]);
+void scene_mat3_vector(const float m[9], const float v[3], float out[3]);
+void scene_quat_normalize(float q[4]);
+float scene_vec3_normalize(float v[3]);
+void scene_cross(const float a[3], const float b[3], float out[3]);
+/* Samples a channel at time (clamped to its key range); out has channel->components. */
+void scene_channel_sample(const scene_channel *channel, double time, float *out);
+
+#endif

@@ -1,0 +1,583 @@
+/* glTF features, one small generated scene each, and animation sampling. */
+#include "pf_scene.h"
+#include "pf_test.h"
+#include "scene_test_util.h"
+
+#include <math.h>
+#include <string.h>
+
+#define QUAD_NODE_MESH "{\"mesh\":0}"
+
+static pf_scene *load_ok(const char *path)
+{
+    pf_scene *scene = NULL;
+    pf_error err = {0};
+    pf_status status = pf_scene_load(path, &scene, &err);
+    PF_CHECK_MSG(status == PF_OK, "%s: %s", path, err.message);
+    return status == PF_OK ? scene : NULL;
+}
+
+static void check_vec3(const float *actual, float x, float y, float z, double tolerance)
+{
+    PF_CHECK_NEAR(actual[0], x, tolerance);
+    PF_CHECK_NEAR(actual[1], y, tolerance);
+    PF_CHECK_NEAR(actual[2], z, tolerance);
+}
+
+/* Vertex c (0..2) of triangle t at time. */
+static void eval_vertex(const pf_scene *scene, double time, uint32_t t, int c, float out[3])
+{
+    pf_scene_frame frame;
+    pf_error err;
+    out[0] = out[1] = out[2] = NAN;
+    PF_CHECK_OK(pf_scene_eval(scene, time, &frame, &err), &err);
+    if (t < frame.triangle_count)
+        memcpy(out, frame.vertices[3 * t + c], 3 * sizeof(float));
+    pf_scene_frame_free(&frame);
+}
+
+PF_TEST(static_quad_basics)
+{
+    char path[512];
+    st_gltf spec = {.name = "quad", .nodes = "[" QUAD_NODE_MESH "]"};
+    pf_scene *scene = load_ok(st_write_gltf(&spec, path, sizeof path));
+    PF_REQUIRE(scene);
+    const pf_scene_info *info = pf_scene_get_info(scene);
+    PF_CHECK(info->triangle_count == 2);
+    PF_CHECK(info->node_count == 1 && info->mesh_count == 1);
+    PF_CHECK(info->frame_count == 1);
+    PF_CHECK_NEAR(info->fps, 24, 0);
+    PF_CHECK(info->has_camera == 0);
+    PF_CHECK(!info->geometry_animated && !info->lights_animated && !info->camera_animated);
+    pf_scene_frame frame;
+    pf_error err;
+    PF_CHECK_OK(pf_scene_eval(scene, 0.0, &frame, &err), &err);
+    PF_CHECK(frame.triangle_count == 2);
+    check_vec3(frame.vertices[0], 0, 0, 0, 0);
+    check_vec3(frame.vertices[1], 1, 0, 0, 0);
+    check_vec3(frame.vertices[2], 1, 1, 0, 0);
+    check_vec3(frame.vertices[5], 0, 1, 0, 0);
+    PF_CHECK(frame.vertices[1][3] == 0.0f);
+    check_vec3(frame.normals[4], 0, 0, 1, 1e-6);
+    check_vec3(frame.bounds_min, 0, 0, 0, 0);
+    check_vec3(frame.bounds_max, 1, 1, 0, 0);
+    PF_CHECK(frame.triangle_node[1] == 0);
+    /* No material in the file: the documented grey default. */
+    PF_CHECK(frame.material_count == 1);
+    PF_CHECK(frame.materials[frame.triangle_material[0]].kind == PF_MATERIAL_LAMBERT);
+    PF_CHECK_NEAR(frame.materials[frame.triangle_material[0]].albedo[1], 0.8, 1e-6);
+    /* Default camera: looks down -Z at the quad from in front of it, which fits the fov. */
+    check_vec3(frame.camera.forward, 0, 0, -1, 1e-6);
+    check_vec3(frame.camera.up, 0, 1, 0, 1e-6);
+    check_vec3(frame.camera.right, 1, 0, 0, 1e-6);
+    PF_CHECK_NEAR(frame.camera.position[0], 0.5, 1e-6);
+    PF_CHECK_NEAR(frame.camera.position[1], 0.5, 1e-6);
+    float distance = frame.camera.position[2];
+    PF_CHECK(distance > 0 && tanf(frame.camera.yfov / 2) * distance >= 0.5f);
+    pf_scene_frame_free(&frame);
+    pf_scene_destroy(scene);
+}
+
+PF_TEST(hierarchy_trs_and_matrix)
+{
+    /* Parent: T (10,0,0), R 90° about Z, S 2; child: matrix translating (0,1,0).
+     * Quad vertex (1,0,0) → child (1,1,0) → S (2,2,0) → Rz (-2,2,0) → T (8,2,0). */
+    char path[512];
+    st_gltf spec = {
+        .name = "hierarchy",
+        .nodes = "[{\"children\":[1],\"translation\":[10,0,0],"
+                 "\"rotation\":[0,0,0.70710678,0.70710678],\"scale\":[2,2,2]},"
+                 "{\"mesh\":0,\"matrix\":[1,0,0,0, 0,1,0,0, 0,0,1,0, 0,1,0,1]},"
+                 "{\"mesh\":0,\"scale\":[-1,1,1],\"translation\":[0,0,-5]}]",
+        .scenes = "[{\"nodes\":[0,2]}]",
+    };
+    pf_scene *scene = load_ok(st_write_gltf(&spec, path, sizeof path));
+    PF_REQUIRE(scene);
+    PF_CHECK(pf_scene_get_info(scene)->triangle_count == 4);
+    pf_scene_frame frame;
+    pf_error err;
+    PF_REQUIRE_OK(pf_scene_eval(scene, 0.0, &frame, &err), &err);
+    check_vec3(frame.vertices[0], 10 - 2, 0, 0, 1e-5); /* (0,0,0) → child (0,1,0) → (8,0,0) */
+    check_vec3(frame.vertices[1], 8, 2, 0, 1e-5);
+    check_vec3(frame.normals[1], 0, 0, 1, 1e-5);
+    PF_CHECK(frame.triangle_node[0] == 1 && frame.triangle_node[2] == 2);
+    /* Mirrored node (scale -1 in x): winding is swapped so the face normal from
+     * the vertex order still agrees with the shading normal (+Z). */
+    const float *v0 = frame.vertices[6], *v1 = frame.vertices[7], *v2 = frame.vertices[8];
+    float e1[3] = {v1[0] - v0[0], v1[1] - v0[1], v1[2] - v0[2]};
+    float e2[3] = {v2[0] - v0[0], v2[1] - v0[1], v2[2] - v0[2]};
+    float face_z = e1[0] * e2[1] - e1[1] * e2[0];
+    PF_CHECK(face_z > 0);
+    check_vec3(frame.normals[6], 0, 0, 1, 1e-5);
+    check_vec3(frame.vertices[6], 0, 0, -5, 1e-6);
+    pf_scene_frame_free(&frame);
+    pf_scene_destroy(scene);
+}
+
+PF_TEST(lights_converted)
+{
+    char path[512];
+    st_gltf spec = {
+        .name = "lights",
+        .nodes = "[{\"mesh\":0},"
+                 "{\"translation\":[1,2,3],\"extensions\":{\"KHR_lights_punctual\":{\"light\":0}}},"
+                 "{\"translation\":[0,4,0],\"rotation\":[-0.70710678,0,0,0.70710678],"
+                 "\"extensions\":{\"KHR_lights_punctual\":{\"light\":1}}},"
+                 "{\"rotation\":[-0.70710678,0,0,0.70710678],"
+                 "\"extensions\":{\"KHR_lights_punctual\":{\"light\":2}}}]",
+        .scenes = "[{\"nodes\":[0,1,2,3]}]",
+        .extensions = "{\"KHR_lights_punctual\":{\"lights\":["
+                      "{\"type\":\"point\",\"color\":[1,0.5,0.25],\"intensity\":8,\"range\":5},"
+                      "{\"type\":\"spot\",\"intensity\":3,\"spot\":{\"innerConeAngle\":0.2,"
+                      "\"outerConeAngle\":0.5}},"
+                      "{\"type\":\"directional\",\"color\":[0.5,0.5,1],\"intensity\":2}]}}",
+        .extensions_used = "[\"KHR_lights_punctual\"]",
+    };
+    pf_scene *scene = load_ok(st_write_gltf(&spec, path, sizeof path));
+    PF_REQUIRE(scene);
+    PF_CHECK(pf_scene_get_info(scene)->light_count == 3);
+    pf_scene_frame frame;
+    pf_error err;
+    PF_REQUIRE_OK(pf_scene_eval(scene, 0.0, &frame, &err), &err);
+    PF_REQUIRE(frame.light_count == 3);
+    const pf_light *point = &frame.lights[0], *spot = &frame.lights[1],
+                   *directional = &frame.lights[2];
+    PF_CHECK(point->kind == PF_LIGHT_POINT);
+    check_vec3(point->position, 1, 2, 3, 1e-6);
+    check_vec3(point->intensity, 8, 4, 2, 1e-6);
+    PF_CHECK_NEAR(point->range, 5, 0);
+    PF_CHECK(spot->kind == PF_LIGHT_SPOT);
+    check_vec3(spot->position, 0, 4, 0, 1e-6);
+    check_vec3(spot->direction, 0, -1, 0, 1e-6); /* node -Z turned -90° about X */
+    check_vec3(spot->intensity, 3, 3, 3, 1e-6);
+    PF_CHECK_NEAR(spot->cos_inner_cone, cos(0.2), 1e-6);
+    PF_CHECK_NEAR(spot->cos_outer_cone, cos(0.5), 1e-6);
+    PF_CHECK_NEAR(spot->range, 0, 0);
+    PF_CHECK(directional->kind == PF_LIGHT_DIRECTIONAL);
+    check_vec3(directional->direction, 0, -1, 0, 1e-6);
+    check_vec3(directional->intensity, 1, 1, 2, 1e-6);
+    pf_scene_frame_free(&frame);
+    pf_scene_destroy(scene);
+}
+
+PF_TEST(camera_values)
+{
+    char path[512];
+    st_gltf spec = {
+        .name = "camera",
+        .nodes = "[{\"mesh\":0},{\"camera\":0,\"translation\":[0,1,5]}]",
+        .scenes = "[{\"nodes\":[0,1]}]",
+        .cameras = "[{\"type\":\"perspective\",\"perspective\":{\"yfov\":0.6,"
+                   "\"aspectRatio\":1.0,\"znear\":0.05,\"zfar\":50}}]",
+    };
+    pf_scene *scene = load_ok(st_write_gltf(&spec, path, sizeof path));
+    PF_REQUIRE(scene);
+    PF_CHECK(pf_scene_get_info(scene)->has_camera == 1);
+    pf_scene_frame frame;
+    pf_error err;
+    PF_REQUIRE_OK(pf_scene_eval(scene, 0.0, &frame, &err), &err);
+    const pf_camera *camera = &frame.camera;
+    check_vec3(camera->position, 0, 1, 5, 1e-6);
+    check_vec3(camera->forward, 0, 0, -1, 1e-6);
+    check_vec3(camera->up, 0, 1, 0, 1e-6);
+    check_vec3(camera->right, 1, 0, 0, 1e-6);
+    PF_CHECK_NEAR(camera->yfov, 0.6, 1e-7);
+    PF_CHECK_NEAR(camera->aspect, 1.0, 0);
+    PF_CHECK_NEAR(camera->znear, 0.05, 1e-7);
+    PF_CHECK_NEAR(camera->zfar, 50, 0);
+    /* The file says 1:1, the image is 16:9: yfov is kept, the image's aspect wins. */
+    float tan_x, tan_y;
+    pf_camera_image_plane(camera, 1280, 720, &tan_x, &tan_y);
+    PF_CHECK_NEAR(tan_y, tan(0.3), 1e-6);
+    PF_CHECK_NEAR(tan_x, tan(0.3) * 16 / 9, 1e-6);
+    pf_scene_frame_free(&frame);
+    pf_scene_destroy(scene);
+}
+
+PF_TEST(materials_mapped)
+{
+    char path[512];
+    const char *primitive = "{\"attributes\":{\"POSITION\":0,\"NORMAL\":1},\"indices\":2,"
+                            "\"material\":%d}";
+    char meshes[4096] = "[{\"primitives\":[";
+    for (int m = 0; m < 8; m++) {
+        char one[256];
+        snprintf(one, sizeof one, primitive, m);
+        strcat(meshes, one);
+        strcat(meshes, ",");
+    }
+    strcat(meshes, "{\"attributes\":{\"POSITION\":0},\"indices\":2}]}]");
+    st_gltf spec = {
+        .name = "materials",
+        .nodes = "[" QUAD_NODE_MESH "]",
+        .meshes = meshes,
+        .materials =
+            "[{\"pbrMetallicRoughness\":{\"baseColorFactor\":[0.2,0.4,0.6,1],\"metallicFactor\":0}},"
+            "{\"pbrMetallicRoughness\":{\"baseColorFactor\":[0.9,0.8,0.7,1],\"roughnessFactor\":0}},"
+            "{\"pbrMetallicRoughness\":{\"metallicFactor\":0,\"roughnessFactor\":0},"
+            "\"extensions\":{\"KHR_materials_transmission\":{\"transmissionFactor\":1},"
+            "\"KHR_materials_ior\":{\"ior\":1.33}}},"
+            "{\"extensions\":{\"KHR_materials_transmission\":{\"transmissionFactor\":1}}},"
+            "{\"pbrMetallicRoughness\":{\"baseColorFactor\":[0.5,0.5,0.5,1],\"metallicFactor\":1}},"
+            "{},"
+            "{\"pbrMetallicRoughness\":{\"baseColorFactor\":[0.3,0.3,0.3,1],\"metallicFactor\":0,"
+            "\"baseColorTexture\":{\"index\":0}}},"
+            "{\"emissiveFactor\":[1,0.5,0.25],\"pbrMetallicRoughness\":{\"metallicFactor\":0},"
+            "\"extensions\":{\"KHR_materials_emissive_strength\":{\"emissiveStrength\":4}}}]",
+    };
+    uint32_t warnings_before = pf_log_warning_count();
+    pf_scene *scene = load_ok(st_write_gltf(&spec, path, sizeof path));
+    PF_REQUIRE(scene);
+    /* Rough metal (once, for two materials) and textures: two warnings. */
+    PF_CHECK(pf_log_warning_count() - warnings_before >= 2);
+    const pf_scene_info *info = pf_scene_get_info(scene);
+    PF_CHECK(info->triangle_count == 18);
+    PF_CHECK(info->material_count == 9); /* 8 from the file + the default */
+    PF_CHECK(info->has_specular == 1);
+    PF_CHECK(info->has_emissive == 1);
+    PF_CHECK(info->emissive_triangle_count == 2);
+    pf_scene_frame frame;
+    pf_error err;
+    PF_REQUIRE_OK(pf_scene_eval(scene, 0.0, &frame, &err), &err);
+    PF_REQUIRE(frame.triangle_count == 18 && frame.emissive_triangle_count == 2);
+    const pf_material *m[9];
+    for (int k = 0; k < 9; k++)
+        m[k] = &frame.materials[frame.triangle_material[2 * k]];
+    PF_CHECK(m[0]->kind == PF_MATERIAL_LAMBERT);
+    check_vec3(m[0]->albedo, 0.2f, 0.4f, 0.6f, 1e-6);
+    PF_CHECK(m[1]->kind == PF_MATERIAL_MIRROR); /* metallic defaults to 1 */
+    check_vec3(m[1]->albedo, 0.9f, 0.8f, 0.7f, 1e-6);
+    PF_CHECK(m[2]->kind == PF_MATERIAL_GLASS);
+    PF_CHECK_NEAR(m[2]->ior, 1.33, 1e-6);
+    PF_CHECK(m[3]->kind == PF_MATERIAL_GLASS);
+    PF_CHECK_NEAR(m[3]->ior, 1.5, 0);
+    PF_CHECK(m[4]->kind == PF_MATERIAL_LAMBERT); /* metallic but rough */
+    check_vec3(m[4]->albedo, 0.5f, 0.5f, 0.5f, 1e-6);
+    PF_CHECK(m[5]->kind == PF_MATERIAL_LAMBERT); /* glTF defaults: white, metallic, rough */
+    check_vec3(m[5]->albedo, 1, 1, 1, 0);
+    PF_CHECK(m[6]->kind == PF_MATERIAL_LAMBERT); /* texture ignored, factor kept */
+    check_vec3(m[6]->albedo, 0.3f, 0.3f, 0.3f, 1e-6);
+    check_vec3(m[7]->emission, 4, 2, 1, 1e-6);   /* emissiveFactor × strength */
+    check_vec3(m[0]->emission, 0, 0, 0, 0);
+    PF_CHECK(m[8]->kind == PF_MATERIAL_LAMBERT); /* no material: grey default */
+    check_vec3(m[8]->albedo, 0.8f, 0.8f, 0.8f, 1e-6);
+    /* A primitive without NORMAL gets the geometric normal. */
+    check_vec3(frame.normals[3 * 16], 0, 0, 1, 1e-6);
+    pf_scene_frame_free(&frame);
+    pf_scene_destroy(scene);
+}
+
+/* The quad under one animated node; accessors[3] = times, [4] = values. */
+static pf_scene *animated_quad(const char *name, const float *data, uint32_t floats,
+                               uint32_t keys, const char *path_name, const char *type,
+                               const char *interpolation, uint32_t values, const char *extras)
+{
+    static char accessors[1024], animations[512];
+    snprintf(accessors, sizeof accessors,
+             ",{\"bufferView\":3,\"componentType\":5126,\"count\":%u,\"type\":\"SCALAR\"},"
+             "{\"bufferView\":3,\"byteOffset\":%u,\"componentType\":5126,\"count\":%u,"
+             "\"type\":\"%s\"}",
+             keys, keys * 4, values, type);
+    snprintf(animations, sizeof animations,
+             "[{\"channels\":[{\"sampler\":0,\"target\":{\"node\":0,\"path\":\"%s\"}}],"
+             "\"samplers\":[{\"input\":3,\"output\":4,\"interpolation\":\"%s\"}]}]",
+             path_name, interpolation);
+    char path[512];
+    st_gltf spec = {.name = name,
+                    .nodes = "[" QUAD_NODE_MESH "]",
+                    .extra = data,
+                    .extra_floats = floats,
+                    .extra_accessors = accessors,
+                    .animations = animations,
+                    .asset_extras = extras};
+    return load_ok(st_write_gltf(&spec, path, sizeof path));
+}
+
+PF_TEST(linear_translation_and_clamping)
+{
+    const float data[] = {0, 2, /* values */ 0, 0, 0, 4, 0, 0};
+    pf_scene *scene = animated_quad("anim_linear", data, 8, 2, "translation", "VEC3", "LINEAR",
+                                    2, NULL);
+    PF_REQUIRE(scene);
+    const pf_scene_info *info = pf_scene_get_info(scene);
+    PF_CHECK(info->geometry_animated == 1);
+    PF_CHECK(info->animation_count == 1);
+    PF_CHECK_NEAR(info->duration_seconds, 2, 0);
+    PF_CHECK(info->frame_count == 49); /* round(2 s × 24) + 1 */
+    PF_CHECK_NEAR(pf_scene_frame_time(scene, 1), 0, 0);
+    PF_CHECK_NEAR(pf_scene_frame_time(scene, 25), 1, 1e-12);
+    float v[3];
+    eval_vertex(scene, 1.0, 0, 0, v);
+    check_vec3(v, 2, 0, 0, 1e-6);
+    eval_vertex(scene, 0.5, 0, 1, v); /* vertex (1,0,0) + (1,0,0) */
+    check_vec3(v, 2, 0, 0, 1e-6);
+    eval_vertex(scene, -3.0, 0, 0, v);
+    check_vec3(v, 0, 0, 0, 0);
+    eval_vertex(scene, 10.0, 0, 0, v);
+    check_vec3(v, 4, 0, 0, 0);
+    pf_scene_destroy(scene);
+}
+
+PF_TEST(linear_rotation_slerp)
+{
+    /* 0° → 90° about Y over 1 s: at 0.5 s vertex (1,0,0) turns 45° to (c, 0, -c). */
+    const float c = 0.70710678f;
+    const float data[] = {0, 1, /* values */ 0, 0, 0, 1, 0, c, 0, c};
+    pf_scene *scene = animated_quad("anim_rotation", data, 10, 2, "rotation", "VEC4", "LINEAR",
+                                    2, "{\"fps\":10,\"frames\":11}");
+    PF_REQUIRE(scene);
+    const pf_scene_info *info = pf_scene_get_info(scene);
+    PF_CHECK_NEAR(info->fps, 10, 0);
+    PF_CHECK(info->frame_count == 11);
+    float v[3];
+    eval_vertex(scene, pf_scene_frame_time(scene, 6), 0, 1, v);
+    check_vec3(v, c, 0, -c, 1e-5);
+    eval_vertex(scene, 1.0, 0, 1, v);
+    check_vec3(v, 0, 0, -1, 1e-5);
+    pf_scene_destroy(scene);
+}
+
+PF_TEST(rotation_shortest_path_in_file)
+{
+    /* The second key is the 90° rotation stored negated: still 45° at midpoint. */
+    const float c = 0.70710678f;
+    const float data[] = {0, 1, 0, 0, 0, 1, 0, -c, 0, -c};
+    pf_scene *scene = animated_quad("anim_short", data, 10, 2, "rotation", "VEC4", "LINEAR", 2,
+                                    NULL);
+    PF_REQUIRE(scene);
+    float v[3];
+    eval_vertex(scene, 0.5, 0, 1, v);
+    check_vec3(v, c, 0, -c, 1e-5);
+    pf_scene_destroy(scene);
+}
+
+PF_TEST(step_holds_earlier_value)
+{
+    const float data[] = {0, 1, 0, 0, 0, 5, 0, 0};
+    pf_scene *scene = animated_quad("anim_step", data, 8, 2, "translation", "VEC3", "STEP", 2,
+                                    NULL);
+    PF_REQUIRE(scene);
+    float v[3];
+    eval_vertex(scene, 0.99, 0, 0, v);
+    check_vec3(v, 0, 0, 0, 0);
+    eval_vertex(scene, 1.0, 0, 0, v);
+    check_vec3(v, 5, 0, 0, 0);
+    pf_scene_destroy(scene);
+}
+
+PF_TEST(cubicspline_hermite)
+{
+    /* Keys at 1 s and 3 s (dt = 2), x: in 0, value 1, out 2 | in -1, value 3, out 0.
+     * At 1.5 s, s = 0.25: 1.96875 (see test_scene_math). y has tangents too:
+     * value 0 → 0 with out 1, in 1: 0.140625·2·1 + (-0.046875)·2·1 = 0.1875. */
+    const float data[] = {1, 3,
+                          /* key 0: in, value, out */ 0, 0, 0, 1, 0, 0, 2, 1, 0,
+                          /* key 1 */ -1, 1, 0, 3, 0, 0, 0, 0, 0};
+    pf_scene *scene = animated_quad("anim_cubic", data, 20, 2, "translation", "VEC3",
+                                    "CUBICSPLINE", 6, NULL);
+    PF_REQUIRE(scene);
+    const pf_scene_info *info = pf_scene_get_info(scene);
+    PF_CHECK(info->frame_count == 73); /* round(3 × 24) + 1 */
+    float v[3];
+    eval_vertex(scene, 1.5, 0, 0, v);
+    check_vec3(v, 1.96875f, 0.1875f, 0, 1e-5);
+    eval_vertex(scene, 0.0, 0, 0, v); /* before the first key: its value */
+    check_vec3(v, 1, 0, 0, 0);
+    eval_vertex(scene, 3.5, 0, 0, v);
+    check_vec3(v, 3, 0, 0, 0);
+    pf_scene_destroy(scene);
+}
+
+PF_TEST(glb_and_data_uri)
+{
+    const char *lights = "[{\"mesh\":0,\"translation\":[0,0,2]}]";
+    char path[512];
+    st_gltf spec = {.name = "binary", .nodes = lights, .glb = 1};
+    pf_scene *scene = load_ok(st_write_gltf(&spec, path, sizeof path));
+    PF_REQUIRE(scene);
+    PF_CHECK(pf_scene_get_info(scene)->triangle_count == 2);
+    float v[3];
+    eval_vertex(scene, 0, 1, 1, v); /* triangle 1 = (0, 2, 3): vertex 2 = (1,1,0) */
+    check_vec3(v, 1, 1, 2, 0);
+    pf_scene_destroy(scene);
+
+    st_gltf embedded = {.name = "embedded", .nodes = lights, .data_uri = 1};
+    scene = load_ok(st_write_gltf(&embedded, path, sizeof path));
+    PF_REQUIRE(scene);
+    eval_vertex(scene, 0, 1, 2, v);
+    check_vec3(v, 0, 1, 2, 0);
+    pf_scene_destroy(scene);
+}
+
+PF_TEST(degenerate_triangles_kept_and_modes)
+{
+    /* Strip over 4 vertices → 2 triangles, both facing +Z; a zero-area fan
+     * triangle (0,0,0) repeated is kept. accessors[3]: u16 indices in the extra view. */
+    const uint16_t strip[4] = {0, 1, 3, 2};
+    const uint16_t degenerate[4] = {0, 0, 0, 0};
+    float extra[4];
+    memcpy(extra, strip, sizeof strip);
+    memcpy(extra + 2, degenerate, sizeof degenerate);
+    char path[512];
+    st_gltf spec = {
+        .name = "modes",
+        .nodes = "[" QUAD_NODE_MESH "]",
+        .extra = extra,
+        .extra_floats = 4,
+        .extra_accessors = ",{\"bufferView\":3,\"componentType\":5123,\"count\":4,\"type\":\"SCALAR\"},"
+                           "{\"bufferView\":3,\"byteOffset\":8,\"componentType\":5123,\"count\":3,"
+                           "\"type\":\"SCALAR\"}",
+        .meshes = "[{\"primitives\":[{\"attributes\":{\"POSITION\":0},\"indices\":3,\"mode\":5},"
+                  "{\"attributes\":{\"POSITION\":0},\"indices\":4},"
+                  "{\"attributes\":{\"POSITION\":0},\"mode\":1}]}]",
+    };
+    uint32_t warnings_before = pf_log_warning_count();
+    pf_scene *scene = load_ok(st_write_gltf(&spec, path, sizeof path));
+    PF_REQUIRE(scene);
+    PF_CHECK(pf_log_warning_count() > warnings_before); /* lines skipped */
+    PF_CHECK(pf_scene_get_info(scene)->triangle_count == 3);
+    pf_scene_frame frame;
+    pf_error err;
+    PF_REQUIRE_OK(pf_scene_eval(scene, 0, &frame, &err), &err);
+    for (uint32_t t = 0; t < 2; t++) {
+        const float *a = frame.vertices[3 * t], *b = frame.vertices[3 * t + 1],
+                    *c = frame.vertices[3 * t + 2];
+        float z = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
+        PF_CHECK_NEAR(z, 1, 1e-6); /* unit quad halves: area 0.5, CCW */
+    }
+    for (int k = 0; k < 3; k++)
+        PF_CHECK(isfinite(frame.normals[6 + k][0]) && isfinite(frame.normals[6 + k][2]));
+    pf_scene_frame_free(&frame);
+    pf_scene_destroy(scene);
+}
+
+PF_TEST(unsupported_extension_used_warns_once)
+{
+    char path[512];
+    st_gltf spec = {
+        .name = "ext_used",
+        .nodes = "[" QUAD_NODE_MESH "]",
+        .materials = "[{\"extensions\":{\"KHR_materials_clearcoat\":{\"clearcoatFactor\":1}},"
+                     "\"pbrMetallicRoughness\":{\"metallicFactor\":0}},"
+                     "{\"extensions\":{\"KHR_materials_clearcoat\":{\"clearcoatFactor\":1}},"
+                     "\"pbrMetallicRoughness\":{\"metallicFactor\":0}}]",
+        .extensions_used = "[\"KHR_materials_clearcoat\"]",
+    };
+    uint32_t warnings_before = pf_log_warning_count();
+    pf_scene *scene = load_ok(st_write_gltf(&spec, path, sizeof path));
+    PF_REQUIRE(scene);
+    /* One for the extension (listed in extensionsUsed and used by two materials)
+     * and one for the missing camera. */
+    PF_CHECK(pf_log_warning_count() - warnings_before == 2);
+    pf_scene_destroy(scene);
+}
+
+PF_TEST(sparse_accessor)
+{
+    /* accessors[3]: the quad's positions with vertex 2 replaced by (2,2,0);
+     * accessors[4]: no bufferView (all zeros) with the same replacement. */
+    const uint16_t sparse_index[2] = {2, 0};
+    float extra[4] = {0, 2, 2, 0};
+    memcpy(extra, sparse_index, sizeof sparse_index);
+    char path[512];
+    st_gltf spec = {
+        .name = "sparse",
+        .nodes = "[" QUAD_NODE_MESH "]",
+        .extra = extra,
+        .extra_floats = 4,
+        .extra_accessors =
+            ",{\"bufferView\":0,\"componentType\":5126,\"count\":4,\"type\":\"VEC3\","
+            "\"sparse\":{\"count\":1,\"indices\":{\"bufferView\":3,\"componentType\":5123},"
+            "\"values\":{\"bufferView\":3,\"byteOffset\":4}}},"
+            "{\"componentType\":5126,\"count\":4,\"type\":\"VEC3\","
+            "\"sparse\":{\"count\":1,\"indices\":{\"bufferView\":3,\"componentType\":5123},"
+            "\"values\":{\"bufferView\":3,\"byteOffset\":4}}}",
+        .meshes = "[{\"primitives\":[{\"attributes\":{\"POSITION\":3},\"indices\":2},"
+                  "{\"attributes\":{\"POSITION\":4},\"indices\":2}]}]",
+    };
+    pf_scene *scene = load_ok(st_write_gltf(&spec, path, sizeof path));
+    PF_REQUIRE(scene);
+    pf_scene_frame frame;
+    pf_error err;
+    PF_REQUIRE_OK(pf_scene_eval(scene, 0, &frame, &err), &err);
+    PF_REQUIRE(frame.triangle_count == 4);
+    check_vec3(frame.vertices[1], 1, 0, 0, 0);
+    check_vec3(frame.vertices[2], 2, 2, 0, 0);
+    check_vec3(frame.vertices[6], 0, 0, 0, 0);
+    check_vec3(frame.vertices[8], 2, 2, 0, 0);
+    pf_scene_frame_free(&frame);
+    pf_scene_destroy(scene);
+}
+
+PF_TEST(orthographic_camera_mapped)
+{
+    char path[512];
+    st_gltf spec = {
+        .name = "ortho",
+        .nodes = "[{\"mesh\":0},{\"camera\":0,\"translation\":[0,0,3]}]",
+        .scenes = "[{\"nodes\":[0,1]}]",
+        .cameras = "[{\"type\":\"orthographic\",\"orthographic\":{\"xmag\":2,\"ymag\":1,"
+                   "\"znear\":0.1,\"zfar\":10}}]",
+    };
+    uint32_t warnings_before = pf_log_warning_count();
+    pf_scene *scene = load_ok(st_write_gltf(&spec, path, sizeof path));
+    PF_REQUIRE(scene);
+    PF_CHECK(pf_log_warning_count() - warnings_before == 1);
+    pf_scene_frame frame;
+    pf_error err;
+    PF_REQUIRE_OK(pf_scene_eval(scene, 0, &frame, &err), &err);
+    PF_CHECK_NEAR(frame.camera.aspect, 2, 0);
+    PF_CHECK_NEAR(frame.camera.yfov, 0.78539816, 1e-6);
+    PF_CHECK_NEAR(frame.camera.znear, 0.1, 1e-7);
+    PF_CHECK_NEAR(frame.camera.position[2], 3, 0);
+    pf_scene_frame_free(&frame);
+    pf_scene_destroy(scene);
+}
+
+PF_TEST(animated_ancestor_marks_descendants)
+{
+    /* Node 0 (no mesh) is animated; its child node 1 carries the mesh. */
+    const float data[] = {0, 1, 0, 0, 0, 0, 3, 0};
+    char path[512];
+    st_gltf spec = {
+        .name = "anim_parent",
+        .nodes = "[{\"children\":[1]},{\"mesh\":0,\"translation\":[1,0,0]}]",
+        .extra = data,
+        .extra_floats = 8,
+        .extra_accessors =
+            ",{\"bufferView\":3,\"componentType\":5126,\"count\":2,\"type\":\"SCALAR\"},"
+            "{\"bufferView\":3,\"byteOffset\":8,\"componentType\":5126,\"count\":2,"
+            "\"type\":\"VEC3\"}",
+        .animations = "[{\"channels\":[{\"sampler\":0,\"target\":{\"node\":0,\"path\":"
+                      "\"translation\"}}],\"samplers\":[{\"input\":3,\"output\":4}]}]",
+    };
+    pf_scene *scene = load_ok(st_write_gltf(&spec, path, sizeof path));
+    PF_REQUIRE(scene);
+    PF_CHECK(pf_scene_get_info(scene)->geometry_animated == 1);
+    float v[3];
+    eval_vertex(scene, 0.5, 0, 0, v);
+    check_vec3(v, 1, 1.5f, 0, 1e-6);
+    pf_scene_destroy(scene);
+}
+
+int main(void)
+{
+    pf_log_set_level(PF_LOG_ERROR);
+    PF_RUN(static_quad_basics);
+    PF_RUN(hierarchy_trs_and_matrix);
+    PF_RUN(lights_converted);
+    PF_RUN(camera_values);
+    PF_RUN(materials_mapped);
+    PF_RUN(linear_translation_and_clamping);
+    PF_RUN(linear_rotation_slerp);
+    PF_RUN(rotation_shortest_path_in_file);
+    PF_RUN(step_holds_earlier_value);
+    PF_RUN(cubicspline_hermite);
+    PF_RUN(glb_and_data_uri);
+    PF_RUN(degenerate_triangles_kept_and_modes);
+    PF_RUN(unsupported_extension_used_warns_once);
+    PF_RUN(animated_ancestor_marks_descendants);
+    PF_RUN(sparse_accessor);
+    PF_RUN(orthographic_camera_mapped);
+    return pf_test_finish();
+}
