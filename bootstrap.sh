@@ -1,0 +1,139 @@
+#!/usr/bin/env bash
+# photonfarm bootstrap for Debian 12 (bookworm).
+#
+#   ./bootstrap.sh deps    install the Debian packages the build needs (no-op when present)
+#   ./bootstrap.sh build   deps, then a warnings-as-errors RelWithDebInfo build in build/
+#   ./bootstrap.sh test    deps, then build and run the whole suite plain (build/) and
+#                          under ASan+UBSan (build-asan/); ends with "N passed, M failed"
+#   ./bootstrap.sh demo    deps, build, then render the bundled animated demo to demo-out/
+#
+# Works from any directory: every path is relative to this script's directory.
+# PF_JOBS sets the build parallelism (default: all CPUs).
+set -euo pipefail
+
+ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
+cd "$ROOT"
+
+# Debian package -> why (README.md "Dependencies" explains each one).
+PACKAGES=(
+  build-essential         # gcc 12, make, libc headers (and g++ for the Embree peer in bench/)
+  cmake                   # build system (3.25 in bookworm)
+  ninja-build             # build backend
+  pkg-config              # finds OpenEXR, cJSON, libuv, SQLite
+  libvulkan-dev           # Vulkan loader + headers
+  mesa-vulkan-drivers     # lavapipe: the CPU Vulkan device when there is no GPU
+  vulkan-validationlayers # tests run with validation on
+  glslang-tools           # glslangValidator: GLSL -> SPIR-V at build time
+  spirv-tools             # spirv-val checks every shader at build time
+  libopenexr-dev          # EXR output and the reader behind `compare`
+  libuv1-dev              # worker event loop
+  libsqlite3-dev          # the job queue
+  libcjson-dev            # glTF JSON parsing
+  libembree-dev           # bench/: CPU ray-casting peer for speed comparisons
+)
+
+JOBS=${PF_JOBS:-$(nproc)}
+# ctest parallelism: the suite is sized for 2 cores (CI), and lavapipe tests
+# each use several threads already.
+TEST_JOBS=2
+
+DEMO_SCENE=scenes/cornell-animated/cornell-animated.gltf
+DEMO_FRAMES=1-24
+DEMO_SIZE=320x240
+DEMO_OUTPUT=demo-out/frame.####.exr
+
+usage() {
+  sed -n '2,11s/^# \{0,1\}//p' "$0" >&2
+  exit 2
+}
+
+as_root() {
+  if [ "$(id -u)" -eq 0 ]; then
+    "$@"
+  else
+    sudo "$@"
+  fi
+}
+
+cmd_deps() {
+  local missing=() package
+  for package in "${PACKAGES[@]}"; do
+    if [ "$(dpkg-query -W -f='${Status}' "$package" 2>/dev/null)" != "install ok installed" ]; then
+      missing+=("$package")
+    fi
+  done
+  if [ "${#missing[@]}" -eq 0 ]; then
+    echo "bootstrap: all ${#PACKAGES[@]} Debian packages present"
+    return 0
+  fi
+  echo "bootstrap: installing ${missing[*]}"
+  as_root env DEBIAN_FRONTEND=noninteractive apt-get update -q
+  as_root env DEBIAN_FRONTEND=noninteractive \
+    apt-get install -y -q --no-install-recommends "${missing[@]}"
+}
+
+# configure_and_build DIR [CMAKE_ARGS...]
+configure_and_build() {
+  local dir=$1
+  shift
+  cmake -S "$ROOT" -B "$ROOT/$dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+    -DPF_WERROR=ON "$@"
+  cmake --build "$ROOT/$dir" -j "$JOBS"
+}
+
+cmd_build() {
+  cmd_deps
+  configure_and_build build
+}
+
+PASSED=0
+FAILED=0
+
+# run_suite DIR [CMAKE_ARGS...]: builds DIR and runs its ctest suite, adding to
+# PASSED/FAILED. A build failure counts as one failure (its tests cannot run).
+run_suite() {
+  local dir=$1 log total failed
+  shift
+  echo "bootstrap: === $dir ==="
+  if ! configure_and_build "$dir" "$@"; then
+    echo "bootstrap: $dir: build failed"
+    FAILED=$((FAILED + 1))
+    return 0
+  fi
+  log="$ROOT/$dir/ctest-summary.log"
+  ctest --test-dir "$ROOT/$dir" --output-on-failure -j "$TEST_JOBS" 2>&1 | tee "$log" || true
+  # ctest's closing line: "NN% tests passed, F tests failed out of T"
+  if read -r failed total < <(sed -n \
+      's/^[0-9]*% tests passed, \([0-9]*\) tests\{0,1\} failed out of \([0-9]*\)$/\1 \2/p' "$log"); then
+    PASSED=$((PASSED + total - failed))
+    FAILED=$((FAILED + failed))
+  else
+    echo "bootstrap: $dir: ctest produced no summary (no tests, or it crashed)"
+    FAILED=$((FAILED + 1))
+  fi
+}
+
+cmd_test() {
+  cmd_deps
+  run_suite build
+  run_suite build-asan -DPF_SANITIZE=ON
+  echo "$PASSED passed, $FAILED failed"
+  [ "$FAILED" -eq 0 ]
+}
+
+cmd_demo() {
+  cmd_build
+  mkdir -p "$ROOT/demo-out"
+  "$ROOT/build/worker/photonfarm" render "$DEMO_SCENE" --frames "$DEMO_FRAMES" \
+    --size "$DEMO_SIZE" -o "$DEMO_OUTPUT"
+  echo "bootstrap: demo frames written to $ROOT/demo-out/"
+}
+
+[ $# -eq 1 ] || usage
+case "$1" in
+  deps) cmd_deps ;;
+  build) cmd_build ;;
+  test) cmd_test ;;
+  demo) cmd_demo ;;
+  *) usage ;;
+esac
