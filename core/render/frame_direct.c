@@ -1,0 +1,271 @@
+/*
+ * The preview integrator (shaders/render_direct.comp): uploads the frame's
+ * scene, renders the image tile by tile, reads each tile back into the
+ * pf_image and reports the `shade` stage.
+ */
+#include "render_internal.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+/*
+ * Pixels per tile edge. One submission per tile (a dispatch per sample) keeps
+ * each submission short on a slow CPU device (lavapipe) and the film buffer
+ * small (64×64×48 B = 192 KiB) whatever the image size.
+ */
+#define RENDER_TILE_EDGE 64u
+/* Workgroup edge of render_direct.comp (local_size 8×8). */
+#define RENDER_GROUP_EDGE 8u
+/* vec4 per pixel in the film: beauty+coverage, albedo+depth, normal+kept samples (sums). */
+#define FILM_VEC4_PER_PIXEL 3u
+/* Preview: one sample per pixel unless asked; pixel centres, no jitter. */
+#define PREVIEW_DEFAULT_SPP 1u
+/* Longest mirror/glass chain a camera ray follows before giving up. */
+#define MAX_SPECULAR_DEPTH 8u
+/*
+ * Secondary rays start this far (relative to the scene's magnitude) off the
+ * surface along its geometric normal: ~800 float ulps at the largest
+ * coordinate, safely past self-intersection, far below any feature size of
+ * the shipped scenes.
+ */
+#define RAY_OFFSET_RELATIVE 1e-4f
+/* Largest image side accepted: pixel indices (y * width + x) stay well inside 32 bits. */
+#define RENDER_MAX_EDGE 16384u
+
+static const char *const beauty_channels[] = {"R", "G", "B", "A"};
+static const char *const aov_channels[] = {"R",        "G",        "B",        "A",
+                                           "albedo.R", "albedo.G", "albedo.B", "normal.X",
+                                           "normal.Y", "normal.Z", "depth.Z"};
+
+typedef struct render_push {
+    uint32_t tile_origin[2];
+    uint32_t tile_size[2];
+    uint32_t sample_index;
+} render_push;
+
+typedef struct render_counters {
+    uint32_t discarded_samples;
+    uint32_t rays_traced;
+} render_counters;
+
+/* Largest coordinate magnitude or extent of the scene, at least 1 (meters). */
+static float scene_magnitude(const pf_scene_frame *frame)
+{
+    float magnitude = 1.0f;
+    for (int i = 0; i < 3; i++) {
+        float extent = frame->bounds_max[i] - frame->bounds_min[i];
+        float largest = fmaxf(fabsf(frame->bounds_min[i]), fabsf(frame->bounds_max[i]));
+        magnitude = fmaxf(magnitude, fmaxf(extent, largest));
+    }
+    return magnitude;
+}
+
+static void fill_params(const pf_scene_frame *frame, const pf_render_settings *settings,
+                        uint32_t spp, uint32_t emissive_count, pf_frame_params *params)
+{
+    memset(params, 0, sizeof *params);
+    const pf_camera *camera = &frame->camera;
+    float tan_half_x = 0.0f, tan_half_y = 0.0f;
+    pf_camera_image_plane(camera, settings->width, settings->height, &tan_half_x, &tan_half_y);
+    for (int i = 0; i < 3; i++) {
+        params->camera_position[i] = camera->position[i];
+        params->camera_forward[i] = camera->forward[i];
+        params->camera_right[i] = camera->right[i];
+        params->camera_up[i] = camera->up[i];
+    }
+    params->camera_position[3] = tan_half_x;
+    params->camera_forward[3] = tan_half_y;
+    params->camera_right[3] = RAY_OFFSET_RELATIVE * scene_magnitude(frame);
+    params->width = settings->width;
+    params->height = settings->height;
+    params->samples_per_pixel = spp;
+    params->triangle_count = frame->triangle_count;
+    params->light_count = frame->light_count;
+    params->emissive_count = emissive_count;
+    params->seed_lo = (uint32_t)settings->seed;
+    params->seed_hi = (uint32_t)(settings->seed >> 32);
+    params->max_specular_depth = MAX_SPECULAR_DEPTH;
+}
+
+/*
+ * Turns one tile of film sums into pixel values: beauty averaged over the
+ * kept (finite) samples, alpha and the AOVs over all samples.
+ */
+static void film_to_image(const float *film, const render_push *tile, uint32_t spp, int aovs,
+                          pf_image *image)
+{
+    float inverse_spp = 1.0f / (float)spp;
+    for (uint32_t y = 0; y < tile->tile_size[1]; y++) {
+        for (uint32_t x = 0; x < tile->tile_size[0]; x++) {
+            const float *texel = film + 4 * FILM_VEC4_PER_PIXEL * (y * tile->tile_size[0] + x);
+            size_t pixel = (size_t)(tile->tile_origin[1] + y) * image->width + tile->tile_origin[0] + x;
+            float *out = image->pixels + pixel * image->channel_count;
+            float kept = texel[11];
+            for (int c = 0; c < 3; c++)
+                out[c] = kept > 0.0f ? texel[c] / kept : 0.0f;
+            out[3] = texel[3] * inverse_spp;
+            if (aovs) {
+                for (int c = 0; c < 3; c++) {
+                    out[4 + c] = texel[4 + c] * inverse_spp; /* albedo */
+                    out[7 + c] = texel[8 + c] * inverse_spp; /* normal */
+                }
+                out[10] = texel[7] * inverse_spp; /* depth */
+            }
+        }
+    }
+}
+
+/*
+ * Renders one tile: one dispatch per sample (each adds to the film), wait,
+ * read back. Adds its GPU time to *gpu_ms.
+ */
+static pf_status render_tile(pf_renderer *renderer, pf_vk_buffer *const *buffers,
+                             const render_push *tile, uint32_t spp, float *film,
+                             render_counters *counters, double *gpu_ms, pf_error *err)
+{
+    pf_vk_context *ctx = renderer->ctx;
+    const render_counters zero = {0, 0};
+    pf_status status = pf_vk_buffer_upload(ctx, buffers[8], 0, &zero, sizeof zero, err);
+    if (status != PF_OK)
+        return status;
+    pf_vk_commands *cmds = NULL;
+    status = pf_vk_commands_begin(ctx, &cmds, err);
+    if (status != PF_OK)
+        return status;
+    int begin = pf_vk_cmd_timestamp(cmds);
+    for (uint32_t sample = 0; status == PF_OK && sample < spp; sample++) {
+        render_push push = *tile;
+        push.sample_index = sample;
+        if (sample > 0)
+            pf_vk_cmd_barrier(cmds); /* the previous sample's film sums are read */
+        status = pf_vk_cmd_dispatch(
+            cmds, renderer->render_direct, buffers, 9, &push, sizeof push,
+            (tile->tile_size[0] + RENDER_GROUP_EDGE - 1) / RENDER_GROUP_EDGE,
+            (tile->tile_size[1] + RENDER_GROUP_EDGE - 1) / RENDER_GROUP_EDGE, 1, err);
+    }
+    int end = pf_vk_cmd_timestamp(cmds);
+    if (status == PF_OK)
+        status = pf_vk_commands_submit(cmds, err);
+    if (status == PF_OK && begin >= 0 && end >= 0) {
+        double elapsed = pf_vk_commands_elapsed_ms(cmds, begin, end);
+        if (elapsed >= 0.0)
+            *gpu_ms = (*gpu_ms < 0.0 ? 0.0 : *gpu_ms) + elapsed;
+    }
+    pf_vk_commands_destroy(cmds);
+    if (status == PF_OK)
+        status = pf_vk_buffer_download(ctx, buffers[7], 0, film,
+                                       (uint64_t)tile->tile_size[0] * tile->tile_size[1] *
+                                           FILM_VEC4_PER_PIXEL * 4 * sizeof(float),
+                                       err);
+    if (status == PF_OK)
+        status = pf_vk_buffer_download(ctx, buffers[8], 0, counters, sizeof *counters, err);
+    return status;
+}
+
+static pf_status check_settings(const pf_render_settings *settings, pf_error *err)
+{
+    if (settings->width == 0 || settings->height == 0 || settings->width > RENDER_MAX_EDGE ||
+        settings->height > RENDER_MAX_EDGE)
+        return pf_error_set(err, PF_ERR_INVALID, "image size %ux%u: each side must be 1..%u",
+                            settings->width, settings->height, RENDER_MAX_EDGE);
+    if (settings->quality != PF_QUALITY_PREVIEW && settings->quality != PF_QUALITY_AUTO)
+        return pf_error_set(err, PF_ERR_UNSUPPORTED,
+                            "quality '%s' is not available yet (available: preview, auto)",
+                            pf_quality_name(settings->quality));
+    return PF_OK;
+}
+
+pf_status pf_render_frame(pf_renderer *renderer, const pf_scene_frame *frame,
+                          const pf_render_settings *settings, pf_image *image,
+                          pf_frame_report *report, pf_error *err)
+{
+    if (!renderer || !frame || !settings || !image)
+        return pf_error_set(err, PF_ERR_INVALID, "pf_render_frame: NULL argument");
+    memset(image, 0, sizeof *image);
+    pf_status status = check_settings(settings, err);
+    if (status != PF_OK)
+        return status;
+    uint32_t spp = settings->samples_per_pixel ? settings->samples_per_pixel : PREVIEW_DEFAULT_SPP;
+    double wall_start = pf_time_ms();
+    pf_vk_context *ctx = renderer->ctx;
+
+    status = settings->aovs
+                 ? pf_image_create(image, settings->width, settings->height,
+                                   sizeof aov_channels / sizeof aov_channels[0], aov_channels, err)
+                 : pf_image_create(image, settings->width, settings->height,
+                                   sizeof beauty_channels / sizeof beauty_channels[0],
+                                   beauty_channels, err);
+    if (status != PF_OK)
+        return status;
+
+    pf_gpu_scene scene;
+    pf_vk_buffer *params_buffer = NULL, *film_buffer = NULL, *counter_buffer = NULL;
+    const uint64_t film_bytes =
+        (uint64_t)RENDER_TILE_EDGE * RENDER_TILE_EDGE * FILM_VEC4_PER_PIXEL * 4 * sizeof(float);
+    float *film = malloc(film_bytes);
+    pf_frame_params params;
+    uint64_t rays = 0, discarded = 0;
+    double gpu_ms = -1.0;
+
+    status = film ? pf_gpu_scene_upload(ctx, frame, 1, &scene, err)
+                  : pf_error_set(err, PF_ERR_NOMEM, "film tile: out of memory");
+    if (status != PF_OK) {
+        free(film);
+        pf_image_free(image);
+        return status;
+    }
+    fill_params(frame, settings, spp, scene.emissive_count, &params);
+    status = pf_render_buffer_with_data(ctx, "frame parameters", &params, sizeof params,
+                                        sizeof params, &params_buffer, err);
+    if (status == PF_OK)
+        status = pf_vk_buffer_create(ctx, film_bytes, "film tile", &film_buffer, err);
+    if (status == PF_OK)
+        status = pf_vk_buffer_create(ctx, sizeof(render_counters), "render counters",
+                                     &counter_buffer, err);
+    pf_vk_buffer *buffers[9] = {params_buffer,    scene.vertices, scene.normals,
+                                scene.triangle_material, scene.materials, scene.lights,
+                                scene.emissive,   film_buffer,    counter_buffer};
+    for (uint32_t y = 0; status == PF_OK && y < settings->height; y += RENDER_TILE_EDGE) {
+        for (uint32_t x = 0; status == PF_OK && x < settings->width; x += RENDER_TILE_EDGE) {
+            render_push tile = {{x, y},
+                                {settings->width - x < RENDER_TILE_EDGE ? settings->width - x
+                                                                        : RENDER_TILE_EDGE,
+                                 settings->height - y < RENDER_TILE_EDGE ? settings->height - y
+                                                                         : RENDER_TILE_EDGE},
+                                0};
+            render_counters counters;
+            status = render_tile(renderer, buffers, &tile, spp, film, &counters, &gpu_ms, err);
+            if (status == PF_OK) {
+                film_to_image(film, &tile, spp, settings->aovs, image);
+                rays += counters.rays_traced;
+                discarded += counters.discarded_samples;
+            }
+        }
+    }
+    free(film);
+    pf_render_buffer_release(ctx, &counter_buffer);
+    pf_render_buffer_release(ctx, &film_buffer);
+    pf_render_buffer_release(ctx, &params_buffer);
+    pf_gpu_scene_release(ctx, &scene);
+    if (status != PF_OK) {
+        pf_image_free(image);
+        pf_error_prefix(err, "render (%ux%u, %u spp, %u triangles)", settings->width,
+                        settings->height, spp, frame->triangle_count);
+        return status;
+    }
+    if (report) {
+        report->discarded_samples += discarded;
+        pf_stage_timing *row = pf_frame_report_add(report, "shade");
+        if (row) {
+            row->wall_ms = pf_time_ms() - wall_start;
+            row->gpu_ms = gpu_ms;
+            pf_stage_add_counter(row, "rays", (double)rays);
+            pf_stage_add_counter(row, "triangles", frame->triangle_count);
+            pf_stage_add_counter(row, "samples_per_pixel", spp);
+            pf_stage_add_counter(row, "discarded_samples", (double)discarded);
+        }
+    }
+    return PF_OK;
+}

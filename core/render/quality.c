@@ -1,0 +1,29 @@
+/* Quality preset names (DESIGN.md §4). */
+#include "pf_render.h"
+
+#include <string.h>
+
+static const char *const quality_names[] = {
+    [PF_QUALITY_PREVIEW] = "preview",
+    [PF_QUALITY_FAST] = "fast",
+    [PF_QUALITY_FINAL] = "final",
+    [PF_QUALITY_REFERENCE] = "reference",
+    [PF_QUALITY_AUTO] = "auto",
+};
+
+int pf_quality_parse(const char *name)
+{
+    for (int quality = 0; name && quality < (int)(sizeof quality_names / sizeof quality_names[0]);
+         quality++) {
+        if (!strcmp(name, quality_names[quality]))
+            return quality;
+    }
+    return -1;
+}
+
+const char *pf_quality_name(pf_quality quality)
+{
+    if ((unsigned)quality < sizeof quality_names / sizeof quality_names[0])
+        return quality_names[quality];
+    return "unknown";
+}

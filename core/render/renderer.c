@@ -1,0 +1,52 @@
+/* pf_renderer lifetime: the compute pipelines every frame uses. */
+#include "render_internal.h"
+
+#include <stdlib.h>
+
+/* raycast_brute.comp: constant_id 0 selects the any-hit (shadow) variant. */
+#define RAYCAST_SPEC_ANY_HIT 0u
+#define RAYCAST_BUFFERS 3u
+#define RAYCAST_PUSH_BYTES 8u
+#define RENDER_DIRECT_BUFFERS 9u
+#define RENDER_DIRECT_PUSH_BYTES 20u
+
+pf_status pf_renderer_create(pf_vk_context *ctx, pf_renderer **out, pf_error *err)
+{
+    *out = NULL;
+    pf_renderer *renderer = calloc(1, sizeof *renderer);
+    if (!renderer)
+        return pf_error_set(err, PF_ERR_NOMEM, "renderer: out of memory");
+    renderer->ctx = ctx;
+    pf_vk_spec_constant closest = {RAYCAST_SPEC_ANY_HIT, 0};
+    pf_vk_spec_constant any = {RAYCAST_SPEC_ANY_HIT, 1};
+    pf_status status = pf_vk_pipeline_create_named(ctx, "raycast_brute", RAYCAST_BUFFERS,
+                                                   RAYCAST_PUSH_BYTES, &closest, 1,
+                                                   &renderer->raycast_closest, err);
+    if (status == PF_OK)
+        status = pf_vk_pipeline_create_named(ctx, "raycast_brute", RAYCAST_BUFFERS,
+                                             RAYCAST_PUSH_BYTES, &any, 1, &renderer->raycast_any,
+                                             err);
+    if (status == PF_OK)
+        status = pf_vk_pipeline_create_named(ctx, "render_direct", RENDER_DIRECT_BUFFERS,
+                                             RENDER_DIRECT_PUSH_BYTES, NULL, 0,
+                                             &renderer->render_direct, err);
+    if (status != PF_OK) {
+        pf_renderer_destroy(renderer);
+        return status;
+    }
+    *out = renderer;
+    return PF_OK;
+}
+
+void pf_renderer_destroy(pf_renderer *renderer)
+{
+    if (!renderer)
+        return;
+    pf_vk_pipeline *pipelines[] = {renderer->raycast_closest, renderer->raycast_any,
+                                   renderer->render_direct};
+    for (size_t i = 0; i < sizeof pipelines / sizeof pipelines[0]; i++) {
+        if (pipelines[i])
+            pf_vk_pipeline_destroy(renderer->ctx, pipelines[i]);
+    }
+    free(renderer);
+}

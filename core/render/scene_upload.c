@@ -1,0 +1,157 @@
+/* One frame's scene on the GPU (pf_gpu_scene) and the emissive picking table. */
+#include "render_internal.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* Rec. 709 luminance weights, the usual choice for picking lights by power. */
+#define LUMINANCE_R 0.2126f
+#define LUMINANCE_G 0.7152f
+#define LUMINANCE_B 0.0722f
+
+/* Stand-in contents for an empty array (every GPU struct here is at most 64 bytes). */
+#define EMPTY_ARRAY_BYTES 64u
+
+pf_status pf_render_buffer_with_data(pf_vk_context *ctx, const char *label, const void *data,
+                                     uint64_t size, uint64_t min_bytes, pf_vk_buffer **out,
+                                     pf_error *err)
+{
+    static const unsigned char zeros[EMPTY_ARRAY_BYTES];
+    uint64_t bytes = size > min_bytes ? size : min_bytes;
+    pf_status status = pf_vk_buffer_create(ctx, bytes, label, out, err);
+    if (status != PF_OK)
+        return status;
+    if (size > 0)
+        status = pf_vk_buffer_upload(ctx, *out, 0, data, size, err);
+    else
+        status = pf_vk_buffer_upload(ctx, *out, 0, zeros,
+                                     min_bytes < EMPTY_ARRAY_BYTES ? min_bytes : EMPTY_ARRAY_BYTES,
+                                     err);
+    if (status != PF_OK)
+        pf_render_buffer_release(ctx, out);
+    return status;
+}
+
+static float triangle_area(const float (*vertices)[4])
+{
+    float e1[3], e2[3];
+    for (int i = 0; i < 3; i++) {
+        e1[i] = vertices[1][i] - vertices[0][i];
+        e2[i] = vertices[2][i] - vertices[0][i];
+    }
+    float cx = e1[1] * e2[2] - e1[2] * e2[1];
+    float cy = e1[2] * e2[0] - e1[0] * e2[2];
+    float cz = e1[0] * e2[1] - e1[1] * e2[0];
+    return 0.5f * sqrtf(cx * cx + cy * cy + cz * cz);
+}
+
+pf_status pf_emissive_table_build(const pf_scene_frame *frame, pf_emissive_entry **entries,
+                                  uint32_t *count, pf_error *err)
+{
+    *entries = NULL;
+    *count = 0;
+    uint32_t candidates = 0;
+    for (uint32_t t = 0; t < frame->triangle_count; t++) {
+        const float *e = frame->materials[frame->triangle_material[t]].emission;
+        if (LUMINANCE_R * e[0] + LUMINANCE_G * e[1] + LUMINANCE_B * e[2] > 0.0f)
+            candidates++;
+    }
+    if (candidates == 0)
+        return PF_OK;
+    pf_emissive_entry *table = malloc(candidates * sizeof *table);
+    if (!table)
+        return pf_error_set(err, PF_ERR_NOMEM, "emissive table: %u entries", candidates);
+    double total = 0.0;
+    uint32_t used = 0;
+    for (uint32_t t = 0; t < frame->triangle_count; t++) {
+        const float *e = frame->materials[frame->triangle_material[t]].emission;
+        float luminance = LUMINANCE_R * e[0] + LUMINANCE_G * e[1] + LUMINANCE_B * e[2];
+        float area = triangle_area(&frame->vertices[3 * (size_t)t]);
+        if (!(luminance > 0.0f) || !(area > 0.0f))
+            continue;
+        table[used].triangle = t;
+        table[used].area = area;
+        table[used].pick_pdf = area * luminance; /* weight until normalized below */
+        total += (double)area * luminance;
+        used++;
+    }
+    if (used == 0 || !(total > 0.0) || !isfinite(total)) {
+        free(table);
+        return PF_OK;
+    }
+    double cumulative = 0.0;
+    for (uint32_t i = 0; i < used; i++) {
+        cumulative += table[i].pick_pdf;
+        table[i].pick_pdf = (float)(table[i].pick_pdf / total);
+        table[i].cdf = (float)(cumulative / total);
+    }
+    table[used - 1].cdf = 1.0f; /* rounding must not leave a gap at the top */
+    *entries = table;
+    *count = used;
+    return PF_OK;
+}
+
+void pf_render_buffer_release(pf_vk_context *ctx, pf_vk_buffer **buffer)
+{
+    if (*buffer)
+        pf_vk_buffer_destroy(ctx, *buffer);
+    *buffer = NULL;
+}
+
+void pf_gpu_scene_release(pf_vk_context *ctx, pf_gpu_scene *scene)
+{
+    pf_render_buffer_release(ctx, &scene->vertices);
+    pf_render_buffer_release(ctx, &scene->normals);
+    pf_render_buffer_release(ctx, &scene->triangle_material);
+    pf_render_buffer_release(ctx, &scene->materials);
+    pf_render_buffer_release(ctx, &scene->lights);
+    pf_render_buffer_release(ctx, &scene->emissive);
+    scene->emissive_count = 0;
+}
+
+pf_status pf_gpu_scene_upload(pf_vk_context *ctx, const pf_scene_frame *frame, int full,
+                              pf_gpu_scene *out, pf_error *err)
+{
+    memset(out, 0, sizeof *out);
+    uint64_t triangles = frame->triangle_count;
+    uint64_t vertex_bytes = triangles * 3 * sizeof(float[4]);
+    pf_status status = pf_render_buffer_with_data(ctx, "triangle vertices", frame->vertices,
+                                                  vertex_bytes, 3 * sizeof(float[4]),
+                                                  &out->vertices, err);
+    if (status != PF_OK || !full)
+        return status;
+    for (uint32_t t = 0; t < frame->triangle_count; t++) {
+        if (frame->triangle_material[t] >= frame->material_count) {
+            pf_gpu_scene_release(ctx, out);
+            return pf_error_set(err, PF_ERR_INVALID,
+                                "triangle %u: material %u out of range (%u materials)", t,
+                                frame->triangle_material[t], frame->material_count);
+        }
+    }
+    pf_emissive_entry *table = NULL;
+    status = pf_render_buffer_with_data(ctx, "triangle normals", frame->normals, vertex_bytes,
+                                        3 * sizeof(float[4]), &out->normals, err);
+    if (status == PF_OK)
+        status = pf_render_buffer_with_data(ctx, "triangle materials", frame->triangle_material,
+                                            triangles * sizeof(uint32_t), sizeof(uint32_t),
+                                            &out->triangle_material, err);
+    if (status == PF_OK)
+        status = pf_render_buffer_with_data(ctx, "materials", frame->materials,
+                                            frame->material_count * sizeof(pf_material),
+                                            sizeof(pf_material), &out->materials, err);
+    if (status == PF_OK)
+        status = pf_render_buffer_with_data(ctx, "lights", frame->lights,
+                                            frame->light_count * sizeof(pf_light),
+                                            sizeof(pf_light), &out->lights, err);
+    if (status == PF_OK)
+        status = pf_emissive_table_build(frame, &table, &out->emissive_count, err);
+    if (status == PF_OK)
+        status = pf_render_buffer_with_data(ctx, "emissive triangles", table,
+                                            out->emissive_count * sizeof(pf_emissive_entry),
+                                            sizeof(pf_emissive_entry), &out->emissive, err);
+    free(table);
+    if (status != PF_OK)
+        pf_gpu_scene_release(ctx, out);
+    return status;
+}

@@ -1,0 +1,51 @@
+#version 460
+#extension GL_GOOGLE_include_directive : require
+// pf_bih_raycast: one invocation per ray through the BIH (bih_traverse.glsl).
+// Rays are pf_ray (origin + tmin, direction + tmax), hits pf_hit; ANY_HIT
+// selects the shadow-ray query. Rays whose traversal fails (stack overflow)
+// are counted in failures[0] so the host reports them.
+
+layout(local_size_x = 64) in;
+layout(constant_id = 0) const bool ANY_HIT = false;
+
+layout(push_constant) uniform Push {
+    vec4 bounds_min; // xyz: the BIH's root box
+    vec4 bounds_max;
+    uint ray_count;  // rays in this dispatch (the host splits big batches)
+    uint triangle_count;
+    uint node_count;
+    uint padding;
+} push;
+
+layout(std430, set = 0, binding = 0) readonly buffer BihNodes { uint bih_nodes[]; };
+layout(std430, set = 0, binding = 1) readonly buffer BihVertices { vec4 bih_vertices[]; };
+layout(std430, set = 0, binding = 2) readonly buffer BihTriangleIndex { uint bih_triangle_index[]; };
+struct Ray {
+    vec4 origin_tmin;
+    vec4 direction_tmax;
+};
+layout(std430, set = 0, binding = 3) readonly buffer Rays { Ray rays[]; };
+struct HitRecord {
+    float t;
+    uint triangle;
+    float u, v;
+};
+layout(std430, set = 0, binding = 4) writeonly buffer Hits { HitRecord hits[]; };
+layout(std430, set = 0, binding = 5) buffer Failures { uint failures[]; };
+
+#include "bih_traverse.glsl"
+
+void main()
+{
+    uint index = gl_GlobalInvocationID.x;
+    if (index >= push.ray_count)
+        return;
+    Ray ray = rays[index];
+    bool failed;
+    BihHit hit = trace_bih(ray.origin_tmin.xyz, ray.direction_tmax.xyz, ray.origin_tmin.w,
+                           ray.direction_tmax.w, ANY_HIT, push.bounds_min.xyz,
+                           push.bounds_max.xyz, push.triangle_count, push.node_count, failed);
+    if (failed)
+        atomicAdd(failures[0], 1u);
+    hits[index] = HitRecord(hit.t, hit.triangle, hit.u, hit.v);
+}

@@ -1,0 +1,182 @@
+// BIH traversal: the one copy every kernel that casts rays uses. It follows
+// core/bih/bih_cpu_traverse.c step for step (that file explains the
+// robustness rules: Ize 2013 far-distance widening, interval intersection,
+// parallel axes decided by the origin, skipping popped entries beyond the best
+// hit); node format in core/bih/pf_bih.h.
+//
+// The including shader declares, before including this file:
+//   buffer ... { uint bih_nodes[]; };          // 3 words per node: clip0, clip1 (float bits), word
+//   buffer ... { vec4 bih_vertices[]; };       // 3 per triangle, leaf order
+//   buffer ... { uint bih_triangle_index[]; }; // leaf order -> frame triangle
+#ifndef PF_BIH_TRAVERSE_GLSL
+#define PF_BIH_TRAVERSE_GLSL
+
+#include "ray_triangle.glsl"
+
+const uint BIH_STACK_SIZE = 64u; // PF_BIH_STACK_SIZE
+const uint BIH_LEAF = 3u;        // PF_BIH_LEAF
+const uint BIH_NO_HIT = 0xFFFFFFFFu;
+// 2γ(3) for ε = 2^-24: 6ε / (1 − 3ε), as BIH_TWO_GAMMA3 in bih_cpu_traverse.c.
+const float BIH_TWO_GAMMA3 = 6.0 * 5.9604644775390625e-8 / (1.0 - 3.0 * 5.9604644775390625e-8);
+const float BIH_FLT_MIN = 1.17549435e-38; // smallest normal float
+
+struct BihHit {
+    float t;        // -1 on a miss
+    uint triangle;  // frame index, BIH_NO_HIT on a miss
+    float u, v;     // barycentrics of vertices 1 and 2
+};
+
+float bih_widen_far(float t)
+{
+    // precise: no FMA, so the bound rounds as on the CPU.
+    precise float widened = t + abs(t) * BIH_TWO_GAMMA3;
+    return isinf(t) ? t : widened;
+}
+
+float bih_next_up(float t)
+{
+    if (isinf(t) || isnan(t))
+        return t;
+    if (t == 0.0)
+        return uintBitsToFloat(1u);
+    uint bits = floatBitsToUint(t);
+    return uintBitsToFloat(t > 0.0 ? bits + 1u : bits - 1u);
+}
+
+// Closest hit in (tmin, tmax), or with any_hit the first hit found. failed
+// is set (and a miss returned) when the stack would overflow, or when more
+// than node_count nodes are visited (a malformed tree): never silent.
+BihHit trace_bih(vec3 origin, vec3 direction, float tmin, float tmax, bool any_hit,
+                 vec3 bounds_min, vec3 bounds_max, uint triangle_count, uint node_count,
+                 out bool failed)
+{
+    BihHit hit = BihHit(-1.0, BIH_NO_HIT, 0.0, 0.0);
+    failed = false;
+    if (triangle_count == 0u)
+        return hit;
+    bvec3 parallel = not(greaterThanEqual(abs(direction), vec3(BIH_FLT_MIN)));
+    vec3 inv = vec3(parallel.x ? 0.0 : 1.0 / direction.x, parallel.y ? 0.0 : 1.0 / direction.y,
+                    parallel.z ? 0.0 : 1.0 / direction.z);
+    if (all(parallel))
+        return hit;
+    RayShear shear = ray_shear_setup(direction);
+
+    float t_near = tmin, t_far = tmax;
+    for (int k = 0; k < 3; k++) {
+        if (parallel[k]) {
+            if (origin[k] < bounds_min[k] || origin[k] > bounds_max[k])
+                return hit;
+            continue;
+        }
+        float t0 = (bounds_min[k] - origin[k]) * inv[k];
+        float t1 = (bounds_max[k] - origin[k]) * inv[k];
+        if (inv[k] < 0.0) {
+            float swap_t = t0;
+            t0 = t1;
+            t1 = swap_t;
+        }
+        t_near = max(t_near, t0);
+        t_far = min(t_far, bih_widen_far(t1));
+    }
+    if (!(t_near <= t_far))
+        return hit;
+
+    float closest = tmax;
+    uint stack_node[BIH_STACK_SIZE];
+    vec2 stack_interval[BIH_STACK_SIZE];
+    uint stack_size = 0u;
+    uint node = 0u;
+    // A ray enters each node at most once, so node_count visits bound the loop.
+    for (uint visit = 0u; visit < node_count; visit++) {
+        uint word = bih_nodes[3u * node + 2u];
+        bool descend = false;
+        if ((word & 3u) != BIH_LEAF) {
+            uint axis = word & 3u, child = word >> 2u;
+            float clip_left = uintBitsToFloat(bih_nodes[3u * node]);
+            float clip_right = uintBitsToFloat(bih_nodes[3u * node + 1u]);
+            float far_limit = min(t_far, bih_widen_far(closest));
+            float left_near = t_near, left_far = far_limit;
+            float right_near = t_near, right_far = far_limit;
+            bool left_first = true;
+            bool left_open = true, right_open = true;
+            if (parallel[axis]) {
+                left_open = origin[axis] <= clip_left;
+                right_open = origin[axis] >= clip_right;
+            } else {
+                float t_left = (clip_left - origin[axis]) * inv[axis];
+                float t_right = (clip_right - origin[axis]) * inv[axis];
+                if (inv[axis] > 0.0) {
+                    left_far = min(left_far, bih_widen_far(t_left));
+                    right_near = max(right_near, t_right);
+                } else {
+                    left_first = false;
+                    right_far = min(right_far, bih_widen_far(t_right));
+                    left_near = max(left_near, t_left);
+                }
+            }
+            bool visit_left = left_open && left_near <= left_far;
+            bool visit_right = right_open && right_near <= right_far;
+            uint near_child = left_first ? child : child + 1u;
+            uint far_child = left_first ? child + 1u : child;
+            bool visit_near = left_first ? visit_left : visit_right;
+            bool visit_far = left_first ? visit_right : visit_left;
+            vec2 near_interval = left_first ? vec2(left_near, left_far) : vec2(right_near, right_far);
+            vec2 far_interval = left_first ? vec2(right_near, right_far) : vec2(left_near, left_far);
+            if (visit_near && visit_far) {
+                if (stack_size == BIH_STACK_SIZE) {
+                    failed = true;
+                    return BihHit(-1.0, BIH_NO_HIT, 0.0, 0.0);
+                }
+                stack_node[stack_size] = far_child;
+                stack_interval[stack_size] = far_interval;
+                stack_size++;
+            }
+            if (visit_near || visit_far) {
+                node = visit_near ? near_child : far_child;
+                vec2 interval = visit_near ? near_interval : far_interval;
+                t_near = interval.x;
+                t_far = interval.y;
+                descend = true;
+            }
+        } else {
+            uint first = bih_nodes[3u * node];
+            uint count = bih_nodes[3u * node + 1u];
+            for (uint p = first; p < first + count; p++) {
+                float t, u, v;
+                if (!ray_triangle_watertight(origin, shear, bih_vertices[3u * p].xyz,
+                                             bih_vertices[3u * p + 1u].xyz,
+                                             bih_vertices[3u * p + 2u].xyz, tmin,
+                                             bih_next_up(closest), t, u, v))
+                    continue;
+                uint original = bih_triangle_index[p];
+                // Equal t: the lower original index wins, as in the brute-force oracle.
+                if (t < closest || (t == closest && hit.triangle != BIH_NO_HIT && original < hit.triangle)) {
+                    closest = t;
+                    hit = BihHit(t, original, u, v);
+                    if (any_hit)
+                        return hit;
+                }
+            }
+        }
+        if (descend)
+            continue;
+        bool resumed = false;
+        while (stack_size > 0u) {
+            stack_size--;
+            float far_limit = min(stack_interval[stack_size].y, bih_widen_far(closest));
+            if (stack_interval[stack_size].x <= far_limit) {
+                node = stack_node[stack_size];
+                t_near = stack_interval[stack_size].x;
+                t_far = far_limit;
+                resumed = true;
+                break;
+            }
+        }
+        if (!resumed)
+            return hit;
+    }
+    failed = true;
+    return BihHit(-1.0, BIH_NO_HIT, 0.0, 0.0);
+}
+
+#endif

@@ -1,0 +1,314 @@
+#version 460
+#extension GL_GOOGLE_include_directive : require
+#extension GL_KHR_shader_subgroup_basic : require
+#extension GL_KHR_shader_subgroup_shuffle : require
+#extension GL_KHR_shader_subgroup_vote : require
+// Preview integrator (the `shade` stage of the preview preset): camera rays
+// through the pixel centres (jittered when spp > 1), a bounded specular chain
+// through mirrors and glass, then at the first diffuse hit direct light from
+// every punctual light and one sample of the emissive triangles, all with hard
+// shadows. Brute-force traversal: for small scenes until the BIH lands.
+//
+// One dispatch renders one sample of every pixel of one tile and adds it to
+// the film: three vec4 per pixel of the tile, (beauty RGB, coverage),
+// (albedo RGB, depth), (normal XYZ, kept samples), sums over the samples so
+// far; the host divides. Per pixel, averaged over its samples:
+//   beauty  radiance; a NaN/Inf sample is dropped (counted in
+//           counters.discarded_samples) and the rest are averaged
+//   alpha   fraction of samples whose camera ray hit geometry
+//   albedo  albedo of the first diffuse (non-specular) hit, 0 if none
+//   normal  world shading normal there, turned to face the arriving ray
+//   depth   distance along the camera ray to its first hit; 0 on a miss (not
+//           inf, so that averages and image metrics stay finite; alpha tells
+//           a miss apart)
+
+// 64 invocations: a multiple of every subgroup size in use, so no subgroup is partial.
+layout(local_size_x = 8, local_size_y = 8) in;
+const uint GROUP_EDGE = 8u;
+
+layout(push_constant) uniform Push {
+    uvec2 tile_origin; // first pixel of the tile in the image
+    uvec2 tile_size;   // pixels in the tile; film rows are tile_size.x long
+    uint sample_index; // 0 starts the film's sums
+} push;
+
+#include "scene_types.glsl"
+
+layout(std430, set = 0, binding = 0) readonly buffer Params { FrameParams params; };
+layout(std430, set = 0, binding = 1) readonly buffer TriangleVertices { vec4 triangle_vertices[]; };
+layout(std430, set = 0, binding = 2) readonly buffer TriangleNormals { vec4 triangle_normals[]; };
+layout(std430, set = 0, binding = 3) readonly buffer TriangleMaterials { uint triangle_material[]; };
+layout(std430, set = 0, binding = 4) readonly buffer Materials { Material materials[]; };
+layout(std430, set = 0, binding = 5) readonly buffer Lights { Light lights[]; };
+layout(std430, set = 0, binding = 6) readonly buffer Emissive { EmissiveEntry emissive[]; };
+layout(std430, set = 0, binding = 7) buffer Film { vec4 film[]; };
+layout(std430, set = 0, binding = 8) buffer Counters {
+    uint discarded_samples;
+    uint rays_traced;
+} counters;
+
+#include "brute_trace.glsl"
+#include "camera.glsl"
+#include "lights.glsl"
+#include "materials.glsl"
+#include "rng.glsl"
+
+// Binary search depth bound: 2^32 entries.
+const uint EMISSIVE_SEARCH_STEPS = 32u;
+
+bool all_finite(vec3 value)
+{
+    return !any(isnan(value)) && !any(isinf(value));
+}
+
+// Emissive table entry for xi in [0, 1): the first with cdf > xi.
+uint pick_emissive(float xi)
+{
+    uint low = 0u;
+    uint high = params.emissive_count - 1u;
+    for (uint step = 0u; step < EMISSIVE_SEARCH_STEPS && low < high; step++) {
+        uint middle = (low + high) / 2u;
+        if (xi < emissive[middle].cdf)
+            high = middle;
+        else
+            low = middle + 1u;
+    }
+    return low;
+}
+
+// One camera path of one pixel sample: the current ray of the specular chain
+// and, once it reaches a diffuse surface, that surface.
+struct Path {
+    vec3 origin;
+    vec3 direction;
+    vec3 throughput;
+    vec3 radiance;
+    bool tracing;      // the chain still has a ray to trace
+    bool diffuse_hit;  // the chain ended on a diffuse surface (below)
+    vec3 position;
+    vec3 shading_normal;
+    vec3 geometric_normal; // faces the incoming ray
+    Material surface;
+};
+
+// What one pixel sample adds to the film.
+struct PixelSums {
+    vec3 beauty;
+    uint kept_samples;
+    uint discarded;
+    uint rays;
+    float coverage;
+    float depth;
+    vec3 albedo;
+    vec3 normal;
+};
+
+// Applies the closest hit of the path's current ray: emission, AOVs of the
+// camera hit, then either the end of the chain at a diffuse surface or the
+// next specular ray.
+void path_follow_hit(inout Path path, TraceHit hit, uint depth, float ray_offset, inout uint rng,
+                     inout PixelSums sums)
+{
+    if (hit.triangle == NO_HIT) {
+        path.tracing = false;
+        return;
+    }
+    uint first = 3u * hit.triangle;
+    vec3 v0 = triangle_vertices[first].xyz;
+    vec3 v1 = triangle_vertices[first + 1u].xyz;
+    vec3 v2 = triangle_vertices[first + 2u].xyz;
+    Material material = materials[triangle_material[hit.triangle]];
+    vec3 face_normal = normalize(cross(v1 - v0, v2 - v0));
+    bool front = dot(face_normal, path.direction) < 0.0;
+    path.geometric_normal = front ? face_normal : -face_normal;
+    vec3 interpolated = (1.0 - hit.u - hit.v) * triangle_normals[first].xyz +
+                        hit.u * triangle_normals[first + 1u].xyz +
+                        hit.v * triangle_normals[first + 2u].xyz;
+    path.shading_normal = dot(interpolated, interpolated) > 0.0 ? normalize(interpolated)
+                                                                : path.geometric_normal;
+    if (dot(path.shading_normal, path.geometric_normal) < 0.0)
+        path.shading_normal = -path.shading_normal;
+    path.position = path.origin + hit.t * path.direction;
+    if (depth == 0u) {
+        sums.coverage += 1.0;
+        sums.depth += hit.t;
+    }
+    if (front)
+        path.radiance += path.throughput * material.emission;
+    if (material.kind == MATERIAL_LAMBERT) {
+        path.diffuse_hit = true;
+        path.tracing = false;
+        path.surface = material;
+        sums.albedo += material.albedo;
+        sums.normal += path.shading_normal;
+        return;
+    }
+    if (depth == params.max_specular_depth) {
+        path.tracing = false; // chain too long: contributes nothing more
+        return;
+    }
+    if (material.kind == MATERIAL_MIRROR) {
+        path.throughput *= material.albedo;
+        vec3 reflected = reflect(path.direction, path.shading_normal);
+        // A shading normal can send the reflection below the surface.
+        path.direction = dot(reflected, path.geometric_normal) > 0.0
+                             ? reflected
+                             : reflect(path.direction, path.geometric_normal);
+        path.origin = path.position + ray_offset * path.geometric_normal;
+    } else {
+        bool transmitted;
+        path.direction = normalize(glass_scatter(material, path.direction, path.shading_normal,
+                                                 front, rng_float(rng), path.throughput,
+                                                 transmitted));
+        path.origin = path.position +
+                      (transmitted ? -ray_offset : ray_offset) * path.geometric_normal;
+    }
+}
+
+void main()
+{
+    const float infinity = uintBitsToFloat(0x7f800000u);
+    uvec2 local = gl_WorkGroupID.xy * GROUP_EDGE + gl_LocalInvocationID.xy;
+    uvec2 pixel = push.tile_origin + local;
+    // Lanes outside the tile stay to the end with nothing to trace: every
+    // trace_subgroup call needs the whole subgroup, so all of them sit in
+    // subgroup-uniform control flow (loops with uniform bounds, and
+    // subgroupAny deciding whether a trace is needed at all). One sample per
+    // dispatch, not a loop over samples: with the sample loop around it,
+    // lavapipe 22.3 returned wrong closest hits from trace_subgroup in the
+    // second and later samples.
+    bool inside = all(lessThan(local, push.tile_size));
+    uint triangle_count = params.triangle_count;
+    uint spp = params.samples_per_pixel;
+    float ray_offset = params.camera_right.w;
+    vec2 image_size = vec2(params.width, params.height);
+    PixelSums sums = PixelSums(vec3(0.0), 0u, 0u, 0u, 0.0, 0.0, vec3(0.0), vec3(0.0));
+
+    uint rng = rng_init(pixel.y * params.width + pixel.x, push.sample_index, params.seed_lo,
+                        params.seed_hi);
+    vec2 jitter = vec2(0.5);
+    if (spp > 1u) {
+        // Two statements: the order of side effects inside one expression is not
+        // something to rely on across compilers.
+        jitter.x = rng_float(rng);
+        jitter.y = rng_float(rng);
+    }
+    Path path;
+    path.origin = params.camera_position.xyz;
+    path.direction = camera_ray_direction(params.camera_forward.xyz, params.camera_right.xyz,
+                                          params.camera_up.xyz, params.camera_position.w,
+                                          params.camera_forward.w, vec2(pixel) + jitter,
+                                          image_size);
+    path.throughput = vec3(1.0);
+    path.radiance = vec3(0.0);
+    path.tracing = inside;
+    path.diffuse_hit = false;
+    path.position = vec3(0.0);
+    path.shading_normal = vec3(0.0, 0.0, 1.0);
+    path.geometric_normal = vec3(0.0, 0.0, 1.0);
+    path.surface = Material(vec3(0.0), MATERIAL_LAMBERT, vec3(0.0), 1.0);
+
+    // Camera ray, then the specular chain through mirrors and glass.
+    for (uint depth = 0u; depth <= params.max_specular_depth && subgroupAny(path.tracing);
+         depth++) {
+        TraceHit hit = trace_subgroup(path.origin, path.direction, 0.0, infinity, false,
+                                      path.tracing, triangle_count);
+        if (path.tracing) {
+            sums.rays++;
+            path_follow_hit(path, hit, depth, ray_offset, rng, sums);
+        }
+    }
+
+    // Punctual lights at the diffuse hit, each with a hard shadow ray.
+    vec3 shadow_origin = path.position + ray_offset * path.geometric_normal;
+    vec3 brdf = lambert_brdf(path.surface);
+    for (uint light_index = 0u; light_index < params.light_count; light_index++) {
+        bool lit = false;
+        vec3 to_light = vec3(0.0, 0.0, 1.0);
+        float shadow_tmax = 0.0;
+        vec3 contribution = vec3(0.0);
+        if (path.diffuse_hit) {
+            LightSample light = light_sample(lights[light_index], path.position);
+            float cos_surface = dot(path.shading_normal, light.to_light);
+            lit = cos_surface > 0.0 && dot(path.geometric_normal, light.to_light) > 0.0 &&
+                  any(greaterThan(light.irradiance, vec3(0.0)));
+            to_light = light.to_light;
+            shadow_tmax = light.distance - ray_offset;
+            contribution = path.throughput * brdf * light.irradiance * cos_surface;
+        }
+        if (subgroupAny(lit)) {
+            TraceHit blocker = trace_subgroup(shadow_origin, to_light, 0.0, shadow_tmax, true, lit,
+                                              triangle_count);
+            if (lit) {
+                sums.rays++;
+                if (blocker.triangle == NO_HIT)
+                    path.radiance += contribution;
+            }
+        }
+    }
+
+    // One sample of the emissive triangles (area lights), front faces only.
+    if (params.emissive_count > 0u) {
+        bool lit = false;
+        vec3 to_light = vec3(0.0, 0.0, 1.0);
+        float shadow_tmax = 0.0;
+        vec3 contribution = vec3(0.0);
+        if (path.diffuse_hit) {
+            EmissiveEntry entry = emissive[pick_emissive(rng_float(rng))];
+            uint first = 3u * entry.triangle;
+            vec3 a = triangle_vertices[first].xyz;
+            vec3 b = triangle_vertices[first + 1u].xyz;
+            vec3 c = triangle_vertices[first + 2u].xyz;
+            // Uniform point on the triangle (pbrt-v4 SampleUniformTriangle, sqrt form).
+            float root = sqrt(rng_float(rng));
+            float xi = rng_float(rng);
+            vec3 point = (1.0 - root) * a + root * (1.0 - xi) * b + root * xi * c;
+            vec3 light_normal = normalize(cross(b - a, c - a));
+            vec3 offset = point - path.position;
+            float distance2 = dot(offset, offset);
+            float distance = sqrt(distance2);
+            to_light = offset / distance;
+            float cos_light = -dot(light_normal, to_light);
+            float cos_surface = dot(path.shading_normal, to_light);
+            lit = distance2 > 0.0 && cos_light > 0.0 && cos_surface > 0.0 &&
+                  dot(path.geometric_normal, to_light) > 0.0;
+            shadow_tmax = distance - 2.0 * ray_offset;
+            vec3 emitted = materials[triangle_material[entry.triangle]].emission;
+            contribution = path.throughput * brdf * emitted *
+                           (cos_surface * cos_light / distance2 * entry.area / entry.pick_pdf);
+        }
+        if (subgroupAny(lit)) {
+            TraceHit blocker = trace_subgroup(shadow_origin, to_light, 0.0, shadow_tmax, true, lit,
+                                              triangle_count);
+            if (lit) {
+                sums.rays++;
+                if (blocker.triangle == NO_HIT)
+                    path.radiance += contribution;
+            }
+        }
+    }
+
+    if (!inside)
+        return;
+    if (all_finite(path.radiance)) {
+        sums.beauty = path.radiance;
+        sums.kept_samples = 1u;
+    } else {
+        sums.discarded = 1u;
+    }
+    uint film_index = 3u * (local.y * push.tile_size.x + local.x);
+    vec4 beauty = vec4(sums.beauty, sums.coverage);
+    vec4 albedo_depth = vec4(sums.albedo, sums.depth);
+    vec4 normal_kept = vec4(sums.normal, float(sums.kept_samples));
+    if (push.sample_index > 0u) {
+        beauty += film[film_index];
+        albedo_depth += film[film_index + 1u];
+        normal_kept += film[film_index + 2u];
+    }
+    film[film_index] = beauty;
+    film[film_index + 1u] = albedo_depth;
+    film[film_index + 2u] = normal_kept;
+    if (sums.discarded > 0u)
+        atomicAdd(counters.discarded_samples, sums.discarded);
+    atomicAdd(counters.rays_traced, sums.rays);
+}

@@ -1,0 +1,131 @@
+/* `photonfarm render`: frame sequences to EXR, and every bad-input exit path. */
+#include "pf_image.h"
+#include "pf_test.h"
+
+#include <dirent.h>
+#include <sys/wait.h>
+
+static char tmpdir[1024];
+static char log_path[1100];
+
+/* Runs photonfarm with arguments (shell-quoted by the caller); returns its exit code. */
+static int run_photonfarm(const char *arguments)
+{
+    const char *binary = getenv("PHOTONFARM");
+    char command[4096];
+    snprintf(command, sizeof command, "'%s' %s >'%s' 2>&1", binary ? binary : "photonfarm",
+             arguments, log_path);
+    int status = system(command);
+    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+/* Whether the last run's output contains text (printed when it does not). */
+static int log_contains(const char *text)
+{
+    char buffer[8192] = {0};
+    FILE *file = fopen(log_path, "rb");
+    if (!file)
+        return 0;
+    size_t length = fread(buffer, 1, sizeof buffer - 1, file);
+    fclose(file);
+    buffer[length] = '\0';
+    if (strstr(buffer, text))
+        return 1;
+    fprintf(stderr, "expected '%s' in the output:\n%s\n", text, buffer);
+    return 0;
+}
+
+static int file_exists(const char *path)
+{
+    FILE *file = fopen(path, "rb");
+    if (file)
+        fclose(file);
+    return file != NULL;
+}
+
+PF_TEST(renders_a_frame_range_to_numbered_exr_files)
+{
+    char scene[1024], args[4096], path[2048];
+    pf_test_shared_scene("cornell-anim", scene, sizeof scene);
+    snprintf(args, sizeof args, "render '%s' --frames 1-2 --size 16x12 -o '%s/f.####.exr'", scene,
+             tmpdir);
+    PF_REQUIRE(run_photonfarm(args) == 0);
+    PF_CHECK(log_contains("f.0002.exr"));
+    for (int frame = 1; frame <= 2; frame++) {
+        snprintf(path, sizeof path, "%s/f.%04d.exr", tmpdir, frame);
+        PF_CHECK_MSG(file_exists(path), "%s missing", path);
+        pf_image image = {0};
+        pf_image_attribute *attributes = NULL;
+        uint32_t attribute_count = 0;
+        pf_error err = {0};
+        PF_CHECK_OK(pf_exr_read(path, &image, &attributes, &attribute_count, &err), &err);
+        PF_CHECK(image.width == 16 && image.height == 12 && image.channel_count == 11);
+        int found_frame = 0, found_settings = 0, found_device = 0;
+        for (uint32_t i = 0; i < attribute_count; i++) {
+            if (!strcmp(attributes[i].key, "photonfarm/frame"))
+                found_frame = atoi(attributes[i].value) == frame;
+            if (!strcmp(attributes[i].key, "photonfarm/settings"))
+                found_settings = strstr(attributes[i].value, "size=16x12") != NULL;
+            if (!strcmp(attributes[i].key, "photonfarm/device"))
+                found_device = attributes[i].value[0] != '\0';
+        }
+        PF_CHECK_MSG(found_frame, "%s: photonfarm/frame attribute missing or wrong", path);
+        PF_CHECK_MSG(found_settings, "%s: photonfarm/settings attribute missing or wrong", path);
+        PF_CHECK_MSG(found_device, "%s: photonfarm/device attribute missing", path);
+        free(attributes);
+        pf_image_free(&image);
+    }
+    DIR *dir = opendir(tmpdir);
+    PF_REQUIRE(dir != NULL);
+    struct dirent *entry;
+    while ((entry = readdir(dir)) != NULL)
+        PF_CHECK_MSG(!strstr(entry->d_name, ".tmp"), "temporary file left: %s", entry->d_name);
+    closedir(dir);
+}
+
+PF_TEST(bad_frames_scenes_and_options_exit_2)
+{
+    char scene[1024], args[4096];
+    pf_test_shared_scene("cornell-anim", scene, sizeof scene);
+    const char *bad_frames[] = {"--frame 0", "--frame 999", "--frames 40-49"};
+    for (size_t i = 0; i < sizeof bad_frames / sizeof bad_frames[0]; i++) {
+        snprintf(args, sizeof args, "render '%s' %s --size 8x8 -o '%s/bad.####.exr'", scene,
+                 bad_frames[i], tmpdir);
+        PF_CHECK_MSG(run_photonfarm(args) == 2, "%s", bad_frames[i]);
+        PF_CHECK(log_contains("1-48"));
+    }
+    snprintf(args, sizeof args, "render '%s/no-such-scene.gltf' --frame 1 -o '%s/x.exr'", tmpdir,
+             tmpdir);
+    PF_CHECK(run_photonfarm(args) == 2);
+    PF_CHECK(log_contains("no-such-scene.gltf"));
+    snprintf(args, sizeof args,
+             "render '%s' --frame 1 --size 8x8 -o '%s/no-such-directory/x.exr'", scene, tmpdir);
+    int unwritable = run_photonfarm(args);
+    PF_CHECK_MSG(unwritable == 1 || unwritable == 2, "unwritable output: exit %d", unwritable);
+    PF_CHECK(log_contains("no-such-directory/x.exr"));
+    snprintf(args, sizeof args, "render '%s' --frames 1-2 -o '%s/single.exr'", scene, tmpdir);
+    PF_CHECK(run_photonfarm(args) == 2);
+    PF_CHECK(log_contains("#"));
+    snprintf(args, sizeof args, "render '%s' --frame 1 --size 8x8 --quality final -o '%s/q.exr'",
+             scene, tmpdir);
+    PF_CHECK(run_photonfarm(args) == 2);
+    PF_CHECK(log_contains("not available yet"));
+    const char *bad_usage[] = {"--frame 1 --frames 1-2", "--frames 5-1", "--frames 1-4x0",
+                               "--frame 1 --size 0x3", "--frame 1 --quality best", ""};
+    for (size_t i = 0; i < sizeof bad_usage / sizeof bad_usage[0]; i++) {
+        snprintf(args, sizeof args, "render '%s' %s -o '%s/u.exr'", scene, bad_usage[i], tmpdir);
+        PF_CHECK_MSG(run_photonfarm(args) == 2, "'%s'", bad_usage[i]);
+    }
+    PF_CHECK(!file_exists("u.exr"));
+    PF_CHECK(run_photonfarm("render --help") == 0);
+    PF_CHECK(log_contains("--frames RANGE"));
+}
+
+int main(void)
+{
+    pf_test_tmpdir(tmpdir, sizeof tmpdir);
+    snprintf(log_path, sizeof log_path, "%s/photonfarm.log", tmpdir);
+    PF_RUN(renders_a_frame_range_to_numbered_exr_files);
+    PF_RUN(bad_frames_scenes_and_options_exit_2);
+    return pf_test_finish();
+}
