@@ -1,0 +1,219 @@
+/*
+ * BIH invariants (pf_bih_check) and the quality report (pf_bih_quality_measure),
+ * for any BIH: the CPU build's and, downloaded, the GPU build's.
+ */
+#include "bih_internal.h"
+
+#include <math.h>
+#include <stdlib.h>
+
+typedef struct box3 {
+    float lo[3], hi[3];
+} box3;
+
+static box3 empty_box(void)
+{
+    return (box3){{INFINITY, INFINITY, INFINITY}, {-INFINITY, -INFINITY, -INFINITY}};
+}
+
+static void box_grow(box3 *box, const float p[3])
+{
+    for (int k = 0; k < 3; k++) {
+        box->lo[k] = p[k] < box->lo[k] ? p[k] : box->lo[k];
+        box->hi[k] = p[k] > box->hi[k] ? p[k] : box->hi[k];
+    }
+}
+
+static void box_merge(box3 *box, const box3 *other)
+{
+    box_grow(box, other->lo);
+    box_grow(box, other->hi);
+}
+
+typedef struct check_state {
+    const pf_bih *bih;
+    uint8_t *node_seen;
+    uint8_t *position_seen;
+    pf_error *err;
+} check_state;
+
+/* Validates the subtree at node and returns its triangles' box. */
+static pf_status check_node(check_state *s, uint32_t node, uint32_t depth, box3 *bounds)
+{
+    const pf_bih *bih = s->bih;
+    if (node >= bih->node_count)
+        return pf_error_set(s->err, PF_ERR_INTERNAL, "BIH: child index %u out of range (%u nodes)",
+                            node, bih->node_count);
+    if (s->node_seen[node]++)
+        return pf_error_set(s->err, PF_ERR_INTERNAL, "BIH node %u: reached twice", node);
+    const pf_bih_node *n = &bih->nodes[node];
+    *bounds = empty_box();
+    if (pf_bih_is_leaf(n)) {
+        if (n->word != PF_BIH_LEAF)
+            return pf_error_set(s->err, PF_ERR_INTERNAL, "BIH node %u: leaf word 0x%x has stray bits",
+                                node, n->word);
+        uint64_t first = pf_bih_leaf_first(n), count = pf_bih_leaf_count(n);
+        if (first + count > bih->triangle_count)
+            return pf_error_set(s->err, PF_ERR_INTERNAL,
+                                "BIH leaf %u: triangles %llu..%llu beyond %u", node,
+                                (unsigned long long)first,
+                                (unsigned long long)(first + count), bih->triangle_count);
+        if (count == 0 && !(node == 0 && bih->triangle_count == 0))
+            return pf_error_set(s->err, PF_ERR_INTERNAL, "BIH leaf %u: empty", node);
+        for (uint64_t p = first; p < first + count; p++) {
+            if (s->position_seen[p]++)
+                return pf_error_set(s->err, PF_ERR_INTERNAL,
+                                    "BIH leaf %u: triangle position %llu in two leaves", node,
+                                    (unsigned long long)p);
+            for (int c = 0; c < 3; c++)
+                box_grow(bounds, bih->vertices[3 * p + c]);
+        }
+        return PF_OK;
+    }
+    if (depth >= PF_BIH_STACK_SIZE)
+        return pf_error_set(s->err, PF_ERR_INTERNAL,
+                            "BIH node %u: inner node at depth %u (the stack holds %u)", node,
+                            depth, PF_BIH_STACK_SIZE);
+    uint32_t child = pf_bih_first_child(n), axis = pf_bih_axis(n);
+    if (child == 0 || child + 1 >= bih->node_count)
+        return pf_error_set(s->err, PF_ERR_INTERNAL, "BIH node %u: children %u, %u out of range",
+                            node, child, child + 1);
+    box3 left, right;
+    pf_status status = check_node(s, child, depth + 1, &left);
+    if (status == PF_OK)
+        status = check_node(s, child + 1, depth + 1, &right);
+    if (status != PF_OK)
+        return status;
+    if (!(left.hi[axis] <= n->clip[0]))
+        return pf_error_set(s->err, PF_ERR_INTERNAL,
+                            "BIH node %u: left subtree reaches %.9g along axis %u, beyond its clip %.9g",
+                            node, left.hi[axis], axis, n->clip[0]);
+    if (!(right.lo[axis] >= n->clip[1]))
+        return pf_error_set(s->err, PF_ERR_INTERNAL,
+                            "BIH node %u: right subtree reaches %.9g along axis %u, below its clip %.9g",
+                            node, right.lo[axis], axis, n->clip[1]);
+    *bounds = left;
+    box_merge(bounds, &right);
+    return PF_OK;
+}
+
+pf_status pf_bih_check(const pf_bih *bih, const pf_scene_frame *frame, pf_error *err)
+{
+    if (!bih || !frame)
+        return pf_error_set(err, PF_ERR_INVALID, "pf_bih_check: NULL argument");
+    if (bih->triangle_count != frame->triangle_count)
+        return pf_error_set(err, PF_ERR_INTERNAL, "BIH holds %u triangles, the frame %u",
+                            bih->triangle_count, frame->triangle_count);
+    if (bih->node_count == 0 || !bih->nodes)
+        return pf_error_set(err, PF_ERR_INTERNAL, "BIH has no root node");
+    uint32_t n = bih->triangle_count;
+    check_state s = {bih, calloc(bih->node_count, 1), calloc(n ? n : 1, 1), err};
+    uint8_t *original_seen = calloc(n ? n : 1, 1);
+    pf_status status = PF_OK;
+    if (!s.node_seen || !s.position_seen || !original_seen)
+        status = pf_error_set(err, PF_ERR_NOMEM, "pf_bih_check: %u nodes", bih->node_count);
+    for (uint32_t p = 0; status == PF_OK && p < n; p++) {
+        uint32_t t = bih->triangle_index[p];
+        if (t >= n || original_seen[t]++) {
+            status = pf_error_set(err, PF_ERR_INTERNAL,
+                                  "BIH position %u: triangle %u out of range or listed twice", p, t);
+            break;
+        }
+        for (int c = 0; c < 3; c++)
+            for (int k = 0; k < 3; k++)
+                if (bih->vertices[3 * p + c][k] != frame->vertices[3 * t + c][k])
+                    status = pf_error_set(err, PF_ERR_INTERNAL,
+                                          "BIH position %u: vertices differ from triangle %u's", p, t);
+    }
+    box3 root;
+    if (status == PF_OK)
+        status = check_node(&s, 0, 0, &root);
+    for (uint32_t p = 0; status == PF_OK && p < n; p++)
+        if (!s.position_seen[p])
+            status = pf_error_set(err, PF_ERR_INTERNAL,
+                                  "BIH: triangle %u (position %u) is in no leaf",
+                                  bih->triangle_index[p], p);
+    for (uint32_t node = 0; status == PF_OK && node < bih->node_count; node++)
+        if (!s.node_seen[node])
+            status = pf_error_set(err, PF_ERR_INTERNAL, "BIH node %u: unreachable", node);
+    for (int k = 0; status == PF_OK && n > 0 && k < 3; k++)
+        if (root.lo[k] < bih->bounds_min[k] || root.hi[k] > bih->bounds_max[k])
+            status = pf_error_set(err, PF_ERR_INTERNAL, "BIH: bounds miss triangles along axis %d", k);
+    free(s.node_seen);
+    free(s.position_seen);
+    free(original_seen);
+    return status;
+}
+
+static double box_area(const box3 *box)
+{
+    double e[3];
+    for (int k = 0; k < 3; k++) {
+        e[k] = (double)box->hi[k] - box->lo[k];
+        if (!(e[k] >= 0.0))
+            return 0.0;
+    }
+    return 2.0 * (e[0] * e[1] + e[1] * e[2] + e[2] * e[0]);
+}
+
+typedef struct quality_state {
+    const pf_bih *bih;
+    double root_area;
+    double weighted_inner, weighted_leaf;
+    pf_bih_quality *q;
+} quality_state;
+
+/* Returns the subtree's triangle box; clip is the box the ancestors' planes cut out. */
+static box3 measure_node(quality_state *s, uint32_t node, const box3 *clip, uint32_t depth)
+{
+    const pf_bih_node *n = &s->bih->nodes[node];
+    box3 bounds = empty_box();
+    double count = 0;
+    if (pf_bih_is_leaf(n)) {
+        uint32_t first = pf_bih_leaf_first(n);
+        count = pf_bih_leaf_count(n);
+        for (uint32_t p = first; p < first + pf_bih_leaf_count(n); p++)
+            for (int c = 0; c < 3; c++)
+                box_grow(&bounds, s->bih->vertices[3 * p + c]);
+        s->q->leaf_count++;
+        if (pf_bih_leaf_count(n) > s->q->largest_leaf)
+            s->q->largest_leaf = pf_bih_leaf_count(n);
+        if (depth > s->q->depth)
+            s->q->depth = depth;
+    } else {
+        uint32_t child = pf_bih_first_child(n), axis = pf_bih_axis(n);
+        box3 left_clip = *clip, right_clip = *clip;
+        left_clip.hi[axis] = fminf(left_clip.hi[axis], n->clip[0]);
+        right_clip.lo[axis] = fmaxf(right_clip.lo[axis], n->clip[1]);
+        bounds = measure_node(s, child, &left_clip, depth + 1);
+        box3 right = measure_node(s, child + 1, &right_clip, depth + 1);
+        box_merge(&bounds, &right);
+        s->q->inner_count++;
+    }
+    box3 region = bounds;
+    for (int k = 0; k < 3; k++) {
+        region.lo[k] = fmaxf(region.lo[k], clip->lo[k]);
+        region.hi[k] = fminf(region.hi[k], clip->hi[k]);
+    }
+    double probability = s->root_area > 0.0 ? box_area(&region) / s->root_area : 1.0;
+    if (pf_bih_is_leaf(n))
+        s->weighted_leaf += probability * count;
+    else
+        s->weighted_inner += probability;
+    return bounds;
+}
+
+void pf_bih_quality_measure(const pf_bih *bih, pf_bih_quality *quality)
+{
+    memset(quality, 0, sizeof *quality);
+    quality->bytes_per_node = sizeof(pf_bih_node);
+    if (!bih || bih->triangle_count == 0 || bih->node_count == 0)
+        return;
+    box3 root;
+    memcpy(root.lo, bih->bounds_min, sizeof root.lo);
+    memcpy(root.hi, bih->bounds_max, sizeof root.hi);
+    quality_state s = {bih, box_area(&root), 0.0, 0.0, quality};
+    measure_node(&s, 0, &root, 0);
+    quality->sah_cost = s.weighted_inner + s.weighted_leaf;
+    quality->mean_leaf_size = (double)bih->triangle_count / quality->leaf_count;
+}

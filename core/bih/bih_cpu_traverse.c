@@ -1,0 +1,177 @@
+/*
+ * The CPU traversal: the definition of the algorithm that
+ * shaders/common/bih_traverse.glsl implements, step for step (same order of
+ * children, same interval arithmetic, same tie rule), so tests can pin the GPU
+ * to it.
+ *
+ * Robustness (REFERENCE.md, BIH):
+ * - every far distance (a box's or child's exit, and the best hit used as a
+ *   culling bound) is widened by 2γ(3), γ(n) = nε/(1−nε), ε = 2^-24 (Ize,
+ *   "Robust BVH Ray Traversal", JCGT 2(2), 2013), so rounding in the slab
+ *   distances can never cull a node the ray really enters;
+ * - a child's interval is the parent's interval intersected with the slab
+ *   (never overwritten);
+ * - an axis whose direction component is below the smallest normal float
+ *   counts as parallel: its slab is decided by the origin alone, so no 0·∞
+ *   (NaN) arises and CPU and GPU (which may flush denormals) agree;
+ * - popped entries whose entry distance lies beyond the best hit are skipped.
+ */
+#include "bih_internal.h"
+
+#include <float.h>
+#include <math.h>
+
+/* 2γ(3) for ε = 2^-24: 6ε / (1 − 3ε). */
+#define BIH_TWO_GAMMA3 (6.0f * 0x1p-24f / (1.0f - 3.0f * 0x1p-24f))
+
+static float widen_far(float t)
+{
+    return isinf(t) ? t : t + fabsf(t) * BIH_TWO_GAMMA3;
+}
+
+/* The next float above a finite t (for letting an equal t through a strict test). */
+static float next_up(float t)
+{
+    if (!isfinite(t))
+        return t;
+    return nextafterf(t, INFINITY);
+}
+
+typedef struct stack_entry {
+    uint32_t node;
+    float t_near, t_far;
+} stack_entry;
+
+pf_status pf_bih_trace_cpu(const pf_bih *bih, const pf_ray *ray, int any_hit, pf_hit *hit,
+                           pf_error *err)
+{
+    *hit = (pf_hit){-1.0f, PF_NO_HIT, 0.0f, 0.0f};
+    if (bih->triangle_count == 0)
+        return PF_OK;
+    const float *origin = ray->origin, *direction = ray->direction;
+    float inv[3];
+    int parallel[3];
+    for (int k = 0; k < 3; k++) {
+        parallel[k] = !(fabsf(direction[k]) >= FLT_MIN);
+        inv[k] = parallel[k] ? 0.0f : 1.0f / direction[k];
+    }
+    if (parallel[0] && parallel[1] && parallel[2])
+        return PF_OK;
+
+    float t_near = ray->tmin, t_far = ray->tmax;
+    for (int k = 0; k < 3; k++) {
+        if (parallel[k]) {
+            if (origin[k] < bih->bounds_min[k] || origin[k] > bih->bounds_max[k])
+                return PF_OK;
+            continue;
+        }
+        float t0 = (bih->bounds_min[k] - origin[k]) * inv[k];
+        float t1 = (bih->bounds_max[k] - origin[k]) * inv[k];
+        if (inv[k] < 0.0f) {
+            float swap = t0;
+            t0 = t1;
+            t1 = swap;
+        }
+        t_near = fmaxf(t_near, t0);
+        t_far = fminf(t_far, widen_far(t1));
+    }
+    if (!(t_near <= t_far))
+        return PF_OK;
+
+    float closest = ray->tmax;
+    stack_entry stack[PF_BIH_STACK_SIZE];
+    uint32_t stack_size = 0;
+    uint32_t node = 0;
+    /* A ray enters each node at most once, so node_count visits bound the loop. */
+    for (uint32_t visit = 0; visit < bih->node_count; visit++) {
+        const pf_bih_node *n = &bih->nodes[node];
+        int descend = 0;
+        if (!pf_bih_is_leaf(n)) {
+            uint32_t axis = pf_bih_axis(n), child = pf_bih_first_child(n);
+            float far_limit = fminf(t_far, widen_far(closest));
+            float left_near = t_near, left_far = far_limit;
+            float right_near = t_near, right_far = far_limit;
+            int left_first = 1;
+            int left_open = 1, right_open = 1;
+            if (parallel[axis]) {
+                left_open = origin[axis] <= n->clip[0];
+                right_open = origin[axis] >= n->clip[1];
+            } else {
+                float t_left = (n->clip[0] - origin[axis]) * inv[axis];
+                float t_right = (n->clip[1] - origin[axis]) * inv[axis];
+                if (inv[axis] > 0.0f) {
+                    left_far = fminf(left_far, widen_far(t_left));
+                    right_near = fmaxf(right_near, t_right);
+                } else {
+                    left_first = 0;
+                    right_far = fminf(right_far, widen_far(t_right));
+                    left_near = fmaxf(left_near, t_left);
+                }
+            }
+            int visit_left = left_open && left_near <= left_far;
+            int visit_right = right_open && right_near <= right_far;
+            uint32_t near_child = left_first ? child : child + 1;
+            uint32_t far_child = left_first ? child + 1 : child;
+            int visit_near = left_first ? visit_left : visit_right;
+            int visit_far = left_first ? visit_right : visit_left;
+            if (visit_near && visit_far) {
+                if (stack_size == PF_BIH_STACK_SIZE) {
+                    *hit = (pf_hit){-1.0f, PF_NO_HIT, 0.0f, 0.0f};
+                    return pf_error_set(err, PF_ERR_LIMIT,
+                                        "BIH traversal: stack of %u entries overflowed at node %u",
+                                        PF_BIH_STACK_SIZE, node);
+                }
+                stack[stack_size++] = (stack_entry){
+                    far_child, left_first ? right_near : left_near,
+                    left_first ? right_far : left_far};
+            }
+            if (visit_near || visit_far) {
+                node = visit_near ? near_child : far_child;
+                t_near = visit_near ? (left_first ? left_near : right_near)
+                                    : (left_first ? right_near : left_near);
+                t_far = visit_near ? (left_first ? left_far : right_far)
+                                   : (left_first ? right_far : left_far);
+                descend = 1;
+            }
+        } else {
+            uint32_t first = pf_bih_leaf_first(n), count = pf_bih_leaf_count(n);
+            for (uint32_t p = first; p < first + count; p++) {
+                float t, u, v;
+                if (!pf_ray_triangle_watertight(origin, direction, bih->vertices[3 * p],
+                                                bih->vertices[3 * p + 1],
+                                                bih->vertices[3 * p + 2], ray->tmin,
+                                                next_up(closest), &t, &u, &v))
+                    continue;
+                uint32_t original = bih->triangle_index[p];
+                /* Equal t: the lower original index wins, as in the brute-force oracle. */
+                if (t < closest ||
+                    (t == closest && hit->triangle != PF_NO_HIT && original < hit->triangle)) {
+                    closest = t;
+                    *hit = (pf_hit){t, original, u, v};
+                    if (any_hit)
+                        return PF_OK;
+                }
+            }
+        }
+        if (descend)
+            continue;
+        int resumed = 0;
+        while (stack_size > 0) {
+            stack_entry entry = stack[--stack_size];
+            float far_limit = fminf(entry.t_far, widen_far(closest));
+            if (entry.t_near <= far_limit) {
+                node = entry.node;
+                t_near = entry.t_near;
+                t_far = far_limit;
+                resumed = 1;
+                break;
+            }
+        }
+        if (!resumed)
+            return PF_OK;
+    }
+    *hit = (pf_hit){-1.0f, PF_NO_HIT, 0.0f, 0.0f};
+    return pf_error_set(err, PF_ERR_INTERNAL,
+                        "BIH traversal: more than %u node visits (a malformed tree)",
+                        bih->node_count);
+}

@@ -1,0 +1,152 @@
+/*
+ * core/bih: the Bounding Interval Hierarchy (Wächter & Keller, "Instant Ray
+ * Tracing: The Bounding Interval Hierarchy", EGSR 2006) over one frame's
+ * triangles — a CPU reference builder, its invariants checker and SAH cost
+ * report, a CPU traversal that defines the algorithm, and the GPU copy that
+ * shaders/common/bih_traverse.glsl traverses (pf_bih_raycast).
+ *
+ * Node format (12 bytes, std430 stride 12; GLSL mirror BihNode in
+ * shaders/common/bih_traverse.glsl):
+ *   inner node: word = (first_child << 2) | axis (axis 0, 1, 2);
+ *               the children are nodes first_child (left) and first_child + 1
+ *               (right); clip[0] = the largest coordinate along axis of any
+ *               triangle in the left subtree, clip[1] = the smallest of any
+ *               triangle in the right subtree (the two may overlap).
+ *   leaf:       word = PF_BIH_LEAF (low two bits 3, rest 0); the float fields
+ *               hold raw uint32 bits: clip[0] = first triangle (leaf order),
+ *               clip[1] = triangle count. Only an empty tree's root has count 0.
+ * Node 0 is the root. Triangles are stored in leaf order (each leaf's range is
+ * contiguous); triangle_index maps a leaf-order position to the frame's index.
+ *
+ * Rays and hits are pf_ray / pf_hit (pf_render.h): t = -1 and triangle =
+ * PF_NO_HIT on a miss, triangle is the frame's (original) index. A closest-hit
+ * query returns the same hit as the brute-force oracle: smallest t, and on an
+ * exactly equal t the lowest original index.
+ */
+#ifndef PF_BIH_H
+#define PF_BIH_H
+
+#include "pf_common.h"
+#include "pf_render.h"
+#include "pf_scene.h"
+#include "pf_vk.h"
+
+#include <stdint.h>
+
+/* Traversal stack entries (GPU and CPU); the build bounds the depth by it. */
+#define PF_BIH_STACK_SIZE 64u
+#define PF_BIH_LEAF 3u
+/* Wächter & Keller use leaves of a few triangles; 4 keeps leaves one cache line of vertices. */
+#define PF_BIH_DEFAULT_LEAF_SIZE 4u
+/* Child index field: 30 bits of the node word. */
+#define PF_BIH_MAX_NODES (1u << 30)
+
+typedef struct pf_bih_node {
+    float clip[2];
+    uint32_t word;
+} pf_bih_node;
+
+typedef struct pf_bih {
+    uint32_t node_count;
+    pf_bih_node *nodes;
+    uint32_t triangle_count;
+    float (*vertices)[4];        /* 3 per triangle, leaf order, w = 0 */
+    uint32_t *triangle_index;    /* leaf order -> frame triangle index */
+    float bounds_min[3];         /* of all triangles: the root's box */
+    float bounds_max[3];
+    uint32_t depth;              /* inner levels on the longest root-to-leaf path */
+    uint32_t leaf_count;
+    uint32_t largest_leaf;       /* triangles in the biggest leaf */
+} pf_bih;
+
+typedef struct pf_bih_build_options {
+    uint32_t max_leaf_size;      /* K: 0 = PF_BIH_DEFAULT_LEAF_SIZE */
+    uint32_t max_depth;          /* 0 = PF_BIH_STACK_SIZE; more is refused */
+} pf_bih_build_options;
+
+typedef struct pf_bih_quality {
+    double sah_cost;             /* see pf_bih_quality_measure */
+    uint32_t inner_count, leaf_count, depth, largest_leaf;
+    double mean_leaf_size;
+    uint32_t bytes_per_node;
+} pf_bih_quality;
+
+/*
+ * Builds a BIH over frame's triangles on the CPU, top down, with Wächter &
+ * Keller's global heuristic: a node's candidate box (the root's is the scene
+ * box) is split in the middle of its longest axis; triangles go left or right
+ * by the centre of their bounding box; when all fall on one side no node is
+ * made and the candidate box is halved towards them (so split planes stay on
+ * the global grid). When the candidate box can no longer separate them (equal
+ * centres) or the remaining depth is only ~log2(count / K) levels, the node
+ * splits at the median of the centres instead, so the depth stays within
+ * max_depth and leaves hold at most K = max_leaf_size triangles (unless
+ * max_depth is too small for that: then the deepest leaves hold the rest).
+ * Child boxes: the halves of the candidate box (global split) or the
+ * children's centre bounds (median split). out is filled on success (free with
+ * pf_bih_free) and zeroed on failure. Zero triangles give one empty leaf.
+ * Fails with PF_ERR_INVALID for NaN/Inf vertices or options out of range,
+ * PF_ERR_LIMIT when the triangles exceed the node index field, PF_ERR_NOMEM.
+ */
+pf_status pf_bih_build_cpu(const pf_scene_frame *frame, const pf_bih_build_options *options,
+                           pf_bih *out, pf_error *err);
+void pf_bih_free(pf_bih *bih);
+
+/*
+ * Checks the BIH invariants against the frame it was built from: node words
+ * well formed and in range, every frame triangle in exactly one leaf (through
+ * triangle_index), the leaf-order vertices equal to the frame's, leaf ranges
+ * contiguous and disjoint, every node reachable once, depth <= PF_BIH_STACK_SIZE,
+ * and the clip values bound their subtrees (every triangle under the left
+ * child has max[axis] <= clip[0], under the right child min[axis] >= clip[1]).
+ * PF_OK or PF_ERR_INTERNAL naming the first node/triangle at fault.
+ */
+pf_status pf_bih_check(const pf_bih *bih, const pf_scene_frame *frame, pf_error *err);
+
+/*
+ * SAH cost with C_trav = C_isect = 1, normalised by the root area:
+ *   cost = sum over inner nodes n of A(n) / A(root)
+ *        + sum over leaves l of count(l) * A(l) / A(root)
+ * where A(n) is the surface area of node n's box, defined for a BIH as the
+ * box the clip planes of n's ancestors cut out of the scene box (the region a
+ * ray must cross to reach n), intersected with the bounding box of n's own
+ * triangles. The intersection makes the figure comparable with a BVH's SAH
+ * (whose node box is its triangles' box) and never larger than what the clip
+ * planes alone give. A(root) is the scene box. When the scene box has zero
+ * area (one segment or point), every node counts with probability 1.
+ * Also fills the node statistics. quality is zeroed (but bytes_per_node) for
+ * an empty tree. Requires a tree that passes pf_bih_check.
+ */
+void pf_bih_quality_measure(const pf_bih *bih, pf_bih_quality *quality);
+
+/*
+ * Traces one ray through the BIH on the CPU: the reference for the GPU
+ * include, step for step. Closest hit, or with any_hit the first hit found.
+ * Returns PF_OK, or PF_ERR_LIMIT when the traversal stack
+ * (PF_BIH_STACK_SIZE entries) would overflow — *hit is then a miss, never a
+ * silently wrong answer. A ray with a zero direction misses.
+ */
+pf_status pf_bih_trace_cpu(const pf_bih *bih, const pf_ray *ray, int any_hit, pf_hit *hit,
+                           pf_error *err);
+
+/*
+ * A BIH on the GPU and the pipelines that trace it. Created empty; filled by
+ * pf_bih_gpu_upload. Owns its buffers; destroy before the context.
+ */
+typedef struct pf_bih_gpu pf_bih_gpu;
+
+pf_status pf_bih_gpu_create(pf_vk_context *ctx, pf_bih_gpu **out, pf_error *err);
+void pf_bih_gpu_destroy(pf_bih_gpu *gpu);
+/* Replaces the GPU copy with bih (nodes, leaf-order vertices, triangle_index). */
+pf_status pf_bih_gpu_upload(pf_bih_gpu *gpu, const pf_bih *bih, pf_error *err);
+
+/*
+ * Casts rays through the uploaded BIH on the GPU (shaders/bih_raycast.comp):
+ * closest hit, or with any_hit any hit in (tmin, tmax). hits[i] answers
+ * rays[i]. Fails with PF_ERR_INVALID before an upload, PF_ERR_LIMIT when some
+ * ray overflowed the traversal stack (its hit is a miss), PF_ERR_VULKAN.
+ */
+pf_status pf_bih_raycast(pf_bih_gpu *gpu, const pf_ray *rays, uint32_t ray_count, int any_hit,
+                         pf_hit *hits, pf_error *err);
+
+#endif

@@ -1,0 +1,477 @@
+/*
+ * Scenes, rays and comparisons shared by the BIH tests: the hard-case
+ * geometry of issue 3 (generated here, small and exact), random rays, and the
+ * CPU brute-force answer in the oracle's order (lower index wins ties).
+ */
+#ifndef BIH_TEST_UTIL_H
+#define BIH_TEST_UTIL_H
+
+#include "pf_bih.h"
+#include "pf_test.h"
+
+#include <dirent.h>
+#include <math.h>
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* Relative t tolerance for GPU results: GPU division may be 2.5 ulp off (Vulkan precision rules). */
+#define BIH_T_RELATIVE_TOLERANCE 1e-6
+
+static inline uint32_t bih_next_random(uint32_t *state)
+{
+    *state ^= *state << 13;
+    *state ^= *state >> 17;
+    *state ^= *state << 5;
+    return *state;
+}
+
+static inline float bih_uniform(uint32_t *state, float low, float high)
+{
+    return low + (high - low) * (float)(bih_next_random(state) >> 8) / 16777216.0f;
+}
+
+/* A frame owning only vertices (free with bih_frame_free); bounds from the vertices. */
+static inline int bih_frame_alloc(pf_scene_frame *frame, uint32_t triangle_count)
+{
+    memset(frame, 0, sizeof *frame);
+    frame->triangle_count = triangle_count;
+    frame->vertices = calloc(3 * (size_t)(triangle_count ? triangle_count : 1), sizeof *frame->vertices);
+    return frame->vertices != NULL;
+}
+
+static inline void bih_frame_bounds(pf_scene_frame *frame)
+{
+    for (int k = 0; k < 3; k++) {
+        frame->bounds_min[k] = frame->triangle_count ? INFINITY : 0.0f;
+        frame->bounds_max[k] = frame->triangle_count ? -INFINITY : 0.0f;
+    }
+    for (uint32_t i = 0; i < 3 * frame->triangle_count; i++)
+        for (int k = 0; k < 3; k++) {
+            frame->bounds_min[k] = fminf(frame->bounds_min[k], frame->vertices[i][k]);
+            frame->bounds_max[k] = fmaxf(frame->bounds_max[k], frame->vertices[i][k]);
+        }
+}
+
+static inline void bih_frame_free(pf_scene_frame *frame)
+{
+    free(frame->vertices);
+    memset(frame, 0, sizeof *frame);
+}
+
+static inline void bih_set_triangle(pf_scene_frame *frame, uint32_t t, const float a[3],
+                                    const float b[3], const float c[3])
+{
+    const float *corners[3] = {a, b, c};
+    for (int i = 0; i < 3; i++) {
+        for (int k = 0; k < 3; k++)
+            frame->vertices[3 * t + i][k] = corners[i][k];
+        frame->vertices[3 * t + i][3] = 0.0f;
+    }
+}
+
+/* Random triangles of size ~0.4 in [-1, 1]^3; a few exact duplicates make ties. */
+static inline int bih_make_soup(pf_scene_frame *frame, uint32_t count, uint32_t seed)
+{
+    if (!bih_frame_alloc(frame, count))
+        return 0;
+    uint32_t state = seed;
+    for (uint32_t i = 0; i < count; i++) {
+        float centre[3] = {bih_uniform(&state, -1, 1), bih_uniform(&state, -1, 1),
+                           bih_uniform(&state, -1, 1)};
+        for (int corner = 0; corner < 3; corner++)
+            for (int k = 0; k < 3; k++)
+                frame->vertices[3 * i + corner][k] = centre[k] + bih_uniform(&state, -0.2f, 0.2f);
+    }
+    for (uint32_t i = 10; i + 7 < count; i += 97)
+        memcpy(frame->vertices[3 * (i + 7)], frame->vertices[3 * i], 3 * sizeof *frame->vertices);
+    bih_frame_bounds(frame);
+    return 1;
+}
+
+/*
+ * The closed surface of the cube [-1, 1]^3, each face a GRID × GRID grid of
+ * quads split into two triangles: 6 · GRID² · 2 triangles sharing edges and
+ * vertices exactly (grid points are multiples of 2/GRID, exact in float).
+ */
+#define BIH_CUBE_GRID 4
+static inline int bih_make_closed_cube(pf_scene_frame *frame)
+{
+    const int grid = BIH_CUBE_GRID;
+    if (!bih_frame_alloc(frame, 6 * grid * grid * 2))
+        return 0;
+    uint32_t t = 0;
+    for (int axis = 0; axis < 3; axis++)
+        for (int side = -1; side <= 1; side += 2)
+            for (int i = 0; i < grid; i++)
+                for (int j = 0; j < grid; j++) {
+                    int u_axis = (axis + 1) % 3, v_axis = (axis + 2) % 3;
+                    float p[4][3];
+                    for (int c = 0; c < 4; c++) {
+                        p[c][axis] = (float)side;
+                        p[c][u_axis] = -1.0f + 2.0f * (float)(i + (c == 1 || c == 2)) / grid;
+                        p[c][v_axis] = -1.0f + 2.0f * (float)(j + (c >= 2)) / grid;
+                    }
+                    bih_set_triangle(frame, t++, p[0], p[1], p[2]);
+                    bih_set_triangle(frame, t++, p[0], p[2], p[3]);
+                }
+    bih_frame_bounds(frame);
+    return 1;
+}
+
+/* Multiplies every coordinate by scale, then adds offset (exact for powers of two scales). */
+static inline void bih_frame_transform(pf_scene_frame *frame, float scale, float offset)
+{
+    for (uint32_t i = 0; i < 3 * frame->triangle_count; i++)
+        for (int k = 0; k < 3; k++)
+            frame->vertices[i][k] = frame->vertices[i][k] * scale + offset;
+    bih_frame_bounds(frame);
+}
+
+/* Random rays aimed into the frame's box from around it; every fourth has a finite tmax. */
+static inline void bih_random_rays(uint32_t *state, const pf_scene_frame *frame, pf_ray *rays,
+                                   uint32_t count)
+{
+    float extent = 0.0f;
+    for (int k = 0; k < 3; k++)
+        extent = fmaxf(extent, frame->bounds_max[k] - frame->bounds_min[k]);
+    if (extent == 0.0f)
+        extent = 1.0f;
+    for (uint32_t r = 0; r < count; r++) {
+        float target[3];
+        for (int k = 0; k < 3; k++) {
+            float lo = frame->bounds_min[k], hi = frame->bounds_max[k];
+            float margin = 0.5f * extent;
+            rays[r].origin[k] = bih_uniform(state, lo - margin, hi + margin);
+            target[k] = bih_uniform(state, lo, hi);
+            rays[r].direction[k] = target[k] - rays[r].origin[k];
+        }
+        rays[r].tmin = r % 8 == 1 ? 0.3f : 0.0f;
+        rays[r].tmax = r % 4 == 0 ? bih_uniform(state, 0.2f, 1.5f) : INFINITY;
+    }
+}
+
+/* Closest hit on the CPU, every triangle in index order (the oracle's rule). */
+static inline pf_hit bih_brute_closest(const pf_scene_frame *frame, const pf_ray *ray)
+{
+    pf_hit hit = {-1.0f, PF_NO_HIT, 0, 0};
+    float closest = ray->tmax;
+    for (uint32_t i = 0; i < frame->triangle_count; i++) {
+        float t, u, v;
+        if (pf_ray_triangle_watertight(ray->origin, ray->direction, frame->vertices[3 * i],
+                                       frame->vertices[3 * i + 1], frame->vertices[3 * i + 2],
+                                       ray->tmin, closest, &t, &u, &v)) {
+            closest = t;
+            hit = (pf_hit){t, i, u, v};
+        }
+    }
+    return hit;
+}
+
+static inline int bih_t_close(float a, float b)
+{
+    return fabs((double)a - b) <= BIH_T_RELATIVE_TOLERANCE * fmax(fabs(a), fabs(b));
+}
+
+/* The triangle really is hit by the ray at (about) t. */
+static inline int bih_hit_is_real(const pf_scene_frame *frame, const pf_ray *ray, const pf_hit *hit)
+{
+    float t = 0, u, v;
+    return hit->triangle < frame->triangle_count &&
+           pf_ray_triangle_watertight(ray->origin, ray->direction,
+                                      frame->vertices[3 * hit->triangle],
+                                      frame->vertices[3 * hit->triangle + 1],
+                                      frame->vertices[3 * hit->triangle + 2], ray->tmin, ray->tmax,
+                                      &t, &u, &v) &&
+           bih_t_close(t, hit->t);
+}
+
+/*
+ * A BIH closest hit against the expected one: the same triangle with t
+ * within tolerance (bit-equal when exact is set: the CPU runs the same test),
+ * or, on a tie, another triangle really hit at an equal t (within tolerance:
+ * the watertight t's rounding exceeds the slab test's, so among hits whose t
+ * differ by rounding alone the BIH may meet another one first).
+ * Prints the first few disagreements under label.
+ */
+static inline uint32_t bih_compare_closest(const char *label, const pf_scene_frame *frame,
+                                           const pf_ray *rays, const pf_hit *expected,
+                                           const pf_hit *got, uint32_t count, int exact)
+{
+    uint32_t mismatches = 0;
+    for (uint32_t r = 0; r < count; r++) {
+        int ok;
+        if (expected[r].triangle == PF_NO_HIT)
+            ok = got[r].triangle == PF_NO_HIT && got[r].t == -1.0f;
+        else if (got[r].triangle == expected[r].triangle)
+            ok = exact ? got[r].t == expected[r].t : bih_t_close(got[r].t, expected[r].t);
+        else
+            ok = bih_t_close(got[r].t, expected[r].t) && bih_hit_is_real(frame, &rays[r], &got[r]);
+        if (!ok && mismatches++ < 5)
+            fprintf(stderr, "%s: ray %u (o %.9g %.9g %.9g d %.9g %.9g %.9g [%g, %g]): got tri %u t %.9g, expected tri %u t %.9g\n",
+                    label, r, rays[r].origin[0], rays[r].origin[1], rays[r].origin[2],
+                    rays[r].direction[0], rays[r].direction[1], rays[r].direction[2],
+                    rays[r].tmin, rays[r].tmax, got[r].triangle, got[r].t,
+                    expected[r].triangle, expected[r].t);
+    }
+    return mismatches;
+}
+
+/* Any-hit: a hit exactly when the closest-hit answer has one, on a triangle really hit. */
+static inline uint32_t bih_compare_any(const char *label, const pf_scene_frame *frame,
+                                       const pf_ray *rays, const pf_hit *closest,
+                                       const pf_hit *got, uint32_t count)
+{
+    uint32_t mismatches = 0;
+    for (uint32_t r = 0; r < count; r++) {
+        int ok = closest[r].triangle == PF_NO_HIT ? got[r].triangle == PF_NO_HIT
+                                                  : bih_hit_is_real(frame, &rays[r], &got[r]);
+        if (!ok && mismatches++ < 5)
+            fprintf(stderr, "%s: any-hit ray %u: got tri %u t %.9g, closest tri %u\n", label, r,
+                    got[r].triangle, got[r].t, closest[r].triangle);
+    }
+    return mismatches;
+}
+
+/* Names of the shared scenes (directories of $PF_SHARED_SCENES); returns how many (<= max). */
+static inline uint32_t bih_shared_scene_names(char names[][64], uint32_t max)
+{
+    const char *root = getenv("PF_SHARED_SCENES");
+    DIR *dir = opendir(root ? root : "../shared/scenes");
+    uint32_t count = 0;
+    if (!dir)
+        return 0;
+    struct dirent *entry;
+    while ((entry = readdir(dir)) && count < max) {
+        if (entry->d_name[0] == '.' || strlen(entry->d_name) >= 64)
+            continue;
+        strcpy(names[count++], entry->d_name);
+    }
+    closedir(dir);
+    return count;
+}
+
+/* ---- The hard cases of issue 3, shared by the CPU and GPU tests. ---- */
+
+typedef enum bih_case {
+    BIH_CASE_SOUP,
+    BIH_CASE_CUBE,          /* closed mesh: interior rays through edges/vertices must hit */
+    BIH_CASE_CUBE_SMALL,    /* scaled by 1e-4 */
+    BIH_CASE_CUBE_LARGE,    /* scaled by 1e4 */
+    BIH_CASE_CUBE_OFFSET,   /* offset by 1e5 */
+    BIH_CASE_SOUP_OFFSET,   /* soup offset by 1e5 */
+    BIH_CASE_FLAT,          /* every triangle in the plane z = 0 */
+    BIH_CASE_SAME_CENTRE,   /* every centroid and box centre at the origin */
+    BIH_CASE_COPLANAR,      /* overlapping triangles in one plane, duplicates */
+    BIH_CASE_DEGENERATE,    /* zero-area and collinear triangles among real ones */
+    BIH_CASE_CLUSTERED,     /* triangles at x = 2^-i: the global heuristic would go 100 deep */
+    BIH_CASE_ONE,
+    BIH_CASE_ZERO,
+    BIH_CASE_COUNT
+} bih_case;
+
+/*
+ * BIH_CASE_DEGENERATE: index % 4 == 0 a real triangle, 1 a point, 2 a segment
+ * (a repeated vertex), 3 three distinct collinear points (the middle one
+ * rounded onto the line, so the edge functions are rounding noise).
+ */
+#define BIH_DEGENERATE_EVERY 4u
+
+static inline int bih_case_is_cube(int which)
+{
+    return which >= BIH_CASE_CUBE && which <= BIH_CASE_CUBE_OFFSET;
+}
+
+static inline int bih_make_case(int which, pf_scene_frame *frame, const char **name)
+{
+    static const char *names[BIH_CASE_COUNT] = {
+        "soup", "closed cube", "cube x1e-4", "cube x1e4", "cube +1e5", "soup +1e5", "flat",
+        "same centre", "coplanar", "degenerate", "clustered", "one triangle", "zero triangles"};
+    *name = names[which];
+    uint32_t state = 77 + (uint32_t)which;
+    switch (which) {
+    case BIH_CASE_SOUP:
+        return bih_make_soup(frame, 600, 11);
+    case BIH_CASE_CUBE:
+        return bih_make_closed_cube(frame);
+    case BIH_CASE_CUBE_SMALL:
+        if (!bih_make_closed_cube(frame))
+            return 0;
+        bih_frame_transform(frame, 1e-4f, 0.0f);
+        return 1;
+    case BIH_CASE_CUBE_LARGE:
+        if (!bih_make_closed_cube(frame))
+            return 0;
+        bih_frame_transform(frame, 1e4f, 0.0f);
+        return 1;
+    case BIH_CASE_CUBE_OFFSET:
+        if (!bih_make_closed_cube(frame))
+            return 0;
+        bih_frame_transform(frame, 1.0f, 1e5f);
+        return 1;
+    case BIH_CASE_SOUP_OFFSET:
+        if (!bih_make_soup(frame, 400, 12))
+            return 0;
+        bih_frame_transform(frame, 1.0f, 1e5f);
+        return 1;
+    case BIH_CASE_FLAT: {
+        const int grid = 12;
+        if (!bih_frame_alloc(frame, 2 * grid * grid))
+            return 0;
+        uint32_t t = 0;
+        for (int i = 0; i < grid; i++)
+            for (int j = 0; j < grid; j++) {
+                float a[3] = {(float)i, (float)j, 0}, b[3] = {(float)i + 1, (float)j, 0};
+                float c[3] = {(float)i + 1, (float)j + 1, 0}, d[3] = {(float)i, (float)j + 1, 0};
+                bih_set_triangle(frame, t++, a, b, c);
+                bih_set_triangle(frame, t++, a, c, d);
+            }
+        break;
+    }
+    case BIH_CASE_SAME_CENTRE: {
+        /* Each axis takes the values {-s, 0, s} in some order: centroid = box centre = 0. */
+        static const int orders[6][3] = {{-1, 0, 1}, {-1, 1, 0}, {0, -1, 1},
+                                         {0, 1, -1}, {1, -1, 0}, {1, 0, -1}};
+        if (!bih_frame_alloc(frame, 300))
+            return 0;
+        /* Some picks are collinear: degenerate triangles at the same centre too. */
+        for (uint32_t t = 0; t < 300; t++) {
+            float scale = bih_uniform(&state, 0.1f, 2.0f);
+            for (int k = 0; k < 3; k++) {
+                int pick = (int)(bih_next_random(&state) % 6);
+                for (int c = 0; c < 3; c++)
+                    frame->vertices[3 * t + c][k] = scale * (float)orders[pick][c];
+            }
+        }
+        break;
+    }
+    case BIH_CASE_COPLANAR: {
+        if (!bih_frame_alloc(frame, 200))
+            return 0;
+        for (uint32_t t = 0; t < 200; t++) {
+            for (int c = 0; c < 3; c++) {
+                frame->vertices[3 * t + c][0] = bih_uniform(&state, -1, 1);
+                frame->vertices[3 * t + c][1] = bih_uniform(&state, -1, 1);
+                frame->vertices[3 * t + c][2] = 0.5f;
+            }
+            if (t % 10 == 9)
+                memcpy(frame->vertices[3 * t], frame->vertices[3 * (t - 1)], 3 * sizeof *frame->vertices);
+        }
+        break;
+    }
+    case BIH_CASE_DEGENERATE: {
+        if (!bih_make_soup(frame, 300, 13))
+            return 0;
+        for (uint32_t t = 0; t < 300; t++) {
+            float *v0 = frame->vertices[3 * t], *v1 = frame->vertices[3 * t + 1],
+                  *v2 = frame->vertices[3 * t + 2];
+            if (t % BIH_DEGENERATE_EVERY == 1) {
+                memcpy(v1, v0, 3 * sizeof(float));
+                memcpy(v2, v0, 3 * sizeof(float));
+            } else if (t % BIH_DEGENERATE_EVERY == 2) {
+                memcpy(v2, v1, 3 * sizeof(float));
+            } else if (t % BIH_DEGENERATE_EVERY == 3) {
+                for (int k = 0; k < 3; k++)
+                    v1[k] = v0[k] + 0.37f * (v2[k] - v0[k]);
+            }
+        }
+        break;
+    }
+    case BIH_CASE_CLUSTERED: {
+        const uint32_t count = 120;
+        if (!bih_frame_alloc(frame, count))
+            return 0;
+        for (uint32_t t = 0; t < count; t++) {
+            float x = ldexpf(1.0f, -(int)t), size = 0.25f * x;
+            float a[3] = {x, 0, 0}, b[3] = {x + size, 1, 0}, c[3] = {x, 0, 1};
+            bih_set_triangle(frame, t, a, b, c);
+        }
+        break;
+    }
+    case BIH_CASE_ONE: {
+        if (!bih_frame_alloc(frame, 1))
+            return 0;
+        float a[3] = {0, 0, 0}, b[3] = {1, 0, 0.5f}, c[3] = {0, 1, 0.25f};
+        bih_set_triangle(frame, 0, a, b, c);
+        break;
+    }
+    case BIH_CASE_ZERO:
+        if (!bih_frame_alloc(frame, 0))
+            return 0;
+        break;
+    default:
+        return 0;
+    }
+    bih_frame_bounds(frame);
+    return 1;
+}
+
+/*
+ * Rays for a case: a quarter random, a quarter parallel to an axis with the
+ * origin exactly on a clip plane of the tree (or a box face), a quarter
+ * aimed exactly at triangle vertices and edge midpoints, a quarter random
+ * again. For the closed cubes the aimed rays start inside (they must hit);
+ * returns the index of the first aimed ray, aimed rays end at 3 count / 4.
+ */
+static inline uint32_t bih_case_rays(int which, const pf_scene_frame *frame, const pf_bih *bih,
+                                     uint32_t seed, pf_ray *rays, uint32_t count)
+{
+    uint32_t state = seed;
+    bih_random_rays(&state, frame, rays, count);
+    uint32_t n = frame->triangle_count;
+    for (uint32_t r = count / 4; r < count / 2; r++) {
+        pf_ray *ray = &rays[r];
+        float p[3] = {0, 0, 0};
+        if (n > 0) {
+            uint32_t t = bih_next_random(&state) % n;
+            for (int k = 0; k < 3; k++)
+                p[k] = (frame->vertices[3 * t][k] + frame->vertices[3 * t + 1][k] +
+                        frame->vertices[3 * t + 2][k]) / 3.0f;
+        }
+        uint32_t node = bih_next_random(&state) % bih->node_count;
+        const pf_bih_node *inner = &bih->nodes[node];
+        if ((inner->word & 3u) != PF_BIH_LEAF) {
+            p[inner->word & 3u] = inner->clip[bih_next_random(&state) & 1u];
+        } else {
+            int axis = (int)(bih_next_random(&state) % 3);
+            p[axis] = bih_next_random(&state) & 1u ? frame->bounds_min[axis] : frame->bounds_max[axis];
+        }
+        uint32_t pick = bih_next_random(&state);
+        int dir_axis = (int)(pick % 3);
+        float zero = pick & 8u ? -0.0f : 0.0f;
+        for (int k = 0; k < 3; k++) {
+            ray->origin[k] = p[k];
+            ray->direction[k] = zero;
+        }
+        ray->direction[dir_axis] = pick & 4u ? 1.0f : -1.0f;
+        /* Half start back along the ray, so they cross the whole scene. */
+        if (pick & 16u) {
+            float extent = frame->bounds_max[dir_axis] - frame->bounds_min[dir_axis] + 1.0f;
+            ray->origin[dir_axis] -= 2.0f * extent * ray->direction[dir_axis];
+        }
+        ray->tmin = 0.0f;
+        ray->tmax = INFINITY;
+    }
+    for (uint32_t r = count / 2; n > 0 && r < 3 * count / 4; r++) {
+        pf_ray *ray = &rays[r];
+        uint32_t t = bih_next_random(&state) % n;
+        uint32_t corner = bih_next_random(&state) % 3, other = (corner + 1) % 3;
+        int midpoint = bih_next_random(&state) & 1u;
+        float target[3];
+        for (int k = 0; k < 3; k++) {
+            float a = frame->vertices[3 * t + corner][k], b = frame->vertices[3 * t + other][k];
+            target[k] = midpoint ? 0.5f * a + 0.5f * b : a;
+            float lo = frame->bounds_min[k], hi = frame->bounds_max[k];
+            float centre = 0.5f * lo + 0.5f * hi, half = 0.5f * hi - 0.5f * lo;
+            ray->origin[k] = bih_case_is_cube(which)
+                                 ? centre + bih_uniform(&state, -0.9f, 0.9f) * half
+                                 : bih_uniform(&state, lo - half - 1.0f, hi + half + 1.0f);
+            ray->direction[k] = target[k] - ray->origin[k];
+        }
+        ray->tmin = 0.0f;
+        ray->tmax = INFINITY;
+    }
+    return count / 2;
+}
+
+#endif

@@ -1,0 +1,238 @@
+/*
+ * The CPU BIH: reference build + invariants, SAH report, and the CPU
+ * traversal against the CPU brute force (pf_ray_triangle_watertight over
+ * every triangle) on the hard cases of issue 3 and every shared scene. Same
+ * triangle test on both sides, so hits must agree exactly (triangle and t).
+ */
+#include "bih_test_util.h"
+
+#define CASE_RAYS 2000u
+#define SCENE_RAYS 1500u
+/* Deeper than the traversal stack: a hand-made chain the build would never produce. */
+#define CHAIN_DEPTH (PF_BIH_STACK_SIZE + 6u)
+
+/* Build, check invariants and leaf size, trace rays both ways; returns the tree (caller frees). */
+static int build_and_trace(const char *label, const pf_scene_frame *frame, int which, uint32_t seed,
+                           uint32_t ray_count, const pf_bih_build_options *options, pf_bih *bih)
+{
+    pf_error err = {0};
+    PF_CHECK_OK(pf_bih_build_cpu(frame, options, bih, &err), &err);
+    if (err.status != PF_OK)
+        return 0;
+    PF_CHECK_OK(pf_bih_check(bih, frame, &err), &err);
+    uint32_t leaf_size = options && options->max_leaf_size ? options->max_leaf_size
+                                                           : PF_BIH_DEFAULT_LEAF_SIZE;
+    PF_CHECK_MSG(bih->largest_leaf <= leaf_size || (options && options->max_depth),
+                 "%s: leaf of %u triangles (K = %u)", label, bih->largest_leaf, leaf_size);
+    PF_CHECK(bih->depth <= PF_BIH_STACK_SIZE);
+
+    pf_ray *rays = malloc(ray_count * sizeof *rays);
+    pf_hit *expected = malloc(ray_count * sizeof *expected);
+    pf_hit *got = malloc(ray_count * sizeof *got);
+    pf_hit *any = malloc(ray_count * sizeof *any);
+    if (!rays || !expected || !got || !any) {
+        PF_CHECK(!"out of memory");
+        free(rays), free(expected), free(got), free(any);
+        return 0;
+    }
+    uint32_t aimed = bih_case_rays(which, frame, bih, seed, rays, ray_count);
+    uint32_t failures = 0, hits = 0;
+    for (uint32_t r = 0; r < ray_count; r++) {
+        expected[r] = bih_brute_closest(frame, &rays[r]);
+        failures += pf_bih_trace_cpu(bih, &rays[r], 0, &got[r], &err) != PF_OK;
+        failures += pf_bih_trace_cpu(bih, &rays[r], 1, &any[r], &err) != PF_OK;
+        hits += expected[r].triangle != PF_NO_HIT;
+    }
+    PF_CHECK_MSG(failures == 0, "%s: %u traversals failed: %s", label, failures, err.message);
+    uint32_t mismatches = bih_compare_closest(label, frame, rays, expected, got, ray_count, 1);
+    PF_CHECK_MSG(mismatches == 0, "%s: %u of %u closest hits differ from brute force", label,
+                 mismatches, ray_count);
+    mismatches = bih_compare_any(label, frame, rays, expected, any, ray_count);
+    PF_CHECK_MSG(mismatches == 0, "%s: %u of %u any hits wrong", label, mismatches, ray_count);
+    if (frame->triangle_count > 0)
+        PF_CHECK_MSG(hits > ray_count / 20, "%s: only %u hits: the rays test little", label, hits);
+    if (bih_case_is_cube(which)) {
+        uint32_t leaks = 0;
+        for (uint32_t r = aimed; r < 3 * ray_count / 4; r++)
+            leaks += got[r].triangle == PF_NO_HIT || any[r].triangle == PF_NO_HIT;
+        PF_CHECK_MSG(leaks == 0, "%s: %u rays through shared edges/vertices leaked out", label, leaks);
+    }
+    if (which == BIH_CASE_DEGENERATE)
+        for (uint32_t r = 0; r < ray_count; r++)
+            PF_CHECK_MSG(got[r].triangle == PF_NO_HIT || got[r].triangle % BIH_DEGENERATE_EVERY == 0,
+                         "ray %u hit degenerate triangle %u", r, got[r].triangle);
+    free(rays), free(expected), free(got), free(any);
+    return 1;
+}
+
+PF_TEST(hard_cases_match_brute_force)
+{
+    for (int which = 0; which < BIH_CASE_COUNT; which++) {
+        pf_scene_frame frame;
+        const char *name;
+        PF_REQUIRE(bih_make_case(which, &frame, &name));
+        pf_bih bih;
+        if (build_and_trace(name, &frame, which, 1000 + (uint32_t)which, CASE_RAYS, NULL, &bih)) {
+            pf_bih_quality quality;
+            pf_bih_quality_measure(&bih, &quality);
+            if (frame.triangle_count == 0) {
+                PF_CHECK(quality.sah_cost == 0.0);
+            } else {
+                PF_CHECK(quality.leaf_count == bih.leaf_count);
+                PF_CHECK(quality.depth == bih.depth);
+                PF_CHECK_MSG(quality.sah_cost >= 1.0 && isfinite(quality.sah_cost),
+                             "%s: SAH %g (the root leaf or node alone costs >= 1)", name,
+                             quality.sah_cost);
+            }
+            pf_bih_free(&bih);
+        }
+        bih_frame_free(&frame);
+    }
+}
+
+PF_TEST(shared_scenes_match_brute_force)
+{
+    char names[16][64];
+    uint32_t scene_count = bih_shared_scene_names(names, 16);
+    PF_REQUIRE(scene_count > 0);
+    for (uint32_t i = 0; i < scene_count; i++) {
+        char path[1024];
+        pf_scene *scene = NULL;
+        pf_error err = {0};
+        PF_CHECK_OK(pf_scene_load(pf_test_shared_scene(names[i], path, sizeof path), &scene, &err), &err);
+        if (!scene)
+            continue;
+        pf_scene_frame frame = {0};
+        PF_CHECK_OK(pf_scene_eval(scene, pf_scene_frame_time(scene, 1), &frame, &err), &err);
+        pf_bih bih;
+        if (frame.triangle_count > 0 &&
+            build_and_trace(names[i], &frame, BIH_CASE_SOUP, 31 + i, SCENE_RAYS, NULL, &bih)) {
+            pf_bih_quality quality;
+            pf_bih_quality_measure(&bih, &quality);
+            printf("%-14s %6u triangles: %u nodes, depth %u, leaves %u (mean %.2f, max %u), SAH %.2f\n",
+                   names[i], frame.triangle_count, bih.node_count, bih.depth, bih.leaf_count,
+                   quality.mean_leaf_size, bih.largest_leaf, quality.sah_cost);
+            pf_bih_free(&bih);
+        }
+        pf_scene_frame_free(&frame);
+        pf_scene_destroy(scene);
+    }
+}
+
+PF_TEST(depth_limit_is_kept)
+{
+    pf_scene_frame frame;
+    const char *name;
+    PF_REQUIRE(bih_make_case(BIH_CASE_SOUP, &frame, &name));
+    pf_bih_build_options options = {4, 6};
+    pf_bih bih;
+    if (build_and_trace("soup, max depth 6", &frame, BIH_CASE_SOUP, 5, CASE_RAYS, &options, &bih)) {
+        PF_CHECK(bih.depth <= 6);
+        pf_bih_free(&bih);
+    }
+    pf_error err = {0};
+    options.max_depth = PF_BIH_STACK_SIZE + 1;
+    PF_CHECK(pf_bih_build_cpu(&frame, &options, &bih, &err) == PF_ERR_INVALID);
+    PF_CHECK(strstr(err.message, "stack") != NULL);
+    bih_frame_free(&frame);
+}
+
+PF_TEST(bad_input_is_refused)
+{
+    pf_scene_frame frame;
+    PF_REQUIRE(bih_make_soup(&frame, 20, 3));
+    frame.vertices[31][1] = NAN;
+    pf_bih bih;
+    pf_error err = {0};
+    PF_CHECK(pf_bih_build_cpu(&frame, NULL, &bih, &err) == PF_ERR_INVALID);
+    PF_CHECK(strstr(err.message, "triangle 10") != NULL);
+    PF_CHECK(bih.nodes == NULL && bih.node_count == 0);
+    bih_frame_free(&frame);
+}
+
+PF_TEST(checker_catches_broken_trees)
+{
+    pf_scene_frame frame;
+    PF_REQUIRE(bih_make_soup(&frame, 100, 4));
+    pf_bih bih;
+    pf_error err = {0};
+    PF_REQUIRE_OK(pf_bih_build_cpu(&frame, NULL, &bih, &err), &err);
+    PF_REQUIRE_OK(pf_bih_check(&bih, &frame, &err), &err);
+    PF_REQUIRE((bih.nodes[0].word & 3u) != PF_BIH_LEAF);
+
+    /* A left clip below its subtree's extent. */
+    float saved = bih.nodes[0].clip[0];
+    bih.nodes[0].clip[0] = bih.bounds_min[bih.nodes[0].word & 3u] - 1.0f;
+    PF_CHECK(pf_bih_check(&bih, &frame, &err) == PF_ERR_INTERNAL);
+    PF_CHECK(strstr(err.message, "node 0") != NULL);
+    bih.nodes[0].clip[0] = saved;
+
+    /* A triangle listed twice (and so another one missing). */
+    uint32_t index = bih.triangle_index[1];
+    bih.triangle_index[1] = bih.triangle_index[0];
+    PF_CHECK(pf_bih_check(&bih, &frame, &err) == PF_ERR_INTERNAL);
+    bih.triangle_index[1] = index;
+
+    /* A child index pointing back at the root. */
+    uint32_t word = bih.nodes[0].word;
+    bih.nodes[0].word = word & 3u;
+    PF_CHECK(pf_bih_check(&bih, &frame, &err) == PF_ERR_INTERNAL);
+    bih.nodes[0].word = word;
+    PF_CHECK_OK(pf_bih_check(&bih, &frame, &err), &err);
+    pf_bih_free(&bih);
+    bih_frame_free(&frame);
+}
+
+/*
+ * A chain CHAIN_DEPTH deep whose near children are inner nodes and whose far
+ * children are leaves, with clips that never cull: every level pushes one
+ * entry, so the stack must overflow — and say so.
+ */
+PF_TEST(stack_overflow_is_reported)
+{
+    pf_scene_frame frame;
+    PF_REQUIRE(bih_make_soup(&frame, 1, 5));
+    pf_bih bih = {0};
+    bih.triangle_count = 1;
+    bih.vertices = frame.vertices;
+    uint32_t index = 0;
+    bih.triangle_index = &index;
+    for (int k = 0; k < 3; k++) {
+        bih.bounds_min[k] = -10.0f;
+        bih.bounds_max[k] = 10.0f;
+    }
+    pf_bih_node nodes[2 * CHAIN_DEPTH + 1];
+    for (uint32_t level = 0; level < CHAIN_DEPTH; level++) {
+        /* Children 2l+1 (left: leaf) and 2l+2 (right: the next level). */
+        nodes[2 * level] = (pf_bih_node){{INFINITY, -INFINITY}, (2 * level + 1) << 2};
+        uint32_t leaf_bits[2] = {0, 1};
+        memcpy(nodes[2 * level + 1].clip, leaf_bits, sizeof leaf_bits);
+        nodes[2 * level + 1].word = PF_BIH_LEAF;
+    }
+    uint32_t leaf_bits[2] = {0, 1};
+    memcpy(nodes[2 * CHAIN_DEPTH].clip, leaf_bits, sizeof leaf_bits);
+    nodes[2 * CHAIN_DEPTH].word = PF_BIH_LEAF;
+    bih.nodes = nodes;
+    bih.node_count = 2 * CHAIN_DEPTH + 1;
+    pf_error err = {0};
+    PF_CHECK(pf_bih_check(&bih, &frame, &err) == PF_ERR_INTERNAL);
+
+    /* Negative x: the right child (the chain) is near, the leaf far and pushed. */
+    pf_ray ray = {{2.0f, 0.0f, 0.0f}, 0.0f, {-1.0f, 0.01f, 0.02f}, INFINITY};
+    pf_hit hit;
+    PF_CHECK(pf_bih_trace_cpu(&bih, &ray, 0, &hit, &err) == PF_ERR_LIMIT);
+    PF_CHECK(strstr(err.message, "overflow") != NULL);
+    PF_CHECK(hit.triangle == PF_NO_HIT && hit.t == -1.0f);
+    bih_frame_free(&frame);
+}
+
+int main(void)
+{
+    PF_RUN(hard_cases_match_brute_force);
+    PF_RUN(shared_scenes_match_brute_force);
+    PF_RUN(depth_limit_is_kept);
+    PF_RUN(bad_input_is_refused);
+    PF_RUN(checker_catches_broken_trees);
+    PF_RUN(stack_overflow_is_reported);
+    return pf_test_finish();
+}
