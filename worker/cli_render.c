@@ -1,9 +1,359 @@
-/* Placeholder until the 'render' command lands; replaced by its implementation. */
+/*
+ * photonfarm render: renders frames of a scene to EXR files without the
+ * queue (DESIGN.md §1). The scene is loaded once; each frame goes through
+ * the same frame pipeline as the worker's (frame_pipeline.h): evaluated,
+ * rendered, written to a temporary and renamed into place.
+ */
+#include "frame_pipeline.h"
 #include "pf_cli.h"
+#include "pf_image.h"
+#include "pf_render.h"
+#include "pf_scene.h"
+#include "pf_vk.h"
+
+#include <errno.h>
+#include <inttypes.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#define COMMAND "render"
+#define DEFAULT_OUTPUT "render.####.exr"
+#define MAX_EDGE PF_FRAME_MAX_EDGE
+/* Bounds a frame list so a typo like 1-1000000000 fails fast instead of allocating. */
+#define MAX_FRAMES 100000u
+#define MAX_PATH_BYTES PF_FRAME_PATH_MAX
+
+static void usage(FILE *out)
+{
+    fprintf(out,
+            "usage: photonfarm render SCENE (--frame N | --frames RANGE) [options]\n"
+            "\n"
+            "Renders frames of SCENE (.gltf, .glb, .obj) to OpenEXR files, no queue.\n"
+            "\n"
+            "  --frame N          one frame (frames start at 1)\n"
+            "  --frames RANGE     e.g. 1-48, 1-48x2 (every 2nd), 1,5,9-12\n"
+            "  -o, --output OUT   output path; a run of # is replaced by the zero-padded\n"
+            "                     frame number (default " DEFAULT_OUTPUT ")\n"
+            "  --size WxH         image size (default 640 wide, height from the camera's\n"
+            "                     aspect ratio, else 480)\n"
+            "  --quality Q        preview | fast | final | reference | auto (default auto)\n"
+            "  --spp N            samples per pixel (default: the preset's)\n"
+            "  --seed S           random seed (default 0); same seed, same pixels\n"
+            "  --float            32-bit float pixels (default half)\n"
+            "  --no-aovs          beauty RGBA only (default adds albedo, normal, depth)\n"
+            "  --device D         device index or name substring (see photonfarm devices)\n"
+            "  --help             this text\n"
+            "\n"
+            "Exit status: 0 ok, 1 runtime failure, 2 bad usage or input.\n");
+}
+
+typedef struct frame_list {
+    int64_t *frames;
+    uint32_t count;
+} frame_list;
+
+static int parse_int64(const char *text, int64_t *out)
+{
+    if (!text || !*text)
+        return 0;
+    errno = 0;
+    char *end = NULL;
+    long long value = strtoll(text, &end, 10);
+    if (errno || *end)
+        return 0;
+    *out = value;
+    return 1;
+}
+
+static int frame_list_push(frame_list *list, int64_t frame)
+{
+    if (list->count >= MAX_FRAMES)
+        return 0;
+    if ((list->count & (list->count - 1)) == 0) { /* grow at powers of two */
+        int64_t *grown = realloc(list->frames, (list->count ? 2 * list->count : 1) * sizeof *grown);
+        if (!grown)
+            return 0;
+        list->frames = grown;
+    }
+    list->frames[list->count++] = frame;
+    return 1;
+}
+
+/* "1-48", "1-48x2", "1,5,9-12": comma-separated items, each N, A-B or A-BxS. */
+static int parse_frames(const char *text, frame_list *list, char *why, size_t why_size)
+{
+    char buffer[1024];
+    if (strlen(text) >= sizeof buffer) {
+        snprintf(why, why_size, "too long");
+        return 0;
+    }
+    snprintf(buffer, sizeof buffer, "%s", text);
+    char *save = NULL;
+    for (char *item = strtok_r(buffer, ",", &save); item; item = strtok_r(NULL, ",", &save)) {
+        int64_t first, last, step = 1;
+        char *step_text = strchr(item, 'x');
+        if (step_text) {
+            *step_text++ = '\0';
+            if (!parse_int64(step_text, &step) || step < 1) {
+                snprintf(why, why_size, "step '%s' is not a positive integer", step_text);
+                return 0;
+            }
+        }
+        char *dash = strchr(item + (item[0] == '-'), '-');
+        if (dash) {
+            *dash = '\0';
+            if (!parse_int64(item, &first) || !parse_int64(dash + 1, &last)) {
+                snprintf(why, why_size, "'%s-%s' is not a range A-B", item, dash + 1);
+                return 0;
+            }
+        } else {
+            if (step_text || !parse_int64(item, &first)) {
+                snprintf(why, why_size, "'%s' is not a frame number or range", item);
+                return 0;
+            }
+            last = first;
+        }
+        if (last < first) {
+            snprintf(why, why_size, "range %" PRId64 "-%" PRId64 " runs backwards", first, last);
+            return 0;
+        }
+        for (int64_t frame = first; frame <= last; frame += step) {
+            if (!frame_list_push(list, frame)) {
+                snprintf(why, why_size, "more than %u frames", MAX_FRAMES);
+                return 0;
+            }
+        }
+    }
+    if (list->count == 0) {
+        snprintf(why, why_size, "no frames");
+        return 0;
+    }
+    return 1;
+}
+
+typedef struct render_options {
+    const char *scene_path;
+    const char *frame_text;  /* --frame */
+    const char *frames_text; /* --frames */
+    const char *output;
+    const char *device;
+    uint32_t width, height;
+    int quality;
+    uint32_t spp;
+    uint64_t seed;
+    int float_pixels;
+    int aovs;
+} render_options;
+
+/* 0 ok, else the exit code (2) after printing why. */
+static int parse_options(int argc, char **argv, render_options *options, int *help)
+{
+    memset(options, 0, sizeof *options);
+    options->output = DEFAULT_OUTPUT;
+    options->quality = PF_QUALITY_AUTO;
+    options->aovs = 1;
+    *help = 0;
+    for (int i = 1; i < argc; i++) {
+        const char *arg = argv[i];
+        const char *value = i + 1 < argc ? argv[i + 1] : NULL;
+        int takes_value = 1;
+        if (!strcmp(arg, "--help") || !strcmp(arg, "-h")) {
+            *help = 1;
+            return 0;
+        } else if (!strcmp(arg, "--float")) {
+            options->float_pixels = 1;
+            takes_value = 0;
+        } else if (!strcmp(arg, "--no-aovs")) {
+            options->aovs = 0;
+            takes_value = 0;
+        } else if (arg[0] == '-' && arg[1] != '\0') {
+            if (!value)
+                return pf_cli_fail(COMMAND, 2, "%s needs a value (see --help)", arg);
+            if (!strcmp(arg, "--frame")) {
+                options->frame_text = value;
+            } else if (!strcmp(arg, "--frames")) {
+                options->frames_text = value;
+            } else if (!strcmp(arg, "-o") || !strcmp(arg, "--output")) {
+                options->output = value;
+            } else if (!strcmp(arg, "--device")) {
+                options->device = value;
+            } else if (!strcmp(arg, "--size")) {
+                unsigned width, height;
+                char extra;
+                if (sscanf(value, "%ux%u%c", &width, &height, &extra) != 2 || width == 0 ||
+                    height == 0 || width > MAX_EDGE || height > MAX_EDGE)
+                    return pf_cli_fail(COMMAND, 2, "--size '%s': expected WxH, each 1..%u", value,
+                                       MAX_EDGE);
+                options->width = width;
+                options->height = height;
+            } else if (!strcmp(arg, "--quality")) {
+                options->quality = pf_quality_parse(value);
+                if (options->quality < 0)
+                    return pf_cli_fail(COMMAND, 2,
+                                       "--quality '%s': expected preview, fast, final, "
+                                       "reference or auto",
+                                       value);
+            } else if (!strcmp(arg, "--spp")) {
+                int64_t spp;
+                if (!parse_int64(value, &spp) || spp < 1 || spp > 65536)
+                    return pf_cli_fail(COMMAND, 2, "--spp '%s': expected 1..65536", value);
+                options->spp = (uint32_t)spp;
+            } else if (!strcmp(arg, "--seed")) {
+                char *end = NULL;
+                errno = 0;
+                unsigned long long seed = strtoull(value, &end, 10);
+                if (errno || *end || !*value || value[0] == '-')
+                    return pf_cli_fail(COMMAND, 2, "--seed '%s': expected an unsigned integer",
+                                       value);
+                options->seed = seed;
+            } else {
+                return pf_cli_fail(COMMAND, 2, "unknown option '%s' (see --help)", arg);
+            }
+        } else {
+            if (options->scene_path)
+                return pf_cli_fail(COMMAND, 2, "one scene only ('%s' and '%s')",
+                                   options->scene_path, arg);
+            options->scene_path = arg;
+            takes_value = 0;
+        }
+        i += takes_value;
+    }
+    if (!options->scene_path)
+        return pf_cli_fail(COMMAND, 2, "no scene given (see --help)");
+    if (!options->frame_text == !options->frames_text)
+        return pf_cli_fail(COMMAND, 2, "give exactly one of --frame N or --frames RANGE");
+    return 0;
+}
+
+typedef struct render_session {
+    pf_scene *scene;
+    pf_vk_context *ctx;
+    pf_renderer *renderer;
+} render_session;
+
+static void session_close(render_session *session)
+{
+    pf_renderer_destroy(session->renderer);
+    if (session->ctx)
+        pf_vk_destroy(session->ctx);
+    pf_scene_destroy(session->scene);
+}
+
+/* Renders and writes one frame (frame_pipeline.h, shared with the worker);
+ * 0 or an exit code after printing why. */
+static int render_one(const render_options *options, render_session *session, int64_t frame_number,
+                      const char *path, double *elapsed_ms)
+{
+    double start = pf_time_ms();
+    char temp_tag[32];
+    snprintf(temp_tag, sizeof temp_tag, "render-%ld", (long)getpid());
+    pf_frame_request request = {session->scene,
+                                options->scene_path,
+                                frame_number,
+                                {options->width, options->height, (pf_quality)options->quality,
+                                 options->spp, options->seed, options->aovs},
+                                options->float_pixels ? PF_EXR_FLOAT : PF_EXR_HALF,
+                                path,
+                                temp_tag,
+                                pf_vk_info(session->ctx)->name,
+                                NULL};
+    pf_frame_output output;
+    pf_error err = {0};
+    pf_status status = pf_frame_render(session->renderer, &request, &output, &err);
+    if (status == PF_OK)
+        status = pf_frame_commit(&output, &err);
+    if (status != PF_OK)
+        return pf_cli_fail(COMMAND, pf_status_exit_code(status), "%s", err.message);
+    if (output.report.discarded_samples > 0)
+        fprintf(stderr, "photonfarm render: frame %" PRId64 ": %" PRIu64
+                        " NaN/Inf samples discarded\n",
+                frame_number, output.report.discarded_samples);
+    *elapsed_ms = pf_time_ms() - start;
+    return 0;
+}
 
 int pf_cli_render(int argc, char **argv)
 {
-    (void)argc;
-    (void)argv;
-    return pf_cli_fail("render", 1, "not built yet");
+    render_options options;
+    int help = 0;
+    int code = parse_options(argc, argv, &options, &help);
+    if (code)
+        return code;
+    if (help) {
+        usage(stdout);
+        return 0;
+    }
+    frame_list frames = {0};
+    char why[256];
+    const char *range = options.frame_text ? options.frame_text : options.frames_text;
+    if (options.frame_text) {
+        int64_t frame;
+        if (!parse_int64(options.frame_text, &frame) || !frame_list_push(&frames, frame)) {
+            free(frames.frames);
+            return pf_cli_fail(COMMAND, 2, "--frame '%s': expected a frame number",
+                               options.frame_text);
+        }
+    } else if (!parse_frames(options.frames_text, &frames, why, sizeof why)) {
+        free(frames.frames);
+        return pf_cli_fail(COMMAND, 2, "--frames '%s': %s (expected e.g. 1-48, 1-48x2, 1,5,9-12)",
+                           range, why);
+    }
+    if (frames.count > 1 && !strchr(options.output, '#')) {
+        free(frames.frames);
+        return pf_cli_fail(COMMAND, 2,
+                           "-o '%s' has no # for the frame number, but %u frames were asked for",
+                           options.output, frames.count);
+    }
+
+    render_session session = {0};
+    pf_error err = {0};
+    pf_status status = pf_scene_load(options.scene_path, &session.scene, &err);
+    if (status != PF_OK) {
+        free(frames.frames);
+        return pf_cli_fail(COMMAND, pf_status_exit_code(status), "%s", err.message);
+    }
+    const pf_scene_info *info = pf_scene_get_info(session.scene);
+    for (uint32_t i = 0; i < frames.count; i++) {
+        if (frames.frames[i] < 1 || frames.frames[i] > (int64_t)info->frame_count) {
+            code = pf_cli_fail(COMMAND, 2, "frame %" PRId64 " is outside %s's frames 1-%u",
+                               frames.frames[i], options.scene_path, info->frame_count);
+            free(frames.frames);
+            session_close(&session);
+            return code;
+        }
+    }
+    pf_vk_options vk_options = {options.device, -1};
+    status = pf_vk_create(&vk_options, &session.ctx, &err);
+    if (status == PF_OK)
+        status = pf_renderer_create(session.ctx, &session.renderer, &err);
+    if (status != PF_OK) {
+        free(frames.frames);
+        session_close(&session);
+        return pf_cli_fail(COMMAND, pf_status_exit_code(status), "%s", err.message);
+    }
+
+    for (uint32_t i = 0; i < frames.count && code == 0; i++) {
+        char path[MAX_PATH_BYTES];
+        if (!pf_frame_output_path(options.output, frames.frames[i], path, sizeof path)) {
+            code = pf_cli_fail(COMMAND, 2, "-o '%s': output path too long", options.output);
+            break;
+        }
+        double elapsed_ms = 0.0;
+        code = render_one(&options, &session, frames.frames[i], path, &elapsed_ms);
+        if (code == 0) {
+            printf("[%u/%u] frame %" PRId64 "  %.1f ms  %s\n", i + 1, frames.count,
+                   frames.frames[i], elapsed_ms, path);
+            fflush(stdout);
+        }
+    }
+    if (pf_vk_validation_enabled(session.ctx)) {
+        uint32_t messages = pf_vk_validation_message_count(session.ctx);
+        if (messages > 0 && code == 0)
+            code = pf_cli_fail(COMMAND, 1, "%u Vulkan validation message(s) (see above)", messages);
+    }
+    free(frames.frames);
+    session_close(&session);
+    return code;
 }

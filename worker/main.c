@@ -14,6 +14,15 @@ static const command commands[] = {
     {"render", pf_cli_render, "render one frame of a scene to EXR (no queue)"},
     {"compare", pf_cli_compare, "RMSE / relMSE / max error between two EXR images"},
     {"devices", pf_cli_devices, "list Vulkan devices and their key limits"},
+    {"enqueue", pf_cli_enqueue, "add a render job (frames of a scene) to the queue"},
+    {"worker", pf_cli_worker, "claim and render queued frames until stopped"},
+    {"status", pf_cli_status, "jobs, progress bars, running frames, failures"},
+    {"timings", pf_cli_timings, "per-stage timing statistics of a job"},
+    {"cancel", pf_cli_cancel, "cancel a job (running frames are discarded)"},
+    {"pause", pf_cli_pause, "stop claiming a job's frames"},
+    {"resume", pf_cli_resume, "resume a paused job"},
+    {"retry", pf_cli_retry, "requeue a job's failed and canceled frames"},
+    {"workers", pf_cli_workers, "registered workers: alive or dead, current frame"},
 };
 
 static void usage(FILE *out)

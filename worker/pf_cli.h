@@ -9,6 +9,15 @@
 int pf_cli_devices(int argc, char **argv);
 int pf_cli_render(int argc, char **argv);
 int pf_cli_compare(int argc, char **argv);
+int pf_cli_enqueue(int argc, char **argv);
+int pf_cli_worker(int argc, char **argv);
+int pf_cli_status(int argc, char **argv);
+int pf_cli_timings(int argc, char **argv);
+int pf_cli_cancel(int argc, char **argv);
+int pf_cli_pause(int argc, char **argv);
+int pf_cli_resume(int argc, char **argv);
+int pf_cli_retry(int argc, char **argv);
+int pf_cli_workers(int argc, char **argv);
 
 /* Prints "photonfarm <command>: <message>" to stderr and returns exit_code. */
 int pf_cli_fail(const char *command, int exit_code, const char *format, ...)

@@ -1,0 +1,210 @@
+/*
+ * `photonfarm enqueue` and the query/control commands without rendering:
+ * good jobs go in with absolute paths, every kind of bad input exits 2 with
+ * a message naming it and inserts nothing, and a corrupt or non-SQLite
+ * database is refused with its bytes untouched.
+ */
+#include "pf_test.h"
+#include "worker_test_util.h"
+
+#include <sys/stat.h>
+#include <unistd.h>
+
+static char dir[WT_PATH_MAX], db[WT_PATH_MAX + 32], scene[WT_PATH_MAX + 32],
+    out_dir[WT_PATH_MAX + 32], log_path[WT_PATH_MAX + 32];
+
+static int64_t job_count(void)
+{
+    pf_queue *queue = wt_open_queue(db);
+    if (!queue)
+        return -1;
+    pf_queue_job *jobs = NULL;
+    size_t count = 0;
+    pf_error err = {0};
+    PF_CHECK_OK(pf_queue_job_list(queue, &jobs, &count, &err), &err);
+    pf_queue_job_list_free(jobs, count);
+    pf_queue_close(queue);
+    return (int64_t)count;
+}
+
+PF_TEST(enqueue_inserts_a_validated_job_and_prints_its_id)
+{
+    char args[8 * WT_PATH_MAX];
+    wt_format(args, sizeof args,
+             "enqueue '%s' --frames 1-3 --out '%s/f.####.exr' --size 16x12 --quality preview "
+             "--priority 5 --max-attempts 4 --frames-per-task 2 --name tiny --db '%s'",
+             scene, out_dir, db);
+    PF_REQUIRE(wt_run(args, log_path) == 0);
+    char *printed = wt_read_file(log_path, NULL);
+    PF_REQUIRE(printed != NULL);
+    int64_t job_id = atoll(printed);
+    free(printed);
+    PF_CHECK(job_id >= 1);
+    pf_queue *queue = wt_open_queue(db);
+    PF_REQUIRE(queue != NULL);
+    pf_queue_job job = {0};
+    pf_error err = {0};
+    PF_CHECK_OK(pf_queue_job_get(queue, job_id, &job, &err), &err);
+    PF_CHECK(job.priority == 5 && job.max_attempts == 4 && job.frames_per_task == 2);
+    PF_CHECK(job.frames_total == 3 && job.tasks_total == 2);
+    PF_CHECK_MSG(job.scene_path && job.scene_path[0] == '/', "scene stored as %s", job.scene_path);
+    PF_CHECK_MSG(job.output_pattern && job.output_pattern[0] == '/' &&
+                     strstr(job.output_pattern, "f.####.exr"),
+                 "pattern stored as %s", job.output_pattern);
+    PF_CHECK(job.parameters_json && strstr(job.parameters_json, "\"width\":16") &&
+             strstr(job.parameters_json, "\"name\":\"tiny\""));
+    pf_queue_job_clear(&job);
+    pf_queue_close(queue);
+
+    wt_format(args, sizeof args, "status --db '%s'", db);
+    PF_CHECK(wt_run(args, log_path) == 0);
+    PF_CHECK(wt_file_contains(log_path, "(tiny)"));
+    PF_CHECK(wt_file_contains(log_path, "0/3"));
+}
+
+typedef struct bad_case {
+    const char *what;
+    const char *arguments; /* %1$s scene, %2$s output dir (positional via two passes) */
+    const char *message;
+} bad_case;
+
+PF_TEST(bad_input_exits_2_and_inserts_nothing)
+{
+    char corrupt[WT_PATH_MAX + 32], readonly[WT_PATH_MAX + 32], args[8 * WT_PATH_MAX];
+    wt_format(corrupt, sizeof corrupt, "%s/corrupt.gltf", dir);
+    FILE *file = fopen(corrupt, "wb");
+    PF_REQUIRE(file != NULL);
+    fputs("{\"asset\": {\"version\": \"2.0\"}, \"meshes\": [ {", file);
+    fclose(file);
+    wt_format(readonly, sizeof readonly, "%s/readonly", dir);
+    mkdir(readonly, 0555);
+    chmod(readonly, 0555);
+    int64_t before = job_count();
+
+    struct {
+        char arguments[4 * WT_PATH_MAX];
+        const char *message;
+    } cases[12];
+    int count = 0;
+#define CASE(msg, ...)                                                                    \
+    do {                                                                                  \
+        wt_format(cases[count].arguments, sizeof cases[count].arguments, __VA_ARGS__);     \
+        cases[count++].message = msg;                                                     \
+    } while (0)
+    CASE("missing.gltf", "enqueue '%s/missing.gltf' --frames 1 --out '%s/f.exr'", dir, out_dir);
+    CASE("corrupt.gltf", "enqueue '%s' --frames 1 --out '%s/f.exr'", corrupt, out_dir);
+    CASE("5-1", "enqueue '%s' --frames 5-1 --out '%s/f.####.exr'", scene, out_dir);
+    CASE("outside", "enqueue '%s' --frames 1-5 --out '%s/f.####.exr'", scene, out_dir);
+    CASE("frame 0 is outside", "enqueue '%s' --frames 0-2 --out '%s/f.####.exr'", scene, out_dir);
+    CASE("####", "enqueue '%s' --frames 1-2 --out '%s/f.exr'", scene, out_dir);
+    CASE("no-such-dir", "enqueue '%s' --frames 1 --out '%s/no-such-dir/f.exr'", scene, out_dir);
+    CASE("not writable", "enqueue '%s' --frames 1 --out '/proc/f.####.exr'", scene);
+    if (geteuid() != 0)
+        CASE("not writable", "enqueue '%s' --frames 1 --out '%s/f.exr'", scene, readonly);
+    CASE("--size", "enqueue '%s' --frames 1 --out '%s/f.exr' --size 0x10", scene, out_dir);
+    CASE("--quality", "enqueue '%s' --frames 1 --out '%s/f.exr' --quality best", scene, out_dir);
+    CASE("--max-attempts", "enqueue '%s' --frames 1 --out '%s/f.exr' --max-attempts 0", scene,
+         out_dir);
+#undef CASE
+    for (int i = 0; i < count; i++) {
+        wt_format(args, sizeof args, "%s --db '%s'", cases[i].arguments, db);
+        int code = wt_run(args, log_path);
+        PF_CHECK_MSG(code == 2, "'%s' exited %d", args, code);
+        PF_CHECK(wt_file_contains(log_path, cases[i].message));
+        PF_CHECK(wt_file_contains(log_path, "photonfarm enqueue:"));
+    }
+    PF_CHECK(job_count() == before);
+    PF_CHECK(wt_count_files(out_dir, "probe") == 0);
+    chmod(readonly, 0755);
+}
+
+/* Writes bytes to path; returns them for the later comparison. */
+static void write_bytes(const char *path, const char *bytes, size_t size)
+{
+    FILE *file = fopen(path, "wb");
+    if (file) {
+        fwrite(bytes, 1, size, file);
+        fclose(file);
+    }
+}
+
+static int file_equals(const char *path, const char *bytes, size_t size)
+{
+    size_t got = 0;
+    char *content = wt_read_file(path, &got);
+    int same = content && got == size && memcmp(content, bytes, size) == 0;
+    free(content);
+    return same;
+}
+
+PF_TEST(corrupt_or_foreign_database_exits_2_and_is_untouched)
+{
+    char text_db[WT_PATH_MAX + 32], corrupt_db[WT_PATH_MAX + 32], args[8 * WT_PATH_MAX];
+    wt_format(text_db, sizeof text_db, "%s/notes.txt", dir);
+    wt_format(corrupt_db, sizeof corrupt_db, "%s/corrupt.db", dir);
+    const char text[] = "this is not a database\n";
+    char corrupt[4096];
+    memset(corrupt, 0x5a, sizeof corrupt);
+    memcpy(corrupt, "SQLite format 3", 16); /* a valid magic over a garbage header */
+    write_bytes(text_db, text, sizeof text - 1);
+    write_bytes(corrupt_db, corrupt, sizeof corrupt);
+    const char *paths[] = {text_db, corrupt_db};
+    for (int i = 0; i < 2; i++) {
+        const char *commands[] = {"status", "workers", "timings 1", "cancel 1", "worker --once"};
+        for (size_t c = 0; c < sizeof commands / sizeof commands[0]; c++) {
+            wt_format(args, sizeof args, "%s --db '%s'", commands[c], paths[i]);
+            int code = wt_run(args, log_path);
+            PF_CHECK_MSG(code == 2, "'%s' exited %d", args, code);
+            PF_CHECK(wt_file_contains(log_path, paths[i]));
+        }
+        wt_format(args, sizeof args, "enqueue '%s' --frames 1 --out '%s/f.exr' --db '%s'", scene,
+                 out_dir, paths[i]);
+        int code = wt_run(args, log_path);
+        PF_CHECK_MSG(code == 2, "'%s' exited %d", args, code);
+    }
+    PF_CHECK(file_equals(text_db, text, sizeof text - 1));
+    PF_CHECK(file_equals(corrupt_db, corrupt, sizeof corrupt));
+}
+
+PF_TEST(control_commands_change_job_state)
+{
+    char args[8 * WT_PATH_MAX];
+    wt_format(args, sizeof args, "enqueue '%s' --frames 1-2 --out '%s/c.####.exr' --db '%s'",
+             scene, out_dir, db);
+    PF_REQUIRE(wt_run(args, log_path) == 0);
+    char *printed = wt_read_file(log_path, NULL);
+    PF_REQUIRE(printed != NULL);
+    int64_t job_id = atoll(printed);
+    free(printed);
+    const struct {
+        const char *command;
+        const char *status;
+    } steps[] = {{"pause", "paused"}, {"resume", "queued"}, {"cancel", "canceled"},
+                 {"retry", "queued"}};
+    for (size_t i = 0; i < sizeof steps / sizeof steps[0]; i++) {
+        wt_format(args, sizeof args, "%s %lld --db '%s'", steps[i].command, (long long)job_id, db);
+        PF_CHECK(wt_run(args, log_path) == 0);
+        PF_CHECK(wt_file_contains(log_path, steps[i].status));
+    }
+    wt_format(args, sizeof args, "pause 9999 --db '%s'", db);
+    PF_CHECK(wt_run(args, log_path) == 2);
+    wt_format(args, sizeof args, "status --db '%s/absent.db'", dir);
+    PF_CHECK(wt_run(args, log_path) == 2);
+    PF_CHECK(wt_file_contains(log_path, "no queue database"));
+}
+
+int main(void)
+{
+    pf_test_tmpdir(dir, sizeof dir);
+    wt_format(db, sizeof db, "%s/farm.db", dir);
+    wt_format(scene, sizeof scene, "%s/tiny.gltf", dir);
+    wt_format(log_path, sizeof log_path, "%s/run.log", dir);
+    unlink(db);
+    wt_fresh_dir("out", out_dir, sizeof out_dir);
+    wt_write_tiny_scene(scene, 3);
+    PF_RUN(enqueue_inserts_a_validated_job_and_prints_its_id);
+    PF_RUN(bad_input_exits_2_and_inserts_nothing);
+    PF_RUN(corrupt_or_foreign_database_exits_2_and_is_untouched);
+    PF_RUN(control_commands_change_job_state);
+    return pf_test_finish();
+}

@@ -1,0 +1,385 @@
+/*
+ * One `photonfarm worker` at a time on tiny frames: a job rendered to EXRs
+ * with one set of stage rows per task and `timings` in every format; frames
+ * whose scene vanished after enqueue (every attempt recorded, max attempts,
+ * the per-job blocklist and its status note); SIGTERM while rendering (drain:
+ * the frame is done) and twice (released: queued, no file); and a worker
+ * whose lease was taken over, which must not touch the new owner's output.
+ */
+#include "pf_image.h"
+#include "pf_test.h"
+#include "worker_test_util.h"
+
+#include <cjson/cJSON.h>
+#include <signal.h>
+#include <unistd.h>
+
+#define WORKER_TIMEOUT_MS 60000
+/* Holds a worker between writing its temporary EXR and handing it back. */
+#define HOLD_ENV "PF_WORKER_TEST_DELAY_MS=4000"
+
+static char dir[WT_PATH_MAX], scene[WT_PATH_MAX + 32], log_path[WT_PATH_MAX + 32];
+
+/* Enqueues; returns the job id (0 on failure). */
+static int64_t enqueue(const char *db, const char *scene_path, const char *frames,
+                       const char *pattern, const char *extra)
+{
+    char args[8 * WT_PATH_MAX];
+    wt_format(args, sizeof args, "enqueue '%s' --frames %s --out '%s' --size 16x16 --db '%s' %s",
+              scene_path, frames, pattern, db, extra ? extra : "");
+    int code = wt_run(args, log_path);
+    PF_CHECK_MSG(code == 0, "enqueue exited %d", code);
+    char *printed = wt_read_file(log_path, NULL);
+    int64_t job_id = printed ? atoll(printed) : 0;
+    free(printed);
+    return job_id;
+}
+
+static pf_queue_task_info first_task(const char *db, int64_t job_id)
+{
+    pf_queue_task_info info = {0};
+    pf_queue *queue = wt_open_queue(db);
+    pf_queue_task_info *tasks = NULL;
+    size_t count = 0;
+    pf_error err = {0};
+    if (queue && pf_queue_task_list(queue, job_id, &tasks, &count, &err) == PF_OK && count > 0)
+        info = tasks[0];
+    free(tasks);
+    pf_queue_close(queue);
+    return info;
+}
+
+/* Polls until the job's first task is running (or timeout); 1 if it is. */
+static int wait_running(const char *db, int64_t job_id, int timeout_ms)
+{
+    for (int waited = 0; waited < timeout_ms; waited += 50) {
+        if (!strcmp(first_task(db, job_id).status, "running"))
+            return 1;
+        wt_sleep_ms(50);
+    }
+    return 0;
+}
+
+static int exr_frame_attribute(const char *path)
+{
+    pf_image image = {0};
+    pf_image_attribute *attributes = NULL;
+    uint32_t count = 0;
+    pf_error err = {0};
+    int frame = -1;
+    if (pf_exr_read(path, &image, &attributes, &count, &err) == PF_OK) {
+        for (uint32_t i = 0; i < count; i++)
+            if (!strcmp(attributes[i].key, "photonfarm/frame"))
+                frame = atoi(attributes[i].value);
+    }
+    free(attributes);
+    pf_image_free(&image);
+    return frame;
+}
+
+PF_TEST(worker_renders_a_job_and_timings_report_every_stage)
+{
+    char out[WT_PATH_MAX + 32], db[WT_PATH_MAX + 32], pattern[2 * WT_PATH_MAX], args[8 * WT_PATH_MAX];
+    wt_fresh_dir("render-out", out, sizeof out);
+    wt_format(db, sizeof db, "%s/render.db", dir);
+    unlink(db);
+    wt_format(pattern, sizeof pattern, "%s/f.####.exr", out);
+    int64_t job_id = enqueue(db, scene, "1-3", pattern, "--frames-per-task 2");
+    PF_REQUIRE(job_id > 0);
+    wt_format(args, sizeof args, "worker --once --db '%s'", db);
+    PF_REQUIRE(wt_run(args, log_path) == 0);
+    PF_CHECK(wt_file_contains(log_path, "event=completed"));
+
+    for (int frame = 1; frame <= 3; frame++) {
+        char path[3 * WT_PATH_MAX];
+        wt_format(path, sizeof path, "%s/f.%04d.exr", out, frame);
+        PF_CHECK_MSG(exr_frame_attribute(path) == frame, "%s: wrong or missing frame", path);
+    }
+    PF_CHECK(wt_count_files(out, "") == 3);
+    pf_queue *queue = wt_open_queue(db);
+    PF_REQUIRE(queue != NULL);
+    pf_queue_job job = {0};
+    pf_error err = {0};
+    PF_CHECK_OK(pf_queue_job_get(queue, job_id, &job, &err), &err);
+    PF_CHECK(!strcmp(job.status, "done") && job.frames_done == 3);
+    pf_queue_job_clear(&job);
+    pf_queue_task_info *tasks = NULL;
+    size_t task_count = 0;
+    PF_CHECK_OK(pf_queue_task_list(queue, job_id, &tasks, &task_count, &err), &err);
+    pf_queue_close(queue);
+    PF_CHECK(task_count == 2);
+    for (size_t i = 0; i < task_count; i++) {
+        const char *stages[] = {"scene_eval", "shade", "exr_write"};
+        for (int s = 0; s < 3; s++)
+            PF_CHECK_MSG(wt_stage_rows_for_task(db, tasks[i].task_id, stages[s]) ==
+                             tasks[i].frame_count,
+                         "task %lld stage %s", (long long)tasks[i].task_id, stages[s]);
+    }
+    free(tasks);
+
+    wt_format(args, sizeof args, "timings %lld --format csv --db '%s'", (long long)job_id, db);
+    char csv_path[WT_PATH_MAX + 32];
+    wt_format(csv_path, sizeof csv_path, "%s/timings.csv", dir);
+    PF_REQUIRE(wt_run(args, csv_path) == 0);
+    char *csv = wt_read_file(csv_path, NULL);
+    PF_REQUIRE(csv != NULL);
+    int rows = 0, header_columns = 0;
+    for (char *line = strtok(csv, "\n"); line; line = strtok(NULL, "\n")) {
+        int columns = 1;
+        for (char *c = line; *c; c++)
+            columns += *c == ',';
+        if (!header_columns) {
+            header_columns = columns;
+            PF_CHECK(!strncmp(line, "stage,count,skipped", 19));
+            continue;
+        }
+        PF_CHECK_MSG(columns == header_columns, "csv row '%s'", line);
+        if (!strncmp(line, "scene_eval,3,", 13) || !strncmp(line, "shade,3,", 8) ||
+            !strncmp(line, "exr_write,3,", 12))
+            rows++;
+    }
+    free(csv);
+    PF_CHECK_MSG(rows == 3, "%d of 3 stage rows with count 3 in the CSV", rows);
+
+    wt_format(args, sizeof args, "timings %lld --format json --db '%s'", (long long)job_id, db);
+    PF_REQUIRE(wt_run(args, csv_path) == 0);
+    char *json = wt_read_file(csv_path, NULL);
+    cJSON *root = cJSON_Parse(json);
+    free(json);
+    PF_REQUIRE(root != NULL);
+    const cJSON *stages = cJSON_GetObjectItem(root, "stages");
+    int found = 0;
+    const cJSON *stage;
+    cJSON_ArrayForEach(stage, stages)
+    {
+        const cJSON *name = cJSON_GetObjectItem(stage, "stage");
+        const cJSON *count = cJSON_GetObjectItem(stage, "count");
+        const cJSON *wall = cJSON_GetObjectItem(stage, "wall");
+        if (cJSON_IsString(name) && cJSON_IsNumber(count) && count->valueint == 3 &&
+            cJSON_IsObject(wall) && cJSON_GetObjectItem(wall, "p95_ms"))
+            found++;
+    }
+    PF_CHECK_MSG(found == 3, "%d stages with count 3 in the JSON", found);
+    PF_CHECK(cJSON_GetArraySize(cJSON_GetObjectItem(root, "slowest_frames")) == 3);
+    cJSON_Delete(root);
+
+    wt_format(args, sizeof args, "timings %lld --db '%s'", (long long)job_id, db);
+    PF_CHECK(wt_run(args, log_path) == 0);
+    PF_CHECK(wt_file_contains(log_path, "slowest frames"));
+}
+
+PF_TEST(failing_frames_record_each_attempt_and_stop_at_max_attempts)
+{
+    char out[WT_PATH_MAX + 32], db[WT_PATH_MAX + 32], doomed[WT_PATH_MAX + 32],
+        pattern[2 * WT_PATH_MAX], args[8 * WT_PATH_MAX];
+    wt_fresh_dir("fail-out", out, sizeof out);
+    wt_format(db, sizeof db, "%s/fail.db", dir);
+    wt_format(doomed, sizeof doomed, "%s/doomed.gltf", dir);
+    unlink(db);
+    wt_write_tiny_scene(doomed, 3);
+    wt_format(pattern, sizeof pattern, "%s/d.####.exr", out);
+    int64_t job_id = enqueue(db, doomed, "1-2", pattern, "--max-attempts 2");
+    PF_REQUIRE(job_id > 0);
+    unlink(doomed);
+    /* Attempt 2 becomes eligible after the queue's 2 s backoff. */
+    wt_format(args, sizeof args, "worker --idle-exit 3 --db '%s'", db);
+    PF_REQUIRE(wt_run(args, log_path) == 0);
+    PF_CHECK(wt_file_contains(log_path, "event=failed"));
+
+    pf_queue *queue = wt_open_queue(db);
+    PF_REQUIRE(queue != NULL);
+    pf_queue_failure *failures = NULL;
+    size_t count = 0;
+    pf_error err = {0};
+    PF_CHECK_OK(pf_queue_failure_list(queue, job_id, &failures, &count, &err), &err);
+    PF_CHECK_MSG(count == 4, "%zu failures, expected 2 frames x 2 attempts", count);
+    for (size_t i = 0; i < count; i++)
+        PF_CHECK_MSG(strstr(failures[i].error, "doomed.gltf") != NULL, "error: %s",
+                     failures[i].error);
+    free(failures);
+    pf_queue_job job = {0};
+    PF_CHECK_OK(pf_queue_job_get(queue, job_id, &job, &err), &err);
+    PF_CHECK_MSG(!strcmp(job.status, "failed") && job.tasks_failed == 2, "job %s, %lld failed",
+                 job.status, (long long)job.tasks_failed);
+    pf_queue_job_clear(&job);
+    pf_queue_close(queue);
+    PF_CHECK(wt_count_files(out, "") == 0);
+    wt_format(args, sizeof args, "status %lld --db '%s'", (long long)job_id, db);
+    PF_CHECK(wt_run(args, log_path) == 0);
+    PF_CHECK(wt_file_contains(log_path, "failed"));
+    PF_CHECK(wt_file_contains(log_path, "failures (4)"));
+    PF_CHECK(wt_file_contains(log_path, "doomed.gltf"));
+}
+
+PF_TEST(a_worker_failing_a_jobs_frames_is_blocked_and_status_says_so)
+{
+    char out[WT_PATH_MAX + 32], db[WT_PATH_MAX + 32], doomed[WT_PATH_MAX + 32],
+        pattern[2 * WT_PATH_MAX], args[8 * WT_PATH_MAX], worker_log[WT_PATH_MAX + 32];
+    wt_fresh_dir("block-out", out, sizeof out);
+    wt_format(db, sizeof db, "%s/block.db", dir);
+    wt_format(doomed, sizeof doomed, "%s/doomed-block.gltf", dir);
+    wt_format(worker_log, sizeof worker_log, "%s/block-worker.log", dir);
+    unlink(db);
+    unlink(worker_log);
+    wt_write_tiny_scene(doomed, 3);
+    wt_format(pattern, sizeof pattern, "%s/b.####.exr", out);
+    int64_t job_id = enqueue(db, doomed, "1-3", pattern, "--max-attempts 5");
+    PF_REQUIRE(job_id > 0);
+    unlink(doomed);
+    const char *worker_args[] = {"worker", "--idle-exit", "3", "--db", db, NULL};
+    pid_t pid = wt_spawn(worker_args, worker_log, NULL);
+    int blocked = 0;
+    for (int waited = 0; waited < 20000 && !blocked; waited += 100) {
+        wt_sleep_ms(100);
+        pf_queue *queue = wt_open_queue(db);
+        pf_queue_job job = {0};
+        pf_error err = {0};
+        if (queue && pf_queue_job_get(queue, job_id, &job, &err) == PF_OK)
+            blocked = job.note[0] != '\0';
+        pf_queue_job_clear(&job);
+        pf_queue_close(queue);
+    }
+    PF_CHECK_MSG(blocked, "the job never reported that no worker is eligible");
+    wt_format(args, sizeof args, "status --db '%s'", db);
+    PF_CHECK(wt_run(args, log_path) == 0);
+    PF_CHECK(wt_file_contains(log_path, "no eligible worker"));
+    PF_CHECK(wt_wait(pid, WORKER_TIMEOUT_MS) == 0);
+    pf_queue *queue = wt_open_queue(db);
+    PF_REQUIRE(queue != NULL);
+    pf_queue_failure *failures = NULL;
+    size_t count = 0;
+    pf_error err = {0};
+    PF_CHECK_OK(pf_queue_failure_list(queue, job_id, &failures, &count, &err), &err);
+    PF_CHECK_MSG(count == 3, "%zu failures: blocked after 3 distinct frames", count);
+    free(failures);
+    pf_queue_close(queue);
+}
+
+/* Starts a held worker on a one-frame job, signals it (once or twice) mid-frame. */
+static void signal_mid_frame(int signal_count)
+{
+    char out[WT_PATH_MAX + 32], db[WT_PATH_MAX + 32], pattern[2 * WT_PATH_MAX],
+        worker_log[WT_PATH_MAX + 32], path[3 * WT_PATH_MAX];
+    wt_fresh_dir(signal_count == 1 ? "sigterm-out" : "sigterm2-out", out, sizeof out);
+    wt_format(db, sizeof db, "%s/sigterm%d.db", dir, signal_count);
+    wt_format(worker_log, sizeof worker_log, "%s/sigterm%d.log", dir, signal_count);
+    unlink(db);
+    unlink(worker_log);
+    wt_format(pattern, sizeof pattern, "%s/s.####.exr", out);
+    wt_format(path, sizeof path, "%s/s.0001.exr", out);
+    int64_t job_id = enqueue(db, scene, "1", pattern, NULL);
+    PF_REQUIRE(job_id > 0);
+    const char *worker_args[] = {"worker", "--db", db, NULL};
+    pid_t pid = wt_spawn(worker_args, worker_log, HOLD_ENV);
+    PF_REQUIRE(wait_running(db, job_id, 20000));
+    if (signal_count == 1) {
+        /* While it renders, status and workers show who has which frame. */
+        char args[8 * WT_PATH_MAX];
+        wt_format(args, sizeof args, "status --db '%s'", db);
+        PF_CHECK(wt_run(args, log_path) == 0);
+        PF_CHECK(wt_file_contains(log_path, "running: frame 1 on "));
+        wt_format(args, sizeof args, "workers --db '%s'", db);
+        PF_CHECK(wt_run(args, log_path) == 0);
+        PF_CHECK(wt_file_contains(log_path, "alive"));
+        PF_CHECK(wt_file_contains(log_path, "frame 1"));
+    }
+    wt_sleep_ms(300);
+    for (int i = 0; i < signal_count; i++) {
+        kill(pid, SIGTERM);
+        wt_sleep_ms(100);
+    }
+    int code = wt_wait(pid, WORKER_TIMEOUT_MS);
+    PF_CHECK_MSG(code == 0, "worker exited %d after SIGTERM x%d", code, signal_count);
+    pf_queue_task_info task = first_task(db, job_id);
+    int done = !strcmp(task.status, "done") && exr_frame_attribute(path) == 1;
+    int released = !strcmp(task.status, "queued") && wt_count_files(out, "") == 0;
+    PF_CHECK_MSG(done || released, "task %s with %d file(s) in the output", task.status,
+                 wt_count_files(out, ""));
+    /* One signal drains (the frame finishes); two release it. */
+    PF_CHECK(signal_count == 1 ? done : released);
+    PF_CHECK(wt_count_files(out, "partial") == 0);
+    PF_CHECK(wt_file_contains(worker_log, signal_count == 1 ? "event=draining" : "event=released"));
+}
+
+PF_TEST(sigterm_drains_the_current_frame)
+{
+    signal_mid_frame(1);
+}
+
+PF_TEST(a_second_sigterm_releases_the_frame)
+{
+    signal_mid_frame(2);
+}
+
+static int64_t fixed_clock(void *user)
+{
+    return *(const int64_t *)user;
+}
+
+PF_TEST(a_worker_whose_lease_was_taken_over_never_writes)
+{
+    char out[WT_PATH_MAX + 32], db[WT_PATH_MAX + 32], pattern[2 * WT_PATH_MAX],
+        worker_log[WT_PATH_MAX + 32], path[3 * WT_PATH_MAX];
+    wt_fresh_dir("lease-out", out, sizeof out);
+    wt_format(db, sizeof db, "%s/lease.db", dir);
+    wt_format(worker_log, sizeof worker_log, "%s/lease.log", dir);
+    unlink(db);
+    unlink(worker_log);
+    wt_format(pattern, sizeof pattern, "%s/l.####.exr", out);
+    wt_format(path, sizeof path, "%s/l.0001.exr", out);
+    int64_t job_id = enqueue(db, scene, "1", pattern, NULL);
+    PF_REQUIRE(job_id > 0);
+    const char *worker_args[] = {"worker", "--once", "--lease-seconds", "3", "--db", db, NULL};
+    pid_t pid = wt_spawn(worker_args, worker_log, HOLD_ENV);
+    PF_REQUIRE(wait_running(db, job_id, 20000));
+
+    /* An hour later by the queue's clock, the lease has expired: reap it and
+     * claim the frame as a new owner, which writes its own output. */
+    pf_queue *queue = wt_open_queue(db);
+    PF_REQUIRE(queue != NULL);
+    int64_t later = pf_queue_now(queue) + 3600 * 1000;
+    pf_queue_set_clock(queue, fixed_clock, &later);
+    pf_error err = {0};
+    int64_t reaped = 0;
+    PF_CHECK_OK(pf_queue_reap(queue, &reaped, &err), &err);
+    PF_CHECK(reaped == 1);
+    later += 60 * 1000; /* past the failure backoff */
+    pf_queue_worker_spec thief = {"new-owner", "test", 1, "none"};
+    int64_t thief_id = 0;
+    PF_CHECK_OK(pf_queue_worker_register(queue, &thief, &thief_id, &err), &err);
+    pf_queue_task task = {0};
+    bool claimed = false;
+    PF_CHECK_OK(pf_queue_claim(queue, thief_id, 0, 0, &task, &claimed, &err), &err);
+    PF_REQUIRE(claimed);
+    const char marker[] = "the new owner's output";
+    FILE *file = fopen(path, "wb");
+    PF_REQUIRE(file != NULL);
+    fputs(marker, file);
+    fclose(file);
+    PF_CHECK_OK(pf_queue_complete(queue, task.lease_token, NULL, 0, NULL, &err), &err);
+    pf_queue_close(queue);
+
+    int code = wt_wait(pid, WORKER_TIMEOUT_MS);
+    PF_CHECK_MSG(code == 0, "worker exited %d", code);
+    PF_CHECK(wt_file_contains(worker_log, "event=lease_lost"));
+    char *content = wt_read_file(path, NULL);
+    PF_CHECK_MSG(content && !strcmp(content, marker), "the new owner's output was overwritten");
+    free(content);
+    PF_CHECK(wt_count_files(out, "") == 1);
+    PF_CHECK(wt_stage_rows_for_task(db, task.task_id, "shade") == 0);
+}
+
+int main(void)
+{
+    pf_test_tmpdir(dir, sizeof dir);
+    wt_format(scene, sizeof scene, "%s/tiny.gltf", dir);
+    wt_format(log_path, sizeof log_path, "%s/run.log", dir);
+    wt_write_tiny_scene(scene, 3);
+    PF_RUN(worker_renders_a_job_and_timings_report_every_stage);
+    PF_RUN(failing_frames_record_each_attempt_and_stop_at_max_attempts);
+    PF_RUN(a_worker_failing_a_jobs_frames_is_blocked_and_status_says_so);
+    PF_RUN(sigterm_drains_the_current_frame);
+    PF_RUN(a_second_sigterm_releases_the_frame);
+    PF_RUN(a_worker_whose_lease_was_taken_over_never_writes);
+    return pf_test_finish();
+}

@@ -1,0 +1,216 @@
+/* Helpers for the worker tests (see worker_test_util.h). */
+#include "worker_test_util.h"
+
+#include "pf_test.h"
+
+#include <dirent.h>
+#include <stdarg.h>
+#include <errno.h>
+#include <fcntl.h>
+#include <signal.h>
+#include <sqlite3.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <time.h>
+#include <unistd.h>
+
+/* One triangle (-1,-1,0) (1,-1,0) (0,1,0) as float32 positions + uint16 indices 0,1,2 + 2 bytes of padding. */
+#define TINY_BUFFER_BASE64 "AACAvwAAgL8AAAAAAACAPwAAgL8AAAAAAAAAAAAAgD8AAAAAAAABAAIAAAA="
+
+void wt_format(char *out, size_t size, const char *format, ...)
+{
+    va_list args;
+    va_start(args, format);
+    int written = vsnprintf(out, size, format, args);
+    va_end(args);
+    PF_CHECK_MSG(written >= 0 && (size_t)written < size, "path or command too long: %s", out);
+}
+
+void wt_sleep_ms(int ms)
+{
+    struct timespec delay = {ms / 1000, (long)(ms % 1000) * 1000000L};
+    while (nanosleep(&delay, &delay) != 0 && errno == EINTR) {
+    }
+}
+
+int wt_run(const char *arguments, const char *output_path)
+{
+    const char *binary = getenv("PHOTONFARM");
+    char default_log[WT_PATH_MAX + 32], command[3 * WT_PATH_MAX];
+    if (!output_path) {
+        char tmp[WT_PATH_MAX];
+        snprintf(default_log, sizeof default_log, "%s/last-run.log", pf_test_tmpdir(tmp, sizeof tmp));
+        output_path = default_log;
+    }
+    snprintf(command, sizeof command, "'%s' %s >'%s' 2>&1", binary ? binary : "photonfarm",
+             arguments, output_path);
+    int status = system(command);
+    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+char *wt_read_file(const char *path, size_t *size)
+{
+    FILE *file = fopen(path, "rb");
+    if (!file)
+        return NULL;
+    fseek(file, 0, SEEK_END);
+    long length = ftell(file);
+    fseek(file, 0, SEEK_SET);
+    char *buffer = malloc((size_t)length + 1);
+    size_t got = fread(buffer, 1, (size_t)length, file);
+    fclose(file);
+    buffer[got] = '\0';
+    if (size)
+        *size = got;
+    return buffer;
+}
+
+int wt_file_contains(const char *path, const char *text)
+{
+    char *content = wt_read_file(path, NULL);
+    int found = content && strstr(content, text) != NULL;
+    if (!found)
+        fprintf(stderr, "expected '%s' in %s:\n%s\n", text, path, content ? content : "(missing)");
+    free(content);
+    return found;
+}
+
+pid_t wt_spawn(const char *const *arguments, const char *log_path, const char *environment)
+{
+    const char *binary = getenv("PHOTONFARM");
+    pid_t pid = fork();
+    if (pid == 0) {
+        int fd = open(log_path, O_WRONLY | O_CREAT | O_APPEND, 0644);
+        if (fd >= 0) {
+            dup2(fd, 1);
+            dup2(fd, 2);
+            close(fd);
+        }
+        if (environment)
+            putenv((char *)environment);
+        char *argv[32];
+        int count = 0;
+        argv[count++] = (char *)(binary ? binary : "photonfarm");
+        for (int i = 0; arguments[i] && count < 31; i++)
+            argv[count++] = (char *)arguments[i];
+        argv[count] = NULL;
+        execv(argv[0], argv);
+        _exit(127);
+    }
+    return pid;
+}
+
+int wt_wait(pid_t pid, int timeout_ms)
+{
+    for (int waited = 0;; waited += 20) {
+        int status = 0;
+        pid_t done = waitpid(pid, &status, WNOHANG);
+        if (done == pid) {
+            if (WIFEXITED(status))
+                return WEXITSTATUS(status);
+            return WIFSIGNALED(status) ? 128 + WTERMSIG(status) : -1;
+        }
+        if (waited >= timeout_ms) {
+            kill(pid, SIGKILL);
+            waitpid(pid, &status, 0);
+            fprintf(stderr, "process %ld did not exit within %d ms (killed)\n", (long)pid,
+                    timeout_ms);
+            return -1;
+        }
+        wt_sleep_ms(20);
+    }
+}
+
+void wt_write_tiny_scene(const char *path, int frame_count)
+{
+    FILE *file = fopen(path, "wb");
+    if (!file)
+        return;
+    fprintf(file,
+            "{\"asset\":{\"version\":\"2.0\",\"extras\":{\"frames\":%d,\"fps\":24}},\n"
+            " \"extensionsUsed\":[\"KHR_lights_punctual\"],\n"
+            " \"extensions\":{\"KHR_lights_punctual\":{\"lights\":[{\"type\":\"point\","
+            "\"intensity\":10}]}},\n"
+            " \"scene\":0,\"scenes\":[{\"nodes\":[0,1,2]}],\n"
+            " \"nodes\":[{\"mesh\":0},{\"camera\":0,\"translation\":[0,0,3]},\n"
+            "  {\"translation\":[0,0,2],\"extensions\":{\"KHR_lights_punctual\":{\"light\":0}}}],\n"
+            " \"cameras\":[{\"type\":\"perspective\",\"perspective\":{\"yfov\":0.8,\"znear\":0.1}}],\n"
+            " \"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0},\"indices\":1}]}],\n"
+            " \"buffers\":[{\"byteLength\":44,\"uri\":\"data:application/octet-stream;base64,"
+            TINY_BUFFER_BASE64 "\"}],\n"
+            " \"bufferViews\":[{\"buffer\":0,\"byteOffset\":0,\"byteLength\":36},\n"
+            "  {\"buffer\":0,\"byteOffset\":36,\"byteLength\":6}],\n"
+            " \"accessors\":[{\"bufferView\":0,\"componentType\":5126,\"count\":3,\"type\":\"VEC3\","
+            "\"min\":[-1,-1,0],\"max\":[1,1,0]},\n"
+            "  {\"bufferView\":1,\"componentType\":5123,\"count\":3,\"type\":\"SCALAR\"}]}\n",
+            frame_count);
+    fclose(file);
+}
+
+const char *wt_fresh_dir(const char *name, char *out, size_t size)
+{
+    char tmp[WT_PATH_MAX];
+    pf_test_tmpdir(tmp, sizeof tmp);
+    if (snprintf(out, size, "%s/%s", tmp, name) >= (int)size)
+        return out;
+    mkdir(out, 0755);
+    DIR *dir = opendir(out);
+    if (dir) {
+        struct dirent *entry;
+        char path[2 * WT_PATH_MAX + 2];
+        while ((entry = readdir(dir)) != NULL) {
+            if (entry->d_name[0] == '.' && (!entry->d_name[1] || !strcmp(entry->d_name, "..")))
+                continue;
+            snprintf(path, sizeof path, "%s/%s", out, entry->d_name);
+            unlink(path);
+        }
+        closedir(dir);
+    }
+    return out;
+}
+
+int wt_count_files(const char *dir_path, const char *text)
+{
+    DIR *dir = opendir(dir_path);
+    if (!dir)
+        return -1;
+    int count = 0;
+    struct dirent *entry;
+    while ((entry = readdir(dir)) != NULL) {
+        if (!strcmp(entry->d_name, ".") || !strcmp(entry->d_name, ".."))
+            continue;
+        if (strstr(entry->d_name, text))
+            count++;
+    }
+    closedir(dir);
+    return count;
+}
+
+pf_queue *wt_open_queue(const char *path)
+{
+    pf_queue *queue = NULL;
+    pf_error err = {0};
+    PF_CHECK_OK(pf_queue_open(path, NULL, &queue, &err), &err);
+    return queue;
+}
+
+int wt_stage_rows_for_task(const char *db_path, int64_t task_id, const char *stage)
+{
+    sqlite3 *db = NULL;
+    if (sqlite3_open_v2(db_path, &db, SQLITE_OPEN_READONLY, NULL) != SQLITE_OK) {
+        sqlite3_close(db);
+        return -1;
+    }
+    sqlite3_stmt *statement = NULL;
+    int count = -1;
+    if (sqlite3_prepare_v2(db, "SELECT count(*) FROM stage_timings WHERE task_id = ? AND stage = ?",
+                           -1, &statement, NULL) == SQLITE_OK) {
+        sqlite3_bind_int64(statement, 1, task_id);
+        sqlite3_bind_text(statement, 2, stage, -1, SQLITE_STATIC);
+        if (sqlite3_step(statement) == SQLITE_ROW)
+            count = sqlite3_column_int(statement, 0);
+    }
+    sqlite3_finalize(statement);
+    sqlite3_close(db);
+    return count;
+}

@@ -1,0 +1,54 @@
+/*
+ * Helpers for the worker/queue CLI tests: run photonfarm and capture its
+ * output, start worker processes in the background, write a tiny scene,
+ * inspect output directories and the queue.
+ */
+#ifndef WORKER_TEST_UTIL_H
+#define WORKER_TEST_UTIL_H
+
+#include "pf_queue.h"
+
+#include <stddef.h>
+#include <sys/types.h>
+
+#define WT_PATH_MAX 2048
+
+/* Runs "photonfarm ARGS" (ARGS shell-quoted by the caller) with stdout+stderr
+ * in output_path (NULL: $PF_TEST_TMP/last-run.log); returns its exit code
+ * (-1 if it did not exit normally). */
+int wt_run(const char *arguments, const char *output_path);
+
+/* Whether file contains text (prints the file when it does not). */
+int wt_file_contains(const char *path, const char *text);
+/* Reads a whole file into a malloc'ed NUL-terminated buffer (NULL if missing). */
+char *wt_read_file(const char *path, size_t *size);
+
+/* Starts "photonfarm ARGS..." (argv-style, NULL-terminated) in the background
+ * with stdout+stderr appended to log_path and extra "KEY=VALUE" environment
+ * (NULL for none); returns its pid. */
+pid_t wt_spawn(const char *const *arguments, const char *log_path, const char *environment);
+/* Waits up to timeout_ms for pid; returns its exit code, 128+signal when
+ * killed, or -1 on timeout (the process is then killed). */
+int wt_wait(pid_t pid, int timeout_ms);
+
+/* Writes a one-triangle glTF lit by a point light, with asset.extras.frames =
+ * frame_count, to path. */
+void wt_write_tiny_scene(const char *path, int frame_count);
+
+/* Creates (if needed) and empties directory $PF_TEST_TMP/name; fills out. */
+const char *wt_fresh_dir(const char *name, char *out, size_t size);
+/* Number of entries in dir whose name contains text ("" counts every file). */
+int wt_count_files(const char *dir, const char *text);
+
+/* Opens the queue at path (a failed open fails the calling test). */
+pf_queue *wt_open_queue(const char *path);
+/* Number of stage rows for task_id in the queue file (direct SQL). */
+int wt_stage_rows_for_task(const char *db_path, int64_t task_id, const char *stage);
+/* snprintf that reports truncation by failing the current test (paths in
+ * tests are short; a silent cut would test the wrong file). */
+void wt_format(char *out, size_t size, const char *format, ...)
+    __attribute__((format(printf, 3, 4)));
+/* Sleeps ms milliseconds. */
+void wt_sleep_ms(int ms);
+
+#endif

@@ -1,0 +1,257 @@
+/*
+ * photonfarm enqueue: validates a render job completely (the scene loads, the
+ * frames exist, the output directory is writable, the options make sense)
+ * and only then inserts it, so a bad job never reaches a worker
+ * (DESIGN.md §1, §6). Prints the new job's id on stdout.
+ */
+#include "cli_queue.h"
+#include "frame_pipeline.h"
+#include "job_params.h"
+#include "pf_cli.h"
+#include "pf_queue.h"
+#include "pf_render.h"
+#include "pf_scene.h"
+
+#include <errno.h>
+#include <fcntl.h>
+#include <inttypes.h>
+#include <limits.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#define COMMAND "enqueue"
+#define MAX_SPP 65536
+/* Priorities are small integers in practice; the bound keeps typos visible. */
+#define MAX_PRIORITY 1000000
+#define MAX_ATTEMPTS 100
+#define MAX_FRAMES_PER_TASK 10000
+#define PARAMETERS_MAX 1024
+
+static void usage(FILE *out)
+{
+    fprintf(out,
+            "usage: photonfarm enqueue SCENE --frames RANGE --out PATTERN [options]\n"
+            "\n"
+            "Adds a render job to the queue after checking it: the scene loads, every\n"
+            "frame is one of the scene's, the output directory exists and is writable.\n"
+            "Prints the job id on stdout.\n"
+            "\n"
+            "  --frames RANGE         e.g. 1-48, 1-48x2 (every 2nd), 1,5,9-12\n"
+            "  --out PATTERN          output EXR path; a run of # is the zero-padded frame\n"
+            "                         number (required when there are several frames)\n"
+            "  --size WxH             image size (default 640 wide, height from the camera)\n"
+            "  --quality Q            preview | fast | final | reference | auto (default auto)\n"
+            "  --spp N                samples per pixel (default: the preset's)\n"
+            "  --priority P           higher runs first (default 0)\n"
+            "  --max-attempts N       attempts per frame before it fails (default 3)\n"
+            "  --frames-per-task N    frames a worker claims at once (default 1)\n"
+            "  --name JOBNAME         a label shown by status\n"
+            "  --db PATH              queue database (default $PHOTONFARM_DB, else " PF_CLI_DEFAULT_DB ")\n"
+            "  --help                 this text\n"
+            "\n"
+            "Exit status: 0 ok, 1 runtime failure, 2 bad usage or input (nothing inserted).\n");
+}
+
+typedef struct enqueue_options {
+    const char *scene_path, *frames, *pattern, *db, *name;
+    pf_render_settings settings;
+    int64_t priority, max_attempts, frames_per_task;
+} enqueue_options;
+
+static int parse_options(int argc, char **argv, enqueue_options *options, int *help)
+{
+    memset(options, 0, sizeof *options);
+    options->settings = (pf_render_settings){0, 0, PF_QUALITY_AUTO, 0, 0, 1};
+    options->max_attempts = 3;
+    options->frames_per_task = 1;
+    *help = 0;
+    for (int i = 1; i < argc; i++) {
+        const char *arg = argv[i];
+        const char *value = i + 1 < argc ? argv[i + 1] : NULL;
+        int64_t number;
+        if (!strcmp(arg, "--help") || !strcmp(arg, "-h")) {
+            *help = 1;
+            return 0;
+        }
+        if (arg[0] != '-' || arg[1] == '\0') {
+            if (options->scene_path)
+                return pf_cli_fail(COMMAND, 2, "one scene only ('%s' and '%s')",
+                                   options->scene_path, arg);
+            options->scene_path = arg;
+            continue;
+        }
+        if (!value)
+            return pf_cli_fail(COMMAND, 2, "%s needs a value (see --help)", arg);
+        if (!strcmp(arg, "--frames")) {
+            options->frames = value;
+        } else if (!strcmp(arg, "--out") || !strcmp(arg, "-o")) {
+            options->pattern = value;
+        } else if (!strcmp(arg, "--db")) {
+            options->db = value;
+        } else if (!strcmp(arg, "--name")) {
+            options->name = value;
+        } else if (!strcmp(arg, "--size")) {
+            unsigned width, height;
+            char extra;
+            if (sscanf(value, "%ux%u%c", &width, &height, &extra) != 2 || width == 0 ||
+                height == 0 || width > PF_FRAME_MAX_EDGE || height > PF_FRAME_MAX_EDGE)
+                return pf_cli_fail(COMMAND, 2, "--size '%s': expected WxH, each 1..%u", value,
+                                   PF_FRAME_MAX_EDGE);
+            options->settings.width = width;
+            options->settings.height = height;
+        } else if (!strcmp(arg, "--quality")) {
+            int quality = pf_quality_parse(value);
+            if (quality < 0)
+                return pf_cli_fail(COMMAND, 2,
+                                   "--quality '%s': expected preview, fast, final, reference or "
+                                   "auto",
+                                   value);
+            options->settings.quality = (pf_quality)quality;
+        } else if (!strcmp(arg, "--spp")) {
+            if (!pf_cli_parse_int(value, 1, MAX_SPP, &number))
+                return pf_cli_fail(COMMAND, 2, "--spp '%s': expected 1..%d", value, MAX_SPP);
+            options->settings.samples_per_pixel = (uint32_t)number;
+        } else if (!strcmp(arg, "--priority")) {
+            if (!pf_cli_parse_int(value, -MAX_PRIORITY, MAX_PRIORITY, &options->priority))
+                return pf_cli_fail(COMMAND, 2, "--priority '%s': expected an integer %d..%d",
+                                   value, -MAX_PRIORITY, MAX_PRIORITY);
+        } else if (!strcmp(arg, "--max-attempts")) {
+            if (!pf_cli_parse_int(value, 1, MAX_ATTEMPTS, &options->max_attempts))
+                return pf_cli_fail(COMMAND, 2, "--max-attempts '%s': expected 1..%d", value,
+                                   MAX_ATTEMPTS);
+        } else if (!strcmp(arg, "--frames-per-task")) {
+            if (!pf_cli_parse_int(value, 1, MAX_FRAMES_PER_TASK, &options->frames_per_task))
+                return pf_cli_fail(COMMAND, 2, "--frames-per-task '%s': expected 1..%d", value,
+                                   MAX_FRAMES_PER_TASK);
+        } else {
+            return pf_cli_fail(COMMAND, 2, "unknown option '%s' (see --help)", arg);
+        }
+        i++;
+    }
+    if (!options->scene_path)
+        return pf_cli_fail(COMMAND, 2, "no scene given (see --help)");
+    if (!options->frames)
+        return pf_cli_fail(COMMAND, 2, "--frames RANGE is required (e.g. 1-48)");
+    if (!options->pattern)
+        return pf_cli_fail(COMMAND, 2, "--out PATTERN is required (e.g. 'out/frame.####.exr')");
+    return 0;
+}
+
+/*
+ * Resolves the pattern's directory to an absolute path (workers may run
+ * elsewhere) and proves it writable by creating and deleting a probe file.
+ */
+static int check_output(const char *pattern, char *absolute, size_t size)
+{
+    char dir[PATH_MAX], resolved[PATH_MAX];
+    const char *slash = strrchr(pattern, '/');
+    const char *base = slash ? slash + 1 : pattern;
+    if (!*base)
+        return pf_cli_fail(COMMAND, 2, "--out '%s': no file name after the directory", pattern);
+    if (strchr(pattern, '#') && strchr(pattern, '#') < base)
+        return pf_cli_fail(COMMAND, 2, "--out '%s': # belongs in the file name, not the directory",
+                           pattern);
+    if (!slash)
+        snprintf(dir, sizeof dir, ".");
+    else if (slash == pattern)
+        snprintf(dir, sizeof dir, "/");
+    else
+        snprintf(dir, sizeof dir, "%.*s", (int)(slash - pattern), pattern);
+    if (!realpath(dir, resolved))
+        return pf_cli_fail(COMMAND, 2, "--out '%s': output directory %s: %s", pattern, dir,
+                           strerror(errno));
+    char probe[PATH_MAX + 64];
+    snprintf(probe, sizeof probe, "%s/.photonfarm-probe-%ld", resolved, (long)getpid());
+    int fd = open(probe, O_WRONLY | O_CREAT | O_EXCL, 0600);
+    if (fd < 0)
+        return pf_cli_fail(COMMAND, 2, "--out '%s': output directory %s is not writable: %s",
+                           pattern, resolved, strerror(errno));
+    close(fd);
+    unlink(probe);
+    if (snprintf(absolute, size, "%s/%s", strcmp(resolved, "/") ? resolved : "", base) >=
+        (int)size)
+        return pf_cli_fail(COMMAND, 2, "--out '%s': path too long", pattern);
+    return 0;
+}
+
+/* Loads the scene (proving it renders) and checks every frame is one of its frames. */
+static int check_scene(const enqueue_options *options, const pf_frame_list *frames,
+                       char *absolute, size_t size)
+{
+    pf_scene *scene = NULL;
+    pf_error err = {0};
+    if (pf_scene_load(options->scene_path, &scene, &err) != PF_OK)
+        return pf_cli_fail(COMMAND, 2, "scene: %s", err.message);
+    uint32_t frame_count = pf_scene_get_info(scene)->frame_count;
+    pf_scene_destroy(scene);
+    for (size_t i = 0; i < frames->count; i++) {
+        if (frames->frames[i] < 1 || (uint32_t)frames->frames[i] > frame_count)
+            return pf_cli_fail(COMMAND, 2, "--frames '%s': frame %d is outside %s's frames 1-%u",
+                               options->frames, frames->frames[i], options->scene_path,
+                               frame_count);
+    }
+    char resolved[PATH_MAX];
+    if (!realpath(options->scene_path, resolved) || strlen(resolved) >= size)
+        return pf_cli_fail(COMMAND, 2, "scene %s: %s", options->scene_path, strerror(errno));
+    memcpy(absolute, resolved, strlen(resolved) + 1);
+    return 0;
+}
+
+int pf_cli_enqueue(int argc, char **argv)
+{
+    enqueue_options options;
+    int help = 0;
+    int code = parse_options(argc, argv, &options, &help);
+    if (code)
+        return code;
+    if (help) {
+        usage(stdout);
+        return 0;
+    }
+    pf_frame_list frames = {0};
+    pf_error err = {0};
+    if (pf_frame_range_parse(options.frames, &frames, &err) != PF_OK)
+        return pf_cli_fail(COMMAND, 2, "--frames: %s", err.message);
+    size_t frame_count = frames.count;
+    char scene_path[PATH_MAX], pattern[PATH_MAX];
+    if (frame_count > 1 && !strchr(options.pattern, '#'))
+        code = pf_cli_fail(COMMAND, 2,
+                           "--out '%s' has no #### for the frame number, but %zu frames were "
+                           "asked for",
+                           options.pattern, frame_count);
+    if (!code)
+        code = check_output(options.pattern, pattern, sizeof pattern);
+    if (!code)
+        code = check_scene(&options, &frames, scene_path, sizeof scene_path);
+    pf_frame_list_free(&frames);
+    if (code)
+        return code;
+    char parameters[PARAMETERS_MAX];
+    if (!pf_job_params_format(&options.settings, options.name, parameters, sizeof parameters))
+        return pf_cli_fail(COMMAND, 2, "--name is too long");
+
+    pf_queue *queue = NULL;
+    const char *db_path = pf_cli_db_path(options.db);
+    code = pf_cli_open_queue(COMMAND, db_path, 0, &queue);
+    if (code)
+        return code;
+    pf_queue_job_spec spec = {scene_path,
+                              parameters,
+                              options.frames,
+                              pattern,
+                              (int)options.priority,
+                              (int)options.max_attempts,
+                              (int)options.frames_per_task};
+    int64_t job_id = 0;
+    pf_status status = pf_queue_enqueue(queue, &spec, &job_id, &err);
+    pf_queue_close(queue);
+    if (status != PF_OK)
+        return pf_cli_fail(COMMAND, pf_status_exit_code(status), "%s", err.message);
+    printf("%" PRId64 "\n", job_id);
+    fflush(stdout); /* the id comes first when stdout and stderr share a file */
+    fprintf(stderr, "photonfarm enqueue: job %" PRId64 ": %zu frame(s) of %s -> %s (db %s)\n",
+            job_id, frame_count, scene_path, pattern, db_path);
+    return 0;
+}

@@ -1,0 +1,43 @@
+/* Shared pieces of the queue commands (see cli_queue.h). */
+#include "cli_queue.h"
+#include "pf_cli.h"
+
+#include <errno.h>
+#include <stdlib.h>
+#include <sys/stat.h>
+
+const char *pf_cli_db_path(const char *given)
+{
+    if (given)
+        return given;
+    const char *environment = getenv("PHOTONFARM_DB");
+    return environment && *environment ? environment : PF_CLI_DEFAULT_DB;
+}
+
+int pf_cli_open_queue(const char *command, const char *path, int must_exist, pf_queue **out)
+{
+    struct stat info;
+    if (must_exist && stat(path, &info) != 0)
+        return pf_cli_fail(command, 2,
+                           "no queue database at %s (photonfarm enqueue creates one; --db or "
+                           "$PHOTONFARM_DB choose another)",
+                           path);
+    pf_error err = {0};
+    pf_status status = pf_queue_open(path, NULL, out, &err);
+    if (status != PF_OK)
+        return pf_cli_fail(command, status == PF_ERR_IO ? 1 : 2, "%s", err.message);
+    return 0;
+}
+
+int pf_cli_parse_int(const char *text, int64_t min, int64_t max, int64_t *out)
+{
+    if (!text || !*text)
+        return 0;
+    errno = 0;
+    char *end = NULL;
+    long long value = strtoll(text, &end, 10);
+    if (errno || *end || value < min || value > max)
+        return 0;
+    *out = value;
+    return 1;
+}

@@ -1,0 +1,31 @@
+/*
+ * What the queue commands (enqueue, worker, status, timings, cancel, pause,
+ * resume, retry, workers) share: the database path rule (--db, else
+ * $PHOTONFARM_DB, else ./farm.db; DESIGN.md §1), opening it with the queue's
+ * own error message, and strict integer options.
+ */
+#ifndef PF_CLI_QUEUE_H
+#define PF_CLI_QUEUE_H
+
+#include "pf_queue.h"
+
+#include <stdint.h>
+
+#define PF_CLI_DEFAULT_DB "farm.db"
+
+/* given if non-NULL, else $PHOTONFARM_DB if set and non-empty, else "farm.db". */
+const char *pf_cli_db_path(const char *given);
+
+/*
+ * Opens the queue at path for command. must_exist: a missing file is an error
+ * (exit 2, "no queue database at PATH") instead of being created — query and
+ * control commands never create an empty queue. Returns 0 with *out open, or
+ * the exit code after printing the queue's message (a corrupt or non-SQLite
+ * file → 2, and pf_queue_open leaves it untouched).
+ */
+int pf_cli_open_queue(const char *command, const char *path, int must_exist, pf_queue **out);
+
+/* Strict decimal integer in [min, max] (no trailing text). 1 on success. */
+int pf_cli_parse_int(const char *text, int64_t min, int64_t max, int64_t *out);
+
+#endif

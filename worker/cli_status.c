@@ -1,0 +1,123 @@
+/*
+ * photonfarm status [JOB]: every job (or one) with a progress bar, its running
+ * frames and their workers, its failures with their errors, and why a job
+ * cannot progress (the queue's "no eligible worker" note).
+ */
+#include "cli_queue.h"
+#include "job_params.h"
+#include "pf_cli.h"
+#include "progress.h"
+
+#include <inttypes.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define COMMAND "status"
+#define BAR_CELLS 30
+/* Failures listed per job; the rest are counted ("... and N more"). */
+#define FAILURES_SHOWN 10
+
+static void usage(FILE *out)
+{
+    fprintf(out, "usage: photonfarm status [JOB] [--db PATH]\n"
+                 "\n"
+                 "Lists jobs with a progress bar, running frames with their workers, and\n"
+                 "failures with their errors. With JOB, that job only.\n"
+                 "  --db PATH   queue database (default $PHOTONFARM_DB, else " PF_CLI_DEFAULT_DB ")\n");
+}
+
+static void print_job(pf_queue *queue, const pf_queue_job *job, int64_t now)
+{
+    char bar[320], name[128];
+    pf_progress_bar(bar, sizeof bar, job->frames_done, job->frames_total, BAR_CELLS);
+    pf_job_params_name(job->parameters_json, name, sizeof name);
+    printf("job %" PRId64 "%s%s%s  %-8s %s  priority %d\n", job->job_id, name[0] ? " (" : "",
+           name, name[0] ? ")" : "", job->status, bar, job->priority);
+    printf("  scene %s  frames %s  -> %s\n", job->scene_path, job->frame_range,
+           job->output_pattern);
+    printf("  tasks: %" PRId64 " queued, %" PRId64 " running, %" PRId64 " done, %" PRId64
+           " failed, %" PRId64 " canceled\n",
+           job->tasks_queued, job->tasks_running, job->tasks_done, job->tasks_failed,
+           job->tasks_canceled);
+    if (job->note[0])
+        printf("  note: %s\n", job->note);
+
+    pf_error err = {0};
+    pf_queue_task_info *tasks = NULL;
+    size_t task_count = 0;
+    if (pf_queue_task_list(queue, job->job_id, &tasks, &task_count, &err) == PF_OK) {
+        for (size_t i = 0; i < task_count; i++) {
+            if (strcmp(tasks[i].status, "running") != 0)
+                continue;
+            printf("  running: frame %d", tasks[i].first_frame);
+            if (tasks[i].frame_count > 1)
+                printf("-%d", tasks[i].last_frame);
+            printf(" on %s (attempt %d, lease %.1f s left)\n", tasks[i].worker_name,
+                   tasks[i].attempt, (double)(tasks[i].lease_expires - now) / 1000.0);
+        }
+        free(tasks);
+    }
+    pf_queue_failure *failures = NULL;
+    size_t failure_count = 0;
+    if (pf_queue_failure_list(queue, job->job_id, &failures, &failure_count, &err) == PF_OK) {
+        if (failure_count > 0)
+            printf("  failures (%zu):\n", failure_count);
+        for (size_t i = 0; i < failure_count && i < FAILURES_SHOWN; i++)
+            printf("    frame %d attempt %d on %s: %s\n", failures[i].first_frame,
+                   failures[i].attempt, failures[i].worker_name, failures[i].error);
+        if (failure_count > FAILURES_SHOWN)
+            printf("    ... and %zu more\n", failure_count - FAILURES_SHOWN);
+        free(failures);
+    }
+}
+
+int pf_cli_status(int argc, char **argv)
+{
+    const char *db = NULL;
+    int64_t job_id = 0;
+    for (int i = 1; i < argc; i++) {
+        if (!strcmp(argv[i], "--help") || !strcmp(argv[i], "-h")) {
+            usage(stdout);
+            return 0;
+        } else if (!strcmp(argv[i], "--db")) {
+            if (i + 1 >= argc)
+                return pf_cli_fail(COMMAND, 2, "--db needs a value");
+            db = argv[++i];
+        } else if (job_id == 0 && pf_cli_parse_int(argv[i], 1, INT64_MAX, &job_id)) {
+            continue;
+        } else {
+            return pf_cli_fail(COMMAND, 2, "unexpected argument '%s' (see --help)", argv[i]);
+        }
+    }
+    pf_queue *queue = NULL;
+    int code = pf_cli_open_queue(COMMAND, pf_cli_db_path(db), 1, &queue);
+    if (code)
+        return code;
+    pf_error err = {0};
+    int64_t now = pf_queue_now(queue);
+    if (job_id) {
+        pf_queue_job job = {0};
+        pf_status status = pf_queue_job_get(queue, job_id, &job, &err);
+        if (status == PF_OK)
+            print_job(queue, &job, now);
+        else
+            code = pf_cli_fail(COMMAND, pf_status_exit_code(status), "%s", err.message);
+        pf_queue_job_clear(&job);
+    } else {
+        pf_queue_job *jobs = NULL;
+        size_t count = 0;
+        pf_status status = pf_queue_job_list(queue, &jobs, &count, &err);
+        if (status != PF_OK) {
+            code = pf_cli_fail(COMMAND, pf_status_exit_code(status), "%s", err.message);
+        } else if (count == 0) {
+            printf("no jobs\n");
+        } else {
+            for (size_t i = 0; i < count; i++)
+                print_job(queue, &jobs[i], now);
+        }
+        pf_queue_job_list_free(jobs, count);
+    }
+    pf_queue_close(queue);
+    return code;
+}

@@ -1,0 +1,157 @@
+/*
+ * photonfarm timings JOB [--format table|csv|json]: per-stage statistics of
+ * a job from its recorded stage rows — count, skipped count, min / median /
+ * p95 / max and total of wall and GPU milliseconds — the job's totals and its
+ * slowest frames.
+ */
+#include "cli_queue.h"
+#include "pf_cli.h"
+
+#include <cjson/cJSON.h>
+#include <inttypes.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define COMMAND "timings"
+#define SLOWEST_FRAMES 5
+
+static void usage(FILE *out)
+{
+    fprintf(out, "usage: photonfarm timings JOB [--format table|csv|json] [--db PATH]\n"
+                 "\n"
+                 "Per stage: frames that ran it, frames that skipped it, min/median/p95/max\n"
+                 "and total of wall and GPU time in ms; then totals and the %d slowest frames.\n",
+            SLOWEST_FRAMES);
+}
+
+static void print_table(int64_t job_id, const pf_queue_timings *timings)
+{
+    printf("job %" PRId64 ": %" PRId64 " frame(s) with timings\n\n", job_id, timings->frames);
+    printf("%-14s %6s %7s | %9s %9s %9s %9s %11s | %9s %9s %9s %9s %11s\n", "stage", "count",
+           "skipped", "wall min", "median", "p95", "max", "total", "gpu min", "median", "p95",
+           "max", "total");
+    for (size_t i = 0; i < timings->stage_count; i++) {
+        const pf_queue_stage_stats *stage = &timings->stages[i];
+        printf("%-14s %6" PRId64 " %7" PRId64 " | %9.2f %9.2f %9.2f %9.2f %11.2f |", stage->stage,
+               stage->count, stage->skipped, stage->wall.min, stage->wall.median, stage->wall.p95,
+               stage->wall.max, stage->wall.total);
+        if (stage->gpu.count > 0)
+            printf(" %9.2f %9.2f %9.2f %9.2f %11.2f\n", stage->gpu.min, stage->gpu.median,
+                   stage->gpu.p95, stage->gpu.max, stage->gpu.total);
+        else
+            printf(" %9s %9s %9s %9s %11s\n", "-", "-", "-", "-", "-");
+    }
+    printf("\ntotal: wall %.2f ms, gpu %.2f ms\n", timings->total_wall_ms, timings->total_gpu_ms);
+    if (timings->slowest_count > 0)
+        printf("slowest frames:");
+    for (size_t i = 0; i < timings->slowest_count; i++)
+        printf(" %d (%.2f ms)%s", timings->slowest[i].frame, timings->slowest[i].wall_ms,
+               i + 1 < timings->slowest_count ? "," : "\n");
+}
+
+static void print_csv(const pf_queue_timings *timings)
+{
+    printf("stage,count,skipped,wall_min_ms,wall_median_ms,wall_p95_ms,wall_max_ms,"
+           "wall_total_ms,gpu_count,gpu_min_ms,gpu_median_ms,gpu_p95_ms,gpu_max_ms,"
+           "gpu_total_ms\n");
+    for (size_t i = 0; i < timings->stage_count; i++) {
+        const pf_queue_stage_stats *stage = &timings->stages[i];
+        printf("%s,%" PRId64 ",%" PRId64 ",%.4f,%.4f,%.4f,%.4f,%.4f,%" PRId64
+               ",%.4f,%.4f,%.4f,%.4f,%.4f\n",
+               stage->stage, stage->count, stage->skipped, stage->wall.min, stage->wall.median,
+               stage->wall.p95, stage->wall.max, stage->wall.total, stage->gpu.count,
+               stage->gpu.min, stage->gpu.median, stage->gpu.p95, stage->gpu.max,
+               stage->gpu.total);
+    }
+}
+
+static cJSON *stat_json(const pf_queue_stat *stat)
+{
+    cJSON *object = cJSON_CreateObject();
+    cJSON_AddNumberToObject(object, "count", (double)stat->count);
+    cJSON_AddNumberToObject(object, "min_ms", stat->min);
+    cJSON_AddNumberToObject(object, "median_ms", stat->median);
+    cJSON_AddNumberToObject(object, "p95_ms", stat->p95);
+    cJSON_AddNumberToObject(object, "max_ms", stat->max);
+    cJSON_AddNumberToObject(object, "total_ms", stat->total);
+    return object;
+}
+
+static int print_json(int64_t job_id, const pf_queue_timings *timings)
+{
+    cJSON *root = cJSON_CreateObject();
+    cJSON_AddNumberToObject(root, "job", (double)job_id);
+    cJSON_AddNumberToObject(root, "frames", (double)timings->frames);
+    cJSON_AddNumberToObject(root, "total_wall_ms", timings->total_wall_ms);
+    cJSON_AddNumberToObject(root, "total_gpu_ms", timings->total_gpu_ms);
+    cJSON *stages = cJSON_AddArrayToObject(root, "stages");
+    for (size_t i = 0; i < timings->stage_count; i++) {
+        const pf_queue_stage_stats *stage = &timings->stages[i];
+        cJSON *row = cJSON_CreateObject();
+        cJSON_AddStringToObject(row, "stage", stage->stage);
+        cJSON_AddNumberToObject(row, "count", (double)stage->count);
+        cJSON_AddNumberToObject(row, "skipped", (double)stage->skipped);
+        cJSON_AddItemToObject(row, "wall", stat_json(&stage->wall));
+        cJSON_AddItemToObject(row, "gpu", stat_json(&stage->gpu));
+        cJSON_AddItemToArray(stages, row);
+    }
+    cJSON *slowest = cJSON_AddArrayToObject(root, "slowest_frames");
+    for (size_t i = 0; i < timings->slowest_count; i++) {
+        cJSON *row = cJSON_CreateObject();
+        cJSON_AddNumberToObject(row, "frame", timings->slowest[i].frame);
+        cJSON_AddNumberToObject(row, "task", (double)timings->slowest[i].task_id);
+        cJSON_AddNumberToObject(row, "wall_ms", timings->slowest[i].wall_ms);
+        cJSON_AddItemToArray(slowest, row);
+    }
+    char *text = cJSON_Print(root);
+    cJSON_Delete(root);
+    if (!text)
+        return pf_cli_fail(COMMAND, 1, "out of memory formatting JSON");
+    printf("%s\n", text);
+    cJSON_free(text);
+    return 0;
+}
+
+int pf_cli_timings(int argc, char **argv)
+{
+    const char *db = NULL, *format = "table";
+    int64_t job_id = 0;
+    for (int i = 1; i < argc; i++) {
+        if (!strcmp(argv[i], "--help") || !strcmp(argv[i], "-h")) {
+            usage(stdout);
+            return 0;
+        } else if ((!strcmp(argv[i], "--db") || !strcmp(argv[i], "--format")) && i + 1 < argc) {
+            if (!strcmp(argv[i], "--db"))
+                db = argv[++i];
+            else
+                format = argv[++i];
+        } else if (job_id == 0 && pf_cli_parse_int(argv[i], 1, INT64_MAX, &job_id)) {
+            continue;
+        } else {
+            return pf_cli_fail(COMMAND, 2, "unexpected argument '%s' (see --help)", argv[i]);
+        }
+    }
+    if (strcmp(format, "table") && strcmp(format, "csv") && strcmp(format, "json"))
+        return pf_cli_fail(COMMAND, 2, "--format '%s': expected table, csv or json", format);
+    if (!job_id)
+        return pf_cli_fail(COMMAND, 2, "no job id given (see photonfarm status)");
+    pf_queue *queue = NULL;
+    int code = pf_cli_open_queue(COMMAND, pf_cli_db_path(db), 1, &queue);
+    if (code)
+        return code;
+    pf_error err = {0};
+    pf_queue_timings timings = {0};
+    pf_status status = pf_queue_timings_get(queue, job_id, SLOWEST_FRAMES, &timings, &err);
+    pf_queue_close(queue);
+    if (status != PF_OK)
+        return pf_cli_fail(COMMAND, pf_status_exit_code(status), "%s", err.message);
+    if (!strcmp(format, "csv"))
+        print_csv(&timings);
+    else if (!strcmp(format, "json"))
+        code = print_json(job_id, &timings);
+    else
+        print_table(job_id, &timings);
+    pf_queue_timings_free(&timings);
+    return code;
+}

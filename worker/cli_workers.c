@@ -1,0 +1,57 @@
+/* photonfarm workers: every registered worker, alive or dead, its heartbeat
+ * age and what it is rendering. */
+#include "cli_queue.h"
+#include "pf_cli.h"
+
+#include <inttypes.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define COMMAND "workers"
+
+int pf_cli_workers(int argc, char **argv)
+{
+    const char *db = NULL;
+    for (int i = 1; i < argc; i++) {
+        if (!strcmp(argv[i], "--help") || !strcmp(argv[i], "-h")) {
+            printf("usage: photonfarm workers [--db PATH]\n");
+            return 0;
+        } else if (!strcmp(argv[i], "--db") && i + 1 < argc) {
+            db = argv[++i];
+        } else {
+            return pf_cli_fail(COMMAND, 2, "unexpected argument '%s' (see --help)", argv[i]);
+        }
+    }
+    pf_queue *queue = NULL;
+    int code = pf_cli_open_queue(COMMAND, pf_cli_db_path(db), 1, &queue);
+    if (code)
+        return code;
+    pf_error err = {0};
+    pf_queue_worker_info *workers = NULL;
+    size_t count = 0;
+    int64_t now = pf_queue_now(queue);
+    pf_status status = pf_queue_worker_list(queue, &workers, &count, &err);
+    pf_queue_close(queue);
+    if (status != PF_OK)
+        return pf_cli_fail(COMMAND, pf_status_exit_code(status), "%s", err.message);
+    if (count == 0)
+        printf("no workers\n");
+    else
+        printf("%-24s %-8s %-10s %-28s %s\n", "name", "state", "heartbeat", "device", "current");
+    for (size_t i = 0; i < count; i++) {
+        const pf_queue_worker_info *worker = &workers[i];
+        const char *state = worker->stopped_at ? "stopped" : worker->alive ? "alive" : "dead";
+        char age[32], current[64];
+        snprintf(age, sizeof age, "%.1fs ago", (double)(now - worker->heartbeat_at) / 1000.0);
+        if (worker->current_task_id)
+            snprintf(current, sizeof current, "job %" PRId64 " frame %d", worker->current_job_id,
+                     worker->current_frame);
+        else
+            snprintf(current, sizeof current, "-");
+        printf("%-24s %-8s %-10s %-28.28s %s\n", worker->name, state, age, worker->device,
+               current);
+    }
+    free(workers);
+    return 0;
+}

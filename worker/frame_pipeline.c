@@ -1,0 +1,222 @@
+/* One frame: scene evaluation, render, EXR to a temporary, commit (see frame_pipeline.h). */
+#include "frame_pipeline.h"
+
+#include <dirent.h>
+#include <errno.h>
+#include <fcntl.h>
+#include <inttypes.h>
+#include <stdio.h>
+#include <string.h>
+#include <unistd.h>
+
+#define PARTIAL_INFIX ".partial-"
+#define ATTRIBUTE_COUNT 6
+
+static int aborted(const pf_frame_request *request)
+{
+    return request->abort && atomic_load(request->abort);
+}
+
+int pf_frame_output_path(const char *pattern, int64_t frame, char *out, size_t size)
+{
+    const char *hashes = strchr(pattern, '#');
+    if (!hashes)
+        return snprintf(out, size, "%s", pattern) < (int)size;
+    size_t run = strspn(hashes, "#");
+    int written = snprintf(out, size, "%.*s%0*" PRId64 "%s", (int)(hashes - pattern), pattern,
+                           (int)run, frame, hashes + run);
+    return written >= 0 && (size_t)written < size;
+}
+
+/* Splits path into its directory ("." when none) and base name. */
+static void split_path(const char *path, char *dir, size_t dir_size, const char **base)
+{
+    const char *slash = strrchr(path, '/');
+    if (!slash) {
+        snprintf(dir, dir_size, ".");
+        *base = path;
+    } else if (slash == path) {
+        snprintf(dir, dir_size, "/");
+        *base = slash + 1;
+    } else {
+        snprintf(dir, dir_size, "%.*s", (int)(slash - path), path);
+        *base = slash + 1;
+    }
+}
+
+int pf_frame_remove_stale(const char *output_path)
+{
+    char dir[PF_FRAME_PATH_MAX], prefix[PF_FRAME_PATH_MAX], path[2 * PF_FRAME_PATH_MAX];
+    const char *base;
+    split_path(output_path, dir, sizeof dir, &base);
+    snprintf(prefix, sizeof prefix, "%s" PARTIAL_INFIX, base);
+    size_t prefix_length = strlen(prefix);
+    DIR *listing = opendir(dir);
+    if (!listing)
+        return 0;
+    int removed = 0;
+    struct dirent *entry;
+    while ((entry = readdir(listing)) != NULL) {
+        if (strncmp(entry->d_name, prefix, prefix_length) != 0)
+            continue;
+        snprintf(path, sizeof path, "%s/%s", dir, entry->d_name);
+        if (unlink(path) == 0)
+            removed++;
+    }
+    closedir(listing);
+    return removed;
+}
+
+/* Image size for the request: the asked size, or the default width with the camera's aspect. */
+static void resolve_size(const pf_render_settings *asked, const pf_scene_frame *frame,
+                         pf_render_settings *settings)
+{
+    *settings = *asked;
+    if (settings->width && settings->height)
+        return;
+    settings->width = PF_FRAME_DEFAULT_WIDTH;
+    settings->height = frame->camera.aspect > 0.0f
+                           ? (uint32_t)(PF_FRAME_DEFAULT_WIDTH / frame->camera.aspect + 0.5f)
+                           : PF_FRAME_DEFAULT_HEIGHT;
+    if (settings->height < 1)
+        settings->height = 1;
+    if (settings->height > PF_FRAME_MAX_EDGE)
+        settings->height = PF_FRAME_MAX_EDGE;
+}
+
+static void fill_attributes(const pf_frame_request *request, const pf_render_settings *settings,
+                            double render_ms, pf_image_attribute attributes[ATTRIBUTE_COUNT])
+{
+    static const char *const keys[ATTRIBUTE_COUNT] = {
+        "photonfarm/scene",    "photonfarm/frame",      "photonfarm/preset",
+        "photonfarm/settings", "photonfarm/renderTime", "photonfarm/device"};
+    memset(attributes, 0, ATTRIBUTE_COUNT * sizeof *attributes);
+    for (int i = 0; i < ATTRIBUTE_COUNT; i++)
+        snprintf(attributes[i].key, sizeof attributes[i].key, "%s", keys[i]);
+    snprintf(attributes[0].value, sizeof attributes[0].value, "%s", request->scene_path);
+    snprintf(attributes[1].value, sizeof attributes[1].value, "%" PRId64, request->frame);
+    /* auto resolves to preview until the other presets exist. */
+    snprintf(attributes[2].value, sizeof attributes[2].value, "%s",
+             pf_quality_name(PF_QUALITY_PREVIEW));
+    snprintf(attributes[3].value, sizeof attributes[3].value,
+             "size=%ux%u spp=%u seed=%" PRIu64 " quality=%s aovs=%d", settings->width,
+             settings->height, settings->samples_per_pixel, settings->seed,
+             pf_quality_name(settings->quality), settings->aovs);
+    snprintf(attributes[4].value, sizeof attributes[4].value, "%.3f", render_ms);
+    snprintf(attributes[5].value, sizeof attributes[5].value, "%s",
+             request->device_name ? request->device_name : "");
+}
+
+pf_status pf_frame_render(pf_renderer *renderer, const pf_frame_request *request,
+                          pf_frame_output *out, pf_error *err)
+{
+    memset(out, 0, sizeof *out);
+    double start = pf_time_ms();
+    if (snprintf(out->final_path, sizeof out->final_path, "%s", request->output_path) >=
+        (int)sizeof out->final_path)
+        return pf_error_set(err, PF_ERR_INVALID, "output path too long: %s", request->output_path);
+    if (aborted(request)) {
+        out->aborted = 1;
+        return PF_OK;
+    }
+
+    pf_scene_frame frame = {0};
+    pf_status status = pf_scene_eval(
+        request->scene, pf_scene_frame_time(request->scene, request->frame), &frame, err);
+    if (status != PF_OK) {
+        pf_error_prefix(err, "%s frame %" PRId64, request->scene_path, request->frame);
+        return status;
+    }
+    pf_stage_timing *eval_row = pf_frame_report_add(&out->report, "scene_eval");
+    if (eval_row) {
+        eval_row->wall_ms = pf_time_ms() - start;
+        eval_row->gpu_ms = -1.0;
+        pf_stage_add_counter(eval_row, "triangles", frame.triangle_count);
+        pf_stage_add_counter(eval_row, "lights", frame.light_count);
+    }
+    if (aborted(request)) {
+        pf_scene_frame_free(&frame);
+        out->aborted = 1;
+        return PF_OK;
+    }
+
+    pf_render_settings settings;
+    resolve_size(&request->settings, &frame, &settings);
+    out->width = settings.width;
+    out->height = settings.height;
+    pf_image image = {0};
+    status = pf_render_frame(renderer, &frame, &settings, &image, &out->report, err);
+    pf_scene_frame_free(&frame);
+    if (status != PF_OK) {
+        pf_error_prefix(err, "%s frame %" PRId64, request->scene_path, request->frame);
+        return status;
+    }
+    if (aborted(request)) {
+        pf_image_free(&image);
+        out->aborted = 1;
+        return PF_OK;
+    }
+
+    double write_start = pf_time_ms();
+    pf_image_attribute attributes[ATTRIBUTE_COUNT];
+    fill_attributes(request, &settings, write_start - start, attributes);
+    if (snprintf(out->temp_path, sizeof out->temp_path, "%s" PARTIAL_INFIX "%s",
+                 request->output_path, request->temp_tag ? request->temp_tag : "0") >=
+        (int)sizeof out->temp_path) {
+        pf_image_free(&image);
+        out->temp_path[0] = '\0';
+        return pf_error_set(err, PF_ERR_INVALID, "output path too long: %s", request->output_path);
+    }
+    status = pf_exr_write(out->temp_path, &image, request->pixel_type, attributes, ATTRIBUTE_COUNT,
+                          err);
+    pf_image_free(&image);
+    if (status != PF_OK) {
+        unlink(out->temp_path);
+        out->temp_path[0] = '\0';
+        pf_error_prefix(err, "writing frame %" PRId64, request->frame);
+        return status;
+    }
+    pf_stage_timing *write_row = pf_frame_report_add(&out->report, "exr_write");
+    if (write_row) {
+        write_row->wall_ms = pf_time_ms() - write_start;
+        write_row->gpu_ms = -1.0;
+        pf_stage_add_counter(write_row, "pixels", (double)settings.width * settings.height);
+    }
+    out->total_ms = pf_time_ms() - start;
+    return PF_OK;
+}
+
+pf_status pf_frame_commit(pf_frame_output *out, pf_error *err)
+{
+    if (!out->temp_path[0])
+        return pf_error_set(err, PF_ERR_INTERNAL, "no rendered frame to commit for %s",
+                            out->final_path);
+    if (rename(out->temp_path, out->final_path) != 0) {
+        pf_status status = pf_error_set(err, PF_ERR_IO, "renaming %s to %s: %s", out->temp_path,
+                                        out->final_path, strerror(errno));
+        pf_frame_discard(out);
+        return status;
+    }
+    out->temp_path[0] = '\0';
+    /* The rename is durable only once the directory entry is on disk. */
+    char dir[PF_FRAME_PATH_MAX];
+    const char *base;
+    split_path(out->final_path, dir, sizeof dir, &base);
+    int fd = open(dir, O_RDONLY | O_DIRECTORY);
+    if (fd >= 0) {
+        int synced = fsync(fd);
+        close(fd);
+        if (synced != 0)
+            return pf_error_set(err, PF_ERR_IO, "fsync of directory %s: %s", dir,
+                                strerror(errno));
+    }
+    return PF_OK;
+}
+
+void pf_frame_discard(pf_frame_output *out)
+{
+    if (out->temp_path[0]) {
+        unlink(out->temp_path);
+        out->temp_path[0] = '\0';
+    }
+}

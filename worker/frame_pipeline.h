@@ -1,0 +1,82 @@
+/*
+ * One frame from an evaluated scene to a finished EXR, shared by `photonfarm
+ * render` and the queue worker so the frame code exists once (DESIGN.md §4):
+ *
+ *   pf_scene_eval            → stage row "scene_eval"
+ *   pf_render_frame          → the renderer's GPU stage rows
+ *   pf_exr_write to a temporary name beside the output → stage row "exr_write"
+ *
+ * pf_frame_render stops there and hands the temporary back, so the caller can
+ * re-check its lease before pf_frame_commit renames it into place (or
+ * pf_frame_discard deletes it). Temporaries are named "<output>.partial-<tag>"
+ * (and pf_exr_write's own "<that>.tmp-<pid>-<n>"), so every leftover of a
+ * crashed worker for one output starts with "<output>.partial-" and
+ * pf_frame_remove_stale can find it.
+ */
+#ifndef PF_FRAME_PIPELINE_H
+#define PF_FRAME_PIPELINE_H
+
+#include "pf_common.h"
+#include "pf_image.h"
+#include "pf_render.h"
+#include "pf_scene.h"
+
+#include <stdatomic.h>
+#include <stdint.h>
+
+#define PF_FRAME_PATH_MAX 4096
+/* Default image width when none is asked for (the height follows the camera). */
+#define PF_FRAME_DEFAULT_WIDTH 640u
+#define PF_FRAME_DEFAULT_HEIGHT 480u
+/* Largest image side (pf_render_frame's own limit). */
+#define PF_FRAME_MAX_EDGE 16384u
+
+typedef struct pf_frame_request {
+    const pf_scene *scene;
+    const char *scene_path;        /* recorded as metadata */
+    int64_t frame;                 /* 1-based */
+    pf_render_settings settings;   /* width 0: PF_FRAME_DEFAULT_WIDTH, height from the camera */
+    pf_exr_pixel_type pixel_type;
+    const char *output_path;       /* final path of the EXR */
+    const char *temp_tag;          /* makes the temporary name unique (a lease token, a pid) */
+    const char *device_name;       /* recorded as metadata */
+    /* Checked between stages; non-zero stops the frame (NULL: never). Set
+     * from another thread, e.g. when a lease is lost. */
+    const atomic_int *abort;
+} pf_frame_request;
+
+typedef struct pf_frame_output {
+    char final_path[PF_FRAME_PATH_MAX];
+    char temp_path[PF_FRAME_PATH_MAX]; /* "" when no temporary exists */
+    pf_frame_report report;            /* scene_eval, GPU stages, exr_write */
+    uint32_t width, height;            /* as rendered */
+    double total_ms;
+    int aborted;                       /* the abort flag stopped it; nothing on disk */
+} pf_frame_output;
+
+/*
+ * Renders request->frame to the temporary beside output_path and fills out.
+ * On success the complete EXR (fsynced) lies at out->temp_path, unless
+ * out->aborted (the abort flag was seen between stages: nothing is left on
+ * disk). On failure nothing is left on disk and err names the scene/frame or
+ * the file.
+ */
+pf_status pf_frame_render(pf_renderer *renderer, const pf_frame_request *request,
+                          pf_frame_output *out, pf_error *err);
+
+/* Renames the temporary into place and fsyncs the directory. On failure the
+ * temporary is removed and err names both paths. */
+pf_status pf_frame_commit(pf_frame_output *out, pf_error *err);
+
+/* Deletes the temporary, if any (a lost lease, an error). */
+void pf_frame_discard(pf_frame_output *out);
+
+/* Removes leftovers "<output_path>.partial-*" of workers that died mid-frame.
+ * Returns how many files were removed. */
+int pf_frame_remove_stale(const char *output_path);
+
+/* Replaces the first run of '#' in pattern with the zero-padded frame number
+ * (a pattern without '#' is used as is). 0 if the result does not fit. */
+int pf_frame_output_path(const char *pattern, int64_t frame, char *out, size_t size);
+
+#endif

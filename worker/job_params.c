@@ -1,0 +1,94 @@
+/* Job render parameters as JSON (see job_params.h). */
+#include "job_params.h"
+#include "frame_pipeline.h"
+
+#include <cjson/cJSON.h>
+#include <stdio.h>
+#include <string.h>
+
+/* Bound on samples per pixel, as `photonfarm render --spp`. */
+#define MAX_SPP 65536.0
+
+int pf_job_params_format(const pf_render_settings *settings, const char *name, char *out,
+                         size_t size)
+{
+    cJSON *root = cJSON_CreateObject();
+    if (!root)
+        return 0;
+    if (name)
+        cJSON_AddStringToObject(root, "name", name);
+    cJSON_AddNumberToObject(root, "width", settings->width);
+    cJSON_AddNumberToObject(root, "height", settings->height);
+    cJSON_AddStringToObject(root, "quality", pf_quality_name(settings->quality));
+    cJSON_AddNumberToObject(root, "spp", settings->samples_per_pixel);
+    cJSON_AddNumberToObject(root, "seed", (double)settings->seed);
+    char *text = cJSON_PrintUnformatted(root);
+    cJSON_Delete(root);
+    int fits = text && strlen(text) < size;
+    if (fits)
+        memcpy(out, text, strlen(text) + 1);
+    cJSON_free(text);
+    return fits;
+}
+
+void pf_job_params_name(const char *json, char *out, size_t size)
+{
+    out[0] = '\0';
+    cJSON *root = cJSON_Parse(json ? json : "{}");
+    const cJSON *name = cJSON_GetObjectItemCaseSensitive(root, "name");
+    if (cJSON_IsString(name))
+        snprintf(out, size, "%s", name->valuestring);
+    cJSON_Delete(root);
+}
+
+/* Reads an optional integer key in [0, max] into *value. */
+static pf_status read_number(const cJSON *root, const char *key, double max, double *value,
+                             pf_error *err)
+{
+    const cJSON *item = cJSON_GetObjectItemCaseSensitive(root, key);
+    if (!item)
+        return PF_OK;
+    if (!cJSON_IsNumber(item) || item->valuedouble < 0 || item->valuedouble > max ||
+        item->valuedouble != (double)(int64_t)item->valuedouble)
+        return pf_error_set(err, PF_ERR_FORMAT,
+                            "job parameters: \"%s\" must be an integer 0..%.0f", key, max);
+    *value = item->valuedouble;
+    return PF_OK;
+}
+
+pf_status pf_job_params_parse(const char *json, pf_render_settings *settings, pf_error *err)
+{
+    pf_render_settings parsed = {0, 0, PF_QUALITY_AUTO, 0, 0, 1};
+    cJSON *root = cJSON_Parse(json ? json : "{}");
+    if (!cJSON_IsObject(root)) {
+        cJSON_Delete(root);
+        return pf_error_set(err, PF_ERR_FORMAT, "job parameters are not a JSON object: %.80s",
+                            json ? json : "");
+    }
+    double width = 0, height = 0, spp = 0, seed = 0;
+    pf_status status = read_number(root, "width", PF_FRAME_MAX_EDGE, &width, err);
+    if (status == PF_OK)
+        status = read_number(root, "height", PF_FRAME_MAX_EDGE, &height, err);
+    if (status == PF_OK)
+        status = read_number(root, "spp", MAX_SPP, &spp, err);
+    /* 2^53: the largest seed a JSON number carries exactly. */
+    if (status == PF_OK)
+        status = read_number(root, "seed", 9007199254740992.0, &seed, err);
+    const cJSON *quality = cJSON_GetObjectItemCaseSensitive(root, "quality");
+    if (status == PF_OK && quality) {
+        int parsed_quality = cJSON_IsString(quality) ? pf_quality_parse(quality->valuestring) : -1;
+        if (parsed_quality < 0)
+            status = pf_error_set(err, PF_ERR_FORMAT, "job parameters: unknown \"quality\"");
+        else
+            parsed.quality = (pf_quality)parsed_quality;
+    }
+    cJSON_Delete(root);
+    if (status != PF_OK)
+        return status;
+    parsed.width = (uint32_t)width;
+    parsed.height = (uint32_t)height;
+    parsed.samples_per_pixel = (uint32_t)spp;
+    parsed.seed = (uint64_t)seed;
+    *settings = parsed;
+    return PF_OK;
+}

@@ -1,0 +1,97 @@
+/* Structured event lines for the worker (see log.h). */
+#include "log.h"
+
+#include <pthread.h>
+#include <stdio.h>
+#include <string.h>
+#include <sys/time.h>
+#include <time.h>
+
+#define LINE_MAX_BYTES 2048
+
+static pthread_mutex_t log_mutex = PTHREAD_MUTEX_INITIALIZER;
+static pf_wlog_hook log_hook;
+static void *log_hook_user;
+
+void pf_wlog_set_hook(pf_wlog_hook hook, void *user)
+{
+    pthread_mutex_lock(&log_mutex);
+    log_hook = hook;
+    log_hook_user = user;
+    pthread_mutex_unlock(&log_mutex);
+}
+
+void pf_wlog_exclusive(void (*fn)(void *user), void *user)
+{
+    pthread_mutex_lock(&log_mutex);
+    fn(user);
+    pthread_mutex_unlock(&log_mutex);
+}
+
+static const char *level_name(pf_log_level level)
+{
+    switch (level) {
+    case PF_LOG_DEBUG: return "debug";
+    case PF_LOG_INFO: return "info";
+    case PF_LOG_WARN: return "warn";
+    default: return "error";
+    }
+}
+
+void pf_wlog(pf_log_level level, const char *event, const char *format, ...)
+{
+    char line[LINE_MAX_BYTES];
+    struct timeval now;
+    gettimeofday(&now, NULL);
+    struct tm utc;
+    gmtime_r(&now.tv_sec, &utc);
+    size_t length = strftime(line, sizeof line, "ts=%Y-%m-%dT%H:%M:%S", &utc);
+    int written = snprintf(line + length, sizeof line - length, ".%03ldZ level=%s event=%s",
+                           (long)(now.tv_usec / 1000), level_name(level), event);
+    length += written > 0 ? (size_t)written : 0;
+    if (format && *format && length + 1 < sizeof line) {
+        line[length++] = ' ';
+        va_list args;
+        va_start(args, format);
+        written = vsnprintf(line + length, sizeof line - length, format, args);
+        va_end(args);
+        length += written > 0 ? (size_t)written : 0;
+    }
+    if (length > sizeof line - 2)
+        length = sizeof line - 2;
+    line[length++] = '\n';
+    line[length] = '\0';
+    pthread_mutex_lock(&log_mutex);
+    if (log_hook)
+        log_hook(1, log_hook_user);
+    fputs(line, stderr);
+    fflush(stderr);
+    if (log_hook)
+        log_hook(0, log_hook_user);
+    pthread_mutex_unlock(&log_mutex);
+}
+
+const char *pf_wlog_quote(const char *text, char *out, size_t size)
+{
+    size_t used = 0;
+    if (size < 3) {
+        if (size)
+            out[0] = '\0';
+        return out;
+    }
+    out[used++] = '"';
+    for (const char *c = text ? text : ""; *c && used + 4 < size; c++) {
+        unsigned char ch = (unsigned char)*c;
+        if (ch == '"' || ch == '\\') {
+            out[used++] = '\\';
+            out[used++] = (char)ch;
+        } else if (ch < 0x20) {
+            out[used++] = ' ';
+        } else {
+            out[used++] = (char)ch;
+        }
+    }
+    out[used++] = '"';
+    out[used] = '\0';
+    return out;
+}

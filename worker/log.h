@@ -1,0 +1,33 @@
+/*
+ * Structured worker log: one line per event, key=value pairs, so a log
+ * shipper (or grep) can follow a frame across workers:
+ *   ts=2026-11-21T06:54:52.123Z level=info event=claimed job=3 frame=12 worker=host-123
+ * Lines go to stderr in one write each, so lines of several threads never mix.
+ */
+#ifndef PF_WORKER_LOG_H
+#define PF_WORKER_LOG_H
+
+#include "pf_common.h"
+
+/* Hook called before and after each line (the progress bar clears and redraws
+ * itself around log lines on a terminal). NULL: none. */
+typedef void (*pf_wlog_hook)(int before, void *user);
+void pf_wlog_set_hook(pf_wlog_hook hook, void *user);
+
+/* Runs fn(user) under the log's lock, so output it writes (the progress line)
+ * never interleaves with a log line written from another thread. */
+void pf_wlog_exclusive(void (*fn)(void *user), void *user);
+
+/*
+ * Writes "ts=... level=LEVEL event=EVENT " followed by the formatted fields.
+ * Field values that may hold spaces should be quoted by the caller with
+ * pf_wlog_quote. Thread-safe.
+ */
+void pf_wlog(pf_log_level level, const char *event, const char *format, ...)
+    __attribute__((format(printf, 3, 4)));
+
+/* Writes text into out as a double-quoted value with '"', '\\' and control
+ * characters escaped, truncating to fit; returns out. */
+const char *pf_wlog_quote(const char *text, char *out, size_t size);
+
+#endif

@@ -1,0 +1,37 @@
+/*
+ * The queue worker (DESIGN.md §7): a libuv loop that claims tasks, renders
+ * them one at a time off the loop thread, renews the lease by a heartbeat
+ * timer, completes or fails them fenced by the lease token, reaps expired
+ * leases of dead workers, and drains on SIGINT/SIGTERM. Every database call
+ * runs on libuv's thread pool, serialized by one mutex around the one
+ * connection.
+ *
+ * Test hook: $PF_WORKER_TEST_DELAY_MS makes the render thread wait that long
+ * after a task's EXRs are written to their temporaries and before it hands
+ * them back (waking early on abort), so tests can kill, signal or steal the
+ * lease of a worker that is provably mid-frame. Unset in production.
+ */
+#ifndef PF_WORKER_LOOP_H
+#define PF_WORKER_LOOP_H
+
+#include <stdint.h>
+
+/* Idle poll backoff: 100 ms after work, doubling to 2 s while the queue is empty. */
+#define PF_WORKER_POLL_MIN_MS 100
+#define PF_WORKER_POLL_MAX_MS 2000
+
+typedef struct pf_worker_config {
+    const char *db_path;
+    const char *name;          /* NULL: "<host>-<pid>" */
+    const char *device;        /* NULL: automatic ($PHOTONFARM_DEVICE) */
+    int once;                  /* exit as soon as a claim finds nothing eligible */
+    int64_t max_frames;        /* 0: unlimited; else exit after this many frames */
+    double idle_exit_seconds;  /* < 0: never; else exit after this long without work */
+    double lease_seconds;      /* lease length; heartbeats renew it every third */
+} pf_worker_config;
+
+/* Runs the worker until it is told to stop; returns the process exit code
+ * (0 clean, 1 runtime failure, 2 bad input such as a corrupt database). */
+int pf_worker_run(const pf_worker_config *config);
+
+#endif
