@@ -5,7 +5,9 @@
 #   ./bootstrap.sh build   deps, then a warnings-as-errors RelWithDebInfo build in build/
 #   ./bootstrap.sh test    deps, then build and run the whole suite plain (build/) and
 #                          under ASan+UBSan (build-asan/); ends with "N passed, M failed"
-#   ./bootstrap.sh demo    deps, build, then render the bundled animated demo to demo-out/
+#   ./bootstrap.sh demo    deps, build, then enqueue the bundled animated demo into an embedded
+#                          SQLite queue (demo-out/farm.db), run a worker until the job is done,
+#                          and print the job's stage timings
 #
 # Works from any directory: every path is relative to this script's directory.
 # PF_JOBS sets the build parallelism (default: all CPUs).
@@ -41,9 +43,10 @@ DEMO_SCENE=scenes/cornell-animated/cornell-animated.gltf
 DEMO_FRAMES=1-24
 DEMO_SIZE=320x240
 DEMO_OUTPUT=demo-out/frame.####.exr
+DEMO_DB=demo-out/farm.db
 
 usage() {
-  sed -n '2,11s/^# \{0,1\}//p' "$0" >&2
+  sed -n '2,13s/^# \{0,1\}//p' "$0" >&2
   exit 2
 }
 
@@ -123,10 +126,14 @@ cmd_test() {
 
 cmd_demo() {
   cmd_build
+  local photonfarm="$ROOT/build/worker/photonfarm" job
   mkdir -p "$ROOT/demo-out"
-  "$ROOT/build/worker/photonfarm" render "$DEMO_SCENE" --frames "$DEMO_FRAMES" \
-    --size "$DEMO_SIZE" -o "$DEMO_OUTPUT"
-  echo "bootstrap: demo frames written to $ROOT/demo-out/"
+  job=$("$photonfarm" enqueue "$DEMO_SCENE" --frames "$DEMO_FRAMES" --size "$DEMO_SIZE" \
+    --out "$DEMO_OUTPUT" --name cornell-demo --db "$DEMO_DB")
+  "$photonfarm" worker --once --db "$DEMO_DB"
+  "$photonfarm" status "$job" --db "$DEMO_DB"
+  "$photonfarm" timings "$job" --db "$DEMO_DB"
+  echo "bootstrap: demo job $job: frames in $ROOT/demo-out/, queue in $ROOT/$DEMO_DB"
 }
 
 [ $# -eq 1 ] || usage
