@@ -224,3 +224,16 @@ void scene_channel_sample(const scene_channel *channel, double time, float *out)
         return;
     }
 }
+
+void scene_face_normals(const float p[9], float n[9])
+{
+    float edge1[3], edge2[3], geometric[3];
+    for (int k = 0; k < 3; k++) {
+        edge1[k] = p[3 + k] - p[k];
+        edge2[k] = p[6 + k] - p[k];
+    }
+    scene_cross(edge1, edge2, geometric);
+    scene_vec3_normalize(geometric);
+    for (int corner = 0; corner < 3; corner++)
+        memcpy(n + 3 * corner, geometric, sizeof geometric);
+}

@@ -383,15 +383,7 @@ static pf_status append_triangles(gltf_context *ctx, scene_mesh *mesh, const uin
                 memcpy(n + 3 * corner, normals + 3 * (size_t)corners[3 * t + corner],
                        3 * sizeof *n);
         } else {
-            float edge1[3], edge2[3], geometric[3];
-            for (int k = 0; k < 3; k++) {
-                edge1[k] = p[3 + k] - p[k];
-                edge2[k] = p[6 + k] - p[k];
-            }
-            scene_cross(edge1, edge2, geometric);
-            scene_vec3_normalize(geometric);
-            for (int corner = 0; corner < 3; corner++)
-                memcpy(n + 3 * corner, geometric, sizeof geometric);
+            scene_face_normals(p, n);
         }
         mesh->materials[mesh->triangle_count + t] = material;
     }

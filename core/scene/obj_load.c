@@ -417,15 +417,7 @@ static pf_status add_face(obj_state *state, const char *rest, uint32_t line_numb
                 memcpy(n + 3 * c, state->normals.data + 3 * (size_t)triangle[c]->normal,
                        3 * sizeof *n);
         } else {
-            float edge1[3], edge2[3], geometric[3];
-            for (int k = 0; k < 3; k++) {
-                edge1[k] = p[3 + k] - p[k];
-                edge2[k] = p[6 + k] - p[k];
-            }
-            scene_cross(edge1, edge2, geometric);
-            scene_vec3_normalize(geometric);
-            for (int c = 0; c < 3; c++)
-                memcpy(n + 3 * c, geometric, sizeof geometric);
+            scene_face_normals(p, n);
         }
         mesh->materials[mesh->triangle_count++] = material;
     }
