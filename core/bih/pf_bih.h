@@ -149,4 +149,47 @@ pf_status pf_bih_gpu_upload(pf_bih_gpu *gpu, const pf_bih *bih, pf_error *err);
 pf_status pf_bih_raycast(pf_bih_gpu *gpu, const pf_ray *rays, uint32_t ray_count, int any_hit,
                          pf_hit *hits, pf_error *err);
 
+/*
+ * The GPU build (core/bih/bih_gpu_build.c): a linear BIH from Morton codes.
+ * Passes, each a separate dispatch: 30-bit Morton codes of the triangles'
+ * bounding-box centres in the scene box (shaders/bih_morton.comp); a stable
+ * 8-bit LSD radix sort (per-workgroup histograms, one scan, a stable scatter;
+ * the stable order makes the triangle index the codes' tie-break); Karras
+ * 2012 emission, the split axis from the highest differing code bit
+ * (bih_emit.comp); boxes, counts and clip values bottom up with uint arrival
+ * counters (bih_clip.comp); subtrees of <= K triangles collapsed into leaves
+ * and the kept nodes compacted by a prefix sum (bih_collapse.comp).
+ * The builder owns the pipelines; destroy it before the context.
+ */
+typedef struct pf_bih_gpu_builder pf_bih_gpu_builder;
+
+typedef enum pf_bih_build_path {
+    PF_BIH_BUILT_ON_GPU = 0,
+    PF_BIH_BUILT_SMALL_ON_CPU,   /* n <= K: one leaf, nothing to parallelise */
+    PF_BIH_BUILT_CPU_FALLBACK    /* the GPU tree was deeper than max_depth */
+} pf_bih_build_path;
+
+typedef struct pf_bih_gpu_build_report {
+    pf_bih_build_path path;
+    uint32_t gpu_depth;          /* depth of the GPU tree (also when it was refused) */
+} pf_bih_gpu_build_report;
+
+pf_status pf_bih_gpu_builder_create(pf_vk_context *ctx, pf_bih_gpu_builder **out, pf_error *err);
+void pf_bih_gpu_builder_destroy(pf_bih_gpu_builder *builder);
+
+/*
+ * Builds a BIH over frame's triangles on the GPU and downloads it into out,
+ * in the same format pf_bih_build_cpu produces (free with pf_bih_free).
+ * Leaves hold at most K = max_leaf_size triangles. When the tree is deeper
+ * than max_depth (pathological clustering), it is dropped, out comes from
+ * pf_bih_build_cpu with the same options, a warning is logged and
+ * report->path says so: never an over-deep tree. report may be NULL. out is
+ * zeroed on failure. Fails like pf_bih_build_cpu, plus PF_ERR_LIMIT when the
+ * buffers exceed the device's limits, PF_ERR_VULKAN, and PF_ERR_INTERNAL when
+ * the downloaded tree is malformed.
+ */
+pf_status pf_bih_build_gpu(pf_bih_gpu_builder *builder, const pf_scene_frame *frame,
+                           const pf_bih_build_options *options, pf_bih *out,
+                           pf_bih_gpu_build_report *report, pf_error *err);
+
 #endif

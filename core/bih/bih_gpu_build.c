@@ -1,0 +1,373 @@
+/*
+ * The GPU BIH build (see pf_bih_build_gpu in pf_bih.h for the passes). The
+ * host validates the vertices and computes the scene box (the Morton grid),
+ * records every pass into one command buffer with a barrier between passes,
+ * then downloads the compacted nodes, leaf-order vertices and triangle index
+ * and measures the tree (depth, leaves) while walking it once.
+ */
+#include "bih_internal.h"
+
+#include <math.h>
+#include <stdlib.h>
+
+/* local_size_x of every bih_*.comp build pass; the radix passes need 256 = one digit per invocation. */
+#define BUILD_GROUP_SIZE 256u
+/* 8-bit digits: 4 passes cover the 30-bit codes of bih_morton.comp. */
+#define RADIX_BITS 8u
+#define RADIX_PASSES 4u
+#define RADIX_BINS (1u << RADIX_BITS)
+/* bih_morton.comp quantises each axis to 10 bits (1024 cells). */
+#define MORTON_CELLS 1024.0f
+/* Largest element per node among the build buffers: a box (two vec4). */
+#define BOX_BYTES 32u
+
+enum {
+    PASS_MORTON,
+    PASS_HISTOGRAM,
+    PASS_SCAN,
+    PASS_SCATTER,
+    PASS_EMIT,
+    PASS_CLIP,
+    PASS_COLLAPSE,
+    PASS_COUNT
+};
+
+static const struct {
+    const char *shader;
+    uint32_t buffers;
+    uint32_t push_bytes;
+} pass_desc[PASS_COUNT] = {
+    {"bih_morton", 3, 36},
+    {"bih_radix_histogram", 2, 12},
+    {"bih_scan", 1, 4},
+    {"bih_radix_scatter", 5, 12},
+    {"bih_emit", 4, 4},
+    {"bih_clip", 11, 8},
+    {"bih_collapse", 6, 8},
+};
+
+struct pf_bih_gpu_builder {
+    pf_vk_context *ctx;
+    pf_vk_pipeline *pipelines[PASS_COUNT];
+};
+
+enum {
+    BUF_VERTICES,
+    BUF_KEYS_A,
+    BUF_VALUES_A,
+    BUF_KEYS_B,
+    BUF_VALUES_B,
+    BUF_HISTOGRAM,
+    BUF_INNER,
+    BUF_PARENTS,
+    BUF_ARRIVALS,
+    BUF_BOXES,
+    BUF_COUNTS,
+    BUF_CLIPS,
+    BUF_RANK,
+    BUF_LEAF_VERTICES,
+    BUF_TRIANGLE_INDEX,
+    BUF_NODES,
+    BUF_COUNT
+};
+
+pf_status pf_bih_gpu_builder_create(pf_vk_context *ctx, pf_bih_gpu_builder **out, pf_error *err)
+{
+    *out = NULL;
+    pf_bih_gpu_builder *builder = calloc(1, sizeof *builder);
+    if (!builder)
+        return pf_error_set(err, PF_ERR_NOMEM, "pf_bih_gpu_builder_create");
+    builder->ctx = ctx;
+    for (int p = 0; p < PASS_COUNT; p++) {
+        pf_status status = pf_vk_pipeline_create_named(ctx, pass_desc[p].shader,
+                                                       pass_desc[p].buffers,
+                                                       pass_desc[p].push_bytes, NULL, 0,
+                                                       &builder->pipelines[p], err);
+        if (status != PF_OK) {
+            pf_bih_gpu_builder_destroy(builder);
+            return status;
+        }
+    }
+    *out = builder;
+    return PF_OK;
+}
+
+void pf_bih_gpu_builder_destroy(pf_bih_gpu_builder *builder)
+{
+    if (!builder)
+        return;
+    for (int p = 0; p < PASS_COUNT; p++)
+        if (builder->pipelines[p])
+            pf_vk_pipeline_destroy(builder->ctx, builder->pipelines[p]);
+    free(builder);
+}
+
+/* Finite vertices (else PF_ERR_INVALID naming the triangle) and the scene box. */
+static pf_status scene_box(const pf_scene_frame *frame, float lo[3], float hi[3], pf_error *err)
+{
+    for (uint32_t t = 0; t < frame->triangle_count; t++)
+        for (int c = 0; c < 3; c++)
+            for (int k = 0; k < 3; k++) {
+                float v = frame->vertices[3 * t + c][k];
+                if (!isfinite(v))
+                    return pf_error_set(err, PF_ERR_INVALID,
+                                        "BIH GPU build: triangle %u vertex %d: non-finite coordinate",
+                                        t, c);
+                lo[k] = (t == 0 && c == 0) || v < lo[k] ? v : lo[k];
+                hi[k] = (t == 0 && c == 0) || v > hi[k] ? v : hi[k];
+            }
+    return PF_OK;
+}
+
+static uint32_t groups_for(uint32_t items)
+{
+    return (items + BUILD_GROUP_SIZE - 1) / BUILD_GROUP_SIZE;
+}
+
+/* Records all passes; the result is in BUF_NODES, BUF_RANK[n - 1] = kept inner nodes. */
+static pf_status record_build(pf_bih_gpu_builder *b, pf_vk_commands *cmds, pf_vk_buffer **buf,
+                              uint32_t n, uint32_t leaf_size, const float lo[3],
+                              const float hi[3], pf_error *err)
+{
+    uint32_t groups = groups_for(n);
+    struct {
+        float scene_min[4];
+        float scale[4];
+        uint32_t count;
+    } morton = {{lo[0], lo[1], lo[2], 0.0f}, {0}, n};
+    for (int k = 0; k < 3; k++)
+        morton.scale[k] = hi[k] > lo[k] ? MORTON_CELLS / (hi[k] - lo[k]) : 0.0f;
+    pf_vk_buffer *morton_buffers[] = {buf[BUF_VERTICES], buf[BUF_KEYS_A], buf[BUF_VALUES_A]};
+    pf_status status = pf_vk_cmd_dispatch(cmds, b->pipelines[PASS_MORTON], morton_buffers, 3,
+                                          &morton, pass_desc[PASS_MORTON].push_bytes, groups, 1,
+                                          1, err);
+    for (uint32_t pass = 0; status == PF_OK && pass < RADIX_PASSES; pass++) {
+        pf_vk_cmd_barrier(cmds);
+        int from_a = pass % 2 == 0;
+        pf_vk_buffer *keys_in = buf[from_a ? BUF_KEYS_A : BUF_KEYS_B];
+        pf_vk_buffer *values_in = buf[from_a ? BUF_VALUES_A : BUF_VALUES_B];
+        pf_vk_buffer *keys_out = buf[from_a ? BUF_KEYS_B : BUF_KEYS_A];
+        pf_vk_buffer *values_out = buf[from_a ? BUF_VALUES_B : BUF_VALUES_A];
+        uint32_t radix_push[3] = {n, pass * RADIX_BITS, groups};
+        pf_vk_buffer *histogram_buffers[] = {keys_in, buf[BUF_HISTOGRAM]};
+        status = pf_vk_cmd_dispatch(cmds, b->pipelines[PASS_HISTOGRAM], histogram_buffers, 2,
+                                    radix_push, sizeof radix_push, groups, 1, 1, err);
+        pf_vk_cmd_barrier(cmds);
+        uint32_t scan_push = RADIX_BINS * groups;
+        if (status == PF_OK)
+            status = pf_vk_cmd_dispatch(cmds, b->pipelines[PASS_SCAN], &buf[BUF_HISTOGRAM], 1,
+                                        &scan_push, sizeof scan_push, 1, 1, 1, err);
+        pf_vk_cmd_barrier(cmds);
+        pf_vk_buffer *scatter_buffers[] = {keys_in, values_in, keys_out, values_out,
+                                           buf[BUF_HISTOGRAM]};
+        if (status == PF_OK)
+            status = pf_vk_cmd_dispatch(cmds, b->pipelines[PASS_SCATTER], scatter_buffers, 5,
+                                        radix_push, sizeof radix_push, groups, 1, 1, err);
+    }
+    /* An even number of passes leaves the sorted keys and values in the A buffers. */
+    uint32_t inner_groups = groups_for(n - 1);
+    pf_vk_cmd_barrier(cmds);
+    pf_vk_buffer *emit_buffers[] = {buf[BUF_KEYS_A], buf[BUF_INNER], buf[BUF_PARENTS],
+                                    buf[BUF_ARRIVALS]};
+    if (status == PF_OK)
+        status = pf_vk_cmd_dispatch(cmds, b->pipelines[PASS_EMIT], emit_buffers, 4, &n, sizeof n,
+                                    inner_groups, 1, 1, err);
+    pf_vk_cmd_barrier(cmds);
+    uint32_t tree_push[2] = {n, leaf_size};
+    pf_vk_buffer *clip_buffers[] = {buf[BUF_VERTICES], buf[BUF_VALUES_A], buf[BUF_INNER],
+                                    buf[BUF_PARENTS], buf[BUF_BOXES], buf[BUF_COUNTS],
+                                    buf[BUF_ARRIVALS], buf[BUF_CLIPS], buf[BUF_RANK],
+                                    buf[BUF_LEAF_VERTICES], buf[BUF_TRIANGLE_INDEX]};
+    if (status == PF_OK)
+        status = pf_vk_cmd_dispatch(cmds, b->pipelines[PASS_CLIP], clip_buffers, 11, tree_push,
+                                    sizeof tree_push, groups, 1, 1, err);
+    pf_vk_cmd_barrier(cmds);
+    uint32_t inner_count = n - 1;
+    if (status == PF_OK)
+        status = pf_vk_cmd_dispatch(cmds, b->pipelines[PASS_SCAN], &buf[BUF_RANK], 1,
+                                    &inner_count, sizeof inner_count, 1, 1, 1, err);
+    pf_vk_cmd_barrier(cmds);
+    pf_vk_buffer *collapse_buffers[] = {buf[BUF_INNER],  buf[BUF_PARENTS], buf[BUF_COUNTS],
+                                        buf[BUF_CLIPS],  buf[BUF_RANK],    buf[BUF_NODES]};
+    if (status == PF_OK)
+        status = pf_vk_cmd_dispatch(cmds, b->pipelines[PASS_COLLAPSE], collapse_buffers, 6,
+                                    tree_push, sizeof tree_push, inner_groups, 1, 1, err);
+    return status;
+}
+
+/*
+ * Walks the downloaded tree once: every child index in range, every node
+ * reached once (so the walk ends on any input), and the depth and leaf
+ * statistics pf_bih carries.
+ */
+static pf_status measure_tree(pf_bih *bih, pf_error *err)
+{
+    /* (node, depth) pairs; each node pushes its children once: <= 1 + 2 * node_count pushes. */
+    uint32_t *stack = malloc(2 * (2 * (size_t)bih->node_count + 1) * sizeof *stack);
+    uint32_t *seen = calloc(bih->node_count, sizeof *seen);
+    pf_status status = PF_OK;
+    if (!stack || !seen)
+        status = pf_error_set(err, PF_ERR_NOMEM, "BIH GPU build: %u nodes", bih->node_count);
+    uint32_t top = 0;
+    if (status == PF_OK) {
+        stack[top++] = 0;
+        stack[top++] = 0;
+    }
+    while (status == PF_OK && top > 0) {
+        uint32_t depth = stack[--top];
+        uint32_t node = stack[--top];
+        const pf_bih_node *nd = &bih->nodes[node];
+        if (seen[node]++) {
+            status = pf_error_set(err, PF_ERR_INTERNAL, "BIH GPU build: node %u reached twice",
+                                  node);
+        } else if (pf_bih_is_leaf(nd)) {
+            uint32_t count = pf_bih_leaf_count(nd);
+            bih->leaf_count++;
+            bih->largest_leaf = count > bih->largest_leaf ? count : bih->largest_leaf;
+            bih->depth = depth > bih->depth ? depth : bih->depth;
+        } else if (pf_bih_first_child(nd) + 1 >= bih->node_count || pf_bih_first_child(nd) == 0) {
+            status = pf_error_set(err, PF_ERR_INTERNAL,
+                                  "BIH GPU build: node %u has children %u+1 outside the %u nodes",
+                                  node, pf_bih_first_child(nd), bih->node_count);
+        } else {
+            stack[top++] = pf_bih_first_child(nd);
+            stack[top++] = depth + 1;
+            stack[top++] = pf_bih_first_child(nd) + 1;
+            stack[top++] = depth + 1;
+        }
+    }
+    free(stack);
+    free(seen);
+    return status;
+}
+
+static pf_status run_gpu_build(pf_bih_gpu_builder *b, const pf_scene_frame *frame,
+                               uint32_t leaf_size, const float lo[3], const float hi[3],
+                               pf_bih *out, pf_error *err)
+{
+    pf_vk_context *ctx = b->ctx;
+    uint32_t n = frame->triangle_count;
+    const pf_vk_device_info *info = pf_vk_info(ctx);
+    uint64_t largest = 2 * (uint64_t)n * BOX_BYTES;
+    if (largest > info->max_storage_buffer_range || groups_for(n) > info->max_workgroup_count[0])
+        return pf_error_set(err, PF_ERR_LIMIT,
+                            "BIH GPU build: %u triangles need %llu-byte buffers and %u workgroups; device '%s' allows %llu and %u",
+                            n, (unsigned long long)largest, groups_for(n), info->name,
+                            (unsigned long long)info->max_storage_buffer_range,
+                            info->max_workgroup_count[0]);
+    uint64_t nodes = 2 * (uint64_t)n - 1, inner = (uint64_t)n - 1;
+    const struct {
+        uint64_t bytes;
+        const char *label;
+    } sizes[BUF_COUNT] = {
+        [BUF_VERTICES] = {3 * (uint64_t)n * 16, "BIH build vertices"},
+        [BUF_KEYS_A] = {4 * (uint64_t)n, "BIH build keys A"},
+        [BUF_VALUES_A] = {4 * (uint64_t)n, "BIH build values A"},
+        [BUF_KEYS_B] = {4 * (uint64_t)n, "BIH build keys B"},
+        [BUF_VALUES_B] = {4 * (uint64_t)n, "BIH build values B"},
+        [BUF_HISTOGRAM] = {4 * ((uint64_t)RADIX_BINS * groups_for(n) + 1), "BIH build histogram"},
+        [BUF_INNER] = {16 * inner, "BIH build inner nodes"},
+        [BUF_PARENTS] = {4 * nodes, "BIH build parents"},
+        [BUF_ARRIVALS] = {4 * inner, "BIH build arrivals"},
+        [BUF_BOXES] = {BOX_BYTES * nodes, "BIH build boxes"},
+        [BUF_COUNTS] = {4 * nodes, "BIH build counts"},
+        [BUF_CLIPS] = {8 * inner, "BIH build clips"},
+        [BUF_RANK] = {4 * (inner + 1), "BIH build ranks"},
+        [BUF_LEAF_VERTICES] = {3 * (uint64_t)n * 16, "BIH build leaf vertices"},
+        [BUF_TRIANGLE_INDEX] = {4 * (uint64_t)n, "BIH build triangle index"},
+        [BUF_NODES] = {sizeof(pf_bih_node) * nodes, "BIH build nodes"},
+    };
+    pf_vk_buffer *buf[BUF_COUNT] = {0};
+    pf_status status = PF_OK;
+    for (int i = 0; status == PF_OK && i < BUF_COUNT; i++)
+        status = pf_vk_buffer_create(ctx, sizes[i].bytes, sizes[i].label, &buf[i], err);
+    if (status == PF_OK)
+        status = pf_vk_buffer_upload(ctx, buf[BUF_VERTICES], 0, frame->vertices,
+                                     sizes[BUF_VERTICES].bytes, err);
+    pf_vk_commands *cmds = NULL;
+    if (status == PF_OK)
+        status = pf_vk_commands_begin(ctx, &cmds, err);
+    if (status == PF_OK)
+        status = record_build(b, cmds, buf, n, leaf_size, lo, hi, err);
+    if (status == PF_OK)
+        status = pf_vk_commands_submit(cmds, err);
+    pf_vk_commands_destroy(cmds);
+    uint32_t kept = 0;
+    if (status == PF_OK)
+        status = pf_vk_buffer_download(ctx, buf[BUF_RANK], 4 * inner, &kept, sizeof kept, err);
+    if (status == PF_OK && (kept == 0 || kept > inner))
+        status = pf_error_set(err, PF_ERR_INTERNAL,
+                              "BIH GPU build: %u kept inner nodes of %u (n = %u > K = %u)", kept,
+                              (uint32_t)inner, n, leaf_size);
+    if (status == PF_OK) {
+        out->node_count = 1 + 2 * kept;
+        out->triangle_count = n;
+        out->nodes = malloc(out->node_count * sizeof *out->nodes);
+        out->vertices = malloc(3 * (size_t)n * sizeof *out->vertices);
+        out->triangle_index = malloc((size_t)n * sizeof *out->triangle_index);
+        if (!out->nodes || !out->vertices || !out->triangle_index)
+            status = pf_error_set(err, PF_ERR_NOMEM, "BIH GPU build: %u triangles", n);
+    }
+    if (status == PF_OK)
+        status = pf_vk_buffer_download(ctx, buf[BUF_NODES], 0, out->nodes,
+                                       out->node_count * sizeof *out->nodes, err);
+    if (status == PF_OK)
+        status = pf_vk_buffer_download(ctx, buf[BUF_LEAF_VERTICES], 0, out->vertices,
+                                       sizes[BUF_LEAF_VERTICES].bytes, err);
+    if (status == PF_OK)
+        status = pf_vk_buffer_download(ctx, buf[BUF_TRIANGLE_INDEX], 0, out->triangle_index,
+                                       sizes[BUF_TRIANGLE_INDEX].bytes, err);
+    if (status == PF_OK) {
+        memcpy(out->bounds_min, lo, sizeof out->bounds_min);
+        memcpy(out->bounds_max, hi, sizeof out->bounds_max);
+        status = measure_tree(out, err);
+    }
+    for (int i = 0; i < BUF_COUNT; i++)
+        if (buf[i])
+            pf_vk_buffer_destroy(ctx, buf[i]);
+    return status;
+}
+
+pf_status pf_bih_build_gpu(pf_bih_gpu_builder *builder, const pf_scene_frame *frame,
+                           const pf_bih_build_options *options, pf_bih *out,
+                           pf_bih_gpu_build_report *report, pf_error *err)
+{
+    if (!builder || !frame || !out)
+        return pf_error_set(err, PF_ERR_INVALID, "pf_bih_build_gpu: NULL argument");
+    memset(out, 0, sizeof *out);
+    pf_bih_gpu_build_report local;
+    if (!report)
+        report = &local;
+    memset(report, 0, sizeof *report);
+    uint32_t leaf_size = options && options->max_leaf_size ? options->max_leaf_size
+                                                           : PF_BIH_DEFAULT_LEAF_SIZE;
+    uint32_t max_depth = options && options->max_depth ? options->max_depth : PF_BIH_STACK_SIZE;
+    uint32_t n = frame->triangle_count;
+    /* The CPU build validates what it needs; it also makes the one-leaf tree of n <= K. */
+    if (max_depth > PF_BIH_STACK_SIZE || n <= leaf_size || n >= PF_BIH_MAX_NODES / 2 ||
+        !frame->vertices) {
+        report->path = PF_BIH_BUILT_SMALL_ON_CPU;
+        return pf_bih_build_cpu(frame, options, out, err);
+    }
+    float lo[3], hi[3];
+    pf_status status = scene_box(frame, lo, hi, err);
+    if (status == PF_OK)
+        status = run_gpu_build(builder, frame, leaf_size, lo, hi, out, err);
+    if (status != PF_OK) {
+        pf_bih_free(out);
+        memset(out, 0, sizeof *out);
+        pf_error_prefix(err, "BIH GPU build (%u triangles)", n);
+        return status;
+    }
+    report->gpu_depth = out->depth;
+    if (out->depth > max_depth) {
+        pf_log(PF_LOG_WARN,
+               "BIH GPU build: %u triangles gave depth %u > max_depth %u (clustered geometry); built on the CPU instead",
+               n, out->depth, max_depth);
+        pf_bih_free(out);
+        report->path = PF_BIH_BUILT_CPU_FALLBACK;
+        return pf_bih_build_cpu(frame, options, out, err);
+    }
+    report->path = PF_BIH_BUILT_ON_GPU;
+    return PF_OK;
+}
