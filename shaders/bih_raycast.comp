@@ -5,6 +5,8 @@
 // selects the shadow-ray query. Rays whose traversal fails (stack overflow)
 // are counted in failures[0] so the host reports them.
 
+#include "ray_types.glsl"
+
 layout(local_size_x = 64) in;
 layout(constant_id = 0) const bool ANY_HIT = false;
 
@@ -20,16 +22,7 @@ layout(push_constant) uniform Push {
 layout(std430, set = 0, binding = 0) readonly buffer BihNodes { uint bih_nodes[]; };
 layout(std430, set = 0, binding = 1) readonly buffer BihVertices { vec4 bih_vertices[]; };
 layout(std430, set = 0, binding = 2) readonly buffer BihTriangleIndex { uint bih_triangle_index[]; };
-struct Ray {
-    vec4 origin_tmin;
-    vec4 direction_tmax;
-};
 layout(std430, set = 0, binding = 3) readonly buffer Rays { Ray rays[]; };
-struct HitRecord {
-    float t;
-    uint triangle;
-    float u, v;
-};
 layout(std430, set = 0, binding = 4) writeonly buffer Hits { HitRecord hits[]; };
 layout(std430, set = 0, binding = 5) buffer Failures { uint failures[]; };
 

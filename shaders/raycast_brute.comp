@@ -7,6 +7,8 @@
 // oracle). One invocation per ray; ANY_HIT selects the shadow-ray variant.
 // Rays are pf_ray (origin + tmin, direction + tmax), hits pf_hit.
 
+#include "ray_types.glsl"
+
 // A multiple of every subgroup size in use (8 lavapipe, 32 NVIDIA, 64 AMD), so
 // no subgroup is partial.
 layout(local_size_x = 64) in;
@@ -18,16 +20,7 @@ layout(push_constant) uniform Push {
 } push;
 
 layout(std430, set = 0, binding = 0) readonly buffer TriangleVertices { vec4 triangle_vertices[]; };
-struct Ray {
-    vec4 origin_tmin;
-    vec4 direction_tmax;
-};
 layout(std430, set = 0, binding = 1) readonly buffer Rays { Ray rays[]; };
-struct HitRecord {
-    float t;
-    uint triangle;
-    float u, v;
-};
 layout(std430, set = 0, binding = 2) writeonly buffer Hits { HitRecord hits[]; };
 
 #include "brute_trace.glsl"

@@ -24,7 +24,6 @@
  */
 #include "pf_bih.h"
 #include "pf_common.h"
-#include "pf_render.h"
 #include "pf_scene.h"
 #include "pf_vk.h"
 

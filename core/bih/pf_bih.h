@@ -18,7 +18,7 @@
  * Node 0 is the root. Triangles are stored in leaf order (each leaf's range is
  * contiguous); triangle_index maps a leaf-order position to the frame's index.
  *
- * Rays and hits are pf_ray / pf_hit (pf_render.h): t = -1 and triangle =
+ * Rays and hits are pf_ray / pf_hit (below): t = -1 and triangle =
  * PF_NO_HIT on a miss, triangle is the frame's (original) index. A closest-hit
  * query returns the same hit as the brute-force oracle: smallest t, and on an
  * exactly equal t the lowest original index.
@@ -27,11 +27,39 @@
 #define PF_BIH_H
 
 #include "pf_common.h"
-#include "pf_render.h"
 #include "pf_scene.h"
 #include "pf_vk.h"
 
 #include <stdint.h>
+
+/*
+ * A ray: origin xyz + tmin, direction xyz + tmax (std430 mirrors Ray and
+ * HitRecord in shaders/common/ray_types.glsl). A hit: t (or -1 on a miss), the frame's
+ * triangle index (PF_NO_HIT on a miss), barycentrics u, v.
+ */
+typedef struct pf_ray {
+    float origin[3];
+    float tmin;
+    float direction[3];
+    float tmax;
+} pf_ray;
+
+typedef struct pf_hit {
+    float t;
+    uint32_t triangle;
+    float u, v;
+} pf_hit;
+
+#define PF_NO_HIT 0xFFFFFFFFu
+
+/*
+ * The watertight ray/triangle test (Woop, Benthin & Wald 2013) on the CPU,
+ * operation for operation as shaders/common/ray_triangle.glsl. 1 and t, u, v
+ * on a hit in (tmin, tmax); degenerate triangles never hit.
+ */
+int pf_ray_triangle_watertight(const float origin[3], const float direction[3],
+                               const float v0[3], const float v1[3], const float v2[3],
+                               float tmin, float tmax, float *t, float *u, float *v);
 
 /* Traversal stack entries (GPU and CPU); the build bounds the depth by it. */
 #define PF_BIH_STACK_SIZE 64u

@@ -7,6 +7,7 @@
 #ifndef PF_RENDER_H
 #define PF_RENDER_H
 
+#include "pf_bih.h"
 #include "pf_common.h"
 #include "pf_image.h"
 #include "pf_scene.h"
@@ -80,32 +81,11 @@ pf_status pf_render_frame(pf_renderer *renderer, const pf_scene_frame *frame,
 
 /*
  * Ray casting oracle: every ray against every triangle on the GPU with the
- * watertight test (Woop et al. 2013). Rays are origin xyz + tmin, direction xyz
- * + tmax. Hits: t (or -1 on a miss), triangle index (0xFFFFFFFF on a miss),
- * barycentrics u, v. The BIH is tested against this.
+ * watertight test (Woop et al. 2013); pf_ray / pf_hit are defined in pf_bih.h.
+ * The BIH is tested against this.
  */
-typedef struct pf_ray {
-    float origin[3];
-    float tmin;
-    float direction[3];
-    float tmax;
-} pf_ray;
-
-typedef struct pf_hit {
-    float t;
-    uint32_t triangle;
-    float u, v;
-} pf_hit;
-
-#define PF_NO_HIT 0xFFFFFFFFu
-
 pf_status pf_raycast_brute_force(pf_renderer *renderer, const pf_scene_frame *frame,
                                  const pf_ray *rays, uint32_t ray_count, pf_hit *hits,
                                  pf_error *err);
-
-/* CPU implementation of the same watertight test: the oracle's own oracle. */
-int pf_ray_triangle_watertight(const float origin[3], const float direction[3],
-                               const float v0[3], const float v1[3], const float v2[3],
-                               float tmin, float tmax, float *t, float *u, float *v);
 
 #endif

@@ -6,6 +6,7 @@
  * overflow must be reported. Validation must stay silent.
  */
 #include "bih_test_util.h"
+#include "pf_render.h"
 
 #define CASE_RAYS 2000u
 #define SCENE_RAYS 2000u

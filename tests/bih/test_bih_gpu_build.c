@@ -7,6 +7,7 @@
  * sanity. Over-deep trees fall back to the CPU build. Validation stays silent.
  */
 #include "bih_test_util.h"
+#include "pf_render.h"
 
 #define CASE_RAYS 2000u
 #define SCENE_RAYS 2000u
