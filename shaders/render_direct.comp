@@ -1,13 +1,10 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
-#extension GL_KHR_shader_subgroup_basic : require
-#extension GL_KHR_shader_subgroup_shuffle : require
-#extension GL_KHR_shader_subgroup_vote : require
 // Preview integrator (the `shade` stage of the preview preset): camera rays
 // through the pixel centres (jittered when spp > 1), a bounded specular chain
 // through mirrors and glass, then at the first diffuse hit direct light from
 // every punctual light and one sample of the emissive triangles, all with hard
-// shadows. Brute-force traversal: for small scenes until the BIH lands.
+// shadows. Every ray goes through the frame's BIH (bih_traverse.glsl).
 //
 // One dispatch renders one sample of every pixel of one tile and adds it to
 // the film: three vec4 per pixel of the tile, (beauty RGB, coverage),
@@ -22,7 +19,6 @@
 //           inf, so that averages and image metrics stay finite; alpha tells
 //           a miss apart)
 
-// 64 invocations: a multiple of every subgroup size in use, so no subgroup is partial.
 layout(local_size_x = 8, local_size_y = 8) in;
 const uint GROUP_EDGE = 8u;
 
@@ -45,13 +41,31 @@ layout(std430, set = 0, binding = 7) buffer Film { vec4 film[]; };
 layout(std430, set = 0, binding = 8) buffer Counters {
     uint discarded_samples;
     uint rays_traced;
+    uint traversal_failures; // rays whose BIH traversal overflowed: the host fails the frame
 } counters;
+layout(std430, set = 0, binding = 9) readonly buffer BihNodes { uint bih_nodes[]; };
+layout(std430, set = 0, binding = 10) readonly buffer BihVertices { vec4 bih_vertices[]; };
+layout(std430, set = 0, binding = 11) readonly buffer BihTriangleIndex { uint bih_triangle_index[]; };
 
-#include "brute_trace.glsl"
+#include "bih_traverse.glsl"
 #include "camera.glsl"
 #include "lights.glsl"
 #include "materials.glsl"
 #include "rng.glsl"
+
+// Closest (or with any_hit, any) hit through the frame's BIH; a failed
+// traversal counts as a miss here and is reported to the host, which fails
+// the frame.
+BihHit trace(vec3 origin, vec3 direction, float tmax, bool any_hit)
+{
+    bool failed;
+    BihHit hit = trace_bih(origin, direction, 0.0, tmax, any_hit, params.bih_bounds_min.xyz,
+                           params.bih_bounds_max.xyz, params.triangle_count,
+                           params.bih_node_count, failed);
+    if (failed)
+        atomicAdd(counters.traversal_failures, 1u);
+    return hit;
+}
 
 // Binary search depth bound: 2^32 entries.
 const uint EMISSIVE_SEARCH_STEPS = 32u;
@@ -106,7 +120,7 @@ struct PixelSums {
 // Applies the closest hit of the path's current ray: emission, AOVs of the
 // camera hit, then either the end of the chain at a diffuse surface or the
 // next specular ray.
-void path_follow_hit(inout Path path, TraceHit hit, uint depth, float ray_offset, inout uint rng,
+void path_follow_hit(inout Path path, BihHit hit, uint depth, float ray_offset, inout uint rng,
                      inout PixelSums sums)
 {
     if (hit.triangle == NO_HIT) {
@@ -170,15 +184,8 @@ void main()
     const float infinity = uintBitsToFloat(0x7f800000u);
     uvec2 local = gl_WorkGroupID.xy * GROUP_EDGE + gl_LocalInvocationID.xy;
     uvec2 pixel = push.tile_origin + local;
-    // Lanes outside the tile stay to the end with nothing to trace: every
-    // trace_subgroup call needs the whole subgroup, so all of them sit in
-    // subgroup-uniform control flow (loops with uniform bounds, and
-    // subgroupAny deciding whether a trace is needed at all). One sample per
-    // dispatch, not a loop over samples: with the sample loop around it,
-    // lavapipe 22.3 returned wrong closest hits from trace_subgroup in the
-    // second and later samples.
-    bool inside = all(lessThan(local, push.tile_size));
-    uint triangle_count = params.triangle_count;
+    if (any(greaterThanEqual(local, push.tile_size)))
+        return;
     uint spp = params.samples_per_pixel;
     float ray_offset = params.camera_right.w;
     vec2 image_size = vec2(params.width, params.height);
@@ -201,7 +208,7 @@ void main()
                                           image_size);
     path.throughput = vec3(1.0);
     path.radiance = vec3(0.0);
-    path.tracing = inside;
+    path.tracing = true;
     path.diffuse_hit = false;
     path.position = vec3(0.0);
     path.shading_normal = vec3(0.0, 0.0, 1.0);
@@ -209,14 +216,10 @@ void main()
     path.surface = Material(vec3(0.0), MATERIAL_LAMBERT, vec3(0.0), 1.0);
 
     // Camera ray, then the specular chain through mirrors and glass.
-    for (uint depth = 0u; depth <= params.max_specular_depth && subgroupAny(path.tracing);
-         depth++) {
-        TraceHit hit = trace_subgroup(path.origin, path.direction, 0.0, infinity, false,
-                                      path.tracing, triangle_count);
-        if (path.tracing) {
-            sums.rays++;
-            path_follow_hit(path, hit, depth, ray_offset, rng, sums);
-        }
+    for (uint depth = 0u; depth <= params.max_specular_depth && path.tracing; depth++) {
+        BihHit hit = trace(path.origin, path.direction, infinity, false);
+        sums.rays++;
+        path_follow_hit(path, hit, depth, ray_offset, rng, sums);
     }
 
     // Punctual lights at the diffuse hit, each with a hard shadow ray.
@@ -236,14 +239,10 @@ void main()
             shadow_tmax = light.distance - ray_offset;
             contribution = path.throughput * brdf * light.irradiance * cos_surface;
         }
-        if (subgroupAny(lit)) {
-            TraceHit blocker = trace_subgroup(shadow_origin, to_light, 0.0, shadow_tmax, true, lit,
-                                              triangle_count);
-            if (lit) {
-                sums.rays++;
-                if (blocker.triangle == NO_HIT)
-                    path.radiance += contribution;
-            }
+        if (lit) {
+            sums.rays++;
+            if (trace(shadow_origin, to_light, shadow_tmax, true).triangle == NO_HIT)
+                path.radiance += contribution;
         }
     }
 
@@ -277,19 +276,13 @@ void main()
             contribution = path.throughput * brdf * emitted *
                            (cos_surface * cos_light / distance2 * entry.area / entry.pick_pdf);
         }
-        if (subgroupAny(lit)) {
-            TraceHit blocker = trace_subgroup(shadow_origin, to_light, 0.0, shadow_tmax, true, lit,
-                                              triangle_count);
-            if (lit) {
-                sums.rays++;
-                if (blocker.triangle == NO_HIT)
-                    path.radiance += contribution;
-            }
+        if (lit) {
+            sums.rays++;
+            if (trace(shadow_origin, to_light, shadow_tmax, true).triangle == NO_HIT)
+                path.radiance += contribution;
         }
     }
 
-    if (!inside)
-        return;
     if (all_finite(path.radiance)) {
         sums.beauty = path.radiance;
         sums.kept_samples = 1u;

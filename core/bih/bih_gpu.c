@@ -139,6 +139,21 @@ pf_status pf_bih_gpu_upload(pf_bih_gpu *gpu, const pf_bih *bih, pf_error *err)
     return PF_OK;
 }
 
+pf_status pf_bih_gpu_view_get(const pf_bih_gpu *gpu, pf_bih_gpu_view *out, pf_error *err)
+{
+    memset(out, 0, sizeof *out);
+    if (!gpu || !gpu->uploaded)
+        return pf_error_set(err, PF_ERR_INVALID, "BIH view: no BIH uploaded");
+    out->nodes = gpu->nodes;
+    out->vertices = gpu->vertices;
+    out->triangle_index = gpu->triangle_index;
+    out->node_count = gpu->node_count;
+    out->triangle_count = gpu->triangle_count;
+    memcpy(out->bounds_min, gpu->bounds_min, sizeof out->bounds_min);
+    memcpy(out->bounds_max, gpu->bounds_max, sizeof out->bounds_max);
+    return PF_OK;
+}
+
 pf_status pf_bih_raycast(pf_bih_gpu *gpu, const pf_ray *rays, uint32_t ray_count, int any_hit,
                          pf_hit *hits, pf_error *err)
 {

@@ -169,6 +169,22 @@ void pf_bih_gpu_destroy(pf_bih_gpu *gpu);
 pf_status pf_bih_gpu_upload(pf_bih_gpu *gpu, const pf_bih *bih, pf_error *err);
 
 /*
+ * What a kernel that includes shaders/common/bih_traverse.glsl binds: the
+ * three tree buffers (owned by gpu, valid until the next upload or destroy)
+ * and the arguments trace_bih takes. PF_ERR_INVALID before an upload.
+ */
+typedef struct pf_bih_gpu_view {
+    pf_vk_buffer *nodes;          /* bih_nodes[]: 3 words per node */
+    pf_vk_buffer *vertices;       /* bih_vertices[]: vec4 × 3 per triangle, leaf order */
+    pf_vk_buffer *triangle_index; /* bih_triangle_index[]: leaf order -> frame index */
+    uint32_t node_count;
+    uint32_t triangle_count;
+    float bounds_min[3], bounds_max[3];
+} pf_bih_gpu_view;
+
+pf_status pf_bih_gpu_view_get(const pf_bih_gpu *gpu, pf_bih_gpu_view *out, pf_error *err);
+
+/*
  * Casts rays through the uploaded BIH on the GPU (shaders/bih_raycast.comp):
  * closest hit, or with any_hit any hit in (tmin, tmax). hits[i] answers
  * rays[i]. Fails with PF_ERR_INVALID before an upload, PF_ERR_LIMIT when some

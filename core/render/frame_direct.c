@@ -48,7 +48,12 @@ typedef struct render_push {
 typedef struct render_counters {
     uint32_t discarded_samples;
     uint32_t rays_traced;
+    uint32_t traversal_failures; /* rays whose BIH traversal overflowed its stack */
+    uint32_t padding;
 } render_counters;
+
+/* render_direct.comp's bindings: params, 6 scene arrays, film, counters, 3 BIH buffers. */
+#define RENDER_BUFFERS 12u
 
 /* Largest coordinate magnitude or extent of the scene, at least 1 (meters). */
 static float scene_magnitude(const pf_scene_frame *frame)
@@ -63,7 +68,8 @@ static float scene_magnitude(const pf_scene_frame *frame)
 }
 
 static void fill_params(const pf_scene_frame *frame, const pf_render_settings *settings,
-                        uint32_t spp, uint32_t emissive_count, pf_frame_params *params)
+                        uint32_t spp, uint32_t emissive_count, const pf_bih_gpu_view *bih,
+                        pf_frame_params *params)
 {
     memset(params, 0, sizeof *params);
     const pf_camera *camera = &frame->camera;
@@ -87,6 +93,11 @@ static void fill_params(const pf_scene_frame *frame, const pf_render_settings *s
     params->seed_lo = (uint32_t)settings->seed;
     params->seed_hi = (uint32_t)(settings->seed >> 32);
     params->max_specular_depth = MAX_SPECULAR_DEPTH;
+    params->bih_node_count = bih->node_count;
+    for (int i = 0; i < 3; i++) {
+        params->bih_bounds_min[i] = bih->bounds_min[i];
+        params->bih_bounds_max[i] = bih->bounds_max[i];
+    }
 }
 
 /*
@@ -126,7 +137,7 @@ static pf_status render_tile(pf_renderer *renderer, pf_vk_buffer *const *buffers
                              render_counters *counters, double *gpu_ms, pf_error *err)
 {
     pf_vk_context *ctx = renderer->ctx;
-    const render_counters zero = {0, 0};
+    const render_counters zero = {0, 0, 0, 0};
     pf_status status = pf_vk_buffer_upload(ctx, buffers[8], 0, &zero, sizeof zero, err);
     if (status != PF_OK)
         return status;
@@ -141,7 +152,7 @@ static pf_status render_tile(pf_renderer *renderer, pf_vk_buffer *const *buffers
         if (sample > 0)
             pf_vk_cmd_barrier(cmds); /* the previous sample's film sums are read */
         status = pf_vk_cmd_dispatch(
-            cmds, renderer->render_direct, buffers, 9, &push, sizeof push,
+            cmds, renderer->render_direct, buffers, RENDER_BUFFERS, &push, sizeof push,
             (tile->tile_size[0] + RENDER_GROUP_EDGE - 1) / RENDER_GROUP_EDGE,
             (tile->tile_size[1] + RENDER_GROUP_EDGE - 1) / RENDER_GROUP_EDGE, 1, err);
     }
@@ -188,7 +199,6 @@ pf_status pf_render_frame(pf_renderer *renderer, const pf_scene_frame *frame,
     if (status != PF_OK)
         return status;
     uint32_t spp = settings->samples_per_pixel ? settings->samples_per_pixel : PREVIEW_DEFAULT_SPP;
-    double wall_start = pf_time_ms();
     pf_vk_context *ctx = renderer->ctx;
 
     status = settings->aovs
@@ -200,13 +210,26 @@ pf_status pf_render_frame(pf_renderer *renderer, const pf_scene_frame *frame,
     if (status != PF_OK)
         return status;
 
+    status = pf_render_prepare_bih(renderer, frame, report, err);
+    if (status != PF_OK) {
+        pf_image_free(image);
+        return status;
+    }
+    double shade_start = pf_time_ms();
+    pf_bih_gpu_view bih;
+    status = pf_bih_gpu_view_get(renderer->bih_gpu, &bih, err);
+    if (status != PF_OK) {
+        pf_image_free(image);
+        return status;
+    }
+
     pf_gpu_scene scene;
     pf_vk_buffer *params_buffer = NULL, *film_buffer = NULL, *counter_buffer = NULL;
     const uint64_t film_bytes =
         (uint64_t)RENDER_TILE_EDGE * RENDER_TILE_EDGE * FILM_VEC4_PER_PIXEL * 4 * sizeof(float);
     float *film = malloc(film_bytes);
     pf_frame_params params;
-    uint64_t rays = 0, discarded = 0;
+    uint64_t rays = 0, discarded = 0, failures = 0;
     double gpu_ms = -1.0;
 
     status = film ? pf_gpu_scene_upload(ctx, frame, 1, &scene, err)
@@ -216,7 +239,7 @@ pf_status pf_render_frame(pf_renderer *renderer, const pf_scene_frame *frame,
         pf_image_free(image);
         return status;
     }
-    fill_params(frame, settings, spp, scene.emissive_count, &params);
+    fill_params(frame, settings, spp, scene.emissive_count, &bih, &params);
     status = pf_render_buffer_with_data(ctx, "frame parameters", &params, sizeof params,
                                         sizeof params, &params_buffer, err);
     if (status == PF_OK)
@@ -224,9 +247,10 @@ pf_status pf_render_frame(pf_renderer *renderer, const pf_scene_frame *frame,
     if (status == PF_OK)
         status = pf_vk_buffer_create(ctx, sizeof(render_counters), "render counters",
                                      &counter_buffer, err);
-    pf_vk_buffer *buffers[9] = {params_buffer,    scene.vertices, scene.normals,
-                                scene.triangle_material, scene.materials, scene.lights,
-                                scene.emissive,   film_buffer,    counter_buffer};
+    pf_vk_buffer *buffers[RENDER_BUFFERS] = {
+        params_buffer,  scene.vertices, scene.normals,        scene.triangle_material,
+        scene.materials, scene.lights,  scene.emissive,       film_buffer,
+        counter_buffer, bih.nodes,      bih.vertices,         bih.triangle_index};
     for (uint32_t y = 0; status == PF_OK && y < settings->height; y += RENDER_TILE_EDGE) {
         for (uint32_t x = 0; status == PF_OK && x < settings->width; x += RENDER_TILE_EDGE) {
             render_push tile = {{x, y},
@@ -241,6 +265,7 @@ pf_status pf_render_frame(pf_renderer *renderer, const pf_scene_frame *frame,
                 film_to_image(film, &tile, spp, settings->aovs, image);
                 rays += counters.rays_traced;
                 discarded += counters.discarded_samples;
+                failures += counters.traversal_failures;
             }
         }
     }
@@ -249,6 +274,11 @@ pf_status pf_render_frame(pf_renderer *renderer, const pf_scene_frame *frame,
     pf_render_buffer_release(ctx, &film_buffer);
     pf_render_buffer_release(ctx, &params_buffer);
     pf_gpu_scene_release(ctx, &scene);
+    if (status == PF_OK && failures > 0)
+        status = pf_error_set(err, PF_ERR_LIMIT,
+                              "%llu rays overflowed the %u-entry BIH traversal stack (tree depth %u)",
+                              (unsigned long long)failures, PF_BIH_STACK_SIZE,
+                              renderer->bih.depth);
     if (status != PF_OK) {
         pf_image_free(image);
         pf_error_prefix(err, "render (%ux%u, %u spp, %u triangles)", settings->width,
@@ -259,7 +289,7 @@ pf_status pf_render_frame(pf_renderer *renderer, const pf_scene_frame *frame,
         report->discarded_samples += discarded;
         pf_stage_timing *row = pf_frame_report_add(report, "shade");
         if (row) {
-            row->wall_ms = pf_time_ms() - wall_start;
+            row->wall_ms = pf_time_ms() - shade_start;
             row->gpu_ms = gpu_ms;
             pf_stage_add_counter(row, "rays", (double)rays);
             pf_stage_add_counter(row, "triangles", frame->triangle_count);

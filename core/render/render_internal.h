@@ -10,12 +10,21 @@
 
 struct pf_renderer {
     pf_vk_context *ctx;
+    /*
+     * The current frame's BIH: the CPU tree (kept for reuse and refit across
+     * frames), its GPU copy that the shading kernels traverse, and the GPU
+     * builder (created on first use: only GPU builds need its pipelines).
+     */
+    pf_bih bih;
+    int bih_valid;
+    pf_bih_gpu *bih_gpu;
+    pf_bih_gpu_builder *bih_builder;
     pf_vk_pipeline *raycast_closest; /* raycast_brute.comp, ANY_HIT = false */
     pf_vk_pipeline *raycast_any;     /* raycast_brute.comp, ANY_HIT = true */
     pf_vk_pipeline *render_direct;   /* render_direct.comp */
 };
 
-/* FrameParams in scene_types.glsl (std430, 112 bytes). */
+/* FrameParams in scene_types.glsl (std430, 144 bytes). */
 typedef struct pf_frame_params {
     float camera_position[4]; /* w: half width of the image plane at distance 1 */
     float camera_forward[4];  /* w: half height of the image plane at distance 1 */
@@ -23,7 +32,9 @@ typedef struct pf_frame_params {
     float camera_up[4];       /* w: unused */
     uint32_t width, height, samples_per_pixel, triangle_count;
     uint32_t light_count, emissive_count, seed_lo, seed_hi;
-    uint32_t max_specular_depth, padding[3];
+    uint32_t max_specular_depth, bih_node_count, padding[2];
+    float bih_bounds_min[4];  /* the BIH root box (trace_bih's bounds); w unused */
+    float bih_bounds_max[4];
 } pf_frame_params;
 
 /* EmissiveEntry in scene_types.glsl (16 bytes). */
@@ -35,7 +46,7 @@ typedef struct pf_emissive_entry {
 } pf_emissive_entry;
 
 /* The GLSL mirrors assume these std430 sizes. */
-_Static_assert(sizeof(pf_frame_params) == 112, "pf_frame_params must match FrameParams");
+_Static_assert(sizeof(pf_frame_params) == 144, "pf_frame_params must match FrameParams");
 _Static_assert(sizeof(pf_emissive_entry) == 16, "pf_emissive_entry must match EmissiveEntry");
 _Static_assert(sizeof(pf_material) == 32, "pf_material must match Material");
 _Static_assert(sizeof(pf_light) == 64, "pf_light must match Light");
@@ -56,6 +67,15 @@ typedef struct pf_gpu_scene {
     pf_vk_buffer *emissive;          /* pf_emissive_entry table */
     uint32_t emissive_count;
 } pf_gpu_scene;
+
+/*
+ * The `bih_build` stage: makes renderer->bih and its GPU copy hold a BIH over
+ * frame's triangles (built on the device, or on the CPU where the device is
+ * the CPU itself; see frame_bih.c) and appends the stage row to report
+ * (which may be NULL).
+ */
+pf_status pf_render_prepare_bih(pf_renderer *renderer, const pf_scene_frame *frame,
+                                pf_frame_report *report, pf_error *err);
 
 /* Uploads only the vertex buffer (all the ray-casting oracle needs) when full is 0. */
 pf_status pf_gpu_scene_upload(pf_vk_context *ctx, const pf_scene_frame *frame, int full,

@@ -7,7 +7,7 @@
 #define RAYCAST_SPEC_ANY_HIT 0u
 #define RAYCAST_BUFFERS 3u
 #define RAYCAST_PUSH_BYTES 8u
-#define RENDER_DIRECT_BUFFERS 9u
+#define RENDER_DIRECT_BUFFERS 12u
 #define RENDER_DIRECT_PUSH_BYTES 20u
 
 pf_status pf_renderer_create(pf_vk_context *ctx, pf_renderer **out, pf_error *err)
@@ -48,5 +48,9 @@ void pf_renderer_destroy(pf_renderer *renderer)
         if (pipelines[i])
             pf_vk_pipeline_destroy(renderer->ctx, pipelines[i]);
     }
+    pf_bih_gpu_destroy(renderer->bih_gpu);
+    pf_bih_gpu_builder_destroy(renderer->bih_builder);
+    if (renderer->bih_valid)
+        pf_bih_free(&renderer->bih);
     free(renderer);
 }

@@ -50,7 +50,9 @@ struct FrameParams {
     vec4 camera_up;       // w: unused
     uint width, height, samples_per_pixel, triangle_count;
     uint light_count, emissive_count, seed_lo, seed_hi;
-    uint max_specular_depth, padding0, padding1, padding2;
+    uint max_specular_depth, bih_node_count, padding0, padding1;
+    vec4 bih_bounds_min; // xyz: the BIH root box (trace_bih's bounds)
+    vec4 bih_bounds_max;
 };
 
 #endif

@@ -109,8 +109,8 @@ PF_TEST(worker_renders_a_job_and_timings_report_every_stage)
     pf_queue_close(queue);
     PF_CHECK(task_count == 2);
     for (size_t i = 0; i < task_count; i++) {
-        const char *stages[] = {"scene_eval", "shade", "exr_write"};
-        for (int s = 0; s < 3; s++)
+        const char *stages[] = {"scene_eval", "bih_build", "shade", "exr_write"};
+        for (int s = 0; s < 4; s++)
             PF_CHECK_MSG(wt_stage_rows_for_task(db, tasks[i].task_id, stages[s]) ==
                              tasks[i].frame_count,
                          "task %lld stage %s", (long long)tasks[i].task_id, stages[s]);
@@ -134,12 +134,12 @@ PF_TEST(worker_renders_a_job_and_timings_report_every_stage)
             continue;
         }
         PF_CHECK_MSG(columns == header_columns, "csv row '%s'", line);
-        if (!strncmp(line, "scene_eval,3,", 13) || !strncmp(line, "shade,3,", 8) ||
-            !strncmp(line, "exr_write,3,", 12))
+        if (!strncmp(line, "scene_eval,3,", 13) || !strncmp(line, "bih_build,3,", 12) ||
+            !strncmp(line, "shade,3,", 8) || !strncmp(line, "exr_write,3,", 12))
             rows++;
     }
     free(csv);
-    PF_CHECK_MSG(rows == 3, "%d of 3 stage rows with count 3 in the CSV", rows);
+    PF_CHECK_MSG(rows == 4, "%d of 4 stage rows with count 3 in the CSV", rows);
 
     wt_format(args, sizeof args, "timings %lld --format json --db '%s'", (long long)job_id, db);
     PF_REQUIRE(wt_run(args, csv_path) == 0);
@@ -159,7 +159,7 @@ PF_TEST(worker_renders_a_job_and_timings_report_every_stage)
             cJSON_IsObject(wall) && cJSON_GetObjectItem(wall, "p95_ms"))
             found++;
     }
-    PF_CHECK_MSG(found == 3, "%d stages with count 3 in the JSON", found);
+    PF_CHECK_MSG(found == 4, "%d stages with count 3 in the JSON", found);
     PF_CHECK(cJSON_GetArraySize(cJSON_GetObjectItem(root, "slowest_frames")) == 3);
     cJSON_Delete(root);
 
