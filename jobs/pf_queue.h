@@ -195,7 +195,8 @@ typedef struct pf_queue_stage_row {
     double gpu_ms;             /* < 0 (PF_QUEUE_NO_GPU_MS): no GPU time → stored NULL */
     const char *counters_json; /* NULL or JSON text */
     bool skipped;
-    const char *reason;        /* why skipped; NULL when not */
+    const char *reason;        /* why skipped, or the decision a stage that ran took
+                                  (bih_build: "refit: ..."); NULL when none */
 } pf_queue_stage_row;
 
 #define PF_QUEUE_NO_GPU_MS (-1.0)
@@ -361,6 +362,18 @@ typedef struct pf_queue_slow_frame {
     double wall_ms; /* sum of the frame's stages that ran */
 } pf_queue_slow_frame;
 
+/*
+ * How many of a stage's rows took one decision: the rows' reason up to its
+ * first ':' ("refit: SAH 16.2 ..." → "refit"), or the whole reason when it
+ * has none ("geometry unchanged → BIH reused"), cut to fit.
+ */
+#define PF_QUEUE_DECISION_MAX 64
+typedef struct pf_queue_decision_count {
+    char stage[PF_QUEUE_STAGE_NAME_MAX];
+    char decision[PF_QUEUE_DECISION_MAX];
+    int64_t count;
+} pf_queue_decision_count;
+
 typedef struct pf_queue_timings {
     pf_queue_stage_stats *stages; /* in pipeline order (first recorded first) */
     size_t stage_count;
@@ -369,11 +382,15 @@ typedef struct pf_queue_timings {
     int64_t frames;        /* distinct frames with stage rows */
     double total_wall_ms;  /* over every stage row that ran */
     double total_gpu_ms;
+    pf_queue_decision_count *decisions; /* rows with a reason, by stage then decision,
+                                           first recorded first */
+    size_t decision_count;
 } pf_queue_timings;
 
 /*
- * Computes the job's per-stage statistics and its slowest_n slowest frames
- * from the recorded stage rows (only completed tasks have any). Unknown job →
+ * Computes the job's per-stage statistics, its slowest_n slowest frames and
+ * the decisions its stage rows' reasons record, from the recorded stage rows
+ * (only completed tasks have any). Unknown job →
  * PF_ERR_INVALID. Free with pf_queue_timings_free.
  */
 pf_status pf_queue_timings_get(pf_queue *queue, int64_t job_id, size_t slowest_n,

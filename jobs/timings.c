@@ -1,4 +1,7 @@
-/* Stage timing statistics of a job: per stage order statistics, slowest frames. */
+/*
+ * Stage timing statistics of a job: per stage order statistics, slowest
+ * frames, and the decisions recorded in the rows' reasons.
+ */
 #include "queue_internal.h"
 
 #include <math.h>
@@ -135,6 +138,46 @@ static pf_status slowest_frames(pf_queue *queue, timings_context *ctx, pf_error 
     return status;
 }
 
+/* Counts the rows with a reason by stage and decision (pf_queue_decision_count). */
+static pf_status decision_counts(pf_queue *queue, timings_context *ctx, pf_error *err)
+{
+    pf_queue_timings *out = ctx->out;
+    sqlite3_stmt *stmt;
+    pf_status status = queue_prepare(
+        queue,
+        "SELECT s.stage, CASE WHEN instr(s.reason, ':') > 0 THEN substr(s.reason, 1, "
+        "instr(s.reason, ':') - 1) ELSE s.reason END AS decision, count(*) "
+        "FROM stage_timings s JOIN tasks t ON t.id = s.task_id WHERE t.job_id = ? "
+        "AND s.reason IS NOT NULL AND s.reason != '' "
+        "GROUP BY s.stage, decision ORDER BY min(s.id)",
+        &stmt, err);
+    if (status != PF_OK)
+        return status;
+    sqlite3_bind_int64(stmt, 1, ctx->job_id);
+    size_t capacity = 0;
+    int rc;
+    while ((rc = sqlite3_step(stmt)) == SQLITE_ROW) {
+        if (out->decision_count == capacity) {
+            capacity = capacity ? capacity * 2 : 8;
+            pf_queue_decision_count *grown = realloc(out->decisions, capacity * sizeof *grown);
+            if (!grown) {
+                status = pf_error_set(err, PF_ERR_NOMEM, "%s: out of memory reading timings",
+                                      queue->path);
+                break;
+            }
+            out->decisions = grown;
+        }
+        pf_queue_decision_count *row = &out->decisions[out->decision_count++];
+        queue_copy_text(row->stage, sizeof row->stage, queue_column_text(stmt, 0));
+        queue_copy_text(row->decision, sizeof row->decision, queue_column_text(stmt, 1));
+        row->count = sqlite3_column_int64(stmt, 2);
+    }
+    if (status == PF_OK && rc != SQLITE_DONE)
+        status = queue_db_error(queue, err, "counting stage decisions");
+    sqlite3_finalize(stmt);
+    return status;
+}
+
 static pf_status timings_body(pf_queue *queue, void *context, pf_error *err)
 {
     timings_context *ctx = context;
@@ -175,6 +218,8 @@ static pf_status timings_body(pf_queue *queue, void *context, pf_error *err)
     }
     if (status == PF_OK)
         status = slowest_frames(queue, ctx, err);
+    if (status == PF_OK)
+        status = decision_counts(queue, ctx, err);
     return status;
 }
 
@@ -182,6 +227,7 @@ void pf_queue_timings_free(pf_queue_timings *timings)
 {
     free(timings->stages);
     free(timings->slowest);
+    free(timings->decisions);
     memset(timings, 0, sizeof *timings);
 }
 

@@ -1,8 +1,9 @@
 /*
  * photonfarm timings JOB [--format table|csv|json]: per-stage statistics of
  * a job from its recorded stage rows — count, skipped count, min / median /
- * p95 / max and total of wall and GPU milliseconds — the job's totals and its
- * slowest frames.
+ * p95 / max and total of wall and GPU milliseconds — the job's totals, its
+ * slowest frames, and how often each stage took each decision its rows
+ * record (bih_build: reused / refit / rebuilt / built; table and JSON).
  */
 #include "cli_queue.h"
 #include "pf_cli.h"
@@ -21,7 +22,8 @@ static void usage(FILE *out)
     fprintf(out, "usage: photonfarm timings JOB [--format table|csv|json] [--db PATH]\n"
                  "\n"
                  "Per stage: frames that ran it, frames that skipped it, min/median/p95/max\n"
-                 "and total of wall and GPU time in ms; then totals and the %d slowest frames.\n",
+                 "and total of wall and GPU time in ms; then totals, the %d slowest frames\n"
+                 "and the decisions stages recorded (e.g. bih_build reused, refit, rebuilt).\n",
             SLOWEST_FRAMES);
 }
 
@@ -48,6 +50,11 @@ static void print_table(int64_t job_id, const pf_queue_timings *timings)
     for (size_t i = 0; i < timings->slowest_count; i++)
         printf(" %d (%.2f ms)%s", timings->slowest[i].frame, timings->slowest[i].wall_ms,
                i + 1 < timings->slowest_count ? "," : "\n");
+    if (timings->decision_count > 0)
+        printf("\ndecisions (frames):\n");
+    for (size_t i = 0; i < timings->decision_count; i++)
+        printf("%-14s %6" PRId64 "  %s\n", timings->decisions[i].stage,
+               timings->decisions[i].count, timings->decisions[i].decision);
 }
 
 static void print_csv(const pf_queue_timings *timings)
@@ -95,6 +102,14 @@ static int print_json(int64_t job_id, const pf_queue_timings *timings)
         cJSON_AddItemToObject(row, "wall", stat_json(&stage->wall));
         cJSON_AddItemToObject(row, "gpu", stat_json(&stage->gpu));
         cJSON_AddItemToArray(stages, row);
+    }
+    cJSON *decisions = cJSON_AddArrayToObject(root, "decisions");
+    for (size_t i = 0; i < timings->decision_count; i++) {
+        cJSON *row = cJSON_CreateObject();
+        cJSON_AddStringToObject(row, "stage", timings->decisions[i].stage);
+        cJSON_AddStringToObject(row, "decision", timings->decisions[i].decision);
+        cJSON_AddNumberToObject(row, "count", (double)timings->decisions[i].count);
+        cJSON_AddItemToArray(decisions, row);
     }
     cJSON *slowest = cJSON_AddArrayToObject(root, "slowest_frames");
     for (size_t i = 0; i < timings->slowest_count; i++) {

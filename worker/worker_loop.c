@@ -278,7 +278,7 @@ static void finish_run(db_op *op)
                 frame,           stage->stage,
                 stage->wall_ms,  stage->gpu_ms < 0 ? PF_QUEUE_NO_GPU_MS : stage->gpu_ms,
                 counters[row_count], stage->skipped != 0,
-                stage->skipped ? stage->reason : NULL};
+                stage->reason[0] ? stage->reason : NULL};
             row_count++;
         }
     }

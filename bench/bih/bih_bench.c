@@ -2,16 +2,17 @@
  * bih_bench: the BIH (core/bih) against Embree 3 on the same triangles and the
  * same rays, as issue 3's Benchmark section asks. For each shared scene and a
  * generated 1M-triangle displaced sphere it prints:
- *   - our CPU build time (ms, Mtri/s), SAH cost, bytes per node, node count;
+ *   - our CPU build time (ms, Mtri/s) with the global heuristic on 1 and 2
+ *     threads and with binned SAH + empty-space cuts (PF_BIH_HEURISTIC_SAH)
+ *     on 2, SAH cost, bytes per node, node count of both trees;
  *   - our GPU build (pf_bih_build_gpu) time and its tree's SAH;
- *   - both trees' SAH with node boxes cut by the clip planes only (what
- *     traversal pays; pf_bih_quality_measure also intersects with the
- *     triangles' box);
+ *   - every tree's SAH also with node boxes cut by the clip planes only
+ *     (pf_bih_quality.clip_sah_cost: what traversal pays);
  *   - Embree's low-quality (Morton) and high-quality scene build times;
  *   - the SAH of a binary BVH built by Embree's own builder (rtcBuildBVH, high
  *     quality with spatial splits, leaves of at most PF_BIH_DEFAULT_LEAF_SIZE),
  *     measured with the same cost model as pf_bih_quality_measure;
- *   - Mrays/s of pf_bih_raycast, of pf_bih_trace_cpu and of
+ *   - for both CPU trees, Mrays/s of pf_bih_raycast, of pf_bih_trace_cpu and of
  *     rtcIntersect1/rtcOccluded1 (both CPU sides in 2 pthreads)
  *     for primary (640x480), shadow (any hit) and diffuse-bounce rays;
  *   - the fraction of rays where both agree (t within 1e-4 relative, or the
@@ -624,44 +625,6 @@ static double cpu_cast(const pf_bih *bih, const pf_ray *rays, uint32_t count, in
     return failed ? -1.0 : ms;
 }
 
-/*
- * SAH of the BIH with each node's box cut by its ancestors' clip planes only
- * (no intersection with its triangles' box): the region traversal actually
- * clips a ray to, so the cost model of what pf_bih_raycast pays. Same C_trav =
- * C_isect = 1 over A(root) as pf_bih_quality_measure.
- */
-static double clip_only_sah(const pf_bih *bih, uint32_t node, float lo[3], float hi[3],
-                            double root_area)
-{
-    const pf_bih_node *n = &bih->nodes[node];
-    double area = box_area(lo, hi) / root_area;
-    if ((n->word & 3u) == PF_BIH_LEAF) {
-        uint32_t count;
-        memcpy(&count, &n->clip[1], sizeof count);
-        return count * area;
-    }
-    uint32_t axis = n->word & 3u, child = n->word >> 2;
-    float save_hi = hi[axis], save_lo = lo[axis];
-    hi[axis] = fminf(save_hi, n->clip[0]);
-    double cost = area + clip_only_sah(bih, child, lo, hi, root_area);
-    hi[axis] = save_hi;
-    lo[axis] = fmaxf(save_lo, n->clip[1]);
-    cost += clip_only_sah(bih, child + 1, lo, hi, root_area);
-    lo[axis] = save_lo;
-    return cost;
-}
-
-static double bih_clip_sah(const pf_bih *bih)
-{
-    if (bih->node_count == 0 || bih->triangle_count == 0)
-        return 0.0;
-    float lo[3], hi[3];
-    memcpy(lo, bih->bounds_min, sizeof lo);
-    memcpy(hi, bih->bounds_max, sizeof hi);
-    double ra = box_area(lo, hi);
-    return clip_only_sah(bih, 0, lo, hi, ra > 0.0 ? ra : 1.0);
-}
-
 /* ---------- comparison ---------- */
 
 static double agreement(const pf_hit *a, const pf_hit *b, uint32_t count, int occluded)
@@ -725,17 +688,17 @@ static double mrays(uint32_t count, double ms)
  * One ray type: GPU (pf_bih_raycast), our CPU traversal and Embree, with the
  * agreement of the GPU hits against Embree's. Leaves the GPU hits in ours.
  */
-static void report_rays(const char *kind, pf_bih_gpu *gpu, const pf_bih *bih, RTCScene hq,
-                        const pf_ray *rays, uint32_t count, int any_hit, pf_hit *ours,
-                        pf_hit *theirs)
+static void report_rays(const char *kind, const char *tree, pf_bih_gpu *gpu, const pf_bih *bih,
+                        RTCScene hq, const pf_ray *rays, uint32_t count, int any_hit,
+                        pf_hit *ours, pf_hit *theirs)
 {
     double c_ms = cpu_cast(bih, rays, count, any_hit, theirs);
     double e_ms = best_embree_cast(hq, rays, count, any_hit, theirs);
     double o_ms = ours_cast(gpu, rays, count, any_hit, ours);
     double agree = agreement(ours, theirs, count, any_hit);
-    printf("rays    %-8s %7u rays: ours GPU %7.3f Mrays/s | ours CPU %7.3f | Embree %7.3f | "
+    printf("rays    %-8s %-6s %7u rays: ours GPU %7.3f Mrays/s | ours CPU %7.3f | Embree %7.3f | "
            "GPU/Embree %.3fx | CPU/Embree %.3fx | agree %.4f\n",
-           kind, count, mrays(count, o_ms), mrays(count, c_ms), mrays(count, e_ms),
+           kind, tree, count, mrays(count, o_ms), mrays(count, c_ms), mrays(count, e_ms),
            o_ms > 0 ? e_ms / o_ms : 0.0, c_ms > 0 ? e_ms / c_ms : 0.0, agree);
 }
 
@@ -746,6 +709,36 @@ static const char *build_path_name(pf_bih_build_path path)
                                                : "too deep: CPU fallback";
 }
 
+/*
+ * Best-of-TIMING_REPEATS CPU build with the given heuristic and threads; the
+ * last tree goes to keep (or is freed when keep is NULL). -1 on failure.
+ */
+static double cpu_build_ms(const pf_scene_frame *f, uint32_t heuristic, uint32_t threads,
+                           pf_bih *keep)
+{
+    pf_bih_build_options options = {0};
+    options.heuristic = heuristic;
+    options.thread_count = threads;
+    double best = -1.0;
+    for (int rep = 0; rep < TIMING_REPEATS; rep++) {
+        pf_bih b = {0};
+        pf_error err = {0};
+        double t0 = pf_time_ms();
+        if (pf_bih_build_cpu(f, &options, &b, &err) != PF_OK) {
+            fprintf(stderr, "bih_bench: pf_bih_build_cpu: %s\n", err.message);
+            return -1.0;
+        }
+        double ms = pf_time_ms() - t0;
+        if (best < 0.0 || ms < best)
+            best = ms;
+        if (keep && rep == TIMING_REPEATS - 1)
+            *keep = b;
+        else
+            pf_bih_free(&b);
+    }
+    return best;
+}
+
 static int bench_mesh_run(const bench_mesh *m, pf_vk_context *ctx, RTCDevice dev,
                           pf_bih_gpu_builder *builder)
 {
@@ -753,31 +746,27 @@ static int bench_mesh_run(const bench_mesh *m, pf_vk_context *ctx, RTCDevice dev
     uint32_t n = f->triangle_count;
     printf("\n=== %s: %u triangles ===\n", m->name, n);
 
-    /* Our build: best of TIMING_REPEATS. */
-    pf_bih bih = {0};
-    double build_ms = -1.0;
-    for (int rep = 0; rep < TIMING_REPEATS; rep++) {
-        pf_bih b = {0};
-        pf_error err = {0};
-        double t0 = pf_time_ms();
-        if (pf_bih_build_cpu(f, NULL, &b, &err) != PF_OK) {
-            fprintf(stderr, "bih_bench: %s: pf_bih_build_cpu: %s\n", m->name, err.message);
-            pf_bih_free(&bih);
-            return 0;
-        }
-        double ms = pf_time_ms() - t0;
-        if (build_ms < 0.0 || ms < build_ms)
-            build_ms = ms;
+    /* Our CPU builds, best of TIMING_REPEATS each: the global heuristic on 1 and
+     * BENCH_THREADS threads, binned SAH + empty-space cuts on BENCH_THREADS. */
+    pf_bih bih = {0}, sah_bih = {0};
+    double build_1t_ms = cpu_build_ms(f, PF_BIH_HEURISTIC_GLOBAL, 1, NULL);
+    double build_ms = cpu_build_ms(f, PF_BIH_HEURISTIC_GLOBAL, BENCH_THREADS, &bih);
+    double sah_build_ms = cpu_build_ms(f, PF_BIH_HEURISTIC_SAH, BENCH_THREADS, &sah_bih);
+    if (build_1t_ms < 0.0 || build_ms < 0.0 || sah_build_ms < 0.0) {
         pf_bih_free(&bih);
-        bih = b;
+        pf_bih_free(&sah_bih);
+        return 0;
     }
-    pf_bih_quality q;
+    pf_bih_quality q, sq;
     pf_bih_quality_measure(&bih, &q);
+    pf_bih_quality_measure(&sah_bih, &sq);
+    pf_error check_err = {0};
+    if (pf_bih_check(&sah_bih, f, &check_err) != PF_OK)
+        printf("check   SAH tree FAILS pf_bih_check: %s\n", check_err.message);
 
     /* The GPU build (Morton/LBVH-style), best of TIMING_REPEATS, upload and download included. */
     double gpu_build_ms = -1.0;
     pf_bih_quality gq = {0};
-    double gpu_clip_sah = 0.0;
     pf_bih_gpu_build_report report = {0};
     for (int rep = 0; rep < TIMING_REPEATS; rep++) {
         pf_bih b = {0};
@@ -793,7 +782,6 @@ static int bench_mesh_run(const bench_mesh *m, pf_vk_context *ctx, RTCDevice dev
             gpu_build_ms = ms;
         if (rep == 0) {
             pf_bih_quality_measure(&b, &gq);
-            gpu_clip_sah = bih_clip_sah(&b);
         }
         pf_bih_free(&b);
     }
@@ -827,34 +815,47 @@ static int bench_mesh_run(const bench_mesh *m, pf_vk_context *ctx, RTCDevice dev
     double e_sah_med =
         embree_builder_sah(dev, f, RTC_BUILD_QUALITY_MEDIUM, &e_nodes_med, &e_med_build_ms);
 
-    printf("build   ours (CPU, 1 thread)  %9.2f ms  %7.2f Mtri/s\n", build_ms,
-           build_ms > 0 ? n / (build_ms * 1e3) : 0.0);
+    printf("build   ours CPU global 1 thread  %9.2f ms  %7.2f Mtri/s   ours/Embree LOW %.2fx\n",
+           build_1t_ms, mrays(n, build_1t_ms), build_1t_ms / low_ms);
+    printf("build   ours CPU global %d threads %9.2f ms  %7.2f Mtri/s   ours/Embree LOW %.2fx\n",
+           BENCH_THREADS, build_ms, mrays(n, build_ms), build_ms / low_ms);
+    printf("build   ours CPU SAH %d threads    %9.2f ms  %7.2f Mtri/s   ours/Embree LOW %.2fx, "
+           "/HIGH %.2fx\n",
+           BENCH_THREADS, sah_build_ms, mrays(n, sah_build_ms), sah_build_ms / low_ms,
+           sah_build_ms / high_ms);
     if (gpu_build_ms >= 0.0)
         printf("build   ours (GPU: %s) %9.2f ms  %7.2f Mtri/s   GPU/Embree LOW %.2fx\n",
-               build_path_name(report.path), gpu_build_ms,
-               gpu_build_ms > 0 ? n / (gpu_build_ms * 1e3) : 0.0, gpu_build_ms / low_ms);
-    printf("build   Embree LOW (Morton)   %9.2f ms  %7.2f Mtri/s   ours/Embree %.2fx\n", low_ms,
-           low_ms > 0 ? n / (low_ms * 1e3) : 0.0, build_ms / low_ms);
-    printf("build   Embree HIGH (SBVH)    %9.2f ms  %7.2f Mtri/s   ours/Embree %.2fx\n", high_ms,
-           high_ms > 0 ? n / (high_ms * 1e3) : 0.0, build_ms / high_ms);
-    printf("tree    ours: %u nodes (%u inner, %u leaves), %u B/node = %.2f MiB, depth %u, "
-           "mean leaf %.2f\n",
-           bih.node_count, q.inner_count, q.leaf_count, q.bytes_per_node,
-           (double)bih.node_count * q.bytes_per_node / 1048576.0, q.depth, q.mean_leaf_size);
-    printf("SAH     ours CPU tree %.3f (clip planes only: %.3f) | ours GPU tree %.3f (clip only: "
-           "%.3f, %u nodes)\n",
-           q.sah_cost, bih_clip_sah(&bih), gq.sah_cost, gpu_clip_sah,
-           gq.inner_count + gq.leaf_count);
-    printf("SAH     ours %.3f | Embree rtcBuildBVH binary leaf<=%u: HIGH %.3f (%u nodes, %.1f ms),"
-           " MEDIUM %.3f (%u nodes)   ours/Embree HIGH %.2fx\n",
-           q.sah_cost, PF_BIH_DEFAULT_LEAF_SIZE, e_sah_hq, e_nodes_hq, e_hq_build_ms, e_sah_med,
-           e_nodes_med, e_sah_hq > 0 ? q.sah_cost / e_sah_hq : 0.0);
+               build_path_name(report.path), gpu_build_ms, mrays(n, gpu_build_ms),
+               gpu_build_ms / low_ms);
+    printf("build   Embree LOW (Morton)   %9.2f ms  %7.2f Mtri/s\n", low_ms, mrays(n, low_ms));
+    printf("build   Embree HIGH (SBVH)    %9.2f ms  %7.2f Mtri/s\n", high_ms, mrays(n, high_ms));
+    const pf_bih_quality *trees[2] = {&q, &sq};
+    const pf_bih *bihs[2] = {&bih, &sah_bih};
+    const char *tree_names[2] = {"global", "SAH"};
+    for (int t = 0; t < 2; t++)
+        printf("tree    ours %-6s: %u nodes (%u inner, %u leaves with triangles), %u B/node = "
+               "%.2f MiB, depth %u, mean leaf %.2f\n",
+               tree_names[t], bihs[t]->node_count, trees[t]->inner_count, trees[t]->leaf_count,
+               trees[t]->bytes_per_node,
+               (double)bihs[t]->node_count * trees[t]->bytes_per_node / 1048576.0,
+               trees[t]->depth, trees[t]->mean_leaf_size);
+    printf("SAH     ours global %.3f (clip planes only: %.3f) | ours SAH %.3f (clip only: %.3f) | "
+           "ours GPU tree %.3f (clip only: %.3f, %u nodes)\n",
+           q.sah_cost, q.clip_sah_cost, sq.sah_cost, sq.clip_sah_cost, gq.sah_cost,
+           gq.clip_sah_cost, gq.inner_count + gq.leaf_count);
+    printf("SAH     Embree rtcBuildBVH binary leaf<=%u: HIGH %.3f (%u nodes, %.1f ms), MEDIUM %.3f "
+           "(%u nodes) | /Embree HIGH: global %.2fx (clip %.2fx), SAH %.2fx (clip %.2fx)\n",
+           PF_BIH_DEFAULT_LEAF_SIZE, e_sah_hq, e_nodes_hq, e_hq_build_ms, e_sah_med, e_nodes_med,
+           q.sah_cost / e_sah_hq, q.clip_sah_cost / e_sah_hq, sq.sah_cost / e_sah_hq,
+           sq.clip_sah_cost / e_sah_hq);
 
-    /* GPU copy. */
-    pf_bih_gpu *gpu = NULL;
+    /* GPU copies of both trees. */
+    pf_bih_gpu *gpus[2] = {NULL, NULL};
     pf_error err = {0};
-    int ok = pf_bih_gpu_create(ctx, &gpu, &err) == PF_OK &&
-             pf_bih_gpu_upload(gpu, &bih, &err) == PF_OK;
+    int ok = 1;
+    for (int t = 0; t < 2 && ok; t++)
+        ok = pf_bih_gpu_create(ctx, &gpus[t], &err) == PF_OK &&
+             pf_bih_gpu_upload(gpus[t], bihs[t], &err) == PF_OK;
     if (!ok)
         fprintf(stderr, "bih_bench: %s: GPU upload: %s\n", m->name, err.message);
 
@@ -866,20 +867,28 @@ static int bench_mesh_run(const bench_mesh *m, pf_vk_context *ctx, RTCDevice dev
     pf_hit *theirs = malloc(np * sizeof *theirs);
     if (ok && primary && shadow && diffuse && ours && theirs) {
         make_primary(f, primary);
-        report_rays("primary", gpu, &bih, hq, primary, np, 0, ours, theirs);
+        for (int t = 1; t >= 0; t--)
+            report_rays("primary", tree_names[t], gpus[t], bihs[t], hq, primary, np, 0, ours,
+                        theirs);
         uint32_t ns = make_secondary(m, primary, ours, np, shadow, diffuse);
-        report_rays("shadow", gpu, &bih, hq, shadow, ns, 1, ours, theirs);
-        report_rays("diffuse", gpu, &bih, hq, diffuse, ns, 0, ours, theirs);
+        for (int t = 0; t < 2; t++)
+            report_rays("shadow", tree_names[t], gpus[t], bihs[t], hq, shadow, ns, 1, ours,
+                        theirs);
+        for (int t = 0; t < 2; t++)
+            report_rays("diffuse", tree_names[t], gpus[t], bihs[t], hq, diffuse, ns, 0, ours,
+                        theirs);
     }
     free(primary);
     free(shadow);
     free(diffuse);
     free(ours);
     free(theirs);
-    pf_bih_gpu_destroy(gpu);
+    pf_bih_gpu_destroy(gpus[0]);
+    pf_bih_gpu_destroy(gpus[1]);
     rtcReleaseScene(hq);
     free(indices);
     pf_bih_free(&bih);
+    pf_bih_free(&sah_bih);
     fflush(stdout);
     return ok;
 }

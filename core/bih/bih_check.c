@@ -24,10 +24,13 @@ static void box_grow(box3 *box, const float p[3])
     }
 }
 
+/* Side by side, not corner by corner: an empty box (lo = +inf, hi = -inf) merges as nothing. */
 static void box_merge(box3 *box, const box3 *other)
 {
-    box_grow(box, other->lo);
-    box_grow(box, other->hi);
+    for (int k = 0; k < 3; k++) {
+        box->lo[k] = other->lo[k] < box->lo[k] ? other->lo[k] : box->lo[k];
+        box->hi[k] = other->hi[k] > box->hi[k] ? other->hi[k] : box->hi[k];
+    }
 }
 
 typedef struct check_state {
@@ -37,8 +40,14 @@ typedef struct check_state {
     pf_error *err;
 } check_state;
 
-/* Validates the subtree at node and returns its triangles' box. */
-static pf_status check_node(check_state *s, uint32_t node, uint32_t depth, box3 *bounds)
+/*
+ * Validates the subtree at node and returns its triangles' box. unreachable:
+ * the parent's clip value on this child's side is -inf (left) or +inf
+ * (right), so no ray enters it: the only place an empty leaf may be (the
+ * empty child of an empty-space cut), besides an empty tree's root.
+ */
+static pf_status check_node(check_state *s, uint32_t node, uint32_t depth, int unreachable,
+                            box3 *bounds)
 {
     const pf_bih *bih = s->bih;
     if (node >= bih->node_count)
@@ -58,8 +67,10 @@ static pf_status check_node(check_state *s, uint32_t node, uint32_t depth, box3 
                                 "BIH leaf %u: triangles %llu..%llu beyond %u", node,
                                 (unsigned long long)first,
                                 (unsigned long long)(first + count), bih->triangle_count);
-        if (count == 0 && !(node == 0 && bih->triangle_count == 0))
-            return pf_error_set(s->err, PF_ERR_INTERNAL, "BIH leaf %u: empty", node);
+        if (count == 0 && !unreachable && !(node == 0 && bih->triangle_count == 0))
+            return pf_error_set(s->err, PF_ERR_INTERNAL,
+                                "BIH leaf %u: empty, but its parent's clip value lets rays in",
+                                node);
         for (uint64_t p = first; p < first + count; p++) {
             if (s->position_seen[p]++)
                 return pf_error_set(s->err, PF_ERR_INTERNAL,
@@ -79,9 +90,9 @@ static pf_status check_node(check_state *s, uint32_t node, uint32_t depth, box3 
         return pf_error_set(s->err, PF_ERR_INTERNAL, "BIH node %u: children %u, %u out of range",
                             node, child, child + 1);
     box3 left, right;
-    pf_status status = check_node(s, child, depth + 1, &left);
+    pf_status status = check_node(s, child, depth + 1, n->clip[0] == -INFINITY, &left);
     if (status == PF_OK)
-        status = check_node(s, child + 1, depth + 1, &right);
+        status = check_node(s, child + 1, depth + 1, n->clip[1] == INFINITY, &right);
     if (status != PF_OK)
         return status;
     if (!(left.hi[axis] <= n->clip[0]))
@@ -127,7 +138,7 @@ pf_status pf_bih_check(const pf_bih *bih, const pf_scene_frame *frame, pf_error 
     }
     box3 root;
     if (status == PF_OK)
-        status = check_node(&s, 0, 0, &root);
+        status = check_node(&s, 0, 0, 0, &root);
     for (uint32_t p = 0; status == PF_OK && p < n; p++)
         if (!s.position_seen[p])
             status = pf_error_set(err, PF_ERR_INTERNAL,
@@ -160,6 +171,7 @@ typedef struct quality_state {
     const pf_bih *bih;
     double root_area;
     double weighted_inner, weighted_leaf;
+    double clip_weighted;        /* the same sum with the clip region's area alone */
     pf_bih_quality *q;
 } quality_state;
 
@@ -175,7 +187,7 @@ static box3 measure_node(quality_state *s, uint32_t node, const box3 *clip, uint
         for (uint32_t p = first; p < first + pf_bih_leaf_count(n); p++)
             for (int c = 0; c < 3; c++)
                 box_grow(&bounds, s->bih->vertices[3 * p + c]);
-        s->q->leaf_count++;
+        s->q->leaf_count += count > 0;
         if (pf_bih_leaf_count(n) > s->q->largest_leaf)
             s->q->largest_leaf = pf_bih_leaf_count(n);
         if (depth > s->q->depth)
@@ -196,10 +208,14 @@ static box3 measure_node(quality_state *s, uint32_t node, const box3 *clip, uint
         region.hi[k] = fminf(region.hi[k], clip->hi[k]);
     }
     double probability = s->root_area > 0.0 ? box_area(&region) / s->root_area : 1.0;
-    if (pf_bih_is_leaf(n))
+    double clip_probability = s->root_area > 0.0 ? box_area(clip) / s->root_area : 1.0;
+    if (pf_bih_is_leaf(n)) {
         s->weighted_leaf += probability * count;
-    else
+        s->clip_weighted += clip_probability * count;
+    } else {
         s->weighted_inner += probability;
+        s->clip_weighted += clip_probability;
+    }
     return bounds;
 }
 
@@ -212,8 +228,9 @@ void pf_bih_quality_measure(const pf_bih *bih, pf_bih_quality *quality)
     box3 root;
     memcpy(root.lo, bih->bounds_min, sizeof root.lo);
     memcpy(root.hi, bih->bounds_max, sizeof root.hi);
-    quality_state s = {bih, box_area(&root), 0.0, 0.0, quality};
+    quality_state s = {bih, box_area(&root), 0.0, 0.0, 0.0, quality};
     measure_node(&s, 0, &root, 0);
     quality->sah_cost = s.weighted_inner + s.weighted_leaf;
+    quality->clip_sah_cost = s.clip_weighted;
     quality->mean_leaf_size = (double)bih->triangle_count / quality->leaf_count;
 }

@@ -1,10 +1,22 @@
 /*
- * The CPU reference builder: Wächter & Keller's top-down BIH with the global
- * heuristic (see pf_bih_build_cpu in pf_bih.h for the contract).
+ * The CPU builder (see pf_bih_build_cpu in pf_bih.h for the contract): top
+ * down, with either Wächter & Keller's global heuristic (the reference) or a
+ * binned SAH with empty-space cuts.
+ *
+ * Speed: each triangle's box is computed once into an array of build_prim
+ * (box + frame index) that the build partitions in place, so every pass reads
+ * memory in order. The top of the tree is built on the calling thread until
+ * the subtrees are small enough (PARALLEL_SUBTREE_FRACTION of the triangles);
+ * those subtrees are then built by the worker threads, each into its own node
+ * buffer, and stitched in subtree order. Which subtrees exist depends only on
+ * the triangles and options, never on the thread count or timing, so the tree
+ * is the same on every run.
  */
 #include "bih_internal.h"
 
 #include <math.h>
+#include <pthread.h>
+#include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -14,30 +26,98 @@
  * box; the loop also stops as soon as the midpoint makes no progress.
  */
 #define MAX_CANDIDATE_HALVINGS 900u
+/* Binned SAH: 16 bins per axis is within 1 % of a full sweep (Wald, "On fast
+ * Construction of SAH-based Bounding Volume Hierarchies", RT 2007). */
+#define SAH_BINS 16
+/*
+ * Empty-space cut (Wächter & Keller 2006, §3.3): a node with one empty child
+ * that moves one side of the clip region onto the triangles' box. With
+ * C_trav = C_isect = 1 it pays when A(cut) + n·A(cut) < n·A(region) for a
+ * leaf-like cost of n; the ratio is capped so that a subtree of many triangles
+ * is not cut for a sliver (each cut is one more level of the bounded depth).
+ */
+#define EMPTY_CUT_MAX_AREA_RATIO 0.8f
+/* Subtrees of at most this fraction of the triangles go to the worker threads
+ * (1/16: enough subtrees for 2 threads to balance). */
+#define PARALLEL_SUBTREE_FRACTION 16u
+/* Below this many triangles a thread costs more than it saves. */
+#define PARALLEL_MIN_TRIANGLES 8192u
 
-typedef struct build_state {
-    float (*tri_min)[3];     /* per frame triangle: bounding box */
-    float (*tri_max)[3];
-    float (*centre)[3];      /* bounding-box centre: what the heuristic classifies */
-    uint32_t *order;         /* leaf-order position -> frame triangle (being partitioned) */
-    pf_bih_node *nodes;
-    uint32_t node_count;
+typedef struct box3 {
+    float lo[3], hi[3];
+} box3;
+
+typedef struct build_prim {
+    float lo[3], hi[3];  /* the triangle's bounding box */
+    uint32_t triangle;   /* frame index */
+} build_prim;
+
+typedef struct build_config {
+    build_prim *prims;
     uint32_t leaf_size;
     uint32_t max_depth;
+    uint32_t heuristic;
+    uint32_t defer_below; /* subtrees of at most this many triangles become tasks; 0 = none */
+} build_config;
+
+typedef struct subtree_task {
+    uint32_t node;        /* placeholder in the top tree */
+    uint32_t first, count, depth;
+    box3 region, bounds, centres;
+    /* Filled by the worker: */
+    pf_bih_node *nodes;   /* node 0 = the subtree root */
+    uint32_t node_count;
+    uint32_t depth_reached, leaf_count, largest_leaf;
+    pf_status status;
+    pf_error err;
+} subtree_task;
+
+/* One thread's build of one (sub)tree into its own growable node buffer. */
+typedef struct subtree_builder {
+    const build_config *cfg;
+    pf_bih_node *nodes;
+    uint32_t node_count, node_capacity;
     uint32_t depth, leaf_count, largest_leaf;
-} build_state;
+    subtree_task *tasks;  /* top tree only: subtrees deferred to the workers */
+    uint32_t task_count, task_capacity;
+    pf_error *err;
+} subtree_builder;
 
-typedef struct keyed_triangle {
-    float key;
-    uint32_t triangle;
-} keyed_triangle;
-
-static int compare_keyed(const void *a, const void *b)
+static box3 empty_box(void)
 {
-    const keyed_triangle *x = a, *y = b;
-    if (x->key != y->key)
-        return x->key < y->key ? -1 : 1;
-    return x->triangle < y->triangle ? -1 : x->triangle > y->triangle;
+    return (box3){{INFINITY, INFINITY, INFINITY}, {-INFINITY, -INFINITY, -INFINITY}};
+}
+
+static void box_merge(box3 *box, const float lo[3], const float hi[3])
+{
+    for (int k = 0; k < 3; k++) {
+        box->lo[k] = lo[k] < box->lo[k] ? lo[k] : box->lo[k];
+        box->hi[k] = hi[k] > box->hi[k] ? hi[k] : box->hi[k];
+    }
+}
+
+static float half_area(const box3 *box)
+{
+    float e[3];
+    for (int k = 0; k < 3; k++)
+        e[k] = box->hi[k] > box->lo[k] ? box->hi[k] - box->lo[k] : 0.0f;
+    return e[0] * e[1] + e[1] * e[2] + e[2] * e[0];
+}
+
+/* Comparisons, not fminf/fmaxf: those are libm calls at -O2, and no NaN reaches here. */
+static float min_f(float a, float b)
+{
+    return b < a ? b : a;
+}
+
+static float max_f(float a, float b)
+{
+    return b > a ? b : a;
+}
+
+static float prim_centre(const build_prim *p, int axis)
+{
+    return 0.5f * p->lo[axis] + 0.5f * p->hi[axis];
 }
 
 static uint32_t ceil_log2(uint32_t value)
@@ -48,17 +128,112 @@ static uint32_t ceil_log2(uint32_t value)
     return bits;
 }
 
-static void make_leaf(build_state *s, uint32_t node, uint32_t first, uint32_t count,
+static int longest_axis(const box3 *box)
+{
+    int a = 0;
+    for (int k = 1; k < 3; k++)
+        if (box->hi[k] - box->lo[k] > box->hi[a] - box->lo[a])
+            a = k;
+    return a;
+}
+
+/* Triangle box and centre bounds of prims[first, first + count). */
+static void prim_bounds(const build_prim *prims, uint32_t first, uint32_t count, box3 *bounds,
+                        box3 *centres)
+{
+    *bounds = empty_box();
+    *centres = empty_box();
+    for (uint32_t i = first; i < first + count; i++) {
+        float c[3];
+        for (int k = 0; k < 3; k++)
+            c[k] = prim_centre(&prims[i], k);
+        box_merge(bounds, prims[i].lo, prims[i].hi);
+        box_merge(centres, c, c);
+    }
+}
+
+/*
+ * How a split sends a triangle left: its centre along axis at most plane
+ * (global heuristic), or, with bins, its bin at most last_bin (SAH).
+ */
+typedef struct split_rule {
+    int axis, use_bins, last_bin;
+    float plane, bin_lo, bin_scale;
+} split_rule;
+
+static int bin_of(float centre, float lo, float scale);
+
+/*
+ * Partitions prims[first, first + count) in place, left side first, and in
+ * the same pass gathers each side's centre bounds and clip value along the
+ * axis (left: largest max, right: smallest min). Returns the left count.
+ */
+static uint32_t partition(build_prim *prims, uint32_t first, uint32_t count,
+                          const split_rule *rule, box3 *left_centres, box3 *right_centres,
+                          float *left_clip, float *right_clip)
+{
+    int axis = rule->axis;
+    *left_centres = *right_centres = empty_box();
+    *left_clip = -INFINITY;
+    *right_clip = INFINITY;
+    uint32_t lo = first, hi = first + count;
+    while (lo < hi) {
+        build_prim *p = &prims[lo];
+        float c[3];
+        for (int k = 0; k < 3; k++)
+            c[k] = prim_centre(p, k);
+        int left = rule->use_bins ? bin_of(c[axis], rule->bin_lo, rule->bin_scale) <= rule->last_bin
+                                  : c[axis] <= rule->plane;
+        if (left) {
+            box_merge(left_centres, c, c);
+            *left_clip = max_f(*left_clip, p->hi[axis]);
+            lo++;
+        } else {
+            box_merge(right_centres, c, c);
+            *right_clip = min_f(*right_clip, p->lo[axis]);
+            hi--;
+            build_prim swap = prims[lo];
+            prims[lo] = prims[hi];
+            prims[hi] = swap;
+        }
+    }
+    return lo - first;
+}
+
+/* Appends two nodes (a sibling pair) and returns the first one's index. */
+static pf_status alloc_pair(subtree_builder *b, uint32_t *index)
+{
+    if (b->node_count + 2 > b->node_capacity) {
+        uint32_t capacity = b->node_capacity ? 2 * b->node_capacity : 64;
+        if (capacity > PF_BIH_MAX_NODES)
+            capacity = PF_BIH_MAX_NODES;
+        if (b->node_count + 2 > capacity)
+            return pf_error_set(b->err, PF_ERR_LIMIT,
+                                "BIH build: more than %u nodes (the node index field)",
+                                PF_BIH_MAX_NODES);
+        pf_bih_node *grown = realloc(b->nodes, (size_t)capacity * sizeof *grown);
+        if (!grown)
+            return pf_error_set(b->err, PF_ERR_NOMEM, "BIH build: %u nodes", capacity);
+        b->nodes = grown;
+        b->node_capacity = capacity;
+    }
+    *index = b->node_count;
+    b->node_count += 2;
+    return PF_OK;
+}
+
+static void make_leaf(subtree_builder *b, uint32_t node, uint32_t first, uint32_t count,
                       uint32_t depth)
 {
-    s->nodes[node].clip[0] = pf_bih_bits_to_float(first);
-    s->nodes[node].clip[1] = pf_bih_bits_to_float(count);
-    s->nodes[node].word = PF_BIH_LEAF;
-    s->leaf_count++;
-    if (count > s->largest_leaf)
-        s->largest_leaf = count;
-    if (depth > s->depth)
-        s->depth = depth;
+    b->nodes[node].clip[0] = pf_bih_bits_to_float(first);
+    b->nodes[node].clip[1] = pf_bih_bits_to_float(count);
+    b->nodes[node].word = PF_BIH_LEAF;
+    if (count > 0)
+        b->leaf_count++;
+    if (count > b->largest_leaf)
+        b->largest_leaf = count;
+    if (depth > b->depth)
+        b->depth = depth;
 }
 
 /*
@@ -66,22 +241,18 @@ static void make_leaf(build_state *s, uint32_t node, uint32_t first, uint32_t co
  * the midpoint separates the centres (returns 1 with *axis, *plane) or can no
  * longer move (returns 0). cand is narrowed in place to the box that split.
  */
-static int global_split(float cand_min[3], float cand_max[3], const float centre_min[3],
-                        const float centre_max[3], int *axis, float *plane)
+static int global_split(box3 *cand, const box3 *centres, int *axis, float *plane)
 {
     for (uint32_t step = 0; step < MAX_CANDIDATE_HALVINGS; step++) {
-        int a = 0;
-        for (int k = 1; k < 3; k++)
-            if (cand_max[k] - cand_min[k] > cand_max[a] - cand_min[a])
-                a = k;
+        int a = longest_axis(cand);
         /* Halves then sums, so huge coordinates cannot overflow. */
-        float mid = 0.5f * cand_min[a] + 0.5f * cand_max[a];
-        if (!(mid > cand_min[a] && mid < cand_max[a]))
+        float mid = 0.5f * cand->lo[a] + 0.5f * cand->hi[a];
+        if (!(mid > cand->lo[a] && mid < cand->hi[a]))
             return 0;
-        if (centre_max[a] <= mid) {
-            cand_max[a] = mid;
-        } else if (centre_min[a] > mid) {
-            cand_min[a] = mid;
+        if (centres->hi[a] <= mid) {
+            cand->hi[a] = mid;
+        } else if (centres->lo[a] > mid) {
+            cand->lo[a] = mid;
         } else {
             *axis = a;
             *plane = mid;
@@ -91,107 +262,420 @@ static int global_split(float cand_min[3], float cand_max[3], const float centre
     return 0;
 }
 
-/* Median of the centres along their widest axis; ties by triangle index. */
-static pf_status median_split(build_state *s, uint32_t first, uint32_t count,
-                              const float centre_min[3], const float centre_max[3], int *axis,
-                              pf_error *err)
+typedef struct keyed_prim {
+    float key;           /* centre along the median axis */
+    uint32_t triangle;   /* tie-break */
+    uint32_t position;   /* where the prim is now */
+} keyed_prim;
+
+static int compare_keyed(const void *a, const void *b)
 {
-    int a = 0;
-    for (int k = 1; k < 3; k++)
-        if (centre_max[k] - centre_min[k] > centre_max[a] - centre_min[a])
-            a = k;
-    keyed_triangle *keyed = malloc((size_t)count * sizeof *keyed);
-    if (!keyed)
-        return pf_error_set(err, PF_ERR_NOMEM, "BIH build: median split of %u triangles", count);
+    const keyed_prim *x = a, *y = b;
+    if (x->key != y->key)
+        return x->key < y->key ? -1 : 1;
+    return x->triangle < y->triangle ? -1 : x->triangle > y->triangle;
+}
+
+/* Sorts by centre along the centres' widest axis, ties by triangle index; -1 when out of memory. */
+static int median_split(build_prim *prims, uint32_t first, uint32_t count, const box3 *centres)
+{
+    int a = longest_axis(centres);
+    keyed_prim *keyed = malloc((size_t)count * sizeof *keyed);
+    build_prim *sorted = malloc((size_t)count * sizeof *sorted);
+    if (!keyed || !sorted) {
+        free(keyed);
+        free(sorted);
+        return -1;
+    }
     for (uint32_t i = 0; i < count; i++)
-        keyed[i] = (keyed_triangle){s->centre[s->order[first + i]][a], s->order[first + i]};
+        keyed[i] = (keyed_prim){prim_centre(&prims[first + i], a), prims[first + i].triangle,
+                                first + i};
     qsort(keyed, count, sizeof *keyed, compare_keyed);
     for (uint32_t i = 0; i < count; i++)
-        s->order[first + i] = keyed[i].triangle;
+        sorted[i] = prims[keyed[i].position];
+    memcpy(prims + first, sorted, (size_t)count * sizeof *sorted);
     free(keyed);
-    *axis = a;
+    free(sorted);
+    return a;
+}
+
+typedef struct sah_bin {
+    box3 bounds;
+    uint32_t count;
+} sah_bin;
+
+static int bin_of(float centre, float lo, float scale)
+{
+    int bin = (int)((centre - lo) * scale);
+    return bin < 0 ? 0 : (bin >= SAH_BINS ? SAH_BINS - 1 : bin);
+}
+
+typedef struct sah_choice {
+    int axis, last_left_bin;
+    float scale;
+    box3 left_bounds, right_bounds;
+} sah_choice;
+
+/*
+ * Binned SAH over the centres (all three axes in one pass): the split
+ * minimising n_L·A(L) + n_R·A(R), A the half area of each side's triangle box.
+ * Returns 0 when the centres coincide (no axis to bin).
+ */
+static int sah_split(const build_prim *prims, uint32_t first, uint32_t count,
+                     const box3 *centres, sah_choice *choice)
+{
+    sah_bin bins[3][SAH_BINS];
+    float scale[3];
+    for (int k = 0; k < 3; k++) {
+        float extent = centres->hi[k] - centres->lo[k];
+        scale[k] = extent > 0.0f ? (float)SAH_BINS / extent : 0.0f;
+        for (int i = 0; i < SAH_BINS; i++)
+            bins[k][i] = (sah_bin){empty_box(), 0};
+    }
+    for (uint32_t i = first; i < first + count; i++) {
+        const build_prim *p = &prims[i];
+        float c[3];
+        for (int k = 0; k < 3; k++)
+            c[k] = prim_centre(p, k);
+        for (int k = 0; k < 3; k++) {
+            sah_bin *bin = &bins[k][bin_of(c[k], centres->lo[k], scale[k])];
+            box_merge(&bin->bounds, p->lo, p->hi);
+            bin->count++;
+        }
+    }
+    float best_cost = INFINITY;
+    int found = 0;
+    for (int k = 0; k < 3; k++) {
+        if (scale[k] == 0.0f)
+            continue;
+        float right_cost[SAH_BINS];
+        box3 right = empty_box();
+        uint32_t right_count = 0;
+        for (int i = SAH_BINS - 1; i > 0; i--) {
+            box_merge(&right, bins[k][i].bounds.lo, bins[k][i].bounds.hi);
+            right_count += bins[k][i].count;
+            right_cost[i] = right_count ? (float)right_count * half_area(&right) : INFINITY;
+        }
+        box3 left = empty_box();
+        uint32_t left_count = 0;
+        for (int i = 0; i < SAH_BINS - 1; i++) {
+            box_merge(&left, bins[k][i].bounds.lo, bins[k][i].bounds.hi);
+            left_count += bins[k][i].count;
+            if (!left_count)
+                continue;
+            float cost = (float)left_count * half_area(&left) + right_cost[i + 1];
+            if (cost < best_cost) {
+                best_cost = cost;
+                choice->axis = k;
+                choice->last_left_bin = i;
+                found = 1;
+            }
+        }
+    }
+    if (!found)
+        return 0;
+    int k = choice->axis;
+    choice->scale = scale[k];
+    choice->left_bounds = choice->right_bounds = empty_box();
+    for (int i = 0; i < SAH_BINS; i++)
+        box_merge(i <= choice->last_left_bin ? &choice->left_bounds : &choice->right_bounds,
+                  bins[k][i].bounds.lo, bins[k][i].bounds.hi);
+    return 1;
+}
+
+/*
+ * The best empty-space cut of region down to bounds: the side whose move
+ * shrinks the region's area most, when the smaller area pays for the extra
+ * node (see EMPTY_CUT_MAX_AREA_RATIO). Returns 0 for no cut; else *axis and
+ * *high (1: the region's upper side moves down to bounds).
+ */
+static int empty_cut(const box3 *region, const box3 *bounds, uint32_t count, int *axis,
+                     int *high)
+{
+    float area = half_area(region);
+    float limit = 1.0f - 1.0f / (float)count;
+    if (limit > EMPTY_CUT_MAX_AREA_RATIO)
+        limit = EMPTY_CUT_MAX_AREA_RATIO;
+    float best = limit * area;
+    int found = 0;
+    for (int k = 0; k < 3; k++)
+        for (int side = 0; side < 2; side++) {
+            box3 cut = *region;
+            if (side)
+                cut.hi[k] = bounds->hi[k];
+            else
+                cut.lo[k] = bounds->lo[k];
+            float cut_area = half_area(&cut);
+            if (cut_area < best) {
+                best = cut_area;
+                *axis = k;
+                *high = side;
+                found = 1;
+            }
+        }
+    return found;
+}
+
+static pf_status defer_subtree(subtree_builder *b, uint32_t node, uint32_t first, uint32_t count,
+                               const box3 *region, const box3 *bounds, const box3 *centres,
+                               uint32_t depth)
+{
+    if (b->task_count == b->task_capacity) {
+        uint32_t capacity = b->task_capacity ? 2 * b->task_capacity : 64;
+        subtree_task *grown = realloc(b->tasks, capacity * sizeof *grown);
+        if (!grown)
+            return pf_error_set(b->err, PF_ERR_NOMEM, "BIH build: %u subtrees", capacity);
+        b->tasks = grown;
+        b->task_capacity = capacity;
+    }
+    b->tasks[b->task_count++] = (subtree_task){node, first, count, depth, *region, *bounds,
+                                               *centres, NULL, 0, 0, 0, 0, PF_OK, {0}};
     return PF_OK;
 }
 
-static void centre_bounds(const build_state *s, uint32_t first, uint32_t count, float lo[3],
-                          float hi[3])
+/*
+ * Builds the subtree of prims[first, first + count) at node. region: the box
+ * the ancestors' clip planes leave (for the global heuristic, the candidate
+ * box of W&K, which holds the centres); bounds, centres: the triangles' box
+ * and centre bounds. depth: inner nodes above this one.
+ */
+static pf_status build_node(subtree_builder *b, uint32_t node, uint32_t first, uint32_t count,
+                            box3 region, const box3 *bounds, const box3 *centres, uint32_t depth)
 {
-    for (int k = 0; k < 3; k++) {
-        lo[k] = INFINITY;
-        hi[k] = -INFINITY;
-    }
-    for (uint32_t i = first; i < first + count; i++)
-        for (int k = 0; k < 3; k++) {
-            float c = s->centre[s->order[i]][k];
-            lo[k] = c < lo[k] ? c : lo[k];
-            hi[k] = c > hi[k] ? c : hi[k];
-        }
-}
-
-/* depth: inner nodes above this one. cand: the candidate box holding the centres. */
-static pf_status build_node(build_state *s, uint32_t node, uint32_t first, uint32_t count,
-                            float cand_min[3], float cand_max[3], uint32_t depth, pf_error *err)
-{
-    uint32_t levels_needed = ceil_log2((count + s->leaf_size - 1) / s->leaf_size);
-    if (count <= s->leaf_size || depth >= s->max_depth) {
-        make_leaf(s, node, first, count, depth);
+    const build_config *cfg = b->cfg;
+    if (count <= cfg->leaf_size || depth >= cfg->max_depth) {
+        make_leaf(b, node, first, count, depth);
         return PF_OK;
     }
-    float centre_min[3], centre_max[3];
-    centre_bounds(s, first, count, centre_min, centre_max);
-    int axis = 0;
-    float plane = 0;
-    uint32_t left_count = 0;
-    float left_min[3], left_max[3], right_min[3], right_max[3];
+    if (cfg->defer_below && count <= cfg->defer_below)
+        return defer_subtree(b, node, first, count, &region, bounds, centres, depth);
+    uint32_t levels_needed = ceil_log2((count + cfg->leaf_size - 1) / cfg->leaf_size);
     /* Keep a margin of levels so the median split can still reach leaves of K. */
-    int use_global = levels_needed + 1 < s->max_depth - depth &&
-                     global_split(cand_min, cand_max, centre_min, centre_max, &axis, &plane);
-    if (use_global) {
-        uint32_t lo = first, hi = first + count;
-        while (lo < hi) {
-            if (s->centre[s->order[lo]][axis] <= plane) {
-                lo++;
-            } else {
-                hi--;
-                uint32_t swap = s->order[lo];
-                s->order[lo] = s->order[hi];
-                s->order[hi] = swap;
-            }
-        }
-        left_count = lo - first;
-        memcpy(left_min, cand_min, sizeof left_min);
-        memcpy(left_max, cand_max, sizeof left_max);
-        memcpy(right_min, cand_min, sizeof right_min);
-        memcpy(right_max, cand_max, sizeof right_max);
-        left_max[axis] = plane;
-        right_min[axis] = plane;
-    } else {
-        pf_status status = median_split(s, first, count, centre_min, centre_max, &axis, err);
-        if (status != PF_OK)
+    int levels_to_spare = levels_needed + 1 < cfg->max_depth - depth;
+    int sah = cfg->heuristic == PF_BIH_HEURISTIC_SAH;
+    build_prim *prims = cfg->prims;
+    uint32_t child;
+    pf_status status;
+
+    int cut_axis, cut_high;
+    if (sah && levels_needed + 2 < cfg->max_depth - depth &&
+        empty_cut(&region, bounds, count, &cut_axis, &cut_high)) {
+        if ((status = alloc_pair(b, &child)) != PF_OK)
             return status;
+        b->nodes[node].word = (child << 2) | (uint32_t)cut_axis;
+        b->nodes[node].clip[0] = cut_high ? bounds->hi[cut_axis] : -INFINITY;
+        b->nodes[node].clip[1] = cut_high ? INFINITY : bounds->lo[cut_axis];
+        if (cut_high)
+            region.hi[cut_axis] = bounds->hi[cut_axis];
+        else
+            region.lo[cut_axis] = bounds->lo[cut_axis];
+        make_leaf(b, cut_high ? child + 1 : child, first, 0, depth + 1);
+        return build_node(b, cut_high ? child : child + 1, first, count, region, bounds, centres,
+                          depth + 1);
+    }
+
+    int axis = 0;
+    uint32_t left_count = 0;
+    box3 left_region = region, right_region = region;
+    box3 left_bounds, right_bounds, left_centres, right_centres;
+    sah_choice choice;
+    float plane = 0.0f;
+    float left_clip, right_clip;
+    if (sah && levels_to_spare && sah_split(prims, first, count, centres, &choice)) {
+        axis = choice.axis;
+        split_rule rule = {axis, 1, choice.last_left_bin, 0.0f, centres->lo[axis], choice.scale};
+        left_count = partition(prims, first, count, &rule, &left_centres, &right_centres,
+                               &left_clip, &right_clip);
+        left_bounds = choice.left_bounds;
+        right_bounds = choice.right_bounds;
+    } else if (!sah && levels_to_spare && global_split(&region, centres, &axis, &plane)) {
+        split_rule rule = {axis, 0, 0, plane, 0.0f, 0.0f};
+        left_count = partition(prims, first, count, &rule, &left_centres, &right_centres,
+                               &left_clip, &right_clip);
+        left_region = right_region = region;
+        left_region.hi[axis] = plane;
+        right_region.lo[axis] = plane;
+        /* The global heuristic needs only the clip values of the children's boxes. */
+        left_bounds = right_bounds = empty_box();
+        left_bounds.hi[axis] = left_clip;
+        right_bounds.lo[axis] = right_clip;
+    } else {
+        axis = median_split(prims, first, count, centres);
+        if (axis < 0)
+            return pf_error_set(b->err, PF_ERR_NOMEM, "BIH build: median split of %u triangles",
+                                count);
         left_count = count / 2;
-        centre_bounds(s, first, left_count, left_min, left_max);
-        centre_bounds(s, first + left_count, count - left_count, right_min, right_max);
+        prim_bounds(prims, first, left_count, &left_bounds, &left_centres);
+        prim_bounds(prims, first + left_count, count - left_count, &right_bounds, &right_centres);
+        if (!sah) {
+            /* W&K's candidate boxes hold the centres. */
+            left_region = left_centres;
+            right_region = right_centres;
+        }
     }
-    float left_clip = -INFINITY, right_clip = INFINITY;
-    for (uint32_t i = first; i < first + left_count; i++) {
-        float v = s->tri_max[s->order[i]][axis];
-        left_clip = v > left_clip ? v : left_clip;
+    if (sah) {
+        left_region.hi[axis] = left_bounds.hi[axis];
+        right_region.lo[axis] = right_bounds.lo[axis];
     }
-    for (uint32_t i = first + left_count; i < first + count; i++) {
-        float v = s->tri_min[s->order[i]][axis];
-        right_clip = v < right_clip ? v : right_clip;
-    }
-    uint32_t child = s->node_count;
-    s->node_count += 2;
-    s->nodes[node].clip[0] = left_clip;
-    s->nodes[node].clip[1] = right_clip;
-    s->nodes[node].word = (child << 2) | (uint32_t)axis;
-    pf_status status = build_node(s, child, first, left_count, left_min, left_max, depth + 1, err);
+    if ((status = alloc_pair(b, &child)) != PF_OK)
+        return status;
+    b->nodes[node].clip[0] = left_bounds.hi[axis];
+    b->nodes[node].clip[1] = right_bounds.lo[axis];
+    b->nodes[node].word = (child << 2) | (uint32_t)axis;
+    status = build_node(b, child, first, left_count, left_region, &left_bounds, &left_centres,
+                        depth + 1);
     if (status == PF_OK)
-        status = build_node(s, child + 1, first + left_count, count - left_count, right_min,
-                            right_max, depth + 1, err);
+        status = build_node(b, child + 1, first + left_count, count - left_count, right_region,
+                            &right_bounds, &right_centres, depth + 1);
     return status;
+}
+
+/* ---------- threads ---------- */
+
+typedef struct parallel_job {
+    void (*run)(void *context, uint32_t part, uint32_t parts);
+    void *context;
+    uint32_t part, parts;
+} parallel_job;
+
+static void *parallel_entry(void *arg)
+{
+    parallel_job *job = arg;
+    job->run(job->context, job->part, job->parts);
+    return NULL;
+}
+
+/*
+ * Runs run(context, part, parts) for part = 0 .. parts-1, part 0 on the
+ * calling thread. A thread that cannot start runs its part here afterwards:
+ * the parts, not the threads, decide the result.
+ */
+static void parallel_run(void (*run)(void *, uint32_t, uint32_t), void *context, uint32_t parts)
+{
+    pthread_t threads[PF_BIH_MAX_BUILD_THREADS];
+    parallel_job jobs[PF_BIH_MAX_BUILD_THREADS];
+    int started[PF_BIH_MAX_BUILD_THREADS] = {0};
+    for (uint32_t i = 1; i < parts; i++) {
+        jobs[i] = (parallel_job){run, context, i, parts};
+        started[i] = pthread_create(&threads[i], NULL, parallel_entry, &jobs[i]) == 0;
+    }
+    run(context, 0, parts);
+    for (uint32_t i = 1; i < parts; i++) {
+        if (started[i])
+            pthread_join(threads[i], NULL);
+        else
+            run(context, i, parts);
+    }
+}
+
+typedef struct setup_context {
+    const pf_scene_frame *frame;
+    build_prim *prims;
+    box3 bounds[PF_BIH_MAX_BUILD_THREADS], centres[PF_BIH_MAX_BUILD_THREADS];
+    uint32_t bad_triangle[PF_BIH_MAX_BUILD_THREADS]; /* first non-finite one, or UINT32_MAX */
+} setup_context;
+
+static void setup_part(void *arg, uint32_t part, uint32_t parts)
+{
+    setup_context *c = arg;
+    uint32_t n = c->frame->triangle_count;
+    uint32_t begin = (uint32_t)((uint64_t)n * part / parts);
+    uint32_t end = (uint32_t)((uint64_t)n * (part + 1) / parts);
+    box3 bounds = empty_box(), centres = empty_box();
+    c->bad_triangle[part] = UINT32_MAX;
+    for (uint32_t t = begin; t < end; t++) {
+        build_prim *p = &c->prims[t];
+        const float(*v)[4] = &c->frame->vertices[3 * (size_t)t];
+        int finite = 1;
+        for (int k = 0; k < 3; k++) {
+            p->lo[k] = min_f(min_f(v[0][k], v[1][k]), v[2][k]);
+            p->hi[k] = max_f(max_f(v[0][k], v[1][k]), v[2][k]);
+            finite &= isfinite(v[0][k]) && isfinite(v[1][k]) && isfinite(v[2][k]);
+        }
+        if (!finite) {
+            c->bad_triangle[part] = t;
+            return;
+        }
+        p->triangle = t;
+        float centre[3];
+        for (int k = 0; k < 3; k++)
+            centre[k] = prim_centre(p, k);
+        box_merge(&bounds, p->lo, p->hi);
+        box_merge(&centres, centre, centre);
+    }
+    c->bounds[part] = bounds;
+    c->centres[part] = centres;
+}
+
+typedef struct task_context {
+    const build_config *cfg;
+    subtree_task *tasks;
+    uint32_t task_count;
+    atomic_uint next;
+} task_context;
+
+static void task_part(void *arg, uint32_t part, uint32_t parts)
+{
+    (void)part;
+    (void)parts;
+    task_context *c = arg;
+    for (;;) {
+        uint32_t i = atomic_fetch_add(&c->next, 1u);
+        if (i >= c->task_count)
+            return;
+        subtree_task *task = &c->tasks[i];
+        subtree_builder b = {.cfg = c->cfg, .err = &task->err};
+        /* Node 0 is the root; pairs follow from 1 on. */
+        b.node_capacity = 2 * task->count + 1;
+        b.nodes = malloc((size_t)b.node_capacity * sizeof *b.nodes);
+        b.node_count = 1;
+        if (!b.nodes) {
+            task->status = pf_error_set(&task->err, PF_ERR_NOMEM, "BIH build: subtree of %u triangles",
+                                        task->count);
+            continue;
+        }
+        task->status = build_node(&b, 0, task->first, task->count, task->region, &task->bounds,
+                                  &task->centres, task->depth);
+        task->nodes = b.nodes;
+        task->node_count = b.node_count;
+        task->depth_reached = b.depth;
+        task->leaf_count = b.leaf_count;
+        task->largest_leaf = b.largest_leaf;
+    }
+}
+
+typedef struct order_context {
+    const pf_scene_frame *frame;
+    const build_prim *prims;
+    pf_bih *out;
+} order_context;
+
+static void order_part(void *arg, uint32_t part, uint32_t parts)
+{
+    order_context *c = arg;
+    uint32_t n = c->frame->triangle_count;
+    uint32_t begin = (uint32_t)((uint64_t)n * part / parts);
+    uint32_t end = (uint32_t)((uint64_t)n * (part + 1) / parts);
+    for (uint32_t i = begin; i < end; i++) {
+        uint32_t t = c->prims[i].triangle;
+        c->out->triangle_index[i] = t;
+        for (int v = 0; v < 3; v++) {
+            memcpy(c->out->vertices[3 * (size_t)i + v], c->frame->vertices[3 * (size_t)t + v],
+                   3 * sizeof(float));
+            c->out->vertices[3 * (size_t)i + v][3] = 0.0f;
+        }
+    }
+}
+
+/* Moves a subtree's nodes (root at node 0) into the tree: root to node, the rest from base on. */
+static void stitch(pf_bih_node *nodes, uint32_t node, uint32_t base, const subtree_task *task)
+{
+    for (uint32_t i = 0; i < task->node_count; i++) {
+        pf_bih_node n = task->nodes[i];
+        if (!pf_bih_is_leaf(&n))
+            n.word = ((pf_bih_first_child(&n) - 1 + base) << 2) | pf_bih_axis(&n);
+        nodes[i == 0 ? node : base + i - 1] = n;
+    }
 }
 
 pf_status pf_bih_build_cpu(const pf_scene_frame *frame, const pf_bih_build_options *options,
@@ -203,10 +687,18 @@ pf_status pf_bih_build_cpu(const pf_scene_frame *frame, const pf_bih_build_optio
     uint32_t leaf_size = options && options->max_leaf_size ? options->max_leaf_size
                                                            : PF_BIH_DEFAULT_LEAF_SIZE;
     uint32_t max_depth = options && options->max_depth ? options->max_depth : PF_BIH_STACK_SIZE;
+    uint32_t heuristic = options ? options->heuristic : PF_BIH_HEURISTIC_GLOBAL;
+    uint32_t threads = options && options->thread_count ? options->thread_count
+                                                        : PF_BIH_DEFAULT_BUILD_THREADS;
     if (max_depth > PF_BIH_STACK_SIZE)
         return pf_error_set(err, PF_ERR_INVALID,
                             "BIH build: max_depth %u exceeds the traversal stack (%u entries)",
                             max_depth, PF_BIH_STACK_SIZE);
+    if (heuristic != PF_BIH_HEURISTIC_GLOBAL && heuristic != PF_BIH_HEURISTIC_SAH)
+        return pf_error_set(err, PF_ERR_INVALID, "BIH build: unknown heuristic %u", heuristic);
+    if (threads > PF_BIH_MAX_BUILD_THREADS)
+        return pf_error_set(err, PF_ERR_INVALID, "BIH build: %u threads (at most %u)", threads,
+                            PF_BIH_MAX_BUILD_THREADS);
     uint32_t n = frame->triangle_count;
     if (n > 0 && !frame->vertices)
         return pf_error_set(err, PF_ERR_INVALID, "BIH build: %u triangles but no vertices", n);
@@ -214,74 +706,103 @@ pf_status pf_bih_build_cpu(const pf_scene_frame *frame, const pf_bih_build_optio
         return pf_error_set(err, PF_ERR_LIMIT,
                             "BIH build: %u triangles exceed the node index field (%u nodes)", n,
                             PF_BIH_MAX_NODES);
-    build_state s = {0};
-    s.leaf_size = leaf_size;
-    s.max_depth = max_depth;
-    size_t node_capacity = n > 0 ? 2 * (size_t)n - 1 : 1;
-    s.nodes = calloc(node_capacity, sizeof *s.nodes);
-    s.order = malloc((n ? n : 1) * sizeof *s.order);
-    s.tri_min = malloc((n ? n : 1) * sizeof *s.tri_min);
-    s.tri_max = malloc((n ? n : 1) * sizeof *s.tri_max);
-    s.centre = malloc((n ? n : 1) * sizeof *s.centre);
+    if (n < PARALLEL_MIN_TRIANGLES)
+        threads = 1;
+    build_config cfg = {.leaf_size = leaf_size, .max_depth = max_depth, .heuristic = heuristic};
+    cfg.prims = malloc((n ? n : 1) * sizeof *cfg.prims);
+    subtree_builder top = {.cfg = &cfg, .err = err};
+    top.node_capacity = n > 0 ? 2 * n - 1 : 1;
+    top.nodes = malloc((size_t)top.node_capacity * sizeof *top.nodes);
+    top.node_count = 1;
     out->vertices = malloc((n ? 3 * (size_t)n : 1) * sizeof *out->vertices);
+    out->triangle_index = malloc((n ? n : 1) * sizeof *out->triangle_index);
     pf_status status = PF_OK;
-    if (!s.nodes || !s.order || !s.tri_min || !s.tri_max || !s.centre || !out->vertices)
+    if (!cfg.prims || !top.nodes || !out->vertices || !out->triangle_index)
         status = pf_error_set(err, PF_ERR_NOMEM, "BIH build: %u triangles", n);
-    float scene_min[3] = {0, 0, 0}, scene_max[3] = {0, 0, 0};
-    for (uint32_t t = 0; status == PF_OK && t < n; t++) {
-        for (int k = 0; k < 3; k++) {
-            float lo = INFINITY, hi = -INFINITY;
-            for (int c = 0; c < 3; c++) {
-                float v = frame->vertices[3 * t + c][k];
-                if (!isfinite(v)) {
-                    status = pf_error_set(err, PF_ERR_INVALID,
-                                          "BIH build: triangle %u vertex %d: non-finite coordinate",
-                                          t, c);
-                    break;
-                }
-                lo = v < lo ? v : lo;
-                hi = v > hi ? v : hi;
-            }
-            s.tri_min[t][k] = lo;
-            s.tri_max[t][k] = hi;
-            s.centre[t][k] = 0.5f * lo + 0.5f * hi;
-            scene_min[k] = t == 0 || lo < scene_min[k] ? lo : scene_min[k];
-            scene_max[k] = t == 0 || hi > scene_max[k] ? hi : scene_max[k];
+
+    setup_context setup = {.frame = frame, .prims = cfg.prims};
+    box3 bounds = empty_box(), centres = empty_box();
+    if (status == PF_OK && n > 0) {
+        parallel_run(setup_part, &setup, threads);
+        for (uint32_t i = 0; i < threads && status == PF_OK; i++) {
+            if (setup.bad_triangle[i] != UINT32_MAX)
+                status = pf_error_set(err, PF_ERR_INVALID,
+                                      "BIH build: triangle %u: non-finite vertex coordinate",
+                                      setup.bad_triangle[i]);
+            box_merge(&bounds, setup.bounds[i].lo, setup.bounds[i].hi);
+            box_merge(&centres, setup.centres[i].lo, setup.centres[i].hi);
         }
-        s.order[t] = t;
+    }
+    /* The decomposition into subtrees depends on n only, not on threads. */
+    if (n >= PARALLEL_MIN_TRIANGLES)
+        cfg.defer_below = n / PARALLEL_SUBTREE_FRACTION;
+    if (status == PF_OK)
+        status = build_node(&top, 0, 0, n, bounds, &bounds, &centres, 0);
+
+    task_context tasks = {.cfg = &cfg, .tasks = top.tasks, .task_count = top.task_count};
+    atomic_init(&tasks.next, 0u);
+    if (status == PF_OK && top.task_count > 0) {
+        cfg.defer_below = 0;
+        parallel_run(task_part, &tasks, threads);
+    }
+    uint64_t node_count = top.node_count;
+    for (uint32_t i = 0; i < top.task_count; i++) {
+        const subtree_task *task = &top.tasks[i];
+        if (status == PF_OK && task->status != PF_OK) {
+            status = task->status;
+            if (err)
+                *err = task->err;
+        }
+        node_count += task->node_count ? task->node_count - 1 : 0;
+    }
+    if (status == PF_OK && node_count > PF_BIH_MAX_NODES)
+        status = pf_error_set(err, PF_ERR_LIMIT, "BIH build: %llu nodes exceed the index field (%u)",
+                              (unsigned long long)node_count, PF_BIH_MAX_NODES);
+    pf_bih_node *nodes = NULL;
+    if (status == PF_OK) {
+        nodes = top.task_count ? malloc((size_t)node_count * sizeof *nodes) : top.nodes;
+        if (!nodes)
+            status = pf_error_set(err, PF_ERR_NOMEM, "BIH build: %llu nodes",
+                                  (unsigned long long)node_count);
+    }
+    if (status == PF_OK && top.task_count) {
+        memcpy(nodes, top.nodes, (size_t)top.node_count * sizeof *nodes);
+        uint32_t base = top.node_count;
+        for (uint32_t i = 0; i < top.task_count; i++) {
+            const subtree_task *task = &top.tasks[i];
+            stitch(nodes, task->node, base, task);
+            base += task->node_count - 1;
+            if (task->depth_reached > top.depth)
+                top.depth = task->depth_reached;
+            top.leaf_count += task->leaf_count;
+            if (task->largest_leaf > top.largest_leaf)
+                top.largest_leaf = task->largest_leaf;
+        }
+        free(top.nodes);
     }
     if (status == PF_OK) {
-        s.node_count = 1;
-        float cand_min[3], cand_max[3];
-        memcpy(cand_min, scene_min, sizeof cand_min);
-        memcpy(cand_max, scene_max, sizeof cand_max);
-        status = build_node(&s, 0, 0, n, cand_min, cand_max, 0, err);
-    }
-    if (status == PF_OK) {
-        for (uint32_t i = 0; i < n; i++)
-            for (int c = 0; c < 3; c++) {
-                memcpy(out->vertices[3 * i + c], frame->vertices[3 * s.order[i] + c],
-                       3 * sizeof(float));
-                out->vertices[3 * i + c][3] = 0.0f;
-            }
-        out->nodes = s.nodes;
-        out->node_count = s.node_count;
+        order_context order = {frame, cfg.prims, out};
+        parallel_run(order_part, &order, threads);
+        out->nodes = nodes;
+        out->node_count = (uint32_t)node_count;
         out->triangle_count = n;
-        out->triangle_index = s.order;
-        memcpy(out->bounds_min, scene_min, sizeof scene_min);
-        memcpy(out->bounds_max, scene_max, sizeof scene_max);
-        out->depth = s.depth;
-        out->leaf_count = s.leaf_count;
-        out->largest_leaf = s.largest_leaf;
+        for (int k = 0; k < 3; k++) {
+            out->bounds_min[k] = n ? bounds.lo[k] : 0.0f;
+            out->bounds_max[k] = n ? bounds.hi[k] : 0.0f;
+        }
+        out->depth = top.depth;
+        out->leaf_count = n ? top.leaf_count : 1;
+        out->largest_leaf = top.largest_leaf;
     } else {
-        free(s.nodes);
-        free(s.order);
+        free(top.nodes);
         free(out->vertices);
+        free(out->triangle_index);
         memset(out, 0, sizeof *out);
     }
-    free(s.tri_min);
-    free(s.tri_max);
-    free(s.centre);
+    for (uint32_t i = 0; i < top.task_count; i++)
+        free(top.tasks[i].nodes);
+    free(top.tasks);
+    free(cfg.prims);
     return status;
 }
 

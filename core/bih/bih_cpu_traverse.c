@@ -29,12 +29,33 @@ static float widen_far(float t)
     return isinf(t) ? t : t + fabsf(t) * BIH_TWO_GAMMA3;
 }
 
-/* The next float above a finite t (for letting an equal t through a strict test). */
+/*
+ * The next float above a finite t (for letting an equal t through a strict
+ * test), by its bits as in the GLSL include: nextafterf is a libm call.
+ */
 static float next_up(float t)
 {
     if (!isfinite(t))
         return t;
-    return nextafterf(t, INFINITY);
+    if (t == 0.0f)
+        return pf_bih_bits_to_float(1u);
+    uint32_t bits = pf_bih_float_to_bits(t);
+    return pf_bih_bits_to_float(t > 0.0f ? bits + 1u : bits - 1u);
+}
+
+/*
+ * min/max by comparison, inlined (fminf/fmaxf are libm calls at -O2). No NaN
+ * reaches them: a parallel axis never divides, and clip values are finite or
+ * ±inf against a finite origin.
+ */
+static float min_f(float a, float b)
+{
+    return b < a ? b : a;
+}
+
+static float max_f(float a, float b)
+{
+    return b > a ? b : a;
 }
 
 typedef struct stack_entry {
@@ -72,8 +93,8 @@ pf_status pf_bih_trace_cpu(const pf_bih *bih, const pf_ray *ray, int any_hit, pf
             t0 = t1;
             t1 = swap;
         }
-        t_near = fmaxf(t_near, t0);
-        t_far = fminf(t_far, widen_far(t1));
+        t_near = max_f(t_near, t0);
+        t_far = min_f(t_far, widen_far(t1));
     }
     if (!(t_near <= t_far))
         return PF_OK;
@@ -88,7 +109,7 @@ pf_status pf_bih_trace_cpu(const pf_bih *bih, const pf_ray *ray, int any_hit, pf
         int descend = 0;
         if (!pf_bih_is_leaf(n)) {
             uint32_t axis = pf_bih_axis(n), child = pf_bih_first_child(n);
-            float far_limit = fminf(t_far, widen_far(closest));
+            float far_limit = min_f(t_far, widen_far(closest));
             float left_near = t_near, left_far = far_limit;
             float right_near = t_near, right_far = far_limit;
             int left_first = 1;
@@ -100,12 +121,12 @@ pf_status pf_bih_trace_cpu(const pf_bih *bih, const pf_ray *ray, int any_hit, pf
                 float t_left = (n->clip[0] - origin[axis]) * inv[axis];
                 float t_right = (n->clip[1] - origin[axis]) * inv[axis];
                 if (inv[axis] > 0.0f) {
-                    left_far = fminf(left_far, widen_far(t_left));
-                    right_near = fmaxf(right_near, t_right);
+                    left_far = min_f(left_far, widen_far(t_left));
+                    right_near = max_f(right_near, t_right);
                 } else {
                     left_first = 0;
-                    right_far = fminf(right_far, widen_far(t_right));
-                    left_near = fmaxf(left_near, t_left);
+                    right_far = min_f(right_far, widen_far(t_right));
+                    left_near = max_f(left_near, t_left);
                 }
             }
             int visit_left = left_open && left_near <= left_far;
@@ -158,7 +179,7 @@ pf_status pf_bih_trace_cpu(const pf_bih *bih, const pf_ray *ray, int any_hit, pf
         int resumed = 0;
         while (stack_size > 0) {
             stack_entry entry = stack[--stack_size];
-            float far_limit = fminf(entry.t_far, widen_far(closest));
+            float far_limit = min_f(entry.t_far, widen_far(closest));
             if (entry.t_near <= far_limit) {
                 node = entry.node;
                 t_near = entry.t_near;

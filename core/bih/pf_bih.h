@@ -14,7 +14,10 @@
  *               triangle in the right subtree (the two may overlap).
  *   leaf:       word = PF_BIH_LEAF (low two bits 3, rest 0); the float fields
  *               hold raw uint32 bits: clip[0] = first triangle (leaf order),
- *               clip[1] = triangle count. Only an empty tree's root has count 0.
+ *               clip[1] = triangle count. Count 0 only for an empty tree's
+ *               root and for the empty child of an empty-space cut (its
+ *               parent's clip value on its side is -inf for a left child,
+ *               +inf for a right one, so the child bounds nothing).
  * Node 0 is the root. Triangles are stored in leaf order (each leaf's range is
  * contiguous); triangle_index maps a leaf-order position to the frame's index.
  *
@@ -87,9 +90,18 @@ typedef struct pf_bih {
     uint32_t largest_leaf;       /* triangles in the biggest leaf */
 } pf_bih;
 
+/* pf_bih_build_options.heuristic (see pf_bih_build_cpu). */
+#define PF_BIH_HEURISTIC_GLOBAL 0u   /* Wächter & Keller's global heuristic: the reference */
+#define PF_BIH_HEURISTIC_SAH 1u      /* binned SAH splits + empty-space cuts: faster traversal */
+/* The build budget is 2 threads; more are refused (a fixed-size table). */
+#define PF_BIH_DEFAULT_BUILD_THREADS 2u
+#define PF_BIH_MAX_BUILD_THREADS 16u
+
 typedef struct pf_bih_build_options {
     uint32_t max_leaf_size;      /* K: 0 = PF_BIH_DEFAULT_LEAF_SIZE */
     uint32_t max_depth;          /* 0 = PF_BIH_STACK_SIZE; more is refused */
+    uint32_t heuristic;          /* PF_BIH_HEURISTIC_*: 0 = GLOBAL */
+    uint32_t thread_count;       /* CPU build threads: 0 = PF_BIH_DEFAULT_BUILD_THREADS */
 } pf_bih_build_options;
 
 typedef struct pf_bih_quality {
@@ -97,10 +109,12 @@ typedef struct pf_bih_quality {
     uint32_t inner_count, leaf_count, depth, largest_leaf;
     double mean_leaf_size;
     uint32_t bytes_per_node;
+    double clip_sah_cost;        /* the same sum with A(n) from the clip planes alone */
 } pf_bih_quality;
 
 /*
- * Builds a BIH over frame's triangles on the CPU, top down, with Wächter &
+ * Builds a BIH over frame's triangles on the CPU, top down. With the default
+ * heuristic (PF_BIH_HEURISTIC_GLOBAL), Wächter &
  * Keller's global heuristic: a node's candidate box (the root's is the scene
  * box) is split in the middle of its longest axis; triangles go left or right
  * by the centre of their bounding box; when all fall on one side no node is
@@ -111,10 +125,22 @@ typedef struct pf_bih_quality {
  * max_depth and leaves hold at most K = max_leaf_size triangles (unless
  * max_depth is too small for that: then the deepest leaves hold the rest).
  * Child boxes: the halves of the candidate box (global split) or the
- * children's centre bounds (median split). out is filled on success (free with
+ * children's centre bounds (median split).
+ * With PF_BIH_HEURISTIC_SAH: a node whose clip region (the scene box cut by
+ * its ancestors' planes) leaves enough empty space around its triangles' box
+ * first gets empty-space cuts (Wächter & Keller §3.3): an inner node whose
+ * one child is an empty leaf (count 0) with clip value -inf (left) or +inf
+ * (right), so no ray enters it, and whose other clip value is the triangles'
+ * box side; then the split is a binned SAH over the centres (16 bins, 3 axes),
+ * with the same median fallback and depth margin.
+ * Both heuristics run on thread_count threads (the top levels on the caller's
+ * thread, subtrees below 1/16 of the triangles on all threads); the tree is the
+ * same whatever the thread count or timing.
+ * out is filled on success (free with
  * pf_bih_free) and zeroed on failure. Zero triangles give one empty leaf.
  * Fails with PF_ERR_INVALID for NaN/Inf vertices or options out of range,
- * PF_ERR_LIMIT when the triangles exceed the node index field, PF_ERR_NOMEM.
+ * PF_ERR_LIMIT when the triangles or nodes exceed the node index field, PF_ERR_NOMEM.
+ * leaf_count counts the leaves that hold triangles (1 for an empty tree).
  */
 pf_status pf_bih_build_cpu(const pf_scene_frame *frame, const pf_bih_build_options *options,
                            pf_bih *out, pf_error *err);
@@ -140,7 +166,9 @@ pf_status pf_bih_check(const pf_bih *bih, const pf_scene_frame *frame, pf_error 
  * ray must cross to reach n), intersected with the bounding box of n's own
  * triangles. The intersection makes the figure comparable with a BVH's SAH
  * (whose node box is its triangles' box) and never larger than what the clip
- * planes alone give. A(root) is the scene box. When the scene box has zero
+ * planes alone give; clip_sah_cost is the sum without the intersection,
+ * what traversal pays (a BIH ray is clipped to the planes only). A(root) is
+ * the scene box. When the scene box has zero
  * area (one segment or point), every node counts with probability 1.
  * Also fills the node statistics. quality is zeroed (but bytes_per_node) for
  * an empty tree. Requires a tree that passes pf_bih_check.
@@ -235,5 +263,46 @@ void pf_bih_gpu_builder_destroy(pf_bih_gpu_builder *builder);
 pf_status pf_bih_build_gpu(pf_bih_gpu_builder *builder, const pf_scene_frame *frame,
                            const pf_bih_build_options *options, pf_bih *out,
                            pf_bih_gpu_build_report *report, pf_error *err);
+
+/*
+ * Refits bih (from any build, or an earlier refit) to frame's triangles,
+ * which must be the same triangles moved (same count and order): topology
+ * and leaf assignment stay, the leaf-order vertices are replaced from frame,
+ * and every inner node's clip values (left: the largest coordinate along its
+ * axis in the left subtree, right: the smallest in the right subtree) and the
+ * root box are recomputed bottom up. The result passes pf_bih_check against
+ * frame and traversal returns the same closest hits as a fresh build; only
+ * its SAH cost may grow (measure it: pf_bih_quality_measure). O(nodes +
+ * triangles), iterative. Fails with PF_ERR_INVALID (tree unchanged) when the
+ * triangle counts differ, a vertex is NaN/Inf, or the tree is malformed;
+ * PF_ERR_NOMEM.
+ */
+pf_status pf_bih_refit(pf_bih *bih, const pf_scene_frame *frame, pf_error *err);
+
+/*
+ * The GPU radix sort of the BIH build (shaders/bih_radix_histogram.comp,
+ * bih_scan.comp, bih_radix_scatter.comp), for other modules that sort on the
+ * GPU (the photon grid): a stable LSD sort of (uint key, uint value) pairs in
+ * 8-bit digits, each pass a histogram per workgroup, one scan and a stable
+ * scatter, recorded into the caller's command buffer (no spin-waits).
+ */
+typedef struct pf_bih_sorter pf_bih_sorter;
+
+pf_status pf_bih_sorter_create(pf_vk_context *ctx, pf_bih_sorter **out, pf_error *err);
+void pf_bih_sorter_destroy(pf_bih_sorter *sorter);
+
+/* Bytes of the histogram buffer a sort of count pairs needs. */
+uint64_t pf_bih_sort_histogram_bytes(uint32_t count);
+
+/*
+ * Records a sort of count pairs by the low key_bits bits of the keys (1..32,
+ * rounded up to an even number of 8-bit passes, so the sorted pairs end in
+ * keys[0] / values[0] again; keys[1] / values[1] are scratch of the same
+ * size). A barrier precedes the first pass and follows the last. Fails with
+ * PF_ERR_LIMIT when count needs more workgroups than the device allows.
+ */
+pf_status pf_bih_sort_record(pf_bih_sorter *sorter, pf_vk_commands *cmds, pf_vk_buffer *keys[2],
+                             pf_vk_buffer *values[2], pf_vk_buffer *histogram, uint32_t count,
+                             uint32_t key_bits, pf_error *err);
 
 #endif

@@ -1,15 +1,31 @@
 /*
  * The `bih_build` stage: a BIH over the frame's triangles for every kernel
- * that casts rays, kept in the renderer between frames.
+ * that casts rays, kept in the renderer between frames and reused when it can
+ * be (issue 3, item 4). Each frame takes one decision, reported on the stage
+ * row as its reason and its `decision` counter:
+ *   0 reused:  same triangle count and bitwise-equal vertices (compared with
+ *              the tree's own leaf-order copy through triangle_index, so no
+ *              extra copy is kept) → nothing built or uploaded; the row is
+ *              `skipped` ("geometry unchanged → BIH reused");
+ *   1 refit:   same count, moved vertices → pf_bih_refit, kept while its SAH
+ *              cost stays within 10% of the last fresh build's (update_tree
+ *              says why that build is the yardstick);
+ *   2 rebuilt: the refit tree's SAH was worse than that → a fresh build;
+ *   3 built:   first frame, or the triangle count changed.
+ * Identity is by content, so a renderer that switches to another scene (a
+ * worker changing jobs) never keeps a tree that does not fit it.
  *
- * Where it is built: on the device when the device is a GPU; on the CPU when
- * the Vulkan device is the CPU itself (lavapipe), because there the GPU build
- * runs the same cores through a chain of dispatches and measured 50-235×
- * slower than the CPU build (bench/RESULTS.md, BIH). $PHOTONFARM_BIH_BUILD =
- * gpu | cpu overrides the choice (tests use it to cover both paths).
+ * Where a fresh tree is built: on the device when the device is a GPU; on the
+ * CPU when the Vulkan device is the CPU itself (lavapipe), because there the
+ * GPU build runs the same cores through a chain of dispatches and measured
+ * 50-235× slower than the CPU build (bench/RESULTS.md, BIH).
+ * $PHOTONFARM_BIH_BUILD = gpu | cpu overrides the choice (tests use it to
+ * cover both paths). A refit always runs on the CPU: one O(n) pass over the
+ * CPU copy that every build leaves in the renderer.
  */
 #include "render_internal.h"
 
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -38,7 +54,7 @@ static pf_status choose_build_site(const pf_renderer *renderer, bih_build_site *
 static pf_status build_tree(pf_renderer *renderer, const pf_scene_frame *frame,
                             bih_build_site site, pf_bih *out, int *built_on_gpu, pf_error *err)
 {
-    pf_bih_build_options options = {0, 0};
+    pf_bih_build_options options = {0};
     *built_on_gpu = 0;
     if (site == BUILD_ON_CPU)
         return pf_bih_build_cpu(frame, &options, out, err);
@@ -54,6 +70,112 @@ static pf_status build_tree(pf_renderer *renderer, const pf_scene_frame *frame,
     return status;
 }
 
+/* 0 reused, 1 refit, 2 rebuilt, 3 built: the `decision` counter on the row. */
+typedef enum bih_decision {
+    BIH_REUSED = 0,
+    BIH_REFIT = 1,
+    BIH_REBUILT = 2,
+    BIH_BUILT = 3
+} bih_decision;
+
+/*
+ * A refit tree is kept while its SAH cost is at most this many times the
+ * last fresh build's (issue 3, item 4: "within 10% of a fresh build").
+ */
+#define BIH_REFIT_SAH_TOLERANCE 1.10
+
+/* Bitwise-equal triangles: the frame's vertices against the tree's leaf-order copy. */
+static int same_triangles(const pf_bih *bih, const pf_scene_frame *frame)
+{
+    if (bih->triangle_count != frame->triangle_count)
+        return 0;
+    for (uint32_t p = 0; p < bih->triangle_count; p++) {
+        uint32_t t = bih->triangle_index[p];
+        for (int c = 0; c < 3; c++)
+            if (memcmp(bih->vertices[3 * p + c], frame->vertices[3 * t + c], 3 * sizeof(float)))
+                return 0;
+    }
+    return 1;
+}
+
+static double sah_of(const pf_bih *bih)
+{
+    pf_bih_quality quality;
+    pf_bih_quality_measure(bih, &quality);
+    return quality.sah_cost;
+}
+
+/* Replaces renderer->bih with a fresh build and makes it the refit yardstick. */
+static pf_status build_fresh(pf_renderer *renderer, const pf_scene_frame *frame,
+                             bih_build_site site, int *built_on_gpu, pf_error *err)
+{
+    if (renderer->bih_valid) {
+        pf_bih_free(&renderer->bih);
+        renderer->bih_valid = 0;
+    }
+    pf_status status = build_tree(renderer, frame, site, &renderer->bih, built_on_gpu, err);
+    if (status != PF_OK)
+        return status;
+    renderer->bih_valid = 1;
+    renderer->bih_sah = sah_of(&renderer->bih);
+    renderer->bih_fresh_sah = renderer->bih_sah;
+    return PF_OK;
+}
+
+/*
+ * Brings renderer->bih up to frame (reuse, refit, or a fresh build) and
+ * writes the decision and its reason; every decision but a reuse leaves a
+ * tree the GPU copy does not have yet. On failure the tree may be gone.
+ */
+static pf_status update_tree(pf_renderer *renderer, const pf_scene_frame *frame,
+                             bih_build_site site, bih_decision *decision, char *reason,
+                             size_t reason_size, int *built_on_gpu, pf_error *err)
+{
+    *built_on_gpu = 0;
+    if (!renderer->bih_valid || renderer->bih.triangle_count != frame->triangle_count) {
+        if (!renderer->bih_valid)
+            snprintf(reason, reason_size, "%s",
+                     renderer->bih_frames == 0 ? "built: first frame"
+                                               : "built: no tree kept (previous frame failed)");
+        else
+            snprintf(reason, reason_size, "built: triangle count changed (%u → %u)",
+                     renderer->bih.triangle_count, frame->triangle_count);
+        *decision = BIH_BUILT;
+        return build_fresh(renderer, frame, site, built_on_gpu, err);
+    }
+    if (same_triangles(&renderer->bih, frame)) {
+        snprintf(reason, reason_size, "geometry unchanged → BIH reused");
+        *decision = BIH_REUSED;
+        return PF_OK;
+    }
+    pf_status status = pf_bih_refit(&renderer->bih, frame, err);
+    if (status != PF_OK)
+        return status;
+    /*
+     * The yardstick is the last fresh build's SAH, not a fresh build of this
+     * frame: building one every frame to compare against would cost the very
+     * build the refit saves. The normalised SAH (pf_bih_quality_measure)
+     * divides by the root box's area, so it is scale-invariant and comparable
+     * across frames. It is an estimate: when the scene box changes shape the
+     * fresh build's figure moves too (a bigger, emptier box lowers it), so a
+     * refit a few percent worse than a fresh build of this frame can pass,
+     * while a torn-apart tree (leaves spanning far-apart triangles) does not:
+     * tests/render/test_bih_reuse.c shows refit SAH 55-77 against 11.
+     */
+    double refit_sah = sah_of(&renderer->bih);
+    if (refit_sah <= BIH_REFIT_SAH_TOLERANCE * renderer->bih_fresh_sah) {
+        snprintf(reason, reason_size, "refit: SAH %.1f within 10%% of last build's %.1f",
+                 refit_sah, renderer->bih_fresh_sah);
+        renderer->bih_sah = refit_sah;
+        *decision = BIH_REFIT;
+        return PF_OK;
+    }
+    snprintf(reason, reason_size, "rebuilt: refit SAH %.1f > %.2f × %.1f", refit_sah,
+             BIH_REFIT_SAH_TOLERANCE, renderer->bih_fresh_sah);
+    *decision = BIH_REBUILT;
+    return build_fresh(renderer, frame, site, built_on_gpu, err);
+}
+
 pf_status pf_render_prepare_bih(pf_renderer *renderer, const pf_scene_frame *frame,
                                 pf_frame_report *report, pf_error *err)
 {
@@ -67,31 +189,35 @@ pf_status pf_render_prepare_bih(pf_renderer *renderer, const pf_scene_frame *fra
         if (status != PF_OK)
             return status;
     }
-    if (renderer->bih_valid) {
-        pf_bih_free(&renderer->bih);
-        renderer->bih_valid = 0;
-    }
+    bih_decision decision = BIH_BUILT;
+    char reason[PF_STAGE_REASON_MAX];
     int built_on_gpu = 0;
-    status = build_tree(renderer, frame, site, &renderer->bih, &built_on_gpu, err);
-    if (status == PF_OK) {
-        renderer->bih_valid = 1;
+    status = update_tree(renderer, frame, site, &decision, reason, sizeof reason, &built_on_gpu,
+                         err);
+    if (status == PF_OK && decision != BIH_REUSED)
         status = pf_bih_gpu_upload(renderer->bih_gpu, &renderer->bih, err);
-    }
     if (status != PF_OK) {
+        /* The CPU tree and the GPU copy may no longer match: start over next frame. */
         if (renderer->bih_valid)
             pf_bih_free(&renderer->bih);
         renderer->bih_valid = 0;
+        renderer->bih_frames++;
         pf_error_prefix(err, "bih_build (%u triangles)", frame->triangle_count);
         return status;
     }
+    renderer->bih_frames++;
     pf_stage_timing *row = report ? pf_frame_report_add(report, "bih_build") : NULL;
     if (row) {
         row->wall_ms = pf_time_ms() - start;
         row->gpu_ms = -1.0;
+        row->skipped = decision == BIH_REUSED;
+        snprintf(row->reason, sizeof row->reason, "%s", reason);
         pf_stage_add_counter(row, "triangles", frame->triangle_count);
         pf_stage_add_counter(row, "nodes", renderer->bih.node_count);
         pf_stage_add_counter(row, "depth", renderer->bih.depth);
+        pf_stage_add_counter(row, "sah", renderer->bih_sah);
         pf_stage_add_counter(row, "built_on_gpu", built_on_gpu);
+        pf_stage_add_counter(row, "decision", decision);
     }
     return PF_OK;
 }

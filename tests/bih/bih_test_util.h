@@ -90,15 +90,16 @@ static inline int bih_make_soup(pf_scene_frame *frame, uint32_t count, uint32_t 
 }
 
 /*
- * The closed surface of the cube [-1, 1]^3, each face a GRID × GRID grid of
- * quads split into two triangles: 6 · GRID² · 2 triangles sharing edges and
- * vertices exactly (grid points are multiples of 2/GRID, exact in float).
+ * The closed surface of the cube [-1, 1]^3, each face a grid × grid grid of
+ * quads split into two triangles: 12 · grid² triangles sharing edges and
+ * vertices exactly (a grid point's coordinates are computed from its integer
+ * position alone, so the faces meeting at an edge compute the same floats;
+ * with BIH_CUBE_GRID they are multiples of 1/2, exact).
  */
 #define BIH_CUBE_GRID 4
-static inline int bih_make_closed_cube(pf_scene_frame *frame)
+static inline int bih_make_closed_cube(pf_scene_frame *frame, int grid)
 {
-    const int grid = BIH_CUBE_GRID;
-    if (!bih_frame_alloc(frame, 6 * grid * grid * 2))
+    if (!bih_frame_alloc(frame, 12u * (uint32_t)grid * (uint32_t)grid))
         return 0;
     uint32_t t = 0;
     for (int axis = 0; axis < 3; axis++)
@@ -109,8 +110,8 @@ static inline int bih_make_closed_cube(pf_scene_frame *frame)
                     float p[4][3];
                     for (int c = 0; c < 4; c++) {
                         p[c][axis] = (float)side;
-                        p[c][u_axis] = -1.0f + 2.0f * (float)(i + (c == 1 || c == 2)) / grid;
-                        p[c][v_axis] = -1.0f + 2.0f * (float)(j + (c >= 2)) / grid;
+                        p[c][u_axis] = -1.0f + 2.0f * (float)(i + (c == 1 || c == 2)) / (float)grid;
+                        p[c][v_axis] = -1.0f + 2.0f * (float)(j + (c >= 2)) / (float)grid;
                     }
                     bih_set_triangle(frame, t++, p[0], p[1], p[2]);
                     bih_set_triangle(frame, t++, p[0], p[2], p[3]);
@@ -126,6 +127,34 @@ static inline void bih_frame_transform(pf_scene_frame *frame, float scale, float
         for (int k = 0; k < 3; k++)
             frame->vertices[i][k] = frame->vertices[i][k] * scale + offset;
     bih_frame_bounds(frame);
+}
+
+/* Bumpy sphere: radius 1 ± BIH_SPHERE_BUMP, so rays from within BIH_SPHERE_INSIDE of the box's half size start inside. */
+#define BIH_SPHERE_BUMP 0.05
+#define BIH_SPHERE_INSIDE 0.5f
+
+/*
+ * A closed mesh of at least min_triangles triangles: bih_make_closed_cube
+ * with the smallest grid that reaches the count, every vertex pushed onto a
+ * bumpy sphere (a radial displacement, so the surface stays closed). A
+ * vertex is a function of its cube point alone, so shared edges and vertices
+ * stay bit-identical and rays through them must not leak.
+ */
+static inline int bih_make_bumpy_sphere(pf_scene_frame *frame, uint32_t min_triangles)
+{
+    int grid = (int)ceil(sqrt(min_triangles / 12.0));
+    if (!bih_make_closed_cube(frame, grid))
+        return 0;
+    for (uint32_t i = 0; i < 3 * frame->triangle_count; i++) {
+        double p[3] = {frame->vertices[i][0], frame->vertices[i][1], frame->vertices[i][2]};
+        double length = sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
+        double radius = 1.0 + BIH_SPHERE_BUMP * sin(7.0 * p[0] + 1.0) * sin(5.0 * p[1] + 2.0) *
+                                  sin(3.0 * p[2] + 3.0);
+        for (int k = 0; k < 3; k++)
+            frame->vertices[i][k] = (float)(p[k] / length * radius);
+    }
+    bih_frame_bounds(frame);
+    return 1;
 }
 
 /* Random rays aimed into the frame's box from around it; every fourth has a finite tmax. */
@@ -277,9 +306,21 @@ typedef enum bih_case {
  */
 #define BIH_DEGENERATE_EVERY 4u
 
-static inline int bih_case_is_cube(int which)
+/* What a case's rays must show beyond agreeing with the oracle. */
+typedef struct bih_expect {
+    float inside;    /* > 0: a closed mesh; bih_case_rays' aimed rays start inside and must hit */
+    int degenerate;  /* BIH_CASE_DEGENERATE's pattern: only its real triangles may be hit */
+} bih_expect;
+
+/* The cube's interior is its whole box: 0.9 of the half size keeps clear of the faces. */
+#define BIH_CUBE_INSIDE 0.9f
+
+static inline bih_expect bih_case_expect(int which)
 {
-    return which >= BIH_CASE_CUBE && which <= BIH_CASE_CUBE_OFFSET;
+    bih_expect expect = {0.0f, which == BIH_CASE_DEGENERATE};
+    if (which >= BIH_CASE_CUBE && which <= BIH_CASE_CUBE_OFFSET)
+        expect.inside = BIH_CUBE_INSIDE;
+    return expect;
 }
 
 static inline int bih_make_case(int which, pf_scene_frame *frame, const char **name)
@@ -293,19 +334,19 @@ static inline int bih_make_case(int which, pf_scene_frame *frame, const char **n
     case BIH_CASE_SOUP:
         return bih_make_soup(frame, 600, 11);
     case BIH_CASE_CUBE:
-        return bih_make_closed_cube(frame);
+        return bih_make_closed_cube(frame, BIH_CUBE_GRID);
     case BIH_CASE_CUBE_SMALL:
-        if (!bih_make_closed_cube(frame))
+        if (!bih_make_closed_cube(frame, BIH_CUBE_GRID))
             return 0;
         bih_frame_transform(frame, 1e-4f, 0.0f);
         return 1;
     case BIH_CASE_CUBE_LARGE:
-        if (!bih_make_closed_cube(frame))
+        if (!bih_make_closed_cube(frame, BIH_CUBE_GRID))
             return 0;
         bih_frame_transform(frame, 1e4f, 0.0f);
         return 1;
     case BIH_CASE_CUBE_OFFSET:
-        if (!bih_make_closed_cube(frame))
+        if (!bih_make_closed_cube(frame, BIH_CUBE_GRID))
             return 0;
         bih_frame_transform(frame, 1.0f, 1e5f);
         return 1;
@@ -408,12 +449,14 @@ static inline int bih_make_case(int which, pf_scene_frame *frame, const char **n
 
 /*
  * Rays for a case: a quarter random, a quarter parallel to an axis with the
- * origin exactly on a clip plane of the tree (or a box face), a quarter
- * aimed exactly at triangle vertices and edge midpoints, a quarter random
- * again. For the closed cubes the aimed rays start inside (they must hit);
- * returns the index of the first aimed ray, aimed rays end at 3 count / 4.
+ * origin exactly on a clip plane of the tree (a clip value of one of its
+ * inner nodes; a box face when the pick is a leaf), a quarter aimed exactly
+ * at triangle vertices and edge midpoints, a quarter random again. With
+ * inside > 0 (a closed mesh) the aimed rays start within that fraction of the
+ * box's half size around its centre, inside the mesh, so they must hit.
+ * Returns the index of the first aimed ray; aimed rays end at 3 count / 4.
  */
-static inline uint32_t bih_case_rays(int which, const pf_scene_frame *frame, const pf_bih *bih,
+static inline uint32_t bih_case_rays(float inside, const pf_scene_frame *frame, const pf_bih *bih,
                                      uint32_t seed, pf_ray *rays, uint32_t count)
 {
     uint32_t state = seed;
@@ -463,8 +506,8 @@ static inline uint32_t bih_case_rays(int which, const pf_scene_frame *frame, con
             target[k] = midpoint ? 0.5f * a + 0.5f * b : a;
             float lo = frame->bounds_min[k], hi = frame->bounds_max[k];
             float centre = 0.5f * lo + 0.5f * hi, half = 0.5f * hi - 0.5f * lo;
-            ray->origin[k] = bih_case_is_cube(which)
-                                 ? centre + bih_uniform(&state, -0.9f, 0.9f) * half
+            ray->origin[k] = inside > 0.0f
+                                 ? centre + bih_uniform(&state, -inside, inside) * half
                                  : bih_uniform(&state, lo - half - 1.0f, hi + half + 1.0f);
             ray->direction[k] = target[k] - ray->origin[k];
         }
@@ -472,6 +515,165 @@ static inline uint32_t bih_case_rays(int which, const pf_scene_frame *frame, con
         ray->tmax = INFINITY;
     }
     return count / 2;
+}
+
+/* ---- Checking answers, and the loops over the cases and the shared scenes. ---- */
+
+/* Rays of one case with the oracle's answer and a traversal's closest and any hits. */
+typedef struct bih_ray_set {
+    uint32_t count;
+    uint32_t aimed;              /* first aimed ray (bih_case_rays) */
+    pf_ray *rays;
+    pf_hit *oracle, *closest, *any;
+} bih_ray_set;
+
+static inline int bih_ray_set_alloc(bih_ray_set *set, uint32_t count)
+{
+    memset(set, 0, sizeof *set);
+    set->count = count;
+    set->rays = malloc(count * sizeof *set->rays);
+    set->oracle = malloc(count * sizeof *set->oracle);
+    set->closest = malloc(count * sizeof *set->closest);
+    set->any = malloc(count * sizeof *set->any);
+    return set->rays && set->oracle && set->closest && set->any;
+}
+
+static inline void bih_ray_set_free(bih_ray_set *set)
+{
+    free(set->rays), free(set->oracle), free(set->closest), free(set->any);
+    memset(set, 0, sizeof *set);
+}
+
+/* The CPU brute force (bih_brute_closest) into set->oracle. */
+static inline void bih_oracle_cpu(const pf_scene_frame *frame, bih_ray_set *set)
+{
+    for (uint32_t r = 0; r < set->count; r++)
+        set->oracle[r] = bih_brute_closest(frame, &set->rays[r]);
+}
+
+/*
+ * The oracle for meshes too big to brute-force every ray in a fast test:
+ * set->oracle gets the CPU traversal of reference (a tree pf_bih_check
+ * accepted), and every stride-th ray of it must equal the CPU brute force
+ * exactly (the same triangle test; strides sample every quarter of
+ * bih_case_rays). The other trees and traversals are then held to it.
+ */
+static inline void bih_oracle_sampled(const char *label, const pf_scene_frame *frame,
+                                      const pf_bih *reference, bih_ray_set *set, uint32_t stride)
+{
+    pf_error err = {0};
+    uint32_t failures = 0, mismatches = 0, sampled = 0;
+    for (uint32_t r = 0; r < set->count; r++)
+        failures += pf_bih_trace_cpu(reference, &set->rays[r], 0, &set->oracle[r], &err) != PF_OK;
+    PF_CHECK_MSG(failures == 0, "%s: %u reference traversals failed: %s", label, failures,
+                 err.message);
+    for (uint32_t r = 0; r < set->count; r += stride, sampled++) {
+        char sample[160];
+        snprintf(sample, sizeof sample, "%s, sampled ray %u", label, r);
+        pf_hit brute = bih_brute_closest(frame, &set->rays[r]);
+        mismatches += bih_compare_closest(sample, frame, &set->rays[r], &brute, &set->oracle[r], 1, 1);
+    }
+    PF_CHECK_MSG(mismatches == 0, "%s: %u of %u sampled reference hits differ from brute force",
+                 label, mismatches, sampled);
+}
+
+/* The CPU traversal, closest and any hit, into set->closest and set->any; every ray must succeed. */
+static inline void bih_trace_cpu_both(const char *label, const pf_bih *bih, bih_ray_set *set)
+{
+    pf_error err = {0};
+    uint32_t failures = 0;
+    for (uint32_t r = 0; r < set->count; r++) {
+        failures += pf_bih_trace_cpu(bih, &set->rays[r], 0, &set->closest[r], &err) != PF_OK;
+        failures += pf_bih_trace_cpu(bih, &set->rays[r], 1, &set->any[r], &err) != PF_OK;
+    }
+    PF_CHECK_MSG(failures == 0, "%s: %u CPU traversals failed: %s", label, failures, err.message);
+}
+
+/*
+ * Checks set->closest and set->any against set->oracle (bih_compare_closest
+ * and bih_compare_any; exact: the CPU ran the oracle's very test), that the
+ * rays hit something often enough to test anything, and what expect asks:
+ * no aimed ray leaks out of a closed mesh, no degenerate triangle is hit.
+ * label names the case and the build/traversal pair in every message.
+ */
+static inline void bih_check_answers(const char *label, const pf_scene_frame *frame,
+                                     bih_expect expect, const bih_ray_set *set, int exact)
+{
+    uint32_t count = set->count;
+    uint32_t mismatches = bih_compare_closest(label, frame, set->rays, set->oracle, set->closest,
+                                              count, exact);
+    PF_CHECK_MSG(mismatches == 0, "%s: %u of %u closest hits differ from brute force", label,
+                 mismatches, count);
+    mismatches = bih_compare_any(label, frame, set->rays, set->oracle, set->any, count);
+    PF_CHECK_MSG(mismatches == 0, "%s: %u of %u any hits wrong", label, mismatches, count);
+    uint32_t hits = 0;
+    for (uint32_t r = 0; r < count; r++)
+        hits += set->oracle[r].triangle != PF_NO_HIT;
+    if (frame->triangle_count > 0)
+        PF_CHECK_MSG(hits > count / 20, "%s: only %u hits: the rays test little", label, hits);
+    if (expect.inside > 0.0f) {
+        uint32_t leaks = 0;
+        for (uint32_t r = set->aimed; r < 3 * count / 4; r++)
+            leaks += set->closest[r].triangle == PF_NO_HIT || set->any[r].triangle == PF_NO_HIT;
+        PF_CHECK_MSG(leaks == 0, "%s: %u rays through shared edges/vertices leaked out", label,
+                     leaks);
+    }
+    if (expect.degenerate) {
+        uint32_t degenerate = 0;
+        for (uint32_t r = 0; r < count; r++) {
+            uint32_t closest = set->closest[r].triangle, any = set->any[r].triangle;
+            degenerate += (closest != PF_NO_HIT && closest % BIH_DEGENERATE_EVERY != 0) ||
+                          (any != PF_NO_HIT && any % BIH_DEGENERATE_EVERY != 0);
+        }
+        PF_CHECK_MSG(degenerate == 0, "%s: %u rays hit a degenerate triangle", label, degenerate);
+    }
+}
+
+/* What a test checks on one frame: label names it, seed and ray_count drive bih_case_rays. */
+typedef void (*bih_frame_check)(const char *label, const pf_scene_frame *frame, bih_expect expect,
+                                uint32_t seed, uint32_t ray_count);
+
+/* check on every hard case (seeds seed_base + case). */
+static inline void bih_for_each_case(bih_frame_check check, uint32_t seed_base, uint32_t ray_count)
+{
+    for (int which = 0; which < BIH_CASE_COUNT; which++) {
+        pf_scene_frame frame;
+        const char *name;
+        PF_REQUIRE(bih_make_case(which, &frame, &name));
+        check(name, &frame, bih_case_expect(which), seed_base + (uint32_t)which, ray_count);
+        bih_frame_free(&frame);
+    }
+}
+
+/*
+ * check on the last frame of every scene in $PF_SHARED_SCENES (animated
+ * scenes have moved from their rest pose there); seeds seed_base + scene.
+ */
+static inline void bih_for_each_shared_scene(bih_frame_check check, uint32_t seed_base,
+                                             uint32_t ray_count)
+{
+    char names[16][64];
+    uint32_t scene_count = bih_shared_scene_names(names, 16);
+    PF_REQUIRE(scene_count > 0);
+    for (uint32_t i = 0; i < scene_count; i++) {
+        char path[1024];
+        pf_scene *scene = NULL;
+        pf_error err = {0};
+        PF_CHECK_OK(pf_scene_load(pf_test_shared_scene(names[i], path, sizeof path), &scene, &err),
+                    &err);
+        if (!scene)
+            continue;
+        const pf_scene_info *info = pf_scene_get_info(scene);
+        pf_scene_frame frame = {0};
+        PF_CHECK_OK(pf_scene_eval(scene, pf_scene_frame_time(scene, info->frame_count), &frame,
+                                  &err),
+                    &err);
+        PF_CHECK_MSG(frame.triangle_count > 0, "scene %s has no triangles", names[i]);
+        if (frame.triangle_count > 0)
+            check(names[i], &frame, (bih_expect){0.0f, 0}, seed_base + i, ray_count);
+        pf_scene_frame_free(&frame);
+        pf_scene_destroy(scene);
+    }
 }
 
 #endif

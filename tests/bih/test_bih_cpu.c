@@ -12,8 +12,9 @@
 #define CHAIN_DEPTH (PF_BIH_STACK_SIZE + 6u)
 
 /* Build, check invariants and leaf size, trace rays both ways; returns the tree (caller frees). */
-static int build_and_trace(const char *label, const pf_scene_frame *frame, int which, uint32_t seed,
-                           uint32_t ray_count, const pf_bih_build_options *options, pf_bih *bih)
+static int build_and_trace(const char *label, const pf_scene_frame *frame, bih_expect expect,
+                           uint32_t seed, uint32_t ray_count, const pf_bih_build_options *options,
+                           pf_bih *bih)
 {
     pf_error err = {0};
     PF_CHECK_OK(pf_bih_build_cpu(frame, options, bih, &err), &err);
@@ -26,97 +27,52 @@ static int build_and_trace(const char *label, const pf_scene_frame *frame, int w
                  "%s: leaf of %u triangles (K = %u)", label, bih->largest_leaf, leaf_size);
     PF_CHECK(bih->depth <= PF_BIH_STACK_SIZE);
 
-    pf_ray *rays = malloc(ray_count * sizeof *rays);
-    pf_hit *expected = malloc(ray_count * sizeof *expected);
-    pf_hit *got = malloc(ray_count * sizeof *got);
-    pf_hit *any = malloc(ray_count * sizeof *any);
-    if (!rays || !expected || !got || !any) {
+    bih_ray_set set;
+    if (!bih_ray_set_alloc(&set, ray_count)) {
         PF_CHECK(!"out of memory");
-        free(rays), free(expected), free(got), free(any);
-        return 0;
+        bih_ray_set_free(&set);
+        return 1;
     }
-    uint32_t aimed = bih_case_rays(which, frame, bih, seed, rays, ray_count);
-    uint32_t failures = 0, hits = 0;
-    for (uint32_t r = 0; r < ray_count; r++) {
-        expected[r] = bih_brute_closest(frame, &rays[r]);
-        failures += pf_bih_trace_cpu(bih, &rays[r], 0, &got[r], &err) != PF_OK;
-        failures += pf_bih_trace_cpu(bih, &rays[r], 1, &any[r], &err) != PF_OK;
-        hits += expected[r].triangle != PF_NO_HIT;
-    }
-    PF_CHECK_MSG(failures == 0, "%s: %u traversals failed: %s", label, failures, err.message);
-    uint32_t mismatches = bih_compare_closest(label, frame, rays, expected, got, ray_count, 1);
-    PF_CHECK_MSG(mismatches == 0, "%s: %u of %u closest hits differ from brute force", label,
-                 mismatches, ray_count);
-    mismatches = bih_compare_any(label, frame, rays, expected, any, ray_count);
-    PF_CHECK_MSG(mismatches == 0, "%s: %u of %u any hits wrong", label, mismatches, ray_count);
-    if (frame->triangle_count > 0)
-        PF_CHECK_MSG(hits > ray_count / 20, "%s: only %u hits: the rays test little", label, hits);
-    if (bih_case_is_cube(which)) {
-        uint32_t leaks = 0;
-        for (uint32_t r = aimed; r < 3 * ray_count / 4; r++)
-            leaks += got[r].triangle == PF_NO_HIT || any[r].triangle == PF_NO_HIT;
-        PF_CHECK_MSG(leaks == 0, "%s: %u rays through shared edges/vertices leaked out", label, leaks);
-    }
-    if (which == BIH_CASE_DEGENERATE)
-        for (uint32_t r = 0; r < ray_count; r++)
-            PF_CHECK_MSG(got[r].triangle == PF_NO_HIT || got[r].triangle % BIH_DEGENERATE_EVERY == 0,
-                         "ray %u hit degenerate triangle %u", r, got[r].triangle);
-    free(rays), free(expected), free(got), free(any);
+    set.aimed = bih_case_rays(expect.inside, frame, bih, seed, set.rays, ray_count);
+    bih_oracle_cpu(frame, &set);
+    bih_trace_cpu_both(label, bih, &set);
+    bih_check_answers(label, frame, expect, &set, 1);
+    bih_ray_set_free(&set);
     return 1;
+}
+
+/* One frame: the CPU build and traversal against brute force, and the SAH report's figures. */
+static void check_cpu(const char *label, const pf_scene_frame *frame, bih_expect expect,
+                      uint32_t seed, uint32_t ray_count)
+{
+    pf_bih bih;
+    if (!build_and_trace(label, frame, expect, seed, ray_count, NULL, &bih))
+        return;
+    pf_bih_quality quality;
+    pf_bih_quality_measure(&bih, &quality);
+    if (frame->triangle_count == 0) {
+        PF_CHECK(quality.sah_cost == 0.0);
+    } else {
+        PF_CHECK(quality.leaf_count == bih.leaf_count);
+        PF_CHECK(quality.depth == bih.depth);
+        PF_CHECK_MSG(quality.sah_cost >= 1.0 && isfinite(quality.sah_cost),
+                     "%s: SAH %g (the root leaf or node alone costs >= 1)", label,
+                     quality.sah_cost);
+    }
+    printf("%-16s %6u triangles: %u nodes, depth %u, leaves %u (mean %.2f, max %u), SAH %.2f\n",
+           label, frame->triangle_count, bih.node_count, bih.depth, bih.leaf_count,
+           quality.mean_leaf_size, bih.largest_leaf, quality.sah_cost);
+    pf_bih_free(&bih);
 }
 
 PF_TEST(hard_cases_match_brute_force)
 {
-    for (int which = 0; which < BIH_CASE_COUNT; which++) {
-        pf_scene_frame frame;
-        const char *name;
-        PF_REQUIRE(bih_make_case(which, &frame, &name));
-        pf_bih bih;
-        if (build_and_trace(name, &frame, which, 1000 + (uint32_t)which, CASE_RAYS, NULL, &bih)) {
-            pf_bih_quality quality;
-            pf_bih_quality_measure(&bih, &quality);
-            if (frame.triangle_count == 0) {
-                PF_CHECK(quality.sah_cost == 0.0);
-            } else {
-                PF_CHECK(quality.leaf_count == bih.leaf_count);
-                PF_CHECK(quality.depth == bih.depth);
-                PF_CHECK_MSG(quality.sah_cost >= 1.0 && isfinite(quality.sah_cost),
-                             "%s: SAH %g (the root leaf or node alone costs >= 1)", name,
-                             quality.sah_cost);
-            }
-            pf_bih_free(&bih);
-        }
-        bih_frame_free(&frame);
-    }
+    bih_for_each_case(check_cpu, 1000, CASE_RAYS);
 }
 
 PF_TEST(shared_scenes_match_brute_force)
 {
-    char names[16][64];
-    uint32_t scene_count = bih_shared_scene_names(names, 16);
-    PF_REQUIRE(scene_count > 0);
-    for (uint32_t i = 0; i < scene_count; i++) {
-        char path[1024];
-        pf_scene *scene = NULL;
-        pf_error err = {0};
-        PF_CHECK_OK(pf_scene_load(pf_test_shared_scene(names[i], path, sizeof path), &scene, &err), &err);
-        if (!scene)
-            continue;
-        pf_scene_frame frame = {0};
-        PF_CHECK_OK(pf_scene_eval(scene, pf_scene_frame_time(scene, 1), &frame, &err), &err);
-        pf_bih bih;
-        if (frame.triangle_count > 0 &&
-            build_and_trace(names[i], &frame, BIH_CASE_SOUP, 31 + i, SCENE_RAYS, NULL, &bih)) {
-            pf_bih_quality quality;
-            pf_bih_quality_measure(&bih, &quality);
-            printf("%-14s %6u triangles: %u nodes, depth %u, leaves %u (mean %.2f, max %u), SAH %.2f\n",
-                   names[i], frame.triangle_count, bih.node_count, bih.depth, bih.leaf_count,
-                   quality.mean_leaf_size, bih.largest_leaf, quality.sah_cost);
-            pf_bih_free(&bih);
-        }
-        pf_scene_frame_free(&frame);
-        pf_scene_destroy(scene);
-    }
+    bih_for_each_shared_scene(check_cpu, 31, SCENE_RAYS);
 }
 
 PF_TEST(depth_limit_is_kept)
@@ -126,7 +82,8 @@ PF_TEST(depth_limit_is_kept)
     PF_REQUIRE(bih_make_case(BIH_CASE_SOUP, &frame, &name));
     pf_bih_build_options options = {4, 6};
     pf_bih bih;
-    if (build_and_trace("soup, max depth 6", &frame, BIH_CASE_SOUP, 5, CASE_RAYS, &options, &bih)) {
+    if (build_and_trace("soup, max depth 6", &frame, bih_case_expect(BIH_CASE_SOUP), 5, CASE_RAYS,
+                        &options, &bih)) {
         PF_CHECK(bih.depth <= 6);
         pf_bih_free(&bih);
     }

@@ -1,123 +1,158 @@
 /*
- * The GPU BIH build (pf_bih_build_gpu): for every hard case and every shared
- * scene the downloaded tree passes pf_bih_check, its statistics agree with
- * pf_bih_quality_measure, and the GPU traversal over it matches the GPU
- * brute-force oracle (pf_raycast_brute_force) by the rule of test_bih_gpu.c.
+ * The GPU BIH build (pf_bih_build_gpu): for every hard case, every shared
+ * scene and a generated 1M-triangle closed mesh the downloaded tree passes
+ * pf_bih_check, its statistics agree with pf_bih_quality_measure, and both
+ * the GPU and the CPU traversal over it (closest and any hit) match the GPU
+ * brute-force oracle (pf_raycast_brute_force) by the rule of test_bih_gpu.c
+ * (the 1M mesh: the sampled CPU oracle, see million_triangles_gpu_build).
  * The SAH cost of the GPU and CPU trees is printed, not asserted beyond
  * sanity. Over-deep trees fall back to the CPU build. Validation stays silent.
  */
-#include "bih_test_util.h"
-#include "pf_render.h"
+#include "bih_test_gpu.h"
 
 #define CASE_RAYS 2000u
 #define SCENE_RAYS 2000u
+/* The benchmark mesh size: malformed GPU trees were once seen only this big. */
+#define MILLION_TRIANGLES 1000000u
+/*
+ * Its rays: all held to the CPU-built tree's CPU traversal, every
+ * MILLION_ORACLE_STRIDE-th also to the CPU brute force (1M triangle tests
+ * each). The GPU oracle cannot serve here: see bih_oracle_sampled's callers.
+ */
+#define MILLION_RAYS 2000u
+#define MILLION_ORACLE_STRIDE 20u
 /* A soup big enough that its Morton tree needs more than FALLBACK_DEPTH levels. */
 #define FALLBACK_TRIANGLES 2000u
 #define FALLBACK_DEPTH 3u
 
-static pf_vk_context *ctx;
-static pf_renderer *renderer;
-static pf_bih_gpu *gpu;
-static pf_bih_gpu_builder *builder;
+static bih_gpu_env env;
 
-static void check_gpu_build(const char *label, const pf_scene_frame *frame, int which,
-                            uint32_t seed, uint32_t ray_count)
+/* The GPU build with the default options: invariants, build path, leaf size, statistics. */
+static int build_on_gpu(const char *label, const pf_scene_frame *frame, pf_bih *bih,
+                        pf_bih_quality *quality)
 {
     pf_error err = {0};
-    pf_bih bih, cpu;
     pf_bih_gpu_build_report report;
-    PF_REQUIRE_OK(pf_bih_build_gpu(builder, frame, NULL, &bih, &report, &err), &err);
-    PF_REQUIRE_OK(pf_bih_build_cpu(frame, NULL, &cpu, &err), &err);
-    PF_CHECK_OK(pf_bih_check(&bih, frame, &err), &err);
+    PF_CHECK_OK(pf_bih_build_gpu(env.builder, frame, NULL, bih, &report, &err), &err);
+    if (err.status != PF_OK)
+        return 0;
+    PF_CHECK_OK(pf_bih_check(bih, frame, &err), &err);
     PF_CHECK_MSG(report.path == (frame->triangle_count > PF_BIH_DEFAULT_LEAF_SIZE
                                      ? PF_BIH_BUILT_ON_GPU
                                      : PF_BIH_BUILT_SMALL_ON_CPU),
                  "%s: build path %d", label, (int)report.path);
-    PF_CHECK(bih.largest_leaf <= PF_BIH_DEFAULT_LEAF_SIZE);
-    pf_bih_quality quality, cpu_quality;
-    pf_bih_quality_measure(&bih, &quality);
-    pf_bih_quality_measure(&cpu, &cpu_quality);
-    if (frame->triangle_count > 0)
-        PF_CHECK_MSG(quality.depth == bih.depth && quality.leaf_count == bih.leaf_count &&
-                         quality.largest_leaf == bih.largest_leaf,
+    PF_CHECK(bih->largest_leaf <= PF_BIH_DEFAULT_LEAF_SIZE);
+    pf_bih_quality_measure(bih, quality);
+    if (frame->triangle_count > 0) {
+        PF_CHECK_MSG(quality->depth == bih->depth && quality->leaf_count == bih->leaf_count &&
+                         quality->largest_leaf == bih->largest_leaf,
                      "%s: measured depth %u leaves %u largest %u, built %u %u %u", label,
-                     quality.depth, quality.leaf_count, quality.largest_leaf, bih.depth,
-                     bih.leaf_count, bih.largest_leaf);
-    if (frame->triangle_count > 0)
-        PF_CHECK_MSG(quality.sah_cost >= 1.0 && isfinite(quality.sah_cost), "%s: SAH %g", label,
-                     quality.sah_cost);
-    pf_ray *rays = malloc(ray_count * sizeof *rays);
-    pf_hit *oracle = malloc(ray_count * sizeof *oracle);
-    pf_hit *got = malloc(ray_count * sizeof *got);
-    pf_hit *any = malloc(ray_count * sizeof *any);
-    if (rays && oracle && got && any) {
-        uint32_t aimed = bih_case_rays(which, frame, &bih, seed, rays, ray_count);
-        PF_CHECK_OK(pf_bih_gpu_upload(gpu, &bih, &err), &err);
-        PF_CHECK_OK(pf_raycast_brute_force(renderer, frame, rays, ray_count, oracle, &err), &err);
-        PF_CHECK_OK(pf_bih_raycast(gpu, rays, ray_count, 0, got, &err), &err);
-        PF_CHECK_OK(pf_bih_raycast(gpu, rays, ray_count, 1, any, &err), &err);
-        uint32_t mismatches = bih_compare_closest(label, frame, rays, oracle, got, ray_count, 0);
-        PF_CHECK_MSG(mismatches == 0, "%s: %u of %u closest hits over the GPU-built BIH differ",
-                     label, mismatches, ray_count);
-        mismatches = bih_compare_any(label, frame, rays, oracle, any, ray_count);
-        PF_CHECK_MSG(mismatches == 0, "%s: %u of %u any hits over the GPU-built BIH wrong",
-                     label, mismatches, ray_count);
-        uint32_t hits = 0;
-        for (uint32_t r = 0; r < ray_count; r++)
-            hits += oracle[r].triangle != PF_NO_HIT;
-        if (frame->triangle_count > 0)
-            PF_CHECK_MSG(hits > ray_count / 20, "%s: only %u hits: the rays test little", label, hits);
-        if (bih_case_is_cube(which)) {
-            uint32_t leaks = 0;
-            for (uint32_t r = aimed; r < 3 * ray_count / 4; r++)
-                leaks += got[r].triangle == PF_NO_HIT || any[r].triangle == PF_NO_HIT;
-            PF_CHECK_MSG(leaks == 0, "%s: %u rays through shared edges/vertices leaked out", label,
-                         leaks);
-        }
-        printf("%-16s %6u triangles: GPU depth %2u leaves %6u SAH %9.2f | CPU depth %2u leaves %6u SAH %9.2f\n",
-               label, frame->triangle_count, bih.depth, bih.leaf_count, quality.sah_cost, cpu.depth,
-               cpu.leaf_count, cpu_quality.sah_cost);
+                     quality->depth, quality->leaf_count, quality->largest_leaf, bih->depth,
+                     bih->leaf_count, bih->largest_leaf);
+        PF_CHECK_MSG(quality->sah_cost >= 1.0 && isfinite(quality->sah_cost), "%s: SAH %g",
+                     label, quality->sah_cost);
+    }
+    return 1;
+}
+
+/* The GPU and the CPU traversal over the GPU-built tree, closest and any hit, against set->oracle. */
+static void check_traversals(const char *label, const pf_scene_frame *frame, bih_expect expect,
+                             const pf_bih *bih, bih_ray_set *set)
+{
+    char pair[128];
+    bih_trace_gpu_both(&env, bih, set);
+    snprintf(pair, sizeof pair, "%s (GPU build, GPU traversal)", label);
+    bih_check_answers(pair, frame, expect, set, 0);
+    snprintf(pair, sizeof pair, "%s (GPU build, CPU traversal)", label);
+    bih_trace_cpu_both(pair, bih, set);
+    bih_check_answers(pair, frame, expect, set, 0);
+}
+
+static void print_sah(const char *label, const pf_scene_frame *frame, const pf_bih *bih,
+                      const pf_bih_quality *quality, const pf_bih *cpu)
+{
+    pf_bih_quality cpu_quality;
+    pf_bih_quality_measure(cpu, &cpu_quality);
+    printf("%-16s %7u triangles: GPU depth %2u leaves %6u SAH %9.2f | CPU depth %2u leaves %6u SAH %9.2f\n",
+           label, frame->triangle_count, bih->depth, bih->leaf_count, quality->sah_cost,
+           cpu->depth, cpu->leaf_count, cpu_quality.sah_cost);
+}
+
+/*
+ * One frame: the GPU build, then both traversals over it against the GPU
+ * oracle, with rays whose clip-plane origins come from the GPU-built tree.
+ */
+static void check_gpu_build(const char *label, const pf_scene_frame *frame, bih_expect expect,
+                            uint32_t seed, uint32_t ray_count)
+{
+    pf_error err = {0};
+    pf_bih bih, cpu;
+    pf_bih_quality quality;
+    if (!build_on_gpu(label, frame, &bih, &quality))
+        return;
+    bih_ray_set set;
+    if (bih_ray_set_alloc(&set, ray_count)) {
+        set.aimed = bih_case_rays(expect.inside, frame, &bih, seed, set.rays, ray_count);
+        bih_oracle_gpu(&env, frame, &set);
+        check_traversals(label, frame, expect, &bih, &set);
     } else {
         PF_CHECK(!"out of memory");
     }
-    free(rays), free(oracle), free(got), free(any);
+    bih_ray_set_free(&set);
+    PF_CHECK_OK(pf_bih_build_cpu(frame, NULL, &cpu, &err), &err);
+    if (err.status == PF_OK) {
+        print_sah(label, frame, &bih, &quality, &cpu);
+        pf_bih_free(&cpu);
+    }
     pf_bih_free(&bih);
-    pf_bih_free(&cpu);
 }
 
 PF_TEST(hard_cases_gpu_build)
 {
-    for (int which = 0; which < BIH_CASE_COUNT; which++) {
-        pf_scene_frame frame;
-        const char *name;
-        PF_REQUIRE(bih_make_case(which, &frame, &name));
-        check_gpu_build(name, &frame, which, 3000 + (uint32_t)which, CASE_RAYS);
-        bih_frame_free(&frame);
-    }
+    bih_for_each_case(check_gpu_build, 3000, CASE_RAYS);
 }
 
 PF_TEST(shared_scenes_gpu_build)
 {
-    char names[16][64];
-    uint32_t scene_count = bih_shared_scene_names(names, 16);
-    PF_REQUIRE(scene_count > 0);
-    for (uint32_t i = 0; i < scene_count; i++) {
-        char path[1024];
-        pf_scene *scene = NULL;
-        pf_error err = {0};
-        PF_CHECK_OK(pf_scene_load(pf_test_shared_scene(names[i], path, sizeof path), &scene, &err), &err);
-        if (!scene)
-            continue;
-        const pf_scene_info *info = pf_scene_get_info(scene);
-        /* The last frame: animated scenes have moved from their rest pose. */
-        pf_scene_frame frame = {0};
-        PF_CHECK_OK(pf_scene_eval(scene, pf_scene_frame_time(scene, info->frame_count), &frame, &err),
-                    &err);
-        if (frame.triangle_count > 0)
-            check_gpu_build(names[i], &frame, BIH_CASE_SOUP, 91 + i, SCENE_RAYS);
-        pf_scene_frame_free(&frame);
-        pf_scene_destroy(scene);
+    bih_for_each_shared_scene(check_gpu_build, 91, SCENE_RAYS);
+}
+
+/*
+ * The benchmark's 1M-triangle size, closed so rays from inside must hit.
+ * The GPU brute-force oracle silently stops early at this size on lavapipe
+ * (gallivm ends every shader invocation's loops after 65535 iterations in
+ * all), so the oracle is the CPU-built tree sampled against the CPU brute
+ * force (bih_oracle_sampled).
+ */
+PF_TEST(million_triangles_gpu_build)
+{
+    pf_scene_frame frame;
+    PF_REQUIRE(bih_make_bumpy_sphere(&frame, MILLION_TRIANGLES));
+    PF_CHECK(frame.triangle_count >= MILLION_TRIANGLES);
+    const char *label = "bumpy sphere 1M";
+    bih_expect expect = {BIH_SPHERE_INSIDE, 0};
+    pf_error err = {0};
+    pf_bih bih, cpu;
+    pf_bih_quality quality;
+    bih_ray_set set;
+    if (build_on_gpu(label, &frame, &bih, &quality)) {
+        PF_CHECK_OK(pf_bih_build_cpu(&frame, NULL, &cpu, &err), &err);
+        if (err.status == PF_OK) {
+            PF_CHECK_OK(pf_bih_check(&cpu, &frame, &err), &err);
+            if (bih_ray_set_alloc(&set, MILLION_RAYS)) {
+                set.aimed = bih_case_rays(expect.inside, &frame, &bih, 4000, set.rays, set.count);
+                bih_oracle_sampled(label, &frame, &cpu, &set, MILLION_ORACLE_STRIDE);
+                check_traversals(label, &frame, expect, &bih, &set);
+            } else {
+                PF_CHECK(!"out of memory");
+            }
+            bih_ray_set_free(&set);
+            print_sah(label, &frame, &bih, &quality, &cpu);
+            pf_bih_free(&cpu);
+        }
+        pf_bih_free(&bih);
     }
+    bih_frame_free(&frame);
 }
 
 /* Leaf size K is honoured for other K than the default. */
@@ -130,7 +165,7 @@ PF_TEST(leaf_size_option)
         pf_bih_build_options options = {sizes[s], 0};
         pf_bih bih;
         pf_error err = {0};
-        PF_REQUIRE_OK(pf_bih_build_gpu(builder, &frame, &options, &bih, NULL, &err), &err);
+        PF_REQUIRE_OK(pf_bih_build_gpu(env.builder, &frame, &options, &bih, NULL, &err), &err);
         PF_CHECK_OK(pf_bih_check(&bih, &frame, &err), &err);
         PF_CHECK_MSG(bih.largest_leaf <= sizes[s], "K = %u: a leaf of %u", sizes[s],
                      bih.largest_leaf);
@@ -151,7 +186,7 @@ PF_TEST(too_deep_falls_back_to_cpu)
     pf_bih bih;
     pf_bih_gpu_build_report report;
     pf_error err = {0};
-    PF_REQUIRE_OK(pf_bih_build_gpu(builder, &frame, &options, &bih, &report, &err), &err);
+    PF_REQUIRE_OK(pf_bih_build_gpu(env.builder, &frame, &options, &bih, &report, &err), &err);
     PF_CHECK(report.path == PF_BIH_BUILT_CPU_FALLBACK);
     PF_CHECK(report.gpu_depth > FALLBACK_DEPTH);
     PF_CHECK(bih.depth <= FALLBACK_DEPTH);
@@ -167,7 +202,7 @@ PF_TEST(bad_input_is_refused)
     frame.vertices[3 * 17 + 1][2] = NAN;
     pf_bih bih;
     pf_error err = {0};
-    PF_CHECK(pf_bih_build_gpu(builder, &frame, NULL, &bih, NULL, &err) == PF_ERR_INVALID);
+    PF_CHECK(pf_bih_build_gpu(env.builder, &frame, NULL, &bih, NULL, &err) == PF_ERR_INVALID);
     PF_CHECK(strstr(err.message, "triangle 17") != NULL);
     PF_CHECK(bih.nodes == NULL && bih.node_count == 0);
     bih_frame_free(&frame);
@@ -175,25 +210,14 @@ PF_TEST(bad_input_is_refused)
 
 int main(void)
 {
-    pf_error err = {0};
-    pf_vk_options options = {NULL, -1};
-    if (pf_vk_create(&options, &ctx, &err) != PF_OK ||
-        pf_renderer_create(ctx, &renderer, &err) != PF_OK ||
-        pf_bih_gpu_create(ctx, &gpu, &err) != PF_OK ||
-        pf_bih_gpu_builder_create(ctx, &builder, &err) != PF_OK) {
-        fprintf(stderr, "setup: %s\n", err.message);
+    if (!bih_gpu_env_create(&env))
         return 1;
-    }
     PF_RUN(hard_cases_gpu_build);
     PF_RUN(shared_scenes_gpu_build);
+    PF_RUN(million_triangles_gpu_build);
     PF_RUN(leaf_size_option);
     PF_RUN(too_deep_falls_back_to_cpu);
     PF_RUN(bad_input_is_refused);
-    pf_bih_gpu_builder_destroy(builder);
-    pf_bih_gpu_destroy(gpu);
-    pf_renderer_destroy(renderer);
-    uint32_t messages = pf_vk_validation_message_count(ctx);
-    pf_vk_destroy(ctx);
-    PF_CHECK_MSG(messages == 0, "%u validation messages", messages);
+    bih_gpu_env_destroy(&env);
     return pf_test_finish();
 }

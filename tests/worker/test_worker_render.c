@@ -1,7 +1,9 @@
 /*
  * One `photonfarm worker` at a time on tiny frames: a job rendered to EXRs
- * with one set of stage rows per task and `timings` in every format; frames
- * whose scene vanished after enqueue (every attempt recorded, max attempts,
+ * with one set of stage rows per task (the static scene's BIH built once,
+ * then reused: skipped rows with their reason) and `timings` in every
+ * format, decisions included; frames whose scene vanished after enqueue
+ * (every attempt recorded, max attempts,
  * the per-job blocklist and its status note); SIGTERM while rendering (drain:
  * the frame is done) and twice (released: queued, no file); and a worker
  * whose lease was taken over, which must not touch the new owner's output.
@@ -12,6 +14,7 @@
 
 #include <cjson/cJSON.h>
 #include <signal.h>
+#include <sqlite3.h>
 #include <unistd.h>
 
 #define WORKER_TIMEOUT_MS 60000
@@ -77,6 +80,46 @@ static int exr_frame_attribute(const char *path)
     return frame;
 }
 
+/*
+ * The job's bih_build rows, frame by frame: one worker renders the static tiny
+ * scene, so frame 1 builds the BIH and frames 2 and 3 (the second task too:
+ * the renderer outlives tasks) reuse it, skipped with the reason stored.
+ */
+static void check_bih_decisions(const char *db_path, int64_t job_id)
+{
+    sqlite3 *db = NULL;
+    sqlite3_stmt *statement = NULL;
+    PF_REQUIRE(sqlite3_open_v2(db_path, &db, SQLITE_OPEN_READONLY, NULL) == SQLITE_OK);
+    int rc = sqlite3_prepare_v2(db,
+                                "SELECT s.frame, s.skipped, s.reason, json_extract(s.counters, "
+                                "'$.decision') FROM stage_timings s JOIN tasks t ON t.id = "
+                                "s.task_id WHERE t.job_id = ? AND s.stage = 'bih_build' "
+                                "ORDER BY s.frame",
+                                -1, &statement, NULL);
+    PF_CHECK_MSG(rc == SQLITE_OK, "%s", sqlite3_errmsg(db));
+    if (rc == SQLITE_OK)
+        sqlite3_bind_int64(statement, 1, job_id);
+    int rows = 0;
+    while (rc == SQLITE_OK && sqlite3_step(statement) == SQLITE_ROW) {
+        int frame = sqlite3_column_int(statement, 0), skipped = sqlite3_column_int(statement, 1);
+        const char *reason = (const char *)sqlite3_column_text(statement, 2);
+        int decision = sqlite3_column_int(statement, 3);
+        rows++;
+        if (frame == 1)
+            PF_CHECK_MSG(!skipped && decision == 3 && reason && !strcmp(reason, "built: first frame"),
+                         "frame 1: skipped %d, decision %d, reason %s", skipped, decision,
+                         reason ? reason : "NULL");
+        else
+            PF_CHECK_MSG(skipped && decision == 0 && reason &&
+                             !strcmp(reason, "geometry unchanged → BIH reused"),
+                         "frame %d: skipped %d, decision %d, reason %s", frame, skipped, decision,
+                         reason ? reason : "NULL");
+    }
+    PF_CHECK_MSG(rows == 3, "%d bih_build rows", rows);
+    sqlite3_finalize(statement);
+    sqlite3_close(db);
+}
+
 PF_TEST(worker_renders_a_job_and_timings_report_every_stage)
 {
     char out[WT_PATH_MAX + 32], db[WT_PATH_MAX + 32], pattern[2 * WT_PATH_MAX], args[8 * WT_PATH_MAX];
@@ -134,12 +177,14 @@ PF_TEST(worker_renders_a_job_and_timings_report_every_stage)
             continue;
         }
         PF_CHECK_MSG(columns == header_columns, "csv row '%s'", line);
-        if (!strncmp(line, "scene_eval,3,", 13) || !strncmp(line, "bih_build,3,", 12) ||
-            !strncmp(line, "shade,3,", 8) || !strncmp(line, "exr_write,3,", 12))
+        /* The tiny scene is static: bih_build ran for frame 1 and was skipped for 2 and 3. */
+        if (!strncmp(line, "scene_eval,3,0,", 15) || !strncmp(line, "bih_build,1,2,", 14) ||
+            !strncmp(line, "shade,3,0,", 10) || !strncmp(line, "exr_write,3,0,", 14))
             rows++;
     }
     free(csv);
-    PF_CHECK_MSG(rows == 4, "%d of 4 stage rows with count 3 in the CSV", rows);
+    PF_CHECK_MSG(rows == 4, "%d of 4 stage rows with the expected counts in the CSV", rows);
+    check_bih_decisions(db, job_id);
 
     wt_format(args, sizeof args, "timings %lld --format json --db '%s'", (long long)job_id, db);
     PF_REQUIRE(wt_run(args, csv_path) == 0);
@@ -154,18 +199,38 @@ PF_TEST(worker_renders_a_job_and_timings_report_every_stage)
     {
         const cJSON *name = cJSON_GetObjectItem(stage, "stage");
         const cJSON *count = cJSON_GetObjectItem(stage, "count");
+        const cJSON *skipped = cJSON_GetObjectItem(stage, "skipped");
         const cJSON *wall = cJSON_GetObjectItem(stage, "wall");
-        if (cJSON_IsString(name) && cJSON_IsNumber(count) && count->valueint == 3 &&
+        int reused = cJSON_IsString(name) && !strcmp(name->valuestring, "bih_build");
+        if (cJSON_IsString(name) && cJSON_IsNumber(count) && cJSON_IsNumber(skipped) &&
+            count->valueint == (reused ? 1 : 3) && skipped->valueint == (reused ? 2 : 0) &&
             cJSON_IsObject(wall) && cJSON_GetObjectItem(wall, "p95_ms"))
             found++;
     }
-    PF_CHECK_MSG(found == 4, "%d stages with count 3 in the JSON", found);
+    PF_CHECK_MSG(found == 4, "%d stages with the expected counts in the JSON", found);
     PF_CHECK(cJSON_GetArraySize(cJSON_GetObjectItem(root, "slowest_frames")) == 3);
+    /* The decisions the bih_build rows record: built once, reused twice. */
+    int built = 0, reused = 0, decision_rows = 0;
+    const cJSON *decision;
+    cJSON_ArrayForEach(decision, cJSON_GetObjectItem(root, "decisions"))
+    {
+        const char *stage_name = cJSON_GetStringValue(cJSON_GetObjectItem(decision, "stage"));
+        const char *what = cJSON_GetStringValue(cJSON_GetObjectItem(decision, "decision"));
+        const cJSON *count = cJSON_GetObjectItem(decision, "count");
+        decision_rows++;
+        if (!stage_name || !what || !cJSON_IsNumber(count) || strcmp(stage_name, "bih_build"))
+            continue;
+        built += !strcmp(what, "built") ? count->valueint : 0;
+        reused += !strcmp(what, "geometry unchanged → BIH reused") ? count->valueint : 0;
+    }
+    PF_CHECK_MSG(built == 1 && reused == 2 && decision_rows == 2,
+                 "decisions: %d built, %d reused in %d rows", built, reused, decision_rows);
     cJSON_Delete(root);
 
     wt_format(args, sizeof args, "timings %lld --db '%s'", (long long)job_id, db);
     PF_CHECK(wt_run(args, log_path) == 0);
     PF_CHECK(wt_file_contains(log_path, "slowest frames"));
+    PF_CHECK(wt_file_contains(log_path, "geometry unchanged → BIH reused"));
 }
 
 PF_TEST(failing_frames_record_each_attempt_and_stop_at_max_attempts)
