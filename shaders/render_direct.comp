@@ -49,6 +49,7 @@ layout(std430, set = 0, binding = 11) readonly buffer BihTriangleIndex { uint bi
 
 #include "bih_traverse.glsl"
 #include "camera.glsl"
+#include "area_lights.glsl"
 #include "lights.glsl"
 #include "materials.glsl"
 #include "rng.glsl"
@@ -67,27 +68,9 @@ BihHit trace(vec3 origin, vec3 direction, float tmax, bool any_hit)
     return hit;
 }
 
-// Binary search depth bound: 2^32 entries.
-const uint EMISSIVE_SEARCH_STEPS = 32u;
-
 bool all_finite(vec3 value)
 {
     return !any(isnan(value)) && !any(isinf(value));
-}
-
-// Emissive table entry for xi in [0, 1): the first with cdf > xi.
-uint pick_emissive(float xi)
-{
-    uint low = 0u;
-    uint high = params.emissive_count - 1u;
-    for (uint step = 0u; step < EMISSIVE_SEARCH_STEPS && low < high; step++) {
-        uint middle = (low + high) / 2u;
-        if (xi < emissive[middle].cdf)
-            high = middle;
-        else
-            low = middle + 1u;
-    }
-    return low;
 }
 
 // One camera path of one pixel sample: the current ray of the specular chain
@@ -161,22 +144,13 @@ void path_follow_hit(inout Path path, BihHit hit, uint depth, float ray_offset, 
         path.tracing = false; // chain too long: contributes nothing more
         return;
     }
-    if (material.kind == MATERIAL_MIRROR) {
-        path.throughput *= material.albedo;
-        vec3 reflected = reflect(path.direction, path.shading_normal);
-        // A shading normal can send the reflection below the surface.
-        path.direction = dot(reflected, path.geometric_normal) > 0.0
-                             ? reflected
-                             : reflect(path.direction, path.geometric_normal);
-        path.origin = path.position + ray_offset * path.geometric_normal;
-    } else {
-        bool transmitted;
-        path.direction = normalize(glass_scatter(material, path.direction, path.shading_normal,
-                                                 front, rng_float(rng), path.throughput,
-                                                 transmitted));
-        path.origin = path.position +
-                      (transmitted ? -ray_offset : ray_offset) * path.geometric_normal;
-    }
+    BsdfSample scattered = bsdf_sample(material, -path.direction, path.shading_normal,
+                                       path.geometric_normal, front,
+                                       vec3(0.0, 0.0, rng_float(rng)));
+    path.throughput *= scattered.weight;
+    path.direction = scattered.direction;
+    path.origin = path.position +
+                  (scattered.transmitted ? -ray_offset : ray_offset) * path.geometric_normal;
 }
 
 void main()
@@ -224,7 +198,7 @@ void main()
 
     // Punctual lights at the diffuse hit, each with a hard shadow ray.
     vec3 shadow_origin = path.position + ray_offset * path.geometric_normal;
-    vec3 brdf = lambert_brdf(path.surface);
+    vec3 wo = -path.direction;
     for (uint light_index = 0u; light_index < params.light_count; light_index++) {
         bool lit = false;
         vec3 to_light = vec3(0.0, 0.0, 1.0);
@@ -232,12 +206,12 @@ void main()
         vec3 contribution = vec3(0.0);
         if (path.diffuse_hit) {
             LightSample light = light_sample(lights[light_index], path.position);
-            float cos_surface = dot(path.shading_normal, light.to_light);
-            lit = cos_surface > 0.0 && dot(path.geometric_normal, light.to_light) > 0.0 &&
-                  any(greaterThan(light.irradiance, vec3(0.0)));
+            vec3 reflected = bsdf_eval_cos(path.surface, wo, light.to_light, path.shading_normal,
+                                           path.geometric_normal);
+            contribution = path.throughput * reflected * light.irradiance;
+            lit = any(greaterThan(contribution, vec3(0.0)));
             to_light = light.to_light;
             shadow_tmax = light.distance - ray_offset;
-            contribution = path.throughput * brdf * light.irradiance * cos_surface;
         }
         if (lit) {
             sums.rays++;
@@ -253,28 +227,22 @@ void main()
         float shadow_tmax = 0.0;
         vec3 contribution = vec3(0.0);
         if (path.diffuse_hit) {
-            EmissiveEntry entry = emissive[pick_emissive(rng_float(rng))];
-            uint first = 3u * entry.triangle;
-            vec3 a = triangle_vertices[first].xyz;
-            vec3 b = triangle_vertices[first + 1u].xyz;
-            vec3 c = triangle_vertices[first + 2u].xyz;
-            // Uniform point on the triangle (pbrt-v4 SampleUniformTriangle, sqrt form).
-            float root = sqrt(rng_float(rng));
-            float xi = rng_float(rng);
-            vec3 point = (1.0 - root) * a + root * (1.0 - xi) * b + root * xi * c;
-            vec3 light_normal = normalize(cross(b - a, c - a));
-            vec3 offset = point - path.position;
-            float distance2 = dot(offset, offset);
-            float distance = sqrt(distance2);
-            to_light = offset / distance;
-            float cos_light = -dot(light_normal, to_light);
-            float cos_surface = dot(path.shading_normal, to_light);
-            lit = distance2 > 0.0 && cos_light > 0.0 && cos_surface > 0.0 &&
-                  dot(path.geometric_normal, to_light) > 0.0;
-            shadow_tmax = distance - 2.0 * ray_offset;
-            vec3 emitted = materials[triangle_material[entry.triangle]].emission;
-            contribution = path.throughput * brdf * emitted *
-                           (cos_surface * cos_light / distance2 * entry.area / entry.pick_pdf);
+            // Two statements: the order of side effects inside one expression
+            // is not something to rely on across compilers.
+            vec4 xi;
+            xi.x = rng_float(rng);
+            xi.y = rng_float(rng);
+            xi.z = rng_float(rng);
+            xi.w = rng_float(rng);
+            AreaLightSample light = emissive_sample(path.position, xi, params.emissive_count,
+                                                    params.emissive_weight_total);
+            vec3 reflected = bsdf_eval_cos(path.surface, wo, light.to_light, path.shading_normal,
+                                           path.geometric_normal);
+            if (light.pdf_solid_angle > 0.0)
+                contribution = path.throughput * reflected * light.radiance / light.pdf_solid_angle;
+            lit = any(greaterThan(contribution, vec3(0.0)));
+            to_light = light.to_light;
+            shadow_tmax = light.distance - 2.0 * ray_offset;
         }
         if (lit) {
             sums.rays++;

@@ -24,6 +24,8 @@
 /* Bounds a frame list so a typo like 1-1000000000 fails fast instead of allocating. */
 #define MAX_FRAMES 100000u
 #define MAX_PATH_BYTES PF_FRAME_PATH_MAX
+/* --time-budget bound: one week per frame; anything longer is a typo. */
+#define MAX_TIME_BUDGET_S 604800.0
 
 static void usage(FILE *out)
 {
@@ -41,6 +43,8 @@ static void usage(FILE *out)
             "  --quality Q        preview | fast | final | reference | auto (default auto)\n"
             "  --spp N            samples per pixel (default: the preset's)\n"
             "  --seed S           random seed (default 0); same seed, same pixels\n"
+            "  --time-budget SEC  reference: stop adding samples after SEC seconds per\n"
+            "                     frame (at least 1 spp; default: no limit)\n"
             "  --float            32-bit float pixels (default half)\n"
             "  --no-aovs          beauty RGBA only (default adds albedo, normal, depth)\n"
             "  --device D         device index or name substring (see photonfarm devices)\n"
@@ -143,6 +147,7 @@ typedef struct render_options {
     int quality;
     uint32_t spp;
     uint64_t seed;
+    double time_budget_ms; /* 0: none */
     int float_pixels;
     int aovs;
 } render_options;
@@ -208,6 +213,16 @@ static int parse_options(int argc, char **argv, render_options *options, int *he
                     return pf_cli_fail(COMMAND, 2, "--seed '%s': expected an unsigned integer",
                                        value);
                 options->seed = seed;
+            } else if (!strcmp(arg, "--time-budget")) {
+                char *end = NULL;
+                errno = 0;
+                double seconds = strtod(value, &end);
+                if (errno || *end || !*value || !(seconds > 0.0) || seconds > MAX_TIME_BUDGET_S)
+                    return pf_cli_fail(COMMAND, 2,
+                                       "--time-budget '%s': expected seconds, more than 0 and "
+                                       "at most %.0f",
+                                       value, MAX_TIME_BUDGET_S);
+                options->time_budget_ms = seconds * 1000.0;
             } else {
                 return pf_cli_fail(COMMAND, 2, "unknown option '%s' (see --help)", arg);
             }
@@ -253,7 +268,8 @@ static int render_one(const render_options *options, render_session *session, in
                                 options->scene_path,
                                 frame_number,
                                 {options->width, options->height, (pf_quality)options->quality,
-                                 options->spp, options->seed, options->aovs},
+                                 options->spp, options->seed, options->aovs,
+                                 options->time_budget_ms},
                                 options->float_pixels ? PF_EXR_FLOAT : PF_EXR_HALF,
                                 path,
                                 temp_tag,

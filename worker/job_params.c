@@ -8,6 +8,8 @@
 
 /* Bound on samples per pixel, as `photonfarm render --spp`. */
 #define MAX_SPP 65536.0
+/* Bound on a reference frame's time budget, as `photonfarm render --time-budget`: one week. */
+#define MAX_TIME_BUDGET_MS 604800000.0
 
 int pf_job_params_format(const pf_render_settings *settings, const char *name, char *out,
                          size_t size)
@@ -22,6 +24,8 @@ int pf_job_params_format(const pf_render_settings *settings, const char *name, c
     cJSON_AddStringToObject(root, "quality", pf_quality_name(settings->quality));
     cJSON_AddNumberToObject(root, "spp", settings->samples_per_pixel);
     cJSON_AddNumberToObject(root, "seed", (double)settings->seed);
+    if (settings->time_budget_ms > 0.0)
+        cJSON_AddNumberToObject(root, "time_budget_ms", settings->time_budget_ms);
     char *text = cJSON_PrintUnformatted(root);
     cJSON_Delete(root);
     int fits = text && strlen(text) < size;
@@ -58,7 +62,7 @@ static pf_status read_number(const cJSON *root, const char *key, double max, dou
 
 pf_status pf_job_params_parse(const char *json, pf_render_settings *settings, pf_error *err)
 {
-    pf_render_settings parsed = {0, 0, PF_QUALITY_AUTO, 0, 0, 1};
+    pf_render_settings parsed = {0, 0, PF_QUALITY_AUTO, 0, 0, 1, 0.0};
     cJSON *root = cJSON_Parse(json ? json : "{}");
     if (!cJSON_IsObject(root)) {
         cJSON_Delete(root);
@@ -74,6 +78,17 @@ pf_status pf_job_params_parse(const char *json, pf_render_settings *settings, pf
     /* 2^53: the largest seed a JSON number carries exactly. */
     if (status == PF_OK)
         status = read_number(root, "seed", 9007199254740992.0, &seed, err);
+    const cJSON *budget = cJSON_GetObjectItemCaseSensitive(root, "time_budget_ms");
+    if (status == PF_OK && budget) {
+        if (!cJSON_IsNumber(budget) || !(budget->valuedouble >= 0.0) ||
+            budget->valuedouble > MAX_TIME_BUDGET_MS)
+            status = pf_error_set(err, PF_ERR_FORMAT,
+                                  "job parameters: \"time_budget_ms\" must be a number "
+                                  "0..%.0f",
+                                  MAX_TIME_BUDGET_MS);
+        else
+            parsed.time_budget_ms = budget->valuedouble;
+    }
     const cJSON *quality = cJSON_GetObjectItemCaseSensitive(root, "quality");
     if (status == PF_OK && quality) {
         int parsed_quality = cJSON_IsString(quality) ? pf_quality_parse(quality->valuestring) : -1;

@@ -1,6 +1,7 @@
 /*
  * The render parameters a job stores as JSON in the queue (jobs.parameters):
- * {"width":640,"height":480,"quality":"auto","spp":0,"seed":0}. `enqueue`
+ * {"width":640,"height":480,"quality":"auto","spp":0,"seed":0} (and
+ * "time_budget_ms" when the reference preset has one). `enqueue`
  * writes them, the worker reads them back for every task of the job.
  */
 #ifndef PF_JOB_PARAMS_H

@@ -70,4 +70,15 @@ uint32_t pf_log_warning_count(void);
 /* Monotonic clock in milliseconds. */
 double pf_time_ms(void);
 
+/*
+ * Vose's alias method (Vose 1991, "A linear algorithm for generating random
+ * numbers with a given distribution"; pbrt-v4 AliasTable): picks index i
+ * with probability weights[i] / sum in O(1). To sample: column c uniform in
+ * [0, count), then keep c if a second uniform is < threshold[c], else take
+ * alias[c]. Weights must be finite and >= 0 with a positive sum
+ * (PF_ERR_INVALID naming the first bad weight otherwise); PF_ERR_NOMEM.
+ */
+pf_status pf_alias_table_build(const double *weights, uint32_t count, float *threshold,
+                               uint32_t *alias, pf_error *err);
+
 #endif

@@ -5,7 +5,6 @@
  */
 #include "render_internal.h"
 
-#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -24,15 +23,6 @@
 #define PREVIEW_DEFAULT_SPP 1u
 /* Longest mirror/glass chain a camera ray follows before giving up. */
 #define MAX_SPECULAR_DEPTH 8u
-/*
- * Secondary rays start this far (relative to the scene's magnitude) off the
- * surface along its geometric normal: ~800 float ulps at the largest
- * coordinate, safely past self-intersection, far below any feature size of
- * the shipped scenes.
- */
-#define RAY_OFFSET_RELATIVE 1e-4f
-/* Largest image side accepted: pixel indices (y * width + x) stay well inside 32 bits. */
-#define RENDER_MAX_EDGE 16384u
 
 static const char *const beauty_channels[] = {"R", "G", "B", "A"};
 static const char *const aov_channels[] = {"R",        "G",        "B",        "A",
@@ -54,51 +44,6 @@ typedef struct render_counters {
 
 /* render_direct.comp's bindings: params, 6 scene arrays, film, counters, 3 BIH buffers. */
 #define RENDER_BUFFERS 12u
-
-/* Largest coordinate magnitude or extent of the scene, at least 1 (meters). */
-static float scene_magnitude(const pf_scene_frame *frame)
-{
-    float magnitude = 1.0f;
-    for (int i = 0; i < 3; i++) {
-        float extent = frame->bounds_max[i] - frame->bounds_min[i];
-        float largest = fmaxf(fabsf(frame->bounds_min[i]), fabsf(frame->bounds_max[i]));
-        magnitude = fmaxf(magnitude, fmaxf(extent, largest));
-    }
-    return magnitude;
-}
-
-static void fill_params(const pf_scene_frame *frame, const pf_render_settings *settings,
-                        uint32_t spp, uint32_t emissive_count, const pf_bih_gpu_view *bih,
-                        pf_frame_params *params)
-{
-    memset(params, 0, sizeof *params);
-    const pf_camera *camera = &frame->camera;
-    float tan_half_x = 0.0f, tan_half_y = 0.0f;
-    pf_camera_image_plane(camera, settings->width, settings->height, &tan_half_x, &tan_half_y);
-    for (int i = 0; i < 3; i++) {
-        params->camera_position[i] = camera->position[i];
-        params->camera_forward[i] = camera->forward[i];
-        params->camera_right[i] = camera->right[i];
-        params->camera_up[i] = camera->up[i];
-    }
-    params->camera_position[3] = tan_half_x;
-    params->camera_forward[3] = tan_half_y;
-    params->camera_right[3] = RAY_OFFSET_RELATIVE * scene_magnitude(frame);
-    params->width = settings->width;
-    params->height = settings->height;
-    params->samples_per_pixel = spp;
-    params->triangle_count = frame->triangle_count;
-    params->light_count = frame->light_count;
-    params->emissive_count = emissive_count;
-    params->seed_lo = (uint32_t)settings->seed;
-    params->seed_hi = (uint32_t)(settings->seed >> 32);
-    params->max_specular_depth = MAX_SPECULAR_DEPTH;
-    params->bih_node_count = bih->node_count;
-    for (int i = 0; i < 3; i++) {
-        params->bih_bounds_min[i] = bih->bounds_min[i];
-        params->bih_bounds_max[i] = bih->bounds_max[i];
-    }
-}
 
 /*
  * Turns one tile of film sums into pixel values: beauty averaged over the
@@ -175,29 +120,11 @@ static pf_status render_tile(pf_renderer *renderer, pf_vk_buffer *const *buffers
     return status;
 }
 
-static pf_status check_settings(const pf_render_settings *settings, pf_error *err)
+pf_status pf_render_frame_preview(pf_renderer *renderer, const pf_scene_frame *frame,
+                                  const pf_render_settings *settings, pf_image *image,
+                                  pf_frame_report *report, pf_error *err)
 {
-    if (settings->width == 0 || settings->height == 0 || settings->width > RENDER_MAX_EDGE ||
-        settings->height > RENDER_MAX_EDGE)
-        return pf_error_set(err, PF_ERR_INVALID, "image size %ux%u: each side must be 1..%u",
-                            settings->width, settings->height, RENDER_MAX_EDGE);
-    if (settings->quality != PF_QUALITY_PREVIEW && settings->quality != PF_QUALITY_AUTO)
-        return pf_error_set(err, PF_ERR_UNSUPPORTED,
-                            "quality '%s' is not available yet (available: preview, auto)",
-                            pf_quality_name(settings->quality));
-    return PF_OK;
-}
-
-pf_status pf_render_frame(pf_renderer *renderer, const pf_scene_frame *frame,
-                          const pf_render_settings *settings, pf_image *image,
-                          pf_frame_report *report, pf_error *err)
-{
-    if (!renderer || !frame || !settings || !image)
-        return pf_error_set(err, PF_ERR_INVALID, "pf_render_frame: NULL argument");
-    memset(image, 0, sizeof *image);
-    pf_status status = check_settings(settings, err);
-    if (status != PF_OK)
-        return status;
+    pf_status status;
     uint32_t spp = settings->samples_per_pixel ? settings->samples_per_pixel : PREVIEW_DEFAULT_SPP;
     pf_vk_context *ctx = renderer->ctx;
 
@@ -239,7 +166,8 @@ pf_status pf_render_frame(pf_renderer *renderer, const pf_scene_frame *frame,
         pf_image_free(image);
         return status;
     }
-    fill_params(frame, settings, spp, scene.emissive_count, &bih, &params);
+    pf_frame_params_fill(frame, settings, spp, &scene, &bih, &params);
+    params.max_specular_depth = MAX_SPECULAR_DEPTH;
     status = pf_render_buffer_with_data(ctx, "frame parameters", &params, sizeof params,
                                         sizeof params, &params_buffer, err);
     if (status == PF_OK)

@@ -35,6 +35,13 @@ typedef struct pf_render_settings {
     uint32_t samples_per_pixel; /* 0 = the preset's default */
     uint64_t seed;
     int aovs;                   /* 1: fill albedo/normal/depth layers */
+    /*
+     * Reference: stop accumulating samples once this much wall time has
+     * passed since pf_render_frame began (BIH build and upload included; at
+     * least 1 spp is always rendered, and a pass in flight finishes);
+     * 0 = no limit.
+     */
+    double time_budget_ms;
 } pf_render_settings;
 
 #define PF_STAGE_NAME_MAX 32
@@ -71,9 +78,42 @@ pf_status pf_renderer_create(pf_vk_context *ctx, pf_renderer **out, pf_error *er
 void pf_renderer_destroy(pf_renderer *renderer);
 
 /*
- * Renders one frame of an evaluated scene into image (allocated here: R,G,B,A
- * and, with settings->aovs, albedo.R/G/B, normal.X/Y/Z, depth.Z). Appends the
- * GPU stage rows to report. Image is owned by the caller (pf_image_free).
+ * Renders one frame of an evaluated scene into image (allocated here) with
+ * the integrator of settings->quality and appends its stage rows to report
+ * (may be NULL): `bih_build`, then `shade` (counters samples_per_pixel,
+ * rays, ...). Image is owned by the caller (pf_image_free). Fails with
+ * PF_ERR_INVALID on a bad size or time budget, PF_ERR_UNSUPPORTED for fast
+ * and final (not available yet), PF_ERR_LIMIT when the film would not fit a
+ * device buffer or a ray overflowed the BIH traversal stack.
+ *
+ * preview / auto: direct light with hard shadows through specular chains;
+ *   channels R,G,B,A and, with settings->aovs, albedo.R/G/B, normal.X/Y/Z,
+ *   depth.Z. samples_per_pixel 0 = 1 (pixel centres).
+ *
+ * reference: the unbiased path tracer (shaders/render_reference.comp: NEE +
+ *   MIS, Russian roulette, Owen-scrambled Sobol, Gaussian pixel filter of
+ *   σ = 0.5 px truncated at 1.5 px). samples_per_pixel (0 = 64) are
+ *   accumulated in whole-image passes until that count or until
+ *   time_budget_ms has passed (at least one pass); the image depends only on
+ *   the scene, the seed and the number of passes reached (bit-identical for
+ *   equal ones). Channels, in order: R,G,B,A, direct.R/G/B, indirect.R/G/B,
+ *   caustic.R/G/B, then with aovs albedo.R/G/B, normal.X/Y/Z, depth.Z.
+ *   With E the camera, S a specular vertex (mirror, glass), D a diffuse one,
+ *   L a light and D₁ the first diffuse vertex from the camera:
+ *     direct   = L S* E and L D₁ S* E (emission seen directly or through
+ *                specular chains; light reaching D₁ straight from a light),
+ *     indirect = all other paths (light that scattered before reaching D₁),
+ *     caustic  = the part of indirect that was only specular between the
+ *                light and D₁: L S+ D₁ S* E (area lights only: a path tracer
+ *                cannot find caustics of punctual lights),
+ *   so R,G,B = direct + indirect exactly (float sum of the two channels) and
+ *   caustic ⊆ indirect, matching what the photon-map presets compute as
+ *   direct light, indirect light and caustic map. A = fraction of samples
+ *   whose camera ray hit geometry. A sample with any NaN/Inf value adds
+ *   nothing to any channel; it is counted in report->discarded_samples and
+ *   the shade row's "discarded_samples", and every channel of the pixel is
+ *   the mean over its kept samples (0 when none). The shade row's counters:
+ *   samples_per_pixel (reached), paths, rays, discarded_samples.
  */
 pf_status pf_render_frame(pf_renderer *renderer, const pf_scene_frame *frame,
                           const pf_render_settings *settings, pf_image *image,

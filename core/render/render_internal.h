@@ -17,14 +17,26 @@ struct pf_renderer {
      */
     pf_bih bih;
     int bih_valid;
+    /*
+     * Reuse state (frame_bih.c): the tree's own leaf-order vertices are the
+     * previous frame's geometry; bih_sah is the current tree's SAH cost and
+     * bih_fresh_sah that of the last fresh build, the refit's yardstick.
+     * bih_frames counts frames that got a tree (0: the next is the first).
+     */
+    double bih_sah;
+    double bih_fresh_sah;
+    uint64_t bih_frames;
     pf_bih_gpu *bih_gpu;
     pf_bih_gpu_builder *bih_builder;
     pf_vk_pipeline *raycast_closest; /* raycast_brute.comp, ANY_HIT = false */
     pf_vk_pipeline *raycast_any;     /* raycast_brute.comp, ANY_HIT = true */
     pf_vk_pipeline *render_direct;   /* render_direct.comp */
+    pf_vk_pipeline *render_reference;      /* render_reference.comp, AOVs written */
+    pf_vk_pipeline *render_reference_rgb;  /* render_reference.comp, no AOVs */
+    pf_vk_pipeline *material_probe;        /* material_probe.comp */
 };
 
-/* FrameParams in scene_types.glsl (std430, 144 bytes). */
+/* FrameParams in scene_types.glsl (std430, 160 bytes). */
 typedef struct pf_frame_params {
     float camera_position[4]; /* w: half width of the image plane at distance 1 */
     float camera_forward[4];  /* w: half height of the image plane at distance 1 */
@@ -35,19 +47,27 @@ typedef struct pf_frame_params {
     uint32_t max_specular_depth, bih_node_count, padding[2];
     float bih_bounds_min[4];  /* the BIH root box (trace_bih's bounds); w unused */
     float bih_bounds_max[4];
+    float emissive_weight_total; /* Σ area × luminance of the emissive table's triangles */
+    uint32_t max_path_depth;     /* reference: most vertices of one path */
+    uint32_t padding2[2];
 } pf_frame_params;
 
-/* EmissiveEntry in scene_types.glsl (16 bytes). */
+/*
+ * EmissiveEntry in scene_types.glsl (32 bytes): one column of the alias table
+ * (Vose 1991) that picks emissive triangles in proportion to their power.
+ */
 typedef struct pf_emissive_entry {
     uint32_t triangle;
-    float cdf;
-    float pick_pdf;
+    uint32_t alias;        /* column picked when the threshold test fails */
+    float alias_threshold; /* probability of keeping this column's triangle */
+    float pick_pdf;        /* overall probability of picking this triangle */
     float area;
+    uint32_t padding[3];
 } pf_emissive_entry;
 
 /* The GLSL mirrors assume these std430 sizes. */
-_Static_assert(sizeof(pf_frame_params) == 144, "pf_frame_params must match FrameParams");
-_Static_assert(sizeof(pf_emissive_entry) == 16, "pf_emissive_entry must match EmissiveEntry");
+_Static_assert(sizeof(pf_frame_params) == 160, "pf_frame_params must match FrameParams");
+_Static_assert(sizeof(pf_emissive_entry) == 32, "pf_emissive_entry must match EmissiveEntry");
 _Static_assert(sizeof(pf_material) == 32, "pf_material must match Material");
 _Static_assert(sizeof(pf_light) == 64, "pf_light must match Light");
 _Static_assert(sizeof(pf_ray) == 32, "pf_ray must match raycast_brute.comp's Ray");
@@ -66,6 +86,7 @@ typedef struct pf_gpu_scene {
     pf_vk_buffer *lights;
     pf_vk_buffer *emissive;          /* pf_emissive_entry table */
     uint32_t emissive_count;
+    float emissive_weight_total;     /* pf_emissive_table_build's weight_total */
 } pf_gpu_scene;
 
 /*
@@ -83,11 +104,14 @@ pf_status pf_gpu_scene_upload(pf_vk_context *ctx, const pf_scene_frame *frame, i
 void pf_gpu_scene_release(pf_vk_context *ctx, pf_gpu_scene *scene);
 
 /*
- * Builds the emissive-triangle picking table (weight = area × luminance of the
- * emitted radiance, front face only). *entries is malloc'ed (NULL when none).
+ * Builds the emissive-triangle alias table (weight = area × Rec. 709
+ * luminance of the emitted radiance, front face only; zero-area triangles are
+ * left out: no ray hits them). *entries is malloc'ed (NULL when none);
+ * *weight_total (may be NULL) receives the sum of the weights, so a triangle
+ * of radiance Le is picked with probability area·lum(Le)/total.
  */
 pf_status pf_emissive_table_build(const pf_scene_frame *frame, pf_emissive_entry **entries,
-                                  uint32_t *count, pf_error *err);
+                                  uint32_t *count, double *weight_total, pf_error *err);
 
 /*
  * pf_raycast_brute_force with a choice of variant: any_hit = 1 reports some
@@ -97,6 +121,65 @@ pf_status pf_emissive_table_build(const pf_scene_frame *frame, pf_emissive_entry
 pf_status pf_raycast_brute(pf_renderer *renderer, const pf_scene_frame *frame,
                            const pf_ray *rays, uint32_t ray_count, int any_hit, pf_hit *hits,
                            pf_error *err);
+
+/*
+ * The integrators behind pf_render_frame (render_frame.c dispatches by
+ * quality): the preview integrator (frame_direct.c) and the reference path
+ * tracer (frame_reference.c). Same contract as pf_render_frame.
+ */
+pf_status pf_render_frame_preview(pf_renderer *renderer, const pf_scene_frame *frame,
+                                  const pf_render_settings *settings, pf_image *image,
+                                  pf_frame_report *report, pf_error *err);
+pf_status pf_render_frame_reference(pf_renderer *renderer, const pf_scene_frame *frame,
+                                    const pf_render_settings *settings, pf_image *image,
+                                    pf_frame_report *report, pf_error *err);
+
+/*
+ * Fills the FrameParams the integrators share: camera, image, counts, seed,
+ * ray offset, the emissive table's total weight and the BIH's root box and
+ * node count (integrator-specific fields are left 0 for the caller).
+ */
+void pf_frame_params_fill(const pf_scene_frame *frame, const pf_render_settings *settings,
+                          uint32_t spp, const pf_gpu_scene *scene, const pf_bih_gpu_view *bih,
+                          pf_frame_params *params);
+
+/* material_probe.comp's input (std430 ProbeQuery, 80 bytes). */
+typedef struct pf_material_probe_query {
+    pf_material material;
+    float wo[3];          /* unit, away from the surface */
+    uint32_t front;       /* 1: the ray arrives at the front face (glass: entering) */
+    float normal[3];      /* unit shading = geometric normal, on wo's side */
+    float fresnel_cos;    /* cosine of incidence for fresnel_dielectric */
+    float xi[3];          /* bsdf_sample's random numbers, each in [0, 1) */
+    float fresnel_eta;    /* transmitted over incident index for fresnel_dielectric */
+} pf_material_probe_query;
+
+#define PF_PROBE_SPECULAR 1u
+#define PF_PROBE_TRANSMITTED 2u
+
+/* material_probe.comp's output (std430 ProbeResult, 64 bytes). */
+typedef struct pf_material_probe_result {
+    float direction[3];   /* bsdf_sample: unit direction away from the surface */
+    float pdf;            /* its solid-angle pdf (0 for specular) */
+    float weight[3];      /* f·|cos|/pdf, the throughput factor */
+    uint32_t flags;       /* PF_PROBE_SPECULAR | PF_PROBE_TRANSMITTED */
+    float eval_cos[3];    /* bsdf_eval_cos(direction) */
+    float eval_pdf;       /* bsdf_pdf(direction) */
+    float fresnel;        /* fresnel_dielectric(fresnel_cos, fresnel_eta) */
+    float padding[3];
+} pf_material_probe_result;
+
+_Static_assert(sizeof(pf_material_probe_query) == 80, "must match ProbeQuery");
+_Static_assert(sizeof(pf_material_probe_result) == 64, "must match ProbeResult");
+
+/*
+ * Runs the shared GPU material code (shaders/common/materials.glsl) on count
+ * queries: bsdf_sample with each query's inputs, bsdf_eval_cos and bsdf_pdf
+ * at the sampled direction, and fresnel_dielectric. For tests: the materials
+ * every integrator uses, checked against tabulated values.
+ */
+pf_status pf_material_probe(pf_renderer *renderer, const pf_material_probe_query *queries,
+                            uint32_t count, pf_material_probe_result *results, pf_error *err);
 
 /* Destroys *buffer if there is one and clears the pointer. */
 void pf_render_buffer_release(pf_vk_context *ctx, pf_vk_buffer **buffer);

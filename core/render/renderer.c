@@ -9,6 +9,12 @@
 #define RAYCAST_PUSH_BYTES 8u
 #define RENDER_DIRECT_BUFFERS 12u
 #define RENDER_DIRECT_PUSH_BYTES 20u
+/* render_reference.comp: constant_id 0 says whether the AOV film is written. */
+#define REFERENCE_SPEC_AOVS 0u
+#define RENDER_REFERENCE_BUFFERS 13u
+#define RENDER_REFERENCE_PUSH_BYTES 4u
+#define MATERIAL_PROBE_BUFFERS 2u
+#define MATERIAL_PROBE_PUSH_BYTES 4u
 
 pf_status pf_renderer_create(pf_vk_context *ctx, pf_renderer **out, pf_error *err)
 {
@@ -30,6 +36,20 @@ pf_status pf_renderer_create(pf_vk_context *ctx, pf_renderer **out, pf_error *er
         status = pf_vk_pipeline_create_named(ctx, "render_direct", RENDER_DIRECT_BUFFERS,
                                              RENDER_DIRECT_PUSH_BYTES, NULL, 0,
                                              &renderer->render_direct, err);
+    pf_vk_spec_constant with_aovs = {REFERENCE_SPEC_AOVS, 1};
+    pf_vk_spec_constant without_aovs = {REFERENCE_SPEC_AOVS, 0};
+    if (status == PF_OK)
+        status = pf_vk_pipeline_create_named(ctx, "render_reference", RENDER_REFERENCE_BUFFERS,
+                                             RENDER_REFERENCE_PUSH_BYTES, &with_aovs, 1,
+                                             &renderer->render_reference, err);
+    if (status == PF_OK)
+        status = pf_vk_pipeline_create_named(ctx, "render_reference", RENDER_REFERENCE_BUFFERS,
+                                             RENDER_REFERENCE_PUSH_BYTES, &without_aovs, 1,
+                                             &renderer->render_reference_rgb, err);
+    if (status == PF_OK)
+        status = pf_vk_pipeline_create_named(ctx, "material_probe", MATERIAL_PROBE_BUFFERS,
+                                             MATERIAL_PROBE_PUSH_BYTES, NULL, 0,
+                                             &renderer->material_probe, err);
     if (status != PF_OK) {
         pf_renderer_destroy(renderer);
         return status;
@@ -43,7 +63,8 @@ void pf_renderer_destroy(pf_renderer *renderer)
     if (!renderer)
         return;
     pf_vk_pipeline *pipelines[] = {renderer->raycast_closest, renderer->raycast_any,
-                                   renderer->render_direct};
+                                   renderer->render_direct, renderer->render_reference,
+                                   renderer->render_reference_rgb, renderer->material_probe};
     for (size_t i = 0; i < sizeof pipelines / sizeof pipelines[0]; i++) {
         if (pipelines[i])
             pf_vk_pipeline_destroy(renderer->ctx, pipelines[i]);

@@ -46,11 +46,33 @@ static float triangle_area(const float (*vertices)[4])
     return 0.5f * sqrtf(cx * cx + cy * cy + cz * cz);
 }
 
+/* Fills the alias columns of table from weights (pf_alias_table_build, core/common). */
+static pf_status alias_table_fill(pf_emissive_entry *table, const double *weights, uint32_t count,
+                                  double total, pf_error *err)
+{
+    float *threshold = malloc(count * sizeof *threshold);
+    uint32_t *alias = malloc(count * sizeof *alias);
+    pf_status status = threshold && alias
+                           ? pf_alias_table_build(weights, count, threshold, alias, err)
+                           : pf_error_set(err, PF_ERR_NOMEM, "emissive alias table: %u entries",
+                                          count);
+    for (uint32_t i = 0; status == PF_OK && i < count; i++) {
+        table[i].alias_threshold = threshold[i];
+        table[i].alias = alias[i];
+        table[i].pick_pdf = (float)(weights[i] / total);
+    }
+    free(threshold);
+    free(alias);
+    return status;
+}
+
 pf_status pf_emissive_table_build(const pf_scene_frame *frame, pf_emissive_entry **entries,
-                                  uint32_t *count, pf_error *err)
+                                  uint32_t *count, double *weight_total, pf_error *err)
 {
     *entries = NULL;
     *count = 0;
+    if (weight_total)
+        *weight_total = 0.0;
     uint32_t candidates = 0;
     for (uint32_t t = 0; t < frame->triangle_count; t++) {
         const float *e = frame->materials[frame->triangle_material[t]].emission;
@@ -59,36 +81,39 @@ pf_status pf_emissive_table_build(const pf_scene_frame *frame, pf_emissive_entry
     }
     if (candidates == 0)
         return PF_OK;
-    pf_emissive_entry *table = malloc(candidates * sizeof *table);
-    if (!table)
+    pf_emissive_entry *table = calloc(candidates, sizeof *table);
+    double *weights = malloc(candidates * sizeof *weights);
+    if (!table || !weights) {
+        free(table);
+        free(weights);
         return pf_error_set(err, PF_ERR_NOMEM, "emissive table: %u entries", candidates);
+    }
     double total = 0.0;
     uint32_t used = 0;
     for (uint32_t t = 0; t < frame->triangle_count; t++) {
         const float *e = frame->materials[frame->triangle_material[t]].emission;
         float luminance = LUMINANCE_R * e[0] + LUMINANCE_G * e[1] + LUMINANCE_B * e[2];
         float area = triangle_area(&frame->vertices[3 * (size_t)t]);
-        if (!(luminance > 0.0f) || !(area > 0.0f))
+        if (!(luminance > 0.0f) || !(area > 0.0f) || !isfinite(luminance) || !isfinite(area))
             continue;
         table[used].triangle = t;
         table[used].area = area;
-        table[used].pick_pdf = area * luminance; /* weight until normalized below */
-        total += (double)area * luminance;
+        weights[used] = (double)area * luminance;
+        total += weights[used];
         used++;
     }
-    if (used == 0 || !(total > 0.0) || !isfinite(total)) {
+    pf_status status = PF_OK;
+    if (used > 0 && total > 0.0 && isfinite(total))
+        status = alias_table_fill(table, weights, used, total, err);
+    free(weights);
+    if (used == 0 || !(total > 0.0) || !isfinite(total) || status != PF_OK) {
         free(table);
-        return PF_OK;
+        return status;
     }
-    double cumulative = 0.0;
-    for (uint32_t i = 0; i < used; i++) {
-        cumulative += table[i].pick_pdf;
-        table[i].pick_pdf = (float)(table[i].pick_pdf / total);
-        table[i].cdf = (float)(cumulative / total);
-    }
-    table[used - 1].cdf = 1.0f; /* rounding must not leave a gap at the top */
     *entries = table;
     *count = used;
+    if (weight_total)
+        *weight_total = total;
     return PF_OK;
 }
 
@@ -130,6 +155,7 @@ pf_status pf_gpu_scene_upload(pf_vk_context *ctx, const pf_scene_frame *frame, i
         }
     }
     pf_emissive_entry *table = NULL;
+    double weight_total = 0.0;
     status = pf_render_buffer_with_data(ctx, "triangle normals", frame->normals, vertex_bytes,
                                         3 * sizeof(float[4]), &out->normals, err);
     if (status == PF_OK)
@@ -145,12 +171,13 @@ pf_status pf_gpu_scene_upload(pf_vk_context *ctx, const pf_scene_frame *frame, i
                                             frame->light_count * sizeof(pf_light),
                                             sizeof(pf_light), &out->lights, err);
     if (status == PF_OK)
-        status = pf_emissive_table_build(frame, &table, &out->emissive_count, err);
+        status = pf_emissive_table_build(frame, &table, &out->emissive_count, &weight_total, err);
     if (status == PF_OK)
         status = pf_render_buffer_with_data(ctx, "emissive triangles", table,
                                             out->emissive_count * sizeof(pf_emissive_entry),
                                             sizeof(pf_emissive_entry), &out->emissive, err);
     free(table);
+    out->emissive_weight_total = (float)weight_total;
     if (status != PF_OK)
         pf_gpu_scene_release(ctx, out);
     return status;

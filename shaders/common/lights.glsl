@@ -1,4 +1,6 @@
-// Punctual light evaluation shared by every integrator (pf_light_kind).
+// Lights shared by every integrator: punctual lights (pf_light_kind) and the
+// luminance that lights are picked by. Emissive triangles as area lights:
+// area_lights.glsl.
 #ifndef PF_LIGHTS_GLSL
 #define PF_LIGHTS_GLSL
 
@@ -54,6 +56,13 @@ LightSample light_sample(Light light, vec3 position)
         s.irradiance *= spot_falloff(cos_angle, light.cos_inner_cone, light.cos_outer_cone);
     }
     return s;
+}
+
+// Rec. 709 luminance: the power measure lights are picked by (the same
+// weights as pf_emissive_table_build's LUMINANCE_R/G/B).
+float light_luminance(vec3 radiance)
+{
+    return dot(radiance, vec3(0.2126, 0.7152, 0.0722));
 }
 
 #endif

@@ -1,16 +1,34 @@
-// Material evaluation shared by every integrator (pf_material_kind): Lambert
-// BRDF, ideal mirror, smooth dielectric with exact Fresnel.
+// Materials (pf_material_kind): the one definition of how each material
+// scatters light, shared by every integrator (preview, reference path
+// tracing, photon tracing, final gather).
+//
+// Conventions of every function here:
+//   wo               unit direction from the surface back along the arriving
+//                    ray (-ray.direction)
+//   shading_normal   unit, on wo's side of the surface
+//   geometric_normal unit face normal, on wo's side of the surface
+//   front            the ray arrived at the triangle's front face (for glass:
+//                    the ray enters the medium)
+// A direction that leaves on the wrong side of the geometric surface (which
+// shading normals can produce) is never returned: the geometric normal
+// decides reflection and transmission, so no light leaks through a surface.
+//
+// Lambert: f = albedo/π, cosine-weighted sampling (weight = albedo).
+// Mirror (ideal, specular): reflection tinted by albedo (the metal's colour).
+// Glass (smooth dielectric, specular): reflection with probability F (exact
+//   Fresnel, 1 under total internal reflection), else refraction. Reflection
+//   is untinted and transmission is tinted by albedo (glTF base colour of a
+//   transmissive material), so with albedo 1 the two weights are exactly 1
+//   and the expected throughput is exactly F + (1 − F) = 1. The (η_i/η_t)²
+//   radiance scaling of refraction is left out: it cancels on every path that
+//   enters and leaves a medium (lights and camera outside it), and it keeps
+//   camera paths and photon paths (which carry flux) with the same weights.
 #ifndef PF_MATERIALS_GLSL
 #define PF_MATERIALS_GLSL
 
 #include "scene_types.glsl"
 
 const float PI = 3.14159265358979323846;
-
-vec3 lambert_brdf(Material material)
-{
-    return material.albedo * (1.0 / PI);
-}
 
 // Unpolarized Fresnel reflectance of a smooth dielectric (pbrt-v4
 // FrDielectric). cos_incident > 0 on the side the light comes from; eta is
@@ -29,21 +47,117 @@ float fresnel_dielectric(float cos_incident, float eta)
     return 0.5 * (r_parallel * r_parallel + r_perpendicular * r_perpendicular);
 }
 
-// Next direction of a specular chain through glass: reflection with
-// probability F, else refraction (the choice is the Monte Carlo estimate of
-// the Fresnel-weighted sum, so the throughput is unchanged except for the
-// tint on transmission). normal faces the incoming ray (dot(normal, direction) < 0).
-vec3 glass_scatter(Material material, vec3 direction, vec3 normal, bool entering, float xi,
-                   inout vec3 throughput, out bool transmitted)
+// One sampled scattering direction.
+struct BsdfSample {
+    vec3 direction;   // unit, away from the surface
+    vec3 weight;      // f·|cos|/pdf: what the path throughput is multiplied by; 0 = absorbed
+    float pdf;        // solid-angle density of direction; 0 for a specular (delta) lobe
+    bool specular;    // delta lobe: no light sampling, no MIS
+    bool transmitted; // direction is below the geometric surface
+};
+
+// An orthonormal basis around unit n (Duff et al. 2017, "Building an
+// Orthonormal Basis, Revisited", JCGT 6(1)).
+void material_basis(vec3 n, out vec3 tangent, out vec3 bitangent)
 {
-    float eta = entering ? material.ior : 1.0 / material.ior;
-    float cos_incident = -dot(direction, normal);
-    float reflectance = fresnel_dielectric(cos_incident, eta);
-    transmitted = xi >= reflectance;
-    if (!transmitted)
-        return reflect(direction, normal);
-    throughput *= material.albedo;
-    return refract(direction, normal, 1.0 / eta);
+    float sign_z = n.z >= 0.0 ? 1.0 : -1.0;
+    float a = -1.0 / (sign_z + n.z);
+    float b = n.x * n.y * a;
+    tangent = vec3(1.0 + sign_z * n.x * n.x * a, sign_z * b, -sign_z * n.x);
+    bitangent = vec3(b, sign_z + n.y * n.y * a, -n.y);
+}
+
+// Cosine-weighted direction about n from xi in [0,1)² through the concentric
+// disk map (Shirley & Chiu 1997), which keeps the strata of low-discrepancy
+// points.
+vec3 material_cosine_direction(vec3 n, vec2 xi)
+{
+    vec2 square = 2.0 * xi - 1.0;
+    vec2 disk = vec2(0.0);
+    if (square.x != 0.0 || square.y != 0.0) {
+        float radius, angle;
+        if (abs(square.x) > abs(square.y)) {
+            radius = square.x;
+            angle = (PI / 4.0) * (square.y / square.x);
+        } else {
+            radius = square.y;
+            angle = PI / 2.0 - (PI / 4.0) * (square.x / square.y);
+        }
+        disk = radius * vec2(cos(angle), sin(angle));
+    }
+    float height = sqrt(max(0.0, 1.0 - dot(disk, disk)));
+    vec3 tangent, bitangent;
+    material_basis(n, tangent, bitangent);
+    return normalize(disk.x * tangent + disk.y * bitangent + height * n);
+}
+
+// Mirror direction of wo about the shading normal, or about the geometric
+// normal when the former would leave below the surface.
+vec3 material_reflect(vec3 wo, vec3 shading_normal, vec3 geometric_normal)
+{
+    vec3 reflected = reflect(-wo, shading_normal);
+    return dot(reflected, geometric_normal) > 0.0 ? reflected : reflect(-wo, geometric_normal);
+}
+
+// f·|cos(wi)| of the non-specular lobes for light arriving from wi (unit,
+// away from the surface); 0 for specular materials and for wi below the
+// surface.
+vec3 bsdf_eval_cos(Material material, vec3 wo, vec3 wi, vec3 shading_normal,
+                   vec3 geometric_normal)
+{
+    if (material.kind != MATERIAL_LAMBERT)
+        return vec3(0.0);
+    float cos_shading = dot(wi, shading_normal);
+    if (cos_shading <= 0.0 || dot(wi, geometric_normal) <= 0.0)
+        return vec3(0.0);
+    return material.albedo * (cos_shading / PI);
+}
+
+// Solid-angle density with which bsdf_sample returns wi (non-specular lobes;
+// 0 for specular materials and for directions it never returns).
+float bsdf_pdf(Material material, vec3 wo, vec3 wi, vec3 shading_normal, vec3 geometric_normal)
+{
+    if (material.kind != MATERIAL_LAMBERT)
+        return 0.0;
+    float cos_shading = dot(wi, shading_normal);
+    if (cos_shading <= 0.0 || dot(wi, geometric_normal) <= 0.0)
+        return 0.0;
+    return cos_shading / PI;
+}
+
+// Samples a scattering direction from xi in [0,1)³ (xy: the direction,
+// z: the reflect/refract choice of glass).
+BsdfSample bsdf_sample(Material material, vec3 wo, vec3 shading_normal, vec3 geometric_normal,
+                       bool front, vec3 xi)
+{
+    BsdfSample s = BsdfSample(vec3(0.0), vec3(0.0), 0.0, false, false);
+    if (material.kind == MATERIAL_LAMBERT) {
+        s.direction = material_cosine_direction(shading_normal, xi.xy);
+        s.pdf = bsdf_pdf(material, wo, s.direction, shading_normal, geometric_normal);
+        // Below the geometric surface (a shading normal tilted past it): absorbed.
+        s.weight = s.pdf > 0.0 ? material.albedo : vec3(0.0);
+        return s;
+    }
+    s.specular = true;
+    if (material.kind == MATERIAL_MIRROR) {
+        s.direction = material_reflect(wo, shading_normal, geometric_normal);
+        s.weight = material.albedo;
+        return s;
+    }
+    float eta = front ? material.ior : 1.0 / material.ior;
+    float reflectance = fresnel_dielectric(dot(wo, shading_normal), eta);
+    vec3 refracted = refract(-wo, shading_normal, 1.0 / eta);
+    if (refracted != vec3(0.0) && dot(refracted, geometric_normal) >= 0.0)
+        refracted = refract(-wo, geometric_normal, 1.0 / eta);
+    if (xi.z < reflectance || refracted == vec3(0.0)) {
+        s.direction = material_reflect(wo, shading_normal, geometric_normal);
+        s.weight = vec3(1.0);
+        return s;
+    }
+    s.direction = normalize(refracted);
+    s.weight = material.albedo;
+    s.transmitted = true;
+    return s;
 }
 
 #endif

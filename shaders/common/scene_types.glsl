@@ -34,15 +34,19 @@ struct Light {
     float padding0, padding1, padding2;
 };
 
-// One emissive triangle in the light-picking table (pf_emissive_entry).
+// One column of the emissive-triangle alias table (pf_emissive_entry, 32
+// bytes; Vose 1991): a uniformly chosen column keeps its own triangle with
+// probability alias_threshold, else gives its alias's.
 struct EmissiveEntry {
     uint triangle;
-    float cdf;        // cumulative pick probability up to and including this entry
-    float pick_pdf;   // probability of picking this entry
+    uint alias;            // column whose triangle is picked when the threshold test fails
+    float alias_threshold;
+    float pick_pdf;        // overall probability of picking this entry's triangle
     float area;
+    uint padding0, padding1, padding2;
 };
 
-// pf_frame_params: what render_direct needs besides the scene arrays.
+// pf_frame_params: what the integrators need besides the scene arrays (160 bytes).
 struct FrameParams {
     vec4 camera_position; // w: tan(yfov/2)·aspect (half width of the image plane at distance 1)
     vec4 camera_forward;  // w: tan(yfov/2)
@@ -53,6 +57,10 @@ struct FrameParams {
     uint max_specular_depth, bih_node_count, padding0, padding1;
     vec4 bih_bounds_min; // xyz: the BIH root box (trace_bih's bounds)
     vec4 bih_bounds_max;
+    // Appended for the reference integrator:
+    float emissive_weight_total; // Σ area·luminance over the emissive table (light pick pdfs)
+    uint max_path_depth;         // bound on the vertices of a path (reference)
+    uint padding2, padding3;
 };
 
 #endif

@@ -1,0 +1,312 @@
+/*
+ * The reference integrator (shaders/render_reference.comp): uploads the
+ * frame's scene, adds whole-image passes of one sample per pixel to a film
+ * that stays on the device until the sample count or the time budget is
+ * reached, reads the film back into the pf_image and reports the `shade`
+ * stage. Channel meanings: pf_render.h.
+ */
+#include "render_internal.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* Samples per pixel when the settings ask for the preset's default. */
+#define REFERENCE_DEFAULT_SPP 64u
+/*
+ * Bound on the vertices of one path. Russian roulette ends paths long before
+ * (the truncated energy is below albedo^64 of the last throughput: 6e-7 of
+ * the white furnace's sum at albedo 0.8); it only bounds the loop.
+ */
+#define REFERENCE_MAX_PATH_DEPTH 64u
+/* Workgroup edge of render_reference.comp (local_size 8×8). */
+#define REFERENCE_GROUP_EDGE 8u
+/* vec4 per pixel: (direct, coverage), (indirect, kept), (caustic, 0). */
+#define FILM_VEC4_PER_PIXEL 3u
+/* vec4 per pixel of the AOV film: (albedo, depth), (normal, 0). */
+#define FILM_AOV_VEC4_PER_PIXEL 2u
+/*
+ * Passes per submission: the first submission runs one pass to measure its
+ * time; later ones aim at REFERENCE_BATCH_TARGET_MS, so the time budget is
+ * checked a few times a second without a submission per pass, and never
+ * exceed REFERENCE_BATCH_MAX_PASSES.
+ */
+#define REFERENCE_BATCH_TARGET_MS 250.0
+#define REFERENCE_BATCH_MAX_PASSES 64u
+
+/* render_reference.comp's bindings: params, 6 scene arrays, 2 films, counters, 3 BIH buffers. */
+#define REFERENCE_BUFFERS 13u
+#define REFERENCE_FILM_BINDING 7u
+#define REFERENCE_AOV_BINDING 8u
+#define REFERENCE_COUNTER_BINDING 9u
+
+static const char *const reference_channels[] = {
+    "R",          "G",          "B",         "A",         "direct.R",   "direct.G",
+    "direct.B",   "indirect.R", "indirect.G", "indirect.B", "caustic.R", "caustic.G",
+    "caustic.B",  "albedo.R",   "albedo.G",  "albedo.B",  "normal.X",   "normal.Y",
+    "normal.Z",   "depth.Z"};
+/* Channels without AOVs: everything before albedo.R. */
+#define REFERENCE_BEAUTY_CHANNELS 13u
+
+typedef struct reference_push {
+    uint32_t sample_index;
+} reference_push;
+
+typedef struct reference_counters {
+    uint32_t discarded_samples;
+    uint32_t traversal_failures; /* rays whose BIH traversal overflowed its stack */
+    uint32_t rays_low;
+    uint32_t rays_high;
+} reference_counters;
+
+/* Totals over the passes of one frame. */
+typedef struct reference_progress {
+    uint32_t passes;
+    uint64_t rays;
+    uint64_t discarded;
+    uint64_t failures;
+    double gpu_ms;
+} reference_progress;
+
+/*
+ * Runs passes [progress->passes, progress->passes + count) in one submission
+ * and adds their counters to progress.
+ */
+static pf_status run_passes(pf_renderer *renderer, pf_vk_pipeline *pipeline,
+                            pf_vk_buffer *const *buffers, const pf_render_settings *settings,
+                            uint32_t count, reference_progress *progress, pf_error *err)
+{
+    pf_vk_context *ctx = renderer->ctx;
+    const reference_counters zero = {0, 0, 0, 0};
+    pf_status status =
+        pf_vk_buffer_upload(ctx, buffers[REFERENCE_COUNTER_BINDING], 0, &zero, sizeof zero, err);
+    pf_vk_commands *cmds = NULL;
+    if (status == PF_OK)
+        status = pf_vk_commands_begin(ctx, &cmds, err);
+    if (status != PF_OK)
+        return status;
+    int begin = pf_vk_cmd_timestamp(cmds);
+    for (uint32_t pass = 0; status == PF_OK && pass < count; pass++) {
+        reference_push push = {progress->passes + pass};
+        if (push.sample_index > 0)
+            pf_vk_cmd_barrier(cmds); /* the previous pass's film sums are read */
+        status = pf_vk_cmd_dispatch(
+            cmds, pipeline, buffers, REFERENCE_BUFFERS, &push, sizeof push,
+            (settings->width + REFERENCE_GROUP_EDGE - 1) / REFERENCE_GROUP_EDGE,
+            (settings->height + REFERENCE_GROUP_EDGE - 1) / REFERENCE_GROUP_EDGE, 1, err);
+    }
+    int end = pf_vk_cmd_timestamp(cmds);
+    if (status == PF_OK)
+        status = pf_vk_commands_submit(cmds, err);
+    if (status == PF_OK && begin >= 0 && end >= 0) {
+        double elapsed = pf_vk_commands_elapsed_ms(cmds, begin, end);
+        if (elapsed >= 0.0)
+            progress->gpu_ms = (progress->gpu_ms < 0.0 ? 0.0 : progress->gpu_ms) + elapsed;
+    }
+    pf_vk_commands_destroy(cmds);
+    reference_counters counters;
+    if (status == PF_OK)
+        status = pf_vk_buffer_download(ctx, buffers[REFERENCE_COUNTER_BINDING], 0, &counters,
+                                       sizeof counters, err);
+    if (status == PF_OK) {
+        progress->passes += count;
+        progress->rays += ((uint64_t)counters.rays_high << 32) | counters.rays_low;
+        progress->discarded += counters.discarded_samples;
+        progress->failures += counters.traversal_failures;
+    }
+    return status;
+}
+
+/*
+ * Passes for the next submission: 1 to start, then as many as fit
+ * REFERENCE_BATCH_TARGET_MS and what is left of the budget at the measured
+ * pass time; 0 when done (spp reached, or budget spent after >= 1 pass).
+ */
+static uint32_t next_batch(const pf_render_settings *settings, uint32_t spp, uint32_t done,
+                           double frame_start, double pass_ms)
+{
+    if (done >= spp)
+        return 0;
+    if (done == 0)
+        return 1;
+    double elapsed = pf_time_ms() - frame_start;
+    double window = REFERENCE_BATCH_TARGET_MS;
+    if (settings->time_budget_ms > 0.0) {
+        if (elapsed >= settings->time_budget_ms)
+            return 0;
+        if (settings->time_budget_ms - elapsed < window)
+            window = settings->time_budget_ms - elapsed;
+    }
+    double fitting = pass_ms > 0.0 ? window / pass_ms : REFERENCE_BATCH_MAX_PASSES;
+    uint32_t batch = fitting < 1.0 ? 1u
+                     : fitting > REFERENCE_BATCH_MAX_PASSES ? REFERENCE_BATCH_MAX_PASSES
+                                                              : (uint32_t)fitting;
+    return batch < spp - done ? batch : spp - done;
+}
+
+/* Turns the film sums into channel values (means over each pixel's kept samples). */
+static void film_to_image(const float *film, const float *film_aov, int aovs, pf_image *image)
+{
+    size_t pixels = (size_t)image->width * image->height;
+    for (size_t p = 0; p < pixels; p++) {
+        const float *texel = film + 4 * FILM_VEC4_PER_PIXEL * p;
+        float *out = image->pixels + p * image->channel_count;
+        float kept = texel[7];
+        float inverse = kept > 0.0f ? 1.0f / kept : 0.0f;
+        for (int c = 0; c < 3; c++) {
+            float direct = texel[c] * inverse;
+            float indirect = texel[4 + c] * inverse;
+            out[c] = direct + indirect;
+            out[4 + c] = direct;
+            out[7 + c] = indirect;
+            out[10 + c] = texel[8 + c] * inverse;
+        }
+        out[3] = texel[3] * inverse;
+        if (aovs) {
+            const float *aov = film_aov + 4 * FILM_AOV_VEC4_PER_PIXEL * p;
+            for (int c = 0; c < 3; c++) {
+                out[13 + c] = aov[c] * inverse;     /* albedo */
+                out[16 + c] = aov[4 + c] * inverse; /* normal */
+            }
+            out[19] = aov[3] * inverse; /* depth */
+        }
+    }
+}
+
+/* Device buffers of one frame; every pointer NULL or owned. */
+typedef struct reference_buffers {
+    pf_vk_buffer *params, *film, *film_aov, *counters;
+} reference_buffers;
+
+static void reference_buffers_release(pf_vk_context *ctx, reference_buffers *buffers)
+{
+    pf_render_buffer_release(ctx, &buffers->params);
+    pf_render_buffer_release(ctx, &buffers->film);
+    pf_render_buffer_release(ctx, &buffers->film_aov);
+    pf_render_buffer_release(ctx, &buffers->counters);
+}
+
+/* Renders the passes and reads the film back into image. */
+static pf_status shade(pf_renderer *renderer, const pf_scene_frame *frame,
+                       const pf_render_settings *settings, uint32_t spp, double frame_start,
+                       pf_image *image, reference_progress *progress, pf_error *err)
+{
+    pf_vk_context *ctx = renderer->ctx;
+    pf_bih_gpu_view bih;
+    pf_status status = pf_bih_gpu_view_get(renderer->bih_gpu, &bih, err);
+    if (status != PF_OK)
+        return status;
+    uint64_t pixels = (uint64_t)settings->width * settings->height;
+    uint64_t film_bytes = pixels * FILM_VEC4_PER_PIXEL * 4 * sizeof(float);
+    uint64_t aov_bytes =
+        settings->aovs ? pixels * FILM_AOV_VEC4_PER_PIXEL * 4 * sizeof(float) : 4 * sizeof(float);
+    float *film = malloc(film_bytes);
+    float *film_aov = malloc(aov_bytes);
+    pf_gpu_scene scene;
+    if (!film || !film_aov) {
+        free(film);
+        free(film_aov);
+        return pf_error_set(err, PF_ERR_NOMEM, "film: out of memory (%llu bytes)",
+                            (unsigned long long)(film_bytes + aov_bytes));
+    }
+    status = pf_gpu_scene_upload(ctx, frame, 1, &scene, err);
+    if (status != PF_OK) {
+        free(film);
+        free(film_aov);
+        return status;
+    }
+    pf_frame_params params;
+    pf_frame_params_fill(frame, settings, spp, &scene, &bih, &params);
+    params.max_path_depth = REFERENCE_MAX_PATH_DEPTH;
+    reference_buffers owned = {0};
+    status = pf_render_buffer_with_data(ctx, "frame parameters", &params, sizeof params,
+                                        sizeof params, &owned.params, err);
+    if (status == PF_OK)
+        status = pf_vk_buffer_create(ctx, film_bytes, "reference film", &owned.film, err);
+    if (status == PF_OK)
+        status = pf_vk_buffer_create(ctx, aov_bytes, "reference AOV film", &owned.film_aov, err);
+    if (status == PF_OK)
+        status = pf_vk_buffer_create(ctx, sizeof(reference_counters), "reference counters",
+                                     &owned.counters, err);
+    pf_vk_buffer *buffers[REFERENCE_BUFFERS] = {
+        owned.params,   scene.vertices, scene.normals, scene.triangle_material,
+        scene.materials, scene.lights,  scene.emissive, owned.film,
+        owned.film_aov, owned.counters, bih.nodes,     bih.vertices,
+        bih.triangle_index};
+    pf_vk_pipeline *pipeline =
+        settings->aovs ? renderer->render_reference : renderer->render_reference_rgb;
+    double pass_ms = 0.0;
+    for (uint32_t batch = next_batch(settings, spp, 0, frame_start, 0.0);
+         status == PF_OK && batch > 0;
+         batch = next_batch(settings, spp, progress->passes, frame_start, pass_ms)) {
+        double batch_start = pf_time_ms();
+        status = run_passes(renderer, pipeline, buffers, settings, batch, progress, err);
+        pass_ms = (pf_time_ms() - batch_start) / batch;
+    }
+    if (status == PF_OK)
+        status = pf_vk_buffer_download(ctx, owned.film, 0, film, film_bytes, err);
+    if (status == PF_OK && settings->aovs)
+        status = pf_vk_buffer_download(ctx, owned.film_aov, 0, film_aov, aov_bytes, err);
+    if (status == PF_OK)
+        film_to_image(film, film_aov, settings->aovs, image);
+    reference_buffers_release(ctx, &owned);
+    pf_gpu_scene_release(ctx, &scene);
+    free(film);
+    free(film_aov);
+    return status;
+}
+
+pf_status pf_render_frame_reference(pf_renderer *renderer, const pf_scene_frame *frame,
+                                    const pf_render_settings *settings, pf_image *image,
+                                    pf_frame_report *report, pf_error *err)
+{
+    double frame_start = pf_time_ms();
+    uint32_t spp = settings->samples_per_pixel ? settings->samples_per_pixel : REFERENCE_DEFAULT_SPP;
+    uint64_t pixels = (uint64_t)settings->width * settings->height;
+    uint64_t film_bytes = pixels * FILM_VEC4_PER_PIXEL * 4 * sizeof(float);
+    uint64_t buffer_limit = pf_vk_info(renderer->ctx)->max_storage_buffer_range;
+    if (film_bytes > buffer_limit)
+        return pf_error_set(err, PF_ERR_LIMIT,
+                            "reference film of %ux%u needs %llu MiB in one buffer; the device "
+                            "allows %llu MiB (render a smaller image)",
+                            settings->width, settings->height,
+                            (unsigned long long)(film_bytes >> 20),
+                            (unsigned long long)(buffer_limit >> 20));
+    pf_status status = pf_image_create(
+        image, settings->width, settings->height,
+        settings->aovs ? sizeof reference_channels / sizeof reference_channels[0]
+                       : REFERENCE_BEAUTY_CHANNELS,
+        reference_channels, err);
+    if (status != PF_OK)
+        return status;
+    status = pf_render_prepare_bih(renderer, frame, report, err);
+    double shade_start = pf_time_ms();
+    reference_progress progress = {0, 0, 0, 0, -1.0};
+    if (status == PF_OK)
+        status = shade(renderer, frame, settings, spp, frame_start, image, &progress, err);
+    if (status == PF_OK && progress.failures > 0)
+        status = pf_error_set(err, PF_ERR_LIMIT,
+                              "%llu rays overflowed the %u-entry BIH traversal stack (tree depth %u)",
+                              (unsigned long long)progress.failures, PF_BIH_STACK_SIZE,
+                              renderer->bih.depth);
+    if (status != PF_OK) {
+        pf_image_free(image);
+        pf_error_prefix(err, "reference render (%ux%u, %u spp, %u triangles)", settings->width,
+                        settings->height, spp, frame->triangle_count);
+        return status;
+    }
+    if (report) {
+        report->discarded_samples += progress.discarded;
+        pf_stage_timing *row = pf_frame_report_add(report, "shade");
+        if (row) {
+            row->wall_ms = pf_time_ms() - shade_start;
+            row->gpu_ms = progress.gpu_ms;
+            pf_stage_add_counter(row, "samples_per_pixel", progress.passes);
+            pf_stage_add_counter(row, "paths", (double)pixels * progress.passes);
+            pf_stage_add_counter(row, "rays", (double)progress.rays);
+            pf_stage_add_counter(row, "discarded_samples", (double)progress.discarded);
+            pf_stage_add_counter(row, "triangles", frame->triangle_count);
+        }
+    }
+    return PF_OK;
+}

@@ -1,0 +1,93 @@
+/*
+ * pf_render_frame: checks the settings and runs the integrator of the
+ * requested quality (preview and auto: frame_direct.c; reference:
+ * frame_reference.c). Also the FrameParams both integrators upload.
+ */
+#include "render_internal.h"
+
+#include <math.h>
+#include <string.h>
+
+/*
+ * Secondary rays start this far (relative to the scene's magnitude) off the
+ * surface along its geometric normal: ~800 float ulps at the largest
+ * coordinate, safely past self-intersection, far below any feature size of
+ * the shipped scenes.
+ */
+#define RAY_OFFSET_RELATIVE 1e-4f
+/* Largest image side accepted: pixel indices (y * width + x) stay well inside 32 bits. */
+#define RENDER_MAX_EDGE 16384u
+
+/* Largest coordinate magnitude or extent of the scene, at least 1 (meters). */
+static float scene_magnitude(const pf_scene_frame *frame)
+{
+    float magnitude = 1.0f;
+    for (int i = 0; i < 3; i++) {
+        float extent = frame->bounds_max[i] - frame->bounds_min[i];
+        float largest = fmaxf(fabsf(frame->bounds_min[i]), fabsf(frame->bounds_max[i]));
+        magnitude = fmaxf(magnitude, fmaxf(extent, largest));
+    }
+    return magnitude;
+}
+
+void pf_frame_params_fill(const pf_scene_frame *frame, const pf_render_settings *settings,
+                          uint32_t spp, const pf_gpu_scene *scene, const pf_bih_gpu_view *bih,
+                          pf_frame_params *params)
+{
+    memset(params, 0, sizeof *params);
+    const pf_camera *camera = &frame->camera;
+    float tan_half_x = 0.0f, tan_half_y = 0.0f;
+    pf_camera_image_plane(camera, settings->width, settings->height, &tan_half_x, &tan_half_y);
+    for (int i = 0; i < 3; i++) {
+        params->camera_position[i] = camera->position[i];
+        params->camera_forward[i] = camera->forward[i];
+        params->camera_right[i] = camera->right[i];
+        params->camera_up[i] = camera->up[i];
+    }
+    params->camera_position[3] = tan_half_x;
+    params->camera_forward[3] = tan_half_y;
+    params->camera_right[3] = RAY_OFFSET_RELATIVE * scene_magnitude(frame);
+    params->width = settings->width;
+    params->height = settings->height;
+    params->samples_per_pixel = spp;
+    params->triangle_count = frame->triangle_count;
+    params->light_count = frame->light_count;
+    params->emissive_count = scene->emissive_count;
+    params->emissive_weight_total = scene->emissive_weight_total;
+    params->seed_lo = (uint32_t)settings->seed;
+    params->seed_hi = (uint32_t)(settings->seed >> 32);
+    params->bih_node_count = bih->node_count;
+    for (int i = 0; i < 3; i++) {
+        params->bih_bounds_min[i] = bih->bounds_min[i];
+        params->bih_bounds_max[i] = bih->bounds_max[i];
+    }
+}
+
+pf_status pf_render_frame(pf_renderer *renderer, const pf_scene_frame *frame,
+                          const pf_render_settings *settings, pf_image *image,
+                          pf_frame_report *report, pf_error *err)
+{
+    if (!renderer || !frame || !settings || !image)
+        return pf_error_set(err, PF_ERR_INVALID, "pf_render_frame: NULL argument");
+    memset(image, 0, sizeof *image);
+    if (settings->width == 0 || settings->height == 0 || settings->width > RENDER_MAX_EDGE ||
+        settings->height > RENDER_MAX_EDGE)
+        return pf_error_set(err, PF_ERR_INVALID, "image size %ux%u: each side must be 1..%u",
+                            settings->width, settings->height, RENDER_MAX_EDGE);
+    if (!(settings->time_budget_ms >= 0.0))
+        return pf_error_set(err, PF_ERR_INVALID,
+                            "time budget %g ms: expected 0 (none) or a positive number",
+                            settings->time_budget_ms);
+    switch (settings->quality) {
+    case PF_QUALITY_PREVIEW:
+    case PF_QUALITY_AUTO:
+        return pf_render_frame_preview(renderer, frame, settings, image, report, err);
+    case PF_QUALITY_REFERENCE:
+        return pf_render_frame_reference(renderer, frame, settings, image, report, err);
+    default:
+        return pf_error_set(err, PF_ERR_UNSUPPORTED,
+                            "quality '%s' is not available yet (available: preview, reference, "
+                            "auto)",
+                            pf_quality_name(settings->quality));
+    }
+}

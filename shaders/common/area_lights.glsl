@@ -1,0 +1,68 @@
+// Emissive triangles as area lights (front face only), shared by every
+// integrator: picked by power through the alias table built by
+// pf_emissive_table_build, a point uniform on the picked triangle.
+//
+// These functions read the frame's arrays; the including shader declares,
+// before including this file:
+//   buffer ... { vec4 triangle_vertices[]; };  // 3 per triangle
+//   buffer ... { uint triangle_material[]; };
+//   buffer ... { Material materials[]; };
+//   buffer ... { EmissiveEntry emissive[]; };  // the alias table
+#ifndef PF_AREA_LIGHTS_GLSL
+#define PF_AREA_LIGHTS_GLSL
+
+#include "lights.glsl"
+
+// Table entry for xi in [0,1)²: column xi.x, kept with its threshold
+// (xi.y) or replaced by its alias (Vose 1991). Requires count > 0.
+uint emissive_pick(vec2 xi, uint count)
+{
+    uint column = min(uint(xi.x * float(count)), count - 1u);
+    return xi.y < emissive[column].alias_threshold ? column : emissive[column].alias;
+}
+
+// Area density (1/m²) with which emissive_sample picks a point on a triangle
+// of emitted radiance `emission`: (area·luminance / weight_total) for the
+// triangle times 1/area for the point. Used by MIS when a BSDF ray hits an
+// emitter, and by emissive_sample itself so the two always agree.
+float emissive_pdf_area(vec3 emission, float weight_total)
+{
+    return weight_total > 0.0 ? light_luminance(emission) / weight_total : 0.0;
+}
+
+// A point sampled on an emissive triangle as seen from a receiver.
+struct AreaLightSample {
+    vec3 to_light;       // unit, receiver to the point
+    float distance;
+    vec3 radiance;       // emitted towards the receiver (0 when it sees the back face)
+    float pdf_solid_angle; // density of to_light; 0 when the sample is unusable
+};
+
+// Picks an emissive triangle by power and a uniform point on it (pbrt-v4
+// SampleUniformTriangle, square-root form) from xi in [0,1)⁴.
+AreaLightSample emissive_sample(vec3 position, vec4 xi, uint count, float weight_total)
+{
+    AreaLightSample s = AreaLightSample(vec3(0.0, 0.0, 1.0), 0.0, vec3(0.0), 0.0);
+    uint triangle = emissive[emissive_pick(xi.xy, count)].triangle;
+    uint first = 3u * triangle;
+    vec3 a = triangle_vertices[first].xyz;
+    vec3 b = triangle_vertices[first + 1u].xyz;
+    vec3 c = triangle_vertices[first + 2u].xyz;
+    float root = sqrt(xi.z);
+    vec3 point = (1.0 - root) * a + root * (1.0 - xi.w) * b + root * xi.w * c;
+    vec3 light_normal = normalize(cross(b - a, c - a));
+    vec3 offset = point - position;
+    float distance2 = dot(offset, offset);
+    if (!(distance2 > 0.0))
+        return s;
+    s.distance = sqrt(distance2);
+    s.to_light = offset / s.distance;
+    float cos_light = -dot(light_normal, s.to_light);
+    if (!(cos_light > 0.0))
+        return s;
+    s.radiance = materials[triangle_material[triangle]].emission;
+    s.pdf_solid_angle = emissive_pdf_area(s.radiance, weight_total) * distance2 / cos_light;
+    return s;
+}
+
+#endif

@@ -1,0 +1,314 @@
+#version 460
+#extension GL_GOOGLE_include_directive : require
+// Reference integrator (the `shade` stage of the reference preset): an
+// unbiased unidirectional path tracer. One dispatch adds one sample to every
+// pixel of the image (a progressive pass); the host divides the sums.
+//
+// Per sample: a camera ray through a point drawn from the pixel filter
+// (radially truncated Gaussian, sampler.glsl), then at every vertex
+//   - emission of a front face hit, weighted by MIS against light sampling
+//     (power heuristic) unless the previous vertex was specular or the camera;
+//   - at diffuse vertices, next-event estimation: one emissive triangle picked
+//     by power (MIS-weighted) and every punctual light (no MIS: a delta
+//     light is reachable only this way), each with an any-hit shadow ray;
+//   - a direction from bsdf_sample (materials.glsl); Russian roulette from the
+//     RR_START_DEPTH-th bounce on, survival from the throughput (below);
+//   - at most params.max_path_depth vertices.
+// Random numbers: shuffled Owen-scrambled Sobol, two 4D groups per vertex
+// (light sample; BSDF direction, glass choice, roulette) after one for the
+// camera.
+//
+// Light is split by path (E camera, S specular vertex, D diffuse vertex,
+// L light), counting vertices from the camera; D₁ is the first diffuse vertex:
+//   direct    L S* E, and L D₁ S* E: emission seen directly or through
+//             specular chains, and light arriving at D₁ straight from a light
+//   indirect  everything else: light that scattered at least once more after
+//             leaving the light before reaching D₁
+//   caustic   the part of indirect with only specular vertices between the
+//             light and D₁: L S+ D₁ S* E (caustics from punctual lights have
+//             zero probability for a path tracer; only area lights make them)
+// so beauty = direct + indirect and caustic ⊆ indirect.
+//
+// Film (sums over the samples so far), per pixel:
+//   film[3p]       (direct RGB, coverage)
+//   film[3p + 1]   (indirect RGB, kept samples)
+//   film[3p + 2]   (caustic RGB, 0)
+//   film_aov[2p]   (albedo RGB of the first diffuse hit, camera-ray depth)
+//   film_aov[2p+1] (normal XYZ there, facing the camera ray, 0)
+// A sample whose values are not all finite (or whose path met a non-finite
+// shading normal) adds nothing anywhere and is counted in
+// counters.discarded_samples; the pixel averages over its kept samples.
+
+layout(local_size_x = 8, local_size_y = 8) in;
+
+layout(constant_id = 0) const bool WRITE_AOVS = true;
+
+layout(push_constant) uniform Push {
+    uint sample_index; // 0 starts the film's sums
+} push;
+
+#include "scene_types.glsl"
+
+layout(std430, set = 0, binding = 0) readonly buffer Params { FrameParams params; };
+layout(std430, set = 0, binding = 1) readonly buffer TriangleVertices { vec4 triangle_vertices[]; };
+layout(std430, set = 0, binding = 2) readonly buffer TriangleNormals { vec4 triangle_normals[]; };
+layout(std430, set = 0, binding = 3) readonly buffer TriangleMaterials { uint triangle_material[]; };
+layout(std430, set = 0, binding = 4) readonly buffer Materials { Material materials[]; };
+layout(std430, set = 0, binding = 5) readonly buffer Lights { Light lights[]; };
+layout(std430, set = 0, binding = 6) readonly buffer Emissive { EmissiveEntry emissive[]; };
+layout(std430, set = 0, binding = 7) buffer Film { vec4 film[]; };
+layout(std430, set = 0, binding = 8) buffer FilmAov { vec4 film_aov[]; };
+layout(std430, set = 0, binding = 9) buffer Counters {
+    uint discarded_samples;
+    uint traversal_failures; // rays whose BIH traversal overflowed: the host fails the frame
+    uint rays_low;           // rays traced, a 64-bit count in two words
+    uint rays_high;
+} counters;
+layout(std430, set = 0, binding = 10) readonly buffer BihNodes { uint bih_nodes[]; };
+layout(std430, set = 0, binding = 11) readonly buffer BihVertices { vec4 bih_vertices[]; };
+layout(std430, set = 0, binding = 12) readonly buffer BihTriangleIndex { uint bih_triangle_index[]; };
+
+#include "bih_traverse.glsl"
+#include "camera.glsl"
+#include "area_lights.glsl"
+#include "lights.glsl"
+#include "materials.glsl"
+#include "sampler.glsl"
+
+// Russian roulette starts after this many bounces (issue 5), and then only
+// once the path throughput (including earlier roulette divisions) falls
+// below RR_THRESHOLD: survival = min(1, max component / RR_THRESHOLD), so a
+// surviving path continues with throughput about RR_THRESHOLD instead of
+// about 1. With a threshold of 1 (pbrt-v4) a bright closed scene pays for
+// every termination with a full unit of variance (white furnace at albedo
+// 0.8: per-sample σ ≈ 0.46·L); at 0.1 the tail's variance is 100× smaller
+// for a few more vertices per path.
+const uint RR_START_DEPTH = 3u;
+const float RR_THRESHOLD = 0.1;
+
+// Where the path stands relative to its first diffuse vertex D₁ (above).
+const uint REGION_BEFORE_DIFFUSE = 0u; // no diffuse vertex yet
+const uint REGION_AT_DIFFUSE = 1u;     // the last vertex is D₁
+const uint REGION_BEYOND = 2u;         // past D₁
+
+BihHit trace(vec3 origin, vec3 direction, float tmax, bool any_hit)
+{
+    bool failed;
+    BihHit hit = trace_bih(origin, direction, 0.0, tmax, any_hit, params.bih_bounds_min.xyz,
+                           params.bih_bounds_max.xyz, params.triangle_count,
+                           params.bih_node_count, failed);
+    if (failed)
+        atomicAdd(counters.traversal_failures, 1u);
+    return hit;
+}
+
+bool all_finite(vec3 value)
+{
+    return !any(isnan(value)) && !any(isinf(value));
+}
+
+// Power heuristic, β = 2 (Veach 1997).
+float mis_power(float pdf_this, float pdf_other)
+{
+    float a = pdf_this * pdf_this;
+    float b = pdf_other * pdf_other;
+    return a > 0.0 ? a / (a + b) : 0.0;
+}
+
+struct Radiance {
+    vec3 direct;
+    vec3 indirect;
+    vec3 caustic;
+};
+
+void radiance_add(inout Radiance radiance, vec3 value, uint region, bool caustic_chain)
+{
+    if (region != REGION_BEYOND) {
+        radiance.direct += value;
+    } else {
+        radiance.indirect += value;
+        if (caustic_chain)
+            radiance.caustic += value;
+    }
+}
+
+void main()
+{
+    const float infinity = uintBitsToFloat(0x7f800000u);
+    uvec2 pixel = gl_GlobalInvocationID.xy;
+    if (pixel.x >= params.width || pixel.y >= params.height)
+        return;
+    uint pixel_index = pixel.y * params.width + pixel.x;
+    float ray_offset = params.camera_right.w;
+    Sampler samples = sampler_init(pixel_index, push.sample_index, params.seed_lo, params.seed_hi);
+
+    vec4 camera_xi = sampler_next_4d(samples);
+    vec2 film_position = vec2(pixel) + 0.5 + filter_gaussian_sample(camera_xi.xy);
+    vec3 origin = params.camera_position.xyz;
+    vec3 direction = camera_ray_direction(params.camera_forward.xyz, params.camera_right.xyz,
+                                          params.camera_up.xyz, params.camera_position.w,
+                                          params.camera_forward.w, film_position,
+                                          vec2(params.width, params.height));
+
+    Radiance radiance = Radiance(vec3(0.0), vec3(0.0), vec3(0.0));
+    vec3 throughput = vec3(1.0);
+    bool valid = true;
+    uint region = REGION_BEFORE_DIFFUSE;
+    bool caustic_chain = false;
+    bool previous_specular = true; // the camera: emission it sees is not light-sampled
+    float previous_pdf = 0.0;
+    float coverage = 0.0, depth_aov = 0.0;
+    vec3 albedo_aov = vec3(0.0), normal_aov = vec3(0.0);
+    bool aov_recorded = false;
+    uint rays = 0u;
+
+    for (uint depth = 0u; depth < params.max_path_depth; depth++) {
+        BihHit hit = trace(origin, direction, infinity, false);
+        rays++;
+        if (hit.triangle == NO_HIT)
+            break;
+        uint first = 3u * hit.triangle;
+        vec3 v0 = triangle_vertices[first].xyz;
+        vec3 v1 = triangle_vertices[first + 1u].xyz;
+        vec3 v2 = triangle_vertices[first + 2u].xyz;
+        Material material = materials[triangle_material[hit.triangle]];
+        vec3 face_normal = normalize(cross(v1 - v0, v2 - v0));
+        bool front = dot(face_normal, direction) < 0.0;
+        vec3 geometric_normal = front ? face_normal : -face_normal;
+        vec3 interpolated = (1.0 - hit.u - hit.v) * triangle_normals[first].xyz +
+                            hit.u * triangle_normals[first + 1u].xyz +
+                            hit.v * triangle_normals[first + 2u].xyz;
+        // A zero normal falls back to the face's; a non-finite one poisons
+        // the sample (discarded and counted, never silently repaired).
+        vec3 shading_normal = dot(interpolated, interpolated) == 0.0 ? geometric_normal
+                                                                     : normalize(interpolated);
+        if (!all_finite(shading_normal)) {
+            valid = false;
+            break;
+        }
+        if (dot(shading_normal, geometric_normal) < 0.0)
+            shading_normal = -shading_normal;
+        vec3 position = origin + hit.t * direction;
+        if (depth == 0u) {
+            coverage = 1.0;
+            depth_aov = hit.t;
+        }
+
+        if (front && any(greaterThan(material.emission, vec3(0.0)))) {
+            float weight = 1.0;
+            if (!previous_specular) {
+                float cos_light = -dot(face_normal, direction);
+                float light_pdf = emissive_pdf_area(material.emission,
+                                                    params.emissive_weight_total) *
+                                  hit.t * hit.t / cos_light;
+                weight = mis_power(previous_pdf, light_pdf);
+            }
+            radiance_add(radiance, throughput * material.emission * weight, region,
+                         caustic_chain);
+        }
+
+        bool diffuse = material.kind == MATERIAL_LAMBERT;
+        if (diffuse) {
+            region = region == REGION_BEFORE_DIFFUSE ? REGION_AT_DIFFUSE : REGION_BEYOND;
+            caustic_chain = false;
+        } else if (region != REGION_BEFORE_DIFFUSE) {
+            caustic_chain = region == REGION_AT_DIFFUSE ? true : caustic_chain;
+            region = REGION_BEYOND;
+        }
+        if (diffuse && !aov_recorded) {
+            aov_recorded = true;
+            albedo_aov = material.albedo;
+            normal_aov = shading_normal;
+        }
+
+        vec3 wo = -direction;
+        vec3 surface_origin = position + ray_offset * geometric_normal;
+        vec4 light_xi = sampler_next_4d(samples);
+        if (diffuse && params.emissive_count > 0u) {
+            AreaLightSample light = emissive_sample(position, light_xi, params.emissive_count,
+                                                    params.emissive_weight_total);
+            vec3 reflected = bsdf_eval_cos(material, wo, light.to_light, shading_normal,
+                                           geometric_normal);
+            vec3 contribution = vec3(0.0);
+            if (light.pdf_solid_angle > 0.0) {
+                float weight = mis_power(light.pdf_solid_angle,
+                                         bsdf_pdf(material, wo, light.to_light, shading_normal,
+                                                  geometric_normal));
+                contribution = throughput * reflected * light.radiance *
+                               (weight / light.pdf_solid_angle);
+            }
+            if (any(greaterThan(contribution, vec3(0.0)))) {
+                rays++;
+                if (trace(surface_origin, light.to_light, light.distance - 2.0 * ray_offset,
+                          true).triangle == NO_HIT)
+                    radiance_add(radiance, contribution, region, caustic_chain);
+            }
+        }
+        for (uint light_index = 0u; diffuse && light_index < params.light_count; light_index++) {
+            LightSample light = light_sample(lights[light_index], position);
+            vec3 contribution = throughput * light.irradiance *
+                                bsdf_eval_cos(material, wo, light.to_light, shading_normal,
+                                              geometric_normal);
+            if (any(greaterThan(contribution, vec3(0.0)))) {
+                rays++;
+                if (trace(surface_origin, light.to_light, light.distance - ray_offset, true)
+                        .triangle == NO_HIT)
+                    radiance_add(radiance, contribution, region, caustic_chain);
+            }
+        }
+
+        vec4 bsdf_xi = sampler_next_4d(samples);
+        BsdfSample scattered = bsdf_sample(material, wo, shading_normal, geometric_normal, front,
+                                           bsdf_xi.xyz);
+        throughput *= scattered.weight;
+        if (!all_finite(throughput)) {
+            valid = false;
+            break;
+        }
+        if (!any(greaterThan(throughput, vec3(0.0))))
+            break;
+        previous_specular = scattered.specular;
+        previous_pdf = scattered.pdf;
+        origin = position + (scattered.transmitted ? -ray_offset : ray_offset) * geometric_normal;
+        direction = scattered.direction;
+        if (depth + 1u >= RR_START_DEPTH) {
+            float survival =
+                min(1.0, max(throughput.r, max(throughput.g, throughput.b)) / RR_THRESHOLD);
+            if (bsdf_xi.w >= survival)
+                break;
+            throughput /= survival;
+        }
+    }
+
+    bool kept = valid && all_finite(radiance.direct) && all_finite(radiance.indirect) &&
+                all_finite(radiance.caustic) && all_finite(albedo_aov) &&
+                all_finite(normal_aov) && !isnan(depth_aov) && !isinf(depth_aov);
+    uint main_index = 3u * pixel_index;
+    vec4 direct_sum = kept ? vec4(radiance.direct, coverage) : vec4(0.0);
+    vec4 indirect_sum = kept ? vec4(radiance.indirect, 1.0) : vec4(0.0);
+    vec4 caustic_sum = kept ? vec4(radiance.caustic, 0.0) : vec4(0.0);
+    if (push.sample_index > 0u) {
+        direct_sum += film[main_index];
+        indirect_sum += film[main_index + 1u];
+        caustic_sum += film[main_index + 2u];
+    }
+    film[main_index] = direct_sum;
+    film[main_index + 1u] = indirect_sum;
+    film[main_index + 2u] = caustic_sum;
+    if (WRITE_AOVS) {
+        uint aov_index = 2u * pixel_index;
+        vec4 albedo_depth = kept ? vec4(albedo_aov, depth_aov) : vec4(0.0);
+        vec4 normal_sum = kept ? vec4(normal_aov, 0.0) : vec4(0.0);
+        if (push.sample_index > 0u) {
+            albedo_depth += film_aov[aov_index];
+            normal_sum += film_aov[aov_index + 1u];
+        }
+        film_aov[aov_index] = albedo_depth;
+        film_aov[aov_index + 1u] = normal_sum;
+    }
+    if (!kept)
+        atomicAdd(counters.discarded_samples, 1u);
+    uint previous_low = atomicAdd(counters.rays_low, rays);
+    if (previous_low + rays < previous_low)
+        atomicAdd(counters.rays_high, 1u);
+}
