@@ -1,0 +1,279 @@
+/*
+ * core/photon: photon maps (Jensen 2001; on the GPU after Galacz 2013, with
+ * the fixes listed in REFERENCE.md). This header is the module's interface:
+ * the compact photon record and its packing, and the GPU photon grid that
+ * radiance estimates gather from.
+ *
+ * Photon record (20 bytes, std430 mirror in shaders/common/photon_types.glsl,
+ * read there as 5 uint words since a vec3 member would pad a struct to 32):
+ *   position   3 floats, world space, exact;
+ *   flux       RGB9E5 (shared 5-bit exponent, 9-bit mantissas; the
+ *              EXT_texture_shared_exponent encoding), in units of the map's
+ *              flux scale (the caller divides by it, e.g. the power of one
+ *              emitted photon, so values sit near 1 where RGB9E5 keeps 3
+ *              significant digits; raw watts of a 6M-photon map would fall
+ *              into the format's denormal range);
+ *   directions two 16-bit octahedral unit vectors (8 bits per coordinate):
+ *              low half the direction the photon travelled (incoming), high
+ *              half the normal of the surface it was stored on; the gather
+ *              uses both to reject photons from the wrong side of a surface
+ *              or from a differently oriented one (no light leaking round corners).
+ */
+#ifndef PF_PHOTON_H
+#define PF_PHOTON_H
+
+#include "pf_bih.h"
+#include "pf_common.h"
+#include "pf_scene.h"
+#include "pf_vk.h"
+
+#include <stdint.h>
+
+typedef struct pf_photon {
+    float position[3];
+    uint32_t flux;        /* RGB9E5 */
+    uint32_t directions;  /* incoming (bits 0-15), surface normal (bits 16-31): octahedral 8+8 */
+} pf_photon;
+
+_Static_assert(sizeof(pf_photon) == 20, "pf_photon is the 20-byte record of photon_types.glsl");
+
+/* Largest value RGB9E5 holds: (2^9 - 1) / 2^9 × 2^16. Larger channels clamp to it. */
+#define PF_RGB9E5_MAX 65408.0f
+
+/*
+ * RGB9E5 packing, rounding to nearest: negative and NaN channels become 0,
+ * channels above PF_RGB9E5_MAX clamp. Relative error ≤ 2^-9 of the largest
+ * channel above 2^-15.
+ */
+uint32_t pf_rgb9e5_pack(const float rgb[3]);
+void pf_rgb9e5_unpack(uint32_t packed, float rgb[3]);
+
+/*
+ * Octahedral unit-vector packing (Cigolle et al., "A Survey of Efficient
+ * Representations for Independent Unit Vectors", JCGT 3(2), 2014) at 8 bits
+ * per coordinate, each 128 + round(127 v) so that axis-aligned vectors are
+ * exact: angular error below 1 degree. A zero vector packs as +z.
+ */
+uint16_t pf_octahedral_pack8(const float direction[3]);
+void pf_octahedral_unpack8(uint16_t packed, float direction[3]);
+
+/* Packs one photon; flux is already divided by the map's flux scale. */
+void pf_photon_pack(const float position[3], const float flux[3], const float incoming[3],
+                    const float normal[3], pf_photon *out);
+void pf_photon_unpack(const pf_photon *photon, float position[3], float flux[3],
+                      float incoming[3], float normal[3]);
+
+/*
+ * The photon grid on the GPU: photons sorted by the cell they fall in, with
+ * each cell's [start, end) range, so a gather of radius r <= cell_size visits
+ * the 27 cells around the query.
+ *
+ * Cell edge = the gather radius given at build. A dense grid (key = linear
+ * cell index of the photons' bounding box) when it needs at most
+ * PF_PHOTON_GRID_DENSE_FACTOR cells per photon; otherwise a spatial hash of
+ * the cell coordinates (Teschner et al. 2003 primes 73856093, 19349663,
+ * 83492791) into a power-of-two table of at least one bucket per photon,
+ * for sparse maps (a few lit surfaces in a large scene). Keys are sorted with
+ * the BIH build's radix sort (pf_bih_sort_record), then ranges are marked and
+ * the photons reordered into cell order. Hash collisions only add candidates:
+ * the gather tests every candidate's distance, and visits each bucket once
+ * even when two neighbouring cells share it.
+ */
+#define PF_PHOTON_GRID_DENSE_FACTOR 2u
+
+typedef struct pf_photon_grid pf_photon_grid;
+
+typedef struct pf_photon_grid_info {
+    float origin[3];      /* corner of cell (0, 0, 0) */
+    float cell_size;
+    uint32_t dims[3];     /* dense grid cells per axis (all 0 in hash mode) */
+    uint32_t hashed;      /* 1: spatial hash */
+    uint32_t table_size;  /* cells (dense) or buckets (hash) */
+    uint32_t photon_count;
+    uint32_t occupied;    /* non-empty cells or buckets (filled by pf_photon_grid_stats) */
+    uint32_t largest;     /* most photons in one cell or bucket (pf_photon_grid_stats) */
+} pf_photon_grid_info;
+
+pf_status pf_photon_grid_create(pf_vk_context *ctx, pf_photon_grid **out, pf_error *err);
+void pf_photon_grid_destroy(pf_photon_grid *grid);
+
+/*
+ * Builds the grid over count photons uploaded from the host, for gathers of
+ * radius <= radius. Replaces the previous grid. Zero photons give an empty
+ * grid (every gather finds nothing). Fails with PF_ERR_INVALID for a radius
+ * that is not finite and > 0 or non-finite photon positions, PF_ERR_LIMIT
+ * when a buffer would exceed the device's maxStorageBufferRange (the message
+ * says how many photons fit), PF_ERR_VULKAN.
+ */
+pf_status pf_photon_grid_build(pf_photon_grid *grid, const pf_photon *photons, uint32_t count,
+                               float radius, pf_error *err);
+
+/*
+ * The same over a map already on the device (pf_photon_trace's output):
+ * photons is read, not kept; bounds_min/max must contain every photon (the
+ * scene's box: photons lie on its triangles; positions just outside by
+ * rounding land in the border cells). Records its GPU time
+ * (pf_photon_grid_gpu_ms).
+ */
+pf_status pf_photon_grid_build_device(pf_photon_grid *grid, pf_vk_buffer *photons, uint32_t count,
+                                      const float bounds_min[3], const float bounds_max[3],
+                                      float radius, pf_error *err);
+
+/*
+ * The cone-filtered irradiance estimate of shaders/common/photon_estimate.glsl
+ * at query points (xyz + radius in w, radius <= the build radius) on
+ * surfaces with the given unit normals (xyz): irradiance[q] in the map's
+ * flux units per m² (multiply by pf_photon_maps.flux_scale for W/m²).
+ */
+pf_status pf_photon_grid_irradiance(pf_photon_grid *grid, const float (*queries)[4],
+                                    const float (*normals)[4], uint32_t query_count,
+                                    float (*irradiance)[4], pf_error *err);
+
+/* GPU milliseconds of the last build (< 0 without timestamps). */
+double pf_photon_grid_gpu_ms(const pf_photon_grid *grid);
+
+/* The grid's parameters (valid after a build). */
+pf_photon_grid_info pf_photon_grid_get_info(const pf_photon_grid *grid);
+
+/* Downloads the ranges and fills info->occupied and info->largest. */
+pf_status pf_photon_grid_stats(pf_photon_grid *grid, pf_photon_grid_info *info, pf_error *err);
+
+/*
+ * Gathers on the GPU through shaders/common/photon_grid.glsl (the code every
+ * radiance estimate uses): for each query (xyz + radius in w, radius <= the
+ * build radius) the indices (into the photons given to the build) of every
+ * photon with |p - x|² <= r², in any order. counts[q] is the true number
+ * found; at most capacity indices per query are written to
+ * indices[q * capacity ...]. For tests and diagnostics.
+ */
+pf_status pf_photon_grid_gather(pf_photon_grid *grid, const float (*queries)[4],
+                                uint32_t query_count, uint32_t capacity, uint32_t *counts,
+                                uint32_t *indices, pf_error *err);
+
+/*
+ * Emitters for photon emission: every punctual light and every emissive
+ * triangle with its emitted power (W per RGB channel), picked by power
+ * (Rec. 709 luminance of it) through one alias table, so the photons of
+ * each light are proportional to its power. std430 mirror PhotonEmitter
+ * (32 bytes). Powers:
+ *   point        4π I
+ *   spot         2π I [(1 − cos_inner) + (cos_inner − cos_outer) / 2]: the
+ *                smoothstep falloff of lights.glsl integrates to half its
+ *                band (a hard edge: 2π I (1 − cos_outer))
+ *   directional  E π R², R = the radius of the scene's bounding sphere: the
+ *                photons start on a disk of that radius facing the light
+ *   triangle     π Le A, front face only (a Lambertian emitter)
+ * A light's glTF range window is not part of its power: tracing applies it
+ * at the photon's first hit, as the integrators' shadow rays do.
+ */
+typedef enum pf_photon_emitter_kind {
+    PF_EMITTER_POINT = 0,
+    PF_EMITTER_SPOT = 1,
+    PF_EMITTER_DIRECTIONAL = 2,
+    PF_EMITTER_TRIANGLE = 3
+} pf_photon_emitter_kind;
+
+typedef struct pf_photon_emitter {
+    uint32_t kind;             /* pf_photon_emitter_kind */
+    uint32_t index;            /* light index, or triangle index for PF_EMITTER_TRIANGLE */
+    float alias_threshold;     /* alias table column (pf_alias_table_build) */
+    uint32_t alias;
+    float power[3];            /* W */
+    float pick_probability;    /* luminance(power) / Σ luminance */
+} pf_photon_emitter;
+
+_Static_assert(sizeof(pf_photon_emitter) == 32, "pf_photon_emitter must match PhotonEmitter");
+
+typedef struct pf_photon_emitters {
+    uint32_t count;            /* emitters with power > 0 (0: nothing to trace) */
+    pf_photon_emitter *entries;
+    double total_power[3];     /* W, all emitters */
+    float scene_center[3];     /* bounding sphere of the frame's triangles (directional lights) */
+    float scene_radius;
+} pf_photon_emitters;
+
+/* Power of one punctual light (see above); scene_radius for directional lights. */
+void pf_photon_light_power(const pf_light *light, float scene_radius, float power[3]);
+
+/*
+ * Lists frame's emitters with their power and builds the alias table. Lights
+ * and triangles of zero power are left out. out is zeroed on failure;
+ * PF_ERR_INVALID for a non-finite power, PF_ERR_NOMEM.
+ */
+pf_status pf_photon_emitters_build(const pf_scene_frame *frame, pf_photon_emitters *out,
+                                   pf_error *err);
+void pf_photon_emitters_free(pf_photon_emitters *emitters);
+
+/*
+ * Photon tracing on the GPU (shaders/photon_trace.comp documents emission,
+ * storage rules and Russian roulette). The scene comes as the buffers the
+ * renderer already uploaded for the frame (pf_scene.h layouts: vertices and
+ * normals vec4 × 3 per triangle, a material index per triangle, pf_material
+ * and pf_light arrays) plus the frame's BIH.
+ *
+ * Maps: the global map holds every photon stored at a diffuse hit other
+ * than the first of its path (L (S|D)+ D: direct light comes from shadow
+ * rays); the caustic map the subset whose earlier bounces were all specular
+ * (L S+ D). Flux is in units of flux_scale watts (Σ luminance of the
+ * emitters' power / photons emitted): an emitted photon has luminance 1.
+ */
+typedef struct pf_photon_scene {
+    pf_vk_buffer *vertices;
+    pf_vk_buffer *normals;
+    pf_vk_buffer *triangle_material;
+    pf_vk_buffer *materials;
+    pf_vk_buffer *lights;         /* at least one element, even with no lights */
+    uint32_t triangle_count;
+    pf_bih_gpu_view bih;
+    float ray_offset;             /* secondary rays leave surfaces this far along the normal */
+} pf_photon_scene;
+
+/* Hits a photon path may have (REFERENCE.md: bound every loop). */
+#define PF_PHOTON_DEFAULT_MAX_DEPTH 16u
+
+typedef struct pf_photon_trace_settings {
+    uint32_t photon_count;        /* photons emitted in the pass */
+    uint64_t seed;
+    uint32_t max_depth;           /* hits per photon: 0 = PF_PHOTON_DEFAULT_MAX_DEPTH */
+    uint32_t global_capacity;     /* 0 = as many as one buffer holds (and at most 4 per photon) */
+    uint32_t caustic_capacity;    /* 0 = the same */
+    int store_direct;             /* 1: first hits go to the global map too (validates the
+                                     density estimate against analytic direct irradiance) */
+} pf_photon_trace_settings;
+
+typedef struct pf_photon_maps {
+    pf_vk_buffer *global;         /* global_count pf_photon records */
+    pf_vk_buffer *caustic;
+    uint32_t global_count, caustic_count;       /* stored */
+    uint32_t global_offered, caustic_offered;   /* would have been stored: more = map full */
+    float flux_scale;             /* watts per unit of stored flux */
+    uint32_t emitted;
+    uint32_t traversal_failures;  /* photons whose BIH traversal overflowed (dropped) */
+    uint32_t non_finite;          /* photons dropped for a non-finite flux or normal */
+    double gpu_ms;                /* < 0 without timestamps */
+} pf_photon_maps;
+
+typedef struct pf_photon_tracer pf_photon_tracer;
+
+pf_status pf_photon_tracer_create(pf_vk_context *ctx, pf_photon_tracer **out, pf_error *err);
+void pf_photon_tracer_destroy(pf_photon_tracer *tracer);
+
+/*
+ * Traces one pass of photons from emitters through scene into new maps
+ * (release them with pf_photon_maps_release). No emitters: empty maps.
+ * Fails with PF_ERR_INVALID (bad settings), PF_ERR_LIMIT (traversal stack
+ * overflow, or capacities beyond the device's buffer limit: the message
+ * says how many photons fit), PF_ERR_VULKAN. A full map is not an error:
+ * offered > count says how many photons were dropped.
+ */
+pf_status pf_photon_trace(pf_photon_tracer *tracer, const pf_photon_scene *scene,
+                          const pf_photon_emitters *emitters,
+                          const pf_photon_trace_settings *settings, pf_photon_maps *out,
+                          pf_error *err);
+void pf_photon_maps_release(pf_vk_context *ctx, pf_photon_maps *maps);
+
+/* Copies a map's records to the host (*photons malloc'ed; NULL when empty). */
+pf_status pf_photon_map_download(pf_vk_context *ctx, pf_vk_buffer *map, uint32_t count,
+                                 pf_photon **photons, pf_error *err);
+
+#endif

@@ -1,0 +1,449 @@
+/*
+ * The GPU photon grid (pf_photon_grid_* in pf_photon.h): host side of
+ * shaders/photon_grid_keys.comp, the BIH's radix sort, and
+ * shaders/photon_grid_finish.comp; pf_photon_grid_gather runs
+ * shaders/photon_gather_probe.comp.
+ */
+#include "pf_bih.h"
+#include "pf_photon.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define GRID_GROUP_SIZE 256u
+#define GATHER_GROUP_SIZE 64u
+/*
+ * The cell is 2^-6 larger than the build radius (see photon_grid.glsl: the
+ * gather widens its box by 2^-8 r, and the box must span at most 3 cells).
+ */
+#define CELL_MARGIN (1.0f + 1.0f / 64.0f)
+/* Modes of photon_grid_finish.comp. */
+enum { FINISH_CLEAR = 0, FINISH_RANGES = 1, FINISH_REORDER = 2 };
+
+/* Push constants of every photon grid shader (photon_grid_push.glsl, 48 bytes). */
+typedef struct photon_grid_push {
+    float origin[3];
+    float inv_cell;
+    uint32_t dims[3];
+    uint32_t hashed;
+    uint32_t table_size;
+    uint32_t count;
+    uint32_t capacity;
+    uint32_t mode;
+} photon_grid_push;
+
+_Static_assert(sizeof(photon_grid_push) == 48, "photon_grid_push must match photon_grid_push.glsl");
+
+struct pf_photon_grid {
+    pf_vk_context *ctx;
+    pf_bih_sorter *sorter;
+    pf_vk_pipeline *keys_pipeline;
+    pf_vk_pipeline *finish_pipeline;
+    pf_vk_pipeline *gather_pipeline;
+    pf_vk_pipeline *irradiance_pipeline;
+    pf_vk_buffer *sorted_photons; /* photons in cell order */
+    pf_vk_buffer *original;       /* cell order -> index given to the build */
+    pf_vk_buffer *ranges;         /* [start, end) per cell or bucket */
+    pf_photon_grid_info info;
+    double gpu_ms;
+    int built;
+};
+
+static void release(pf_vk_context *ctx, pf_vk_buffer **buffer)
+{
+    if (*buffer)
+        pf_vk_buffer_destroy(ctx, *buffer);
+    *buffer = NULL;
+}
+
+static void release_grid(pf_photon_grid *grid)
+{
+    release(grid->ctx, &grid->sorted_photons);
+    release(grid->ctx, &grid->original);
+    release(grid->ctx, &grid->ranges);
+    grid->built = 0;
+}
+
+pf_status pf_photon_grid_create(pf_vk_context *ctx, pf_photon_grid **out, pf_error *err)
+{
+    *out = NULL;
+    pf_photon_grid *grid = calloc(1, sizeof *grid);
+    if (!grid)
+        return pf_error_set(err, PF_ERR_NOMEM, "photon grid: out of memory");
+    grid->ctx = ctx;
+    pf_status status = pf_bih_sorter_create(ctx, &grid->sorter, err);
+    if (status == PF_OK)
+        status = pf_vk_pipeline_create_named(ctx, "photon_grid_keys", 3, sizeof(photon_grid_push),
+                                             NULL, 0, &grid->keys_pipeline, err);
+    if (status == PF_OK)
+        status = pf_vk_pipeline_create_named(ctx, "photon_grid_finish", 5,
+                                             sizeof(photon_grid_push), NULL, 0,
+                                             &grid->finish_pipeline, err);
+    if (status == PF_OK)
+        status = pf_vk_pipeline_create_named(ctx, "photon_gather_probe", 6,
+                                             sizeof(photon_grid_push), NULL, 0,
+                                             &grid->gather_pipeline, err);
+    if (status == PF_OK)
+        status = pf_vk_pipeline_create_named(ctx, "photon_irradiance_probe", 5,
+                                             sizeof(photon_grid_push), NULL, 0,
+                                             &grid->irradiance_pipeline, err);
+    if (status != PF_OK) {
+        pf_photon_grid_destroy(grid);
+        return status;
+    }
+    *out = grid;
+    return PF_OK;
+}
+
+void pf_photon_grid_destroy(pf_photon_grid *grid)
+{
+    if (!grid)
+        return;
+    release_grid(grid);
+    pf_vk_pipeline *pipelines[] = {grid->keys_pipeline, grid->finish_pipeline,
+                                   grid->gather_pipeline, grid->irradiance_pipeline};
+    for (size_t i = 0; i < sizeof pipelines / sizeof pipelines[0]; i++) {
+        if (pipelines[i])
+            pf_vk_pipeline_destroy(grid->ctx, pipelines[i]);
+    }
+    pf_bih_sorter_destroy(grid->sorter);
+    free(grid);
+}
+
+static uint32_t groups_for(uint64_t items, uint32_t group_size)
+{
+    uint64_t groups = (items + group_size - 1) / group_size;
+    return groups ? (uint32_t)groups : 1u;
+}
+
+static uint32_t bits_for(uint32_t table_size)
+{
+    uint32_t bits = 1;
+    while (bits < 32 && (1ull << bits) < table_size)
+        bits++;
+    return bits;
+}
+
+/*
+ * Chooses the grid for photons inside [lo, hi]: cell, origin, dense dims or
+ * hash table size. Dense when the box needs at most
+ * PF_PHOTON_GRID_DENSE_FACTOR cells per photon, else a power-of-two hash
+ * table with one bucket per photon or more.
+ */
+static void plan_grid(const float lo[3], const float hi[3], uint32_t count, float radius,
+                      pf_photon_grid_info *info)
+{
+    memset(info, 0, sizeof *info);
+    info->photon_count = count;
+    info->cell_size = radius * CELL_MARGIN;
+    memcpy(info->origin, lo, sizeof info->origin);
+    double cells = 1.0;
+    uint32_t dims[3];
+    for (int k = 0; k < 3; k++) {
+        double extent = floor(((double)hi[k] - lo[k]) / info->cell_size) + 1.0;
+        cells *= extent;
+        dims[k] = extent < 4294967295.0 ? (uint32_t)extent : 0u;
+    }
+    uint32_t wanted = count > 1 ? count : 1;
+    if (cells <= (double)PF_PHOTON_GRID_DENSE_FACTOR * wanted) {
+        memcpy(info->dims, dims, sizeof dims);
+        info->table_size = (uint32_t)cells;
+        return;
+    }
+    info->hashed = 1;
+    info->table_size = 1;
+    while (info->table_size < wanted)
+        info->table_size <<= 1;
+}
+
+/* The photons' bounding box; PF_ERR_INVALID naming the first non-finite position. */
+static pf_status photon_bounds(const pf_photon *photons, uint32_t count, float lo[3], float hi[3],
+                               pf_error *err)
+{
+    for (int k = 0; k < 3; k++)
+        lo[k] = hi[k] = 0.0f;
+    for (uint32_t i = 0; i < count; i++) {
+        for (int k = 0; k < 3; k++) {
+            float p = photons[i].position[k];
+            if (!isfinite(p))
+                return pf_error_set(err, PF_ERR_INVALID,
+                                    "photon %u: position component %d is not finite", i, k);
+            lo[k] = i == 0 || p < lo[k] ? p : lo[k];
+            hi[k] = i == 0 || p > hi[k] ? p : hi[k];
+        }
+    }
+    return PF_OK;
+}
+
+static photon_grid_push push_for(const pf_photon_grid_info *info, uint32_t count, uint32_t mode)
+{
+    photon_grid_push push;
+    memset(&push, 0, sizeof push);
+    memcpy(push.origin, info->origin, sizeof push.origin);
+    push.inv_cell = 1.0f / info->cell_size;
+    memcpy(push.dims, info->dims, sizeof push.dims);
+    push.hashed = info->hashed;
+    push.table_size = info->table_size;
+    push.count = count;
+    push.mode = mode;
+    return push;
+}
+
+/* PF_ERR_LIMIT when the grid's largest buffer exceeds the device's limit. */
+static pf_status check_fits(pf_vk_context *ctx, const pf_photon_grid_info *info, pf_error *err)
+{
+    const pf_vk_device_info *device = pf_vk_info(ctx);
+    uint32_t count = info->photon_count;
+    uint64_t photon_bytes = (uint64_t)(count ? count : 1) * sizeof(pf_photon);
+    uint64_t range_bytes = (uint64_t)info->table_size * 8;
+    uint64_t largest = photon_bytes > range_bytes ? photon_bytes : range_bytes;
+    if (largest > device->max_storage_buffer_range)
+        return pf_error_set(err, PF_ERR_LIMIT,
+                            "photon grid: %u photons need a %llu-byte buffer; device '%s' allows %llu (at most %llu photons per map)",
+                            count, (unsigned long long)largest, device->name,
+                            (unsigned long long)device->max_storage_buffer_range,
+                            (unsigned long long)(device->max_storage_buffer_range / 8 /
+                                                 PF_PHOTON_GRID_DENSE_FACTOR));
+    return PF_OK;
+}
+
+/* Builds the grid over count photons in input (a device buffer the caller keeps) lying in [lo, hi]. */
+static pf_status build_grid(pf_photon_grid *grid, pf_vk_buffer *input, uint32_t count,
+                            const float lo[3], const float hi[3], float radius, pf_error *err)
+{
+    pf_photon_grid_info info;
+    plan_grid(lo, hi, count, radius, &info);
+    pf_vk_context *ctx = grid->ctx;
+    pf_status status = check_fits(ctx, &info, err);
+    if (status != PF_OK)
+        return status;
+    uint64_t photon_bytes = (uint64_t)(count ? count : 1) * sizeof(pf_photon);
+    uint64_t range_bytes = (uint64_t)info.table_size * 8;
+    uint64_t index_bytes = (uint64_t)(count ? count : 1) * 4;
+    pf_vk_buffer *keys[2] = {NULL, NULL}, *values[2] = {NULL, NULL}, *histogram = NULL;
+    status = pf_vk_buffer_create(ctx, photon_bytes, "photons (cell order)",
+                                 &grid->sorted_photons, err);
+    if (status == PF_OK)
+        status = pf_vk_buffer_create(ctx, range_bytes, "photon grid ranges", &grid->ranges, err);
+    for (int i = 0; status == PF_OK && i < 2; i++) {
+        status = pf_vk_buffer_create(ctx, index_bytes, "photon grid keys", &keys[i], err);
+        if (status == PF_OK)
+            status = pf_vk_buffer_create(ctx, index_bytes, "photon grid values", &values[i], err);
+    }
+    if (status == PF_OK)
+        status = pf_vk_buffer_create(ctx, pf_bih_sort_histogram_bytes(count),
+                                     "photon grid histogram", &histogram, err);
+
+    pf_vk_commands *cmds = NULL;
+    if (status == PF_OK)
+        status = pf_vk_commands_begin(ctx, &cmds, err);
+    int begin = status == PF_OK ? pf_vk_cmd_timestamp(cmds) : -1;
+    pf_vk_buffer *finish_buffers[] = {keys[0], values[0], input, grid->sorted_photons,
+                                      grid->ranges};
+    photon_grid_push push = push_for(&info, count, FINISH_CLEAR);
+    if (status == PF_OK)
+        status = pf_vk_cmd_dispatch(cmds, grid->finish_pipeline, finish_buffers, 5, &push,
+                                    sizeof push, groups_for(info.table_size, GRID_GROUP_SIZE), 1,
+                                    1, err);
+    if (status == PF_OK && count > 0) {
+        pf_vk_buffer *key_buffers[] = {input, keys[0], values[0]};
+        status = pf_vk_cmd_dispatch(cmds, grid->keys_pipeline, key_buffers, 3, &push, sizeof push,
+                                    groups_for(count, GRID_GROUP_SIZE), 1, 1, err);
+        if (status == PF_OK)
+            status = pf_bih_sort_record(grid->sorter, cmds, keys, values, histogram, count,
+                                        bits_for(info.table_size), err);
+        for (uint32_t mode = FINISH_RANGES; status == PF_OK && mode <= FINISH_REORDER; mode++) {
+            push.mode = mode;
+            status = pf_vk_cmd_dispatch(cmds, grid->finish_pipeline, finish_buffers, 5, &push,
+                                        sizeof push, groups_for(count, GRID_GROUP_SIZE), 1, 1,
+                                        err);
+            pf_vk_cmd_barrier(cmds);
+        }
+    }
+    int end = status == PF_OK ? pf_vk_cmd_timestamp(cmds) : -1;
+    if (status == PF_OK)
+        status = pf_vk_commands_submit(cmds, err);
+    double gpu_ms = status == PF_OK && begin >= 0 && end >= 0
+                        ? pf_vk_commands_elapsed_ms(cmds, begin, end)
+                        : -1.0;
+    pf_vk_commands_destroy(cmds);
+
+    release(ctx, &keys[1]);
+    release(ctx, &values[1]);
+    release(ctx, &histogram);
+    release(ctx, &keys[0]);
+    grid->original = values[0];
+    if (status != PF_OK) {
+        release_grid(grid);
+        pf_error_prefix(err, "photon grid build (%u photons, radius %g)", count, (double)radius);
+        return status;
+    }
+    grid->info = info;
+    grid->gpu_ms = gpu_ms;
+    grid->built = 1;
+    return PF_OK;
+}
+
+static pf_status check_radius(float radius, pf_error *err)
+{
+    if (!(radius > 0.0f) || !isfinite(radius))
+        return pf_error_set(err, PF_ERR_INVALID, "photon grid build: radius %g must be finite and > 0",
+                            (double)radius);
+    return PF_OK;
+}
+
+pf_status pf_photon_grid_build(pf_photon_grid *grid, const pf_photon *photons, uint32_t count,
+                               float radius, pf_error *err)
+{
+    if (!grid || (count > 0 && !photons))
+        return pf_error_set(err, PF_ERR_INVALID, "photon grid build: NULL argument");
+    pf_status status = check_radius(radius, err);
+    if (status != PF_OK)
+        return status;
+    release_grid(grid);
+    float lo[3], hi[3];
+    status = photon_bounds(photons, count, lo, hi, err);
+    if (status != PF_OK)
+        return status;
+    pf_photon_grid_info info;
+    plan_grid(lo, hi, count, radius, &info);
+    status = check_fits(grid->ctx, &info, err);
+    if (status != PF_OK)
+        return status;
+    uint64_t photon_bytes = (uint64_t)(count ? count : 1) * sizeof(pf_photon);
+    pf_vk_buffer *input = NULL;
+    status = pf_vk_buffer_create(grid->ctx, photon_bytes, "photons (unsorted)", &input, err);
+    if (status == PF_OK && count > 0)
+        status = pf_vk_buffer_upload(grid->ctx, input, 0, photons,
+                                     (uint64_t)count * sizeof(pf_photon), err);
+    if (status == PF_OK)
+        status = build_grid(grid, input, count, lo, hi, radius, err);
+    release(grid->ctx, &input);
+    return status;
+}
+
+pf_status pf_photon_grid_build_device(pf_photon_grid *grid, pf_vk_buffer *photons, uint32_t count,
+                                      const float bounds_min[3], const float bounds_max[3],
+                                      float radius, pf_error *err)
+{
+    pf_status status = check_radius(radius, err);
+    if (status != PF_OK)
+        return status;
+    release_grid(grid);
+    return build_grid(grid, photons, count, bounds_min, bounds_max, radius, err);
+}
+
+double pf_photon_grid_gpu_ms(const pf_photon_grid *grid)
+{
+    return grid->gpu_ms;
+}
+
+pf_photon_grid_info pf_photon_grid_get_info(const pf_photon_grid *grid)
+{
+    return grid->info;
+}
+
+pf_status pf_photon_grid_stats(pf_photon_grid *grid, pf_photon_grid_info *info, pf_error *err)
+{
+    if (!grid->built)
+        return pf_error_set(err, PF_ERR_INVALID, "photon grid stats: no grid built");
+    *info = grid->info;
+    uint32_t (*ranges)[2] = malloc((size_t)info->table_size * sizeof *ranges);
+    if (!ranges)
+        return pf_error_set(err, PF_ERR_NOMEM, "photon grid stats: out of memory");
+    pf_status status = pf_vk_buffer_download(grid->ctx, grid->ranges, 0, ranges,
+                                             (uint64_t)info->table_size * sizeof *ranges, err);
+    for (uint32_t i = 0; status == PF_OK && i < info->table_size; i++) {
+        uint32_t size = ranges[i][1] - ranges[i][0];
+        info->occupied += size > 0;
+        info->largest = size > info->largest ? size : info->largest;
+    }
+    free(ranges);
+    return status;
+}
+
+pf_status pf_photon_grid_gather(pf_photon_grid *grid, const float (*queries)[4],
+                                uint32_t query_count, uint32_t capacity, uint32_t *counts,
+                                uint32_t *indices, pf_error *err)
+{
+    if (!grid->built)
+        return pf_error_set(err, PF_ERR_INVALID, "photon gather: no grid built");
+    if (query_count == 0)
+        return PF_OK;
+    pf_vk_context *ctx = grid->ctx;
+    uint64_t index_bytes = (uint64_t)query_count * (capacity ? capacity : 1) * 4;
+    pf_vk_buffer *query_buffer = NULL, *count_buffer = NULL, *index_buffer = NULL;
+    pf_status status = pf_vk_buffer_create(ctx, (uint64_t)query_count * 16, "gather queries",
+                                           &query_buffer, err);
+    if (status == PF_OK)
+        status = pf_vk_buffer_create(ctx, (uint64_t)query_count * 4, "gather counts",
+                                     &count_buffer, err);
+    if (status == PF_OK)
+        status = pf_vk_buffer_create(ctx, index_bytes, "gather indices", &index_buffer, err);
+    if (status == PF_OK)
+        status = pf_vk_buffer_upload(ctx, query_buffer, 0, queries, (uint64_t)query_count * 16,
+                                     err);
+    pf_vk_commands *cmds = NULL;
+    if (status == PF_OK)
+        status = pf_vk_commands_begin(ctx, &cmds, err);
+    photon_grid_push push = push_for(&grid->info, query_count, 0);
+    push.capacity = capacity;
+    pf_vk_buffer *buffers[] = {grid->sorted_photons, grid->original, grid->ranges,
+                               query_buffer,         count_buffer,   index_buffer};
+    if (status == PF_OK)
+        status = pf_vk_cmd_dispatch(cmds, grid->gather_pipeline, buffers, 6, &push, sizeof push,
+                                    groups_for(query_count, GATHER_GROUP_SIZE), 1, 1, err);
+    if (status == PF_OK)
+        status = pf_vk_commands_submit(cmds, err);
+    pf_vk_commands_destroy(cmds);
+    if (status == PF_OK)
+        status = pf_vk_buffer_download(ctx, count_buffer, 0, counts, (uint64_t)query_count * 4,
+                                       err);
+    if (status == PF_OK && capacity > 0)
+        status = pf_vk_buffer_download(ctx, index_buffer, 0, indices, index_bytes, err);
+    release(ctx, &index_buffer);
+    release(ctx, &count_buffer);
+    release(ctx, &query_buffer);
+    return status;
+}
+
+pf_status pf_photon_grid_irradiance(pf_photon_grid *grid, const float (*queries)[4],
+                                    const float (*normals)[4], uint32_t query_count,
+                                    float (*irradiance)[4], pf_error *err)
+{
+    if (!grid->built)
+        return pf_error_set(err, PF_ERR_INVALID, "photon irradiance: no grid built");
+    if (query_count == 0)
+        return PF_OK;
+    pf_vk_context *ctx = grid->ctx;
+    uint64_t bytes = (uint64_t)query_count * 16;
+    pf_vk_buffer *query_buffer = NULL, *normal_buffer = NULL, *result_buffer = NULL;
+    pf_status status = pf_vk_buffer_create(ctx, bytes, "irradiance queries", &query_buffer, err);
+    if (status == PF_OK)
+        status = pf_vk_buffer_create(ctx, bytes, "irradiance normals", &normal_buffer, err);
+    if (status == PF_OK)
+        status = pf_vk_buffer_create(ctx, bytes, "irradiance results", &result_buffer, err);
+    if (status == PF_OK)
+        status = pf_vk_buffer_upload(ctx, query_buffer, 0, queries, bytes, err);
+    if (status == PF_OK)
+        status = pf_vk_buffer_upload(ctx, normal_buffer, 0, normals, bytes, err);
+    pf_vk_commands *cmds = NULL;
+    if (status == PF_OK)
+        status = pf_vk_commands_begin(ctx, &cmds, err);
+    photon_grid_push push = push_for(&grid->info, query_count, 0);
+    pf_vk_buffer *buffers[] = {grid->sorted_photons, grid->ranges, query_buffer, normal_buffer,
+                               result_buffer};
+    if (status == PF_OK)
+        status = pf_vk_cmd_dispatch(cmds, grid->irradiance_pipeline, buffers, 5, &push, sizeof push,
+                                    groups_for(query_count, GATHER_GROUP_SIZE), 1, 1, err);
+    if (status == PF_OK)
+        status = pf_vk_commands_submit(cmds, err);
+    pf_vk_commands_destroy(cmds);
+    if (status == PF_OK)
+        status = pf_vk_buffer_download(ctx, result_buffer, 0, irradiance, bytes, err);
+    release(ctx, &result_buffer);
+    release(ctx, &normal_buffer);
+    release(ctx, &query_buffer);
+    return status;
+}

@@ -1,0 +1,251 @@
+/*
+ * Host side of photon tracing (pf_photon_trace in pf_photon.h;
+ * shaders/photon_trace.comp does the work).
+ */
+#include "pf_photon.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define TRACE_GROUP_SIZE 64u
+/* Workgroups per dispatch: below the 65535 every device allows. */
+#define TRACE_MAX_GROUPS 16384u
+/* Default map capacity: stores per emitted photon (a bounce or two survive roulette on average). */
+#define DEFAULT_STORES_PER_PHOTON 4u
+#define TRACE_BUFFERS 13u
+
+/* PhotonTraceParams in photon_trace.comp (std430, 96 bytes). */
+typedef struct photon_trace_params {
+    float bih_bounds_min[4];
+    float bih_bounds_max[4];
+    float scene_sphere[4];
+    uint32_t photon_count;
+    uint32_t emitter_count;
+    uint32_t store_direct;
+    uint32_t triangle_count;
+    uint32_t bih_node_count;
+    uint32_t seed_lo, seed_hi;
+    uint32_t max_depth;
+    uint32_t global_capacity;
+    uint32_t caustic_capacity;
+    float ray_offset;
+    uint32_t padding;
+} photon_trace_params;
+
+_Static_assert(sizeof(photon_trace_params) == 96, "photon_trace_params must match PhotonTraceParams");
+
+typedef struct trace_counters {
+    uint32_t global_stored;
+    uint32_t caustic_stored;
+    uint32_t traversal_failures;
+    uint32_t non_finite;
+} trace_counters;
+
+struct pf_photon_tracer {
+    pf_vk_context *ctx;
+    pf_vk_pipeline *trace;
+};
+
+pf_status pf_photon_tracer_create(pf_vk_context *ctx, pf_photon_tracer **out, pf_error *err)
+{
+    *out = NULL;
+    pf_photon_tracer *tracer = calloc(1, sizeof *tracer);
+    if (!tracer)
+        return pf_error_set(err, PF_ERR_NOMEM, "photon tracer: out of memory");
+    tracer->ctx = ctx;
+    pf_status status = pf_vk_pipeline_create_named(ctx, "photon_trace", TRACE_BUFFERS,
+                                                   sizeof(uint32_t), NULL, 0, &tracer->trace, err);
+    if (status != PF_OK) {
+        free(tracer);
+        return status;
+    }
+    *out = tracer;
+    return PF_OK;
+}
+
+void pf_photon_tracer_destroy(pf_photon_tracer *tracer)
+{
+    if (!tracer)
+        return;
+    pf_vk_pipeline_destroy(tracer->ctx, tracer->trace);
+    free(tracer);
+}
+
+static void release(pf_vk_context *ctx, pf_vk_buffer **buffer)
+{
+    if (*buffer)
+        pf_vk_buffer_destroy(ctx, *buffer);
+    *buffer = NULL;
+}
+
+void pf_photon_maps_release(pf_vk_context *ctx, pf_photon_maps *maps)
+{
+    release(ctx, &maps->global);
+    release(ctx, &maps->caustic);
+    memset(maps, 0, sizeof *maps);
+}
+
+static double luminance(const double rgb[3])
+{
+    return 0.2126 * rgb[0] + 0.7152 * rgb[1] + 0.0722 * rgb[2];
+}
+
+/* A map's capacity: the request, or the default bounded by one buffer. */
+static pf_status map_capacity(const pf_vk_device_info *info, uint32_t requested,
+                              uint32_t photon_count, const char *name, uint32_t *capacity,
+                              pf_error *err)
+{
+    uint64_t fits = info->max_storage_buffer_range / sizeof(pf_photon);
+    if (requested == 0) {
+        uint64_t wanted = (uint64_t)photon_count * DEFAULT_STORES_PER_PHOTON;
+        *capacity = (uint32_t)(wanted < fits ? wanted : fits);
+        return PF_OK;
+    }
+    if (requested > fits)
+        return pf_error_set(err, PF_ERR_LIMIT,
+                            "%s photon map of %u photons exceeds one buffer on '%s' (%llu photons of %zu bytes fit); trace in more passes",
+                            name, requested, info->name, (unsigned long long)fits,
+                            sizeof(pf_photon));
+    *capacity = requested;
+    return PF_OK;
+}
+
+pf_status pf_photon_trace(pf_photon_tracer *tracer, const pf_photon_scene *scene,
+                          const pf_photon_emitters *emitters,
+                          const pf_photon_trace_settings *settings, pf_photon_maps *out,
+                          pf_error *err)
+{
+    memset(out, 0, sizeof *out);
+    out->gpu_ms = -1.0;
+    if (settings->photon_count == 0)
+        return pf_error_set(err, PF_ERR_INVALID, "photon trace: 0 photons requested");
+    pf_vk_context *ctx = tracer->ctx;
+    const pf_vk_device_info *info = pf_vk_info(ctx);
+    photon_trace_params params;
+    memset(&params, 0, sizeof params);
+    pf_status status = map_capacity(info, settings->global_capacity, settings->photon_count,
+                                    "global", &params.global_capacity, err);
+    if (status == PF_OK)
+        status = map_capacity(info, settings->caustic_capacity, settings->photon_count,
+                              "caustic", &params.caustic_capacity, err);
+    if (status != PF_OK)
+        return status;
+    double total_luminance = luminance(emitters->total_power);
+    out->flux_scale = emitters->count > 0 ? (float)(total_luminance / settings->photon_count) : 0.0f;
+    for (int k = 0; k < 3; k++) {
+        params.bih_bounds_min[k] = scene->bih.bounds_min[k];
+        params.bih_bounds_max[k] = scene->bih.bounds_max[k];
+        params.scene_sphere[k] = emitters->scene_center[k];
+    }
+    params.scene_sphere[3] = emitters->scene_radius;
+    params.photon_count = settings->photon_count;
+    params.emitter_count = emitters->count;
+    params.store_direct = settings->store_direct ? 1u : 0u;
+    params.triangle_count = scene->triangle_count;
+    params.bih_node_count = scene->bih.node_count;
+    params.seed_lo = (uint32_t)settings->seed;
+    params.seed_hi = (uint32_t)(settings->seed >> 32);
+    params.max_depth = settings->max_depth ? settings->max_depth : PF_PHOTON_DEFAULT_MAX_DEPTH;
+    params.ray_offset = scene->ray_offset;
+
+    pf_vk_buffer *params_buffer = NULL, *emitter_buffer = NULL, *counter_buffer = NULL;
+    const trace_counters zero = {0, 0, 0, 0};
+    status = pf_vk_buffer_create(ctx, sizeof params, "photon trace parameters", &params_buffer, err);
+    if (status == PF_OK)
+        status = pf_vk_buffer_upload(ctx, params_buffer, 0, &params, sizeof params, err);
+    if (status == PF_OK)
+        status = pf_vk_buffer_create(ctx,
+                                     (uint64_t)(emitters->count ? emitters->count : 1) *
+                                         sizeof(pf_photon_emitter),
+                                     "photon emitters", &emitter_buffer, err);
+    if (status == PF_OK && emitters->count > 0)
+        status = pf_vk_buffer_upload(ctx, emitter_buffer, 0, emitters->entries,
+                                     (uint64_t)emitters->count * sizeof(pf_photon_emitter), err);
+    if (status == PF_OK)
+        status = pf_vk_buffer_create(ctx, sizeof zero, "photon trace counters", &counter_buffer,
+                                     err);
+    if (status == PF_OK)
+        status = pf_vk_buffer_upload(ctx, counter_buffer, 0, &zero, sizeof zero, err);
+    if (status == PF_OK)
+        status = pf_vk_buffer_create(ctx,
+                                     (uint64_t)(params.global_capacity ? params.global_capacity : 1) *
+                                         sizeof(pf_photon),
+                                     "global photon map", &out->global, err);
+    if (status == PF_OK)
+        status = pf_vk_buffer_create(ctx,
+                                     (uint64_t)(params.caustic_capacity ? params.caustic_capacity : 1) *
+                                         sizeof(pf_photon),
+                                     "caustic photon map", &out->caustic, err);
+
+    pf_vk_commands *cmds = NULL;
+    if (status == PF_OK)
+        status = pf_vk_commands_begin(ctx, &cmds, err);
+    int begin = status == PF_OK ? pf_vk_cmd_timestamp(cmds) : -1;
+    pf_vk_buffer *buffers[TRACE_BUFFERS] = {
+        params_buffer,         scene->vertices, scene->normals,      scene->triangle_material,
+        scene->materials,      scene->lights,   emitter_buffer,      scene->bih.nodes,
+        scene->bih.vertices,   scene->bih.triangle_index, out->global, out->caustic,
+        counter_buffer};
+    const uint32_t per_dispatch = TRACE_GROUP_SIZE * TRACE_MAX_GROUPS;
+    for (uint32_t first = 0; status == PF_OK && emitters->count > 0 && first < settings->photon_count;
+         first += per_dispatch) {
+        uint32_t count = settings->photon_count - first < per_dispatch
+                             ? settings->photon_count - first
+                             : per_dispatch;
+        status = pf_vk_cmd_dispatch(cmds, tracer->trace, buffers, TRACE_BUFFERS, &first,
+                                    sizeof first, (count + TRACE_GROUP_SIZE - 1) / TRACE_GROUP_SIZE,
+                                    1, 1, err);
+    }
+    int end = status == PF_OK ? pf_vk_cmd_timestamp(cmds) : -1;
+    if (status == PF_OK)
+        status = pf_vk_commands_submit(cmds, err);
+    if (status == PF_OK && begin >= 0 && end >= 0)
+        out->gpu_ms = pf_vk_commands_elapsed_ms(cmds, begin, end);
+    pf_vk_commands_destroy(cmds);
+    trace_counters counters = zero;
+    if (status == PF_OK)
+        status = pf_vk_buffer_download(ctx, counter_buffer, 0, &counters, sizeof counters, err);
+    release(ctx, &params_buffer);
+    release(ctx, &emitter_buffer);
+    release(ctx, &counter_buffer);
+    if (status == PF_OK && counters.traversal_failures > 0)
+        status = pf_error_set(err, PF_ERR_LIMIT,
+                              "%u photons overflowed the %u-entry BIH traversal stack",
+                              counters.traversal_failures, PF_BIH_STACK_SIZE);
+    if (status != PF_OK) {
+        pf_photon_maps_release(ctx, out);
+        out->gpu_ms = -1.0;
+        pf_error_prefix(err, "photon trace (%u photons, %u emitters)", settings->photon_count,
+                        emitters->count);
+        return status;
+    }
+    out->emitted = emitters->count > 0 ? settings->photon_count : 0;
+    out->global_offered = counters.global_stored;
+    out->caustic_offered = counters.caustic_stored;
+    out->global_count = counters.global_stored < params.global_capacity ? counters.global_stored
+                                                                         : params.global_capacity;
+    out->caustic_count = counters.caustic_stored < params.caustic_capacity
+                             ? counters.caustic_stored
+                             : params.caustic_capacity;
+    out->non_finite = counters.non_finite;
+    return PF_OK;
+}
+
+pf_status pf_photon_map_download(pf_vk_context *ctx, pf_vk_buffer *map, uint32_t count,
+                                 pf_photon **photons, pf_error *err)
+{
+    *photons = NULL;
+    if (count == 0)
+        return PF_OK;
+    *photons = malloc((size_t)count * sizeof **photons);
+    if (!*photons)
+        return pf_error_set(err, PF_ERR_NOMEM, "photon map download: %u photons", count);
+    pf_status status =
+        pf_vk_buffer_download(ctx, map, 0, *photons, (uint64_t)count * sizeof **photons, err);
+    if (status != PF_OK) {
+        free(*photons);
+        *photons = NULL;
+    }
+    return status;
+}

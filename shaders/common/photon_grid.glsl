@@ -1,0 +1,83 @@
+// Photon grid lookup (core/photon/pf_photon.h describes the grid): the cells
+// whose photons can lie within a radius of a point, as distinct table keys.
+// Every radiance estimate gathers through these functions.
+//
+// Cell coordinates are floor((p - origin) * inv_cell) with `precise`
+// arithmetic: correctly rounded subtraction and multiplication are monotone,
+// and so is rounding x ± r, so a photon inside the query's box lands in a
+// cell of the box's cell range. The box is widened by 2^-8 r so that a photon
+// accepted by the float distance test (which may round a distance just above
+// r down to r) is inside it too. The host makes the cell 2^-6 larger than the
+// build radius, so the box spans at most 3 cells per axis (27 keys); 4 are
+// allowed for grids so large that cell coordinates lose precision.
+#ifndef PF_PHOTON_GRID_GLSL
+#define PF_PHOTON_GRID_GLSL
+
+const uint PHOTON_GRID_MAX_KEYS = 64u;
+const float PHOTON_GRID_BOX_MARGIN = 1.0 + 1.0 / 256.0;
+// Cell coordinates are clamped to ±2^30 before conversion to int (a query
+// far outside the grid then still converts without overflow).
+const float PHOTON_GRID_COORD_LIMIT = 1073741824.0;
+
+struct PhotonGrid {
+    vec3 origin;
+    float inv_cell;  // 1 / cell edge
+    uvec3 dims;      // dense grid cells per axis
+    uint hashed;     // 1: spatial hash into table_size buckets (a power of two)
+    uint table_size;
+};
+
+int photon_grid_coord(float value, float origin, float inv_cell)
+{
+    precise float scaled = (value - origin) * inv_cell;
+    return int(floor(clamp(scaled, -PHOTON_GRID_COORD_LIMIT, PHOTON_GRID_COORD_LIMIT)));
+}
+
+ivec3 photon_grid_cell(vec3 position, PhotonGrid grid)
+{
+    return ivec3(photon_grid_coord(position.x, grid.origin.x, grid.inv_cell),
+                 photon_grid_coord(position.y, grid.origin.y, grid.inv_cell),
+                 photon_grid_coord(position.z, grid.origin.z, grid.inv_cell));
+}
+
+// Teschner et al. 2003, "Optimized Spatial Hashing for Collision Detection
+// of Deformable Objects" (primes as in REFERENCE.md), or the dense index with
+// coordinates clamped into the grid (only the host's bounding box rounding
+// can put a photon outside it, and then by less than a cell).
+uint photon_grid_key(ivec3 cell, PhotonGrid grid)
+{
+    if (grid.hashed != 0u) {
+        uvec3 u = uvec3(cell);
+        return ((u.x * 73856093u) ^ (u.y * 19349663u) ^ (u.z * 83492791u)) & (grid.table_size - 1u);
+    }
+    uvec3 c = uvec3(clamp(cell, ivec3(0), ivec3(grid.dims) - 1));
+    return (c.z * grid.dims.y + c.y) * grid.dims.x + c.x;
+}
+
+// The distinct keys of the cells overlapping the box [x - r, x + r]; returns
+// how many (27 at most when r <= the build radius, 64 in far-out grids). A key shared by two cells
+// (hash collision, or clamping at the grid's border) is listed once, so no
+// photon is counted twice.
+uint photon_grid_candidate_keys(vec3 x, float radius, PhotonGrid grid,
+                                out uint keys[PHOTON_GRID_MAX_KEYS])
+{
+    float reach = radius * PHOTON_GRID_BOX_MARGIN;
+    ivec3 low = photon_grid_cell(x - vec3(reach), grid);
+    ivec3 high = min(photon_grid_cell(x + vec3(reach), grid), low + 3);
+    uint count = 0u;
+    for (int z = low.z; z <= high.z; z++) {
+        for (int y = low.y; y <= high.y; y++) {
+            for (int cx = low.x; cx <= high.x; cx++) {
+                uint key = photon_grid_key(ivec3(cx, y, z), grid);
+                bool seen = false;
+                for (uint k = 0u; k < count; k++)
+                    seen = seen || keys[k] == key;
+                if (!seen)
+                    keys[count++] = key;
+            }
+        }
+    }
+    return count;
+}
+
+#endif

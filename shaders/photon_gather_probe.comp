@@ -1,0 +1,48 @@
+#version 460
+#extension GL_GOOGLE_include_directive : require
+// pf_photon_grid_gather: for each query (xyz, radius in w) the original
+// indices of the photons within the radius, found through the grid exactly
+// as a radiance estimate finds them (photon_grid.glsl). Tests compare the
+// sets with a brute-force gather.
+
+layout(local_size_x = 64) in;
+
+#include "photon_grid_push.glsl"
+#include "photon_types.glsl"
+
+layout(std430, set = 0, binding = 0) readonly buffer SortedPhotons { uint grid_words[]; };
+layout(std430, set = 0, binding = 1) readonly buffer Original { uint original_index[]; };
+layout(std430, set = 0, binding = 2) readonly buffer Ranges { uvec2 grid_ranges[]; };
+layout(std430, set = 0, binding = 3) readonly buffer Queries { vec4 queries[]; };
+layout(std430, set = 0, binding = 4) writeonly buffer Counts { uint counts[]; };
+layout(std430, set = 0, binding = 5) writeonly buffer Indices { uint indices[]; };
+
+void main()
+{
+    uint q = gl_GlobalInvocationID.x;
+    if (q >= push.count)
+        return;
+    vec3 x = queries[q].xyz;
+    float radius = queries[q].w;
+    PhotonGrid grid = photon_grid_from_push();
+    uint keys[PHOTON_GRID_MAX_KEYS];
+    uint key_count = photon_grid_candidate_keys(x, radius, grid, keys);
+    precise float radius2 = radius * radius;
+    uint found = 0u;
+    for (uint k = 0u; k < key_count; k++) {
+        uvec2 range = grid_ranges[keys[k]];
+        for (uint i = range.x; i < range.y; i++) {
+            uint base = PHOTON_WORDS * i;
+            vec3 p = vec3(uintBitsToFloat(grid_words[base]), uintBitsToFloat(grid_words[base + 1u]),
+                          uintBitsToFloat(grid_words[base + 2u]));
+            precise vec3 d = p - x;
+            precise float distance2 = (d.x * d.x + d.y * d.y) + d.z * d.z;
+            if (distance2 <= radius2) {
+                if (found < push.capacity)
+                    indices[q * push.capacity + found] = original_index[i];
+                found++;
+            }
+        }
+    }
+    counts[q] = found;
+}

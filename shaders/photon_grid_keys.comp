@@ -1,0 +1,26 @@
+#version 460
+#extension GL_GOOGLE_include_directive : require
+// Photon grid build, pass 1: each photon's cell key, and its index as the
+// value the radix sort carries along.
+
+layout(local_size_x = 256) in;
+
+#include "photon_grid_push.glsl"
+#include "photon_types.glsl"
+
+layout(std430, set = 0, binding = 0) readonly buffer Photons { uint photon_words[]; };
+layout(std430, set = 0, binding = 1) writeonly buffer Keys { uint keys[]; };
+layout(std430, set = 0, binding = 2) writeonly buffer Values { uint values[]; };
+
+void main()
+{
+    uint i = gl_GlobalInvocationID.x;
+    if (i >= push.count)
+        return;
+    uint base = PHOTON_WORDS * i;
+    vec3 position = vec3(uintBitsToFloat(photon_words[base]), uintBitsToFloat(photon_words[base + 1u]),
+                         uintBitsToFloat(photon_words[base + 2u]));
+    PhotonGrid grid = photon_grid_from_push();
+    keys[i] = photon_grid_key(photon_grid_cell(position, grid), grid);
+    values[i] = i;
+}

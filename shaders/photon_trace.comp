@@ -1,0 +1,266 @@
+#version 460
+#extension GL_GOOGLE_include_directive : require
+// Photon tracing (the photon_trace stage): one invocation per photon.
+//
+// Emission: the photon's emitter comes from the alias table of
+// pf_photon_emitters (every light and emissive triangle by power), with the
+// column stratified over the pass ((index + ξ) / N); flux is in units of the
+// map's flux scale (Σ luminance power / N), so every emitted photon starts
+// with luminance 1 and its colour:
+//   point        uniform direction on the sphere
+//   spot         uniform direction in the outer cone, flux × falloff / pdf
+//   directional  uniform point on a disk of the scene's bounding radius
+//                facing the light, outside the scene
+//   triangle     uniform point, cosine-weighted direction about the front face
+// A punctual light's glTF range window scales the flux at the first hit, as
+// the integrators' shadow rays apply it.
+//
+// Tracing (Jensen 2001; REFERENCE.md's fixes to the seed thesis): closest
+// hits through the BIH; at a diffuse (Lambert) hit the photon is stored in
+// the global map unless it came straight from the light (direct light comes
+// from shadow rays), and in the caustic map when every earlier bounce was
+// specular (L S+ D); nothing is stored on specular surfaces. Then
+// bsdf_sample (materials.glsl) scatters it and Russian roulette keeps it
+// with P = min(1, max channel of the scattering weight), flux ⊙ weight / P,
+// so the expected flux is exact and the colour survives. At most
+// params.max_depth hits per photon.
+
+layout(local_size_x = 64) in;
+
+// Big passes take several dispatches (the workgroup count is bounded).
+layout(push_constant) uniform Push {
+    uint first_photon; // index of this dispatch's first photon within the pass
+} push;
+
+#include "scene_types.glsl"
+#include "photon_types.glsl"
+
+// PhotonTraceParams (C mirror photon_trace_params in core/photon/photon_trace.c).
+struct PhotonTraceParams {
+    vec4 bih_bounds_min;       // xyz
+    vec4 bih_bounds_max;       // xyz
+    vec4 scene_sphere;         // xyz centre, w radius (directional lights)
+    uint photon_count;         // photons emitted in this pass (N)
+    uint emitter_count;
+    uint store_direct;         // 1: also store first hits in the global map (irradiance tests)
+    uint triangle_count;
+    uint bih_node_count;
+    uint seed_lo, seed_hi;
+    uint max_depth;
+    uint global_capacity;      // photons the maps can hold; more are counted, not stored
+    uint caustic_capacity;
+    float ray_offset;          // secondary rays leave surfaces this far along the normal
+    uint padding;
+};
+
+// PhotonEmitter: pf_photon_emitter (32 bytes).
+struct PhotonEmitter {
+    uint kind;
+    uint index;
+    float alias_threshold;
+    uint alias;
+    vec3 power;
+    float pick_probability;
+};
+
+const uint EMITTER_POINT = 0u;
+const uint EMITTER_SPOT = 1u;
+const uint EMITTER_DIRECTIONAL = 2u;
+const uint EMITTER_TRIANGLE = 3u;
+
+layout(std430, set = 0, binding = 0) readonly buffer Params { PhotonTraceParams params; };
+layout(std430, set = 0, binding = 1) readonly buffer TriangleVertices { vec4 triangle_vertices[]; };
+layout(std430, set = 0, binding = 2) readonly buffer TriangleNormals { vec4 triangle_normals[]; };
+layout(std430, set = 0, binding = 3) readonly buffer TriangleMaterials { uint triangle_material[]; };
+layout(std430, set = 0, binding = 4) readonly buffer Materials { Material materials[]; };
+layout(std430, set = 0, binding = 5) readonly buffer Lights { Light lights[]; };
+layout(std430, set = 0, binding = 6) readonly buffer Emitters { PhotonEmitter emitters[]; };
+layout(std430, set = 0, binding = 7) readonly buffer BihNodes { uint bih_nodes[]; };
+layout(std430, set = 0, binding = 8) readonly buffer BihVertices { vec4 bih_vertices[]; };
+layout(std430, set = 0, binding = 9) readonly buffer BihTriangleIndex { uint bih_triangle_index[]; };
+layout(std430, set = 0, binding = 10) buffer GlobalMap { uint global_words[]; };
+layout(std430, set = 0, binding = 11) buffer CausticMap { uint caustic_words[]; };
+layout(std430, set = 0, binding = 12) buffer Counters {
+    uint global_stored;      // photons offered to the global map (stored while below capacity)
+    uint caustic_stored;
+    uint traversal_failures;
+    uint non_finite;         // photons dropped for a non-finite flux or direction
+} counters;
+
+#include "bih_traverse.glsl"
+#include "lights.glsl"
+#include "materials.glsl"
+#include "rng.glsl"
+
+bool all_finite(vec3 value)
+{
+    return !any(isnan(value)) && !any(isinf(value));
+}
+
+// Uniform direction on the sphere (pbrt-v4 SampleUniformSphere).
+vec3 uniform_sphere(vec2 xi)
+{
+    float z = 1.0 - 2.0 * xi.x;
+    float r = sqrt(max(0.0, 1.0 - z * z));
+    float phi = 2.0 * PI * xi.y;
+    return vec3(r * cos(phi), r * sin(phi), z);
+}
+
+// Uniform direction in the cone of half-angle acos(cos_max) about axis.
+vec3 uniform_cone(vec3 axis, float cos_max, vec2 xi)
+{
+    float cos_theta = 1.0 - xi.x * (1.0 - cos_max);
+    float sin_theta = sqrt(max(0.0, 1.0 - cos_theta * cos_theta));
+    float phi = 2.0 * PI * xi.y;
+    vec3 tangent, bitangent;
+    material_basis(axis, tangent, bitangent);
+    return normalize(sin_theta * cos(phi) * tangent + sin_theta * sin(phi) * bitangent +
+                     cos_theta * axis);
+}
+
+// Where a photon starts: origin, direction, flux (flux-scale units), and the
+// range of the light that must window it at the first hit (0: none).
+struct Emission {
+    vec3 origin;
+    vec3 direction;
+    vec3 flux;
+    float range;
+};
+
+Emission emit(PhotonEmitter emitter, vec2 xi_position, vec2 xi_direction)
+{
+    // Normalised so that luminance(flux) = 1 on average over the pass:
+    // power / pdf / (N · pick probability) / flux scale = power / luminance(power)
+    // for an unweighted emission; sample weights (spot falloff) multiply it.
+    vec3 unit_flux = emitter.power / light_luminance(emitter.power);
+    Emission e = Emission(vec3(0.0), vec3(0.0, 0.0, 1.0), unit_flux, 0.0);
+    if (emitter.kind == EMITTER_TRIANGLE) {
+        uint first = 3u * emitter.index;
+        vec3 a = triangle_vertices[first].xyz;
+        vec3 b = triangle_vertices[first + 1u].xyz;
+        vec3 c = triangle_vertices[first + 2u].xyz;
+        float root = sqrt(xi_position.x);
+        vec3 point = (1.0 - root) * a + root * (1.0 - xi_position.y) * b + root * xi_position.y * c;
+        vec3 normal = normalize(cross(b - a, c - a));
+        e.origin = point + params.ray_offset * normal;
+        e.direction = material_cosine_direction(normal, xi_direction);
+        return e;
+    }
+    Light light = lights[emitter.index];
+    if (emitter.kind == EMITTER_DIRECTIONAL) {
+        // A disk of the scene's bounding radius, one radius behind the scene
+        // along the light's direction, so every photon starts outside it.
+        vec3 tangent, bitangent;
+        material_basis(light.direction, tangent, bitangent);
+        float r = params.scene_sphere.w * sqrt(xi_position.x);
+        float phi = 2.0 * PI * xi_position.y;
+        e.origin = params.scene_sphere.xyz - 2.0 * params.scene_sphere.w * light.direction +
+                   r * cos(phi) * tangent + r * sin(phi) * bitangent;
+        e.direction = light.direction;
+        return e;
+    }
+    e.origin = light.position;
+    e.range = light.range;
+    if (emitter.kind == EMITTER_POINT) {
+        e.direction = uniform_sphere(xi_direction);
+        return e;
+    }
+    // Spot: uniform in the outer cone; the falloff over its mean over the
+    // cone is the sample's weight, since the power already integrates it.
+    float cos_outer = light.cos_outer_cone;
+    float cone = 1.0 - cos_outer;
+    float inner = light.cos_inner_cone;
+    float mean_falloff = inner > cos_outer ? ((1.0 - inner) + 0.5 * (inner - cos_outer)) / cone : 1.0;
+    e.direction = uniform_cone(light.direction, cos_outer, xi_direction);
+    e.flux *= spot_falloff(dot(e.direction, light.direction), inner, cos_outer) / mean_falloff;
+    return e;
+}
+
+void store(bool caustic, vec3 position, vec3 flux, vec3 incoming, vec3 normal)
+{
+    uint words[5] = uint[5](floatBitsToUint(position.x), floatBitsToUint(position.y),
+                            floatBitsToUint(position.z), rgb9e5_pack(flux),
+                            octahedral_pack8(incoming) | (octahedral_pack8(normal) << 16u));
+    if (caustic) {
+        uint slot = atomicAdd(counters.caustic_stored, 1u);
+        if (slot < params.caustic_capacity) {
+            for (uint w = 0u; w < PHOTON_WORDS; w++)
+                caustic_words[PHOTON_WORDS * slot + w] = words[w];
+        }
+    }
+    uint slot = atomicAdd(counters.global_stored, 1u);
+    if (slot < params.global_capacity) {
+        for (uint w = 0u; w < PHOTON_WORDS; w++)
+            global_words[PHOTON_WORDS * slot + w] = words[w];
+    }
+}
+
+void main()
+{
+    uint local = gl_GlobalInvocationID.x;
+    uint index = push.first_photon + local;
+    if (index >= params.photon_count || params.emitter_count == 0u)
+        return;
+    uint rng = rng_init(index, 0x9e3779b9u, params.seed_lo, params.seed_hi);
+    // Stratified emitter column: photon i takes (i + ξ) / N of the table.
+    float stratum = (float(index) + rng_float(rng)) / float(params.photon_count);
+    uint column = min(uint(stratum * float(params.emitter_count)), params.emitter_count - 1u);
+    PhotonEmitter emitter = emitters[rng_float(rng) < emitters[column].alias_threshold
+                                         ? column
+                                         : emitters[column].alias];
+    vec2 xi_position = vec2(rng_float(rng), rng_float(rng));
+    vec2 xi_direction = vec2(rng_float(rng), rng_float(rng));
+    Emission e = emit(emitter, xi_position, xi_direction);
+    vec3 origin = e.origin, direction = e.direction, flux = e.flux;
+    bool specular_only = true; // every bounce so far was specular (caustic path)
+
+    for (uint depth = 0u; depth < params.max_depth; depth++) {
+        bool failed;
+        BihHit hit = trace_bih(origin, direction, 0.0, uintBitsToFloat(0x7f800000u), false,
+                               params.bih_bounds_min.xyz, params.bih_bounds_max.xyz,
+                               params.triangle_count, params.bih_node_count, failed);
+        if (failed) {
+            atomicAdd(counters.traversal_failures, 1u);
+            return;
+        }
+        if (hit.triangle == NO_HIT)
+            return;
+        if (depth == 0u)
+            flux *= light_range_window(hit.t, e.range);
+        uint first = 3u * hit.triangle;
+        vec3 v0 = triangle_vertices[first].xyz;
+        vec3 v1 = triangle_vertices[first + 1u].xyz;
+        vec3 v2 = triangle_vertices[first + 2u].xyz;
+        Material material = materials[triangle_material[hit.triangle]];
+        vec3 face_normal = normalize(cross(v1 - v0, v2 - v0));
+        bool front = dot(face_normal, direction) < 0.0;
+        vec3 geometric_normal = front ? face_normal : -face_normal;
+        vec3 interpolated = (1.0 - hit.u - hit.v) * triangle_normals[first].xyz +
+                            hit.u * triangle_normals[first + 1u].xyz +
+                            hit.v * triangle_normals[first + 2u].xyz;
+        vec3 shading_normal = dot(interpolated, interpolated) == 0.0 ? geometric_normal
+                                                                     : normalize(interpolated);
+        if (dot(shading_normal, geometric_normal) < 0.0)
+            shading_normal = -shading_normal;
+        if (!all_finite(shading_normal) || !all_finite(flux)) {
+            atomicAdd(counters.non_finite, 1u);
+            return;
+        }
+        vec3 position = origin + hit.t * direction;
+        bool diffuse = material.kind == MATERIAL_LAMBERT;
+        if (diffuse && (depth > 0u || params.store_direct != 0u))
+            store(specular_only && depth > 0u, position, flux, direction, geometric_normal);
+        specular_only = specular_only && !diffuse;
+
+        vec3 xi = vec3(rng_float(rng), rng_float(rng), rng_float(rng));
+        BsdfSample scattered = bsdf_sample(material, -direction, shading_normal, geometric_normal,
+                                           front, xi);
+        float survival = min(1.0, max(scattered.weight.r, max(scattered.weight.g, scattered.weight.b)));
+        if (!(survival > 0.0) || rng_float(rng) >= survival)
+            return;
+        flux *= scattered.weight / survival;
+        origin = position +
+                 (scattered.transmitted ? -params.ray_offset : params.ray_offset) * geometric_normal;
+        direction = scattered.direction;
+    }
+}
