@@ -90,12 +90,8 @@ layout(std430, set = 0, binding = 12) buffer Counters {
 #include "bih_traverse.glsl"
 #include "lights.glsl"
 #include "materials.glsl"
+#include "surface.glsl"
 #include "rng.glsl"
-
-bool all_finite(vec3 value)
-{
-    return !any(isnan(value)) && !any(isinf(value));
-}
 
 // Uniform direction on the sphere (pbrt-v4 SampleUniformSphere).
 vec3 uniform_sphere(vec2 xi)
@@ -227,26 +223,16 @@ void main()
             return;
         if (depth == 0u)
             flux *= light_range_window(hit.t, e.range);
-        uint first = 3u * hit.triangle;
-        vec3 v0 = triangle_vertices[first].xyz;
-        vec3 v1 = triangle_vertices[first + 1u].xyz;
-        vec3 v2 = triangle_vertices[first + 2u].xyz;
-        Material material = materials[triangle_material[hit.triangle]];
-        vec3 face_normal = normalize(cross(v1 - v0, v2 - v0));
-        bool front = dot(face_normal, direction) < 0.0;
-        vec3 geometric_normal = front ? face_normal : -face_normal;
-        vec3 interpolated = (1.0 - hit.u - hit.v) * triangle_normals[first].xyz +
-                            hit.u * triangle_normals[first + 1u].xyz +
-                            hit.v * triangle_normals[first + 2u].xyz;
-        vec3 shading_normal = dot(interpolated, interpolated) == 0.0 ? geometric_normal
-                                                                     : normalize(interpolated);
-        if (dot(shading_normal, geometric_normal) < 0.0)
-            shading_normal = -shading_normal;
-        if (!all_finite(shading_normal) || !all_finite(flux)) {
+        Surface surface = surface_at(hit, origin, direction);
+        if (!surface.valid || !all_finite(flux)) {
             atomicAdd(counters.non_finite, 1u);
             return;
         }
-        vec3 position = origin + hit.t * direction;
+        Material material = surface.material;
+        bool front = surface.front;
+        vec3 geometric_normal = surface.geometric_normal;
+        vec3 shading_normal = surface.shading_normal;
+        vec3 position = surface.position;
         bool diffuse = material.kind == MATERIAL_LAMBERT;
         if (diffuse && (depth > 0u || params.store_direct != 0u))
             store(specular_only && depth > 0u, position, flux, direction, geometric_normal);

@@ -52,6 +52,7 @@ layout(std430, set = 0, binding = 11) readonly buffer BihTriangleIndex { uint bi
 #include "area_lights.glsl"
 #include "lights.glsl"
 #include "materials.glsl"
+#include "surface.glsl"
 #include "rng.glsl"
 
 // Closest (or with any_hit, any) hit through the frame's BIH; a failed
@@ -68,11 +69,6 @@ BihHit trace(vec3 origin, vec3 direction, float tmax, bool any_hit)
     return hit;
 }
 
-bool all_finite(vec3 value)
-{
-    return !any(isnan(value)) && !any(isinf(value));
-}
-
 // One camera path of one pixel sample: the current ray of the specular chain
 // and, once it reaches a diffuse surface, that surface.
 struct Path {
@@ -82,6 +78,7 @@ struct Path {
     vec3 radiance;
     bool tracing;      // the chain still has a ray to trace
     bool diffuse_hit;  // the chain ended on a diffuse surface (below)
+    bool poisoned;     // a non-finite shading normal was met: the sample is discarded
     vec3 position;
     vec3 shading_normal;
     vec3 geometric_normal; // faces the incoming ray
@@ -110,22 +107,17 @@ void path_follow_hit(inout Path path, BihHit hit, uint depth, float ray_offset, 
         path.tracing = false;
         return;
     }
-    uint first = 3u * hit.triangle;
-    vec3 v0 = triangle_vertices[first].xyz;
-    vec3 v1 = triangle_vertices[first + 1u].xyz;
-    vec3 v2 = triangle_vertices[first + 2u].xyz;
-    Material material = materials[triangle_material[hit.triangle]];
-    vec3 face_normal = normalize(cross(v1 - v0, v2 - v0));
-    bool front = dot(face_normal, path.direction) < 0.0;
-    path.geometric_normal = front ? face_normal : -face_normal;
-    vec3 interpolated = (1.0 - hit.u - hit.v) * triangle_normals[first].xyz +
-                        hit.u * triangle_normals[first + 1u].xyz +
-                        hit.v * triangle_normals[first + 2u].xyz;
-    path.shading_normal = dot(interpolated, interpolated) > 0.0 ? normalize(interpolated)
-                                                                : path.geometric_normal;
-    if (dot(path.shading_normal, path.geometric_normal) < 0.0)
-        path.shading_normal = -path.shading_normal;
-    path.position = path.origin + hit.t * path.direction;
+    Surface surface = surface_at(hit, path.origin, path.direction);
+    if (!surface.valid) {
+        path.tracing = false;
+        path.poisoned = true; // a non-finite normal: the sample is discarded, not repaired
+        return;
+    }
+    Material material = surface.material;
+    bool front = surface.front;
+    path.geometric_normal = surface.geometric_normal;
+    path.shading_normal = surface.shading_normal;
+    path.position = surface.position;
     if (depth == 0u) {
         sums.coverage += 1.0;
         sums.depth += hit.t;
@@ -184,6 +176,7 @@ void main()
     path.radiance = vec3(0.0);
     path.tracing = true;
     path.diffuse_hit = false;
+    path.poisoned = false;
     path.position = vec3(0.0);
     path.shading_normal = vec3(0.0, 0.0, 1.0);
     path.geometric_normal = vec3(0.0, 0.0, 1.0);
@@ -251,7 +244,7 @@ void main()
         }
     }
 
-    if (all_finite(path.radiance)) {
+    if (!path.poisoned && all_finite(path.radiance)) {
         sums.beauty = path.radiance;
         sums.kept_samples = 1u;
     } else {

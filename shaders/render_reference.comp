@@ -73,6 +73,7 @@ layout(std430, set = 0, binding = 12) readonly buffer BihTriangleIndex { uint bi
 #include "area_lights.glsl"
 #include "lights.glsl"
 #include "materials.glsl"
+#include "surface.glsl"
 #include "sampler.glsl"
 
 // Russian roulette starts after this many bounces (issue 5), and then only
@@ -100,11 +101,6 @@ BihHit trace(vec3 origin, vec3 direction, float tmax, bool any_hit)
     if (failed)
         atomicAdd(counters.traversal_failures, 1u);
     return hit;
-}
-
-bool all_finite(vec3 value)
-{
-    return !any(isnan(value)) && !any(isinf(value));
 }
 
 // Power heuristic, β = 2 (Veach 1997).
@@ -167,28 +163,19 @@ void main()
         rays++;
         if (hit.triangle == NO_HIT)
             break;
-        uint first = 3u * hit.triangle;
-        vec3 v0 = triangle_vertices[first].xyz;
-        vec3 v1 = triangle_vertices[first + 1u].xyz;
-        vec3 v2 = triangle_vertices[first + 2u].xyz;
-        Material material = materials[triangle_material[hit.triangle]];
-        vec3 face_normal = normalize(cross(v1 - v0, v2 - v0));
-        bool front = dot(face_normal, direction) < 0.0;
-        vec3 geometric_normal = front ? face_normal : -face_normal;
-        vec3 interpolated = (1.0 - hit.u - hit.v) * triangle_normals[first].xyz +
-                            hit.u * triangle_normals[first + 1u].xyz +
-                            hit.v * triangle_normals[first + 2u].xyz;
-        // A zero normal falls back to the face's; a non-finite one poisons
-        // the sample (discarded and counted, never silently repaired).
-        vec3 shading_normal = dot(interpolated, interpolated) == 0.0 ? geometric_normal
-                                                                     : normalize(interpolated);
-        if (!all_finite(shading_normal)) {
+        Surface surface = surface_at(hit, origin, direction);
+        // A non-finite shading normal poisons the sample (discarded and
+        // counted, never silently repaired).
+        if (!surface.valid) {
             valid = false;
             break;
         }
-        if (dot(shading_normal, geometric_normal) < 0.0)
-            shading_normal = -shading_normal;
-        vec3 position = origin + hit.t * direction;
+        Material material = surface.material;
+        vec3 face_normal = surface.face_normal;
+        bool front = surface.front;
+        vec3 geometric_normal = surface.geometric_normal;
+        vec3 shading_normal = surface.shading_normal;
+        vec3 position = surface.position;
         if (depth == 0u) {
             coverage = 1.0;
             depth_aov = hit.t;
