@@ -554,10 +554,10 @@ PF_TEST(area_light_over_a_parallel_square_matches_the_form_factor)
                                   FLOAT_RELATIVE_SLACK * centre_exact[c];
         PF_CHECK_NEAR(direct_centre[c], centre_exact[c], centre_tolerance);
         printf("  area light, channel %d: centre %.5g vs exact %.5g (F = %.5f); mean residual "
-               "%.3g ± %.3g\n",
+               "%.3g ± %.3g (tolerance %.3g)\n",
                c, direct_centre[c], centre_exact[c],
                rectangle_form_factor(0, 0, -0.5, 0.5, -0.5, 0.5, 1.0), stats.mean,
-               stats.standard_error);
+               stats.standard_error, tolerance);
     }
     PF_CHECK(ref_stage_counter(&report, "shade", "samples_per_pixel") == SQUARE_SPP);
     PF_CHECK(ref_stage_counter(&report, "shade", "paths") ==
