@@ -44,6 +44,8 @@ static void usage(FILE *out)
             "  --size WxH             image size (default 640 wide, height from the camera)\n"
             "  --quality Q            preview | fast | final | reference | auto (default auto)\n"
             "  --spp N                samples per pixel (default: the preset's)\n"
+            "  --time-budget SECONDS  stop refining each frame after this long (progressive\n"
+            "                         presets; at least one pass; default: no limit)\n"
             "  --priority P           higher runs first (default 0)\n"
             "  --max-attempts N       attempts per frame before it fails (default 3)\n"
             "  --frames-per-task N    frames a worker claims at once (default 1)\n"
@@ -113,6 +115,11 @@ static int parse_options(int argc, char **argv, enqueue_options *options, int *h
             if (!pf_cli_parse_int(value, 1, MAX_SPP, &number))
                 return pf_cli_fail(COMMAND, 2, "--spp '%s': expected 1..%d", value, MAX_SPP);
             options->settings.samples_per_pixel = (uint32_t)number;
+        } else if (!strcmp(arg, "--time-budget")) {
+            if (!pf_cli_parse_time_budget(value, &options->settings.time_budget_ms))
+                return pf_cli_fail(COMMAND, 2,
+                                   "--time-budget '%s': expected seconds, more than 0 and at most %.0f",
+                                   value, PF_CLI_MAX_TIME_BUDGET_S);
         } else if (!strcmp(arg, "--priority")) {
             if (!pf_cli_parse_int(value, -MAX_PRIORITY, MAX_PRIORITY, &options->priority))
                 return pf_cli_fail(COMMAND, 2, "--priority '%s': expected an integer %d..%d",

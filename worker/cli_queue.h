@@ -28,4 +28,13 @@ int pf_cli_open_queue(const char *command, const char *path, int must_exist, pf_
 /* Strict decimal integer in [min, max] (no trailing text). 1 on success. */
 int pf_cli_parse_int(const char *text, int64_t min, int64_t max, int64_t *out);
 
+/* Longest --time-budget accepted: a week, in seconds. */
+#define PF_CLI_MAX_TIME_BUDGET_S 604800.0
+
+/*
+ * Parses a --time-budget value: seconds, more than 0 and at most
+ * PF_CLI_MAX_TIME_BUDGET_S, into milliseconds. 1 on success, 0 otherwise.
+ */
+int pf_cli_parse_time_budget(const char *text, double *milliseconds);
+
 #endif

@@ -4,6 +4,7 @@
  * the same frame pipeline as the worker's (frame_pipeline.h): evaluated,
  * rendered, written to a temporary and renamed into place.
  */
+#include "cli_queue.h"
 #include "frame_pipeline.h"
 #include "pf_cli.h"
 #include "pf_image.h"
@@ -24,8 +25,6 @@
 /* Bounds a frame list so a typo like 1-1000000000 fails fast instead of allocating. */
 #define MAX_FRAMES 100000u
 #define MAX_PATH_BYTES PF_FRAME_PATH_MAX
-/* --time-budget bound: one week per frame; anything longer is a typo. */
-#define MAX_TIME_BUDGET_S 604800.0
 
 static void usage(FILE *out)
 {
@@ -214,15 +213,11 @@ static int parse_options(int argc, char **argv, render_options *options, int *he
                                        value);
                 options->seed = seed;
             } else if (!strcmp(arg, "--time-budget")) {
-                char *end = NULL;
-                errno = 0;
-                double seconds = strtod(value, &end);
-                if (errno || *end || !*value || !(seconds > 0.0) || seconds > MAX_TIME_BUDGET_S)
+                if (!pf_cli_parse_time_budget(value, &options->time_budget_ms))
                     return pf_cli_fail(COMMAND, 2,
                                        "--time-budget '%s': expected seconds, more than 0 and "
                                        "at most %.0f",
-                                       value, MAX_TIME_BUDGET_S);
-                options->time_budget_ms = seconds * 1000.0;
+                                       value, PF_CLI_MAX_TIME_BUDGET_S);
             } else {
                 return pf_cli_fail(COMMAND, 2, "unknown option '%s' (see --help)", arg);
             }

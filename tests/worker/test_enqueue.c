@@ -32,7 +32,8 @@ PF_TEST(enqueue_inserts_a_validated_job_and_prints_its_id)
     char args[8 * WT_PATH_MAX];
     wt_format(args, sizeof args,
              "enqueue '%s' --frames 1-3 --out '%s/f.####.exr' --size 16x12 --quality preview "
-             "--priority 5 --max-attempts 4 --frames-per-task 2 --name tiny --db '%s'",
+             "--priority 5 --max-attempts 4 --frames-per-task 2 --name tiny --time-budget 2.5 "
+             "--db '%s'",
              scene, out_dir, db);
     PF_REQUIRE(wt_run(args, log_path) == 0);
     char *printed = wt_read_file(log_path, NULL);
@@ -52,7 +53,8 @@ PF_TEST(enqueue_inserts_a_validated_job_and_prints_its_id)
                      strstr(job.output_pattern, "f.####.exr"),
                  "pattern stored as %s", job.output_pattern);
     PF_CHECK(job.parameters_json && strstr(job.parameters_json, "\"width\":16") &&
-             strstr(job.parameters_json, "\"name\":\"tiny\""));
+             strstr(job.parameters_json, "\"name\":\"tiny\"") &&
+             strstr(job.parameters_json, "\"time_budget_ms\":2500"));
     pf_queue_job_clear(&job);
     pf_queue_close(queue);
 
@@ -84,7 +86,7 @@ PF_TEST(bad_input_exits_2_and_inserts_nothing)
     struct {
         char arguments[4 * WT_PATH_MAX];
         const char *message;
-    } cases[12];
+    } cases[14];
     int count = 0;
 #define CASE(msg, ...)                                                                    \
     do {                                                                                  \
@@ -104,6 +106,8 @@ PF_TEST(bad_input_exits_2_and_inserts_nothing)
     CASE("--size", "enqueue '%s' --frames 1 --out '%s/f.exr' --size 0x10", scene, out_dir);
     CASE("--quality", "enqueue '%s' --frames 1 --out '%s/f.exr' --quality best", scene, out_dir);
     CASE("--max-attempts", "enqueue '%s' --frames 1 --out '%s/f.exr' --max-attempts 0", scene,
+         out_dir);
+    CASE("--time-budget", "enqueue '%s' --frames 1 --out '%s/f.exr' --time-budget 0", scene,
          out_dir);
 #undef CASE
     for (int i = 0; i < count; i++) {
