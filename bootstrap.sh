@@ -39,7 +39,7 @@ JOBS=${PF_JOBS:-$(nproc)}
 # each use several threads already.
 TEST_JOBS=2
 
-DEMO_SCENE=scenes/cornell-animated/cornell-animated.gltf
+DEMO_SCENE=scenes/cornell-moving/cornell-moving.gltf
 DEMO_FRAMES=1-24
 DEMO_SIZE=320x240
 DEMO_OUTPUT=demo-out/frame.####.exr

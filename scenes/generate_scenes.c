@@ -5,7 +5,7 @@
  *   pf_generate_scenes OUTPUT_ROOT
  *
  * writes OUTPUT_ROOT/cornell/cornell.gltf (the classic Cornell box) and
- * OUTPUT_ROOT/cornell-animated/cornell-animated.gltf (the same box with a camera
+ * OUTPUT_ROOT/cornell-moving/cornell-moving.gltf (the same box with a camera
  * move, a moving block and a moving point light, 24 frames at 24 fps).
  *
  * The output is byte-identical on every run (fixed formatting, no timestamps):
@@ -712,7 +712,7 @@ static void write_animated_cornell(const char *path)
     animate_camera(&doc, nodes.camera);
     animate_short_block(&doc, nodes.short_block, nodes.short_block_origin);
     add_moving_point_light(&doc);
-    scene_meta meta = {"cornell-animated", ANIM_FRAMES,
+    scene_meta meta = {"cornell-moving", ANIM_FRAMES,
                        "\"KHR_materials_emissive_strength\", \"KHR_lights_punctual\"",
                        point_light_json, "camera_block_light"};
     write_document(&doc, &meta, path);
@@ -742,9 +742,9 @@ int main(int argc, char **argv)
     make_directory(path);
     snprintf(path, sizeof(path), "%s/cornell/cornell.gltf", argv[1]);
     write_static_cornell(path);
-    snprintf(path, sizeof(path), "%s/cornell-animated", argv[1]);
+    snprintf(path, sizeof(path), "%s/cornell-moving", argv[1]);
     make_directory(path);
-    snprintf(path, sizeof(path), "%s/cornell-animated/cornell-animated.gltf", argv[1]);
+    snprintf(path, sizeof(path), "%s/cornell-moving/cornell-moving.gltf", argv[1]);
     write_animated_cornell(path);
     return 0;
 }

@@ -4,7 +4,7 @@
  * a refit image is bit-identical to a fresh renderer's (closest hits do not
  * depend on the tree); scattered geometry → rebuilt; a changed triangle count
  * or another scene with the same count → never reused. Checked on
- * scenes/cornell-animated and on hand-built frames, with CPU and GPU builds.
+ * scenes/cornell-moving and on hand-built frames, with CPU and GPU builds.
  * Validation must stay silent.
  */
 #include "pf_render.h"
@@ -110,11 +110,11 @@ static int same_vertices(const pf_scene_frame *a, const pf_scene_frame *b)
            !memcmp(a->vertices, b->vertices, 3 * (size_t)a->triangle_count * sizeof *a->vertices);
 }
 
-PF_TEST(cornell_animated_reuses_refits_and_matches_fresh_builds)
+PF_TEST(cornell_moving_reuses_refits_and_matches_fresh_builds)
 {
     char path[1024];
     const char *source = getenv("PF_SOURCE_DIR");
-    snprintf(path, sizeof path, "%s/scenes/cornell-animated/cornell-animated.gltf",
+    snprintf(path, sizeof path, "%s/scenes/cornell-moving/cornell-moving.gltf",
              source ? source : ".");
     pf_scene *scene = NULL;
     pf_error err = {0};
@@ -134,7 +134,7 @@ PF_TEST(cornell_animated_reuses_refits_and_matches_fresh_builds)
         pf_image image = {0};
         rendered result = render(renderer, &frame, &image);
         char label[64];
-        snprintf(label, sizeof label, "cornell-animated frame %lld", (long long)number);
+        snprintf(label, sizeof label, "cornell-moving frame %lld", (long long)number);
         if (i == 0) {
             PF_CHECK_MSG(result.decision == DECISION_BUILT &&
                              !strcmp(result.reason, "built: first frame"),
@@ -165,7 +165,7 @@ PF_TEST(cornell_animated_reuses_refits_and_matches_fresh_builds)
         previous = frame;
     }
     pf_scene_frame_free(&previous);
-    printf("  cornell-animated, %u frames + 1 repeat: %u reused, %u refit, %u rebuilt, %u built\n",
+    printf("  cornell-moving, %u frames + 1 repeat: %u reused, %u refit, %u rebuilt, %u built\n",
            frame_count, counts[DECISION_REUSED], counts[DECISION_REFIT], counts[DECISION_REBUILT],
            counts[DECISION_BUILT]);
     PF_CHECK(counts[DECISION_BUILT] == 1);
@@ -391,7 +391,7 @@ int main(void)
         fprintf(stderr, "setup: %s\n", err.message);
         return 1;
     }
-    PF_RUN(cornell_animated_reuses_refits_and_matches_fresh_builds);
+    PF_RUN(cornell_moving_reuses_refits_and_matches_fresh_builds);
     PF_RUN(hand_built_frames_with_cpu_builds);
     PF_RUN(hand_built_frames_with_gpu_builds);
     uint32_t messages = pf_vk_validation_message_count(ctx);
