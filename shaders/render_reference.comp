@@ -103,13 +103,7 @@ BihHit trace(vec3 origin, vec3 direction, float tmax, bool any_hit)
     return hit;
 }
 
-// Power heuristic, β = 2 (Veach 1997).
-float mis_power(float pdf_this, float pdf_other)
-{
-    float a = pdf_this * pdf_this;
-    float b = pdf_other * pdf_other;
-    return a > 0.0 ? a / (a + b) : 0.0;
-}
+#include "direct_light.glsl"
 
 struct Radiance {
     vec3 direct;
@@ -211,38 +205,11 @@ void main()
         vec3 wo = -direction;
         vec3 surface_origin = position + ray_offset * geometric_normal;
         vec4 light_xi = sampler_next_4d(samples);
-        if (diffuse && params.emissive_count > 0u) {
-            AreaLightSample light = emissive_sample(position, light_xi, params.emissive_count,
-                                                    params.emissive_weight_total);
-            vec3 reflected = bsdf_eval_cos(material, wo, light.to_light, shading_normal,
-                                           geometric_normal);
-            vec3 contribution = vec3(0.0);
-            if (light.pdf_solid_angle > 0.0) {
-                float weight = mis_power(light.pdf_solid_angle,
-                                         bsdf_pdf(material, wo, light.to_light, shading_normal,
-                                                  geometric_normal));
-                contribution = throughput * reflected * light.radiance *
-                               (weight / light.pdf_solid_angle);
-            }
-            if (any(greaterThan(contribution, vec3(0.0)))) {
-                rays++;
-                if (trace(surface_origin, light.to_light, light.distance - 2.0 * ray_offset,
-                          true).triangle == NO_HIT)
-                    radiance_add(radiance, contribution, region, caustic_chain);
-            }
-        }
-        for (uint light_index = 0u; diffuse && light_index < params.light_count; light_index++) {
-            LightSample light = light_sample(lights[light_index], position);
-            vec3 contribution = throughput * light.irradiance *
-                                bsdf_eval_cos(material, wo, light.to_light, shading_normal,
-                                              geometric_normal);
-            if (any(greaterThan(contribution, vec3(0.0)))) {
-                rays++;
-                if (trace(surface_origin, light.to_light, light.distance - ray_offset, true)
-                        .triangle == NO_HIT)
-                    radiance_add(radiance, contribution, region, caustic_chain);
-            }
-        }
+        if (diffuse)
+            radiance_add(radiance,
+                         direct_light(material, position, surface_origin, wo, shading_normal,
+                                      geometric_normal, throughput, light_xi, 1.0, rays),
+                         region, caustic_chain);
 
         vec4 bsdf_xi = sampler_next_4d(samples);
         BsdfSample scattered = bsdf_sample(material, wo, shading_normal, geometric_normal, front,

@@ -120,20 +120,67 @@ pf_status pf_photon_grid_build_device(pf_photon_grid *grid, pf_vk_buffer *photon
                                       float radius, pf_error *err);
 
 /*
+ * Loop guard of the estimates below (PHOTON_ESTIMATE_MAX_ITERATIONS as
+ * shaders/photon_irradiance_probe.comp defines it; kernels default to 32768,
+ * see photon_estimate.glsl): llvmpipe silently ends all loops of an
+ * invocation after 65,535 iterations in total, so an estimate visits cells
+ * and photons in one loop of at most this many steps and says when it
+ * stops early. A clustered map (a light touching a wall: one cell holding
+ * every photon) reaches it instead of giving a silently wrong value.
+ */
+#define PF_PHOTON_ESTIMATE_MAX_ITERATIONS 60000u
+
+/*
  * The cone-filtered irradiance estimate of shaders/common/photon_estimate.glsl
  * at query points (xyz + radius in w, radius <= the build radius) on
  * surfaces with the given unit normals (xyz): irradiance[q] in the map's
- * flux units per m² (multiply by pf_photon_maps.flux_scale for W/m²).
+ * flux units per m² (multiply by pf_photon_maps.flux_scale for W/m²), the
+ * radius in w. Every result is written; PF_ERR_LIMIT (naming how many and the
+ * first) when queries stopped at the loop guard (their estimates cover only
+ * the photons visited), PF_ERR_INVALID without a grid, PF_ERR_VULKAN.
  */
 pf_status pf_photon_grid_irradiance(pf_photon_grid *grid, const float (*queries)[4],
                                     const float (*normals)[4], uint32_t query_count,
                                     float (*irradiance)[4], pf_error *err);
+
+/* Largest k of the k-nearest estimate (PHOTON_KNN_MAX in photon_estimate.glsl). */
+#define PF_PHOTON_KNN_MAX 64u
+/* The k-NN radius never drops below this fraction of the maximum (coincident photons). */
+#define PF_PHOTON_KNN_MIN_RADIUS_FRACTION (1.0f / 1024.0f)
+
+/*
+ * The adaptive-radius estimate photon_irradiance_knn (for the caustic map):
+ * at each query (xyz + maximum radius in w, <= the build radius) the k
+ * nearest accepted photons within the maximum, cone-filtered over the k-th
+ * distance r_k and divided by π r_k² × the cone's normalisation; with fewer
+ * than k, r = the maximum; r >= PF_PHOTON_KNN_MIN_RADIUS_FRACTION × the
+ * maximum. irradiance[q]: rgb as pf_photon_grid_irradiance, r in w.
+ * PF_ERR_INVALID for k outside [1, PF_PHOTON_KNN_MAX]; otherwise as
+ * pf_photon_grid_irradiance (a truncated query keeps the k nearest of the
+ * photons visited).
+ */
+pf_status pf_photon_grid_irradiance_knn(pf_photon_grid *grid, const float (*queries)[4],
+                                        const float (*normals)[4], uint32_t query_count,
+                                        uint32_t k, float (*irradiance)[4], pf_error *err);
 
 /* GPU milliseconds of the last build (< 0 without timestamps). */
 double pf_photon_grid_gpu_ms(const pf_photon_grid *grid);
 
 /* The grid's parameters (valid after a build). */
 pf_photon_grid_info pf_photon_grid_get_info(const pf_photon_grid *grid);
+
+/*
+ * The built grid's device buffers, for kernels that gather from it
+ * (photon_estimate.glsl's grid_words and grid_ranges, with the grid's
+ * parameters from pf_photon_grid_get_info); both NULL before a build. The
+ * grid keeps ownership; a rebuild or destroy invalidates them.
+ */
+typedef struct pf_photon_grid_view {
+    pf_vk_buffer *photons; /* pf_photon records in cell order */
+    pf_vk_buffer *ranges;  /* uvec2 [start, end) per cell or bucket */
+} pf_photon_grid_view;
+
+pf_photon_grid_view pf_photon_grid_view_get(const pf_photon_grid *grid);
 
 /* Downloads the ranges and fills info->occupied and info->largest. */
 pf_status pf_photon_grid_stats(pf_photon_grid *grid, pf_photon_grid_info *info, pf_error *err);
@@ -271,6 +318,37 @@ pf_status pf_photon_trace(pf_photon_tracer *tracer, const pf_photon_scene *scene
                           const pf_photon_trace_settings *settings, pf_photon_maps *out,
                           pf_error *err);
 void pf_photon_maps_release(pf_vk_context *ctx, pf_photon_maps *maps);
+
+/*
+ * Photon budgets beyond one pass. A pass's maps, and the grid over each,
+ * must fit one storage buffer (maxStorageBufferRange; 128 MiB on lavapipe,
+ * 6.7M photons of 20 bytes), and a full map drops photons. So a budget of
+ * emitted photons is split into passes whose maps cannot overflow: at most
+ * stores_per_photon photons stored per emitted photon (max_depth − 1 bounds
+ * the global map exactly, max_depth with store_direct; a smaller mean
+ * measured on an earlier pass, global_offered / emitted, packs more per
+ * pass; 0 = 4). The caller traces, grids, estimates and releases one pass at
+ * a time, each with its own seed, and combines the passes' estimates in
+ * watts weighted by their share of the budget,
+ *     E = Σ_p (photons_p / budget) × flux_scale_p × E_p,
+ * as the progressive loop accumulates its passes: memory holds one pass
+ * whatever the budget. Every pass has photons_per_pass photons but the last,
+ * which has the remainder.
+ */
+typedef struct pf_photon_pass_plan {
+    uint32_t passes;
+    uint32_t photons_per_pass;
+    uint32_t last_pass_photons;
+    uint32_t capacity;            /* global_capacity/caustic_capacity to trace each pass with */
+} pf_photon_pass_plan;
+
+/*
+ * Plans budget emitted photons on ctx's device. PF_ERR_INVALID for a zero
+ * budget; PF_ERR_LIMIT, with the figures, when stores_per_photon alone
+ * exceeds a buffer or the budget would need more than UINT32_MAX passes.
+ */
+pf_status pf_photon_plan_passes(pf_vk_context *ctx, uint64_t budget, uint32_t stores_per_photon,
+                                pf_photon_pass_plan *plan, pf_error *err);
 
 /* Copies a map's records to the host (*photons malloc'ed; NULL when empty). */
 pf_status pf_photon_map_download(pf_vk_context *ctx, pf_vk_buffer *map, uint32_t count,

@@ -20,6 +20,8 @@
 #define CELL_MARGIN (1.0f + 1.0f / 64.0f)
 /* Modes of photon_grid_finish.comp. */
 enum { FINISH_CLEAR = 0, FINISH_RANGES = 1, FINISH_REORDER = 2 };
+/* Modes of photon_irradiance_probe.comp. */
+enum { ESTIMATE_FIXED = 0, ESTIMATE_KNN = 1 };
 
 /* Push constants of every photon grid shader (photon_grid_push.glsl, 48 bytes). */
 typedef struct photon_grid_push {
@@ -85,7 +87,7 @@ pf_status pf_photon_grid_create(pf_vk_context *ctx, pf_photon_grid **out, pf_err
                                              sizeof(photon_grid_push), NULL, 0,
                                              &grid->gather_pipeline, err);
     if (status == PF_OK)
-        status = pf_vk_pipeline_create_named(ctx, "photon_irradiance_probe", 5,
+        status = pf_vk_pipeline_create_named(ctx, "photon_irradiance_probe", 6,
                                              sizeof(photon_grid_push), NULL, 0,
                                              &grid->irradiance_pipeline, err);
     if (status != PF_OK) {
@@ -344,6 +346,16 @@ pf_photon_grid_info pf_photon_grid_get_info(const pf_photon_grid *grid)
     return grid->info;
 }
 
+pf_photon_grid_view pf_photon_grid_view_get(const pf_photon_grid *grid)
+{
+    pf_photon_grid_view view = {NULL, NULL};
+    if (grid->built) {
+        view.photons = grid->sorted_photons;
+        view.ranges = grid->ranges;
+    }
+    return view;
+}
+
 pf_status pf_photon_grid_stats(pf_photon_grid *grid, pf_photon_grid_info *info, pf_error *err)
 {
     if (!grid->built)
@@ -408,22 +420,32 @@ pf_status pf_photon_grid_gather(pf_photon_grid *grid, const float (*queries)[4],
     return status;
 }
 
-pf_status pf_photon_grid_irradiance(pf_photon_grid *grid, const float (*queries)[4],
-                                    const float (*normals)[4], uint32_t query_count,
-                                    float (*irradiance)[4], pf_error *err)
+/* Runs photon_irradiance_probe.comp in mode (ESTIMATE_*) and reports truncated queries. */
+static pf_status run_estimate(pf_photon_grid *grid, uint32_t mode, uint32_t k,
+                              const float (*queries)[4], const float (*normals)[4],
+                              uint32_t query_count, float (*irradiance)[4], pf_error *err)
 {
+    const char *name = mode == ESTIMATE_KNN ? "photon k-NN irradiance" : "photon irradiance";
     if (!grid->built)
-        return pf_error_set(err, PF_ERR_INVALID, "photon irradiance: no grid built");
+        return pf_error_set(err, PF_ERR_INVALID, "%s: no grid built", name);
     if (query_count == 0)
         return PF_OK;
     pf_vk_context *ctx = grid->ctx;
     uint64_t bytes = (uint64_t)query_count * 16;
-    pf_vk_buffer *query_buffer = NULL, *normal_buffer = NULL, *result_buffer = NULL;
-    pf_status status = pf_vk_buffer_create(ctx, bytes, "irradiance queries", &query_buffer, err);
+    uint64_t flag_bytes = (uint64_t)query_count * 4;
+    pf_vk_buffer *query_buffer = NULL, *normal_buffer = NULL, *result_buffer = NULL,
+                 *flag_buffer = NULL;
+    uint32_t *flags = malloc(flag_bytes);
+    pf_status status = flags ? PF_OK : pf_error_set(err, PF_ERR_NOMEM, "%s: out of memory", name);
+    if (status == PF_OK)
+        status = pf_vk_buffer_create(ctx, bytes, "irradiance queries", &query_buffer, err);
     if (status == PF_OK)
         status = pf_vk_buffer_create(ctx, bytes, "irradiance normals", &normal_buffer, err);
     if (status == PF_OK)
         status = pf_vk_buffer_create(ctx, bytes, "irradiance results", &result_buffer, err);
+    if (status == PF_OK)
+        status = pf_vk_buffer_create(ctx, flag_bytes, "irradiance truncation flags",
+                                     &flag_buffer, err);
     if (status == PF_OK)
         status = pf_vk_buffer_upload(ctx, query_buffer, 0, queries, bytes, err);
     if (status == PF_OK)
@@ -431,19 +453,52 @@ pf_status pf_photon_grid_irradiance(pf_photon_grid *grid, const float (*queries)
     pf_vk_commands *cmds = NULL;
     if (status == PF_OK)
         status = pf_vk_commands_begin(ctx, &cmds, err);
-    photon_grid_push push = push_for(&grid->info, query_count, 0);
+    photon_grid_push push = push_for(&grid->info, query_count, mode);
+    push.capacity = k;
     pf_vk_buffer *buffers[] = {grid->sorted_photons, grid->ranges, query_buffer, normal_buffer,
-                               result_buffer};
+                               result_buffer, flag_buffer};
     if (status == PF_OK)
-        status = pf_vk_cmd_dispatch(cmds, grid->irradiance_pipeline, buffers, 5, &push, sizeof push,
+        status = pf_vk_cmd_dispatch(cmds, grid->irradiance_pipeline, buffers, 6, &push, sizeof push,
                                     groups_for(query_count, GATHER_GROUP_SIZE), 1, 1, err);
     if (status == PF_OK)
         status = pf_vk_commands_submit(cmds, err);
     pf_vk_commands_destroy(cmds);
     if (status == PF_OK)
         status = pf_vk_buffer_download(ctx, result_buffer, 0, irradiance, bytes, err);
+    if (status == PF_OK)
+        status = pf_vk_buffer_download(ctx, flag_buffer, 0, flags, flag_bytes, err);
+    uint32_t truncated = 0, first = 0;
+    for (uint32_t q = 0; status == PF_OK && q < query_count; q++) {
+        if (flags[q] && truncated++ == 0)
+            first = q;
+    }
+    if (status == PF_OK && truncated > 0)
+        status = pf_error_set(err, PF_ERR_LIMIT,
+                              "%s: %u of %u queries stopped at the %u-iteration loop guard (first: query %u at %g %g %g, radius %g): a clustered map; their estimates cover only the photons visited",
+                              name, truncated, query_count, PF_PHOTON_ESTIMATE_MAX_ITERATIONS,
+                              first, (double)queries[first][0], (double)queries[first][1],
+                              (double)queries[first][2], (double)queries[first][3]);
+    free(flags);
+    release(ctx, &flag_buffer);
     release(ctx, &result_buffer);
     release(ctx, &normal_buffer);
     release(ctx, &query_buffer);
     return status;
+}
+
+pf_status pf_photon_grid_irradiance(pf_photon_grid *grid, const float (*queries)[4],
+                                    const float (*normals)[4], uint32_t query_count,
+                                    float (*irradiance)[4], pf_error *err)
+{
+    return run_estimate(grid, ESTIMATE_FIXED, 0, queries, normals, query_count, irradiance, err);
+}
+
+pf_status pf_photon_grid_irradiance_knn(pf_photon_grid *grid, const float (*queries)[4],
+                                        const float (*normals)[4], uint32_t query_count,
+                                        uint32_t k, float (*irradiance)[4], pf_error *err)
+{
+    if (k < 1 || k > PF_PHOTON_KNN_MAX)
+        return pf_error_set(err, PF_ERR_INVALID, "photon k-NN irradiance: k = %u outside [1, %u]",
+                            k, PF_PHOTON_KNN_MAX);
+    return run_estimate(grid, ESTIMATE_KNN, k, queries, normals, query_count, irradiance, err);
 }

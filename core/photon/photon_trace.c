@@ -249,3 +249,35 @@ pf_status pf_photon_map_download(pf_vk_context *ctx, pf_vk_buffer *map, uint32_t
     }
     return status;
 }
+
+pf_status pf_photon_plan_passes(pf_vk_context *ctx, uint64_t budget, uint32_t stores_per_photon,
+                                pf_photon_pass_plan *plan, pf_error *err)
+{
+    memset(plan, 0, sizeof *plan);
+    if (budget == 0)
+        return pf_error_set(err, PF_ERR_INVALID, "photon pass plan: a budget of 0 photons");
+    const pf_vk_device_info *info = pf_vk_info(ctx);
+    uint32_t stores = stores_per_photon ? stores_per_photon : DEFAULT_STORES_PER_PHOTON;
+    /* The grid's other buffers (ranges, keys, values: <= 16 bytes per photon) fit when the map does. */
+    uint64_t fits = info->max_storage_buffer_range / sizeof(pf_photon);
+    uint64_t per_pass = fits / stores;
+    if (per_pass > UINT32_MAX / stores)
+        per_pass = UINT32_MAX / stores;
+    if (per_pass == 0)
+        return pf_error_set(err, PF_ERR_LIMIT,
+                            "photon pass plan: %u stores per photon exceed one buffer on '%s' (%llu photons fit)",
+                            stores, info->name, (unsigned long long)fits);
+    uint64_t passes = budget / per_pass + (budget % per_pass != 0); /* no overflow near UINT64_MAX */
+    if (passes > UINT32_MAX)
+        return pf_error_set(err, PF_ERR_LIMIT,
+                            "photon pass plan: a budget of %llu photons needs %llu passes of %llu on '%s' (at most %u)",
+                            (unsigned long long)budget, (unsigned long long)passes,
+                            (unsigned long long)per_pass, info->name, UINT32_MAX);
+    if (budget < per_pass)
+        per_pass = budget;
+    plan->passes = (uint32_t)passes;
+    plan->photons_per_pass = (uint32_t)per_pass;
+    plan->last_pass_photons = (uint32_t)(budget - (passes - 1) * per_pass);
+    plan->capacity = (uint32_t)(per_pass * stores);
+    return PF_OK;
+}

@@ -18,7 +18,11 @@
  * Where a fresh tree is built: on the device when the device is a GPU; on the
  * CPU when the Vulkan device is the CPU itself (lavapipe), because there the
  * GPU build runs the same cores through a chain of dispatches and measured
- * 50-235× slower than the CPU build (bench/RESULTS.md, BIH).
+ * 50-235× slower than the CPU build (bench/RESULTS.md, BIH). The CPU build
+ * uses the SAH heuristic (binned SAH + empty-space cuts), not the global one:
+ * 3.5-4× the build time, but the preview's shade time fell 2.1-7.4× on the
+ * shared scenes (bench/RESULTS.md, "SAH tree for rendering"); the GPU build
+ * stays the Morton tree.
  * $PHOTONFARM_BIH_BUILD = gpu | cpu overrides the choice (tests use it to
  * cover both paths). A refit always runs on the CPU: one O(n) pass over the
  * CPU copy that every build leaves in the renderer.
@@ -56,8 +60,10 @@ static pf_status build_tree(pf_renderer *renderer, const pf_scene_frame *frame,
 {
     pf_bih_build_options options = {0};
     *built_on_gpu = 0;
-    if (site == BUILD_ON_CPU)
-        return pf_bih_build_cpu(frame, &options, out, err);
+    if (site == BUILD_ON_CPU) {
+        pf_bih_build_options cpu_options = {.heuristic = PF_BIH_HEURISTIC_SAH};
+        return pf_bih_build_cpu(frame, &cpu_options, out, err);
+    }
     if (!renderer->bih_builder) {
         pf_status status = pf_bih_gpu_builder_create(renderer->ctx, &renderer->bih_builder, err);
         if (status != PF_OK)

@@ -36,12 +36,14 @@ typedef struct pf_render_settings {
     uint64_t seed;
     int aovs;                   /* 1: fill albedo/normal/depth layers */
     /*
-     * Reference: stop accumulating samples once this much wall time has
+     * Reference and final: stop accumulating samples (final: passes) once this much wall time has
      * passed since pf_render_frame began (BIH build and upload included; at
      * least 1 spp is always rendered, and a pass in flight finishes);
      * 0 = no limit.
      */
     double time_budget_ms;
+    /* final: photons emitted per progressive pass; 0 = the preset's default. */
+    uint32_t photons_per_pass;
 } pf_render_settings;
 
 #define PF_STAGE_NAME_MAX 32
@@ -83,8 +85,8 @@ void pf_renderer_destroy(pf_renderer *renderer);
  * (may be NULL): `bih_build`, then `shade` (counters samples_per_pixel,
  * rays, ...). Image is owned by the caller (pf_image_free). Fails with
  * PF_ERR_INVALID on a bad size or time budget, PF_ERR_UNSUPPORTED for fast
- * and final (not available yet), PF_ERR_LIMIT when the film would not fit a
- * device buffer or a ray overflowed the BIH traversal stack.
+ * (not available yet), PF_ERR_LIMIT when the film would not fit a device
+ * buffer or a ray overflowed the BIH traversal stack.
  *
  * preview / auto: direct light with hard shadows through specular chains;
  *   channels R,G,B,A and, with settings->aovs, albedo.R/G/B, normal.X/Y/Z,
@@ -114,6 +116,25 @@ void pf_renderer_destroy(pf_renderer *renderer);
  *   the shade row's "discarded_samples", and every channel of the pixel is
  *   the mean over its kept samples (0 when none). The shade row's counters:
  *   samples_per_pixel (reached), paths, rays, discarded_samples.
+ *
+ * final: photon mapping (frame_final.c, shaders/render_final.comp), the
+ *   reference's channels with the same split: direct = the reference's NEE at
+ *   D₁ plus emission seen through specular chains; caustic = the caustic
+ *   map's estimate at D₁ (k nearest); indirect = caustic + final gather
+ *   (4 cosine gather rays per sample from D₁, global map + NEE at their
+ *   first diffuse hit). Progressive photon passes (probabilistic PPM, Knaus & Zwicker
+ *   2011, α = 2/3): each pass traces settings->photons_per_pass photons
+ *   (0 = 100,000) with its own seed, grids them at the pass's shrinking
+ *   radius and adds one camera sample per pixel; samples_per_pixel is the
+ *   number of passes (0 = 4), cut short by time_budget_ms (at least one).
+ *   Rows: bih_build, photon_trace, photon_grid, caustic_map (skipped with
+ *   its reason without specular materials), shade; photon_trace and
+ *   photon_grid are skipped when lights, materials and geometry are
+ *   unchanged since the previous final frame (maps reused). The image
+ *   depends only on the scene, seed, photons per pass and passes reached.
+ *   Samples cut by lavapipe's loop cap are dropped and counted (shade row
+ *   `loop_truncated`, discarded_samples); over 1% of them fails the frame
+ *   with PF_ERR_LIMIT.
  */
 pf_status pf_render_frame(pf_renderer *renderer, const pf_scene_frame *frame,
                           const pf_render_settings *settings, pf_image *image,

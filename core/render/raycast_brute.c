@@ -17,10 +17,22 @@
  * the 65535 every device allows.
  */
 #define RAYCAST_BATCH_RAYS (1u << 20)
+/*
+ * Triangles per dispatch. llvmpipe (Mesa 22.3) silently ends an invocation's
+ * loops after 65,535 iterations in all, and trace_subgroup runs about
+ * (1 + 1/subgroup size) iterations per triangle (≤ 18,432 here with
+ * lavapipe's 8 lanes), so one dispatch over every triangle ignored all past
+ * ~58k. Each dispatch carries the rays' answers over the earlier ranges in
+ * the hit buffer, so the result is the same as one pass.
+ */
+#define RAYCAST_CHUNK_TRIANGLES 16384u
 
+/* raycast_brute.comp's Push (16 bytes, RAYCAST_PUSH_BYTES in renderer.c). */
 typedef struct raycast_push {
     uint32_t ray_count;
-    uint32_t triangle_count;
+    uint32_t triangle_begin;
+    uint32_t triangle_end;
+    uint32_t carry;
 } raycast_push;
 
 pf_status pf_raycast_brute_force(pf_renderer *renderer, const pf_scene_frame *frame,
@@ -60,11 +72,22 @@ pf_status pf_raycast_brute(pf_renderer *renderer, const pf_scene_frame *frame,
         status = pf_vk_commands_begin(ctx, &cmds, err);
         if (status != PF_OK)
             break;
-        raycast_push push = {count, frame->triangle_count};
         pf_vk_buffer *buffers[] = {scene.vertices, ray_buffer, hit_buffer};
-        status = pf_vk_cmd_dispatch(cmds, any_hit ? renderer->raycast_any : renderer->raycast_closest, buffers, 3, &push,
-                                    sizeof push, (count + RAYCAST_GROUP_SIZE - 1) / RAYCAST_GROUP_SIZE,
-                                    1, 1, err);
+        pf_vk_pipeline *pipeline = any_hit ? renderer->raycast_any : renderer->raycast_closest;
+        /* One dispatch even for zero triangles: it writes the misses. */
+        uint32_t begin = 0;
+        do {
+            uint32_t end = frame->triangle_count - begin > RAYCAST_CHUNK_TRIANGLES
+                               ? begin + RAYCAST_CHUNK_TRIANGLES
+                               : frame->triangle_count;
+            raycast_push push = {count, begin, end, begin > 0};
+            if (begin > 0)
+                pf_vk_cmd_barrier(cmds);
+            status = pf_vk_cmd_dispatch(cmds, pipeline, buffers, 3, &push, sizeof push,
+                                        (count + RAYCAST_GROUP_SIZE - 1) / RAYCAST_GROUP_SIZE, 1,
+                                        1, err);
+            begin = end;
+        } while (status == PF_OK && begin < frame->triangle_count);
         if (status == PF_OK)
             status = pf_vk_commands_submit(cmds, err);
         pf_vk_commands_destroy(cmds);

@@ -34,6 +34,14 @@ struct pf_renderer {
     pf_vk_pipeline *render_reference;      /* render_reference.comp, AOVs written */
     pf_vk_pipeline *render_reference_rgb;  /* render_reference.comp, no AOVs */
     pf_vk_pipeline *material_probe;        /* material_probe.comp */
+    /*
+     * The final integrator (frame_final.c): render_final.comp's primary and
+     * gather variants, and the photon passes kept for reuse by the next
+     * frame (created on first use; NULL until a final frame ran).
+     */
+    pf_vk_pipeline *render_final_primary;
+    pf_vk_pipeline *render_final_gather;
+    struct pf_final_cache *final_cache;
 };
 
 /* FrameParams in scene_types.glsl (std430, 160 bytes). */
@@ -133,6 +141,16 @@ pf_status pf_render_frame_preview(pf_renderer *renderer, const pf_scene_frame *f
 pf_status pf_render_frame_reference(pf_renderer *renderer, const pf_scene_frame *frame,
                                     const pf_render_settings *settings, pf_image *image,
                                     pf_frame_report *report, pf_error *err);
+
+/*
+ * The `final` integrator (frame_final.c: photon passes, final gather);
+ * same contract as pf_render_frame. pf_final_cache_destroy releases the
+ * photon passes it keeps in the renderer (NULL is fine).
+ */
+pf_status pf_render_frame_final(pf_renderer *renderer, const pf_scene_frame *frame,
+                                const pf_render_settings *settings, pf_image *image,
+                                pf_frame_report *report, pf_error *err);
+void pf_final_cache_destroy(struct pf_final_cache *cache);
 
 /*
  * Fills the FrameParams the integrators share: camera, image, counts, seed,

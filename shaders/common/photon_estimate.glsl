@@ -22,6 +22,27 @@ const float PHOTON_NORMAL_AGREEMENT = 0.9063;
 // 1 − 2/(3k); k = 1.1 as REFERENCE.md gives.
 const float PHOTON_CONE_K = 1.1;
 const float PHOTON_CONE_NORMALISATION = 1.0 - 2.0 / (3.0 * PHOTON_CONE_K);
+// llvmpipe (lavapipe) silently stops every loop of a shader invocation
+// after 65,535 iterations in total, counted per SIMD group: a loop runs
+// until its slowest lane is done, and nested loops over divergent lanes add
+// up beyond any one lane's count. So an estimate visits its candidate cells
+// and photons in ONE flat loop of at most this many steps (one per photon,
+// one per cell), keeps the k-NN heap's sifts loop-free, and reports when it
+// stops early (`truncated`). Its other loops: the cell search of
+// photon_grid.glsl (< 400 iterations) and the k-NN sum (<= PHOTON_KNN_MAX).
+// Half the cap by default, leaving the rest to the calling kernel (its BIH
+// traversals count too); a kernel that runs several estimates per
+// invocation defines a smaller budget before including this file, the probe
+// (one estimate) a larger one.
+#ifndef PHOTON_ESTIMATE_MAX_ITERATIONS
+#define PHOTON_ESTIMATE_MAX_ITERATIONS 32768u
+#endif
+// Largest k of photon_irradiance_knn (its heap is two private arrays of this
+// many entries, 512 bytes per invocation) and the heap's depth, log2 of it.
+const uint PHOTON_KNN_MAX = 64u;
+const uint PHOTON_KNN_HEAP_DEPTH = 6u;
+// Smallest k-NN radius as a fraction of max_radius (coincident photons).
+const float PHOTON_KNN_MIN_RADIUS_FRACTION = 1.0 / 1024.0;
 
 Photon grid_photon(uint i)
 {
@@ -37,25 +58,157 @@ bool photon_accepted(Photon photon, vec3 normal)
 }
 
 // Irradiance at x (flux-scale units per m²) from the photons within radius
-// (<= the grid's build radius), cone-filtered.
-vec3 photon_irradiance(vec3 x, vec3 normal, float radius, PhotonGrid grid)
+// (<= the grid's build radius), cone-filtered. truncated: the gather reached
+// PHOTON_ESTIMATE_MAX_ITERATIONS (a clustered map) and the sum covers only
+// the photons visited before it; the caller must count the sample as failed.
+vec3 photon_irradiance_guarded(vec3 x, vec3 normal, float radius, PhotonGrid grid,
+                               out bool truncated)
 {
     uint keys[PHOTON_GRID_MAX_KEYS];
     uint key_count = photon_grid_candidate_keys(x, radius, grid, keys);
     vec3 sum = vec3(0.0);
     float radius2 = radius * radius;
-    for (uint k = 0u; k < key_count; k++) {
-        uvec2 range = grid_ranges[keys[k]];
-        for (uint i = range.x; i < range.y; i++) {
-            Photon photon = grid_photon(i);
-            vec3 d = photon.position - x;
-            float distance2 = dot(d, d);
-            if (distance2 > radius2 || !photon_accepted(photon, normal))
-                continue;
-            sum += photon.flux * (1.0 - sqrt(distance2) / (PHOTON_CONE_K * radius));
+    uint key = 0u, index = 0u, end = 0u;
+    bool done = false;
+    for (uint step = 0u; step < PHOTON_ESTIMATE_MAX_ITERATIONS; step++) {
+        if (index >= end) {
+            if (key >= key_count) {
+                done = true;
+                break;
+            }
+            uvec2 range = grid_ranges[keys[key++]];
+            index = range.x;
+            end = range.y;
+            continue;
         }
+        Photon photon = grid_photon(index++);
+        vec3 d = photon.position - x;
+        float distance2 = dot(d, d);
+        if (distance2 <= radius2 && photon_accepted(photon, normal))
+            sum += photon.flux * (1.0 - sqrt(distance2) / (PHOTON_CONE_K * radius));
     }
+    truncated = !done;
     return sum / (PHOTON_CONE_NORMALISATION * PI * radius2);
+}
+
+// photon_irradiance_guarded without the flag, for callers that count
+// failures elsewhere: a truncated estimate is an underestimate.
+vec3 photon_irradiance(vec3 x, vec3 normal, float radius, PhotonGrid grid)
+{
+    bool truncated;
+    return photon_irradiance_guarded(x, normal, radius, grid, truncated);
+}
+
+// The k-NN max-heap on distance² (root = the farthest kept photon), private
+// to the invocation; global so that the sift steps below reach it without
+// copying arrays in and out of functions.
+float photon_knn_distance2[PHOTON_KNN_MAX];
+uint photon_knn_photon[PHOTON_KNN_MAX];
+
+// One level of sifting a new entry (distance2) up from slot in a heap of
+// size entries; false once it has settled. Called PHOTON_KNN_HEAP_DEPTH
+// times in straight-line code: no loop to count against the cap.
+bool photon_knn_sift_up(inout uint slot, float distance2)
+{
+    if (slot == 0u)
+        return false;
+    uint parent = (slot - 1u) / 2u;
+    if (photon_knn_distance2[parent] >= distance2)
+        return false;
+    photon_knn_distance2[slot] = photon_knn_distance2[parent];
+    photon_knn_photon[slot] = photon_knn_photon[parent];
+    slot = parent;
+    return true;
+}
+
+// One level of sifting a replacement root (distance2) down.
+bool photon_knn_sift_down(inout uint slot, float distance2, uint size)
+{
+    uint child = 2u * slot + 1u;
+    if (child >= size)
+        return false;
+    if (child + 1u < size && photon_knn_distance2[child + 1u] > photon_knn_distance2[child])
+        child++;
+    if (photon_knn_distance2[child] <= distance2)
+        return false;
+    photon_knn_distance2[slot] = photon_knn_distance2[child];
+    photon_knn_photon[slot] = photon_knn_photon[child];
+    slot = child;
+    return true;
+}
+
+// Adaptive-radius irradiance (Jensen 2001, eq. 7.6 with the cone filter):
+// the k nearest accepted photons within max_radius (<= the grid's build
+// radius; k is clamped to [1, PHOTON_KNN_MAX]), cone-filtered over the
+// distance r_k of the k-th and divided by π r_k² (× the cone's
+// normalisation); with fewer than k within max_radius, r = max_radius.
+// radius_used returns r, never below PHOTON_KNN_MIN_RADIUS_FRACTION ×
+// max_radius (k photons in one spot would otherwise divide by zero). The k
+// nearest are kept in a max-heap, so an insertion costs log2(k) sift steps,
+// unrolled. truncated as for photon_irradiance_guarded: then the estimate
+// uses the k nearest of the photons visited.
+vec3 photon_irradiance_knn(vec3 x, vec3 normal, uint k, float max_radius, PhotonGrid grid,
+                           out float radius_used, out bool truncated)
+{
+    uint wanted = clamp(k, 1u, PHOTON_KNN_MAX);
+    uint heap_size = 0u;
+    uint keys[PHOTON_GRID_MAX_KEYS];
+    uint key_count = photon_grid_candidate_keys(x, max_radius, grid, keys);
+    float max_radius2 = max_radius * max_radius;
+    uint key = 0u, index = 0u, end = 0u;
+    bool done = false;
+    for (uint step = 0u; step < PHOTON_ESTIMATE_MAX_ITERATIONS; step++) {
+        if (index >= end) {
+            if (key >= key_count) {
+                done = true;
+                break;
+            }
+            uvec2 range = grid_ranges[keys[key++]];
+            index = range.x;
+            end = range.y;
+            continue;
+        }
+        uint i = index++;
+        Photon photon = grid_photon(i);
+        vec3 d = photon.position - x;
+        float distance2 = dot(d, d);
+        if (distance2 > max_radius2 || !photon_accepted(photon, normal))
+            continue;
+        uint slot;
+        bool moving = true;
+        if (heap_size < wanted) {
+            slot = heap_size++;
+            // PHOTON_KNN_HEAP_DEPTH (6) levels from a leaf to the root.
+            moving = moving && photon_knn_sift_up(slot, distance2);
+            moving = moving && photon_knn_sift_up(slot, distance2);
+            moving = moving && photon_knn_sift_up(slot, distance2);
+            moving = moving && photon_knn_sift_up(slot, distance2);
+            moving = moving && photon_knn_sift_up(slot, distance2);
+            moving = moving && photon_knn_sift_up(slot, distance2);
+        } else if (distance2 < photon_knn_distance2[0]) {
+            slot = 0u;
+            moving = moving && photon_knn_sift_down(slot, distance2, heap_size);
+            moving = moving && photon_knn_sift_down(slot, distance2, heap_size);
+            moving = moving && photon_knn_sift_down(slot, distance2, heap_size);
+            moving = moving && photon_knn_sift_down(slot, distance2, heap_size);
+            moving = moving && photon_knn_sift_down(slot, distance2, heap_size);
+            moving = moving && photon_knn_sift_down(slot, distance2, heap_size);
+        } else {
+            continue;
+        }
+        photon_knn_distance2[slot] = distance2;
+        photon_knn_photon[slot] = i;
+    }
+    truncated = !done;
+    float radius = heap_size == wanted ? sqrt(photon_knn_distance2[0]) : max_radius;
+    radius = max(radius, PHOTON_KNN_MIN_RADIUS_FRACTION * max_radius);
+    radius_used = radius;
+    vec3 sum = vec3(0.0);
+    for (uint h = 0u; h < heap_size; h++) {
+        Photon photon = grid_photon(photon_knn_photon[h]);
+        sum += photon.flux * (1.0 - sqrt(photon_knn_distance2[h]) / (PHOTON_CONE_K * radius));
+    }
+    return sum / (PHOTON_CONE_NORMALISATION * PI * radius * radius);
 }
 
 #endif

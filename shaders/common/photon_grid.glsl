@@ -65,6 +65,14 @@ uint photon_grid_candidate_keys(vec3 x, float radius, PhotonGrid grid,
     ivec3 low = photon_grid_cell(x - vec3(reach), grid);
     ivec3 high = min(photon_grid_cell(x + vec3(reach), grid), low + 3);
     uint count = 0u;
+    // A dense grid holds every photon in its cells, or (rounding of the
+    // host's bounding box) in a cell just outside, clamped into the border
+    // cell: a query box that misses the grid by more than one cell can find
+    // nothing, and skipping it keeps far queries from scanning border cells.
+    if (grid.hashed == 0u &&
+        (any(lessThan(high, ivec3(-1))) || any(greaterThan(low, ivec3(grid.dims))))) {
+        return 0u;
+    }
     for (int z = low.z; z <= high.z; z++) {
         for (int y = low.y; y <= high.y; y++) {
             for (int cx = low.x; cx <= high.x; cx++) {

@@ -474,7 +474,10 @@ static inline uint32_t bih_case_rays(float inside, const pf_scene_frame *frame, 
         uint32_t node = bih_next_random(&state) % bih->node_count;
         const pf_bih_node *inner = &bih->nodes[node];
         if ((inner->word & 3u) != PF_BIH_LEAF) {
-            p[inner->word & 3u] = inner->clip[bih_next_random(&state) & 1u];
+            /* An empty-space cut's empty side is ±inf: its other side is the plane there. */
+            uint32_t side = bih_next_random(&state) & 1u;
+            float clip = inner->clip[side];
+            p[inner->word & 3u] = isfinite(clip) ? clip : inner->clip[side ^ 1u];
         } else {
             int axis = (int)(bih_next_random(&state) % 3);
             p[axis] = bih_next_random(&state) & 1u ? frame->bounds_min[axis] : frame->bounds_max[axis];
@@ -656,11 +659,19 @@ static inline void bih_for_each_shared_scene(bih_frame_check check, uint32_t see
     uint32_t scene_count = bih_shared_scene_names(names, 16);
     PF_REQUIRE(scene_count > 0);
     for (uint32_t i = 0; i < scene_count; i++) {
+        /*
+         * pf_test_shared_scene's path, built here with its length checked:
+         * inlined into several callers, its unchecked snprintf tripped gcc 12's
+         * -Wformat-truncation.
+         */
         char path[1024];
+        const char *root = getenv("PF_SHARED_SCENES");
+        int length = snprintf(path, sizeof path, "%s/%s/%s.gltf", root ? root : "../shared/scenes",
+                              names[i], names[i]);
+        PF_CHECK_MSG(length > 0 && (size_t)length < sizeof path, "scene path too long: %s", names[i]);
         pf_scene *scene = NULL;
         pf_error err = {0};
-        PF_CHECK_OK(pf_scene_load(pf_test_shared_scene(names[i], path, sizeof path), &scene, &err),
-                    &err);
+        PF_CHECK_OK(pf_scene_load(path, &scene, &err), &err);
         if (!scene)
             continue;
         const pf_scene_info *info = pf_scene_get_info(scene);

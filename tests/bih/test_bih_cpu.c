@@ -1,13 +1,20 @@
 /*
  * The CPU BIH: reference build + invariants, SAH report, and the CPU
  * traversal against the CPU brute force (pf_ray_triangle_watertight over
- * every triangle) on the hard cases of issue 3 and every shared scene. Same
- * triangle test on both sides, so hits must agree exactly (triangle and t).
+ * every triangle) on the hard cases of issue 3 and every shared scene, for
+ * both heuristics (global and SAH with empty-space cuts). Same triangle test
+ * on both sides, so hits must agree exactly (triangle and t). The build is
+ * byte-identical for any thread count.
  */
 #include "bih_test_util.h"
 
 #define CASE_RAYS 2000u
 #define SCENE_RAYS 1500u
+/*
+ * Big enough that both heuristics' builds split work across threads (they
+ * stay on one thread below 8,192 triangles) at several levels.
+ */
+#define THREADED_TRIANGLES 120000u
 /* Deeper than the traversal stack: a hand-made chain the build would never produce. */
 #define CHAIN_DEPTH (PF_BIH_STACK_SIZE + 6u)
 
@@ -41,12 +48,21 @@ static int build_and_trace(const char *label, const pf_scene_frame *frame, bih_e
     return 1;
 }
 
-/* One frame: the CPU build and traversal against brute force, and the SAH report's figures. */
-static void check_cpu(const char *label, const pf_scene_frame *frame, bih_expect expect,
-                      uint32_t seed, uint32_t ray_count)
+/*
+ * One frame: the CPU build (heuristic) and traversal against brute force, and
+ * the SAH report's figures.
+ */
+static void check_cpu_heuristic(const char *label, const pf_scene_frame *frame,
+                                bih_expect expect, uint32_t seed, uint32_t ray_count,
+                                uint32_t heuristic)
 {
+    pf_bih_build_options options = {.heuristic = heuristic};
+    char full_label[96];
+    snprintf(full_label, sizeof full_label, "%s (%s)", label,
+             heuristic == PF_BIH_HEURISTIC_SAH ? "SAH" : "global");
+    label = full_label;
     pf_bih bih;
-    if (!build_and_trace(label, frame, expect, seed, ray_count, NULL, &bih))
+    if (!build_and_trace(label, frame, expect, seed, ray_count, &options, &bih))
         return;
     pf_bih_quality quality;
     pf_bih_quality_measure(&bih, &quality);
@@ -59,10 +75,91 @@ static void check_cpu(const char *label, const pf_scene_frame *frame, bih_expect
                      "%s: SAH %g (the root leaf or node alone costs >= 1)", label,
                      quality.sah_cost);
     }
-    printf("%-16s %6u triangles: %u nodes, depth %u, leaves %u (mean %.2f, max %u), SAH %.2f\n",
+    printf("%-26s %6u triangles: %u nodes, depth %u, leaves %u (mean %.2f, max %u), SAH %.2f, clip SAH %.2f\n",
            label, frame->triangle_count, bih.node_count, bih.depth, bih.leaf_count,
-           quality.mean_leaf_size, bih.largest_leaf, quality.sah_cost);
+           quality.mean_leaf_size, bih.largest_leaf, quality.sah_cost, quality.clip_sah_cost);
     pf_bih_free(&bih);
+}
+
+static void check_cpu(const char *label, const pf_scene_frame *frame, bih_expect expect,
+                      uint32_t seed, uint32_t ray_count)
+{
+    check_cpu_heuristic(label, frame, expect, seed, ray_count, PF_BIH_HEURISTIC_GLOBAL);
+}
+
+static void check_cpu_sah(const char *label, const pf_scene_frame *frame, bih_expect expect,
+                          uint32_t seed, uint32_t ray_count)
+{
+    check_cpu_heuristic(label, frame, expect, seed, ray_count, PF_BIH_HEURISTIC_SAH);
+}
+
+/* Inner nodes with a ±inf clip value (empty-space cuts) in frame's SAH tree. */
+static uint32_t count_empty_space_cuts(const pf_scene_frame *frame)
+{
+    pf_bih_build_options options = {.heuristic = PF_BIH_HEURISTIC_SAH};
+    pf_bih bih;
+    pf_error err = {0};
+    uint32_t cuts = 0;
+    PF_CHECK_OK(pf_bih_build_cpu(frame, &options, &bih, &err), &err);
+    if (err.status != PF_OK)
+        return 0;
+    for (uint32_t n = 0; n < bih.node_count; n++)
+        cuts += (bih.nodes[n].word & 3u) != PF_BIH_LEAF &&
+                (isinf(bih.nodes[n].clip[0]) || isinf(bih.nodes[n].clip[1]));
+    pf_bih_free(&bih);
+    return cuts;
+}
+
+/* Byte-equal trees: nodes, leaf-order vertices, triangle_index and the summary fields. */
+static void check_same_tree(const char *label, const pf_bih *a, const pf_bih *b)
+{
+    PF_CHECK_MSG(a->node_count == b->node_count && a->triangle_count == b->triangle_count &&
+                     a->depth == b->depth && a->leaf_count == b->leaf_count &&
+                     a->largest_leaf == b->largest_leaf,
+                 "%s: %u nodes, depth %u, %u leaves against %u nodes, depth %u, %u leaves", label,
+                 a->node_count, a->depth, a->leaf_count, b->node_count, b->depth, b->leaf_count);
+    if (a->node_count != b->node_count || a->triangle_count != b->triangle_count)
+        return;
+    PF_CHECK_MSG(memcmp(a->nodes, b->nodes, a->node_count * sizeof *a->nodes) == 0,
+                 "%s: nodes differ", label);
+    PF_CHECK_MSG(memcmp(a->vertices, b->vertices, 3 * (size_t)a->triangle_count * sizeof *a->vertices) == 0,
+                 "%s: leaf-order vertices differ", label);
+    PF_CHECK_MSG(memcmp(a->triangle_index, b->triangle_index,
+                        a->triangle_count * sizeof *a->triangle_index) == 0,
+                 "%s: triangle_index differs", label);
+    PF_CHECK_MSG(memcmp(a->bounds_min, b->bounds_min, sizeof a->bounds_min) == 0 &&
+                     memcmp(a->bounds_max, b->bounds_max, sizeof a->bounds_max) == 0,
+                 "%s: root boxes differ", label);
+}
+
+/* Builds frame with 1, 2 and 5 threads for both heuristics: every tree equals the 1-thread one. */
+static void check_thread_counts(const char *label, const pf_scene_frame *frame,
+                                bih_expect expect, uint32_t seed, uint32_t ray_count)
+{
+    (void)expect, (void)seed, (void)ray_count;
+    static const uint32_t thread_counts[] = {1, 2, 5};
+    const uint32_t heuristics[] = {PF_BIH_HEURISTIC_GLOBAL, PF_BIH_HEURISTIC_SAH};
+    for (int h = 0; h < 2; h++) {
+        pf_bih trees[3];
+        int built[3] = {0, 0, 0};
+        for (int i = 0; i < 3; i++) {
+            pf_bih_build_options options = {.heuristic = heuristics[h],
+                                             .thread_count = thread_counts[i]};
+            pf_error err = {0};
+            PF_CHECK_OK(pf_bih_build_cpu(frame, &options, &trees[i], &err), &err);
+            built[i] = err.status == PF_OK;
+        }
+        for (int i = 1; i < 3; i++) {
+            char what[128];
+            snprintf(what, sizeof what, "%s, %s: %u threads against 1", label,
+                     h ? "SAH" : "global", thread_counts[i]);
+            if (built[0] && built[i])
+                check_same_tree(what, &trees[0], &trees[i]);
+        }
+        for (int i = 0; i < 3; i++)
+            if (built[i])
+                pf_bih_free(&trees[i]);
+    }
 }
 
 PF_TEST(hard_cases_match_brute_force)
@@ -73,6 +170,39 @@ PF_TEST(hard_cases_match_brute_force)
 PF_TEST(shared_scenes_match_brute_force)
 {
     bih_for_each_shared_scene(check_cpu, 31, SCENE_RAYS);
+}
+
+PF_TEST(sah_tree_hard_cases_match_brute_force)
+{
+    bih_for_each_case(check_cpu_sah, 1000, CASE_RAYS);
+    /* The SAH trees above must contain what sets them apart: empty-space cuts. */
+    pf_scene_frame frame;
+    const char *name;
+    PF_REQUIRE(bih_make_case(BIH_CASE_SOUP, &frame, &name));
+    uint32_t cuts = count_empty_space_cuts(&frame);
+    PF_CHECK_MSG(cuts > 0, "%s: the SAH tree has no empty-space cut", name);
+    printf("%s: %u empty-space cuts in the SAH tree\n", name, cuts);
+    bih_frame_free(&frame);
+}
+
+PF_TEST(sah_tree_shared_scenes_match_brute_force)
+{
+    bih_for_each_shared_scene(check_cpu_sah, 31, SCENE_RAYS);
+}
+
+/*
+ * The tree does not depend on the thread count (pf_bih_build_cpu's promise):
+ * every hard case, every shared scene (staircase2 is past the threading
+ * threshold) and a closed mesh of THREADED_TRIANGLES, both heuristics.
+ */
+PF_TEST(build_is_the_same_for_any_thread_count)
+{
+    bih_for_each_case(check_thread_counts, 0, 0);
+    bih_for_each_shared_scene(check_thread_counts, 0, 0);
+    pf_scene_frame frame;
+    PF_REQUIRE(bih_make_bumpy_sphere(&frame, THREADED_TRIANGLES));
+    check_thread_counts("bumpy sphere", &frame, (bih_expect){0.0f, 0}, 0, 0);
+    bih_frame_free(&frame);
 }
 
 PF_TEST(depth_limit_is_kept)
@@ -187,6 +317,9 @@ int main(void)
 {
     PF_RUN(hard_cases_match_brute_force);
     PF_RUN(shared_scenes_match_brute_force);
+    PF_RUN(sah_tree_hard_cases_match_brute_force);
+    PF_RUN(sah_tree_shared_scenes_match_brute_force);
+    PF_RUN(build_is_the_same_for_any_thread_count);
     PF_RUN(depth_limit_is_kept);
     PF_RUN(bad_input_is_refused);
     PF_RUN(checker_catches_broken_trees);

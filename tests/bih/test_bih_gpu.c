@@ -2,8 +2,10 @@
  * The GPU BIH traversal (shaders/common/bih_traverse.glsl through
  * pf_bih_raycast) over the CPU-built tree, against the GPU brute-force oracle
  * (pf_raycast_brute_force): same triangle and t within 1e-6 relative, or a
- * tie. Every hard case and every shared scene; closest and any hit; a stack
- * overflow must be reported. Validation must stay silent.
+ * tie. Every hard case and every shared scene, trees of both heuristics
+ * (global; SAH with empty-space cuts, whose ±inf clip values the GPU must
+ * handle); closest and any hit; a stack overflow must be reported.
+ * Validation must stay silent.
  */
 #include "bih_test_gpu.h"
 
@@ -13,13 +15,19 @@
 
 static bih_gpu_env env;
 
-/* One frame: the CPU-built tree traced on the GPU against the GPU oracle. */
-static void check_gpu(const char *label, const pf_scene_frame *frame, bih_expect expect,
-                      uint32_t seed, uint32_t ray_count)
+/* One frame: the CPU-built tree (heuristic) traced on the GPU against the GPU oracle. */
+static void check_gpu_heuristic(const char *label, const pf_scene_frame *frame,
+                                bih_expect expect, uint32_t seed, uint32_t ray_count,
+                                uint32_t heuristic)
 {
     pf_error err = {0};
+    pf_bih_build_options options = {.heuristic = heuristic};
+    char full_label[96];
+    snprintf(full_label, sizeof full_label, "%s (%s)", label,
+             heuristic == PF_BIH_HEURISTIC_SAH ? "SAH" : "global");
+    label = full_label;
     pf_bih bih;
-    PF_REQUIRE_OK(pf_bih_build_cpu(frame, NULL, &bih, &err), &err);
+    PF_REQUIRE_OK(pf_bih_build_cpu(frame, &options, &bih, &err), &err);
     PF_CHECK_OK(pf_bih_check(&bih, frame, &err), &err);
     bih_ray_set set;
     if (bih_ray_set_alloc(&set, ray_count)) {
@@ -32,13 +40,25 @@ static void check_gpu(const char *label, const pf_scene_frame *frame, bih_expect
             hits += set.oracle[r].triangle != PF_NO_HIT;
             same += set.oracle[r].triangle == set.closest[r].triangle;
         }
-        printf("%-16s %6u triangles: %u/%u hits, %u same triangle as the oracle\n", label,
+        printf("%-26s %6u triangles: %u/%u hits, %u same triangle as the oracle\n", label,
                frame->triangle_count, hits, ray_count, same);
     } else {
         PF_CHECK(!"out of memory");
     }
     bih_ray_set_free(&set);
     pf_bih_free(&bih);
+}
+
+static void check_gpu(const char *label, const pf_scene_frame *frame, bih_expect expect,
+                      uint32_t seed, uint32_t ray_count)
+{
+    check_gpu_heuristic(label, frame, expect, seed, ray_count, PF_BIH_HEURISTIC_GLOBAL);
+}
+
+static void check_gpu_sah(const char *label, const pf_scene_frame *frame, bih_expect expect,
+                          uint32_t seed, uint32_t ray_count)
+{
+    check_gpu_heuristic(label, frame, expect, seed, ray_count, PF_BIH_HEURISTIC_SAH);
 }
 
 PF_TEST(hard_cases_match_oracle)
@@ -49,6 +69,16 @@ PF_TEST(hard_cases_match_oracle)
 PF_TEST(shared_scenes_match_oracle)
 {
     bih_for_each_shared_scene(check_gpu, 71, SCENE_RAYS);
+}
+
+PF_TEST(sah_tree_hard_cases_match_oracle)
+{
+    bih_for_each_case(check_gpu_sah, 2000, CASE_RAYS);
+}
+
+PF_TEST(sah_tree_shared_scenes_match_oracle)
+{
+    bih_for_each_shared_scene(check_gpu_sah, 71, SCENE_RAYS);
 }
 
 PF_TEST(raycast_needs_an_upload)
@@ -105,6 +135,8 @@ int main(void)
         return 1;
     PF_RUN(hard_cases_match_oracle);
     PF_RUN(shared_scenes_match_oracle);
+    PF_RUN(sah_tree_hard_cases_match_oracle);
+    PF_RUN(sah_tree_shared_scenes_match_oracle);
     PF_RUN(raycast_needs_an_upload);
     PF_RUN(stack_overflow_is_reported);
     bih_gpu_env_destroy(&env);

@@ -9,11 +9,14 @@
  * random, clip-plane and edge/vertex rays with an oracle sampled against the
  * CPU brute force (bih_oracle_sampled). Validation stays silent.
  *
- * Why not the GPU brute-force oracle (pf_raycast_brute_force): on lavapipe it
- * silently returns hits from the first few ten thousand triangles only —
- * gallivm ends a shader invocation's loops after 65535 iterations in all
- * (LP_MAX_TGSI_LOOP_ITERATIONS, Mesa 22.3) — and a brute-force answer for
- * every ray would take minutes at 2M triangles anyway.
+ * Every other sampled ray is also cast through the GPU brute-force oracle
+ * (pf_raycast_brute_force, exact at any size since it splits the triangles
+ * across dispatches under llvmpipe's 65,535-iteration loop limit: 123
+ * dispatches here), which must agree with the reference traversal by the GPU
+ * rule (t within 1e-6 relative, or a tie). It does not replace the CPU
+ * sample: on lavapipe it costs about as much per ray at 2M triangles (~35-50
+ * ms against ~37-100 ms for the CPU brute force, 2 cores), and a brute-force
+ * answer for every ray would take minutes on either side.
  */
 #include "bih_test_gpu.h"
 
@@ -32,6 +35,36 @@
 #define BEYOND_LIMIT_MAX_TRIANGLES 4000000u
 
 static bih_gpu_env env;
+
+/* The sampled rays (every stride-th) through the GPU oracle against the reference answers in set->oracle. */
+static void check_gpu_oracle_sample(const char *label, const pf_scene_frame *frame,
+                                    const bih_ray_set *set, uint32_t stride)
+{
+    uint32_t count = (set->count + stride - 1) / stride;
+    pf_ray *rays = malloc(count * sizeof *rays);
+    pf_hit *expected = malloc(count * sizeof *expected);
+    pf_hit *brute = malloc(count * sizeof *brute);
+    if (rays && expected && brute) {
+        for (uint32_t i = 0; i < count; i++) {
+            rays[i] = set->rays[i * stride];
+            expected[i] = set->oracle[i * stride];
+        }
+        pf_error err = {0};
+        double start = pf_time_ms();
+        PF_CHECK_OK(pf_raycast_brute_force(env.renderer, frame, rays, count, brute, &err), &err);
+        printf("%s: GPU oracle, %u rays: %.0f ms\n", label, count, pf_time_ms() - start);
+        if (err.status == PF_OK) {
+            uint32_t mismatches = bih_compare_closest(label, frame, rays, brute, expected, count, 0);
+            PF_CHECK_MSG(mismatches == 0, "%s: %u of %u sampled hits differ from the GPU oracle",
+                         label, mismatches, count);
+        }
+    } else {
+        PF_CHECK(!"out of memory");
+    }
+    free(rays);
+    free(expected);
+    free(brute);
+}
 
 /* The uploaded tree's three buffers fit the device's storage buffer range. */
 static void check_buffer_sizes(const char *label)
@@ -105,6 +138,8 @@ PF_TEST(two_million_triangles)
                                    &cpu, &set, stride);
                 printf("oracle: %u rays, %u sampled against brute force: %.0f ms\n", set.count,
                        (set.count + stride - 1) / stride, pf_time_ms() - start);
+                check_gpu_oracle_sample(half ? "2M, CPU clip planes" : "2M, GPU clip planes",
+                                        &frame, &set, 2 * stride);
                 check_traversals("GPU", &frame, &gpu, &set, half == 0);
                 check_traversals("CPU", &frame, &cpu, &set, half == 0);
             } else {

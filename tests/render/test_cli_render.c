@@ -106,10 +106,17 @@ PF_TEST(bad_frames_scenes_and_options_exit_2)
     snprintf(args, sizeof args, "render '%s' --frames 1-2 -o '%s/single.exr'", scene, tmpdir);
     PF_CHECK(run_photonfarm(args) == 2);
     PF_CHECK(log_contains("#"));
-    snprintf(args, sizeof args, "render '%s' --frame 1 --size 8x8 --quality final -o '%s/q.exr'",
+    snprintf(args, sizeof args, "render '%s' --frame 1 --size 8x8 --quality fast -o '%s/q.exr'",
              scene, tmpdir);
     PF_CHECK(run_photonfarm(args) == 2);
     PF_CHECK(log_contains("not available yet"));
+    snprintf(args, sizeof args,
+             "render '%s' --frame 1 --size 8x6 --quality final --spp 1 -o '%s/final.exr'", scene,
+             tmpdir);
+    PF_CHECK(run_photonfarm(args) == 0);
+    char final_path[1100];
+    snprintf(final_path, sizeof final_path, "%s/final.exr", tmpdir);
+    PF_CHECK(file_exists(final_path));
     const char *bad_usage[] = {"--frame 1 --frames 1-2", "--frames 5-1", "--frames 1-4x0",
                                "--frame 1 --size 0x3", "--frame 1 --quality best", ""};
     for (size_t i = 0; i < sizeof bad_usage / sizeof bad_usage[0]; i++) {

@@ -1,7 +1,8 @@
 /*
  * The GPU brute-force oracle (pf_raycast_brute_force and its any-hit variant)
- * against the CPU watertight test on random rays: a random triangle soup and a
- * shared scene. Validation must stay silent.
+ * against the CPU watertight test on random rays: a random triangle soup, a
+ * shared scene, and a mesh past lavapipe's loop limit (the oracle must split
+ * the triangles across dispatches). Validation must stay silent.
  */
 #include "pf_render.h"
 #include "pf_test.h"
@@ -11,6 +12,18 @@
 
 #define RAY_COUNT 10000u
 #define SOUP_TRIANGLES 500u
+/*
+ * Past llvmpipe's loop limit: an invocation's loops stop after 65,535
+ * iterations in all (Mesa 22.3), which a single pass over this many triangles
+ * exceeds about twice; an uneven last range (not a multiple of the oracle's
+ * triangles per dispatch) too.
+ */
+#define LARGE_TRIANGLES 150001u
+#define LARGE_RAYS 400u
+/* Triangle indices at and beyond this are where a capped single pass never looked. */
+#define LOOP_CAP_TRIANGLES 65536u
+/* Triangle size in the large strip: ~1 expected hit per ray, so hits and misses both. */
+#define LARGE_TRIANGLE_SIZE 0.012f
 /* Relative t tolerance: GPU division may be 2.5 ulp off (Vulkan precision rules). */
 #define T_RELATIVE_TOLERANCE 1e-6
 
@@ -188,6 +201,84 @@ PF_TEST(oracle_matches_cpu_on_shared_scene)
     pf_scene_destroy(scene);
 }
 
+/*
+ * A strip of LARGE_TRIANGLES small triangles whose centre x grows with the
+ * index, crossed by rays close to the y axis: each ray meets only triangles
+ * of nearby indices, so the rays at large x can be answered only by the
+ * triangles past LOOP_CAP_TRIANGLES — closest and any hit.
+ */
+PF_TEST(oracle_is_exact_past_the_loop_limit)
+{
+    pf_scene_frame frame = {0};
+    frame.triangle_count = LARGE_TRIANGLES;
+    frame.vertices = calloc(3 * (size_t)LARGE_TRIANGLES, sizeof *frame.vertices);
+    pf_ray *rays = malloc(LARGE_RAYS * sizeof *rays);
+    pf_hit *hits = malloc(LARGE_RAYS * sizeof *hits);
+    PF_REQUIRE(frame.vertices && rays && hits);
+    uint32_t state = 31337;
+    for (uint32_t i = 0; i < LARGE_TRIANGLES; i++) {
+        float centre[3] = {-1.0f + 2.0f * ((float)i + 0.5f) / (float)LARGE_TRIANGLES,
+                           uniform(&state, -1, 1), uniform(&state, -1, 1)};
+        for (int corner = 0; corner < 3; corner++)
+            for (int k = 0; k < 3; k++)
+                frame.vertices[3 * i + corner][k] =
+                    centre[k] + uniform(&state, -LARGE_TRIANGLE_SIZE, LARGE_TRIANGLE_SIZE);
+    }
+    /* Exact duplicates past the cap make ties there too. */
+    for (uint32_t i = LOOP_CAP_TRIANGLES; i + 1 < LARGE_TRIANGLES; i += 4099)
+        memcpy(frame.vertices[3 * (i + 1)], frame.vertices[3 * i], 3 * sizeof *frame.vertices);
+    for (uint32_t r = 0; r < LARGE_RAYS; r++) {
+        pf_ray *ray = &rays[r];
+        ray->origin[0] = uniform(&state, -1, 1);
+        ray->origin[1] = -2.0f;
+        ray->origin[2] = uniform(&state, -1, 1);
+        ray->direction[0] = uniform(&state, -0.01f, 0.01f);
+        ray->direction[1] = 1.0f;
+        ray->direction[2] = uniform(&state, -0.01f, 0.01f);
+        ray->tmin = 0.0f;
+        ray->tmax = r % 4 == 0 ? uniform(&state, 1.0f, 3.0f) : INFINITY;
+    }
+    /* Every fifth ray aimed exactly at a triangle's centroid past the cap: a sure hit there. */
+    for (uint32_t r = 0; r < LARGE_RAYS; r += 5) {
+        uint32_t t = LOOP_CAP_TRIANGLES + next_random(&state) % (LARGE_TRIANGLES - LOOP_CAP_TRIANGLES);
+        for (int k = 0; k < 3; k++) {
+            float centroid = (frame.vertices[3 * t][k] + frame.vertices[3 * t + 1][k] +
+                              frame.vertices[3 * t + 2][k]) / 3.0f;
+            rays[r].direction[k] = centroid - rays[r].origin[k];
+        }
+        rays[r].tmax = INFINITY;
+    }
+    for (int k = 0; k < 3; k++) {
+        frame.bounds_min[k] = -1.0f - LARGE_TRIANGLE_SIZE;
+        frame.bounds_max[k] = 1.0f + LARGE_TRIANGLE_SIZE;
+    }
+    pf_error err = {0};
+    double start = pf_time_ms();
+    PF_CHECK_OK(pf_raycast_brute_force(renderer, &frame, rays, LARGE_RAYS, hits, &err), &err);
+    double gpu_ms = pf_time_ms() - start;
+    uint32_t hit_count = 0, past_cap = 0;
+    uint32_t mismatches = compare_closest(&frame, rays, hits, LARGE_RAYS, &hit_count);
+    for (uint32_t r = 0; r < LARGE_RAYS; r++)
+        past_cap += hits[r].triangle != PF_NO_HIT && hits[r].triangle >= LOOP_CAP_TRIANGLES;
+    PF_CHECK_MSG(mismatches == 0, "%u triangles: %u of %u closest hits disagree", LARGE_TRIANGLES,
+                 mismatches, LARGE_RAYS);
+    PF_CHECK_MSG(hit_count > LARGE_RAYS / 4 && hit_count < LARGE_RAYS,
+                 "%u hits: the rays must exercise both hits and misses", hit_count);
+    /* Agreeing answers past the cap are what shows a capped loop would have been caught. */
+    PF_CHECK_MSG(mismatches > 0 || past_cap > LARGE_RAYS / 5,
+                 "only %u closest hits past triangle %u: the test would not see a capped loop",
+                 past_cap, LOOP_CAP_TRIANGLES);
+    PF_CHECK_OK(pf_raycast_brute(renderer, &frame, rays, LARGE_RAYS, 1, hits, &err), &err);
+    mismatches = compare_any(&frame, rays, hits, LARGE_RAYS);
+    PF_CHECK_MSG(mismatches == 0, "%u triangles: %u of %u any-hit results disagree",
+                 LARGE_TRIANGLES, mismatches, LARGE_RAYS);
+    printf("%u triangles, %u rays: %u hits, %u past triangle %u; closest-hit oracle %.0f ms\n",
+           LARGE_TRIANGLES, LARGE_RAYS, hit_count, past_cap, LOOP_CAP_TRIANGLES, gpu_ms);
+    free(frame.vertices);
+    free(rays);
+    free(hits);
+}
+
 PF_TEST(zero_triangles_every_ray_misses)
 {
     pf_scene_frame frame = {0};
@@ -217,6 +308,7 @@ int main(void)
     }
     PF_RUN(oracle_matches_cpu_on_triangle_soup);
     PF_RUN(oracle_matches_cpu_on_shared_scene);
+    PF_RUN(oracle_is_exact_past_the_loop_limit);
     PF_RUN(zero_triangles_every_ray_misses);
     pf_renderer_destroy(renderer);
     uint32_t messages = pf_vk_validation_message_count(ctx);

@@ -1,0 +1,82 @@
+// Direct light at a diffuse vertex by next-event estimation: the one
+// estimator the reference path tracer and the final-gather integrator share
+// (pbrt-v4 SampleLd, with the light set of this project).
+//
+// One emissive triangle picked by power (area_lights.glsl) with a
+// power-heuristic MIS weight against bsdf_sample_count BSDF-sampled rays
+// that may hit the same light (Veach 1997, multi-sample form: weights
+// (n_i p_i)² / Σ (n_k p_k)²); bsdf_sample_count 0 means no BSDF ray looks
+// for emission, so the light sample carries full weight. Every punctual
+// light is added without MIS (a delta light is reachable only this way).
+// Each candidate with a non-zero contribution casts one any-hit shadow ray.
+//
+// The including shader declares params (FrameParams), the scene arrays that
+// area_lights.glsl and lights.glsl read, and
+//   BihHit trace(vec3 origin, vec3 direction, float tmax, bool any_hit)
+// and includes area_lights.glsl, lights.glsl and materials.glsl first.
+#ifndef PF_DIRECT_LIGHT_GLSL
+#define PF_DIRECT_LIGHT_GLSL
+
+// Power heuristic, β = 2 (Veach 1997); pdfs already multiplied by their sample counts.
+float mis_power(float pdf_this, float pdf_other)
+{
+    float a = pdf_this * pdf_this;
+    float b = pdf_other * pdf_other;
+    return a > 0.0 ? a / (a + b) : 0.0;
+}
+
+// Light reflected towards wo at position, times throughput; rays counts the
+// shadow rays cast. surface_origin is position moved off the surface on wo's side.
+// One loop over the candidates (the emissive sample first, then each
+// punctual light) with a single trace call: every call site of trace_bih is
+// inlined, and llvmpipe's compile time grows with each.
+vec3 direct_light(Material material, vec3 position, vec3 surface_origin, vec3 wo,
+                  vec3 shading_normal, vec3 geometric_normal, vec3 throughput, vec4 light_xi,
+                  float bsdf_sample_count, inout uint rays)
+{
+    float ray_offset = params.camera_right.w;
+    vec3 sum = vec3(0.0);
+    vec3 area_contribution = vec3(0.0);
+    vec3 area_direction = vec3(0.0, 0.0, 1.0);
+    float area_tmax = 0.0;
+    if (params.emissive_count > 0u) {
+        AreaLightSample light = emissive_sample(position, light_xi, params.emissive_count,
+                                                params.emissive_weight_total);
+        vec3 reflected = bsdf_eval_cos(material, wo, light.to_light, shading_normal,
+                                       geometric_normal);
+        if (light.pdf_solid_angle > 0.0) {
+            float weight = bsdf_sample_count > 0.0
+                               ? mis_power(light.pdf_solid_angle,
+                                           bsdf_sample_count *
+                                               bsdf_pdf(material, wo, light.to_light,
+                                                        shading_normal, geometric_normal))
+                               : 1.0;
+            area_contribution = throughput * reflected * light.radiance *
+                                (weight / light.pdf_solid_angle);
+        }
+        area_direction = light.to_light;
+        area_tmax = light.distance - 2.0 * ray_offset;
+    }
+    // Candidate 0 is the emissive sample, candidate i > 0 punctual light i - 1.
+    for (uint candidate = 0u; candidate <= params.light_count; candidate++) {
+        vec3 contribution = area_contribution;
+        vec3 to_light = area_direction;
+        float tmax = area_tmax;
+        if (candidate > 0u) {
+            LightSample light = light_sample(lights[candidate - 1u], position);
+            contribution = throughput * light.irradiance *
+                           bsdf_eval_cos(material, wo, light.to_light, shading_normal,
+                                         geometric_normal);
+            to_light = light.to_light;
+            tmax = light.distance - ray_offset;
+        }
+        if (any(greaterThan(contribution, vec3(0.0)))) {
+            rays++;
+            if (trace(surface_origin, to_light, tmax, true).triangle == NO_HIT)
+                sum += contribution;
+        }
+    }
+    return sum;
+}
+
+#endif

@@ -1,0 +1,417 @@
+#version 460
+#extension GL_GOOGLE_include_directive : require
+// The `final` integrator's `shade` stage (core/render/frame_final.c drives
+// it): direct light, caustics from the caustic map and indirect light by
+// final gather into the global map. One pixel sample is three kinds of
+// dispatch over the whole image, specialised by MODE:
+//
+// MODE_PRIMARY (caustic grid bound): a camera ray through the pixel filter
+//   (sampler.glsl), specular chain (bsdf_sample) to the first diffuse vertex
+//   D₁, at most params.max_specular_depth specular vertices; emission seen
+//   on the way and direct light at D₁ (direct_light.glsl, the reference's
+//   NEE, MIS-weighted against the gather rays that may hit the same
+//   emitter) go to `direct`; the caustic estimate at D₁ (albedo/π × caustic
+//   irradiance) to `caustic` and `indirect`. D₁ is written to the vertex
+//   record for the gather.
+// MODE_GATHER (global grid bound): push.gather_count of the sample's
+//   push.gather_total cosine-distributed gather rays from D₁ per dispatch.
+//   At a gather ray's first diffuse hit x₂: albedo/π × global-map irradiance
+//   (the global map holds L (S|D)+ x₂: no first hits) plus direct light at x₂
+//   by NEE (no MIS: nothing else samples it), into `indirect`. Gather rays
+//   follow mirrors and glass for at most GATHER_MAX_SPECULAR vertices and
+//   are dropped (counted in counters.gather_dropped) beyond; emission a
+//   gather ray sees after a specular vertex is left out (L S+ D₁ is the
+//   caustic map's), emission it hits straight from D₁ is the BSDF half of
+//   the direct-light MIS. The dispatch with push.resolve = 1 (the sample's
+//   last) adds the sample to the film.
+//
+// Loop cap (lavapipe): llvmpipe ends every loop of an invocation after
+// 65,535 iterations in total, silently. Bounded by design: one camera path
+// (at most params.max_specular_depth + 1 vertices) and one caustic
+// estimate per primary invocation, push.gather_count (4) gather rays per
+// gather invocation, each estimate stopping itself after
+// PHOTON_ESTIMATE_MAX_ITERATIONS (below). Detected either way: an estimate
+// that stopped says so (photon_irradiance_guarded/_knn), and each
+// invocation proves its loops were not cut by running, at its very end,
+// one iteration of a loop bounded by a push constant (push.loop_sentinel =
+// 1): after the cap that loop runs zero times. Either drops the sample and
+// counts it (counters.loop_truncated); the host reports it and fails the
+// frame above 1% of samples, never a silent bias.
+//
+// Records (one per pixel, rewritten by every sample):
+//   vertices[5p]      (D₁ position, state: 0 none, 1 present)
+//   vertices[5p + 1]  (shading normal, material index bits)
+//   vertices[5p + 2]  (geometric normal, 0)
+//   vertices[5p + 3]  (throughput up to D₁, 0)
+//   vertices[5p + 4]  (wo at D₁, 0)
+//   sample_sums[3p]   (direct, coverage), (indirect, kept 1/0), (caustic, 0)
+// Film (sums over samples, reference layout): film[3p..3p+2] as the
+// sample, film_aov[2p] (albedo, depth), film_aov[2p + 1] (normal, samples
+// with an AOV).
+
+layout(local_size_x = 8, local_size_y = 8) in;
+
+const uint MODE_PRIMARY = 0u;
+const uint MODE_GATHER = 1u;
+layout(constant_id = 0) const uint MODE = MODE_PRIMARY;
+
+layout(push_constant) uniform Push {
+    vec3 grid_origin;
+    float grid_inv_cell;
+    uvec3 grid_dims;
+    uint grid_hashed;
+    uint grid_table_size;
+    uint grid_photons;  // photons in the bound grid (0: no estimate)
+    uint sample_index;  // 0 starts the film's sums
+    uint gather_first;
+    uint gather_count;  // gather rays in this dispatch
+    uint gather_total;  // gather rays per sample
+    uint resolve;       // 1: add the sample to the film after this dispatch
+    uint loop_sentinel; // 1; the end-of-invocation proof loop runs this many times
+    float radius;       // gather radius of the bound grid
+    float flux_scale;   // W per unit of the bound map's stored flux
+} push;
+
+#include "scene_types.glsl"
+#include "photon_types.glsl"
+#include "photon_grid.glsl"
+
+layout(std430, set = 0, binding = 0) readonly buffer Params { FrameParams params; };
+layout(std430, set = 0, binding = 1) readonly buffer TriangleVertices { vec4 triangle_vertices[]; };
+layout(std430, set = 0, binding = 2) readonly buffer TriangleNormals { vec4 triangle_normals[]; };
+layout(std430, set = 0, binding = 3) readonly buffer TriangleMaterials { uint triangle_material[]; };
+layout(std430, set = 0, binding = 4) readonly buffer Materials { Material materials[]; };
+layout(std430, set = 0, binding = 5) readonly buffer Lights { Light lights[]; };
+layout(std430, set = 0, binding = 6) readonly buffer Emissive { EmissiveEntry emissive[]; };
+layout(std430, set = 0, binding = 7) buffer Film { vec4 film[]; };
+layout(std430, set = 0, binding = 8) buffer FilmAov { vec4 film_aov[]; };
+layout(std430, set = 0, binding = 9) buffer Counters {
+    uint discarded_samples; // non-finite or loop-truncated samples kept off the film
+    uint traversal_failures;
+    uint rays_low;
+    uint rays_high;
+    uint loop_truncated;    // invocations the loop cap cut short
+    uint gather_dropped;    // gather rays past GATHER_MAX_SPECULAR specular vertices
+} counters;
+layout(std430, set = 0, binding = 10) readonly buffer BihNodes { uint bih_nodes[]; };
+layout(std430, set = 0, binding = 11) readonly buffer BihVertices { vec4 bih_vertices[]; };
+layout(std430, set = 0, binding = 12) readonly buffer BihTriangleIndex { uint bih_triangle_index[]; };
+layout(std430, set = 0, binding = 13) buffer Vertices { vec4 vertices[]; };
+layout(std430, set = 0, binding = 14) buffer SampleSums { vec4 sample_sums[]; };
+layout(std430, set = 0, binding = 15) readonly buffer GridPhotons { uint grid_words[]; };
+layout(std430, set = 0, binding = 16) readonly buffer GridRanges { uvec2 grid_ranges[]; };
+
+#include "bih_traverse.glsl"
+#include "camera.glsl"
+#include "area_lights.glsl"
+#include "lights.glsl"
+#include "materials.glsl"
+#include "surface.glsl"
+#include "sampler.glsl"
+// Each estimate stops after this many iterations (photon_estimate.glsl):
+// with FINAL_GATHER_RAYS_PER_DISPATCH = 4 estimates per invocation (the
+// host's figure) that is 32,768 of the 65,535, leaving the rest to the
+// traversals and light loops; a stopped estimate drops the sample (counted).
+#define PHOTON_ESTIMATE_MAX_ITERATIONS 8192u
+#include "photon_estimate.glsl"
+
+// Specular vertices a gather ray follows before it is dropped: enough for
+// a glass sphere (in, out) and a mirror behind it.
+const uint GATHER_MAX_SPECULAR = 4u;
+// Gather rays draw from their own scrambled sequence (seed_lo xor this).
+const uint GATHER_SEED_SALT = 0x9e3779b9u;
+
+BihHit trace(vec3 origin, vec3 direction, float tmax, bool any_hit)
+{
+    bool failed;
+    BihHit hit = trace_bih(origin, direction, 0.0, tmax, any_hit, params.bih_bounds_min.xyz,
+                           params.bih_bounds_max.xyz, params.triangle_count,
+                           params.bih_node_count, failed);
+    if (failed)
+        atomicAdd(counters.traversal_failures, 1u);
+    return hit;
+}
+
+#include "direct_light.glsl"
+
+PhotonGrid bound_grid()
+{
+    return PhotonGrid(push.grid_origin, push.grid_inv_cell, push.grid_dims, push.grid_hashed,
+                      push.grid_table_size);
+}
+
+// Photons a caustic estimate gathers (k nearest, photon_irradiance_knn),
+// within the pass's caustic radius: caustics are small and bright, so the
+// radius adapts to their density and the pass radius only bounds it (and
+// shrinks pass by pass, so the bias still vanishes).
+const uint CAUSTIC_NEAREST = 32u;
+
+// Radiance a Lambertian surface reflects from the bound global map's
+// irradiance (fixed radius, cone filter); truncated as photon_irradiance_guarded.
+vec3 global_radiance(Material material, vec3 position, vec3 geometric_normal,
+                     inout bool truncated)
+{
+    if (push.grid_photons == 0u)
+        return vec3(0.0);
+    bool stopped;
+    vec3 irradiance = photon_irradiance_guarded(position, geometric_normal, push.radius,
+                                                bound_grid(), stopped);
+    truncated = truncated || stopped;
+    return material.albedo * (push.flux_scale / PI) * irradiance;
+}
+
+// The same from the bound caustic map, k nearest within the pass radius.
+vec3 caustic_radiance(Material material, vec3 position, vec3 geometric_normal,
+                      inout bool truncated)
+{
+    if (push.grid_photons == 0u)
+        return vec3(0.0);
+    bool stopped;
+    float radius_used;
+    vec3 irradiance = photon_irradiance_knn(position, geometric_normal, CAUSTIC_NEAREST,
+                                            push.radius, bound_grid(), radius_used, stopped);
+    truncated = truncated || stopped;
+    return material.albedo * (push.flux_scale / PI) * irradiance;
+}
+
+// The loop cap's proof of completion (header): false if this invocation's loops were cut.
+bool loops_completed()
+{
+    bool completed = false;
+    for (uint i = 0u; i < push.loop_sentinel; i++)
+        completed = true;
+    return completed;
+}
+
+void count_rays(uint rays)
+{
+    uint previous_low = atomicAdd(counters.rays_low, rays);
+    if (previous_low + rays < previous_low)
+        atomicAdd(counters.rays_high, 1u);
+}
+
+void primary(uint pixel_index, uvec2 pixel)
+{
+    const float infinity = uintBitsToFloat(0x7f800000u);
+    float ray_offset = params.camera_right.w;
+    Sampler samples = sampler_init(pixel_index, push.sample_index, params.seed_lo, params.seed_hi);
+    vec4 camera_xi = sampler_next_4d(samples);
+    vec2 film_position = vec2(pixel) + 0.5 + filter_gaussian_sample(camera_xi.xy);
+    vec3 origin = params.camera_position.xyz;
+    vec3 direction = camera_ray_direction(params.camera_forward.xyz, params.camera_right.xyz,
+                                          params.camera_up.xyz, params.camera_position.w,
+                                          params.camera_forward.w, film_position,
+                                          vec2(params.width, params.height));
+    vec3 throughput = vec3(1.0);
+    vec3 direct = vec3(0.0), caustic = vec3(0.0);
+    float coverage = 0.0, depth_aov = 0.0;
+    vec3 albedo_aov = vec3(0.0), normal_aov = vec3(0.0);
+    bool valid = true, truncated = false;
+    uint rays = 0u;
+    uint base = 5u * pixel_index;
+    vertices[base] = vec4(0.0);
+
+    for (uint depth = 0u; depth <= params.max_specular_depth; depth++) {
+        BihHit hit = trace(origin, direction, infinity, false);
+        rays++;
+        if (hit.triangle == NO_HIT)
+            break;
+        Surface surface = surface_at(hit, origin, direction);
+        if (!surface.valid) {
+            valid = false;
+            break;
+        }
+        Material material = surface.material;
+        if (depth == 0u) {
+            coverage = 1.0;
+            depth_aov = hit.t;
+        }
+        // Seen from the camera or through specular vertices only: no light
+        // sampling reaches it, so it has full weight.
+        if (surface.front)
+            direct += throughput * material.emission;
+        vec3 wo = -direction;
+        if (material.kind == MATERIAL_LAMBERT) {
+            albedo_aov = material.albedo;
+            normal_aov = surface.shading_normal;
+            vec3 surface_origin = surface.position + ray_offset * surface.geometric_normal;
+            direct += direct_light(material, surface.position, surface_origin, wo,
+                                   surface.shading_normal, surface.geometric_normal, throughput,
+                                   sampler_next_4d(samples), float(push.gather_total), rays);
+            caustic = throughput * caustic_radiance(material, surface.position,
+                                                    surface.geometric_normal, truncated);
+            vertices[base] = vec4(surface.position, push.gather_total > 0u ? 1.0 : 0.0);
+            vertices[base + 1u] = vec4(surface.shading_normal,
+                                       uintBitsToFloat(triangle_material[hit.triangle]));
+            vertices[base + 2u] = vec4(surface.geometric_normal, 0.0);
+            vertices[base + 3u] = vec4(throughput, 0.0);
+            vertices[base + 4u] = vec4(wo, 0.0);
+            break;
+        }
+        BsdfSample scattered = bsdf_sample(material, wo, surface.shading_normal,
+                                           surface.geometric_normal, surface.front,
+                                           sampler_next_4d(samples).xyz);
+        throughput *= scattered.weight;
+        if (!all_finite(throughput)) {
+            valid = false;
+            break;
+        }
+        if (!any(greaterThan(throughput, vec3(0.0))))
+            break;
+        origin = surface.position +
+                 (scattered.transmitted ? -ray_offset : ray_offset) * surface.geometric_normal;
+        direction = scattered.direction;
+    }
+
+    bool completed = loops_completed() && !truncated;
+    if (!completed)
+        atomicAdd(counters.loop_truncated, 1u);
+    bool kept = completed && valid && all_finite(direct) && all_finite(caustic);
+    uint sample_base = 3u * pixel_index;
+    sample_sums[sample_base] = vec4(direct, coverage);
+    sample_sums[sample_base + 1u] = vec4(caustic, kept ? 1.0 : 0.0);
+    sample_sums[sample_base + 2u] = vec4(caustic, 0.0);
+    if (!kept)
+        vertices[base].w = 0.0;
+    bool aov_kept = kept && all_finite(albedo_aov) && all_finite(normal_aov) &&
+                    !isnan(depth_aov) && !isinf(depth_aov);
+    uint aov_index = 2u * pixel_index;
+    vec4 albedo_depth = aov_kept ? vec4(albedo_aov, depth_aov) : vec4(0.0);
+    vec4 normal_sum = aov_kept ? vec4(normal_aov, 1.0) : vec4(0.0);
+    if (push.sample_index > 0u) {
+        albedo_depth += film_aov[aov_index];
+        normal_sum += film_aov[aov_index + 1u];
+    }
+    film_aov[aov_index] = albedo_depth;
+    film_aov[aov_index + 1u] = normal_sum;
+    count_rays(rays);
+}
+
+// Radiance arriving at D₁ along one gather ray, weighted by the ray's BSDF
+// factor; emission hit straight from D₁ goes to direct (MIS), the rest to indirect.
+void gather_ray(uint pixel_index, uint gather_index, Material d1_material, vec3 d1_position,
+                vec3 shading_normal, vec3 geometric_normal, vec3 d1_throughput, vec3 wo,
+                inout vec3 direct, inout vec3 indirect, inout bool valid, inout bool truncated,
+                inout uint rays)
+{
+    const float infinity = uintBitsToFloat(0x7f800000u);
+    float ray_offset = params.camera_right.w;
+    Sampler samples = sampler_init(pixel_index,
+                                   push.sample_index * push.gather_total + gather_index,
+                                   params.seed_lo ^ GATHER_SEED_SALT, params.seed_hi);
+    BsdfSample first = bsdf_sample(d1_material, wo, shading_normal, geometric_normal, true,
+                                   sampler_next_4d(samples).xyz);
+    float gather_total = float(push.gather_total);
+    vec3 path = d1_throughput * first.weight / gather_total;
+    if (!any(greaterThan(path, vec3(0.0))))
+        return;
+    vec3 origin = d1_position + ray_offset * geometric_normal;
+    vec3 direction = first.direction;
+    for (uint bounce = 0u; bounce <= GATHER_MAX_SPECULAR; bounce++) {
+        BihHit hit = trace(origin, direction, infinity, false);
+        rays++;
+        if (hit.triangle == NO_HIT)
+            return;
+        Surface surface = surface_at(hit, origin, direction);
+        if (!surface.valid) {
+            valid = false;
+            return;
+        }
+        Material material = surface.material;
+        if (bounce == 0u && surface.front && any(greaterThan(material.emission, vec3(0.0)))) {
+            float cos_light = -dot(surface.face_normal, direction);
+            float light_pdf = emissive_pdf_area(material.emission, params.emissive_weight_total) *
+                              hit.t * hit.t / cos_light;
+            direct += path * material.emission * mis_power(gather_total * first.pdf, light_pdf);
+        }
+        vec3 wo_hit = -direction;
+        if (material.kind == MATERIAL_LAMBERT) {
+            vec3 surface_origin = surface.position + ray_offset * surface.geometric_normal;
+            indirect += direct_light(material, surface.position, surface_origin, wo_hit,
+                                     surface.shading_normal, surface.geometric_normal, path,
+                                     sampler_next_4d(samples), 0.0, rays);
+            indirect += path * global_radiance(material, surface.position,
+                                               surface.geometric_normal, truncated);
+            return;
+        }
+        if (bounce == GATHER_MAX_SPECULAR) {
+            atomicAdd(counters.gather_dropped, 1u);
+            return;
+        }
+        BsdfSample scattered = bsdf_sample(material, wo_hit, surface.shading_normal,
+                                           surface.geometric_normal, surface.front,
+                                           sampler_next_4d(samples).xyz);
+        path *= scattered.weight;
+        if (!all_finite(path)) {
+            valid = false;
+            return;
+        }
+        if (!any(greaterThan(path, vec3(0.0))))
+            return;
+        origin = surface.position +
+                 (scattered.transmitted ? -ray_offset : ray_offset) * surface.geometric_normal;
+        direction = scattered.direction;
+    }
+}
+
+void gather(uint pixel_index)
+{
+    uint base = 5u * pixel_index;
+    uint sample_base = 3u * pixel_index;
+    vec4 d1 = vertices[base];
+    vec4 sample_direct = sample_sums[sample_base];
+    vec4 sample_indirect = sample_sums[sample_base + 1u];
+    bool valid = true, truncated = false;
+    uint rays = 0u;
+    if (d1.w > 0.0) {
+        vec4 shading = vertices[base + 1u];
+        Material material = materials[floatBitsToUint(shading.w)];
+        vec3 direct = vec3(0.0), indirect = vec3(0.0);
+        uint end = min(push.gather_first + push.gather_count, push.gather_total);
+        for (uint g = push.gather_first; g < end; g++)
+            gather_ray(pixel_index, g, material, d1.xyz, shading.xyz, vertices[base + 2u].xyz,
+                       vertices[base + 3u].xyz, vertices[base + 4u].xyz, direct, indirect,
+                       valid, truncated, rays);
+        bool completed = loops_completed() && !truncated;
+        if (!completed)
+            atomicAdd(counters.loop_truncated, 1u);
+        if (!completed || !valid || !all_finite(direct) || !all_finite(indirect)) {
+            sample_indirect.w = 0.0;
+            vertices[base].w = 0.0;
+        }
+        sample_direct.xyz += direct;
+        sample_indirect.xyz += indirect;
+        sample_sums[sample_base] = sample_direct;
+        sample_sums[sample_base + 1u] = sample_indirect;
+    }
+    count_rays(rays);
+    if (push.resolve == 0u)
+        return;
+    bool kept = sample_indirect.w > 0.0 && all_finite(sample_direct.xyz) &&
+                all_finite(sample_indirect.xyz);
+    vec4 direct_sum = kept ? sample_direct : vec4(0.0);
+    vec4 indirect_sum = kept ? sample_indirect : vec4(0.0);
+    vec4 caustic_sum = kept ? sample_sums[sample_base + 2u] : vec4(0.0);
+    if (push.sample_index > 0u) {
+        direct_sum += film[sample_base];
+        indirect_sum += film[sample_base + 1u];
+        caustic_sum += film[sample_base + 2u];
+    }
+    film[sample_base] = direct_sum;
+    film[sample_base + 1u] = indirect_sum;
+    film[sample_base + 2u] = caustic_sum;
+    if (!kept)
+        atomicAdd(counters.discarded_samples, 1u);
+}
+
+void main()
+{
+    uvec2 pixel = gl_GlobalInvocationID.xy;
+    if (pixel.x >= params.width || pixel.y >= params.height)
+        return;
+    uint pixel_index = pixel.y * params.width + pixel.x;
+    if (MODE == MODE_PRIMARY)
+        primary(pixel_index, pixel);
+    else
+        gather(pixel_index);
+}
