@@ -18,8 +18,11 @@
  *
  * r_1: the radius holding FINAL_GLOBAL_NEIGHBOURS photons of the first
  * pass's global map at its mean density over the scene's surface area,
- * r_1² = K A / (π N_global). Caustics use the k-nearest estimate
- * (photon_irradiance_knn) bounded by the same pass radius.
+ * r_1² = K A / (π N_global). Caustics get a radius per pixel: the first
+ * pass takes the k-nearest estimate (photon_irradiance_knn, bounded by r_1)
+ * and keeps its radius; pass i uses that radius × r_i / r_1 at a fixed radius
+ * (render_final.comp's caustic_radiance says why a k-nearest estimate in
+ * every pass would not converge).
  *
  * Stage rows: photon_trace and photon_grid (one each per frame, totals over
  * the passes), caustic_map (the caustic grids; skipped without specular
@@ -74,7 +77,7 @@
 #define FILM_AOV_VEC4_PER_PIXEL 2u
 #define VERTEX_VEC4_PER_PIXEL 5u
 #define GROUP_EDGE 8u
-#define FINAL_BUFFERS 17u
+#define FINAL_BUFFERS 18u
 /* render_final.comp's bindings of the photon grid it gathers from. */
 #define GRID_WORDS_BINDING 15u
 #define GRID_RANGES_BINDING 16u
@@ -86,7 +89,7 @@ static const char *const final_channels[] = {
     "normal.Z",   "depth.Z"};
 #define FINAL_BEAUTY_CHANNELS 13u
 
-/* render_final.comp's Push (72 bytes). */
+/* render_final.comp's Push (76 bytes). */
 typedef struct final_push {
     float grid_origin[3];
     float grid_inv_cell;
@@ -102,9 +105,10 @@ typedef struct final_push {
     uint32_t loop_sentinel;
     float radius;
     float flux_scale;
+    float caustic_scale;
 } final_push;
 
-_Static_assert(sizeof(final_push) == 72, "final_push must match render_final.comp's Push");
+_Static_assert(sizeof(final_push) == 76, "final_push must match render_final.comp's Push");
 
 typedef struct final_counters {
     uint32_t discarded_samples;
@@ -354,12 +358,13 @@ static pf_status trace_pass(pf_renderer *renderer, pf_photon_tracer *tracer,
 /* Device buffers of one frame; every pointer NULL or owned. */
 typedef struct final_buffers {
     pf_vk_buffer *params, *film, *film_aov, *counters, *vertices, *samples, *empty_grid;
+    pf_vk_buffer *caustic_radii; /* per pixel: the caustic radius the first pass chose */
 } final_buffers;
 
 static void final_buffers_release(pf_vk_context *ctx, final_buffers *b)
 {
-    pf_vk_buffer **all[] = {&b->params,   &b->film,    &b->film_aov,  &b->counters,
-                            &b->vertices, &b->samples, &b->empty_grid};
+    pf_vk_buffer **all[] = {&b->params,   &b->film,    &b->film_aov,   &b->counters,
+                            &b->vertices, &b->samples, &b->empty_grid, &b->caustic_radii};
     for (size_t i = 0; i < sizeof all / sizeof all[0]; i++)
         pf_render_buffer_release(ctx, all[i]);
 }
@@ -411,6 +416,10 @@ static pf_status shade_sample(pf_renderer *renderer, pf_vk_buffer **buffers,
     bind_grid(pass ? pass->caustic : NULL, pass ? pass->radius : 0.0f,
               pass ? pass->flux_scale : 0.0f, owned->empty_grid, &push,
               &buffers[GRID_WORDS_BINDING], &buffers[GRID_RANGES_BINDING]);
+    /* The caustic radii of the first pass shrink as the pass radius does. */
+    push.caustic_scale = pass && progress->radius_first > 0.0f
+                             ? pass->radius / progress->radius_first
+                             : 1.0f;
     push.sample_index = sample_index;
     push.gather_total = FINAL_GATHER_RAYS;
     push.loop_sentinel = 1;
@@ -621,12 +630,15 @@ static pf_status render_passes(pf_renderer *renderer, const pf_scene_frame *fram
     if (status == PF_OK)
         status = pf_render_buffer_with_data(ctx, "empty photon grid", NULL, 0, 16,
                                             &owned.empty_grid, err);
+    if (status == PF_OK)
+        status = pf_vk_buffer_create(ctx, pixels * sizeof(float), "final caustic radii",
+                                     &owned.caustic_radii, err);
     pf_vk_buffer *buffers[FINAL_BUFFERS] = {
         owned.params,    scene.vertices,   scene.normals,  scene.triangle_material,
         scene.materials, scene.lights,     scene.emissive, owned.film,
         owned.film_aov,  owned.counters,   bih.nodes,      bih.vertices,
         bih.triangle_index, owned.vertices, owned.samples, NULL,
-        NULL};
+        NULL,            owned.caustic_radii};
     pf_photon_tracer *tracer = NULL;
     pf_photon_scene photon_scene = {scene.vertices,  scene.normals,
                                     scene.triangle_material, scene.materials,

@@ -145,4 +145,28 @@ void pf_quat_slerp(const float a[4], const float b[4], float t, float out[4]);
 float pf_cubic_hermite(float v0, float out_tangent0, float v1, float in_tangent1, float dt,
                        float t);
 
+/*
+ * A point light turned into an equal-power small spherical area light, for
+ * comparing `final` with the reference path tracer on scenes lit by point
+ * lights (caustic-anim): a path tracer never finds the caustics of a point
+ * light (L S+ D paths need to hit the light by chance), an area light it
+ * can. Used by tests/render/test_final_caustic.c and bench/final.
+ */
+/*
+ * Replaces frame->lights[light] (a point light of intensity I W/sr, power
+ * 4π·I) by a closed UV sphere of `segments` × `rings` triangles (segments ≥ 3,
+ * rings ≥ 2) of the given radius centred on the light, front faces outward,
+ * with a new black Lambert material emitting Le = 4·I / A, A the
+ * polyhedron's exact area, so its power π·Le·A equals the point light's.
+ * The frame's arrays are reallocated in place (pf_scene_frame_free still
+ * frees them); bounds and emissive_triangle_count are updated, the light is
+ * removed from frame->lights. New triangles carry node index UINT32_MAX (no
+ * glTF node). Fails with PF_ERR_INVALID (light out of range, not a point
+ * light, bad sphere size) or PF_ERR_NOMEM; the frame is unchanged on
+ * PF_ERR_INVALID and still freeable on PF_ERR_NOMEM.
+ */
+pf_status pf_scene_frame_point_light_to_sphere(pf_scene_frame *frame, uint32_t light,
+                                              float radius, uint32_t segments,
+                                              uint32_t rings, pf_error *err);
+
 #endif
