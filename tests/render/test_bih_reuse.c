@@ -7,6 +7,7 @@
  * scenes/cornell-moving and on hand-built frames, with CPU and GPU builds.
  * Validation must stay silent.
  */
+#include "../vk/vk_test_util.h"
 #include "pf_render.h"
 #include "pf_test.h"
 
@@ -386,16 +387,12 @@ PF_TEST(hand_built_frames_with_gpu_builds)
 int main(void)
 {
     pf_error err = {0};
-    pf_vk_options options = {NULL, -1};
-    if (pf_vk_create(&options, &ctx, &err) != PF_OK) {
-        fprintf(stderr, "setup: %s\n", err.message);
+    ctx = vk_test_context(&err);
+    if (!ctx)
         return 1;
-    }
     PF_RUN(cornell_moving_reuses_refits_and_matches_fresh_builds);
     PF_RUN(hand_built_frames_with_cpu_builds);
     PF_RUN(hand_built_frames_with_gpu_builds);
-    uint32_t messages = pf_vk_validation_message_count(ctx);
-    pf_vk_destroy(ctx);
-    PF_CHECK_MSG(messages == 0, "%u validation messages", messages);
+    VK_TEST_FINISH(ctx);
     return pf_test_finish();
 }

@@ -9,6 +9,7 @@
 #include "pf_render.h"
 #include "pf_test.h"
 #include "reference_test_util.h"
+#include "render_test_env.h"
 
 #include <math.h>
 #include <stdint.h>
@@ -418,12 +419,8 @@ PF_TEST(time_budget_stops_after_at_least_one_pass)
 int main(void)
 {
     pf_error err = {0};
-    pf_vk_options options = {NULL, -1};
-    if (pf_vk_create(&options, &ctx, &err) != PF_OK ||
-        pf_renderer_create(ctx, &renderer, &err) != PF_OK) {
-        fprintf(stderr, "setup: %s\n", err.message);
+    if (!render_test_setup(&ctx, &renderer))
         return 1;
-    }
     pf_render_settings reference = {CORNELL_WIDTH, CORNELL_HEIGHT, PF_QUALITY_REFERENCE,
                                     REFERENCE_SPP, 1, 0, 0.0, 0};
     if (scene_frame("PF_SOURCE_DIR", "scenes/cornell/cornell.gltf", &cornell_scene,
@@ -443,9 +440,5 @@ int main(void)
     pf_image_free(&cornell_reference);
     pf_scene_frame_free(&cornell_frame);
     pf_scene_destroy(cornell_scene);
-    pf_renderer_destroy(renderer);
-    uint32_t messages = pf_vk_validation_message_count(ctx);
-    pf_vk_destroy(ctx);
-    PF_CHECK_MSG(messages == 0, "%u validation messages", messages);
-    return pf_test_finish();
+    return render_test_finish(ctx, renderer);
 }

@@ -36,6 +36,7 @@
  */
 #include "pf_render.h"
 #include "pf_test.h"
+#include "render_test_env.h"
 
 #include <math.h>
 #include <stdint.h>
@@ -209,7 +210,6 @@ PF_TEST(caustic_converges_over_passes)
 int main(void)
 {
     pf_error err = {0};
-    pf_vk_options options = {NULL, -1};
     const char *shared = getenv("PF_SHARED_SCENES");
     char path[1024];
     snprintf(path, sizeof path, "%s/caustic-anim/caustic-anim.gltf", shared ? shared : ".");
@@ -217,9 +217,9 @@ int main(void)
                                            1, 0, 0.0, 0};
     pf_render_settings reference_seed_2 = reference_seed_1;
     reference_seed_2.seed = 2;
-    if (pf_vk_create(&options, &ctx, &err) != PF_OK ||
-        pf_renderer_create(ctx, &renderer, &err) != PF_OK ||
-        pf_scene_load(path, &scene, &err) != PF_OK ||
+    if (!render_test_setup(&ctx, &renderer))
+        return 1;
+    if (pf_scene_load(path, &scene, &err) != PF_OK ||
         pf_scene_eval(scene, 0.0, &frame, &err) != PF_OK ||
         pf_scene_frame_point_light_to_sphere(&frame, 0, SPHERE_LIGHT_RADIUS, SPHERE_LIGHT_SEGMENTS,
                                       SPHERE_LIGHT_RINGS, &err) != PF_OK) {
@@ -238,9 +238,5 @@ int main(void)
     pf_image_free(&reference_b);
     pf_scene_frame_free(&frame);
     pf_scene_destroy(scene);
-    pf_renderer_destroy(renderer);
-    uint32_t messages = pf_vk_validation_message_count(ctx);
-    pf_vk_destroy(ctx);
-    PF_CHECK_MSG(messages == 0, "%u validation messages", messages);
-    return pf_test_finish();
+    return render_test_finish(ctx, renderer);
 }

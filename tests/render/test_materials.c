@@ -9,6 +9,7 @@
  */
 #include "pf_test.h"
 #include "render_internal.h"
+#include "render_test_env.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -295,21 +296,12 @@ PF_TEST(emissive_alias_table_picks_by_power)
 
 int main(void)
 {
-    pf_error err = {0};
-    pf_vk_options options = {NULL, -1};
-    if (pf_vk_create(&options, &ctx, &err) != PF_OK ||
-        pf_renderer_create(ctx, &renderer, &err) != PF_OK) {
-        fprintf(stderr, "setup: %s\n", err.message);
+    if (!render_test_setup(&ctx, &renderer))
         return 1;
-    }
     PF_RUN(fresnel_matches_tabulated_values);
     PF_RUN(mirror_reflects_exactly_tinted_by_its_colour);
     PF_RUN(glass_splits_energy_by_fresnel_and_refracts_by_snell);
     PF_RUN(lambert_samples_the_cosine_density_it_reports);
     PF_RUN(emissive_alias_table_picks_by_power);
-    pf_renderer_destroy(renderer);
-    uint32_t messages = pf_vk_validation_message_count(ctx);
-    pf_vk_destroy(ctx);
-    PF_CHECK_MSG(messages == 0, "%u validation messages", messages);
-    return pf_test_finish();
+    return render_test_finish(ctx, renderer);
 }

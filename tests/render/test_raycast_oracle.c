@@ -7,6 +7,7 @@
 #include "pf_render.h"
 #include "pf_test.h"
 #include "render_internal.h"
+#include "render_test_env.h"
 
 #include <stdint.h>
 
@@ -299,20 +300,11 @@ PF_TEST(zero_triangles_every_ray_misses)
 
 int main(void)
 {
-    pf_error err = {0};
-    pf_vk_options options = {NULL, -1};
-    if (pf_vk_create(&options, &ctx, &err) != PF_OK ||
-        pf_renderer_create(ctx, &renderer, &err) != PF_OK) {
-        fprintf(stderr, "setup: %s\n", err.message);
+    if (!render_test_setup(&ctx, &renderer))
         return 1;
-    }
     PF_RUN(oracle_matches_cpu_on_triangle_soup);
     PF_RUN(oracle_matches_cpu_on_shared_scene);
     PF_RUN(oracle_is_exact_past_the_loop_limit);
     PF_RUN(zero_triangles_every_ray_misses);
-    pf_renderer_destroy(renderer);
-    uint32_t messages = pf_vk_validation_message_count(ctx);
-    pf_vk_destroy(ctx);
-    PF_CHECK_MSG(messages == 0, "%u validation messages", messages);
-    return pf_test_finish();
+    return render_test_finish(ctx, renderer);
 }

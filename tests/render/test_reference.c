@@ -8,6 +8,7 @@
  */
 #include "pf_render.h"
 #include "pf_test.h"
+#include "render_test_env.h"
 
 #include <math.h>
 #include <stdint.h>
@@ -412,22 +413,13 @@ PF_TEST(bad_settings_are_refused)
 
 int main(void)
 {
-    pf_error err = {0};
-    pf_vk_options options = {NULL, -1};
-    if (pf_vk_create(&options, &ctx, &err) != PF_OK ||
-        pf_renderer_create(ctx, &renderer, &err) != PF_OK) {
-        fprintf(stderr, "setup: %s\n", err.message);
+    if (!render_test_setup(&ctx, &renderer))
         return 1;
-    }
     PF_RUN(white_furnace_converges_to_le_over_one_minus_albedo);
     PF_RUN(same_seed_same_image_other_seed_other_image);
     PF_RUN(channels_follow_the_contract);
     PF_RUN(cornell_longer_render_agrees_within_predicted_noise);
     PF_RUN(time_budget_stops_early_with_at_least_one_sample);
     PF_RUN(bad_settings_are_refused);
-    pf_renderer_destroy(renderer);
-    uint32_t messages = pf_vk_validation_message_count(ctx);
-    pf_vk_destroy(ctx);
-    PF_CHECK_MSG(messages == 0, "%u validation messages", messages);
-    return pf_test_finish();
+    return render_test_finish(ctx, renderer);
 }

@@ -17,6 +17,7 @@
  */
 #include "pf_test.h"
 #include "reference_test_util.h"
+#include "render_test_env.h"
 
 #include <math.h>
 
@@ -613,21 +614,12 @@ PF_TEST(visible_emitter_is_direct_light_from_its_front_face_only)
 
 int main(void)
 {
-    pf_error err = {0};
-    pf_vk_options options = {NULL, -1};
-    if (pf_vk_create(&options, &ctx, &err) != PF_OK ||
-        pf_renderer_create(ctx, &renderer, &err) != PF_OK) {
-        fprintf(stderr, "setup: %s\n", err.message);
+    if (!render_test_setup(&ctx, &renderer))
         return 1;
-    }
     PF_RUN(point_light_over_a_plane_matches_inverse_square_cosine);
     PF_RUN(spot_light_inside_its_inner_cone_matches_a_point_light);
     PF_RUN(directional_light_over_a_plane_matches_cosine_law);
     PF_RUN(area_light_over_a_parallel_square_matches_the_form_factor);
     PF_RUN(visible_emitter_is_direct_light_from_its_front_face_only);
-    pf_renderer_destroy(renderer);
-    uint32_t messages = pf_vk_validation_message_count(ctx);
-    pf_vk_destroy(ctx);
-    PF_CHECK_MSG(messages == 0, "%u validation messages", messages);
-    return pf_test_finish();
+    return render_test_finish(ctx, renderer);
 }

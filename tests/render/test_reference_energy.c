@@ -17,6 +17,7 @@
  */
 #include "pf_test.h"
 #include "reference_test_util.h"
+#include "render_test_env.h"
 
 #include <math.h>
 
@@ -181,18 +182,9 @@ PF_TEST(black_enclosure_hides_albedo_one_mirror_and_glass)
 
 int main(void)
 {
-    pf_error err = {0};
-    pf_vk_options options = {NULL, -1};
-    if (pf_vk_create(&options, &ctx, &err) != PF_OK ||
-        pf_renderer_create(ctx, &renderer, &err) != PF_OK) {
-        fprintf(stderr, "setup: %s\n", err.message);
+    if (!render_test_setup(&ctx, &renderer))
         return 1;
-    }
     PF_RUN(no_material_creates_energy_in_a_furnace);
     PF_RUN(black_enclosure_hides_albedo_one_mirror_and_glass);
-    pf_renderer_destroy(renderer);
-    uint32_t messages = pf_vk_validation_message_count(ctx);
-    pf_vk_destroy(ctx);
-    PF_CHECK_MSG(messages == 0, "%u validation messages", messages);
-    return pf_test_finish();
+    return render_test_finish(ctx, renderer);
 }

@@ -13,6 +13,7 @@
  */
 #include "pf_test.h"
 #include "reference_test_util.h"
+#include "render_test_env.h"
 
 #include <math.h>
 #include <string.h>
@@ -252,20 +253,11 @@ PF_TEST(degenerate_normals_and_triangles_never_reach_the_film)
 
 int main(void)
 {
-    pf_error err = {0};
-    pf_vk_options options = {NULL, -1};
-    if (pf_vk_create(&options, &ctx, &err) != PF_OK ||
-        pf_renderer_create(ctx, &renderer, &err) != PF_OK) {
-        fprintf(stderr, "setup: %s\n", err.message);
+    if (!render_test_setup(&ctx, &renderer))
         return 1;
-    }
     PF_RUN(lights_inside_a_closed_box_light_nothing_outside);
     PF_RUN(lights_exactly_on_a_surface_stay_finite);
     PF_RUN(camera_inside_a_closed_box);
     PF_RUN(degenerate_normals_and_triangles_never_reach_the_film);
-    pf_renderer_destroy(renderer);
-    uint32_t messages = pf_vk_validation_message_count(ctx);
-    pf_vk_destroy(ctx);
-    PF_CHECK_MSG(messages == 0, "%u validation messages", messages);
-    return pf_test_finish();
+    return render_test_finish(ctx, renderer);
 }

@@ -5,6 +5,7 @@
  */
 #include "pf_render.h"
 #include "pf_test.h"
+#include "render_test_env.h"
 
 #include <dirent.h>
 #include <stdint.h>
@@ -445,13 +446,8 @@ PF_TEST(empty_scene_renders_black_and_transparent)
 
 int main(void)
 {
-    pf_error err = {0};
-    pf_vk_options options = {NULL, -1};
-    if (pf_vk_create(&options, &ctx, &err) != PF_OK ||
-        pf_renderer_create(ctx, &renderer, &err) != PF_OK) {
-        fprintf(stderr, "setup: %s\n", err.message);
+    if (!render_test_setup(&ctx, &renderer))
         return 1;
-    }
     PF_RUN(direct_light_matches_closed_forms);
     PF_RUN(emissive_triangles_light_from_the_front_only);
     PF_RUN(mirror_reflects_the_emitter_tinted);
@@ -460,9 +456,5 @@ int main(void)
     PF_RUN(same_seed_same_pixels);
     PF_RUN(unavailable_presets_and_bad_sizes_are_refused);
     PF_RUN(empty_scene_renders_black_and_transparent);
-    pf_renderer_destroy(renderer);
-    uint32_t messages = pf_vk_validation_message_count(ctx);
-    pf_vk_destroy(ctx);
-    PF_CHECK_MSG(messages == 0, "%u validation messages", messages);
-    return pf_test_finish();
+    return render_test_finish(ctx, renderer);
 }
