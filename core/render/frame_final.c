@@ -72,9 +72,7 @@
 #define FINAL_KEPT_PASSES 16u
 /* A frame fails when more than this fraction of its samples hit the loop cap. */
 #define FINAL_TRUNCATED_LIMIT 0.01
-/* render_reference.comp's layout (pf_render.h): vec4s per pixel. */
-#define FILM_VEC4_PER_PIXEL 3u
-#define FILM_AOV_VEC4_PER_PIXEL 2u
+/* render_final.comp's gather-vertex buffer: vec4s per pixel. */
 #define VERTEX_VEC4_PER_PIXEL 5u
 #define GROUP_EDGE 8u
 #define FINAL_BUFFERS 18u
@@ -82,12 +80,6 @@
 #define GRID_WORDS_BINDING 15u
 #define GRID_RANGES_BINDING 16u
 
-static const char *const final_channels[] = {
-    "R",          "G",          "B",         "A",         "direct.R",   "direct.G",
-    "direct.B",   "indirect.R", "indirect.G", "indirect.B", "caustic.R", "caustic.G",
-    "caustic.B",  "albedo.R",   "albedo.G",  "albedo.B",  "normal.X",   "normal.Y",
-    "normal.Z",   "depth.Z"};
-#define FINAL_BEAUTY_CHANNELS 13u
 
 /* render_final.comp's Push (76 bytes). */
 typedef struct final_push {
@@ -459,36 +451,6 @@ static pf_status shade_sample(pf_renderer *renderer, pf_vk_buffer **buffers,
     return status;
 }
 
-/* Film sums → channels (as the reference's film_to_image; AOVs over their own count). */
-static void film_to_image(const float *film, const float *film_aov, int aovs, pf_image *image)
-{
-    size_t pixels = (size_t)image->width * image->height;
-    for (size_t p = 0; p < pixels; p++) {
-        const float *texel = film + 4 * FILM_VEC4_PER_PIXEL * p;
-        float *out = image->pixels + p * image->channel_count;
-        float kept = texel[7];
-        float inverse = kept > 0.0f ? 1.0f / kept : 0.0f;
-        for (int c = 0; c < 3; c++) {
-            float direct = texel[c] * inverse;
-            float indirect = texel[4 + c] * inverse;
-            out[c] = direct + indirect;
-            out[4 + c] = direct;
-            out[7 + c] = indirect;
-            out[10 + c] = texel[8 + c] * inverse;
-        }
-        out[3] = texel[3] * inverse;
-        if (aovs) {
-            const float *aov = film_aov + 4 * FILM_AOV_VEC4_PER_PIXEL * p;
-            float aov_inverse = aov[7] > 0.0f ? 1.0f / aov[7] : 0.0f;
-            for (int c = 0; c < 3; c++) {
-                out[13 + c] = aov[c] * aov_inverse;
-                out[16 + c] = aov[4 + c] * aov_inverse;
-            }
-            out[19] = aov[3] * aov_inverse;
-        }
-    }
-}
-
 static void add_row(pf_frame_report *report, const char *stage, const char *skip_reason,
                     double wall_ms, double gpu_ms, pf_stage_timing **out)
 {
@@ -606,8 +568,8 @@ static pf_status render_passes(pf_renderer *renderer, const pf_scene_frame *fram
     pf_frame_params_fill(frame, settings, passes, &scene, &bih, &params);
     params.max_specular_depth = FINAL_MAX_SPECULAR_DEPTH;
     final_buffers owned = {0};
-    uint64_t film_bytes = pixels * FILM_VEC4_PER_PIXEL * 16;
-    uint64_t aov_bytes = pixels * FILM_AOV_VEC4_PER_PIXEL * 16;
+    uint64_t film_bytes = pixels * PF_SPLIT_FILM_VEC4_PER_PIXEL * 16;
+    uint64_t aov_bytes = pixels * PF_SPLIT_FILM_AOV_VEC4_PER_PIXEL * 16;
     float *film = malloc(film_bytes);
     float *film_aov = malloc(aov_bytes);
     if (!film || !film_aov)
@@ -683,7 +645,7 @@ static pf_status render_passes(pf_renderer *renderer, const pf_scene_frame *fram
     if (status == PF_OK)
         status = pf_vk_buffer_download(ctx, owned.film_aov, 0, film_aov, aov_bytes, err);
     if (status == PF_OK)
-        film_to_image(film, film_aov, settings->aovs, image);
+        pf_split_film_to_image(film, film_aov, settings->aovs, 1, image);
     pf_photon_tracer_destroy(tracer);
     final_buffers_release(ctx, &owned);
     pf_gpu_scene_release(ctx, &scene);
@@ -723,10 +685,7 @@ pf_status pf_render_frame_final(pf_renderer *renderer, const pf_scene_frame *fra
         if (!renderer->final_cache)
             return pf_error_set(err, PF_ERR_NOMEM, "final: out of memory");
     }
-    status = pf_image_create(image, settings->width, settings->height,
-                             settings->aovs ? sizeof final_channels / sizeof final_channels[0]
-                                            : FINAL_BEAUTY_CHANNELS,
-                             final_channels, err);
+    status = pf_split_image_create(image, settings->width, settings->height, settings->aovs, err);
     if (status != PF_OK)
         return status;
     /* The BIH row tells whether the geometry is unchanged: read it even when the caller keeps no report. */

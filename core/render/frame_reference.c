@@ -21,10 +21,6 @@
 #define REFERENCE_MAX_PATH_DEPTH 64u
 /* Workgroup edge of render_reference.comp (local_size 8×8). */
 #define REFERENCE_GROUP_EDGE 8u
-/* vec4 per pixel: (direct, coverage), (indirect, kept), (caustic, 0). */
-#define FILM_VEC4_PER_PIXEL 3u
-/* vec4 per pixel of the AOV film: (albedo, depth), (normal, 0). */
-#define FILM_AOV_VEC4_PER_PIXEL 2u
 /*
  * Passes per submission: the first submission runs one pass to measure its
  * time; later ones aim at REFERENCE_BATCH_TARGET_MS, so the time budget is
@@ -40,13 +36,6 @@
 #define REFERENCE_AOV_BINDING 8u
 #define REFERENCE_COUNTER_BINDING 9u
 
-static const char *const reference_channels[] = {
-    "R",          "G",          "B",         "A",         "direct.R",   "direct.G",
-    "direct.B",   "indirect.R", "indirect.G", "indirect.B", "caustic.R", "caustic.G",
-    "caustic.B",  "albedo.R",   "albedo.G",  "albedo.B",  "normal.X",   "normal.Y",
-    "normal.Z",   "depth.Z"};
-/* Channels without AOVs: everything before albedo.R. */
-#define REFERENCE_BEAUTY_CHANNELS 13u
 
 typedef struct reference_push {
     uint32_t sample_index;
@@ -144,35 +133,6 @@ static uint32_t next_batch(const pf_render_settings *settings, uint32_t spp, uin
     return batch < spp - done ? batch : spp - done;
 }
 
-/* Turns the film sums into channel values (means over each pixel's kept samples). */
-static void film_to_image(const float *film, const float *film_aov, int aovs, pf_image *image)
-{
-    size_t pixels = (size_t)image->width * image->height;
-    for (size_t p = 0; p < pixels; p++) {
-        const float *texel = film + 4 * FILM_VEC4_PER_PIXEL * p;
-        float *out = image->pixels + p * image->channel_count;
-        float kept = texel[7];
-        float inverse = kept > 0.0f ? 1.0f / kept : 0.0f;
-        for (int c = 0; c < 3; c++) {
-            float direct = texel[c] * inverse;
-            float indirect = texel[4 + c] * inverse;
-            out[c] = direct + indirect;
-            out[4 + c] = direct;
-            out[7 + c] = indirect;
-            out[10 + c] = texel[8 + c] * inverse;
-        }
-        out[3] = texel[3] * inverse;
-        if (aovs) {
-            const float *aov = film_aov + 4 * FILM_AOV_VEC4_PER_PIXEL * p;
-            for (int c = 0; c < 3; c++) {
-                out[13 + c] = aov[c] * inverse;     /* albedo */
-                out[16 + c] = aov[4 + c] * inverse; /* normal */
-            }
-            out[19] = aov[3] * inverse; /* depth */
-        }
-    }
-}
-
 /* Device buffers of one frame; every pointer NULL or owned. */
 typedef struct reference_buffers {
     pf_vk_buffer *params, *film, *film_aov, *counters;
@@ -197,9 +157,9 @@ static pf_status shade(pf_renderer *renderer, const pf_scene_frame *frame,
     if (status != PF_OK)
         return status;
     uint64_t pixels = (uint64_t)settings->width * settings->height;
-    uint64_t film_bytes = pixels * FILM_VEC4_PER_PIXEL * 4 * sizeof(float);
+    uint64_t film_bytes = pixels * PF_SPLIT_FILM_VEC4_PER_PIXEL * 4 * sizeof(float);
     uint64_t aov_bytes =
-        settings->aovs ? pixels * FILM_AOV_VEC4_PER_PIXEL * 4 * sizeof(float) : 4 * sizeof(float);
+        settings->aovs ? pixels * PF_SPLIT_FILM_AOV_VEC4_PER_PIXEL * 4 * sizeof(float) : 4 * sizeof(float);
     float *film = malloc(film_bytes);
     float *film_aov = malloc(aov_bytes);
     pf_gpu_scene scene;
@@ -248,7 +208,7 @@ static pf_status shade(pf_renderer *renderer, const pf_scene_frame *frame,
     if (status == PF_OK && settings->aovs)
         status = pf_vk_buffer_download(ctx, owned.film_aov, 0, film_aov, aov_bytes, err);
     if (status == PF_OK)
-        film_to_image(film, film_aov, settings->aovs, image);
+        pf_split_film_to_image(film, film_aov, settings->aovs, 0, image);
     reference_buffers_release(ctx, &owned);
     pf_gpu_scene_release(ctx, &scene);
     free(film);
@@ -263,7 +223,7 @@ pf_status pf_render_frame_reference(pf_renderer *renderer, const pf_scene_frame 
     double frame_start = pf_time_ms();
     uint32_t spp = settings->samples_per_pixel ? settings->samples_per_pixel : REFERENCE_DEFAULT_SPP;
     uint64_t pixels = (uint64_t)settings->width * settings->height;
-    uint64_t film_bytes = pixels * FILM_VEC4_PER_PIXEL * 4 * sizeof(float);
+    uint64_t film_bytes = pixels * PF_SPLIT_FILM_VEC4_PER_PIXEL * 4 * sizeof(float);
     uint64_t buffer_limit = pf_vk_info(renderer->ctx)->max_storage_buffer_range;
     if (film_bytes > buffer_limit)
         return pf_error_set(err, PF_ERR_LIMIT,
@@ -272,11 +232,8 @@ pf_status pf_render_frame_reference(pf_renderer *renderer, const pf_scene_frame 
                             settings->width, settings->height,
                             (unsigned long long)(film_bytes >> 20),
                             (unsigned long long)(buffer_limit >> 20));
-    pf_status status = pf_image_create(
-        image, settings->width, settings->height,
-        settings->aovs ? sizeof reference_channels / sizeof reference_channels[0]
-                       : REFERENCE_BEAUTY_CHANNELS,
-        reference_channels, err);
+    pf_status status =
+        pf_split_image_create(image, settings->width, settings->height, settings->aovs, err);
     if (status != PF_OK)
         return status;
     status = pf_render_prepare_bih(renderer, frame, report, err);

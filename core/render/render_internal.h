@@ -153,6 +153,27 @@ pf_status pf_render_frame_final(pf_renderer *renderer, const pf_scene_frame *fra
 void pf_final_cache_destroy(struct pf_final_cache *cache);
 
 /*
+ * The split film of the reference and final integrators (split_film.c), sums
+ * over samples per pixel: film vec4s (direct RGB, coverage), (indirect RGB,
+ * kept samples), (caustic RGB, 0); AOV film vec4s (albedo RGB, depth),
+ * (normal XYZ, AOV samples or 0).
+ */
+#define PF_SPLIT_FILM_VEC4_PER_PIXEL 3u
+#define PF_SPLIT_FILM_AOV_VEC4_PER_PIXEL 2u
+
+/* Creates the image with pf_render.h's channels for these integrators (AOVs or not). */
+pf_status pf_split_image_create(pf_image *image, uint32_t width, uint32_t height, int aovs,
+                                pf_error *err);
+
+/*
+ * Film sums → channel values: means over each pixel's kept samples; the AOVs
+ * over the kept samples too, or with aov_own_count over the count the AOV
+ * film keeps in its second vec4's w.
+ */
+void pf_split_film_to_image(const float *film, const float *film_aov, int aovs,
+                            int aov_own_count, pf_image *image);
+
+/*
  * Fills the FrameParams the integrators share: camera, image, counts, seed,
  * ray offset, the emissive table's total weight and the BIH's root box and
  * node count (integrator-specific fields are left 0 for the caller).
