@@ -227,3 +227,13 @@ pf_status pf_render_prepare_bih(pf_renderer *renderer, const pf_scene_frame *fra
     }
     return PF_OK;
 }
+
+pf_status pf_render_check_traversal(const pf_renderer *renderer, uint64_t failures,
+                                    pf_error *err)
+{
+    if (failures == 0)
+        return PF_OK;
+    return pf_error_set(err, PF_ERR_LIMIT,
+                        "%llu rays overflowed the %u-entry BIH traversal stack (tree depth %u)",
+                        (unsigned long long)failures, PF_BIH_STACK_SIZE, renderer->bih.depth);
+}

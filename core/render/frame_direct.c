@@ -202,11 +202,8 @@ pf_status pf_render_frame_preview(pf_renderer *renderer, const pf_scene_frame *f
     pf_render_buffer_release(ctx, &film_buffer);
     pf_render_buffer_release(ctx, &params_buffer);
     pf_gpu_scene_release(ctx, &scene);
-    if (status == PF_OK && failures > 0)
-        status = pf_error_set(err, PF_ERR_LIMIT,
-                              "%llu rays overflowed the %u-entry BIH traversal stack (tree depth %u)",
-                              (unsigned long long)failures, PF_BIH_STACK_SIZE,
-                              renderer->bih.depth);
+    if (status == PF_OK)
+        status = pf_render_check_traversal(renderer, failures, err);
     if (status != PF_OK) {
         pf_image_free(image);
         pf_error_prefix(err, "render (%ux%u, %u spp, %u triangles)", settings->width,

@@ -706,11 +706,8 @@ pf_status pf_render_frame_final(pf_renderer *renderer, const pf_scene_frame *fra
         status = render_passes(renderer, frame, settings, reuse, frame_start, image, &progress,
                                &has_emitters, &with_caustics, err);
     uint64_t pixels = (uint64_t)settings->width * settings->height;
-    if (status == PF_OK && progress.failures > 0)
-        status = pf_error_set(err, PF_ERR_LIMIT,
-                              "%llu rays overflowed the %u-entry BIH traversal stack (tree depth %u)",
-                              (unsigned long long)progress.failures, PF_BIH_STACK_SIZE,
-                              renderer->bih.depth);
+    if (status == PF_OK)
+        status = pf_render_check_traversal(renderer, progress.failures, err);
     if (status == PF_OK &&
         (double)progress.truncated > FINAL_TRUNCATED_LIMIT * (double)pixels * progress.passes)
         status = pf_error_set(err, PF_ERR_LIMIT,

@@ -241,11 +241,8 @@ pf_status pf_render_frame_reference(pf_renderer *renderer, const pf_scene_frame 
     reference_progress progress = {0, 0, 0, 0, -1.0};
     if (status == PF_OK)
         status = shade(renderer, frame, settings, spp, frame_start, image, &progress, err);
-    if (status == PF_OK && progress.failures > 0)
-        status = pf_error_set(err, PF_ERR_LIMIT,
-                              "%llu rays overflowed the %u-entry BIH traversal stack (tree depth %u)",
-                              (unsigned long long)progress.failures, PF_BIH_STACK_SIZE,
-                              renderer->bih.depth);
+    if (status == PF_OK)
+        status = pf_render_check_traversal(renderer, progress.failures, err);
     if (status != PF_OK) {
         pf_image_free(image);
         pf_error_prefix(err, "reference render (%ux%u, %u spp, %u triangles)", settings->width,

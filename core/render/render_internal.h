@@ -106,6 +106,14 @@ typedef struct pf_gpu_scene {
 pf_status pf_render_prepare_bih(pf_renderer *renderer, const pf_scene_frame *frame,
                                 pf_frame_report *report, pf_error *err);
 
+/*
+ * PF_ERR_LIMIT naming the count when some of a frame's rays overflowed the
+ * BIH traversal stack (their hits were misses), else PF_OK: a frame is never
+ * written with silently missing hits.
+ */
+pf_status pf_render_check_traversal(const pf_renderer *renderer, uint64_t failures,
+                                    pf_error *err);
+
 /* Uploads only the vertex buffer (all the ray-casting oracle needs) when full is 0. */
 pf_status pf_gpu_scene_upload(pf_vk_context *ctx, const pf_scene_frame *frame, int full,
                               pf_gpu_scene *out, pf_error *err);
