@@ -2,6 +2,7 @@
 #include "queue_internal.h"
 
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 #include <time.h>
 #include <unistd.h>
@@ -106,4 +107,19 @@ const char *queue_column_text(sqlite3_stmt *stmt, int column)
 void queue_copy_text(char *buffer, size_t size, const char *text)
 {
     snprintf(buffer, size, "%s", text ? text : "");
+}
+
+void *queue_records_append(queue_records *records)
+{
+    if (records->count == records->capacity) {
+        size_t capacity = records->capacity ? records->capacity * 2 : 16;
+        void *grown = realloc(records->items, capacity * records->item_size);
+        if (!grown)
+            return NULL;
+        records->items = grown;
+        records->capacity = capacity;
+    }
+    void *item = (char *)records->items + records->count++ * records->item_size;
+    memset(item, 0, records->item_size);
+    return item;
 }

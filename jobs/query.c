@@ -5,27 +5,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-/* A growable array of fixed-size records filled from a query. */
-typedef struct record_array {
-    void *items;
-    size_t count, capacity, item_size;
-} record_array;
-
-static void *record_append(record_array *array)
-{
-    if (array->count == array->capacity) {
-        size_t capacity = array->capacity ? array->capacity * 2 : 16;
-        void *grown = realloc(array->items, capacity * array->item_size);
-        if (!grown)
-            return NULL;
-        array->items = grown;
-        array->capacity = capacity;
-    }
-    void *item = (char *)array->items + array->count++ * array->item_size;
-    memset(item, 0, array->item_size);
-    return item;
-}
-
 static char *dup_column(sqlite3_stmt *stmt, int column)
 {
     return strdup(queue_column_text(stmt, column));
@@ -49,7 +28,7 @@ void pf_queue_job_list_free(pf_queue_job *jobs, size_t count)
 
 typedef struct job_query {
     int64_t job_id; /* 0: every job */
-    record_array jobs;
+    queue_records jobs;
 } job_query;
 
 static pf_status read_job_row(pf_queue *queue, sqlite3_stmt *stmt, pf_queue_job *job,
@@ -114,7 +93,7 @@ static pf_status job_query_body(pf_queue *queue, void *context, pf_error *err)
     sqlite3_bind_int64(stmt, 2, pf_queue_now(queue) - queue->options.worker_alive_ms);
     int rc;
     while (status == PF_OK && (rc = sqlite3_step(stmt)) == SQLITE_ROW) {
-        pf_queue_job *job = record_append(&query->jobs);
+        pf_queue_job *job = queue_records_append(&query->jobs);
         if (!job)
             status = pf_error_set(err, PF_ERR_NOMEM, "%s: out of memory listing jobs",
                                   queue->path);
@@ -172,7 +151,7 @@ pf_status pf_queue_job_list(pf_queue *queue, pf_queue_job **jobs, size_t *count,
 
 typedef struct list_query {
     int64_t job_id;
-    record_array rows;
+    queue_records rows;
 } list_query;
 
 /* Steps stmt, handing each row to read; collects results into query->rows. */
@@ -183,7 +162,7 @@ static pf_status collect(pf_queue *queue, sqlite3_stmt *stmt, list_query *query,
     pf_status status = PF_OK;
     int rc;
     while ((rc = sqlite3_step(stmt)) == SQLITE_ROW) {
-        void *row = record_append(&query->rows);
+        void *row = queue_records_append(&query->rows);
         if (!row) {
             status = pf_error_set(err, PF_ERR_NOMEM, "%s: out of memory %s", queue->path, what);
             break;

@@ -42,6 +42,15 @@ const char *queue_column_text(sqlite3_stmt *stmt, int column);
 /* Copies text into a fixed buffer, truncating. */
 void queue_copy_text(char *buffer, size_t size, const char *text);
 
+/* A growable array of fixed-size records filled from a query ({NULL, 0, 0, size} to start). */
+typedef struct queue_records {
+    void *items;
+    size_t count, capacity, item_size;
+} queue_records;
+
+/* Appends one zeroed record (capacity doubles from 16); NULL when out of memory. */
+void *queue_records_append(queue_records *records);
+
 /*
  * Counts a failed attempt of a running task (inside a write transaction):
  * records the failure, requeues after backoff or fails at max attempts,

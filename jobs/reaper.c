@@ -26,25 +26,20 @@ static pf_status reap_body(pf_queue *queue, void *context, pf_error *err)
         return status;
     sqlite3_bind_int64(stmt, 1, pf_queue_now(queue));
     /* Collected first: each reap rewrites the rows the SELECT walks. */
-    expired_task *expired = NULL;
-    size_t count = 0, capacity = 0;
+    queue_records records = {NULL, 0, 0, sizeof(expired_task)};
     int rc;
     while ((rc = sqlite3_step(stmt)) == SQLITE_ROW) {
-        if (count == capacity) {
-            capacity = capacity ? capacity * 2 : 16;
-            expired_task *grown = realloc(expired, capacity * sizeof *grown);
-            if (!grown) {
-                status = pf_error_set(err, PF_ERR_NOMEM, "%s: out of memory reaping leases",
-                                      queue->path);
-                break;
-            }
-            expired = grown;
+        expired_task *task = queue_records_append(&records);
+        if (!task) {
+            status = pf_error_set(err, PF_ERR_NOMEM, "%s: out of memory reaping leases",
+                                  queue->path);
+            break;
         }
-        expired[count].task_id = sqlite3_column_int64(stmt, 0);
-        queue_copy_text(expired[count].worker_name, sizeof expired[count].worker_name,
-                        queue_column_text(stmt, 1));
-        count++;
+        task->task_id = sqlite3_column_int64(stmt, 0);
+        queue_copy_text(task->worker_name, sizeof task->worker_name, queue_column_text(stmt, 1));
     }
+    expired_task *expired = records.items;
+    size_t count = records.count;
     if (status == PF_OK && rc != SQLITE_DONE)
         status = queue_db_error(queue, err, "finding expired leases");
     sqlite3_finalize(stmt);

@@ -29,22 +29,19 @@ static pf_status sample_stat(pf_queue *queue, const char *sql, int64_t job_id, c
         return status;
     sqlite3_bind_int64(stmt, 1, job_id);
     sqlite3_bind_text(stmt, 2, stage, -1, SQLITE_STATIC);
-    double *values = NULL;
-    size_t count = 0, capacity = 0;
+    queue_records records = {NULL, 0, 0, sizeof(double)};
     int rc;
     while ((rc = sqlite3_step(stmt)) == SQLITE_ROW) {
-        if (count == capacity) {
-            capacity = capacity ? capacity * 2 : 64;
-            double *grown = realloc(values, capacity * sizeof *grown);
-            if (!grown) {
-                status = pf_error_set(err, PF_ERR_NOMEM, "%s: out of memory reading timings",
-                                      queue->path);
-                break;
-            }
-            values = grown;
+        double *value = queue_records_append(&records);
+        if (!value) {
+            status = pf_error_set(err, PF_ERR_NOMEM, "%s: out of memory reading timings",
+                                  queue->path);
+            break;
         }
-        values[count++] = sqlite3_column_double(stmt, 0);
+        *value = sqlite3_column_double(stmt, 0);
     }
+    double *values = records.items;
+    size_t count = records.count;
     if (status == PF_OK && rc != SQLITE_DONE)
         status = queue_db_error(queue, err, "reading stage timings");
     sqlite3_finalize(stmt);
@@ -81,25 +78,21 @@ static pf_status stage_list(pf_queue *queue, timings_context *ctx, pf_error *err
     if (status != PF_OK)
         return status;
     sqlite3_bind_int64(stmt, 1, ctx->job_id);
-    size_t capacity = 0;
+    queue_records stages = {NULL, 0, 0, sizeof(pf_queue_stage_stats)};
     int rc;
     while ((rc = sqlite3_step(stmt)) == SQLITE_ROW) {
-        if (out->stage_count == capacity) {
-            capacity = capacity ? capacity * 2 : 16;
-            pf_queue_stage_stats *grown = realloc(out->stages, capacity * sizeof *grown);
-            if (!grown) {
-                status = pf_error_set(err, PF_ERR_NOMEM, "%s: out of memory reading timings",
-                                      queue->path);
-                break;
-            }
-            out->stages = grown;
+        pf_queue_stage_stats *stage = queue_records_append(&stages);
+        if (!stage) {
+            status = pf_error_set(err, PF_ERR_NOMEM, "%s: out of memory reading timings",
+                                  queue->path);
+            break;
         }
-        pf_queue_stage_stats *stage = &out->stages[out->stage_count++];
-        memset(stage, 0, sizeof *stage);
         queue_copy_text(stage->stage, sizeof stage->stage, queue_column_text(stmt, 0));
         stage->count = sqlite3_column_int64(stmt, 1);
         stage->skipped = sqlite3_column_int64(stmt, 2);
     }
+    out->stages = stages.items;
+    out->stage_count = stages.count;
     if (status == PF_OK && rc != SQLITE_DONE)
         status = queue_db_error(queue, err, "listing stages");
     sqlite3_finalize(stmt);
@@ -154,24 +147,21 @@ static pf_status decision_counts(pf_queue *queue, timings_context *ctx, pf_error
     if (status != PF_OK)
         return status;
     sqlite3_bind_int64(stmt, 1, ctx->job_id);
-    size_t capacity = 0;
+    queue_records decisions = {NULL, 0, 0, sizeof(pf_queue_decision_count)};
     int rc;
     while ((rc = sqlite3_step(stmt)) == SQLITE_ROW) {
-        if (out->decision_count == capacity) {
-            capacity = capacity ? capacity * 2 : 8;
-            pf_queue_decision_count *grown = realloc(out->decisions, capacity * sizeof *grown);
-            if (!grown) {
-                status = pf_error_set(err, PF_ERR_NOMEM, "%s: out of memory reading timings",
-                                      queue->path);
-                break;
-            }
-            out->decisions = grown;
+        pf_queue_decision_count *row = queue_records_append(&decisions);
+        if (!row) {
+            status = pf_error_set(err, PF_ERR_NOMEM, "%s: out of memory reading timings",
+                                  queue->path);
+            break;
         }
-        pf_queue_decision_count *row = &out->decisions[out->decision_count++];
         queue_copy_text(row->stage, sizeof row->stage, queue_column_text(stmt, 0));
         queue_copy_text(row->decision, sizeof row->decision, queue_column_text(stmt, 1));
         row->count = sqlite3_column_int64(stmt, 2);
     }
+    out->decisions = decisions.items;
+    out->decision_count = decisions.count;
     if (status == PF_OK && rc != SQLITE_DONE)
         status = queue_db_error(queue, err, "counting stage decisions");
     sqlite3_finalize(stmt);
