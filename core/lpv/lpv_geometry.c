@@ -1,0 +1,150 @@
+/*
+ * The geometry volume (pf_lpv.h): each non-glass triangle clipped exactly
+ * against the half-cell-offset cells it touches (Sutherland–Hodgman against
+ * the six planes of the cell), its clipped area A adding
+ * (A / s²) / 0.75 × the clamped-cosine lobe of its face normal.
+ */
+#include "pf_lpv.h"
+
+#include <math.h>
+#include <string.h>
+
+/* A triangle clipped by 6 planes has at most 9 vertices. */
+#define MAX_POLYGON 12
+/* The clamped-cosine lobe's value at its peak (Y00 c0 + Y1 c1 = 0.25 + 0.5). */
+#define LOBE_PEAK 0.75
+
+typedef struct polygon {
+    int count;
+    double v[MAX_POLYGON][3];
+} polygon;
+
+/*
+ * Keeps the part of in with sign × (x[axis] − plane) ≥ 0 (> 0 when strict):
+ * the cells are half-open, so a triangle lying exactly in a boundary plane
+ * counts in one cell, not two.
+ */
+static void clip(const polygon *in, int axis, double plane, double sign, int strict, polygon *out)
+{
+    out->count = 0;
+    for (int i = 0; i < in->count; i++) {
+        const double *a = in->v[i], *b = in->v[(i + 1) % in->count];
+        double da = sign * (a[axis] - plane), db = sign * (b[axis] - plane);
+        int a_in = strict ? da > 0.0 : da >= 0.0, b_in = strict ? db > 0.0 : db >= 0.0;
+        if (a_in && out->count < MAX_POLYGON)
+            memcpy(out->v[out->count++], a, sizeof out->v[0]);
+        if (a_in != b_in && da != db && out->count < MAX_POLYGON) {
+            double t = da / (da - db);
+            for (int k = 0; k < 3; k++)
+                out->v[out->count][k] = a[k] + t * (b[k] - a[k]);
+            out->v[out->count][axis] = plane; /* exactly on the plane */
+            out->count++;
+        }
+    }
+}
+
+static double polygon_area(const polygon *p)
+{
+    double sum[3] = {0.0, 0.0, 0.0};
+    for (int i = 1; i + 1 < p->count; i++) {
+        double u[3], w[3];
+        for (int k = 0; k < 3; k++) {
+            u[k] = p->v[i][k] - p->v[0][k];
+            w[k] = p->v[i + 1][k] - p->v[0][k];
+        }
+        sum[0] += u[1] * w[2] - u[2] * w[1];
+        sum[1] += u[2] * w[0] - u[0] * w[2];
+        sum[2] += u[0] * w[1] - u[1] * w[0];
+    }
+    return 0.5 * sqrt(sum[0] * sum[0] + sum[1] * sum[1] + sum[2] * sum[2]);
+}
+
+double pf_lpv_clipped_area(const float a[3], const float b[3], const float c[3],
+                           const float box_min[3], const float box_max[3])
+{
+    polygon p = {3, {{a[0], a[1], a[2]}, {b[0], b[1], b[2]}, {c[0], c[1], c[2]}}}, q;
+    for (int axis = 0; axis < 3 && p.count >= 3; axis++) {
+        clip(&p, axis, box_min[axis], 1.0, 0, &q);
+        clip(&q, axis, box_max[axis], -1.0, 1, &p);
+    }
+    return p.count >= 3 ? polygon_area(&p) : 0.0;
+}
+
+/* Unit face normal (counter-clockwise front) and area; 0 for a degenerate triangle. */
+static int face_normal(const float *a, const float *b, const float *c, float normal[3])
+{
+    double u[3], w[3];
+    for (int k = 0; k < 3; k++) {
+        u[k] = (double)b[k] - a[k];
+        w[k] = (double)c[k] - a[k];
+    }
+    double n[3] = {u[1] * w[2] - u[2] * w[1], u[2] * w[0] - u[0] * w[2],
+                   u[0] * w[1] - u[1] * w[0]};
+    double length = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+    if (!(length > 0.0) || !isfinite(length))
+        return 0;
+    for (int k = 0; k < 3; k++)
+        normal[k] = (float)(n[k] / length);
+    return 1;
+}
+
+uint64_t pf_lpv_geometry_build(const pf_lpv_layout *layout, const pf_scene_frame *frame,
+                               float *gv)
+{
+    uint64_t cells = (uint64_t)layout->size * layout->size * layout->size;
+    memset(gv, 0, pf_lpv_volume_floats(layout, PF_LPV_GV_FLOATS_PER_CELL) * sizeof *gv);
+    uint64_t pieces = 0;
+    int32_t size = (int32_t)layout->size;
+    for (uint32_t t = 0; t < frame->triangle_count; t++) {
+        uint32_t m = frame->triangle_material[t];
+        if (m < frame->material_count && frame->materials[m].kind == PF_MATERIAL_GLASS)
+            continue;
+        const float *v[3] = {frame->vertices[3 * t], frame->vertices[3 * t + 1],
+                             frame->vertices[3 * t + 2]};
+        float normal[3], lobe[4];
+        if (!face_normal(v[0], v[1], v[2], normal))
+            continue;
+        pf_sh_cosine_lobe(normal, lobe);
+        for (uint32_t k = 0; k < layout->count; k++) {
+            const pf_lpv_cascade *cascade = &layout->cascades[k];
+            float s = cascade->cell_size;
+            /* GV cell g spans [origin + (g − ½)s, origin + (g + ½)s]. */
+            int32_t lo[3], hi[3];
+            int empty = 0;
+            for (int i = 0; i < 3; i++) {
+                float mn = fminf(v[0][i], fminf(v[1][i], v[2][i]));
+                float mx = fmaxf(v[0][i], fmaxf(v[1][i], v[2][i]));
+                double g0 = floor(((double)mn - cascade->origin[i]) / s + 0.5);
+                double g1 = floor(((double)mx - cascade->origin[i]) / s + 0.5);
+                if (g1 < 0.0 || g0 >= size) {
+                    empty = 1;
+                    break;
+                }
+                lo[i] = g0 < 0.0 ? 0 : (int32_t)g0;
+                hi[i] = g1 >= size ? size - 1 : (int32_t)g1;
+            }
+            if (empty)
+                continue;
+            for (int32_t z = lo[2]; z <= hi[2]; z++)
+                for (int32_t y = lo[1]; y <= hi[1]; y++)
+                    for (int32_t x = lo[0]; x <= hi[0]; x++) {
+                        int32_t g[3] = {x, y, z};
+                        float box_min[3], box_max[3];
+                        for (int i = 0; i < 3; i++) {
+                            box_min[i] = cascade->origin[i] + ((float)g[i] - 0.5f) * s;
+                            box_max[i] = box_min[i] + s;
+                        }
+                        double area = pf_lpv_clipped_area(v[0], v[1], v[2], box_min, box_max);
+                        if (!(area > 0.0))
+                            continue;
+                        pieces++;
+                        float weight = (float)(area / ((double)s * s) / LOBE_PEAK);
+                        float *out = gv + (k * cells + ((uint64_t)z * size + y) * size + x) *
+                                              PF_LPV_GV_FLOATS_PER_CELL;
+                        for (int c = 0; c < 4; c++)
+                            out[c] += weight * lobe[c];
+                    }
+        }
+    }
+    return pieces;
+}

@@ -1,0 +1,211 @@
+/*
+ * The LPV's device side (pf_lpv.h): volumes for all cascades in one buffer
+ * each (cascade k's cells start at k × size³), and the propagation of
+ * shaders/lpv_propagate.comp, every cascade's iterations in one submission.
+ */
+#include "pf_lpv.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+#define PROPAGATE_BUFFERS 4u
+#define SPEC_ACCUMULATE 0u
+#define GROUP_EDGE 4u
+
+typedef struct propagate_push {
+    uint32_t size, base, occlusion, padding;
+} propagate_push;
+
+struct pf_lpv {
+    pf_vk_context *ctx;
+    pf_vk_pipeline *propagate;      /* ACCUMULATE = true */
+    pf_vk_pipeline *propagate_once; /* ACCUMULATE = false, created on first use */
+    uint64_t floats;                /* SH floats of one volume (0: none allocated) */
+    pf_vk_buffer *injected, *ping, *pong, *accumulated, *geometry;
+};
+
+pf_status pf_lpv_create(pf_vk_context *ctx, pf_lpv **out, pf_error *err)
+{
+    *out = NULL;
+    pf_lpv *lpv = calloc(1, sizeof *lpv);
+    if (!lpv)
+        return pf_error_set(err, PF_ERR_NOMEM, "LPV: out of memory");
+    lpv->ctx = ctx;
+    pf_vk_spec_constant accumulate = {SPEC_ACCUMULATE, 1};
+    pf_status status = pf_vk_pipeline_create_named(ctx, "lpv_propagate", PROPAGATE_BUFFERS,
+                                                   sizeof(propagate_push), &accumulate, 1,
+                                                   &lpv->propagate, err);
+    if (status != PF_OK) {
+        pf_lpv_destroy(lpv);
+        return status;
+    }
+    *out = lpv;
+    return PF_OK;
+}
+
+static void release_volumes(pf_lpv *lpv)
+{
+    pf_vk_buffer **all[] = {&lpv->injected, &lpv->ping, &lpv->pong, &lpv->accumulated,
+                            &lpv->geometry};
+    for (size_t i = 0; i < sizeof all / sizeof all[0]; i++) {
+        if (*all[i])
+            pf_vk_buffer_destroy(lpv->ctx, *all[i]);
+        *all[i] = NULL;
+    }
+    lpv->floats = 0;
+}
+
+void pf_lpv_destroy(pf_lpv *lpv)
+{
+    if (!lpv)
+        return;
+    release_volumes(lpv);
+    if (lpv->propagate)
+        pf_vk_pipeline_destroy(lpv->ctx, lpv->propagate);
+    if (lpv->propagate_once)
+        pf_vk_pipeline_destroy(lpv->ctx, lpv->propagate_once);
+    free(lpv);
+}
+
+/* Makes every volume hold floats SH floats (and a geometry volume of a third of that). */
+static pf_status ensure_volumes(pf_lpv *lpv, uint64_t floats, pf_error *err)
+{
+    if (lpv->floats == floats)
+        return PF_OK;
+    release_volumes(lpv);
+    uint64_t bytes = floats * sizeof(float);
+    uint64_t gv_bytes = bytes / (PF_LPV_FLOATS_PER_CELL / PF_LPV_GV_FLOATS_PER_CELL);
+    pf_status status = pf_vk_buffer_create(lpv->ctx, bytes, "LPV injected volume",
+                                           &lpv->injected, err);
+    if (status == PF_OK)
+        status = pf_vk_buffer_create(lpv->ctx, bytes, "LPV ping volume", &lpv->ping, err);
+    if (status == PF_OK)
+        status = pf_vk_buffer_create(lpv->ctx, bytes, "LPV pong volume", &lpv->pong, err);
+    if (status == PF_OK)
+        status = pf_vk_buffer_create(lpv->ctx, bytes, "LPV accumulation volume",
+                                     &lpv->accumulated, err);
+    if (status == PF_OK)
+        status = pf_vk_buffer_create(lpv->ctx, gv_bytes, "LPV geometry volume", &lpv->geometry,
+                                     err);
+    if (status != PF_OK) {
+        release_volumes(lpv);
+        return status;
+    }
+    lpv->floats = floats;
+    return PF_OK;
+}
+
+/* Uploads gv, or zeros when gv is NULL (the kernel then skips occlusion anyway). */
+static pf_status upload_geometry(pf_lpv *lpv, const float *gv, pf_error *err)
+{
+    uint64_t bytes = pf_vk_buffer_size(lpv->geometry);
+    if (gv)
+        return pf_vk_buffer_upload(lpv->ctx, lpv->geometry, 0, gv, bytes, err);
+    void *zeros = calloc(1, bytes);
+    if (!zeros)
+        return pf_error_set(err, PF_ERR_NOMEM, "LPV: out of memory");
+    pf_status status = pf_vk_buffer_upload(lpv->ctx, lpv->geometry, 0, zeros, bytes, err);
+    free(zeros);
+    return status;
+}
+
+pf_status pf_lpv_propagate(pf_lpv *lpv, const pf_lpv_layout *layout, const float *injected,
+                           const float *gv, pf_lpv_propagate_stats *stats, pf_error *err)
+{
+    pf_lpv_propagate_stats local;
+    if (!stats)
+        stats = &local;
+    memset(stats, 0, sizeof *stats);
+    stats->gpu_ms = -1.0;
+    uint64_t floats = pf_lpv_volume_floats(layout, PF_LPV_FLOATS_PER_CELL);
+    pf_status status = ensure_volumes(lpv, floats, err);
+    uint64_t bytes = floats * sizeof(float);
+    if (status == PF_OK)
+        status = pf_vk_buffer_upload(lpv->ctx, lpv->injected, 0, injected, bytes, err);
+    if (status == PF_OK)
+        status = pf_vk_buffer_upload(lpv->ctx, lpv->accumulated, 0, injected, bytes, err);
+    if (status == PF_OK)
+        status = upload_geometry(lpv, gv, err);
+    pf_vk_commands *cmds = NULL;
+    if (status == PF_OK)
+        status = pf_vk_commands_begin(lpv->ctx, &cmds, err);
+    if (status != PF_OK)
+        return status;
+    uint32_t groups = (layout->size + GROUP_EDGE - 1) / GROUP_EDGE;
+    uint64_t cells = (uint64_t)layout->size * layout->size * layout->size;
+    int begin = pf_vk_cmd_timestamp(cmds);
+    for (uint32_t k = 0; status == PF_OK && k < layout->count; k++) {
+        propagate_push push = {layout->size, (uint32_t)(k * cells), gv != NULL, 0};
+        pf_vk_buffer *source = lpv->injected;
+        for (uint32_t i = 0; status == PF_OK && i < layout->cascades[k].iterations; i++) {
+            pf_vk_buffer *destination = (i % 2u == 0) ? lpv->ping : lpv->pong;
+            pf_vk_buffer *buffers[PROPAGATE_BUFFERS] = {source, destination, lpv->accumulated,
+                                                        lpv->geometry};
+            status = pf_vk_cmd_dispatch(cmds, lpv->propagate, buffers, PROPAGATE_BUFFERS, &push,
+                                        sizeof push, groups, groups, groups, err);
+            pf_vk_cmd_barrier(cmds);
+            source = destination;
+            stats->cell_updates += cells;
+        }
+    }
+    int end = pf_vk_cmd_timestamp(cmds);
+    if (status == PF_OK)
+        status = pf_vk_commands_submit(cmds, err);
+    if (status == PF_OK && begin >= 0 && end >= 0)
+        stats->gpu_ms = pf_vk_commands_elapsed_ms(cmds, begin, end);
+    pf_vk_commands_destroy(cmds);
+    if (status != PF_OK)
+        pf_error_prefix(err, "LPV propagation (%u cascades of %u³)", layout->count, layout->size);
+    return status;
+}
+
+pf_vk_buffer *pf_lpv_accumulated(const pf_lpv *lpv)
+{
+    return lpv->floats ? lpv->accumulated : NULL;
+}
+
+pf_status pf_lpv_download(pf_lpv *lpv, float *out, uint64_t floats, pf_error *err)
+{
+    if (!lpv->floats || floats > lpv->floats)
+        return pf_error_set(err, PF_ERR_INVALID, "LPV download of %llu floats: volume holds %llu",
+                            (unsigned long long)floats, (unsigned long long)lpv->floats);
+    return pf_vk_buffer_download(lpv->ctx, lpv->accumulated, 0, out, floats * sizeof(float),
+                                 err);
+}
+
+pf_status pf_lpv_propagate_once(pf_lpv *lpv, uint32_t size, const float *src, const float *gv,
+                                float *dst, pf_error *err)
+{
+    pf_status status = PF_OK;
+    if (!lpv->propagate_once) {
+        pf_vk_spec_constant once = {SPEC_ACCUMULATE, 0};
+        status = pf_vk_pipeline_create_named(lpv->ctx, "lpv_propagate", PROPAGATE_BUFFERS,
+                                             sizeof(propagate_push), &once, 1,
+                                             &lpv->propagate_once, err);
+    }
+    uint64_t floats = (uint64_t)size * size * size * PF_LPV_FLOATS_PER_CELL;
+    uint64_t bytes = floats * sizeof(float);
+    if (status == PF_OK)
+        status = ensure_volumes(lpv, floats, err);
+    if (status == PF_OK)
+        status = pf_vk_buffer_upload(lpv->ctx, lpv->injected, 0, src, bytes, err);
+    if (status == PF_OK)
+        status = upload_geometry(lpv, gv, err);
+    pf_vk_commands *cmds = NULL;
+    if (status == PF_OK)
+        status = pf_vk_commands_begin(lpv->ctx, &cmds, err);
+    if (status != PF_OK)
+        return status;
+    uint32_t groups = (size + GROUP_EDGE - 1) / GROUP_EDGE;
+    propagate_push push = {size, 0, gv != NULL, 0};
+    pf_vk_buffer *buffers[PROPAGATE_BUFFERS] = {lpv->injected, lpv->ping, lpv->accumulated,
+                                                lpv->geometry};
+    status = pf_vk_cmd_dispatch(cmds, lpv->propagate_once, buffers, PROPAGATE_BUFFERS, &push,
+                                sizeof push, groups, groups, groups, err);
+    if (status == PF_OK)
+        status = pf_vk_commands_submit(cmds, err);
+    pf_vk_commands_destroy(cmds);
+    if (status == PF_OK)
+        status = pf_vk_buffer_download(lpv->ctx, lpv->ping, 0, dst, bytes, err);
+    return status;
+}
