@@ -5,13 +5,17 @@
 // neighbours and writes its own cell only, so no atomics. For the
 // neighbour q = d − a (light flowing along +a into d), the destination's
 // face opposite q (outward normal a) and its 4 side faces (outward normal
-// b ⊥ a) receive Δω_f × I_q(ω_f) × (1 − B(ω_f)), ω_f the direction from q's
-// centre to the face's centre (a, or (2a + b)/√5), I_q clamped at 0, B the
-// geometry volume's two-sided blocking at the face shared by q and d
-// (bilinear over the 4 half-offset GV cells that meet there). Each face
+// b ⊥ a) receive Δω_f × I_q(ω_f) × (1 − B(ω_f)), ω_f the direction from
+// q's centre to the face's centre (a, or (2a + b)/√5), I_q clamped at 0, B
+// the geometry volume's one-sided blocking (lpv_sh.glsl) at the face shared
+// by q and d (bilinear over the 4 half-offset GV cells that meet there,
+// lpv_geometry.glsl). Each face
 // flux Φ_f is re-emitted as (Φ_f/π) × the clamped-cosine lobe about the
 // face's outward normal. ACCUMULATE adds the result to the accumulation
-// volume too.
+// volume too, and push.snapshot also copies the new accumulated value into
+// the snapshot volume (the far-field split of lpv_lookup.glsl: a cascade's
+// accumulation after the iterations that reach as far as the next finer
+// cascade's whole propagation).
 
 layout(local_size_x = 4, local_size_y = 4, local_size_z = 4) in;
 
@@ -21,13 +25,14 @@ layout(push_constant) uniform Push {
     uint size;       // cells per axis
     uint base;       // first cell of this cascade in every volume
     uint occlusion;  // 1: apply the geometry volume
-    uint padding;
+    uint snapshot;   // 1: also write the accumulated value to the snapshot volume
 } push;
 
 layout(std430, set = 0, binding = 0) readonly buffer Source { vec4 source[]; };
 layout(std430, set = 0, binding = 1) writeonly buffer Destination { vec4 destination[]; };
 layout(std430, set = 0, binding = 2) buffer Accumulated { vec4 accumulated[]; };
 layout(std430, set = 0, binding = 3) readonly buffer Geometry { vec4 geometry[]; };
+layout(std430, set = 0, binding = 4) writeonly buffer Snapshot { vec4 snapshot[]; };
 
 #include "lpv_sh.glsl"
 
@@ -46,29 +51,7 @@ bool inside(ivec3 c)
     return all(greaterThanEqual(c, ivec3(0))) && all(lessThan(c, ivec3(push.size)));
 }
 
-vec4 gv_at(ivec3 g)
-{
-    return inside(g) ? geometry[cell_index(g)] : vec4(0.0);
-}
-
-// Blocking at the face between d and d − a (axis k, sign s) in direction ω.
-float blocking(ivec3 d, int k, int s, vec3 direction)
-{
-    if (push.occlusion == 0u)
-        return 0.0;
-    // GV cell g is centred on LPV cell g's lower corner: the shared face lies
-    // on GV index d_k (s > 0) or d_k + 1 (s < 0) along k, between d and d + 1
-    // along the other two axes.
-    ivec3 g = d;
-    if (s < 0)
-        g[k] += 1;
-    int u = (k + 1) % 3, v = (k + 2) % 3;
-    ivec3 du = ivec3(0), dv = ivec3(0);
-    du[u] = 1;
-    dv[v] = 1;
-    vec4 gv = 0.25 * (gv_at(g) + gv_at(g + du) + gv_at(g + dv) + gv_at(g + du + dv));
-    return sh_blocking(gv, direction);
-}
+#include "lpv_geometry.glsl"
 
 void main()
 {
@@ -78,30 +61,33 @@ void main()
     vec4 out_r = vec4(0.0), out_g = vec4(0.0), out_b = vec4(0.0);
     for (int k = 0; k < 3; k++) {
         for (int s = -1; s <= 1; s += 2) {
-            vec3 a = vec3(0.0);
-            a[k] = float(s);
-            ivec3 q = d - ivec3(a);
+            ivec3 step = ivec3(0);
+            step[k] = s;
+            ivec3 q = d - step;
             if (!inside(q))
                 continue;
             uint qi = 3u * cell_index(q);
             vec4 q_r = source[qi], q_g = source[qi + 1u], q_b = source[qi + 2u];
-            // Face 0: opposite q; faces 1..4: the sides.
+            vec4 gv = push.occlusion != 0u ? lpv_face_geometry(d, k, s, push.base, push.size)
+                                           : vec4(0.0);
+            vec3 a = vec3(step);
+            // Face 0: opposite q; faces 1..4: the sides (normal ±b, b ⊥ a).
             for (int f = 0; f < 5; f++) {
                 vec3 normal = a;
                 vec3 direction = a;
                 float solid_angle = SOLID_ANGLE_FRONT;
                 if (f > 0) {
-                    int side_axis = (k + 1 + (f - 1) / 2) % 3;
                     normal = vec3(0.0);
-                    normal[side_axis] = (f % 2 == 1) ? 1.0 : -1.0;
+                    normal[(k + 1 + (f - 1) / 2) % 3] = (f % 2 == 1) ? 1.0 : -1.0;
                     direction = (2.0 * a + normal) * INV_SQRT5;
                     solid_angle = SOLID_ANGLE_SIDE;
                 }
                 vec4 basis = sh_basis(direction);
                 vec3 intensity = max(vec3(dot(q_r, basis), dot(q_g, basis), dot(q_b, basis)),
                                      vec3(0.0));
-                vec3 flux = solid_angle * (1.0 - blocking(d, k, s, direction)) * intensity;
-                vec4 lobe = sh_cosine_lobe(normal) * (1.0 / PI);
+                float open = push.occlusion != 0u ? 1.0 - sh_blocking(gv, direction) : 1.0;
+                vec3 flux = (solid_angle / PI) * open * intensity;
+                vec4 lobe = sh_cosine_lobe(normal);
                 out_r += flux.r * lobe;
                 out_g += flux.g * lobe;
                 out_b += flux.b * lobe;
@@ -113,8 +99,15 @@ void main()
     destination[di + 1u] = out_g;
     destination[di + 2u] = out_b;
     if (ACCUMULATE) {
-        accumulated[di] += out_r;
-        accumulated[di + 1u] += out_g;
-        accumulated[di + 2u] += out_b;
+        vec4 r = accumulated[di] + out_r, g = accumulated[di + 1u] + out_g,
+             b = accumulated[di + 2u] + out_b;
+        accumulated[di] = r;
+        accumulated[di + 1u] = g;
+        accumulated[di + 2u] = b;
+        if (push.snapshot != 0u) {
+            snapshot[di] = r;
+            snapshot[di + 1u] = g;
+            snapshot[di + 2u] = b;
+        }
     }
 }

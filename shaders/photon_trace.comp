@@ -50,7 +50,7 @@ struct PhotonTraceParams {
     uint global_capacity;      // photons the maps can hold; more are counted, not stored
     uint caustic_capacity;
     float ray_offset;          // secondary rays leave surfaces this far along the normal
-    uint padding;
+    uint global_reflected;     // 1: the global map holds reflected flux (flux ⊙ albedo): VPLs
 };
 
 // PhotonEmitter: pf_photon_emitter (32 bytes).
@@ -172,7 +172,8 @@ Emission emit(PhotonEmitter emitter, vec2 xi_position, vec2 xi_direction)
     return e;
 }
 
-void store(bool caustic, vec3 position, vec3 flux, vec3 incoming, vec3 normal)
+// reflected: the global record's flux (flux ⊙ albedo with params.global_reflected).
+void store(bool caustic, vec3 position, vec3 flux, vec3 reflected, vec3 incoming, vec3 normal)
 {
     uint words[5] = uint[5](floatBitsToUint(position.x), floatBitsToUint(position.y),
                             floatBitsToUint(position.z), rgb9e5_pack(flux),
@@ -184,6 +185,7 @@ void store(bool caustic, vec3 position, vec3 flux, vec3 incoming, vec3 normal)
                 caustic_words[PHOTON_WORDS * slot + w] = words[w];
         }
     }
+    words[3] = rgb9e5_pack(params.global_reflected != 0u ? reflected : flux);
     uint slot = atomicAdd(counters.global_stored, 1u);
     if (slot < params.global_capacity) {
         for (uint w = 0u; w < PHOTON_WORDS; w++)
@@ -235,7 +237,8 @@ void main()
         vec3 position = surface.position;
         bool diffuse = material.kind == MATERIAL_LAMBERT;
         if (diffuse && (depth > 0u || params.store_direct != 0u))
-            store(specular_only && depth > 0u, position, flux, direction, geometric_normal);
+            store(specular_only && depth > 0u, position, flux, flux * material.albedo, direction,
+                  geometric_normal);
         specular_only = specular_only && !diffuse;
 
         vec3 xi = vec3(rng_float(rng), rng_float(rng), rng_float(rng));

@@ -195,21 +195,7 @@ vec3 caustic_radiance(Material material, vec3 position, vec3 geometric_normal, u
     return material.albedo * (push.flux_scale / PI) * irradiance;
 }
 
-// The loop cap's proof of completion (header): false if this invocation's loops were cut.
-bool loops_completed()
-{
-    bool completed = false;
-    for (uint i = 0u; i < push.loop_sentinel; i++)
-        completed = true;
-    return completed;
-}
-
-void count_rays(uint rays)
-{
-    uint previous_low = atomicAdd(counters.rays_low, rays);
-    if (previous_low + rays < previous_low)
-        atomicAdd(counters.rays_high, 1u);
-}
+#include "kernel_guard.glsl"
 
 void primary(uint pixel_index, uvec2 pixel)
 {

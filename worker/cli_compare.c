@@ -15,7 +15,7 @@
 static void usage(FILE *out)
 {
     fprintf(out,
-            "usage: photonfarm compare A.exr B.exr [--format text|json]\n"
+            "usage: photonfarm compare A.exr B.exr [--format text|json] [--rgb]\n"
             "\n"
             "Error of test image A against reference B, over the R, G, B channels\n"
             "(every channel when the images have no R, G and B):\n"
@@ -23,7 +23,8 @@ static void usage(FILE *out)
             "  relMSE   mean (a - b)^2 / (b^2 + %g)\n"
             "  max      max |a - b|\n"
             "and the mean of every channel in both images. Channels are matched by name;\n"
-            "the images must have the same size and the same channel names.\n"
+            "the images must have the same size and the same channel names, unless\n"
+            "--rgb compares R, G, B alone (a preview against a reference's layers).\n"
             "\n"
             "exit status: 0 compared, 2 bad usage, unreadable file, size or channel\n"
             "mismatch, 1 other failures.\n",
@@ -97,7 +98,7 @@ int pf_cli_compare(int argc, char **argv)
 {
     const char *paths[2] = {NULL, NULL};
     int path_count = 0;
-    int json = 0;
+    int json = 0, rgb_only = 0;
     for (int i = 1; i < argc; i++) {
         if (!strcmp(argv[i], "--help") || !strcmp(argv[i], "-h")) {
             usage(stdout);
@@ -113,6 +114,8 @@ int pf_cli_compare(int argc, char **argv)
                 json = 0;
             else
                 return pf_cli_fail("compare", 2, "--format '%s': expected text or json", value);
+        } else if (!strcmp(argv[i], "--rgb")) {
+            rgb_only = 1;
         } else if (argv[i][0] == '-' && argv[i][1] != '\0') {
             usage(stderr);
             return pf_cli_fail("compare", 2, "unknown option '%s'", argv[i]);
@@ -134,6 +137,20 @@ int pf_cli_compare(int argc, char **argv)
     pf_status status = pf_exr_read(paths[0], &a, NULL, NULL, &err);
     if (status == PF_OK)
         status = pf_exr_read(paths[1], &b, NULL, NULL, &err);
+    if (status == PF_OK && rgb_only) {
+        static const char *const rgb[3] = {"R", "G", "B"};
+        pf_image *images[2] = {&a, &b};
+        for (int k = 0; k < 2 && status == PF_OK; k++) {
+            pf_image selected;
+            status = pf_image_select(images[k], rgb, 3, &selected, &err);
+            if (status != PF_OK) {
+                pf_error_prefix(&err, "%s", paths[k]);
+                break;
+            }
+            pf_image_free(images[k]);
+            *images[k] = selected;
+        }
+    }
     if (status == PF_OK) {
         status = pf_image_compare(&a, &b, &metrics, &err);
         if (status != PF_OK)

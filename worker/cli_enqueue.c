@@ -44,6 +44,9 @@ static void usage(FILE *out)
             "  --size WxH             image size (default 640 wide, height from the camera)\n"
             "  --quality Q            preview | fast | final | reference | auto (default auto)\n"
             "  --spp N                samples per pixel (default: the preset's)\n"
+            "  --photons N            fast: photons per frame; final: per pass\n"
+            "  --lpv-cascades N, --lpv-size N, --lpv-iterations N[,N...], --lpv-cell M\n"
+            "                         fast: the light propagation volumes (see render --help)\n"
             "  --time-budget SECONDS  stop refining each frame after this long (progressive\n"
             "                         presets; at least one pass; default: no limit)\n"
             "  --priority P           higher runs first (default 0)\n"
@@ -132,8 +135,17 @@ static int parse_options(int argc, char **argv, enqueue_options *options, int *h
             if (!pf_cli_parse_int(value, 1, MAX_FRAMES_PER_TASK, &options->frames_per_task))
                 return pf_cli_fail(COMMAND, 2, "--frames-per-task '%s': expected 1..%d", value,
                                    MAX_FRAMES_PER_TASK);
+        } else if (!strcmp(arg, "--photons")) {
+            if (!pf_cli_parse_int(value, 1, PF_CLI_MAX_PHOTONS, &number))
+                return pf_cli_fail(COMMAND, 2, "--photons '%s': expected 1..%llu", value,
+                                   (unsigned long long)PF_CLI_MAX_PHOTONS);
+            options->settings.photons_per_pass = (uint32_t)number;
         } else {
-            return pf_cli_fail(COMMAND, 2, "unknown option '%s' (see --help)", arg);
+            int lpv = pf_cli_lpv_option(COMMAND, arg, value, &options->settings.lpv);
+            if (lpv > 0)
+                return lpv;
+            if (lpv < 0)
+                return pf_cli_fail(COMMAND, 2, "unknown option '%s' (see --help)", arg);
         }
         i++;
     }
@@ -143,7 +155,8 @@ static int parse_options(int argc, char **argv, enqueue_options *options, int *h
         return pf_cli_fail(COMMAND, 2, "--frames RANGE is required (e.g. 1-48)");
     if (!options->pattern)
         return pf_cli_fail(COMMAND, 2, "--out PATTERN is required (e.g. 'out/frame.####.exr')");
-    return 0;
+    /* A volume every worker's device can hold: Vulkan guarantees 128 MiB buffers. */
+    return pf_cli_lpv_check(COMMAND, &options->settings.lpv, PF_CLI_GUARANTEED_BUFFER_BYTES);
 }
 
 /*

@@ -7,6 +7,7 @@
 #ifndef PF_CLI_QUEUE_H
 #define PF_CLI_QUEUE_H
 
+#include "pf_lpv.h"
 #include "pf_queue.h"
 
 #include <stdint.h>
@@ -36,5 +37,19 @@ int pf_cli_parse_int(const char *text, int64_t min, int64_t max, int64_t *out);
  * PF_CLI_MAX_TIME_BUDGET_S, into milliseconds. 1 on success, 0 otherwise.
  */
 int pf_cli_parse_time_budget(const char *text, double *milliseconds);
+
+/*
+ * The LPV options of render and enqueue (cli_lpv.c): -1 when arg is not one
+ * of them, 0 when value was stored into *lpv, 2 after printing why it is
+ * bad (naming the option and the accepted range).
+ */
+int pf_cli_lpv_option(const char *command, const char *arg, const char *value,
+                      pf_lpv_settings *lpv);
+/* 0 when the LPV settings fit buffers of max_buffer_bytes, else 2 after naming the option. */
+int pf_cli_lpv_check(const char *command, const pf_lpv_settings *lpv, uint64_t max_buffer_bytes);
+/* Most photons per frame (fast) or pass (final) accepted by --photons. */
+#define PF_CLI_MAX_PHOTONS 100000000ll
+/* What enqueue checks against: the maxStorageBufferRange every Vulkan device guarantees. */
+#define PF_CLI_GUARANTEED_BUFFER_BYTES (128ull << 20)
 
 #endif

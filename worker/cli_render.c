@@ -39,11 +39,22 @@ static void usage(FILE *out)
             "                     frame number (default " DEFAULT_OUTPUT ")\n"
             "  --size WxH         image size (default 640 wide, height from the camera's\n"
             "                     aspect ratio, else 480)\n"
-            "  --quality Q        preview (direct light) | final (photon maps + final\n"
-            "                     gather) | reference (unbiased path tracer) | fast | auto\n"
-            "                     (default auto = preview; fast is not available yet)\n"
+            "  --quality Q        preview (direct light) | fast (direct light + LPV\n"
+            "                     indirect + caustic map) | final (photon maps + final\n"
+            "                     gather) | reference (unbiased path tracer) | auto\n"
+            "                     (default auto = preview)\n"
             "  --spp N            samples per pixel; for final, photon passes (default:\n"
-            "                     the preset's: preview 1, final 4, reference 64)\n"
+            "                     the preset's: preview 1, fast 4, final 4, reference 64)\n"
+            "  --photons N        fast: photons per frame (default 32768); final: per\n"
+            "                     pass (default 100000)\n"
+            "  --lpv-cascades N   fast: LPV cascades, 1..8 (default 4)\n"
+            "  --lpv-size N       fast: cells per axis of a cascade, a multiple of 4 in\n"
+            "                     4..256 (default 32)\n"
+            "  --lpv-iterations N[,N...]  fast: propagation iterations, one value or one\n"
+            "                     per cascade, 1..1024 (default 8)\n"
+            "  --lpv-cell M       fast: the finest cascade's cell in meters (default: a\n"
+            "                     power of two sized so the coarsest cascade spans the scene)\n"
+            "  --timings          print each frame's stage rows (run or skipped, why)\n"
             "  --seed S           random seed (default 0); same seed, same pixels\n"
             "  --time-budget SEC  final, reference: stop adding passes/samples after SEC\n"
             "                     seconds per frame (at least one; default: no limit)\n"
@@ -152,6 +163,9 @@ typedef struct render_options {
     double time_budget_ms; /* 0: none */
     int float_pixels;
     int aovs;
+    int timings;
+    uint32_t photons;
+    pf_lpv_settings lpv;
 } render_options;
 
 /* 0 ok, else the exit code (2) after printing why. */
@@ -174,6 +188,9 @@ static int parse_options(int argc, char **argv, render_options *options, int *he
             takes_value = 0;
         } else if (!strcmp(arg, "--no-aovs")) {
             options->aovs = 0;
+            takes_value = 0;
+        } else if (!strcmp(arg, "--timings")) {
+            options->timings = 1;
             takes_value = 0;
         } else if (arg[0] == '-' && arg[1] != '\0') {
             if (!value)
@@ -221,8 +238,18 @@ static int parse_options(int argc, char **argv, render_options *options, int *he
                                        "--time-budget '%s': expected seconds, more than 0 and "
                                        "at most %.0f",
                                        value, PF_CLI_MAX_TIME_BUDGET_S);
+            } else if (!strcmp(arg, "--photons")) {
+                int64_t photons;
+                if (!pf_cli_parse_int(value, 1, PF_CLI_MAX_PHOTONS, &photons))
+                    return pf_cli_fail(COMMAND, 2, "--photons '%s': expected 1..%llu", value,
+                                       (unsigned long long)PF_CLI_MAX_PHOTONS);
+                options->photons = (uint32_t)photons;
             } else {
-                return pf_cli_fail(COMMAND, 2, "unknown option '%s' (see --help)", arg);
+                int lpv = pf_cli_lpv_option(COMMAND, arg, value, &options->lpv);
+                if (lpv > 0)
+                    return lpv;
+                if (lpv < 0)
+                    return pf_cli_fail(COMMAND, 2, "unknown option '%s' (see --help)", arg);
             }
         } else {
             if (options->scene_path)
@@ -238,6 +265,24 @@ static int parse_options(int argc, char **argv, render_options *options, int *he
     if (!options->frame_text == !options->frames_text)
         return pf_cli_fail(COMMAND, 2, "give exactly one of --frame N or --frames RANGE");
     return 0;
+}
+
+/* --timings: one line per stage row of the frame. */
+static void print_stage_rows(const pf_frame_report *report)
+{
+    for (uint32_t i = 0; i < report->stage_count; i++) {
+        const pf_stage_timing *row = &report->stages[i];
+        if (row->skipped)
+            printf("  %-14s skipped: %s\n", row->stage, row->reason);
+        else if (row->gpu_ms >= 0.0)
+            printf("  %-14s %9.2f ms (GPU %.2f ms)", row->stage, row->wall_ms, row->gpu_ms);
+        else
+            printf("  %-14s %9.2f ms", row->stage, row->wall_ms);
+        for (uint32_t c = 0; !row->skipped && c < row->counter_count; c++)
+            printf("%s%s=%.6g", c ? " " : "  ", row->counters[c].name, row->counters[c].value);
+        if (!row->skipped)
+            printf("\n");
+    }
 }
 
 typedef struct render_session {
@@ -262,12 +307,13 @@ static int render_one(const render_options *options, render_session *session, in
     double start = pf_time_ms();
     char temp_tag[32];
     snprintf(temp_tag, sizeof temp_tag, "render-%ld", (long)getpid());
+    pf_render_settings settings = {options->width, options->height, (pf_quality)options->quality,
+                                   options->spp, options->seed, options->aovs,
+                                   options->time_budget_ms, options->photons, options->lpv};
     pf_frame_request request = {session->scene,
                                 options->scene_path,
                                 frame_number,
-                                {options->width, options->height, (pf_quality)options->quality,
-                                 options->spp, options->seed, options->aovs,
-                                 options->time_budget_ms},
+                                settings,
                                 options->float_pixels ? PF_EXR_FLOAT : PF_EXR_HALF,
                                 path,
                                 temp_tag,
@@ -285,6 +331,8 @@ static int render_one(const render_options *options, render_session *session, in
                         " NaN/Inf samples discarded\n",
                 frame_number, output.report.discarded_samples);
     *elapsed_ms = pf_time_ms() - start;
+    if (options->timings)
+        print_stage_rows(&output.report);
     return 0;
 }
 
@@ -346,6 +394,14 @@ int pf_cli_render(int argc, char **argv)
         free(frames.frames);
         session_close(&session);
         return pf_cli_fail(COMMAND, pf_status_exit_code(status), "%s", err.message);
+    }
+    /* Volumes beyond this device's buffers: refused before anything is rendered or written. */
+    code = pf_cli_lpv_check(COMMAND, &options.lpv,
+                            pf_vk_info(session.ctx)->max_storage_buffer_range);
+    if (code) {
+        free(frames.frames);
+        session_close(&session);
+        return code;
     }
 
     for (uint32_t i = 0; i < frames.count && code == 0; i++) {

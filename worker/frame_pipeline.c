@@ -1,5 +1,6 @@
 /* One frame: scene evaluation, render, EXR to a temporary, commit (see frame_pipeline.h). */
 #include "frame_pipeline.h"
+#include "job_params.h"
 
 #include <dirent.h>
 #include <errno.h>
@@ -95,13 +96,12 @@ static void fill_attributes(const pf_frame_request *request, const pf_render_set
         snprintf(attributes[i].key, sizeof attributes[i].key, "%s", keys[i]);
     snprintf(attributes[0].value, sizeof attributes[0].value, "%s", request->scene_path);
     snprintf(attributes[1].value, sizeof attributes[1].value, "%" PRId64, request->frame);
-    /* auto resolves to preview until the other presets exist. */
+    /* The preset that rendered (auto resolved); the settings as the job's JSON codec writes them. */
     snprintf(attributes[2].value, sizeof attributes[2].value, "%s",
-             pf_quality_name(PF_QUALITY_PREVIEW));
-    snprintf(attributes[3].value, sizeof attributes[3].value,
-             "size=%ux%u spp=%u seed=%" PRIu64 " quality=%s aovs=%d", settings->width,
-             settings->height, settings->samples_per_pixel, settings->seed,
-             pf_quality_name(settings->quality), settings->aovs);
+             pf_quality_name(pf_quality_resolve(settings->quality)));
+    if (!pf_job_params_format(settings, NULL, attributes[3].value, sizeof attributes[3].value))
+        snprintf(attributes[3].value, sizeof attributes[3].value, "quality=%s",
+                 pf_quality_name(settings->quality));
     snprintf(attributes[4].value, sizeof attributes[4].value, "%.3f", render_ms);
     snprintf(attributes[5].value, sizeof attributes[5].value, "%s",
              request->device_name ? request->device_name : "");

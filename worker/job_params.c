@@ -11,6 +11,98 @@
 /* Bound on a reference frame's time budget, as `photonfarm render --time-budget`: one week. */
 #define MAX_TIME_BUDGET_MS 604800000.0
 
+/* Reads an optional integer key in [0, max] into *value. */
+static pf_status read_number(const cJSON *root, const char *key, double max, double *value,
+                             pf_error *err)
+{
+    const cJSON *item = cJSON_GetObjectItemCaseSensitive(root, key);
+    if (!item)
+        return PF_OK;
+    if (!cJSON_IsNumber(item) || item->valuedouble < 0 || item->valuedouble > max ||
+        item->valuedouble != (double)(int64_t)item->valuedouble)
+        return pf_error_set(err, PF_ERR_FORMAT,
+                            "job parameters: \"%s\" must be an integer 0..%.0f", key, max);
+    *value = item->valuedouble;
+    return PF_OK;
+}
+
+/* "lpv": {"cascades", "size", "iterations": [...], "cell"} with the non-default fields only. */
+static void add_lpv(cJSON *root, const pf_lpv_settings *lpv)
+{
+    uint32_t iteration_count = 0;
+    for (uint32_t k = 0; k < PF_LPV_MAX_CASCADES; k++) {
+        if (lpv->iterations[k])
+            iteration_count = k + 1;
+    }
+    if (!lpv->cascades && !lpv->size && !iteration_count && !(lpv->cell_size > 0.0f))
+        return;
+    cJSON *object = cJSON_AddObjectToObject(root, "lpv");
+    if (!object)
+        return;
+    if (lpv->cascades)
+        cJSON_AddNumberToObject(object, "cascades", lpv->cascades);
+    if (lpv->size)
+        cJSON_AddNumberToObject(object, "size", lpv->size);
+    if (iteration_count) {
+        cJSON *list = cJSON_AddArrayToObject(object, "iterations");
+        for (uint32_t k = 0; list && k < iteration_count; k++)
+            cJSON_AddItemToArray(list, cJSON_CreateNumber(lpv->iterations[k]));
+    }
+    if (lpv->cell_size > 0.0f)
+        cJSON_AddNumberToObject(object, "cell", lpv->cell_size);
+}
+
+/* Reads "lpv" (absent: defaults); PF_ERR_FORMAT naming the key when a value is out of range. */
+static pf_status read_lpv(const cJSON *root, pf_lpv_settings *lpv, pf_error *err)
+{
+    const cJSON *object = cJSON_GetObjectItemCaseSensitive(root, "lpv");
+    memset(lpv, 0, sizeof *lpv);
+    if (!object)
+        return PF_OK;
+    if (!cJSON_IsObject(object))
+        return pf_error_set(err, PF_ERR_FORMAT, "job parameters: \"lpv\" must be an object");
+    double cascades = 0, size = 0;
+    pf_status status = read_number(object, "cascades", PF_LPV_MAX_CASCADES, &cascades, err);
+    if (status == PF_OK)
+        status = read_number(object, "size", PF_LPV_MAX_SIZE, &size, err);
+    if (status != PF_OK)
+        return pf_error_prefix(err, "\"lpv\""), status;
+    lpv->cascades = (uint32_t)cascades;
+    lpv->size = (uint32_t)size;
+    const cJSON *iterations = cJSON_GetObjectItemCaseSensitive(object, "iterations");
+    if (iterations) {
+        int count = cJSON_IsArray(iterations) ? cJSON_GetArraySize(iterations) : -1;
+        if (count < 1 || count > (int)PF_LPV_MAX_CASCADES)
+            return pf_error_set(err, PF_ERR_FORMAT,
+                                "job parameters: \"lpv\".\"iterations\" must be an array of "
+                                "1..%u integers",
+                                PF_LPV_MAX_CASCADES);
+        for (int k = 0; k < count; k++) {
+            const cJSON *item = cJSON_GetArrayItem(iterations, k);
+            if (!cJSON_IsNumber(item) || item->valuedouble < 1 ||
+                item->valuedouble > PF_LPV_MAX_ITERATIONS ||
+                item->valuedouble != (double)(int64_t)item->valuedouble)
+                return pf_error_set(err, PF_ERR_FORMAT,
+                                    "job parameters: \"lpv\".\"iterations\"[%d] must be an "
+                                    "integer 1..%u",
+                                    k, PF_LPV_MAX_ITERATIONS);
+            lpv->iterations[k] = (uint32_t)item->valuedouble;
+        }
+    }
+    const cJSON *cell = cJSON_GetObjectItemCaseSensitive(object, "cell");
+    if (cell) {
+        if (!cJSON_IsNumber(cell) || !(cell->valuedouble > 0.0) || cell->valuedouble > 1e6)
+            return pf_error_set(err, PF_ERR_FORMAT,
+                                "job parameters: \"lpv\".\"cell\" must be a size in meters, "
+                                "more than 0 and at most 1e6");
+        lpv->cell_size = (float)cell->valuedouble;
+    }
+    pf_lpv_setting which;
+    if (pf_lpv_settings_check(lpv, 0, &which, err) != PF_OK)
+        return pf_error_prefix(err, "job parameters: \"lpv\""), PF_ERR_FORMAT;
+    return PF_OK;
+}
+
 int pf_job_params_format(const pf_render_settings *settings, const char *name, char *out,
                          size_t size)
 {
@@ -26,6 +118,11 @@ int pf_job_params_format(const pf_render_settings *settings, const char *name, c
     cJSON_AddNumberToObject(root, "seed", (double)settings->seed);
     if (settings->time_budget_ms > 0.0)
         cJSON_AddNumberToObject(root, "time_budget_ms", settings->time_budget_ms);
+    if (settings->photons_per_pass > 0)
+        cJSON_AddNumberToObject(root, "photons", settings->photons_per_pass);
+    if (!settings->aovs)
+        cJSON_AddBoolToObject(root, "aovs", 0);
+    add_lpv(root, &settings->lpv);
     char *text = cJSON_PrintUnformatted(root);
     cJSON_Delete(root);
     int fits = text && strlen(text) < size;
@@ -45,21 +142,6 @@ void pf_job_params_name(const char *json, char *out, size_t size)
     cJSON_Delete(root);
 }
 
-/* Reads an optional integer key in [0, max] into *value. */
-static pf_status read_number(const cJSON *root, const char *key, double max, double *value,
-                             pf_error *err)
-{
-    const cJSON *item = cJSON_GetObjectItemCaseSensitive(root, key);
-    if (!item)
-        return PF_OK;
-    if (!cJSON_IsNumber(item) || item->valuedouble < 0 || item->valuedouble > max ||
-        item->valuedouble != (double)(int64_t)item->valuedouble)
-        return pf_error_set(err, PF_ERR_FORMAT,
-                            "job parameters: \"%s\" must be an integer 0..%.0f", key, max);
-    *value = item->valuedouble;
-    return PF_OK;
-}
-
 pf_status pf_job_params_parse(const char *json, pf_render_settings *settings, pf_error *err)
 {
     pf_render_settings parsed = {0, 0, PF_QUALITY_AUTO, 0, 0, 1, 0.0};
@@ -69,7 +151,7 @@ pf_status pf_job_params_parse(const char *json, pf_render_settings *settings, pf
         return pf_error_set(err, PF_ERR_FORMAT, "job parameters are not a JSON object: %.80s",
                             json ? json : "");
     }
-    double width = 0, height = 0, spp = 0, seed = 0;
+    double width = 0, height = 0, spp = 0, seed = 0, photons = 0;
     pf_status status = read_number(root, "width", PF_FRAME_MAX_EDGE, &width, err);
     if (status == PF_OK)
         status = read_number(root, "height", PF_FRAME_MAX_EDGE, &height, err);
@@ -78,6 +160,17 @@ pf_status pf_job_params_parse(const char *json, pf_render_settings *settings, pf
     /* 2^53: the largest seed a JSON number carries exactly. */
     if (status == PF_OK)
         status = read_number(root, "seed", 9007199254740992.0, &seed, err);
+    if (status == PF_OK)
+        status = read_number(root, "photons", 100000000.0, &photons, err);
+    if (status == PF_OK)
+        status = read_lpv(root, &parsed.lpv, err);
+    const cJSON *aovs = cJSON_GetObjectItemCaseSensitive(root, "aovs");
+    if (status == PF_OK && aovs) {
+        if (!cJSON_IsBool(aovs))
+            status = pf_error_set(err, PF_ERR_FORMAT, "job parameters: \"aovs\" must be true or false");
+        else
+            parsed.aovs = cJSON_IsTrue(aovs);
+    }
     const cJSON *budget = cJSON_GetObjectItemCaseSensitive(root, "time_budget_ms");
     if (status == PF_OK && budget) {
         if (!cJSON_IsNumber(budget) || !(budget->valuedouble >= 0.0) ||
@@ -104,6 +197,7 @@ pf_status pf_job_params_parse(const char *json, pf_render_settings *settings, pf
     parsed.height = (uint32_t)height;
     parsed.samples_per_pixel = (uint32_t)spp;
     parsed.seed = (uint64_t)seed;
+    parsed.photons_per_pass = (uint32_t)photons;
     *settings = parsed;
     return PF_OK;
 }

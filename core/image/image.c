@@ -138,3 +138,26 @@ float pf_half_to_float(uint16_t value)
     memcpy(&result, &bits, sizeof result);
     return result;
 }
+
+pf_status pf_image_select(const pf_image *in, const char *const *names, uint32_t count,
+                          pf_image *out, pf_error *err)
+{
+    int index[PF_IMAGE_METRIC_CHANNELS_MAX];
+    memset(out, 0, sizeof *out);
+    if (count == 0 || count > PF_IMAGE_METRIC_CHANNELS_MAX)
+        return pf_error_set(err, PF_ERR_INVALID, "image select: %u channels (1..%u)", count,
+                            PF_IMAGE_METRIC_CHANNELS_MAX);
+    for (uint32_t c = 0; c < count; c++) {
+        index[c] = pf_image_channel(in, names[c]);
+        if (index[c] < 0)
+            return pf_error_set(err, PF_ERR_INVALID, "image has no channel '%s'", names[c]);
+    }
+    pf_status status = pf_image_create(out, in->width, in->height, count, names, err);
+    if (status != PF_OK)
+        return status;
+    uint64_t pixels = (uint64_t)in->width * in->height;
+    for (uint64_t p = 0; p < pixels; p++)
+        for (uint32_t c = 0; c < count; c++)
+            out->pixels[p * count + c] = in->pixels[p * in->channel_count + (uint32_t)index[c]];
+    return PF_OK;
+}

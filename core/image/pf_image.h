@@ -98,6 +98,14 @@ pf_status pf_image_compare(const pf_image *a, const pf_image *b, pf_image_metric
                            pf_error *err);
 
 /*
+ * A new image of in's channels names[0..count) in that order (compare two
+ * images on the channels both have: a preview's RGB against a reference's).
+ * PF_ERR_INVALID naming a missing channel.
+ */
+pf_status pf_image_select(const pf_image *in, const char *const *names, uint32_t count,
+                          pf_image *out, pf_error *err);
+
+/*
  * IEEE half conversion (round to nearest even), shared with GPU readback code.
  * Magnitudes above 65504 round to it up to 65520 (the midpoint to 2^16) and become
  * inf from there; at or below 2^-25 they become (signed) zero; NaN stays a (quiet) NaN.

@@ -1,8 +1,8 @@
 /*
  * The geometry volume (pf_lpv.h): each non-glass triangle clipped exactly
- * against the half-cell-offset cells it touches (Sutherland–Hodgman against
- * the six planes of the cell), its clipped area A adding
- * (A / s²) / 0.75 × the clamped-cosine lobe of its face normal.
+ * against the face cells it touches (Sutherland–Hodgman against the six
+ * planes of the cell), its clipped area A adding (A / s²) / 0.75 × the
+ * clamped-cosine lobe of its face normal.
  */
 #include "pf_lpv.h"
 
@@ -59,15 +59,39 @@ static double polygon_area(const polygon *p)
     return 0.5 * sqrt(sum[0] * sum[0] + sum[1] * sum[1] + sum[2] * sum[2]);
 }
 
-double pf_lpv_clipped_area(const float a[3], const float b[3], const float c[3],
-                           const float box_min[3], const float box_max[3])
+/* strict_max: the box is half-open [min, max) (else closed). */
+static double clipped_area(const float a[3], const float b[3], const float c[3],
+                           const float box_min[3], const float box_max[3], int strict_max)
 {
     polygon p = {3, {{a[0], a[1], a[2]}, {b[0], b[1], b[2]}, {c[0], c[1], c[2]}}}, q;
     for (int axis = 0; axis < 3 && p.count >= 3; axis++) {
         clip(&p, axis, box_min[axis], 1.0, 0, &q);
-        clip(&q, axis, box_max[axis], -1.0, 1, &p);
+        clip(&q, axis, box_max[axis], -1.0, strict_max, &p);
     }
     return p.count >= 3 ? polygon_area(&p) : 0.0;
+}
+
+double pf_lpv_clipped_area(const float a[3], const float b[3], const float c[3],
+                           const float box_min[3], const float box_max[3])
+{
+    return clipped_area(a, b, c, box_min, box_max, 1);
+}
+
+/*
+ * The area a face cell gets of a triangle: a triangle lying exactly in one
+ * of the cell's boundary planes (a floor on a row of faces' edge) is shared
+ * half and half with the cell on the other side of that plane, so that
+ * neither side alone takes the whole of it; any other triangle clips
+ * half-open (every point in exactly one cell).
+ */
+static double face_cell_area(const float *v[3], const float box_min[3], const float box_max[3])
+{
+    for (int i = 0; i < 3; i++) {
+        if (v[0][i] == v[1][i] && v[1][i] == v[2][i] &&
+            (v[0][i] == box_min[i] || v[0][i] == box_max[i]))
+            return 0.5 * clipped_area(v[0], v[1], v[2], box_min, box_max, 0);
+    }
+    return clipped_area(v[0], v[1], v[2], box_min, box_max, 1);
 }
 
 /* Unit face normal (counter-clockwise front) and area; 0 for a degenerate triangle. */
@@ -108,42 +132,55 @@ uint64_t pf_lpv_geometry_build(const pf_lpv_layout *layout, const pf_scene_frame
         for (uint32_t k = 0; k < layout->count; k++) {
             const pf_lpv_cascade *cascade = &layout->cascades[k];
             float s = cascade->cell_size;
-            /* GV cell g spans [origin + (g − ½)s, origin + (g + ½)s]. */
-            int32_t lo[3], hi[3];
-            int empty = 0;
-            for (int i = 0; i < 3; i++) {
-                float mn = fminf(v[0][i], fminf(v[1][i], v[2][i]));
-                float mx = fmaxf(v[0][i], fmaxf(v[1][i], v[2][i]));
-                double g0 = floor(((double)mn - cascade->origin[i]) / s + 0.5);
-                double g1 = floor(((double)mx - cascade->origin[i]) / s + 0.5);
-                if (g1 < 0.0 || g0 >= size) {
-                    empty = 1;
-                    break;
-                }
-                lo[i] = g0 < 0.0 ? 0 : (int32_t)g0;
-                hi[i] = g1 >= size ? size - 1 : (int32_t)g1;
-            }
-            if (empty)
-                continue;
-            for (int32_t z = lo[2]; z <= hi[2]; z++)
-                for (int32_t y = lo[1]; y <= hi[1]; y++)
-                    for (int32_t x = lo[0]; x <= hi[0]; x++) {
-                        int32_t g[3] = {x, y, z};
-                        float box_min[3], box_max[3];
-                        for (int i = 0; i < 3; i++) {
-                            box_min[i] = cascade->origin[i] + ((float)g[i] - 0.5f) * s;
-                            box_max[i] = box_min[i] + s;
-                        }
-                        double area = pf_lpv_clipped_area(v[0], v[1], v[2], box_min, box_max);
-                        if (!(area > 0.0))
-                            continue;
-                        pieces++;
-                        float weight = (float)(area / ((double)s * s) / LOBE_PEAK);
-                        float *out = gv + (k * cells + ((uint64_t)z * size + y) * size + x) *
-                                              PF_LPV_GV_FLOATS_PER_CELL;
-                        for (int c = 0; c < 4; c++)
-                            out[c] += weight * lobe[c];
+            /*
+             * Face volume `axis`, cell g: the slab of LPV cell g's lower face
+             * normal to axis, [g − ½, g + ½] cells along it and [g, g + 1]
+             * along the other two axes (the face's own rectangle).
+             */
+            for (int axis = 0; axis < 3; axis++) {
+                int32_t lo[3], hi[3];
+                int empty = 0;
+                for (int i = 0; i < 3; i++) {
+                    float shift = i == axis ? 0.5f : 0.0f;
+                    float mn = fminf(v[0][i], fminf(v[1][i], v[2][i]));
+                    float mx = fmaxf(v[0][i], fmaxf(v[1][i], v[2][i]));
+                    double u0 = ((double)mn - cascade->origin[i]) / s + shift;
+                    double g0 = floor(u0);
+                    double g1 = floor(((double)mx - cascade->origin[i]) / s + shift);
+                    if (g0 == u0)
+                        g0 -= 1.0; /* on a boundary: the cell below may share it */
+                    if (g1 < 0.0 || g0 >= size) {
+                        empty = 1;
+                        break;
                     }
+                    lo[i] = g0 < 0.0 ? 0 : (int32_t)g0;
+                    hi[i] = g1 >= size ? size - 1 : (int32_t)g1;
+                }
+                if (empty)
+                    continue;
+                for (int32_t z = lo[2]; z <= hi[2]; z++)
+                    for (int32_t y = lo[1]; y <= hi[1]; y++)
+                        for (int32_t x = lo[0]; x <= hi[0]; x++) {
+                            int32_t g[3] = {x, y, z};
+                            float box_min[3], box_max[3];
+                            for (int i = 0; i < 3; i++) {
+                                float shift = i == axis ? 0.5f : 0.0f;
+                                box_min[i] = cascade->origin[i] + ((float)g[i] - shift) * s;
+                                box_max[i] = box_min[i] + s;
+                            }
+                            double area = face_cell_area(v, box_min, box_max);
+                            if (!(area > 0.0))
+                                continue;
+                            pieces++;
+                            float weight = (float)(area / ((double)s * s) / LOBE_PEAK);
+                            float *out =
+                                gv + (k * cells + ((uint64_t)z * size + y) * size + x) *
+                                         PF_LPV_GV_FLOATS_PER_CELL +
+                                4 * axis;
+                            for (int c = 0; c < 4; c++)
+                                out[c] += weight * lobe[c];
+                        }
+            }
         }
     }
     return pieces;

@@ -8,12 +8,12 @@
 #include <stdlib.h>
 #include <string.h>
 
-#define PROPAGATE_BUFFERS 4u
+#define PROPAGATE_BUFFERS 5u
 #define SPEC_ACCUMULATE 0u
 #define GROUP_EDGE 4u
 
 typedef struct propagate_push {
-    uint32_t size, base, occlusion, padding;
+    uint32_t size, base, occlusion, snapshot;
 } propagate_push;
 
 struct pf_lpv {
@@ -21,7 +21,7 @@ struct pf_lpv {
     pf_vk_pipeline *propagate;      /* ACCUMULATE = true */
     pf_vk_pipeline *propagate_once; /* ACCUMULATE = false, created on first use */
     uint64_t floats;                /* SH floats of one volume (0: none allocated) */
-    pf_vk_buffer *injected, *ping, *pong, *accumulated, *geometry;
+    pf_vk_buffer *injected, *ping, *pong, *accumulated, *geometry, *snapshot;
 };
 
 pf_status pf_lpv_create(pf_vk_context *ctx, pf_lpv **out, pf_error *err)
@@ -45,8 +45,8 @@ pf_status pf_lpv_create(pf_vk_context *ctx, pf_lpv **out, pf_error *err)
 
 static void release_volumes(pf_lpv *lpv)
 {
-    pf_vk_buffer **all[] = {&lpv->injected, &lpv->ping, &lpv->pong, &lpv->accumulated,
-                            &lpv->geometry};
+    pf_vk_buffer **all[] = {&lpv->injected, &lpv->ping,     &lpv->pong,
+                            &lpv->accumulated, &lpv->geometry, &lpv->snapshot};
     for (size_t i = 0; i < sizeof all / sizeof all[0]; i++) {
         if (*all[i])
             pf_vk_buffer_destroy(lpv->ctx, *all[i]);
@@ -74,7 +74,7 @@ static pf_status ensure_volumes(pf_lpv *lpv, uint64_t floats, pf_error *err)
         return PF_OK;
     release_volumes(lpv);
     uint64_t bytes = floats * sizeof(float);
-    uint64_t gv_bytes = bytes / (PF_LPV_FLOATS_PER_CELL / PF_LPV_GV_FLOATS_PER_CELL);
+    uint64_t gv_bytes = bytes / PF_LPV_FLOATS_PER_CELL * PF_LPV_GV_FLOATS_PER_CELL;
     pf_status status = pf_vk_buffer_create(lpv->ctx, bytes, "LPV injected volume",
                                            &lpv->injected, err);
     if (status == PF_OK)
@@ -86,6 +86,9 @@ static pf_status ensure_volumes(pf_lpv *lpv, uint64_t floats, pf_error *err)
                                      &lpv->accumulated, err);
     if (status == PF_OK)
         status = pf_vk_buffer_create(lpv->ctx, gv_bytes, "LPV geometry volume", &lpv->geometry,
+                                     err);
+    if (status == PF_OK)
+        status = pf_vk_buffer_create(lpv->ctx, bytes, "LPV snapshot volume", &lpv->snapshot,
                                      err);
     if (status != PF_OK) {
         release_volumes(lpv);
@@ -124,6 +127,9 @@ pf_status pf_lpv_propagate(pf_lpv *lpv, const pf_lpv_layout *layout, const float
         status = pf_vk_buffer_upload(lpv->ctx, lpv->injected, 0, injected, bytes, err);
     if (status == PF_OK)
         status = pf_vk_buffer_upload(lpv->ctx, lpv->accumulated, 0, injected, bytes, err);
+    /* A snapshot after 0 iterations is the injected volume itself. */
+    if (status == PF_OK)
+        status = pf_vk_buffer_upload(lpv->ctx, lpv->snapshot, 0, injected, bytes, err);
     if (status == PF_OK)
         status = upload_geometry(lpv, gv, err);
     pf_vk_commands *cmds = NULL;
@@ -140,7 +146,8 @@ pf_status pf_lpv_propagate(pf_lpv *lpv, const pf_lpv_layout *layout, const float
         for (uint32_t i = 0; status == PF_OK && i < layout->cascades[k].iterations; i++) {
             pf_vk_buffer *destination = (i % 2u == 0) ? lpv->ping : lpv->pong;
             pf_vk_buffer *buffers[PROPAGATE_BUFFERS] = {source, destination, lpv->accumulated,
-                                                        lpv->geometry};
+                                                        lpv->geometry, lpv->snapshot};
+            push.snapshot = i + 1u == layout->cascades[k].snapshot_iterations;
             status = pf_vk_cmd_dispatch(cmds, lpv->propagate, buffers, PROPAGATE_BUFFERS, &push,
                                         sizeof push, groups, groups, groups, err);
             pf_vk_cmd_barrier(cmds);
@@ -162,6 +169,16 @@ pf_status pf_lpv_propagate(pf_lpv *lpv, const pf_lpv_layout *layout, const float
 pf_vk_buffer *pf_lpv_accumulated(const pf_lpv *lpv)
 {
     return lpv->floats ? lpv->accumulated : NULL;
+}
+
+pf_vk_buffer *pf_lpv_snapshots(const pf_lpv *lpv)
+{
+    return lpv->floats ? lpv->snapshot : NULL;
+}
+
+pf_vk_buffer *pf_lpv_geometry(const pf_lpv *lpv)
+{
+    return lpv->floats ? lpv->geometry : NULL;
 }
 
 pf_status pf_lpv_download(pf_lpv *lpv, float *out, uint64_t floats, pf_error *err)
@@ -199,7 +216,7 @@ pf_status pf_lpv_propagate_once(pf_lpv *lpv, uint32_t size, const float *src, co
     uint32_t groups = (size + GROUP_EDGE - 1) / GROUP_EDGE;
     propagate_push push = {size, 0, gv != NULL, 0};
     pf_vk_buffer *buffers[PROPAGATE_BUFFERS] = {lpv->injected, lpv->ping, lpv->accumulated,
-                                                lpv->geometry};
+                                                lpv->geometry, lpv->snapshot};
     status = pf_vk_cmd_dispatch(cmds, lpv->propagate_once, buffers, PROPAGATE_BUFFERS, &push,
                                 sizeof push, groups, groups, groups, err);
     if (status == PF_OK)

@@ -18,17 +18,25 @@
  * is then fixed (the same VPLs give bit-identical grids) and it costs well
  * under a millisecond for the VPL counts the presets use.
  *
- * Geometry volume (CPU, pf_lpv_geometry_build): per cascade, a grid of the
- * same size offset by half a cell (GV cell g is centred on LPV cell g's
- * lower corner), holding the blocking potential of the scene's own
- * triangles: each triangle is clipped exactly against every GV cell it
- * touches and the clipped area A adds (A / s²) × the clamped-cosine lobe of
- * its face normal / 0.75 (0.75 is that lobe's value at its peak, so a wall
- * that fills a cell's cross-section blocks everything at normal incidence).
- * Glass triangles are left out (they transmit). Blocking in direction ω is
- * read two-sided, B(ω) = clamp(b0 Y00 + |b1 · Y1(ω)|, 0, 1): a triangle
- * blocks rays from either side, and a 2-band expansion of |n·ω| would lose
- * the direction altogether.
+ * Geometry volume (CPU, pf_lpv_geometry_build): the blocking potential of
+ * the scene's own triangles at every face between two LPV cells, the one
+ * place propagation and lookup cross. Per cascade and axis k, a grid offset
+ * by half a cell along k: face cell g is the slab around LPV cell g's lower
+ * face normal to k (half a cell either side of it, and the face's own
+ * rectangle along the other two axes). Each triangle is clipped exactly
+ * against every face cell it touches, and the clipped area A adds (A / s²)
+ * × the clamped-cosine lobe of its face normal / 0.75 (0.75 is the expanded
+ * lobe's peak, so a wall filling a face blocks everything at normal
+ * incidence). Glass triangles are left out (they transmit). Light
+ * travelling along ω meets the surfaces that face −ω, so its blocking is
+ * B(ω) = clamp(GV(−ω), 0, 1), one-sided like the front faces. Tried and
+ * dropped (issue note): one GV grid offset by half a cell along all three
+ * axes, read bilinearly at a face (a wall's coverage is then smeared over
+ * the neighbouring faces: 25% leaked round a thin wall's edges); a
+ * two-sided reading (walls blocked their own VPLs' light: a closed box lost
+ * half its indirect light); six exact per-axis coverages instead of the SH
+ * lobe (no isotropic term, so light sliding along a wall is never
+ * absorbed: the Cornell box's indirect light came out 1.6× the reference's).
  *
  * Propagation (GPU, shaders/lpv_propagate.comp): gather form, one invocation
  * per destination cell, no atomics. From each of the 6 neighbours, the flux
@@ -39,14 +47,15 @@
  * ((Φ_f/π) × lobe: ∫ = Φ_f). In empty space Σ Δω_f over the 30
  * (neighbour, face) pairs is 4π, so a step conserves flux exactly for any
  * intensity that is non-negative everywhere. Ping-pong buffers; the
- * accumulation buffer sums the injected grid and every iteration's result.
+ * accumulation buffer sums the injected grid and every iteration's result;
+ * a snapshot of it after snapshot_iterations (below) gives the far field.
  *
  * Cascades: count levels, cell_size doubling per level, each centred on the
  * focus point (pf_lpv_focus) and snapped to its own cell size, so a camera
  * that moves less than a cell leaves the cascade's origin and contents
  * unchanged (no flicker). The finest cell defaults to a power of two
  * (stable across an animation's frames) sized so that the coarsest cascade
- * spans the scene.
+ * spans the scene and its light crosses it (pf_lpv_default_cell_size).
  */
 #ifndef PF_LPV_H
 #define PF_LPV_H
@@ -74,8 +83,8 @@
 
 /* 4 coefficients × RGB per cell: three vec4 (R, G, B). */
 #define PF_LPV_FLOATS_PER_CELL 12u
-/* Geometry volume: one vec4 of coefficients per cell. */
-#define PF_LPV_GV_FLOATS_PER_CELL 4u
+/* Geometry volume: one vec4 of SH coefficients per face cell, three axes per cell. */
+#define PF_LPV_GV_FLOATS_PER_CELL 12u
 
 #define PF_LPV_DEFAULT_CASCADES 4u
 #define PF_LPV_DEFAULT_SIZE 32u
@@ -102,6 +111,8 @@ typedef struct pf_lpv_settings {
     uint32_t iterations[PF_LPV_MAX_CASCADES];    /* per cascade, 0 = iterations[0], else default */
     float cell_size;                             /* finest cascade's cell (m), 0 = from the scene */
     float offset_cells;                          /* VPL offset along its normal, 0 = default */
+    int undamped;                                /* 1: no light-bleeding dampening at lookup
+                                                    (lpv_lookup.glsl; for measurements) */
 } pf_lpv_settings;
 
 /* Which setting pf_lpv_settings_check refused (for the caller's message). */
@@ -131,6 +142,16 @@ typedef struct pf_lpv_cascade {
     float cell_size;
     int32_t origin_cell[3];
     uint32_t iterations;
+    /*
+     * Iterations after which this cascade's accumulation is copied to the
+     * snapshot volume: as far as the next finer cascade's light travels,
+     * round(iterations_{k−1} × cell_{k−1} / cell_k), at most iterations (0
+     * for cascade 0: the injected volume). A lookup in cascade k adds each
+     * coarser cascade's accumulation minus its snapshot: the light from
+     * beyond the reach of the finer cascades' propagation (far field), so a
+     * fine cascade with few iterations loses no energy.
+     */
+    uint32_t snapshot_iterations;
 } pf_lpv_cascade;
 
 typedef struct pf_lpv_layout {
@@ -152,12 +173,15 @@ void pf_lpv_focus(const pf_scene_frame *frame, float focus[3]);
 /*
  * Default finest cell: the smallest power of two (in m) such that the
  * coarsest cascade centred on focus, less two cells of snapping margin,
- * reaches every face of the scene's box. A power of two, so that an
- * animation's moving box or camera leaves it (and the snapped origins)
- * unchanged until that distance crosses a power of two.
+ * reaches every face of the scene's box, and its coarsest_iterations carry
+ * light across the box's largest extent (so no light is lost to a short
+ * propagation; the finer cascades add detail near the focus, lpv_lookup.glsl
+ * their far field). A power of two, so that an animation's moving box or
+ * camera leaves it (and the snapped origins) unchanged until those
+ * distances cross a power of two.
  */
 float pf_lpv_default_cell_size(const pf_scene_frame *frame, const float focus[3],
-                               uint32_t cascades, uint32_t size);
+                               uint32_t cascades, uint32_t size, uint32_t coarsest_iterations);
 
 /*
  * Cascade k: cell_size = finest × 2^k, origin_cell = floor(focus / cell) −
@@ -192,7 +216,8 @@ void pf_lpv_inject(const pf_lpv_layout *layout, const pf_lpv_vpl *vpls, uint32_t
 
 /*
  * The geometry volume of frame's non-glass triangles (see the header
- * comment) into gv (pf_lpv_volume_floats(layout, 4) floats, zeroed here).
+ * comment) into gv (pf_lpv_volume_floats(layout, PF_LPV_GV_FLOATS_PER_CELL)
+ * floats, zeroed here).
  * Returns the number of (triangle, cell) pieces accumulated.
  */
 uint64_t pf_lpv_geometry_build(const pf_lpv_layout *layout, const pf_scene_frame *frame,
@@ -228,6 +253,10 @@ pf_status pf_lpv_propagate(pf_lpv *lpv, const pf_lpv_layout *layout, const float
 
 /* The accumulation volume on the device (NULL before a propagation); pf_lpv owns it. */
 pf_vk_buffer *pf_lpv_accumulated(const pf_lpv *lpv);
+/* The snapshot volume (pf_lpv_cascade.snapshot_iterations), likewise. */
+pf_vk_buffer *pf_lpv_snapshots(const pf_lpv *lpv);
+/* The geometry volume of the last propagation (zeros when it had none), likewise. */
+pf_vk_buffer *pf_lpv_geometry(const pf_lpv *lpv);
 
 /* Downloads the accumulation volume (pf_lpv_volume_floats(layout, 12) floats). */
 pf_status pf_lpv_download(pf_lpv *lpv, float *out, uint64_t floats, pf_error *err);

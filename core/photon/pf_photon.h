@@ -286,6 +286,9 @@ typedef struct pf_photon_trace_settings {
     uint32_t caustic_capacity;    /* 0 = the same */
     int store_direct;             /* 1: first hits go to the global map too (validates the
                                      density estimate against analytic direct irradiance) */
+    int global_reflected;         /* 1: global records carry the flux the surface reflects
+                                     (flux ⊙ albedo), not the flux arriving: with
+                                     store_direct, the virtual point lights of the LPV */
 } pf_photon_trace_settings;
 
 typedef struct pf_photon_maps {

@@ -30,7 +30,7 @@ typedef struct photon_trace_params {
     uint32_t global_capacity;
     uint32_t caustic_capacity;
     float ray_offset;
-    uint32_t padding;
+    uint32_t global_reflected;
 } photon_trace_params;
 
 _Static_assert(sizeof(photon_trace_params) == 96, "photon_trace_params must match PhotonTraceParams");
@@ -142,6 +142,7 @@ pf_status pf_photon_trace(pf_photon_tracer *tracer, const pf_photon_scene *scene
     params.photon_count = settings->photon_count;
     params.emitter_count = emitters->count;
     params.store_direct = settings->store_direct ? 1u : 0u;
+    params.global_reflected = settings->global_reflected ? 1u : 0u;
     params.triangle_count = scene->triangle_count;
     params.bih_node_count = scene->bih.node_count;
     params.seed_lo = (uint32_t)settings->seed;

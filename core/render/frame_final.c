@@ -65,7 +65,6 @@
 #define FINAL_ALPHA (2.0 / 3.0)
 /* Photons in the first pass's gather disc at the global map's mean density. */
 #define FINAL_GLOBAL_NEIGHBOURS 20.0
-#define FINAL_PI 3.14159265358979323846
 /* r_1 when the first pass stores nothing: this fraction of the scene's diagonal. */
 #define FINAL_FALLBACK_RADIUS_FRACTION 0.01
 /* Passes whose grids are kept for reuse (memory: ~5 MB each at the default photons). */
@@ -123,14 +122,7 @@ struct pf_final_cache {
     final_pass passes[FINAL_KEPT_PASSES + 1]; /* the last slot: passes never kept */
     uint32_t kept;                            /* valid passes in passes[0..kept) */
     float first_radius;
-    /* Identity of the kept passes. */
-    uint64_t bih_frame;
-    uint64_t seed;
-    uint32_t photons_per_pass;
-    uint32_t light_count, material_count, triangle_count;
-    pf_light *lights;
-    pf_material *materials;
-    uint32_t *triangle_material;
+    pf_photon_identity identity;              /* what the kept passes were made for */
 };
 
 void pf_final_cache_destroy(struct pf_final_cache *cache)
@@ -141,115 +133,15 @@ void pf_final_cache_destroy(struct pf_final_cache *cache)
         pf_photon_grid_destroy(cache->passes[i].global);
         pf_photon_grid_destroy(cache->passes[i].caustic);
     }
-    free(cache->lights);
-    free(cache->materials);
-    free(cache->triangle_material);
+    pf_photon_identity_free(&cache->identity);
     free(cache);
-}
-
-static int same_array(const void *a, const void *b, size_t bytes)
-{
-    return bytes == 0 || (a && b && memcmp(a, b, bytes) == 0);
-}
-
-/* 1 when the kept passes were made for this frame's lights, materials and geometry. */
-static int cache_matches(const struct pf_final_cache *cache, const pf_renderer *renderer,
-                         const pf_scene_frame *frame, const pf_render_settings *settings,
-                         uint32_t photons_per_pass, int bih_reused)
-{
-    return cache->kept > 0 && bih_reused && renderer->bih_frames == cache->bih_frame + 1 &&
-           cache->seed == settings->seed && cache->photons_per_pass == photons_per_pass &&
-           cache->light_count == frame->light_count &&
-           cache->material_count == frame->material_count &&
-           cache->triangle_count == frame->triangle_count &&
-           same_array(cache->lights, frame->lights, frame->light_count * sizeof(pf_light)) &&
-           same_array(cache->materials, frame->materials,
-                      frame->material_count * sizeof(pf_material)) &&
-           same_array(cache->triangle_material, frame->triangle_material,
-                      frame->triangle_count * sizeof(uint32_t));
-}
-
-static pf_status copy_array(void **out, const void *data, size_t bytes, pf_error *err)
-{
-    free(*out);
-    *out = NULL;
-    if (bytes == 0)
-        return PF_OK;
-    *out = malloc(bytes);
-    if (!*out)
-        return pf_error_set(err, PF_ERR_NOMEM, "final: out of memory keeping the scene identity");
-    memcpy(*out, data, bytes);
-    return PF_OK;
-}
-
-/* Records what the kept passes were made for. */
-static pf_status cache_remember(struct pf_final_cache *cache, const pf_scene_frame *frame,
-                                const pf_render_settings *settings, uint32_t photons_per_pass,
-                                pf_error *err)
-{
-    cache->seed = settings->seed;
-    cache->photons_per_pass = photons_per_pass;
-    cache->light_count = frame->light_count;
-    cache->material_count = frame->material_count;
-    cache->triangle_count = frame->triangle_count;
-    pf_status status = copy_array((void **)&cache->lights, frame->lights,
-                                  frame->light_count * sizeof(pf_light), err);
-    if (status == PF_OK)
-        status = copy_array((void **)&cache->materials, frame->materials,
-                            frame->material_count * sizeof(pf_material), err);
-    if (status == PF_OK)
-        status = copy_array((void **)&cache->triangle_material, frame->triangle_material,
-                            frame->triangle_count * sizeof(uint32_t), err);
-    return status;
-}
-
-/* 1 when some triangle has a mirror or glass material (photons can make caustics). */
-static int scene_has_specular(const pf_scene_frame *frame)
-{
-    for (uint32_t t = 0; t < frame->triangle_count; t++) {
-        uint32_t m = frame->triangle_material[t];
-        if (m < frame->material_count && frame->materials[m].kind != PF_MATERIAL_LAMBERT)
-            return 1;
-    }
-    return 0;
-}
-
-static double scene_area(const pf_scene_frame *frame)
-{
-    double area = 0.0;
-    for (uint32_t t = 0; t < frame->triangle_count; t++) {
-        const float *a = frame->vertices[3 * t], *b = frame->vertices[3 * t + 1],
-                    *c = frame->vertices[3 * t + 2];
-        double u[3], v[3];
-        for (int k = 0; k < 3; k++) {
-            u[k] = (double)b[k] - a[k];
-            v[k] = (double)c[k] - a[k];
-        }
-        double x = u[1] * v[2] - u[2] * v[1], y = u[2] * v[0] - u[0] * v[2],
-               z = u[0] * v[1] - u[1] * v[0];
-        area += 0.5 * sqrt(x * x + y * y + z * z);
-    }
-    return area;
-}
-
-static double scene_diagonal(const pf_scene_frame *frame)
-{
-    double sum = 0.0;
-    for (int k = 0; k < 3; k++) {
-        double extent = (double)frame->bounds_max[k] - frame->bounds_min[k];
-        sum += extent * extent;
-    }
-    return sqrt(sum);
 }
 
 /* r_1 from the first pass's global map (header comment). */
 static float first_radius(const pf_scene_frame *frame, uint32_t global_stored)
 {
-    double area = scene_area(frame);
-    double radius = global_stored > 0 && area > 0.0
-                        ? sqrt(FINAL_GLOBAL_NEIGHBOURS * area / (FINAL_PI * global_stored))
-                        : FINAL_FALLBACK_RADIUS_FRACTION * scene_diagonal(frame);
-    return radius > 0.0 ? (float)radius : 1e-3f;
+    return pf_photon_radius_for_density(frame, FINAL_GLOBAL_NEIGHBOURS, global_stored,
+                                        FINAL_FALLBACK_RADIUS_FRACTION);
 }
 
 /* Radius of pass index (0-based) from r_1: r_{i+1}² = r_i² (i + α)/(i + 1), i 1-based. */
@@ -553,7 +445,7 @@ static pf_status render_passes(pf_renderer *renderer, const pf_scene_frame *fram
     if (status != PF_OK)
         return status;
     *has_emitters = emitters.count > 0;
-    *with_caustics = scene_has_specular(frame);
+    *with_caustics = pf_scene_frame_has_specular(frame);
     if (!reuse) {
         cache->kept = 0;
         cache->first_radius = 0.0f;
@@ -696,8 +588,9 @@ pf_status pf_render_frame_final(pf_renderer *renderer, const pf_scene_frame *fra
     struct pf_final_cache *cache = renderer->final_cache;
     uint32_t photons_per_pass =
         settings->photons_per_pass ? settings->photons_per_pass : FINAL_DEFAULT_PHOTONS_PER_PASS;
-    int reuse = status == PF_OK &&
-                cache_matches(cache, renderer, frame, settings, photons_per_pass, bih_reused);
+    int reuse = status == PF_OK && cache->kept > 0 &&
+                pf_photon_identity_matches(&cache->identity, renderer, frame, settings->seed,
+                                           photons_per_pass, bih_reused);
     double shade_start = pf_time_ms();
     final_progress progress = {0};
     progress.trace_gpu_ms = progress.grid_gpu_ms = progress.shade_gpu_ms = -1.0;
@@ -717,7 +610,8 @@ pf_status pf_render_frame_final(pf_renderer *renderer, const pf_scene_frame *fra
                               (unsigned long long)progress.truncated,
                               (unsigned long long)(pixels * progress.passes));
     if (status == PF_OK)
-        status = cache_remember(cache, frame, settings, photons_per_pass, err);
+        status = pf_photon_identity_remember(&cache->identity, frame, settings->seed,
+                                             photons_per_pass, err);
     if (status != PF_OK) {
         cache->kept = 0;
         pf_image_free(image);
@@ -725,7 +619,8 @@ pf_status pf_render_frame_final(pf_renderer *renderer, const pf_scene_frame *fra
                         settings->height, frame->triangle_count);
         return status;
     }
-    cache->bih_frame = renderer->bih_frames;
+    cache->identity.bih_frame = renderer->bih_frames;
+    cache->identity.valid = 1;
     /* Photon stages ran inside the shade loop: the shade row gets what is left. */
     double shade_ms = pf_time_ms() - shade_start - progress.trace_ms - progress.grid_ms -
                       progress.caustic_ms;

@@ -10,6 +10,7 @@
 #include "pf_bih.h"
 #include "pf_common.h"
 #include "pf_image.h"
+#include "pf_lpv.h"
 #include "pf_scene.h"
 #include "pf_vk.h"
 
@@ -28,6 +29,8 @@ typedef enum pf_quality {
 /* Parses "preview", "fast", "final", "reference", "auto"; -1 if unknown. */
 int pf_quality_parse(const char *name);
 const char *pf_quality_name(pf_quality quality);
+/* The preset that renders a request for quality: auto is preview for now (the planner is to come). */
+pf_quality pf_quality_resolve(pf_quality quality);
 
 typedef struct pf_render_settings {
     uint32_t width, height;
@@ -42,8 +45,10 @@ typedef struct pf_render_settings {
      * 0 = no limit.
      */
     double time_budget_ms;
-    /* final: photons emitted per progressive pass; 0 = the preset's default. */
+    /* final: photons emitted per progressive pass; fast: photons per frame; 0 = the preset's default. */
     uint32_t photons_per_pass;
+    /* fast: the light propagation volumes (all 0 = defaults; pf_lpv.h). */
+    pf_lpv_settings lpv;
 } pf_render_settings;
 
 #define PF_STAGE_NAME_MAX 32
@@ -84,8 +89,8 @@ void pf_renderer_destroy(pf_renderer *renderer);
  * the integrator of settings->quality and appends its stage rows to report
  * (may be NULL): `bih_build`, then `shade` (counters samples_per_pixel,
  * rays, ...). Image is owned by the caller (pf_image_free). Fails with
- * PF_ERR_INVALID on a bad size or time budget, PF_ERR_UNSUPPORTED for fast
- * (not available yet), PF_ERR_LIMIT when the film would not fit a device
+ * PF_ERR_INVALID on a bad size, time budget or LPV setting, PF_ERR_LIMIT
+ * when the film or an LPV volume would not fit a device
  * buffer or a ray overflowed the BIH traversal stack.
  *
  * preview / auto: direct light with hard shadows through specular chains;
@@ -116,6 +121,17 @@ void pf_renderer_destroy(pf_renderer *renderer);
  *   the shade row's "discarded_samples", and every channel of the pixel is
  *   the mean over its kept samples (0 when none). The shade row's counters:
  *   samples_per_pixel (reached), paths, rays, discarded_samples.
+ *
+ * fast: direct light by the reference's NEE, diffuse indirect light from
+ *   cascaded light propagation volumes and caustics from a caustic map
+ *   (frame_fast.c, shaders/render_fast.comp, core/lpv): the reference's
+ *   channels with the same split (indirect = LPV + caustic). One photon
+ *   pass of settings->photons_per_pass photons (0 = 32,768) gives the VPLs
+ *   (every diffuse hit, reflected flux) and the caustic map; settings->lpv
+ *   the cascades; samples_per_pixel (0 = 4) camera samples. Rows:
+ *   bih_build, photon_trace, caustic_map, lpv_geometry, lpv_inject,
+ *   lpv_propagate, shade, each skipped with its reason when the scene does
+ *   not need it or the previous frame's result still holds.
  *
  * final: photon mapping (frame_final.c, shaders/render_final.comp), the
  *   reference's channels with the same split: direct = the reference's NEE at

@@ -27,3 +27,8 @@ const char *pf_quality_name(pf_quality quality)
         return quality_names[quality];
     return "unknown";
 }
+
+pf_quality pf_quality_resolve(pf_quality quality)
+{
+    return quality == PF_QUALITY_AUTO ? PF_QUALITY_PREVIEW : quality;
+}

@@ -1,7 +1,7 @@
 /*
  * pf_render_frame: checks the settings and runs the integrator of the
  * requested quality (preview and auto: frame_direct.c; reference:
- * frame_reference.c; final: frame_final.c). Also the FrameParams both integrators upload.
+ * frame_reference.c; final: frame_final.c; fast: frame_fast.c). Also the FrameParams both integrators upload.
  */
 #include "render_internal.h"
 
@@ -86,9 +86,11 @@ pf_status pf_render_frame(pf_renderer *renderer, const pf_scene_frame *frame,
         return pf_render_frame_reference(renderer, frame, settings, image, report, err);
     case PF_QUALITY_FINAL:
         return pf_render_frame_final(renderer, frame, settings, image, report, err);
+    case PF_QUALITY_FAST:
+        return pf_render_frame_fast(renderer, frame, settings, image, report, err);
     default:
         return pf_error_set(err, PF_ERR_UNSUPPORTED,
-                            "quality '%s' is not available yet (available: preview, final, "
+                            "quality '%s' is not available (available: preview, fast, final, "
                             "reference, auto)",
                             pf_quality_name(settings->quality));
     }

@@ -42,6 +42,9 @@ struct pf_renderer {
     pf_vk_pipeline *render_final_primary;
     pf_vk_pipeline *render_final_gather;
     struct pf_final_cache *final_cache;
+    /* The fast integrator's photons, LPV and pipeline (frame_fast.c; NULL until a fast frame). */
+    pf_vk_pipeline *render_fast;
+    struct pf_fast_cache *fast_cache;
 };
 
 /* FrameParams in scene_types.glsl (std430, 160 bytes). */
@@ -161,6 +164,16 @@ pf_status pf_render_frame_final(pf_renderer *renderer, const pf_scene_frame *fra
 void pf_final_cache_destroy(struct pf_final_cache *cache);
 
 /*
+ * The `fast` integrator (frame_fast.c: photon VPLs, cascaded LPV, caustic
+ * map); same contract as pf_render_frame. pf_fast_cache_destroy releases
+ * what it keeps in the renderer (NULL is fine).
+ */
+pf_status pf_render_frame_fast(pf_renderer *renderer, const pf_scene_frame *frame,
+                               const pf_render_settings *settings, pf_image *image,
+                               pf_frame_report *report, pf_error *err);
+void pf_fast_cache_destroy(pf_vk_context *ctx, struct pf_fast_cache *cache);
+
+/*
  * The split film of the reference and final integrators (split_film.c), sums
  * over samples per pixel: film vec4s (direct RGB, coverage), (indirect RGB,
  * kept samples), (caustic RGB, 0); AOV film vec4s (albedo RGB, depth),
@@ -227,6 +240,43 @@ _Static_assert(sizeof(pf_material_probe_result) == 64, "must match ProbeResult")
  */
 pf_status pf_material_probe(pf_renderer *renderer, const pf_material_probe_query *queries,
                             uint32_t count, pf_material_probe_result *results, pf_error *err);
+
+/*
+ * What a frame's photon maps were traced for: they are reused by the next
+ * frame when its BIH stage reused the tree right after the frame that made
+ * them (the geometry is unchanged) and lights, materials, per-triangle
+ * materials, seed and photon count are equal (final's passes, fast's VPLs).
+ */
+typedef struct pf_photon_identity {
+    int valid;
+    uint64_t bih_frame;          /* renderer->bih_frames when they were made */
+    uint64_t seed;
+    uint32_t photons;
+    uint32_t light_count, material_count, triangle_count;
+    pf_light *lights;
+    pf_material *materials;
+    uint32_t *triangle_material;
+} pf_photon_identity;
+
+int pf_photon_identity_matches(const pf_photon_identity *identity, const pf_renderer *renderer,
+                               const pf_scene_frame *frame, uint64_t seed, uint32_t photons,
+                               int bih_reused);
+/* Copies the frame's lights and materials; the caller sets valid and bih_frame after success. */
+pf_status pf_photon_identity_remember(pf_photon_identity *identity, const pf_scene_frame *frame,
+                                      uint64_t seed, uint32_t photons, pf_error *err);
+void pf_photon_identity_free(pf_photon_identity *identity);
+
+/* 1 when some triangle has a mirror or glass material (photons can make caustics). */
+int pf_scene_frame_has_specular(const pf_scene_frame *frame);
+double pf_scene_frame_area(const pf_scene_frame *frame);
+double pf_scene_frame_diagonal(const pf_scene_frame *frame);
+/*
+ * The radius holding `neighbours` photons at the mean density of `stored`
+ * photons over the scene's surface area, r² = K A / (π N); with none
+ * stored, fallback_fraction × the scene's diagonal.
+ */
+float pf_photon_radius_for_density(const pf_scene_frame *frame, double neighbours,
+                                   uint32_t stored, double fallback_fraction);
 
 /* Destroys *buffer if there is one and clears the pointer. */
 void pf_render_buffer_release(pf_vk_context *ctx, pf_vk_buffer **buffer);

@@ -80,12 +80,14 @@ void pf_renderer_destroy(pf_renderer *renderer)
     pf_vk_pipeline *pipelines[] = {renderer->raycast_closest, renderer->raycast_any,
                                    renderer->render_direct, renderer->render_reference,
                                    renderer->render_reference_rgb, renderer->material_probe,
-                                   renderer->render_final_primary, renderer->render_final_gather};
+                                   renderer->render_final_primary, renderer->render_final_gather,
+                                   renderer->render_fast};
     for (size_t i = 0; i < sizeof pipelines / sizeof pipelines[0]; i++) {
         if (pipelines[i])
             pf_vk_pipeline_destroy(renderer->ctx, pipelines[i]);
     }
     pf_final_cache_destroy(renderer->final_cache);
+    pf_fast_cache_destroy(renderer->ctx, renderer->fast_cache);
     pf_bih_gpu_destroy(renderer->bih_gpu);
     pf_bih_gpu_builder_destroy(renderer->bih_builder);
     if (renderer->bih_valid)

@@ -21,12 +21,11 @@ vec4 sh_cosine_lobe(vec3 normal)
                 -SH_COSINE1 * normal.x);
 }
 
-// Two-sided blocking of a geometry-volume cell in direction ω (pf_lpv.h):
-// clamp(b0 Y00 + |b1 · Y1(ω)|, 0, 1).
+// Blocking of a geometry-volume cell for light travelling along ω
+// (core/lpv/pf_lpv.h): the surfaces it meets face −ω, B = clamp(GV(−ω), 0, 1).
 float sh_blocking(vec4 gv, vec3 direction)
 {
-    vec4 basis = sh_basis(direction);
-    return clamp(gv.x * basis.x + abs(dot(gv.yzw, basis.yzw)), 0.0, 1.0);
+    return clamp(dot(gv, sh_basis(-direction)), 0.0, 1.0);
 }
 
 #endif

@@ -133,16 +133,30 @@ PF_TEST(geometry_volume_holds_the_exact_area)
     PF_CHECK(pieces > 2);
     uint64_t cells = (uint64_t)layout.size * layout.size * layout.size;
     for (uint32_t k = 0; k < layout.count; k++) {
-        double s = layout.cascades[k].cell_size, c0 = 0.0, cz = 0.0;
-        for (uint64_t i = 0; i < cells; i++) {
-            c0 += gv[(k * cells + i) * 4];
-            cz += gv[(k * cells + i) * 4 + 2];
+        double s = layout.cascades[k].cell_size;
+        for (int axis = 0; axis < 3; axis++) {
+            double c0 = 0.0, cz = 0.0;
+            for (uint64_t i = 0; i < cells; i++) {
+                c0 += gv[(k * cells + i) * PF_LPV_GV_FLOATS_PER_CELL + 4 * axis];
+                cz += gv[(k * cells + i) * PF_LPV_GV_FLOATS_PER_CELL + 4 * axis + 2];
+            }
+            /* Each axis's face cells tile space: Σ (A/s²)/0.75 × lobe holds the whole area. */
+            PF_CHECK_NEAR(c0 * 0.75 * s * s / PF_SH_COSINE0, 1.3 * 0.7, 1e-5);
+            PF_CHECK_NEAR(cz * 0.75 * s * s / PF_SH_COSINE1, 1.3 * 0.7, 1e-5);
         }
-        /* Σ (A/s²)/0.75 × lobe: c0 sums to area/s²/0.75 × √π/2, the z term likewise. */
-        double area = c0 * 0.75 * s * s / PF_SH_COSINE0;
-        PF_CHECK_NEAR(area, 1.3 * 0.7, 1e-5);
-        PF_CHECK_NEAR(cz * 0.75 * s * s / PF_SH_COSINE1, 1.3 * 0.7, 1e-5);
     }
+    /* Tilted to the normal (0, −0.6, 0.8): the lobe's y and z terms split its area 0.6 : 0.8. */
+    float t0[3] = {0.13f, 0.21f, 0.4f}, t1[3] = {1.43f, 0.21f, 0.4f}, t2[3] = {1.43f, 0.77f, 0.82f},
+          t3[3] = {0.13f, 0.77f, 0.82f};
+    quad_make(&q, t0, t1, t2, t3);
+    pf_lpv_geometry_build(&layout, &q.frame, gv);
+    double s0 = layout.cascades[0].cell_size, cy = 0.0, cz = 0.0;
+    for (uint64_t i = 0; i < cells; i++) {
+        cy += gv[i * PF_LPV_GV_FLOATS_PER_CELL + 1]; /* −c1 n_y */
+        cz += gv[i * PF_LPV_GV_FLOATS_PER_CELL + 2]; /* c1 n_z */
+    }
+    PF_CHECK_NEAR(cy * 0.75 * s0 * s0 / PF_SH_COSINE1, 1.3 * 0.7 * 0.6, 1e-5);
+    PF_CHECK_NEAR(cz * 0.75 * s0 * s0 / PF_SH_COSINE1, 1.3 * 0.7 * 0.8, 1e-5);
     free(gv);
 }
 
@@ -184,15 +198,19 @@ PF_TEST(default_cell_is_a_power_of_two_covering_the_scene)
     quad_frame q;
     quad_make(&q, p0, p1, p2, p3);
     float focus[3] = {2.5f, 1.0f, 0.0f};
-    float cell = pf_lpv_default_cell_size(&q.frame, focus, 4, 32);
+    float cell = pf_lpv_default_cell_size(&q.frame, focus, 4, 32, 1000);
     PF_CHECK(cell > 0.0f && exp2f(roundf(log2f(cell))) == cell);
     pf_lpv_settings settings = {0};
     pf_lpv_layout layout;
     pf_lpv_layout_make(&settings, focus, cell, &q.frame, &layout);
     PF_CHECK(layout.covers_scene);
     /* Half that cell: the coarsest cascade no longer spans the 5.5 m from the focus. */
-    pf_lpv_layout_make(&settings, focus, cell / 4.0f, &q.frame, &layout);
+    pf_lpv_layout_make(&settings, focus, cell / 2.0f, &q.frame, &layout);
     PF_CHECK(!layout.covers_scene);
+    /* With 8 iterations, the coarsest cell must also carry light twice across the 6 m box
+     * (to the nearest power of two: 12 m × 2^±½). */
+    float reach = pf_lpv_default_cell_size(&q.frame, focus, 4, 32, 8);
+    PF_CHECK(reach * 8.0f * 8.0f >= 12.0f / sqrtf(2.0f) && reach * 8.0f * 8.0f <= 12.0f * sqrtf(2.0f));
 }
 
 PF_TEST(injection_keeps_the_flux_and_offsets_along_the_normal)

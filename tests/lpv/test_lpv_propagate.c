@@ -129,11 +129,12 @@ PF_TEST(a_wall_blocks_the_flux_crossing_it)
     PF_REQUIRE(layout.cascades[0].origin[0] == 0.0f);
     quad_frame wall;
     quad_frame_init(&wall);
+    /* Facing −x, towards the light (a surface blocks the light that reaches its front). */
     float p0[3] = {2, -1, -1}, p1[3] = {2, 5, -1}, p2[3] = {2, 5, 5}, p3[3] = {2, -1, 5};
-    quad_frame_add(&wall, p0, p1, p2, p3);
+    quad_frame_add(&wall, p0, p3, p2, p1);
     uint64_t floats = pf_lpv_volume_floats(&layout, PF_LPV_FLOATS_PER_CELL);
     float *injected = calloc(floats, sizeof *injected);
-    float *gv = calloc(pf_lpv_volume_floats(&layout, 4), sizeof *gv);
+    float *gv = calloc(pf_lpv_volume_floats(&layout, PF_LPV_GV_FLOATS_PER_CELL), sizeof *gv);
     float *open = calloc(floats, sizeof *open), *walled = calloc(floats, sizeof *walled);
     PF_REQUIRE(injected && gv && open && walled);
     /* A light facing the wall from 1 m, and one facing along it. */
@@ -169,7 +170,7 @@ static int run_at(const float focus[3], const quad_frame *scene, const pf_lpv_vp
     pf_lpv_layout_make(&settings, focus, 0.25f, &scene->frame, layout);
     uint64_t floats = pf_lpv_volume_floats(layout, PF_LPV_FLOATS_PER_CELL);
     float *injected = calloc(floats, sizeof *injected);
-    float *gv = calloc(pf_lpv_volume_floats(layout, 4), sizeof *gv);
+    float *gv = calloc(pf_lpv_volume_floats(layout, PF_LPV_GV_FLOATS_PER_CELL), sizeof *gv);
     *out = calloc(floats, sizeof **out);
     int ok = injected && gv && *out;
     pf_error err = {0};

@@ -65,7 +65,8 @@ PF_TEST(renders_a_frame_range_to_numbered_exr_files)
             if (!strcmp(attributes[i].key, "photonfarm/frame"))
                 found_frame = atoi(attributes[i].value) == frame;
             if (!strcmp(attributes[i].key, "photonfarm/settings"))
-                found_settings = strstr(attributes[i].value, "size=16x12") != NULL;
+                found_settings = strstr(attributes[i].value, "\"width\":16") != NULL &&
+                                 strstr(attributes[i].value, "\"height\":12") != NULL;
             if (!strcmp(attributes[i].key, "photonfarm/device"))
                 found_device = attributes[i].value[0] != '\0';
         }
@@ -106,10 +107,25 @@ PF_TEST(bad_frames_scenes_and_options_exit_2)
     snprintf(args, sizeof args, "render '%s' --frames 1-2 -o '%s/single.exr'", scene, tmpdir);
     PF_CHECK(run_photonfarm(args) == 2);
     PF_CHECK(log_contains("#"));
-    snprintf(args, sizeof args, "render '%s' --frame 1 --size 8x8 --quality fast -o '%s/q.exr'",
-             scene, tmpdir);
-    PF_CHECK(run_photonfarm(args) == 2);
-    PF_CHECK(log_contains("not available yet"));
+    /* LPV settings: zero, negative, non-numeric, malformed, beyond the device → exit 2, no file. */
+    static const char *const bad_lpv[][2] = {
+        {"--lpv-size 0", "--lpv-size"},         {"--lpv-size -8", "--lpv-size"},
+        {"--lpv-size abc", "--lpv-size"},       {"--lpv-size 30", "--lpv-size"},
+        {"--lpv-size 256", "--lpv-size"},       {"--lpv-iterations 0", "--lpv-iterations"},
+        {"--lpv-iterations -2", "--lpv-iterations"}, {"--lpv-iterations 8,x", "--lpv-iterations"},
+        {"--lpv-iterations 5000", "--lpv-iterations"}, {"--lpv-cascades 0", "--lpv-cascades"},
+        {"--lpv-cascades 9", "--lpv-cascades"}, {"--lpv-cell -1", "--lpv-cell"},
+        {"--lpv-cell nan", "--lpv-cell"},       {"--photons 0", "--photons"}};
+    for (size_t i = 0; i < sizeof bad_lpv / sizeof bad_lpv[0]; i++) {
+        snprintf(args, sizeof args,
+                 "render '%s' --frame 1 --size 8x8 --quality fast %s -o '%s/lpv.exr'", scene,
+                 bad_lpv[i][0], tmpdir);
+        char lpv_path[1100];
+        snprintf(lpv_path, sizeof lpv_path, "%s/lpv.exr", tmpdir);
+        PF_CHECK_MSG(run_photonfarm(args) == 2, "%s", bad_lpv[i][0]);
+        PF_CHECK_MSG(log_contains(bad_lpv[i][1]), "%s", bad_lpv[i][0]);
+        PF_CHECK_MSG(!file_exists(lpv_path), "%s wrote %s", bad_lpv[i][0], lpv_path);
+    }
     snprintf(args, sizeof args,
              "render '%s' --frame 1 --size 8x6 --quality final --spp 1 -o '%s/final.exr'", scene,
              tmpdir);
@@ -117,6 +133,33 @@ PF_TEST(bad_frames_scenes_and_options_exit_2)
     char final_path[1100];
     snprintf(final_path, sizeof final_path, "%s/final.exr", tmpdir);
     PF_CHECK(file_exists(final_path));
+    /* fast renders, with its LPV options, and the EXR names the preset that rendered. */
+    snprintf(args, sizeof args,
+             "render '%s' --frame 1 --size 8x6 --quality fast --spp 1 --lpv-size 16 "
+             "--lpv-iterations 4,4,6,6 --timings -o '%s/fast.exr'",
+             scene, tmpdir);
+    PF_CHECK(run_photonfarm(args) == 0);
+    PF_CHECK(log_contains("lpv_propagate"));
+    char fast_path[1100];
+    snprintf(fast_path, sizeof fast_path, "%s/fast.exr", tmpdir);
+    pf_image fast_image = {0};
+    pf_image_attribute *fast_attributes = NULL;
+    uint32_t fast_attribute_count = 0;
+    pf_error fast_err = {0};
+    PF_CHECK_OK(pf_exr_read(fast_path, &fast_image, &fast_attributes, &fast_attribute_count,
+                            &fast_err),
+                &fast_err);
+    int preset_fast = 0, lpv_recorded = 0;
+    for (uint32_t i = 0; i < fast_attribute_count; i++) {
+        if (!strcmp(fast_attributes[i].key, "photonfarm/preset"))
+            preset_fast = !strcmp(fast_attributes[i].value, "fast");
+        if (!strcmp(fast_attributes[i].key, "photonfarm/settings"))
+            lpv_recorded = strstr(fast_attributes[i].value, "\"iterations\":[4,4,6,6]") != NULL;
+    }
+    PF_CHECK(preset_fast);
+    PF_CHECK(lpv_recorded);
+    free(fast_attributes);
+    pf_image_free(&fast_image);
     const char *bad_usage[] = {"--frame 1 --frames 1-2", "--frames 5-1", "--frames 1-4x0",
                                "--frame 1 --size 0x3", "--frame 1 --quality best", ""};
     for (size_t i = 0; i < sizeof bad_usage / sizeof bad_usage[0]; i++) {

@@ -1,0 +1,120 @@
+/*
+ * What a frame's photon maps were traced for (render_internal.h's
+ * pf_photon_identity), shared by the final and fast integrators' reuse
+ * checks, and the scene figures both size their photon radii by.
+ */
+#include "render_internal.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+static int same_array(const void *a, const void *b, size_t bytes)
+{
+    return bytes == 0 || (a && b && memcmp(a, b, bytes) == 0);
+}
+
+int pf_photon_identity_matches(const pf_photon_identity *identity, const pf_renderer *renderer,
+                               const pf_scene_frame *frame, uint64_t seed, uint32_t photons,
+                               int bih_reused)
+{
+    return identity->valid && bih_reused && renderer->bih_frames == identity->bih_frame + 1 &&
+           identity->seed == seed && identity->photons == photons &&
+           identity->light_count == frame->light_count &&
+           identity->material_count == frame->material_count &&
+           identity->triangle_count == frame->triangle_count &&
+           same_array(identity->lights, frame->lights, frame->light_count * sizeof(pf_light)) &&
+           same_array(identity->materials, frame->materials,
+                      frame->material_count * sizeof(pf_material)) &&
+           same_array(identity->triangle_material, frame->triangle_material,
+                      frame->triangle_count * sizeof(uint32_t));
+}
+
+static pf_status copy_array(void **out, const void *data, size_t bytes, pf_error *err)
+{
+    free(*out);
+    *out = NULL;
+    if (bytes == 0)
+        return PF_OK;
+    *out = malloc(bytes);
+    if (!*out)
+        return pf_error_set(err, PF_ERR_NOMEM, "out of memory keeping the scene identity");
+    memcpy(*out, data, bytes);
+    return PF_OK;
+}
+
+pf_status pf_photon_identity_remember(pf_photon_identity *identity, const pf_scene_frame *frame,
+                                      uint64_t seed, uint32_t photons, pf_error *err)
+{
+    identity->valid = 0;
+    identity->seed = seed;
+    identity->photons = photons;
+    identity->light_count = frame->light_count;
+    identity->material_count = frame->material_count;
+    identity->triangle_count = frame->triangle_count;
+    pf_status status = copy_array((void **)&identity->lights, frame->lights,
+                                  frame->light_count * sizeof(pf_light), err);
+    if (status == PF_OK)
+        status = copy_array((void **)&identity->materials, frame->materials,
+                            frame->material_count * sizeof(pf_material), err);
+    if (status == PF_OK)
+        status = copy_array((void **)&identity->triangle_material, frame->triangle_material,
+                            frame->triangle_count * sizeof(uint32_t), err);
+    return status;
+}
+
+void pf_photon_identity_free(pf_photon_identity *identity)
+{
+    free(identity->lights);
+    free(identity->materials);
+    free(identity->triangle_material);
+    memset(identity, 0, sizeof *identity);
+}
+
+int pf_scene_frame_has_specular(const pf_scene_frame *frame)
+{
+    for (uint32_t t = 0; t < frame->triangle_count; t++) {
+        uint32_t m = frame->triangle_material[t];
+        if (m < frame->material_count && frame->materials[m].kind != PF_MATERIAL_LAMBERT)
+            return 1;
+    }
+    return 0;
+}
+
+double pf_scene_frame_area(const pf_scene_frame *frame)
+{
+    double area = 0.0;
+    for (uint32_t t = 0; t < frame->triangle_count; t++) {
+        const float *a = frame->vertices[3 * t], *b = frame->vertices[3 * t + 1],
+                    *c = frame->vertices[3 * t + 2];
+        double u[3], v[3];
+        for (int k = 0; k < 3; k++) {
+            u[k] = (double)b[k] - a[k];
+            v[k] = (double)c[k] - a[k];
+        }
+        double x = u[1] * v[2] - u[2] * v[1], y = u[2] * v[0] - u[0] * v[2],
+               z = u[0] * v[1] - u[1] * v[0];
+        area += 0.5 * sqrt(x * x + y * y + z * z);
+    }
+    return area;
+}
+
+double pf_scene_frame_diagonal(const pf_scene_frame *frame)
+{
+    double sum = 0.0;
+    for (int k = 0; k < 3; k++) {
+        double extent = (double)frame->bounds_max[k] - frame->bounds_min[k];
+        sum += extent * extent;
+    }
+    return sqrt(sum);
+}
+
+float pf_photon_radius_for_density(const pf_scene_frame *frame, double neighbours,
+                                   uint32_t stored, double fallback_fraction)
+{
+    double area = pf_scene_frame_area(frame);
+    double radius = stored > 0 && area > 0.0 ? sqrt(neighbours * area / (3.14159265358979323846 *
+                                                                         stored))
+                                             : fallback_fraction * pf_scene_frame_diagonal(frame);
+    return radius > 0.0 ? (float)radius : 1e-3f;
+}
