@@ -329,10 +329,9 @@ void gather_ray(uint pixel_index, uint gather_index, Material d1_material, vec3 
         }
         Material material = surface.material;
         if (bounce == 0u && surface.front && any(greaterThan(material.emission, vec3(0.0)))) {
-            float cos_light = -dot(surface.face_normal, direction);
-            float light_pdf = emissive_pdf_area(material.emission, params.emissive_weight_total) *
-                              hit.t * hit.t / cos_light;
-            direct += path * material.emission * mis_power(gather_total * first.pdf, light_pdf);
+            direct += path * material.emission *
+                      emission_mis_weight(material.emission, surface.face_normal, direction,
+                                          hit.t, gather_total * first.pdf);
         }
         vec3 wo_hit = -direction;
         if (material.kind == MATERIAL_LAMBERT) {

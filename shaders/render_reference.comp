@@ -177,13 +177,9 @@ void main()
 
         if (front && any(greaterThan(material.emission, vec3(0.0)))) {
             float weight = 1.0;
-            if (!previous_specular) {
-                float cos_light = -dot(face_normal, direction);
-                float light_pdf = emissive_pdf_area(material.emission,
-                                                    params.emissive_weight_total) *
-                                  hit.t * hit.t / cos_light;
-                weight = mis_power(previous_pdf, light_pdf);
-            }
+            if (!previous_specular)
+                weight = emission_mis_weight(material.emission, face_normal, direction, hit.t,
+                                             previous_pdf);
             radiance_add(radiance, throughput * material.emission * weight, region,
                          caustic_chain);
         }

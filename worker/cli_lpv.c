@@ -63,7 +63,8 @@ int pf_cli_lpv_option(const char *command, const char *arg, const char *value,
                                    value, PF_LPV_MAX_ITERATIONS, PF_LPV_MAX_CASCADES);
             lpv->iterations[count++] = (uint32_t)number;
         }
-        if (count == 0 || value[strlen(value) - 1] == ',')
+        if (count == 0 || value[0] == ',' || value[strlen(value) - 1] == ',' ||
+            strstr(value, ",,"))
             return pf_cli_fail(command, 2, "--lpv-iterations '%s': expected 1..%u", value,
                                PF_LPV_MAX_ITERATIONS);
     } else if (!strcmp(arg, "--lpv-cell")) {

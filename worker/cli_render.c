@@ -44,7 +44,7 @@ static void usage(FILE *out)
             "                     gather) | reference (unbiased path tracer) | auto\n"
             "                     (default auto = preview)\n"
             "  --spp N            samples per pixel; for final, photon passes (default:\n"
-            "                     the preset's: preview 1, fast 4, final 4, reference 64)\n"
+            "                     the preset's: preview 1, fast 2, final 4, reference 64)\n"
             "  --photons N        fast: photons per frame (default 32768); final: per\n"
             "                     pass (default 100000)\n"
             "  --lpv-cascades N   fast: LPV cascades, 1..8 (default 4)\n"

@@ -112,6 +112,27 @@ static pf_status upload_geometry(pf_lpv *lpv, const float *gv, pf_error *err)
     return status;
 }
 
+/*
+ * Sizes the volumes for floats SH floats, uploads the injected volume (also
+ * as the accumulation and the 0-iteration snapshot when accumulate) and the
+ * geometry volume, and begins a command buffer.
+ */
+static pf_status begin_propagation(pf_lpv *lpv, uint64_t floats, const float *injected,
+                                   const float *gv, int accumulate, pf_vk_commands **cmds,
+                                   pf_error *err)
+{
+    uint64_t bytes = floats * sizeof(float);
+    pf_status status = ensure_volumes(lpv, floats, err);
+    pf_vk_buffer *targets[3] = {lpv->injected, lpv->accumulated, lpv->snapshot};
+    for (int t = 0; status == PF_OK && t < (accumulate ? 3 : 1); t++)
+        status = pf_vk_buffer_upload(lpv->ctx, targets[t], 0, injected, bytes, err);
+    if (status == PF_OK)
+        status = upload_geometry(lpv, gv, err);
+    if (status == PF_OK)
+        status = pf_vk_commands_begin(lpv->ctx, cmds, err);
+    return status;
+}
+
 pf_status pf_lpv_propagate(pf_lpv *lpv, const pf_lpv_layout *layout, const float *injected,
                            const float *gv, pf_lpv_propagate_stats *stats, pf_error *err)
 {
@@ -121,20 +142,8 @@ pf_status pf_lpv_propagate(pf_lpv *lpv, const pf_lpv_layout *layout, const float
     memset(stats, 0, sizeof *stats);
     stats->gpu_ms = -1.0;
     uint64_t floats = pf_lpv_volume_floats(layout, PF_LPV_FLOATS_PER_CELL);
-    pf_status status = ensure_volumes(lpv, floats, err);
-    uint64_t bytes = floats * sizeof(float);
-    if (status == PF_OK)
-        status = pf_vk_buffer_upload(lpv->ctx, lpv->injected, 0, injected, bytes, err);
-    if (status == PF_OK)
-        status = pf_vk_buffer_upload(lpv->ctx, lpv->accumulated, 0, injected, bytes, err);
-    /* A snapshot after 0 iterations is the injected volume itself. */
-    if (status == PF_OK)
-        status = pf_vk_buffer_upload(lpv->ctx, lpv->snapshot, 0, injected, bytes, err);
-    if (status == PF_OK)
-        status = upload_geometry(lpv, gv, err);
     pf_vk_commands *cmds = NULL;
-    if (status == PF_OK)
-        status = pf_vk_commands_begin(lpv->ctx, &cmds, err);
+    pf_status status = begin_propagation(lpv, floats, injected, gv, 1, &cmds, err);
     if (status != PF_OK)
         return status;
     uint32_t groups = (layout->size + GROUP_EDGE - 1) / GROUP_EDGE;
@@ -202,15 +211,9 @@ pf_status pf_lpv_propagate_once(pf_lpv *lpv, uint32_t size, const float *src, co
     }
     uint64_t floats = (uint64_t)size * size * size * PF_LPV_FLOATS_PER_CELL;
     uint64_t bytes = floats * sizeof(float);
-    if (status == PF_OK)
-        status = ensure_volumes(lpv, floats, err);
-    if (status == PF_OK)
-        status = pf_vk_buffer_upload(lpv->ctx, lpv->injected, 0, src, bytes, err);
-    if (status == PF_OK)
-        status = upload_geometry(lpv, gv, err);
     pf_vk_commands *cmds = NULL;
     if (status == PF_OK)
-        status = pf_vk_commands_begin(lpv->ctx, &cmds, err);
+        status = begin_propagation(lpv, floats, src, gv, 0, &cmds, err);
     if (status != PF_OK)
         return status;
     uint32_t groups = (size + GROUP_EDGE - 1) / GROUP_EDGE;

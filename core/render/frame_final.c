@@ -343,21 +343,6 @@ static pf_status shade_sample(pf_renderer *renderer, pf_vk_buffer **buffers,
     return status;
 }
 
-static void add_row(pf_frame_report *report, const char *stage, const char *skip_reason,
-                    double wall_ms, double gpu_ms, pf_stage_timing **out)
-{
-    pf_stage_timing *row = report ? pf_frame_report_add(report, stage) : NULL;
-    *out = row;
-    if (!row)
-        return;
-    row->wall_ms = wall_ms;
-    row->gpu_ms = gpu_ms;
-    if (skip_reason) {
-        row->skipped = 1;
-        snprintf(row->reason, sizeof row->reason, "%s", skip_reason);
-    }
-}
-
 static void report_rows(pf_frame_report *report, const final_progress *progress, int has_emitters,
                         int with_caustics, double shade_ms, uint32_t pixels,
                         const pf_scene_frame *frame)
@@ -367,7 +352,7 @@ static void report_rows(pf_frame_report *report, const final_progress *progress,
                                   ? "lights and geometry unchanged → photon maps reused"
                                   : NULL;
     pf_stage_timing *row;
-    add_row(report, "photon_trace", photon_skip, progress->trace_ms, progress->trace_gpu_ms, &row);
+    row = pf_frame_report_row(report, "photon_trace", photon_skip, progress->trace_ms, progress->trace_gpu_ms);
     if (row) {
         pf_stage_add_counter(row, "photons", (double)progress->emitted);
         pf_stage_add_counter(row, "stored", (double)(progress->global_stored +
@@ -376,11 +361,11 @@ static void report_rows(pf_frame_report *report, const final_progress *progress,
         pf_stage_add_counter(row, "traced_passes", progress->traced);
         pf_stage_add_counter(row, "reused_passes", progress->reused);
     }
-    add_row(report, "photon_grid",
+    row = pf_frame_report_row(report, "photon_grid",
             !has_emitters ? photon_skip
             : progress->traced == 0 ? "lights and geometry unchanged → photon grids reused"
                                     : NULL,
-            progress->grid_ms, progress->grid_gpu_ms, &row);
+            progress->grid_ms, progress->grid_gpu_ms);
     if (row) {
         pf_stage_add_counter(row, "photons", (double)progress->global_stored);
         pf_stage_add_counter(row, "stored", (double)progress->global_stored);
@@ -388,17 +373,17 @@ static void report_rows(pf_frame_report *report, const final_progress *progress,
         pf_stage_add_counter(row, "radius_first", progress->radius_first);
         pf_stage_add_counter(row, "radius_last", progress->radius_last);
     }
-    add_row(report, "caustic_map",
+    row = pf_frame_report_row(report, "caustic_map",
             !has_emitters    ? photon_skip
             : !with_caustics ? "no specular or refractive material → no caustic map"
             : progress->traced == 0 ? "lights and geometry unchanged → caustic grids reused"
                                     : NULL,
-            progress->caustic_ms, -1.0, &row);
+            progress->caustic_ms, -1.0);
     if (row) {
         pf_stage_add_counter(row, "photons", (double)progress->caustic_stored);
         pf_stage_add_counter(row, "passes", with_caustics ? progress->passes : 0);
     }
-    add_row(report, "shade", NULL, shade_ms, progress->shade_gpu_ms, &row);
+    row = pf_frame_report_row(report, "shade", NULL, shade_ms, progress->shade_gpu_ms);
     if (row) {
         pf_stage_add_counter(row, "samples_per_pixel", progress->passes);
         pf_stage_add_counter(row, "gather_rays", FINAL_GATHER_RAYS);
@@ -411,16 +396,6 @@ static void report_rows(pf_frame_report *report, const final_progress *progress,
     }
     if (report)
         report->discarded_samples += progress->discarded;
-}
-
-/* Copies the rows of from into to (to may be NULL). */
-static void copy_rows(pf_frame_report *to, const pf_frame_report *from)
-{
-    for (uint32_t i = 0; to && i < from->stage_count; i++) {
-        pf_stage_timing *row = pf_frame_report_add(to, from->stages[i].stage);
-        if (row)
-            *row = from->stages[i];
-    }
 }
 
 /* Everything of one frame after the BIH: passes, shading, readback. */
@@ -580,11 +555,8 @@ pf_status pf_render_frame_final(pf_renderer *renderer, const pf_scene_frame *fra
     status = pf_split_image_create(image, settings->width, settings->height, settings->aovs, err);
     if (status != PF_OK)
         return status;
-    /* The BIH row tells whether the geometry is unchanged: read it even when the caller keeps no report. */
-    pf_frame_report bih_report = {0};
-    status = pf_render_prepare_bih(renderer, frame, &bih_report, err);
-    copy_rows(report, &bih_report);
-    int bih_reused = bih_report.stage_count > 0 && bih_report.stages[0].skipped;
+    int bih_reused = 0;
+    status = pf_render_prepare_bih_reuse(renderer, frame, report, &bih_reused, err);
     struct pf_final_cache *cache = renderer->final_cache;
     uint32_t photons_per_pass =
         settings->photons_per_pass ? settings->photons_per_pass : FINAL_DEFAULT_PHOTONS_PER_PASS;

@@ -1,5 +1,5 @@
 /* Stage rows of a frame report (DESIGN.md §4: one row per stage, run or skipped). */
-#include "pf_render.h"
+#include "render_internal.h"
 
 #include <stdio.h>
 #include <string.h>
@@ -22,4 +22,34 @@ void pf_stage_add_counter(pf_stage_timing *stage, const char *name, double value
     pf_stage_counter *counter = &stage->counters[stage->counter_count++];
     snprintf(counter->name, sizeof counter->name, "%s", name);
     counter->value = value;
+}
+
+pf_stage_timing *pf_frame_report_row(pf_frame_report *report, const char *stage,
+                                     const char *skip_reason, double wall_ms, double gpu_ms)
+{
+    pf_stage_timing *row = pf_frame_report_add(report, stage);
+    if (!row)
+        return NULL;
+    row->wall_ms = wall_ms;
+    row->gpu_ms = gpu_ms;
+    if (skip_reason) {
+        row->skipped = 1;
+        snprintf(row->reason, sizeof row->reason, "%s", skip_reason);
+    }
+    return row;
+}
+
+pf_status pf_render_prepare_bih_reuse(pf_renderer *renderer, const pf_scene_frame *frame,
+                                      pf_frame_report *report, int *reused, pf_error *err)
+{
+    /* The row tells whether the geometry is unchanged: read it even when the caller keeps no report. */
+    pf_frame_report own = {0};
+    pf_status status = pf_render_prepare_bih(renderer, frame, &own, err);
+    for (uint32_t i = 0; report && i < own.stage_count; i++) {
+        pf_stage_timing *row = pf_frame_report_add(report, own.stages[i].stage);
+        if (row)
+            *row = own.stages[i];
+    }
+    *reused = status == PF_OK && own.stage_count > 0 && own.stages[0].skipped;
+    return status;
 }

@@ -128,7 +128,7 @@ void pf_renderer_destroy(pf_renderer *renderer);
  *   channels with the same split (indirect = LPV + caustic). One photon
  *   pass of settings->photons_per_pass photons (0 = 32,768) gives the VPLs
  *   (every diffuse hit, reflected flux) and the caustic map; settings->lpv
- *   the cascades; samples_per_pixel (0 = 4) camera samples. Rows:
+ *   the cascades; samples_per_pixel (0 = 2) camera samples. Rows:
  *   bih_build, photon_trace, caustic_map, lpv_geometry, lpv_inject,
  *   lpv_propagate, shade, each skipped with its reason when the scene does
  *   not need it or the previous frame's result still holds.

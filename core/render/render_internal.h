@@ -110,6 +110,21 @@ pf_status pf_render_prepare_bih(pf_renderer *renderer, const pf_scene_frame *fra
                                 pf_frame_report *report, pf_error *err);
 
 /*
+ * The same, also telling whether the stage reused the previous frame's tree
+ * (*reused = 1: the geometry is unchanged, what the photon and LPV caches
+ * key on); report may be NULL.
+ */
+pf_status pf_render_prepare_bih_reuse(pf_renderer *renderer, const pf_scene_frame *frame,
+                                      pf_frame_report *report, int *reused, pf_error *err);
+
+/*
+ * Appends a stage row with its times, skipped with skip_reason when that is
+ * not NULL; NULL when report is NULL or full.
+ */
+pf_stage_timing *pf_frame_report_row(pf_frame_report *report, const char *stage,
+                                     const char *skip_reason, double wall_ms, double gpu_ms);
+
+/*
  * PF_ERR_LIMIT naming the count when some of a frame's rays overflowed the
  * BIH traversal stack (their hits were misses), else PF_OK: a frame is never
  * written with silently missing hits.

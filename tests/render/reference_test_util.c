@@ -413,3 +413,36 @@ double ref_pair_noise(const pf_image *a, const pf_image *b, int channel, ref_reg
     }
     return count ? sqrt(squares / (2.0 * (double)count)) : 0.0;
 }
+
+const pf_stage_timing *ref_row(const pf_frame_report *report, const char *stage)
+{
+    for (uint32_t i = 0; i < report->stage_count; i++) {
+        if (strcmp(report->stages[i].stage, stage) == 0)
+            return &report->stages[i];
+    }
+    return NULL;
+}
+
+double ref_layer_relmse(const pf_image *a, const pf_image *b, uint32_t first_channel)
+{
+    double sum = 0.0;
+    size_t pixels = (size_t)a->width * a->height;
+    for (size_t p = 0; p < pixels; p++) {
+        for (uint32_t c = 0; c < 3; c++) {
+            double x = a->pixels[p * a->channel_count + first_channel + c];
+            double r = b->pixels[p * b->channel_count + first_channel + c];
+            sum += (x - r) * (x - r) / (r * r + PF_RELMSE_EPSILON);
+        }
+    }
+    return sum / (3.0 * pixels);
+}
+
+double ref_layer_mean(const pf_image *image, uint32_t first_channel)
+{
+    double sum = 0.0;
+    size_t pixels = (size_t)image->width * image->height;
+    for (size_t p = 0; p < pixels; p++)
+        for (uint32_t c = 0; c < 3; c++)
+            sum += image->pixels[p * image->channel_count + first_channel + c];
+    return sum / (3.0 * pixels);
+}

@@ -92,6 +92,22 @@ pf_render_settings ref_settings(uint32_t width, uint32_t height, uint32_t spp, u
 /* Value of counter `counter` in the report's row `stage`; NaN when either is missing. */
 double ref_stage_counter(const pf_frame_report *report, const char *stage, const char *counter);
 
+/* First channel of each layer of the split integrators' images (pf_render.h's order). */
+#define REF_CH_RGB 0u
+#define REF_CH_DIRECT 4u
+#define REF_CH_INDIRECT 7u
+#define REF_CH_CAUSTIC 10u
+
+/* The stage row named stage, or NULL. */
+const pf_stage_timing *ref_row(const pf_frame_report *report, const char *stage);
+
+/*
+ * relMSE (pf_image_compare's formula) of a's channels first..first+2 against
+ * b's (the same channel layout), and the mean of those three channels.
+ */
+double ref_layer_relmse(const pf_image *a, const pf_image *b, uint32_t first_channel);
+double ref_layer_mean(const pf_image *image, uint32_t first_channel);
+
 /* Number of NaN or infinite values over every channel of every pixel. */
 size_t ref_image_non_finite(const pf_image *image);
 

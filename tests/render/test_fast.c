@@ -21,11 +21,6 @@
 static pf_vk_context *ctx;
 static pf_renderer *renderer;
 
-#define CH_RGB 0u
-#define CH_DIRECT 4u
-#define CH_INDIRECT 7u
-#define CH_CAUSTIC 10u
-
 /* Small images: the suite runs twice (plain, ASan) on 2 cores. */
 #define CORNELL_WIDTH 32u
 #define CORNELL_HEIGHT 24u
@@ -38,50 +33,16 @@ static pf_render_settings fast_settings(uint32_t width, uint32_t height, uint32_
     return settings;
 }
 
-/* relMSE (pf_image_compare's formula) of a's channels first..first+2 against b's. */
-static double channel_relmse(const pf_image *a, const pf_image *b, uint32_t first_channel)
-{
-    double sum = 0.0;
-    size_t pixels = (size_t)a->width * a->height;
-    for (size_t p = 0; p < pixels; p++) {
-        for (uint32_t c = 0; c < 3; c++) {
-            double x = a->pixels[p * a->channel_count + first_channel + c];
-            double r = b->pixels[p * b->channel_count + first_channel + c];
-            sum += (x - r) * (x - r) / (r * r + PF_RELMSE_EPSILON);
-        }
-    }
-    return sum / (3.0 * pixels);
-}
-
-static double channel_mean(const pf_image *a, uint32_t first_channel)
-{
-    double sum = 0.0;
-    size_t pixels = (size_t)a->width * a->height;
-    for (size_t p = 0; p < pixels; p++)
-        for (uint32_t c = 0; c < 3; c++)
-            sum += a->pixels[p * a->channel_count + first_channel + c];
-    return sum / (3.0 * pixels);
-}
-
-static const pf_stage_timing *row_named(const pf_frame_report *report, const char *stage)
-{
-    for (uint32_t i = 0; i < report->stage_count; i++) {
-        if (strcmp(report->stages[i].stage, stage) == 0)
-            return &report->stages[i];
-    }
-    return NULL;
-}
-
 static int row_skipped_because(const pf_frame_report *report, const char *stage,
                                const char *reason_part)
 {
-    const pf_stage_timing *row = row_named(report, stage);
+    const pf_stage_timing *row = ref_row(report, stage);
     return row && row->skipped && strstr(row->reason, reason_part) != NULL;
 }
 
 static int row_ran(const pf_frame_report *report, const char *stage)
 {
-    const pf_stage_timing *row = row_named(report, stage);
+    const pf_stage_timing *row = ref_row(report, stage);
     return row && !row->skipped;
 }
 
@@ -98,9 +59,9 @@ PF_TEST(cornell_indirect_matches_reference)
     PF_REQUIRE_OK(pf_render_frame(renderer, &cornell_frame, &settings, &image, &report, &err),
                   &err);
     PF_CHECK(ref_layer_violations(&image, "fast") == 0);
-    double indirect = channel_relmse(&image, &cornell_reference, CH_INDIRECT);
-    double indirect_mean = channel_mean(&image, CH_INDIRECT);
-    double reference_mean = channel_mean(&cornell_reference, CH_INDIRECT);
+    double indirect = ref_layer_relmse(&image, &cornell_reference, REF_CH_INDIRECT);
+    double indirect_mean = ref_layer_mean(&image, REF_CH_INDIRECT);
+    double reference_mean = ref_layer_mean(&cornell_reference, REF_CH_INDIRECT);
     pf_image_metrics metrics;
     PF_REQUIRE_OK(pf_image_compare(&image, &cornell_reference, &metrics, &err), &err);
     /* preview: direct light only, RGB alone against the reference's RGB. */
@@ -137,7 +98,7 @@ PF_TEST(cornell_indirect_matches_reference)
                  "preview %.5f vs fast %.5f", preview_metrics.relmse, fast_metrics.relmse);
     /* No specular material: no caustic map, caustic layer exactly 0. */
     PF_CHECK(row_skipped_because(&report, "caustic_map", "no specular"));
-    PF_CHECK(channel_mean(&image, CH_CAUSTIC) == 0.0);
+    PF_CHECK(ref_layer_mean(&image, REF_CH_CAUSTIC) == 0.0);
     PF_CHECK(ref_stage_counter(&report, "lpv_propagate", "cascades") == PF_LPV_DEFAULT_CASCADES);
     PF_CHECK(ref_stage_counter(&report, "lpv_propagate", "iterations_cascade0") ==
              PF_LPV_DEFAULT_ITERATIONS);
@@ -199,13 +160,41 @@ PF_TEST(second_frame_reuses_every_lpv_stage_and_matches)
     PF_CHECK(row_skipped_because(&report4, "lpv_geometry", "unchanged"));
     PF_CHECK(row_ran(&report4, "lpv_inject"));
     PF_CHECK(row_ran(&report4, "lpv_propagate"));
-    double ratio = channel_mean(&fourth, CH_INDIRECT) / channel_mean(&first, CH_INDIRECT);
+    double ratio = ref_layer_mean(&fourth, REF_CH_INDIRECT) / ref_layer_mean(&first, REF_CH_INDIRECT);
     printf("  half the light: indirect ratio %.4f\n", ratio);
     PF_CHECK_NEAR(ratio, 0.5, 0.03);
     pf_image_free(&first);
     pf_image_free(&second);
     pf_image_free(&third);
     pf_image_free(&fourth);
+}
+
+PF_TEST(other_presets_between_fast_frames_change_nothing)
+{
+    /* A renderer serving jobs of every preset: fast, then final and preview, then fast again. */
+    pf_error err = {0};
+    pf_render_settings settings = fast_settings(CORNELL_WIDTH, CORNELL_HEIGHT, 2, 21);
+    pf_render_settings final = settings, small = settings;
+    final.quality = PF_QUALITY_FINAL;
+    final.photons_per_pass = 2000;
+    small.width = small.height = 8;
+    pf_image first, other, again;
+    PF_REQUIRE_OK(pf_render_frame(renderer, &cornell_frame, &small, &other, NULL, &err), &err);
+    pf_image_free(&other);
+    PF_REQUIRE_OK(pf_render_frame(renderer, &cornell_frame, &settings, &first, NULL, &err), &err);
+    PF_REQUIRE_OK(pf_render_frame(renderer, &cornell_frame, &final, &other, NULL, &err), &err);
+    pf_image_free(&other);
+    settings.quality = PF_QUALITY_PREVIEW;
+    PF_REQUIRE_OK(pf_render_frame(renderer, &cornell_frame, &settings, &other, NULL, &err), &err);
+    pf_image_free(&other);
+    settings.quality = PF_QUALITY_FAST;
+    PF_REQUIRE_OK(pf_render_frame(renderer, &cornell_frame, &settings, &again, NULL, &err), &err);
+    double drift = ref_layer_relmse(&again, &first, REF_CH_RGB);
+    printf("  fast after final and preview: relMSE %.3g against the first fast frame\n", drift);
+    /* Photons are stored by atomics (order varies): equal to float rounding, not bit for bit. */
+    PF_CHECK(drift < 1e-6);
+    pf_image_free(&first);
+    pf_image_free(&again);
 }
 
 /* A closed box of albedo `albedo` (inward faces), a point light at its centre, camera inside. */
@@ -234,8 +223,8 @@ PF_TEST(closed_box_indirect_matches_reference)
     pf_image expected, image;
     PF_REQUIRE_OK(pf_render_frame(renderer, &box.frame, &reference, &expected, NULL, &err), &err);
     PF_REQUIRE_OK(pf_render_frame(renderer, &box.frame, &settings, &image, NULL, &err), &err);
-    double fast = channel_mean(&image, CH_INDIRECT), exact = channel_mean(&expected, CH_INDIRECT);
-    double relmse = channel_relmse(&image, &expected, CH_INDIRECT);
+    double fast = ref_layer_mean(&image, REF_CH_INDIRECT), exact = ref_layer_mean(&expected, REF_CH_INDIRECT);
+    double relmse = ref_layer_relmse(&image, &expected, REF_CH_INDIRECT);
     printf("  closed box (albedo 0.5): indirect mean %.5f vs reference %.5f (%.3f), relMSE "
            "%.5f\n",
            fast, exact, fast / exact, relmse);
@@ -288,13 +277,13 @@ PF_TEST(thin_wall_leaks_little_light_into_the_dark_room)
     PF_REQUIRE_OK(pf_render_frame(renderer, &lit.frame, &settings, &lit_image, NULL, &err), &err);
     PF_REQUIRE_OK(pf_render_frame(renderer, &dark.frame, &settings, &dark_image, NULL, &err),
                   &err);
-    double lit_indirect = channel_mean(&lit_image, CH_INDIRECT);
-    double leak = channel_mean(&dark_image, CH_RGB);
+    double lit_indirect = ref_layer_mean(&lit_image, REF_CH_INDIRECT);
+    double leak = ref_layer_mean(&dark_image, REF_CH_RGB);
     printf("  lit room indirect %.5f, dark room %.6f: leak %.2f%%\n", lit_indirect, leak,
            100.0 * leak / lit_indirect);
     PF_CHECK(lit_indirect > 0.0);
     /* The dark room sees no direct light at all; what it shows is LPV light through the wall. */
-    PF_CHECK(channel_mean(&dark_image, CH_DIRECT) == 0.0);
+    PF_CHECK(ref_layer_mean(&dark_image, REF_CH_DIRECT) == 0.0);
     /* Measured 4.3% (face-exact geometry volume, no interpolation across it); bound 6%. */
     PF_CHECK_MSG(leak < 0.06 * lit_indirect, "leak %.6f vs lit indirect %.5f", leak,
                  lit_indirect);
@@ -331,7 +320,7 @@ PF_TEST(light_outside_the_finest_cascade_still_arrives)
     double finest_vpls = ref_stage_counter(&report, "lpv_inject", "vpls_cascade0");
     double all_vpls = ref_stage_counter(&report, "lpv_inject", "vpls");
     PF_REQUIRE_OK(pf_render_frame(renderer, &hall.frame, &single, &b, NULL, &err), &err);
-    double ratio = channel_mean(&a, CH_INDIRECT) / channel_mean(&b, CH_INDIRECT);
+    double ratio = ref_layer_mean(&a, REF_CH_INDIRECT) / ref_layer_mean(&b, REF_CH_INDIRECT);
     printf("  finest cascade holds %.0f of %.0f VPLs; indirect 4 cascades / coarsest alone %.3f\n",
            finest_vpls, all_vpls, ratio);
     PF_CHECK(finest_vpls < 0.5 * all_vpls);
@@ -366,7 +355,7 @@ PF_TEST(scene_larger_than_the_coarsest_cascade_falls_back)
     PF_CHECK(ref_stage_counter(&report, "shade", "lpv_outside") > 0.0);
     PF_CHECK(pf_log_warning_count() > warnings);
     PF_CHECK(ref_layer_violations(&image, "uncovered") == 0);
-    PF_CHECK(channel_mean(&image, CH_DIRECT) > 0.0);
+    PF_CHECK(ref_layer_mean(&image, REF_CH_DIRECT) > 0.0);
     pf_image_free(&image);
     ref_scene_free(&box);
 }
@@ -382,7 +371,7 @@ PF_TEST(empty_scene_and_emitters_only)
     PF_REQUIRE_OK(pf_render_frame(renderer, &empty.frame, &settings, &image, &report, &err),
                   &err);
     PF_CHECK(ref_layer_violations(&image, "empty") == 0);
-    PF_CHECK(channel_mean(&image, CH_RGB) == 0.0);
+    PF_CHECK(ref_layer_mean(&image, REF_CH_RGB) == 0.0);
     PF_CHECK(row_skipped_because(&report, "photon_trace", "no lights"));
     PF_CHECK(ref_stage_counter(&report, "lpv_inject", "vpls") == 0.0);
     pf_image_free(&image);
@@ -399,7 +388,7 @@ PF_TEST(empty_scene_and_emitters_only)
                   &err);
     PF_CHECK(ref_layer_violations(&image, "emitters only") == 0);
     PF_CHECK_NEAR(ref_pixel(&image, 0, 8, 8), 2.0, 1e-6);
-    PF_CHECK(channel_mean(&image, CH_INDIRECT) == 0.0);
+    PF_CHECK(ref_layer_mean(&image, REF_CH_INDIRECT) == 0.0);
     PF_CHECK(ref_stage_counter(&glow_report, "lpv_inject", "vpls") == 0.0);
     pf_image_free(&image);
     ref_scene_free(&glow);
@@ -444,6 +433,7 @@ int main(void)
     }
     PF_RUN(cornell_indirect_matches_reference);
     PF_RUN(second_frame_reuses_every_lpv_stage_and_matches);
+    PF_RUN(other_presets_between_fast_frames_change_nothing);
     PF_RUN(closed_box_indirect_matches_reference);
     PF_RUN(thin_wall_leaks_little_light_into_the_dark_room);
     PF_RUN(light_outside_the_finest_cascade_still_arrives);

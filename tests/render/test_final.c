@@ -34,15 +34,6 @@ static pf_status scene_frame(const char *env, const char *relative, pf_scene **s
     return status;
 }
 
-static const pf_stage_timing *row_named(const pf_frame_report *report, const char *stage)
-{
-    for (uint32_t i = 0; i < report->stage_count; i++) {
-        if (strcmp(report->stages[i].stage, stage) == 0)
-            return &report->stages[i];
-    }
-    return NULL;
-}
-
 static double counter_of(const pf_stage_timing *row, const char *name)
 {
     for (uint32_t i = 0; row && i < row->counter_count; i++) {
@@ -51,36 +42,6 @@ static double counter_of(const pf_stage_timing *row, const char *name)
     }
     return -1.0;
 }
-
-/* relMSE (pf_image_compare's formula) of a's channels prefix.R/G/B against b's. */
-static double channel_relmse(const pf_image *a, const pf_image *b, uint32_t first_channel)
-{
-    double sum = 0.0;
-    size_t pixels = (size_t)a->width * a->height;
-    for (size_t p = 0; p < pixels; p++) {
-        for (uint32_t c = 0; c < 3; c++) {
-            double x = a->pixels[p * a->channel_count + first_channel + c];
-            double r = b->pixels[p * b->channel_count + first_channel + c];
-            sum += (x - r) * (x - r) / (r * r + PF_RELMSE_EPSILON);
-        }
-    }
-    return sum / (3.0 * pixels);
-}
-
-static double channel_mean(const pf_image *a, uint32_t first_channel)
-{
-    double sum = 0.0;
-    size_t pixels = (size_t)a->width * a->height;
-    for (size_t p = 0; p < pixels; p++)
-        for (uint32_t c = 0; c < 3; c++)
-            sum += a->pixels[p * a->channel_count + first_channel + c];
-    return sum / (3.0 * pixels);
-}
-
-#define CH_RGB 0u
-#define CH_DIRECT 4u
-#define CH_INDIRECT 7u
-#define CH_CAUSTIC 10u
 
 /* Small images: the suite runs twice (plain, ASan) on 2 cores. */
 #define CORNELL_WIDTH 32u
@@ -124,11 +85,11 @@ PF_TEST(cornell_matches_reference_channel_by_channel)
                   &err);
     pf_image_metrics metrics;
     PF_REQUIRE_OK(pf_image_compare(&image, &cornell_reference, &metrics, &err), &err);
-    double direct = channel_relmse(&image, &cornell_reference, CH_DIRECT);
-    double indirect = channel_relmse(&image, &cornell_reference, CH_INDIRECT);
+    double direct = ref_layer_relmse(&image, &cornell_reference, REF_CH_DIRECT);
+    double indirect = ref_layer_relmse(&image, &cornell_reference, REF_CH_INDIRECT);
     double noise = CORNELL_NOISE_C / CORNELL_PASSES + CORNELL_NOISE_C / REFERENCE_SPP;
-    double indirect_mean = channel_mean(&image, CH_INDIRECT);
-    double reference_indirect_mean = channel_mean(&cornell_reference, CH_INDIRECT);
+    double indirect_mean = ref_layer_mean(&image, REF_CH_INDIRECT);
+    double reference_indirect_mean = ref_layer_mean(&cornell_reference, REF_CH_INDIRECT);
     printf("  relMSE %.5f (direct %.5f, noise bound %.5f; indirect %.5f), indirect mean %.5f "
            "vs %.5f\n",
            metrics.relmse, direct, 2.0 * noise, indirect, indirect_mean, reference_indirect_mean);
@@ -146,8 +107,8 @@ PF_TEST(cornell_matches_reference_channel_by_channel)
     PF_CHECK_MSG(indirect < 0.01, "indirect relMSE %.5f", indirect);
     PF_CHECK_MSG(metrics.relmse < 2.0 * noise + 0.01, "relMSE %.5f", metrics.relmse);
     /* No caustic paths in the Cornell box (no specular material): both are exactly 0. */
-    PF_CHECK(channel_mean(&image, CH_CAUSTIC) == 0.0);
-    const pf_stage_timing *shade = row_named(&report, "shade");
+    PF_CHECK(ref_layer_mean(&image, REF_CH_CAUSTIC) == 0.0);
+    const pf_stage_timing *shade = ref_row(&report, "shade");
     PF_CHECK(shade && counter_of(shade, "samples_per_pixel") == CORNELL_PASSES);
     PF_CHECK(shade && counter_of(shade, "loop_truncated") == 0.0);
     PF_CHECK(report.discarded_samples == 0);
@@ -185,7 +146,7 @@ PF_TEST(cornell_converges_over_passes_with_ppm_slope)
         pf_image_metrics metrics;
         PF_REQUIRE_OK(pf_image_compare(&image, &cornell_reference, &metrics, &err), &err);
         x[i] = log((double)passes[i]);
-        y[i] = log(channel_relmse(&image, &cornell_reference, CH_INDIRECT));
+        y[i] = log(ref_layer_relmse(&image, &cornell_reference, REF_CH_INDIRECT));
         full[i] = metrics.relmse;
         printf("  %2u passes: indirect relMSE %.5f, image relMSE %.5f\n", passes[i], exp(y[i]),
                full[i]);
@@ -238,11 +199,11 @@ PF_TEST(rows_reuse_and_determinism)
                                   &err),
                   &err);
     size_t bytes = (size_t)w * h * first.channel_count * sizeof(float);
-    const pf_stage_timing *trace_first = row_named(&report_first, "photon_trace");
-    const pf_stage_timing *trace_second = row_named(&report_second, "photon_trace");
-    const pf_stage_timing *grid_second = row_named(&report_second, "photon_grid");
-    const pf_stage_timing *trace_fresh = row_named(&report_fresh, "photon_trace");
-    const pf_stage_timing *caustic = row_named(&report_first, "caustic_map");
+    const pf_stage_timing *trace_first = ref_row(&report_first, "photon_trace");
+    const pf_stage_timing *trace_second = ref_row(&report_second, "photon_trace");
+    const pf_stage_timing *grid_second = ref_row(&report_second, "photon_grid");
+    const pf_stage_timing *trace_fresh = ref_row(&report_fresh, "photon_trace");
+    const pf_stage_timing *caustic = ref_row(&report_first, "caustic_map");
     PF_REQUIRE(trace_first && trace_second && grid_second && trace_fresh && caustic);
     PF_CHECK(!trace_first->skipped && counter_of(trace_first, "traced_passes") == 2.0);
     PF_CHECK(counter_of(trace_first, "photons") == 2.0 * 5000);
@@ -254,7 +215,7 @@ PF_TEST(rows_reuse_and_determinism)
     PF_CHECK(caustic->skipped &&
              strcmp(caustic->reason, "no specular or refractive material → no caustic map") == 0);
     /* caustic_scene_builds_the_caustic_map ran first: its caustic grids are not gathered from. */
-    PF_CHECK(channel_mean(&first, CH_CAUSTIC) == 0.0 && channel_mean(&different, CH_CAUSTIC) == 0.0);
+    PF_CHECK(ref_layer_mean(&first, REF_CH_CAUSTIC) == 0.0 && ref_layer_mean(&different, REF_CH_CAUSTIC) == 0.0);
     PF_CHECK_MSG(memcmp(first.pixels, second.pixels, bytes) == 0, "reused maps changed the image");
     /*
      * Traced afresh, the same seed gives the same photons, but their order in
@@ -285,7 +246,7 @@ PF_TEST(rows_reuse_and_determinism)
     pf_frame_report report_dimmer = {0};
     PF_REQUIRE_OK(pf_render_frame(renderer, &changed, &settings, &dimmer, &report_dimmer, &err),
                   &err);
-    const pf_stage_timing *trace_dimmer = row_named(&report_dimmer, "photon_trace");
+    const pf_stage_timing *trace_dimmer = ref_row(&report_dimmer, "photon_trace");
     PF_CHECK(trace_dimmer && !trace_dimmer->skipped);
     free(materials);
     pf_image_free(&dimmer);
@@ -314,12 +275,12 @@ PF_TEST(no_lights_skips_photon_stages)
     PF_REQUIRE_OK(pf_render_frame(renderer, &dark, &settings, &image, &report, &err), &err);
     const char *stages[] = {"photon_trace", "photon_grid", "caustic_map"};
     for (int i = 0; i < 3; i++) {
-        const pf_stage_timing *row = row_named(&report, stages[i]);
+        const pf_stage_timing *row = ref_row(&report, stages[i]);
         PF_CHECK_MSG(row && row->skipped &&
                          strcmp(row->reason, "no lights or emissive surfaces → no photons") == 0,
                      "%s row", stages[i]);
     }
-    PF_CHECK(channel_mean(&image, CH_RGB) == 0.0);
+    PF_CHECK(ref_layer_mean(&image, REF_CH_RGB) == 0.0);
     free(materials);
     pf_image_free(&image);
 }
@@ -343,18 +304,18 @@ PF_TEST(caustic_scene_builds_the_caustic_map)
     pf_image image;
     pf_frame_report report = {0};
     PF_REQUIRE_OK(pf_render_frame(renderer, &frame, &settings, &image, &report, &err), &err);
-    const pf_stage_timing *caustic = row_named(&report, "caustic_map");
+    const pf_stage_timing *caustic = ref_row(&report, "caustic_map");
     PF_REQUIRE(caustic);
     PF_CHECK_MSG(!caustic->skipped, "caustic_map skipped: %s", caustic->reason);
     PF_CHECK(counter_of(caustic, "photons") > 0.0);
-    double caustic_mean = channel_mean(&image, CH_CAUSTIC);
+    double caustic_mean = ref_layer_mean(&image, REF_CH_CAUSTIC);
     PF_CHECK_MSG(caustic_mean > 0.0, "caustic channel is black");
     size_t pixels = (size_t)image.width * image.height;
     int subset = 1;
     for (size_t p = 0; p < pixels; p++)
         for (uint32_t c = 0; c < 3; c++)
-            subset = subset && image.pixels[p * image.channel_count + CH_CAUSTIC + c] <=
-                                   image.pixels[p * image.channel_count + CH_INDIRECT + c] *
+            subset = subset && image.pixels[p * image.channel_count + REF_CH_CAUSTIC + c] <=
+                                   image.pixels[p * image.channel_count + REF_CH_INDIRECT + c] *
                                            (1.0f + 1e-5f) +
                                        1e-7f;
     PF_CHECK_MSG(subset, "caustic is not part of indirect");
@@ -411,8 +372,8 @@ PF_TEST(time_budget_stops_after_at_least_one_pass)
     pf_frame_report report = {0};
     PF_REQUIRE_OK(pf_render_frame(renderer, &cornell_frame, &settings, &image, &report, &err),
                   &err);
-    PF_CHECK(counter_of(row_named(&report, "shade"), "samples_per_pixel") == 1.0);
-    PF_CHECK(counter_of(row_named(&report, "photon_trace"), "passes") == 1.0);
+    PF_CHECK(counter_of(ref_row(&report, "shade"), "samples_per_pixel") == 1.0);
+    PF_CHECK(counter_of(ref_row(&report, "photon_trace"), "passes") == 1.0);
     pf_image_free(&image);
 }
 

@@ -58,6 +58,29 @@ PF_TEST(enqueue_inserts_a_validated_job_and_prints_its_id)
     pf_queue_job_clear(&job);
     pf_queue_close(queue);
 
+    /* fast with its LPV settings: they travel in the job's JSON. */
+    wt_format(args, sizeof args,
+             "enqueue '%s' --frames 1 --out '%s/fast.exr' --size 16x12 --quality fast "
+             "--lpv-cascades 3 --lpv-size 16 --lpv-iterations 6,6,12 --lpv-cell 0.125 "
+             "--photons 5000 --db '%s'",
+             scene, out_dir, db);
+    PF_REQUIRE(wt_run(args, log_path) == 0);
+    printed = wt_read_file(log_path, NULL);
+    PF_REQUIRE(printed != NULL);
+    int64_t fast_id = atoll(printed);
+    free(printed);
+    queue = wt_open_queue(db);
+    PF_REQUIRE(queue != NULL);
+    PF_CHECK_OK(pf_queue_job_get(queue, fast_id, &job, &err), &err);
+    PF_CHECK_MSG(job.parameters_json &&
+                     strstr(job.parameters_json, "\"quality\":\"fast\"") &&
+                     strstr(job.parameters_json, "\"photons\":5000") &&
+                     strstr(job.parameters_json, "\"lpv\":{\"cascades\":3,\"size\":16,"
+                                                 "\"iterations\":[6,6,12],\"cell\":0.125}"),
+                 "parameters %s", job.parameters_json ? job.parameters_json : "(none)");
+    pf_queue_job_clear(&job);
+    pf_queue_close(queue);
+
     wt_format(args, sizeof args, "status --db '%s'", db);
     PF_CHECK(wt_run(args, log_path) == 0);
     PF_CHECK(wt_file_contains(log_path, "(tiny)"));
@@ -86,7 +109,7 @@ PF_TEST(bad_input_exits_2_and_inserts_nothing)
     struct {
         char arguments[4 * WT_PATH_MAX];
         const char *message;
-    } cases[14];
+    } cases[24];
     int count = 0;
 #define CASE(msg, ...)                                                                    \
     do {                                                                                  \
@@ -109,6 +132,19 @@ PF_TEST(bad_input_exits_2_and_inserts_nothing)
          out_dir);
     CASE("--time-budget", "enqueue '%s' --frames 1 --out '%s/f.exr' --time-budget 0", scene,
          out_dir);
+    /* LPV settings: zero, negative, non-numeric, beyond every device's guaranteed buffers. */
+    CASE("--lpv-size", "enqueue '%s' --frames 1 --out '%s/f.exr' --lpv-size 0", scene, out_dir);
+    CASE("--lpv-size", "enqueue '%s' --frames 1 --out '%s/f.exr' --lpv-size -4", scene, out_dir);
+    CASE("--lpv-size", "enqueue '%s' --frames 1 --out '%s/f.exr' --lpv-size big", scene, out_dir);
+    CASE("--lpv-size", "enqueue '%s' --frames 1 --out '%s/f.exr' --lpv-size 128", scene,
+         out_dir);
+    CASE("--lpv-iterations", "enqueue '%s' --frames 1 --out '%s/f.exr' --lpv-iterations 0", scene,
+         out_dir);
+    CASE("--lpv-iterations", "enqueue '%s' --frames 1 --out '%s/f.exr' --lpv-iterations 4,,4",
+         scene, out_dir);
+    CASE("--lpv-cascades", "enqueue '%s' --frames 1 --out '%s/f.exr' --lpv-cascades 99", scene,
+         out_dir);
+    CASE("--lpv-cell", "enqueue '%s' --frames 1 --out '%s/f.exr' --lpv-cell 0", scene, out_dir);
 #undef CASE
     for (int i = 0; i < count; i++) {
         wt_format(args, sizeof args, "%s --db '%s'", cases[i].arguments, db);
