@@ -326,24 +326,17 @@ static pf_status shade(pf_renderer *renderer, struct pf_fast_cache *cache,
     pf_vk_context *ctx = renderer->ctx;
     uint32_t samples = settings->samples_per_pixel ? settings->samples_per_pixel
                                                    : FAST_DEFAULT_SAMPLES;
-    uint64_t pixels = (uint64_t)settings->width * settings->height;
     pf_frame_params params;
     pf_frame_params_fill(frame, settings, samples, scene, bih, &params);
     params.max_specular_depth = FAST_MAX_SPECULAR_DEPTH;
     fast_buffers owned = {0};
-    uint64_t film_bytes = pixels * PF_SPLIT_FILM_VEC4_PER_PIXEL * 16;
-    uint64_t aov_bytes = pixels * PF_SPLIT_FILM_AOV_VEC4_PER_PIXEL * 16;
-    float *film = malloc(film_bytes), *film_aov = malloc(aov_bytes);
-    pf_status status = film && film_aov ? PF_OK
-                                        : pf_error_set(err, PF_ERR_NOMEM, "fast film: out of memory");
+    pf_status status = PF_OK;
     const fast_counters zero = {0};
     if (status == PF_OK)
         status = pf_render_buffer_with_data(ctx, "frame parameters", &params, sizeof params,
                                             sizeof params, &owned.params, err);
     if (status == PF_OK)
-        status = pf_vk_buffer_create(ctx, film_bytes, "fast film", &owned.film, err);
-    if (status == PF_OK)
-        status = pf_vk_buffer_create(ctx, aov_bytes, "fast AOV film", &owned.film_aov, err);
+        status = pf_split_film_create(ctx, settings, 1, "fast", &owned.film, &owned.film_aov, err);
     if (status == PF_OK)
         status = pf_render_buffer_with_data(ctx, "fast counters", &zero, sizeof zero, sizeof zero,
                                             &owned.counters, err);
@@ -406,14 +399,8 @@ static pf_status shade(pf_renderer *renderer, struct pf_fast_cache *cache,
         progress->lpv_outside = counters.lpv_outside;
     }
     if (status == PF_OK)
-        status = pf_vk_buffer_download(ctx, owned.film, 0, film, film_bytes, err);
-    if (status == PF_OK)
-        status = pf_vk_buffer_download(ctx, owned.film_aov, 0, film_aov, aov_bytes, err);
-    if (status == PF_OK)
-        pf_split_film_to_image(film, film_aov, settings->aovs, 1, image);
+        status = pf_split_film_read(ctx, owned.film, owned.film_aov, settings->aovs, 1, image, err);
     fast_buffers_release(ctx, &owned);
-    free(film);
-    free(film_aov);
     return status;
 }
 

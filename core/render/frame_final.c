@@ -436,18 +436,12 @@ static pf_status render_passes(pf_renderer *renderer, const pf_scene_frame *fram
     params.max_specular_depth = FINAL_MAX_SPECULAR_DEPTH;
     final_buffers owned = {0};
     uint64_t film_bytes = pixels * PF_SPLIT_FILM_VEC4_PER_PIXEL * 16;
-    uint64_t aov_bytes = pixels * PF_SPLIT_FILM_AOV_VEC4_PER_PIXEL * 16;
-    float *film = malloc(film_bytes);
-    float *film_aov = malloc(aov_bytes);
-    if (!film || !film_aov)
-        status = pf_error_set(err, PF_ERR_NOMEM, "final film: out of memory");
     if (status == PF_OK)
         status = pf_render_buffer_with_data(ctx, "frame parameters", &params, sizeof params,
                                             sizeof params, &owned.params, err);
     if (status == PF_OK)
-        status = pf_vk_buffer_create(ctx, film_bytes, "final film", &owned.film, err);
-    if (status == PF_OK)
-        status = pf_vk_buffer_create(ctx, aov_bytes, "final AOV film", &owned.film_aov, err);
+        status = pf_split_film_create(ctx, settings, 1, "final", &owned.film, &owned.film_aov,
+                                      err);
     if (status == PF_OK)
         status = pf_vk_buffer_create(ctx, sizeof(final_counters), "final counters",
                                      &owned.counters, err);
@@ -508,17 +502,11 @@ static pf_status render_passes(pf_renderer *renderer, const pf_scene_frame *fram
             progress->passes++;
     }
     if (status == PF_OK)
-        status = pf_vk_buffer_download(ctx, owned.film, 0, film, film_bytes, err);
-    if (status == PF_OK)
-        status = pf_vk_buffer_download(ctx, owned.film_aov, 0, film_aov, aov_bytes, err);
-    if (status == PF_OK)
-        pf_split_film_to_image(film, film_aov, settings->aovs, 1, image);
+        status = pf_split_film_read(ctx, owned.film, owned.film_aov, settings->aovs, 1, image, err);
     pf_photon_tracer_destroy(tracer);
     final_buffers_release(ctx, &owned);
     pf_gpu_scene_release(ctx, &scene);
     pf_photon_emitters_free(&emitters);
-    free(film);
-    free(film_aov);
     return status;
 }
 

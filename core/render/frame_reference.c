@@ -156,25 +156,10 @@ static pf_status shade(pf_renderer *renderer, const pf_scene_frame *frame,
     pf_status status = pf_bih_gpu_view_get(renderer->bih_gpu, &bih, err);
     if (status != PF_OK)
         return status;
-    uint64_t pixels = (uint64_t)settings->width * settings->height;
-    uint64_t film_bytes = pixels * PF_SPLIT_FILM_VEC4_PER_PIXEL * 4 * sizeof(float);
-    uint64_t aov_bytes =
-        settings->aovs ? pixels * PF_SPLIT_FILM_AOV_VEC4_PER_PIXEL * 4 * sizeof(float) : 4 * sizeof(float);
-    float *film = malloc(film_bytes);
-    float *film_aov = malloc(aov_bytes);
     pf_gpu_scene scene;
-    if (!film || !film_aov) {
-        free(film);
-        free(film_aov);
-        return pf_error_set(err, PF_ERR_NOMEM, "film: out of memory (%llu bytes)",
-                            (unsigned long long)(film_bytes + aov_bytes));
-    }
     status = pf_gpu_scene_upload(ctx, frame, 1, &scene, err);
-    if (status != PF_OK) {
-        free(film);
-        free(film_aov);
+    if (status != PF_OK)
         return status;
-    }
     pf_frame_params params;
     pf_frame_params_fill(frame, settings, spp, &scene, &bih, &params);
     params.max_path_depth = REFERENCE_MAX_PATH_DEPTH;
@@ -182,9 +167,8 @@ static pf_status shade(pf_renderer *renderer, const pf_scene_frame *frame,
     status = pf_render_buffer_with_data(ctx, "frame parameters", &params, sizeof params,
                                         sizeof params, &owned.params, err);
     if (status == PF_OK)
-        status = pf_vk_buffer_create(ctx, film_bytes, "reference film", &owned.film, err);
-    if (status == PF_OK)
-        status = pf_vk_buffer_create(ctx, aov_bytes, "reference AOV film", &owned.film_aov, err);
+        status = pf_split_film_create(ctx, settings, settings->aovs, "reference", &owned.film,
+                                      &owned.film_aov, err);
     if (status == PF_OK)
         status = pf_vk_buffer_create(ctx, sizeof(reference_counters), "reference counters",
                                      &owned.counters, err);
@@ -204,15 +188,10 @@ static pf_status shade(pf_renderer *renderer, const pf_scene_frame *frame,
         pass_ms = (pf_time_ms() - batch_start) / batch;
     }
     if (status == PF_OK)
-        status = pf_vk_buffer_download(ctx, owned.film, 0, film, film_bytes, err);
-    if (status == PF_OK && settings->aovs)
-        status = pf_vk_buffer_download(ctx, owned.film_aov, 0, film_aov, aov_bytes, err);
-    if (status == PF_OK)
-        pf_split_film_to_image(film, film_aov, settings->aovs, 0, image);
+        status = pf_split_film_read(ctx, owned.film, owned.film_aov, settings->aovs, 0, image,
+                                    err);
     reference_buffers_release(ctx, &owned);
     pf_gpu_scene_release(ctx, &scene);
-    free(film);
-    free(film_aov);
     return status;
 }
 

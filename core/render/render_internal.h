@@ -210,6 +210,19 @@ void pf_split_film_to_image(const float *film, const float *film_aov, int aovs,
                             int aov_own_count, pf_image *image);
 
 /*
+ * The device films of a split integrator for the settings' size, labelled
+ * "<integrator> film" and "<integrator> AOV film"; the AOV film is a single
+ * vec4 unless full_aov (kernels that never write it).
+ */
+pf_status pf_split_film_create(pf_vk_context *ctx, const pf_render_settings *settings,
+                               int full_aov, const char *integrator, pf_vk_buffer **film,
+                               pf_vk_buffer **film_aov, pf_error *err);
+
+/* Reads both films back into image (pf_split_film_to_image; the AOV film only with aovs). */
+pf_status pf_split_film_read(pf_vk_context *ctx, pf_vk_buffer *film, pf_vk_buffer *film_aov,
+                             int aovs, int aov_own_count, pf_image *image, pf_error *err);
+
+/*
  * Fills the FrameParams the integrators share: camera, image, counts, seed,
  * ray offset, the emissive table's total weight and the BIH's root box and
  * node count (integrator-specific fields are left 0 for the caller).

@@ -1,9 +1,12 @@
 /*
- * The film both progressive integrators (reference, final) accumulate and
+ * The film the split integrators (reference, final, fast) accumulate and
  * the image it becomes: the channel layout pf_render.h promises for them
  * (beauty = direct + indirect, caustic ⊆ indirect, optional AOVs).
  */
 #include "render_internal.h"
+
+#include <stdio.h>
+#include <stdlib.h>
 
 static const char *const split_channels[] = {
     "R",          "G",          "B",         "A",         "direct.R",   "direct.G",
@@ -52,4 +55,42 @@ void pf_split_film_to_image(const float *film, const float *film_aov, int aovs,
             out[19] = aov[3] * aov_inverse; /* depth */
         }
     }
+}
+
+pf_status pf_split_film_create(pf_vk_context *ctx, const pf_render_settings *settings,
+                               int full_aov, const char *integrator, pf_vk_buffer **film,
+                               pf_vk_buffer **film_aov, pf_error *err)
+{
+    uint64_t pixels = (uint64_t)settings->width * settings->height;
+    uint64_t aov_bytes = full_aov ? pixels * PF_SPLIT_FILM_AOV_VEC4_PER_PIXEL * 16 : 16;
+    char label[64];
+    snprintf(label, sizeof label, "%s film", integrator);
+    pf_status status =
+        pf_vk_buffer_create(ctx, pixels * PF_SPLIT_FILM_VEC4_PER_PIXEL * 16, label, film, err);
+    snprintf(label, sizeof label, "%s AOV film", integrator);
+    if (status == PF_OK)
+        status = pf_vk_buffer_create(ctx, aov_bytes, label, film_aov, err);
+    return status;
+}
+
+pf_status pf_split_film_read(pf_vk_context *ctx, pf_vk_buffer *film, pf_vk_buffer *film_aov,
+                             int aovs, int aov_own_count, pf_image *image, pf_error *err)
+{
+    uint64_t pixels = (uint64_t)image->width * image->height;
+    uint64_t film_bytes = pixels * PF_SPLIT_FILM_VEC4_PER_PIXEL * 16;
+    uint64_t aov_bytes = aovs ? pixels * PF_SPLIT_FILM_AOV_VEC4_PER_PIXEL * 16 : 16;
+    float *host = malloc(film_bytes), *host_aov = malloc(aov_bytes);
+    pf_status status = host && host_aov ? PF_OK
+                                        : pf_error_set(err, PF_ERR_NOMEM,
+                                                       "film: out of memory (%llu bytes)",
+                                                       (unsigned long long)(film_bytes + aov_bytes));
+    if (status == PF_OK)
+        status = pf_vk_buffer_download(ctx, film, 0, host, film_bytes, err);
+    if (status == PF_OK && aovs)
+        status = pf_vk_buffer_download(ctx, film_aov, 0, host_aov, aov_bytes, err);
+    if (status == PF_OK)
+        pf_split_film_to_image(host, host_aov, aovs, aov_own_count, image);
+    free(host);
+    free(host_aov);
+    return status;
 }
