@@ -320,7 +320,8 @@ static pf_status complete_body(pf_queue *queue, void *context, pf_error *err)
     sqlite3_stmt *stmt;
     status = queue_prepare(queue,
                            "INSERT INTO stage_timings (task_id, attempt, frame, stage, wall_ms, "
-                           "gpu_ms, counters, skipped, reason) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                           "gpu_ms, counters, skipped, reason, build) "
+                           "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
                            &stmt, err);
     if (status != PF_OK)
         return status;
@@ -343,6 +344,8 @@ static pf_status complete_body(pf_queue *queue, void *context, pf_error *err)
         sqlite3_bind_int(stmt, 8, row->skipped);
         if (row->reason)
             sqlite3_bind_text(stmt, 9, row->reason, -1, SQLITE_STATIC);
+        if (row->build)
+            sqlite3_bind_text(stmt, 10, row->build, -1, SQLITE_STATIC);
         int rc = sqlite3_step(stmt);
         if (rc == SQLITE_CONSTRAINT_CHECK)
             status = pf_error_set(err, PF_ERR_INVALID,

@@ -92,7 +92,7 @@ pf_status pf_queue_open(const char *path, const pf_queue_options *options, pf_qu
 void pf_queue_close(pf_queue *queue);
 
 /* Schema version this build creates and understands. */
-#define PF_QUEUE_SCHEMA_VERSION 1
+#define PF_QUEUE_SCHEMA_VERSION 2
 
 /* Current schema version recorded in the file (fills *version). */
 pf_status pf_queue_schema_version(pf_queue *queue, int *version, pf_error *err);
@@ -197,6 +197,9 @@ typedef struct pf_queue_stage_row {
     bool skipped;
     const char *reason;        /* why skipped, or the decision a stage that ran took
                                   (bih_build: "refit: ..."); NULL when none */
+    const char *build;         /* the renderer's version ("0.1.0+<git revision>"), so a
+                                  frame can be traced to the build that rendered it;
+                                  NULL when unknown */
 } pf_queue_stage_row;
 
 #define PF_QUEUE_NO_GPU_MS (-1.0)
@@ -374,6 +377,13 @@ typedef struct pf_queue_decision_count {
     int64_t count;
 } pf_queue_decision_count;
 
+/* Frames of a job per build that rendered them (pf_queue_stage_row.build). */
+#define PF_QUEUE_BUILD_MAX 64
+typedef struct pf_queue_build_count {
+    char build[PF_QUEUE_BUILD_MAX]; /* "unknown" for rows recorded without one */
+    int64_t frames;
+} pf_queue_build_count;
+
 typedef struct pf_queue_timings {
     pf_queue_stage_stats *stages; /* in pipeline order (first recorded first) */
     size_t stage_count;
@@ -385,6 +395,8 @@ typedef struct pf_queue_timings {
     pf_queue_decision_count *decisions; /* rows with a reason, by stage then decision,
                                            first recorded first */
     size_t decision_count;
+    pf_queue_build_count *builds;       /* first recorded first */
+    size_t build_count;
 } pf_queue_timings;
 
 /*

@@ -103,6 +103,8 @@ static const char *const migrations[PF_QUEUE_SCHEMA_VERSION] = {
     "  skipped INTEGER NOT NULL DEFAULT 0,"
     "  reason TEXT);"
     "CREATE INDEX stage_timings_task ON stage_timings(task_id);",
+    /* 2: the build (version + git revision) that recorded each stage row. */
+    "ALTER TABLE stage_timings ADD COLUMN build TEXT;",
 };
 
 static int64_t wall_clock_ms(void *user)

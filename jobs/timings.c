@@ -168,6 +168,40 @@ static pf_status decision_counts(pf_queue *queue, timings_context *ctx, pf_error
     return status;
 }
 
+/* Counts the job's frames per build that recorded their rows (pf_queue_build_count). */
+static pf_status build_counts(pf_queue *queue, timings_context *ctx, pf_error *err)
+{
+    pf_queue_timings *out = ctx->out;
+    sqlite3_stmt *stmt;
+    pf_status status = queue_prepare(
+        queue,
+        "SELECT coalesce(s.build, 'unknown') AS b, count(DISTINCT s.frame) "
+        "FROM stage_timings s JOIN tasks t ON t.id = s.task_id WHERE t.job_id = ? "
+        "GROUP BY b ORDER BY min(s.id)",
+        &stmt, err);
+    if (status != PF_OK)
+        return status;
+    sqlite3_bind_int64(stmt, 1, ctx->job_id);
+    queue_records builds = {NULL, 0, 0, sizeof(pf_queue_build_count)};
+    int rc;
+    while ((rc = sqlite3_step(stmt)) == SQLITE_ROW) {
+        pf_queue_build_count *row = queue_records_append(&builds);
+        if (!row) {
+            status = pf_error_set(err, PF_ERR_NOMEM, "%s: out of memory reading timings",
+                                  queue->path);
+            break;
+        }
+        queue_copy_text(row->build, sizeof row->build, queue_column_text(stmt, 0));
+        row->frames = sqlite3_column_int64(stmt, 1);
+    }
+    out->builds = builds.items;
+    out->build_count = builds.count;
+    if (status == PF_OK && rc != SQLITE_DONE)
+        status = queue_db_error(queue, err, "counting the builds that rendered");
+    sqlite3_finalize(stmt);
+    return status;
+}
+
 static pf_status timings_body(pf_queue *queue, void *context, pf_error *err)
 {
     timings_context *ctx = context;
@@ -210,6 +244,8 @@ static pf_status timings_body(pf_queue *queue, void *context, pf_error *err)
         status = slowest_frames(queue, ctx, err);
     if (status == PF_OK)
         status = decision_counts(queue, ctx, err);
+    if (status == PF_OK)
+        status = build_counts(queue, ctx, err);
     return status;
 }
 
@@ -218,6 +254,7 @@ void pf_queue_timings_free(pf_queue_timings *timings)
     free(timings->stages);
     free(timings->slowest);
     free(timings->decisions);
+    free(timings->builds);
     memset(timings, 0, sizeof *timings);
 }
 

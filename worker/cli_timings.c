@@ -50,6 +50,11 @@ static void print_table(int64_t job_id, const pf_queue_timings *timings)
     for (size_t i = 0; i < timings->slowest_count; i++)
         printf(" %d (%.2f ms)%s", timings->slowest[i].frame, timings->slowest[i].wall_ms,
                i + 1 < timings->slowest_count ? "," : "\n");
+    if (timings->build_count > 0)
+        printf("\nrendered by (frames):\n");
+    for (size_t i = 0; i < timings->build_count; i++)
+        printf("%6" PRId64 "  photonfarm %s\n", timings->builds[i].frames,
+               timings->builds[i].build);
     if (timings->decision_count > 0)
         printf("\ndecisions (frames):\n");
     for (size_t i = 0; i < timings->decision_count; i++)
@@ -102,6 +107,13 @@ static int print_json(int64_t job_id, const pf_queue_timings *timings)
         cJSON_AddItemToObject(row, "wall", stat_json(&stage->wall));
         cJSON_AddItemToObject(row, "gpu", stat_json(&stage->gpu));
         cJSON_AddItemToArray(stages, row);
+    }
+    cJSON *builds = cJSON_AddArrayToObject(root, "builds");
+    for (size_t i = 0; i < timings->build_count; i++) {
+        cJSON *row = cJSON_CreateObject();
+        cJSON_AddStringToObject(row, "build", timings->builds[i].build);
+        cJSON_AddNumberToObject(row, "frames", (double)timings->builds[i].frames);
+        cJSON_AddItemToArray(builds, row);
     }
     cJSON *decisions = cJSON_AddArrayToObject(root, "decisions");
     for (size_t i = 0; i < timings->decision_count; i++) {

@@ -23,6 +23,7 @@ static const command commands[] = {
     {"resume", pf_cli_resume, "resume a paused job"},
     {"retry", pf_cli_retry, "requeue a job's failed and canceled frames"},
     {"workers", pf_cli_workers, "registered workers: alive or dead, current frame"},
+    {"version", NULL, "the version and git revision of this build (also --version)"},
 };
 
 static void usage(FILE *out)
@@ -54,8 +55,12 @@ int main(int argc, char **argv)
         usage(stdout);
         return 0;
     }
+    if (!strcmp(argv[1], "--version") || !strcmp(argv[1], "version")) {
+        printf("photonfarm %s\n", pf_version_string());
+        return fflush(stdout) == 0 ? 0 : 1;
+    }
     for (size_t i = 0; i < sizeof commands / sizeof commands[0]; i++) {
-        if (!strcmp(argv[1], commands[i].name))
+        if (commands[i].run && !strcmp(argv[1], commands[i].name))
             return commands[i].run(argc - 1, argv + 1);
     }
     fprintf(stderr, "photonfarm: unknown command '%s'\n\n", argv[1]);

@@ -23,4 +23,11 @@ int pf_cli_workers(int argc, char **argv);
 int pf_cli_fail(const char *command, int exit_code, const char *format, ...)
     __attribute__((format(printf, 3, 4)));
 
+/*
+ * "<version>+<git revision>" of this build ("0.1.0+3f2a9c1d0b4e", "-dirty"
+ * when built from a tree with uncommitted changes, "unknown" outside git):
+ * printed by --version, logged by the worker, stored with every stage row.
+ */
+const char *pf_version_string(void);
+
 #endif

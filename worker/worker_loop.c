@@ -10,6 +10,7 @@
 #include "frame_pipeline.h"
 #include "job_params.h"
 #include "log.h"
+#include "pf_cli.h"
 #include "pf_queue.h"
 #include "progress.h"
 
@@ -278,7 +279,7 @@ static void finish_run(db_op *op)
                 frame,           stage->stage,
                 stage->wall_ms,  stage->gpu_ms < 0 ? PF_QUEUE_NO_GPU_MS : stage->gpu_ms,
                 counters[row_count], stage->skipped != 0,
-                stage->reason[0] ? stage->reason : NULL};
+                stage->reason[0] ? stage->reason : NULL, pf_version_string()};
             row_count++;
         }
     }
@@ -712,8 +713,10 @@ int pf_worker_run(const pf_worker_config *config)
         maintenance_ms = MAINTENANCE_MAX_MS;
     uv_timer_start(&w->maintenance_timer, maintenance_tick, 0, (uint64_t)maintenance_ms);
 
-    pf_wlog(PF_LOG_INFO, "started", "worker=%s worker_id=%" PRId64 " device=\"%s\" db=%s lease_ms=%" PRId64,
-            w->name, w->worker_id, w->device_name, config->db_path, w->lease_ms);
+    pf_wlog(PF_LOG_INFO, "started",
+            "worker=%s worker_id=%" PRId64 " device=\"%s\" db=%s lease_ms=%" PRId64 " version=%s",
+            w->name, w->worker_id, w->device_name, config->db_path, w->lease_ms,
+            pf_version_string());
     w->poll_delay_ms = PF_WORKER_POLL_MIN_MS;
     w->idle_since_ms = pf_time_ms();
     claim_next(w);

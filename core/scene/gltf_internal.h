@@ -36,7 +36,7 @@ typedef struct gltf_context {
 pf_status gltf_fail(gltf_context *ctx, pf_error *err, pf_status status, const char *element,
                     const char *format, ...) __attribute__((format(printf, 5, 6)));
 
-/* Number at key (default if absent); must be a finite number. */
+/* Number at key (default if absent, and on failure); must be a finite number. */
 pf_status gltf_number(gltf_context *ctx, const cJSON *object, const char *key, double fallback,
                       double *out, const char *element, pf_error *err);
 /* Optional index at key into [0, count): *out = SCENE_NONE if absent. */

@@ -68,10 +68,11 @@ pf_status gltf_number(gltf_context *ctx, const cJSON *object, const char *key, d
                       double *out, const char *element, pf_error *err)
 {
     const cJSON *item = cJSON_GetObjectItemCaseSensitive(object, key);
-    if (!item) {
-        *out = fallback;
+    /* Written on every path, errors included: callers read it only on success,
+     * but GCC's -O3 cannot see that and warns "may be used uninitialized". */
+    *out = fallback;
+    if (!item)
         return PF_OK;
-    }
     if (!cJSON_IsNumber(item) || !isfinite(item->valuedouble))
         return gltf_fail(ctx, err, PF_ERR_FORMAT, element, "%s: expected a finite number", key);
     *out = item->valuedouble;

@@ -12,9 +12,11 @@ static char log_path[1100];
 static int run_photonfarm(const char *arguments)
 {
     const char *binary = getenv("PHOTONFARM");
-    char command[4096];
-    snprintf(command, sizeof command, "'%s' %s >'%s' 2>&1", binary ? binary : "photonfarm",
-             arguments, log_path);
+    char command[8192];
+    int length = snprintf(command, sizeof command, "'%s' %s >'%s' 2>&1",
+                          binary ? binary : "photonfarm", arguments, log_path);
+    if (length < 0 || (size_t)length >= sizeof command)
+        return -1; /* a truncated command would run something else */
     int status = system(command);
     return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }

@@ -75,6 +75,7 @@ static double spot_cosine(const pf_light *light, const double point[3])
 static int plane_radiance(const void *opaque, const pf_camera *camera, uint32_t width,
                           uint32_t height, double film_x, double film_y, double radiance[3])
 {
+    radiance[0] = radiance[1] = radiance[2] = 0.0; /* also on a miss */
     const plane_setup *setup = opaque;
     const pf_light *light = &setup->light;
     double point[3];
@@ -450,6 +451,7 @@ typedef struct square_setup {
 static int square_radiance(const void *opaque, const pf_camera *camera, uint32_t width,
                            uint32_t height, double film_x, double film_y, double radiance[3])
 {
+    radiance[0] = radiance[1] = radiance[2] = 0.0; /* also on a miss */
     const square_setup *setup = opaque;
     double point[3];
     if (!hit_plane(camera, width, height, film_x, film_y, point))

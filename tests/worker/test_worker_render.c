@@ -225,6 +225,22 @@ PF_TEST(worker_renders_a_job_and_timings_report_every_stage)
     }
     PF_CHECK_MSG(built == 1 && reused == 2 && decision_rows == 2,
                  "decisions: %d built, %d reused in %d rows", built, reused, decision_rows);
+    /* Every frame's rows carry the build that rendered them: `photonfarm version`'s. */
+    char version_path[WT_PATH_MAX + 32];
+    wt_format(version_path, sizeof version_path, "%s/version.txt", dir);
+    PF_REQUIRE(wt_run("version", version_path) == 0);
+    char *version_text = wt_read_file(version_path, NULL);
+    PF_REQUIRE(version_text && !strncmp(version_text, "photonfarm ", 11));
+    version_text[strcspn(version_text, "\n")] = '\0';
+    const char *version = version_text + 11;
+    const cJSON *builds = cJSON_GetObjectItem(root, "builds");
+    const cJSON *first_build = cJSON_GetArrayItem(builds, 0);
+    const char *build = cJSON_GetStringValue(cJSON_GetObjectItem(first_build, "build"));
+    PF_CHECK_MSG(cJSON_GetArraySize(builds) == 1 && build && !strcmp(build, version) &&
+                     cJSON_GetNumberValue(cJSON_GetObjectItem(first_build, "frames")) == 3,
+                 "builds in the timings: expected 3 frames of %s, got %s", version,
+                 build ? build : "none");
+    free(version_text);
     cJSON_Delete(root);
 
     wt_format(args, sizeof args, "timings %lld --db '%s'", (long long)job_id, db);
