@@ -2,7 +2,8 @@
  * The `fast` preset's LPV options, shared by render and enqueue (cli_queue.h):
  *   --lpv-cascades N        cascades (1..8, default 4)
  *   --lpv-size N            cells per axis of each cascade (a multiple of 4, 4..256, default 32)
- *   --lpv-iterations N[,N]  propagation iterations, one value or one per cascade (1..1024, default 8)
+ *   --lpv-iterations N[,N]  propagation iterations, one value or one per cascade
+ *                           (1..1024, default 8)
  *   --lpv-cell METERS       the finest cascade's cell (default: from the scene)
  */
 #include "cli_queue.h"

@@ -98,7 +98,10 @@ static pf_status ensure_volumes(pf_lpv *lpv, uint64_t floats, pf_error *err)
     return PF_OK;
 }
 
-/* Uploads gv, or zeros when gv is NULL (the kernel then skips occlusion anyway). */
+/*
+ * Uploads gv, or zeros when gv is NULL (no occlusion: the propagation skips
+ * it, and the lookups see every face open).
+ */
 static pf_status upload_geometry(pf_lpv *lpv, const float *gv, pf_error *err)
 {
     uint64_t bytes = pf_vk_buffer_size(lpv->geometry);

@@ -126,11 +126,15 @@ void pf_lpv_layout_make(const pf_lpv_settings *settings, const float focus[3], f
     memcpy(out->focus, focus, sizeof out->focus);
     uint32_t default_iterations =
         settings->iterations[0] ? settings->iterations[0] : PF_LPV_DEFAULT_ITERATIONS;
+    for (uint32_t k = 0; k < out->count; k++)
+        out->cascades[k].iterations = settings->iterations[k] ? settings->iterations[k]
+                                                              : default_iterations;
+    if (!(finest_cell > 0.0f))
+        finest_cell = pf_lpv_default_cell_size(frame, focus, out->count, out->size,
+                                               out->cascades[out->count - 1].iterations);
     for (uint32_t k = 0; k < out->count; k++) {
         pf_lpv_cascade *cascade = &out->cascades[k];
         cascade->cell_size = ldexpf(finest_cell, (int)k);
-        cascade->iterations = settings->iterations[k] ? settings->iterations[k]
-                                                      : default_iterations;
         for (int i = 0; i < 3; i++) {
             cascade->origin_cell[i] =
                 (int32_t)floor((double)focus[i] / cascade->cell_size) - (int32_t)(out->size / 2u);

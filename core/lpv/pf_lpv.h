@@ -184,9 +184,11 @@ float pf_lpv_default_cell_size(const pf_scene_frame *frame, const float focus[3]
                                uint32_t cascades, uint32_t size, uint32_t coarsest_iterations);
 
 /*
- * Cascade k: cell_size = finest × 2^k, origin_cell = floor(focus / cell) −
- * size/2, iterations from the settings. covers_scene from frame's box (frame
- * may be NULL: covers_scene = 1). Settings must have passed the check.
+ * Cascade k: cell_size = finest × 2^k (finest_cell 0: the default,
+ * pf_lpv_default_cell_size, which needs frame), origin_cell = floor(focus /
+ * cell) − size/2, iterations from the settings. covers_scene from frame's
+ * box (frame may be NULL with an explicit cell: covers_scene = 1). Settings
+ * must have passed the check.
  */
 void pf_lpv_layout_make(const pf_lpv_settings *settings, const float focus[3], float finest_cell,
                         const pf_scene_frame *frame, pf_lpv_layout *out);

@@ -132,22 +132,19 @@ typedef struct fast_progress {
 
 /* Traces the frame's photons: VPLs (every diffuse hit, reflected flux) and the caustic grid. */
 static pf_status trace_photons(pf_renderer *renderer, struct pf_fast_cache *cache,
-                               const pf_photon_scene *scene, const pf_photon_emitters *emitters,
-                               const pf_scene_frame *frame, const pf_render_settings *settings,
-                               uint32_t photons, fast_progress *progress, pf_error *err)
+                               const pf_photon_frame *inputs, const pf_scene_frame *frame,
+                               const pf_render_settings *settings, uint32_t photons,
+                               fast_progress *progress, pf_error *err)
 {
     pf_vk_context *ctx = renderer->ctx;
     double start = pf_time_ms();
-    pf_photon_tracer *tracer = NULL;
-    pf_status status = pf_photon_tracer_create(ctx, &tracer, err);
     pf_photon_trace_settings trace = {.photon_count = photons,
                                       .seed = settings->seed,
                                       .store_direct = 1,
                                       .global_reflected = 1};
     pf_photon_maps maps = {0};
-    if (status == PF_OK)
-        status = pf_photon_trace(tracer, scene, emitters, &trace, &maps, err);
-    pf_photon_tracer_destroy(tracer);
+    pf_status status = pf_photon_trace(inputs->tracer, &inputs->photons, &inputs->emitters,
+                                       &trace, &maps, err);
     if (status != PF_OK)
         return status;
     cache->trace_gpu_ms = maps.gpu_ms;
@@ -495,34 +492,17 @@ static pf_status render_after_bih(pf_renderer *renderer, const pf_scene_frame *f
     struct pf_fast_cache *cache = renderer->fast_cache;
     uint32_t photons = settings->photons_per_pass ? settings->photons_per_pass
                                                   : FAST_DEFAULT_PHOTONS;
-    pf_bih_gpu_view bih;
-    pf_status status = pf_bih_gpu_view_get(renderer->bih_gpu, &bih, err);
+    pf_photon_frame inputs;
+    pf_status status = pf_photon_frame_prepare(renderer, frame, &inputs, err);
     if (status != PF_OK)
         return status;
-    pf_photon_emitters emitters;
-    status = pf_photon_emitters_build(frame, &emitters, err);
-    if (status != PF_OK)
-        return status;
-    progress->has_emitters = emitters.count > 0;
+    progress->has_emitters = inputs.emitters.count > 0;
     progress->has_specular = pf_scene_frame_has_specular(frame);
-    pf_gpu_scene scene;
-    status = pf_gpu_scene_upload(ctx, frame, 1, &scene, err);
-    if (status != PF_OK) {
-        pf_photon_emitters_free(&emitters);
-        return status;
-    }
     int reuse = pf_photon_identity_matches(&cache->identity, renderer, frame, settings->seed,
                                            photons, bih_reused);
     if (!reuse && progress->has_emitters) {
-        pf_frame_params params;
-        pf_frame_params_fill(frame, settings, 1, &scene, &bih, &params);
-        pf_photon_scene photon_scene = {scene.vertices,  scene.normals,
-                                        scene.triangle_material, scene.materials,
-                                        scene.lights,    frame->triangle_count,
-                                        bih,             params.camera_right[3]};
         cache->identity.valid = 0;
-        status = trace_photons(renderer, cache, &photon_scene, &emitters, frame, settings,
-                               photons, progress, err);
+        status = trace_photons(renderer, cache, &inputs, frame, settings, photons, progress, err);
         progress->traced = 1;
     } else if (!reuse) {
         free(cache->vpls);
@@ -532,31 +512,23 @@ static pf_status render_after_bih(pf_renderer *renderer, const pf_scene_frame *f
         cache->caustic = NULL;
         progress->traced = 1;
     }
-    pf_photon_emitters_free(&emitters);
     pf_lpv_layout layout;
     if (status == PF_OK) {
-        const pf_lpv_settings *lpv = &settings->lpv;
-        uint32_t count = lpv->cascades ? lpv->cascades : PF_LPV_DEFAULT_CASCADES;
-        uint32_t size = lpv->size ? lpv->size : PF_LPV_DEFAULT_SIZE;
         float focus[3];
         pf_lpv_focus(frame, focus);
-        pf_lpv_layout_make(lpv, focus, 1.0f, frame, &layout); /* for the iterations */
-        float cell = lpv->cell_size > 0.0f
-                         ? lpv->cell_size
-                         : pf_lpv_default_cell_size(frame, focus, count, size,
-                                                    layout.cascades[count - 1].iterations);
-        pf_lpv_layout_make(lpv, focus, cell, frame, &layout);
+        pf_lpv_layout_make(&settings->lpv, focus, settings->lpv.cell_size, frame, &layout);
         if (!layout.covers_scene)
             pf_log(PF_LOG_WARN,
                    "fast: the coarsest LPV cascade (%u cells of %g m around the camera's focus) "
                    "does not hold the whole scene: surfaces outside it get no indirect light",
-                   size, (double)layout.cascades[count - 1].cell_size);
+                   layout.size, (double)layout.cascades[layout.count - 1].cell_size);
         status = run_lpv(renderer, cache, frame, &layout, !bih_reused, progress->traced, progress,
                          err);
     }
     if (status == PF_OK)
-        status = shade(renderer, cache, frame, settings, &scene, &bih, image, progress, err);
-    pf_gpu_scene_release(ctx, &scene);
+        status = shade(renderer, cache, frame, settings, &inputs.scene, &inputs.bih, image,
+                       progress, err);
+    pf_photon_frame_release(ctx, &inputs);
     if (status == PF_OK && progress->traced)
         status = pf_photon_identity_remember(&cache->identity, frame, settings->seed, photons,
                                              err);

@@ -352,7 +352,8 @@ static void report_rows(pf_frame_report *report, const final_progress *progress,
                                   ? "lights and geometry unchanged → photon maps reused"
                                   : NULL;
     pf_stage_timing *row;
-    row = pf_frame_report_row(report, "photon_trace", photon_skip, progress->trace_ms, progress->trace_gpu_ms);
+    row = pf_frame_report_row(report, "photon_trace", photon_skip, progress->trace_ms,
+                              progress->trace_gpu_ms);
     if (row) {
         pf_stage_add_counter(row, "photons", (double)progress->emitted);
         pf_stage_add_counter(row, "stored", (double)(progress->global_stored +
@@ -411,28 +412,20 @@ static pf_status render_passes(pf_renderer *renderer, const pf_scene_frame *fram
     uint32_t photons_per_pass =
         settings->photons_per_pass ? settings->photons_per_pass : FINAL_DEFAULT_PHOTONS_PER_PASS;
     uint64_t pixels = (uint64_t)settings->width * settings->height;
-    pf_bih_gpu_view bih;
-    pf_status status = pf_bih_gpu_view_get(renderer->bih_gpu, &bih, err);
+    pf_photon_frame inputs;
+    pf_status status = pf_photon_frame_prepare(renderer, frame, &inputs, err);
     if (status != PF_OK)
         return status;
-    pf_photon_emitters emitters;
-    status = pf_photon_emitters_build(frame, &emitters, err);
-    if (status != PF_OK)
-        return status;
-    *has_emitters = emitters.count > 0;
+    const pf_gpu_scene *scene = &inputs.scene;
+    const pf_bih_gpu_view *bih = &inputs.bih;
+    *has_emitters = inputs.emitters.count > 0;
     *with_caustics = pf_scene_frame_has_specular(frame);
     if (!reuse) {
         cache->kept = 0;
         cache->first_radius = 0.0f;
     }
-    pf_gpu_scene scene;
-    status = pf_gpu_scene_upload(ctx, frame, 1, &scene, err);
-    if (status != PF_OK) {
-        pf_photon_emitters_free(&emitters);
-        return status;
-    }
     pf_frame_params params;
-    pf_frame_params_fill(frame, settings, passes, &scene, &bih, &params);
+    pf_frame_params_fill(frame, settings, passes, scene, bih, &params);
     params.max_specular_depth = FINAL_MAX_SPECULAR_DEPTH;
     final_buffers owned = {0};
     uint64_t film_bytes = pixels * PF_SPLIT_FILM_VEC4_PER_PIXEL * 16;
@@ -457,16 +450,11 @@ static pf_status render_passes(pf_renderer *renderer, const pf_scene_frame *fram
         status = pf_vk_buffer_create(ctx, pixels * sizeof(float), "final caustic radii",
                                      &owned.caustic_radii, err);
     pf_vk_buffer *buffers[FINAL_BUFFERS] = {
-        owned.params,    scene.vertices,   scene.normals,  scene.triangle_material,
-        scene.materials, scene.lights,     scene.emissive, owned.film,
-        owned.film_aov,  owned.counters,   bih.nodes,      bih.vertices,
-        bih.triangle_index, owned.vertices, owned.samples, NULL,
-        NULL,            owned.caustic_radii};
-    pf_photon_tracer *tracer = NULL;
-    pf_photon_scene photon_scene = {scene.vertices,  scene.normals,
-                                    scene.triangle_material, scene.materials,
-                                    scene.lights,    frame->triangle_count,
-                                    bih,             params.camera_right[3]};
+        owned.params,     scene->vertices,  scene->normals,  scene->triangle_material,
+        scene->materials, scene->lights,    scene->emissive, owned.film,
+        owned.film_aov,   owned.counters,   bih->nodes,      bih->vertices,
+        bih->triangle_index, owned.vertices, owned.samples,  NULL,
+        NULL,             owned.caustic_radii};
     for (uint32_t index = 0; status == PF_OK && index < passes; index++) {
         if (index > 0 && settings->time_budget_ms > 0.0 &&
             pf_time_ms() - frame_start >= settings->time_budget_ms)
@@ -478,12 +466,9 @@ static pf_status render_passes(pf_renderer *renderer, const pf_scene_frame *fram
             if (index < cache->kept) {
                 progress->reused++;
             } else {
-                if (!tracer)
-                    status = pf_photon_tracer_create(ctx, &tracer, err);
-                if (status == PF_OK)
-                    status = trace_pass(renderer, tracer, &photon_scene, &emitters, frame,
-                                        settings, photons_per_pass, index, *with_caustics, cache,
-                                        pass, progress, err);
+                status = trace_pass(renderer, inputs.tracer, &inputs.photons, &inputs.emitters,
+                                    frame, settings, photons_per_pass, index, *with_caustics,
+                                    cache, pass, progress, err);
                 if (status != PF_OK)
                     break;
                 progress->traced++;
@@ -503,10 +488,8 @@ static pf_status render_passes(pf_renderer *renderer, const pf_scene_frame *fram
     }
     if (status == PF_OK)
         status = pf_split_film_read(ctx, owned.film, owned.film_aov, settings->aovs, 1, image, err);
-    pf_photon_tracer_destroy(tracer);
     final_buffers_release(ctx, &owned);
-    pf_gpu_scene_release(ctx, &scene);
-    pf_photon_emitters_free(&emitters);
+    pf_photon_frame_release(ctx, &inputs);
     return status;
 }
 

@@ -1,7 +1,8 @@
 /*
- * What a frame's photon maps were traced for (render_internal.h's
- * pf_photon_identity), shared by the final and fast integrators' reuse
- * checks, and the scene figures both size their photon radii by.
+ * What the final and fast integrators share about photons: the device
+ * inputs of a frame's photon pass (pf_photon_frame), what its maps were
+ * traced for (pf_photon_identity, the reuse check), and the scene figures
+ * both size their photon radii by.
  */
 #include "render_internal.h"
 
@@ -117,4 +118,34 @@ float pf_photon_radius_for_density(const pf_scene_frame *frame, double neighbour
                                                                          stored))
                                              : fallback_fraction * pf_scene_frame_diagonal(frame);
     return radius > 0.0 ? (float)radius : 1e-3f;
+}
+
+pf_status pf_photon_frame_prepare(pf_renderer *renderer, const pf_scene_frame *frame,
+                                  pf_photon_frame *out, pf_error *err)
+{
+    memset(out, 0, sizeof *out);
+    pf_status status = pf_bih_gpu_view_get(renderer->bih_gpu, &out->bih, err);
+    if (status == PF_OK && !renderer->photon_tracer)
+        status = pf_photon_tracer_create(renderer->ctx, &renderer->photon_tracer, err);
+    if (status == PF_OK)
+        status = pf_photon_emitters_build(frame, &out->emitters, err);
+    if (status != PF_OK)
+        return status;
+    status = pf_gpu_scene_upload(renderer->ctx, frame, 1, &out->scene, err);
+    if (status != PF_OK) {
+        pf_photon_emitters_free(&out->emitters);
+        return status;
+    }
+    out->photons = (pf_photon_scene){out->scene.vertices,  out->scene.normals,
+                                     out->scene.triangle_material, out->scene.materials,
+                                     out->scene.lights,    frame->triangle_count,
+                                     out->bih,             pf_render_ray_offset(frame)};
+    out->tracer = renderer->photon_tracer;
+    return PF_OK;
+}
+
+void pf_photon_frame_release(pf_vk_context *ctx, pf_photon_frame *photon_frame)
+{
+    pf_gpu_scene_release(ctx, &photon_frame->scene);
+    pf_photon_emitters_free(&photon_frame->emitters);
 }

@@ -30,6 +30,11 @@ static float scene_magnitude(const pf_scene_frame *frame)
     return magnitude;
 }
 
+float pf_render_ray_offset(const pf_scene_frame *frame)
+{
+    return RAY_OFFSET_RELATIVE * scene_magnitude(frame);
+}
+
 void pf_frame_params_fill(const pf_scene_frame *frame, const pf_render_settings *settings,
                           uint32_t spp, const pf_gpu_scene *scene, const pf_bih_gpu_view *bih,
                           pf_frame_params *params)
@@ -46,7 +51,7 @@ void pf_frame_params_fill(const pf_scene_frame *frame, const pf_render_settings 
     }
     params->camera_position[3] = tan_half_x;
     params->camera_forward[3] = tan_half_y;
-    params->camera_right[3] = RAY_OFFSET_RELATIVE * scene_magnitude(frame);
+    params->camera_right[3] = pf_render_ray_offset(frame);
     params->width = settings->width;
     params->height = settings->height;
     params->samples_per_pixel = spp;

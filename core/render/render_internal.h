@@ -6,6 +6,7 @@
 #ifndef PF_RENDER_INTERNAL_H
 #define PF_RENDER_INTERNAL_H
 
+#include "pf_photon.h"
 #include "pf_render.h"
 
 struct pf_renderer {
@@ -45,6 +46,8 @@ struct pf_renderer {
     /* The fast integrator's photons, LPV and pipeline (frame_fast.c; NULL until a fast frame). */
     pf_vk_pipeline *render_fast;
     struct pf_fast_cache *fast_cache;
+    /* The photon tracer final and fast share (created on first use, kept: its pipeline). */
+    pf_photon_tracer *photon_tracer;
 };
 
 /* FrameParams in scene_types.glsl (std430, 160 bytes). */
@@ -131,6 +134,24 @@ pf_stage_timing *pf_frame_report_row(pf_frame_report *report, const char *stage,
  */
 pf_status pf_render_check_traversal(const pf_renderer *renderer, uint64_t failures,
                                     pf_error *err);
+
+/*
+ * What a photon-mapping integrator (final, fast) needs of a frame on the
+ * device: the BIH's view, the emitters, the uploaded scene, the tracer's
+ * view of both (photons), and the renderer's tracer (created on first use).
+ */
+typedef struct pf_photon_frame {
+    pf_bih_gpu_view bih;
+    pf_photon_emitters emitters;
+    pf_gpu_scene scene;
+    pf_photon_scene photons;
+    pf_photon_tracer *tracer;
+} pf_photon_frame;
+
+/* After pf_render_prepare_bih; on failure nothing is left to release. */
+pf_status pf_photon_frame_prepare(pf_renderer *renderer, const pf_scene_frame *frame,
+                                  pf_photon_frame *out, pf_error *err);
+void pf_photon_frame_release(pf_vk_context *ctx, pf_photon_frame *photon_frame);
 
 /* Uploads only the vertex buffer (all the ray-casting oracle needs) when full is 0. */
 pf_status pf_gpu_scene_upload(pf_vk_context *ctx, const pf_scene_frame *frame, int full,
@@ -221,6 +242,9 @@ pf_status pf_split_film_create(pf_vk_context *ctx, const pf_render_settings *set
 /* Reads both films back into image (pf_split_film_to_image; the AOV film only with aovs). */
 pf_status pf_split_film_read(pf_vk_context *ctx, pf_vk_buffer *film, pf_vk_buffer *film_aov,
                              int aovs, int aov_own_count, pf_image *image, pf_error *err);
+
+/* How far secondary rays start off a surface in this frame (FrameParams' camera_right.w). */
+float pf_render_ray_offset(const pf_scene_frame *frame);
 
 /*
  * Fills the FrameParams the integrators share: camera, image, counts, seed,

@@ -88,6 +88,7 @@ void pf_renderer_destroy(pf_renderer *renderer)
     }
     pf_final_cache_destroy(renderer->final_cache);
     pf_fast_cache_destroy(renderer->ctx, renderer->fast_cache);
+    pf_photon_tracer_destroy(renderer->photon_tracer);
     pf_bih_gpu_destroy(renderer->bih_gpu);
     pf_bih_gpu_builder_destroy(renderer->bih_builder);
     if (renderer->bih_valid)

@@ -130,7 +130,8 @@ vec3 lpv_irradiance(vec3 position, vec3 normal, uint cascade_count, uint size, b
             continue;
         float used = 1.0 - remaining; // Σ of the finer cascades' weights
         if (covered && used > 0.0)
-            irradiance += used * max(lpv_dot_interpolated(k, size, g, lobe, true), vec3(0.0)) / (s * s);
+            irradiance +=
+                used * max(lpv_dot_interpolated(k, size, g, lobe, true), vec3(0.0)) / (s * s);
         covered = true;
         float weight = k + 1u == cascade_count ? 1.0 : clamp(edge / LPV_BLEND_CELLS, 0.0, 1.0);
         if (weight <= 0.0 || remaining <= 0.0)
