@@ -16,7 +16,7 @@ layout(push_constant) uniform Push {
 struct ProbeQuery {
     Material material;
     vec3 wo;          // unit, away from the surface
-    uint front;       // 1: arriving at the front face
+    uint front;       // bit 0: arriving at the front face; bit 1: importance transport (photons)
     vec3 normal;      // unit shading = geometric normal, on wo's side
     float fresnel_cos;
     vec3 xi;          // bsdf_sample's random numbers
@@ -45,7 +45,8 @@ void main()
         return;
     ProbeQuery query = queries[index];
     BsdfSample s = bsdf_sample(query.material, query.wo, query.normal, query.normal,
-                               query.front != 0u, query.xi);
+                               (query.front & 1u) != 0u, query.xi,
+                               (query.front & 2u) != 0u ? TRANSPORT_IMPORTANCE : TRANSPORT_RADIANCE);
     ProbeResult result;
     result.direction = s.direction;
     result.pdf = s.pdf;

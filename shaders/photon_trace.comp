@@ -243,7 +243,7 @@ void main()
 
         vec3 xi = vec3(rng_float(rng), rng_float(rng), rng_float(rng));
         BsdfSample scattered = bsdf_sample(material, -direction, shading_normal, geometric_normal,
-                                           front, xi);
+                                           front, xi, TRANSPORT_IMPORTANCE);
         float survival = min(1.0, max(scattered.weight.r, max(scattered.weight.g, scattered.weight.b)));
         if (!(survival > 0.0) || rng_float(rng) >= survival)
             return;

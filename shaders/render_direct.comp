@@ -138,7 +138,7 @@ void path_follow_hit(inout Path path, BihHit hit, uint depth, float ray_offset, 
     }
     BsdfSample scattered = bsdf_sample(material, -path.direction, path.shading_normal,
                                        path.geometric_normal, front,
-                                       vec3(0.0, 0.0, rng_float(rng)));
+                                       vec3(0.0, 0.0, rng_float(rng)), TRANSPORT_RADIANCE);
     path.throughput *= scattered.weight;
     path.direction = scattered.direction;
     path.origin = path.position +

@@ -182,7 +182,7 @@ void main()
         }
         BsdfSample scattered = bsdf_sample(material, wo, surface.shading_normal,
                                            surface.geometric_normal, surface.front,
-                                           sampler_next_4d(samples).xyz);
+                                           sampler_next_4d(samples).xyz, TRANSPORT_RADIANCE);
         throughput *= scattered.weight;
         if (!all_finite(throughput)) {
             valid = false;

@@ -260,7 +260,7 @@ void primary(uint pixel_index, uvec2 pixel)
         }
         BsdfSample scattered = bsdf_sample(material, wo, surface.shading_normal,
                                            surface.geometric_normal, surface.front,
-                                           sampler_next_4d(samples).xyz);
+                                           sampler_next_4d(samples).xyz, TRANSPORT_RADIANCE);
         throughput *= scattered.weight;
         if (!all_finite(throughput)) {
             valid = false;
@@ -310,7 +310,7 @@ void gather_ray(uint pixel_index, uint gather_index, Material d1_material, vec3 
                                    push.sample_index * push.gather_total + gather_index,
                                    params.seed_lo ^ GATHER_SEED_SALT, params.seed_hi);
     BsdfSample first = bsdf_sample(d1_material, wo, shading_normal, geometric_normal, true,
-                                   sampler_next_4d(samples).xyz);
+                                   sampler_next_4d(samples).xyz, TRANSPORT_RADIANCE);
     float gather_total = float(push.gather_total);
     vec3 path = d1_throughput * first.weight / gather_total;
     if (!any(greaterThan(path, vec3(0.0))))
@@ -349,7 +349,7 @@ void gather_ray(uint pixel_index, uint gather_index, Material d1_material, vec3 
         }
         BsdfSample scattered = bsdf_sample(material, wo_hit, surface.shading_normal,
                                            surface.geometric_normal, surface.front,
-                                           sampler_next_4d(samples).xyz);
+                                           sampler_next_4d(samples).xyz, TRANSPORT_RADIANCE);
         path *= scattered.weight;
         if (!all_finite(path)) {
             valid = false;

@@ -209,7 +209,7 @@ void main()
 
         vec4 bsdf_xi = sampler_next_4d(samples);
         BsdfSample scattered = bsdf_sample(material, wo, shading_normal, geometric_normal, front,
-                                           bsdf_xi.xyz);
+                                           bsdf_xi.xyz, TRANSPORT_RADIANCE);
         throughput *= scattered.weight;
         if (!all_finite(throughput)) {
             valid = false;

@@ -259,12 +259,16 @@ void pf_frame_params_fill(const pf_scene_frame *frame, const pf_render_settings 
 typedef struct pf_material_probe_query {
     pf_material material;
     float wo[3];          /* unit, away from the surface */
-    uint32_t front;       /* 1: the ray arrives at the front face (glass: entering) */
+    uint32_t front;       /* PF_PROBE_FRONT (glass: entering) | PF_PROBE_IMPORTANCE */
     float normal[3];      /* unit shading = geometric normal, on wo's side */
     float fresnel_cos;    /* cosine of incidence for fresnel_dielectric */
     float xi[3];          /* bsdf_sample's random numbers, each in [0, 1) */
     float fresnel_eta;    /* transmitted over incident index for fresnel_dielectric */
 } pf_material_probe_query;
+
+/* pf_material_probe_query.front: arriving at the front face; sampling for a photon (flux). */
+#define PF_PROBE_FRONT 1u
+#define PF_PROBE_IMPORTANCE 2u
 
 #define PF_PROBE_SPECULAR 1u
 #define PF_PROBE_TRANSMITTED 2u

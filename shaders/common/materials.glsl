@@ -19,10 +19,15 @@
 //   Fresnel, 1 under total internal reflection), else refraction. Reflection
 //   is untinted and transmission is tinted by albedo (glTF base colour of a
 //   transmissive material), so with albedo 1 the two weights are exactly 1
-//   and the expected throughput is exactly F + (1 − F) = 1. The (η_i/η_t)²
-//   radiance scaling of refraction is left out: it cancels on every path that
-//   enters and leaves a medium (lights and camera outside it), and it keeps
-//   camera paths and photon paths (which carry flux) with the same weights.
+//   and the expected throughput is exactly F + (1 − F) = 1 for photons.
+//   Paths that carry radiance (camera rays, gather rays) also take the
+//   (η_i/η_t)² factor of refraction (Veach 1997, §5.2; pbrt's
+//   TransportMode::Radiance): radiance inside a denser medium is η² times
+//   the radiance of the same flux outside. Photons carry flux (importance
+//   transport) and take no such factor. Leaving it out of camera paths
+//   cancels only on paths that enter and leave a medium; a camera path that
+//   ends inside one (a floor under water) meets photon estimates of
+//   physical irradiance there and came out η² too bright (issue 16).
 #ifndef PF_MATERIALS_GLSL
 #define PF_MATERIALS_GLSL
 
@@ -125,10 +130,15 @@ float bsdf_pdf(Material material, vec3 wo, vec3 wi, vec3 shading_normal, vec3 ge
     return cos_shading / PI;
 }
 
+// What a sampled path carries (see the header): radiance paths start at the
+// camera, importance paths (photons) at a light.
+const uint TRANSPORT_RADIANCE = 0u;
+const uint TRANSPORT_IMPORTANCE = 1u;
+
 // Samples a scattering direction from xi in [0,1)³ (xy: the direction,
-// z: the reflect/refract choice of glass).
+// z: the reflect/refract choice of glass) for a path carrying `transport`.
 BsdfSample bsdf_sample(Material material, vec3 wo, vec3 shading_normal, vec3 geometric_normal,
-                       bool front, vec3 xi)
+                       bool front, vec3 xi, uint transport)
 {
     BsdfSample s = BsdfSample(vec3(0.0), vec3(0.0), 0.0, false, false);
     if (material.kind == MATERIAL_LAMBERT) {
@@ -155,7 +165,8 @@ BsdfSample bsdf_sample(Material material, vec3 wo, vec3 shading_normal, vec3 geo
         return s;
     }
     s.direction = normalize(refracted);
-    s.weight = material.albedo;
+    // eta = η_t/η_i: (η_i/η_t)² = 1/eta² for radiance.
+    s.weight = transport == TRANSPORT_RADIANCE ? material.albedo / (eta * eta) : material.albedo;
     s.transmitted = true;
     return s;
 }

@@ -27,14 +27,14 @@ static const pf_material lambert = {{0.7f, 0.5f, 0.2f}, PF_MATERIAL_LAMBERT, {0,
 
 /* A query with normal +z, wo at polar angle theta in the xz plane. */
 static pf_material_probe_query query_at(const pf_material *material, double theta, int front,
-                                        float xi_choice)
+                                        float xi_choice, uint32_t transport)
 {
     pf_material_probe_query q;
     memset(&q, 0, sizeof q);
     q.material = *material;
     q.wo[0] = (float)sin(theta);
     q.wo[2] = (float)cos(theta);
-    q.front = (uint32_t)front;
+    q.front = (front ? PF_PROBE_FRONT : 0u) | transport;
     q.normal[2] = 1.0f;
     q.xi[0] = 0.5f;
     q.xi[1] = 0.5f;
@@ -71,7 +71,7 @@ PF_TEST(fresnel_matches_tabulated_values)
     pf_material_probe_result results[sizeof fresnel_table / sizeof fresnel_table[0]];
     for (size_t i = 0; i < count; i++)
         queries[i] = query_at(&glass, fresnel_table[i].degrees * DEGREES,
-                              fresnel_table[i].from_outside, 0.5f);
+                              fresnel_table[i].from_outside, 0.5f, 0);
     pf_error err = {0};
     PF_REQUIRE_OK(pf_material_probe(renderer, queries, (uint32_t)count, results, &err), &err);
     for (size_t i = 0; i < count; i++) {
@@ -82,7 +82,7 @@ PF_TEST(fresnel_matches_tabulated_values)
                      fresnel_table[i].degrees, results[i].fresnel, fresnel_table[i].reflectance);
     }
     /* Beyond the critical angle every sample reflects, whatever the random number. */
-    pf_material_probe_query tir = query_at(&glass, 50.0 * DEGREES, 0, 0.999f);
+    pf_material_probe_query tir = query_at(&glass, 50.0 * DEGREES, 0, 0.999f, 0);
     pf_material_probe_result r;
     PF_REQUIRE_OK(pf_material_probe(renderer, &tir, 1, &r, &err), &err);
     PF_CHECK(!(r.flags & PF_PROBE_TRANSMITTED));
@@ -92,7 +92,7 @@ PF_TEST(fresnel_matches_tabulated_values)
 
 PF_TEST(mirror_reflects_exactly_tinted_by_its_colour)
 {
-    pf_material_probe_query q = query_at(&mirror, 30.0 * DEGREES, 1, 0.3f);
+    pf_material_probe_query q = query_at(&mirror, 30.0 * DEGREES, 1, 0.3f, 0);
     pf_material_probe_result r;
     pf_error err = {0};
     PF_REQUIRE_OK(pf_material_probe(renderer, &q, 1, &r, &err), &err);
@@ -108,9 +108,12 @@ PF_TEST(mirror_reflects_exactly_tinted_by_its_colour)
 }
 
 /*
- * Glass with albedo 1: reflection exactly when xi < F with weight 1, else
- * transmission along Snell's law with weight 1, so reflect + transmit = 1.
- * Swept over xi at normal incidence the reflected fraction is F = 0.04.
+ * Glass with albedo 1, sampled for a photon (importance transport): reflection
+ * exactly when xi < F with weight 1, else transmission along Snell's law with
+ * weight 1, so reflect + transmit = 1: flux is conserved. Swept over xi at
+ * normal incidence the reflected fraction is F = 0.04. Sampled for a camera
+ * path (radiance), transmission also carries (η_i/η_t)²: 1/1.5² entering,
+ * 1.5² leaving.
  */
 #define GLASS_SWEEP 1000u
 
@@ -120,7 +123,7 @@ PF_TEST(glass_splits_energy_by_fresnel_and_refracts_by_snell)
     pf_material_probe_result *results = calloc(GLASS_SWEEP, sizeof *results);
     PF_REQUIRE(queries && results);
     for (uint32_t i = 0; i < GLASS_SWEEP; i++)
-        queries[i] = query_at(&glass, 0.0, 1, (i + 0.5f) / GLASS_SWEEP);
+        queries[i] = query_at(&glass, 0.0, 1, (i + 0.5f) / GLASS_SWEEP, PF_PROBE_IMPORTANCE);
     pf_error err = {0};
     PF_REQUIRE_OK(pf_material_probe(renderer, queries, GLASS_SWEEP, results, &err), &err);
     double reflected = 0.0, energy = 0.0;
@@ -140,9 +143,9 @@ PF_TEST(glass_splits_energy_by_fresnel_and_refracts_by_snell)
     PF_CHECK_NEAR(energy / GLASS_SWEEP, 1.0, 1e-12);
 
     /* Entering at 45°: sin θt = sin 45° / 1.5; leaving at that angle gives 45° back. */
-    pf_material_probe_query in = query_at(&glass, 45.0 * DEGREES, 1, 0.999f);
+    pf_material_probe_query in = query_at(&glass, 45.0 * DEGREES, 1, 0.999f, 0);
     double inside = asin(sin(45.0 * DEGREES) / 1.5);
-    pf_material_probe_query out = query_at(&glass, inside, 0, 0.999f);
+    pf_material_probe_query out = query_at(&glass, inside, 0, 0.999f, 0);
     pf_material_probe_result r[2];
     pf_material_probe_query pair[2] = {in, out};
     PF_REQUIRE_OK(pf_material_probe(renderer, pair, 2, r, &err), &err);
@@ -152,11 +155,18 @@ PF_TEST(glass_splits_energy_by_fresnel_and_refracts_by_snell)
     PF_CHECK(r[1].flags == (PF_PROBE_SPECULAR | PF_PROBE_TRANSMITTED));
     PF_CHECK_NEAR(r[1].direction[0], -sin(45.0 * DEGREES), 1e-6);
     PF_CHECK_NEAR(r[1].direction[2], -cos(45.0 * DEGREES), 1e-6);
+    /* Radiance transport: (η_i/η_t)² on the way in and out, reflection untouched. */
+    PF_CHECK_NEAR(r[0].weight[0], 1.0 / (1.5 * 1.5), 1e-6);
+    PF_CHECK_NEAR(r[1].weight[2], 1.5 * 1.5, 1e-5);
+    pf_material_probe_query bounced = query_at(&glass, 45.0 * DEGREES, 1, 0.0f, 0);
+    PF_REQUIRE_OK(pf_material_probe(renderer, &bounced, 1, r, &err), &err);
+    PF_CHECK(!(r[0].flags & PF_PROBE_TRANSMITTED) && r[0].weight[0] == 1.0f);
 
     /* A tinted glass tints transmission only (glTF base colour of a transmissive material). */
     pf_material tinted = glass;
     tinted.albedo[1] = 0.5f;
-    pf_material_probe_query t[2] = {query_at(&tinted, 0.0, 1, 0.01f), query_at(&tinted, 0.0, 1, 0.5f)};
+    pf_material_probe_query t[2] = {query_at(&tinted, 0.0, 1, 0.01f, PF_PROBE_IMPORTANCE),
+                                    query_at(&tinted, 0.0, 1, 0.5f, PF_PROBE_IMPORTANCE)};
     PF_REQUIRE_OK(pf_material_probe(renderer, t, 2, r, &err), &err);
     PF_CHECK(r[0].weight[1] == 1.0f && !(r[0].flags & PF_PROBE_TRANSMITTED));
     PF_CHECK(r[1].weight[1] == 0.5f && (r[1].flags & PF_PROBE_TRANSMITTED));
@@ -213,7 +223,7 @@ PF_TEST(lambert_samples_the_cosine_density_it_reports)
     PF_REQUIRE(queries && results && cos2 && azimuth);
     uint64_t state = 42;
     for (uint32_t i = 0; i < count; i++) {
-        queries[i] = query_at(&lambert, 20.0 * DEGREES, 1, 0.0f);
+        queries[i] = query_at(&lambert, 20.0 * DEGREES, 1, 0.0f, 0);
         queries[i].xi[0] = (float)next_uniform(&state);
         queries[i].xi[1] = (float)next_uniform(&state);
     }

@@ -1,0 +1,210 @@
+/*
+ * Energy through refractive interfaces (issue 16, hard case 1), against
+ * closed forms. A directional light of irradiance E (perpendicular to it)
+ * at θ = 30° from the vertical, a grey Lambert floor (albedo a), a
+ * dielectric of index η = 1.8, a camera straight above looking down:
+ *
+ * Floor under water: the floor lies inside a closed dielectric box (the
+ * water), as the floor of a pool does. Light crosses one interface:
+ *   E_d = E cos θ (1 − F(θ))                    (caustic: L S D)
+ * and the floor's diffusely reflected light comes back to it from the
+ * surface with the internal diffuse reflectance R_i = 1 − (1 − R_e)/η²
+ * (R_e the external one, Fresnel averaged over the cosine-weighted
+ * hemisphere; reciprocity), so over a layer much wider than deep
+ *   E_total = E_d / (1 − a R_i).
+ * The camera sees the floor's radiance a/π E through the surface: the
+ * radiance entering air from the denser medium is (1 − F(0))/η² of it.
+ * The renderer used to leave the 1/η² out of camera paths (it "cancels on
+ * paths that enter and leave a medium"), and its image was η² = 3.24×
+ * too bright here: the bias of the issue's water scene.
+ *
+ * Slab above the floor: a floating slab transmits (1 − F)/(1 + F) of the
+ * flux at each angle (two interfaces, every internal reflection summed:
+ * (1 − F)² Σ F²ᵏ), and the camera sees the floor through it with the same
+ * factor at its own angle. The caustic layer (light that reached the floor
+ * through the slab only) has a closed form for both presets that build a
+ * caustic map; the light reflected between floor and slab is indirect.
+ *
+ * Checked for `final` (photon mapping) and `fast` (the caustic layer: the
+ * LPV is not built for light trapped in a thin layer, so fast's indirect
+ * is only required to be finite and non-negative). The reference path
+ * tracer cannot find the caustics of a directional light (a delta light
+ * behind a delta interface), so it is no ground truth here: the closed
+ * forms are.
+ */
+#include "../render/reference_test_util.h"
+#include "../render/render_test_env.h"
+#include "pf_render.h"
+#include "pf_test.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+static pf_vk_context *ctx;
+static pf_renderer *renderer;
+
+#define EDGE 32u
+#define PI 3.14159265358979323846
+#define ETA 1.8
+#define ALBEDO 0.5
+#define IRRADIANCE 3.0
+#define THETA_DEG 30.0
+/* Half width of the floor and the water (m): 2 m against 7 cm of depth. */
+#define HALF 2.0f
+
+/* Unpolarized Fresnel reflectance, cos_i on the incident side, eta = η_t/η_i. */
+static double fresnel(double cos_i, double eta)
+{
+    double sin2_t = (1.0 - cos_i * cos_i) / (eta * eta);
+    if (sin2_t >= 1.0)
+        return 1.0;
+    double cos_t = sqrt(1.0 - sin2_t);
+    double rp = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
+    double rs = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
+    return 0.5 * (rp * rp + rs * rs);
+}
+
+/* External diffuse reflectance: ∫ F(θ) 2 cos θ sin θ dθ over the hemisphere (midpoint rule). */
+static double external_diffuse_reflectance(double eta)
+{
+    const int steps = 20000;
+    double sum = 0.0;
+    for (int i = 0; i < steps; i++) {
+        double theta = (i + 0.5) * (PI / 2.0) / steps;
+        sum += fresnel(cos(theta), eta) * 2.0 * cos(theta) * sin(theta);
+    }
+    return sum * (PI / 2.0) / steps;
+}
+
+typedef struct slab_case {
+    const char *name;
+    float water_min_y, water_max_y; /* the dielectric box's extent; the floor is at y = 0 */
+} slab_case;
+
+static void build(ref_scene *scene, const slab_case *c)
+{
+    ref_scene_init(scene);
+    uint32_t floor_material =
+        ref_scene_add_material(scene, ref_material(PF_MATERIAL_LAMBERT, ALBEDO, ALBEDO, ALBEDO));
+    pf_material glass = ref_material(PF_MATERIAL_GLASS, 1, 1, 1);
+    glass.ior = (float)ETA;
+    uint32_t water = ref_scene_add_material(scene, glass);
+    const float centre[3] = {0, 0, 0}, u[3] = {0, 0, HALF}, v[3] = {HALF, 0, 0};
+    ref_scene_add_quad(scene, centre, u, v, floor_material); /* u × v = +y */
+    const float lo[3] = {-HALF, c->water_min_y, -HALF}, hi[3] = {HALF, c->water_max_y, HALF};
+    ref_scene_add_box(scene, lo, hi, 0, water);
+    double theta = THETA_DEG * PI / 180.0;
+    pf_light sun = {{0, 0, 0}, PF_LIGHT_DIRECTIONAL, {(float)sin(theta), (float)-cos(theta), 0},
+                    0, {IRRADIANCE, IRRADIANCE, IRRADIANCE}, 1, 1, {0, 0, 0}};
+    ref_scene_add_light(scene, sun);
+    const float eye[3] = {0, 1, 0}, target[3] = {0, 0, 0}, up[3] = {0, 0, -1};
+    ref_scene_look_at(scene, eye, target, up, 0.35f);
+}
+
+static pf_status render(const ref_scene *scene, pf_quality quality, uint32_t samples,
+                        pf_image *image, pf_error *err)
+{
+    pf_render_settings settings = ref_settings(EDGE, EDGE, samples, 11, 0);
+    settings.quality = quality;
+    /* fast's one photon pass: 4× its default, so ~300 caustic photons land in view. */
+    if (quality == PF_QUALITY_FAST)
+        settings.photons_per_pass = 131072;
+    memset(image, 0, sizeof *image);
+    return pf_render_frame(renderer, &scene->frame, &settings, image, NULL, err);
+}
+
+/* Mean of the layer's R, G, B over the image; checks every pixel finite, ≥ 0 and ≤ bound. */
+static double checked_mean(const pf_image *image, uint32_t first, double bound, const char *what)
+{
+    double sum = 0.0;
+    size_t bad = 0, over = 0;
+    for (uint32_t y = 0; y < image->height; y++) {
+        for (uint32_t x = 0; x < image->width; x++) {
+            for (uint32_t c = first; c < first + 3; c++) {
+                double value = ref_pixel(image, (int)c, x, y);
+                bad += !isfinite(value) || value < 0.0;
+                over += value > bound;
+                sum += value;
+            }
+        }
+    }
+    PF_CHECK_MSG(bad == 0, "%s: %zu values NaN, infinite or negative", what, bad);
+    PF_CHECK_MSG(over == 0, "%s: %zu values above %g", what, over, bound);
+    return sum / (3.0 * image->width * image->height);
+}
+
+PF_TEST(floor_under_water_matches_the_analytic_radiance)
+{
+    const slab_case water = {"floor under water", -0.05f, 0.02f};
+    ref_scene scene;
+    build(&scene, &water);
+    double theta = THETA_DEG * PI / 180.0;
+    double seen = (1.0 - fresnel(1.0, ETA)) / (ETA * ETA);
+    double e_direct = IRRADIANCE * cos(theta) * (1.0 - fresnel(cos(theta), ETA));
+    double r_internal = 1.0 - (1.0 - external_diffuse_reflectance(ETA)) / (ETA * ETA);
+    double e_total = e_direct / (1.0 - ALBEDO * r_internal);
+    double caustic = seen * ALBEDO / PI * e_direct, beauty = seen * ALBEDO / PI * e_total;
+    printf("  analytic: caustic %.5f, beauty %.5f (R_i %.4f)\n", caustic, beauty, r_internal);
+
+    pf_image image;
+    pf_error err = {0};
+    if (render(&scene, PF_QUALITY_FINAL, 4, &image, &err) == PF_OK) {
+        double b = checked_mean(&image, REF_CH_RGB, 4.0 * beauty, "final beauty");
+        double k = checked_mean(&image, REF_CH_CAUSTIC, 4.0 * beauty, "final caustic");
+        double d = checked_mean(&image, REF_CH_DIRECT, 4.0 * beauty, "final direct");
+        printf("  final: beauty %.5f (%.3f×), caustic %.5f (%.3f×), direct %.5f\n", b,
+               b / beauty, k, k / caustic, d);
+        PF_CHECK_NEAR(b / beauty, 1.0, 0.08);
+        PF_CHECK_NEAR(k / caustic, 1.0, 0.08);
+        PF_CHECK(d == 0.0); /* the water blocks shadow rays */
+    } else {
+        PF_CHECK_MSG(0, "final: %s", err.message);
+    }
+    pf_image_free(&image);
+    if (render(&scene, PF_QUALITY_FAST, 4, &image, &err) == PF_OK) {
+        double k = checked_mean(&image, REF_CH_CAUSTIC, 4.0 * beauty, "fast caustic");
+        checked_mean(&image, REF_CH_RGB, 4.0 * beauty, "fast beauty");
+        printf("  fast: caustic %.5f (%.3f×)\n", k, k / caustic);
+        PF_CHECK_NEAR(k / caustic, 1.0, 0.12);
+    } else {
+        PF_CHECK_MSG(0, "fast: %s", err.message);
+    }
+    pf_image_free(&image);
+    ref_scene_free(&scene);
+}
+
+PF_TEST(slab_above_the_floor_transmits_one_minus_f_over_one_plus_f)
+{
+    const slab_case slab = {"slab above the floor", 0.05f, 0.12f};
+    ref_scene scene;
+    build(&scene, &slab);
+    double theta = THETA_DEG * PI / 180.0;
+    double f_light = fresnel(cos(theta), ETA), f_view = fresnel(1.0, ETA);
+    double through_light = (1.0 - f_light) / (1.0 + f_light);
+    double through_view = (1.0 - f_view) / (1.0 + f_view);
+    double caustic = through_view * ALBEDO / PI * IRRADIANCE * cos(theta) * through_light;
+    printf("  analytic caustic %.5f\n", caustic);
+    pf_image image;
+    pf_error err = {0};
+    if (render(&scene, PF_QUALITY_FINAL, 4, &image, &err) == PF_OK) {
+        double k = checked_mean(&image, REF_CH_CAUSTIC, 4.0 * caustic, "final caustic");
+        double b = checked_mean(&image, REF_CH_RGB, 8.0 * caustic, "final beauty");
+        printf("  final: caustic %.5f (%.3f×), beauty %.5f\n", k, k / caustic, b);
+        PF_CHECK_NEAR(k / caustic, 1.0, 0.08);
+        PF_CHECK(b >= k);
+    } else {
+        PF_CHECK_MSG(0, "final: %s", err.message);
+    }
+    pf_image_free(&image);
+    ref_scene_free(&scene);
+}
+
+int main(void)
+{
+    if (!render_test_setup(&ctx, &renderer))
+        return 1;
+    PF_RUN(floor_under_water_matches_the_analytic_radiance);
+    PF_RUN(slab_above_the_floor_transmits_one_minus_f_over_one_plus_f);
+    return render_test_finish(ctx, renderer);
+}
