@@ -15,9 +15,14 @@
 //   record for the gather.
 // MODE_GATHER (global grid bound): push.gather_count of the sample's
 //   push.gather_total cosine-distributed gather rays from D₁ per dispatch.
-//   At a gather ray's first diffuse hit x₂: albedo/π × global-map irradiance
-//   (the global map holds L (S|D)+ x₂: no first hits) plus direct light at x₂
-//   by NEE (no MIS: nothing else samples it), into `indirect`. Gather rays
+//   At a gather ray's first diffuse hit x₂: albedo/π × global-map irradiance,
+//   into `indirect`. The global map holds every diffuse hit, first hits
+//   included (Jensen 2001, §9.3), so x₂'s direct light comes from photons
+//   too: next-event estimation there had no MIS partner (nothing else
+//   samples emitters from x₂), and its weight cos·cos·A/d² had no bound
+//   where x₂ lies close to an emitter (a lamp against a wall), which put
+//   single gather rays hundreds of times above the converged pixel (issue
+//   16's fireflies); a density estimate over a fixed radius is bounded. Gather rays
 //   follow mirrors and glass for at most GATHER_MAX_SPECULAR vertices and
 //   are dropped (counted in counters.gather_dropped) beyond; emission a
 //   gather ray sees after a specular vertex is left out (L S+ D₁ is the
@@ -335,10 +340,6 @@ void gather_ray(uint pixel_index, uint gather_index, Material d1_material, vec3 
         }
         vec3 wo_hit = -direction;
         if (material.kind == MATERIAL_LAMBERT) {
-            vec3 surface_origin = surface.position + ray_offset * surface.geometric_normal;
-            indirect += direct_light(material, surface.position, surface_origin, wo_hit,
-                                     surface.shading_normal, surface.geometric_normal, path,
-                                     sampler_next_4d(samples), 0.0, rays);
             indirect += path * global_radiance(material, surface.position,
                                                surface.geometric_normal, truncated);
             return;

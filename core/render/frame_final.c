@@ -188,8 +188,10 @@ static pf_status trace_pass(pf_renderer *renderer, pf_photon_tracer *tracer,
 {
     pf_vk_context *ctx = renderer->ctx;
     double start = pf_time_ms();
+    /* First hits too: the gather's secondary vertices take all their light from the map. */
     pf_photon_trace_settings trace = {.photon_count = photons_per_pass,
-                                      .seed = pass_seed(settings->seed, index)};
+                                      .seed = pass_seed(settings->seed, index),
+                                      .store_direct = 1};
     pf_photon_maps maps;
     pf_status status = pf_photon_trace(tracer, scene, emitters, &trace, &maps, err);
     if (status != PF_OK)

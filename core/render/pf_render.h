@@ -137,7 +137,7 @@ void pf_renderer_destroy(pf_renderer *renderer);
  *   reference's channels with the same split: direct = the reference's NEE at
  *   D₁ plus emission seen through specular chains; caustic = the caustic
  *   map's estimate at D₁ (k nearest); indirect = caustic + final gather
- *   (4 cosine gather rays per sample from D₁, global map + NEE at their
+ *   (4 cosine gather rays per sample from D₁, global map (every diffuse hit) at their
  *   first diffuse hit). Progressive photon passes (probabilistic PPM, Knaus & Zwicker
  *   2011, α = 2/3): each pass traces settings->photons_per_pass photons
  *   (0 = 100,000) with its own seed, grids them at the pass's shrinking
