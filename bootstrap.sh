@@ -29,6 +29,7 @@ PACKAGES=(
   glslang-tools           # glslangValidator: GLSL -> SPIR-V at build time
   spirv-tools             # spirv-val checks every shader at build time
   libopenexr-dev          # EXR output and the reader behind `compare`
+  openexr                 # exrheader: tests read every output layout with OpenEXR's own tools
   libuv1-dev              # worker event loop
   libsqlite3-dev          # the job queue
   libcjson-dev            # glTF JSON parsing

@@ -59,7 +59,7 @@ static void usage(FILE *out)
             "  --time-budget SEC  final, reference: stop adding passes/samples after SEC\n"
             "                     seconds per frame (at least one; default: no limit)\n"
             "  --float            32-bit float pixels (default half)\n"
-            "  --no-aovs          beauty RGBA only (default adds albedo, normal, depth)\n"
+            "  --no-aovs          beauty RGBA only (default adds the direct/indirect/caustic\n                     split and albedo, normal, depth as named layers)\n"
             "  --device D         device index or name substring (see photonfarm devices)\n"
             "  --help             this text\n"
             "\n"

@@ -167,8 +167,19 @@ pf_status pf_frame_render(pf_renderer *renderer, const pf_frame_request *request
         out->temp_path[0] = '\0';
         return pf_error_set(err, PF_ERR_INVALID, "output path too long: %s", request->output_path);
     }
-    status = pf_exr_write(out->temp_path, &image, request->pixel_type, attributes, ATTRIBUTE_COUNT,
-                          err);
+    /* Without AOVs the file is the beauty alone: RGBA, which every EXR reader opens
+     * as a plain image (the lighting split is an AOV too). */
+    static const char *const rgba[] = {"R", "G", "B", "A"};
+    pf_image beauty = {0};
+    const pf_image *written = &image;
+    if (!settings.aovs && image.channel_count > 4) {
+        status = pf_image_select(&image, rgba, 4, &beauty, err);
+        written = &beauty;
+    }
+    if (status == PF_OK)
+        status = pf_exr_write(out->temp_path, written, request->pixel_type, attributes,
+                              ATTRIBUTE_COUNT, err);
+    pf_image_free(&beauty);
     pf_image_free(&image);
     if (status != PF_OK) {
         unlink(out->temp_path);
