@@ -1,7 +1,7 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
 // Preview integrator (the `shade` stage of the preview preset): camera rays
-// through the pixel centres (jittered when spp > 1), a bounded specular chain
+// through the pixel centres (through the pixel filter when spp > 1), a bounded specular chain
 // through mirrors and glass, then at the first diffuse hit direct light from
 // every punctual light and one sample of the emissive triangles, all with hard
 // shadows. Every ray goes through the frame's BIH (bih_traverse.glsl).
@@ -54,6 +54,7 @@ layout(std430, set = 0, binding = 11) readonly buffer BihTriangleIndex { uint bi
 #include "materials.glsl"
 #include "surface.glsl"
 #include "rng.glsl"
+#include "pixel_filter.glsl"
 
 // Closest (or with any_hit, any) hit through the frame's BIH; a failed
 // traversal counts as a miss here and is reported to the host, which fails
@@ -163,8 +164,10 @@ void main()
     if (spp > 1u) {
         // Two statements: the order of side effects inside one expression is not
         // something to rely on across compilers.
-        jitter.x = rng_float(rng);
-        jitter.y = rng_float(rng);
+        vec2 xi;
+        xi.x = rng_float(rng);
+        xi.y = rng_float(rng);
+        jitter += filter_sample(params.pixel_filter, xi);
     }
     Path path;
     path.origin = params.camera_position.xyz;

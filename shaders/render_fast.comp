@@ -4,7 +4,7 @@
 // it): one camera sample per pixel per dispatch, added to the split film of
 // the reference and final integrators.
 //
-// A camera ray through the pixel filter (sampler.glsl) follows mirrors and
+// A camera ray through the pixel filter (pixel_filter.glsl) follows mirrors and
 // glass (bsdf_sample) to the first diffuse vertex D₁, at most
 // params.max_specular_depth specular vertices. Emission seen on the way and
 // direct light at D₁ by next-event estimation (direct_light.glsl, the one
@@ -125,7 +125,7 @@ void main()
     float ray_offset = params.camera_right.w;
     Sampler samples = sampler_init(pixel_index, push.sample_index, params.seed_lo, params.seed_hi);
     vec4 camera_xi = sampler_next_4d(samples);
-    vec2 film_position = vec2(pixel) + 0.5 + filter_gaussian_sample(camera_xi.xy);
+    vec2 film_position = vec2(pixel) + 0.5 + filter_sample(params.pixel_filter, camera_xi.xy);
     vec3 origin = params.camera_position.xyz;
     vec3 direction = camera_ray_direction(params.camera_forward.xyz, params.camera_right.xyz,
                                           params.camera_up.xyz, params.camera_position.w,

@@ -6,7 +6,7 @@
 // dispatch over the whole image, specialised by MODE:
 //
 // MODE_PRIMARY (caustic grid bound): a camera ray through the pixel filter
-//   (sampler.glsl), specular chain (bsdf_sample) to the first diffuse vertex
+//   (pixel_filter.glsl), specular chain (bsdf_sample) to the first diffuse vertex
 //   D₁, at most params.max_specular_depth specular vertices; emission seen
 //   on the way and direct light at D₁ (direct_light.glsl, the reference's
 //   NEE, MIS-weighted against the gather rays that may hit the same
@@ -208,7 +208,7 @@ void primary(uint pixel_index, uvec2 pixel)
     float ray_offset = params.camera_right.w;
     Sampler samples = sampler_init(pixel_index, push.sample_index, params.seed_lo, params.seed_hi);
     vec4 camera_xi = sampler_next_4d(samples);
-    vec2 film_position = vec2(pixel) + 0.5 + filter_gaussian_sample(camera_xi.xy);
+    vec2 film_position = vec2(pixel) + 0.5 + filter_sample(params.pixel_filter, camera_xi.xy);
     vec3 origin = params.camera_position.xyz;
     vec3 direction = camera_ray_direction(params.camera_forward.xyz, params.camera_right.xyz,
                                           params.camera_up.xyz, params.camera_position.w,

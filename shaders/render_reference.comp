@@ -5,7 +5,7 @@
 // pixel of the image (a progressive pass); the host divides the sums.
 //
 // Per sample: a camera ray through a point drawn from the pixel filter
-// (radially truncated Gaussian, sampler.glsl), then at every vertex
+// (params.pixel_filter, pixel_filter.glsl), then at every vertex
 //   - emission of a front face hit, weighted by MIS against light sampling
 //     (power heuristic) unless the previous vertex was specular or the camera;
 //   - at diffuse vertices, next-event estimation: one emissive triangle picked
@@ -13,7 +13,8 @@
 //     light is reachable only this way), each with an any-hit shadow ray;
 //   - a direction from bsdf_sample (materials.glsl); Russian roulette from the
 //     RR_START_DEPTH-th bounce on, survival from the throughput (below);
-//   - at most params.max_path_depth vertices.
+//   - at most params.max_path_depth vertices, and light of at most
+//     params.max_bounces bounces after the first surface (--max-bounces).
 // Random numbers: shuffled Owen-scrambled Sobol, two 4D groups per vertex
 // (light sample; BSDF direction, glass choice, roulette) after one for the
 // camera.
@@ -133,7 +134,7 @@ void main()
     Sampler samples = sampler_init(pixel_index, push.sample_index, params.seed_lo, params.seed_hi);
 
     vec4 camera_xi = sampler_next_4d(samples);
-    vec2 film_position = vec2(pixel) + 0.5 + filter_gaussian_sample(camera_xi.xy);
+    vec2 film_position = vec2(pixel) + 0.5 + filter_sample(params.pixel_filter, camera_xi.xy);
     vec3 origin = params.camera_position.xyz;
     vec3 direction = camera_ray_direction(params.camera_forward.xyz, params.camera_right.xyz,
                                           params.camera_up.xyz, params.camera_position.w,
@@ -183,6 +184,12 @@ void main()
             radiance_add(radiance, throughput * material.emission * weight, region,
                          caustic_chain);
         }
+
+        // Light reaching vertex `depth` scattered `depth` times after the first
+        // surface (vertex 0): past params.max_bounces only the emission just
+        // added (the BSDF half of the previous vertex's light sample) counts.
+        if (depth > params.max_bounces)
+            break;
 
         bool diffuse = material.kind == MATERIAL_LAMBERT;
         if (diffuse) {

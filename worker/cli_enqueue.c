@@ -45,6 +45,8 @@ static void usage(FILE *out)
             "  --quality Q            preview | fast | final | reference | auto (default auto)\n"
             "  --spp N                samples per pixel (default: the preset's)\n"
             "  --photons N            fast: photons per frame; final: per pass\n"
+            "  --filter F             pixel filter: gaussian (default), box, blackman-harris\n"
+            "  --max-bounces N        reference, final: at most N bounces (0: direct only)\n"
             "  --lpv-cascades N, --lpv-size N, --lpv-iterations N[,N...], --lpv-cell M\n"
             "                         fast: the light propagation volumes (see render --help)\n"
             "  --time-budget SECONDS  stop refining each frame after this long (progressive\n"
@@ -141,7 +143,9 @@ static int parse_options(int argc, char **argv, enqueue_options *options, int *h
                                    (unsigned long long)PF_CLI_MAX_PHOTONS);
             options->settings.photons_per_pass = (uint32_t)number;
         } else {
-            int lpv = pf_cli_lpv_option(COMMAND, arg, value, &options->settings.lpv);
+            int lpv = pf_cli_sampling_option(COMMAND, arg, value, &options->settings);
+            if (lpv < 0)
+                lpv = pf_cli_lpv_option(COMMAND, arg, value, &options->settings.lpv);
             if (lpv > 0)
                 return lpv;
             if (lpv < 0)

@@ -8,6 +8,7 @@
 #define PF_CLI_QUEUE_H
 
 #include "pf_lpv.h"
+#include "pf_render.h"
 #include "pf_queue.h"
 
 #include <stdint.h>
@@ -47,6 +48,13 @@ int pf_cli_lpv_option(const char *command, const char *arg, const char *value,
                       pf_lpv_settings *lpv);
 /* 0 when the LPV settings fit buffers of max_buffer_bytes, else 2 after naming the option. */
 int pf_cli_lpv_check(const char *command, const pf_lpv_settings *lpv, uint64_t max_buffer_bytes);
+/*
+ * --filter and --max-bounces of render and enqueue (cli_sampling.c): -1 when
+ * arg is neither, 0 when stored into *settings, 2 after printing why the
+ * value is bad.
+ */
+int pf_cli_sampling_option(const char *command, const char *arg, const char *value,
+                           pf_render_settings *settings);
 /* Most photons per frame (fast) or pass (final) accepted by --photons. */
 #define PF_CLI_MAX_PHOTONS 100000000ll
 /* What enqueue checks against: the maxStorageBufferRange every Vulkan device guarantees. */

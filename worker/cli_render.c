@@ -59,6 +59,10 @@ static void usage(FILE *out)
             "  --time-budget SEC  final, reference: stop adding passes/samples after SEC\n"
             "                     seconds per frame (at least one; default: no limit)\n"
             "  --float            32-bit float pixels (default half)\n"
+            "  --filter F         pixel filter: gaussian (default; sigma 0.5 px, radius\n"
+            "                     1.5 px), box (1 px), blackman-harris (1.5 px, Cycles')\n"
+            "  --max-bounces N    reference, final: light of at most N bounces after the\n"
+            "                     first surface (0 = direct light only; default: no limit)\n"
             "  --no-aovs          beauty RGBA only (default adds the direct/indirect/caustic\n                     split and albedo, normal, depth as named layers)\n"
             "  --device D         device index or name substring (see photonfarm devices)\n"
             "  --help             this text\n"
@@ -166,6 +170,7 @@ typedef struct render_options {
     int timings;
     uint32_t photons;
     pf_lpv_settings lpv;
+    pf_render_settings sampling; /* pixel_filter, bounce_limit (cli_sampling.c) */
 } render_options;
 
 /* 0 ok, else the exit code (2) after printing why. */
@@ -245,7 +250,9 @@ static int parse_options(int argc, char **argv, render_options *options, int *he
                                        (unsigned long long)PF_CLI_MAX_PHOTONS);
                 options->photons = (uint32_t)photons;
             } else {
-                int lpv = pf_cli_lpv_option(COMMAND, arg, value, &options->lpv);
+                int lpv = pf_cli_sampling_option(COMMAND, arg, value, &options->sampling);
+                if (lpv < 0)
+                    lpv = pf_cli_lpv_option(COMMAND, arg, value, &options->lpv);
                 if (lpv > 0)
                     return lpv;
                 if (lpv < 0)
@@ -309,7 +316,9 @@ static int render_one(const render_options *options, render_session *session, in
     snprintf(temp_tag, sizeof temp_tag, "render-%ld", (long)getpid());
     pf_render_settings settings = {options->width, options->height, (pf_quality)options->quality,
                                    options->spp, options->seed, options->aovs,
-                                   options->time_budget_ms, options->photons, options->lpv};
+                                   options->time_budget_ms, options->photons, options->lpv,
+                                   options->sampling.pixel_filter,
+                                   options->sampling.bounce_limit};
     pf_frame_request request = {session->scene,
                                 options->scene_path,
                                 frame_number,

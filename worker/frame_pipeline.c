@@ -11,7 +11,7 @@
 #include <unistd.h>
 
 #define PARTIAL_INFIX ".partial-"
-#define ATTRIBUTE_COUNT 6
+#define ATTRIBUTE_COUNT 8
 
 static int aborted(const pf_frame_request *request)
 {
@@ -90,7 +90,8 @@ static void fill_attributes(const pf_frame_request *request, const pf_render_set
 {
     static const char *const keys[ATTRIBUTE_COUNT] = {
         "photonfarm/scene",    "photonfarm/frame",      "photonfarm/preset",
-        "photonfarm/settings", "photonfarm/renderTime", "photonfarm/device"};
+        "photonfarm/settings", "photonfarm/renderTime", "photonfarm/device",
+        "photonfarm/pixelFilter", "photonfarm/maxBounces"};
     memset(attributes, 0, ATTRIBUTE_COUNT * sizeof *attributes);
     for (int i = 0; i < ATTRIBUTE_COUNT; i++)
         snprintf(attributes[i].key, sizeof attributes[i].key, "%s", keys[i]);
@@ -105,6 +106,14 @@ static void fill_attributes(const pf_frame_request *request, const pf_render_set
     snprintf(attributes[4].value, sizeof attributes[4].value, "%.3f", render_ms);
     snprintf(attributes[5].value, sizeof attributes[5].value, "%s",
              request->device_name ? request->device_name : "");
+    /* Also inside the settings; alone here so `compare` and other tools need no JSON. */
+    snprintf(attributes[6].value, sizeof attributes[6].value, "%s",
+             pf_pixel_filter_name(settings->pixel_filter));
+    if (settings->bounce_limit)
+        snprintf(attributes[7].value, sizeof attributes[7].value, "%u",
+                 settings->bounce_limit - 1);
+    else
+        snprintf(attributes[7].value, sizeof attributes[7].value, "default");
 }
 
 pf_status pf_frame_render(pf_renderer *renderer, const pf_frame_request *request,

@@ -122,6 +122,10 @@ int pf_job_params_format(const pf_render_settings *settings, const char *name, c
         cJSON_AddNumberToObject(root, "photons", settings->photons_per_pass);
     if (!settings->aovs)
         cJSON_AddBoolToObject(root, "aovs", 0);
+    if (settings->pixel_filter != PF_FILTER_GAUSSIAN)
+        cJSON_AddStringToObject(root, "filter", pf_pixel_filter_name(settings->pixel_filter));
+    if (settings->bounce_limit)
+        cJSON_AddNumberToObject(root, "max_bounces", settings->bounce_limit - 1);
     add_lpv(root, &settings->lpv);
     char *text = cJSON_PrintUnformatted(root);
     cJSON_Delete(root);
@@ -151,7 +155,7 @@ pf_status pf_job_params_parse(const char *json, pf_render_settings *settings, pf
         return pf_error_set(err, PF_ERR_FORMAT, "job parameters are not a JSON object: %.80s",
                             json ? json : "");
     }
-    double width = 0, height = 0, spp = 0, seed = 0, photons = 0;
+    double width = 0, height = 0, spp = 0, seed = 0, photons = 0, bounces = -1;
     pf_status status = read_number(root, "width", PF_FRAME_MAX_EDGE, &width, err);
     if (status == PF_OK)
         status = read_number(root, "height", PF_FRAME_MAX_EDGE, &height, err);
@@ -162,8 +166,20 @@ pf_status pf_job_params_parse(const char *json, pf_render_settings *settings, pf
         status = read_number(root, "seed", 9007199254740992.0, &seed, err);
     if (status == PF_OK)
         status = read_number(root, "photons", 100000000.0, &photons, err);
+    if (status == PF_OK && cJSON_GetObjectItemCaseSensitive(root, "max_bounces"))
+        status = read_number(root, "max_bounces", PF_MAX_BOUNCES_LIMIT, &bounces, err);
     if (status == PF_OK)
         status = read_lpv(root, &parsed.lpv, err);
+    const cJSON *filter = cJSON_GetObjectItemCaseSensitive(root, "filter");
+    if (status == PF_OK && filter) {
+        int parsed_filter = cJSON_IsString(filter) ? pf_pixel_filter_parse(filter->valuestring) : -1;
+        if (parsed_filter < 0)
+            status = pf_error_set(err, PF_ERR_FORMAT,
+                                  "job parameters: \"filter\" must be \"gaussian\", \"box\" or "
+                                  "\"blackman-harris\"");
+        else
+            parsed.pixel_filter = (pf_pixel_filter)parsed_filter;
+    }
     const cJSON *aovs = cJSON_GetObjectItemCaseSensitive(root, "aovs");
     if (status == PF_OK && aovs) {
         if (!cJSON_IsBool(aovs))
@@ -198,6 +214,7 @@ pf_status pf_job_params_parse(const char *json, pf_render_settings *settings, pf
     parsed.samples_per_pixel = (uint32_t)spp;
     parsed.seed = (uint64_t)seed;
     parsed.photons_per_pass = (uint32_t)photons;
+    parsed.bounce_limit = bounces >= 0 ? pf_bounce_limit((uint32_t)bounces) : 0u;
     *settings = parsed;
     return PF_OK;
 }

@@ -499,7 +499,7 @@ static pf_status render_after_bih(pf_renderer *renderer, const pf_scene_frame *f
     progress->has_emitters = inputs.emitters.count > 0;
     progress->has_specular = pf_scene_frame_has_specular(frame);
     int reuse = pf_photon_identity_matches(&cache->identity, renderer, frame, settings->seed,
-                                           photons, bih_reused);
+                                           photons, 0, bih_reused);
     if (!reuse && progress->has_emitters) {
         cache->identity.valid = 0;
         status = trace_photons(renderer, cache, &inputs, frame, settings, photons, progress, err);
@@ -530,7 +530,7 @@ static pf_status render_after_bih(pf_renderer *renderer, const pf_scene_frame *f
                        progress, err);
     pf_photon_frame_release(ctx, &inputs);
     if (status == PF_OK && progress->traced)
-        status = pf_photon_identity_remember(&cache->identity, frame, settings->seed, photons,
+        status = pf_photon_identity_remember(&cache->identity, frame, settings->seed, photons, 0,
                                              err);
     if (status == PF_OK) {
         cache->identity.bih_frame = renderer->bih_frames;

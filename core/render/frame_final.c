@@ -162,6 +162,25 @@ static uint64_t pass_seed(uint64_t seed, uint32_t index)
     return z ^ (z >> 31);
 }
 
+/*
+ * Hits per photon under settings->bounce_limit (pf_render.h): with B
+ * bounces a photon stored at its h-th hit (0-based) reaches the camera's
+ * first surface after h + 1 scatterings (its hits, then the gather's x₂),
+ * so hits up to B − 1: B hits. 0 = the tracer's default.
+ */
+static uint32_t final_photon_depth(const pf_render_settings *settings)
+{
+    if (!settings->bounce_limit)
+        return 0;
+    return settings->bounce_limit > 1 ? settings->bounce_limit - 1 : 1;
+}
+
+/* With --max-bounces 0 the frame is direct light only: no caustics, no gather. */
+static uint32_t final_gather_rays(const pf_render_settings *settings)
+{
+    return settings->bounce_limit == 1 ? 0u : FINAL_GATHER_RAYS;
+}
+
 /* Frame-wide figures for the rows. */
 typedef struct final_progress {
     uint32_t passes, traced, reused;
@@ -191,6 +210,7 @@ static pf_status trace_pass(pf_renderer *renderer, pf_photon_tracer *tracer,
     /* First hits too: the gather's secondary vertices take all their light from the map. */
     pf_photon_trace_settings trace = {.photon_count = photons_per_pass,
                                       .seed = pass_seed(settings->seed, index),
+                                      .max_depth = final_photon_depth(settings),
                                       .store_direct = 1};
     pf_photon_maps maps;
     pf_status status = pf_photon_trace(tracer, scene, emitters, &trace, &maps, err);
@@ -307,7 +327,7 @@ static pf_status shade_sample(pf_renderer *renderer, pf_vk_buffer **buffers,
                              ? pass->radius / progress->radius_first
                              : 1.0f;
     push.sample_index = sample_index;
-    push.gather_total = FINAL_GATHER_RAYS;
+    push.gather_total = final_gather_rays(settings);
     push.loop_sentinel = 1;
     status = pf_vk_cmd_dispatch(cmds, renderer->render_final_primary, buffers, FINAL_BUFFERS,
                                 &push, sizeof push, groups_x, groups_y, 1, err);
@@ -315,7 +335,7 @@ static pf_status shade_sample(pf_renderer *renderer, pf_vk_buffer **buffers,
               pass ? pass->flux_scale : 0.0f, owned->empty_grid, &push,
               &buffers[GRID_WORDS_BINDING], &buffers[GRID_RANGES_BINDING]);
     push.sample_index = sample_index;
-    push.gather_total = FINAL_GATHER_RAYS;
+    push.gather_total = final_gather_rays(settings);
     push.loop_sentinel = 1;
     for (uint32_t first = 0; status == PF_OK && first < FINAL_GATHER_RAYS;
          first += FINAL_GATHER_RAYS_PER_DISPATCH) {
@@ -378,7 +398,9 @@ static void report_rows(pf_frame_report *report, const final_progress *progress,
     }
     row = pf_frame_report_row(report, "caustic_map",
             !has_emitters    ? photon_skip
-            : !with_caustics ? "no specular or refractive material → no caustic map"
+            : !with_caustics ? (pf_scene_frame_has_specular(frame)
+                                    ? "--max-bounces 0: direct light only → no caustic map"
+                                    : "no specular or refractive material → no caustic map")
             : progress->traced == 0 ? "lights and geometry unchanged → caustic grids reused"
                                     : NULL,
             progress->caustic_ms, -1.0);
@@ -421,7 +443,7 @@ static pf_status render_passes(pf_renderer *renderer, const pf_scene_frame *fram
     const pf_gpu_scene *scene = &inputs.scene;
     const pf_bih_gpu_view *bih = &inputs.bih;
     *has_emitters = inputs.emitters.count > 0;
-    *with_caustics = pf_scene_frame_has_specular(frame);
+    *with_caustics = pf_scene_frame_has_specular(frame) && settings->bounce_limit != 1;
     if (!reuse) {
         cache->kept = 0;
         cache->first_radius = 0.0f;
@@ -535,7 +557,8 @@ pf_status pf_render_frame_final(pf_renderer *renderer, const pf_scene_frame *fra
         settings->photons_per_pass ? settings->photons_per_pass : FINAL_DEFAULT_PHOTONS_PER_PASS;
     int reuse = status == PF_OK && cache->kept > 0 &&
                 pf_photon_identity_matches(&cache->identity, renderer, frame, settings->seed,
-                                           photons_per_pass, bih_reused);
+                                           photons_per_pass, final_photon_depth(settings),
+                                           bih_reused);
     double shade_start = pf_time_ms();
     final_progress progress = {0};
     progress.trace_gpu_ms = progress.grid_gpu_ms = progress.shade_gpu_ms = -1.0;
@@ -556,7 +579,7 @@ pf_status pf_render_frame_final(pf_renderer *renderer, const pf_scene_frame *fra
                               (unsigned long long)(pixels * progress.passes));
     if (status == PF_OK)
         status = pf_photon_identity_remember(&cache->identity, frame, settings->seed,
-                                             photons_per_pass, err);
+                                             photons_per_pass, final_photon_depth(settings), err);
     if (status != PF_OK) {
         cache->kept = 0;
         pf_image_free(image);

@@ -32,6 +32,30 @@ const char *pf_quality_name(pf_quality quality);
 /* The preset that renders a request for quality: auto is preview for now (the planner is to come). */
 pf_quality pf_quality_resolve(pf_quality quality);
 
+/*
+ * The pixel filter every preset samples camera rays through (filter
+ * importance sampling: each sample weighs the same, a pixel is the mean of
+ * its samples). Gaussian is the default: σ = 0.5 px truncated at 1.5 px,
+ * smooth enough that the few samples of a farm frame do not alias, and the
+ * filter every stored reference and test figure was made with. Box (width
+ * 1, the pixel's own square) matches renderers that do not filter;
+ * Blackman-Harris (width 1.5, separable) is Cycles' default, for
+ * comparisons with it. Images made with different filters differ at every
+ * edge whatever the integrator, which `compare` warns about.
+ */
+typedef enum pf_pixel_filter {
+    PF_FILTER_GAUSSIAN = 0,
+    PF_FILTER_BOX = 1,
+    PF_FILTER_BLACKMAN_HARRIS = 2
+} pf_pixel_filter;
+
+/* Parses "gaussian", "box", "blackman-harris"; -1 if unknown. */
+int pf_pixel_filter_parse(const char *name);
+const char *pf_pixel_filter_name(pf_pixel_filter filter);
+
+/* Most bounces --max-bounces accepts. */
+#define PF_MAX_BOUNCES_LIMIT 1024u
+
 typedef struct pf_render_settings {
     uint32_t width, height;
     pf_quality quality;
@@ -49,7 +73,22 @@ typedef struct pf_render_settings {
     uint32_t photons_per_pass;
     /* fast: the light propagation volumes (all 0 = defaults; pf_lpv.h). */
     pf_lpv_settings lpv;
+    pf_pixel_filter pixel_filter;
+    /*
+     * reference and final: 0 = no limit (the preset's own bound); otherwise
+     * 1 + the most bounces light may take (so 1 is direct light only). A
+     * bounce is a scattering after the first surface the camera sees, as
+     * in Cycles' "total" bounces: bounces B allow light that scattered at
+     * most B times before reaching that surface. reference counts every
+     * scattering (diffuse and specular); final limits its photon paths to
+     * B hits and, with B = 0, leaves out caustics and the final gather
+     * (the specular vertices of camera and gather rays are not counted).
+     */
+    uint32_t bounce_limit;
 } pf_render_settings;
+
+/* bounce_limit for "--max-bounces bounces" (bounces ≤ PF_MAX_BOUNCES_LIMIT). */
+static inline uint32_t pf_bounce_limit(uint32_t bounces) { return bounces + 1u; }
 
 #define PF_STAGE_NAME_MAX 32
 #define PF_STAGE_REASON_MAX 160
@@ -98,8 +137,8 @@ void pf_renderer_destroy(pf_renderer *renderer);
  *   depth.Z. samples_per_pixel 0 = 1 (pixel centres).
  *
  * reference: the unbiased path tracer (shaders/render_reference.comp: NEE +
- *   MIS, Russian roulette, Owen-scrambled Sobol, Gaussian pixel filter of
- *   σ = 0.5 px truncated at 1.5 px). samples_per_pixel (0 = 64) are
+ *   MIS, Russian roulette, Owen-scrambled Sobol, settings->pixel_filter,
+ *   settings->bounce_limit). samples_per_pixel (0 = 64) are
  *   accumulated in whole-image passes until that count or until
  *   time_budget_ms has passed (at least one pass); the image depends only on
  *   the scene, the seed and the number of passes reached (bit-identical for

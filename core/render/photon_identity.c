@@ -17,10 +17,11 @@ static int same_array(const void *a, const void *b, size_t bytes)
 
 int pf_photon_identity_matches(const pf_photon_identity *identity, const pf_renderer *renderer,
                                const pf_scene_frame *frame, uint64_t seed, uint32_t photons,
-                               int bih_reused)
+                               uint32_t max_depth, int bih_reused)
 {
     return identity->valid && bih_reused && renderer->bih_frames == identity->bih_frame + 1 &&
            identity->seed == seed && identity->photons == photons &&
+           identity->max_depth == max_depth &&
            identity->light_count == frame->light_count &&
            identity->material_count == frame->material_count &&
            identity->triangle_count == frame->triangle_count &&
@@ -45,11 +46,13 @@ static pf_status copy_array(void **out, const void *data, size_t bytes, pf_error
 }
 
 pf_status pf_photon_identity_remember(pf_photon_identity *identity, const pf_scene_frame *frame,
-                                      uint64_t seed, uint32_t photons, pf_error *err)
+                                      uint64_t seed, uint32_t photons, uint32_t max_depth,
+                                      pf_error *err)
 {
     identity->valid = 0;
     identity->seed = seed;
     identity->photons = photons;
+    identity->max_depth = max_depth;
     identity->light_count = frame->light_count;
     identity->material_count = frame->material_count;
     identity->triangle_count = frame->triangle_count;

@@ -28,6 +28,25 @@ const char *pf_quality_name(pf_quality quality)
     return "unknown";
 }
 
+static const char *const filter_names[] = {"gaussian", "box", "blackman-harris"};
+
+int pf_pixel_filter_parse(const char *name)
+{
+    for (int filter = 0; name && filter < (int)(sizeof filter_names / sizeof filter_names[0]);
+         filter++) {
+        if (!strcmp(name, filter_names[filter]))
+            return filter;
+    }
+    return -1;
+}
+
+const char *pf_pixel_filter_name(pf_pixel_filter filter)
+{
+    if ((unsigned)filter < sizeof filter_names / sizeof filter_names[0])
+        return filter_names[filter];
+    return "unknown";
+}
+
 pf_quality pf_quality_resolve(pf_quality quality)
 {
     return quality == PF_QUALITY_AUTO ? PF_QUALITY_PREVIEW : quality;

@@ -61,6 +61,8 @@ void pf_frame_params_fill(const pf_scene_frame *frame, const pf_render_settings 
     params->emissive_weight_total = scene->emissive_weight_total;
     params->seed_lo = (uint32_t)settings->seed;
     params->seed_hi = (uint32_t)(settings->seed >> 32);
+    params->pixel_filter = (uint32_t)settings->pixel_filter;
+    params->max_bounces = settings->bounce_limit ? settings->bounce_limit - 1u : 0xffffffffu;
     params->bih_node_count = bih->node_count;
     for (int i = 0; i < 3; i++) {
         params->bih_bounds_min[i] = bih->bounds_min[i];

@@ -58,7 +58,9 @@ typedef struct pf_frame_params {
     float camera_up[4];       /* w: unused */
     uint32_t width, height, samples_per_pixel, triangle_count;
     uint32_t light_count, emissive_count, seed_lo, seed_hi;
-    uint32_t max_specular_depth, bih_node_count, padding[2];
+    uint32_t max_specular_depth, bih_node_count;
+    uint32_t pixel_filter;    /* pf_pixel_filter */
+    uint32_t max_bounces;     /* reference: most bounces (0xffffffff: no limit) */
     float bih_bounds_min[4];  /* the BIH root box (trace_bih's bounds); w unused */
     float bih_bounds_max[4];
     float emissive_weight_total; /* Σ area × luminance of the emissive table's triangles */
@@ -301,13 +303,15 @@ pf_status pf_material_probe(pf_renderer *renderer, const pf_material_probe_query
  * What a frame's photon maps were traced for: they are reused by the next
  * frame when its BIH stage reused the tree right after the frame that made
  * them (the geometry is unchanged) and lights, materials, per-triangle
- * materials, seed and photon count are equal (final's passes, fast's VPLs).
+ * materials, seed, photon count and photon depth are equal (final's passes,
+ * fast's VPLs).
  */
 typedef struct pf_photon_identity {
     int valid;
     uint64_t bih_frame;          /* renderer->bih_frames when they were made */
     uint64_t seed;
     uint32_t photons;
+    uint32_t max_depth;          /* pf_photon_trace_settings.max_depth */
     uint32_t light_count, material_count, triangle_count;
     pf_light *lights;
     pf_material *materials;
@@ -316,10 +320,11 @@ typedef struct pf_photon_identity {
 
 int pf_photon_identity_matches(const pf_photon_identity *identity, const pf_renderer *renderer,
                                const pf_scene_frame *frame, uint64_t seed, uint32_t photons,
-                               int bih_reused);
+                               uint32_t max_depth, int bih_reused);
 /* Copies the frame's lights and materials; the caller sets valid and bih_frame after success. */
 pf_status pf_photon_identity_remember(pf_photon_identity *identity, const pf_scene_frame *frame,
-                                      uint64_t seed, uint32_t photons, pf_error *err);
+                                      uint64_t seed, uint32_t photons, uint32_t max_depth,
+                                      pf_error *err);
 void pf_photon_identity_free(pf_photon_identity *identity);
 
 /* 1 when some triangle has a mirror or glass material (photons can make caustics). */

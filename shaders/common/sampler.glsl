@@ -9,6 +9,7 @@
 #define PF_SAMPLER_GLSL
 
 #include "rng.glsl"
+#include "pixel_filter.glsl"
 
 // Sobol direction numbers, 32 per dimension: dimension 0 is van der Corput,
 // dimensions 1..3 are Joe & Kuo (2008) new-joe-kuo-6.21201 dimensions 2..4
@@ -120,24 +121,6 @@ vec4 sampler_next_4d(inout Sampler state)
         result[dimension] = float(value >> 8u) * SAMPLER_UNIT;
     }
     return result;
-}
-
-// The pixel filter: a radially symmetric Gaussian of standard deviation
-// FILTER_SIGMA pixels, truncated at FILTER_RADIUS pixels (3σ: the weight left
-// out is e^-4.5 ≈ 1.1%), sampled exactly by inverting its radial CDF (filter
-// importance sampling, Ernst et al. 2006), so every sample weighs the same and
-// a pixel is the plain mean of its samples. Returns the offset in pixels from
-// the pixel centre for xi in [0,1)².
-const float FILTER_SIGMA = 0.5;
-const float FILTER_RADIUS = 1.5;
-
-vec2 filter_gaussian_sample(vec2 xi)
-{
-    const float two_pi = 6.28318530717958647692;
-    float kept_mass = 1.0 - exp(-FILTER_RADIUS * FILTER_RADIUS / (2.0 * FILTER_SIGMA * FILTER_SIGMA));
-    float radius = FILTER_SIGMA * sqrt(max(0.0, -2.0 * log(1.0 - xi.x * kept_mass)));
-    float angle = two_pi * xi.y;
-    return radius * vec2(cos(angle), sin(angle));
 }
 
 #endif

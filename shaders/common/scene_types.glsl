@@ -54,7 +54,9 @@ struct FrameParams {
     vec4 camera_up;       // w: unused
     uint width, height, samples_per_pixel, triangle_count;
     uint light_count, emissive_count, seed_lo, seed_hi;
-    uint max_specular_depth, bih_node_count, padding0, padding1;
+    uint max_specular_depth, bih_node_count;
+    uint pixel_filter;    // FILTER_* (sampler.glsl)
+    uint max_bounces;     // reference: most bounces after the first surface (0xffffffff: none)
     vec4 bih_bounds_min; // xyz: the BIH root box (trace_bih's bounds)
     vec4 bih_bounds_max;
     // Appended for the reference integrator:

@@ -22,7 +22,7 @@
  * the mean over R, G, B within MEAN_TOLERANCE of the reference's; relMSE
  * against the reference falling from 1 to 16 passes.
  */
-#include "../render/reference_test_util.h"
+#include "hard_cases.h"
 #include "../render/render_test_env.h"
 #include "pf_render.h"
 #include "pf_test.h"
@@ -40,42 +40,6 @@ static pf_renderer *renderer;
 #define FIREFLY_BOUND 2.0
 #define MEAN_TOLERANCE 0.06
 #define PHOTONS_PER_PASS 50000u
-
-static void build_lamp_against_wall(ref_scene *scene)
-{
-    ref_scene_init(scene);
-    uint32_t white = ref_scene_add_material(scene, ref_material(PF_MATERIAL_LAMBERT, 0.7f, 0.7f, 0.7f));
-    uint32_t lamp = ref_scene_add_material(scene, ref_material_emitter(20.0f, 20.0f, 20.0f));
-    const float lo[3] = {-1, 0, -1}, hi[3] = {1, 2, 1};
-    ref_scene_add_box(scene, lo, hi, 1, white);
-    /* A panel facing down, its edge against the wall x = -1. */
-    const float c[3] = {-0.8f, 1.5f, 0}, u[3] = {0, 0, 0.2f}, v[3] = {0.2f, 0, 0};
-    ref_scene_add_quad(scene, c, v, u, lamp);
-    const float eye[3] = {0.5f, 1.0f, 0.9f}, target[3] = {0.3f, 0, 0}, up[3] = {0, 1, 0};
-    ref_scene_look_at(scene, eye, target, up, 0.6f);
-}
-
-static void build_lamps_behind_glass(ref_scene *scene)
-{
-    ref_scene_init(scene);
-    uint32_t white = ref_scene_add_material(scene, ref_material(PF_MATERIAL_LAMBERT, 0.7f, 0.7f, 0.7f));
-    uint32_t wood = ref_scene_add_material(scene, ref_material(PF_MATERIAL_LAMBERT, 0.6f, 0.4f, 0.25f));
-    uint32_t glass = ref_scene_add_material(scene, ref_material(PF_MATERIAL_GLASS, 1, 1, 1));
-    uint32_t lamp = ref_scene_add_material(scene, ref_material_emitter(40.0f, 36.0f, 30.0f));
-    const float room_lo[3] = {-2, 0, -2}, room_hi[3] = {2, 2.5f, 2};
-    ref_scene_add_box(scene, room_lo, room_hi, 1, white);
-    const float table_lo[3] = {-1, 0, -0.6f}, table_hi[3] = {1, 0.7f, 0.6f};
-    ref_scene_add_box(scene, table_lo, table_hi, 0, wood);
-    /* Emitters off the glass spheres' centres: the glass bends their light into caustics. */
-    const float glass_centre[2][3] = {{-0.5f, 1.0f, 0.0f}, {0.5f, 1.0f, 0.0f}};
-    const float lamp_centre[2][3] = {{-0.47f, 1.05f, 0.0f}, {0.53f, 1.05f, 0.02f}};
-    for (int i = 0; i < 2; i++) {
-        ref_scene_add_sphere(scene, glass_centre[i], 0.15f, 24, 12, 0, glass);
-        ref_scene_add_sphere(scene, lamp_centre[i], 0.05f, 12, 6, 0, lamp);
-    }
-    const float eye[3] = {0, 1.3f, 1.9f}, target[3] = {0, 0.8f, 0}, up[3] = {0, 1, 0};
-    ref_scene_look_at(scene, eye, target, up, 1.0f);
-}
 
 /* Brightest R, G or B value; counts NaN, infinite and negative values. */
 static double brightest(const pf_image *image, size_t *bad)
@@ -146,7 +110,7 @@ static void check_final_against_reference(const char *name, const ref_scene *sce
 PF_TEST(lamp_against_a_wall_has_no_fireflies)
 {
     ref_scene scene;
-    build_lamp_against_wall(&scene);
+    hard_case_build(HARD_LAMP_WALL, &scene);
     check_final_against_reference("lamp against a wall", &scene);
     ref_scene_free(&scene);
 }
@@ -154,7 +118,7 @@ PF_TEST(lamp_against_a_wall_has_no_fireflies)
 PF_TEST(lamps_behind_glass_have_no_fireflies)
 {
     ref_scene scene;
-    build_lamps_behind_glass(&scene);
+    hard_case_build(HARD_LAMPS_GLASS, &scene);
     check_final_against_reference("lamps behind glass", &scene);
     ref_scene_free(&scene);
 }

@@ -32,7 +32,7 @@
  * behind a delta interface), so it is no ground truth here: the closed
  * forms are.
  */
-#include "../render/reference_test_util.h"
+#include "hard_cases.h"
 #include "../render/render_test_env.h"
 #include "pf_render.h"
 #include "pf_test.h"
@@ -46,13 +46,10 @@ static pf_renderer *renderer;
 
 #define EDGE 32u
 #define PI 3.14159265358979323846
-#define ETA 1.8
-#define ALBEDO 0.5
-#define IRRADIANCE 3.0
-#define THETA_DEG 30.0
-/* Half width of the floor and the water (m): 2 m against 7 cm of depth. */
-#define HALF 2.0f
-
+#define ETA HARD_WATER_ETA
+#define ALBEDO HARD_WATER_ALBEDO
+#define IRRADIANCE HARD_WATER_IRRADIANCE
+#define THETA_DEG HARD_WATER_THETA_DEG
 /* Unpolarized Fresnel reflectance, cos_i on the incident side, eta = η_t/η_i. */
 static double fresnel(double cos_i, double eta)
 {
@@ -75,31 +72,6 @@ static double external_diffuse_reflectance(double eta)
         sum += fresnel(cos(theta), eta) * 2.0 * cos(theta) * sin(theta);
     }
     return sum * (PI / 2.0) / steps;
-}
-
-typedef struct slab_case {
-    const char *name;
-    float water_min_y, water_max_y; /* the dielectric box's extent; the floor is at y = 0 */
-} slab_case;
-
-static void build(ref_scene *scene, const slab_case *c)
-{
-    ref_scene_init(scene);
-    uint32_t floor_material =
-        ref_scene_add_material(scene, ref_material(PF_MATERIAL_LAMBERT, ALBEDO, ALBEDO, ALBEDO));
-    pf_material glass = ref_material(PF_MATERIAL_GLASS, 1, 1, 1);
-    glass.ior = (float)ETA;
-    uint32_t water = ref_scene_add_material(scene, glass);
-    const float centre[3] = {0, 0, 0}, u[3] = {0, 0, HALF}, v[3] = {HALF, 0, 0};
-    ref_scene_add_quad(scene, centre, u, v, floor_material); /* u × v = +y */
-    const float lo[3] = {-HALF, c->water_min_y, -HALF}, hi[3] = {HALF, c->water_max_y, HALF};
-    ref_scene_add_box(scene, lo, hi, 0, water);
-    double theta = THETA_DEG * PI / 180.0;
-    pf_light sun = {{0, 0, 0}, PF_LIGHT_DIRECTIONAL, {(float)sin(theta), (float)-cos(theta), 0},
-                    0, {IRRADIANCE, IRRADIANCE, IRRADIANCE}, 1, 1, {0, 0, 0}};
-    ref_scene_add_light(scene, sun);
-    const float eye[3] = {0, 1, 0}, target[3] = {0, 0, 0}, up[3] = {0, 0, -1};
-    ref_scene_look_at(scene, eye, target, up, 0.35f);
 }
 
 static pf_status render(const ref_scene *scene, pf_quality quality, uint32_t samples,
@@ -136,9 +108,8 @@ static double checked_mean(const pf_image *image, uint32_t first, double bound, 
 
 PF_TEST(floor_under_water_matches_the_analytic_radiance)
 {
-    const slab_case water = {"floor under water", -0.05f, 0.02f};
     ref_scene scene;
-    build(&scene, &water);
+    hard_case_build(HARD_WATER, &scene);
     double theta = THETA_DEG * PI / 180.0;
     double seen = (1.0 - fresnel(1.0, ETA)) / (ETA * ETA);
     double e_direct = IRRADIANCE * cos(theta) * (1.0 - fresnel(cos(theta), ETA));
@@ -176,9 +147,8 @@ PF_TEST(floor_under_water_matches_the_analytic_radiance)
 
 PF_TEST(slab_above_the_floor_transmits_one_minus_f_over_one_plus_f)
 {
-    const slab_case slab = {"slab above the floor", 0.05f, 0.12f};
     ref_scene scene;
-    build(&scene, &slab);
+    hard_case_build_water(&scene, 0.05f, 0.12f);
     double theta = THETA_DEG * PI / 180.0;
     double f_light = fresnel(cos(theta), ETA), f_view = fresnel(1.0, ETA);
     double through_light = (1.0 - f_light) / (1.0 + f_light);

@@ -8,6 +8,7 @@
  *   - --no-aovs writes R, G, B, A and nothing else.
  * Rendered with `fast` on the bundled Cornell box at 32 × 24.
  */
+#include "pf_image.h"
 #include "pf_test.h"
 
 #include <stdio.h>
@@ -119,7 +120,7 @@ PF_TEST(no_aovs_writes_rgba_only)
 {
     char out[1200];
     snprintf(out, sizeof out, "%s/no-aovs.exr", tmpdir);
-    if (!render("--no-aovs", out))
+    if (!render("--no-aovs --filter box --max-bounces 2", out))
         return;
     char names[MAX_CHANNELS][32];
     int count = exr_channels(out, names);
@@ -129,10 +130,49 @@ PF_TEST(no_aovs_writes_rgba_only)
         PF_CHECK_MSG(has(names, count, rgba[i]), "no channel %s", rgba[i]);
 }
 
+/* The filter and bounce limit are in the metadata; compare warns about differing filters. */
+PF_TEST(filter_and_bounces_are_recorded_and_compared)
+{
+    char with[1200], without[1200], command[4096], log[1300];
+    snprintf(with, sizeof with, "%s/with-aovs.exr", tmpdir);
+    snprintf(without, sizeof without, "%s/no-aovs.exr", tmpdir);
+    pf_image image = {0};
+    pf_image_attribute *attributes = NULL;
+    uint32_t count = 0;
+    pf_error err = {0};
+    PF_REQUIRE_OK(pf_exr_read(without, &image, &attributes, &count, &err), &err);
+    const char *filter = NULL, *bounces = NULL;
+    for (uint32_t i = 0; i < count; i++) {
+        if (!strcmp(attributes[i].key, "photonfarm/pixelFilter"))
+            filter = attributes[i].value;
+        if (!strcmp(attributes[i].key, "photonfarm/maxBounces"))
+            bounces = attributes[i].value;
+    }
+    PF_CHECK_MSG(filter && !strcmp(filter, "box"), "pixelFilter %s", filter ? filter : "missing");
+    PF_CHECK_MSG(bounces && !strcmp(bounces, "2"), "maxBounces %s", bounces ? bounces : "missing");
+    free(attributes);
+    pf_image_free(&image);
+    const char *binary = getenv("PHOTONFARM");
+    snprintf(log, sizeof log, "%s/compare.log", tmpdir);
+    snprintf(command, sizeof command, "'%s' compare --rgb '%s' '%s' >'%s' 2>&1",
+             binary ? binary : "photonfarm", with, without, log);
+    PF_CHECK(run(command) == 0);
+    FILE *file = fopen(log, "r");
+    PF_REQUIRE(file != NULL);
+    char text[8192] = {0};
+    size_t length = fread(text, 1, sizeof text - 1, file);
+    fclose(file);
+    text[length] = '\0';
+    PF_CHECK_MSG(strstr(text, "warning: different pixel filters") && strstr(text, "gaussian") &&
+                     strstr(text, "box"),
+                 "compare printed:\n%s", text);
+}
+
 int main(void)
 {
     pf_test_tmpdir(tmpdir, sizeof tmpdir);
     PF_RUN(beauty_is_rgba_and_aovs_are_named_layers);
     PF_RUN(no_aovs_writes_rgba_only);
+    PF_RUN(filter_and_bounces_are_recorded_and_compared);
     return pf_test_finish();
 }

@@ -311,6 +311,8 @@ static void check_depth_against_cpu(const char *name, int64_t frame_number)
     PF_REQUIRE_OK(pf_scene_eval(scene, pf_scene_frame_time(scene, frame_number), &frame, &err),
                   &err);
     pf_render_settings settings = {WIDTH, HEIGHT, PF_QUALITY_PREVIEW, SPP, seed, 1};
+    /* The box filter: a sample lands at the pixel's corner + its two random numbers. */
+    settings.pixel_filter = PF_FILTER_BOX;
     pf_image image = {0};
     PF_REQUIRE_OK(pf_render_frame(renderer, &frame, &settings, &image, NULL, &err), &err);
     int depth = pf_image_channel(&image, "depth.Z");

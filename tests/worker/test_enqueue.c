@@ -62,7 +62,7 @@ PF_TEST(enqueue_inserts_a_validated_job_and_prints_its_id)
     wt_format(args, sizeof args,
              "enqueue '%s' --frames 1 --out '%s/fast.exr' --size 16x12 --quality fast "
              "--lpv-cascades 3 --lpv-size 16 --lpv-iterations 6,6,12 --lpv-cell 0.125 "
-             "--photons 5000 --db '%s'",
+             "--photons 5000 --filter blackman-harris --max-bounces 3 --db '%s'",
              scene, out_dir, db);
     PF_REQUIRE(wt_run(args, log_path) == 0);
     printed = wt_read_file(log_path, NULL);
@@ -75,6 +75,8 @@ PF_TEST(enqueue_inserts_a_validated_job_and_prints_its_id)
     PF_CHECK_MSG(job.parameters_json &&
                      strstr(job.parameters_json, "\"quality\":\"fast\"") &&
                      strstr(job.parameters_json, "\"photons\":5000") &&
+                     strstr(job.parameters_json, "\"filter\":\"blackman-harris\"") &&
+                     strstr(job.parameters_json, "\"max_bounces\":3") &&
                      strstr(job.parameters_json, "\"lpv\":{\"cascades\":3,\"size\":16,"
                                                  "\"iterations\":[6,6,12],\"cell\":0.125}"),
                  "parameters %s", job.parameters_json ? job.parameters_json : "(none)");
@@ -145,6 +147,11 @@ PF_TEST(bad_input_exits_2_and_inserts_nothing)
     CASE("--lpv-cascades", "enqueue '%s' --frames 1 --out '%s/f.exr' --lpv-cascades 99", scene,
          out_dir);
     CASE("--lpv-cell", "enqueue '%s' --frames 1 --out '%s/f.exr' --lpv-cell 0", scene, out_dir);
+    CASE("--filter", "enqueue '%s' --frames 1 --out '%s/f.exr' --filter mitchell", scene, out_dir);
+    CASE("--max-bounces", "enqueue '%s' --frames 1 --out '%s/f.exr' --max-bounces -1", scene,
+         out_dir);
+    CASE("--max-bounces", "enqueue '%s' --frames 1 --out '%s/f.exr' --max-bounces 1025", scene,
+         out_dir);
 #undef CASE
     for (int i = 0; i < count; i++) {
         wt_format(args, sizeof args, "%s --db '%s'", cases[i].arguments, db);
