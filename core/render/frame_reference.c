@@ -195,6 +195,34 @@ static pf_status shade(pf_renderer *renderer, const pf_scene_frame *frame,
     return status;
 }
 
+/*
+ * The `caustics` row says whether this image holds the scene's caustics
+ * (issue 16): a path tracer finds caustics of emitting surfaces (a BSDF
+ * sample from a diffuse point through mirrors and glass that hits one, the
+ * caustic layer), but never those of punctual lights (points, spots, the
+ * sun): a delta light behind a delta interface has no path it can sample.
+ * Then the reference is no ground truth for the scene's caustics and the
+ * row says to render them with final (its caustic map). Run (0 ms) when
+ * the caustics are there.
+ */
+static void report_caustics(pf_frame_report *report, const pf_scene_frame *frame)
+{
+    uint32_t punctual = 0;
+    for (uint32_t i = 0; i < frame->light_count; i++)
+        punctual += frame->lights[i].kind == PF_LIGHT_POINT ||
+                    frame->lights[i].kind == PF_LIGHT_SPOT ||
+                    frame->lights[i].kind == PF_LIGHT_DIRECTIONAL;
+    int specular = pf_scene_frame_has_specular(frame);
+    pf_stage_timing *row = pf_frame_report_row(
+        report, "caustics",
+        !specular     ? "no specular or refractive material → no caustics"
+        : punctual > 0 ? "punctual lights meet mirrors or glass: a path tracer cannot find their "
+                         "caustics, this image lacks them (final renders them)"
+                       : NULL,
+        0.0, -1.0);
+    pf_stage_add_counter(row, "punctual_lights", punctual);
+}
+
 pf_status pf_render_frame_reference(pf_renderer *renderer, const pf_scene_frame *frame,
                                     const pf_render_settings *settings, pf_image *image,
                                     pf_frame_report *report, pf_error *err)
@@ -240,6 +268,7 @@ pf_status pf_render_frame_reference(pf_renderer *renderer, const pf_scene_frame 
             pf_stage_add_counter(row, "discarded_samples", (double)progress.discarded);
             pf_stage_add_counter(row, "triangles", frame->triangle_count);
         }
+        report_caustics(report, frame);
     }
     return PF_OK;
 }
