@@ -47,6 +47,8 @@ static void usage(FILE *out)
             "  --photons N            fast: photons per frame; final: per pass\n"
             "  --filter F             pixel filter: gaussian (default), box, blackman-harris\n"
             "  --max-bounces N        reference, final: at most N bounces (0: direct only)\n"
+            "  --budget-ms MS         auto: milliseconds per frame to aim at (pilot-calibrated)\n"
+            "  --target-relmse X      auto: relMSE to aim at (pilot-calibrated)\n"
             "  --lpv-cascades N, --lpv-size N, --lpv-iterations N[,N...], --lpv-cell M\n"
             "                         fast: the light propagation volumes (see render --help)\n"
             "  --time-budget SECONDS  stop refining each frame after this long (progressive\n"

@@ -49,9 +49,9 @@ int pf_cli_lpv_option(const char *command, const char *arg, const char *value,
 /* 0 when the LPV settings fit buffers of max_buffer_bytes, else 2 after naming the option. */
 int pf_cli_lpv_check(const char *command, const pf_lpv_settings *lpv, uint64_t max_buffer_bytes);
 /*
- * --filter and --max-bounces of render and enqueue (cli_sampling.c): -1 when
- * arg is neither, 0 when stored into *settings, 2 after printing why the
- * value is bad.
+ * --filter, --max-bounces, --budget-ms and --target-relmse of render and
+ * enqueue (cli_sampling.c): -1 when arg is none of them, 0 when stored into
+ * *settings, 2 after printing why the value is bad.
  */
 int pf_cli_sampling_option(const char *command, const char *arg, const char *value,
                            pf_render_settings *settings);

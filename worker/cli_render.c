@@ -42,7 +42,7 @@ static void usage(FILE *out)
             "  --quality Q        preview (direct light) | fast (direct light + LPV\n"
             "                     indirect + caustic map) | final (photon maps + final\n"
             "                     gather) | reference (unbiased path tracer) | auto\n"
-            "                     (default auto = preview)\n"
+            "                     (default auto: the planner picks fast or final)\n"
             "  --spp N            samples per pixel; for final, photon passes (default:\n"
             "                     the preset's: preview 1, fast 2, final 4, reference 64)\n"
             "  --photons N        fast: photons per frame (default 32768); final: per\n"
@@ -63,6 +63,10 @@ static void usage(FILE *out)
             "                     1.5 px), box (1 px), blackman-harris (1.5 px, Cycles')\n"
             "  --max-bounces N    reference, final: light of at most N bounces after the\n"
             "                     first surface (0 = direct light only; default: no limit)\n"
+            "  --budget-ms MS     auto: aim at MS milliseconds per frame (final with the\n"
+            "                     passes that fit, else fast; a pilot render calibrates)\n"
+            "  --target-relmse X  auto: aim at relMSE X (fast when it reaches it, else\n"
+            "                     final with the passes it needs)\n"
             "  --no-aovs          beauty RGBA only (default adds the direct/indirect/caustic\n                     split and albedo, normal, depth as named layers)\n"
             "  --device D         device index or name substring (see photonfarm devices)\n"
             "  --help             this text\n"
@@ -287,6 +291,8 @@ static void print_stage_rows(const pf_frame_report *report)
             printf("  %-14s %9.2f ms", row->stage, row->wall_ms);
         for (uint32_t c = 0; !row->skipped && c < row->counter_count; c++)
             printf("%s%s=%.6g", c ? " " : "  ", row->counters[c].name, row->counters[c].value);
+        if (!row->skipped && row->reason[0])
+            printf("\n  %-14s %s", "", row->reason); /* a decision (the planner's) */
         if (!row->skipped)
             printf("\n");
     }
@@ -318,7 +324,9 @@ static int render_one(const render_options *options, render_session *session, in
                                    options->spp, options->seed, options->aovs,
                                    options->time_budget_ms, options->photons, options->lpv,
                                    options->sampling.pixel_filter,
-                                   options->sampling.bounce_limit};
+                                   options->sampling.bounce_limit,
+                                   options->sampling.budget_ms,
+                                   options->sampling.target_relmse};
     pf_frame_request request = {session->scene,
                                 options->scene_path,
                                 frame_number,

@@ -86,6 +86,7 @@ static void resolve_size(const pf_render_settings *asked, const pf_scene_frame *
 }
 
 static void fill_attributes(const pf_frame_request *request, const pf_render_settings *settings,
+                            pf_quality preset,
                             double render_ms, pf_image_attribute attributes[ATTRIBUTE_COUNT])
 {
     static const char *const keys[ATTRIBUTE_COUNT] = {
@@ -99,7 +100,7 @@ static void fill_attributes(const pf_frame_request *request, const pf_render_set
     snprintf(attributes[1].value, sizeof attributes[1].value, "%" PRId64, request->frame);
     /* The preset that rendered (auto resolved); the settings as the job's JSON codec writes them. */
     snprintf(attributes[2].value, sizeof attributes[2].value, "%s",
-             pf_quality_name(pf_quality_resolve(settings->quality)));
+             pf_quality_name(preset));
     if (!pf_job_params_format(settings, NULL, attributes[3].value, sizeof attributes[3].value))
         snprintf(attributes[3].value, sizeof attributes[3].value, "quality=%s",
                  pf_quality_name(settings->quality));
@@ -168,7 +169,7 @@ pf_status pf_frame_render(pf_renderer *renderer, const pf_frame_request *request
 
     double write_start = pf_time_ms();
     pf_image_attribute attributes[ATTRIBUTE_COUNT];
-    fill_attributes(request, &settings, write_start - start, attributes);
+    fill_attributes(request, &settings, out->report.quality, write_start - start, attributes);
     if (snprintf(out->temp_path, sizeof out->temp_path, "%s" PARTIAL_INFIX "%s",
                  request->output_path, request->temp_tag ? request->temp_tag : "0") >=
         (int)sizeof out->temp_path) {

@@ -126,6 +126,10 @@ int pf_job_params_format(const pf_render_settings *settings, const char *name, c
         cJSON_AddStringToObject(root, "filter", pf_pixel_filter_name(settings->pixel_filter));
     if (settings->bounce_limit)
         cJSON_AddNumberToObject(root, "max_bounces", settings->bounce_limit - 1);
+    if (settings->budget_ms > 0.0)
+        cJSON_AddNumberToObject(root, "budget_ms", settings->budget_ms);
+    if (settings->target_relmse > 0.0)
+        cJSON_AddNumberToObject(root, "target_relmse", settings->target_relmse);
     add_lpv(root, &settings->lpv);
     char *text = cJSON_PrintUnformatted(root);
     cJSON_Delete(root);
@@ -186,6 +190,26 @@ pf_status pf_job_params_parse(const char *json, pf_render_settings *settings, pf
             status = pf_error_set(err, PF_ERR_FORMAT, "job parameters: \"aovs\" must be true or false");
         else
             parsed.aovs = cJSON_IsTrue(aovs);
+    }
+    const cJSON *plan_budget = cJSON_GetObjectItemCaseSensitive(root, "budget_ms");
+    if (status == PF_OK && plan_budget) {
+        if (!cJSON_IsNumber(plan_budget) || !(plan_budget->valuedouble > 0.0) ||
+            plan_budget->valuedouble > MAX_TIME_BUDGET_MS)
+            status = pf_error_set(err, PF_ERR_FORMAT,
+                                  "job parameters: \"budget_ms\" must be a number more than 0 "
+                                  "and at most %.0f",
+                                  MAX_TIME_BUDGET_MS);
+        else
+            parsed.budget_ms = plan_budget->valuedouble;
+    }
+    const cJSON *target = cJSON_GetObjectItemCaseSensitive(root, "target_relmse");
+    if (status == PF_OK && target) {
+        if (!cJSON_IsNumber(target) || !(target->valuedouble > 0.0) || target->valuedouble > 100.0)
+            status = pf_error_set(err, PF_ERR_FORMAT,
+                                  "job parameters: \"target_relmse\" must be a number more "
+                                  "than 0 and at most 100");
+        else
+            parsed.target_relmse = target->valuedouble;
     }
     const cJSON *budget = cJSON_GetObjectItemCaseSensitive(root, "time_budget_ms");
     if (status == PF_OK && budget) {

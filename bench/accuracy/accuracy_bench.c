@@ -18,7 +18,7 @@
  * over the converged image's brightest (fireflies). The same program built
  * at an earlier commit measures "before" (bench/RESULTS.md).
  *
- * Usage: accuracy_bench [WIDTH HEIGHT] (default 64 48). Run with
+ * Usage: accuracy_bench [WIDTH HEIGHT] (default 48 36). Run with
  * LP_NUM_THREADS=2 on lavapipe.
  */
 #include "../../tests/accuracy/hard_cases.h"
@@ -32,7 +32,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#define CONVERGED_SPP 4096u
+#define CONVERGED_SPP 1024u
 #define CONVERGED_PASSES 256u
 #define CONVERGED_PHOTONS 200000u
 
@@ -139,8 +139,8 @@ static int measure(pf_renderer *renderer, const ref_scene *scene, const pf_rende
 
 int main(int argc, char **argv)
 {
-    uint32_t width = argc > 2 ? (uint32_t)atoi(argv[1]) : 64u;
-    uint32_t height = argc > 2 ? (uint32_t)atoi(argv[2]) : 48u;
+    uint32_t width = argc > 2 ? (uint32_t)atoi(argv[1]) : 48u;
+    uint32_t height = argc > 2 ? (uint32_t)atoi(argv[2]) : 36u;
     if (width == 0 || height == 0 || width > 4096 || height > 4096) {
         fprintf(stderr, "usage: accuracy_bench [WIDTH HEIGHT]\n");
         return 2;

@@ -29,8 +29,6 @@ typedef enum pf_quality {
 /* Parses "preview", "fast", "final", "reference", "auto"; -1 if unknown. */
 int pf_quality_parse(const char *name);
 const char *pf_quality_name(pf_quality quality);
-/* The preset that renders a request for quality: auto is preview for now (the planner is to come). */
-pf_quality pf_quality_resolve(pf_quality quality);
 
 /*
  * The pixel filter every preset samples camera rays through (filter
@@ -85,6 +83,13 @@ typedef struct pf_render_settings {
      * (the specular vertices of camera and gather rays are not counted).
      */
     uint32_t bounce_limit;
+    /*
+     * auto: what to plan for (the planner, core/render/plan.c). budget_ms:
+     * wall time per frame to aim at; target_relmse: the error to reach. Both
+     * 0 = fast. A pilot render on the first frame calibrates either.
+     */
+    double budget_ms;
+    double target_relmse;
 } pf_render_settings;
 
 /* bounce_limit for "--max-bounces bounces" (bounces ≤ PF_MAX_BOUNCES_LIMIT). */
@@ -111,6 +116,7 @@ typedef struct pf_stage_timing {
 } pf_stage_timing;
 
 typedef struct pf_frame_report {
+    pf_quality quality;             /* the preset that rendered (auto: the planner's choice) */
     uint32_t stage_count;
     pf_stage_timing stages[PF_FRAME_STAGES_MAX];
     uint64_t discarded_samples;     /* NaN/Inf samples kept off the film */
@@ -132,7 +138,17 @@ void pf_renderer_destroy(pf_renderer *renderer);
  * when the film or an LPV volume would not fit a device
  * buffer or a ray overflowed the BIH traversal stack.
  *
- * preview / auto: direct light with hard shadows through specular chains;
+ * auto: the planner (core/render/plan.c) picks the preset and its samples
+ *   and records why in a first row `plan` (run, its reason the decision):
+ *   preview without lights; fast without budget_ms or target_relmse (the
+ *   farm default); with either, a pilot render on the first frame of a
+ *   scene and request (a quarter of the size each way) predicts fast's time
+ *   and final's time per pass, or their errors against a higher-sample
+ *   estimate, and final gets the passes that fit (at least 4), else fast,
+ *   else preview. The decision is kept for the frames after it.
+ *   report->quality says which preset rendered.
+ *
+ * preview: direct light with hard shadows through specular chains;
  *   channels R,G,B,A and, with settings->aovs, albedo.R/G/B, normal.X/Y/Z,
  *   depth.Z. samples_per_pixel 0 = 1 (pixel centres).
  *

@@ -47,7 +47,4 @@ const char *pf_pixel_filter_name(pf_pixel_filter filter)
     return "unknown";
 }
 
-pf_quality pf_quality_resolve(pf_quality quality)
-{
-    return quality == PF_QUALITY_AUTO ? PF_QUALITY_PREVIEW : quality;
-}
+

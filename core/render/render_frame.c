@@ -85,9 +85,24 @@ pf_status pf_render_frame(pf_renderer *renderer, const pf_scene_frame *frame,
         return pf_error_set(err, PF_ERR_INVALID,
                             "time budget %g ms: expected 0 (none) or a positive number",
                             settings->time_budget_ms);
+    if (!(settings->budget_ms >= 0.0) || !(settings->target_relmse >= 0.0))
+        return pf_error_set(err, PF_ERR_INVALID,
+                            "auto's budget %g ms / target relMSE %g: expected 0 (none) or a "
+                            "positive number",
+                            settings->budget_ms, settings->target_relmse);
+    if (settings->quality == PF_QUALITY_AUTO) {
+        pf_render_settings chosen;
+        pf_frame_report own = {0};
+        pf_status status =
+            pf_plan_frame(renderer, frame, settings, &chosen, report ? report : &own, err);
+        if (status != PF_OK)
+            return status;
+        return pf_render_frame(renderer, frame, &chosen, image, report, err);
+    }
+    if (report)
+        report->quality = settings->quality;
     switch (settings->quality) {
     case PF_QUALITY_PREVIEW:
-    case PF_QUALITY_AUTO:
         return pf_render_frame_preview(renderer, frame, settings, image, report, err);
     case PF_QUALITY_REFERENCE:
         return pf_render_frame_reference(renderer, frame, settings, image, report, err);

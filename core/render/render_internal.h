@@ -9,8 +9,22 @@
 #include "pf_photon.h"
 #include "pf_render.h"
 
+/* auto's decision for one scene and request (plan.c), kept for the frames after it. */
+struct pf_plan_cache {
+    int valid; /* calibrated by a pilot for the request below */
+    uint32_t triangle_count, light_count, material_count, width, height;
+    double budget_ms, target_relmse;
+    pf_quality quality;
+    uint32_t passes;               /* final: passes chosen */
+    double fast_ms, pass_ms;       /* predicted at the full size */
+    double fast_relmse, pass_relmse;
+    double predicted_ms;
+    char reason[PF_STAGE_REASON_MAX];
+};
+
 struct pf_renderer {
     pf_vk_context *ctx;
+    struct pf_plan_cache plan;
     /*
      * The current frame's BIH: the CPU tree (kept for reuse and refit across
      * frames), its GPU copy that the shading kernels traverse, and the GPU
@@ -196,6 +210,15 @@ pf_status pf_render_frame_reference(pf_renderer *renderer, const pf_scene_frame 
  * same contract as pf_render_frame. pf_final_cache_destroy releases the
  * photon passes it keeps in the renderer (NULL is fine).
  */
+/*
+ * auto (plan.c): the preset and samples that render this frame, chosen into
+ * *chosen (a copy of settings with quality and samples_per_pixel set); adds
+ * the `plan` row (run, its reason the decision). May render pilots first.
+ */
+pf_status pf_plan_frame(pf_renderer *renderer, const pf_scene_frame *frame,
+                        const pf_render_settings *settings, pf_render_settings *chosen,
+                        pf_frame_report *report, pf_error *err);
+
 pf_status pf_render_frame_final(pf_renderer *renderer, const pf_scene_frame *frame,
                                 const pf_render_settings *settings, pf_image *image,
                                 pf_frame_report *report, pf_error *err);

@@ -49,7 +49,8 @@ PF_TEST(renders_a_frame_range_to_numbered_exr_files)
 {
     char scene[1024], args[4096], path[2048];
     pf_test_shared_scene("cornell-anim", scene, sizeof scene);
-    snprintf(args, sizeof args, "render '%s' --frames 1-2 --size 16x12 -o '%s/f.####.exr'", scene,
+    snprintf(args, sizeof args,
+             "render '%s' --frames 1-2 --size 16x12 --quality preview -o '%s/f.####.exr'", scene,
              tmpdir);
     PF_REQUIRE(run_photonfarm(args) == 0);
     PF_CHECK(log_contains("f.0002.exr"));
@@ -160,6 +161,23 @@ PF_TEST(bad_frames_scenes_and_options_exit_2)
     }
     PF_CHECK(preset_fast);
     PF_CHECK(lpv_recorded);
+    free(fast_attributes);
+    pf_image_free(&fast_image);
+    /* No --quality: auto, whose planner picks fast (no budget) and says so; the EXR names fast. */
+    snprintf(args, sizeof args, "render '%s' --frame 1 --size 8x6 --timings -o '%s/auto.exr'",
+             scene, tmpdir);
+    PF_CHECK(run_photonfarm(args) == 0);
+    PF_CHECK(log_contains("auto → fast: no --budget-ms"));
+    snprintf(fast_path, sizeof fast_path, "%s/auto.exr", tmpdir);
+    PF_CHECK_OK(pf_exr_read(fast_path, &fast_image, &fast_attributes, &fast_attribute_count,
+                            &fast_err),
+                &fast_err);
+    preset_fast = 0;
+    for (uint32_t i = 0; i < fast_attribute_count; i++) {
+        if (!strcmp(fast_attributes[i].key, "photonfarm/preset"))
+            preset_fast = !strcmp(fast_attributes[i].value, "fast");
+    }
+    PF_CHECK_MSG(preset_fast, "auto's EXR does not name fast as its preset");
     free(fast_attributes);
     pf_image_free(&fast_image);
     const char *bad_usage[] = {"--frame 1 --frames 1-2", "--frames 5-1", "--frames 1-4x0",

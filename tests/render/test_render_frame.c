@@ -38,7 +38,7 @@ static pf_status render_scene(const char *name, int64_t frame_number, const pf_r
 
 static void check_scene(const char *name)
 {
-    pf_render_settings settings = {TEST_WIDTH, TEST_HEIGHT, PF_QUALITY_AUTO, 1, 1, 1};
+    pf_render_settings settings = {TEST_WIDTH, TEST_HEIGHT, PF_QUALITY_PREVIEW, 1, 1, 1};
     pf_image image = {0};
     pf_frame_report report = {0};
     pf_error err = {0};

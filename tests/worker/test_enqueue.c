@@ -62,7 +62,8 @@ PF_TEST(enqueue_inserts_a_validated_job_and_prints_its_id)
     wt_format(args, sizeof args,
              "enqueue '%s' --frames 1 --out '%s/fast.exr' --size 16x12 --quality fast "
              "--lpv-cascades 3 --lpv-size 16 --lpv-iterations 6,6,12 --lpv-cell 0.125 "
-             "--photons 5000 --filter blackman-harris --max-bounces 3 --db '%s'",
+             "--photons 5000 --filter blackman-harris --max-bounces 3 --budget-ms 2500 "
+             "--target-relmse 0.02 --db '%s'",
              scene, out_dir, db);
     PF_REQUIRE(wt_run(args, log_path) == 0);
     printed = wt_read_file(log_path, NULL);
@@ -77,6 +78,8 @@ PF_TEST(enqueue_inserts_a_validated_job_and_prints_its_id)
                      strstr(job.parameters_json, "\"photons\":5000") &&
                      strstr(job.parameters_json, "\"filter\":\"blackman-harris\"") &&
                      strstr(job.parameters_json, "\"max_bounces\":3") &&
+                     strstr(job.parameters_json, "\"budget_ms\":2500") &&
+                     strstr(job.parameters_json, "\"target_relmse\":0.02") &&
                      strstr(job.parameters_json, "\"lpv\":{\"cascades\":3,\"size\":16,"
                                                  "\"iterations\":[6,6,12],\"cell\":0.125}"),
                  "parameters %s", job.parameters_json ? job.parameters_json : "(none)");
@@ -111,7 +114,7 @@ PF_TEST(bad_input_exits_2_and_inserts_nothing)
     struct {
         char arguments[4 * WT_PATH_MAX];
         const char *message;
-    } cases[24];
+    } cases[32];
     int count = 0;
 #define CASE(msg, ...)                                                                    \
     do {                                                                                  \
@@ -152,6 +155,11 @@ PF_TEST(bad_input_exits_2_and_inserts_nothing)
          out_dir);
     CASE("--max-bounces", "enqueue '%s' --frames 1 --out '%s/f.exr' --max-bounces 1025", scene,
          out_dir);
+    CASE("--budget-ms", "enqueue '%s' --frames 1 --out '%s/f.exr' --budget-ms 0", scene, out_dir);
+    CASE("--budget-ms", "enqueue '%s' --frames 1 --out '%s/f.exr' --budget-ms 5ms", scene,
+         out_dir);
+    CASE("--target-relmse", "enqueue '%s' --frames 1 --out '%s/f.exr' --target-relmse -0.1",
+         scene, out_dir);
 #undef CASE
     for (int i = 0; i < count; i++) {
         wt_format(args, sizeof args, "%s --db '%s'", cases[i].arguments, db);

@@ -1,0 +1,262 @@
+/*
+ * The planner of `auto` (pf_render.h): which preset renders a frame and with
+ * how many samples, decided from the scene and the request, recorded with
+ * its reason in the frame's `plan` row.
+ *
+ *   no lights or emissive surfaces     → preview (every preset is black)
+ *   neither budget_ms nor target_relmse → fast: global illumination at the
+ *                                        LPV's cost, the farm's default
+ *   budget_ms                          → a pilot (below) predicts each
+ *       preset's time at the full size; final when at least
+ *       PLAN_MIN_FINAL_PASSES passes fit, with as many passes as fit
+ *       (≤ PLAN_MAX_PASSES); else fast when it fits; else preview
+ *   target_relmse                      → the pilot also renders a
+ *       higher-sample estimate (final, PLAN_ESTIMATE_PASSES passes) and
+ *       measures fast's and one final pass's relMSE against it: fast when
+ *       it meets the target, else final with the passes its error needs
+ *       under relMSE ∝ passes^(−2/3) (progressive photon mapping at α = 2/3)
+ *
+ * The pilot renders at a quarter of the size each way (at least
+ * PLAN_PILOT_MIN_EDGE), after a tiny warm-up render of each preset so that
+ * no pipeline compilation is timed. Its prediction comes from the pilot's
+ * own stage rows: the shade row scales with the pixel count, the photon,
+ * grid and LPV rows do not; final's rows are per pass. The decision is
+ * kept on the renderer (the job's first frame calibrates; later frames of
+ * the same scene and request reuse it), so the frames of a job render
+ * with one preset and do not flicker between presets.
+ */
+#include "render_internal.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define PLAN_MIN_FINAL_PASSES 4u
+#define PLAN_MAX_PASSES 256u
+#define PLAN_ESTIMATE_PASSES 16u
+#define PLAN_PILOT_DIVISOR 4u
+#define PLAN_PILOT_MIN_EDGE 16u
+#define PLAN_WARMUP_EDGE 8u
+
+/* What a pilot render of one preset cost: scalable (shade) and fixed parts, ms. */
+typedef struct pilot_cost {
+    double scaled_ms, fixed_ms;
+} pilot_cost;
+
+static pilot_cost cost_of(const pf_frame_report *report)
+{
+    pilot_cost cost = {0.0, 0.0};
+    for (uint32_t i = 0; i < report->stage_count; i++) {
+        const pf_stage_timing *row = &report->stages[i];
+        if (row->skipped || !strcmp(row->stage, "bih_build"))
+            continue; /* the BIH is built once per frame whatever the preset */
+        if (!strcmp(row->stage, "shade"))
+            cost.scaled_ms += row->wall_ms;
+        else
+            cost.fixed_ms += row->wall_ms;
+    }
+    return cost;
+}
+
+static double predict(pilot_cost cost, double scale, double repeats)
+{
+    return repeats * (cost.fixed_ms + cost.scaled_ms * scale);
+}
+
+static int same_request(const struct pf_plan_cache *cache, const pf_scene_frame *frame,
+                        const pf_render_settings *settings)
+{
+    return cache->valid && cache->triangle_count == frame->triangle_count &&
+           cache->light_count == frame->light_count &&
+           cache->material_count == frame->material_count &&
+           cache->width == settings->width && cache->height == settings->height &&
+           cache->budget_ms == settings->budget_ms &&
+           cache->target_relmse == settings->target_relmse;
+}
+
+/* Renders the pilot of quality at the pilot size; its report in *report, image kept in *image. */
+static pf_status pilot_render(pf_renderer *renderer, const pf_scene_frame *frame,
+                              const pf_render_settings *base, pf_quality quality,
+                              uint32_t samples, pf_image *image, pf_frame_report *report,
+                              pf_error *err)
+{
+    pf_render_settings s = *base;
+    s.quality = quality;
+    s.samples_per_pixel = samples;
+    s.aovs = 0;
+    s.time_budget_ms = 0.0;
+    memset(report, 0, sizeof *report);
+    return pf_render_frame(renderer, frame, &s, image, report, err);
+}
+
+static double relmse_rgb(const pf_image *a, const pf_image *b)
+{
+    double sum = 0.0;
+    size_t pixels = (size_t)a->width * a->height;
+    for (size_t p = 0; p < pixels; p++) {
+        for (uint32_t c = 0; c < 3; c++) {
+            double x = a->pixels[p * a->channel_count + c];
+            double r = b->pixels[p * b->channel_count + c];
+            sum += (x - r) * (x - r) / (r * r + PF_RELMSE_EPSILON);
+        }
+    }
+    return sum / (3.0 * (double)pixels);
+}
+
+/* The pilot and the decision for a budget or an error target. */
+static pf_status calibrate(pf_renderer *renderer, const pf_scene_frame *frame,
+                           const pf_render_settings *settings, struct pf_plan_cache *plan,
+                           pf_error *err)
+{
+    pf_render_settings base = *settings;
+    base.width = base.width / PLAN_PILOT_DIVISOR > PLAN_PILOT_MIN_EDGE
+                     ? base.width / PLAN_PILOT_DIVISOR
+                     : (base.width < PLAN_PILOT_MIN_EDGE ? base.width : PLAN_PILOT_MIN_EDGE);
+    base.height = base.height / PLAN_PILOT_DIVISOR > PLAN_PILOT_MIN_EDGE
+                      ? base.height / PLAN_PILOT_DIVISOR
+                      : (base.height < PLAN_PILOT_MIN_EDGE ? base.height : PLAN_PILOT_MIN_EDGE);
+    double scale = ((double)settings->width * settings->height) / ((double)base.width * base.height);
+    pf_frame_report report;
+    pf_image image = {0};
+    /* Warm-up: pipelines compile on their first dispatch on some drivers (lavapipe). */
+    pf_render_settings warm = base;
+    warm.width = warm.height = PLAN_WARMUP_EDGE;
+    pf_status status = pilot_render(renderer, frame, &warm, PF_QUALITY_FAST, 1, &image, &report, err);
+    pf_image_free(&image);
+    if (status == PF_OK)
+        status = pilot_render(renderer, frame, &warm, PF_QUALITY_FINAL, 1, &image, &report, err);
+    pf_image_free(&image);
+    pf_image fast_image = {0}, final_image = {0}, estimate = {0};
+    pilot_cost fast = {0, 0}, final_pass = {0, 0};
+    if (status == PF_OK)
+        status = pilot_render(renderer, frame, &base, PF_QUALITY_FAST, 0, &fast_image, &report, err);
+    if (status == PF_OK) {
+        fast = cost_of(&report);
+        status = pilot_render(renderer, frame, &base, PF_QUALITY_FINAL, 1, &final_image, &report,
+                              err);
+    }
+    if (status == PF_OK)
+        final_pass = cost_of(&report);
+    double fast_ms = predict(fast, scale, 1.0), pass_ms = predict(final_pass, scale, 1.0);
+    plan->fast_ms = fast_ms;
+    plan->pass_ms = pass_ms;
+    if (status == PF_OK && settings->target_relmse > 0.0) {
+        status = pilot_render(renderer, frame, &base, PF_QUALITY_FINAL, PLAN_ESTIMATE_PASSES,
+                              &estimate, &report, err);
+        if (status == PF_OK) {
+            plan->fast_relmse = relmse_rgb(&fast_image, &estimate);
+            plan->pass_relmse = relmse_rgb(&final_image, &estimate);
+            if (plan->fast_relmse <= settings->target_relmse) {
+                plan->quality = PF_QUALITY_FAST;
+                plan->passes = 0;
+                plan->predicted_ms = fast_ms;
+                snprintf(plan->reason, sizeof plan->reason,
+                         "auto → fast: its pilot relMSE %.4g meets the target %.4g",
+                         plan->fast_relmse, settings->target_relmse);
+            } else {
+                double passes = pow(plan->pass_relmse / settings->target_relmse, 1.5);
+                plan->quality = PF_QUALITY_FINAL;
+                plan->passes = passes >= PLAN_MAX_PASSES ? PLAN_MAX_PASSES
+                               : passes < 1.0            ? 1u
+                                                         : (uint32_t)ceil(passes);
+                plan->predicted_ms = pass_ms * plan->passes;
+                snprintf(plan->reason, sizeof plan->reason,
+                         "auto → final, %u passes: fast's pilot relMSE %.4g misses the target "
+                         "%.4g, one pass's %.4g falls as passes^-2/3",
+                         plan->passes, plan->fast_relmse, settings->target_relmse,
+                         plan->pass_relmse);
+            }
+        }
+    } else if (status == PF_OK) {
+        double fit = settings->budget_ms / (pass_ms > 0.0 ? pass_ms : 1e-3);
+        if (fit >= PLAN_MIN_FINAL_PASSES) {
+            plan->quality = PF_QUALITY_FINAL;
+            plan->passes = fit >= PLAN_MAX_PASSES ? PLAN_MAX_PASSES : (uint32_t)floor(fit);
+            plan->predicted_ms = pass_ms * plan->passes;
+            snprintf(plan->reason, sizeof plan->reason,
+                     "auto → final, %u passes: a pass ≈ %.0f ms (pilot), budget %.0f ms",
+                     plan->passes, pass_ms, settings->budget_ms);
+        } else if (fast_ms <= settings->budget_ms) {
+            plan->quality = PF_QUALITY_FAST;
+            plan->passes = 0;
+            plan->predicted_ms = fast_ms;
+            snprintf(plan->reason, sizeof plan->reason,
+                     "auto → fast: ≈ %.0f ms (pilot); %u final passes need %.0f ms, budget %.0f ms",
+                     fast_ms, PLAN_MIN_FINAL_PASSES, PLAN_MIN_FINAL_PASSES * pass_ms,
+                     settings->budget_ms);
+        } else {
+            plan->quality = PF_QUALITY_PREVIEW;
+            plan->passes = 0;
+            plan->predicted_ms = 0.0;
+            snprintf(plan->reason, sizeof plan->reason,
+                     "auto → preview: fast needs ≈ %.0f ms (pilot), budget %.0f ms", fast_ms,
+                     settings->budget_ms);
+        }
+    }
+    pf_image_free(&fast_image);
+    pf_image_free(&final_image);
+    pf_image_free(&estimate);
+    return status;
+}
+
+pf_status pf_plan_frame(pf_renderer *renderer, const pf_scene_frame *frame,
+                        const pf_render_settings *settings, pf_render_settings *chosen,
+                        pf_frame_report *report, pf_error *err)
+{
+    *chosen = *settings;
+    double start = pf_time_ms();
+    struct pf_plan_cache *plan = &renderer->plan;
+    int has_emitters = frame->light_count > 0 || frame->emissive_triangle_count > 0;
+    int calibrated = 0;
+    if (!has_emitters) {
+        memset(plan, 0, sizeof *plan);
+        plan->quality = PF_QUALITY_PREVIEW;
+        snprintf(plan->reason, sizeof plan->reason,
+                 "auto → preview: no lights or emissive surfaces (every preset is black)");
+    } else if (!(settings->budget_ms > 0.0) && !(settings->target_relmse > 0.0)) {
+        memset(plan, 0, sizeof *plan);
+        plan->quality = PF_QUALITY_FAST;
+        snprintf(plan->reason, sizeof plan->reason,
+                 "auto → fast: no --budget-ms or --target-relmse (global illumination by LPV, "
+                 "the farm default)");
+    } else if (!same_request(plan, frame, settings)) {
+        memset(plan, 0, sizeof *plan);
+        pf_status status = calibrate(renderer, frame, settings, plan, err);
+        if (status != PF_OK) {
+            memset(plan, 0, sizeof *plan);
+            return pf_error_prefix(err, "auto's pilot render"), status;
+        }
+        plan->valid = 1;
+        plan->triangle_count = frame->triangle_count;
+        plan->light_count = frame->light_count;
+        plan->material_count = frame->material_count;
+        plan->width = settings->width;
+        plan->height = settings->height;
+        plan->budget_ms = settings->budget_ms;
+        plan->target_relmse = settings->target_relmse;
+        calibrated = 1;
+    }
+    chosen->quality = plan->quality;
+    chosen->samples_per_pixel = plan->quality == PF_QUALITY_FINAL ? plan->passes
+                                : plan->quality == PF_QUALITY_FAST ? settings->samples_per_pixel
+                                                                   : 0;
+    pf_stage_timing *row = pf_frame_report_add(report, "plan");
+    if (row) {
+        row->wall_ms = pf_time_ms() - start;
+        snprintf(row->reason, sizeof row->reason, "%s", plan->reason);
+        pf_stage_add_counter(row, "calibrated", calibrated);
+        if (plan->valid) {
+            pf_stage_add_counter(row, "budget_ms", settings->budget_ms);
+            pf_stage_add_counter(row, "predicted_ms", plan->predicted_ms);
+            pf_stage_add_counter(row, "fast_ms", plan->fast_ms);
+            pf_stage_add_counter(row, "final_pass_ms", plan->pass_ms);
+            pf_stage_add_counter(row, "passes", plan->passes);
+            if (settings->target_relmse > 0.0) {
+                pf_stage_add_counter(row, "fast_relmse", plan->fast_relmse);
+                pf_stage_add_counter(row, "final_pass_relmse", plan->pass_relmse);
+            }
+        }
+    }
+    return PF_OK;
+}

@@ -1,0 +1,188 @@
+/*
+ * The planner of `auto` (core/render/plan.c, issue 12's first step): the
+ * preset it picks and the reason it records, asserted on the `plan` row's
+ * counters and the report's preset, never on wall time.
+ *   - no lights → preview;
+ *   - no budget or target → fast, no pilot;
+ *   - a budget on the Cornell box → final whose predicted time (pilot rows ×
+ *     passes) is within the budget and above half of it, the shade row's
+ *     passes equal to the plan's; the next frame reuses the decision
+ *     (no second pilot, same preset and passes);
+ *   - a budget below fast's predicted time → preview;
+ *   - a loose error target → fast; a tighter one than fast's pilot error →
+ *     final with ⌈(one pass's relMSE / target)^1.5⌉ passes;
+ *   - negative budget or target → PF_ERR_INVALID.
+ * Validation must stay silent.
+ */
+#include "pf_render.h"
+#include "pf_test.h"
+#include "reference_test_util.h"
+#include "render_test_env.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+static pf_vk_context *ctx;
+static pf_renderer *renderer;
+static pf_scene *cornell_scene;
+static pf_scene_frame cornell;
+
+#define WIDTH 48u
+#define HEIGHT 36u
+
+static pf_status render_auto(const pf_scene_frame *frame, double budget_ms, double target,
+                             pf_frame_report *report, pf_error *err)
+{
+    pf_render_settings settings = ref_settings(WIDTH, HEIGHT, 0, 3, 0);
+    settings.quality = PF_QUALITY_AUTO;
+    settings.budget_ms = budget_ms;
+    settings.target_relmse = target;
+    settings.photons_per_pass = 10000; /* cheap final passes: the test's time */
+    pf_image image = {0};
+    memset(report, 0, sizeof *report);
+    pf_status status = pf_render_frame(renderer, frame, &settings, &image, report, err);
+    pf_image_free(&image);
+    return status;
+}
+
+static const pf_stage_timing *plan_row(const pf_frame_report *report)
+{
+    return report->stage_count > 0 && !strcmp(report->stages[0].stage, "plan")
+               ? &report->stages[0]
+               : NULL;
+}
+
+PF_TEST(no_lights_plan_preview)
+{
+    ref_scene scene;
+    ref_scene_init(&scene);
+    uint32_t grey = ref_scene_add_material(&scene, ref_material(PF_MATERIAL_LAMBERT, 0.5f, 0.5f, 0.5f));
+    const float c[3] = {0, 0, -2}, u[3] = {1, 0, 0}, v[3] = {0, 1, 0};
+    ref_scene_add_quad(&scene, c, u, v, grey);
+    pf_frame_report report;
+    pf_error err = {0};
+    PF_REQUIRE_OK(render_auto(&scene.frame, 0.0, 0.0, &report, &err), &err);
+    const pf_stage_timing *row = plan_row(&report);
+    PF_CHECK(report.quality == PF_QUALITY_PREVIEW);
+    PF_CHECK_MSG(row && !row->skipped && strstr(row->reason, "auto → preview: no lights"),
+                 "plan: %s", row ? row->reason : "missing");
+    ref_scene_free(&scene);
+}
+
+PF_TEST(no_budget_plans_fast_without_a_pilot)
+{
+    pf_frame_report report;
+    pf_error err = {0};
+    PF_REQUIRE_OK(render_auto(&cornell, 0.0, 0.0, &report, &err), &err);
+    const pf_stage_timing *row = plan_row(&report);
+    PF_CHECK(report.quality == PF_QUALITY_FAST);
+    PF_CHECK_MSG(row && strstr(row->reason, "auto → fast: no --budget-ms"), "plan: %s",
+                 row ? row->reason : "missing");
+    PF_CHECK(ref_stage_counter(&report, "plan", "calibrated") == 0.0);
+    PF_CHECK(ref_row(&report, "lpv_propagate") != NULL); /* fast's rows follow */
+}
+
+PF_TEST(budget_plans_final_passes_that_fit)
+{
+    /* Cornell at 48×36, 10,000 photons: a final pass is ~50 ms on lavapipe, less on a GPU. */
+    const double budget = 1000.0;
+    pf_frame_report report;
+    pf_error err = {0};
+    PF_REQUIRE_OK(render_auto(&cornell, budget, 0.0, &report, &err), &err);
+    const pf_stage_timing *row = plan_row(&report);
+    PF_REQUIRE(row != NULL);
+    double pass_ms = ref_stage_counter(&report, "plan", "final_pass_ms");
+    double passes = ref_stage_counter(&report, "plan", "passes");
+    double predicted = ref_stage_counter(&report, "plan", "predicted_ms");
+    printf("  budget %.0f ms: %s (pass %.1f ms, predicted %.0f ms)\n", budget, row->reason,
+           pass_ms, predicted);
+    PF_CHECK(ref_stage_counter(&report, "plan", "calibrated") == 1.0);
+    PF_CHECK(pass_ms > 0.0);
+    if (passes >= 256.0) {
+        /* A device this fast hits the cap: the plan is the most passes, under the budget. */
+        PF_CHECK(report.quality == PF_QUALITY_FINAL && predicted <= budget);
+    } else if (report.quality == PF_QUALITY_FINAL) {
+        PF_CHECK_MSG(predicted <= budget && predicted > budget / 2.0,
+                     "predicted %g ms for a budget of %g ms", predicted, budget);
+        PF_CHECK(passes >= 4.0);
+    } else {
+        /* A device too slow for 4 passes in 1 s: fast, and the reason says why. */
+        PF_CHECK(report.quality == PF_QUALITY_FAST && 4.0 * pass_ms > budget);
+    }
+    if (report.quality == PF_QUALITY_FINAL)
+        PF_CHECK(ref_stage_counter(&report, "shade", "samples_per_pixel") == passes);
+    /* The next frame keeps the decision: no pilot, the same preset and passes. */
+    pf_quality first = report.quality;
+    PF_REQUIRE_OK(render_auto(&cornell, budget, 0.0, &report, &err), &err);
+    PF_CHECK(report.quality == first);
+    PF_CHECK(ref_stage_counter(&report, "plan", "calibrated") == 0.0);
+    PF_CHECK(ref_stage_counter(&report, "plan", "passes") == passes);
+}
+
+PF_TEST(budget_below_fast_plans_preview)
+{
+    const double budget = 0.001;
+    pf_frame_report report;
+    pf_error err = {0};
+    PF_REQUIRE_OK(render_auto(&cornell, budget, 0.0, &report, &err), &err);
+    const pf_stage_timing *row = plan_row(&report);
+    PF_CHECK(report.quality == PF_QUALITY_PREVIEW);
+    PF_CHECK(ref_stage_counter(&report, "plan", "fast_ms") > budget);
+    PF_CHECK_MSG(row && strstr(row->reason, "auto → preview: fast needs"), "plan: %s",
+                 row ? row->reason : "missing");
+}
+
+PF_TEST(error_targets_plan_fast_or_enough_final_passes)
+{
+    pf_frame_report report;
+    pf_error err = {0};
+    PF_REQUIRE_OK(render_auto(&cornell, 0.0, 50.0, &report, &err), &err);
+    PF_CHECK(report.quality == PF_QUALITY_FAST);
+    double fast_relmse = ref_stage_counter(&report, "plan", "fast_relmse");
+    PF_CHECK(fast_relmse >= 0.0 && fast_relmse <= 50.0);
+    /* Tighter than fast's pilot error (0.25 here) and one final pass's (0.8). */
+    const double target = 0.1;
+    PF_REQUIRE_OK(render_auto(&cornell, 0.0, target, &report, &err), &err);
+    const pf_stage_timing *row = plan_row(&report);
+    double passes = ref_stage_counter(&report, "plan", "passes");
+    double pass_relmse = ref_stage_counter(&report, "plan", "final_pass_relmse");
+    printf("  target %g: %s\n", target, row ? row->reason : "missing");
+    PF_CHECK(ref_stage_counter(&report, "plan", "fast_relmse") > target);
+    PF_CHECK(report.quality == PF_QUALITY_FINAL && passes > 1.0 && passes <= 256.0);
+    /* passes = ⌈(one pass's relMSE / target)^1.5⌉ */
+    PF_CHECK(passes == ceil(pow(pass_relmse / target, 1.5)));
+}
+
+PF_TEST(negative_budget_or_target_is_refused)
+{
+    pf_frame_report report;
+    pf_error err = {0};
+    PF_CHECK(render_auto(&cornell, -1.0, 0.0, &report, &err) == PF_ERR_INVALID);
+    PF_CHECK(render_auto(&cornell, 0.0, NAN, &report, &err) == PF_ERR_INVALID);
+}
+
+int main(void)
+{
+    if (!render_test_setup(&ctx, &renderer))
+        return 1;
+    pf_error err = {0};
+    const char *root = getenv("PF_SOURCE_DIR");
+    char path[1024];
+    snprintf(path, sizeof path, "%s/scenes/cornell/cornell.gltf", root ? root : ".");
+    if (pf_scene_load(path, &cornell_scene, &err) != PF_OK ||
+        pf_scene_eval(cornell_scene, 0.0, &cornell, &err) != PF_OK) {
+        fprintf(stderr, "cornell: %s\n", err.message);
+        return 1;
+    }
+    PF_RUN(no_lights_plan_preview);
+    PF_RUN(no_budget_plans_fast_without_a_pilot);
+    PF_RUN(budget_plans_final_passes_that_fit);
+    PF_RUN(budget_below_fast_plans_preview);
+    PF_RUN(error_targets_plan_fast_or_enough_final_passes);
+    PF_RUN(negative_budget_or_target_is_refused);
+    pf_scene_frame_free(&cornell);
+    pf_scene_destroy(cornell_scene);
+    return render_test_finish(ctx, renderer);
+}
