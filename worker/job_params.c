@@ -3,6 +3,7 @@
 #include "frame_pipeline.h"
 
 #include <cjson/cJSON.h>
+#include <math.h>
 #include <stdio.h>
 #include <string.h>
 
@@ -23,6 +24,21 @@ static pf_status read_number(const cJSON *root, const char *key, double max, dou
         return pf_error_set(err, PF_ERR_FORMAT,
                             "job parameters: \"%s\" must be an integer 0..%.0f", key, max);
     *value = item->valuedouble;
+    return PF_OK;
+}
+
+/* An optional number key: more than 0 (0 too with zero_allowed) and at most max; absent: untouched. */
+static pf_status read_real(const cJSON *root, const char *key, int zero_allowed, double max,
+                           double *value, pf_error *err)
+{
+    const cJSON *item = cJSON_GetObjectItemCaseSensitive(root, key);
+    if (!item)
+        return PF_OK;
+    double number = cJSON_IsNumber(item) ? item->valuedouble : NAN;
+    if (!(zero_allowed ? number >= 0.0 : number > 0.0) || !(number <= max))
+        return pf_error_set(err, PF_ERR_FORMAT, "job parameters: \"%s\" must be a number %s %.0f",
+                            key, zero_allowed ? "0.." : "more than 0 and at most", max);
+    *value = number;
     return PF_OK;
 }
 
@@ -191,37 +207,13 @@ pf_status pf_job_params_parse(const char *json, pf_render_settings *settings, pf
         else
             parsed.aovs = cJSON_IsTrue(aovs);
     }
-    const cJSON *plan_budget = cJSON_GetObjectItemCaseSensitive(root, "budget_ms");
-    if (status == PF_OK && plan_budget) {
-        if (!cJSON_IsNumber(plan_budget) || !(plan_budget->valuedouble > 0.0) ||
-            plan_budget->valuedouble > MAX_TIME_BUDGET_MS)
-            status = pf_error_set(err, PF_ERR_FORMAT,
-                                  "job parameters: \"budget_ms\" must be a number more than 0 "
-                                  "and at most %.0f",
-                                  MAX_TIME_BUDGET_MS);
-        else
-            parsed.budget_ms = plan_budget->valuedouble;
-    }
-    const cJSON *target = cJSON_GetObjectItemCaseSensitive(root, "target_relmse");
-    if (status == PF_OK && target) {
-        if (!cJSON_IsNumber(target) || !(target->valuedouble > 0.0) || target->valuedouble > 100.0)
-            status = pf_error_set(err, PF_ERR_FORMAT,
-                                  "job parameters: \"target_relmse\" must be a number more "
-                                  "than 0 and at most 100");
-        else
-            parsed.target_relmse = target->valuedouble;
-    }
-    const cJSON *budget = cJSON_GetObjectItemCaseSensitive(root, "time_budget_ms");
-    if (status == PF_OK && budget) {
-        if (!cJSON_IsNumber(budget) || !(budget->valuedouble >= 0.0) ||
-            budget->valuedouble > MAX_TIME_BUDGET_MS)
-            status = pf_error_set(err, PF_ERR_FORMAT,
-                                  "job parameters: \"time_budget_ms\" must be a number "
-                                  "0..%.0f",
-                                  MAX_TIME_BUDGET_MS);
-        else
-            parsed.time_budget_ms = budget->valuedouble;
-    }
+    if (status == PF_OK)
+        status = read_real(root, "budget_ms", 0, MAX_TIME_BUDGET_MS, &parsed.budget_ms, err);
+    if (status == PF_OK)
+        status = read_real(root, "target_relmse", 0, 100.0, &parsed.target_relmse, err);
+    if (status == PF_OK)
+        status = read_real(root, "time_budget_ms", 1, MAX_TIME_BUDGET_MS, &parsed.time_budget_ms,
+                           err);
     const cJSON *quality = cJSON_GetObjectItemCaseSensitive(root, "quality");
     if (status == PF_OK && quality) {
         int parsed_quality = cJSON_IsString(quality) ? pf_quality_parse(quality->valuestring) : -1;

@@ -36,10 +36,10 @@ static pf_renderer *renderer;
 
 #define WIDTH 32u
 #define HEIGHT 24u
-#define REFERENCE_SPP 1024u
+#define REFERENCE_SPP 512u
 #define FIREFLY_BOUND 2.0
 #define MEAN_TOLERANCE 0.06
-#define PHOTONS_PER_PASS 50000u
+#define PHOTONS_PER_PASS 30000u
 
 /* Brightest R, G or B value; counts NaN, infinite and negative values. */
 static double brightest(const pf_image *image, size_t *bad)

@@ -261,6 +261,20 @@ void ref_camera_ray(const pf_camera *camera, uint32_t width, uint32_t height, do
     normalize3(direction);
 }
 
+int ref_load_cornell(pf_scene **scene, pf_scene_frame *frame)
+{
+    pf_error err = {0};
+    const char *root = getenv("PF_SOURCE_DIR");
+    char path[1024];
+    snprintf(path, sizeof path, "%s/scenes/cornell/cornell.gltf", root ? root : ".");
+    memset(frame, 0, sizeof *frame);
+    if (pf_scene_load(path, scene, &err) != PF_OK || pf_scene_eval(*scene, 0.0, frame, &err) != PF_OK) {
+        fprintf(stderr, "cornell: %s\n", err.message);
+        return 0;
+    }
+    return 1;
+}
+
 pf_render_settings ref_settings(uint32_t width, uint32_t height, uint32_t spp, uint64_t seed,
                                 int aovs)
 {

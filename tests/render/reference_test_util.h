@@ -85,6 +85,12 @@ void ref_scene_look_at(ref_scene *scene, const float eye[3], const float target[
 void ref_camera_ray(const pf_camera *camera, uint32_t width, uint32_t height, double film_x,
                     double film_y, double direction[3]);
 
+/*
+ * Loads the bundled Cornell box ($PF_SOURCE_DIR/scenes/cornell/cornell.gltf)
+ * evaluated at time 0; 1 on success, else 0 after printing why.
+ */
+int ref_load_cornell(pf_scene **scene, pf_scene_frame *frame);
+
 /* Settings for a reference render: width × height, spp samples per pixel, seed. */
 pf_render_settings ref_settings(uint32_t width, uint32_t height, uint32_t spp, uint64_t seed,
                                 int aovs);

@@ -417,14 +417,8 @@ int main(void)
     if (!render_test_setup(&ctx, &renderer))
         return 1;
     pf_error err = {0};
-    const char *root = getenv("PF_SOURCE_DIR");
-    char path[1024];
-    snprintf(path, sizeof path, "%s/scenes/cornell/cornell.gltf", root ? root : ".");
-    if (pf_scene_load(path, &cornell_scene, &err) != PF_OK ||
-        pf_scene_eval(cornell_scene, 0.0, &cornell_frame, &err) != PF_OK) {
-        fprintf(stderr, "cornell: %s\n", err.message);
+    if (!ref_load_cornell(&cornell_scene, &cornell_frame))
         return 1;
-    }
     pf_render_settings reference = ref_settings(CORNELL_WIDTH, CORNELL_HEIGHT, REFERENCE_SPP, 1, 0);
     if (pf_render_frame(renderer, &cornell_frame, &reference, &cornell_reference, NULL, &err) !=
         PF_OK) {

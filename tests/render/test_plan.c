@@ -167,15 +167,8 @@ int main(void)
 {
     if (!render_test_setup(&ctx, &renderer))
         return 1;
-    pf_error err = {0};
-    const char *root = getenv("PF_SOURCE_DIR");
-    char path[1024];
-    snprintf(path, sizeof path, "%s/scenes/cornell/cornell.gltf", root ? root : ".");
-    if (pf_scene_load(path, &cornell_scene, &err) != PF_OK ||
-        pf_scene_eval(cornell_scene, 0.0, &cornell, &err) != PF_OK) {
-        fprintf(stderr, "cornell: %s\n", err.message);
+    if (!ref_load_cornell(&cornell_scene, &cornell))
         return 1;
-    }
     PF_RUN(no_lights_plan_preview);
     PF_RUN(no_budget_plans_fast_without_a_pilot);
     PF_RUN(budget_plans_final_passes_that_fit);

@@ -22,7 +22,8 @@ static int64_t enqueue(const char *db, const char *frames, const char *pattern)
 {
     char args[8 * WT_PATH_MAX];
     wt_format(args, sizeof args,
-              "enqueue '%s' --frames %s --out '%s' --size 16x16 --frames-per-task 1 --db '%s'",
+              "enqueue '%s' --frames %s --out '%s' --size 16x16 --frames-per-task 1 "
+              "--quality preview --db '%s'",
               scene, frames, pattern, db);
     int code = wt_run(args, log_path);
     PF_CHECK_MSG(code == 0, "enqueue exited %d", code);

@@ -28,7 +28,9 @@ static int64_t enqueue(const char *db, const char *scene_path, const char *frame
                        const char *pattern, const char *extra)
 {
     char args[8 * WT_PATH_MAX];
-    wt_format(args, sizeof args, "enqueue '%s' --frames %s --out '%s' --size 16x16 --db '%s' %s",
+    /* preview: these tests are about the worker and the queue, not an integrator's cost. */
+    wt_format(args, sizeof args,
+              "enqueue '%s' --frames %s --out '%s' --size 16x16 --quality preview --db '%s' %s",
               scene_path, frames, pattern, db, extra ? extra : "");
     int code = wt_run(args, log_path);
     PF_CHECK_MSG(code == 0, "enqueue exited %d", code);
@@ -127,8 +129,7 @@ PF_TEST(worker_renders_a_job_and_timings_report_every_stage)
     wt_format(db, sizeof db, "%s/render.db", dir);
     unlink(db);
     wt_format(pattern, sizeof pattern, "%s/f.####.exr", out);
-    /* preview: this test is about the worker's rows, whose set fast and final extend. */
-    int64_t job_id = enqueue(db, scene, "1-3", pattern, "--frames-per-task 2 --quality preview");
+    int64_t job_id = enqueue(db, scene, "1-3", pattern, "--frames-per-task 2");
     PF_REQUIRE(job_id > 0);
     wt_format(args, sizeof args, "worker --once --db '%s'", db);
     PF_REQUIRE(wt_run(args, log_path) == 0);
