@@ -90,18 +90,22 @@ static pf_status pilot_render(pf_renderer *renderer, const pf_scene_frame *frame
     return pf_render_frame(renderer, frame, &s, image, report, err);
 }
 
-static double relmse_rgb(const pf_image *a, const pf_image *b)
+/* A pilot's side: a quarter of the frame's, at least PLAN_PILOT_MIN_EDGE (or the whole side). */
+static uint32_t pilot_edge(uint32_t edge)
 {
-    double sum = 0.0;
-    size_t pixels = (size_t)a->width * a->height;
-    for (size_t p = 0; p < pixels; p++) {
-        for (uint32_t c = 0; c < 3; c++) {
-            double x = a->pixels[p * a->channel_count + c];
-            double r = b->pixels[p * b->channel_count + c];
-            sum += (x - r) * (x - r) / (r * r + PF_RELMSE_EPSILON);
-        }
-    }
-    return sum / (3.0 * (double)pixels);
+    uint32_t quarter = edge / PLAN_PILOT_DIVISOR;
+    if (quarter > PLAN_PILOT_MIN_EDGE)
+        return quarter;
+    return edge < PLAN_PILOT_MIN_EDGE ? edge : PLAN_PILOT_MIN_EDGE;
+}
+
+/* relMSE over R, G, B of a against b (pf_image_compare's; both have the split layout). */
+static pf_status relmse_of(const pf_image *a, const pf_image *b, double *relmse, pf_error *err)
+{
+    pf_image_metrics metrics;
+    pf_status status = pf_image_compare(a, b, &metrics, err);
+    *relmse = status == PF_OK ? metrics.relmse : NAN;
+    return status;
 }
 
 /* The pilot and the decision for a budget or an error target. */
@@ -110,12 +114,8 @@ static pf_status calibrate(pf_renderer *renderer, const pf_scene_frame *frame,
                            pf_error *err)
 {
     pf_render_settings base = *settings;
-    base.width = base.width / PLAN_PILOT_DIVISOR > PLAN_PILOT_MIN_EDGE
-                     ? base.width / PLAN_PILOT_DIVISOR
-                     : (base.width < PLAN_PILOT_MIN_EDGE ? base.width : PLAN_PILOT_MIN_EDGE);
-    base.height = base.height / PLAN_PILOT_DIVISOR > PLAN_PILOT_MIN_EDGE
-                      ? base.height / PLAN_PILOT_DIVISOR
-                      : (base.height < PLAN_PILOT_MIN_EDGE ? base.height : PLAN_PILOT_MIN_EDGE);
+    base.width = pilot_edge(base.width);
+    base.height = pilot_edge(base.height);
     double scale = ((double)settings->width * settings->height) / ((double)base.width * base.height);
     pf_frame_report report;
     pf_image image = {0};
@@ -144,9 +144,11 @@ static pf_status calibrate(pf_renderer *renderer, const pf_scene_frame *frame,
     if (status == PF_OK && settings->target_relmse > 0.0) {
         status = pilot_render(renderer, frame, &base, PF_QUALITY_FINAL, PLAN_ESTIMATE_PASSES,
                               &estimate, &report, err);
+        if (status == PF_OK)
+            status = relmse_of(&fast_image, &estimate, &plan->fast_relmse, err);
+        if (status == PF_OK)
+            status = relmse_of(&final_image, &estimate, &plan->pass_relmse, err);
         if (status == PF_OK) {
-            plan->fast_relmse = relmse_rgb(&fast_image, &estimate);
-            plan->pass_relmse = relmse_rgb(&final_image, &estimate);
             if (plan->fast_relmse <= settings->target_relmse) {
                 plan->quality = PF_QUALITY_FAST;
                 plan->passes = 0;
