@@ -69,6 +69,9 @@ static void usage(FILE *out)
             "                     final with the passes it needs)\n"
             "  --no-aovs          beauty RGBA only (default adds the direct/indirect/caustic\n                     split and albedo, normal, depth as named layers)\n"
             "  --device D         device index or name substring (see photonfarm devices)\n"
+            "  --cache-dir DIR    compiled-shader cache shared by this machine's processes\n"
+            "                     (default $PHOTONFARM_CACHE_DIR, else ~/.cache/photonfarm;\n"
+            "                     none: off)\n"
             "  --help             this text\n"
             "\n"
             "Exit status: 0 ok, 1 runtime failure, 2 bad usage or input.\n");
@@ -164,6 +167,7 @@ typedef struct render_options {
     const char *frames_text; /* --frames */
     const char *output;
     const char *device;
+    const char *cache_dir; /* --cache-dir */
     uint32_t width, height;
     int quality;
     uint32_t spp;
@@ -212,6 +216,8 @@ static int parse_options(int argc, char **argv, render_options *options, int *he
                 options->output = value;
             } else if (!strcmp(arg, "--device")) {
                 options->device = value;
+            } else if (!strcmp(arg, "--cache-dir")) {
+                options->cache_dir = value;
             } else if (!strcmp(arg, "--size")) {
                 unsigned width, height;
                 char extra;
@@ -343,6 +349,10 @@ static int render_one(const render_options *options, render_session *session, in
         status = pf_frame_commit(&output, &err);
     if (status != PF_OK)
         return pf_cli_fail(COMMAND, pf_status_exit_code(status), "%s", err.message);
+    /* Compiled pipelines are kept for the next process as soon as they exist. */
+    pf_error cache_err = {0};
+    if (pf_vk_pipeline_cache_save(session->ctx, &cache_err) != PF_OK)
+        fprintf(stderr, "photonfarm render: warning: %s\n", cache_err.message);
     if (output.report.discarded_samples > 0)
         fprintf(stderr, "photonfarm render: frame %" PRId64 ": %" PRIu64
                         " NaN/Inf samples discarded\n",
@@ -403,7 +413,10 @@ int pf_cli_render(int argc, char **argv)
             return code;
         }
     }
-    pf_vk_options vk_options = {options.device, -1};
+    char cache_dir[PF_CLI_PATH_MAX];
+    pf_vk_options vk_options = {options.device, -1,
+                                pf_cli_cache_dir(COMMAND, options.cache_dir, cache_dir,
+                                                 sizeof cache_dir)};
     status = pf_vk_create(&vk_options, &session.ctx, &err);
     if (status == PF_OK)
         status = pf_renderer_create(session.ctx, &session.renderer, &err);

@@ -31,6 +31,9 @@ static void usage(FILE *out)
             "  --max-frames N       exit after rendering N frames\n"
             "  --idle-exit SECONDS  exit after SECONDS without work\n"
             "  --device D           device index or name substring (see photonfarm devices)\n"
+            "  --cache-dir DIR      compiled-shader cache shared by this machine's processes\n"
+            "                       (default $PHOTONFARM_CACHE_DIR, else ~/.cache/photonfarm;\n"
+            "                       none: off)\n"
             "  --name NAME          worker name (default <host>-<pid>)\n"
             "  --lease-seconds S    lease length (default %d); renewed every S/3\n"
             "  --help               this text\n"
@@ -47,6 +50,8 @@ int pf_cli_worker(int argc, char **argv)
     config.idle_exit_seconds = -1;
     config.lease_seconds = DEFAULT_LEASE_SECONDS;
     const char *db = NULL;
+    const char *cache_option = NULL;
+    char cache_dir[PF_CLI_PATH_MAX];
     for (int i = 1; i < argc; i++) {
         const char *arg = argv[i];
         const char *value = i + 1 < argc ? argv[i + 1] : NULL;
@@ -65,6 +70,8 @@ int pf_cli_worker(int argc, char **argv)
             db = value;
         } else if (!strcmp(arg, "--device")) {
             config.device = value;
+        } else if (!strcmp(arg, "--cache-dir")) {
+            cache_option = value;
         } else if (!strcmp(arg, "--name")) {
             if (!*value || strlen(value) >= PF_QUEUE_NAME_MAX)
                 return pf_cli_fail(COMMAND, 2, "--name '%s': expected 1..%d characters", value,
@@ -91,5 +98,6 @@ int pf_cli_worker(int argc, char **argv)
         i++;
     }
     config.db_path = pf_cli_db_path(db);
+    config.cache_dir = pf_cli_cache_dir(COMMAND, cache_option, cache_dir, sizeof cache_dir);
     return pf_worker_run(&config);
 }

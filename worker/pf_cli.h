@@ -6,6 +6,8 @@
 #ifndef PF_CLI_H
 #define PF_CLI_H
 
+#include <stddef.h>
+
 int pf_cli_devices(int argc, char **argv);
 int pf_cli_render(int argc, char **argv);
 int pf_cli_compare(int argc, char **argv);
@@ -29,5 +31,16 @@ int pf_cli_fail(const char *command, int exit_code, const char *format, ...)
  * printed by --version, logged by the worker, stored with every stage row.
  */
 const char *pf_version_string(void);
+
+#define PF_CLI_PATH_MAX 4096
+
+/*
+ * The shader cache directory (cache_dir.c) for a command's --cache-dir value
+ * (NULL: not given): that, else $PHOTONFARM_CACHE_DIR, else
+ * $XDG_CACHE_HOME/photonfarm, else $HOME/.cache/photonfarm; "none" or "" turns
+ * it off. Creates it, points $MESA_SHADER_CACHE_DIR there unless already set,
+ * and returns buffer; NULL (after a warning when creation failed) for none.
+ */
+const char *pf_cli_cache_dir(const char *command, const char *option, char *buffer, size_t size);
 
 #endif

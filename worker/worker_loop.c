@@ -341,6 +341,16 @@ static void test_delay(worker *w)
         uv_sleep(TEST_DELAY_STEP_MS);
 }
 
+/* Pipelines compiled for this frame are written out now, so that a worker
+ * killed later still leaves them cached for the next process (a no-op when
+ * nothing new was compiled). */
+static void save_pipeline_cache(worker *w)
+{
+    pf_error err = {0};
+    if (pf_vk_pipeline_cache_save(w->vk, &err) != PF_OK)
+        pf_wlog(PF_LOG_WARN, "pipeline_cache", "error=\"%s\"", err.message);
+}
+
 static void render_work(uv_work_t *request)
 {
     worker *w = request->data;
@@ -386,6 +396,7 @@ static void render_work(uv_work_t *request)
         w->output_count = (size_t)i + 1;
         if (w->render_status != PF_OK)
             return;
+        save_pipeline_cache(w);
     }
     if (w->test_delay_ms > 0)
         test_delay(w);
@@ -629,7 +640,7 @@ static int open_everything(worker *w)
         fprintf(stderr, "photonfarm worker: %s\n", err.message);
         return pf_status_exit_code(status);
     }
-    pf_vk_options vk_options = {w->config.device, -1};
+    pf_vk_options vk_options = {w->config.device, -1, w->config.cache_dir};
     status = pf_vk_create(&vk_options, &w->vk, &err);
     if (status == PF_OK)
         status = pf_renderer_create(w->vk, &w->renderer, &err);

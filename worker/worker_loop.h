@@ -24,6 +24,7 @@ typedef struct pf_worker_config {
     const char *db_path;
     const char *name;          /* NULL: "<host>-<pid>" */
     const char *device;        /* NULL: automatic ($PHOTONFARM_DEVICE) */
+    const char *cache_dir;     /* compiled-shader cache (pf_cli_cache_dir); NULL: none */
     int once;                  /* exit as soon as a claim finds nothing eligible */
     int64_t max_frames;        /* 0: unlimited; else exit after this many frames */
     double idle_exit_seconds;  /* < 0: never; else exit after this long without work */

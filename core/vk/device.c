@@ -107,6 +107,23 @@ void pf_vk_describe_device(VkPhysicalDevice physical_device, uint32_t index,
     }
 }
 
+static int has_device_extension(VkPhysicalDevice physical_device, const char *name)
+{
+    uint32_t count = 0;
+    if (vkEnumerateDeviceExtensionProperties(physical_device, NULL, &count, NULL) != VK_SUCCESS)
+        return 0;
+    VkExtensionProperties *properties = calloc(count ? count : 1, sizeof *properties);
+    int found = 0;
+    if (properties &&
+        vkEnumerateDeviceExtensionProperties(physical_device, NULL, &count, properties) ==
+            VK_SUCCESS) {
+        for (uint32_t i = 0; i < count && !found; i++)
+            found = strcmp(properties[i].extensionName, name) == 0;
+    }
+    free(properties);
+    return found;
+}
+
 /* Physical devices of ctx->instance with their descriptions; *handles and *infos are malloc'ed. */
 static pf_status list_devices(VkInstance instance, VkPhysicalDevice **handles,
                               pf_vk_device_info **infos, uint32_t **families, uint32_t *count,
@@ -315,11 +332,20 @@ pf_status pf_vk_device_open(pf_vk_context *ctx, const char *selector, pf_error *
         .queueCount = 1,
         .pQueuePriorities = &priority,
     };
+    /* Pipeline-creation feedback tells whether a pipeline came from the cache. */
+    const char *extensions[1];
+    uint32_t extension_count = 0;
+    if (has_device_extension(ctx->physical_device, VK_EXT_PIPELINE_CREATION_FEEDBACK_EXTENSION_NAME)) {
+        extensions[extension_count++] = VK_EXT_PIPELINE_CREATION_FEEDBACK_EXTENSION_NAME;
+        ctx->has_creation_feedback = 1;
+    }
     VkDeviceCreateInfo info = {
         .sType = VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO,
         .pNext = &features,
         .queueCreateInfoCount = 1,
         .pQueueCreateInfos = &queue,
+        .enabledExtensionCount = extension_count,
+        .ppEnabledExtensionNames = extensions,
     };
     VkResult result = vkCreateDevice(ctx->physical_device, &info, NULL, &ctx->device);
     if (result != VK_SUCCESS) {

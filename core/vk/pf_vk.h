@@ -50,6 +50,9 @@ typedef struct pf_vk_device_info {
 typedef struct pf_vk_options {
     const char *device_selector; /* NULL: $PHOTONFARM_DEVICE, else automatic */
     int validation;              /* 1 on, 0 off, -1: from $PF_VK_VALIDATION */
+    /* Directory of the persistent pipeline cache (created if missing); NULL or
+     * "": pipelines are cached in memory for this context only. */
+    const char *pipeline_cache_dir;
 } pf_vk_options;
 
 /* Lists every physical device with its key limits. *devices is malloc'ed; free() it. */
@@ -106,6 +109,29 @@ pf_status pf_vk_pipeline_create_named(pf_vk_context *ctx, const char *shader_nam
                                       uint32_t spec_constant_count, pf_vk_pipeline **out,
                                       pf_error *err);
 void pf_vk_pipeline_destroy(pf_vk_context *ctx, pf_vk_pipeline *pipeline);
+
+/*
+ * The persistent pipeline cache (options.pipeline_cache_dir). The file is
+ * named by the device and driver identity and written atomically; one that is
+ * corrupt, truncated or from another driver is ignored with a warning and
+ * rewritten. pf_vk_destroy saves it; savers call pf_vk_pipeline_cache_save
+ * earlier so that a process killed later still leaves its pipelines cached.
+ * Drivers whose VkPipelineCache holds nothing but its header (Mesa's lavapipe
+ * 22.x) keep compiled code in Mesa's own disk cache instead, which the worker
+ * points at the same directory ($MESA_SHADER_CACHE_DIR).
+ */
+typedef struct pf_vk_cache_stats {
+    char path[1024];        /* the cache file; "" without a directory */
+    uint64_t loaded_bytes;  /* driver data read from the file at creation (0: none) */
+    uint64_t saved_bytes;   /* driver data in the last write (0: none yet) */
+    int rejected;           /* a file was present but ignored (warning logged) */
+    uint32_t pipelines;     /* compute pipelines created through this context */
+    uint32_t cache_hits;    /* of those, served from the cache per the driver's
+                             * pipeline-creation feedback */
+} pf_vk_cache_stats;
+
+pf_status pf_vk_pipeline_cache_save(pf_vk_context *ctx, pf_error *err);
+pf_vk_cache_stats pf_vk_pipeline_cache_stats(pf_vk_context *ctx);
 
 /*
  * Command recording: begin, record dispatches/barriers/timestamps, submit (waits

@@ -33,6 +33,17 @@ struct pf_vk_context {
     pthread_mutex_t queue_lock;
     VkCommandPool transfer_pool; /* staging copies; guarded by queue_lock */
     int force_staging;           /* tests: never map buffers directly */
+    int has_creation_feedback;   /* VK_EXT_pipeline_creation_feedback or Vulkan 1.3 */
+
+    struct {
+        VkPipelineCache handle;
+        char path[1024]; /* "" without a cache directory */
+        uint32_t vendor_id, device_id;
+        uint8_t uuid[VK_UUID_SIZE];
+        pthread_mutex_t lock; /* stats and dirty: pipelines are created from any thread */
+        int dirty;            /* pipelines created since the last write */
+        pf_vk_cache_stats stats;
+    } cache;
 };
 
 struct pf_vk_buffer {
@@ -70,6 +81,12 @@ void pf_vk_instance_destroy(pf_vk_context *ctx);
 /* Picks and opens the device (device.c). */
 pf_status pf_vk_device_open(pf_vk_context *ctx, const char *selector, pf_error *err);
 void pf_vk_device_close(pf_vk_context *ctx);
+
+/* pipeline_cache.c: opened after the device, closed (saved) before it. */
+pf_status pf_vk_pipeline_cache_open(pf_vk_context *ctx, const char *dir, pf_error *err);
+void pf_vk_pipeline_cache_close(pf_vk_context *ctx);
+/* Counts one created pipeline; cache_hit from its creation feedback. */
+void pf_vk_pipeline_cache_note(pf_vk_context *ctx, int cache_hit);
 
 /*
  * Tests only: with on != 0, buffers created afterwards are never mapped, so

@@ -146,12 +146,26 @@ pf_status pf_vk_pipeline_create(pf_vk_context *ctx, const pf_vk_pipeline_desc *d
             },
             .layout = pipeline->layout,
         };
+        VkPipelineCreationFeedback feedback = {0}, stage_feedback = {0};
+        VkPipelineCreationFeedbackCreateInfo feedback_info = {
+            .sType = VK_STRUCTURE_TYPE_PIPELINE_CREATION_FEEDBACK_CREATE_INFO,
+            .pPipelineCreationFeedback = &feedback,
+            .pipelineStageCreationFeedbackCount = 1,
+            .pPipelineStageCreationFeedbacks = &stage_feedback,
+        };
+        if (ctx->has_creation_feedback)
+            pipeline_info.pNext = &feedback_info;
         failed_call = "vkCreateComputePipelines";
         VkPipeline handle;
-        result = vkCreateComputePipelines(ctx->device, VK_NULL_HANDLE, 1, &pipeline_info, NULL,
+        result = vkCreateComputePipelines(ctx->device, ctx->cache.handle, 1, &pipeline_info, NULL,
                                           &handle);
-        if (result == VK_SUCCESS)
+        if (result == VK_SUCCESS) {
             pipeline->pipeline = handle;
+            const VkPipelineCreationFeedbackFlags hit =
+                VK_PIPELINE_CREATION_FEEDBACK_VALID_BIT |
+                VK_PIPELINE_CREATION_FEEDBACK_APPLICATION_PIPELINE_CACHE_HIT_BIT;
+            pf_vk_pipeline_cache_note(ctx, (feedback.flags & hit) == hit);
+        }
     }
     free(bindings);
     free(entries);

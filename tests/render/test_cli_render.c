@@ -50,10 +50,22 @@ PF_TEST(renders_a_frame_range_to_numbered_exr_files)
     char scene[1024], args[4096], path[2048];
     pf_test_shared_scene("cornell-anim", scene, sizeof scene);
     snprintf(args, sizeof args,
-             "render '%s' --frames 1-2 --size 16x12 --quality preview -o '%s/f.####.exr'", scene,
-             tmpdir);
+             "render '%s' --frames 1-2 --size 16x12 --quality preview -o '%s/f.####.exr' "
+             "--cache-dir '%s/shader-cache/nested'",
+             scene, tmpdir, tmpdir);
     PF_REQUIRE(run_photonfarm(args) == 0);
     PF_CHECK(log_contains("f.0002.exr"));
+    /* The compiled-shader cache: its directory made (parents too), the pipeline file written. */
+    snprintf(path, sizeof path, "%s/shader-cache/nested", tmpdir);
+    DIR *cache = opendir(path);
+    PF_CHECK_MSG(cache != NULL, "%s not created", path);
+    int cache_files = 0;
+    struct dirent *cached;
+    while (cache && (cached = readdir(cache)) != NULL)
+        cache_files += strstr(cached->d_name, ".vkcache") != NULL;
+    if (cache)
+        closedir(cache);
+    PF_CHECK_MSG(cache_files == 1, "%d pipeline cache files in %s", cache_files, path);
     for (int frame = 1; frame <= 2; frame++) {
         snprintf(path, sizeof path, "%s/f.%04d.exr", tmpdir, frame);
         PF_CHECK_MSG(file_exists(path), "%s missing", path);
@@ -85,6 +97,25 @@ PF_TEST(renders_a_frame_range_to_numbered_exr_files)
     while ((entry = readdir(dir)) != NULL)
         PF_CHECK_MSG(!strstr(entry->d_name, ".tmp"), "temporary file left: %s", entry->d_name);
     closedir(dir);
+}
+
+/* An unusable cache directory costs compile time, never the frame. */
+PF_TEST(unusable_cache_directory_warns_and_renders)
+{
+    char scene[1024], args[8192], path[1200];
+    pf_test_shared_scene("cornell-anim", scene, sizeof scene);
+    snprintf(path, sizeof path, "%s/cache-is-a-file", tmpdir);
+    FILE *file = fopen(path, "wb");
+    PF_REQUIRE(file);
+    fclose(file);
+    snprintf(args, sizeof args,
+             "render '%s' --frame 1 --size 8x6 --quality preview -o '%s/u.####.exr' "
+             "--cache-dir '%s/sub'",
+             scene, tmpdir, path);
+    PF_CHECK(run_photonfarm(args) == 0);
+    PF_CHECK(log_contains("cannot be created"));
+    snprintf(path, sizeof path, "%s/u.0001.exr", tmpdir);
+    PF_CHECK_MSG(file_exists(path), "%s missing", path);
 }
 
 PF_TEST(bad_frames_scenes_and_options_exit_2)
@@ -183,6 +214,7 @@ int main(void)
     pf_test_tmpdir(tmpdir, sizeof tmpdir);
     snprintf(log_path, sizeof log_path, "%s/photonfarm.log", tmpdir);
     PF_RUN(renders_a_frame_range_to_numbered_exr_files);
+    PF_RUN(unusable_cache_directory_warns_and_renders);
     PF_RUN(bad_frames_scenes_and_options_exit_2);
     return pf_test_finish();
 }
