@@ -22,7 +22,6 @@
 #include <unistd.h>
 
 #define COMMAND "enqueue"
-#define MAX_SPP 65536
 /* Priorities are small integers in practice; the bound keeps typos visible. */
 #define MAX_PRIORITY 1000000
 #define MAX_ATTEMPTS 100
@@ -44,6 +43,7 @@ static void usage(FILE *out)
             "  --size WxH             image size (default 640 wide, height from the camera)\n"
             "  --quality Q            preview | fast | final | reference | auto (default auto)\n"
             "  --spp N                samples per pixel (default: the preset's)\n"
+            "  --seed S               random seed (default 0); same seed, same pixels\n"
             "  --photons N            fast: photons per frame; final: per pass\n"
             "  --filter F             pixel filter: gaussian (default), box, blackman-harris\n"
             "  --max-bounces N        reference, final: at most N bounces (0: direct only)\n"
@@ -53,6 +53,9 @@ static void usage(FILE *out)
             "                         fast: the light propagation volumes (see render --help)\n"
             "  --time-budget SECONDS  stop refining each frame after this long (progressive\n"
             "                         presets; at least one pass; default: no limit)\n"
+            "  --float                32-bit float pixels (default half)\n"
+            "  --no-aovs              beauty RGBA only (default adds the lighting split and\n"
+            "                         albedo, normal, depth layers)\n"
             "  --priority P           higher runs first (default 0)\n"
             "  --max-attempts N       attempts per frame before it fails (default 3)\n"
             "  --frames-per-task N    frames a worker claims at once (default 1)\n"
@@ -72,14 +75,13 @@ typedef struct enqueue_options {
 static int parse_options(int argc, char **argv, enqueue_options *options, int *help)
 {
     memset(options, 0, sizeof *options);
-    options->settings = (pf_render_settings){0, 0, PF_QUALITY_AUTO, 0, 0, 1};
+    options->settings = pf_render_settings_default();
     options->max_attempts = 3;
     options->frames_per_task = 1;
     *help = 0;
     for (int i = 1; i < argc; i++) {
         const char *arg = argv[i];
         const char *value = i + 1 < argc ? argv[i + 1] : NULL;
-        int64_t number;
         if (!strcmp(arg, "--help") || !strcmp(arg, "-h")) {
             *help = 1;
             return 0;
@@ -89,6 +91,14 @@ static int parse_options(int argc, char **argv, enqueue_options *options, int *h
                 return pf_cli_fail(COMMAND, 2, "one scene only ('%s' and '%s')",
                                    options->scene_path, arg);
             options->scene_path = arg;
+            continue;
+        }
+        int used_value = 0;
+        int code = pf_cli_settings_option(COMMAND, arg, value, &options->settings, &used_value);
+        if (code >= 0) {
+            if (code)
+                return code;
+            i += used_value;
             continue;
         }
         if (!value)
@@ -101,32 +111,6 @@ static int parse_options(int argc, char **argv, enqueue_options *options, int *h
             options->db = value;
         } else if (!strcmp(arg, "--name")) {
             options->name = value;
-        } else if (!strcmp(arg, "--size")) {
-            unsigned width, height;
-            char extra;
-            if (sscanf(value, "%ux%u%c", &width, &height, &extra) != 2 || width == 0 ||
-                height == 0 || width > PF_FRAME_MAX_EDGE || height > PF_FRAME_MAX_EDGE)
-                return pf_cli_fail(COMMAND, 2, "--size '%s': expected WxH, each 1..%u", value,
-                                   PF_FRAME_MAX_EDGE);
-            options->settings.width = width;
-            options->settings.height = height;
-        } else if (!strcmp(arg, "--quality")) {
-            int quality = pf_quality_parse(value);
-            if (quality < 0)
-                return pf_cli_fail(COMMAND, 2,
-                                   "--quality '%s': expected preview, fast, final, reference or "
-                                   "auto",
-                                   value);
-            options->settings.quality = (pf_quality)quality;
-        } else if (!strcmp(arg, "--spp")) {
-            if (!pf_cli_parse_int(value, 1, MAX_SPP, &number))
-                return pf_cli_fail(COMMAND, 2, "--spp '%s': expected 1..%d", value, MAX_SPP);
-            options->settings.samples_per_pixel = (uint32_t)number;
-        } else if (!strcmp(arg, "--time-budget")) {
-            if (!pf_cli_parse_time_budget(value, &options->settings.time_budget_ms))
-                return pf_cli_fail(COMMAND, 2,
-                                   "--time-budget '%s': expected seconds, more than 0 and at most %.0f",
-                                   value, PF_CLI_MAX_TIME_BUDGET_S);
         } else if (!strcmp(arg, "--priority")) {
             if (!pf_cli_parse_int(value, -MAX_PRIORITY, MAX_PRIORITY, &options->priority))
                 return pf_cli_fail(COMMAND, 2, "--priority '%s': expected an integer %d..%d",
@@ -139,19 +123,8 @@ static int parse_options(int argc, char **argv, enqueue_options *options, int *h
             if (!pf_cli_parse_int(value, 1, MAX_FRAMES_PER_TASK, &options->frames_per_task))
                 return pf_cli_fail(COMMAND, 2, "--frames-per-task '%s': expected 1..%d", value,
                                    MAX_FRAMES_PER_TASK);
-        } else if (!strcmp(arg, "--photons")) {
-            if (!pf_cli_parse_int(value, 1, PF_CLI_MAX_PHOTONS, &number))
-                return pf_cli_fail(COMMAND, 2, "--photons '%s': expected 1..%llu", value,
-                                   (unsigned long long)PF_CLI_MAX_PHOTONS);
-            options->settings.photons_per_pass = (uint32_t)number;
         } else {
-            int lpv = pf_cli_sampling_option(COMMAND, arg, value, &options->settings);
-            if (lpv < 0)
-                lpv = pf_cli_lpv_option(COMMAND, arg, value, &options->settings.lpv);
-            if (lpv > 0)
-                return lpv;
-            if (lpv < 0)
-                return pf_cli_fail(COMMAND, 2, "unknown option '%s' (see --help)", arg);
+            return pf_cli_fail(COMMAND, 2, "unknown option '%s' (see --help)", arg);
         }
         i++;
     }

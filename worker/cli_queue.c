@@ -41,16 +41,3 @@ int pf_cli_parse_int(const char *text, int64_t min, int64_t max, int64_t *out)
     *out = value;
     return 1;
 }
-
-int pf_cli_parse_time_budget(const char *text, double *milliseconds)
-{
-    if (!text || !*text || text[0] == '-')
-        return 0;
-    errno = 0;
-    char *end = NULL;
-    double seconds = strtod(text, &end);
-    if (errno || *end || !(seconds > 0.0) || seconds > PF_CLI_MAX_TIME_BUDGET_S)
-        return 0;
-    *milliseconds = seconds * 1000.0;
-    return 1;
-}

@@ -30,15 +30,6 @@ int pf_cli_open_queue(const char *command, const char *path, int must_exist, pf_
 /* Strict decimal integer in [min, max] (no trailing text). 1 on success. */
 int pf_cli_parse_int(const char *text, int64_t min, int64_t max, int64_t *out);
 
-/* Longest --time-budget accepted: a week, in seconds. */
-#define PF_CLI_MAX_TIME_BUDGET_S 604800.0
-
-/*
- * Parses a --time-budget value: seconds, more than 0 and at most
- * PF_CLI_MAX_TIME_BUDGET_S, into milliseconds. 1 on success, 0 otherwise.
- */
-int pf_cli_parse_time_budget(const char *text, double *milliseconds);
-
 /*
  * The LPV options of render and enqueue (cli_lpv.c): -1 when arg is not one
  * of them, 0 when value was stored into *lpv, 2 after printing why it is
@@ -49,14 +40,16 @@ int pf_cli_lpv_option(const char *command, const char *arg, const char *value,
 /* 0 when the LPV settings fit buffers of max_buffer_bytes, else 2 after naming the option. */
 int pf_cli_lpv_check(const char *command, const pf_lpv_settings *lpv, uint64_t max_buffer_bytes);
 /*
- * --filter, --max-bounces, --budget-ms and --target-relmse of render and
- * enqueue (cli_sampling.c): -1 when arg is none of them, 0 when stored into
- * *settings, 2 after printing why the value is bad.
+ * Every render-settings option, one parser for render and enqueue
+ * (cli_settings.c): --size, --quality, --spp, --seed, --photons,
+ * --time-budget, --float, --no-aovs, --filter, --max-bounces, --budget-ms,
+ * --target-relmse and the --lpv-* options. value is the next argument (NULL
+ * at the end); *used_value says whether it was consumed (not for the flags).
+ * Returns -1 when arg is none of them, 0 when stored into *settings, 2 after
+ * printing why (naming the option and the accepted range).
  */
-int pf_cli_sampling_option(const char *command, const char *arg, const char *value,
-                           pf_render_settings *settings);
-/* Most photons per frame (fast) or pass (final) accepted by --photons. */
-#define PF_CLI_MAX_PHOTONS 100000000ll
+int pf_cli_settings_option(const char *command, const char *arg, const char *value,
+                           pf_render_settings *settings, int *used_value);
 /* What enqueue checks against: the maxStorageBufferRange every Vulkan device guarantees. */
 #define PF_CLI_GUARANTEED_BUFFER_BYTES (128ull << 20)
 

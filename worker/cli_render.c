@@ -23,7 +23,6 @@
 #define DEFAULT_OUTPUT "render.####.exr"
 #define MAX_EDGE PF_FRAME_MAX_EDGE
 /* Bounds a frame list so a typo like 1-1000000000 fails fast instead of allocating. */
-#define MAX_FRAMES 100000u
 #define MAX_PATH_BYTES PF_FRAME_PATH_MAX
 
 static void usage(FILE *out)
@@ -77,108 +76,15 @@ static void usage(FILE *out)
             "Exit status: 0 ok, 1 runtime failure, 2 bad usage or input.\n");
 }
 
-typedef struct frame_list {
-    int64_t *frames;
-    uint32_t count;
-} frame_list;
-
-static int parse_int64(const char *text, int64_t *out)
-{
-    if (!text || !*text)
-        return 0;
-    errno = 0;
-    char *end = NULL;
-    long long value = strtoll(text, &end, 10);
-    if (errno || *end)
-        return 0;
-    *out = value;
-    return 1;
-}
-
-static int frame_list_push(frame_list *list, int64_t frame)
-{
-    if (list->count >= MAX_FRAMES)
-        return 0;
-    if ((list->count & (list->count - 1)) == 0) { /* grow at powers of two */
-        int64_t *grown = realloc(list->frames, (list->count ? 2 * list->count : 1) * sizeof *grown);
-        if (!grown)
-            return 0;
-        list->frames = grown;
-    }
-    list->frames[list->count++] = frame;
-    return 1;
-}
-
-/* "1-48", "1-48x2", "1,5,9-12": comma-separated items, each N, A-B or A-BxS. */
-static int parse_frames(const char *text, frame_list *list, char *why, size_t why_size)
-{
-    char buffer[1024];
-    if (strlen(text) >= sizeof buffer) {
-        snprintf(why, why_size, "too long");
-        return 0;
-    }
-    snprintf(buffer, sizeof buffer, "%s", text);
-    char *save = NULL;
-    for (char *item = strtok_r(buffer, ",", &save); item; item = strtok_r(NULL, ",", &save)) {
-        int64_t first, last, step = 1;
-        char *step_text = strchr(item, 'x');
-        if (step_text) {
-            *step_text++ = '\0';
-            if (!parse_int64(step_text, &step) || step < 1) {
-                snprintf(why, why_size, "step '%s' is not a positive integer", step_text);
-                return 0;
-            }
-        }
-        char *dash = strchr(item + (item[0] == '-'), '-');
-        if (dash) {
-            *dash = '\0';
-            if (!parse_int64(item, &first) || !parse_int64(dash + 1, &last)) {
-                snprintf(why, why_size, "'%s-%s' is not a range A-B", item, dash + 1);
-                return 0;
-            }
-        } else {
-            if (step_text || !parse_int64(item, &first)) {
-                snprintf(why, why_size, "'%s' is not a frame number or range", item);
-                return 0;
-            }
-            last = first;
-        }
-        if (last < first) {
-            snprintf(why, why_size, "range %" PRId64 "-%" PRId64 " runs backwards", first, last);
-            return 0;
-        }
-        for (int64_t frame = first; frame <= last; frame += step) {
-            if (!frame_list_push(list, frame)) {
-                snprintf(why, why_size, "more than %u frames", MAX_FRAMES);
-                return 0;
-            }
-        }
-    }
-    if (list->count == 0) {
-        snprintf(why, why_size, "no frames");
-        return 0;
-    }
-    return 1;
-}
-
 typedef struct render_options {
     const char *scene_path;
     const char *frame_text;  /* --frame */
     const char *frames_text; /* --frames */
     const char *output;
     const char *device;
-    const char *cache_dir; /* --cache-dir */
-    uint32_t width, height;
-    int quality;
-    uint32_t spp;
-    uint64_t seed;
-    double time_budget_ms; /* 0: none */
-    int float_pixels;
-    int aovs;
+    const char *cache_dir;   /* --cache-dir */
     int timings;
-    uint32_t photons;
-    pf_lpv_settings lpv;
-    pf_render_settings sampling; /* pixel_filter, bounce_limit (cli_sampling.c) */
+    pf_render_settings settings; /* cli_settings.c: the options enqueue takes too */
 } render_options;
 
 /* 0 ok, else the exit code (2) after printing why. */
@@ -186,96 +92,50 @@ static int parse_options(int argc, char **argv, render_options *options, int *he
 {
     memset(options, 0, sizeof *options);
     options->output = DEFAULT_OUTPUT;
-    options->quality = PF_QUALITY_AUTO;
-    options->aovs = 1;
+    options->settings = pf_render_settings_default();
     *help = 0;
     for (int i = 1; i < argc; i++) {
         const char *arg = argv[i];
         const char *value = i + 1 < argc ? argv[i + 1] : NULL;
-        int takes_value = 1;
         if (!strcmp(arg, "--help") || !strcmp(arg, "-h")) {
             *help = 1;
             return 0;
-        } else if (!strcmp(arg, "--float")) {
-            options->float_pixels = 1;
-            takes_value = 0;
-        } else if (!strcmp(arg, "--no-aovs")) {
-            options->aovs = 0;
-            takes_value = 0;
-        } else if (!strcmp(arg, "--timings")) {
+        }
+        if (!strcmp(arg, "--timings")) {
             options->timings = 1;
-            takes_value = 0;
-        } else if (arg[0] == '-' && arg[1] != '\0') {
-            if (!value)
-                return pf_cli_fail(COMMAND, 2, "%s needs a value (see --help)", arg);
-            if (!strcmp(arg, "--frame")) {
-                options->frame_text = value;
-            } else if (!strcmp(arg, "--frames")) {
-                options->frames_text = value;
-            } else if (!strcmp(arg, "-o") || !strcmp(arg, "--output")) {
-                options->output = value;
-            } else if (!strcmp(arg, "--device")) {
-                options->device = value;
-            } else if (!strcmp(arg, "--cache-dir")) {
-                options->cache_dir = value;
-            } else if (!strcmp(arg, "--size")) {
-                unsigned width, height;
-                char extra;
-                if (sscanf(value, "%ux%u%c", &width, &height, &extra) != 2 || width == 0 ||
-                    height == 0 || width > MAX_EDGE || height > MAX_EDGE)
-                    return pf_cli_fail(COMMAND, 2, "--size '%s': expected WxH, each 1..%u", value,
-                                       MAX_EDGE);
-                options->width = width;
-                options->height = height;
-            } else if (!strcmp(arg, "--quality")) {
-                options->quality = pf_quality_parse(value);
-                if (options->quality < 0)
-                    return pf_cli_fail(COMMAND, 2,
-                                       "--quality '%s': expected preview, fast, final, "
-                                       "reference or auto",
-                                       value);
-            } else if (!strcmp(arg, "--spp")) {
-                int64_t spp;
-                if (!parse_int64(value, &spp) || spp < 1 || spp > 65536)
-                    return pf_cli_fail(COMMAND, 2, "--spp '%s': expected 1..65536", value);
-                options->spp = (uint32_t)spp;
-            } else if (!strcmp(arg, "--seed")) {
-                char *end = NULL;
-                errno = 0;
-                unsigned long long seed = strtoull(value, &end, 10);
-                if (errno || *end || !*value || value[0] == '-')
-                    return pf_cli_fail(COMMAND, 2, "--seed '%s': expected an unsigned integer",
-                                       value);
-                options->seed = seed;
-            } else if (!strcmp(arg, "--time-budget")) {
-                if (!pf_cli_parse_time_budget(value, &options->time_budget_ms))
-                    return pf_cli_fail(COMMAND, 2,
-                                       "--time-budget '%s': expected seconds, more than 0 and "
-                                       "at most %.0f",
-                                       value, PF_CLI_MAX_TIME_BUDGET_S);
-            } else if (!strcmp(arg, "--photons")) {
-                int64_t photons;
-                if (!pf_cli_parse_int(value, 1, PF_CLI_MAX_PHOTONS, &photons))
-                    return pf_cli_fail(COMMAND, 2, "--photons '%s': expected 1..%llu", value,
-                                       (unsigned long long)PF_CLI_MAX_PHOTONS);
-                options->photons = (uint32_t)photons;
-            } else {
-                int lpv = pf_cli_sampling_option(COMMAND, arg, value, &options->sampling);
-                if (lpv < 0)
-                    lpv = pf_cli_lpv_option(COMMAND, arg, value, &options->lpv);
-                if (lpv > 0)
-                    return lpv;
-                if (lpv < 0)
-                    return pf_cli_fail(COMMAND, 2, "unknown option '%s' (see --help)", arg);
-            }
-        } else {
+            continue;
+        }
+        if (arg[0] != '-' || arg[1] == '\0') {
             if (options->scene_path)
                 return pf_cli_fail(COMMAND, 2, "one scene only ('%s' and '%s')",
                                    options->scene_path, arg);
             options->scene_path = arg;
-            takes_value = 0;
+            continue;
         }
-        i += takes_value;
+        int used_value = 0;
+        int code = pf_cli_settings_option(COMMAND, arg, value, &options->settings, &used_value);
+        if (code >= 0) {
+            if (code)
+                return code;
+            i += used_value;
+            continue;
+        }
+        if (!value)
+            return pf_cli_fail(COMMAND, 2, "%s needs a value (see --help)", arg);
+        if (!strcmp(arg, "--frame")) {
+            options->frame_text = value;
+        } else if (!strcmp(arg, "--frames")) {
+            options->frames_text = value;
+        } else if (!strcmp(arg, "-o") || !strcmp(arg, "--output")) {
+            options->output = value;
+        } else if (!strcmp(arg, "--device")) {
+            options->device = value;
+        } else if (!strcmp(arg, "--cache-dir")) {
+            options->cache_dir = value;
+        } else {
+            return pf_cli_fail(COMMAND, 2, "unknown option '%s' (see --help)", arg);
+        }
+        i++;
     }
     if (!options->scene_path)
         return pf_cli_fail(COMMAND, 2, "no scene given (see --help)");
@@ -326,18 +186,10 @@ static int render_one(const render_options *options, render_session *session, in
     double start = pf_time_ms();
     char temp_tag[32];
     snprintf(temp_tag, sizeof temp_tag, "render-%ld", (long)getpid());
-    pf_render_settings settings = {options->width, options->height, (pf_quality)options->quality,
-                                   options->spp, options->seed, options->aovs,
-                                   options->time_budget_ms, options->photons, options->lpv,
-                                   options->sampling.pixel_filter,
-                                   options->sampling.bounce_limit,
-                                   options->sampling.budget_ms,
-                                   options->sampling.target_relmse};
     pf_frame_request request = {session->scene,
                                 options->scene_path,
                                 frame_number,
-                                settings,
-                                options->float_pixels ? PF_EXR_FLOAT : PF_EXR_HALF,
+                                options->settings,
                                 path,
                                 temp_tag,
                                 pf_vk_info(session->ctx)->name,
@@ -374,41 +226,37 @@ int pf_cli_render(int argc, char **argv)
         usage(stdout);
         return 0;
     }
-    frame_list frames = {0};
-    char why[256];
-    const char *range = options.frame_text ? options.frame_text : options.frames_text;
-    if (options.frame_text) {
-        int64_t frame;
-        if (!parse_int64(options.frame_text, &frame) || !frame_list_push(&frames, frame)) {
-            free(frames.frames);
-            return pf_cli_fail(COMMAND, 2, "--frame '%s': expected a frame number",
-                               options.frame_text);
-        }
-    } else if (!parse_frames(options.frames_text, &frames, why, sizeof why)) {
-        free(frames.frames);
-        return pf_cli_fail(COMMAND, 2, "--frames '%s': %s (expected e.g. 1-48, 1-48x2, 1,5,9-12)",
-                           range, why);
-    }
+    /* One frame-range grammar: the queue's (pf_queue.h), --frame being a range of one. */
+    pf_frame_list frames = {0};
+    pf_error err = {0};
+    int64_t single;
+    if (options.frame_text &&
+        !pf_cli_parse_int(options.frame_text, 0, PF_FRAME_NUMBER_MAX, &single))
+        return pf_cli_fail(COMMAND, 2, "--frame '%s': expected a frame number",
+                           options.frame_text);
+    if (pf_frame_range_parse(options.frame_text ? options.frame_text : options.frames_text,
+                             &frames, &err) != PF_OK)
+        return pf_cli_fail(COMMAND, 2, "%s: %s", options.frame_text ? "--frame" : "--frames",
+                           err.message);
     if (frames.count > 1 && !strchr(options.output, '#')) {
-        free(frames.frames);
+        pf_frame_list_free(&frames);
         return pf_cli_fail(COMMAND, 2,
-                           "-o '%s' has no # for the frame number, but %u frames were asked for",
+                           "-o '%s' has no # for the frame number, but %zu frames were asked for",
                            options.output, frames.count);
     }
 
     render_session session = {0};
-    pf_error err = {0};
     pf_status status = pf_scene_load(options.scene_path, &session.scene, &err);
     if (status != PF_OK) {
-        free(frames.frames);
+        pf_frame_list_free(&frames);
         return pf_cli_fail(COMMAND, pf_status_exit_code(status), "%s", err.message);
     }
     const pf_scene_info *info = pf_scene_get_info(session.scene);
-    for (uint32_t i = 0; i < frames.count; i++) {
-        if (frames.frames[i] < 1 || frames.frames[i] > (int64_t)info->frame_count) {
-            code = pf_cli_fail(COMMAND, 2, "frame %" PRId64 " is outside %s's frames 1-%u",
+    for (size_t i = 0; i < frames.count; i++) {
+        if (frames.frames[i] < 1 || (uint32_t)frames.frames[i] > info->frame_count) {
+            code = pf_cli_fail(COMMAND, 2, "frame %" PRId32 " is outside %s's frames 1-%u",
                                frames.frames[i], options.scene_path, info->frame_count);
-            free(frames.frames);
+            pf_frame_list_free(&frames);
             session_close(&session);
             return code;
         }
@@ -421,20 +269,20 @@ int pf_cli_render(int argc, char **argv)
     if (status == PF_OK)
         status = pf_renderer_create(session.ctx, &session.renderer, &err);
     if (status != PF_OK) {
-        free(frames.frames);
+        pf_frame_list_free(&frames);
         session_close(&session);
         return pf_cli_fail(COMMAND, pf_status_exit_code(status), "%s", err.message);
     }
     /* Volumes beyond this device's buffers: refused before anything is rendered or written. */
-    code = pf_cli_lpv_check(COMMAND, &options.lpv,
+    code = pf_cli_lpv_check(COMMAND, &options.settings.lpv,
                             pf_vk_info(session.ctx)->max_storage_buffer_range);
     if (code) {
-        free(frames.frames);
+        pf_frame_list_free(&frames);
         session_close(&session);
         return code;
     }
 
-    for (uint32_t i = 0; i < frames.count && code == 0; i++) {
+    for (size_t i = 0; i < frames.count && code == 0; i++) {
         char path[MAX_PATH_BYTES];
         if (!pf_frame_output_path(options.output, frames.frames[i], path, sizeof path)) {
             code = pf_cli_fail(COMMAND, 2, "-o '%s': output path too long", options.output);
@@ -443,7 +291,7 @@ int pf_cli_render(int argc, char **argv)
         double elapsed_ms = 0.0;
         code = render_one(&options, &session, frames.frames[i], path, &elapsed_ms);
         if (code == 0) {
-            printf("[%u/%u] frame %" PRId64 "  %.1f ms  %s\n", i + 1, frames.count,
+            printf("[%zu/%zu] frame %" PRId32 "  %.1f ms  %s\n", i + 1, frames.count,
                    frames.frames[i], elapsed_ms, path);
             fflush(stdout);
         }
@@ -453,7 +301,7 @@ int pf_cli_render(int argc, char **argv)
         if (messages > 0 && code == 0)
             code = pf_cli_fail(COMMAND, 1, "%u Vulkan validation message(s) (see above)", messages);
     }
-    free(frames.frames);
+    pf_frame_list_free(&frames);
     session_close(&session);
     return code;
 }

@@ -187,7 +187,8 @@ pf_status pf_frame_render(pf_renderer *renderer, const pf_frame_request *request
         written = &beauty;
     }
     if (status == PF_OK)
-        status = pf_exr_write(out->temp_path, written, request->pixel_type, attributes,
+        status = pf_exr_write(out->temp_path, written,
+                              settings.float_pixels ? PF_EXR_FLOAT : PF_EXR_HALF, attributes,
                               ATTRIBUTE_COUNT, err);
     pf_image_free(&beauty);
     pf_image_free(&image);

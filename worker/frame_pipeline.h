@@ -36,7 +36,6 @@ typedef struct pf_frame_request {
     const char *scene_path;        /* recorded as metadata */
     int64_t frame;                 /* 1-based */
     pf_render_settings settings;   /* width 0: PF_FRAME_DEFAULT_WIDTH, height from the camera */
-    pf_exr_pixel_type pixel_type;
     const char *output_path;       /* final path of the EXR */
     const char *temp_tag;          /* makes the temporary name unique (a lease token, a pid) */
     const char *device_name;       /* recorded as metadata */

@@ -3,14 +3,11 @@
 #include "frame_pipeline.h"
 
 #include <cjson/cJSON.h>
+#include <inttypes.h>
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
 
-/* Bound on samples per pixel, as `photonfarm render --spp`. */
-#define MAX_SPP 65536.0
-/* Bound on a reference frame's time budget, as `photonfarm render --time-budget`: one week. */
-#define MAX_TIME_BUDGET_MS 604800000.0
 
 /* Reads an optional integer key in [0, max] into *value. */
 static pf_status read_number(const cJSON *root, const char *key, double max, double *value,
@@ -42,6 +39,19 @@ static pf_status read_real(const cJSON *root, const char *key, int zero_allowed,
     return PF_OK;
 }
 
+/* An optional true/false key; absent: untouched. */
+static pf_status read_bool(const cJSON *root, const char *key, int *value, pf_error *err)
+{
+    const cJSON *item = cJSON_GetObjectItemCaseSensitive(root, key);
+    if (!item)
+        return PF_OK;
+    if (!cJSON_IsBool(item))
+        return pf_error_set(err, PF_ERR_FORMAT, "job parameters: \"%s\" must be true or false",
+                            key);
+    *value = cJSON_IsTrue(item);
+    return PF_OK;
+}
+
 /* "lpv": {"cascades", "size", "iterations": [...], "cell"} with the non-default fields only. */
 static void add_lpv(cJSON *root, const pf_lpv_settings *lpv)
 {
@@ -50,7 +60,8 @@ static void add_lpv(cJSON *root, const pf_lpv_settings *lpv)
         if (lpv->iterations[k])
             iteration_count = k + 1;
     }
-    if (!lpv->cascades && !lpv->size && !iteration_count && !(lpv->cell_size > 0.0f))
+    if (!lpv->cascades && !lpv->size && !iteration_count && !(lpv->cell_size > 0.0f) &&
+        !(lpv->offset_cells > 0.0f) && !lpv->undamped)
         return;
     cJSON *object = cJSON_AddObjectToObject(root, "lpv");
     if (!object)
@@ -66,6 +77,11 @@ static void add_lpv(cJSON *root, const pf_lpv_settings *lpv)
     }
     if (lpv->cell_size > 0.0f)
         cJSON_AddNumberToObject(object, "cell", lpv->cell_size);
+    /* Measurement settings (bench/lpv), no command-line option: kept so a file says all. */
+    if (lpv->offset_cells > 0.0f)
+        cJSON_AddNumberToObject(object, "offset_cells", lpv->offset_cells);
+    if (lpv->undamped)
+        cJSON_AddBoolToObject(object, "undamped", 1);
 }
 
 /* Reads "lpv" (absent: defaults); PF_ERR_FORMAT naming the key when a value is out of range. */
@@ -113,6 +129,17 @@ static pf_status read_lpv(const cJSON *root, pf_lpv_settings *lpv, pf_error *err
                                 "more than 0 and at most 1e6");
         lpv->cell_size = (float)cell->valuedouble;
     }
+    const cJSON *offset = cJSON_GetObjectItemCaseSensitive(object, "offset_cells");
+    if (offset) {
+        if (!cJSON_IsNumber(offset) || !(offset->valuedouble > 0.0))
+            return pf_error_set(err, PF_ERR_FORMAT,
+                                "job parameters: \"lpv\".\"offset_cells\" must be a number more "
+                                "than 0");
+        lpv->offset_cells = (float)offset->valuedouble;
+    }
+    pf_status undamped = read_bool(object, "undamped", &lpv->undamped, err);
+    if (undamped != PF_OK)
+        return pf_error_prefix(err, "\"lpv\""), undamped;
     pf_lpv_setting which;
     if (pf_lpv_settings_check(lpv, 0, &which, err) != PF_OK)
         return pf_error_prefix(err, "job parameters: \"lpv\""), PF_ERR_FORMAT;
@@ -131,13 +158,18 @@ int pf_job_params_format(const pf_render_settings *settings, const char *name, c
     cJSON_AddNumberToObject(root, "height", settings->height);
     cJSON_AddStringToObject(root, "quality", pf_quality_name(settings->quality));
     cJSON_AddNumberToObject(root, "spp", settings->samples_per_pixel);
-    cJSON_AddNumberToObject(root, "seed", (double)settings->seed);
+    /* Digits of our own: cJSON prints 15 significant digits, and a seed has up to 16. */
+    char seed[24];
+    snprintf(seed, sizeof seed, "%" PRIu64, settings->seed);
+    cJSON_AddRawToObject(root, "seed", seed);
     if (settings->time_budget_ms > 0.0)
         cJSON_AddNumberToObject(root, "time_budget_ms", settings->time_budget_ms);
     if (settings->photons_per_pass > 0)
         cJSON_AddNumberToObject(root, "photons", settings->photons_per_pass);
     if (!settings->aovs)
         cJSON_AddBoolToObject(root, "aovs", 0);
+    if (settings->float_pixels)
+        cJSON_AddBoolToObject(root, "float", 1);
     if (settings->pixel_filter != PF_FILTER_GAUSSIAN)
         cJSON_AddStringToObject(root, "filter", pf_pixel_filter_name(settings->pixel_filter));
     if (settings->bounce_limit)
@@ -168,7 +200,7 @@ void pf_job_params_name(const char *json, char *out, size_t size)
 
 pf_status pf_job_params_parse(const char *json, pf_render_settings *settings, pf_error *err)
 {
-    pf_render_settings parsed = {0, 0, PF_QUALITY_AUTO, 0, 0, 1, 0.0};
+    pf_render_settings parsed = pf_render_settings_default();
     cJSON *root = cJSON_Parse(json ? json : "{}");
     if (!cJSON_IsObject(root)) {
         cJSON_Delete(root);
@@ -180,12 +212,11 @@ pf_status pf_job_params_parse(const char *json, pf_render_settings *settings, pf
     if (status == PF_OK)
         status = read_number(root, "height", PF_FRAME_MAX_EDGE, &height, err);
     if (status == PF_OK)
-        status = read_number(root, "spp", MAX_SPP, &spp, err);
-    /* 2^53: the largest seed a JSON number carries exactly. */
+        status = read_number(root, "spp", PF_SETTINGS_MAX_SPP, &spp, err);
     if (status == PF_OK)
-        status = read_number(root, "seed", 9007199254740992.0, &seed, err);
+        status = read_number(root, "seed", (double)PF_SETTINGS_MAX_SEED, &seed, err);
     if (status == PF_OK)
-        status = read_number(root, "photons", 100000000.0, &photons, err);
+        status = read_number(root, "photons", (double)PF_SETTINGS_MAX_PHOTONS, &photons, err);
     if (status == PF_OK && cJSON_GetObjectItemCaseSensitive(root, "max_bounces"))
         status = read_number(root, "max_bounces", PF_MAX_BOUNCES_LIMIT, &bounces, err);
     if (status == PF_OK)
@@ -200,20 +231,19 @@ pf_status pf_job_params_parse(const char *json, pf_render_settings *settings, pf
         else
             parsed.pixel_filter = (pf_pixel_filter)parsed_filter;
     }
-    const cJSON *aovs = cJSON_GetObjectItemCaseSensitive(root, "aovs");
-    if (status == PF_OK && aovs) {
-        if (!cJSON_IsBool(aovs))
-            status = pf_error_set(err, PF_ERR_FORMAT, "job parameters: \"aovs\" must be true or false");
-        else
-            parsed.aovs = cJSON_IsTrue(aovs);
-    }
     if (status == PF_OK)
-        status = read_real(root, "budget_ms", 0, MAX_TIME_BUDGET_MS, &parsed.budget_ms, err);
+        status = read_bool(root, "aovs", &parsed.aovs, err);
     if (status == PF_OK)
-        status = read_real(root, "target_relmse", 0, 100.0, &parsed.target_relmse, err);
+        status = read_bool(root, "float", &parsed.float_pixels, err);
     if (status == PF_OK)
-        status = read_real(root, "time_budget_ms", 1, MAX_TIME_BUDGET_MS, &parsed.time_budget_ms,
+        status = read_real(root, "budget_ms", 0, PF_SETTINGS_MAX_BUDGET_MS, &parsed.budget_ms,
                            err);
+    if (status == PF_OK)
+        status = read_real(root, "target_relmse", 0, PF_SETTINGS_MAX_TARGET_RELMSE,
+                           &parsed.target_relmse, err);
+    if (status == PF_OK)
+        status = read_real(root, "time_budget_ms", 1, PF_SETTINGS_MAX_TIME_BUDGET_MS,
+                           &parsed.time_budget_ms, err);
     const cJSON *quality = cJSON_GetObjectItemCaseSensitive(root, "quality");
     if (status == PF_OK && quality) {
         int parsed_quality = cJSON_IsString(quality) ? pf_quality_parse(quality->valuestring) : -1;

@@ -1,8 +1,12 @@
 /*
- * The render parameters a job stores as JSON in the queue (jobs.parameters):
- * {"width":640,"height":480,"quality":"auto","spp":0,"seed":0} (and
- * "time_budget_ms" when the reference preset has one). `enqueue`
- * writes them, the worker reads them back for every task of the job.
+ * The one codec of pf_render_settings: JSON such as
+ * {"width":640,"height":480,"quality":"auto","spp":0,"seed":0} plus every
+ * field that differs from pf_render_settings_default() ("time_budget_ms",
+ * "photons", "aovs", "float", "filter", "max_bounces", "budget_ms",
+ * "target_relmse", "lpv"). `enqueue` stores it in the queue (jobs.parameters),
+ * the worker reads it back for every task, and every EXR carries it as
+ * photonfarm/settings. The bounds below are the command line's too
+ * (cli_settings.c), so whatever one accepts the other does.
  */
 #ifndef PF_JOB_PARAMS_H
 #define PF_JOB_PARAMS_H
@@ -11,6 +15,16 @@
 #include "pf_render.h"
 
 #include <stddef.h>
+
+#define PF_SETTINGS_MAX_SPP 65536
+/* 2^53: the largest integer a JSON number carries exactly. */
+#define PF_SETTINGS_MAX_SEED 9007199254740992ll
+#define PF_SETTINGS_MAX_PHOTONS 100000000ll
+/* --time-budget (a progressive preset's stop): a week. */
+#define PF_SETTINGS_MAX_TIME_BUDGET_MS 604800000.0
+/* --budget-ms (auto's aim per frame): a day. */
+#define PF_SETTINGS_MAX_BUDGET_MS 86400000.0
+#define PF_SETTINGS_MAX_TARGET_RELMSE 100.0
 
 /* Formats settings (and name, when not NULL, as "name") as the JSON object
  * above into out (0 if it does not fit). */

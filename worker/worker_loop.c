@@ -388,9 +388,9 @@ static void render_work(uv_work_t *request)
         if (stale > 0)
             pf_wlog(PF_LOG_INFO, "stale_removed", "job=%" PRId64 " frame=%" PRId64 " files=%d",
                     w->job.job_id, frame, stale);
-        pf_frame_request frame_request = {w->scene,       w->job.scene_path, frame,
-                                          settings,       PF_EXR_HALF,       path,
-                                          w->task.lease_token, w->device_name, &w->abort};
+        pf_frame_request frame_request = {w->scene,           w->job.scene_path, frame,
+                                          settings,           path,              w->task.lease_token,
+                                          w->device_name,     &w->abort};
         w->render_status = pf_frame_render(w->renderer, &frame_request, &w->outputs[i],
                                            &w->render_err);
         w->output_count = (size_t)i + 1;

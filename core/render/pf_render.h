@@ -90,7 +90,19 @@ typedef struct pf_render_settings {
      */
     double budget_ms;
     double target_relmse;
+    /* The frame's EXR: 32-bit float pixels instead of half (the frame
+     * pipeline's, carried here so that a job's frames are written as asked). */
+    int float_pixels;
 } pf_render_settings;
+
+/* What every field means when nobody asked otherwise: auto quality, AOVs on, the rest 0. */
+static inline pf_render_settings pf_render_settings_default(void)
+{
+    pf_render_settings settings = {0};
+    settings.quality = PF_QUALITY_AUTO;
+    settings.aovs = 1;
+    return settings;
+}
 
 /* bounce_limit for "--max-bounces bounces" (bounces ≤ PF_MAX_BOUNCES_LIMIT). */
 static inline uint32_t pf_bounce_limit(uint32_t bounces) { return bounces + 1u; }

@@ -1,0 +1,161 @@
+/*
+ * The render-settings options, one parser for `render` and `enqueue` so that
+ * both accept the same options with the same ranges and messages (cli_queue.h).
+ * What they fill is pf_render_settings, whose one codec (job_params.c) carries
+ * it into the queue and into every EXR's photonfarm/settings.
+ */
+#include "cli_queue.h"
+#include "frame_pipeline.h"
+#include "job_params.h"
+#include "pf_cli.h"
+
+#include <errno.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* A finite number in (0, max], the whole string. */
+static int parse_positive(const char *value, double max, double *out)
+{
+    char *end = NULL;
+    double number = value ? strtod(value, &end) : 0.0;
+    if (!value || end == value || *end || !(number > 0.0) || !(number <= max))
+        return 0;
+    *out = number;
+    return 1;
+}
+
+/* --time-budget: seconds, more than 0 and at most a week, into milliseconds. */
+static int parse_time_budget(const char *text, double *milliseconds)
+{
+    if (!text || !*text || text[0] == '-')
+        return 0;
+    errno = 0;
+    char *end = NULL;
+    double seconds = strtod(text, &end);
+    if (errno || *end || !(seconds > 0.0) || seconds * 1000.0 > PF_SETTINGS_MAX_TIME_BUDGET_MS)
+        return 0;
+    *milliseconds = seconds * 1000.0;
+    return 1;
+}
+
+/* The options that take no value. */
+static int flag_option(const char *arg, pf_render_settings *settings)
+{
+    if (!strcmp(arg, "--float"))
+        settings->float_pixels = 1;
+    else if (!strcmp(arg, "--no-aovs"))
+        settings->aovs = 0;
+    else
+        return 0;
+    return 1;
+}
+
+/* --size, --quality, --spp, --seed, --photons, --time-budget: -1 none of them. */
+static int frame_option(const char *command, const char *arg, const char *value,
+                        pf_render_settings *settings)
+{
+    int64_t number;
+    if (!strcmp(arg, "--size")) {
+        unsigned width, height;
+        char extra;
+        if (sscanf(value, "%ux%u%c", &width, &height, &extra) != 2 || width == 0 ||
+            height == 0 || width > PF_FRAME_MAX_EDGE || height > PF_FRAME_MAX_EDGE)
+            return pf_cli_fail(command, 2, "--size '%s': expected WxH, each 1..%u", value,
+                               PF_FRAME_MAX_EDGE);
+        settings->width = width;
+        settings->height = height;
+    } else if (!strcmp(arg, "--quality")) {
+        int quality = pf_quality_parse(value);
+        if (quality < 0)
+            return pf_cli_fail(command, 2,
+                               "--quality '%s': expected preview, fast, final, reference or auto",
+                               value);
+        settings->quality = (pf_quality)quality;
+    } else if (!strcmp(arg, "--spp")) {
+        if (!pf_cli_parse_int(value, 1, PF_SETTINGS_MAX_SPP, &number))
+            return pf_cli_fail(command, 2, "--spp '%s': expected 1..%d", value, PF_SETTINGS_MAX_SPP);
+        settings->samples_per_pixel = (uint32_t)number;
+    } else if (!strcmp(arg, "--seed")) {
+        if (!pf_cli_parse_int(value, 0, PF_SETTINGS_MAX_SEED, &number))
+            return pf_cli_fail(command, 2, "--seed '%s': expected an integer 0..%lld", value,
+                               (long long)PF_SETTINGS_MAX_SEED);
+        settings->seed = (uint64_t)number;
+    } else if (!strcmp(arg, "--photons")) {
+        if (!pf_cli_parse_int(value, 1, PF_SETTINGS_MAX_PHOTONS, &number))
+            return pf_cli_fail(command, 2, "--photons '%s': expected 1..%llu", value,
+                               (unsigned long long)PF_SETTINGS_MAX_PHOTONS);
+        settings->photons_per_pass = (uint32_t)number;
+    } else if (!strcmp(arg, "--time-budget")) {
+        if (!parse_time_budget(value, &settings->time_budget_ms))
+            return pf_cli_fail(command, 2,
+                               "--time-budget '%s': expected seconds, more than 0 and at most %.0f",
+                               value, PF_SETTINGS_MAX_TIME_BUDGET_MS / 1000.0);
+    } else {
+        return -1;
+    }
+    return 0;
+}
+
+/* --filter, --max-bounces, --budget-ms, --target-relmse: -1 none of them. */
+static int sampling_option(const char *command, const char *arg, const char *value,
+                           pf_render_settings *settings)
+{
+    if (!strcmp(arg, "--filter")) {
+        int filter = pf_pixel_filter_parse(value);
+        if (filter < 0)
+            return pf_cli_fail(command, 2,
+                               "--filter '%s': expected gaussian, box or blackman-harris", value);
+        settings->pixel_filter = (pf_pixel_filter)filter;
+    } else if (!strcmp(arg, "--max-bounces")) {
+        int64_t bounces;
+        if (!pf_cli_parse_int(value, 0, PF_MAX_BOUNCES_LIMIT, &bounces))
+            return pf_cli_fail(command, 2, "--max-bounces '%s': expected an integer 0..%u", value,
+                               PF_MAX_BOUNCES_LIMIT);
+        settings->bounce_limit = pf_bounce_limit((uint32_t)bounces);
+    } else if (!strcmp(arg, "--budget-ms")) {
+        if (!parse_positive(value, PF_SETTINGS_MAX_BUDGET_MS, &settings->budget_ms))
+            return pf_cli_fail(command, 2,
+                               "--budget-ms '%s': expected milliseconds per frame, more than 0 "
+                               "and at most %.0f",
+                               value, PF_SETTINGS_MAX_BUDGET_MS);
+    } else if (!strcmp(arg, "--target-relmse")) {
+        if (!parse_positive(value, PF_SETTINGS_MAX_TARGET_RELMSE, &settings->target_relmse))
+            return pf_cli_fail(command, 2,
+                               "--target-relmse '%s': expected a relMSE more than 0 and at most "
+                               "%.0f",
+                               value, PF_SETTINGS_MAX_TARGET_RELMSE);
+    } else {
+        return -1;
+    }
+    return 0;
+}
+
+/* The settings options that take a value (the --lpv-* ones are cli_lpv.c's). */
+static const char *const valued_options[] = {
+    "--size",      "--quality",       "--spp",       "--seed",           "--photons",
+    "--time-budget", "--filter",      "--max-bounces", "--budget-ms",    "--target-relmse",
+    "--lpv-cascades", "--lpv-size",   "--lpv-iterations", "--lpv-cell",
+};
+
+int pf_cli_settings_option(const char *command, const char *arg, const char *value,
+                           pf_render_settings *settings, int *used_value)
+{
+    *used_value = 0;
+    if (flag_option(arg, settings))
+        return 0;
+    int known = 0;
+    for (size_t i = 0; i < sizeof valued_options / sizeof valued_options[0] && !known; i++)
+        known = !strcmp(arg, valued_options[i]);
+    if (!known)
+        return -1;
+    if (!value)
+        return pf_cli_fail(command, 2, "%s needs a value (see --help)", arg);
+    *used_value = 1;
+    int code = frame_option(command, arg, value, settings);
+    if (code < 0)
+        code = sampling_option(command, arg, value, settings);
+    if (code < 0)
+        code = pf_cli_lpv_option(command, arg, value, &settings->lpv);
+    return code;
+}
