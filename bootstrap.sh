@@ -9,6 +9,10 @@
 #   ./bootstrap.sh demo    deps, build, then enqueue the bundled animated demo into an embedded
 #                          SQLite queue (demo-out/farm.db), run a worker until the job is done,
 #                          and print the job's stage timings
+#   ./bootstrap.sh quality [WxH]
+#                          deps + Blender, build, then the speed-against-error report
+#                          (bench/quality) on the shared scenes against Cycles: CSV and
+#                          SVG per scene in bench-out/quality/ (default 160x160)
 #
 # Works from any directory: every path is relative to this script's directory.
 # PF_JOBS sets the build parallelism (default: all CPUs).
@@ -36,6 +40,9 @@ PACKAGES=(
   libembree-dev           # bench/: CPU ray-casting peer for speed comparisons
 )
 
+# Only for `quality`: Cycles, the peer of bench/quality, and the numpy its glTF importer needs.
+QUALITY_PACKAGES=(blender python3-numpy)
+
 JOBS=${PF_JOBS:-$(nproc)}
 # ctest parallelism: the suite is sized for 2 cores (CI), and lavapipe tests
 # each use several threads already.
@@ -48,7 +55,7 @@ DEMO_OUTPUT=demo-out/frame.####.exr
 DEMO_DB=demo-out/farm.db
 
 usage() {
-  sed -n '2,14s/^# \{0,1\}//p' "$0" >&2
+  sed -n '2,18s/^# \{0,1\}//p' "$0" >&2
   exit 2
 }
 
@@ -61,14 +68,18 @@ as_root() {
 }
 
 cmd_deps() {
+  install_packages "${PACKAGES[@]}"
+}
+
+install_packages() {
   local missing=() package
-  for package in "${PACKAGES[@]}"; do
+  for package in "$@"; do
     if [ "$(dpkg-query -W -f='${Status}' "$package" 2>/dev/null)" != "install ok installed" ]; then
       missing+=("$package")
     fi
   done
   if [ "${#missing[@]}" -eq 0 ]; then
-    echo "bootstrap: all ${#PACKAGES[@]} Debian packages present"
+    echo "bootstrap: all $# Debian packages present"
     return 0
   fi
   echo "bootstrap: installing ${missing[*]}"
@@ -148,11 +159,39 @@ cmd_demo() {
   echo "bootstrap: demo job $job: frames in $ROOT/demo-out/, queue in $ROOT/$DEMO_DB"
 }
 
-[ $# -eq 1 ] || usage
-case "$1" in
-  deps) cmd_deps ;;
-  build) cmd_build ;;
-  test) cmd_test ;;
-  demo) cmd_demo ;;
+# One report per shared scene; the image sizes keep each scene's camera aspect
+# (Cycles and photonfarm must frame it alike). Threads: 2 for both renderers.
+QUALITY_SCENES=(cornell-box:1 caustic-anim:1.7777777778 staircase2:1)
+
+cmd_quality() {
+  local size=${1:-160x160} width height entry name aspect out
+  case "$size" in
+    [0-9]*x[0-9]*) width=${size%x*} ;;
+    *) echo "bootstrap: quality: size '$size': expected WxH" >&2; exit 2 ;;
+  esac
+  cmd_build
+  install_packages "${QUALITY_PACKAGES[@]}"
+  out="$ROOT/bench-out/quality"
+  mkdir -p "$out"
+  for entry in "${QUALITY_SCENES[@]}"; do
+    name=${entry%%:*}
+    aspect=${entry#*:}
+    height=$(awk -v w="$width" -v a="$aspect" 'BEGIN { printf "%d", w / a + 0.5 }')
+    if [ ! -f "$ROOT/../shared/scenes/$name/$name.gltf" ]; then
+      echo "bootstrap: quality: ../shared/scenes/$name missing, skipped"
+      continue
+    fi
+    LP_NUM_THREADS=2 PF_SOURCE_DIR="$ROOT" "$ROOT/build/bench/quality/quality_bench" \
+      "$ROOT/../shared/scenes/$name/$name.gltf" "$width" "$height" "$out/$name" \
+      "$(command -v blender)" 2
+  done
+}
+
+case "${1:-}" in
+  deps) [ $# -eq 1 ] || usage; cmd_deps ;;
+  build) [ $# -eq 1 ] || usage; cmd_build ;;
+  test) [ $# -eq 1 ] || usage; cmd_test ;;
+  demo) [ $# -eq 1 ] || usage; cmd_demo ;;
+  quality) [ $# -le 2 ] || usage; cmd_quality "${2:-}" ;;
   *) usage ;;
 esac

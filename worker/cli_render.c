@@ -59,7 +59,7 @@ static void usage(FILE *out)
             "                     seconds per frame (at least one; default: no limit)\n"
             "  --float            32-bit float pixels (default half)\n"
             "  --filter F         pixel filter: gaussian (default; sigma 0.5 px, radius\n"
-            "                     1.5 px), box (1 px), blackman-harris (1.5 px, Cycles')\n"
+            "                     1.5 px), box (1 px), blackman-harris (±1.5 px, Cycles')\n"
             "  --max-bounces N    reference, final: light of at most N bounces after the\n"
             "                     first surface (0 = direct light only; default: no limit)\n"
             "  --budget-ms MS     auto: aim at MS milliseconds per frame (final with the\n"

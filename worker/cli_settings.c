@@ -39,6 +39,19 @@ static int parse_time_budget(const char *text, double *milliseconds)
     return 1;
 }
 
+/* "WxH", each side parsed whole and range-checked (sscanf's %u wraps 4294967297 to 1). */
+static int parse_size(const char *value, int64_t *width, int64_t *height)
+{
+    char side[32];
+    const char *x = strchr(value, 'x');
+    if (!x || (size_t)(x - value) >= sizeof side)
+        return 0;
+    memcpy(side, value, (size_t)(x - value));
+    side[x - value] = '\0';
+    return pf_cli_parse_int(side, 1, PF_FRAME_MAX_EDGE, width) &&
+           pf_cli_parse_int(x + 1, 1, PF_FRAME_MAX_EDGE, height);
+}
+
 /* The options that take no value. */
 static int flag_option(const char *arg, pf_render_settings *settings)
 {
@@ -57,14 +70,12 @@ static int frame_option(const char *command, const char *arg, const char *value,
 {
     int64_t number;
     if (!strcmp(arg, "--size")) {
-        unsigned width, height;
-        char extra;
-        if (sscanf(value, "%ux%u%c", &width, &height, &extra) != 2 || width == 0 ||
-            height == 0 || width > PF_FRAME_MAX_EDGE || height > PF_FRAME_MAX_EDGE)
+        int64_t width, height;
+        if (!parse_size(value, &width, &height))
             return pf_cli_fail(command, 2, "--size '%s': expected WxH, each 1..%u", value,
                                PF_FRAME_MAX_EDGE);
-        settings->width = width;
-        settings->height = height;
+        settings->width = (uint32_t)width;
+        settings->height = (uint32_t)height;
     } else if (!strcmp(arg, "--quality")) {
         int quality = pf_quality_parse(value);
         if (quality < 0)

@@ -5,7 +5,8 @@
  * vertical edge at film x = EDGE_X (the emitter's plane faces the camera, so
  * the edge is a straight film line). A pixel then holds the share of its
  * filter's mass right of the edge: for box (width 1) the overlap of the
- * pixel's square, for Blackman-Harris (width 1.5, separable) one minus its
+ * pixel's square, for Blackman-Harris (width 3, i.e. Cycles' 1.5 px half-width;
+ * separable) one minus its
  * 1-D CDF, for the Gaussian (radial, σ 0.5, truncated at 1.5) the 2-D
  * integral, computed here on a fine grid. Each filter's pixel row is
  * checked against its own profile, and pixels beyond a filter's reach are
@@ -60,7 +61,7 @@ static double blackman_harris_cdf(double u)
 
 static double blackman_harris_share(double c)
 {
-    return 1.0 - blackman_harris_cdf((EDGE_X - c) / 1.5 + 0.5);
+    return 1.0 - blackman_harris_cdf((EDGE_X - c) / 3.0 + 0.5);
 }
 
 /* The radial Gaussian (σ 0.5, truncated at r 1.5) integrated over x > EDGE_X, on a grid. */
@@ -140,7 +141,7 @@ static void check_filter(pf_pixel_filter filter, double (*share)(double), double
 PF_TEST(each_pixel_filter_has_its_own_edge_profile)
 {
     check_filter(PF_FILTER_BOX, box_share, 0.5);
-    check_filter(PF_FILTER_BLACKMAN_HARRIS, blackman_harris_share, 0.75);
+    check_filter(PF_FILTER_BLACKMAN_HARRIS, blackman_harris_share, 1.5);
     check_filter(PF_FILTER_GAUSSIAN, gaussian_share, 1.5);
 }
 

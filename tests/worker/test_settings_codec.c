@@ -157,6 +157,9 @@ PF_TEST(the_parser_and_the_codec_share_their_bounds)
         {"--target-relmse", "100", "100.5", "{\"target_relmse\":100.5}"},
         {"--max-bounces", "1024", "1025", "{\"max_bounces\":1025}"},
         {"--size", "16384x1", "16385x1", "{\"width\":16385}"},
+        {"--size", "1x16384", "4294967297x1", "{\"height\":4294967297}"}, /* no wrap */
+        {"--size", "7x5", "7x", "{\"width\":-1}"},
+        {"--spp", "1", "1e3", "{\"spp\":1.5}"},
     };
     for (size_t i = 0; i < sizeof bounds / sizeof bounds[0]; i++) {
         pf_render_settings settings;

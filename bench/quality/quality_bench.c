@@ -1,0 +1,318 @@
+/*
+ * quality_bench: speed against error (issue 12, item 7). For one scene: a
+ * converged image as ground truth (rendered once, cached by a hash of the
+ * scene's files and the size), then every preset over a sweep of its
+ * settings and Cycles over a sweep of sample counts, each image's relMSE and
+ * RMSE against the same truth, computed the same way (pf_image_compare on
+ * R, G, B, ε = 0.01). Writes PREFIX.csv and PREFIX.svg (relMSE against
+ * seconds, log-log, one curve per renderer and preset) and prints the rows.
+ *
+ *   quality_bench SCENE.gltf WIDTH HEIGHT PREFIX [BLENDER|none] [THREADS]
+ *
+ * Times: photonfarm's are pf_render_frame's wall time in this process after
+ * a warm-up frame of the same preset (no shader compilation, no scene
+ * loading), each point with a seed of its own so that nothing is reused from
+ * an earlier frame but the BIH of the static scene; Cycles' are bpy.ops.render.render's (bench/quality/
+ * cycles_render.py: scene sync, BVH build and sampling; no start-up, import
+ * or file write). Both get THREADS CPU threads (default 2; set LP_NUM_THREADS
+ * to the same for lavapipe). Both use the Blackman-Harris 1.5 px pixel filter.
+ *
+ * The truth is Cycles at TRUTH_SPP (an independent renderer, and on 2 cores
+ * ~17× faster per sample than photonfarm's reference on lavapipe), or with no
+ * Blender photonfarm's reference at TRUTH_SPP. Cached as
+ * PREFIX-truth-<hash>.exr.
+ */
+#include "pf_common.h"
+#include "pf_image.h"
+#include "pf_render.h"
+#include "pf_scene.h"
+#include "pf_vk.h"
+#include "quality_plot.h"
+
+#include <dirent.h>
+#include <inttypes.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+
+#define TRUTH_SPP 4096u
+#define MAX_ROWS 64
+
+typedef struct sweep {
+    const char *label;   /* curve name */
+    pf_quality quality;
+    const char *knob;    /* what the values set */
+    uint32_t values[8];  /* 0-terminated */
+} sweep;
+
+/* What each preset's cost and error are governed by. */
+static const sweep sweeps[] = {
+    {"preview", PF_QUALITY_PREVIEW, "spp", {1, 4, 16, 0}},
+    {"fast", PF_QUALITY_FAST, "spp", {1, 2, 4, 8, 16, 0}},
+    {"final", PF_QUALITY_FINAL, "passes", {1, 2, 4, 8, 16, 32, 0}},
+    {"reference", PF_QUALITY_REFERENCE, "spp", {4, 16, 64, 256, 0}},
+};
+static const uint32_t cycles_spp[] = {4, 16, 64, 256, 1024, 0};
+
+static uint64_t fnv1a(uint64_t hash, const void *data, size_t bytes)
+{
+    const unsigned char *p = data;
+    for (size_t i = 0; i < bytes; i++)
+        hash = (hash ^ p[i]) * 0x100000001b3ull;
+    return hash;
+}
+
+/* Hash of every regular file in the scene's directory (glTF, buffers, images), by name order. */
+static uint64_t scene_hash(const char *scene_path)
+{
+    char dir[4096];
+    snprintf(dir, sizeof dir, "%s", scene_path);
+    char *slash = strrchr(dir, '/');
+    if (slash)
+        *slash = '\0';
+    else
+        snprintf(dir, sizeof dir, ".");
+    struct dirent **entries = NULL;
+    int count = scandir(dir, &entries, NULL, alphasort);
+    uint64_t hash = 0xcbf29ce484222325ull;
+    for (int i = 0; i < count; i++) {
+        char path[8192];
+        snprintf(path, sizeof path, "%s/%s", dir, entries[i]->d_name);
+        struct stat st;
+        FILE *file = stat(path, &st) == 0 && S_ISREG(st.st_mode) ? fopen(path, "rb") : NULL;
+        if (file) {
+            hash = fnv1a(hash, entries[i]->d_name, strlen(entries[i]->d_name));
+            char buffer[65536];
+            size_t n;
+            while ((n = fread(buffer, 1, sizeof buffer, file)) > 0)
+                hash = fnv1a(hash, buffer, n);
+            fclose(file);
+        }
+        free(entries[i]);
+    }
+    free(entries);
+    return hash;
+}
+
+static int rgb_only(pf_image *image)
+{
+    static const char *const rgb[] = {"R", "G", "B"};
+    pf_image selected = {0};
+    pf_error err = {0};
+    if (pf_image_select(image, rgb, 3, &selected, &err) != PF_OK) {
+        fprintf(stderr, "quality_bench: %s\n", err.message);
+        return 0;
+    }
+    pf_image_free(image);
+    *image = selected;
+    return 1;
+}
+
+/* Runs cycles_render.py; fills image (R, G, B) and seconds. 1 on success. */
+static int render_cycles(const char *blender, const char *scene, uint32_t width, uint32_t height,
+                         uint32_t spp, uint32_t seed, int threads, const char *out_path,
+                         pf_image *image, double *seconds)
+{
+    const char *source = getenv("PF_SOURCE_DIR");
+    char command[16384];
+    snprintf(command, sizeof command,
+             "'%s' -b --factory-startup -P '%s/bench/quality/cycles_render.py' -- '%s' '%s' "
+             "%u %u %u %u %d 2>&1",
+             blender, source ? source : ".", scene, out_path, width, height, spp, seed, threads);
+    FILE *pipe = popen(command, "r");
+    if (!pipe)
+        return 0;
+    char line[4096];
+    *seconds = -1.0;
+    while (fgets(line, sizeof line, pipe)) {
+        if (!strncmp(line, "cycles_seconds ", 15))
+            *seconds = atof(line + 15);
+        else if (strstr(line, "Error") || strstr(line, "rror:"))
+            fprintf(stderr, "  blender: %s", line);
+    }
+    int status = pclose(pipe);
+    pf_error err = {0};
+    if (status != 0 || *seconds < 0.0 ||
+        pf_exr_read(out_path, image, NULL, NULL, &err) != PF_OK) {
+        fprintf(stderr, "quality_bench: Cycles failed (%s)%s%s\n", command,
+                err.message[0] ? ": " : "", err.message);
+        return 0;
+    }
+    return rgb_only(image);
+}
+
+static pf_render_settings settings_for(pf_quality quality, uint32_t width, uint32_t height,
+                                       uint32_t value, uint32_t seed)
+{
+    pf_render_settings s = pf_render_settings_default();
+    s.width = width;
+    s.height = height;
+    s.quality = quality;
+    s.samples_per_pixel = value;
+    s.seed = seed;
+    s.aovs = 0;
+    s.pixel_filter = PF_FILTER_BLACKMAN_HARRIS;
+    return s;
+}
+
+static int render_ours(pf_renderer *renderer, const pf_scene_frame *frame,
+                       const pf_render_settings *settings, pf_image *image, double *seconds)
+{
+    pf_error err = {0};
+    double start = pf_time_ms();
+    if (pf_render_frame(renderer, frame, settings, image, NULL, &err) != PF_OK) {
+        fprintf(stderr, "quality_bench: %s\n", err.message);
+        return 0;
+    }
+    *seconds = (pf_time_ms() - start) / 1000.0;
+    return rgb_only(image);
+}
+
+int main(int argc, char **argv)
+{
+    if (argc < 5) {
+        fprintf(stderr, "usage: quality_bench SCENE WIDTH HEIGHT PREFIX [BLENDER|none] [THREADS]\n");
+        return 2;
+    }
+    const char *scene_path = argv[1];
+    uint32_t width = (uint32_t)atoi(argv[2]), height = (uint32_t)atoi(argv[3]);
+    const char *prefix = argv[4];
+    const char *blender = argc > 5 && strcmp(argv[5], "none") ? argv[5] : NULL;
+    int threads = argc > 6 ? atoi(argv[6]) : 2;
+    if (!width || !height || threads < 1) {
+        fprintf(stderr, "quality_bench: bad size or thread count\n");
+        return 2;
+    }
+    pf_error err = {0};
+    pf_scene *scene = NULL;
+    pf_scene_frame frame = {0};
+    if (pf_scene_load(scene_path, &scene, &err) != PF_OK ||
+        pf_scene_eval(scene, pf_scene_frame_time(scene, 1), &frame, &err) != PF_OK) {
+        fprintf(stderr, "quality_bench: %s\n", err.message);
+        return 2;
+    }
+    pf_vk_context *ctx = NULL;
+    pf_renderer *renderer = NULL;
+    pf_vk_options options = {NULL, 0, NULL};
+    if (pf_vk_create(&options, &ctx, &err) != PF_OK ||
+        pf_renderer_create(ctx, &renderer, &err) != PF_OK) {
+        fprintf(stderr, "quality_bench: %s\n", err.message);
+        return 1;
+    }
+    printf("quality_bench %s %ux%u, %d threads, device %s\n", scene_path, width, height, threads,
+           pf_vk_info(ctx)->name);
+
+    /* The truth, cached by content. */
+    char truth_path[4096], scratch[4096];
+    snprintf(truth_path, sizeof truth_path, "%s-truth-%016" PRIx64 "-%ux%u-%s%u.exr", prefix,
+             scene_hash(scene_path), width, height, blender ? "cycles" : "reference", TRUTH_SPP);
+    snprintf(scratch, sizeof scratch, "%s-cycles.exr", prefix);
+    pf_image truth = {0};
+    if (pf_exr_read(truth_path, &truth, NULL, NULL, &err) == PF_OK && rgb_only(&truth)) {
+        printf("truth: %s (cached)\n", truth_path);
+    } else {
+        double seconds = 0.0;
+        int ok;
+        if (blender) {
+            ok = render_cycles(blender, scene_path, width, height, TRUTH_SPP, 1000, threads,
+                               truth_path, &truth, &seconds);
+        } else {
+            pf_render_settings s =
+                settings_for(PF_QUALITY_REFERENCE, width, height, TRUTH_SPP, 1000);
+            ok = render_ours(renderer, &frame, &s, &truth, &seconds);
+            ok = ok && pf_exr_write(truth_path, &truth, PF_EXR_FLOAT, NULL, 0, &err) == PF_OK;
+        }
+        if (!ok)
+            return 1;
+        printf("truth: %s (%s at %u spp, %.1f s)\n", truth_path, blender ? "Cycles" : "reference",
+               TRUTH_SPP, seconds);
+    }
+
+    quality_row rows[MAX_ROWS];
+    size_t row_count = 0;
+    char csv_path[4096];
+    snprintf(csv_path, sizeof csv_path, "%s.csv", prefix);
+    FILE *csv = fopen(csv_path, "w");
+    if (!csv) {
+        fprintf(stderr, "quality_bench: cannot write %s\n", csv_path);
+        return 1;
+    }
+    fprintf(csv, "renderer,preset,setting,value,seconds,relmse,rmse\n");
+    printf("%-10s %-10s %-8s %6s %10s %12s %12s\n", "renderer", "preset", "setting", "value",
+           "seconds", "relMSE", "RMSE");
+
+    for (size_t s = 0; s < sizeof sweeps / sizeof sweeps[0]; s++) {
+        pf_image image = {0};
+        double seconds;
+        /* Warm-up: pipelines compiled and the scene's BIH built before timing. */
+        pf_render_settings warm = settings_for(sweeps[s].quality, width, height, 1, 1);
+        if (!render_ours(renderer, &frame, &warm, &image, &seconds))
+            return 1;
+        pf_image_free(&image);
+        for (const uint32_t *v = sweeps[s].values; *v; v++) {
+            /* A seed of its own: the renderer reuses photons and LPVs across frames of
+             * the same seed (a static scene), and each point must pay a whole frame. */
+            pf_render_settings settings =
+                settings_for(sweeps[s].quality, width, height, *v, 100 + (uint32_t)row_count);
+            if (!render_ours(renderer, &frame, &settings, &image, &seconds))
+                return 1;
+            pf_image_metrics metrics;
+            if (pf_image_compare(&image, &truth, &metrics, &err) != PF_OK) {
+                fprintf(stderr, "quality_bench: %s\n", err.message);
+                return 1;
+            }
+            pf_image_free(&image);
+            quality_row row = {"photonfarm", sweeps[s].label, sweeps[s].knob, *v, seconds,
+                               metrics.relmse, metrics.rmse};
+            if (row_count < MAX_ROWS)
+                rows[row_count++] = row;
+            fprintf(csv, "%s,%s,%s,%u,%.4f,%.6g,%.6g\n", row.renderer, row.preset, row.knob,
+                    row.value, row.seconds, row.relmse, row.rmse);
+            printf("%-10s %-10s %-8s %6u %10.3f %12.6g %12.6g\n", row.renderer, row.preset,
+                   row.knob, row.value, row.seconds, row.relmse, row.rmse);
+            fflush(stdout);
+        }
+    }
+    for (const uint32_t *spp = cycles_spp; blender && *spp; spp++) {
+        pf_image image = {0};
+        double seconds;
+        if (!render_cycles(blender, scene_path, width, height, *spp, 2, threads, scratch, &image,
+                           &seconds))
+            return 1;
+        pf_image_metrics metrics;
+        if (pf_image_compare(&image, &truth, &metrics, &err) != PF_OK) {
+            fprintf(stderr, "quality_bench: %s\n", err.message);
+            return 1;
+        }
+        pf_image_free(&image);
+        quality_row row = {"cycles", "path", "spp", *spp, seconds, metrics.relmse, metrics.rmse};
+        if (row_count < MAX_ROWS)
+            rows[row_count++] = row;
+        fprintf(csv, "%s,%s,%s,%u,%.4f,%.6g,%.6g\n", row.renderer, row.preset, row.knob,
+                row.value, row.seconds, row.relmse, row.rmse);
+        printf("%-10s %-10s %-8s %6u %10.3f %12.6g %12.6g\n", row.renderer, row.preset, row.knob,
+               row.value, row.seconds, row.relmse, row.rmse);
+        fflush(stdout);
+    }
+    fclose(csv);
+    remove(scratch);
+
+    char svg_path[4096], title[4200];
+    snprintf(svg_path, sizeof svg_path, "%s.svg", prefix);
+    const char *name = strrchr(scene_path, '/');
+    snprintf(title, sizeof title, "%s, %ux%u, %d threads: relMSE against seconds per frame",
+             name ? name + 1 : scene_path, width, height, threads);
+    if (!quality_plot_svg(svg_path, title, rows, row_count))
+        fprintf(stderr, "quality_bench: cannot write %s\n", svg_path);
+    quality_summary(rows, row_count, 0.01);
+    printf("wrote %s and %s\n", csv_path, svg_path);
+
+    pf_image_free(&truth);
+    pf_renderer_destroy(renderer);
+    pf_vk_destroy(ctx);
+    pf_scene_frame_free(&frame);
+    pf_scene_destroy(scene);
+    return 0;
+}
