@@ -138,40 +138,12 @@ static int parse_options(int argc, char **argv, enqueue_options *options, int *h
     return pf_cli_lpv_check(COMMAND, &options->settings.lpv, PF_CLI_GUARANTEED_BUFFER_BYTES);
 }
 
-/*
- * Resolves the pattern's directory to an absolute path (workers may run
- * elsewhere) and proves it writable by creating and deleting a probe file.
- */
+/* The output pattern made absolute, its directory proven writable (frame_pipeline.h). */
 static int check_output(const char *pattern, char *absolute, size_t size)
 {
-    char dir[PATH_MAX], resolved[PATH_MAX];
-    const char *slash = strrchr(pattern, '/');
-    const char *base = slash ? slash + 1 : pattern;
-    if (!*base)
-        return pf_cli_fail(COMMAND, 2, "--out '%s': no file name after the directory", pattern);
-    if (strchr(pattern, '#') && strchr(pattern, '#') < base)
-        return pf_cli_fail(COMMAND, 2, "--out '%s': # belongs in the file name, not the directory",
-                           pattern);
-    if (!slash)
-        snprintf(dir, sizeof dir, ".");
-    else if (slash == pattern)
-        snprintf(dir, sizeof dir, "/");
-    else
-        snprintf(dir, sizeof dir, "%.*s", (int)(slash - pattern), pattern);
-    if (!realpath(dir, resolved))
-        return pf_cli_fail(COMMAND, 2, "--out '%s': output directory %s: %s", pattern, dir,
-                           strerror(errno));
-    char probe[PATH_MAX + 64];
-    snprintf(probe, sizeof probe, "%s/.photonfarm-probe-%ld", resolved, (long)getpid());
-    int fd = open(probe, O_WRONLY | O_CREAT | O_EXCL, 0600);
-    if (fd < 0)
-        return pf_cli_fail(COMMAND, 2, "--out '%s': output directory %s is not writable: %s",
-                           pattern, resolved, strerror(errno));
-    close(fd);
-    unlink(probe);
-    if (snprintf(absolute, size, "%s/%s", strcmp(resolved, "/") ? resolved : "", base) >=
-        (int)size)
-        return pf_cli_fail(COMMAND, 2, "--out '%s': path too long", pattern);
+    pf_error err = {0};
+    if (pf_frame_output_check(pattern, absolute, size, &err) != PF_OK)
+        return pf_cli_fail(COMMAND, 2, "--out '%s': %s", pattern, err.message);
     return 0;
 }
 

@@ -3,6 +3,8 @@
 #include "pf_cli.h"
 
 #include <errno.h>
+#include <stdio.h>
+#include <string.h>
 #include <stdlib.h>
 #include <sys/stat.h>
 
@@ -22,6 +24,15 @@ int pf_cli_open_queue(const char *command, const char *path, int must_exist, pf_
                            "no queue database at %s (photonfarm enqueue creates one; --db or "
                            "$PHOTONFARM_DB choose another)",
                            path);
+    /* A queue is created only inside a directory that exists: a typo in its path is bad
+     * input (exit 2) for every command alike, not an I/O failure. */
+    char dir[4096];
+    const char *slash = strrchr(path, '/');
+    snprintf(dir, sizeof dir, "%.*s", slash ? (int)(slash == path ? 1 : slash - path) : 1,
+             slash ? path : ".");
+    if (stat(dir, &info) != 0 || !S_ISDIR(info.st_mode))
+        return pf_cli_fail(command, 2, "queue database %s: directory %s does not exist", path,
+                           dir);
     pf_error err = {0};
     pf_status status = pf_queue_open(path, NULL, out, &err);
     if (status != PF_OK)

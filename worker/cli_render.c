@@ -245,6 +245,14 @@ int pf_cli_render(int argc, char **argv)
                            options.output, frames.count);
     }
 
+    /* An unwritable output is found now, not after the first frame has rendered. */
+    char absolute_output[PF_FRAME_PATH_MAX];
+    if (pf_frame_output_check(options.output, absolute_output, sizeof absolute_output, &err) !=
+        PF_OK) {
+        pf_frame_list_free(&frames);
+        return pf_cli_fail(COMMAND, 2, "-o '%s': %s", options.output, err.message);
+    }
+
     render_session session = {0};
     pf_status status = pf_scene_load(options.scene_path, &session.scene, &err);
     if (status != PF_OK) {

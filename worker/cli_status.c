@@ -29,19 +29,22 @@ static void usage(FILE *out)
 
 static void print_job(pf_queue *queue, const pf_queue_job *job, int64_t now)
 {
-    char bar[320], name[128];
+    char bar[320], name[128], shown[4][PF_CLI_PATH_MAX];
     pf_progress_bar(bar, sizeof bar, job->frames_done, job->frames_total, BAR_CELLS);
     pf_job_params_name(job->parameters_json, name, sizeof name);
     printf("job %" PRId64 "%s%s%s  %-8s %s  priority %d\n", job->job_id, name[0] ? " (" : "",
-           name, name[0] ? ")" : "", job->status, bar, job->priority);
-    printf("  scene %s  frames %s  -> %s\n", job->scene_path, job->frame_range,
-           job->output_pattern);
+           pf_cli_printable(name, shown[0], sizeof shown[0]), name[0] ? ")" : "", job->status,
+           bar, job->priority);
+    printf("  scene %s  frames %s  -> %s\n",
+           pf_cli_printable(job->scene_path, shown[1], sizeof shown[1]),
+           pf_cli_printable(job->frame_range, shown[2], sizeof shown[2]),
+           pf_cli_printable(job->output_pattern, shown[3], sizeof shown[3]));
     printf("  tasks: %" PRId64 " queued, %" PRId64 " running, %" PRId64 " done, %" PRId64
            " failed, %" PRId64 " canceled\n",
            job->tasks_queued, job->tasks_running, job->tasks_done, job->tasks_failed,
            job->tasks_canceled);
     if (job->note[0])
-        printf("  note: %s\n", job->note);
+        printf("  note: %s\n", pf_cli_printable(job->note, shown[0], sizeof shown[0]));
 
     pf_error err = {0};
     pf_queue_task_info *tasks = NULL;
@@ -53,7 +56,8 @@ static void print_job(pf_queue *queue, const pf_queue_job *job, int64_t now)
             printf("  running: frame %d", tasks[i].first_frame);
             if (tasks[i].frame_count > 1)
                 printf("-%d", tasks[i].last_frame);
-            printf(" on %s (attempt %d, lease %.1f s left)\n", tasks[i].worker_name,
+            printf(" on %s (attempt %d, lease %.1f s left)\n",
+                   pf_cli_printable(tasks[i].worker_name, shown[0], sizeof shown[0]),
                    tasks[i].attempt, (double)(tasks[i].lease_expires - now) / 1000.0);
         }
         free(tasks);
@@ -65,7 +69,9 @@ static void print_job(pf_queue *queue, const pf_queue_job *job, int64_t now)
             printf("  failures (%zu):\n", failure_count);
         for (size_t i = 0; i < failure_count && i < FAILURES_SHOWN; i++)
             printf("    frame %d attempt %d on %s: %s\n", failures[i].first_frame,
-                   failures[i].attempt, failures[i].worker_name, failures[i].error);
+                   failures[i].attempt,
+                   pf_cli_printable(failures[i].worker_name, shown[0], sizeof shown[0]),
+                   pf_cli_printable(failures[i].error, shown[1], sizeof shown[1]));
         if (failure_count > FAILURES_SHOWN)
             printf("    ... and %zu more\n", failure_count - FAILURES_SHOWN);
         free(failures);

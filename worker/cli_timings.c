@@ -52,14 +52,18 @@ static void print_table(int64_t job_id, const pf_queue_timings *timings)
                i + 1 < timings->slowest_count ? "," : "\n");
     if (timings->build_count > 0)
         printf("\nrendered by (frames):\n");
+    /* Rows any worker wrote, shown escaped (printable.c). */
+    char shown[2][PF_CLI_PATH_MAX];
     for (size_t i = 0; i < timings->build_count; i++)
         printf("%6" PRId64 "  photonfarm %s\n", timings->builds[i].frames,
-               timings->builds[i].build);
+               pf_cli_printable(timings->builds[i].build, shown[0], sizeof shown[0]));
     if (timings->decision_count > 0)
         printf("\ndecisions (frames):\n");
     for (size_t i = 0; i < timings->decision_count; i++)
-        printf("%-14s %6" PRId64 "  %s\n", timings->decisions[i].stage,
-               timings->decisions[i].count, timings->decisions[i].decision);
+        printf("%-14s %6" PRId64 "  %s\n",
+               pf_cli_printable(timings->decisions[i].stage, shown[0], sizeof shown[0]),
+               timings->decisions[i].count,
+               pf_cli_printable(timings->decisions[i].decision, shown[1], sizeof shown[1]));
 }
 
 static void print_csv(const pf_queue_timings *timings)

@@ -49,8 +49,9 @@ int pf_cli_workers(int argc, char **argv)
                      worker->current_frame);
         else
             snprintf(current, sizeof current, "-");
-        printf("%-24s %-8s %-10s %-28.28s %s\n", worker->name, state, age, worker->device,
-               current);
+        char name[256], device[256];
+        printf("%-24s %-8s %-10s %-28.28s %s\n", pf_cli_printable(worker->name, name, sizeof name),
+               state, age, pf_cli_printable(worker->device, device, sizeof device), current);
     }
     free(workers);
     return 0;

@@ -6,6 +6,8 @@
 #include <errno.h>
 #include <fcntl.h>
 #include <inttypes.h>
+#include <limits.h>
+#include <stdlib.h>
 #include <stdio.h>
 #include <string.h>
 #include <unistd.h>
@@ -205,6 +207,38 @@ pf_status pf_frame_render(pf_renderer *renderer, const pf_frame_request *request
         pf_stage_add_counter(write_row, "pixels", (double)settings.width * settings.height);
     }
     out->total_ms = pf_time_ms() - start;
+    return PF_OK;
+}
+
+pf_status pf_frame_output_check(const char *pattern, char *absolute, size_t size, pf_error *err)
+{
+    char dir[PATH_MAX], resolved[PATH_MAX];
+    const char *slash = strrchr(pattern, '/');
+    const char *base = slash ? slash + 1 : pattern;
+    if (!*base)
+        return pf_error_set(err, PF_ERR_INVALID, "no file name after the directory");
+    if (strchr(pattern, '#') && strchr(pattern, '#') < base)
+        return pf_error_set(err, PF_ERR_INVALID, "# belongs in the file name, not the directory");
+    if (!slash)
+        snprintf(dir, sizeof dir, ".");
+    else if (slash == pattern)
+        snprintf(dir, sizeof dir, "/");
+    else
+        snprintf(dir, sizeof dir, "%.*s", (int)(slash - pattern), pattern);
+    if (!realpath(dir, resolved))
+        return pf_error_set(err, PF_ERR_IO, "output directory %s: %s", dir, strerror(errno));
+    /* Writable as this process: the one way to know is to write. */
+    char probe[PATH_MAX + 64];
+    snprintf(probe, sizeof probe, "%s/.photonfarm-probe-%ld", resolved, (long)getpid());
+    int fd = open(probe, O_WRONLY | O_CREAT | O_EXCL, 0600);
+    if (fd < 0)
+        return pf_error_set(err, PF_ERR_IO, "output directory %s is not writable: %s", resolved,
+                            strerror(errno));
+    close(fd);
+    unlink(probe);
+    if (snprintf(absolute, size, "%s/%s", strcmp(resolved, "/") ? resolved : "", base) >=
+        (int)size)
+        return pf_error_set(err, PF_ERR_INVALID, "path too long");
     return PF_OK;
 }
 

@@ -67,6 +67,14 @@ pf_status pf_frame_render(pf_renderer *renderer, const pf_frame_request *request
  * temporary is removed and err names both paths. */
 pf_status pf_frame_commit(pf_frame_output *out, pf_error *err);
 
+/*
+ * Before anything renders: the output pattern's directory exists and this
+ * process can create files in it (a probe file is made and removed), and a #
+ * run lies in the file name. Fills absolute with the pattern made absolute
+ * (workers may run elsewhere). PF_ERR_IO/PF_ERR_INVALID naming the directory.
+ */
+pf_status pf_frame_output_check(const char *pattern, char *absolute, size_t size, pf_error *err);
+
 /* Deletes the temporary, if any (a lost lease, an error). */
 void pf_frame_discard(pf_frame_output *out);
 

@@ -35,6 +35,13 @@ const char *pf_version_string(void);
 #define PF_CLI_PATH_MAX 4096
 
 /*
+ * text with control characters escaped (printable.c): C0 and DEL as \xNN, C1
+ * as \u00NN; cut to fit size. Every human-readable line that shows queue text
+ * (job names, paths, worker names, errors) goes through it. Returns buffer.
+ */
+const char *pf_cli_printable(const char *text, char *buffer, size_t size);
+
+/*
  * The shader cache directory (cache_dir.c) for a command's --cache-dir value
  * (NULL: not given): that, else $PHOTONFARM_CACHE_DIR, else
  * $XDG_CACHE_HOME/photonfarm, else $HOME/.cache/photonfarm; "none" or "" turns

@@ -171,7 +171,7 @@ void quality_summary(const quality_row *rows, size_t count, double target)
     }
     if (best > 0 && cycles > 0)
         printf("  photonfarm %s is %.2fx as fast as Cycles\n", best_name, cycles / best);
-    if (best > 0 && reference > 0)
+    if (best > 0 && reference > 0 && strcmp(best_name, "reference"))
         printf("  photonfarm %s is %.2fx as fast as photonfarm reference\n", best_name,
                reference / best);
 }

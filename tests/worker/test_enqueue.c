@@ -248,6 +248,55 @@ PF_TEST(control_commands_change_job_state)
     PF_CHECK(wt_file_contains(log_path, "no queue database"));
 }
 
+/* Text anyone can enqueue reaches operators' terminals escaped, never as control codes. */
+PF_TEST(status_escapes_control_characters)
+{
+    char args[8 * WT_PATH_MAX];
+    /* ESC [2J clears the screen, ESC ]0;…BEL retitles it, CSI (U+009B) restyles. */
+    wt_format(args, sizeof args,
+              "enqueue '%s' --frames 1 --out '%s/e.####.exr' --db '%s' "
+              "--name 'evil\033[2J\033]0;pwned\007\302\2332m'",
+              scene, out_dir, db);
+    PF_REQUIRE(wt_run(args, log_path) == 0);
+    char *printed = wt_read_file(log_path, NULL);
+    PF_REQUIRE(printed != NULL);
+    int64_t job_id = atoll(printed);
+    free(printed);
+    wt_format(args, sizeof args, "status %lld --db '%s'", (long long)job_id, db);
+    PF_REQUIRE(wt_run(args, log_path) == 0);
+    size_t size = 0;
+    char *shown = wt_read_file(log_path, &size);
+    PF_REQUIRE(shown != NULL);
+    int controls = 0;
+    for (size_t i = 0; i < size; i++) {
+        unsigned char c = (unsigned char)shown[i];
+        controls += (c < 0x20 && c != '\n') || c == 0x7f ||
+                    (c == 0xc2 && i + 1 < size && (unsigned char)shown[i + 1] >= 0x80 &&
+                     (unsigned char)shown[i + 1] <= 0x9f);
+    }
+    PF_CHECK_MSG(controls == 0, "%d control characters reached the terminal", controls);
+    PF_CHECK(strstr(shown, "evil\\x1b[2J\\x1b]0;pwned\\x07\\u009b2m") != NULL);
+    free(shown);
+}
+
+/* A --db whose directory does not exist is bad input for every command: exit 2. */
+PF_TEST(database_in_a_missing_directory_exits_2_everywhere)
+{
+    const char *const commands[] = {"status", "workers", "timings 1", "cancel 1", "pause 1",
+                                    "resume 1", "retry 1", "worker --once"};
+    char args[8 * WT_PATH_MAX];
+    for (size_t i = 0; i < sizeof commands / sizeof commands[0]; i++) {
+        wt_format(args, sizeof args, "%s --db '%s/no-such-directory/farm.db'", commands[i], dir);
+        int code = wt_run(args, log_path);
+        PF_CHECK_MSG(code == 2, "%s: exit %d", commands[i], code);
+        PF_CHECK_MSG(wt_file_contains(log_path, "no-such-directory"), "%s", commands[i]);
+    }
+    wt_format(args, sizeof args,
+              "enqueue '%s' --frames 1 --out '%s/m.####.exr' --db '%s/no-such-directory/farm.db'",
+              scene, out_dir, dir);
+    PF_CHECK(wt_run(args, log_path) == 2);
+}
+
 int main(void)
 {
     pf_test_tmpdir(dir, sizeof dir);
@@ -261,5 +310,7 @@ int main(void)
     PF_RUN(bad_input_exits_2_and_inserts_nothing);
     PF_RUN(corrupt_or_foreign_database_exits_2_and_is_untouched);
     PF_RUN(control_commands_change_job_state);
+    PF_RUN(status_escapes_control_characters);
+    PF_RUN(database_in_a_missing_directory_exits_2_everywhere);
     return pf_test_finish();
 }
