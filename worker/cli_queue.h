@@ -50,6 +50,12 @@ int pf_cli_lpv_check(const char *command, const pf_lpv_settings *lpv, uint64_t m
  */
 int pf_cli_settings_option(const char *command, const char *arg, const char *value,
                            pf_render_settings *settings, int *used_value);
+/*
+ * What render and enqueue parse alike: the scene (their one positional
+ * argument) and the settings options. Same returns as pf_cli_settings_option.
+ */
+int pf_cli_job_argument(const char *command, const char *arg, const char *value,
+                        const char **scene_path, pf_render_settings *settings, int *used_value);
 /* What enqueue checks against: the maxStorageBufferRange every Vulkan device guarantees. */
 #define PF_CLI_GUARANTEED_BUFFER_BYTES (128ull << 20)
 

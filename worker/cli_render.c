@@ -105,15 +105,9 @@ static int parse_options(int argc, char **argv, render_options *options, int *he
             options->timings = 1;
             continue;
         }
-        if (arg[0] != '-' || arg[1] == '\0') {
-            if (options->scene_path)
-                return pf_cli_fail(COMMAND, 2, "one scene only ('%s' and '%s')",
-                                   options->scene_path, arg);
-            options->scene_path = arg;
-            continue;
-        }
         int used_value = 0;
-        int code = pf_cli_settings_option(COMMAND, arg, value, &options->settings, &used_value);
+        int code = pf_cli_job_argument(COMMAND, arg, value, &options->scene_path,
+                                       &options->settings, &used_value);
         if (code >= 0) {
             if (code)
                 return code;

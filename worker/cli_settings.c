@@ -170,3 +170,16 @@ int pf_cli_settings_option(const char *command, const char *arg, const char *val
         code = pf_cli_lpv_option(command, arg, value, &settings->lpv);
     return code;
 }
+
+int pf_cli_job_argument(const char *command, const char *arg, const char *value,
+                        const char **scene_path, pf_render_settings *settings, int *used_value)
+{
+    *used_value = 0;
+    if (arg[0] != '-' || arg[1] == '\0') {
+        if (*scene_path)
+            return pf_cli_fail(command, 2, "one scene only ('%s' and '%s')", *scene_path, arg);
+        *scene_path = arg;
+        return 0;
+    }
+    return pf_cli_settings_option(command, arg, value, settings, used_value);
+}

@@ -170,6 +170,30 @@ static int render_ours(pf_renderer *renderer, const pf_scene_frame *frame,
     return rgb_only(image);
 }
 
+/* One image's row: its error against the truth, into rows, the CSV and stdout. 1 on success. */
+static int record(const char *renderer, const char *preset, const char *knob, uint32_t value,
+                  double seconds, pf_image *image, const pf_image *truth, FILE *csv,
+                  quality_row *rows, size_t *row_count)
+{
+    pf_image_metrics metrics;
+    pf_error err = {0};
+    pf_status status = pf_image_compare(image, truth, &metrics, &err);
+    pf_image_free(image);
+    if (status != PF_OK) {
+        fprintf(stderr, "quality_bench: %s\n", err.message);
+        return 0;
+    }
+    quality_row row = {renderer, preset, knob, value, seconds, metrics.relmse, metrics.rmse};
+    if (*row_count < MAX_ROWS)
+        rows[(*row_count)++] = row;
+    fprintf(csv, "%s,%s,%s,%u,%.4f,%.6g,%.6g\n", row.renderer, row.preset, row.knob, row.value,
+            row.seconds, row.relmse, row.rmse);
+    printf("%-10s %-10s %-8s %6u %10.3f %12.6g %12.6g\n", row.renderer, row.preset, row.knob,
+           row.value, row.seconds, row.relmse, row.rmse);
+    fflush(stdout);
+    return 1;
+}
+
 int main(int argc, char **argv)
 {
     if (argc < 5) {
@@ -256,45 +280,20 @@ int main(int argc, char **argv)
              * the same seed (a static scene), and each point must pay a whole frame. */
             pf_render_settings settings =
                 settings_for(sweeps[s].quality, width, height, *v, 100 + (uint32_t)row_count);
-            if (!render_ours(renderer, &frame, &settings, &image, &seconds))
+            if (!render_ours(renderer, &frame, &settings, &image, &seconds) ||
+                !record("photonfarm", sweeps[s].label, sweeps[s].knob, *v, seconds, &image,
+                        &truth, csv, rows, &row_count))
                 return 1;
-            pf_image_metrics metrics;
-            if (pf_image_compare(&image, &truth, &metrics, &err) != PF_OK) {
-                fprintf(stderr, "quality_bench: %s\n", err.message);
-                return 1;
-            }
-            pf_image_free(&image);
-            quality_row row = {"photonfarm", sweeps[s].label, sweeps[s].knob, *v, seconds,
-                               metrics.relmse, metrics.rmse};
-            if (row_count < MAX_ROWS)
-                rows[row_count++] = row;
-            fprintf(csv, "%s,%s,%s,%u,%.4f,%.6g,%.6g\n", row.renderer, row.preset, row.knob,
-                    row.value, row.seconds, row.relmse, row.rmse);
-            printf("%-10s %-10s %-8s %6u %10.3f %12.6g %12.6g\n", row.renderer, row.preset,
-                   row.knob, row.value, row.seconds, row.relmse, row.rmse);
-            fflush(stdout);
         }
     }
     for (const uint32_t *spp = cycles_spp; blender && *spp; spp++) {
         pf_image image = {0};
         double seconds;
         if (!render_cycles(blender, scene_path, width, height, *spp, 2, threads, scratch, &image,
-                           &seconds))
+                           &seconds) ||
+            !record("cycles", "path", "spp", *spp, seconds, &image, &truth, csv, rows,
+                    &row_count))
             return 1;
-        pf_image_metrics metrics;
-        if (pf_image_compare(&image, &truth, &metrics, &err) != PF_OK) {
-            fprintf(stderr, "quality_bench: %s\n", err.message);
-            return 1;
-        }
-        pf_image_free(&image);
-        quality_row row = {"cycles", "path", "spp", *spp, seconds, metrics.relmse, metrics.rmse};
-        if (row_count < MAX_ROWS)
-            rows[row_count++] = row;
-        fprintf(csv, "%s,%s,%s,%u,%.4f,%.6g,%.6g\n", row.renderer, row.preset, row.knob,
-                row.value, row.seconds, row.relmse, row.rmse);
-        printf("%-10s %-10s %-8s %6u %10.3f %12.6g %12.6g\n", row.renderer, row.preset, row.knob,
-               row.value, row.seconds, row.relmse, row.rmse);
-        fflush(stdout);
     }
     fclose(csv);
     remove(scratch);

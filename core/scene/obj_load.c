@@ -479,6 +479,13 @@ static pf_status parse_obj(obj_state *state, char *text, pf_error *err)
                 return pf_error_set(err, PF_ERR_NOMEM, "%s: out of memory", scene->path);
             memcpy(mtl_path, scene->path, directory_length);
             strcpy(mtl_path + directory_length, name);
+            if (!scene_path_inside(scene->path, mtl_path)) {
+                free(mtl_path);
+                return pf_error_set(err, PF_ERR_INVALID,
+                                    "%s: line %u: mtllib \"%s\" leads outside the scene's "
+                                    "directory (after resolving symbolic links): refused",
+                                    scene->path, line_number, name);
+            }
             status = load_mtl(state, mtl_path, err);
             if (status)
                 pf_error_prefix(err, "%s: line %u: mtllib", scene->path, line_number);

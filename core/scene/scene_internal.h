@@ -117,6 +117,15 @@ pf_status scene_finalize(pf_scene *scene, pf_error *err);
 void scene_warn_once(pf_scene *scene, const char *key, const char *format, ...)
     __attribute__((format(printf, 3, 4)));
 
+/*
+ * Whether path, a file a scene file refers to, stays inside scene_file's
+ * directory once symbolic links are resolved (scene_paths.c). The file's
+ * directory must exist and is resolved, and the file too when it exists (a
+ * link to a file elsewhere is caught); a missing file inside is left for the
+ * reader to report.
+ */
+int scene_path_inside(const char *scene_file, const char *path);
+
 /* Reads a whole file; *out is NUL-terminated (not counted in *size). PF_ERR_IO names path. */
 pf_status scene_read_file(const char *path, char **out, size_t *size, pf_error *err);
 

@@ -7,6 +7,7 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #define QUAD_NODE "[{\"mesh\":0}]"
@@ -411,6 +412,95 @@ PF_TEST(every_truncation_and_corruption)
     free(json);
 }
 
+/* A one-quad glTF in the directory dir whose buffer is uri; its path into path. */
+static const char *quad_with_uri(const char *dir, const char *name, const char *uri, char *path,
+                                 size_t size)
+{
+    char text[2048];
+    snprintf(path, size, "%s/%s", dir, name);
+    snprintf(text, sizeof text,
+             "{\"asset\":{\"version\":\"2.0\"},\"scenes\":[{\"nodes\":[0]}],"
+             "\"nodes\":[{\"mesh\":0}],\"meshes\":[{\"primitives\":[{\"attributes\":"
+             "{\"POSITION\":0}}]}],\"accessors\":[{\"bufferView\":0,\"componentType\":5126,"
+             "\"count\":3,\"type\":\"VEC3\"}],\"bufferViews\":[{\"buffer\":0,"
+             "\"byteLength\":36}],\"buffers\":[{\"uri\":\"%s\",\"byteLength\":100}]}",
+             uri);
+    PF_CHECK(st_write_text(path, text) == 0);
+    return path;
+}
+
+/* Refused, the message naming the URI and never what lies outside (its size: 108 bytes). */
+static void expect_confined(const char *path, const char *uri)
+{
+    pf_scene *scene = NULL;
+    pf_error err = {0};
+    PF_CHECK_MSG(pf_scene_load(path, &scene, &err) == PF_ERR_INVALID, "%s: %s", uri,
+                 err.message);
+    PF_CHECK_MSG(strstr(err.message, uri) && strstr(err.message, "outside"), "%s: %s", uri,
+                 err.message);
+    PF_CHECK_MSG(!strstr(err.message, "108"), "%s discloses the outside file: %s", uri,
+                 err.message);
+    pf_scene_destroy(scene);
+}
+
+PF_TEST(referenced_files_stay_inside_the_scene_directory)
+{
+    char root[512], dir[600], secret[700], link[700], path[800];
+    st_path(root, sizeof root, "");
+    snprintf(dir, sizeof dir, "%s/confined", root);
+    mkdir(dir, 0777);
+    /* A valid buffer outside: were it read, the scene would load. */
+    size_t size;
+    unsigned char *quad = st_quad_buffer(NULL, 0, &size);
+    snprintf(secret, sizeof secret, "%s/secret.bin", root);
+    PF_REQUIRE(st_write(secret, quad, size) == 0);
+    snprintf(path, sizeof path, "%s/inside.bin", dir);
+    PF_REQUIRE(st_write(path, quad, size) == 0);
+    free(quad);
+
+    expect_confined(quad_with_uri(dir, "up.gltf", "../secret.bin", path, sizeof path),
+                    "../secret.bin");
+    expect_confined(quad_with_uri(dir, "up_encoded.gltf", "%2e%2e/secret.bin", path,
+                                  sizeof path),
+                    "%2e%2e/secret.bin");
+    expect_confined(quad_with_uri(dir, "deep.gltf", "nowhere/../../secret.bin", path,
+                                  sizeof path),
+                    "nowhere/../../secret.bin");
+    snprintf(link, sizeof link, "%s/link.bin", dir);
+    unlink(link);
+    PF_REQUIRE(symlink(secret, link) == 0);
+    expect_confined(quad_with_uri(dir, "link.gltf", "link.bin", path, sizeof path), "link.bin");
+    snprintf(link, sizeof link, "%s/linked-dir", dir);
+    unlink(link);
+    PF_REQUIRE(symlink(root, link) == 0);
+    expect_confined(quad_with_uri(dir, "linkdir.gltf", "linked-dir/secret.bin", path,
+                                  sizeof path),
+                    "linked-dir/secret.bin");
+
+    /* Inside stays allowed, ".." included; a missing file inside is an I/O error as ever. */
+    pf_scene *scene = NULL;
+    pf_error err = {0};
+    snprintf(link, sizeof link, "%s/sub", dir);
+    mkdir(link, 0777);
+    quad_with_uri(dir, "inside.gltf", "./sub/../inside.bin", path, sizeof path);
+    PF_CHECK_OK(pf_scene_load(path, &scene, &err), &err);
+    pf_scene_destroy(scene);
+    st_expect_error(quad_with_uri(dir, "typo.gltf", "nodir/inside.bin", path, sizeof path),
+                    PF_ERR_IO, "buffers[0]", "nodir/inside.bin");
+
+    /* OBJ material libraries alike. */
+    snprintf(path, sizeof path, "%s/secret.mtl", root);
+    PF_REQUIRE(st_write_text(path, "newmtl red\nKd 1 0 0\n") == 0);
+    snprintf(path, sizeof path, "%s/mtl.obj", dir);
+    PF_REQUIRE(st_write_text(path, "mtllib ../secret.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\n"
+                                   "usemtl red\nf 1 2 3\n") == 0);
+    scene = NULL;
+    PF_CHECK(pf_scene_load(path, &scene, &err) == PF_ERR_INVALID);
+    PF_CHECK_MSG(strstr(err.message, "../secret.mtl") && strstr(err.message, "outside"), "%s",
+                 err.message);
+    pf_scene_destroy(scene);
+}
+
 int main(void)
 {
     pf_log_set_level(PF_LOG_ERROR);
@@ -427,5 +517,6 @@ int main(void)
     PF_RUN(required_extension_unsupported);
     PF_RUN(malformed_structure);
     PF_RUN(every_truncation_and_corruption);
+    PF_RUN(referenced_files_stay_inside_the_scene_directory);
     return pf_test_finish();
 }

@@ -27,6 +27,17 @@ static int64_t job_count(void)
     return (int64_t)count;
 }
 
+/* Runs an enqueue command line; the job id it printed, or 0 (the test has failed) if none. */
+static int64_t enqueue_job(const char *args)
+{
+    PF_CHECK(wt_run(args, log_path) == 0);
+    char *printed = wt_read_file(log_path, NULL);
+    PF_CHECK(printed != NULL);
+    int64_t job_id = printed ? atoll(printed) : 0;
+    free(printed);
+    return job_id;
+}
+
 PF_TEST(enqueue_inserts_a_validated_job_and_prints_its_id)
 {
     char args[8 * WT_PATH_MAX];
@@ -35,11 +46,8 @@ PF_TEST(enqueue_inserts_a_validated_job_and_prints_its_id)
              "--priority 5 --max-attempts 4 --frames-per-task 2 --name tiny --time-budget 2.5 "
              "--db '%s'",
              scene, out_dir, db);
-    PF_REQUIRE(wt_run(args, log_path) == 0);
-    char *printed = wt_read_file(log_path, NULL);
-    PF_REQUIRE(printed != NULL);
-    int64_t job_id = atoll(printed);
-    free(printed);
+    int64_t job_id = enqueue_job(args);
+    PF_REQUIRE(job_id >= 1);
     PF_CHECK(job_id >= 1);
     pf_queue *queue = wt_open_queue(db);
     PF_REQUIRE(queue != NULL);
@@ -65,11 +73,8 @@ PF_TEST(enqueue_inserts_a_validated_job_and_prints_its_id)
              "--photons 5000 --filter blackman-harris --max-bounces 3 --budget-ms 2500 "
              "--target-relmse 0.02 --db '%s'",
              scene, out_dir, db);
-    PF_REQUIRE(wt_run(args, log_path) == 0);
-    printed = wt_read_file(log_path, NULL);
-    PF_REQUIRE(printed != NULL);
-    int64_t fast_id = atoll(printed);
-    free(printed);
+    int64_t fast_id = enqueue_job(args);
+    PF_REQUIRE(fast_id >= 1);
     queue = wt_open_queue(db);
     PF_REQUIRE(queue != NULL);
     PF_CHECK_OK(pf_queue_job_get(queue, fast_id, &job, &err), &err);
@@ -226,11 +231,8 @@ PF_TEST(control_commands_change_job_state)
     char args[8 * WT_PATH_MAX];
     wt_format(args, sizeof args, "enqueue '%s' --frames 1-2 --out '%s/c.####.exr' --db '%s'",
              scene, out_dir, db);
-    PF_REQUIRE(wt_run(args, log_path) == 0);
-    char *printed = wt_read_file(log_path, NULL);
-    PF_REQUIRE(printed != NULL);
-    int64_t job_id = atoll(printed);
-    free(printed);
+    int64_t job_id = enqueue_job(args);
+    PF_REQUIRE(job_id >= 1);
     const struct {
         const char *command;
         const char *status;
@@ -257,11 +259,8 @@ PF_TEST(status_escapes_control_characters)
               "enqueue '%s' --frames 1 --out '%s/e.####.exr' --db '%s' "
               "--name 'evil\033[2J\033]0;pwned\007\302\2332m'",
               scene, out_dir, db);
-    PF_REQUIRE(wt_run(args, log_path) == 0);
-    char *printed = wt_read_file(log_path, NULL);
-    PF_REQUIRE(printed != NULL);
-    int64_t job_id = atoll(printed);
-    free(printed);
+    int64_t job_id = enqueue_job(args);
+    PF_REQUIRE(job_id >= 1);
     wt_format(args, sizeof args, "status %lld --db '%s'", (long long)job_id, db);
     PF_REQUIRE(wt_run(args, log_path) == 0);
     size_t size = 0;
