@@ -60,6 +60,8 @@ static void usage(FILE *out)
             "  --max-attempts N       attempts per frame before it fails (default 3)\n"
             "  --frames-per-task N    frames a worker claims at once (default 1)\n"
             "  --name JOBNAME         a label shown by status\n"
+            "  --force                enqueue even when an unfinished job writes the same\n"
+            "                         output files (default: refused, naming that job)\n"
             "  --db PATH              queue database (default $PHOTONFARM_DB, else " PF_CLI_DEFAULT_DB ")\n"
             "  --help                 this text\n"
             "\n"
@@ -70,6 +72,7 @@ typedef struct enqueue_options {
     const char *scene_path, *frames, *pattern, *db, *name;
     pf_render_settings settings;
     int64_t priority, max_attempts, frames_per_task;
+    int force; /* --force: enqueue even when an unfinished job writes the same files */
 } enqueue_options;
 
 static int parse_options(int argc, char **argv, enqueue_options *options, int *help)
@@ -85,6 +88,10 @@ static int parse_options(int argc, char **argv, enqueue_options *options, int *h
         if (!strcmp(arg, "--help") || !strcmp(arg, "-h")) {
             *help = 1;
             return 0;
+        }
+        if (!strcmp(arg, "--force")) {
+            options->force = 1;
+            continue;
         }
         int used_value = 0;
         int code = pf_cli_job_argument(COMMAND, arg, value, &options->scene_path,
@@ -141,6 +148,81 @@ static int check_output(const char *pattern, char *absolute, size_t size)
     return 0;
 }
 
+static int compare_paths(const void *a, const void *b)
+{
+    return strcmp(*(char *const *)a, *(char *const *)b);
+}
+
+/* The output files of a frame list under pattern, sorted (malloc'ed strings); NULL: no memory. */
+static char **output_files(const char *pattern, const pf_frame_list *frames)
+{
+    char **paths = calloc(frames->count ? frames->count : 1, sizeof *paths);
+    for (size_t i = 0; paths && i < frames->count; i++) {
+        char path[PF_FRAME_PATH_MAX];
+        if (!pf_frame_output_path(pattern, frames->frames[i], path, sizeof path) ||
+            !(paths[i] = strdup(path))) {
+            for (size_t k = 0; k < i; k++)
+                free(paths[k]);
+            free(paths);
+            return NULL;
+        }
+    }
+    if (paths)
+        qsort(paths, frames->count, sizeof *paths, compare_paths);
+    return paths;
+}
+
+static void free_files(char **paths, size_t count)
+{
+    for (size_t i = 0; paths && i < count; i++)
+        free(paths[i]);
+    free(paths);
+}
+
+/*
+ * An unfinished job (queued, running or paused) that writes one of the files
+ * this job would write: the two would overwrite each other's frames. Exit 2
+ * naming the job and a shared file, unless --force.
+ */
+static int check_collisions(pf_queue *queue, const char *pattern, const pf_frame_list *frames)
+{
+    pf_queue_job *jobs = NULL;
+    size_t job_count = 0;
+    pf_error err = {0};
+    pf_status status = pf_queue_job_list(queue, &jobs, &job_count, &err);
+    if (status != PF_OK)
+        return pf_cli_fail(COMMAND, pf_status_exit_code(status), "%s", err.message);
+    char **ours = output_files(pattern, frames);
+    int code = ours ? 0 : pf_cli_fail(COMMAND, 1, "out of memory listing output files");
+    for (size_t j = 0; j < job_count && !code; j++) {
+        const pf_queue_job *job = &jobs[j];
+        if (strcmp(job->status, "queued") && strcmp(job->status, "running") &&
+            strcmp(job->status, "paused"))
+            continue;
+        pf_frame_list theirs_frames = {0};
+        if (pf_frame_range_parse(job->frame_range, &theirs_frames, &err) != PF_OK)
+            continue; /* the queue validated it; nothing to compare if it cannot be read */
+        char **theirs = output_files(job->output_pattern, &theirs_frames);
+        for (size_t i = 0; theirs && i < frames->count && !code; i++) {
+            if (bsearch(&ours[i], theirs, theirs_frames.count, sizeof *theirs, compare_paths)) {
+                char name[128], shown[PF_CLI_PATH_MAX];
+                pf_job_params_name(job->parameters_json, name, sizeof name);
+                code = pf_cli_fail(COMMAND, 2,
+                                   "--out: job %" PRId64 "%s%s%s (%s) already writes %s; "
+                                   "--force enqueues anyway",
+                                   job->job_id, name[0] ? " \"" : "",
+                                   pf_cli_printable(name, shown, sizeof shown),
+                                   name[0] ? "\"" : "", job->status, ours[i]);
+            }
+        }
+        free_files(theirs, theirs_frames.count);
+        pf_frame_list_free(&theirs_frames);
+    }
+    free_files(ours, frames->count);
+    pf_queue_job_list_free(jobs, job_count);
+    return code;
+}
+
 /* Loads the scene (proving it renders) and checks every frame is one of its frames. */
 static int check_scene(const enqueue_options *options, const pf_frame_list *frames,
                        char *absolute, size_t size)
@@ -190,18 +272,23 @@ int pf_cli_enqueue(int argc, char **argv)
         code = check_output(options.pattern, pattern, sizeof pattern);
     if (!code)
         code = check_scene(&options, &frames, scene_path, sizeof scene_path);
-    pf_frame_list_free(&frames);
-    if (code)
-        return code;
     char parameters[PARAMETERS_MAX];
-    if (!pf_job_params_format(&options.settings, options.name, parameters, sizeof parameters))
-        return pf_cli_fail(COMMAND, 2, "--name is too long");
+    if (!code && !pf_job_params_format(&options.settings, options.name, parameters,
+                                       sizeof parameters))
+        code = pf_cli_fail(COMMAND, 2, "--name is too long");
 
     pf_queue *queue = NULL;
     const char *db_path = pf_cli_db_path(options.db);
-    code = pf_cli_open_queue(COMMAND, db_path, 0, &queue);
-    if (code)
+    if (!code)
+        code = pf_cli_open_queue(COMMAND, db_path, 0, &queue);
+    if (!code && !options.force)
+        code = check_collisions(queue, pattern, &frames);
+    pf_frame_list_free(&frames);
+    if (code) {
+        if (queue)
+            pf_queue_close(queue);
         return code;
+    }
     pf_queue_job_spec spec = {scene_path,
                               parameters,
                               options.frames,

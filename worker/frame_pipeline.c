@@ -47,12 +47,17 @@ static void split_path(const char *path, char *dir, size_t dir_size, const char 
     }
 }
 
-int pf_frame_remove_stale(const char *output_path)
+void pf_frame_task_tag(int64_t task_id, const char *lease_token, char *out, size_t size)
+{
+    snprintf(out, size, "t%" PRId64 "-%s", task_id, lease_token ? lease_token : "");
+}
+
+int pf_frame_remove_stale(const char *output_path, int64_t task_id)
 {
     char dir[PF_FRAME_PATH_MAX], prefix[PF_FRAME_PATH_MAX], path[2 * PF_FRAME_PATH_MAX];
     const char *base;
     split_path(output_path, dir, sizeof dir, &base);
-    snprintf(prefix, sizeof prefix, "%s" PARTIAL_INFIX, base);
+    snprintf(prefix, sizeof prefix, "%s" PARTIAL_INFIX "t%" PRId64 "-", base, task_id);
     size_t prefix_length = strlen(prefix);
     DIR *listing = opendir(dir);
     if (!listing)

@@ -78,9 +78,16 @@ pf_status pf_frame_output_check(const char *pattern, char *absolute, size_t size
 /* Deletes the temporary, if any (a lost lease, an error). */
 void pf_frame_discard(pf_frame_output *out);
 
-/* Removes leftovers "<output_path>.partial-*" of workers that died mid-frame.
- * Returns how many files were removed. */
-int pf_frame_remove_stale(const char *output_path);
+/*
+ * Removes the leftovers of earlier attempts of one queue task at output_path:
+ * "<output_path>.partial-t<task_id>-*" (the worker's temporaries are tagged
+ * "t<task_id>-<lease token>", pf_frame_task_tag). Another task's temporary —
+ * another job writing the same path under --force, a frame in flight — is
+ * never touched. Returns how many files were removed.
+ */
+int pf_frame_remove_stale(const char *output_path, int64_t task_id);
+/* The temporary-file tag of a queue task's attempt: "t<task_id>-<lease token>". */
+void pf_frame_task_tag(int64_t task_id, const char *lease_token, char *out, size_t size);
 
 /* Replaces the first run of '#' in pattern with the zero-padded frame number
  * (a pattern without '#' is used as is). 0 if the result does not fit. */

@@ -384,13 +384,14 @@ static void render_work(uv_work_t *request)
                                             "output path too long: %s", w->job.output_pattern);
             return;
         }
-        int stale = pf_frame_remove_stale(path);
+        int stale = pf_frame_remove_stale(path, w->task.task_id);
         if (stale > 0)
             pf_wlog(PF_LOG_INFO, "stale_removed", "job=%" PRId64 " frame=%" PRId64 " files=%d",
                     w->job.job_id, frame, stale);
-        pf_frame_request frame_request = {w->scene,           w->job.scene_path, frame,
-                                          settings,           path,              w->task.lease_token,
-                                          w->device_name,     &w->abort};
+        char tag[96];
+        pf_frame_task_tag(w->task.task_id, w->task.lease_token, tag, sizeof tag);
+        pf_frame_request frame_request = {w->scene, w->job.scene_path, frame,          settings,
+                                          path,     tag,               w->device_name, &w->abort};
         w->render_status = pf_frame_render(w->renderer, &frame_request, &w->outputs[i],
                                            &w->render_err);
         w->output_count = (size_t)i + 1;

@@ -296,6 +296,43 @@ PF_TEST(database_in_a_missing_directory_exits_2_everywhere)
     PF_CHECK(wt_run(args, log_path) == 2);
 }
 
+/* Two unfinished jobs must not write the same files: refused at enqueue unless --force. */
+PF_TEST(jobs_writing_the_same_files_are_refused)
+{
+    char args[8 * WT_PATH_MAX];
+    int64_t before = job_count();
+    /* Frame 3 of f.####.exr belongs to the first test's job, still queued. */
+    wt_format(args, sizeof args, "enqueue '%s' --frames 2-3 --out '%s/f.####.exr' --db '%s'",
+              scene, out_dir, db);
+    PF_CHECK(wt_run(args, log_path) == 2);
+    PF_CHECK(wt_file_contains(log_path, "job 1"));
+    PF_CHECK(wt_file_contains(log_path, "f.0002.exr"));
+    PF_CHECK(wt_file_contains(log_path, "--force"));
+    /* The same file named without #. */
+    wt_format(args, sizeof args, "enqueue '%s' --frames 2 --out '%s/f.0002.exr' --db '%s'", scene,
+              out_dir, db);
+    PF_CHECK(wt_run(args, log_path) == 2);
+    PF_CHECK(job_count() == before);
+    /* Other files, or --force: accepted. */
+    wt_format(args, sizeof args, "enqueue '%s' --frames 2-3 --out '%s/g.####.exr' --db '%s'",
+              scene, out_dir, db);
+    PF_CHECK(enqueue_job(args) > 0);
+    wt_format(args, sizeof args,
+              "enqueue '%s' --frames 2-3 --out '%s/f.####.exr' --db '%s' --force", scene, out_dir,
+              db);
+    PF_CHECK(enqueue_job(args) > 0);
+    PF_CHECK(job_count() == before + 2);
+    /* A finished (here canceled) job no longer holds its files. */
+    wt_format(args, sizeof args, "enqueue '%s' --frames 1 --out '%s/h.####.exr' --db '%s'", scene,
+              out_dir, db);
+    int64_t first = enqueue_job(args);
+    wt_format(args, sizeof args, "cancel %lld --db '%s'", (long long)first, db);
+    PF_CHECK(wt_run(args, log_path) == 0);
+    wt_format(args, sizeof args, "enqueue '%s' --frames 1 --out '%s/h.####.exr' --db '%s'", scene,
+              out_dir, db);
+    PF_CHECK(enqueue_job(args) > 0);
+}
+
 int main(void)
 {
     pf_test_tmpdir(dir, sizeof dir);
@@ -311,5 +348,6 @@ int main(void)
     PF_RUN(control_commands_change_job_state);
     PF_RUN(status_escapes_control_characters);
     PF_RUN(database_in_a_missing_directory_exits_2_everywhere);
+    PF_RUN(jobs_writing_the_same_files_are_refused);
     return pf_test_finish();
 }
