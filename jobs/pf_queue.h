@@ -70,7 +70,8 @@ typedef struct pf_queue_options {
     int64_t backoff_base_ms;    /* 2000: delay after a first failure */
     int64_t backoff_cap_ms;     /* 300000: ceiling of the doubling delay */
     int block_after_failures;   /* 3: distinct tasks of one job a worker may fail */
-    int64_t worker_alive_ms;    /* 90000: a worker heard from within this is live */
+    int64_t worker_alive_ms;    /* 90000: a worker that registered no lease and was heard
+                                 * from within this is live */
     pf_queue_clock clock;       /* NULL: the wall clock (tests inject their own) */
     void *clock_user;
 } pf_queue_options;
@@ -92,7 +93,7 @@ pf_status pf_queue_open(const char *path, const pf_queue_options *options, pf_qu
 void pf_queue_close(pf_queue *queue);
 
 /* Schema version this build creates and understands. */
-#define PF_QUEUE_SCHEMA_VERSION 2
+#define PF_QUEUE_SCHEMA_VERSION 3
 
 /* Current schema version recorded in the file (fills *version). */
 pf_status pf_queue_schema_version(pf_queue *queue, int *version, pf_error *err);
@@ -134,6 +135,8 @@ typedef struct pf_queue_worker_spec {
     const char *host;   /* NULL → "" */
     int64_t pid;
     const char *device; /* NULL → "" */
+    int64_t lease_ms;   /* its lease: silent for this long, it counts as dead (0: the
+                         * queue's worker_alive_ms) */
 } pf_queue_worker_spec;
 
 /*
@@ -331,7 +334,7 @@ typedef struct pf_queue_worker_info {
     char device[PF_QUEUE_NAME_MAX];
     int64_t pid;
     int64_t heartbeat_at, started_at, stopped_at; /* stopped_at 0 while running */
-    bool alive; /* not stopped and heard from within worker_alive_ms */
+    bool alive; /* not stopped and heard from within its lease (else worker_alive_ms) */
     int64_t current_task_id;  /* 0 when idle */
     int64_t current_job_id;   /* 0 when idle */
     int32_t current_frame;    /* first frame of the current task */

@@ -73,7 +73,8 @@ static pf_status job_query_body(pf_queue *queue, void *context, pf_error *err)
     sqlite3_stmt *stmt;
     pf_status status = queue_prepare(
         queue,
-        "WITH live AS (SELECT id FROM workers WHERE stopped_at IS NULL AND heartbeat_at >= ?2) "
+        "WITH live AS (SELECT id FROM workers WHERE stopped_at IS NULL AND heartbeat_at >= "
+        "  ?2 - CASE WHEN lease_ms > 0 THEN lease_ms ELSE ?3 END) "
         "SELECT j.id, j.status, j.priority, j.max_attempts, j.frames_per_task, j.scene_path,"
         "  j.parameters, j.frame_range, j.output_pattern, j.created_at, j.updated_at,"
         "  count(t.id), coalesce(sum(t.status = 'queued'), 0),"
@@ -90,7 +91,8 @@ static pf_status job_query_body(pf_queue *queue, void *context, pf_error *err)
     if (status != PF_OK)
         return status;
     sqlite3_bind_int64(stmt, 1, query->job_id);
-    sqlite3_bind_int64(stmt, 2, pf_queue_now(queue) - queue->options.worker_alive_ms);
+    sqlite3_bind_int64(stmt, 2, pf_queue_now(queue));
+    sqlite3_bind_int64(stmt, 3, queue->options.worker_alive_ms);
     int rc;
     while (status == PF_OK && (rc = sqlite3_step(stmt)) == SQLITE_ROW) {
         pf_queue_job *job = queue_records_append(&query->jobs);
@@ -304,13 +306,15 @@ static pf_status worker_list_body(pf_queue *queue, void *context, pf_error *err)
     pf_status status = queue_prepare(
         queue,
         "SELECT w.id, w.name, w.host, w.device, w.pid, w.heartbeat_at, w.started_at,"
-        "  w.stopped_at, w.stopped_at IS NULL AND w.heartbeat_at >= ?, w.current_task_id,"
+        "  w.stopped_at, w.stopped_at IS NULL AND w.heartbeat_at >= "
+        "  ?1 - CASE WHEN w.lease_ms > 0 THEN w.lease_ms ELSE ?2 END, w.current_task_id,"
         "  t.job_id, t.first_frame "
         "FROM workers w LEFT JOIN tasks t ON t.id = w.current_task_id ORDER BY w.id",
         &stmt, err);
     if (status != PF_OK)
         return status;
-    sqlite3_bind_int64(stmt, 1, pf_queue_now(queue) - queue->options.worker_alive_ms);
+    sqlite3_bind_int64(stmt, 1, pf_queue_now(queue));
+    sqlite3_bind_int64(stmt, 2, queue->options.worker_alive_ms);
     return collect(queue, stmt, context, read_worker, "listing workers", err);
 }
 

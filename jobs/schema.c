@@ -105,6 +105,9 @@ static const char *const migrations[PF_QUEUE_SCHEMA_VERSION] = {
     "CREATE INDEX stage_timings_task ON stage_timings(task_id);",
     /* 2: the build (version + git revision) that recorded each stage row. */
     "ALTER TABLE stage_timings ADD COLUMN build TEXT;",
+    /* 3: each worker's lease, so that it counts as dead once silent for its own lease
+     * (0: registered by an older client; the queue's worker_alive_ms applies). */
+    "ALTER TABLE workers ADD COLUMN lease_ms INTEGER NOT NULL DEFAULT 0;",
 };
 
 static int64_t wall_clock_ms(void *user)

@@ -15,9 +15,10 @@ static pf_status register_body(pf_queue *queue, void *context, pf_error *err)
     sqlite3_stmt *stmt;
     pf_status status = queue_prepare(
         queue,
-        "INSERT INTO workers (name, host, pid, device, heartbeat_at, started_at) "
-        "VALUES (?1, ?2, ?3, ?4, ?5, ?5) ON CONFLICT (name) DO UPDATE SET host = ?2, pid = ?3, "
-        "device = ?4, heartbeat_at = ?5, started_at = ?5, stopped_at = NULL RETURNING id",
+        "INSERT INTO workers (name, host, pid, device, heartbeat_at, started_at, lease_ms) "
+        "VALUES (?1, ?2, ?3, ?4, ?5, ?5, ?6) ON CONFLICT (name) DO UPDATE SET host = ?2, "
+        "pid = ?3, device = ?4, heartbeat_at = ?5, started_at = ?5, stopped_at = NULL, "
+        "lease_ms = ?6 RETURNING id",
         &stmt, err);
     if (status != PF_OK)
         return status;
@@ -26,6 +27,7 @@ static pf_status register_body(pf_queue *queue, void *context, pf_error *err)
     sqlite3_bind_int64(stmt, 3, ctx->spec->pid);
     sqlite3_bind_text(stmt, 4, ctx->spec->device ? ctx->spec->device : "", -1, SQLITE_STATIC);
     sqlite3_bind_int64(stmt, 5, now);
+    sqlite3_bind_int64(stmt, 6, ctx->spec->lease_ms > 0 ? ctx->spec->lease_ms : 0);
     if (sqlite3_step(stmt) == SQLITE_ROW)
         ctx->worker_id = sqlite3_column_int64(stmt, 0);
     else

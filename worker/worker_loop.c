@@ -657,7 +657,7 @@ static int open_everything(worker *w)
         snprintf(w->name, sizeof w->name, "%s", w->config.name);
     else
         snprintf(w->name, sizeof w->name, "%.100s-%ld", host, (long)getpid());
-    pf_queue_worker_spec spec = {w->name, host, (int64_t)getpid(), w->device_name};
+    pf_queue_worker_spec spec = {w->name, host, (int64_t)getpid(), w->device_name, w->lease_ms};
     status = pf_queue_worker_register(w->queue, &spec, &w->worker_id, &err);
     if (status != PF_OK) {
         fprintf(stderr, "photonfarm worker: %s\n", err.message);

@@ -760,6 +760,47 @@ PF_TEST(locked_database_is_retried_then_reported)
     pf_queue_close(queue);
 }
 
+/* A worker is dead once silent for its own lease, not a fixed window (issue 14). */
+PF_TEST(workers_are_dead_after_their_own_lease)
+{
+    pf_queue *queue = open_fresh("worker-leases");
+    PF_REQUIRE(queue);
+    pf_error err = {0};
+    int64_t ids[3];
+    const struct {
+        const char *name;
+        int64_t lease_ms;
+    } specs[] = {{"short-lease", 5000}, {"long-lease", 120000}, {"no-lease", 0}};
+    for (int i = 0; i < 3; i++) {
+        pf_queue_worker_spec spec = {specs[i].name, "test", 1, "cpu", specs[i].lease_ms};
+        PF_CHECK_OK(pf_queue_worker_register(queue, &spec, &ids[i], &err), &err);
+    }
+    /* 6 s: short-lease is past its lease; the others are within theirs (no-lease: the
+     * queue's 60 s window). */
+    clock_now.now += 6000;
+    pf_queue_worker_info *workers = NULL;
+    size_t count = 0;
+    PF_CHECK_OK(pf_queue_worker_list(queue, &workers, &count, &err), &err);
+    PF_REQUIRE(count == 3);
+    for (size_t i = 0; i < count; i++)
+        PF_CHECK_MSG(workers[i].alive == (workers[i].worker_id != ids[0]), "%s alive=%d at 6 s",
+                     workers[i].name, workers[i].alive);
+    free(workers);
+    /* 61 s: only long-lease is alive; a heartbeat brings short-lease back. */
+    clock_now.now += 55000;
+    PF_CHECK_OK(pf_queue_worker_heartbeat(queue, ids[0], &err), &err);
+    PF_CHECK_OK(pf_queue_worker_list(queue, &workers, &count, &err), &err);
+    for (size_t i = 0; i < count; i++)
+        PF_CHECK_MSG(workers[i].alive == (workers[i].worker_id != ids[2]), "%s alive=%d at 61 s",
+                     workers[i].name, workers[i].alive);
+    free(workers);
+    int64_t job = enqueue(queue, "1", 0, 1, 1);
+    pf_queue_job status = job_get(queue, job);
+    PF_CHECK_MSG(status.live_workers == 2, "%lld live", (long long)status.live_workers);
+    pf_queue_job_clear(&status);
+    pf_queue_close(queue);
+}
+
 int main(void)
 {
     PF_RUN(enqueue_chunks_frames_into_tasks);
@@ -775,5 +816,6 @@ int main(void)
     PF_RUN(timing_statistics_match_hand_computed_values);
     PF_RUN(reaping_counts_attempts_and_blocks_the_silent_worker);
     PF_RUN(locked_database_is_retried_then_reported);
+    PF_RUN(workers_are_dead_after_their_own_lease);
     return pf_test_finish();
 }
