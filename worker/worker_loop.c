@@ -50,7 +50,7 @@ typedef struct db_op {
     pf_error err;
     char token[PF_QUEUE_TOKEN_CHARS + 1]; /* the task's lease when submitted */
     bool flag;          /* claim: claimed; finish: lease lost */
-    int64_t count;      /* reap: tasks reaped */
+    int64_t count;      /* reap: tasks reaped; finish: 1 when a failed commit was recorded */
 } db_op;
 
 struct worker {
@@ -288,6 +288,15 @@ static void finish_run(db_op *op)
     if (op->status == PF_OK)
         op->status = pf_queue_complete(w->queue, op->token, rows, row_count, NULL,
                                        &op->err);
+    if (op->status != PF_OK) {
+        /* Not committed (a rename refused, the database failing): the task goes back
+         * under the retry policy now, with the cause, instead of staying `running` on
+         * this live worker until its lease expires (issue 14). */
+        char cause[sizeof op->err.message + 32];
+        snprintf(cause, sizeof cause, "committing the frame: %s", op->err.message);
+        pf_error fail_err = {0};
+        op->count = pf_queue_fail(w->queue, op->token, cause, &fail_err) == PF_OK;
+    }
     if (op->status == PF_OK) {
         pf_queue_job_clear(&w->job);
         pf_error ignored;
@@ -316,6 +325,10 @@ static void finish_done(db_op *op)
                 w->task.job_id, w->task.first_frame, w->task.task_id, w->name);
     } else if (op->status != PF_OK) {
         log_db_error(w, "complete", op);
+        if (op->count)
+            pf_wlog(PF_LOG_WARN, "commit_failed",
+                    "job=%" PRId64 " frame=%d task=%" PRId64 " worker=%s action=failed_for_retry",
+                    w->task.job_id, w->task.first_frame, w->task.task_id, w->name);
         w->exit_code = 1;
     } else {
         double total_ms = 0;

@@ -12,6 +12,8 @@
 #include "pf_test.h"
 #include "worker_test_util.h"
 
+#include <sys/stat.h>
+
 #include <cjson/cJSON.h>
 #include <signal.h>
 #include <sqlite3.h>
@@ -452,6 +454,44 @@ PF_TEST(a_worker_whose_lease_was_taken_over_never_writes)
     PF_CHECK(wt_stage_rows_for_task(db, task.task_id, "shade") == 0);
 }
 
+/*
+ * A frame that renders but cannot be committed (here a directory sits at its
+ * path, so the rename is refused) goes back under the retry policy at once,
+ * with the cause: it is not left `running` on a live worker until its lease
+ * (300 s here) expires.
+ */
+PF_TEST(a_frame_that_cannot_be_committed_is_failed_at_once)
+{
+    char out[WT_PATH_MAX + 32], db[WT_PATH_MAX + 32], blocker[2 * WT_PATH_MAX],
+        pattern[2 * WT_PATH_MAX], args[8 * WT_PATH_MAX];
+    wt_fresh_dir("commit-out", out, sizeof out);
+    wt_format(db, sizeof db, "%s/commit.db", dir);
+    unlink(db);
+    wt_format(pattern, sizeof pattern, "%s/c.####.exr", out);
+    int64_t job_id = enqueue(db, scene, "1", pattern, "--max-attempts 1");
+    PF_REQUIRE(job_id > 0);
+    wt_format(blocker, sizeof blocker, "%s/c.0001.exr", out);
+    rmdir(blocker); /* an earlier run's (wt_fresh_dir empties files, not folders) */
+    PF_REQUIRE(mkdir(blocker, 0777) == 0);
+    wt_format(args, sizeof args, "worker --once --lease-seconds 300 --db '%s'", db);
+    PF_CHECK(wt_run(args, log_path) == 1);
+    PF_CHECK(wt_file_contains(log_path, "event=commit_failed"));
+    pf_queue_task_info task = first_task(db, job_id);
+    PF_CHECK_MSG(!strcmp(task.status, "failed"), "task %s, not failed at once", task.status);
+    pf_queue *queue = wt_open_queue(db);
+    PF_REQUIRE(queue != NULL);
+    pf_queue_failure *failures = NULL;
+    size_t count = 0;
+    pf_error err = {0};
+    PF_CHECK_OK(pf_queue_failure_list(queue, job_id, &failures, &count, &err), &err);
+    PF_CHECK_MSG(count == 1 && strstr(failures[0].error, "committing the frame") &&
+                     strstr(failures[0].error, "c.0001.exr"),
+                 "%zu failures: %s", count, count ? failures[0].error : "");
+    free(failures);
+    pf_queue_close(queue);
+    PF_CHECK(wt_count_files(out, "partial") == 0);
+}
+
 int main(void)
 {
     pf_test_tmpdir(dir, sizeof dir);
@@ -464,5 +504,6 @@ int main(void)
     PF_RUN(sigterm_drains_the_current_frame);
     PF_RUN(a_second_sigterm_releases_the_frame);
     PF_RUN(a_worker_whose_lease_was_taken_over_never_writes);
+    PF_RUN(a_frame_that_cannot_be_committed_is_failed_at_once);
     return pf_test_finish();
 }
