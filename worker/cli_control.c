@@ -5,11 +5,39 @@
  * attempts and lifts the job's worker blocks.
  */
 #include "cli_queue.h"
+#include "frame_pipeline.h"
 #include "pf_cli.h"
 
 #include <inttypes.h>
+#include <stdlib.h>
 #include <stdio.h>
 #include <string.h>
+
+/*
+ * After cancel: the temporaries its tasks left ("<frame>.partial-t<task>-*"),
+ * a killed worker's included, which no later attempt would clean since none
+ * comes. A worker still rendering one loses its lease and discards it anyway.
+ * Returns how many files were removed.
+ */
+static int remove_partials(pf_queue *queue, const pf_queue_job *job)
+{
+    pf_queue_task_info *tasks = NULL;
+    size_t count = 0;
+    pf_error err = {0};
+    if (pf_queue_task_list(queue, job->job_id, &tasks, &count, &err) != PF_OK)
+        return 0;
+    int removed = 0;
+    for (size_t t = 0; t < count; t++) {
+        for (int32_t k = 0; k < tasks[t].frame_count; k++) {
+            char path[PF_FRAME_PATH_MAX];
+            int64_t frame = tasks[t].first_frame + (int64_t)k * tasks[t].frame_step;
+            if (pf_frame_output_path(job->output_pattern, frame, path, sizeof path))
+                removed += pf_frame_remove_stale(path, tasks[t].task_id);
+        }
+    }
+    free(tasks);
+    return removed;
+}
 
 static int control(const char *command, int argc, char **argv)
 {
@@ -50,6 +78,7 @@ static int control(const char *command, int argc, char **argv)
     pf_queue_job job = {0};
     if (status == PF_OK)
         status = pf_queue_job_get(queue, job_id, &job, &err);
+    int removed = status == PF_OK && !strcmp(command, "cancel") ? remove_partials(queue, &job) : 0;
     pf_queue_close(queue);
     if (status != PF_OK) {
         pf_queue_job_clear(&job);
@@ -58,6 +87,9 @@ static int control(const char *command, int argc, char **argv)
     if (!strcmp(command, "retry"))
         printf("job %" PRId64 ": %" PRId64 " task(s) requeued, now %s\n", job_id, requeued,
                job.status);
+    else if (removed > 0)
+        printf("job %" PRId64 ": %s (%d unfinished frame file(s) removed)\n", job_id, job.status,
+               removed);
     else
         printf("job %" PRId64 ": %s\n", job_id, job.status);
     pf_queue_job_clear(&job);

@@ -333,6 +333,40 @@ PF_TEST(jobs_writing_the_same_files_are_refused)
     PF_CHECK(enqueue_job(args) > 0);
 }
 
+/* cancel removes what its tasks' killed workers left behind, and nothing else. */
+PF_TEST(cancel_removes_the_jobs_unfinished_frame_files)
+{
+    char args[8 * WT_PATH_MAX], path[2 * WT_PATH_MAX];
+    wt_format(args, sizeof args, "enqueue '%s' --frames 1-2 --out '%s/k.####.exr' --db '%s'",
+              scene, out_dir, db);
+    int64_t job_id = enqueue_job(args);
+    PF_REQUIRE(job_id > 0);
+    pf_queue *queue = wt_open_queue(db);
+    PF_REQUIRE(queue != NULL);
+    pf_queue_task_info *tasks = NULL;
+    size_t count = 0;
+    pf_error err = {0};
+    PF_CHECK_OK(pf_queue_task_list(queue, job_id, &tasks, &count, &err), &err);
+    pf_queue_close(queue);
+    PF_REQUIRE(count == 2);
+    /* As a worker killed mid-frame leaves them (pf_frame_task_tag), and a stranger's. */
+    const int64_t owners[] = {tasks[0].task_id, tasks[1].task_id, 999999};
+    const int frames[] = {1, 2, 1};
+    for (int i = 0; i < 3; i++) {
+        wt_format(path, sizeof path, "%s/k.%04d.exr.partial-t%lld-deadlease", out_dir, frames[i],
+                  (long long)owners[i]);
+        FILE *file = fopen(path, "wb");
+        PF_REQUIRE(file != NULL);
+        fclose(file);
+    }
+    free(tasks);
+    wt_format(args, sizeof args, "cancel %lld --db '%s'", (long long)job_id, db);
+    PF_CHECK(wt_run(args, log_path) == 0);
+    PF_CHECK(wt_file_contains(log_path, "2 unfinished frame file(s) removed"));
+    PF_CHECK(wt_count_files(out_dir, "k.0001.exr.partial-t999999-") == 1);
+    PF_CHECK(wt_count_files(out_dir, "k.") == 1);
+}
+
 int main(void)
 {
     pf_test_tmpdir(dir, sizeof dir);
@@ -349,5 +383,6 @@ int main(void)
     PF_RUN(status_escapes_control_characters);
     PF_RUN(database_in_a_missing_directory_exits_2_everywhere);
     PF_RUN(jobs_writing_the_same_files_are_refused);
+    PF_RUN(cancel_removes_the_jobs_unfinished_frame_files);
     return pf_test_finish();
 }
