@@ -67,6 +67,16 @@ static void release_grid(pf_photon_grid *grid)
     grid->built = 0;
 }
 
+/* A probe pipeline (6 buffers, the grid's push), created the first time it is asked for. */
+static pf_status probe_pipeline(pf_photon_grid *grid, const char *shader, pf_vk_pipeline **slot,
+                                pf_error *err)
+{
+    if (*slot)
+        return PF_OK;
+    return pf_vk_pipeline_create_named(grid->ctx, shader, 6, sizeof(photon_grid_push), NULL, 0,
+                                       slot, err);
+}
+
 pf_status pf_photon_grid_create(pf_vk_context *ctx, pf_photon_grid **out, pf_error *err)
 {
     *out = NULL;
@@ -82,14 +92,7 @@ pf_status pf_photon_grid_create(pf_vk_context *ctx, pf_photon_grid **out, pf_err
         status = pf_vk_pipeline_create_named(ctx, "photon_grid_finish", 5,
                                              sizeof(photon_grid_push), NULL, 0,
                                              &grid->finish_pipeline, err);
-    if (status == PF_OK)
-        status = pf_vk_pipeline_create_named(ctx, "photon_gather_probe", 6,
-                                             sizeof(photon_grid_push), NULL, 0,
-                                             &grid->gather_pipeline, err);
-    if (status == PF_OK)
-        status = pf_vk_pipeline_create_named(ctx, "photon_irradiance_probe", 6,
-                                             sizeof(photon_grid_push), NULL, 0,
-                                             &grid->irradiance_pipeline, err);
+    /* The probes (gather, irradiance) serve tests and benchmarks: made at their first use. */
     if (status != PF_OK) {
         pf_photon_grid_destroy(grid);
         return status;
@@ -396,6 +399,8 @@ pf_status pf_photon_grid_gather(pf_photon_grid *grid, const float (*queries)[4],
     if (status == PF_OK)
         status = pf_vk_buffer_upload(ctx, query_buffer, 0, queries, (uint64_t)query_count * 16,
                                      err);
+    if (status == PF_OK)
+        status = probe_pipeline(grid, "photon_gather_probe", &grid->gather_pipeline, err);
     pf_vk_commands *cmds = NULL;
     if (status == PF_OK)
         status = pf_vk_commands_begin(ctx, &cmds, err);
@@ -450,6 +455,8 @@ static pf_status run_estimate(pf_photon_grid *grid, uint32_t mode, uint32_t k,
         status = pf_vk_buffer_upload(ctx, query_buffer, 0, queries, bytes, err);
     if (status == PF_OK)
         status = pf_vk_buffer_upload(ctx, normal_buffer, 0, normals, bytes, err);
+    if (status == PF_OK)
+        status = probe_pipeline(grid, "photon_irradiance_probe", &grid->irradiance_pipeline, err);
     pf_vk_commands *cmds = NULL;
     if (status == PF_OK)
         status = pf_vk_commands_begin(ctx, &cmds, err);

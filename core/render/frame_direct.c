@@ -86,6 +86,10 @@ static pf_status render_tile(pf_renderer *renderer, pf_vk_buffer *const *buffers
     pf_status status = pf_vk_buffer_upload(ctx, buffers[8], 0, &zero, sizeof zero, err);
     if (status != PF_OK)
         return status;
+    pf_vk_pipeline *pipeline = NULL;
+    status = pf_renderer_pipeline(renderer, PF_PIPELINE_DIRECT, &pipeline, err);
+    if (status != PF_OK)
+        return status;
     pf_vk_commands *cmds = NULL;
     status = pf_vk_commands_begin(ctx, &cmds, err);
     if (status != PF_OK)
@@ -97,7 +101,7 @@ static pf_status render_tile(pf_renderer *renderer, pf_vk_buffer *const *buffers
         if (sample > 0)
             pf_vk_cmd_barrier(cmds); /* the previous sample's film sums are read */
         status = pf_vk_cmd_dispatch(
-            cmds, renderer->render_direct, buffers, RENDER_BUFFERS, &push, sizeof push,
+            cmds, pipeline, buffers, RENDER_BUFFERS, &push, sizeof push,
             (tile->tile_size[0] + RENDER_GROUP_EDGE - 1) / RENDER_GROUP_EDGE,
             (tile->tile_size[1] + RENDER_GROUP_EDGE - 1) / RENDER_GROUP_EDGE, 1, err);
     }

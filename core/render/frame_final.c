@@ -310,6 +310,11 @@ static pf_status shade_sample(pf_renderer *renderer, pf_vk_buffer **buffers,
     pf_vk_context *ctx = renderer->ctx;
     const final_counters zero = {0};
     pf_status status = pf_vk_buffer_upload(ctx, owned->counters, 0, &zero, sizeof zero, err);
+    pf_vk_pipeline *primary = NULL, *gather = NULL;
+    if (status == PF_OK)
+        status = pf_renderer_pipeline(renderer, PF_PIPELINE_FINAL_PRIMARY, &primary, err);
+    if (status == PF_OK)
+        status = pf_renderer_pipeline(renderer, PF_PIPELINE_FINAL_GATHER, &gather, err);
     pf_vk_commands *cmds = NULL;
     if (status == PF_OK)
         status = pf_vk_commands_begin(ctx, &cmds, err);
@@ -329,7 +334,7 @@ static pf_status shade_sample(pf_renderer *renderer, pf_vk_buffer **buffers,
     push.sample_index = sample_index;
     push.gather_total = final_gather_rays(settings);
     push.loop_sentinel = 1;
-    status = pf_vk_cmd_dispatch(cmds, renderer->render_final_primary, buffers, FINAL_BUFFERS,
+    status = pf_vk_cmd_dispatch(cmds, primary, buffers, FINAL_BUFFERS,
                                 &push, sizeof push, groups_x, groups_y, 1, err);
     bind_grid(pass ? pass->global : NULL, pass ? pass->radius : 0.0f,
               pass ? pass->flux_scale : 0.0f, owned->empty_grid, &push,
@@ -343,7 +348,7 @@ static pf_status shade_sample(pf_renderer *renderer, pf_vk_buffer **buffers,
         push.gather_first = first;
         push.gather_count = FINAL_GATHER_RAYS_PER_DISPATCH;
         push.resolve = first + FINAL_GATHER_RAYS_PER_DISPATCH >= FINAL_GATHER_RAYS;
-        status = pf_vk_cmd_dispatch(cmds, renderer->render_final_gather, buffers, FINAL_BUFFERS,
+        status = pf_vk_cmd_dispatch(cmds, gather, buffers, FINAL_BUFFERS,
                                     &push, sizeof push, groups_x, groups_y, 1, err);
     }
     int end = pf_vk_cmd_timestamp(cmds);

@@ -177,8 +177,11 @@ static pf_status shade(pf_renderer *renderer, const pf_scene_frame *frame,
         scene.materials, scene.lights,  scene.emissive, owned.film,
         owned.film_aov, owned.counters, bih.nodes,     bih.vertices,
         bih.triangle_index};
-    pf_vk_pipeline *pipeline =
-        settings->aovs ? renderer->render_reference : renderer->render_reference_rgb;
+    pf_vk_pipeline *pipeline = NULL;
+    if (status == PF_OK)
+        status = pf_renderer_pipeline(
+            renderer, settings->aovs ? PF_PIPELINE_REFERENCE : PF_PIPELINE_REFERENCE_RGB,
+            &pipeline, err);
     double pass_ms = 0.0;
     for (uint32_t batch = next_batch(settings, spp, 0, frame_start, 0.0);
          status == PF_OK && batch > 0;

@@ -26,8 +26,11 @@ pf_status pf_material_probe(pf_renderer *renderer, const pf_material_probe_query
     pf_vk_commands *cmds = NULL;
     if (status == PF_OK)
         status = pf_vk_commands_begin(ctx, &cmds, err);
+    pf_vk_pipeline *probe = NULL;
+    if (status == PF_OK)
+        status = pf_renderer_pipeline(renderer, PF_PIPELINE_MATERIAL_PROBE, &probe, err);
     if (status == PF_OK) {
-        status = pf_vk_cmd_dispatch(cmds, renderer->material_probe, buffers, 2, &count,
+        status = pf_vk_cmd_dispatch(cmds, probe, buffers, 2, &count,
                                     sizeof count, (count + PROBE_GROUP_SIZE - 1) / PROBE_GROUP_SIZE,
                                     1, 1, err);
         if (status == PF_OK)

@@ -73,7 +73,14 @@ pf_status pf_raycast_brute(pf_renderer *renderer, const pf_scene_frame *frame,
         if (status != PF_OK)
             break;
         pf_vk_buffer *buffers[] = {scene.vertices, ray_buffer, hit_buffer};
-        pf_vk_pipeline *pipeline = any_hit ? renderer->raycast_any : renderer->raycast_closest;
+        pf_vk_pipeline *pipeline = NULL;
+        status = pf_renderer_pipeline(
+            renderer, any_hit ? PF_PIPELINE_RAYCAST_ANY : PF_PIPELINE_RAYCAST_CLOSEST, &pipeline,
+            err);
+        if (status != PF_OK) {
+            pf_vk_commands_destroy(cmds);
+            break;
+        }
         /* One dispatch even for zero triangles: it writes the misses. */
         uint32_t begin = 0;
         do {

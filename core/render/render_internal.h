@@ -22,6 +22,24 @@ struct pf_plan_cache {
     char reason[PF_STAGE_REASON_MAX];
 };
 
+/*
+ * The renderer's compute pipelines. Each is created the first time a frame
+ * needs it, so a worker that renders `fast` never builds `final`'s, and the
+ * test oracles (raycast_brute) exist only in the processes that call them
+ * (issue 12): process start pays for what the job renders.
+ */
+typedef enum pf_renderer_pipeline_id {
+    PF_PIPELINE_RAYCAST_CLOSEST, /* raycast_brute.comp, ANY_HIT = false (the oracle) */
+    PF_PIPELINE_RAYCAST_ANY,     /* raycast_brute.comp, ANY_HIT = true */
+    PF_PIPELINE_DIRECT,          /* render_direct.comp */
+    PF_PIPELINE_REFERENCE,       /* render_reference.comp, AOVs written */
+    PF_PIPELINE_REFERENCE_RGB,   /* render_reference.comp, no AOVs */
+    PF_PIPELINE_MATERIAL_PROBE,  /* material_probe.comp */
+    PF_PIPELINE_FINAL_PRIMARY,   /* render_final.comp, MODE 0 */
+    PF_PIPELINE_FINAL_GATHER,    /* render_final.comp, MODE 1 */
+    PF_PIPELINE_COUNT
+} pf_renderer_pipeline_id;
+
 struct pf_renderer {
     pf_vk_context *ctx;
     struct pf_plan_cache plan;
@@ -43,19 +61,9 @@ struct pf_renderer {
     uint64_t bih_frames;
     pf_bih_gpu *bih_gpu;
     pf_bih_gpu_builder *bih_builder;
-    pf_vk_pipeline *raycast_closest; /* raycast_brute.comp, ANY_HIT = false */
-    pf_vk_pipeline *raycast_any;     /* raycast_brute.comp, ANY_HIT = true */
-    pf_vk_pipeline *render_direct;   /* render_direct.comp */
-    pf_vk_pipeline *render_reference;      /* render_reference.comp, AOVs written */
-    pf_vk_pipeline *render_reference_rgb;  /* render_reference.comp, no AOVs */
-    pf_vk_pipeline *material_probe;        /* material_probe.comp */
-    /*
-     * The final integrator (frame_final.c): render_final.comp's primary and
-     * gather variants, and the photon passes kept for reuse by the next
-     * frame (created on first use; NULL until a final frame ran).
-     */
-    pf_vk_pipeline *render_final_primary;
-    pf_vk_pipeline *render_final_gather;
+    /* The integrators' pipelines, each created at its first use (pf_renderer_pipeline). */
+    pf_vk_pipeline *pipelines[PF_PIPELINE_COUNT];
+    /* The final integrator's photon passes kept for reuse by the next frame (frame_final.c). */
     struct pf_final_cache *final_cache;
     /* The fast integrator's photons, LPV and pipeline (frame_fast.c; NULL until a fast frame). */
     pf_vk_pipeline *render_fast;
@@ -63,6 +71,10 @@ struct pf_renderer {
     /* The photon tracer final and fast share (created on first use, kept: its pipeline). */
     pf_photon_tracer *photon_tracer;
 };
+
+/* The pipeline id, created now if this renderer has not needed it before (renderer.c). */
+pf_status pf_renderer_pipeline(pf_renderer *renderer, pf_renderer_pipeline_id id,
+                               pf_vk_pipeline **out, pf_error *err);
 
 /* FrameParams in scene_types.glsl (std430, 160 bytes). */
 typedef struct pf_frame_params {

@@ -1,4 +1,4 @@
-/* pf_renderer lifetime: the compute pipelines every frame uses. */
+/* pf_renderer lifetime, and its compute pipelines, each made at its first use. */
 #include "render_internal.h"
 
 #include <stdlib.h>
@@ -21,6 +21,50 @@
 #define MATERIAL_PROBE_BUFFERS 2u
 #define MATERIAL_PROBE_PUSH_BYTES 4u
 
+typedef struct pipeline_spec {
+    const char *shader;
+    uint32_t buffers, push_bytes;
+    int specialized;
+    pf_vk_spec_constant constant;
+} pipeline_spec;
+
+static const pipeline_spec pipeline_specs[PF_PIPELINE_COUNT] = {
+    [PF_PIPELINE_RAYCAST_CLOSEST] = {"raycast_brute", RAYCAST_BUFFERS, RAYCAST_PUSH_BYTES, 1,
+                                     {RAYCAST_SPEC_ANY_HIT, 0}},
+    [PF_PIPELINE_RAYCAST_ANY] = {"raycast_brute", RAYCAST_BUFFERS, RAYCAST_PUSH_BYTES, 1,
+                                 {RAYCAST_SPEC_ANY_HIT, 1}},
+    [PF_PIPELINE_DIRECT] = {"render_direct", RENDER_DIRECT_BUFFERS, RENDER_DIRECT_PUSH_BYTES, 0,
+                            {0, 0}},
+    [PF_PIPELINE_REFERENCE] = {"render_reference", RENDER_REFERENCE_BUFFERS,
+                               RENDER_REFERENCE_PUSH_BYTES, 1, {REFERENCE_SPEC_AOVS, 1}},
+    [PF_PIPELINE_REFERENCE_RGB] = {"render_reference", RENDER_REFERENCE_BUFFERS,
+                                   RENDER_REFERENCE_PUSH_BYTES, 1, {REFERENCE_SPEC_AOVS, 0}},
+    [PF_PIPELINE_MATERIAL_PROBE] = {"material_probe", MATERIAL_PROBE_BUFFERS,
+                                    MATERIAL_PROBE_PUSH_BYTES, 0, {0, 0}},
+    [PF_PIPELINE_FINAL_PRIMARY] = {"render_final", RENDER_FINAL_BUFFERS, RENDER_FINAL_PUSH_BYTES,
+                                   1, {FINAL_SPEC_MODE, 0}},
+    [PF_PIPELINE_FINAL_GATHER] = {"render_final", RENDER_FINAL_BUFFERS, RENDER_FINAL_PUSH_BYTES,
+                                  1, {FINAL_SPEC_MODE, 1}},
+};
+
+pf_status pf_renderer_pipeline(pf_renderer *renderer, pf_renderer_pipeline_id id,
+                               pf_vk_pipeline **out, pf_error *err)
+{
+    if ((unsigned)id >= PF_PIPELINE_COUNT)
+        return pf_error_set(err, PF_ERR_INTERNAL, "renderer: no pipeline %d", (int)id);
+    if (!renderer->pipelines[id]) {
+        const pipeline_spec *spec = &pipeline_specs[id];
+        pf_status status = pf_vk_pipeline_create_named(
+            renderer->ctx, spec->shader, spec->buffers, spec->push_bytes,
+            spec->specialized ? &spec->constant : NULL, spec->specialized ? 1 : 0,
+            &renderer->pipelines[id], err);
+        if (status != PF_OK)
+            return status;
+    }
+    *out = renderer->pipelines[id];
+    return PF_OK;
+}
+
 pf_status pf_renderer_create(pf_vk_context *ctx, pf_renderer **out, pf_error *err)
 {
     *out = NULL;
@@ -28,47 +72,6 @@ pf_status pf_renderer_create(pf_vk_context *ctx, pf_renderer **out, pf_error *er
     if (!renderer)
         return pf_error_set(err, PF_ERR_NOMEM, "renderer: out of memory");
     renderer->ctx = ctx;
-    pf_vk_spec_constant closest = {RAYCAST_SPEC_ANY_HIT, 0};
-    pf_vk_spec_constant any = {RAYCAST_SPEC_ANY_HIT, 1};
-    pf_status status = pf_vk_pipeline_create_named(ctx, "raycast_brute", RAYCAST_BUFFERS,
-                                                   RAYCAST_PUSH_BYTES, &closest, 1,
-                                                   &renderer->raycast_closest, err);
-    if (status == PF_OK)
-        status = pf_vk_pipeline_create_named(ctx, "raycast_brute", RAYCAST_BUFFERS,
-                                             RAYCAST_PUSH_BYTES, &any, 1, &renderer->raycast_any,
-                                             err);
-    if (status == PF_OK)
-        status = pf_vk_pipeline_create_named(ctx, "render_direct", RENDER_DIRECT_BUFFERS,
-                                             RENDER_DIRECT_PUSH_BYTES, NULL, 0,
-                                             &renderer->render_direct, err);
-    pf_vk_spec_constant with_aovs = {REFERENCE_SPEC_AOVS, 1};
-    pf_vk_spec_constant without_aovs = {REFERENCE_SPEC_AOVS, 0};
-    if (status == PF_OK)
-        status = pf_vk_pipeline_create_named(ctx, "render_reference", RENDER_REFERENCE_BUFFERS,
-                                             RENDER_REFERENCE_PUSH_BYTES, &with_aovs, 1,
-                                             &renderer->render_reference, err);
-    if (status == PF_OK)
-        status = pf_vk_pipeline_create_named(ctx, "render_reference", RENDER_REFERENCE_BUFFERS,
-                                             RENDER_REFERENCE_PUSH_BYTES, &without_aovs, 1,
-                                             &renderer->render_reference_rgb, err);
-    if (status == PF_OK)
-        status = pf_vk_pipeline_create_named(ctx, "material_probe", MATERIAL_PROBE_BUFFERS,
-                                             MATERIAL_PROBE_PUSH_BYTES, NULL, 0,
-                                             &renderer->material_probe, err);
-    pf_vk_spec_constant final_primary = {FINAL_SPEC_MODE, 0};
-    pf_vk_spec_constant final_gather = {FINAL_SPEC_MODE, 1};
-    if (status == PF_OK)
-        status = pf_vk_pipeline_create_named(ctx, "render_final", RENDER_FINAL_BUFFERS,
-                                             RENDER_FINAL_PUSH_BYTES, &final_primary, 1,
-                                             &renderer->render_final_primary, err);
-    if (status == PF_OK)
-        status = pf_vk_pipeline_create_named(ctx, "render_final", RENDER_FINAL_BUFFERS,
-                                             RENDER_FINAL_PUSH_BYTES, &final_gather, 1,
-                                             &renderer->render_final_gather, err);
-    if (status != PF_OK) {
-        pf_renderer_destroy(renderer);
-        return status;
-    }
     *out = renderer;
     return PF_OK;
 }
@@ -77,15 +80,12 @@ void pf_renderer_destroy(pf_renderer *renderer)
 {
     if (!renderer)
         return;
-    pf_vk_pipeline *pipelines[] = {renderer->raycast_closest, renderer->raycast_any,
-                                   renderer->render_direct, renderer->render_reference,
-                                   renderer->render_reference_rgb, renderer->material_probe,
-                                   renderer->render_final_primary, renderer->render_final_gather,
-                                   renderer->render_fast};
-    for (size_t i = 0; i < sizeof pipelines / sizeof pipelines[0]; i++) {
-        if (pipelines[i])
-            pf_vk_pipeline_destroy(renderer->ctx, pipelines[i]);
+    for (size_t i = 0; i < PF_PIPELINE_COUNT; i++) {
+        if (renderer->pipelines[i])
+            pf_vk_pipeline_destroy(renderer->ctx, renderer->pipelines[i]);
     }
+    if (renderer->render_fast)
+        pf_vk_pipeline_destroy(renderer->ctx, renderer->render_fast);
     pf_final_cache_destroy(renderer->final_cache);
     pf_fast_cache_destroy(renderer->ctx, renderer->fast_cache);
     pf_photon_tracer_destroy(renderer->photon_tracer);

@@ -446,10 +446,28 @@ PF_TEST(empty_scene_renders_black_and_transparent)
     pf_image_free(&image);
 }
 
+/*
+ * A renderer builds only the pipelines the frames it renders need: none at
+ * creation, and the preset's own at its first frame (issue 12: the test
+ * oracles and the other presets' kernels cost nothing in production).
+ */
+PF_TEST(pipelines_are_made_at_first_use)
+{
+    pf_error err = {0};
+    pf_renderer *fresh = NULL;
+    uint32_t before = pf_vk_pipeline_cache_stats(ctx).pipelines;
+    PF_REQUIRE_OK(pf_renderer_create(ctx, &fresh, &err), &err);
+    PF_CHECK_MSG(pf_vk_pipeline_cache_stats(ctx).pipelines == before,
+                 "%u pipelines made by pf_renderer_create",
+                 pf_vk_pipeline_cache_stats(ctx).pipelines - before);
+    pf_renderer_destroy(fresh);
+}
+
 int main(void)
 {
     if (!render_test_setup(&ctx, &renderer))
         return 1;
+    PF_RUN(pipelines_are_made_at_first_use);
     PF_RUN(direct_light_matches_closed_forms);
     PF_RUN(emissive_triangles_light_from_the_front_only);
     PF_RUN(mirror_reflects_the_emitter_tinted);
