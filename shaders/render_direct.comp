@@ -28,26 +28,16 @@ layout(push_constant) uniform Push {
     uint sample_index; // 0 starts the film's sums
 } push;
 
-#include "scene_types.glsl"
-
-layout(std430, set = 0, binding = 0) readonly buffer Params { FrameParams params; };
-layout(std430, set = 0, binding = 1) readonly buffer TriangleVertices { vec4 triangle_vertices[]; };
-layout(std430, set = 0, binding = 2) readonly buffer TriangleNormals { vec4 triangle_normals[]; };
-layout(std430, set = 0, binding = 3) readonly buffer TriangleMaterials { uint triangle_material[]; };
-layout(std430, set = 0, binding = 4) readonly buffer Materials { Material materials[]; };
-layout(std430, set = 0, binding = 5) readonly buffer Lights { Light lights[]; };
-layout(std430, set = 0, binding = 6) readonly buffer Emissive { EmissiveEntry emissive[]; };
+#include "scene_bindings.glsl"
 layout(std430, set = 0, binding = 7) buffer Film { vec4 film[]; };
 layout(std430, set = 0, binding = 8) buffer Counters {
     uint discarded_samples;
     uint rays_traced;
     uint traversal_failures; // rays whose BIH traversal overflowed: the host fails the frame
 } counters;
-layout(std430, set = 0, binding = 9) readonly buffer BihNodes { uint bih_nodes[]; };
-layout(std430, set = 0, binding = 10) readonly buffer BihVertices { vec4 bih_vertices[]; };
-layout(std430, set = 0, binding = 11) readonly buffer BihTriangleIndex { uint bih_triangle_index[]; };
 
-#include "bih_traverse.glsl"
+#define BIH_BINDING 9
+#include "scene_trace.glsl"
 #include "camera.glsl"
 #include "area_lights.glsl"
 #include "lights.glsl"
@@ -56,19 +46,6 @@ layout(std430, set = 0, binding = 11) readonly buffer BihTriangleIndex { uint bi
 #include "rng.glsl"
 #include "pixel_filter.glsl"
 
-// Closest (or with any_hit, any) hit through the frame's BIH; a failed
-// traversal counts as a miss here and is reported to the host, which fails
-// the frame.
-BihHit trace(vec3 origin, vec3 direction, float tmax, bool any_hit)
-{
-    bool failed;
-    BihHit hit = trace_bih(origin, direction, 0.0, tmax, any_hit, params.bih_bounds_min.xyz,
-                           params.bih_bounds_max.xyz, params.triangle_count,
-                           params.bih_node_count, failed);
-    if (failed)
-        atomicAdd(counters.traversal_failures, 1u);
-    return hit;
-}
 
 // One camera path of one pixel sample: the current ray of the specular chain
 // and, once it reaches a diffuse surface, that surface.

@@ -38,17 +38,10 @@ layout(push_constant) uniform Push {
     uint lpv_damping;    // 1: lpv_lookup.glsl's light-bleeding dampening
 } push;
 
-#include "scene_types.glsl"
+#include "scene_bindings.glsl"
 #include "photon_types.glsl"
 #include "photon_grid.glsl"
 
-layout(std430, set = 0, binding = 0) readonly buffer Params { FrameParams params; };
-layout(std430, set = 0, binding = 1) readonly buffer TriangleVertices { vec4 triangle_vertices[]; };
-layout(std430, set = 0, binding = 2) readonly buffer TriangleNormals { vec4 triangle_normals[]; };
-layout(std430, set = 0, binding = 3) readonly buffer TriangleMaterials { uint triangle_material[]; };
-layout(std430, set = 0, binding = 4) readonly buffer Materials { Material materials[]; };
-layout(std430, set = 0, binding = 5) readonly buffer Lights { Light lights[]; };
-layout(std430, set = 0, binding = 6) readonly buffer Emissive { EmissiveEntry emissive[]; };
 layout(std430, set = 0, binding = 7) buffer Film { vec4 film[]; };
 layout(std430, set = 0, binding = 8) buffer FilmAov { vec4 film_aov[]; };
 layout(std430, set = 0, binding = 9) buffer Counters {
@@ -59,9 +52,6 @@ layout(std430, set = 0, binding = 9) buffer Counters {
     uint loop_truncated;
     uint lpv_outside;       // D₁ vertices no cascade held (no LPV light there)
 } counters;
-layout(std430, set = 0, binding = 10) readonly buffer BihNodes { uint bih_nodes[]; };
-layout(std430, set = 0, binding = 11) readonly buffer BihVertices { vec4 bih_vertices[]; };
-layout(std430, set = 0, binding = 12) readonly buffer BihTriangleIndex { uint bih_triangle_index[]; };
 layout(std430, set = 0, binding = 13) readonly buffer LpvCells { vec4 lpv_cells[]; };
 layout(std430, set = 0, binding = 14) readonly buffer LpvCascades { vec4 lpv_cascades[]; };
 layout(std430, set = 0, binding = 15) readonly buffer GridPhotons { uint grid_words[]; };
@@ -69,7 +59,8 @@ layout(std430, set = 0, binding = 16) readonly buffer GridRanges { uvec2 grid_ra
 layout(std430, set = 0, binding = 17) readonly buffer LpvSnapshots { vec4 lpv_snapshots[]; };
 layout(std430, set = 0, binding = 18) readonly buffer LpvGeometry { vec4 geometry[]; };
 
-#include "bih_traverse.glsl"
+#define BIH_BINDING 10
+#include "scene_trace.glsl"
 #include "camera.glsl"
 #include "area_lights.glsl"
 #include "lights.glsl"
@@ -88,16 +79,6 @@ layout(std430, set = 0, binding = 18) readonly buffer LpvGeometry { vec4 geometr
 // average: more neighbours than final's 8 keep the single estimate quiet).
 const uint CAUSTIC_NEAREST = 16u;
 
-BihHit trace(vec3 origin, vec3 direction, float tmax, bool any_hit)
-{
-    bool failed;
-    BihHit hit = trace_bih(origin, direction, 0.0, tmax, any_hit, params.bih_bounds_min.xyz,
-                           params.bih_bounds_max.xyz, params.triangle_count,
-                           params.bih_node_count, failed);
-    if (failed)
-        atomicAdd(counters.traversal_failures, 1u);
-    return hit;
-}
 
 #include "direct_light.glsl"
 

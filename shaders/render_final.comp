@@ -78,17 +78,10 @@ layout(push_constant) uniform Push {
     float caustic_scale; // this pass's radius over the first pass's (caustic radii shrink with it)
 } push;
 
-#include "scene_types.glsl"
+#include "scene_bindings.glsl"
 #include "photon_types.glsl"
 #include "photon_grid.glsl"
 
-layout(std430, set = 0, binding = 0) readonly buffer Params { FrameParams params; };
-layout(std430, set = 0, binding = 1) readonly buffer TriangleVertices { vec4 triangle_vertices[]; };
-layout(std430, set = 0, binding = 2) readonly buffer TriangleNormals { vec4 triangle_normals[]; };
-layout(std430, set = 0, binding = 3) readonly buffer TriangleMaterials { uint triangle_material[]; };
-layout(std430, set = 0, binding = 4) readonly buffer Materials { Material materials[]; };
-layout(std430, set = 0, binding = 5) readonly buffer Lights { Light lights[]; };
-layout(std430, set = 0, binding = 6) readonly buffer Emissive { EmissiveEntry emissive[]; };
 layout(std430, set = 0, binding = 7) buffer Film { vec4 film[]; };
 layout(std430, set = 0, binding = 8) buffer FilmAov { vec4 film_aov[]; };
 layout(std430, set = 0, binding = 9) buffer Counters {
@@ -99,9 +92,6 @@ layout(std430, set = 0, binding = 9) buffer Counters {
     uint loop_truncated;    // invocations the loop cap cut short
     uint gather_dropped;    // gather rays past GATHER_MAX_SPECULAR specular vertices
 } counters;
-layout(std430, set = 0, binding = 10) readonly buffer BihNodes { uint bih_nodes[]; };
-layout(std430, set = 0, binding = 11) readonly buffer BihVertices { vec4 bih_vertices[]; };
-layout(std430, set = 0, binding = 12) readonly buffer BihTriangleIndex { uint bih_triangle_index[]; };
 layout(std430, set = 0, binding = 13) buffer Vertices { vec4 vertices[]; };
 layout(std430, set = 0, binding = 14) buffer SampleSums { vec4 sample_sums[]; };
 layout(std430, set = 0, binding = 15) readonly buffer GridPhotons { uint grid_words[]; };
@@ -109,7 +99,8 @@ layout(std430, set = 0, binding = 16) readonly buffer GridRanges { uvec2 grid_ra
 // Per pixel: the caustic radius chosen in the first pass (see caustic_radiance).
 layout(std430, set = 0, binding = 17) buffer CausticRadii { float caustic_radii[]; };
 
-#include "bih_traverse.glsl"
+#define BIH_BINDING 10
+#include "scene_trace.glsl"
 #include "camera.glsl"
 #include "area_lights.glsl"
 #include "lights.glsl"
@@ -129,16 +120,6 @@ const uint GATHER_MAX_SPECULAR = 4u;
 // Gather rays draw from their own scrambled sequence (seed_lo xor this).
 const uint GATHER_SEED_SALT = 0x9e3779b9u;
 
-BihHit trace(vec3 origin, vec3 direction, float tmax, bool any_hit)
-{
-    bool failed;
-    BihHit hit = trace_bih(origin, direction, 0.0, tmax, any_hit, params.bih_bounds_min.xyz,
-                           params.bih_bounds_max.xyz, params.triangle_count,
-                           params.bih_node_count, failed);
-    if (failed)
-        atomicAdd(counters.traversal_failures, 1u);
-    return hit;
-}
 
 #include "direct_light.glsl"
 

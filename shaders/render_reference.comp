@@ -48,15 +48,7 @@ layout(push_constant) uniform Push {
     uint sample_index; // 0 starts the film's sums
 } push;
 
-#include "scene_types.glsl"
-
-layout(std430, set = 0, binding = 0) readonly buffer Params { FrameParams params; };
-layout(std430, set = 0, binding = 1) readonly buffer TriangleVertices { vec4 triangle_vertices[]; };
-layout(std430, set = 0, binding = 2) readonly buffer TriangleNormals { vec4 triangle_normals[]; };
-layout(std430, set = 0, binding = 3) readonly buffer TriangleMaterials { uint triangle_material[]; };
-layout(std430, set = 0, binding = 4) readonly buffer Materials { Material materials[]; };
-layout(std430, set = 0, binding = 5) readonly buffer Lights { Light lights[]; };
-layout(std430, set = 0, binding = 6) readonly buffer Emissive { EmissiveEntry emissive[]; };
+#include "scene_bindings.glsl"
 layout(std430, set = 0, binding = 7) buffer Film { vec4 film[]; };
 layout(std430, set = 0, binding = 8) buffer FilmAov { vec4 film_aov[]; };
 layout(std430, set = 0, binding = 9) buffer Counters {
@@ -65,11 +57,9 @@ layout(std430, set = 0, binding = 9) buffer Counters {
     uint rays_low;           // rays traced, a 64-bit count in two words
     uint rays_high;
 } counters;
-layout(std430, set = 0, binding = 10) readonly buffer BihNodes { uint bih_nodes[]; };
-layout(std430, set = 0, binding = 11) readonly buffer BihVertices { vec4 bih_vertices[]; };
-layout(std430, set = 0, binding = 12) readonly buffer BihTriangleIndex { uint bih_triangle_index[]; };
 
-#include "bih_traverse.glsl"
+#define BIH_BINDING 10
+#include "scene_trace.glsl"
 #include "camera.glsl"
 #include "area_lights.glsl"
 #include "lights.glsl"
@@ -93,16 +83,6 @@ const uint REGION_BEFORE_DIFFUSE = 0u; // no diffuse vertex yet
 const uint REGION_AT_DIFFUSE = 1u;     // the last vertex is D₁
 const uint REGION_BEYOND = 2u;         // past D₁
 
-BihHit trace(vec3 origin, vec3 direction, float tmax, bool any_hit)
-{
-    bool failed;
-    BihHit hit = trace_bih(origin, direction, 0.0, tmax, any_hit, params.bih_bounds_min.xyz,
-                           params.bih_bounds_max.xyz, params.triangle_count,
-                           params.bih_node_count, failed);
-    if (failed)
-        atomicAdd(counters.traversal_failures, 1u);
-    return hit;
-}
 
 #include "direct_light.glsl"
 

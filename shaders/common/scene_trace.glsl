@@ -1,0 +1,33 @@
+// trace(): the integrators' one ray query through the frame's BIH, and the
+// BIH's three buffers. The including kernel defines BIH_BINDING (the first of
+// the three bindings: they follow its film and counters) and declares
+// `counters` with a uint traversal_failures, which a failed traversal
+// increments (the host then fails the frame: a stack overflow must never pass
+// as a miss).
+#ifndef PF_SCENE_TRACE_GLSL
+#define PF_SCENE_TRACE_GLSL
+
+#ifndef BIH_BINDING
+#error "define BIH_BINDING (the first of the BIH's three bindings) before scene_trace.glsl"
+#endif
+
+layout(std430, set = 0, binding = BIH_BINDING) readonly buffer BihNodes { uint bih_nodes[]; };
+layout(std430, set = 0, binding = BIH_BINDING + 1) readonly buffer BihVertices { vec4 bih_vertices[]; };
+layout(std430, set = 0, binding = BIH_BINDING + 2) readonly buffer BihTriangleIndex { uint bih_triangle_index[]; };
+
+#include "bih_traverse.glsl"
+
+// Closest (or with any_hit, any) hit; a failed traversal counts as a miss
+// here and is reported to the host.
+BihHit trace(vec3 origin, vec3 direction, float tmax, bool any_hit)
+{
+    bool failed;
+    BihHit hit = trace_bih(origin, direction, 0.0, tmax, any_hit, params.bih_bounds_min.xyz,
+                           params.bih_bounds_max.xyz, params.triangle_count,
+                           params.bih_node_count, failed);
+    if (failed)
+        atomicAdd(counters.traversal_failures, 1u);
+    return hit;
+}
+
+#endif
