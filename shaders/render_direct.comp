@@ -4,7 +4,8 @@
 // through the pixel centres (through the pixel filter when spp > 1), a bounded specular chain
 // through mirrors and glass, then at the first diffuse hit direct light from
 // every punctual light and one sample of the emissive triangles, all with hard
-// shadows. Every ray goes through the frame's BIH (bih_traverse.glsl).
+// shadows, by the next-event estimator every integrator shares
+// (direct_light.glsl). Every ray goes through the frame's BIH (scene_trace.glsl).
 //
 // One dispatch renders one sample of every pixel of one tile and adds it to
 // the film: three vec4 per pixel of the tile, (beauty RGB, coverage),
@@ -45,6 +46,7 @@ layout(std430, set = 0, binding = 8) buffer Counters {
 #include "surface.glsl"
 #include "rng.glsl"
 #include "pixel_filter.glsl"
+#include "direct_light.glsl"
 
 
 // One camera path of one pixel sample: the current ray of the specular chain
@@ -169,59 +171,21 @@ void main()
         path_follow_hit(path, hit, depth, ray_offset, rng, sums);
     }
 
-    // Punctual lights at the diffuse hit, each with a hard shadow ray.
-    vec3 shadow_origin = path.position + ray_offset * path.geometric_normal;
-    vec3 wo = -path.direction;
-    for (uint light_index = 0u; light_index < params.light_count; light_index++) {
-        bool lit = false;
-        vec3 to_light = vec3(0.0, 0.0, 1.0);
-        float shadow_tmax = 0.0;
-        vec3 contribution = vec3(0.0);
-        if (path.diffuse_hit) {
-            LightSample light = light_sample(lights[light_index], path.position);
-            vec3 reflected = bsdf_eval_cos(path.surface, wo, light.to_light, path.shading_normal,
-                                           path.geometric_normal);
-            contribution = path.throughput * reflected * light.irradiance;
-            lit = any(greaterThan(contribution, vec3(0.0)));
-            to_light = light.to_light;
-            shadow_tmax = light.distance - ray_offset;
-        }
-        if (lit) {
-            sums.rays++;
-            if (trace(shadow_origin, to_light, shadow_tmax, true).triangle == NO_HIT)
-                path.radiance += contribution;
-        }
-    }
-
-    // One sample of the emissive triangles (area lights), front faces only.
-    if (params.emissive_count > 0u) {
-        bool lit = false;
-        vec3 to_light = vec3(0.0, 0.0, 1.0);
-        float shadow_tmax = 0.0;
-        vec3 contribution = vec3(0.0);
-        if (path.diffuse_hit) {
-            // Two statements: the order of side effects inside one expression
-            // is not something to rely on across compilers.
-            vec4 xi;
-            xi.x = rng_float(rng);
-            xi.y = rng_float(rng);
-            xi.z = rng_float(rng);
-            xi.w = rng_float(rng);
-            AreaLightSample light = emissive_sample(path.position, xi, params.emissive_count,
-                                                    params.emissive_weight_total);
-            vec3 reflected = bsdf_eval_cos(path.surface, wo, light.to_light, path.shading_normal,
-                                           path.geometric_normal);
-            if (light.pdf_solid_angle > 0.0)
-                contribution = path.throughput * reflected * light.radiance / light.pdf_solid_angle;
-            lit = any(greaterThan(contribution, vec3(0.0)));
-            to_light = light.to_light;
-            shadow_tmax = light.distance - 2.0 * ray_offset;
-        }
-        if (lit) {
-            sums.rays++;
-            if (trace(shadow_origin, to_light, shadow_tmax, true).triangle == NO_HIT)
-                path.radiance += contribution;
-        }
+    // Direct light at the diffuse hit: the one next-event estimator every integrator
+    // shares (direct_light.glsl), with no BSDF ray looking for emission here, so the
+    // light sample carries full weight.
+    if (path.diffuse_hit) {
+        // Separate statements: the order of side effects inside one expression is not
+        // something to rely on across compilers.
+        vec4 xi;
+        xi.x = rng_float(rng);
+        xi.y = rng_float(rng);
+        xi.z = rng_float(rng);
+        xi.w = rng_float(rng);
+        vec3 shadow_origin = path.position + ray_offset * path.geometric_normal;
+        path.radiance += direct_light(path.surface, path.position, shadow_origin, -path.direction,
+                                      path.shading_normal, path.geometric_normal,
+                                      path.throughput, xi, 0.0, sums.rays);
     }
 
     if (!path.poisoned && all_finite(path.radiance)) {
