@@ -7,6 +7,7 @@
 #include "worker_loop.h"
 
 #include <stdio.h>
+#include <sys/stat.h>
 #include <string.h>
 
 #define COMMAND "worker"
@@ -28,6 +29,8 @@ static void usage(FILE *out)
             "\n"
             "  --db PATH            queue database (default $PHOTONFARM_DB, else " PF_CLI_DEFAULT_DB ")\n"
             "  --once               exit as soon as no frame is eligible\n"
+            "  --create-db          create the queue database when it does not exist\n"
+            "                       (default: refused, so a misspelt --db is not a new queue)\n"
             "  --max-frames N       exit after rendering N frames\n"
             "  --idle-exit SECONDS  exit after SECONDS without work\n"
             "  --device D           device index or name substring (see photonfarm devices)\n"
@@ -50,6 +53,7 @@ int pf_cli_worker(int argc, char **argv)
     config.idle_exit_seconds = -1;
     config.lease_seconds = DEFAULT_LEASE_SECONDS;
     const char *db = NULL;
+    int create_db = 0;
     const char *cache_option = NULL;
     char cache_dir[PF_CLI_PATH_MAX];
     for (int i = 1; i < argc; i++) {
@@ -61,6 +65,9 @@ int pf_cli_worker(int argc, char **argv)
             return 0;
         } else if (!strcmp(arg, "--once")) {
             config.once = 1;
+            continue;
+        } else if (!strcmp(arg, "--create-db")) {
+            create_db = 1;
             continue;
         } else if (strncmp(arg, "--", 2) != 0) {
             return pf_cli_fail(COMMAND, 2, "unexpected argument '%s' (see --help)", arg);
@@ -98,6 +105,13 @@ int pf_cli_worker(int argc, char **argv)
         i++;
     }
     config.db_path = pf_cli_db_path(db);
+    /* A misspelt --db must not become an empty queue this worker then waits on forever. */
+    struct stat info;
+    if (!create_db && stat(config.db_path, &info) != 0)
+        return pf_cli_fail(COMMAND, 2,
+                           "no queue database at %s (photonfarm enqueue creates one; "
+                           "--create-db starts an empty one)",
+                           config.db_path);
     config.cache_dir = pf_cli_cache_dir(COMMAND, cache_option, cache_dir, sizeof cache_dir);
     return pf_worker_run(&config);
 }

@@ -278,6 +278,21 @@ PF_TEST(status_escapes_control_characters)
     free(shown);
 }
 
+/* A misspelt --db is not a new, empty queue for a worker to wait on: refused unless asked. */
+PF_TEST(worker_refuses_a_database_that_does_not_exist)
+{
+    char args[8 * WT_PATH_MAX], typo[WT_PATH_MAX + 32];
+    wt_format(typo, sizeof typo, "%s/frm.db", dir);
+    unlink(typo);
+    wt_format(args, sizeof args, "worker --once --db '%s'", typo);
+    PF_CHECK(wt_run(args, log_path) == 2);
+    PF_CHECK(wt_file_contains(log_path, "no queue database"));
+    PF_CHECK(access(typo, F_OK) != 0); /* nothing created */
+    wt_format(args, sizeof args, "worker --once --create-db --db '%s'", typo);
+    PF_CHECK(wt_run(args, log_path) == 0);
+    PF_CHECK(access(typo, F_OK) == 0);
+}
+
 /* A --db whose directory does not exist is bad input for every command: exit 2. */
 PF_TEST(database_in_a_missing_directory_exits_2_everywhere)
 {
@@ -382,6 +397,7 @@ int main(void)
     PF_RUN(control_commands_change_job_state);
     PF_RUN(status_escapes_control_characters);
     PF_RUN(database_in_a_missing_directory_exits_2_everywhere);
+    PF_RUN(worker_refuses_a_database_that_does_not_exist);
     PF_RUN(jobs_writing_the_same_files_are_refused);
     PF_RUN(cancel_removes_the_jobs_unfinished_frame_files);
     return pf_test_finish();
