@@ -239,6 +239,12 @@ int pf_cli_render(int argc, char **argv)
                            options.output, frames.count);
     }
 
+    /* An image too large for this machine is refused before anything loads. */
+    if (options.settings.width &&
+        pf_frame_memory_check(options.settings.width, options.settings.height, 0, &err) != PF_OK) {
+        pf_frame_list_free(&frames);
+        return pf_cli_fail(COMMAND, 2, "--size: %s", err.message);
+    }
     /* An unwritable output is found now, not after the first frame has rendered. */
     char absolute_output[PF_FRAME_PATH_MAX];
     if (pf_frame_output_check(options.output, absolute_output, sizeof absolute_output, &err) !=

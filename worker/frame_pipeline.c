@@ -161,6 +161,11 @@ pf_status pf_frame_render(pf_renderer *renderer, const pf_frame_request *request
     resolve_size(&request->settings, &frame, &settings);
     out->width = settings.width;
     out->height = settings.height;
+    status = pf_frame_memory_check(settings.width, settings.height, 0, err);
+    if (status != PF_OK) {
+        pf_scene_frame_free(&frame);
+        return status;
+    }
     pf_image image = {0};
     status = pf_render_frame(renderer, &frame, &settings, &image, &out->report, err);
     pf_scene_frame_free(&frame);
@@ -244,6 +249,25 @@ pf_status pf_frame_output_check(const char *pattern, char *absolute, size_t size
     if (snprintf(absolute, size, "%s/%s", strcmp(resolved, "/") ? resolved : "", base) >=
         (int)size)
         return pf_error_set(err, PF_ERR_INVALID, "path too long");
+    return PF_OK;
+}
+
+pf_status pf_frame_memory_check(uint32_t width, uint32_t height, uint64_t available_bytes,
+                                pf_error *err)
+{
+    if (available_bytes == 0) {
+        long pages = sysconf(_SC_PHYS_PAGES), page_size = sysconf(_SC_PAGESIZE);
+        if (pages <= 0 || page_size <= 0)
+            return PF_OK; /* unknown: nothing to compare against */
+        available_bytes = (uint64_t)pages * (uint64_t)page_size / 2u;
+    }
+    uint64_t needed = (uint64_t)width * height * PF_FRAME_HOST_BYTES_PER_PIXEL;
+    if (needed > available_bytes)
+        return pf_error_set(err, PF_ERR_INVALID,
+                            "a %ux%u frame needs about %.1f GiB of memory; at most %.1f GiB "
+                            "(half of this machine's) is allowed: render a smaller image",
+                            width, height, (double)needed / (1u << 30),
+                            (double)available_bytes / (1u << 30));
     return PF_OK;
 }
 

@@ -75,6 +75,20 @@ pf_status pf_frame_commit(pf_frame_output *out, pf_error *err);
  */
 pf_status pf_frame_output_check(const char *pattern, char *absolute, size_t size, pf_error *err);
 
+/* Host bytes per pixel a frame holds at once: the rendered image (11 float
+ * channels: RGBA and the AOV layers) and the EXR writer's copy of it. */
+#define PF_FRAME_HOST_BYTES_PER_PIXEL (2u * 11u * 4u)
+
+/*
+ * Whether a width x height frame fits in available_bytes of host memory
+ * (0: half of this machine's physical memory), by PF_FRAME_HOST_BYTES_PER_PIXEL.
+ * PF_ERR_INVALID naming the size, the estimate and the memory otherwise, so
+ * that 16384x16384 (24 GB) is refused at once instead of rendering for
+ * minutes and then running out of memory.
+ */
+pf_status pf_frame_memory_check(uint32_t width, uint32_t height, uint64_t available_bytes,
+                                pf_error *err);
+
 /* Deletes the temporary, if any (a lost lease, an error). */
 void pf_frame_discard(pf_frame_output *out);
 

@@ -58,8 +58,22 @@ PF_TEST(output_check_refuses_before_rendering)
     PF_CHECK(wt_count_files(dir, "probe") == 0); /* the probe file is gone */
 }
 
+PF_TEST(frames_too_large_for_memory_are_refused)
+{
+    pf_error err = {0};
+    const uint64_t gib = 1ull << 30;
+    /* 16384 x 16384 x 88 bytes = 22 GiB: refused with 12 GiB, allowed with 32 GiB. */
+    PF_CHECK(pf_frame_memory_check(16384, 16384, 12 * gib, &err) == PF_ERR_INVALID);
+    PF_CHECK(strstr(err.message, "16384x16384") && strstr(err.message, "GiB"));
+    PF_CHECK_OK(pf_frame_memory_check(16384, 16384, 32 * gib, &err), &err);
+    PF_CHECK_OK(pf_frame_memory_check(640, 480, 12 * gib, &err), &err);
+    /* The machine's own limit admits an ordinary frame. */
+    PF_CHECK_OK(pf_frame_memory_check(1920, 1080, 0, &err), &err);
+}
+
 int main(void)
 {
+    PF_RUN(frames_too_large_for_memory_are_refused);
     PF_RUN(stale_cleanup_touches_only_its_own_task);
     PF_RUN(output_check_refuses_before_rendering);
     return pf_test_finish();
