@@ -21,8 +21,6 @@
 
 #define COMMAND "render"
 #define DEFAULT_OUTPUT "render.####.exr"
-#define MAX_EDGE PF_FRAME_MAX_EDGE
-/* Bounds a frame list so a typo like 1-1000000000 fails fast instead of allocating. */
 #define MAX_PATH_BYTES PF_FRAME_PATH_MAX
 
 static void usage(FILE *out)

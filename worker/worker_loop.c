@@ -360,8 +360,10 @@ static void test_delay(worker *w)
 static void save_pipeline_cache(worker *w)
 {
     pf_error err = {0};
+    char quoted[PF_ERROR_MESSAGE_MAX + 8];
     if (pf_vk_pipeline_cache_save(w->vk, &err) != PF_OK)
-        pf_wlog(PF_LOG_WARN, "pipeline_cache", "error=\"%s\"", err.message);
+        pf_wlog(PF_LOG_WARN, "pipeline_cache", "worker=%s error=%s", w->name,
+                pf_wlog_quote(err.message, quoted, sizeof quoted));
 }
 
 static void render_work(uv_work_t *request)

@@ -33,11 +33,10 @@ struct pf_vk_context {
     pthread_mutex_t queue_lock;
     VkCommandPool transfer_pool; /* staging copies; guarded by queue_lock */
     int force_staging;           /* tests: never map buffers directly */
-    int has_creation_feedback;   /* VK_EXT_pipeline_creation_feedback or Vulkan 1.3 */
+    int has_creation_feedback;   /* VK_EXT_pipeline_creation_feedback enabled */
 
     struct {
-        VkPipelineCache handle;
-        char path[1024]; /* "" without a cache directory */
+        VkPipelineCache handle; /* the file is stats.path ("" without a directory) */
         uint32_t vendor_id, device_id;
         uint8_t uuid[VK_UUID_SIZE];
         pthread_mutex_t lock; /* stats and dirty: pipelines are created from any thread */

@@ -64,7 +64,7 @@ static void set_cache_path(pf_vk_context *ctx, const char *dir)
         snprintf(uuid + 2 * i, 3, "%02x", properties.pipelineCacheUUID[i]);
     uint64_t driver_hash = fnv1a64(ctx->info.driver, strlen(ctx->info.driver), FNV_OFFSET);
     driver_hash = fnv1a64(ctx->info.name, strlen(ctx->info.name), driver_hash);
-    snprintf(ctx->cache.path, sizeof ctx->cache.path,
+    snprintf(ctx->cache.stats.path, sizeof ctx->cache.stats.path,
              "%s/pipelines-%04x-%04x-%08x-%s-%016" PRIx64 ".vkcache", dir,
              properties.vendorID, properties.deviceID, properties.driverVersion, uuid,
              driver_hash);
@@ -81,7 +81,7 @@ static void *read_cache_file(pf_vk_context *ctx, size_t *bytes, const char **why
 {
     *bytes = 0;
     *why = NULL;
-    FILE *file = fopen(ctx->cache.path, "rb");
+    FILE *file = fopen(ctx->cache.stats.path, "rb");
     if (!file) {
         if (errno != ENOENT)
             *why = "unreadable";
@@ -139,7 +139,7 @@ pf_status pf_vk_pipeline_cache_open(pf_vk_context *ctx, const char *dir, pf_erro
             else if (why) {
                 ctx->cache.stats.rejected = 1;
                 pf_log(PF_LOG_WARN, "pipeline cache %s ignored (%s); it will be rewritten",
-                       ctx->cache.path, why);
+                       ctx->cache.stats.path, why);
             }
         }
     }
@@ -171,7 +171,7 @@ void pf_vk_pipeline_cache_note(pf_vk_context *ctx, int cache_hit)
 static pf_status write_atomically(const char *path, const void *a, size_t a_bytes, const void *b,
                                   size_t b_bytes, pf_error *err)
 {
-    char temp[sizeof((pf_vk_context *)0)->cache.path + 32];
+    char temp[sizeof((pf_vk_cache_stats *)0)->path + 32];
     snprintf(temp, sizeof temp, "%s.tmp-%ld", path, (long)getpid());
     int fd = open(temp, O_WRONLY | O_CREAT | O_TRUNC, 0666);
     if (fd < 0)
@@ -197,7 +197,7 @@ static pf_status write_atomically(const char *path, const void *a, size_t a_byte
 
 pf_status pf_vk_pipeline_cache_save(pf_vk_context *ctx, pf_error *err)
 {
-    if (!ctx->cache.handle || !ctx->cache.path[0])
+    if (!ctx->cache.handle || !ctx->cache.stats.path[0])
         return PF_OK;
     pthread_mutex_lock(&ctx->cache.lock);
     int dirty = ctx->cache.dirty || ctx->cache.stats.rejected;
@@ -221,7 +221,8 @@ pf_status pf_vk_pipeline_cache_save(pf_vk_context *ctx, pf_error *err)
         .data_bytes = bytes,
         .data_checksum = fnv1a64(data, bytes, FNV_OFFSET),
     };
-    pf_status status = write_atomically(ctx->cache.path, &header, sizeof header, data, bytes, err);
+    pf_status status =
+        write_atomically(ctx->cache.stats.path, &header, sizeof header, data, bytes, err);
     free(data);
     if (status == PF_OK) {
         pthread_mutex_lock(&ctx->cache.lock);
@@ -249,6 +250,5 @@ pf_vk_cache_stats pf_vk_pipeline_cache_stats(pf_vk_context *ctx)
     pthread_mutex_lock(&ctx->cache.lock);
     pf_vk_cache_stats stats = ctx->cache.stats;
     pthread_mutex_unlock(&ctx->cache.lock);
-    snprintf(stats.path, sizeof stats.path, "%s", ctx->cache.path);
     return stats;
 }
