@@ -83,17 +83,6 @@ static pf_status find_running_lease(pf_queue *queue, const char *token, leased_t
     return status;
 }
 
-static pf_status clear_worker_task(pf_queue *queue, int64_t task_id, pf_error *err)
-{
-    sqlite3_stmt *stmt;
-    pf_status status = queue_prepare(
-        queue, "UPDATE workers SET current_task_id = NULL WHERE current_task_id = ?", &stmt, err);
-    if (status != PF_OK)
-        return status;
-    sqlite3_bind_int64(stmt, 1, task_id);
-    return queue_step_done(queue, stmt, "clearing a worker's task", err);
-}
-
 /* ---- claim ---- */
 
 typedef struct claim_context {
@@ -368,7 +357,7 @@ static pf_status complete_body(pf_queue *queue, void *context, pf_error *err)
     sqlite3_bind_int64(stmt, 2, task.task_id);
     status = queue_step_done(queue, stmt, "completing a task", err);
     if (status == PF_OK)
-        status = clear_worker_task(queue, task.task_id, err);
+        status = queue_clear_worker_task(queue, task.task_id, err);
     if (status == PF_OK)
         status = queue_job_refresh(queue, task.job_id, err);
     return status;
@@ -404,6 +393,24 @@ pf_status pf_queue_fail(pf_queue *queue, const char *token, const char *error_te
     return queue_write(queue, "recording a task failure", fail_body, &ctx, err);
 }
 
+static pf_status fail_job_body(pf_queue *queue, void *context, pf_error *err)
+{
+    token_context *ctx = context;
+    leased_task task;
+    pf_status status = find_running_lease(queue, ctx->token, &task, err);
+    if (status == PF_OK)
+        status = queue_task_job_fault(queue, task.task_id, ctx->error_text, err);
+    return status;
+}
+
+pf_status pf_queue_fail_job(pf_queue *queue, const char *token, const char *error_text,
+                            pf_error *err)
+{
+    token_context ctx = {.token = token,
+                         .error_text = error_text && *error_text ? error_text : "(no message)"};
+    return queue_write(queue, "recording the job's failure", fail_job_body, &ctx, err);
+}
+
 /* ---- release ---- */
 
 static pf_status release_body(pf_queue *queue, void *context, pf_error *err)
@@ -425,7 +432,7 @@ static pf_status release_body(pf_queue *queue, void *context, pf_error *err)
     sqlite3_bind_int64(stmt, 2, task.task_id);
     status = queue_step_done(queue, stmt, "releasing a task", err);
     if (status == PF_OK)
-        status = clear_worker_task(queue, task.task_id, err);
+        status = queue_clear_worker_task(queue, task.task_id, err);
     if (status == PF_OK)
         status = queue_job_refresh(queue, task.job_id, err);
     return status;

@@ -76,7 +76,9 @@ static pf_status resume_body(pf_queue *queue, void *context, pf_error *err)
         return pf_error_set(err, PF_ERR_INVALID, "%s: job %lld is %s, not paused", queue->path,
                             (long long)ctx->job_id, current);
     /* 'queued' is only a starting point: the refresh derives the real status. */
-    status = run_job_sql(queue, "UPDATE jobs SET status = 'queued', updated_at = ?2 WHERE id = ?1",
+    status = run_job_sql(queue,
+                         "UPDATE jobs SET status = 'queued', pause_reason = NULL, updated_at = ?2 "
+                         "WHERE id = ?1",
                          ctx->job_id, "resuming a job", err);
     if (status == PF_OK)
         status = queue_job_refresh(queue, ctx->job_id, err);

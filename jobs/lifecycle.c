@@ -111,7 +111,8 @@ static pf_status apply_blocklist(pf_queue *queue, int64_t job_id, int64_t worker
         "SELECT ?1, ?2, ?3 WHERE ("
         "  SELECT count(DISTINCT f.task_id) FROM task_failures f"
         "  JOIN tasks t ON t.id = f.task_id JOIN jobs j ON j.id = t.job_id"
-        "  WHERE t.job_id = ?1 AND f.worker_id = ?2 AND f.id > j.block_failures_after) >= ?4",
+        "  WHERE t.job_id = ?1 AND f.worker_id = ?2 AND f.id > j.block_failures_after"
+        "  AND f.job_fault = 0) >= ?4",
         &stmt, err);
     if (status != PF_OK)
         return status;
@@ -122,8 +123,17 @@ static pf_status apply_blocklist(pf_queue *queue, int64_t job_id, int64_t worker
     return queue_step_done(queue, stmt, "blocking a worker for a job", err);
 }
 
-pf_status queue_task_attempt_failed(pf_queue *queue, int64_t task_id, const char *error_text,
-                                    pf_error *err)
+/* What a failing task's row says about it: its attempt, job, worker and the job's limit. */
+typedef struct failing_task {
+    int attempt, max_attempts;
+    int64_t job_id, worker_id;
+    bool has_worker;
+    char worker_name[PF_QUEUE_NAME_MAX];
+} failing_task;
+
+/* Reads task_id's row and adds its task_failures row (job_fault: the job's, not the worker's). */
+static pf_status record_failure(pf_queue *queue, int64_t task_id, const char *error_text,
+                                bool job_fault, failing_task *task, pf_error *err)
 {
     sqlite3_stmt *stmt;
     pf_status status = queue_prepare(
@@ -140,32 +150,94 @@ pf_status queue_task_attempt_failed(pf_queue *queue, int64_t task_id, const char
         sqlite3_finalize(stmt);
         return status;
     }
-    int attempt = sqlite3_column_int(stmt, 0);
-    int64_t job_id = sqlite3_column_int64(stmt, 1);
-    bool has_worker = sqlite3_column_type(stmt, 2) != SQLITE_NULL;
-    int64_t worker_id = sqlite3_column_int64(stmt, 2);
-    char worker_name[PF_QUEUE_NAME_MAX];
-    queue_copy_text(worker_name, sizeof worker_name, queue_column_text(stmt, 3));
-    int max_attempts = sqlite3_column_int(stmt, 4);
+    task->attempt = sqlite3_column_int(stmt, 0);
+    task->job_id = sqlite3_column_int64(stmt, 1);
+    task->has_worker = sqlite3_column_type(stmt, 2) != SQLITE_NULL;
+    task->worker_id = sqlite3_column_int64(stmt, 2);
+    queue_copy_text(task->worker_name, sizeof task->worker_name, queue_column_text(stmt, 3));
+    task->max_attempts = sqlite3_column_int(stmt, 4);
     sqlite3_finalize(stmt);
-    int64_t now = pf_queue_now(queue);
 
     status = queue_prepare(queue,
                            "INSERT INTO task_failures (task_id, attempt, worker_id, worker_name, "
-                           "error, failed_at) VALUES (?, ?, ?, ?, ?, ?)",
+                           "error, failed_at, job_fault) VALUES (?, ?, ?, ?, ?, ?, ?)",
                            &stmt, err);
     if (status != PF_OK)
         return status;
     sqlite3_bind_int64(stmt, 1, task_id);
-    sqlite3_bind_int(stmt, 2, attempt);
-    if (has_worker)
-        sqlite3_bind_int64(stmt, 3, worker_id);
-    sqlite3_bind_text(stmt, 4, worker_name, -1, SQLITE_STATIC);
+    sqlite3_bind_int(stmt, 2, task->attempt);
+    if (task->has_worker)
+        sqlite3_bind_int64(stmt, 3, task->worker_id);
+    sqlite3_bind_text(stmt, 4, task->worker_name, -1, SQLITE_STATIC);
     sqlite3_bind_text(stmt, 5, error_text, -1, SQLITE_STATIC);
-    sqlite3_bind_int64(stmt, 6, now);
-    status = queue_step_done(queue, stmt, "recording a task failure", err);
+    sqlite3_bind_int64(stmt, 6, pf_queue_now(queue));
+    sqlite3_bind_int(stmt, 7, job_fault);
+    return queue_step_done(queue, stmt, "recording a task failure", err);
+}
+
+pf_status queue_clear_worker_task(pf_queue *queue, int64_t task_id, pf_error *err)
+{
+    sqlite3_stmt *stmt;
+    pf_status status = queue_prepare(
+        queue, "UPDATE workers SET current_task_id = NULL WHERE current_task_id = ?", &stmt, err);
     if (status != PF_OK)
         return status;
+    sqlite3_bind_int64(stmt, 1, task_id);
+    return queue_step_done(queue, stmt, "clearing a worker's task", err);
+}
+
+pf_status queue_task_job_fault(pf_queue *queue, int64_t task_id, const char *error_text,
+                               pf_error *err)
+{
+    failing_task task;
+    pf_status status = record_failure(queue, task_id, error_text, true, &task, err);
+    sqlite3_stmt *stmt;
+    /* Back in the queue as if never claimed: the attempt was not the task's to lose. */
+    if (status == PF_OK)
+        status = queue_prepare(queue,
+                               "UPDATE tasks SET status = 'queued', attempt = max(attempt - 1, 0), "
+                               "lease_token = NULL, lease_expires = NULL, worker_id = NULL, "
+                               "started_at = NULL, eligible_at = ?1, last_error = ?2 "
+                               "WHERE id = ?3",
+                               &stmt, err);
+    if (status != PF_OK)
+        return status;
+    int64_t now = pf_queue_now(queue);
+    sqlite3_bind_int64(stmt, 1, now);
+    sqlite3_bind_text(stmt, 2, error_text, -1, SQLITE_STATIC);
+    sqlite3_bind_int64(stmt, 3, task_id);
+    status = queue_step_done(queue, stmt, "requeueing a task", err);
+    if (status == PF_OK)
+        status = queue_clear_worker_task(queue, task_id, err);
+    if (status == PF_OK)
+        status = queue_prepare(queue,
+                               "UPDATE jobs SET status = 'paused', updated_at = ?1,"
+                               "  pause_reason = coalesce(pause_reason, ?2) "
+                               "WHERE id = ?3 AND status IN ('queued', 'running', 'paused')",
+                               &stmt, err);
+    if (status != PF_OK)
+        return status;
+    sqlite3_bind_int64(stmt, 1, now);
+    sqlite3_bind_text(stmt, 2, error_text, -1, SQLITE_STATIC);
+    sqlite3_bind_int64(stmt, 3, task.job_id);
+    status = queue_step_done(queue, stmt, "pausing a job", err);
+    if (status == PF_OK)
+        status = queue_job_refresh(queue, task.job_id, err);
+    return status;
+}
+
+pf_status queue_task_attempt_failed(pf_queue *queue, int64_t task_id, const char *error_text,
+                                    pf_error *err)
+{
+    failing_task task;
+    pf_status status = record_failure(queue, task_id, error_text, false, &task, err);
+    if (status != PF_OK)
+        return status;
+    int attempt = task.attempt, max_attempts = task.max_attempts;
+    int64_t job_id = task.job_id, worker_id = task.worker_id;
+    bool has_worker = task.has_worker;
+    int64_t now = pf_queue_now(queue);
+    sqlite3_stmt *stmt;
 
     bool exhausted = attempt >= max_attempts;
     status = queue_prepare(queue,
@@ -186,13 +258,7 @@ pf_status queue_task_attempt_failed(pf_queue *queue, int64_t task_id, const char
         sqlite3_bind_int64(stmt, 4, backoff_ms(&queue->options, attempt));
     status = queue_step_done(queue, stmt, "requeueing a failed task", err);
     if (status == PF_OK)
-        status = queue_prepare(
-            queue, "UPDATE workers SET current_task_id = NULL WHERE current_task_id = ?", &stmt,
-            err);
-    if (status == PF_OK) {
-        sqlite3_bind_int64(stmt, 1, task_id);
-        status = queue_step_done(queue, stmt, "clearing a worker's task", err);
-    }
+        status = queue_clear_worker_task(queue, task_id, err);
     if (status == PF_OK && has_worker)
         status = apply_blocklist(queue, job_id, worker_id, err);
     if (status == PF_OK)

@@ -93,7 +93,7 @@ pf_status pf_queue_open(const char *path, const pf_queue_options *options, pf_qu
 void pf_queue_close(pf_queue *queue);
 
 /* Schema version this build creates and understands. */
-#define PF_QUEUE_SCHEMA_VERSION 3
+#define PF_QUEUE_SCHEMA_VERSION 4
 
 /* Current schema version recorded in the file (fills *version). */
 pf_status pf_queue_schema_version(pf_queue *queue, int *version, pf_error *err);
@@ -232,6 +232,20 @@ pf_status pf_queue_fail(pf_queue *queue, const char *token, const char *error_te
                         pf_error *err);
 
 /*
+ * The task holding token failed for a reason that is its job's, not the
+ * worker's: the job's output storage refused the frame (read-only, full,
+ * missing) or its scene cannot be read, so every worker would fail it alike.
+ * In one transaction: the failure is recorded (pf_queue_failure.job_fault),
+ * the task goes back queued without counting the attempt, no worker is
+ * blocked, and a queued or running job is paused with error_text as its
+ * pause reason (pf_queue_job.pause_reason and note; a job already paused
+ * keeps its first reason). pf_queue_resume continues it once the cause is
+ * fixed. Lease lost → PF_ERR_INVALID, nothing recorded.
+ */
+pf_status pf_queue_fail_job(pf_queue *queue, const char *token, const char *error_text,
+                            pf_error *err);
+
+/*
  * Gives the task holding token back, queued and immediately eligible, without
  * counting the attempt (a draining worker). Lease lost → PF_ERR_INVALID.
  */
@@ -259,7 +273,8 @@ pf_status pf_queue_cancel(pf_queue *queue, int64_t job_id, pf_error *err);
 /* Pause: no new task of the job is claimed; running tasks finish normally.
  * Only a queued or running job can be paused (else PF_ERR_INVALID). */
 pf_status pf_queue_pause(pf_queue *queue, int64_t job_id, pf_error *err);
-/* Resume a paused job (else PF_ERR_INVALID); its status is derived again. */
+/* Resume a paused job (else PF_ERR_INVALID); its status is derived again and
+ * its pause reason cleared. */
 pf_status pf_queue_resume(pf_queue *queue, int64_t job_id, pf_error *err);
 /*
  * Requeues the job's failed tasks (and canceled ones, reviving a canceled
@@ -286,9 +301,11 @@ typedef struct pf_queue_job {
     int64_t frames_total, frames_done;
     int live_workers;          /* live registered workers */
     int blocked_live_workers;  /* of those, blocked for this job */
+    /* Why the queue paused the job (pf_queue_fail_job); "" when it did not. */
+    char pause_reason[512];
     /* "" or why the job cannot progress, e.g. "no eligible worker: all 2 live
-     * workers are blocked for this job". */
-    char note[256];
+     * workers are blocked for this job", or "paused: <pause reason>". */
+    char note[640];
 } pf_queue_job;
 
 /* Fills *out with job_id's row and progress. Unknown job → PF_ERR_INVALID. */
@@ -321,6 +338,7 @@ typedef struct pf_queue_failure {
     char worker_name[PF_QUEUE_NAME_MAX];
     char error[512]; /* truncated */
     int64_t failed_at;
+    int job_fault;   /* 1: the job's fault (pf_queue_fail_job), not counted against the worker */
 } pf_queue_failure;
 
 /* The job's failures in the order they happened (malloc'ed array, free()). */

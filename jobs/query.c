@@ -55,6 +55,7 @@ static pf_status read_job_row(pf_queue *queue, sqlite3_stmt *stmt, pf_queue_job 
     job->frames_done = sqlite3_column_int64(stmt, 18);
     job->live_workers = sqlite3_column_int(stmt, 19);
     job->blocked_live_workers = sqlite3_column_int(stmt, 20);
+    queue_copy_text(job->pause_reason, sizeof job->pause_reason, queue_column_text(stmt, 21));
     if (!job->scene_path || !job->parameters_json || !job->frame_range || !job->output_pattern)
         return pf_error_set(err, PF_ERR_NOMEM, "%s: out of memory reading job %lld",
                             queue->path, (long long)job->job_id);
@@ -64,6 +65,9 @@ static pf_status read_job_row(pf_queue *queue, sqlite3_stmt *stmt, pf_queue_job 
         snprintf(job->note, sizeof job->note,
                  "no eligible worker: all %d live workers are blocked for this job",
                  job->live_workers);
+    else if (!strcmp(job->status, "paused") && job->pause_reason[0])
+        snprintf(job->note, sizeof job->note, "paused: %s (resume once fixed)",
+                 job->pause_reason);
     return PF_OK;
 }
 
@@ -84,7 +88,7 @@ static pf_status job_query_body(pf_queue *queue, void *context, pf_error *err)
         "  coalesce(sum(CASE WHEN t.status = 'done' THEN t.frame_count END), 0),"
         "  (SELECT count(*) FROM live),"
         "  (SELECT count(*) FROM live JOIN worker_blocks b ON b.worker_id = live.id"
-        "   WHERE b.job_id = j.id) "
+        "   WHERE b.job_id = j.id), j.pause_reason "
         "FROM jobs j LEFT JOIN tasks t ON t.job_id = j.id "
         "WHERE ?1 = 0 OR j.id = ?1 GROUP BY j.id ORDER BY j.id",
         &stmt, err);
@@ -252,6 +256,7 @@ static void read_failure(sqlite3_stmt *stmt, void *row)
                     queue_column_text(stmt, 3));
     queue_copy_text(failure->error, sizeof failure->error, queue_column_text(stmt, 4));
     failure->failed_at = sqlite3_column_int64(stmt, 5);
+    failure->job_fault = sqlite3_column_int(stmt, 6);
 }
 
 static pf_status failure_list_body(pf_queue *queue, void *context, pf_error *err)
@@ -262,7 +267,7 @@ static pf_status failure_list_body(pf_queue *queue, void *context, pf_error *err
     if (status == PF_OK)
         status = queue_prepare(queue,
                                "SELECT f.task_id, t.first_frame, f.attempt, f.worker_name, "
-                               "f.error, f.failed_at FROM task_failures f "
+                               "f.error, f.failed_at, f.job_fault FROM task_failures f "
                                "JOIN tasks t ON t.id = f.task_id WHERE t.job_id = ? ORDER BY f.id",
                                &stmt, err);
     if (status != PF_OK)

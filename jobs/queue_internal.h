@@ -59,6 +59,15 @@ void *queue_records_append(queue_records *records);
  */
 pf_status queue_task_attempt_failed(pf_queue *queue, int64_t task_id, const char *error_text,
                                     pf_error *err);
+/* No worker holds task_id as its current task any more (inside a write transaction). */
+pf_status queue_clear_worker_task(pf_queue *queue, int64_t task_id, pf_error *err);
+/*
+ * pf_queue_fail_job's work on a running task (inside a write transaction):
+ * the failure recorded as the job's, the task queued without counting the
+ * attempt, the worker's current task cleared, the job paused with the reason.
+ */
+pf_status queue_task_job_fault(pf_queue *queue, int64_t task_id, const char *error_text,
+                               pf_error *err);
 /* Derives and stores the job's status from its tasks (inside a write transaction). */
 pf_status queue_job_refresh(pf_queue *queue, int64_t job_id, pf_error *err);
 /* Whether job_id exists (PF_ERR_INVALID naming it when not). */

@@ -108,6 +108,10 @@ static const char *const migrations[PF_QUEUE_SCHEMA_VERSION] = {
     /* 3: each worker's lease, so that it counts as dead once silent for its own lease
      * (0: registered by an older client; the queue's worker_alive_ms applies). */
     "ALTER TABLE workers ADD COLUMN lease_ms INTEGER NOT NULL DEFAULT 0;",
+    /* 4: failures that are the job's (its output storage, its scene), which pause the
+     * job with their reason instead of counting against the worker (issue 14). */
+    "ALTER TABLE jobs ADD COLUMN pause_reason TEXT;"
+    "ALTER TABLE task_failures ADD COLUMN job_fault INTEGER NOT NULL DEFAULT 0;",
 };
 
 static int64_t wall_clock_ms(void *user)

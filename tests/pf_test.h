@@ -80,6 +80,18 @@ extern const char *pf_test_current;
         }                                                                                 \
     } while (0)
 
+#define PF_REQUIRE_MSG(cond, ...)                                                         \
+    do {                                                                                  \
+        if (!(cond)) {                                                                    \
+            fprintf(stderr, "%s:%d: [%s] requirement failed: %s: ", __FILE__, __LINE__,   \
+                    pf_test_current, #cond);                                              \
+            fprintf(stderr, __VA_ARGS__);                                                 \
+            fputc('\n', stderr);                                                          \
+            pf_test_failures++;                                                           \
+            return;                                                                       \
+        }                                                                                 \
+    } while (0)
+
 #define PF_TEST(name) static void name(void)
 
 #define PF_RUN(name)                                                                      \

@@ -15,6 +15,20 @@
 #define PARTIAL_INFIX ".partial-"
 #define ATTRIBUTE_COUNT 8
 
+const char *pf_frame_fault_name(pf_frame_fault fault)
+{
+    switch (fault) {
+    case PF_FRAME_FAULT_SCENE:
+        return "scene";
+    case PF_FRAME_FAULT_SETTINGS:
+        return "settings";
+    case PF_FRAME_FAULT_OUTPUT:
+        return "output";
+    default:
+        return "worker";
+    }
+}
+
 static int aborted(const pf_frame_request *request)
 {
     return request->abort && atomic_load(request->abort);
@@ -130,8 +144,10 @@ pf_status pf_frame_render(pf_renderer *renderer, const pf_frame_request *request
     memset(out, 0, sizeof *out);
     double start = pf_time_ms();
     if (snprintf(out->final_path, sizeof out->final_path, "%s", request->output_path) >=
-        (int)sizeof out->final_path)
+        (int)sizeof out->final_path) {
+        out->fault = PF_FRAME_FAULT_OUTPUT;
         return pf_error_set(err, PF_ERR_INVALID, "output path too long: %s", request->output_path);
+    }
     if (aborted(request)) {
         out->aborted = 1;
         return PF_OK;
@@ -141,6 +157,7 @@ pf_status pf_frame_render(pf_renderer *renderer, const pf_frame_request *request
     pf_status status = pf_scene_eval(
         request->scene, pf_scene_frame_time(request->scene, request->frame), &frame, err);
     if (status != PF_OK) {
+        out->fault = PF_FRAME_FAULT_SCENE;
         pf_error_prefix(err, "%s frame %" PRId64, request->scene_path, request->frame);
         return status;
     }
@@ -187,6 +204,7 @@ pf_status pf_frame_render(pf_renderer *renderer, const pf_frame_request *request
         (int)sizeof out->temp_path) {
         pf_image_free(&image);
         out->temp_path[0] = '\0';
+        out->fault = PF_FRAME_FAULT_OUTPUT;
         return pf_error_set(err, PF_ERR_INVALID, "output path too long: %s", request->output_path);
     }
     /* Without AOVs the file is the beauty alone: RGBA, which every EXR reader opens
@@ -199,6 +217,8 @@ pf_status pf_frame_render(pf_renderer *renderer, const pf_frame_request *request
         written = &beauty;
     }
     if (status == PF_OK)
+        out->fault = PF_FRAME_FAULT_OUTPUT; /* from here on a failure is the file's */
+    if (status == PF_OK)
         status = pf_exr_write(out->temp_path, written,
                               settings.float_pixels ? PF_EXR_FLOAT : PF_EXR_HALF, attributes,
                               ATTRIBUTE_COUNT, err);
@@ -210,6 +230,7 @@ pf_status pf_frame_render(pf_renderer *renderer, const pf_frame_request *request
         pf_error_prefix(err, "writing frame %" PRId64, request->frame);
         return status;
     }
+    out->fault = PF_FRAME_FAULT_WORKER;
     pf_stage_timing *write_row = pf_frame_report_add(&out->report, "exr_write");
     if (write_row) {
         write_row->wall_ms = pf_time_ms() - write_start;
@@ -276,6 +297,7 @@ pf_status pf_frame_commit(pf_frame_output *out, pf_error *err)
     if (!out->temp_path[0])
         return pf_error_set(err, PF_ERR_INTERNAL, "no rendered frame to commit for %s",
                             out->final_path);
+    out->fault = PF_FRAME_FAULT_OUTPUT;
     if (rename(out->temp_path, out->final_path) != 0) {
         pf_status status = pf_error_set(err, PF_ERR_IO, "renaming %s to %s: %s", out->temp_path,
                                         out->final_path, strerror(errno));
@@ -295,6 +317,7 @@ pf_status pf_frame_commit(pf_frame_output *out, pf_error *err)
             return pf_error_set(err, PF_ERR_IO, "fsync of directory %s: %s", dir,
                                 strerror(errno));
     }
+    out->fault = PF_FRAME_FAULT_WORKER;
     return PF_OK;
 }
 

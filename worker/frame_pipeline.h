@@ -44,6 +44,22 @@ typedef struct pf_frame_request {
     const atomic_int *abort;
 } pf_frame_request;
 
+/*
+ * Whose fault a failed frame is. The queue worker fails the task under the
+ * retry policy (and may block itself for the job) only for its own; the
+ * others are the job's, which every worker would hit alike, so the job is
+ * paused with the reason instead (issue 14).
+ */
+typedef enum pf_frame_fault {
+    PF_FRAME_FAULT_WORKER = 0, /* rendering failed here: device, memory, limits */
+    PF_FRAME_FAULT_SCENE,      /* the job's scene cannot be read or evaluated */
+    PF_FRAME_FAULT_SETTINGS,   /* the job's stored settings cannot be parsed */
+    PF_FRAME_FAULT_OUTPUT      /* the job's output storage refused the frame */
+} pf_frame_fault;
+
+/* "worker", "scene", "settings", "output". */
+const char *pf_frame_fault_name(pf_frame_fault fault);
+
 typedef struct pf_frame_output {
     char final_path[PF_FRAME_PATH_MAX];
     char temp_path[PF_FRAME_PATH_MAX]; /* "" when no temporary exists */
@@ -51,20 +67,22 @@ typedef struct pf_frame_output {
     uint32_t width, height;            /* as rendered */
     double total_ms;
     int aborted;                       /* the abort flag stopped it; nothing on disk */
+    pf_frame_fault fault;              /* after a failure: whose it is */
 } pf_frame_output;
 
 /*
  * Renders request->frame to the temporary beside output_path and fills out.
  * On success the complete EXR (fsynced) lies at out->temp_path, unless
  * out->aborted (the abort flag was seen between stages: nothing is left on
- * disk). On failure nothing is left on disk and err names the scene/frame or
- * the file.
+ * disk). On failure nothing is left on disk, err names the scene/frame or
+ * the file and out->fault says whose fault it is (scene evaluation: scene;
+ * writing the EXR: output; rendering: worker).
  */
 pf_status pf_frame_render(pf_renderer *renderer, const pf_frame_request *request,
                           pf_frame_output *out, pf_error *err);
 
 /* Renames the temporary into place and fsyncs the directory. On failure the
- * temporary is removed and err names both paths. */
+ * temporary is removed, err names both paths and out->fault is output. */
 pf_status pf_frame_commit(pf_frame_output *out, pf_error *err);
 
 /*

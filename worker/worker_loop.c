@@ -50,6 +50,7 @@ typedef struct db_op {
     pf_error err;
     char token[PF_QUEUE_TOKEN_CHARS + 1]; /* the task's lease when submitted */
     bool flag;          /* claim: claimed; finish: lease lost */
+    bool job_fault;     /* finish: the commit failed on the job's output (the job is paused) */
     int64_t count;      /* reap: tasks reaped; finish: 1 when a failed commit was recorded */
 } db_op;
 
@@ -92,6 +93,7 @@ struct worker {
     size_t output_count;
     pf_status render_status;
     pf_error render_err;
+    pf_frame_fault render_fault; /* whose fault a failed render is */
 
     pf_progress progress;
     int show_progress;
@@ -228,6 +230,41 @@ static void fail_done(db_op *op)
     task_finished(w);
 }
 
+/* ---- the job's fault: its output or scene, not this worker ---------------- */
+
+static void fail_job_run(db_op *op)
+{
+    worker *w = op->owner;
+    char reason[sizeof w->render_err.message + 32];
+    snprintf(reason, sizeof reason, "%s: %s", pf_frame_fault_name(w->render_fault),
+             w->render_err.message);
+    op->status = pf_queue_fail_job(w->queue, op->token, reason, &op->err);
+}
+
+/* Logs a failure that is the job's: the job is paused, this worker stays eligible. */
+static void log_job_fault(worker *w, pf_frame_fault fault, const char *message)
+{
+    char quoted[PF_ERROR_MESSAGE_MAX + 8];
+    pf_wlog(PF_LOG_WARN, "job_fault",
+            "job=%" PRId64 " frame=%d task=%" PRId64 " worker=%s fault=%s action=job_paused "
+            "error=%s",
+            w->task.job_id, w->task.first_frame, w->task.task_id, w->name,
+            pf_frame_fault_name(fault), pf_wlog_quote(message, quoted, sizeof quoted));
+}
+
+static void fail_job_done(db_op *op)
+{
+    worker *w = op->owner;
+    if (op->status == PF_OK)
+        log_job_fault(w, w->render_fault, w->render_err.message);
+    else if (op->status == PF_ERR_INVALID)
+        pf_wlog(PF_LOG_WARN, "lease_lost", "job=%" PRId64 " frame=%d task=%" PRId64 " worker=%s",
+                w->task.job_id, w->task.first_frame, w->task.task_id, w->name);
+    else
+        log_db_error(w, "fail_job", op);
+    task_finished(w);
+}
+
 /* ---- finish: re-check the lease, rename into place, complete --------------- */
 
 static char *counters_json(const pf_stage_timing *stage)
@@ -283,19 +320,25 @@ static void finish_run(db_op *op)
             row_count++;
         }
     }
-    for (size_t i = 0; i < w->output_count && op->status == PF_OK; i++)
+    for (size_t i = 0; i < w->output_count && op->status == PF_OK; i++) {
         op->status = pf_frame_commit(&w->outputs[i], &op->err);
+        op->job_fault = op->status != PF_OK && w->outputs[i].fault != PF_FRAME_FAULT_WORKER;
+    }
     if (op->status == PF_OK)
         op->status = pf_queue_complete(w->queue, op->token, rows, row_count, NULL,
                                        &op->err);
     if (op->status != PF_OK) {
-        /* Not committed (a rename refused, the database failing): the task goes back
-         * under the retry policy now, with the cause, instead of staying `running` on
-         * this live worker until its lease expires (issue 14). */
-        char cause[sizeof op->err.message + 32];
-        snprintf(cause, sizeof cause, "committing the frame: %s", op->err.message);
+        /* Not committed: the task goes back now, with the cause, instead of staying
+         * `running` on this live worker until its lease expires (issue 14). A rename
+         * the output storage refused is the job's fault (paused, this worker not
+         * blamed); a failing database is retried under the retry policy. */
+        char cause[sizeof op->err.message + 48];
+        snprintf(cause, sizeof cause, "%scommitting the frame: %s",
+                 op->job_fault ? "output: " : "", op->err.message);
         pf_error fail_err = {0};
-        op->count = pf_queue_fail(w->queue, op->token, cause, &fail_err) == PF_OK;
+        op->count = (op->job_fault ? pf_queue_fail_job(w->queue, op->token, cause, &fail_err)
+                                   : pf_queue_fail(w->queue, op->token, cause, &fail_err)) ==
+                    PF_OK;
     }
     if (op->status == PF_OK) {
         pf_queue_job_clear(&w->job);
@@ -323,6 +366,11 @@ static void finish_done(db_op *op)
         pf_wlog(PF_LOG_WARN, "lease_lost",
                 "job=%" PRId64 " frame=%d task=%" PRId64 " worker=%s action=discarded",
                 w->task.job_id, w->task.first_frame, w->task.task_id, w->name);
+    } else if (op->status != PF_OK && op->job_fault) {
+        if (op->count)
+            log_job_fault(w, PF_FRAME_FAULT_OUTPUT, op->err.message);
+        else
+            log_db_error(w, "complete", op);
     } else if (op->status != PF_OK) {
         log_db_error(w, "complete", op);
         if (op->count)
@@ -370,22 +418,36 @@ static void render_work(uv_work_t *request)
 {
     worker *w = request->data;
     w->render_status = PF_OK;
+    w->render_fault = PF_FRAME_FAULT_WORKER;
     memset(&w->render_err, 0, sizeof w->render_err);
+    /* A full, read-only or missing output volume is found before any work, and
+     * again at every claim: the job pauses until someone fixes the storage. */
+    char absolute[PF_FRAME_PATH_MAX];
+    w->render_status = pf_frame_output_check(w->job.output_pattern, absolute, sizeof absolute,
+                                             &w->render_err);
+    if (w->render_status != PF_OK) {
+        w->render_fault = PF_FRAME_FAULT_OUTPUT;
+        return;
+    }
     if (w->scene_job_id != w->job.job_id || !w->scene) {
         pf_scene_destroy(w->scene);
         w->scene = NULL;
         w->scene_job_id = 0;
         w->render_status = pf_scene_load(w->job.scene_path, &w->scene, &w->render_err);
-        if (w->render_status != PF_OK)
+        if (w->render_status != PF_OK) {
+            w->render_fault = PF_FRAME_FAULT_SCENE;
             return;
+        }
         w->scene_job_id = w->job.job_id;
         pf_wlog(PF_LOG_INFO, "scene_loaded", "job=%" PRId64 " worker=%s triangles=%u",
                 w->job.job_id, w->name, pf_scene_get_info(w->scene)->triangle_count);
     }
     pf_render_settings settings;
     w->render_status = pf_job_params_parse(w->job.parameters_json, &settings, &w->render_err);
-    if (w->render_status != PF_OK)
+    if (w->render_status != PF_OK) {
+        w->render_fault = PF_FRAME_FAULT_SETTINGS;
         return;
+    }
     w->outputs = calloc((size_t)w->task.frame_count, sizeof *w->outputs);
     if (!w->outputs) {
         w->render_status = pf_error_set(&w->render_err, PF_ERR_NOMEM, "frame outputs");
@@ -397,6 +459,7 @@ static void render_work(uv_work_t *request)
         if (!pf_frame_output_path(w->job.output_pattern, frame, path, sizeof path)) {
             w->render_status = pf_error_set(&w->render_err, PF_ERR_INVALID,
                                             "output path too long: %s", w->job.output_pattern);
+            w->render_fault = PF_FRAME_FAULT_OUTPUT;
             return;
         }
         int stale = pf_frame_remove_stale(path, w->task.task_id);
@@ -410,8 +473,10 @@ static void render_work(uv_work_t *request)
         w->render_status = pf_frame_render(w->renderer, &frame_request, &w->outputs[i],
                                            &w->render_err);
         w->output_count = (size_t)i + 1;
-        if (w->render_status != PF_OK)
+        if (w->render_status != PF_OK) {
+            w->render_fault = w->outputs[i].fault;
             return;
+        }
         save_pipeline_cache(w);
     }
     if (w->test_delay_ms > 0)
@@ -435,7 +500,10 @@ static void render_after(uv_work_t *request, int uv_status)
         db_submit(w, release_run, release_done);
     } else if (w->render_status != PF_OK) {
         discard_outputs(w);
-        db_submit(w, fail_run, fail_done);
+        if (w->render_fault == PF_FRAME_FAULT_WORKER)
+            db_submit(w, fail_run, fail_done);
+        else
+            db_submit(w, fail_job_run, fail_job_done);
     } else {
         db_submit(w, finish_run, finish_done);
     }

@@ -19,7 +19,14 @@ typedef struct pf_exr_stream {
     char last_message[512]; /* last message the library reported */
 } pf_exr_stream;
 
-/* Error handler for exr_context_initializer_t: keeps the message in the stream. */
+/*
+ * Makes stream the one this thread's error handler fills (NULL: none), for
+ * the span of one pf_exr_read or pf_exr_write (see exr_stream.c for why the
+ * handler cannot use the context's user data).
+ */
+void pf_exr_stream_activate(pf_exr_stream *stream);
+
+/* Error handler for exr_context_initializer_t: keeps the message in the active stream. */
 void pf_exr_capture_error(exr_const_context_t context, exr_result_t code, const char *message);
 
 /* The library's message for a failed call: the captured one, else the code's default text. */

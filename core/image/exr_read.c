@@ -408,6 +408,7 @@ pf_status pf_exr_read(const char *path, pf_image *out, pf_image_attribute **attr
     init.size_fn = stream_size;
     /* A truncated or damaged file is an error, not a partly reconstructed image. */
     init.flags = EXR_CONTEXT_FLAG_DISABLE_CHUNK_RECONSTRUCTION;
+    pf_exr_stream_activate(&r.stream);
     exr_result_t rc = exr_start_read(&r.context, path, &init);
     pf_status status = PF_OK;
     if (rc != EXR_ERR_SUCCESS) {
@@ -424,6 +425,7 @@ pf_status pf_exr_read(const char *path, pf_image *out, pf_image_attribute **attr
         status = read_attributes(&r, attributes, attribute_count, err);
     if (r.context)
         exr_finish(&r.context);
+    pf_exr_stream_activate(NULL);
     free(r.chunk_buffer);
     close(r.stream.fd);
     if (status != PF_OK)

@@ -16,14 +16,27 @@ static const char *const reserved_attribute_names[] = {
     "chunkCount", "maxSamplesPerPixel", PF_EXR_CHANNEL_ORDER_ATTRIBUTE,
 };
 
+/*
+ * The stream of the EXR read or write in progress on this thread. The error
+ * handler cannot ask the context for its user data: OpenEXR 3.1 calls the
+ * handler with the context's mutex held, and exr_get_user_data takes that
+ * (non-recursive) mutex again. A failed write(2) — a full disk — deadlocked
+ * the writer that way, and a worker sat on its frame forever with its lease
+ * still renewed (issue 14, test_worker_faults).
+ */
+static _Thread_local pf_exr_stream *active_stream;
+
+void pf_exr_stream_activate(pf_exr_stream *stream)
+{
+    active_stream = stream;
+}
+
 void pf_exr_capture_error(exr_const_context_t context, exr_result_t code, const char *message)
 {
-    void *user_data = NULL;
-    /* Without a stream (context creation failed) the message is dropped: the
-     * caller still gets the code and reports its default text. */
-    if (exr_get_user_data(context, &user_data) != EXR_ERR_SUCCESS || !user_data)
-        return;
-    pf_exr_stream *stream = user_data;
+    (void)context;
+    pf_exr_stream *stream = active_stream;
+    if (!stream)
+        return; /* the caller still gets the code and reports its default text */
     snprintf(stream->last_message, sizeof stream->last_message, "%s",
              message ? message : exr_get_default_error_message(code));
 }

@@ -244,9 +244,25 @@ static pf_status sync_directory(const char *path, pf_error *err)
     return PF_OK;
 }
 
+static pf_status write_file(const char *path, const pf_image *image, pf_exr_pixel_type pixel_type,
+                            const pf_image_attribute *attributes, uint32_t attribute_count,
+                            pf_exr_stream *stream, pf_error *err);
+
 pf_status pf_exr_write(const char *path, const pf_image *image, pf_exr_pixel_type pixel_type,
                        const pf_image_attribute *attributes, uint32_t attribute_count,
                        pf_error *err)
+{
+    pf_exr_stream stream = {.fd = -1};
+    pf_exr_stream_activate(&stream);
+    pf_status status = write_file(path, image, pixel_type, attributes, attribute_count, &stream,
+                                  err);
+    pf_exr_stream_activate(NULL);
+    return status;
+}
+
+static pf_status write_file(const char *path, const pf_image *image, pf_exr_pixel_type pixel_type,
+                            const pf_image_attribute *attributes, uint32_t attribute_count,
+                            pf_exr_stream *stream, pf_error *err)
 {
     if (!path || !path[0])
         return pf_error_set(err, PF_ERR_INVALID, "EXR write: empty output path");
@@ -265,10 +281,9 @@ pf_status pf_exr_write(const char *path, const pf_image *image, pf_exr_pixel_typ
     if (length < 0 || (size_t)length >= sizeof temporary)
         return pf_error_set(err, PF_ERR_INVALID, "%s: path too long", path);
 
-    pf_exr_stream stream = {.fd = -1};
     exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
     init.error_handler_fn = pf_exr_capture_error;
-    init.user_data = &stream;
+    init.user_data = stream;
     init.write_fn = stream_write;
     exr_context_t context = NULL;
     /* With a custom write_fn the library opens nothing: the name is only for its messages. */
@@ -276,38 +291,38 @@ pf_status pf_exr_write(const char *path, const pf_image *image, pf_exr_pixel_typ
     if (rc != EXR_ERR_SUCCESS)
         return pf_error_set(err, rc == EXR_ERR_OUT_OF_MEMORY ? PF_ERR_NOMEM : PF_ERR_INTERNAL,
                             "%s: cannot start EXR write: %s", path,
-                            pf_exr_message(&stream, rc));
+                            pf_exr_message(stream, rc));
 
     status = define_header(context, path, image, pixel_type, attributes, attribute_count,
-                           &stream, err);
+                           stream, err);
     if (status == PF_OK) {
-        stream.fd = open(temporary, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
-        if (stream.fd < 0)
+        stream->fd = open(temporary, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
+        if (stream->fd < 0)
             status = pf_error_set(err, PF_ERR_IO, "%s: cannot create %s: %s", path, temporary,
                                   strerror(errno));
     }
     if (status == PF_OK) {
         rc = exr_write_header(context);
         if (rc != EXR_ERR_SUCCESS)
-            status = pf_error_set(err, stream.saved_errno ? PF_ERR_IO : PF_ERR_INTERNAL,
-                                  "%s: EXR header: %s", path, pf_exr_message(&stream, rc));
+            status = pf_error_set(err, stream->saved_errno ? PF_ERR_IO : PF_ERR_INTERNAL,
+                                  "%s: EXR header: %s", path, pf_exr_message(stream, rc));
     }
     if (status == PF_OK)
-        status = write_pixels(context, path, image, pixel_type, &stream, err);
+        status = write_pixels(context, path, image, pixel_type, stream, err);
     /* exr_finish writes the chunk offset table, so its failure is a failed write. */
     rc = exr_finish(&context);
     if (status == PF_OK && rc != EXR_ERR_SUCCESS)
-        status = pf_error_set(err, stream.saved_errno ? PF_ERR_IO : PF_ERR_INTERNAL,
-                              "%s: finishing EXR: %s", path, pf_exr_message(&stream, rc));
+        status = pf_error_set(err, stream->saved_errno ? PF_ERR_IO : PF_ERR_INTERNAL,
+                              "%s: finishing EXR: %s", path, pf_exr_message(stream, rc));
     /* A failed write(2) is the root cause whatever step noticed it first. */
-    if (stream.saved_errno && status != PF_OK)
+    if (stream->saved_errno && status != PF_OK)
         status = pf_error_set(err, PF_ERR_IO, "%s: cannot write: %s", path,
-                              strerror(stream.saved_errno));
+                              strerror(stream->saved_errno));
 
-    if (stream.fd >= 0) {
-        if (status == PF_OK && fsync(stream.fd) != 0)
+    if (stream->fd >= 0) {
+        if (status == PF_OK && fsync(stream->fd) != 0)
             status = pf_error_set(err, PF_ERR_IO, "%s: fsync: %s", path, strerror(errno));
-        if (close(stream.fd) != 0 && status == PF_OK)
+        if (close(stream->fd) != 0 && status == PF_OK)
             status = pf_error_set(err, PF_ERR_IO, "%s: close: %s", path, strerror(errno));
         if (status == PF_OK && rename(temporary, path) != 0)
             status = pf_error_set(err, PF_ERR_IO, "%s: cannot rename %s over it: %s", path,

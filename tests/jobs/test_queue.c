@@ -493,6 +493,81 @@ PF_TEST(release_does_not_count_an_attempt)
     pf_queue_close(queue);
 }
 
+/*
+ * A job's fault (its output storage refused a frame, its scene is unreadable)
+ * pauses the job with the reason, requeues the task without counting the
+ * attempt and never blocks the worker, however often it happens; a worker's
+ * own failure afterwards still counts. Resume clears the reason.
+ */
+PF_TEST(job_faults_pause_the_job_and_spare_the_worker)
+{
+    pf_queue *queue = open_fresh("job-fault.db");
+    PF_REQUIRE(queue);
+    int64_t job = enqueue(queue, "1-4", 0, 1, 1);
+    int64_t worker = register_worker(queue, "w1");
+    pf_error err = {0};
+    for (int round = 0; round < 5; round++) {
+        pf_queue_task task = claim(queue, worker, job, 0);
+        PF_CHECK_MSG(task.job_id == job, "round %d: nothing claimed", round);
+        PF_REQUIRE(task.task_id != 0);
+        PF_CHECK(task.attempt == 1); /* never counted: max_attempts 1 still allows it */
+        char reason[64];
+        snprintf(reason, sizeof reason, "output directory out: Read-only file system (%d)",
+                 round);
+        PF_CHECK_OK(pf_queue_fail_job(queue, task.lease_token, reason, &err), &err);
+        PF_CHECK(pf_queue_fail_job(queue, task.lease_token, reason, &err) == PF_ERR_INVALID);
+        pf_queue_job status = job_get(queue, job);
+        PF_CHECK_MSG(!strcmp(status.status, "paused"), "job %s", status.status);
+        PF_CHECK(status.tasks_queued == 4 && status.tasks_failed == 0);
+        PF_CHECK(status.blocked_live_workers == 0);
+        PF_CHECK_MSG(!strcmp(status.pause_reason, reason), "reason: %s", status.pause_reason);
+        PF_CHECK_MSG(strstr(status.note, "paused: output directory out: Read-only") != NULL,
+                     "note: %s", status.note);
+        pf_queue_job_clear(&status);
+        /* Paused: nothing of the job is claimed until it resumes. */
+        PF_CHECK(claim(queue, worker, job, 0).task_id == 0);
+        if (round < 4)
+            PF_CHECK_OK(pf_queue_resume(queue, job, &err), &err);
+    }
+    /* Two frames in flight when the disk fills: the first reason stays, the one
+     * that paused the job; the second frame still goes back to the queue. */
+    PF_CHECK_OK(pf_queue_resume(queue, job, &err), &err);
+    int64_t other = register_worker(queue, "w2");
+    pf_queue_task first = claim(queue, worker, job, 0), second = claim(queue, other, job, 0);
+    PF_REQUIRE(first.task_id && second.task_id);
+    PF_CHECK_OK(pf_queue_fail_job(queue, first.lease_token, "disk full", &err), &err);
+    PF_CHECK_OK(pf_queue_fail_job(queue, second.lease_token, "disk still full", &err), &err);
+    pf_queue_job paused = job_get(queue, job);
+    PF_CHECK(!strcmp(paused.pause_reason, "disk full") && paused.tasks_queued == 4);
+    pf_queue_job_clear(&paused);
+    pf_queue_failure *failures = NULL;
+    size_t count = 0;
+    PF_CHECK_OK(pf_queue_failure_list(queue, job, &failures, &count, &err), &err);
+    PF_CHECK(count == 7);
+    for (size_t i = 0; i < count; i++)
+        PF_CHECK(failures[i].job_fault == 1);
+    free(failures);
+
+    PF_CHECK_OK(pf_queue_resume(queue, job, &err), &err);
+    pf_queue_job status = job_get(queue, job);
+    PF_CHECK(status.pause_reason[0] == '\0' && status.note[0] == '\0');
+    PF_CHECK(strcmp(status.status, "paused") != 0);
+    pf_queue_job_clear(&status);
+    /* The worker's own failures still count: with max_attempts 1 the task fails. */
+    pf_queue_task task = claim(queue, worker, job, 0);
+    PF_REQUIRE(task.task_id);
+    PF_CHECK_OK(pf_queue_fail(queue, task.lease_token, "device lost", &err), &err);
+    status = job_get(queue, job);
+    PF_CHECK(status.tasks_failed == 1 && status.tasks_queued == 3);
+    pf_queue_job_clear(&status);
+    /* A user's pause has no reason and so no note. */
+    PF_CHECK_OK(pf_queue_pause(queue, job, &err), &err);
+    status = job_get(queue, job);
+    PF_CHECK(!strcmp(status.status, "paused") && status.note[0] == '\0');
+    pf_queue_job_clear(&status);
+    pf_queue_close(queue);
+}
+
 PF_TEST(pause_resume_cancel_retry)
 {
     pf_queue *queue = open_fresh("control.db");
@@ -811,6 +886,7 @@ int main(void)
     PF_RUN(failures_back_off_then_fail_at_max_attempts);
     PF_RUN(blocklist_after_repeated_failures);
     PF_RUN(release_does_not_count_an_attempt);
+    PF_RUN(job_faults_pause_the_job_and_spare_the_worker);
     PF_RUN(pause_resume_cancel_retry);
     PF_RUN(stage_rows_are_validated_all_or_nothing);
     PF_RUN(timing_statistics_match_hand_computed_values);

@@ -22,15 +22,10 @@ static int64_t enqueue(const char *db, const char *frames, const char *pattern)
 {
     char args[8 * WT_PATH_MAX];
     wt_format(args, sizeof args,
-              "enqueue '%s' --frames %s --out '%s' --size 16x16 --frames-per-task 1 "
+              "'%s' --frames %s --out '%s' --size 16x16 --frames-per-task 1 "
               "--quality preview --db '%s'",
               scene, frames, pattern, db);
-    int code = wt_run(args, log_path);
-    PF_CHECK_MSG(code == 0, "enqueue exited %d", code);
-    char *printed = wt_read_file(log_path, NULL);
-    int64_t job_id = printed ? atoll(printed) : 0;
-    free(printed);
-    return job_id;
+    return wt_enqueue(args, log_path);
 }
 
 /* Occurrences of text in the file at path. */

@@ -2,11 +2,13 @@
  * One `photonfarm worker` at a time on tiny frames: a job rendered to EXRs
  * with one set of stage rows per task (the static scene's BIH built once,
  * then reused: skipped rows with their reason) and `timings` in every
- * format, decisions included; frames whose scene vanished after enqueue
- * (every attempt recorded, max attempts,
- * the per-job blocklist and its status note); SIGTERM while rendering (drain:
- * the frame is done) and twice (released: queued, no file); and a worker
- * whose lease was taken over, which must not touch the new owner's output.
+ * format, decisions included; frames that fail on the worker (too large for
+ * its memory: every attempt recorded, max attempts, the per-job blocklist
+ * and its status note) and frames that fail for the job (a vanished scene,
+ * an output path that cannot be committed: the job paused, nobody blamed);
+ * SIGTERM while rendering (drain: the frame is done) and twice (released:
+ * queued, no file); and a worker whose lease was taken over, which must not
+ * touch the new owner's output.
  */
 #include "pf_image.h"
 #include "pf_test.h"
@@ -32,14 +34,9 @@ static int64_t enqueue(const char *db, const char *scene_path, const char *frame
     char args[8 * WT_PATH_MAX];
     /* preview: these tests are about the worker and the queue, not an integrator's cost. */
     wt_format(args, sizeof args,
-              "enqueue '%s' --frames %s --out '%s' --size 16x16 --quality preview --db '%s' %s",
+              "'%s' --frames %s --out '%s' --size 16x16 --quality preview --db '%s' %s",
               scene_path, frames, pattern, db, extra ? extra : "");
-    int code = wt_run(args, log_path);
-    PF_CHECK_MSG(code == 0, "enqueue exited %d", code);
-    char *printed = wt_read_file(log_path, NULL);
-    int64_t job_id = printed ? atoll(printed) : 0;
-    free(printed);
-    return job_id;
+    return wt_enqueue(args, log_path);
 }
 
 static pf_queue_task_info first_task(const char *db, int64_t job_id)
@@ -253,19 +250,38 @@ PF_TEST(worker_renders_a_job_and_timings_report_every_stage)
     PF_CHECK(wt_file_contains(log_path, "geometry unchanged → BIH reused"));
 }
 
+/*
+ * A failure of the worker's own: a frame too large for this machine's memory
+ * (pf_frame_memory_check refuses it before anything renders; another worker
+ * with more memory could render it). NULL when this machine has the memory
+ * for the largest size enqueue accepts: the tests that need such a failure
+ * say so and skip.
+ */
+static const char *worker_fault_size(void)
+{
+    double half_memory = (double)sysconf(_SC_PHYS_PAGES) * (double)sysconf(_SC_PAGESIZE) / 2.0;
+    if (16384.0 * 16384.0 * 88.0 <= half_memory) {
+        printf("skipped: %.0f GiB of memory fits a 16384x16384 frame; no worker fault to "
+               "provoke\n", 2.0 * half_memory / (1u << 30));
+        return NULL;
+    }
+    return "--size 16384x16384";
+}
+
 PF_TEST(failing_frames_record_each_attempt_and_stop_at_max_attempts)
 {
-    char out[WT_PATH_MAX + 32], db[WT_PATH_MAX + 32], doomed[WT_PATH_MAX + 32],
-        pattern[2 * WT_PATH_MAX], args[8 * WT_PATH_MAX];
+    char out[WT_PATH_MAX + 32], db[WT_PATH_MAX + 32], pattern[2 * WT_PATH_MAX],
+        args[8 * WT_PATH_MAX], extra[64];
+    const char *size = worker_fault_size();
+    if (!size)
+        return;
     wt_fresh_dir("fail-out", out, sizeof out);
     wt_format(db, sizeof db, "%s/fail.db", dir);
-    wt_format(doomed, sizeof doomed, "%s/doomed.gltf", dir);
     unlink(db);
-    wt_write_tiny_scene(doomed, 3);
     wt_format(pattern, sizeof pattern, "%s/d.####.exr", out);
-    int64_t job_id = enqueue(db, doomed, "1-2", pattern, "--max-attempts 2");
+    wt_format(extra, sizeof extra, "--max-attempts 2 %s", size);
+    int64_t job_id = enqueue(db, scene, "1-2", pattern, extra);
     PF_REQUIRE(job_id > 0);
-    unlink(doomed);
     /* Attempt 2 becomes eligible after the queue's 2 s backoff. */
     wt_format(args, sizeof args, "worker --idle-exit 3 --db '%s'", db);
     PF_REQUIRE(wt_run(args, log_path) == 0);
@@ -279,8 +295,8 @@ PF_TEST(failing_frames_record_each_attempt_and_stop_at_max_attempts)
     PF_CHECK_OK(pf_queue_failure_list(queue, job_id, &failures, &count, &err), &err);
     PF_CHECK_MSG(count == 4, "%zu failures, expected 2 frames x 2 attempts", count);
     for (size_t i = 0; i < count; i++)
-        PF_CHECK_MSG(strstr(failures[i].error, "doomed.gltf") != NULL, "error: %s",
-                     failures[i].error);
+        PF_CHECK_MSG(strstr(failures[i].error, "16384x16384") != NULL && !failures[i].job_fault,
+                     "error: %s", failures[i].error);
     free(failures);
     pf_queue_job job = {0};
     PF_CHECK_OK(pf_queue_job_get(queue, job_id, &job, &err), &err);
@@ -293,24 +309,25 @@ PF_TEST(failing_frames_record_each_attempt_and_stop_at_max_attempts)
     PF_CHECK(wt_run(args, log_path) == 0);
     PF_CHECK(wt_file_contains(log_path, "failed"));
     PF_CHECK(wt_file_contains(log_path, "failures (4)"));
-    PF_CHECK(wt_file_contains(log_path, "doomed.gltf"));
+    PF_CHECK(wt_file_contains(log_path, "16384x16384"));
 }
 
 PF_TEST(a_worker_failing_a_jobs_frames_is_blocked_and_status_says_so)
 {
-    char out[WT_PATH_MAX + 32], db[WT_PATH_MAX + 32], doomed[WT_PATH_MAX + 32],
-        pattern[2 * WT_PATH_MAX], args[8 * WT_PATH_MAX], worker_log[WT_PATH_MAX + 32];
+    char out[WT_PATH_MAX + 32], db[WT_PATH_MAX + 32], pattern[2 * WT_PATH_MAX],
+        args[8 * WT_PATH_MAX], worker_log[WT_PATH_MAX + 32], extra[64];
+    const char *size = worker_fault_size();
+    if (!size)
+        return;
     wt_fresh_dir("block-out", out, sizeof out);
     wt_format(db, sizeof db, "%s/block.db", dir);
-    wt_format(doomed, sizeof doomed, "%s/doomed-block.gltf", dir);
     wt_format(worker_log, sizeof worker_log, "%s/block-worker.log", dir);
     unlink(db);
     unlink(worker_log);
-    wt_write_tiny_scene(doomed, 3);
     wt_format(pattern, sizeof pattern, "%s/b.####.exr", out);
-    int64_t job_id = enqueue(db, doomed, "1-3", pattern, "--max-attempts 5");
+    wt_format(extra, sizeof extra, "--max-attempts 5 %s", size);
+    int64_t job_id = enqueue(db, scene, "1-3", pattern, extra);
     PF_REQUIRE(job_id > 0);
-    unlink(doomed);
     const char *worker_args[] = {"worker", "--idle-exit", "3", "--db", db, NULL};
     pid_t pid = wt_spawn(worker_args, worker_log, NULL);
     int blocked = 0;
@@ -338,6 +355,56 @@ PF_TEST(a_worker_failing_a_jobs_frames_is_blocked_and_status_says_so)
     PF_CHECK_MSG(count == 3, "%zu failures: blocked after 3 distinct frames", count);
     free(failures);
     pf_queue_close(queue);
+}
+
+/*
+ * A scene that vanished after enqueue is the job's fault, not the worker's:
+ * the job pauses with the scene named in `status`, the failure is recorded
+ * without counting an attempt and no worker is blocked; once the scene is
+ * back, `resume` and the same worker finish the job (max attempts 1).
+ */
+PF_TEST(a_vanished_scene_pauses_its_job_and_blames_no_worker)
+{
+    char out[WT_PATH_MAX + 32], db[WT_PATH_MAX + 32], doomed[WT_PATH_MAX + 32],
+        pattern[2 * WT_PATH_MAX], args[8 * WT_PATH_MAX];
+    wt_fresh_dir("vanish-out", out, sizeof out);
+    wt_format(db, sizeof db, "%s/vanish.db", dir);
+    wt_format(doomed, sizeof doomed, "%s/vanishing.gltf", dir);
+    unlink(db);
+    wt_write_tiny_scene(doomed, 3);
+    wt_format(pattern, sizeof pattern, "%s/v.####.exr", out);
+    int64_t job_id = enqueue(db, doomed, "1-3", pattern, "--max-attempts 1");
+    PF_REQUIRE(job_id > 0);
+    unlink(doomed);
+    wt_format(args, sizeof args, "worker --idle-exit 1 --db '%s'", db);
+    PF_CHECK(wt_run(args, log_path) == 0);
+    PF_CHECK(wt_file_contains(log_path, "event=job_fault"));
+    PF_CHECK(wt_file_contains(log_path, "fault=scene"));
+    pf_queue *queue = wt_open_queue(db);
+    PF_REQUIRE(queue != NULL);
+    pf_queue_job job = {0};
+    pf_error err = {0};
+    PF_CHECK_OK(pf_queue_job_get(queue, job_id, &job, &err), &err);
+    PF_CHECK_MSG(!strcmp(job.status, "paused") && job.tasks_queued == 3 &&
+                     job.blocked_live_workers == 0,
+                 "job %s, %lld queued", job.status, (long long)job.tasks_queued);
+    PF_CHECK_MSG(strstr(job.note, "paused: scene: ") && strstr(job.note, "vanishing.gltf"),
+                 "note: %s", job.note);
+    pf_queue_job_clear(&job);
+    pf_queue_failure *failures = NULL;
+    size_t count = 0;
+    PF_CHECK_OK(pf_queue_failure_list(queue, job_id, &failures, &count, &err), &err);
+    PF_CHECK_MSG(count == 1 && failures[0].job_fault, "%zu failures", count);
+    free(failures);
+    pf_queue_close(queue);
+
+    wt_write_tiny_scene(doomed, 3);
+    wt_format(args, sizeof args, "resume %lld --db '%s'", (long long)job_id, db);
+    PF_CHECK(wt_run(args, log_path) == 0);
+    wt_format(args, sizeof args, "worker --once --db '%s'", db);
+    PF_CHECK(wt_run(args, log_path) == 0);
+    PF_CHECK(wt_count_files(out, ".exr") == 3);
+    PF_CHECK(!strcmp(first_task(db, job_id).status, "done"));
 }
 
 /* Starts a held worker on a one-frame job, signals it (once or twice) mid-frame. */
@@ -456,11 +523,12 @@ PF_TEST(a_worker_whose_lease_was_taken_over_never_writes)
 
 /*
  * A frame that renders but cannot be committed (here a directory sits at its
- * path, so the rename is refused) goes back under the retry policy at once,
- * with the cause: it is not left `running` on a live worker until its lease
- * (300 s here) expires.
+ * path, so the rename is refused) is settled at once, not left `running` on
+ * a live worker until its lease (300 s here) expires; the refusal is the
+ * output's, so the job pauses with the cause and the worker exits 0. With
+ * the obstacle gone, `resume` finishes it.
  */
-PF_TEST(a_frame_that_cannot_be_committed_is_failed_at_once)
+PF_TEST(a_frame_that_cannot_be_committed_pauses_its_job_at_once)
 {
     char out[WT_PATH_MAX + 32], db[WT_PATH_MAX + 32], blocker[2 * WT_PATH_MAX],
         pattern[2 * WT_PATH_MAX], args[8 * WT_PATH_MAX];
@@ -474,22 +542,35 @@ PF_TEST(a_frame_that_cannot_be_committed_is_failed_at_once)
     rmdir(blocker); /* an earlier run's (wt_fresh_dir empties files, not folders) */
     PF_REQUIRE(mkdir(blocker, 0777) == 0);
     wt_format(args, sizeof args, "worker --once --lease-seconds 300 --db '%s'", db);
-    PF_CHECK(wt_run(args, log_path) == 1);
-    PF_CHECK(wt_file_contains(log_path, "event=commit_failed"));
+    PF_CHECK(wt_run(args, log_path) == 0);
+    PF_CHECK(wt_file_contains(log_path, "event=job_fault"));
+    PF_CHECK(wt_file_contains(log_path, "fault=output"));
     pf_queue_task_info task = first_task(db, job_id);
-    PF_CHECK_MSG(!strcmp(task.status, "failed"), "task %s, not failed at once", task.status);
+    PF_CHECK_MSG(!strcmp(task.status, "queued"), "task %s, not settled at once", task.status);
     pf_queue *queue = wt_open_queue(db);
     PF_REQUIRE(queue != NULL);
     pf_queue_failure *failures = NULL;
     size_t count = 0;
     pf_error err = {0};
     PF_CHECK_OK(pf_queue_failure_list(queue, job_id, &failures, &count, &err), &err);
-    PF_CHECK_MSG(count == 1 && strstr(failures[0].error, "committing the frame") &&
+    PF_CHECK_MSG(count == 1 && failures[0].job_fault &&
+                     strstr(failures[0].error, "committing the frame") &&
                      strstr(failures[0].error, "c.0001.exr"),
                  "%zu failures: %s", count, count ? failures[0].error : "");
     free(failures);
+    pf_queue_job job = {0};
+    PF_CHECK_OK(pf_queue_job_get(queue, job_id, &job, &err), &err);
+    PF_CHECK_MSG(!strcmp(job.status, "paused"), "job %s", job.status);
+    pf_queue_job_clear(&job);
     pf_queue_close(queue);
     PF_CHECK(wt_count_files(out, "partial") == 0);
+
+    PF_REQUIRE(rmdir(blocker) == 0);
+    wt_format(args, sizeof args, "resume %lld --db '%s'", (long long)job_id, db);
+    PF_CHECK(wt_run(args, log_path) == 0);
+    wt_format(args, sizeof args, "worker --once --db '%s'", db);
+    PF_CHECK(wt_run(args, log_path) == 0);
+    PF_CHECK(!strcmp(first_task(db, job_id).status, "done"));
 }
 
 int main(void)
@@ -501,9 +582,10 @@ int main(void)
     PF_RUN(worker_renders_a_job_and_timings_report_every_stage);
     PF_RUN(failing_frames_record_each_attempt_and_stop_at_max_attempts);
     PF_RUN(a_worker_failing_a_jobs_frames_is_blocked_and_status_says_so);
+    PF_RUN(a_vanished_scene_pauses_its_job_and_blames_no_worker);
     PF_RUN(sigterm_drains_the_current_frame);
     PF_RUN(a_second_sigterm_releases_the_frame);
     PF_RUN(a_worker_whose_lease_was_taken_over_never_writes);
-    PF_RUN(a_frame_that_cannot_be_committed_is_failed_at_once);
+    PF_RUN(a_frame_that_cannot_be_committed_pauses_its_job_at_once);
     return pf_test_finish();
 }

@@ -75,6 +75,18 @@ int wt_file_contains(const char *path, const char *text)
     return found;
 }
 
+int64_t wt_enqueue(const char *arguments, const char *log_path)
+{
+    char command[16 * WT_PATH_MAX];
+    wt_format(command, sizeof command, "enqueue %s", arguments);
+    int code = wt_run(command, log_path);
+    PF_CHECK_MSG(code == 0, "enqueue exited %d", code);
+    char *printed = code == 0 ? wt_read_file(log_path, NULL) : NULL;
+    int64_t job_id = printed ? atoll(printed) : 0;
+    free(printed);
+    return job_id;
+}
+
 pid_t wt_spawn(const char *const *arguments, const char *log_path, const char *environment)
 {
     const char *binary = getenv("PHOTONFARM");
@@ -86,8 +98,11 @@ pid_t wt_spawn(const char *const *arguments, const char *log_path, const char *e
             dup2(fd, 2);
             close(fd);
         }
-        if (environment)
-            putenv((char *)environment);
+        /* One "KEY=VALUE" per line; putenv keeps the strings (this process execs). */
+        for (char *rest = environment ? strdup(environment) : NULL, *line;
+             rest && (line = strsep(&rest, "\n")) != NULL;)
+            if (*line)
+                putenv(line);
         char *argv[32];
         int count = 0;
         argv[count++] = (char *)(binary ? binary : "photonfarm");

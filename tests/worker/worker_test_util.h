@@ -18,14 +18,18 @@
  * (-1 if it did not exit normally). */
 int wt_run(const char *arguments, const char *output_path);
 
+/* Runs "photonfarm enqueue ARGS" (output in log_path, as wt_run) and returns
+ * the job id it printed; 0 (and the calling test fails) when it did not exit 0. */
+int64_t wt_enqueue(const char *arguments, const char *log_path);
+
 /* Whether file contains text (prints the file when it does not). */
 int wt_file_contains(const char *path, const char *text);
 /* Reads a whole file into a malloc'ed NUL-terminated buffer (NULL if missing). */
 char *wt_read_file(const char *path, size_t *size);
 
 /* Starts "photonfarm ARGS..." (argv-style, NULL-terminated) in the background
- * with stdout+stderr appended to log_path and extra "KEY=VALUE" environment
- * (NULL for none); returns its pid. */
+ * with stdout+stderr appended to log_path and extra environment, one
+ * "KEY=VALUE" per line (NULL for none); returns its pid. */
 pid_t wt_spawn(const char *const *arguments, const char *log_path, const char *environment);
 /* Waits up to timeout_ms for pid; returns its exit code, 128+signal when
  * killed, or -1 on timeout (the process is then killed). */
