@@ -60,6 +60,10 @@ static void usage(FILE *out)
             "  --max-attempts N       attempts per frame before it fails (default 3)\n"
             "  --frames-per-task N    frames a worker claims at once (default 1)\n"
             "  --name JOBNAME         a label shown by status\n"
+            "  --allow-outside-scene-dir\n"
+            "                         let the scene's buffers and material libraries lie\n"
+            "                         outside its directory (default: refused; workers\n"
+            "                         honour the job's choice)\n"
             "  --force                enqueue even when an unfinished job writes the same\n"
             "                         output files (default: refused, naming that job)\n"
             "  --db PATH              queue database (default $PHOTONFARM_DB, else " PF_CLI_DEFAULT_DB ")\n"
@@ -69,7 +73,8 @@ static void usage(FILE *out)
 }
 
 typedef struct enqueue_options {
-    const char *scene_path, *frames, *pattern, *db, *name;
+    pf_cli_scene scene;
+    const char *frames, *pattern, *db, *name;
     pf_render_settings settings;
     int64_t priority, max_attempts, frames_per_task;
     int force; /* --force: enqueue even when an unfinished job writes the same files */
@@ -94,7 +99,7 @@ static int parse_options(int argc, char **argv, enqueue_options *options, int *h
             continue;
         }
         int used_value = 0;
-        int code = pf_cli_job_argument(COMMAND, arg, value, &options->scene_path,
+        int code = pf_cli_job_argument(COMMAND, arg, value, &options->scene,
                                        &options->settings, &used_value);
         if (code >= 0) {
             if (code)
@@ -129,7 +134,7 @@ static int parse_options(int argc, char **argv, enqueue_options *options, int *h
         }
         i++;
     }
-    if (!options->scene_path)
+    if (!options->scene.path)
         return pf_cli_fail(COMMAND, 2, "no scene given (see --help)");
     if (!options->frames)
         return pf_cli_fail(COMMAND, 2, "--frames RANGE is required (e.g. 1-48)");
@@ -229,19 +234,19 @@ static int check_scene(const enqueue_options *options, const pf_frame_list *fram
 {
     pf_scene *scene = NULL;
     pf_error err = {0};
-    if (pf_scene_load(options->scene_path, &scene, &err) != PF_OK)
+    if (pf_scene_load_with(options->scene.path, &options->scene.load, &scene, &err) != PF_OK)
         return pf_cli_fail(COMMAND, 2, "scene: %s", err.message);
     uint32_t frame_count = pf_scene_get_info(scene)->frame_count;
     pf_scene_destroy(scene);
     for (size_t i = 0; i < frames->count; i++) {
         if (frames->frames[i] < 1 || (uint32_t)frames->frames[i] > frame_count)
             return pf_cli_fail(COMMAND, 2, "--frames '%s': frame %d is outside %s's frames 1-%u",
-                               options->frames, frames->frames[i], options->scene_path,
+                               options->frames, frames->frames[i], options->scene.path,
                                frame_count);
     }
     char resolved[PATH_MAX];
-    if (!realpath(options->scene_path, resolved) || strlen(resolved) >= size)
-        return pf_cli_fail(COMMAND, 2, "scene %s: %s", options->scene_path, strerror(errno));
+    if (!realpath(options->scene.path, resolved) || strlen(resolved) >= size)
+        return pf_cli_fail(COMMAND, 2, "scene %s: %s", options->scene.path, strerror(errno));
     memcpy(absolute, resolved, strlen(resolved) + 1);
     return 0;
 }
@@ -273,7 +278,8 @@ int pf_cli_enqueue(int argc, char **argv)
     if (!code)
         code = check_scene(&options, &frames, scene_path, sizeof scene_path);
     char parameters[PARAMETERS_MAX];
-    if (!code && !pf_job_params_format(&options.settings, options.name, parameters,
+    pf_job_extras extras = {options.name, options.scene.load.allow_outside_scene_dir};
+    if (!code && !pf_job_params_format(&options.settings, &extras, parameters,
                                        sizeof parameters))
         code = pf_cli_fail(COMMAND, 2, "--name is too long");
 

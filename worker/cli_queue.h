@@ -9,6 +9,7 @@
 
 #include "pf_lpv.h"
 #include "pf_render.h"
+#include "pf_scene.h"
 #include "pf_queue.h"
 
 #include <stdint.h>
@@ -50,12 +51,19 @@ int pf_cli_lpv_check(const char *command, const pf_lpv_settings *lpv, uint64_t m
  */
 int pf_cli_settings_option(const char *command, const char *arg, const char *value,
                            pf_render_settings *settings, int *used_value);
+/* The scene a job renders and how it is loaded. */
+typedef struct pf_cli_scene {
+    const char *path;
+    pf_scene_load_options load; /* --allow-outside-scene-dir */
+} pf_cli_scene;
+
 /*
  * What render and enqueue parse alike: the scene (their one positional
- * argument) and the settings options. Same returns as pf_cli_settings_option.
+ * argument, and --allow-outside-scene-dir) and the settings options. Same
+ * returns as pf_cli_settings_option.
  */
 int pf_cli_job_argument(const char *command, const char *arg, const char *value,
-                        const char **scene_path, pf_render_settings *settings, int *used_value);
+                        pf_cli_scene *scene, pf_render_settings *settings, int *used_value);
 /* What enqueue checks against: the maxStorageBufferRange every Vulkan device guarantees. */
 #define PF_CLI_GUARANTEED_BUFFER_BYTES (128ull << 20)
 

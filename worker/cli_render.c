@@ -65,6 +65,9 @@ static void usage(FILE *out)
             "  --target-relmse X  auto: aim at relMSE X (fast when it reaches it, else\n"
             "                     final with the passes it needs)\n"
             "  --no-aovs          beauty RGBA only (default adds the direct/indirect/caustic\n                     split and albedo, normal, depth as named layers)\n"
+            "  --allow-outside-scene-dir\n"
+            "                     let the scene's buffers and material libraries lie\n"
+            "                     outside its directory (default: refused)\n"
             "  --device D         device index or name substring (see photonfarm devices)\n"
             "  --cache-dir DIR    compiled-shader cache shared by this machine's processes\n"
             "                     (default $PHOTONFARM_CACHE_DIR, else ~/.cache/photonfarm;\n"
@@ -75,7 +78,7 @@ static void usage(FILE *out)
 }
 
 typedef struct render_options {
-    const char *scene_path;
+    pf_cli_scene scene;
     const char *frame_text;  /* --frame */
     const char *frames_text; /* --frames */
     const char *output;
@@ -104,7 +107,7 @@ static int parse_options(int argc, char **argv, render_options *options, int *he
             continue;
         }
         int used_value = 0;
-        int code = pf_cli_job_argument(COMMAND, arg, value, &options->scene_path,
+        int code = pf_cli_job_argument(COMMAND, arg, value, &options->scene,
                                        &options->settings, &used_value);
         if (code >= 0) {
             if (code)
@@ -129,7 +132,7 @@ static int parse_options(int argc, char **argv, render_options *options, int *he
         }
         i++;
     }
-    if (!options->scene_path)
+    if (!options->scene.path)
         return pf_cli_fail(COMMAND, 2, "no scene given (see --help)");
     if (!options->frame_text == !options->frames_text)
         return pf_cli_fail(COMMAND, 2, "give exactly one of --frame N or --frames RANGE");
@@ -179,7 +182,7 @@ static int render_one(const render_options *options, render_session *session, in
     char temp_tag[32];
     snprintf(temp_tag, sizeof temp_tag, "render-%ld", (long)getpid());
     pf_frame_request request = {session->scene,
-                                options->scene_path,
+                                options->scene.path,
                                 frame_number,
                                 options->settings,
                                 path,
@@ -252,7 +255,7 @@ int pf_cli_render(int argc, char **argv)
     }
 
     render_session session = {0};
-    pf_status status = pf_scene_load(options.scene_path, &session.scene, &err);
+    pf_status status = pf_scene_load_with(options.scene.path, &options.scene.load, &session.scene, &err);
     if (status != PF_OK) {
         pf_frame_list_free(&frames);
         return pf_cli_fail(COMMAND, pf_status_exit_code(status), "%s", err.message);
@@ -261,7 +264,7 @@ int pf_cli_render(int argc, char **argv)
     for (size_t i = 0; i < frames.count; i++) {
         if (frames.frames[i] < 1 || (uint32_t)frames.frames[i] > info->frame_count) {
             code = pf_cli_fail(COMMAND, 2, "frame %" PRId32 " is outside %s's frames 1-%u",
-                               frames.frames[i], options.scene_path, info->frame_count);
+                               frames.frames[i], options.scene.path, info->frame_count);
             pf_frame_list_free(&frames);
             session_close(&session);
             return code;

@@ -172,13 +172,17 @@ int pf_cli_settings_option(const char *command, const char *arg, const char *val
 }
 
 int pf_cli_job_argument(const char *command, const char *arg, const char *value,
-                        const char **scene_path, pf_render_settings *settings, int *used_value)
+                        pf_cli_scene *scene, pf_render_settings *settings, int *used_value)
 {
     *used_value = 0;
     if (arg[0] != '-' || arg[1] == '\0') {
-        if (*scene_path)
-            return pf_cli_fail(command, 2, "one scene only ('%s' and '%s')", *scene_path, arg);
-        *scene_path = arg;
+        if (scene->path)
+            return pf_cli_fail(command, 2, "one scene only ('%s' and '%s')", scene->path, arg);
+        scene->path = arg;
+        return 0;
+    }
+    if (!strcmp(arg, "--allow-outside-scene-dir")) {
+        scene->load.allow_outside_scene_dir = 1;
         return 0;
     }
     return pf_cli_settings_option(command, arg, value, settings, used_value);

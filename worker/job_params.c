@@ -146,14 +146,16 @@ static pf_status read_lpv(const cJSON *root, pf_lpv_settings *lpv, pf_error *err
     return PF_OK;
 }
 
-int pf_job_params_format(const pf_render_settings *settings, const char *name, char *out,
-                         size_t size)
+int pf_job_params_format(const pf_render_settings *settings, const pf_job_extras *extras,
+                         char *out, size_t size)
 {
     cJSON *root = cJSON_CreateObject();
     if (!root)
         return 0;
-    if (name)
-        cJSON_AddStringToObject(root, "name", name);
+    if (extras && extras->name)
+        cJSON_AddStringToObject(root, "name", extras->name);
+    if (extras && extras->allow_outside_scene_dir)
+        cJSON_AddBoolToObject(root, "allow_outside_scene_dir", 1);
     cJSON_AddNumberToObject(root, "width", settings->width);
     cJSON_AddNumberToObject(root, "height", settings->height);
     cJSON_AddStringToObject(root, "quality", pf_quality_name(settings->quality));
@@ -263,4 +265,12 @@ pf_status pf_job_params_parse(const char *json, pf_render_settings *settings, pf
     parsed.bounce_limit = bounces >= 0 ? pf_bounce_limit((uint32_t)bounces) : 0u;
     *settings = parsed;
     return PF_OK;
+}
+
+int pf_job_params_allow_outside(const char *json)
+{
+    cJSON *root = cJSON_Parse(json ? json : "{}");
+    int allowed = cJSON_IsTrue(cJSON_GetObjectItemCaseSensitive(root, "allow_outside_scene_dir"));
+    cJSON_Delete(root);
+    return allowed;
 }

@@ -26,13 +26,21 @@
 #define PF_SETTINGS_MAX_BUDGET_MS 86400000.0
 #define PF_SETTINGS_MAX_TARGET_RELMSE 100.0
 
-/* Formats settings (and name, when not NULL, as "name") as the JSON object
- * above into out (0 if it does not fit). */
-int pf_job_params_format(const pf_render_settings *settings, const char *name, char *out,
-                         size_t size);
+/* What a job's JSON carries besides its render settings. */
+typedef struct pf_job_extras {
+    const char *name;            /* "name": a label for status (NULL: none) */
+    int allow_outside_scene_dir; /* "allow_outside_scene_dir": true (pf_scene_load_options) */
+} pf_job_extras;
+
+/* Formats settings (and extras, when not NULL) as the JSON object above into
+ * out (0 if it does not fit). */
+int pf_job_params_format(const pf_render_settings *settings, const pf_job_extras *extras,
+                         char *out, size_t size);
 
 /* Copies the job's "name" (or "" when none) into out. */
 void pf_job_params_name(const char *json, char *out, size_t size);
+/* The job's "allow_outside_scene_dir" (0 when absent or not true). */
+int pf_job_params_allow_outside(const char *json);
 
 /*
  * Parses a job's parameters into *settings (absent keys keep their defaults:

@@ -433,7 +433,9 @@ static void render_work(uv_work_t *request)
         pf_scene_destroy(w->scene);
         w->scene = NULL;
         w->scene_job_id = 0;
-        w->render_status = pf_scene_load(w->job.scene_path, &w->scene, &w->render_err);
+        pf_scene_load_options load = {pf_job_params_allow_outside(w->job.parameters_json)};
+        w->render_status =
+            pf_scene_load_with(w->job.scene_path, &load, &w->scene, &w->render_err);
         if (w->render_status != PF_OK) {
             w->render_fault = PF_FRAME_FAULT_SCENE;
             return;

@@ -147,12 +147,12 @@ static pf_status load_buffer(gltf_context *ctx, uint32_t index, const cJSON *buf
     char *file_path = resolve_uri(ctx->path, text);
     if (!file_path)
         return gltf_fail(ctx, err, PF_ERR_NOMEM, element, "out of memory");
-    if (!scene_path_inside(ctx->path, file_path)) {
+    if (!scene_path_allowed(ctx->scene, file_path)) {
         /* Named by its URI only: nothing found outside is described. */
         free(file_path);
         return gltf_fail(ctx, err, PF_ERR_INVALID, element,
                          "uri \"%s\" leads outside the scene's directory (after resolving "
-                         "symbolic links): refused",
+                         "symbolic links): refused (--allow-outside-scene-dir permits it)",
                          text);
     }
     char *data;

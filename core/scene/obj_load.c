@@ -479,11 +479,12 @@ static pf_status parse_obj(obj_state *state, char *text, pf_error *err)
                 return pf_error_set(err, PF_ERR_NOMEM, "%s: out of memory", scene->path);
             memcpy(mtl_path, scene->path, directory_length);
             strcpy(mtl_path + directory_length, name);
-            if (!scene_path_inside(scene->path, mtl_path)) {
+            if (!scene_path_allowed(scene, mtl_path)) {
                 free(mtl_path);
                 return pf_error_set(err, PF_ERR_INVALID,
                                     "%s: line %u: mtllib \"%s\" leads outside the scene's "
-                                    "directory (after resolving symbolic links): refused",
+                                    "directory (after resolving symbolic links): refused "
+                                    "(--allow-outside-scene-dir permits it)",
                                     scene->path, line_number, name);
             }
             status = load_mtl(state, mtl_path, err);

@@ -111,6 +111,21 @@ typedef struct pf_scene_info {
  * type, NaN/Inf data, indices out of range, zero triangles) naming file and element.
  */
 pf_status pf_scene_load(const char *path, pf_scene **out, pf_error *err);
+
+typedef struct pf_scene_load_options {
+    /*
+     * 0 (the default): files a scene refers to (glTF buffer URIs, OBJ mtllib)
+     * must lie in the scene file's directory once "../" and symbolic links
+     * are resolved, so a scene on a farm's shared storage cannot make a
+     * worker read what lies beside it. 1: relative references may lead
+     * anywhere (absolute URIs stay refused: glTF allows none).
+     */
+    int allow_outside_scene_dir;
+} pf_scene_load_options;
+
+/* pf_scene_load with options (NULL: the defaults above). */
+pf_status pf_scene_load_with(const char *path, const pf_scene_load_options *options,
+                             pf_scene **out, pf_error *err);
 void pf_scene_destroy(pf_scene *scene);
 const pf_scene_info *pf_scene_get_info(const pf_scene *scene);
 

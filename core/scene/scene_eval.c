@@ -79,6 +79,12 @@ static int has_extension(const char *path, const char *extension)
 
 pf_status pf_scene_load(const char *path, pf_scene **out, pf_error *err)
 {
+    return pf_scene_load_with(path, NULL, out, err);
+}
+
+pf_status pf_scene_load_with(const char *path, const pf_scene_load_options *options,
+                             pf_scene **out, pf_error *err)
+{
     *out = NULL;
     if (!path)
         return pf_error_set(err, PF_ERR_INVALID, "pf_scene_load: path is NULL");
@@ -93,6 +99,7 @@ pf_status pf_scene_load(const char *path, pf_scene **out, pf_error *err)
         return pf_error_set(err, PF_ERR_NOMEM, "%s: out of memory", path);
     scene->path = strdup(path);
     scene->camera_node = SCENE_NONE;
+    scene->allow_outside_dir = options && options->allow_outside_scene_dir;
     pf_status status = scene->path ? PF_OK : pf_error_set(err, PF_ERR_NOMEM, "out of memory");
     if (!status)
         status = is_obj ? scene_load_obj(scene, err) : scene_load_gltf(scene, is_glb, err);

@@ -77,6 +77,7 @@ typedef struct scene_channel {
 struct pf_scene {
     pf_scene_info info;
     char *path;
+    int allow_outside_dir; /* pf_scene_load_options.allow_outside_scene_dir */
 
     uint32_t node_count;
     scene_node *nodes;
@@ -118,13 +119,14 @@ void scene_warn_once(pf_scene *scene, const char *key, const char *format, ...)
     __attribute__((format(printf, 3, 4)));
 
 /*
- * Whether path, a file a scene file refers to, stays inside scene_file's
+ * Whether the scene may read path, a file its scene file refers to: always
+ * with allow_outside_dir, else when path stays inside the scene file's
  * directory once symbolic links are resolved (scene_paths.c). The file's
  * directory must exist and is resolved, and the file too when it exists (a
  * link to a file elsewhere is caught); a missing file inside is left for the
  * reader to report.
  */
-int scene_path_inside(const char *scene_file, const char *path);
+int scene_path_allowed(const pf_scene *scene, const char *path);
 
 /* Reads a whole file; *out is NUL-terminated (not counted in *size). PF_ERR_IO names path. */
 pf_status scene_read_file(const char *path, char **out, size_t *size, pf_error *err);

@@ -28,7 +28,7 @@ static int climbs_out(const char *relative)
     return 0;
 }
 
-int scene_path_inside(const char *scene_file, const char *path)
+static int path_inside(const char *scene_file, const char *path)
 {
     char scene_dir[PATH_MAX], target_dir[PATH_MAX], resolved[PATH_MAX], buffer[PATH_MAX];
     const char *slash = strrchr(scene_file, '/');
@@ -56,3 +56,8 @@ int scene_path_inside(const char *scene_file, const char *path)
     return strncmp(check, scene_dir, length) == 0 && (check[length] == '/' || !check[length]);
 }
 
+
+int scene_path_allowed(const pf_scene *scene, const char *path)
+{
+    return scene->allow_outside_dir || path_inside(scene->path, path);
+}

@@ -499,6 +499,21 @@ PF_TEST(referenced_files_stay_inside_the_scene_directory)
     PF_CHECK_MSG(strstr(err.message, "../secret.mtl") && strstr(err.message, "outside"), "%s",
                  err.message);
     pf_scene_destroy(scene);
+
+    /* Asked for explicitly (--allow-outside-scene-dir), both load. */
+    pf_scene_load_options allow = {.allow_outside_scene_dir = 1};
+    scene = NULL;
+    PF_CHECK_OK(pf_scene_load_with(path, &allow, &scene, &err), &err);
+    PF_CHECK(scene && pf_scene_get_info(scene)->triangle_count == 1);
+    pf_scene_destroy(scene);
+    scene = NULL;
+    quad_with_uri(dir, "up.gltf", "../secret.bin", path, sizeof path);
+    PF_CHECK_OK(pf_scene_load_with(path, &allow, &scene, &err), &err);
+    pf_scene_destroy(scene);
+    scene = NULL;
+    PF_CHECK(pf_scene_load_with(path, NULL, &scene, &err) == PF_ERR_INVALID);
+    PF_CHECK_MSG(strstr(err.message, "--allow-outside-scene-dir") != NULL, "%s", err.message);
+    pf_scene_destroy(scene);
 }
 
 int main(void)

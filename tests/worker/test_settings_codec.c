@@ -108,11 +108,15 @@ static int parse_argv(const char *const *argv, size_t count, pf_render_settings 
 static void expect_json_round_trip(const pf_render_settings *settings, const char *what)
 {
     char json[2048];
-    PF_REQUIRE(pf_job_params_format(settings, "name", json, sizeof json));
+    pf_job_extras extras = {"name", 1};
+    PF_REQUIRE(pf_job_params_format(settings, &extras, json, sizeof json));
     pf_render_settings decoded;
     pf_error err = {0};
     PF_CHECK_OK(pf_job_params_parse(json, &decoded, &err), &err);
     PF_CHECK_MSG(settings_equal(settings, &decoded), "%s: %s", what, json);
+    char name[16];
+    pf_job_params_name(json, name, sizeof name);
+    PF_CHECK(!strcmp(name, "name") && pf_job_params_allow_outside(json) == 1);
 }
 
 PF_TEST(the_command_line_sets_every_field)

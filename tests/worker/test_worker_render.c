@@ -407,6 +407,45 @@ PF_TEST(a_vanished_scene_pauses_its_job_and_blames_no_worker)
     PF_CHECK(!strcmp(first_task(db, job_id).status, "done"));
 }
 
+/*
+ * A scene whose material library lies outside its directory: enqueue refuses
+ * it (exit 2, naming the reference and the option that permits it) unless
+ * --allow-outside-scene-dir, which the job carries to the worker.
+ */
+PF_TEST(a_scene_reaching_outside_its_directory_renders_only_when_the_job_allows_it)
+{
+    char out[WT_PATH_MAX + 32], db[WT_PATH_MAX + 32], sub[WT_PATH_MAX + 32],
+        obj[WT_PATH_MAX + 64], mtl[WT_PATH_MAX + 32], pattern[2 * WT_PATH_MAX],
+        args[8 * WT_PATH_MAX];
+    wt_fresh_dir("outside-out", out, sizeof out);
+    wt_fresh_dir("outside-scene", sub, sizeof sub);
+    wt_format(db, sizeof db, "%s/outside.db", dir);
+    wt_format(obj, sizeof obj, "%s/tri.obj", sub);
+    wt_format(mtl, sizeof mtl, "%s/outside.mtl", dir);
+    wt_format(pattern, sizeof pattern, "%s/o.####.exr", out);
+    unlink(db);
+    FILE *file = fopen(mtl, "w");
+    PF_REQUIRE(file != NULL);
+    fputs("newmtl red\nKd 1 0 0\n", file);
+    fclose(file);
+    file = fopen(obj, "w");
+    PF_REQUIRE(file != NULL);
+    fputs("mtllib ../outside.mtl\nv -1 -1 -3\nv 1 -1 -3\nv 0 1 -3\nusemtl red\nf 1 2 3\n", file);
+    fclose(file);
+    wt_format(args, sizeof args,
+              "enqueue '%s' --frames 1 --out '%s' --size 16x16 --quality preview --db '%s'", obj,
+              pattern, db);
+    PF_CHECK(wt_run(args, log_path) == 2);
+    PF_CHECK(wt_file_contains(log_path, "../outside.mtl"));
+    PF_CHECK(wt_file_contains(log_path, "--allow-outside-scene-dir"));
+    int64_t job_id = enqueue(db, obj, "1", pattern, "--allow-outside-scene-dir");
+    PF_REQUIRE(job_id > 0);
+    wt_format(args, sizeof args, "worker --once --db '%s'", db);
+    PF_CHECK(wt_run(args, log_path) == 0);
+    PF_CHECK(!strcmp(first_task(db, job_id).status, "done"));
+    PF_CHECK(wt_count_files(out, ".exr") == 1);
+}
+
 /* Starts a held worker on a one-frame job, signals it (once or twice) mid-frame. */
 static void signal_mid_frame(int signal_count)
 {
@@ -583,6 +622,7 @@ int main(void)
     PF_RUN(failing_frames_record_each_attempt_and_stop_at_max_attempts);
     PF_RUN(a_worker_failing_a_jobs_frames_is_blocked_and_status_says_so);
     PF_RUN(a_vanished_scene_pauses_its_job_and_blames_no_worker);
+    PF_RUN(a_scene_reaching_outside_its_directory_renders_only_when_the_job_allows_it);
     PF_RUN(sigterm_drains_the_current_frame);
     PF_RUN(a_second_sigterm_releases_the_frame);
     PF_RUN(a_worker_whose_lease_was_taken_over_never_writes);

@@ -81,8 +81,15 @@ int64_t wt_enqueue(const char *arguments, const char *log_path)
     wt_format(command, sizeof command, "enqueue %s", arguments);
     int code = wt_run(command, log_path);
     PF_CHECK_MSG(code == 0, "enqueue exited %d", code);
+    /* The id is stdout's one line; stderr (warnings, the summary) shares the log. */
     char *printed = code == 0 ? wt_read_file(log_path, NULL) : NULL;
-    int64_t job_id = printed ? atoll(printed) : 0;
+    int64_t job_id = 0;
+    for (char *line = printed; line && *line && !job_id; line = strchr(line, '\n')) {
+        line += *line == '\n';
+        size_t digits = strspn(line, "0123456789");
+        if (digits > 0 && (line[digits] == '\n' || line[digits] == '\0'))
+            job_id = atoll(line);
+    }
     free(printed);
     return job_id;
 }
