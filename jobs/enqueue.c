@@ -28,13 +28,49 @@ static pf_status insert_task(pf_queue *queue, sqlite3_stmt *stmt, int64_t job_id
     return PF_OK;
 }
 
+/* Asks spec->conflicts about every unfinished job; the first conflict fails the enqueue. */
+static pf_status check_conflicts(pf_queue *queue, const pf_queue_job_spec *spec, pf_error *err)
+{
+    if (!spec->conflicts)
+        return PF_OK;
+    sqlite3_stmt *stmt;
+    pf_status status = queue_prepare(queue,
+                                     "SELECT id, status, parameters, frame_range, output_pattern "
+                                     "FROM jobs WHERE status IN ('queued', 'running', 'paused') "
+                                     "ORDER BY id",
+                                     &stmt, err);
+    if (status != PF_OK)
+        return status;
+    int rc;
+    while (status == PF_OK && (rc = sqlite3_step(stmt)) == SQLITE_ROW) {
+        pf_queue_job other = {0};
+        other.job_id = sqlite3_column_int64(stmt, 0);
+        queue_copy_text(other.status, sizeof other.status, queue_column_text(stmt, 1));
+        other.parameters_json = (char *)queue_column_text(stmt, 2);
+        other.frame_range = (char *)queue_column_text(stmt, 3);
+        other.output_pattern = (char *)queue_column_text(stmt, 4);
+        char reason[PF_ERROR_MESSAGE_MAX];
+        reason[0] = '\0';
+        if (spec->conflicts(&other, spec->conflicts_user, reason, sizeof reason))
+            status = pf_error_set(err, PF_ERR_INVALID, "%s",
+                                  reason[0] ? reason : "conflicts with an unfinished job");
+    }
+    if (status == PF_OK && rc != SQLITE_DONE)
+        status = queue_db_error(queue, err, "checking unfinished jobs");
+    sqlite3_finalize(stmt);
+    return status;
+}
+
 static pf_status enqueue_body(pf_queue *queue, void *context, pf_error *err)
 {
     enqueue_context *ctx = context;
     const pf_queue_job_spec *spec = ctx->spec;
     int64_t now = pf_queue_now(queue);
     sqlite3_stmt *stmt;
-    pf_status status = queue_prepare(
+    pf_status status = check_conflicts(queue, spec, err);
+    if (status != PF_OK)
+        return status;
+    status = queue_prepare(
         queue,
         "INSERT INTO jobs (scene_path, parameters, frame_range, output_pattern, priority, "
         "max_attempts, frames_per_task, created_at, updated_at) "

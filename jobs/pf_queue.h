@@ -105,6 +105,17 @@ int64_t pf_queue_now(pf_queue *queue);
 
 /* ---- Enqueue ------------------------------------------------------------- */
 
+typedef struct pf_queue_job pf_queue_job;
+
+/*
+ * Whether the job being enqueued conflicts with other, an unfinished job
+ * (queued, running or paused; only job_id, status, parameters_json,
+ * frame_range and output_pattern are filled): nonzero refuses it, with
+ * reason (NUL-terminated, at most reason_size bytes) as the error message.
+ */
+typedef int (*pf_queue_conflict_fn)(const pf_queue_job *other, void *user, char *reason,
+                                    size_t reason_size);
+
 typedef struct pf_queue_job_spec {
     const char *scene_path;      /* required; stored as given */
     const char *parameters_json; /* opaque JSON text (size, quality, spp, seed...); NULL → "{}" */
@@ -113,6 +124,11 @@ typedef struct pf_queue_job_spec {
     int priority;                /* higher is claimed first */
     int max_attempts;            /* 0 → 3 */
     int frames_per_task;         /* 0 → 1 */
+    /* NULL: no check. Run inside the insert's own write transaction, so two
+     * enqueues racing each other cannot both pass it (e.g. two jobs writing
+     * the same files). */
+    pf_queue_conflict_fn conflicts;
+    void *conflicts_user;
 } pf_queue_job_spec;
 
 /*
@@ -121,7 +137,8 @@ typedef struct pf_queue_job_spec {
  * an arithmetic run first..last by step, so "1,5,9-12" with 2 per task gives
  * {1,5}, {9,10}, {11,12}. Invalid spec (missing field, bad range, parameters
  * that are not JSON, max_attempts or frames_per_task < 0) → PF_ERR_INVALID and
- * nothing inserted. Fills *job_id.
+ * nothing inserted; a conflict (spec->conflicts) → PF_ERR_INVALID with its
+ * reason and nothing inserted. Fills *job_id.
  */
 pf_status pf_queue_enqueue(pf_queue *queue, const pf_queue_job_spec *spec, int64_t *job_id,
                            pf_error *err);
@@ -286,7 +303,7 @@ pf_status pf_queue_retry(pf_queue *queue, int64_t job_id, int64_t *requeued, pf_
 
 /* ---- Queries ------------------------------------------------------------- */
 
-typedef struct pf_queue_job {
+struct pf_queue_job {
     int64_t job_id;
     char status[16]; /* queued running paused done failed canceled */
     int priority;
@@ -306,7 +323,7 @@ typedef struct pf_queue_job {
     /* "" or why the job cannot progress, e.g. "no eligible worker: all 2 live
      * workers are blocked for this job", or "paused: <pause reason>". */
     char note[640];
-} pf_queue_job;
+};
 
 /* Fills *out with job_id's row and progress. Unknown job → PF_ERR_INVALID. */
 pf_status pf_queue_job_get(pf_queue *queue, int64_t job_id, pf_queue_job *out, pf_error *err);

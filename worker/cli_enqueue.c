@@ -184,48 +184,45 @@ static void free_files(char **paths, size_t count)
     free(paths);
 }
 
+/* This job's output files, sorted, for output_conflict. */
+typedef struct our_files {
+    char **paths;
+    size_t count;
+} our_files;
+
 /*
- * An unfinished job (queued, running or paused) that writes one of the files
- * this job would write: the two would overwrite each other's frames. Exit 2
- * naming the job and a shared file, unless --force.
+ * pf_queue_conflict_fn: an unfinished job (queued, running or paused) that
+ * writes one of the files this job would write; the two would overwrite each
+ * other's frames. Asked by the queue inside the insert's transaction, so two
+ * enqueues racing for the same files cannot both pass. Not asked with --force.
  */
-static int check_collisions(pf_queue *queue, const char *pattern, const pf_frame_list *frames)
+static int output_conflict(const pf_queue_job *other, void *user, char *reason,
+                           size_t reason_size)
 {
-    pf_queue_job *jobs = NULL;
-    size_t job_count = 0;
+    const our_files *ours = user;
+    pf_frame_list theirs_frames = {0};
     pf_error err = {0};
-    pf_status status = pf_queue_job_list(queue, &jobs, &job_count, &err);
-    if (status != PF_OK)
-        return pf_cli_fail(COMMAND, pf_status_exit_code(status), "%s", err.message);
-    char **ours = output_files(pattern, frames);
-    int code = ours ? 0 : pf_cli_fail(COMMAND, 1, "out of memory listing output files");
-    for (size_t j = 0; j < job_count && !code; j++) {
-        const pf_queue_job *job = &jobs[j];
-        if (strcmp(job->status, "queued") && strcmp(job->status, "running") &&
-            strcmp(job->status, "paused"))
-            continue;
-        pf_frame_list theirs_frames = {0};
-        if (pf_frame_range_parse(job->frame_range, &theirs_frames, &err) != PF_OK)
-            continue; /* the queue validated it; nothing to compare if it cannot be read */
-        char **theirs = output_files(job->output_pattern, &theirs_frames);
-        for (size_t i = 0; theirs && i < frames->count && !code; i++) {
-            if (bsearch(&ours[i], theirs, theirs_frames.count, sizeof *theirs, compare_paths)) {
-                char name[128], shown[PF_CLI_PATH_MAX];
-                pf_job_params_name(job->parameters_json, name, sizeof name);
-                code = pf_cli_fail(COMMAND, 2,
-                                   "--out: job %" PRId64 "%s%s%s (%s) already writes %s; "
-                                   "--force enqueues anyway",
-                                   job->job_id, name[0] ? " \"" : "",
-                                   pf_cli_printable(name, shown, sizeof shown),
-                                   name[0] ? "\"" : "", job->status, ours[i]);
-            }
+    if (pf_frame_range_parse(other->frame_range, &theirs_frames, &err) != PF_OK)
+        return 0; /* the queue validated it; nothing to compare if it cannot be read */
+    char **theirs = output_files(other->output_pattern, &theirs_frames);
+    int conflict = 0;
+    for (size_t i = 0; theirs && i < ours->count && !conflict; i++) {
+        if (bsearch(&ours->paths[i], theirs, theirs_frames.count, sizeof *theirs,
+                    compare_paths)) {
+            char name[128], shown[PF_CLI_PATH_MAX];
+            pf_job_params_name(other->parameters_json, name, sizeof name);
+            snprintf(reason, reason_size,
+                     "--out: job %" PRId64 "%s%s%s (%s) already writes %s; --force enqueues "
+                     "anyway",
+                     other->job_id, name[0] ? " \"" : "",
+                     pf_cli_printable(name, shown, sizeof shown), name[0] ? "\"" : "",
+                     other->status, ours->paths[i]);
+            conflict = 1;
         }
-        free_files(theirs, theirs_frames.count);
-        pf_frame_list_free(&theirs_frames);
     }
-    free_files(ours, frames->count);
-    pf_queue_job_list_free(jobs, job_count);
-    return code;
+    free_files(theirs, theirs_frames.count);
+    pf_frame_list_free(&theirs_frames);
+    return conflict;
 }
 
 /* Loads the scene (proving it renders) and checks every frame is one of its frames. */
@@ -287,8 +284,9 @@ int pf_cli_enqueue(int argc, char **argv)
     const char *db_path = pf_cli_db_path(options.db);
     if (!code)
         code = pf_cli_open_queue(COMMAND, db_path, 0, &queue);
-    if (!code && !options.force)
-        code = check_collisions(queue, pattern, &frames);
+    our_files ours = {NULL, frames.count};
+    if (!code && !options.force && !(ours.paths = output_files(pattern, &frames)))
+        code = pf_cli_fail(COMMAND, 1, "out of memory listing output files");
     pf_frame_list_free(&frames);
     if (code) {
         if (queue)
@@ -301,10 +299,13 @@ int pf_cli_enqueue(int argc, char **argv)
                               pattern,
                               (int)options.priority,
                               (int)options.max_attempts,
-                              (int)options.frames_per_task};
+                              (int)options.frames_per_task,
+                              options.force ? NULL : output_conflict,
+                              &ours};
     int64_t job_id = 0;
     pf_status status = pf_queue_enqueue(queue, &spec, &job_id, &err);
     pf_queue_close(queue);
+    free_files(ours.paths, ours.count);
     if (status != PF_OK)
         return pf_cli_fail(COMMAND, pf_status_exit_code(status), "%s", err.message);
     printf("%" PRId64 "\n", job_id);

@@ -835,6 +835,78 @@ PF_TEST(locked_database_is_retried_then_reported)
     pf_queue_close(queue);
 }
 
+/* What conflict_probe saw and did. */
+typedef struct conflict_probe_state {
+    pf_queue *other_connection;
+    int calls;
+    int64_t last_seen;
+    pf_status other_status;
+    int refuse;
+} conflict_probe_state;
+
+/* Tries an enqueue on another connection from inside the first one's check. */
+static int conflict_probe(const pf_queue_job *other, void *user, char *reason, size_t size)
+{
+    conflict_probe_state *state = user;
+    state->calls++;
+    state->last_seen = other->job_id;
+    pf_queue_job_spec spec = {.scene_path = "s.gltf", .frame_range = "1",
+                              .output_pattern = "elsewhere.exr"};
+    int64_t job_id = 0;
+    pf_error err = {0};
+    state->other_status = pf_queue_enqueue(state->other_connection, &spec, &job_id, &err);
+    snprintf(reason, size, "job %lld writes %s", (long long)other->job_id,
+             other->output_pattern);
+    return state->refuse;
+}
+
+/*
+ * The conflict check of an enqueue runs inside its write transaction: while
+ * it runs no other connection can insert a job (so two enqueues racing for
+ * the same files cannot both pass), a refusal inserts nothing, and only
+ * unfinished jobs are asked about.
+ */
+PF_TEST(enqueue_conflicts_are_decided_under_the_write_lock)
+{
+    pf_queue *queue = open_fresh("conflict.db");
+    PF_REQUIRE(queue);
+    char dir[1024], path[1200];
+    snprintf(path, sizeof path, "%s/conflict.db", pf_test_tmpdir(dir, sizeof dir));
+    pf_error err = {0};
+    pf_queue *other = NULL;
+    pf_queue_options options = test_options;
+    options.busy_timeout_ms = 20;
+    PF_REQUIRE_OK(open_queue(path, &options, &clock_now, &other, &err), &err);
+    int64_t first = enqueue(queue, "1-2", 0, 1, 0);
+    int64_t canceled = enqueue(queue, "1", 0, 1, 0);
+    PF_CHECK_OK(pf_queue_cancel(queue, canceled, &err), &err);
+    conflict_probe_state state = {other, 0, 0, PF_OK, 1};
+    pf_queue_job_spec spec = {.scene_path = "s.gltf", .frame_range = "2",
+                              .output_pattern = "out/f_####.exr", .conflicts = conflict_probe,
+                              .conflicts_user = &state};
+    int64_t job_id = 0;
+    PF_CHECK(pf_queue_enqueue(queue, &spec, &job_id, &err) == PF_ERR_INVALID);
+    PF_CHECK_MSG(!strcmp(err.message, "job 1 writes out/f_####.exr"), "%s", err.message);
+    PF_CHECK_MSG(state.calls == 1 && state.last_seen == first, "%d calls, last job %lld",
+                 state.calls, (long long)state.last_seen);
+    PF_CHECK_MSG(state.other_status == PF_ERR_IO, "the other connection's enqueue: %d",
+                 state.other_status);
+    pf_queue_job *jobs = NULL;
+    size_t count = 0;
+    PF_CHECK_OK(pf_queue_job_list(queue, &jobs, &count, &err), &err);
+    PF_CHECK_MSG(count == 2, "%zu jobs", count);
+    pf_queue_job_list_free(jobs, count);
+    /* No conflict: inserted (and the other connection, no longer locked out, too). */
+    state.refuse = 0;
+    PF_CHECK_OK(pf_queue_enqueue(queue, &spec, &job_id, &err), &err);
+    PF_CHECK(job_id > canceled);
+    PF_CHECK_OK(pf_queue_job_list(queue, &jobs, &count, &err), &err);
+    PF_CHECK_MSG(count == 3, "%zu jobs", count);
+    pf_queue_job_list_free(jobs, count);
+    pf_queue_close(other);
+    pf_queue_close(queue);
+}
+
 /* A worker is dead once silent for its own lease, not a fixed window (issue 14). */
 PF_TEST(workers_are_dead_after_their_own_lease)
 {
@@ -893,5 +965,6 @@ int main(void)
     PF_RUN(reaping_counts_attempts_and_blocks_the_silent_worker);
     PF_RUN(locked_database_is_retried_then_reported);
     PF_RUN(workers_are_dead_after_their_own_lease);
+    PF_RUN(enqueue_conflicts_are_decided_under_the_write_lock);
     return pf_test_finish();
 }

@@ -27,15 +27,11 @@ static int64_t job_count(void)
     return (int64_t)count;
 }
 
-/* Runs an enqueue command line; the job id it printed, or 0 (the test has failed) if none. */
+/* Runs "enqueue ..." (args start with it); the job id it printed, or 0 (the test has failed). */
 static int64_t enqueue_job(const char *args)
 {
-    PF_CHECK(wt_run(args, log_path) == 0);
-    char *printed = wt_read_file(log_path, NULL);
-    PF_CHECK(printed != NULL);
-    int64_t job_id = printed ? atoll(printed) : 0;
-    free(printed);
-    return job_id;
+    PF_CHECK(!strncmp(args, "enqueue ", 8));
+    return wt_enqueue(args + 8, log_path);
 }
 
 PF_TEST(enqueue_inserts_a_validated_job_and_prints_its_id)
@@ -348,6 +344,35 @@ PF_TEST(jobs_writing_the_same_files_are_refused)
     PF_CHECK(enqueue_job(args) > 0);
 }
 
+/*
+ * Enqueues racing for the same files: the check runs inside the insert's
+ * transaction, so exactly one of them gets in and the others exit 2.
+ */
+PF_TEST(racing_enqueues_of_the_same_files_admit_exactly_one)
+{
+    enum { RACERS = 6 };
+    char pattern[WT_PATH_MAX + 64], logs[RACERS][WT_PATH_MAX + 32];
+    wt_format(pattern, sizeof pattern, "%s/race.####.exr", out_dir);
+    int64_t before = job_count();
+    pid_t pids[RACERS];
+    for (int i = 0; i < RACERS; i++) {
+        wt_format(logs[i], sizeof logs[i], "%s/race%d.log", dir, i);
+        unlink(logs[i]);
+        const char *args[] = {"enqueue", scene, "--frames", "1-2", "--out", pattern, "--db", db,
+                              NULL};
+        pids[i] = wt_spawn(args, logs[i], NULL);
+    }
+    int admitted = 0, refused = 0;
+    for (int i = 0; i < RACERS; i++) {
+        int code = wt_wait(pids[i], 60000);
+        admitted += code == 0;
+        refused += code == 2 && wt_file_contains(logs[i], "already writes");
+    }
+    PF_CHECK_MSG(admitted == 1 && refused == RACERS - 1, "%d admitted, %d refused", admitted,
+                 refused);
+    PF_CHECK(job_count() == before + 1);
+}
+
 /* cancel removes what its tasks' killed workers left behind, and nothing else. */
 PF_TEST(cancel_removes_the_jobs_unfinished_frame_files)
 {
@@ -399,6 +424,7 @@ int main(void)
     PF_RUN(database_in_a_missing_directory_exits_2_everywhere);
     PF_RUN(worker_refuses_a_database_that_does_not_exist);
     PF_RUN(jobs_writing_the_same_files_are_refused);
+    PF_RUN(racing_enqueues_of_the_same_files_admit_exactly_one);
     PF_RUN(cancel_removes_the_jobs_unfinished_frame_files);
     return pf_test_finish();
 }
