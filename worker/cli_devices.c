@@ -36,7 +36,8 @@ static void usage(FILE *out)
 /* Index the device selector picks ("" = automatic choice), via the real selection code. */
 static pf_status chosen_index(const char *selector, uint32_t *index, pf_error *err)
 {
-    pf_vk_options options = {.device_selector = selector, .validation = 0};
+    pf_vk_options options = pf_cli_vk_options(selector, NULL);
+    options.validation = 0; /* only the choice matters here */
     pf_vk_context *ctx = NULL;
     pf_status status = pf_vk_create(&options, &ctx, err);
     if (status != PF_OK)
@@ -158,7 +159,7 @@ int pf_cli_devices(int argc, char **argv)
     if (status != PF_OK)
         return pf_cli_fail("devices", pf_status_exit_code(status), "%s", err.message);
     uint32_t default_index = 0, selected_index = 0;
-    status = chosen_index("", &default_index, &err);
+    status = chosen_index("", &default_index, &err); /* "": the automatic choice */
     if (status == PF_OK)
         status = chosen_index(selector, &selected_index, &err);
     if (status != PF_OK) {

@@ -271,9 +271,8 @@ int pf_cli_render(int argc, char **argv)
         }
     }
     char cache_dir[PF_CLI_PATH_MAX];
-    pf_vk_options vk_options = {options.device, -1,
-                                pf_cli_cache_dir(COMMAND, options.cache_dir, cache_dir,
-                                                 sizeof cache_dir)};
+    pf_vk_options vk_options = pf_cli_vk_options(
+        options.device, pf_cli_cache_dir(COMMAND, options.cache_dir, cache_dir, sizeof cache_dir));
     status = pf_vk_create(&vk_options, &session.ctx, &err);
     if (status == PF_OK)
         status = pf_renderer_create(session.ctx, &session.renderer, &err);

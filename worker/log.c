@@ -95,3 +95,15 @@ const char *pf_wlog_quote(const char *text, char *out, size_t size)
     out[used] = '\0';
     return out;
 }
+
+static void core_sink(pf_log_level level, const char *message, void *user)
+{
+    (void)user;
+    char quoted[PF_ERROR_MESSAGE_MAX + 8];
+    pf_wlog(level, "core", "message=%s", pf_wlog_quote(message, quoted, sizeof quoted));
+}
+
+void pf_wlog_capture_core(void)
+{
+    pf_log_set_sink(core_sink, NULL);
+}

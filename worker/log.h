@@ -26,6 +26,14 @@ void pf_wlog_exclusive(void (*fn)(void *user), void *user);
 void pf_wlog(pf_log_level level, const char *event, const char *format, ...)
     __attribute__((format(printf, 3, 4)));
 
+/*
+ * Routes core's pf_log messages (scene warnings, Vulkan validation, pipeline
+ * cache notices) into this log as event=core lines with the message quoted,
+ * so the worker's log is one format a shipper can parse. The worker installs
+ * it at start.
+ */
+void pf_wlog_capture_core(void);
+
 /* Writes text into out as a double-quoted value with '"', '\\' and control
  * characters escaped, truncating to fit; returns out. */
 const char *pf_wlog_quote(const char *text, char *out, size_t size);

@@ -6,6 +6,8 @@
 #ifndef PF_CLI_H
 #define PF_CLI_H
 
+#include "pf_vk.h"
+
 #include <stddef.h>
 
 int pf_cli_devices(int argc, char **argv);
@@ -49,5 +51,12 @@ const char *pf_cli_printable(const char *text, char *buffer, size_t size);
  * and returns buffer; NULL (after a warning when creation failed) for none.
  */
 const char *pf_cli_cache_dir(const char *command, const char *option, char *buffer, size_t size);
+
+/*
+ * A command's Vulkan options (cli_environment.c): device_option (NULL: not
+ * given, then $PHOTONFARM_DEVICE, else automatic), validation from
+ * $PF_VK_VALIDATION, the pipeline cache in cache_dir (NULL: none).
+ */
+pf_vk_options pf_cli_vk_options(const char *device_option, const char *cache_dir);
 
 #endif

@@ -27,8 +27,6 @@
  * worker's lease comes back soon after it expires, rarely enough to stay cheap. */
 #define MAINTENANCE_MIN_MS 500
 #define MAINTENANCE_MAX_MS 15000
-/* Step of the test delay hook, so an abort is noticed quickly. */
-#define TEST_DELAY_STEP_MS 20
 
 typedef enum worker_state {
     STATE_IDLE,      /* poll timer armed */
@@ -75,7 +73,6 @@ struct worker {
     int64_t frames_processed;
     int maintenance_in_flight, heartbeat_in_flight;
     int exit_code;
-    int64_t test_delay_ms;
 
     /* The current task and its job (owned by the loop thread, read by work). */
     pf_queue_task task;
@@ -395,13 +392,6 @@ static void finish_done(db_op *op)
 
 /* ---- render work ----------------------------------------------------------- */
 
-static void test_delay(worker *w)
-{
-    for (int64_t waited = 0; waited < w->test_delay_ms && !atomic_load(&w->abort);
-         waited += TEST_DELAY_STEP_MS)
-        uv_sleep(TEST_DELAY_STEP_MS);
-}
-
 /* Pipelines compiled for this frame are written out now, so that a worker
  * killed later still leaves them cached for the next process (a no-op when
  * nothing new was compiled). */
@@ -481,8 +471,6 @@ static void render_work(uv_work_t *request)
         }
         save_pipeline_cache(w);
     }
-    if (w->test_delay_ms > 0)
-        test_delay(w);
 }
 
 static void render_after(uv_work_t *request, int uv_status)
@@ -726,7 +714,7 @@ static int open_everything(worker *w)
         fprintf(stderr, "photonfarm worker: %s\n", err.message);
         return pf_status_exit_code(status);
     }
-    pf_vk_options vk_options = {w->config.device, -1, w->config.cache_dir};
+    pf_vk_options vk_options = pf_cli_vk_options(w->config.device, w->config.cache_dir);
     status = pf_vk_create(&vk_options, &w->vk, &err);
     if (status == PF_OK)
         status = pf_renderer_create(w->vk, &w->renderer, &err);
@@ -778,12 +766,12 @@ int pf_worker_run(const pf_worker_config *config)
     }
     w->config = *config;
     w->lease_ms = (int64_t)(config->lease_seconds * 1000.0);
-    const char *delay = getenv("PF_WORKER_TEST_DELAY_MS");
-    w->test_delay_ms = delay ? atoll(delay) : 0;
+    pf_wlog_capture_core();
     int code = open_everything(w);
     if (code != 0) {
         close_everything(w);
         free(w);
+        pf_log_set_sink(NULL, NULL);
         return code;
     }
     w->show_progress = isatty(fileno(stderr));
@@ -824,5 +812,6 @@ int pf_worker_run(const pf_worker_config *config)
     close_everything(w);
     code = w->exit_code;
     free(w);
+    pf_log_set_sink(NULL, NULL);
     return code;
 }

@@ -4,12 +4,9 @@
  * timer, completes or fails them fenced by the lease token, reaps expired
  * leases of dead workers, and drains on SIGINT/SIGTERM. Every database call
  * runs on libuv's thread pool, serialized by one mutex around the one
- * connection.
- *
- * Test hook: $PF_WORKER_TEST_DELAY_MS makes the render thread wait that long
- * after a task's EXRs are written to their temporaries and before it hands
- * them back (waking early on abort), so tests can kill, signal or steal the
- * lease of a worker that is provably mid-frame. Unset in production.
+ * connection. Core's log messages are routed into the worker's log
+ * (event=core) while it runs. Tests hold a worker mid-frame from outside
+ * (tests/worker/fault_inject.c), never through a hook in this code.
  */
 #ifndef PF_WORKER_LOOP_H
 #define PF_WORKER_LOOP_H

@@ -228,7 +228,7 @@ int main(int argc, char **argv)
     pf_error err = {0};
     pf_vk_context *ctx = NULL;
     pf_renderer *renderer = NULL;
-    pf_vk_options options = {NULL, -1};
+    pf_vk_options options = {NULL, 0};
     if (pf_vk_create(&options, &ctx, &err) != PF_OK ||
         pf_renderer_create(ctx, &renderer, &err) != PF_OK) {
         fprintf(stderr, "setup: %s\n", err.message);

@@ -127,7 +127,7 @@ int main(int argc, char **argv)
         fprintf(stderr, "%s\n", err.message);
         goto done;
     }
-    pf_vk_options options = {NULL, -1};
+    pf_vk_options options = {NULL, 0};
     if (pf_vk_create(&options, &ctx, &err) != PF_OK ||
         pf_renderer_create(ctx, &renderer, &err) != PF_OK) {
         fprintf(stderr, "setup: %s\n", err.message);

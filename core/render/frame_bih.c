@@ -23,8 +23,8 @@
  * 3.5-4× the build time, but the preview's shade time fell 2.1-7.4× on the
  * shared scenes (bench/RESULTS.md, "SAH tree for rendering"); the GPU build
  * stays the Morton tree.
- * $PHOTONFARM_BIH_BUILD = gpu | cpu overrides the choice (tests use it to
- * cover both paths). A refit always runs on the CPU: one O(n) pass over the
+ * pf_renderer_set_bih_build overrides the choice (tests use it to cover
+ * both paths). A refit always runs on the CPU: one O(n) pass over the
  * CPU copy that every build leaves in the renderer.
  */
 #include "render_internal.h"
@@ -35,24 +35,16 @@
 
 typedef enum bih_build_site { BUILD_ON_CPU, BUILD_ON_GPU } bih_build_site;
 
-static pf_status choose_build_site(const pf_renderer *renderer, bih_build_site *site,
-                                   pf_error *err)
+static bih_build_site choose_build_site(const pf_renderer *renderer)
 {
-    const char *forced = getenv("PHOTONFARM_BIH_BUILD");
-    if (forced && forced[0]) {
-        if (strcmp(forced, "gpu") == 0) {
-            *site = BUILD_ON_GPU;
-            return PF_OK;
-        }
-        if (strcmp(forced, "cpu") == 0) {
-            *site = BUILD_ON_CPU;
-            return PF_OK;
-        }
-        return pf_error_set(err, PF_ERR_INVALID,
-                            "PHOTONFARM_BIH_BUILD='%s': expected 'gpu' or 'cpu'", forced);
-    }
-    *site = strcmp(pf_vk_info(renderer->ctx)->type, "cpu") == 0 ? BUILD_ON_CPU : BUILD_ON_GPU;
-    return PF_OK;
+    if (renderer->bih_build_site != PF_BIH_BUILD_AUTO)
+        return renderer->bih_build_site == PF_BIH_BUILD_GPU ? BUILD_ON_GPU : BUILD_ON_CPU;
+    return strcmp(pf_vk_info(renderer->ctx)->type, "cpu") == 0 ? BUILD_ON_CPU : BUILD_ON_GPU;
+}
+
+void pf_renderer_set_bih_build(pf_renderer *renderer, pf_bih_build_site site)
+{
+    renderer->bih_build_site = site;
 }
 
 static pf_status build_tree(pf_renderer *renderer, const pf_scene_frame *frame,
@@ -186,10 +178,8 @@ pf_status pf_render_prepare_bih(pf_renderer *renderer, const pf_scene_frame *fra
                                 pf_frame_report *report, pf_error *err)
 {
     double start = pf_time_ms();
-    bih_build_site site = BUILD_ON_CPU;
-    pf_status status = choose_build_site(renderer, &site, err);
-    if (status != PF_OK)
-        return status;
+    bih_build_site site = choose_build_site(renderer);
+    pf_status status = PF_OK;
     if (!renderer->bih_gpu) {
         status = pf_bih_gpu_create(renderer->ctx, &renderer->bih_gpu, err);
         if (status != PF_OK)

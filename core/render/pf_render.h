@@ -141,6 +141,16 @@ void pf_stage_add_counter(pf_stage_timing *stage, const char *name, double value
 pf_status pf_renderer_create(pf_vk_context *ctx, pf_renderer **out, pf_error *err);
 void pf_renderer_destroy(pf_renderer *renderer);
 
+/* Where the bih_build stage builds a fresh tree (core/render/frame_bih.c). */
+typedef enum pf_bih_build_site {
+    PF_BIH_BUILD_AUTO = 0, /* the default: on the CPU when the device is the CPU, else the GPU */
+    PF_BIH_BUILD_CPU,
+    PF_BIH_BUILD_GPU
+} pf_bih_build_site;
+
+/* Forces the build site of later frames (tests cover both paths with it). */
+void pf_renderer_set_bih_build(pf_renderer *renderer, pf_bih_build_site site);
+
 /*
  * Renders one frame of an evaluated scene into image (allocated here) with
  * the integrator of settings->quality and appends its stage rows to report

@@ -58,6 +58,7 @@ struct pf_renderer {
      */
     double bih_sah;
     double bih_fresh_sah;
+    pf_bih_build_site bih_build_site; /* pf_renderer_set_bih_build */
     uint64_t bih_frames;
     pf_bih_gpu *bih_gpu;
     pf_bih_gpu_builder *bih_builder;

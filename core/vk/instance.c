@@ -157,21 +157,13 @@ void pf_vk_instance_destroy(pf_vk_context *ctx)
     ctx->instance = VK_NULL_HANDLE;
 }
 
-/* $PF_VK_VALIDATION: unset, empty or "0" is off; anything else is on. */
-static int validation_from_environment(void)
-{
-    const char *value = getenv("PF_VK_VALIDATION");
-    return value && value[0] && strcmp(value, "0") != 0;
-}
-
 pf_status pf_vk_create(const pf_vk_options *options, pf_vk_context **out, pf_error *err)
 {
     *out = NULL;
-    int validation = options && options->validation >= 0 ? options->validation != 0
-                                                         : validation_from_environment();
+    /* Core reads no environment: the CLI maps $PHOTONFARM_DEVICE and
+     * $PF_VK_VALIDATION to these options in one place (worker/cli_environment.c). */
+    int validation = options && options->validation;
     const char *selector = options ? options->device_selector : NULL;
-    if (!selector)
-        selector = getenv("PHOTONFARM_DEVICE");
 
     pf_vk_context *ctx = calloc(1, sizeof *ctx);
     if (!ctx)

@@ -4,11 +4,11 @@
  * GPU timestamp queries. Everything GPU-side in photonfarm goes through here.
  *
  * Device choice: a real GPU (discrete > integrated > virtual) when present, else
- * a CPU device (lavapipe). An explicit selector (CLI --device, or
- * $PHOTONFARM_DEVICE when the option is NULL) is either a decimal index into
+ * a CPU device (lavapipe). An explicit selector (the CLI's --device or
+ * $PHOTONFARM_DEVICE) is either a decimal index into
  * pf_vk_enumerate()'s list or a case-insensitive substring of the device name.
  *
- * Validation: when enabled (option, or $PF_VK_VALIDATION=1) the Khronos
+ * Validation: when enabled (the option; the CLI sets it from $PF_VK_VALIDATION) the Khronos
  * validation layer is loaded and every message it emits is printed to stderr
  * and counted; tests assert the count stays zero. Enabling it when the layer is
  * not installed is an error, never a silent downgrade.
@@ -48,8 +48,8 @@ typedef struct pf_vk_device_info {
 } pf_vk_device_info;
 
 typedef struct pf_vk_options {
-    const char *device_selector; /* NULL: $PHOTONFARM_DEVICE, else automatic */
-    int validation;              /* 1 on, 0 off, -1: from $PF_VK_VALIDATION */
+    const char *device_selector; /* NULL: the automatic choice */
+    int validation;              /* non-zero: the Khronos validation layer on (must be installed) */
     /* Directory of the persistent pipeline cache (created if missing); NULL or
      * "": pipelines are cached in memory for this context only. */
     const char *pipeline_cache_dir;

@@ -8,6 +8,7 @@
 
 #include "bih_test_util.h"
 #include "pf_render.h"
+#include "../vk/vk_test_util.h"
 
 typedef struct bih_gpu_env {
     pf_vk_context *ctx;
@@ -21,7 +22,7 @@ static inline int bih_gpu_env_create(bih_gpu_env *env)
 {
     memset(env, 0, sizeof *env);
     pf_error err = {0};
-    pf_vk_options options = {NULL, -1};
+    pf_vk_options options = vk_test_options();
     if (pf_vk_create(&options, &env->ctx, &err) != PF_OK ||
         pf_renderer_create(env->ctx, &env->renderer, &err) != PF_OK ||
         pf_bih_gpu_create(env->ctx, &env->gpu, &err) != PF_OK ||

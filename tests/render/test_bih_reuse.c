@@ -26,6 +26,8 @@ static const char *decision_prefix[] = {"geometry unchanged", "refit:", "rebuilt
 #define REFIT_SAH_TOLERANCE 1.10
 
 static pf_vk_context *ctx;
+/* The build site the renderers of the current test are forced to (AUTO: none). */
+static pf_bih_build_site forced_build = PF_BIH_BUILD_AUTO;
 
 static double counter(const pf_stage_timing *row, const char *name)
 {
@@ -96,6 +98,7 @@ static void check_matches_fresh_renderer(const char *label, const pf_scene_frame
     pf_renderer *fresh = NULL;
     pf_error err = {0};
     PF_REQUIRE_OK(pf_renderer_create(ctx, &fresh, &err), &err);
+    pf_renderer_set_bih_build(fresh, forced_build);
     pf_image expected = {0};
     rendered first = render(fresh, frame, &expected);
     PF_CHECK(first.decision == DECISION_BUILT);
@@ -299,10 +302,11 @@ static void scatter(hand_frame *scene, float reach)
 
 static void hand_built_sequence(const char *build_site)
 {
-    setenv("PHOTONFARM_BIH_BUILD", build_site, 1);
+    forced_build = !strcmp(build_site, "gpu") ? PF_BIH_BUILD_GPU : PF_BIH_BUILD_CPU;
     pf_renderer *renderer = NULL;
     pf_error err = {0};
     PF_REQUIRE_OK(pf_renderer_create(ctx, &renderer, &err), &err);
+    pf_renderer_set_bih_build(renderer, forced_build);
     hand_frame *scene = malloc(sizeof *scene), *other = malloc(sizeof *other);
     PF_REQUIRE(scene && other);
     pf_image image = {0};
@@ -371,7 +375,7 @@ static void hand_built_sequence(const char *build_site)
     pf_renderer_destroy(renderer);
     free(scene);
     free(other);
-    unsetenv("PHOTONFARM_BIH_BUILD");
+    forced_build = PF_BIH_BUILD_AUTO;
 }
 
 PF_TEST(hand_built_frames_with_cpu_builds)

@@ -118,6 +118,28 @@ PF_TEST(unusable_cache_directory_warns_and_renders)
     PF_CHECK_MSG(file_exists(path), "%s missing", path);
 }
 
+/* The CLI maps $PHOTONFARM_DEVICE to the device choice (core itself reads no
+ * environment); an explicit --device wins over it. */
+PF_TEST(the_environment_picks_the_device_through_the_cli)
+{
+    char scene[1024], args[8192];
+    pf_test_shared_scene("cornell-anim", scene, sizeof scene);
+    setenv("PHOTONFARM_DEVICE", "no-such-device-anywhere", 1);
+    snprintf(args, sizeof args,
+             "render '%s' --frame 1 --size 8x6 --quality preview -o '%s/e.####.exr'", scene,
+             tmpdir);
+    PF_CHECK(run_photonfarm(args) == 2);
+    PF_CHECK(log_contains("no-such-device-anywhere"));
+    PF_CHECK(run_photonfarm("devices") == 2);
+    PF_CHECK(log_contains("no-such-device-anywhere"));
+    snprintf(args, sizeof args,
+             "render '%s' --frame 1 --size 8x6 --quality preview -o '%s/e.####.exr' "
+             "--device 0",
+             scene, tmpdir);
+    PF_CHECK(run_photonfarm(args) == 0);
+    unsetenv("PHOTONFARM_DEVICE");
+}
+
 PF_TEST(bad_frames_scenes_and_options_exit_2)
 {
     char scene[1024], args[4096];
@@ -217,6 +239,7 @@ int main(void)
     snprintf(log_path, sizeof log_path, "%s/photonfarm.log", tmpdir);
     PF_RUN(renders_a_frame_range_to_numbered_exr_files);
     PF_RUN(unusable_cache_directory_warns_and_renders);
+    PF_RUN(the_environment_picks_the_device_through_the_cli);
     PF_RUN(bad_frames_scenes_and_options_exit_2);
     return pf_test_finish();
 }

@@ -25,7 +25,8 @@ static char cache_dir[1024];
 static pf_vk_context *cached_context(pf_error *err)
 {
     pf_vk_context *ctx = NULL;
-    pf_vk_options options = {NULL, -1, cache_dir};
+    pf_vk_options options = vk_test_options();
+    options.pipeline_cache_dir = cache_dir;
     if (pf_vk_create(&options, &ctx, err) != PF_OK) {
         fprintf(stderr, "pf_vk_create failed: %s\n", err->message);
         return NULL;

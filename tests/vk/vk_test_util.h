@@ -5,11 +5,22 @@
 #include "pf_test.h"
 #include "pf_vk.h"
 
+/* Options as the test environment asks for them: validation when
+ * PF_VK_VALIDATION is 1 (ctest sets it for VULKAN tests; core reads no
+ * environment itself). */
+static inline pf_vk_options vk_test_options(void)
+{
+    const char *validation = getenv("PF_VK_VALIDATION");
+    pf_vk_options options = {0};
+    options.validation = validation && !strcmp(validation, "1");
+    return options;
+}
+
 /* A context as the test environment asks for it (PF_VK_VALIDATION=1 under ctest). */
 static inline pf_vk_context *vk_test_context(pf_error *err)
 {
     pf_vk_context *ctx = NULL;
-    pf_vk_options options = {.device_selector = NULL, .validation = -1};
+    pf_vk_options options = vk_test_options();
     if (pf_vk_create(&options, &ctx, err) != PF_OK) {
         fprintf(stderr, "pf_vk_create failed: %s\n", err->message);
         return NULL;

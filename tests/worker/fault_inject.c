@@ -11,6 +11,11 @@
  *                    into the directory fail with EROFS;
  *                    "full": opening works, every write to a file there
  *                    fails with ENOSPC (what a full disk does)
+ *   PF_FAULT_HOLD_MS each rename of a frame's temporary in the directory
+ *                    (a name holding ".partial-") first waits this long, so
+ *                    a test can signal, kill or take the lease of a worker
+ *                    that is provably mid-frame with its temporary on disk
+ *                    (switch or not)
  */
 #define _GNU_SOURCE
 #include <dlfcn.h>
@@ -103,8 +108,21 @@ int openat(int dirfd, const char *path, int flags, ...)
     return NEXT(openat_fn, "openat")(dirfd, path, flags, mode);
 }
 
+/* PF_FAULT_HOLD_MS before the rename of a frame's temporary under PF_FAULT_DIR. */
+static void hold_frame(const char *from)
+{
+    const char *dir = getenv("PF_FAULT_DIR"), *hold = getenv("PF_FAULT_HOLD_MS");
+    if (!dir || !*dir || !hold || strncmp(from, dir, strlen(dir)) != 0 ||
+        !strstr(from, ".partial-"))
+        return;
+    long ms = atol(hold);
+    if (ms > 0)
+        usleep((useconds_t)ms * 1000u);
+}
+
 int rename(const char *from, const char *to)
 {
+    hold_frame(from);
     if (active_fault(to) == FAULT_READ_ONLY) {
         errno = EROFS;
         return -1;

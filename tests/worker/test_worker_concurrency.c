@@ -118,7 +118,9 @@ PF_TEST(a_killed_workers_frame_is_rendered_by_another_after_its_lease_expires)
     PF_REQUIRE(job_id > 0);
     const char *victim_args[] = {"worker", "--lease-seconds", "2", "--name", "victim",
                                  "--db", db, NULL};
-    pid_t victim = wt_spawn(victim_args, victim_log, "PF_WORKER_TEST_DELAY_MS=60000");
+    char env[8 * WT_PATH_MAX];
+    wt_fault_environment(env, sizeof env, out, NULL, NULL, 60000);
+    pid_t victim = wt_spawn(victim_args, victim_log, env);
     /* Mid-frame: its temporary EXR is on disk, the frame not yet handed back. */
     int partial = 0;
     for (int waited = 0; waited < 20000 && !partial; waited += 50) {

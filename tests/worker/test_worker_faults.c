@@ -29,19 +29,6 @@
 
 static char dir[WT_PATH_MAX], scene[WT_PATH_MAX + 32], log_path[WT_PATH_MAX + 32];
 
-/* The worker environment: the fault library after whatever is preloaded already. */
-static void fault_environment(char *out, size_t size, const char *out_dir, const char *flip,
-                              const char *kind, int hold_ms)
-{
-    const char *preloaded = getenv("LD_PRELOAD"), *library = getenv("PF_FAULT_INJECT_LIB");
-    PF_REQUIRE_MSG(library != NULL, "PF_FAULT_INJECT_LIB is not set");
-    wt_format(out, size,
-              "LD_PRELOAD=%s%s%s\nPF_FAULT_DIR=%s\nPF_FAULT_SWITCH=%s\nPF_FAULT_KIND=%s\n"
-              "ASAN_OPTIONS=verify_asan_link_order=0\nPF_WORKER_TEST_DELAY_MS=%d",
-              preloaded ? preloaded : "", preloaded ? " " : "", library, out_dir, flip, kind,
-              hold_ms);
-}
-
 static pf_queue_job job_now(const char *db, int64_t job_id)
 {
     pf_queue_job job = {0};
@@ -156,7 +143,7 @@ PF_TEST(a_full_output_disk_pauses_the_job_and_resume_finishes_it)
     int64_t job_id = wt_enqueue(args, log_path);
     PF_REQUIRE(job_id > 0);
     touch(flip);
-    fault_environment(env, sizeof env, out, flip, "full", 0);
+    wt_fault_environment(env, sizeof env, out, flip, "full", 0);
     const char *worker_args[] = {"worker", "--name", "w-full", "--idle-exit", "2", "--db", db,
                                  NULL};
     int code = wt_wait(wt_spawn(worker_args, worker_log, env), WAIT_MS);
@@ -206,7 +193,7 @@ static void chaos(const char *out, const char *db, const char *flip, pid_t pids[
               scene, CHAOS_FRAMES, out, db);
     int64_t job_id = wt_enqueue(args, log_path);
     PF_REQUIRE(job_id > 0);
-    fault_environment(env, sizeof env, out, flip, "read-only", HOLD_MS);
+    wt_fault_environment(env, sizeof env, out, flip, "read-only", HOLD_MS);
     for (int i = 0; i < 3; i++) {
         wt_format(logs[i], sizeof logs[i], "%s/chaos-worker%d.log", dir, i);
         wt_format(names[i], sizeof names[i], "w%d", i);

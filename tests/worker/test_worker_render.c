@@ -22,8 +22,9 @@
 #include <unistd.h>
 
 #define WORKER_TIMEOUT_MS 60000
-/* Holds a worker between writing its temporary EXR and handing it back. */
-#define HOLD_ENV "PF_WORKER_TEST_DELAY_MS=4000"
+/* How long a held worker keeps its frame's temporary EXR before handing it
+ * back (wt_fault_environment: fault_inject.c preloaded, no fault). */
+#define HOLD_MS 4000
 
 static char dir[WT_PATH_MAX], scene[WT_PATH_MAX + 32], log_path[WT_PATH_MAX + 32];
 
@@ -444,6 +445,9 @@ PF_TEST(a_scene_reaching_outside_its_directory_renders_only_when_the_job_allows_
     PF_CHECK(wt_run(args, log_path) == 0);
     PF_CHECK(!strcmp(first_task(db, job_id).status, "done"));
     PF_CHECK(wt_count_files(out, ".exr") == 1);
+    /* Core's own warning (an OBJ has no camera) reaches the worker's log in its format. */
+    PF_CHECK(wt_file_contains(log_path, "level=warn event=core message=\""));
+    PF_CHECK(wt_file_contains(log_path, "no camera"));
 }
 
 /* Starts a held worker on a one-frame job, signals it (once or twice) mid-frame. */
@@ -461,7 +465,9 @@ static void signal_mid_frame(int signal_count)
     int64_t job_id = enqueue(db, scene, "1", pattern, NULL);
     PF_REQUIRE(job_id > 0);
     const char *worker_args[] = {"worker", "--db", db, NULL};
-    pid_t pid = wt_spawn(worker_args, worker_log, HOLD_ENV);
+    char env[8 * WT_PATH_MAX];
+    wt_fault_environment(env, sizeof env, out, NULL, NULL, HOLD_MS);
+    pid_t pid = wt_spawn(worker_args, worker_log, env);
     PF_REQUIRE(wait_running(db, job_id, 20000));
     if (signal_count == 1) {
         /* While it renders, status and workers show who has which frame. */
@@ -521,7 +527,9 @@ PF_TEST(a_worker_whose_lease_was_taken_over_never_writes)
     int64_t job_id = enqueue(db, scene, "1", pattern, NULL);
     PF_REQUIRE(job_id > 0);
     const char *worker_args[] = {"worker", "--once", "--lease-seconds", "3", "--db", db, NULL};
-    pid_t pid = wt_spawn(worker_args, worker_log, HOLD_ENV);
+    char env[8 * WT_PATH_MAX];
+    wt_fault_environment(env, sizeof env, out, NULL, NULL, HOLD_MS);
+    pid_t pid = wt_spawn(worker_args, worker_log, env);
     PF_REQUIRE(wait_running(db, job_id, 20000));
 
     /* An hour later by the queue's clock, the lease has expired: reap it and

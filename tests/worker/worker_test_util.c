@@ -122,6 +122,18 @@ pid_t wt_spawn(const char *const *arguments, const char *log_path, const char *e
     return pid;
 }
 
+void wt_fault_environment(char *out, size_t size, const char *dir, const char *flip,
+                          const char *kind, int hold_ms)
+{
+    const char *preloaded = getenv("LD_PRELOAD"), *library = getenv("PF_FAULT_INJECT_LIB");
+    PF_CHECK_MSG(library != NULL, "PF_FAULT_INJECT_LIB is not set");
+    wt_format(out, size,
+              "LD_PRELOAD=%s%s%s\nPF_FAULT_DIR=%s\nPF_FAULT_SWITCH=%s\nPF_FAULT_KIND=%s\n"
+              "PF_FAULT_HOLD_MS=%d\nASAN_OPTIONS=verify_asan_link_order=0",
+              preloaded ? preloaded : "", preloaded ? " " : "", library ? library : "", dir,
+              flip ? flip : "", kind ? kind : "read-only", hold_ms);
+}
+
 int wt_wait(pid_t pid, int timeout_ms)
 {
     for (int waited = 0;; waited += 20) {

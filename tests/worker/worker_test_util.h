@@ -31,6 +31,16 @@ char *wt_read_file(const char *path, size_t *size);
  * with stdout+stderr appended to log_path and extra environment, one
  * "KEY=VALUE" per line (NULL for none); returns its pid. */
 pid_t wt_spawn(const char *const *arguments, const char *log_path, const char *environment);
+/*
+ * The environment (for wt_spawn) of a worker run with fault_inject.c
+ * preloaded after whatever is preloaded already: files under dir fail as on
+ * a read-only (kind "read-only") or full ("full") volume while flip exists
+ * (NULL: never), and each frame's temporary waits hold_ms before its rename.
+ * Needs $PF_FAULT_INJECT_LIB (set by CMake for the tests that use it).
+ */
+void wt_fault_environment(char *out, size_t size, const char *dir, const char *flip,
+                          const char *kind, int hold_ms);
+
 /* Waits up to timeout_ms for pid; returns its exit code, 128+signal when
  * killed, or -1 on timeout (the process is then killed). */
 int wt_wait(pid_t pid, int timeout_ms);
