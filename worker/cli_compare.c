@@ -4,6 +4,7 @@
  * max abs error, and per-channel means of both. Exit 0 ok, 2 bad usage or an
  * unreadable/mismatched image, 1 anything else.
  */
+#include "cli_options.h"
 #include "pf_cli.h"
 #include "pf_image.h"
 
@@ -11,25 +12,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-
-static void usage(FILE *out)
-{
-    fprintf(out,
-            "usage: photonfarm compare A.exr B.exr [--format text|json] [--rgb]\n"
-            "\n"
-            "Error of test image A against reference B, over the R, G, B channels\n"
-            "(every channel when the images have no R, G and B):\n"
-            "  RMSE     sqrt(mean (a - b)^2)\n"
-            "  relMSE   mean (a - b)^2 / (b^2 + %g)\n"
-            "  max      max |a - b|\n"
-            "and the mean of every channel in both images. Channels are matched by name;\n"
-            "the images must have the same size and the same channel names, unless\n"
-            "--rgb compares R, G, B alone (a preview against a reference's layers).\n"
-            "\n"
-            "exit status: 0 compared, 2 bad usage, unreadable file, size or channel\n"
-            "mismatch, 1 other failures.\n",
-            PF_RELMSE_EPSILON);
-}
 
 /* JSON has no NaN or infinity: those become null. */
 static void print_json_number(double value)
@@ -130,40 +112,35 @@ static void warn_filters(const char *const paths[2], pf_image_attribute *const a
 
 int pf_cli_compare(int argc, char **argv)
 {
-    const char *paths[2] = {NULL, NULL};
-    int path_count = 0;
-    int json = 0, rgb_only = 0;
-    for (int i = 1; i < argc; i++) {
-        if (!strcmp(argv[i], "--help") || !strcmp(argv[i], "-h")) {
-            usage(stdout);
-            return 0;
-        }
-        if (!strcmp(argv[i], "--format") || !strncmp(argv[i], "--format=", 9)) {
-            const char *value = argv[i][8] == '=' ? argv[i] + 9 : (i + 1 < argc ? argv[++i] : NULL);
-            if (!value)
-                return pf_cli_fail("compare", 2, "--format needs a value: text or json");
-            if (!strcmp(value, "json"))
-                json = 1;
-            else if (!strcmp(value, "text"))
-                json = 0;
-            else
-                return pf_cli_fail("compare", 2, "--format '%s': expected text or json", value);
-        } else if (!strcmp(argv[i], "--rgb")) {
-            rgb_only = 1;
-        } else if (argv[i][0] == '-' && argv[i][1] != '\0') {
-            usage(stderr);
-            return pf_cli_fail("compare", 2, "unknown option '%s'", argv[i]);
-        } else if (path_count < 2) {
-            paths[path_count++] = argv[i];
-        } else {
-            usage(stderr);
-            return pf_cli_fail("compare", 2, "too many arguments: '%s'", argv[i]);
-        }
-    }
-    if (path_count != 2) {
-        usage(stderr);
-        return pf_cli_fail("compare", 2, "need two EXR files, got %d", path_count);
-    }
+    const char *paths[2] = {NULL, NULL}, *format = "text";
+    int rgb_only = 0;
+    const pf_cli_option options[] = {
+        {"--format", NULL, "F", "text or json", "text", pf_cli_store_choice, &format, 0, 0,
+         "text|json"},
+        {"--rgb", NULL, NULL,
+         "compare R, G, B alone (a preview against a reference's\nlayers)",
+         "every channel, matched by name", pf_cli_store_flag, &rgb_only, 0, 0, NULL},
+    };
+    char description[1024];
+    snprintf(description, sizeof description,
+             "Error of test image A against reference B, over the R, G, B channels\n"
+             "(every channel when the images have no R, G and B):\n"
+             "  RMSE     sqrt(mean (a - b)^2)\n"
+             "  relMSE   mean (a - b)^2 / (b^2 + %g)\n"
+             "  max      max |a - b|\n"
+             "and the mean of every channel in both images. The images must have the\n"
+             "same size and the same channel names (exit 2 otherwise).",
+             PF_RELMSE_EPSILON);
+    pf_cli_command command = {"compare", "A.exr B.exr [options]", description, NULL, options,
+                              sizeof options / sizeof options[0], NULL, 0, paths, 2, 0};
+    int help = 0;
+    int code = pf_cli_parse(&command, argc, argv, &help);
+    if (code || help)
+        return code;
+    if (command.positional_count != 2)
+        return pf_cli_fail("compare", 2, "need two EXR files, got %zu (see --help)",
+                           command.positional_count);
+    int json = !strcmp(format, "json");
 
     pf_error err = {0};
     pf_image a = {0}, b = {0};

@@ -39,29 +39,36 @@ static int remove_partials(pf_queue *queue, const pf_queue_job *job)
     return removed;
 }
 
+static const char *description_of(const char *command)
+{
+    if (!strcmp(command, "cancel"))
+        return "Cancels the job: its queued and running frames stop (running workers\n"
+               "discard theirs), and its unfinished frame files are removed.";
+    if (!strcmp(command, "pause"))
+        return "Pauses the job: no new frame of it is claimed; running ones finish.";
+    if (!strcmp(command, "resume"))
+        return "Resumes a paused job, whether a user or the queue paused it (a storage\n"
+               "or scene fault: fix that first).";
+    return "Requeues the job's failed and canceled frames with fresh attempts and\n"
+           "lifts its workers' blocks.";
+}
+
 static int control(const char *command, int argc, char **argv)
 {
-    const char *db = NULL;
+    const char *db = NULL, *job_text = NULL;
+    const pf_cli_option options[] = {pf_cli_db_option(&db)};
+    pf_cli_command parsed = {command, "JOB [options]", description_of(command), NULL, options,
+                             1, NULL, 0, &job_text, 1, 0};
+    int help = 0;
     int64_t job_id = 0;
-    for (int i = 1; i < argc; i++) {
-        if (!strcmp(argv[i], "--help") || !strcmp(argv[i], "-h")) {
-            printf("usage: photonfarm %s JOB [--db PATH]\n", command);
-            return 0;
-        } else if (!strcmp(argv[i], "--db")) {
-            if (i + 1 >= argc)
-                return pf_cli_fail(command, 2, "--db needs a value");
-            db = argv[++i];
-        } else if (job_id == 0 && pf_cli_parse_int(argv[i], 1, INT64_MAX, &job_id)) {
-            continue;
-        } else {
-            return pf_cli_fail(command, 2, "unexpected argument '%s' (expected a job id)",
-                               argv[i]);
-        }
-    }
-    if (!job_id)
-        return pf_cli_fail(command, 2, "no job id given (see photonfarm status)");
+    int code = pf_cli_parse(&parsed, argc, argv, &help);
+    if (code || help)
+        return code;
+    code = pf_cli_job_id(command, job_text, 1, &job_id);
+    if (code)
+        return code;
     pf_queue *queue = NULL;
-    int code = pf_cli_open_queue(command, pf_cli_db_path(db), 1, &queue);
+    code = pf_cli_open_queue(command, pf_cli_db_path(db), 1, &queue);
     if (code)
         return code;
     pf_error err = {0};

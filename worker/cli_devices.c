@@ -1,4 +1,5 @@
 /* `photonfarm devices [--json] [--device SEL]`: every Vulkan device and its key limits. */
+#include "cli_options.h"
 #include "pf_cli.h"
 
 #include "pf_vk.h"
@@ -16,21 +17,6 @@ static const char *api_version_text(uint32_t version, char *buffer, size_t size)
     snprintf(buffer, size, "%u.%u.%u", (version >> 22) & 0x7fu, (version >> 12) & 0x3ffu,
              version & 0xfffu);
     return buffer;
-}
-
-static void usage(FILE *out)
-{
-    fprintf(out,
-            "usage: photonfarm devices [--json] [--device NAME|INDEX]\n"
-            "\n"
-            "Lists every Vulkan device with the limits photonfarm depends on, and marks\n"
-            "the one it would use: by default a real GPU (discrete > integrated >\n"
-            "virtual), else the CPU device (lavapipe).\n"
-            "\n"
-            "  --json                 machine-readable output\n"
-            "  --device NAME|INDEX    show which device this selector picks (default:\n"
-            "                         $PHOTONFARM_DEVICE, else the automatic choice)\n"
-            "  -h, --help             this text\n");
 }
 
 /* Index the device selector picks ("" = automatic choice), via the real selection code. */
@@ -136,21 +122,30 @@ int pf_cli_devices(int argc, char **argv)
 {
     int json = 0;
     const char *selector = NULL;
-    for (int i = 1; i < argc; i++) {
-        if (!strcmp(argv[i], "--help") || !strcmp(argv[i], "-h")) {
-            usage(stdout);
-            return 0;
-        } else if (!strcmp(argv[i], "--json")) {
-            json = 1;
-        } else if (!strcmp(argv[i], "--device")) {
-            if (i + 1 >= argc)
-                return pf_cli_fail("devices", 2, "--device needs a name or an index");
-            selector = argv[++i];
-        } else {
-            usage(stderr);
-            return pf_cli_fail("devices", 2, "unknown option '%s'", argv[i]);
-        }
-    }
+    const pf_cli_option options[] = {
+        {"--json", NULL, NULL, "machine-readable output", "text", pf_cli_store_flag, &json, 0, 0,
+         NULL},
+        {"--device", NULL, "NAME|INDEX", "show which device this selector picks",
+         "$PHOTONFARM_DEVICE, else the automatic choice", pf_cli_store_text, &selector, 0, 0,
+         NULL},
+    };
+    pf_cli_command command = {"devices",
+                              "[options]",
+                              "Lists every Vulkan device with the limits photonfarm depends on, and\n"
+                              "marks the one it would use: by default a real GPU (discrete >\n"
+                              "integrated > virtual), else the CPU device (lavapipe).",
+                              NULL,
+                              options,
+                              sizeof options / sizeof options[0],
+                              NULL,
+                              0,
+                              NULL,
+                              0,
+                              0};
+    int help = 0;
+    int code = pf_cli_parse(&command, argc, argv, &help);
+    if (code || help)
+        return code;
 
     pf_error err = {0};
     pf_vk_device_info *devices = NULL;

@@ -28,50 +28,6 @@
 #define MAX_FRAMES_PER_TASK 10000
 #define PARAMETERS_MAX 1024
 
-static void usage(FILE *out)
-{
-    fprintf(out,
-            "usage: photonfarm enqueue SCENE --frames RANGE --out PATTERN [options]\n"
-            "\n"
-            "Adds a render job to the queue after checking it: the scene loads, every\n"
-            "frame is one of the scene's, the output directory exists and is writable.\n"
-            "Prints the job id on stdout.\n"
-            "\n"
-            "  --frames RANGE         e.g. 1-48, 1-48x2 (every 2nd), 1,5,9-12\n"
-            "  --out PATTERN          output EXR path; a run of # is the zero-padded frame\n"
-            "                         number (required when there are several frames)\n"
-            "  --size WxH             image size (default 640 wide, height from the camera)\n"
-            "  --quality Q            preview | fast | final | reference | auto (default auto)\n"
-            "  --spp N                samples per pixel (default: the preset's)\n"
-            "  --seed S               random seed (default 0); same seed, same pixels\n"
-            "  --photons N            fast: photons per frame; final: per pass\n"
-            "  --filter F             pixel filter: gaussian (default), box, blackman-harris\n"
-            "  --max-bounces N        reference, final: at most N bounces (0: direct only)\n"
-            "  --budget-ms MS         auto: milliseconds per frame to aim at (pilot-calibrated)\n"
-            "  --target-relmse X      auto: relMSE to aim at (pilot-calibrated)\n"
-            "  --lpv-cascades N, --lpv-size N, --lpv-iterations N[,N...], --lpv-cell M\n"
-            "                         fast: the light propagation volumes (see render --help)\n"
-            "  --time-budget SECONDS  stop refining each frame after this long (progressive\n"
-            "                         presets; at least one pass; default: no limit)\n"
-            "  --float                32-bit float pixels (default half)\n"
-            "  --no-aovs              beauty RGBA only (default adds the lighting split and\n"
-            "                         albedo, normal, depth layers)\n"
-            "  --priority P           higher runs first (default 0)\n"
-            "  --max-attempts N       attempts per frame before it fails (default 3)\n"
-            "  --frames-per-task N    frames a worker claims at once (default 1)\n"
-            "  --name JOBNAME         a label shown by status\n"
-            "  --allow-outside-scene-dir\n"
-            "                         let the scene's buffers and material libraries lie\n"
-            "                         outside its directory (default: refused; workers\n"
-            "                         honour the job's choice)\n"
-            "  --force                enqueue even when an unfinished job writes the same\n"
-            "                         output files (default: refused, naming that job)\n"
-            "  --db PATH              queue database (default $PHOTONFARM_DB, else " PF_CLI_DEFAULT_DB ")\n"
-            "  --help                 this text\n"
-            "\n"
-            "Exit status: 0 ok, 1 runtime failure, 2 bad usage or input (nothing inserted).\n");
-}
-
 typedef struct enqueue_options {
     pf_cli_scene scene;
     const char *frames, *pattern, *db, *name;
@@ -86,54 +42,45 @@ static int parse_options(int argc, char **argv, enqueue_options *options, int *h
     options->settings = pf_render_settings_default();
     options->max_attempts = 3;
     options->frames_per_task = 1;
-    *help = 0;
-    for (int i = 1; i < argc; i++) {
-        const char *arg = argv[i];
-        const char *value = i + 1 < argc ? argv[i + 1] : NULL;
-        if (!strcmp(arg, "--help") || !strcmp(arg, "-h")) {
-            *help = 1;
-            return 0;
-        }
-        if (!strcmp(arg, "--force")) {
-            options->force = 1;
-            continue;
-        }
-        int used_value = 0;
-        int code = pf_cli_job_argument(COMMAND, arg, value, &options->scene,
-                                       &options->settings, &used_value);
-        if (code >= 0) {
-            if (code)
-                return code;
-            i += used_value;
-            continue;
-        }
-        if (!value)
-            return pf_cli_fail(COMMAND, 2, "%s needs a value (see --help)", arg);
-        if (!strcmp(arg, "--frames")) {
-            options->frames = value;
-        } else if (!strcmp(arg, "--out") || !strcmp(arg, "-o")) {
-            options->pattern = value;
-        } else if (!strcmp(arg, "--db")) {
-            options->db = value;
-        } else if (!strcmp(arg, "--name")) {
-            options->name = value;
-        } else if (!strcmp(arg, "--priority")) {
-            if (!pf_cli_parse_int(value, -MAX_PRIORITY, MAX_PRIORITY, &options->priority))
-                return pf_cli_fail(COMMAND, 2, "--priority '%s': expected an integer %d..%d",
-                                   value, -MAX_PRIORITY, MAX_PRIORITY);
-        } else if (!strcmp(arg, "--max-attempts")) {
-            if (!pf_cli_parse_int(value, 1, MAX_ATTEMPTS, &options->max_attempts))
-                return pf_cli_fail(COMMAND, 2, "--max-attempts '%s': expected 1..%d", value,
-                                   MAX_ATTEMPTS);
-        } else if (!strcmp(arg, "--frames-per-task")) {
-            if (!pf_cli_parse_int(value, 1, MAX_FRAMES_PER_TASK, &options->frames_per_task))
-                return pf_cli_fail(COMMAND, 2, "--frames-per-task '%s': expected 1..%d", value,
-                                   MAX_FRAMES_PER_TASK);
-        } else {
-            return pf_cli_fail(COMMAND, 2, "unknown option '%s' (see --help)", arg);
-        }
-        i++;
-    }
+    const pf_cli_option own[] = {
+        {"--frames", NULL, "RANGE", "e.g. 1-48, 1-48x2 (every 2nd), 1,5,9-12", "required",
+         pf_cli_store_text, &options->frames, 0, 0, NULL},
+        {"--out", "-o", "PATTERN",
+         "output EXR path; a run of # is the zero-padded frame\nnumber (required; one # run "
+         "when there are several frames)",
+         NULL, pf_cli_store_text, &options->pattern, 0, 0, NULL},
+        {"--priority", NULL, "P", "higher runs first", "0", pf_cli_store_int, &options->priority,
+         -MAX_PRIORITY, MAX_PRIORITY, NULL},
+        {"--max-attempts", NULL, "N", "attempts per frame before it fails", "3",
+         pf_cli_store_int, &options->max_attempts, 1, MAX_ATTEMPTS, NULL},
+        {"--frames-per-task", NULL, "N", "frames a worker claims at once", "1", pf_cli_store_int,
+         &options->frames_per_task, 1, MAX_FRAMES_PER_TASK, NULL},
+        {"--name", NULL, "JOBNAME", "a label shown by status", "none", pf_cli_store_text,
+         &options->name, 0, 0, NULL},
+        {"--force", NULL, NULL,
+         "enqueue even when an unfinished job writes the same\noutput files",
+         "refused, naming that job", pf_cli_store_flag, &options->force, 0, 0, NULL},
+        pf_cli_db_option(&options->db),
+    };
+    pf_cli_option settings_rows[PF_CLI_SETTINGS_OPTIONS];
+    pf_cli_settings_table(&options->settings, &options->scene, settings_rows);
+    pf_cli_command command = {COMMAND,
+                              "SCENE --frames RANGE --out PATTERN [options]",
+                              "Adds a render job to the queue after checking it: the scene loads,\n"
+                              "every frame is one of the scene's, the output directory exists and\n"
+                              "is writable, no unfinished job writes the same files. Prints the\n"
+                              "job id on stdout; bad input inserts nothing.",
+                              NULL,
+                              own,
+                              sizeof own / sizeof own[0],
+                              settings_rows,
+                              PF_CLI_SETTINGS_OPTIONS,
+                              &options->scene.path,
+                              1,
+                              0};
+    int code = pf_cli_parse(&command, argc, argv, help);
+    if (code || *help)
+        return code;
     if (!options->scene.path)
         return pf_cli_fail(COMMAND, 2, "no scene given (see --help)");
     if (!options->frames)
@@ -253,12 +200,8 @@ int pf_cli_enqueue(int argc, char **argv)
     enqueue_options options;
     int help = 0;
     int code = parse_options(argc, argv, &options, &help);
-    if (code)
+    if (code || help)
         return code;
-    if (help) {
-        usage(stdout);
-        return 0;
-    }
     pf_frame_list frames = {0};
     pf_error err = {0};
     if (pf_frame_range_parse(options.frames, &frames, &err) != PF_OK)

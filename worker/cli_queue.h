@@ -7,6 +7,7 @@
 #ifndef PF_CLI_QUEUE_H
 #define PF_CLI_QUEUE_H
 
+#include "cli_options.h"
 #include "pf_lpv.h"
 #include "pf_render.h"
 #include "pf_scene.h"
@@ -58,12 +59,13 @@ typedef struct pf_cli_scene {
 } pf_cli_scene;
 
 /*
- * What render and enqueue parse alike: the scene (their one positional
- * argument, and --allow-outside-scene-dir) and the settings options. Same
- * returns as pf_cli_settings_option.
+ * What render and enqueue parse alike, as rows of the one option table
+ * (cli_options.h): every settings option above, stored into *settings by
+ * pf_cli_settings_option, and --allow-outside-scene-dir into *scene.
  */
-int pf_cli_job_argument(const char *command, const char *arg, const char *value,
-                        pf_cli_scene *scene, pf_render_settings *settings, int *used_value);
+#define PF_CLI_SETTINGS_OPTIONS 17
+size_t pf_cli_settings_table(pf_render_settings *settings, pf_cli_scene *scene,
+                             pf_cli_option rows[PF_CLI_SETTINGS_OPTIONS]);
 /* What enqueue checks against: the maxStorageBufferRange every Vulkan device guarantees. */
 #define PF_CLI_GUARANTEED_BUFFER_BYTES (128ull << 20)
 

@@ -23,60 +23,6 @@
 #define DEFAULT_OUTPUT "render.####.exr"
 #define MAX_PATH_BYTES PF_FRAME_PATH_MAX
 
-static void usage(FILE *out)
-{
-    fprintf(out,
-            "usage: photonfarm render SCENE (--frame N | --frames RANGE) [options]\n"
-            "\n"
-            "Renders frames of SCENE (.gltf, .glb, .obj) to OpenEXR files, no queue.\n"
-            "\n"
-            "  --frame N          one frame (frames start at 1)\n"
-            "  --frames RANGE     e.g. 1-48, 1-48x2 (every 2nd), 1,5,9-12\n"
-            "  -o, --output OUT   output path; a run of # is replaced by the zero-padded\n"
-            "                     frame number (default " DEFAULT_OUTPUT ")\n"
-            "  --size WxH         image size (default 640 wide, height from the camera's\n"
-            "                     aspect ratio, else 480)\n"
-            "  --quality Q        preview (direct light) | fast (direct light + LPV\n"
-            "                     indirect + caustic map) | final (photon maps + final\n"
-            "                     gather) | reference (unbiased path tracer) | auto\n"
-            "                     (default auto: the planner picks fast or final)\n"
-            "  --spp N            samples per pixel; for final, photon passes (default:\n"
-            "                     the preset's: preview 1, fast 2, final 4, reference 64)\n"
-            "  --photons N        fast: photons per frame (default 32768); final: per\n"
-            "                     pass (default 100000)\n"
-            "  --lpv-cascades N   fast: LPV cascades, 1..8 (default 4)\n"
-            "  --lpv-size N       fast: cells per axis of a cascade, a multiple of 4 in\n"
-            "                     4..256 (default 32)\n"
-            "  --lpv-iterations N[,N...]  fast: propagation iterations, one value or one\n"
-            "                     per cascade, 1..1024 (default 8)\n"
-            "  --lpv-cell M       fast: the finest cascade's cell in meters (default: a\n"
-            "                     power of two sized so the coarsest cascade spans the scene)\n"
-            "  --timings          print each frame's stage rows (run or skipped, why)\n"
-            "  --seed S           random seed (default 0); same seed, same pixels\n"
-            "  --time-budget SEC  final, reference: stop adding passes/samples after SEC\n"
-            "                     seconds per frame (at least one; default: no limit)\n"
-            "  --float            32-bit float pixels (default half)\n"
-            "  --filter F         pixel filter: gaussian (default; sigma 0.5 px, radius\n"
-            "                     1.5 px), box (1 px), blackman-harris (±1.5 px, Cycles')\n"
-            "  --max-bounces N    reference, final: light of at most N bounces after the\n"
-            "                     first surface (0 = direct light only; default: no limit)\n"
-            "  --budget-ms MS     auto: aim at MS milliseconds per frame (final with the\n"
-            "                     passes that fit, else fast; a pilot render calibrates)\n"
-            "  --target-relmse X  auto: aim at relMSE X (fast when it reaches it, else\n"
-            "                     final with the passes it needs)\n"
-            "  --no-aovs          beauty RGBA only (default adds the direct/indirect/caustic\n                     split and albedo, normal, depth as named layers)\n"
-            "  --allow-outside-scene-dir\n"
-            "                     let the scene's buffers and material libraries lie\n"
-            "                     outside its directory (default: refused)\n"
-            "  --device D         device index or name substring (see photonfarm devices)\n"
-            "  --cache-dir DIR    compiled-shader cache shared by this machine's processes\n"
-            "                     (default $PHOTONFARM_CACHE_DIR, else ~/.cache/photonfarm;\n"
-            "                     none: off)\n"
-            "  --help             this text\n"
-            "\n"
-            "Exit status: 0 ok, 1 runtime failure, 2 bad usage or input.\n");
-}
-
 typedef struct render_options {
     pf_cli_scene scene;
     const char *frame_text;  /* --frame */
@@ -88,50 +34,47 @@ typedef struct render_options {
     pf_render_settings settings; /* cli_settings.c: the options enqueue takes too */
 } render_options;
 
-/* 0 ok, else the exit code (2) after printing why. */
+/* 0 ok, else the exit code (2) after printing why; *help after printing the help. */
 static int parse_options(int argc, char **argv, render_options *options, int *help)
 {
     memset(options, 0, sizeof *options);
     options->output = DEFAULT_OUTPUT;
     options->settings = pf_render_settings_default();
-    *help = 0;
-    for (int i = 1; i < argc; i++) {
-        const char *arg = argv[i];
-        const char *value = i + 1 < argc ? argv[i + 1] : NULL;
-        if (!strcmp(arg, "--help") || !strcmp(arg, "-h")) {
-            *help = 1;
-            return 0;
-        }
-        if (!strcmp(arg, "--timings")) {
-            options->timings = 1;
-            continue;
-        }
-        int used_value = 0;
-        int code = pf_cli_job_argument(COMMAND, arg, value, &options->scene,
-                                       &options->settings, &used_value);
-        if (code >= 0) {
-            if (code)
-                return code;
-            i += used_value;
-            continue;
-        }
-        if (!value)
-            return pf_cli_fail(COMMAND, 2, "%s needs a value (see --help)", arg);
-        if (!strcmp(arg, "--frame")) {
-            options->frame_text = value;
-        } else if (!strcmp(arg, "--frames")) {
-            options->frames_text = value;
-        } else if (!strcmp(arg, "-o") || !strcmp(arg, "--output")) {
-            options->output = value;
-        } else if (!strcmp(arg, "--device")) {
-            options->device = value;
-        } else if (!strcmp(arg, "--cache-dir")) {
-            options->cache_dir = value;
-        } else {
-            return pf_cli_fail(COMMAND, 2, "unknown option '%s' (see --help)", arg);
-        }
-        i++;
-    }
+    const pf_cli_option own[] = {
+        {"--frame", NULL, "N", "one frame (frames start at 1)", NULL, pf_cli_store_text,
+         &options->frame_text, 0, 0, NULL},
+        {"--frames", NULL, "RANGE", "e.g. 1-48, 1-48x2 (every 2nd), 1,5,9-12", NULL,
+         pf_cli_store_text, &options->frames_text, 0, 0, NULL},
+        {"--output", "-o", "OUT",
+         "output path; a run of # is replaced by the zero-padded\nframe number", DEFAULT_OUTPUT,
+         pf_cli_store_text, &options->output, 0, 0, NULL},
+        {"--timings", NULL, NULL, "print each frame's stage rows (run or skipped, and why)", NULL,
+         pf_cli_store_flag, &options->timings, 0, 0, NULL},
+        {"--device", NULL, "D", "device index or name substring (see photonfarm devices)",
+         "$PHOTONFARM_DEVICE, else a GPU, else lavapipe", pf_cli_store_text, &options->device, 0,
+         0, NULL},
+        {"--cache-dir", NULL, "DIR",
+         "compiled-shader cache shared by this machine's processes\n(none: off)",
+         "$PHOTONFARM_CACHE_DIR, else ~/.cache/photonfarm", pf_cli_store_text,
+         &options->cache_dir, 0, 0, NULL},
+    };
+    pf_cli_option settings_rows[PF_CLI_SETTINGS_OPTIONS];
+    pf_cli_settings_table(&options->settings, &options->scene, settings_rows);
+    pf_cli_command command = {COMMAND,
+                              "SCENE (--frame N | --frames RANGE) [options]",
+                              "Renders frames of SCENE (.gltf, .glb, .obj) to OpenEXR files, no "
+                              "queue.",
+                              NULL,
+                              own,
+                              sizeof own / sizeof own[0],
+                              settings_rows,
+                              PF_CLI_SETTINGS_OPTIONS,
+                              &options->scene.path,
+                              1,
+                              0};
+    int code = pf_cli_parse(&command, argc, argv, help);
+    if (code || *help)
+        return code;
     if (!options->scene.path)
         return pf_cli_fail(COMMAND, 2, "no scene given (see --help)");
     if (!options->frame_text == !options->frames_text)
@@ -215,12 +158,8 @@ int pf_cli_render(int argc, char **argv)
     render_options options;
     int help = 0;
     int code = parse_options(argc, argv, &options, &help);
-    if (code)
+    if (code || help)
         return code;
-    if (help) {
-        usage(stdout);
-        return 0;
-    }
     /* One frame-range grammar: the queue's (pf_queue.h), --frame being a range of one. */
     pf_frame_list frames = {0};
     pf_error err = {0};

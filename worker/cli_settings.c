@@ -171,19 +171,81 @@ int pf_cli_settings_option(const char *command, const char *arg, const char *val
     return code;
 }
 
-int pf_cli_job_argument(const char *command, const char *arg, const char *value,
-                        pf_cli_scene *scene, pf_render_settings *settings, int *used_value)
+/* pf_cli_store for the settings rows: the option's own parser above. */
+static int store_setting(const char *command, const pf_cli_option *option, const char *value)
 {
-    *used_value = 0;
-    if (arg[0] != '-' || arg[1] == '\0') {
-        if (scene->path)
-            return pf_cli_fail(command, 2, "one scene only ('%s' and '%s')", scene->path, arg);
-        scene->path = arg;
-        return 0;
+    int used_value = 0;
+    int code = pf_cli_settings_option(command, option->name, value, option->target, &used_value);
+    return code < 0 ? pf_cli_fail(command, 2, "%s: not a settings option", option->name) : code;
+}
+
+/* pf_cli_store for --allow-outside-scene-dir (target: the pf_cli_scene). */
+static int store_outside(const char *command, const pf_cli_option *option, const char *value)
+{
+    (void)command;
+    (void)value;
+    ((pf_cli_scene *)option->target)->load.allow_outside_scene_dir = 1;
+    return 0;
+}
+
+size_t pf_cli_settings_table(pf_render_settings *settings, pf_cli_scene *scene,
+                             pf_cli_option rows[PF_CLI_SETTINGS_OPTIONS])
+{
+    const pf_cli_option table[PF_CLI_SETTINGS_OPTIONS] = {
+        {"--size", NULL, "WxH", "image size, each side 1..16384",
+         "640 wide, height by the camera's aspect", NULL, NULL, 0, 0, NULL},
+        {"--quality", NULL, "Q",
+         "preview (direct light) | fast (direct light + LPV\n"
+         "indirect + caustic map) | final (photon maps + final\n"
+         "gather) | reference (unbiased path tracer) | auto (the\n"
+         "planner picks fast or final)",
+         "auto", NULL, NULL, 0, 0, NULL},
+        {"--spp", NULL, "N",
+         "samples per pixel; for final, photon passes (preview 1,\nfast 2, final 4, reference 64)",
+         "the preset's", NULL, NULL, 0, 0, NULL},
+        {"--seed", NULL, "S", "random seed; same seed, same pixels", "0", NULL, NULL, 0, 0, NULL},
+        {"--photons", NULL, "N", "fast: photons per frame; final: photons per pass",
+         "32768 for fast, 100000 for final", NULL, NULL, 0, 0, NULL},
+        {"--time-budget", NULL, "SEC",
+         "final, reference: stop adding passes/samples after SEC\nseconds per frame (at least one)",
+         "no limit", NULL, NULL, 0, 0, NULL},
+        {"--float", NULL, NULL, "32-bit float pixels", "half", NULL, NULL, 0, 0, NULL},
+        {"--no-aovs", NULL, NULL,
+         "beauty RGBA only, without the direct/indirect/caustic\nsplit and the albedo, normal and "
+         "depth layers",
+         "all layers", NULL, NULL, 0, 0, NULL},
+        {"--filter", NULL, "F",
+         "pixel filter: gaussian (sigma 0.5 px, radius 1.5 px),\nbox (1 px), blackman-harris "
+         "(1.5 px either side, Cycles')",
+         "gaussian", NULL, NULL, 0, 0, NULL},
+        {"--max-bounces", NULL, "N",
+         "reference, final: light of at most N bounces after the\nfirst surface (0: direct light "
+         "only)",
+         "no limit", NULL, NULL, 0, 0, NULL},
+        {"--budget-ms", NULL, "MS",
+         "auto: aim at MS milliseconds per frame (final with the\npasses that fit, else fast; a "
+         "pilot render calibrates)",
+         "none: fast", NULL, NULL, 0, 0, NULL},
+        {"--target-relmse", NULL, "X",
+         "auto: aim at relMSE X (fast when it reaches it, else\nfinal with the passes it needs)",
+         "none: fast", NULL, NULL, 0, 0, NULL},
+        {"--lpv-cascades", NULL, "N", "fast: LPV cascades, 1..8", "4", NULL, NULL, 0, 0, NULL},
+        {"--lpv-size", NULL, "N", "fast: cells per axis of a cascade, a multiple of 4 in\n4..256",
+         "32", NULL, NULL, 0, 0, NULL},
+        {"--lpv-iterations", NULL, "N[,N...]",
+         "fast: propagation iterations, one value or one per\ncascade, 1..1024", "8", NULL, NULL,
+         0, 0, NULL},
+        {"--lpv-cell", NULL, "M", "fast: the finest cascade's cell in meters",
+         "a power of two: the coarsest cascade spans the scene", NULL, NULL, 0, 0, NULL},
+        {"--allow-outside-scene-dir", NULL, NULL,
+         "let the scene's buffers and material libraries lie\noutside its directory (a job "
+         "carries it to its workers)",
+         "refused", NULL, NULL, 0, 0, NULL},
+    };
+    for (size_t i = 0; i < PF_CLI_SETTINGS_OPTIONS; i++) {
+        rows[i] = table[i];
+        rows[i].store = i + 1 == PF_CLI_SETTINGS_OPTIONS ? store_outside : store_setting;
+        rows[i].target = i + 1 == PF_CLI_SETTINGS_OPTIONS ? (void *)scene : (void *)settings;
     }
-    if (!strcmp(arg, "--allow-outside-scene-dir")) {
-        scene->load.allow_outside_scene_dir = 1;
-        return 0;
-    }
-    return pf_cli_settings_option(command, arg, value, settings, used_value);
+    return PF_CLI_SETTINGS_OPTIONS;
 }

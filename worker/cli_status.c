@@ -18,15 +18,6 @@
 /* Failures listed per job; the rest are counted ("... and N more"). */
 #define FAILURES_SHOWN 10
 
-static void usage(FILE *out)
-{
-    fprintf(out, "usage: photonfarm status [JOB] [--db PATH]\n"
-                 "\n"
-                 "Lists jobs with a progress bar, running frames with their workers, and\n"
-                 "failures with their errors. With JOB, that job only.\n"
-                 "  --db PATH   queue database (default $PHOTONFARM_DB, else " PF_CLI_DEFAULT_DB ")\n");
-}
-
 static void print_job(pf_queue *queue, const pf_queue_job *job, int64_t now)
 {
     char bar[320], name[128], shown[4][PF_CLI_PATH_MAX];
@@ -80,24 +71,31 @@ static void print_job(pf_queue *queue, const pf_queue_job *job, int64_t now)
 
 int pf_cli_status(int argc, char **argv)
 {
-    const char *db = NULL;
+    const char *db = NULL, *job_text = NULL;
+    const pf_cli_option options[] = {pf_cli_db_option(&db)};
+    pf_cli_command command = {COMMAND,
+                              "[JOB] [options]",
+                              "Lists jobs with a progress bar, running frames with their workers,\n"
+                              "failures with their errors and why a job cannot progress (blocked\n"
+                              "workers, a pause for its storage or scene). With JOB, that job only.",
+                              NULL,
+                              options,
+                              1,
+                              NULL,
+                              0,
+                              &job_text,
+                              1,
+                              0};
+    int help = 0;
     int64_t job_id = 0;
-    for (int i = 1; i < argc; i++) {
-        if (!strcmp(argv[i], "--help") || !strcmp(argv[i], "-h")) {
-            usage(stdout);
-            return 0;
-        } else if (!strcmp(argv[i], "--db")) {
-            if (i + 1 >= argc)
-                return pf_cli_fail(COMMAND, 2, "--db needs a value");
-            db = argv[++i];
-        } else if (job_id == 0 && pf_cli_parse_int(argv[i], 1, INT64_MAX, &job_id)) {
-            continue;
-        } else {
-            return pf_cli_fail(COMMAND, 2, "unexpected argument '%s' (see --help)", argv[i]);
-        }
-    }
+    int code = pf_cli_parse(&command, argc, argv, &help);
+    if (code || help)
+        return code;
+    code = pf_cli_job_id(COMMAND, job_text, 0, &job_id);
+    if (code)
+        return code;
     pf_queue *queue = NULL;
-    int code = pf_cli_open_queue(COMMAND, pf_cli_db_path(db), 1, &queue);
+    code = pf_cli_open_queue(COMMAND, pf_cli_db_path(db), 1, &queue);
     if (code)
         return code;
     pf_error err = {0};

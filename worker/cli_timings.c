@@ -17,16 +17,6 @@
 #define COMMAND "timings"
 #define SLOWEST_FRAMES 5
 
-static void usage(FILE *out)
-{
-    fprintf(out, "usage: photonfarm timings JOB [--format table|csv|json] [--db PATH]\n"
-                 "\n"
-                 "Per stage: frames that ran it, frames that skipped it, min/median/p95/max\n"
-                 "and total of wall and GPU time in ms; then totals, the %d slowest frames\n"
-                 "and the decisions stages recorded (e.g. bih_build reused, refit, rebuilt).\n",
-            SLOWEST_FRAMES);
-}
-
 static void print_table(int64_t job_id, const pf_queue_timings *timings)
 {
     printf("job %" PRId64 ": %" PRId64 " frame(s) with timings\n\n", job_id, timings->frames);
@@ -146,29 +136,30 @@ static int print_json(int64_t job_id, const pf_queue_timings *timings)
 
 int pf_cli_timings(int argc, char **argv)
 {
-    const char *db = NULL, *format = "table";
+    const char *db = NULL, *format = "table", *job_text = NULL;
+    const pf_cli_option options[] = {
+        {"--format", NULL, "F", "table, csv or json", "table", pf_cli_store_choice, &format, 0, 0,
+         "table|csv|json"},
+        pf_cli_db_option(&db),
+    };
+    char description[512];
+    snprintf(description, sizeof description,
+             "Per stage: frames that ran it, frames that skipped it, min/median/p95/max\n"
+             "and total of wall and GPU time in ms; then totals, the %d slowest frames\n"
+             "and the decisions stages recorded (e.g. bih_build reused, refit, rebuilt).",
+             SLOWEST_FRAMES);
+    pf_cli_command command = {COMMAND, "JOB [options]", description, NULL, options,
+                              sizeof options / sizeof options[0], NULL, 0, &job_text, 1, 0};
+    int help = 0;
     int64_t job_id = 0;
-    for (int i = 1; i < argc; i++) {
-        if (!strcmp(argv[i], "--help") || !strcmp(argv[i], "-h")) {
-            usage(stdout);
-            return 0;
-        } else if ((!strcmp(argv[i], "--db") || !strcmp(argv[i], "--format")) && i + 1 < argc) {
-            if (!strcmp(argv[i], "--db"))
-                db = argv[++i];
-            else
-                format = argv[++i];
-        } else if (job_id == 0 && pf_cli_parse_int(argv[i], 1, INT64_MAX, &job_id)) {
-            continue;
-        } else {
-            return pf_cli_fail(COMMAND, 2, "unexpected argument '%s' (see --help)", argv[i]);
-        }
-    }
-    if (strcmp(format, "table") && strcmp(format, "csv") && strcmp(format, "json"))
-        return pf_cli_fail(COMMAND, 2, "--format '%s': expected table, csv or json", format);
-    if (!job_id)
-        return pf_cli_fail(COMMAND, 2, "no job id given (see photonfarm status)");
+    int code = pf_cli_parse(&command, argc, argv, &help);
+    if (code || help)
+        return code;
+    code = pf_cli_job_id(COMMAND, job_text, 1, &job_id);
+    if (code)
+        return code;
     pf_queue *queue = NULL;
-    int code = pf_cli_open_queue(COMMAND, pf_cli_db_path(db), 1, &queue);
+    code = pf_cli_open_queue(COMMAND, pf_cli_db_path(db), 1, &queue);
     if (code)
         return code;
     pf_error err = {0};

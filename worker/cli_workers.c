@@ -13,18 +13,25 @@
 int pf_cli_workers(int argc, char **argv)
 {
     const char *db = NULL;
-    for (int i = 1; i < argc; i++) {
-        if (!strcmp(argv[i], "--help") || !strcmp(argv[i], "-h")) {
-            printf("usage: photonfarm workers [--db PATH]\n");
-            return 0;
-        } else if (!strcmp(argv[i], "--db") && i + 1 < argc) {
-            db = argv[++i];
-        } else {
-            return pf_cli_fail(COMMAND, 2, "unexpected argument '%s' (see --help)", argv[i]);
-        }
-    }
+    const pf_cli_option options[] = {pf_cli_db_option(&db)};
+    pf_cli_command command = {COMMAND,
+                              "[options]",
+                              "Lists every registered worker: alive (heard from within its lease),\n"
+                              "dead or stopped, its heartbeat age, device and current frame.",
+                              NULL,
+                              options,
+                              1,
+                              NULL,
+                              0,
+                              NULL,
+                              0,
+                              0};
+    int help = 0;
+    int code = pf_cli_parse(&command, argc, argv, &help);
+    if (code || help)
+        return code;
     pf_queue *queue = NULL;
-    int code = pf_cli_open_queue(COMMAND, pf_cli_db_path(db), 1, &queue);
+    code = pf_cli_open_queue(COMMAND, pf_cli_db_path(db), 1, &queue);
     if (code)
         return code;
     pf_error err = {0};

@@ -344,6 +344,26 @@ PF_TEST(jobs_writing_the_same_files_are_refused)
     PF_CHECK(enqueue_job(args) > 0);
 }
 
+/* Every subcommand: --help from its option table (exit 0, defaults shown), and
+ * the same error and exit status for an unknown option. */
+PF_TEST(every_subcommand_shares_help_errors_and_exit_codes)
+{
+    static const char *const commands[] = {"render", "enqueue", "worker",  "status",
+                                           "timings", "cancel", "pause",   "resume",
+                                           "retry",  "workers", "devices", "compare"};
+    char args[256];
+    for (size_t i = 0; i < sizeof commands / sizeof commands[0]; i++) {
+        wt_format(args, sizeof args, "%s --help", commands[i]);
+        PF_CHECK_MSG(wt_run(args, log_path) == 0, "%s --help", commands[i]);
+        PF_CHECK(wt_file_contains(log_path, "usage: photonfarm "));
+        PF_CHECK(wt_file_contains(log_path, "(default: "));
+        PF_CHECK(wt_file_contains(log_path, "Exit status: 0 ok, 1 runtime failure, 2 bad usage"));
+        wt_format(args, sizeof args, "%s --no-such-option", commands[i]);
+        PF_CHECK_MSG(wt_run(args, log_path) == 2, "%s --no-such-option", commands[i]);
+        PF_CHECK(wt_file_contains(log_path, "unknown option '--no-such-option' (see --help)"));
+    }
+}
+
 /*
  * Enqueues racing for the same files: the check runs inside the insert's
  * transaction, so exactly one of them gets in and the others exit 2.
@@ -425,6 +445,7 @@ int main(void)
     PF_RUN(worker_refuses_a_database_that_does_not_exist);
     PF_RUN(jobs_writing_the_same_files_are_refused);
     PF_RUN(racing_enqueues_of_the_same_files_admit_exactly_one);
+    PF_RUN(every_subcommand_shares_help_errors_and_exit_codes);
     PF_RUN(cancel_removes_the_jobs_unfinished_frame_files);
     return pf_test_finish();
 }

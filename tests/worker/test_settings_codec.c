@@ -94,15 +94,16 @@ static pf_render_settings every_field(void)
 static int parse_argv(const char *const *argv, size_t count, pf_render_settings *settings)
 {
     *settings = pf_render_settings_default();
-    for (size_t i = 0; i < count; i++) {
-        int used = 0;
-        int code = pf_cli_settings_option("test", argv[i], i + 1 < count ? argv[i + 1] : NULL,
-                                          settings, &used);
-        if (code)
-            return code < 0 ? -1 : code;
-        i += (size_t)used;
-    }
-    return 0;
+    pf_cli_scene scene = {0};
+    pf_cli_option rows[PF_CLI_SETTINGS_OPTIONS];
+    pf_cli_settings_table(settings, &scene, rows);
+    pf_cli_command command = {"test", "", "", NULL, rows, PF_CLI_SETTINGS_OPTIONS, NULL, 0,
+                              NULL, 0, 0};
+    char *args[64] = {"test"};
+    for (size_t i = 0; i < count && i + 1 < 64; i++)
+        args[i + 1] = (char *)argv[i];
+    int help = 0;
+    return pf_cli_parse(&command, (int)count + 1, args, &help);
 }
 
 static void expect_json_round_trip(const pf_render_settings *settings, const char *what)
@@ -186,7 +187,71 @@ PF_TEST(the_parser_and_the_codec_share_their_bounds)
     const char *dangling[] = {"--spp"};
     PF_CHECK(parse_argv(dangling, 1, &settings) == 2 && strstr(last_failure, "needs a value"));
     const char *other[] = {"--db", "x.db"};
-    PF_CHECK(parse_argv(other, 2, &settings) == -1);
+    PF_CHECK(parse_argv(other, 2, &settings) == 2 && strstr(last_failure, "unknown option"));
+}
+
+/*
+ * The one option parser every subcommand uses: --name VALUE and --name=VALUE,
+ * aliases, flags that refuse a value, strict integers with their range,
+ * choices, positional arguments up to their number, and a --help that lists
+ * every option with its default.
+ */
+PF_TEST(the_option_table_parses_and_documents_every_option)
+{
+    const char *text = NULL, *choice = "a", *positional[2] = {NULL, NULL};
+    int flag = 0, help = 0;
+    int64_t number = 0;
+    const pf_cli_option options[] = {
+        {"--text", "-t", "T", "some text", "none", pf_cli_store_text, &text, 0, 0, NULL},
+        {"--flag", NULL, NULL, "a flag", "off", pf_cli_store_flag, &flag, 0, 0, NULL},
+        {"--number", NULL, "N", "a number", "0", pf_cli_store_int, &number, -5, 5, NULL},
+        {"--choice", NULL, "C", "one of a, b", "a", pf_cli_store_choice, &choice, 0, 0, "a|b"},
+    };
+    pf_cli_command command = {"test", "[options]", "Tests.", NULL, options, 4, NULL, 0,
+                              positional, 2, 0};
+    char *good[] = {"test", "one", "--text=x=y", "--flag", "--number", "-5", "-t", "z",
+                    "--choice=b", "two"};
+    PF_CHECK(pf_cli_parse(&command, 10, good, &help) == 0 && !help);
+    PF_CHECK(text && !strcmp(text, "z") && flag == 1 && number == -5 && !strcmp(choice, "b"));
+    PF_CHECK(command.positional_count == 2 && !strcmp(positional[0], "one") &&
+             !strcmp(positional[1], "two"));
+    char *equals[] = {"test", "--text=x=y"};
+    PF_CHECK(pf_cli_parse(&command, 2, equals, &help) == 0 && !strcmp(text, "x=y"));
+    static const struct {
+        char *arg, *value;
+        const char *message;
+    } bad[] = {
+        {"--number", "6", "expected an integer -5..5"},
+        {"--number", "1x", "expected an integer -5..5"},
+        {"--number", "4294967297", "expected an integer -5..5"},
+        {"--choice", "c", "expected one of a|b"},
+        {"--flag=1", NULL, "takes no value"},
+        {"--nope", NULL, "unknown option '--nope'"},
+        {"--text", NULL, "needs a value"},
+        {"three", NULL, "unexpected argument 'three'"},
+    };
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        char *argv[] = {"test", "a", "b", bad[i].arg, bad[i].value};
+        int argc = bad[i].value ? 5 : 4;
+        last_failure[0] = '\0';
+        int code = pf_cli_parse(&command, argc, argv, &help);
+        PF_CHECK_MSG(code == 2 && strstr(last_failure, bad[i].message), "%s %s: %d, \"%s\"",
+                     bad[i].arg, bad[i].value ? bad[i].value : "", code, last_failure);
+    }
+    /* --help: every option with its default, from the same table. */
+    char path[WT_PATH_MAX];
+    pf_test_tmpdir(path, sizeof path);
+    strncat(path, "/help.txt", sizeof path - strlen(path) - 1);
+    FILE *out = fopen(path, "w");
+    PF_REQUIRE(out != NULL);
+    pf_cli_print_help(&command, out);
+    fclose(out);
+    const char *expected[] = {"usage: photonfarm test [options]", "-t, --text T",
+                              "some text (default: none)", "--flag", "a flag (default: off)",
+                              "--number N", "--choice C", "one of a, b (default: a)",
+                              "-h, --help", "Exit status: 0 ok"};
+    for (size_t i = 0; i < sizeof expected / sizeof expected[0]; i++)
+        PF_CHECK(wt_file_contains(path, expected[i]));
 }
 
 /* The settings string of an EXR (photonfarm/settings), or "" when absent. */
@@ -258,6 +323,7 @@ PF_TEST(enqueue_and_render_record_what_the_options_say)
 int main(void)
 {
     PF_RUN(the_command_line_sets_every_field);
+    PF_RUN(the_option_table_parses_and_documents_every_option);
     PF_RUN(every_field_survives_the_job_json_alone_and_together);
     PF_RUN(the_parser_and_the_codec_share_their_bounds);
     PF_RUN(enqueue_and_render_record_what_the_options_say);

@@ -1,0 +1,175 @@
+/* The table-driven option parser and help printer of every subcommand (cli_options.h). */
+#include "cli_options.h"
+#include "cli_queue.h"
+#include "pf_cli.h"
+
+#include <string.h>
+
+/* Column where option descriptions start in --help. */
+#define HELP_COLUMN 26
+/* Lines of --help stay within this many columns where the texts allow. */
+#define HELP_WIDTH 80
+
+int pf_cli_store_flag(const char *command, const pf_cli_option *option, const char *value)
+{
+    (void)command;
+    (void)value;
+    *(int *)option->target = 1;
+    return 0;
+}
+
+int pf_cli_store_text(const char *command, const pf_cli_option *option, const char *value)
+{
+    (void)command;
+    *(const char **)option->target = value;
+    return 0;
+}
+
+int pf_cli_store_int(const char *command, const pf_cli_option *option, const char *value)
+{
+    if (!pf_cli_parse_int(value, option->min, option->max, (int64_t *)option->target))
+        return pf_cli_fail(command, 2, "%s '%s': expected an integer %lld..%lld", option->name,
+                           value, (long long)option->min, (long long)option->max);
+    return 0;
+}
+
+int pf_cli_store_choice(const char *command, const pf_cli_option *option, const char *value)
+{
+    size_t length = strlen(value);
+    for (const char *word = option->choices; word && *word;) {
+        size_t word_length = strcspn(word, "|");
+        if (word_length == length && !strncmp(word, value, length)) {
+            *(const char **)option->target = value;
+            return 0;
+        }
+        word += word_length + (word[word_length] == '|');
+    }
+    return pf_cli_fail(command, 2, "%s '%s': expected one of %s", option->name, value,
+                       option->choices);
+}
+
+pf_cli_option pf_cli_db_option(const char **target)
+{
+    pf_cli_option option = {"--db", NULL, "PATH", "queue database",
+                            "$PHOTONFARM_DB, else " PF_CLI_DEFAULT_DB, pf_cli_store_text, target,
+                            0, 0, NULL};
+    return option;
+}
+
+/* The option called arg (its name or alias, the part before '=' when long), or NULL. */
+static const pf_cli_option *find_option(const pf_cli_command *command, const char *arg,
+                                        size_t length)
+{
+    const pf_cli_option *tables[2] = {command->options, command->more_options};
+    size_t counts[2] = {command->option_count, command->more_option_count};
+    for (int t = 0; t < 2; t++) {
+        for (size_t i = 0; i < counts[t]; i++) {
+            const pf_cli_option *option = &tables[t][i];
+            if ((strlen(option->name) == length && !strncmp(option->name, arg, length)) ||
+                (option->alias && strlen(option->alias) == length &&
+                 !strncmp(option->alias, arg, length)))
+                return option;
+        }
+    }
+    return NULL;
+}
+
+int pf_cli_parse(pf_cli_command *command, int argc, char **argv, int *help)
+{
+    *help = 0;
+    command->positional_count = 0;
+    for (int i = 1; i < argc; i++) {
+        const char *arg = argv[i];
+        if (!strcmp(arg, "--help") || !strcmp(arg, "-h")) {
+            pf_cli_print_help(command, stdout);
+            *help = 1;
+            return 0;
+        }
+        if (arg[0] != '-' || arg[1] == '\0') {
+            if (command->positional_count >= command->positional_max)
+                return pf_cli_fail(command->name, 2, "unexpected argument '%s' (see --help)",
+                                   arg);
+            command->positional[command->positional_count++] = arg;
+            continue;
+        }
+        const char *equals = !strncmp(arg, "--", 2) ? strchr(arg, '=') : NULL;
+        size_t length = equals ? (size_t)(equals - arg) : strlen(arg);
+        const pf_cli_option *option = find_option(command, arg, length);
+        if (!option)
+            return pf_cli_fail(command->name, 2, "unknown option '%.*s' (see --help)",
+                               (int)length, arg);
+        const char *value = NULL;
+        if (!option->value_name) {
+            if (equals)
+                return pf_cli_fail(command->name, 2, "%s takes no value", option->name);
+        } else if (equals) {
+            value = equals + 1;
+        } else if (i + 1 < argc) {
+            value = argv[++i];
+        } else {
+            return pf_cli_fail(command->name, 2, "%s needs a value %s (see --help)", option->name,
+                               option->value_name);
+        }
+        int code = option->store(command->name, option, value);
+        if (code)
+            return code;
+    }
+    return 0;
+}
+
+static void print_option(const pf_cli_option *option, FILE *out)
+{
+    char head[128];
+    int used = snprintf(head, sizeof head, "  %s%s%s%s%s", option->alias ? option->alias : "",
+                        option->alias ? ", " : "", option->name,
+                        option->value_name ? " " : "",
+                        option->value_name ? option->value_name : "");
+    if (used >= HELP_COLUMN - 1)
+        fprintf(out, "%s\n%*s", head, HELP_COLUMN, "");
+    else
+        fprintf(out, "%-*s", HELP_COLUMN, head);
+    size_t column = HELP_COLUMN;
+    for (const char *line = option->help; *line;) {
+        size_t length = strcspn(line, "\n");
+        fprintf(out, "%.*s", (int)length, line);
+        column = HELP_COLUMN + length;
+        line += length;
+        if (*line == '\n') {
+            line++;
+            fprintf(out, "\n%*s", HELP_COLUMN, "");
+        }
+    }
+    if (option->default_text) {
+        /* On its own line when it would run past the terminal's usual width. */
+        size_t length = strlen(" (default: )") + strlen(option->default_text);
+        if (column + length > HELP_WIDTH)
+            fprintf(out, "\n%*s(default: %s)", HELP_COLUMN, "", option->default_text);
+        else
+            fprintf(out, " (default: %s)", option->default_text);
+    }
+    fputc('\n', out);
+}
+
+void pf_cli_print_help(const pf_cli_command *command, FILE *out)
+{
+    fprintf(out, "usage: photonfarm %s %s\n\n%s\n\n", command->name, command->synopsis,
+            command->description);
+    for (size_t i = 0; i < command->option_count; i++)
+        print_option(&command->options[i], out);
+    for (size_t i = 0; i < command->more_option_count; i++)
+        print_option(&command->more_options[i], out);
+    fprintf(out, "  %-*s%s\n", HELP_COLUMN - 2, "-h, --help", "this text");
+    if (command->epilogue)
+        fprintf(out, "\n%s\n", command->epilogue);
+    fprintf(out, "\nExit status: 0 ok, 1 runtime failure, 2 bad usage or input.\n");
+}
+
+int pf_cli_job_id(const char *command, const char *text, int required, int64_t *job_id)
+{
+    *job_id = 0;
+    if (!text)
+        return required ? pf_cli_fail(command, 2, "no job id given (see photonfarm status)") : 0;
+    if (!pf_cli_parse_int(text, 1, INT64_MAX, job_id))
+        return pf_cli_fail(command, 2, "'%s' is not a job id (a positive integer)", text);
+    return 0;
+}
