@@ -411,6 +411,24 @@ pf_status pf_queue_fail_job(pf_queue *queue, const char *token, const char *erro
     return queue_write(queue, "recording the job's failure", fail_job_body, &ctx, err);
 }
 
+static pf_status reject_body(pf_queue *queue, void *context, pf_error *err)
+{
+    token_context *ctx = context;
+    leased_task task;
+    pf_status status = find_running_lease(queue, ctx->token, &task, err);
+    if (status == PF_OK)
+        status = queue_task_reject(queue, task.task_id, ctx->error_text, err);
+    return status;
+}
+
+pf_status pf_queue_reject(pf_queue *queue, const char *token, const char *error_text,
+                          pf_error *err)
+{
+    token_context ctx = {.token = token,
+                         .error_text = error_text && *error_text ? error_text : "(no message)"};
+    return queue_write(queue, "rejecting a task", reject_body, &ctx, err);
+}
+
 /* ---- release ---- */
 
 static pf_status release_body(pf_queue *queue, void *context, pf_error *err)

@@ -226,6 +226,31 @@ pf_status queue_task_job_fault(pf_queue *queue, int64_t task_id, const char *err
     return status;
 }
 
+pf_status queue_task_reject(pf_queue *queue, int64_t task_id, const char *error_text,
+                            pf_error *err)
+{
+    failing_task task;
+    pf_status status = record_failure(queue, task_id, error_text, true, &task, err);
+    sqlite3_stmt *stmt;
+    if (status == PF_OK)
+        status = queue_prepare(queue,
+                               "UPDATE tasks SET status = 'failed', lease_token = NULL, "
+                               "lease_expires = NULL, finished_at = ?1, last_error = ?2 "
+                               "WHERE id = ?3",
+                               &stmt, err);
+    if (status != PF_OK)
+        return status;
+    sqlite3_bind_int64(stmt, 1, pf_queue_now(queue));
+    sqlite3_bind_text(stmt, 2, error_text, -1, SQLITE_STATIC);
+    sqlite3_bind_int64(stmt, 3, task_id);
+    status = queue_step_done(queue, stmt, "failing a task", err);
+    if (status == PF_OK)
+        status = queue_clear_worker_task(queue, task_id, err);
+    if (status == PF_OK)
+        status = queue_job_refresh(queue, task.job_id, err);
+    return status;
+}
+
 pf_status queue_task_attempt_failed(pf_queue *queue, int64_t task_id, const char *error_text,
                                     pf_error *err)
 {

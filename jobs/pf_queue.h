@@ -263,6 +263,15 @@ pf_status pf_queue_fail_job(pf_queue *queue, const char *token, const char *erro
                             pf_error *err);
 
 /*
+ * The task holding token can never render: its job asks for something this
+ * farm refuses (a path outside the storage roots). The task fails at once,
+ * without retries; the failure is recorded as the job's (job_fault) and no
+ * worker is blocked. Lease lost → PF_ERR_INVALID, nothing recorded.
+ */
+pf_status pf_queue_reject(pf_queue *queue, const char *token, const char *error_text,
+                          pf_error *err);
+
+/*
  * Gives the task holding token back, queued and immediately eligible, without
  * counting the attempt (a draining worker). Lease lost → PF_ERR_INVALID.
  */

@@ -68,6 +68,9 @@ pf_status queue_clear_worker_task(pf_queue *queue, int64_t task_id, pf_error *er
  */
 pf_status queue_task_job_fault(pf_queue *queue, int64_t task_id, const char *error_text,
                                pf_error *err);
+/* pf_queue_reject's work on a running task (inside a write transaction). */
+pf_status queue_task_reject(pf_queue *queue, int64_t task_id, const char *error_text,
+                            pf_error *err);
 /* Derives and stores the job's status from its tasks (inside a write transaction). */
 pf_status queue_job_refresh(pf_queue *queue, int64_t job_id, pf_error *err);
 /* Whether job_id exists (PF_ERR_INVALID naming it when not). */

@@ -11,6 +11,7 @@
 #include "pf_queue.h"
 #include "pf_render.h"
 #include "pf_scene.h"
+#include "storage_roots.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -34,6 +35,7 @@ typedef struct enqueue_options {
     pf_render_settings settings;
     int64_t priority, max_attempts, frames_per_task;
     int force; /* --force: enqueue even when an unfinished job writes the same files */
+    pf_roots scene_roots, output_roots; /* storage_roots.h */
 } enqueue_options;
 
 static int parse_options(int argc, char **argv, enqueue_options *options, int *help)
@@ -42,6 +44,8 @@ static int parse_options(int argc, char **argv, enqueue_options *options, int *h
     options->settings = pf_render_settings_default();
     options->max_attempts = 3;
     options->frames_per_task = 1;
+    options->scene_roots.kind = "scene";
+    options->output_roots.kind = "output";
     const pf_cli_option own[] = {
         {"--frames", NULL, "RANGE", "e.g. 1-48, 1-48x2 (every 2nd), 1,5,9-12", "required",
          pf_cli_store_text, &options->frames, 0, 0, NULL},
@@ -61,6 +65,8 @@ static int parse_options(int argc, char **argv, enqueue_options *options, int *h
          "enqueue even when an unfinished job writes the same\noutput files",
          "refused, naming that job", pf_cli_store_flag, &options->force, 0, 0, NULL},
         pf_cli_db_option(&options->db),
+        pf_roots_option(&options->scene_roots),
+        pf_roots_option(&options->output_roots),
     };
     pf_cli_option settings_rows[PF_CLI_SETTINGS_OPTIONS];
     pf_cli_settings_table(&options->settings, &options->scene, settings_rows);
@@ -80,6 +86,11 @@ static int parse_options(int argc, char **argv, enqueue_options *options, int *h
                               0};
     int code = pf_cli_parse(&command, argc, argv, help);
     if (code || *help)
+        return code;
+    code = pf_roots_finish(COMMAND, &options->scene_roots);
+    if (!code)
+        code = pf_roots_finish(COMMAND, &options->output_roots);
+    if (code)
         return code;
     if (!options->scene.path)
         return pf_cli_fail(COMMAND, 2, "no scene given (see --help)");
@@ -131,10 +142,11 @@ static void free_files(char **paths, size_t count)
     free(paths);
 }
 
-/* This job's output files, sorted, for output_conflict. */
+/* This job's output files, sorted, for output_conflict, and the roots other jobs' paths are under. */
 typedef struct our_files {
     char **paths;
     size_t count;
+    const pf_roots *roots;
 } our_files;
 
 /*
@@ -151,7 +163,13 @@ static int output_conflict(const pf_queue_job *other, void *user, char *reason,
     pf_error err = {0};
     if (pf_frame_range_parse(other->frame_range, &theirs_frames, &err) != PF_OK)
         return 0; /* the queue validated it; nothing to compare if it cannot be read */
-    char **theirs = output_files(other->output_pattern, &theirs_frames);
+    /* A job stored relative to the output roots names its files through them. */
+    char pattern[PATH_MAX];
+    pf_error ignored = {0};
+    if (pf_roots_output_resolve(ours->roots, other->output_pattern, pattern, sizeof pattern,
+                                &ignored) != PF_OK)
+        snprintf(pattern, sizeof pattern, "%s", other->output_pattern);
+    char **theirs = output_files(pattern, &theirs_frames);
     int conflict = 0;
     for (size_t i = 0; theirs && i < ours->count && !conflict; i++) {
         if (bsearch(&ours->paths[i], theirs, theirs_frames.count, sizeof *theirs,
@@ -217,6 +235,20 @@ int pf_cli_enqueue(int argc, char **argv)
         code = check_output(options.pattern, pattern, sizeof pattern);
     if (!code)
         code = check_scene(&options, &frames, scene_path, sizeof scene_path);
+    /* With roots: inside them, stored relative to the one that holds each. */
+    char stored_scene[PATH_MAX], stored_pattern[PATH_MAX];
+    if (!code && pf_roots_relative(&options.scene_roots, scene_path, stored_scene,
+                                   sizeof stored_scene, &err) != PF_OK)
+        code = pf_cli_fail(COMMAND, 2, "scene: %s", err.message);
+    if (!code && pf_roots_output_relative(&options.output_roots, pattern, stored_pattern,
+                                          sizeof stored_pattern, &err) != PF_OK)
+        code = pf_cli_fail(COMMAND, 2, "--out: %s", err.message);
+    for (size_t i = 0; !code && i < frames.count; i++) {
+        char path[PF_FRAME_PATH_MAX];
+        if (pf_frame_output_path(pattern, frames.frames[i], path, sizeof path) &&
+            pf_roots_check_output_file(&options.output_roots, path, &err) != PF_OK)
+            code = pf_cli_fail(COMMAND, 2, "--out: %s", err.message);
+    }
     char parameters[PARAMETERS_MAX];
     pf_job_extras extras = {options.name, options.scene.load.allow_outside_scene_dir};
     if (!code && !pf_job_params_format(&options.settings, &extras, parameters,
@@ -227,7 +259,7 @@ int pf_cli_enqueue(int argc, char **argv)
     const char *db_path = pf_cli_db_path(options.db);
     if (!code)
         code = pf_cli_open_queue(COMMAND, db_path, 0, &queue);
-    our_files ours = {NULL, frames.count};
+    our_files ours = {NULL, frames.count, &options.output_roots};
     if (!code && !options.force && !(ours.paths = output_files(pattern, &frames)))
         code = pf_cli_fail(COMMAND, 1, "out of memory listing output files");
     pf_frame_list_free(&frames);
@@ -236,10 +268,10 @@ int pf_cli_enqueue(int argc, char **argv)
             pf_queue_close(queue);
         return code;
     }
-    pf_queue_job_spec spec = {scene_path,
+    pf_queue_job_spec spec = {stored_scene,
                               parameters,
                               options.frames,
-                              pattern,
+                              stored_pattern,
                               (int)options.priority,
                               (int)options.max_attempts,
                               (int)options.frames_per_task,
@@ -254,6 +286,6 @@ int pf_cli_enqueue(int argc, char **argv)
     printf("%" PRId64 "\n", job_id);
     fflush(stdout); /* the id comes first when stdout and stderr share a file */
     fprintf(stderr, "photonfarm enqueue: job %" PRId64 ": %zu frame(s) of %s -> %s (db %s)\n",
-            job_id, frame_count, scene_path, pattern, db_path);
+            job_id, frame_count, stored_scene, stored_pattern, db_path);
     return 0;
 }

@@ -7,6 +7,7 @@
 #include "job_params.h"
 #include "pf_cli.h"
 #include "progress.h"
+#include "storage_roots.h"
 
 #include <inttypes.h>
 #include <stdio.h>
@@ -18,7 +19,27 @@
 /* Failures listed per job; the rest are counted ("... and N more"). */
 #define FAILURES_SHOWN 10
 
-static void print_job(pf_queue *queue, const pf_queue_job *job, int64_t now)
+/* A stored path and, when roots map it elsewhere, what it resolves to here. */
+static const char *shown_path(const pf_roots *roots, const char *stored, int output, char *out,
+                              size_t size)
+{
+    char resolved[PATH_MAX], printable[2][PF_CLI_PATH_MAX / 2 - 4]; /* both fit in out */
+    pf_error err = {0};
+    pf_status status = output ? pf_roots_output_resolve(roots, stored, resolved, sizeof resolved,
+                                                        &err)
+                              : pf_roots_resolve(roots, stored, resolved, sizeof resolved, &err);
+    pf_cli_printable(stored, printable[0], sizeof printable[0]);
+    /* Truncation is fine here: a display line. */
+    int written = status == PF_OK && strcmp(resolved, stored) != 0
+                      ? snprintf(out, size, "%s (%s)", printable[0],
+                                 pf_cli_printable(resolved, printable[1], sizeof printable[1]))
+                      : snprintf(out, size, "%s", printable[0]);
+    (void)written;
+    return out;
+}
+
+static void print_job(pf_queue *queue, const pf_queue_job *job, int64_t now,
+                      const pf_roots *scene_roots, const pf_roots *output_roots)
 {
     char bar[320], name[128], shown[4][PF_CLI_PATH_MAX];
     pf_progress_bar(bar, sizeof bar, job->frames_done, job->frames_total, BAR_CELLS);
@@ -27,9 +48,9 @@ static void print_job(pf_queue *queue, const pf_queue_job *job, int64_t now)
            pf_cli_printable(name, shown[0], sizeof shown[0]), name[0] ? ")" : "", job->status,
            bar, job->priority);
     printf("  scene %s  frames %s  -> %s\n",
-           pf_cli_printable(job->scene_path, shown[1], sizeof shown[1]),
+           shown_path(scene_roots, job->scene_path, 0, shown[1], sizeof shown[1]),
            pf_cli_printable(job->frame_range, shown[2], sizeof shown[2]),
-           pf_cli_printable(job->output_pattern, shown[3], sizeof shown[3]));
+           shown_path(output_roots, job->output_pattern, 1, shown[3], sizeof shown[3]));
     printf("  tasks: %" PRId64 " queued, %" PRId64 " running, %" PRId64 " done, %" PRId64
            " failed, %" PRId64 " canceled\n",
            job->tasks_queued, job->tasks_running, job->tasks_done, job->tasks_failed,
@@ -72,7 +93,9 @@ static void print_job(pf_queue *queue, const pf_queue_job *job, int64_t now)
 int pf_cli_status(int argc, char **argv)
 {
     const char *db = NULL, *job_text = NULL;
-    const pf_cli_option options[] = {pf_cli_db_option(&db)};
+    pf_roots scene_roots = {.kind = "scene"}, output_roots = {.kind = "output"};
+    const pf_cli_option options[] = {pf_cli_db_option(&db), pf_roots_option(&scene_roots),
+                                     pf_roots_option(&output_roots)};
     pf_cli_command command = {COMMAND,
                               "[JOB] [options]",
                               "Lists jobs with a progress bar, running frames with their workers,\n"
@@ -80,7 +103,7 @@ int pf_cli_status(int argc, char **argv)
                               "workers, a pause for its storage or scene). With JOB, that job only.",
                               NULL,
                               options,
-                              1,
+                              sizeof options / sizeof options[0],
                               NULL,
                               0,
                               &job_text,
@@ -92,6 +115,10 @@ int pf_cli_status(int argc, char **argv)
     if (code || help)
         return code;
     code = pf_cli_job_id(COMMAND, job_text, 0, &job_id);
+    if (!code)
+        code = pf_roots_finish(COMMAND, &scene_roots);
+    if (!code)
+        code = pf_roots_finish(COMMAND, &output_roots);
     if (code)
         return code;
     pf_queue *queue = NULL;
@@ -104,7 +131,7 @@ int pf_cli_status(int argc, char **argv)
         pf_queue_job job = {0};
         pf_status status = pf_queue_job_get(queue, job_id, &job, &err);
         if (status == PF_OK)
-            print_job(queue, &job, now);
+            print_job(queue, &job, now, &scene_roots, &output_roots);
         else
             code = pf_cli_fail(COMMAND, pf_status_exit_code(status), "%s", err.message);
         pf_queue_job_clear(&job);
@@ -118,7 +145,7 @@ int pf_cli_status(int argc, char **argv)
             printf("no jobs\n");
         } else {
             for (size_t i = 0; i < count; i++)
-                print_job(queue, &jobs[i], now);
+                print_job(queue, &jobs[i], now, &scene_roots, &output_roots);
         }
         pf_queue_job_list_free(jobs, count);
     }

@@ -91,6 +91,7 @@ struct worker {
     pf_status render_status;
     pf_error render_err;
     pf_frame_fault render_fault; /* whose fault a failed render is */
+    int render_rejected;         /* the job asks for what this farm refuses: fail it for good */
 
     pf_progress progress;
     int show_progress;
@@ -262,6 +263,28 @@ static void fail_job_done(db_op *op)
     task_finished(w);
 }
 
+/* ---- refused: the job asks for what this farm does not allow ------------- */
+
+static void reject_run(db_op *op)
+{
+    worker *w = op->owner;
+    op->status = pf_queue_reject(w->queue, op->token, w->render_err.message, &op->err);
+}
+
+static void reject_done(db_op *op)
+{
+    worker *w = op->owner;
+    char quoted[PF_ERROR_MESSAGE_MAX + 8];
+    if (op->status == PF_OK)
+        pf_wlog(PF_LOG_WARN, "rejected",
+                "job=%" PRId64 " frame=%d task=%" PRId64 " worker=%s action=task_failed error=%s",
+                w->task.job_id, w->task.first_frame, w->task.task_id, w->name,
+                pf_wlog_quote(w->render_err.message, quoted, sizeof quoted));
+    else if (op->status != PF_ERR_INVALID)
+        log_db_error(w, "reject", op);
+    task_finished(w);
+}
+
 /* ---- finish: re-check the lease, rename into place, complete --------------- */
 
 static char *counters_json(const pf_stage_timing *stage)
@@ -410,11 +433,23 @@ static void render_work(uv_work_t *request)
     w->render_status = PF_OK;
     w->render_fault = PF_FRAME_FAULT_WORKER;
     memset(&w->render_err, 0, sizeof w->render_err);
+    w->render_rejected = 0;
+    /* Paths through this worker's roots: outside them the task is refused for good. */
+    char scene_path[PATH_MAX], pattern[PATH_MAX];
+    w->render_status = pf_roots_resolve(w->config.scene_roots, w->job.scene_path, scene_path,
+                                        sizeof scene_path, &w->render_err);
+    if (w->render_status == PF_OK)
+        w->render_status = pf_roots_output_resolve(w->config.output_roots, w->job.output_pattern,
+                                                   pattern, sizeof pattern, &w->render_err);
+    if (w->render_status != PF_OK) {
+        w->render_rejected = w->render_status == PF_ERR_INVALID;
+        w->render_fault = PF_FRAME_FAULT_OUTPUT;
+        return;
+    }
     /* A full, read-only or missing output volume is found before any work, and
      * again at every claim: the job pauses until someone fixes the storage. */
     char absolute[PF_FRAME_PATH_MAX];
-    w->render_status = pf_frame_output_check(w->job.output_pattern, absolute, sizeof absolute,
-                                             &w->render_err);
+    w->render_status = pf_frame_output_check(pattern, absolute, sizeof absolute, &w->render_err);
     if (w->render_status != PF_OK) {
         w->render_fault = PF_FRAME_FAULT_OUTPUT;
         return;
@@ -424,8 +459,7 @@ static void render_work(uv_work_t *request)
         w->scene = NULL;
         w->scene_job_id = 0;
         pf_scene_load_options load = {pf_job_params_allow_outside(w->job.parameters_json)};
-        w->render_status =
-            pf_scene_load_with(w->job.scene_path, &load, &w->scene, &w->render_err);
+        w->render_status = pf_scene_load_with(scene_path, &load, &w->scene, &w->render_err);
         if (w->render_status != PF_OK) {
             w->render_fault = PF_FRAME_FAULT_SCENE;
             return;
@@ -448,9 +482,16 @@ static void render_work(uv_work_t *request)
     for (int32_t i = 0; i < w->task.frame_count && !atomic_load(&w->abort); i++) {
         int64_t frame = w->task.first_frame + (int64_t)i * w->task.frame_step;
         char path[PF_FRAME_PATH_MAX];
-        if (!pf_frame_output_path(w->job.output_pattern, frame, path, sizeof path)) {
+        if (!pf_frame_output_path(pattern, frame, path, sizeof path)) {
             w->render_status = pf_error_set(&w->render_err, PF_ERR_INVALID,
-                                            "output path too long: %s", w->job.output_pattern);
+                                            "output path too long: %s", pattern);
+            w->render_fault = PF_FRAME_FAULT_OUTPUT;
+            return;
+        }
+        w->render_status = pf_roots_check_output_file(w->config.output_roots, path,
+                                                      &w->render_err);
+        if (w->render_status != PF_OK) {
+            w->render_rejected = 1;
             w->render_fault = PF_FRAME_FAULT_OUTPUT;
             return;
         }
@@ -460,7 +501,7 @@ static void render_work(uv_work_t *request)
                     w->job.job_id, frame, stale);
         char tag[96];
         pf_frame_task_tag(w->task.task_id, w->task.lease_token, tag, sizeof tag);
-        pf_frame_request frame_request = {w->scene, w->job.scene_path, frame,          settings,
+        pf_frame_request frame_request = {w->scene, scene_path, frame,          settings,
                                           path,     tag,               w->device_name, &w->abort};
         w->render_status = pf_frame_render(w->renderer, &frame_request, &w->outputs[i],
                                            &w->render_err);
@@ -490,7 +531,9 @@ static void render_after(uv_work_t *request, int uv_status)
         db_submit(w, release_run, release_done);
     } else if (w->render_status != PF_OK) {
         discard_outputs(w);
-        if (w->render_fault == PF_FRAME_FAULT_WORKER)
+        if (w->render_rejected)
+            db_submit(w, reject_run, reject_done);
+        else if (w->render_fault == PF_FRAME_FAULT_WORKER)
             db_submit(w, fail_run, fail_done);
         else
             db_submit(w, fail_job_run, fail_job_done);
@@ -757,6 +800,29 @@ static void close_everything(worker *w)
     pf_queue_close(w->queue);
 }
 
+/* The storage roots this worker confines jobs to, and one warning when it confines none. */
+static void log_roots(worker *w)
+{
+    const pf_roots *kinds[2] = {w->config.scene_roots, w->config.output_roots};
+    char unconfined[32] = "";
+    for (int k = 0; k < 2; k++) {
+        const pf_roots *roots = kinds[k];
+        char list[PF_ROOTS_MAX * (PATH_MAX + 2)], quoted[sizeof list + 8];
+        if (roots && roots->count > 0)
+            pf_wlog(PF_LOG_INFO, "roots", "worker=%s kind=%s roots=%s", w->name, roots->kind,
+                    pf_wlog_quote(pf_roots_list(roots, list, sizeof list), quoted,
+                                  sizeof quoted));
+        else
+            snprintf(unconfined + strlen(unconfined), sizeof unconfined - strlen(unconfined),
+                     "%s%s", unconfined[0] ? "," : "", k ? "output" : "scene");
+    }
+    if (unconfined[0])
+        pf_wlog(PF_LOG_WARN, "unconfined",
+                "worker=%s kinds=%s message=\"no --scene-root/--output-root: this worker "
+                "reads and writes wherever a job's paths point\"",
+                w->name, unconfined);
+}
+
 int pf_worker_run(const pf_worker_config *config)
 {
     worker *w = calloc(1, sizeof *w);
@@ -802,6 +868,7 @@ int pf_worker_run(const pf_worker_config *config)
             "worker=%s worker_id=%" PRId64 " device=\"%s\" db=%s lease_ms=%" PRId64 " version=%s",
             w->name, w->worker_id, w->device_name, config->db_path, w->lease_ms,
             pf_version_string());
+    log_roots(w);
     w->poll_delay_ms = PF_WORKER_POLL_MIN_MS;
     w->idle_since_ms = pf_time_ms();
     claim_next(w);
