@@ -213,6 +213,8 @@ typedef struct token_context {
     const char *token;
     int64_t lease_expires;
     const char *error_text;
+    /* fail, fail_job, reject: what becomes of the failed task (lifecycle.c). */
+    pf_status (*settle)(pf_queue *queue, int64_t task_id, const char *error_text, pf_error *err);
     const pf_queue_stage_row *rows;
     size_t row_count;
     bool repeated;
@@ -373,60 +375,48 @@ pf_status pf_queue_complete(pf_queue *queue, const char *token, const pf_queue_s
     return status;
 }
 
-/* ---- fail ---- */
+/* ---- fail, fail_job, reject ---- */
 
-static pf_status fail_body(pf_queue *queue, void *context, pf_error *err)
+static pf_status failure_body(pf_queue *queue, void *context, pf_error *err)
 {
     token_context *ctx = context;
     leased_task task;
     pf_status status = find_running_lease(queue, ctx->token, &task, err);
     if (status == PF_OK)
-        status = queue_task_attempt_failed(queue, task.task_id, ctx->error_text, err);
+        status = ctx->settle(queue, task.task_id, ctx->error_text, err);
     return status;
+}
+
+static pf_status record_task_failure(pf_queue *queue, const char *token, const char *error_text,
+                                     pf_status (*settle)(pf_queue *, int64_t, const char *,
+                                                         pf_error *),
+                                     const char *what, pf_error *err)
+{
+    token_context ctx = {.token = token,
+                         .error_text = error_text && *error_text ? error_text : "(no message)",
+                         .settle = settle};
+    return queue_write(queue, what, failure_body, &ctx, err);
 }
 
 pf_status pf_queue_fail(pf_queue *queue, const char *token, const char *error_text,
                         pf_error *err)
 {
-    token_context ctx = {.token = token,
-                         .error_text = error_text && *error_text ? error_text : "(no message)"};
-    return queue_write(queue, "recording a task failure", fail_body, &ctx, err);
-}
-
-static pf_status fail_job_body(pf_queue *queue, void *context, pf_error *err)
-{
-    token_context *ctx = context;
-    leased_task task;
-    pf_status status = find_running_lease(queue, ctx->token, &task, err);
-    if (status == PF_OK)
-        status = queue_task_job_fault(queue, task.task_id, ctx->error_text, err);
-    return status;
+    return record_task_failure(queue, token, error_text, queue_task_attempt_failed,
+                               "recording a task failure", err);
 }
 
 pf_status pf_queue_fail_job(pf_queue *queue, const char *token, const char *error_text,
                             pf_error *err)
 {
-    token_context ctx = {.token = token,
-                         .error_text = error_text && *error_text ? error_text : "(no message)"};
-    return queue_write(queue, "recording the job's failure", fail_job_body, &ctx, err);
-}
-
-static pf_status reject_body(pf_queue *queue, void *context, pf_error *err)
-{
-    token_context *ctx = context;
-    leased_task task;
-    pf_status status = find_running_lease(queue, ctx->token, &task, err);
-    if (status == PF_OK)
-        status = queue_task_reject(queue, task.task_id, ctx->error_text, err);
-    return status;
+    return record_task_failure(queue, token, error_text, queue_task_job_fault,
+                               "recording the job's failure", err);
 }
 
 pf_status pf_queue_reject(pf_queue *queue, const char *token, const char *error_text,
                           pf_error *err)
 {
-    token_context ctx = {.token = token,
-                         .error_text = error_text && *error_text ? error_text : "(no message)"};
-    return queue_write(queue, "rejecting a task", reject_body, &ctx, err);
+    return record_task_failure(queue, token, error_text, queue_task_reject, "rejecting a task",
+                               err);
 }
 
 /* ---- release ---- */

@@ -186,43 +186,62 @@ pf_status queue_clear_worker_task(pf_queue *queue, int64_t task_id, pf_error *er
     return queue_step_done(queue, stmt, "clearing a worker's task", err);
 }
 
+/*
+ * Runs sql with ?1 = now (plus delay_ms when sql has ?4 = the delay), ?2 =
+ * error_text, ?3 = id: every settling of a failed task and its job is one.
+ */
+static pf_status update_failed(pf_queue *queue, const char *sql, const char *error_text,
+                               int64_t id, int64_t delay_ms, const char *what, pf_error *err)
+{
+    sqlite3_stmt *stmt;
+    pf_status status = queue_prepare(queue, sql, &stmt, err);
+    if (status != PF_OK)
+        return status;
+    sqlite3_bind_int64(stmt, 1, pf_queue_now(queue));
+    sqlite3_bind_text(stmt, 2, error_text, -1, SQLITE_STATIC);
+    sqlite3_bind_int64(stmt, 3, id);
+    if (sqlite3_bind_parameter_count(stmt) >= 4)
+        sqlite3_bind_int64(stmt, 4, delay_ms);
+    return queue_step_done(queue, stmt, what, err);
+}
+
+/* The task is settled: no worker holds it; then the blocklist (worker_id > 0) and the job's status. */
+static pf_status task_settled(pf_queue *queue, int64_t task_id, const failing_task *task,
+                              bool count_against_worker, pf_error *err)
+{
+    pf_status status = queue_clear_worker_task(queue, task_id, err);
+    if (status == PF_OK && count_against_worker && task->has_worker)
+        status = apply_blocklist(queue, task->job_id, task->worker_id, err);
+    if (status == PF_OK)
+        status = queue_job_refresh(queue, task->job_id, err);
+    return status;
+}
+
+#define SQL_TASK_FAILED                                                                         \
+    "UPDATE tasks SET status = 'failed', lease_token = NULL, lease_expires = NULL, "          \
+    "finished_at = ?1, last_error = ?2 WHERE id = ?3"
+
 pf_status queue_task_job_fault(pf_queue *queue, int64_t task_id, const char *error_text,
                                pf_error *err)
 {
     failing_task task;
     pf_status status = record_failure(queue, task_id, error_text, true, &task, err);
-    sqlite3_stmt *stmt;
     /* Back in the queue as if never claimed: the attempt was not the task's to lose. */
     if (status == PF_OK)
-        status = queue_prepare(queue,
+        status = update_failed(queue,
                                "UPDATE tasks SET status = 'queued', attempt = max(attempt - 1, 0), "
                                "lease_token = NULL, lease_expires = NULL, worker_id = NULL, "
                                "started_at = NULL, eligible_at = ?1, last_error = ?2 "
                                "WHERE id = ?3",
-                               &stmt, err);
-    if (status != PF_OK)
-        return status;
-    int64_t now = pf_queue_now(queue);
-    sqlite3_bind_int64(stmt, 1, now);
-    sqlite3_bind_text(stmt, 2, error_text, -1, SQLITE_STATIC);
-    sqlite3_bind_int64(stmt, 3, task_id);
-    status = queue_step_done(queue, stmt, "requeueing a task", err);
+                               error_text, task_id, 0, "requeueing a task", err);
     if (status == PF_OK)
-        status = queue_clear_worker_task(queue, task_id, err);
-    if (status == PF_OK)
-        status = queue_prepare(queue,
+        status = update_failed(queue,
                                "UPDATE jobs SET status = 'paused', updated_at = ?1,"
                                "  pause_reason = coalesce(pause_reason, ?2) "
                                "WHERE id = ?3 AND status IN ('queued', 'running', 'paused')",
-                               &stmt, err);
-    if (status != PF_OK)
-        return status;
-    sqlite3_bind_int64(stmt, 1, now);
-    sqlite3_bind_text(stmt, 2, error_text, -1, SQLITE_STATIC);
-    sqlite3_bind_int64(stmt, 3, task.job_id);
-    status = queue_step_done(queue, stmt, "pausing a job", err);
+                               error_text, task.job_id, 0, "pausing a job", err);
     if (status == PF_OK)
-        status = queue_job_refresh(queue, task.job_id, err);
+        status = task_settled(queue, task_id, &task, false, err);
     return status;
 }
 
@@ -231,23 +250,11 @@ pf_status queue_task_reject(pf_queue *queue, int64_t task_id, const char *error_
 {
     failing_task task;
     pf_status status = record_failure(queue, task_id, error_text, true, &task, err);
-    sqlite3_stmt *stmt;
     if (status == PF_OK)
-        status = queue_prepare(queue,
-                               "UPDATE tasks SET status = 'failed', lease_token = NULL, "
-                               "lease_expires = NULL, finished_at = ?1, last_error = ?2 "
-                               "WHERE id = ?3",
-                               &stmt, err);
-    if (status != PF_OK)
-        return status;
-    sqlite3_bind_int64(stmt, 1, pf_queue_now(queue));
-    sqlite3_bind_text(stmt, 2, error_text, -1, SQLITE_STATIC);
-    sqlite3_bind_int64(stmt, 3, task_id);
-    status = queue_step_done(queue, stmt, "failing a task", err);
+        status = update_failed(queue, SQL_TASK_FAILED, error_text, task_id, 0, "failing a task",
+                               err);
     if (status == PF_OK)
-        status = queue_clear_worker_task(queue, task_id, err);
-    if (status == PF_OK)
-        status = queue_job_refresh(queue, task.job_id, err);
+        status = task_settled(queue, task_id, &task, false, err);
     return status;
 }
 
@@ -258,35 +265,17 @@ pf_status queue_task_attempt_failed(pf_queue *queue, int64_t task_id, const char
     pf_status status = record_failure(queue, task_id, error_text, false, &task, err);
     if (status != PF_OK)
         return status;
-    int attempt = task.attempt, max_attempts = task.max_attempts;
-    int64_t job_id = task.job_id, worker_id = task.worker_id;
-    bool has_worker = task.has_worker;
-    int64_t now = pf_queue_now(queue);
-    sqlite3_stmt *stmt;
-
-    bool exhausted = attempt >= max_attempts;
-    status = queue_prepare(queue,
-                           exhausted
-                               ? "UPDATE tasks SET status = 'failed', lease_token = NULL, "
-                                 "lease_expires = NULL, finished_at = ?1, last_error = ?2 "
-                                 "WHERE id = ?3"
-                               : "UPDATE tasks SET status = 'queued', lease_token = NULL, "
-                                 "lease_expires = NULL, worker_id = NULL, eligible_at = ?1 + ?4, "
-                                 "last_error = ?2 WHERE id = ?3",
-                           &stmt, err);
-    if (status != PF_OK)
-        return status;
-    sqlite3_bind_int64(stmt, 1, now);
-    sqlite3_bind_text(stmt, 2, error_text, -1, SQLITE_STATIC);
-    sqlite3_bind_int64(stmt, 3, task_id);
-    if (!exhausted)
-        sqlite3_bind_int64(stmt, 4, backoff_ms(&queue->options, attempt));
-    status = queue_step_done(queue, stmt, "requeueing a failed task", err);
+    if (task.attempt >= task.max_attempts)
+        status = update_failed(queue, SQL_TASK_FAILED, error_text, task_id, 0, "failing a task",
+                               err);
+    else
+        status = update_failed(queue,
+                               "UPDATE tasks SET status = 'queued', lease_token = NULL, "
+                               "lease_expires = NULL, worker_id = NULL, eligible_at = ?1 + ?4, "
+                               "last_error = ?2 WHERE id = ?3",
+                               error_text, task_id, backoff_ms(&queue->options, task.attempt),
+                               "requeueing a failed task", err);
     if (status == PF_OK)
-        status = queue_clear_worker_task(queue, task_id, err);
-    if (status == PF_OK && has_worker)
-        status = apply_blocklist(queue, job_id, worker_id, err);
-    if (status == PF_OK)
-        status = queue_job_refresh(queue, job_id, err);
+        status = task_settled(queue, task_id, &task, true, err);
     return status;
 }

@@ -131,8 +131,15 @@ int pf_cli_compare(int argc, char **argv)
              "and the mean of every channel in both images. The images must have the\n"
              "same size and the same channel names (exit 2 otherwise).",
              PF_RELMSE_EPSILON);
-    pf_cli_command command = {"compare", "A.exr B.exr [options]", description, NULL, options,
-                              sizeof options / sizeof options[0], NULL, 0, paths, 2, 0};
+    pf_cli_command command = {
+        .name = "compare",
+        .synopsis = "A.exr B.exr [options]",
+        .description = description,
+        .options = options,
+        .option_count = sizeof options / sizeof options[0],
+        .positional = paths,
+        .positional_max = 2,
+    };
     int help = 0;
     int code = pf_cli_parse(&command, argc, argv, &help);
     if (code || help)

@@ -57,8 +57,15 @@ static int control(const char *command, int argc, char **argv)
 {
     const char *db = NULL, *job_text = NULL;
     const pf_cli_option options[] = {pf_cli_db_option(&db)};
-    pf_cli_command parsed = {command, "JOB [options]", description_of(command), NULL, options,
-                             1, NULL, 0, &job_text, 1, 0};
+    pf_cli_command parsed = {
+        .name = command,
+        .synopsis = "JOB [options]",
+        .description = description_of(command),
+        .options = options,
+        .option_count = 1,
+        .positional = &job_text,
+        .positional_max = 1,
+    };
     int help = 0;
     int64_t job_id = 0;
     int code = pf_cli_parse(&parsed, argc, argv, &help);

@@ -129,19 +129,15 @@ int pf_cli_devices(int argc, char **argv)
          "$PHOTONFARM_DEVICE, else the automatic choice", pf_cli_store_text, &selector, 0, 0,
          NULL},
     };
-    pf_cli_command command = {"devices",
-                              "[options]",
-                              "Lists every Vulkan device with the limits photonfarm depends on, and\n"
-                              "marks the one it would use: by default a real GPU (discrete >\n"
-                              "integrated > virtual), else the CPU device (lavapipe).",
-                              NULL,
-                              options,
-                              sizeof options / sizeof options[0],
-                              NULL,
-                              0,
-                              NULL,
-                              0,
-                              0};
+    pf_cli_command command = {
+        .name = "devices",
+        .synopsis = "[options]",
+        .description = "Lists every Vulkan device with the limits photonfarm depends on, and\n"
+                       "marks the one it would use: by default a real GPU (discrete >\n"
+                       "integrated > virtual), else the CPU device (lavapipe).",
+        .options = options,
+        .option_count = sizeof options / sizeof options[0],
+    };
     int help = 0;
     int code = pf_cli_parse(&command, argc, argv, &help);
     if (code || help)

@@ -68,23 +68,13 @@ static int parse_options(int argc, char **argv, enqueue_options *options, int *h
         pf_roots_option(&options->scene_roots),
         pf_roots_option(&options->output_roots),
     };
-    pf_cli_option settings_rows[PF_CLI_SETTINGS_OPTIONS];
-    pf_cli_settings_table(&options->settings, &options->scene, settings_rows);
-    pf_cli_command command = {COMMAND,
-                              "SCENE --frames RANGE --out PATTERN [options]",
-                              "Adds a render job to the queue after checking it: the scene loads,\n"
-                              "every frame is one of the scene's, the output directory exists and\n"
-                              "is writable, no unfinished job writes the same files. Prints the\n"
-                              "job id on stdout; bad input inserts nothing.",
-                              NULL,
-                              own,
-                              sizeof own / sizeof own[0],
-                              settings_rows,
-                              PF_CLI_SETTINGS_OPTIONS,
-                              &options->scene.path,
-                              1,
-                              0};
-    int code = pf_cli_parse(&command, argc, argv, help);
+    int code = pf_cli_parse_job(COMMAND, "SCENE --frames RANGE --out PATTERN [options]",
+                                "Adds a render job to the queue after checking it: the scene\n"
+                                "loads, every frame is one of the scene's, the output directory\n"
+                                "exists and is writable, no unfinished job writes the same\n"
+                                "files. Prints the job id on stdout; bad input inserts nothing.",
+                                own, sizeof own / sizeof own[0], &options->settings,
+                                &options->scene, argc, argv, help);
     if (code || *help)
         return code;
     code = pf_roots_finish(COMMAND, &options->scene_roots);
@@ -92,8 +82,6 @@ static int parse_options(int argc, char **argv, enqueue_options *options, int *h
         code = pf_roots_finish(COMMAND, &options->output_roots);
     if (code)
         return code;
-    if (!options->scene.path)
-        return pf_cli_fail(COMMAND, 2, "no scene given (see --help)");
     if (!options->frames)
         return pf_cli_fail(COMMAND, 2, "--frames RANGE is required (e.g. 1-48)");
     if (!options->pattern)

@@ -66,6 +66,13 @@ typedef struct pf_cli_scene {
 #define PF_CLI_SETTINGS_OPTIONS 17
 size_t pf_cli_settings_table(pf_render_settings *settings, pf_cli_scene *scene,
                              pf_cli_option rows[PF_CLI_SETTINGS_OPTIONS]);
+/*
+ * render's and enqueue's command line: own rows, then the settings rows, and
+ * SCENE, the one positional argument (required). pf_cli_parse's returns.
+ */
+int pf_cli_parse_job(const char *name, const char *synopsis, const char *description,
+                     const pf_cli_option *own, size_t own_count, pf_render_settings *settings,
+                     pf_cli_scene *scene, int argc, char **argv, int *help);
 /* What enqueue checks against: the maxStorageBufferRange every Vulkan device guarantees. */
 #define PF_CLI_GUARANTEED_BUFFER_BYTES (128ull << 20)
 

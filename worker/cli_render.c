@@ -58,25 +58,13 @@ static int parse_options(int argc, char **argv, render_options *options, int *he
          "$PHOTONFARM_CACHE_DIR, else ~/.cache/photonfarm", pf_cli_store_text,
          &options->cache_dir, 0, 0, NULL},
     };
-    pf_cli_option settings_rows[PF_CLI_SETTINGS_OPTIONS];
-    pf_cli_settings_table(&options->settings, &options->scene, settings_rows);
-    pf_cli_command command = {COMMAND,
-                              "SCENE (--frame N | --frames RANGE) [options]",
-                              "Renders frames of SCENE (.gltf, .glb, .obj) to OpenEXR files, no "
-                              "queue.",
-                              NULL,
-                              own,
-                              sizeof own / sizeof own[0],
-                              settings_rows,
-                              PF_CLI_SETTINGS_OPTIONS,
-                              &options->scene.path,
-                              1,
-                              0};
-    int code = pf_cli_parse(&command, argc, argv, help);
+    int code = pf_cli_parse_job(COMMAND, "SCENE (--frame N | --frames RANGE) [options]",
+                                "Renders frames of SCENE (.gltf, .glb, .obj) to OpenEXR files,\n"
+                                "no queue.",
+                                own, sizeof own / sizeof own[0], &options->settings,
+                                &options->scene, argc, argv, help);
     if (code || *help)
         return code;
-    if (!options->scene.path)
-        return pf_cli_fail(COMMAND, 2, "no scene given (see --help)");
     if (!options->frame_text == !options->frames_text)
         return pf_cli_fail(COMMAND, 2, "give exactly one of --frame N or --frames RANGE");
     return 0;

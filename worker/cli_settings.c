@@ -249,3 +249,26 @@ size_t pf_cli_settings_table(pf_render_settings *settings, pf_cli_scene *scene,
     }
     return PF_CLI_SETTINGS_OPTIONS;
 }
+
+int pf_cli_parse_job(const char *name, const char *synopsis, const char *description,
+                     const pf_cli_option *own, size_t own_count, pf_render_settings *settings,
+                     pf_cli_scene *scene, int argc, char **argv, int *help)
+{
+    pf_cli_option settings_rows[PF_CLI_SETTINGS_OPTIONS];
+    pf_cli_settings_table(settings, scene, settings_rows);
+    pf_cli_command command = {
+        .name = name,
+        .synopsis = synopsis,
+        .description = description,
+        .options = own,
+        .option_count = own_count,
+        .more_options = settings_rows,
+        .more_option_count = PF_CLI_SETTINGS_OPTIONS,
+        .positional = &scene->path,
+        .positional_max = 1,
+    };
+    int code = pf_cli_parse(&command, argc, argv, help);
+    if (!code && !*help && !scene->path)
+        code = pf_cli_fail(name, 2, "no scene given (see --help)");
+    return code;
+}

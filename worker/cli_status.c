@@ -96,19 +96,17 @@ int pf_cli_status(int argc, char **argv)
     pf_roots scene_roots = {.kind = "scene"}, output_roots = {.kind = "output"};
     const pf_cli_option options[] = {pf_cli_db_option(&db), pf_roots_option(&scene_roots),
                                      pf_roots_option(&output_roots)};
-    pf_cli_command command = {COMMAND,
-                              "[JOB] [options]",
-                              "Lists jobs with a progress bar, running frames with their workers,\n"
-                              "failures with their errors and why a job cannot progress (blocked\n"
-                              "workers, a pause for its storage or scene). With JOB, that job only.",
-                              NULL,
-                              options,
-                              sizeof options / sizeof options[0],
-                              NULL,
-                              0,
-                              &job_text,
-                              1,
-                              0};
+    pf_cli_command command = {
+        .name = COMMAND,
+        .synopsis = "[JOB] [options]",
+        .description = "Lists jobs with a progress bar, running frames with their workers,\n"
+                       "failures with their errors and why a job cannot progress (blocked\n"
+                       "workers, a pause for its storage or scene). With JOB, that job only.",
+        .options = options,
+        .option_count = sizeof options / sizeof options[0],
+        .positional = &job_text,
+        .positional_max = 1,
+    };
     int help = 0;
     int64_t job_id = 0;
     int code = pf_cli_parse(&command, argc, argv, &help);

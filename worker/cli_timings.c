@@ -148,8 +148,15 @@ int pf_cli_timings(int argc, char **argv)
              "and total of wall and GPU time in ms; then totals, the %d slowest frames\n"
              "and the decisions stages recorded (e.g. bih_build reused, refit, rebuilt).",
              SLOWEST_FRAMES);
-    pf_cli_command command = {COMMAND, "JOB [options]", description, NULL, options,
-                              sizeof options / sizeof options[0], NULL, 0, &job_text, 1, 0};
+    pf_cli_command command = {
+        .name = COMMAND,
+        .synopsis = "JOB [options]",
+        .description = description,
+        .options = options,
+        .option_count = sizeof options / sizeof options[0],
+        .positional = &job_text,
+        .positional_max = 1,
+    };
     int help = 0;
     int64_t job_id = 0;
     int code = pf_cli_parse(&command, argc, argv, &help);

@@ -62,20 +62,17 @@ int pf_cli_worker(int argc, char **argv)
         pf_roots_option(&scene_roots),
         pf_roots_option(&output_roots),
     };
-    pf_cli_command command = {COMMAND,
-                              "[options]",
-                              "Claims frames from the queue and renders them, one at a time, until\n"
-                              "SIGINT/SIGTERM (finish the current frame, then exit 0; a second\n"
-                              "signal releases it to the queue and exits).",
-                              "Log: one line per event on stderr (ts=... level=... event=... job=...\n"
-                              "frame=...); a progress bar too when stderr is a terminal.",
-                              options,
-                              sizeof options / sizeof options[0],
-                              NULL,
-                              0,
-                              NULL,
-                              0,
-                              0};
+    pf_cli_command command = {
+        .name = COMMAND,
+        .synopsis = "[options]",
+        .description = "Claims frames from the queue and renders them, one at a time, until\n"
+                       "SIGINT/SIGTERM (finish the current frame, then exit 0; a second\n"
+                       "signal releases it to the queue and exits).",
+        .epilogue = "Log: one line per event on stderr (ts=... level=... event=... job=...\n"
+                    "frame=...); a progress bar too when stderr is a terminal.",
+        .options = options,
+        .option_count = sizeof options / sizeof options[0],
+    };
     int help = 0;
     int code = pf_cli_parse(&command, argc, argv, &help);
     if (code || help)

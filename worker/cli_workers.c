@@ -14,18 +14,14 @@ int pf_cli_workers(int argc, char **argv)
 {
     const char *db = NULL;
     const pf_cli_option options[] = {pf_cli_db_option(&db)};
-    pf_cli_command command = {COMMAND,
-                              "[options]",
-                              "Lists every registered worker: alive (heard from within its lease),\n"
-                              "dead or stopped, its heartbeat age, device and current frame.",
-                              NULL,
-                              options,
-                              1,
-                              NULL,
-                              0,
-                              NULL,
-                              0,
-                              0};
+    pf_cli_command command = {
+        .name = COMMAND,
+        .synopsis = "[options]",
+        .description = "Lists every registered worker: alive (heard from within its lease),\n"
+                       "dead or stopped, its heartbeat age, device and current frame.",
+        .options = options,
+        .option_count = 1,
+    };
     int help = 0;
     int code = pf_cli_parse(&command, argc, argv, &help);
     if (code || help)

@@ -75,15 +75,21 @@ static mode_t mode_argument(int flags, va_list args)
     return (flags & O_CREAT) || (flags & O_TMPFILE) == O_TMPFILE ? (mode_t)va_arg(args, int) : 0;
 }
 
+/* The real open named symbol after the fault check (mode as the caller gave it). */
+static int checked_open(const char *symbol, const char *path, int flags, mode_t mode)
+{
+    if (refused_open(path, flags))
+        return -1;
+    return NEXT(open_fn, symbol)(path, flags, mode);
+}
+
 int open(const char *path, int flags, ...)
 {
     va_list args;
     va_start(args, flags);
     mode_t mode = mode_argument(flags, args);
     va_end(args);
-    if (refused_open(path, flags))
-        return -1;
-    return NEXT(open_fn, "open")(path, flags, mode);
+    return checked_open("open", path, flags, mode);
 }
 
 int open64(const char *path, int flags, ...)
@@ -92,9 +98,7 @@ int open64(const char *path, int flags, ...)
     va_start(args, flags);
     mode_t mode = mode_argument(flags, args);
     va_end(args);
-    if (refused_open(path, flags))
-        return -1;
-    return NEXT(open_fn, "open64")(path, flags, mode);
+    return checked_open("open64", path, flags, mode);
 }
 
 int openat(int dirfd, const char *path, int flags, ...)

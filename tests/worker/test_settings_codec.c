@@ -97,8 +97,13 @@ static int parse_argv(const char *const *argv, size_t count, pf_render_settings 
     pf_cli_scene scene = {0};
     pf_cli_option rows[PF_CLI_SETTINGS_OPTIONS];
     pf_cli_settings_table(settings, &scene, rows);
-    pf_cli_command command = {"test", "", "", NULL, rows, PF_CLI_SETTINGS_OPTIONS, NULL, 0,
-                              NULL, 0, 0};
+    pf_cli_command command = {
+        .name = "test",
+        .synopsis = "",
+        .description = "",
+        .options = rows,
+        .option_count = PF_CLI_SETTINGS_OPTIONS,
+    };
     char *args[64] = {"test"};
     for (size_t i = 0; i < count && i + 1 < 64; i++)
         args[i + 1] = (char *)argv[i];
@@ -207,8 +212,15 @@ PF_TEST(the_option_table_parses_and_documents_every_option)
         {"--number", NULL, "N", "a number", "0", pf_cli_store_int, &number, -5, 5, NULL},
         {"--choice", NULL, "C", "one of a, b", "a", pf_cli_store_choice, &choice, 0, 0, "a|b"},
     };
-    pf_cli_command command = {"test", "[options]", "Tests.", NULL, options, 4, NULL, 0,
-                              positional, 2, 0};
+    pf_cli_command command = {
+        .name = "test",
+        .synopsis = "[options]",
+        .description = "Tests.",
+        .options = options,
+        .option_count = 4,
+        .positional = positional,
+        .positional_max = 2,
+    };
     char *good[] = {"test", "one", "--text=x=y", "--flag", "--number", "-5", "-t", "z",
                     "--choice=b", "two"};
     PF_CHECK(pf_cli_parse(&command, 10, good, &help) == 0 && !help);

@@ -214,25 +214,14 @@ PF_TEST(a_job_follows_its_storage_to_another_mount_point)
     PF_CHECK(wt_file_contains(log_path, resolved));
 }
 
-/* Occurrences of text in the file at path. */
-static int count_in_file(const char *path, const char *text)
-{
-    char *content = wt_read_file(path, NULL);
-    int count = 0;
-    for (const char *at = content; at && (at = strstr(at, text)) != NULL; at += strlen(text))
-        count++;
-    free(content);
-    return count;
-}
-
 PF_TEST(a_worker_without_roots_warns_once)
 {
     char db[WT_PATH_MAX + 16], args[4 * WT_PATH_MAX];
     wt_format(db, sizeof db, "%s/mount.db", dir); /* done: nothing to claim */
     wt_format(args, sizeof args, "worker --once --db '%s'", db);
     PF_CHECK(wt_run(args, log_path) == 0);
-    PF_CHECK_MSG(count_in_file(log_path, "event=unconfined") == 1, "%d warnings",
-                 count_in_file(log_path, "event=unconfined"));
+    PF_CHECK_MSG(wt_count_in_file(log_path, "event=unconfined") == 1, "%d warnings",
+                 wt_count_in_file(log_path, "event=unconfined"));
     PF_CHECK(wt_file_contains(log_path, "kinds=scene,output"));
 }
 

@@ -28,17 +28,6 @@ static int64_t enqueue(const char *db, const char *frames, const char *pattern)
     return wt_enqueue(args, log_path);
 }
 
-/* Occurrences of text in the file at path. */
-static int count_in_file(const char *path, const char *text)
-{
-    char *content = wt_read_file(path, NULL);
-    int count = 0;
-    for (const char *at = content; at && (at = strstr(at, text)) != NULL; at += strlen(text))
-        count++;
-    free(content);
-    return count;
-}
-
 PF_TEST(four_workers_render_every_frame_exactly_once)
 {
     char out[WT_PATH_MAX + 32], db[WT_PATH_MAX + 32], pattern[2 * WT_PATH_MAX], range[32];
@@ -61,8 +50,8 @@ PF_TEST(four_workers_render_every_frame_exactly_once)
     for (int i = 0; i < WORKERS; i++) {
         int code = wt_wait(pids[i], WORKER_TIMEOUT_MS);
         PF_CHECK_MSG(code == 0, "worker %d exited %d (log %s)", i, code, logs[i]);
-        int worker_completed = count_in_file(logs[i], "event=completed");
-        claimed += count_in_file(logs[i], "event=claimed");
+        int worker_completed = wt_count_in_file(logs[i], "event=completed");
+        claimed += wt_count_in_file(logs[i], "event=claimed");
         completed += worker_completed;
         busy_workers += worker_completed > 0;
     }

@@ -75,6 +75,16 @@ int wt_file_contains(const char *path, const char *text)
     return found;
 }
 
+int wt_count_in_file(const char *path, const char *text)
+{
+    char *content = wt_read_file(path, NULL);
+    int count = 0;
+    for (const char *at = content; at && (at = strstr(at, text)) != NULL; at += strlen(text))
+        count++;
+    free(content);
+    return count;
+}
+
 int64_t wt_enqueue(const char *arguments, const char *log_path)
 {
     char command[16 * WT_PATH_MAX];

@@ -22,6 +22,8 @@ int wt_run(const char *arguments, const char *output_path);
  * the job id it printed; 0 (and the calling test fails) when it did not exit 0. */
 int64_t wt_enqueue(const char *arguments, const char *log_path);
 
+/* Occurrences of text in the file at path (0 when it cannot be read). */
+int wt_count_in_file(const char *path, const char *text);
 /* Whether file contains text (prints the file when it does not). */
 int wt_file_contains(const char *path, const char *text);
 /* Reads a whole file into a malloc'ed NUL-terminated buffer (NULL if missing). */
