@@ -702,6 +702,51 @@ static void report_rays(const char *kind, const char *tree, pf_bih_gpu *gpu, con
            o_ms > 0 ? e_ms / o_ms : 0.0, c_ms > 0 ? e_ms / c_ms : 0.0, agree);
 }
 
+/* Lanes llvmpipe runs a compute shader on at 256 bits: 8 consecutive invocations move together. */
+#define SIMD_LANES 8u
+
+/*
+ * The work each ray costs in the traversal (pf_bih_trace_cpu_counted takes
+ * the GLSL's steps): loop iterations (nodes entered), ray-triangle tests,
+ * stack pops and the deepest stack; and how much of it a SIMD device wastes.
+ * Consecutive rays share an 8-lane vector on lavapipe and the vector loops
+ * until its slowest lane is done, so a group costs 8 × its largest count:
+ * efficiency = sum of counts / (8 × sum of group maxima), 1 when all lanes
+ * finish together.
+ */
+static void profile_rays(const char *kind, const pf_bih *bih, const pf_ray *rays, uint32_t count,
+                         int any_hit)
+{
+    double steps = 0, tests = 0, pops = 0, stack = 0, step_max_sum = 0, test_max_sum = 0;
+    uint32_t deepest = 0, group_steps = 0, group_tests = 0;
+    for (uint32_t i = 0; i < count; i++) {
+        pf_hit hit;
+        pf_bih_trace_counts c;
+        pf_error err = {0};
+        if (pf_bih_trace_cpu_counted(bih, &rays[i], any_hit, &hit, &c, &err) != PF_OK)
+            continue;
+        uint32_t ray_steps = c.inner_nodes + c.leaves;
+        steps += ray_steps;
+        tests += c.triangle_tests;
+        pops += c.pops;
+        stack += c.max_stack;
+        deepest = c.max_stack > deepest ? c.max_stack : deepest;
+        group_steps = ray_steps > group_steps ? ray_steps : group_steps;
+        group_tests = c.triangle_tests > group_tests ? c.triangle_tests : group_tests;
+        if (i % SIMD_LANES == SIMD_LANES - 1 || i + 1 == count) {
+            step_max_sum += (double)SIMD_LANES * group_steps;
+            test_max_sum += (double)SIMD_LANES * group_tests;
+            group_steps = group_tests = 0;
+        }
+    }
+    double n = count ? (double)count : 1.0;
+    printf("profile %-8s SAH    per ray: %6.1f nodes entered, %6.1f triangle tests, %5.1f pops, "
+           "stack %4.1f (max %u) | %u-lane efficiency: nodes %.2f, tests %.2f\n",
+           kind, steps / n, tests / n, pops / n, stack / n, deepest, SIMD_LANES,
+           step_max_sum > 0 ? steps / step_max_sum : 1.0,
+           test_max_sum > 0 ? tests / test_max_sum : 1.0);
+}
+
 static const char *build_path_name(pf_bih_build_path path)
 {
     return path == PF_BIH_BUILT_ON_GPU         ? "on GPU"
@@ -871,6 +916,9 @@ static int bench_mesh_run(const bench_mesh *m, pf_vk_context *ctx, RTCDevice dev
             report_rays("primary", tree_names[t], gpus[t], bihs[t], hq, primary, np, 0, ours,
                         theirs);
         uint32_t ns = make_secondary(m, primary, ours, np, shadow, diffuse);
+        profile_rays("primary", &sah_bih, primary, np, 0);
+        profile_rays("shadow", &sah_bih, shadow, ns, 1);
+        profile_rays("diffuse", &sah_bih, diffuse, ns, 0);
         for (int t = 0; t < 2; t++)
             report_rays("shadow", tree_names[t], gpus[t], bihs[t], hq, shadow, ns, 1, ours,
                         theirs);

@@ -63,8 +63,9 @@ typedef struct stack_entry {
     float t_near, t_far;
 } stack_entry;
 
-pf_status pf_bih_trace_cpu(const pf_bih *bih, const pf_ray *ray, int any_hit, pf_hit *hit,
-                           pf_error *err)
+/* The traversal; counts (may be NULL) receives what it did. */
+static pf_status trace(const pf_bih *bih, const pf_ray *ray, int any_hit, pf_hit *hit,
+                       pf_bih_trace_counts *counts, pf_error *err)
 {
     *hit = (pf_hit){-1.0f, PF_NO_HIT, 0.0f, 0.0f};
     if (bih->triangle_count == 0)
@@ -107,6 +108,10 @@ pf_status pf_bih_trace_cpu(const pf_bih *bih, const pf_ray *ray, int any_hit, pf
     for (uint32_t visit = 0; visit < bih->node_count; visit++) {
         const pf_bih_node *n = &bih->nodes[node];
         int descend = 0;
+        if (counts && pf_bih_is_leaf(n))
+            counts->leaves++;
+        else if (counts)
+            counts->inner_nodes++;
         if (!pf_bih_is_leaf(n)) {
             uint32_t axis = pf_bih_axis(n), child = pf_bih_first_child(n);
             float far_limit = min_f(t_far, widen_far(closest));
@@ -142,6 +147,8 @@ pf_status pf_bih_trace_cpu(const pf_bih *bih, const pf_ray *ray, int any_hit, pf
                                         "BIH traversal: stack of %u entries overflowed at node %u",
                                         PF_BIH_STACK_SIZE, node);
                 }
+                if (counts && stack_size + 1 > counts->max_stack)
+                    counts->max_stack = stack_size + 1;
                 stack[stack_size++] = (stack_entry){
                     far_child, left_first ? right_near : left_near,
                     left_first ? right_far : left_far};
@@ -156,6 +163,8 @@ pf_status pf_bih_trace_cpu(const pf_bih *bih, const pf_ray *ray, int any_hit, pf
             }
         } else {
             uint32_t first = pf_bih_leaf_first(n), count = pf_bih_leaf_count(n);
+            if (counts)
+                counts->triangle_tests += count;
             for (uint32_t p = first; p < first + count; p++) {
                 float t, u, v;
                 if (!pf_ray_triangle_watertight(origin, direction, bih->vertices[3 * p],
@@ -180,6 +189,8 @@ pf_status pf_bih_trace_cpu(const pf_bih *bih, const pf_ray *ray, int any_hit, pf
         while (stack_size > 0) {
             stack_entry entry = stack[--stack_size];
             float far_limit = min_f(entry.t_far, widen_far(closest));
+            if (counts)
+                counts->pops++;
             if (entry.t_near <= far_limit) {
                 node = entry.node;
                 t_near = entry.t_near;
@@ -195,4 +206,17 @@ pf_status pf_bih_trace_cpu(const pf_bih *bih, const pf_ray *ray, int any_hit, pf
     return pf_error_set(err, PF_ERR_INTERNAL,
                         "BIH traversal: more than %u node visits (a malformed tree)",
                         bih->node_count);
+}
+
+pf_status pf_bih_trace_cpu(const pf_bih *bih, const pf_ray *ray, int any_hit, pf_hit *hit,
+                           pf_error *err)
+{
+    return trace(bih, ray, any_hit, hit, NULL, err);
+}
+
+pf_status pf_bih_trace_cpu_counted(const pf_bih *bih, const pf_ray *ray, int any_hit,
+                                   pf_hit *hit, pf_bih_trace_counts *counts, pf_error *err)
+{
+    *counts = (pf_bih_trace_counts){0};
+    return trace(bih, ray, any_hit, hit, counts, err);
 }

@@ -186,6 +186,20 @@ pf_status pf_bih_trace_cpu(const pf_bih *bih, const pf_ray *ray, int any_hit, pf
                            pf_error *err);
 
 /*
+ * What one traversal did: nodes entered (inner and leaf), ray-triangle tests,
+ * stack pops (a popped entry beyond the best hit counts too) and the deepest
+ * stack. The GLSL traversal (shaders/common/bih_traverse.glsl) takes the same
+ * steps, so these are a ray's cost on the device too (bench/bih's profile).
+ */
+typedef struct pf_bih_trace_counts {
+    uint32_t inner_nodes, leaves, triangle_tests, pops, max_stack;
+} pf_bih_trace_counts;
+
+/* pf_bih_trace_cpu, also counting what the traversal did into *counts. */
+pf_status pf_bih_trace_cpu_counted(const pf_bih *bih, const pf_ray *ray, int any_hit,
+                                   pf_hit *hit, pf_bih_trace_counts *counts, pf_error *err);
+
+/*
  * A BIH on the GPU and the pipelines that trace it. Created empty; filled by
  * pf_bih_gpu_upload. Owns its buffers; destroy before the context.
  */

@@ -313,6 +313,61 @@ PF_TEST(stack_overflow_is_reported)
     bih_frame_free(&frame);
 }
 
+/*
+ * The traversal's counts on a hand-made tree: a root split on x with one
+ * triangle in each child (x = -1 and x = +1, facing the ray). A ray along +x
+ * enters the root, pushes the far child, enters the near leaf, hits, and pops
+ * the far entry only to skip it (beyond the hit): 1 inner node, 1 leaf, 1
+ * test, 1 pop, a stack of 1. Along -x from the right, the same mirrored.
+ */
+PF_TEST(traversal_counts_what_it_does)
+{
+    float vertices[6][4] = {{-1, -1, -1, 0}, {-1, 1, -1, 0}, {-1, 0, 1, 0},
+                            {1, -1, -1, 0},  {1, 1, -1, 0},  {1, 0, 1, 0}};
+    uint32_t index[2] = {0, 1}, leaf0[2] = {0, 1}, leaf1[2] = {1, 1};
+    pf_bih_node nodes[3];
+    nodes[0] = (pf_bih_node){{-1.0f, 1.0f}, (1u << 2) | 0u};
+    memcpy(nodes[1].clip, leaf0, sizeof leaf0);
+    nodes[1].word = PF_BIH_LEAF;
+    memcpy(nodes[2].clip, leaf1, sizeof leaf1);
+    nodes[2].word = PF_BIH_LEAF;
+    pf_bih bih = {0};
+    bih.nodes = nodes;
+    bih.node_count = 3;
+    bih.vertices = vertices;
+    bih.triangle_index = index;
+    bih.triangle_count = 2;
+    for (int k = 0; k < 3; k++) {
+        bih.bounds_min[k] = -1.0f;
+        bih.bounds_max[k] = 1.0f;
+    }
+    const pf_ray rays[2] = {{{-5.0f, 0.0f, 0.0f}, 0.0f, {1.0f, 0.0f, 0.0f}, INFINITY},
+                            {{5.0f, 0.0f, 0.0f}, 0.0f, {-1.0f, 0.0f, 0.0f}, INFINITY}};
+    for (int r = 0; r < 2; r++) {
+        pf_hit hit, plain;
+        pf_bih_trace_counts counts;
+        pf_error err = {0};
+        PF_CHECK_OK(pf_bih_trace_cpu_counted(&bih, &rays[r], 0, &hit, &counts, &err), &err);
+        PF_CHECK_OK(pf_bih_trace_cpu(&bih, &rays[r], 0, &plain, &err), &err);
+        PF_CHECK(hit.triangle == (uint32_t)r && plain.triangle == hit.triangle && hit.t == 4.0f);
+        PF_CHECK_MSG(counts.inner_nodes == 1 && counts.leaves == 1 &&
+                         counts.triangle_tests == 1 && counts.pops == 1 && counts.max_stack == 1,
+                     "ray %d: %u inner, %u leaves, %u tests, %u pops, stack %u", r,
+                     counts.inner_nodes, counts.leaves, counts.triangle_tests, counts.pops,
+                     counts.max_stack);
+    }
+    /* A ray past both triangles (beside their tips) still pays for both leaves. */
+    pf_ray above = {{-5.0f, 0.9f, 0.9f}, 0.0f, {1.0f, 0.0f, 0.0f}, INFINITY};
+    pf_hit hit;
+    pf_bih_trace_counts counts;
+    pf_error err = {0};
+    PF_CHECK_OK(pf_bih_trace_cpu_counted(&bih, &above, 0, &hit, &counts, &err), &err);
+    PF_CHECK(hit.triangle == PF_NO_HIT);
+    PF_CHECK_MSG(counts.leaves == 2 && counts.triangle_tests == 2 && counts.pops == 1,
+                 "miss: %u leaves, %u tests, %u pops", counts.leaves, counts.triangle_tests,
+                 counts.pops);
+}
+
 int main(void)
 {
     PF_RUN(hard_cases_match_brute_force);
@@ -324,5 +379,6 @@ int main(void)
     PF_RUN(bad_input_is_refused);
     PF_RUN(checker_catches_broken_trees);
     PF_RUN(stack_overflow_is_reported);
+    PF_RUN(traversal_counts_what_it_does);
     return pf_test_finish();
 }
