@@ -764,6 +764,10 @@ static double cpu_build_ms(const pf_scene_frame *f, uint32_t heuristic, uint32_t
     pf_bih_build_options options = {0};
     options.heuristic = heuristic;
     options.thread_count = threads;
+    /* $PF_BENCH_LEAF_SIZE: trees with other leaf sizes (0 or unset: the default, what the
+     * renderer builds), to see what a device's traversal prefers. */
+    const char *leaf_size = getenv("PF_BENCH_LEAF_SIZE");
+    options.max_leaf_size = leaf_size ? (uint32_t)atoi(leaf_size) : 0;
     double best = -1.0;
     for (int rep = 0; rep < TIMING_REPEATS; rep++) {
         pf_bih b = {0};
