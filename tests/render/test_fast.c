@@ -144,6 +144,10 @@ PF_TEST(second_frame_reuses_every_lpv_stage_and_matches)
     pf_frame_report report3 = {0};
     PF_REQUIRE_OK(pf_render_frame(renderer, &moved, &settings, &third, &report3, &err), &err);
     PF_CHECK(row_skipped_because(&report3, "lpv_propagate", "unchanged"));
+    /* Only the camera moved: the tree and the photons are reused too, and say so. */
+    PF_CHECK(row_skipped_because(&report3, "bih_build", "geometry unchanged"));
+    PF_CHECK(row_skipped_because(&report3, "photon_trace", "unchanged"));
+    PF_CHECK(row_ran(&report3, "shade"));
     /* A light that changes: photons, injection and propagation run again, geometry stays. */
     pf_scene_frame relit = cornell_frame;
     pf_material materials[64];

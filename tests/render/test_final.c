@@ -191,6 +191,20 @@ PF_TEST(rows_reuse_and_determinism)
     PF_REQUIRE_OK(pf_render_frame(renderer, &cornell_frame, &settings, &second, &report_second,
                                   &err),
                   &err);
+    /* Only the camera moves: the tree and the photon maps are reused, with their reasons. */
+    pf_scene_frame moved = cornell_frame;
+    moved.camera.position[0] += 0.05f;
+    pf_image moved_image;
+    pf_frame_report report_moved = {0};
+    PF_REQUIRE_OK(pf_render_frame(renderer, &moved, &settings, &moved_image, &report_moved,
+                                  &err),
+                  &err);
+    const pf_stage_timing *bih_moved = ref_row(&report_moved, "bih_build");
+    const pf_stage_timing *trace_moved = ref_row(&report_moved, "photon_trace");
+    PF_CHECK(bih_moved && bih_moved->skipped && strstr(bih_moved->reason, "geometry unchanged"));
+    PF_CHECK(trace_moved && trace_moved->skipped &&
+             strstr(trace_moved->reason, "photon maps reused"));
+    pf_image_free(&moved_image);
     /* A different seed in between: nothing to reuse, so this one is traced afresh. */
     pf_image scratch;
     PF_REQUIRE_OK(pf_render_frame(renderer, &cornell_frame, &other, &scratch, NULL, &err), &err);
