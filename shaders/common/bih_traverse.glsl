@@ -153,6 +153,10 @@ BihHit trace_bih(vec3 origin, vec3 direction, float tmin, float tmax, bool any_h
                 continue;
             }
             // Neither child: the next entry of the stack that can still hold a closer hit.
+            // Popped here and again after a leaf, on purpose: a lane that pops inside the
+            // inner loop goes on descending with the others. One pop site after the leaf
+            // (leave the inner loop, pop, re-enter) measured 10 % slower on diffuse rays
+            // (bench/RESULTS.md, while-while).
             bool resumed = false;
             while (stack_size > 0u) {
                 stack_size--;
