@@ -55,7 +55,8 @@ int pf_cli_worker(int argc, char **argv)
          "compiled-shader cache shared by this machine's processes\n(none: off)",
          "$PHOTONFARM_CACHE_DIR, else ~/.cache/photonfarm", pf_cli_store_text, &cache_option, 0,
          0, NULL},
-        {"--name", NULL, "NAME", "worker name, 1..127 characters", "<host>-<pid>",
+        {"--name", NULL, "NAME", "worker name, 1..127 characters",
+         "$PHOTONFARM_WORKER_NAME, else <host>-<pid>",
          store_name, &config.name, 0, 0, NULL},
         {"--lease-seconds", NULL, "S", "lease length; renewed every S/3", lease_default,
          pf_cli_store_int, &lease_seconds, 1, MAX_LEASE_SECONDS, NULL},
@@ -82,6 +83,10 @@ int pf_cli_worker(int argc, char **argv)
         code = pf_roots_finish(COMMAND, &output_roots);
     if (code)
         return code;
+    config.name = pf_cli_worker_name(config.name);
+    if (config.name && strlen(config.name) >= PF_QUEUE_NAME_MAX)
+        return pf_cli_fail(COMMAND, 2, "$PHOTONFARM_WORKER_NAME: expected 1..%d characters",
+                           PF_QUEUE_NAME_MAX - 1);
     config.scene_roots = &scene_roots;
     config.output_roots = &output_roots;
     config.once = once;

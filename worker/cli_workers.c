@@ -1,5 +1,7 @@
 /* photonfarm workers: every registered worker, alive or dead, its heartbeat
- * age and what it is rendering. */
+ * age and what it is rendering; --check NAME answers one worker's health by
+ * exit status (a container's HEALTHCHECK: alive means heard from within its
+ * own lease). */
 #include "cli_queue.h"
 #include "pf_cli.h"
 
@@ -12,15 +14,21 @@
 
 int pf_cli_workers(int argc, char **argv)
 {
-    const char *db = NULL;
-    const pf_cli_option options[] = {pf_cli_db_option(&db)};
+    const char *db = NULL, *check = NULL;
+    const pf_cli_option options[] = {
+        pf_cli_db_option(&db),
+        {"--check", NULL, "NAME",
+         "print nothing but NAME's state; exit 0 when it is alive\n(heard from within its lease), "
+         "1 when dead, stopped or unknown",
+         "list every worker", pf_cli_store_text, &check, 0, 0, NULL},
+    };
     pf_cli_command command = {
         .name = COMMAND,
         .synopsis = "[options]",
         .description = "Lists every registered worker: alive (heard from within its lease),\n"
                        "dead or stopped, its heartbeat age, device and current frame.",
         .options = options,
-        .option_count = 1,
+        .option_count = sizeof options / sizeof options[0],
     };
     int help = 0;
     int code = pf_cli_parse(&command, argc, argv, &help);
@@ -38,6 +46,16 @@ int pf_cli_workers(int argc, char **argv)
     pf_queue_close(queue);
     if (status != PF_OK)
         return pf_cli_fail(COMMAND, pf_status_exit_code(status), "%s", err.message);
+    if (check) {
+        const char *state = "unknown";
+        for (size_t i = 0; i < count; i++)
+            if (!strcmp(workers[i].name, check))
+                state = workers[i].stopped_at ? "stopped" : workers[i].alive ? "alive" : "dead";
+        char shown[256];
+        printf("%s %s\n", pf_cli_printable(check, shown, sizeof shown), state);
+        free(workers);
+        return strcmp(state, "alive") != 0;
+    }
     if (count == 0)
         printf("no workers\n");
     else

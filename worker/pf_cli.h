@@ -59,4 +59,7 @@ const char *pf_cli_cache_dir(const char *command, const char *option, char *buff
  */
 pf_vk_options pf_cli_vk_options(const char *device_option, const char *cache_dir);
 
+/* The worker's name: --name, else $PHOTONFARM_WORKER_NAME, else NULL (the default <host>-<pid>). */
+const char *pf_cli_worker_name(const char *name_option);
+
 #endif

@@ -442,7 +442,11 @@ PF_TEST(a_scene_reaching_outside_its_directory_renders_only_when_the_job_allows_
     int64_t job_id = enqueue(db, obj, "1", pattern, "--allow-outside-scene-dir");
     PF_REQUIRE(job_id > 0);
     wt_format(args, sizeof args, "worker --once --db '%s'", db);
+    /* A container names its worker by the environment. */
+    setenv("PHOTONFARM_WORKER_NAME", "named-by-env", 1);
     PF_CHECK(wt_run(args, log_path) == 0);
+    unsetenv("PHOTONFARM_WORKER_NAME");
+    PF_CHECK(wt_file_contains(log_path, "worker=named-by-env"));
     PF_CHECK(!strcmp(first_task(db, job_id).status, "done"));
     PF_CHECK(wt_count_files(out, ".exr") == 1);
     /* Core's own warning (an OBJ has no camera) reaches the worker's log in its format. */
@@ -464,11 +468,15 @@ static void signal_mid_frame(int signal_count)
     wt_format(path, sizeof path, "%s/s.0001.exr", out);
     int64_t job_id = enqueue(db, scene, "1", pattern, NULL);
     PF_REQUIRE(job_id > 0);
-    const char *worker_args[] = {"worker", "--db", db, NULL};
+    const char *worker_args[] = {"worker", "--name", "held", "--db", db, NULL};
     char env[8 * WT_PATH_MAX];
     wt_fault_environment(env, sizeof env, out, NULL, NULL, HOLD_MS);
     pid_t pid = wt_spawn(worker_args, worker_log, env);
     PF_REQUIRE(wait_running(db, job_id, 20000));
+    char check[8 * WT_PATH_MAX];
+    wt_format(check, sizeof check, "workers --check held --db '%s'", db);
+    /* The container HEALTHCHECK's question: alive while it renders. */
+    PF_CHECK(wt_run(check, log_path) == 0 && wt_file_contains(log_path, "held alive"));
     if (signal_count == 1) {
         /* While it renders, status and workers show who has which frame. */
         char args[8 * WT_PATH_MAX];
@@ -496,6 +504,10 @@ static void signal_mid_frame(int signal_count)
     PF_CHECK(signal_count == 1 ? done : released);
     PF_CHECK(wt_count_files(out, "partial") == 0);
     PF_CHECK(wt_file_contains(worker_log, signal_count == 1 ? "event=draining" : "event=released"));
+    /* Gone: stopped, and a name nobody registered is not healthy either. */
+    PF_CHECK(wt_run(check, log_path) == 1 && wt_file_contains(log_path, "held stopped"));
+    wt_format(check, sizeof check, "workers --check nobody --db '%s'", db);
+    PF_CHECK(wt_run(check, log_path) == 1 && wt_file_contains(log_path, "nobody unknown"));
 }
 
 PF_TEST(sigterm_drains_the_current_frame)
