@@ -1,0 +1,93 @@
+#!/usr/bin/env bash
+# A two-worker farm in containers, for real (issue 13, item 5): builds the
+# worker image with podman, enqueues the bundled animated demo into a SQLite
+# queue on a bind-mounted host directory, starts two worker containers, kills
+# one with SIGKILL while it holds a frame, and asserts that the job finishes
+# anyway: every frame done once, every EXR readable, a timing row per frame,
+# the killed worker's lease expired and its frame rendered by the other.
+#
+#   ../shared/tools/podman-setup.sh        # once per machine (makes pf-podman)
+#   tests/container/farm_test.sh           # ~5 min with a cached image build
+#
+# Not part of ctest: an image build takes minutes more than CI's budget.
+# Exit status 0 when every check holds, 1 otherwise.
+set -euo pipefail
+
+ROOT=$(cd "$(dirname "$0")/../.." && pwd)
+PODMAN=${PODMAN:-pf-podman}
+IMAGE=photonfarm-farm-test
+FRAMES=12
+WORK=$(mktemp -d /tmp/photonfarm-farm.XXXXXX)
+DATA=$WORK/data
+failures=0
+
+check() { # check DESCRIPTION COMMAND...: runs it, counts a failure
+  local what=$1
+  shift
+  if "$@"; then echo "ok   $what"; else echo "FAIL $what"; failures=$((failures + 1)); fi
+}
+
+cleanup() {
+  $PODMAN rm -f pf-farm-w1 pf-farm-w2 >/dev/null 2>&1 || true
+  rm -rf "$WORK"
+}
+trap cleanup EXIT
+
+# The image's user (uid 10001) writes the queue and the frames.
+mkdir -p "$DATA"
+chown 10001:10001 "$DATA" 2>/dev/null || chmod 0777 "$DATA"
+
+echo "farm_test: building $IMAGE"
+$PODMAN build --format docker -q -t "$IMAGE" \
+  --build-arg PF_GIT_REVISION="$(git -C "$ROOT" rev-parse --short=12 HEAD 2>/dev/null || echo unknown)" \
+  -f "$ROOT/docker/Dockerfile" "$ROOT" >/dev/null
+
+photonfarm() { # photonfarm ARGS...: a one-shot container on the same data
+  $PODMAN run --rm -v "$DATA:/data" "$IMAGE" "$@"
+}
+
+photonfarm enqueue /opt/photonfarm/scenes/cornell-moving/cornell-moving.gltf \
+  --frames "1-$FRAMES" --size 160x120 --quality fast --out /data/frame.####.exr --name farm-test
+
+# Short leases, so that the killed worker's frame comes back within seconds.
+for n in 1 2; do
+  $PODMAN run -d --name "pf-farm-w$n" -e PHOTONFARM_WORKER_NAME="w$n" -v "$DATA:/data" \
+    "$IMAGE" worker --lease-seconds 6 --idle-exit 20 >/dev/null
+done
+
+# Wait until w1 holds a frame, then kill it (SIGKILL: no drain, no release).
+holding=1
+for _ in $(seq 1 300); do
+  if photonfarm status 1 2>/dev/null | grep -q "running: frame .* on w1 "; then
+    holding=0
+    break
+  fi
+  sleep 0.2
+done
+check "w1 was rendering a frame when it was killed" test "$holding" -eq 0
+$PODMAN kill --signal KILL pf-farm-w1 >/dev/null
+
+# The job finishes on w2 alone.
+for _ in $(seq 1 300); do
+  if photonfarm status 1 2>/dev/null | grep -q "done "; then break; fi
+  sleep 1
+done
+status=$(photonfarm status 1)
+echo "$status"
+check "the job is done, $FRAMES/$FRAMES frames" grep -q "$FRAMES/$FRAMES" <<<"$status"
+check "w1's lease expired and was recorded" grep -q "lease expired (worker w1" <<<"$status"
+check "w2 is alive by the HEALTHCHECK's command" photonfarm workers --check w2
+
+# Every frame once: an EXR that reads back, one shade row per frame.
+reads_back() { photonfarm compare "$1" "$1" --format json >/dev/null; }
+for f in $(seq -f "%04g" 1 "$FRAMES"); do
+  check "frame $f reads back" reads_back "/data/frame.$f.exr"
+done
+timings=$(photonfarm timings 1 --format csv)
+check "one shade row per frame" grep -q "^shade,$FRAMES," <<<"$timings"
+check "no partial file left" \
+  bash -c "! ls '$DATA' | grep -q partial"
+
+$PODMAN stop -t 30 pf-farm-w2 >/dev/null 2>&1 || true
+echo "farm_test: $failures failure(s)"
+[ "$failures" -eq 0 ]
