@@ -45,8 +45,7 @@ int pf_frame_output_path(const char *pattern, int64_t frame, char *out, size_t s
     return written >= 0 && (size_t)written < size;
 }
 
-/* Splits path into its directory ("." when none) and base name. */
-static void split_path(const char *path, char *dir, size_t dir_size, const char **base)
+void pf_frame_split_path(const char *path, char *dir, size_t dir_size, const char **base)
 {
     const char *slash = strrchr(path, '/');
     if (!slash) {
@@ -70,7 +69,7 @@ int pf_frame_remove_stale(const char *output_path, int64_t task_id)
 {
     char dir[PF_FRAME_PATH_MAX], prefix[PF_FRAME_PATH_MAX], path[2 * PF_FRAME_PATH_MAX];
     const char *base;
-    split_path(output_path, dir, sizeof dir, &base);
+    pf_frame_split_path(output_path, dir, sizeof dir, &base);
     snprintf(prefix, sizeof prefix, "%s" PARTIAL_INFIX "t%" PRId64 "-", base, task_id);
     size_t prefix_length = strlen(prefix);
     DIR *listing = opendir(dir);
@@ -244,18 +243,12 @@ pf_status pf_frame_render(pf_renderer *renderer, const pf_frame_request *request
 pf_status pf_frame_output_check(const char *pattern, char *absolute, size_t size, pf_error *err)
 {
     char dir[PATH_MAX], resolved[PATH_MAX];
-    const char *slash = strrchr(pattern, '/');
-    const char *base = slash ? slash + 1 : pattern;
+    const char *base;
+    pf_frame_split_path(pattern, dir, sizeof dir, &base);
     if (!*base)
         return pf_error_set(err, PF_ERR_INVALID, "no file name after the directory");
     if (strchr(pattern, '#') && strchr(pattern, '#') < base)
         return pf_error_set(err, PF_ERR_INVALID, "# belongs in the file name, not the directory");
-    if (!slash)
-        snprintf(dir, sizeof dir, ".");
-    else if (slash == pattern)
-        snprintf(dir, sizeof dir, "/");
-    else
-        snprintf(dir, sizeof dir, "%.*s", (int)(slash - pattern), pattern);
     if (!realpath(dir, resolved))
         return pf_error_set(err, PF_ERR_IO, "output directory %s: %s", dir, strerror(errno));
     /* Writable as this process: the one way to know is to write. */
@@ -308,7 +301,7 @@ pf_status pf_frame_commit(pf_frame_output *out, pf_error *err)
     /* The rename is durable only once the directory entry is on disk. */
     char dir[PF_FRAME_PATH_MAX];
     const char *base;
-    split_path(out->final_path, dir, sizeof dir, &base);
+    pf_frame_split_path(out->final_path, dir, sizeof dir, &base);
     int fd = open(dir, O_RDONLY | O_DIRECTORY);
     if (fd >= 0) {
         int synced = fsync(fd);

@@ -121,6 +121,9 @@ int pf_frame_remove_stale(const char *output_path, int64_t task_id);
 /* The temporary-file tag of a queue task's attempt: "t<task_id>-<lease token>". */
 void pf_frame_task_tag(int64_t task_id, const char *lease_token, char *out, size_t size);
 
+/* Splits path into its directory ("." when none, "/" at the root) and its file name. */
+void pf_frame_split_path(const char *path, char *dir, size_t dir_size, const char **base);
+
 /* Replaces the first run of '#' in pattern with the zero-padded frame number
  * (a pattern without '#' is used as is). 0 if the result does not fit. */
 int pf_frame_output_path(const char *pattern, int64_t frame, char *out, size_t size);

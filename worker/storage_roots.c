@@ -1,5 +1,6 @@
 /* Scene and output roots: confining and mapping a job's paths (storage_roots.h). */
 #include "storage_roots.h"
+#include "frame_pipeline.h"
 #include "pf_cli.h"
 
 #include <errno.h>
@@ -177,25 +178,12 @@ pf_status pf_roots_resolve(const pf_roots *roots, const char *stored, char *out,
     return outside_error(roots, stored, err);
 }
 
-/* Splits pattern into its directory ("." when none) and file name. */
-static void split_pattern(const char *pattern, char *directory, size_t size, const char **name)
-{
-    const char *slash = strrchr(pattern, '/');
-    *name = slash ? slash + 1 : pattern;
-    if (!slash)
-        snprintf(directory, size, ".");
-    else if (slash == pattern)
-        snprintf(directory, size, "/");
-    else
-        snprintf(directory, size, "%.*s", (int)(slash - pattern), pattern);
-}
-
 pf_status pf_roots_output_relative(const pf_roots *roots, const char *absolute_pattern, char *out,
                                    size_t size, pf_error *err)
 {
     char directory[PATH_MAX], resolved[PATH_MAX], relative[PATH_MAX];
     const char *name;
-    split_pattern(absolute_pattern, directory, sizeof directory, &name);
+    pf_frame_split_path(absolute_pattern, directory, sizeof directory, &name);
     if (!realpath(directory, resolved))
         return pf_error_set(err, PF_ERR_IO, "output directory %s: %s", directory,
                             strerror(errno));
@@ -220,7 +208,7 @@ pf_status pf_roots_output_resolve(const pf_roots *roots, const char *stored_patt
                    : pf_error_set(err, PF_ERR_INVALID, "path too long");
     char directory[PATH_MAX], resolved[PATH_MAX];
     const char *name;
-    split_pattern(stored_pattern, directory, sizeof directory, &name);
+    pf_frame_split_path(stored_pattern, directory, sizeof directory, &name);
     pf_status status = pf_roots_resolve(roots, directory, resolved, sizeof resolved, err);
     if (status != PF_OK)
         return status;
