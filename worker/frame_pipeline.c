@@ -24,6 +24,8 @@ const char *pf_frame_fault_name(pf_frame_fault fault)
         return "settings";
     case PF_FRAME_FAULT_OUTPUT:
         return "output";
+    case PF_FRAME_FAULT_REFUSED:
+        return "refused";
     default:
         return "worker";
     }
@@ -215,9 +217,8 @@ pf_status pf_frame_render(pf_renderer *renderer, const pf_frame_request *request
         status = pf_image_select(&image, rgba, 4, &beauty, err);
         written = &beauty;
     }
-    if (status == PF_OK)
-        out->fault = PF_FRAME_FAULT_OUTPUT; /* from here on a failure is the file's */
-    if (status == PF_OK)
+    int writing = status == PF_OK; /* a failure from here on is the file's */
+    if (writing)
         status = pf_exr_write(out->temp_path, written,
                               settings.float_pixels ? PF_EXR_FLOAT : PF_EXR_HALF, attributes,
                               ATTRIBUTE_COUNT, err);
@@ -226,10 +227,10 @@ pf_status pf_frame_render(pf_renderer *renderer, const pf_frame_request *request
     if (status != PF_OK) {
         unlink(out->temp_path);
         out->temp_path[0] = '\0';
+        out->fault = writing ? PF_FRAME_FAULT_OUTPUT : PF_FRAME_FAULT_WORKER;
         pf_error_prefix(err, "writing frame %" PRId64, request->frame);
         return status;
     }
-    out->fault = PF_FRAME_FAULT_WORKER;
     pf_stage_timing *write_row = pf_frame_report_add(&out->report, "exr_write");
     if (write_row) {
         write_row->wall_ms = pf_time_ms() - write_start;
@@ -290,11 +291,11 @@ pf_status pf_frame_commit(pf_frame_output *out, pf_error *err)
     if (!out->temp_path[0])
         return pf_error_set(err, PF_ERR_INTERNAL, "no rendered frame to commit for %s",
                             out->final_path);
-    out->fault = PF_FRAME_FAULT_OUTPUT;
     if (rename(out->temp_path, out->final_path) != 0) {
         pf_status status = pf_error_set(err, PF_ERR_IO, "renaming %s to %s: %s", out->temp_path,
                                         out->final_path, strerror(errno));
         pf_frame_discard(out);
+        out->fault = PF_FRAME_FAULT_OUTPUT;
         return status;
     }
     out->temp_path[0] = '\0';
@@ -306,11 +307,12 @@ pf_status pf_frame_commit(pf_frame_output *out, pf_error *err)
     if (fd >= 0) {
         int synced = fsync(fd);
         close(fd);
-        if (synced != 0)
+        if (synced != 0) {
+            out->fault = PF_FRAME_FAULT_OUTPUT;
             return pf_error_set(err, PF_ERR_IO, "fsync of directory %s: %s", dir,
                                 strerror(errno));
+        }
     }
-    out->fault = PF_FRAME_FAULT_WORKER;
     return PF_OK;
 }
 

@@ -54,10 +54,12 @@ typedef enum pf_frame_fault {
     PF_FRAME_FAULT_WORKER = 0, /* rendering failed here: device, memory, limits */
     PF_FRAME_FAULT_SCENE,      /* the job's scene cannot be read or evaluated */
     PF_FRAME_FAULT_SETTINGS,   /* the job's stored settings cannot be parsed */
-    PF_FRAME_FAULT_OUTPUT      /* the job's output storage refused the frame */
+    PF_FRAME_FAULT_OUTPUT,     /* the job's output storage refused the frame */
+    PF_FRAME_FAULT_REFUSED     /* the job asks for what this farm refuses (a path outside
+                                  the storage roots): the task fails for good */
 } pf_frame_fault;
 
-/* "worker", "scene", "settings", "output". */
+/* "worker", "scene", "settings", "output", "refused". */
 const char *pf_frame_fault_name(pf_frame_fault fault);
 
 typedef struct pf_frame_output {

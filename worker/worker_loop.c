@@ -91,7 +91,6 @@ struct worker {
     pf_status render_status;
     pf_error render_err;
     pf_frame_fault render_fault; /* whose fault a failed render is */
-    int render_rejected;         /* the job asks for what this farm refuses: fail it for good */
 
     pf_progress progress;
     int show_progress;
@@ -433,17 +432,19 @@ static void render_work(uv_work_t *request)
     w->render_status = PF_OK;
     w->render_fault = PF_FRAME_FAULT_WORKER;
     memset(&w->render_err, 0, sizeof w->render_err);
-    w->render_rejected = 0;
-    /* Paths through this worker's roots: outside them the task is refused for good. */
+    /* Paths through this worker's roots: outside them the task is refused for good;
+     * one that does not exist inside them is its scene's or output's fault. */
     char scene_path[PATH_MAX], pattern[PATH_MAX];
     w->render_status = pf_roots_resolve(w->config.scene_roots, w->job.scene_path, scene_path,
                                         sizeof scene_path, &w->render_err);
-    if (w->render_status == PF_OK)
+    pf_frame_fault missing = PF_FRAME_FAULT_SCENE;
+    if (w->render_status == PF_OK) {
         w->render_status = pf_roots_output_resolve(w->config.output_roots, w->job.output_pattern,
                                                    pattern, sizeof pattern, &w->render_err);
+        missing = PF_FRAME_FAULT_OUTPUT;
+    }
     if (w->render_status != PF_OK) {
-        w->render_rejected = w->render_status == PF_ERR_INVALID;
-        w->render_fault = PF_FRAME_FAULT_OUTPUT;
+        w->render_fault = w->render_status == PF_ERR_INVALID ? PF_FRAME_FAULT_REFUSED : missing;
         return;
     }
     /* A full, read-only or missing output volume is found before any work, and
@@ -491,8 +492,7 @@ static void render_work(uv_work_t *request)
         w->render_status = pf_roots_check_output_file(w->config.output_roots, path,
                                                       &w->render_err);
         if (w->render_status != PF_OK) {
-            w->render_rejected = 1;
-            w->render_fault = PF_FRAME_FAULT_OUTPUT;
+            w->render_fault = PF_FRAME_FAULT_REFUSED;
             return;
         }
         int stale = pf_frame_remove_stale(path, w->task.task_id);
@@ -531,7 +531,7 @@ static void render_after(uv_work_t *request, int uv_status)
         db_submit(w, release_run, release_done);
     } else if (w->render_status != PF_OK) {
         discard_outputs(w);
-        if (w->render_rejected)
+        if (w->render_fault == PF_FRAME_FAULT_REFUSED)
             db_submit(w, reject_run, reject_done);
         else if (w->render_fault == PF_FRAME_FAULT_WORKER)
             db_submit(w, fail_run, fail_done);

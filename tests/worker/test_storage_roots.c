@@ -145,7 +145,11 @@ PF_TEST(a_worker_refuses_job_rows_that_escape_its_roots)
     int64_t climbing_scene = insert_directly(db, "../../worker-outside/tiny.gltf", pattern);
     wt_format(pattern, sizeof pattern, "%s/f.####.exr", outside);
     int64_t outside_output = insert_directly(db, "tiny.gltf", pattern);
-    PF_REQUIRE(absolute_scene > 0 && climbing_scene > 0 && outside_output > 0);
+    /* Inside the roots but missing: the scene's fault (the job pauses), not a refusal. */
+    wt_format(pattern, sizeof pattern, "%s/m.####.exr", out);
+    int64_t missing_scene = insert_directly(db, "missing.gltf", pattern);
+    PF_REQUIRE(absolute_scene > 0 && climbing_scene > 0 && outside_output > 0 &&
+               missing_scene > 0);
 
     wt_format(args, sizeof args, "worker --once --scene-root '%s' --output-root '%s' --db '%s'",
               scenes, out, db);
@@ -174,6 +178,13 @@ PF_TEST(a_worker_refuses_job_rows_that_escape_its_roots)
                      count ? failures[0].error : "");
         free(failures);
     }
+    pf_queue_job paused = {0};
+    pf_error err = {0};
+    PF_CHECK_OK(pf_queue_job_get(queue, missing_scene, &paused, &err), &err);
+    PF_CHECK_MSG(!strcmp(paused.status, "paused") && strstr(paused.note, "paused: scene: ") &&
+                     strstr(paused.note, "missing.gltf"),
+                 "missing scene: job %s, note %s", paused.status, paused.note);
+    pf_queue_job_clear(&paused);
     pf_queue_close(queue);
     PF_CHECK(wt_count_files(outside, ".exr") == 0);
     PF_CHECK(wt_count_files(out, ".exr") == 0);
