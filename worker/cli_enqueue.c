@@ -231,12 +231,14 @@ int pf_cli_enqueue(int argc, char **argv)
     if (!code && pf_roots_output_relative(&options.output_roots, pattern, stored_pattern,
                                           sizeof stored_pattern, &err) != PF_OK)
         code = pf_cli_fail(COMMAND, 2, "--out: %s", err.message);
-    for (size_t i = 0; !code && i < frames.count; i++) {
-        char path[PF_FRAME_PATH_MAX];
-        if (pf_frame_output_path(pattern, frames.frames[i], path, sizeof path) &&
-            pf_roots_check_output_file(&options.output_roots, path, &err) != PF_OK)
+    /* The job's files, listed once: checked against the roots here, and against
+     * the unfinished jobs' files inside the insert (output_conflict). */
+    our_files ours = {NULL, frames.count, &options.output_roots};
+    if (!code && !(ours.paths = output_files(pattern, &frames)))
+        code = pf_cli_fail(COMMAND, 1, "out of memory listing output files");
+    for (size_t i = 0; !code && i < ours.count; i++)
+        if (pf_roots_check_output_file(&options.output_roots, ours.paths[i], &err) != PF_OK)
             code = pf_cli_fail(COMMAND, 2, "--out: %s", err.message);
-    }
     char parameters[PARAMETERS_MAX];
     pf_job_extras extras = {options.name, options.scene.load.allow_outside_scene_dir};
     if (!code && !pf_job_params_format(&options.settings, &extras, parameters,
@@ -247,11 +249,9 @@ int pf_cli_enqueue(int argc, char **argv)
     const char *db_path = pf_cli_db_path(options.db);
     if (!code)
         code = pf_cli_open_queue(COMMAND, db_path, 0, &queue);
-    our_files ours = {NULL, frames.count, &options.output_roots};
-    if (!code && !options.force && !(ours.paths = output_files(pattern, &frames)))
-        code = pf_cli_fail(COMMAND, 1, "out of memory listing output files");
     pf_frame_list_free(&frames);
     if (code) {
+        free_files(ours.paths, ours.count);
         if (queue)
             pf_queue_close(queue);
         return code;
