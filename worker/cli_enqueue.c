@@ -35,7 +35,7 @@ typedef struct enqueue_options {
     pf_render_settings settings;
     int64_t priority, max_attempts, frames_per_task;
     int force; /* --force: enqueue even when an unfinished job writes the same files */
-    pf_roots scene_roots, output_roots; /* storage_roots.h */
+    pf_storage storage; /* storage_roots.h */
 } enqueue_options;
 
 static int parse_options(int argc, char **argv, enqueue_options *options, int *help)
@@ -44,8 +44,7 @@ static int parse_options(int argc, char **argv, enqueue_options *options, int *h
     options->settings = pf_render_settings_default();
     options->max_attempts = 3;
     options->frames_per_task = 1;
-    options->scene_roots.kind = "scene";
-    options->output_roots.kind = "output";
+    pf_storage_init(&options->storage);
     const pf_cli_option own[] = {
         {"--frames", NULL, "RANGE", "e.g. 1-48, 1-48x2 (every 2nd), 1,5,9-12", "required",
          pf_cli_store_text, &options->frames, 0, 0, NULL},
@@ -65,8 +64,8 @@ static int parse_options(int argc, char **argv, enqueue_options *options, int *h
          "enqueue even when an unfinished job writes the same\noutput files",
          "refused, naming that job", pf_cli_store_flag, &options->force, 0, 0, NULL},
         pf_cli_db_option(&options->db),
-        pf_roots_option(&options->scene_roots),
-        pf_roots_option(&options->output_roots),
+        pf_roots_option(&options->storage.scene),
+        pf_roots_option(&options->storage.output),
     };
     int code = pf_cli_parse_job(COMMAND, "SCENE --frames RANGE --out PATTERN [options]",
                                 "Adds a render job to the queue after checking it: the scene\n"
@@ -77,9 +76,7 @@ static int parse_options(int argc, char **argv, enqueue_options *options, int *h
                                 &options->scene, argc, argv, help);
     if (code || *help)
         return code;
-    code = pf_roots_finish(COMMAND, &options->scene_roots);
-    if (!code)
-        code = pf_roots_finish(COMMAND, &options->output_roots);
+    code = pf_storage_finish(COMMAND, &options->storage);
     if (code)
         return code;
     if (!options->frames)
@@ -225,19 +222,19 @@ int pf_cli_enqueue(int argc, char **argv)
         code = check_scene(&options, &frames, scene_path, sizeof scene_path);
     /* With roots: inside them, stored relative to the one that holds each. */
     char stored_scene[PATH_MAX], stored_pattern[PATH_MAX];
-    if (!code && pf_roots_relative(&options.scene_roots, scene_path, stored_scene,
+    if (!code && pf_roots_relative(&options.storage.scene, scene_path, stored_scene,
                                    sizeof stored_scene, &err) != PF_OK)
         code = pf_cli_fail(COMMAND, 2, "scene: %s", err.message);
-    if (!code && pf_roots_output_relative(&options.output_roots, pattern, stored_pattern,
+    if (!code && pf_roots_output_relative(&options.storage.output, pattern, stored_pattern,
                                           sizeof stored_pattern, &err) != PF_OK)
         code = pf_cli_fail(COMMAND, 2, "--out: %s", err.message);
     /* The job's files, listed once: checked against the roots here, and against
      * the unfinished jobs' files inside the insert (output_conflict). */
-    our_files ours = {NULL, frames.count, &options.output_roots};
+    our_files ours = {NULL, frames.count, &options.storage.output};
     if (!code && !(ours.paths = output_files(pattern, &frames)))
         code = pf_cli_fail(COMMAND, 1, "out of memory listing output files");
     for (size_t i = 0; !code && i < ours.count; i++)
-        if (pf_roots_check_output_file(&options.output_roots, ours.paths[i], &err) != PF_OK)
+        if (pf_roots_check_output_file(&options.storage.output, ours.paths[i], &err) != PF_OK)
             code = pf_cli_fail(COMMAND, 2, "--out: %s", err.message);
     char parameters[PARAMETERS_MAX];
     pf_job_extras extras = {options.name, options.scene.load.allow_outside_scene_dir};

@@ -39,7 +39,7 @@ static const char *shown_path(const pf_roots *roots, const char *stored, int out
 }
 
 static void print_job(pf_queue *queue, const pf_queue_job *job, int64_t now,
-                      const pf_roots *scene_roots, const pf_roots *output_roots)
+                      const pf_storage *storage)
 {
     char bar[320], name[128], shown[4][PF_CLI_PATH_MAX];
     pf_progress_bar(bar, sizeof bar, job->frames_done, job->frames_total, BAR_CELLS);
@@ -48,9 +48,9 @@ static void print_job(pf_queue *queue, const pf_queue_job *job, int64_t now,
            pf_cli_printable(name, shown[0], sizeof shown[0]), name[0] ? ")" : "", job->status,
            bar, job->priority);
     printf("  scene %s  frames %s  -> %s\n",
-           shown_path(scene_roots, job->scene_path, 0, shown[1], sizeof shown[1]),
+           shown_path(&storage->scene, job->scene_path, 0, shown[1], sizeof shown[1]),
            pf_cli_printable(job->frame_range, shown[2], sizeof shown[2]),
-           shown_path(output_roots, job->output_pattern, 1, shown[3], sizeof shown[3]));
+           shown_path(&storage->output, job->output_pattern, 1, shown[3], sizeof shown[3]));
     printf("  tasks: %" PRId64 " queued, %" PRId64 " running, %" PRId64 " done, %" PRId64
            " failed, %" PRId64 " canceled\n",
            job->tasks_queued, job->tasks_running, job->tasks_done, job->tasks_failed,
@@ -93,9 +93,10 @@ static void print_job(pf_queue *queue, const pf_queue_job *job, int64_t now,
 int pf_cli_status(int argc, char **argv)
 {
     const char *db = NULL, *job_text = NULL;
-    pf_roots scene_roots = {.kind = "scene"}, output_roots = {.kind = "output"};
-    const pf_cli_option options[] = {pf_cli_db_option(&db), pf_roots_option(&scene_roots),
-                                     pf_roots_option(&output_roots)};
+    pf_storage storage;
+    pf_storage_init(&storage);
+    const pf_cli_option options[] = {pf_cli_db_option(&db), pf_roots_option(&storage.scene),
+                                     pf_roots_option(&storage.output)};
     pf_cli_command command = {
         .name = COMMAND,
         .synopsis = "[JOB] [options]",
@@ -114,9 +115,7 @@ int pf_cli_status(int argc, char **argv)
         return code;
     code = pf_cli_job_id(COMMAND, job_text, 0, &job_id);
     if (!code)
-        code = pf_roots_finish(COMMAND, &scene_roots);
-    if (!code)
-        code = pf_roots_finish(COMMAND, &output_roots);
+        code = pf_storage_finish(COMMAND, &storage);
     if (code)
         return code;
     pf_queue *queue = NULL;
@@ -129,7 +128,7 @@ int pf_cli_status(int argc, char **argv)
         pf_queue_job job = {0};
         pf_status status = pf_queue_job_get(queue, job_id, &job, &err);
         if (status == PF_OK)
-            print_job(queue, &job, now, &scene_roots, &output_roots);
+            print_job(queue, &job, now, &storage);
         else
             code = pf_cli_fail(COMMAND, pf_status_exit_code(status), "%s", err.message);
         pf_queue_job_clear(&job);
@@ -143,7 +142,7 @@ int pf_cli_status(int argc, char **argv)
             printf("no jobs\n");
         } else {
             for (size_t i = 0; i < count; i++)
-                print_job(queue, &jobs[i], now, &scene_roots, &output_roots);
+                print_job(queue, &jobs[i], now, &storage);
         }
         pf_queue_job_list_free(jobs, count);
     }

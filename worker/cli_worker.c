@@ -34,7 +34,8 @@ int pf_cli_worker(int argc, char **argv)
     const char *db = NULL, *cache_option = NULL;
     int create_db = 0, once = 0;
     int64_t max_frames = 0, idle_exit = -1, lease_seconds = DEFAULT_LEASE_SECONDS;
-    pf_roots scene_roots = {.kind = "scene"}, output_roots = {.kind = "output"};
+    pf_storage storage;
+    pf_storage_init(&storage);
     char lease_default[32];
     snprintf(lease_default, sizeof lease_default, "%d", DEFAULT_LEASE_SECONDS);
     const pf_cli_option options[] = {
@@ -60,8 +61,8 @@ int pf_cli_worker(int argc, char **argv)
          store_name, &config.name, 0, 0, NULL},
         {"--lease-seconds", NULL, "S", "lease length; renewed every S/3", lease_default,
          pf_cli_store_int, &lease_seconds, 1, MAX_LEASE_SECONDS, NULL},
-        pf_roots_option(&scene_roots),
-        pf_roots_option(&output_roots),
+        pf_roots_option(&storage.scene),
+        pf_roots_option(&storage.output),
     };
     pf_cli_command command = {
         .name = COMMAND,
@@ -78,17 +79,14 @@ int pf_cli_worker(int argc, char **argv)
     int code = pf_cli_parse(&command, argc, argv, &help);
     if (code || help)
         return code;
-    code = pf_roots_finish(COMMAND, &scene_roots);
-    if (!code)
-        code = pf_roots_finish(COMMAND, &output_roots);
+    code = pf_storage_finish(COMMAND, &storage);
     if (code)
         return code;
     config.name = pf_cli_worker_name(config.name);
     if (config.name && strlen(config.name) >= PF_QUEUE_NAME_MAX)
         return pf_cli_fail(COMMAND, 2, "$PHOTONFARM_WORKER_NAME: expected 1..%d characters",
                            PF_QUEUE_NAME_MAX - 1);
-    config.scene_roots = &scene_roots;
-    config.output_roots = &output_roots;
+    config.storage = &storage;
     config.once = once;
     config.max_frames = max_frames;
     config.idle_exit_seconds = (double)idle_exit;

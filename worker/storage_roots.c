@@ -43,16 +43,20 @@ pf_cli_option pf_roots_option(pf_roots *roots)
     return option;
 }
 
-int pf_roots_finish(const char *command, pf_roots *roots)
+void pf_storage_init(pf_storage *storage)
 {
-    /* The environment's list lives as long as the process: its pieces are kept. */
-    static char environment_copy[2][PF_ROOTS_MAX * 256];
+    memset(storage, 0, sizeof *storage);
+    storage->scene.kind = "scene";
+    storage->output.kind = "output";
+}
+
+static int roots_finish(const char *command, pf_roots *roots)
+{
     if (roots->count == 0) {
         const char *list = getenv(environment_of(roots));
-        char *copy = environment_copy[strcmp(roots->kind, "scene") != 0];
         if (list && *list) {
-            snprintf(copy, sizeof environment_copy[0], "%s", list);
-            for (char *save = NULL, *piece = strtok_r(copy, ":", &save);
+            snprintf(roots->environment, sizeof roots->environment, "%s", list);
+            for (char *save = NULL, *piece = strtok_r(roots->environment, ":", &save);
                  piece && roots->count < PF_ROOTS_MAX; piece = strtok_r(NULL, ":", &save))
                 roots->given[roots->count++] = piece;
         }
@@ -66,6 +70,12 @@ int pf_roots_finish(const char *command, pf_roots *roots)
                                errno ? strerror(errno) : "not a directory");
     }
     return 0;
+}
+
+int pf_storage_finish(const char *command, pf_storage *storage)
+{
+    int code = roots_finish(command, &storage->scene);
+    return code ? code : roots_finish(command, &storage->output);
 }
 
 const char *pf_roots_list(const pf_roots *roots, char *out, size_t size)

@@ -31,17 +31,26 @@ typedef struct pf_roots {
     const char *given[PF_ROOTS_MAX];    /* as the options or environment named them */
     char resolved[PF_ROOTS_MAX][PATH_MAX];
     size_t count;
+    char environment[PF_ROOTS_MAX * 256]; /* the environment's list, split in place */
 } pf_roots;
 
-/* The option rows --scene-root and --output-root, storing into the two root lists. */
+/* A command's two lists: where jobs read scenes, where they write frames. */
+typedef struct pf_storage {
+    pf_roots scene, output;
+} pf_storage;
+
+/* Both lists empty, each named by its kind. */
+void pf_storage_init(pf_storage *storage);
+
+/* The option row --scene-root or --output-root (by roots->kind), storing into roots. */
 pf_cli_option pf_roots_option(pf_roots *roots);
 
 /*
  * After parsing: resolves each root given by option (or, with none, by the
- * environment variable of its kind) with realpath. 0, or 2 after printing
- * which root does not exist.
+ * environment variable of its kind) with realpath, for both lists. 0, or 2
+ * after printing which root does not exist.
  */
-int pf_roots_finish(const char *command, pf_roots *roots);
+int pf_storage_finish(const char *command, pf_storage *storage);
 
 /* "DIR1, DIR2" for messages. */
 const char *pf_roots_list(const pf_roots *roots, char *out, size_t size);

@@ -435,11 +435,11 @@ static void render_work(uv_work_t *request)
     /* Paths through this worker's roots: outside them the task is refused for good;
      * one that does not exist inside them is its scene's or output's fault. */
     char scene_path[PATH_MAX], pattern[PATH_MAX];
-    w->render_status = pf_roots_resolve(w->config.scene_roots, w->job.scene_path, scene_path,
+    w->render_status = pf_roots_resolve(&w->config.storage->scene, w->job.scene_path, scene_path,
                                         sizeof scene_path, &w->render_err);
     pf_frame_fault missing = PF_FRAME_FAULT_SCENE;
     if (w->render_status == PF_OK) {
-        w->render_status = pf_roots_output_resolve(w->config.output_roots, w->job.output_pattern,
+        w->render_status = pf_roots_output_resolve(&w->config.storage->output, w->job.output_pattern,
                                                    pattern, sizeof pattern, &w->render_err);
         missing = PF_FRAME_FAULT_OUTPUT;
     }
@@ -489,7 +489,7 @@ static void render_work(uv_work_t *request)
             w->render_fault = PF_FRAME_FAULT_OUTPUT;
             return;
         }
-        w->render_status = pf_roots_check_output_file(w->config.output_roots, path,
+        w->render_status = pf_roots_check_output_file(&w->config.storage->output, path,
                                                       &w->render_err);
         if (w->render_status != PF_OK) {
             w->render_fault = PF_FRAME_FAULT_REFUSED;
@@ -803,7 +803,7 @@ static void close_everything(worker *w)
 /* The storage roots this worker confines jobs to, and one warning when it confines none. */
 static void log_roots(worker *w)
 {
-    const pf_roots *kinds[2] = {w->config.scene_roots, w->config.output_roots};
+    const pf_roots *kinds[2] = {&w->config.storage->scene, &w->config.storage->output};
     char unconfined[32] = "";
     for (int k = 0; k < 2; k++) {
         const pf_roots *roots = kinds[k];

@@ -24,7 +24,7 @@ typedef struct pf_worker_config {
     const char *name;          /* NULL: "<host>-<pid>" */
     const char *device;        /* NULL: automatic ($PHOTONFARM_DEVICE) */
     const char *cache_dir;     /* compiled-shader cache (pf_cli_cache_dir); NULL: none */
-    const pf_roots *scene_roots, *output_roots; /* storage_roots.h; count 0: anywhere */
+    const pf_storage *storage;  /* storage_roots.h: the roots (none: anywhere) */
     int once;                  /* exit as soon as a claim finds nothing eligible */
     int64_t max_frames;        /* 0: unlimited; else exit after this many frames */
     double idle_exit_seconds;  /* < 0: never; else exit after this long without work */
