@@ -33,13 +33,13 @@
 #include <stdlib.h>
 #include <string.h>
 
-typedef enum bih_build_site { BUILD_ON_CPU, BUILD_ON_GPU } bih_build_site;
-
-static bih_build_site choose_build_site(const pf_renderer *renderer)
+/* PF_BIH_BUILD_CPU or PF_BIH_BUILD_GPU: the forced site, else the device's own. */
+static pf_bih_build_site choose_build_site(const pf_renderer *renderer)
 {
     if (renderer->bih_build_site != PF_BIH_BUILD_AUTO)
-        return renderer->bih_build_site == PF_BIH_BUILD_GPU ? BUILD_ON_GPU : BUILD_ON_CPU;
-    return strcmp(pf_vk_info(renderer->ctx)->type, "cpu") == 0 ? BUILD_ON_CPU : BUILD_ON_GPU;
+        return renderer->bih_build_site;
+    return strcmp(pf_vk_info(renderer->ctx)->type, "cpu") == 0 ? PF_BIH_BUILD_CPU
+                                                                : PF_BIH_BUILD_GPU;
 }
 
 void pf_renderer_set_bih_build(pf_renderer *renderer, pf_bih_build_site site)
@@ -48,11 +48,11 @@ void pf_renderer_set_bih_build(pf_renderer *renderer, pf_bih_build_site site)
 }
 
 static pf_status build_tree(pf_renderer *renderer, const pf_scene_frame *frame,
-                            bih_build_site site, pf_bih *out, int *built_on_gpu, pf_error *err)
+                            pf_bih_build_site site, pf_bih *out, int *built_on_gpu, pf_error *err)
 {
     pf_bih_build_options options = {0};
     *built_on_gpu = 0;
-    if (site == BUILD_ON_CPU) {
+    if (site == PF_BIH_BUILD_CPU) {
         pf_bih_build_options cpu_options = {.heuristic = PF_BIH_HEURISTIC_SAH};
         return pf_bih_build_cpu(frame, &cpu_options, out, err);
     }
@@ -105,7 +105,7 @@ static double sah_of(const pf_bih *bih)
 
 /* Replaces renderer->bih with a fresh build and makes it the refit yardstick. */
 static pf_status build_fresh(pf_renderer *renderer, const pf_scene_frame *frame,
-                             bih_build_site site, int *built_on_gpu, pf_error *err)
+                             pf_bih_build_site site, int *built_on_gpu, pf_error *err)
 {
     if (renderer->bih_valid) {
         pf_bih_free(&renderer->bih);
@@ -126,7 +126,7 @@ static pf_status build_fresh(pf_renderer *renderer, const pf_scene_frame *frame,
  * tree the GPU copy does not have yet. On failure the tree may be gone.
  */
 static pf_status update_tree(pf_renderer *renderer, const pf_scene_frame *frame,
-                             bih_build_site site, bih_decision *decision, char *reason,
+                             pf_bih_build_site site, bih_decision *decision, char *reason,
                              size_t reason_size, int *built_on_gpu, pf_error *err)
 {
     *built_on_gpu = 0;
@@ -178,7 +178,7 @@ pf_status pf_render_prepare_bih(pf_renderer *renderer, const pf_scene_frame *fra
                                 pf_frame_report *report, pf_error *err)
 {
     double start = pf_time_ms();
-    bih_build_site site = choose_build_site(renderer);
+    pf_bih_build_site site = choose_build_site(renderer);
     pf_status status = PF_OK;
     if (!renderer->bih_gpu) {
         status = pf_bih_gpu_create(renderer->ctx, &renderer->bih_gpu, err);
