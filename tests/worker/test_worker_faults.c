@@ -13,7 +13,6 @@
  *     exactly once (one completion and one set of stage rows per frame,
  *     every EXR readable, no partial file left).
  */
-#include "pf_image.h"
 #include "pf_test.h"
 #include "worker_test_util.h"
 
@@ -111,18 +110,8 @@ static void check_frames(const char *out, int count)
     for (int frame = 1; frame <= count; frame++) {
         char path[WT_PATH_MAX + 64];
         wt_format(path, sizeof path, "%s/f.%04d.exr", out, frame);
-        pf_image image = {0};
-        pf_image_attribute *attributes = NULL;
-        uint32_t attribute_count = 0;
-        pf_error err = {0};
-        PF_CHECK_OK(pf_exr_read(path, &image, &attributes, &attribute_count, &err), &err);
-        int recorded = -1;
-        for (uint32_t i = 0; i < attribute_count; i++)
-            if (!strcmp(attributes[i].key, "photonfarm/frame"))
-                recorded = atoi(attributes[i].value);
+        int recorded = wt_exr_frame(path);
         PF_CHECK_MSG(recorded == frame, "%s records frame %d", path, recorded);
-        free(attributes);
-        pf_image_free(&image);
     }
 }
 

@@ -10,7 +10,6 @@
  * queued, no file); and a worker whose lease was taken over, which must not
  * touch the new owner's output.
  */
-#include "pf_image.h"
 #include "pf_test.h"
 #include "worker_test_util.h"
 
@@ -63,23 +62,6 @@ static int wait_running(const char *db, int64_t job_id, int timeout_ms)
         wt_sleep_ms(50);
     }
     return 0;
-}
-
-static int exr_frame_attribute(const char *path)
-{
-    pf_image image = {0};
-    pf_image_attribute *attributes = NULL;
-    uint32_t count = 0;
-    pf_error err = {0};
-    int frame = -1;
-    if (pf_exr_read(path, &image, &attributes, &count, &err) == PF_OK) {
-        for (uint32_t i = 0; i < count; i++)
-            if (!strcmp(attributes[i].key, "photonfarm/frame"))
-                frame = atoi(attributes[i].value);
-    }
-    free(attributes);
-    pf_image_free(&image);
-    return frame;
 }
 
 /*
@@ -138,7 +120,7 @@ PF_TEST(worker_renders_a_job_and_timings_report_every_stage)
     for (int frame = 1; frame <= 3; frame++) {
         char path[3 * WT_PATH_MAX];
         wt_format(path, sizeof path, "%s/f.%04d.exr", out, frame);
-        PF_CHECK_MSG(exr_frame_attribute(path) == frame, "%s: wrong or missing frame", path);
+        PF_CHECK_MSG(wt_exr_frame(path) == frame, "%s: wrong or missing frame", path);
     }
     PF_CHECK(wt_count_files(out, "") == 3);
     pf_queue *queue = wt_open_queue(db);
@@ -496,7 +478,7 @@ static void signal_mid_frame(int signal_count)
     int code = wt_wait(pid, WORKER_TIMEOUT_MS);
     PF_CHECK_MSG(code == 0, "worker exited %d after SIGTERM x%d", code, signal_count);
     pf_queue_task_info task = first_task(db, job_id);
-    int done = !strcmp(task.status, "done") && exr_frame_attribute(path) == 1;
+    int done = !strcmp(task.status, "done") && wt_exr_frame(path) == 1;
     int released = !strcmp(task.status, "queued") && wt_count_files(out, "") == 0;
     PF_CHECK_MSG(done || released, "task %s with %d file(s) in the output", task.status,
                  wt_count_files(out, ""));

@@ -1,6 +1,7 @@
 /* Helpers for the worker tests (see worker_test_util.h). */
 #include "worker_test_util.h"
 
+#include "pf_image.h"
 #include "pf_test.h"
 
 #include <dirent.h>
@@ -73,6 +74,23 @@ int wt_file_contains(const char *path, const char *text)
         fprintf(stderr, "expected '%s' in %s:\n%s\n", text, path, content ? content : "(missing)");
     free(content);
     return found;
+}
+
+int wt_exr_frame(const char *path)
+{
+    pf_image image = {0};
+    pf_image_attribute *attributes = NULL;
+    uint32_t count = 0;
+    pf_error err = {0};
+    int frame = -1;
+    if (pf_exr_read(path, &image, &attributes, &count, &err) == PF_OK) {
+        for (uint32_t i = 0; i < count; i++)
+            if (!strcmp(attributes[i].key, "photonfarm/frame"))
+                frame = atoi(attributes[i].value);
+    }
+    free(attributes);
+    pf_image_free(&image);
+    return frame;
 }
 
 int wt_count_in_file(const char *path, const char *text)

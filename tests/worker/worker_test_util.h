@@ -24,6 +24,9 @@ int64_t wt_enqueue(const char *arguments, const char *log_path);
 
 /* Occurrences of text in the file at path (0 when it cannot be read). */
 int wt_count_in_file(const char *path, const char *text);
+/* The photonfarm/frame attribute of the EXR at path; -1 when it cannot be read or has none. */
+int wt_exr_frame(const char *path);
+
 /* Whether file contains text (prints the file when it does not). */
 int wt_file_contains(const char *path, const char *text);
 /* Reads a whole file into a malloc'ed NUL-terminated buffer (NULL if missing). */
