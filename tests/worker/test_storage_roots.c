@@ -29,6 +29,16 @@ static void make_storage(const char *name, char *storage, char *scenes, char *ou
     wt_write_tiny_scene(scene, 2);
 }
 
+/* T/name holding tiny.gltf, a directory outside any root; fills both paths. */
+static void make_outside(const char *name, char *outside, size_t outside_size, char *scene,
+                         size_t scene_size)
+{
+    wt_format(outside, outside_size, "%s/%s", dir, name);
+    mkdir(outside, 0755);
+    wt_format(scene, scene_size, "%s/tiny.gltf", outside);
+    wt_write_tiny_scene(scene, 2);
+}
+
 /* photonfarm ARGS must exit 2 with every one of the texts in its output. */
 static void expect_refused(const char *args, const char *text1, const char *text2)
 {
@@ -45,10 +55,7 @@ PF_TEST(enqueue_refuses_paths_outside_the_roots_and_stores_them_relative)
         outside[WT_PATH_MAX + 16], link[WT_PATH_MAX + 64], db[WT_PATH_MAX + 16],
         roots[4 * WT_PATH_MAX], args[16 * WT_PATH_MAX], target[WT_PATH_MAX + 64];
     make_storage("enqueue-storage", storage, scenes, out, sizeof storage);
-    wt_format(outside, sizeof outside, "%s/enqueue-outside", dir);
-    mkdir(outside, 0755);
-    wt_format(target, sizeof target, "%s/tiny.gltf", outside);
-    wt_write_tiny_scene(target, 2);
+    make_outside("enqueue-outside", outside, sizeof outside, target, sizeof target);
     wt_format(db, sizeof db, "%s/enqueue.db", dir);
     unlink(db);
     wt_format(roots, sizeof roots, "--scene-root '%s' --output-root '%s' --db '%s' --frames 1",
@@ -133,10 +140,7 @@ PF_TEST(a_worker_refuses_job_rows_that_escape_its_roots)
         outside[WT_PATH_MAX + 16], db[WT_PATH_MAX + 16], path[2 * WT_PATH_MAX],
         pattern[2 * WT_PATH_MAX], args[16 * WT_PATH_MAX];
     make_storage("worker-storage", storage, scenes, out, sizeof storage);
-    wt_format(outside, sizeof outside, "%s/worker-outside", dir);
-    mkdir(outside, 0755);
-    wt_format(path, sizeof path, "%s/tiny.gltf", outside);
-    wt_write_tiny_scene(path, 2);
+    make_outside("worker-outside", outside, sizeof outside, path, sizeof path);
     wt_format(db, sizeof db, "%s/worker.db", dir);
     unlink(db);
     wt_format(pattern, sizeof pattern, "%s/f.####.exr", out);
