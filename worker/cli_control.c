@@ -5,7 +5,7 @@
  * attempts and lifts the job's worker blocks.
  */
 #include "cli_queue.h"
-#include "frame_pipeline.h"
+#include "pf_render.h"
 #include "pf_cli.h"
 
 #include <inttypes.h>

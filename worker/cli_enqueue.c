@@ -5,11 +5,9 @@
  * (DESIGN.md §1, §6). Prints the new job's id on stdout.
  */
 #include "cli_queue.h"
-#include "frame_pipeline.h"
-#include "job_params.h"
+#include "pf_render.h"
 #include "pf_cli.h"
 #include "pf_queue.h"
-#include "pf_render.h"
 #include "pf_scene.h"
 #include "storage_roots.h"
 
@@ -87,7 +85,7 @@ static int parse_options(int argc, char **argv, enqueue_options *options, int *h
     return pf_cli_lpv_check(COMMAND, &options->settings.lpv, PF_CLI_GUARANTEED_BUFFER_BYTES);
 }
 
-/* The output pattern made absolute, its directory proven writable (frame_pipeline.h). */
+/* The output pattern made absolute, its directory proven writable (pf_render.h). */
 static int check_output(const char *pattern, char *absolute, size_t size)
 {
     pf_error err = {0};
@@ -160,7 +158,7 @@ static int output_conflict(const pf_queue_job *other, void *user, char *reason,
         if (bsearch(&ours->paths[i], theirs, theirs_frames.count, sizeof *theirs,
                     compare_paths)) {
             char name[128], shown[PF_CLI_PATH_MAX];
-            pf_job_params_name(other->parameters_json, name, sizeof name);
+            pf_settings_job_name(other->parameters_json, name, sizeof name);
             snprintf(reason, reason_size,
                      "--out: job %" PRId64 "%s%s%s (%s) already writes %s; --force enqueues "
                      "anyway",
@@ -238,7 +236,7 @@ int pf_cli_enqueue(int argc, char **argv)
             code = pf_cli_fail(COMMAND, 2, "--out: %s", err.message);
     char parameters[PARAMETERS_MAX];
     pf_job_extras extras = {options.name, options.scene.load.allow_outside_scene_dir};
-    if (!code && !pf_job_params_format(&options.settings, &extras, parameters,
+    if (!code && !pf_settings_format(&options.settings, &extras, parameters,
                                        sizeof parameters))
         code = pf_cli_fail(COMMAND, 2, "--name is too long");
 

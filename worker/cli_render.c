@@ -1,14 +1,13 @@
 /*
  * photonfarm render: renders frames of a scene to EXR files without the
  * queue (DESIGN.md §1). The scene is loaded once; each frame goes through
- * the same frame pipeline as the worker's (frame_pipeline.h): evaluated,
+ * the same frame pipeline as the worker's (pf_render.h): evaluated,
  * rendered, written to a temporary and renamed into place.
  */
 #include "cli_queue.h"
-#include "frame_pipeline.h"
+#include "pf_render.h"
 #include "pf_cli.h"
 #include "pf_image.h"
-#include "pf_render.h"
 #include "pf_scene.h"
 #include "pf_vk.h"
 
@@ -104,7 +103,7 @@ static void session_close(render_session *session)
     pf_scene_destroy(session->scene);
 }
 
-/* Renders and writes one frame (frame_pipeline.h, shared with the worker);
+/* Renders and writes one frame (pf_render.h, shared with the worker);
  * 0 or an exit code after printing why. */
 static int render_one(const render_options *options, render_session *session, int64_t frame_number,
                       const char *path, double *elapsed_ms)

@@ -1,12 +1,11 @@
 /*
  * The render-settings options, one parser for `render` and `enqueue` so that
  * both accept the same options with the same ranges and messages (cli_queue.h).
- * What they fill is pf_render_settings, whose one codec (job_params.c) carries
+ * What they fill is pf_render_settings, whose one codec (core/render/settings.c) carries
  * it into the queue and into every EXR's photonfarm/settings.
  */
 #include "cli_queue.h"
-#include "frame_pipeline.h"
-#include "job_params.h"
+#include "pf_render.h"
 #include "pf_cli.h"
 
 #include <errno.h>

@@ -1,6 +1,6 @@
 /* Scene and output roots: confining and mapping a job's paths (storage_roots.h). */
 #include "storage_roots.h"
-#include "frame_pipeline.h"
+#include "pf_render.h"
 #include "pf_cli.h"
 
 #include <errno.h>

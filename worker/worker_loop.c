@@ -7,8 +7,7 @@
  */
 #include "worker_loop.h"
 
-#include "frame_pipeline.h"
-#include "job_params.h"
+#include "pf_render.h"
 #include "log.h"
 #include "pf_cli.h"
 #include "pf_queue.h"
@@ -459,7 +458,7 @@ static void render_work(uv_work_t *request)
         pf_scene_destroy(w->scene);
         w->scene = NULL;
         w->scene_job_id = 0;
-        pf_scene_load_options load = {pf_job_params_allow_outside(w->job.parameters_json)};
+        pf_scene_load_options load = {pf_settings_allow_outside(w->job.parameters_json)};
         w->render_status = pf_scene_load_with(scene_path, &load, &w->scene, &w->render_err);
         if (w->render_status != PF_OK) {
             w->render_fault = PF_FRAME_FAULT_SCENE;
@@ -470,7 +469,7 @@ static void render_work(uv_work_t *request)
                 w->job.job_id, w->name, pf_scene_get_info(w->scene)->triangle_count);
     }
     pf_render_settings settings;
-    w->render_status = pf_job_params_parse(w->job.parameters_json, &settings, &w->render_err);
+    w->render_status = pf_settings_parse(w->job.parameters_json, &settings, &w->render_err);
     if (w->render_status != PF_OK) {
         w->render_fault = PF_FRAME_FAULT_SETTINGS;
         return;

@@ -5,7 +5,6 @@
  * in the queue and in an EXR's photonfarm/settings decodes to what was asked.
  */
 #include "cli_queue.h"
-#include "job_params.h"
 #include "pf_image.h"
 #include "pf_test.h"
 #include "worker_test_util.h"
@@ -15,7 +14,7 @@
 
 /* A new field must be added to settings_equal, every_field and the codec: this fails first. */
 _Static_assert(sizeof(pf_render_settings) == 128,
-               "pf_render_settings changed: cover the new field in this test and job_params.c");
+               "pf_render_settings changed: cover the new field in this test and core/render/settings.c");
 
 static char last_failure[1024];
 
@@ -115,14 +114,14 @@ static void expect_json_round_trip(const pf_render_settings *settings, const cha
 {
     char json[2048];
     pf_job_extras extras = {"name", 1};
-    PF_REQUIRE(pf_job_params_format(settings, &extras, json, sizeof json));
+    PF_REQUIRE(pf_settings_format(settings, &extras, json, sizeof json));
     pf_render_settings decoded;
     pf_error err = {0};
-    PF_CHECK_OK(pf_job_params_parse(json, &decoded, &err), &err);
+    PF_CHECK_OK(pf_settings_parse(json, &decoded, &err), &err);
     PF_CHECK_MSG(settings_equal(settings, &decoded), "%s: %s", what, json);
     char name[16];
-    pf_job_params_name(json, name, sizeof name);
-    PF_CHECK(!strcmp(name, "name") && pf_job_params_allow_outside(json) == 1);
+    pf_settings_job_name(json, name, sizeof name);
+    PF_CHECK(!strcmp(name, "name") && pf_settings_allow_outside(json) == 1);
 }
 
 PF_TEST(the_command_line_sets_every_field)
@@ -183,7 +182,7 @@ PF_TEST(the_parser_and_the_codec_share_their_bounds)
         PF_CHECK_MSG(strstr(last_failure, bounds[i].option) != NULL, "message: %s",
                      last_failure);
         pf_error err = {0};
-        PF_CHECK_MSG(pf_job_params_parse(bounds[i].json_refused, &settings, &err) ==
+        PF_CHECK_MSG(pf_settings_parse(bounds[i].json_refused, &settings, &err) ==
                          PF_ERR_FORMAT,
                      "%s accepted", bounds[i].json_refused);
     }
@@ -316,7 +315,7 @@ PF_TEST(enqueue_and_render_record_what_the_options_say)
     pf_error err = {0};
     PF_CHECK_OK(pf_queue_job_get(queue, 1, &job, &err), &err);
     pf_render_settings stored;
-    PF_CHECK_OK(pf_job_params_parse(job.parameters_json, &stored, &err), &err);
+    PF_CHECK_OK(pf_settings_parse(job.parameters_json, &stored, &err), &err);
     PF_CHECK_MSG(settings_equal(&asked, &stored), "queued: %s", job.parameters_json);
     pf_queue_job_clear(&job);
     pf_queue_close(queue);
@@ -328,7 +327,7 @@ PF_TEST(enqueue_and_render_record_what_the_options_say)
     wt_format(path, sizeof path, "%s/r.0002.exr", dir);
     exr_settings(path, json, sizeof json);
     pf_render_settings written;
-    PF_CHECK_OK(pf_job_params_parse(json, &written, &err), &err);
+    PF_CHECK_OK(pf_settings_parse(json, &written, &err), &err);
     PF_CHECK_MSG(settings_equal(&asked, &written), "in the EXR: %s", json);
 }
 

@@ -1,6 +1,5 @@
-/* One frame: scene evaluation, render, EXR to a temporary, commit (see frame_pipeline.h). */
-#include "frame_pipeline.h"
-#include "job_params.h"
+/* One frame: scene evaluation, render, EXR to a temporary, commit (pf_render.h). */
+#include "pf_render.h"
 
 #include <dirent.h>
 #include <errno.h>
@@ -123,7 +122,7 @@ static void fill_attributes(const pf_frame_request *request, const pf_render_set
     /* The preset that rendered (auto resolved); the settings as the job's JSON codec writes them. */
     snprintf(attributes[2].value, sizeof attributes[2].value, "%s",
              pf_quality_name(preset));
-    if (!pf_job_params_format(settings, NULL, attributes[3].value, sizeof attributes[3].value))
+    if (!pf_settings_format(settings, NULL, attributes[3].value, sizeof attributes[3].value))
         snprintf(attributes[3].value, sizeof attributes[3].value, "quality=%s",
                  pf_quality_name(settings->quality));
     snprintf(attributes[4].value, sizeof attributes[4].value, "%.3f", render_ms);

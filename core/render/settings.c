@@ -1,6 +1,5 @@
-/* Job render parameters as JSON (see job_params.h). */
-#include "job_params.h"
-#include "frame_pipeline.h"
+/* The one codec of pf_render_settings: job JSON and EXR metadata (pf_render.h). */
+#include "pf_render.h"
 
 #include <cjson/cJSON.h>
 #include <inttypes.h>
@@ -146,7 +145,7 @@ static pf_status read_lpv(const cJSON *root, pf_lpv_settings *lpv, pf_error *err
     return PF_OK;
 }
 
-int pf_job_params_format(const pf_render_settings *settings, const pf_job_extras *extras,
+int pf_settings_format(const pf_render_settings *settings, const pf_job_extras *extras,
                          char *out, size_t size)
 {
     cJSON *root = cJSON_CreateObject();
@@ -190,7 +189,7 @@ int pf_job_params_format(const pf_render_settings *settings, const pf_job_extras
     return fits;
 }
 
-void pf_job_params_name(const char *json, char *out, size_t size)
+void pf_settings_job_name(const char *json, char *out, size_t size)
 {
     out[0] = '\0';
     cJSON *root = cJSON_Parse(json ? json : "{}");
@@ -200,7 +199,7 @@ void pf_job_params_name(const char *json, char *out, size_t size)
     cJSON_Delete(root);
 }
 
-pf_status pf_job_params_parse(const char *json, pf_render_settings *settings, pf_error *err)
+pf_status pf_settings_parse(const char *json, pf_render_settings *settings, pf_error *err)
 {
     pf_render_settings parsed = pf_render_settings_default();
     cJSON *root = cJSON_Parse(json ? json : "{}");
@@ -267,7 +266,7 @@ pf_status pf_job_params_parse(const char *json, pf_render_settings *settings, pf
     return PF_OK;
 }
 
-int pf_job_params_allow_outside(const char *json)
+int pf_settings_allow_outside(const char *json)
 {
     cJSON *root = cJSON_Parse(json ? json : "{}");
     int allowed = cJSON_IsTrue(cJSON_GetObjectItemCaseSensitive(root, "allow_outside_scene_dir"));
