@@ -2,7 +2,9 @@
  * The `bih_build` stage: a BIH over the frame's triangles for every kernel
  * that casts rays, kept in the renderer between frames and reused when it can
  * be (issue 3, item 4). Each frame takes one decision, reported on the stage
- * row as its reason and its `decision` counter:
+ * row as its reason and its `decision` counter. The stage planner takes it
+ * before the frame (pf_bih_plan: reuse, build, or refit); the execution
+ * turns a refit into a rebuild when the refit tree loses its SAH:
  *   0 reused:  same triangle count and bitwise-equal vertices (compared with
  *              the tree's own leaf-order copy through triangle_index, so no
  *              extra copy is kept) → nothing built or uploaded; the row is
@@ -120,31 +122,46 @@ static pf_status build_fresh(pf_renderer *renderer, const pf_scene_frame *frame,
     return PF_OK;
 }
 
+void pf_bih_plan(const pf_renderer *renderer, const pf_scene_frame *frame,
+                 pf_stage_decision *decision)
+{
+    decision->action = PF_STAGE_RUN;
+    if (!renderer->bih_valid)
+        snprintf(decision->reason, sizeof decision->reason, "%s",
+                 renderer->bih_frames == 0 ? "built: first frame"
+                                           : "built: no tree kept (previous frame failed)");
+    else if (renderer->bih.triangle_count != frame->triangle_count)
+        snprintf(decision->reason, sizeof decision->reason,
+                 "built: triangle count changed (%u → %u)", renderer->bih.triangle_count,
+                 frame->triangle_count);
+    else if (same_triangles(&renderer->bih, frame)) {
+        decision->action = PF_STAGE_REUSE;
+        snprintf(decision->reason, sizeof decision->reason, "geometry unchanged → BIH reused");
+    } else
+        snprintf(decision->reason, sizeof decision->reason, "refit: triangles moved");
+}
+
 /*
- * Brings renderer->bih up to frame (reuse, refit, or a fresh build) and
- * writes the decision and its reason; every decision but a reuse leaves a
- * tree the GPU copy does not have yet. On failure the tree may be gone.
+ * Brings renderer->bih up to frame as planned (reuse, refit, or a fresh
+ * build) and writes the decision taken and its reason: a planned refit
+ * becomes a rebuild when the refit tree loses its SAH. Every decision but a
+ * reuse leaves a tree the GPU copy does not have yet. On failure the tree
+ * may be gone.
  */
 static pf_status update_tree(pf_renderer *renderer, const pf_scene_frame *frame,
-                             pf_bih_build_site site, bih_decision *decision, char *reason,
-                             size_t reason_size, int *built_on_gpu, pf_error *err)
+                             const pf_stage_decision *planned, pf_bih_build_site site,
+                             bih_decision *decision, char *reason, size_t reason_size,
+                             int *built_on_gpu, pf_error *err)
 {
     *built_on_gpu = 0;
-    if (!renderer->bih_valid || renderer->bih.triangle_count != frame->triangle_count) {
-        if (!renderer->bih_valid)
-            snprintf(reason, reason_size, "%s",
-                     renderer->bih_frames == 0 ? "built: first frame"
-                                               : "built: no tree kept (previous frame failed)");
-        else
-            snprintf(reason, reason_size, "built: triangle count changed (%u → %u)",
-                     renderer->bih.triangle_count, frame->triangle_count);
-        *decision = BIH_BUILT;
-        return build_fresh(renderer, frame, site, built_on_gpu, err);
-    }
-    if (same_triangles(&renderer->bih, frame)) {
-        snprintf(reason, reason_size, "geometry unchanged → BIH reused");
+    snprintf(reason, reason_size, "%s", planned->reason);
+    if (planned->action == PF_STAGE_REUSE) {
         *decision = BIH_REUSED;
         return PF_OK;
+    }
+    if (!renderer->bih_valid || renderer->bih.triangle_count != frame->triangle_count) {
+        *decision = BIH_BUILT;
+        return build_fresh(renderer, frame, site, built_on_gpu, err);
     }
     pf_status status = pf_bih_refit(&renderer->bih, frame, err);
     if (status != PF_OK)
@@ -175,7 +192,8 @@ static pf_status update_tree(pf_renderer *renderer, const pf_scene_frame *frame,
 }
 
 pf_status pf_render_prepare_bih(pf_renderer *renderer, const pf_scene_frame *frame,
-                                pf_frame_report *report, pf_error *err)
+                                const pf_stage_decision *planned, pf_frame_report *report,
+                                pf_error *err)
 {
     double start = pf_time_ms();
     pf_bih_build_site site = choose_build_site(renderer);
@@ -188,8 +206,8 @@ pf_status pf_render_prepare_bih(pf_renderer *renderer, const pf_scene_frame *fra
     bih_decision decision = BIH_BUILT;
     char reason[PF_STAGE_REASON_MAX];
     int built_on_gpu = 0;
-    status = update_tree(renderer, frame, site, &decision, reason, sizeof reason, &built_on_gpu,
-                         err);
+    status = update_tree(renderer, frame, planned, site, &decision, reason, sizeof reason,
+                         &built_on_gpu, err);
     if (status == PF_OK && decision != BIH_REUSED)
         status = pf_bih_gpu_upload(renderer->bih_gpu, &renderer->bih, err);
     if (status != PF_OK) {

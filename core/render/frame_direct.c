@@ -19,8 +19,6 @@
 #define RENDER_GROUP_EDGE 8u
 /* vec4 per pixel in the film: beauty+coverage, albedo+depth, normal+kept samples (sums). */
 #define FILM_VEC4_PER_PIXEL 3u
-/* Preview: one sample per pixel unless asked; pixel centres, no jitter. */
-#define PREVIEW_DEFAULT_SPP 1u
 /* Longest mirror/glass chain a camera ray follows before giving up. */
 #define MAX_SPECULAR_DEPTH 8u
 
@@ -125,11 +123,12 @@ static pf_status render_tile(pf_renderer *renderer, pf_vk_buffer *const *buffers
 }
 
 pf_status pf_render_frame_preview(pf_renderer *renderer, const pf_scene_frame *frame,
-                                  const pf_render_settings *settings, pf_image *image,
+                                  const pf_render_settings *settings,
+                                  const pf_stage_plan *plan, pf_image *image,
                                   pf_frame_report *report, pf_error *err)
 {
     pf_status status;
-    uint32_t spp = settings->samples_per_pixel ? settings->samples_per_pixel : PREVIEW_DEFAULT_SPP;
+    uint32_t spp = plan->samples;
     pf_vk_context *ctx = renderer->ctx;
 
     status = settings->aovs
@@ -141,7 +140,8 @@ pf_status pf_render_frame_preview(pf_renderer *renderer, const pf_scene_frame *f
     if (status != PF_OK)
         return status;
 
-    status = pf_render_prepare_bih(renderer, frame, report, err);
+    status = pf_render_prepare_bih(renderer, frame, &plan->stages[PF_STAGE_BIH_BUILD], report,
+                                   err);
     if (status != PF_OK) {
         pf_image_free(image);
         return status;
@@ -218,6 +218,7 @@ pf_status pf_render_frame_preview(pf_renderer *renderer, const pf_scene_frame *f
         report->discarded_samples += discarded;
         pf_stage_timing *row = pf_frame_report_add(report, "shade");
         if (row) {
+            snprintf(row->reason, sizeof row->reason, "%s", plan->stages[PF_STAGE_SHADE].reason);
             row->wall_ms = pf_time_ms() - shade_start;
             row->gpu_ms = gpu_ms;
             pf_stage_add_counter(row, "rays", (double)rays);

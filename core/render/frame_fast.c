@@ -3,10 +3,10 @@
  * diffuse indirect light from cascaded light propagation volumes, caustics
  * from a caustic photon map. Host side of shaders/render_fast.comp.
  *
- * Stages, in order (each a row, skipped ones with their reason):
+ * Stages, in order (each a row, skipped ones with their reason), as the
+ * stage planner (stage_plan.c) decided them before the frame:
  *   bih_build      the frame's BIH (frame_bih.c)
- *   photon_trace   one photon pass (settings->photons_per_pass, default
- *                  FAST_DEFAULT_PHOTONS) whose global map keeps every
+ *   photon_trace   one photon pass (the plan's photons) whose global map keeps every
  *                  diffuse hit with the flux the surface reflects: these
  *                  are the virtual point lights, so the LPV carries every
  *                  bounce of indirect light, not only the first
@@ -15,17 +15,16 @@
  *   lpv_geometry   the geometry volume of the frame's triangles (core/lpv)
  *   lpv_inject     the VPLs into every cascade
  *   lpv_propagate  each cascade's iterations on the device
- *   shade          samples_per_pixel (default FAST_DEFAULT_SAMPLES) camera
- *                  samples per pixel
+ *   shade          the plan's camera samples per pixel
  *
- * Reuse (renderer->fast_cache): the VPLs and the caustic grid when the BIH
- * stage reused the tree right after the frame that made them and lights,
- * materials, seed and photon count are equal (as final's photon passes);
- * the geometry volume when the geometry and the cascade layout are
- * unchanged; the injected volume when the VPLs and the layout are; the
- * propagation when neither input changed and the iterations are equal.
- * The cascade layout follows the camera only through its snapped origins,
- * so a camera that moves within a cell reuses everything.
+ * Reuse (renderer->fast_cache holds the outputs, the renderer's stage
+ * memory what they were made from): the VPLs and the caustic grid while
+ * geometry, lights, materials, seed and photon count are equal; the
+ * geometry volume while the geometry and the cascade layout are; the
+ * injected volume while the VPLs and the layout are; the propagation while
+ * all of those and the iterations are. The cascade layout follows the
+ * camera only through its snapped origins, so a camera that moves within a
+ * cell reuses everything.
  */
 #include "pf_lpv.h"
 #include "pf_photon.h"
@@ -36,21 +35,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-/*
- * Camera samples per pixel: the direct light's one light sample per camera
- * sample is the noise of this preset (the LPV is smooth). Measured on the
- * Cornell box at 160×120 against a 512-spp reference: relMSE 0.035, 0.016,
- * 0.011 at 1, 2, 4 spp (preview: 0.062), at 0.45, 0.95, 1.9 s of shading
- * per 640×480 frame on lavapipe. 2 keeps the error well under a third of
- * preview's at half the cost of 4.
- */
-#define FAST_DEFAULT_SAMPLES 2u
-/*
- * Photons per frame: the LPV averages a cell's VPLs, so a few tens of
- * thousands suffice (the Kaplanyan paper injects 128² = 16k VPLs per
- * cascade); this count costs well under a second on lavapipe.
- */
-#define FAST_DEFAULT_PHOTONS 32768u
 /* Photons in the caustic estimate's largest disc at the VPLs' mean density (as final's r_1). */
 #define FAST_CAUSTIC_NEIGHBOURS 20.0
 #define FAST_MAX_SPECULAR_DEPTH 8u
@@ -88,8 +72,7 @@ typedef struct fast_counters {
 } fast_counters;
 
 struct pf_fast_cache {
-    /* Photons: the VPLs and the caustic grid, and what they were traced for. */
-    pf_photon_identity identity;
+    /* Photons: the VPLs and the caustic grid. */
     pf_lpv_vpl *vpls;
     uint32_t vpl_count;
     uint32_t emitted, caustic_count;
@@ -99,7 +82,6 @@ struct pf_fast_cache {
     /* LPV: the layout and volumes of the last frame. */
     pf_lpv *lpv;
     pf_lpv_layout layout;
-    int geometry_valid, injected_valid, propagated_valid;
     float *geometry, *injected;
     pf_lpv_inject_stats inject_stats;
     uint64_t geometry_pieces;
@@ -110,7 +92,6 @@ void pf_fast_cache_destroy(pf_vk_context *ctx, struct pf_fast_cache *cache)
 {
     if (!cache)
         return;
-    pf_photon_identity_free(&cache->identity);
     free(cache->vpls);
     free(cache->geometry);
     free(cache->injected);
@@ -122,9 +103,7 @@ void pf_fast_cache_destroy(pf_vk_context *ctx, struct pf_fast_cache *cache)
 
 /* Frame-wide figures for the rows. */
 typedef struct fast_progress {
-    int has_emitters, has_specular, traced;
     double trace_ms, caustic_ms, geometry_ms, inject_ms, propagate_ms, propagate_gpu_ms;
-    int geometry_built, injected, propagated;
     uint32_t samples;
     uint64_t rays, discarded, truncated, failures, lpv_outside;
     double shade_gpu_ms;
@@ -133,10 +112,11 @@ typedef struct fast_progress {
 /* Traces the frame's photons: VPLs (every diffuse hit, reflected flux) and the caustic grid. */
 static pf_status trace_photons(pf_renderer *renderer, struct pf_fast_cache *cache,
                                const pf_photon_frame *inputs, const pf_scene_frame *frame,
-                               const pf_render_settings *settings, uint32_t photons,
+                               const pf_render_settings *settings, const pf_stage_plan *plan,
                                fast_progress *progress, pf_error *err)
 {
     pf_vk_context *ctx = renderer->ctx;
+    uint32_t photons = plan->photons;
     double start = pf_time_ms();
     pf_photon_trace_settings trace = {.photon_count = photons,
                                       .seed = settings->seed,
@@ -177,7 +157,7 @@ static pf_status trace_photons(pf_renderer *renderer, struct pf_fast_cache *cach
     cache->emitted = maps.emitted;
     progress->trace_ms += pf_time_ms() - start;
     start = pf_time_ms();
-    cache->caustic_count = progress->has_specular && status == PF_OK ? maps.caustic_count : 0;
+    cache->caustic_count = plan->caustic_map && status == PF_OK ? maps.caustic_count : 0;
     cache->caustic_flux_scale = maps.flux_scale;
     cache->caustic_radius = pf_photon_radius_for_density(frame, FAST_CAUSTIC_NEIGHBOURS,
                                                          maps.global_count, 0.01);
@@ -199,33 +179,6 @@ static pf_status trace_photons(pf_renderer *renderer, struct pf_fast_cache *cach
     return status;
 }
 
-static int same_shape(const pf_lpv_layout *a, const pf_lpv_layout *b)
-{
-    return a->count == b->count && a->size == b->size;
-}
-
-static int same_cascades(const pf_lpv_layout *a, const pf_lpv_layout *b)
-{
-    if (!same_shape(a, b) || a->offset_cells != b->offset_cells)
-        return 0;
-    for (uint32_t k = 0; k < a->count; k++) {
-        if (a->cascades[k].cell_size != b->cascades[k].cell_size ||
-            memcmp(a->cascades[k].origin_cell, b->cascades[k].origin_cell,
-                   sizeof a->cascades[k].origin_cell))
-            return 0;
-    }
-    return 1;
-}
-
-static int same_iterations(const pf_lpv_layout *a, const pf_lpv_layout *b)
-{
-    for (uint32_t k = 0; k < a->count; k++) {
-        if (a->cascades[k].iterations != b->cascades[k].iterations)
-            return 0;
-    }
-    return 1;
-}
-
 /* Grows *volume to floats floats (contents undefined). */
 static pf_status ensure_host_volume(float **volume, uint64_t floats, pf_error *err)
 {
@@ -237,54 +190,48 @@ static pf_status ensure_host_volume(float **volume, uint64_t floats, pf_error *e
     return PF_OK;
 }
 
-/* The LPV stages: geometry volume, injection, propagation, each only when its inputs changed. */
+/* The LPV stages as planned: geometry volume, injection, propagation. */
 static pf_status run_lpv(pf_renderer *renderer, struct pf_fast_cache *cache,
-                         const pf_scene_frame *frame, const pf_lpv_layout *layout,
-                         int geometry_changed, int vpls_changed, fast_progress *progress,
-                         pf_error *err)
+                         const pf_scene_frame *frame, const pf_stage_plan *plan,
+                         pf_stage_memory *memory, fast_progress *progress, pf_error *err)
 {
     pf_status status = PF_OK;
-    int cascades_moved = !same_cascades(&cache->layout, layout);
+    const pf_lpv_layout *layout = &plan->layout;
     uint64_t sh_floats = pf_lpv_volume_floats(layout, PF_LPV_FLOATS_PER_CELL);
     uint64_t gv_floats = pf_lpv_volume_floats(layout, PF_LPV_GV_FLOATS_PER_CELL);
     if (!cache->lpv)
         status = pf_lpv_create(renderer->ctx, &cache->lpv, err);
-    if (status == PF_OK && (!cache->geometry_valid || geometry_changed || cascades_moved)) {
+    if (status == PF_OK && plan->stages[PF_STAGE_LPV_GEOMETRY].action == PF_STAGE_RUN) {
         double start = pf_time_ms();
-        cache->geometry_valid = 0;
+        memory->valid[PF_STAGE_LPV_GEOMETRY] = 0;
         status = ensure_host_volume(&cache->geometry, gv_floats, err);
         if (status == PF_OK) {
             cache->geometry_pieces = pf_lpv_geometry_build(layout, frame, cache->geometry);
-            cache->geometry_valid = 1;
-            progress->geometry_built = 1;
+            pf_stage_remember(memory, plan, PF_STAGE_LPV_GEOMETRY);
         }
         progress->geometry_ms = pf_time_ms() - start;
     }
-    if (status == PF_OK && (!cache->injected_valid || vpls_changed || cascades_moved)) {
+    if (status == PF_OK && plan->stages[PF_STAGE_LPV_INJECT].action == PF_STAGE_RUN) {
         double start = pf_time_ms();
-        cache->injected_valid = 0;
+        memory->valid[PF_STAGE_LPV_INJECT] = 0;
         status = ensure_host_volume(&cache->injected, sh_floats, err);
         if (status == PF_OK) {
             memset(cache->injected, 0, sh_floats * sizeof *cache->injected);
             pf_lpv_inject(layout, cache->vpls, cache->vpl_count, cache->injected,
                           &cache->inject_stats);
-            cache->injected_valid = 1;
-            progress->injected = 1;
+            pf_stage_remember(memory, plan, PF_STAGE_LPV_INJECT);
         }
         progress->inject_ms = pf_time_ms() - start;
     }
-    if (status == PF_OK && (!cache->propagated_valid || progress->geometry_built ||
-                            progress->injected || !same_iterations(&cache->layout, layout))) {
+    if (status == PF_OK && plan->stages[PF_STAGE_LPV_PROPAGATE].action == PF_STAGE_RUN) {
         double start = pf_time_ms();
-        cache->propagated_valid = 0;
+        memory->valid[PF_STAGE_LPV_PROPAGATE] = 0;
         pf_lpv_propagate_stats stats;
         status = pf_lpv_propagate(cache->lpv, layout, cache->injected, cache->geometry, &stats,
                                   err);
         progress->propagate_gpu_ms = stats.gpu_ms;
-        if (status == PF_OK) {
-            cache->propagated_valid = 1;
-            progress->propagated = 1;
-        }
+        if (status == PF_OK)
+            pf_stage_remember(memory, plan, PF_STAGE_LPV_PROPAGATE);
         progress->propagate_ms = pf_time_ms() - start;
     }
     float cascades[PF_LPV_MAX_CASCADES][4];
@@ -317,12 +264,12 @@ static void fast_buffers_release(pf_vk_context *ctx, fast_buffers *b)
 /* The shade stage: samples dispatches of render_fast.comp into the split film, then the image. */
 static pf_status shade(pf_renderer *renderer, struct pf_fast_cache *cache,
                        const pf_scene_frame *frame, const pf_render_settings *settings,
+                       const pf_stage_plan *plan,
                        const pf_gpu_scene *scene, const pf_bih_gpu_view *bih, pf_image *image,
                        fast_progress *progress, pf_error *err)
 {
     pf_vk_context *ctx = renderer->ctx;
-    uint32_t samples = settings->samples_per_pixel ? settings->samples_per_pixel
-                                                   : FAST_DEFAULT_SAMPLES;
+    uint32_t samples = plan->samples;
     pf_frame_params params;
     pf_frame_params_fill(frame, settings, samples, scene, bih, &params);
     params.max_specular_depth = FAST_MAX_SPECULAR_DEPTH;
@@ -402,37 +349,29 @@ static pf_status shade(pf_renderer *renderer, struct pf_fast_cache *cache,
 }
 
 static void report_rows(pf_frame_report *report, const struct pf_fast_cache *cache,
-                        const fast_progress *progress, double shade_ms, uint64_t pixels)
+                        const pf_stage_plan *plan, const fast_progress *progress,
+                        double shade_ms, uint64_t pixels)
 {
-    const char *no_light = "no lights or emissive surfaces → no photons, no LPV light";
     const pf_lpv_layout *layout = &cache->layout;
-    pf_stage_timing *row = pf_frame_report_row(
-        report, "photon_trace",
-        !progress->has_emitters ? no_light
-        : !progress->traced     ? "lights and geometry unchanged → VPLs and caustic map reused"
-                                : NULL,
-        progress->trace_ms, progress->traced ? cache->trace_gpu_ms : -1.0);
+    pf_stage_timing *row = pf_stage_row(report, plan, PF_STAGE_PHOTON_TRACE, progress->trace_ms,
+                                        cache->trace_gpu_ms);
     if (row) {
         pf_stage_add_counter(row, "photons", cache->emitted);
         pf_stage_add_counter(row, "vpls", cache->vpl_count);
         pf_stage_add_counter(row, "caustic_photons", cache->caustic_count);
     }
-    const char *caustic_skip =
-        !progress->has_specular ? "no specular or refractive material → no caustic map"
-        : !progress->has_emitters ? no_light
-        : cache->caustic_count == 0 ? "no light reaches a mirror or glass surface → no caustic map"
-        : !progress->traced         ? "lights and geometry unchanged → caustic map reused"
-                                    : NULL;
-    row = pf_frame_report_row(report, "caustic_map", caustic_skip, progress->caustic_ms, -1.0);
+    /* The plan traced for a caustic map; the photons found no mirror or glass. */
+    if (plan->stages[PF_STAGE_CAUSTIC_MAP].action == PF_STAGE_RUN && cache->caustic_count == 0)
+        row = pf_frame_report_row(report, "caustic_map",
+                                  "no light reaches a mirror or glass surface → no caustic map",
+                                  progress->caustic_ms, -1.0);
+    else
+        row = pf_stage_row(report, plan, PF_STAGE_CAUSTIC_MAP, progress->caustic_ms, -1.0);
     if (row) {
         pf_stage_add_counter(row, "photons", cache->caustic ? cache->caustic_count : 0);
         pf_stage_add_counter(row, "radius", cache->caustic ? cache->caustic_radius : 0.0);
     }
-    row = pf_frame_report_row(report, "lpv_geometry",
-                  progress->geometry_built ? NULL
-                                           : "geometry and cascade origins unchanged → geometry "
-                                             "volume reused",
-                  progress->geometry_ms, -1.0);
+    row = pf_stage_row(report, plan, PF_STAGE_LPV_GEOMETRY, progress->geometry_ms, -1.0);
     uint64_t cells = (uint64_t)layout->size * layout->size * layout->size;
     if (row) {
         pf_stage_add_counter(row, "cascades", layout->count);
@@ -441,10 +380,7 @@ static void report_rows(pf_frame_report *report, const struct pf_fast_cache *cac
         pf_stage_add_counter(row, "finest_cell_m", layout->cascades[0].cell_size);
         pf_stage_add_counter(row, "scene_covered", layout->covers_scene);
     }
-    row = pf_frame_report_row(report, "lpv_inject",
-                  progress->injected ? NULL
-                                     : "VPLs and cascade origins unchanged → injection reused",
-                  progress->inject_ms, -1.0);
+    row = pf_stage_row(report, plan, PF_STAGE_LPV_INJECT, progress->inject_ms, -1.0);
     if (row) {
         pf_stage_add_counter(row, "vpls", cache->vpl_count);
         pf_stage_add_counter(row, "outside", cache->inject_stats.outside);
@@ -455,11 +391,8 @@ static void report_rows(pf_frame_report *report, const struct pf_fast_cache *cac
             pf_stage_add_counter(row, name, cache->inject_stats.injected[k]);
         }
     }
-    row = pf_frame_report_row(report, "lpv_propagate",
-                  progress->propagated ? NULL
-                                       : "lights, geometry and snapped cascade origins unchanged "
-                                         "→ LPV reused",
-                  progress->propagate_ms, progress->propagated ? progress->propagate_gpu_ms : -1.0);
+    row = pf_stage_row(report, plan, PF_STAGE_LPV_PROPAGATE, progress->propagate_ms,
+                       progress->propagate_gpu_ms);
     if (row) {
         pf_stage_add_counter(row, "cascades", layout->count);
         pf_stage_add_counter(row, "cells_per_cascade", (double)cells);
@@ -470,7 +403,7 @@ static void report_rows(pf_frame_report *report, const struct pf_fast_cache *cac
             pf_stage_add_counter(row, name, layout->cascades[k].iterations);
         }
     }
-    row = pf_frame_report_row(report, "shade", NULL, shade_ms, progress->shade_gpu_ms);
+    row = pf_stage_row(report, plan, PF_STAGE_SHADE, shade_ms, progress->shade_gpu_ms);
     if (row) {
         pf_stage_add_counter(row, "samples_per_pixel", progress->samples);
         pf_stage_add_counter(row, "paths", (double)pixels * progress->samples);
@@ -483,71 +416,58 @@ static void report_rows(pf_frame_report *report, const struct pf_fast_cache *cac
         report->discarded_samples += progress->discarded;
 }
 
-/* Everything of one frame after the BIH. */
+/* Everything of one frame after the BIH, as planned. */
 static pf_status render_after_bih(pf_renderer *renderer, const pf_scene_frame *frame,
-                                  const pf_render_settings *settings, int bih_reused,
+                                  const pf_render_settings *settings, const pf_stage_plan *plan,
                                   pf_image *image, fast_progress *progress, pf_error *err)
 {
     pf_vk_context *ctx = renderer->ctx;
     struct pf_fast_cache *cache = renderer->fast_cache;
-    uint32_t photons = settings->photons_per_pass ? settings->photons_per_pass
-                                                  : FAST_DEFAULT_PHOTONS;
+    pf_stage_memory *memory = &renderer->stage_memory[PF_QUALITY_FAST];
     pf_photon_frame inputs;
     pf_status status = pf_photon_frame_prepare(renderer, frame, &inputs, err);
     if (status != PF_OK)
         return status;
-    progress->has_emitters = inputs.emitters.count > 0;
-    progress->has_specular = pf_scene_frame_has_specular(frame);
-    int reuse = pf_photon_identity_matches(&cache->identity, renderer, frame, settings->seed,
-                                           photons, 0, bih_reused);
-    if (!reuse && progress->has_emitters) {
-        cache->identity.valid = 0;
-        status = trace_photons(renderer, cache, &inputs, frame, settings, photons, progress, err);
-        progress->traced = 1;
-    } else if (!reuse) {
+    pf_stage_action trace = plan->stages[PF_STAGE_PHOTON_TRACE].action;
+    if (trace != PF_STAGE_REUSE) {
+        memory->valid[PF_STAGE_PHOTON_TRACE] = memory->valid[PF_STAGE_CAUSTIC_MAP] = 0;
         free(cache->vpls);
         cache->vpls = NULL;
         cache->vpl_count = cache->emitted = cache->caustic_count = 0;
-        pf_photon_grid_destroy(cache->caustic);
-        cache->caustic = NULL;
-        progress->traced = 1;
+        if (!plan->caustic_map || trace == PF_STAGE_SKIP) {
+            pf_photon_grid_destroy(cache->caustic);
+            cache->caustic = NULL;
+        }
     }
-    pf_lpv_layout layout;
+    if (trace == PF_STAGE_RUN) {
+        status = trace_photons(renderer, cache, &inputs, frame, settings, plan, progress, err);
+        if (status == PF_OK) {
+            pf_stage_remember(memory, plan, PF_STAGE_PHOTON_TRACE);
+            pf_stage_remember(memory, plan, PF_STAGE_CAUSTIC_MAP);
+        }
+    }
     if (status == PF_OK) {
-        float focus[3];
-        pf_lpv_focus(frame, focus);
-        pf_lpv_layout_make(&settings->lpv, focus, settings->lpv.cell_size, frame, &layout);
-        if (!layout.covers_scene)
+        const pf_lpv_layout *layout = &plan->layout;
+        if (!layout->covers_scene)
             pf_log(PF_LOG_WARN,
                    "fast: the coarsest LPV cascade (%u cells of %g m around the camera's focus) "
                    "does not hold the whole scene: surfaces outside it get no indirect light",
-                   layout.size, (double)layout.cascades[layout.count - 1].cell_size);
-        status = run_lpv(renderer, cache, frame, &layout, !bih_reused, progress->traced, progress,
-                         err);
+                   layout->size, (double)layout->cascades[layout->count - 1].cell_size);
+        status = run_lpv(renderer, cache, frame, plan, memory, progress, err);
     }
     if (status == PF_OK)
-        status = shade(renderer, cache, frame, settings, &inputs.scene, &inputs.bih, image,
+        status = shade(renderer, cache, frame, settings, plan, &inputs.scene, &inputs.bih, image,
                        progress, err);
     pf_photon_frame_release(ctx, &inputs);
-    if (status == PF_OK && progress->traced)
-        status = pf_photon_identity_remember(&cache->identity, frame, settings->seed, photons, 0,
-                                             err);
-    if (status == PF_OK) {
-        cache->identity.bih_frame = renderer->bih_frames;
-        cache->identity.valid = 1;
-    }
     return status;
 }
 
 pf_status pf_render_frame_fast(pf_renderer *renderer, const pf_scene_frame *frame,
-                               const pf_render_settings *settings, pf_image *image,
+                               const pf_render_settings *settings,
+                               const pf_stage_plan *plan, pf_image *image,
                                pf_frame_report *report, pf_error *err)
 {
-    pf_lpv_setting which;
-    pf_status status = pf_lpv_settings_check(
-        &settings->lpv, pf_vk_info(renderer->ctx)->max_storage_buffer_range, &which, err);
-    if (status != PF_OK)
-        return status;
+    pf_status status = PF_OK;
     if (!renderer->render_fast)
         status = pf_vk_pipeline_create_named(renderer->ctx, "render_fast", FAST_BUFFERS,
                                              sizeof(fast_push), NULL, 0, &renderer->render_fast,
@@ -562,13 +482,13 @@ pf_status pf_render_frame_fast(pf_renderer *renderer, const pf_scene_frame *fram
                                        err);
     if (status != PF_OK)
         return status;
-    int bih_reused = 0;
-    status = pf_render_prepare_bih_reuse(renderer, frame, report, &bih_reused, err);
+    status = pf_render_prepare_bih(renderer, frame, &plan->stages[PF_STAGE_BIH_BUILD], report,
+                                   err);
     double start = pf_time_ms();
     fast_progress progress = {0};
     progress.shade_gpu_ms = progress.propagate_gpu_ms = -1.0;
     if (status == PF_OK)
-        status = render_after_bih(renderer, frame, settings, bih_reused, image, &progress, err);
+        status = render_after_bih(renderer, frame, settings, plan, image, &progress, err);
     uint64_t pixels = (uint64_t)settings->width * settings->height;
     if (status == PF_OK)
         status = pf_render_check_traversal(renderer, progress.failures, err);
@@ -580,9 +500,7 @@ pf_status pf_render_frame_fast(pf_renderer *renderer, const pf_scene_frame *fram
                               (unsigned long long)progress.truncated,
                               (unsigned long long)(pixels * progress.samples));
     if (status != PF_OK) {
-        struct pf_fast_cache *cache = renderer->fast_cache;
-        cache->identity.valid = 0;
-        cache->geometry_valid = cache->injected_valid = cache->propagated_valid = 0;
+        pf_stage_forget(&renderer->stage_memory[PF_QUALITY_FAST]);
         pf_image_free(image);
         pf_error_prefix(err, "fast render (%ux%u, %u triangles)", settings->width,
                         settings->height, frame->triangle_count);
@@ -590,6 +508,7 @@ pf_status pf_render_frame_fast(pf_renderer *renderer, const pf_scene_frame *fram
     }
     double shade_ms = pf_time_ms() - start - progress.trace_ms - progress.caustic_ms -
                       progress.geometry_ms - progress.inject_ms - progress.propagate_ms;
-    report_rows(report, renderer->fast_cache, &progress, shade_ms > 0.0 ? shade_ms : 0.0, pixels);
+    report_rows(report, renderer->fast_cache, plan, &progress, shade_ms > 0.0 ? shade_ms : 0.0,
+                pixels);
     return PF_OK;
 }

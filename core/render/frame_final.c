@@ -26,11 +26,12 @@
  *
  * Stage rows: photon_trace and photon_grid (one each per frame, totals over
  * the passes), caustic_map (the caustic grids; skipped without specular
- * materials), shade. Reuse: the passes' grids stay in the renderer
- * (renderer->final_cache, up to FINAL_KEPT_PASSES of them); the next final
- * frame reuses them when the BIH stage reused the tree (geometry unchanged)
- * right after the frame that made them, and lights, materials, triangle
- * materials, seed and photons per pass are equal.
+ * materials), shade, run as the stage planner (stage_plan.c) decided them.
+ * Reuse: the passes' grids stay in the renderer (renderer->final_cache, up
+ * to FINAL_KEPT_PASSES of them; the renderer's stage memory says what they
+ * were made from); the next final frame reuses them as its first passes
+ * while geometry, lights, materials, seed, photons per pass and photon depth
+ * are equal, and traces only the passes beyond them.
  */
 #include "pf_photon.h"
 #include "render_internal.h"
@@ -40,16 +41,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-/* Passes (= camera samples per pixel) when the settings ask for the default. */
-#define FINAL_DEFAULT_PASSES 4u
-/*
- * Photons emitted per pass by default: about a second per pass on lavapipe
- * (2 shared cores: 3.7 s for 4 passes on cornell-anim), and the Cornell
- * box's global map then holds ~10^5 photons (its open front lets the rest
- * escape), r_1 ≈ 2.5 cm. The default frame (4 passes, 640×480 Cornell box)
- * took 25 s there, mostly the gather.
- */
-#define FINAL_DEFAULT_PHOTONS_PER_PASS 100000u
 /*
  * Gather rays per camera sample, and per dispatch (render_final.comp's loop
  * cap budget). 4, not more: the image's error at a few passes is dominated
@@ -120,9 +111,7 @@ typedef struct final_pass {
 
 struct pf_final_cache {
     final_pass passes[FINAL_KEPT_PASSES + 1]; /* the last slot: passes never kept */
-    uint32_t kept;                            /* valid passes in passes[0..kept) */
-    float first_radius;
-    pf_photon_identity identity;              /* what the kept passes were made for */
+    float first_radius;                       /* valid passes: stage memory's kept_passes */
 };
 
 void pf_final_cache_destroy(struct pf_final_cache *cache)
@@ -133,7 +122,6 @@ void pf_final_cache_destroy(struct pf_final_cache *cache)
         pf_photon_grid_destroy(cache->passes[i].global);
         pf_photon_grid_destroy(cache->passes[i].caustic);
     }
-    pf_photon_identity_free(&cache->identity);
     free(cache);
 }
 
@@ -162,19 +150,6 @@ static uint64_t pass_seed(uint64_t seed, uint32_t index)
     return z ^ (z >> 31);
 }
 
-/*
- * Hits per photon under settings->bounce_limit (pf_render.h): with B
- * bounces a photon stored at its h-th hit (0-based) reaches the camera's
- * first surface after h + 1 scatterings (its hits, then the gather's x₂),
- * so hits up to B − 1: B hits. 0 = the tracer's default.
- */
-static uint32_t final_photon_depth(const pf_render_settings *settings)
-{
-    if (!settings->bounce_limit)
-        return 0;
-    return settings->bounce_limit > 1 ? settings->bounce_limit - 1 : 1;
-}
-
 /* With --max-bounces 0 the frame is direct light only: no caustics, no gather. */
 static uint32_t final_gather_rays(const pf_render_settings *settings)
 {
@@ -201,16 +176,18 @@ static void add_gpu(double *sum, double ms)
 static pf_status trace_pass(pf_renderer *renderer, pf_photon_tracer *tracer,
                             const pf_photon_scene *scene, const pf_photon_emitters *emitters,
                             const pf_scene_frame *frame, const pf_render_settings *settings,
-                            uint32_t photons_per_pass, uint32_t index, int with_caustics,
+                            const pf_stage_plan *plan, uint32_t index,
                             struct pf_final_cache *cache, final_pass *slot,
                             final_progress *progress, pf_error *err)
 {
     pf_vk_context *ctx = renderer->ctx;
+    uint32_t photons_per_pass = plan->photons;
+    int with_caustics = plan->caustic_map;
     double start = pf_time_ms();
     /* First hits too: the gather's secondary vertices take all their light from the map. */
     pf_photon_trace_settings trace = {.photon_count = photons_per_pass,
                                       .seed = pass_seed(settings->seed, index),
-                                      .max_depth = final_photon_depth(settings),
+                                      .max_depth = plan->photon_depth,
                                       .store_direct = 1};
     pf_photon_maps maps;
     pf_status status = pf_photon_trace(tracer, scene, emitters, &trace, &maps, err);
@@ -370,17 +347,13 @@ static pf_status shade_sample(pf_renderer *renderer, pf_vk_buffer **buffers,
     return status;
 }
 
-static void report_rows(pf_frame_report *report, const final_progress *progress, int has_emitters,
-                        int with_caustics, double shade_ms, uint32_t pixels,
+static void report_rows(pf_frame_report *report, const pf_stage_plan *plan,
+                        const final_progress *progress, double shade_ms, uint32_t pixels,
                         const pf_scene_frame *frame)
 {
-    const char *photon_skip = !has_emitters ? "no lights or emissive surfaces → no photons"
-                              : progress->traced == 0
-                                  ? "lights and geometry unchanged → photon maps reused"
-                                  : NULL;
     pf_stage_timing *row;
-    row = pf_frame_report_row(report, "photon_trace", photon_skip, progress->trace_ms,
-                              progress->trace_gpu_ms);
+    row = pf_stage_row(report, plan, PF_STAGE_PHOTON_TRACE, progress->trace_ms,
+                       progress->trace_gpu_ms);
     if (row) {
         pf_stage_add_counter(row, "photons", (double)progress->emitted);
         pf_stage_add_counter(row, "stored", (double)(progress->global_stored +
@@ -389,11 +362,8 @@ static void report_rows(pf_frame_report *report, const final_progress *progress,
         pf_stage_add_counter(row, "traced_passes", progress->traced);
         pf_stage_add_counter(row, "reused_passes", progress->reused);
     }
-    row = pf_frame_report_row(report, "photon_grid",
-            !has_emitters ? photon_skip
-            : progress->traced == 0 ? "lights and geometry unchanged → photon grids reused"
-                                    : NULL,
-            progress->grid_ms, progress->grid_gpu_ms);
+    row = pf_stage_row(report, plan, PF_STAGE_PHOTON_GRID, progress->grid_ms,
+                       progress->grid_gpu_ms);
     if (row) {
         pf_stage_add_counter(row, "photons", (double)progress->global_stored);
         pf_stage_add_counter(row, "stored", (double)progress->global_stored);
@@ -401,19 +371,12 @@ static void report_rows(pf_frame_report *report, const final_progress *progress,
         pf_stage_add_counter(row, "radius_first", progress->radius_first);
         pf_stage_add_counter(row, "radius_last", progress->radius_last);
     }
-    row = pf_frame_report_row(report, "caustic_map",
-            !has_emitters    ? photon_skip
-            : !with_caustics ? (pf_scene_frame_has_specular(frame)
-                                    ? "--max-bounces 0: direct light only → no caustic map"
-                                    : "no specular or refractive material → no caustic map")
-            : progress->traced == 0 ? "lights and geometry unchanged → caustic grids reused"
-                                    : NULL,
-            progress->caustic_ms, -1.0);
+    row = pf_stage_row(report, plan, PF_STAGE_CAUSTIC_MAP, progress->caustic_ms, -1.0);
     if (row) {
         pf_stage_add_counter(row, "photons", (double)progress->caustic_stored);
-        pf_stage_add_counter(row, "passes", with_caustics ? progress->passes : 0);
+        pf_stage_add_counter(row, "passes", plan->caustic_map ? progress->passes : 0);
     }
-    row = pf_frame_report_row(report, "shade", NULL, shade_ms, progress->shade_gpu_ms);
+    row = pf_stage_row(report, plan, PF_STAGE_SHADE, shade_ms, progress->shade_gpu_ms);
     if (row) {
         pf_stage_add_counter(row, "samples_per_pixel", progress->passes);
         pf_stage_add_counter(row, "gather_rays", FINAL_GATHER_RAYS);
@@ -430,16 +393,14 @@ static void report_rows(pf_frame_report *report, const final_progress *progress,
 
 /* Everything of one frame after the BIH: passes, shading, readback. */
 static pf_status render_passes(pf_renderer *renderer, const pf_scene_frame *frame,
-                               const pf_render_settings *settings, int reuse, double frame_start,
-                               pf_image *image, final_progress *progress, int *has_emitters,
-                               int *with_caustics, pf_error *err)
+                               const pf_render_settings *settings, const pf_stage_plan *plan,
+                               double frame_start, pf_image *image, final_progress *progress,
+                               pf_error *err)
 {
     pf_vk_context *ctx = renderer->ctx;
     struct pf_final_cache *cache = renderer->final_cache;
-    uint32_t passes = settings->samples_per_pixel ? settings->samples_per_pixel
-                                                  : FINAL_DEFAULT_PASSES;
-    uint32_t photons_per_pass =
-        settings->photons_per_pass ? settings->photons_per_pass : FINAL_DEFAULT_PHOTONS_PER_PASS;
+    pf_stage_memory *memory = &renderer->stage_memory[PF_QUALITY_FINAL];
+    uint32_t passes = plan->samples;
     uint64_t pixels = (uint64_t)settings->width * settings->height;
     pf_photon_frame inputs;
     pf_status status = pf_photon_frame_prepare(renderer, frame, &inputs, err);
@@ -447,10 +408,9 @@ static pf_status render_passes(pf_renderer *renderer, const pf_scene_frame *fram
         return status;
     const pf_gpu_scene *scene = &inputs.scene;
     const pf_bih_gpu_view *bih = &inputs.bih;
-    *has_emitters = inputs.emitters.count > 0;
-    *with_caustics = pf_scene_frame_has_specular(frame) && settings->bounce_limit != 1;
-    if (!reuse) {
-        cache->kept = 0;
+    /* The plan reuses the kept passes as this frame's first ones, or none of them. */
+    if (plan->reused_passes == 0) {
+        memory->kept_passes = 0;
         cache->first_radius = 0.0f;
     }
     pf_frame_params params;
@@ -489,20 +449,19 @@ static pf_status render_passes(pf_renderer *renderer, const pf_scene_frame *fram
             pf_time_ms() - frame_start >= settings->time_budget_ms)
             break;
         final_pass *pass = NULL;
-        if (*has_emitters) {
+        if (plan->has_emitters) {
             uint32_t slot_index = index < FINAL_KEPT_PASSES ? index : FINAL_KEPT_PASSES;
             pass = &cache->passes[slot_index];
-            if (index < cache->kept) {
+            if (index < memory->kept_passes) {
                 progress->reused++;
             } else {
                 status = trace_pass(renderer, inputs.tracer, &inputs.photons, &inputs.emitters,
-                                    frame, settings, photons_per_pass, index, *with_caustics,
-                                    cache, pass, progress, err);
+                                    frame, settings, plan, index, cache, pass, progress, err);
                 if (status != PF_OK)
                     break;
                 progress->traced++;
                 if (index < FINAL_KEPT_PASSES)
-                    cache->kept = index + 1;
+                    memory->kept_passes = index + 1;
             }
             progress->emitted += pass->emitted;
             progress->global_stored += pass->global_stored;
@@ -540,7 +499,8 @@ static pf_status check_buffers(const pf_renderer *renderer, const pf_render_sett
 }
 
 pf_status pf_render_frame_final(pf_renderer *renderer, const pf_scene_frame *frame,
-                                const pf_render_settings *settings, pf_image *image,
+                                const pf_render_settings *settings,
+                                const pf_stage_plan *plan, pf_image *image,
                                 pf_frame_report *report, pf_error *err)
 {
     double frame_start = pf_time_ms();
@@ -555,22 +515,15 @@ pf_status pf_render_frame_final(pf_renderer *renderer, const pf_scene_frame *fra
     status = pf_split_image_create(image, settings->width, settings->height, settings->aovs, err);
     if (status != PF_OK)
         return status;
-    int bih_reused = 0;
-    status = pf_render_prepare_bih_reuse(renderer, frame, report, &bih_reused, err);
-    struct pf_final_cache *cache = renderer->final_cache;
-    uint32_t photons_per_pass =
-        settings->photons_per_pass ? settings->photons_per_pass : FINAL_DEFAULT_PHOTONS_PER_PASS;
-    int reuse = status == PF_OK && cache->kept > 0 &&
-                pf_photon_identity_matches(&cache->identity, renderer, frame, settings->seed,
-                                           photons_per_pass, final_photon_depth(settings),
-                                           bih_reused);
+    status = pf_render_prepare_bih(renderer, frame, &plan->stages[PF_STAGE_BIH_BUILD], report,
+                                   err);
+    pf_stage_memory *memory = &renderer->stage_memory[PF_QUALITY_FINAL];
     double shade_start = pf_time_ms();
     final_progress progress = {0};
     progress.trace_gpu_ms = progress.grid_gpu_ms = progress.shade_gpu_ms = -1.0;
-    int has_emitters = 0, with_caustics = 0;
     if (status == PF_OK)
-        status = render_passes(renderer, frame, settings, reuse, frame_start, image, &progress,
-                               &has_emitters, &with_caustics, err);
+        status = render_passes(renderer, frame, settings, plan, frame_start, image, &progress,
+                               err);
     uint64_t pixels = (uint64_t)settings->width * settings->height;
     if (status == PF_OK)
         status = pf_render_check_traversal(renderer, progress.failures, err);
@@ -582,22 +535,23 @@ pf_status pf_render_frame_final(pf_renderer *renderer, const pf_scene_frame *fra
                               "far above the scene's mean density)",
                               (unsigned long long)progress.truncated,
                               (unsigned long long)(pixels * progress.passes));
-    if (status == PF_OK)
-        status = pf_photon_identity_remember(&cache->identity, frame, settings->seed,
-                                             photons_per_pass, final_photon_depth(settings), err);
     if (status != PF_OK) {
-        cache->kept = 0;
+        pf_stage_forget(memory);
         pf_image_free(image);
         pf_error_prefix(err, "final render (%ux%u, %u triangles)", settings->width,
                         settings->height, frame->triangle_count);
         return status;
     }
-    cache->identity.bih_frame = renderer->bih_frames;
-    cache->identity.valid = 1;
+    for (int stage = PF_STAGE_PHOTON_TRACE; stage <= PF_STAGE_CAUSTIC_MAP; stage++) {
+        if (plan->has_emitters)
+            pf_stage_remember(memory, plan, (pf_stage_id)stage);
+        else
+            memory->valid[stage] = 0; /* no passes kept */
+    }
     /* Photon stages ran inside the shade loop: the shade row gets what is left. */
     double shade_ms = pf_time_ms() - shade_start - progress.trace_ms - progress.grid_ms -
                       progress.caustic_ms;
-    report_rows(report, &progress, has_emitters, with_caustics, shade_ms > 0.0 ? shade_ms : 0.0,
-                (uint32_t)pixels, frame);
+    report_rows(report, plan, &progress, shade_ms > 0.0 ? shade_ms : 0.0, (uint32_t)pixels,
+                frame);
     return PF_OK;
 }

@@ -11,8 +11,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-/* Samples per pixel when the settings ask for the preset's default. */
-#define REFERENCE_DEFAULT_SPP 64u
 /*
  * Bound on the vertices of one path. Russian roulette ends paths long before
  * (the truncated energy is below albedo^64 of the last throughput: 6e-7 of
@@ -227,11 +225,12 @@ static void report_caustics(pf_frame_report *report, const pf_scene_frame *frame
 }
 
 pf_status pf_render_frame_reference(pf_renderer *renderer, const pf_scene_frame *frame,
-                                    const pf_render_settings *settings, pf_image *image,
+                                    const pf_render_settings *settings,
+                                    const pf_stage_plan *plan, pf_image *image,
                                     pf_frame_report *report, pf_error *err)
 {
     double frame_start = pf_time_ms();
-    uint32_t spp = settings->samples_per_pixel ? settings->samples_per_pixel : REFERENCE_DEFAULT_SPP;
+    uint32_t spp = plan->samples;
     uint64_t pixels = (uint64_t)settings->width * settings->height;
     uint64_t film_bytes = pixels * PF_SPLIT_FILM_VEC4_PER_PIXEL * 4 * sizeof(float);
     uint64_t buffer_limit = pf_vk_info(renderer->ctx)->max_storage_buffer_range;
@@ -246,7 +245,8 @@ pf_status pf_render_frame_reference(pf_renderer *renderer, const pf_scene_frame 
         pf_split_image_create(image, settings->width, settings->height, settings->aovs, err);
     if (status != PF_OK)
         return status;
-    status = pf_render_prepare_bih(renderer, frame, report, err);
+    status = pf_render_prepare_bih(renderer, frame, &plan->stages[PF_STAGE_BIH_BUILD], report,
+                                   err);
     double shade_start = pf_time_ms();
     reference_progress progress = {0, 0, 0, 0, -1.0};
     if (status == PF_OK)
@@ -263,6 +263,7 @@ pf_status pf_render_frame_reference(pf_renderer *renderer, const pf_scene_frame 
         report->discarded_samples += progress.discarded;
         pf_stage_timing *row = pf_frame_report_add(report, "shade");
         if (row) {
+            snprintf(row->reason, sizeof row->reason, "%s", plan->stages[PF_STAGE_SHADE].reason);
             row->wall_ms = pf_time_ms() - shade_start;
             row->gpu_ms = progress.gpu_ms;
             pf_stage_add_counter(row, "samples_per_pixel", progress.passes);

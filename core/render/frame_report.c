@@ -39,17 +39,14 @@ pf_stage_timing *pf_frame_report_row(pf_frame_report *report, const char *stage,
     return row;
 }
 
-pf_status pf_render_prepare_bih_reuse(pf_renderer *renderer, const pf_scene_frame *frame,
-                                      pf_frame_report *report, int *reused, pf_error *err)
+pf_stage_timing *pf_stage_row(pf_frame_report *report, const pf_stage_plan *plan,
+                              pf_stage_id stage, double wall_ms, double gpu_ms)
 {
-    /* The row tells whether the geometry is unchanged: read it even when the caller keeps no report. */
-    pf_frame_report own = {0};
-    pf_status status = pf_render_prepare_bih(renderer, frame, &own, err);
-    for (uint32_t i = 0; report && i < own.stage_count; i++) {
-        pf_stage_timing *row = pf_frame_report_add(report, own.stages[i].stage);
-        if (row)
-            *row = own.stages[i];
-    }
-    *reused = status == PF_OK && own.stage_count > 0 && own.stages[0].skipped;
-    return status;
+    const pf_stage_decision *d = &plan->stages[stage];
+    pf_stage_timing *row = pf_frame_report_row(
+        report, pf_stage_name(stage), d->action == PF_STAGE_RUN ? NULL : d->reason,
+        d->action == PF_STAGE_RUN ? wall_ms : 0.0, d->action == PF_STAGE_RUN ? gpu_ms : -1.0);
+    if (row && d->action == PF_STAGE_RUN)
+        snprintf(row->reason, sizeof row->reason, "%s", d->reason);
+    return row;
 }

@@ -157,7 +157,13 @@ void pf_renderer_set_bih_build(pf_renderer *renderer, pf_bih_build_site site);
  * Renders one frame of an evaluated scene into image (allocated here) with
  * the integrator of settings->quality and appends its stage rows to report
  * (may be NULL): `bih_build`, then `shade` (counters samples_per_pixel,
- * rays, ...). Image is owned by the caller (pf_image_free). Fails with
+ * rays, ...). Before any stage runs, the stage planner (stage_plan.c)
+ * decides for each stage of the preset whether it runs (its row's reason
+ * names the inputs that changed since the output it would replace was made,
+ * "traced: lights changed"), reuses the previous frame's output (row
+ * skipped, "... unchanged → ... reused") or is not needed (row skipped with
+ * what the scene lacks); every row carries its reason. Image is owned by
+ * the caller (pf_image_free). Fails with
  * PF_ERR_INVALID on a bad size, time budget or LPV setting, PF_ERR_LIMIT
  * when the film or an LPV volume would not fit a device
  * buffer or a ray overflowed the BIH traversal stack.

@@ -1,7 +1,9 @@
 /*
- * pf_render_frame: checks the settings and runs the integrator of the
- * requested quality (preview and auto: frame_direct.c; reference:
- * frame_reference.c; final: frame_final.c; fast: frame_fast.c). Also the FrameParams both integrators upload.
+ * pf_render_frame: checks the settings, lets auto's planner pick the preset
+ * (plan.c), plans the frame's stages (stage_plan.c) and runs the integrator
+ * of the preset with that plan (preview: frame_direct.c; reference:
+ * frame_reference.c; final: frame_final.c; fast: frame_fast.c). Also the
+ * FrameParams the integrators upload.
  */
 #include "render_internal.h"
 
@@ -99,21 +101,30 @@ pf_status pf_render_frame(pf_renderer *renderer, const pf_scene_frame *frame,
             return status;
         return pf_render_frame(renderer, frame, &chosen, image, report, err);
     }
-    if (report)
-        report->quality = settings->quality;
-    switch (settings->quality) {
-    case PF_QUALITY_PREVIEW:
-        return pf_render_frame_preview(renderer, frame, settings, image, report, err);
-    case PF_QUALITY_REFERENCE:
-        return pf_render_frame_reference(renderer, frame, settings, image, report, err);
-    case PF_QUALITY_FINAL:
-        return pf_render_frame_final(renderer, frame, settings, image, report, err);
-    case PF_QUALITY_FAST:
-        return pf_render_frame_fast(renderer, frame, settings, image, report, err);
-    default:
+    if ((unsigned)settings->quality > PF_QUALITY_REFERENCE)
         return pf_error_set(err, PF_ERR_UNSUPPORTED,
                             "quality '%s' is not available (available: preview, fast, final, "
                             "reference, auto)",
                             pf_quality_name(settings->quality));
+    if (report)
+        report->quality = settings->quality;
+    /* The planner decides every stage before any runs; the integrator carries the plan out. */
+    pf_stage_plan plan;
+    pf_status status = pf_plan_stages(renderer, frame, settings, &plan, err);
+    if (status != PF_OK)
+        return status;
+    renderer->stage_memory[settings->quality].frames++;
+    switch (settings->quality) {
+    case PF_QUALITY_PREVIEW:
+        return pf_render_frame_preview(renderer, frame, settings, &plan, image, report, err);
+    case PF_QUALITY_REFERENCE:
+        return pf_render_frame_reference(renderer, frame, settings, &plan, image, report, err);
+    case PF_QUALITY_FINAL:
+        return pf_render_frame_final(renderer, frame, settings, &plan, image, report, err);
+    case PF_QUALITY_FAST:
+        return pf_render_frame_fast(renderer, frame, settings, &plan, image, report, err);
+    default:
+        return pf_error_set(err, PF_ERR_INTERNAL, "quality %d passed the check",
+                            (int)settings->quality);
     }
 }

@@ -40,9 +40,91 @@ typedef enum pf_renderer_pipeline_id {
     PF_PIPELINE_COUNT
 } pf_renderer_pipeline_id;
 
+/*
+ * The stage plan (stage_plan.c): each stage of a frame, its decision and
+ * reason, the inputs' fingerprints the decisions were taken on, and the
+ * parameters the integrator renders with.
+ */
+typedef enum pf_stage_id {
+    PF_STAGE_BIH_BUILD,
+    PF_STAGE_PHOTON_TRACE,
+    PF_STAGE_PHOTON_GRID,
+    PF_STAGE_CAUSTIC_MAP,
+    PF_STAGE_LPV_GEOMETRY,
+    PF_STAGE_LPV_INJECT,
+    PF_STAGE_LPV_PROPAGATE,
+    PF_STAGE_SHADE,
+    PF_STAGE_COUNT
+} pf_stage_id;
+
+/* What a stage's output depends on; each a 64-bit content fingerprint per frame. */
+typedef enum pf_stage_input {
+    PF_INPUT_GEOMETRY,   /* triangle count and vertices */
+    PF_INPUT_SURFACES,   /* materials and the triangles' material indices */
+    PF_INPUT_LIGHTS,     /* the punctual lights */
+    PF_INPUT_PHOTONS,    /* seed, photons per pass, photon depth */
+    PF_INPUT_CASCADES,   /* the LPV layout: shape, cell sizes, snapped origins */
+    PF_INPUT_ITERATIONS, /* the LPV's propagation iterations per cascade */
+    PF_INPUT_COUNT
+} pf_stage_input;
+
+typedef enum pf_stage_action {
+    PF_STAGE_ABSENT = 0, /* not a stage of this preset */
+    PF_STAGE_RUN,
+    PF_STAGE_REUSE,      /* the previous frame's output holds: row skipped */
+    PF_STAGE_SKIP        /* the scene does not need it: row skipped */
+} pf_stage_action;
+
+typedef struct pf_stage_decision {
+    pf_stage_action action;
+    char reason[PF_STAGE_REASON_MAX];
+} pf_stage_decision;
+
+/* What a preset's kept outputs were made from (one per preset, in the renderer). */
+typedef struct pf_stage_memory {
+    int valid[PF_STAGE_COUNT];
+    uint64_t made_from[PF_STAGE_COUNT][PF_INPUT_COUNT];
+    uint32_t kept_passes; /* final: photon passes kept, a prefix of the next frame's */
+    uint64_t frames;      /* frames planned with this memory */
+} pf_stage_memory;
+
+typedef struct pf_stage_plan {
+    pf_quality preset;
+    pf_stage_decision stages[PF_STAGE_COUNT];
+    uint64_t inputs[PF_INPUT_COUNT];
+    /* Parameters: camera samples (final: passes), photons per pass, photon depth (0:
+     * the tracer's default), whether the scene gets a caustic map, final's passes
+     * reused from the previous frame, fast's cascades. */
+    uint32_t samples, photons, photon_depth;
+    int has_emitters, has_specular, caustic_map;
+    uint32_t reused_passes;
+    pf_lpv_layout layout;
+} pf_stage_plan;
+
+/* Plans the frame's stages for settings->quality (not auto); PF_ERR_INVALID for LPV settings
+ * the device cannot hold, PF_ERR_NOMEM. */
+pf_status pf_plan_stages(pf_renderer *renderer, const pf_scene_frame *frame,
+                         const pf_render_settings *settings, pf_stage_plan *plan, pf_error *err);
+/* Run (naming the changed inputs) or reuse, by memory's fingerprints for the stage. */
+void pf_stage_decide(pf_stage_plan *plan, pf_stage_id stage, const pf_stage_memory *memory);
+void pf_stage_skip(pf_stage_plan *plan, pf_stage_id stage, const char *reason);
+/* After the stage ran: its output is now made from the plan's inputs. */
+void pf_stage_remember(pf_stage_memory *memory, const pf_stage_plan *plan, pf_stage_id stage);
+/* After a failure: nothing kept holds. */
+void pf_stage_forget(pf_stage_memory *memory);
+const char *pf_stage_name(pf_stage_id stage);
+/* The row of a planned stage: skipped unless it runs, with the plan's reason. */
+pf_stage_timing *pf_stage_row(pf_frame_report *report, const pf_stage_plan *plan,
+                              pf_stage_id stage, double wall_ms, double gpu_ms);
+/* bih_build's decision (frame_bih.c): reuse for bitwise-equal triangles, else build or refit. */
+void pf_bih_plan(const pf_renderer *renderer, const pf_scene_frame *frame,
+                 pf_stage_decision *decision);
+
 struct pf_renderer {
     pf_vk_context *ctx;
     struct pf_plan_cache plan;
+    /* Per preset: what its kept stage outputs were made from (stage_plan.c). */
+    pf_stage_memory stage_memory[PF_QUALITY_AUTO];
     /*
      * The current frame's BIH: the CPU tree (kept for reuse and refit across
      * frames), its GPU copy that the shading kernels traverse, and the GPU
@@ -133,21 +215,14 @@ typedef struct pf_gpu_scene {
 } pf_gpu_scene;
 
 /*
- * The `bih_build` stage: makes renderer->bih and its GPU copy hold a BIH over
- * frame's triangles (built on the device, or on the CPU where the device is
- * the CPU itself; see frame_bih.c) and appends the stage row to report
- * (which may be NULL).
+ * The bih_build stage as planned (pf_bih_plan's decision): reuse, or a
+ * refit, or a fresh build, then the GPU copy; appends the row (reason: the
+ * decision as taken, counters triangles, nodes, depth, sah, built_on_gpu,
+ * decision). On failure the tree is dropped and the next frame builds anew.
  */
 pf_status pf_render_prepare_bih(pf_renderer *renderer, const pf_scene_frame *frame,
-                                pf_frame_report *report, pf_error *err);
-
-/*
- * The same, also telling whether the stage reused the previous frame's tree
- * (*reused = 1: the geometry is unchanged, what the photon and LPV caches
- * key on); report may be NULL.
- */
-pf_status pf_render_prepare_bih_reuse(pf_renderer *renderer, const pf_scene_frame *frame,
-                                      pf_frame_report *report, int *reused, pf_error *err);
+                                const pf_stage_decision *planned, pf_frame_report *report,
+                                pf_error *err);
 
 /*
  * Appends a stage row with its times, skipped with skip_reason when that is
@@ -212,10 +287,12 @@ pf_status pf_raycast_brute(pf_renderer *renderer, const pf_scene_frame *frame,
  * tracer (frame_reference.c). Same contract as pf_render_frame.
  */
 pf_status pf_render_frame_preview(pf_renderer *renderer, const pf_scene_frame *frame,
-                                  const pf_render_settings *settings, pf_image *image,
+                                  const pf_render_settings *settings,
+                                  const pf_stage_plan *plan, pf_image *image,
                                   pf_frame_report *report, pf_error *err);
 pf_status pf_render_frame_reference(pf_renderer *renderer, const pf_scene_frame *frame,
-                                    const pf_render_settings *settings, pf_image *image,
+                                    const pf_render_settings *settings,
+                                    const pf_stage_plan *plan, pf_image *image,
                                     pf_frame_report *report, pf_error *err);
 
 /*
@@ -233,7 +310,8 @@ pf_status pf_plan_frame(pf_renderer *renderer, const pf_scene_frame *frame,
                         pf_frame_report *report, pf_error *err);
 
 pf_status pf_render_frame_final(pf_renderer *renderer, const pf_scene_frame *frame,
-                                const pf_render_settings *settings, pf_image *image,
+                                const pf_render_settings *settings,
+                                const pf_stage_plan *plan, pf_image *image,
                                 pf_frame_report *report, pf_error *err);
 void pf_final_cache_destroy(struct pf_final_cache *cache);
 
@@ -243,7 +321,8 @@ void pf_final_cache_destroy(struct pf_final_cache *cache);
  * what it keeps in the renderer (NULL is fine).
  */
 pf_status pf_render_frame_fast(pf_renderer *renderer, const pf_scene_frame *frame,
-                               const pf_render_settings *settings, pf_image *image,
+                               const pf_render_settings *settings,
+                               const pf_stage_plan *plan, pf_image *image,
                                pf_frame_report *report, pf_error *err);
 void pf_fast_cache_destroy(pf_vk_context *ctx, struct pf_fast_cache *cache);
 
@@ -334,34 +413,6 @@ _Static_assert(sizeof(pf_material_probe_result) == 64, "must match ProbeResult")
  */
 pf_status pf_material_probe(pf_renderer *renderer, const pf_material_probe_query *queries,
                             uint32_t count, pf_material_probe_result *results, pf_error *err);
-
-/*
- * What a frame's photon maps were traced for: they are reused by the next
- * frame when its BIH stage reused the tree right after the frame that made
- * them (the geometry is unchanged) and lights, materials, per-triangle
- * materials, seed, photon count and photon depth are equal (final's passes,
- * fast's VPLs).
- */
-typedef struct pf_photon_identity {
-    int valid;
-    uint64_t bih_frame;          /* renderer->bih_frames when they were made */
-    uint64_t seed;
-    uint32_t photons;
-    uint32_t max_depth;          /* pf_photon_trace_settings.max_depth */
-    uint32_t light_count, material_count, triangle_count;
-    pf_light *lights;
-    pf_material *materials;
-    uint32_t *triangle_material;
-} pf_photon_identity;
-
-int pf_photon_identity_matches(const pf_photon_identity *identity, const pf_renderer *renderer,
-                               const pf_scene_frame *frame, uint64_t seed, uint32_t photons,
-                               uint32_t max_depth, int bih_reused);
-/* Copies the frame's lights and materials; the caller sets valid and bih_frame after success. */
-pf_status pf_photon_identity_remember(pf_photon_identity *identity, const pf_scene_frame *frame,
-                                      uint64_t seed, uint32_t photons, uint32_t max_depth,
-                                      pf_error *err);
-void pf_photon_identity_free(pf_photon_identity *identity);
 
 /* 1 when some triangle has a mirror or glass material (photons can make caustics). */
 int pf_scene_frame_has_specular(const pf_scene_frame *frame);

@@ -1,7 +1,6 @@
 /*
  * What the final and fast integrators share about photons: the device
- * inputs of a frame's photon pass (pf_photon_frame), what its maps were
- * traced for (pf_photon_identity, the reuse check), and the scene figures
+ * inputs of a frame's photon pass (pf_photon_frame) and the scene figures
  * both size their photon radii by.
  */
 #include "render_internal.h"
@@ -9,71 +8,6 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
-
-static int same_array(const void *a, const void *b, size_t bytes)
-{
-    return bytes == 0 || (a && b && memcmp(a, b, bytes) == 0);
-}
-
-int pf_photon_identity_matches(const pf_photon_identity *identity, const pf_renderer *renderer,
-                               const pf_scene_frame *frame, uint64_t seed, uint32_t photons,
-                               uint32_t max_depth, int bih_reused)
-{
-    return identity->valid && bih_reused && renderer->bih_frames == identity->bih_frame + 1 &&
-           identity->seed == seed && identity->photons == photons &&
-           identity->max_depth == max_depth &&
-           identity->light_count == frame->light_count &&
-           identity->material_count == frame->material_count &&
-           identity->triangle_count == frame->triangle_count &&
-           same_array(identity->lights, frame->lights, frame->light_count * sizeof(pf_light)) &&
-           same_array(identity->materials, frame->materials,
-                      frame->material_count * sizeof(pf_material)) &&
-           same_array(identity->triangle_material, frame->triangle_material,
-                      frame->triangle_count * sizeof(uint32_t));
-}
-
-static pf_status copy_array(void **out, const void *data, size_t bytes, pf_error *err)
-{
-    free(*out);
-    *out = NULL;
-    if (bytes == 0)
-        return PF_OK;
-    *out = malloc(bytes);
-    if (!*out)
-        return pf_error_set(err, PF_ERR_NOMEM, "out of memory keeping the scene identity");
-    memcpy(*out, data, bytes);
-    return PF_OK;
-}
-
-pf_status pf_photon_identity_remember(pf_photon_identity *identity, const pf_scene_frame *frame,
-                                      uint64_t seed, uint32_t photons, uint32_t max_depth,
-                                      pf_error *err)
-{
-    identity->valid = 0;
-    identity->seed = seed;
-    identity->photons = photons;
-    identity->max_depth = max_depth;
-    identity->light_count = frame->light_count;
-    identity->material_count = frame->material_count;
-    identity->triangle_count = frame->triangle_count;
-    pf_status status = copy_array((void **)&identity->lights, frame->lights,
-                                  frame->light_count * sizeof(pf_light), err);
-    if (status == PF_OK)
-        status = copy_array((void **)&identity->materials, frame->materials,
-                            frame->material_count * sizeof(pf_material), err);
-    if (status == PF_OK)
-        status = copy_array((void **)&identity->triangle_material, frame->triangle_material,
-                            frame->triangle_count * sizeof(uint32_t), err);
-    return status;
-}
-
-void pf_photon_identity_free(pf_photon_identity *identity)
-{
-    free(identity->lights);
-    free(identity->materials);
-    free(identity->triangle_material);
-    memset(identity, 0, sizeof *identity);
-}
 
 int pf_scene_frame_has_specular(const pf_scene_frame *frame)
 {
