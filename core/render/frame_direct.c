@@ -122,11 +122,19 @@ static pf_status render_tile(pf_renderer *renderer, pf_vk_buffer *const *buffers
     return status;
 }
 
-pf_status pf_render_frame_preview(pf_renderer *renderer, const pf_scene_frame *frame,
-                                  const pf_render_settings *settings,
-                                  const pf_stage_plan *plan, pf_image *image,
-                                  pf_frame_report *report, pf_error *err)
+/* preview's one stage after the BIH: shade, tile by tile, into the image. */
+static pf_status preview_run(pf_frame_run *run, pf_stage_id stage, uint32_t pass, pf_error *err)
 {
+    (void)pass;
+    if (stage != PF_STAGE_SHADE)
+        return pf_error_set(err, PF_ERR_INTERNAL, "preview has no stage %s",
+                            pf_stage_name(stage));
+    pf_renderer *renderer = run->renderer;
+    const pf_scene_frame *frame = run->frame;
+    const pf_render_settings *settings = run->settings;
+    const pf_stage_plan *plan = run->plan;
+    pf_image *image = run->image;
+    pf_frame_report *report = run->report;
     pf_status status;
     uint32_t spp = plan->samples;
     pf_vk_context *ctx = renderer->ctx;
@@ -140,12 +148,6 @@ pf_status pf_render_frame_preview(pf_renderer *renderer, const pf_scene_frame *f
     if (status != PF_OK)
         return status;
 
-    status = pf_render_prepare_bih(renderer, frame, &plan->stages[PF_STAGE_BIH_BUILD], report,
-                                   err);
-    if (status != PF_OK) {
-        pf_image_free(image);
-        return status;
-    }
     double shade_start = pf_time_ms();
     pf_bih_gpu_view bih;
     status = pf_bih_gpu_view_get(renderer->bih_gpu, &bih, err);
@@ -229,3 +231,19 @@ pf_status pf_render_frame_preview(pf_renderer *renderer, const pf_scene_frame *f
     }
     return PF_OK;
 }
+
+static pf_status preview_begin(pf_frame_run *run, pf_error *err)
+{
+    (void)run;
+    (void)err;
+    return PF_OK;
+}
+
+static pf_status preview_end(pf_frame_run *run, pf_status status, pf_error *err)
+{
+    (void)run;
+    (void)err;
+    return status;
+}
+
+const pf_integrator pf_integrator_preview = {0, preview_begin, preview_run, preview_end};

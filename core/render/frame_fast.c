@@ -109,73 +109,77 @@ typedef struct fast_progress {
     double shade_gpu_ms;
 } fast_progress;
 
-/* Traces the frame's photons: VPLs (every diffuse hit, reflected flux) and the caustic grid. */
+/* Traces the frame's photons into *maps and keeps the VPLs (every diffuse hit, reflected flux). */
 static pf_status trace_photons(pf_renderer *renderer, struct pf_fast_cache *cache,
                                const pf_photon_frame *inputs, const pf_scene_frame *frame,
                                const pf_render_settings *settings, const pf_stage_plan *plan,
-                               fast_progress *progress, pf_error *err)
+                               pf_photon_maps *maps, fast_progress *progress, pf_error *err)
 {
     pf_vk_context *ctx = renderer->ctx;
-    uint32_t photons = plan->photons;
     double start = pf_time_ms();
-    pf_photon_trace_settings trace = {.photon_count = photons,
+    pf_photon_trace_settings trace = {.photon_count = plan->photons,
                                       .seed = settings->seed,
                                       .store_direct = 1,
                                       .global_reflected = 1};
-    pf_photon_maps maps = {0};
     pf_status status = pf_photon_trace(inputs->tracer, &inputs->photons, &inputs->emitters,
-                                       &trace, &maps, err);
+                                       &trace, maps, err);
     if (status != PF_OK)
         return status;
-    cache->trace_gpu_ms = maps.gpu_ms;
-    if (maps.traversal_failures > 0)
+    cache->trace_gpu_ms = maps->gpu_ms;
+    if (maps->traversal_failures > 0)
         status = pf_error_set(err, PF_ERR_LIMIT,
                               "%u photons overflowed the BIH traversal stack",
-                              maps.traversal_failures);
+                              maps->traversal_failures);
     pf_photon *photons_host = NULL;
     if (status == PF_OK)
-        status = pf_photon_map_download(ctx, maps.global, maps.global_count, &photons_host, err);
-    free(cache->vpls);
-    cache->vpls = NULL;
-    cache->vpl_count = 0;
-    if (status == PF_OK && maps.global_count > 0) {
-        cache->vpls = malloc((size_t)maps.global_count * sizeof *cache->vpls);
+        status = pf_photon_map_download(ctx, maps->global, maps->global_count, &photons_host,
+                                        err);
+    if (status == PF_OK && maps->global_count > 0) {
+        cache->vpls = malloc((size_t)maps->global_count * sizeof *cache->vpls);
         if (!cache->vpls)
             status = pf_error_set(err, PF_ERR_NOMEM, "fast: out of memory for %u VPLs",
-                                  maps.global_count);
+                                  maps->global_count);
     }
-    for (uint32_t i = 0; status == PF_OK && i < maps.global_count; i++) {
+    for (uint32_t i = 0; status == PF_OK && i < maps->global_count; i++) {
         pf_lpv_vpl *vpl = &cache->vpls[i];
         float incoming[3];
         pf_photon_unpack(&photons_host[i], vpl->position, vpl->flux, incoming, vpl->normal);
         for (int c = 0; c < 3; c++)
-            vpl->flux[c] *= maps.flux_scale;
+            vpl->flux[c] *= maps->flux_scale;
     }
     free(photons_host);
     if (status == PF_OK)
-        cache->vpl_count = maps.global_count;
-    cache->emitted = maps.emitted;
-    progress->trace_ms += pf_time_ms() - start;
-    start = pf_time_ms();
-    cache->caustic_count = plan->caustic_map && status == PF_OK ? maps.caustic_count : 0;
-    cache->caustic_flux_scale = maps.flux_scale;
+        cache->vpl_count = maps->global_count;
+    cache->emitted = maps->emitted;
+    cache->caustic_count = plan->caustic_map && status == PF_OK ? maps->caustic_count : 0;
+    cache->caustic_flux_scale = maps->flux_scale;
     cache->caustic_radius = pf_photon_radius_for_density(frame, FAST_CAUSTIC_NEIGHBOURS,
-                                                         maps.global_count, 0.01);
-    if (status == PF_OK && cache->caustic_count > 0) {
+                                                         maps->global_count, 0.01);
+    progress->trace_ms += pf_time_ms() - start;
+    if (status != PF_OK)
+        pf_error_prefix(err, "photon pass (%u photons)", plan->photons);
+    return status;
+}
+
+/* The caustic grid of the traced photons (none when no caustic photon was stored). */
+static pf_status build_caustic_map(pf_vk_context *ctx, struct pf_fast_cache *cache,
+                                   const pf_scene_frame *frame, const pf_photon_maps *maps,
+                                   fast_progress *progress, pf_error *err)
+{
+    double start = pf_time_ms();
+    pf_status status = PF_OK;
+    if (cache->caustic_count > 0) {
         if (!cache->caustic)
             status = pf_photon_grid_create(ctx, &cache->caustic, err);
         if (status == PF_OK)
-            status = pf_photon_grid_build_device(cache->caustic, maps.caustic, maps.caustic_count,
-                                                 frame->bounds_min, frame->bounds_max,
-                                                 cache->caustic_radius, err);
+            status = pf_photon_grid_build_device(cache->caustic, maps->caustic,
+                                                 maps->caustic_count, frame->bounds_min,
+                                                 frame->bounds_max, cache->caustic_radius, err);
     } else {
         pf_photon_grid_destroy(cache->caustic);
         cache->caustic = NULL;
     }
     progress->caustic_ms += pf_time_ms() - start;
-    pf_photon_maps_release(ctx, &maps);
-    if (status != PF_OK)
-        pf_error_prefix(err, "photon pass (%u photons)", photons);
     return status;
 }
 
@@ -190,62 +194,64 @@ static pf_status ensure_host_volume(float **volume, uint64_t floats, pf_error *e
     return PF_OK;
 }
 
-/* The LPV stages as planned: geometry volume, injection, propagation. */
-static pf_status run_lpv(pf_renderer *renderer, struct pf_fast_cache *cache,
-                         const pf_scene_frame *frame, const pf_stage_plan *plan,
-                         pf_stage_memory *memory, fast_progress *progress, pf_error *err)
+/* lpv_geometry: the geometry volume of the frame's triangles in every cascade. */
+static pf_status build_geometry_volume(struct pf_fast_cache *cache, const pf_scene_frame *frame,
+                                       const pf_lpv_layout *layout, fast_progress *progress,
+                                       pf_error *err)
 {
-    pf_status status = PF_OK;
-    const pf_lpv_layout *layout = &plan->layout;
+    double start = pf_time_ms();
+    pf_status status = ensure_host_volume(
+        &cache->geometry, pf_lpv_volume_floats(layout, PF_LPV_GV_FLOATS_PER_CELL), err);
+    if (status == PF_OK)
+        cache->geometry_pieces = pf_lpv_geometry_build(layout, frame, cache->geometry);
+    progress->geometry_ms = pf_time_ms() - start;
+    return status;
+}
+
+/* lpv_inject: the VPLs' SH into every cascade. */
+static pf_status inject_vpls(struct pf_fast_cache *cache, const pf_lpv_layout *layout,
+                             fast_progress *progress, pf_error *err)
+{
+    double start = pf_time_ms();
     uint64_t sh_floats = pf_lpv_volume_floats(layout, PF_LPV_FLOATS_PER_CELL);
-    uint64_t gv_floats = pf_lpv_volume_floats(layout, PF_LPV_GV_FLOATS_PER_CELL);
-    if (!cache->lpv)
-        status = pf_lpv_create(renderer->ctx, &cache->lpv, err);
-    if (status == PF_OK && plan->stages[PF_STAGE_LPV_GEOMETRY].action == PF_STAGE_RUN) {
-        double start = pf_time_ms();
-        memory->valid[PF_STAGE_LPV_GEOMETRY] = 0;
-        status = ensure_host_volume(&cache->geometry, gv_floats, err);
-        if (status == PF_OK) {
-            cache->geometry_pieces = pf_lpv_geometry_build(layout, frame, cache->geometry);
-            pf_stage_remember(memory, plan, PF_STAGE_LPV_GEOMETRY);
-        }
-        progress->geometry_ms = pf_time_ms() - start;
+    pf_status status = ensure_host_volume(&cache->injected, sh_floats, err);
+    if (status == PF_OK) {
+        memset(cache->injected, 0, sh_floats * sizeof *cache->injected);
+        pf_lpv_inject(layout, cache->vpls, cache->vpl_count, cache->injected,
+                      &cache->inject_stats);
     }
-    if (status == PF_OK && plan->stages[PF_STAGE_LPV_INJECT].action == PF_STAGE_RUN) {
-        double start = pf_time_ms();
-        memory->valid[PF_STAGE_LPV_INJECT] = 0;
-        status = ensure_host_volume(&cache->injected, sh_floats, err);
-        if (status == PF_OK) {
-            memset(cache->injected, 0, sh_floats * sizeof *cache->injected);
-            pf_lpv_inject(layout, cache->vpls, cache->vpl_count, cache->injected,
-                          &cache->inject_stats);
-            pf_stage_remember(memory, plan, PF_STAGE_LPV_INJECT);
-        }
-        progress->inject_ms = pf_time_ms() - start;
-    }
-    if (status == PF_OK && plan->stages[PF_STAGE_LPV_PROPAGATE].action == PF_STAGE_RUN) {
-        double start = pf_time_ms();
-        memory->valid[PF_STAGE_LPV_PROPAGATE] = 0;
-        pf_lpv_propagate_stats stats;
-        status = pf_lpv_propagate(cache->lpv, layout, cache->injected, cache->geometry, &stats,
-                                  err);
-        progress->propagate_gpu_ms = stats.gpu_ms;
-        if (status == PF_OK)
-            pf_stage_remember(memory, plan, PF_STAGE_LPV_PROPAGATE);
-        progress->propagate_ms = pf_time_ms() - start;
-    }
+    progress->inject_ms = pf_time_ms() - start;
+    return status;
+}
+
+/* lpv_propagate: every cascade's iterations on the device. */
+static pf_status propagate(struct pf_fast_cache *cache, const pf_lpv_layout *layout,
+                           fast_progress *progress, pf_error *err)
+{
+    double start = pf_time_ms();
+    pf_lpv_propagate_stats stats;
+    pf_status status =
+        pf_lpv_propagate(cache->lpv, layout, cache->injected, cache->geometry, &stats, err);
+    progress->propagate_gpu_ms = stats.gpu_ms;
+    progress->propagate_ms = pf_time_ms() - start;
+    return status;
+}
+
+/* The cascades' origins and cell sizes for the shading kernel. */
+static pf_status upload_cascades(pf_vk_context *ctx, struct pf_fast_cache *cache,
+                                 const pf_lpv_layout *layout, pf_error *err)
+{
     float cascades[PF_LPV_MAX_CASCADES][4];
     for (uint32_t k = 0; k < layout->count; k++) {
         memcpy(cascades[k], layout->cascades[k].origin, 3 * sizeof(float));
         cascades[k][3] = layout->cascades[k].cell_size;
     }
-    if (status == PF_OK && !cache->cascades)
-        status = pf_vk_buffer_create(renderer->ctx, sizeof cascades, "LPV cascades",
-                                     &cache->cascades, err);
+    pf_status status = PF_OK;
+    if (!cache->cascades)
+        status = pf_vk_buffer_create(ctx, sizeof cascades, "LPV cascades", &cache->cascades, err);
     if (status == PF_OK)
-        status = pf_vk_buffer_upload(renderer->ctx, cache->cascades, 0, cascades,
+        status = pf_vk_buffer_upload(ctx, cache->cascades, 0, cascades,
                                      layout->count * sizeof cascades[0], err);
-    cache->layout = *layout;
     return status;
 }
 
@@ -416,57 +422,32 @@ static void report_rows(pf_frame_report *report, const struct pf_fast_cache *cac
         report->discarded_samples += progress->discarded;
 }
 
-/* Everything of one frame after the BIH, as planned. */
-static pf_status render_after_bih(pf_renderer *renderer, const pf_scene_frame *frame,
-                                  const pf_render_settings *settings, const pf_stage_plan *plan,
-                                  pf_image *image, fast_progress *progress, pf_error *err)
-{
-    pf_vk_context *ctx = renderer->ctx;
-    struct pf_fast_cache *cache = renderer->fast_cache;
-    pf_stage_memory *memory = &renderer->stage_memory[PF_QUALITY_FAST];
+/* The frame's state between its stages (pf_frame_run.state). */
+typedef struct fast_frame {
     pf_photon_frame inputs;
-    pf_status status = pf_photon_frame_prepare(renderer, frame, &inputs, err);
-    if (status != PF_OK)
-        return status;
-    pf_stage_action trace = plan->stages[PF_STAGE_PHOTON_TRACE].action;
-    if (trace != PF_STAGE_REUSE) {
-        memory->valid[PF_STAGE_PHOTON_TRACE] = memory->valid[PF_STAGE_CAUSTIC_MAP] = 0;
-        free(cache->vpls);
-        cache->vpls = NULL;
-        cache->vpl_count = cache->emitted = cache->caustic_count = 0;
-        if (!plan->caustic_map || trace == PF_STAGE_SKIP) {
-            pf_photon_grid_destroy(cache->caustic);
-            cache->caustic = NULL;
-        }
-    }
-    if (trace == PF_STAGE_RUN) {
-        status = trace_photons(renderer, cache, &inputs, frame, settings, plan, progress, err);
-        if (status == PF_OK) {
-            pf_stage_remember(memory, plan, PF_STAGE_PHOTON_TRACE);
-            pf_stage_remember(memory, plan, PF_STAGE_CAUSTIC_MAP);
-        }
-    }
-    if (status == PF_OK) {
-        const pf_lpv_layout *layout = &plan->layout;
-        if (!layout->covers_scene)
-            pf_log(PF_LOG_WARN,
-                   "fast: the coarsest LPV cascade (%u cells of %g m around the camera's focus) "
-                   "does not hold the whole scene: surfaces outside it get no indirect light",
-                   layout->size, (double)layout->cascades[layout->count - 1].cell_size);
-        status = run_lpv(renderer, cache, frame, plan, memory, progress, err);
-    }
-    if (status == PF_OK)
-        status = shade(renderer, cache, frame, settings, plan, &inputs.scene, &inputs.bih, image,
-                       progress, err);
-    pf_photon_frame_release(ctx, &inputs);
-    return status;
+    int inputs_ready;
+    fast_progress progress;
+    double start_ms;        /* after the BIH: the shade row gets what the other stages leave */
+    pf_photon_maps maps;    /* traced, until the caustic map is built from them */
+    int maps_held;
+} fast_frame;
+
+static void fast_frame_free(pf_vk_context *ctx, fast_frame *f)
+{
+    if (f->maps_held)
+        pf_photon_maps_release(ctx, &f->maps);
+    if (f->inputs_ready)
+        pf_photon_frame_release(ctx, &f->inputs);
+    free(f);
 }
 
-pf_status pf_render_frame_fast(pf_renderer *renderer, const pf_scene_frame *frame,
-                               const pf_render_settings *settings,
-                               const pf_stage_plan *plan, pf_image *image,
-                               pf_frame_report *report, pf_error *err)
+/* The pipeline, the scene upload, and what the plan drops from the cache. */
+static pf_status fast_begin(pf_frame_run *run, pf_error *err)
 {
+    pf_renderer *renderer = run->renderer;
+    const pf_render_settings *settings = run->settings;
+    const pf_stage_plan *plan = run->plan;
+    pf_stage_memory *memory = &renderer->stage_memory[PF_QUALITY_FAST];
     pf_status status = PF_OK;
     if (!renderer->render_fast)
         status = pf_vk_pipeline_create_named(renderer->ctx, "render_fast", FAST_BUFFERS,
@@ -477,18 +458,115 @@ pf_status pf_render_frame_fast(pf_renderer *renderer, const pf_scene_frame *fram
         if (!renderer->fast_cache)
             status = pf_error_set(err, PF_ERR_NOMEM, "fast: out of memory");
     }
-    if (status == PF_OK)
-        status = pf_split_image_create(image, settings->width, settings->height, settings->aovs,
-                                       err);
+    fast_frame *f = status == PF_OK ? calloc(1, sizeof *f) : NULL;
+    if (status == PF_OK && !f)
+        status = pf_error_set(err, PF_ERR_NOMEM, "fast: out of memory");
     if (status != PF_OK)
         return status;
-    status = pf_render_prepare_bih(renderer, frame, &plan->stages[PF_STAGE_BIH_BUILD], report,
+    struct pf_fast_cache *cache = renderer->fast_cache;
+    f->start_ms = pf_time_ms();
+    f->progress.shade_gpu_ms = f->progress.propagate_gpu_ms = -1.0;
+    status = pf_split_image_create(run->image, settings->width, settings->height, settings->aovs,
                                    err);
-    double start = pf_time_ms();
-    fast_progress progress = {0};
-    progress.shade_gpu_ms = progress.propagate_gpu_ms = -1.0;
     if (status == PF_OK)
-        status = render_after_bih(renderer, frame, settings, plan, image, &progress, err);
+        status = pf_photon_frame_prepare(renderer, run->frame, &f->inputs, err);
+    f->inputs_ready = status == PF_OK;
+    pf_stage_action trace = plan->stages[PF_STAGE_PHOTON_TRACE].action;
+    if (trace != PF_STAGE_REUSE) {
+        /* Traced anew or not at all: the kept VPLs and caustic grid no longer hold. */
+        memory->valid[PF_STAGE_PHOTON_TRACE] = memory->valid[PF_STAGE_CAUSTIC_MAP] = 0;
+        free(cache->vpls);
+        cache->vpls = NULL;
+        cache->vpl_count = cache->emitted = cache->caustic_count = 0;
+        if (plan->stages[PF_STAGE_CAUSTIC_MAP].action != PF_STAGE_RUN) {
+            pf_photon_grid_destroy(cache->caustic);
+            cache->caustic = NULL;
+        }
+    }
+    const pf_lpv_layout *layout = &plan->layout;
+    if (!layout->covers_scene)
+        pf_log(PF_LOG_WARN,
+               "fast: the coarsest LPV cascade (%u cells of %g m around the camera's focus) "
+               "does not hold the whole scene: surfaces outside it get no indirect light",
+               layout->size, (double)layout->cascades[layout->count - 1].cell_size);
+    if (status == PF_OK && !cache->lpv)
+        status = pf_lpv_create(renderer->ctx, &cache->lpv, err);
+    if (status == PF_OK)
+        status = upload_cascades(renderer->ctx, cache, layout, err);
+    cache->layout = *layout;
+    if (status != PF_OK) {
+        pf_stage_forget(memory);
+        pf_image_free(run->image);
+        fast_frame_free(renderer->ctx, f);
+        pf_error_prefix(err, "fast render (%ux%u, %u triangles)", settings->width,
+                        settings->height, run->frame->triangle_count);
+        return status;
+    }
+    run->state = f;
+    return PF_OK;
+}
+
+/* One planned stage; each remembers, once done, what its output was made from. */
+static pf_status fast_run(pf_frame_run *run, pf_stage_id stage, uint32_t pass, pf_error *err)
+{
+    (void)pass;
+    fast_frame *f = run->state;
+    pf_renderer *renderer = run->renderer;
+    struct pf_fast_cache *cache = renderer->fast_cache;
+    const pf_stage_plan *plan = run->plan;
+    pf_stage_memory *memory = &renderer->stage_memory[PF_QUALITY_FAST];
+    pf_status status = PF_OK;
+    if (stage != PF_STAGE_SHADE)
+        memory->valid[stage] = 0;
+    switch (stage) {
+    case PF_STAGE_PHOTON_TRACE:
+        status = trace_photons(renderer, cache, &f->inputs, run->frame, run->settings, plan,
+                               &f->maps, &f->progress, err);
+        f->maps_held = status == PF_OK;
+        /* Without a caustic stage the caustic photons are not wanted. */
+        if (f->maps_held && plan->stages[PF_STAGE_CAUSTIC_MAP].action != PF_STAGE_RUN) {
+            pf_photon_maps_release(renderer->ctx, &f->maps);
+            f->maps_held = 0;
+        }
+        break;
+    case PF_STAGE_CAUSTIC_MAP:
+        if (f->maps_held) {
+            status = build_caustic_map(renderer->ctx, cache, run->frame, &f->maps, &f->progress,
+                                       err);
+            pf_photon_maps_release(renderer->ctx, &f->maps);
+            f->maps_held = 0;
+        }
+        break;
+    case PF_STAGE_LPV_GEOMETRY:
+        status = build_geometry_volume(cache, run->frame, &plan->layout, &f->progress, err);
+        break;
+    case PF_STAGE_LPV_INJECT:
+        status = inject_vpls(cache, &plan->layout, &f->progress, err);
+        break;
+    case PF_STAGE_LPV_PROPAGATE:
+        status = propagate(cache, &plan->layout, &f->progress, err);
+        break;
+    case PF_STAGE_SHADE:
+        return shade(renderer, cache, run->frame, run->settings, plan, &f->inputs.scene,
+                     &f->inputs.bih, run->image, &f->progress, err);
+    default:
+        return pf_error_set(err, PF_ERR_INTERNAL, "fast has no stage %s", pf_stage_name(stage));
+    }
+    if (status == PF_OK)
+        pf_stage_remember(memory, plan, stage);
+    return status;
+}
+
+/* The frame's checks and rows; on failure nothing kept is trusted. */
+static pf_status fast_end(pf_frame_run *run, pf_status status, pf_error *err)
+{
+    fast_frame *f = run->state;
+    pf_renderer *renderer = run->renderer;
+    const pf_render_settings *settings = run->settings;
+    fast_progress progress = f->progress;
+    double elapsed = pf_time_ms() - f->start_ms;
+    fast_frame_free(renderer->ctx, f);
+    run->state = NULL;
     uint64_t pixels = (uint64_t)settings->width * settings->height;
     if (status == PF_OK)
         status = pf_render_check_traversal(renderer, progress.failures, err);
@@ -501,14 +579,17 @@ pf_status pf_render_frame_fast(pf_renderer *renderer, const pf_scene_frame *fram
                               (unsigned long long)(pixels * progress.samples));
     if (status != PF_OK) {
         pf_stage_forget(&renderer->stage_memory[PF_QUALITY_FAST]);
-        pf_image_free(image);
+        pf_image_free(run->image);
         pf_error_prefix(err, "fast render (%ux%u, %u triangles)", settings->width,
-                        settings->height, frame->triangle_count);
+                        settings->height, run->frame->triangle_count);
         return status;
     }
-    double shade_ms = pf_time_ms() - start - progress.trace_ms - progress.caustic_ms -
-                      progress.geometry_ms - progress.inject_ms - progress.propagate_ms;
-    report_rows(report, renderer->fast_cache, plan, &progress, shade_ms > 0.0 ? shade_ms : 0.0,
-                pixels);
+    double shade_ms = elapsed - progress.trace_ms - progress.caustic_ms - progress.geometry_ms -
+                      progress.inject_ms - progress.propagate_ms;
+    report_rows(run->report, renderer->fast_cache, run->plan, &progress,
+                shade_ms > 0.0 ? shade_ms : 0.0, pixels);
     return PF_OK;
 }
+
+/* fast renders every stage once per frame. */
+const pf_integrator pf_integrator_fast = {0, fast_begin, fast_run, fast_end};

@@ -172,69 +172,82 @@ static void add_gpu(double *sum, double ms)
         *sum = (*sum < 0.0 ? 0.0 : *sum) + ms;
 }
 
-/* Traces pass index into slot and grids it. */
-static pf_status trace_pass(pf_renderer *renderer, pf_photon_tracer *tracer,
-                            const pf_photon_scene *scene, const pf_photon_emitters *emitters,
+/* The frame's state between its stages (pf_frame_run.state). */
+typedef struct final_frame final_frame;
+
+/* Traces pass index into *maps and sets slot's figures (radius, counts). */
+static pf_status trace_pass(pf_renderer *renderer, const pf_photon_frame *inputs,
                             const pf_scene_frame *frame, const pf_render_settings *settings,
                             const pf_stage_plan *plan, uint32_t index,
-                            struct pf_final_cache *cache, final_pass *slot,
+                            struct pf_final_cache *cache, final_pass *slot, pf_photon_maps *maps,
                             final_progress *progress, pf_error *err)
 {
-    pf_vk_context *ctx = renderer->ctx;
-    uint32_t photons_per_pass = plan->photons;
-    int with_caustics = plan->caustic_map;
     double start = pf_time_ms();
     /* First hits too: the gather's secondary vertices take all their light from the map. */
-    pf_photon_trace_settings trace = {.photon_count = photons_per_pass,
+    pf_photon_trace_settings trace = {.photon_count = plan->photons,
                                       .seed = pass_seed(settings->seed, index),
                                       .max_depth = plan->photon_depth,
                                       .store_direct = 1};
-    pf_photon_maps maps;
-    pf_status status = pf_photon_trace(tracer, scene, emitters, &trace, &maps, err);
+    pf_status status =
+        pf_photon_trace(inputs->tracer, &inputs->photons, &inputs->emitters, &trace, maps, err);
     if (status != PF_OK)
         return status;
     progress->trace_ms += pf_time_ms() - start;
-    add_gpu(&progress->trace_gpu_ms, maps.gpu_ms);
-    if (maps.traversal_failures > 0) {
-        pf_photon_maps_release(ctx, &maps);
-        return pf_error_set(err, PF_ERR_LIMIT,
-                            "photon pass %u: %u photons overflowed the BIH traversal stack",
-                            index + 1, maps.traversal_failures);
+    add_gpu(&progress->trace_gpu_ms, maps->gpu_ms);
+    if (maps->traversal_failures > 0) {
+        pf_photon_maps_release(renderer->ctx, maps);
+        return pf_error_set(err, PF_ERR_LIMIT, "%u photons overflowed the BIH traversal stack",
+                            maps->traversal_failures);
     }
     if (index == 0 && cache->first_radius <= 0.0f)
-        cache->first_radius = first_radius(frame, maps.global_count);
+        cache->first_radius = first_radius(frame, maps->global_count);
     slot->radius = pass_radius(cache->first_radius, index);
-    slot->flux_scale = maps.flux_scale;
-    slot->emitted = maps.emitted;
-    slot->global_stored = maps.global_count;
-    slot->caustic_stored = with_caustics ? maps.caustic_count : 0;
-    start = pf_time_ms();
+    slot->flux_scale = maps->flux_scale;
+    slot->emitted = maps->emitted;
+    slot->global_stored = maps->global_count;
+    slot->caustic_stored = plan->caustic_map ? maps->caustic_count : 0;
+    return PF_OK;
+}
+
+/* Grids the pass's global photons into slot (and drops a caustic grid the plan has none of). */
+static pf_status grid_pass(pf_vk_context *ctx, const pf_scene_frame *frame,
+                           const pf_stage_plan *plan, const pf_photon_maps *maps,
+                           final_pass *slot, final_progress *progress, pf_error *err)
+{
+    double start = pf_time_ms();
+    pf_status status = PF_OK;
     if (!slot->global)
         status = pf_photon_grid_create(ctx, &slot->global, err);
     if (status == PF_OK)
-        status = pf_photon_grid_build_device(slot->global, maps.global, maps.global_count,
+        status = pf_photon_grid_build_device(slot->global, maps->global, maps->global_count,
                                              frame->bounds_min, frame->bounds_max, slot->radius,
                                              err);
     if (status == PF_OK) {
         progress->grid_ms += pf_time_ms() - start;
         add_gpu(&progress->grid_gpu_ms, pf_photon_grid_gpu_ms(slot->global));
     }
-    start = pf_time_ms();
-    if (!with_caustics) {
+    if (!plan->caustic_map) {
         /* A grid left from an earlier scene must not be gathered from. */
         pf_photon_grid_destroy(slot->caustic);
         slot->caustic = NULL;
     }
-    if (status == PF_OK && with_caustics && !slot->caustic)
+    return status;
+}
+
+/* Grids the pass's caustic photons into slot. */
+static pf_status caustic_pass(pf_vk_context *ctx, const pf_scene_frame *frame,
+                              const pf_photon_maps *maps, final_pass *slot,
+                              final_progress *progress, pf_error *err)
+{
+    double start = pf_time_ms();
+    pf_status status = PF_OK;
+    if (!slot->caustic)
         status = pf_photon_grid_create(ctx, &slot->caustic, err);
-    if (status == PF_OK && with_caustics)
-        status = pf_photon_grid_build_device(slot->caustic, maps.caustic, maps.caustic_count,
+    if (status == PF_OK)
+        status = pf_photon_grid_build_device(slot->caustic, maps->caustic, maps->caustic_count,
                                              frame->bounds_min, frame->bounds_max, slot->radius,
                                              err);
     progress->caustic_ms += pf_time_ms() - start;
-    pf_photon_maps_release(ctx, &maps);
-    if (status != PF_OK)
-        pf_error_prefix(err, "photon pass %u (%u photons)", index + 1, photons_per_pass);
     return status;
 }
 
@@ -391,96 +404,6 @@ static void report_rows(pf_frame_report *report, const pf_stage_plan *plan,
         report->discarded_samples += progress->discarded;
 }
 
-/* Everything of one frame after the BIH: passes, shading, readback. */
-static pf_status render_passes(pf_renderer *renderer, const pf_scene_frame *frame,
-                               const pf_render_settings *settings, const pf_stage_plan *plan,
-                               double frame_start, pf_image *image, final_progress *progress,
-                               pf_error *err)
-{
-    pf_vk_context *ctx = renderer->ctx;
-    struct pf_final_cache *cache = renderer->final_cache;
-    pf_stage_memory *memory = &renderer->stage_memory[PF_QUALITY_FINAL];
-    uint32_t passes = plan->samples;
-    uint64_t pixels = (uint64_t)settings->width * settings->height;
-    pf_photon_frame inputs;
-    pf_status status = pf_photon_frame_prepare(renderer, frame, &inputs, err);
-    if (status != PF_OK)
-        return status;
-    const pf_gpu_scene *scene = &inputs.scene;
-    const pf_bih_gpu_view *bih = &inputs.bih;
-    /* The plan reuses the kept passes as this frame's first ones, or none of them. */
-    if (plan->reused_passes == 0) {
-        memory->kept_passes = 0;
-        cache->first_radius = 0.0f;
-    }
-    pf_frame_params params;
-    pf_frame_params_fill(frame, settings, passes, scene, bih, &params);
-    params.max_specular_depth = FINAL_MAX_SPECULAR_DEPTH;
-    final_buffers owned = {0};
-    uint64_t film_bytes = pixels * PF_SPLIT_FILM_VEC4_PER_PIXEL * 16;
-    if (status == PF_OK)
-        status = pf_render_buffer_with_data(ctx, "frame parameters", &params, sizeof params,
-                                            sizeof params, &owned.params, err);
-    if (status == PF_OK)
-        status = pf_split_film_create(ctx, settings, 1, "final", &owned.film, &owned.film_aov,
-                                      err);
-    if (status == PF_OK)
-        status = pf_vk_buffer_create(ctx, sizeof(final_counters), "final counters",
-                                     &owned.counters, err);
-    if (status == PF_OK)
-        status = pf_vk_buffer_create(ctx, pixels * VERTEX_VEC4_PER_PIXEL * 16,
-                                     "final gather vertices", &owned.vertices, err);
-    if (status == PF_OK)
-        status = pf_vk_buffer_create(ctx, film_bytes, "final sample sums", &owned.samples, err);
-    if (status == PF_OK)
-        status = pf_render_buffer_with_data(ctx, "empty photon grid", NULL, 0, 16,
-                                            &owned.empty_grid, err);
-    if (status == PF_OK)
-        status = pf_vk_buffer_create(ctx, pixels * sizeof(float), "final caustic radii",
-                                     &owned.caustic_radii, err);
-    pf_vk_buffer *buffers[FINAL_BUFFERS] = {
-        owned.params,     scene->vertices,  scene->normals,  scene->triangle_material,
-        scene->materials, scene->lights,    scene->emissive, owned.film,
-        owned.film_aov,   owned.counters,   bih->nodes,      bih->vertices,
-        bih->triangle_index, owned.vertices, owned.samples,  NULL,
-        NULL,             owned.caustic_radii};
-    for (uint32_t index = 0; status == PF_OK && index < passes; index++) {
-        if (index > 0 && settings->time_budget_ms > 0.0 &&
-            pf_time_ms() - frame_start >= settings->time_budget_ms)
-            break;
-        final_pass *pass = NULL;
-        if (plan->has_emitters) {
-            uint32_t slot_index = index < FINAL_KEPT_PASSES ? index : FINAL_KEPT_PASSES;
-            pass = &cache->passes[slot_index];
-            if (index < memory->kept_passes) {
-                progress->reused++;
-            } else {
-                status = trace_pass(renderer, inputs.tracer, &inputs.photons, &inputs.emitters,
-                                    frame, settings, plan, index, cache, pass, progress, err);
-                if (status != PF_OK)
-                    break;
-                progress->traced++;
-                if (index < FINAL_KEPT_PASSES)
-                    memory->kept_passes = index + 1;
-            }
-            progress->emitted += pass->emitted;
-            progress->global_stored += pass->global_stored;
-            progress->caustic_stored += pass->caustic_stored;
-            if (index == 0)
-                progress->radius_first = pass->radius;
-            progress->radius_last = pass->radius;
-        }
-        status = shade_sample(renderer, buffers, &owned, settings, pass, index, progress, err);
-        if (status == PF_OK)
-            progress->passes++;
-    }
-    if (status == PF_OK)
-        status = pf_split_film_read(ctx, owned.film, owned.film_aov, settings->aovs, 1, image, err);
-    final_buffers_release(ctx, &owned);
-    pf_photon_frame_release(ctx, &inputs);
-    return status;
-}
-
 /* PF_ERR_LIMIT when a per-pixel buffer of the frame would exceed the device's limit. */
 static pf_status check_buffers(const pf_renderer *renderer, const pf_render_settings *settings,
                                pf_error *err)
@@ -498,48 +421,207 @@ static pf_status check_buffers(const pf_renderer *renderer, const pf_render_sett
     return PF_OK;
 }
 
-pf_status pf_render_frame_final(pf_renderer *renderer, const pf_scene_frame *frame,
-                                const pf_render_settings *settings,
-                                const pf_stage_plan *plan, pf_image *image,
-                                pf_frame_report *report, pf_error *err)
+struct final_frame {
+    pf_photon_frame inputs;
+    int inputs_ready;
+    final_buffers owned;
+    pf_vk_buffer *buffers[FINAL_BUFFERS];
+    final_progress progress;
+    double start_ms;          /* after the BIH: the shade row gets what the photon stages leave */
+    pf_photon_maps maps;      /* the pass being built: traced, not yet all gridded */
+    int maps_held;
+    int pass_traced;          /* the current pass was traced in this frame (not kept) */
+};
+
+static void final_frame_free(pf_vk_context *ctx, final_frame *f)
 {
-    double frame_start = pf_time_ms();
+    if (f->maps_held)
+        pf_photon_maps_release(ctx, &f->maps);
+    final_buffers_release(ctx, &f->owned);
+    if (f->inputs_ready)
+        pf_photon_frame_release(ctx, &f->inputs);
+    free(f);
+}
+
+/* Device buffers, the scene upload and the kept passes' fate, as planned. */
+static pf_status final_begin(pf_frame_run *run, pf_error *err)
+{
+    pf_renderer *renderer = run->renderer;
+    const pf_render_settings *settings = run->settings;
+    const pf_stage_plan *plan = run->plan;
+    pf_vk_context *ctx = renderer->ctx;
     pf_status status = check_buffers(renderer, settings, err);
-    if (status != PF_OK)
-        return status;
-    if (!renderer->final_cache) {
+    if (status == PF_OK && !renderer->final_cache) {
         renderer->final_cache = calloc(1, sizeof *renderer->final_cache);
         if (!renderer->final_cache)
-            return pf_error_set(err, PF_ERR_NOMEM, "final: out of memory");
+            status = pf_error_set(err, PF_ERR_NOMEM, "final: out of memory");
     }
-    status = pf_split_image_create(image, settings->width, settings->height, settings->aovs, err);
+    final_frame *f = status == PF_OK ? calloc(1, sizeof *f) : NULL;
+    if (status == PF_OK && !f)
+        status = pf_error_set(err, PF_ERR_NOMEM, "final: out of memory");
     if (status != PF_OK)
         return status;
-    status = pf_render_prepare_bih(renderer, frame, &plan->stages[PF_STAGE_BIH_BUILD], report,
+    f->start_ms = pf_time_ms();
+    f->progress.trace_gpu_ms = f->progress.grid_gpu_ms = f->progress.shade_gpu_ms = -1.0;
+    status = pf_split_image_create(run->image, settings->width, settings->height, settings->aovs,
                                    err);
-    pf_stage_memory *memory = &renderer->stage_memory[PF_QUALITY_FINAL];
-    double shade_start = pf_time_ms();
-    final_progress progress = {0};
-    progress.trace_gpu_ms = progress.grid_gpu_ms = progress.shade_gpu_ms = -1.0;
     if (status == PF_OK)
-        status = render_passes(renderer, frame, settings, plan, frame_start, image, &progress,
+        status = pf_photon_frame_prepare(renderer, run->frame, &f->inputs, err);
+    f->inputs_ready = status == PF_OK;
+    /* The plan reuses the kept passes as this frame's first ones, or none of them. */
+    if (plan->reused_passes == 0) {
+        renderer->stage_memory[PF_QUALITY_FINAL].kept_passes = 0;
+        renderer->final_cache->first_radius = 0.0f;
+    }
+    uint64_t pixels = (uint64_t)settings->width * settings->height;
+    final_buffers *owned = &f->owned;
+    const pf_gpu_scene *scene = &f->inputs.scene;
+    const pf_bih_gpu_view *bih = &f->inputs.bih;
+    pf_frame_params params;
+    if (status == PF_OK) {
+        pf_frame_params_fill(run->frame, settings, plan->samples, scene, bih, &params);
+        params.max_specular_depth = FINAL_MAX_SPECULAR_DEPTH;
+        status = pf_render_buffer_with_data(ctx, "frame parameters", &params, sizeof params,
+                                            sizeof params, &owned->params, err);
+    }
+    if (status == PF_OK)
+        status = pf_split_film_create(ctx, settings, 1, "final", &owned->film, &owned->film_aov,
+                                      err);
+    if (status == PF_OK)
+        status = pf_vk_buffer_create(ctx, sizeof(final_counters), "final counters",
+                                     &owned->counters, err);
+    if (status == PF_OK)
+        status = pf_vk_buffer_create(ctx, pixels * VERTEX_VEC4_PER_PIXEL * 16,
+                                     "final gather vertices", &owned->vertices, err);
+    if (status == PF_OK)
+        status = pf_vk_buffer_create(ctx, pixels * PF_SPLIT_FILM_VEC4_PER_PIXEL * 16,
+                                     "final sample sums", &owned->samples, err);
+    if (status == PF_OK)
+        status = pf_render_buffer_with_data(ctx, "empty photon grid", NULL, 0, 16,
+                                            &owned->empty_grid, err);
+    if (status == PF_OK)
+        status = pf_vk_buffer_create(ctx, pixels * sizeof(float), "final caustic radii",
+                                     &owned->caustic_radii, err);
+    if (status != PF_OK) {
+        pf_stage_forget(&renderer->stage_memory[PF_QUALITY_FINAL]);
+        pf_image_free(run->image);
+        final_frame_free(ctx, f);
+        pf_error_prefix(err, "final render (%ux%u, %u triangles)", settings->width,
+                        settings->height, run->frame->triangle_count);
+        return status;
+    }
+    pf_vk_buffer *buffers[FINAL_BUFFERS] = {
+        owned->params,     scene->vertices,  scene->normals,  scene->triangle_material,
+        scene->materials,  scene->lights,    scene->emissive, owned->film,
+        owned->film_aov,   owned->counters,  bih->nodes,      bih->vertices,
+        bih->triangle_index, owned->vertices, owned->samples, NULL,
+        NULL,              owned->caustic_radii};
+    memcpy(f->buffers, buffers, sizeof buffers);
+    run->state = f;
+    return PF_OK;
+}
+
+/* The slot of pass index: its own while it can be kept, else the scratch slot. */
+static final_pass *pass_slot(struct pf_final_cache *cache, uint32_t index)
+{
+    return &cache->passes[index < FINAL_KEPT_PASSES ? index : FINAL_KEPT_PASSES];
+}
+
+/* One planned stage of pass `pass`: the photon stages build the pass (unless kept), shade adds
+ * its camera sample. */
+static pf_status final_run(pf_frame_run *run, pf_stage_id stage, uint32_t pass, pf_error *err)
+{
+    final_frame *f = run->state;
+    pf_renderer *renderer = run->renderer;
+    struct pf_final_cache *cache = renderer->final_cache;
+    pf_stage_memory *memory = &renderer->stage_memory[PF_QUALITY_FINAL];
+    final_progress *progress = &f->progress;
+    final_pass *slot = pass_slot(cache, pass);
+    pf_status status = PF_OK;
+    switch (stage) {
+    case PF_STAGE_PHOTON_TRACE:
+        f->pass_traced = pass >= memory->kept_passes;
+        if (f->pass_traced) {
+            status = trace_pass(renderer, &f->inputs, run->frame, run->settings, run->plan, pass,
+                                cache, slot, &f->maps, progress, err);
+            f->maps_held = status == PF_OK;
+            progress->traced += status == PF_OK;
+        } else {
+            progress->reused++;
+        }
+        if (status == PF_OK) {
+            progress->emitted += slot->emitted;
+            progress->global_stored += slot->global_stored;
+            progress->caustic_stored += slot->caustic_stored;
+            if (pass == 0)
+                progress->radius_first = slot->radius;
+            progress->radius_last = slot->radius;
+        }
+        break;
+    case PF_STAGE_PHOTON_GRID:
+        if (f->maps_held)
+            status = grid_pass(renderer->ctx, run->frame, run->plan, &f->maps, slot, progress,
                                err);
+        break;
+    case PF_STAGE_CAUSTIC_MAP:
+        if (f->maps_held)
+            status = caustic_pass(renderer->ctx, run->frame, &f->maps, slot, progress, err);
+        break;
+    case PF_STAGE_SHADE:
+        if (f->maps_held) {
+            pf_photon_maps_release(renderer->ctx, &f->maps);
+            f->maps_held = 0;
+        }
+        /* A pass traced whole in this frame is kept for the next (as a prefix). */
+        if (f->pass_traced && pass < FINAL_KEPT_PASSES && pass == memory->kept_passes)
+            memory->kept_passes = pass + 1;
+        status = shade_sample(renderer, f->buffers, &f->owned, run->settings,
+                              run->plan->has_emitters ? slot : NULL, pass, progress, err);
+        if (status == PF_OK)
+            progress->passes++;
+        break;
+    default:
+        return pf_error_set(err, PF_ERR_INTERNAL, "final has no stage %s", pf_stage_name(stage));
+    }
+    if (status != PF_OK && stage != PF_STAGE_SHADE)
+        pf_error_prefix(err, "photon pass %u (%u photons)", pass + 1, run->plan->photons);
+    return status;
+}
+
+/* Film readback, the frame's checks, the memory of what the kept passes are, the rows. */
+static pf_status final_end(pf_frame_run *run, pf_status status, pf_error *err)
+{
+    final_frame *f = run->state;
+    pf_renderer *renderer = run->renderer;
+    const pf_render_settings *settings = run->settings;
+    const pf_stage_plan *plan = run->plan;
+    final_progress *progress = &f->progress;
+    pf_stage_memory *memory = &renderer->stage_memory[PF_QUALITY_FINAL];
+    if (status == PF_OK)
+        status = pf_split_film_read(renderer->ctx, f->owned.film, f->owned.film_aov,
+                                    settings->aovs, 1, run->image, err);
     uint64_t pixels = (uint64_t)settings->width * settings->height;
     if (status == PF_OK)
-        status = pf_render_check_traversal(renderer, progress.failures, err);
+        status = pf_render_check_traversal(renderer, progress->failures, err);
     if (status == PF_OK &&
-        (double)progress.truncated > FINAL_TRUNCATED_LIMIT * (double)pixels * progress.passes)
+        (double)progress->truncated > FINAL_TRUNCATED_LIMIT * (double)pixels * progress->passes)
         status = pf_error_set(err, PF_ERR_LIMIT,
                               "%llu of %llu samples stopped at the loop cap (a photon estimate "
                               "met more photons than one invocation may visit: photons clustered "
                               "far above the scene's mean density)",
-                              (unsigned long long)progress.truncated,
-                              (unsigned long long)(pixels * progress.passes));
+                              (unsigned long long)progress->truncated,
+                              (unsigned long long)(pixels * progress->passes));
+    /* Photon stages ran between the shade dispatches: the shade row gets what is left. */
+    double shade_ms = pf_time_ms() - f->start_ms - progress->trace_ms - progress->grid_ms -
+                      progress->caustic_ms;
+    final_progress done = *progress;
+    final_frame_free(renderer->ctx, f);
+    run->state = NULL;
     if (status != PF_OK) {
         pf_stage_forget(memory);
-        pf_image_free(image);
+        pf_image_free(run->image);
         pf_error_prefix(err, "final render (%ux%u, %u triangles)", settings->width,
-                        settings->height, frame->triangle_count);
+                        settings->height, run->frame->triangle_count);
         return status;
     }
     for (int stage = PF_STAGE_PHOTON_TRACE; stage <= PF_STAGE_CAUSTIC_MAP; stage++) {
@@ -548,10 +630,13 @@ pf_status pf_render_frame_final(pf_renderer *renderer, const pf_scene_frame *fra
         else
             memory->valid[stage] = 0; /* no passes kept */
     }
-    /* Photon stages ran inside the shade loop: the shade row gets what is left. */
-    double shade_ms = pf_time_ms() - shade_start - progress.trace_ms - progress.grid_ms -
-                      progress.caustic_ms;
-    report_rows(report, plan, &progress, shade_ms > 0.0 ? shade_ms : 0.0, (uint32_t)pixels,
-                frame);
+    report_rows(run->report, plan, &done, shade_ms > 0.0 ? shade_ms : 0.0, (uint32_t)pixels,
+                run->frame);
     return PF_OK;
 }
+
+/* final's photon stages and shade repeat per pass (progressive photon mapping). */
+const pf_integrator pf_integrator_final = {
+    (1u << PF_STAGE_PHOTON_TRACE) | (1u << PF_STAGE_PHOTON_GRID) | (1u << PF_STAGE_CAUSTIC_MAP) |
+        (1u << PF_STAGE_SHADE),
+    final_begin, final_run, final_end};

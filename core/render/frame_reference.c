@@ -224,12 +224,21 @@ static void report_caustics(pf_frame_report *report, const pf_scene_frame *frame
     pf_stage_add_counter(row, "punctual_lights", punctual);
 }
 
-pf_status pf_render_frame_reference(pf_renderer *renderer, const pf_scene_frame *frame,
-                                    const pf_render_settings *settings,
-                                    const pf_stage_plan *plan, pf_image *image,
-                                    pf_frame_report *report, pf_error *err)
+/* reference's one stage after the BIH: shade passes until its samples or its time budget. */
+static pf_status reference_run(pf_frame_run *run, pf_stage_id stage, uint32_t pass,
+                               pf_error *err)
 {
-    double frame_start = pf_time_ms();
+    (void)pass;
+    if (stage != PF_STAGE_SHADE)
+        return pf_error_set(err, PF_ERR_INTERNAL, "reference has no stage %s",
+                            pf_stage_name(stage));
+    pf_renderer *renderer = run->renderer;
+    const pf_scene_frame *frame = run->frame;
+    const pf_render_settings *settings = run->settings;
+    const pf_stage_plan *plan = run->plan;
+    pf_image *image = run->image;
+    pf_frame_report *report = run->report;
+    double frame_start = run->start_ms;
     uint32_t spp = plan->samples;
     uint64_t pixels = (uint64_t)settings->width * settings->height;
     uint64_t film_bytes = pixels * PF_SPLIT_FILM_VEC4_PER_PIXEL * 4 * sizeof(float);
@@ -245,8 +254,6 @@ pf_status pf_render_frame_reference(pf_renderer *renderer, const pf_scene_frame 
         pf_split_image_create(image, settings->width, settings->height, settings->aovs, err);
     if (status != PF_OK)
         return status;
-    status = pf_render_prepare_bih(renderer, frame, &plan->stages[PF_STAGE_BIH_BUILD], report,
-                                   err);
     double shade_start = pf_time_ms();
     reference_progress progress = {0, 0, 0, 0, -1.0};
     if (status == PF_OK)
@@ -276,3 +283,20 @@ pf_status pf_render_frame_reference(pf_renderer *renderer, const pf_scene_frame 
     }
     return PF_OK;
 }
+
+static pf_status reference_begin(pf_frame_run *run, pf_error *err)
+{
+    (void)run;
+    (void)err;
+    return PF_OK;
+}
+
+static pf_status reference_end(pf_frame_run *run, pf_status status, pf_error *err)
+{
+    (void)run;
+    (void)err;
+    return status;
+}
+
+const pf_integrator pf_integrator_reference = {0, reference_begin, reference_run,
+                                               reference_end};

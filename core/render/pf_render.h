@@ -3,6 +3,15 @@
  * per-scene caches that let consecutive frames reuse work; pf_render_frame runs
  * the stages a frame needs and reports one pf_stage_timing per stage (run or
  * skipped, with the reason), which the worker stores in the queue database.
+ *
+ * Where a frame goes: pf_frame_render (pipeline.c) evaluates the scene,
+ * calls pf_render_frame and writes the EXR; pf_render_frame (render_frame.c)
+ * lets auto pick a preset (plan.c), plans every stage (stage_plan.c: run,
+ * reuse or skip, with parameters and reasons) and runs the plan in one
+ * stage loop through the preset's integrator (frame_direct.c,
+ * frame_reference.c, frame_fast.c, frame_final.c). The settings' one codec
+ * is settings.c. `render` and the queue worker both come in through
+ * pf_frame_render.
  */
 #ifndef PF_RENDER_H
 #define PF_RENDER_H

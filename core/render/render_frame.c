@@ -1,9 +1,9 @@
 /*
  * pf_render_frame: checks the settings, lets auto's planner pick the preset
- * (plan.c), plans the frame's stages (stage_plan.c) and runs the integrator
- * of the preset with that plan (preview: frame_direct.c; reference:
- * frame_reference.c; final: frame_final.c; fast: frame_fast.c). Also the
- * FrameParams the integrators upload.
+ * (plan.c), plans the frame's stages (stage_plan.c) and runs them in one
+ * loop (run_stages) through the preset's integrator (preview:
+ * frame_direct.c; reference: frame_reference.c; final: frame_final.c;
+ * fast: frame_fast.c). Also the FrameParams the integrators upload.
  */
 #include "render_internal.h"
 
@@ -72,10 +72,49 @@ void pf_frame_params_fill(const pf_scene_frame *frame, const pf_render_settings 
     }
 }
 
+/* Whether stage runs in this pass loop or once. */
+static int per_pass(const pf_integrator *integrator, int stage)
+{
+    return (integrator->per_pass >> stage) & 1u;
+}
+
+/*
+ * The one stage loop: bih_build, then the integrator's stages in
+ * pf_stage_id order as planned: the once-per-frame ones when the plan runs
+ * them, then the per-pass ones (final's progressive passes) once per pass
+ * unless the plan skips them; the time budget ends the passes after the
+ * first. Rows: bih_build here, the rest at the integrator's end.
+ */
+static pf_status run_stages(const pf_integrator *integrator, pf_frame_run *run, pf_error *err)
+{
+    const pf_stage_plan *plan = run->plan;
+    pf_status status = pf_render_prepare_bih(run->renderer, run->frame,
+                                             &plan->stages[PF_STAGE_BIH_BUILD], run->report, err);
+    if (status == PF_OK)
+        status = integrator->begin(run, err);
+    if (status != PF_OK)
+        return status;
+    for (int stage = PF_STAGE_BIH_BUILD + 1; status == PF_OK && stage < PF_STAGE_COUNT; stage++)
+        if (!per_pass(integrator, stage) && plan->stages[stage].action == PF_STAGE_RUN)
+            status = integrator->run(run, (pf_stage_id)stage, 0, err);
+    double budget = run->settings->time_budget_ms;
+    for (uint32_t pass = 0; integrator->per_pass && status == PF_OK && pass < plan->samples;
+         pass++) {
+        if (pass > 0 && budget > 0.0 && pf_time_ms() - run->start_ms >= budget)
+            break;
+        for (int stage = 0; status == PF_OK && stage < PF_STAGE_COUNT; stage++)
+            if (per_pass(integrator, stage) && (plan->stages[stage].action == PF_STAGE_RUN ||
+                                                plan->stages[stage].action == PF_STAGE_REUSE))
+                status = integrator->run(run, (pf_stage_id)stage, pass, err);
+    }
+    return integrator->end(run, status, err);
+}
+
 pf_status pf_render_frame(pf_renderer *renderer, const pf_scene_frame *frame,
                           const pf_render_settings *settings, pf_image *image,
                           pf_frame_report *report, pf_error *err)
 {
+    double start_ms = pf_time_ms();
     if (!renderer || !frame || !settings || !image)
         return pf_error_set(err, PF_ERR_INVALID, "pf_render_frame: NULL argument");
     memset(image, 0, sizeof *image);
@@ -108,23 +147,17 @@ pf_status pf_render_frame(pf_renderer *renderer, const pf_scene_frame *frame,
                             pf_quality_name(settings->quality));
     if (report)
         report->quality = settings->quality;
-    /* The planner decides every stage before any runs; the integrator carries the plan out. */
+    /* The planner decides every stage before any runs; the loop carries the plan out. */
     pf_stage_plan plan;
     pf_status status = pf_plan_stages(renderer, frame, settings, &plan, err);
     if (status != PF_OK)
         return status;
     renderer->stage_memory[settings->quality].frames++;
-    switch (settings->quality) {
-    case PF_QUALITY_PREVIEW:
-        return pf_render_frame_preview(renderer, frame, settings, &plan, image, report, err);
-    case PF_QUALITY_REFERENCE:
-        return pf_render_frame_reference(renderer, frame, settings, &plan, image, report, err);
-    case PF_QUALITY_FINAL:
-        return pf_render_frame_final(renderer, frame, settings, &plan, image, report, err);
-    case PF_QUALITY_FAST:
-        return pf_render_frame_fast(renderer, frame, settings, &plan, image, report, err);
-    default:
-        return pf_error_set(err, PF_ERR_INTERNAL, "quality %d passed the check",
-                            (int)settings->quality);
-    }
+    static const pf_integrator *const integrators[] = {
+        [PF_QUALITY_PREVIEW] = &pf_integrator_preview,
+        [PF_QUALITY_FAST] = &pf_integrator_fast,
+        [PF_QUALITY_FINAL] = &pf_integrator_final,
+        [PF_QUALITY_REFERENCE] = &pf_integrator_reference};
+    pf_frame_run run = {renderer, frame, settings, &plan, image, report, start_ms, NULL};
+    return run_stages(integrators[settings->quality], &run, err);
 }

@@ -120,6 +120,45 @@ pf_stage_timing *pf_stage_row(pf_frame_report *report, const pf_stage_plan *plan
 void pf_bih_plan(const pf_renderer *renderer, const pf_scene_frame *frame,
                  pf_stage_decision *decision);
 
+/*
+ * One frame as the stage loop (render_frame.c) carries it through an
+ * integrator: the plan, the caller's outputs and the integrator's own state.
+ */
+typedef struct pf_frame_run {
+    pf_renderer *renderer;
+    const pf_scene_frame *frame;
+    const pf_render_settings *settings;
+    const pf_stage_plan *plan;
+    pf_image *image;            /* created by the integrator, freed by it on failure */
+    pf_frame_report *report;    /* may be NULL */
+    double start_ms;            /* when the frame began: time budgets count from here */
+    void *state;                /* the integrator's, from begin to end */
+} pf_frame_run;
+
+/*
+ * An integrator (frame_direct.c, frame_reference.c, frame_fast.c,
+ * frame_final.c) as the stage loop drives it, after the loop has run the
+ * bih_build stage: begin readies the frame (image, buffers, scene upload;
+ * on failure it cleans up after itself and end is not called); run
+ * performs one stage: every stage the plan runs, once, in pf_stage_id
+ * order, except those in per_pass, which run once per pass (plan->samples
+ * passes, cut by settings->time_budget_ms after the first) unless the plan
+ * skips them, kept passes included (the integrator reuses them); end, called
+ * with the status so far, reads back, checks, writes the rows and frees the
+ * state (and the image on failure).
+ */
+typedef struct pf_integrator {
+    uint32_t per_pass; /* 1u << pf_stage_id for each stage repeated per pass */
+    pf_status (*begin)(pf_frame_run *run, pf_error *err);
+    pf_status (*run)(pf_frame_run *run, pf_stage_id stage, uint32_t pass, pf_error *err);
+    pf_status (*end)(pf_frame_run *run, pf_status status, pf_error *err);
+} pf_integrator;
+
+extern const pf_integrator pf_integrator_preview;
+extern const pf_integrator pf_integrator_reference;
+extern const pf_integrator pf_integrator_fast;
+extern const pf_integrator pf_integrator_final;
+
 struct pf_renderer {
     pf_vk_context *ctx;
     struct pf_plan_cache plan;
@@ -282,25 +321,6 @@ pf_status pf_raycast_brute(pf_renderer *renderer, const pf_scene_frame *frame,
                            pf_error *err);
 
 /*
- * The integrators behind pf_render_frame (render_frame.c dispatches by
- * quality): the preview integrator (frame_direct.c) and the reference path
- * tracer (frame_reference.c). Same contract as pf_render_frame.
- */
-pf_status pf_render_frame_preview(pf_renderer *renderer, const pf_scene_frame *frame,
-                                  const pf_render_settings *settings,
-                                  const pf_stage_plan *plan, pf_image *image,
-                                  pf_frame_report *report, pf_error *err);
-pf_status pf_render_frame_reference(pf_renderer *renderer, const pf_scene_frame *frame,
-                                    const pf_render_settings *settings,
-                                    const pf_stage_plan *plan, pf_image *image,
-                                    pf_frame_report *report, pf_error *err);
-
-/*
- * The `final` integrator (frame_final.c: photon passes, final gather);
- * same contract as pf_render_frame. pf_final_cache_destroy releases the
- * photon passes it keeps in the renderer (NULL is fine).
- */
-/*
  * auto (plan.c): the preset and samples that render this frame, chosen into
  * *chosen (a copy of settings with quality and samples_per_pixel set); adds
  * the `plan` row (run, its reason the decision). May render pilots first.
@@ -309,21 +329,9 @@ pf_status pf_plan_frame(pf_renderer *renderer, const pf_scene_frame *frame,
                         const pf_render_settings *settings, pf_render_settings *chosen,
                         pf_frame_report *report, pf_error *err);
 
-pf_status pf_render_frame_final(pf_renderer *renderer, const pf_scene_frame *frame,
-                                const pf_render_settings *settings,
-                                const pf_stage_plan *plan, pf_image *image,
-                                pf_frame_report *report, pf_error *err);
+/* What final (its photon passes) and fast (VPLs, caustic grid, LPV) keep in the renderer
+ * between frames; NULL is fine. */
 void pf_final_cache_destroy(struct pf_final_cache *cache);
-
-/*
- * The `fast` integrator (frame_fast.c: photon VPLs, cascaded LPV, caustic
- * map); same contract as pf_render_frame. pf_fast_cache_destroy releases
- * what it keeps in the renderer (NULL is fine).
- */
-pf_status pf_render_frame_fast(pf_renderer *renderer, const pf_scene_frame *frame,
-                               const pf_render_settings *settings,
-                               const pf_stage_plan *plan, pf_image *image,
-                               pf_frame_report *report, pf_error *err);
 void pf_fast_cache_destroy(pf_vk_context *ctx, struct pf_fast_cache *cache);
 
 /*

@@ -11,7 +11,8 @@
  *     the camera crosses cells → only the LPV's cascade-bound stages run
  *     ("cascade origins"); a mirror moves → BIH refit, photons and geometry
  *     volume run ("geometry");
- *   - every row of every frame carries a reason;
+ *   - every row of every frame carries a reason; every preset reports each
+ *     of its stages once, in order, whether run or reused;
  *   - final: two more passes than the previous frame → only those are
  *     traced ("passes 3–4", 2 reused), then the same 4 → all reused; a
  *     scene returning to earlier lights is recognised by content only
@@ -214,11 +215,58 @@ PF_TEST(final_traces_only_the_passes_it_has_not_kept)
     ref_scene_free(&room);
 }
 
+/* The rows of a frame, in order: every stage of the preset, run or skipped, each once. */
+static int rows_are(const pf_frame_report *report, const char *const *names, uint32_t count)
+{
+    int same = report->stage_count == count;
+    for (uint32_t i = 0; same && i < count; i++)
+        same = !strcmp(report->stages[i].stage, names[i]);
+    if (!same) {
+        printf("  rows:");
+        for (uint32_t i = 0; i < report->stage_count; i++)
+            printf(" %s", report->stages[i].stage);
+        printf("\n");
+    }
+    return same;
+}
+
+PF_TEST(every_preset_reports_each_of_its_stages_once_in_order)
+{
+    static const char *const preview[] = {"bih_build", "shade"};
+    static const char *const reference[] = {"bih_build", "shade", "caustics"};
+    static const char *const fast[] = {"bih_build",    "photon_trace",  "caustic_map", "lpv_geometry",
+                                       "lpv_inject",   "lpv_propagate", "shade"};
+    static const char *const final[] = {"bih_build", "photon_trace", "photon_grid", "caustic_map",
+                                        "shade"};
+    const struct {
+        pf_quality quality;
+        const char *const *rows;
+        uint32_t count;
+    } presets[] = {{PF_QUALITY_PREVIEW, preview, 2},
+                   {PF_QUALITY_REFERENCE, reference, 3},
+                   {PF_QUALITY_FAST, fast, 7},
+                   {PF_QUALITY_FINAL, final, 5}};
+    ref_scene room;
+    build_room(&room, 0.0f);
+    pf_frame_report report;
+    for (size_t i = 0; i < sizeof presets / sizeof presets[0]; i++) {
+        pf_render_settings settings = settings_of(presets[i].quality, 2, 5);
+        for (int frame = 0; frame < 2; frame++) { /* run, then reused */
+            PF_REQUIRE(render(&room.frame, &settings, &report));
+            PF_CHECK_MSG(rows_are(&report, presets[i].rows, presets[i].count), "%s frame %d",
+                         pf_quality_name(presets[i].quality), frame + 1);
+            PF_CHECK(report.quality == presets[i].quality);
+        }
+    }
+    ref_scene_free(&room);
+}
+
 int main(void)
 {
     if (!render_test_setup(&ctx, &renderer))
         return 1;
     PF_RUN(fast_stages_run_only_for_what_changed);
     PF_RUN(final_traces_only_the_passes_it_has_not_kept);
+    PF_RUN(every_preset_reports_each_of_its_stages_once_in_order);
     return render_test_finish(ctx, renderer);
 }
