@@ -49,28 +49,28 @@ typedef struct leased_task {
 
 static pf_status find_lease(pf_queue *queue, const char *token, leased_task *task, pf_error *err)
 {
-    sqlite3_stmt *stmt;
+    queue_stmt *stmt;
     pf_status status = queue_prepare(queue,
                                      "SELECT id, job_id, status, attempt, first_frame, "
                                      "last_frame, frame_step FROM tasks WHERE lease_token = ?",
                                      &stmt, err);
     if (status != PF_OK)
         return status;
-    sqlite3_bind_text(stmt, 1, token ? token : "", -1, SQLITE_STATIC);
-    int rc = sqlite3_step(stmt);
-    task->found = rc == SQLITE_ROW;
+    queue_bind_text(stmt, 1, token ? token : "");
+    int rc = queue_step(stmt);
+    task->found = rc == QUEUE_ROW;
     if (task->found) {
-        task->task_id = sqlite3_column_int64(stmt, 0);
-        task->job_id = sqlite3_column_int64(stmt, 1);
+        task->task_id = queue_column_int64(stmt, 0);
+        task->job_id = queue_column_int64(stmt, 1);
         queue_copy_text(task->status, sizeof task->status, queue_column_text(stmt, 2));
-        task->attempt = sqlite3_column_int(stmt, 3);
-        task->first_frame = sqlite3_column_int(stmt, 4);
-        task->last_frame = sqlite3_column_int(stmt, 5);
-        task->frame_step = sqlite3_column_int(stmt, 6);
-    } else if (rc != SQLITE_DONE) {
+        task->attempt = (int)queue_column_int64(stmt, 3);
+        task->first_frame = (int)queue_column_int64(stmt, 4);
+        task->last_frame = (int)queue_column_int64(stmt, 5);
+        task->frame_step = (int)queue_column_int64(stmt, 6);
+    } else if (rc != QUEUE_DONE) {
         status = queue_db_error(queue, err, "looking up a lease");
     }
-    sqlite3_finalize(stmt);
+    queue_finalize(stmt);
     return status;
 }
 
@@ -96,17 +96,17 @@ static pf_status claim_body(pf_queue *queue, void *context, pf_error *err)
 {
     claim_context *ctx = context;
     int64_t now = pf_queue_now(queue);
-    sqlite3_stmt *stmt;
+    queue_stmt *stmt;
     pf_status status =
         queue_prepare(queue, "UPDATE workers SET heartbeat_at = ? WHERE id = ?", &stmt, err);
     if (status != PF_OK)
         return status;
-    sqlite3_bind_int64(stmt, 1, now);
-    sqlite3_bind_int64(stmt, 2, ctx->worker_id);
+    queue_bind_int64(stmt, 1, now);
+    queue_bind_int64(stmt, 2, ctx->worker_id);
     status = queue_step_done(queue, stmt, "claiming a task", err);
     if (status != PF_OK)
         return status;
-    if (sqlite3_changes(queue->db) == 0)
+    if (queue_changes(queue) == 0)
         return pf_error_set(err, PF_ERR_INVALID, "%s: no worker %lld (register it first)",
                             queue->path, (long long)ctx->worker_id);
 
@@ -143,31 +143,30 @@ static pf_status claim_body(pf_queue *queue, void *context, pf_error *err)
         &stmt, err);
     if (status != PF_OK)
         return status;
-    sqlite3_bind_int64(stmt, sqlite3_bind_parameter_index(stmt, ":worker"), ctx->worker_id);
-    sqlite3_bind_text(stmt, sqlite3_bind_parameter_index(stmt, ":token"), token, -1,
-                      SQLITE_STATIC);
-    sqlite3_bind_int64(stmt, sqlite3_bind_parameter_index(stmt, ":now"), now);
-    sqlite3_bind_int64(stmt, sqlite3_bind_parameter_index(stmt, ":lease"),
+    queue_bind_int64(stmt, queue_bind_index(stmt, ":worker"), ctx->worker_id);
+    queue_bind_text(stmt, queue_bind_index(stmt, ":token"), token);
+    queue_bind_int64(stmt, queue_bind_index(stmt, ":now"), now);
+    queue_bind_int64(stmt, queue_bind_index(stmt, ":lease"),
                        queue->options.lease_ms);
-    sqlite3_bind_int64(stmt, sqlite3_bind_parameter_index(stmt, ":job"), ctx->preferred_job);
-    sqlite3_bind_int(stmt, sqlite3_bind_parameter_index(stmt, ":frame"), ctx->after_frame);
-    int rc = sqlite3_step(stmt);
+    queue_bind_int64(stmt, queue_bind_index(stmt, ":job"), ctx->preferred_job);
+    queue_bind_int64(stmt, queue_bind_index(stmt, ":frame"), ctx->after_frame);
+    int rc = queue_step(stmt);
     pf_queue_task task = {0};
-    if (rc == SQLITE_ROW) {
-        task.task_id = sqlite3_column_int64(stmt, 0);
-        task.job_id = sqlite3_column_int64(stmt, 1);
-        task.first_frame = sqlite3_column_int(stmt, 2);
-        task.last_frame = sqlite3_column_int(stmt, 3);
-        task.frame_step = sqlite3_column_int(stmt, 4);
-        task.frame_count = sqlite3_column_int(stmt, 5);
-        task.attempt = sqlite3_column_int(stmt, 6);
-        task.lease_expires = sqlite3_column_int64(stmt, 7);
+    if (rc == QUEUE_ROW) {
+        task.task_id = queue_column_int64(stmt, 0);
+        task.job_id = queue_column_int64(stmt, 1);
+        task.first_frame = (int)queue_column_int64(stmt, 2);
+        task.last_frame = (int)queue_column_int64(stmt, 3);
+        task.frame_step = (int)queue_column_int64(stmt, 4);
+        task.frame_count = (int)queue_column_int64(stmt, 5);
+        task.attempt = (int)queue_column_int64(stmt, 6);
+        task.lease_expires = queue_column_int64(stmt, 7);
         memcpy(task.lease_token, token, sizeof token);
-        rc = sqlite3_step(stmt);
+        rc = queue_step(stmt);
     }
-    if (rc != SQLITE_DONE)
+    if (rc != QUEUE_DONE)
         status = queue_db_error(queue, err, "claiming a task");
-    sqlite3_finalize(stmt);
+    queue_finalize(stmt);
     if (status != PF_OK || task.task_id == 0)
         return status;
 
@@ -175,16 +174,16 @@ static pf_status claim_body(pf_queue *queue, void *context, pf_error *err)
                            err);
     if (status != PF_OK)
         return status;
-    sqlite3_bind_int64(stmt, 1, task.task_id);
-    sqlite3_bind_int64(stmt, 2, ctx->worker_id);
+    queue_bind_int64(stmt, 1, task.task_id);
+    queue_bind_int64(stmt, 2, ctx->worker_id);
     status = queue_step_done(queue, stmt, "recording a worker's task", err);
     if (status == PF_OK)
         status = queue_prepare(
             queue, "UPDATE jobs SET started_at = coalesce(started_at, ?) WHERE id = ?", &stmt,
             err);
     if (status == PF_OK) {
-        sqlite3_bind_int64(stmt, 1, now);
-        sqlite3_bind_int64(stmt, 2, task.job_id);
+        queue_bind_int64(stmt, 1, now);
+        queue_bind_int64(stmt, 2, task.job_id);
         status = queue_step_done(queue, stmt, "marking a job started", err);
     }
     if (status == PF_OK)
@@ -224,7 +223,7 @@ static pf_status heartbeat_body(pf_queue *queue, void *context, pf_error *err)
 {
     token_context *ctx = context;
     int64_t now = pf_queue_now(queue);
-    sqlite3_stmt *stmt;
+    queue_stmt *stmt;
     pf_status status = queue_prepare(queue,
                                      "UPDATE tasks SET lease_expires = ?1 + ?2 "
                                      "WHERE lease_token = ?3 AND status = 'running' "
@@ -232,19 +231,19 @@ static pf_status heartbeat_body(pf_queue *queue, void *context, pf_error *err)
                                      &stmt, err);
     if (status != PF_OK)
         return status;
-    sqlite3_bind_int64(stmt, 1, now);
-    sqlite3_bind_int64(stmt, 2, queue->options.lease_ms);
-    sqlite3_bind_text(stmt, 3, ctx->token, -1, SQLITE_STATIC);
-    int rc = sqlite3_step(stmt);
-    bool renewed = rc == SQLITE_ROW;
-    int64_t worker_id = renewed ? sqlite3_column_int64(stmt, 0) : 0;
+    queue_bind_int64(stmt, 1, now);
+    queue_bind_int64(stmt, 2, queue->options.lease_ms);
+    queue_bind_text(stmt, 3, ctx->token);
+    int rc = queue_step(stmt);
+    bool renewed = rc == QUEUE_ROW;
+    int64_t worker_id = renewed ? queue_column_int64(stmt, 0) : 0;
     if (renewed) {
-        ctx->lease_expires = sqlite3_column_int64(stmt, 1);
-        rc = sqlite3_step(stmt);
+        ctx->lease_expires = queue_column_int64(stmt, 1);
+        rc = queue_step(stmt);
     }
-    if (rc != SQLITE_DONE)
+    if (rc != QUEUE_DONE)
         status = queue_db_error(queue, err, "renewing a lease");
-    sqlite3_finalize(stmt);
+    queue_finalize(stmt);
     if (status != PF_OK)
         return status;
     if (!renewed)
@@ -254,8 +253,8 @@ static pf_status heartbeat_body(pf_queue *queue, void *context, pf_error *err)
                            err);
     if (status != PF_OK)
         return status;
-    sqlite3_bind_int64(stmt, 1, now);
-    sqlite3_bind_int64(stmt, 2, worker_id);
+    queue_bind_int64(stmt, 1, now);
+    queue_bind_int64(stmt, 2, worker_id);
     return queue_step_done(queue, stmt, "recording a worker heartbeat", err);
 }
 
@@ -308,7 +307,7 @@ static pf_status complete_body(pf_queue *queue, void *context, pf_error *err)
     if (!task.found || strcmp(task.status, "running") != 0)
         return lease_lost(queue, ctx->token, err);
 
-    sqlite3_stmt *stmt;
+    queue_stmt *stmt;
     status = queue_prepare(queue,
                            "INSERT INTO stage_timings (task_id, attempt, frame, stage, wall_ms, "
                            "gpu_ms, counters, skipped, reason, build) "
@@ -321,31 +320,30 @@ static pf_status complete_body(pf_queue *queue, void *context, pf_error *err)
         status = check_stage_row(queue, &task, row, i, err);
         if (status != PF_OK)
             break;
-        sqlite3_reset(stmt);
-        sqlite3_clear_bindings(stmt);
-        sqlite3_bind_int64(stmt, 1, task.task_id);
-        sqlite3_bind_int(stmt, 2, task.attempt);
-        sqlite3_bind_int(stmt, 3, row->frame);
-        sqlite3_bind_text(stmt, 4, row->stage, -1, SQLITE_STATIC);
-        sqlite3_bind_double(stmt, 5, row->wall_ms);
+        queue_reset(stmt);
+        queue_bind_int64(stmt, 1, task.task_id);
+        queue_bind_int64(stmt, 2, task.attempt);
+        queue_bind_int64(stmt, 3, row->frame);
+        queue_bind_text(stmt, 4, row->stage);
+        queue_bind_double(stmt, 5, row->wall_ms);
         if (row->gpu_ms >= 0)
-            sqlite3_bind_double(stmt, 6, row->gpu_ms);
+            queue_bind_double(stmt, 6, row->gpu_ms);
         if (row->counters_json)
-            sqlite3_bind_text(stmt, 7, row->counters_json, -1, SQLITE_STATIC);
-        sqlite3_bind_int(stmt, 8, row->skipped);
+            queue_bind_text(stmt, 7, row->counters_json);
+        queue_bind_int64(stmt, 8, row->skipped);
         if (row->reason)
-            sqlite3_bind_text(stmt, 9, row->reason, -1, SQLITE_STATIC);
+            queue_bind_text(stmt, 9, row->reason);
         if (row->build)
-            sqlite3_bind_text(stmt, 10, row->build, -1, SQLITE_STATIC);
-        int rc = sqlite3_step(stmt);
-        if (rc == SQLITE_CONSTRAINT_CHECK)
+            queue_bind_text(stmt, 10, row->build);
+        int rc = queue_step(stmt);
+        if (rc == QUEUE_CONSTRAINT)
             status = pf_error_set(err, PF_ERR_INVALID,
                                   "%s: stage row %zu (%s): counters are not valid JSON: %s",
                                   queue->path, i, row->stage, row->counters_json);
-        else if (rc != SQLITE_DONE)
+        else if (rc != QUEUE_DONE)
             status = queue_db_error(queue, err, "inserting a stage row");
     }
-    sqlite3_finalize(stmt);
+    queue_finalize(stmt);
     if (status != PF_OK)
         return status;
 
@@ -355,8 +353,8 @@ static pf_status complete_body(pf_queue *queue, void *context, pf_error *err)
                            &stmt, err);
     if (status != PF_OK)
         return status;
-    sqlite3_bind_int64(stmt, 1, pf_queue_now(queue));
-    sqlite3_bind_int64(stmt, 2, task.task_id);
+    queue_bind_int64(stmt, 1, pf_queue_now(queue));
+    queue_bind_int64(stmt, 2, task.task_id);
     status = queue_step_done(queue, stmt, "completing a task", err);
     if (status == PF_OK)
         status = queue_clear_worker_task(queue, task.task_id, err);
@@ -428,7 +426,7 @@ static pf_status release_body(pf_queue *queue, void *context, pf_error *err)
     pf_status status = find_running_lease(queue, ctx->token, &task, err);
     if (status != PF_OK)
         return status;
-    sqlite3_stmt *stmt;
+    queue_stmt *stmt;
     status = queue_prepare(queue,
                            "UPDATE tasks SET status = 'queued', attempt = attempt - 1, "
                            "lease_token = NULL, lease_expires = NULL, worker_id = NULL, "
@@ -436,8 +434,8 @@ static pf_status release_body(pf_queue *queue, void *context, pf_error *err)
                            &stmt, err);
     if (status != PF_OK)
         return status;
-    sqlite3_bind_int64(stmt, 1, pf_queue_now(queue));
-    sqlite3_bind_int64(stmt, 2, task.task_id);
+    queue_bind_int64(stmt, 1, pf_queue_now(queue));
+    queue_bind_int64(stmt, 2, task.task_id);
     status = queue_step_done(queue, stmt, "releasing a task", err);
     if (status == PF_OK)
         status = queue_clear_worker_task(queue, task.task_id, err);

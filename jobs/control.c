@@ -11,13 +11,13 @@ typedef struct control_context {
 static pf_status run_job_sql(pf_queue *queue, const char *sql, int64_t job_id, const char *what,
                              pf_error *err)
 {
-    sqlite3_stmt *stmt;
+    queue_stmt *stmt;
     pf_status status = queue_prepare(queue, sql, &stmt, err);
     if (status != PF_OK)
         return status;
-    sqlite3_bind_int64(stmt, 1, job_id);
-    if (sqlite3_bind_parameter_count(stmt) >= 2)
-        sqlite3_bind_int64(stmt, 2, pf_queue_now(queue));
+    queue_bind_int64(stmt, 1, job_id);
+    if (queue_bind_count(stmt) >= 2)
+        queue_bind_int64(stmt, 2, pf_queue_now(queue));
     return queue_step_done(queue, stmt, what, err);
 }
 
@@ -100,7 +100,7 @@ static pf_status retry_body(pf_queue *queue, void *context, pf_error *err)
                          ctx->job_id, "retrying a job", err);
     if (status != PF_OK)
         return status;
-    ctx->requeued = sqlite3_changes(queue->db);
+    ctx->requeued = queue_changes(queue);
     status = run_job_sql(queue, "DELETE FROM worker_blocks WHERE job_id = ?1",
                          ctx->job_id, "retrying a job", err);
     /* Failures so far stay on record but stop counting towards new blocks. */

@@ -1,4 +1,4 @@
-/* SQLite helpers and the transaction runners every jobs/ call goes through. */
+/* The statement calls (SQLite behind them) and the transaction runners every jobs/ call goes through. */
 #include "queue_internal.h"
 
 #include <stdio.h>
@@ -19,14 +19,101 @@ pf_status queue_db_error(pf_queue *queue, pf_error *err, const char *what)
                         sqlite3_errmsg(queue->db), sqlite3_extended_errcode(queue->db));
 }
 
-pf_status queue_prepare(pf_queue *queue, const char *sql, sqlite3_stmt **stmt, pf_error *err)
+/* SQLite's statement behind the engine-neutral handle. */
+struct queue_stmt {
+    pf_queue *queue;
+    sqlite3_stmt *sqlite;
+};
+
+pf_status queue_prepare(pf_queue *queue, const char *sql, queue_stmt **stmt, pf_error *err)
 {
-    if (sqlite3_prepare_v2(queue->db, sql, -1, stmt, NULL) != SQLITE_OK) {
+    *stmt = malloc(sizeof **stmt);
+    if (!*stmt)
+        return pf_error_set(err, PF_ERR_NOMEM, "%s: out of memory preparing a statement",
+                            queue->path);
+    (*stmt)->queue = queue;
+    if (sqlite3_prepare_v2(queue->db, sql, -1, &(*stmt)->sqlite, NULL) != SQLITE_OK) {
+        sqlite3_finalize((*stmt)->sqlite);
+        free(*stmt);
         *stmt = NULL;
         return queue_db_error(queue, err, "preparing a statement");
     }
     return PF_OK;
 }
+
+void queue_bind_int64(queue_stmt *stmt, int index, int64_t value)
+{
+    sqlite3_bind_int64(stmt->sqlite, index, value);
+}
+
+void queue_bind_double(queue_stmt *stmt, int index, double value)
+{
+    sqlite3_bind_double(stmt->sqlite, index, value);
+}
+
+void queue_bind_text(queue_stmt *stmt, int index, const char *text)
+{
+    if (text)
+        sqlite3_bind_text(stmt->sqlite, index, text, -1, SQLITE_STATIC);
+    else
+        sqlite3_bind_null(stmt->sqlite, index);
+}
+
+int queue_bind_index(queue_stmt *stmt, const char *name)
+{
+    return sqlite3_bind_parameter_index(stmt->sqlite, name);
+}
+
+int queue_bind_count(queue_stmt *stmt) { return sqlite3_bind_parameter_count(stmt->sqlite); }
+
+int queue_step(queue_stmt *stmt)
+{
+    int rc = sqlite3_step(stmt->sqlite);
+    if (rc == SQLITE_ROW)
+        return QUEUE_ROW;
+    if (rc == SQLITE_DONE)
+        return QUEUE_DONE;
+    return rc == SQLITE_CONSTRAINT_CHECK ? QUEUE_CONSTRAINT : QUEUE_ERROR;
+}
+
+void queue_reset(queue_stmt *stmt)
+{
+    sqlite3_reset(stmt->sqlite);
+    sqlite3_clear_bindings(stmt->sqlite);
+}
+
+int64_t queue_column_int64(queue_stmt *stmt, int column)
+{
+    return sqlite3_column_int64(stmt->sqlite, column);
+}
+
+double queue_column_double(queue_stmt *stmt, int column)
+{
+    return sqlite3_column_double(stmt->sqlite, column);
+}
+
+const char *queue_column_text(queue_stmt *stmt, int column)
+{
+    const unsigned char *text = sqlite3_column_text(stmt->sqlite, column);
+    return text ? (const char *)text : "";
+}
+
+int queue_column_is_null(queue_stmt *stmt, int column)
+{
+    return sqlite3_column_type(stmt->sqlite, column) == SQLITE_NULL;
+}
+
+void queue_finalize(queue_stmt *stmt)
+{
+    if (!stmt)
+        return;
+    sqlite3_finalize(stmt->sqlite);
+    free(stmt);
+}
+
+int64_t queue_changes(pf_queue *queue) { return sqlite3_changes(queue->db); }
+
+int64_t queue_last_insert_id(pf_queue *queue) { return sqlite3_last_insert_rowid(queue->db); }
 
 pf_status queue_exec(pf_queue *queue, const char *sql, pf_error *err)
 {
@@ -35,13 +122,12 @@ pf_status queue_exec(pf_queue *queue, const char *sql, pf_error *err)
     return PF_OK;
 }
 
-pf_status queue_step_done(pf_queue *queue, sqlite3_stmt *stmt, const char *what, pf_error *err)
+pf_status queue_step_done(pf_queue *queue, queue_stmt *stmt, const char *what, pf_error *err)
 {
-    int rc = sqlite3_step(stmt);
     pf_status status = PF_OK;
-    if (rc != SQLITE_DONE)
+    if (queue_step(stmt) != QUEUE_DONE)
         status = queue_db_error(queue, err, what);
-    sqlite3_finalize(stmt);
+    queue_finalize(stmt);
     return status;
 }
 
@@ -96,12 +182,6 @@ pf_status queue_read(pf_queue *queue, const char *what, queue_tx_body body, void
                      pf_error *err)
 {
     return run_transaction(queue, "BEGIN", what, body, context, err);
-}
-
-const char *queue_column_text(sqlite3_stmt *stmt, int column)
-{
-    const unsigned char *text = sqlite3_column_text(stmt, column);
-    return text ? (const char *)text : "";
 }
 
 void queue_copy_text(char *buffer, size_t size, const char *text)

@@ -13,17 +13,17 @@ typedef struct enqueue_context {
     int64_t job_id;
 } enqueue_context;
 
-static pf_status insert_task(pf_queue *queue, sqlite3_stmt *stmt, int64_t job_id,
+static pf_status insert_task(pf_queue *queue, queue_stmt *stmt, int64_t job_id,
                              const int32_t *frames, size_t count, pf_error *err)
 {
     int32_t step = count > 1 ? frames[1] - frames[0] : 1;
-    sqlite3_reset(stmt);
-    sqlite3_bind_int64(stmt, 1, job_id);
-    sqlite3_bind_int(stmt, 2, frames[0]);
-    sqlite3_bind_int(stmt, 3, frames[count - 1]);
-    sqlite3_bind_int(stmt, 4, step);
-    sqlite3_bind_int64(stmt, 5, (int64_t)count);
-    if (sqlite3_step(stmt) != SQLITE_DONE)
+    queue_reset(stmt);
+    queue_bind_int64(stmt, 1, job_id);
+    queue_bind_int64(stmt, 2, frames[0]);
+    queue_bind_int64(stmt, 3, frames[count - 1]);
+    queue_bind_int64(stmt, 4, step);
+    queue_bind_int64(stmt, 5, (int64_t)count);
+    if (queue_step(stmt) != QUEUE_DONE)
         return queue_db_error(queue, err, "inserting a task");
     return PF_OK;
 }
@@ -33,7 +33,7 @@ static pf_status check_conflicts(pf_queue *queue, const pf_queue_job_spec *spec,
 {
     if (!spec->conflicts)
         return PF_OK;
-    sqlite3_stmt *stmt;
+    queue_stmt *stmt;
     pf_status status = queue_prepare(queue,
                                      "SELECT id, status, parameters, frame_range, output_pattern "
                                      "FROM jobs WHERE status IN ('queued', 'running', 'paused') "
@@ -42,9 +42,9 @@ static pf_status check_conflicts(pf_queue *queue, const pf_queue_job_spec *spec,
     if (status != PF_OK)
         return status;
     int rc;
-    while (status == PF_OK && (rc = sqlite3_step(stmt)) == SQLITE_ROW) {
+    while (status == PF_OK && (rc = queue_step(stmt)) == QUEUE_ROW) {
         pf_queue_job other = {0};
-        other.job_id = sqlite3_column_int64(stmt, 0);
+        other.job_id = queue_column_int64(stmt, 0);
         queue_copy_text(other.status, sizeof other.status, queue_column_text(stmt, 1));
         other.parameters_json = (char *)queue_column_text(stmt, 2);
         other.frame_range = (char *)queue_column_text(stmt, 3);
@@ -55,9 +55,9 @@ static pf_status check_conflicts(pf_queue *queue, const pf_queue_job_spec *spec,
             status = pf_error_set(err, PF_ERR_INVALID, "%s",
                                   reason[0] ? reason : "conflicts with an unfinished job");
     }
-    if (status == PF_OK && rc != SQLITE_DONE)
+    if (status == PF_OK && rc != QUEUE_DONE)
         status = queue_db_error(queue, err, "checking unfinished jobs");
-    sqlite3_finalize(stmt);
+    queue_finalize(stmt);
     return status;
 }
 
@@ -66,7 +66,7 @@ static pf_status enqueue_body(pf_queue *queue, void *context, pf_error *err)
     enqueue_context *ctx = context;
     const pf_queue_job_spec *spec = ctx->spec;
     int64_t now = pf_queue_now(queue);
-    sqlite3_stmt *stmt;
+    queue_stmt *stmt;
     pf_status status = check_conflicts(queue, spec, err);
     if (status != PF_OK)
         return status;
@@ -78,20 +78,19 @@ static pf_status enqueue_body(pf_queue *queue, void *context, pf_error *err)
         &stmt, err);
     if (status != PF_OK)
         return status;
-    sqlite3_bind_text(stmt, 1, spec->scene_path, -1, SQLITE_STATIC);
-    sqlite3_bind_text(stmt, 2, spec->parameters_json ? spec->parameters_json : "{}", -1,
-                      SQLITE_STATIC);
-    sqlite3_bind_text(stmt, 3, spec->frame_range, -1, SQLITE_STATIC);
-    sqlite3_bind_text(stmt, 4, spec->output_pattern, -1, SQLITE_STATIC);
-    sqlite3_bind_int(stmt, 5, spec->priority);
-    sqlite3_bind_int(stmt, 6, ctx->max_attempts);
-    sqlite3_bind_int(stmt, 7, ctx->frames_per_task);
-    sqlite3_bind_int64(stmt, 8, now);
-    sqlite3_bind_int64(stmt, 9, now);
+    queue_bind_text(stmt, 1, spec->scene_path);
+    queue_bind_text(stmt, 2, spec->parameters_json ? spec->parameters_json : "{}");
+    queue_bind_text(stmt, 3, spec->frame_range);
+    queue_bind_text(stmt, 4, spec->output_pattern);
+    queue_bind_int64(stmt, 5, spec->priority);
+    queue_bind_int64(stmt, 6, ctx->max_attempts);
+    queue_bind_int64(stmt, 7, ctx->frames_per_task);
+    queue_bind_int64(stmt, 8, now);
+    queue_bind_int64(stmt, 9, now);
     status = queue_step_done(queue, stmt, "inserting the job", err);
     if (status != PF_OK)
         return status;
-    ctx->job_id = sqlite3_last_insert_rowid(queue->db);
+    ctx->job_id = queue_last_insert_id(queue);
 
     status = queue_prepare(queue,
                            "INSERT INTO tasks (job_id, first_frame, last_frame, frame_step, "
@@ -111,7 +110,7 @@ static pf_status enqueue_body(pf_queue *queue, void *context, pf_error *err)
             chunk_start = i;
         }
     }
-    sqlite3_finalize(stmt);
+    queue_finalize(stmt);
     return status;
 }
 
@@ -134,13 +133,13 @@ pf_status pf_queue_enqueue(pf_queue *queue, const pf_queue_job_spec *spec, int64
         .frames_per_task = spec->frames_per_task ? spec->frames_per_task : 1,
     };
     if (spec->parameters_json) {
-        sqlite3_stmt *stmt;
+        queue_stmt *stmt;
         pf_status status = queue_prepare(queue, "SELECT json_valid(?)", &stmt, err);
         if (status != PF_OK)
             return status;
-        sqlite3_bind_text(stmt, 1, spec->parameters_json, -1, SQLITE_STATIC);
-        bool valid = sqlite3_step(stmt) == SQLITE_ROW && sqlite3_column_int(stmt, 0) == 1;
-        sqlite3_finalize(stmt);
+        queue_bind_text(stmt, 1, spec->parameters_json);
+        bool valid = queue_step(stmt) == QUEUE_ROW && (int)queue_column_int64(stmt, 0) == 1;
+        queue_finalize(stmt);
         if (!valid)
             return pf_error_set(err, PF_ERR_INVALID, "enqueue: parameters are not valid JSON: %s",
                                 spec->parameters_json);

@@ -23,22 +23,22 @@ static int64_t backoff_ms(const pf_queue_options *options, int attempt)
 pf_status queue_job_require(pf_queue *queue, int64_t job_id, char *status_text,
                             size_t status_size, pf_error *err)
 {
-    sqlite3_stmt *stmt;
+    queue_stmt *stmt;
     pf_status status = queue_prepare(queue, "SELECT status FROM jobs WHERE id = ?", &stmt, err);
     if (status != PF_OK)
         return status;
-    sqlite3_bind_int64(stmt, 1, job_id);
-    int rc = sqlite3_step(stmt);
-    if (rc == SQLITE_ROW) {
+    queue_bind_int64(stmt, 1, job_id);
+    int rc = queue_step(stmt);
+    if (rc == QUEUE_ROW) {
         if (status_text)
             queue_copy_text(status_text, status_size, queue_column_text(stmt, 0));
-    } else if (rc == SQLITE_DONE) {
+    } else if (rc == QUEUE_DONE) {
         status = pf_error_set(err, PF_ERR_INVALID, "%s: no job %lld", queue->path,
                               (long long)job_id);
     } else {
         status = queue_db_error(queue, err, "looking up a job");
     }
-    sqlite3_finalize(stmt);
+    queue_finalize(stmt);
     return status;
 }
 
@@ -46,7 +46,7 @@ pf_status queue_job_refresh(pf_queue *queue, int64_t job_id, pf_error *err)
 {
     /* EXISTS probes on (job_id, status) instead of counting every task: this
      * runs inside each claim and completion, and a job may have 100,000 tasks. */
-    sqlite3_stmt *stmt;
+    queue_stmt *stmt;
     pf_status status = queue_prepare(
         queue,
         "SELECT j.status, j.started_at IS NOT NULL,"
@@ -60,18 +60,18 @@ pf_status queue_job_refresh(pf_queue *queue, int64_t job_id, pf_error *err)
         &stmt, err);
     if (status != PF_OK)
         return status;
-    sqlite3_bind_int64(stmt, 1, job_id);
-    if (sqlite3_step(stmt) != SQLITE_ROW) {
+    queue_bind_int64(stmt, 1, job_id);
+    if (queue_step(stmt) != QUEUE_ROW) {
         status = queue_db_error(queue, err, "deriving a job's status");
-        sqlite3_finalize(stmt);
+        queue_finalize(stmt);
         return status;
     }
     char current[16];
     queue_copy_text(current, sizeof current, queue_column_text(stmt, 0));
-    bool started = sqlite3_column_int(stmt, 1), has_tasks = sqlite3_column_int(stmt, 2),
-         has_unfinished = sqlite3_column_int(stmt, 3), has_runnable = sqlite3_column_int(stmt, 4),
-         has_failed = sqlite3_column_int(stmt, 5);
-    sqlite3_finalize(stmt);
+    bool started = (int)queue_column_int64(stmt, 1), has_tasks = (int)queue_column_int64(stmt, 2),
+         has_unfinished = (int)queue_column_int64(stmt, 3), has_runnable = (int)queue_column_int64(stmt, 4),
+         has_failed = (int)queue_column_int64(stmt, 5);
+    queue_finalize(stmt);
 
     const char *next;
     if (!strcmp(current, "canceled"))
@@ -93,9 +93,9 @@ pf_status queue_job_refresh(pf_queue *queue, int64_t job_id, pf_error *err)
                            &stmt, err);
     if (status != PF_OK)
         return status;
-    sqlite3_bind_text(stmt, 1, next, -1, SQLITE_STATIC);
-    sqlite3_bind_int64(stmt, 2, pf_queue_now(queue));
-    sqlite3_bind_int64(stmt, 3, job_id);
+    queue_bind_text(stmt, 1, next);
+    queue_bind_int64(stmt, 2, pf_queue_now(queue));
+    queue_bind_int64(stmt, 3, job_id);
     return queue_step_done(queue, stmt, "updating a job's status", err);
 }
 
@@ -104,7 +104,7 @@ pf_status queue_job_refresh(pf_queue *queue, int64_t job_id, pf_error *err)
 static pf_status apply_blocklist(pf_queue *queue, int64_t job_id, int64_t worker_id,
                                  pf_error *err)
 {
-    sqlite3_stmt *stmt;
+    queue_stmt *stmt;
     pf_status status = queue_prepare(
         queue,
         "INSERT OR IGNORE INTO worker_blocks (job_id, worker_id, blocked_at) "
@@ -116,10 +116,10 @@ static pf_status apply_blocklist(pf_queue *queue, int64_t job_id, int64_t worker
         &stmt, err);
     if (status != PF_OK)
         return status;
-    sqlite3_bind_int64(stmt, 1, job_id);
-    sqlite3_bind_int64(stmt, 2, worker_id);
-    sqlite3_bind_int64(stmt, 3, pf_queue_now(queue));
-    sqlite3_bind_int(stmt, 4, queue->options.block_after_failures);
+    queue_bind_int64(stmt, 1, job_id);
+    queue_bind_int64(stmt, 2, worker_id);
+    queue_bind_int64(stmt, 3, pf_queue_now(queue));
+    queue_bind_int64(stmt, 4, queue->options.block_after_failures);
     return queue_step_done(queue, stmt, "blocking a worker for a job", err);
 }
 
@@ -135,7 +135,7 @@ typedef struct failing_task {
 static pf_status record_failure(pf_queue *queue, int64_t task_id, const char *error_text,
                                 bool job_fault, failing_task *task, pf_error *err)
 {
-    sqlite3_stmt *stmt;
+    queue_stmt *stmt;
     pf_status status = queue_prepare(
         queue,
         "SELECT t.attempt, t.job_id, t.worker_id, coalesce(w.name, ''), j.max_attempts "
@@ -144,19 +144,19 @@ static pf_status record_failure(pf_queue *queue, int64_t task_id, const char *er
         &stmt, err);
     if (status != PF_OK)
         return status;
-    sqlite3_bind_int64(stmt, 1, task_id);
-    if (sqlite3_step(stmt) != SQLITE_ROW) {
+    queue_bind_int64(stmt, 1, task_id);
+    if (queue_step(stmt) != QUEUE_ROW) {
         status = queue_db_error(queue, err, "reading a failed task");
-        sqlite3_finalize(stmt);
+        queue_finalize(stmt);
         return status;
     }
-    task->attempt = sqlite3_column_int(stmt, 0);
-    task->job_id = sqlite3_column_int64(stmt, 1);
-    task->has_worker = sqlite3_column_type(stmt, 2) != SQLITE_NULL;
-    task->worker_id = sqlite3_column_int64(stmt, 2);
+    task->attempt = (int)queue_column_int64(stmt, 0);
+    task->job_id = queue_column_int64(stmt, 1);
+    task->has_worker = !queue_column_is_null(stmt, 2);
+    task->worker_id = queue_column_int64(stmt, 2);
     queue_copy_text(task->worker_name, sizeof task->worker_name, queue_column_text(stmt, 3));
-    task->max_attempts = sqlite3_column_int(stmt, 4);
-    sqlite3_finalize(stmt);
+    task->max_attempts = (int)queue_column_int64(stmt, 4);
+    queue_finalize(stmt);
 
     status = queue_prepare(queue,
                            "INSERT INTO task_failures (task_id, attempt, worker_id, worker_name, "
@@ -164,25 +164,25 @@ static pf_status record_failure(pf_queue *queue, int64_t task_id, const char *er
                            &stmt, err);
     if (status != PF_OK)
         return status;
-    sqlite3_bind_int64(stmt, 1, task_id);
-    sqlite3_bind_int(stmt, 2, task->attempt);
+    queue_bind_int64(stmt, 1, task_id);
+    queue_bind_int64(stmt, 2, task->attempt);
     if (task->has_worker)
-        sqlite3_bind_int64(stmt, 3, task->worker_id);
-    sqlite3_bind_text(stmt, 4, task->worker_name, -1, SQLITE_STATIC);
-    sqlite3_bind_text(stmt, 5, error_text, -1, SQLITE_STATIC);
-    sqlite3_bind_int64(stmt, 6, pf_queue_now(queue));
-    sqlite3_bind_int(stmt, 7, job_fault);
+        queue_bind_int64(stmt, 3, task->worker_id);
+    queue_bind_text(stmt, 4, task->worker_name);
+    queue_bind_text(stmt, 5, error_text);
+    queue_bind_int64(stmt, 6, pf_queue_now(queue));
+    queue_bind_int64(stmt, 7, job_fault);
     return queue_step_done(queue, stmt, "recording a task failure", err);
 }
 
 pf_status queue_clear_worker_task(pf_queue *queue, int64_t task_id, pf_error *err)
 {
-    sqlite3_stmt *stmt;
+    queue_stmt *stmt;
     pf_status status = queue_prepare(
         queue, "UPDATE workers SET current_task_id = NULL WHERE current_task_id = ?", &stmt, err);
     if (status != PF_OK)
         return status;
-    sqlite3_bind_int64(stmt, 1, task_id);
+    queue_bind_int64(stmt, 1, task_id);
     return queue_step_done(queue, stmt, "clearing a worker's task", err);
 }
 
@@ -193,15 +193,15 @@ pf_status queue_clear_worker_task(pf_queue *queue, int64_t task_id, pf_error *er
 static pf_status update_failed(pf_queue *queue, const char *sql, const char *error_text,
                                int64_t id, int64_t delay_ms, const char *what, pf_error *err)
 {
-    sqlite3_stmt *stmt;
+    queue_stmt *stmt;
     pf_status status = queue_prepare(queue, sql, &stmt, err);
     if (status != PF_OK)
         return status;
-    sqlite3_bind_int64(stmt, 1, pf_queue_now(queue));
-    sqlite3_bind_text(stmt, 2, error_text, -1, SQLITE_STATIC);
-    sqlite3_bind_int64(stmt, 3, id);
-    if (sqlite3_bind_parameter_count(stmt) >= 4)
-        sqlite3_bind_int64(stmt, 4, delay_ms);
+    queue_bind_int64(stmt, 1, pf_queue_now(queue));
+    queue_bind_text(stmt, 2, error_text);
+    queue_bind_int64(stmt, 3, id);
+    if (queue_bind_count(stmt) >= 4)
+        queue_bind_int64(stmt, 4, delay_ms);
     return queue_step_done(queue, stmt, what, err);
 }
 

@@ -5,7 +5,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-static char *dup_column(sqlite3_stmt *stmt, int column)
+static char *dup_column(queue_stmt *stmt, int column)
 {
     return strdup(queue_column_text(stmt, column));
 }
@@ -31,30 +31,30 @@ typedef struct job_query {
     queue_records jobs;
 } job_query;
 
-static pf_status read_job_row(pf_queue *queue, sqlite3_stmt *stmt, pf_queue_job *job,
+static pf_status read_job_row(pf_queue *queue, queue_stmt *stmt, pf_queue_job *job,
                               pf_error *err)
 {
-    job->job_id = sqlite3_column_int64(stmt, 0);
+    job->job_id = queue_column_int64(stmt, 0);
     queue_copy_text(job->status, sizeof job->status, queue_column_text(stmt, 1));
-    job->priority = sqlite3_column_int(stmt, 2);
-    job->max_attempts = sqlite3_column_int(stmt, 3);
-    job->frames_per_task = sqlite3_column_int(stmt, 4);
+    job->priority = (int)queue_column_int64(stmt, 2);
+    job->max_attempts = (int)queue_column_int64(stmt, 3);
+    job->frames_per_task = (int)queue_column_int64(stmt, 4);
     job->scene_path = dup_column(stmt, 5);
     job->parameters_json = dup_column(stmt, 6);
     job->frame_range = dup_column(stmt, 7);
     job->output_pattern = dup_column(stmt, 8);
-    job->created_at = sqlite3_column_int64(stmt, 9);
-    job->updated_at = sqlite3_column_int64(stmt, 10);
-    job->tasks_total = sqlite3_column_int64(stmt, 11);
-    job->tasks_queued = sqlite3_column_int64(stmt, 12);
-    job->tasks_running = sqlite3_column_int64(stmt, 13);
-    job->tasks_done = sqlite3_column_int64(stmt, 14);
-    job->tasks_failed = sqlite3_column_int64(stmt, 15);
-    job->tasks_canceled = sqlite3_column_int64(stmt, 16);
-    job->frames_total = sqlite3_column_int64(stmt, 17);
-    job->frames_done = sqlite3_column_int64(stmt, 18);
-    job->live_workers = sqlite3_column_int(stmt, 19);
-    job->blocked_live_workers = sqlite3_column_int(stmt, 20);
+    job->created_at = queue_column_int64(stmt, 9);
+    job->updated_at = queue_column_int64(stmt, 10);
+    job->tasks_total = queue_column_int64(stmt, 11);
+    job->tasks_queued = queue_column_int64(stmt, 12);
+    job->tasks_running = queue_column_int64(stmt, 13);
+    job->tasks_done = queue_column_int64(stmt, 14);
+    job->tasks_failed = queue_column_int64(stmt, 15);
+    job->tasks_canceled = queue_column_int64(stmt, 16);
+    job->frames_total = queue_column_int64(stmt, 17);
+    job->frames_done = queue_column_int64(stmt, 18);
+    job->live_workers = (int)queue_column_int64(stmt, 19);
+    job->blocked_live_workers = (int)queue_column_int64(stmt, 20);
     queue_copy_text(job->pause_reason, sizeof job->pause_reason, queue_column_text(stmt, 21));
     if (!job->scene_path || !job->parameters_json || !job->frame_range || !job->output_pattern)
         return pf_error_set(err, PF_ERR_NOMEM, "%s: out of memory reading job %lld",
@@ -74,7 +74,7 @@ static pf_status read_job_row(pf_queue *queue, sqlite3_stmt *stmt, pf_queue_job 
 static pf_status job_query_body(pf_queue *queue, void *context, pf_error *err)
 {
     job_query *query = context;
-    sqlite3_stmt *stmt;
+    queue_stmt *stmt;
     pf_status status = queue_prepare(
         queue,
         "WITH live AS (SELECT id FROM workers WHERE stopped_at IS NULL AND heartbeat_at >= "
@@ -94,11 +94,11 @@ static pf_status job_query_body(pf_queue *queue, void *context, pf_error *err)
         &stmt, err);
     if (status != PF_OK)
         return status;
-    sqlite3_bind_int64(stmt, 1, query->job_id);
-    sqlite3_bind_int64(stmt, 2, pf_queue_now(queue));
-    sqlite3_bind_int64(stmt, 3, queue->options.worker_alive_ms);
+    queue_bind_int64(stmt, 1, query->job_id);
+    queue_bind_int64(stmt, 2, pf_queue_now(queue));
+    queue_bind_int64(stmt, 3, queue->options.worker_alive_ms);
     int rc;
-    while (status == PF_OK && (rc = sqlite3_step(stmt)) == SQLITE_ROW) {
+    while (status == PF_OK && (rc = queue_step(stmt)) == QUEUE_ROW) {
         pf_queue_job *job = queue_records_append(&query->jobs);
         if (!job)
             status = pf_error_set(err, PF_ERR_NOMEM, "%s: out of memory listing jobs",
@@ -106,9 +106,9 @@ static pf_status job_query_body(pf_queue *queue, void *context, pf_error *err)
         else
             status = read_job_row(queue, stmt, job, err);
     }
-    if (status == PF_OK && rc != SQLITE_DONE)
+    if (status == PF_OK && rc != QUEUE_DONE)
         status = queue_db_error(queue, err, "listing jobs");
-    sqlite3_finalize(stmt);
+    queue_finalize(stmt);
     return status;
 }
 
@@ -161,13 +161,13 @@ typedef struct list_query {
 } list_query;
 
 /* Steps stmt, handing each row to read; collects results into query->rows. */
-static pf_status collect(pf_queue *queue, sqlite3_stmt *stmt, list_query *query,
-                         void (*read)(sqlite3_stmt *stmt, void *row), const char *what,
+static pf_status collect(pf_queue *queue, queue_stmt *stmt, list_query *query,
+                         void (*read)(queue_stmt *stmt, void *row), const char *what,
                          pf_error *err)
 {
     pf_status status = PF_OK;
     int rc;
-    while ((rc = sqlite3_step(stmt)) == SQLITE_ROW) {
+    while ((rc = queue_step(stmt)) == QUEUE_ROW) {
         void *row = queue_records_append(&query->rows);
         if (!row) {
             status = pf_error_set(err, PF_ERR_NOMEM, "%s: out of memory %s", queue->path, what);
@@ -175,28 +175,28 @@ static pf_status collect(pf_queue *queue, sqlite3_stmt *stmt, list_query *query,
         }
         read(stmt, row);
     }
-    if (status == PF_OK && rc != SQLITE_DONE)
+    if (status == PF_OK && rc != QUEUE_DONE)
         status = queue_db_error(queue, err, what);
-    sqlite3_finalize(stmt);
+    queue_finalize(stmt);
     return status;
 }
 
-static void read_task(sqlite3_stmt *stmt, void *row)
+static void read_task(queue_stmt *stmt, void *row)
 {
     pf_queue_task_info *task = row;
-    task->task_id = sqlite3_column_int64(stmt, 0);
-    task->first_frame = sqlite3_column_int(stmt, 1);
-    task->last_frame = sqlite3_column_int(stmt, 2);
-    task->frame_step = sqlite3_column_int(stmt, 3);
-    task->frame_count = sqlite3_column_int(stmt, 4);
+    task->task_id = queue_column_int64(stmt, 0);
+    task->first_frame = (int)queue_column_int64(stmt, 1);
+    task->last_frame = (int)queue_column_int64(stmt, 2);
+    task->frame_step = (int)queue_column_int64(stmt, 3);
+    task->frame_count = (int)queue_column_int64(stmt, 4);
     queue_copy_text(task->status, sizeof task->status, queue_column_text(stmt, 5));
-    task->attempt = sqlite3_column_int(stmt, 6);
-    task->worker_id = sqlite3_column_int64(stmt, 7);
+    task->attempt = (int)queue_column_int64(stmt, 6);
+    task->worker_id = queue_column_int64(stmt, 7);
     queue_copy_text(task->worker_name, sizeof task->worker_name, queue_column_text(stmt, 8));
-    task->lease_expires = sqlite3_column_int64(stmt, 9);
-    task->eligible_at = sqlite3_column_int64(stmt, 10);
-    task->started_at = sqlite3_column_int64(stmt, 11);
-    task->finished_at = sqlite3_column_int64(stmt, 12);
+    task->lease_expires = queue_column_int64(stmt, 9);
+    task->eligible_at = queue_column_int64(stmt, 10);
+    task->started_at = queue_column_int64(stmt, 11);
+    task->finished_at = queue_column_int64(stmt, 12);
     queue_copy_text(task->last_error, sizeof task->last_error, queue_column_text(stmt, 13));
 }
 
@@ -204,7 +204,7 @@ static pf_status task_list_body(pf_queue *queue, void *context, pf_error *err)
 {
     list_query *query = context;
     pf_status status = queue_job_require(queue, query->job_id, NULL, 0, err);
-    sqlite3_stmt *stmt;
+    queue_stmt *stmt;
     if (status == PF_OK)
         status = queue_prepare(
             queue,
@@ -216,7 +216,7 @@ static pf_status task_list_body(pf_queue *queue, void *context, pf_error *err)
             &stmt, err);
     if (status != PF_OK)
         return status;
-    sqlite3_bind_int64(stmt, 1, query->job_id);
+    queue_bind_int64(stmt, 1, query->job_id);
     return collect(queue, stmt, query, read_task, "listing tasks", err);
 }
 
@@ -246,24 +246,24 @@ pf_status pf_queue_task_list(pf_queue *queue, int64_t job_id, pf_queue_task_info
     return status;
 }
 
-static void read_failure(sqlite3_stmt *stmt, void *row)
+static void read_failure(queue_stmt *stmt, void *row)
 {
     pf_queue_failure *failure = row;
-    failure->task_id = sqlite3_column_int64(stmt, 0);
-    failure->first_frame = sqlite3_column_int(stmt, 1);
-    failure->attempt = sqlite3_column_int(stmt, 2);
+    failure->task_id = queue_column_int64(stmt, 0);
+    failure->first_frame = (int)queue_column_int64(stmt, 1);
+    failure->attempt = (int)queue_column_int64(stmt, 2);
     queue_copy_text(failure->worker_name, sizeof failure->worker_name,
                     queue_column_text(stmt, 3));
     queue_copy_text(failure->error, sizeof failure->error, queue_column_text(stmt, 4));
-    failure->failed_at = sqlite3_column_int64(stmt, 5);
-    failure->job_fault = sqlite3_column_int(stmt, 6);
+    failure->failed_at = queue_column_int64(stmt, 5);
+    failure->job_fault = (int)queue_column_int64(stmt, 6);
 }
 
 static pf_status failure_list_body(pf_queue *queue, void *context, pf_error *err)
 {
     list_query *query = context;
     pf_status status = queue_job_require(queue, query->job_id, NULL, 0, err);
-    sqlite3_stmt *stmt;
+    queue_stmt *stmt;
     if (status == PF_OK)
         status = queue_prepare(queue,
                                "SELECT f.task_id, t.first_frame, f.attempt, f.worker_name, "
@@ -272,7 +272,7 @@ static pf_status failure_list_body(pf_queue *queue, void *context, pf_error *err
                                &stmt, err);
     if (status != PF_OK)
         return status;
-    sqlite3_bind_int64(stmt, 1, query->job_id);
+    queue_bind_int64(stmt, 1, query->job_id);
     return collect(queue, stmt, query, read_failure, "listing failures", err);
 }
 
@@ -287,27 +287,27 @@ pf_status pf_queue_failure_list(pf_queue *queue, int64_t job_id, pf_queue_failur
     return status;
 }
 
-static void read_worker(sqlite3_stmt *stmt, void *row)
+static void read_worker(queue_stmt *stmt, void *row)
 {
     pf_queue_worker_info *worker = row;
-    worker->worker_id = sqlite3_column_int64(stmt, 0);
+    worker->worker_id = queue_column_int64(stmt, 0);
     queue_copy_text(worker->name, sizeof worker->name, queue_column_text(stmt, 1));
     queue_copy_text(worker->host, sizeof worker->host, queue_column_text(stmt, 2));
     queue_copy_text(worker->device, sizeof worker->device, queue_column_text(stmt, 3));
-    worker->pid = sqlite3_column_int64(stmt, 4);
-    worker->heartbeat_at = sqlite3_column_int64(stmt, 5);
-    worker->started_at = sqlite3_column_int64(stmt, 6);
-    worker->stopped_at = sqlite3_column_int64(stmt, 7);
-    worker->alive = sqlite3_column_int(stmt, 8) != 0;
-    worker->current_task_id = sqlite3_column_int64(stmt, 9);
-    worker->current_job_id = sqlite3_column_int64(stmt, 10);
-    worker->current_frame = sqlite3_column_int(stmt, 11);
+    worker->pid = queue_column_int64(stmt, 4);
+    worker->heartbeat_at = queue_column_int64(stmt, 5);
+    worker->started_at = queue_column_int64(stmt, 6);
+    worker->stopped_at = queue_column_int64(stmt, 7);
+    worker->alive = (int)queue_column_int64(stmt, 8) != 0;
+    worker->current_task_id = queue_column_int64(stmt, 9);
+    worker->current_job_id = queue_column_int64(stmt, 10);
+    worker->current_frame = (int)queue_column_int64(stmt, 11);
 }
 
 static pf_status worker_list_body(pf_queue *queue, void *context, pf_error *err)
 {
     (void)context;
-    sqlite3_stmt *stmt;
+    queue_stmt *stmt;
     pf_status status = queue_prepare(
         queue,
         "SELECT w.id, w.name, w.host, w.device, w.pid, w.heartbeat_at, w.started_at,"
@@ -318,8 +318,8 @@ static pf_status worker_list_body(pf_queue *queue, void *context, pf_error *err)
         &stmt, err);
     if (status != PF_OK)
         return status;
-    sqlite3_bind_int64(stmt, 1, pf_queue_now(queue));
-    sqlite3_bind_int64(stmt, 2, queue->options.worker_alive_ms);
+    queue_bind_int64(stmt, 1, pf_queue_now(queue));
+    queue_bind_int64(stmt, 2, queue->options.worker_alive_ms);
     return collect(queue, stmt, context, read_worker, "listing workers", err);
 }
 

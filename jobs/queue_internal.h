@@ -1,6 +1,6 @@
 /*
- * Shared internals of jobs/: the connection record, SQLite helpers, the
- * write-transaction runner, and the task state transitions that several
+ * Shared internals of jobs/: the connection record, the statement calls
+ * every query goes through, the write-transaction runner, and the task state transitions that several
  * public calls share (fail/reap, job status derivation).
  */
 #ifndef PF_QUEUE_INTERNAL_H
@@ -18,14 +18,44 @@ struct pf_queue {
     void *clock_user;
 };
 
-/* PF_ERR_IO "<path>: <what>: <sqlite message>" from the connection's last error. */
+/* PF_ERR_IO "<path>: <what>: <engine message>" from the connection's last error. */
 pf_status queue_db_error(pf_queue *queue, pf_error *err, const char *what);
+
+/*
+ * Statements, the one way jobs/ talks to its database engine (db.c). The
+ * calls mirror SQLite's, so the queue's logic is written once; parameters
+ * are numbered from 1 ("?", "?N") or named (":name", queue_bind_index), an
+ * unbound parameter is NULL, columns are numbered from 0.
+ */
+typedef struct queue_stmt queue_stmt;
+/* queue_step's results besides an engine error. */
+enum { QUEUE_ROW = 1, QUEUE_DONE = 2, QUEUE_CONSTRAINT = 3, QUEUE_ERROR = 4 };
 /* Prepares sql; on failure reports it via queue_db_error. */
-pf_status queue_prepare(pf_queue *queue, const char *sql, sqlite3_stmt **stmt, pf_error *err);
+pf_status queue_prepare(pf_queue *queue, const char *sql, queue_stmt **stmt, pf_error *err);
+void queue_bind_int64(queue_stmt *stmt, int index, int64_t value);
+void queue_bind_double(queue_stmt *stmt, int index, double value);
+/* NULL text binds NULL. The text must live until the statement has run. */
+void queue_bind_text(queue_stmt *stmt, int index, const char *text);
+/* The index of a named parameter (":name"), 0 when the statement has none by that name. */
+int queue_bind_index(queue_stmt *stmt, const char *name);
+int queue_bind_count(queue_stmt *stmt);
+/* QUEUE_ROW (a row to read), QUEUE_DONE, QUEUE_CONSTRAINT (a CHECK failed) or QUEUE_ERROR. */
+int queue_step(queue_stmt *stmt);
+/* Ready to run again with every parameter unbound. */
+void queue_reset(queue_stmt *stmt);
+int64_t queue_column_int64(queue_stmt *stmt, int column);
+double queue_column_double(queue_stmt *stmt, int column);
+/* Text of a column, "" for NULL. */
+const char *queue_column_text(queue_stmt *stmt, int column);
+int queue_column_is_null(queue_stmt *stmt, int column);
+void queue_finalize(queue_stmt *stmt);
+/* Rows the last statement changed; the id of the last row inserted. */
+int64_t queue_changes(pf_queue *queue);
+int64_t queue_last_insert_id(pf_queue *queue);
 /* Runs statements without results. */
 pf_status queue_exec(pf_queue *queue, const char *sql, pf_error *err);
-/* Steps a statement expected to finish (SQLITE_DONE) and finalizes it. */
-pf_status queue_step_done(pf_queue *queue, sqlite3_stmt *stmt, const char *what, pf_error *err);
+/* Steps a statement expected to finish (QUEUE_DONE) and finalizes it. */
+pf_status queue_step_done(pf_queue *queue, queue_stmt *stmt, const char *what, pf_error *err);
 
 /* The body of a write transaction; returning non-PF_OK rolls everything back. */
 typedef pf_status (*queue_tx_body)(pf_queue *queue, void *context, pf_error *err);
@@ -37,8 +67,6 @@ pf_status queue_write(pf_queue *queue, const char *what, queue_tx_body body, voi
 pf_status queue_read(pf_queue *queue, const char *what, queue_tx_body body, void *context,
                      pf_error *err);
 
-/* Text of a column, "" for NULL. */
-const char *queue_column_text(sqlite3_stmt *stmt, int column);
 /* Copies text into a fixed buffer, truncating. */
 void queue_copy_text(char *buffer, size_t size, const char *text);
 

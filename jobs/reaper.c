@@ -16,7 +16,7 @@ typedef struct reap_context {
 static pf_status reap_body(pf_queue *queue, void *context, pf_error *err)
 {
     reap_context *ctx = context;
-    sqlite3_stmt *stmt;
+    queue_stmt *stmt;
     pf_status status = queue_prepare(
         queue,
         "SELECT t.id, coalesce(w.name, '?') FROM tasks t LEFT JOIN workers w ON w.id = t.worker_id "
@@ -24,25 +24,25 @@ static pf_status reap_body(pf_queue *queue, void *context, pf_error *err)
         &stmt, err);
     if (status != PF_OK)
         return status;
-    sqlite3_bind_int64(stmt, 1, pf_queue_now(queue));
+    queue_bind_int64(stmt, 1, pf_queue_now(queue));
     /* Collected first: each reap rewrites the rows the SELECT walks. */
     queue_records records = {NULL, 0, 0, sizeof(expired_task)};
     int rc;
-    while ((rc = sqlite3_step(stmt)) == SQLITE_ROW) {
+    while ((rc = queue_step(stmt)) == QUEUE_ROW) {
         expired_task *task = queue_records_append(&records);
         if (!task) {
             status = pf_error_set(err, PF_ERR_NOMEM, "%s: out of memory reaping leases",
                                   queue->path);
             break;
         }
-        task->task_id = sqlite3_column_int64(stmt, 0);
+        task->task_id = queue_column_int64(stmt, 0);
         queue_copy_text(task->worker_name, sizeof task->worker_name, queue_column_text(stmt, 1));
     }
     expired_task *expired = records.items;
     size_t count = records.count;
-    if (status == PF_OK && rc != SQLITE_DONE)
+    if (status == PF_OK && rc != QUEUE_DONE)
         status = queue_db_error(queue, err, "finding expired leases");
-    sqlite3_finalize(stmt);
+    queue_finalize(stmt);
 
     for (size_t i = 0; i < count && status == PF_OK; i++) {
         char reason[PF_QUEUE_NAME_MAX + 64];

@@ -177,32 +177,33 @@ static pf_status check_header(const char *path, off_t file_size, pf_error *err)
 
 static pf_status single_int(pf_queue *queue, const char *sql, int64_t *value, pf_error *err)
 {
-    sqlite3_stmt *stmt;
+    queue_stmt *stmt;
     pf_status status = queue_prepare(queue, sql, &stmt, err);
     if (status != PF_OK)
         return status;
-    int rc = sqlite3_step(stmt);
-    if (rc == SQLITE_ROW)
-        *value = sqlite3_column_int64(stmt, 0);
+    int rc = queue_step(stmt);
+    if (rc == QUEUE_ROW)
+        *value = queue_column_int64(stmt, 0);
     else
         status = queue_db_error(queue, err, sql);
-    sqlite3_finalize(stmt);
+    queue_finalize(stmt);
     return status;
 }
 
 /* Read-only checks of an existing database: integrity, and that it is ours. */
 static pf_status check_contents(pf_queue *queue, pf_error *err)
 {
-    sqlite3_stmt *stmt;
-    if (sqlite3_prepare_v2(queue->db, "PRAGMA quick_check(1)", -1, &stmt, NULL) != SQLITE_OK)
+    queue_stmt *stmt;
+    pf_error prepare_err = {0};
+    if (queue_prepare(queue, "PRAGMA quick_check(1)", &stmt, &prepare_err) != PF_OK)
         return pf_error_set(err, PF_ERR_FORMAT, "%s: corrupt database: %s", queue->path,
                             sqlite3_errmsg(queue->db));
-    int rc = sqlite3_step(stmt);
+    int rc = queue_step(stmt);
     char verdict[256];
     queue_copy_text(verdict, sizeof verdict,
-                    rc == SQLITE_ROW ? queue_column_text(stmt, 0) : sqlite3_errmsg(queue->db));
-    sqlite3_finalize(stmt);
-    if (rc != SQLITE_ROW || strcmp(verdict, "ok") != 0)
+                    rc == QUEUE_ROW ? queue_column_text(stmt, 0) : sqlite3_errmsg(queue->db));
+    queue_finalize(stmt);
+    if (rc != QUEUE_ROW || strcmp(verdict, "ok") != 0)
         return pf_error_set(err, PF_ERR_FORMAT, "%s: corrupt database: %s", queue->path,
                             verdict);
 
@@ -250,14 +251,14 @@ static pf_status migrate(pf_queue *queue, void *context, pf_error *err)
                             &version, err);
     for (int64_t next = version + 1; status == PF_OK && next <= PF_QUEUE_SCHEMA_VERSION; next++) {
         status = queue_exec(queue, migrations[next - 1], err);
-        sqlite3_stmt *stmt;
+        queue_stmt *stmt;
         if (status == PF_OK)
             status = queue_prepare(
                 queue, "INSERT INTO schema_version (version, applied_at) VALUES (?, ?)", &stmt,
                 err);
         if (status == PF_OK) {
-            sqlite3_bind_int64(stmt, 1, next);
-            sqlite3_bind_int64(stmt, 2, pf_queue_now(queue));
+            queue_bind_int64(stmt, 1, next);
+            queue_bind_int64(stmt, 2, pf_queue_now(queue));
             status = queue_step_done(queue, stmt, "recording the schema version", err);
         }
         if (status != PF_OK)
@@ -330,14 +331,14 @@ pf_status pf_queue_open(const char *path, const pf_queue_options *options, pf_qu
     if (status == PF_OK)
         status = queue_exec(queue, "PRAGMA foreign_keys = ON", err);
     if (status == PF_OK) {
-        sqlite3_stmt *stmt;
+        queue_stmt *stmt;
         status = queue_prepare(queue, "PRAGMA journal_mode = WAL", &stmt, err);
         if (status == PF_OK) {
-            int rc = sqlite3_step(stmt);
-            if (rc != SQLITE_ROW || strcmp(queue_column_text(stmt, 0), "wal") != 0)
+            int rc = queue_step(stmt);
+            if (rc != QUEUE_ROW || strcmp(queue_column_text(stmt, 0), "wal") != 0)
                 status = pf_error_set(err, PF_ERR_IO, "%s: cannot switch to WAL journaling: %s",
                                       path, sqlite3_errmsg(queue->db));
-            sqlite3_finalize(stmt);
+            queue_finalize(stmt);
         }
     }
     if (status == PF_OK)

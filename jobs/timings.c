@@ -23,28 +23,28 @@ static double percentile(const double *sorted, size_t count, double p)
 static pf_status sample_stat(pf_queue *queue, const char *sql, int64_t job_id, const char *stage,
                              pf_queue_stat *stat, pf_error *err)
 {
-    sqlite3_stmt *stmt;
+    queue_stmt *stmt;
     pf_status status = queue_prepare(queue, sql, &stmt, err);
     if (status != PF_OK)
         return status;
-    sqlite3_bind_int64(stmt, 1, job_id);
-    sqlite3_bind_text(stmt, 2, stage, -1, SQLITE_STATIC);
+    queue_bind_int64(stmt, 1, job_id);
+    queue_bind_text(stmt, 2, stage);
     queue_records records = {NULL, 0, 0, sizeof(double)};
     int rc;
-    while ((rc = sqlite3_step(stmt)) == SQLITE_ROW) {
+    while ((rc = queue_step(stmt)) == QUEUE_ROW) {
         double *value = queue_records_append(&records);
         if (!value) {
             status = pf_error_set(err, PF_ERR_NOMEM, "%s: out of memory reading timings",
                                   queue->path);
             break;
         }
-        *value = sqlite3_column_double(stmt, 0);
+        *value = queue_column_double(stmt, 0);
     }
     double *values = records.items;
     size_t count = records.count;
-    if (status == PF_OK && rc != SQLITE_DONE)
+    if (status == PF_OK && rc != QUEUE_DONE)
         status = queue_db_error(queue, err, "reading stage timings");
-    sqlite3_finalize(stmt);
+    queue_finalize(stmt);
     memset(stat, 0, sizeof *stat);
     if (status == PF_OK && count > 0) {
         stat->count = (int64_t)count;
@@ -68,7 +68,7 @@ typedef struct timings_context {
 static pf_status stage_list(pf_queue *queue, timings_context *ctx, pf_error *err)
 {
     pf_queue_timings *out = ctx->out;
-    sqlite3_stmt *stmt;
+    queue_stmt *stmt;
     pf_status status = queue_prepare(
         queue,
         "SELECT s.stage, sum(s.skipped = 0), sum(s.skipped != 0) "
@@ -77,10 +77,10 @@ static pf_status stage_list(pf_queue *queue, timings_context *ctx, pf_error *err
         &stmt, err);
     if (status != PF_OK)
         return status;
-    sqlite3_bind_int64(stmt, 1, ctx->job_id);
+    queue_bind_int64(stmt, 1, ctx->job_id);
     queue_records stages = {NULL, 0, 0, sizeof(pf_queue_stage_stats)};
     int rc;
-    while ((rc = sqlite3_step(stmt)) == SQLITE_ROW) {
+    while ((rc = queue_step(stmt)) == QUEUE_ROW) {
         pf_queue_stage_stats *stage = queue_records_append(&stages);
         if (!stage) {
             status = pf_error_set(err, PF_ERR_NOMEM, "%s: out of memory reading timings",
@@ -88,14 +88,14 @@ static pf_status stage_list(pf_queue *queue, timings_context *ctx, pf_error *err
             break;
         }
         queue_copy_text(stage->stage, sizeof stage->stage, queue_column_text(stmt, 0));
-        stage->count = sqlite3_column_int64(stmt, 1);
-        stage->skipped = sqlite3_column_int64(stmt, 2);
+        stage->count = queue_column_int64(stmt, 1);
+        stage->skipped = queue_column_int64(stmt, 2);
     }
     out->stages = stages.items;
     out->stage_count = stages.count;
-    if (status == PF_OK && rc != SQLITE_DONE)
+    if (status == PF_OK && rc != QUEUE_DONE)
         status = queue_db_error(queue, err, "listing stages");
-    sqlite3_finalize(stmt);
+    queue_finalize(stmt);
     return status;
 }
 
@@ -107,7 +107,7 @@ static pf_status slowest_frames(pf_queue *queue, timings_context *ctx, pf_error 
     out->slowest = calloc(ctx->slowest_n, sizeof *out->slowest);
     if (!out->slowest)
         return pf_error_set(err, PF_ERR_NOMEM, "%s: out of memory reading timings", queue->path);
-    sqlite3_stmt *stmt;
+    queue_stmt *stmt;
     pf_status status = queue_prepare(
         queue,
         "SELECT s.task_id, s.frame, total(CASE WHEN s.skipped = 0 THEN s.wall_ms END) AS wall "
@@ -116,18 +116,18 @@ static pf_status slowest_frames(pf_queue *queue, timings_context *ctx, pf_error 
         &stmt, err);
     if (status != PF_OK)
         return status;
-    sqlite3_bind_int64(stmt, 1, ctx->job_id);
-    sqlite3_bind_int64(stmt, 2, (int64_t)ctx->slowest_n);
+    queue_bind_int64(stmt, 1, ctx->job_id);
+    queue_bind_int64(stmt, 2, (int64_t)ctx->slowest_n);
     int rc;
-    while ((rc = sqlite3_step(stmt)) == SQLITE_ROW) {
+    while ((rc = queue_step(stmt)) == QUEUE_ROW) {
         pf_queue_slow_frame *frame = &out->slowest[out->slowest_count++];
-        frame->task_id = sqlite3_column_int64(stmt, 0);
-        frame->frame = sqlite3_column_int(stmt, 1);
-        frame->wall_ms = sqlite3_column_double(stmt, 2);
+        frame->task_id = queue_column_int64(stmt, 0);
+        frame->frame = (int)queue_column_int64(stmt, 1);
+        frame->wall_ms = queue_column_double(stmt, 2);
     }
-    if (rc != SQLITE_DONE)
+    if (rc != QUEUE_DONE)
         status = queue_db_error(queue, err, "finding the slowest frames");
-    sqlite3_finalize(stmt);
+    queue_finalize(stmt);
     return status;
 }
 
@@ -135,7 +135,7 @@ static pf_status slowest_frames(pf_queue *queue, timings_context *ctx, pf_error 
 static pf_status decision_counts(pf_queue *queue, timings_context *ctx, pf_error *err)
 {
     pf_queue_timings *out = ctx->out;
-    sqlite3_stmt *stmt;
+    queue_stmt *stmt;
     pf_status status = queue_prepare(
         queue,
         "SELECT s.stage, CASE WHEN instr(s.reason, ':') > 0 THEN substr(s.reason, 1, "
@@ -146,10 +146,10 @@ static pf_status decision_counts(pf_queue *queue, timings_context *ctx, pf_error
         &stmt, err);
     if (status != PF_OK)
         return status;
-    sqlite3_bind_int64(stmt, 1, ctx->job_id);
+    queue_bind_int64(stmt, 1, ctx->job_id);
     queue_records decisions = {NULL, 0, 0, sizeof(pf_queue_decision_count)};
     int rc;
-    while ((rc = sqlite3_step(stmt)) == SQLITE_ROW) {
+    while ((rc = queue_step(stmt)) == QUEUE_ROW) {
         pf_queue_decision_count *row = queue_records_append(&decisions);
         if (!row) {
             status = pf_error_set(err, PF_ERR_NOMEM, "%s: out of memory reading timings",
@@ -158,13 +158,13 @@ static pf_status decision_counts(pf_queue *queue, timings_context *ctx, pf_error
         }
         queue_copy_text(row->stage, sizeof row->stage, queue_column_text(stmt, 0));
         queue_copy_text(row->decision, sizeof row->decision, queue_column_text(stmt, 1));
-        row->count = sqlite3_column_int64(stmt, 2);
+        row->count = queue_column_int64(stmt, 2);
     }
     out->decisions = decisions.items;
     out->decision_count = decisions.count;
-    if (status == PF_OK && rc != SQLITE_DONE)
+    if (status == PF_OK && rc != QUEUE_DONE)
         status = queue_db_error(queue, err, "counting stage decisions");
-    sqlite3_finalize(stmt);
+    queue_finalize(stmt);
     return status;
 }
 
@@ -172,7 +172,7 @@ static pf_status decision_counts(pf_queue *queue, timings_context *ctx, pf_error
 static pf_status build_counts(pf_queue *queue, timings_context *ctx, pf_error *err)
 {
     pf_queue_timings *out = ctx->out;
-    sqlite3_stmt *stmt;
+    queue_stmt *stmt;
     pf_status status = queue_prepare(
         queue,
         "SELECT coalesce(s.build, 'unknown') AS b, count(DISTINCT s.frame) "
@@ -181,10 +181,10 @@ static pf_status build_counts(pf_queue *queue, timings_context *ctx, pf_error *e
         &stmt, err);
     if (status != PF_OK)
         return status;
-    sqlite3_bind_int64(stmt, 1, ctx->job_id);
+    queue_bind_int64(stmt, 1, ctx->job_id);
     queue_records builds = {NULL, 0, 0, sizeof(pf_queue_build_count)};
     int rc;
-    while ((rc = sqlite3_step(stmt)) == SQLITE_ROW) {
+    while ((rc = queue_step(stmt)) == QUEUE_ROW) {
         pf_queue_build_count *row = queue_records_append(&builds);
         if (!row) {
             status = pf_error_set(err, PF_ERR_NOMEM, "%s: out of memory reading timings",
@@ -192,13 +192,13 @@ static pf_status build_counts(pf_queue *queue, timings_context *ctx, pf_error *e
             break;
         }
         queue_copy_text(row->build, sizeof row->build, queue_column_text(stmt, 0));
-        row->frames = sqlite3_column_int64(stmt, 1);
+        row->frames = queue_column_int64(stmt, 1);
     }
     out->builds = builds.items;
     out->build_count = builds.count;
-    if (status == PF_OK && rc != SQLITE_DONE)
+    if (status == PF_OK && rc != QUEUE_DONE)
         status = queue_db_error(queue, err, "counting the builds that rendered");
-    sqlite3_finalize(stmt);
+    queue_finalize(stmt);
     return status;
 }
 
@@ -226,18 +226,18 @@ static pf_status timings_body(pf_queue *queue, void *context, pf_error *err)
         out->total_gpu_ms += stage->gpu.total;
     }
     if (status == PF_OK) {
-        sqlite3_stmt *stmt;
+        queue_stmt *stmt;
         status = queue_prepare(queue,
                                "SELECT count(DISTINCT s.frame) FROM stage_timings s JOIN tasks t "
                                "ON t.id = s.task_id WHERE t.job_id = ?",
                                &stmt, err);
         if (status == PF_OK) {
-            sqlite3_bind_int64(stmt, 1, ctx->job_id);
-            if (sqlite3_step(stmt) == SQLITE_ROW)
-                out->frames = sqlite3_column_int64(stmt, 0);
+            queue_bind_int64(stmt, 1, ctx->job_id);
+            if (queue_step(stmt) == QUEUE_ROW)
+                out->frames = queue_column_int64(stmt, 0);
             else
                 status = queue_db_error(queue, err, "counting timed frames");
-            sqlite3_finalize(stmt);
+            queue_finalize(stmt);
         }
     }
     if (status == PF_OK)

@@ -12,7 +12,7 @@ static pf_status register_body(pf_queue *queue, void *context, pf_error *err)
 {
     register_context *ctx = context;
     int64_t now = pf_queue_now(queue);
-    sqlite3_stmt *stmt;
+    queue_stmt *stmt;
     pf_status status = queue_prepare(
         queue,
         "INSERT INTO workers (name, host, pid, device, heartbeat_at, started_at, lease_ms) "
@@ -22,17 +22,17 @@ static pf_status register_body(pf_queue *queue, void *context, pf_error *err)
         &stmt, err);
     if (status != PF_OK)
         return status;
-    sqlite3_bind_text(stmt, 1, ctx->spec->name, -1, SQLITE_STATIC);
-    sqlite3_bind_text(stmt, 2, ctx->spec->host ? ctx->spec->host : "", -1, SQLITE_STATIC);
-    sqlite3_bind_int64(stmt, 3, ctx->spec->pid);
-    sqlite3_bind_text(stmt, 4, ctx->spec->device ? ctx->spec->device : "", -1, SQLITE_STATIC);
-    sqlite3_bind_int64(stmt, 5, now);
-    sqlite3_bind_int64(stmt, 6, ctx->spec->lease_ms > 0 ? ctx->spec->lease_ms : 0);
-    if (sqlite3_step(stmt) == SQLITE_ROW)
-        ctx->worker_id = sqlite3_column_int64(stmt, 0);
+    queue_bind_text(stmt, 1, ctx->spec->name);
+    queue_bind_text(stmt, 2, ctx->spec->host ? ctx->spec->host : "");
+    queue_bind_int64(stmt, 3, ctx->spec->pid);
+    queue_bind_text(stmt, 4, ctx->spec->device ? ctx->spec->device : "");
+    queue_bind_int64(stmt, 5, now);
+    queue_bind_int64(stmt, 6, ctx->spec->lease_ms > 0 ? ctx->spec->lease_ms : 0);
+    if (queue_step(stmt) == QUEUE_ROW)
+        ctx->worker_id = queue_column_int64(stmt, 0);
     else
         status = queue_db_error(queue, err, "registering a worker");
-    sqlite3_finalize(stmt);
+    queue_finalize(stmt);
     return status;
 }
 
@@ -58,14 +58,14 @@ typedef struct worker_update_context {
 static pf_status worker_update_body(pf_queue *queue, void *context, pf_error *err)
 {
     worker_update_context *ctx = context;
-    sqlite3_stmt *stmt;
+    queue_stmt *stmt;
     pf_status status = queue_prepare(queue, ctx->sql, &stmt, err);
     if (status != PF_OK)
         return status;
-    sqlite3_bind_int64(stmt, 1, pf_queue_now(queue));
-    sqlite3_bind_int64(stmt, 2, ctx->worker_id);
+    queue_bind_int64(stmt, 1, pf_queue_now(queue));
+    queue_bind_int64(stmt, 2, ctx->worker_id);
     status = queue_step_done(queue, stmt, "updating a worker", err);
-    if (status == PF_OK && sqlite3_changes(queue->db) == 0)
+    if (status == PF_OK && queue_changes(queue) == 0)
         status = pf_error_set(err, PF_ERR_INVALID, "%s: no worker %lld", queue->path,
                               (long long)ctx->worker_id);
     return status;
