@@ -36,6 +36,8 @@ PACKAGES=(
   openexr                 # exrheader: tests read every output layout with OpenEXR's own tools
   libuv1-dev              # worker event loop
   libsqlite3-dev          # the job queue
+  libpq-dev               # the job queue on PostgreSQL (farms spanning hosts)
+  postgresql              # tests: the queue tests also run on a throwaway cluster
   libcjson-dev            # glTF JSON parsing
   libembree-dev           # bench/: CPU ray-casting peer for speed comparisons
 )

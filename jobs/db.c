@@ -15,14 +15,17 @@
 
 pf_status queue_db_error(pf_queue *queue, pf_error *err, const char *what)
 {
+    if (queue->pg)
+        return pf_error_set(err, PF_ERR_IO, "%s: %s: %s", queue->path, what, queue->pg_error);
     return pf_error_set(err, PF_ERR_IO, "%s: %s: %s (sqlite error %d)", queue->path, what,
                         sqlite3_errmsg(queue->db), sqlite3_extended_errcode(queue->db));
 }
 
-/* SQLite's statement behind the engine-neutral handle. */
+/* The engine's statement behind the neutral handle: one of the two is set. */
 struct queue_stmt {
     pf_queue *queue;
     sqlite3_stmt *sqlite;
+    queue_pg_stmt *pg;
 };
 
 pf_status queue_prepare(pf_queue *queue, const char *sql, queue_stmt **stmt, pf_error *err)
@@ -32,6 +35,16 @@ pf_status queue_prepare(pf_queue *queue, const char *sql, queue_stmt **stmt, pf_
         return pf_error_set(err, PF_ERR_NOMEM, "%s: out of memory preparing a statement",
                             queue->path);
     (*stmt)->queue = queue;
+    (*stmt)->sqlite = NULL;
+    (*stmt)->pg = NULL;
+    if (queue->pg) {
+        pf_status status = queue_pg_prepare(queue, sql, &(*stmt)->pg, err);
+        if (status != PF_OK) {
+            free(*stmt);
+            *stmt = NULL;
+        }
+        return status;
+    }
     if (sqlite3_prepare_v2(queue->db, sql, -1, &(*stmt)->sqlite, NULL) != SQLITE_OK) {
         sqlite3_finalize((*stmt)->sqlite);
         free(*stmt);
@@ -43,16 +56,28 @@ pf_status queue_prepare(pf_queue *queue, const char *sql, queue_stmt **stmt, pf_
 
 void queue_bind_int64(queue_stmt *stmt, int index, int64_t value)
 {
+    if (stmt->pg) {
+        queue_pg_bind_int64(stmt->pg, index, value);
+        return;
+    }
     sqlite3_bind_int64(stmt->sqlite, index, value);
 }
 
 void queue_bind_double(queue_stmt *stmt, int index, double value)
 {
+    if (stmt->pg) {
+        queue_pg_bind_double(stmt->pg, index, value);
+        return;
+    }
     sqlite3_bind_double(stmt->sqlite, index, value);
 }
 
 void queue_bind_text(queue_stmt *stmt, int index, const char *text)
 {
+    if (stmt->pg) {
+        queue_pg_bind_text(stmt->pg, index, text);
+        return;
+    }
     if (text)
         sqlite3_bind_text(stmt->sqlite, index, text, -1, SQLITE_STATIC);
     else
@@ -61,13 +86,20 @@ void queue_bind_text(queue_stmt *stmt, int index, const char *text)
 
 int queue_bind_index(queue_stmt *stmt, const char *name)
 {
+    if (stmt->pg)
+        return queue_pg_bind_index(stmt->pg, name);
     return sqlite3_bind_parameter_index(stmt->sqlite, name);
 }
 
-int queue_bind_count(queue_stmt *stmt) { return sqlite3_bind_parameter_count(stmt->sqlite); }
+int queue_bind_count(queue_stmt *stmt)
+{
+    return stmt->pg ? queue_pg_bind_count(stmt->pg) : sqlite3_bind_parameter_count(stmt->sqlite);
+}
 
 int queue_step(queue_stmt *stmt)
 {
+    if (stmt->pg)
+        return queue_pg_step(stmt->queue, stmt->pg);
     int rc = sqlite3_step(stmt->sqlite);
     if (rc == SQLITE_ROW)
         return QUEUE_ROW;
@@ -78,28 +110,40 @@ int queue_step(queue_stmt *stmt)
 
 void queue_reset(queue_stmt *stmt)
 {
+    if (stmt->pg) {
+        queue_pg_reset(stmt->pg);
+        return;
+    }
     sqlite3_reset(stmt->sqlite);
     sqlite3_clear_bindings(stmt->sqlite);
 }
 
 int64_t queue_column_int64(queue_stmt *stmt, int column)
 {
+    if (stmt->pg)
+        return queue_pg_column_int64(stmt->pg, column);
     return sqlite3_column_int64(stmt->sqlite, column);
 }
 
 double queue_column_double(queue_stmt *stmt, int column)
 {
+    if (stmt->pg)
+        return queue_pg_column_double(stmt->pg, column);
     return sqlite3_column_double(stmt->sqlite, column);
 }
 
 const char *queue_column_text(queue_stmt *stmt, int column)
 {
+    if (stmt->pg)
+        return queue_pg_column_text(stmt->pg, column);
     const unsigned char *text = sqlite3_column_text(stmt->sqlite, column);
     return text ? (const char *)text : "";
 }
 
 int queue_column_is_null(queue_stmt *stmt, int column)
 {
+    if (stmt->pg)
+        return queue_pg_column_is_null(stmt->pg, column);
     return sqlite3_column_type(stmt->sqlite, column) == SQLITE_NULL;
 }
 
@@ -107,16 +151,27 @@ void queue_finalize(queue_stmt *stmt)
 {
     if (!stmt)
         return;
-    sqlite3_finalize(stmt->sqlite);
+    if (stmt->pg)
+        queue_pg_finalize(stmt->pg);
+    else
+        sqlite3_finalize(stmt->sqlite);
     free(stmt);
 }
 
-int64_t queue_changes(pf_queue *queue) { return sqlite3_changes(queue->db); }
+const char *queue_sql(pf_queue *queue, const char *sqlite_sql, const char *postgres_sql)
+{
+    return queue->pg ? postgres_sql : sqlite_sql;
+}
 
-int64_t queue_last_insert_id(pf_queue *queue) { return sqlite3_last_insert_rowid(queue->db); }
+int64_t queue_changes(pf_queue *queue)
+{
+    return queue->pg ? queue->pg_changes : sqlite3_changes(queue->db);
+}
 
 pf_status queue_exec(pf_queue *queue, const char *sql, pf_error *err)
 {
+    if (queue->pg)
+        return queue_pg_exec(queue, sql, err);
     if (sqlite3_exec(queue->db, sql, NULL, NULL, NULL) != SQLITE_OK)
         return queue_db_error(queue, err, sql);
     return PF_OK;
@@ -175,12 +230,16 @@ static pf_status run_transaction(pf_queue *queue, const char *begin_sql, const c
 pf_status queue_write(pf_queue *queue, const char *what, queue_tx_body body, void *context,
                       pf_error *err)
 {
+    if (queue->pg)
+        return queue_pg_transaction(queue, 1, what, body, context, err);
     return run_transaction(queue, "BEGIN IMMEDIATE", what, body, context, err);
 }
 
 pf_status queue_read(pf_queue *queue, const char *what, queue_tx_body body, void *context,
                      pf_error *err)
 {
+    if (queue->pg)
+        return queue_pg_transaction(queue, 0, what, body, context, err);
     return run_transaction(queue, "BEGIN", what, body, context, err);
 }
 

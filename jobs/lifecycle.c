@@ -107,12 +107,12 @@ static pf_status apply_blocklist(pf_queue *queue, int64_t job_id, int64_t worker
     queue_stmt *stmt;
     pf_status status = queue_prepare(
         queue,
-        "INSERT OR IGNORE INTO worker_blocks (job_id, worker_id, blocked_at) "
+        "INSERT INTO worker_blocks (job_id, worker_id, blocked_at) "
         "SELECT ?1, ?2, ?3 WHERE ("
         "  SELECT count(DISTINCT f.task_id) FROM task_failures f"
         "  JOIN tasks t ON t.id = f.task_id JOIN jobs j ON j.id = t.job_id"
         "  WHERE t.job_id = ?1 AND f.worker_id = ?2 AND f.id > j.block_failures_after"
-        "  AND f.job_fault = 0) >= ?4",
+        "  AND f.job_fault = 0) >= ?4 ON CONFLICT DO NOTHING",
         &stmt, err);
     if (status != PF_OK)
         return status;
@@ -229,7 +229,8 @@ pf_status queue_task_job_fault(pf_queue *queue, int64_t task_id, const char *err
     /* Back in the queue as if never claimed: the attempt was not the task's to lose. */
     if (status == PF_OK)
         status = update_failed(queue,
-                               "UPDATE tasks SET status = 'queued', attempt = max(attempt - 1, 0), "
+                               "UPDATE tasks SET status = 'queued', "
+                               "attempt = CASE WHEN attempt > 0 THEN attempt - 1 ELSE 0 END, "
                                "lease_token = NULL, lease_expires = NULL, worker_id = NULL, "
                                "started_at = NULL, eligible_at = ?1, last_error = ?2 "
                                "WHERE id = ?3",

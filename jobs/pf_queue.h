@@ -86,11 +86,19 @@ typedef struct pf_queue_options {
  * byte as it was. A queue from a newer photonfarm → PF_ERR_UNSUPPORTED.
  * Other failures (unwritable directory, ...) → PF_ERR_IO. *out is NULL on
  * failure.
+ *
+ * A "postgres://" or "postgresql://" URL (libpq's syntax) opens the queue
+ * on PostgreSQL instead, with the same semantics: the schema is created on
+ * first use, a newer one is PF_ERR_UNSUPPORTED, and a server that cannot be
+ * reached, a malformed URL or refused credentials are PF_ERR_INVALID naming
+ * the cause; messages show the URL with its password hidden.
  */
 pf_status pf_queue_open(const char *path, const pf_queue_options *options, pf_queue **out,
                         pf_error *err);
 /* Closes the connection (NULL is a no-op). */
 void pf_queue_close(pf_queue *queue);
+/* 1 when db names a PostgreSQL queue (a postgres:// or postgresql:// URL), 0 for a file. */
+int pf_queue_is_url(const char *db);
 
 /* Schema version this build creates and understands. */
 #define PF_QUEUE_SCHEMA_VERSION 4

@@ -8,11 +8,16 @@
 
 #include "pf_queue.h"
 
+#include <libpq-fe.h>
 #include <sqlite3.h>
 
 struct pf_queue {
-    sqlite3 *db;
-    char *path;
+    sqlite3 *db;             /* SQLite: the connection (NULL on PostgreSQL) */
+    PGconn *pg;              /* PostgreSQL: the connection (NULL on SQLite) */
+    char *path;              /* the file, or the URL with its password hidden: every message's */
+    int64_t pg_changes;      /* PostgreSQL: rows the last statement changed */
+    char pg_error[512];      /* PostgreSQL: the last error's message */
+    char pg_secret[128];     /* PostgreSQL: the URL's password, scrubbed from every message */
     pf_queue_options options;
     pf_queue_clock clock;
     void *clock_user;
@@ -49,9 +54,10 @@ double queue_column_double(queue_stmt *stmt, int column);
 const char *queue_column_text(queue_stmt *stmt, int column);
 int queue_column_is_null(queue_stmt *stmt, int column);
 void queue_finalize(queue_stmt *stmt);
-/* Rows the last statement changed; the id of the last row inserted. */
+/* Rows the last statement changed. */
 int64_t queue_changes(pf_queue *queue);
-int64_t queue_last_insert_id(pf_queue *queue);
+/* The engine's spelling of a statement, where SQLite and PostgreSQL differ. */
+const char *queue_sql(pf_queue *queue, const char *sqlite_sql, const char *postgres_sql);
 /* Runs statements without results. */
 pf_status queue_exec(pf_queue *queue, const char *sql, pf_error *err);
 /* Steps a statement expected to finish (QUEUE_DONE) and finalizes it. */
@@ -104,5 +110,34 @@ pf_status queue_job_refresh(pf_queue *queue, int64_t job_id, pf_error *err);
 /* Whether job_id exists (PF_ERR_INVALID naming it when not). */
 pf_status queue_job_require(pf_queue *queue, int64_t job_id, char *status, size_t status_size,
                             pf_error *err);
+
+/*
+ * The PostgreSQL engine (db_postgres.c) behind the statement calls above,
+ * which dispatch to it when queue->pg is set.
+ */
+typedef struct queue_pg_stmt queue_pg_stmt;
+/* 1 for "postgres://..." and "postgresql://..." (what --db takes for PostgreSQL). */
+int queue_is_postgres_url(const char *text);
+/* Connects queue to url (queue->path becomes the URL with its password hidden). */
+pf_status queue_pg_connect(pf_queue *queue, const char *url, pf_error *err);
+pf_status queue_pg_prepare(pf_queue *queue, const char *sql, queue_pg_stmt **stmt, pf_error *err);
+void queue_pg_bind_int64(queue_pg_stmt *stmt, int index, int64_t value);
+void queue_pg_bind_double(queue_pg_stmt *stmt, int index, double value);
+void queue_pg_bind_text(queue_pg_stmt *stmt, int index, const char *text);
+int queue_pg_bind_index(queue_pg_stmt *stmt, const char *name);
+int queue_pg_bind_count(queue_pg_stmt *stmt);
+int queue_pg_step(pf_queue *queue, queue_pg_stmt *stmt);
+void queue_pg_reset(queue_pg_stmt *stmt);
+int64_t queue_pg_column_int64(queue_pg_stmt *stmt, int column);
+double queue_pg_column_double(queue_pg_stmt *stmt, int column);
+const char *queue_pg_column_text(queue_pg_stmt *stmt, int column);
+int queue_pg_column_is_null(queue_pg_stmt *stmt, int column);
+void queue_pg_finalize(queue_pg_stmt *stmt);
+/* Keeps the message of result (or of the connection) for queue_db_error. */
+void queue_pg_note_error(pf_queue *queue, const PGresult *result);
+pf_status queue_pg_exec(pf_queue *queue, const char *sql, pf_error *err);
+/* A transaction on PostgreSQL (db_postgres.c says how writers are serialised). */
+pf_status queue_pg_transaction(pf_queue *queue, int write, const char *what,
+                               queue_tx_body body, void *context, pf_error *err);
 
 #endif

@@ -114,6 +114,94 @@ static const char *const migrations[PF_QUEUE_SCHEMA_VERSION] = {
     "ALTER TABLE task_failures ADD COLUMN job_fault INTEGER NOT NULL DEFAULT 0;",
 };
 
+/*
+ * PostgreSQL: the latest schema in one go (PostgreSQL support began at
+ * version 4, so it has no older versions to migrate from). The same tables
+ * as the SQLite migrations above; times are BIGINT (ms since the epoch), a
+ * JSON column is checked by a jsonb cast, and workers' reference to tasks is
+ * added once both tables exist.
+ */
+static const char pg_schema[] =
+    "CREATE TABLE schema_version ("
+    "  version INTEGER PRIMARY KEY,"
+    "  applied_at BIGINT NOT NULL);"
+    "CREATE TABLE jobs ("
+    "  id BIGSERIAL PRIMARY KEY,"
+    "  scene_path TEXT NOT NULL,"
+    "  parameters TEXT NOT NULL DEFAULT '{}' CHECK (parameters::jsonb IS NOT NULL),"
+    "  frame_range TEXT NOT NULL,"
+    "  output_pattern TEXT NOT NULL,"
+    "  priority INTEGER NOT NULL DEFAULT 0,"
+    "  status TEXT NOT NULL DEFAULT 'queued' CHECK (status IN"
+    "    ('queued','running','paused','done','failed','canceled')),"
+    "  max_attempts INTEGER NOT NULL CHECK (max_attempts >= 1),"
+    "  frames_per_task INTEGER NOT NULL CHECK (frames_per_task >= 1),"
+    "  block_failures_after BIGINT NOT NULL DEFAULT 0,"
+    "  created_at BIGINT NOT NULL,"
+    "  started_at BIGINT,"
+    "  updated_at BIGINT NOT NULL,"
+    "  pause_reason TEXT);"
+    "CREATE TABLE workers ("
+    "  id BIGSERIAL PRIMARY KEY,"
+    "  name TEXT NOT NULL UNIQUE,"
+    "  host TEXT NOT NULL DEFAULT '',"
+    "  pid BIGINT NOT NULL DEFAULT 0,"
+    "  device TEXT NOT NULL DEFAULT '',"
+    "  heartbeat_at BIGINT NOT NULL,"
+    "  started_at BIGINT NOT NULL,"
+    "  stopped_at BIGINT,"
+    "  current_task_id BIGINT,"
+    "  lease_ms BIGINT NOT NULL DEFAULT 0);"
+    "CREATE TABLE tasks ("
+    "  id BIGSERIAL PRIMARY KEY,"
+    "  job_id BIGINT NOT NULL REFERENCES jobs(id) ON DELETE CASCADE,"
+    "  first_frame INTEGER NOT NULL,"
+    "  last_frame INTEGER NOT NULL,"
+    "  frame_step INTEGER NOT NULL CHECK (frame_step >= 1),"
+    "  frame_count INTEGER NOT NULL CHECK (frame_count >= 1),"
+    "  status TEXT NOT NULL DEFAULT 'queued' CHECK (status IN"
+    "    ('queued','running','done','failed','canceled')),"
+    "  attempt INTEGER NOT NULL DEFAULT 0,"
+    "  worker_id BIGINT REFERENCES workers(id) ON DELETE SET NULL,"
+    "  lease_token TEXT UNIQUE,"
+    "  lease_expires BIGINT,"
+    "  eligible_at BIGINT NOT NULL DEFAULT 0,"
+    "  started_at BIGINT,"
+    "  finished_at BIGINT,"
+    "  last_error TEXT);"
+    "ALTER TABLE workers ADD FOREIGN KEY (current_task_id) REFERENCES tasks(id)"
+    "  ON DELETE SET NULL;"
+    "CREATE INDEX tasks_job_status_frame ON tasks(job_id, status, first_frame);"
+    "CREATE INDEX tasks_status_lease ON tasks(status, lease_expires);"
+    "CREATE TABLE task_failures ("
+    "  id BIGSERIAL PRIMARY KEY,"
+    "  task_id BIGINT NOT NULL REFERENCES tasks(id) ON DELETE CASCADE,"
+    "  attempt INTEGER NOT NULL,"
+    "  worker_id BIGINT REFERENCES workers(id) ON DELETE SET NULL,"
+    "  worker_name TEXT NOT NULL,"
+    "  error TEXT NOT NULL,"
+    "  failed_at BIGINT NOT NULL,"
+    "  job_fault INTEGER NOT NULL DEFAULT 0);"
+    "CREATE INDEX task_failures_task ON task_failures(task_id);"
+    "CREATE TABLE worker_blocks ("
+    "  job_id BIGINT NOT NULL REFERENCES jobs(id) ON DELETE CASCADE,"
+    "  worker_id BIGINT NOT NULL REFERENCES workers(id) ON DELETE CASCADE,"
+    "  blocked_at BIGINT NOT NULL,"
+    "  PRIMARY KEY (job_id, worker_id));"
+    "CREATE TABLE stage_timings ("
+    "  id BIGSERIAL PRIMARY KEY,"
+    "  task_id BIGINT NOT NULL REFERENCES tasks(id) ON DELETE CASCADE,"
+    "  attempt INTEGER NOT NULL,"
+    "  frame INTEGER NOT NULL,"
+    "  stage TEXT NOT NULL,"
+    "  wall_ms DOUBLE PRECISION NOT NULL,"
+    "  gpu_ms DOUBLE PRECISION,"
+    "  counters TEXT CHECK (counters IS NULL OR counters::jsonb IS NOT NULL),"
+    "  skipped INTEGER NOT NULL DEFAULT 0,"
+    "  reason TEXT,"
+    "  build TEXT);"
+    "CREATE INDEX stage_timings_task ON stage_timings(task_id);";
+
 static int64_t wall_clock_ms(void *user)
 {
     (void)user;
@@ -283,12 +371,73 @@ static void apply_defaults(pf_queue_options *options)
         options->worker_alive_ms = QUEUE_DEFAULT_WORKER_ALIVE_MS;
 }
 
+/* PostgreSQL: creates the schema on first use; refuses one newer than this build. */
+static pf_status pg_migrate(pf_queue *queue, void *context, pf_error *err)
+{
+    (void)context;
+    int64_t exists = 0, version = 0;
+    pf_status status = single_int(queue,
+                                  "SELECT count(*) FROM pg_tables WHERE schemaname = "
+                                  "current_schema() AND tablename = 'schema_version'",
+                                  &exists, err);
+    if (status == PF_OK && !exists) {
+        status = queue_exec(queue, pg_schema, err);
+        queue_stmt *stmt;
+        if (status == PF_OK)
+            status = queue_prepare(
+                queue, "INSERT INTO schema_version (version, applied_at) VALUES (?, ?)", &stmt,
+                err);
+        if (status == PF_OK) {
+            queue_bind_int64(stmt, 1, PF_QUEUE_SCHEMA_VERSION);
+            queue_bind_int64(stmt, 2, pf_queue_now(queue));
+            status = queue_step_done(queue, stmt, "recording the schema version", err);
+        }
+        return status;
+    }
+    if (status == PF_OK)
+        status = single_int(queue, "SELECT coalesce(max(version), 0) FROM schema_version",
+                            &version, err);
+    if (status == PF_OK && version > PF_QUEUE_SCHEMA_VERSION)
+        return pf_error_set(err, PF_ERR_UNSUPPORTED,
+                            "%s: queue schema version %lld is newer than this photonfarm (%d); "
+                            "upgrade photonfarm",
+                            queue->path, (long long)version, PF_QUEUE_SCHEMA_VERSION);
+    if (status == PF_OK && version < PF_QUEUE_SCHEMA_VERSION)
+        return pf_error_set(err, PF_ERR_UNSUPPORTED,
+                            "%s: queue schema version %lld predates PostgreSQL support (%d)",
+                            queue->path, (long long)version, PF_QUEUE_SCHEMA_VERSION);
+    return status;
+}
+
+static pf_status open_postgres(const char *url, const pf_queue_options *options,
+                               pf_queue **out, pf_error *err)
+{
+    pf_queue *queue = calloc(1, sizeof *queue);
+    if (!queue)
+        return pf_error_set(err, PF_ERR_NOMEM, "out of memory opening the queue");
+    if (options)
+        queue->options = *options;
+    apply_defaults(&queue->options);
+    pf_queue_set_clock(queue, queue->options.clock, queue->options.clock_user);
+    pf_status status = queue_pg_connect(queue, url, err);
+    if (status == PF_OK)
+        status = queue_write(queue, "creating the queue schema", pg_migrate, NULL, err);
+    if (status != PF_OK) {
+        pf_queue_close(queue);
+        return status;
+    }
+    *out = queue;
+    return PF_OK;
+}
+
 pf_status pf_queue_open(const char *path, const pf_queue_options *options, pf_queue **out,
                         pf_error *err)
 {
     *out = NULL;
     if (!path || !*path)
         return pf_error_set(err, PF_ERR_INVALID, "queue database path is empty");
+    if (queue_is_postgres_url(path))
+        return open_postgres(path, options, out, err);
 
     struct stat info;
     bool exists = stat(path, &info) == 0;
@@ -355,6 +504,8 @@ void pf_queue_close(pf_queue *queue)
 {
     if (!queue)
         return;
+    if (queue->pg)
+        PQfinish(queue->pg);
     sqlite3_close(queue->db);
     free(queue->path);
     free(queue);

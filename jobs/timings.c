@@ -71,7 +71,8 @@ static pf_status stage_list(pf_queue *queue, timings_context *ctx, pf_error *err
     queue_stmt *stmt;
     pf_status status = queue_prepare(
         queue,
-        "SELECT s.stage, sum(s.skipped = 0), sum(s.skipped != 0) "
+        "SELECT s.stage, sum(CASE WHEN s.skipped = 0 THEN 1 ELSE 0 END), "
+        "sum(CASE WHEN s.skipped != 0 THEN 1 ELSE 0 END) "
         "FROM stage_timings s JOIN tasks t ON t.id = s.task_id WHERE t.job_id = ? "
         "GROUP BY s.stage ORDER BY min(s.id)",
         &stmt, err);
@@ -110,7 +111,7 @@ static pf_status slowest_frames(pf_queue *queue, timings_context *ctx, pf_error 
     queue_stmt *stmt;
     pf_status status = queue_prepare(
         queue,
-        "SELECT s.task_id, s.frame, total(CASE WHEN s.skipped = 0 THEN s.wall_ms END) AS wall "
+        "SELECT s.task_id, s.frame, coalesce(sum(CASE WHEN s.skipped = 0 THEN s.wall_ms END), 0.0) AS wall "
         "FROM stage_timings s JOIN tasks t ON t.id = s.task_id WHERE t.job_id = ? "
         "GROUP BY s.task_id, s.frame ORDER BY wall DESC, s.frame LIMIT ?",
         &stmt, err);
@@ -136,13 +137,20 @@ static pf_status decision_counts(pf_queue *queue, timings_context *ctx, pf_error
 {
     pf_queue_timings *out = ctx->out;
     queue_stmt *stmt;
+    /* The decision is the reason up to its first ':' (instr is SQLite's, strpos PostgreSQL's). */
     pf_status status = queue_prepare(
         queue,
-        "SELECT s.stage, CASE WHEN instr(s.reason, ':') > 0 THEN substr(s.reason, 1, "
-        "instr(s.reason, ':') - 1) ELSE s.reason END AS decision, count(*) "
-        "FROM stage_timings s JOIN tasks t ON t.id = s.task_id WHERE t.job_id = ? "
-        "AND s.reason IS NOT NULL AND s.reason != '' "
-        "GROUP BY s.stage, decision ORDER BY min(s.id)",
+        queue_sql(queue,
+                  "SELECT s.stage, CASE WHEN instr(s.reason, ':') > 0 THEN substr(s.reason, 1, "
+                  "instr(s.reason, ':') - 1) ELSE s.reason END AS decision, count(*) "
+                  "FROM stage_timings s JOIN tasks t ON t.id = s.task_id WHERE t.job_id = ? "
+                  "AND s.reason IS NOT NULL AND s.reason != '' "
+                  "GROUP BY s.stage, decision ORDER BY min(s.id)",
+                  "SELECT s.stage, CASE WHEN strpos(s.reason, ':') > 0 THEN substr(s.reason, 1, "
+                  "strpos(s.reason, ':') - 1) ELSE s.reason END AS decision, count(*) "
+                  "FROM stage_timings s JOIN tasks t ON t.id = s.task_id WHERE t.job_id = ? "
+                  "AND s.reason IS NOT NULL AND s.reason != '' "
+                  "GROUP BY s.stage, decision ORDER BY min(s.id)"),
         &stmt, err);
     if (status != PF_OK)
         return status;

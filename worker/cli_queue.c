@@ -19,6 +19,11 @@ const char *pf_cli_db_path(const char *given)
 int pf_cli_open_queue(const char *command, const char *path, int must_exist, pf_queue **out)
 {
     struct stat info;
+    pf_error err = {0};
+    if (pf_queue_is_url(path)) { /* PostgreSQL: the server says what exists */
+        pf_status status = pf_queue_open(path, NULL, out, &err);
+        return status == PF_OK ? 0 : pf_cli_fail(command, 2, "%s", err.message);
+    }
     if (must_exist && stat(path, &info) != 0)
         return pf_cli_fail(command, 2,
                            "no queue database at %s (photonfarm enqueue creates one; --db or "
@@ -33,7 +38,6 @@ int pf_cli_open_queue(const char *command, const char *path, int must_exist, pf_
     if (stat(dir, &info) != 0 || !S_ISDIR(info.st_mode))
         return pf_cli_fail(command, 2, "queue database %s: directory %s does not exist", path,
                            dir);
-    pf_error err = {0};
     pf_status status = pf_queue_open(path, NULL, out, &err);
     if (status != PF_OK)
         return pf_cli_fail(command, status == PF_ERR_IO ? 1 : 2, "%s", err.message);

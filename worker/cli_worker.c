@@ -95,7 +95,7 @@ int pf_cli_worker(int argc, char **argv)
     config.db_path = pf_cli_db_path(db);
     /* A misspelt --db must not become an empty queue this worker then waits on forever. */
     struct stat info;
-    if (!create_db && stat(config.db_path, &info) != 0)
+    if (!create_db && !pf_queue_is_url(config.db_path) && stat(config.db_path, &info) != 0)
         return pf_cli_fail(COMMAND, 2,
                            "no queue database at %s (photonfarm enqueue creates one; "
                            "--create-db starts an empty one)",

@@ -13,8 +13,16 @@ typedef struct test_clock {
 
 int64_t test_clock_read(void *user);
 
-/* "$PF_TEST_TMP/<name>" with any old database, -wal and -shm removed. */
+/*
+ * "$PF_TEST_TMP/<name>" with any old database, -wal and -shm removed; or,
+ * when $PF_TEST_POSTGRES_URL names a PostgreSQL database (the same tests on
+ * the other backend), that URL with the database emptied.
+ */
 const char *fresh_db_path(const char *name, char *buffer, size_t size);
+/* $PF_TEST_POSTGRES_URL, or NULL when the tests run on SQLite files. */
+const char *queue_test_postgres(void);
+/* The integer the query returns, read past the queue's API (either engine); -1 on failure. */
+int64_t queue_test_query_int(const char *db, const char *sql);
 
 /* Opens path with options (NULL: test defaults) on clock (NULL: wall clock). */
 pf_status open_queue(const char *path, const pf_queue_options *options, test_clock *clock,

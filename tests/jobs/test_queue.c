@@ -802,6 +802,10 @@ PF_TEST(reaping_counts_attempts_and_blocks_the_silent_worker)
 
 PF_TEST(locked_database_is_retried_then_reported)
 {
+    if (queue_test_postgres()) { /* SQLite's file lock; PostgreSQL's write lock: the next test */
+        printf("  (SQLite only)\n");
+        return;
+    }
     char path[1200];
     pf_error err = {0};
     pf_queue *queue = NULL;
@@ -871,7 +875,10 @@ PF_TEST(enqueue_conflicts_are_decided_under_the_write_lock)
     pf_queue *queue = open_fresh("conflict.db");
     PF_REQUIRE(queue);
     char dir[1024], path[1200];
-    snprintf(path, sizeof path, "%s/conflict.db", pf_test_tmpdir(dir, sizeof dir));
+    if (queue_test_postgres())
+        snprintf(path, sizeof path, "%s", queue_test_postgres());
+    else
+        snprintf(path, sizeof path, "%s/conflict.db", pf_test_tmpdir(dir, sizeof dir));
     pf_error err = {0};
     pf_queue *other = NULL;
     pf_queue_options options = test_options;
@@ -948,6 +955,52 @@ PF_TEST(workers_are_dead_after_their_own_lease)
     pf_queue_close(queue);
 }
 
+/*
+ * PostgreSQL only: a URL that cannot be used is bad input naming the cause
+ * and never the password; a schema from a newer photonfarm is refused.
+ */
+PF_TEST(postgres_bad_urls_and_newer_schema_are_refused)
+{
+    const char *url = queue_test_postgres();
+    if (!url) {
+        printf("  (PostgreSQL only)\n");
+        return;
+    }
+    static const char *const bad[] = {
+        "postgresql://someone:s3cret-pw@127.0.0.1:1/photonfarm",       /* nothing listens */
+        "postgresql://someone:s3cret-pw@[::1/photonfarm",             /* malformed */
+        "postgres://no-such-host.invalid:5432/x?connect_timeout=2",  /* unreachable */
+    };
+    for (size_t i = 0; i < sizeof bad / sizeof *bad; i++) {
+        pf_error err = {0};
+        pf_queue *queue = NULL;
+        pf_status status = pf_queue_open(bad[i], NULL, &queue, &err);
+        PF_CHECK_MSG(status == PF_ERR_INVALID && !queue, "%s: status %d", bad[i], status);
+        PF_CHECK_MSG(strstr(err.message, "cannot connect") && !strstr(err.message, "s3cret"),
+                     "%s", err.message);
+    }
+    /* Credentials the server refuses: a role that does not exist. */
+    char wrong_user[1200];
+    const char *at = strchr(url, '@');
+    PF_REQUIRE(at);
+    snprintf(wrong_user, sizeof wrong_user, "postgresql://intruder:s3cret-pw%s", at);
+    pf_error err = {0};
+    pf_queue *queue = NULL;
+    PF_CHECK(pf_queue_open(wrong_user, NULL, &queue, &err) == PF_ERR_INVALID);
+    PF_CHECK_MSG(strstr(err.message, "intruder") && strstr(err.message, "***") &&
+                     !strstr(err.message, "s3cret"),
+                 "%s", err.message);
+    /* A schema from a newer photonfarm. */
+    queue = open_fresh("newer");
+    PF_REQUIRE(queue);
+    pf_queue_close(queue);
+    PF_REQUIRE(queue_test_query_int(url, "WITH v AS (INSERT INTO schema_version VALUES (99, 0) "
+                                         "RETURNING version) SELECT version FROM v") == 99);
+    queue = NULL;
+    PF_CHECK(pf_queue_open(url, NULL, &queue, &err) == PF_ERR_UNSUPPORTED && !queue);
+    PF_CHECK_MSG(strstr(err.message, "newer than this photonfarm"), "%s", err.message);
+}
+
 int main(void)
 {
     PF_RUN(enqueue_chunks_frames_into_tasks);
@@ -966,5 +1019,6 @@ int main(void)
     PF_RUN(locked_database_is_retried_then_reported);
     PF_RUN(workers_are_dead_after_their_own_lease);
     PF_RUN(enqueue_conflicts_are_decided_under_the_write_lock);
+    PF_RUN(postgres_bad_urls_and_newer_schema_are_refused);
     return pf_test_finish();
 }

@@ -8,7 +8,6 @@
 
 #include "pf_test.h"
 
-#include <sqlite3.h>
 #include <sys/wait.h>
 #include <time.h>
 #include <unistd.h>
@@ -80,16 +79,10 @@ static int run_child(const char *db_path, const char *log_path, int index, int s
     return fclose(log) == 0 ? result : CHILD_LOG;
 }
 
-static int64_t query_int(sqlite3 *db, const char *sql)
+/* What the database says, read past the queue's API. */
+static int64_t count(const char *db_path, const char *sql)
 {
-    sqlite3_stmt *stmt;
-    int64_t value = -1;
-    if (sqlite3_prepare_v2(db, sql, -1, &stmt, NULL) == SQLITE_OK) {
-        if (sqlite3_step(stmt) == SQLITE_ROW)
-            value = sqlite3_column_int64(stmt, 0);
-        sqlite3_finalize(stmt);
-    }
-    return value;
+    return queue_test_query_int(db_path, sql);
 }
 
 PF_TEST(four_processes_complete_each_task_exactly_once)
@@ -159,21 +152,18 @@ PF_TEST(four_processes_complete_each_task_exactly_once)
     printf("completions per worker: %d %d %d %d\n", per_child[0], per_child[1], per_child[2],
            per_child[3]);
 
-    sqlite3 *db = NULL;
-    PF_REQUIRE(sqlite3_open_v2(db_path, &db, SQLITE_OPEN_READONLY, NULL) == SQLITE_OK);
-    PF_CHECK(query_int(db, "SELECT count(*) FROM tasks WHERE status = 'done'") == FRAME_COUNT);
-    PF_CHECK(query_int(db, "SELECT count(*) FROM tasks WHERE attempt != 1") == 0);
-    PF_CHECK(query_int(db, "SELECT count(*) FROM task_failures") == 0);
-    PF_CHECK(query_int(db, "SELECT count(*) FROM stage_timings") ==
+    PF_CHECK(count(db_path, "SELECT count(*) FROM tasks WHERE status = 'done'") == FRAME_COUNT);
+    PF_CHECK(count(db_path, "SELECT count(*) FROM tasks WHERE attempt != 1") == 0);
+    PF_CHECK(count(db_path, "SELECT count(*) FROM task_failures") == 0);
+    PF_CHECK(count(db_path, "SELECT count(*) FROM stage_timings") ==
              FRAME_COUNT * STAGES_PER_FRAME);
     /* Exactly one row per (task, stage), and each on the task's own frame. */
-    PF_CHECK(query_int(db, "SELECT count(*) FROM (SELECT task_id, stage FROM stage_timings "
-                           "GROUP BY task_id, stage HAVING count(*) != 1)") == 0);
-    PF_CHECK(query_int(db, "SELECT count(DISTINCT task_id) FROM stage_timings") == FRAME_COUNT);
-    PF_CHECK(query_int(db, "SELECT count(*) FROM stage_timings s JOIN tasks t ON t.id = "
+    PF_CHECK(count(db_path, "SELECT count(*) FROM (SELECT task_id, stage FROM stage_timings "
+                           "GROUP BY task_id, stage HAVING count(*) != 1) AS twice") == 0);
+    PF_CHECK(count(db_path, "SELECT count(DISTINCT task_id) FROM stage_timings") == FRAME_COUNT);
+    PF_CHECK(count(db_path, "SELECT count(*) FROM stage_timings s JOIN tasks t ON t.id = "
                            "s.task_id WHERE s.frame != t.first_frame") == 0);
-    PF_CHECK(query_int(db, "SELECT count(*) FROM jobs WHERE status = 'done'") == 1);
-    sqlite3_close(db);
+    PF_CHECK(count(db_path, "SELECT count(*) FROM jobs WHERE status = 'done'") == 1);
 }
 
 int main(void)

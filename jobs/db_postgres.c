@@ -1,0 +1,422 @@
+/*
+ * The PostgreSQL engine behind jobs/' statement calls (db.c dispatches here
+ * when the queue was opened from a postgres:// URL; issue 13).
+ *
+ * Statements are the queue's SQLite-shaped SQL: "?", "?N" and ":name"
+ * parameters become $N (string literals left alone), parameters travel as
+ * text with their type (int8, float8, text; unbound = NULL), and the result
+ * of PQexecParams is walked row by row by queue_step. Booleans read as
+ * integers ('t' = 1), as SQLite's comparisons do.
+ *
+ * Transactions: a write transaction takes a transaction-level advisory lock
+ * first, so writers are serialised exactly as SQLite's BEGIN IMMEDIATE
+ * serialises them and the queue's logic (claim, complete, reap) keeps the
+ * one-writer semantics it was written for; readers run at REPEATABLE READ
+ * (one snapshot) and never wait. A connection found dead when a transaction
+ * begins is re-established with backoff (a restarted server), and the
+ * transaction runs then; one that dies inside a transaction fails it (rolled
+ * back by the server) and the caller's retry policy applies, so nothing is
+ * applied twice.
+ */
+#include "queue_internal.h"
+
+#include <ctype.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#define PG_MAX_PARAMS 32
+#define PG_MAX_NAME 32
+/* Type OIDs (pg_type.h): int8, float8, text. */
+#define PG_INT8 20u
+#define PG_FLOAT8 701u
+#define PG_TEXT 25u
+/* The advisory lock every write transaction takes: "pf" in ASCII, an arbitrary key. */
+#define PG_WRITE_LOCK 0x7066
+#define PG_LOCK_RETRIES 4
+#define PG_LOCK_PAUSE_MS 20
+#define PG_RECONNECT_TRIES 6
+#define PG_RECONNECT_FIRST_MS 100
+
+struct queue_pg_stmt {
+    char *sql;
+    int param_count;
+    char names[PG_MAX_PARAMS][PG_MAX_NAME]; /* ":name" of each named parameter, "" otherwise */
+    char *values[PG_MAX_PARAMS];
+    Oid types[PG_MAX_PARAMS];
+    PGresult *result;
+    int row, rows, executed;
+};
+
+/* The password a URL carries ("user:secret@" or "password=secret"), "" when none. */
+static void password_of(const char *url, char *out, size_t size)
+{
+    out[0] = '\0';
+    const char *scheme_end = strstr(url, "://");
+    const char *at = scheme_end ? strchr(scheme_end + 3, '@') : NULL;
+    const char *colon = at ? memchr(scheme_end + 3, ':', (size_t)(at - scheme_end - 3)) : NULL;
+    if (colon)
+        snprintf(out, size, "%.*s", (int)(at - colon - 1), colon + 1);
+    const char *param = strstr(url, "password=");
+    if (param && !out[0])
+        snprintf(out, size, "%.*s", (int)strcspn(param + 9, "&"), param + 9);
+}
+
+/* Replaces every occurrence of secret in text (in place) with "***" (no longer than it). */
+static void scrub(char *text, const char *secret)
+{
+    size_t length = strlen(secret);
+    if (length == 0)
+        return;
+    for (char *hit = strstr(text, secret); hit; hit = strstr(hit, secret)) {
+        if (length >= 3) {
+            memcpy(hit, "***", 3);
+            memmove(hit + 3, hit + length, strlen(hit + length) + 1);
+            hit += 3;
+        } else {
+            memset(hit, '*', length);
+            hit += length;
+        }
+    }
+}
+
+/* Appends text to out (capacity checked by the caller's sizing). */
+static void put(char **out, const char *text, size_t length)
+{
+    memcpy(*out, text, length);
+    *out += length;
+}
+
+/* Rewrites SQLite parameters as $N; 0 when the statement has too many. */
+static int translate(const char *sql, queue_pg_stmt *stmt)
+{
+    size_t length = strlen(sql);
+    stmt->sql = malloc(length * 4 + 16);
+    if (!stmt->sql)
+        return 0;
+    char *out = stmt->sql;
+    int next = 0;
+    for (const char *p = sql; *p;) {
+        if (*p == '\'') { /* a string literal, '' inside it */
+            const char *end = p + 1;
+            while (*end && !(*end == '\'' && end[1] != '\''))
+                end += *end == '\'' ? 2 : 1;
+            if (*end)
+                end++;
+            put(&out, p, (size_t)(end - p));
+            p = end;
+            continue;
+        }
+        int index = 0;
+        if (*p == '?') {
+            p++;
+            if (isdigit((unsigned char)*p)) {
+                index = (int)strtol(p, (char **)&p, 10);
+            } else {
+                index = ++next;
+            }
+        } else if (*p == ':' && (isalpha((unsigned char)p[1]) || p[1] == '_') &&
+                   (p == sql || p[-1] != ':')) {
+            const char *name = p;
+            p++;
+            while (isalnum((unsigned char)*p) || *p == '_')
+                p++;
+            size_t name_length = (size_t)(p - name);
+            for (int i = 0; i < stmt->param_count && !index; i++)
+                if (strlen(stmt->names[i]) == name_length && !strncmp(stmt->names[i], name, name_length))
+                    index = i + 1;
+            if (!index) {
+                index = stmt->param_count + 1;
+                if (index > PG_MAX_PARAMS || name_length >= PG_MAX_NAME)
+                    return 0;
+                snprintf(stmt->names[index - 1], PG_MAX_NAME, "%.*s", (int)name_length, name);
+            }
+        } else {
+            put(&out, p, 1);
+            p++;
+            continue;
+        }
+        if (index < 1 || index > PG_MAX_PARAMS)
+            return 0;
+        if (index > stmt->param_count)
+            stmt->param_count = index;
+        out += sprintf(out, "$%d", index);
+    }
+    *out = '\0';
+    return 1;
+}
+
+pf_status queue_pg_prepare(pf_queue *queue, const char *sql, queue_pg_stmt **out, pf_error *err)
+{
+    queue_pg_stmt *stmt = calloc(1, sizeof *stmt);
+    if (!stmt || !translate(sql, stmt)) {
+        queue_pg_finalize(stmt);
+        *out = NULL;
+        return pf_error_set(err, PF_ERR_INTERNAL, "%s: cannot prepare a statement of %zu bytes",
+                            queue->path, strlen(sql));
+    }
+    *out = stmt;
+    return PF_OK;
+}
+
+static void set_value(queue_pg_stmt *stmt, int index, const char *text, Oid type)
+{
+    if (index < 1 || index > stmt->param_count)
+        return;
+    free(stmt->values[index - 1]);
+    stmt->values[index - 1] = text ? strdup(text) : NULL;
+    stmt->types[index - 1] = type;
+}
+
+void queue_pg_bind_int64(queue_pg_stmt *stmt, int index, int64_t value)
+{
+    char text[32];
+    snprintf(text, sizeof text, "%lld", (long long)value);
+    set_value(stmt, index, text, PG_INT8);
+}
+
+void queue_pg_bind_double(queue_pg_stmt *stmt, int index, double value)
+{
+    char text[40];
+    snprintf(text, sizeof text, "%.17g", value);
+    set_value(stmt, index, text, PG_FLOAT8);
+}
+
+void queue_pg_bind_text(queue_pg_stmt *stmt, int index, const char *text)
+{
+    set_value(stmt, index, text, PG_TEXT);
+}
+
+int queue_pg_bind_index(queue_pg_stmt *stmt, const char *name)
+{
+    for (int i = 0; i < stmt->param_count; i++)
+        if (!strcmp(stmt->names[i], name))
+            return i + 1;
+    return 0;
+}
+
+int queue_pg_bind_count(queue_pg_stmt *stmt) { return stmt->param_count; }
+
+int queue_pg_step(pf_queue *queue, queue_pg_stmt *stmt)
+{
+    if (!stmt->executed) {
+        stmt->executed = 1;
+        stmt->result = PQexecParams(queue->pg, stmt->sql, stmt->param_count, stmt->types,
+                                    (const char *const *)stmt->values, NULL, NULL, 0);
+        ExecStatusType state = PQresultStatus(stmt->result);
+        queue->pg_changes = 0;
+        if (state == PGRES_COMMAND_OK || state == PGRES_TUPLES_OK) {
+            queue->pg_changes = strtoll(PQcmdTuples(stmt->result), NULL, 10);
+            stmt->rows = state == PGRES_TUPLES_OK ? PQntuples(stmt->result) : 0;
+            stmt->row = -1;
+        } else {
+            queue_pg_note_error(queue, stmt->result);
+            const char *code = PQresultErrorField(stmt->result, PG_DIAG_SQLSTATE);
+            /* Integrity violations (class 23) and malformed JSON for a json column. */
+            return code && (!strncmp(code, "23", 2) || !strcmp(code, "22P02"))
+                       ? QUEUE_CONSTRAINT
+                       : QUEUE_ERROR;
+        }
+    }
+    if (!stmt->result)
+        return QUEUE_ERROR;
+    stmt->row++;
+    return stmt->row < stmt->rows ? QUEUE_ROW : QUEUE_DONE;
+}
+
+void queue_pg_reset(queue_pg_stmt *stmt)
+{
+    PQclear(stmt->result);
+    stmt->result = NULL;
+    stmt->executed = 0;
+    for (int i = 0; i < stmt->param_count; i++) {
+        free(stmt->values[i]);
+        stmt->values[i] = NULL;
+        stmt->types[i] = 0;
+    }
+}
+
+/* The current row's value, NULL for SQL NULL or no row. */
+static const char *value_of(queue_pg_stmt *stmt, int column)
+{
+    if (!stmt->result || stmt->row < 0 || stmt->row >= stmt->rows ||
+        column >= PQnfields(stmt->result) || PQgetisnull(stmt->result, stmt->row, column))
+        return NULL;
+    return PQgetvalue(stmt->result, stmt->row, column);
+}
+
+int64_t queue_pg_column_int64(queue_pg_stmt *stmt, int column)
+{
+    const char *value = value_of(stmt, column);
+    if (!value)
+        return 0;
+    if (!strcmp(value, "t") || !strcmp(value, "f"))
+        return value[0] == 't';
+    return strtoll(value, NULL, 10);
+}
+
+double queue_pg_column_double(queue_pg_stmt *stmt, int column)
+{
+    const char *value = value_of(stmt, column);
+    return value ? strtod(value, NULL) : 0.0;
+}
+
+const char *queue_pg_column_text(queue_pg_stmt *stmt, int column)
+{
+    const char *value = value_of(stmt, column);
+    return value ? value : "";
+}
+
+int queue_pg_column_is_null(queue_pg_stmt *stmt, int column) { return !value_of(stmt, column); }
+
+void queue_pg_finalize(queue_pg_stmt *stmt)
+{
+    if (!stmt)
+        return;
+    queue_pg_reset(stmt);
+    free(stmt->sql);
+    free(stmt);
+}
+
+void queue_pg_note_error(pf_queue *queue, const PGresult *result)
+{
+    const char *message = result ? PQresultErrorMessage(result) : PQerrorMessage(queue->pg);
+    if (!message || !*message)
+        message = PQerrorMessage(queue->pg);
+    snprintf(queue->pg_error, sizeof queue->pg_error, "%s", message ? message : "");
+    scrub(queue->pg_error, queue->pg_secret);
+    size_t length = strlen(queue->pg_error);
+    while (length > 0 && (queue->pg_error[length - 1] == '\n' || queue->pg_error[length - 1] == ' '))
+        queue->pg_error[--length] = '\0';
+}
+
+pf_status queue_pg_exec(pf_queue *queue, const char *sql, pf_error *err)
+{
+    PGresult *result = PQexec(queue->pg, sql);
+    ExecStatusType state = PQresultStatus(result);
+    pf_status status = PF_OK;
+    if (state != PGRES_COMMAND_OK && state != PGRES_TUPLES_OK) {
+        queue_pg_note_error(queue, result);
+        status = queue_db_error(queue, err, sql);
+    }
+    PQclear(result);
+    return status;
+}
+
+static void pause_ms(int ms)
+{
+    struct timespec pause = {ms / 1000, (long)(ms % 1000) * 1000000L};
+    nanosleep(&pause, NULL);
+}
+
+/* A dead connection is re-established, waiting 0.1, 0.2, 0.4 ... s between tries. */
+static pf_status ensure_connected(pf_queue *queue, const char *what, pf_error *err)
+{
+    int wait_ms = PG_RECONNECT_FIRST_MS;
+    for (int attempt = 0; PQstatus(queue->pg) != CONNECTION_OK; attempt++) {
+        if (attempt == PG_RECONNECT_TRIES) {
+            queue_pg_note_error(queue, NULL);
+            return pf_error_set(err, PF_ERR_IO, "%s: %s: connection lost and not regained after "
+                                "%d tries: %s", queue->path, what, PG_RECONNECT_TRIES,
+                                queue->pg_error);
+        }
+        if (attempt > 0) {
+            pause_ms(wait_ms);
+            wait_ms *= 2;
+        }
+        PQreset(queue->pg);
+    }
+    return PF_OK;
+}
+
+pf_status queue_pg_transaction(pf_queue *queue, int write, const char *what,
+                               queue_tx_body body, void *context, pf_error *err)
+{
+    pf_status status = ensure_connected(queue, what, err);
+    if (status != PF_OK)
+        return status;
+    status = queue_pg_exec(queue,
+                           write ? "BEGIN ISOLATION LEVEL READ COMMITTED"
+                                 : "BEGIN ISOLATION LEVEL REPEATABLE READ READ ONLY",
+                           err);
+    if (status != PF_OK && PQstatus(queue->pg) != CONNECTION_OK) {
+        /* The server went away between transactions: once more on a new connection. */
+        status = ensure_connected(queue, what, err);
+        if (status == PF_OK)
+            status = queue_pg_exec(queue,
+                                   write ? "BEGIN ISOLATION LEVEL READ COMMITTED"
+                                         : "BEGIN ISOLATION LEVEL REPEATABLE READ READ ONLY",
+                                   err);
+    }
+    if (status != PF_OK)
+        return status;
+    if (write) {
+        /* Waits lock_timeout (busy_timeout) per try, like SQLite's BEGIN IMMEDIATE. */
+        char lock[96];
+        snprintf(lock, sizeof lock, "SAVEPOINT locking; SELECT pg_advisory_xact_lock(%d)",
+                 PG_WRITE_LOCK);
+        status = queue_pg_exec(queue, lock, err);
+        for (int attempt = 0; status != PF_OK && attempt < PG_LOCK_RETRIES &&
+                              PQstatus(queue->pg) == CONNECTION_OK;
+             attempt++) {
+            PGresult *result = PQexec(queue->pg, "ROLLBACK TO SAVEPOINT locking");
+            PQclear(result);
+            pause_ms(PG_LOCK_PAUSE_MS);
+            snprintf(lock, sizeof lock, "SELECT pg_advisory_xact_lock(%d)", PG_WRITE_LOCK);
+            status = queue_pg_exec(queue, lock, err);
+        }
+        if (status != PF_OK)
+            pf_error_set(err, PF_ERR_IO,
+                         "%s: %s: database still locked by another connection after %d waits "
+                         "of %d ms",
+                         queue->path, what, PG_LOCK_RETRIES + 1, queue->options.busy_timeout_ms);
+    }
+    if (status == PF_OK)
+        status = body(queue, context, err);
+    if (status == PF_OK) {
+        status = queue_pg_exec(queue, "COMMIT", err);
+        if (status != PF_OK)
+            pf_error_prefix(err, "%s", what);
+        return status;
+    }
+    if (PQstatus(queue->pg) == CONNECTION_OK) {
+        PGresult *result = PQexec(queue->pg, "ROLLBACK");
+        PQclear(result);
+    }
+    return status;
+}
+
+int pf_queue_is_url(const char *db) { return db && queue_is_postgres_url(db); }
+
+int queue_is_postgres_url(const char *text)
+{
+    return !strncmp(text, "postgres://", 11) || !strncmp(text, "postgresql://", 13);
+}
+
+pf_status queue_pg_connect(pf_queue *queue, const char *url, pf_error *err)
+{
+    /* The password never reaches a message: not in the URL shown, not in libpq's words. */
+    password_of(url, queue->pg_secret, sizeof queue->pg_secret);
+    char shown[1024];
+    snprintf(shown, sizeof shown, "%s", url);
+    scrub(shown, queue->pg_secret);
+    free(queue->path);
+    queue->path = strdup(shown);
+    if (!queue->path)
+        return pf_error_set(err, PF_ERR_NOMEM, "out of memory opening the queue");
+    queue->pg = PQconnectdb(url);
+    if (!queue->pg)
+        return pf_error_set(err, PF_ERR_NOMEM, "%s: out of memory connecting", shown);
+    if (PQstatus(queue->pg) != CONNECTION_OK) {
+        queue_pg_note_error(queue, NULL);
+        return pf_error_set(err, PF_ERR_INVALID, "%s: cannot connect to the queue database: %s",
+                            shown, queue->pg_error);
+    }
+    /* No NOTICE chatter on stderr; a writer waits for the write lock as long as SQLite's
+     * busy_timeout, then the transaction is retried or reported as locked. */
+    char settings[128];
+    snprintf(settings, sizeof settings, "SET client_min_messages = warning; SET lock_timeout = %d",
+             queue->options.busy_timeout_ms);
+    return queue_pg_exec(queue, settings, err);
+}
