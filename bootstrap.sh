@@ -38,6 +38,7 @@ PACKAGES=(
   libsqlite3-dev          # the job queue
   libpq-dev               # the job queue on PostgreSQL (farms spanning hosts)
   postgresql              # tests: the queue tests also run on a throwaway cluster
+  python3-yaml            # tests: the Kubernetes manifests are parsed and checked
   libcjson-dev            # glTF JSON parsing
   libembree-dev           # bench/: CPU ray-casting peer for speed comparisons
 )

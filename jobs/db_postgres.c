@@ -26,25 +26,65 @@
 #include <string.h>
 #include <time.h>
 
-#define PG_MAX_PARAMS 32
+/* PostgreSQL's own limit on a statement's parameters; named ones are few. */
+#define PG_MAX_PARAMS 65535
+#define PG_MAX_NAMED 32
+/* Statements with more parameters are one-off bulk inserts: never prepared. */
+#define PG_PREPARED_MAX_PARAMS 64
 #define PG_MAX_NAME 32
 /* Type OIDs (pg_type.h): int8, float8, text. */
 #define PG_INT8 20u
 #define PG_FLOAT8 701u
 #define PG_TEXT 25u
-/* The advisory lock every write transaction takes: "pf" in ASCII, an arbitrary key. */
-#define PG_WRITE_LOCK 0x7066
+/* The advisory lock every write transaction takes: "pf" in ASCII (0x7066), an arbitrary key. */
+#define PG_WRITE_LOCK_TEXT "28774"
 #define PG_LOCK_RETRIES 4
 #define PG_LOCK_PAUSE_MS 20
 #define PG_RECONNECT_TRIES 6
 #define PG_RECONNECT_FIRST_MS 100
 
+/*
+ * Statements the connection has prepared, by their text and parameter
+ * types: the queue runs a few dozen statements over and over, and a
+ * prepared one is parsed and planned once per connection instead of at
+ * every call. A reconnect forgets them (the server did).
+ */
+#define PG_PREPARED_MAX 64
+
+struct queue_pg_prepared {
+    int count;
+    struct {
+        char *key;   /* SQL, then the parameter types */
+        char name[16];
+    } entries[PG_PREPARED_MAX];
+};
+
+static void forget_prepared(pf_queue *queue)
+{
+    struct queue_pg_prepared *cache = queue->pg_prepared;
+    if (!cache)
+        return;
+    for (int i = 0; i < cache->count; i++)
+        free(cache->entries[i].key);
+    cache->count = 0;
+}
+
+void queue_pg_close(pf_queue *queue)
+{
+    forget_prepared(queue);
+    free(queue->pg_prepared);
+    queue->pg_prepared = NULL;
+    if (queue->pg)
+        PQfinish(queue->pg);
+    queue->pg = NULL;
+}
+
 struct queue_pg_stmt {
     char *sql;
     int param_count;
-    char names[PG_MAX_PARAMS][PG_MAX_NAME]; /* ":name" of each named parameter, "" otherwise */
-    char *values[PG_MAX_PARAMS];
-    Oid types[PG_MAX_PARAMS];
+    char names[PG_MAX_NAMED][PG_MAX_NAME]; /* ":name" of each named parameter, "" otherwise */
+    char **values;                          /* param_count of them */
+    Oid *types;
     PGresult *result;
     int row, rows, executed;
 };
@@ -92,7 +132,7 @@ static void put(char **out, const char *text, size_t length)
 static int translate(const char *sql, queue_pg_stmt *stmt)
 {
     size_t length = strlen(sql);
-    stmt->sql = malloc(length * 4 + 16);
+    stmt->sql = malloc(length * 6 + 16); /* "?" → "$65535" at most */
     if (!stmt->sql)
         return 0;
     char *out = stmt->sql;
@@ -128,7 +168,7 @@ static int translate(const char *sql, queue_pg_stmt *stmt)
                     index = i + 1;
             if (!index) {
                 index = stmt->param_count + 1;
-                if (index > PG_MAX_PARAMS || name_length >= PG_MAX_NAME)
+                if (index > PG_MAX_NAMED || name_length >= PG_MAX_NAME)
                     return 0;
                 snprintf(stmt->names[index - 1], PG_MAX_NAME, "%.*s", (int)name_length, name);
             }
@@ -144,7 +184,9 @@ static int translate(const char *sql, queue_pg_stmt *stmt)
         out += sprintf(out, "$%d", index);
     }
     *out = '\0';
-    return 1;
+    stmt->values = calloc((size_t)stmt->param_count + 1, sizeof *stmt->values);
+    stmt->types = calloc((size_t)stmt->param_count + 1, sizeof *stmt->types);
+    return stmt->values && stmt->types;
 }
 
 pf_status queue_pg_prepare(pf_queue *queue, const char *sql, queue_pg_stmt **out, pf_error *err)
@@ -198,12 +240,61 @@ int queue_pg_bind_index(queue_pg_stmt *stmt, const char *name)
 
 int queue_pg_bind_count(queue_pg_stmt *stmt) { return stmt->param_count; }
 
+/* The cache's name for the statement, preparing it first; NULL: run it unprepared. */
+static const char *prepared_name(pf_queue *queue, const queue_pg_stmt *stmt)
+{
+    struct queue_pg_prepared *cache = queue->pg_prepared;
+    if (stmt->param_count > PG_PREPARED_MAX_PARAMS)
+        return NULL;
+    size_t length = strlen(stmt->sql);
+    char *key = malloc(length + 2 + (size_t)stmt->param_count * 12);
+    if (!cache || !key) {
+        free(key);
+        return NULL;
+    }
+    char *end = key + sprintf(key, "%s\x1f", stmt->sql);
+    for (int i = 0; i < stmt->param_count; i++)
+        end += sprintf(end, "%u,", stmt->types[i]);
+    for (int i = 0; i < cache->count; i++) {
+        if (!strcmp(cache->entries[i].key, key)) {
+            free(key);
+            return cache->entries[i].name;
+        }
+    }
+    if (cache->count == PG_PREPARED_MAX) {
+        free(key);
+        return NULL;
+    }
+    int slot = cache->count;
+    snprintf(cache->entries[slot].name, sizeof cache->entries[slot].name, "pf_%d", slot);
+    PGresult *result = PQprepare(queue->pg, cache->entries[slot].name, stmt->sql,
+                                 stmt->param_count, stmt->types);
+    int prepared = PQresultStatus(result) == PGRES_COMMAND_OK;
+    PQclear(result);
+    if (!prepared) { /* run unprepared: its error (syntax, aborted transaction) is reported then */
+        free(key);
+        return NULL;
+    }
+    cache->entries[slot].key = key;
+    cache->count++;
+    return cache->entries[slot].name;
+}
+
+static PGresult *execute(pf_queue *queue, const queue_pg_stmt *stmt)
+{
+    const char *name = prepared_name(queue, stmt);
+    if (name)
+        return PQexecPrepared(queue->pg, name, stmt->param_count,
+                              (const char *const *)stmt->values, NULL, NULL, 0);
+    return PQexecParams(queue->pg, stmt->sql, stmt->param_count, stmt->types,
+                        (const char *const *)stmt->values, NULL, NULL, 0);
+}
+
 int queue_pg_step(pf_queue *queue, queue_pg_stmt *stmt)
 {
     if (!stmt->executed) {
         stmt->executed = 1;
-        stmt->result = PQexecParams(queue->pg, stmt->sql, stmt->param_count, stmt->types,
-                                    (const char *const *)stmt->values, NULL, NULL, 0);
+        stmt->result = execute(queue, stmt);
         ExecStatusType state = PQresultStatus(stmt->result);
         queue->pg_changes = 0;
         if (state == PGRES_COMMAND_OK || state == PGRES_TUPLES_OK) {
@@ -230,7 +321,7 @@ void queue_pg_reset(queue_pg_stmt *stmt)
     PQclear(stmt->result);
     stmt->result = NULL;
     stmt->executed = 0;
-    for (int i = 0; i < stmt->param_count; i++) {
+    for (int i = 0; stmt->values && i < stmt->param_count; i++) {
         free(stmt->values[i]);
         stmt->values[i] = NULL;
         stmt->types[i] = 0;
@@ -275,6 +366,8 @@ void queue_pg_finalize(queue_pg_stmt *stmt)
     if (!stmt)
         return;
     queue_pg_reset(stmt);
+    free(stmt->values);
+    free(stmt->types);
     free(stmt->sql);
     free(stmt);
 }
@@ -325,6 +418,7 @@ static pf_status ensure_connected(pf_queue *queue, const char *what, pf_error *e
             pause_ms(wait_ms);
             wait_ms *= 2;
         }
+        forget_prepared(queue);
         PQreset(queue->pg);
     }
     return PF_OK;
@@ -336,42 +430,36 @@ pf_status queue_pg_transaction(pf_queue *queue, int write, const char *what,
     pf_status status = ensure_connected(queue, what, err);
     if (status != PF_OK)
         return status;
-    status = queue_pg_exec(queue,
-                           write ? "BEGIN ISOLATION LEVEL READ COMMITTED"
-                                 : "BEGIN ISOLATION LEVEL REPEATABLE READ READ ONLY",
-                           err);
+    /* One round trip: the transaction and, for a writer, the write lock. */
+    char begin[160];
+    snprintf(begin, sizeof begin, "%s",
+             write ? "BEGIN ISOLATION LEVEL READ COMMITTED; SAVEPOINT locking; "
+                     "SELECT pg_advisory_xact_lock(" PG_WRITE_LOCK_TEXT ")"
+                   : "BEGIN ISOLATION LEVEL REPEATABLE READ READ ONLY");
+    status = queue_pg_exec(queue, begin, err);
     if (status != PF_OK && PQstatus(queue->pg) != CONNECTION_OK) {
         /* The server went away between transactions: once more on a new connection. */
         status = ensure_connected(queue, what, err);
         if (status == PF_OK)
-            status = queue_pg_exec(queue,
-                                   write ? "BEGIN ISOLATION LEVEL READ COMMITTED"
-                                         : "BEGIN ISOLATION LEVEL REPEATABLE READ READ ONLY",
-                                   err);
+            status = queue_pg_exec(queue, begin, err);
     }
-    if (status != PF_OK)
-        return status;
-    if (write) {
-        /* Waits lock_timeout (busy_timeout) per try, like SQLite's BEGIN IMMEDIATE. */
-        char lock[96];
-        snprintf(lock, sizeof lock, "SAVEPOINT locking; SELECT pg_advisory_xact_lock(%d)",
-                 PG_WRITE_LOCK);
-        status = queue_pg_exec(queue, lock, err);
-        for (int attempt = 0; status != PF_OK && attempt < PG_LOCK_RETRIES &&
-                              PQstatus(queue->pg) == CONNECTION_OK;
-             attempt++) {
-            PGresult *result = PQexec(queue->pg, "ROLLBACK TO SAVEPOINT locking");
-            PQclear(result);
-            pause_ms(PG_LOCK_PAUSE_MS);
-            snprintf(lock, sizeof lock, "SELECT pg_advisory_xact_lock(%d)", PG_WRITE_LOCK);
-            status = queue_pg_exec(queue, lock, err);
-        }
-        if (status != PF_OK)
-            pf_error_set(err, PF_ERR_IO,
-                         "%s: %s: database still locked by another connection after %d waits "
-                         "of %d ms",
-                         queue->path, what, PG_LOCK_RETRIES + 1, queue->options.busy_timeout_ms);
+    /* A writer waits lock_timeout (busy_timeout) per try, like SQLite's BEGIN IMMEDIATE. */
+    for (int attempt = 0; write && status != PF_OK && attempt < PG_LOCK_RETRIES &&
+                          PQstatus(queue->pg) == CONNECTION_OK &&
+                          PQtransactionStatus(queue->pg) == PQTRANS_INERROR;
+         attempt++) {
+        pause_ms(PG_LOCK_PAUSE_MS);
+        status = queue_pg_exec(queue,
+                               "ROLLBACK TO SAVEPOINT locking; "
+                               "SELECT pg_advisory_xact_lock(" PG_WRITE_LOCK_TEXT ")",
+                               err);
     }
+    if (write && status != PF_OK && PQstatus(queue->pg) == CONNECTION_OK &&
+        PQtransactionStatus(queue->pg) == PQTRANS_INERROR)
+        pf_error_set(err, PF_ERR_IO,
+                     "%s: %s: database still locked by another connection after %d waits of "
+                     "%d ms",
+                     queue->path, what, PG_LOCK_RETRIES + 1, queue->options.busy_timeout_ms);
     if (status == PF_OK)
         status = body(queue, context, err);
     if (status == PF_OK) {
@@ -405,8 +493,9 @@ pf_status queue_pg_connect(pf_queue *queue, const char *url, pf_error *err)
     queue->path = strdup(shown);
     if (!queue->path)
         return pf_error_set(err, PF_ERR_NOMEM, "out of memory opening the queue");
+    queue->pg_prepared = calloc(1, sizeof *queue->pg_prepared);
     queue->pg = PQconnectdb(url);
-    if (!queue->pg)
+    if (!queue->pg || !queue->pg_prepared)
         return pf_error_set(err, PF_ERR_NOMEM, "%s: out of memory connecting", shown);
     if (PQstatus(queue->pg) != CONNECTION_OK) {
         queue_pg_note_error(queue, NULL);

@@ -15,19 +15,40 @@ typedef struct enqueue_context {
     int64_t job_id;
 } enqueue_context;
 
-static pf_status insert_task(pf_queue *queue, queue_stmt *stmt, int64_t job_id,
-                             const int32_t *frames, size_t count, pf_error *err)
+/* Tasks per INSERT: one statement (one round trip on PostgreSQL) per this many tasks. */
+#define TASK_BATCH 256
+#define TASK_COLUMNS 5
+
+/* One task: an arithmetic run of frames. */
+typedef struct task_run {
+    int32_t first, last, step, count;
+} task_run;
+
+/* Inserts runs[0..count) in one statement. */
+static pf_status insert_tasks(pf_queue *queue, int64_t job_id, const task_run *runs, size_t count,
+                              pf_error *err)
 {
-    int32_t step = count > 1 ? frames[1] - frames[0] : 1;
-    queue_reset(stmt);
-    queue_bind_int64(stmt, 1, job_id);
-    queue_bind_int64(stmt, 2, frames[0]);
-    queue_bind_int64(stmt, 3, frames[count - 1]);
-    queue_bind_int64(stmt, 4, step);
-    queue_bind_int64(stmt, 5, (int64_t)count);
-    if (queue_step(stmt) != QUEUE_DONE)
-        return queue_db_error(queue, err, "inserting a task");
-    return PF_OK;
+    static const char head[] = "INSERT INTO tasks (job_id, first_frame, last_frame, frame_step, "
+                               "frame_count, eligible_at) VALUES ";
+    static const char row[] = "(?, ?, ?, ?, ?, 0),";
+    char sql[sizeof head + TASK_BATCH * (sizeof row - 1)];
+    char *end = sql + sprintf(sql, "%s", head);
+    for (size_t i = 0; i < count; i++)
+        end += sprintf(end, "%s", row);
+    end[-1] = '\0'; /* the last comma */
+    queue_stmt *stmt;
+    pf_status status = queue_prepare(queue, sql, &stmt, err);
+    if (status != PF_OK)
+        return status;
+    for (size_t i = 0; i < count; i++) {
+        int base = (int)(i * TASK_COLUMNS);
+        queue_bind_int64(stmt, base + 1, job_id);
+        queue_bind_int64(stmt, base + 2, runs[i].first);
+        queue_bind_int64(stmt, base + 3, runs[i].last);
+        queue_bind_int64(stmt, base + 4, runs[i].step);
+        queue_bind_int64(stmt, base + 5, runs[i].count);
+    }
+    return queue_step_done(queue, stmt, "inserting tasks", err);
 }
 
 /* Asks spec->conflicts about every unfinished job; the first conflict fails the enqueue. */
@@ -97,25 +118,26 @@ static pf_status enqueue_body(pf_queue *queue, void *context, pf_error *err)
     if (status != PF_OK)
         return status;
 
-    status = queue_prepare(queue,
-                           "INSERT INTO tasks (job_id, first_frame, last_frame, frame_step, "
-                           "frame_count, eligible_at) VALUES (?, ?, ?, ?, ?, 0)",
-                           &stmt, err);
-    if (status != PF_OK)
-        return status;
     const int32_t *frames = ctx->frames->frames;
-    size_t count = ctx->frames->count, chunk_start = 0;
+    size_t count = ctx->frames->count, chunk_start = 0, batched = 0;
+    task_run batch[TASK_BATCH];
     for (size_t i = 1; i <= count && status == PF_OK; i++) {
         size_t chunk_length = i - chunk_start;
         bool chunk_ends = i == count || chunk_length == (size_t)ctx->frames_per_task ||
                           (chunk_length >= 2 && frames[i] - frames[i - 1] !=
                                                     frames[chunk_start + 1] - frames[chunk_start]);
-        if (chunk_ends) {
-            status = insert_task(queue, stmt, ctx->job_id, frames + chunk_start, chunk_length, err);
-            chunk_start = i;
+        if (!chunk_ends)
+            continue;
+        const int32_t *run = frames + chunk_start;
+        batch[batched++] = (task_run){run[0], run[chunk_length - 1],
+                                      chunk_length > 1 ? run[1] - run[0] : 1,
+                                      (int32_t)chunk_length};
+        chunk_start = i;
+        if (batched == TASK_BATCH || i == count) {
+            status = insert_tasks(queue, ctx->job_id, batch, batched, err);
+            batched = 0;
         }
     }
-    queue_finalize(stmt);
     return status;
 }
 

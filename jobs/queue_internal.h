@@ -18,6 +18,7 @@ struct pf_queue {
     int64_t pg_changes;      /* PostgreSQL: rows the last statement changed */
     char pg_error[512];      /* PostgreSQL: the last error's message */
     char pg_secret[128];     /* PostgreSQL: the URL's password, scrubbed from every message */
+    struct queue_pg_prepared *pg_prepared; /* PostgreSQL: statements prepared on the connection */
     pf_queue_options options;
     pf_queue_clock clock;
     void *clock_user;
@@ -120,6 +121,8 @@ typedef struct queue_pg_stmt queue_pg_stmt;
 int queue_is_postgres_url(const char *text);
 /* Connects queue to url (queue->path becomes the URL with its password hidden). */
 pf_status queue_pg_connect(pf_queue *queue, const char *url, pf_error *err);
+/* Closes the connection and forgets what it prepared. */
+void queue_pg_close(pf_queue *queue);
 pf_status queue_pg_prepare(pf_queue *queue, const char *sql, queue_pg_stmt **stmt, pf_error *err);
 void queue_pg_bind_int64(queue_pg_stmt *stmt, int index, int64_t value);
 void queue_pg_bind_double(queue_pg_stmt *stmt, int index, double value);

@@ -504,8 +504,7 @@ void pf_queue_close(pf_queue *queue)
 {
     if (!queue)
         return;
-    if (queue->pg)
-        PQfinish(queue->pg);
+    queue_pg_close(queue);
     sqlite3_close(queue->db);
     free(queue->path);
     free(queue);

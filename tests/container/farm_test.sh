@@ -8,6 +8,10 @@
 #
 #   ../shared/tools/podman-setup.sh        # once per machine (makes pf-podman)
 #   tests/container/farm_test.sh           # ~5 min with a cached image build
+#   tests/container/farm_test.sh --postgres
+#       the same farm on a PostgreSQL queue: a throwaway cluster on the host's
+#       loopback (tests/jobs/pg_throwaway.sh), the containers on the host's
+#       network with PHOTONFARM_DB=postgresql://...
 #
 # Not part of ctest: an image build takes minutes more than CI's budget.
 # Exit status 0 when every check holds, 1 otherwise.
@@ -20,6 +24,9 @@ FRAMES=12
 WORK=$(mktemp -d /tmp/photonfarm-farm.XXXXXX)
 DATA=$WORK/data
 failures=0
+POSTGRES=0
+[ "${1:-}" = --postgres ] && POSTGRES=1
+DB_ARGS=()
 
 check() { # check DESCRIPTION COMMAND...: runs it, counts a failure
   local what=$1
@@ -29,6 +36,7 @@ check() { # check DESCRIPTION COMMAND...: runs it, counts a failure
 
 cleanup() {
   $PODMAN rm -f pf-farm-w1 pf-farm-w2 >/dev/null 2>&1 || true
+  [ "$POSTGRES" -eq 0 ] || "$ROOT/tests/jobs/pg_throwaway.sh" stop "$WORK/pg"
   rm -rf "$WORK"
 }
 trap cleanup EXIT
@@ -37,13 +45,20 @@ trap cleanup EXIT
 mkdir -p "$DATA"
 chown 10001:10001 "$DATA" 2>/dev/null || chmod 0777 "$DATA"
 
+if [ "$POSTGRES" -eq 1 ]; then
+  chmod 755 "$WORK"
+  url=$("$ROOT/tests/jobs/pg_throwaway.sh" start "$WORK/pg" 55499)
+  DB_ARGS=(--network host -e "PHOTONFARM_DB=$url")
+  echo "farm_test: queue on $url"
+fi
+
 echo "farm_test: building $IMAGE"
 $PODMAN build --format docker -q -t "$IMAGE" \
   --build-arg PF_GIT_REVISION="$(git -C "$ROOT" rev-parse --short=12 HEAD 2>/dev/null || echo unknown)" \
   -f "$ROOT/docker/Dockerfile" "$ROOT" >/dev/null
 
 photonfarm() { # photonfarm ARGS...: a one-shot container on the same data
-  $PODMAN run --rm -v "$DATA:/data" "$IMAGE" "$@"
+  $PODMAN run --rm "${DB_ARGS[@]}" -v "$DATA:/data" "$IMAGE" "$@"
 }
 
 photonfarm enqueue /opt/photonfarm/scenes/cornell-moving/cornell-moving.gltf \
@@ -51,7 +66,8 @@ photonfarm enqueue /opt/photonfarm/scenes/cornell-moving/cornell-moving.gltf \
 
 # Short leases, so that the killed worker's frame comes back within seconds.
 for n in 1 2; do
-  $PODMAN run -d --name "pf-farm-w$n" -e PHOTONFARM_WORKER_NAME="w$n" -v "$DATA:/data" \
+  $PODMAN run -d --name "pf-farm-w$n" "${DB_ARGS[@]}" -e PHOTONFARM_WORKER_NAME="w$n" \
+    -v "$DATA:/data" \
     "$IMAGE" worker --lease-seconds 6 --idle-exit 20 >/dev/null
 done
 
