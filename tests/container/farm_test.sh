@@ -48,7 +48,8 @@ chown 10001:10001 "$DATA" 2>/dev/null || chmod 0777 "$DATA"
 if [ "$POSTGRES" -eq 1 ]; then
   chmod 755 "$WORK"
   url=$("$ROOT/tests/jobs/pg_throwaway.sh" start "$WORK/pg" 55499)
-  DB_ARGS=(--network host -e "PHOTONFARM_DB=$url")
+  # pf-podman runs every container on the host network already (the loopback is shared).
+  DB_ARGS=(-e "PHOTONFARM_DB=$url")
   echo "farm_test: queue on $url"
 fi
 
