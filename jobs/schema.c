@@ -325,6 +325,19 @@ static pf_status check_contents(pf_queue *queue, pf_error *err)
     return PF_OK;
 }
 
+/* Records that the schema is now at version. */
+static pf_status record_version(pf_queue *queue, int64_t version, pf_error *err)
+{
+    queue_stmt *stmt;
+    pf_status status = queue_prepare(
+        queue, "INSERT INTO schema_version (version, applied_at) VALUES (?, ?)", &stmt, err);
+    if (status != PF_OK)
+        return status;
+    queue_bind_int64(stmt, 1, version);
+    queue_bind_int64(stmt, 2, pf_queue_now(queue));
+    return queue_step_done(queue, stmt, "recording the schema version", err);
+}
+
 static pf_status migrate(pf_queue *queue, void *context, pf_error *err)
 {
     (void)context;
@@ -339,16 +352,8 @@ static pf_status migrate(pf_queue *queue, void *context, pf_error *err)
                             &version, err);
     for (int64_t next = version + 1; status == PF_OK && next <= PF_QUEUE_SCHEMA_VERSION; next++) {
         status = queue_exec(queue, migrations[next - 1], err);
-        queue_stmt *stmt;
         if (status == PF_OK)
-            status = queue_prepare(
-                queue, "INSERT INTO schema_version (version, applied_at) VALUES (?, ?)", &stmt,
-                err);
-        if (status == PF_OK) {
-            queue_bind_int64(stmt, 1, next);
-            queue_bind_int64(stmt, 2, pf_queue_now(queue));
-            status = queue_step_done(queue, stmt, "recording the schema version", err);
-        }
+            status = record_version(queue, next, err);
         if (status != PF_OK)
             pf_error_prefix(err, "migrating the queue schema to version %lld", (long long)next);
     }
@@ -382,17 +387,7 @@ static pf_status pg_migrate(pf_queue *queue, void *context, pf_error *err)
                                   &exists, err);
     if (status == PF_OK && !exists) {
         status = queue_exec(queue, pg_schema, err);
-        queue_stmt *stmt;
-        if (status == PF_OK)
-            status = queue_prepare(
-                queue, "INSERT INTO schema_version (version, applied_at) VALUES (?, ?)", &stmt,
-                err);
-        if (status == PF_OK) {
-            queue_bind_int64(stmt, 1, PF_QUEUE_SCHEMA_VERSION);
-            queue_bind_int64(stmt, 2, pf_queue_now(queue));
-            status = queue_step_done(queue, stmt, "recording the schema version", err);
-        }
-        return status;
+        return status == PF_OK ? record_version(queue, PF_QUEUE_SCHEMA_VERSION, err) : status;
     }
     if (status == PF_OK)
         status = single_int(queue, "SELECT coalesce(max(version), 0) FROM schema_version",

@@ -232,18 +232,5 @@ static pf_status preview_run(pf_frame_run *run, pf_stage_id stage, uint32_t pass
     return PF_OK;
 }
 
-static pf_status preview_begin(pf_frame_run *run, pf_error *err)
-{
-    (void)run;
-    (void)err;
-    return PF_OK;
-}
-
-static pf_status preview_end(pf_frame_run *run, pf_status status, pf_error *err)
-{
-    (void)run;
-    (void)err;
-    return status;
-}
-
-const pf_integrator pf_integrator_preview = {0, preview_begin, preview_run, preview_end};
+/* preview: one stage after the BIH, which readies, shades and reports by itself. */
+const pf_integrator pf_integrator_preview = {0, NULL, preview_run, NULL};

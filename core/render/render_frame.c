@@ -90,7 +90,7 @@ static pf_status run_stages(const pf_integrator *integrator, pf_frame_run *run, 
     const pf_stage_plan *plan = run->plan;
     pf_status status = pf_render_prepare_bih(run->renderer, run->frame,
                                              &plan->stages[PF_STAGE_BIH_BUILD], run->report, err);
-    if (status == PF_OK)
+    if (status == PF_OK && integrator->begin)
         status = integrator->begin(run, err);
     if (status != PF_OK)
         return status;
@@ -107,7 +107,7 @@ static pf_status run_stages(const pf_integrator *integrator, pf_frame_run *run, 
                                                 plan->stages[stage].action == PF_STAGE_REUSE))
                 status = integrator->run(run, (pf_stage_id)stage, pass, err);
     }
-    return integrator->end(run, status, err);
+    return integrator->end ? integrator->end(run, status, err) : status;
 }
 
 pf_status pf_render_frame(pf_renderer *renderer, const pf_scene_frame *frame,

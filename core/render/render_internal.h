@@ -139,13 +139,14 @@ typedef struct pf_frame_run {
  * An integrator (frame_direct.c, frame_reference.c, frame_fast.c,
  * frame_final.c) as the stage loop drives it, after the loop has run the
  * bih_build stage: begin readies the frame (image, buffers, scene upload;
- * on failure it cleans up after itself and end is not called); run
+ * on failure it cleans up after itself and end is not called; NULL: nothing
+ * to ready); run
  * performs one stage: every stage the plan runs, once, in pf_stage_id
  * order, except those in per_pass, which run once per pass (plan->samples
  * passes, cut by settings->time_budget_ms after the first) unless the plan
  * skips them, kept passes included (the integrator reuses them); end, called
  * with the status so far, reads back, checks, writes the rows and frees the
- * state (and the image on failure).
+ * state (and the image on failure; NULL: run did all of that).
  */
 typedef struct pf_integrator {
     uint32_t per_pass; /* 1u << pf_stage_id for each stage repeated per pass */
