@@ -1,9 +1,11 @@
 /* Leases: claim, heartbeat, complete, fail, release — each fenced by the token. */
 #include "queue_internal.h"
 
+#include <cjson/cJSON.h>
 #include <errno.h>
 #include <math.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 #include <sys/random.h>
 #include <unistd.h>
@@ -293,6 +295,29 @@ static pf_status check_stage_row(pf_queue *queue, const leased_task *task,
     return PF_OK;
 }
 
+#define STAGE_COLUMNS 10
+
+/* "INSERT INTO stage_timings ... VALUES (...), (...)" for count rows. */
+static pf_status prepare_stage_insert(pf_queue *queue, size_t count, queue_stmt **stmt,
+                                      pf_error *err)
+{
+    static const char head[] = "INSERT INTO stage_timings (task_id, attempt, frame, stage, "
+                               "wall_ms, gpu_ms, counters, skipped, reason, build) VALUES ";
+    static const char row[] = "(?, ?, ?, ?, ?, ?, ?, ?, ?, ?),";
+    size_t size = sizeof head + count * (sizeof row - 1);
+    char *sql = malloc(size);
+    if (!sql)
+        return pf_error_set(err, PF_ERR_NOMEM, "%s: out of memory for %zu stage rows",
+                            queue->path, count);
+    char *end = sql + sprintf(sql, "%s", head);
+    for (size_t i = 0; i < count; i++)
+        end += sprintf(end, "%s", row);
+    end[-1] = '\0'; /* the last comma */
+    pf_status status = queue_prepare(queue, sql, stmt, err);
+    free(sql);
+    return status;
+}
+
 static pf_status complete_body(pf_queue *queue, void *context, pf_error *err)
 {
     token_context *ctx = context;
@@ -307,43 +332,40 @@ static pf_status complete_body(pf_queue *queue, void *context, pf_error *err)
     if (!task.found || strcmp(task.status, "running") != 0)
         return lease_lost(queue, ctx->token, err);
 
-    queue_stmt *stmt;
-    status = queue_prepare(queue,
-                           "INSERT INTO stage_timings (task_id, attempt, frame, stage, wall_ms, "
-                           "gpu_ms, counters, skipped, reason, build) "
-                           "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
-                           &stmt, err);
-    if (status != PF_OK)
-        return status;
+    /* Every row checked first, then all of them in one statement (one round trip). */
     for (size_t i = 0; i < ctx->row_count && status == PF_OK; i++) {
         const pf_queue_stage_row *row = &ctx->rows[i];
         status = check_stage_row(queue, &task, row, i, err);
-        if (status != PF_OK)
-            break;
-        queue_reset(stmt);
-        queue_bind_int64(stmt, 1, task.task_id);
-        queue_bind_int64(stmt, 2, task.attempt);
-        queue_bind_int64(stmt, 3, row->frame);
-        queue_bind_text(stmt, 4, row->stage);
-        queue_bind_double(stmt, 5, row->wall_ms);
-        if (row->gpu_ms >= 0)
-            queue_bind_double(stmt, 6, row->gpu_ms);
-        if (row->counters_json)
-            queue_bind_text(stmt, 7, row->counters_json);
-        queue_bind_int64(stmt, 8, row->skipped);
-        if (row->reason)
-            queue_bind_text(stmt, 9, row->reason);
-        if (row->build)
-            queue_bind_text(stmt, 10, row->build);
-        int rc = queue_step(stmt);
-        if (rc == QUEUE_CONSTRAINT)
+        cJSON *counters = status == PF_OK && row->counters_json
+                              ? cJSON_ParseWithOpts(row->counters_json, NULL, 1)
+                              : NULL;
+        if (status == PF_OK && row->counters_json && !counters)
             status = pf_error_set(err, PF_ERR_INVALID,
                                   "%s: stage row %zu (%s): counters are not valid JSON: %s",
                                   queue->path, i, row->stage, row->counters_json);
-        else if (rc != QUEUE_DONE)
-            status = queue_db_error(queue, err, "inserting a stage row");
+        cJSON_Delete(counters);
     }
-    queue_finalize(stmt);
+    queue_stmt *stmt = NULL;
+    bool rows = ctx->row_count > 0;
+    if (status == PF_OK && rows)
+        status = prepare_stage_insert(queue, ctx->row_count, &stmt, err);
+    for (size_t i = 0; status == PF_OK && rows && i < ctx->row_count; i++) {
+        const pf_queue_stage_row *row = &ctx->rows[i];
+        int base = (int)(i * STAGE_COLUMNS);
+        queue_bind_int64(stmt, base + 1, task.task_id);
+        queue_bind_int64(stmt, base + 2, task.attempt);
+        queue_bind_int64(stmt, base + 3, row->frame);
+        queue_bind_text(stmt, base + 4, row->stage);
+        queue_bind_double(stmt, base + 5, row->wall_ms);
+        if (row->gpu_ms >= 0)
+            queue_bind_double(stmt, base + 6, row->gpu_ms);
+        queue_bind_text(stmt, base + 7, row->counters_json);
+        queue_bind_int64(stmt, base + 8, row->skipped);
+        queue_bind_text(stmt, base + 9, row->reason);
+        queue_bind_text(stmt, base + 10, row->build);
+    }
+    if (status == PF_OK && rows)
+        status = queue_step_done(queue, stmt, "inserting the stage rows", err);
     if (status != PF_OK)
         return status;
 

@@ -161,7 +161,7 @@ pf_status pf_queue_enqueue(pf_queue *queue, const pf_queue_job_spec *spec, int64
     };
     if (spec->parameters_json) {
         /* Checked here, not by the engine, so that both engines refuse the same text. */
-        cJSON *parsed = cJSON_Parse(spec->parameters_json);
+        cJSON *parsed = cJSON_ParseWithOpts(spec->parameters_json, NULL, 1);
         bool valid = parsed != NULL;
         cJSON_Delete(parsed);
         if (!valid)
