@@ -404,16 +404,25 @@ static pf_status pg_migrate(pf_queue *queue, void *context, pf_error *err)
     return status;
 }
 
-static pf_status open_postgres(const char *url, const pf_queue_options *options,
-                               pf_queue **out, pf_error *err)
+/* A queue record with options (defaults filled in) and its clock; NULL when out of memory. */
+static pf_queue *new_queue(const pf_queue_options *options)
 {
     pf_queue *queue = calloc(1, sizeof *queue);
     if (!queue)
-        return pf_error_set(err, PF_ERR_NOMEM, "out of memory opening the queue");
+        return NULL;
     if (options)
         queue->options = *options;
     apply_defaults(&queue->options);
     pf_queue_set_clock(queue, queue->options.clock, queue->options.clock_user);
+    return queue;
+}
+
+static pf_status open_postgres(const char *url, const pf_queue_options *options,
+                               pf_queue **out, pf_error *err)
+{
+    pf_queue *queue = new_queue(options);
+    if (!queue)
+        return pf_error_set(err, PF_ERR_NOMEM, "out of memory opening the queue");
     pf_status status = queue_pg_connect(queue, url, err);
     if (status == PF_OK)
         status = queue_write(queue, "creating the queue schema", pg_migrate, NULL, err);
@@ -446,15 +455,11 @@ pf_status pf_queue_open(const char *path, const pf_queue_options *options, pf_qu
             return status;
     }
 
-    pf_queue *queue = calloc(1, sizeof *queue);
+    pf_queue *queue = new_queue(options);
     if (!queue || !(queue->path = strdup(path))) {
         free(queue);
         return pf_error_set(err, PF_ERR_NOMEM, "%s: out of memory opening the queue", path);
     }
-    if (options)
-        queue->options = *options;
-    apply_defaults(&queue->options);
-    pf_queue_set_clock(queue, queue->options.clock, queue->options.clock_user);
 
     /* An existing file is opened without SQLITE_OPEN_CREATE so a file that
      * vanished meanwhile is an error rather than a fresh empty queue. */
