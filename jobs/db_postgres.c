@@ -163,8 +163,9 @@ static int translate(const char *sql, queue_pg_stmt *stmt)
             while (isalnum((unsigned char)*p) || *p == '_')
                 p++;
             size_t name_length = (size_t)(p - name);
-            for (int i = 0; i < stmt->param_count && !index; i++)
-                if (strlen(stmt->names[i]) == name_length && !strncmp(stmt->names[i], name, name_length))
+            for (int i = 0; i < stmt->param_count && i < PG_MAX_NAMED && !index; i++)
+                if (strlen(stmt->names[i]) == name_length &&
+                    !strncmp(stmt->names[i], name, name_length))
                     index = i + 1;
             if (!index) {
                 index = stmt->param_count + 1;
@@ -232,7 +233,7 @@ void queue_pg_bind_text(queue_pg_stmt *stmt, int index, const char *text)
 
 int queue_pg_bind_index(queue_pg_stmt *stmt, const char *name)
 {
-    for (int i = 0; i < stmt->param_count; i++)
+    for (int i = 0; i < stmt->param_count && i < PG_MAX_NAMED; i++)
         if (!strcmp(stmt->names[i], name))
             return i + 1;
     return 0;
@@ -240,18 +241,21 @@ int queue_pg_bind_index(queue_pg_stmt *stmt, const char *name)
 
 int queue_pg_bind_count(queue_pg_stmt *stmt) { return stmt->param_count; }
 
-/* The cache's name for the statement, preparing it first; NULL: run it unprepared. */
-static const char *prepared_name(pf_queue *queue, const queue_pg_stmt *stmt)
+/*
+ * The cache's entry for the statement: found, or prepared now (NULL when the
+ * statement is not cached: a one-off bulk insert, a full cache). A failed
+ * PQprepare hands back its result in *failed, which is the statement's
+ * error: inside a transaction nothing after it would say what went wrong.
+ */
+static const char *prepared_name(pf_queue *queue, const queue_pg_stmt *stmt, PGresult **failed)
 {
     struct queue_pg_prepared *cache = queue->pg_prepared;
-    if (stmt->param_count > PG_PREPARED_MAX_PARAMS)
+    *failed = NULL;
+    if (!cache || stmt->param_count > PG_PREPARED_MAX_PARAMS || cache->count == PG_PREPARED_MAX)
         return NULL;
-    size_t length = strlen(stmt->sql);
-    char *key = malloc(length + 2 + (size_t)stmt->param_count * 12);
-    if (!cache || !key) {
-        free(key);
+    char *key = malloc(strlen(stmt->sql) + 2 + (size_t)stmt->param_count * 12);
+    if (!key)
         return NULL;
-    }
     char *end = key + sprintf(key, "%s\x1f", stmt->sql);
     for (int i = 0; i < stmt->param_count; i++)
         end += sprintf(end, "%u,", stmt->types[i]);
@@ -261,20 +265,16 @@ static const char *prepared_name(pf_queue *queue, const queue_pg_stmt *stmt)
             return cache->entries[i].name;
         }
     }
-    if (cache->count == PG_PREPARED_MAX) {
-        free(key);
-        return NULL;
-    }
     int slot = cache->count;
     snprintf(cache->entries[slot].name, sizeof cache->entries[slot].name, "pf_%d", slot);
     PGresult *result = PQprepare(queue->pg, cache->entries[slot].name, stmt->sql,
                                  stmt->param_count, stmt->types);
-    int prepared = PQresultStatus(result) == PGRES_COMMAND_OK;
-    PQclear(result);
-    if (!prepared) { /* run unprepared: its error (syntax, aborted transaction) is reported then */
+    if (PQresultStatus(result) != PGRES_COMMAND_OK) {
         free(key);
+        *failed = result;
         return NULL;
     }
+    PQclear(result);
     cache->entries[slot].key = key;
     cache->count++;
     return cache->entries[slot].name;
@@ -282,7 +282,10 @@ static const char *prepared_name(pf_queue *queue, const queue_pg_stmt *stmt)
 
 static PGresult *execute(pf_queue *queue, const queue_pg_stmt *stmt)
 {
-    const char *name = prepared_name(queue, stmt);
+    PGresult *failed;
+    const char *name = prepared_name(queue, stmt, &failed);
+    if (failed)
+        return failed;
     if (name)
         return PQexecPrepared(queue->pg, name, stmt->param_count,
                               (const char *const *)stmt->values, NULL, NULL, 0);
@@ -403,9 +406,22 @@ static void pause_ms(int ms)
     nanosleep(&pause, NULL);
 }
 
+/* Per-session settings, lost with the connection: set at connect and after every reconnect. */
+static pf_status apply_session(pf_queue *queue, pf_error *err)
+{
+    /* No NOTICE chatter on stderr; a writer waits for the write lock as long as SQLite's
+     * busy_timeout, then the transaction is retried or reported as locked. */
+    char settings[128];
+    snprintf(settings, sizeof settings, "SET client_min_messages = warning; SET lock_timeout = %d",
+             queue->options.busy_timeout_ms);
+    return queue_pg_exec(queue, settings, err);
+}
+
 /* A dead connection is re-established, waiting 0.1, 0.2, 0.4 ... s between tries. */
 static pf_status ensure_connected(pf_queue *queue, const char *what, pf_error *err)
 {
+    if (PQstatus(queue->pg) == CONNECTION_OK)
+        return PF_OK;
     int wait_ms = PG_RECONNECT_FIRST_MS;
     for (int attempt = 0; PQstatus(queue->pg) != CONNECTION_OK; attempt++) {
         if (attempt == PG_RECONNECT_TRIES) {
@@ -421,8 +437,9 @@ static pf_status ensure_connected(pf_queue *queue, const char *what, pf_error *e
         forget_prepared(queue);
         PQreset(queue->pg);
     }
-    return PF_OK;
+    return apply_session(queue, err);
 }
+
 
 pf_status queue_pg_transaction(pf_queue *queue, int write, const char *what,
                                queue_tx_body body, void *context, pf_error *err)
@@ -502,10 +519,5 @@ pf_status queue_pg_connect(pf_queue *queue, const char *url, pf_error *err)
         return pf_error_set(err, PF_ERR_INVALID, "%s: cannot connect to the queue database: %s",
                             shown, queue->pg_error);
     }
-    /* No NOTICE chatter on stderr; a writer waits for the write lock as long as SQLite's
-     * busy_timeout, then the transaction is retried or reported as locked. */
-    char settings[128];
-    snprintf(settings, sizeof settings, "SET client_min_messages = warning; SET lock_timeout = %d",
-             queue->options.busy_timeout_ms);
-    return queue_pg_exec(queue, settings, err);
+    return apply_session(queue, err);
 }

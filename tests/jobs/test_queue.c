@@ -9,6 +9,7 @@
 #include "pf_test.h"
 
 #include <sqlite3.h>
+#include <stdlib.h>
 
 #define START_MS 1000000000000LL
 #define LEASE_MS 10000
@@ -1001,6 +1002,49 @@ PF_TEST(postgres_bad_urls_and_newer_schema_are_refused)
     PF_CHECK_MSG(strstr(err.message, "newer than this photonfarm"), "%s", err.message);
 }
 
+/*
+ * PostgreSQL only: a connection re-established after the server restarted
+ * keeps its session settings. Here the write lock's timeout (busy_timeout):
+ * without it, the reconnected connection would wait for the lock forever,
+ * and this test (which waits for it on the thread holding the lock) would hang.
+ */
+PF_TEST(postgres_reconnect_keeps_the_lock_timeout)
+{
+    const char *url = queue_test_postgres(), *cluster = getenv("PF_TEST_POSTGRES_DIR");
+    if (!url || !cluster) {
+        printf("  (PostgreSQL only)\n");
+        return;
+    }
+    pf_queue *queue = open_fresh("reconnect");
+    PF_REQUIRE(queue);
+    pf_error err = {0};
+    pf_queue *other = NULL;
+    pf_queue_options options = test_options;
+    options.busy_timeout_ms = 20;
+    PF_REQUIRE_OK(open_queue(url, &options, &clock_now, &other, &err), &err);
+    int64_t first = enqueue(queue, "1-2", 0, 1, 0);
+    char command[2400];
+    snprintf(command, sizeof command, "'%s/tests/jobs/pg_throwaway.sh' restart '%s'",
+             getenv("PF_SOURCE_DIR"), cluster);
+    PF_REQUIRE(system(command) == 0);
+    /* Both connections are dead now; the next transaction of each reconnects. */
+    pf_queue_job *jobs = NULL;
+    size_t count = 0;
+    PF_CHECK_OK(pf_queue_job_list(other, &jobs, &count, &err), &err);
+    pf_queue_job_list_free(jobs, count);
+    conflict_probe_state state = {other, 0, 0, PF_OK, 1};
+    pf_queue_job_spec spec = {.scene_path = "s.gltf", .frame_range = "2",
+                              .output_pattern = "out/f_####.exr", .conflicts = conflict_probe,
+                              .conflicts_user = &state};
+    int64_t job_id = 0;
+    PF_CHECK(pf_queue_enqueue(queue, &spec, &job_id, &err) == PF_ERR_INVALID);
+    PF_CHECK_MSG(state.calls == 1 && state.last_seen == first, "%d calls", state.calls);
+    PF_CHECK_MSG(state.other_status == PF_ERR_IO, "the reconnected connection's enqueue: %d",
+                 state.other_status);
+    pf_queue_close(other);
+    pf_queue_close(queue);
+}
+
 int main(void)
 {
     PF_RUN(enqueue_chunks_frames_into_tasks);
@@ -1020,5 +1064,6 @@ int main(void)
     PF_RUN(workers_are_dead_after_their_own_lease);
     PF_RUN(enqueue_conflicts_are_decided_under_the_write_lock);
     PF_RUN(postgres_bad_urls_and_newer_schema_are_refused);
+    PF_RUN(postgres_reconnect_keeps_the_lock_timeout);
     return pf_test_finish();
 }

@@ -7,7 +7,7 @@ set -euo pipefail
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
 dir=$(mktemp -d /tmp/pf-pg.XXXXXX)
 chmod 755 "$dir"
-trap '"$here/pg_throwaway.sh" stop "$dir/cluster"' EXIT
+trap '"$here/pg_throwaway.sh" stop "$dir/cluster"; rm -rf "$dir"' EXIT
 
 # A port nobody listens on: start from one derived from our pid.
 port=$((20000 + $$ % 20000))
