@@ -5,7 +5,6 @@
 #include <errno.h>
 #include <math.h>
 #include <stdio.h>
-#include <stdlib.h>
 #include <string.h>
 #include <sys/random.h>
 #include <unistd.h>
@@ -295,28 +294,8 @@ static pf_status check_stage_row(pf_queue *queue, const leased_task *task,
     return PF_OK;
 }
 
+/* Parameters per stage row of the completion's INSERT. */
 #define STAGE_COLUMNS 10
-
-/* "INSERT INTO stage_timings ... VALUES (...), (...)" for count rows. */
-static pf_status prepare_stage_insert(pf_queue *queue, size_t count, queue_stmt **stmt,
-                                      pf_error *err)
-{
-    static const char head[] = "INSERT INTO stage_timings (task_id, attempt, frame, stage, "
-                               "wall_ms, gpu_ms, counters, skipped, reason, build) VALUES ";
-    static const char row[] = "(?, ?, ?, ?, ?, ?, ?, ?, ?, ?),";
-    size_t size = sizeof head + count * (sizeof row - 1);
-    char *sql = malloc(size);
-    if (!sql)
-        return pf_error_set(err, PF_ERR_NOMEM, "%s: out of memory for %zu stage rows",
-                            queue->path, count);
-    char *end = sql + sprintf(sql, "%s", head);
-    for (size_t i = 0; i < count; i++)
-        end += sprintf(end, "%s", row);
-    end[-1] = '\0'; /* the last comma */
-    pf_status status = queue_prepare(queue, sql, stmt, err);
-    free(sql);
-    return status;
-}
 
 static pf_status complete_body(pf_queue *queue, void *context, pf_error *err)
 {
@@ -348,7 +327,10 @@ static pf_status complete_body(pf_queue *queue, void *context, pf_error *err)
     queue_stmt *stmt = NULL;
     bool rows = ctx->row_count > 0;
     if (status == PF_OK && rows)
-        status = prepare_stage_insert(queue, ctx->row_count, &stmt, err);
+        status = queue_prepare_rows(queue,
+                                    "INSERT INTO stage_timings (task_id, attempt, frame, stage, "
+                                    "wall_ms, gpu_ms, counters, skipped, reason, build) VALUES ",
+                                    "(?, ?, ?, ?, ?, ?, ?, ?, ?, ?)", ctx->row_count, &stmt, err);
     for (size_t i = 0; status == PF_OK && rows && i < ctx->row_count; i++) {
         const pf_queue_stage_row *row = &ctx->rows[i];
         int base = (int)(i * STAGE_COLUMNS);

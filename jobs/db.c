@@ -1,4 +1,4 @@
-/* The statement calls (SQLite behind them) and the transaction runners every jobs/ call goes through. */
+/* The statement calls (SQLite behind them) and the transaction runners of every jobs/ call. */
 #include "queue_internal.h"
 
 #include <stdio.h>
@@ -166,6 +166,29 @@ const char *queue_sql(pf_queue *queue, const char *sqlite_sql, const char *postg
 int64_t queue_changes(pf_queue *queue)
 {
     return queue->pg ? queue->pg_changes : sqlite3_changes(queue->db);
+}
+
+pf_status queue_prepare_rows(pf_queue *queue, const char *head, const char *row, size_t count,
+                             queue_stmt **stmt, pf_error *err)
+{
+    size_t head_length = strlen(head), row_length = strlen(row);
+    char *sql = malloc(head_length + count * (row_length + 1) + 1);
+    if (!sql)
+        return pf_error_set(err, PF_ERR_NOMEM, "%s: out of memory for an insert of %zu rows",
+                            queue->path, count);
+    char *end = sql;
+    memcpy(end, head, head_length);
+    end += head_length;
+    for (size_t i = 0; i < count; i++) {
+        if (i > 0)
+            *end++ = ',';
+        memcpy(end, row, row_length);
+        end += row_length;
+    }
+    *end = '\0';
+    pf_status status = queue_prepare(queue, sql, stmt, err);
+    free(sql);
+    return status;
 }
 
 pf_status queue_exec(pf_queue *queue, const char *sql, pf_error *err)

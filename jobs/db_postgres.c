@@ -448,11 +448,9 @@ pf_status queue_pg_transaction(pf_queue *queue, int write, const char *what,
     if (status != PF_OK)
         return status;
     /* One round trip: the transaction and, for a writer, the write lock. */
-    char begin[160];
-    snprintf(begin, sizeof begin, "%s",
-             write ? "BEGIN ISOLATION LEVEL READ COMMITTED; SAVEPOINT locking; "
-                     "SELECT pg_advisory_xact_lock(" PG_WRITE_LOCK_TEXT ")"
-                   : "BEGIN ISOLATION LEVEL REPEATABLE READ READ ONLY");
+    const char *begin = write ? "BEGIN ISOLATION LEVEL READ COMMITTED; SAVEPOINT locking; "
+                                "SELECT pg_advisory_xact_lock(" PG_WRITE_LOCK_TEXT ")"
+                              : "BEGIN ISOLATION LEVEL REPEATABLE READ READ ONLY";
     status = queue_pg_exec(queue, begin, err);
     if (status != PF_OK && PQstatus(queue->pg) != CONNECTION_OK) {
         /* The server went away between transactions: once more on a new connection. */
@@ -492,11 +490,9 @@ pf_status queue_pg_transaction(pf_queue *queue, int write, const char *what,
     return status;
 }
 
-int pf_queue_is_url(const char *db) { return db && queue_is_postgres_url(db); }
-
-int queue_is_postgres_url(const char *text)
+int pf_queue_is_url(const char *db)
 {
-    return !strncmp(text, "postgres://", 11) || !strncmp(text, "postgresql://", 13);
+    return db && (!strncmp(db, "postgres://", 11) || !strncmp(db, "postgresql://", 13));
 }
 
 pf_status queue_pg_connect(pf_queue *queue, const char *url, pf_error *err)

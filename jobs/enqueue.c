@@ -28,16 +28,11 @@ typedef struct task_run {
 static pf_status insert_tasks(pf_queue *queue, int64_t job_id, const task_run *runs, size_t count,
                               pf_error *err)
 {
-    static const char head[] = "INSERT INTO tasks (job_id, first_frame, last_frame, frame_step, "
-                               "frame_count, eligible_at) VALUES ";
-    static const char row[] = "(?, ?, ?, ?, ?, 0),";
-    char sql[sizeof head + TASK_BATCH * (sizeof row - 1)];
-    char *end = sql + sprintf(sql, "%s", head);
-    for (size_t i = 0; i < count; i++)
-        end += sprintf(end, "%s", row);
-    end[-1] = '\0'; /* the last comma */
     queue_stmt *stmt;
-    pf_status status = queue_prepare(queue, sql, &stmt, err);
+    pf_status status = queue_prepare_rows(queue,
+                                          "INSERT INTO tasks (job_id, first_frame, last_frame, "
+                                          "frame_step, frame_count, eligible_at) VALUES ",
+                                          "(?, ?, ?, ?, ?, 0)", count, &stmt, err);
     if (status != PF_OK)
         return status;
     for (size_t i = 0; i < count; i++) {

@@ -59,6 +59,13 @@ void queue_finalize(queue_stmt *stmt);
 int64_t queue_changes(pf_queue *queue);
 /* The engine's spelling of a statement, where SQLite and PostgreSQL differ. */
 const char *queue_sql(pf_queue *queue, const char *sqlite_sql, const char *postgres_sql);
+/*
+ * Prepares head followed by count copies of row ("(?, ?, 0)"), comma
+ * separated: one INSERT of many rows, one round trip on PostgreSQL. Row i's
+ * k-th parameter (1-based) is i * (parameters in row) + k.
+ */
+pf_status queue_prepare_rows(pf_queue *queue, const char *head, const char *row, size_t count,
+                             queue_stmt **stmt, pf_error *err);
 /* Runs statements without results. */
 pf_status queue_exec(pf_queue *queue, const char *sql, pf_error *err);
 /* Steps a statement expected to finish (QUEUE_DONE) and finalizes it. */
@@ -117,8 +124,6 @@ pf_status queue_job_require(pf_queue *queue, int64_t job_id, char *status, size_
  * which dispatch to it when queue->pg is set.
  */
 typedef struct queue_pg_stmt queue_pg_stmt;
-/* 1 for "postgres://..." and "postgresql://..." (what --db takes for PostgreSQL). */
-int queue_is_postgres_url(const char *text);
 /* Connects queue to url (queue->path becomes the URL with its password hidden). */
 pf_status queue_pg_connect(pf_queue *queue, const char *url, pf_error *err);
 /* Closes the connection and forgets what it prepared. */

@@ -440,7 +440,7 @@ pf_status pf_queue_open(const char *path, const pf_queue_options *options, pf_qu
     *out = NULL;
     if (!path || !*path)
         return pf_error_set(err, PF_ERR_INVALID, "queue database path is empty");
-    if (queue_is_postgres_url(path))
+    if (pf_queue_is_url(path))
         return open_postgres(path, options, out, err);
 
     struct stat info;
