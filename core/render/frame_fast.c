@@ -121,7 +121,7 @@ static pf_status trace_photons(pf_renderer *renderer, struct pf_fast_cache *cach
                                       .seed = settings->seed,
                                       .store_direct = 1,
                                       .global_reflected = 1};
-    pf_status status = pf_photon_trace(inputs->tracer, &inputs->photons, &inputs->emitters,
+    pf_status status = pf_photon_trace(inputs->tracer, &inputs->photons, inputs->emitters,
                                        &trace, maps, err);
     if (status != PF_OK)
         return status;
@@ -469,7 +469,7 @@ static pf_status fast_begin(pf_frame_run *run, pf_error *err)
     status = pf_split_image_create(run->image, settings->width, settings->height, settings->aovs,
                                    err);
     if (status == PF_OK)
-        status = pf_photon_frame_prepare(renderer, run->frame, &f->inputs, err);
+        status = pf_photon_frame_prepare(renderer, run->frame, &plan->emitters, &f->inputs, err);
     f->inputs_ready = status == PF_OK;
     pf_stage_action trace = plan->stages[PF_STAGE_PHOTON_TRACE].action;
     if (trace != PF_STAGE_REUSE) {

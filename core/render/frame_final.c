@@ -189,7 +189,7 @@ static pf_status trace_pass(pf_renderer *renderer, const pf_photon_frame *inputs
                                       .max_depth = plan->photon_depth,
                                       .store_direct = 1};
     pf_status status =
-        pf_photon_trace(inputs->tracer, &inputs->photons, &inputs->emitters, &trace, maps, err);
+        pf_photon_trace(inputs->tracer, &inputs->photons, inputs->emitters, &trace, maps, err);
     if (status != PF_OK)
         return status;
     progress->trace_ms += pf_time_ms() - start;
@@ -466,7 +466,7 @@ static pf_status final_begin(pf_frame_run *run, pf_error *err)
     status = pf_split_image_create(run->image, settings->width, settings->height, settings->aovs,
                                    err);
     if (status == PF_OK)
-        status = pf_photon_frame_prepare(renderer, run->frame, &f->inputs, err);
+        status = pf_photon_frame_prepare(renderer, run->frame, &plan->emitters, &f->inputs, err);
     f->inputs_ready = status == PF_OK;
     /* The plan reuses the kept passes as this frame's first ones, or none of them. */
     if (plan->reused_passes == 0) {

@@ -58,21 +58,18 @@ float pf_photon_radius_for_density(const pf_scene_frame *frame, double neighbour
 }
 
 pf_status pf_photon_frame_prepare(pf_renderer *renderer, const pf_scene_frame *frame,
-                                  pf_photon_frame *out, pf_error *err)
+                                  const pf_photon_emitters *emitters, pf_photon_frame *out,
+                                  pf_error *err)
 {
     memset(out, 0, sizeof *out);
+    out->emitters = emitters;
     pf_status status = pf_bih_gpu_view_get(renderer->bih_gpu, &out->bih, err);
     if (status == PF_OK && !renderer->photon_tracer)
         status = pf_photon_tracer_create(renderer->ctx, &renderer->photon_tracer, err);
     if (status == PF_OK)
-        status = pf_photon_emitters_build(frame, &out->emitters, err);
+        status = pf_gpu_scene_upload(renderer->ctx, frame, 1, &out->scene, err);
     if (status != PF_OK)
         return status;
-    status = pf_gpu_scene_upload(renderer->ctx, frame, 1, &out->scene, err);
-    if (status != PF_OK) {
-        pf_photon_emitters_free(&out->emitters);
-        return status;
-    }
     out->photons = (pf_photon_scene){out->scene.vertices,  out->scene.normals,
                                      out->scene.triangle_material, out->scene.materials,
                                      out->scene.lights,    frame->triangle_count,
@@ -84,5 +81,4 @@ pf_status pf_photon_frame_prepare(pf_renderer *renderer, const pf_scene_frame *f
 void pf_photon_frame_release(pf_vk_context *ctx, pf_photon_frame *photon_frame)
 {
     pf_gpu_scene_release(ctx, &photon_frame->scene);
-    pf_photon_emitters_free(&photon_frame->emitters);
 }

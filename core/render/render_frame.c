@@ -159,5 +159,7 @@ pf_status pf_render_frame(pf_renderer *renderer, const pf_scene_frame *frame,
         [PF_QUALITY_FINAL] = &pf_integrator_final,
         [PF_QUALITY_REFERENCE] = &pf_integrator_reference};
     pf_frame_run run = {renderer, frame, settings, &plan, image, report, start_ms, NULL};
-    return run_stages(integrators[settings->quality], &run, err);
+    status = run_stages(integrators[settings->quality], &run, err);
+    pf_stage_plan_release(&plan);
+    return status;
 }

@@ -97,6 +97,7 @@ typedef struct pf_stage_plan {
      * reused from the previous frame, fast's cascades. */
     uint32_t samples, photons, photon_depth;
     int has_emitters, has_specular, caustic_map;
+    pf_photon_emitters emitters; /* fast, final: what photons are emitted from (plan-owned) */
     uint32_t reused_passes;
     pf_lpv_layout layout;
 } pf_stage_plan;
@@ -105,6 +106,8 @@ typedef struct pf_stage_plan {
  * the device cannot hold, PF_ERR_NOMEM. */
 pf_status pf_plan_stages(pf_renderer *renderer, const pf_scene_frame *frame,
                          const pf_render_settings *settings, pf_stage_plan *plan, pf_error *err);
+/* Frees what the plan owns (its emitters); a zeroed plan is fine. */
+void pf_stage_plan_release(pf_stage_plan *plan);
 /* Run (naming the changed inputs) or reuse, by memory's fingerprints for the stage. */
 void pf_stage_decide(pf_stage_plan *plan, pf_stage_id stage, const pf_stage_memory *memory);
 void pf_stage_skip(pf_stage_plan *plan, pf_stage_id stage, const char *reason);
@@ -281,12 +284,13 @@ pf_status pf_render_check_traversal(const pf_renderer *renderer, uint64_t failur
 
 /*
  * What a photon-mapping integrator (final, fast) needs of a frame on the
- * device: the BIH's view, the emitters, the uploaded scene, the tracer's
- * view of both (photons), and the renderer's tracer (created on first use).
+ * device: the BIH's view, the emitters (the plan's, built once per frame),
+ * the uploaded scene, the tracer's view of both (photons), and the
+ * renderer's tracer (created on first use).
  */
 typedef struct pf_photon_frame {
     pf_bih_gpu_view bih;
-    pf_photon_emitters emitters;
+    const pf_photon_emitters *emitters;
     pf_gpu_scene scene;
     pf_photon_scene photons;
     pf_photon_tracer *tracer;
@@ -294,7 +298,8 @@ typedef struct pf_photon_frame {
 
 /* After pf_render_prepare_bih; on failure nothing is left to release. */
 pf_status pf_photon_frame_prepare(pf_renderer *renderer, const pf_scene_frame *frame,
-                                  pf_photon_frame *out, pf_error *err);
+                                  const pf_photon_emitters *emitters, pf_photon_frame *out,
+                                  pf_error *err);
 void pf_photon_frame_release(pf_vk_context *ctx, pf_photon_frame *photon_frame);
 
 /* Uploads only the vertex buffer (all the ray-casting oracle needs) when full is 0. */

@@ -178,6 +178,11 @@ void pf_stage_decide(pf_stage_plan *plan, pf_stage_id stage, const pf_stage_memo
     }
 }
 
+void pf_stage_plan_release(pf_stage_plan *plan)
+{
+    pf_photon_emitters_free(&plan->emitters);
+}
+
 void pf_stage_skip(pf_stage_plan *plan, pf_stage_id stage, const char *reason)
 {
     plan->stages[stage].action = PF_STAGE_SKIP;
@@ -288,13 +293,12 @@ pf_status pf_plan_stages(pf_renderer *renderer, const pf_scene_frame *frame,
     }
     pf_stage_memory *memory = &renderer->stage_memory[settings->quality];
     fingerprint_scene(frame, plan->inputs);
-    /* What photon emission would pick from (lights and emissive triangles of positive power). */
-    pf_photon_emitters emitters;
-    pf_status status = pf_photon_emitters_build(frame, &emitters, err);
+    /* What photon emission picks from (lights and emissive triangles of positive power),
+     * built once: the integrator traces from the plan's table. */
+    pf_status status = pf_photon_emitters_build(frame, &plan->emitters, err);
     if (status != PF_OK)
         return status;
-    plan->has_emitters = emitters.count > 0;
-    pf_photon_emitters_free(&emitters);
+    plan->has_emitters = plan->emitters.count > 0;
     plan->has_specular = pf_scene_frame_has_specular(frame);
     if (settings->quality == PF_QUALITY_FINAL) {
         plan->samples = samples_of(settings, FINAL_DEFAULT_PASSES, plan, "passes");
@@ -312,8 +316,10 @@ pf_status pf_plan_stages(pf_renderer *renderer, const pf_scene_frame *frame,
     pf_lpv_setting which;
     status = pf_lpv_settings_check(
         &settings->lpv, pf_vk_info(renderer->ctx)->max_storage_buffer_range, &which, err);
-    if (status != PF_OK)
+    if (status != PF_OK) {
+        pf_stage_plan_release(plan);
         return status;
+    }
     plan->samples = samples_of(settings, FAST_DEFAULT_SAMPLES, plan, "camera samples");
     plan->photons = settings->photons_per_pass ? settings->photons_per_pass : FAST_DEFAULT_PHOTONS;
     plan->caustic_map = plan->has_specular;
