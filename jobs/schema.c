@@ -417,6 +417,21 @@ static pf_queue *new_queue(const pf_queue_options *options)
     return queue;
 }
 
+/* Brings the schema up to date (when status is still PF_OK) and hands the queue out, or
+ * closes it. */
+static pf_status finish_open(pf_queue *queue, pf_status status, const char *what,
+                             queue_tx_body schema, pf_queue **out, pf_error *err)
+{
+    if (status == PF_OK)
+        status = queue_write(queue, what, schema, NULL, err);
+    if (status != PF_OK) {
+        pf_queue_close(queue);
+        return status;
+    }
+    *out = queue;
+    return PF_OK;
+}
+
 static pf_status open_postgres(const char *url, const pf_queue_options *options,
                                pf_queue **out, pf_error *err)
 {
@@ -424,14 +439,7 @@ static pf_status open_postgres(const char *url, const pf_queue_options *options,
     if (!queue)
         return pf_error_set(err, PF_ERR_NOMEM, "out of memory opening the queue");
     pf_status status = queue_pg_connect(queue, url, err);
-    if (status == PF_OK)
-        status = queue_write(queue, "creating the queue schema", pg_migrate, NULL, err);
-    if (status != PF_OK) {
-        pf_queue_close(queue);
-        return status;
-    }
-    *out = queue;
-    return PF_OK;
+    return finish_open(queue, status, "creating the queue schema", pg_migrate, out, err);
 }
 
 pf_status pf_queue_open(const char *path, const pf_queue_options *options, pf_queue **out,
@@ -490,14 +498,7 @@ pf_status pf_queue_open(const char *path, const pf_queue_options *options, pf_qu
             queue_finalize(stmt);
         }
     }
-    if (status == PF_OK)
-        status = queue_write(queue, "migrating the queue schema", migrate, NULL, err);
-    if (status != PF_OK) {
-        pf_queue_close(queue);
-        return status;
-    }
-    *out = queue;
-    return PF_OK;
+    return finish_open(queue, status, "migrating the queue schema", migrate, out, err);
 }
 
 void pf_queue_close(pf_queue *queue)
