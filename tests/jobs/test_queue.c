@@ -865,6 +865,28 @@ static int conflict_probe(const pf_queue_job *other, void *user, char *reason, s
     return state->refuse;
 }
 
+/* A second connection to path that waits for the write lock only 20 ms a try. */
+static pf_queue *open_impatient(const char *path)
+{
+    pf_error err = {0};
+    pf_queue *other = NULL;
+    pf_queue_options options = test_options;
+    options.busy_timeout_ms = 20;
+    PF_CHECK_OK(open_queue(path, &options, &clock_now, &other, &err), &err);
+    return other;
+}
+
+/* Enqueues frame 2 of out/f_####.exr on queue, conflict_probe checking with state. */
+static pf_status enqueue_probed(pf_queue *queue, conflict_probe_state *state, int64_t *job_id,
+                                pf_error *err)
+{
+    pf_queue_job_spec spec = {.scene_path = "s.gltf", .frame_range = "2",
+                              .output_pattern = "out/f_####.exr", .conflicts = conflict_probe,
+                              .conflicts_user = state};
+    *job_id = 0;
+    return pf_queue_enqueue(queue, &spec, job_id, err);
+}
+
 /*
  * The conflict check of an enqueue runs inside its write transaction: while
  * it runs no other connection can insert a job (so two enqueues racing for
@@ -881,19 +903,14 @@ PF_TEST(enqueue_conflicts_are_decided_under_the_write_lock)
     else
         snprintf(path, sizeof path, "%s/conflict.db", pf_test_tmpdir(dir, sizeof dir));
     pf_error err = {0};
-    pf_queue *other = NULL;
-    pf_queue_options options = test_options;
-    options.busy_timeout_ms = 20;
-    PF_REQUIRE_OK(open_queue(path, &options, &clock_now, &other, &err), &err);
+    pf_queue *other = open_impatient(path);
+    PF_REQUIRE(other);
     int64_t first = enqueue(queue, "1-2", 0, 1, 0);
     int64_t canceled = enqueue(queue, "1", 0, 1, 0);
     PF_CHECK_OK(pf_queue_cancel(queue, canceled, &err), &err);
     conflict_probe_state state = {other, 0, 0, PF_OK, 1};
-    pf_queue_job_spec spec = {.scene_path = "s.gltf", .frame_range = "2",
-                              .output_pattern = "out/f_####.exr", .conflicts = conflict_probe,
-                              .conflicts_user = &state};
     int64_t job_id = 0;
-    PF_CHECK(pf_queue_enqueue(queue, &spec, &job_id, &err) == PF_ERR_INVALID);
+    PF_CHECK(enqueue_probed(queue, &state, &job_id, &err) == PF_ERR_INVALID);
     PF_CHECK_MSG(!strcmp(err.message, "job 1 writes out/f_####.exr"), "%s", err.message);
     PF_CHECK_MSG(state.calls == 1 && state.last_seen == first, "%d calls, last job %lld",
                  state.calls, (long long)state.last_seen);
@@ -906,7 +923,7 @@ PF_TEST(enqueue_conflicts_are_decided_under_the_write_lock)
     pf_queue_job_list_free(jobs, count);
     /* No conflict: inserted (and the other connection, no longer locked out, too). */
     state.refuse = 0;
-    PF_CHECK_OK(pf_queue_enqueue(queue, &spec, &job_id, &err), &err);
+    PF_CHECK_OK(enqueue_probed(queue, &state, &job_id, &err), &err);
     PF_CHECK(job_id > canceled);
     PF_CHECK_OK(pf_queue_job_list(queue, &jobs, &count, &err), &err);
     PF_CHECK_MSG(count == 3, "%zu jobs", count);
@@ -1018,10 +1035,8 @@ PF_TEST(postgres_reconnect_keeps_the_lock_timeout)
     pf_queue *queue = open_fresh("reconnect");
     PF_REQUIRE(queue);
     pf_error err = {0};
-    pf_queue *other = NULL;
-    pf_queue_options options = test_options;
-    options.busy_timeout_ms = 20;
-    PF_REQUIRE_OK(open_queue(url, &options, &clock_now, &other, &err), &err);
+    pf_queue *other = open_impatient(url);
+    PF_REQUIRE(other);
     int64_t first = enqueue(queue, "1-2", 0, 1, 0);
     char command[2400];
     snprintf(command, sizeof command, "'%s/tests/jobs/pg_throwaway.sh' restart '%s'",
@@ -1033,11 +1048,8 @@ PF_TEST(postgres_reconnect_keeps_the_lock_timeout)
     PF_CHECK_OK(pf_queue_job_list(other, &jobs, &count, &err), &err);
     pf_queue_job_list_free(jobs, count);
     conflict_probe_state state = {other, 0, 0, PF_OK, 1};
-    pf_queue_job_spec spec = {.scene_path = "s.gltf", .frame_range = "2",
-                              .output_pattern = "out/f_####.exr", .conflicts = conflict_probe,
-                              .conflicts_user = &state};
     int64_t job_id = 0;
-    PF_CHECK(pf_queue_enqueue(queue, &spec, &job_id, &err) == PF_ERR_INVALID);
+    PF_CHECK(enqueue_probed(queue, &state, &job_id, &err) == PF_ERR_INVALID);
     PF_CHECK_MSG(state.calls == 1 && state.last_seen == first, "%d calls", state.calls);
     PF_CHECK_MSG(state.other_status == PF_ERR_IO, "the reconnected connection's enqueue: %d",
                  state.other_status);
