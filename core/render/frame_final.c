@@ -576,7 +576,7 @@ static pf_status final_run(pf_frame_run *run, pf_stage_id stage, uint32_t pass, 
         if (f->pass_traced && pass < FINAL_KEPT_PASSES && pass == memory->kept_passes)
             memory->kept_passes = pass + 1;
         status = shade_sample(renderer, f->buffers, &f->owned, run->settings,
-                              run->plan->has_emitters ? slot : NULL, pass, progress, err);
+                              run->plan->emitters.count > 0 ? slot : NULL, pass, progress, err);
         if (status == PF_OK)
             progress->passes++;
         break;
@@ -625,7 +625,7 @@ static pf_status final_end(pf_frame_run *run, pf_status status, pf_error *err)
         return status;
     }
     for (int stage = PF_STAGE_PHOTON_TRACE; stage <= PF_STAGE_CAUSTIC_MAP; stage++) {
-        if (plan->has_emitters)
+        if (plan->emitters.count > 0)
             pf_stage_remember(memory, plan, (pf_stage_id)stage);
         else
             memory->valid[stage] = 0; /* no passes kept */

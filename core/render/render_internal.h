@@ -96,7 +96,7 @@ typedef struct pf_stage_plan {
      * the tracer's default), whether the scene gets a caustic map, final's passes
      * reused from the previous frame, fast's cascades. */
     uint32_t samples, photons, photon_depth;
-    int has_emitters, has_specular, caustic_map;
+    int has_specular, caustic_map;
     pf_photon_emitters emitters; /* fast, final: what photons are emitted from (plan-owned) */
     uint32_t reused_passes;
     pf_lpv_layout layout;

@@ -220,7 +220,7 @@ static void plan_photons(pf_stage_plan *plan, const pf_stage_memory *memory, int
     if (with_grid)
         pf_stage_decide(plan, PF_STAGE_PHOTON_GRID, memory);
     pf_stage_decide(plan, PF_STAGE_CAUSTIC_MAP, memory);
-    if (!plan->has_emitters) {
+    if (plan->emitters.count == 0) {
         pf_stage_skip(plan, PF_STAGE_PHOTON_TRACE, no_light);
         if (with_grid)
             pf_stage_skip(plan, PF_STAGE_PHOTON_GRID, no_light);
@@ -298,7 +298,6 @@ pf_status pf_plan_stages(pf_renderer *renderer, const pf_scene_frame *frame,
     pf_status status = pf_photon_emitters_build(frame, &plan->emitters, err);
     if (status != PF_OK)
         return status;
-    plan->has_emitters = plan->emitters.count > 0;
     plan->has_specular = pf_scene_frame_has_specular(frame);
     if (settings->quality == PF_QUALITY_FINAL) {
         plan->samples = samples_of(settings, FINAL_DEFAULT_PASSES, plan, "passes");
