@@ -93,102 +93,127 @@ typedef struct claim_context {
     bool claimed;
 } claim_context;
 
-static pf_status claim_body(pf_queue *queue, void *context, pf_error *err)
-{
-    claim_context *ctx = context;
-    int64_t now = pf_queue_now(queue);
-    queue_stmt *stmt;
-    pf_status status =
-        queue_prepare(queue, "UPDATE workers SET heartbeat_at = ? WHERE id = ?", &stmt, err);
-    if (status != PF_OK)
-        return status;
-    queue_bind_int64(stmt, 1, now);
-    queue_bind_int64(stmt, 2, ctx->worker_id);
-    status = queue_step_done(queue, stmt, "claiming a task", err);
-    if (status != PF_OK)
-        return status;
-    if (queue_changes(queue) == 0)
-        return pf_error_set(err, PF_ERR_INVALID, "%s: no worker %lld (register it first)",
-                            queue->path, (long long)ctx->worker_id);
+/*
+ * The claim: the highest-priority job this worker may render, then its first
+ * eligible task after the affinity frame, else its first eligible task. The
+ * job is picked once (the CTE) and reaches the task picks as scalars, so each
+ * is a walk of the (job_id, status, first_frame) index that stops at its first
+ * row; joining the CTE instead made PostgreSQL fetch and sort every queued
+ * task of the job on each claim. LOCK is empty on SQLite (one writer at a
+ * time); on PostgreSQL claims run side by side, and each takes the first task
+ * no other claim holds.
+ */
+#define CLAIM_SQL(LOCK)                                                                         \
+    "UPDATE tasks SET status = 'running', attempt = attempt + 1, worker_id = :worker,"         \
+    "  lease_token = :token, lease_expires = :now + :lease, started_at = :now,"                \
+    "  finished_at = NULL "                                                                    \
+    "WHERE id = ("                                                                             \
+    "  WITH chosen (job_id, after_frame) AS ("                                                 \
+    "    SELECT j.id, CASE WHEN j.id = :job THEN :frame ELSE -1 END FROM jobs j"               \
+    "    WHERE j.status IN ('queued', 'running')"                                              \
+    "      AND NOT EXISTS (SELECT 1 FROM worker_blocks b"                                      \
+    "                      WHERE b.job_id = j.id AND b.worker_id = :worker)"                   \
+    "      AND EXISTS (SELECT 1 FROM tasks e WHERE e.job_id = j.id"                            \
+    "                  AND e.status = 'queued' AND e.eligible_at <= :now)"                     \
+    "    ORDER BY j.priority DESC, j.id = :job DESC, j.id LIMIT 1)"                            \
+    "  SELECT coalesce("                                                                       \
+    "    (SELECT t.id FROM tasks t WHERE t.job_id = (SELECT job_id FROM chosen)"               \
+    "       AND t.status = 'queued' AND t.first_frame > (SELECT after_frame FROM chosen)"      \
+    "       AND t.eligible_at <= :now ORDER BY t.first_frame LIMIT 1" LOCK "),"                \
+    "    (SELECT t.id FROM tasks t WHERE t.job_id = (SELECT job_id FROM chosen)"               \
+    "       AND t.status = 'queued' AND t.eligible_at <= :now"                                 \
+    "     ORDER BY t.first_frame LIMIT 1" LOCK "))) "                                          \
+    "RETURNING id, job_id, first_frame, last_frame, frame_step, frame_count, attempt,"         \
+    "  lease_expires, (SELECT j.started_at IS NULL OR j.status <> 'running'"                   \
+    "                  FROM jobs j WHERE j.id = tasks.job_id)"
 
+static pf_status claim_task(pf_queue *queue, const claim_context *ctx, int64_t now,
+                            pf_queue_task *task, bool *job_starts, pf_error *err)
+{
     char token[PF_QUEUE_TOKEN_CHARS + 1];
-    status = new_token(queue, token, err);
+    pf_status status = new_token(queue, token, err);
     if (status != PF_OK)
         return status;
-    status = queue_prepare(
-        queue,
-        "UPDATE tasks SET status = 'running', attempt = attempt + 1, worker_id = :worker,"
-        "  lease_token = :token, lease_expires = :now + :lease, started_at = :now,"
-        "  finished_at = NULL "
-        "WHERE id = ("
-        /* The job first (few rows), then its first eligible task after the
-         * affinity frame, else its first eligible task: both walk the
-         * (job_id, status, first_frame) index instead of sorting every task. */
-        "  WITH chosen (job_id, after_frame) AS ("
-        "    SELECT j.id, CASE WHEN j.id = :job THEN :frame ELSE -1 END FROM jobs j"
-        "    WHERE j.status IN ('queued', 'running')"
-        "      AND NOT EXISTS (SELECT 1 FROM worker_blocks b"
-        "                      WHERE b.job_id = j.id AND b.worker_id = :worker)"
-        "      AND EXISTS (SELECT 1 FROM tasks e WHERE e.job_id = j.id"
-        "                  AND e.status = 'queued' AND e.eligible_at <= :now)"
-        "    ORDER BY j.priority DESC, j.id = :job DESC, j.id LIMIT 1)"
-        "  SELECT coalesce("
-        "    (SELECT t.id FROM chosen c JOIN tasks t ON t.job_id = c.job_id"
-        "     WHERE t.status = 'queued' AND t.first_frame > c.after_frame"
-        "       AND t.eligible_at <= :now ORDER BY t.first_frame LIMIT 1),"
-        "    (SELECT t.id FROM chosen c JOIN tasks t ON t.job_id = c.job_id"
-        "     WHERE t.status = 'queued' AND t.eligible_at <= :now"
-        "     ORDER BY t.first_frame LIMIT 1))) "
-        "RETURNING id, job_id, first_frame, last_frame, frame_step, frame_count, attempt,"
-        "  lease_expires",
-        &stmt, err);
+    queue_stmt *stmt;
+    status = queue_prepare(queue,
+                           queue_sql(queue, CLAIM_SQL(""), CLAIM_SQL(" FOR UPDATE OF t SKIP LOCKED")),
+                           &stmt, err);
     if (status != PF_OK)
         return status;
     queue_bind_int64(stmt, queue_bind_index(stmt, ":worker"), ctx->worker_id);
     queue_bind_text(stmt, queue_bind_index(stmt, ":token"), token);
     queue_bind_int64(stmt, queue_bind_index(stmt, ":now"), now);
-    queue_bind_int64(stmt, queue_bind_index(stmt, ":lease"),
-                       queue->options.lease_ms);
+    queue_bind_int64(stmt, queue_bind_index(stmt, ":lease"), queue->options.lease_ms);
     queue_bind_int64(stmt, queue_bind_index(stmt, ":job"), ctx->preferred_job);
     queue_bind_int64(stmt, queue_bind_index(stmt, ":frame"), ctx->after_frame);
     int rc = queue_step(stmt);
-    pf_queue_task task = {0};
     if (rc == QUEUE_ROW) {
-        task.task_id = queue_column_int64(stmt, 0);
-        task.job_id = queue_column_int64(stmt, 1);
-        task.first_frame = (int)queue_column_int64(stmt, 2);
-        task.last_frame = (int)queue_column_int64(stmt, 3);
-        task.frame_step = (int)queue_column_int64(stmt, 4);
-        task.frame_count = (int)queue_column_int64(stmt, 5);
-        task.attempt = (int)queue_column_int64(stmt, 6);
-        task.lease_expires = queue_column_int64(stmt, 7);
-        memcpy(task.lease_token, token, sizeof token);
+        task->task_id = queue_column_int64(stmt, 0);
+        task->job_id = queue_column_int64(stmt, 1);
+        task->first_frame = (int)queue_column_int64(stmt, 2);
+        task->last_frame = (int)queue_column_int64(stmt, 3);
+        task->frame_step = (int)queue_column_int64(stmt, 4);
+        task->frame_count = (int)queue_column_int64(stmt, 5);
+        task->attempt = (int)queue_column_int64(stmt, 6);
+        task->lease_expires = queue_column_int64(stmt, 7);
+        *job_starts = queue_column_int64(stmt, 8) != 0;
+        memcpy(task->lease_token, token, sizeof token);
         rc = queue_step(stmt);
     }
     if (rc != QUEUE_DONE)
         status = queue_db_error(queue, err, "claiming a task");
     queue_finalize(stmt);
-    if (status != PF_OK || task.task_id == 0)
-        return status;
+    return status;
+}
 
-    status = queue_prepare(queue, "UPDATE workers SET current_task_id = ? WHERE id = ?", &stmt,
-                           err);
+static pf_status claim_body(pf_queue *queue, void *context, pf_error *err)
+{
+    claim_context *ctx = context;
+    int64_t now = pf_queue_now(queue);
+    pf_queue_task task = {0};
+    bool job_starts = false;
+    pf_status status = claim_task(queue, ctx, now, &task, &job_starts, err);
     if (status != PF_OK)
         return status;
-    queue_bind_int64(stmt, 1, task.task_id);
-    queue_bind_int64(stmt, 2, ctx->worker_id);
-    status = queue_step_done(queue, stmt, "recording a worker's task", err);
-    if (status == PF_OK)
-        status = queue_prepare(
-            queue, "UPDATE jobs SET started_at = coalesce(started_at, ?) WHERE id = ?", &stmt,
-            err);
-    if (status == PF_OK) {
-        queue_bind_int64(stmt, 1, now);
-        queue_bind_int64(stmt, 2, task.job_id);
-        status = queue_step_done(queue, stmt, "marking a job started", err);
+
+    /* The worker's heartbeat, and its task when it got one. A worker that is
+     * not registered rolls the claim back. */
+    queue_stmt *stmt;
+    status = queue_prepare(queue,
+                           "UPDATE workers SET heartbeat_at = ?1,"
+                           "  current_task_id = CASE WHEN ?2 > 0 THEN ?2 ELSE current_task_id END "
+                           "WHERE id = ?3",
+                           &stmt, err);
+    if (status != PF_OK)
+        return status;
+    queue_bind_int64(stmt, 1, now);
+    queue_bind_int64(stmt, 2, task.task_id);
+    queue_bind_int64(stmt, 3, ctx->worker_id);
+    status = queue_step_done(queue, stmt, "claiming a task", err);
+    if (status == PF_OK && queue_changes(queue) == 0)
+        status = pf_error_set(err, PF_ERR_INVALID, "%s: no worker %lld (register it first)",
+                              queue->path, (long long)ctx->worker_id);
+    if (status != PF_OK || task.task_id == 0)
+        return status;
+    if (!job_starts) {
+        *ctx->out = task;
+        ctx->claimed = true;
+        return PF_OK;
     }
-    if (status == PF_OK)
-        status = queue_job_refresh(queue, task.job_id, err);
+
+    /* A job with a task just claimed is running: the claim only picks queued or
+     * running jobs, and one of its tasks now runs (queue_job_refresh's rules).
+     * Only the job's first claim writes (and locks) the job's row. */
+    status = queue_prepare(queue,
+                           "UPDATE jobs SET started_at = coalesce(started_at, ?1),"
+                           "  status = 'running', updated_at = ?1 "
+                           "WHERE id = ?2 AND (started_at IS NULL OR status <> 'running')",
+                           &stmt, err);
+    if (status != PF_OK)
+        return status;
+    queue_bind_int64(stmt, 1, now);
+    queue_bind_int64(stmt, 2, task.job_id);
+    status = queue_step_done(queue, stmt, "marking a job started", err);
     if (status == PF_OK) {
         *ctx->out = task;
         ctx->claimed = true;
@@ -201,7 +226,7 @@ pf_status pf_queue_claim(pf_queue *queue, int64_t worker_id, int64_t preferred_j
 {
     claim_context ctx = {worker_id, preferred_job, after_frame, out, false};
     *claimed = false;
-    pf_status status = queue_write(queue, "claiming a task", claim_body, &ctx, err);
+    pf_status status = queue_write_lease(queue, "claiming a task", claim_body, &ctx, err);
     if (status == PF_OK)
         *claimed = ctx.claimed;
     return status;
@@ -218,6 +243,7 @@ typedef struct token_context {
     const pf_queue_stage_row *rows;
     size_t row_count;
     bool repeated;
+    int64_t job_id; /* complete: the task's job */
 } token_context;
 
 static pf_status heartbeat_body(pf_queue *queue, void *context, pf_error *err)
@@ -263,7 +289,7 @@ pf_status pf_queue_heartbeat(pf_queue *queue, const char *token, int64_t *lease_
                              pf_error *err)
 {
     token_context ctx = {.token = token};
-    pf_status status = queue_write(queue, "renewing a lease", heartbeat_body, &ctx, err);
+    pf_status status = queue_write_lease(queue, "renewing a lease", heartbeat_body, &ctx, err);
     if (status == PF_OK && lease_expires)
         *lease_expires = ctx.lease_expires;
     return status;
@@ -297,21 +323,62 @@ static pf_status check_stage_row(pf_queue *queue, const leased_task *task,
 /* Parameters per stage row of the completion's INSERT. */
 #define STAGE_COLUMNS 10
 
+/* Marks the token's running task done: the completion's first statement, so
+ * that on PostgreSQL it holds the task's row from the start. */
+static pf_status finish_lease(pf_queue *queue, const char *token, leased_task *task,
+                              pf_error *err)
+{
+    queue_stmt *stmt;
+    pf_status status = queue_prepare(queue,
+                                     "UPDATE tasks SET status = 'done', lease_expires = NULL, "
+                                     "finished_at = ? WHERE lease_token = ? AND status = 'running' "
+                                     "RETURNING id, job_id, attempt, first_frame, last_frame, "
+                                     "frame_step",
+                                     &stmt, err);
+    if (status != PF_OK)
+        return status;
+    queue_bind_int64(stmt, 1, pf_queue_now(queue));
+    queue_bind_text(stmt, 2, token);
+    int rc = queue_step(stmt);
+    task->found = rc == QUEUE_ROW;
+    if (task->found) {
+        task->task_id = queue_column_int64(stmt, 0);
+        task->job_id = queue_column_int64(stmt, 1);
+        task->attempt = (int)queue_column_int64(stmt, 2);
+        task->first_frame = (int)queue_column_int64(stmt, 3);
+        task->last_frame = (int)queue_column_int64(stmt, 4);
+        task->frame_step = (int)queue_column_int64(stmt, 5);
+        rc = queue_step(stmt);
+    }
+    if (rc != QUEUE_DONE)
+        status = queue_db_error(queue, err, "completing a task");
+    queue_finalize(stmt);
+    return status;
+}
+
 static pf_status complete_body(pf_queue *queue, void *context, pf_error *err)
 {
     token_context *ctx = context;
     leased_task task;
-    pf_status status = find_lease(queue, ctx->token, &task, err);
+    pf_status status = finish_lease(queue, ctx->token, &task, err);
     if (status != PF_OK)
         return status;
-    if (task.found && !strcmp(task.status, "done")) {
-        ctx->repeated = true;
-        return PF_OK;
-    }
-    if (!task.found || strcmp(task.status, "running") != 0)
+    if (!task.found) {
+        /* Done already (a retried completion whose commit went through), or lost. */
+        status = find_lease(queue, ctx->token, &task, err);
+        if (status != PF_OK)
+            return status;
+        ctx->job_id = task.job_id;
+        if (task.found && !strcmp(task.status, "done")) {
+            ctx->repeated = true;
+            return PF_OK;
+        }
         return lease_lost(queue, ctx->token, err);
+    }
+    ctx->job_id = task.job_id;
 
-    /* Every row checked first, then all of them in one statement (one round trip). */
+    /* Every row checked first (a bad one rolls the completion back), then all
+     * of them in one statement (one round trip). */
     for (size_t i = 0; i < ctx->row_count && status == PF_OK; i++) {
         const pf_queue_stage_row *row = &ctx->rows[i];
         status = check_stage_row(queue, &task, row, i, err);
@@ -348,30 +415,32 @@ static pf_status complete_body(pf_queue *queue, void *context, pf_error *err)
     }
     if (status == PF_OK && rows)
         status = queue_step_done(queue, stmt, "inserting the stage rows", err);
-    if (status != PF_OK)
-        return status;
-
-    status = queue_prepare(queue,
-                           "UPDATE tasks SET status = 'done', lease_expires = NULL, "
-                           "finished_at = ? WHERE id = ?",
-                           &stmt, err);
-    if (status != PF_OK)
-        return status;
-    queue_bind_int64(stmt, 1, pf_queue_now(queue));
-    queue_bind_int64(stmt, 2, task.task_id);
-    status = queue_step_done(queue, stmt, "completing a task", err);
     if (status == PF_OK)
         status = queue_clear_worker_task(queue, task.task_id, err);
-    if (status == PF_OK)
-        status = queue_job_refresh(queue, task.job_id, err);
     return status;
+}
+
+/* The completed task's job: its status derived from its tasks. */
+static pf_status complete_settle(pf_queue *queue, void *context, pf_error *err)
+{
+    const token_context *ctx = context;
+    return queue_job_refresh(queue, ctx->job_id, err);
 }
 
 pf_status pf_queue_complete(pf_queue *queue, const char *token, const pf_queue_stage_row *rows,
                             size_t row_count, bool *repeated, pf_error *err)
 {
     token_context ctx = {.token = token, .rows = rows, .row_count = row_count};
-    pf_status status = queue_write(queue, "completing a task", complete_body, &ctx, err);
+    /*
+     * Completions running side by side (PostgreSQL) would each derive the
+     * job's status without seeing the others' uncommitted tasks: the last two
+     * of a job would each leave it running. So the status is derived as the
+     * completion settles, after its commit there; the one that commits last
+     * then sees every task finished. A retried completion (repeated) settles
+     * too, in case the first lost its connection between the two.
+     */
+    pf_status status = queue_write_lease_settled(queue, "completing a task", complete_body,
+                                                 complete_settle, &ctx, err);
     if (repeated)
         *repeated = status == PF_OK && ctx.repeated;
     return status;

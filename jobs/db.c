@@ -215,8 +215,10 @@ static void pause_ms(int ms)
     nanosleep(&pause, NULL);
 }
 
+/* SQLite: body, then settle, in one transaction (SQLite has one writer at a time). */
 static pf_status run_transaction(pf_queue *queue, const char *begin_sql, const char *what,
-                                 queue_tx_body body, void *context, pf_error *err)
+                                 queue_tx_body body, queue_tx_body settle, void *context,
+                                 pf_error *err)
 {
     int rc = SQLITE_BUSY;
     for (int attempt = 0; attempt <= QUEUE_BEGIN_RETRIES; attempt++) {
@@ -235,6 +237,8 @@ static pf_status run_transaction(pf_queue *queue, const char *begin_sql, const c
         return queue_db_error(queue, err, what);
 
     pf_status status = body(queue, context, err);
+    if (status == PF_OK && settle)
+        status = settle(queue, context, err);
     if (status == PF_OK) {
         rc = sqlite3_exec(queue->db, "COMMIT", NULL, NULL, NULL);
         for (int attempt = 0; rc == SQLITE_BUSY && attempt < QUEUE_BEGIN_RETRIES; attempt++) {
@@ -254,16 +258,30 @@ pf_status queue_write(pf_queue *queue, const char *what, queue_tx_body body, voi
                       pf_error *err)
 {
     if (queue->pg)
-        return queue_pg_transaction(queue, 1, what, body, context, err);
-    return run_transaction(queue, "BEGIN IMMEDIATE", what, body, context, err);
+        return queue_pg_transaction(queue, QUEUE_PG_WRITE, what, body, NULL, context, err);
+    return run_transaction(queue, "BEGIN IMMEDIATE", what, body, NULL, context, err);
+}
+
+pf_status queue_write_lease(pf_queue *queue, const char *what, queue_tx_body body,
+                            void *context, pf_error *err)
+{
+    return queue_write_lease_settled(queue, what, body, NULL, context, err);
+}
+
+pf_status queue_write_lease_settled(pf_queue *queue, const char *what, queue_tx_body body,
+                                    queue_tx_body settle, void *context, pf_error *err)
+{
+    if (queue->pg)
+        return queue_pg_transaction(queue, QUEUE_PG_LEASE, what, body, settle, context, err);
+    return run_transaction(queue, "BEGIN IMMEDIATE", what, body, settle, context, err);
 }
 
 pf_status queue_read(pf_queue *queue, const char *what, queue_tx_body body, void *context,
                      pf_error *err)
 {
     if (queue->pg)
-        return queue_pg_transaction(queue, 0, what, body, context, err);
-    return run_transaction(queue, "BEGIN", what, body, context, err);
+        return queue_pg_transaction(queue, QUEUE_PG_READ, what, body, NULL, context, err);
+    return run_transaction(queue, "BEGIN", what, body, NULL, context, err);
 }
 
 void queue_copy_text(char *buffer, size_t size, const char *text)

@@ -10,8 +10,11 @@
  *
  * Transactions: a write transaction takes a transaction-level advisory lock
  * first, so writers are serialised exactly as SQLite's BEGIN IMMEDIATE
- * serialises them and the queue's logic (claim, complete, reap) keeps the
- * one-writer semantics it was written for; readers run at REPEATABLE READ
+ * serialises them and the queue's logic (reap, enqueue, job control) keeps
+ * the one-writer semantics it was written for. The lease traffic (claim,
+ * heartbeat, completion) takes the same lock shared: those run side by side,
+ * each holding the rows it changes, and are written for it (claim.c);
+ * readers run at REPEATABLE READ
  * (one snapshot) and never wait. A connection found dead when a transaction
  * begins is re-established with backoff (a restarted server), and the
  * transaction runs then; one that dies inside a transaction fails it (rolled
@@ -280,17 +283,107 @@ static const char *prepared_name(pf_queue *queue, const queue_pg_stmt *stmt, PGr
     return cache->entries[slot].name;
 }
 
+static int send_statement(pf_queue *queue, const queue_pg_stmt *stmt, const char *name)
+{
+    if (name)
+        return PQsendQueryPrepared(queue->pg, name, stmt->param_count,
+                                   (const char *const *)stmt->values, NULL, NULL, 0);
+    return PQsendQueryParams(queue->pg, stmt->sql, stmt->param_count, stmt->types,
+                             (const char *const *)stmt->values, NULL, NULL, 0);
+}
+
+/* The first result of the pipeline's next query (the rest, and its NULL, dropped). */
+static PGresult *next_query_result(PGconn *pg)
+{
+    PGresult *first = PQgetResult(pg);
+    for (PGresult *more = first ? PQgetResult(pg) : NULL; more; more = PQgetResult(pg))
+        PQclear(more);
+    return first;
+}
+
+static int relock(pf_queue *queue);
+static pf_status flush_pending(pf_queue *queue, pf_error *err);
+
+/* A dead connection where BEGIN was pending: the transaction may run again (queue_pg_transaction). */
+static void note_lost_at_begin(pf_queue *queue)
+{
+    if (queue->pg_pending_kind >= 0 && PQstatus(queue->pg) != CONNECTION_OK)
+        queue->pg_lost_at_begin = 1;
+}
+static PGresult *execute(pf_queue *queue, const queue_pg_stmt *stmt);
+
+/*
+ * The pending transaction control and the statement in one round trip
+ * (libpq's pipeline mode): the statement's result, or the first failure.
+ * A lock not granted in lock_timeout is waited for again (relock), then the
+ * statement runs on its own.
+ */
+static PGresult *execute_after_pending(pf_queue *queue, const queue_pg_stmt *stmt,
+                                       const char *name)
+{
+    PGconn *pg = queue->pg;
+    int pieces = queue->pg_pending_count;
+    queue->pg_pending_count = 0;
+    int sent = PQenterPipelineMode(pg);
+    for (int i = 0; sent && i < pieces; i++)
+        sent = PQsendQueryParams(pg, queue->pg_pending[i], 0, NULL, NULL, NULL, NULL, 0);
+    sent = sent && send_statement(queue, stmt, name) && PQpipelineSync(pg);
+    if (!sent) {
+        queue_pg_note_error(queue, NULL);
+        PQexitPipelineMode(pg);
+        note_lost_at_begin(queue);
+        return NULL;
+    }
+    PGresult *failure = NULL, *result = NULL;
+    int failed_piece = -1;
+    for (int i = 0; i <= pieces; i++) {
+        PGresult *got = next_query_result(pg);
+        ExecStatusType state = PQresultStatus(got);
+        if (i == pieces && !failure) {
+            result = got;
+        } else if (!failure && state != PGRES_COMMAND_OK && state != PGRES_TUPLES_OK) {
+            failure = got;
+            failed_piece = i;
+        } else {
+            PQclear(got);
+        }
+    }
+    PGresult *sync = PQgetResult(pg);
+    PQclear(sync);
+    PQexitPipelineMode(pg);
+    if (!failure)
+        return result;
+    note_lost_at_begin(queue);
+    PQclear(result);
+    /* The write lock (BEGIN, SAVEPOINT, lock) timed out: wait again, then run alone. */
+    const char *code = PQresultErrorField(failure, PG_DIAG_SQLSTATE);
+    bool lock_timeout = failed_piece == 2 && code && !strcmp(code, "55P03");
+    if (!lock_timeout)
+        return failure;
+    PQclear(failure);
+    if (!relock(queue))
+        return NULL; /* relock said why */
+    return execute(queue, stmt);
+}
+
 static PGresult *execute(pf_queue *queue, const queue_pg_stmt *stmt)
 {
     PGresult *failed;
     const char *name = prepared_name(queue, stmt, &failed);
-    if (failed)
+    if (failed) {
+        if (queue->pg_pending_count)
+            note_lost_at_begin(queue);
         return failed;
-    if (name)
-        return PQexecPrepared(queue->pg, name, stmt->param_count,
-                              (const char *const *)stmt->values, NULL, NULL, 0);
-    return PQexecParams(queue->pg, stmt->sql, stmt->param_count, stmt->types,
-                        (const char *const *)stmt->values, NULL, NULL, 0);
+    }
+    if (queue->pg_pending_count)
+        return execute_after_pending(queue, stmt, name);
+    PGresult *result = name ? PQexecPrepared(queue->pg, name, stmt->param_count,
+                                             (const char *const *)stmt->values, NULL, NULL, 0)
+                            : PQexecParams(queue->pg, stmt->sql, stmt->param_count, stmt->types,
+                                           (const char *const *)stmt->values, NULL, NULL, 0);
+    if (!result)
+        queue_pg_note_error(queue, NULL);
+    return result;
 }
 
 int queue_pg_step(pf_queue *queue, queue_pg_stmt *stmt)
@@ -305,7 +398,8 @@ int queue_pg_step(pf_queue *queue, queue_pg_stmt *stmt)
             stmt->rows = state == PGRES_TUPLES_OK ? PQntuples(stmt->result) : 0;
             stmt->row = -1;
         } else {
-            queue_pg_note_error(queue, stmt->result);
+            if (stmt->result) /* no result: execute noted why */
+                queue_pg_note_error(queue, stmt->result);
             const char *code = PQresultErrorField(stmt->result, PG_DIAG_SQLSTATE);
             /* Integrity violations (class 23) and malformed JSON for a json column. */
             return code && (!strncmp(code, "23", 2) || !strcmp(code, "22P02"))
@@ -389,6 +483,11 @@ void queue_pg_note_error(pf_queue *queue, const PGresult *result)
 
 pf_status queue_pg_exec(pf_queue *queue, const char *sql, pf_error *err)
 {
+    if (queue->pg_pending_count) {
+        pf_status status = flush_pending(queue, err);
+        if (status != PF_OK)
+            return status;
+    }
     PGresult *result = PQexec(queue->pg, sql);
     ExecStatusType state = PQresultStatus(result);
     pf_status status = PF_OK;
@@ -441,52 +540,134 @@ static pf_status ensure_connected(pf_queue *queue, const char *what, pf_error *e
 }
 
 
-pf_status queue_pg_transaction(pf_queue *queue, int write, const char *what,
-                               queue_tx_body body, void *context, pf_error *err)
+/*
+ * BEGIN and, for a writer, its lock, as separate statements: they travel
+ * with the transaction's first statement (execute_after_pending). The lock
+ * is taken after a savepoint so that a lock_timeout can be rolled back and
+ * the lock waited for again.
+ */
+static int begin_pieces(queue_pg_tx kind, const char *pieces[3])
 {
-    pf_status status = ensure_connected(queue, what, err);
-    if (status != PF_OK)
-        return status;
-    /* One round trip: the transaction and, for a writer, the write lock. */
-    const char *begin = write ? "BEGIN ISOLATION LEVEL READ COMMITTED; SAVEPOINT locking; "
-                                "SELECT pg_advisory_xact_lock(" PG_WRITE_LOCK_TEXT ")"
-                              : "BEGIN ISOLATION LEVEL REPEATABLE READ READ ONLY";
-    status = queue_pg_exec(queue, begin, err);
-    if (status != PF_OK && PQstatus(queue->pg) != CONNECTION_OK) {
-        /* The server went away between transactions: once more on a new connection. */
-        status = ensure_connected(queue, what, err);
-        if (status == PF_OK)
-            status = queue_pg_exec(queue, begin, err);
+    switch (kind) {
+    case QUEUE_PG_WRITE:
+    case QUEUE_PG_LEASE:
+        pieces[0] = "BEGIN ISOLATION LEVEL READ COMMITTED";
+        pieces[1] = "SAVEPOINT locking";
+        pieces[2] = kind == QUEUE_PG_LEASE
+                        ? "SELECT pg_advisory_xact_lock_shared(" PG_WRITE_LOCK_TEXT ")"
+                        : "SELECT pg_advisory_xact_lock(" PG_WRITE_LOCK_TEXT ")";
+        return 3;
+    case QUEUE_PG_READ:
+        pieces[0] = "BEGIN ISOLATION LEVEL REPEATABLE READ READ ONLY";
+        return 1;
     }
-    /* A writer waits lock_timeout (busy_timeout) per try, like SQLite's BEGIN IMMEDIATE. */
-    for (int attempt = 0; write && status != PF_OK && attempt < PG_LOCK_RETRIES &&
-                          PQstatus(queue->pg) == CONNECTION_OK &&
-                          PQtransactionStatus(queue->pg) == PQTRANS_INERROR;
-         attempt++) {
+    return 0;
+}
+
+/* A writer waits lock_timeout (busy_timeout) per try, like SQLite's BEGIN IMMEDIATE. */
+static int relock(pf_queue *queue)
+{
+    const char *again = queue->pg_pending_kind == QUEUE_PG_LEASE
+                            ? "ROLLBACK TO SAVEPOINT locking; "
+                              "SELECT pg_advisory_xact_lock_shared(" PG_WRITE_LOCK_TEXT ")"
+                            : "ROLLBACK TO SAVEPOINT locking; "
+                              "SELECT pg_advisory_xact_lock(" PG_WRITE_LOCK_TEXT ")";
+    for (int attempt = 0; attempt < PG_LOCK_RETRIES; attempt++) {
+        if (PQstatus(queue->pg) != CONNECTION_OK ||
+            PQtransactionStatus(queue->pg) != PQTRANS_INERROR)
+            break;
         pause_ms(PG_LOCK_PAUSE_MS);
-        status = queue_pg_exec(queue,
-                               "ROLLBACK TO SAVEPOINT locking; "
-                               "SELECT pg_advisory_xact_lock(" PG_WRITE_LOCK_TEXT ")",
-                               err);
+        PGresult *result = PQexec(queue->pg, again);
+        bool locked = PQresultStatus(result) == PGRES_TUPLES_OK;
+        if (!locked)
+            queue_pg_note_error(queue, result);
+        PQclear(result);
+        if (locked)
+            return 1;
     }
-    if (write && status != PF_OK && PQstatus(queue->pg) == CONNECTION_OK &&
-        PQtransactionStatus(queue->pg) == PQTRANS_INERROR)
-        pf_error_set(err, PF_ERR_IO,
-                     "%s: %s: database still locked by another connection after %d waits of "
-                     "%d ms",
-                     queue->path, what, PG_LOCK_RETRIES + 1, queue->options.busy_timeout_ms);
-    if (status == PF_OK)
+    if (PQstatus(queue->pg) == CONNECTION_OK)
+        snprintf(queue->pg_error, sizeof queue->pg_error,
+                 "database still locked by another connection after %d waits of %d ms",
+                 PG_LOCK_RETRIES + 1, queue->options.busy_timeout_ms);
+    return 0;
+}
+
+/* Sends pending transaction control on its own (before a statement that cannot carry it). */
+static pf_status flush_pending(pf_queue *queue, pf_error *err)
+{
+    int pieces = queue->pg_pending_count;
+    queue->pg_pending_count = 0;
+    for (int i = 0; i < pieces; i++) {
+        PGresult *result = PQexec(queue->pg, queue->pg_pending[i]);
+        ExecStatusType state = PQresultStatus(result);
+        bool ok = state == PGRES_COMMAND_OK || state == PGRES_TUPLES_OK;
+        const char *code = ok ? NULL : PQresultErrorField(result, PG_DIAG_SQLSTATE);
+        bool lock_timeout = i == 2 && code && !strcmp(code, "55P03");
+        if (!ok)
+            queue_pg_note_error(queue, result);
+        PQclear(result);
+        if (!ok)
+            note_lost_at_begin(queue);
+        if (!ok && !(lock_timeout && relock(queue)))
+            return queue_db_error(queue, err, queue->pg_pending[i]);
+    }
+    return PF_OK;
+}
+
+/*
+ * Writers share one advisory lock: queue_write's take it exclusively (one
+ * writer, as on SQLite), the lease traffic's take it shared, so claims and
+ * completions run side by side while the reaper, enqueue and job control
+ * wait for them, and they for those.
+ *
+ * Round trips: BEGIN (and the lock) goes with the body's first statement,
+ * COMMIT with settle's first. A connection found dead when the transaction
+ * begins is re-established (a restarted server), and the transaction runs
+ * again on the new one, once: nothing of the first reached the server.
+ */
+pf_status queue_pg_transaction(pf_queue *queue, queue_pg_tx kind, const char *what,
+                               queue_tx_body body, queue_tx_body settle, void *context,
+                               pf_error *err)
+{
+    pf_status status = PF_OK;
+    for (int attempt = 0; attempt < 2; attempt++) {
+        status = ensure_connected(queue, what, err);
+        if (status != PF_OK)
+            return status;
+        queue->pg_pending_kind = kind;
+        queue->pg_pending_count = begin_pieces(kind, queue->pg_pending);
+        queue->pg_lost_at_begin = 0;
         status = body(queue, context, err);
-    if (status == PF_OK) {
+        bool began = queue->pg_pending_count == 0;
+        queue->pg_pending_count = 0;
+        /* Found dead with BEGIN, nothing of the transaction reached the server:
+         * once more on a new connection. Lost later, it failed (and the server
+         * rolled it back). */
+        if (status != PF_OK && queue->pg_lost_at_begin && attempt == 0)
+            continue;
+        if (!began)
+            return status; /* no statement ran: nothing to end */
+        break;
+    }
+    if (status != PF_OK) {
+        if (PQstatus(queue->pg) == CONNECTION_OK) {
+            PGresult *result = PQexec(queue->pg, "ROLLBACK");
+            PQclear(result);
+        }
+        return status;
+    }
+    if (!settle) {
         status = queue_pg_exec(queue, "COMMIT", err);
         if (status != PF_OK)
             pf_error_prefix(err, "%s", what);
         return status;
     }
-    if (PQstatus(queue->pg) == CONNECTION_OK) {
-        PGresult *result = PQexec(queue->pg, "ROLLBACK");
-        PQclear(result);
-    }
+    queue->pg_pending[0] = "COMMIT";
+    queue->pg_pending_count = 1;
+    queue->pg_pending_kind = -1;
+    status = settle(queue, context, err);
+    if (queue->pg_pending_count) /* settle ran no statement */
+        status = flush_pending(queue, err);
     return status;
 }
 

@@ -42,61 +42,67 @@ pf_status queue_job_require(pf_queue *queue, int64_t job_id, char *status_text,
     return status;
 }
 
+/* A refresh that loses its compare-and-set to a concurrent one reads again; on
+ * SQLite (one writer) it never loses. */
+#define QUEUE_REFRESH_TRIES 8
+
 pf_status queue_job_refresh(pf_queue *queue, int64_t job_id, pf_error *err)
 {
     /* EXISTS probes on (job_id, status) instead of counting every task: this
-     * runs inside each claim and completion, and a job may have 100,000 tasks. */
-    queue_stmt *stmt;
-    pf_status status = queue_prepare(
-        queue,
-        "SELECT j.status, j.started_at IS NOT NULL,"
-        "  EXISTS (SELECT 1 FROM tasks t WHERE t.job_id = j.id),"
-        "  EXISTS (SELECT 1 FROM tasks t WHERE t.job_id = j.id"
-        "          AND t.status IN ('queued', 'running', 'failed', 'canceled')),"
-        "  EXISTS (SELECT 1 FROM tasks t WHERE t.job_id = j.id"
-        "          AND t.status IN ('queued', 'running')),"
-        "  EXISTS (SELECT 1 FROM tasks t WHERE t.job_id = j.id AND t.status = 'failed') "
-        "FROM jobs j WHERE j.id = ?",
-        &stmt, err);
-    if (status != PF_OK)
-        return status;
-    queue_bind_int64(stmt, 1, job_id);
-    if (queue_step(stmt) != QUEUE_ROW) {
-        status = queue_db_error(queue, err, "deriving a job's status");
+     * runs inside each claim and completion, and a job may have 100,000 tasks.
+     * The order of the cases is the precedence of the states. */
+    static const char derive_sql[] =
+        "SELECT j.status, CASE"
+        "  WHEN j.status = 'canceled' THEN 'canceled'"
+        "  WHEN EXISTS (SELECT 1 FROM tasks t WHERE t.job_id = j.id)"
+        "   AND NOT EXISTS (SELECT 1 FROM tasks t WHERE t.job_id = j.id"
+        "                   AND t.status IN ('queued', 'running', 'failed', 'canceled'))"
+        "   THEN 'done'"
+        "  WHEN j.status = 'paused' THEN 'paused'"
+        "  WHEN EXISTS (SELECT 1 FROM tasks t WHERE t.job_id = j.id AND t.status = 'failed')"
+        "   AND NOT EXISTS (SELECT 1 FROM tasks t WHERE t.job_id = j.id"
+        "                   AND t.status IN ('queued', 'running'))"
+        "   THEN 'failed'"
+        "  WHEN j.started_at IS NOT NULL THEN 'running'"
+        "  ELSE 'queued' END "
+        "FROM jobs j WHERE j.id = ?";
+    for (int attempt = 0; attempt < QUEUE_REFRESH_TRIES; attempt++) {
+        queue_stmt *stmt;
+        pf_status status = queue_prepare(queue, derive_sql, &stmt, err);
+        if (status != PF_OK)
+            return status;
+        queue_bind_int64(stmt, 1, job_id);
+        if (queue_step(stmt) != QUEUE_ROW) {
+            status = queue_db_error(queue, err, "deriving a job's status");
+            queue_finalize(stmt);
+            return status;
+        }
+        char current[16], next[16];
+        queue_copy_text(current, sizeof current, queue_column_text(stmt, 0));
+        queue_copy_text(next, sizeof next, queue_column_text(stmt, 1));
         queue_finalize(stmt);
-        return status;
+        if (!strcmp(current, next))
+            return PF_OK;
+
+        /* Only from the status read: on PostgreSQL a concurrent completion may
+         * have changed it since, and then its view is the newer one to derive from. */
+        status = queue_prepare(queue,
+                               "UPDATE jobs SET status = ?, updated_at = ? "
+                               "WHERE id = ? AND status = ?",
+                               &stmt, err);
+        if (status != PF_OK)
+            return status;
+        queue_bind_text(stmt, 1, next);
+        queue_bind_int64(stmt, 2, pf_queue_now(queue));
+        queue_bind_int64(stmt, 3, job_id);
+        queue_bind_text(stmt, 4, current);
+        status = queue_step_done(queue, stmt, "updating a job's status", err);
+        if (status != PF_OK || queue_changes(queue) > 0)
+            return status;
     }
-    char current[16];
-    queue_copy_text(current, sizeof current, queue_column_text(stmt, 0));
-    bool started = (int)queue_column_int64(stmt, 1), has_tasks = (int)queue_column_int64(stmt, 2),
-         has_unfinished = (int)queue_column_int64(stmt, 3), has_runnable = (int)queue_column_int64(stmt, 4),
-         has_failed = (int)queue_column_int64(stmt, 5);
-    queue_finalize(stmt);
-
-    const char *next;
-    if (!strcmp(current, "canceled"))
-        next = "canceled";
-    else if (has_tasks && !has_unfinished)
-        next = "done";
-    else if (!strcmp(current, "paused"))
-        next = "paused";
-    else if (has_failed && !has_runnable)
-        next = "failed";
-    else if (started)
-        next = "running";
-    else
-        next = "queued";
-    if (!strcmp(current, next))
-        return PF_OK;
-
-    status = queue_prepare(queue, "UPDATE jobs SET status = ?, updated_at = ? WHERE id = ?",
-                           &stmt, err);
-    if (status != PF_OK)
-        return status;
-    queue_bind_text(stmt, 1, next);
-    queue_bind_int64(stmt, 2, pf_queue_now(queue));
-    queue_bind_int64(stmt, 3, job_id);
-    return queue_step_done(queue, stmt, "updating a job's status", err);
+    return pf_error_set(err, PF_ERR_IO,
+                        "%s: job %lld's status kept changing under %d tries to derive it",
+                        queue->path, (long long)job_id, QUEUE_REFRESH_TRIES);
 }
 
 /* Blocks worker_id for job_id once it has failed block_after_failures

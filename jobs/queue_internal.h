@@ -19,6 +19,12 @@ struct pf_queue {
     char pg_error[512];      /* PostgreSQL: the last error's message */
     char pg_secret[128];     /* PostgreSQL: the URL's password, scrubbed from every message */
     struct queue_pg_prepared *pg_prepared; /* PostgreSQL: statements prepared on the connection */
+    /* PostgreSQL: transaction control not sent yet (BEGIN and its lock, or
+     * COMMIT), sent with the next statement in one round trip. */
+    const char *pg_pending[3];
+    int pg_pending_count;
+    int pg_pending_kind;     /* the queue_pg_tx that BEGIN opens, -1 for COMMIT */
+    int pg_lost_at_begin;    /* the connection was found dead sending BEGIN */
     pf_queue_options options;
     pf_queue_clock clock;
     void *clock_user;
@@ -74,9 +80,29 @@ pf_status queue_step_done(pf_queue *queue, queue_stmt *stmt, const char *what, p
 /* The body of a write transaction; returning non-PF_OK rolls everything back. */
 typedef pf_status (*queue_tx_body)(pf_queue *queue, void *context, pf_error *err);
 /* Runs body inside BEGIN IMMEDIATE ... COMMIT, retrying BEGIN when the
- * database stays locked past busy_timeout. what names the operation in errors. */
+ * database stays locked past busy_timeout. what names the operation in errors.
+ * On PostgreSQL it is the only writer while it runs, as on SQLite. */
 pf_status queue_write(pf_queue *queue, const char *what, queue_tx_body body, void *context,
                       pf_error *err);
+/*
+ * A write transaction of the lease traffic (claim, heartbeat, completion):
+ * on SQLite the same as queue_write. On PostgreSQL these run concurrently
+ * with each other, each holding the rows it changes (a claim picks its task
+ * with FOR UPDATE SKIP LOCKED), and wait for queue_write's writers, which
+ * wait for them. Such a body must not rely on being the only writer.
+ */
+pf_status queue_write_lease(pf_queue *queue, const char *what, queue_tx_body body,
+                            void *context, pf_error *err);
+/*
+ * queue_write_lease, then settle: what must see every lease writer's work
+ * (deriving a job's status from its tasks). Where lease writers are
+ * serialised (SQLite) settle ends the transaction; where they run side by
+ * side (PostgreSQL) it runs after the commit, each statement its own
+ * transaction (so settle must check its own reads), its first in the
+ * commit's round trip. settle runs only when body succeeded.
+ */
+pf_status queue_write_lease_settled(pf_queue *queue, const char *what, queue_tx_body body,
+                                    queue_tx_body settle, void *context, pf_error *err);
 /* Runs body inside a read transaction (one consistent snapshot). */
 pf_status queue_read(pf_queue *queue, const char *what, queue_tx_body body, void *context,
                      pf_error *err);
@@ -144,8 +170,16 @@ void queue_pg_finalize(queue_pg_stmt *stmt);
 /* Keeps the message of result (or of the connection) for queue_db_error. */
 void queue_pg_note_error(pf_queue *queue, const PGresult *result);
 pf_status queue_pg_exec(pf_queue *queue, const char *sql, pf_error *err);
-/* A transaction on PostgreSQL (db_postgres.c says how writers are serialised). */
-pf_status queue_pg_transaction(pf_queue *queue, int write, const char *what,
-                               queue_tx_body body, void *context, pf_error *err);
+/* The kinds of transaction on PostgreSQL (db_postgres.c says how writers are serialised). */
+typedef enum queue_pg_tx {
+    QUEUE_PG_READ,       /* queue_read */
+    QUEUE_PG_WRITE,      /* queue_write: the only writer */
+    QUEUE_PG_LEASE       /* queue_write_lease: beside other lease writers */
+} queue_pg_tx;
+/* Runs body in a transaction of kind, then (when body succeeded and settle
+ * is given) settle after the commit, each statement its own transaction. */
+pf_status queue_pg_transaction(pf_queue *queue, queue_pg_tx kind, const char *what,
+                               queue_tx_body body, queue_tx_body settle, void *context,
+                               pf_error *err);
 
 #endif

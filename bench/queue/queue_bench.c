@@ -4,11 +4,12 @@
  * nothing (each completion writes the 3 stage rows of a frame, as a worker
  * does), and the time to enqueue one 100,000-frame job.
  *
- *   queue_bench [DIR|URL] [TASKS] DIR: scratch directory for SQLite files
- *                                 (default /tmp); a postgresql:// URL runs the
- *                                 same on PostgreSQL (its database is emptied
- *                                 before each run); TASKS: tasks per
- *                                 throughput run (default 4000)
+ *   queue_bench [DIR|URL] [TASKS [PROCESSES...]]
+ *     DIR: scratch directory for SQLite files (default /tmp); a postgresql://
+ *     URL runs the same on PostgreSQL (its database is emptied before each
+ *     run); TASKS: tasks per throughput run (default 4000); PROCESSES: the
+ *     worker process counts to run (default 1 4 16; naming any skips the
+ *     100,000-frame enqueue, for profiling one count)
  *
  * Prints figures; never pass/fail.
  */
@@ -167,17 +168,28 @@ int main(int argc, char **argv)
 {
     const char *dir = argc > 1 ? argv[1] : "/tmp";
     int tasks = argc > 2 ? atoi(argv[2]) : DEFAULT_TASKS;
-    if (tasks < 1) {
-        fprintf(stderr, "usage: queue_bench [DIR] [TASKS]\n");
+    int process_counts[16] = {1, 4, 16};
+    size_t runs = 3;
+    if (argc > 3) {
+        runs = 0;
+        for (int i = 3; i < argc && runs < sizeof process_counts / sizeof process_counts[0]; i++)
+            process_counts[runs++] = atoi(argv[i]);
+    }
+    bool counts_ok = true;
+    for (size_t i = 0; i < runs; i++)
+        counts_ok = counts_ok && process_counts[i] >= 1 && process_counts[i] <= 256;
+    if (tasks < 1 || !counts_ok) {
+        fprintf(stderr, "usage: queue_bench [DIR|URL] [TASKS [PROCESSES...]] "
+                        "(TASKS >= 1, PROCESSES 1-256)\n");
         return 2;
     }
     long cores = sysconf(_SC_NPROCESSORS_ONLN);
     printf("queue_bench: %d tasks per run, %d stage rows per completion, %ld cores, db in %s\n",
            tasks, STAGES_PER_FRAME, cores, dir);
-    const int process_counts[] = {1, 4, 16};
-    for (size_t i = 0; i < sizeof process_counts / sizeof process_counts[0]; i++)
+    for (size_t i = 0; i < runs; i++)
         printf("claim+complete, %2d process(es): %8.0f tasks/s\n", process_counts[i],
                throughput(dir, process_counts[i], tasks));
-    printf("enqueue a %d-frame job: %.0f ms\n", BIG_JOB_FRAMES, enqueue_big(dir));
+    if (argc <= 3)
+        printf("enqueue a %d-frame job: %.0f ms\n", BIG_JOB_FRAMES, enqueue_big(dir));
     return 0;
 }
