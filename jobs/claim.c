@@ -99,22 +99,27 @@ typedef struct claim_context {
  * job is picked once (the CTE) and reaches the task picks as scalars, so each
  * is a walk of the (job_id, status, first_frame) index that stops at its first
  * row; joining the CTE instead made PostgreSQL fetch and sort every queued
- * task of the job on each claim. LOCK is empty on SQLite (one writer at a
- * time); on PostgreSQL claims run side by side, and each takes the first task
- * no other claim holds.
+ * task of the job on each claim. For the same reason the job's test for an
+ * eligible task is an ordered LIMIT 1, not an EXISTS: PostgreSQL planned the
+ * EXISTS as a scan of every 'queued' entry of the status index, dead ones of
+ * claimed tasks included until a vacuum. An unregistered worker claims
+ * nothing (and is told so by its caller). LOCK is empty on SQLite (one writer
+ * at a time); on PostgreSQL claims run side by side, and each takes the first
+ * task no other claim holds.
  */
-#define CLAIM_SQL(LOCK)                                                                         \
+#define CLAIM_UPDATE(LOCK)                                                                      \
     "UPDATE tasks SET status = 'running', attempt = attempt + 1, worker_id = :worker,"         \
     "  lease_token = :token, lease_expires = :now + :lease, started_at = :now,"                \
     "  finished_at = NULL "                                                                    \
-    "WHERE id = ("                                                                             \
+    "WHERE EXISTS (SELECT 1 FROM workers w WHERE w.id = :worker) AND id = ("                   \
     "  WITH chosen (job_id, after_frame) AS ("                                                 \
     "    SELECT j.id, CASE WHEN j.id = :job THEN :frame ELSE -1 END FROM jobs j"               \
     "    WHERE j.status IN ('queued', 'running')"                                              \
     "      AND NOT EXISTS (SELECT 1 FROM worker_blocks b"                                      \
     "                      WHERE b.job_id = j.id AND b.worker_id = :worker)"                   \
-    "      AND EXISTS (SELECT 1 FROM tasks e WHERE e.job_id = j.id"                            \
-    "                  AND e.status = 'queued' AND e.eligible_at <= :now)"                     \
+    "      AND (SELECT e.first_frame FROM tasks e WHERE e.job_id = j.id"                       \
+    "           AND e.status = 'queued' AND e.eligible_at <= :now"                             \
+    "           ORDER BY e.first_frame LIMIT 1) IS NOT NULL"                                   \
     "    ORDER BY j.priority DESC, j.id = :job DESC, j.id LIMIT 1)"                            \
     "  SELECT coalesce("                                                                       \
     "    (SELECT t.id FROM tasks t WHERE t.job_id = (SELECT job_id FROM chosen)"               \
@@ -124,20 +129,46 @@ typedef struct claim_context {
     "       AND t.status = 'queued' AND t.eligible_at <= :now"                                 \
     "     ORDER BY t.first_frame LIMIT 1" LOCK "))) "                                          \
     "RETURNING id, job_id, first_frame, last_frame, frame_step, frame_count, attempt,"         \
-    "  lease_expires, (SELECT j.started_at IS NULL OR j.status <> 'running'"                   \
-    "                  FROM jobs j WHERE j.id = tasks.job_id)"
+    "  lease_expires"
 
+/*
+ * SQLite: the claim returns whether the job starts with it; the worker's
+ * heartbeat and the job's start follow in the same (exclusive) transaction.
+ */
+#define CLAIM_SQLITE                                                                            \
+    CLAIM_UPDATE("") ", (SELECT j.started_at IS NULL OR j.status <> 'running'"                 \
+                     "   FROM jobs j WHERE j.id = tasks.job_id)"
+
+/*
+ * PostgreSQL: the claim, the worker's heartbeat and the job's start in one
+ * statement (data-modifying CTEs, which SQLite lacks), sent with BEGIN and
+ * COMMIT in one round trip: a claim holds its task's row lock only while the
+ * server runs it, never while its client waits for the CPU. One row always;
+ * its last column counts the worker rows updated (0: no such worker).
+ */
+#define CLAIM_POSTGRES                                                                          \
+    "WITH claimed AS (" CLAIM_UPDATE(" FOR UPDATE OF t SKIP LOCKED") "),"                      \
+    "  beat AS (UPDATE workers SET heartbeat_at = :now,"                                       \
+    "    current_task_id = coalesce((SELECT id FROM claimed), current_task_id)"                \
+    "    WHERE id = :worker RETURNING id),"                                                    \
+    "  started AS (UPDATE jobs SET started_at = coalesce(started_at, :now),"                   \
+    "    status = 'running', updated_at = :now WHERE id = (SELECT job_id FROM claimed)"        \
+    "    AND (started_at IS NULL OR status <> 'running') RETURNING id) "                       \
+    "SELECT c.id, c.job_id, c.first_frame, c.last_frame, c.frame_step, c.frame_count,"         \
+    "  c.attempt, c.lease_expires, (SELECT count(*) FROM beat) "                               \
+    "FROM (SELECT 1) AS one LEFT JOIN claimed c ON true"
+
+/* The claim statement: the task (task_id 0 when none was free), and column 8
+ * as the engine's variant says. */
 static pf_status claim_task(pf_queue *queue, const claim_context *ctx, int64_t now,
-                            pf_queue_task *task, bool *job_starts, pf_error *err)
+                            pf_queue_task *task, int64_t *extra, pf_error *err)
 {
     char token[PF_QUEUE_TOKEN_CHARS + 1];
     pf_status status = new_token(queue, token, err);
     if (status != PF_OK)
         return status;
     queue_stmt *stmt;
-    status = queue_prepare(queue,
-                           queue_sql(queue, CLAIM_SQL(""), CLAIM_SQL(" FOR UPDATE OF t SKIP LOCKED")),
-                           &stmt, err);
+    status = queue_prepare(queue, queue_sql(queue, CLAIM_SQLITE, CLAIM_POSTGRES), &stmt, err);
     if (status != PF_OK)
         return status;
     queue_bind_int64(stmt, queue_bind_index(stmt, ":worker"), ctx->worker_id);
@@ -148,7 +179,7 @@ static pf_status claim_task(pf_queue *queue, const claim_context *ctx, int64_t n
     queue_bind_int64(stmt, queue_bind_index(stmt, ":frame"), ctx->after_frame);
     int rc = queue_step(stmt);
     if (rc == QUEUE_ROW) {
-        task->task_id = queue_column_int64(stmt, 0);
+        task->task_id = queue_column_int64(stmt, 0); /* NULL (0) on PostgreSQL when none */
         task->job_id = queue_column_int64(stmt, 1);
         task->first_frame = (int)queue_column_int64(stmt, 2);
         task->last_frame = (int)queue_column_int64(stmt, 3);
@@ -156,7 +187,7 @@ static pf_status claim_task(pf_queue *queue, const claim_context *ctx, int64_t n
         task->frame_count = (int)queue_column_int64(stmt, 5);
         task->attempt = (int)queue_column_int64(stmt, 6);
         task->lease_expires = queue_column_int64(stmt, 7);
-        *job_starts = queue_column_int64(stmt, 8) != 0;
+        *extra = queue_column_int64(stmt, 8);
         memcpy(task->lease_token, token, sizeof token);
         rc = queue_step(stmt);
     }
@@ -166,12 +197,36 @@ static pf_status claim_task(pf_queue *queue, const claim_context *ctx, int64_t n
     return status;
 }
 
-static pf_status claim_body(pf_queue *queue, void *context, pf_error *err)
+static pf_status no_worker(pf_queue *queue, int64_t worker_id, pf_error *err)
+{
+    return pf_error_set(err, PF_ERR_INVALID, "%s: no worker %lld (register it first)",
+                        queue->path, (long long)worker_id);
+}
+
+static pf_status claim_body_postgres(pf_queue *queue, void *context, pf_error *err)
+{
+    claim_context *ctx = context;
+    pf_queue_task task = {0};
+    int64_t workers = 0;
+    /* Nothing to roll back after it: without its worker row the claim takes
+     * no task, so a missing worker commits nothing. */
+    queue_commit_with_next(queue);
+    pf_status status = claim_task(queue, ctx, pf_queue_now(queue), &task, &workers, err);
+    if (status == PF_OK && workers == 0)
+        status = no_worker(queue, ctx->worker_id, err);
+    if (status == PF_OK && task.task_id != 0) {
+        *ctx->out = task;
+        ctx->claimed = true;
+    }
+    return status;
+}
+
+static pf_status claim_body_sqlite(pf_queue *queue, void *context, pf_error *err)
 {
     claim_context *ctx = context;
     int64_t now = pf_queue_now(queue);
     pf_queue_task task = {0};
-    bool job_starts = false;
+    int64_t job_starts = 0;
     pf_status status = claim_task(queue, ctx, now, &task, &job_starts, err);
     if (status != PF_OK)
         return status;
@@ -191,29 +246,23 @@ static pf_status claim_body(pf_queue *queue, void *context, pf_error *err)
     queue_bind_int64(stmt, 3, ctx->worker_id);
     status = queue_step_done(queue, stmt, "claiming a task", err);
     if (status == PF_OK && queue_changes(queue) == 0)
-        status = pf_error_set(err, PF_ERR_INVALID, "%s: no worker %lld (register it first)",
-                              queue->path, (long long)ctx->worker_id);
+        status = no_worker(queue, ctx->worker_id, err);
     if (status != PF_OK || task.task_id == 0)
         return status;
-    if (!job_starts) {
-        *ctx->out = task;
-        ctx->claimed = true;
-        return PF_OK;
+    if (job_starts) {
+        /* A job with a task just claimed is running: the claim only picks
+         * queued or running jobs, and one of its tasks now runs
+         * (queue_job_refresh's rules). */
+        status = queue_prepare(queue,
+                               "UPDATE jobs SET started_at = coalesce(started_at, ?1),"
+                               "  status = 'running', updated_at = ?1 WHERE id = ?2",
+                               &stmt, err);
+        if (status != PF_OK)
+            return status;
+        queue_bind_int64(stmt, 1, now);
+        queue_bind_int64(stmt, 2, task.job_id);
+        status = queue_step_done(queue, stmt, "marking a job started", err);
     }
-
-    /* A job with a task just claimed is running: the claim only picks queued or
-     * running jobs, and one of its tasks now runs (queue_job_refresh's rules).
-     * Only the job's first claim writes (and locks) the job's row. */
-    status = queue_prepare(queue,
-                           "UPDATE jobs SET started_at = coalesce(started_at, ?1),"
-                           "  status = 'running', updated_at = ?1 "
-                           "WHERE id = ?2 AND (started_at IS NULL OR status <> 'running')",
-                           &stmt, err);
-    if (status != PF_OK)
-        return status;
-    queue_bind_int64(stmt, 1, now);
-    queue_bind_int64(stmt, 2, task.job_id);
-    status = queue_step_done(queue, stmt, "marking a job started", err);
     if (status == PF_OK) {
         *ctx->out = task;
         ctx->claimed = true;
@@ -226,7 +275,8 @@ pf_status pf_queue_claim(pf_queue *queue, int64_t worker_id, int64_t preferred_j
 {
     claim_context ctx = {worker_id, preferred_job, after_frame, out, false};
     *claimed = false;
-    pf_status status = queue_write_lease(queue, "claiming a task", claim_body, &ctx, err);
+    pf_status status = queue_write_lease(
+        queue, "claiming a task", queue->pg ? claim_body_postgres : claim_body_sqlite, &ctx, err);
     if (status == PF_OK)
         *claimed = ctx.claimed;
     return status;
@@ -323,22 +373,32 @@ static pf_status check_stage_row(pf_queue *queue, const leased_task *task,
 /* Parameters per stage row of the completion's INSERT. */
 #define STAGE_COLUMNS 10
 
-/* Marks the token's running task done: the completion's first statement, so
- * that on PostgreSQL it holds the task's row from the start. */
+/*
+ * Marks the token's running task done: the completion's first statement, so
+ * that on PostgreSQL it holds the task's row from the start. There the
+ * worker's task is cleared in the same statement (one round trip less);
+ * SQLite, without data-modifying CTEs, clears it in complete_body.
+ */
+#define FINISH_UPDATE                                                                           \
+    "UPDATE tasks SET status = 'done', lease_expires = NULL, finished_at = :now "              \
+    "WHERE lease_token = :token AND status = 'running' "                                       \
+    "RETURNING id, job_id, attempt, first_frame, last_frame, frame_step"
+#define FINISH_POSTGRES                                                                         \
+    "WITH finished AS (" FINISH_UPDATE "),"                                                    \
+    "  idle AS (UPDATE workers SET current_task_id = NULL"                                     \
+    "    WHERE current_task_id = (SELECT id FROM finished)) "                                  \
+    "SELECT * FROM finished"
+
 static pf_status finish_lease(pf_queue *queue, const char *token, leased_task *task,
                               pf_error *err)
 {
     queue_stmt *stmt;
-    pf_status status = queue_prepare(queue,
-                                     "UPDATE tasks SET status = 'done', lease_expires = NULL, "
-                                     "finished_at = ? WHERE lease_token = ? AND status = 'running' "
-                                     "RETURNING id, job_id, attempt, first_frame, last_frame, "
-                                     "frame_step",
-                                     &stmt, err);
+    pf_status status =
+        queue_prepare(queue, queue_sql(queue, FINISH_UPDATE, FINISH_POSTGRES), &stmt, err);
     if (status != PF_OK)
         return status;
-    queue_bind_int64(stmt, 1, pf_queue_now(queue));
-    queue_bind_text(stmt, 2, token);
+    queue_bind_int64(stmt, queue_bind_index(stmt, ":now"), pf_queue_now(queue));
+    queue_bind_text(stmt, queue_bind_index(stmt, ":token"), token);
     int rc = queue_step(stmt);
     task->found = rc == QUEUE_ROW;
     if (task->found) {
@@ -415,7 +475,7 @@ static pf_status complete_body(pf_queue *queue, void *context, pf_error *err)
     }
     if (status == PF_OK && rows)
         status = queue_step_done(queue, stmt, "inserting the stage rows", err);
-    if (status == PF_OK)
+    if (status == PF_OK && !queue->pg) /* PostgreSQL cleared it in finish_lease */
         status = queue_clear_worker_task(queue, task.task_id, err);
     return status;
 }

@@ -158,6 +158,12 @@ void queue_finalize(queue_stmt *stmt)
     free(stmt);
 }
 
+void queue_commit_with_next(pf_queue *queue)
+{
+    if (queue->pg)
+        queue->pg_commit_next = 1;
+}
+
 const char *queue_sql(pf_queue *queue, const char *sqlite_sql, const char *postgres_sql)
 {
     return queue->pg ? postgres_sql : sqlite_sql;

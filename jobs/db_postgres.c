@@ -313,21 +313,27 @@ static void note_lost_at_begin(pf_queue *queue)
 static PGresult *execute(pf_queue *queue, const queue_pg_stmt *stmt);
 
 /*
- * The pending transaction control and the statement in one round trip
- * (libpq's pipeline mode): the statement's result, or the first failure.
+ * The pending transaction control, the statement and, after
+ * queue_commit_with_next, COMMIT in one round trip (libpq's pipeline mode):
+ * the statement's result, or the first failure (a failed statement skips
+ * the COMMIT; the transaction is then rolled back as after any failure).
  * A lock not granted in lock_timeout is waited for again (relock), then the
- * statement runs on its own.
+ * statement runs on its own (with its COMMIT).
  */
-static PGresult *execute_after_pending(pf_queue *queue, const queue_pg_stmt *stmt,
-                                       const char *name)
+static PGresult *execute_pipelined(pf_queue *queue, const queue_pg_stmt *stmt, const char *name)
 {
     PGconn *pg = queue->pg;
     int pieces = queue->pg_pending_count;
+    bool commit = queue->pg_commit_next;
     queue->pg_pending_count = 0;
+    queue->pg_commit_next = 0;
     int sent = PQenterPipelineMode(pg);
     for (int i = 0; sent && i < pieces; i++)
         sent = PQsendQueryParams(pg, queue->pg_pending[i], 0, NULL, NULL, NULL, NULL, 0);
-    sent = sent && send_statement(queue, stmt, name) && PQpipelineSync(pg);
+    sent = sent && send_statement(queue, stmt, name);
+    if (sent && commit)
+        sent = PQsendQueryParams(pg, "COMMIT", 0, NULL, NULL, NULL, NULL, 0);
+    sent = sent && PQpipelineSync(pg);
     if (!sent) {
         queue_pg_note_error(queue, NULL);
         PQexitPipelineMode(pg);
@@ -336,12 +342,13 @@ static PGresult *execute_after_pending(pf_queue *queue, const queue_pg_stmt *stm
     }
     PGresult *failure = NULL, *result = NULL;
     int failed_piece = -1;
-    for (int i = 0; i <= pieces; i++) {
+    for (int i = 0; i <= pieces + (commit ? 1 : 0); i++) {
         PGresult *got = next_query_result(pg);
         ExecStatusType state = PQresultStatus(got);
-        if (i == pieces && !failure) {
+        bool ok = state == PGRES_COMMAND_OK || state == PGRES_TUPLES_OK;
+        if (i == pieces && ok && !failure) {
             result = got;
-        } else if (!failure && state != PGRES_COMMAND_OK && state != PGRES_TUPLES_OK) {
+        } else if (!failure && !ok) {
             failure = got;
             failed_piece = i;
         } else {
@@ -351,18 +358,21 @@ static PGresult *execute_after_pending(pf_queue *queue, const queue_pg_stmt *stm
     PGresult *sync = PQgetResult(pg);
     PQclear(sync);
     PQexitPipelineMode(pg);
-    if (!failure)
+    if (!failure) {
+        queue->pg_committed = commit;
         return result;
+    }
     note_lost_at_begin(queue);
     PQclear(result);
     /* The write lock (BEGIN, SAVEPOINT, lock) timed out: wait again, then run alone. */
     const char *code = PQresultErrorField(failure, PG_DIAG_SQLSTATE);
-    bool lock_timeout = failed_piece == 2 && code && !strcmp(code, "55P03");
+    bool lock_timeout = pieces == 3 && failed_piece == 2 && code && !strcmp(code, "55P03");
     if (!lock_timeout)
         return failure;
     PQclear(failure);
     if (!relock(queue))
         return NULL; /* relock said why */
+    queue->pg_commit_next = commit;
     return execute(queue, stmt);
 }
 
@@ -373,10 +383,11 @@ static PGresult *execute(pf_queue *queue, const queue_pg_stmt *stmt)
     if (failed) {
         if (queue->pg_pending_count)
             note_lost_at_begin(queue);
+        queue->pg_commit_next = 0;
         return failed;
     }
-    if (queue->pg_pending_count)
-        return execute_after_pending(queue, stmt, name);
+    if (queue->pg_pending_count || queue->pg_commit_next)
+        return execute_pipelined(queue, stmt, name);
     PGresult *result = name ? PQexecPrepared(queue->pg, name, stmt->param_count,
                                              (const char *const *)stmt->values, NULL, NULL, 0)
                             : PQexecParams(queue->pg, stmt->sql, stmt->param_count, stmt->types,
@@ -542,7 +553,7 @@ static pf_status ensure_connected(pf_queue *queue, const char *what, pf_error *e
 
 /*
  * BEGIN and, for a writer, its lock, as separate statements: they travel
- * with the transaction's first statement (execute_after_pending). The lock
+ * with the transaction's first statement (execute_pipelined). The lock
  * is taken after a savepoint so that a lock_timeout can be rolled back and
  * the lock waited for again.
  */
@@ -621,7 +632,8 @@ static pf_status flush_pending(pf_queue *queue, pf_error *err)
  * wait for them, and they for those.
  *
  * Round trips: BEGIN (and the lock) goes with the body's first statement,
- * COMMIT with settle's first. A connection found dead when the transaction
+ * COMMIT with its last after queue_commit_with_next, else with settle's
+ * first. A connection found dead when the transaction
  * begins is re-established (a restarted server), and the transaction runs
  * again on the new one, once: nothing of the first reached the server.
  */
@@ -637,9 +649,12 @@ pf_status queue_pg_transaction(pf_queue *queue, queue_pg_tx kind, const char *wh
         queue->pg_pending_kind = kind;
         queue->pg_pending_count = begin_pieces(kind, queue->pg_pending);
         queue->pg_lost_at_begin = 0;
+        queue->pg_commit_next = 0;
+        queue->pg_committed = 0;
         status = body(queue, context, err);
         bool began = queue->pg_pending_count == 0;
         queue->pg_pending_count = 0;
+        queue->pg_commit_next = 0;
         /* Found dead with BEGIN, nothing of the transaction reached the server:
          * once more on a new connection. Lost later, it failed (and the server
          * rolled it back). */
@@ -650,10 +665,14 @@ pf_status queue_pg_transaction(pf_queue *queue, queue_pg_tx kind, const char *wh
         break;
     }
     if (status != PF_OK) {
-        if (PQstatus(queue->pg) == CONNECTION_OK) {
+        if (PQstatus(queue->pg) == CONNECTION_OK && !queue->pg_committed) {
             PGresult *result = PQexec(queue->pg, "ROLLBACK");
             PQclear(result);
         }
+        return status;
+    }
+    if (queue->pg_committed) {
+        status = settle ? settle(queue, context, err) : PF_OK;
         return status;
     }
     if (!settle) {

@@ -25,6 +25,8 @@ struct pf_queue {
     int pg_pending_count;
     int pg_pending_kind;     /* the queue_pg_tx that BEGIN opens, -1 for COMMIT */
     int pg_lost_at_begin;    /* the connection was found dead sending BEGIN */
+    int pg_commit_next;      /* queue_commit_with_next: COMMIT follows the next statement */
+    int pg_committed;        /* ... and it did: the transaction is over */
     pf_queue_options options;
     pf_queue_clock clock;
     void *clock_user;
@@ -85,7 +87,8 @@ typedef pf_status (*queue_tx_body)(pf_queue *queue, void *context, pf_error *err
 pf_status queue_write(pf_queue *queue, const char *what, queue_tx_body body, void *context,
                       pf_error *err);
 /*
- * A write transaction of the lease traffic (claim, heartbeat, completion):
+ * A write transaction of the lease traffic (claim, heartbeat, completion,
+ * and a worker writing its own row):
  * on SQLite the same as queue_write. On PostgreSQL these run concurrently
  * with each other, each holding the rows it changes (a claim picks its task
  * with FOR UPDATE SKIP LOCKED), and wait for queue_write's writers, which
@@ -103,6 +106,14 @@ pf_status queue_write_lease(pf_queue *queue, const char *what, queue_tx_body bod
  */
 pf_status queue_write_lease_settled(pf_queue *queue, const char *what, queue_tx_body body,
                                     queue_tx_body settle, void *context, pf_error *err);
+/*
+ * Inside a write body: the next statement is the body's last, and on
+ * PostgreSQL COMMIT travels with it (one round trip for the statement and
+ * the commit, and its row locks held only while the server runs it). The
+ * body must end successfully when that statement does: nothing after it can
+ * roll it back. Nothing on SQLite, where the transaction ends as usual.
+ */
+void queue_commit_with_next(pf_queue *queue);
 /* Runs body inside a read transaction (one consistent snapshot). */
 pf_status queue_read(pf_queue *queue, const char *what, queue_tx_body body, void *context,
                      pf_error *err);

@@ -56,10 +56,42 @@ static pf_status reap_body(pf_queue *queue, void *context, pf_error *err)
     return status;
 }
 
+typedef struct expiry_probe {
+    bool any;
+} expiry_probe;
+
+static pf_status probe_body(pf_queue *queue, void *context, pf_error *err)
+{
+    expiry_probe *probe = context;
+    queue_stmt *stmt;
+    pf_status status = queue_prepare(queue,
+                                     "SELECT 1 FROM tasks WHERE status = 'running' "
+                                     "AND lease_expires < ? LIMIT 1",
+                                     &stmt, err);
+    if (status != PF_OK)
+        return status;
+    queue_bind_int64(stmt, 1, pf_queue_now(queue));
+    int rc = queue_step(stmt);
+    probe->any = rc == QUEUE_ROW;
+    if (rc != QUEUE_ROW && rc != QUEUE_DONE)
+        status = queue_db_error(queue, err, "looking for expired leases");
+    queue_finalize(stmt);
+    return status;
+}
+
 pf_status pf_queue_reap(pf_queue *queue, int64_t *reaped, pf_error *err)
 {
+    /* Every worker reaps on a timer; the reap is a whole-queue writer (on
+     * PostgreSQL it waits for every claim in flight and holds new ones), so
+     * it runs only when a read finds something to reap. */
+    expiry_probe probe = {false};
+    pf_status status = queue_read(queue, "looking for expired leases", probe_body, &probe, err);
+    if (reaped)
+        *reaped = 0;
+    if (status != PF_OK || !probe.any)
+        return status;
     reap_context ctx = {0};
-    pf_status status = queue_write(queue, "reaping expired leases", reap_body, &ctx, err);
+    status = queue_write(queue, "reaping expired leases", reap_body, &ctx, err);
     if (reaped)
         *reaped = status == PF_OK ? ctx.reaped : 0;
     return status;

@@ -1,4 +1,6 @@
-/* Worker registration and liveness. */
+/* Worker registration and liveness. Each writes only the worker's own row, so
+ * on PostgreSQL they run beside the claims (queue_write_lease) instead of
+ * stopping every claim of the farm while a worker starts or stops. */
 #include "queue_internal.h"
 
 #include <string.h>
@@ -44,7 +46,7 @@ pf_status pf_queue_worker_register(pf_queue *queue, const pf_queue_worker_spec *
                             "worker name must be 1 to %d bytes (got \"%.40s\")",
                             PF_QUEUE_NAME_MAX - 1, spec->name ? spec->name : "");
     register_context ctx = {.spec = spec};
-    pf_status status = queue_write(queue, "registering a worker", register_body, &ctx, err);
+    pf_status status = queue_write_lease(queue, "registering a worker", register_body, &ctx, err);
     if (status == PF_OK)
         *worker_id = ctx.worker_id;
     return status;
@@ -75,7 +77,7 @@ pf_status pf_queue_worker_heartbeat(pf_queue *queue, int64_t worker_id, pf_error
 {
     worker_update_context ctx = {
         worker_id, "UPDATE workers SET heartbeat_at = ?1 WHERE id = ?2"};
-    return queue_write(queue, "worker heartbeat", worker_update_body, &ctx, err);
+    return queue_write_lease(queue, "worker heartbeat", worker_update_body, &ctx, err);
 }
 
 pf_status pf_queue_worker_stop(pf_queue *queue, int64_t worker_id, pf_error *err)
@@ -84,5 +86,5 @@ pf_status pf_queue_worker_stop(pf_queue *queue, int64_t worker_id, pf_error *err
         worker_id,
         "UPDATE workers SET stopped_at = ?1, heartbeat_at = ?1, current_task_id = NULL "
         "WHERE id = ?2"};
-    return queue_write(queue, "stopping a worker", worker_update_body, &ctx, err);
+    return queue_write_lease(queue, "stopping a worker", worker_update_body, &ctx, err);
 }

@@ -230,6 +230,43 @@ PF_TEST(claim_prefers_next_frame_of_loaded_job)
     pf_queue_close(queue);
 }
 
+PF_TEST(claims_start_the_job_once_and_need_a_registered_worker)
+{
+    pf_queue *queue = open_fresh("claim_start.db");
+    PF_REQUIRE(queue);
+    char path[1200], dir[1024];
+    const char *url = queue_test_postgres();
+    snprintf(path, sizeof path, "%s/claim_start.db", pf_test_tmpdir(dir, sizeof dir));
+    if (url)
+        snprintf(path, sizeof path, "%s", url);
+    const char *started_sql = "SELECT coalesce(started_at, -1) FROM jobs";
+    int64_t job = enqueue(queue, "1-2", 0, 1, 0);
+    pf_error err = {0};
+
+    /* An unregistered worker is refused, and its claim takes nothing. */
+    pf_queue_task task = {0};
+    bool claimed = true;
+    PF_CHECK(pf_queue_claim(queue, 4242, 0, 0, &task, &claimed, &err) == PF_ERR_INVALID);
+    PF_CHECK_MSG(strstr(err.message, "no worker 4242") != NULL, "%s", err.message);
+    PF_CHECK(!claimed);
+    check_job_status(queue, job, "queued");
+    PF_CHECK(queue_test_query_int(path, started_sql) == -1);
+
+    /* The first claim starts the job; a later one leaves its start alone. */
+    int64_t worker = register_worker(queue, "w1");
+    int64_t first_claim_at = clock_now.now;
+    task = claim(queue, worker, 0, 0);
+    PF_CHECK(task.first_frame == 1 && task.attempt == 1);
+    check_job_status(queue, job, "running");
+    PF_CHECK(queue_test_query_int(path, started_sql) == first_claim_at);
+    clock_now.now += 500;
+    task = claim(queue, worker, job, 1);
+    PF_CHECK(task.first_frame == 2 && task.attempt == 1);
+    check_job_status(queue, job, "running");
+    PF_CHECK(queue_test_query_int(path, started_sql) == first_claim_at);
+    pf_queue_close(queue);
+}
+
 PF_TEST(heartbeat_renews_only_the_current_lease)
 {
     pf_queue *queue = open_fresh("heartbeat.db");
@@ -1062,6 +1099,7 @@ int main(void)
     PF_RUN(enqueue_chunks_frames_into_tasks);
     PF_RUN(claim_order_priority_job_frame);
     PF_RUN(claim_prefers_next_frame_of_loaded_job);
+    PF_RUN(claims_start_the_job_once_and_need_a_registered_worker);
     PF_RUN(heartbeat_renews_only_the_current_lease);
     PF_RUN(expired_lease_is_reaped_and_old_owner_fenced);
     PF_RUN(failures_back_off_then_fail_at_max_attempts);
