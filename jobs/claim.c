@@ -347,17 +347,10 @@ pf_status pf_queue_heartbeat(pf_queue *queue, const char *token, int64_t *lease_
 
 /* ---- complete ---- */
 
-static pf_status check_stage_row(pf_queue *queue, const leased_task *task,
-                                 const pf_queue_stage_row *row, size_t index, pf_error *err)
+/* What a stage row must be whatever its task: checked before any statement. */
+static pf_status check_stage_values(pf_queue *queue, const pf_queue_stage_row *row, size_t index,
+                                    pf_error *err)
 {
-    bool in_task = row->frame >= task->first_frame && row->frame <= task->last_frame &&
-                   (row->frame - task->first_frame) % task->frame_step == 0;
-    if (!in_task)
-        return pf_error_set(err, PF_ERR_INVALID,
-                            "%s: stage row %zu: frame %d is not one of task %lld's frames "
-                            "(%d-%d step %d)",
-                            queue->path, index, row->frame, (long long)task->task_id,
-                            task->first_frame, task->last_frame, task->frame_step);
     if (!row->stage || !*row->stage || strlen(row->stage) >= PF_QUEUE_STAGE_NAME_MAX)
         return pf_error_set(err, PF_ERR_INVALID,
                             "%s: stage row %zu: stage name must be 1 to %d bytes", queue->path,
@@ -367,40 +360,101 @@ static pf_status check_stage_row(pf_queue *queue, const leased_task *task,
                             "%s: stage row %zu (%s): wall time %g ms / gpu time %g ms is not a "
                             "valid duration",
                             queue->path, index, row->stage, row->wall_ms, row->gpu_ms);
+    cJSON *counters = row->counters_json ? cJSON_ParseWithOpts(row->counters_json, NULL, 1) : NULL;
+    bool bad_json = row->counters_json && !counters;
+    cJSON_Delete(counters);
+    if (bad_json)
+        return pf_error_set(err, PF_ERR_INVALID,
+                            "%s: stage row %zu (%s): counters are not valid JSON: %s",
+                            queue->path, index, row->stage, row->counters_json);
     return PF_OK;
 }
 
-/* Parameters per stage row of the completion's INSERT. */
-#define STAGE_COLUMNS 10
+/* A stage row's frame must be one of its task's. */
+static pf_status check_stage_frame(pf_queue *queue, const leased_task *task,
+                                   const pf_queue_stage_row *row, size_t index, pf_error *err)
+{
+    bool in_task = row->frame >= task->first_frame && row->frame <= task->last_frame &&
+                   (row->frame - task->first_frame) % task->frame_step == 0;
+    if (!in_task)
+        return pf_error_set(err, PF_ERR_INVALID,
+                            "%s: stage row %zu: frame %d is not one of task %lld's frames "
+                            "(%d-%d step %d)",
+                            queue->path, index, row->frame, (long long)task->task_id,
+                            task->first_frame, task->last_frame, task->frame_step);
+    return PF_OK;
+}
 
 /*
- * Marks the token's running task done: the completion's first statement, so
- * that on PostgreSQL it holds the task's row from the start. There the
- * worker's task is cleared in the same statement (one round trip less);
- * SQLite, without data-modifying CTEs, clears it in complete_body.
+ * The completion's statement: marks the token's running task done (first,
+ * so that on PostgreSQL it holds the task's row from the start). On
+ * PostgreSQL the same statement clears the worker's task and writes the
+ * stage rows whose frames are the task's (one round trip for all three);
+ * SQLite, without data-modifying CTEs, runs those in complete_body.
  */
 #define FINISH_UPDATE                                                                           \
-    "UPDATE tasks SET status = 'done', lease_expires = NULL, finished_at = :now "              \
-    "WHERE lease_token = :token AND status = 'running' "                                       \
+    "UPDATE tasks SET status = 'done', lease_expires = NULL, finished_at = ?1 "                \
+    "WHERE lease_token = ?2 AND status = 'running' "                                           \
     "RETURNING id, job_id, attempt, first_frame, last_frame, frame_step"
-#define FINISH_POSTGRES                                                                         \
+#define FINISH_POSTGRES_HEAD                                                                    \
     "WITH finished AS (" FINISH_UPDATE "),"                                                    \
     "  idle AS (UPDATE workers SET current_task_id = NULL"                                     \
-    "    WHERE current_task_id = (SELECT id FROM finished)) "                                  \
-    "SELECT * FROM finished"
+    "    WHERE current_task_id = (SELECT id FROM finished))"
+#define FINISH_POSTGRES_NO_ROWS FINISH_POSTGRES_HEAD " SELECT *, 0 FROM finished"
+#define FINISH_POSTGRES_ROWS_HEAD                                                               \
+    FINISH_POSTGRES_HEAD ","                                                                   \
+    "  stages AS (INSERT INTO stage_timings (task_id, attempt, frame, stage, wall_ms, gpu_ms,"  \
+    "    counters, skipped, reason, build)"                                                    \
+    "    SELECT f.id, f.attempt, v.frame, v.stage, v.wall_ms, v.gpu_ms, v.counters,"           \
+    "      v.skipped, v.reason, v.build FROM finished f, (VALUES "
+/* Typed: a VALUES list would otherwise type an all-NULL column as text. */
+#define FINISH_POSTGRES_ROW                                                                     \
+    "(?::integer, ?::text, ?::double precision, ?::double precision, ?::text, ?::integer,"     \
+    " ?::text, ?::text)"
+#define FINISH_POSTGRES_ROWS_TAIL                                                               \
+    ") AS v (frame, stage, wall_ms, gpu_ms, counters, skipped, reason, build)"                 \
+    "    WHERE v.frame BETWEEN f.first_frame AND f.last_frame"                                 \
+    "      AND (v.frame - f.first_frame) % f.frame_step = 0 RETURNING 1) "                     \
+    "SELECT *, (SELECT count(*) FROM stages) FROM finished"
+/* Parameters per stage row: of the PostgreSQL VALUES row, of SQLite's INSERT row. */
+#define FINISH_ROW_COLUMNS 8
+#define STAGE_COLUMNS 10
 
-static pf_status finish_lease(pf_queue *queue, const char *token, leased_task *task,
-                              pf_error *err)
+static void bind_stage_values(queue_stmt *stmt, int base, const pf_queue_stage_row *row)
+{
+    queue_bind_int64(stmt, base + 1, row->frame);
+    queue_bind_text(stmt, base + 2, row->stage);
+    queue_bind_double(stmt, base + 3, row->wall_ms);
+    if (row->gpu_ms >= 0)
+        queue_bind_double(stmt, base + 4, row->gpu_ms);
+    queue_bind_text(stmt, base + 5, row->counters_json);
+    queue_bind_int64(stmt, base + 6, row->skipped);
+    queue_bind_text(stmt, base + 7, row->reason);
+    queue_bind_text(stmt, base + 8, row->build);
+}
+
+/* *stored: the stage rows the statement wrote (always 0 on SQLite). */
+static pf_status finish_lease(pf_queue *queue, const token_context *ctx, leased_task *task,
+                              int64_t *stored, pf_error *err)
 {
     queue_stmt *stmt;
-    pf_status status =
-        queue_prepare(queue, queue_sql(queue, FINISH_UPDATE, FINISH_POSTGRES), &stmt, err);
+    pf_status status;
+    bool rows_here = queue->pg && ctx->row_count > 0;
+    if (rows_here)
+        status = queue_prepare_rows(queue, FINISH_POSTGRES_ROWS_HEAD, FINISH_POSTGRES_ROW,
+                                    ctx->row_count, FINISH_POSTGRES_ROWS_TAIL, &stmt, err);
+    else
+        status = queue_prepare(queue, queue_sql(queue, FINISH_UPDATE, FINISH_POSTGRES_NO_ROWS),
+                               &stmt, err);
     if (status != PF_OK)
         return status;
-    queue_bind_int64(stmt, queue_bind_index(stmt, ":now"), pf_queue_now(queue));
-    queue_bind_text(stmt, queue_bind_index(stmt, ":token"), token);
+    queue_bind_int64(stmt, 1, pf_queue_now(queue));
+    queue_bind_text(stmt, 2, ctx->token);
+    for (size_t i = 0; rows_here && i < ctx->row_count; i++)
+        bind_stage_values(stmt, 2 + (int)i * FINISH_ROW_COLUMNS, &ctx->rows[i]);
     int rc = queue_step(stmt);
     task->found = rc == QUEUE_ROW;
+    *stored = 0;
     if (task->found) {
         task->task_id = queue_column_int64(stmt, 0);
         task->job_id = queue_column_int64(stmt, 1);
@@ -408,19 +462,58 @@ static pf_status finish_lease(pf_queue *queue, const char *token, leased_task *t
         task->first_frame = (int)queue_column_int64(stmt, 3);
         task->last_frame = (int)queue_column_int64(stmt, 4);
         task->frame_step = (int)queue_column_int64(stmt, 5);
+        if (queue->pg)
+            *stored = queue_column_int64(stmt, 6);
         rc = queue_step(stmt);
     }
-    if (rc != QUEUE_DONE)
+    if (rc == QUEUE_CONSTRAINT)
+        status = pf_error_set(err, PF_ERR_INVALID, "%s: completing a task: a stage row was "
+                              "refused: %s", queue->path, queue->pg ? queue->pg_error : "");
+    else if (rc != QUEUE_DONE)
         status = queue_db_error(queue, err, "completing a task");
     queue_finalize(stmt);
+    return status;
+}
+
+/* SQLite: the stage rows in one INSERT, then the worker's task cleared. */
+static pf_status store_stage_rows(pf_queue *queue, const token_context *ctx,
+                                  const leased_task *task, pf_error *err)
+{
+    pf_status status = PF_OK;
+    if (ctx->row_count > 0) {
+        queue_stmt *stmt;
+        status = queue_prepare_rows(queue,
+                                    "INSERT INTO stage_timings (task_id, attempt, frame, stage, "
+                                    "wall_ms, gpu_ms, counters, skipped, reason, build) VALUES ",
+                                    "(?, ?, ?, ?, ?, ?, ?, ?, ?, ?)", ctx->row_count, "", &stmt,
+                                    err);
+        for (size_t i = 0; status == PF_OK && i < ctx->row_count; i++) {
+            int base = (int)i * STAGE_COLUMNS;
+            queue_bind_int64(stmt, base + 1, task->task_id);
+            queue_bind_int64(stmt, base + 2, task->attempt);
+            bind_stage_values(stmt, base + 2, &ctx->rows[i]);
+        }
+        if (status == PF_OK)
+            status = queue_step_done(queue, stmt, "inserting the stage rows", err);
+    }
+    if (status == PF_OK)
+        status = queue_clear_worker_task(queue, task->task_id, err);
     return status;
 }
 
 static pf_status complete_body(pf_queue *queue, void *context, pf_error *err)
 {
     token_context *ctx = context;
+    /* Every row checked (a bad one rolls the completion back), then all of
+     * them in one statement (one round trip). */
+    pf_status status = PF_OK;
+    for (size_t i = 0; i < ctx->row_count && status == PF_OK; i++)
+        status = check_stage_values(queue, &ctx->rows[i], i, err);
+    if (status != PF_OK)
+        return status;
     leased_task task;
-    pf_status status = finish_lease(queue, ctx->token, &task, err);
+    int64_t stored = 0;
+    status = finish_lease(queue, ctx, &task, &stored, err);
     if (status != PF_OK)
         return status;
     if (!task.found) {
@@ -436,48 +529,16 @@ static pf_status complete_body(pf_queue *queue, void *context, pf_error *err)
         return lease_lost(queue, ctx->token, err);
     }
     ctx->job_id = task.job_id;
-
-    /* Every row checked first (a bad one rolls the completion back), then all
-     * of them in one statement (one round trip). */
-    for (size_t i = 0; i < ctx->row_count && status == PF_OK; i++) {
-        const pf_queue_stage_row *row = &ctx->rows[i];
-        status = check_stage_row(queue, &task, row, i, err);
-        cJSON *counters = status == PF_OK && row->counters_json
-                              ? cJSON_ParseWithOpts(row->counters_json, NULL, 1)
-                              : NULL;
-        if (status == PF_OK && row->counters_json && !counters)
-            status = pf_error_set(err, PF_ERR_INVALID,
-                                  "%s: stage row %zu (%s): counters are not valid JSON: %s",
-                                  queue->path, i, row->stage, row->counters_json);
-        cJSON_Delete(counters);
-    }
-    queue_stmt *stmt = NULL;
-    bool rows = ctx->row_count > 0;
-    if (status == PF_OK && rows)
-        status = queue_prepare_rows(queue,
-                                    "INSERT INTO stage_timings (task_id, attempt, frame, stage, "
-                                    "wall_ms, gpu_ms, counters, skipped, reason, build) VALUES ",
-                                    "(?, ?, ?, ?, ?, ?, ?, ?, ?, ?)", ctx->row_count, &stmt, err);
-    for (size_t i = 0; status == PF_OK && rows && i < ctx->row_count; i++) {
-        const pf_queue_stage_row *row = &ctx->rows[i];
-        int base = (int)(i * STAGE_COLUMNS);
-        queue_bind_int64(stmt, base + 1, task.task_id);
-        queue_bind_int64(stmt, base + 2, task.attempt);
-        queue_bind_int64(stmt, base + 3, row->frame);
-        queue_bind_text(stmt, base + 4, row->stage);
-        queue_bind_double(stmt, base + 5, row->wall_ms);
-        if (row->gpu_ms >= 0)
-            queue_bind_double(stmt, base + 6, row->gpu_ms);
-        queue_bind_text(stmt, base + 7, row->counters_json);
-        queue_bind_int64(stmt, base + 8, row->skipped);
-        queue_bind_text(stmt, base + 9, row->reason);
-        queue_bind_text(stmt, base + 10, row->build);
-    }
-    if (status == PF_OK && rows)
-        status = queue_step_done(queue, stmt, "inserting the stage rows", err);
-    if (status == PF_OK && !queue->pg) /* PostgreSQL cleared it in finish_lease */
-        status = queue_clear_worker_task(queue, task.task_id, err);
-    return status;
+    for (size_t i = 0; i < ctx->row_count && status == PF_OK; i++)
+        status = check_stage_frame(queue, &task, &ctx->rows[i], i, err);
+    if (status != PF_OK)
+        return status;
+    if (!queue->pg)
+        return store_stage_rows(queue, ctx, &task, err);
+    if (stored != (int64_t)ctx->row_count) /* the frames were checked: cannot happen */
+        return pf_error_set(err, PF_ERR_IO, "%s: completing a task: %lld of %zu stage rows stored",
+                            queue->path, (long long)stored, ctx->row_count);
+    return PF_OK;
 }
 
 /* The completed task's job: its status derived from its tasks. */

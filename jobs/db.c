@@ -26,7 +26,73 @@ struct queue_stmt {
     pf_queue *queue;
     sqlite3_stmt *sqlite;
     queue_pg_stmt *pg;
+    int cache_slot; /* SQLite: its entry in the statement cache, -1 when not cached */
 };
+
+/*
+ * SQLite statements kept prepared, by their text: as on PostgreSQL
+ * (db_postgres.c), the queue runs a few dozen statements over and over, and
+ * parsing and code generation took most of a claim's CPU time. A cached
+ * statement is reset and unbound when finalized, and kept; one already in use
+ * (prepared again while it runs) is prepared anew, and so is one with more
+ * parameters than a few rows' worth (a one-off bulk insert) or past a full
+ * cache.
+ */
+#define QUEUE_SQLITE_CACHE_MAX 64
+#define QUEUE_SQLITE_CACHE_MAX_PARAMS 64
+
+struct queue_sqlite_cache {
+    int count;
+    struct {
+        char *sql;
+        sqlite3_stmt *stmt;
+        int in_use;
+    } entries[QUEUE_SQLITE_CACHE_MAX];
+};
+
+void queue_sqlite_forget_statements(pf_queue *queue)
+{
+    struct queue_sqlite_cache *cache = queue->sqlite_cache;
+    if (!cache)
+        return;
+    for (int i = 0; i < cache->count; i++) {
+        sqlite3_finalize(cache->entries[i].stmt);
+        free(cache->entries[i].sql);
+    }
+    free(cache);
+    queue->sqlite_cache = NULL;
+}
+
+static pf_status sqlite_prepare(pf_queue *queue, const char *sql, queue_stmt *stmt,
+                                pf_error *err)
+{
+    struct queue_sqlite_cache *cache = queue->sqlite_cache;
+    if (!cache)
+        cache = queue->sqlite_cache = calloc(1, sizeof *cache);
+    for (int i = 0; cache && i < cache->count; i++) {
+        if (!cache->entries[i].in_use && !strcmp(cache->entries[i].sql, sql)) {
+            cache->entries[i].in_use = 1;
+            stmt->sqlite = cache->entries[i].stmt;
+            stmt->cache_slot = i;
+            return PF_OK;
+        }
+    }
+    if (sqlite3_prepare_v2(queue->db, sql, -1, &stmt->sqlite, NULL) != SQLITE_OK) {
+        sqlite3_finalize(stmt->sqlite);
+        return queue_db_error(queue, err, "preparing a statement");
+    }
+    bool keep = cache && cache->count < QUEUE_SQLITE_CACHE_MAX &&
+                sqlite3_bind_parameter_count(stmt->sqlite) <= QUEUE_SQLITE_CACHE_MAX_PARAMS;
+    char *copy = keep ? strdup(sql) : NULL;
+    if (copy) {
+        int slot = cache->count++;
+        cache->entries[slot].sql = copy;
+        cache->entries[slot].stmt = stmt->sqlite;
+        cache->entries[slot].in_use = 1;
+        stmt->cache_slot = slot;
+    }
+    return PF_OK;
+}
 
 pf_status queue_prepare(pf_queue *queue, const char *sql, queue_stmt **stmt, pf_error *err)
 {
@@ -37,21 +103,14 @@ pf_status queue_prepare(pf_queue *queue, const char *sql, queue_stmt **stmt, pf_
     (*stmt)->queue = queue;
     (*stmt)->sqlite = NULL;
     (*stmt)->pg = NULL;
-    if (queue->pg) {
-        pf_status status = queue_pg_prepare(queue, sql, &(*stmt)->pg, err);
-        if (status != PF_OK) {
-            free(*stmt);
-            *stmt = NULL;
-        }
-        return status;
-    }
-    if (sqlite3_prepare_v2(queue->db, sql, -1, &(*stmt)->sqlite, NULL) != SQLITE_OK) {
-        sqlite3_finalize((*stmt)->sqlite);
+    (*stmt)->cache_slot = -1;
+    pf_status status = queue->pg ? queue_pg_prepare(queue, sql, &(*stmt)->pg, err)
+                                 : sqlite_prepare(queue, sql, *stmt, err);
+    if (status != PF_OK) {
         free(*stmt);
         *stmt = NULL;
-        return queue_db_error(queue, err, "preparing a statement");
     }
-    return PF_OK;
+    return status;
 }
 
 void queue_bind_int64(queue_stmt *stmt, int index, int64_t value)
@@ -151,10 +210,15 @@ void queue_finalize(queue_stmt *stmt)
 {
     if (!stmt)
         return;
-    if (stmt->pg)
+    if (stmt->pg) {
         queue_pg_finalize(stmt->pg);
-    else
+    } else if (stmt->cache_slot >= 0) {
+        sqlite3_reset(stmt->sqlite);
+        sqlite3_clear_bindings(stmt->sqlite);
+        stmt->queue->sqlite_cache->entries[stmt->cache_slot].in_use = 0;
+    } else {
         sqlite3_finalize(stmt->sqlite);
+    }
     free(stmt);
 }
 
@@ -175,10 +239,10 @@ int64_t queue_changes(pf_queue *queue)
 }
 
 pf_status queue_prepare_rows(pf_queue *queue, const char *head, const char *row, size_t count,
-                             queue_stmt **stmt, pf_error *err)
+                             const char *tail, queue_stmt **stmt, pf_error *err)
 {
-    size_t head_length = strlen(head), row_length = strlen(row);
-    char *sql = malloc(head_length + count * (row_length + 1) + 1);
+    size_t head_length = strlen(head), row_length = strlen(row), tail_length = strlen(tail);
+    char *sql = malloc(head_length + count * (row_length + 1) + tail_length + 1);
     if (!sql)
         return pf_error_set(err, PF_ERR_NOMEM, "%s: out of memory for an insert of %zu rows",
                             queue->path, count);
@@ -191,6 +255,8 @@ pf_status queue_prepare_rows(pf_queue *queue, const char *head, const char *row,
         memcpy(end, row, row_length);
         end += row_length;
     }
+    memcpy(end, tail, tail_length);
+    end += tail_length;
     *end = '\0';
     pf_status status = queue_prepare(queue, sql, stmt, err);
     free(sql);

@@ -131,7 +131,7 @@ static void put(char **out, const char *text, size_t length)
     *out += length;
 }
 
-/* Rewrites SQLite parameters as $N; 0 when the statement has too many. */
+/* Rewrites SQLite parameters as $N, numbered as SQLite does; 0 when the statement has too many. */
 static int translate(const char *sql, queue_pg_stmt *stmt)
 {
     size_t length = strlen(sql);
@@ -139,7 +139,6 @@ static int translate(const char *sql, queue_pg_stmt *stmt)
     if (!stmt->sql)
         return 0;
     char *out = stmt->sql;
-    int next = 0;
     for (const char *p = sql; *p;) {
         if (*p == '\'') { /* a string literal, '' inside it */
             const char *end = p + 1;
@@ -154,10 +153,11 @@ static int translate(const char *sql, queue_pg_stmt *stmt)
         int index = 0;
         if (*p == '?') {
             p++;
+            /* As SQLite numbers them: "?" is one past the largest number so far. */
             if (isdigit((unsigned char)*p)) {
                 index = (int)strtol(p, (char **)&p, 10);
             } else {
-                index = ++next;
+                index = stmt->param_count + 1;
             }
         } else if (*p == ':' && (isalpha((unsigned char)p[1]) || p[1] == '_') &&
                    (p == sql || p[-1] != ':')) {

@@ -32,7 +32,7 @@ static pf_status insert_tasks(pf_queue *queue, int64_t job_id, const task_run *r
     pf_status status = queue_prepare_rows(queue,
                                           "INSERT INTO tasks (job_id, first_frame, last_frame, "
                                           "frame_step, frame_count, eligible_at) VALUES ",
-                                          "(?, ?, ?, ?, ?, 0)", count, &stmt, err);
+                                          "(?, ?, ?, ?, ?, 0)", count, "", &stmt, err);
     if (status != PF_OK)
         return status;
     for (size_t i = 0; i < count; i++) {

@@ -19,6 +19,7 @@ struct pf_queue {
     char pg_error[512];      /* PostgreSQL: the last error's message */
     char pg_secret[128];     /* PostgreSQL: the URL's password, scrubbed from every message */
     struct queue_pg_prepared *pg_prepared; /* PostgreSQL: statements prepared on the connection */
+    struct queue_sqlite_cache *sqlite_cache; /* SQLite: statements kept prepared (db.c) */
     /* PostgreSQL: transaction control not sent yet (BEGIN and its lock, or
      * COMMIT), sent with the next statement in one round trip. */
     const char *pg_pending[3];
@@ -44,7 +45,8 @@ pf_status queue_db_error(pf_queue *queue, pf_error *err, const char *what);
 typedef struct queue_stmt queue_stmt;
 /* queue_step's results besides an engine error. */
 enum { QUEUE_ROW = 1, QUEUE_DONE = 2, QUEUE_CONSTRAINT = 3, QUEUE_ERROR = 4 };
-/* Prepares sql; on failure reports it via queue_db_error. */
+/* Prepares sql (or takes it prepared from the connection's cache); on
+ * failure reports it via queue_db_error. */
 pf_status queue_prepare(pf_queue *queue, const char *sql, queue_stmt **stmt, pf_error *err);
 void queue_bind_int64(queue_stmt *stmt, int index, int64_t value);
 void queue_bind_double(queue_stmt *stmt, int index, double value);
@@ -68,12 +70,13 @@ int64_t queue_changes(pf_queue *queue);
 /* The engine's spelling of a statement, where SQLite and PostgreSQL differ. */
 const char *queue_sql(pf_queue *queue, const char *sqlite_sql, const char *postgres_sql);
 /*
- * Prepares head followed by count copies of row ("(?, ?, 0)"), comma
- * separated: one INSERT of many rows, one round trip on PostgreSQL. Row i's
- * k-th parameter (1-based) is i * (parameters in row) + k.
+ * Prepares head, count copies of row ("(?, ?, 0)") comma separated, then
+ * tail: one statement of many rows, one round trip on PostgreSQL. Row i's
+ * k-th parameter (1-based) is (parameters in head) + i * (parameters in
+ * row) + k.
  */
 pf_status queue_prepare_rows(pf_queue *queue, const char *head, const char *row, size_t count,
-                             queue_stmt **stmt, pf_error *err);
+                             const char *tail, queue_stmt **stmt, pf_error *err);
 /* Runs statements without results. */
 pf_status queue_exec(pf_queue *queue, const char *sql, pf_error *err);
 /* Steps a statement expected to finish (QUEUE_DONE) and finalizes it. */
@@ -114,6 +117,8 @@ pf_status queue_write_lease_settled(pf_queue *queue, const char *what, queue_tx_
  * roll it back. Nothing on SQLite, where the transaction ends as usual.
  */
 void queue_commit_with_next(pf_queue *queue);
+/* Finalizes the SQLite statements kept prepared: before the connection closes. */
+void queue_sqlite_forget_statements(pf_queue *queue);
 /* Runs body inside a read transaction (one consistent snapshot). */
 pf_status queue_read(pf_queue *queue, const char *what, queue_tx_body body, void *context,
                      pf_error *err);

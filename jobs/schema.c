@@ -517,6 +517,7 @@ void pf_queue_close(pf_queue *queue)
     if (!queue)
         return;
     queue_pg_close(queue);
+    queue_sqlite_forget_statements(queue);
     sqlite3_close(queue->db);
     free(queue->path);
     free(queue);
