@@ -12,10 +12,10 @@
  * first, so writers are serialised exactly as SQLite's BEGIN IMMEDIATE
  * serialises them and the queue's logic (reap, enqueue, job control) keeps
  * the one-writer semantics it was written for. The lease traffic (claim,
- * heartbeat, completion) takes the same lock shared: those run side by side,
- * each holding the rows it changes, and are written for it (claim.c);
- * readers run at REPEATABLE READ
- * (one snapshot) and never wait. A connection found dead when a transaction
+ * heartbeat, completion, a worker's own row) takes the same lock shared:
+ * those run side by side, each holding the rows it changes, and are written
+ * for it (claim.c); readers run at REPEATABLE READ (one snapshot) and never
+ * wait. A connection found dead when a transaction
  * begins is re-established with backoff (a restarted server), and the
  * transaction runs then; one that dies inside a transaction fails it (rolled
  * back by the server) and the caller's retry policy applies, so nothing is
