@@ -884,9 +884,13 @@ typedef struct conflict_probe_state {
     int64_t last_seen;
     pf_status other_status;
     int refuse;
+    int64_t claimer;          /* a worker that also tries to claim on the other connection */
+    pf_status claim_status;
+    bool claimed;
 } conflict_probe_state;
 
-/* Tries an enqueue on another connection from inside the first one's check. */
+/* Tries an enqueue (and a claim, with claimer) on another connection from
+ * inside the first one's check. */
 static int conflict_probe(const pf_queue_job *other, void *user, char *reason, size_t size)
 {
     conflict_probe_state *state = user;
@@ -897,6 +901,11 @@ static int conflict_probe(const pf_queue_job *other, void *user, char *reason, s
     int64_t job_id = 0;
     pf_error err = {0};
     state->other_status = pf_queue_enqueue(state->other_connection, &spec, &job_id, &err);
+    if (state->claimer) {
+        pf_queue_task task;
+        state->claim_status = pf_queue_claim(state->other_connection, state->claimer, 0, 0, &task,
+                                             &state->claimed, &err);
+    }
     snprintf(reason, size, "job %lld writes %s", (long long)other->job_id,
              other->output_pattern);
     return state->refuse;
@@ -945,7 +954,8 @@ PF_TEST(enqueue_conflicts_are_decided_under_the_write_lock)
     int64_t first = enqueue(queue, "1-2", 0, 1, 0);
     int64_t canceled = enqueue(queue, "1", 0, 1, 0);
     PF_CHECK_OK(pf_queue_cancel(queue, canceled, &err), &err);
-    conflict_probe_state state = {other, 0, 0, PF_OK, 1};
+    int64_t worker = register_worker(queue, "w1");
+    conflict_probe_state state = {other, 0, 0, PF_OK, 1, worker, PF_OK, true};
     int64_t job_id = 0;
     PF_CHECK(enqueue_probed(queue, &state, &job_id, &err) == PF_ERR_INVALID);
     PF_CHECK_MSG(!strcmp(err.message, "job 1 writes out/f_####.exr"), "%s", err.message);
@@ -953,6 +963,13 @@ PF_TEST(enqueue_conflicts_are_decided_under_the_write_lock)
                  state.calls, (long long)state.last_seen);
     PF_CHECK_MSG(state.other_status == PF_ERR_IO, "the other connection's enqueue: %d",
                  state.other_status);
+    /* Claims wait for the whole-queue writer too; the one that gave up took
+     * nothing, and its connection claims normally afterwards. */
+    PF_CHECK_MSG(state.claim_status == PF_ERR_IO && !state.claimed,
+                 "the other connection's claim: %d", state.claim_status);
+    state.claimer = 0;
+    pf_queue_task task = claim(other, worker, 0, 0);
+    PF_CHECK(task.job_id == first && task.first_frame == 1 && task.attempt == 1);
     pf_queue_job *jobs = NULL;
     size_t count = 0;
     PF_CHECK_OK(pf_queue_job_list(queue, &jobs, &count, &err), &err);
