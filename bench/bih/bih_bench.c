@@ -20,7 +20,11 @@
  * Figures are reports, never pass/fail. Usage:
  *   bih_bench [scenes_dir [only]]   (scenes_dir default $PF_SHARED_SCENES)
  * where only, when given, runs just the scene of that name ("sphere" for the
- * generated mesh), e.g. to profile one case.
+ * generated mesh), e.g. to profile one case; "sphere-build" only times the
+ * builds of the generated mesh, ours (global and SAH, BENCH_THREADS threads)
+ * and Embree's LOW, BUILD_ROUNDS rounds each taking one of each in turn, and
+ * prints the best and the median of each: build figures steady enough for an
+ * A/B on a shared machine.
  * Run with LP_NUM_THREADS=2 so lavapipe gets the 2 threads Embree is given.
  */
 #include "pf_bih.h"
@@ -50,6 +54,7 @@
 #define T_REL_TOLERANCE 1e-4
 /* Best of this many timed runs (the machine is shared: the best run is the least disturbed). */
 #define TIMING_REPEATS 3
+#define BUILD_ROUNDS 15
 /* Stand-in for an infinite tmax that both the GLSL traversal and Embree accept. */
 #define RAY_FAR 1e30f
 /* Ray offset from a surface, relative to the scene diagonal (avoids self-hits). */
@@ -972,6 +977,60 @@ static int name_cmp(const void *a, const void *b)
     return strcmp(*(const char *const *)a, *(const char *const *)b);
 }
 
+static int compare_ms(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return x < y ? -1 : x > y;
+}
+
+/* "sphere-build": the builds alone, interleaved rounds, best and median. */
+static int build_rounds(const bench_mesh *m, RTCDevice dev)
+{
+    const pf_scene_frame *f = &m->frame;
+    uint32_t n = f->triangle_count;
+    unsigned *indices = malloc(3 * (size_t)n * sizeof *indices);
+    if (!indices)
+        return 0;
+    for (uint32_t i = 0; i < 3 * n; i++)
+        indices[i] = i;
+    static const char *const names[3] = {"ours CPU global", "ours CPU SAH", "Embree LOW"};
+    double ms[3][BUILD_ROUNDS];
+    int ok = 1;
+    for (int round = 0; round < BUILD_ROUNDS && ok; round++) {
+        for (uint32_t h = 0; h < 2 && ok; h++) {
+            /* cpu_build_ms takes the best of TIMING_REPEATS; one build per round here. */
+            pf_bih_build_options options = {0};
+            options.heuristic = h ? PF_BIH_HEURISTIC_SAH : PF_BIH_HEURISTIC_GLOBAL;
+            options.thread_count = BENCH_THREADS;
+            pf_bih b = {0};
+            pf_error err = {0};
+            double t0 = pf_time_ms();
+            ok = pf_bih_build_cpu(f, &options, &b, &err) == PF_OK;
+            ms[h][round] = pf_time_ms() - t0;
+            if (!ok)
+                fprintf(stderr, "bih_bench: pf_bih_build_cpu: %s\n", err.message);
+            pf_bih_free(&b);
+        }
+        if (ok)
+            rtcReleaseScene(embree_scene(dev, f, RTC_BUILD_QUALITY_LOW, indices, &ms[2][round]));
+    }
+    free(indices);
+    if (!ok)
+        return 0;
+    printf("\n=== %s: %u triangles, %d build rounds, %u threads ===\n", m->name, n,
+           BUILD_ROUNDS, BENCH_THREADS);
+    double best[3];
+    for (int i = 0; i < 3; i++) {
+        qsort(ms[i], BUILD_ROUNDS, sizeof ms[i][0], compare_ms);
+        best[i] = ms[i][0];
+        printf("build   %-16s best %8.2f ms  median %8.2f ms\n", names[i], ms[i][0],
+               ms[i][BUILD_ROUNDS / 2]);
+    }
+    printf("build   ours global / Embree LOW: best %.2fx, median %.2fx\n", best[0] / best[2],
+           ms[0][BUILD_ROUNDS / 2] / ms[2][BUILD_ROUNDS / 2]);
+    return 1;
+}
+
 int main(int argc, char **argv)
 {
     const char *dir = argc > 1 ? argv[1] : getenv("PF_SHARED_SCENES");
@@ -1040,7 +1099,14 @@ int main(int argc, char **argv)
         free(names[i]);
     }
     bench_mesh sphere;
-    if (only && strcmp(only, "sphere") != 0) {
+    if (only && !strcmp(only, "sphere-build")) {
+        if (make_sphere(&sphere)) {
+            failures += !build_rounds(&sphere, dev);
+            mesh_free(&sphere);
+        } else {
+            failures++;
+        }
+    } else if (only && strcmp(only, "sphere") != 0) {
         /* one shared scene asked for: no generated mesh */
     } else if (make_sphere(&sphere)) {
         failures += !bench_mesh_run(&sphere, ctx, dev, builder);

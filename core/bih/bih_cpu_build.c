@@ -42,6 +42,12 @@
 #define PARALLEL_SUBTREE_FRACTION 16u
 /* Below this many triangles a thread costs more than it saves. */
 #define PARALLEL_MIN_TRIANGLES 8192u
+/* The top tree's nodes down to this depth build their right child on a
+ * second thread while the left one builds here (depth 0: the root's two
+ * halves), so the top levels' partitions, one pass over all triangles each,
+ * are not all on one thread. Decided by the triangle count, not the threads:
+ * with one thread the right child builds after the left, with the same tree. */
+#define FORK_DEPTH 1u
 
 typedef struct box3 {
     float lo[3], hi[3];
@@ -58,6 +64,7 @@ typedef struct build_config {
     uint32_t max_depth;
     uint32_t heuristic;
     uint32_t defer_below; /* subtrees of at most this many triangles become tasks; 0 = none */
+    uint32_t threads;     /* the build's threads (a fork runs on a thread of its own when > 1) */
 } build_config;
 
 typedef struct subtree_task {
@@ -81,6 +88,7 @@ typedef struct subtree_builder {
     subtree_task *tasks;  /* top tree only: subtrees deferred to the workers */
     uint32_t task_count, task_capacity;
     pf_error *err;
+    int top;              /* the top tree (or a fork of it): may fork and defer */
 } subtree_builder;
 
 static box3 empty_box(void)
@@ -433,6 +441,85 @@ static pf_status defer_subtree(subtree_builder *b, uint32_t node, uint32_t first
     return PF_OK;
 }
 
+static pf_status build_node(subtree_builder *b, uint32_t node, uint32_t first, uint32_t count,
+                            box3 region, const box3 *bounds, const box3 *centres, uint32_t depth);
+
+/* A child of a top node built by its own builder (fork_child), maybe on a thread of its own. */
+typedef struct fork_job {
+    subtree_builder builder; /* node 0 = the child */
+    pf_error err;
+    uint32_t first, count, depth;
+    box3 region, bounds, centres;
+    pf_status status;
+} fork_job;
+
+static void *fork_entry(void *arg)
+{
+    fork_job *job = arg;
+    job->status = build_node(&job->builder, 0, job->first, job->count, job->region,
+                             &job->bounds, &job->centres, job->depth);
+    return NULL;
+}
+
+/*
+ * Moves a fork's nodes into b: its node 0 to node, the rest appended; its
+ * deferred subtrees renumbered the same way and appended to b's, after b's
+ * own, so the tree and the subtrees' order do not depend on the threads.
+ */
+static pf_status join_fork(subtree_builder *b, uint32_t node, fork_job *job)
+{
+    subtree_builder *f = &job->builder;
+    pf_status status = job->status;
+    if (status != PF_OK && b->err)
+        *b->err = job->err;
+    uint32_t base = b->node_count;
+    if (status == PF_OK && f->node_count > 1) {
+        uint32_t extra = f->node_count - 1;
+        if (base + extra > b->node_capacity) {
+            pf_bih_node *grown = realloc(b->nodes, (size_t)(base + extra) * sizeof *grown);
+            if (!grown)
+                status = pf_error_set(b->err, PF_ERR_NOMEM, "BIH build: %u nodes", base + extra);
+            else {
+                b->nodes = grown;
+                b->node_capacity = base + extra;
+            }
+        }
+    }
+    if (status == PF_OK && f->task_count > 0 &&
+        b->task_count + f->task_count > b->task_capacity) {
+        uint32_t capacity = b->task_count + f->task_count;
+        subtree_task *grown = realloc(b->tasks, capacity * sizeof *grown);
+        if (!grown)
+            status = pf_error_set(b->err, PF_ERR_NOMEM, "BIH build: %u subtrees", capacity);
+        else {
+            b->tasks = grown;
+            b->task_capacity = capacity;
+        }
+    }
+    if (status == PF_OK) {
+        for (uint32_t i = 0; i < f->node_count; i++) {
+            pf_bih_node n = f->nodes[i];
+            if (!pf_bih_is_leaf(&n))
+                n.word = ((pf_bih_first_child(&n) - 1 + base) << 2) | pf_bih_axis(&n);
+            b->nodes[i == 0 ? node : base + i - 1] = n;
+        }
+        b->node_count = base + (f->node_count - 1);
+        for (uint32_t i = 0; i < f->task_count; i++) {
+            subtree_task task = f->tasks[i];
+            task.node = task.node == 0 ? node : base + task.node - 1;
+            b->tasks[b->task_count++] = task;
+        }
+        if (f->depth > b->depth)
+            b->depth = f->depth;
+        b->leaf_count += f->leaf_count;
+        if (f->largest_leaf > b->largest_leaf)
+            b->largest_leaf = f->largest_leaf;
+    }
+    free(f->nodes);
+    free(f->tasks);
+    return status;
+}
+
 /*
  * Builds the subtree of prims[first, first + count) at node. region: the box
  * the ancestors' clip planes leave (for the global heuristic, the candidate
@@ -522,12 +609,46 @@ static pf_status build_node(subtree_builder *b, uint32_t node, uint32_t first, u
     b->nodes[node].clip[0] = left_bounds.hi[axis];
     b->nodes[node].clip[1] = right_bounds.lo[axis];
     b->nodes[node].word = (child << 2) | (uint32_t)axis;
+    uint32_t right_count = count - left_count;
+    if (!(b->top && cfg->defer_below && depth < FORK_DEPTH && right_count > cfg->defer_below)) {
+        status = build_node(b, child, first, left_count, left_region, &left_bounds,
+                            &left_centres, depth + 1);
+        if (status == PF_OK)
+            status = build_node(b, child + 1, first + left_count, right_count, right_region,
+                                &right_bounds, &right_centres, depth + 1);
+        return status;
+    }
+    /* The right child on its own builder (and thread), the left one here. */
+    fork_job *job = calloc(1, sizeof *job);
+    if (!job)
+        return pf_error_set(b->err, PF_ERR_NOMEM, "BIH build: a subtree of %u triangles",
+                            right_count);
+    job->builder = (subtree_builder){.cfg = cfg, .err = &job->err, .top = 1};
+    job->builder.node_capacity = 2 * right_count + 1;
+    job->builder.nodes = malloc((size_t)job->builder.node_capacity * sizeof(pf_bih_node));
+    job->builder.node_count = 1;
+    job->first = first + left_count;
+    job->count = right_count;
+    job->depth = depth + 1;
+    job->region = right_region;
+    job->bounds = right_bounds;
+    job->centres = right_centres;
+    job->status = job->builder.nodes ? PF_OK
+                                     : pf_error_set(&job->err, PF_ERR_NOMEM,
+                                                    "BIH build: a subtree of %u triangles",
+                                                    right_count);
+    pthread_t thread;
+    int threaded = job->status == PF_OK && cfg->threads > 1 &&
+                   pthread_create(&thread, NULL, fork_entry, job) == 0;
     status = build_node(b, child, first, left_count, left_region, &left_bounds, &left_centres,
                         depth + 1);
-    if (status == PF_OK)
-        status = build_node(b, child + 1, first + left_count, count - left_count, right_region,
-                            &right_bounds, &right_centres, depth + 1);
-    return status;
+    if (threaded)
+        pthread_join(thread, NULL);
+    else if (job->status == PF_OK)
+        fork_entry(job);
+    pf_status joined = join_fork(b, child + 1, job);
+    free(job);
+    return status != PF_OK ? status : joined;
 }
 
 /* ---------- threads ---------- */
@@ -708,9 +829,10 @@ pf_status pf_bih_build_cpu(const pf_scene_frame *frame, const pf_bih_build_optio
                             PF_BIH_MAX_NODES);
     if (n < PARALLEL_MIN_TRIANGLES)
         threads = 1;
-    build_config cfg = {.leaf_size = leaf_size, .max_depth = max_depth, .heuristic = heuristic};
+    build_config cfg = {.leaf_size = leaf_size, .max_depth = max_depth, .heuristic = heuristic,
+                        .threads = threads};
     cfg.prims = malloc((n ? n : 1) * sizeof *cfg.prims);
-    subtree_builder top = {.cfg = &cfg, .err = err};
+    subtree_builder top = {.cfg = &cfg, .err = err, .top = 1};
     top.node_capacity = n > 0 ? 2 * n - 1 : 1;
     top.nodes = malloc((size_t)top.node_capacity * sizeof *top.nodes);
     top.node_count = 1;
