@@ -444,6 +444,18 @@ static pf_status defer_subtree(subtree_builder *b, uint32_t node, uint32_t first
 static pf_status build_node(subtree_builder *b, uint32_t node, uint32_t first, uint32_t count,
                             box3 region, const box3 *bounds, const box3 *centres, uint32_t depth);
 
+/* Moves a subtree's nodes (root at node 0) into the tree: root to node, the rest from base on. */
+static void stitch(pf_bih_node *nodes, uint32_t node, uint32_t base, const pf_bih_node *subtree,
+                   uint32_t subtree_nodes)
+{
+    for (uint32_t i = 0; i < subtree_nodes; i++) {
+        pf_bih_node n = subtree[i];
+        if (!pf_bih_is_leaf(&n))
+            n.word = ((pf_bih_first_child(&n) - 1 + base) << 2) | pf_bih_axis(&n);
+        nodes[i == 0 ? node : base + i - 1] = n;
+    }
+}
+
 /* A child of a top node built by its own builder (fork_child), maybe on a thread of its own. */
 typedef struct fork_job {
     subtree_builder builder; /* node 0 = the child */
@@ -497,12 +509,7 @@ static pf_status join_fork(subtree_builder *b, uint32_t node, fork_job *job)
         }
     }
     if (status == PF_OK) {
-        for (uint32_t i = 0; i < f->node_count; i++) {
-            pf_bih_node n = f->nodes[i];
-            if (!pf_bih_is_leaf(&n))
-                n.word = ((pf_bih_first_child(&n) - 1 + base) << 2) | pf_bih_axis(&n);
-            b->nodes[i == 0 ? node : base + i - 1] = n;
-        }
+        stitch(b->nodes, node, base, f->nodes, f->node_count);
         b->node_count = base + (f->node_count - 1);
         for (uint32_t i = 0; i < f->task_count; i++) {
             subtree_task task = f->tasks[i];
@@ -788,17 +795,6 @@ static void order_part(void *arg, uint32_t part, uint32_t parts)
     }
 }
 
-/* Moves a subtree's nodes (root at node 0) into the tree: root to node, the rest from base on. */
-static void stitch(pf_bih_node *nodes, uint32_t node, uint32_t base, const subtree_task *task)
-{
-    for (uint32_t i = 0; i < task->node_count; i++) {
-        pf_bih_node n = task->nodes[i];
-        if (!pf_bih_is_leaf(&n))
-            n.word = ((pf_bih_first_child(&n) - 1 + base) << 2) | pf_bih_axis(&n);
-        nodes[i == 0 ? node : base + i - 1] = n;
-    }
-}
-
 pf_status pf_bih_build_cpu(const pf_scene_frame *frame, const pf_bih_build_options *options,
                            pf_bih *out, pf_error *err)
 {
@@ -892,7 +888,7 @@ pf_status pf_bih_build_cpu(const pf_scene_frame *frame, const pf_bih_build_optio
         uint32_t base = top.node_count;
         for (uint32_t i = 0; i < top.task_count; i++) {
             const subtree_task *task = &top.tasks[i];
-            stitch(nodes, task->node, base, task);
+            stitch(nodes, task->node, base, task->nodes, task->node_count);
             base += task->node_count - 1;
             if (task->depth_reached > top.depth)
                 top.depth = task->depth_reached;
