@@ -88,7 +88,6 @@ typedef struct subtree_builder {
     subtree_task *tasks;  /* top tree only: subtrees deferred to the workers */
     uint32_t task_count, task_capacity;
     pf_error *err;
-    int top;              /* the top tree (or a fork of it): may fork and defer */
 } subtree_builder;
 
 static box3 empty_box(void)
@@ -208,23 +207,35 @@ static uint32_t partition(build_prim *prims, uint32_t first, uint32_t count,
     return lo - first;
 }
 
+/* Room for extra more nodes in b's buffer (doubling), within the node index field. */
+static pf_status reserve_nodes(subtree_builder *b, uint32_t extra)
+{
+    uint64_t needed = (uint64_t)b->node_count + extra;
+    if (needed <= b->node_capacity)
+        return PF_OK;
+    uint64_t capacity = b->node_capacity ? 2 * (uint64_t)b->node_capacity : 64;
+    while (capacity < needed)
+        capacity *= 2;
+    if (capacity > PF_BIH_MAX_NODES)
+        capacity = PF_BIH_MAX_NODES;
+    if (needed > capacity)
+        return pf_error_set(b->err, PF_ERR_LIMIT,
+                            "BIH build: more than %u nodes (the node index field)",
+                            PF_BIH_MAX_NODES);
+    pf_bih_node *grown = realloc(b->nodes, (size_t)capacity * sizeof *grown);
+    if (!grown)
+        return pf_error_set(b->err, PF_ERR_NOMEM, "BIH build: %u nodes", (uint32_t)capacity);
+    b->nodes = grown;
+    b->node_capacity = (uint32_t)capacity;
+    return PF_OK;
+}
+
 /* Appends two nodes (a sibling pair) and returns the first one's index. */
 static pf_status alloc_pair(subtree_builder *b, uint32_t *index)
 {
-    if (b->node_count + 2 > b->node_capacity) {
-        uint32_t capacity = b->node_capacity ? 2 * b->node_capacity : 64;
-        if (capacity > PF_BIH_MAX_NODES)
-            capacity = PF_BIH_MAX_NODES;
-        if (b->node_count + 2 > capacity)
-            return pf_error_set(b->err, PF_ERR_LIMIT,
-                                "BIH build: more than %u nodes (the node index field)",
-                                PF_BIH_MAX_NODES);
-        pf_bih_node *grown = realloc(b->nodes, (size_t)capacity * sizeof *grown);
-        if (!grown)
-            return pf_error_set(b->err, PF_ERR_NOMEM, "BIH build: %u nodes", capacity);
-        b->nodes = grown;
-        b->node_capacity = capacity;
-    }
+    pf_status status = reserve_nodes(b, 2);
+    if (status != PF_OK)
+        return status;
     *index = b->node_count;
     b->node_count += 2;
     return PF_OK;
@@ -424,18 +435,29 @@ static int empty_cut(const box3 *region, const box3 *bounds, uint32_t count, int
     return found;
 }
 
+/* Room for extra more deferred subtrees in b's list (doubling). */
+static pf_status reserve_tasks(subtree_builder *b, uint32_t extra)
+{
+    if (b->task_count + extra <= b->task_capacity)
+        return PF_OK;
+    uint32_t capacity = b->task_capacity ? 2 * b->task_capacity : 64;
+    while (capacity < b->task_count + extra)
+        capacity *= 2;
+    subtree_task *grown = realloc(b->tasks, capacity * sizeof *grown);
+    if (!grown)
+        return pf_error_set(b->err, PF_ERR_NOMEM, "BIH build: %u subtrees", capacity);
+    b->tasks = grown;
+    b->task_capacity = capacity;
+    return PF_OK;
+}
+
 static pf_status defer_subtree(subtree_builder *b, uint32_t node, uint32_t first, uint32_t count,
                                const box3 *region, const box3 *bounds, const box3 *centres,
                                uint32_t depth)
 {
-    if (b->task_count == b->task_capacity) {
-        uint32_t capacity = b->task_capacity ? 2 * b->task_capacity : 64;
-        subtree_task *grown = realloc(b->tasks, capacity * sizeof *grown);
-        if (!grown)
-            return pf_error_set(b->err, PF_ERR_NOMEM, "BIH build: %u subtrees", capacity);
-        b->tasks = grown;
-        b->task_capacity = capacity;
-    }
+    pf_status status = reserve_tasks(b, 1);
+    if (status != PF_OK)
+        return status;
     b->tasks[b->task_count++] = (subtree_task){node, first, count, depth, *region, *bounds,
                                                *centres, NULL, 0, 0, 0, 0, PF_OK, {0}};
     return PF_OK;
@@ -484,30 +506,11 @@ static pf_status join_fork(subtree_builder *b, uint32_t node, fork_job *job)
     pf_status status = job->status;
     if (status != PF_OK && b->err)
         *b->err = job->err;
+    if (status == PF_OK)
+        status = reserve_nodes(b, f->node_count - 1);
+    if (status == PF_OK)
+        status = reserve_tasks(b, f->task_count);
     uint32_t base = b->node_count;
-    if (status == PF_OK && f->node_count > 1) {
-        uint32_t extra = f->node_count - 1;
-        if (base + extra > b->node_capacity) {
-            pf_bih_node *grown = realloc(b->nodes, (size_t)(base + extra) * sizeof *grown);
-            if (!grown)
-                status = pf_error_set(b->err, PF_ERR_NOMEM, "BIH build: %u nodes", base + extra);
-            else {
-                b->nodes = grown;
-                b->node_capacity = base + extra;
-            }
-        }
-    }
-    if (status == PF_OK && f->task_count > 0 &&
-        b->task_count + f->task_count > b->task_capacity) {
-        uint32_t capacity = b->task_count + f->task_count;
-        subtree_task *grown = realloc(b->tasks, capacity * sizeof *grown);
-        if (!grown)
-            status = pf_error_set(b->err, PF_ERR_NOMEM, "BIH build: %u subtrees", capacity);
-        else {
-            b->tasks = grown;
-            b->task_capacity = capacity;
-        }
-    }
     if (status == PF_OK) {
         stitch(b->nodes, node, base, f->nodes, f->node_count);
         b->node_count = base + (f->node_count - 1);
@@ -617,7 +620,8 @@ static pf_status build_node(subtree_builder *b, uint32_t node, uint32_t first, u
     b->nodes[node].clip[1] = right_bounds.lo[axis];
     b->nodes[node].word = (child << 2) | (uint32_t)axis;
     uint32_t right_count = count - left_count;
-    if (!(b->top && cfg->defer_below && depth < FORK_DEPTH && right_count > cfg->defer_below)) {
+    /* defer_below is set only while the top tree builds: the subtrees never fork. */
+    if (!(cfg->defer_below && depth < FORK_DEPTH && right_count > cfg->defer_below)) {
         status = build_node(b, child, first, left_count, left_region, &left_bounds,
                             &left_centres, depth + 1);
         if (status == PF_OK)
@@ -630,7 +634,7 @@ static pf_status build_node(subtree_builder *b, uint32_t node, uint32_t first, u
     if (!job)
         return pf_error_set(b->err, PF_ERR_NOMEM, "BIH build: a subtree of %u triangles",
                             right_count);
-    job->builder = (subtree_builder){.cfg = cfg, .err = &job->err, .top = 1};
+    job->builder = (subtree_builder){.cfg = cfg, .err = &job->err};
     job->builder.node_capacity = 2 * right_count + 1;
     job->builder.nodes = malloc((size_t)job->builder.node_capacity * sizeof(pf_bih_node));
     job->builder.node_count = 1;
@@ -828,7 +832,7 @@ pf_status pf_bih_build_cpu(const pf_scene_frame *frame, const pf_bih_build_optio
     build_config cfg = {.leaf_size = leaf_size, .max_depth = max_depth, .heuristic = heuristic,
                         .threads = threads};
     cfg.prims = malloc((n ? n : 1) * sizeof *cfg.prims);
-    subtree_builder top = {.cfg = &cfg, .err = err, .top = 1};
+    subtree_builder top = {.cfg = &cfg, .err = err};
     top.node_capacity = n > 0 ? 2 * n - 1 : 1;
     top.nodes = malloc((size_t)top.node_capacity * sizeof *top.nodes);
     top.node_count = 1;
