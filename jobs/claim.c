@@ -466,10 +466,7 @@ static pf_status finish_lease(pf_queue *queue, const token_context *ctx, leased_
             *stored = queue_column_int64(stmt, 6);
         rc = queue_step(stmt);
     }
-    if (rc == QUEUE_CONSTRAINT)
-        status = pf_error_set(err, PF_ERR_INVALID, "%s: completing a task: a stage row was "
-                              "refused: %s", queue->path, queue->pg ? queue->pg_error : "");
-    else if (rc != QUEUE_DONE)
+    if (rc != QUEUE_DONE)
         status = queue_db_error(queue, err, "completing a task");
     queue_finalize(stmt);
     return status;

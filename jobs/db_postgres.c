@@ -41,6 +41,10 @@
 #define PG_TEXT 25u
 /* The advisory lock every write transaction takes: "pf" in ASCII (0x7066), an arbitrary key. */
 #define PG_WRITE_LOCK_TEXT "28774"
+#define PG_LOCK_SHARED "SELECT pg_advisory_xact_lock_shared(" PG_WRITE_LOCK_TEXT ")"
+#define PG_LOCK_EXCLUSIVE "SELECT pg_advisory_xact_lock(" PG_WRITE_LOCK_TEXT ")"
+/* A writer's BEGIN pieces (begin_pieces): the lock is the third. */
+#define PG_LOCK_PIECE 2
 #define PG_LOCK_RETRIES 4
 #define PG_LOCK_PAUSE_MS 20
 #define PG_RECONNECT_TRIES 6
@@ -304,6 +308,13 @@ static PGresult *next_query_result(PGconn *pg)
 static int relock(pf_queue *queue);
 static pf_status flush_pending(pf_queue *queue, pf_error *err);
 
+/* Whether piece `piece` of a writer's BEGIN pieces failed on lock_timeout (SQLSTATE 55P03). */
+static bool lock_timed_out(const PGresult *failure, int piece, int pieces)
+{
+    const char *code = PQresultErrorField(failure, PG_DIAG_SQLSTATE);
+    return pieces > PG_LOCK_PIECE && piece == PG_LOCK_PIECE && code && !strcmp(code, "55P03");
+}
+
 /* A dead connection where BEGIN was pending: the transaction may run again (queue_pg_transaction). */
 static void note_lost_at_begin(pf_queue *queue)
 {
@@ -365,9 +376,7 @@ static PGresult *execute_pipelined(pf_queue *queue, const queue_pg_stmt *stmt, c
     note_lost_at_begin(queue);
     PQclear(result);
     /* The write lock (BEGIN, SAVEPOINT, lock) timed out: wait again, then run alone. */
-    const char *code = PQresultErrorField(failure, PG_DIAG_SQLSTATE);
-    bool lock_timeout = pieces == 3 && failed_piece == 2 && code && !strcmp(code, "55P03");
-    if (!lock_timeout)
+    if (!lock_timed_out(failure, failed_piece, pieces))
         return failure;
     PQclear(failure);
     if (!relock(queue))
@@ -388,10 +397,7 @@ static PGresult *execute(pf_queue *queue, const queue_pg_stmt *stmt)
     }
     if (queue->pg_pending_count || queue->pg_commit_next)
         return execute_pipelined(queue, stmt, name);
-    PGresult *result = name ? PQexecPrepared(queue->pg, name, stmt->param_count,
-                                             (const char *const *)stmt->values, NULL, NULL, 0)
-                            : PQexecParams(queue->pg, stmt->sql, stmt->param_count, stmt->types,
-                                           (const char *const *)stmt->values, NULL, NULL, 0);
+    PGresult *result = send_statement(queue, stmt, name) ? next_query_result(queue->pg) : NULL;
     if (!result)
         queue_pg_note_error(queue, NULL);
     return result;
@@ -564,9 +570,7 @@ static int begin_pieces(queue_pg_tx kind, const char *pieces[3])
     case QUEUE_PG_LEASE:
         pieces[0] = "BEGIN ISOLATION LEVEL READ COMMITTED";
         pieces[1] = "SAVEPOINT locking";
-        pieces[2] = kind == QUEUE_PG_LEASE
-                        ? "SELECT pg_advisory_xact_lock_shared(" PG_WRITE_LOCK_TEXT ")"
-                        : "SELECT pg_advisory_xact_lock(" PG_WRITE_LOCK_TEXT ")";
+        pieces[PG_LOCK_PIECE] = kind == QUEUE_PG_LEASE ? PG_LOCK_SHARED : PG_LOCK_EXCLUSIVE;
         return 3;
     case QUEUE_PG_READ:
         pieces[0] = "BEGIN ISOLATION LEVEL REPEATABLE READ READ ONLY";
@@ -579,10 +583,8 @@ static int begin_pieces(queue_pg_tx kind, const char *pieces[3])
 static int relock(pf_queue *queue)
 {
     const char *again = queue->pg_pending_kind == QUEUE_PG_LEASE
-                            ? "ROLLBACK TO SAVEPOINT locking; "
-                              "SELECT pg_advisory_xact_lock_shared(" PG_WRITE_LOCK_TEXT ")"
-                            : "ROLLBACK TO SAVEPOINT locking; "
-                              "SELECT pg_advisory_xact_lock(" PG_WRITE_LOCK_TEXT ")";
+                            ? "ROLLBACK TO SAVEPOINT locking; " PG_LOCK_SHARED
+                            : "ROLLBACK TO SAVEPOINT locking; " PG_LOCK_EXCLUSIVE;
     for (int attempt = 0; attempt < PG_LOCK_RETRIES; attempt++) {
         if (PQstatus(queue->pg) != CONNECTION_OK ||
             PQtransactionStatus(queue->pg) != PQTRANS_INERROR)
@@ -612,8 +614,7 @@ static pf_status flush_pending(pf_queue *queue, pf_error *err)
         PGresult *result = PQexec(queue->pg, queue->pg_pending[i]);
         ExecStatusType state = PQresultStatus(result);
         bool ok = state == PGRES_COMMAND_OK || state == PGRES_TUPLES_OK;
-        const char *code = ok ? NULL : PQresultErrorField(result, PG_DIAG_SQLSTATE);
-        bool lock_timeout = i == 2 && code && !strcmp(code, "55P03");
+        bool lock_timeout = !ok && lock_timed_out(result, i, pieces);
         if (!ok)
             queue_pg_note_error(queue, result);
         PQclear(result);
@@ -671,10 +672,8 @@ pf_status queue_pg_transaction(pf_queue *queue, queue_pg_tx kind, const char *wh
         }
         return status;
     }
-    if (queue->pg_committed) {
-        status = settle ? settle(queue, context, err) : PF_OK;
-        return status;
-    }
+    if (queue->pg_committed)
+        return settle ? settle(queue, context, err) : PF_OK;
     if (!settle) {
         status = queue_pg_exec(queue, "COMMIT", err);
         if (status != PF_OK)

@@ -49,7 +49,7 @@ pf_status queue_job_require(pf_queue *queue, int64_t job_id, char *status_text,
 pf_status queue_job_refresh(pf_queue *queue, int64_t job_id, pf_error *err)
 {
     /* EXISTS probes on (job_id, status) instead of counting every task: this
-     * runs inside each claim and completion, and a job may have 100,000 tasks.
+     * runs after each completion and failure, and a job may have 100,000 tasks.
      * The order of the cases is the precedence of the states. */
     static const char derive_sql[] =
         "SELECT j.status, CASE"

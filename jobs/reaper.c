@@ -4,6 +4,9 @@
 #include <stdio.h>
 #include <stdlib.h>
 
+/* A running task of tasks t whose lease ended before ? (now). */
+#define EXPIRED_LEASE "t.status = 'running' AND t.lease_expires < ?"
+
 typedef struct expired_task {
     int64_t task_id;
     char worker_name[PF_QUEUE_NAME_MAX];
@@ -20,7 +23,7 @@ static pf_status reap_body(pf_queue *queue, void *context, pf_error *err)
     pf_status status = queue_prepare(
         queue,
         "SELECT t.id, coalesce(w.name, '?') FROM tasks t LEFT JOIN workers w ON w.id = t.worker_id "
-        "WHERE t.status = 'running' AND t.lease_expires < ? ORDER BY t.id",
+        "WHERE " EXPIRED_LEASE " ORDER BY t.id",
         &stmt, err);
     if (status != PF_OK)
         return status;
@@ -56,23 +59,19 @@ static pf_status reap_body(pf_queue *queue, void *context, pf_error *err)
     return status;
 }
 
-typedef struct expiry_probe {
-    bool any;
-} expiry_probe;
-
+/* context: a bool, set when some lease has expired. */
 static pf_status probe_body(pf_queue *queue, void *context, pf_error *err)
 {
-    expiry_probe *probe = context;
+    bool *any = context;
     queue_stmt *stmt;
     pf_status status = queue_prepare(queue,
-                                     "SELECT 1 FROM tasks WHERE status = 'running' "
-                                     "AND lease_expires < ? LIMIT 1",
+                                     "SELECT 1 FROM tasks t WHERE " EXPIRED_LEASE " LIMIT 1",
                                      &stmt, err);
     if (status != PF_OK)
         return status;
     queue_bind_int64(stmt, 1, pf_queue_now(queue));
     int rc = queue_step(stmt);
-    probe->any = rc == QUEUE_ROW;
+    *any = rc == QUEUE_ROW;
     if (rc != QUEUE_ROW && rc != QUEUE_DONE)
         status = queue_db_error(queue, err, "looking for expired leases");
     queue_finalize(stmt);
@@ -84,11 +83,11 @@ pf_status pf_queue_reap(pf_queue *queue, int64_t *reaped, pf_error *err)
     /* Every worker reaps on a timer; the reap is a whole-queue writer (on
      * PostgreSQL it waits for every claim in flight and holds new ones), so
      * it runs only when a read finds something to reap. */
-    expiry_probe probe = {false};
-    pf_status status = queue_read(queue, "looking for expired leases", probe_body, &probe, err);
+    bool any = false;
+    pf_status status = queue_read(queue, "looking for expired leases", probe_body, &any, err);
     if (reaped)
         *reaped = 0;
-    if (status != PF_OK || !probe.any)
+    if (status != PF_OK || !any)
         return status;
     reap_context ctx = {0};
     status = queue_write(queue, "reaping expired leases", reap_body, &ctx, err);
