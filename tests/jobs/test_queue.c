@@ -38,6 +38,18 @@ static pf_queue *open_fresh(const char *name)
     return queue;
 }
 
+/* Where open_fresh(name) put the queue, without emptying it again: for a
+ * second connection or a query past the queue's API. */
+static const char *opened_path(const char *name, char *buffer, size_t size)
+{
+    char dir[1024];
+    if (queue_test_postgres())
+        snprintf(buffer, size, "%s", queue_test_postgres());
+    else
+        snprintf(buffer, size, "%s/%s", pf_test_tmpdir(dir, sizeof dir), name);
+    return buffer;
+}
+
 static int64_t enqueue(pf_queue *queue, const char *range, int priority, int frames_per_task,
                        int max_attempts)
 {
@@ -234,11 +246,8 @@ PF_TEST(claims_start_the_job_once_and_need_a_registered_worker)
 {
     pf_queue *queue = open_fresh("claim_start.db");
     PF_REQUIRE(queue);
-    char path[1200], dir[1024];
-    const char *url = queue_test_postgres();
-    snprintf(path, sizeof path, "%s/claim_start.db", pf_test_tmpdir(dir, sizeof dir));
-    if (url)
-        snprintf(path, sizeof path, "%s", url);
+    char path[1200];
+    opened_path("claim_start.db", path, sizeof path);
     const char *started_sql = "SELECT coalesce(started_at, -1) FROM jobs";
     int64_t job = enqueue(queue, "1-2", 0, 1, 0);
     pf_error err = {0};
@@ -943,13 +952,9 @@ PF_TEST(enqueue_conflicts_are_decided_under_the_write_lock)
 {
     pf_queue *queue = open_fresh("conflict.db");
     PF_REQUIRE(queue);
-    char dir[1024], path[1200];
-    if (queue_test_postgres())
-        snprintf(path, sizeof path, "%s", queue_test_postgres());
-    else
-        snprintf(path, sizeof path, "%s/conflict.db", pf_test_tmpdir(dir, sizeof dir));
+    char path[1200];
     pf_error err = {0};
-    pf_queue *other = open_impatient(path);
+    pf_queue *other = open_impatient(opened_path("conflict.db", path, sizeof path));
     PF_REQUIRE(other);
     int64_t first = enqueue(queue, "1-2", 0, 1, 0);
     int64_t canceled = enqueue(queue, "1", 0, 1, 0);
