@@ -307,6 +307,7 @@ pf_status pf_vk_device_open(pf_vk_context *ctx, const char *selector, pf_error *
         ctx->physical_device = handles[chosen];
         ctx->info = infos[chosen];
         ctx->queue_family = families[chosen];
+        ctx->exact_division = strncmp(ctx->info.driver, "llvmpipe", 8) == 0;
     }
     free(handles);
     free(infos);

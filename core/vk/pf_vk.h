@@ -85,6 +85,14 @@ pf_status pf_vk_buffer_upload(pf_vk_context *ctx, pf_vk_buffer *buffer, uint64_t
 pf_status pf_vk_buffer_download(pf_vk_context *ctx, pf_vk_buffer *buffer, uint64_t offset,
                                 void *data, uint64_t size, pf_error *err);
 
+/*
+ * A specialization constant every pipeline gets besides its own: 1 where the
+ * device's shader division may be off by an ulp or more (Vulkan allows 2.5;
+ * NVIDIA's is), so shaders/common/ray_triangle.glsl's divide_exact refines
+ * it; 0 on llvmpipe, whose division is IEEE-rounded already.
+ */
+#define PF_VK_SPEC_DIVIDE_REFINE 1000u
+
 typedef struct pf_vk_spec_constant {
     uint32_t constant_id;
     uint32_t value; /* 32-bit int/uint/float bits */

@@ -34,6 +34,9 @@ struct pf_vk_context {
     VkCommandPool transfer_pool; /* staging copies; guarded by queue_lock */
     int force_staging;           /* tests: never map buffers directly */
     int has_creation_feedback;   /* VK_EXT_pipeline_creation_feedback enabled */
+    /* The device's shader `/` rounds as IEEE does (llvmpipe: LLVM's fdiv): every pipeline
+     * gets PF_VK_SPEC_DIVIDE_REFINE = 0, so divide_exact skips its refinement. */
+    int exact_division;
 
     struct {
         VkPipelineCache handle; /* the file is stats.path ("" without a directory) */

@@ -55,10 +55,10 @@ pf_status pf_vk_pipeline_create(pf_vk_context *ctx, const pf_vk_pipeline_desc *d
     pf_vk_pipeline *pipeline = calloc(1, sizeof *pipeline);
     VkDescriptorSetLayoutBinding *bindings =
         calloc(checked.buffer_count ? checked.buffer_count : 1, sizeof *bindings);
-    VkSpecializationMapEntry *entries =
-        calloc(checked.spec_constant_count ? checked.spec_constant_count : 1, sizeof *entries);
-    uint32_t *values =
-        calloc(checked.spec_constant_count ? checked.spec_constant_count : 1, sizeof *values);
+    /* The pipeline's own constants, then PF_VK_SPEC_DIVIDE_REFINE. */
+    uint32_t constant_count = checked.spec_constant_count + 1;
+    VkSpecializationMapEntry *entries = calloc(constant_count, sizeof *entries);
+    uint32_t *values = calloc(constant_count, sizeof *values);
     if (!pipeline || !bindings || !entries || !values) {
         free(pipeline);
         free(bindings);
@@ -121,18 +121,20 @@ pf_status pf_vk_pipeline_create(pf_vk_context *ctx, const pf_vk_pipeline_desc *d
             pipeline->layout = layout;
     }
     if (result == VK_SUCCESS) {
-        for (uint32_t i = 0; i < checked.spec_constant_count; i++) {
-            values[i] = checked.spec_constants[i].value;
+        for (uint32_t i = 0; i < constant_count; i++) {
+            int own = i < checked.spec_constant_count;
+            values[i] = own ? checked.spec_constants[i].value : !ctx->exact_division;
             entries[i] = (VkSpecializationMapEntry){
-                .constantID = checked.spec_constants[i].constant_id,
+                .constantID = own ? checked.spec_constants[i].constant_id
+                                  : PF_VK_SPEC_DIVIDE_REFINE,
                 .offset = i * (uint32_t)sizeof *values,
                 .size = sizeof *values,
             };
         }
         VkSpecializationInfo specialization = {
-            .mapEntryCount = checked.spec_constant_count,
+            .mapEntryCount = constant_count,
             .pMapEntries = entries,
-            .dataSize = checked.spec_constant_count * sizeof *values,
+            .dataSize = constant_count * sizeof *values,
             .pData = values,
         };
         VkComputePipelineCreateInfo pipeline_info = {
@@ -142,7 +144,7 @@ pf_status pf_vk_pipeline_create(pf_vk_context *ctx, const pf_vk_pipeline_desc *d
                 .stage = VK_SHADER_STAGE_COMPUTE_BIT,
                 .module = pipeline->module,
                 .pName = "main",
-                .pSpecializationInfo = checked.spec_constant_count ? &specialization : NULL,
+                .pSpecializationInfo = &specialization,
             },
             .layout = pipeline->layout,
         };

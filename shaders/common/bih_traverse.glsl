@@ -55,8 +55,10 @@ BihHit trace_bih(vec3 origin, vec3 direction, float tmin, float tmax, bool any_h
     if (triangle_count == 0u)
         return hit;
     bvec3 parallel = not(greaterThanEqual(abs(direction), vec3(BIH_FLT_MIN)));
-    vec3 inv = vec3(parallel.x ? 0.0 : 1.0 / direction.x, parallel.y ? 0.0 : 1.0 / direction.y,
-                    parallel.z ? 0.0 : 1.0 / direction.z);
+    // divide_exact (ray_triangle.glsl): the CPU's reciprocals, so the node intervals are too.
+    vec3 inv = vec3(parallel.x ? 0.0 : divide_exact(1.0, direction.x),
+                    parallel.y ? 0.0 : divide_exact(1.0, direction.y),
+                    parallel.z ? 0.0 : divide_exact(1.0, direction.z));
     if (all(parallel))
         return hit;
     RayShear shear = ray_shear_setup(direction);

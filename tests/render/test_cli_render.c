@@ -169,7 +169,9 @@ PF_TEST(bad_frames_scenes_and_options_exit_2)
     static const char *const bad_lpv[][2] = {
         {"--lpv-size 0", "--lpv-size"},         {"--lpv-size -8", "--lpv-size"},
         {"--lpv-size abc", "--lpv-size"},       {"--lpv-size 30", "--lpv-size"},
-        {"--lpv-size 256", "--lpv-size"},       {"--lpv-iterations 0", "--lpv-iterations"},
+        /* 8 cascades of 256³ cells need 6.4 GB, beyond maxStorageBufferRange (a uint32) of any device. */
+        {"--lpv-cascades 8 --lpv-size 256", "--lpv-size"},
+        {"--lpv-iterations 0", "--lpv-iterations"},
         {"--lpv-iterations -2", "--lpv-iterations"}, {"--lpv-iterations 8,x", "--lpv-iterations"},
         {"--lpv-iterations 5000", "--lpv-iterations"}, {"--lpv-cascades 0", "--lpv-cascades"},
         {"--lpv-cascades 9", "--lpv-cascades"}, {"--lpv-cell -1", "--lpv-cell"},
