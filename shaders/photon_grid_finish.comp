@@ -3,7 +3,8 @@
 // Photon grid build, after the sort (one pass per dispatch, chosen by
 // push.mode, each separated by a barrier):
 //   MODE_CLEAR    every cell's range = [0, 0) (empty);
-//   MODE_RANGES   where the sorted key changes, the cell's start and end;
+//   MODE_RANGES   where the sorted key changes, the cell's start and end
+//                 (records without a photon, key table_size, get none);
 //   MODE_REORDER  photons copied into key order, so a cell's photons are
 //                 contiguous for the gather.
 
@@ -34,6 +35,8 @@ void main()
         return;
     if (push.mode == MODE_RANGES) {
         uint key = keys[i];
+        if (key >= push.table_size)
+            return;
         if (i == 0u || keys[i - 1u] != key)
             ranges[key].x = i;
         if (i + 1u == push.count || keys[i + 1u] != key)

@@ -1,7 +1,9 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
 // Photon grid build, pass 1: each photon's cell key, and its index as the
-// value the radix sort carries along.
+// value the radix sort carries along. A record without a photon
+// (photon_record_present) gets push.table_size, past every cell: it sorts
+// behind them all and photon_grid_finish.comp gives it no range.
 
 layout(local_size_x = 256) in;
 
@@ -21,6 +23,8 @@ void main()
     vec3 position = vec3(uintBitsToFloat(photon_words[base]), uintBitsToFloat(photon_words[base + 1u]),
                          uintBitsToFloat(photon_words[base + 2u]));
     PhotonGrid grid = photon_grid_from_push();
-    keys[i] = photon_grid_key(photon_grid_cell(position, grid), grid);
+    keys[i] = photon_record_present(photon_words[base + 4u])
+                  ? photon_grid_key(photon_grid_cell(position, grid), grid)
+                  : push.table_size;
     values[i] = i;
 }

@@ -1,8 +1,9 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
-// pf_photon_grid_irradiance and pf_photon_grid_irradiance_knn: the estimates
-// of photon_estimate.glsl at query points, for tests against closed forms
-// and brute force. push.mode picks the estimate, push.capacity is k.
+// pf_photon_grid_irradiance, pf_photon_grid_irradiance_knn and
+// pf_photon_grid_irradiance_lookup: the estimates of photon_estimate.glsl at
+// query points, for tests against closed forms and brute force. push.mode
+// picks the estimate, push.capacity is k.
 
 layout(local_size_x = 64) in;
 
@@ -12,12 +13,13 @@ layout(local_size_x = 64) in;
 // Modes (core/photon/photon_grid.c): fixed radius, or k nearest within it.
 const uint ESTIMATE_FIXED = 0u;
 const uint ESTIMATE_KNN = 1u;
+const uint ESTIMATE_LOOKUP = 2u; // the bound grid holds precomputed irradiance points
 
 layout(std430, set = 0, binding = 0) readonly buffer SortedPhotons { uint grid_words[]; };
 layout(std430, set = 0, binding = 1) readonly buffer Ranges { uvec2 grid_ranges[]; };
 layout(std430, set = 0, binding = 2) readonly buffer Queries { vec4 queries[]; };  // xyz, radius
 layout(std430, set = 0, binding = 3) readonly buffer Normals { vec4 normals[]; };  // xyz
-layout(std430, set = 0, binding = 4) writeonly buffer Results { vec4 results[]; }; // rgb, radius used
+layout(std430, set = 0, binding = 4) writeonly buffer Results { vec4 results[]; }; // rgb, radius used (lookup: 1 found, 0 not)
 layout(std430, set = 0, binding = 5) writeonly buffer Truncated { uint truncated_flags[]; };
 
 // One estimate per invocation and no other long loop: most of llvmpipe's
@@ -36,7 +38,11 @@ void main()
     float radius_used = radius;
     bool truncated;
     vec3 irradiance;
-    if (push.mode == ESTIMATE_KNN) {
+    if (push.mode == ESTIMATE_LOOKUP) {
+        bool found = photon_irradiance_lookup(x, normal, radius, photon_grid_from_push(),
+                                              irradiance, truncated);
+        radius_used = found ? 1.0 : 0.0;
+    } else if (push.mode == ESTIMATE_KNN) {
         irradiance = photon_irradiance_knn(x, normal, push.capacity, radius,
                                            photon_grid_from_push(), radius_used, truncated);
     } else {

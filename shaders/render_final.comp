@@ -16,7 +16,9 @@
 // MODE_GATHER (global grid bound): push.gather_count of the sample's
 //   push.gather_total cosine-distributed gather rays from D₁ per dispatch.
 //   At a gather ray's first diffuse hit x₂: albedo/π × global-map irradiance,
-//   into `indirect`. The global map holds every diffuse hit, first hits
+//   into `indirect`, read from the nearest precomputed irradiance point
+//   (Christensen 1999; photon_irradiance_lookup) when one with an agreeing
+//   normal lies within the radius, else estimated from the photons. The global map holds every diffuse hit, first hits
 //   included (Jensen 2001, §9.3), so x₂'s direct light comes from photons
 //   too: next-event estimation there had no MIS partner (nothing else
 //   samples emitters from x₂), and its weight cos·cos·A/d² had no bound
@@ -76,6 +78,13 @@ layout(push_constant) uniform Push {
     float radius;       // gather radius of the bound grid
     float flux_scale;   // W per unit of the bound map's stored flux
     float caustic_scale; // this pass's radius over the first pass's (caustic radii shrink with it)
+    // The bound global map's precomputed irradiance points (gather only; 0: none).
+    uint points_count;
+    vec3 points_origin;
+    float points_inv_cell;
+    uvec3 points_dims;
+    uint points_hashed;
+    uint points_table_size;
 } push;
 
 #include "scene_bindings.glsl"
@@ -98,6 +107,11 @@ layout(std430, set = 0, binding = 15) readonly buffer GridPhotons { uint grid_wo
 layout(std430, set = 0, binding = 16) readonly buffer GridRanges { uvec2 grid_ranges[]; };
 // Per pixel: the caustic radius chosen in the first pass (see caustic_radiance).
 layout(std430, set = 0, binding = 17) buffer CausticRadii { float caustic_radii[]; };
+// The global map's precomputed irradiance points (photon_estimate.glsl's lookup).
+layout(std430, set = 0, binding = 18) readonly buffer IrradiancePoints { uint points_words[]; };
+layout(std430, set = 0, binding = 19) readonly buffer IrradianceRanges { uvec2 points_ranges[]; };
+#define PHOTON_LOOKUP_WORDS points_words
+#define PHOTON_LOOKUP_RANGES points_ranges
 
 #define BIH_BINDING 10
 #include "scene_trace.glsl"
@@ -144,17 +158,33 @@ PhotonGrid bound_grid()
 // tests/render/test_final_caustic.c's measure, 10,000 photons per pass).
 const uint CAUSTIC_NEAREST = 8u;
 
+PhotonGrid bound_points()
+{
+    return PhotonGrid(push.points_origin, push.points_inv_cell, push.points_dims,
+                      push.points_hashed, push.points_table_size);
+}
+
 // Radiance a Lambertian surface reflects from the bound global map's
-// irradiance (fixed radius, cone filter); truncated as photon_irradiance_guarded.
+// irradiance (fixed radius, cone filter): the nearest precomputed point's,
+// or where none is near, the estimate from the photons themselves (a
+// sparsely lit spot: few photons to sum); truncated as
+// photon_irradiance_guarded.
 vec3 global_radiance(Material material, vec3 position, vec3 geometric_normal,
                      inout bool truncated)
 {
     if (push.grid_photons == 0u)
         return vec3(0.0);
-    bool stopped;
-    vec3 irradiance = photon_irradiance_guarded(position, geometric_normal, push.radius,
-                                                bound_grid(), stopped);
+    bool stopped = false;
+    vec3 irradiance;
+    bool found = push.points_count > 0u &&
+                 photon_irradiance_lookup(position, geometric_normal, push.radius, bound_points(),
+                                          irradiance, stopped);
     truncated = truncated || stopped;
+    if (!found) {
+        irradiance = photon_irradiance_guarded(position, geometric_normal, push.radius,
+                                               bound_grid(), stopped);
+        truncated = truncated || stopped;
+    }
     return material.albedo * (push.flux_scale / PI) * irradiance;
 }
 

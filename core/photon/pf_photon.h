@@ -163,6 +163,41 @@ pf_status pf_photon_grid_irradiance_knn(pf_photon_grid *grid, const float (*quer
                                         const float (*normals)[4], uint32_t query_count,
                                         uint32_t k, float (*irradiance)[4], pf_error *err);
 
+/*
+ * Precomputed irradiance (Christensen 1999, "Faster Photon Map Global
+ * Illumination"; shaders/common/photon_estimate.glsl's
+ * photon_irradiance_lookup): builds `points`, a grid like any other, whose
+ * records are the photons of `map` that a coin per photon (a hash of its
+ * position, 1 in PF_PHOTON_IRRADIANCE_STRIDE) makes points, each carrying
+ * the fixed-radius estimate at its position on its own surface from the
+ * photons that are not points (photon_estimate.glsl says why), as a flux
+ * word: the cone-filtered sum before the division by π r². A final gather
+ * then reads one nearby value instead of summing every photon within the
+ * radius. radius: the estimate's, <= map's build radius; also the points
+ * grid's build radius (the lookup's reach). bounds as for
+ * pf_photon_grid_build_device. The grid's photon_count is map's (records
+ * that are no point sit past every cell); counts says how many are points
+ * and how many were dropped because their estimate stopped at the loop
+ * guard. Records its GPU time.
+ */
+#define PF_PHOTON_IRRADIANCE_STRIDE 4u
+typedef struct pf_photon_irradiance_counts {
+    uint32_t points;
+    uint32_t truncated;
+} pf_photon_irradiance_counts;
+pf_status pf_photon_grid_build_irradiance(pf_photon_grid *points, const pf_photon_grid *map,
+                                          float radius, const float bounds_min[3],
+                                          const float bounds_max[3],
+                                          pf_photon_irradiance_counts *counts, pf_error *err);
+/*
+ * photon_irradiance_lookup at query points (xyz + the points' estimate
+ * radius in w) with unit normals: irradiance[q] rgb as
+ * pf_photon_grid_irradiance, w 1 where a point was found, 0 where none was
+ * (rgb 0). Errors as pf_photon_grid_irradiance. For tests.
+ */
+pf_status pf_photon_grid_irradiance_lookup(pf_photon_grid *points, const float (*queries)[4],
+                                           const float (*normals)[4], uint32_t query_count,
+                                           float (*irradiance)[4], pf_error *err);
 /* GPU milliseconds of the last build (< 0 without timestamps). */
 double pf_photon_grid_gpu_ms(const pf_photon_grid *grid);
 

@@ -21,7 +21,23 @@
 /* Modes of photon_grid_finish.comp. */
 enum { FINISH_CLEAR = 0, FINISH_RANGES = 1, FINISH_REORDER = 2 };
 /* Modes of photon_irradiance_probe.comp. */
-enum { ESTIMATE_FIXED = 0, ESTIMATE_KNN = 1 };
+enum { ESTIMATE_FIXED = 0, ESTIMATE_KNN = 1, ESTIMATE_LOOKUP = 2 };
+/* Modes of photon_irradiance_precompute.comp. */
+enum { PRECOMPUTE_MARK = 0, PRECOMPUTE_ESTIMATE = 1 };
+
+/* Push constants of photon_irradiance_precompute.comp (48 bytes). */
+typedef struct precompute_push {
+    float origin[3];
+    float inv_cell;
+    uint32_t dims[3];
+    uint32_t hashed;
+    uint32_t table_size;
+    uint32_t photons;
+    uint32_t mode;
+    float radius;
+} precompute_push;
+
+_Static_assert(sizeof(precompute_push) == 48, "precompute_push must match its shader's Push");
 
 /* Push constants of every photon grid shader (photon_grid_push.glsl, 48 bytes). */
 typedef struct photon_grid_push {
@@ -44,6 +60,7 @@ struct pf_photon_grid {
     pf_vk_pipeline *finish_pipeline;
     pf_vk_pipeline *gather_pipeline;
     pf_vk_pipeline *irradiance_pipeline;
+    pf_vk_pipeline *precompute_pipeline; /* photon_irradiance_precompute.comp (points grids) */
     pf_vk_buffer *sorted_photons; /* photons in cell order */
     pf_vk_buffer *original;       /* cell order -> index given to the build */
     pf_vk_buffer *ranges;         /* [start, end) per cell or bucket */
@@ -107,7 +124,8 @@ void pf_photon_grid_destroy(pf_photon_grid *grid)
         return;
     release_grid(grid);
     pf_vk_pipeline *pipelines[] = {grid->keys_pipeline, grid->finish_pipeline,
-                                   grid->gather_pipeline, grid->irradiance_pipeline};
+                                   grid->gather_pipeline, grid->irradiance_pipeline,
+                                   grid->precompute_pipeline};
     for (size_t i = 0; i < sizeof pipelines / sizeof pipelines[0]; i++) {
         if (pipelines[i])
             pf_vk_pipeline_destroy(grid->ctx, pipelines[i]);
@@ -257,7 +275,7 @@ static pf_status build_grid(pf_photon_grid *grid, pf_vk_buffer *input, uint32_t 
                                     groups_for(count, GRID_GROUP_SIZE), 1, 1, err);
         if (status == PF_OK)
             status = pf_bih_sort_record(grid->sorter, cmds, keys, values, histogram, count,
-                                        bits_for(info.table_size), err);
+                                        bits_for(info.table_size + 1), err);
         for (uint32_t mode = FINISH_RANGES; status == PF_OK && mode <= FINISH_REORDER; mode++) {
             push.mode = mode;
             status = pf_vk_cmd_dispatch(cmds, grid->finish_pipeline, finish_buffers, 5, &push,
@@ -430,7 +448,9 @@ static pf_status run_estimate(pf_photon_grid *grid, uint32_t mode, uint32_t k,
                               const float (*queries)[4], const float (*normals)[4],
                               uint32_t query_count, float (*irradiance)[4], pf_error *err)
 {
-    const char *name = mode == ESTIMATE_KNN ? "photon k-NN irradiance" : "photon irradiance";
+    const char *name = mode == ESTIMATE_KNN      ? "photon k-NN irradiance"
+                       : mode == ESTIMATE_LOOKUP ? "irradiance lookup"
+                                                 : "photon irradiance";
     if (!grid->built)
         return pf_error_set(err, PF_ERR_INVALID, "%s: no grid built", name);
     if (query_count == 0)
@@ -508,4 +528,107 @@ pf_status pf_photon_grid_irradiance_knn(pf_photon_grid *grid, const float (*quer
         return pf_error_set(err, PF_ERR_INVALID, "photon k-NN irradiance: k = %u outside [1, %u]",
                             k, PF_PHOTON_KNN_MAX);
     return run_estimate(grid, ESTIMATE_KNN, k, queries, normals, query_count, irradiance, err);
+}
+
+pf_status pf_photon_grid_irradiance_lookup(pf_photon_grid *points, const float (*queries)[4],
+                                           const float (*normals)[4], uint32_t query_count,
+                                           float (*irradiance)[4], pf_error *err)
+{
+    return run_estimate(points, ESTIMATE_LOOKUP, 0, queries, normals, query_count, irradiance,
+                        err);
+}
+
+/* Runs photon_irradiance_precompute.comp over map into out (one record per photon): its two
+ * dispatches, marking the points, then estimating at them. */
+static pf_status precompute_points(pf_photon_grid *points, const pf_photon_grid *map,
+                                   float radius, pf_vk_buffer *out, uint32_t counts[2],
+                                   double *gpu_ms, pf_error *err)
+{
+    pf_vk_context *ctx = points->ctx;
+    const uint32_t zero[2] = {0, 0};
+    pf_vk_buffer *counter = NULL, *list = NULL;
+    pf_status status = pf_vk_buffer_create(ctx, sizeof zero, "irradiance point counts", &counter,
+                                           err);
+    if (status == PF_OK)
+        status = pf_vk_buffer_create(ctx, (uint64_t)map->info.photon_count * 4,
+                                     "irradiance point list", &list, err);
+    if (status == PF_OK)
+        status = pf_vk_buffer_upload(ctx, counter, 0, zero, sizeof zero, err);
+    if (status == PF_OK && !points->precompute_pipeline)
+        status = pf_vk_pipeline_create_named(ctx, "photon_irradiance_precompute", 5,
+                                             sizeof(precompute_push), NULL, 0,
+                                             &points->precompute_pipeline, err);
+    pf_vk_commands *cmds = NULL;
+    if (status == PF_OK)
+        status = pf_vk_commands_begin(ctx, &cmds, err);
+    int begin = status == PF_OK ? pf_vk_cmd_timestamp(cmds) : -1;
+    precompute_push push;
+    memset(&push, 0, sizeof push);
+    memcpy(push.origin, map->info.origin, sizeof push.origin);
+    push.inv_cell = 1.0f / map->info.cell_size;
+    memcpy(push.dims, map->info.dims, sizeof push.dims);
+    push.hashed = map->info.hashed;
+    push.table_size = map->info.table_size;
+    push.photons = map->info.photon_count;
+    push.radius = radius;
+    pf_vk_buffer *buffers[] = {map->sorted_photons, map->ranges, out, counter, list};
+    for (uint32_t mode = PRECOMPUTE_MARK; status == PF_OK && mode <= PRECOMPUTE_ESTIMATE;
+         mode++) {
+        push.mode = mode;
+        status = pf_vk_cmd_dispatch(cmds, points->precompute_pipeline, buffers, 5, &push,
+                                    sizeof push, groups_for(push.photons, GATHER_GROUP_SIZE), 1,
+                                    1, err);
+        pf_vk_cmd_barrier(cmds);
+    }
+    int end = status == PF_OK ? pf_vk_cmd_timestamp(cmds) : -1;
+    if (status == PF_OK)
+        status = pf_vk_commands_submit(cmds, err);
+    *gpu_ms = status == PF_OK && begin >= 0 && end >= 0
+                  ? pf_vk_commands_elapsed_ms(cmds, begin, end)
+                  : -1.0;
+    pf_vk_commands_destroy(cmds);
+    if (status == PF_OK)
+        status = pf_vk_buffer_download(ctx, counter, 0, counts, sizeof zero, err);
+    release(ctx, &list);
+    release(ctx, &counter);
+    return status;
+}
+
+pf_status pf_photon_grid_build_irradiance(pf_photon_grid *points, const pf_photon_grid *map,
+                                          float radius, const float bounds_min[3],
+                                          const float bounds_max[3],
+                                          pf_photon_irradiance_counts *counts, pf_error *err)
+{
+    memset(counts, 0, sizeof *counts);
+    pf_status status = check_radius(radius, err);
+    if (status != PF_OK)
+        return status;
+    if (!map->built)
+        return pf_error_set(err, PF_ERR_INVALID, "irradiance points: the photon map has no grid");
+    if (radius > map->info.cell_size)
+        return pf_error_set(err, PF_ERR_INVALID,
+                            "irradiance points: radius %g exceeds the map's cell %g",
+                            (double)radius, (double)map->info.cell_size);
+    release_grid(points);
+    uint32_t photons = map->info.photon_count;
+    pf_vk_buffer *input = NULL;
+    status = pf_vk_buffer_create(points->ctx,
+                                 (uint64_t)(photons ? photons : 1) * sizeof(pf_photon),
+                                 "irradiance points (unsorted)", &input, err);
+    double precompute_ms = 0.0;
+    uint32_t found[2] = {0, 0};
+    if (status == PF_OK && photons > 0)
+        status = precompute_points(points, map, radius, input, found, &precompute_ms, err);
+    if (status == PF_OK)
+        status = build_grid(points, input, photons, bounds_min, bounds_max, radius, err);
+    release(points->ctx, &input);
+    if (status != PF_OK) {
+        pf_error_prefix(err, "irradiance points (%u photons)", photons);
+        return status;
+    }
+    if (points->gpu_ms >= 0.0 && precompute_ms >= 0.0)
+        points->gpu_ms += precompute_ms;
+    counts->points = found[0];
+    counts->truncated = found[1];
+    return PF_OK;
 }

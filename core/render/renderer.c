@@ -14,10 +14,10 @@
 #define REFERENCE_SPEC_AOVS 0u
 #define RENDER_REFERENCE_BUFFERS 13u
 #define RENDER_REFERENCE_PUSH_BYTES 4u
-/* render_final.comp: constant_id 0 is MODE (0 primary, 1 gather); 18 buffers, 76-byte Push. */
+/* render_final.comp: constant_id 0 is MODE (0 primary, 1 gather); 20 buffers, 116-byte Push. */
 #define FINAL_SPEC_MODE 0u
-#define RENDER_FINAL_BUFFERS 18u
-#define RENDER_FINAL_PUSH_BYTES 76u
+#define RENDER_FINAL_BUFFERS 20u
+#define RENDER_FINAL_PUSH_BYTES 116u
 #define MATERIAL_PROBE_BUFFERS 2u
 #define MATERIAL_PROBE_PUSH_BYTES 4u
 

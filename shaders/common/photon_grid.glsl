@@ -88,4 +88,34 @@ uint photon_grid_candidate_keys(vec3 x, float radius, PhotonGrid grid,
     return count;
 }
 
+// The distinct keys of the 2×2×2 cells nearest to x. Together they cover
+// the box [x - c/2, x + c/2] (c the cell edge), so they hold every point
+// within c/2 of x and some up to 1.5 c away: enough for a nearest-point
+// lookup (photon_irradiance_lookup), which needs a near point, not every
+// point within a radius, and visits 8 cells instead of 27.
+uint photon_grid_nearby_keys(vec3 x, PhotonGrid grid, out uint keys[8])
+{
+    ivec3 low = photon_grid_cell(x - vec3(0.5 / grid.inv_cell), grid);
+    ivec3 high = low + 1;
+    uint count = 0u;
+    // As photon_grid_candidate_keys: a dense grid holds nothing beyond its border cells.
+    if (grid.hashed == 0u &&
+        (any(lessThan(high, ivec3(-1))) || any(greaterThan(low, ivec3(grid.dims))))) {
+        return 0u;
+    }
+    for (int z = low.z; z <= high.z; z++) {
+        for (int y = low.y; y <= high.y; y++) {
+            for (int cx = low.x; cx <= high.x; cx++) {
+                uint key = photon_grid_key(ivec3(cx, y, z), grid);
+                bool seen = false;
+                for (uint k = 0u; k < count; k++)
+                    seen = seen || keys[k] == key;
+                if (!seen)
+                    keys[count++] = key;
+            }
+        }
+    }
+    return count;
+}
+
 #endif

@@ -69,6 +69,17 @@ vec3 octahedral_unpack8(uint packed)
     return normalize(vec3(p, z));
 }
 
+// A record whose incoming direction (the low half of its directions word)
+// is 0, which octahedral_pack8 never gives, holds no photon: the grid build
+// keeps it out of every cell (photon_irradiance_precompute.comp writes one
+// for each photon that is not an irradiance point).
+const uint PHOTON_NO_RECORD = 0u;
+
+bool photon_record_present(uint directions)
+{
+    return (directions & 0xFFFFu) != PHOTON_NO_RECORD;
+}
+
 // words[0..4] of one photon -> its fields.
 Photon photon_unpack(uint w0, uint w1, uint w2, uint w3, uint w4)
 {

@@ -1,0 +1,92 @@
+#version 460
+#extension GL_GOOGLE_include_directive : require
+// Precomputed irradiance points of a photon map (photon_estimate.glsl's
+// photon_irradiance_lookup describes them; pf_photon_grid_build_irradiance
+// in core/photon/photon_grid.c drives this). One invocation per photon of
+// the map, in cell order: record i is photon i made a point (its estimate
+// from the other, non-point photons within the radius, at its position on
+// its own surface), or a record without a photon (photon_types.glsl), which
+// the grid build keeps out of every cell.
+
+layout(local_size_x = 64) in;
+
+#include "photon_types.glsl"
+#include "photon_grid.glsl"
+
+// C mirror: precompute_push in core/photon/photon_grid.c (48 bytes).
+layout(push_constant) uniform Push {
+    vec3 origin;
+    float inv_cell;
+    uvec3 dims;
+    uint hashed;
+    uint table_size;
+    uint photons;  // photons in the map = records written
+    uint mode;     // MODE_MARK, then MODE_ESTIMATE
+    float radius;  // the estimate's radius (<= the map's build radius)
+} push;
+
+// Two dispatches. MODE_MARK, one invocation per photon: every record
+// written, the points listed. MODE_ESTIMATE, one invocation per listed
+// point (the rest return at once): its estimate. Listing first keeps the
+// SIMD lanes of the estimates full; with the coin tested in the estimate
+// dispatch itself nearly every 8-lane group held a point and ran the whole
+// loop. A record's value depends on its photon alone, not on the order in
+// which the points were listed.
+const uint MODE_MARK = 0u;
+const uint MODE_ESTIMATE = 1u;
+
+layout(std430, set = 0, binding = 0) readonly buffer SortedPhotons { uint grid_words[]; };
+layout(std430, set = 0, binding = 1) readonly buffer Ranges { uvec2 grid_ranges[]; };
+layout(std430, set = 0, binding = 2) buffer Points { uint point_words[]; };
+layout(std430, set = 0, binding = 3) buffer Counts {
+    uint points;     // photons listed as points
+    uint truncated;  // points dropped because their estimate stopped at the loop guard
+} counts;
+layout(std430, set = 0, binding = 4) buffer PointList { uint point_list[]; };
+
+// One estimate per invocation and no other loop: most of llvmpipe's cap.
+#define PHOTON_ESTIMATE_MAX_ITERATIONS 60000u
+#include "photon_estimate.glsl"
+
+void mark(uint i)
+{
+    uint base = PHOTON_WORDS * i;
+    uint directions = grid_words[base + 4u];
+    bool point = photon_is_irradiance_point(grid_photon(i).position);
+    point_words[base] = grid_words[base];
+    point_words[base + 1u] = grid_words[base + 1u];
+    point_words[base + 2u] = grid_words[base + 2u];
+    point_words[base + 3u] = 0u;
+    point_words[base + 4u] = point ? directions : (directions & 0xFFFF0000u) | PHOTON_NO_RECORD;
+    if (point)
+        point_list[atomicAdd(counts.points, 1u)] = i;
+}
+
+void estimate(uint i)
+{
+    Photon photon = grid_photon(i);
+    PhotonGrid grid = PhotonGrid(push.origin, push.inv_cell, push.dims, push.hashed,
+                                 push.table_size);
+    bool stopped;
+    // The non-points are (STRIDE - 1) / STRIDE of the photons: scaled back to all of them.
+    vec3 sum = photon_irradiance_sum(photon.position, photon.normal, push.radius, grid, true,
+                                     stopped) *
+               (float(PHOTON_IRRADIANCE_STRIDE) / float(PHOTON_IRRADIANCE_STRIDE - 1u));
+    uint base = PHOTON_WORDS * i;
+    point_words[base + 3u] = rgb9e5_pack(sum);
+    if (stopped) {
+        atomicAdd(counts.truncated, 1u);
+        point_words[base + 4u] = (point_words[base + 4u] & 0xFFFF0000u) | PHOTON_NO_RECORD;
+    }
+}
+
+void main()
+{
+    uint k = gl_GlobalInvocationID.x;
+    if (push.mode == MODE_MARK) {
+        if (k < push.photons)
+            mark(k);
+    } else if (k < counts.points) {
+        estimate(point_list[k]);
+    }
+}
