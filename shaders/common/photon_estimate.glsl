@@ -45,6 +45,23 @@ const uint PHOTON_KNN_HEAP_DEPTH = 6u;
 // Smallest k-NN radius as a fraction of max_radius (coincident photons).
 const float PHOTON_KNN_MIN_RADIUS_FRACTION = 1.0 / 1024.0;
 
+// The flat loop's move to the next cell: once the photons [index, end) of
+// the current cell are used up, the range of the next of keys[0..key_count),
+// or done = true and out of the loop after the last. Each estimate's loop
+// starts with it; a macro, since it breaks and continues the caller's loop
+// (whose variables key, key_count, keys, index, end and done it uses).
+#define PHOTON_NEXT_CELL(RANGES)                                                              \
+    if (index >= end) {                                                                       \
+        if (key >= key_count) {                                                               \
+            done = true;                                                                      \
+            break;                                                                            \
+        }                                                                                     \
+        uvec2 range = RANGES[keys[key++]];                                                    \
+        index = range.x;                                                                      \
+        end = range.y;                                                                        \
+        continue;                                                                             \
+    }
+
 Photon grid_photon(uint i)
 {
     uint base = PHOTON_WORDS * i;
@@ -105,16 +122,7 @@ vec3 photon_irradiance_sum(vec3 x, vec3 normal, float radius, PhotonGrid grid, b
     uint key = 0u, index = 0u, end = 0u;
     bool done = false;
     for (uint step = 0u; step < PHOTON_ESTIMATE_MAX_ITERATIONS; step++) {
-        if (index >= end) {
-            if (key >= key_count) {
-                done = true;
-                break;
-            }
-            uvec2 range = grid_ranges[keys[key++]];
-            index = range.x;
-            end = range.y;
-            continue;
-        }
+        PHOTON_NEXT_CELL(grid_ranges)
         Photon photon = grid_photon(index);
         vec3 d = photon.position - x;
         float distance2 = dot(d, d);
@@ -205,16 +213,7 @@ vec3 photon_irradiance_knn(vec3 x, vec3 normal, uint k, float max_radius, Photon
     uint key = 0u, index = 0u, end = 0u;
     bool done = false;
     for (uint step = 0u; step < PHOTON_ESTIMATE_MAX_ITERATIONS; step++) {
-        if (index >= end) {
-            if (key >= key_count) {
-                done = true;
-                break;
-            }
-            uvec2 range = grid_ranges[keys[key++]];
-            index = range.x;
-            end = range.y;
-            continue;
-        }
+        PHOTON_NEXT_CELL(grid_ranges)
         uint i = index++;
         Photon photon = grid_photon(i);
         vec3 d = photon.position - x;
@@ -276,23 +275,14 @@ vec3 photon_irradiance_knn(vec3 x, vec3 normal, uint k, float max_radius, Photon
 bool photon_irradiance_lookup(vec3 x, vec3 normal, float radius, PhotonGrid points,
                               out vec3 irradiance, out bool truncated)
 {
-    uint keys[8];
+    uint keys[PHOTON_GRID_MAX_KEYS];
     uint key_count = photon_grid_nearby_keys(x, points, keys);
     float nearest2 = radius * radius;
     uint nearest = 0xFFFFFFFFu;
     uint key = 0u, index = 0u, end = 0u;
     bool done = false;
     for (uint step = 0u; step < PHOTON_ESTIMATE_MAX_ITERATIONS; step++) {
-        if (index >= end) {
-            if (key >= key_count) {
-                done = true;
-                break;
-            }
-            uvec2 range = PHOTON_LOOKUP_RANGES[keys[key++]];
-            index = range.x;
-            end = range.y;
-            continue;
-        }
+        PHOTON_NEXT_CELL(PHOTON_LOOKUP_RANGES)
         uint base = PHOTON_WORDS * index++;
         vec3 d = vec3(uintBitsToFloat(PHOTON_LOOKUP_WORDS[base]),
                       uintBitsToFloat(PHOTON_LOOKUP_WORDS[base + 1u]),

@@ -54,16 +54,12 @@ uint photon_grid_key(ivec3 cell, PhotonGrid grid)
     return (c.z * grid.dims.y + c.y) * grid.dims.x + c.x;
 }
 
-// The distinct keys of the cells overlapping the box [x - r, x + r]; returns
-// how many (27 at most when r <= the build radius, 64 in far-out grids). A key shared by two cells
-// (hash collision, or clamping at the grid's border) is listed once, so no
-// photon is counted twice.
-uint photon_grid_candidate_keys(vec3 x, float radius, PhotonGrid grid,
-                                out uint keys[PHOTON_GRID_MAX_KEYS])
+// The distinct keys of the cells low..high (inclusive, at most 4 per axis);
+// returns how many. A key shared by two cells (hash collision, or clamping
+// at the grid's border) is listed once, so no photon is counted twice.
+uint photon_grid_box_keys(ivec3 low, ivec3 high, PhotonGrid grid,
+                          out uint keys[PHOTON_GRID_MAX_KEYS])
 {
-    float reach = radius * PHOTON_GRID_BOX_MARGIN;
-    ivec3 low = photon_grid_cell(x - vec3(reach), grid);
-    ivec3 high = min(photon_grid_cell(x + vec3(reach), grid), low + 3);
     uint count = 0u;
     // A dense grid holds every photon in its cells, or (rounding of the
     // host's bounding box) in a cell just outside, clamped into the border
@@ -88,34 +84,26 @@ uint photon_grid_candidate_keys(vec3 x, float radius, PhotonGrid grid,
     return count;
 }
 
+// The distinct keys of the cells overlapping the box [x - r, x + r] (27 at
+// most when r <= the build radius, 64 in far-out grids).
+uint photon_grid_candidate_keys(vec3 x, float radius, PhotonGrid grid,
+                                out uint keys[PHOTON_GRID_MAX_KEYS])
+{
+    float reach = radius * PHOTON_GRID_BOX_MARGIN;
+    ivec3 low = photon_grid_cell(x - vec3(reach), grid);
+    ivec3 high = min(photon_grid_cell(x + vec3(reach), grid), low + 3);
+    return photon_grid_box_keys(low, high, grid, keys);
+}
+
 // The distinct keys of the 2×2×2 cells nearest to x. Together they cover
 // the box [x - c/2, x + c/2] (c the cell edge), so they hold every point
 // within c/2 of x and some up to 1.5 c away: enough for a nearest-point
 // lookup (photon_irradiance_lookup), which needs a near point, not every
 // point within a radius, and visits 8 cells instead of 27.
-uint photon_grid_nearby_keys(vec3 x, PhotonGrid grid, out uint keys[8])
+uint photon_grid_nearby_keys(vec3 x, PhotonGrid grid, out uint keys[PHOTON_GRID_MAX_KEYS])
 {
     ivec3 low = photon_grid_cell(x - vec3(0.5 / grid.inv_cell), grid);
-    ivec3 high = low + 1;
-    uint count = 0u;
-    // As photon_grid_candidate_keys: a dense grid holds nothing beyond its border cells.
-    if (grid.hashed == 0u &&
-        (any(lessThan(high, ivec3(-1))) || any(greaterThan(low, ivec3(grid.dims))))) {
-        return 0u;
-    }
-    for (int z = low.z; z <= high.z; z++) {
-        for (int y = low.y; y <= high.y; y++) {
-            for (int cx = low.x; cx <= high.x; cx++) {
-                uint key = photon_grid_key(ivec3(cx, y, z), grid);
-                bool seen = false;
-                for (uint k = 0u; k < count; k++)
-                    seen = seen || keys[k] == key;
-                if (!seen)
-                    keys[count++] = key;
-            }
-        }
-    }
-    return count;
+    return photon_grid_box_keys(low, low + 1, grid, keys);
 }
 
 #endif

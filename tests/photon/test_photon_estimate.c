@@ -50,6 +50,29 @@ static void make_photon(pf_photon *photon, const float position[3], const float 
     pf_photon_pack(position, flux, incoming, normal, photon);
 }
 
+/*
+ * count photons on the plane y = 0 (y within ±half_thickness) of [-1, 1]², lit
+ * from above with coloured flux; every 5th (from 1) arrives from below and
+ * every 10th (from 2) lies on a surface tilted 45°: estimates reject both.
+ */
+static void plane_photons(pf_photon *photons, uint32_t count, float half_thickness,
+                          uint32_t *rng)
+{
+    for (uint32_t i = 0; i < count; i++) {
+        float position[3] = {uniform(rng, -1, 1), uniform(rng, -half_thickness, half_thickness),
+                             uniform(rng, -1, 1)};
+        float flux[3] = {uniform(rng, 0.5f, 1.5f), uniform(rng, 0.5f, 1.5f),
+                         uniform(rng, 0.5f, 1.5f)};
+        float incoming[3] = {uniform(rng, -0.7f, 0.7f), -1.0f, uniform(rng, -0.7f, 0.7f)};
+        float normal[3] = {0.0f, 1.0f, 0.0f};
+        if (i % 5 == 1)
+            incoming[1] = 1.0f;
+        if (i % 10 == 2)
+            normal[0] = 1.0f;
+        make_photon(&photons[i], position, flux, incoming, normal);
+    }
+}
+
 typedef struct candidate {
     double distance2;
     double flux[3];
@@ -201,19 +224,7 @@ PF_TEST(estimates_match_brute_force_on_random_photons)
     static const uint32_t k_values[] = {1, 7, 32, 64};
     uint32_t rng = 11u;
     pf_photon *photons = malloc(COUNT * sizeof *photons);
-    for (uint32_t i = 0; i < COUNT; i++) {
-        float position[3] = {uniform(&rng, -1, 1), uniform(&rng, -0.005f, 0.005f),
-                             uniform(&rng, -1, 1)};
-        float flux[3] = {uniform(&rng, 0.5f, 1.5f), uniform(&rng, 0.5f, 1.5f),
-                         uniform(&rng, 0.5f, 1.5f)};
-        float incoming[3] = {uniform(&rng, -0.7f, 0.7f), -1.0f, uniform(&rng, -0.7f, 0.7f)};
-        float normal[3] = {0.0f, 1.0f, 0.0f};
-        if (i % 5 == 1)
-            incoming[1] = 1.0f;
-        if (i % 10 == 2)
-            normal[0] = 1.0f;
-        make_photon(&photons[i], position, flux, incoming, normal);
-    }
+    plane_photons(photons, COUNT, 0.005f, &rng);
     float (*queries)[4] = malloc(QUERIES * sizeof *queries);
     float (*normals)[4] = malloc(QUERIES * sizeof *normals);
     uint32_t *ks = malloc(QUERIES * sizeof *ks);
@@ -392,19 +403,7 @@ PF_TEST(irradiance_lookups_average_to_the_estimate)
     pf_photon *photons = malloc(COUNT * sizeof *photons);
     PF_REQUIRE(photons);
     float lo[3] = {-1.0f, 0.0f, -1.0f}, hi[3] = {1.0f, 0.0f, 1.0f};
-    for (uint32_t i = 0; i < COUNT; i++) {
-        float position[3] = {uniform(&rng, lo[0], hi[0]), uniform(&rng, lo[1], hi[1]),
-                             uniform(&rng, lo[2], hi[2])};
-        float flux[3] = {uniform(&rng, 0.5f, 1.5f), uniform(&rng, 0.5f, 1.5f),
-                         uniform(&rng, 0.5f, 1.5f)};
-        float incoming[3] = {uniform(&rng, -0.7f, 0.7f), -1.0f, uniform(&rng, -0.7f, 0.7f)};
-        float normal[3] = {0.0f, 1.0f, 0.0f};
-        if (i % 5 == 1)
-            incoming[1] = 1.0f;
-        if (i % 10 == 2)
-            normal[0] = 1.0f;
-        make_photon(&photons[i], position, flux, incoming, normal);
-    }
+    plane_photons(photons, COUNT, hi[1], &rng);
     pf_error err = {0};
     pf_photon_grid *points = NULL;
     PF_REQUIRE_OK(pf_photon_grid_build(grid, photons, COUNT, radius, &err), &err);
