@@ -203,6 +203,21 @@ double pf_photon_grid_gpu_ms(const pf_photon_grid *grid);
 
 /* The grid's parameters (valid after a build). */
 pf_photon_grid_info pf_photon_grid_get_info(const pf_photon_grid *grid);
+/*
+ * A grid's parameters as shaders/common/photon_grid.glsl's PhotonGrid takes
+ * them from push constants: vec3 origin, float inv_cell, uvec3 dims, uint
+ * hashed, uint table_size (36 bytes; a kernel's Push holds it at an offset
+ * that is a multiple of 16, as its vec3 needs).
+ */
+typedef struct pf_photon_grid_push {
+    float origin[3];
+    float inv_cell;
+    uint32_t dims[3];
+    uint32_t hashed;
+    uint32_t table_size;
+} pf_photon_grid_push;
+_Static_assert(sizeof(pf_photon_grid_push) == 36, "pf_photon_grid_push mirrors PhotonGrid");
+pf_photon_grid_push pf_photon_grid_push_of(const pf_photon_grid_info *info);
 
 /*
  * The built grid's device buffers, for kernels that gather from it

@@ -27,11 +27,7 @@ enum { PRECOMPUTE_MARK = 0, PRECOMPUTE_ESTIMATE = 1 };
 
 /* Push constants of photon_irradiance_precompute.comp (48 bytes). */
 typedef struct precompute_push {
-    float origin[3];
-    float inv_cell;
-    uint32_t dims[3];
-    uint32_t hashed;
-    uint32_t table_size;
+    pf_photon_grid_push grid;
     uint32_t photons;
     uint32_t mode;
     float radius;
@@ -41,11 +37,7 @@ _Static_assert(sizeof(precompute_push) == 48, "precompute_push must match its sh
 
 /* Push constants of every photon grid shader (photon_grid_push.glsl, 48 bytes). */
 typedef struct photon_grid_push {
-    float origin[3];
-    float inv_cell;
-    uint32_t dims[3];
-    uint32_t hashed;
-    uint32_t table_size;
+    pf_photon_grid_push grid;
     uint32_t count;
     uint32_t capacity;
     uint32_t mode;
@@ -199,15 +191,22 @@ static pf_status photon_bounds(const pf_photon *photons, uint32_t count, float l
     return PF_OK;
 }
 
-static photon_grid_push push_for(const pf_photon_grid_info *info, uint32_t count, uint32_t mode)
+pf_photon_grid_push pf_photon_grid_push_of(const pf_photon_grid_info *info)
 {
-    photon_grid_push push;
-    memset(&push, 0, sizeof push);
+    pf_photon_grid_push push;
     memcpy(push.origin, info->origin, sizeof push.origin);
     push.inv_cell = 1.0f / info->cell_size;
     memcpy(push.dims, info->dims, sizeof push.dims);
     push.hashed = info->hashed;
     push.table_size = info->table_size;
+    return push;
+}
+
+static photon_grid_push push_for(const pf_photon_grid_info *info, uint32_t count, uint32_t mode)
+{
+    photon_grid_push push;
+    memset(&push, 0, sizeof push);
+    push.grid = pf_photon_grid_push_of(info);
     push.count = count;
     push.mode = mode;
     return push;
@@ -564,11 +563,7 @@ static pf_status precompute_points(pf_photon_grid *points, const pf_photon_grid 
     int begin = status == PF_OK ? pf_vk_cmd_timestamp(cmds) : -1;
     precompute_push push;
     memset(&push, 0, sizeof push);
-    memcpy(push.origin, map->info.origin, sizeof push.origin);
-    push.inv_cell = 1.0f / map->info.cell_size;
-    memcpy(push.dims, map->info.dims, sizeof push.dims);
-    push.hashed = map->info.hashed;
-    push.table_size = map->info.table_size;
+    push.grid = pf_photon_grid_push_of(&map->info);
     push.photons = map->info.photon_count;
     push.radius = radius;
     pf_vk_buffer *buffers[] = {map->sorted_photons, map->ranges, out, counter, list};

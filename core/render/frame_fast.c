@@ -45,11 +45,7 @@
 
 /* render_fast.comp's Push (72 bytes). */
 typedef struct fast_push {
-    float grid_origin[3];
-    float grid_inv_cell;
-    uint32_t grid_dims[3];
-    uint32_t grid_hashed;
-    uint32_t grid_table_size;
+    pf_photon_grid_push grid;
     uint32_t grid_photons;
     uint32_t sample_index;
     uint32_t cascade_count;
@@ -302,11 +298,7 @@ static pf_status shade(pf_renderer *renderer, struct pf_fast_cache *cache,
     if (cache->caustic) {
         pf_photon_grid_info info = pf_photon_grid_get_info(cache->caustic);
         pf_photon_grid_view view = pf_photon_grid_view_get(cache->caustic);
-        memcpy(push.grid_origin, info.origin, sizeof push.grid_origin);
-        push.grid_inv_cell = 1.0f / info.cell_size;
-        memcpy(push.grid_dims, info.dims, sizeof push.grid_dims);
-        push.grid_hashed = info.hashed;
-        push.grid_table_size = info.table_size;
+        push.grid = pf_photon_grid_push_of(&info);
         push.grid_photons = info.photon_count;
         push.radius = cache->caustic_radius;
         push.flux_scale = cache->caustic_flux_scale;

@@ -37,6 +37,7 @@
 #include "render_internal.h"
 
 #include <math.h>
+#include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -90,11 +91,7 @@
 
 /* render_final.comp's Push (116 bytes). */
 typedef struct final_push {
-    float grid_origin[3];
-    float grid_inv_cell;
-    uint32_t grid_dims[3];
-    uint32_t grid_hashed;
-    uint32_t grid_table_size;
+    pf_photon_grid_push grid;
     uint32_t grid_photons;
     uint32_t sample_index;
     uint32_t gather_first;
@@ -106,14 +103,11 @@ typedef struct final_push {
     float flux_scale;
     float caustic_scale;
     uint32_t points_count;
-    float points_origin[3];
-    float points_inv_cell;
-    uint32_t points_dims[3];
-    uint32_t points_hashed;
-    uint32_t points_table_size;
+    pf_photon_grid_push points;
 } final_push;
 
 _Static_assert(sizeof(final_push) == 116, "final_push must match render_final.comp's Push");
+_Static_assert(offsetof(final_push, points) % 16 == 0, "points_origin is a vec3");
 
 typedef struct final_counters {
     uint32_t discarded_samples;
@@ -319,52 +313,44 @@ static void final_buffers_release(pf_vk_context *ctx, final_buffers *b)
         pf_render_buffer_release(ctx, all[i]);
 }
 
-/* Push constants and buffers for a grid (or none: no estimate). */
-static void bind_grid(const pf_photon_grid *grid, float radius, float flux_scale,
-                      pf_vk_buffer *empty, final_push *push, pf_vk_buffer **words,
-                      pf_vk_buffer **ranges)
+/* A built grid's push parameters and buffers; returns its records (photons or points). Without
+ * one (NULL, or never built): the empty buffer and 0, which the kernel reads as "none". */
+static uint32_t bind_photon_grid(const pf_photon_grid *grid, pf_vk_buffer *empty,
+                                 pf_photon_grid_push *params, pf_vk_buffer **words,
+                                 pf_vk_buffer **ranges)
 {
-    memset(push, 0, sizeof *push);
     *words = empty;
     *ranges = empty;
     pf_photon_grid_view view = {NULL, NULL};
     if (grid)
         view = pf_photon_grid_view_get(grid);
     if (!view.photons)
-        return;
+        return 0;
     pf_photon_grid_info info = pf_photon_grid_get_info(grid);
-    memcpy(push->grid_origin, info.origin, sizeof push->grid_origin);
-    push->grid_inv_cell = 1.0f / info.cell_size;
-    memcpy(push->grid_dims, info.dims, sizeof push->grid_dims);
-    push->grid_hashed = info.hashed;
-    push->grid_table_size = info.table_size;
-    push->grid_photons = info.photon_count;
-    push->radius = radius;
-    push->flux_scale = flux_scale;
+    *params = pf_photon_grid_push_of(&info);
     *words = view.photons;
     *ranges = view.ranges;
+    return info.photon_count;
+}
+
+/* Push constants and buffers for a grid (or none: no estimate). */
+static void bind_grid(const pf_photon_grid *grid, float radius, float flux_scale,
+                      pf_vk_buffer *empty, final_push *push, pf_vk_buffer **words,
+                      pf_vk_buffer **ranges)
+{
+    memset(push, 0, sizeof *push);
+    push->grid_photons = bind_photon_grid(grid, empty, &push->grid, words, ranges);
+    if (*words != empty) {
+        push->radius = radius;
+        push->flux_scale = flux_scale;
+    }
 }
 
 /* Push constants and buffers for a grid's irradiance points (or none: estimates only). */
 static void bind_points(const pf_photon_grid *points, pf_vk_buffer *empty, final_push *push,
                         pf_vk_buffer **words, pf_vk_buffer **ranges)
 {
-    *words = empty;
-    *ranges = empty;
-    pf_photon_grid_view view = {NULL, NULL};
-    if (points)
-        view = pf_photon_grid_view_get(points);
-    if (!view.photons)
-        return;
-    pf_photon_grid_info info = pf_photon_grid_get_info(points);
-    push->points_count = info.photon_count;
-    memcpy(push->points_origin, info.origin, sizeof push->points_origin);
-    push->points_inv_cell = 1.0f / info.cell_size;
-    memcpy(push->points_dims, info.dims, sizeof push->points_dims);
-    push->points_hashed = info.hashed;
-    push->points_table_size = info.table_size;
-    *words = view.photons;
-    *ranges = view.ranges;
+    push->points_count = bind_photon_grid(points, empty, &push->points, words, ranges);
 }
 
 /* Renders camera sample sample_index with pass's grids (pass NULL: no photon maps). */
