@@ -109,6 +109,9 @@ typedef struct {
 /* The embedded shader with this name, or NULL when there is none. */
 const pf_shader_blob *pf_shader_find(const char *name);
 
+/* The index-th embedded shader (in file-name order), or NULL past the last. */
+const pf_shader_blob *pf_shader_at(size_t index);
+
 #endif
 ]==])
 
@@ -132,6 +135,11 @@ const pf_shader_blob *pf_shader_find(const char *name)
             return blobs[i];
     }
     return NULL;
+}
+
+const pf_shader_blob *pf_shader_at(size_t index)
+{
+    return index < sizeof blobs / sizeof *blobs ? blobs[index] : NULL;
 }
 ]==])
 

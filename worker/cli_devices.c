@@ -67,7 +67,8 @@ static void print_json(const pf_vk_device_info *devices, uint32_t count, uint32_
                ", \"max_workgroup_count\": [%u, %u, %u], \"max_shared_memory_bytes\": %u"
                ", \"max_push_constant_bytes\": %u, \"subgroup_size\": %u"
                ", \"timestamps\": %s, \"timestamp_valid_bits\": %u, \"timestamp_period_ns\": %g"
-               ", \"int64\": %s, \"int64_atomics\": %s, \"default\": %s, \"selected\": %s}",
+               ", \"int64\": %s, \"int64_atomics\": %s, \"denorm_preserve\": %s"
+               ", \"default\": %s, \"selected\": %s}",
                d->vendor_id, d->device_id, api_version_text(d->api_version, version, sizeof version),
                (unsigned long long)d->max_storage_buffer_range,
                (unsigned long long)d->device_local_bytes, d->max_workgroup_size[0],
@@ -76,7 +77,8 @@ static void print_json(const pf_vk_device_info *devices, uint32_t count, uint32_
                d->max_shared_memory_bytes, d->max_push_constant_bytes, d->subgroup_size,
                d->timestamp_valid_bits ? "true" : "false", d->timestamp_valid_bits,
                (double)d->timestamp_period_ns, d->has_int64 ? "true" : "false",
-               d->has_int64_atomics ? "true" : "false", i == default_index ? "true" : "false",
+               d->has_int64_atomics ? "true" : "false", d->has_denorm_preserve ? "true" : "false",
+               i == default_index ? "true" : "false",
                i == selected_index ? "true" : "false");
     }
     printf("\n]}\n");
@@ -108,8 +110,8 @@ static void print_text(const pf_vk_device_info *devices, uint32_t count, uint32_
                    (double)d->timestamp_period_ns);
         else
             printf("      no compute timestamps");
-        printf(", int64 %s, int64 atomics %s\n", d->has_int64 ? "yes" : "no",
-               d->has_int64_atomics ? "yes" : "no");
+        printf(", int64 %s, int64 atomics %s, denorm preserve %s\n", d->has_int64 ? "yes" : "no",
+               d->has_int64_atomics ? "yes" : "no", d->has_denorm_preserve ? "yes" : "no");
     }
     printf("\n* = the device photonfarm uses");
     const char *environment = getenv("PHOTONFARM_DEVICE");

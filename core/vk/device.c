@@ -38,8 +38,10 @@ void pf_vk_describe_device(VkPhysicalDevice physical_device, uint32_t index,
     int is_1_2 = basic.apiVersion >= PF_VK_MIN_API_VERSION;
 
     /* Vulkan 1.1 structures are always valid here; the 1.2 ones only on a 1.2 device. */
+    VkPhysicalDeviceVulkan12Properties properties12 = {
+        .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_2_PROPERTIES};
     VkPhysicalDeviceDriverProperties driver = {
-        .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_DRIVER_PROPERTIES};
+        .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_DRIVER_PROPERTIES, .pNext = &properties12};
     VkPhysicalDeviceSubgroupProperties subgroup = {
         .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_SUBGROUP_PROPERTIES,
         .pNext = is_1_2 ? &driver : NULL};
@@ -79,6 +81,9 @@ void pf_vk_describe_device(VkPhysicalDevice physical_device, uint32_t index,
     info->timestamp_period_ns = limits->timestampPeriod;
     info->has_int64 = features.features.shaderInt64 != VK_FALSE;
     info->has_int64_atomics = is_1_2 && features12.shaderBufferInt64Atomics != VK_FALSE;
+    info->has_denorm_preserve =
+        is_1_2 && properties12.shaderDenormPreserveFloat32 != VK_FALSE &&
+        properties12.denormBehaviorIndependence != VK_SHADER_FLOAT_CONTROLS_INDEPENDENCE_NONE;
 
     VkPhysicalDeviceMemoryProperties memory;
     vkGetPhysicalDeviceMemoryProperties(physical_device, &memory);

@@ -45,6 +45,9 @@ typedef struct pf_vk_device_info {
     uint32_t timestamp_valid_bits;       /* 0: no compute timestamps */
     int has_int64;                       /* shaderInt64 */
     int has_int64_atomics;               /* shaderBufferInt64Atomics */
+    /* shaderDenormPreserveFloat32, settable apart from other widths: every
+     * pipeline's module then declares DenormPreserve (IEEE subnormals). */
+    int has_denorm_preserve;
 } pf_vk_device_info;
 
 typedef struct pf_vk_options {

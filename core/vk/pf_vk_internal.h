@@ -66,6 +66,14 @@ struct pf_vk_pipeline {
     uint32_t push_constant_bytes;
 };
 
+/*
+ * A copy of the SPIR-V module words[0..count) that declares DenormPreserve for
+ * 32-bit floats on each entry point (and the capability, and the extension
+ * before SPIR-V 1.4). *out is malloc'd; PF_ERR_FORMAT for a malformed module.
+ */
+pf_status pf_vk_spirv_preserve_denormals(const uint32_t *words, size_t count, uint32_t **out,
+                                         size_t *out_count, pf_error *err);
+
 /* "vkFoo failed: VK_ERROR_... (-n)" style text for a VkResult. */
 const char *pf_vk_result_name(VkResult result);
 

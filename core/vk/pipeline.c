@@ -70,14 +70,29 @@ pf_status pf_vk_pipeline_create(pf_vk_context *ctx, const pf_vk_pipeline_desc *d
     pipeline->buffer_count = checked.buffer_count;
     pipeline->push_constant_bytes = checked.push_constant_bytes;
 
+    /* Where the device can keep subnormals, every module asks it to (spirv_denormals.c). */
+    uint32_t *patched = NULL;
+    size_t patched_words = 0;
+    if (ctx->info.has_denorm_preserve) {
+        status = pf_vk_spirv_preserve_denormals(checked.spirv, checked.spirv_bytes / 4, &patched,
+                                                &patched_words, err);
+        if (status != PF_OK) {
+            free(pipeline);
+            free(bindings);
+            free(entries);
+            free(values);
+            return status;
+        }
+    }
     const char *failed_call = "vkCreateShaderModule";
     VkShaderModuleCreateInfo module_info = {
         .sType = VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO,
-        .codeSize = checked.spirv_bytes,
-        .pCode = checked.spirv,
+        .codeSize = patched ? patched_words * 4 : checked.spirv_bytes,
+        .pCode = patched ? patched : checked.spirv,
     };
     VkShaderModule module;
     VkResult result = vkCreateShaderModule(ctx->device, &module_info, NULL, &module);
+    free(patched);
     /* Handles are stored only on success: a failed call leaves its output undefined. */
     if (result == VK_SUCCESS)
         pipeline->module = module;

@@ -69,6 +69,9 @@ PF_TEST(devices_lists_every_device)
         PF_CHECK(cJSON_IsString(name) && !strcmp(name->valuestring, devices[i].name));
         PF_CHECK(cJSON_IsNumber(range) &&
                  (uint64_t)range->valuedouble == devices[i].max_storage_buffer_range);
+        const cJSON *denorm = cJSON_GetObjectItemCaseSensitive(device, "denorm_preserve");
+        PF_CHECK(cJSON_IsBool(denorm) &&
+                 cJSON_IsTrue(denorm) == (devices[i].has_denorm_preserve != 0));
     }
     cJSON_Delete(json);
     free(json_text);
