@@ -8,6 +8,7 @@
 #include <errno.h>
 #include <fcntl.h>
 #include <limits.h>
+#include <pthread.h>
 #include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -145,8 +146,167 @@ static pf_status define_header(exr_context_t context, const char *path, const pf
     return PF_OK;
 }
 
-/* Encodes every scanline chunk. Half pixels are converted here (pf_float_to_half) so
- * the file holds exactly what the GPU readback path would produce. */
+/* Most threads one write compresses on: ZIP chunks of 16 lines, ~30 per 640x480 frame. */
+#define ENCODE_MAX_THREADS 16u
+
+typedef struct encoded_chunk {
+    uint8_t *bytes; /* malloc'd: what goes into the file for this chunk */
+    size_t size;
+} encoded_chunk;
+
+/* The chunks of one write, claimed in turn by the threads that compress them. */
+typedef struct encode_job {
+    exr_context_t context;
+    const char *path;
+    const pf_image *image;
+    pf_exr_pixel_type pixel_type;
+    int32_t lines_per_chunk;
+    uint32_t chunk_count;
+    encoded_chunk *chunks;
+    atomic_uint next_chunk;
+    atomic_int failed;
+    pthread_mutex_t failure_lock; /* the first failure's report */
+    pf_error failure;
+} encode_job;
+
+static void record_failure(encode_job *job, const pf_error *failure)
+{
+    pthread_mutex_lock(&job->failure_lock);
+    if (!atomic_load(&job->failed))
+        job->failure = *failure;
+    atomic_store(&job->failed, 1);
+    pthread_mutex_unlock(&job->failure_lock);
+}
+
+/* The pipeline's last step: keep the compressed chunk for the in-order write. */
+static exr_result_t keep_chunk(exr_encode_pipeline_t *encoder)
+{
+    encode_job *job = encoder->encoding_user_data;
+    if (encoder->chunk.idx < 0 || (uint32_t)encoder->chunk.idx >= job->chunk_count)
+        return EXR_ERR_INVALID_ARGUMENT;
+    encoded_chunk *chunk = &job->chunks[encoder->chunk.idx];
+    chunk->bytes = malloc(encoder->compressed_bytes ? encoder->compressed_bytes : 1);
+    if (!chunk->bytes)
+        return EXR_ERR_OUT_OF_MEMORY;
+    memcpy(chunk->bytes, encoder->compressed_buffer, encoder->compressed_bytes);
+    chunk->size = encoder->compressed_bytes;
+    return EXR_ERR_SUCCESS;
+}
+
+/* Points the encoder's channels at chunk rows of the image (or of its half copy). */
+static pf_status bind_channels(encode_job *job, exr_encode_pipeline_t *encoder, const float *rows,
+                               const uint16_t *half_rows, pf_error *err)
+{
+    const pf_image *image = job->image;
+    const size_t width = image->width, channels = image->channel_count;
+    for (int16_t i = 0; i < encoder->channel_count; i++) {
+        exr_coding_channel_info_t *info = &encoder->channels[i];
+        int c = pf_image_channel(image, info->channel_name);
+        if (c < 0)
+            return pf_error_set(err, PF_ERR_INTERNAL, "%s: encoder channel '%s' unknown",
+                                job->path, info->channel_name);
+        size_t element = half_rows ? sizeof(uint16_t) : sizeof(float);
+        info->user_bytes_per_element = (int16_t)element;
+        info->user_data_type = (uint16_t)(half_rows ? EXR_PIXEL_HALF : EXR_PIXEL_FLOAT);
+        info->user_pixel_stride = (int32_t)(channels * element);
+        info->user_line_stride = (int32_t)(width * channels * element);
+        info->encode_from_ptr = half_rows ? (const uint8_t *)(half_rows + c)
+                                          : (const uint8_t *)(rows + c);
+    }
+    return PF_OK;
+}
+
+/*
+ * One thread's share: claims chunks until none is left, packs and compresses
+ * each with its own pipeline (OpenEXRCore's encode pipelines are per thread;
+ * the context locks itself). Half pixels are converted here (pf_float_to_half)
+ * so the file holds exactly what the GPU readback path would produce.
+ */
+static void *encode_chunks(void *argument)
+{
+    encode_job *job = argument;
+    const int part = 0;
+    const pf_image *image = job->image;
+    const size_t width = image->width, channels = image->channel_count;
+    /* This thread's own message buffer for the library's error handler. */
+    pf_exr_stream messages = {.fd = -1};
+    pf_exr_stream_activate(&messages);
+    pf_error err = {0};
+    uint16_t *half_rows = NULL;
+    if (job->pixel_type == PF_EXR_HALF) {
+        half_rows = malloc((size_t)job->lines_per_chunk * width * channels * sizeof *half_rows);
+        if (!half_rows) {
+            pf_error_set(&err, PF_ERR_NOMEM, "%s: out of memory", job->path);
+            record_failure(job, &err);
+        }
+    }
+    exr_encode_pipeline_t encoder = EXR_ENCODE_PIPELINE_INITIALIZER;
+    int initialized = 0;
+    while (!atomic_load(&job->failed)) {
+        uint32_t index = atomic_fetch_add(&job->next_chunk, 1u);
+        if (index >= job->chunk_count)
+            break;
+        uint32_t y = index * (uint32_t)job->lines_per_chunk;
+        exr_chunk_info_t chunk;
+        exr_result_t rc = exr_write_scanline_chunk_info(job->context, part, (int)y, &chunk);
+        if (rc == EXR_ERR_SUCCESS)
+            rc = initialized ? exr_encoding_update(job->context, part, &chunk, &encoder)
+                             : exr_encoding_initialize(job->context, part, &chunk, &encoder);
+        if (rc != EXR_ERR_SUCCESS) {
+            pf_error_set(&err, PF_ERR_INTERNAL, "%s: scanline %u: %s", job->path, y,
+                         pf_exr_message(&messages, rc));
+            record_failure(job, &err);
+            break;
+        }
+        initialized = 1;
+
+        const float *rows = image->pixels + (size_t)y * width * channels;
+        if (half_rows) {
+            size_t chunk_values = (size_t)chunk.height * width * channels;
+            for (size_t i = 0; i < chunk_values; i++)
+                half_rows[i] = pf_float_to_half(rows[i]);
+        }
+        if (bind_channels(job, &encoder, rows, half_rows, &err) != PF_OK) {
+            record_failure(job, &err);
+            break;
+        }
+        if (!encoder.write_fn) {
+            rc = exr_encoding_choose_default_routines(job->context, part, &encoder);
+            /* No waiting for a turn: keep_chunk only stores, the caller writes in order. */
+            encoder.yield_until_ready_fn = NULL;
+            encoder.write_fn = keep_chunk;
+            encoder.encoding_user_data = job;
+        }
+        if (rc == EXR_ERR_SUCCESS)
+            rc = exr_encoding_run(job->context, part, &encoder);
+        if (rc != EXR_ERR_SUCCESS) {
+            pf_error_set(&err, rc == EXR_ERR_OUT_OF_MEMORY ? PF_ERR_NOMEM : PF_ERR_INTERNAL,
+                         "%s: scanline %u: %s", job->path, y, pf_exr_message(&messages, rc));
+            record_failure(job, &err);
+            break;
+        }
+    }
+    if (initialized)
+        exr_encoding_destroy(job->context, &encoder);
+    free(half_rows);
+    pf_exr_stream_activate(NULL);
+    return NULL;
+}
+
+static uint32_t encode_thread_count(uint32_t chunk_count)
+{
+    long online = sysconf(_SC_NPROCESSORS_ONLN);
+    uint32_t threads = online > 0 ? (uint32_t)online : 1u;
+    if (threads > ENCODE_MAX_THREADS)
+        threads = ENCODE_MAX_THREADS;
+    return threads < chunk_count ? threads : chunk_count;
+}
+
+/*
+ * Compresses the chunks on up to one thread per CPU (ZIP is most of a write's
+ * time), then writes them in order on the calling thread, whose stream
+ * records a failed write(2). The file is the same for any thread count.
+ */
 static pf_status write_pixels(exr_context_t context, const char *path, const pf_image *image,
                               pf_exr_pixel_type pixel_type, pf_exr_stream *stream, pf_error *err)
 {
@@ -157,65 +317,46 @@ static pf_status write_pixels(exr_context_t context, const char *path, const pf_
         return pf_error_set(err, PF_ERR_INTERNAL, "%s: scanlines per chunk: %s", path,
                             pf_exr_message(stream, rc));
 
-    const size_t width = image->width, channels = image->channel_count;
-    uint16_t *half_rows = NULL;
-    if (pixel_type == PF_EXR_HALF) {
-        half_rows = malloc((size_t)lines_per_chunk * width * channels * sizeof *half_rows);
-        if (!half_rows)
-            return pf_error_set(err, PF_ERR_NOMEM, "%s: out of memory", path);
-    }
+    encode_job job = {
+        .context = context,
+        .path = path,
+        .image = image,
+        .pixel_type = pixel_type,
+        .lines_per_chunk = lines_per_chunk,
+        .chunk_count = (image->height + (uint32_t)lines_per_chunk - 1) / (uint32_t)lines_per_chunk,
+    };
+    job.chunks = calloc(job.chunk_count, sizeof *job.chunks);
+    if (!job.chunks)
+        return pf_error_set(err, PF_ERR_NOMEM, "%s: out of memory", path);
+    pthread_mutex_init(&job.failure_lock, NULL);
 
-    exr_encode_pipeline_t encoder = EXR_ENCODE_PIPELINE_INITIALIZER;
+    pthread_t threads[ENCODE_MAX_THREADS];
+    uint32_t started = 0, wanted = encode_thread_count(job.chunk_count);
+    while (started + 1 < wanted &&
+           pthread_create(&threads[started], NULL, encode_chunks, &job) == 0)
+        started++;
+    encode_chunks(&job); /* the calling thread takes a share too */
+    for (uint32_t i = 0; i < started; i++)
+        pthread_join(threads[i], NULL);
+    pf_exr_stream_activate(stream); /* encode_chunks left this thread without one */
+
     pf_status status = PF_OK;
-    int initialized = 0;
-    for (uint32_t y = 0; y < image->height && status == PF_OK; y += (uint32_t)lines_per_chunk) {
-        exr_chunk_info_t chunk;
-        rc = exr_write_scanline_chunk_info(context, part, (int)y, &chunk);
-        if (rc == EXR_ERR_SUCCESS)
-            rc = initialized ? exr_encoding_update(context, part, &chunk, &encoder)
-                             : exr_encoding_initialize(context, part, &chunk, &encoder);
-        if (rc != EXR_ERR_SUCCESS) {
-            status = pf_error_set(err, PF_ERR_INTERNAL, "%s: scanline %u: %s", path, y,
-                                  pf_exr_message(stream, rc));
-            break;
-        }
-        initialized = 1;
-
-        const float *rows = image->pixels + (size_t)y * width * channels;
-        size_t chunk_values = (size_t)chunk.height * width * channels;
-        if (half_rows) {
-            for (size_t i = 0; i < chunk_values; i++)
-                half_rows[i] = pf_float_to_half(rows[i]);
-        }
-        for (int16_t i = 0; i < encoder.channel_count; i++) {
-            exr_coding_channel_info_t *info = &encoder.channels[i];
-            int c = pf_image_channel(image, info->channel_name);
-            if (c < 0) {
-                status = pf_error_set(err, PF_ERR_INTERNAL, "%s: encoder channel '%s' unknown",
-                                      path, info->channel_name);
-                break;
-            }
-            size_t element = half_rows ? sizeof(uint16_t) : sizeof(float);
-            info->user_bytes_per_element = (int16_t)element;
-            info->user_data_type = (uint16_t)(half_rows ? EXR_PIXEL_HALF : EXR_PIXEL_FLOAT);
-            info->user_pixel_stride = (int32_t)(channels * element);
-            info->user_line_stride = (int32_t)(width * channels * element);
-            info->encode_from_ptr = half_rows ? (const uint8_t *)(half_rows + c)
-                                              : (const uint8_t *)(rows + c);
-        }
-        if (status != PF_OK)
-            break;
-        if (y == 0)
-            rc = exr_encoding_choose_default_routines(context, part, &encoder);
-        if (rc == EXR_ERR_SUCCESS)
-            rc = exr_encoding_run(context, part, &encoder);
+    if (atomic_load(&job.failed)) {
+        *err = job.failure;
+        status = job.failure.status;
+    }
+    for (uint32_t i = 0; i < job.chunk_count && status == PF_OK; i++) {
+        uint32_t y = i * (uint32_t)lines_per_chunk;
+        rc = exr_write_scanline_chunk(context, part, (int)y, job.chunks[i].bytes,
+                                      job.chunks[i].size);
         if (rc != EXR_ERR_SUCCESS)
             status = pf_error_set(err, stream->saved_errno ? PF_ERR_IO : PF_ERR_INTERNAL,
                                   "%s: scanline %u: %s", path, y, pf_exr_message(stream, rc));
     }
-    if (initialized)
-        exr_encoding_destroy(context, &encoder);
-    free(half_rows);
+    for (uint32_t i = 0; i < job.chunk_count; i++)
+        free(job.chunks[i].bytes);
+    free(job.chunks);
+    pthread_mutex_destroy(&job.failure_lock);
     return status;
 }
 

@@ -50,6 +50,9 @@ typedef enum pf_exr_pixel_type {
  * Half pixels are converted with pf_float_to_half (so |x| >= 65520 becomes inf).
  * EXR stores channels sorted by name; the image's order is kept in a string-vector
  * attribute "photonfarm/channelOrder" that pf_exr_read restores.
+ * The 16-line chunks are compressed on up to one thread per online CPU (at most
+ * 16, started and joined within the call) and written in order by the caller's
+ * thread: the file's bytes do not depend on the thread count.
  * Errors: PF_ERR_INVALID for an empty image, an empty/unterminated/duplicate key or
  * a reserved EXR header name ("channels", "type", ...), nothing written;
  * PF_ERR_IO naming path and strerror when the temporary cannot be created, written,

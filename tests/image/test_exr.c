@@ -119,6 +119,75 @@ PF_TEST(float_round_trip_is_bit_exact)
     }
 }
 
+/*
+ * The chunks are compressed on several threads and written by one: whatever
+ * thread finishes first, the file must hold them in increasing y (the line
+ * order the header declares), be the same bytes on every write, and read back
+ * exactly. Each 16-line chunk differs, so a swapped chunk shows.
+ */
+PF_TEST(parallel_compression_writes_chunks_in_order)
+{
+    pf_error err = {0};
+    pf_image image, back;
+    PF_REQUIRE_OK(pf_image_create(&image, 97, 1003, 4, rgba, &err), &err);
+    size_t total = (size_t)image.width * image.height * 4;
+    uint32_t seed = 99u;
+    for (size_t i = 0; i < total; i++) {
+        size_t row = i / ((size_t)image.width * 4), channel = i % 4;
+        /* R is the row (distinct in every chunk), the others sparse eighths: compressible,
+         * and exact in half as in float. */
+        image.pixels[i] = channel == 0 ? (float)row
+                                       : (float)channel * 0.25f +
+                                             (next_random(&seed) % 8 == 0 ? 0.125f : 0.0f);
+    }
+    const pf_exr_pixel_type types[] = {PF_EXR_FLOAT, PF_EXR_HALF};
+    for (size_t t = 0; t < 2; t++) {
+        char path[600];
+        char *first = NULL, *again = NULL;
+        size_t first_size = 0, again_size = 0;
+        tmp_path(path, sizeof path, "chunks.exr");
+        PF_REQUIRE_OK(pf_exr_write(path, &image, types[t], NULL, 0, &err), &err);
+        PF_REQUIRE(read_whole_file(path, &first, &first_size));
+        for (int repeat = 0; repeat < 3; repeat++) {
+            PF_REQUIRE_OK(pf_exr_write(path, &image, types[t], NULL, 0, &err), &err);
+            PF_REQUIRE(read_whole_file(path, &again, &again_size));
+            PF_CHECK_MSG(again_size == first_size && !memcmp(first, again, first_size),
+                         "write %d of the same image gave other bytes", repeat + 2);
+            free(again);
+        }
+        free(first);
+
+        exr_context_t context = NULL;
+        exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
+        PF_REQUIRE(exr_start_read(&context, path, &init) == EXR_ERR_SUCCESS);
+        int32_t lines = 0;
+        PF_CHECK(exr_get_scanlines_per_chunk(context, 0, &lines) == EXR_ERR_SUCCESS);
+        PF_REQUIRE(lines > 0 && (uint32_t)lines < image.height / 8); /* many chunks */
+        uint64_t previous_end = 0;
+        int out_of_order = 0;
+        for (int32_t y = 0; y < (int32_t)image.height; y += lines) {
+            exr_chunk_info_t chunk;
+            PF_REQUIRE(exr_read_scanline_chunk_info(context, 0, y, &chunk) == EXR_ERR_SUCCESS);
+            out_of_order += chunk.data_offset < previous_end;
+            previous_end = chunk.data_offset + chunk.packed_size;
+        }
+        exr_finish(&context);
+        PF_CHECK_MSG(out_of_order == 0, "%d chunks stored before the one above them",
+                     out_of_order);
+
+        PF_REQUIRE_OK(pf_exr_read(path, &back, NULL, NULL, &err), &err);
+        int wrong_rows = 0;
+        for (uint32_t y = 0; y < image.height; y++) {
+            size_t at = (size_t)y * image.width * 4;
+            wrong_rows += memcmp(&back.pixels[at], &image.pixels[at],
+                                 (size_t)image.width * 4 * sizeof(float)) != 0;
+        }
+        PF_CHECK_MSG(wrong_rows == 0, "%d rows read back wrong", wrong_rows);
+        pf_image_free(&back);
+    }
+    pf_image_free(&image);
+}
+
 PF_TEST(half_round_trip_within_half_precision)
 {
     static const uint32_t sizes[][2] = {{1, 1}, {3, 7}, {641, 479}};
@@ -597,6 +666,7 @@ int main(void)
     pf_test_tmpdir(tmp_dir, sizeof tmp_dir);
     PF_RUN(float_round_trip_is_bit_exact);
     PF_RUN(half_round_trip_within_half_precision);
+    PF_RUN(parallel_compression_writes_chunks_in_order);
     PF_RUN(nan_and_inf_round_trip);
     PF_RUN(metadata_reads_back_exactly);
     PF_RUN(aov_channels_keep_the_image_order);
