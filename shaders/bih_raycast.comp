@@ -19,13 +19,11 @@ layout(push_constant) uniform Push {
     uint padding;
 } push;
 
-layout(std430, set = 0, binding = 0) readonly buffer BihNodes { uint bih_nodes[]; };
-layout(std430, set = 0, binding = 1) readonly buffer BihVertices { vec4 bih_vertices[]; };
-layout(std430, set = 0, binding = 2) readonly buffer BihTriangleIndex { uint bih_triangle_index[]; };
 layout(std430, set = 0, binding = 3) readonly buffer Rays { Ray rays[]; };
 layout(std430, set = 0, binding = 4) writeonly buffer Hits { HitRecord hits[]; };
 layout(std430, set = 0, binding = 5) buffer Failures { uint failures[]; };
 
+#define BIH_BINDING 0 // nodes, vertices, triangle index at bindings 0, 1, 2
 #include "bih_traverse.glsl"
 
 void main()

@@ -75,9 +75,6 @@ layout(std430, set = 0, binding = 3) readonly buffer TriangleMaterials { uint tr
 layout(std430, set = 0, binding = 4) readonly buffer Materials { Material materials[]; };
 layout(std430, set = 0, binding = 5) readonly buffer Lights { Light lights[]; };
 layout(std430, set = 0, binding = 6) readonly buffer Emitters { PhotonEmitter emitters[]; };
-layout(std430, set = 0, binding = 7) readonly buffer BihNodes { uint bih_nodes[]; };
-layout(std430, set = 0, binding = 8) readonly buffer BihVertices { vec4 bih_vertices[]; };
-layout(std430, set = 0, binding = 9) readonly buffer BihTriangleIndex { uint bih_triangle_index[]; };
 layout(std430, set = 0, binding = 10) buffer GlobalMap { uint global_words[]; };
 layout(std430, set = 0, binding = 11) buffer CausticMap { uint caustic_words[]; };
 layout(std430, set = 0, binding = 12) buffer Counters {
@@ -87,6 +84,7 @@ layout(std430, set = 0, binding = 12) buffer Counters {
     uint non_finite;         // photons dropped for a non-finite flux or direction
 } counters;
 
+#define BIH_BINDING 7 // nodes, vertices, triangle index at bindings 7, 8, 9
 #include "bih_traverse.glsl"
 #include "lights.glsl"
 #include "materials.glsl"

@@ -149,13 +149,16 @@ static pf_status allocate_set(pf_vk_commands *cmds, const pf_vk_pipeline *pipeli
         cmds->descriptor_pools = grown;
         uint32_t buffers = pipeline->buffer_count > BUFFERS_PER_POOL ? pipeline->buffer_count
                                                                      : BUFFERS_PER_POOL;
-        VkDescriptorPoolSize size = {.type = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER,
-                                     .descriptorCount = buffers};
+        /* Either kind may take every binding: the total left bounds both. */
+        VkDescriptorPoolSize sizes[2] = {
+            {.type = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, .descriptorCount = buffers},
+            {.type = VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER, .descriptorCount = buffers},
+        };
         VkDescriptorPoolCreateInfo info = {
             .sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO,
             .maxSets = SETS_PER_POOL,
-            .poolSizeCount = 1,
-            .pPoolSizes = &size,
+            .poolSizeCount = 2,
+            .pPoolSizes = sizes,
         };
         VkDescriptorPool pool;
         VkResult result = vkCreateDescriptorPool(device, &info, NULL, &pool);
@@ -238,27 +241,41 @@ pf_status pf_vk_cmd_dispatch(pf_vk_commands *cmds, pf_vk_pipeline *pipeline,
             return status;
         }
         VkDescriptorBufferInfo *infos = calloc(buffer_count, sizeof *infos);
+        VkBufferView *views = calloc(buffer_count, sizeof *views);
         VkWriteDescriptorSet *writes = calloc(buffer_count, sizeof *writes);
-        if (!infos || !writes) {
+        if (!infos || !views || !writes) {
             free(infos);
+            free(views);
             free(writes);
             return pf_error_set(err, PF_ERR_NOMEM, "shader '%s': out of host memory",
                                 pipeline->name);
         }
-        for (uint32_t i = 0; i < buffer_count; i++) {
-            infos[i] = (VkDescriptorBufferInfo){buffers[i]->buffer, 0, VK_WHOLE_SIZE};
+        for (uint32_t i = 0; i < buffer_count && status == PF_OK; i++) {
+            int kind = pipeline->binding_kinds[i];
             writes[i] = (VkWriteDescriptorSet){
                 .sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET,
                 .dstSet = set,
                 .dstBinding = i,
                 .descriptorCount = 1,
-                .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER,
-                .pBufferInfo = &infos[i],
             };
+            writes[i].descriptorType = pf_vk_descriptor_type(kind);
+            if (kind == PF_VK_BINDING_STORAGE) {
+                infos[i] = (VkDescriptorBufferInfo){buffers[i]->buffer, 0, VK_WHOLE_SIZE};
+                writes[i].pBufferInfo = &infos[i];
+            } else {
+                status = pf_vk_buffer_texel_view(cmds->ctx, buffers[i], kind, &views[i], err);
+                writes[i].pTexelBufferView = &views[i];
+            }
         }
-        vkUpdateDescriptorSets(cmds->ctx->device, buffer_count, writes, 0, NULL);
+        if (status == PF_OK)
+            vkUpdateDescriptorSets(cmds->ctx->device, buffer_count, writes, 0, NULL);
         free(infos);
+        free(views);
         free(writes);
+        if (status != PF_OK) {
+            pf_error_prefix(err, "shader '%s'", pipeline->name);
+            return status;
+        }
         vkCmdBindDescriptorSets(cmds->command, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline->layout,
                                 0, 1, &set, 0, NULL);
     }

@@ -320,6 +320,9 @@ pf_status pf_vk_device_open(pf_vk_context *ctx, const char *selector, pf_error *
     if (status != PF_OK)
         return status;
     vkGetPhysicalDeviceMemoryProperties(ctx->physical_device, &ctx->memory_properties);
+    VkPhysicalDeviceProperties properties;
+    vkGetPhysicalDeviceProperties(ctx->physical_device, &properties);
+    ctx->max_texel_buffer_elements = properties.limits.maxTexelBufferElements;
 
     /* Features later stages rely on, enabled whenever the device has them. */
     VkPhysicalDeviceVulkan12Features features12 = {

@@ -112,8 +112,8 @@ pf_status pf_vk_buffer_create(pf_vk_context *ctx, uint64_t size, const char *lab
     buffer->size = size;
     pf_status status = allocate(
         ctx, size,
-        VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT |
-            VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+        VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_UNIFORM_TEXEL_BUFFER_BIT |
+            VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
         VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, 0, buffer->label, &buffer->buffer, &buffer->memory,
         &buffer->mapped, err);
     if (status != PF_OK) {
@@ -130,12 +130,51 @@ void pf_vk_buffer_destroy(pf_vk_context *ctx, pf_vk_buffer *buffer)
         return;
     if (buffer->mapped)
         vkUnmapMemory(ctx->device, buffer->memory);
+    for (int kind = 0; kind < 3; kind++)
+        if (buffer->views[kind])
+            vkDestroyBufferView(ctx->device, buffer->views[kind], NULL);
     vkDestroyBuffer(ctx->device, buffer->buffer, NULL);
     vkFreeMemory(ctx->device, buffer->memory, NULL);
     free(buffer);
 }
 
 uint64_t pf_vk_buffer_size(const pf_vk_buffer *buffer) { return buffer->size; }
+
+pf_status pf_vk_buffer_texel_view(pf_vk_context *ctx, pf_vk_buffer *buffer, int kind,
+                                  VkBufferView *view, pf_error *err)
+{
+    const VkFormat format = kind == PF_VK_BINDING_TEXEL_UINT ? VK_FORMAT_R32_UINT
+                                                             : VK_FORMAT_R32G32B32A32_SFLOAT;
+    const uint64_t texel_bytes = kind == PF_VK_BINDING_TEXEL_UINT ? 4 : 16;
+    uint64_t texels = buffer->size / texel_bytes;
+    if (texels == 0 || texels > ctx->max_texel_buffer_elements)
+        return pf_error_set(err, PF_ERR_LIMIT,
+                            "buffer '%s': %llu bytes are %llu texels of %llu bytes, outside "
+                            "1..maxTexelBufferElements %u of device '%s'",
+                            buffer->label, (unsigned long long)buffer->size,
+                            (unsigned long long)texels, (unsigned long long)texel_bytes,
+                            ctx->max_texel_buffer_elements, ctx->info.name);
+    pthread_mutex_lock(&ctx->view_lock);
+    VkResult result = VK_SUCCESS;
+    if (!buffer->views[kind]) {
+        VkBufferViewCreateInfo info = {
+            .sType = VK_STRUCTURE_TYPE_BUFFER_VIEW_CREATE_INFO,
+            .buffer = buffer->buffer,
+            .format = format,
+            .range = texels * texel_bytes,
+        };
+        VkBufferView made;
+        result = vkCreateBufferView(ctx->device, &info, NULL, &made);
+        if (result == VK_SUCCESS)
+            buffer->views[kind] = made;
+    }
+    *view = buffer->views[kind];
+    pthread_mutex_unlock(&ctx->view_lock);
+    if (result != VK_SUCCESS)
+        return pf_error_set(err, PF_ERR_VULKAN, "buffer '%s': vkCreateBufferView failed: %s",
+                            buffer->label, pf_vk_result_name(result));
+    return PF_OK;
+}
 
 static pf_status check_range(const pf_vk_buffer *buffer, uint64_t offset, const void *data,
                              uint64_t size, const char *what, pf_error *err)

@@ -37,6 +37,8 @@ struct pf_vk_context {
     /* The device's shader `/` rounds as IEEE does (llvmpipe: LLVM's fdiv): every pipeline
      * gets PF_VK_SPEC_DIVIDE_REFINE = 0, so divide_exact skips its refinement. */
     int exact_division;
+    uint32_t max_texel_buffer_elements;
+    pthread_mutex_t view_lock; /* a buffer's texel views are made on first use, from any thread */
 
     struct {
         VkPipelineCache handle; /* the file is stats.path ("" without a directory) */
@@ -48,10 +50,18 @@ struct pf_vk_context {
     } cache;
 };
 
+/* How a pipeline's binding is bound (spirv_bindings.c finds the texel ones). */
+enum {
+    PF_VK_BINDING_STORAGE = 0,    /* storage buffer */
+    PF_VK_BINDING_TEXEL_UINT = 1, /* usamplerBuffer: the buffer viewed as R32_UINT words */
+    PF_VK_BINDING_TEXEL_FLOAT = 2 /* samplerBuffer: the buffer viewed as RGBA32 float texels */
+};
+
 struct pf_vk_buffer {
     VkBuffer buffer;
     VkDeviceMemory memory;
     uint64_t size;
+    VkBufferView views[3]; /* by PF_VK_BINDING_TEXEL_*, made on first use (view_lock) */
     void *mapped; /* non-NULL when the memory is host-visible + coherent */
     char label[64];
 };
@@ -64,6 +74,7 @@ struct pf_vk_pipeline {
     VkPipeline pipeline;
     uint32_t buffer_count;
     uint32_t push_constant_bytes;
+    uint8_t *binding_kinds; /* buffer_count entries, PF_VK_BINDING_* */
 };
 
 /*
@@ -73,6 +84,26 @@ struct pf_vk_pipeline {
  */
 pf_status pf_vk_spirv_preserve_denormals(const uint32_t *words, size_t count, uint32_t **out,
                                          size_t *out_count, pf_error *err);
+
+/*
+ * kinds[b] (b < binding_count) := PF_VK_BINDING_TEXEL_UINT / _FLOAT where the
+ * module declares a uniform texel buffer (usamplerBuffer / samplerBuffer) at
+ * set 0, binding b; PF_VK_BINDING_STORAGE elsewhere. PF_ERR_FORMAT for a
+ * malformed module, PF_ERR_INVALID for a texel binding >= binding_count.
+ */
+pf_status pf_vk_spirv_binding_kinds(const uint32_t *words, size_t count, uint8_t *kinds,
+                                    uint32_t binding_count, pf_error *err);
+
+/* The descriptor type of a binding kind (PF_VK_BINDING_*). */
+static inline VkDescriptorType pf_vk_descriptor_type(int kind)
+{
+    return kind == PF_VK_BINDING_STORAGE ? VK_DESCRIPTOR_TYPE_STORAGE_BUFFER
+                                         : VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER;
+}
+
+/* The buffer's texel view for kind (PF_VK_BINDING_TEXEL_*), made on first use. */
+pf_status pf_vk_buffer_texel_view(pf_vk_context *ctx, pf_vk_buffer *buffer, int kind,
+                                  VkBufferView *view, pf_error *err);
 
 /* "vkFoo failed: VK_ERROR_... (-n)" style text for a VkResult. */
 const char *pf_vk_result_name(VkResult result);

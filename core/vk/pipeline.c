@@ -69,6 +69,20 @@ pf_status pf_vk_pipeline_create(pf_vk_context *ctx, const pf_vk_pipeline_desc *d
     snprintf(pipeline->name, sizeof pipeline->name, "%s", checked.name);
     pipeline->buffer_count = checked.buffer_count;
     pipeline->push_constant_bytes = checked.push_constant_bytes;
+    pipeline->binding_kinds = calloc(checked.buffer_count ? checked.buffer_count : 1, 1);
+    status = pipeline->binding_kinds
+                 ? pf_vk_spirv_binding_kinds(checked.spirv, checked.spirv_bytes / 4,
+                                             pipeline->binding_kinds, checked.buffer_count, err)
+                 : pf_error_set(err, PF_ERR_NOMEM, "shader '%s': out of host memory",
+                                checked.name);
+    if (status != PF_OK) {
+        pf_error_prefix(err, "shader '%s'", checked.name);
+        pf_vk_pipeline_destroy(ctx, pipeline);
+        free(bindings);
+        free(entries);
+        free(values);
+        return status;
+    }
 
     /* Where the device can keep subnormals, every module asks it to (spirv_denormals.c). */
     uint32_t *patched = NULL;
@@ -77,7 +91,7 @@ pf_status pf_vk_pipeline_create(pf_vk_context *ctx, const pf_vk_pipeline_desc *d
         status = pf_vk_spirv_preserve_denormals(checked.spirv, checked.spirv_bytes / 4, &patched,
                                                 &patched_words, err);
         if (status != PF_OK) {
-            free(pipeline);
+            pf_vk_pipeline_destroy(ctx, pipeline);
             free(bindings);
             free(entries);
             free(values);
@@ -101,7 +115,7 @@ pf_status pf_vk_pipeline_create(pf_vk_context *ctx, const pf_vk_pipeline_desc *d
         for (uint32_t i = 0; i < checked.buffer_count; i++) {
             bindings[i] = (VkDescriptorSetLayoutBinding){
                 .binding = i,
-                .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER,
+                .descriptorType = pf_vk_descriptor_type(pipeline->binding_kinds[i]),
                 .descriptorCount = 1,
                 .stageFlags = VK_SHADER_STAGE_COMPUTE_BIT,
             };
@@ -234,5 +248,6 @@ void pf_vk_pipeline_destroy(pf_vk_context *ctx, pf_vk_pipeline *pipeline)
         vkDestroyDescriptorSetLayout(ctx->device, pipeline->set_layout, NULL);
     if (pipeline->module)
         vkDestroyShaderModule(ctx->device, pipeline->module, NULL);
+    free(pipeline->binding_kinds);
     free(pipeline);
 }

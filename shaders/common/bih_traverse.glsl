@@ -4,14 +4,36 @@
 // parallel axes decided by the origin, skipping popped entries beyond the best
 // hit); node format in core/bih/pf_bih.h.
 //
-// The including shader declares, before including this file:
-//   buffer ... { uint bih_nodes[]; };          // 3 words per node: clip0, clip1 (float bits), word
-//   buffer ... { vec4 bih_vertices[]; };       // 3 per triangle, leaf order
-//   buffer ... { uint bih_triangle_index[]; }; // leaf order -> frame triangle
+// The including shader defines BIH_BINDING, the first of the tree's three
+// bindings (set 0), which this file declares as uniform texel buffers:
+//   BIH_BINDING      bih_nodes           3 words per node: clip0, clip1 (float bits), word
+//   BIH_BINDING + 1  bih_vertices        3 vec4 per triangle, leaf order
+//   BIH_BINDING + 2  bih_triangle_index  leaf order -> frame triangle
+// Texel buffers, not storage buffers: llvmpipe (Mesa 22.x) loads a storage
+// buffer word lane by lane in a branchy loop, ~11 ns a word on a 2-core host,
+// and a texel fetch is one vector gather, ~1 ns (bench/RESULTS.md). core/vk
+// binds them from the module's declarations (spirv_bindings.c).
 #ifndef PF_BIH_TRAVERSE_GLSL
 #define PF_BIH_TRAVERSE_GLSL
 
 #include "ray_triangle.glsl"
+
+#ifndef BIH_BINDING
+#error "define BIH_BINDING (the first of the BIH's three bindings) before bih_traverse.glsl"
+#endif
+layout(set = 0, binding = BIH_BINDING) uniform usamplerBuffer bih_nodes;
+layout(set = 0, binding = BIH_BINDING + 1) uniform samplerBuffer bih_vertices;
+layout(set = 0, binding = BIH_BINDING + 2) uniform usamplerBuffer bih_triangle_index;
+
+uint bih_node_word(uint index)
+{
+    return texelFetch(bih_nodes, int(index)).x;
+}
+
+vec3 bih_vertex(uint index)
+{
+    return texelFetch(bih_vertices, int(index)).xyz;
+}
 
 const uint BIH_STACK_SIZE = 64u; // PF_BIH_STACK_SIZE
 const uint BIH_LEAF = 3u;        // PF_BIH_LEAF
@@ -102,14 +124,14 @@ BihHit trace_bih(vec3 origin, vec3 direction, float tmin, float tmax, bool any_h
                 failed = true;
                 return BihHit(-1.0, BIH_NO_HIT, 0.0, 0.0);
             }
-            uint word = bih_nodes[3u * node + 2u];
+            uint word = bih_node_word(3u * node + 2u);
             if ((word & 3u) == BIH_LEAF) {
                 at_leaf = true;
                 break;
             }
             uint axis = word & 3u, child = word >> 2u;
-            float clip_left = uintBitsToFloat(bih_nodes[3u * node]);
-            float clip_right = uintBitsToFloat(bih_nodes[3u * node + 1u]);
+            float clip_left = uintBitsToFloat(bih_node_word(3u * node));
+            float clip_right = uintBitsToFloat(bih_node_word(3u * node + 1u));
             float far_limit = min(t_far, bih_widen_far(closest));
             float left_near = t_near, left_far = far_limit;
             float right_near = t_near, right_far = far_limit;
@@ -174,16 +196,15 @@ BihHit trace_bih(vec3 origin, vec3 direction, float tmin, float tmax, bool any_h
             if (!resumed)
                 return hit;
         }
-        uint first = bih_nodes[3u * node];
-        uint count = bih_nodes[3u * node + 1u];
+        uint first = bih_node_word(3u * node);
+        uint count = bih_node_word(3u * node + 1u);
         for (uint p = first; p < first + count; p++) {
             float t, u, v;
-            if (!ray_triangle_watertight(origin, shear, bih_vertices[3u * p].xyz,
-                                         bih_vertices[3u * p + 1u].xyz,
-                                         bih_vertices[3u * p + 2u].xyz, tmin,
+            if (!ray_triangle_watertight(origin, shear, bih_vertex(3u * p),
+                                         bih_vertex(3u * p + 1u), bih_vertex(3u * p + 2u), tmin,
                                          bih_next_up(closest), t, u, v))
                 continue;
-            uint original = bih_triangle_index[p];
+            uint original = texelFetch(bih_triangle_index, int(p)).x;
             // Equal t: the lower original index wins, as in the brute-force oracle.
             if (t < closest || (t == closest && hit.triangle != BIH_NO_HIT && original < hit.triangle)) {
                 closest = t;

@@ -7,15 +7,7 @@
 #ifndef PF_SCENE_TRACE_GLSL
 #define PF_SCENE_TRACE_GLSL
 
-#ifndef BIH_BINDING
-#error "define BIH_BINDING (the first of the BIH's three bindings) before scene_trace.glsl"
-#endif
-
-layout(std430, set = 0, binding = BIH_BINDING) readonly buffer BihNodes { uint bih_nodes[]; };
-layout(std430, set = 0, binding = BIH_BINDING + 1) readonly buffer BihVertices { vec4 bih_vertices[]; };
-layout(std430, set = 0, binding = BIH_BINDING + 2) readonly buffer BihTriangleIndex { uint bih_triangle_index[]; };
-
-#include "bih_traverse.glsl"
+#include "bih_traverse.glsl" // declares the three bindings from BIH_BINDING
 
 // Closest (or with any_hit, any) hit; a failed traversal counts as a miss
 // here and is reported to the host.

@@ -1,0 +1,35 @@
+#version 460
+// bench/vk/load_bench: dependent reads of 3 words per step (a BIH node's
+// worth) through a storage buffer or through a uniform texel buffer of the
+// same words, so the two read paths of a device can be timed against each
+// other (llvmpipe 22.x: a lane-by-lane loop against a vector gather).
+#extension GL_GOOGLE_include_directive : require
+
+layout(local_size_x = 64) in;
+layout(constant_id = 0) const bool USE_TEXEL = false;
+
+layout(std430, set = 0, binding = 0) readonly buffer Words { uint words[]; };
+layout(set = 0, binding = 1) uniform usamplerBuffer texel_words;
+layout(std430, set = 0, binding = 2) writeonly buffer Sums { uint sums[]; };
+
+layout(push_constant) uniform Push {
+    uint nodes; // 4 words each: next, two payload words, padding
+    uint steps;
+} push;
+
+uint word_at(uint index)
+{
+    return USE_TEXEL ? texelFetch(texel_words, int(index)).x : words[index];
+}
+
+void main()
+{
+    uint node = gl_GlobalInvocationID.x % push.nodes;
+    uint sum = 0u;
+    for (uint i = 0u; i < push.steps; i++) {
+        uint next = word_at(4u * node);
+        sum += word_at(4u * node + 1u) ^ word_at(4u * node + 2u);
+        node = next;
+    }
+    sums[gl_GlobalInvocationID.x] = sum;
+}

@@ -1,0 +1,99 @@
+/*
+ * spirv_bindings.c: the descriptor kind core/vk gives each binding, read from
+ * the module: uniform texel buffers where a shader declares usamplerBuffer /
+ * samplerBuffer, storage buffers everywhere else. The kernels' declarations decide it, so these are checked
+ * on the embedded shaders themselves (the pipelines' layouts must match what
+ * the dispatches bind: the VULKAN tests run with the validation layer).
+ */
+#include "pf_test.h"
+#include "pf_vk_internal.h"
+
+#include "pf_shaders.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+static void kinds_of(const char *shader, uint8_t *kinds, uint32_t count)
+{
+    const pf_shader_blob *blob = pf_shader_find(shader);
+    PF_REQUIRE(blob != NULL);
+    pf_error err = {0};
+    PF_CHECK_OK(pf_vk_spirv_binding_kinds(blob->words, blob->bytes / 4, kinds, count, &err),
+                &err);
+}
+
+PF_TEST(traversal_reads_the_tree_through_texel_buffers)
+{
+    uint8_t kinds[6];
+    kinds_of("bih_raycast", kinds, 6);
+    PF_CHECK(kinds[0] == PF_VK_BINDING_TEXEL_UINT);  /* nodes: words */
+    PF_CHECK(kinds[1] == PF_VK_BINDING_TEXEL_FLOAT); /* vertices: vec4 */
+    PF_CHECK(kinds[2] == PF_VK_BINDING_TEXEL_UINT);  /* triangle index */
+    for (int b = 3; b < 6; b++)
+        PF_CHECK_MSG(kinds[b] == PF_VK_BINDING_STORAGE, "binding %d: kind %d", b, kinds[b]);
+}
+
+PF_TEST(integrators_read_the_tree_through_texel_buffers)
+{
+    static const char *const integrators[] = {"render_direct", "render_fast", "render_final",
+                                              "render_reference"};
+    for (size_t i = 0; i < sizeof integrators / sizeof *integrators; i++) {
+        uint8_t kinds[32];
+        kinds_of(integrators[i], kinds, 32);
+        uint32_t texel_uint = 0, texel_float = 0;
+        for (int b = 0; b < 32; b++) {
+            texel_uint += kinds[b] == PF_VK_BINDING_TEXEL_UINT;
+            texel_float += kinds[b] == PF_VK_BINDING_TEXEL_FLOAT;
+        }
+        /* The scene's own buffers (0..6) stay storage buffers; the tree is 2 + 1 texel. */
+        PF_CHECK_MSG(texel_uint == 2 && texel_float == 1, "%s: %u uint and %u float texel",
+                     integrators[i], texel_uint, texel_float);
+        for (int b = 0; b < 7; b++)
+            PF_CHECK(kinds[b] == PF_VK_BINDING_STORAGE);
+    }
+    uint8_t kinds[20];
+    kinds_of("render_final", kinds, 20);
+    PF_CHECK(kinds[10] == PF_VK_BINDING_TEXEL_UINT && kinds[11] == PF_VK_BINDING_TEXEL_FLOAT &&
+             kinds[12] == PF_VK_BINDING_TEXEL_UINT); /* BIH_BINDING 10 */
+    PF_CHECK(kinds[7] == PF_VK_BINDING_STORAGE && kinds[13] == PF_VK_BINDING_STORAGE &&
+             kinds[19] == PF_VK_BINDING_STORAGE); /* film, vertices, irradiance ranges */
+    kinds_of("photon_trace", kinds, 20);
+    PF_CHECK(kinds[7] == PF_VK_BINDING_TEXEL_UINT && kinds[8] == PF_VK_BINDING_TEXEL_FLOAT &&
+             kinds[9] == PF_VK_BINDING_TEXEL_UINT); /* BIH_BINDING 7 */
+}
+
+PF_TEST(storage_only_shaders_stay_storage)
+{
+    uint8_t kinds[2] = {99, 99};
+    kinds_of("vk_selftest", kinds, 2);
+    PF_CHECK(kinds[0] == PF_VK_BINDING_STORAGE && kinds[1] == PF_VK_BINDING_STORAGE);
+}
+
+PF_TEST(bad_modules_and_too_few_bindings_are_refused)
+{
+    const pf_shader_blob *blob = pf_shader_find("bih_raycast");
+    PF_REQUIRE(blob != NULL);
+    pf_error err = {0};
+    uint8_t kinds[6];
+    /* The tree's texel buffers sit at bindings 0..2: a pipeline of 2 bindings cannot hold them. */
+    PF_CHECK(pf_vk_spirv_binding_kinds(blob->words, blob->bytes / 4, kinds, 2, &err) ==
+             PF_ERR_INVALID);
+    PF_CHECK(strstr(err.message, "texel buffer at binding 2") != NULL);
+    uint32_t *copy = malloc(blob->bytes);
+    PF_REQUIRE(copy != NULL);
+    memcpy(copy, blob->words, blob->bytes);
+    copy[5] = 0xffffu << 16 | (copy[5] & 0xffffu);
+    PF_CHECK(pf_vk_spirv_binding_kinds(copy, blob->bytes / 4, kinds, 6, &err) == PF_ERR_FORMAT);
+    copy[0] = 0;
+    PF_CHECK(pf_vk_spirv_binding_kinds(copy, blob->bytes / 4, kinds, 6, &err) == PF_ERR_FORMAT);
+    free(copy);
+}
+
+int main(void)
+{
+    PF_RUN(traversal_reads_the_tree_through_texel_buffers);
+    PF_RUN(integrators_read_the_tree_through_texel_buffers);
+    PF_RUN(storage_only_shaders_stay_storage);
+    PF_RUN(bad_modules_and_too_few_bindings_are_refused);
+    return pf_test_finish();
+}
