@@ -106,14 +106,23 @@ PF_TEST(every_shader_stays_valid_with_denorm_preserve)
     PF_CHECK_MSG(shaders >= 20, "only %zu embedded shaders", shaders);
 }
 
+/* A malloc'd copy of an embedded shader's words, to alter; NULL (and a failure) if none. */
+static uint32_t *shader_copy(const char *name, size_t *count)
+{
+    const pf_shader_blob *blob = pf_shader_find(name);
+    uint32_t *copy = blob ? malloc(blob->bytes) : NULL;
+    PF_CHECK_MSG(copy != NULL, "no copy of embedded shader '%s'", name);
+    if (copy)
+        memcpy(copy, blob->words, blob->bytes);
+    *count = blob ? blob->bytes / 4 : 0;
+    return copy;
+}
+
 PF_TEST(spirv_before_1_4_also_gets_the_extension)
 {
-    const pf_shader_blob *blob = pf_shader_find("vk_selftest");
-    PF_REQUIRE(blob != NULL);
-    size_t count = blob->bytes / 4;
-    uint32_t *older = malloc(blob->bytes);
+    size_t count = 0;
+    uint32_t *older = shader_copy("vk_selftest", &count);
     PF_REQUIRE(older != NULL);
-    memcpy(older, blob->words, blob->bytes);
     older[1] = 0x00010300u; /* SPIR-V 1.3: SPV_KHR_float_controls is an extension there */
     pf_error err = {0};
     uint32_t *patched = NULL;
@@ -132,10 +141,9 @@ PF_TEST(spirv_before_1_4_also_gets_the_extension)
 PF_TEST(malformed_modules_are_refused)
 {
     const pf_shader_blob *blob = pf_shader_find("vk_selftest");
-    PF_REQUIRE(blob != NULL);
-    size_t count = blob->bytes / 4;
-    uint32_t *copy = malloc(blob->bytes);
-    PF_REQUIRE(copy != NULL);
+    size_t count = 0;
+    uint32_t *copy = shader_copy("vk_selftest", &count);
+    PF_REQUIRE(blob != NULL && copy != NULL);
     pf_error err = {0};
     uint32_t *patched = NULL;
     size_t patched_count = 0;
