@@ -105,7 +105,10 @@ typedef struct pf_vk_pipeline_desc {
     const char *name;                 /* shader name, for errors and logs */
     const uint32_t *spirv;
     size_t spirv_bytes;
-    uint32_t buffer_count;            /* storage buffers at set 0, bindings 0..n-1 */
+    /* Buffers at set 0, bindings 0..n-1: storage buffers, except where the module
+     * declares a usamplerBuffer (bound as an R32_UINT texel view of the buffer) or
+     * a samplerBuffer (an RGBA32F view); the dispatch binds pf_vk_buffers either way. */
+    uint32_t buffer_count;
     uint32_t push_constant_bytes;     /* 0..128 */
     const pf_vk_spec_constant *spec_constants;
     uint32_t spec_constant_count;
