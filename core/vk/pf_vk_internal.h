@@ -77,6 +77,26 @@ struct pf_vk_pipeline {
     uint8_t *binding_kinds; /* buffer_count entries, PF_VK_BINDING_* */
 };
 
+/* SPIR-V specification §2.3: the first word of every module, and the header's
+ * words (magic, version, generator, bound, schema) before the first instruction. */
+#define PF_SPIRV_MAGIC 0x07230203u
+#define PF_SPIRV_HEADER_WORDS 5u
+
+/*
+ * The word count of the instruction at words[at] of a module of count words:
+ * PF_ERR_FORMAT (naming the word) when it is 0 or runs past the end. The one
+ * bounds check of the module walks in spirv_denormals.c and spirv_bindings.c.
+ */
+static inline pf_status pf_vk_spirv_instruction_words(const uint32_t *words, size_t count,
+                                                      size_t at, uint32_t *n, pf_error *err)
+{
+    *n = words[at] >> 16;
+    if (*n == 0 || at + *n > count)
+        return pf_error_set(err, PF_ERR_FORMAT,
+                            "SPIR-V module: instruction at word %zu runs past the end", at);
+    return PF_OK;
+}
+
 /*
  * A copy of the SPIR-V module words[0..count) that declares DenormPreserve for
  * 32-bit floats on each entry point (and the capability, and the extension

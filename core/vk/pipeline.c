@@ -6,21 +6,17 @@
 #include <stdio.h>
 #include <stdlib.h>
 
-/* SPIR-V specification §2.3: the first word of every module. */
-#define SPIRV_MAGIC 0x07230203u
-/* SPIR-V specification §2.3: magic, version, generator, bound, schema. */
-#define SPIRV_HEADER_WORDS 5u
 
 static pf_status check_desc(const pf_vk_context *ctx, const pf_vk_pipeline_desc *desc,
                             pf_error *err)
 {
     const char *name = desc->name;
-    if (!desc->spirv || desc->spirv_bytes < SPIRV_HEADER_WORDS * 4 || desc->spirv_bytes % 4 ||
-        desc->spirv[0] != SPIRV_MAGIC)
+    if (!desc->spirv || desc->spirv_bytes < PF_SPIRV_HEADER_WORDS * 4 || desc->spirv_bytes % 4 ||
+        desc->spirv[0] != PF_SPIRV_MAGIC)
         return pf_error_set(err, PF_ERR_FORMAT,
                             "shader '%s': %zu bytes are not a SPIR-V module (need a multiple "
                             "of 4 bytes starting with magic 0x%08x)",
-                            name, desc->spirv_bytes, SPIRV_MAGIC);
+                            name, desc->spirv_bytes, PF_SPIRV_MAGIC);
     if (desc->push_constant_bytes % 4 ||
         desc->push_constant_bytes > ctx->info.max_push_constant_bytes)
         return pf_error_set(err, PF_ERR_LIMIT,

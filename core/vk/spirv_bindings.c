@@ -13,8 +13,6 @@
 #include <string.h>
 
 /* SPIR-V specification §3 (opcodes, decorations, enumerants). */
-#define SPIRV_MAGIC 0x07230203u
-#define SPIRV_HEADER_WORDS 5u
 #define OP_TYPE_INT 21u
 #define OP_TYPE_FLOAT 22u
 #define OP_TYPE_IMAGE 25u
@@ -40,7 +38,7 @@ pf_status pf_vk_spirv_binding_kinds(const uint32_t *words, size_t count, uint8_t
                                     uint32_t binding_count, pf_error *err)
 {
     memset(kinds, PF_VK_BINDING_STORAGE, binding_count);
-    if (count < SPIRV_HEADER_WORDS || words[0] != SPIRV_MAGIC)
+    if (count < PF_SPIRV_HEADER_WORDS || words[0] != PF_SPIRV_MAGIC)
         return pf_error_set(err, PF_ERR_FORMAT, "not a SPIR-V module (%zu words)", count);
     uint32_t bound = words[3];
     id_info *ids = calloc(bound ? bound : 1, sizeof *ids);
@@ -53,13 +51,10 @@ pf_status pf_vk_spirv_binding_kinds(const uint32_t *words, size_t count, uint8_t
     pf_status status = variables ? PF_OK
                                  : pf_error_set(err, PF_ERR_NOMEM, "SPIR-V module: %u ids",
                                                 bound);
-    for (size_t at = SPIRV_HEADER_WORDS; status == PF_OK && at < count;) {
-        uint32_t op = words[at] & 0xffffu, n = words[at] >> 16;
-        if (n == 0 || at + n > count) {
-            status = pf_error_set(err, PF_ERR_FORMAT,
-                                  "SPIR-V module: instruction at word %zu runs past the end", at);
+    for (size_t at = PF_SPIRV_HEADER_WORDS; status == PF_OK && at < count;) {
+        uint32_t op = words[at] & 0xffffu, n;
+        if ((status = pf_vk_spirv_instruction_words(words, count, at, &n, err)) != PF_OK)
             break;
-        }
         const uint32_t *w = &words[at];
         /* Result ids of the instructions read here; a bad one is a malformed module. */
         uint32_t result = op == OP_VARIABLE && n >= 4   ? w[2]

@@ -16,8 +16,6 @@
 #include <string.h>
 
 /* SPIR-V specification §2.3 and §3 (opcodes and enumerants, unified 1.6). */
-#define SPIRV_MAGIC 0x07230203u
-#define SPIRV_HEADER_WORDS 5u
 #define SPIRV_VERSION_1_4 0x00010400u
 #define OP_EXTENSION 10u
 #define OP_MEMORY_MODEL 14u
@@ -32,7 +30,6 @@
 static const char FLOAT_CONTROLS_EXTENSION[] = "SPV_KHR_float_controls";
 
 static uint32_t opcode(uint32_t word) { return word & 0xffffu; }
-static uint32_t word_count(uint32_t word) { return word >> 16; }
 
 /* What the patch needs to know of a module's leading sections. */
 typedef struct module_layout {
@@ -57,12 +54,12 @@ static pf_status read_layout(const uint32_t *words, size_t count, module_layout 
                              pf_error *err)
 {
     memset(layout, 0, sizeof *layout);
-    size_t at = SPIRV_HEADER_WORDS;
+    size_t at = PF_SPIRV_HEADER_WORDS;
     while (at < count) {
-        uint32_t op = opcode(words[at]), n = word_count(words[at]);
-        if (n == 0 || at + n > count)
-            return pf_error_set(err, PF_ERR_FORMAT,
-                                "SPIR-V module: instruction at word %zu runs past the end", at);
+        uint32_t op = opcode(words[at]), n;
+        pf_status status = pf_vk_spirv_instruction_words(words, count, at, &n, err);
+        if (status != PF_OK)
+            return status;
         if (op == OP_CAPABILITY) {
             layout->after_capabilities = at + n;
             layout->has_capability |= n == 2 && words[at + 1] == CAPABILITY_DENORM_PRESERVE;
@@ -101,7 +98,7 @@ pf_status pf_vk_spirv_preserve_denormals(const uint32_t *words, size_t count, ui
 {
     *out = NULL;
     *out_count = 0;
-    if (count < SPIRV_HEADER_WORDS || words[0] != SPIRV_MAGIC)
+    if (count < PF_SPIRV_HEADER_WORDS || words[0] != PF_SPIRV_MAGIC)
         return pf_error_set(err, PF_ERR_FORMAT, "not a SPIR-V module (%zu words)", count);
     module_layout layout;
     pf_status status = read_layout(words, count, &layout, err);
