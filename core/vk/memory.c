@@ -88,6 +88,38 @@ static pf_status allocate(pf_vk_context *ctx, uint64_t size, VkBufferUsageFlags 
     return PF_OK;
 }
 
+/*
+ * llvmpipe (Mesa 22.x) compiles a compute shader once per variant, and a
+ * variant's key holds two bits per bound texel buffer taken from sizes:
+ * whether the buffer's byte size is a power of two (`pot_width`) and bits
+ * 8..15 of the view's byte range (read through the sampler-view union as
+ * `last_level`, giving `level_zero_only`). A kernel that reads scene-sized
+ * buffers through texel views would be compiled again (20-35 s for a
+ * render kernel on 2 cores) whenever a new scene or frame flipped one of
+ * those bits. So every buffer gets a size for which both are constant:
+ * under 256 bytes, a multiple of 16 that is no power of two (range bits
+ * 8..15 are 0); else a multiple of 64 KiB that is no power of two (the same
+ * bits are 0). Views span the whole allocation. The cost: at most 192 KiB
+ * per buffer, on every device (the padding is never read).
+ */
+static int is_power_of_two(uint64_t x) { return x && !(x & (x - 1)); }
+
+uint64_t pf_vk_buffer_allocation_size(uint64_t size, uint64_t limit)
+{
+    const uint64_t small_step = 16, small_end = 256, step = 64 * 1024;
+    uint64_t padded;
+    if (size < small_end - small_step) {
+        padded = (size + small_step - 1) / small_step * small_step;
+        while (padded == 0 || is_power_of_two(padded))
+            padded += small_step;
+    } else {
+        padded = (size + step - 1) / step * step;
+        while (is_power_of_two(padded))
+            padded += step;
+    }
+    return padded <= limit ? padded : size;
+}
+
 pf_status pf_vk_buffer_create(pf_vk_context *ctx, uint64_t size, const char *label,
                               pf_vk_buffer **out, pf_error *err)
 {
@@ -110,8 +142,9 @@ pf_status pf_vk_buffer_create(pf_vk_context *ctx, uint64_t size, const char *lab
         return pf_error_set(err, PF_ERR_NOMEM, "buffer '%s': out of host memory", label);
     snprintf(buffer->label, sizeof buffer->label, "%s", label);
     buffer->size = size;
+    buffer->allocated = pf_vk_buffer_allocation_size(size, ctx->info.max_storage_buffer_range);
     pf_status status = allocate(
-        ctx, size,
+        ctx, buffer->allocated,
         VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_UNIFORM_TEXEL_BUFFER_BIT |
             VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
         VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, 0, buffer->label, &buffer->buffer, &buffer->memory,
@@ -146,7 +179,10 @@ pf_status pf_vk_buffer_texel_view(pf_vk_context *ctx, pf_vk_buffer *buffer, int 
     const VkFormat format = kind == PF_VK_BINDING_TEXEL_UINT ? VK_FORMAT_R32_UINT
                                                              : VK_FORMAT_R32G32B32A32_SFLOAT;
     const uint64_t texel_bytes = kind == PF_VK_BINDING_TEXEL_UINT ? 4 : 16;
-    uint64_t texels = buffer->size / texel_bytes;
+    /* The whole allocation where it fits the device (a stable variant key, above). */
+    uint64_t texels = buffer->allocated / texel_bytes;
+    if (texels > ctx->max_texel_buffer_elements || texels * texel_bytes < buffer->size)
+        texels = buffer->size / texel_bytes;
     if (texels == 0 || texels > ctx->max_texel_buffer_elements)
         return pf_error_set(err, PF_ERR_LIMIT,
                             "buffer '%s': %llu bytes are %llu texels of %llu bytes, outside "

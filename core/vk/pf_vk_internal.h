@@ -60,11 +60,20 @@ enum {
 struct pf_vk_buffer {
     VkBuffer buffer;
     VkDeviceMemory memory;
-    uint64_t size;
+    uint64_t size;      /* what the caller asked for: uploads, downloads and views check it */
+    uint64_t allocated; /* the VkBuffer's size: pf_vk_buffer_allocation_size(size) */
     VkBufferView views[3]; /* by PF_VK_BINDING_TEXEL_*, made on first use (view_lock) */
     void *mapped; /* non-NULL when the memory is host-visible + coherent */
     char label[64];
 };
+
+/*
+ * The VkBuffer size for a buffer of `size` bytes on a device whose storage
+ * range is at most `limit`: sizes that keep llvmpipe's shader variants
+ * stable (memory.c says why), `size` itself where the padded size would pass
+ * the limit.
+ */
+uint64_t pf_vk_buffer_allocation_size(uint64_t size, uint64_t limit);
 
 struct pf_vk_pipeline {
     char name[64];

@@ -1,4 +1,8 @@
-/* core/vk buffers: the device limit, size 0, and out-of-range copies are refused. */
+/*
+ * core/vk buffers: the device limit, size 0, and out-of-range copies are
+ * refused; allocation sizes keep llvmpipe's shader variant key constant.
+ */
+#include "pf_vk_internal.h"
 #include "vk_test_util.h"
 
 #include <inttypes.h>
@@ -78,10 +82,44 @@ PF_TEST(copies_outside_the_buffer_are_refused)
     VK_TEST_FINISH(ctx);
 }
 
+/*
+ * llvmpipe keys a kernel's compiled variant on two size-derived bits per
+ * texel buffer (memory.c): whether the buffer's size is a power of two, and
+ * bits 8..15 of the view's range (the whole allocation). Both must be the
+ * same for every size, or a new scene size recompiles the render kernels.
+ */
+PF_TEST(allocation_sizes_keep_the_variant_bits_constant)
+{
+    const uint64_t limit = 1ull << 31;
+    uint64_t sizes[4096 + 64];
+    size_t n = 0;
+    for (uint64_t s = 1; s <= 4096; s++)
+        sizes[n++] = s;
+    for (uint64_t e = 12; e < 31; e++) { /* powers of two and their neighbours */
+        sizes[n++] = (1ull << e) - 1;
+        sizes[n++] = 1ull << e;
+        sizes[n++] = (1ull << e) + 1;
+    }
+    for (size_t i = 0; i < n; i++) {
+        uint64_t a = pf_vk_buffer_allocation_size(sizes[i], limit);
+        PF_CHECK_MSG(a >= sizes[i], "%" PRIu64 " -> %" PRIu64, sizes[i], a);
+        PF_CHECK_MSG(a % 16 == 0, "%" PRIu64 " -> %" PRIu64 " (whole texels)", sizes[i], a);
+        PF_CHECK_MSG((a & (a - 1)) != 0, "%" PRIu64 " -> %" PRIu64 " (power of two)", sizes[i],
+                     a);
+        PF_CHECK_MSG(((a >> 8) & 0xff) == 0, "%" PRIu64 " -> %" PRIu64 " (range bits 8..15)",
+                     sizes[i], a);
+        PF_CHECK_MSG(a - sizes[i] <= 3 * 64 * 1024, "%" PRIu64 " -> %" PRIu64, sizes[i], a);
+    }
+    /* Where the padding would pass the device's range, the size stays as asked. */
+    PF_CHECK(pf_vk_buffer_allocation_size(limit - 5, limit) == limit - 5);
+    PF_CHECK(pf_vk_buffer_allocation_size(limit, limit) == limit);
+}
+
 int main(void)
 {
     PF_RUN(buffer_over_the_storage_range_is_refused);
     PF_RUN(buffer_of_size_zero_is_refused);
     PF_RUN(copies_outside_the_buffer_are_refused);
+    PF_RUN(allocation_sizes_keep_the_variant_bits_constant);
     return pf_test_finish();
 }
