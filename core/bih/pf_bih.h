@@ -58,7 +58,9 @@ typedef struct pf_hit {
 /*
  * The watertight ray/triangle test (Woop, Benthin & Wald 2013) on the CPU,
  * operation for operation as shaders/common/ray_triangle.glsl. 1 and t, u, v
- * on a hit in (tmin, tmax); degenerate triangles never hit.
+ * on a hit in (tmin, tmax) at t >= FLT_MIN; degenerate triangles never hit.
+ * The answer does not depend on whether the CPU flushes subnormals (edge
+ * values that could hide one are evaluated again at a scale without them).
  */
 int pf_ray_triangle_watertight(const float origin[3], const float direction[3],
                                const float v0[3], const float v1[3], const float v2[3],

@@ -5,6 +5,7 @@
  */
 #include "pf_bih.h"
 
+#include <float.h>
 #include <math.h>
 
 /*
@@ -13,11 +14,17 @@
  * axis choice on ties, same evaluation order), so GPU and CPU agree bit for
  * bit wherever the GPU's division is correctly rounded. Like the shader, it
  * skips the paper's double-precision recomputation of edge values that are
- * exactly 0 and counts 0 as inside: rays through a shared edge or vertex hit
- * at least one triangle (see ray_triangle.glsl for why). ISO C mode keeps GCC
+ * exactly 0 and counts 0 as inside, re-evaluating tiny edge values at a
+ * power-of-two scale instead, where no product is subnormal (so a device
+ * that flushes subnormals gets this answer too). Rays through a shared edge
+ * or vertex hit at least one triangle (see ray_triangle.glsl for why). Hits
+ * nearer than the smallest normal float are not hits. ISO C mode keeps GCC
  * from contracting a*b - c into an FMA (-ffp-contract=off), as `precise` does
  * in GLSL.
  */
+/* ray_triangle.glsl: edge values and hit distances below this (2^-40) are evaluated again. */
+#define WATERTIGHT_RESCALE_BELOW 9.094947017729282e-13f
+
 /* ray_triangle.glsl: height within 16 ulps of the vertex coordinates. */
 #define DEGENERATE_BOUND2 (2.0f * (16.0f / 16777216.0f) * (16.0f / 16777216.0f))
 
@@ -44,6 +51,42 @@ static int triangle_is_degenerate(const float v0[3], const float v1[3], const fl
     return !(n2 > DEGENERATE_BOUND2 * edges2);
 }
 
+/* The sheared edge functions and the scaled distance of ray_triangle.glsl's watertight_edges. */
+typedef struct edges {
+    float eu, ev, ew, det, scaled_t;
+} edges;
+
+static edges watertight_edges(const float a[3], const float b[3], const float c[3], float sx,
+                              float sy, float sz)
+{
+    float ax = a[0] - sx * a[2];
+    float ay = a[1] - sy * a[2];
+    float bx = b[0] - sx * b[2];
+    float by = b[1] - sy * b[2];
+    float cx = c[0] - sx * c[2];
+    float cy = c[1] - sy * c[2];
+    edges e;
+    e.eu = cx * by - cy * bx;
+    e.ev = ax * cy - ay * cx;
+    e.ew = bx * ay - by * ax;
+    e.det = (e.eu + e.ev) + e.ew;
+    float az = sz * a[2];
+    float bz = sz * b[2];
+    float cz = sz * c[2];
+    e.scaled_t = (e.eu * az + e.ev * bz) + e.ew * cz;
+    return e;
+}
+
+/* frexp's exponent of the largest of three magnitudes, 0 when all are 0. */
+static int column_exponent(float a, float b, float c)
+{
+    float largest = fmaxf(fabsf(a), fmaxf(fabsf(b), fabsf(c)));
+    int exponent = 0;
+    if (largest != 0.0f)
+        frexpf(largest, &exponent);
+    return exponent;
+}
+
 int pf_ray_triangle_watertight(const float origin[3], const float direction[3],
                                const float v0[3], const float v1[3], const float v2[3],
                                float tmin, float tmax, float *t, float *u, float *v)
@@ -64,38 +107,43 @@ int pf_ray_triangle_watertight(const float origin[3], const float direction[3],
     float sy = direction[ky] / dz;
     float sz = 1.0f / dz;
 
+    /* The translated vertices, permuted to (kx, ky, kz). */
     float a[3], b[3], c[3];
+    const int axis[3] = {kx, ky, kz};
     for (int i = 0; i < 3; i++) {
-        a[i] = v0[i] - origin[i];
-        b[i] = v1[i] - origin[i];
-        c[i] = v2[i] - origin[i];
+        a[i] = v0[axis[i]] - origin[axis[i]];
+        b[i] = v1[axis[i]] - origin[axis[i]];
+        c[i] = v2[axis[i]] - origin[axis[i]];
     }
-    float ax = a[kx] - sx * a[kz];
-    float ay = a[ky] - sy * a[kz];
-    float bx = b[kx] - sx * b[kz];
-    float by = b[ky] - sy * b[kz];
-    float cx = c[kx] - sx * c[kz];
-    float cy = c[ky] - sy * c[kz];
-    float eu = cx * by - cy * bx;
-    float ev = ax * cy - ay * cx;
-    float ew = bx * ay - by * ax;
-    if ((eu < 0.0f || ev < 0.0f || ew < 0.0f) && (eu > 0.0f || ev > 0.0f || ew > 0.0f))
+    edges e = watertight_edges(a, b, c, sx, sy, sz);
+    int t_exponent = 0;
+    if (fminf(fabsf(e.eu), fminf(fabsf(e.ev), fabsf(e.ew))) < WATERTIGHT_RESCALE_BELOW ||
+        fabsf(e.scaled_t) < fabsf(e.det) * WATERTIGHT_RESCALE_BELOW) {
+        /* ray_triangle.glsl: each column scaled to [0.5, 1) by a power of two. */
+        int ex = column_exponent(a[0], b[0], c[0]);
+        int ey = column_exponent(a[1], b[1], c[1]);
+        int ez = column_exponent(a[2], b[2], c[2]);
+        const int exponents[3] = {ex, ey, ez};
+        for (int i = 0; i < 3; i++) {
+            a[i] = ldexpf(a[i], -exponents[i]);
+            b[i] = ldexpf(b[i], -exponents[i]);
+            c[i] = ldexpf(c[i], -exponents[i]);
+        }
+        e = watertight_edges(a, b, c, ldexpf(sx, ez - ex), ldexpf(sy, ez - ey), sz);
+        t_exponent = ez;
+    }
+    if ((e.eu < 0.0f || e.ev < 0.0f || e.ew < 0.0f) && (e.eu > 0.0f || e.ev > 0.0f || e.ew > 0.0f))
         return 0;
-    float det = (eu + ev) + ew;
-    if (det == 0.0f)
+    if (e.det == 0.0f)
         return 0;
-    float az = sz * a[kz];
-    float bz = sz * b[kz];
-    float cz = sz * c[kz];
-    float scaled_t = (eu * az + ev * bz) + ew * cz;
-    float rcp_det = 1.0f / det;
-    float hit_t = scaled_t * rcp_det;
-    if (!(hit_t > tmin && hit_t < tmax))
+    float rcp_det = 1.0f / e.det;
+    float hit_t = ldexpf(e.scaled_t * rcp_det, t_exponent);
+    if (!(hit_t > tmin && hit_t < tmax && hit_t >= FLT_MIN))
         return 0;
     if (triangle_is_degenerate(v0, v1, v2))
         return 0;
     *t = hit_t;
-    *u = ev * rcp_det;
-    *v = ew * rcp_det;
+    *u = e.ev * rcp_det;
+    *v = e.ew * rcp_det;
     return 1;
 }

@@ -6,7 +6,9 @@
 // Precision decision (documented in pf_render.h): the paper recomputes the
 // edge functions U, V, W in double precision when one of them is exactly 0.
 // We do not (shaderFloat64 is optional and the runtime does not enable it);
-// instead an edge value of exactly 0 counts as inside. The float edge
+// instead an edge value of exactly 0 counts as inside, and edge values too
+// small to trust are evaluated again in float at a power-of-two scale where
+// nothing is subnormal (ray_triangle_watertight says why). The float edge
 // functions are exactly antisymmetric for a shared edge (fl(a*b - c*d) ==
 // -fl(c*d - a*b)), so a ray through a shared edge or vertex always hits at
 // least one of the triangles (never leaks) and may hit both, with the same t
@@ -112,9 +114,71 @@ float component(vec3 v, int k)
     return k == 0 ? v.x : (k == 1 ? v.y : v.z);
 }
 
-// Hit strictly inside (tmin, tmax): returns true and t and the barycentrics
-// (u, v) of v1 and v2 (the hit point is (1-u-v)*v0 + u*v1 + v*v2).
-// A zero-area or collinear triangle never hits (see triangle_is_degenerate).
+// Below this (2^-40), an edge value or a hit distance may hide a subnormal
+// term: a product or a shear term under 2^-126, which NVIDIA flushes to zero
+// (it offers no DenormPreserve for 32-bit floats) and lavapipe and the CPU
+// keep. Above it, such a term is far below half an ulp of the value and
+// changes nothing.
+const float WATERTIGHT_RESCALE_BELOW = 9.094947017729282e-13;
+// The smallest normal float: nearer hits are not hits (a flushing device
+// cannot tell them from t = 0).
+const float WATERTIGHT_MIN_T = 1.17549435082228751e-38;
+
+// The sheared edge functions of the permuted translated vertices (kx, ky,
+// kz components) and the distance scaled by det.
+struct WatertightEdges {
+    float eu, ev, ew, det, scaled_t;
+};
+
+WatertightEdges watertight_edges(vec3 a, vec3 b, vec3 c, float sx, float sy, float sz)
+{
+    precise float ax = a.x - sx * a.z;
+    precise float ay = a.y - sy * a.z;
+    precise float bx = b.x - sx * b.z;
+    precise float by = b.y - sy * b.z;
+    precise float cx = c.x - sx * c.z;
+    precise float cy = c.y - sy * c.z;
+    WatertightEdges e;
+    precise float eu = cx * by - cy * bx;
+    precise float ev = ax * cy - ay * cx;
+    precise float ew = bx * ay - by * ax;
+    precise float det = (eu + ev) + ew;
+    precise float az = sz * a.z;
+    precise float bz = sz * b.z;
+    precise float cz = sz * c.z;
+    precise float scaled_t = (eu * az + ev * bz) + ew * cz;
+    e.eu = eu;
+    e.ev = ev;
+    e.ew = ew;
+    e.det = det;
+    e.scaled_t = scaled_t;
+    return e;
+}
+
+// frexp's exponent of each component's largest magnitude over a, b, c (0 where all are 0).
+ivec3 column_exponents(vec3 a, vec3 b, vec3 c)
+{
+    vec3 largest = max(max(abs(a), abs(b)), abs(c));
+    ivec3 exponents;
+    frexp(largest, exponents);
+    return mix(exponents, ivec3(0), equal(largest, vec3(0.0)));
+}
+
+// Hit strictly inside (tmin, tmax), at t >= WATERTIGHT_MIN_T: returns true
+// and t and the barycentrics (u, v) of v1 and v2 (the hit point is
+// (1-u-v)*v0 + u*v1 + v*v2). A zero-area or collinear triangle never hits
+// (see triangle_is_degenerate).
+//
+// Where an edge value or the hit distance is below WATERTIGHT_RESCALE_BELOW
+// (a ray through an edge or vertex, a hit at the ray's origin, or geometry
+// at subnormal scales: triangles within 1e-30 of a ray's origin along an
+// axis), the edges are evaluated again with each
+// column of the translated vertices scaled by a power of two into
+// [0.5, 1): edge values and det scale alike, so signs and barycentrics keep
+// their meaning, t scales by the z column's factor (undone exactly), and
+// no product is subnormal any more. Exact where nothing underflowed, so the
+// answer is bit for bit the first evaluation's there; where something did,
+// every device now gets the CPU's answer.
 bool ray_triangle_watertight(vec3 origin, RayShear s, vec3 v0, vec3 v1, vec3 v2, float tmin,
                              float tmax, out float t, out float u, out float v)
 {
@@ -129,33 +193,28 @@ bool ray_triangle_watertight(vec3 origin, RayShear s, vec3 v0, vec3 v1, vec3 v2,
     vec3 ap = vec3(component(a, s.kx), component(a, s.ky), component(a, s.kz));
     vec3 bp = vec3(component(b, s.kx), component(b, s.ky), component(b, s.kz));
     vec3 cp = vec3(component(c, s.kx), component(c, s.ky), component(c, s.kz));
-    precise float ax = ap.x - s.sx * ap.z;
-    precise float ay = ap.y - s.sy * ap.z;
-    precise float bx = bp.x - s.sx * bp.z;
-    precise float by = bp.y - s.sy * bp.z;
-    precise float cx = cp.x - s.sx * cp.z;
-    precise float cy = cp.y - s.sy * cp.z;
-    precise float eu = cx * by - cy * bx;
-    precise float ev = ax * cy - ay * cx;
-    precise float ew = bx * ay - by * ax;
-    if ((eu < 0.0 || ev < 0.0 || ew < 0.0) && (eu > 0.0 || ev > 0.0 || ew > 0.0))
+    WatertightEdges e = watertight_edges(ap, bp, cp, s.sx, s.sy, s.sz);
+    int t_exponent = 0;
+    if (min(abs(e.eu), min(abs(e.ev), abs(e.ew))) < WATERTIGHT_RESCALE_BELOW ||
+        abs(e.scaled_t) < abs(e.det) * WATERTIGHT_RESCALE_BELOW) {
+        ivec3 k = column_exponents(ap, bp, cp);
+        e = watertight_edges(ldexp(ap, -k), ldexp(bp, -k), ldexp(cp, -k),
+                             ldexp(s.sx, k.z - k.x), ldexp(s.sy, k.z - k.y), s.sz);
+        t_exponent = k.z;
+    }
+    if ((e.eu < 0.0 || e.ev < 0.0 || e.ew < 0.0) && (e.eu > 0.0 || e.ev > 0.0 || e.ew > 0.0))
         return false;
-    precise float det = (eu + ev) + ew;
-    if (det == 0.0)
+    if (e.det == 0.0)
         return false;
-    precise float az = s.sz * ap.z;
-    precise float bz = s.sz * bp.z;
-    precise float cz = s.sz * cp.z;
-    precise float scaled_t = (eu * az + ev * bz) + ew * cz;
-    precise float rcp_det = divide_exact(1.0, det);
-    precise float hit_t = scaled_t * rcp_det;
-    if (!(hit_t > tmin && hit_t < tmax))
+    precise float rcp_det = divide_exact(1.0, e.det);
+    precise float hit_t = ldexp(e.scaled_t * rcp_det, t_exponent);
+    if (!(hit_t > tmin && hit_t < tmax && hit_t >= WATERTIGHT_MIN_T))
         return false;
     if (triangle_is_degenerate(v0, v1, v2))
         return false;
     t = hit_t;
-    u = ev * rcp_det;
-    v = ew * rcp_det;
+    u = e.ev * rcp_det;
+    v = e.ew * rcp_det;
     return true;
 }
 
