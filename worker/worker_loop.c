@@ -47,6 +47,7 @@ typedef struct db_op {
     pf_error err;
     char token[PF_QUEUE_TOKEN_CHARS + 1]; /* the task's lease when submitted */
     bool flag;          /* claim: claimed; finish: lease lost */
+    bool committed;     /* finish: the lease was lost after the frame was renamed into place */
     bool job_fault;     /* finish: the commit failed on the job's output (the job is paused) */
     int64_t count;      /* reap: tasks reaped; finish: 1 when a failed commit was recorded */
 } db_op;
@@ -342,10 +343,19 @@ static void finish_run(db_op *op)
         op->status = pf_frame_commit(&w->outputs[i], &op->err);
         op->job_fault = op->status != PF_OK && w->outputs[i].fault != PF_FRAME_FAULT_WORKER;
     }
-    if (op->status == PF_OK)
+    if (op->status == PF_OK) {
         op->status = pf_queue_complete(w->queue, op->token, rows, row_count, NULL,
                                        &op->err);
-    if (op->status != PF_OK) {
+        /* The lease lapsed during the commit (a rename slower than what was left of the
+         * lease) and the task was reaped: the frame on disk is whole, and whoever holds
+         * the task now renders it again and replaces it. A lost lease, not a failure of
+         * this worker, and nothing to give back. */
+        if (op->status == PF_ERR_INVALID) {
+            op->flag = true;
+            op->committed = true;
+        }
+    }
+    if (op->status != PF_OK && !op->flag) {
         /* Not committed: the task goes back now, with the cause, instead of staying
          * `running` on this live worker until its lease expires (issue 14). A rename
          * the output storage refused is the job's fault (paused, this worker not
@@ -382,8 +392,9 @@ static void finish_done(db_op *op)
     worker *w = op->owner;
     if (op->flag) {
         pf_wlog(PF_LOG_WARN, "lease_lost",
-                "job=%" PRId64 " frame=%d task=%" PRId64 " worker=%s action=discarded",
-                w->task.job_id, w->task.first_frame, w->task.task_id, w->name);
+                "job=%" PRId64 " frame=%d task=%" PRId64 " worker=%s action=%s",
+                w->task.job_id, w->task.first_frame, w->task.task_id, w->name,
+                op->committed ? "left_to_new_owner" : "discarded");
     } else if (op->status != PF_OK && op->job_fault) {
         if (op->count)
             log_job_fault(w, PF_FRAME_FAULT_OUTPUT, op->err.message);

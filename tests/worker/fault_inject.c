@@ -16,6 +16,11 @@
  *                    a test can signal, kill or take the lease of a worker
  *                    that is provably mid-frame with its temporary on disk
  *                    (switch or not)
+ *   PF_FAULT_HELD_MARK a file created when such a hold begins for the rename
+ *                    onto the frame's own name (the commit; the EXR writer's
+ *                    rename onto the temporary is held too, unmarked): the
+ *                    worker renewed its lease just before, so a test can take
+ *                    the lease at exactly that point
  */
 #define _GNU_SOURCE
 #include <dlfcn.h>
@@ -113,20 +118,26 @@ int openat(int dirfd, const char *path, int flags, ...)
 }
 
 /* PF_FAULT_HOLD_MS before the rename of a frame's temporary under PF_FAULT_DIR. */
-static void hold_frame(const char *from)
+static void hold_frame(const char *from, const char *to)
 {
     const char *dir = getenv("PF_FAULT_DIR"), *hold = getenv("PF_FAULT_HOLD_MS");
     if (!dir || !*dir || !hold || strncmp(from, dir, strlen(dir)) != 0 ||
         !strstr(from, ".partial-"))
         return;
     long ms = atol(hold);
+    const char *mark = getenv("PF_FAULT_HELD_MARK");
+    if (ms > 0 && mark && *mark && !strstr(to, ".partial-")) {
+        int fd = NEXT(open_fn, "open")(mark, O_WRONLY | O_CREAT, 0644);
+        if (fd >= 0)
+            close(fd);
+    }
     if (ms > 0)
         usleep((useconds_t)ms * 1000u);
 }
 
 int rename(const char *from, const char *to)
 {
-    hold_frame(from);
+    hold_frame(from, to);
     if (active_fault(to) == FAULT_READ_ONLY) {
         errno = EROFS;
         return -1;

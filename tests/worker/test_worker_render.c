@@ -574,6 +574,70 @@ PF_TEST(a_worker_whose_lease_was_taken_over_never_writes)
  * output's, so the job pauses with the cause and the worker exits 0. With
  * the obstacle gone, `resume` finishes it.
  */
+/*
+ * The lease lapses while the worker is inside the commit's rename, after the
+ * renewal that precedes it (a rename slower than what was left of the
+ * lease): the queue refuses the completion. That is a lost lease, not a
+ * failure of the worker: it says so, records nothing for the task, gives
+ * nothing back, and exits 0; the task stays with its new owner.
+ */
+PF_TEST(a_lease_lost_inside_the_commit_is_left_to_the_new_owner)
+{
+    char out[WT_PATH_MAX + 32], db[WT_PATH_MAX + 32], pattern[2 * WT_PATH_MAX],
+        worker_log[WT_PATH_MAX + 32], mark[WT_PATH_MAX + 32];
+    wt_fresh_dir("lapse-out", out, sizeof out);
+    wt_format(db, sizeof db, "%s/lapse.db", dir);
+    wt_format(worker_log, sizeof worker_log, "%s/lapse.log", dir);
+    wt_format(mark, sizeof mark, "%s/lapse.held", dir);
+    unlink(db);
+    unlink(worker_log);
+    unlink(mark);
+    wt_format(pattern, sizeof pattern, "%s/c.####.exr", out);
+    int64_t job_id = enqueue(db, scene, "1", pattern, NULL);
+    PF_REQUIRE(job_id > 0);
+    const char *worker_args[] = {"worker", "--once", "--lease-seconds", "3", "--db", db, NULL};
+    char env[8 * WT_PATH_MAX], faults[7 * WT_PATH_MAX];
+    wt_fault_environment(faults, sizeof faults, out, NULL, NULL, HOLD_MS);
+    wt_format(env, sizeof env, "%s\nPF_FAULT_HELD_MARK=%s", faults, mark);
+    pid_t pid = wt_spawn(worker_args, worker_log, env);
+    int held = 0;
+    for (int waited = 0; waited < WORKER_TIMEOUT_MS && !held; waited += 20) {
+        held = access(mark, F_OK) == 0;
+        if (!held)
+            usleep(20 * 1000);
+    }
+    PF_REQUIRE(held);
+
+    /* Inside the rename: reap the lease by the queue's clock an hour on, and claim. */
+    pf_queue *queue = wt_open_queue(db);
+    PF_REQUIRE(queue != NULL);
+    int64_t later = pf_queue_now(queue) + 3600 * 1000;
+    pf_queue_set_clock(queue, fixed_clock, &later);
+    pf_error err = {0};
+    int64_t reaped = 0;
+    PF_CHECK_OK(pf_queue_reap(queue, &reaped, &err), &err);
+    PF_CHECK(reaped == 1);
+    later += 60 * 1000; /* past the failure backoff */
+    pf_queue_worker_spec thief = {"new-owner", "test", 1, "none"};
+    int64_t thief_id = 0;
+    PF_CHECK_OK(pf_queue_worker_register(queue, &thief, &thief_id, &err), &err);
+    pf_queue_task task = {0};
+    bool claimed = false;
+    PF_CHECK_OK(pf_queue_claim(queue, thief_id, 0, 0, &task, &claimed, &err), &err);
+    PF_REQUIRE(claimed);
+
+    int code = wt_wait(pid, WORKER_TIMEOUT_MS);
+    PF_CHECK_MSG(code == 0, "worker exited %d", code);
+    PF_CHECK(wt_file_contains(worker_log, "event=lease_lost"));
+    PF_CHECK(wt_file_contains(worker_log, "action=left_to_new_owner"));
+    PF_CHECK(!wt_file_contains(worker_log, "event=db_error"));
+    /* Nothing recorded for the task by the old owner, and it is still the new owner's. */
+    PF_CHECK(wt_stage_rows_for_task(db, task.task_id, "shade") == 0);
+    PF_CHECK_OK(pf_queue_heartbeat(queue, task.lease_token, NULL, &err), &err);
+    PF_CHECK_OK(pf_queue_complete(queue, task.lease_token, NULL, 0, NULL, &err), &err);
+    pf_queue_close(queue);
+}
+
 PF_TEST(a_frame_that_cannot_be_committed_pauses_its_job_at_once)
 {
     char out[WT_PATH_MAX + 32], db[WT_PATH_MAX + 32], blocker[2 * WT_PATH_MAX],
@@ -633,6 +697,7 @@ int main(void)
     PF_RUN(sigterm_drains_the_current_frame);
     PF_RUN(a_second_sigterm_releases_the_frame);
     PF_RUN(a_worker_whose_lease_was_taken_over_never_writes);
+    PF_RUN(a_lease_lost_inside_the_commit_is_left_to_the_new_owner);
     PF_RUN(a_frame_that_cannot_be_committed_pauses_its_job_at_once);
     return pf_test_finish();
 }
