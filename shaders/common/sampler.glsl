@@ -59,21 +59,23 @@ const float SAMPLER_UNIT = 1.0 / 16777216.0;
 
 // The four coordinates of Sobol point index (one pass over its bits;
 // dimension 0, van der Corput, is the bit reversal of the index).
+// Branch-free over all 32 bits: a fixed trip count, which the compiler can
+// unroll so that the direction numbers become constants. The earlier loop (stop at the
+// index's highest set bit, XOR only where a bit is set) read the table with
+// a per-lane index on llvmpipe and ran ~31 divergent iterations for the
+// Owen-scrambled indices it is given; it cost `final`'s and `fast`'s shade
+// about half their time (bench/RESULTS.md, "The sampler").
 uvec4 sobol_4d(uint index)
 {
-    uvec4 value = uvec4(bitfieldReverse(index), 0u, 0u, 0u);
-    for (uint bit = 0u; bit < SOBOL_BITS && (index >> bit) != 0u; bit++) {
-        if (((index >> bit) & 1u) != 0u)
-            value.yzw ^= uvec3(SOBOL_DIRECTIONS[SOBOL_BITS + bit],
-                               SOBOL_DIRECTIONS[2u * SOBOL_BITS + bit],
-                               SOBOL_DIRECTIONS[3u * SOBOL_BITS + bit]);
+    uvec3 value = uvec3(0u);
+    for (uint bit = 0u; bit < SOBOL_BITS; bit++) {
+        uint mask = 0u - ((index >> bit) & 1u);
+        value ^= uvec3(SOBOL_DIRECTIONS[SOBOL_BITS + bit], SOBOL_DIRECTIONS[2u * SOBOL_BITS + bit],
+                       SOBOL_DIRECTIONS[3u * SOBOL_BITS + bit]) & mask;
     }
-    return value;
+    return uvec4(bitfieldReverse(index), value);
 }
 
-// Laine & Karras (2011) hash-based Owen permutation with Burley's improved
-// constants; operates on bit-reversed values (the high bits of the result
-// depend only on the high bits of the input: a nested uniform scramble).
 uint sampler_laine_karras(uint x, uint seed)
 {
     x += seed;
