@@ -512,6 +512,36 @@ static int64_t fixed_clock(void *user)
     return *(const int64_t *)user;
 }
 
+/*
+ * An hour later by the queue's clock (kept in *later), the running task's
+ * lease has expired: reaps it and claims the frame as a new owner. Returns
+ * the open queue with the new owner's task in *task; NULL if it was not
+ * claimed.
+ */
+static pf_queue *take_over_lease(const char *db, int64_t *later, pf_queue_task *task)
+{
+    pf_queue *queue = wt_open_queue(db);
+    if (!queue)
+        return NULL;
+    *later = pf_queue_now(queue) + 3600 * 1000;
+    pf_queue_set_clock(queue, fixed_clock, later);
+    pf_error err = {0};
+    int64_t reaped = 0;
+    PF_CHECK_OK(pf_queue_reap(queue, &reaped, &err), &err);
+    PF_CHECK(reaped == 1);
+    *later += 60 * 1000; /* past the failure backoff */
+    pf_queue_worker_spec thief = {"new-owner", "test", 1, "none"};
+    int64_t thief_id = 0;
+    PF_CHECK_OK(pf_queue_worker_register(queue, &thief, &thief_id, &err), &err);
+    bool claimed = false;
+    PF_CHECK_OK(pf_queue_claim(queue, thief_id, 0, 0, task, &claimed, &err), &err);
+    if (!claimed) {
+        pf_queue_close(queue);
+        return NULL;
+    }
+    return queue;
+}
+
 PF_TEST(a_worker_whose_lease_was_taken_over_never_writes)
 {
     char out[WT_PATH_MAX + 32], db[WT_PATH_MAX + 32], pattern[2 * WT_PATH_MAX],
@@ -531,24 +561,12 @@ PF_TEST(a_worker_whose_lease_was_taken_over_never_writes)
     pid_t pid = wt_spawn(worker_args, worker_log, env);
     PF_REQUIRE(wait_running(db, job_id, 20000));
 
-    /* An hour later by the queue's clock, the lease has expired: reap it and
-     * claim the frame as a new owner, which writes its own output. */
-    pf_queue *queue = wt_open_queue(db);
-    PF_REQUIRE(queue != NULL);
-    int64_t later = pf_queue_now(queue) + 3600 * 1000;
-    pf_queue_set_clock(queue, fixed_clock, &later);
-    pf_error err = {0};
-    int64_t reaped = 0;
-    PF_CHECK_OK(pf_queue_reap(queue, &reaped, &err), &err);
-    PF_CHECK(reaped == 1);
-    later += 60 * 1000; /* past the failure backoff */
-    pf_queue_worker_spec thief = {"new-owner", "test", 1, "none"};
-    int64_t thief_id = 0;
-    PF_CHECK_OK(pf_queue_worker_register(queue, &thief, &thief_id, &err), &err);
+    /* The new owner writes its own output. */
+    int64_t later = 0;
     pf_queue_task task = {0};
-    bool claimed = false;
-    PF_CHECK_OK(pf_queue_claim(queue, thief_id, 0, 0, &task, &claimed, &err), &err);
-    PF_REQUIRE(claimed);
+    pf_queue *queue = take_over_lease(db, &later, &task);
+    PF_REQUIRE(queue != NULL);
+    pf_error err = {0};
     const char marker[] = "the new owner's output";
     FILE *file = fopen(path, "wb");
     PF_REQUIRE(file != NULL);
@@ -608,23 +626,12 @@ PF_TEST(a_lease_lost_inside_the_commit_is_left_to_the_new_owner)
     }
     PF_REQUIRE(held);
 
-    /* Inside the rename: reap the lease by the queue's clock an hour on, and claim. */
-    pf_queue *queue = wt_open_queue(db);
-    PF_REQUIRE(queue != NULL);
-    int64_t later = pf_queue_now(queue) + 3600 * 1000;
-    pf_queue_set_clock(queue, fixed_clock, &later);
-    pf_error err = {0};
-    int64_t reaped = 0;
-    PF_CHECK_OK(pf_queue_reap(queue, &reaped, &err), &err);
-    PF_CHECK(reaped == 1);
-    later += 60 * 1000; /* past the failure backoff */
-    pf_queue_worker_spec thief = {"new-owner", "test", 1, "none"};
-    int64_t thief_id = 0;
-    PF_CHECK_OK(pf_queue_worker_register(queue, &thief, &thief_id, &err), &err);
+    /* Inside the rename. */
+    int64_t later = 0;
     pf_queue_task task = {0};
-    bool claimed = false;
-    PF_CHECK_OK(pf_queue_claim(queue, thief_id, 0, 0, &task, &claimed, &err), &err);
-    PF_REQUIRE(claimed);
+    pf_queue *queue = take_over_lease(db, &later, &task);
+    PF_REQUIRE(queue != NULL);
+    pf_error err = {0};
 
     int code = wt_wait(pid, WORKER_TIMEOUT_MS);
     PF_CHECK_MSG(code == 0, "worker exited %d", code);
