@@ -181,7 +181,7 @@ pf_status pf_vk_buffer_texel_view(pf_vk_context *ctx, pf_vk_buffer *buffer, int 
     const uint64_t texel_bytes = kind == PF_VK_BINDING_TEXEL_UINT ? 4 : 16;
     /* The whole allocation where it fits the device (a stable variant key, above). */
     uint64_t texels = buffer->allocated / texel_bytes;
-    if (texels > ctx->max_texel_buffer_elements || texels * texel_bytes < buffer->size)
+    if (texels > ctx->max_texel_buffer_elements)
         texels = buffer->size / texel_bytes;
     if (texels == 0 || texels > ctx->max_texel_buffer_elements)
         return pf_error_set(err, PF_ERR_LIMIT,
