@@ -60,11 +60,11 @@ const float SAMPLER_UNIT = 1.0 / 16777216.0;
 // The four coordinates of Sobol point index (one pass over its bits;
 // dimension 0, van der Corput, is the bit reversal of the index).
 // Branch-free over all 32 bits: a fixed trip count, which the compiler can
-// unroll so that the direction numbers become constants. The earlier loop (stop at the
-// index's highest set bit, XOR only where a bit is set) read the table with
-// a per-lane index on llvmpipe and ran ~31 divergent iterations for the
-// Owen-scrambled indices it is given; it cost `final`'s and `fast`'s shade
-// about half their time (bench/RESULTS.md, "The sampler").
+// unroll so that the direction numbers become constants. The earlier loop
+// (stop at the index's highest set bit, XOR only where a bit is set) read
+// the table with a per-lane index on llvmpipe and ran ~31 divergent
+// iterations for the Owen-scrambled indices it is given; it cost `final`'s
+// and `fast`'s shade about half their time (bench/RESULTS.md, "The sampler").
 uvec4 sobol_4d(uint index)
 {
     uvec3 value = uvec3(0u);
@@ -76,6 +76,9 @@ uvec4 sobol_4d(uint index)
     return uvec4(bitfieldReverse(index), value);
 }
 
+// Laine & Karras (2011) hash-based Owen permutation with Burley's improved
+// constants; operates on bit-reversed values (the high bits of the result
+// depend only on the high bits of the input: a nested uniform scramble).
 uint sampler_laine_karras(uint x, uint seed)
 {
     x += seed;
