@@ -35,8 +35,9 @@ layout(push_constant) uniform Push {
 const uint MODE_MARK = 0u;
 const uint MODE_ESTIMATE = 1u;
 
-layout(std430, set = 0, binding = 0) readonly buffer SortedPhotons { uint grid_words[]; };
-layout(std430, set = 0, binding = 1) readonly buffer Ranges { uvec2 grid_ranges[]; };
+// The map (photon_estimate.glsl: texel buffers).
+layout(set = 0, binding = 0) uniform usamplerBuffer grid_words;
+layout(set = 0, binding = 1) uniform usamplerBuffer grid_ranges;
 layout(std430, set = 0, binding = 2) buffer Points { uint point_words[]; };
 layout(std430, set = 0, binding = 3) buffer Counts {
     uint points;     // photons listed as points
@@ -51,11 +52,11 @@ layout(std430, set = 0, binding = 4) buffer PointList { uint point_list[]; };
 void mark(uint i)
 {
     uint base = PHOTON_WORDS * i;
-    uint directions = grid_words[base + 4u];
+    uint directions = photon_texel_word(grid_words, base + 4u);
     bool point = photon_is_irradiance_point(grid_photon(i).position);
-    point_words[base] = grid_words[base];
-    point_words[base + 1u] = grid_words[base + 1u];
-    point_words[base + 2u] = grid_words[base + 2u];
+    point_words[base] = photon_texel_word(grid_words, base);
+    point_words[base + 1u] = photon_texel_word(grid_words, base + 1u);
+    point_words[base + 2u] = photon_texel_word(grid_words, base + 2u);
     point_words[base + 3u] = 0u;
     point_words[base + 4u] = point ? directions : (directions & 0xFFFF0000u) | PHOTON_NO_RECORD;
     if (point)

@@ -15,8 +15,9 @@ const uint ESTIMATE_FIXED = 0u;
 const uint ESTIMATE_KNN = 1u;
 const uint ESTIMATE_LOOKUP = 2u; // the bound grid holds precomputed irradiance points
 
-layout(std430, set = 0, binding = 0) readonly buffer SortedPhotons { uint grid_words[]; };
-layout(std430, set = 0, binding = 1) readonly buffer Ranges { uvec2 grid_ranges[]; };
+// The map (photon_estimate.glsl: texel buffers).
+layout(set = 0, binding = 0) uniform usamplerBuffer grid_words;
+layout(set = 0, binding = 1) uniform usamplerBuffer grid_ranges;
 layout(std430, set = 0, binding = 2) readonly buffer Queries { vec4 queries[]; };  // xyz, radius
 layout(std430, set = 0, binding = 3) readonly buffer Normals { vec4 normals[]; };  // xyz
 layout(std430, set = 0, binding = 4) writeonly buffer Results { vec4 results[]; }; // rgb, radius used (lookup: 1 found, 0 not)

@@ -54,8 +54,9 @@ layout(std430, set = 0, binding = 9) buffer Counters {
 } counters;
 layout(std430, set = 0, binding = 13) readonly buffer LpvCells { vec4 lpv_cells[]; };
 layout(std430, set = 0, binding = 14) readonly buffer LpvCascades { vec4 lpv_cascades[]; };
-layout(std430, set = 0, binding = 15) readonly buffer GridPhotons { uint grid_words[]; };
-layout(std430, set = 0, binding = 16) readonly buffer GridRanges { uvec2 grid_ranges[]; };
+// The caustic map (photon_estimate.glsl: texel buffers).
+layout(set = 0, binding = 15) uniform usamplerBuffer grid_words;
+layout(set = 0, binding = 16) uniform usamplerBuffer grid_ranges;
 layout(std430, set = 0, binding = 17) readonly buffer LpvSnapshots { vec4 lpv_snapshots[]; };
 layout(std430, set = 0, binding = 18) readonly buffer LpvGeometry { vec4 geometry[]; };
 

@@ -103,13 +103,14 @@ layout(std430, set = 0, binding = 9) buffer Counters {
 } counters;
 layout(std430, set = 0, binding = 13) buffer Vertices { vec4 vertices[]; };
 layout(std430, set = 0, binding = 14) buffer SampleSums { vec4 sample_sums[]; };
-layout(std430, set = 0, binding = 15) readonly buffer GridPhotons { uint grid_words[]; };
-layout(std430, set = 0, binding = 16) readonly buffer GridRanges { uvec2 grid_ranges[]; };
+// The bound map (photon_estimate.glsl: texel buffers).
+layout(set = 0, binding = 15) uniform usamplerBuffer grid_words;
+layout(set = 0, binding = 16) uniform usamplerBuffer grid_ranges;
 // Per pixel: the caustic radius chosen in the first pass (see caustic_radiance).
 layout(std430, set = 0, binding = 17) buffer CausticRadii { float caustic_radii[]; };
 // The global map's precomputed irradiance points (photon_estimate.glsl's lookup).
-layout(std430, set = 0, binding = 18) readonly buffer IrradiancePoints { uint points_words[]; };
-layout(std430, set = 0, binding = 19) readonly buffer IrradianceRanges { uvec2 points_ranges[]; };
+layout(set = 0, binding = 18) uniform usamplerBuffer points_words;
+layout(set = 0, binding = 19) uniform usamplerBuffer points_ranges;
 #define PHOTON_LOOKUP_WORDS points_words
 #define PHOTON_LOOKUP_RANGES points_ranges
 

@@ -1,10 +1,15 @@
 // Radiance estimates from a photon grid (Jensen 2001, ch. 7), the code every
 // integrator that reads photon maps uses.
 //
-// The including shader declares, before including this file:
-//   buffer ... { uint grid_words[]; };    // photons in cell order (PHOTON_WORDS each)
-//   buffer ... { uvec2 grid_ranges[]; };  // [start, end) per cell key
+// The including shader declares, before including this file, as uniform
+// texel buffers (R32 uint views; core/vk binds them from the declarations):
+//   uniform usamplerBuffer grid_words;   // photons in cell order (PHOTON_WORDS each)
+//   uniform usamplerBuffer grid_ranges;  // [start, end) per cell key: 2 words a key
 // and includes photon_types.glsl and photon_grid.glsl (or photon_grid_push.glsl).
+// Texel buffers rather than storage buffers for the reason bih_traverse.glsl
+// gives: llvmpipe loads a storage buffer word lane by lane in a branchy
+// loop, and a texel fetch is one vector gather. The estimates' loops are
+// nearly all loads (bench/RESULTS.md, "Final gather's photon lookups").
 //
 // A photon counts at a surface point x with normal n only if it arrived from
 // n's side (incoming · n < 0) and was stored on a surface facing the same
@@ -45,6 +50,17 @@ const uint PHOTON_KNN_HEAP_DEPTH = 6u;
 // Smallest k-NN radius as a fraction of max_radius (coincident photons).
 const float PHOTON_KNN_MIN_RADIUS_FRACTION = 1.0 / 1024.0;
 
+// Word i of a map's photon records, and the [start, end) range of a cell key.
+uint photon_texel_word(usamplerBuffer words, uint i)
+{
+    return texelFetch(words, int(i)).x;
+}
+
+uvec2 photon_texel_range(usamplerBuffer ranges, uint key)
+{
+    return uvec2(texelFetch(ranges, int(2u * key)).x, texelFetch(ranges, int(2u * key + 1u)).x);
+}
+
 // The flat loop's move to the next cell: once the photons [index, end) of
 // the current cell are used up, the range of the next of keys[0..key_count),
 // or done = true and out of the loop after the last. Each estimate's loop
@@ -56,7 +72,7 @@ const float PHOTON_KNN_MIN_RADIUS_FRACTION = 1.0 / 1024.0;
             done = true;                                                                      \
             break;                                                                            \
         }                                                                                     \
-        uvec2 range = RANGES[keys[key++]];                                                    \
+        uvec2 range = photon_texel_range(RANGES, keys[key++]);                                \
         index = range.x;                                                                      \
         end = range.y;                                                                        \
         continue;                                                                             \
@@ -65,8 +81,11 @@ const float PHOTON_KNN_MIN_RADIUS_FRACTION = 1.0 / 1024.0;
 Photon grid_photon(uint i)
 {
     uint base = PHOTON_WORDS * i;
-    return photon_unpack(grid_words[base], grid_words[base + 1u], grid_words[base + 2u],
-                         grid_words[base + 3u], grid_words[base + 4u]);
+    return photon_unpack(photon_texel_word(grid_words, base),
+                         photon_texel_word(grid_words, base + 1u),
+                         photon_texel_word(grid_words, base + 2u),
+                         photon_texel_word(grid_words, base + 3u),
+                         photon_texel_word(grid_words, base + 4u));
 }
 
 bool photon_accepted(Photon photon, vec3 normal)
@@ -270,27 +289,39 @@ vec3 photon_irradiance_knn(vec3 x, vec3 normal, uint k, float max_radius, Photon
 // precomputed point of `points` within radius (the radius of the points'
 // own estimates, <= their grid's build radius) whose normal agrees with
 // normal; false when there is none (the caller estimates from the photons).
-// Visits the 8 cells of photon_grid_nearby_keys in one flat loop, truncated
-// as photon_irradiance_guarded.
+// Visits the 2×2×2 cells nearest to x (photon_grid_nearby_cell) in one flat
+// loop, truncated as photon_irradiance_guarded. Their keys are not made
+// distinct first: a cell visited twice (a hash collision, or clamping at a
+// dense grid's border) offers the same points again, which cannot change
+// the nearest, and the search skips the key list and its dedup loop.
 bool photon_irradiance_lookup(vec3 x, vec3 normal, float radius, PhotonGrid points,
                               out vec3 irradiance, out bool truncated)
 {
-    uint keys[PHOTON_GRID_MAX_KEYS];
-    uint key_count = photon_grid_nearby_keys(x, points, keys);
+    ivec3 low = photon_grid_nearby_low(x, points);
     float nearest2 = radius * radius;
     uint nearest = 0xFFFFFFFFu;
-    uint key = 0u, index = 0u, end = 0u;
+    uint cell = 0u, index = 0u, end = 0u;
     bool done = false;
     for (uint step = 0u; step < PHOTON_ESTIMATE_MAX_ITERATIONS; step++) {
-        PHOTON_NEXT_CELL(PHOTON_LOOKUP_RANGES)
+        if (index >= end) {
+            if (cell >= 8u) {
+                done = true;
+                break;
+            }
+            uint key = photon_grid_key(photon_grid_nearby_cell(low, cell++), points);
+            uvec2 range = photon_texel_range(PHOTON_LOOKUP_RANGES, key);
+            index = range.x;
+            end = range.y;
+            continue;
+        }
         uint base = PHOTON_WORDS * index++;
-        vec3 d = vec3(uintBitsToFloat(PHOTON_LOOKUP_WORDS[base]),
-                      uintBitsToFloat(PHOTON_LOOKUP_WORDS[base + 1u]),
-                      uintBitsToFloat(PHOTON_LOOKUP_WORDS[base + 2u])) - x;
+        vec3 d = vec3(uintBitsToFloat(photon_texel_word(PHOTON_LOOKUP_WORDS, base)),
+                      uintBitsToFloat(photon_texel_word(PHOTON_LOOKUP_WORDS, base + 1u)),
+                      uintBitsToFloat(photon_texel_word(PHOTON_LOOKUP_WORDS, base + 2u))) - x;
         float distance2 = dot(d, d);
         if (distance2 > nearest2)
             continue;
-        uint directions = PHOTON_LOOKUP_WORDS[base + 4u];
+        uint directions = photon_texel_word(PHOTON_LOOKUP_WORDS, base + 4u);
         if (dot(octahedral_unpack8(directions >> 16u), normal) >= PHOTON_NORMAL_AGREEMENT) {
             nearest2 = distance2;
             nearest = base;
@@ -298,7 +329,7 @@ bool photon_irradiance_lookup(vec3 x, vec3 normal, float radius, PhotonGrid poin
     }
     truncated = !done;
     bool found = nearest != 0xFFFFFFFFu;
-    irradiance = found ? rgb9e5_unpack(PHOTON_LOOKUP_WORDS[nearest + 3u]) /
+    irradiance = found ? rgb9e5_unpack(photon_texel_word(PHOTON_LOOKUP_WORDS, nearest + 3u)) /
                              (PHOTON_CONE_NORMALISATION * PI * radius * radius)
                        : vec3(0.0);
     return found;

@@ -95,15 +95,20 @@ uint photon_grid_candidate_keys(vec3 x, float radius, PhotonGrid grid,
     return photon_grid_box_keys(low, high, grid, keys);
 }
 
-// The distinct keys of the 2×2×2 cells nearest to x. Together they cover
-// the box [x - c/2, x + c/2] (c the cell edge), so they hold every point
-// within c/2 of x and some up to 1.5 c away: enough for a nearest-point
-// lookup (photon_irradiance_lookup), which needs a near point, not every
-// point within a radius, and visits 8 cells instead of 27.
-uint photon_grid_nearby_keys(vec3 x, PhotonGrid grid, out uint keys[PHOTON_GRID_MAX_KEYS])
+// The 2×2×2 cells nearest to x: photon_grid_nearby_cell(low, i) for i in
+// 0..7 with low = photon_grid_nearby_low(x, grid). Together they cover the
+// box [x - c/2, x + c/2] (c the cell edge), so they hold every point within
+// c/2 of x and some up to 1.5 c away: enough for a nearest-point lookup
+// (photon_irradiance_lookup), which needs a near point, not every point
+// within a radius, and visits 8 cells instead of 27.
+ivec3 photon_grid_nearby_low(vec3 x, PhotonGrid grid)
 {
-    ivec3 low = photon_grid_cell(x - vec3(0.5 / grid.inv_cell), grid);
-    return photon_grid_box_keys(low, low + 1, grid, keys);
+    return photon_grid_cell(x - vec3(0.5 / grid.inv_cell), grid);
+}
+
+ivec3 photon_grid_nearby_cell(ivec3 low, uint i)
+{
+    return low + ivec3(i & 1u, (i >> 1u) & 1u, i >> 2u);
 }
 
 #endif
