@@ -69,7 +69,14 @@ void pf_vk_describe_device(VkPhysicalDevice physical_device, uint32_t index,
     info->vendor_id = properties.properties.vendorID;
     info->device_id = properties.properties.deviceID;
     info->api_version = properties.properties.apiVersion;
-    info->max_storage_buffer_range = limits->maxStorageBufferRange;
+    /* Every buffer may also be bound as an R32 texel view (spirv_bindings.c),
+     * so the usable range is the lesser of the two limits: where a driver
+     * allows 4 GiB storage buffers but 2^27 texels, 512 MiB; on lavapipe
+     * the storage limit, 128 MiB. */
+    uint64_t texel_bytes = 4ull * limits->maxTexelBufferElements;
+    info->max_storage_buffer_range = limits->maxStorageBufferRange < texel_bytes
+                                         ? limits->maxStorageBufferRange
+                                         : texel_bytes;
     info->max_workgroup_invocations = limits->maxComputeWorkGroupInvocations;
     for (int axis = 0; axis < 3; axis++) {
         info->max_workgroup_size[axis] = limits->maxComputeWorkGroupSize[axis];

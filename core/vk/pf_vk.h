@@ -33,7 +33,7 @@ typedef struct pf_vk_device_info {
     uint32_t vendor_id;
     uint32_t device_id;
     uint32_t api_version;   /* VK_MAKE_API_VERSION packed */
-    uint64_t max_storage_buffer_range;   /* lavapipe: 128 MiB */
+    uint64_t max_storage_buffer_range;   /* and 4 × maxTexelBufferElements; lavapipe: 128 MiB */
     uint64_t device_local_bytes;         /* largest device-local heap */
     uint32_t max_workgroup_invocations;
     uint32_t max_workgroup_size[3];
