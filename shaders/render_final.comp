@@ -2,8 +2,8 @@
 #extension GL_GOOGLE_include_directive : require
 // The `final` integrator's `shade` stage (core/render/frame_final.c drives
 // it): direct light, caustics from the caustic map and indirect light by
-// final gather into the global map. One pixel sample is three kinds of
-// dispatch over the whole image, specialised by MODE:
+// final gather into the global map. One pixel sample is four kinds of
+// dispatch, specialised by MODE:
 //
 // MODE_PRIMARY (caustic grid bound): a camera ray through the pixel filter
 //   (pixel_filter.glsl), specular chain (bsdf_sample) to the first diffuse vertex
@@ -29,8 +29,17 @@
 //   are dropped (counted in counters.gather_dropped) beyond; emission a
 //   gather ray sees after a specular vertex is left out (L S+ D₁ is the
 //   caustic map's), emission it hits straight from D₁ is the BSDF half of
-//   the direct-light MIS. The dispatch with push.resolve = 1 (the sample's
-//   last) adds the sample to the film.
+//   the direct-light MIS.
+// MODE_FALLBACK (global grid bound): the estimates from the photons that
+//   the gather deferred, one per invocation. A lookup that finds no point
+//   (~5 % of them on the Cornell box) needs a full estimate, ~20 times a
+//   lookup's work; done in the gather, every 8-lane SIMD group with one such
+//   lane (a third of them) ran it for all 8. So the gather appends them to
+//   fallback_requests (at most push.fallback_capacity; beyond that, and
+//   when no points are bound, it estimates at once) and this dispatch runs
+//   them with full lanes, writing each result over its request.
+// MODE_RESOLVE (per pixel): adds the sample's deferred estimates
+//   (pixel_fallbacks names them) and the sample to the film.
 //
 // Loop cap (lavapipe): llvmpipe ends every loop of an invocation after
 // 65,535 iterations in total, silently. Bounded by design: one camera path
@@ -60,6 +69,8 @@ layout(local_size_x = 8, local_size_y = 8) in;
 
 const uint MODE_PRIMARY = 0u;
 const uint MODE_GATHER = 1u;
+const uint MODE_FALLBACK = 2u;
+const uint MODE_RESOLVE = 3u;
 layout(constant_id = 0) const uint MODE = MODE_PRIMARY;
 
 layout(push_constant) uniform Push {
@@ -73,7 +84,7 @@ layout(push_constant) uniform Push {
     uint gather_first;
     uint gather_count;  // gather rays in this dispatch
     uint gather_total;  // gather rays per sample
-    uint resolve;       // 1: add the sample to the film after this dispatch
+    uint fallback_capacity; // gather: requests fallback_requests holds (0: estimate at once)
     uint loop_sentinel; // 1; the end-of-invocation proof loop runs this many times
     float radius;       // gather radius of the bound grid
     float flux_scale;   // W per unit of the bound map's stored flux
@@ -100,6 +111,7 @@ layout(std430, set = 0, binding = 9) buffer Counters {
     uint rays_high;
     uint loop_truncated;    // invocations the loop cap cut short
     uint gather_dropped;    // gather rays past GATHER_MAX_SPECULAR specular vertices
+    uint fallback_requests; // estimates the gather deferred (those past the capacity ran at once)
 } counters;
 layout(std430, set = 0, binding = 13) buffer Vertices { vec4 vertices[]; };
 layout(std430, set = 0, binding = 14) buffer SampleSums { vec4 sample_sums[]; };
@@ -113,6 +125,13 @@ layout(set = 0, binding = 18) uniform usamplerBuffer points_words;
 layout(set = 0, binding = 19) uniform usamplerBuffer points_ranges;
 #define PHOTON_LOOKUP_WORDS points_words
 #define PHOTON_LOOKUP_RANGES points_ranges
+// Deferred estimates, 3 vec4 each: (position, 0), (geometric normal, 0),
+// (weight, 0) from the gather; (weight × irradiance, 1 if the estimate
+// stopped at the loop guard) after MODE_FALLBACK.
+layout(std430, set = 0, binding = 20) buffer FallbackRequests { vec4 fallback_requests[]; };
+// Per pixel: the request of each of the sample's gather rays, or NO_REQUEST.
+layout(std430, set = 0, binding = 21) buffer PixelFallbacks { uvec4 pixel_fallbacks[]; };
+const uint NO_REQUEST = 0xFFFFFFFFu;
 
 #define BIH_BINDING 10
 #include "scene_trace.glsl"
@@ -165,28 +184,33 @@ PhotonGrid bound_points()
                       push.points_hashed, push.points_table_size);
 }
 
-// Radiance a Lambertian surface reflects from the bound global map's
-// irradiance (fixed radius, cone filter): the nearest precomputed point's,
-// or where none is near, the estimate from the photons themselves (a
-// sparsely lit spot: few photons to sum); truncated as
-// photon_irradiance_guarded.
-vec3 global_radiance(Material material, vec3 position, vec3 geometric_normal,
-                     inout bool truncated)
+// Irradiance at a gather hit from the bound global map's precomputed
+// points (fixed radius, cone filter): the nearest point's; false where none
+// is near (a sparsely lit spot, or a corner whose points face elsewhere),
+// and the caller estimates from the photons (global_irradiance_estimate).
+bool global_irradiance_lookup(vec3 position, vec3 geometric_normal, out vec3 irradiance,
+                              inout bool truncated)
 {
+    irradiance = vec3(0.0);
     if (push.grid_photons == 0u)
-        return vec3(0.0);
+        return true;
     bool stopped = false;
-    vec3 irradiance;
     bool found = push.points_count > 0u &&
                  photon_irradiance_lookup(position, geometric_normal, push.radius, bound_points(),
                                           irradiance, stopped);
     truncated = truncated || stopped;
-    if (!found) {
-        irradiance = photon_irradiance_guarded(position, geometric_normal, push.radius,
-                                               bound_grid(), stopped);
-        truncated = truncated || stopped;
-    }
-    return material.albedo * (push.flux_scale / PI) * irradiance;
+    return found;
+}
+
+// The estimate from the global map's photons, truncated as
+// photon_irradiance_guarded.
+vec3 global_irradiance_estimate(vec3 position, vec3 geometric_normal, inout bool truncated)
+{
+    bool stopped;
+    vec3 irradiance = photon_irradiance_guarded(position, geometric_normal, push.radius,
+                                                bound_grid(), stopped);
+    truncated = truncated || stopped;
+    return irradiance;
 }
 
 // The same from the bound caustic map at the pixel's progressive caustic
@@ -318,8 +342,8 @@ void primary(uint pixel_index, uvec2 pixel)
 // factor; emission hit straight from D₁ goes to direct (MIS), the rest to indirect.
 void gather_ray(uint pixel_index, uint gather_index, Material d1_material, vec3 d1_position,
                 vec3 shading_normal, vec3 geometric_normal, vec3 d1_throughput, vec3 wo,
-                inout vec3 direct, inout vec3 indirect, inout bool valid, inout bool truncated,
-                inout uint rays)
+                inout vec3 direct, inout vec3 indirect, inout uint request, inout bool valid,
+                inout bool truncated, inout uint rays)
 {
     const float infinity = uintBitsToFloat(0x7f800000u);
     float ray_offset = params.camera_right.w;
@@ -352,8 +376,26 @@ void gather_ray(uint pixel_index, uint gather_index, Material d1_material, vec3 
         }
         vec3 wo_hit = -direction;
         if (material.kind == MATERIAL_LAMBERT) {
-            indirect += path * global_radiance(material, surface.position,
-                                               surface.geometric_normal, truncated);
+            // Reflected radiance: albedo/π × irradiance, in watts by the map's flux scale.
+            vec3 weight = path * (material.albedo * (push.flux_scale / PI));
+            vec3 irradiance;
+            if (global_irradiance_lookup(surface.position, surface.geometric_normal, irradiance,
+                                         truncated)) {
+                indirect += weight * irradiance;
+                return;
+            }
+            uint slot = push.fallback_capacity > 0u ? atomicAdd(counters.fallback_requests, 1u)
+                                                    : NO_REQUEST;
+            if (slot < push.fallback_capacity) {
+                fallback_requests[3u * slot] = vec4(surface.position, 0.0);
+                fallback_requests[3u * slot + 1u] = vec4(surface.geometric_normal, 0.0);
+                fallback_requests[3u * slot + 2u] = vec4(weight, 0.0);
+                request = slot;
+            } else {
+                indirect += weight * global_irradiance_estimate(surface.position,
+                                                                surface.geometric_normal,
+                                                                truncated);
+            }
             return;
         }
         if (bounce == GATHER_MAX_SPECULAR) {
@@ -381,19 +423,23 @@ void gather(uint pixel_index)
     uint base = 5u * pixel_index;
     uint sample_base = 3u * pixel_index;
     vec4 d1 = vertices[base];
-    vec4 sample_direct = sample_sums[sample_base];
-    vec4 sample_indirect = sample_sums[sample_base + 1u];
     bool valid = true, truncated = false;
     uint rays = 0u;
+    uvec4 requests = push.gather_first == 0u ? uvec4(NO_REQUEST) : pixel_fallbacks[pixel_index];
     if (d1.w > 0.0) {
+        vec4 sample_direct = sample_sums[sample_base];
+        vec4 sample_indirect = sample_sums[sample_base + 1u];
         vec4 shading = vertices[base + 1u];
         Material material = materials[floatBitsToUint(shading.w)];
         vec3 direct = vec3(0.0), indirect = vec3(0.0);
         uint end = min(push.gather_first + push.gather_count, push.gather_total);
-        for (uint g = push.gather_first; g < end; g++)
+        for (uint g = push.gather_first; g < end; g++) {
+            uint request = NO_REQUEST;
             gather_ray(pixel_index, g, material, d1.xyz, shading.xyz, vertices[base + 2u].xyz,
                        vertices[base + 3u].xyz, vertices[base + 4u].xyz, direct, indirect,
-                       valid, truncated, rays);
+                       request, valid, truncated, rays);
+            requests[g] = request;
+        }
         bool completed = loops_completed() && !truncated;
         if (!completed)
             atomicAdd(counters.loop_truncated, 1u);
@@ -406,9 +452,42 @@ void gather(uint pixel_index)
         sample_sums[sample_base] = sample_direct;
         sample_sums[sample_base + 1u] = sample_indirect;
     }
+    pixel_fallbacks[pixel_index] = requests;
     count_rays(rays);
-    if (push.resolve == 0u)
+}
+
+// A deferred estimate (MODE_FALLBACK's invocation `request`).
+void fallback(uint request)
+{
+    if (request >= min(counters.fallback_requests, push.fallback_capacity))
         return;
+    uint base = 3u * request;
+    bool truncated = false;
+    vec3 irradiance = global_irradiance_estimate(fallback_requests[base].xyz,
+                                                 fallback_requests[base + 1u].xyz, truncated);
+    bool completed = loops_completed() && !truncated;
+    if (!completed)
+        atomicAdd(counters.loop_truncated, 1u);
+    fallback_requests[base + 2u] = vec4(fallback_requests[base + 2u].xyz * irradiance,
+                                        completed ? 0.0 : 1.0);
+}
+
+// The sample's deferred estimates into its indirect light, then the sample
+// into the film (kept only if every part of it is).
+void resolve(uint pixel_index)
+{
+    uint sample_base = 3u * pixel_index;
+    vec4 sample_direct = sample_sums[sample_base];
+    vec4 sample_indirect = sample_sums[sample_base + 1u];
+    uvec4 requests = pixel_fallbacks[pixel_index];
+    for (uint g = 0u; g < push.gather_total; g++) {
+        if (requests[g] == NO_REQUEST)
+            continue;
+        vec4 estimate = fallback_requests[3u * requests[g] + 2u];
+        sample_indirect.xyz += estimate.xyz;
+        if (estimate.w != 0.0)
+            sample_indirect.w = 0.0;
+    }
     bool kept = sample_indirect.w > 0.0 && all_finite(sample_direct.xyz) &&
                 all_finite(sample_indirect.xyz);
     vec4 direct_sum = kept ? sample_direct : vec4(0.0);
@@ -434,6 +513,10 @@ void main()
     uint pixel_index = pixel.y * params.width + pixel.x;
     if (MODE == MODE_PRIMARY)
         primary(pixel_index, pixel);
-    else
+    else if (MODE == MODE_GATHER)
         gather(pixel_index);
+    else if (MODE == MODE_FALLBACK)
+        fallback(pixel_index);
+    else
+        resolve(pixel_index);
 }

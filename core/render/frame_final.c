@@ -81,12 +81,21 @@
 /* render_final.comp's gather-vertex buffer: vec4s per pixel. */
 #define VERTEX_VEC4_PER_PIXEL 5u
 #define GROUP_EDGE 8u
-#define FINAL_BUFFERS 20u
+#define FINAL_BUFFERS 22u
 /* render_final.comp's bindings of the photon grid it gathers from, and of its irradiance points. */
 #define GRID_WORDS_BINDING 15u
 #define GRID_RANGES_BINDING 16u
 #define POINTS_WORDS_BINDING 18u
 #define POINTS_RANGES_BINDING 19u
+/*
+ * The gather's deferred estimates (render_final.comp's MODE_FALLBACK): at
+ * most one request per pixel and sample is held (a quarter of the gather
+ * rays; ~5 % need one on the Cornell box), 3 vec4 each; the rest are
+ * estimated in the gather itself, as are all when no irradiance points are
+ * bound (every ray estimates then, so there is nothing to gather up).
+ */
+#define FALLBACK_REQUEST_BYTES 48u
+_Static_assert(FINAL_GATHER_RAYS <= 4, "render_final.comp keeps a pixel's requests in a uvec4");
 
 
 /* render_final.comp's Push (116 bytes). */
@@ -97,7 +106,7 @@ typedef struct final_push {
     uint32_t gather_first;
     uint32_t gather_count;
     uint32_t gather_total;
-    uint32_t resolve;
+    uint32_t fallback_capacity;
     uint32_t loop_sentinel;
     float radius;
     float flux_scale;
@@ -115,6 +124,7 @@ typedef struct final_counters {
     uint32_t rays_low, rays_high;
     uint32_t loop_truncated;
     uint32_t gather_dropped;
+    uint32_t fallback_requests;
 } final_counters;
 
 /* One photon pass: its grids (caustic NULL without a caustic map) and figures. */
@@ -184,6 +194,7 @@ typedef struct final_progress {
     double trace_ms, trace_gpu_ms, grid_ms, grid_gpu_ms, caustic_ms;
     float radius_first, radius_last;
     uint64_t rays, discarded, truncated, dropped, failures;
+    uint64_t deferred, estimated_at_once; /* gather estimates run by MODE_FALLBACK, and not */
     double shade_gpu_ms;
 } final_progress;
 
@@ -303,12 +314,16 @@ static pf_status caustic_pass(pf_vk_context *ctx, const pf_scene_frame *frame,
 typedef struct final_buffers {
     pf_vk_buffer *params, *film, *film_aov, *counters, *vertices, *samples, *empty_grid;
     pf_vk_buffer *caustic_radii; /* per pixel: the caustic radius the first pass chose */
+    pf_vk_buffer *fallback_requests, *pixel_fallbacks; /* the gather's deferred estimates */
+    uint32_t fallback_capacity;  /* requests fallback_requests holds */
 } final_buffers;
 
 static void final_buffers_release(pf_vk_context *ctx, final_buffers *b)
 {
-    pf_vk_buffer **all[] = {&b->params,   &b->film,    &b->film_aov,   &b->counters,
-                            &b->vertices, &b->samples, &b->empty_grid, &b->caustic_radii};
+    pf_vk_buffer **all[] = {&b->params,          &b->film,           &b->film_aov,
+                            &b->counters,        &b->vertices,       &b->samples,
+                            &b->empty_grid,      &b->caustic_radii,  &b->fallback_requests,
+                            &b->pixel_fallbacks};
     for (size_t i = 0; i < sizeof all / sizeof all[0]; i++)
         pf_render_buffer_release(ctx, all[i]);
 }
@@ -363,11 +378,15 @@ static pf_status shade_sample(pf_renderer *renderer, pf_vk_buffer **buffers,
     pf_vk_context *ctx = renderer->ctx;
     const final_counters zero = {0};
     pf_status status = pf_vk_buffer_upload(ctx, owned->counters, 0, &zero, sizeof zero, err);
-    pf_vk_pipeline *primary = NULL, *gather = NULL;
+    pf_vk_pipeline *primary = NULL, *gather = NULL, *fallback = NULL, *resolve = NULL;
     if (status == PF_OK)
         status = pf_renderer_pipeline(renderer, PF_PIPELINE_FINAL_PRIMARY, &primary, err);
     if (status == PF_OK)
         status = pf_renderer_pipeline(renderer, PF_PIPELINE_FINAL_GATHER, &gather, err);
+    if (status == PF_OK)
+        status = pf_renderer_pipeline(renderer, PF_PIPELINE_FINAL_FALLBACK, &fallback, err);
+    if (status == PF_OK)
+        status = pf_renderer_pipeline(renderer, PF_PIPELINE_FINAL_RESOLVE, &resolve, err);
     pf_vk_commands *cmds = NULL;
     if (status == PF_OK)
         status = pf_vk_commands_begin(ctx, &cmds, err);
@@ -403,14 +422,28 @@ static pf_status shade_sample(pf_renderer *renderer, pf_vk_buffer **buffers,
     bind_points(lookups ? pass->points : NULL, owned->empty_grid, &push,
                 &buffers[POINTS_WORDS_BINDING], &buffers[POINTS_RANGES_BINDING]);
     progress->lookup_passes += lookups;
+    uint32_t cap = renderer->final_deferred_cap;
+    push.fallback_capacity = !lookups ? 0
+                             : cap && cap < owned->fallback_capacity ? cap
+                                                                     : owned->fallback_capacity;
     for (uint32_t first = 0; status == PF_OK && first < FINAL_GATHER_RAYS;
          first += FINAL_GATHER_RAYS_PER_DISPATCH) {
         pf_vk_cmd_barrier(cmds);
         push.gather_first = first;
         push.gather_count = FINAL_GATHER_RAYS_PER_DISPATCH;
-        push.resolve = first + FINAL_GATHER_RAYS_PER_DISPATCH >= FINAL_GATHER_RAYS;
         status = pf_vk_cmd_dispatch(cmds, gather, buffers, FINAL_BUFFERS,
                                     &push, sizeof push, groups_x, groups_y, 1, err);
+    }
+    /* One invocation per request: the capacity is at most one per pixel. */
+    if (status == PF_OK && push.fallback_capacity > 0) {
+        pf_vk_cmd_barrier(cmds);
+        status = pf_vk_cmd_dispatch(cmds, fallback, buffers, FINAL_BUFFERS, &push, sizeof push,
+                                    groups_x, groups_y, 1, err);
+    }
+    if (status == PF_OK) {
+        pf_vk_cmd_barrier(cmds);
+        status = pf_vk_cmd_dispatch(cmds, resolve, buffers, FINAL_BUFFERS, &push, sizeof push,
+                                    groups_x, groups_y, 1, err);
     }
     int end = pf_vk_cmd_timestamp(cmds);
     if (status == PF_OK)
@@ -427,6 +460,11 @@ static pf_status shade_sample(pf_renderer *renderer, pf_vk_buffer **buffers,
         progress->truncated += counters.loop_truncated;
         progress->dropped += counters.gather_dropped;
         progress->failures += counters.traversal_failures;
+        uint32_t deferred = counters.fallback_requests < push.fallback_capacity
+                                ? counters.fallback_requests
+                                : push.fallback_capacity;
+        progress->deferred += deferred;
+        progress->estimated_at_once += counters.fallback_requests - deferred;
     }
     return status;
 }
@@ -472,6 +510,8 @@ static void report_rows(pf_frame_report *report, const pf_stage_plan *plan,
         pf_stage_add_counter(row, "discarded_samples", (double)progress->discarded);
         pf_stage_add_counter(row, "loop_truncated", (double)progress->truncated);
         pf_stage_add_counter(row, "gather_dropped", (double)progress->dropped);
+        pf_stage_add_counter(row, "deferred_estimates", (double)progress->deferred);
+        pf_stage_add_counter(row, "deferred_overflow", (double)progress->estimated_at_once);
         pf_stage_add_counter(row, "triangles", frame->triangle_count);
     }
     if (report)
@@ -576,6 +616,17 @@ static pf_status final_begin(pf_frame_run *run, pf_error *err)
     if (status == PF_OK)
         status = pf_vk_buffer_create(ctx, pixels * sizeof(float), "final caustic radii",
                                      &owned->caustic_radii, err);
+    if (status == PF_OK) {
+        uint64_t fits = pf_vk_info(ctx)->max_storage_buffer_range / FALLBACK_REQUEST_BYTES;
+        owned->fallback_capacity = (uint32_t)(pixels < fits ? pixels : fits);
+        status = pf_vk_buffer_create(ctx, (uint64_t)owned->fallback_capacity *
+                                              FALLBACK_REQUEST_BYTES,
+                                     "final deferred estimates", &owned->fallback_requests, err);
+    }
+    if (status == PF_OK)
+        status = pf_vk_buffer_create(ctx, pixels * 4 * sizeof(uint32_t),
+                                     "final deferred estimates per pixel",
+                                     &owned->pixel_fallbacks, err);
     if (status != PF_OK) {
         pf_stage_forget(&renderer->stage_memory[PF_QUALITY_FINAL]);
         pf_image_free(run->image);
@@ -589,7 +640,8 @@ static pf_status final_begin(pf_frame_run *run, pf_error *err)
         scene->materials,  scene->lights,    scene->emissive, owned->film,
         owned->film_aov,   owned->counters,  bih->nodes,      bih->vertices,
         bih->triangle_index, owned->vertices, owned->samples, NULL,
-        NULL,              owned->caustic_radii, NULL,           NULL};
+        NULL,              owned->caustic_radii, NULL,           NULL,
+        owned->fallback_requests, owned->pixel_fallbacks};
     memcpy(f->buffers, buffers, sizeof buffers);
     run->state = f;
     return PF_OK;

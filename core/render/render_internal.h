@@ -37,6 +37,8 @@ typedef enum pf_renderer_pipeline_id {
     PF_PIPELINE_MATERIAL_PROBE,  /* material_probe.comp */
     PF_PIPELINE_FINAL_PRIMARY,   /* render_final.comp, MODE 0 */
     PF_PIPELINE_FINAL_GATHER,    /* render_final.comp, MODE 1 */
+    PF_PIPELINE_FINAL_FALLBACK,  /* render_final.comp, MODE 2 */
+    PF_PIPELINE_FINAL_RESOLVE,   /* render_final.comp, MODE 3 */
     PF_PIPELINE_COUNT
 } pf_renderer_pipeline_id;
 
@@ -191,6 +193,9 @@ struct pf_renderer {
     pf_vk_pipeline *pipelines[PF_PIPELINE_COUNT];
     /* The final integrator's photon passes kept for reuse by the next frame (frame_final.c). */
     struct pf_final_cache *final_cache;
+    /* Tests: at most this many of the final gather's estimates deferred per sample, the
+     * rest run in the gather itself (0: as many as its buffer holds). */
+    uint32_t final_deferred_cap;
     /* The fast integrator's photons, LPV and pipeline (frame_fast.c; NULL until a fast frame). */
     pf_vk_pipeline *render_fast;
     struct pf_fast_cache *fast_cache;

@@ -14,9 +14,10 @@
 #define REFERENCE_SPEC_AOVS 0u
 #define RENDER_REFERENCE_BUFFERS 13u
 #define RENDER_REFERENCE_PUSH_BYTES 4u
-/* render_final.comp: constant_id 0 is MODE (0 primary, 1 gather); 20 buffers, 116-byte Push. */
+/* render_final.comp: constant_id 0 is MODE (0 primary, 1 gather, 2 fallback, 3 resolve); 22
+ * buffers, 116-byte Push. */
 #define FINAL_SPEC_MODE 0u
-#define RENDER_FINAL_BUFFERS 20u
+#define RENDER_FINAL_BUFFERS 22u
 #define RENDER_FINAL_PUSH_BYTES 116u
 #define MATERIAL_PROBE_BUFFERS 2u
 #define MATERIAL_PROBE_PUSH_BYTES 4u
@@ -45,6 +46,10 @@ static const pipeline_spec pipeline_specs[PF_PIPELINE_COUNT] = {
                                    1, {FINAL_SPEC_MODE, 0}},
     [PF_PIPELINE_FINAL_GATHER] = {"render_final", RENDER_FINAL_BUFFERS, RENDER_FINAL_PUSH_BYTES,
                                   1, {FINAL_SPEC_MODE, 1}},
+    [PF_PIPELINE_FINAL_FALLBACK] = {"render_final", RENDER_FINAL_BUFFERS,
+                                    RENDER_FINAL_PUSH_BYTES, 1, {FINAL_SPEC_MODE, 2}},
+    [PF_PIPELINE_FINAL_RESOLVE] = {"render_final", RENDER_FINAL_BUFFERS, RENDER_FINAL_PUSH_BYTES,
+                                   1, {FINAL_SPEC_MODE, 3}},
 };
 
 pf_status pf_renderer_pipeline(pf_renderer *renderer, pf_renderer_pipeline_id id,

@@ -9,6 +9,7 @@
 #include "pf_render.h"
 #include "pf_test.h"
 #include "reference_test_util.h"
+#include "render_internal.h" /* pf_renderer.final_deferred_cap */
 #include "render_test_env.h"
 
 #include <math.h>
@@ -165,6 +166,49 @@ PF_TEST(cornell_with_precomputed_irradiance_matches_reference)
     PF_CHECK(counter_of(ref_row(&longer, "shade"), "lookup_passes") == 0.0);
     PF_CHECK(counter_of(ref_row(&longer, "photon_trace"), "reused_passes") == CORNELL_PASSES);
     pf_image_free(&image);
+}
+
+/*
+ * The gather defers the estimates of the lookups that find no point to a
+ * dispatch of their own (render_final.comp's MODE_FALLBACK); past the
+ * buffer's capacity (here capped at 1 per sample) it runs them at once. Both
+ * give the same light: only the order of the sums differs.
+ */
+PF_TEST(deferred_estimates_match_those_run_in_the_gather)
+{
+    pf_error err = {0};
+    pf_render_settings settings =
+        final_settings(CORNELL_WIDTH, CORNELL_HEIGHT, CORNELL_PASSES, 3, LOOKUP_PHOTONS);
+    pf_image deferred, at_once;
+    pf_frame_report deferred_report = {0}, at_once_report = {0};
+    PF_REQUIRE_OK(pf_render_frame(renderer, &cornell_frame, &settings, &deferred,
+                                  &deferred_report, &err),
+                  &err);
+    renderer->final_deferred_cap = 1;
+    pf_status status = pf_render_frame(renderer, &cornell_frame, &settings, &at_once,
+                                       &at_once_report, &err);
+    renderer->final_deferred_cap = 0;
+    PF_REQUIRE_OK(status, &err);
+    const pf_stage_timing *shade = ref_row(&deferred_report, "shade");
+    const pf_stage_timing *capped = ref_row(&at_once_report, "shade");
+    double rays = (double)CORNELL_WIDTH * CORNELL_HEIGHT * CORNELL_PASSES * 4;
+    double deferred_count = counter_of(shade, "deferred_estimates");
+    double overflow = counter_of(capped, "deferred_overflow");
+    double rgb = ref_layer_relmse(&at_once, &deferred, REF_CH_RGB);
+    double indirect = ref_layer_relmse(&at_once, &deferred, REF_CH_INDIRECT);
+    printf("  %g of %g gather rays deferred their estimate (%g past a cap of 1 per sample); "
+           "relMSE between the two: RGB %.3g, indirect %.3g\n",
+           deferred_count, rays, overflow, rgb, indirect);
+    PF_CHECK(counter_of(shade, "lookup_passes") == CORNELL_PASSES);
+    PF_CHECK(counter_of(capped, "lookup_passes") == CORNELL_PASSES);
+    PF_CHECK(deferred_count > 0.0 && deferred_count < 0.5 * rays);
+    PF_CHECK(counter_of(shade, "deferred_overflow") == 0.0);
+    PF_CHECK(counter_of(capped, "deferred_estimates") == CORNELL_PASSES);
+    PF_CHECK(overflow == deferred_count - CORNELL_PASSES);
+    PF_CHECK_MSG(rgb < 1e-9 && indirect < 1e-9, "RGB relMSE %.3g, indirect %.3g", rgb, indirect);
+    PF_CHECK(deferred_report.discarded_samples == 0 && at_once_report.discarded_samples == 0);
+    pf_image_free(&deferred);
+    pf_image_free(&at_once);
 }
 
 /*
@@ -460,6 +504,7 @@ int main(void)
     }
     PF_RUN(cornell_matches_reference_channel_by_channel);
     PF_RUN(cornell_with_precomputed_irradiance_matches_reference);
+    PF_RUN(deferred_estimates_match_those_run_in_the_gather);
     PF_RUN(cornell_converges_over_passes_with_ppm_slope);
     PF_RUN(caustic_scene_builds_the_caustic_map);
     PF_RUN(rows_reuse_and_determinism);
