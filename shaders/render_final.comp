@@ -3,7 +3,8 @@
 // The `final` integrator's `shade` stage (core/render/frame_final.c drives
 // it): direct light, caustics from the caustic map and indirect light by
 // final gather into the global map. One pixel sample is four kinds of
-// dispatch, specialised by MODE:
+// dispatch, the first two this kernel's, specialised by MODE, the other two
+// final_deferred.comp's (final_shared.glsl holds what they share):
 //
 // MODE_PRIMARY (caustic grid bound): a camera ray through the pixel filter
 //   (pixel_filter.glsl), specular chain (bsdf_sample) to the first diffuse vertex
@@ -30,23 +31,28 @@
 //   gather ray sees after a specular vertex is left out (L S+ D₁ is the
 //   caustic map's), emission it hits straight from D₁ is the BSDF half of
 //   the direct-light MIS.
-// MODE_FALLBACK (global grid bound): the estimates from the photons that
-//   the gather deferred, one per invocation. A lookup that finds no point
-//   (~5 % of them on the Cornell box) needs a full estimate, ~20 times a
-//   lookup's work; done in the gather, every 8-lane SIMD group with one such
-//   lane (a third of them) ran it for all 8. So the gather appends them to
-//   fallback_requests (at most push.fallback_capacity; beyond that, and
-//   when no points are bound, it estimates at once) and this dispatch runs
-//   them with full lanes, writing each result over its request.
-// MODE_RESOLVE (per pixel): adds the sample's deferred estimates
-//   (pixel_fallbacks names them) and the sample to the film.
+// final_deferred.comp's MODE_FALLBACK (global grid bound): the estimates
+//   from the photons that the gather deferred, one per invocation. A lookup
+//   that finds no point (~5 % of them on the Cornell box) needs a full
+//   estimate, ~20 times a lookup's work; done in the gather, every 8-lane
+//   SIMD group with one such lane (a third of them) ran it for all 8. So
+//   the gather appends them to fallback_requests (at most
+//   push.fallback_capacity; beyond that, and when no points are bound, it
+//   estimates at once) and that dispatch runs them with full lanes, writing
+//   each result over its request. A kernel of its own, not a third MODE
+//   here: lavapipe translates and optimises a pipeline's whole module
+//   before specialisation removes anything, ~0.5 s per pipeline of this
+//   one, paid by every process.
+// final_deferred.comp's MODE_RESOLVE (per pixel): adds the sample's
+//   deferred estimates (pixel_fallbacks names them) and the sample to the
+//   film.
 //
 // Loop cap (lavapipe): llvmpipe ends every loop of an invocation after
 // 65,535 iterations in total, silently. Bounded by design: one camera path
 // (at most params.max_specular_depth + 1 vertices) and one caustic
 // estimate per primary invocation, push.gather_count (4) gather rays per
 // gather invocation, each estimate stopping itself after
-// PHOTON_ESTIMATE_MAX_ITERATIONS (below). Detected either way: an estimate
+// PHOTON_ESTIMATE_MAX_ITERATIONS (final_shared.glsl). Detected either way: an estimate
 // that stopped says so (photon_irradiance_guarded/_knn), and each
 // invocation proves its loops were not cut by running, at its very end,
 // one iteration of a loop bounded by a push constant (push.loop_sentinel =
@@ -69,69 +75,12 @@ layout(local_size_x = 8, local_size_y = 8) in;
 
 const uint MODE_PRIMARY = 0u;
 const uint MODE_GATHER = 1u;
-const uint MODE_FALLBACK = 2u;
-const uint MODE_RESOLVE = 3u;
 layout(constant_id = 0) const uint MODE = MODE_PRIMARY;
-
-layout(push_constant) uniform Push {
-    vec3 grid_origin;
-    float grid_inv_cell;
-    uvec3 grid_dims;
-    uint grid_hashed;
-    uint grid_table_size;
-    uint grid_photons;  // photons in the bound grid (0: no estimate)
-    uint sample_index;  // 0 starts the film's sums
-    uint gather_first;
-    uint gather_count;  // gather rays in this dispatch
-    uint gather_total;  // gather rays per sample
-    uint fallback_capacity; // gather: requests fallback_requests holds (0: estimate at once)
-    uint loop_sentinel; // 1; the end-of-invocation proof loop runs this many times
-    float radius;       // gather radius of the bound grid
-    float flux_scale;   // W per unit of the bound map's stored flux
-    float caustic_scale; // this pass's radius over the first pass's (caustic radii shrink with it)
-    // The bound global map's precomputed irradiance points (gather only; 0: none).
-    uint points_count;
-    vec3 points_origin;
-    float points_inv_cell;
-    uvec3 points_dims;
-    uint points_hashed;
-    uint points_table_size;
-} push;
 
 #include "scene_bindings.glsl"
 #include "photon_types.glsl"
 #include "photon_grid.glsl"
-
-layout(std430, set = 0, binding = 7) buffer Film { vec4 film[]; };
-layout(std430, set = 0, binding = 8) buffer FilmAov { vec4 film_aov[]; };
-layout(std430, set = 0, binding = 9) buffer Counters {
-    uint discarded_samples; // non-finite or loop-truncated samples kept off the film
-    uint traversal_failures;
-    uint rays_low;
-    uint rays_high;
-    uint loop_truncated;    // invocations the loop cap cut short
-    uint gather_dropped;    // gather rays past GATHER_MAX_SPECULAR specular vertices
-    uint fallback_requests; // estimates the gather deferred (those past the capacity ran at once)
-} counters;
-layout(std430, set = 0, binding = 13) buffer Vertices { vec4 vertices[]; };
-layout(std430, set = 0, binding = 14) buffer SampleSums { vec4 sample_sums[]; };
-// The bound map (photon_estimate.glsl: texel buffers).
-layout(set = 0, binding = 15) uniform usamplerBuffer grid_words;
-layout(set = 0, binding = 16) uniform usamplerBuffer grid_ranges;
-// Per pixel: the caustic radius chosen in the first pass (see caustic_radiance).
-layout(std430, set = 0, binding = 17) buffer CausticRadii { float caustic_radii[]; };
-// The global map's precomputed irradiance points (photon_estimate.glsl's lookup).
-layout(set = 0, binding = 18) uniform usamplerBuffer points_words;
-layout(set = 0, binding = 19) uniform usamplerBuffer points_ranges;
-#define PHOTON_LOOKUP_WORDS points_words
-#define PHOTON_LOOKUP_RANGES points_ranges
-// Deferred estimates, 3 vec4 each: (position, 0), (geometric normal, 0),
-// (weight, 0) from the gather; (weight × irradiance, 1 if the estimate
-// stopped at the loop guard) after MODE_FALLBACK.
-layout(std430, set = 0, binding = 20) buffer FallbackRequests { vec4 fallback_requests[]; };
-// Per pixel: the request of each of the sample's gather rays, or NO_REQUEST.
-layout(std430, set = 0, binding = 21) buffer PixelFallbacks { uvec4 pixel_fallbacks[]; };
-const uint NO_REQUEST = 0xFFFFFFFFu;
+#include "final_shared.glsl"
 
 #define BIH_BINDING 10
 #include "scene_trace.glsl"
@@ -141,12 +90,6 @@ const uint NO_REQUEST = 0xFFFFFFFFu;
 #include "materials.glsl"
 #include "surface.glsl"
 #include "sampler.glsl"
-// Each estimate stops after this many iterations (photon_estimate.glsl):
-// with FINAL_GATHER_RAYS_PER_DISPATCH = 4 estimates per invocation (the
-// host's figure) that is 32,768 of the 65,535, leaving the rest to the
-// traversals and light loops; a stopped estimate drops the sample (counted).
-#define PHOTON_ESTIMATE_MAX_ITERATIONS 8192u
-#include "photon_estimate.glsl"
 
 // Specular vertices a gather ray follows before it is dropped: enough for
 // a glass sphere (in, out) and a mirror behind it.
@@ -154,14 +97,7 @@ const uint GATHER_MAX_SPECULAR = 4u;
 // Gather rays draw from their own scrambled sequence (seed_lo xor this).
 const uint GATHER_SEED_SALT = 0x9e3779b9u;
 
-
 #include "direct_light.glsl"
-
-PhotonGrid bound_grid()
-{
-    return PhotonGrid(push.grid_origin, push.grid_inv_cell, push.grid_dims, push.grid_hashed,
-                      push.grid_table_size);
-}
 
 // Caustic radius per pixel, progressive (SPPM's per-pixel radius in the
 // probabilistic form): the first pass picks each pixel's radius as the
@@ -177,12 +113,6 @@ PhotonGrid bound_grid()
 // block error after 16 passes was 0.006 at k = 8 against 0.028 at k = 32,
 // tests/render/test_final_caustic.c's measure, 10,000 photons per pass).
 const uint CAUSTIC_NEAREST = 8u;
-
-PhotonGrid bound_points()
-{
-    return PhotonGrid(push.points_origin, push.points_inv_cell, push.points_dims,
-                      push.points_hashed, push.points_table_size);
-}
 
 // Irradiance at a gather hit from the bound global map's precomputed
 // points (fixed radius, cone filter): the nearest point's; false where none
@@ -202,19 +132,9 @@ bool global_irradiance_lookup(vec3 position, vec3 geometric_normal, out vec3 irr
     return found;
 }
 
-// The estimate from the global map's photons, truncated as
-// photon_irradiance_guarded.
-vec3 global_irradiance_estimate(vec3 position, vec3 geometric_normal, inout bool truncated)
-{
-    bool stopped;
-    vec3 irradiance = photon_irradiance_guarded(position, geometric_normal, push.radius,
-                                                bound_grid(), stopped);
-    truncated = truncated || stopped;
-    return irradiance;
-}
-
-// The same from the bound caustic map at the pixel's progressive caustic
-// radius (above); the first pass also records that radius.
+// Radiance a Lambertian surface reflects (albedo/π × irradiance, in watts by
+// the map's flux scale) from the bound caustic map, at the pixel's
+// progressive caustic radius (above); the first pass also records that radius.
 vec3 caustic_radiance(Material material, vec3 position, vec3 geometric_normal, uint pixel_index,
                       inout bool truncated)
 {
@@ -456,55 +376,6 @@ void gather(uint pixel_index)
     count_rays(rays);
 }
 
-// A deferred estimate (MODE_FALLBACK's invocation `request`).
-void fallback(uint request)
-{
-    if (request >= min(counters.fallback_requests, push.fallback_capacity))
-        return;
-    uint base = 3u * request;
-    bool truncated = false;
-    vec3 irradiance = global_irradiance_estimate(fallback_requests[base].xyz,
-                                                 fallback_requests[base + 1u].xyz, truncated);
-    bool completed = loops_completed() && !truncated;
-    if (!completed)
-        atomicAdd(counters.loop_truncated, 1u);
-    fallback_requests[base + 2u] = vec4(fallback_requests[base + 2u].xyz * irradiance,
-                                        completed ? 0.0 : 1.0);
-}
-
-// The sample's deferred estimates into its indirect light, then the sample
-// into the film (kept only if every part of it is).
-void resolve(uint pixel_index)
-{
-    uint sample_base = 3u * pixel_index;
-    vec4 sample_direct = sample_sums[sample_base];
-    vec4 sample_indirect = sample_sums[sample_base + 1u];
-    uvec4 requests = pixel_fallbacks[pixel_index];
-    for (uint g = 0u; g < push.gather_total; g++) {
-        if (requests[g] == NO_REQUEST)
-            continue;
-        vec4 estimate = fallback_requests[3u * requests[g] + 2u];
-        sample_indirect.xyz += estimate.xyz;
-        if (estimate.w != 0.0)
-            sample_indirect.w = 0.0;
-    }
-    bool kept = sample_indirect.w > 0.0 && all_finite(sample_direct.xyz) &&
-                all_finite(sample_indirect.xyz);
-    vec4 direct_sum = kept ? sample_direct : vec4(0.0);
-    vec4 indirect_sum = kept ? sample_indirect : vec4(0.0);
-    vec4 caustic_sum = kept ? sample_sums[sample_base + 2u] : vec4(0.0);
-    if (push.sample_index > 0u) {
-        direct_sum += film[sample_base];
-        indirect_sum += film[sample_base + 1u];
-        caustic_sum += film[sample_base + 2u];
-    }
-    film[sample_base] = direct_sum;
-    film[sample_base + 1u] = indirect_sum;
-    film[sample_base + 2u] = caustic_sum;
-    if (!kept)
-        atomicAdd(counters.discarded_samples, 1u);
-}
-
 void main()
 {
     uvec2 pixel = gl_GlobalInvocationID.xy;
@@ -513,10 +384,6 @@ void main()
     uint pixel_index = pixel.y * params.width + pixel.x;
     if (MODE == MODE_PRIMARY)
         primary(pixel_index, pixel);
-    else if (MODE == MODE_GATHER)
-        gather(pixel_index);
-    else if (MODE == MODE_FALLBACK)
-        fallback(pixel_index);
     else
-        resolve(pixel_index);
+        gather(pixel_index);
 }

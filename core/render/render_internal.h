@@ -37,8 +37,8 @@ typedef enum pf_renderer_pipeline_id {
     PF_PIPELINE_MATERIAL_PROBE,  /* material_probe.comp */
     PF_PIPELINE_FINAL_PRIMARY,   /* render_final.comp, MODE 0 */
     PF_PIPELINE_FINAL_GATHER,    /* render_final.comp, MODE 1 */
-    PF_PIPELINE_FINAL_FALLBACK,  /* render_final.comp, MODE 2 */
-    PF_PIPELINE_FINAL_RESOLVE,   /* render_final.comp, MODE 3 */
+    PF_PIPELINE_FINAL_FALLBACK,  /* final_deferred.comp, MODE 0 */
+    PF_PIPELINE_FINAL_RESOLVE,   /* final_deferred.comp, MODE 1 */
     PF_PIPELINE_COUNT
 } pf_renderer_pipeline_id;
 

@@ -35,6 +35,12 @@
 
 const float PI = 3.14159265358979323846;
 
+// No NaN or infinity in any component (the NaN/Inf guards of every kernel).
+bool all_finite(vec3 value)
+{
+    return !any(isnan(value)) && !any(isinf(value));
+}
+
 // Unpolarized Fresnel reflectance of a smooth dielectric (pbrt-v4
 // FrDielectric). cos_incident > 0 on the side the light comes from; eta is
 // the transmitted-side index over the incident-side index. 1 on total

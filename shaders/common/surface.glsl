@@ -12,6 +12,7 @@
 #ifndef PF_SURFACE_GLSL
 #define PF_SURFACE_GLSL
 
+#include "materials.glsl" // all_finite
 #include "scene_types.glsl"
 
 struct Surface {
@@ -24,12 +25,6 @@ struct Surface {
                            // caller drops the sample or photon and counts it)
     Material material;
 };
-
-// No NaN or infinity in any component (the NaN/Inf guards of every kernel).
-bool all_finite(vec3 value)
-{
-    return !any(isnan(value)) && !any(isinf(value));
-}
 
 // The surface at hit (a hit, not a miss) of the ray origin + t direction. A
 // zero interpolated normal falls back to the face's; a non-finite one makes

@@ -1,0 +1,96 @@
+// The `final` integrator's shade kernels' common interface: render_final.comp
+// (primary, gather) and final_deferred.comp (the gather's deferred estimates,
+// the resolve) share one Push block (core/render/frame_final.c's final_push),
+// one buffer layout (the host binds the same FINAL_BUFFERS buffers to both)
+// and the estimate from the bound global map. The including kernel includes
+// scene_bindings.glsl, photon_types.glsl and photon_grid.glsl first.
+#ifndef PF_FINAL_SHARED_GLSL
+#define PF_FINAL_SHARED_GLSL
+
+layout(push_constant) uniform Push {
+    vec3 grid_origin;
+    float grid_inv_cell;
+    uvec3 grid_dims;
+    uint grid_hashed;
+    uint grid_table_size;
+    uint grid_photons;  // photons in the bound grid (0: no estimate)
+    uint sample_index;  // 0 starts the film's sums
+    uint gather_first;
+    uint gather_count;  // gather rays in this dispatch
+    uint gather_total;  // gather rays per sample
+    uint fallback_capacity; // gather: requests fallback_requests holds (0: estimate at once)
+    uint loop_sentinel; // 1; the end-of-invocation proof loop runs this many times
+    float radius;       // gather radius of the bound grid
+    float flux_scale;   // W per unit of the bound map's stored flux
+    float caustic_scale; // this pass's radius over the first pass's (caustic radii shrink with it)
+    // The bound global map's precomputed irradiance points (gather only; 0: none).
+    uint points_count;
+    vec3 points_origin;
+    float points_inv_cell;
+    uvec3 points_dims;
+    uint points_hashed;
+    uint points_table_size;
+} push;
+
+layout(std430, set = 0, binding = 7) buffer Film { vec4 film[]; };
+layout(std430, set = 0, binding = 8) buffer FilmAov { vec4 film_aov[]; };
+layout(std430, set = 0, binding = 9) buffer Counters {
+    uint discarded_samples; // non-finite or loop-truncated samples kept off the film
+    uint traversal_failures;
+    uint rays_low;
+    uint rays_high;
+    uint loop_truncated;    // invocations the loop cap cut short
+    uint gather_dropped;    // gather rays past GATHER_MAX_SPECULAR specular vertices
+    uint fallback_requests; // estimates the gather deferred (those past the capacity ran at once)
+} counters;
+layout(std430, set = 0, binding = 13) buffer Vertices { vec4 vertices[]; };
+layout(std430, set = 0, binding = 14) buffer SampleSums { vec4 sample_sums[]; };
+// The bound map (photon_estimate.glsl: texel buffers).
+layout(set = 0, binding = 15) uniform usamplerBuffer grid_words;
+layout(set = 0, binding = 16) uniform usamplerBuffer grid_ranges;
+// Per pixel: the caustic radius chosen in the first pass (see caustic_radiance).
+layout(std430, set = 0, binding = 17) buffer CausticRadii { float caustic_radii[]; };
+// The global map's precomputed irradiance points (photon_estimate.glsl's lookup).
+layout(set = 0, binding = 18) uniform usamplerBuffer points_words;
+layout(set = 0, binding = 19) uniform usamplerBuffer points_ranges;
+#define PHOTON_LOOKUP_WORDS points_words
+#define PHOTON_LOOKUP_RANGES points_ranges
+// Deferred estimates, 3 vec4 each: (position, 0), (geometric normal, 0),
+// (weight, 0) from the gather; (weight × irradiance, 1 if the estimate
+// stopped at the loop guard) after MODE_FALLBACK.
+layout(std430, set = 0, binding = 20) buffer FallbackRequests { vec4 fallback_requests[]; };
+// Per pixel: the request of each of the sample's gather rays, or NO_REQUEST.
+layout(std430, set = 0, binding = 21) buffer PixelFallbacks { uvec4 pixel_fallbacks[]; };
+const uint NO_REQUEST = 0xFFFFFFFFu;
+
+// Each estimate stops after this many iterations (photon_estimate.glsl):
+// with FINAL_GATHER_RAYS_PER_DISPATCH = 4 estimates per invocation (the
+// host's figure) that is 32,768 of the 65,535, leaving the rest to the
+// traversals and light loops; a stopped estimate drops the sample (counted).
+#define PHOTON_ESTIMATE_MAX_ITERATIONS 8192u
+#include "photon_estimate.glsl"
+
+PhotonGrid bound_grid()
+{
+    return PhotonGrid(push.grid_origin, push.grid_inv_cell, push.grid_dims, push.grid_hashed,
+                      push.grid_table_size);
+}
+
+PhotonGrid bound_points()
+{
+    return PhotonGrid(push.points_origin, push.points_inv_cell, push.points_dims,
+                      push.points_hashed, push.points_table_size);
+}
+
+// The estimate from the global map's photons, truncated as
+// photon_irradiance_guarded.
+vec3 global_irradiance_estimate(vec3 position, vec3 geometric_normal, inout bool truncated)
+{
+    bool stopped;
+    vec3 irradiance = photon_irradiance_guarded(position, geometric_normal, push.radius,
+                                                bound_grid(), stopped);
+    truncated = truncated || stopped;
+    return irradiance;
+}
+
+#endif
