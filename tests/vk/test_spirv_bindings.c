@@ -33,33 +33,46 @@ PF_TEST(traversal_reads_the_tree_through_texel_buffers)
         PF_CHECK_MSG(kinds[b] == PF_VK_BINDING_STORAGE, "binding %d: kind %d", b, kinds[b]);
 }
 
-PF_TEST(integrators_read_the_tree_through_texel_buffers)
+PF_TEST(integrators_read_the_tree_and_photon_maps_through_texel_buffers)
 {
-    static const char *const integrators[] = {"render_direct", "render_fast", "render_final",
-                                              "render_reference"};
+    /* The tree is 2 uint + 1 float texel buffers in every integrator; photon maps add 2 uint
+     * (words, ranges) each: fast's caustic map, final's bound map and its irradiance points. */
+    static const struct {
+        const char *name;
+        uint32_t texel_uint;
+    } integrators[] = {{"render_direct", 2},  {"render_fast", 4},     {"render_final", 6},
+                       {"render_reference", 2}, {"final_deferred", 4}};
     for (size_t i = 0; i < sizeof integrators / sizeof *integrators; i++) {
         uint8_t kinds[32];
-        kinds_of(integrators[i], kinds, 32);
+        kinds_of(integrators[i].name, kinds, 32);
         uint32_t texel_uint = 0, texel_float = 0;
         for (int b = 0; b < 32; b++) {
             texel_uint += kinds[b] == PF_VK_BINDING_TEXEL_UINT;
             texel_float += kinds[b] == PF_VK_BINDING_TEXEL_FLOAT;
         }
-        /* The scene's own buffers (0..6) stay storage buffers; the tree is 2 + 1 texel. */
-        PF_CHECK_MSG(texel_uint == 2 && texel_float == 1, "%s: %u uint and %u float texel",
-                     integrators[i], texel_uint, texel_float);
+        /* final_deferred has final_shared.glsl's maps and no tree. */
+        uint32_t float_wanted = strcmp(integrators[i].name, "final_deferred") == 0 ? 0 : 1;
+        PF_CHECK_MSG(texel_uint == integrators[i].texel_uint && texel_float == float_wanted,
+                     "%s: %u uint and %u float texel", integrators[i].name, texel_uint,
+                     texel_float);
+        /* The scene's own buffers (0..6) stay storage buffers. */
         for (int b = 0; b < 7; b++)
             PF_CHECK(kinds[b] == PF_VK_BINDING_STORAGE);
     }
-    uint8_t kinds[20];
-    kinds_of("render_final", kinds, 20);
+    uint8_t kinds[22];
+    kinds_of("render_final", kinds, 22);
     PF_CHECK(kinds[10] == PF_VK_BINDING_TEXEL_UINT && kinds[11] == PF_VK_BINDING_TEXEL_FLOAT &&
              kinds[12] == PF_VK_BINDING_TEXEL_UINT); /* BIH_BINDING 10 */
+    PF_CHECK(kinds[15] == PF_VK_BINDING_TEXEL_UINT && kinds[16] == PF_VK_BINDING_TEXEL_UINT &&
+             kinds[18] == PF_VK_BINDING_TEXEL_UINT && kinds[19] == PF_VK_BINDING_TEXEL_UINT);
     PF_CHECK(kinds[7] == PF_VK_BINDING_STORAGE && kinds[13] == PF_VK_BINDING_STORAGE &&
-             kinds[19] == PF_VK_BINDING_STORAGE); /* film, vertices, irradiance ranges */
+             kinds[20] == PF_VK_BINDING_STORAGE); /* film, vertices, deferred estimates */
     kinds_of("photon_trace", kinds, 20);
     PF_CHECK(kinds[7] == PF_VK_BINDING_TEXEL_UINT && kinds[8] == PF_VK_BINDING_TEXEL_FLOAT &&
              kinds[9] == PF_VK_BINDING_TEXEL_UINT); /* BIH_BINDING 7 */
+    kinds_of("photon_irradiance_precompute", kinds, 5);
+    PF_CHECK(kinds[0] == PF_VK_BINDING_TEXEL_UINT && kinds[1] == PF_VK_BINDING_TEXEL_UINT &&
+             kinds[2] == PF_VK_BINDING_STORAGE); /* the map read, the points written */
 }
 
 PF_TEST(storage_only_shaders_stay_storage)
@@ -92,7 +105,7 @@ PF_TEST(bad_modules_and_too_few_bindings_are_refused)
 int main(void)
 {
     PF_RUN(traversal_reads_the_tree_through_texel_buffers);
-    PF_RUN(integrators_read_the_tree_through_texel_buffers);
+    PF_RUN(integrators_read_the_tree_and_photon_maps_through_texel_buffers);
     PF_RUN(storage_only_shaders_stay_storage);
     PF_RUN(bad_modules_and_too_few_bindings_are_refused);
     return pf_test_finish();
