@@ -9,7 +9,7 @@
 // Texel buffers rather than storage buffers for the reason bih_traverse.glsl
 // gives: llvmpipe loads a storage buffer word lane by lane in a branchy
 // loop, and a texel fetch is one vector gather. The estimates' loops are
-// nearly all loads (bench/RESULTS.md, "Final gather's photon lookups").
+// nearly all loads (bench/RESULTS.md, "The gather's photon lookups").
 //
 // A photon counts at a surface point x with normal n only if it arrived from
 // n's side (incoming · n < 0) and was stored on a surface facing the same
