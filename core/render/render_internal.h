@@ -35,8 +35,8 @@ typedef enum pf_renderer_pipeline_id {
     PF_PIPELINE_REFERENCE,       /* render_reference.comp, AOVs written */
     PF_PIPELINE_REFERENCE_RGB,   /* render_reference.comp, no AOVs */
     PF_PIPELINE_MATERIAL_PROBE,  /* material_probe.comp */
-    PF_PIPELINE_FINAL_PRIMARY,   /* render_final.comp, MODE 0 */
-    PF_PIPELINE_FINAL_GATHER,    /* render_final.comp, MODE 1 */
+    PF_PIPELINE_FINAL_PRIMARY,   /* render_final.comp */
+    PF_PIPELINE_FINAL_GATHER,    /* final_gather.comp */
     PF_PIPELINE_FINAL_FALLBACK,  /* final_deferred.comp, MODE 0 */
     PF_PIPELINE_FINAL_RESOLVE,   /* final_deferred.comp, MODE 1 */
     PF_PIPELINE_COUNT

@@ -14,8 +14,8 @@
 #define REFERENCE_SPEC_AOVS 0u
 #define RENDER_REFERENCE_BUFFERS 13u
 #define RENDER_REFERENCE_PUSH_BYTES 4u
-/* render_final.comp and final_deferred.comp: constant_id 0 is MODE (0 primary, 1 gather; 0
- * fallback, 1 resolve); both 22 buffers and the same 116-byte Push (final_shared.glsl). */
+/* render_final.comp (primary), final_gather.comp and final_deferred.comp (constant_id 0 is
+ * MODE: 0 fallback, 1 resolve): 22 buffers and the same 116-byte Push (final_shared.glsl). */
 #define FINAL_SPEC_MODE 0u
 #define RENDER_FINAL_BUFFERS 22u
 #define RENDER_FINAL_PUSH_BYTES 116u
@@ -43,9 +43,9 @@ static const pipeline_spec pipeline_specs[PF_PIPELINE_COUNT] = {
     [PF_PIPELINE_MATERIAL_PROBE] = {"material_probe", MATERIAL_PROBE_BUFFERS,
                                     MATERIAL_PROBE_PUSH_BYTES, 0, {0, 0}},
     [PF_PIPELINE_FINAL_PRIMARY] = {"render_final", RENDER_FINAL_BUFFERS, RENDER_FINAL_PUSH_BYTES,
-                                   1, {FINAL_SPEC_MODE, 0}},
-    [PF_PIPELINE_FINAL_GATHER] = {"render_final", RENDER_FINAL_BUFFERS, RENDER_FINAL_PUSH_BYTES,
-                                  1, {FINAL_SPEC_MODE, 1}},
+                                   0, {0, 0}},
+    [PF_PIPELINE_FINAL_GATHER] = {"final_gather", RENDER_FINAL_BUFFERS, RENDER_FINAL_PUSH_BYTES,
+                                  0, {0, 0}},
     [PF_PIPELINE_FINAL_FALLBACK] = {"final_deferred", RENDER_FINAL_BUFFERS,
                                     RENDER_FINAL_PUSH_BYTES, 1, {FINAL_SPEC_MODE, 0}},
     [PF_PIPELINE_FINAL_RESOLVE] = {"final_deferred", RENDER_FINAL_BUFFERS,

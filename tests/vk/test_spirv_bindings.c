@@ -40,8 +40,9 @@ PF_TEST(integrators_read_the_tree_and_photon_maps_through_texel_buffers)
     static const struct {
         const char *name;
         uint32_t texel_uint;
-    } integrators[] = {{"render_direct", 2},  {"render_fast", 4},     {"render_final", 6},
-                       {"render_reference", 2}, {"final_deferred", 4}};
+    } integrators[] = {{"render_direct", 2},    {"render_fast", 4},   {"render_final", 6},
+                       {"final_gather", 6},     {"render_reference", 2},
+                       {"final_deferred", 4}};
     for (size_t i = 0; i < sizeof integrators / sizeof *integrators; i++) {
         uint8_t kinds[32];
         kinds_of(integrators[i].name, kinds, 32);

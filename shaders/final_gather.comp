@@ -1,0 +1,174 @@
+#version 460
+#extension GL_GOOGLE_include_directive : require
+// The `final` shade stage's gather dispatch (render_final.comp's header
+// describes a sample's four dispatches): push.gather_count of the sample's
+// gather rays from each pixel's D₁, their light at the first diffuse hit
+// from the bound global map's irradiance points, or deferred to
+// final_deferred.comp where no point is near.
+
+layout(local_size_x = 8, local_size_y = 8) in;
+
+#include "scene_bindings.glsl"
+#include "photon_types.glsl"
+#include "photon_grid.glsl"
+#include "final_shared.glsl"
+
+#define BIH_BINDING 10
+#include "scene_trace.glsl"
+#include "area_lights.glsl"
+#include "lights.glsl"
+#include "materials.glsl"
+#include "surface.glsl"
+#include "sampler.glsl"
+#include "direct_light.glsl" // emission_mis_weight
+#include "kernel_guard.glsl"
+
+// Specular vertices a gather ray follows before it is dropped: enough for
+// a glass sphere (in, out) and a mirror behind it.
+const uint GATHER_MAX_SPECULAR = 4u;
+// Gather rays draw from their own scrambled sequence (seed_lo xor this).
+const uint GATHER_SEED_SALT = 0x9e3779b9u;
+
+// Irradiance at a gather hit from the bound global map's precomputed
+// points (fixed radius, cone filter): the nearest point's; false where none
+// is near (a sparsely lit spot, or a corner whose points face elsewhere),
+// and the caller estimates from the photons (global_irradiance_estimate).
+bool global_irradiance_lookup(vec3 position, vec3 geometric_normal, out vec3 irradiance,
+                              inout bool truncated)
+{
+    irradiance = vec3(0.0);
+    if (push.grid_photons == 0u)
+        return true;
+    bool stopped = false;
+    bool found = push.points_count > 0u &&
+                 photon_irradiance_lookup(position, geometric_normal, push.radius, bound_points(),
+                                          irradiance, stopped);
+    truncated = truncated || stopped;
+    return found;
+}
+
+// Radiance arriving at D₁ along one gather ray, weighted by the ray's BSDF
+// factor; emission hit straight from D₁ goes to direct (MIS), the rest to indirect.
+void gather_ray(uint pixel_index, uint gather_index, Material d1_material, vec3 d1_position,
+                vec3 shading_normal, vec3 geometric_normal, vec3 d1_throughput, vec3 wo,
+                inout vec3 direct, inout vec3 indirect, inout uint request, inout bool valid,
+                inout bool truncated, inout uint rays)
+{
+    const float infinity = uintBitsToFloat(0x7f800000u);
+    float ray_offset = params.camera_right.w;
+    Sampler samples = sampler_init(pixel_index,
+                                   push.sample_index * push.gather_total + gather_index,
+                                   params.seed_lo ^ GATHER_SEED_SALT, params.seed_hi);
+    BsdfSample first = bsdf_sample(d1_material, wo, shading_normal, geometric_normal, true,
+                                   sampler_next_4d(samples).xyz, TRANSPORT_RADIANCE);
+    float gather_total = float(push.gather_total);
+    vec3 path = d1_throughput * first.weight / gather_total;
+    if (!any(greaterThan(path, vec3(0.0))))
+        return;
+    vec3 origin = d1_position + ray_offset * geometric_normal;
+    vec3 direction = first.direction;
+    for (uint bounce = 0u; bounce <= GATHER_MAX_SPECULAR; bounce++) {
+        BihHit hit = trace(origin, direction, infinity, false);
+        rays++;
+        if (hit.triangle == NO_HIT)
+            return;
+        Surface surface = surface_at(hit, origin, direction);
+        if (!surface.valid) {
+            valid = false;
+            return;
+        }
+        Material material = surface.material;
+        if (bounce == 0u && surface.front && any(greaterThan(material.emission, vec3(0.0)))) {
+            direct += path * material.emission *
+                      emission_mis_weight(material.emission, surface.face_normal, direction,
+                                          hit.t, gather_total * first.pdf);
+        }
+        vec3 wo_hit = -direction;
+        if (material.kind == MATERIAL_LAMBERT) {
+            // Reflected radiance: albedo/π × irradiance, in watts by the map's flux scale.
+            vec3 weight = path * (material.albedo * (push.flux_scale / PI));
+            vec3 irradiance;
+            if (global_irradiance_lookup(surface.position, surface.geometric_normal, irradiance,
+                                         truncated)) {
+                indirect += weight * irradiance;
+                return;
+            }
+            uint slot = push.fallback_capacity > 0u ? atomicAdd(counters.fallback_requests, 1u)
+                                                    : NO_REQUEST;
+            if (slot < push.fallback_capacity) {
+                fallback_requests[3u * slot] = vec4(surface.position, 0.0);
+                fallback_requests[3u * slot + 1u] = vec4(surface.geometric_normal, 0.0);
+                fallback_requests[3u * slot + 2u] = vec4(weight, 0.0);
+                request = slot;
+            } else {
+                indirect += weight * global_irradiance_estimate(surface.position,
+                                                                surface.geometric_normal,
+                                                                truncated);
+            }
+            return;
+        }
+        if (bounce == GATHER_MAX_SPECULAR) {
+            atomicAdd(counters.gather_dropped, 1u);
+            return;
+        }
+        BsdfSample scattered = bsdf_sample(material, wo_hit, surface.shading_normal,
+                                           surface.geometric_normal, surface.front,
+                                           sampler_next_4d(samples).xyz, TRANSPORT_RADIANCE);
+        path *= scattered.weight;
+        if (!all_finite(path)) {
+            valid = false;
+            return;
+        }
+        if (!any(greaterThan(path, vec3(0.0))))
+            return;
+        origin = surface.position +
+                 (scattered.transmitted ? -ray_offset : ray_offset) * surface.geometric_normal;
+        direction = scattered.direction;
+    }
+}
+
+void gather(uint pixel_index)
+{
+    uint base = 5u * pixel_index;
+    uint sample_base = 3u * pixel_index;
+    vec4 d1 = vertices[base];
+    bool valid = true, truncated = false;
+    uint rays = 0u;
+    uvec4 requests = push.gather_first == 0u ? uvec4(NO_REQUEST) : pixel_fallbacks[pixel_index];
+    if (d1.w > 0.0) {
+        vec4 sample_direct = sample_sums[sample_base];
+        vec4 sample_indirect = sample_sums[sample_base + 1u];
+        vec4 shading = vertices[base + 1u];
+        Material material = materials[floatBitsToUint(shading.w)];
+        vec3 direct = vec3(0.0), indirect = vec3(0.0);
+        uint end = min(push.gather_first + push.gather_count, push.gather_total);
+        for (uint g = push.gather_first; g < end; g++) {
+            uint request = NO_REQUEST;
+            gather_ray(pixel_index, g, material, d1.xyz, shading.xyz, vertices[base + 2u].xyz,
+                       vertices[base + 3u].xyz, vertices[base + 4u].xyz, direct, indirect,
+                       request, valid, truncated, rays);
+            requests[g] = request;
+        }
+        bool completed = loops_completed() && !truncated;
+        if (!completed)
+            atomicAdd(counters.loop_truncated, 1u);
+        if (!completed || !valid || !all_finite(direct) || !all_finite(indirect)) {
+            sample_indirect.w = 0.0;
+            vertices[base].w = 0.0;
+        }
+        sample_direct.xyz += direct;
+        sample_indirect.xyz += indirect;
+        sample_sums[sample_base] = sample_direct;
+        sample_sums[sample_base + 1u] = sample_indirect;
+    }
+    pixel_fallbacks[pixel_index] = requests;
+    count_rays(rays);
+}
+
+void main()
+{
+    uvec2 pixel = gl_GlobalInvocationID.xy;
+    if (pixel.x >= params.width || pixel.y >= params.height)
+        return;
+    gather(pixel.y * params.width + pixel.x);
+}
