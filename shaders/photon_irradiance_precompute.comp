@@ -2,11 +2,15 @@
 #extension GL_GOOGLE_include_directive : require
 // Precomputed irradiance points of a photon map (photon_estimate.glsl's
 // photon_irradiance_lookup describes them; pf_photon_grid_build_irradiance
-// in core/photon/photon_grid.c drives this). One invocation per photon of
-// the map, in cell order: record i is photon i made a point (its estimate
-// from the other, non-point photons within the radius, at its position on
-// its own surface), or a record without a photon (photon_types.glsl), which
-// the grid build keeps out of every cell.
+// in core/photon/photon_grid.c drives this). Record k of the output is the
+// k-th point listed: a photon of the map made a point (its estimate from
+// the other, non-point photons within the radius, at its position on its
+// own surface), or, where that estimate stopped at the loop guard, a record
+// without a photon (photon_types.glsl), which the grid build keeps out of
+// every cell. Only the points are written, so the points' grid is built
+// over them alone (a quarter of the map: its sort and its hash table a
+// quarter of the size). Their order is the order of the list's atomic
+// claims; nothing depends on it (the lookup breaks ties by position).
 
 layout(local_size_x = 64) in;
 
@@ -25,13 +29,12 @@ layout(push_constant) uniform Push {
     float radius;  // the estimate's radius (<= the map's build radius)
 } push;
 
-// Two dispatches. MODE_MARK, one invocation per photon: every record
-// written, the points listed. MODE_ESTIMATE, one invocation per listed
-// point (the rest return at once): its estimate. Listing first keeps the
-// SIMD lanes of the estimates full; with the coin tested in the estimate
-// dispatch itself nearly every 8-lane group held a point and ran the whole
-// loop. A record's value depends on its photon alone, not on the order in
-// which the points were listed.
+// Two dispatches. MODE_MARK, one invocation per photon: the points listed.
+// MODE_ESTIMATE, one invocation per listed point (the rest return at once):
+// its record. Listing first keeps the SIMD lanes of the estimates full;
+// with the coin tested in the estimate dispatch itself nearly every 8-lane
+// group held a point and ran the whole loop. A record's value depends on
+// its photon alone, not on the order in which the points were listed.
 const uint MODE_MARK = 0u;
 const uint MODE_ESTIMATE = 1u;
 
@@ -52,19 +55,17 @@ layout(std430, set = 0, binding = 4) buffer PointList { uint point_list[]; };
 void mark(uint i)
 {
     uint base = PHOTON_WORDS * i;
-    uint directions = photon_texel_word(grid_words, base + 4u);
-    bool point = photon_is_irradiance_point(grid_photon(i).position);
-    point_words[base] = photon_texel_word(grid_words, base);
-    point_words[base + 1u] = photon_texel_word(grid_words, base + 1u);
-    point_words[base + 2u] = photon_texel_word(grid_words, base + 2u);
-    point_words[base + 3u] = 0u;
-    point_words[base + 4u] = point ? directions : (directions & 0xFFFF0000u) | PHOTON_NO_RECORD;
-    if (point)
+    vec3 position = vec3(uintBitsToFloat(photon_texel_word(grid_words, base)),
+                         uintBitsToFloat(photon_texel_word(grid_words, base + 1u)),
+                         uintBitsToFloat(photon_texel_word(grid_words, base + 2u)));
+    if (photon_is_irradiance_point(position))
         point_list[atomicAdd(counts.points, 1u)] = i;
 }
 
-void estimate(uint i)
+// Record k: point_list[k]'s position and surface normal, and its estimate.
+void estimate(uint k)
 {
+    uint i = point_list[k];
     Photon photon = grid_photon(i);
     PhotonGrid grid = PhotonGrid(push.origin, push.inv_cell, push.dims, push.hashed,
                                  push.table_size);
@@ -73,12 +74,16 @@ void estimate(uint i)
     vec3 sum = photon_irradiance_sum(photon.position, photon.normal, push.radius, grid, true,
                                      stopped) *
                (float(PHOTON_IRRADIANCE_STRIDE) / float(PHOTON_IRRADIANCE_STRIDE - 1u));
-    uint base = PHOTON_WORDS * i;
+    uint source = PHOTON_WORDS * i;
+    uint directions = photon_texel_word(grid_words, source + 4u);
+    uint base = PHOTON_WORDS * k;
+    point_words[base] = photon_texel_word(grid_words, source);
+    point_words[base + 1u] = photon_texel_word(grid_words, source + 1u);
+    point_words[base + 2u] = photon_texel_word(grid_words, source + 2u);
     point_words[base + 3u] = rgb9e5_pack(sum);
-    if (stopped) {
+    point_words[base + 4u] = stopped ? (directions & 0xFFFF0000u) | PHOTON_NO_RECORD : directions;
+    if (stopped)
         atomicAdd(counts.truncated, 1u);
-        point_words[base + 4u] = (point_words[base + 4u] & 0xFFFF0000u) | PHOTON_NO_RECORD;
-    }
 }
 
 void main()
@@ -88,6 +93,6 @@ void main()
         if (k < push.photons)
             mark(k);
     } else if (k < counts.points) {
-        estimate(point_list[k]);
+        estimate(k);
     }
 }

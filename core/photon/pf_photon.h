@@ -175,10 +175,11 @@ pf_status pf_photon_grid_irradiance_knn(pf_photon_grid *grid, const float (*quer
  * then reads one nearby value instead of summing every photon within the
  * radius. radius: the estimate's, <= map's build radius; also the points
  * grid's build radius (the lookup's reach). bounds as for
- * pf_photon_grid_build_device. The grid's photon_count is map's (records
- * that are no point sit past every cell); counts says how many are points
- * and how many were dropped because their estimate stopped at the loop
- * guard. Records its GPU time.
+ * pf_photon_grid_build_device. The grid's records are the points alone
+ * (photon_count = counts->points; those dropped because their estimate
+ * stopped at the loop guard, counts->truncated, sit past every cell), in
+ * the order a GPU listed them; its cells and table are planned as map's.
+ * Records its GPU time.
  */
 #define PF_PHOTON_IRRADIANCE_STRIDE 4u
 typedef struct pf_photon_irradiance_counts {

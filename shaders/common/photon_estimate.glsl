@@ -294,12 +294,21 @@ vec3 photon_irradiance_knn(vec3 x, vec3 normal, uint k, float max_radius, Photon
 // distinct first: a cell visited twice (a hash collision, or clamping at a
 // dense grid's border) offers the same points again, which cannot change
 // the nearest, and the search skips the key list and its dedup loop.
+// Of two points at the same distance, the one first in position order (x,
+// then y, then z bits), so that the lookup does not depend on the order in
+// which the points were listed (photon_irradiance_precompute.comp).
+bool photon_lookup_precedes(uvec3 a, uvec3 b)
+{
+    return a.x != b.x ? a.x < b.x : a.y != b.y ? a.y < b.y : a.z < b.z;
+}
+
 bool photon_irradiance_lookup(vec3 x, vec3 normal, float radius, PhotonGrid points,
                               out vec3 irradiance, out bool truncated)
 {
     ivec3 low = photon_grid_nearby_low(x, points);
     float nearest2 = radius * radius;
     uint nearest = 0xFFFFFFFFu;
+    uvec3 nearest_bits = uvec3(0u); // the nearest's position bits
     uint cell = 0u, index = 0u, end = 0u;
     bool done = false;
     for (uint step = 0u; step < PHOTON_ESTIMATE_MAX_ITERATIONS; step++) {
@@ -315,16 +324,20 @@ bool photon_irradiance_lookup(vec3 x, vec3 normal, float radius, PhotonGrid poin
             continue;
         }
         uint base = PHOTON_WORDS * index++;
-        vec3 d = vec3(uintBitsToFloat(photon_texel_word(PHOTON_LOOKUP_WORDS, base)),
-                      uintBitsToFloat(photon_texel_word(PHOTON_LOOKUP_WORDS, base + 1u)),
-                      uintBitsToFloat(photon_texel_word(PHOTON_LOOKUP_WORDS, base + 2u))) - x;
+        uvec3 bits = uvec3(photon_texel_word(PHOTON_LOOKUP_WORDS, base),
+                           photon_texel_word(PHOTON_LOOKUP_WORDS, base + 1u),
+                           photon_texel_word(PHOTON_LOOKUP_WORDS, base + 2u));
+        vec3 d = uintBitsToFloat(bits) - x;
         float distance2 = dot(d, d);
         if (distance2 > nearest2)
             continue;
         uint directions = photon_texel_word(PHOTON_LOOKUP_WORDS, base + 4u);
-        if (dot(octahedral_unpack8(directions >> 16u), normal) >= PHOTON_NORMAL_AGREEMENT) {
+        if (dot(octahedral_unpack8(directions >> 16u), normal) >= PHOTON_NORMAL_AGREEMENT &&
+            (distance2 < nearest2 || nearest == 0xFFFFFFFFu ||
+             photon_lookup_precedes(bits, nearest_bits))) {
             nearest2 = distance2;
             nearest = base;
+            nearest_bits = bits;
         }
     }
     truncated = !done;

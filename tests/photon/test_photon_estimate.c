@@ -417,7 +417,7 @@ PF_TEST(irradiance_lookups_average_to_the_estimate)
     PF_CHECK(counts.points > COUNT / PF_PHOTON_IRRADIANCE_STRIDE * 9 / 10 &&
              counts.points < COUNT / PF_PHOTON_IRRADIANCE_STRIDE * 11 / 10);
     PF_CHECK(counts.truncated == 0);
-    PF_CHECK(pf_photon_grid_get_info(points).photon_count == COUNT);
+    PF_CHECK(pf_photon_grid_get_info(points).photon_count == counts.points);
 
     float (*queries)[4] = malloc(QUERIES * sizeof *queries);
     float (*normals)[4] = malloc(QUERIES * sizeof *normals);
