@@ -178,8 +178,7 @@ pf_status pf_photon_grid_irradiance_knn(pf_photon_grid *grid, const float (*quer
  * pf_photon_grid_build_device. The grid's records are the points alone
  * (photon_count = counts->points; those dropped because their estimate
  * stopped at the loop guard, counts->truncated, sit past every cell), in
- * the order a GPU listed them; its cells and table are planned as map's.
- * Records its GPU time.
+ * the order a GPU listed them. Records its GPU time.
  */
 #define PF_PHOTON_IRRADIANCE_STRIDE 4u
 typedef struct pf_photon_irradiance_counts {

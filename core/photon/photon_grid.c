@@ -230,15 +230,12 @@ static pf_status check_fits(pf_vk_context *ctx, const pf_photon_grid_info *info,
     return PF_OK;
 }
 
-/* Builds the grid over count photons in input (a device buffer the caller keeps) lying in [lo, hi],
- * its table planned for plan_count photons (>= count). */
+/* Builds the grid over count photons in input (a device buffer the caller keeps) lying in [lo, hi]. */
 static pf_status build_grid(pf_photon_grid *grid, pf_vk_buffer *input, uint32_t count,
-                            uint32_t plan_count, const float lo[3], const float hi[3],
-                            float radius, pf_error *err)
+                            const float lo[3], const float hi[3], float radius, pf_error *err)
 {
     pf_photon_grid_info info;
-    plan_grid(lo, hi, plan_count, radius, &info);
-    info.photon_count = count;
+    plan_grid(lo, hi, count, radius, &info);
     pf_vk_context *ctx = grid->ctx;
     pf_status status = check_fits(ctx, &info, err);
     if (status != PF_OK)
@@ -343,7 +340,7 @@ pf_status pf_photon_grid_build(pf_photon_grid *grid, const pf_photon *photons, u
         status = pf_vk_buffer_upload(grid->ctx, input, 0, photons,
                                      (uint64_t)count * sizeof(pf_photon), err);
     if (status == PF_OK)
-        status = build_grid(grid, input, count, count, lo, hi, radius, err);
+        status = build_grid(grid, input, count, lo, hi, radius, err);
     release(grid->ctx, &input);
     return status;
 }
@@ -356,7 +353,7 @@ pf_status pf_photon_grid_build_device(pf_photon_grid *grid, pf_vk_buffer *photon
     if (status != PF_OK)
         return status;
     release_grid(grid);
-    return build_grid(grid, photons, count, count, bounds_min, bounds_max, radius, err);
+    return build_grid(grid, photons, count, bounds_min, bounds_max, radius, err);
 }
 
 double pf_photon_grid_gpu_ms(const pf_photon_grid *grid)
@@ -617,12 +614,11 @@ pf_status pf_photon_grid_build_irradiance(pf_photon_grid *points, const pf_photo
     uint32_t found[2] = {0, 0};
     if (status == PF_OK && photons > 0)
         status = precompute_points(points, map, radius, input, found, &precompute_ms, err);
-    /* The grid over the points alone (records 0 .. found[0]), with the map's table: planned for
-     * the points alone, a hash table a quarter the size held ~4 times as many points of other
-     * cells in each bucket a lookup visits (the shade stage was 0.3-0.5 s slower a frame). */
+    /* The grid over the points alone (records 0 .. found[0]), its table planned for them: a
+     * quarter of the map's, which the lookups' random range reads find in cache far more often
+     * than they lose to the fuller buckets (bench/RESULTS.md). */
     if (status == PF_OK)
-        status = build_grid(points, input, found[0], photons, bounds_min, bounds_max, radius,
-                            err);
+        status = build_grid(points, input, found[0], bounds_min, bounds_max, radius, err);
     release(points->ctx, &input);
     if (status != PF_OK) {
         pf_error_prefix(err, "irradiance points (%u photons)", photons);
