@@ -71,8 +71,10 @@ void pf_photon_unpack(const pf_photon *photon, float position[3], float flux[3],
  * Cell edge = the gather radius given at build. A dense grid (key = linear
  * cell index of the photons' bounding box) when it needs at most
  * PF_PHOTON_GRID_DENSE_FACTOR cells per photon; otherwise a spatial hash of
- * the cell coordinates (Teschner et al. 2003 primes 73856093, 19349663,
- * 83492791) into a power-of-two table of at least one bucket per photon,
+ * the cell's 2×2×2 block (Teschner et al. 2003 primes 73856093, 19349663,
+ * 83492791; the cell's place in its block in the key's low 3 bits, so that
+ * a block's ranges share a cache line) into a power-of-two table of at
+ * least one bucket per photon,
  * for sparse maps (a few lit surfaces in a large scene). Keys are sorted with
  * the BIH build's radix sort (pf_bih_sort_record), then ranges are marked and
  * the photons reordered into cell order. Hash collisions only add candidates:
