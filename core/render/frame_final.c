@@ -43,7 +43,7 @@
 #include <string.h>
 
 /*
- * Gather rays per camera sample, and per dispatch (render_final.comp's loop
+ * Gather rays per camera sample, and per dispatch (final_gather.comp's loop
  * cap budget). 4, not more: the image's error at a few passes is dominated
  * by the one direct-light sample per pass, and 8 rays doubled the shade
  * time for an indirect relMSE 0.0011 instead of 0.0022 (Cornell box, 8
@@ -82,23 +82,23 @@
 #define VERTEX_VEC4_PER_PIXEL 5u
 #define GROUP_EDGE 8u
 #define FINAL_BUFFERS 22u
-/* render_final.comp's bindings of the photon grid it gathers from, and of its irradiance points. */
+/* The shade kernels' bindings of the photon grid they gather from, and of its irradiance points. */
 #define GRID_WORDS_BINDING 15u
 #define GRID_RANGES_BINDING 16u
 #define POINTS_WORDS_BINDING 18u
 #define POINTS_RANGES_BINDING 19u
 /*
- * The gather's deferred estimates (render_final.comp's MODE_FALLBACK): at
+ * The gather's deferred estimates (final_deferred.comp's MODE_FALLBACK): at
  * most one request per pixel and sample is held (a quarter of the gather
  * rays; ~5 % need one on the Cornell box), 3 vec4 each; the rest are
  * estimated in the gather itself, as are all when no irradiance points are
  * bound (every ray estimates then, so there is nothing to gather up).
  */
 #define FALLBACK_REQUEST_BYTES 48u
-_Static_assert(FINAL_GATHER_RAYS <= 4, "render_final.comp keeps a pixel's requests in a uvec4");
+_Static_assert(FINAL_GATHER_RAYS <= 4, "final_gather.comp keeps a pixel's requests in a uvec4");
 
 
-/* render_final.comp's Push (116 bytes). */
+/* The shade kernels' Push (final_shared.glsl; 116 bytes). */
 typedef struct final_push {
     pf_photon_grid_push grid;
     uint32_t grid_photons;
@@ -115,7 +115,7 @@ typedef struct final_push {
     pf_photon_grid_push points;
 } final_push;
 
-_Static_assert(sizeof(final_push) == 116, "final_push must match render_final.comp's Push");
+_Static_assert(sizeof(final_push) == 116, "final_push must match final_shared.glsl's Push");
 _Static_assert(offsetof(final_push, points) % 16 == 0, "points_origin is a vec3");
 
 typedef struct final_counters {

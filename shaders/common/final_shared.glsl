@@ -1,8 +1,9 @@
 // The `final` integrator's shade kernels' common interface: render_final.comp
-// (primary, gather) and final_deferred.comp (the gather's deferred estimates,
-// the resolve) share one Push block (core/render/frame_final.c's final_push),
-// one buffer layout (the host binds the same FINAL_BUFFERS buffers to both)
-// and the estimate from the bound global map. The including kernel includes
+// (the primary), final_gather.comp and final_deferred.comp (the gather's
+// deferred estimates, the resolve) share one Push block
+// (core/render/frame_final.c's final_push), one buffer layout (the host binds
+// the same FINAL_BUFFERS buffers to all) and the estimate from the bound
+// global map. The including kernel includes
 // scene_bindings.glsl, photon_types.glsl and photon_grid.glsl first.
 #ifndef PF_FINAL_SHARED_GLSL
 #define PF_FINAL_SHARED_GLSL
