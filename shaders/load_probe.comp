@@ -6,11 +6,13 @@
 #extension GL_GOOGLE_include_directive : require
 
 layout(local_size_x = 64) in;
-layout(constant_id = 0) const bool USE_TEXEL = false;
+// 0: storage buffer, 1: R32 uint texels, 2: RGBA32 texels.
+layout(constant_id = 0) const uint READ_PATH = 0u;
 
 layout(std430, set = 0, binding = 0) readonly buffer Words { uint words[]; };
 layout(set = 0, binding = 1) uniform usamplerBuffer texel_words;
 layout(std430, set = 0, binding = 2) writeonly buffer Sums { uint sums[]; };
+layout(set = 0, binding = 3) uniform isamplerBuffer texel_nodes; // 16-byte records (RGBA32_SINT)
 
 layout(push_constant) uniform Push {
     uint nodes; // 4 words each: next, two payload words, padding
@@ -19,7 +21,7 @@ layout(push_constant) uniform Push {
 
 uint word_at(uint index)
 {
-    return USE_TEXEL ? texelFetch(texel_words, int(index)).x : words[index];
+    return READ_PATH == 1u ? texelFetch(texel_words, int(index)).x : words[index];
 }
 
 void main()
@@ -27,9 +29,13 @@ void main()
     uint node = gl_GlobalInvocationID.x % push.nodes;
     uint sum = 0u;
     for (uint i = 0u; i < push.steps; i++) {
-        uint next = word_at(4u * node);
-        sum += word_at(4u * node + 1u) ^ word_at(4u * node + 2u);
-        node = next;
+        uvec3 node_words;
+        if (READ_PATH == 2u)
+            node_words = uvec3(texelFetch(texel_nodes, int(node)).xyz);
+        else
+            node_words = uvec3(word_at(4u * node), word_at(4u * node + 1u), word_at(4u * node + 2u));
+        sum += node_words.y ^ node_words.z;
+        node = node_words.x;
     }
     sums[gl_GlobalInvocationID.x] = sum;
 }

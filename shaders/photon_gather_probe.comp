@@ -10,7 +10,8 @@ layout(local_size_x = 64) in;
 #include "photon_grid_push.glsl"
 #include "photon_types.glsl"
 
-layout(std430, set = 0, binding = 0) readonly buffer SortedPhotons { uint grid_words[]; };
+// Cell order, photon_grid_finish.comp's layout: x, y, z bits, directions.
+layout(std430, set = 0, binding = 0) readonly buffer SortedRecords { uvec4 grid_records[]; };
 layout(std430, set = 0, binding = 1) readonly buffer Original { uint original_index[]; };
 layout(std430, set = 0, binding = 2) readonly buffer Ranges { uvec2 grid_ranges[]; };
 layout(std430, set = 0, binding = 3) readonly buffer Queries { vec4 queries[]; };
@@ -32,9 +33,7 @@ void main()
     for (uint k = 0u; k < key_count; k++) {
         uvec2 range = grid_ranges[keys[k]];
         for (uint i = range.x; i < range.y; i++) {
-            uint base = PHOTON_WORDS * i;
-            vec3 p = vec3(uintBitsToFloat(grid_words[base]), uintBitsToFloat(grid_words[base + 1u]),
-                          uintBitsToFloat(grid_words[base + 2u]));
+            vec3 p = uintBitsToFloat(grid_records[i].xyz);
             precise vec3 d = p - x;
             precise float distance2 = (d.x * d.x + d.y * d.y) + d.z * d.z;
             if (distance2 <= radius2) {

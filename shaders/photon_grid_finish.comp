@@ -6,7 +6,9 @@
 //   MODE_RANGES   where the sorted key changes, the cell's start and end
 //                 (records without a photon, key table_size, get none);
 //   MODE_REORDER  photons copied into key order, so a cell's photons are
-//                 contiguous for the gather.
+//                 contiguous for the gather, and split: a 16-byte record
+//                 (x, y, z, directions: what an estimate tests, one texel
+//                 fetch) and the flux apart (photon_estimate.glsl).
 
 layout(local_size_x = 256) in;
 
@@ -20,8 +22,9 @@ const uint MODE_REORDER = 2u;
 layout(std430, set = 0, binding = 0) readonly buffer Keys { uint keys[]; };
 layout(std430, set = 0, binding = 1) readonly buffer Values { uint values[]; };
 layout(std430, set = 0, binding = 2) readonly buffer Photons { uint photon_words[]; };
-layout(std430, set = 0, binding = 3) writeonly buffer SortedPhotons { uint sorted_words[]; };
+layout(std430, set = 0, binding = 3) writeonly buffer SortedRecords { uvec4 sorted_records[]; };
 layout(std430, set = 0, binding = 4) buffer Ranges { uvec2 ranges[]; };
+layout(std430, set = 0, binding = 5) writeonly buffer SortedFlux { uint sorted_flux[]; };
 
 void main()
 {
@@ -44,7 +47,7 @@ void main()
         return;
     }
     uint from = PHOTON_WORDS * values[i];
-    uint to = PHOTON_WORDS * i;
-    for (uint w = 0u; w < PHOTON_WORDS; w++)
-        sorted_words[to + w] = photon_words[from + w];
+    sorted_records[i] = uvec4(photon_words[from], photon_words[from + 1u],
+                              photon_words[from + 2u], photon_words[from + 4u]);
+    sorted_flux[i] = photon_words[from + 3u];
 }

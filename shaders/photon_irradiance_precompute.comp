@@ -39,14 +39,15 @@ const uint MODE_MARK = 0u;
 const uint MODE_ESTIMATE = 1u;
 
 // The map (photon_estimate.glsl: texel buffers).
-layout(set = 0, binding = 0) uniform usamplerBuffer grid_words;
-layout(set = 0, binding = 1) uniform usamplerBuffer grid_ranges;
+layout(set = 0, binding = 0) uniform isamplerBuffer grid_records;
+layout(set = 0, binding = 1) uniform isamplerBuffer grid_ranges;
 layout(std430, set = 0, binding = 2) buffer Points { uint point_words[]; };
 layout(std430, set = 0, binding = 3) buffer Counts {
     uint points;     // photons listed as points
     uint truncated;  // points dropped because their estimate stopped at the loop guard
 } counts;
 layout(std430, set = 0, binding = 4) buffer PointList { uint point_list[]; };
+layout(set = 0, binding = 5) uniform usamplerBuffer grid_flux;
 
 // One estimate per invocation and no other loop: most of llvmpipe's cap.
 #define PHOTON_ESTIMATE_MAX_ITERATIONS 60000u
@@ -54,10 +55,7 @@ layout(std430, set = 0, binding = 4) buffer PointList { uint point_list[]; };
 
 void mark(uint i)
 {
-    uint base = PHOTON_WORDS * i;
-    vec3 position = vec3(uintBitsToFloat(photon_texel_word(grid_words, base)),
-                         uintBitsToFloat(photon_texel_word(grid_words, base + 1u)),
-                         uintBitsToFloat(photon_texel_word(grid_words, base + 2u)));
+    vec3 position = uintBitsToFloat(photon_texel_record(grid_records, i).xyz);
     if (photon_is_irradiance_point(position))
         point_list[atomicAdd(counts.points, 1u)] = i;
 }
@@ -66,6 +64,7 @@ void mark(uint i)
 void estimate(uint k)
 {
     uint i = point_list[k];
+    uvec4 record = photon_texel_record(grid_records, i);
     Photon photon = grid_photon(i);
     PhotonGrid grid = PhotonGrid(push.origin, push.inv_cell, push.dims, push.hashed,
                                  push.table_size);
@@ -74,12 +73,11 @@ void estimate(uint k)
     vec3 sum = photon_irradiance_sum(photon.position, photon.normal, push.radius, grid, true,
                                      stopped) *
                (float(PHOTON_IRRADIANCE_STRIDE) / float(PHOTON_IRRADIANCE_STRIDE - 1u));
-    uint source = PHOTON_WORDS * i;
-    uint directions = photon_texel_word(grid_words, source + 4u);
+    uint directions = record.w;
     uint base = PHOTON_WORDS * k;
-    point_words[base] = photon_texel_word(grid_words, source);
-    point_words[base + 1u] = photon_texel_word(grid_words, source + 1u);
-    point_words[base + 2u] = photon_texel_word(grid_words, source + 2u);
+    point_words[base] = record.x;
+    point_words[base + 1u] = record.y;
+    point_words[base + 2u] = record.z;
     point_words[base + 3u] = rgb9e5_pack(sum);
     point_words[base + 4u] = stopped ? (directions & 0xFFFF0000u) | PHOTON_NO_RECORD : directions;
     if (stopped)

@@ -16,12 +16,13 @@ const uint ESTIMATE_KNN = 1u;
 const uint ESTIMATE_LOOKUP = 2u; // the bound grid holds precomputed irradiance points
 
 // The map (photon_estimate.glsl: texel buffers).
-layout(set = 0, binding = 0) uniform usamplerBuffer grid_words;
-layout(set = 0, binding = 1) uniform usamplerBuffer grid_ranges;
+layout(set = 0, binding = 0) uniform isamplerBuffer grid_records;
+layout(set = 0, binding = 1) uniform isamplerBuffer grid_ranges;
 layout(std430, set = 0, binding = 2) readonly buffer Queries { vec4 queries[]; };  // xyz, radius
 layout(std430, set = 0, binding = 3) readonly buffer Normals { vec4 normals[]; };  // xyz
 layout(std430, set = 0, binding = 4) writeonly buffer Results { vec4 results[]; }; // rgb, radius used (lookup: 1 found, 0 not)
 layout(std430, set = 0, binding = 5) writeonly buffer Truncated { uint truncated_flags[]; };
+layout(set = 0, binding = 6) uniform usamplerBuffer grid_flux;
 
 // One estimate per invocation and no other long loop: most of llvmpipe's
 // 65,535-iteration cap (PF_PHOTON_ESTIMATE_MAX_ITERATIONS in pf_photon.h).

@@ -55,10 +55,11 @@ layout(std430, set = 0, binding = 9) buffer Counters {
 layout(std430, set = 0, binding = 13) readonly buffer LpvCells { vec4 lpv_cells[]; };
 layout(std430, set = 0, binding = 14) readonly buffer LpvCascades { vec4 lpv_cascades[]; };
 // The caustic map (photon_estimate.glsl: texel buffers).
-layout(set = 0, binding = 15) uniform usamplerBuffer grid_words;
-layout(set = 0, binding = 16) uniform usamplerBuffer grid_ranges;
+layout(set = 0, binding = 15) uniform isamplerBuffer grid_records;
+layout(set = 0, binding = 16) uniform isamplerBuffer grid_ranges;
 layout(std430, set = 0, binding = 17) readonly buffer LpvSnapshots { vec4 lpv_snapshots[]; };
 layout(std430, set = 0, binding = 18) readonly buffer LpvGeometry { vec4 geometry[]; };
+layout(set = 0, binding = 19) uniform usamplerBuffer grid_flux;
 
 #define BIH_BINDING 10
 #include "scene_trace.glsl"

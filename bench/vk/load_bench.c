@@ -1,9 +1,10 @@
 /*
  * Read paths of the Vulkan device: dependent 3-word reads (one BIH node's
  * worth per step) through a storage buffer against the same words through a
- * uniform texel buffer (shaders/load_probe.comp), for a chain of nodes that
- * fits the caches and one that does not. Prints ns per invocation-step and
- * the ratio; both paths must sum the same words.
+ * uniform texel buffer, one R32 uint fetch a word or one RGBA32 fetch a node
+ * (shaders/load_probe.comp), for a chain of nodes that fits the caches and
+ * one that does not. Prints ns per invocation-step and the ratios; every
+ * path must sum the same words.
  */
 #include "pf_vk.h"
 
@@ -13,6 +14,9 @@
 #define INVOCATIONS (64u * 4096u)
 #define STEPS 64u
 #define REPEATS 4
+#define PATHS 3 /* storage, R32 texels, RGBA32 texels */
+
+static const char *const path_names[PATHS] = {"storage buffer", "R32 texels", "RGBA32 texels"};
 
 static double run(pf_vk_context *ctx, pf_vk_pipeline *pipeline, pf_vk_buffer **buffers,
                   uint32_t nodes, pf_error *err)
@@ -24,7 +28,7 @@ static double run(pf_vk_context *ctx, pf_vk_pipeline *pipeline, pf_vk_buffer **b
             return -1.0;
         const uint32_t push[2] = {nodes, STEPS};
         double start = pf_time_ms();
-        pf_status status = pf_vk_cmd_dispatch(cmds, pipeline, buffers, 3, push, sizeof push,
+        pf_status status = pf_vk_cmd_dispatch(cmds, pipeline, buffers, 4, push, sizeof push,
                                               INVOCATIONS / 64, 1, 1, err);
         if (status == PF_OK)
             status = pf_vk_commands_submit(cmds, err);
@@ -49,10 +53,10 @@ int main(void)
     }
     printf("load_bench: device %s (%s), %u invocations x %u steps of 3 words\n",
            pf_vk_info(ctx)->name, pf_vk_info(ctx)->driver, INVOCATIONS, STEPS);
-    pf_vk_pipeline *pipelines[2] = {NULL, NULL};
-    for (uint32_t texel = 0; texel < 2; texel++) {
-        const pf_vk_spec_constant spec[] = {{0, texel}};
-        if (pf_vk_pipeline_create_named(ctx, "load_probe", 3, 8, spec, 1, &pipelines[texel],
+    pf_vk_pipeline *pipelines[PATHS] = {NULL, NULL, NULL};
+    for (uint32_t path = 0; path < PATHS; path++) {
+        const pf_vk_spec_constant spec[] = {{0, path}};
+        if (pf_vk_pipeline_create_named(ctx, "load_probe", 4, 8, spec, 1, &pipelines[path],
                                         &err) != PF_OK) {
             fprintf(stderr, "load_bench: %s\n", err.message);
             return 1;
@@ -63,9 +67,10 @@ int main(void)
     for (size_t s = 0; s < 2 && ok; s++) {
         uint32_t nodes = sizes[s];
         uint32_t *words = malloc((size_t)nodes * 16);
-        uint32_t *sums[2] = {malloc(INVOCATIONS * 4), malloc(INVOCATIONS * 4)};
-        pf_vk_buffer *buffers[3] = {NULL, NULL, NULL};
-        ok = words && sums[0] && sums[1] &&
+        uint32_t *sums[PATHS] = {malloc(INVOCATIONS * 4), malloc(INVOCATIONS * 4),
+                                 malloc(INVOCATIONS * 4)};
+        pf_vk_buffer *buffers[4] = {NULL, NULL, NULL, NULL};
+        ok = words && sums[0] && sums[1] && sums[2] &&
              pf_vk_buffer_create(ctx, (uint64_t)nodes * 16, "load words", &buffers[0], &err) ==
                  PF_OK &&
              pf_vk_buffer_create(ctx, INVOCATIONS * 4, "load sums", &buffers[2], &err) == PF_OK;
@@ -79,33 +84,35 @@ int main(void)
         }
         ok = ok && pf_vk_buffer_upload(ctx, buffers[0], 0, words, (uint64_t)nodes * 16, &err) ==
                        PF_OK;
-        buffers[1] = buffers[0]; /* the same words, bound both ways */
-        double ms[2] = {-1.0, -1.0};
-        for (int texel = 0; ok && texel < 2; texel++) {
-            ms[texel] = run(ctx, pipelines[texel], buffers, nodes, &err);
-            ok = ms[texel] > 0.0 && pf_vk_buffer_download(ctx, buffers[2], 0, sums[texel],
-                                                          INVOCATIONS * 4, &err) == PF_OK;
+        buffers[1] = buffers[3] = buffers[0]; /* the same words, bound every way */
+        double ms[PATHS] = {-1.0, -1.0, -1.0};
+        for (int path = 0; ok && path < PATHS; path++) {
+            ms[path] = run(ctx, pipelines[path], buffers, nodes, &err);
+            ok = ms[path] > 0.0 && pf_vk_buffer_download(ctx, buffers[2], 0, sums[path],
+                                                         INVOCATIONS * 4, &err) == PF_OK;
         }
         int same = ok;
         for (uint32_t i = 0; same && i < INVOCATIONS; i++)
-            same = sums[0][i] == sums[1][i];
-        if (ok)
-            printf("%8u nodes (%5.1f MiB): storage buffer %7.2f ns, texel buffer %7.2f ns per "
-                   "invocation-step, storage / texel %.2fx, sums %s\n",
-                   nodes, nodes * 16.0 / 1048576.0, ms[0] * 1e6 / (INVOCATIONS * (double)STEPS),
-                   ms[1] * 1e6 / (INVOCATIONS * (double)STEPS), ms[0] / ms[1],
-                   same ? "equal" : "DIFFER");
+            same = sums[0][i] == sums[1][i] && sums[0][i] == sums[2][i];
+        if (ok) {
+            printf("%8u nodes (%5.1f MiB):", nodes, nodes * 16.0 / 1048576.0);
+            for (int path = 0; path < PATHS; path++)
+                printf(" %s %7.2f ns,", path_names[path],
+                       ms[path] * 1e6 / (INVOCATIONS * (double)STEPS));
+            printf(" per invocation-step; storage / R32 %.2fx, R32 / RGBA32 %.2fx, sums %s\n",
+                   ms[0] / ms[1], ms[1] / ms[2], same ? "equal" : "DIFFER");
+        }
         ok = ok && same;
         pf_vk_buffer_destroy(ctx, buffers[0]);
         pf_vk_buffer_destroy(ctx, buffers[2]);
         free(words);
-        free(sums[0]);
-        free(sums[1]);
+        for (int path = 0; path < PATHS; path++)
+            free(sums[path]);
     }
     if (!ok && err.message[0])
         fprintf(stderr, "load_bench: %s\n", err.message);
-    pf_vk_pipeline_destroy(ctx, pipelines[0]);
-    pf_vk_pipeline_destroy(ctx, pipelines[1]);
+    for (int path = 0; path < PATHS; path++)
+        pf_vk_pipeline_destroy(ctx, pipelines[path]);
     pf_vk_destroy(ctx);
     return ok ? 0 : 1;
 }

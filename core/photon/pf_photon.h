@@ -223,13 +223,14 @@ pf_photon_grid_push pf_photon_grid_push_of(const pf_photon_grid_info *info);
 
 /*
  * The built grid's device buffers, for kernels that gather from it
- * (photon_estimate.glsl's grid_words and grid_ranges, with the grid's
- * parameters from pf_photon_grid_get_info); both NULL before a build. The
+ * (photon_estimate.glsl's grid_records, grid_flux and grid_ranges, with the
+ * grid's parameters from pf_photon_grid_get_info); all NULL before a build. The
  * grid keeps ownership; a rebuild or destroy invalidates them.
  */
 typedef struct pf_photon_grid_view {
-    pf_vk_buffer *photons; /* pf_photon records in cell order */
-    pf_vk_buffer *ranges;  /* uvec2 [start, end) per cell or bucket */
+    pf_vk_buffer *records; /* per photon in cell order: position bits, directions (4 words) */
+    pf_vk_buffer *flux;    /* per photon in cell order: its RGB9E5 flux (a word) */
+    pf_vk_buffer *ranges;  /* uvec2 [start, end) per cell or bucket (padded to an even count) */
 } pf_photon_grid_view;
 
 pf_photon_grid_view pf_photon_grid_view_get(const pf_photon_grid *grid);

@@ -53,7 +53,8 @@ struct pf_photon_grid {
     pf_vk_pipeline *gather_pipeline;
     pf_vk_pipeline *irradiance_pipeline;
     pf_vk_pipeline *precompute_pipeline; /* photon_irradiance_precompute.comp (points grids) */
-    pf_vk_buffer *sorted_photons; /* photons in cell order */
+    pf_vk_buffer *sorted_records; /* photons in cell order: x, y, z, directions (16 bytes) */
+    pf_vk_buffer *sorted_flux;    /* their flux, same order (a word each) */
     pf_vk_buffer *original;       /* cell order -> index given to the build */
     pf_vk_buffer *ranges;         /* [start, end) per cell or bucket */
     pf_photon_grid_info info;
@@ -70,20 +71,21 @@ static void release(pf_vk_context *ctx, pf_vk_buffer **buffer)
 
 static void release_grid(pf_photon_grid *grid)
 {
-    release(grid->ctx, &grid->sorted_photons);
+    release(grid->ctx, &grid->sorted_records);
+    release(grid->ctx, &grid->sorted_flux);
     release(grid->ctx, &grid->original);
     release(grid->ctx, &grid->ranges);
     grid->built = 0;
 }
 
-/* A probe pipeline (6 buffers, the grid's push), created the first time it is asked for. */
-static pf_status probe_pipeline(pf_photon_grid *grid, const char *shader, pf_vk_pipeline **slot,
-                                pf_error *err)
+/* A probe pipeline (buffers bindings, the grid's push), created the first time it is asked for. */
+static pf_status probe_pipeline(pf_photon_grid *grid, const char *shader, uint32_t buffers,
+                                pf_vk_pipeline **slot, pf_error *err)
 {
     if (*slot)
         return PF_OK;
-    return pf_vk_pipeline_create_named(grid->ctx, shader, 6, sizeof(photon_grid_push), NULL, 0,
-                                       slot, err);
+    return pf_vk_pipeline_create_named(grid->ctx, shader, buffers, sizeof(photon_grid_push), NULL,
+                                       0, slot, err);
 }
 
 pf_status pf_photon_grid_create(pf_vk_context *ctx, pf_photon_grid **out, pf_error *err)
@@ -98,7 +100,7 @@ pf_status pf_photon_grid_create(pf_vk_context *ctx, pf_photon_grid **out, pf_err
         status = pf_vk_pipeline_create_named(ctx, "photon_grid_keys", 3, sizeof(photon_grid_push),
                                              NULL, 0, &grid->keys_pipeline, err);
     if (status == PF_OK)
-        status = pf_vk_pipeline_create_named(ctx, "photon_grid_finish", 5,
+        status = pf_vk_pipeline_create_named(ctx, "photon_grid_finish", 6,
                                              sizeof(photon_grid_push), NULL, 0,
                                              &grid->finish_pipeline, err);
     /* The probes (gather, irradiance) serve tests and benchmarks: made at their first use. */
@@ -212,13 +214,20 @@ static photon_grid_push push_for(const pf_photon_grid_info *info, uint32_t count
     return push;
 }
 
+/* The ranges' bytes: shaders read them as texels of two ranges (photon_texel_range), so an
+ * odd table gets an empty last one. */
+static uint64_t range_bytes_of(uint32_t table_size)
+{
+    return ((uint64_t)table_size + 1) / 2 * 16;
+}
+
 /* PF_ERR_LIMIT when the grid's largest buffer exceeds the device's limit. */
 static pf_status check_fits(pf_vk_context *ctx, const pf_photon_grid_info *info, pf_error *err)
 {
     const pf_vk_device_info *device = pf_vk_info(ctx);
     uint32_t count = info->photon_count;
     uint64_t photon_bytes = (uint64_t)(count ? count : 1) * sizeof(pf_photon);
-    uint64_t range_bytes = (uint64_t)info->table_size * 8;
+    uint64_t range_bytes = range_bytes_of(info->table_size);
     uint64_t largest = photon_bytes > range_bytes ? photon_bytes : range_bytes;
     if (largest > device->max_storage_buffer_range)
         return pf_error_set(err, PF_ERR_LIMIT,
@@ -240,12 +249,15 @@ static pf_status build_grid(pf_photon_grid *grid, pf_vk_buffer *input, uint32_t 
     pf_status status = check_fits(ctx, &info, err);
     if (status != PF_OK)
         return status;
-    uint64_t photon_bytes = (uint64_t)(count ? count : 1) * sizeof(pf_photon);
-    uint64_t range_bytes = (uint64_t)info.table_size * 8;
+    uint64_t record_bytes = (uint64_t)(count ? count : 1) * 16;
+    uint64_t range_bytes = range_bytes_of(info.table_size);
     uint64_t index_bytes = (uint64_t)(count ? count : 1) * 4;
     pf_vk_buffer *keys[2] = {NULL, NULL}, *values[2] = {NULL, NULL}, *histogram = NULL;
-    status = pf_vk_buffer_create(ctx, photon_bytes, "photons (cell order)",
-                                 &grid->sorted_photons, err);
+    status = pf_vk_buffer_create(ctx, record_bytes, "photon records (cell order)",
+                                 &grid->sorted_records, err);
+    if (status == PF_OK)
+        status = pf_vk_buffer_create(ctx, index_bytes, "photon flux (cell order)",
+                                     &grid->sorted_flux, err);
     if (status == PF_OK)
         status = pf_vk_buffer_create(ctx, range_bytes, "photon grid ranges", &grid->ranges, err);
     for (int i = 0; status == PF_OK && i < 2; i++) {
@@ -261,11 +273,11 @@ static pf_status build_grid(pf_photon_grid *grid, pf_vk_buffer *input, uint32_t 
     if (status == PF_OK)
         status = pf_vk_commands_begin(ctx, &cmds, err);
     int begin = status == PF_OK ? pf_vk_cmd_timestamp(cmds) : -1;
-    pf_vk_buffer *finish_buffers[] = {keys[0], values[0], input, grid->sorted_photons,
-                                      grid->ranges};
+    pf_vk_buffer *finish_buffers[] = {keys[0], values[0], input, grid->sorted_records,
+                                      grid->ranges, grid->sorted_flux};
     photon_grid_push push = push_for(&info, count, FINISH_CLEAR);
     if (status == PF_OK)
-        status = pf_vk_cmd_dispatch(cmds, grid->finish_pipeline, finish_buffers, 5, &push,
+        status = pf_vk_cmd_dispatch(cmds, grid->finish_pipeline, finish_buffers, 6, &push,
                                     sizeof push, groups_for(info.table_size, GRID_GROUP_SIZE), 1,
                                     1, err);
     if (status == PF_OK && count > 0) {
@@ -277,7 +289,7 @@ static pf_status build_grid(pf_photon_grid *grid, pf_vk_buffer *input, uint32_t 
                                         bits_for(info.table_size + 1), err);
         for (uint32_t mode = FINISH_RANGES; status == PF_OK && mode <= FINISH_REORDER; mode++) {
             push.mode = mode;
-            status = pf_vk_cmd_dispatch(cmds, grid->finish_pipeline, finish_buffers, 5, &push,
+            status = pf_vk_cmd_dispatch(cmds, grid->finish_pipeline, finish_buffers, 6, &push,
                                         sizeof push, groups_for(count, GRID_GROUP_SIZE), 1, 1,
                                         err);
             pf_vk_cmd_barrier(cmds);
@@ -368,9 +380,10 @@ pf_photon_grid_info pf_photon_grid_get_info(const pf_photon_grid *grid)
 
 pf_photon_grid_view pf_photon_grid_view_get(const pf_photon_grid *grid)
 {
-    pf_photon_grid_view view = {NULL, NULL};
+    pf_photon_grid_view view = {NULL, NULL, NULL};
     if (grid->built) {
-        view.photons = grid->sorted_photons;
+        view.records = grid->sorted_records;
+        view.flux = grid->sorted_flux;
         view.ranges = grid->ranges;
     }
     return view;
@@ -417,13 +430,13 @@ pf_status pf_photon_grid_gather(pf_photon_grid *grid, const float (*queries)[4],
         status = pf_vk_buffer_upload(ctx, query_buffer, 0, queries, (uint64_t)query_count * 16,
                                      err);
     if (status == PF_OK)
-        status = probe_pipeline(grid, "photon_gather_probe", &grid->gather_pipeline, err);
+        status = probe_pipeline(grid, "photon_gather_probe", 6, &grid->gather_pipeline, err);
     pf_vk_commands *cmds = NULL;
     if (status == PF_OK)
         status = pf_vk_commands_begin(ctx, &cmds, err);
     photon_grid_push push = push_for(&grid->info, query_count, 0);
     push.capacity = capacity;
-    pf_vk_buffer *buffers[] = {grid->sorted_photons, grid->original, grid->ranges,
+    pf_vk_buffer *buffers[] = {grid->sorted_records, grid->original, grid->ranges,
                                query_buffer,         count_buffer,   index_buffer};
     if (status == PF_OK)
         status = pf_vk_cmd_dispatch(cmds, grid->gather_pipeline, buffers, 6, &push, sizeof push,
@@ -475,16 +488,17 @@ static pf_status run_estimate(pf_photon_grid *grid, uint32_t mode, uint32_t k,
     if (status == PF_OK)
         status = pf_vk_buffer_upload(ctx, normal_buffer, 0, normals, bytes, err);
     if (status == PF_OK)
-        status = probe_pipeline(grid, "photon_irradiance_probe", &grid->irradiance_pipeline, err);
+        status = probe_pipeline(grid, "photon_irradiance_probe", 7, &grid->irradiance_pipeline,
+                                err);
     pf_vk_commands *cmds = NULL;
     if (status == PF_OK)
         status = pf_vk_commands_begin(ctx, &cmds, err);
     photon_grid_push push = push_for(&grid->info, query_count, mode);
     push.capacity = k;
-    pf_vk_buffer *buffers[] = {grid->sorted_photons, grid->ranges, query_buffer, normal_buffer,
-                               result_buffer, flag_buffer};
+    pf_vk_buffer *buffers[] = {grid->sorted_records, grid->ranges, query_buffer, normal_buffer,
+                               result_buffer, flag_buffer, grid->sorted_flux};
     if (status == PF_OK)
-        status = pf_vk_cmd_dispatch(cmds, grid->irradiance_pipeline, buffers, 6, &push, sizeof push,
+        status = pf_vk_cmd_dispatch(cmds, grid->irradiance_pipeline, buffers, 7, &push, sizeof push,
                                     groups_for(query_count, GATHER_GROUP_SIZE), 1, 1, err);
     if (status == PF_OK)
         status = pf_vk_commands_submit(cmds, err);
@@ -554,7 +568,7 @@ static pf_status precompute_points(pf_photon_grid *points, const pf_photon_grid 
     if (status == PF_OK)
         status = pf_vk_buffer_upload(ctx, counter, 0, zero, sizeof zero, err);
     if (status == PF_OK && !points->precompute_pipeline)
-        status = pf_vk_pipeline_create_named(ctx, "photon_irradiance_precompute", 5,
+        status = pf_vk_pipeline_create_named(ctx, "photon_irradiance_precompute", 6,
                                              sizeof(precompute_push), NULL, 0,
                                              &points->precompute_pipeline, err);
     pf_vk_commands *cmds = NULL;
@@ -566,11 +580,12 @@ static pf_status precompute_points(pf_photon_grid *points, const pf_photon_grid 
     push.grid = pf_photon_grid_push_of(&map->info);
     push.photons = map->info.photon_count;
     push.radius = radius;
-    pf_vk_buffer *buffers[] = {map->sorted_photons, map->ranges, out, counter, list};
+    pf_vk_buffer *buffers[] = {map->sorted_records, map->ranges, out, counter, list,
+                               map->sorted_flux};
     for (uint32_t mode = PRECOMPUTE_MARK; status == PF_OK && mode <= PRECOMPUTE_ESTIMATE;
          mode++) {
         push.mode = mode;
-        status = pf_vk_cmd_dispatch(cmds, points->precompute_pipeline, buffers, 5, &push,
+        status = pf_vk_cmd_dispatch(cmds, points->precompute_pipeline, buffers, 6, &push,
                                     sizeof push, groups_for(push.photons, GATHER_GROUP_SIZE), 1,
                                     1, err);
         pf_vk_cmd_barrier(cmds);

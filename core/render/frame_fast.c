@@ -38,7 +38,7 @@
 /* Photons in the caustic estimate's largest disc at the VPLs' mean density (as final's r_1). */
 #define FAST_CAUSTIC_NEIGHBOURS 20.0
 #define FAST_MAX_SPECULAR_DEPTH 8u
-#define FAST_BUFFERS 19u
+#define FAST_BUFFERS 20u
 #define GROUP_EDGE 8u
 /* A frame fails when more than this fraction of its samples hit the loop cap (as final). */
 #define FAST_TRUNCATED_LIMIT 0.01
@@ -294,7 +294,8 @@ static pf_status shade(pf_renderer *renderer, struct pf_fast_cache *cache,
     push.lpv_damping = settings->lpv.undamped ? 0u : 1u;
     push.cascade_count = cache->layout.count;
     push.lpv_size = cache->layout.size;
-    pf_vk_buffer *words = owned.empty_grid, *ranges = owned.empty_grid;
+    pf_vk_buffer *records = owned.empty_grid, *flux = owned.empty_grid;
+    pf_vk_buffer *ranges = owned.empty_grid;
     if (cache->caustic) {
         pf_photon_grid_info info = pf_photon_grid_get_info(cache->caustic);
         pf_photon_grid_view view = pf_photon_grid_view_get(cache->caustic);
@@ -302,15 +303,16 @@ static pf_status shade(pf_renderer *renderer, struct pf_fast_cache *cache,
         push.grid_photons = info.photon_count;
         push.radius = cache->caustic_radius;
         push.flux_scale = cache->caustic_flux_scale;
-        words = view.photons;
+        records = view.records;
+        flux = view.flux;
         ranges = view.ranges;
     }
     pf_vk_buffer *buffers[FAST_BUFFERS] = {
         owned.params,    scene->vertices, scene->normals,   scene->triangle_material,
         scene->materials, scene->lights,  scene->emissive,  owned.film,
         owned.film_aov,  owned.counters,  bih->nodes,       bih->vertices,
-        bih->triangle_index, pf_lpv_accumulated(cache->lpv), cache->cascades, words,
-        ranges, pf_lpv_snapshots(cache->lpv), pf_lpv_geometry(cache->lpv)};
+        bih->triangle_index, pf_lpv_accumulated(cache->lpv), cache->cascades, records,
+        ranges, pf_lpv_snapshots(cache->lpv), pf_lpv_geometry(cache->lpv), flux};
     pf_vk_commands *cmds = NULL;
     if (status == PF_OK)
         status = pf_vk_commands_begin(ctx, &cmds, err);

@@ -81,12 +81,10 @@
 /* render_final.comp's gather-vertex buffer: vec4s per pixel. */
 #define VERTEX_VEC4_PER_PIXEL 5u
 #define GROUP_EDGE 8u
-#define FINAL_BUFFERS 22u
-/* The shade kernels' bindings of the photon grid they gather from, and of its irradiance points. */
-#define GRID_WORDS_BINDING 15u
-#define GRID_RANGES_BINDING 16u
-#define POINTS_WORDS_BINDING 18u
-#define POINTS_RANGES_BINDING 19u
+/* The shade kernels' bindings (final_shared.glsl) of the photon grid they gather from and of its
+ * irradiance points: records, flux, ranges. */
+static const uint32_t grid_bindings[3] = {15u, 22u, 16u};
+static const uint32_t points_bindings[3] = {18u, 23u, 19u};
 /*
  * The gather's deferred estimates (final_deferred.comp's MODE_FALLBACK): at
  * most one request per pixel and sample is held (a quarter of the gather
@@ -328,34 +326,33 @@ static void final_buffers_release(pf_vk_context *ctx, final_buffers *b)
         pf_render_buffer_release(ctx, all[i]);
 }
 
-/* A built grid's push parameters and buffers; returns its records (photons or points). Without
- * one (NULL, or never built): the empty buffer and 0, which the kernel reads as "none". */
+/* A built grid's push parameters and buffers (at bindings: records, flux, ranges); returns its
+ * records (photons or points). Without one (NULL, or never built): the empty buffer and 0, which
+ * the kernel reads as "none". */
 static uint32_t bind_photon_grid(const pf_photon_grid *grid, pf_vk_buffer *empty,
-                                 pf_photon_grid_push *params, pf_vk_buffer **words,
-                                 pf_vk_buffer **ranges)
+                                 pf_photon_grid_push *params, pf_vk_buffer **buffers,
+                                 const uint32_t bindings[3])
 {
-    *words = empty;
-    *ranges = empty;
-    pf_photon_grid_view view = {NULL, NULL};
+    pf_photon_grid_view view = {NULL, NULL, NULL};
     if (grid)
         view = pf_photon_grid_view_get(grid);
-    if (!view.photons)
+    buffers[bindings[0]] = view.records ? view.records : empty;
+    buffers[bindings[1]] = view.records ? view.flux : empty;
+    buffers[bindings[2]] = view.records ? view.ranges : empty;
+    if (!view.records)
         return 0;
     pf_photon_grid_info info = pf_photon_grid_get_info(grid);
     *params = pf_photon_grid_push_of(&info);
-    *words = view.photons;
-    *ranges = view.ranges;
     return info.photon_count;
 }
 
 /* Push constants and buffers for a grid (or none: no estimate). */
 static void bind_grid(const pf_photon_grid *grid, float radius, float flux_scale,
-                      pf_vk_buffer *empty, final_push *push, pf_vk_buffer **words,
-                      pf_vk_buffer **ranges)
+                      pf_vk_buffer *empty, final_push *push, pf_vk_buffer **buffers)
 {
     memset(push, 0, sizeof *push);
-    push->grid_photons = bind_photon_grid(grid, empty, &push->grid, words, ranges);
-    if (*words != empty) {
+    push->grid_photons = bind_photon_grid(grid, empty, &push->grid, buffers, grid_bindings);
+    if (push->grid_photons > 0) {
         push->radius = radius;
         push->flux_scale = flux_scale;
     }
@@ -363,9 +360,9 @@ static void bind_grid(const pf_photon_grid *grid, float radius, float flux_scale
 
 /* Push constants and buffers for a grid's irradiance points (or none: estimates only). */
 static void bind_points(const pf_photon_grid *points, pf_vk_buffer *empty, final_push *push,
-                        pf_vk_buffer **words, pf_vk_buffer **ranges)
+                        pf_vk_buffer **buffers)
 {
-    push->points_count = bind_photon_grid(points, empty, &push->points, words, ranges);
+    push->points_count = bind_photon_grid(points, empty, &push->points, buffers, points_bindings);
 }
 
 /* Renders camera sample sample_index with pass's grids (pass NULL: no photon maps). */
@@ -397,8 +394,7 @@ static pf_status shade_sample(pf_renderer *renderer, pf_vk_buffer **buffers,
     int begin = pf_vk_cmd_timestamp(cmds);
     final_push push;
     bind_grid(pass ? pass->caustic : NULL, pass ? pass->radius : 0.0f,
-              pass ? pass->flux_scale : 0.0f, owned->empty_grid, &push,
-              &buffers[GRID_WORDS_BINDING], &buffers[GRID_RANGES_BINDING]);
+              pass ? pass->flux_scale : 0.0f, owned->empty_grid, &push, buffers);
     /* The caustic radii of the first pass shrink as the pass radius does. */
     push.caustic_scale = pass && progress->radius_first > 0.0f
                              ? pass->radius / progress->radius_first
@@ -406,21 +402,18 @@ static pf_status shade_sample(pf_renderer *renderer, pf_vk_buffer **buffers,
     push.sample_index = sample_index;
     push.gather_total = final_gather_rays(settings);
     push.loop_sentinel = 1;
-    bind_points(NULL, owned->empty_grid, &push, &buffers[POINTS_WORDS_BINDING],
-                &buffers[POINTS_RANGES_BINDING]);
-    status = pf_vk_cmd_dispatch(cmds, primary, buffers, FINAL_BUFFERS,
+    bind_points(NULL, owned->empty_grid, &push, buffers);
+    status = pf_vk_cmd_dispatch(cmds, primary, buffers, PF_FINAL_BUFFERS,
                                 &push, sizeof push, groups_x, groups_y, 1, err);
     bind_grid(pass ? pass->global : NULL, pass ? pass->radius : 0.0f,
-              pass ? pass->flux_scale : 0.0f, owned->empty_grid, &push,
-              &buffers[GRID_WORDS_BINDING], &buffers[GRID_RANGES_BINDING]);
+              pass ? pass->flux_scale : 0.0f, owned->empty_grid, &push, buffers);
     push.sample_index = sample_index;
     push.gather_total = final_gather_rays(settings);
     push.loop_sentinel = 1;
     /* A kept pass gridded without points (an earlier, smaller frame) gathers by estimates. */
     int lookups = pass && pass->points_built &&
                   wants_lookups(settings, plan, pass->global_stored);
-    bind_points(lookups ? pass->points : NULL, owned->empty_grid, &push,
-                &buffers[POINTS_WORDS_BINDING], &buffers[POINTS_RANGES_BINDING]);
+    bind_points(lookups ? pass->points : NULL, owned->empty_grid, &push, buffers);
     progress->lookup_passes += lookups;
     uint32_t cap = renderer->final_deferred_cap;
     push.fallback_capacity = !lookups ? 0
@@ -431,18 +424,18 @@ static pf_status shade_sample(pf_renderer *renderer, pf_vk_buffer **buffers,
         pf_vk_cmd_barrier(cmds);
         push.gather_first = first;
         push.gather_count = FINAL_GATHER_RAYS_PER_DISPATCH;
-        status = pf_vk_cmd_dispatch(cmds, gather, buffers, FINAL_BUFFERS,
+        status = pf_vk_cmd_dispatch(cmds, gather, buffers, PF_FINAL_BUFFERS,
                                     &push, sizeof push, groups_x, groups_y, 1, err);
     }
     /* One invocation per request: the capacity is at most one per pixel. */
     if (status == PF_OK && push.fallback_capacity > 0) {
         pf_vk_cmd_barrier(cmds);
-        status = pf_vk_cmd_dispatch(cmds, fallback, buffers, FINAL_BUFFERS, &push, sizeof push,
+        status = pf_vk_cmd_dispatch(cmds, fallback, buffers, PF_FINAL_BUFFERS, &push, sizeof push,
                                     groups_x, groups_y, 1, err);
     }
     if (status == PF_OK) {
         pf_vk_cmd_barrier(cmds);
-        status = pf_vk_cmd_dispatch(cmds, resolve, buffers, FINAL_BUFFERS, &push, sizeof push,
+        status = pf_vk_cmd_dispatch(cmds, resolve, buffers, PF_FINAL_BUFFERS, &push, sizeof push,
                                     groups_x, groups_y, 1, err);
     }
     int end = pf_vk_cmd_timestamp(cmds);
@@ -539,7 +532,7 @@ struct final_frame {
     pf_photon_frame inputs;
     int inputs_ready;
     final_buffers owned;
-    pf_vk_buffer *buffers[FINAL_BUFFERS];
+    pf_vk_buffer *buffers[PF_FINAL_BUFFERS];
     final_progress progress;
     double start_ms;          /* after the BIH: the shade row gets what the photon stages leave */
     pf_photon_maps maps;      /* the pass being built: traced, not yet all gridded */
@@ -635,13 +628,13 @@ static pf_status final_begin(pf_frame_run *run, pf_error *err)
                         settings->height, run->frame->triangle_count);
         return status;
     }
-    pf_vk_buffer *buffers[FINAL_BUFFERS] = {
+    pf_vk_buffer *buffers[PF_FINAL_BUFFERS] = {
         owned->params,     scene->vertices,  scene->normals,  scene->triangle_material,
         scene->materials,  scene->lights,    scene->emissive, owned->film,
         owned->film_aov,   owned->counters,  bih->nodes,      bih->vertices,
         bih->triangle_index, owned->vertices, owned->samples, NULL,
         NULL,              owned->caustic_radii, NULL,           NULL,
-        owned->fallback_requests, owned->pixel_fallbacks};
+        owned->fallback_requests, owned->pixel_fallbacks, NULL,       NULL};
     memcpy(f->buffers, buffers, sizeof buffers);
     run->state = f;
     return PF_OK;

@@ -42,6 +42,9 @@ typedef enum pf_renderer_pipeline_id {
     PF_PIPELINE_COUNT
 } pf_renderer_pipeline_id;
 
+/* The final kernels' bindings (final_shared.glsl), all four pipelines the same. */
+#define PF_FINAL_BUFFERS 24u
+
 /*
  * The stage plan (stage_plan.c): each stage of a frame, its decision and
  * reason, the inputs' fingerprints the decisions were taken on, and the

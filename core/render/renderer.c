@@ -15,9 +15,10 @@
 #define RENDER_REFERENCE_BUFFERS 13u
 #define RENDER_REFERENCE_PUSH_BYTES 4u
 /* render_final.comp (primary), final_gather.comp and final_deferred.comp (constant_id 0 is
- * MODE: 0 fallback, 1 resolve): 22 buffers and the same 116-byte Push (final_shared.glsl). */
+ * MODE: 0 fallback, 1 resolve): PF_FINAL_BUFFERS buffers and the same 116-byte Push
+ * (final_shared.glsl). */
 #define FINAL_SPEC_MODE 0u
-#define RENDER_FINAL_BUFFERS 22u
+#define RENDER_FINAL_BUFFERS PF_FINAL_BUFFERS
 #define RENDER_FINAL_PUSH_BYTES 116u
 #define MATERIAL_PROBE_BUFFERS 2u
 #define MATERIAL_PROBE_PUSH_BYTES 4u

@@ -163,7 +163,7 @@ void pf_vk_buffer_destroy(pf_vk_context *ctx, pf_vk_buffer *buffer)
         return;
     if (buffer->mapped)
         vkUnmapMemory(ctx->device, buffer->memory);
-    for (int kind = 0; kind < 3; kind++)
+    for (int kind = 0; kind < PF_VK_BINDING_KINDS; kind++)
         if (buffer->views[kind])
             vkDestroyBufferView(ctx->device, buffer->views[kind], NULL);
     vkDestroyBuffer(ctx->device, buffer->buffer, NULL);
@@ -176,8 +176,9 @@ uint64_t pf_vk_buffer_size(const pf_vk_buffer *buffer) { return buffer->size; }
 pf_status pf_vk_buffer_texel_view(pf_vk_context *ctx, pf_vk_buffer *buffer, int kind,
                                   VkBufferView *view, pf_error *err)
 {
-    const VkFormat format = kind == PF_VK_BINDING_TEXEL_UINT ? VK_FORMAT_R32_UINT
-                                                             : VK_FORMAT_R32G32B32A32_SFLOAT;
+    const VkFormat format = kind == PF_VK_BINDING_TEXEL_UINT  ? VK_FORMAT_R32_UINT
+                            : kind == PF_VK_BINDING_TEXEL_INT4 ? VK_FORMAT_R32G32B32A32_SINT
+                                                               : VK_FORMAT_R32G32B32A32_SFLOAT;
     const uint64_t texel_bytes = kind == PF_VK_BINDING_TEXEL_UINT ? 4 : 16;
     /* The whole allocation where it fits the device (a stable variant key, above). */
     uint64_t texels = buffer->allocated / texel_bytes;

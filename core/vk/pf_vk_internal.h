@@ -54,7 +54,13 @@ struct pf_vk_context {
 enum {
     PF_VK_BINDING_STORAGE = 0,    /* storage buffer */
     PF_VK_BINDING_TEXEL_UINT = 1, /* usamplerBuffer: the buffer viewed as R32_UINT words */
-    PF_VK_BINDING_TEXEL_FLOAT = 2 /* samplerBuffer: the buffer viewed as RGBA32 float texels */
+    PF_VK_BINDING_TEXEL_FLOAT = 2, /* samplerBuffer: the buffer viewed as RGBA32 float texels */
+    /* isamplerBuffer: the buffer viewed as RGBA32_SINT texels, i.e. 16-byte records of 4
+     * words that a shader reads in one fetch (as uvec4 of the ivec4). Signed because the
+     * SPIR-V of a sampled buffer carries no format: the sampled type is what tells the two
+     * uint views apart. Integer, not float: a float view may flush or canonicalise bits. */
+    PF_VK_BINDING_TEXEL_INT4 = 3,
+    PF_VK_BINDING_KINDS = 4
 };
 
 struct pf_vk_buffer {
@@ -62,7 +68,7 @@ struct pf_vk_buffer {
     VkDeviceMemory memory;
     uint64_t size;      /* what the caller asked for: uploads, downloads and views check it */
     uint64_t allocated; /* the VkBuffer's size: pf_vk_buffer_allocation_size(size) */
-    VkBufferView views[3]; /* by PF_VK_BINDING_TEXEL_*, made on first use (view_lock) */
+    VkBufferView views[PF_VK_BINDING_KINDS]; /* by PF_VK_BINDING_TEXEL_*, made on first use */
     void *mapped; /* non-NULL when the memory is host-visible + coherent */
     char label[64];
 };
@@ -115,8 +121,8 @@ pf_status pf_vk_spirv_preserve_denormals(const uint32_t *words, size_t count, ui
                                          size_t *out_count, pf_error *err);
 
 /*
- * kinds[b] (b < binding_count) := PF_VK_BINDING_TEXEL_UINT / _FLOAT where the
- * module declares a uniform texel buffer (usamplerBuffer / samplerBuffer) at
+ * kinds[b] (b < binding_count) := PF_VK_BINDING_TEXEL_UINT / _FLOAT / _INT4 where the
+ * module declares a uniform texel buffer (usamplerBuffer / samplerBuffer / isamplerBuffer) at
  * set 0, binding b; PF_VK_BINDING_STORAGE elsewhere. PF_ERR_FORMAT for a
  * malformed module, PF_ERR_INVALID for a texel binding >= binding_count.
  */

@@ -29,6 +29,7 @@
 typedef struct id_info {
     uint8_t op;        /* the defining opcode's low byte, 0 if none seen */
     uint8_t texel;     /* image types: PF_VK_BINDING_TEXEL_* of a sampled buffer image */
+    uint8_t is_signed; /* integer types: the Signedness operand */
     uint32_t target;   /* sampled image: its image; pointer: its pointee */
     int32_t binding;   /* variables: Binding, -1 if undecorated */
     int32_t set;       /* variables: DescriptorSet, 0 if undecorated */
@@ -71,13 +72,16 @@ pf_status pf_vk_spirv_binding_kinds(const uint32_t *words, size_t count, uint8_t
         case OP_TYPE_INT:
         case OP_TYPE_FLOAT:
             ids[result].op = (uint8_t)op;
+            /* %r = OpTypeInt width signedness */
+            ids[result].is_signed = op == OP_TYPE_INT && n >= 4 && w[3] == 1u;
             break;
         case OP_TYPE_IMAGE:
             ids[result].op = (uint8_t)op;
             /* %r = OpTypeImage %sampled_type Dim Depth Arrayed MS Sampled Format */
             if (n >= 9 && w[3] == DIM_BUFFER && w[7] == 1u && w[2] < bound)
-                ids[result].texel = ids[w[2]].op == OP_TYPE_INT ? PF_VK_BINDING_TEXEL_UINT
-                                                                  : PF_VK_BINDING_TEXEL_FLOAT;
+                ids[result].texel = ids[w[2]].op != OP_TYPE_INT ? PF_VK_BINDING_TEXEL_FLOAT
+                                    : ids[w[2]].is_signed  ? PF_VK_BINDING_TEXEL_INT4
+                                                           : PF_VK_BINDING_TEXEL_UINT;
             break;
         case OP_TYPE_SAMPLED_IMAGE:
         case OP_TYPE_POINTER:

@@ -46,15 +46,17 @@ layout(std430, set = 0, binding = 9) buffer Counters {
 } counters;
 layout(std430, set = 0, binding = 13) buffer Vertices { vec4 vertices[]; };
 layout(std430, set = 0, binding = 14) buffer SampleSums { vec4 sample_sums[]; };
-// The bound map (photon_estimate.glsl: texel buffers).
-layout(set = 0, binding = 15) uniform usamplerBuffer grid_words;
-layout(set = 0, binding = 16) uniform usamplerBuffer grid_ranges;
+// The bound map (photon_estimate.glsl: texel buffers; its flux at binding 22).
+layout(set = 0, binding = 15) uniform isamplerBuffer grid_records;
+layout(set = 0, binding = 16) uniform isamplerBuffer grid_ranges;
 // Per pixel: the caustic radius chosen in the first pass (see caustic_radiance).
 layout(std430, set = 0, binding = 17) buffer CausticRadii { float caustic_radii[]; };
-// The global map's precomputed irradiance points (photon_estimate.glsl's lookup).
-layout(set = 0, binding = 18) uniform usamplerBuffer points_words;
-layout(set = 0, binding = 19) uniform usamplerBuffer points_ranges;
-#define PHOTON_LOOKUP_WORDS points_words
+// The global map's precomputed irradiance points (photon_estimate.glsl's
+// lookup; their flux at binding 23).
+layout(set = 0, binding = 18) uniform isamplerBuffer points_records;
+layout(set = 0, binding = 19) uniform isamplerBuffer points_ranges;
+#define PHOTON_LOOKUP_RECORDS points_records
+#define PHOTON_LOOKUP_FLUX points_flux
 #define PHOTON_LOOKUP_RANGES points_ranges
 // Deferred estimates, 3 vec4 each: (position, 0), (geometric normal, 0),
 // (weight, 0) from the gather; (weight × irradiance, 1 if the estimate
@@ -62,6 +64,8 @@ layout(set = 0, binding = 19) uniform usamplerBuffer points_ranges;
 layout(std430, set = 0, binding = 20) buffer FallbackRequests { vec4 fallback_requests[]; };
 // Per pixel: the request of each of the sample's gather rays, or NO_REQUEST.
 layout(std430, set = 0, binding = 21) buffer PixelFallbacks { uvec4 pixel_fallbacks[]; };
+layout(set = 0, binding = 22) uniform usamplerBuffer grid_flux;
+layout(set = 0, binding = 23) uniform usamplerBuffer points_flux;
 const uint NO_REQUEST = 0xFFFFFFFFu;
 
 // Each estimate stops after this many iterations (photon_estimate.glsl):

@@ -2,14 +2,20 @@
 // integrator that reads photon maps uses.
 //
 // The including shader declares, before including this file, as uniform
-// texel buffers (R32 uint views; core/vk binds them from the declarations):
-//   uniform usamplerBuffer grid_words;   // photons in cell order (PHOTON_WORDS each)
-//   uniform usamplerBuffer grid_ranges;  // [start, end) per cell key: 2 words a key
-// and includes photon_types.glsl and photon_grid.glsl (or photon_grid_push.glsl).
+// texel buffers (core/vk binds them from the declarations: isamplerBuffer
+// as 16-byte RGBA32 records, usamplerBuffer as R32 words):
+//   uniform isamplerBuffer grid_records; // per photon in cell order: x, y, z, directions
+//   uniform usamplerBuffer grid_flux;    // per photon in cell order: its RGB9E5 flux
+//   uniform isamplerBuffer grid_ranges;  // [start, end) per cell key: two keys a texel
+// (photon_grid_finish.comp writes that layout) and includes photon_types.glsl
+// and photon_grid.glsl (or photon_grid_push.glsl).
 // Texel buffers rather than storage buffers for the reason bih_traverse.glsl
 // gives: llvmpipe loads a storage buffer word lane by lane in a branchy
 // loop, and a texel fetch is one vector gather. The estimates' loops are
-// nearly all loads (bench/RESULTS.md, "The gather's photon lookups").
+// nearly all loads (bench/RESULTS.md, "The gather's photon lookups"), and
+// one 16-byte fetch costs llvmpipe about what one word's does (bench/vk
+// load_bench), so what a step tests (position, directions) is one record
+// and the flux, read only for what passes, lies apart.
 //
 // A photon counts at a surface point x with normal n only if it arrived from
 // n's side (incoming · n < 0) and was stored on a surface facing the same
@@ -50,15 +56,22 @@ const uint PHOTON_KNN_HEAP_DEPTH = 6u;
 // Smallest k-NN radius as a fraction of max_radius (coincident photons).
 const float PHOTON_KNN_MIN_RADIUS_FRACTION = 1.0 / 1024.0;
 
-// Word i of a map's photon records, and the [start, end) range of a cell key.
-uint photon_texel_word(usamplerBuffer words, uint i)
+// Photon i's record (x, y, z bits, directions) and flux, and the [start,
+// end) range of a cell key.
+uvec4 photon_texel_record(isamplerBuffer records, uint i)
 {
-    return texelFetch(words, int(i)).x;
+    return uvec4(texelFetch(records, int(i)));
 }
 
-uvec2 photon_texel_range(usamplerBuffer ranges, uint key)
+uint photon_texel_flux(usamplerBuffer flux, uint i)
 {
-    return uvec2(texelFetch(ranges, int(2u * key)).x, texelFetch(ranges, int(2u * key + 1u)).x);
+    return texelFetch(flux, int(i)).x;
+}
+
+uvec2 photon_texel_range(isamplerBuffer ranges, uint key)
+{
+    uvec4 pair = uvec4(texelFetch(ranges, int(key >> 1u)));
+    return (key & 1u) != 0u ? pair.zw : pair.xy;
 }
 
 // The flat loop's move to the next cell: once the photons [index, end) of
@@ -80,12 +93,8 @@ uvec2 photon_texel_range(usamplerBuffer ranges, uint key)
 
 Photon grid_photon(uint i)
 {
-    uint base = PHOTON_WORDS * i;
-    return photon_unpack(photon_texel_word(grid_words, base),
-                         photon_texel_word(grid_words, base + 1u),
-                         photon_texel_word(grid_words, base + 2u),
-                         photon_texel_word(grid_words, base + 3u),
-                         photon_texel_word(grid_words, base + 4u));
+    uvec4 record = photon_texel_record(grid_records, i);
+    return photon_unpack(record.x, record.y, record.z, photon_texel_flux(grid_flux, i), record.w);
 }
 
 bool photon_accepted(Photon photon, vec3 normal)
@@ -280,8 +289,9 @@ vec3 photon_irradiance_knn(vec3 x, vec3 normal, uint k, float max_radius, Photon
 // The buffers of the precomputed points: those of photon_estimate's grid
 // unless the including shader binds them apart (render_final.comp binds
 // both the map and its points).
-#ifndef PHOTON_LOOKUP_WORDS
-#define PHOTON_LOOKUP_WORDS grid_words
+#ifndef PHOTON_LOOKUP_RECORDS
+#define PHOTON_LOOKUP_RECORDS grid_records
+#define PHOTON_LOOKUP_FLUX grid_flux
 #define PHOTON_LOOKUP_RANGES grid_ranges
 #endif
 
@@ -323,26 +333,24 @@ bool photon_irradiance_lookup(vec3 x, vec3 normal, float radius, PhotonGrid poin
             end = range.y;
             continue;
         }
-        uint base = PHOTON_WORDS * index++;
-        uvec3 bits = uvec3(photon_texel_word(PHOTON_LOOKUP_WORDS, base),
-                           photon_texel_word(PHOTON_LOOKUP_WORDS, base + 1u),
-                           photon_texel_word(PHOTON_LOOKUP_WORDS, base + 2u));
+        uint point = index++;
+        uvec4 record = photon_texel_record(PHOTON_LOOKUP_RECORDS, point);
+        uvec3 bits = record.xyz;
         vec3 d = uintBitsToFloat(bits) - x;
         float distance2 = dot(d, d);
         if (distance2 > nearest2)
             continue;
-        uint directions = photon_texel_word(PHOTON_LOOKUP_WORDS, base + 4u);
-        if (dot(octahedral_unpack8(directions >> 16u), normal) >= PHOTON_NORMAL_AGREEMENT &&
+        if (dot(octahedral_unpack8(record.w >> 16u), normal) >= PHOTON_NORMAL_AGREEMENT &&
             (distance2 < nearest2 || nearest == 0xFFFFFFFFu ||
              photon_lookup_precedes(bits, nearest_bits))) {
             nearest2 = distance2;
-            nearest = base;
+            nearest = point;
             nearest_bits = bits;
         }
     }
     truncated = !done;
     bool found = nearest != 0xFFFFFFFFu;
-    irradiance = found ? rgb9e5_unpack(photon_texel_word(PHOTON_LOOKUP_WORDS, nearest + 3u)) /
+    irradiance = found ? rgb9e5_unpack(photon_texel_flux(PHOTON_LOOKUP_FLUX, nearest)) /
                              (PHOTON_CONE_NORMALISATION * PI * radius * radius)
                        : vec3(0.0);
     return found;

@@ -1,7 +1,8 @@
 /*
  * spirv_bindings.c: the descriptor kind core/vk gives each binding, read from
- * the module: uniform texel buffers where a shader declares usamplerBuffer /
- * samplerBuffer, storage buffers everywhere else. The kernels' declarations decide it, so these are checked
+ * the module: uniform texel buffers where a shader declares usamplerBuffer (R32
+ * words), samplerBuffer (RGBA32 float) or isamplerBuffer (16-byte records),
+ * storage buffers everywhere else. The kernels' declarations decide it, so these are checked
  * on the embedded shaders themselves (the pipelines' layouts must match what
  * the dispatches bind: the VULKAN tests run with the validation layer).
  */
@@ -35,44 +36,50 @@ PF_TEST(traversal_reads_the_tree_through_texel_buffers)
 
 PF_TEST(integrators_read_the_tree_and_photon_maps_through_texel_buffers)
 {
-    /* The tree is 2 uint + 1 float texel buffers in every integrator; photon maps add 2 uint
-     * (words, ranges) each: fast's caustic map, final's bound map and its irradiance points. */
+    /* The tree is 2 uint + 1 float texel buffers in every integrator; a photon map adds 2
+     * records views (its records, its ranges) and 1 uint (its flux): fast's caustic map,
+     * final's bound map and its irradiance points. */
     static const struct {
         const char *name;
-        uint32_t texel_uint;
-    } integrators[] = {{"render_direct", 2},    {"render_fast", 4},   {"render_final", 6},
-                       {"final_gather", 6},     {"render_reference", 2},
-                       {"final_deferred", 4}};
+        uint32_t texel_uint, texel_records;
+    } integrators[] = {{"render_direct", 2, 0},    {"render_fast", 3, 2},
+                       {"render_final", 4, 4},     {"final_gather", 4, 4},
+                       {"render_reference", 2, 0}, {"final_deferred", 2, 4}};
     for (size_t i = 0; i < sizeof integrators / sizeof *integrators; i++) {
         uint8_t kinds[32];
         kinds_of(integrators[i].name, kinds, 32);
-        uint32_t texel_uint = 0, texel_float = 0;
+        uint32_t texel_uint = 0, texel_float = 0, texel_records = 0;
         for (int b = 0; b < 32; b++) {
             texel_uint += kinds[b] == PF_VK_BINDING_TEXEL_UINT;
             texel_float += kinds[b] == PF_VK_BINDING_TEXEL_FLOAT;
+            texel_records += kinds[b] == PF_VK_BINDING_TEXEL_INT4;
         }
         /* final_deferred has final_shared.glsl's maps and no tree. */
         uint32_t float_wanted = strcmp(integrators[i].name, "final_deferred") == 0 ? 0 : 1;
-        PF_CHECK_MSG(texel_uint == integrators[i].texel_uint && texel_float == float_wanted,
-                     "%s: %u uint and %u float texel", integrators[i].name, texel_uint,
-                     texel_float);
+        PF_CHECK_MSG(texel_uint == integrators[i].texel_uint && texel_float == float_wanted &&
+                         texel_records == integrators[i].texel_records,
+                     "%s: %u uint, %u float and %u records texel", integrators[i].name,
+                     texel_uint, texel_float, texel_records);
         /* The scene's own buffers (0..6) stay storage buffers. */
         for (int b = 0; b < 7; b++)
             PF_CHECK(kinds[b] == PF_VK_BINDING_STORAGE);
     }
-    uint8_t kinds[22];
-    kinds_of("render_final", kinds, 22);
+    uint8_t kinds[24];
+    kinds_of("render_final", kinds, 24);
     PF_CHECK(kinds[10] == PF_VK_BINDING_TEXEL_UINT && kinds[11] == PF_VK_BINDING_TEXEL_FLOAT &&
              kinds[12] == PF_VK_BINDING_TEXEL_UINT); /* BIH_BINDING 10 */
-    PF_CHECK(kinds[15] == PF_VK_BINDING_TEXEL_UINT && kinds[16] == PF_VK_BINDING_TEXEL_UINT &&
-             kinds[18] == PF_VK_BINDING_TEXEL_UINT && kinds[19] == PF_VK_BINDING_TEXEL_UINT);
+    /* Records and ranges of the map (15, 16) and the points (18, 19); their flux (22, 23). */
+    PF_CHECK(kinds[15] == PF_VK_BINDING_TEXEL_INT4 && kinds[16] == PF_VK_BINDING_TEXEL_INT4 &&
+             kinds[18] == PF_VK_BINDING_TEXEL_INT4 && kinds[19] == PF_VK_BINDING_TEXEL_INT4);
+    PF_CHECK(kinds[22] == PF_VK_BINDING_TEXEL_UINT && kinds[23] == PF_VK_BINDING_TEXEL_UINT);
     PF_CHECK(kinds[7] == PF_VK_BINDING_STORAGE && kinds[13] == PF_VK_BINDING_STORAGE &&
              kinds[20] == PF_VK_BINDING_STORAGE); /* film, vertices, deferred estimates */
     kinds_of("photon_trace", kinds, 20);
     PF_CHECK(kinds[7] == PF_VK_BINDING_TEXEL_UINT && kinds[8] == PF_VK_BINDING_TEXEL_FLOAT &&
              kinds[9] == PF_VK_BINDING_TEXEL_UINT); /* BIH_BINDING 7 */
-    kinds_of("photon_irradiance_precompute", kinds, 5);
-    PF_CHECK(kinds[0] == PF_VK_BINDING_TEXEL_UINT && kinds[1] == PF_VK_BINDING_TEXEL_UINT &&
+    kinds_of("photon_irradiance_precompute", kinds, 6);
+    PF_CHECK(kinds[0] == PF_VK_BINDING_TEXEL_INT4 && kinds[1] == PF_VK_BINDING_TEXEL_INT4 &&
+             kinds[5] == PF_VK_BINDING_TEXEL_UINT &&
              kinds[2] == PF_VK_BINDING_STORAGE); /* the map read, the points written */
 }
 
