@@ -22,6 +22,7 @@ layout(local_size_x = 8, local_size_y = 8) in;
 #include "sampler.glsl"
 #include "direct_light.glsl" // emission_mis_weight
 #include "kernel_guard.glsl"
+#include "ray_count.glsl"
 
 // Specular vertices a gather ray follows before it is dropped: enough for
 // a glass sphere (in, out) and a mirror behind it.

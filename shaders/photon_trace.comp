@@ -1,6 +1,13 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
-// Photon tracing (the photon_trace stage): one invocation per photon.
+// Photon tracing (the photon_trace stage). An invocation traces several
+// photons in turn (push.photon_stride apart): in one flat loop of bounces, a
+// lane whose photon has ended starts its next one, so the lanes of a SIMD
+// group stay busy until the group's photons are all done. With one photon
+// per invocation a group ran until its longest Russian-roulette path ended:
+// 43 % of the lanes' bounces did work on lavapipe (bench/RESULTS.md). Photon
+// i's path depends on i alone (its own random sequence), not on the lane or
+// the order in which it is traced.
 //
 // Emission: the photon's emitter comes from the alias table of
 // pf_photon_emitters (every light and emissive triangle by power), with the
@@ -29,7 +36,10 @@ layout(local_size_x = 64) in;
 
 // Big passes take several dispatches (the workgroup count is bounded).
 layout(push_constant) uniform Push {
-    uint first_photon; // index of this dispatch's first photon within the pass
+    uint first_photon;  // index of this dispatch's first photon within the pass
+    uint photon_count;  // photons of this dispatch: first_photon + [0, photon_count)
+    uint photon_stride; // invocations of this dispatch: invocation i traces i, i + stride, ...
+    uint loop_sentinel; // 1; kernel_guard.glsl's end-of-invocation proof loop
 } push;
 
 #include "scene_types.glsl"
@@ -82,6 +92,7 @@ layout(std430, set = 0, binding = 12) buffer Counters {
     uint caustic_stored;
     uint traversal_failures;
     uint non_finite;         // photons dropped for a non-finite flux or direction
+    uint loop_truncated;     // invocations llvmpipe's loop cap stopped (their photons cut short)
 } counters;
 
 #define BIH_BINDING 7 // nodes, vertices, triangle index at bindings 7, 8, 9
@@ -90,6 +101,7 @@ layout(std430, set = 0, binding = 12) buffer Counters {
 #include "materials.glsl"
 #include "surface.glsl"
 #include "rng.glsl"
+#include "kernel_guard.glsl"
 
 // Uniform direction on the sphere (pbrt-v4 SampleUniformSphere).
 vec3 uniform_sphere(vec2 xi)
@@ -193,40 +205,62 @@ void store(bool caustic, vec3 position, vec3 flux, vec3 reflected, vec3 incoming
 
 void main()
 {
-    uint local = gl_GlobalInvocationID.x;
-    uint index = push.first_photon + local;
-    if (index >= params.photon_count || params.emitter_count == 0u)
+    if (params.emitter_count == 0u)
         return;
-    uint rng = rng_init(index, 0x9e3779b9u, params.seed_lo, params.seed_hi);
-    // Stratified emitter column: photon i takes (i + ξ) / N of the table.
-    float stratum = (float(index) + rng_float(rng)) / float(params.photon_count);
-    uint column = min(uint(stratum * float(params.emitter_count)), params.emitter_count - 1u);
-    PhotonEmitter emitter = emitters[rng_float(rng) < emitters[column].alias_threshold
-                                         ? column
-                                         : emitters[column].alias];
-    vec2 xi_position = vec2(rng_float(rng), rng_float(rng));
-    vec2 xi_direction = vec2(rng_float(rng), rng_float(rng));
-    Emission e = emit(emitter, xi_position, xi_direction);
-    vec3 origin = e.origin, direction = e.direction, flux = e.flux;
+    // The current photon's state; alive = false: start the next one.
+    bool alive = false;
+    uint next = gl_GlobalInvocationID.x; // within this dispatch
+    uint rng = 0u, depth = 0u;
+    vec3 origin = vec3(0.0), direction = vec3(0.0, 0.0, 1.0), flux = vec3(0.0);
+    float range = 0.0;
     bool specular_only = true; // every bounce so far was specular (caustic path)
-
-    for (uint depth = 0u; depth < params.max_depth; depth++) {
+    while (true) {
+        if (!alive) {
+            if (next >= push.photon_count)
+                break;
+            uint index = push.first_photon + next;
+            next += push.photon_stride;
+            rng = rng_init(index, 0x9e3779b9u, params.seed_lo, params.seed_hi);
+            // Stratified emitter column: photon i takes (i + ξ) / N of the table.
+            float stratum = (float(index) + rng_float(rng)) / float(params.photon_count);
+            uint column = min(uint(stratum * float(params.emitter_count)), params.emitter_count - 1u);
+            PhotonEmitter emitter = emitters[rng_float(rng) < emitters[column].alias_threshold
+                                                 ? column
+                                                 : emitters[column].alias];
+            vec2 xi_position = vec2(rng_float(rng), rng_float(rng));
+            vec2 xi_direction = vec2(rng_float(rng), rng_float(rng));
+            Emission e = emit(emitter, xi_position, xi_direction);
+            origin = e.origin;
+            direction = e.direction;
+            flux = e.flux;
+            range = e.range;
+            specular_only = true;
+            depth = 0u;
+            // On into its first bounce in this same step: a lane never idles a step to start.
+            alive = params.max_depth > 0u;
+            if (!alive)
+                continue;
+        }
         bool failed;
         BihHit hit = trace_bih(origin, direction, 0.0, uintBitsToFloat(0x7f800000u), false,
                                params.bih_bounds_min.xyz, params.bih_bounds_max.xyz,
                                params.triangle_count, params.bih_node_count, failed);
         if (failed) {
             atomicAdd(counters.traversal_failures, 1u);
-            return;
+            alive = false;
+            continue;
         }
-        if (hit.triangle == NO_HIT)
-            return;
+        if (hit.triangle == NO_HIT) {
+            alive = false;
+            continue;
+        }
         if (depth == 0u)
-            flux *= light_range_window(hit.t, e.range);
+            flux *= light_range_window(hit.t, range);
         Surface surface = surface_at(hit, origin, direction);
         if (!surface.valid || !all_finite(flux)) {
             atomicAdd(counters.non_finite, 1u);
-            return;
+            alive = false;
+            continue;
         }
         Material material = surface.material;
         bool front = surface.front;
@@ -243,11 +277,16 @@ void main()
         BsdfSample scattered = bsdf_sample(material, -direction, shading_normal, geometric_normal,
                                            front, xi, TRANSPORT_IMPORTANCE);
         float survival = min(1.0, max(scattered.weight.r, max(scattered.weight.g, scattered.weight.b)));
-        if (!(survival > 0.0) || rng_float(rng) >= survival)
-            return;
+        if (!(survival > 0.0) || rng_float(rng) >= survival) {
+            alive = false;
+            continue;
+        }
         flux *= scattered.weight / survival;
         origin = position +
                  (scattered.transmitted ? -params.ray_offset : params.ray_offset) * geometric_normal;
         direction = scattered.direction;
+        alive = ++depth < params.max_depth;
     }
+    if (!loops_completed())
+        atomicAdd(counters.loop_truncated, 1u);
 }

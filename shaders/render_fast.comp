@@ -76,6 +76,7 @@ layout(set = 0, binding = 19) uniform usamplerBuffer grid_flux;
 #include "lpv_geometry.glsl"
 #include "lpv_lookup.glsl"
 #include "kernel_guard.glsl"
+#include "ray_count.glsl"
 
 // The caustic estimate's k (one photon set, no progressive passes to
 // average: more neighbours than final's 8 keep the single estimate quiet).

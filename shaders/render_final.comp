@@ -130,6 +130,7 @@ vec3 caustic_radiance(Material material, vec3 position, vec3 geometric_normal, u
 }
 
 #include "kernel_guard.glsl"
+#include "ray_count.glsl"
 
 void primary(uint pixel_index, uvec2 pixel)
 {

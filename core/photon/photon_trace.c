@@ -40,7 +40,16 @@ typedef struct trace_counters {
     uint32_t caustic_stored;
     uint32_t traversal_failures;
     uint32_t non_finite;
+    uint32_t loop_truncated;
 } trace_counters;
+
+/* photon_trace.comp's Push. */
+typedef struct trace_push {
+    uint32_t first_photon;
+    uint32_t photon_count;
+    uint32_t photon_stride;
+    uint32_t loop_sentinel;
+} trace_push;
 
 struct pf_photon_tracer {
     pf_vk_context *ctx;
@@ -55,7 +64,8 @@ pf_status pf_photon_tracer_create(pf_vk_context *ctx, pf_photon_tracer **out, pf
         return pf_error_set(err, PF_ERR_NOMEM, "photon tracer: out of memory");
     tracer->ctx = ctx;
     pf_status status = pf_vk_pipeline_create_named(ctx, "photon_trace", TRACE_BUFFERS,
-                                                   sizeof(uint32_t), NULL, 0, &tracer->trace, err);
+                                                   sizeof(trace_push), NULL, 0, &tracer->trace,
+                                                   err);
     if (status != PF_OK) {
         free(tracer);
         return status;
@@ -111,6 +121,47 @@ static pf_status map_capacity(const pf_vk_device_info *info, uint32_t requested,
     return PF_OK;
 }
 
+/*
+ * Traces count photons into the maps bound in buffers (their counters zeroed first), each
+ * invocation per_invocation of them in turn (photon_trace.comp), and reads back the counters
+ * and the GPU time (< 0 without timestamps).
+ */
+static pf_status trace_photons(pf_photon_tracer *tracer, pf_vk_buffer **buffers, uint32_t count,
+                               uint32_t per_invocation, trace_counters *counters, double *gpu_ms,
+                               pf_error *err)
+{
+    pf_vk_context *ctx = tracer->ctx;
+    pf_vk_buffer *counter_buffer = buffers[TRACE_BUFFERS - 1];
+    const trace_counters zero = {0, 0, 0, 0, 0};
+    *counters = zero;
+    *gpu_ms = -1.0;
+    pf_status status = pf_vk_buffer_upload(ctx, counter_buffer, 0, &zero, sizeof zero, err);
+    pf_vk_commands *cmds = NULL;
+    if (status == PF_OK)
+        status = pf_vk_commands_begin(ctx, &cmds, err);
+    int begin = status == PF_OK ? pf_vk_cmd_timestamp(cmds) : -1;
+    const uint64_t per_dispatch = (uint64_t)TRACE_GROUP_SIZE * TRACE_MAX_GROUPS * per_invocation;
+    for (uint64_t first = 0; status == PF_OK && first < count; first += per_dispatch) {
+        trace_push push = {(uint32_t)first, count - (uint32_t)first, 0, 1};
+        if (push.photon_count > per_dispatch)
+            push.photon_count = (uint32_t)per_dispatch;
+        uint32_t invocations = (push.photon_count + per_invocation - 1) / per_invocation;
+        uint32_t groups = (invocations + TRACE_GROUP_SIZE - 1) / TRACE_GROUP_SIZE;
+        push.photon_stride = groups * TRACE_GROUP_SIZE;
+        status = pf_vk_cmd_dispatch(cmds, tracer->trace, buffers, TRACE_BUFFERS, &push,
+                                    sizeof push, groups, 1, 1, err);
+    }
+    int end = status == PF_OK ? pf_vk_cmd_timestamp(cmds) : -1;
+    if (status == PF_OK)
+        status = pf_vk_commands_submit(cmds, err);
+    if (status == PF_OK && begin >= 0 && end >= 0)
+        *gpu_ms = pf_vk_commands_elapsed_ms(cmds, begin, end);
+    pf_vk_commands_destroy(cmds);
+    if (status == PF_OK)
+        status = pf_vk_buffer_download(ctx, counter_buffer, 0, counters, sizeof *counters, err);
+    return status;
+}
+
 pf_status pf_photon_trace(pf_photon_tracer *tracer, const pf_photon_scene *scene,
                           const pf_photon_emitters *emitters,
                           const pf_photon_trace_settings *settings, pf_photon_maps *out,
@@ -151,7 +202,7 @@ pf_status pf_photon_trace(pf_photon_tracer *tracer, const pf_photon_scene *scene
     params.ray_offset = scene->ray_offset;
 
     pf_vk_buffer *params_buffer = NULL, *emitter_buffer = NULL, *counter_buffer = NULL;
-    const trace_counters zero = {0, 0, 0, 0};
+    const trace_counters zero = {0, 0, 0, 0, 0};
     status = pf_vk_buffer_create(ctx, sizeof params, "photon trace parameters", &params_buffer, err);
     if (status == PF_OK)
         status = pf_vk_buffer_upload(ctx, params_buffer, 0, &params, sizeof params, err);
@@ -167,8 +218,6 @@ pf_status pf_photon_trace(pf_photon_tracer *tracer, const pf_photon_scene *scene
         status = pf_vk_buffer_create(ctx, sizeof zero, "photon trace counters", &counter_buffer,
                                      err);
     if (status == PF_OK)
-        status = pf_vk_buffer_upload(ctx, counter_buffer, 0, &zero, sizeof zero, err);
-    if (status == PF_OK)
         status = pf_vk_buffer_create(ctx,
                                      (uint64_t)(params.global_capacity ? params.global_capacity : 1) *
                                          sizeof(pf_photon),
@@ -179,34 +228,27 @@ pf_status pf_photon_trace(pf_photon_tracer *tracer, const pf_photon_scene *scene
                                          sizeof(pf_photon),
                                      "caustic photon map", &out->caustic, err);
 
-    pf_vk_commands *cmds = NULL;
-    if (status == PF_OK)
-        status = pf_vk_commands_begin(ctx, &cmds, err);
-    int begin = status == PF_OK ? pf_vk_cmd_timestamp(cmds) : -1;
     pf_vk_buffer *buffers[TRACE_BUFFERS] = {
         params_buffer,         scene->vertices, scene->normals,      scene->triangle_material,
         scene->materials,      scene->lights,   emitter_buffer,      scene->bih.nodes,
         scene->bih.vertices,   scene->bih.triangle_index, out->global, out->caustic,
         counter_buffer};
-    const uint32_t per_dispatch = TRACE_GROUP_SIZE * TRACE_MAX_GROUPS;
-    for (uint32_t first = 0; status == PF_OK && emitters->count > 0 && first < settings->photon_count;
-         first += per_dispatch) {
-        uint32_t count = settings->photon_count - first < per_dispatch
-                             ? settings->photon_count - first
-                             : per_dispatch;
-        status = pf_vk_cmd_dispatch(cmds, tracer->trace, buffers, TRACE_BUFFERS, &first,
-                                    sizeof first, (count + TRACE_GROUP_SIZE - 1) / TRACE_GROUP_SIZE,
-                                    1, 1, err);
-    }
-    int end = status == PF_OK ? pf_vk_cmd_timestamp(cmds) : -1;
-    if (status == PF_OK)
-        status = pf_vk_commands_submit(cmds, err);
-    if (status == PF_OK && begin >= 0 && end >= 0)
-        out->gpu_ms = pf_vk_commands_elapsed_ms(cmds, begin, end);
-    pf_vk_commands_destroy(cmds);
+    uint32_t per_invocation =
+        settings->per_invocation ? settings->per_invocation : PF_PHOTON_TRACE_PER_INVOCATION;
     trace_counters counters = zero;
-    if (status == PF_OK)
-        status = pf_vk_buffer_download(ctx, counter_buffer, 0, &counters, sizeof counters, err);
+    if (status == PF_OK && emitters->count > 0)
+        status = trace_photons(tracer, buffers, settings->photon_count, per_invocation, &counters,
+                               &out->gpu_ms, err);
+    /* Photons that share an invocation add up its loop iterations: where that met the cap,
+     * the pass is traced again with one photon each (slots restart at 0: nothing is kept). */
+    if (status == PF_OK && counters.loop_truncated > 0 && per_invocation > 1) {
+        per_invocation = 1;
+        double first_ms = out->gpu_ms;
+        status = trace_photons(tracer, buffers, settings->photon_count, per_invocation,
+                               &counters, &out->gpu_ms, err);
+        out->gpu_ms = first_ms >= 0.0 && out->gpu_ms >= 0.0 ? first_ms + out->gpu_ms : -1.0;
+    }
+    out->per_invocation = per_invocation;
     release(ctx, &params_buffer);
     release(ctx, &emitter_buffer);
     release(ctx, &counter_buffer);
@@ -214,6 +256,12 @@ pf_status pf_photon_trace(pf_photon_tracer *tracer, const pf_photon_scene *scene
         status = pf_error_set(err, PF_ERR_LIMIT,
                               "%u photons overflowed the %u-entry BIH traversal stack",
                               counters.traversal_failures, PF_BIH_STACK_SIZE);
+    if (status == PF_OK && counters.loop_truncated > 0)
+        status = pf_error_set(err, PF_ERR_LIMIT,
+                              "%u invocations (%u photons each) stopped at the device's loop cap "
+                              "(llvmpipe: 65,535 loop iterations an invocation), cutting their "
+                              "photons' paths short",
+                              counters.loop_truncated, per_invocation);
     if (status != PF_OK) {
         pf_photon_maps_release(ctx, out);
         out->gpu_ms = -1.0;

@@ -1,7 +1,6 @@
-// Loop-cap proof and ray counting shared by the shading kernels that run
-// photon estimates (render_final.comp, render_fast.comp). The including
-// shader declares push.loop_sentinel (always 1) and counters.rays_low /
-// counters.rays_high.
+// Loop-cap proof for the kernels whose loops can add up to llvmpipe's cap
+// (the final kernels, render_fast.comp, photon_trace.comp). The including
+// shader declares push.loop_sentinel (always 1).
 //
 // Loop cap (lavapipe): llvmpipe ends every loop of an invocation after
 // 65,535 iterations in total, silently. loops_completed(), called at the
@@ -16,14 +15,6 @@ bool loops_completed()
     for (uint i = 0u; i < push.loop_sentinel; i++)
         completed = true;
     return completed;
-}
-
-// Adds rays to the 64-bit ray counter (two 32-bit words).
-void count_rays(uint rays)
-{
-    uint previous_low = atomicAdd(counters.rays_low, rays);
-    if (previous_low + rays < previous_low)
-        atomicAdd(counters.rays_high, 1u);
 }
 
 #endif

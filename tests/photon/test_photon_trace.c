@@ -2,7 +2,8 @@
  * GPU photon tracing: energy (in a closed diffuse box the first-bounce
  * photons carry the emitted power × albedo, within 1%), the storage rules
  * (no caustic map without specular surfaces; caustic photons behind a
- * mirror), colour kept through roulette, and the hard cases: a light
+ * mirror), colour kept through roulette, the same photons however many an
+ * invocation traces, and the hard cases: a light
  * touching a wall, a zero-power light, a map budget beyond one buffer.
  */
 #include "../vk/vk_test_util.h"
@@ -270,6 +271,53 @@ PF_TEST(irradiance_under_a_point_light_matches_the_closed_form)
     pf_photon_maps_release(bt.ctx, &maps);
 }
 
+/* Byte order of two photon records, to compare maps as sets. */
+static int photon_order(const void *a, const void *b)
+{
+    return memcmp(a, b, sizeof(pf_photon));
+}
+
+PF_TEST(photons_shared_by_an_invocation_are_the_same_photons)
+{
+    /* photon_trace.comp traces several photons per invocation, a lane starting its next photon
+     * where the last ended; photon i's path depends on i alone, so one per invocation stores
+     * the same records, the caustic ones included (a mirror under the spot), in another order. */
+    box_scene s;
+    box_init(&s, 0.7f);
+    const float a[3] = {-0.5f, -0.9f, -0.5f}, b[3] = {0.5f, -0.9f, -0.5f},
+                c[3] = {0.5f, -0.9f, 0.5f}, d[3] = {-0.5f, -0.9f, 0.5f};
+    box_add_quad(&s, a, d, c, b, 1);
+    s.frame.light_count = 1;
+    s.lights[0] = (pf_light){.position = {0.0f, 0.5f, 0.0f}, .kind = PF_LIGHT_SPOT,
+                             .direction = {0.0f, -1.0f, 0.0f}, .intensity = {1.0f, 1.0f, 1.0f},
+                             .cos_inner_cone = 0.7f, .cos_outer_cone = 0.5f};
+    pf_photon_maps maps[2];
+    pf_photon *global[2] = {NULL, NULL}, *caustic[2] = {NULL, NULL};
+    for (int run = 0; run < 2; run++) {
+        /* 70,001: not a multiple of the photons per invocation nor of a workgroup's. */
+        pf_photon_trace_settings settings = {.photon_count = 70001, .seed = 9,
+                                             .per_invocation = run == 0 ? 1u : 0u};
+        pf_error err = {0};
+        PF_REQUIRE_OK(box_trace(&bt, &s, &settings, &maps[run], &global[run], &caustic[run], &err),
+                      &err);
+        qsort(global[run], maps[run].global_count, sizeof(pf_photon), photon_order);
+        qsort(caustic[run], maps[run].caustic_count, sizeof(pf_photon), photon_order);
+    }
+    PF_CHECK(maps[0].per_invocation == 1 && maps[1].per_invocation == PF_PHOTON_TRACE_PER_INVOCATION);
+    printf("  %u global and %u caustic photons, 1 and %u per invocation\n", maps[0].global_count,
+           maps[0].caustic_count, maps[1].per_invocation);
+    PF_CHECK(maps[0].global_count > 70001 && maps[0].caustic_count > 1000);
+    PF_CHECK(maps[0].global_count == maps[1].global_count &&
+             maps[0].caustic_count == maps[1].caustic_count);
+    PF_CHECK(memcmp(global[0], global[1], maps[0].global_count * sizeof(pf_photon)) == 0);
+    PF_CHECK(memcmp(caustic[0], caustic[1], maps[0].caustic_count * sizeof(pf_photon)) == 0);
+    for (int run = 0; run < 2; run++) {
+        free(global[run]);
+        free(caustic[run]);
+        pf_photon_maps_release(bt.ctx, &maps[run]);
+    }
+}
+
 int main(void)
 {
     pf_error err = {0};
@@ -282,6 +330,7 @@ int main(void)
     PF_RUN(first_bounce_flux_equals_power_times_albedo);
     PF_RUN(all_bounces_converge_to_the_closed_box_total);
     PF_RUN(caustic_photons_need_a_specular_bounce);
+    PF_RUN(photons_shared_by_an_invocation_are_the_same_photons);
     PF_RUN(hard_cases_light_on_a_wall_zero_power_and_a_budget_beyond_memory);
     PF_RUN(irradiance_under_a_point_light_matches_the_closed_form);
     pf_bih_gpu_destroy(bt.bih_gpu);
