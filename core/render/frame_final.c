@@ -376,6 +376,11 @@ static pf_status shade_sample(pf_renderer *renderer, pf_vk_buffer **buffers,
     const final_counters zero = {0};
     pf_status status = pf_vk_buffer_upload(ctx, owned->counters, 0, &zero, sizeof zero, err);
     pf_vk_pipeline *primary = NULL, *gather = NULL, *fallback = NULL, *resolve = NULL;
+    static const pf_renderer_pipeline_id kernels[] = {
+        PF_PIPELINE_FINAL_PRIMARY, PF_PIPELINE_FINAL_GATHER, PF_PIPELINE_FINAL_FALLBACK,
+        PF_PIPELINE_FINAL_RESOLVE};
+    if (status == PF_OK)
+        status = pf_renderer_pipelines_prepare(renderer, kernels, 4, err);
     if (status == PF_OK)
         status = pf_renderer_pipeline(renderer, PF_PIPELINE_FINAL_PRIMARY, &primary, err);
     if (status == PF_OK)

@@ -210,6 +210,15 @@ struct pf_renderer {
 pf_status pf_renderer_pipeline(pf_renderer *renderer, pf_renderer_pipeline_id id,
                                pf_vk_pipeline **out, pf_error *err);
 
+/*
+ * Creates the pipelines of ids that do not exist yet, side by side on threads of their own:
+ * a driver that translates a pipeline's whole module on the creating thread (lavapipe: ~0.3 s
+ * for a final kernel) then takes about the longest one's time instead of their sum. The first
+ * error is returned; the pipelines made stay.
+ */
+pf_status pf_renderer_pipelines_prepare(pf_renderer *renderer, const pf_renderer_pipeline_id *ids,
+                                        size_t count, pf_error *err);
+
 /* FrameParams in scene_types.glsl (std430, 160 bytes). */
 typedef struct pf_frame_params {
     float camera_position[4]; /* w: half width of the image plane at distance 1 */

@@ -1,6 +1,7 @@
 /* pf_renderer lifetime, and its compute pipelines, each made at its first use. */
 #include "render_internal.h"
 
+#include <pthread.h>
 #include <stdlib.h>
 
 /* raycast_brute.comp: constant_id 0 selects the any-hit (shadow) variant. */
@@ -69,6 +70,58 @@ pf_status pf_renderer_pipeline(pf_renderer *renderer, pf_renderer_pipeline_id id
     }
     *out = renderer->pipelines[id];
     return PF_OK;
+}
+
+/* One pipeline created on a thread of its own (pf_renderer_pipelines_prepare). */
+typedef struct pipeline_job {
+    pf_renderer *renderer;
+    pf_renderer_pipeline_id id;
+    pthread_t thread;
+    int started;
+    pf_status status;
+    pf_error err;
+} pipeline_job;
+
+static void *pipeline_job_run(void *arg)
+{
+    pipeline_job *job = arg;
+    pf_vk_pipeline *unused;
+    job->status = pf_renderer_pipeline(job->renderer, job->id, &unused, &job->err);
+    return NULL;
+}
+
+pf_status pf_renderer_pipelines_prepare(pf_renderer *renderer, const pf_renderer_pipeline_id *ids,
+                                        size_t count, pf_error *err)
+{
+    pipeline_job jobs[PF_PIPELINE_COUNT];
+    size_t missing = 0;
+    for (size_t i = 0; i < count && missing < PF_PIPELINE_COUNT; i++) {
+        if ((unsigned)ids[i] >= PF_PIPELINE_COUNT)
+            return pf_error_set(err, PF_ERR_INTERNAL, "renderer: no pipeline %d", (int)ids[i]);
+        int listed = renderer->pipelines[ids[i]] != NULL;
+        for (size_t j = 0; j < missing; j++)
+            listed = listed || jobs[j].id == ids[i];
+        if (!listed)
+            jobs[missing++] = (pipeline_job){.renderer = renderer, .id = ids[i]};
+    }
+    /* All but the first on threads of their own, the first on this one; a thread that cannot
+     * be started leaves its pipeline to this thread too. */
+    for (size_t j = 1; j < missing; j++)
+        jobs[j].started = pthread_create(&jobs[j].thread, NULL, pipeline_job_run, &jobs[j]) == 0;
+    for (size_t j = 0; j < missing; j++) {
+        if (j == 0 || !jobs[j].started)
+            pipeline_job_run(&jobs[j]);
+    }
+    pf_status status = PF_OK;
+    for (size_t j = 0; j < missing; j++) {
+        if (jobs[j].started)
+            pthread_join(jobs[j].thread, NULL);
+        if (status == PF_OK && jobs[j].status != PF_OK) {
+            status = jobs[j].status;
+            *err = jobs[j].err;
+        }
+    }
+    return status;
 }
 
 pf_status pf_renderer_create(pf_vk_context *ctx, pf_renderer **out, pf_error *err)
