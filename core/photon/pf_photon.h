@@ -74,12 +74,18 @@ void pf_photon_unpack(const pf_photon *photon, float position[3], float flux[3],
  * the cell's 2×2×2 block (Teschner et al. 2003 primes 73856093, 19349663,
  * 83492791; the cell's place in its block in the key's low 3 bits, so that
  * a block's ranges share a cache line) into a power-of-two table of at
- * least one bucket per photon,
- * for sparse maps (a few lit surfaces in a large scene). Keys are sorted with
- * the BIH build's radix sort (pf_bih_sort_record), then ranges are marked and
- * the photons reordered into cell order. Hash collisions only add candidates:
- * the gather tests every candidate's distance, and visits each bucket once
- * even when two neighbouring cells share it.
+ * least one bucket per photon, for sparse maps (a few lit surfaces in a large
+ * scene). Hash collisions only add candidates: the gather tests every
+ * candidate's distance, and visits each bucket once even when two
+ * neighbouring cells share it.
+ *
+ * Photons are placed in cell order by a counting sort: each counts itself in
+ * its key (an atomic, which also gives its rank in the cell), a blocked
+ * prefix sum turns the counts into each cell's first slot, and each photon
+ * moves to first slot + rank. A cell's order is the atomics' (estimates sum
+ * the same photons, up to float rounding). It replaced three 8-bit radix
+ * passes, 120 of the 150 ms a 184k-photon grid took on lavapipe: the Cornell
+ * box's four passes of grids went from 0.65 s to 0.17-0.30 s.
  */
 #define PF_PHOTON_GRID_DENSE_FACTOR 2u
 

@@ -1,7 +1,7 @@
 /*
- * The GPU photon grid (pf_photon_grid_* in pf_photon.h): host side of
- * shaders/photon_grid_keys.comp, the BIH's radix sort, and
- * shaders/photon_grid_finish.comp; pf_photon_grid_gather runs
+ * The GPU photon grid (pf_photon_grid_* in pf_photon.h): host side of its
+ * counting sort (shaders/photon_grid_keys.comp, photon_grid_scan.comp with
+ * bih_scan.comp, photon_grid_finish.comp); pf_photon_grid_gather runs
  * shaders/photon_gather_probe.comp.
  */
 #include "pf_bih.h"
@@ -19,7 +19,11 @@
  */
 #define CELL_MARGIN (1.0f + 1.0f / 64.0f)
 /* Modes of photon_grid_finish.comp. */
-enum { FINISH_CLEAR = 0, FINISH_RANGES = 1, FINISH_REORDER = 2 };
+enum { FINISH_CLEAR = 0, FINISH_SCATTER = 1 };
+/* Modes of photon_grid_scan.comp (bih_scan.comp scans the block sums between the two). */
+enum { SCAN_REDUCE = 0, SCAN_BLOCKS = 1 };
+/* Entries of photon_grid_scan.comp's block (256 invocations of SCAN_RUN 16). */
+#define SCAN_BLOCK 4096u
 /* Modes of photon_irradiance_probe.comp. */
 enum { ESTIMATE_FIXED = 0, ESTIMATE_KNN = 1, ESTIMATE_LOOKUP = 2 };
 /* Modes of photon_irradiance_precompute.comp. */
@@ -47,8 +51,9 @@ _Static_assert(sizeof(photon_grid_push) == 48, "photon_grid_push must match phot
 
 struct pf_photon_grid {
     pf_vk_context *ctx;
-    pf_bih_sorter *sorter;
     pf_vk_pipeline *keys_pipeline;
+    pf_vk_pipeline *scan_pipeline;       /* photon_grid_scan.comp */
+    pf_vk_pipeline *block_scan_pipeline; /* bih_scan.comp over the scan's block sums */
     pf_vk_pipeline *finish_pipeline;
     pf_vk_pipeline *gather_pipeline;
     pf_vk_pipeline *irradiance_pipeline;
@@ -95,12 +100,17 @@ pf_status pf_photon_grid_create(pf_vk_context *ctx, pf_photon_grid **out, pf_err
     if (!grid)
         return pf_error_set(err, PF_ERR_NOMEM, "photon grid: out of memory");
     grid->ctx = ctx;
-    pf_status status = pf_bih_sorter_create(ctx, &grid->sorter, err);
+    pf_status status = pf_vk_pipeline_create_named(ctx, "photon_grid_keys", 4,
+                                                   sizeof(photon_grid_push), NULL, 0,
+                                                   &grid->keys_pipeline, err);
     if (status == PF_OK)
-        status = pf_vk_pipeline_create_named(ctx, "photon_grid_keys", 3, sizeof(photon_grid_push),
-                                             NULL, 0, &grid->keys_pipeline, err);
+        status = pf_vk_pipeline_create_named(ctx, "photon_grid_scan", 2, sizeof(photon_grid_push),
+                                             NULL, 0, &grid->scan_pipeline, err);
     if (status == PF_OK)
-        status = pf_vk_pipeline_create_named(ctx, "photon_grid_finish", 6,
+        status = pf_vk_pipeline_create_named(ctx, "bih_scan", 1, sizeof(uint32_t), NULL, 0,
+                                             &grid->block_scan_pipeline, err);
+    if (status == PF_OK)
+        status = pf_vk_pipeline_create_named(ctx, "photon_grid_finish", 8,
                                              sizeof(photon_grid_push), NULL, 0,
                                              &grid->finish_pipeline, err);
     /* The probes (gather, irradiance) serve tests and benchmarks: made at their first use. */
@@ -117,14 +127,14 @@ void pf_photon_grid_destroy(pf_photon_grid *grid)
     if (!grid)
         return;
     release_grid(grid);
-    pf_vk_pipeline *pipelines[] = {grid->keys_pipeline, grid->finish_pipeline,
-                                   grid->gather_pipeline, grid->irradiance_pipeline,
+    pf_vk_pipeline *pipelines[] = {grid->keys_pipeline,       grid->scan_pipeline,
+                                   grid->block_scan_pipeline, grid->finish_pipeline,
+                                   grid->gather_pipeline,     grid->irradiance_pipeline,
                                    grid->precompute_pipeline};
     for (size_t i = 0; i < sizeof pipelines / sizeof pipelines[0]; i++) {
         if (pipelines[i])
             pf_vk_pipeline_destroy(grid->ctx, pipelines[i]);
     }
-    pf_bih_sorter_destroy(grid->sorter);
     free(grid);
 }
 
@@ -132,14 +142,6 @@ static uint32_t groups_for(uint64_t items, uint32_t group_size)
 {
     uint64_t groups = (items + group_size - 1) / group_size;
     return groups ? (uint32_t)groups : 1u;
-}
-
-static uint32_t bits_for(uint32_t table_size)
-{
-    uint32_t bits = 1;
-    while (bits < 32 && (1ull << bits) < table_size)
-        bits++;
-    return bits;
 }
 
 /*
@@ -252,48 +254,70 @@ static pf_status build_grid(pf_photon_grid *grid, pf_vk_buffer *input, uint32_t 
     uint64_t record_bytes = (uint64_t)(count ? count : 1) * 16;
     uint64_t range_bytes = range_bytes_of(info.table_size);
     uint64_t index_bytes = (uint64_t)(count ? count : 1) * 4;
-    pf_vk_buffer *keys[2] = {NULL, NULL}, *values[2] = {NULL, NULL}, *histogram = NULL;
+    /* The counts, then each key's first slot: the cells, the records without a photon, the
+     * total (photon_grid_scan.comp). */
+    uint64_t scan_entries = (uint64_t)info.table_size + 2;
+    uint32_t scan_blocks = groups_for(scan_entries, SCAN_BLOCK);
+    pf_vk_buffer *keys = NULL, *ranks = NULL, *starts = NULL, *block_sums = NULL;
     status = pf_vk_buffer_create(ctx, record_bytes, "photon records (cell order)",
                                  &grid->sorted_records, err);
     if (status == PF_OK)
         status = pf_vk_buffer_create(ctx, index_bytes, "photon flux (cell order)",
                                      &grid->sorted_flux, err);
     if (status == PF_OK)
-        status = pf_vk_buffer_create(ctx, range_bytes, "photon grid ranges", &grid->ranges, err);
-    for (int i = 0; status == PF_OK && i < 2; i++) {
-        status = pf_vk_buffer_create(ctx, index_bytes, "photon grid keys", &keys[i], err);
-        if (status == PF_OK)
-            status = pf_vk_buffer_create(ctx, index_bytes, "photon grid values", &values[i], err);
-    }
+        status = pf_vk_buffer_create(ctx, index_bytes, "photon grid original indices",
+                                     &grid->original, err);
     if (status == PF_OK)
-        status = pf_vk_buffer_create(ctx, pf_bih_sort_histogram_bytes(count),
-                                     "photon grid histogram", &histogram, err);
+        status = pf_vk_buffer_create(ctx, range_bytes, "photon grid ranges", &grid->ranges, err);
+    if (status == PF_OK)
+        status = pf_vk_buffer_create(ctx, index_bytes, "photon grid keys", &keys, err);
+    if (status == PF_OK)
+        status = pf_vk_buffer_create(ctx, index_bytes, "photon grid ranks", &ranks, err);
+    if (status == PF_OK)
+        status = pf_vk_buffer_create(ctx, scan_entries * 4, "photon grid counts", &starts, err);
+    if (status == PF_OK)
+        status = pf_vk_buffer_create(ctx, ((uint64_t)scan_blocks + 1) * 4,
+                                     "photon grid block sums", &block_sums, err);
 
     pf_vk_commands *cmds = NULL;
     if (status == PF_OK)
         status = pf_vk_commands_begin(ctx, &cmds, err);
     int begin = status == PF_OK ? pf_vk_cmd_timestamp(cmds) : -1;
-    pf_vk_buffer *finish_buffers[] = {keys[0], values[0], input, grid->sorted_records,
-                                      grid->ranges, grid->sorted_flux};
+    pf_vk_buffer *finish_buffers[] = {keys,           ranks,           input, grid->sorted_records,
+                                      grid->ranges,   grid->sorted_flux, starts, grid->original};
     photon_grid_push push = push_for(&info, count, FINISH_CLEAR);
     if (status == PF_OK)
-        status = pf_vk_cmd_dispatch(cmds, grid->finish_pipeline, finish_buffers, 6, &push,
-                                    sizeof push, groups_for(info.table_size, GRID_GROUP_SIZE), 1,
-                                    1, err);
+        status = pf_vk_cmd_dispatch(cmds, grid->finish_pipeline, finish_buffers, 8, &push,
+                                    sizeof push, groups_for(scan_entries, GRID_GROUP_SIZE), 1, 1,
+                                    err);
     if (status == PF_OK && count > 0) {
-        pf_vk_buffer *key_buffers[] = {input, keys[0], values[0]};
-        status = pf_vk_cmd_dispatch(cmds, grid->keys_pipeline, key_buffers, 3, &push, sizeof push,
+        pf_vk_cmd_barrier(cmds);
+        pf_vk_buffer *key_buffers[] = {input, keys, ranks, starts};
+        status = pf_vk_cmd_dispatch(cmds, grid->keys_pipeline, key_buffers, 4, &push, sizeof push,
                                     groups_for(count, GRID_GROUP_SIZE), 1, 1, err);
+        /* Counts to first slots: block sums, their scan, each block's scan from its sum. */
+        photon_grid_push scan = push_for(&info, (uint32_t)scan_entries, SCAN_REDUCE);
+        pf_vk_buffer *scan_buffers[] = {starts, block_sums};
+        pf_vk_cmd_barrier(cmds);
         if (status == PF_OK)
-            status = pf_bih_sort_record(grid->sorter, cmds, keys, values, histogram, count,
-                                        bits_for(info.table_size + 1), err);
-        for (uint32_t mode = FINISH_RANGES; status == PF_OK && mode <= FINISH_REORDER; mode++) {
-            push.mode = mode;
-            status = pf_vk_cmd_dispatch(cmds, grid->finish_pipeline, finish_buffers, 6, &push,
+            status = pf_vk_cmd_dispatch(cmds, grid->scan_pipeline, scan_buffers, 2, &scan,
+                                        sizeof scan, scan_blocks, 1, 1, err);
+        pf_vk_cmd_barrier(cmds);
+        if (status == PF_OK)
+            status = pf_vk_cmd_dispatch(cmds, grid->block_scan_pipeline, &block_sums, 1,
+                                        &scan_blocks, sizeof scan_blocks, 1, 1, 1, err);
+        pf_vk_cmd_barrier(cmds);
+        scan.mode = SCAN_BLOCKS;
+        if (status == PF_OK)
+            status = pf_vk_cmd_dispatch(cmds, grid->scan_pipeline, scan_buffers, 2, &scan,
+                                        sizeof scan, scan_blocks, 1, 1, err);
+        pf_vk_cmd_barrier(cmds);
+        push.mode = FINISH_SCATTER;
+        if (status == PF_OK)
+            status = pf_vk_cmd_dispatch(cmds, grid->finish_pipeline, finish_buffers, 8, &push,
                                         sizeof push, groups_for(count, GRID_GROUP_SIZE), 1, 1,
                                         err);
-            pf_vk_cmd_barrier(cmds);
-        }
+        pf_vk_cmd_barrier(cmds);
     }
     int end = status == PF_OK ? pf_vk_cmd_timestamp(cmds) : -1;
     if (status == PF_OK)
@@ -303,11 +327,10 @@ static pf_status build_grid(pf_photon_grid *grid, pf_vk_buffer *input, uint32_t 
                         : -1.0;
     pf_vk_commands_destroy(cmds);
 
-    release(ctx, &keys[1]);
-    release(ctx, &values[1]);
-    release(ctx, &histogram);
-    release(ctx, &keys[0]);
-    grid->original = values[0];
+    release(ctx, &keys);
+    release(ctx, &ranks);
+    release(ctx, &starts);
+    release(ctx, &block_sums);
     if (status != PF_OK) {
         release_grid(grid);
         pf_error_prefix(err, "photon grid build (%u photons, radius %g)", count, (double)radius);

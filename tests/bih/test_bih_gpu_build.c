@@ -6,7 +6,8 @@
  * brute-force oracle (pf_raycast_brute_force) by the rule of test_bih_gpu.c
  * (the 1M mesh: the sampled CPU oracle, see million_triangles_gpu_build).
  * The SAH cost of the GPU and CPU trees is printed, not asserted beyond
- * sanity. Over-deep trees fall back to the CPU build. Validation stays silent.
+ * sanity. Over-deep trees fall back to the CPU build, and the build's radix
+ * sort is stable. Validation stays silent.
  */
 #include "bih_test_gpu.h"
 
@@ -209,6 +210,102 @@ PF_TEST(bad_input_is_refused)
     bih_frame_free(&frame);
 }
 
+/* xorshift32: the sort test's keys. */
+static uint32_t sort_random(uint32_t *state)
+{
+    *state ^= *state << 13;
+    *state ^= *state >> 17;
+    *state ^= *state << 5;
+    return *state;
+}
+
+PF_TEST(radix_sort_is_stable)
+{
+    /*
+     * The build's radix sort (Morton codes), whose scatter ranks keys in two
+     * levels (shaders/bih_radix_scatter.comp). Keys with many
+     * duplicates within and across workgroups (and a partial last group),
+     * values = input index: sorted keys must be nondecreasing, equal keys in
+     * input order, and the values a permutation.
+     */
+    enum { COUNT = 100003 };
+    const uint32_t key_bits = 12;
+    pf_error err = {0};
+    uint32_t *keys = malloc(COUNT * sizeof *keys), *values = malloc(COUNT * sizeof *values);
+    uint8_t *seen = calloc(COUNT, 1);
+    PF_REQUIRE(keys && values && seen);
+    uint32_t rng = 5u;
+    for (uint32_t i = 0; i < COUNT; i++) {
+        /* Many equal keys; bits above the sorted 16 (12 rounded up to 2 passes) are ignored. */
+        keys[i] = (i % 7 == 0 ? 42u : sort_random(&rng) % 300u) | (sort_random(&rng) << 16);
+        values[i] = i;
+    }
+    pf_bih_sorter *sorter = NULL;
+    pf_vk_buffer *key_buffers[2] = {NULL, NULL}, *value_buffers[2] = {NULL, NULL},
+                 *histogram = NULL;
+    pf_vk_commands *cmds = NULL;
+    pf_status status = pf_bih_sorter_create(env.ctx, &sorter, &err);
+    for (int b = 0; status == PF_OK && b < 2; b++) {
+        status = pf_vk_buffer_create(env.ctx, COUNT * 4, "sort keys", &key_buffers[b], &err);
+        if (status == PF_OK)
+            status = pf_vk_buffer_create(env.ctx, COUNT * 4, "sort values", &value_buffers[b], &err);
+    }
+    if (status == PF_OK)
+        status = pf_vk_buffer_create(env.ctx, pf_bih_sort_histogram_bytes(COUNT), "sort histogram",
+                                     &histogram, &err);
+    if (status == PF_OK)
+        status = pf_vk_buffer_upload(env.ctx, key_buffers[0], 0, keys, COUNT * 4, &err);
+    if (status == PF_OK)
+        status = pf_vk_buffer_upload(env.ctx, value_buffers[0], 0, values, COUNT * 4, &err);
+    if (status == PF_OK)
+        status = pf_vk_commands_begin(env.ctx, &cmds, &err);
+    if (status == PF_OK)
+        status = pf_bih_sort_record(sorter, cmds, key_buffers, value_buffers, histogram, COUNT,
+                                    key_bits, &err);
+    if (status == PF_OK)
+        status = pf_vk_commands_submit(cmds, &err);
+    pf_vk_commands_destroy(cmds);
+    uint32_t *sorted_keys = malloc(COUNT * sizeof *sorted_keys);
+    uint32_t *sorted_values = malloc(COUNT * sizeof *sorted_values);
+    if (status == PF_OK)
+        status = pf_vk_buffer_download(env.ctx, key_buffers[0], 0, sorted_keys, COUNT * 4, &err);
+    if (status == PF_OK)
+        status = pf_vk_buffer_download(env.ctx, value_buffers[0], 0, sorted_values, COUNT * 4, &err);
+    PF_CHECK_OK(status, &err);
+    uint32_t out_of_order = 0, unstable = 0, not_permutation = 0;
+    const uint32_t mask = 0xFFFFu;
+    for (uint32_t i = 0; status == PF_OK && i < COUNT; i++) {
+        uint32_t v = sorted_values[i];
+        if (v >= COUNT || seen[v] || sorted_keys[i] != keys[v]) {
+            not_permutation++;
+            continue;
+        }
+        seen[v] = 1;
+        if (i > 0) {
+            uint32_t previous = sorted_keys[i - 1] & mask, current = sorted_keys[i] & mask;
+            out_of_order += previous > current;
+            unstable += previous == current && sorted_values[i - 1] > v;
+        }
+    }
+    printf("  radix sort of %u pairs by %u bits: %u out of order, %u unstable, %u not a permutation\n",
+           COUNT, key_bits, out_of_order, unstable, not_permutation);
+    PF_CHECK(status == PF_OK && out_of_order == 0 && unstable == 0 && not_permutation == 0);
+    for (int b = 0; b < 2; b++) {
+        if (key_buffers[b])
+            pf_vk_buffer_destroy(env.ctx, key_buffers[b]);
+        if (value_buffers[b])
+            pf_vk_buffer_destroy(env.ctx, value_buffers[b]);
+    }
+    if (histogram)
+        pf_vk_buffer_destroy(env.ctx, histogram);
+    pf_bih_sorter_destroy(sorter);
+    free(sorted_keys);
+    free(sorted_values);
+    free(seen);
+    free(keys);
+    free(values);
+}
+
 int main(void)
 {
     if (!bih_gpu_env_create(&env))
@@ -219,6 +316,7 @@ int main(void)
     PF_RUN(leaf_size_option);
     PF_RUN(too_deep_falls_back_to_cpu);
     PF_RUN(bad_input_is_refused);
+    PF_RUN(radix_sort_is_stable);
     bih_gpu_env_destroy(&env);
     return pf_test_finish();
 }
