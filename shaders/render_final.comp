@@ -2,22 +2,25 @@
 #extension GL_GOOGLE_include_directive : require
 // The `final` integrator's `shade` stage (core/render/frame_final.c drives
 // it): direct light, caustics from the caustic map and indirect light by
-// final gather into the global map. One pixel sample is four dispatches:
-// this kernel's, final_gather.comp's, and final_deferred.comp's two
+// final gather into the global map. One pixel sample is four or five
+// dispatches: this kernel's, final_caustic.comp's where the pass has a
+// caustic map, final_gather.comp's, and final_deferred.comp's two
 // (final_shared.glsl holds what they share). Each is a kernel of its own
 // rather than a specialisation of one module: lavapipe translates and
 // optimises a pipeline's whole SPIR-V module before specialisation removes
 // anything, which cost every process ~0.5 s per pipeline of the module that
 // held all four.
 //
-// The primary (this kernel; caustic grid bound): a camera ray through the
+// The primary (this kernel): a camera ray through the
 //   pixel filter (pixel_filter.glsl), specular chain (bsdf_sample) to the
 //   first diffuse vertex D₁, at most params.max_specular_depth specular vertices; emission seen
 //   on the way and direct light at D₁ (direct_light.glsl, the reference's
 //   NEE, MIS-weighted against the gather rays that may hit the same
-//   emitter) go to `direct`; the caustic estimate at D₁ (albedo/π × caustic
-//   irradiance) to `caustic` and `indirect`. D₁ is written to the vertex
-//   record for the gather.
+//   emitter) go to `direct`. D₁ is written to the vertex record for the
+//   caustic dispatch and the gather.
+// final_caustic.comp (caustic grid bound; only for passes with a caustic
+//   map): the caustic estimate at D₁ (albedo/π × caustic irradiance) into
+//   `caustic` and `indirect`.
 // final_gather.comp (global grid bound): push.gather_count of the sample's
 //   push.gather_total cosine-distributed gather rays from D₁ per dispatch.
 //   At a gather ray's first diffuse hit x₂: albedo/π × global-map irradiance,
@@ -50,8 +53,8 @@
 //
 // Loop cap (lavapipe): llvmpipe ends every loop of an invocation after
 // 65,535 iterations in total, silently. Bounded by design: one camera path
-// (at most params.max_specular_depth + 1 vertices) and one caustic
-// estimate per primary invocation, push.gather_count (4) gather rays per
+// (at most params.max_specular_depth + 1 vertices) per primary invocation,
+// one caustic estimate per caustic invocation, push.gather_count (4) gather rays per
 // gather invocation, each estimate stopping itself after
 // PHOTON_ESTIMATE_MAX_ITERATIONS (final_shared.glsl). Detected either way: an estimate
 // that stopped says so (photon_irradiance_guarded/_knn), and each
@@ -62,9 +65,9 @@
 // frame above 1% of samples, never a silent bias.
 //
 // Records (one per pixel, rewritten by every sample):
-//   vertices[5p]      (D₁ position, state: 0 none, 1 present)
+//   vertices[5p]      (D₁ position, gather from it: 0 no, 1 yes)
 //   vertices[5p + 1]  (shading normal, material index bits)
-//   vertices[5p + 2]  (geometric normal, 0)
+//   vertices[5p + 2]  (geometric normal, D₁ found: 0 no, 1 yes)
 //   vertices[5p + 3]  (throughput up to D₁, 0)
 //   vertices[5p + 4]  (wo at D₁, 0)
 //   sample_sums[3p]   (direct, coverage), (indirect, kept 1/0), (caustic, 0)
@@ -90,45 +93,6 @@ layout(local_size_x = 8, local_size_y = 8) in;
 
 #include "direct_light.glsl"
 
-// Caustic radius per pixel, progressive (SPPM's per-pixel radius in the
-// probabilistic form): the first pass picks each pixel's radius as the
-// distance of its CAUSTIC_NEAREST-th nearest caustic photon (bounded by the
-// pass radius), so it adapts to the caustic's density; every later pass i
-// uses that radius × push.caustic_scale = r_i / r_1, the same α = 2/3
-// reduction as the global radius, with the fixed-radius cone estimate.
-// Re-choosing the k nearest in every pass instead would keep the estimate's
-// bias (light smeared around a small bright caustic over the k-th distance)
-// the same in every pass, so the average over passes would not converge.
-// k = 8 rather than 32: a smaller first radius starts with less of that bias,
-// and the passes average the extra noise away (on caustic-anim's caustic the
-// block error after 16 passes was 0.006 at k = 8 against 0.028 at k = 32,
-// tests/render/test_final_caustic.c's measure, 10,000 photons per pass).
-const uint CAUSTIC_NEAREST = 8u;
-
-// Radiance a Lambertian surface reflects (albedo/π × irradiance, in watts by
-// the map's flux scale) from the bound caustic map, at the pixel's
-// progressive caustic radius (above); the first pass also records that radius.
-vec3 caustic_radiance(Material material, vec3 position, vec3 geometric_normal, uint pixel_index,
-                      inout bool truncated)
-{
-    if (push.grid_photons == 0u)
-        return vec3(0.0);
-    bool stopped;
-    vec3 irradiance;
-    if (push.sample_index == 0u) {
-        float radius_used;
-        irradiance = photon_irradiance_knn(position, geometric_normal, CAUSTIC_NEAREST,
-                                           push.radius, bound_grid(), radius_used, stopped);
-        caustic_radii[pixel_index] = radius_used;
-    } else {
-        float radius = min(caustic_radii[pixel_index] * push.caustic_scale, push.radius);
-        irradiance = photon_irradiance_guarded(position, geometric_normal, radius, bound_grid(),
-                                               stopped);
-    }
-    truncated = truncated || stopped;
-    return material.albedo * (push.flux_scale / PI) * irradiance;
-}
-
 #include "kernel_guard.glsl"
 #include "ray_count.glsl"
 
@@ -145,13 +109,14 @@ void primary(uint pixel_index, uvec2 pixel)
                                           params.camera_forward.w, film_position,
                                           vec2(params.width, params.height));
     vec3 throughput = vec3(1.0);
-    vec3 direct = vec3(0.0), caustic = vec3(0.0);
+    vec3 direct = vec3(0.0);
     float coverage = 0.0, depth_aov = 0.0;
     vec3 albedo_aov = vec3(0.0), normal_aov = vec3(0.0);
-    bool valid = true, truncated = false;
+    bool valid = true;
     uint rays = 0u;
     uint base = 5u * pixel_index;
     vertices[base] = vec4(0.0);
+    vertices[base + 2u] = vec4(0.0);
     if (push.sample_index == 0u)
         caustic_radii[pixel_index] = push.radius; // no first diffuse vertex yet: the pass radius
 
@@ -182,13 +147,10 @@ void primary(uint pixel_index, uvec2 pixel)
             direct += direct_light(material, surface.position, surface_origin, wo,
                                    surface.shading_normal, surface.geometric_normal, throughput,
                                    sampler_next_4d(samples), float(push.gather_total), rays);
-            caustic = throughput * caustic_radiance(material, surface.position,
-                                                    surface.geometric_normal, pixel_index,
-                                                    truncated);
             vertices[base] = vec4(surface.position, push.gather_total > 0u ? 1.0 : 0.0);
             vertices[base + 1u] = vec4(surface.shading_normal,
                                        uintBitsToFloat(triangle_material[hit.triangle]));
-            vertices[base + 2u] = vec4(surface.geometric_normal, 0.0);
+            vertices[base + 2u] = vec4(surface.geometric_normal, 1.0); // w: D₁ found
             vertices[base + 3u] = vec4(throughput, 0.0);
             vertices[base + 4u] = vec4(wo, 0.0);
             break;
@@ -208,14 +170,15 @@ void primary(uint pixel_index, uvec2 pixel)
         direction = scattered.direction;
     }
 
-    bool completed = loops_completed() && !truncated;
+    bool completed = loops_completed();
     if (!completed)
         atomicAdd(counters.loop_truncated, 1u);
-    bool kept = completed && valid && all_finite(direct) && all_finite(caustic);
+    bool kept = completed && valid && all_finite(direct);
     uint sample_base = 3u * pixel_index;
     sample_sums[sample_base] = vec4(direct, coverage);
-    sample_sums[sample_base + 1u] = vec4(caustic, kept ? 1.0 : 0.0);
-    sample_sums[sample_base + 2u] = vec4(caustic, 0.0);
+    // Caustic light (final_caustic.comp, where a caustic map is bound) adds to the next two.
+    sample_sums[sample_base + 1u] = vec4(vec3(0.0), kept ? 1.0 : 0.0);
+    sample_sums[sample_base + 2u] = vec4(0.0);
     if (!kept)
         vertices[base].w = 0.0;
     bool aov_kept = kept && all_finite(albedo_aov) && all_finite(normal_aov) &&

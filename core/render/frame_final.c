@@ -375,14 +375,20 @@ static pf_status shade_sample(pf_renderer *renderer, pf_vk_buffer **buffers,
     pf_vk_context *ctx = renderer->ctx;
     const final_counters zero = {0};
     pf_status status = pf_vk_buffer_upload(ctx, owned->counters, 0, &zero, sizeof zero, err);
-    pf_vk_pipeline *primary = NULL, *gather = NULL, *fallback = NULL, *resolve = NULL;
+    pf_vk_pipeline *primary = NULL, *caustic = NULL, *gather = NULL, *fallback = NULL,
+                   *resolve = NULL;
+    /* The caustic kernel only for a pass with caustic photons (scenes without a specular
+     * surface never create it). */
+    int caustics = pass && pass->caustic && pf_photon_grid_get_info(pass->caustic).photon_count > 0;
     static const pf_renderer_pipeline_id kernels[] = {
         PF_PIPELINE_FINAL_PRIMARY, PF_PIPELINE_FINAL_GATHER, PF_PIPELINE_FINAL_FALLBACK,
-        PF_PIPELINE_FINAL_RESOLVE};
+        PF_PIPELINE_FINAL_RESOLVE, PF_PIPELINE_FINAL_CAUSTIC};
     if (status == PF_OK)
-        status = pf_renderer_pipelines_prepare(renderer, kernels, 4, err);
+        status = pf_renderer_pipelines_prepare(renderer, kernels, caustics ? 5 : 4, err);
     if (status == PF_OK)
         status = pf_renderer_pipeline(renderer, PF_PIPELINE_FINAL_PRIMARY, &primary, err);
+    if (status == PF_OK && caustics)
+        status = pf_renderer_pipeline(renderer, PF_PIPELINE_FINAL_CAUSTIC, &caustic, err);
     if (status == PF_OK)
         status = pf_renderer_pipeline(renderer, PF_PIPELINE_FINAL_GATHER, &gather, err);
     if (status == PF_OK)
@@ -410,6 +416,11 @@ static pf_status shade_sample(pf_renderer *renderer, pf_vk_buffer **buffers,
     bind_points(NULL, owned->empty_grid, &push, buffers);
     status = pf_vk_cmd_dispatch(cmds, primary, buffers, PF_FINAL_BUFFERS,
                                 &push, sizeof push, groups_x, groups_y, 1, err);
+    if (status == PF_OK && caustic && push.grid_photons > 0) {
+        pf_vk_cmd_barrier(cmds);
+        status = pf_vk_cmd_dispatch(cmds, caustic, buffers, PF_FINAL_BUFFERS, &push, sizeof push,
+                                    groups_x, groups_y, 1, err);
+    }
     bind_grid(pass ? pass->global : NULL, pass ? pass->radius : 0.0f,
               pass ? pass->flux_scale : 0.0f, owned->empty_grid, &push, buffers);
     push.sample_index = sample_index;

@@ -15,7 +15,7 @@
 #define REFERENCE_SPEC_AOVS 0u
 #define RENDER_REFERENCE_BUFFERS 13u
 #define RENDER_REFERENCE_PUSH_BYTES 4u
-/* render_final.comp (primary), final_gather.comp and final_deferred.comp (constant_id 0 is
+/* render_final.comp (primary), final_caustic.comp, final_gather.comp and final_deferred.comp (constant_id 0 is
  * MODE: 0 fallback, 1 resolve): PF_FINAL_BUFFERS buffers and the same 116-byte Push
  * (final_shared.glsl). */
 #define FINAL_SPEC_MODE 0u
@@ -52,6 +52,8 @@ static const pipeline_spec pipeline_specs[PF_PIPELINE_COUNT] = {
                                     RENDER_FINAL_PUSH_BYTES, 1, {FINAL_SPEC_MODE, 0}},
     [PF_PIPELINE_FINAL_RESOLVE] = {"final_deferred", RENDER_FINAL_BUFFERS,
                                    RENDER_FINAL_PUSH_BYTES, 1, {FINAL_SPEC_MODE, 1}},
+    [PF_PIPELINE_FINAL_CAUSTIC] = {"final_caustic", RENDER_FINAL_BUFFERS, RENDER_FINAL_PUSH_BYTES,
+                                   0, {0, 0}},
 };
 
 pf_status pf_renderer_pipeline(pf_renderer *renderer, pf_renderer_pipeline_id id,

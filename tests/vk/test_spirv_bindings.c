@@ -44,7 +44,8 @@ PF_TEST(integrators_read_the_tree_and_photon_maps_through_texel_buffers)
         uint32_t texel_uint, texel_records;
     } integrators[] = {{"render_direct", 2, 0},    {"render_fast", 3, 2},
                        {"render_final", 4, 4},     {"final_gather", 4, 4},
-                       {"render_reference", 2, 0}, {"final_deferred", 2, 4}};
+                       {"render_reference", 2, 0}, {"final_deferred", 2, 4},
+                       {"final_caustic", 2, 4}};
     for (size_t i = 0; i < sizeof integrators / sizeof *integrators; i++) {
         uint8_t kinds[32];
         kinds_of(integrators[i].name, kinds, 32);
@@ -54,8 +55,11 @@ PF_TEST(integrators_read_the_tree_and_photon_maps_through_texel_buffers)
             texel_float += kinds[b] == PF_VK_BINDING_TEXEL_FLOAT;
             texel_records += kinds[b] == PF_VK_BINDING_TEXEL_INT4;
         }
-        /* final_deferred has final_shared.glsl's maps and no tree. */
-        uint32_t float_wanted = strcmp(integrators[i].name, "final_deferred") == 0 ? 0 : 1;
+        /* final_deferred and final_caustic have final_shared.glsl's maps and no tree. */
+        uint32_t float_wanted = strcmp(integrators[i].name, "final_deferred") == 0 ||
+                                        strcmp(integrators[i].name, "final_caustic") == 0
+                                    ? 0
+                                    : 1;
         PF_CHECK_MSG(texel_uint == integrators[i].texel_uint && texel_float == float_wanted &&
                          texel_records == integrators[i].texel_records,
                      "%s: %u uint, %u float and %u records texel", integrators[i].name,
