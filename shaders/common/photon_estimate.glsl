@@ -299,8 +299,8 @@ vec3 photon_irradiance_knn(vec3 x, vec3 normal, uint k, float max_radius, Photon
 // precomputed point of `points` within radius (the radius of the points'
 // own estimates, <= their grid's build radius) whose normal agrees with
 // normal; false when there is none (the caller estimates from the photons).
-// Visits the 2×2×2 cells nearest to x (photon_grid_nearby_cell) in one flat
-// loop, truncated as photon_irradiance_guarded. Their keys are not made
+// Visits the points of the 2×2×2 cells nearest to x (photon_grid_nearby_cell)
+// in one flat loop, truncated as photon_irradiance_guarded. Their keys are not made
 // distinct first: a cell visited twice (a hash collision, or clamping at a
 // dense grid's border) offers the same points again, which cannot change
 // the nearest, and the search skips the key list and its dedup loop.
@@ -319,21 +319,47 @@ bool photon_irradiance_lookup(vec3 x, vec3 normal, float radius, PhotonGrid poin
     float nearest2 = radius * radius;
     uint nearest = 0xFFFFFFFFu;
     uvec3 nearest_bits = uvec3(0u); // the nearest's position bits
-    uint cell = 0u, index = 0u, end = 0u;
+    // The 8 cells' ranges first, in straight-line code, and then one step
+    // per point: step s is point s of the cells' concatenation. A loop that
+    // also stepped from cell to cell spent 8 of its steps (every step pays
+    // for all its code on llvmpipe, whatever a lane does) on the ranges.
+    uvec2 r0 = photon_texel_range(PHOTON_LOOKUP_RANGES, photon_grid_key(low, points));
+    uvec2 r1 = photon_texel_range(PHOTON_LOOKUP_RANGES,
+                                  photon_grid_key(photon_grid_nearby_cell(low, 1u), points));
+    uvec2 r2 = photon_texel_range(PHOTON_LOOKUP_RANGES,
+                                  photon_grid_key(photon_grid_nearby_cell(low, 2u), points));
+    uvec2 r3 = photon_texel_range(PHOTON_LOOKUP_RANGES,
+                                  photon_grid_key(photon_grid_nearby_cell(low, 3u), points));
+    uvec2 r4 = photon_texel_range(PHOTON_LOOKUP_RANGES,
+                                  photon_grid_key(photon_grid_nearby_cell(low, 4u), points));
+    uvec2 r5 = photon_texel_range(PHOTON_LOOKUP_RANGES,
+                                  photon_grid_key(photon_grid_nearby_cell(low, 5u), points));
+    uvec2 r6 = photon_texel_range(PHOTON_LOOKUP_RANGES,
+                                  photon_grid_key(photon_grid_nearby_cell(low, 6u), points));
+    uvec2 r7 = photon_texel_range(PHOTON_LOOKUP_RANGES,
+                                  photon_grid_key(photon_grid_nearby_cell(low, 7u), points));
+    // Where each cell's points begin in the concatenation (e8: the total).
+    uint e1 = r0.y - r0.x;
+    uint e2 = e1 + (r1.y - r1.x);
+    uint e3 = e2 + (r2.y - r2.x);
+    uint e4 = e3 + (r3.y - r3.x);
+    uint e5 = e4 + (r4.y - r4.x);
+    uint e6 = e5 + (r5.y - r5.x);
+    uint e7 = e6 + (r6.y - r6.x);
+    uint e8 = e7 + (r7.y - r7.x);
     bool done = false;
     for (uint step = 0u; step < PHOTON_ESTIMATE_MAX_ITERATIONS; step++) {
-        if (index >= end) {
-            if (cell >= 8u) {
-                done = true;
-                break;
-            }
-            uint key = photon_grid_key(photon_grid_nearby_cell(low, cell++), points);
-            uvec2 range = photon_texel_range(PHOTON_LOOKUP_RANGES, key);
-            index = range.x;
-            end = range.y;
-            continue;
+        if (step >= e8) {
+            done = true;
+            break;
         }
-        uint point = index++;
+        uint point = step < e4 ? (step < e2 ? (step < e1 ? r0.x + step : r1.x + (step - e1))
+                                            : (step < e3 ? r2.x + (step - e2)
+                                                         : r3.x + (step - e3)))
+                               : (step < e6 ? (step < e5 ? r4.x + (step - e4)
+                                                         : r5.x + (step - e5))
+                                            : (step < e7 ? r6.x + (step - e6)
+                                                         : r7.x + (step - e7)));
         uvec4 record = photon_texel_record(PHOTON_LOOKUP_RECORDS, point);
         uvec3 bits = record.xyz;
         vec3 d = uintBitsToFloat(bits) - x;
