@@ -142,12 +142,14 @@ void gather(uint pixel_index)
         vec4 shading = vertices[base + 1u];
         Material material = materials[floatBitsToUint(shading.w)];
         vec3 direct = vec3(0.0), indirect = vec3(0.0);
+        vec3 geometric_normal = vertices[base + 2u].xyz;
+        vec3 throughput = vertices[base + 3u].xyz;
+        vec3 wo = vertices[base + 4u].xyz;
         uint end = min(push.gather_first + push.gather_count, push.gather_total);
         for (uint g = push.gather_first; g < end; g++) {
             uint request = NO_REQUEST;
-            gather_ray(pixel_index, g, material, d1.xyz, shading.xyz, vertices[base + 2u].xyz,
-                       vertices[base + 3u].xyz, vertices[base + 4u].xyz, direct, indirect,
-                       request, valid, truncated, rays);
+            gather_ray(pixel_index, g, material, d1.xyz, shading.xyz, geometric_normal,
+                       throughput, wo, direct, indirect, request, valid, truncated, rays);
             requests[g] = request;
         }
         bool completed = loops_completed() && !truncated;
