@@ -336,11 +336,13 @@ typedef struct pf_photon_scene {
 
 /* Hits a photon path may have (REFERENCE.md: bound every loop). */
 #define PF_PHOTON_DEFAULT_MAX_DEPTH 16u
-/* Photons an invocation traces in turn (photon_trace.comp: a lane whose photon ended starts
- * its next, so SIMD lanes stay busy). On lavapipe, 400k photons: 1 → 8 took the Cornell box
- * 0.91 → 0.74 s and staircase2 1.72 → 1.52 s (16: 0.69 s on the Cornell box). Their loop
- * iterations add up against llvmpipe's 65,535 an invocation: 8 × 16 bounces leave ~500
- * traversal steps a bounce, and a pass that meets the cap is traced again one photon each. */
+/* Photons an invocation traces in turn on a CPU device (photon_trace.comp: a lane whose photon
+ * ended starts its next, so SIMD lanes stay busy). On lavapipe, 400k photons: 1 → 8 took the
+ * Cornell box 0.91 → 0.74 s and staircase2 1.72 → 1.52 s (16: 0.69 s on the Cornell box).
+ * Their loop iterations add up against llvmpipe's 65,535 an invocation: 8 × 16 bounces leave
+ * ~500 traversal steps a bounce, and a pass that meets the cap is traced again one photon
+ * each. Other devices trace one photon per invocation: a GPU hides latency with many threads,
+ * and 8 per invocation took an H100's staircase2 pass from 23 to 85 ms. */
 #define PF_PHOTON_TRACE_PER_INVOCATION 8u
 
 typedef struct pf_photon_trace_settings {
@@ -354,9 +356,10 @@ typedef struct pf_photon_trace_settings {
     int global_reflected;         /* 1: global records carry the flux the surface reflects
                                      (flux ⊙ albedo), not the flux arriving: with
                                      store_direct, the virtual point lights of the LPV */
-    uint32_t per_invocation;      /* photons an invocation traces in turn: 0 =
-                                     PF_PHOTON_TRACE_PER_INVOCATION (the maps hold the same
-                                     photons whatever it is; only their order differs) */
+    uint32_t per_invocation;      /* photons an invocation traces in turn: 0 = the device's
+                                     (PF_PHOTON_TRACE_PER_INVOCATION on a CPU device, else 1;
+                                     the maps hold the same photons whatever it is, only
+                                     their order differs) */
 } pf_photon_trace_settings;
 
 typedef struct pf_photon_maps {

@@ -233,8 +233,9 @@ pf_status pf_photon_trace(pf_photon_tracer *tracer, const pf_photon_scene *scene
         scene->materials,      scene->lights,   emitter_buffer,      scene->bih.nodes,
         scene->bih.vertices,   scene->bih.triangle_index, out->global, out->caustic,
         counter_buffer};
-    uint32_t per_invocation =
-        settings->per_invocation ? settings->per_invocation : PF_PHOTON_TRACE_PER_INVOCATION;
+    uint32_t per_invocation = settings->per_invocation ? settings->per_invocation
+                              : strcmp(info->type, "cpu") == 0 ? PF_PHOTON_TRACE_PER_INVOCATION
+                                                              : 1u;
     trace_counters counters = zero;
     if (status == PF_OK && emitters->count > 0)
         status = trace_photons(tracer, buffers, settings->photon_count, per_invocation, &counters,

@@ -295,8 +295,9 @@ PF_TEST(photons_shared_by_an_invocation_are_the_same_photons)
     pf_photon *global[2] = {NULL, NULL}, *caustic[2] = {NULL, NULL};
     for (int run = 0; run < 2; run++) {
         /* 70,001: not a multiple of the photons per invocation nor of a workgroup's. */
-        pf_photon_trace_settings settings = {.photon_count = 70001, .seed = 9,
-                                             .per_invocation = run == 0 ? 1u : 0u};
+        pf_photon_trace_settings settings = {
+            .photon_count = 70001, .seed = 9,
+            .per_invocation = run == 0 ? 1u : PF_PHOTON_TRACE_PER_INVOCATION};
         pf_error err = {0};
         PF_REQUIRE_OK(box_trace(&bt, &s, &settings, &maps[run], &global[run], &caustic[run], &err),
                       &err);
