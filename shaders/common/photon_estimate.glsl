@@ -323,21 +323,14 @@ bool photon_irradiance_lookup(vec3 x, vec3 normal, float radius, PhotonGrid poin
     // per point: step s is point s of the cells' concatenation. A loop that
     // also stepped from cell to cell spent 8 of its steps (every step pays
     // for all its code on llvmpipe, whatever a lane does) on the ranges.
-    uvec2 r0 = photon_texel_range(PHOTON_LOOKUP_RANGES, photon_grid_key(low, points));
-    uvec2 r1 = photon_texel_range(PHOTON_LOOKUP_RANGES,
-                                  photon_grid_key(photon_grid_nearby_cell(low, 1u), points));
-    uvec2 r2 = photon_texel_range(PHOTON_LOOKUP_RANGES,
-                                  photon_grid_key(photon_grid_nearby_cell(low, 2u), points));
-    uvec2 r3 = photon_texel_range(PHOTON_LOOKUP_RANGES,
-                                  photon_grid_key(photon_grid_nearby_cell(low, 3u), points));
-    uvec2 r4 = photon_texel_range(PHOTON_LOOKUP_RANGES,
-                                  photon_grid_key(photon_grid_nearby_cell(low, 4u), points));
-    uvec2 r5 = photon_texel_range(PHOTON_LOOKUP_RANGES,
-                                  photon_grid_key(photon_grid_nearby_cell(low, 5u), points));
-    uvec2 r6 = photon_texel_range(PHOTON_LOOKUP_RANGES,
-                                  photon_grid_key(photon_grid_nearby_cell(low, 6u), points));
-    uvec2 r7 = photon_texel_range(PHOTON_LOOKUP_RANGES,
-                                  photon_grid_key(photon_grid_nearby_cell(low, 7u), points));
+#define PHOTON_LOOKUP_CELL_RANGE(I)                                                            \
+    photon_texel_range(PHOTON_LOOKUP_RANGES,                                                   \
+                       photon_grid_key(photon_grid_nearby_cell(low, I), points))
+    uvec2 r0 = PHOTON_LOOKUP_CELL_RANGE(0u), r1 = PHOTON_LOOKUP_CELL_RANGE(1u);
+    uvec2 r2 = PHOTON_LOOKUP_CELL_RANGE(2u), r3 = PHOTON_LOOKUP_CELL_RANGE(3u);
+    uvec2 r4 = PHOTON_LOOKUP_CELL_RANGE(4u), r5 = PHOTON_LOOKUP_CELL_RANGE(5u);
+    uvec2 r6 = PHOTON_LOOKUP_CELL_RANGE(6u), r7 = PHOTON_LOOKUP_CELL_RANGE(7u);
+#undef PHOTON_LOOKUP_CELL_RANGE
     // Where each cell's points begin in the concatenation (e8: the total).
     uint e1 = r0.y - r0.x;
     uint e2 = e1 + (r1.y - r1.x);

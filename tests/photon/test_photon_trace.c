@@ -83,18 +83,25 @@ PF_TEST(all_bounces_converge_to_the_closed_box_total)
     pf_photon_maps_release(bt.ctx, &maps);
 }
 
+/* A mirror quad 1 m wide on the plane y = -0.9 of a box of albedo `albedo`, under a spot
+ * 1.4 m above it aimed straight down with the given cone: L S D photons reach the floor. */
+static void mirror_under_spot(box_scene *s, float albedo, float cos_inner, float cos_outer)
+{
+    box_init(s, albedo);
+    const float a[3] = {-0.5f, -0.9f, -0.5f}, b[3] = {0.5f, -0.9f, -0.5f},
+                c[3] = {0.5f, -0.9f, 0.5f}, d[3] = {-0.5f, -0.9f, 0.5f};
+    box_add_quad(s, a, d, c, b, 1);
+    s->frame.light_count = 1;
+    s->lights[0] = (pf_light){.position = {0.0f, 0.5f, 0.0f}, .kind = PF_LIGHT_SPOT,
+                              .direction = {0.0f, -1.0f, 0.0f}, .intensity = {1.0f, 1.0f, 1.0f},
+                              .cos_inner_cone = cos_inner, .cos_outer_cone = cos_outer};
+}
+
 PF_TEST(caustic_photons_need_a_specular_bounce)
 {
     /* A mirror quad inside the box under a spot aimed at it: L S D photons go to the caustic map. */
     box_scene s;
-    box_init(&s, 0.8f);
-    const float a[3] = {-0.5f, -0.9f, -0.5f}, b[3] = {0.5f, -0.9f, -0.5f},
-                c[3] = {0.5f, -0.9f, 0.5f}, d[3] = {-0.5f, -0.9f, 0.5f};
-    box_add_quad(&s, a, d, c, b, 1);
-    s.frame.light_count = 1;
-    s.lights[0] = (pf_light){.position = {0.0f, 0.5f, 0.0f}, .kind = PF_LIGHT_SPOT,
-                             .direction = {0.0f, -1.0f, 0.0f}, .intensity = {1.0f, 1.0f, 1.0f},
-                             .cos_inner_cone = 0.95f, .cos_outer_cone = 0.9f};
+    mirror_under_spot(&s, 0.8f, 0.95f, 0.9f);
     pf_photon_trace_settings settings = {.photon_count = 100000, .seed = 3, .max_depth = 2};
     pf_photon_maps maps;
     pf_photon *global = NULL, *caustic = NULL;
@@ -283,14 +290,7 @@ PF_TEST(photons_shared_by_an_invocation_are_the_same_photons)
      * where the last ended; photon i's path depends on i alone, so one per invocation stores
      * the same records, the caustic ones included (a mirror under the spot), in another order. */
     box_scene s;
-    box_init(&s, 0.7f);
-    const float a[3] = {-0.5f, -0.9f, -0.5f}, b[3] = {0.5f, -0.9f, -0.5f},
-                c[3] = {0.5f, -0.9f, 0.5f}, d[3] = {-0.5f, -0.9f, 0.5f};
-    box_add_quad(&s, a, d, c, b, 1);
-    s.frame.light_count = 1;
-    s.lights[0] = (pf_light){.position = {0.0f, 0.5f, 0.0f}, .kind = PF_LIGHT_SPOT,
-                             .direction = {0.0f, -1.0f, 0.0f}, .intensity = {1.0f, 1.0f, 1.0f},
-                             .cos_inner_cone = 0.7f, .cos_outer_cone = 0.5f};
+    mirror_under_spot(&s, 0.7f, 0.7f, 0.5f);
     pf_photon_maps maps[2];
     pf_photon *global[2] = {NULL, NULL}, *caustic[2] = {NULL, NULL};
     for (int run = 0; run < 2; run++) {
