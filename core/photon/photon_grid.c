@@ -4,7 +4,6 @@
  * bih_scan.comp, photon_grid_finish.comp); pf_photon_grid_gather runs
  * shaders/photon_gather_probe.comp.
  */
-#include "pf_bih.h"
 #include "pf_photon.h"
 
 #include <math.h>
