@@ -1,17 +1,12 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
-// The `final` shade stage's last two dispatches of a pixel sample (the
-// header of render_final.comp describes all four), specialised by MODE:
-// MODE_FALLBACK runs the estimates the gather deferred, one per invocation
-// (invocation index = pixel index; the host sizes the request buffer at
-// most one per pixel); MODE_RESOLVE adds each pixel's deferred estimates
-// and its sample to the film. Push block and buffers: final_shared.glsl.
+// The `final` shade stage's deferred estimates (the header of
+// render_final.comp describes a sample's dispatches): the estimates the
+// gather deferred, one per invocation (invocation index = pixel index; the
+// host sizes the request buffer at most one per pixel). final_resolve.comp
+// then adds them to their pixels. Push block and buffers: final_shared.glsl.
 
 layout(local_size_x = 8, local_size_y = 8) in;
-
-const uint MODE_FALLBACK = 0u;
-const uint MODE_RESOLVE = 1u;
-layout(constant_id = 0) const uint MODE = MODE_FALLBACK;
 
 #include "scene_bindings.glsl"
 #include "photon_types.glsl"
@@ -20,7 +15,7 @@ layout(constant_id = 0) const uint MODE = MODE_FALLBACK;
 #include "materials.glsl"
 #include "kernel_guard.glsl"
 
-// A deferred estimate (MODE_FALLBACK's invocation `request`).
+// A deferred estimate (invocation `request`).
 void fallback(uint request)
 {
     if (request >= min(counters.fallback_requests, push.fallback_capacity))
@@ -36,47 +31,10 @@ void fallback(uint request)
                                         completed ? 0.0 : 1.0);
 }
 
-// The sample's deferred estimates into its indirect light, then the sample
-// into the film (kept only if every part of it is).
-void resolve(uint pixel_index)
-{
-    uint sample_base = 3u * pixel_index;
-    vec4 sample_direct = sample_sums[sample_base];
-    vec4 sample_indirect = sample_sums[sample_base + 1u];
-    uvec4 requests = pixel_fallbacks[pixel_index];
-    for (uint g = 0u; g < push.gather_total; g++) {
-        if (requests[g] == NO_REQUEST)
-            continue;
-        vec4 estimate = fallback_requests[3u * requests[g] + 2u];
-        sample_indirect.xyz += estimate.xyz;
-        if (estimate.w != 0.0)
-            sample_indirect.w = 0.0;
-    }
-    bool kept = sample_indirect.w > 0.0 && all_finite(sample_direct.xyz) &&
-                all_finite(sample_indirect.xyz);
-    vec4 direct_sum = kept ? sample_direct : vec4(0.0);
-    vec4 indirect_sum = kept ? sample_indirect : vec4(0.0);
-    vec4 caustic_sum = kept ? sample_sums[sample_base + 2u] : vec4(0.0);
-    if (push.sample_index > 0u) {
-        direct_sum += film[sample_base];
-        indirect_sum += film[sample_base + 1u];
-        caustic_sum += film[sample_base + 2u];
-    }
-    film[sample_base] = direct_sum;
-    film[sample_base + 1u] = indirect_sum;
-    film[sample_base + 2u] = caustic_sum;
-    if (!kept)
-        atomicAdd(counters.discarded_samples, 1u);
-}
-
 void main()
 {
     uvec2 pixel = gl_GlobalInvocationID.xy;
     if (pixel.x >= params.width || pixel.y >= params.height)
         return;
-    uint pixel_index = pixel.y * params.width + pixel.x;
-    if (MODE == MODE_FALLBACK)
-        fallback(pixel_index);
-    else
-        resolve(pixel_index);
+    fallback(pixel.y * params.width + pixel.x);
 }

@@ -4,8 +4,8 @@
 // it): direct light, caustics from the caustic map and indirect light by
 // final gather into the global map. One pixel sample is four or five
 // dispatches: this kernel's, final_caustic.comp's where the pass has a
-// caustic map, final_gather.comp's, and final_deferred.comp's two
-// (final_shared.glsl holds what they share). Each is a kernel of its own
+// caustic map, final_gather.comp's, final_deferred.comp's and
+// final_resolve.comp's (final_shared.glsl holds what they share). Each is a kernel of its own
 // rather than a specialisation of one module: lavapipe translates and
 // optimises a pipeline's whole SPIR-V module before specialisation removes
 // anything, which cost every process ~0.5 s per pipeline of the module that
@@ -38,7 +38,7 @@
 //   gather ray sees after a specular vertex is left out (L S+ D₁ is the
 //   caustic map's), emission it hits straight from D₁ is the BSDF half of
 //   the direct-light MIS.
-// final_deferred.comp's MODE_FALLBACK (global grid bound): the estimates
+// final_deferred.comp (global grid bound): the estimates
 //   from the photons that the gather deferred, one per invocation. A lookup
 //   that finds no point (~5 % of them on the Cornell box) needs a full
 //   estimate, ~20 times a lookup's work; done in the gather, every 8-lane
@@ -47,7 +47,7 @@
 //   push.fallback_capacity; beyond that, and when no points are bound, it
 //   estimates at once) and that dispatch runs them with full lanes, writing
 //   each result over its request.
-// final_deferred.comp's MODE_RESOLVE (per pixel): adds the sample's
+// final_resolve.comp (per pixel): adds the sample's
 //   deferred estimates (pixel_fallbacks names them) and the sample to the
 //   film.
 //

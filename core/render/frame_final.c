@@ -86,7 +86,7 @@
 static const uint32_t grid_bindings[3] = {15u, 22u, 16u};
 static const uint32_t points_bindings[3] = {18u, 23u, 19u};
 /*
- * The gather's deferred estimates (final_deferred.comp's MODE_FALLBACK): at
+ * The gather's deferred estimates (final_deferred.comp): at
  * most one request per pixel and sample is held (a quarter of the gather
  * rays; ~5 % need one on the Cornell box), 3 vec4 each; the rest are
  * estimated in the gather itself, as are all when no irradiance points are
@@ -192,7 +192,7 @@ typedef struct final_progress {
     double trace_ms, trace_gpu_ms, grid_ms, grid_gpu_ms, caustic_ms;
     float radius_first, radius_last;
     uint64_t rays, discarded, truncated, dropped, failures;
-    uint64_t deferred, estimated_at_once; /* gather estimates run by MODE_FALLBACK, and not */
+    uint64_t deferred, estimated_at_once; /* gather estimates run by final_deferred.comp, and not */
     double shade_gpu_ms;
 } final_progress;
 

@@ -15,10 +15,8 @@
 #define REFERENCE_SPEC_AOVS 0u
 #define RENDER_REFERENCE_BUFFERS 13u
 #define RENDER_REFERENCE_PUSH_BYTES 4u
-/* render_final.comp (primary), final_caustic.comp, final_gather.comp and final_deferred.comp (constant_id 0 is
- * MODE: 0 fallback, 1 resolve): PF_FINAL_BUFFERS buffers and the same 116-byte Push
- * (final_shared.glsl). */
-#define FINAL_SPEC_MODE 0u
+/* render_final.comp (primary), final_caustic.comp, final_gather.comp, final_deferred.comp and
+ * final_resolve.comp: PF_FINAL_BUFFERS buffers and the same 116-byte Push (final_shared.glsl). */
 #define RENDER_FINAL_BUFFERS PF_FINAL_BUFFERS
 #define RENDER_FINAL_PUSH_BYTES 116u
 #define MATERIAL_PROBE_BUFFERS 2u
@@ -49,9 +47,9 @@ static const pipeline_spec pipeline_specs[PF_PIPELINE_COUNT] = {
     [PF_PIPELINE_FINAL_GATHER] = {"final_gather", RENDER_FINAL_BUFFERS, RENDER_FINAL_PUSH_BYTES,
                                   0, {0, 0}},
     [PF_PIPELINE_FINAL_FALLBACK] = {"final_deferred", RENDER_FINAL_BUFFERS,
-                                    RENDER_FINAL_PUSH_BYTES, 1, {FINAL_SPEC_MODE, 0}},
-    [PF_PIPELINE_FINAL_RESOLVE] = {"final_deferred", RENDER_FINAL_BUFFERS,
-                                   RENDER_FINAL_PUSH_BYTES, 1, {FINAL_SPEC_MODE, 1}},
+                                    RENDER_FINAL_PUSH_BYTES, 0, {0, 0}},
+    [PF_PIPELINE_FINAL_RESOLVE] = {"final_resolve", RENDER_FINAL_BUFFERS, RENDER_FINAL_PUSH_BYTES,
+                                   0, {0, 0}},
     [PF_PIPELINE_FINAL_CAUSTIC] = {"final_caustic", RENDER_FINAL_BUFFERS, RENDER_FINAL_PUSH_BYTES,
                                    0, {0, 0}},
 };

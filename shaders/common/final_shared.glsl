@@ -1,8 +1,8 @@
 // The `final` integrator's shade kernels' common interface: render_final.comp
-// (the primary), final_gather.comp and final_deferred.comp (the gather's
-// deferred estimates, the resolve) share one Push block
+// (the primary), final_caustic.comp, final_gather.comp, final_deferred.comp
+// (the gather's deferred estimates) and final_resolve.comp share one Push block
 // (core/render/frame_final.c's final_push), one buffer layout (the host binds
-// the same FINAL_BUFFERS buffers to all) and the estimate from the bound
+// the same PF_FINAL_BUFFERS buffers to all) and the estimate from the bound
 // global map. The including kernel includes
 // scene_bindings.glsl, photon_types.glsl and photon_grid.glsl first.
 #ifndef PF_FINAL_SHARED_GLSL
@@ -60,7 +60,7 @@ layout(set = 0, binding = 19) uniform isamplerBuffer points_ranges;
 #define PHOTON_LOOKUP_RANGES points_ranges
 // Deferred estimates, 3 vec4 each: (position, 0), (geometric normal, 0),
 // (weight, 0) from the gather; (weight × irradiance, 1 if the estimate
-// stopped at the loop guard) after MODE_FALLBACK.
+// stopped at the loop guard) after final_deferred.comp.
 layout(std430, set = 0, binding = 20) buffer FallbackRequests { vec4 fallback_requests[]; };
 // Per pixel: the request of each of the sample's gather rays, or NO_REQUEST.
 layout(std430, set = 0, binding = 21) buffer PixelFallbacks { uvec4 pixel_fallbacks[]; };

@@ -170,7 +170,7 @@ PF_TEST(cornell_with_precomputed_irradiance_matches_reference)
 
 /*
  * The gather defers the estimates of the lookups that find no point to a
- * dispatch of their own (render_final.comp's MODE_FALLBACK); past the
+ * dispatch of their own (final_deferred.comp); past the
  * buffer's capacity (here capped at 1 per sample) it runs them at once. Both
  * give the same light: only the order of the sums differs.
  */

@@ -45,7 +45,7 @@ PF_TEST(integrators_read_the_tree_and_photon_maps_through_texel_buffers)
     } integrators[] = {{"render_direct", 2, 0},    {"render_fast", 3, 2},
                        {"render_final", 4, 4},     {"final_gather", 4, 4},
                        {"render_reference", 2, 0}, {"final_deferred", 2, 4},
-                       {"final_caustic", 2, 4}};
+                       {"final_caustic", 2, 4},    {"final_resolve", 2, 4}};
     for (size_t i = 0; i < sizeof integrators / sizeof *integrators; i++) {
         uint8_t kinds[32];
         kinds_of(integrators[i].name, kinds, 32);
@@ -55,9 +55,10 @@ PF_TEST(integrators_read_the_tree_and_photon_maps_through_texel_buffers)
             texel_float += kinds[b] == PF_VK_BINDING_TEXEL_FLOAT;
             texel_records += kinds[b] == PF_VK_BINDING_TEXEL_INT4;
         }
-        /* final_deferred and final_caustic have final_shared.glsl's maps and no tree. */
-        uint32_t float_wanted = strcmp(integrators[i].name, "final_deferred") == 0 ||
-                                        strcmp(integrators[i].name, "final_caustic") == 0
+        /* final_deferred, final_caustic and final_resolve have final_shared.glsl's maps and no
+         * tree. */
+        uint32_t float_wanted = strncmp(integrators[i].name, "final_", 6) == 0 &&
+                                        strcmp(integrators[i].name, "final_gather") != 0
                                     ? 0
                                     : 1;
         PF_CHECK_MSG(texel_uint == integrators[i].texel_uint && texel_float == float_wanted &&
