@@ -377,9 +377,13 @@ static pf_status shade_sample(pf_renderer *renderer, pf_vk_buffer **buffers,
     pf_status status = pf_vk_buffer_upload(ctx, owned->counters, 0, &zero, sizeof zero, err);
     pf_vk_pipeline *primary = NULL, *caustic = NULL, *gather = NULL, *fallback = NULL,
                    *resolve = NULL;
+    /* The primary and the caustic kernel gather from the caustic map. */
+    final_push push;
+    bind_grid(pass ? pass->caustic : NULL, pass ? pass->radius : 0.0f,
+              pass ? pass->flux_scale : 0.0f, owned->empty_grid, &push, buffers);
     /* The caustic kernel only for a pass with caustic photons (scenes without a specular
      * surface never create it). */
-    int caustics = pass && pass->caustic && pf_photon_grid_get_info(pass->caustic).photon_count > 0;
+    int caustics = push.grid_photons > 0;
     static const pf_renderer_pipeline_id kernels[] = {
         PF_PIPELINE_FINAL_PRIMARY, PF_PIPELINE_FINAL_GATHER, PF_PIPELINE_FINAL_FALLBACK,
         PF_PIPELINE_FINAL_RESOLVE, PF_PIPELINE_FINAL_CAUSTIC};
@@ -403,9 +407,6 @@ static pf_status shade_sample(pf_renderer *renderer, pf_vk_buffer **buffers,
     uint32_t groups_x = (settings->width + GROUP_EDGE - 1) / GROUP_EDGE;
     uint32_t groups_y = (settings->height + GROUP_EDGE - 1) / GROUP_EDGE;
     int begin = pf_vk_cmd_timestamp(cmds);
-    final_push push;
-    bind_grid(pass ? pass->caustic : NULL, pass ? pass->radius : 0.0f,
-              pass ? pass->flux_scale : 0.0f, owned->empty_grid, &push, buffers);
     /* The caustic radii of the first pass shrink as the pass radius does. */
     push.caustic_scale = pass && progress->radius_first > 0.0f
                              ? pass->radius / progress->radius_first
@@ -416,7 +417,7 @@ static pf_status shade_sample(pf_renderer *renderer, pf_vk_buffer **buffers,
     bind_points(NULL, owned->empty_grid, &push, buffers);
     status = pf_vk_cmd_dispatch(cmds, primary, buffers, PF_FINAL_BUFFERS,
                                 &push, sizeof push, groups_x, groups_y, 1, err);
-    if (status == PF_OK && caustic && push.grid_photons > 0) {
+    if (status == PF_OK && caustics) {
         pf_vk_cmd_barrier(cmds);
         status = pf_vk_cmd_dispatch(cmds, caustic, buffers, PF_FINAL_BUFFERS, &push, sizeof push,
                                     groups_x, groups_y, 1, err);

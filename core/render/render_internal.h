@@ -43,7 +43,7 @@ typedef enum pf_renderer_pipeline_id {
     PF_PIPELINE_COUNT
 } pf_renderer_pipeline_id;
 
-/* The final kernels' bindings (final_shared.glsl), all four pipelines the same. */
+/* The final kernels' bindings (final_shared.glsl), the same in all five pipelines. */
 #define PF_FINAL_BUFFERS 24u
 
 /*

@@ -17,7 +17,6 @@
 #define RENDER_REFERENCE_PUSH_BYTES 4u
 /* render_final.comp (primary), final_caustic.comp, final_gather.comp, final_deferred.comp and
  * final_resolve.comp: PF_FINAL_BUFFERS buffers and the same 116-byte Push (final_shared.glsl). */
-#define RENDER_FINAL_BUFFERS PF_FINAL_BUFFERS
 #define RENDER_FINAL_PUSH_BYTES 116u
 #define MATERIAL_PROBE_BUFFERS 2u
 #define MATERIAL_PROBE_PUSH_BYTES 4u
@@ -42,15 +41,15 @@ static const pipeline_spec pipeline_specs[PF_PIPELINE_COUNT] = {
                                    RENDER_REFERENCE_PUSH_BYTES, 1, {REFERENCE_SPEC_AOVS, 0}},
     [PF_PIPELINE_MATERIAL_PROBE] = {"material_probe", MATERIAL_PROBE_BUFFERS,
                                     MATERIAL_PROBE_PUSH_BYTES, 0, {0, 0}},
-    [PF_PIPELINE_FINAL_PRIMARY] = {"render_final", RENDER_FINAL_BUFFERS, RENDER_FINAL_PUSH_BYTES,
+    [PF_PIPELINE_FINAL_PRIMARY] = {"render_final", PF_FINAL_BUFFERS, RENDER_FINAL_PUSH_BYTES,
                                    0, {0, 0}},
-    [PF_PIPELINE_FINAL_GATHER] = {"final_gather", RENDER_FINAL_BUFFERS, RENDER_FINAL_PUSH_BYTES,
+    [PF_PIPELINE_FINAL_GATHER] = {"final_gather", PF_FINAL_BUFFERS, RENDER_FINAL_PUSH_BYTES,
                                   0, {0, 0}},
-    [PF_PIPELINE_FINAL_FALLBACK] = {"final_deferred", RENDER_FINAL_BUFFERS,
+    [PF_PIPELINE_FINAL_FALLBACK] = {"final_deferred", PF_FINAL_BUFFERS,
                                     RENDER_FINAL_PUSH_BYTES, 0, {0, 0}},
-    [PF_PIPELINE_FINAL_RESOLVE] = {"final_resolve", RENDER_FINAL_BUFFERS, RENDER_FINAL_PUSH_BYTES,
+    [PF_PIPELINE_FINAL_RESOLVE] = {"final_resolve", PF_FINAL_BUFFERS, RENDER_FINAL_PUSH_BYTES,
                                    0, {0, 0}},
-    [PF_PIPELINE_FINAL_CAUSTIC] = {"final_caustic", RENDER_FINAL_BUFFERS, RENDER_FINAL_PUSH_BYTES,
+    [PF_PIPELINE_FINAL_CAUSTIC] = {"final_caustic", PF_FINAL_BUFFERS, RENDER_FINAL_PUSH_BYTES,
                                    0, {0, 0}},
 };
 
