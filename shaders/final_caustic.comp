@@ -68,7 +68,7 @@ void caustic(uint pixel_index)
     vec4 sample_indirect = sample_sums[sample_base + 1u];
     if (geometric.w == 0.0 || sample_indirect.w == 0.0)
         return;
-    Material material = materials[floatBitsToUint(vertices[base + 1u].w)];
+    Material material = scene_material(floatBitsToUint(vertices[base + 1u].w));
     bool truncated = false;
     vec3 light = vertices[base + 3u].xyz *
                  caustic_radiance(material, d1.xyz, geometric.xyz, pixel_index, truncated);

@@ -140,7 +140,7 @@ void gather(uint pixel_index)
         vec4 sample_direct = sample_sums[sample_base];
         vec4 sample_indirect = sample_sums[sample_base + 1u];
         vec4 shading = vertices[base + 1u];
-        Material material = materials[floatBitsToUint(shading.w)];
+        Material material = scene_material(floatBitsToUint(shading.w));
         vec3 direct = vec3(0.0), indirect = vec3(0.0);
         vec3 geometric_normal = vertices[base + 2u].xyz;
         vec3 throughput = vertices[base + 3u].xyz;

@@ -79,10 +79,7 @@ const uint EMITTER_DIRECTIONAL = 2u;
 const uint EMITTER_TRIANGLE = 3u;
 
 layout(std430, set = 0, binding = 0) readonly buffer Params { PhotonTraceParams params; };
-layout(std430, set = 0, binding = 1) readonly buffer TriangleVertices { vec4 triangle_vertices[]; };
-layout(std430, set = 0, binding = 2) readonly buffer TriangleNormals { vec4 triangle_normals[]; };
-layout(std430, set = 0, binding = 3) readonly buffer TriangleMaterials { uint triangle_material[]; };
-layout(std430, set = 0, binding = 4) readonly buffer Materials { Material materials[]; };
+#include "scene_geometry.glsl" // bindings 1..4
 layout(std430, set = 0, binding = 5) readonly buffer Lights { Light lights[]; };
 layout(std430, set = 0, binding = 6) readonly buffer Emitters { PhotonEmitter emitters[]; };
 layout(std430, set = 0, binding = 10) buffer GlobalMap { uint global_words[]; };
@@ -142,9 +139,9 @@ Emission emit(PhotonEmitter emitter, vec2 xi_position, vec2 xi_direction)
     Emission e = Emission(vec3(0.0), vec3(0.0, 0.0, 1.0), unit_flux, 0.0);
     if (emitter.kind == EMITTER_TRIANGLE) {
         uint first = 3u * emitter.index;
-        vec3 a = triangle_vertices[first].xyz;
-        vec3 b = triangle_vertices[first + 1u].xyz;
-        vec3 c = triangle_vertices[first + 2u].xyz;
+        vec3 a = scene_vertex(first);
+        vec3 b = scene_vertex(first + 1u);
+        vec3 c = scene_vertex(first + 2u);
         float root = sqrt(xi_position.x);
         vec3 point = (1.0 - root) * a + root * (1.0 - xi_position.y) * b + root * xi_position.y * c;
         vec3 normal = normalize(cross(b - a, c - a));

@@ -149,7 +149,7 @@ void primary(uint pixel_index, uvec2 pixel)
                                    sampler_next_4d(samples), float(push.gather_total), rays);
             vertices[base] = vec4(surface.position, push.gather_total > 0u ? 1.0 : 0.0);
             vertices[base + 1u] = vec4(surface.shading_normal,
-                                       uintBitsToFloat(triangle_material[hit.triangle]));
+                                       uintBitsToFloat(scene_triangle_material(hit.triangle)));
             vertices[base + 2u] = vec4(surface.geometric_normal, 1.0); // w: D₁ found
             vertices[base + 3u] = vec4(throughput, 0.0);
             vertices[base + 4u] = vec4(wo, 0.0);

@@ -2,11 +2,9 @@
 // integrator: picked by power through the alias table built by
 // pf_emissive_table_build, a point uniform on the picked triangle.
 //
-// These functions read the frame's arrays; the including shader declares,
-// before including this file:
-//   buffer ... { vec4 triangle_vertices[]; };  // 3 per triangle
-//   buffer ... { uint triangle_material[]; };
-//   buffer ... { Material materials[]; };
+// These functions read the frame's arrays; the including shader includes
+// scene_geometry.glsl (the triangles and materials) and declares, before
+// including this file:
 //   buffer ... { EmissiveEntry emissive[]; };  // the alias table
 #ifndef PF_AREA_LIGHTS_GLSL
 #define PF_AREA_LIGHTS_GLSL
@@ -45,9 +43,9 @@ AreaLightSample emissive_sample(vec3 position, vec4 xi, uint count, float weight
     AreaLightSample s = AreaLightSample(vec3(0.0, 0.0, 1.0), 0.0, vec3(0.0), 0.0);
     uint triangle = emissive[emissive_pick(xi.xy, count)].triangle;
     uint first = 3u * triangle;
-    vec3 a = triangle_vertices[first].xyz;
-    vec3 b = triangle_vertices[first + 1u].xyz;
-    vec3 c = triangle_vertices[first + 2u].xyz;
+    vec3 a = scene_vertex(first);
+    vec3 b = scene_vertex(first + 1u);
+    vec3 c = scene_vertex(first + 2u);
     float root = sqrt(xi.z);
     vec3 point = (1.0 - root) * a + root * (1.0 - xi.w) * b + root * xi.w * c;
     vec3 light_normal = normalize(cross(b - a, c - a));
@@ -60,7 +58,7 @@ AreaLightSample emissive_sample(vec3 position, vec4 xi, uint count, float weight
     float cos_light = -dot(light_normal, s.to_light);
     if (!(cos_light > 0.0))
         return s;
-    s.radiance = materials[triangle_material[triangle]].emission;
+    s.radiance = scene_material(scene_triangle_material(triangle)).emission;
     s.pdf_solid_angle = emissive_pdf_area(s.radiance, weight_total) * distance2 / cos_light;
     return s;
 }

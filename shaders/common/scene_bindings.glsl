@@ -7,10 +7,7 @@
 #include "scene_types.glsl"
 
 layout(std430, set = 0, binding = 0) readonly buffer Params { FrameParams params; };
-layout(std430, set = 0, binding = 1) readonly buffer TriangleVertices { vec4 triangle_vertices[]; };
-layout(std430, set = 0, binding = 2) readonly buffer TriangleNormals { vec4 triangle_normals[]; };
-layout(std430, set = 0, binding = 3) readonly buffer TriangleMaterials { uint triangle_material[]; };
-layout(std430, set = 0, binding = 4) readonly buffer Materials { Material materials[]; };
+#include "scene_geometry.glsl" // bindings 1..4
 layout(std430, set = 0, binding = 5) readonly buffer Lights { Light lights[]; };
 layout(std430, set = 0, binding = 6) readonly buffer Emissive { EmissiveEntry emissive[]; };
 

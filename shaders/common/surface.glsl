@@ -3,12 +3,8 @@
 // the material. One copy, so the preview, reference and photon kernels agree
 // on normals (the rule for bad normals below matters for energy and NaNs).
 //
-// The including shader declares, before including this file:
-//   buffer ... { vec4 triangle_vertices[]; };  // 3 per triangle
-//   buffer ... { vec4 triangle_normals[]; };   // 3 per triangle (shading normals)
-//   buffer ... { uint triangle_material[]; };
-//   buffer ... { Material materials[]; };
-// and includes bih_traverse.glsl (BihHit).
+// The including shader includes scene_geometry.glsl (the triangles, their
+// normals and materials) and bih_traverse.glsl (BihHit) first.
 #ifndef PF_SURFACE_GLSL
 #define PF_SURFACE_GLSL
 
@@ -33,16 +29,15 @@ Surface surface_at(BihHit hit, vec3 origin, vec3 direction)
 {
     Surface s;
     uint first = 3u * hit.triangle;
-    vec3 v0 = triangle_vertices[first].xyz;
-    vec3 v1 = triangle_vertices[first + 1u].xyz;
-    vec3 v2 = triangle_vertices[first + 2u].xyz;
-    s.material = materials[triangle_material[hit.triangle]];
+    vec3 v0 = scene_vertex(first);
+    vec3 v1 = scene_vertex(first + 1u);
+    vec3 v2 = scene_vertex(first + 2u);
+    s.material = scene_material(scene_triangle_material(hit.triangle));
     s.face_normal = normalize(cross(v1 - v0, v2 - v0));
     s.front = dot(s.face_normal, direction) < 0.0;
     s.geometric_normal = s.front ? s.face_normal : -s.face_normal;
-    vec3 interpolated = (1.0 - hit.u - hit.v) * triangle_normals[first].xyz +
-                        hit.u * triangle_normals[first + 1u].xyz +
-                        hit.v * triangle_normals[first + 2u].xyz;
+    vec3 interpolated = (1.0 - hit.u - hit.v) * scene_normal(first) +
+                        hit.u * scene_normal(first + 1u) + hit.v * scene_normal(first + 2u);
     s.shading_normal = dot(interpolated, interpolated) == 0.0 ? s.geometric_normal
                                                               : normalize(interpolated);
     s.valid = all_finite(s.shading_normal) && all_finite(s.face_normal);
