@@ -63,14 +63,14 @@ void caustic(uint pixel_index)
 {
     uint base = 5u * pixel_index;
     uint sample_base = 3u * pixel_index;
-    vec4 d1 = vertices[base];
-    vec4 geometric = vertices[base + 2u];
-    vec4 sample_indirect = sample_sums[sample_base + 1u];
+    vec4 d1 = texel_vec4(vertex_texels, base);
+    vec4 geometric = texel_vec4(vertex_texels, base + 2u);
+    vec4 sample_indirect = texel_vec4(sample_sum_texels, sample_base + 1u);
     if (geometric.w == 0.0 || sample_indirect.w == 0.0)
         return;
-    Material material = scene_material(floatBitsToUint(vertices[base + 1u].w));
+    Material material = scene_material(floatBitsToUint(texel_vec4(vertex_texels, base + 1u).w));
     bool truncated = false;
-    vec3 light = vertices[base + 3u].xyz *
+    vec3 light = texel_vec4(vertex_texels, base + 3u).xyz *
                  caustic_radiance(material, d1.xyz, geometric.xyz, pixel_index, truncated);
     bool completed = loops_completed() && !truncated;
     if (!completed)

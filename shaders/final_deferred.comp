@@ -22,12 +22,13 @@ void fallback(uint request)
         return;
     uint base = 3u * request;
     bool truncated = false;
-    vec3 irradiance = global_irradiance_estimate(fallback_requests[base].xyz,
-                                                 fallback_requests[base + 1u].xyz, truncated);
+    vec3 irradiance = global_irradiance_estimate(texel_vec4(fallback_request_texels, base).xyz,
+                                                 texel_vec4(fallback_request_texels, base + 1u).xyz,
+                                                 truncated);
     bool completed = loops_completed() && !truncated;
     if (!completed)
         atomicAdd(counters.loop_truncated, 1u);
-    fallback_requests[base + 2u] = vec4(fallback_requests[base + 2u].xyz * irradiance,
+    fallback_requests[base + 2u] = vec4(texel_vec4(fallback_request_texels, base + 2u).xyz * irradiance,
                                         completed ? 0.0 : 1.0);
 }
 

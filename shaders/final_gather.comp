@@ -132,19 +132,20 @@ void gather(uint pixel_index)
 {
     uint base = 5u * pixel_index;
     uint sample_base = 3u * pixel_index;
-    vec4 d1 = vertices[base];
+    vec4 d1 = texel_vec4(vertex_texels, base);
     bool valid = true, truncated = false;
     uint rays = 0u;
-    uvec4 requests = push.gather_first == 0u ? uvec4(NO_REQUEST) : pixel_fallbacks[pixel_index];
+    uvec4 requests = push.gather_first == 0u ? uvec4(NO_REQUEST)
+                                              : texel_uvec4(pixel_fallback_texels, pixel_index);
     if (d1.w > 0.0) {
-        vec4 sample_direct = sample_sums[sample_base];
-        vec4 sample_indirect = sample_sums[sample_base + 1u];
-        vec4 shading = vertices[base + 1u];
+        vec4 sample_direct = texel_vec4(sample_sum_texels, sample_base);
+        vec4 sample_indirect = texel_vec4(sample_sum_texels, sample_base + 1u);
+        vec4 shading = texel_vec4(vertex_texels, base + 1u);
         Material material = scene_material(floatBitsToUint(shading.w));
         vec3 direct = vec3(0.0), indirect = vec3(0.0);
-        vec3 geometric_normal = vertices[base + 2u].xyz;
-        vec3 throughput = vertices[base + 3u].xyz;
-        vec3 wo = vertices[base + 4u].xyz;
+        vec3 geometric_normal = texel_vec4(vertex_texels, base + 2u).xyz;
+        vec3 throughput = texel_vec4(vertex_texels, base + 3u).xyz;
+        vec3 wo = texel_vec4(vertex_texels, base + 4u).xyz;
         uint end = min(push.gather_first + push.gather_count, push.gather_total);
         for (uint g = push.gather_first; g < end; g++) {
             uint request = NO_REQUEST;

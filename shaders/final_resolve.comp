@@ -21,13 +21,13 @@ layout(local_size_x = 8, local_size_y = 8) in;
 void resolve(uint pixel_index)
 {
     uint sample_base = 3u * pixel_index;
-    vec4 sample_direct = sample_sums[sample_base];
-    vec4 sample_indirect = sample_sums[sample_base + 1u];
-    uvec4 requests = pixel_fallbacks[pixel_index];
+    vec4 sample_direct = texel_vec4(sample_sum_texels, sample_base);
+    vec4 sample_indirect = texel_vec4(sample_sum_texels, sample_base + 1u);
+    uvec4 requests = texel_uvec4(pixel_fallback_texels, pixel_index);
     for (uint g = 0u; g < push.gather_total; g++) {
         if (requests[g] == NO_REQUEST)
             continue;
-        vec4 estimate = fallback_requests[3u * requests[g] + 2u];
+        vec4 estimate = texel_vec4(fallback_request_texels, 3u * requests[g] + 2u);
         sample_indirect.xyz += estimate.xyz;
         if (estimate.w != 0.0)
             sample_indirect.w = 0.0;
@@ -36,11 +36,11 @@ void resolve(uint pixel_index)
                 all_finite(sample_indirect.xyz);
     vec4 direct_sum = kept ? sample_direct : vec4(0.0);
     vec4 indirect_sum = kept ? sample_indirect : vec4(0.0);
-    vec4 caustic_sum = kept ? sample_sums[sample_base + 2u] : vec4(0.0);
+    vec4 caustic_sum = kept ? texel_vec4(sample_sum_texels, sample_base + 2u) : vec4(0.0);
     if (push.sample_index > 0u) {
-        direct_sum += film[sample_base];
-        indirect_sum += film[sample_base + 1u];
-        caustic_sum += film[sample_base + 2u];
+        direct_sum += texel_vec4(film_texels, sample_base);
+        indirect_sum += texel_vec4(film_texels, sample_base + 1u);
+        caustic_sum += texel_vec4(film_texels, sample_base + 2u);
     }
     film[sample_base] = direct_sum;
     film[sample_base + 1u] = indirect_sum;

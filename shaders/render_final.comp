@@ -187,8 +187,8 @@ void primary(uint pixel_index, uvec2 pixel)
     vec4 albedo_depth = aov_kept ? vec4(albedo_aov, depth_aov) : vec4(0.0);
     vec4 normal_sum = aov_kept ? vec4(normal_aov, 1.0) : vec4(0.0);
     if (push.sample_index > 0u) {
-        albedo_depth += film_aov[aov_index];
-        normal_sum += film_aov[aov_index + 1u];
+        albedo_depth += texel_vec4(film_aov_texels, aov_index);
+        normal_sum += texel_vec4(film_aov_texels, aov_index + 1u);
     }
     film_aov[aov_index] = albedo_depth;
     film_aov[aov_index + 1u] = normal_sum;

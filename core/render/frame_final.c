@@ -651,7 +651,11 @@ static pf_status final_begin(pf_frame_run *run, pf_error *err)
         owned->film_aov,   owned->counters,  bih->nodes,      bih->vertices,
         bih->triangle_index, owned->vertices, owned->samples, NULL,
         NULL,              owned->caustic_radii, NULL,           NULL,
-        owned->fallback_requests, owned->pixel_fallbacks, NULL,       NULL};
+        owned->fallback_requests, owned->pixel_fallbacks, NULL,       NULL,
+        /* 24..29: texel views of the film, the AOVs, the vertices, the sample sums, the
+         * deferred estimates and their per-pixel slots (final_shared.glsl) */
+        owned->film,       owned->film_aov,  owned->vertices, owned->samples,
+        owned->fallback_requests, owned->pixel_fallbacks};
     memcpy(f->buffers, buffers, sizeof buffers);
     run->state = f;
     return PF_OK;

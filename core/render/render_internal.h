@@ -44,7 +44,7 @@ typedef enum pf_renderer_pipeline_id {
 } pf_renderer_pipeline_id;
 
 /* The final kernels' bindings (final_shared.glsl), the same in all five pipelines. */
-#define PF_FINAL_BUFFERS 24u
+#define PF_FINAL_BUFFERS 30u
 
 /*
  * The stage plan (stage_plan.c): each stage of a frame, its decision and

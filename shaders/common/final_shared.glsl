@@ -67,6 +67,30 @@ layout(std430, set = 0, binding = 21) buffer PixelFallbacks { uvec4 pixel_fallba
 layout(set = 0, binding = 22) uniform usamplerBuffer grid_flux;
 layout(set = 0, binding = 23) uniform usamplerBuffer points_flux;
 const uint NO_REQUEST = 0xFFFFFFFFu;
+// The same buffers as film (7), film_aov (8), vertices (13), sample_sums
+// (14), fallback_requests (20) and pixel_fallbacks (21), bound a second time
+// as 16-byte texel views for the reads: llvmpipe loads a storage buffer lane
+// by lane in a branchy loop and a texel fetch is one vector gather
+// (bench/RESULTS.md). Signed-integer texels, read as bits, so that what a
+// float slot holds (a material index's bits, a flag, a NaN) comes back as
+// written. A kernel reads a texel only where an earlier dispatch wrote it,
+// or its own invocation before writing it.
+layout(set = 0, binding = 24) uniform isamplerBuffer film_texels;
+layout(set = 0, binding = 25) uniform isamplerBuffer film_aov_texels;
+layout(set = 0, binding = 26) uniform isamplerBuffer vertex_texels;
+layout(set = 0, binding = 27) uniform isamplerBuffer sample_sum_texels;
+layout(set = 0, binding = 28) uniform isamplerBuffer fallback_request_texels;
+layout(set = 0, binding = 29) uniform isamplerBuffer pixel_fallback_texels;
+
+vec4 texel_vec4(isamplerBuffer texels, uint index)
+{
+    return intBitsToFloat(texelFetch(texels, int(index)));
+}
+
+uvec4 texel_uvec4(isamplerBuffer texels, uint index)
+{
+    return uvec4(texelFetch(texels, int(index)));
+}
 
 // Each estimate stops after this many iterations (photon_estimate.glsl):
 // with FINAL_GATHER_RAYS_PER_DISPATCH = 4 estimates per invocation (the

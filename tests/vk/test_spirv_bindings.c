@@ -38,15 +38,16 @@ PF_TEST(integrators_read_the_tree_and_photon_maps_through_texel_buffers)
 {
     /* The tree is 2 uint + 1 float texel buffers in every integrator; a photon map adds 2
      * records views (its records, its ranges) and 1 uint (its flux): fast's caustic map,
-     * final's bound map and its irradiance points. The scene's triangles and materials
+     * final's bound map and its irradiance points, and final's kernels 6 more records views
+     * of their per-pixel buffers (bindings 24..29). The scene's triangles and materials
      * (bindings 1..4, scene_geometry.glsl) are texel buffers in all of them and counted apart. */
     static const struct {
         const char *name;
         uint32_t texel_uint, texel_records;
     } integrators[] = {{"render_direct", 2, 0},    {"render_fast", 3, 2},
-                       {"render_final", 4, 4},     {"final_gather", 4, 4},
-                       {"render_reference", 2, 0}, {"final_deferred", 2, 4},
-                       {"final_caustic", 2, 4},    {"final_resolve", 2, 4}};
+                       {"render_final", 4, 10},    {"final_gather", 4, 10},
+                       {"render_reference", 2, 0}, {"final_deferred", 2, 10},
+                       {"final_caustic", 2, 10},   {"final_resolve", 2, 10}};
     for (size_t i = 0; i < sizeof integrators / sizeof *integrators; i++) {
         uint8_t kinds[32];
         kinds_of(integrators[i].name, kinds, 32);
@@ -75,8 +76,8 @@ PF_TEST(integrators_read_the_tree_and_photon_maps_through_texel_buffers)
         PF_CHECK(kinds[0] == PF_VK_BINDING_STORAGE && kinds[5] == PF_VK_BINDING_STORAGE &&
                  kinds[6] == PF_VK_BINDING_STORAGE);
     }
-    uint8_t kinds[24];
-    kinds_of("render_final", kinds, 24);
+    uint8_t kinds[30];
+    kinds_of("render_final", kinds, 30);
     PF_CHECK(kinds[10] == PF_VK_BINDING_TEXEL_UINT && kinds[11] == PF_VK_BINDING_TEXEL_FLOAT &&
              kinds[12] == PF_VK_BINDING_TEXEL_UINT); /* BIH_BINDING 10 */
     /* Records and ranges of the map (15, 16) and the points (18, 19); their flux (22, 23). */
@@ -85,6 +86,8 @@ PF_TEST(integrators_read_the_tree_and_photon_maps_through_texel_buffers)
     PF_CHECK(kinds[22] == PF_VK_BINDING_TEXEL_UINT && kinds[23] == PF_VK_BINDING_TEXEL_UINT);
     PF_CHECK(kinds[7] == PF_VK_BINDING_STORAGE && kinds[13] == PF_VK_BINDING_STORAGE &&
              kinds[20] == PF_VK_BINDING_STORAGE); /* film, vertices, deferred estimates */
+    for (int b = 24; b < 30; b++) /* the same buffers' texel views, for reading */
+        PF_CHECK(kinds[b] == PF_VK_BINDING_TEXEL_INT4);
     kinds_of("photon_trace", kinds, 20);
     PF_CHECK(kinds[1] == PF_VK_BINDING_TEXEL_FLOAT && kinds[4] == PF_VK_BINDING_TEXEL_INT4 &&
              kinds[6] == PF_VK_BINDING_STORAGE); /* scene_geometry.glsl; the emitters */
