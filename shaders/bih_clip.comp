@@ -10,6 +10,7 @@
 // Karras), not O(n * depth) as with per-leaf float atomics.
 
 #include "bih_build.glsl"
+#include "ray_triangle.glsl" // triangle_is_degenerate: the leaf-order vertices carry it
 
 layout(local_size_x = 256) in;
 
@@ -43,7 +44,8 @@ void main()
     if (in_range) {
         uint triangle = values[j];
         vec4 a = vertices[3 * triangle], b = vertices[3 * triangle + 1], c = vertices[3 * triangle + 2];
-        leaf_vertices[3 * j] = vec4(a.xyz, 0.0);   // w = 0, as pf_bih defines it
+        // w = 0, but a degenerate triangle's flag on its first vertex, as pf_bih.h defines it.
+        leaf_vertices[3 * j] = vec4(a.xyz, triangle_is_degenerate(a.xyz, b.xyz, c.xyz) ? 1.0 : 0.0);
         leaf_vertices[3 * j + 1] = vec4(b.xyz, 0.0);
         leaf_vertices[3 * j + 2] = vec4(c.xyz, 0.0);
         triangle_index[j] = triangle;

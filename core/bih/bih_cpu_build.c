@@ -791,11 +791,13 @@ static void order_part(void *arg, uint32_t part, uint32_t parts)
     for (uint32_t i = begin; i < end; i++) {
         uint32_t t = c->prims[i].triangle;
         c->out->triangle_index[i] = t;
+        float(*leaf)[4] = &c->out->vertices[3 * (size_t)i];
         for (int v = 0; v < 3; v++) {
-            memcpy(c->out->vertices[3 * (size_t)i + v], c->frame->vertices[3 * (size_t)t + v],
-                   3 * sizeof(float));
-            c->out->vertices[3 * (size_t)i + v][3] = 0.0f;
+            memcpy(leaf[v], c->frame->vertices[3 * (size_t)t + v], 3 * sizeof(float));
+            leaf[v][3] = 0.0f;
         }
+        if (pf_triangle_is_degenerate(leaf[0], leaf[1], leaf[2]))
+            leaf[0][3] = PF_BIH_DEGENERATE_W;
     }
 }
 

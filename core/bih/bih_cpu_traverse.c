@@ -100,6 +100,9 @@ static pf_status trace(const pf_bih *bih, const pf_ray *ray, int any_hit, pf_hit
     if (!(t_near <= t_far))
         return PF_OK;
 
+    /* The watertight test's per-ray part once (ray_triangle.glsl's RayShear). */
+    pf_ray_shear shear;
+    pf_ray_shear_setup(direction, &shear);
     float closest = ray->tmax;
     stack_entry stack[PF_BIH_STACK_SIZE];
     uint32_t stack_size = 0;
@@ -167,10 +170,11 @@ static pf_status trace(const pf_bih *bih, const pf_ray *ray, int any_hit, pf_hit
                 counts->triangle_tests += count;
             for (uint32_t p = first; p < first + count; p++) {
                 float t, u, v;
-                if (!pf_ray_triangle_watertight(origin, direction, bih->vertices[3 * p],
-                                                bih->vertices[3 * p + 1],
-                                                bih->vertices[3 * p + 2], ray->tmin,
-                                                next_up(closest), &t, &u, &v))
+                const float(*leaf)[4] = &bih->vertices[3 * p];
+                /* A degenerate triangle never hits (its flag: pf_bih.h). */
+                if (leaf[0][3] != 0.0f ||
+                    !pf_ray_triangle_sheared(origin, &shear, leaf[0], leaf[1], leaf[2], ray->tmin,
+                                             next_up(closest), &t, &u, &v))
                     continue;
                 uint32_t original = bih->triangle_index[p];
                 /* Equal t: the lower original index wins, as in the brute-force oracle. */

@@ -109,10 +109,13 @@ pf_status pf_bih_refit(pf_bih *bih, const pf_scene_frame *frame, pf_error *err)
     if (status == PF_OK) {
         for (uint32_t p = 0; p < n; p++) {
             uint32_t t = bih->triangle_index[p];
+            float(*leaf)[4] = &bih->vertices[3 * p];
             for (int c = 0; c < 3; c++) {
-                memcpy(bih->vertices[3 * p + c], frame->vertices[3 * t + c], 3 * sizeof(float));
-                bih->vertices[3 * p + c][3] = 0.0f;
+                memcpy(leaf[c], frame->vertices[3 * t + c], 3 * sizeof(float));
+                leaf[c][3] = 0.0f;
             }
+            if (pf_triangle_is_degenerate(leaf[0], leaf[1], leaf[2]))
+                leaf[0][3] = PF_BIH_DEGENERATE_W;
         }
         for (uint32_t i = listed; i-- > 0;) {
             uint32_t node = order[i];

@@ -20,6 +20,12 @@
  *               +inf for a right one, so the child bounds nothing).
  * Node 0 is the root. Triangles are stored in leaf order (each leaf's range is
  * contiguous); triangle_index maps a leaf-order position to the frame's index.
+ * The leaf-order vertices are the frame's, with w = 0 except the first
+ * vertex of a degenerate triangle (pf_triangle_is_degenerate), whose w is
+ * PF_BIH_DEGENERATE_W: a traversal skips it without testing the ray, where
+ * the watertight test would evaluate the same ray-independent check at
+ * every candidate hit (on lavapipe, where both sides of a branch run, at
+ * every triangle test).
  *
  * Rays and hits are pf_ray / pf_hit (below): t = -1 and triangle =
  * PF_NO_HIT on a miss, triangle is the frame's (original) index. A closest-hit
@@ -66,7 +72,25 @@ int pf_ray_triangle_watertight(const float origin[3], const float direction[3],
                                const float v0[3], const float v1[3], const float v2[3],
                                float tmin, float tmax, float *t, float *u, float *v);
 
+/* The test in two parts, for a traversal: the ray's permutation and shear once per ray,
+ * and the test of one triangle without the degeneracy check, which the BIH answers once per
+ * triangle at build time (pf_bih.vertices' w). */
+typedef struct pf_ray_shear {
+    int kx, ky, kz;
+    float sx, sy, sz;
+    int valid; /* 0 for a zero direction: nothing hits */
+} pf_ray_shear;
+void pf_ray_shear_setup(const float direction[3], pf_ray_shear *s);
+int pf_ray_triangle_sheared(const float origin[3], const pf_ray_shear *s, const float v0[3],
+                            const float v1[3], const float v2[3], float tmin, float tmax, float *t,
+                            float *u, float *v);
+/* A zero-area or collinear triangle, within rounding of its coordinates (ray_triangle.glsl). */
+int pf_triangle_is_degenerate(const float v0[3], const float v1[3], const float v2[3]);
+
 /* Traversal stack entries (GPU and CPU); the build bounds the depth by it. */
+/* The w of a degenerate triangle's first leaf-order vertex (pf_bih.vertices). */
+#define PF_BIH_DEGENERATE_W 1.0f
+
 #define PF_BIH_STACK_SIZE 64u
 #define PF_BIH_LEAF 3u
 /* Wächter & Keller use leaves of a few triangles; 4 keeps leaves one cache line of vertices. */
@@ -83,7 +107,7 @@ typedef struct pf_bih {
     uint32_t node_count;
     pf_bih_node *nodes;
     uint32_t triangle_count;
-    float (*vertices)[4];        /* 3 per triangle, leaf order, w = 0 */
+    float (*vertices)[4];        /* 3 per triangle, leaf order; w: PF_BIH_DEGENERATE_W */
     uint32_t *triangle_index;    /* leaf order -> frame triangle index */
     float bounds_min[3];         /* of all triangles: the root's box */
     float bounds_max[3];

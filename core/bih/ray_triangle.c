@@ -29,7 +29,7 @@
 #define DEGENERATE_BOUND2 (2.0f * (16.0f / 16777216.0f) * (16.0f / 16777216.0f))
 
 /* Same test, operation for operation, as triangle_is_degenerate in ray_triangle.glsl (why: see there). */
-static int triangle_is_degenerate(const float v0[3], const float v1[3], const float v2[3])
+int pf_triangle_is_degenerate(const float v0[3], const float v1[3], const float v2[3])
 {
     float largest = 0.0f;
     for (int k = 0; k < 3; k++)
@@ -87,9 +87,7 @@ static int column_exponent(float a, float b, float c)
     return exponent;
 }
 
-int pf_ray_triangle_watertight(const float origin[3], const float direction[3],
-                               const float v0[3], const float v1[3], const float v2[3],
-                               float tmin, float tmax, float *t, float *u, float *v)
+void pf_ray_shear_setup(const float direction[3], pf_ray_shear *s)
 {
     float ax_abs = fabsf(direction[0]), ay_abs = fabsf(direction[1]), az_abs = fabsf(direction[2]);
     int kz = ax_abs > ay_abs ? (ax_abs > az_abs ? 0 : 2) : (ay_abs > az_abs ? 1 : 2);
@@ -100,16 +98,42 @@ int pf_ray_triangle_watertight(const float origin[3], const float direction[3],
         kx = ky;
         ky = swap_axis;
     }
-    if (direction[kz] == 0.0f)
-        return 0;
+    s->kx = kx;
+    s->ky = ky;
+    s->kz = kz;
+    s->valid = direction[kz] != 0.0f;
     float dz = direction[kz];
-    float sx = direction[kx] / dz;
-    float sy = direction[ky] / dz;
-    float sz = 1.0f / dz;
+    s->sx = s->valid ? direction[kx] / dz : 0.0f;
+    s->sy = s->valid ? direction[ky] / dz : 0.0f;
+    s->sz = s->valid ? 1.0f / dz : 0.0f;
+}
 
+int pf_ray_triangle_watertight(const float origin[3], const float direction[3],
+                               const float v0[3], const float v1[3], const float v2[3],
+                               float tmin, float tmax, float *t, float *u, float *v)
+{
+    pf_ray_shear s;
+    pf_ray_shear_setup(direction, &s);
+    float hit_t, hit_u, hit_v;
+    if (!pf_ray_triangle_sheared(origin, &s, v0, v1, v2, tmin, tmax, &hit_t, &hit_u, &hit_v) ||
+        pf_triangle_is_degenerate(v0, v1, v2))
+        return 0;
+    *t = hit_t;
+    *u = hit_u;
+    *v = hit_v;
+    return 1;
+}
+
+int pf_ray_triangle_sheared(const float origin[3], const pf_ray_shear *s, const float v0[3],
+                            const float v1[3], const float v2[3], float tmin, float tmax, float *t,
+                            float *u, float *v)
+{
+    if (!s->valid)
+        return 0;
+    float sx = s->sx, sy = s->sy, sz = s->sz;
     /* The translated vertices, permuted to (kx, ky, kz). */
     float a[3], b[3], c[3];
-    const int axis[3] = {kx, ky, kz};
+    const int axis[3] = {s->kx, s->ky, s->kz};
     for (int i = 0; i < 3; i++) {
         a[i] = v0[axis[i]] - origin[axis[i]];
         b[i] = v1[axis[i]] - origin[axis[i]];
@@ -139,8 +163,6 @@ int pf_ray_triangle_watertight(const float origin[3], const float direction[3],
     float rcp_det = 1.0f / e.det;
     float hit_t = ldexpf(e.scaled_t * rcp_det, t_exponent);
     if (!(hit_t > tmin && hit_t < tmax && hit_t >= FLT_MIN))
-        return 0;
-    if (triangle_is_degenerate(v0, v1, v2))
         return 0;
     *t = hit_t;
     *u = e.ev * rcp_det;

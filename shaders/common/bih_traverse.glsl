@@ -30,9 +30,10 @@ uint bih_node_word(uint index)
     return texelFetch(bih_nodes, int(index)).x;
 }
 
-vec3 bih_vertex(uint index)
+// xyz, and w: the degenerate flag on a triangle's first vertex (pf_bih.h).
+vec4 bih_vertex(uint index)
 {
-    return texelFetch(bih_vertices, int(index)).xyz;
+    return texelFetch(bih_vertices, int(index));
 }
 
 const uint BIH_STACK_SIZE = 64u; // PF_BIH_STACK_SIZE
@@ -200,9 +201,12 @@ BihHit trace_bih(vec3 origin, vec3 direction, float tmin, float tmax, bool any_h
         uint count = bih_node_word(3u * node + 1u);
         for (uint p = first; p < first + count; p++) {
             float t, u, v;
-            if (!ray_triangle_watertight(origin, shear, bih_vertex(3u * p),
-                                         bih_vertex(3u * p + 1u), bih_vertex(3u * p + 2u), tmin,
-                                         bih_next_up(closest), t, u, v))
+            vec4 v0 = bih_vertex(3u * p);
+            // A degenerate triangle never hits; its flag saves the test (pf_bih.h).
+            if (v0.w != 0.0 ||
+                !ray_triangle_sheared(origin, shear, v0.xyz, bih_vertex(3u * p + 1u).xyz,
+                                      bih_vertex(3u * p + 2u).xyz, tmin, bih_next_up(closest), t,
+                                      u, v))
                 continue;
             uint original = texelFetch(bih_triangle_index, int(p)).x;
             // Equal t: the lower original index wins, as in the brute-force oracle.

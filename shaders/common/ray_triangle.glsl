@@ -167,7 +167,9 @@ ivec3 column_exponents(vec3 a, vec3 b, vec3 c)
 // Hit strictly inside (tmin, tmax), at t >= WATERTIGHT_MIN_T: returns true
 // and t and the barycentrics (u, v) of v1 and v2 (the hit point is
 // (1-u-v)*v0 + u*v1 + v*v2). A zero-area or collinear triangle never hits
-// (see triangle_is_degenerate).
+// (see triangle_is_degenerate): ray_triangle_watertight tests that too;
+// ray_triangle_sheared leaves it to a caller that knows it (the BIH's
+// leaf-order vertices carry it: core/bih/pf_bih.h).
 //
 // Where an edge value or the hit distance is below WATERTIGHT_RESCALE_BELOW
 // (a ray through an edge or vertex, a hit at the ray's origin, or geometry
@@ -179,8 +181,8 @@ ivec3 column_exponents(vec3 a, vec3 b, vec3 c)
 // no product is subnormal any more. Exact where nothing underflowed, so the
 // answer is bit for bit the first evaluation's there; where something did,
 // every device now gets the CPU's answer.
-bool ray_triangle_watertight(vec3 origin, RayShear s, vec3 v0, vec3 v1, vec3 v2, float tmin,
-                             float tmax, out float t, out float u, out float v)
+bool ray_triangle_sheared(vec3 origin, RayShear s, vec3 v0, vec3 v1, vec3 v2, float tmin,
+                          float tmax, out float t, out float u, out float v)
 {
     t = 0.0;
     u = 0.0;
@@ -210,12 +212,22 @@ bool ray_triangle_watertight(vec3 origin, RayShear s, vec3 v0, vec3 v1, vec3 v2,
     precise float hit_t = ldexp(e.scaled_t * rcp_det, t_exponent);
     if (!(hit_t > tmin && hit_t < tmax && hit_t >= WATERTIGHT_MIN_T))
         return false;
-    if (triangle_is_degenerate(v0, v1, v2))
-        return false;
     t = hit_t;
     u = e.ev * rcp_det;
     v = e.ew * rcp_det;
     return true;
+}
+
+bool ray_triangle_watertight(vec3 origin, RayShear s, vec3 v0, vec3 v1, vec3 v2, float tmin,
+                             float tmax, out float t, out float u, out float v)
+{
+    float hit_t, hit_u, hit_v;
+    bool hit = ray_triangle_sheared(origin, s, v0, v1, v2, tmin, tmax, hit_t, hit_u, hit_v) &&
+               !triangle_is_degenerate(v0, v1, v2);
+    t = hit ? hit_t : 0.0;
+    u = hit ? hit_u : 0.0;
+    v = hit ? hit_v : 0.0;
+    return hit;
 }
 
 #endif
