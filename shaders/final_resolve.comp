@@ -25,7 +25,8 @@ void resolve(uint pixel_index)
     vec4 sample_indirect = texel_vec4(sample_sum_texels, sample_base + 1u);
     uvec4 requests = texel_uvec4(pixel_fallback_texels, pixel_index);
     for (uint g = 0u; g < push.gather_total; g++) {
-        if (requests[g] == NO_REQUEST)
+        // NO_REQUEST, or (never left by a retrace) anything that is not a slot.
+        if (requests[g] >= push.fallback_capacity)
             continue;
         vec4 estimate = texel_vec4(fallback_request_texels, 3u * requests[g] + 2u);
         sample_indirect.xyz += estimate.xyz;

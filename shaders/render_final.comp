@@ -43,10 +43,12 @@
 //   that finds no point (~5 % of them on the Cornell box) needs a full
 //   estimate, ~20 times a lookup's work; done in the gather, every 8-lane
 //   SIMD group with one such lane (a third of them) ran it for all 8. So
-//   the gather appends them to fallback_requests (at most
-//   push.fallback_capacity; beyond that, and when no points are bound, it
-//   estimates at once) and that dispatch runs them with full lanes, writing
-//   each result over its request.
+//   the gather appends them to fallback_requests and that dispatch runs
+//   them with full lanes, writing each result over its request. Past
+//   push.fallback_capacity the gather marks the ray OVERFLOW_REQUEST and
+//   final_gather_estimate.comp traces it again with its estimate in place
+//   (a dispatch only for samples that overflowed); when no points are bound
+//   final_gather_estimate.comp is the gather (final_gather.glsl).
 // final_resolve.comp (per pixel): adds the sample's
 //   deferred estimates (pixel_fallbacks names them) and the sample to the
 //   film.

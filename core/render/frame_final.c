@@ -89,14 +89,15 @@ static const uint32_t points_bindings[3] = {18u, 23u, 19u};
  * The gather's deferred estimates (final_deferred.comp): at
  * most one request per pixel and sample is held (a quarter of the gather
  * rays; ~5 % need one on the Cornell box), 3 vec4 each; the rest are
- * estimated in the gather itself, as are all when no irradiance points are
- * bound (every ray estimates then, so there is nothing to gather up).
+ * retraced with their estimates (final_gather_estimate.comp, shade_sample),
+ * which is also the gather when no irradiance points are bound (every ray
+ * estimates then, so there is nothing to gather up).
  */
 #define FALLBACK_REQUEST_BYTES 48u
 _Static_assert(FINAL_GATHER_RAYS <= 4, "final_gather.comp keeps a pixel's requests in a uvec4");
 
 
-/* The shade kernels' Push (final_shared.glsl; 116 bytes). */
+/* The shade kernels' Push (final_shared.glsl; 120 bytes). */
 typedef struct final_push {
     pf_photon_grid_push grid;
     uint32_t grid_photons;
@@ -111,9 +112,10 @@ typedef struct final_push {
     float caustic_scale;
     uint32_t points_count;
     pf_photon_grid_push points;
+    uint32_t gather_retrace; /* final_gather_estimate.comp: only the rays marked OVERFLOW */
 } final_push;
 
-_Static_assert(sizeof(final_push) == 116, "final_push must match final_shared.glsl's Push");
+_Static_assert(sizeof(final_push) == 120, "final_push must match final_shared.glsl's Push");
 _Static_assert(offsetof(final_push, points) % 16 == 0, "points_origin is a vec3");
 
 typedef struct final_counters {
@@ -365,7 +367,23 @@ static void bind_points(const pf_photon_grid *points, pf_vk_buffer *empty, final
     push->points_count = bind_photon_grid(points, empty, &push->points, buffers, points_bindings);
 }
 
-/* Renders camera sample sample_index with pass's grids (pass NULL: no photon maps). */
+/* Records the sample's timestamps' span into the shade row's GPU time and destroys cmds. */
+static void finish_commands(pf_vk_commands *cmds, int begin, int end, final_progress *progress)
+{
+    if (begin >= 0 && end >= 0)
+        add_gpu(&progress->shade_gpu_ms, pf_vk_commands_elapsed_ms(cmds, begin, end));
+    pf_vk_commands_destroy(cmds);
+}
+
+/*
+ * Renders camera sample sample_index with pass's grids (pass NULL: no photon maps), in two
+ * submissions: the primary (and caustic) kernel and the gather, then the deferred estimates and
+ * the resolve. Between them the host reads whether the gather's requests overflowed
+ * fallback_requests; if they did, final_gather_estimate.comp retraces the marked rays with their
+ * estimates in place before the resolve, so that final_gather.comp never carries the estimate's
+ * code (final_gather.glsl says why). Without irradiance points the gather is
+ * final_gather_estimate.comp itself.
+ */
 static pf_status shade_sample(pf_renderer *renderer, pf_vk_buffer **buffers,
                               const final_buffers *owned, const pf_render_settings *settings,
                               const pf_stage_plan *plan, const final_pass *pass,
@@ -382,11 +400,15 @@ static pf_status shade_sample(pf_renderer *renderer, pf_vk_buffer **buffers,
     bind_grid(pass ? pass->caustic : NULL, pass ? pass->radius : 0.0f,
               pass ? pass->flux_scale : 0.0f, owned->empty_grid, &push, buffers);
     /* The caustic kernel only for a pass with caustic photons (scenes without a specular
-     * surface never create it). */
+     * surface never create it). A kept pass gridded without points (an earlier, smaller
+     * frame) gathers by estimates. */
     int caustics = push.grid_photons > 0;
-    static const pf_renderer_pipeline_id kernels[] = {
-        PF_PIPELINE_FINAL_PRIMARY, PF_PIPELINE_FINAL_GATHER, PF_PIPELINE_FINAL_FALLBACK,
-        PF_PIPELINE_FINAL_RESOLVE, PF_PIPELINE_FINAL_CAUSTIC};
+    int lookups = pass && pass->points_built && wants_lookups(settings, plan, pass->global_stored);
+    pf_renderer_pipeline_id gather_id =
+        lookups ? PF_PIPELINE_FINAL_GATHER : PF_PIPELINE_FINAL_GATHER_ESTIMATE;
+    pf_renderer_pipeline_id kernels[5] = {PF_PIPELINE_FINAL_PRIMARY, gather_id,
+                                          PF_PIPELINE_FINAL_FALLBACK, PF_PIPELINE_FINAL_RESOLVE,
+                                          PF_PIPELINE_FINAL_CAUSTIC};
     if (status == PF_OK)
         status = pf_renderer_pipelines_prepare(renderer, kernels, caustics ? 5 : 4, err);
     if (status == PF_OK)
@@ -394,7 +416,7 @@ static pf_status shade_sample(pf_renderer *renderer, pf_vk_buffer **buffers,
     if (status == PF_OK && caustics)
         status = pf_renderer_pipeline(renderer, PF_PIPELINE_FINAL_CAUSTIC, &caustic, err);
     if (status == PF_OK)
-        status = pf_renderer_pipeline(renderer, PF_PIPELINE_FINAL_GATHER, &gather, err);
+        status = pf_renderer_pipeline(renderer, gather_id, &gather, err);
     if (status == PF_OK)
         status = pf_renderer_pipeline(renderer, PF_PIPELINE_FINAL_FALLBACK, &fallback, err);
     if (status == PF_OK)
@@ -414,6 +436,7 @@ static pf_status shade_sample(pf_renderer *renderer, pf_vk_buffer **buffers,
     push.sample_index = sample_index;
     push.gather_total = final_gather_rays(settings);
     push.loop_sentinel = 1;
+    push.gather_retrace = 0;
     bind_points(NULL, owned->empty_grid, &push, buffers);
     status = pf_vk_cmd_dispatch(cmds, primary, buffers, PF_FINAL_BUFFERS,
                                 &push, sizeof push, groups_x, groups_y, 1, err);
@@ -427,9 +450,6 @@ static pf_status shade_sample(pf_renderer *renderer, pf_vk_buffer **buffers,
     push.sample_index = sample_index;
     push.gather_total = final_gather_rays(settings);
     push.loop_sentinel = 1;
-    /* A kept pass gridded without points (an earlier, smaller frame) gathers by estimates. */
-    int lookups = pass && pass->points_built &&
-                  wants_lookups(settings, plan, pass->global_stored);
     bind_points(lookups ? pass->points : NULL, owned->empty_grid, &push, buffers);
     progress->lookup_passes += lookups;
     uint32_t cap = renderer->final_deferred_cap;
@@ -444,24 +464,48 @@ static pf_status shade_sample(pf_renderer *renderer, pf_vk_buffer **buffers,
         status = pf_vk_cmd_dispatch(cmds, gather, buffers, PF_FINAL_BUFFERS,
                                     &push, sizeof push, groups_x, groups_y, 1, err);
     }
-    /* One invocation per request: the capacity is at most one per pixel. */
-    if (status == PF_OK && push.fallback_capacity > 0) {
-        pf_vk_cmd_barrier(cmds);
-        status = pf_vk_cmd_dispatch(cmds, fallback, buffers, PF_FINAL_BUFFERS, &push, sizeof push,
-                                    groups_x, groups_y, 1, err);
-    }
-    if (status == PF_OK) {
-        pf_vk_cmd_barrier(cmds);
-        status = pf_vk_cmd_dispatch(cmds, resolve, buffers, PF_FINAL_BUFFERS, &push, sizeof push,
-                                    groups_x, groups_y, 1, err);
-    }
     int end = pf_vk_cmd_timestamp(cmds);
     if (status == PF_OK)
         status = pf_vk_commands_submit(cmds, err);
-    if (status == PF_OK && begin >= 0 && end >= 0)
-        add_gpu(&progress->shade_gpu_ms, pf_vk_commands_elapsed_ms(cmds, begin, end));
-    pf_vk_commands_destroy(cmds);
+    finish_commands(cmds, begin, status == PF_OK ? end : -1, progress);
     final_counters counters;
+    if (status == PF_OK)
+        status = pf_vk_buffer_download(ctx, owned->counters, 0, &counters, sizeof counters, err);
+    int overflow = status == PF_OK && lookups && counters.fallback_requests > push.fallback_capacity;
+    pf_vk_pipeline *retrace = NULL;
+    if (overflow)
+        status = pf_renderer_pipeline(renderer, PF_PIPELINE_FINAL_GATHER_ESTIMATE, &retrace, err);
+    cmds = NULL;
+    if (status == PF_OK)
+        status = pf_vk_commands_begin(ctx, &cmds, err);
+    if (status != PF_OK)
+        return status;
+    begin = pf_vk_cmd_timestamp(cmds);
+    /* The rays past the capacity, all of the sample's gather rays in one dispatch (retraced
+     * rays follow the same paths as in the gather, whatever dispatch they were in). */
+    if (overflow) {
+        push.gather_retrace = 1;
+        push.gather_first = 0;
+        push.gather_count = FINAL_GATHER_RAYS;
+        status = pf_vk_cmd_dispatch(cmds, retrace, buffers, PF_FINAL_BUFFERS, &push, sizeof push,
+                                    groups_x, groups_y, 1, err);
+        push.gather_retrace = 0;
+        pf_vk_cmd_barrier(cmds);
+    }
+    /* One invocation per request: the capacity is at most one per pixel. */
+    if (status == PF_OK && push.fallback_capacity > 0) {
+        status = pf_vk_cmd_dispatch(cmds, fallback, buffers, PF_FINAL_BUFFERS, &push, sizeof push,
+                                    groups_x, groups_y, 1, err);
+        pf_vk_cmd_barrier(cmds);
+    }
+    if (status == PF_OK)
+        status = pf_vk_cmd_dispatch(cmds, resolve, buffers, PF_FINAL_BUFFERS, &push, sizeof push,
+                                    groups_x, groups_y, 1, err);
+    end = pf_vk_cmd_timestamp(cmds);
+    if (status == PF_OK)
+        status = pf_vk_commands_submit(cmds, err);
+    finish_commands(cmds, begin, status == PF_OK ? end : -1, progress);
+    /* The counters again: the retrace's truncations and failures are the sample's too. */
     if (status == PF_OK)
         status = pf_vk_buffer_download(ctx, owned->counters, 0, &counters, sizeof counters, err);
     if (status == PF_OK) {

@@ -37,6 +37,7 @@ typedef enum pf_renderer_pipeline_id {
     PF_PIPELINE_MATERIAL_PROBE,  /* material_probe.comp */
     PF_PIPELINE_FINAL_PRIMARY,   /* render_final.comp */
     PF_PIPELINE_FINAL_GATHER,    /* final_gather.comp */
+    PF_PIPELINE_FINAL_GATHER_ESTIMATE, /* final_gather_estimate.comp */
     PF_PIPELINE_FINAL_FALLBACK,  /* final_deferred.comp */
     PF_PIPELINE_FINAL_RESOLVE,   /* final_resolve.comp */
     PF_PIPELINE_FINAL_CAUSTIC,   /* final_caustic.comp */

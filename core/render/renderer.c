@@ -15,9 +15,9 @@
 #define REFERENCE_SPEC_AOVS 0u
 #define RENDER_REFERENCE_BUFFERS 13u
 #define RENDER_REFERENCE_PUSH_BYTES 4u
-/* render_final.comp (primary), final_caustic.comp, final_gather.comp, final_deferred.comp and
- * final_resolve.comp: PF_FINAL_BUFFERS buffers and the same 116-byte Push (final_shared.glsl). */
-#define RENDER_FINAL_PUSH_BYTES 116u
+/* render_final.comp (primary), final_caustic.comp, final_gather.comp,
+ * final_gather_estimate.comp, final_deferred.comp and final_resolve.comp: PF_FINAL_BUFFERS buffers and the same 120-byte Push (final_shared.glsl). */
+#define RENDER_FINAL_PUSH_BYTES 120u
 #define MATERIAL_PROBE_BUFFERS 2u
 #define MATERIAL_PROBE_PUSH_BYTES 4u
 
@@ -45,6 +45,8 @@ static const pipeline_spec pipeline_specs[PF_PIPELINE_COUNT] = {
                                    0, {0, 0}},
     [PF_PIPELINE_FINAL_GATHER] = {"final_gather", PF_FINAL_BUFFERS, RENDER_FINAL_PUSH_BYTES,
                                   0, {0, 0}},
+    [PF_PIPELINE_FINAL_GATHER_ESTIMATE] = {"final_gather_estimate", PF_FINAL_BUFFERS,
+                                           RENDER_FINAL_PUSH_BYTES, 0, {0, 0}},
     [PF_PIPELINE_FINAL_FALLBACK] = {"final_deferred", PF_FINAL_BUFFERS,
                                     RENDER_FINAL_PUSH_BYTES, 0, {0, 0}},
     [PF_PIPELINE_FINAL_RESOLVE] = {"final_resolve", PF_FINAL_BUFFERS, RENDER_FINAL_PUSH_BYTES,

@@ -31,6 +31,7 @@ layout(push_constant) uniform Push {
     uvec3 points_dims;
     uint points_hashed;
     uint points_table_size;
+    uint gather_retrace; // final_gather_estimate.comp: trace only the OVERFLOW_REQUEST rays
 } push;
 
 layout(std430, set = 0, binding = 7) buffer Film { vec4 film[]; };
@@ -67,6 +68,9 @@ layout(std430, set = 0, binding = 21) buffer PixelFallbacks { uvec4 pixel_fallba
 layout(set = 0, binding = 22) uniform usamplerBuffer grid_flux;
 layout(set = 0, binding = 23) uniform usamplerBuffer points_flux;
 const uint NO_REQUEST = 0xFFFFFFFFu;
+// A gather ray whose request found fallback_requests full: its estimate is
+// left to final_gather_estimate.comp's retrace, before the resolve.
+const uint OVERFLOW_REQUEST = 0xFFFFFFFEu;
 // The same buffers as film (7), film_aov (8), vertices (13), sample_sums
 // (14), fallback_requests (20) and pixel_fallbacks (21), bound a second time
 // as 16-byte texel views for the reads: llvmpipe loads a storage buffer lane

@@ -47,7 +47,8 @@ PF_TEST(integrators_read_the_tree_and_photon_maps_through_texel_buffers)
     } integrators[] = {{"render_direct", 2, 0},    {"render_fast", 3, 2},
                        {"render_final", 4, 10},    {"final_gather", 4, 10},
                        {"render_reference", 2, 0}, {"final_deferred", 2, 10},
-                       {"final_caustic", 2, 10},   {"final_resolve", 2, 10}};
+                       {"final_caustic", 2, 10},   {"final_resolve", 2, 10},
+                       {"final_gather_estimate", 4, 10}};
     for (size_t i = 0; i < sizeof integrators / sizeof *integrators; i++) {
         uint8_t kinds[32];
         kinds_of(integrators[i].name, kinds, 32);
@@ -58,9 +59,9 @@ PF_TEST(integrators_read_the_tree_and_photon_maps_through_texel_buffers)
             texel_records += kinds[b] == PF_VK_BINDING_TEXEL_INT4;
         }
         /* final_deferred, final_caustic and final_resolve have final_shared.glsl's maps and no
-         * tree. */
+         * tree; the two gathers have both. */
         uint32_t float_wanted = strncmp(integrators[i].name, "final_", 6) == 0 &&
-                                        strcmp(integrators[i].name, "final_gather") != 0
+                                        strncmp(integrators[i].name, "final_gather", 12) != 0
                                     ? 0
                                     : 1;
         PF_CHECK_MSG(texel_uint == integrators[i].texel_uint && texel_float == float_wanted &&

@@ -1,0 +1,6 @@
+#version 460
+#extension GL_GOOGLE_include_directive : require
+// The `final` gather with its estimates in place, and the retrace of the
+// rays final_gather.comp could not defer (final_gather.glsl).
+#define FINAL_GATHER_ESTIMATES
+#include "final_gather.glsl"
