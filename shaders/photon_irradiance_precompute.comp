@@ -24,19 +24,20 @@ layout(push_constant) uniform Push {
     uvec3 dims;
     uint hashed;
     uint table_size;
-    uint photons;  // photons in the map = records written
-    uint mode;     // MODE_MARK, then MODE_ESTIMATE
+    uint photons;  // photons in the map
+    uint padding;
     float radius;  // the estimate's radius (<= the map's build radius)
 } push;
 
-// Two dispatches. MODE_MARK, one invocation per photon: the points listed.
-// MODE_ESTIMATE, one invocation per listed point (the rest return at once):
-// its record. Listing first keeps the SIMD lanes of the estimates full;
-// with the coin tested in the estimate dispatch itself nearly every 8-lane
-// group held a point and ran the whole loop. A record's value depends on
-// its photon alone, not on the order in which the points were listed.
-const uint MODE_MARK = 0u;
-const uint MODE_ESTIMATE = 1u;
+// After photon_irradiance_mark.comp listed the points, one invocation per
+// listed point (the host sizes the dispatch by their count): its record.
+// Listing first keeps the SIMD lanes of the estimates full; with the coin
+// tested in the estimate dispatch itself nearly every 8-lane group held a
+// point and ran the whole loop. The listing is a module of its own: llvmpipe
+// runs code that no lane enters all the same, so a listing dispatch in this
+// module ran the estimate's code once for every 8 photons. A record's value
+// depends on its photon alone, not on the order in which the points were
+// listed.
 
 // The map (photon_estimate.glsl: texel buffers).
 layout(set = 0, binding = 0) uniform isamplerBuffer grid_records;
@@ -52,13 +53,6 @@ layout(set = 0, binding = 5) uniform usamplerBuffer grid_flux;
 // One estimate per invocation and no other loop: most of llvmpipe's cap.
 #define PHOTON_ESTIMATE_MAX_ITERATIONS 60000u
 #include "photon_estimate.glsl"
-
-void mark(uint i)
-{
-    vec3 position = uintBitsToFloat(photon_texel_record(grid_records, i).xyz);
-    if (photon_is_irradiance_point(position))
-        point_list[atomicAdd(counts.points, 1u)] = i;
-}
 
 // Record k: point_list[k]'s position and surface normal, and its estimate.
 void estimate(uint k)
@@ -87,10 +81,6 @@ void estimate(uint k)
 void main()
 {
     uint k = gl_GlobalInvocationID.x;
-    if (push.mode == MODE_MARK) {
-        if (k < push.photons)
-            mark(k);
-    } else if (k < counts.points) {
+    if (k < counts.points)
         estimate(k);
-    }
 }

@@ -25,14 +25,11 @@ enum { SCAN_REDUCE = 0, SCAN_BLOCKS = 1 };
 #define SCAN_BLOCK 4096u
 /* Modes of photon_irradiance_probe.comp. */
 enum { ESTIMATE_FIXED = 0, ESTIMATE_KNN = 1, ESTIMATE_LOOKUP = 2 };
-/* Modes of photon_irradiance_precompute.comp. */
-enum { PRECOMPUTE_MARK = 0, PRECOMPUTE_ESTIMATE = 1 };
-
-/* Push constants of photon_irradiance_precompute.comp (48 bytes). */
+/* Push constants of photon_irradiance_mark.comp and photon_irradiance_precompute.comp (48 bytes). */
 typedef struct precompute_push {
     pf_photon_grid_push grid;
     uint32_t photons;
-    uint32_t mode;
+    uint32_t padding;
     float radius;
 } precompute_push;
 
@@ -56,6 +53,7 @@ struct pf_photon_grid {
     pf_vk_pipeline *finish_pipeline;
     pf_vk_pipeline *gather_pipeline;
     pf_vk_pipeline *irradiance_pipeline;
+    pf_vk_pipeline *mark_pipeline;       /* photon_irradiance_mark.comp (points grids) */
     pf_vk_pipeline *precompute_pipeline; /* photon_irradiance_precompute.comp (points grids) */
     pf_vk_buffer *sorted_records; /* photons in cell order: x, y, z, directions (16 bytes) */
     pf_vk_buffer *sorted_flux;    /* their flux, same order (a word each) */
@@ -129,7 +127,7 @@ void pf_photon_grid_destroy(pf_photon_grid *grid)
     pf_vk_pipeline *pipelines[] = {grid->keys_pipeline,       grid->scan_pipeline,
                                    grid->block_scan_pipeline, grid->finish_pipeline,
                                    grid->gather_pipeline,     grid->irradiance_pipeline,
-                                   grid->precompute_pipeline};
+                                   grid->mark_pipeline,       grid->precompute_pipeline};
     for (size_t i = 0; i < sizeof pipelines / sizeof pipelines[0]; i++) {
         if (pipelines[i])
             pf_vk_pipeline_destroy(grid->ctx, pipelines[i]);
@@ -573,8 +571,33 @@ pf_status pf_photon_grid_irradiance_lookup(pf_photon_grid *points, const float (
                         err);
 }
 
-/* Runs photon_irradiance_precompute.comp over map into out (one record per photon): its two
- * dispatches, marking the points, then estimating at them. */
+/* One dispatch of pipeline over groups groups of one submission; its GPU time added to
+ * *gpu_ms (which goes negative for good when a timestamp is missing). */
+static pf_status precompute_dispatch(pf_vk_context *ctx, pf_vk_pipeline *pipeline,
+                                     pf_vk_buffer **buffers, const precompute_push *push,
+                                     uint32_t groups, double *gpu_ms, pf_error *err)
+{
+    pf_vk_commands *cmds = NULL;
+    pf_status status = pf_vk_commands_begin(ctx, &cmds, err);
+    if (status != PF_OK)
+        return status;
+    int begin = pf_vk_cmd_timestamp(cmds);
+    status = pf_vk_cmd_dispatch(cmds, pipeline, buffers, 6, push, sizeof *push, groups, 1, 1,
+                                err);
+    int end = pf_vk_cmd_timestamp(cmds);
+    if (status == PF_OK)
+        status = pf_vk_commands_submit(cmds, err);
+    if (status == PF_OK && begin >= 0 && end >= 0 && *gpu_ms >= 0.0)
+        *gpu_ms += pf_vk_commands_elapsed_ms(cmds, begin, end);
+    else
+        *gpu_ms = -1.0;
+    pf_vk_commands_destroy(cmds);
+    return status;
+}
+
+/* The irradiance points of map into out (one record per point): photon_irradiance_mark.comp
+ * lists them, then photon_irradiance_precompute.comp estimates at them, its dispatch sized by
+ * the listed count (read back between the two). */
 static pf_status precompute_points(pf_photon_grid *points, const pf_photon_grid *map,
                                    float radius, pf_vk_buffer *out, uint32_t counts[2],
                                    double *gpu_ms, pf_error *err)
@@ -589,14 +612,14 @@ static pf_status precompute_points(pf_photon_grid *points, const pf_photon_grid 
                                      "irradiance point list", &list, err);
     if (status == PF_OK)
         status = pf_vk_buffer_upload(ctx, counter, 0, zero, sizeof zero, err);
+    if (status == PF_OK && !points->mark_pipeline)
+        status = pf_vk_pipeline_create_named(ctx, "photon_irradiance_mark", 6,
+                                             sizeof(precompute_push), NULL, 0,
+                                             &points->mark_pipeline, err);
     if (status == PF_OK && !points->precompute_pipeline)
         status = pf_vk_pipeline_create_named(ctx, "photon_irradiance_precompute", 6,
                                              sizeof(precompute_push), NULL, 0,
                                              &points->precompute_pipeline, err);
-    pf_vk_commands *cmds = NULL;
-    if (status == PF_OK)
-        status = pf_vk_commands_begin(ctx, &cmds, err);
-    int begin = status == PF_OK ? pf_vk_cmd_timestamp(cmds) : -1;
     precompute_push push;
     memset(&push, 0, sizeof push);
     push.grid = pf_photon_grid_push_of(&map->info);
@@ -604,21 +627,18 @@ static pf_status precompute_points(pf_photon_grid *points, const pf_photon_grid 
     push.radius = radius;
     pf_vk_buffer *buffers[] = {map->sorted_records, map->ranges, out, counter, list,
                                map->sorted_flux};
-    for (uint32_t mode = PRECOMPUTE_MARK; status == PF_OK && mode <= PRECOMPUTE_ESTIMATE;
-         mode++) {
-        push.mode = mode;
-        status = pf_vk_cmd_dispatch(cmds, points->precompute_pipeline, buffers, 6, &push,
-                                    sizeof push, groups_for(push.photons, GATHER_GROUP_SIZE), 1,
-                                    1, err);
-        pf_vk_cmd_barrier(cmds);
-    }
-    int end = status == PF_OK ? pf_vk_cmd_timestamp(cmds) : -1;
+    *gpu_ms = 0.0;
     if (status == PF_OK)
-        status = pf_vk_commands_submit(cmds, err);
-    *gpu_ms = status == PF_OK && begin >= 0 && end >= 0
-                  ? pf_vk_commands_elapsed_ms(cmds, begin, end)
-                  : -1.0;
-    pf_vk_commands_destroy(cmds);
+        status = precompute_dispatch(ctx, points->mark_pipeline, buffers, &push,
+                                     groups_for(push.photons, GATHER_GROUP_SIZE), gpu_ms, err);
+    if (status == PF_OK)
+        status = pf_vk_buffer_download(ctx, counter, 0, counts, sizeof zero, err);
+    if (status == PF_OK && counts[0] > push.photons)
+        status = pf_error_set(err, PF_ERR_INTERNAL, "irradiance points: %u listed of %u photons",
+                              counts[0], push.photons);
+    if (status == PF_OK && counts[0] > 0)
+        status = precompute_dispatch(ctx, points->precompute_pipeline, buffers, &push,
+                                     groups_for(counts[0], GATHER_GROUP_SIZE), gpu_ms, err);
     if (status == PF_OK)
         status = pf_vk_buffer_download(ctx, counter, 0, counts, sizeof zero, err);
     release(ctx, &list);
