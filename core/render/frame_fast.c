@@ -1,7 +1,8 @@
 /*
  * The `fast` integrator (issue 11): direct light by next-event estimation,
  * diffuse indirect light from cascaded light propagation volumes, caustics
- * from a caustic photon map. Host side of shaders/render_fast.comp.
+ * from a caustic photon map. Host side of shaders/render_fast.comp and
+ * render_fast_caustic.comp (shaders/common/fast_shade.glsl).
  *
  * Stages, in order (each a row, skipped ones with their reason), as the
  * stage planner (stage_plan.c) decided them before the frame:
@@ -43,7 +44,7 @@
 /* A frame fails when more than this fraction of its samples hit the loop cap (as final). */
 #define FAST_TRUNCATED_LIMIT 0.01
 
-/* render_fast.comp's Push (72 bytes). */
+/* fast_shade.glsl's Push (72 bytes). */
 typedef struct fast_push {
     pf_photon_grid_push grid;
     uint32_t grid_photons;
@@ -57,7 +58,7 @@ typedef struct fast_push {
     uint32_t padding;
 } fast_push;
 
-_Static_assert(sizeof(fast_push) == 72, "fast_push must match render_fast.comp's Push");
+_Static_assert(sizeof(fast_push) == 72, "fast_push must match fast_shade.glsl's Push");
 
 typedef struct fast_counters {
     uint32_t discarded_samples;
@@ -263,7 +264,7 @@ static void fast_buffers_release(pf_vk_context *ctx, fast_buffers *b)
         pf_render_buffer_release(ctx, all[i]);
 }
 
-/* The shade stage: samples dispatches of render_fast.comp into the split film, then the image. */
+/* The shade stage: samples dispatches of the fast kernel into the split film, then the image. */
 static pf_status shade(pf_renderer *renderer, struct pf_fast_cache *cache,
                        const pf_scene_frame *frame, const pf_render_settings *settings,
                        const pf_stage_plan *plan,
@@ -313,6 +314,12 @@ static pf_status shade(pf_renderer *renderer, struct pf_fast_cache *cache,
         owned.film_aov,  owned.counters,  bih->nodes,       bih->vertices,
         bih->triangle_index, pf_lpv_accumulated(cache->lpv), cache->cascades, records,
         ranges, pf_lpv_snapshots(cache->lpv), pf_lpv_geometry(cache->lpv), flux};
+    /* The kernel with the caustic estimate only for a frame with caustic photons. */
+    int caustics = push.grid_photons > 0;
+    if (status == PF_OK && !renderer->render_fast[caustics])
+        status = pf_vk_pipeline_create_named(ctx, caustics ? "render_fast_caustic" : "render_fast",
+                                             FAST_BUFFERS, sizeof(fast_push), NULL, 0,
+                                             &renderer->render_fast[caustics], err);
     pf_vk_commands *cmds = NULL;
     if (status == PF_OK)
         status = pf_vk_commands_begin(ctx, &cmds, err);
@@ -321,8 +328,8 @@ static pf_status shade(pf_renderer *renderer, struct pf_fast_cache *cache,
     int begin = status == PF_OK ? pf_vk_cmd_timestamp(cmds) : -1;
     for (uint32_t s = 0; status == PF_OK && s < samples; s++) {
         push.sample_index = s;
-        status = pf_vk_cmd_dispatch(cmds, renderer->render_fast, buffers, FAST_BUFFERS, &push,
-                                    sizeof push, groups_x, groups_y, 1, err);
+        status = pf_vk_cmd_dispatch(cmds, renderer->render_fast[caustics], buffers, FAST_BUFFERS,
+                                    &push, sizeof push, groups_x, groups_y, 1, err);
         pf_vk_cmd_barrier(cmds);
     }
     int end = status == PF_OK ? pf_vk_cmd_timestamp(cmds) : -1;
@@ -443,11 +450,7 @@ static pf_status fast_begin(pf_frame_run *run, pf_error *err)
     const pf_stage_plan *plan = run->plan;
     pf_stage_memory *memory = &renderer->stage_memory[PF_QUALITY_FAST];
     pf_status status = PF_OK;
-    if (!renderer->render_fast)
-        status = pf_vk_pipeline_create_named(renderer->ctx, "render_fast", FAST_BUFFERS,
-                                             sizeof(fast_push), NULL, 0, &renderer->render_fast,
-                                             err);
-    if (status == PF_OK && !renderer->fast_cache) {
+    if (!renderer->fast_cache) {
         renderer->fast_cache = calloc(1, sizeof *renderer->fast_cache);
         if (!renderer->fast_cache)
             status = pf_error_set(err, PF_ERR_NOMEM, "fast: out of memory");

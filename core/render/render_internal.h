@@ -199,10 +199,11 @@ struct pf_renderer {
     /* The final integrator's photon passes kept for reuse by the next frame (frame_final.c). */
     struct pf_final_cache *final_cache;
     /* Tests: at most this many of the final gather's estimates deferred per sample, the
-     * rest run in the gather itself (0: as many as its buffer holds). */
+     * rest retraced with their estimates (0: as many as its buffer holds). */
     uint32_t final_deferred_cap;
-    /* The fast integrator's photons, LPV and pipeline (frame_fast.c; NULL until a fast frame). */
-    pf_vk_pipeline *render_fast;
+    /* The fast integrator's photons, LPV and pipelines (frame_fast.c; NULL until a fast frame
+     * needs them): render_fast.comp, and [1] render_fast_caustic.comp. */
+    pf_vk_pipeline *render_fast[2];
     struct pf_fast_cache *fast_cache;
     /* The photon tracer final and fast share (created on first use, kept: its pipeline). */
     pf_photon_tracer *photon_tracer;

@@ -144,8 +144,10 @@ void pf_renderer_destroy(pf_renderer *renderer)
         if (renderer->pipelines[i])
             pf_vk_pipeline_destroy(renderer->ctx, renderer->pipelines[i]);
     }
-    if (renderer->render_fast)
-        pf_vk_pipeline_destroy(renderer->ctx, renderer->render_fast);
+    for (size_t i = 0; i < 2; i++) {
+        if (renderer->render_fast[i])
+            pf_vk_pipeline_destroy(renderer->ctx, renderer->render_fast[i]);
+    }
     pf_final_cache_destroy(renderer->final_cache);
     pf_fast_cache_destroy(renderer->ctx, renderer->fast_cache);
     pf_photon_tracer_destroy(renderer->photon_tracer);

@@ -48,7 +48,7 @@ PF_TEST(integrators_read_the_tree_and_photon_maps_through_texel_buffers)
                        {"render_final", 4, 10},    {"final_gather", 4, 10},
                        {"render_reference", 2, 0}, {"final_deferred", 2, 10},
                        {"final_caustic", 2, 10},   {"final_resolve", 2, 10},
-                       {"final_gather_estimate", 4, 10}};
+                       {"final_gather_estimate", 4, 10}, {"render_fast_caustic", 3, 2}};
     for (size_t i = 0; i < sizeof integrators / sizeof *integrators; i++) {
         uint8_t kinds[32];
         kinds_of(integrators[i].name, kinds, 32);

@@ -1,0 +1,223 @@
+#ifndef PF_FAST_SHADE_GLSL
+#define PF_FAST_SHADE_GLSL
+
+// The `fast` integrator's `shade` stage (core/render/frame_fast.c drives
+// it): one camera sample per pixel per dispatch, added to the split film of
+// the reference and final integrators.
+//
+// A camera ray through the pixel filter (pixel_filter.glsl) follows mirrors and
+// glass (bsdf_sample) to the first diffuse vertex D₁, at most
+// params.max_specular_depth specular vertices. Emission seen on the way and
+// direct light at D₁ by next-event estimation (direct_light.glsl, the one
+// estimator reference and final use; no BSDF ray looks for emitters here,
+// so the light sample has full weight) go to `direct`. Indirect light at D₁
+// is albedo/π × the LPV irradiance (lpv_lookup.glsl: light that left a
+// diffuse surface at least once, the photon VPLs propagated through the
+// cascades) plus, when a caustic map is bound, albedo/π × its k-nearest
+// irradiance estimate (L S+ D₁), which also goes to `caustic`. So, as in
+// the other integrators, R,G,B = direct + indirect and caustic ⊆ indirect.
+//
+// Two modules of this body: render_fast.comp for frames without caustic
+// photons and render_fast_caustic.comp (FAST_CAUSTICS) with the estimate:
+// llvmpipe runs code that no lane enters all the same, and the estimate's
+// k-NN loop cost ~8 % of a Cornell box frame's shading that had no caustic
+// map (bench/RESULTS.md).
+//
+// Loop cap: one camera path and one bounded photon estimate per
+// invocation; kernel_guard.glsl's loops_completed() proves the loops ran
+// whole, else the sample is dropped and counted (counters.loop_truncated).
+
+layout(local_size_x = 8, local_size_y = 8) in;
+
+layout(push_constant) uniform Push {
+    vec3 grid_origin;
+    float grid_inv_cell;
+    uvec3 grid_dims;
+    uint grid_hashed;
+    uint grid_table_size;
+    uint grid_photons;   // photons in the caustic grid (0: no caustic map)
+    uint sample_index;   // 0 starts the film's sums
+    uint cascade_count;  // LPV cascades (0: no indirect from the LPV)
+    uint lpv_size;       // cells per axis
+    float radius;        // the caustic estimate's largest radius
+    float flux_scale;    // W per unit of the caustic map's stored flux
+    uint loop_sentinel;  // 1 (kernel_guard.glsl)
+    uint lpv_damping;    // 1: lpv_lookup.glsl's light-bleeding dampening
+} push;
+
+#include "scene_bindings.glsl"
+#include "photon_types.glsl"
+#include "photon_grid.glsl"
+
+layout(std430, set = 0, binding = 7) buffer Film { vec4 film[]; };
+layout(std430, set = 0, binding = 8) buffer FilmAov { vec4 film_aov[]; };
+layout(std430, set = 0, binding = 9) buffer Counters {
+    uint discarded_samples; // non-finite or loop-truncated samples kept off the film
+    uint traversal_failures;
+    uint rays_low;
+    uint rays_high;
+    uint loop_truncated;
+    uint lpv_outside;       // D₁ vertices no cascade held (no LPV light there)
+} counters;
+layout(std430, set = 0, binding = 13) readonly buffer LpvCells { vec4 lpv_cells[]; };
+layout(std430, set = 0, binding = 14) readonly buffer LpvCascades { vec4 lpv_cascades[]; };
+// The caustic map (photon_estimate.glsl: texel buffers).
+layout(set = 0, binding = 15) uniform isamplerBuffer grid_records;
+layout(set = 0, binding = 16) uniform isamplerBuffer grid_ranges;
+layout(std430, set = 0, binding = 17) readonly buffer LpvSnapshots { vec4 lpv_snapshots[]; };
+layout(std430, set = 0, binding = 18) readonly buffer LpvGeometry { vec4 geometry[]; };
+layout(set = 0, binding = 19) uniform usamplerBuffer grid_flux;
+
+#define BIH_BINDING 10
+#include "scene_trace.glsl"
+#include "camera.glsl"
+#include "area_lights.glsl"
+#include "lights.glsl"
+#include "materials.glsl"
+#include "surface.glsl"
+#include "sampler.glsl"
+// One estimate per invocation: most of the 65,535 loop iterations are its.
+#define PHOTON_ESTIMATE_MAX_ITERATIONS 32768u
+#include "photon_estimate.glsl"
+#include "lpv_sh.glsl"
+#include "lpv_geometry.glsl"
+#include "lpv_lookup.glsl"
+#include "kernel_guard.glsl"
+#include "ray_count.glsl"
+
+// The caustic estimate's k (one photon set, no progressive passes to
+// average: more neighbours than final's 8 keep the single estimate quiet).
+const uint CAUSTIC_NEAREST = 16u;
+
+
+#include "direct_light.glsl"
+
+vec3 caustic_irradiance(vec3 position, vec3 geometric_normal, inout bool truncated)
+{
+#ifndef FAST_CAUSTICS
+    return vec3(0.0);
+#else
+    if (push.grid_photons == 0u)
+        return vec3(0.0);
+    PhotonGrid grid = PhotonGrid(push.grid_origin, push.grid_inv_cell, push.grid_dims,
+                                 push.grid_hashed, push.grid_table_size);
+    bool stopped;
+    float radius_used;
+    vec3 irradiance = photon_irradiance_knn(position, geometric_normal, CAUSTIC_NEAREST,
+                                            push.radius, grid, radius_used, stopped);
+    truncated = truncated || stopped;
+    return push.flux_scale * irradiance;
+#endif
+}
+
+void main()
+{
+    uvec2 pixel = gl_GlobalInvocationID.xy;
+    if (pixel.x >= params.width || pixel.y >= params.height)
+        return;
+    uint pixel_index = pixel.y * params.width + pixel.x;
+    const float infinity = uintBitsToFloat(0x7f800000u);
+    float ray_offset = params.camera_right.w;
+    Sampler samples = sampler_init(pixel_index, push.sample_index, params.seed_lo, params.seed_hi);
+    vec4 camera_xi = sampler_next_4d(samples);
+    vec2 film_position = vec2(pixel) + 0.5 + filter_sample(params.pixel_filter, camera_xi.xy);
+    vec3 origin = params.camera_position.xyz;
+    vec3 direction = camera_ray_direction(params.camera_forward.xyz, params.camera_right.xyz,
+                                          params.camera_up.xyz, params.camera_position.w,
+                                          params.camera_forward.w, film_position,
+                                          vec2(params.width, params.height));
+    vec3 throughput = vec3(1.0);
+    vec3 direct = vec3(0.0), indirect = vec3(0.0), caustic = vec3(0.0);
+    float coverage = 0.0, depth_aov = 0.0;
+    vec3 albedo_aov = vec3(0.0), normal_aov = vec3(0.0);
+    bool valid = true, truncated = false;
+    uint rays = 0u;
+
+    for (uint depth = 0u; depth <= params.max_specular_depth; depth++) {
+        BihHit hit = trace(origin, direction, infinity, false);
+        rays++;
+        if (hit.triangle == NO_HIT)
+            break;
+        Surface surface = surface_at(hit, origin, direction);
+        if (!surface.valid) {
+            valid = false;
+            break;
+        }
+        Material material = surface.material;
+        if (depth == 0u) {
+            coverage = 1.0;
+            depth_aov = hit.t;
+        }
+        if (surface.front)
+            direct += throughput * material.emission;
+        vec3 wo = -direction;
+        if (material.kind == MATERIAL_LAMBERT) {
+            albedo_aov = material.albedo;
+            normal_aov = surface.shading_normal;
+            vec3 surface_origin = surface.position + ray_offset * surface.geometric_normal;
+            // Next-event estimation without MIS: no BSDF ray looks for emitters
+            // here (one was tried: on the Cornell box it changed the error by
+            // less than 0.1% for a ray more per sample).
+            direct += direct_light(material, surface.position, surface_origin, wo,
+                                   surface.shading_normal, surface.geometric_normal, throughput,
+                                   sampler_next_4d(samples), 0.0, rays);
+            vec3 reflectance = throughput * material.albedo / PI;
+            if (push.cascade_count > 0u) {
+                bool covered;
+                indirect += reflectance * lpv_irradiance(surface.position, surface.shading_normal,
+                                                         push.cascade_count, push.lpv_size,
+                                                         push.lpv_damping != 0u, covered);
+                if (!covered)
+                    atomicAdd(counters.lpv_outside, 1u);
+            }
+            caustic = reflectance * caustic_irradiance(surface.position, surface.geometric_normal,
+                                                       truncated);
+            indirect += caustic;
+            break;
+        }
+        BsdfSample scattered = bsdf_sample(material, wo, surface.shading_normal,
+                                           surface.geometric_normal, surface.front,
+                                           sampler_next_4d(samples).xyz, TRANSPORT_RADIANCE);
+        throughput *= scattered.weight;
+        if (!all_finite(throughput)) {
+            valid = false;
+            break;
+        }
+        if (!any(greaterThan(throughput, vec3(0.0))))
+            break;
+        origin = surface.position +
+                 (scattered.transmitted ? -ray_offset : ray_offset) * surface.geometric_normal;
+        direction = scattered.direction;
+    }
+
+    bool completed = loops_completed() && !truncated;
+    if (!completed)
+        atomicAdd(counters.loop_truncated, 1u);
+    bool kept = completed && valid && all_finite(direct) && all_finite(indirect);
+    uint film_base = 3u * pixel_index;
+    vec4 direct_sum = kept ? vec4(direct, coverage) : vec4(0.0);
+    vec4 indirect_sum = kept ? vec4(indirect, 1.0) : vec4(0.0);
+    vec4 caustic_sum = kept ? vec4(caustic, 0.0) : vec4(0.0);
+    bool aov_kept = kept && all_finite(albedo_aov) && all_finite(normal_aov) &&
+                    !isnan(depth_aov) && !isinf(depth_aov);
+    vec4 albedo_depth = aov_kept ? vec4(albedo_aov, depth_aov) : vec4(0.0);
+    vec4 normal_sum = aov_kept ? vec4(normal_aov, 1.0) : vec4(0.0);
+    uint aov_index = 2u * pixel_index;
+    if (push.sample_index > 0u) {
+        direct_sum += film[film_base];
+        indirect_sum += film[film_base + 1u];
+        caustic_sum += film[film_base + 2u];
+        albedo_depth += film_aov[aov_index];
+        normal_sum += film_aov[aov_index + 1u];
+    }
+    film[film_base] = direct_sum;
+    film[film_base + 1u] = indirect_sum;
+    film[film_base + 2u] = caustic_sum;
+    film_aov[aov_index] = albedo_depth;
+    film_aov[aov_index + 1u] = normal_sum;
+    if (!kept)
+        atomicAdd(counters.discarded_samples, 1u);
+    count_rays(rays);
+}
+
+#endif
