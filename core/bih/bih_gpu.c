@@ -114,9 +114,19 @@ pf_status pf_bih_gpu_upload(pf_bih_gpu *gpu, const pf_bih *bih, pf_error *err)
     if (!gpu || !bih || bih->node_count == 0)
         return pf_error_set(err, PF_ERR_INVALID, "pf_bih_gpu_upload: NULL argument or no nodes");
     release_tree(gpu);
-    pf_status status = upload_array(gpu->ctx, bih->nodes,
-                                    (uint64_t)bih->node_count * sizeof(pf_bih_node), "BIH nodes",
-                                    &gpu->nodes, err);
+    /* One 16-byte texel per node (pf_bih.h): bih_traverse.glsl reads a node in one fetch. */
+    uint32_t (*texels)[4] = malloc((size_t)bih->node_count * sizeof *texels);
+    if (!texels)
+        return pf_error_set(err, PF_ERR_NOMEM, "BIH upload: %u nodes", bih->node_count);
+    for (uint32_t i = 0; i < bih->node_count; i++) {
+        memcpy(&texels[i][0], &bih->nodes[i].clip[0], sizeof(float));
+        memcpy(&texels[i][1], &bih->nodes[i].clip[1], sizeof(float));
+        texels[i][2] = bih->nodes[i].word;
+        texels[i][3] = 0;
+    }
+    pf_status status = upload_array(gpu->ctx, texels, (uint64_t)bih->node_count * sizeof *texels,
+                                    "BIH nodes", &gpu->nodes, err);
+    free(texels);
     if (status == PF_OK)
         status = upload_array(gpu->ctx, bih->vertices,
                               (uint64_t)bih->triangle_count * 3 * sizeof bih->vertices[0],

@@ -5,8 +5,9 @@
  * report, a CPU traversal that defines the algorithm, and the GPU copy that
  * shaders/common/bih_traverse.glsl traverses (pf_bih_raycast).
  *
- * Node format (12 bytes, std430 stride 12; GLSL mirror BihNode in
- * shaders/common/bih_traverse.glsl):
+ * Node format (12 bytes; on the device, pf_bih_gpu_upload pads each node to a
+ * 16-byte texel (clip[0], clip[1], word, 0) that shaders/common/bih_traverse.glsl
+ * reads in one fetch):
  *   inner node: word = (first_child << 2) | axis (axis 0, 1, 2);
  *               the children are nodes first_child (left) and first_child + 1
  *               (right); clip[0] = the largest coordinate along axis of any

@@ -6,7 +6,8 @@
 //
 // The including shader defines BIH_BINDING, the first of the tree's three
 // bindings (set 0), which this file declares as uniform texel buffers:
-//   BIH_BINDING      bih_nodes           3 words per node: clip0, clip1 (float bits), word
+//   BIH_BINDING      bih_nodes           one 16-byte texel per node: clip0, clip1 (float bits),
+//                                        word, 0 (pf_bih_gpu_upload pads the 12-byte nodes)
 //   BIH_BINDING + 1  bih_vertices        3 vec4 per triangle, leaf order
 //   BIH_BINDING + 2  bih_triangle_index  leaf order -> frame triangle
 // Texel buffers, not storage buffers: llvmpipe (Mesa 22.x) loads a storage
@@ -21,13 +22,15 @@
 #ifndef BIH_BINDING
 #error "define BIH_BINDING (the first of the BIH's three bindings) before bih_traverse.glsl"
 #endif
-layout(set = 0, binding = BIH_BINDING) uniform usamplerBuffer bih_nodes;
+layout(set = 0, binding = BIH_BINDING) uniform isamplerBuffer bih_nodes;
 layout(set = 0, binding = BIH_BINDING + 1) uniform samplerBuffer bih_vertices;
 layout(set = 0, binding = BIH_BINDING + 2) uniform usamplerBuffer bih_triangle_index;
 
-uint bih_node_word(uint index)
+// Node index's clip0, clip1 (float bits) and word: one fetch, where three words
+// cost three (llvmpipe: a texel fetch's cost barely depends on its width, bench/vk).
+uvec3 bih_node(uint index)
 {
-    return texelFetch(bih_nodes, int(index)).x;
+    return uvec3(texelFetch(bih_nodes, int(index)).xyz);
 }
 
 // xyz, and w: the degenerate flag on a triangle's first vertex (pf_bih.h).
@@ -125,14 +128,15 @@ BihHit trace_bih(vec3 origin, vec3 direction, float tmin, float tmax, bool any_h
                 failed = true;
                 return BihHit(-1.0, BIH_NO_HIT, 0.0, 0.0);
             }
-            uint word = bih_node_word(3u * node + 2u);
+            uvec3 fields = bih_node(node);
+            uint word = fields.z;
             if ((word & 3u) == BIH_LEAF) {
                 at_leaf = true;
                 break;
             }
             uint axis = word & 3u, child = word >> 2u;
-            float clip_left = uintBitsToFloat(bih_node_word(3u * node));
-            float clip_right = uintBitsToFloat(bih_node_word(3u * node + 1u));
+            float clip_left = uintBitsToFloat(fields.x);
+            float clip_right = uintBitsToFloat(fields.y);
             float far_limit = min(t_far, bih_widen_far(closest));
             float left_near = t_near, left_far = far_limit;
             float right_near = t_near, right_far = far_limit;
@@ -197,8 +201,9 @@ BihHit trace_bih(vec3 origin, vec3 direction, float tmin, float tmax, bool any_h
             if (!resumed)
                 return hit;
         }
-        uint first = bih_node_word(3u * node);
-        uint count = bih_node_word(3u * node + 1u);
+        uvec3 leaf = bih_node(node);
+        uint first = leaf.x;
+        uint count = leaf.y;
         for (uint p = first; p < first + count; p++) {
             float t, u, v;
             vec4 v0 = bih_vertex(3u * p);

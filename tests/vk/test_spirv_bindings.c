@@ -27,7 +27,7 @@ PF_TEST(traversal_reads_the_tree_through_texel_buffers)
 {
     uint8_t kinds[6];
     kinds_of("bih_raycast", kinds, 6);
-    PF_CHECK(kinds[0] == PF_VK_BINDING_TEXEL_UINT);  /* nodes: words */
+    PF_CHECK(kinds[0] == PF_VK_BINDING_TEXEL_INT4);  /* nodes: one 16-byte texel each */
     PF_CHECK(kinds[1] == PF_VK_BINDING_TEXEL_FLOAT); /* vertices: vec4 */
     PF_CHECK(kinds[2] == PF_VK_BINDING_TEXEL_UINT);  /* triangle index */
     for (int b = 3; b < 6; b++)
@@ -36,19 +36,20 @@ PF_TEST(traversal_reads_the_tree_through_texel_buffers)
 
 PF_TEST(integrators_read_the_tree_and_photon_maps_through_texel_buffers)
 {
-    /* The tree is 2 uint + 1 float texel buffers in every integrator; a photon map adds 2
-     * records views (its records, its ranges) and 1 uint (its flux): fast's caustic map,
+    /* The tree is 1 records view (its nodes), 1 uint and 1 float texel buffer in every
+     * integrator; a photon map adds 2 records views (its records, its ranges) and 1 uint (its
+     * flux): fast's caustic map,
      * final's bound map and its irradiance points, and final's kernels 6 more records views
      * of their per-pixel buffers (bindings 24..29). The scene's triangles and materials
      * (bindings 1..4, scene_geometry.glsl) are texel buffers in all of them and counted apart. */
     static const struct {
         const char *name;
         uint32_t texel_uint, texel_records;
-    } integrators[] = {{"render_direct", 2, 0},    {"render_fast", 3, 2},
-                       {"render_final", 4, 10},    {"final_gather", 4, 10},
-                       {"render_reference", 2, 0}, {"final_deferred", 2, 10},
+    } integrators[] = {{"render_direct", 1, 1},    {"render_fast", 2, 3},
+                       {"render_final", 3, 11},    {"final_gather", 3, 11},
+                       {"render_reference", 1, 1}, {"final_deferred", 2, 10},
                        {"final_caustic", 2, 10},   {"final_resolve", 2, 10},
-                       {"final_gather_estimate", 4, 10}, {"render_fast_caustic", 3, 2}};
+                       {"final_gather_estimate", 3, 11}, {"render_fast_caustic", 2, 3}};
     for (size_t i = 0; i < sizeof integrators / sizeof *integrators; i++) {
         uint8_t kinds[32];
         kinds_of(integrators[i].name, kinds, 32);
@@ -79,7 +80,7 @@ PF_TEST(integrators_read_the_tree_and_photon_maps_through_texel_buffers)
     }
     uint8_t kinds[30];
     kinds_of("render_final", kinds, 30);
-    PF_CHECK(kinds[10] == PF_VK_BINDING_TEXEL_UINT && kinds[11] == PF_VK_BINDING_TEXEL_FLOAT &&
+    PF_CHECK(kinds[10] == PF_VK_BINDING_TEXEL_INT4 && kinds[11] == PF_VK_BINDING_TEXEL_FLOAT &&
              kinds[12] == PF_VK_BINDING_TEXEL_UINT); /* BIH_BINDING 10 */
     /* Records and ranges of the map (15, 16) and the points (18, 19); their flux (22, 23). */
     PF_CHECK(kinds[15] == PF_VK_BINDING_TEXEL_INT4 && kinds[16] == PF_VK_BINDING_TEXEL_INT4 &&
@@ -92,7 +93,7 @@ PF_TEST(integrators_read_the_tree_and_photon_maps_through_texel_buffers)
     kinds_of("photon_trace", kinds, 20);
     PF_CHECK(kinds[1] == PF_VK_BINDING_TEXEL_FLOAT && kinds[4] == PF_VK_BINDING_TEXEL_INT4 &&
              kinds[6] == PF_VK_BINDING_STORAGE); /* scene_geometry.glsl; the emitters */
-    PF_CHECK(kinds[7] == PF_VK_BINDING_TEXEL_UINT && kinds[8] == PF_VK_BINDING_TEXEL_FLOAT &&
+    PF_CHECK(kinds[7] == PF_VK_BINDING_TEXEL_INT4 && kinds[8] == PF_VK_BINDING_TEXEL_FLOAT &&
              kinds[9] == PF_VK_BINDING_TEXEL_UINT); /* BIH_BINDING 7 */
     kinds_of("photon_irradiance_precompute", kinds, 6);
     PF_CHECK(kinds[0] == PF_VK_BINDING_TEXEL_INT4 && kinds[1] == PF_VK_BINDING_TEXEL_INT4 &&
