@@ -28,8 +28,8 @@ void fallback(uint request)
     bool completed = loops_completed() && !truncated;
     if (!completed)
         atomicAdd(counters.loop_truncated, 1u);
-    fallback_requests[base + 2u] = vec4(texel_vec4(fallback_request_texels, base + 2u).xyz * irradiance,
-                                        completed ? 0.0 : 1.0);
+    vec3 weight = texel_vec4(fallback_request_texels, base + 2u).xyz;
+    fallback_requests[base + 2u] = vec4(weight * irradiance, completed ? 0.0 : 1.0);
 }
 
 void main()

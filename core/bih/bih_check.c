@@ -138,9 +138,11 @@ pf_status pf_bih_check(const pf_bih *bih, const pf_scene_frame *frame, pf_error 
         const float(*leaf)[4] = &bih->vertices[3 * p];
         float degenerate_w =
             pf_triangle_is_degenerate(leaf[0], leaf[1], leaf[2]) ? PF_BIH_DEGENERATE_W : 0.0f;
-        if (status == PF_OK && (leaf[0][3] != degenerate_w || leaf[1][3] != 0.0f || leaf[2][3] != 0.0f))
+        if (status == PF_OK &&
+            (leaf[0][3] != degenerate_w || leaf[1][3] != 0.0f || leaf[2][3] != 0.0f))
             status = pf_error_set(err, PF_ERR_INTERNAL,
-                                  "BIH position %u: vertex w %g %g %g, expected %g 0 0 (degenerate flag)",
+                                  "BIH position %u: vertex w %g %g %g, expected %g 0 0 "
+                                  "(degenerate flag)",
                                   p, (double)leaf[0][3], (double)leaf[1][3], (double)leaf[2][3],
                                   (double)degenerate_w);
     }

@@ -25,7 +25,8 @@ enum { SCAN_REDUCE = 0, SCAN_BLOCKS = 1 };
 #define SCAN_BLOCK 4096u
 /* Modes of photon_irradiance_probe.comp. */
 enum { ESTIMATE_FIXED = 0, ESTIMATE_KNN = 1, ESTIMATE_LOOKUP = 2 };
-/* Push constants of photon_irradiance_mark.comp and photon_irradiance_precompute.comp (48 bytes). */
+/* Push constants of photon_irradiance_mark.comp and photon_irradiance_precompute.comp
+ * (48 bytes). */
 typedef struct precompute_push {
     pf_photon_grid_push grid;
     uint32_t photons;

@@ -471,7 +471,8 @@ static pf_status shade_sample(pf_renderer *renderer, pf_vk_buffer **buffers,
     final_counters counters;
     if (status == PF_OK)
         status = pf_vk_buffer_download(ctx, owned->counters, 0, &counters, sizeof counters, err);
-    int overflow = status == PF_OK && lookups && counters.fallback_requests > push.fallback_capacity;
+    int overflow =
+        status == PF_OK && lookups && counters.fallback_requests > push.fallback_capacity;
     pf_vk_pipeline *retrace = NULL;
     if (overflow)
         status = pf_renderer_pipeline(renderer, PF_PIPELINE_FINAL_GATHER_ESTIMATE, &retrace, err);

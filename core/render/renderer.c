@@ -16,7 +16,8 @@
 #define RENDER_REFERENCE_BUFFERS 13u
 #define RENDER_REFERENCE_PUSH_BYTES 4u
 /* render_final.comp (primary), final_caustic.comp, final_gather.comp,
- * final_gather_estimate.comp, final_deferred.comp and final_resolve.comp: PF_FINAL_BUFFERS buffers and the same 120-byte Push (final_shared.glsl). */
+ * final_gather_estimate.comp, final_deferred.comp and final_resolve.comp: PF_FINAL_BUFFERS
+ * buffers and the same 120-byte Push (final_shared.glsl). */
 #define RENDER_FINAL_PUSH_BYTES 120u
 #define MATERIAL_PROBE_BUFFERS 2u
 #define MATERIAL_PROBE_PUSH_BYTES 4u

@@ -71,8 +71,10 @@ PF_TEST(integrators_read_the_tree_and_photon_maps_through_texel_buffers)
                      texel_uint, texel_float, texel_records);
         /* Vertices and normals as float texels, a triangle's material as a word, the materials
          * as 16-byte records; the frame parameters, lights and emissive table stay storage. */
-        PF_CHECK_MSG(kinds[1] == PF_VK_BINDING_TEXEL_FLOAT && kinds[2] == PF_VK_BINDING_TEXEL_FLOAT &&
-                         kinds[3] == PF_VK_BINDING_TEXEL_UINT && kinds[4] == PF_VK_BINDING_TEXEL_INT4,
+        PF_CHECK_MSG(kinds[1] == PF_VK_BINDING_TEXEL_FLOAT &&
+                         kinds[2] == PF_VK_BINDING_TEXEL_FLOAT &&
+                         kinds[3] == PF_VK_BINDING_TEXEL_UINT &&
+                         kinds[4] == PF_VK_BINDING_TEXEL_INT4,
                      "%s: scene bindings 1..4 of kinds %d %d %d %d", integrators[i].name, kinds[1],
                      kinds[2], kinds[3], kinds[4]);
         PF_CHECK(kinds[0] == PF_VK_BINDING_STORAGE && kinds[5] == PF_VK_BINDING_STORAGE &&
