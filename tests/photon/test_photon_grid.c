@@ -160,6 +160,42 @@ PF_TEST(hashed_grid_for_sparse_maps_gathers_exactly)
     free(photons);
 }
 
+/*
+ * A few photons far apart get a hash table of at most 8 buckets, where every
+ * block's hash lands in the same bucket group and a query's 27 cells share at
+ * most 8 keys: the estimates' key list must be de-duplicated there
+ * (photon_grid_keys_may_repeat), or photons would be gathered more than once.
+ */
+PF_TEST(hashed_grid_whose_blocks_collide_gathers_each_photon_once)
+{
+    enum { QUERIES = 300 };
+    static const uint32_t counts[] = {8, 3};
+    static const uint32_t tables[] = {8, 4};
+    for (size_t c = 0; c < sizeof counts / sizeof counts[0]; c++) {
+        uint32_t count = counts[c], rng = 7u + (uint32_t)c;
+        pf_photon photons[8];
+        for (uint32_t i = 0; i < count; i++) {
+            float offset = i % 2 ? 1e4f : 0.0f;
+            make_photon(&photons[i], offset + uniform(&rng, 0, 0.1f), uniform(&rng, 0, 0.1f),
+                        uniform(&rng, 0, 0.1f));
+        }
+        float (*queries)[4] = malloc(QUERIES * sizeof *queries);
+        for (uint32_t q = 0; q < QUERIES; q++) {
+            const pf_photon *p = &photons[next_random(&rng) % count];
+            for (int k = 0; k < 3; k++)
+                queries[q][k] = p->position[k] + uniform(&rng, -0.1f, 0.1f);
+            queries[q][3] = 0.1f;
+        }
+        pf_photon_grid_info info;
+        check_gather(c == 0 ? "8 buckets" : "4 buckets", photons, count, 0.1f, queries, QUERIES,
+                     16, &info);
+        PF_CHECK_MSG(info.hashed == 1 && info.table_size == tables[c],
+                     "%u photons: %s table of %u", count, info.hashed ? "hashed" : "dense",
+                     info.table_size);
+        free(queries);
+    }
+}
+
 PF_TEST(photons_on_cell_borders_and_queries_at_full_radius)
 {
     /*
@@ -237,6 +273,7 @@ int main(void)
     }
     PF_RUN(dense_grid_gathers_exactly_the_brute_force_set);
     PF_RUN(hashed_grid_for_sparse_maps_gathers_exactly);
+    PF_RUN(hashed_grid_whose_blocks_collide_gathers_each_photon_once);
     PF_RUN(photons_on_cell_borders_and_queries_at_full_radius);
     PF_RUN(clustered_photons_and_an_empty_map);
     PF_RUN(bad_input_is_refused_with_the_cause);
