@@ -39,7 +39,6 @@
 /* Photons in the caustic estimate's largest disc at the VPLs' mean density (as final's r_1). */
 #define FAST_CAUSTIC_NEIGHBOURS 20.0
 #define FAST_MAX_SPECULAR_DEPTH 8u
-#define FAST_BUFFERS 20u
 #define GROUP_EDGE 8u
 /* A frame fails when more than this fraction of its samples hit the loop cap (as final). */
 #define FAST_TRUNCATED_LIMIT 0.01
@@ -308,18 +307,18 @@ static pf_status shade(pf_renderer *renderer, struct pf_fast_cache *cache,
         flux = view.flux;
         ranges = view.ranges;
     }
-    pf_vk_buffer *buffers[FAST_BUFFERS] = {
+    pf_vk_buffer *buffers[PF_FAST_BUFFERS] = {
         owned.params,    scene->vertices, scene->normals,   scene->triangle_material,
         scene->materials, scene->lights,  scene->emissive,  owned.film,
         owned.film_aov,  owned.counters,  bih->nodes,       bih->vertices,
         bih->triangle_index, pf_lpv_accumulated(cache->lpv), cache->cascades, records,
         ranges, pf_lpv_snapshots(cache->lpv), pf_lpv_geometry(cache->lpv), flux};
     /* The kernel with the caustic estimate only for a frame with caustic photons. */
-    int caustics = push.grid_photons > 0;
-    if (status == PF_OK && !renderer->render_fast[caustics])
-        status = pf_vk_pipeline_create_named(ctx, caustics ? "render_fast_caustic" : "render_fast",
-                                             FAST_BUFFERS, sizeof(fast_push), NULL, 0,
-                                             &renderer->render_fast[caustics], err);
+    pf_vk_pipeline *kernel = NULL;
+    if (status == PF_OK)
+        status = pf_renderer_pipeline(
+            renderer, push.grid_photons > 0 ? PF_PIPELINE_FAST_CAUSTIC : PF_PIPELINE_FAST, &kernel,
+            err);
     pf_vk_commands *cmds = NULL;
     if (status == PF_OK)
         status = pf_vk_commands_begin(ctx, &cmds, err);
@@ -328,7 +327,7 @@ static pf_status shade(pf_renderer *renderer, struct pf_fast_cache *cache,
     int begin = status == PF_OK ? pf_vk_cmd_timestamp(cmds) : -1;
     for (uint32_t s = 0; status == PF_OK && s < samples; s++) {
         push.sample_index = s;
-        status = pf_vk_cmd_dispatch(cmds, renderer->render_fast[caustics], buffers, FAST_BUFFERS,
+        status = pf_vk_cmd_dispatch(cmds, kernel, buffers, PF_FAST_BUFFERS,
                                     &push, sizeof push, groups_x, groups_y, 1, err);
         pf_vk_cmd_barrier(cmds);
     }

@@ -41,11 +41,15 @@ typedef enum pf_renderer_pipeline_id {
     PF_PIPELINE_FINAL_FALLBACK,  /* final_deferred.comp */
     PF_PIPELINE_FINAL_RESOLVE,   /* final_resolve.comp */
     PF_PIPELINE_FINAL_CAUSTIC,   /* final_caustic.comp */
+    PF_PIPELINE_FAST,            /* render_fast.comp */
+    PF_PIPELINE_FAST_CAUSTIC,    /* render_fast_caustic.comp */
     PF_PIPELINE_COUNT
 } pf_renderer_pipeline_id;
 
-/* The final kernels' bindings (final_shared.glsl), the same in all five pipelines. */
+/* The final kernels' bindings (final_shared.glsl), the same in all six pipelines. */
 #define PF_FINAL_BUFFERS 30u
+/* The fast kernels' bindings (fast_shade.glsl), the same in both pipelines. */
+#define PF_FAST_BUFFERS 20u
 
 /*
  * The stage plan (stage_plan.c): each stage of a frame, its decision and
@@ -201,9 +205,7 @@ struct pf_renderer {
     /* Tests: at most this many of the final gather's estimates deferred per sample, the
      * rest retraced with their estimates (0: as many as its buffer holds). */
     uint32_t final_deferred_cap;
-    /* The fast integrator's photons, LPV and pipelines (frame_fast.c; NULL until a fast frame
-     * needs them): render_fast.comp, and [1] render_fast_caustic.comp. */
-    pf_vk_pipeline *render_fast[2];
+    /* The fast integrator's photons and LPV (frame_fast.c; NULL until a fast frame). */
     struct pf_fast_cache *fast_cache;
     /* The photon tracer final and fast share (created on first use, kept: its pipeline). */
     pf_photon_tracer *photon_tracer;

@@ -19,6 +19,9 @@
  * final_gather_estimate.comp, final_deferred.comp and final_resolve.comp: PF_FINAL_BUFFERS
  * buffers and the same 120-byte Push (final_shared.glsl). */
 #define RENDER_FINAL_PUSH_BYTES 120u
+/* render_fast.comp and render_fast_caustic.comp: PF_FAST_BUFFERS buffers and the same 72-byte
+ * Push (fast_shade.glsl). */
+#define RENDER_FAST_PUSH_BYTES 72u
 #define MATERIAL_PROBE_BUFFERS 2u
 #define MATERIAL_PROBE_PUSH_BYTES 4u
 
@@ -54,6 +57,9 @@ static const pipeline_spec pipeline_specs[PF_PIPELINE_COUNT] = {
                                    0, {0, 0}},
     [PF_PIPELINE_FINAL_CAUSTIC] = {"final_caustic", PF_FINAL_BUFFERS, RENDER_FINAL_PUSH_BYTES,
                                    0, {0, 0}},
+    [PF_PIPELINE_FAST] = {"render_fast", PF_FAST_BUFFERS, RENDER_FAST_PUSH_BYTES, 0, {0, 0}},
+    [PF_PIPELINE_FAST_CAUSTIC] = {"render_fast_caustic", PF_FAST_BUFFERS, RENDER_FAST_PUSH_BYTES,
+                                  0, {0, 0}},
 };
 
 pf_status pf_renderer_pipeline(pf_renderer *renderer, pf_renderer_pipeline_id id,
@@ -144,10 +150,6 @@ void pf_renderer_destroy(pf_renderer *renderer)
     for (size_t i = 0; i < PF_PIPELINE_COUNT; i++) {
         if (renderer->pipelines[i])
             pf_vk_pipeline_destroy(renderer->ctx, renderer->pipelines[i]);
-    }
-    for (size_t i = 0; i < 2; i++) {
-        if (renderer->render_fast[i])
-            pf_vk_pipeline_destroy(renderer->ctx, renderer->render_fast[i]);
     }
     pf_final_cache_destroy(renderer->final_cache);
     pf_fast_cache_destroy(renderer->ctx, renderer->fast_cache);
