@@ -106,6 +106,18 @@ static int check_gather(const char *name, const pf_photon *photons, uint32_t cou
     return mismatches;
 }
 
+/* count queries of radius, each within spread of a random one of the photons on every axis. */
+static void queries_near_photons(const pf_photon *photons, uint32_t photon_count, float spread,
+                                 float radius, float (*queries)[4], uint32_t count, uint32_t *rng)
+{
+    for (uint32_t q = 0; q < count; q++) {
+        const pf_photon *p = &photons[next_random(rng) % photon_count];
+        for (int k = 0; k < 3; k++)
+            queries[q][k] = p->position[k] + uniform(rng, -spread, spread);
+        queries[q][3] = radius;
+    }
+}
+
 PF_TEST(dense_grid_gathers_exactly_the_brute_force_set)
 {
     enum { COUNT = 20000, QUERIES = 2000 };
@@ -147,12 +159,7 @@ PF_TEST(hashed_grid_for_sparse_maps_gathers_exactly)
                     uniform(&rng, -offset * 0.5f, -offset * 0.5f + 1));
     }
     float (*queries)[4] = malloc(QUERIES * sizeof *queries);
-    for (uint32_t q = 0; q < QUERIES; q++) {
-        const pf_photon *p = &photons[next_random(&rng) % COUNT];
-        for (int k = 0; k < 3; k++)
-            queries[q][k] = p->position[k] + uniform(&rng, -0.05f, 0.05f);
-        queries[q][3] = 0.05f;
-    }
+    queries_near_photons(photons, COUNT, 0.05f, 0.05f, queries, QUERIES, &rng);
     pf_photon_grid_info info;
     check_gather("two far clusters", photons, COUNT, 0.05f, queries, QUERIES, 512, &info);
     PF_CHECK(info.hashed == 1);
@@ -180,12 +187,7 @@ PF_TEST(hashed_grid_whose_blocks_collide_gathers_each_photon_once)
                         uniform(&rng, 0, 0.1f));
         }
         float (*queries)[4] = malloc(QUERIES * sizeof *queries);
-        for (uint32_t q = 0; q < QUERIES; q++) {
-            const pf_photon *p = &photons[next_random(&rng) % count];
-            for (int k = 0; k < 3; k++)
-                queries[q][k] = p->position[k] + uniform(&rng, -0.1f, 0.1f);
-            queries[q][3] = 0.1f;
-        }
+        queries_near_photons(photons, count, 0.1f, 0.1f, queries, QUERIES, &rng);
         pf_photon_grid_info info;
         check_gather(c == 0 ? "8 buckets" : "4 buckets", photons, count, 0.1f, queries, QUERIES,
                      16, &info);
