@@ -1,6 +1,7 @@
 // The `final` integrator's shade kernels' common interface: render_final.comp
-// (the primary), final_caustic.comp, final_gather.comp, final_deferred.comp
-// (the gather's deferred estimates) and final_resolve.comp share one Push block
+// (the primary), final_caustic.comp, final_gather.comp and
+// final_gather_estimate.comp (final_gather.glsl), final_deferred.comp (the
+// gather's deferred estimates) and final_resolve.comp share one Push block
 // (core/render/frame_final.c's final_push), one buffer layout (the host binds
 // the same PF_FINAL_BUFFERS buffers to all) and the estimate from the bound
 // global map. The including kernel includes
