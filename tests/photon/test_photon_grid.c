@@ -188,7 +188,7 @@ PF_TEST(hashed_grid_whose_blocks_collide_gathers_each_photon_once)
         }
         float (*queries)[4] = malloc(QUERIES * sizeof *queries);
         queries_near_photons(photons, count, 0.1f, 0.1f, queries, QUERIES, &rng);
-        pf_photon_grid_info info;
+        pf_photon_grid_info info = {0}; /* read below even if the build failed */
         check_gather(c == 0 ? "8 buckets" : "4 buckets", photons, count, 0.1f, queries, QUERIES,
                      16, &info);
         PF_CHECK_MSG(info.hashed == 1 && info.table_size == tables[c],
