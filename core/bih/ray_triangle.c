@@ -7,6 +7,8 @@
 
 #include <float.h>
 #include <math.h>
+#include <stdint.h>
+#include <string.h>
 
 /*
  * Woop, Benthin & Wald, "Watertight Ray/Triangle Intersection", JCGT 2(1),
@@ -28,20 +30,53 @@
 /* ray_triangle.glsl: height within 16 ulps of the vertex coordinates. */
 #define DEGENERATE_BOUND2 (2.0f * (16.0f / 16777216.0f) * (16.0f / 16777216.0f))
 
+/* fmaxf's answer without its libm call (GCC keeps the call at -O2): NaN loses. */
+static float max_ignoring_nan(float a, float b)
+{
+    return (a >= b || b != b) ? a : b;
+}
+
+/*
+ * frexpf's exponent and ldexpf's scaling, from the bits where largest is a
+ * normal float and the scale 2^-exponent is one too. Both libm calls showed in
+ * the build's profile (the order pass tests every triangle); a product with an
+ * exact power of two rounds as ldexpf does, so the answer is the same.
+ */
+static float power_of_two_scale(float largest, int *exponent)
+{
+    uint32_t bits;
+    memcpy(&bits, &largest, sizeof bits);
+    uint32_t biased = (bits >> 23) & 0xffu;
+    if (biased == 0u || biased == 0xffu) {
+        frexpf(largest, exponent);
+        return 0.0f;
+    }
+    *exponent = (int)biased - 126;
+    int scale_biased = 127 - *exponent;
+    if (scale_biased < 1 || scale_biased > 254)
+        return 0.0f;
+    uint32_t scale_bits = (uint32_t)scale_biased << 23;
+    float scale;
+    memcpy(&scale, &scale_bits, sizeof scale);
+    return scale;
+}
+
 /* Same test, operation for operation, as triangle_is_degenerate in ray_triangle.glsl (why: see there). */
 int pf_triangle_is_degenerate(const float v0[3], const float v1[3], const float v2[3])
 {
     float largest = 0.0f;
     for (int k = 0; k < 3; k++)
-        largest = fmaxf(largest, fmaxf(fabsf(v0[k]), fmaxf(fabsf(v1[k]), fabsf(v2[k]))));
+        largest = max_ignoring_nan(
+            largest,
+            max_ignoring_nan(fabsf(v0[k]), max_ignoring_nan(fabsf(v1[k]), fabsf(v2[k]))));
     if (largest == 0.0f)
         return 1;
     int exponent;
-    frexpf(largest, &exponent);
+    float scale = power_of_two_scale(largest, &exponent);
     float e1[3], e2[3];
     for (int k = 0; k < 3; k++) {
-        e1[k] = ldexpf(v1[k] - v0[k], -exponent);
-        e2[k] = ldexpf(v2[k] - v0[k], -exponent);
+        e1[k] = scale != 0.0f ? (v1[k] - v0[k]) * scale : ldexpf(v1[k] - v0[k], -exponent);
+        e2[k] = scale != 0.0f ? (v2[k] - v0[k]) * scale : ldexpf(v2[k] - v0[k], -exponent);
     }
     float n[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2],
                   e1[0] * e2[1] - e1[1] * e2[0]};

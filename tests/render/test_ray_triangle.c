@@ -4,6 +4,7 @@
 
 #include <math.h>
 #include <stdint.h>
+#include <string.h>
 #if defined(__SSE2__)
 #include <pmmintrin.h>
 #include <xmmintrin.h>
@@ -137,6 +138,72 @@ PF_TEST(zero_area_triangles_never_hit)
         PF_CHECK(!cast(o, d, ca, cb, cc, 0, INFINITY, &t, &u, &v));
         PF_CHECK(!cast(o, d, ca, m, cb, 0, INFINITY, &t, &u, &v));
     }
+}
+
+/*
+ * pf_triangle_is_degenerate scales by 2^-exponent from the float's bits where
+ * it can, and by frexpf/ldexpf elsewhere (subnormal, huge or non-finite
+ * coordinates). Oracle: the same bound written with frexpf/ldexpf throughout,
+ * as ray_triangle.glsl writes it.
+ */
+static int degenerate_by_frexp(const float v0[3], const float v1[3], const float v2[3])
+{
+    float largest = 0.0f;
+    for (int k = 0; k < 3; k++)
+        largest = fmaxf(largest, fmaxf(fabsf(v0[k]), fmaxf(fabsf(v1[k]), fabsf(v2[k]))));
+    if (largest == 0.0f)
+        return 1;
+    int exponent;
+    frexpf(largest, &exponent);
+    float e1[3], e2[3];
+    for (int k = 0; k < 3; k++) {
+        e1[k] = ldexpf(v1[k] - v0[k], -exponent);
+        e2[k] = ldexpf(v2[k] - v0[k], -exponent);
+    }
+    float n[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2],
+                  e1[0] * e2[1] - e1[1] * e2[0]};
+    float n2 = (n[0] * n[0] + n[1] * n[1]) + n[2] * n[2];
+    float edges2 = ((e1[0] * e1[0] + e1[1] * e1[1]) + e1[2] * e1[2]) +
+                   ((e2[0] * e2[0] + e2[1] * e2[1]) + e2[2] * e2[2]);
+    const float bound2 = 2.0f * (16.0f / 16777216.0f) * (16.0f / 16777216.0f);
+    return !(n2 > bound2 * edges2);
+}
+
+PF_TEST(degeneracy_matches_the_frexp_formulation)
+{
+    uint32_t state = 777;
+    int mismatches = 0, degenerate = 0, checked = 0;
+    for (int i = 0; i < 200000; i++) {
+        float v[3][3];
+        int mode = i % 3;
+        for (int a = 0; a < 3; a++)
+            for (int k = 0; k < 3; k++) {
+                uint32_t bits = next_random(&state);
+                float value;
+                memcpy(&value, &bits, sizeof value); /* mode 0: any bits, NaN and inf too */
+                if (mode > 0)
+                    value = uniform(&state, -1, 1);
+                v[a][k] = value;
+            }
+        if (mode == 2) {
+            /* Nearly collinear, at a power-of-two scale from 2^-149 to 2^126. */
+            float s = uniform(&state, 0.2f, 0.8f);
+            for (int k = 0; k < 3; k++)
+                v[2][k] = v[0][k] + s * (v[1][k] - v[0][k]) +
+                          (float)((int)(next_random(&state) % 3) - 1) * 1e-7f;
+            int scale = (int)(next_random(&state) % 276) - 149;
+            for (int a = 0; a < 3; a++)
+                for (int k = 0; k < 3; k++)
+                    v[a][k] = ldexpf(v[a][k], scale);
+        }
+        int expected = degenerate_by_frexp(v[0], v[1], v[2]);
+        mismatches += pf_triangle_is_degenerate(v[0], v[1], v[2]) != expected;
+        degenerate += expected;
+        checked++;
+    }
+    PF_CHECK_MSG(mismatches == 0, "%d of %d triangles disagree", mismatches, checked);
+    /* Both answers occur often enough for the comparison to mean something. */
+    PF_CHECK(degenerate > checked / 10 && degenerate < checked * 9 / 10);
 }
 
 PF_TEST(shared_edge_and_vertex_never_leak)
@@ -330,6 +397,7 @@ int main(void)
     PF_RUN(t_strictly_inside_tmin_tmax);
     PF_RUN(axis_parallel_rays_in_both_directions);
     PF_RUN(zero_area_triangles_never_hit);
+    PF_RUN(degeneracy_matches_the_frexp_formulation);
     PF_RUN(shared_edge_and_vertex_never_leak);
     PF_RUN(random_hits_reproduce_the_hit_point);
     PF_RUN(answers_do_not_depend_on_subnormal_flushing);
