@@ -125,20 +125,27 @@ static box3 empty_box(void)
     return (box3){{INFINITY, INFINITY, INFINITY}, {-INFINITY, -INFINITY, -INFINITY}};
 }
 
-static void box_merge(box3 *box, const float lo[3], const float hi[3])
+/*
+ * Written out per axis, as the hot loops below are: GCC -O2 kept small
+ * per-axis loops as loops over arrays in memory, and they ran once or three
+ * times per triangle per level (the SAH build spent most of its time there).
+ */
+static inline void box_merge(box3 *box, const float lo[3], const float hi[3])
 {
-    for (int k = 0; k < 3; k++) {
-        box->lo[k] = lo[k] < box->lo[k] ? lo[k] : box->lo[k];
-        box->hi[k] = hi[k] > box->hi[k] ? hi[k] : box->hi[k];
-    }
+    box->lo[0] = lo[0] < box->lo[0] ? lo[0] : box->lo[0];
+    box->lo[1] = lo[1] < box->lo[1] ? lo[1] : box->lo[1];
+    box->lo[2] = lo[2] < box->lo[2] ? lo[2] : box->lo[2];
+    box->hi[0] = hi[0] > box->hi[0] ? hi[0] : box->hi[0];
+    box->hi[1] = hi[1] > box->hi[1] ? hi[1] : box->hi[1];
+    box->hi[2] = hi[2] > box->hi[2] ? hi[2] : box->hi[2];
 }
 
-static float half_area(const box3 *box)
+static inline float half_area(const box3 *box)
 {
-    float e[3];
-    for (int k = 0; k < 3; k++)
-        e[k] = box->hi[k] > box->lo[k] ? box->hi[k] - box->lo[k] : 0.0f;
-    return e[0] * e[1] + e[1] * e[2] + e[2] * e[0];
+    float ex = box->hi[0] > box->lo[0] ? box->hi[0] - box->lo[0] : 0.0f;
+    float ey = box->hi[1] > box->lo[1] ? box->hi[1] - box->lo[1] : 0.0f;
+    float ez = box->hi[2] > box->lo[2] ? box->hi[2] - box->lo[2] : 0.0f;
+    return ex * ey + ey * ez + ez * ex;
 }
 
 /* Comparisons, not fminf/fmaxf: those are libm calls at -O2, and no NaN reaches here. */
@@ -181,9 +188,8 @@ static void prim_bounds(const build_prim *prims, uint32_t first, uint32_t count,
     *bounds = empty_box();
     *centres = empty_box();
     for (uint32_t i = first; i < first + count; i++) {
-        float c[3];
-        for (int k = 0; k < 3; k++)
-            c[k] = prim_centre(&prims[i], k);
+        float c[3] = {prim_centre(&prims[i], 0), prim_centre(&prims[i], 1),
+                      prim_centre(&prims[i], 2)};
         box_merge(bounds, prims[i].lo, prims[i].hi);
         box_merge(centres, c, c);
     }
@@ -491,14 +497,15 @@ static int sah_split(const build_prim *prims, uint32_t first, uint32_t count,
     }
     for (uint32_t i = first; i < first + count; i++) {
         const build_prim *p = &prims[i];
-        float c[3];
-        for (int k = 0; k < 3; k++)
-            c[k] = prim_centre(p, k);
-        for (int k = 0; k < 3; k++) {
-            sah_bin *bin = &bins[k][bin_of(c[k], centres->lo[k], scale[k])];
-            box_merge(&bin->bounds, p->lo, p->hi);
-            bin->count++;
-        }
+        sah_bin *x = &bins[0][bin_of(prim_centre(p, 0), centres->lo[0], scale[0])];
+        sah_bin *y = &bins[1][bin_of(prim_centre(p, 1), centres->lo[1], scale[1])];
+        sah_bin *z = &bins[2][bin_of(prim_centre(p, 2), centres->lo[2], scale[2])];
+        box_merge(&x->bounds, p->lo, p->hi);
+        x->count++;
+        box_merge(&y->bounds, p->lo, p->hi);
+        y->count++;
+        box_merge(&z->bounds, p->lo, p->hi);
+        z->count++;
     }
     float best_cost = INFINITY;
     int found = 0;
