@@ -166,17 +166,20 @@ int pf_ray_triangle_sheared(const float origin[3], const pf_ray_shear *s, const 
     if (!s->valid)
         return 0;
     float sx = s->sx, sy = s->sy, sz = s->sz;
-    /* The translated vertices, permuted to (kx, ky, kz). */
-    float a[3], b[3], c[3];
-    const int axis[3] = {s->kx, s->ky, s->kz};
-    for (int i = 0; i < 3; i++) {
-        a[i] = v0[axis[i]] - origin[axis[i]];
-        b[i] = v1[axis[i]] - origin[axis[i]];
-        c[i] = v2[axis[i]] - origin[axis[i]];
-    }
+    /*
+     * The translated vertices, permuted to (kx, ky, kz). Written out, not
+     * looped over an axis array: GCC -O2 kept the loop and the arrays in
+     * memory, and this test is most of the CPU traversal's leaf time.
+     */
+    const int kx = s->kx, ky = s->ky, kz = s->kz;
+    float a[3] = {v0[kx] - origin[kx], v0[ky] - origin[ky], v0[kz] - origin[kz]};
+    float b[3] = {v1[kx] - origin[kx], v1[ky] - origin[ky], v1[kz] - origin[kz]};
+    float c[3] = {v2[kx] - origin[kx], v2[ky] - origin[ky], v2[kz] - origin[kz]};
     edges e = watertight_edges(a, b, c, sx, sy, sz);
     int t_exponent = 0;
-    if (fminf(fabsf(e.eu), fminf(fabsf(e.ev), fabsf(e.ew))) < WATERTIGHT_RESCALE_BELOW ||
+    /* min(|eu|, |ev|, |ew|) < R as fminf answers it (NaN ignored), without its libm call. */
+    if (fabsf(e.eu) < WATERTIGHT_RESCALE_BELOW || fabsf(e.ev) < WATERTIGHT_RESCALE_BELOW ||
+        fabsf(e.ew) < WATERTIGHT_RESCALE_BELOW ||
         fabsf(e.scaled_t) < fabsf(e.det) * WATERTIGHT_RESCALE_BELOW) {
         /* ray_triangle.glsl: each column scaled to [0.5, 1) by a power of two. */
         int ex = column_exponent(a[0], b[0], c[0]);
@@ -196,7 +199,9 @@ int pf_ray_triangle_sheared(const float origin[3], const pf_ray_shear *s, const 
     if (e.det == 0.0f)
         return 0;
     float rcp_det = 1.0f / e.det;
-    float hit_t = ldexpf(e.scaled_t * rcp_det, t_exponent);
+    float hit_t = e.scaled_t * rcp_det;
+    if (t_exponent != 0)
+        hit_t = ldexpf(hit_t, t_exponent);
     if (!(hit_t > tmin && hit_t < tmax && hit_t >= FLT_MIN))
         return 0;
     *t = hit_t;
