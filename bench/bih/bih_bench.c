@@ -24,7 +24,10 @@
  * builds of the generated mesh, ours (global and SAH, BENCH_THREADS threads)
  * and Embree's LOW, BUILD_ROUNDS rounds each taking one of each in turn, and
  * prints the best and the median of each: build figures steady enough for an
- * A/B on a shared machine.
+ * A/B on a shared machine. A third argument "cpu" (bih_bench DIR SCENE cpu)
+ * times only our CPU traversal of the SAH tree and Embree on the same rays,
+ * CPU_ROUNDS rounds taking one of each in turn, best and median: the A/B
+ * harness for core/bih's C traversal.
  * Run with LP_NUM_THREADS=2 so lavapipe gets the 2 threads Embree is given.
  */
 #include "pf_bih.h"
@@ -55,6 +58,7 @@
 /* Best of this many timed runs (the machine is shared: the best run is the least disturbed). */
 #define TIMING_REPEATS 3
 #define BUILD_ROUNDS 15
+#define CPU_ROUNDS 7
 /* Stand-in for an infinite tmax that both the GLSL traversal and Embree accept. */
 #define RAY_FAR 1e30f
 /* Ray offset from a surface, relative to the scene diagonal (avoids self-hits). */
@@ -1031,10 +1035,67 @@ static int build_rounds(const bench_mesh *m, RTCDevice dev)
     return 1;
 }
 
+/* "cpu": our CPU traversal of the SAH tree against Embree HIGH, interleaved rounds. */
+static int cpu_rounds(const bench_mesh *m, RTCDevice dev)
+{
+    const pf_scene_frame *f = &m->frame;
+    uint32_t n = f->triangle_count, np = BENCH_WIDTH * BENCH_HEIGHT;
+    pf_bih sah = {0};
+    unsigned *indices = malloc(3 * (size_t)n * sizeof *indices);
+    pf_ray *rays[3] = {malloc(np * sizeof(pf_ray)), malloc(np * sizeof(pf_ray)),
+                       malloc(np * sizeof(pf_ray))};
+    pf_hit *hits = malloc(np * sizeof *hits);
+    int ok = indices && rays[0] && rays[1] && rays[2] && hits &&
+             cpu_build_ms(f, PF_BIH_HEURISTIC_SAH, BENCH_THREADS, &sah) >= 0.0;
+    RTCScene hq = NULL;
+    uint32_t counts[3] = {np, 0, 0};
+    if (ok) {
+        for (uint32_t i = 0; i < 3 * n; i++)
+            indices[i] = i;
+        double ms;
+        hq = embree_scene(dev, f, RTC_BUILD_QUALITY_HIGH, indices, &ms);
+        make_primary(f, rays[0]);
+        ok = cpu_cast(&sah, rays[0], np, 0, hits) >= 0.0;
+        counts[1] = counts[2] = make_secondary(m, rays[0], hits, np, rays[1], rays[2]);
+    }
+    static const char *const kinds[3] = {"primary", "shadow", "diffuse"};
+    double ours[3][CPU_ROUNDS], theirs[3][CPU_ROUNDS];
+    for (int round = 0; round < CPU_ROUNDS && ok; round++)
+        for (int k = 0; k < 3 && ok; k++) {
+            ours[k][round] = cpu_cast(&sah, rays[k], counts[k], k == 1, hits);
+            theirs[k][round] = embree_cast(hq, rays[k], counts[k], k == 1, hits);
+            ok = ours[k][round] >= 0.0;
+        }
+    if (ok) {
+        printf("\n=== %s: %u triangles, SAH tree, %d rounds, %d threads each ===\n", m->name, n,
+               CPU_ROUNDS, BENCH_THREADS);
+        for (int k = 0; k < 3; k++) {
+            qsort(ours[k], CPU_ROUNDS, sizeof ours[k][0], compare_ms);
+            qsort(theirs[k], CPU_ROUNDS, sizeof theirs[k][0], compare_ms);
+            double our_median = ours[k][CPU_ROUNDS / 2], their_median = theirs[k][CPU_ROUNDS / 2];
+            printf("cpu     %-8s ours best %7.3f median %7.3f Mrays/s | Embree best %7.3f median "
+                   "%7.3f | CPU/Embree median %.3fx\n",
+                   kinds[k], mrays(counts[k], ours[k][0]), mrays(counts[k], our_median),
+                   mrays(counts[k], theirs[k][0]), mrays(counts[k], their_median),
+                   their_median / our_median);
+        }
+    }
+    if (hq)
+        rtcReleaseScene(hq);
+    pf_bih_free(&sah);
+    free(indices);
+    free(rays[0]);
+    free(rays[1]);
+    free(rays[2]);
+    free(hits);
+    return ok;
+}
+
 int main(int argc, char **argv)
 {
     const char *dir = argc > 1 ? argv[1] : getenv("PF_SHARED_SCENES");
     const char *only = argc > 2 ? argv[2] : NULL;
+    int cpu_only = argc > 3 && strcmp(argv[3], "cpu") == 0;
     if (!dir) {
         fprintf(stderr, "usage: bih_bench [scenes_dir [only]] (or set PF_SHARED_SCENES)\n");
         return 2;
@@ -1091,7 +1152,7 @@ int main(int argc, char **argv)
     for (int i = 0; i < count; i++) {
         bench_mesh m;
         if (load_scene(dir, names[i], &m)) {
-            failures += !bench_mesh_run(&m, ctx, dev, builder);
+            failures += cpu_only ? !cpu_rounds(&m, dev) : !bench_mesh_run(&m, ctx, dev, builder);
             mesh_free(&m);
         } else {
             failures++;
@@ -1109,7 +1170,7 @@ int main(int argc, char **argv)
     } else if (only && strcmp(only, "sphere") != 0) {
         /* one shared scene asked for: no generated mesh */
     } else if (make_sphere(&sphere)) {
-        failures += !bench_mesh_run(&sphere, ctx, dev, builder);
+        failures += cpu_only ? !cpu_rounds(&sphere, dev) : !bench_mesh_run(&sphere, ctx, dev, builder);
         mesh_free(&sphere);
     } else {
         failures++;
