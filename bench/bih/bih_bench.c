@@ -596,14 +596,14 @@ typedef struct cpu_job {
     int failed;
 } cpu_job;
 
+/* Consecutive rays (neighbouring pixels, or their bounces) go in packets. */
 static void *cpu_trace(void *arg)
 {
     cpu_job *j = arg;
-    for (uint32_t i = j->first; i < j->first + j->count; i++) {
-        pf_error err = {0};
-        if (pf_bih_trace_cpu(j->bih, &j->rays[i], j->any_hit, &j->hits[i], &err) != PF_OK)
-            j->failed = 1;
-    }
+    pf_error err = {0};
+    if (pf_bih_trace_cpu_rays(j->bih, &j->rays[j->first], j->count, j->any_hit,
+                              &j->hits[j->first], &err) != PF_OK)
+        j->failed = 1;
     return NULL;
 }
 
@@ -1170,7 +1170,8 @@ int main(int argc, char **argv)
     } else if (only && strcmp(only, "sphere") != 0) {
         /* one shared scene asked for: no generated mesh */
     } else if (make_sphere(&sphere)) {
-        failures += cpu_only ? !cpu_rounds(&sphere, dev) : !bench_mesh_run(&sphere, ctx, dev, builder);
+        failures +=
+            cpu_only ? !cpu_rounds(&sphere, dev) : !bench_mesh_run(&sphere, ctx, dev, builder);
         mesh_free(&sphere);
     } else {
         failures++;

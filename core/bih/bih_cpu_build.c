@@ -148,17 +148,6 @@ static inline float half_area(const box3 *box)
     return ex * ey + ey * ez + ez * ex;
 }
 
-/* Comparisons, not fminf/fmaxf: those are libm calls at -O2, and no NaN reaches here. */
-static float min_f(float a, float b)
-{
-    return b < a ? b : a;
-}
-
-static float max_f(float a, float b)
-{
-    return b > a ? b : a;
-}
-
 static float prim_centre(const build_prim *p, int axis)
 {
     return 0.5f * p->lo[axis] + 0.5f * p->hi[axis];
@@ -215,12 +204,12 @@ typedef struct side_bounds {
 static inline void side_merge_centre(side_bounds *side, const build_prim *p)
 {
     float cx = prim_centre(p, 0), cy = prim_centre(p, 1), cz = prim_centre(p, 2);
-    side->lx = min_f(side->lx, cx);
-    side->ly = min_f(side->ly, cy);
-    side->lz = min_f(side->lz, cz);
-    side->hx = max_f(side->hx, cx);
-    side->hy = max_f(side->hy, cy);
-    side->hz = max_f(side->hz, cz);
+    side->lx = pf_bih_min(side->lx, cx);
+    side->ly = pf_bih_min(side->ly, cy);
+    side->lz = pf_bih_min(side->lz, cz);
+    side->hx = pf_bih_max(side->hx, cx);
+    side->hy = pf_bih_max(side->hy, cy);
+    side->hz = pf_bih_max(side->hz, cz);
 }
 
 static inline int goes_left(const build_prim *p, const split_rule *rule)
@@ -254,24 +243,24 @@ static uint32_t partition(build_prim *prims, uint32_t first, uint32_t count,
     for (;;) {
         while (lo < hi && goes_left(&prims[lo], rule)) {
             side_merge_centre(&left, &prims[lo]);
-            left.clip = max_f(left.clip, prims[lo].hi[axis]);
+            left.clip = pf_bih_max(left.clip, prims[lo].hi[axis]);
             lo++;
         }
         if (lo == hi)
             break;
         /* prims[lo] goes right; look for a left one above it to swap with. */
         side_merge_centre(&right, &prims[lo]);
-        right.clip = min_f(right.clip, prims[lo].lo[axis]);
+        right.clip = pf_bih_min(right.clip, prims[lo].lo[axis]);
         int found = 0;
         while (--hi > lo) {
             if (goes_left(&prims[hi], rule)) {
                 side_merge_centre(&left, &prims[hi]);
-                left.clip = max_f(left.clip, prims[hi].hi[axis]);
+                left.clip = pf_bih_max(left.clip, prims[hi].hi[axis]);
                 found = 1;
                 break;
             }
             side_merge_centre(&right, &prims[hi]);
-            right.clip = min_f(right.clip, prims[hi].lo[axis]);
+            right.clip = pf_bih_min(right.clip, prims[hi].lo[axis]);
         }
         if (!found)
             break;
@@ -368,8 +357,8 @@ static uint32_t partition_in_parts(build_prim *prims, uint32_t first, uint32_t c
         left_end += left_here;
         box_merge(left_centres, c.left_centres[part].lo, c.left_centres[part].hi);
         box_merge(right_centres, c.right_centres[part].lo, c.right_centres[part].hi);
-        *left_clip = max_f(*left_clip, c.left_clip[part]);
-        *right_clip = min_f(*right_clip, c.right_clip[part]);
+        *left_clip = pf_bih_max(*left_clip, c.left_clip[part]);
+        *right_clip = pf_bih_min(*right_clip, c.right_clip[part]);
     }
     return left_end - first;
 }
@@ -900,8 +889,8 @@ static void setup_part(void *arg, uint32_t part, uint32_t parts)
         const float(*v)[4] = &c->frame->vertices[3 * (size_t)t];
         int finite = 1;
         for (int k = 0; k < 3; k++) {
-            p->lo[k] = min_f(min_f(v[0][k], v[1][k]), v[2][k]);
-            p->hi[k] = max_f(max_f(v[0][k], v[1][k]), v[2][k]);
+            p->lo[k] = pf_bih_min(pf_bih_min(v[0][k], v[1][k]), v[2][k]);
+            p->hi[k] = pf_bih_max(pf_bih_max(v[0][k], v[1][k]), v[2][k]);
             finite &= isfinite(v[0][k]) && isfinite(v[1][k]) && isfinite(v[2][k]);
         }
         if (!finite) {

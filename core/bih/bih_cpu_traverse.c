@@ -18,73 +18,34 @@
  */
 #include "bih_internal.h"
 
-#include <float.h>
-#include <math.h>
-
-/* 2γ(3) for ε = 2^-24: 6ε / (1 − 3ε). */
-#define BIH_TWO_GAMMA3 (6.0f * 0x1p-24f / (1.0f - 3.0f * 0x1p-24f))
-
-static float widen_far(float t)
-{
-    return isinf(t) ? t : t + fabsf(t) * BIH_TWO_GAMMA3;
-}
-
-/*
- * The next float above a finite t (for letting an equal t through a strict
- * test), by its bits as in the GLSL include: nextafterf is a libm call.
- */
-static float next_up(float t)
-{
-    if (!isfinite(t))
-        return t;
-    if (t == 0.0f)
-        return pf_bih_bits_to_float(1u);
-    uint32_t bits = pf_bih_float_to_bits(t);
-    return pf_bih_bits_to_float(t > 0.0f ? bits + 1u : bits - 1u);
-}
-
-/*
- * min/max by comparison, inlined (fminf/fmaxf are libm calls at -O2). No NaN
- * reaches them: a parallel axis never divides, and clip values are finite or
- * ±inf against a finite origin.
- */
-static float min_f(float a, float b)
-{
-    return b < a ? b : a;
-}
-
-static float max_f(float a, float b)
-{
-    return b > a ? b : a;
-}
-
 typedef struct stack_entry {
     uint32_t node;
     float t_near, t_far;
 } stack_entry;
 
-/* The traversal; counts (may be NULL) receives what it did. */
-static pf_status trace(const pf_bih *bih, const pf_ray *ray, int any_hit, pf_hit *hit,
-                       pf_bih_trace_counts *counts, pf_error *err)
+void pf_bih_ray_prepare(const pf_ray *ray, pf_bih_ray *prepared)
 {
-    *hit = (pf_hit){-1.0f, PF_NO_HIT, 0.0f, 0.0f};
-    if (bih->triangle_count == 0)
-        return PF_OK;
-    const float *origin = ray->origin, *direction = ray->direction;
-    float inv[3];
-    int parallel[3];
     for (int k = 0; k < 3; k++) {
-        parallel[k] = !(fabsf(direction[k]) >= FLT_MIN);
-        inv[k] = parallel[k] ? 0.0f : 1.0f / direction[k];
+        prepared->parallel[k] = !(fabsf(ray->direction[k]) >= FLT_MIN);
+        prepared->inv[k] = prepared->parallel[k] ? 0.0f : 1.0f / ray->direction[k];
     }
-    if (parallel[0] && parallel[1] && parallel[2])
-        return PF_OK;
+    /* The watertight test's per-ray part once (ray_triangle.glsl's RayShear). */
+    pf_ray_shear_setup(ray->direction, &prepared->shear);
+}
 
+int pf_bih_ray_enter(const pf_bih *bih, const pf_ray *ray, const pf_bih_ray *prepared,
+                     float *t_near_out, float *t_far_out)
+{
+    const float *origin = ray->origin;
+    const int *parallel = prepared->parallel;
+    const float *inv = prepared->inv;
+    if (bih->triangle_count == 0 || (parallel[0] && parallel[1] && parallel[2]))
+        return 0;
     float t_near = ray->tmin, t_far = ray->tmax;
     for (int k = 0; k < 3; k++) {
         if (parallel[k]) {
             if (origin[k] < bih->bounds_min[k] || origin[k] > bih->bounds_max[k])
-                return PF_OK;
+                return 0;
             continue;
         }
         float t0 = (bih->bounds_min[k] - origin[k]) * inv[k];
@@ -94,19 +55,25 @@ static pf_status trace(const pf_bih *bih, const pf_ray *ray, int any_hit, pf_hit
             t0 = t1;
             t1 = swap;
         }
-        t_near = max_f(t_near, t0);
-        t_far = min_f(t_far, widen_far(t1));
+        t_near = pf_bih_max(t_near, t0);
+        t_far = pf_bih_min(t_far, pf_bih_widen_far(t1));
     }
-    if (!(t_near <= t_far))
-        return PF_OK;
+    *t_near_out = t_near;
+    *t_far_out = t_far;
+    return t_near <= t_far;
+}
 
-    /* The watertight test's per-ray part once (ray_triangle.glsl's RayShear). */
-    pf_ray_shear shear;
-    pf_ray_shear_setup(direction, &shear);
-    float closest = ray->tmax;
+pf_status pf_bih_walk(const pf_bih *bih, const pf_ray *ray, const pf_bih_ray *prepared,
+                      uint32_t node, float t_near, float t_far, int any_hit, float *closest_io,
+                      pf_hit *hit, pf_bih_trace_counts *counts, pf_error *err)
+{
+    const float *origin = ray->origin;
+    const int *parallel = prepared->parallel;
+    const float *inv = prepared->inv;
+    const pf_ray_shear shear = prepared->shear;
+    float closest = *closest_io;
     stack_entry stack[PF_BIH_STACK_SIZE];
     uint32_t stack_size = 0;
-    uint32_t node = 0;
     /* A ray enters each node at most once, so node_count visits bound the loop. */
     for (uint32_t visit = 0; visit < bih->node_count; visit++) {
         const pf_bih_node *n = &bih->nodes[node];
@@ -117,7 +84,7 @@ static pf_status trace(const pf_bih *bih, const pf_ray *ray, int any_hit, pf_hit
             counts->inner_nodes++;
         if (!pf_bih_is_leaf(n)) {
             uint32_t axis = pf_bih_axis(n), child = pf_bih_first_child(n);
-            float far_limit = min_f(t_far, widen_far(closest));
+            float far_limit = pf_bih_min(t_far, pf_bih_widen_far(closest));
             float left_near = t_near, left_far = far_limit;
             float right_near = t_near, right_far = far_limit;
             int left_first = 1;
@@ -129,12 +96,12 @@ static pf_status trace(const pf_bih *bih, const pf_ray *ray, int any_hit, pf_hit
                 float t_left = (n->clip[0] - origin[axis]) * inv[axis];
                 float t_right = (n->clip[1] - origin[axis]) * inv[axis];
                 if (inv[axis] > 0.0f) {
-                    left_far = min_f(left_far, widen_far(t_left));
-                    right_near = max_f(right_near, t_right);
+                    left_far = pf_bih_min(left_far, pf_bih_widen_far(t_left));
+                    right_near = pf_bih_max(right_near, t_right);
                 } else {
                     left_first = 0;
-                    right_far = min_f(right_far, widen_far(t_right));
-                    left_near = max_f(left_near, t_left);
+                    right_far = pf_bih_min(right_far, pf_bih_widen_far(t_right));
+                    left_near = pf_bih_max(left_near, t_left);
                 }
             }
             int visit_left = left_open && left_near <= left_far;
@@ -174,13 +141,14 @@ static pf_status trace(const pf_bih *bih, const pf_ray *ray, int any_hit, pf_hit
                 /* A degenerate triangle never hits (its flag: pf_bih.h). */
                 if (leaf[0][3] != 0.0f ||
                     !pf_ray_triangle_sheared(origin, &shear, leaf[0], leaf[1], leaf[2], ray->tmin,
-                                             next_up(closest), &t, &u, &v))
+                                             pf_bih_next_up(closest), &t, &u, &v))
                     continue;
                 uint32_t original = bih->triangle_index[p];
                 /* Equal t: the lower original index wins, as in the brute-force oracle. */
                 if (t < closest ||
                     (t == closest && hit->triangle != PF_NO_HIT && original < hit->triangle)) {
                     closest = t;
+                    *closest_io = t;
                     *hit = (pf_hit){t, original, u, v};
                     if (any_hit)
                         return PF_OK;
@@ -192,7 +160,7 @@ static pf_status trace(const pf_bih *bih, const pf_ray *ray, int any_hit, pf_hit
         int resumed = 0;
         while (stack_size > 0) {
             stack_entry entry = stack[--stack_size];
-            float far_limit = min_f(entry.t_far, widen_far(closest));
+            float far_limit = pf_bih_min(entry.t_far, pf_bih_widen_far(closest));
             if (counts)
                 counts->pops++;
             if (entry.t_near <= far_limit) {
@@ -210,6 +178,21 @@ static pf_status trace(const pf_bih *bih, const pf_ray *ray, int any_hit, pf_hit
     return pf_error_set(err, PF_ERR_INTERNAL,
                         "BIH traversal: more than %u node visits (a malformed tree)",
                         bih->node_count);
+}
+
+/* The traversal; counts (may be NULL) receives what it did. */
+static pf_status trace(const pf_bih *bih, const pf_ray *ray, int any_hit, pf_hit *hit,
+                       pf_bih_trace_counts *counts, pf_error *err)
+{
+    *hit = (pf_hit){-1.0f, PF_NO_HIT, 0.0f, 0.0f};
+    pf_bih_ray prepared;
+    pf_bih_ray_prepare(ray, &prepared);
+    float t_near, t_far;
+    if (!pf_bih_ray_enter(bih, ray, &prepared, &t_near, &t_far))
+        return PF_OK;
+    float closest = ray->tmax;
+    return pf_bih_walk(bih, ray, &prepared, 0, t_near, t_far, any_hit, &closest, hit, counts,
+                       err);
 }
 
 pf_status pf_bih_trace_cpu(const pf_bih *bih, const pf_ray *ray, int any_hit, pf_hit *hit,

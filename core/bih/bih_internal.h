@@ -1,12 +1,15 @@
 /*
- * core/bih internals shared by its .c files: the leaf fields' bit casts and
- * the node word decoding (GLSL mirror in shaders/common/bih_traverse.glsl).
+ * core/bih internals shared by its .c files: the leaf fields' bit casts, the
+ * node word decoding and the traversals' float rules (GLSL mirror in
+ * shaders/common/bih_traverse.glsl).
  */
 #ifndef PF_BIH_INTERNAL_H
 #define PF_BIH_INTERNAL_H
 
 #include "pf_bih.h"
 
+#include <float.h>
+#include <math.h>
 #include <string.h>
 
 /* A leaf keeps uint32 bits in its float fields (see the node format in pf_bih.h). */
@@ -48,5 +51,68 @@ static inline uint32_t pf_bih_first_child(const pf_bih_node *node)
 {
     return node->word >> 2;
 }
+
+/*
+ * min/max by comparison, inlined (fminf/fmaxf are libm calls at -O2): the
+ * second argument where it is smaller (larger). No NaN reaches them: a
+ * parallel axis never divides, and clip values are finite or ±inf against a
+ * finite origin.
+ */
+static inline float pf_bih_min(float a, float b)
+{
+    return b < a ? b : a;
+}
+
+static inline float pf_bih_max(float a, float b)
+{
+    return b > a ? b : a;
+}
+
+/* ray_triangle.glsl: edge values and hit distances below this (2^-40) are evaluated again. */
+#define PF_BIH_WATERTIGHT_RESCALE_BELOW 9.094947017729282e-13f
+
+/* 2γ(3) for ε = 2^-24: 6ε / (1 − 3ε) (Ize 2013; bih_cpu_traverse.c). */
+#define PF_BIH_TWO_GAMMA3 (6.0f * 0x1p-24f / (1.0f - 3.0f * 0x1p-24f))
+
+/* A far distance widened by 2γ(3)·|t|; ±inf (and NaN) kept as they are, as bih_widen_far does. */
+static inline float pf_bih_widen_far(float t)
+{
+    float widened = t + fabsf(t) * PF_BIH_TWO_GAMMA3;
+    return t >= -FLT_MAX ? widened : t;
+}
+
+/*
+ * The next float above a finite t (for letting an equal t through a strict
+ * test), by its bits as in the GLSL include: nextafterf is a libm call.
+ */
+static inline float pf_bih_next_up(float t)
+{
+    if (!isfinite(t))
+        return t;
+    if (t == 0.0f)
+        return pf_bih_bits_to_float(1u);
+    uint32_t bits = pf_bih_float_to_bits(t);
+    return pf_bih_bits_to_float(t > 0.0f ? bits + 1u : bits - 1u);
+}
+
+/*
+ * The one-ray traversal in parts, for bih_cpu_packet.c to hand a ray left
+ * alone in its packet to: a ray's per-ray setup; its interval in the scene
+ * box (0: it misses the box); and the walk of the subtree at node from the
+ * interval [t_near, t_far], with the ray's best hit so far in *closest and
+ * *hit (both updated). pf_bih_trace_cpu is these three from the root.
+ */
+typedef struct pf_bih_ray {
+    float inv[3];
+    int parallel[3];
+    pf_ray_shear shear;
+} pf_bih_ray;
+
+void pf_bih_ray_prepare(const pf_ray *ray, pf_bih_ray *prepared);
+int pf_bih_ray_enter(const pf_bih *bih, const pf_ray *ray, const pf_bih_ray *prepared,
+                     float *t_near, float *t_far);
+pf_status pf_bih_walk(const pf_bih *bih, const pf_ray *ray, const pf_bih_ray *prepared,
+                      uint32_t node, float t_near, float t_far, int any_hit, float *closest,
+                      pf_hit *hit, pf_bih_trace_counts *counts, pf_error *err);
 
 #endif

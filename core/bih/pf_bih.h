@@ -227,6 +227,29 @@ pf_status pf_bih_trace_cpu_counted(const pf_bih *bih, const pf_ray *ray, int any
                                    pf_hit *hit, pf_bih_trace_counts *counts, pf_error *err);
 
 /*
+ * Up to PF_BIH_PACKET_RAYS rays traced together on the CPU (one shared stack,
+ * each ray its own interval): each node and leaf is loaded once for all the
+ * rays that enter it, where one ray at a time waits on memory at nearly every
+ * step. hits[i] is pf_bih_trace_cpu's closest hit for rays[i], bit for bit;
+ * with any_hit, a hit whenever pf_bih_trace_cpu finds one (maybe another
+ * triangle). Coherent rays (primary, shadow) gain most. Same errors as
+ * pf_bih_trace_cpu (all hits are then misses); PF_ERR_INVALID for more than
+ * PF_BIH_PACKET_RAYS rays.
+ */
+#define PF_BIH_PACKET_RAYS 8u
+pf_status pf_bih_trace_cpu_packet(const pf_bih *bih, const pf_ray *rays, uint32_t count,
+                                  int any_hit, pf_hit *hits, pf_error *err);
+
+/*
+ * Any number of rays, in packets of PF_BIH_PACKET_RAYS consecutive ones:
+ * rays in a coherent order (pixel order, and the bounces and shadow rays of
+ * neighbouring pixels) make the packets pay. hits as
+ * pf_bih_trace_cpu_packet's; stops at the first error.
+ */
+pf_status pf_bih_trace_cpu_rays(const pf_bih *bih, const pf_ray *rays, uint32_t count,
+                                int any_hit, pf_hit *hits, pf_error *err);
+
+/*
  * A BIH on the GPU and the pipelines that trace it. Created empty; filled by
  * pf_bih_gpu_upload. Owns its buffers; destroy before the context.
  */

@@ -3,7 +3,7 @@
  * shaders/common/ray_triangle.glsl, used by the CPU BIH traversal and the
  * tests of the GPU oracle.
  */
-#include "pf_bih.h"
+#include "bih_internal.h"
 
 #include <float.h>
 #include <math.h>
@@ -24,8 +24,6 @@
  * from contracting a*b - c into an FMA (-ffp-contract=off), as `precise` does
  * in GLSL.
  */
-/* ray_triangle.glsl: edge values and hit distances below this (2^-40) are evaluated again. */
-#define WATERTIGHT_RESCALE_BELOW 9.094947017729282e-13f
 
 /* ray_triangle.glsl: height within 16 ulps of the vertex coordinates. */
 #define DEGENERATE_BOUND2 (2.0f * (16.0f / 16777216.0f) * (16.0f / 16777216.0f))
@@ -91,7 +89,7 @@ typedef struct edges {
     float eu, ev, ew, det, scaled_t;
 } edges;
 
-static edges watertight_edges(const float a[3], const float b[3], const float c[3], float sx,
+static inline edges watertight_edges(const float a[3], const float b[3], const float c[3], float sx,
                               float sy, float sz)
 {
     float ax = a[0] - sx * a[2];
@@ -178,9 +176,9 @@ int pf_ray_triangle_sheared(const float origin[3], const pf_ray_shear *s, const 
     edges e = watertight_edges(a, b, c, sx, sy, sz);
     int t_exponent = 0;
     /* min(|eu|, |ev|, |ew|) < R as fminf answers it (NaN ignored), without its libm call. */
-    if (fabsf(e.eu) < WATERTIGHT_RESCALE_BELOW || fabsf(e.ev) < WATERTIGHT_RESCALE_BELOW ||
-        fabsf(e.ew) < WATERTIGHT_RESCALE_BELOW ||
-        fabsf(e.scaled_t) < fabsf(e.det) * WATERTIGHT_RESCALE_BELOW) {
+    const float below = PF_BIH_WATERTIGHT_RESCALE_BELOW;
+    if (fabsf(e.eu) < below || fabsf(e.ev) < below || fabsf(e.ew) < below ||
+        fabsf(e.scaled_t) < fabsf(e.det) * below) {
         /* ray_triangle.glsl: each column scaled to [0.5, 1) by a power of two. */
         int ex = column_exponent(a[0], b[0], c[0]);
         int ey = column_exponent(a[1], b[1], c[1]);

@@ -593,6 +593,47 @@ static inline void bih_trace_cpu_both(const char *label, const pf_bih *bih, bih_
 }
 
 /*
+ * pf_bih_trace_cpu_packet against the one-ray traversal on the same rays, in
+ * packets of consecutive rays (mixed directions, some parallel to an axis,
+ * the last packet partial): closest hits bit for bit, any hits whenever the
+ * ray is occluded (pf_bih.h: the triangle may differ). Also
+ * pf_bih_trace_cpu_rays. Needs set->closest and set->any from
+ * bih_trace_cpu_both.
+ */
+static inline void bih_check_packets(const char *label, const pf_bih *bih, const bih_ray_set *set)
+{
+    uint32_t closest_differ = 0, any_differ = 0, failures = 0;
+    pf_error err = {0};
+    pf_hit hits[PF_BIH_PACKET_RAYS];
+    for (uint32_t r = 0; r < set->count; r += PF_BIH_PACKET_RAYS) {
+        uint32_t n = set->count - r < PF_BIH_PACKET_RAYS ? set->count - r : PF_BIH_PACKET_RAYS;
+        failures += pf_bih_trace_cpu_packet(bih, &set->rays[r], n, 0, hits, &err) != PF_OK;
+        for (uint32_t i = 0; i < n; i++)
+            closest_differ += memcmp(&hits[i], &set->closest[r + i], sizeof hits[i]) != 0;
+        failures += pf_bih_trace_cpu_packet(bih, &set->rays[r], n, 1, hits, &err) != PF_OK;
+        for (uint32_t i = 0; i < n; i++)
+            any_differ +=
+                (hits[i].triangle == PF_NO_HIT) != (set->any[r + i].triangle == PF_NO_HIT);
+    }
+    /* The batch of all the rays: packets of consecutive ones, the last one partial. */
+    pf_hit *batch = malloc(set->count * sizeof *batch);
+    PF_REQUIRE(batch);
+    failures += pf_bih_trace_cpu_rays(bih, set->rays, set->count, 0, batch, &err) != PF_OK;
+    for (uint32_t r = 0; r < set->count; r++)
+        closest_differ += memcmp(&batch[r], &set->closest[r], sizeof batch[r]) != 0;
+    failures += pf_bih_trace_cpu_rays(bih, set->rays, set->count, 1, batch, &err) != PF_OK;
+    for (uint32_t r = 0; r < set->count; r++)
+        any_differ += (batch[r].triangle == PF_NO_HIT) != (set->any[r].triangle == PF_NO_HIT);
+    free(batch);
+    PF_CHECK_MSG(failures == 0, "%s: %u packet traversals failed: %s", label, failures,
+                 err.message);
+    PF_CHECK_MSG(closest_differ == 0, "%s: %u of %u packet closest hits differ from one ray's",
+                 label, closest_differ, set->count);
+    PF_CHECK_MSG(any_differ == 0, "%s: %u of %u packet any-hit answers differ", label, any_differ,
+                 set->count);
+}
+
+/*
  * Checks set->closest and set->any against set->oracle (bih_compare_closest
  * and bih_compare_any; exact: the CPU ran the oracle's very test), that the
  * rays hit something often enough to test anything, and what expect asks:

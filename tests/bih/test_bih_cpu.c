@@ -49,6 +49,7 @@ static int build_and_trace(const char *label, const pf_scene_frame *frame, bih_e
     bih_oracle_cpu(frame, &set);
     bih_trace_cpu_both(label, bih, &set);
     bih_check_answers(label, frame, expect, &set, 1);
+    bih_check_packets(label, bih, &set);
     bih_ray_set_free(&set);
     return 1;
 }
@@ -315,6 +316,18 @@ PF_TEST(stack_overflow_is_reported)
     PF_CHECK(pf_bih_trace_cpu(&bih, &ray, 0, &hit, &err) == PF_ERR_LIMIT);
     PF_CHECK(strstr(err.message, "overflow") != NULL);
     PF_CHECK(hit.triangle == PF_NO_HIT && hit.t == -1.0f);
+    /* The packet traversal shares the stack and its limit; a packet holds at most 8 rays. */
+    pf_ray rays[PF_BIH_PACKET_RAYS + 1];
+    pf_hit hits[PF_BIH_PACKET_RAYS + 1];
+    for (uint32_t i = 0; i <= PF_BIH_PACKET_RAYS; i++)
+        rays[i] = ray;
+    err = (pf_error){0};
+    PF_CHECK(pf_bih_trace_cpu_packet(&bih, rays, 3, 0, hits, &err) == PF_ERR_LIMIT);
+    PF_CHECK(strstr(err.message, "overflow") != NULL);
+    PF_CHECK(hits[0].triangle == PF_NO_HIT && hits[2].t == -1.0f);
+    err = (pf_error){0};
+    PF_CHECK(pf_bih_trace_cpu_packet(&bih, rays, PF_BIH_PACKET_RAYS + 1, 0, hits, &err) ==
+             PF_ERR_INVALID);
     bih_frame_free(&frame);
 }
 
