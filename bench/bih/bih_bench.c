@@ -12,8 +12,9 @@
  *   - the SAH of a binary BVH built by Embree's own builder (rtcBuildBVH, high
  *     quality with spatial splits, leaves of at most PF_BIH_DEFAULT_LEAF_SIZE),
  *     measured with the same cost model as pf_bih_quality_measure;
- *   - for both CPU trees, Mrays/s of pf_bih_raycast, of pf_bih_trace_cpu and of
- *     rtcIntersect1/rtcOccluded1 (both CPU sides in 2 pthreads)
+ *   - for both CPU trees, Mrays/s of pf_bih_raycast, of our CPU traversal
+ *     (pf_bih_trace_cpu_rays: packets of 8 consecutive rays) and of Embree's
+ *     single rays, rtcIntersect1/rtcOccluded1 (both CPU sides in 2 pthreads)
  *     for primary (640x480), shadow (any hit) and diffuse-bounce rays;
  *   - the fraction of rays where both agree (t within 1e-4 relative, or the
  *     same occluded answer) and the ours/Embree ratios.

@@ -70,15 +70,27 @@ static lane_float select_f(lane_int mask, lane_float a, lane_float b)
     return (lane_float)((mask & (lane_int)a) | (~mask & (lane_int)b));
 }
 
-/* pf_bih_min and pf_bih_max per lane: the second argument where it is smaller (larger). */
+/*
+ * pf_bih_min and pf_bih_max per lane: the second argument where it is smaller
+ * (larger). SSE's minps(x, y) is x < y ? x : y, so minps(b, a) is exactly
+ * that, NaN included: one instruction where the select takes four.
+ */
 static lane_float lane_min(lane_float a, lane_float b)
 {
+#if defined(__SSE__)
+    return (lane_float)_mm_min_ps((__m128)b, (__m128)a);
+#else
     return select_f(b < a, b, a);
+#endif
 }
 
 static lane_float lane_max(lane_float a, lane_float b)
 {
+#if defined(__SSE__)
+    return (lane_float)_mm_max_ps((__m128)b, (__m128)a);
+#else
     return select_f(b > a, b, a);
+#endif
 }
 
 static lane_float lane_abs(lane_float t)
