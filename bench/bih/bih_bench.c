@@ -13,7 +13,7 @@
  *     quality with spatial splits, leaves of at most PF_BIH_DEFAULT_LEAF_SIZE),
  *     measured with the same cost model as pf_bih_quality_measure;
  *   - for both CPU trees, Mrays/s of pf_bih_raycast, of our CPU traversal
- *     (pf_bih_trace_cpu_rays: packets of 8 consecutive rays) and of Embree's
+ *     (pf_bih_trace_cpu_rays: packets of 16 consecutive rays) and of Embree's
  *     single rays, rtcIntersect1/rtcOccluded1 (both CPU sides in 2 pthreads)
  *     for primary (640x480), shadow (any hit) and diffuse-bounce rays;
  *   - the fraction of rays where both agree (t within 1e-4 relative, or the

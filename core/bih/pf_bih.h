@@ -230,13 +230,17 @@ pf_status pf_bih_trace_cpu_counted(const pf_bih *bih, const pf_ray *ray, int any
  * Up to PF_BIH_PACKET_RAYS rays traced together on the CPU (one shared stack,
  * each ray its own interval): each node and leaf is loaded once for all the
  * rays that enter it, where one ray at a time waits on memory at nearly every
- * step. hits[i] is pf_bih_trace_cpu's closest hit for rays[i], bit for bit;
- * with any_hit, a hit whenever pf_bih_trace_cpu finds one (maybe another
- * triangle). Coherent rays (primary, shadow) gain most. Same errors as
+ * step. hits[i] is pf_bih_trace_cpu's closest hit for rays[i], bit for bit,
+ * but for a tie: where two triangles give exactly the same t, the order of
+ * visits can pick the other one (culling by the best hit so far, up to
+ * rounding, decides which node is entered; the one-ray traversal depends on
+ * its own order the same way). With any_hit, a hit whenever
+ * pf_bih_trace_cpu finds one (maybe another triangle). Coherent rays
+ * (primary, shadow) gain most. Same errors as
  * pf_bih_trace_cpu (all hits are then misses); PF_ERR_INVALID for more than
  * PF_BIH_PACKET_RAYS rays.
  */
-#define PF_BIH_PACKET_RAYS 8u
+#define PF_BIH_PACKET_RAYS 16u
 pf_status pf_bih_trace_cpu_packet(const pf_bih *bih, const pf_ray *rays, uint32_t count,
                                   int any_hit, pf_hit *hits, pf_error *err);
 

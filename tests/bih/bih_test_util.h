@@ -593,14 +593,30 @@ static inline void bih_trace_cpu_both(const char *label, const pf_bih *bih, bih_
 }
 
 /*
+ * The packet traversal's closest hit against the one-ray traversal's: the
+ * same hit bit for bit, or, where two triangles give exactly the same t, the
+ * other one really hit at that t (pf_bih.h: the order of visits can decide
+ * such a tie).
+ */
+static inline int bih_same_closest(const pf_scene_frame *frame, const pf_ray *ray,
+                                   const pf_hit *expected, const pf_hit *got)
+{
+    if (got->triangle == expected->triangle)
+        return memcmp(got, expected, sizeof *got) == 0;
+    return expected->triangle != PF_NO_HIT && got->triangle != PF_NO_HIT &&
+           got->t == expected->t && bih_hit_is_real(frame, ray, got);
+}
+
+/*
  * pf_bih_trace_cpu_packet against the one-ray traversal on the same rays, in
  * packets of consecutive rays (mixed directions, some parallel to an axis,
- * the last packet partial): closest hits bit for bit, any hits whenever the
- * ray is occluded (pf_bih.h: the triangle may differ). Also
+ * the last packet partial): closest hits as bih_same_closest asks, any hits
+ * whenever the ray is occluded (pf_bih.h: the triangle may differ). Also
  * pf_bih_trace_cpu_rays. Needs set->closest and set->any from
  * bih_trace_cpu_both.
  */
-static inline void bih_check_packets(const char *label, const pf_bih *bih, const bih_ray_set *set)
+static inline void bih_check_packets(const char *label, const pf_scene_frame *frame,
+                                     const pf_bih *bih, const bih_ray_set *set)
 {
     uint32_t closest_differ = 0, any_differ = 0, failures = 0;
     pf_error err = {0};
@@ -609,7 +625,8 @@ static inline void bih_check_packets(const char *label, const pf_bih *bih, const
         uint32_t n = set->count - r < PF_BIH_PACKET_RAYS ? set->count - r : PF_BIH_PACKET_RAYS;
         failures += pf_bih_trace_cpu_packet(bih, &set->rays[r], n, 0, hits, &err) != PF_OK;
         for (uint32_t i = 0; i < n; i++)
-            closest_differ += memcmp(&hits[i], &set->closest[r + i], sizeof hits[i]) != 0;
+            closest_differ += !bih_same_closest(frame, &set->rays[r + i], &set->closest[r + i],
+                                                &hits[i]);
         failures += pf_bih_trace_cpu_packet(bih, &set->rays[r], n, 1, hits, &err) != PF_OK;
         for (uint32_t i = 0; i < n; i++)
             any_differ +=
@@ -620,7 +637,7 @@ static inline void bih_check_packets(const char *label, const pf_bih *bih, const
     PF_REQUIRE(batch);
     failures += pf_bih_trace_cpu_rays(bih, set->rays, set->count, 0, batch, &err) != PF_OK;
     for (uint32_t r = 0; r < set->count; r++)
-        closest_differ += memcmp(&batch[r], &set->closest[r], sizeof batch[r]) != 0;
+        closest_differ += !bih_same_closest(frame, &set->rays[r], &set->closest[r], &batch[r]);
     failures += pf_bih_trace_cpu_rays(bih, set->rays, set->count, 1, batch, &err) != PF_OK;
     for (uint32_t r = 0; r < set->count; r++)
         any_differ += (batch[r].triangle == PF_NO_HIT) != (set->any[r].triangle == PF_NO_HIT);

@@ -49,7 +49,7 @@ static int build_and_trace(const char *label, const pf_scene_frame *frame, bih_e
     bih_oracle_cpu(frame, &set);
     bih_trace_cpu_both(label, bih, &set);
     bih_check_answers(label, frame, expect, &set, 1);
-    bih_check_packets(label, bih, &set);
+    bih_check_packets(label, frame, bih, &set);
     bih_ray_set_free(&set);
     return 1;
 }
@@ -316,7 +316,7 @@ PF_TEST(stack_overflow_is_reported)
     PF_CHECK(pf_bih_trace_cpu(&bih, &ray, 0, &hit, &err) == PF_ERR_LIMIT);
     PF_CHECK(strstr(err.message, "overflow") != NULL);
     PF_CHECK(hit.triangle == PF_NO_HIT && hit.t == -1.0f);
-    /* The packet traversal shares the stack and its limit; a packet holds at most 8 rays. */
+    /* The packet traversal shares the stack and its limit; a packet holds PF_BIH_PACKET_RAYS. */
     pf_ray rays[PF_BIH_PACKET_RAYS + 1];
     pf_hit hits[PF_BIH_PACKET_RAYS + 1];
     for (uint32_t i = 0; i <= PF_BIH_PACKET_RAYS; i++)

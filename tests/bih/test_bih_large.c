@@ -99,7 +99,7 @@ static void check_traversals(const char *build, const pf_scene_frame *frame, con
     bih_trace_cpu_both(label, bih, set);
     bih_check_answers(label, frame, expect, set, 0);
     snprintf(label, sizeof label, "2M, %s build, CPU packets", build);
-    bih_check_packets(label, bih, set);
+    bih_check_packets(label, frame, bih, set);
 }
 
 PF_TEST(two_million_triangles)
