@@ -996,13 +996,7 @@ static void order_part(void *arg, uint32_t part, uint32_t parts)
             prefetch_triangle(c->frame, c->prims[i + ORDER_PREFETCH_DISTANCE].triangle);
         uint32_t t = c->prims[i].triangle;
         c->out->triangle_index[i] = t;
-        float(*leaf)[4] = &c->out->vertices[3 * (size_t)i];
-        for (int v = 0; v < 3; v++) {
-            memcpy(leaf[v], c->frame->vertices[3 * (size_t)t + v], 3 * sizeof(float));
-            leaf[v][3] = 0.0f;
-        }
-        if (pf_triangle_is_degenerate(leaf[0], leaf[1], leaf[2]))
-            leaf[0][3] = PF_BIH_DEGENERATE_W;
+        pf_bih_store_leaf_triangle(&c->out->vertices[3 * (size_t)i], c->frame, t);
     }
 }
 

@@ -119,8 +119,8 @@ pf_status pf_bih_gpu_upload(pf_bih_gpu *gpu, const pf_bih *bih, pf_error *err)
     if (!texels)
         return pf_error_set(err, PF_ERR_NOMEM, "BIH upload: %u nodes", bih->node_count);
     for (uint32_t i = 0; i < bih->node_count; i++) {
-        memcpy(&texels[i][0], &bih->nodes[i].clip[0], sizeof(float));
-        memcpy(&texels[i][1], &bih->nodes[i].clip[1], sizeof(float));
+        texels[i][0] = pf_bih_float_to_bits(bih->nodes[i].clip[0]);
+        texels[i][1] = pf_bih_float_to_bits(bih->nodes[i].clip[1]);
         texels[i][2] = bih->nodes[i].word;
         texels[i][3] = 0;
     }

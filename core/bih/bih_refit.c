@@ -108,14 +108,8 @@ pf_status pf_bih_refit(pf_bih *bih, const pf_scene_frame *frame, pf_error *err)
         status = list_top_down(bih, order, &listed, err);
     if (status == PF_OK) {
         for (uint32_t p = 0; p < n; p++) {
-            uint32_t t = bih->triangle_index[p];
-            float(*leaf)[4] = &bih->vertices[3 * p];
-            for (int c = 0; c < 3; c++) {
-                memcpy(leaf[c], frame->vertices[3 * t + c], 3 * sizeof(float));
-                leaf[c][3] = 0.0f;
-            }
-            if (pf_triangle_is_degenerate(leaf[0], leaf[1], leaf[2]))
-                leaf[0][3] = PF_BIH_DEGENERATE_W;
+            pf_bih_store_leaf_triangle(&bih->vertices[3 * (size_t)p], frame,
+                                       bih->triangle_index[p]);
         }
         for (uint32_t i = listed; i-- > 0;) {
             uint32_t node = order[i];

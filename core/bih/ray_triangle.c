@@ -8,7 +8,6 @@
 #include <float.h>
 #include <math.h>
 #include <stdint.h>
-#include <string.h>
 
 /*
  * Woop, Benthin & Wald, "Watertight Ray/Triangle Intersection", JCGT 2(1),
@@ -42,9 +41,7 @@ static float max_ignoring_nan(float a, float b)
  */
 static float power_of_two_scale(float largest, int *exponent)
 {
-    uint32_t bits;
-    memcpy(&bits, &largest, sizeof bits);
-    uint32_t biased = (bits >> 23) & 0xffu;
+    uint32_t biased = (pf_bih_float_to_bits(largest) >> 23) & 0xffu;
     if (biased == 0u || biased == 0xffu) {
         frexpf(largest, exponent);
         return 0.0f;
@@ -53,10 +50,7 @@ static float power_of_two_scale(float largest, int *exponent)
     int scale_biased = 127 - *exponent;
     if (scale_biased < 1 || scale_biased > 254)
         return 0.0f;
-    uint32_t scale_bits = (uint32_t)scale_biased << 23;
-    float scale;
-    memcpy(&scale, &scale_bits, sizeof scale);
-    return scale;
+    return pf_bih_bits_to_float((uint32_t)scale_biased << 23);
 }
 
 /* Same test, operation for operation, as triangle_is_degenerate in ray_triangle.glsl (why: see there). */
@@ -89,8 +83,8 @@ typedef struct edges {
     float eu, ev, ew, det, scaled_t;
 } edges;
 
-static inline edges watertight_edges(const float a[3], const float b[3], const float c[3], float sx,
-                              float sy, float sz)
+static inline edges watertight_edges(const float a[3], const float b[3], const float c[3],
+                                     float sx, float sy, float sz)
 {
     float ax = a[0] - sx * a[2];
     float ay = a[1] - sy * a[2];
