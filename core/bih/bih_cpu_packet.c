@@ -129,7 +129,6 @@ typedef struct packet_entry {
 
 typedef struct packet {
     const pf_ray *rays;
-    uint32_t count;
     int any_hit;
     lane_float origin[3][LANE_VECTORS], inv[3][LANE_VECTORS];
     lane_int parallel_lane[3][LANE_VECTORS]; /* all ones where the axis is parallel for the lane */
@@ -309,7 +308,7 @@ pf_status pf_bih_trace_cpu_packet(const pf_bih *bih, const pf_ray *rays, uint32_
     if (count > LANES)
         return pf_error_set(err, PF_ERR_INVALID, "BIH packet: %u rays (at most %u)", count,
                             (unsigned)LANES);
-    packet p = {.rays = rays, .count = count, .any_hit = any_hit, .hits = hits};
+    packet p = {.rays = rays, .any_hit = any_hit, .hits = hits};
     for (uint32_t lane = 0; lane < count; lane++)
         hits[lane] = (pf_hit){-1.0f, PF_NO_HIT, 0.0f, 0.0f};
     if (bih->triangle_count == 0 || count == 0)
