@@ -131,4 +131,22 @@ pf_status pf_bih_walk(const pf_bih *bih, const pf_ray *ray, const pf_bih_ray *pr
                       uint32_t node, float t_near, float t_far, int any_hit, float *closest,
                       pf_hit *hit, pf_bih_trace_counts *counts, pf_error *err);
 
+
+/*
+ * The packet traversal (pf_bih_trace_cpu_packet's contract, count at most
+ * PF_BIH_PACKET_RAYS, checked by the caller) at a vector width: 4 lanes a
+ * vector (bih_cpu_packet_sse.c) and 8 (bih_cpu_packet_avx2.c, -mavx2).
+ * pf_bih_packet_tracer gives the one of that width when it was built and the
+ * CPU runs it, else NULL; pf_bih_trace_cpu_packet takes the widest. Both
+ * give the same answers, bit for bit; the tests run each.
+ */
+typedef pf_status (*pf_bih_packet_trace_fn)(const pf_bih *bih, const pf_ray *rays,
+                                            uint32_t count, int any_hit, pf_hit *hits,
+                                            pf_error *err);
+pf_status pf_bih_trace_packet_4(const pf_bih *bih, const pf_ray *rays, uint32_t count,
+                                int any_hit, pf_hit *hits, pf_error *err);
+pf_status pf_bih_trace_packet_8(const pf_bih *bih, const pf_ray *rays, uint32_t count,
+                                int any_hit, pf_hit *hits, pf_error *err);
+pf_bih_packet_trace_fn pf_bih_packet_tracer(uint32_t width);
+
 #endif

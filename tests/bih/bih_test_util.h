@@ -6,6 +6,7 @@
 #ifndef BIH_TEST_UTIL_H
 #define BIH_TEST_UTIL_H
 
+#include "bih_internal.h" /* the packet traversal at each vector width */
 #include "pf_bih.h"
 #include "pf_test.h"
 
@@ -608,46 +609,84 @@ static inline int bih_same_closest(const pf_scene_frame *frame, const pf_ray *ra
 }
 
 /*
- * pf_bih_trace_cpu_packet against the one-ray traversal on the same rays, in
+ * The packet traversal against the one-ray traversal on the same rays, in
  * packets of consecutive rays (mixed directions, some parallel to an axis,
  * the last packet partial): closest hits as bih_same_closest asks, any hits
- * whenever the ray is occluded (pf_bih.h: the triangle may differ). Also
- * pf_bih_trace_cpu_rays. Needs set->closest and set->any from
- * bih_trace_cpu_both.
+ * whenever the ray is occluded (pf_bih.h: the triangle may differ). Each
+ * vector width this machine runs (bih_internal.h: 4, and 8 with AVX2) is
+ * checked, and the widths must agree bit for bit, any-hit triangles
+ * included. Also pf_bih_trace_cpu_packet and pf_bih_trace_cpu_rays, which
+ * pick a width. Needs set->closest and set->any from bih_trace_cpu_both.
  */
 static inline void bih_check_packets(const char *label, const pf_scene_frame *frame,
                                      const pf_bih *bih, const bih_ray_set *set)
 {
-    uint32_t closest_differ = 0, any_differ = 0, failures = 0;
+    static const uint32_t widths[] = {4, 8};
+    enum { WIDTHS = sizeof widths / sizeof widths[0], CALLS = WIDTHS + 1 };
+    uint32_t closest_differ[CALLS] = {0}, any_differ[CALLS] = {0}, failures = 0;
+    uint32_t widths_differ = 0, widths_run = 0;
     pf_error err = {0};
-    pf_hit hits[PF_BIH_PACKET_RAYS];
-    for (uint32_t r = 0; r < set->count; r += PF_BIH_PACKET_RAYS) {
-        uint32_t n = set->count - r < PF_BIH_PACKET_RAYS ? set->count - r : PF_BIH_PACKET_RAYS;
-        failures += pf_bih_trace_cpu_packet(bih, &set->rays[r], n, 0, hits, &err) != PF_OK;
-        for (uint32_t i = 0; i < n; i++)
-            closest_differ += !bih_same_closest(frame, &set->rays[r + i], &set->closest[r + i],
-                                                &hits[i]);
-        failures += pf_bih_trace_cpu_packet(bih, &set->rays[r], n, 1, hits, &err) != PF_OK;
-        for (uint32_t i = 0; i < n; i++)
-            any_differ +=
-                (hits[i].triangle == PF_NO_HIT) != (set->any[r + i].triangle == PF_NO_HIT);
+    pf_hit *closest[CALLS], *any[CALLS];
+    for (uint32_t c = 0; c < CALLS; c++) {
+        closest[c] = malloc(set->count * sizeof(pf_hit));
+        any[c] = malloc(set->count * sizeof(pf_hit));
+        PF_REQUIRE(closest[c] && any[c]);
+    }
+    for (uint32_t c = 0; c < CALLS; c++) {
+        /* c < WIDTHS: that width's function; c == WIDTHS: pf_bih_trace_cpu_packet. */
+        pf_bih_packet_trace_fn trace =
+            c < WIDTHS ? pf_bih_packet_tracer(widths[c]) : pf_bih_trace_cpu_packet;
+        if (!trace) {
+            printf("%s: no %u-wide packet traversal on this machine, not checked\n", label,
+                   widths[c]);
+            continue;
+        }
+        widths_run += c < WIDTHS;
+        for (uint32_t r = 0; r < set->count; r += PF_BIH_PACKET_RAYS) {
+            uint32_t n =
+                set->count - r < PF_BIH_PACKET_RAYS ? set->count - r : PF_BIH_PACKET_RAYS;
+            failures += trace(bih, &set->rays[r], n, 0, &closest[c][r], &err) != PF_OK;
+            failures += trace(bih, &set->rays[r], n, 1, &any[c][r], &err) != PF_OK;
+        }
+        for (uint32_t r = 0; r < set->count; r++) {
+            closest_differ[c] +=
+                !bih_same_closest(frame, &set->rays[r], &set->closest[r], &closest[c][r]);
+            any_differ[c] +=
+                (any[c][r].triangle == PF_NO_HIT) != (set->any[r].triangle == PF_NO_HIT);
+        }
+        if (c > 0 && pf_bih_packet_tracer(widths[0]))
+            widths_differ +=
+                memcmp(closest[c], closest[0], set->count * sizeof(pf_hit)) != 0 ||
+                memcmp(any[c], any[0], set->count * sizeof(pf_hit)) != 0;
     }
     /* The batch of all the rays: packets of consecutive ones, the last one partial. */
-    pf_hit *batch = malloc(set->count * sizeof *batch);
-    PF_REQUIRE(batch);
+    pf_hit *batch = closest[0];
     failures += pf_bih_trace_cpu_rays(bih, set->rays, set->count, 0, batch, &err) != PF_OK;
     for (uint32_t r = 0; r < set->count; r++)
-        closest_differ += !bih_same_closest(frame, &set->rays[r], &set->closest[r], &batch[r]);
+        closest_differ[WIDTHS] +=
+            !bih_same_closest(frame, &set->rays[r], &set->closest[r], &batch[r]);
     failures += pf_bih_trace_cpu_rays(bih, set->rays, set->count, 1, batch, &err) != PF_OK;
     for (uint32_t r = 0; r < set->count; r++)
-        any_differ += (batch[r].triangle == PF_NO_HIT) != (set->any[r].triangle == PF_NO_HIT);
-    free(batch);
+        any_differ[WIDTHS] += (batch[r].triangle == PF_NO_HIT) != (set->any[r].triangle == PF_NO_HIT);
+    for (uint32_t c = 0; c < CALLS; c++) {
+        free(closest[c]);
+        free(any[c]);
+    }
+    PF_CHECK_MSG(widths_run >= 1, "%s: no packet width ran (the 4-wide one always should)", label);
     PF_CHECK_MSG(failures == 0, "%s: %u packet traversals failed: %s", label, failures,
                  err.message);
-    PF_CHECK_MSG(closest_differ == 0, "%s: %u of %u packet closest hits differ from one ray's",
-                 label, closest_differ, set->count);
-    PF_CHECK_MSG(any_differ == 0, "%s: %u of %u packet any-hit answers differ", label, any_differ,
-                 set->count);
+    for (uint32_t c = 0; c < CALLS; c++) {
+        const char *what = c < WIDTHS ? "packet" : "pf_bih_trace_cpu_packet/rays";
+        uint32_t width = c < WIDTHS ? widths[c] : 0;
+        PF_CHECK_MSG(closest_differ[c] == 0,
+                     "%s: %s (width %u; 0: picked): %u of %u closest hits differ from one ray's",
+                     label, what, width, closest_differ[c], set->count);
+        PF_CHECK_MSG(any_differ[c] == 0,
+                     "%s: %s (width %u; 0: picked): %u of %u any-hit answers differ", label, what,
+                     width, any_differ[c], set->count);
+    }
+    PF_CHECK_MSG(widths_differ == 0, "%s: the packet widths' hits differ (%u of them)", label,
+                 widths_differ);
 }
 
 /*
