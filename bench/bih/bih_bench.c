@@ -28,7 +28,9 @@
  * A/B on a shared machine. A third argument "cpu" (bih_bench DIR SCENE cpu)
  * times only our CPU traversal of the SAH tree and Embree on the same rays,
  * CPU_ROUNDS rounds taking one of each in turn, best and median: the A/B
- * harness for core/bih's C traversal.
+ * harness for core/bih's C traversal. "gpu" (bih_bench DIR SCENE gpu) does the
+ * same for the device traversal (pf_bih_raycast of the SAH tree, its shader
+ * compiled before the first round): the A/B harness for bih_traverse.glsl.
  * Run with LP_NUM_THREADS=2 so lavapipe gets the 2 threads Embree is given.
  */
 #include "pf_bih.h"
@@ -1036,8 +1038,24 @@ static int build_rounds(const bench_mesh *m, RTCDevice dev)
     return 1;
 }
 
-/* "cpu": our CPU traversal of the SAH tree against Embree HIGH, interleaved rounds. */
-static int cpu_rounds(const bench_mesh *m, RTCDevice dev)
+/* One GPU cast (no best-of): ms, or -1 on failure (message printed). */
+static double gpu_cast(pf_bih_gpu *gpu, const pf_ray *rays, uint32_t count, int any_hit,
+                       pf_hit *hits)
+{
+    pf_error err = {0};
+    double t0 = pf_time_ms();
+    if (pf_bih_raycast(gpu, rays, count, any_hit, hits, &err) != PF_OK) {
+        fprintf(stderr, "bih_bench: pf_bih_raycast: %s\n", err.message);
+        return -1.0;
+    }
+    return pf_time_ms() - t0;
+}
+
+/*
+ * "cpu" / "gpu": our CPU traversal (ctx NULL) or the device's (pf_bih_raycast)
+ * of the SAH tree against Embree HIGH, interleaved rounds.
+ */
+static int traversal_rounds(const bench_mesh *m, RTCDevice dev, pf_vk_context *ctx)
 {
     const pf_scene_frame *f = &m->frame;
     uint32_t n = f->triangle_count, np = BENCH_WIDTH * BENCH_HEIGHT;
@@ -1059,11 +1077,24 @@ static int cpu_rounds(const bench_mesh *m, RTCDevice dev)
         ok = cpu_cast(&sah, rays[0], np, 0, hits) >= 0.0;
         counts[1] = counts[2] = make_secondary(m, rays[0], hits, np, rays[1], rays[2]);
     }
+    pf_bih_gpu *gpu = NULL;
+    if (ok && ctx) {
+        pf_error err = {0};
+        ok = pf_bih_gpu_create(ctx, &gpu, &err) == PF_OK &&
+             pf_bih_gpu_upload(gpu, &sah, &err) == PF_OK;
+        if (!ok)
+            fprintf(stderr, "bih_bench: %s\n", err.message);
+        /* Both pipelines (closest and any hit) compiled before the rounds. */
+        ok = ok && gpu_cast(gpu, rays[0], np, 0, hits) >= 0.0 &&
+             gpu_cast(gpu, rays[1], counts[1], 1, hits) >= 0.0;
+    }
+    const char *what = ctx ? "gpu" : "cpu";
     static const char *const kinds[3] = {"primary", "shadow", "diffuse"};
     double ours[3][CPU_ROUNDS], theirs[3][CPU_ROUNDS];
     for (int round = 0; round < CPU_ROUNDS && ok; round++)
         for (int k = 0; k < 3 && ok; k++) {
-            ours[k][round] = cpu_cast(&sah, rays[k], counts[k], k == 1, hits);
+            ours[k][round] = ctx ? gpu_cast(gpu, rays[k], counts[k], k == 1, hits)
+                                 : cpu_cast(&sah, rays[k], counts[k], k == 1, hits);
             theirs[k][round] = embree_cast(hq, rays[k], counts[k], k == 1, hits);
             ok = ours[k][round] >= 0.0;
         }
@@ -1074,15 +1105,16 @@ static int cpu_rounds(const bench_mesh *m, RTCDevice dev)
             qsort(ours[k], CPU_ROUNDS, sizeof ours[k][0], compare_ms);
             qsort(theirs[k], CPU_ROUNDS, sizeof theirs[k][0], compare_ms);
             double our_median = ours[k][CPU_ROUNDS / 2], their_median = theirs[k][CPU_ROUNDS / 2];
-            printf("cpu     %-8s ours best %7.3f median %7.3f Mrays/s | Embree best %7.3f median "
-                   "%7.3f | CPU/Embree median %.3fx\n",
-                   kinds[k], mrays(counts[k], ours[k][0]), mrays(counts[k], our_median),
+            printf("%s     %-8s ours best %7.3f median %7.3f Mrays/s | Embree best %7.3f median "
+                   "%7.3f | %s/Embree median %.3fx\n",
+                   what, kinds[k], mrays(counts[k], ours[k][0]), mrays(counts[k], our_median),
                    mrays(counts[k], theirs[k][0]), mrays(counts[k], their_median),
-                   their_median / our_median);
+                   ctx ? "GPU" : "CPU", their_median / our_median);
         }
     }
     if (hq)
         rtcReleaseScene(hq);
+    pf_bih_gpu_destroy(gpu);
     pf_bih_free(&sah);
     free(indices);
     free(rays[0]);
@@ -1097,6 +1129,8 @@ int main(int argc, char **argv)
     const char *dir = argc > 1 ? argv[1] : getenv("PF_SHARED_SCENES");
     const char *only = argc > 2 ? argv[2] : NULL;
     int cpu_only = argc > 3 && strcmp(argv[3], "cpu") == 0;
+    int gpu_only = argc > 3 && strcmp(argv[3], "gpu") == 0;
+    int rounds_only = cpu_only || gpu_only;
     if (!dir) {
         fprintf(stderr, "usage: bih_bench [scenes_dir [only]] (or set PF_SHARED_SCENES)\n");
         return 2;
@@ -1108,6 +1142,7 @@ int main(int argc, char **argv)
         fprintf(stderr, "bih_bench: %s\n", err.message);
         return 1;
     }
+    pf_vk_context *rounds_ctx = gpu_only ? ctx : NULL; /* traversal_rounds': the device's */
     RTCDevice dev = rtcNewDevice("threads=2");
     if (!dev) {
         fprintf(stderr, "bih_bench: rtcNewDevice failed (error %d)\n",
@@ -1153,7 +1188,8 @@ int main(int argc, char **argv)
     for (int i = 0; i < count; i++) {
         bench_mesh m;
         if (load_scene(dir, names[i], &m)) {
-            failures += cpu_only ? !cpu_rounds(&m, dev) : !bench_mesh_run(&m, ctx, dev, builder);
+            failures += rounds_only ? !traversal_rounds(&m, dev, rounds_ctx)
+                                    : !bench_mesh_run(&m, ctx, dev, builder);
             mesh_free(&m);
         } else {
             failures++;
@@ -1171,8 +1207,8 @@ int main(int argc, char **argv)
     } else if (only && strcmp(only, "sphere") != 0) {
         /* one shared scene asked for: no generated mesh */
     } else if (make_sphere(&sphere)) {
-        failures +=
-            cpu_only ? !cpu_rounds(&sphere, dev) : !bench_mesh_run(&sphere, ctx, dev, builder);
+        failures += rounds_only ? !traversal_rounds(&sphere, dev, rounds_ctx)
+                                : !bench_mesh_run(&sphere, ctx, dev, builder);
         mesh_free(&sphere);
     } else {
         failures++;
