@@ -15,7 +15,8 @@
  *   - for both CPU trees, Mrays/s of pf_bih_raycast, of our CPU traversal
  *     (pf_bih_trace_cpu_rays: packets of 16 consecutive rays) and of Embree's
  *     single rays, rtcIntersect1/rtcOccluded1 (both CPU sides in 2 pthreads)
- *     for primary (640x480), shadow (any hit) and diffuse-bounce rays;
+ *     for primary (640x480, in 4x4 pixel tiles: primary_index), shadow (any
+ *     hit) and diffuse-bounce rays;
  *   - the fraction of rays where both agree (t within 1e-4 relative, or the
  *     same occluded answer) and the ours/Embree ratios.
  * Figures are reports, never pass/fail. Usage:
@@ -254,8 +255,31 @@ static void mesh_free(bench_mesh *m)
 
 /* ---------- rays ---------- */
 
+/*
+ * Where pixel (x, y)'s primary ray goes in the ray array: 4×4 pixel tiles,
+ * the tiles in rows, as a tile renderer and Embree's packet tutorials order
+ * them, so consecutive rays (a CPU packet of PF_BIH_PACKET_RAYS = 16, an
+ * 8-lane group on lavapipe) are a pixel neighbourhood, and the shadow and
+ * diffuse rays made from the hits keep that order. Every traversal, Embree's
+ * included, gets the same array. $PF_BENCH_ROW_ORDER=1: rows of pixels, the
+ * order of the figures in bench/RESULTS.md before 2026-11-27's sixth stop.
+ */
+#define PRIMARY_TILE 4u
+_Static_assert(BENCH_WIDTH % PRIMARY_TILE == 0 && BENCH_HEIGHT % PRIMARY_TILE == 0,
+               "whole tiles");
+static uint32_t primary_index(uint32_t x, uint32_t y, int row_order)
+{
+    if (row_order)
+        return y * BENCH_WIDTH + x;
+    uint32_t tile = (y / PRIMARY_TILE) * (BENCH_WIDTH / PRIMARY_TILE) + x / PRIMARY_TILE;
+    return tile * PRIMARY_TILE * PRIMARY_TILE + (y % PRIMARY_TILE) * PRIMARY_TILE +
+           x % PRIMARY_TILE;
+}
+
 static void make_primary(const pf_scene_frame *f, pf_ray *rays)
 {
+    const char *rows = getenv("PF_BENCH_ROW_ORDER");
+    int row_order = rows && strcmp(rows, "1") == 0;
     float tx, ty;
     pf_camera_image_plane(&f->camera, BENCH_WIDTH, BENCH_HEIGHT, &tx, &ty);
     const pf_camera *c = &f->camera;
@@ -263,7 +287,7 @@ static void make_primary(const pf_scene_frame *f, pf_ray *rays)
         for (uint32_t x = 0; x < BENCH_WIDTH; x++) {
             float sx = (2.0f * ((float)x + 0.5f) / (float)BENCH_WIDTH - 1.0f) * tx;
             float sy = (1.0f - 2.0f * ((float)y + 0.5f) / (float)BENCH_HEIGHT) * ty;
-            pf_ray *r = &rays[y * BENCH_WIDTH + x];
+            pf_ray *r = &rays[primary_index(x, y, row_order)];
             for (int k = 0; k < 3; k++) {
                 r->origin[k] = c->position[k];
                 r->direction[k] = c->forward[k] + sx * c->right[k] + sy * c->up[k];
