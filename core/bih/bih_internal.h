@@ -131,7 +131,6 @@ pf_status pf_bih_walk(const pf_bih *bih, const pf_ray *ray, const pf_bih_ray *pr
                       uint32_t node, float t_near, float t_far, int any_hit, float *closest,
                       pf_hit *hit, pf_bih_trace_counts *counts, pf_error *err);
 
-
 /*
  * The packet traversal (pf_bih_trace_cpu_packet's contract, count at most
  * PF_BIH_PACKET_RAYS, checked by the caller) at a vector width: 4 lanes a
