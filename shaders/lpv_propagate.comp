@@ -28,10 +28,12 @@ layout(push_constant) uniform Push {
     uint snapshot;   // 1: also write the accumulated value to the snapshot volume
 } push;
 
-layout(std430, set = 0, binding = 0) readonly buffer Source { vec4 source[]; };
+// Source and geometry as texel buffers (RGBA32F): llvmpipe fetches a texel for all lanes
+// at once, where it loads a storage buffer lane by lane (bench/RESULTS.md).
+layout(set = 0, binding = 0) uniform samplerBuffer source_texels;
 layout(std430, set = 0, binding = 1) writeonly buffer Destination { vec4 destination[]; };
 layout(std430, set = 0, binding = 2) buffer Accumulated { vec4 accumulated[]; };
-layout(std430, set = 0, binding = 3) readonly buffer Geometry { vec4 geometry[]; };
+layout(set = 0, binding = 3) uniform samplerBuffer lpv_geometry_texels;
 layout(std430, set = 0, binding = 4) writeonly buffer Snapshot { vec4 snapshot[]; };
 
 #include "lpv_sh.glsl"
@@ -167,7 +169,9 @@ void main()
         if (!inside(q))
             continue;
         uint qi = 3u * cell_index(q);
-        vec4 q_r = source[qi], q_g = source[qi + 1u], q_b = source[qi + 2u];
+        vec4 q_r = texelFetch(source_texels, int(qi));
+        vec4 q_g = texelFetch(source_texels, int(qi + 1u));
+        vec4 q_b = texelFetch(source_texels, int(qi + 2u));
         vec4 gv = push.occlusion != 0u
                       ? lpv_face_geometry(d, n / 2, (n & 1) != 0 ? 1 : -1, push.base, push.size)
                       : vec4(0.0);

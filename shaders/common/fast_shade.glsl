@@ -59,13 +59,13 @@ layout(std430, set = 0, binding = 9) buffer Counters {
     uint loop_truncated;
     uint lpv_outside;       // D₁ vertices no cascade held (no LPV light there)
 } counters;
-layout(std430, set = 0, binding = 13) readonly buffer LpvCells { vec4 lpv_cells[]; };
-layout(std430, set = 0, binding = 14) readonly buffer LpvCascades { vec4 lpv_cascades[]; };
+layout(set = 0, binding = 13) uniform samplerBuffer lpv_cell_texels;
+layout(set = 0, binding = 14) uniform samplerBuffer lpv_cascade_texels;
 // The caustic map (photon_estimate.glsl: texel buffers).
 layout(set = 0, binding = 15) uniform isamplerBuffer grid_records;
 layout(set = 0, binding = 16) uniform isamplerBuffer grid_ranges;
-layout(std430, set = 0, binding = 17) readonly buffer LpvSnapshots { vec4 lpv_snapshots[]; };
-layout(std430, set = 0, binding = 18) readonly buffer LpvGeometry { vec4 geometry[]; };
+layout(set = 0, binding = 17) uniform samplerBuffer lpv_snapshot_texels;
+layout(set = 0, binding = 18) uniform samplerBuffer lpv_geometry_texels;
 layout(set = 0, binding = 19) uniform usamplerBuffer grid_flux;
 
 #define BIH_BINDING 10

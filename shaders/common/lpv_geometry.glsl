@@ -2,9 +2,12 @@
 // propagation (lpv_propagate.comp: blocking of the flux crossing it) and
 // the lookup (lpv_lookup.glsl: no interpolation across a wall).
 //
-// The including shader declares geometry[] (three vec4 of SH coefficients
-// per cell, one per axis: the surfaces around the cell's lower face normal
-// to that axis; cascade after cascade; core/lpv/pf_lpv.h).
+// The including shader declares lpv_geometry_texels, a samplerBuffer of the
+// geometry volumes (three RGBA32F texels of SH coefficients per cell, one
+// per axis: the surfaces around the cell's lower face normal to that axis;
+// cascade after cascade; core/lpv/pf_lpv.h). A texel buffer, not a storage
+// buffer: llvmpipe loads a storage buffer lane by lane in a branchy loop and
+// a texel fetch as one gather (bench/RESULTS.md, "The storage-buffer loads").
 #ifndef PF_LPV_GEOMETRY_GLSL
 #define PF_LPV_GEOMETRY_GLSL
 
@@ -17,7 +20,8 @@ vec4 lpv_face_geometry(ivec3 d, int k, int s, uint base, uint size)
         g[k] += 1;
     if (any(lessThan(g, ivec3(0))) || any(greaterThanEqual(g, ivec3(size))))
         return vec4(0.0);
-    return geometry[3u * (base + (uint(g.z) * size + uint(g.y)) * size + uint(g.x)) + uint(k)];
+    uint cell = base + (uint(g.z) * size + uint(g.y)) * size + uint(g.x);
+    return texelFetch(lpv_geometry_texels, int(3u * cell + uint(k)));
 }
 
 #endif

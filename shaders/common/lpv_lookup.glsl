@@ -1,13 +1,14 @@
 // Diffuse irradiance from the cascaded light propagation volumes
 // (core/lpv/pf_lpv.h): the `fast` preset's indirect light.
 //
-// The including shader declares
-//   lpv_cells[]     vec4: every cascade's accumulated intensity SH, three vec4
-//                   (R, G, B) per cell, cascade k from k × size³ cells on
-//   lpv_snapshots[] the same layout: each cascade's accumulation after its
-//                   snapshot iterations (pf_lpv_cascade.snapshot_iterations)
-//   lpv_cascades[]  vec4 per cascade: origin of cell (0, 0, 0) in xyz, cell size in w
-//   geometry[]      the geometry volumes (lpv_geometry.glsl)
+// The including shader declares, as samplerBuffers (RGBA32F texels: llvmpipe
+// fetches a texel for all lanes at once, a storage buffer lane by lane):
+//   lpv_cell_texels      every cascade's accumulated intensity SH, three texels
+//                        (R, G, B) per cell, cascade k from k × size³ cells on
+//   lpv_snapshot_texels  the same layout: each cascade's accumulation after its
+//                        snapshot iterations (pf_lpv_cascade.snapshot_iterations)
+//   lpv_cascade_texels   one per cascade: origin of cell (0, 0, 0) in xyz, cell size in w
+//   lpv_geometry_texels  the geometry volumes (lpv_geometry.glsl)
 // and includes lpv_sh.glsl and lpv_geometry.glsl first.
 //
 // At a surface point x with normal n, cascade k is read at x + n × s_k / 2
@@ -100,11 +101,13 @@ vec3 lpv_dot_interpolated(uint k, uint size, vec3 g, vec4 lobe, bool far)
         if (weights[corner] == 0.0)
             continue;
         uint i = lpv_corner_index(k, size, base, corner);
-        vec4 r = lpv_cells[i], gg = lpv_cells[i + 1u], b = lpv_cells[i + 2u];
+        vec4 r = texelFetch(lpv_cell_texels, int(i));
+        vec4 gg = texelFetch(lpv_cell_texels, int(i + 1u));
+        vec4 b = texelFetch(lpv_cell_texels, int(i + 2u));
         if (far) {
-            r -= lpv_snapshots[i];
-            gg -= lpv_snapshots[i + 1u];
-            b -= lpv_snapshots[i + 2u];
+            r -= texelFetch(lpv_snapshot_texels, int(i));
+            gg -= texelFetch(lpv_snapshot_texels, int(i + 1u));
+            b -= texelFetch(lpv_snapshot_texels, int(i + 2u));
         }
         sum += weights[corner] * vec3(dot(r, lobe), dot(gg, lobe), dot(b, lobe));
     }
@@ -121,7 +124,7 @@ vec3 lpv_irradiance(vec3 position, vec3 normal, uint cascade_count, uint size, b
     float remaining = 1.0; // weight not yet given to a cascade's near field
     covered = false;
     for (uint k = 0u; k < cascade_count; k++) {
-        vec4 cascade = lpv_cascades[k];
+        vec4 cascade = texelFetch(lpv_cascade_texels, int(k));
         float s = cascade.w;
         vec3 g = (position + 0.5 * s * normal - cascade.xyz) / s - 0.5;
         vec3 to_edge = min(g, vec3(float(size) - 1.0) - g);

@@ -41,15 +41,17 @@ PF_TEST(integrators_read_the_tree_and_photon_maps_through_texel_buffers)
      * flux): fast's caustic map,
      * final's bound map and its irradiance points, and final's kernels 6 more records views
      * of their per-pixel buffers (bindings 24..29). The scene's triangles and materials
-     * (bindings 1..4, scene_geometry.glsl) are texel buffers in all of them and counted apart. */
+     * (bindings 1..4, scene_geometry.glsl) are texel buffers in all of them and counted apart.
+     * Float texels: the tree's vertices where there is a tree, and fast's four LPV arrays (cells,
+     * cascades, snapshots, geometry; lpv_lookup.glsl). */
     static const struct {
         const char *name;
-        uint32_t texel_uint, texel_records;
-    } integrators[] = {{"render_direct", 1, 1},    {"render_fast", 2, 3},
-                       {"render_final", 3, 11},    {"final_gather", 3, 11},
-                       {"render_reference", 1, 1}, {"final_deferred", 2, 10},
-                       {"final_caustic", 2, 10},   {"final_resolve", 2, 10},
-                       {"final_gather_estimate", 3, 11}, {"render_fast_caustic", 2, 3}};
+        uint32_t texel_uint, texel_records, texel_float;
+    } integrators[] = {{"render_direct", 1, 1, 1},    {"render_fast", 2, 3, 5},
+                       {"render_final", 3, 11, 1},    {"final_gather", 3, 11, 1},
+                       {"render_reference", 1, 1, 1}, {"final_deferred", 2, 10, 0},
+                       {"final_caustic", 2, 10, 0},   {"final_resolve", 2, 10, 0},
+                       {"final_gather_estimate", 3, 11, 1}, {"render_fast_caustic", 2, 3, 5}};
     for (size_t i = 0; i < sizeof integrators / sizeof *integrators; i++) {
         uint8_t kinds[32];
         kinds_of(integrators[i].name, kinds, 32);
@@ -61,11 +63,8 @@ PF_TEST(integrators_read_the_tree_and_photon_maps_through_texel_buffers)
         }
         /* final_deferred, final_caustic and final_resolve have final_shared.glsl's maps and no
          * tree; the two gathers have both. */
-        uint32_t float_wanted = strncmp(integrators[i].name, "final_", 6) == 0 &&
-                                        strncmp(integrators[i].name, "final_gather", 12) != 0
-                                    ? 0
-                                    : 1;
-        PF_CHECK_MSG(texel_uint == integrators[i].texel_uint && texel_float == float_wanted &&
+        PF_CHECK_MSG(texel_uint == integrators[i].texel_uint &&
+                         texel_float == integrators[i].texel_float &&
                          texel_records == integrators[i].texel_records,
                      "%s: %u uint, %u float and %u records texel", integrators[i].name,
                      texel_uint, texel_float, texel_records);
@@ -97,6 +96,15 @@ PF_TEST(integrators_read_the_tree_and_photon_maps_through_texel_buffers)
              kinds[6] == PF_VK_BINDING_STORAGE); /* scene_geometry.glsl; the emitters */
     PF_CHECK(kinds[7] == PF_VK_BINDING_TEXEL_INT4 && kinds[8] == PF_VK_BINDING_TEXEL_FLOAT &&
              kinds[9] == PF_VK_BINDING_TEXEL_UINT); /* BIH_BINDING 7 */
+    kinds_of("render_fast", kinds, 20);
+    PF_CHECK(kinds[13] == PF_VK_BINDING_TEXEL_FLOAT && kinds[14] == PF_VK_BINDING_TEXEL_FLOAT &&
+             kinds[17] == PF_VK_BINDING_TEXEL_FLOAT &&
+             kinds[18] == PF_VK_BINDING_TEXEL_FLOAT); /* LPV cells, cascades, snapshots, geometry */
+    /* The propagation reads its source and the geometry as texels, writes storage. */
+    kinds_of("lpv_propagate", kinds, 5);
+    PF_CHECK(kinds[0] == PF_VK_BINDING_TEXEL_FLOAT && kinds[3] == PF_VK_BINDING_TEXEL_FLOAT);
+    PF_CHECK(kinds[1] == PF_VK_BINDING_STORAGE && kinds[2] == PF_VK_BINDING_STORAGE &&
+             kinds[4] == PF_VK_BINDING_STORAGE);
     kinds_of("photon_irradiance_precompute", kinds, 6);
     PF_CHECK(kinds[0] == PF_VK_BINDING_TEXEL_INT4 && kinds[1] == PF_VK_BINDING_TEXEL_INT4 &&
              kinds[5] == PF_VK_BINDING_TEXEL_UINT &&
