@@ -32,9 +32,12 @@ layout(push_constant) uniform Push {
 // at once, where it loads a storage buffer lane by lane (bench/RESULTS.md).
 layout(set = 0, binding = 0) uniform samplerBuffer source_texels;
 layout(std430, set = 0, binding = 1) writeonly buffer Destination { vec4 destination[]; };
-layout(std430, set = 0, binding = 2) buffer Accumulated { vec4 accumulated[]; };
+layout(std430, set = 0, binding = 2) writeonly buffer Accumulated { vec4 accumulated[]; };
 layout(set = 0, binding = 3) uniform samplerBuffer lpv_geometry_texels;
 layout(std430, set = 0, binding = 4) writeonly buffer Snapshot { vec4 snapshot[]; };
+// The accumulation read through a texel view of the same buffer (bound again here): each
+// invocation reads its own cell before writing it, and no other invocation touches it.
+layout(set = 0, binding = 5) uniform samplerBuffer accumulated_texels;
 
 #include "lpv_sh.glsl"
 
@@ -195,8 +198,9 @@ void main()
     destination[di + 1u] = out_g;
     destination[di + 2u] = out_b;
     if (ACCUMULATE) {
-        vec4 r = accumulated[di] + out_r, g = accumulated[di + 1u] + out_g,
-             b = accumulated[di + 2u] + out_b;
+        vec4 r = texelFetch(accumulated_texels, int(di)) + out_r;
+        vec4 g = texelFetch(accumulated_texels, int(di + 1u)) + out_g;
+        vec4 b = texelFetch(accumulated_texels, int(di + 2u)) + out_b;
         accumulated[di] = r;
         accumulated[di + 1u] = g;
         accumulated[di + 2u] = b;

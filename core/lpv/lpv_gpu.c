@@ -8,7 +8,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#define PROPAGATE_BUFFERS 5u
+#define PROPAGATE_BUFFERS 6u
 #define SPEC_ACCUMULATE 0u
 #define GROUP_EDGE 4u
 
@@ -157,8 +157,9 @@ pf_status pf_lpv_propagate(pf_lpv *lpv, const pf_lpv_layout *layout, const float
         pf_vk_buffer *source = lpv->injected;
         for (uint32_t i = 0; status == PF_OK && i < layout->cascades[k].iterations; i++) {
             pf_vk_buffer *destination = (i % 2u == 0) ? lpv->ping : lpv->pong;
-            pf_vk_buffer *buffers[PROPAGATE_BUFFERS] = {source, destination, lpv->accumulated,
-                                                        lpv->geometry, lpv->snapshot};
+            pf_vk_buffer *buffers[PROPAGATE_BUFFERS] = {source,        destination,
+                                                        lpv->accumulated, lpv->geometry,
+                                                        lpv->snapshot, lpv->accumulated};
             push.snapshot = i + 1u == layout->cascades[k].snapshot_iterations;
             status = pf_vk_cmd_dispatch(cmds, lpv->propagate, buffers, PROPAGATE_BUFFERS, &push,
                                         sizeof push, groups, groups, groups, err);
@@ -221,8 +222,8 @@ pf_status pf_lpv_propagate_once(pf_lpv *lpv, uint32_t size, const float *src, co
         return status;
     uint32_t groups = (size + GROUP_EDGE - 1) / GROUP_EDGE;
     propagate_push push = {size, 0, gv != NULL, 0};
-    pf_vk_buffer *buffers[PROPAGATE_BUFFERS] = {lpv->injected, lpv->ping, lpv->accumulated,
-                                                lpv->geometry, lpv->snapshot};
+    pf_vk_buffer *buffers[PROPAGATE_BUFFERS] = {lpv->injected, lpv->ping,     lpv->accumulated,
+                                                lpv->geometry, lpv->snapshot, lpv->accumulated};
     status = pf_vk_cmd_dispatch(cmds, lpv->propagate_once, buffers, PROPAGATE_BUFFERS, &push,
                                 sizeof push, groups, groups, groups, err);
     if (status == PF_OK)

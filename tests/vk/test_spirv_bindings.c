@@ -100,9 +100,11 @@ PF_TEST(integrators_read_the_tree_and_photon_maps_through_texel_buffers)
     PF_CHECK(kinds[13] == PF_VK_BINDING_TEXEL_FLOAT && kinds[14] == PF_VK_BINDING_TEXEL_FLOAT &&
              kinds[17] == PF_VK_BINDING_TEXEL_FLOAT &&
              kinds[18] == PF_VK_BINDING_TEXEL_FLOAT); /* LPV cells, cascades, snapshots, geometry */
-    /* The propagation reads its source and the geometry as texels, writes storage. */
-    kinds_of("lpv_propagate", kinds, 5);
-    PF_CHECK(kinds[0] == PF_VK_BINDING_TEXEL_FLOAT && kinds[3] == PF_VK_BINDING_TEXEL_FLOAT);
+    /* The propagation reads its source, the geometry and (through a second binding of the
+     * same buffer) the accumulation as texels, and writes storage. */
+    kinds_of("lpv_propagate", kinds, 6);
+    PF_CHECK(kinds[0] == PF_VK_BINDING_TEXEL_FLOAT && kinds[3] == PF_VK_BINDING_TEXEL_FLOAT &&
+             kinds[5] == PF_VK_BINDING_TEXEL_FLOAT);
     PF_CHECK(kinds[1] == PF_VK_BINDING_STORAGE && kinds[2] == PF_VK_BINDING_STORAGE &&
              kinds[4] == PF_VK_BINDING_STORAGE);
     kinds_of("photon_irradiance_precompute", kinds, 6);
