@@ -12,7 +12,7 @@
 // lpv_geometry.glsl). Each face
 // flux Φ_f is re-emitted as (Φ_f/π) × the clamped-cosine lobe about the
 // face's outward normal. ACCUMULATE adds the result to the accumulation
-// volume too, and push.snapshot also copies the new accumulated value into
+// volume too, and SNAPSHOT also copies the new accumulated value into
 // the snapshot volume (the far-field split of lpv_lookup.glsl: a cascade's
 // accumulation after the iterations that reach as far as the next finer
 // cascade's whole propagation).
@@ -20,12 +20,15 @@
 layout(local_size_x = 4, local_size_y = 4, local_size_z = 4) in;
 
 layout(constant_id = 0) const bool ACCUMULATE = true;
+// A specialisation, not a push constant: llvmpipe runs the code of an `if` whose
+// condition is false for every lane anyway (its stores as per-lane loops), so the
+// snapshot's stores exist only in the pipeline of the iteration that takes it.
+layout(constant_id = 1) const bool SNAPSHOT = false;
 
 layout(push_constant) uniform Push {
     uint size;       // cells per axis
     uint base;       // first cell of this cascade in every volume
     uint occlusion;  // 1: apply the geometry volume
-    uint snapshot;   // 1: also write the accumulated value to the snapshot volume
 } push;
 
 // Source and geometry as texel buffers (RGBA32F): llvmpipe fetches a texel for all lanes
@@ -204,7 +207,7 @@ void main()
         accumulated[di] = r;
         accumulated[di + 1u] = g;
         accumulated[di + 2u] = b;
-        if (push.snapshot != 0u) {
+        if (SNAPSHOT) {
             snapshot[di] = r;
             snapshot[di + 1u] = g;
             snapshot[di + 2u] = b;

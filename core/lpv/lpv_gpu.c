@@ -10,16 +10,18 @@
 
 #define PROPAGATE_BUFFERS 6u
 #define SPEC_ACCUMULATE 0u
+#define SPEC_SNAPSHOT 1u
 #define GROUP_EDGE 4u
 
 typedef struct propagate_push {
-    uint32_t size, base, occlusion, snapshot;
+    uint32_t size, base, occlusion;
 } propagate_push;
 
 struct pf_lpv {
     pf_vk_context *ctx;
-    pf_vk_pipeline *propagate;      /* ACCUMULATE = true */
-    pf_vk_pipeline *propagate_once; /* ACCUMULATE = false, created on first use */
+    pf_vk_pipeline *propagate;          /* ACCUMULATE = true */
+    pf_vk_pipeline *propagate_snapshot; /* ACCUMULATE and SNAPSHOT: a cascade's snapshot iteration */
+    pf_vk_pipeline *propagate_once;     /* ACCUMULATE = false, created on first use */
     uint64_t floats;                /* SH floats of one volume (0: none allocated) */
     pf_vk_buffer *injected, *ping, *pong, *accumulated, *geometry, *snapshot;
 };
@@ -31,10 +33,14 @@ pf_status pf_lpv_create(pf_vk_context *ctx, pf_lpv **out, pf_error *err)
     if (!lpv)
         return pf_error_set(err, PF_ERR_NOMEM, "LPV: out of memory");
     lpv->ctx = ctx;
-    pf_vk_spec_constant accumulate = {SPEC_ACCUMULATE, 1};
+    pf_vk_spec_constant accumulate[2] = {{SPEC_ACCUMULATE, 1}, {SPEC_SNAPSHOT, 1}};
     pf_status status = pf_vk_pipeline_create_named(ctx, "lpv_propagate", PROPAGATE_BUFFERS,
-                                                   sizeof(propagate_push), &accumulate, 1,
+                                                   sizeof(propagate_push), accumulate, 1,
                                                    &lpv->propagate, err);
+    if (status == PF_OK)
+        status = pf_vk_pipeline_create_named(ctx, "lpv_propagate", PROPAGATE_BUFFERS,
+                                             sizeof(propagate_push), accumulate, 2,
+                                             &lpv->propagate_snapshot, err);
     if (status != PF_OK) {
         pf_lpv_destroy(lpv);
         return status;
@@ -62,6 +68,8 @@ void pf_lpv_destroy(pf_lpv *lpv)
     release_volumes(lpv);
     if (lpv->propagate)
         pf_vk_pipeline_destroy(lpv->ctx, lpv->propagate);
+    if (lpv->propagate_snapshot)
+        pf_vk_pipeline_destroy(lpv->ctx, lpv->propagate_snapshot);
     if (lpv->propagate_once)
         pf_vk_pipeline_destroy(lpv->ctx, lpv->propagate_once);
     free(lpv);
@@ -153,16 +161,17 @@ pf_status pf_lpv_propagate(pf_lpv *lpv, const pf_lpv_layout *layout, const float
     uint64_t cells = (uint64_t)layout->size * layout->size * layout->size;
     int begin = pf_vk_cmd_timestamp(cmds);
     for (uint32_t k = 0; status == PF_OK && k < layout->count; k++) {
-        propagate_push push = {layout->size, (uint32_t)(k * cells), gv != NULL, 0};
+        propagate_push push = {layout->size, (uint32_t)(k * cells), gv != NULL};
         pf_vk_buffer *source = lpv->injected;
         for (uint32_t i = 0; status == PF_OK && i < layout->cascades[k].iterations; i++) {
             pf_vk_buffer *destination = (i % 2u == 0) ? lpv->ping : lpv->pong;
             pf_vk_buffer *buffers[PROPAGATE_BUFFERS] = {source,        destination,
                                                         lpv->accumulated, lpv->geometry,
                                                         lpv->snapshot, lpv->accumulated};
-            push.snapshot = i + 1u == layout->cascades[k].snapshot_iterations;
-            status = pf_vk_cmd_dispatch(cmds, lpv->propagate, buffers, PROPAGATE_BUFFERS, &push,
-                                        sizeof push, groups, groups, groups, err);
+            int snapshot = i + 1u == layout->cascades[k].snapshot_iterations;
+            status = pf_vk_cmd_dispatch(cmds, snapshot ? lpv->propagate_snapshot : lpv->propagate,
+                                        buffers, PROPAGATE_BUFFERS, &push, sizeof push, groups,
+                                        groups, groups, err);
             pf_vk_cmd_barrier(cmds);
             source = destination;
             stats->cell_updates += cells;
@@ -221,7 +230,7 @@ pf_status pf_lpv_propagate_once(pf_lpv *lpv, uint32_t size, const float *src, co
     if (status != PF_OK)
         return status;
     uint32_t groups = (size + GROUP_EDGE - 1) / GROUP_EDGE;
-    propagate_push push = {size, 0, gv != NULL, 0};
+    propagate_push push = {size, 0, gv != NULL};
     pf_vk_buffer *buffers[PROPAGATE_BUFFERS] = {lpv->injected, lpv->ping,     lpv->accumulated,
                                                 lpv->geometry, lpv->snapshot, lpv->accumulated};
     status = pf_vk_cmd_dispatch(cmds, lpv->propagate_once, buffers, PROPAGATE_BUFFERS, &push,
