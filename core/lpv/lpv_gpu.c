@@ -20,9 +20,9 @@ typedef struct propagate_push {
 struct pf_lpv {
     pf_vk_context *ctx;
     pf_vk_pipeline *propagate;          /* ACCUMULATE = true */
-    pf_vk_pipeline *propagate_snapshot; /* ACCUMULATE and SNAPSHOT: a cascade's snapshot iteration */
+    pf_vk_pipeline *propagate_snapshot; /* and SNAPSHOT: a cascade's snapshot iteration */
     pf_vk_pipeline *propagate_once;     /* ACCUMULATE = false, created on first use */
-    uint64_t floats;                /* SH floats of one volume (0: none allocated) */
+    uint64_t floats;                    /* SH floats of one volume (0: none allocated) */
     pf_vk_buffer *injected, *ping, *pong, *accumulated, *geometry, *snapshot;
 };
 
@@ -33,13 +33,14 @@ pf_status pf_lpv_create(pf_vk_context *ctx, pf_lpv **out, pf_error *err)
     if (!lpv)
         return pf_error_set(err, PF_ERR_NOMEM, "LPV: out of memory");
     lpv->ctx = ctx;
-    pf_vk_spec_constant accumulate[2] = {{SPEC_ACCUMULATE, 1}, {SPEC_SNAPSHOT, 1}};
+    /* ACCUMULATE for both pipelines, SNAPSHOT for the second only. */
+    pf_vk_spec_constant spec[2] = {{SPEC_ACCUMULATE, 1}, {SPEC_SNAPSHOT, 1}};
     pf_status status = pf_vk_pipeline_create_named(ctx, "lpv_propagate", PROPAGATE_BUFFERS,
-                                                   sizeof(propagate_push), accumulate, 1,
+                                                   sizeof(propagate_push), spec, 1,
                                                    &lpv->propagate, err);
     if (status == PF_OK)
         status = pf_vk_pipeline_create_named(ctx, "lpv_propagate", PROPAGATE_BUFFERS,
-                                             sizeof(propagate_push), accumulate, 2,
+                                             sizeof(propagate_push), spec, 2,
                                              &lpv->propagate_snapshot, err);
     if (status != PF_OK) {
         pf_lpv_destroy(lpv);
@@ -165,6 +166,7 @@ pf_status pf_lpv_propagate(pf_lpv *lpv, const pf_lpv_layout *layout, const float
         pf_vk_buffer *source = lpv->injected;
         for (uint32_t i = 0; status == PF_OK && i < layout->cascades[k].iterations; i++) {
             pf_vk_buffer *destination = (i % 2u == 0) ? lpv->ping : lpv->pong;
+            /* Binding 5: the accumulation again, read as texels (lpv_propagate.comp). */
             pf_vk_buffer *buffers[PROPAGATE_BUFFERS] = {source,        destination,
                                                         lpv->accumulated, lpv->geometry,
                                                         lpv->snapshot, lpv->accumulated};
