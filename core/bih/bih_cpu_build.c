@@ -212,6 +212,20 @@ static inline void side_merge_centre(side_bounds *side, const build_prim *p)
     side->hz = pf_bih_max(side->hz, cz);
 }
 
+/* p counted on the left side: its centre, and its max along the axis into the clip. */
+static inline void side_take_left(side_bounds *left, const build_prim *p, int axis)
+{
+    side_merge_centre(left, p);
+    left->clip = pf_bih_max(left->clip, p->hi[axis]);
+}
+
+/* p counted on the right side: its centre, and its min along the axis into the clip. */
+static inline void side_take_right(side_bounds *right, const build_prim *p, int axis)
+{
+    side_merge_centre(right, p);
+    right->clip = pf_bih_min(right->clip, p->lo[axis]);
+}
+
 static inline int goes_left(const build_prim *p, const split_rule *rule)
 {
     float c = prim_centre(p, rule->axis);
@@ -241,26 +255,20 @@ static uint32_t partition(build_prim *prims, uint32_t first, uint32_t count,
     /* [first, lo): left; [hi, first + count): right; [lo, hi): not yet read. */
     uint32_t lo = first, hi = first + count;
     for (;;) {
-        while (lo < hi && goes_left(&prims[lo], rule)) {
-            side_merge_centre(&left, &prims[lo]);
-            left.clip = pf_bih_max(left.clip, prims[lo].hi[axis]);
-            lo++;
-        }
+        while (lo < hi && goes_left(&prims[lo], rule))
+            side_take_left(&left, &prims[lo++], axis);
         if (lo == hi)
             break;
         /* prims[lo] goes right; look for a left one above it to swap with. */
-        side_merge_centre(&right, &prims[lo]);
-        right.clip = pf_bih_min(right.clip, prims[lo].lo[axis]);
+        side_take_right(&right, &prims[lo], axis);
         int found = 0;
         while (--hi > lo) {
             if (goes_left(&prims[hi], rule)) {
-                side_merge_centre(&left, &prims[hi]);
-                left.clip = pf_bih_max(left.clip, prims[hi].hi[axis]);
+                side_take_left(&left, &prims[hi], axis);
                 found = 1;
                 break;
             }
-            side_merge_centre(&right, &prims[hi]);
-            right.clip = pf_bih_min(right.clip, prims[hi].lo[axis]);
+            side_take_right(&right, &prims[hi], axis);
         }
         if (!found)
             break;
@@ -326,18 +334,25 @@ static void swap_part(void *arg, uint32_t part, uint32_t parts)
     }
 }
 
+/* run over parts pieces: one thread each when there are threads enough, else in turn here. */
+static void run_parts(void (*run)(void *, uint32_t, uint32_t), void *context, uint32_t parts,
+                      uint32_t threads)
+{
+    if (threads >= parts) {
+        parallel_run(run, context, parts);
+        return;
+    }
+    for (uint32_t part = 0; part < parts; part++)
+        run(context, part, parts);
+}
+
 static uint32_t partition_in_parts(build_prim *prims, uint32_t first, uint32_t count,
                                    const split_rule *rule, uint32_t threads, box3 *left_centres,
                                    box3 *right_centres, float *left_clip, float *right_clip)
 {
     parts_context c = {.prims = prims, .first = first, .count = count, .rule = rule};
     uint32_t parts = ROOT_PARTITION_PARTS;
-    if (threads >= parts) {
-        parallel_run(partition_part, &c, parts);
-    } else {
-        for (uint32_t part = 0; part < parts; part++)
-            partition_part(&c, part, parts);
-    }
+    run_parts(partition_part, &c, parts, threads);
     /* [left 0 | right 0] [left 1 | right 1] ... folded into one left run, piece by piece. */
     *left_centres = c.left_centres[0];
     *right_centres = c.right_centres[0];
@@ -350,10 +365,7 @@ static uint32_t partition_in_parts(build_prim *prims, uint32_t first, uint32_t c
         c.swap_count = right_before < left_here ? right_before : left_here;
         c.swap_a = left_end;
         c.swap_b = begin + left_here - c.swap_count;
-        if (threads >= parts)
-            parallel_run(swap_part, &c, parts);
-        else
-            swap_part(&c, 0, 1);
+        run_parts(swap_part, &c, parts, threads);
         left_end += left_here;
         box_merge(left_centres, c.left_centres[part].lo, c.left_centres[part].hi);
         box_merge(right_centres, c.right_centres[part].lo, c.right_centres[part].hi);

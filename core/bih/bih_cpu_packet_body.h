@@ -137,6 +137,13 @@ static lane_float lane_widen_far(lane_float t)
     return select_f(t >= -FLT_MAX, t + magnitude * PF_BIH_TWO_GAMMA3, t);
 }
 
+/* Every ray of the packet a miss: the start, and the answer of a failed traversal. */
+static void miss_all(pf_hit *hits, uint32_t count)
+{
+    for (uint32_t lane = 0; lane < count; lane++)
+        hits[lane] = PF_BIH_MISS;
+}
+
 /* The lowest lane set in bits (not 0). */
 static uint32_t lowest_lane(uint32_t bits)
 {
@@ -328,8 +335,7 @@ pf_status PACKET_TRACE(const pf_bih *bih, const pf_ray *rays, uint32_t count, in
                        pf_hit *hits, pf_error *err)
 {
     packet p = {.rays = rays, .any_hit = any_hit, .hits = hits};
-    for (uint32_t lane = 0; lane < count; lane++)
-        hits[lane] = (pf_hit){-1.0f, PF_NO_HIT, 0.0f, 0.0f};
+    miss_all(hits, count);
     if (bih->triangle_count == 0 || count == 0)
         return PF_OK;
 
@@ -394,8 +400,7 @@ pf_status PACKET_TRACE(const pf_bih *bih, const pf_ray *rays, uint32_t count, in
                                            current.t_near[h][i], current.t_far[h][i], any_hit,
                                            &p.closest[lane], &hits[lane], NULL, err);
             if (status != PF_OK) {
-                for (uint32_t other = 0; other < count; other++)
-                    hits[other] = (pf_hit){-1.0f, PF_NO_HIT, 0.0f, 0.0f};
+                miss_all(hits, count);
                 return status;
             }
             p.closest_far[h][i] = pf_bih_widen_far(p.closest[lane]);
@@ -419,8 +424,7 @@ pf_status PACKET_TRACE(const pf_bih *bih, const pf_ray *rays, uint32_t count, in
             packet_entry *far = right_first ? &left : &right;
             if (near->lanes && far->lanes) {
                 if (stack_size == PF_BIH_STACK_SIZE) {
-                    for (uint32_t lane = 0; lane < count; lane++)
-                        hits[lane] = (pf_hit){-1.0f, PF_NO_HIT, 0.0f, 0.0f};
+                    miss_all(hits, count);
                     return pf_error_set(err, PF_ERR_LIMIT,
                                         "BIH traversal: stack of %u entries overflowed at node %u",
                                         PF_BIH_STACK_SIZE, current.node);
@@ -455,8 +459,7 @@ pf_status PACKET_TRACE(const pf_bih *bih, const pf_ray *rays, uint32_t count, in
         if (!resumed)
             return PF_OK;
     }
-    for (uint32_t lane = 0; lane < count; lane++)
-        hits[lane] = (pf_hit){-1.0f, PF_NO_HIT, 0.0f, 0.0f};
+    miss_all(hits, count);
     return pf_error_set(err, PF_ERR_INTERNAL,
                         "BIH traversal: more than %u node visits (a malformed tree)",
                         bih->node_count);

@@ -112,7 +112,7 @@ pf_status pf_bih_walk(const pf_bih *bih, const pf_ray *ray, const pf_bih_ray *pr
             int visit_far = left_first ? visit_right : visit_left;
             if (visit_near && visit_far) {
                 if (stack_size == PF_BIH_STACK_SIZE) {
-                    *hit = (pf_hit){-1.0f, PF_NO_HIT, 0.0f, 0.0f};
+                    *hit = PF_BIH_MISS;
                     return pf_error_set(err, PF_ERR_LIMIT,
                                         "BIH traversal: stack of %u entries overflowed at node %u",
                                         PF_BIH_STACK_SIZE, node);
@@ -174,7 +174,7 @@ pf_status pf_bih_walk(const pf_bih *bih, const pf_ray *ray, const pf_bih_ray *pr
         if (!resumed)
             return PF_OK;
     }
-    *hit = (pf_hit){-1.0f, PF_NO_HIT, 0.0f, 0.0f};
+    *hit = PF_BIH_MISS;
     return pf_error_set(err, PF_ERR_INTERNAL,
                         "BIH traversal: more than %u node visits (a malformed tree)",
                         bih->node_count);
@@ -184,7 +184,7 @@ pf_status pf_bih_walk(const pf_bih *bih, const pf_ray *ray, const pf_bih_ray *pr
 static pf_status trace(const pf_bih *bih, const pf_ray *ray, int any_hit, pf_hit *hit,
                        pf_bih_trace_counts *counts, pf_error *err)
 {
-    *hit = (pf_hit){-1.0f, PF_NO_HIT, 0.0f, 0.0f};
+    *hit = PF_BIH_MISS;
     pf_bih_ray prepared;
     pf_bih_ray_prepare(ray, &prepared);
     float t_near, t_far;

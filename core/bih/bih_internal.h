@@ -52,6 +52,9 @@ static inline uint32_t pf_bih_first_child(const pf_bih_node *node)
     return node->word >> 2;
 }
 
+/* What every traversal reports for a ray that hits nothing (pf_bih.h: t = -1, PF_NO_HIT). */
+#define PF_BIH_MISS ((pf_hit){-1.0f, PF_NO_HIT, 0.0f, 0.0f})
+
 /*
  * min/max by comparison, inlined (fminf/fmaxf are libm calls at -O2): the
  * second argument where it is smaller (larger). No NaN reaches them: a
@@ -112,7 +115,7 @@ static inline void pf_bih_store_leaf_triangle(float (*leaf)[4], const pf_scene_f
 }
 
 /*
- * The one-ray traversal in parts, for bih_cpu_packet.c to hand a ray left
+ * The one-ray traversal in parts, for bih_cpu_packet_body.h to hand a ray left
  * alone in its packet to: a ray's per-ray setup; its interval in the scene
  * box (0: it misses the box); and the walk of the subtree at node from the
  * interval [t_near, t_far], with the ray's best hit so far in *closest and
