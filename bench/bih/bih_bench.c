@@ -683,20 +683,28 @@ static double agreement(const pf_hit *a, const pf_hit *b, uint32_t count, int oc
     return (double)same / count;
 }
 
+/* One GPU cast: ms, or -1 on failure (message printed). */
+static double gpu_cast(pf_bih_gpu *gpu, const pf_ray *rays, uint32_t count, int any_hit,
+                       pf_hit *hits)
+{
+    pf_error err = {0};
+    double t0 = pf_time_ms();
+    if (pf_bih_raycast(gpu, rays, count, any_hit, hits, &err) != PF_OK) {
+        fprintf(stderr, "bih_bench: pf_bih_raycast: %s\n", err.message);
+        return -1.0;
+    }
+    return pf_time_ms() - t0;
+}
+
 /* Best-of-TIMING_REPEATS GPU cast; returns ms or -1 on failure (message printed). */
 static double ours_cast(pf_bih_gpu *gpu, const pf_ray *rays, uint32_t count, int any_hit,
                         pf_hit *hits)
 {
     double best = -1.0;
     for (int rep = 0; rep < TIMING_REPEATS; rep++) {
-        pf_error err = {0};
-        double t0 = pf_time_ms();
-        pf_status s = pf_bih_raycast(gpu, rays, count, any_hit, hits, &err);
-        double ms = pf_time_ms() - t0;
-        if (s != PF_OK) {
-            fprintf(stderr, "bih_bench: pf_bih_raycast: %s\n", err.message);
+        double ms = gpu_cast(gpu, rays, count, any_hit, hits);
+        if (ms < 0.0)
             return -1.0;
-        }
         if (best < 0.0 || ms < best)
             best = ms;
     }
@@ -1060,19 +1068,6 @@ static int build_rounds(const bench_mesh *m, RTCDevice dev)
     printf("build   ours global / Embree LOW: best %.2fx, median %.2fx\n", best[0] / best[2],
            ms[0][BUILD_ROUNDS / 2] / ms[2][BUILD_ROUNDS / 2]);
     return 1;
-}
-
-/* One GPU cast (no best-of): ms, or -1 on failure (message printed). */
-static double gpu_cast(pf_bih_gpu *gpu, const pf_ray *rays, uint32_t count, int any_hit,
-                       pf_hit *hits)
-{
-    pf_error err = {0};
-    double t0 = pf_time_ms();
-    if (pf_bih_raycast(gpu, rays, count, any_hit, hits, &err) != PF_OK) {
-        fprintf(stderr, "bih_bench: pf_bih_raycast: %s\n", err.message);
-        return -1.0;
-    }
-    return pf_time_ms() - t0;
 }
 
 /*
