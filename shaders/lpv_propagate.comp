@@ -12,14 +12,20 @@
 // lpv_geometry.glsl). Each face
 // flux Φ_f is re-emitted as (Φ_f/π) × the clamped-cosine lobe about the
 // face's outward normal. ACCUMULATE adds the result to the accumulation
-// volume too, and SNAPSHOT also copies the new accumulated value into
+// volume too (and the source, when the iteration before did not), and
+// SNAPSHOT also copies the new accumulated value into
 // the snapshot volume (the far-field split of lpv_lookup.glsl: a cascade's
 // accumulation after the iterations that reach as far as the next finer
 // cascade's whole propagation).
 
 layout(local_size_x = 4, local_size_y = 4, local_size_z = 4) in;
 
-layout(constant_id = 0) const bool ACCUMULATE = true;
+// ACCUMULATE: 0 leaves the accumulation alone, 1 adds this iteration's result, 2 adds
+// the source (the previous iteration's result, which it left out) and then the result.
+// Accumulating every other iteration in pairs halves the accumulation's stores, which
+// llvmpipe runs lane by lane and word by word; (a + source) + result rounds as the two
+// iterations' additions did, so the accumulation is the same to the bit (core/lpv/lpv_gpu.c).
+layout(constant_id = 0) const uint ACCUMULATE = 1u;
 // A specialisation, not a push constant: llvmpipe runs the code of an `if` whose
 // condition is false for every lane anyway (its stores as per-lane loops), so the
 // snapshot's stores exist only in the pipeline of the iteration that takes it.
@@ -200,10 +206,18 @@ void main()
     destination[di] = out_r;
     destination[di + 1u] = out_g;
     destination[di + 2u] = out_b;
-    if (ACCUMULATE) {
-        vec4 r = texelFetch(accumulated_texels, int(di)) + out_r;
-        vec4 g = texelFetch(accumulated_texels, int(di + 1u)) + out_g;
-        vec4 b = texelFetch(accumulated_texels, int(di + 2u)) + out_b;
+    if (ACCUMULATE != 0u) {
+        vec4 r = texelFetch(accumulated_texels, int(di));
+        vec4 g = texelFetch(accumulated_texels, int(di + 1u));
+        vec4 b = texelFetch(accumulated_texels, int(di + 2u));
+        if (ACCUMULATE == 2u) {
+            r += texelFetch(source_texels, int(di));
+            g += texelFetch(source_texels, int(di + 1u));
+            b += texelFetch(source_texels, int(di + 2u));
+        }
+        r += out_r;
+        g += out_g;
+        b += out_b;
         accumulated[di] = r;
         accumulated[di + 1u] = g;
         accumulated[di + 2u] = b;

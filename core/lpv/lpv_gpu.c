@@ -11,6 +11,11 @@
 #define PROPAGATE_BUFFERS 6u
 #define SPEC_ACCUMULATE 0u
 #define SPEC_SNAPSHOT 1u
+/* SPEC_ACCUMULATE's values (lpv_propagate.comp). */
+#define ACCUMULATE_NONE 0u
+#define ACCUMULATE_RESULT 1u
+#define ACCUMULATE_SOURCE_AND_RESULT 2u
+#define ACCUMULATE_MODES 3u
 #define GROUP_EDGE 4u
 
 typedef struct propagate_push {
@@ -19,10 +24,9 @@ typedef struct propagate_push {
 
 struct pf_lpv {
     pf_vk_context *ctx;
-    pf_vk_pipeline *propagate;          /* ACCUMULATE = true */
-    pf_vk_pipeline *propagate_snapshot; /* and SNAPSHOT: a cascade's snapshot iteration */
-    pf_vk_pipeline *propagate_once;     /* ACCUMULATE = false, created on first use */
-    uint64_t floats;                    /* SH floats of one volume (0: none allocated) */
+    /* [ACCUMULATE][SNAPSHOT], each created on first use (a layout needs 3 to 5 of them). */
+    pf_vk_pipeline *propagate[ACCUMULATE_MODES][2];
+    uint64_t floats; /* SH floats of one volume (0: none allocated) */
     pf_vk_buffer *injected, *ping, *pong, *accumulated, *geometry, *snapshot;
 };
 
@@ -33,20 +37,25 @@ pf_status pf_lpv_create(pf_vk_context *ctx, pf_lpv **out, pf_error *err)
     if (!lpv)
         return pf_error_set(err, PF_ERR_NOMEM, "LPV: out of memory");
     lpv->ctx = ctx;
-    /* ACCUMULATE for both pipelines, SNAPSHOT for the second only. */
-    pf_vk_spec_constant spec[2] = {{SPEC_ACCUMULATE, 1}, {SPEC_SNAPSHOT, 1}};
-    pf_status status = pf_vk_pipeline_create_named(ctx, "lpv_propagate", PROPAGATE_BUFFERS,
-                                                   sizeof(propagate_push), spec, 1,
-                                                   &lpv->propagate, err);
-    if (status == PF_OK)
-        status = pf_vk_pipeline_create_named(ctx, "lpv_propagate", PROPAGATE_BUFFERS,
-                                             sizeof(propagate_push), spec, 2,
-                                             &lpv->propagate_snapshot, err);
-    if (status != PF_OK) {
-        pf_lpv_destroy(lpv);
-        return status;
-    }
     *out = lpv;
+    return PF_OK;
+}
+
+/* The propagation pipeline of one ACCUMULATE mode, with or without SNAPSHOT. */
+static pf_status propagate_pipeline(pf_lpv *lpv, uint32_t accumulate, int snapshot,
+                                    pf_vk_pipeline **out, pf_error *err)
+{
+    pf_vk_pipeline **slot = &lpv->propagate[accumulate][snapshot != 0];
+    if (!*slot) {
+        pf_vk_spec_constant spec[2] = {{SPEC_ACCUMULATE, accumulate},
+                                       {SPEC_SNAPSHOT, snapshot != 0}};
+        pf_status status = pf_vk_pipeline_create_named(lpv->ctx, "lpv_propagate",
+                                                       PROPAGATE_BUFFERS, sizeof(propagate_push),
+                                                       spec, 2, slot, err);
+        if (status != PF_OK)
+            return status;
+    }
+    *out = *slot;
     return PF_OK;
 }
 
@@ -67,12 +76,12 @@ void pf_lpv_destroy(pf_lpv *lpv)
     if (!lpv)
         return;
     release_volumes(lpv);
-    if (lpv->propagate)
-        pf_vk_pipeline_destroy(lpv->ctx, lpv->propagate);
-    if (lpv->propagate_snapshot)
-        pf_vk_pipeline_destroy(lpv->ctx, lpv->propagate_snapshot);
-    if (lpv->propagate_once)
-        pf_vk_pipeline_destroy(lpv->ctx, lpv->propagate_once);
+    for (uint32_t mode = 0; mode < ACCUMULATE_MODES; mode++) {
+        for (int snapshot = 0; snapshot < 2; snapshot++) {
+            if (lpv->propagate[mode][snapshot])
+                pf_vk_pipeline_destroy(lpv->ctx, lpv->propagate[mode][snapshot]);
+        }
+    }
     free(lpv);
 }
 
@@ -145,6 +154,26 @@ static pf_status begin_propagation(pf_lpv *lpv, uint64_t floats, const float *in
     return status;
 }
 
+/*
+ * How iteration i (from 1) of a cascade of n iterations, snapshot after
+ * snapshot_at, adds to the accumulation: in pairs, the second of two
+ * iterations adding the first's result (its source) and its own, so half
+ * the iterations store no accumulation. An iteration whose accumulated value
+ * is read (the snapshot, the last) adds its own alone when the one before it
+ * was already added. *pending says whether the last result is not yet in.
+ */
+static uint32_t accumulate_mode(uint32_t i, uint32_t n, uint32_t snapshot_at, int *pending)
+{
+    if (*pending) {
+        *pending = 0;
+        return ACCUMULATE_SOURCE_AND_RESULT;
+    }
+    if (i == snapshot_at || i == n)
+        return ACCUMULATE_RESULT;
+    *pending = 1;
+    return ACCUMULATE_NONE;
+}
+
 pf_status pf_lpv_propagate(pf_lpv *lpv, const pf_lpv_layout *layout, const float *injected,
                            const float *gv, pf_lpv_propagate_stats *stats, pf_error *err)
 {
@@ -164,16 +193,22 @@ pf_status pf_lpv_propagate(pf_lpv *lpv, const pf_lpv_layout *layout, const float
     for (uint32_t k = 0; status == PF_OK && k < layout->count; k++) {
         propagate_push push = {layout->size, (uint32_t)(k * cells), gv != NULL};
         pf_vk_buffer *source = lpv->injected;
-        for (uint32_t i = 0; status == PF_OK && i < layout->cascades[k].iterations; i++) {
+        const pf_lpv_cascade *cascade = &layout->cascades[k];
+        int pending = 0; /* the injection is in the accumulation from the start */
+        for (uint32_t i = 0; status == PF_OK && i < cascade->iterations; i++) {
             pf_vk_buffer *destination = (i % 2u == 0) ? lpv->ping : lpv->pong;
             /* Binding 5: the accumulation again, read as texels (lpv_propagate.comp). */
             pf_vk_buffer *buffers[PROPAGATE_BUFFERS] = {source,        destination,
                                                         lpv->accumulated, lpv->geometry,
                                                         lpv->snapshot, lpv->accumulated};
-            int snapshot = i + 1u == layout->cascades[k].snapshot_iterations;
-            status = pf_vk_cmd_dispatch(cmds, snapshot ? lpv->propagate_snapshot : lpv->propagate,
-                                        buffers, PROPAGATE_BUFFERS, &push, sizeof push, groups,
-                                        groups, groups, err);
+            int snapshot = i + 1u == cascade->snapshot_iterations;
+            uint32_t mode = accumulate_mode(i + 1u, cascade->iterations,
+                                            cascade->snapshot_iterations, &pending);
+            pf_vk_pipeline *pipeline = NULL;
+            status = propagate_pipeline(lpv, mode, snapshot, &pipeline, err);
+            if (status == PF_OK)
+                status = pf_vk_cmd_dispatch(cmds, pipeline, buffers, PROPAGATE_BUFFERS, &push,
+                                            sizeof push, groups, groups, groups, err);
             pf_vk_cmd_barrier(cmds);
             source = destination;
             stats->cell_updates += cells;
@@ -217,13 +252,8 @@ pf_status pf_lpv_download(pf_lpv *lpv, float *out, uint64_t floats, pf_error *er
 pf_status pf_lpv_propagate_once(pf_lpv *lpv, uint32_t size, const float *src, const float *gv,
                                 float *dst, pf_error *err)
 {
-    pf_status status = PF_OK;
-    if (!lpv->propagate_once) {
-        pf_vk_spec_constant once = {SPEC_ACCUMULATE, 0};
-        status = pf_vk_pipeline_create_named(lpv->ctx, "lpv_propagate", PROPAGATE_BUFFERS,
-                                             sizeof(propagate_push), &once, 1,
-                                             &lpv->propagate_once, err);
-    }
+    pf_vk_pipeline *once = NULL;
+    pf_status status = propagate_pipeline(lpv, ACCUMULATE_NONE, 0, &once, err);
     uint64_t floats = (uint64_t)size * size * size * PF_LPV_FLOATS_PER_CELL;
     uint64_t bytes = floats * sizeof(float);
     pf_vk_commands *cmds = NULL;
@@ -235,7 +265,7 @@ pf_status pf_lpv_propagate_once(pf_lpv *lpv, uint32_t size, const float *src, co
     propagate_push push = {size, 0, gv != NULL};
     pf_vk_buffer *buffers[PROPAGATE_BUFFERS] = {lpv->injected, lpv->ping,     lpv->accumulated,
                                                 lpv->geometry, lpv->snapshot, lpv->accumulated};
-    status = pf_vk_cmd_dispatch(cmds, lpv->propagate_once, buffers, PROPAGATE_BUFFERS, &push,
+    status = pf_vk_cmd_dispatch(cmds, once, buffers, PROPAGATE_BUFFERS, &push,
                                 sizeof push, groups, groups, groups, err);
     if (status == PF_OK)
         status = pf_vk_commands_submit(cmds, err);

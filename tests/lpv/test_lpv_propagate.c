@@ -2,8 +2,9 @@
  * LPV propagation on the device (shaders/lpv_propagate.comp): flux
  * conservation of one step in empty space, a constant field staying
  * constant, a wall in the geometry volume blocking the flux that crosses
- * it, and cascades that stay bit-identical under sub-cell camera moves and
- * shift by a cell under one-cell moves.
+ * it, cascades that stay bit-identical under sub-cell camera moves and
+ * shift by a cell under one-cell moves, and the accumulation and snapshots
+ * equal to the sum of the single steps.
  */
 #include "../vk/vk_test_util.h"
 #include "lpv_test_quad.h"
@@ -231,6 +232,89 @@ PF_TEST(camera_moves_below_a_cell_change_nothing_and_a_cell_shifts_by_one)
     free(vc);
 }
 
+/*
+ * pf_lpv_propagate adds to the accumulation every other iteration, two
+ * results at a time (lpv_gpu.c). Whatever the parity of a cascade's
+ * iteration count and snapshot, its accumulation and snapshot must be the
+ * injection plus each step's result added one by one in float, as single
+ * steps (pf_lpv_propagate_once) summed on the host give them: to the bit.
+ */
+PF_TEST(accumulation_and_snapshots_are_the_sum_of_the_single_steps)
+{
+    pf_lpv_layout layout;
+    memset(&layout, 0, sizeof layout);
+    layout.count = 4;
+    layout.size = 8;
+    /* One step; odd with an odd snapshot; even with an even one; the snapshot at the end. */
+    const uint32_t iterations[4] = {1, 5, 6, 7}, snapshot_at[4] = {0, 3, 2, 7};
+    for (uint32_t k = 0; k < layout.count; k++) {
+        layout.cascades[k].iterations = iterations[k];
+        layout.cascades[k].snapshot_iterations = snapshot_at[k];
+    }
+    uint64_t cell_floats = 8u * 8u * 8u * PF_LPV_FLOATS_PER_CELL;
+    uint64_t floats = pf_lpv_volume_floats(&layout, PF_LPV_FLOATS_PER_CELL);
+    PF_REQUIRE(floats == layout.count * cell_floats);
+    float *injected = malloc(floats * sizeof *injected);
+    float *expected = malloc(floats * sizeof *expected);
+    float *expected_snapshot = malloc(floats * sizeof *expected_snapshot);
+    float *got = malloc(floats * sizeof *got);
+    float *got_snapshot = malloc(floats * sizeof *got_snapshot);
+    float *step = malloc(cell_floats * sizeof *step);
+    float *next = malloc(cell_floats * sizeof *next);
+    PF_REQUIRE(injected && expected && expected_snapshot && got && got_snapshot && step && next);
+    uint32_t state = 12345u;
+    for (uint64_t i = 0; i < floats; i++) {
+        state = state * 1664525u + 1013904223u;
+        float r = (float)(state >> 8) / 16777216.0f;
+        /* c0 above the other coefficients' reach, so few directions clamp at 0. */
+        injected[i] = i % 4 == 0 ? 1.0f + r : r - 0.5f;
+    }
+    memcpy(expected, injected, floats * sizeof *expected);
+    memcpy(expected_snapshot, injected, floats * sizeof *expected_snapshot);
+    pf_error err = {0};
+    for (uint32_t k = 0; k < layout.count; k++) {
+        float *acc = expected + k * cell_floats;
+        memcpy(step, injected + k * cell_floats, cell_floats * sizeof *step);
+        for (uint32_t i = 1; i <= iterations[k]; i++) {
+            PF_REQUIRE_OK(pf_lpv_propagate_once(lpv, layout.size, step, NULL, next, &err), &err);
+            for (uint64_t f = 0; f < cell_floats; f++)
+                acc[f] += next[f];
+            if (i == snapshot_at[k])
+                memcpy(expected_snapshot + k * cell_floats, acc, cell_floats * sizeof *acc);
+            memcpy(step, next, cell_floats * sizeof *step);
+        }
+    }
+    PF_REQUIRE_OK(pf_lpv_propagate(lpv, &layout, injected, NULL, NULL, &err), &err);
+    PF_REQUIRE_OK(pf_lpv_download(lpv, got, floats, &err), &err);
+    PF_REQUIRE_OK(pf_vk_buffer_download(ctx, pf_lpv_snapshots(lpv), 0, got_snapshot,
+                                        floats * sizeof *got_snapshot, &err),
+                  &err);
+    for (uint32_t k = 0; k < layout.count; k++) {
+        uint64_t at = k * cell_floats;
+        uint64_t differ = 0, snapshot_differ = 0;
+        for (uint64_t f = 0; f < cell_floats; f++) {
+            differ += memcmp(&got[at + f], &expected[at + f], sizeof(float)) != 0;
+            snapshot_differ +=
+                memcmp(&got_snapshot[at + f], &expected_snapshot[at + f], sizeof(float)) != 0;
+        }
+        printf("  cascade %u (%u iterations, snapshot after %u): %llu / %llu floats differ in "
+               "the accumulation, %llu in the snapshot\n",
+               k, iterations[k], snapshot_at[k], (unsigned long long)differ,
+               (unsigned long long)cell_floats, (unsigned long long)snapshot_differ);
+        PF_CHECK(differ == 0);
+        PF_CHECK(snapshot_differ == 0);
+    }
+    /* The sum is no copy of the injection: the steps added light. */
+    PF_CHECK(memcmp(expected, injected, floats * sizeof *expected) != 0);
+    free(injected);
+    free(expected);
+    free(expected_snapshot);
+    free(got);
+    free(got_snapshot);
+    free(step);
+    free(next);
+}
+
 int main(void)
 {
     pf_error err = {0};
@@ -246,6 +330,7 @@ int main(void)
     PF_RUN(a_constant_isotropic_field_stays_constant_inside);
     PF_RUN(a_wall_blocks_the_flux_crossing_it);
     PF_RUN(camera_moves_below_a_cell_change_nothing_and_a_cell_shifts_by_one);
+    PF_RUN(accumulation_and_snapshots_are_the_sum_of_the_single_steps);
     pf_lpv_destroy(lpv);
     VK_TEST_FINISH(ctx);
     return pf_test_finish();
