@@ -4,7 +4,8 @@
  *
  * Part 1, the LPV stages: on the Cornell box, 4 cascades of 32³ and 64³
  * cells at 8 and 16 iterations: lpv_geometry and lpv_inject (CPU, wall ms)
- * and lpv_propagate (GPU ms from timestamps), per cascade (the row's total
+ * and lpv_propagate (GPU ms from timestamps; wall ms where it ran on the
+ * host, the row's on_host counter), per cascade (the row's total
  * divided by the cascade count), read from the frame's stage rows. A
  * configuration is rendered twice with different seeds: the first frame's
  * geometry row (the second reuses the geometry volume) and the second
@@ -28,13 +29,21 @@
  * caustics of: as in bench/final, the light is replaced by an equal-power
  * 5 cm sphere in the evaluated frame for every preset.
  *
- * Usage: lpv_bench [SHARED_SCENES_DIR [ERROR_W ERROR_H [LONG_SPP]]]
+ * Part 0 alone, `lpv_bench sites`: the propagation on the device
+ * (lpv_propagate.comp) against the host (pf_lpv_propagate_host), the same
+ * volumes in 7 alternating rounds: 4 cascades of 32³ and of 64³, 8
+ * iterations, occlusion on; random SH and geometry (neither path branches
+ * on the data). Medians of wall ms (and the device's GPU ms), and how far
+ * apart the two accumulations are.
+ *
+ * Usage: lpv_bench [SHARED_SCENES_DIR [ERROR_W ERROR_H [LONG_SPP]]] | lpv_bench sites
  * (defaults: $PF_SHARED_SCENES or ../shared/scenes, 160 120, 512). The
  * Cornell box is the project's scenes/cornell ($PF_SOURCE_DIR or .). Run
  * with LP_NUM_THREADS=2 on lavapipe.
  */
 #include "pf_common.h"
 #include "pf_image.h"
+#include "pf_lpv.h"
 #include "pf_render.h"
 #include "pf_scene.h"
 #include "pf_vk.h"
@@ -63,7 +72,7 @@ typedef struct bench_scene {
 
 static int fail(const char *what, const pf_error *err)
 {
-    fprintf(stderr, "lpv_bench: %s: %s\n", what, err->message);
+    fprintf(stderr, "lpv_bench: %s: %s\n", what, err ? err->message : "out of memory");
     return 1;
 }
 
@@ -125,11 +134,102 @@ static int indirect_error(const pf_image *a, const pf_image *b, double *relmse, 
     return 1;
 }
 
+static int compare_doubles(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+static double median(double *values, int count)
+{
+    qsort(values, (size_t)count, sizeof *values, compare_doubles);
+    return values[count / 2];
+}
+
+#define SITE_ROUNDS 7
+
+static int part_sites(pf_vk_context *ctx)
+{
+    printf("== LPV propagation: device against host (4 cascades, 8 iterations, occlusion on, "
+           "%d alternating rounds, medians)\n", SITE_ROUNDS);
+    printf("%6s %16s %16s %14s %10s %16s\n", "size", "device wall ms", "device GPU ms",
+           "host wall ms", "speed-up", "max difference");
+    pf_error err = {0};
+    pf_lpv *lpv = NULL;
+    if (pf_lpv_create(ctx, &lpv, &err) != PF_OK)
+        return fail("LPV", &err);
+    const uint32_t sizes[2] = {32, 64};
+    for (int s = 0; s < 2; s++) {
+        pf_lpv_layout layout;
+        memset(&layout, 0, sizeof layout);
+        layout.count = 4;
+        layout.size = sizes[s];
+        for (uint32_t k = 0; k < layout.count; k++) {
+            layout.cascades[k].iterations = 8;
+            layout.cascades[k].snapshot_iterations = k ? 4 : 0;
+        }
+        uint64_t floats = pf_lpv_volume_floats(&layout, PF_LPV_FLOATS_PER_CELL);
+        float *injected = malloc(floats * sizeof(float)), *gv = malloc(floats * sizeof(float));
+        float *device = malloc(floats * sizeof(float)), *host = malloc(floats * sizeof(float));
+        if (!injected || !gv || !device || !host)
+            return fail("LPV volumes", NULL);
+        uint32_t state = 1u;
+        for (uint64_t i = 0; i < floats; i++) {
+            state = state * 1664525u + 1013904223u;
+            float r = (float)(state >> 8) / 16777216.0f;
+            injected[i] = i % 4 == 0 ? 1.0f + r : r - 0.5f;
+            state = state * 1664525u + 1013904223u;
+            gv[i] = (state >> 8) % 5 == 0 ? (float)(state >> 8) / 16777216.0f : 0.0f;
+        }
+        double device_wall[SITE_ROUNDS], device_gpu[SITE_ROUNDS], host_wall[SITE_ROUNDS];
+        pf_status status = PF_OK;
+        /* A first device run compiles the pipelines. */
+        pf_lpv_set_site(lpv, PF_LPV_SITE_DEVICE);
+        status = pf_lpv_propagate(lpv, &layout, injected, gv, NULL, &err);
+        for (int r = 0; status == PF_OK && r < SITE_ROUNDS; r++) {
+            pf_lpv_propagate_stats stats;
+            pf_lpv_set_site(lpv, PF_LPV_SITE_DEVICE);
+            double start = pf_time_ms();
+            status = pf_lpv_propagate(lpv, &layout, injected, gv, &stats, &err);
+            device_wall[r] = pf_time_ms() - start;
+            device_gpu[r] = stats.gpu_ms;
+            if (status == PF_OK && r == 0)
+                status = pf_lpv_download(lpv, device, floats, &err);
+            pf_lpv_set_site(lpv, PF_LPV_SITE_HOST);
+            start = pf_time_ms();
+            if (status == PF_OK)
+                status = pf_lpv_propagate(lpv, &layout, injected, gv, &stats, &err);
+            host_wall[r] = pf_time_ms() - start;
+            if (status == PF_OK && r == 0)
+                status = pf_lpv_download(lpv, host, floats, &err);
+        }
+        if (status != PF_OK)
+            return fail("LPV propagation", &err);
+        double worst = 0.0, scale = 0.0;
+        for (uint64_t i = 0; i < floats; i++) {
+            worst = fmax(worst, fabs((double)host[i] - (double)device[i]));
+            scale = fmax(scale, fabs((double)device[i]));
+        }
+        double dw = median(device_wall, SITE_ROUNDS), dg = median(device_gpu, SITE_ROUNDS);
+        double hw = median(host_wall, SITE_ROUNDS);
+        printf("%4u³ %16.1f %16.1f %14.1f %9.2f× %16.2g\n", sizes[s], dw, dg, hw, dw / hw,
+               worst / scale);
+        free(injected);
+        free(gv);
+        free(device);
+        free(host);
+    }
+    pf_lpv_destroy(lpv);
+    printf("(host: the cascades on up to one thread per online CPU; max difference: the largest "
+           "|host − device| over the largest |device|)\n");
+    return 0;
+}
+
 static int part_stages(pf_vk_context *ctx, const pf_scene_frame *frame)
 {
     printf("== LPV stages (Cornell box, 4 cascades, per cascade)\n");
     printf("%6s %10s %14s %12s %16s %12s\n", "size", "iterations", "geometry ms", "inject ms",
-           "propagate GPU ms", "vpls");
+           "propagate ms", "vpls");
     const uint32_t sizes[2] = {32, 64}, iterations[2] = {8, 16};
     for (int s = 0; s < 2; s++) {
         for (int i = 0; i < 2; i++) {
@@ -156,13 +256,19 @@ static int part_stages(pf_vk_context *ctx, const pf_scene_frame *frame)
             const pf_stage_timing *geometry = row_named(&first, "lpv_geometry");
             const pf_stage_timing *inject = row_named(&second, "lpv_inject");
             const pf_stage_timing *propagate = row_named(&second, "lpv_propagate");
-            double vpls = 0.0;
+            double vpls = 0.0, on_host = 0.0;
             for (uint32_t c = 0; inject && c < inject->counter_count; c++)
                 if (!strcmp(inject->counters[c].name, "vpls"))
                     vpls = inject->counters[c].value;
-            printf("%4u³ %10u %14.2f %12.2f %16.2f %12.0f\n", sizes[s], iterations[i],
+            for (uint32_t c = 0; propagate && c < propagate->counter_count; c++)
+                if (!strcmp(propagate->counters[c].name, "on_host"))
+                    on_host = propagate->counters[c].value;
+            double propagate_ms = !propagate ? NAN
+                                  : on_host  ? propagate->wall_ms
+                                             : propagate->gpu_ms;
+            printf("%4u³ %10u %14.2f %12.2f %11.2f %-4s %12.0f\n", sizes[s], iterations[i],
                    geometry ? geometry->wall_ms / 4.0 : NAN, inject ? inject->wall_ms / 4.0 : NAN,
-                   propagate ? propagate->gpu_ms / 4.0 : NAN, vpls);
+                   propagate_ms / 4.0, on_host ? "host" : "GPU", vpls);
             pf_renderer_destroy(renderer);
         }
     }
@@ -278,6 +384,17 @@ static int load_scene(bench_scene *scene, const char *name, const char *path)
 
 int main(int argc, char **argv)
 {
+    if (argc == 2 && !strcmp(argv[1], "sites")) {
+        pf_error err = {0};
+        pf_vk_context *ctx = NULL;
+        pf_vk_options options = {NULL, 0};
+        if (pf_vk_create(&options, &ctx, &err) != PF_OK)
+            return fail("vulkan", &err);
+        printf("device: %s\n", pf_vk_info(ctx)->name);
+        int failed = part_sites(ctx);
+        pf_vk_destroy(ctx);
+        return failed;
+    }
     const char *shared = argc > 1 ? argv[1] : getenv("PF_SHARED_SCENES");
     if (!shared)
         shared = "../shared/scenes";

@@ -1,7 +1,8 @@
 /*
  * The LPV's device side (pf_lpv.h): volumes for all cascades in one buffer
  * each (cascade k's cells start at k × size³), and the propagation of
- * shaders/lpv_propagate.comp, every cascade's iterations in one submission.
+ * shaders/lpv_propagate.comp, every cascade's iterations in one submission,
+ * or on the host (lpv_propagate_host.c) with the results uploaded.
  */
 #include "pf_lpv.h"
 
@@ -27,6 +28,9 @@ struct pf_lpv {
     /* [ACCUMULATE][SNAPSHOT], each created on first use (a layout needs 3 to 5 of them). */
     pf_vk_pipeline *propagate[ACCUMULATE_MODES][2];
     uint64_t floats; /* SH floats of one volume (0: none allocated) */
+    pf_lpv_site site;
+    float *host_volumes;  /* the host path's accumulation, then its snapshot */
+    uint64_t host_floats; /* floats of each */
     pf_vk_buffer *injected, *ping, *pong, *accumulated, *geometry, *snapshot;
 };
 
@@ -76,6 +80,7 @@ void pf_lpv_destroy(pf_lpv *lpv)
     if (!lpv)
         return;
     release_volumes(lpv);
+    free(lpv->host_volumes);
     for (uint32_t mode = 0; mode < ACCUMULATE_MODES; mode++) {
         for (int snapshot = 0; snapshot < 2; snapshot++) {
             if (lpv->propagate[mode][snapshot])
@@ -174,6 +179,46 @@ static uint32_t accumulate_mode(uint32_t i, uint32_t n, uint32_t snapshot_at, in
     return ACCUMULATE_NONE;
 }
 
+void pf_lpv_set_site(pf_lpv *lpv, pf_lpv_site site)
+{
+    lpv->site = site;
+}
+
+static int runs_on_host(const pf_lpv *lpv)
+{
+    if (lpv->site != PF_LPV_SITE_AUTO)
+        return lpv->site == PF_LPV_SITE_HOST;
+    return strcmp(pf_vk_info(lpv->ctx)->type, "cpu") == 0;
+}
+
+/* The iterations on the host, then the volumes the lookups read uploaded. */
+static pf_status propagate_on_host(pf_lpv *lpv, const pf_lpv_layout *layout,
+                                   const float *injected, const float *gv, uint64_t floats,
+                                   pf_error *err)
+{
+    pf_status status = ensure_volumes(lpv, floats, err);
+    if (status == PF_OK && lpv->host_floats != floats) {
+        free(lpv->host_volumes);
+        lpv->host_floats = 0;
+        lpv->host_volumes = malloc(2u * floats * sizeof(float));
+        if (!lpv->host_volumes)
+            return pf_error_set(err, PF_ERR_NOMEM, "LPV: out of memory");
+        lpv->host_floats = floats;
+    }
+    float *accumulated = lpv->host_volumes, *snapshot = lpv->host_volumes + floats;
+    if (status == PF_OK)
+        status = pf_lpv_propagate_host(layout, injected, gv, accumulated, snapshot, err);
+    if (status == PF_OK)
+        status = pf_vk_buffer_upload(lpv->ctx, lpv->accumulated, 0, accumulated,
+                                     floats * sizeof(float), err);
+    if (status == PF_OK)
+        status = pf_vk_buffer_upload(lpv->ctx, lpv->snapshot, 0, snapshot,
+                                     floats * sizeof(float), err);
+    if (status == PF_OK)
+        status = upload_geometry(lpv, gv, err);
+    return status;
+}
+
 pf_status pf_lpv_propagate(pf_lpv *lpv, const pf_lpv_layout *layout, const float *injected,
                            const float *gv, pf_lpv_propagate_stats *stats, pf_error *err)
 {
@@ -183,6 +228,13 @@ pf_status pf_lpv_propagate(pf_lpv *lpv, const pf_lpv_layout *layout, const float
     memset(stats, 0, sizeof *stats);
     stats->gpu_ms = -1.0;
     uint64_t floats = pf_lpv_volume_floats(layout, PF_LPV_FLOATS_PER_CELL);
+    if (runs_on_host(lpv)) {
+        uint64_t cells = (uint64_t)layout->size * layout->size * layout->size;
+        for (uint32_t k = 0; k < layout->count; k++)
+            stats->cell_updates += cells * layout->cascades[k].iterations;
+        stats->on_host = 1;
+        return propagate_on_host(lpv, layout, injected, gv, floats, err);
+    }
     pf_vk_commands *cmds = NULL;
     pf_status status = begin_propagation(lpv, floats, injected, gv, 1, &cmds, err);
     if (status != PF_OK)

@@ -38,7 +38,8 @@
  * lobe (no isotropic term, so light sliding along a wall is never
  * absorbed: the Cornell box's indirect light came out 1.6× the reference's).
  *
- * Propagation (GPU, shaders/lpv_propagate.comp): gather form, one invocation
+ * Propagation (GPU, shaders/lpv_propagate.comp; on the host's CPUs when the
+ * device is the CPU, lpv_propagate_host.c): gather form, one invocation
  * per destination cell, no atomics. From each of the 6 neighbours, the flux
  * onto each of the destination's 5 faces not shared with that neighbour is
  * Δω_f × I_src(ω_f) × (1 − B(ω_f)), with ω_f from the neighbour's centre
@@ -239,19 +240,44 @@ pf_status pf_lpv_create(pf_vk_context *ctx, pf_lpv **out, pf_error *err);
 void pf_lpv_destroy(pf_lpv *lpv);
 
 typedef struct pf_lpv_propagate_stats {
-    double gpu_ms;                           /* < 0 without timestamps */
+    double gpu_ms;                           /* < 0 without timestamps, or on the host */
     uint64_t cell_updates;                   /* cells × iterations, all cascades */
+    int on_host;                             /* 1: the iterations ran on the host's CPUs */
 } pf_lpv_propagate_stats;
+
+/* Where pf_lpv_propagate runs the iterations. */
+typedef enum pf_lpv_site {
+    PF_LPV_SITE_AUTO = 0, /* the default: the host when the device is the CPU, else the device */
+    PF_LPV_SITE_HOST,     /* pf_lpv_propagate_host, then the volumes uploaded */
+    PF_LPV_SITE_DEVICE    /* shaders/lpv_propagate.comp */
+} pf_lpv_site;
+
+/* Forces where later propagations run (tests cover both paths with it). */
+void pf_lpv_set_site(pf_lpv *lpv, pf_lpv_site site);
 
 /*
  * Uploads the injected grid and the geometry volume (gv NULL: no occlusion)
  * for layout, then runs each cascade's iterations; afterwards the
  * accumulation volume holds injected + every iteration. Buffers are
- * (re)allocated when the layout's shape changes. PF_ERR_LIMIT when a volume
- * exceeds the device's buffer limit, PF_ERR_VULKAN.
+ * (re)allocated when the layout's shape changes. On a CPU device (lavapipe)
+ * the iterations run on the host (pf_lpv_propagate_host, ~3× faster there:
+ * bench/RESULTS.md) and the volumes are uploaded. PF_ERR_LIMIT when a
+ * volume exceeds the device's buffer limit, PF_ERR_NOMEM, PF_ERR_VULKAN.
  */
 pf_status pf_lpv_propagate(pf_lpv *lpv, const pf_lpv_layout *layout, const float *injected,
                            const float *gv, pf_lpv_propagate_stats *stats, pf_error *err);
+
+/*
+ * The same propagation on the host's CPUs, for a device that is the CPU
+ * (lavapipe): accumulated receives what pf_lpv_propagate leaves in the
+ * accumulation volume, snapshot what it leaves in the snapshot volume (each
+ * pf_lpv_volume_floats(layout, 12) floats; equal to the device's up to float
+ * rounding). The cascades run on up to one thread per online CPU.
+ * PF_ERR_NOMEM.
+ */
+pf_status pf_lpv_propagate_host(const pf_lpv_layout *layout, const float *injected,
+                                const float *gv, float *accumulated, float *snapshot,
+                                pf_error *err);
 
 /* The accumulation volume on the device (NULL before a propagation); pf_lpv owns it. */
 pf_vk_buffer *pf_lpv_accumulated(const pf_lpv *lpv);

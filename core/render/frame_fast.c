@@ -100,6 +100,7 @@ void pf_fast_cache_destroy(pf_vk_context *ctx, struct pf_fast_cache *cache)
 /* Frame-wide figures for the rows. */
 typedef struct fast_progress {
     double trace_ms, caustic_ms, geometry_ms, inject_ms, propagate_ms, propagate_gpu_ms;
+    int propagate_on_host; /* the propagation ran on the host's CPUs (pf_lpv_propagate_stats) */
     uint32_t samples;
     uint64_t rays, discarded, truncated, failures, lpv_outside;
     double shade_gpu_ms;
@@ -220,7 +221,7 @@ static pf_status inject_vpls(struct pf_fast_cache *cache, const pf_lpv_layout *l
     return status;
 }
 
-/* lpv_propagate: every cascade's iterations on the device. */
+/* lpv_propagate: every cascade's iterations, on the device or, where it is the CPU, the host. */
 static pf_status propagate(struct pf_fast_cache *cache, const pf_lpv_layout *layout,
                            fast_progress *progress, pf_error *err)
 {
@@ -229,6 +230,7 @@ static pf_status propagate(struct pf_fast_cache *cache, const pf_lpv_layout *lay
     pf_status status =
         pf_lpv_propagate(cache->lpv, layout, cache->injected, cache->geometry, &stats, err);
     progress->propagate_gpu_ms = stats.gpu_ms;
+    progress->propagate_on_host = stats.on_host;
     progress->propagate_ms = pf_time_ms() - start;
     return status;
 }
@@ -402,6 +404,7 @@ static void report_rows(pf_frame_report *report, const struct pf_fast_cache *cac
     if (row) {
         pf_stage_add_counter(row, "cascades", layout->count);
         pf_stage_add_counter(row, "cells_per_cascade", (double)cells);
+        pf_stage_add_counter(row, "on_host", progress->propagate_on_host);
         for (uint32_t k = 0; k < layout->count && row->counter_count < PF_STAGE_COUNTERS_MAX;
              k++) {
             char name[32];

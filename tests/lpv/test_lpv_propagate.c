@@ -3,10 +3,12 @@
  * conservation of one step in empty space, a constant field staying
  * constant, a wall in the geometry volume blocking the flux that crosses
  * it, cascades that stay bit-identical under sub-cell camera moves and
- * shift by a cell under one-cell moves, and the accumulation and snapshots
- * equal to the sum of the single steps.
+ * shift by a cell under one-cell moves (on the device and on the host), the
+ * accumulation and snapshots equal to the sum of the single steps, and the
+ * host propagation (lpv_propagate_host.c) agreeing with the device's.
  */
 #include "../vk/vk_test_util.h"
+#include "lpv_host_internal.h"
 #include "lpv_test_quad.h"
 #include "pf_lpv.h"
 
@@ -165,8 +167,9 @@ PF_TEST(a_wall_blocks_the_flux_crossing_it)
 
 /* Injects, builds the GV and propagates at focus; the accumulated volume in *out (malloc'ed). */
 static int run_at(const float focus[3], const quad_frame *scene, const pf_lpv_vpl *vpls,
-                  uint32_t count, pf_lpv_layout *layout, float **out)
+                  uint32_t count, pf_lpv_site site, pf_lpv_layout *layout, float **out)
 {
+    pf_lpv_set_site(lpv, site);
     pf_lpv_settings settings = {.cascades = 2, .size = 16, .iterations = {4}};
     pf_lpv_layout_make(&settings, focus, 0.25f, &scene->frame, layout);
     uint64_t floats = pf_lpv_volume_floats(layout, PF_LPV_FLOATS_PER_CELL);
@@ -185,6 +188,7 @@ static int run_at(const float focus[3], const quad_frame *scene, const pf_lpv_vp
     }
     free(injected);
     free(gv);
+    pf_lpv_set_site(lpv, PF_LPV_SITE_DEVICE);
     return ok;
 }
 
@@ -202,34 +206,38 @@ PF_TEST(camera_moves_below_a_cell_change_nothing_and_a_cell_shifts_by_one)
     float focus[3] = {1.0f, 0.5f, 1.0f};
     float nudged[3] = {1.0f + 0.1f, 0.5f + 0.2f, 1.0f + 0.24f}; /* same cell of 0.25 (and 0.5) */
     float shifted[3] = {1.0f + 0.5f, 0.5f, 1.0f};                /* one cell of the coarser */
-    pf_lpv_layout a, b, c;
-    float *va = NULL, *vb = NULL, *vc = NULL;
-    PF_REQUIRE(run_at(focus, &scene, vpls, 3, &a, &va));
-    PF_REQUIRE(run_at(nudged, &scene, vpls, 3, &b, &vb));
-    PF_REQUIRE(run_at(shifted, &scene, vpls, 3, &c, &vc));
-    uint64_t floats = pf_lpv_volume_floats(&a, PF_LPV_FLOATS_PER_CELL);
-    PF_CHECK(!memcmp(a.cascades, b.cascades, sizeof a.cascades));
-    PF_CHECK(!memcmp(va, vb, floats * sizeof(float)));
-    /* Cascade 1 (cells of 0.5 m): origin one cell on, every value one cell over. */
-    PF_CHECK(c.cascades[1].origin_cell[0] == a.cascades[1].origin_cell[0] + 1);
-    uint64_t cells = 16u * 16u * 16u;
-    uint32_t mismatched = 0, nonzero = 0;
-    for (uint32_t z = 0; z < 16; z++)
-        for (uint32_t y = 0; y < 16; y++)
-            for (uint32_t x = 0; x + 1 < 16; x++) {
-                const float *before = va + (cells + cell_of(16, x + 1, y, z)) * 12;
-                const float *after = vc + (cells + cell_of(16, x, y, z)) * 12;
-                if (memcmp(before, after, 12 * sizeof(float)))
-                    mismatched++;
-                if (before[0] != 0.0f)
-                    nonzero++;
-            }
-    printf("  one-cell shift: %u of the cells compared differ (%u lit)\n", mismatched, nonzero);
-    PF_CHECK(nonzero > 100);
-    PF_CHECK(mismatched == 0);
-    free(va);
-    free(vb);
-    free(vc);
+    const pf_lpv_site sites[2] = {PF_LPV_SITE_DEVICE, PF_LPV_SITE_HOST};
+    for (int site = 0; site < 2; site++) {
+        pf_lpv_layout a, b, c;
+        float *va = NULL, *vb = NULL, *vc = NULL;
+        PF_REQUIRE(run_at(focus, &scene, vpls, 3, sites[site], &a, &va));
+        PF_REQUIRE(run_at(nudged, &scene, vpls, 3, sites[site], &b, &vb));
+        PF_REQUIRE(run_at(shifted, &scene, vpls, 3, sites[site], &c, &vc));
+        uint64_t floats = pf_lpv_volume_floats(&a, PF_LPV_FLOATS_PER_CELL);
+        PF_CHECK(!memcmp(a.cascades, b.cascades, sizeof a.cascades));
+        PF_CHECK(!memcmp(va, vb, floats * sizeof(float)));
+        /* Cascade 1 (cells of 0.5 m): origin one cell on, every value one cell over. */
+        PF_CHECK(c.cascades[1].origin_cell[0] == a.cascades[1].origin_cell[0] + 1);
+        uint64_t cells = 16u * 16u * 16u;
+        uint32_t mismatched = 0, nonzero = 0;
+        for (uint32_t z = 0; z < 16; z++)
+            for (uint32_t y = 0; y < 16; y++)
+                for (uint32_t x = 0; x + 1 < 16; x++) {
+                    const float *before = va + (cells + cell_of(16, x + 1, y, z)) * 12;
+                    const float *after = vc + (cells + cell_of(16, x, y, z)) * 12;
+                    if (memcmp(before, after, 12 * sizeof(float)))
+                        mismatched++;
+                    if (before[0] != 0.0f)
+                        nonzero++;
+                }
+        printf("  %s, one-cell shift: %u of the cells compared differ (%u lit)\n",
+               site ? "host" : "device", mismatched, nonzero);
+        PF_CHECK(nonzero > 100);
+        PF_CHECK(mismatched == 0);
+        free(va);
+        free(vb);
+        free(vc);
+    }
 }
 
 /*
@@ -315,6 +323,112 @@ PF_TEST(accumulation_and_snapshots_are_the_sum_of_the_single_steps)
     free(next);
 }
 
+/* Random SH coefficients (c0 positive, so few directions clamp) and a sparse geometry volume. */
+static void random_volumes(uint32_t seed, float *sh, float *gv, uint64_t floats)
+{
+    uint32_t state = seed;
+    for (uint64_t i = 0; i < floats; i++) {
+        state = state * 1664525u + 1013904223u;
+        float r = (float)(state >> 8) / 16777216.0f;
+        sh[i] = i % 4 == 0 ? 1.0f + r : r - 0.5f;
+        state = state * 1664525u + 1013904223u;
+        /* A face in 5 blocks something, some of them fully (coefficients up to 2). */
+        gv[i] = (state >> 8) % 5 == 0 ? 2.0f * (float)(state >> 8) / 16777216.0f : 0.0f;
+    }
+}
+
+/* max |a − b| over max |b|: the difference against the volume's scale. */
+static double relative_difference(const float *a, const float *b, uint64_t floats)
+{
+    double worst = 0.0, scale = 0.0;
+    for (uint64_t i = 0; i < floats; i++) {
+        worst = fmax(worst, fabs((double)a[i] - (double)b[i]));
+        scale = fmax(scale, fabs((double)b[i]));
+    }
+    return scale > 0.0 ? worst / scale : worst;
+}
+
+/*
+ * The host propagation against the device's, occlusion on and off: three
+ * cascades of 8³ (two steps and a row run of 4 on the 8-wide step) with
+ * iteration counts and snapshots of both parities. The same rule in a
+ * different order of rounding (the device may fuse multiply-adds), so
+ * equal to 10⁻⁵ of the volume's largest value; and every vector width of
+ * the host step agrees with the others to the bit.
+ */
+PF_TEST(the_host_propagation_agrees_with_the_device)
+{
+    pf_lpv_layout layout;
+    memset(&layout, 0, sizeof layout);
+    layout.count = 3;
+    layout.size = 12; /* 12 = 8 + 4: the 8-wide step's runs end in a partial one */
+    const uint32_t iterations[3] = {3, 6, 5}, snapshot_at[3] = {0, 3, 2};
+    for (uint32_t k = 0; k < layout.count; k++) {
+        layout.cascades[k].iterations = iterations[k];
+        layout.cascades[k].snapshot_iterations = snapshot_at[k];
+    }
+    uint64_t floats = pf_lpv_volume_floats(&layout, PF_LPV_FLOATS_PER_CELL);
+    float *injected = malloc(floats * sizeof(float)), *gv = malloc(floats * sizeof(float));
+    float *device = malloc(floats * sizeof(float)), *device_snapshot = malloc(floats * sizeof(float));
+    float *host = malloc(floats * sizeof(float)), *host_snapshot = malloc(floats * sizeof(float));
+    float *other = malloc(floats * sizeof(float)), *other_snapshot = malloc(floats * sizeof(float));
+    PF_REQUIRE(injected && gv && device && device_snapshot && host && host_snapshot && other &&
+               other_snapshot);
+    random_volumes(7u, injected, gv, floats);
+    pf_error err = {0};
+    for (int occlusion = 0; occlusion < 2; occlusion++) {
+        const float *geometry = occlusion ? gv : NULL;
+        pf_lpv_propagate_stats stats;
+        pf_lpv_set_site(lpv, PF_LPV_SITE_DEVICE);
+        PF_REQUIRE_OK(pf_lpv_propagate(lpv, &layout, injected, geometry, &stats, &err), &err);
+        PF_CHECK(!stats.on_host);
+        PF_REQUIRE_OK(pf_lpv_download(lpv, device, floats, &err), &err);
+        PF_REQUIRE_OK(pf_vk_buffer_download(ctx, pf_lpv_snapshots(lpv), 0, device_snapshot,
+                                            floats * sizeof(float), &err),
+                      &err);
+        /* The host path of pf_lpv_propagate leaves its results in the device's volumes. */
+        pf_lpv_set_site(lpv, PF_LPV_SITE_HOST);
+        PF_REQUIRE_OK(pf_lpv_propagate(lpv, &layout, injected, geometry, &stats, &err), &err);
+        PF_CHECK(stats.on_host);
+        PF_CHECK(stats.gpu_ms < 0.0);
+        PF_CHECK(stats.cell_updates == 12u * 12u * 12u * (3u + 6u + 5u));
+        PF_REQUIRE_OK(pf_lpv_download(lpv, host, floats, &err), &err);
+        PF_REQUIRE_OK(pf_vk_buffer_download(ctx, pf_lpv_snapshots(lpv), 0, host_snapshot,
+                                            floats * sizeof(float), &err),
+                      &err);
+        pf_lpv_set_site(lpv, PF_LPV_SITE_DEVICE);
+        double accumulation = relative_difference(host, device, floats);
+        double snapshots = relative_difference(host_snapshot, device_snapshot, floats);
+        printf("  occlusion %s: host against device %.3g (accumulation), %.3g (snapshots)\n",
+               occlusion ? "on" : "off", accumulation, snapshots);
+        PF_CHECK(accumulation <= 1e-5);
+        PF_CHECK(snapshots <= 1e-5);
+        /* Light moved: the accumulation is not the injection. */
+        PF_CHECK(relative_difference(host, injected, floats) > 0.01);
+        for (uint32_t width = 4; width <= 8; width *= 2) {
+            if (!pf_lpv_host_stepper(width))
+                continue;
+            PF_REQUIRE_OK(pf_lpv_propagate_host_width(&layout, injected, geometry, other,
+                                                      other_snapshot, width, &err),
+                          &err);
+            printf("  %u-wide step: %s\n", width,
+                   memcmp(other, host, floats * sizeof(float)) ? "differs" : "identical");
+            PF_CHECK(!memcmp(other, host, floats * sizeof(float)));
+            PF_CHECK(!memcmp(other_snapshot, host_snapshot, floats * sizeof(float)));
+        }
+    }
+    PF_CHECK(pf_lpv_host_stepper(4) != NULL);
+    PF_CHECK(pf_lpv_host_stepper(16) == NULL);
+    free(injected);
+    free(gv);
+    free(device);
+    free(device_snapshot);
+    free(host);
+    free(host_snapshot);
+    free(other);
+    free(other_snapshot);
+}
+
 int main(void)
 {
     pf_error err = {0};
@@ -326,11 +440,14 @@ int main(void)
         pf_vk_destroy(ctx);
         return 1;
     }
+    /* The kernel's own properties: on the device even where AUTO would use the host. */
+    pf_lpv_set_site(lpv, PF_LPV_SITE_DEVICE);
     PF_RUN(one_step_in_empty_space_conserves_flux);
     PF_RUN(a_constant_isotropic_field_stays_constant_inside);
     PF_RUN(a_wall_blocks_the_flux_crossing_it);
     PF_RUN(camera_moves_below_a_cell_change_nothing_and_a_cell_shifts_by_one);
     PF_RUN(accumulation_and_snapshots_are_the_sum_of_the_single_steps);
+    PF_RUN(the_host_propagation_agrees_with_the_device);
     pf_lpv_destroy(lpv);
     VK_TEST_FINISH(ctx);
     return pf_test_finish();

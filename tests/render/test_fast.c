@@ -102,6 +102,9 @@ PF_TEST(cornell_indirect_matches_reference)
     PF_CHECK(ref_stage_counter(&report, "lpv_propagate", "cascades") == PF_LPV_DEFAULT_CASCADES);
     PF_CHECK(ref_stage_counter(&report, "lpv_propagate", "iterations_cascade0") ==
              PF_LPV_DEFAULT_ITERATIONS);
+    /* On the host's CPUs exactly where the device is the CPU (lavapipe). */
+    PF_CHECK(ref_stage_counter(&report, "lpv_propagate", "on_host") ==
+             (strcmp(pf_vk_info(ctx)->type, "cpu") == 0 ? 1.0 : 0.0));
     PF_CHECK(ref_stage_counter(&report, "lpv_inject", "vpls") > 1000.0);
     PF_CHECK(ref_stage_counter(&report, "lpv_inject", "outside") == 0.0);
     PF_CHECK(ref_stage_counter(&report, "lpv_geometry", "scene_covered") == 1.0);
