@@ -163,6 +163,10 @@ pf_status pf_lpv_propagate_host_width(const pf_lpv_layout *layout, const float *
     uint32_t threads = online > 1 ? (uint32_t)online : 1u;
     if (threads > layout->count)
         threads = layout->count;
+    if (threads > PF_LPV_MAX_CASCADES)
+        threads = PF_LPV_MAX_CASCADES;
+    if (threads == 0)
+        threads = 1; /* no cascade: the job below runs none */
     cascade_job jobs[PF_LPV_MAX_CASCADES];
     pthread_t handles[PF_LPV_MAX_CASCADES];
     int started[PF_LPV_MAX_CASCADES] = {0};
