@@ -69,28 +69,24 @@ pf_lpv_host_step_fn pf_lpv_host_stepper(uint32_t width)
     return NULL;
 }
 
-/* Cascade-major cells, 12 floats each (the device's layout), into planes, and back. */
-static void to_planes(const float *cells, uint32_t size, float *planes)
+/*
+ * Between cascade-major cells, 12 floats each (the device's layout), and
+ * planes: into the planes when into_planes, else back out of them.
+ */
+static void copy_cells(uint32_t size, const float *from, float *to, int into_planes)
 {
     size_t i = 0, plane = (size_t)size + 2u;
     for (uint32_t z = 0; z < size; z++)
         for (uint32_t y = 0; y < size; y++)
             for (uint32_t x = 0; x < size; x++, i++) {
                 size_t at = pf_lpv_host_index(size, x, y, z);
-                for (uint32_t c = 0; c < PF_LPV_HOST_PLANES; c++)
-                    planes[at + c * plane] = cells[i * PF_LPV_HOST_PLANES + c];
-            }
-}
-
-static void from_planes(const float *planes, uint32_t size, float *cells)
-{
-    size_t i = 0, plane = (size_t)size + 2u;
-    for (uint32_t z = 0; z < size; z++)
-        for (uint32_t y = 0; y < size; y++)
-            for (uint32_t x = 0; x < size; x++, i++) {
-                size_t at = pf_lpv_host_index(size, x, y, z);
-                for (uint32_t c = 0; c < PF_LPV_HOST_PLANES; c++)
-                    cells[i * PF_LPV_HOST_PLANES + c] = planes[at + c * plane];
+                for (uint32_t c = 0; c < PF_LPV_HOST_PLANES; c++) {
+                    size_t cell = i * PF_LPV_HOST_PLANES + c, in_plane = at + c * plane;
+                    if (into_planes)
+                        to[in_plane] = from[cell];
+                    else
+                        to[cell] = from[in_plane];
+                }
             }
 }
 
@@ -115,21 +111,21 @@ static int propagate_cascade(const cascade_job *job, uint32_t k)
     float *gv = job->gv ? calloc(floats, sizeof(float)) : NULL;
     int ok = ping && pong && acc && (gv || !job->gv);
     if (ok) {
-        to_planes(job->injected + offset, size, ping);
-        to_planes(job->injected + offset, size, acc);
+        copy_cells(size, job->injected + offset, ping, 1);
+        copy_cells(size, job->injected + offset, acc, 1);
         if (gv)
-            to_planes(job->gv + (size_t)k * cells * PF_LPV_GV_FLOATS_PER_CELL, size, gv);
+            copy_cells(size, job->gv + (size_t)k * cells * PF_LPV_GV_FLOATS_PER_CELL, gv, 1);
         const pf_lpv_cascade *cascade = &job->layout->cascades[k];
         float *src = ping, *dst = pong;
         for (uint32_t i = 1; i <= cascade->iterations; i++) {
             job->step(transfers, src, gv, dst, acc, size);
             if (i == cascade->snapshot_iterations)
-                from_planes(acc, size, job->snapshot + offset);
+                copy_cells(size, acc, job->snapshot + offset, 0);
             float *swap = src;
             src = dst;
             dst = swap;
         }
-        from_planes(acc, size, job->accumulated + offset);
+        copy_cells(size, acc, job->accumulated + offset, 0);
     }
     free(ping);
     free(pong);
