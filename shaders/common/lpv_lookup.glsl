@@ -114,42 +114,91 @@ vec3 lpv_dot_interpolated(uint k, uint size, vec3 g, vec4 lobe, bool far)
     return sum;
 }
 
+// Most cascades a layout has (pf_lpv.h's PF_LPV_MAX_CASCADES).
+const uint LPV_MAX_CASCADES = 8u;
+// What a lookup of lpv_irradiance's list reads: a cascade's far field, its near field,
+// or its near field one cell further out (the damping's second read).
+const uint LPV_FAR = 0u;
+const uint LPV_NEAR = 1u;
+const uint LPV_NEAR_OUTSIDE = 2u;
+
+// Cascade k's cell coordinates (cell centres at integers) of the point half a cell out of
+// the surface, and its cell size.
+vec3 lpv_cascade_point(uint k, vec3 position, vec3 normal, out float s)
+{
+    vec4 cascade = texelFetch(lpv_cascade_texels, int(k));
+    s = cascade.w;
+    return (position + 0.5 * s * normal - cascade.xyz) / s - 0.5;
+}
+
 // Irradiance (W/m², RGB) at position on a surface of unit normal; covered
 // says whether some cascade held the point (false: 0 is returned).
+//
+// First the lookups the point needs, in order, each with the weight its value gets;
+// then one lookup per iteration of a loop. Written as one loop over the cascades with
+// the far field, the near field and the damping's read each behind an `if`, llvmpipe
+// ran all three for every cascade and every lane (it runs an `if` masked, but a loop
+// only until its last lane leaves): 12 lookups for 4 cascades where a point needs about
+// 5 (bench/RESULTS.md). The sums are the same, in the same order.
 vec3 lpv_irradiance(vec3 position, vec3 normal, uint cascade_count, uint size, bool damping,
                     out bool covered)
 {
     vec4 lobe = sh_cosine_lobe(-normal);
-    vec3 irradiance = vec3(0.0);
+    uint lookup_what[3u * LPV_MAX_CASCADES]; // cascade × 4 + LPV_FAR / NEAR / NEAR_OUTSIDE
+    float lookup_weight[3u * LPV_MAX_CASCADES];
+    uint lookups = 0u;
     float remaining = 1.0; // weight not yet given to a cascade's near field
     covered = false;
-    for (uint k = 0u; k < cascade_count; k++) {
-        vec4 cascade = texelFetch(lpv_cascade_texels, int(k));
-        float s = cascade.w;
-        vec3 g = (position + 0.5 * s * normal - cascade.xyz) / s - 0.5;
+    for (uint k = 0u; k < min(cascade_count, LPV_MAX_CASCADES); k++) {
+        float s;
+        vec3 g = lpv_cascade_point(k, position, normal, s);
         vec3 to_edge = min(g, vec3(float(size) - 1.0) - g);
         float edge = min(to_edge.x, min(to_edge.y, to_edge.z));
         if (edge < 0.0)
             continue;
         float used = 1.0 - remaining; // Σ of the finer cascades' weights
-        if (covered && used > 0.0)
-            irradiance +=
-                used * max(lpv_dot_interpolated(k, size, g, lobe, true), vec3(0.0)) / (s * s);
+        if (covered && used > 0.0) {
+            lookup_what[lookups] = 4u * k + LPV_FAR;
+            lookup_weight[lookups++] = used;
+        }
         covered = true;
         float weight = k + 1u == cascade_count ? 1.0 : clamp(edge / LPV_BLEND_CELLS, 0.0, 1.0);
         if (weight <= 0.0 || remaining <= 0.0)
             continue;
-        vec3 e = max(lpv_dot_interpolated(k, size, g, lobe, false), vec3(0.0)) / (s * s);
+        lookup_what[lookups] = 4u * k + LPV_NEAR;
+        lookup_weight[lookups++] = remaining * weight;
         if (damping) {
-            vec3 outside = max(lpv_dot_interpolated(k, size, g + normal, lobe, false), vec3(0.0)) /
-                            (s * s);
+            lookup_what[lookups] = 4u * k + LPV_NEAR_OUTSIDE;
+            lookup_weight[lookups++] = 0.0;
+        }
+        remaining *= 1.0 - weight;
+    }
+    vec3 irradiance = vec3(0.0);
+    vec3 e = vec3(0.0); // the last near field, awaiting its damping
+    float near_weight = 0.0;
+    for (uint i = 0u; i < lookups; i++) {
+        uint k = lookup_what[i] >> 2u, what = lookup_what[i] & 3u;
+        float s;
+        vec3 g = lpv_cascade_point(k, position, normal, s);
+        vec3 value = max(lpv_dot_interpolated(k, size, what == LPV_NEAR_OUTSIDE ? g + normal : g,
+                                              lobe, what == LPV_FAR),
+                         vec3(0.0));
+        if (what == LPV_FAR) {
+            irradiance += lookup_weight[i] * value / (s * s);
+        } else if (what == LPV_NEAR) {
+            e = value / (s * s);
+            near_weight = lookup_weight[i];
+            if (!damping)
+                irradiance += near_weight * e;
+        } else {
+            // Damping: light present only in the surface's own cell came through it.
+            vec3 outside = value / (s * s);
             float inner = dot(e, vec3(0.2126, 0.7152, 0.0722));
             float outer = dot(outside, vec3(0.2126, 0.7152, 0.0722));
             if (inner > 0.0)
                 e *= min(1.0, 2.0 * outer / inner);
+            irradiance += near_weight * e;
         }
-        irradiance += remaining * weight * e;
-        remaining *= 1.0 - weight;
     }
     return irradiance;
 }
