@@ -16,7 +16,8 @@
 // SNAPSHOT also copies the new accumulated value into
 // the snapshot volume (the far-field split of lpv_lookup.glsl: a cascade's
 // accumulation after the iterations that reach as far as the next finer
-// cascade's whole propagation).
+// cascade's whole propagation), which the last iteration (FAR_FIELD) turns
+// into the far field, the final accumulation minus the snapshot.
 
 layout(local_size_x = 4, local_size_y = 4, local_size_z = 4) in;
 
@@ -30,6 +31,9 @@ layout(constant_id = 0) const uint ACCUMULATE = 1u;
 // condition is false for every lane anyway (its stores as per-lane loops), so the
 // snapshot's stores exist only in the pipeline of the iteration that takes it.
 layout(constant_id = 1) const bool SNAPSHOT = false;
+// FAR_FIELD: the cascade's last iteration, which turns the snapshot volume into the far
+// field the lookups read, accumulated − snapshot (one volume to fetch instead of two).
+layout(constant_id = 2) const bool FAR_FIELD = false;
 
 layout(push_constant) uniform Push {
     uint size;       // cells per axis
@@ -47,6 +51,8 @@ layout(std430, set = 0, binding = 4) writeonly buffer Snapshot { vec4 snapshot[]
 // The accumulation read through a texel view of the same buffer (bound again here): each
 // invocation reads its own cell before writing it, and no other invocation touches it.
 layout(set = 0, binding = 5) uniform samplerBuffer accumulated_texels;
+// The snapshot likewise, for FAR_FIELD.
+layout(set = 0, binding = 6) uniform samplerBuffer snapshot_texels;
 
 #include "lpv_sh.glsl"
 
@@ -221,7 +227,15 @@ void main()
         accumulated[di] = r;
         accumulated[di + 1u] = g;
         accumulated[di + 2u] = b;
-        if (SNAPSHOT) {
+        if (FAR_FIELD) {
+            // A snapshot taken in this same iteration is the accumulation: no far field.
+            vec4 snapshot_r = SNAPSHOT ? r : texelFetch(snapshot_texels, int(di));
+            vec4 snapshot_g = SNAPSHOT ? g : texelFetch(snapshot_texels, int(di + 1u));
+            vec4 snapshot_b = SNAPSHOT ? b : texelFetch(snapshot_texels, int(di + 2u));
+            snapshot[di] = r - snapshot_r;
+            snapshot[di + 1u] = g - snapshot_g;
+            snapshot[di + 2u] = b - snapshot_b;
+        } else if (SNAPSHOT) {
             snapshot[di] = r;
             snapshot[di + 1u] = g;
             snapshot[di + 2u] = b;

@@ -9,9 +9,10 @@
 #include <stdlib.h>
 #include <string.h>
 
-#define PROPAGATE_BUFFERS 6u
+#define PROPAGATE_BUFFERS 7u
 #define SPEC_ACCUMULATE 0u
 #define SPEC_SNAPSHOT 1u
+#define SPEC_FAR_FIELD 2u
 /* SPEC_ACCUMULATE's values (lpv_propagate.comp). */
 #define ACCUMULATE_NONE 0u
 #define ACCUMULATE_RESULT 1u
@@ -25,11 +26,11 @@ typedef struct propagate_push {
 
 struct pf_lpv {
     pf_vk_context *ctx;
-    /* [ACCUMULATE][SNAPSHOT], each created on first use (a layout needs 3 to 5 of them). */
-    pf_vk_pipeline *propagate[ACCUMULATE_MODES][2];
+    /* [ACCUMULATE][SNAPSHOT][FAR_FIELD], each created on first use (a layout needs 4 to 7). */
+    pf_vk_pipeline *propagate[ACCUMULATE_MODES][2][2];
     uint64_t floats; /* SH floats of one volume (0: none allocated) */
     pf_lpv_site site;
-    float *host_volumes;  /* the host path's accumulation, then its snapshot */
+    float *host_volumes;  /* the host path's accumulation, then its snapshot / far field */
     uint64_t host_floats; /* floats of each */
     pf_vk_buffer *injected, *ping, *pong, *accumulated, *geometry, *snapshot;
 };
@@ -45,17 +46,18 @@ pf_status pf_lpv_create(pf_vk_context *ctx, pf_lpv **out, pf_error *err)
     return PF_OK;
 }
 
-/* The propagation pipeline of one ACCUMULATE mode, with or without SNAPSHOT. */
-static pf_status propagate_pipeline(pf_lpv *lpv, uint32_t accumulate, int snapshot,
+/* The propagation pipeline of one ACCUMULATE mode, with or without SNAPSHOT and FAR_FIELD. */
+static pf_status propagate_pipeline(pf_lpv *lpv, uint32_t accumulate, int snapshot, int far,
                                     pf_vk_pipeline **out, pf_error *err)
 {
-    pf_vk_pipeline **slot = &lpv->propagate[accumulate][snapshot != 0];
+    pf_vk_pipeline **slot = &lpv->propagate[accumulate][snapshot != 0][far != 0];
     if (!*slot) {
-        pf_vk_spec_constant spec[2] = {{SPEC_ACCUMULATE, accumulate},
-                                       {SPEC_SNAPSHOT, snapshot != 0}};
+        pf_vk_spec_constant spec[3] = {{SPEC_ACCUMULATE, accumulate},
+                                       {SPEC_SNAPSHOT, snapshot != 0},
+                                       {SPEC_FAR_FIELD, far != 0}};
         pf_status status = pf_vk_pipeline_create_named(lpv->ctx, "lpv_propagate",
                                                        PROPAGATE_BUFFERS, sizeof(propagate_push),
-                                                       spec, 2, slot, err);
+                                                       spec, 3, slot, err);
         if (status != PF_OK)
             return status;
     }
@@ -81,12 +83,11 @@ void pf_lpv_destroy(pf_lpv *lpv)
         return;
     release_volumes(lpv);
     free(lpv->host_volumes);
-    for (uint32_t mode = 0; mode < ACCUMULATE_MODES; mode++) {
-        for (int snapshot = 0; snapshot < 2; snapshot++) {
-            if (lpv->propagate[mode][snapshot])
-                pf_vk_pipeline_destroy(lpv->ctx, lpv->propagate[mode][snapshot]);
-        }
-    }
+    for (uint32_t mode = 0; mode < ACCUMULATE_MODES; mode++)
+        for (int snapshot = 0; snapshot < 2; snapshot++)
+            for (int far = 0; far < 2; far++)
+                if (lpv->propagate[mode][snapshot][far])
+                    pf_vk_pipeline_destroy(lpv->ctx, lpv->propagate[mode][snapshot][far]);
     free(lpv);
 }
 
@@ -121,6 +122,19 @@ static pf_status ensure_volumes(pf_lpv *lpv, uint64_t floats, pf_error *err)
     return PF_OK;
 }
 
+/* floats zeros into buffer from float first on. */
+static pf_status upload_zeros(pf_lpv *lpv, pf_vk_buffer *buffer, uint64_t first, uint64_t floats,
+                              pf_error *err)
+{
+    void *zeros = calloc(floats, sizeof(float));
+    if (!zeros)
+        return pf_error_set(err, PF_ERR_NOMEM, "LPV: out of memory");
+    pf_status status = pf_vk_buffer_upload(lpv->ctx, buffer, first * sizeof(float), zeros,
+                                           floats * sizeof(float), err);
+    free(zeros);
+    return status;
+}
+
 /*
  * Uploads gv, or zeros when gv is NULL (no occlusion: the propagation skips
  * it, and the lookups see every face open).
@@ -130,12 +144,7 @@ static pf_status upload_geometry(pf_lpv *lpv, const float *gv, pf_error *err)
     uint64_t bytes = pf_vk_buffer_size(lpv->geometry);
     if (gv)
         return pf_vk_buffer_upload(lpv->ctx, lpv->geometry, 0, gv, bytes, err);
-    void *zeros = calloc(1, bytes);
-    if (!zeros)
-        return pf_error_set(err, PF_ERR_NOMEM, "LPV: out of memory");
-    pf_status status = pf_vk_buffer_upload(lpv->ctx, lpv->geometry, 0, zeros, bytes, err);
-    free(zeros);
-    return status;
+    return upload_zeros(lpv, lpv->geometry, 0, bytes / sizeof(float), err);
 }
 
 /*
@@ -205,15 +214,18 @@ static pf_status propagate_on_host(pf_lpv *lpv, const pf_lpv_layout *layout,
             return pf_error_set(err, PF_ERR_NOMEM, "LPV: out of memory");
         lpv->host_floats = floats;
     }
-    float *accumulated = lpv->host_volumes, *snapshot = lpv->host_volumes + floats;
+    float *accumulated = lpv->host_volumes, *far = lpv->host_volumes + floats;
     if (status == PF_OK)
-        status = pf_lpv_propagate_host(layout, injected, gv, accumulated, snapshot, err);
+        status = pf_lpv_propagate_host(layout, injected, gv, accumulated, far, err);
+    /* The snapshot into the far field, the same subtraction as the kernel's FAR_FIELD. */
+    for (uint64_t i = 0; status == PF_OK && i < floats; i++)
+        far[i] = accumulated[i] - far[i];
     if (status == PF_OK)
         status = pf_vk_buffer_upload(lpv->ctx, lpv->accumulated, 0, accumulated,
                                      floats * sizeof(float), err);
     if (status == PF_OK)
-        status = pf_vk_buffer_upload(lpv->ctx, lpv->snapshot, 0, snapshot,
-                                     floats * sizeof(float), err);
+        status = pf_vk_buffer_upload(lpv->ctx, lpv->snapshot, 0, far, floats * sizeof(float),
+                                     err);
     if (status == PF_OK)
         status = upload_geometry(lpv, gv, err);
     return status;
@@ -241,6 +253,11 @@ pf_status pf_lpv_propagate(pf_lpv *lpv, const pf_lpv_layout *layout, const float
         return status;
     uint32_t groups = (layout->size + GROUP_EDGE - 1) / GROUP_EDGE;
     uint64_t cells = (uint64_t)layout->size * layout->size * layout->size;
+    /* A cascade without iterations has no last one to make its far field: none, zeros. */
+    for (uint32_t k = 0; status == PF_OK && k < layout->count; k++)
+        if (layout->cascades[k].iterations == 0)
+            status = upload_zeros(lpv, lpv->snapshot, k * cells * PF_LPV_FLOATS_PER_CELL,
+                                  cells * PF_LPV_FLOATS_PER_CELL, err);
     int begin = pf_vk_cmd_timestamp(cmds);
     for (uint32_t k = 0; status == PF_OK && k < layout->count; k++) {
         propagate_push push = {layout->size, (uint32_t)(k * cells), gv != NULL};
@@ -249,15 +266,17 @@ pf_status pf_lpv_propagate(pf_lpv *lpv, const pf_lpv_layout *layout, const float
         int pending = 0; /* the injection is in the accumulation from the start */
         for (uint32_t i = 0; status == PF_OK && i < cascade->iterations; i++) {
             pf_vk_buffer *destination = (i % 2u == 0) ? lpv->ping : lpv->pong;
-            /* Binding 5: the accumulation again, read as texels (lpv_propagate.comp). */
-            pf_vk_buffer *buffers[PROPAGATE_BUFFERS] = {source,        destination,
-                                                        lpv->accumulated, lpv->geometry,
-                                                        lpv->snapshot, lpv->accumulated};
+            /* Bindings 5 and 6: the accumulation and the snapshot again, read as texels
+             * (lpv_propagate.comp). */
+            pf_vk_buffer *buffers[PROPAGATE_BUFFERS] = {
+                source,        destination,      lpv->accumulated, lpv->geometry,
+                lpv->snapshot, lpv->accumulated, lpv->snapshot};
             int snapshot = i + 1u == cascade->snapshot_iterations;
+            int far = i + 1u == cascade->iterations;
             uint32_t mode = accumulate_mode(i + 1u, cascade->iterations,
                                             cascade->snapshot_iterations, &pending);
             pf_vk_pipeline *pipeline = NULL;
-            status = propagate_pipeline(lpv, mode, snapshot, &pipeline, err);
+            status = propagate_pipeline(lpv, mode, snapshot, far, &pipeline, err);
             if (status == PF_OK)
                 status = pf_vk_cmd_dispatch(cmds, pipeline, buffers, PROPAGATE_BUFFERS, &push,
                                             sizeof push, groups, groups, groups, err);
@@ -282,7 +301,7 @@ pf_vk_buffer *pf_lpv_accumulated(const pf_lpv *lpv)
     return lpv->floats ? lpv->accumulated : NULL;
 }
 
-pf_vk_buffer *pf_lpv_snapshots(const pf_lpv *lpv)
+pf_vk_buffer *pf_lpv_far_fields(const pf_lpv *lpv)
 {
     return lpv->floats ? lpv->snapshot : NULL;
 }
@@ -305,7 +324,7 @@ pf_status pf_lpv_propagate_once(pf_lpv *lpv, uint32_t size, const float *src, co
                                 float *dst, pf_error *err)
 {
     pf_vk_pipeline *once = NULL;
-    pf_status status = propagate_pipeline(lpv, ACCUMULATE_NONE, 0, &once, err);
+    pf_status status = propagate_pipeline(lpv, ACCUMULATE_NONE, 0, 0, &once, err);
     uint64_t floats = (uint64_t)size * size * size * PF_LPV_FLOATS_PER_CELL;
     uint64_t bytes = floats * sizeof(float);
     pf_vk_commands *cmds = NULL;
@@ -316,7 +335,8 @@ pf_status pf_lpv_propagate_once(pf_lpv *lpv, uint32_t size, const float *src, co
     uint32_t groups = (size + GROUP_EDGE - 1) / GROUP_EDGE;
     propagate_push push = {size, 0, gv != NULL};
     pf_vk_buffer *buffers[PROPAGATE_BUFFERS] = {lpv->injected, lpv->ping,     lpv->accumulated,
-                                                lpv->geometry, lpv->snapshot, lpv->accumulated};
+                                                lpv->geometry, lpv->snapshot, lpv->accumulated,
+                                                lpv->snapshot};
     status = pf_vk_cmd_dispatch(cmds, once, buffers, PROPAGATE_BUFFERS, &push,
                                 sizeof push, groups, groups, groups, err);
     if (status == PF_OK)

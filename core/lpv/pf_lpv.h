@@ -49,7 +49,8 @@
  * (neighbour, face) pairs is 4π, so a step conserves flux exactly for any
  * intensity that is non-negative everywhere. Ping-pong buffers; the
  * accumulation buffer sums the injected grid and every iteration's result;
- * a snapshot of it after snapshot_iterations (below) gives the far field.
+ * a snapshot of it after snapshot_iterations (below), subtracted from it at
+ * the end, gives the far field.
  *
  * Cascades: count levels, cell_size doubling per level, each centred on the
  * focus point (pf_lpv_focus) and snapped to its own cell size, so a camera
@@ -270,10 +271,11 @@ pf_status pf_lpv_propagate(pf_lpv *lpv, const pf_lpv_layout *layout, const float
 /*
  * The same propagation on the host's CPUs, for a device that is the CPU
  * (lavapipe): accumulated receives what pf_lpv_propagate leaves in the
- * accumulation volume, snapshot what it leaves in the snapshot volume (each
- * pf_lpv_volume_floats(layout, 12) floats; equal to the device's up to float
- * rounding). The cascades run on up to one thread per online CPU.
- * PF_ERR_NOMEM.
+ * accumulation volume, snapshot the accumulation after each cascade's
+ * snapshot_iterations (each pf_lpv_volume_floats(layout, 12) floats; equal
+ * to the device's up to float rounding; pf_lpv_propagate's far field is
+ * accumulated − snapshot). The cascades run on up to one thread per online
+ * CPU. PF_ERR_NOMEM.
  */
 pf_status pf_lpv_propagate_host(const pf_lpv_layout *layout, const float *injected,
                                 const float *gv, float *accumulated, float *snapshot,
@@ -281,8 +283,12 @@ pf_status pf_lpv_propagate_host(const pf_lpv_layout *layout, const float *inject
 
 /* The accumulation volume on the device (NULL before a propagation); pf_lpv owns it. */
 pf_vk_buffer *pf_lpv_accumulated(const pf_lpv *lpv);
-/* The snapshot volume (pf_lpv_cascade.snapshot_iterations), likewise. */
-pf_vk_buffer *pf_lpv_snapshots(const pf_lpv *lpv);
+/*
+ * The far-field volume, likewise: the accumulation minus its snapshot
+ * (pf_lpv_cascade.snapshot_iterations), per float, what lpv_lookup.glsl adds
+ * from the coarser cascades (one volume to read where it read two).
+ */
+pf_vk_buffer *pf_lpv_far_fields(const pf_lpv *lpv);
 /* The geometry volume of the last propagation (zeros when it had none), likewise. */
 pf_vk_buffer *pf_lpv_geometry(const pf_lpv *lpv);
 

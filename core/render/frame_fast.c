@@ -314,7 +314,7 @@ static pf_status shade(pf_renderer *renderer, struct pf_fast_cache *cache,
         scene->materials, scene->lights,  scene->emissive,  owned.film,
         owned.film_aov,  owned.counters,  bih->nodes,       bih->vertices,
         bih->triangle_index, pf_lpv_accumulated(cache->lpv), cache->cascades, records,
-        ranges, pf_lpv_snapshots(cache->lpv), pf_lpv_geometry(cache->lpv), flux};
+        ranges, pf_lpv_far_fields(cache->lpv), pf_lpv_geometry(cache->lpv), flux};
     /* The kernel with the caustic estimate only for a frame with caustic photons. */
     pf_vk_pipeline *kernel = NULL;
     if (status == PF_OK)

@@ -64,7 +64,7 @@ layout(set = 0, binding = 14) uniform samplerBuffer lpv_cascade_texels;
 // The caustic map (photon_estimate.glsl: texel buffers).
 layout(set = 0, binding = 15) uniform isamplerBuffer grid_records;
 layout(set = 0, binding = 16) uniform isamplerBuffer grid_ranges;
-layout(set = 0, binding = 17) uniform samplerBuffer lpv_snapshot_texels;
+layout(set = 0, binding = 17) uniform samplerBuffer lpv_far_texels;
 layout(set = 0, binding = 18) uniform samplerBuffer lpv_geometry_texels;
 layout(set = 0, binding = 19) uniform usamplerBuffer grid_flux;
 

@@ -5,8 +5,9 @@
 // fetches a texel for all lanes at once, a storage buffer lane by lane):
 //   lpv_cell_texels      every cascade's accumulated intensity SH, three texels
 //                        (R, G, B) per cell, cascade k from k × size³ cells on
-//   lpv_snapshot_texels  the same layout: each cascade's accumulation after its
-//                        snapshot iterations (pf_lpv_cascade.snapshot_iterations)
+//   lpv_far_texels       the same layout: each cascade's far field, its accumulation
+//                        minus the accumulation after its snapshot iterations
+//                        (pf_lpv_cascade.snapshot_iterations)
 //   lpv_cascade_texels   one per cascade: origin of cell (0, 0, 0) in xyz, cell size in w
 //   lpv_geometry_texels  the geometry volumes (lpv_geometry.glsl)
 // and includes lpv_sh.glsl and lpv_geometry.glsl first.
@@ -90,7 +91,7 @@ uint lpv_corner_index(uint k, uint size, ivec3 base, int corner)
     return 3u * (k * size * size * size + (uint(c.z) * size + uint(c.y)) * size + uint(c.x));
 }
 
-// Interpolated SH of cascade k at g, dotted with lobe; far: accumulated − snapshot.
+// Interpolated SH of cascade k at g, dotted with lobe; far: the far field's.
 vec3 lpv_dot_interpolated(uint k, uint size, vec3 g, vec4 lobe, bool far)
 {
     ivec3 base;
@@ -101,13 +102,15 @@ vec3 lpv_dot_interpolated(uint k, uint size, vec3 g, vec4 lobe, bool far)
         if (weights[corner] == 0.0)
             continue;
         uint i = lpv_corner_index(k, size, base, corner);
-        vec4 r = texelFetch(lpv_cell_texels, int(i));
-        vec4 gg = texelFetch(lpv_cell_texels, int(i + 1u));
-        vec4 b = texelFetch(lpv_cell_texels, int(i + 2u));
+        vec4 r, gg, b;
         if (far) {
-            r -= texelFetch(lpv_snapshot_texels, int(i));
-            gg -= texelFetch(lpv_snapshot_texels, int(i + 1u));
-            b -= texelFetch(lpv_snapshot_texels, int(i + 2u));
+            r = texelFetch(lpv_far_texels, int(i));
+            gg = texelFetch(lpv_far_texels, int(i + 1u));
+            b = texelFetch(lpv_far_texels, int(i + 2u));
+        } else {
+            r = texelFetch(lpv_cell_texels, int(i));
+            gg = texelFetch(lpv_cell_texels, int(i + 1u));
+            b = texelFetch(lpv_cell_texels, int(i + 2u));
         }
         sum += weights[corner] * vec3(dot(r, lobe), dot(gg, lobe), dot(b, lobe));
     }
@@ -116,11 +119,6 @@ vec3 lpv_dot_interpolated(uint k, uint size, vec3 g, vec4 lobe, bool far)
 
 // Most cascades a layout has (pf_lpv.h's PF_LPV_MAX_CASCADES).
 const uint LPV_MAX_CASCADES = 8u;
-// What a lookup of lpv_irradiance's list reads: a cascade's far field, its near field,
-// or its near field one cell further out (the damping's second read).
-const uint LPV_FAR = 0u;
-const uint LPV_NEAR = 1u;
-const uint LPV_NEAR_OUTSIDE = 2u;
 
 // Cascade k's cell coordinates (cell centres at integers) of the point half a cell out of
 // the surface, and its cell size.
@@ -134,19 +132,20 @@ vec3 lpv_cascade_point(uint k, vec3 position, vec3 normal, out float s)
 // Irradiance (W/m², RGB) at position on a surface of unit normal; covered
 // says whether some cascade held the point (false: 0 is returned).
 //
-// First the lookups the point needs, in order, each with the weight its value gets;
-// then one lookup per iteration of a loop. Written as one loop over the cascades with
-// the far field, the near field and the damping's read each behind an `if`, llvmpipe
-// ran all three for every cascade and every lane (it runs an `if` masked, but a loop
-// only until its last lane leaves): 12 lookups for 4 cascades where a point needs about
-// 5 (bench/RESULTS.md). The sums are the same, in the same order.
+// First the lookups the point needs, each with the weight its value gets: the far
+// fields of the coarser cascades and the near fields (with the damping's second read)
+// of the cascades that get weight. Then a loop over each list, one lookup per
+// iteration, each list reading one volume. Written as one loop over the cascades with
+// the three lookups each behind an `if`, llvmpipe ran all of them for every cascade
+// and lane (it runs an `if` masked, but a loop only until its last lane leaves): 12
+// lookups for 4 cascades where a point needs about 5 (bench/RESULTS.md).
 vec3 lpv_irradiance(vec3 position, vec3 normal, uint cascade_count, uint size, bool damping,
                     out bool covered)
 {
     vec4 lobe = sh_cosine_lobe(-normal);
-    uint lookup_what[3u * LPV_MAX_CASCADES]; // cascade × 4 + LPV_FAR / NEAR / NEAR_OUTSIDE
-    float lookup_weight[3u * LPV_MAX_CASCADES];
-    uint lookups = 0u;
+    uint far_cascade[LPV_MAX_CASCADES], near_cascade[LPV_MAX_CASCADES];
+    float far_weight[LPV_MAX_CASCADES], near_weight[LPV_MAX_CASCADES];
+    uint fars = 0u, nears = 0u;
     float remaining = 1.0; // weight not yet given to a cascade's near field
     covered = false;
     for (uint k = 0u; k < min(cascade_count, LPV_MAX_CASCADES); k++) {
@@ -158,47 +157,40 @@ vec3 lpv_irradiance(vec3 position, vec3 normal, uint cascade_count, uint size, b
             continue;
         float used = 1.0 - remaining; // Σ of the finer cascades' weights
         if (covered && used > 0.0) {
-            lookup_what[lookups] = 4u * k + LPV_FAR;
-            lookup_weight[lookups++] = used;
+            far_cascade[fars] = k;
+            far_weight[fars++] = used;
         }
         covered = true;
         float weight = k + 1u == cascade_count ? 1.0 : clamp(edge / LPV_BLEND_CELLS, 0.0, 1.0);
         if (weight <= 0.0 || remaining <= 0.0)
             continue;
-        lookup_what[lookups] = 4u * k + LPV_NEAR;
-        lookup_weight[lookups++] = remaining * weight;
-        if (damping) {
-            lookup_what[lookups] = 4u * k + LPV_NEAR_OUTSIDE;
-            lookup_weight[lookups++] = 0.0;
-        }
+        near_cascade[nears] = k;
+        near_weight[nears++] = remaining * weight;
         remaining *= 1.0 - weight;
     }
     vec3 irradiance = vec3(0.0);
-    vec3 e = vec3(0.0); // the last near field, awaiting its damping
-    float near_weight = 0.0;
-    for (uint i = 0u; i < lookups; i++) {
-        uint k = lookup_what[i] >> 2u, what = lookup_what[i] & 3u;
+    for (uint i = 0u; i < nears; i++) {
+        uint k = near_cascade[i];
         float s;
         vec3 g = lpv_cascade_point(k, position, normal, s);
-        vec3 value = max(lpv_dot_interpolated(k, size, what == LPV_NEAR_OUTSIDE ? g + normal : g,
-                                              lobe, what == LPV_FAR),
-                         vec3(0.0));
-        if (what == LPV_FAR) {
-            irradiance += lookup_weight[i] * value / (s * s);
-        } else if (what == LPV_NEAR) {
-            e = value / (s * s);
-            near_weight = lookup_weight[i];
-            if (!damping)
-                irradiance += near_weight * e;
-        } else {
-            // Damping: light present only in the surface's own cell came through it.
-            vec3 outside = value / (s * s);
+        vec3 e = max(lpv_dot_interpolated(k, size, g, lobe, false), vec3(0.0)) / (s * s);
+        if (damping) {
+            // Light present only in the surface's own cell came through it.
+            vec3 outside =
+                max(lpv_dot_interpolated(k, size, g + normal, lobe, false), vec3(0.0)) / (s * s);
             float inner = dot(e, vec3(0.2126, 0.7152, 0.0722));
             float outer = dot(outside, vec3(0.2126, 0.7152, 0.0722));
             if (inner > 0.0)
                 e *= min(1.0, 2.0 * outer / inner);
-            irradiance += near_weight * e;
         }
+        irradiance += near_weight[i] * e;
+    }
+    for (uint i = 0u; i < fars; i++) {
+        uint k = far_cascade[i];
+        float s;
+        vec3 g = lpv_cascade_point(k, position, normal, s);
+        irradiance +=
+            far_weight[i] * max(lpv_dot_interpolated(k, size, g, lobe, true), vec3(0.0)) / (s * s);
     }
     return irradiance;
 }

@@ -4,7 +4,7 @@
  * constant, a wall in the geometry volume blocking the flux that crosses
  * it, cascades that stay bit-identical under sub-cell camera moves and
  * shift by a cell under one-cell moves (on the device and on the host), the
- * accumulation and snapshots equal to the sum of the single steps, and the
+ * accumulation and far fields equal to the sums of the single steps, and the
  * host propagation (lpv_propagate_host.c) agreeing with the device's.
  */
 #include "../vk/vk_test_util.h"
@@ -243,18 +243,20 @@ PF_TEST(camera_moves_below_a_cell_change_nothing_and_a_cell_shifts_by_one)
 /*
  * pf_lpv_propagate adds to the accumulation every other iteration, two
  * results at a time (lpv_gpu.c). Whatever the parity of a cascade's
- * iteration count and snapshot, its accumulation and snapshot must be the
- * injection plus each step's result added one by one in float, as single
- * steps (pf_lpv_propagate_once) summed on the host give them: to the bit.
+ * iteration count and snapshot, its accumulation must be the injection plus
+ * each step's result added one by one in float, as single steps
+ * (pf_lpv_propagate_once) summed on the host give them, and its far field
+ * that minus the sum after the snapshot's steps: to the bit.
  */
 PF_TEST(accumulation_and_snapshots_are_the_sum_of_the_single_steps)
 {
     pf_lpv_layout layout;
     memset(&layout, 0, sizeof layout);
-    layout.count = 4;
+    layout.count = 5;
     layout.size = 8;
-    /* One step; odd with an odd snapshot; even with an even one; the snapshot at the end. */
-    const uint32_t iterations[4] = {1, 5, 6, 7}, snapshot_at[4] = {0, 3, 2, 7};
+    /* One step; odd with an odd snapshot; even with an even one; the snapshot at the end;
+     * no step (the far field of nothing: zeros). */
+    const uint32_t iterations[5] = {1, 5, 6, 7, 0}, snapshot_at[5] = {0, 3, 2, 7, 0};
     for (uint32_t k = 0; k < layout.count; k++) {
         layout.cascades[k].iterations = iterations[k];
         layout.cascades[k].snapshot_iterations = snapshot_at[k];
@@ -292,9 +294,12 @@ PF_TEST(accumulation_and_snapshots_are_the_sum_of_the_single_steps)
             memcpy(step, next, cell_floats * sizeof *step);
         }
     }
+    /* What the lookups read of the snapshot: the far field, accumulated − snapshot. */
+    for (uint64_t f = 0; f < floats; f++)
+        expected_snapshot[f] = expected[f] - expected_snapshot[f];
     PF_REQUIRE_OK(pf_lpv_propagate(lpv, &layout, injected, NULL, NULL, &err), &err);
     PF_REQUIRE_OK(pf_lpv_download(lpv, got, floats, &err), &err);
-    PF_REQUIRE_OK(pf_vk_buffer_download(ctx, pf_lpv_snapshots(lpv), 0, got_snapshot,
+    PF_REQUIRE_OK(pf_vk_buffer_download(ctx, pf_lpv_far_fields(lpv), 0, got_snapshot,
                                         floats * sizeof *got_snapshot, &err),
                   &err);
     for (uint32_t k = 0; k < layout.count; k++) {
@@ -306,7 +311,7 @@ PF_TEST(accumulation_and_snapshots_are_the_sum_of_the_single_steps)
                 memcmp(&got_snapshot[at + f], &expected_snapshot[at + f], sizeof(float)) != 0;
         }
         printf("  cascade %u (%u iterations, snapshot after %u): %llu / %llu floats differ in "
-               "the accumulation, %llu in the snapshot\n",
+               "the accumulation, %llu in the far field\n",
                k, iterations[k], snapshot_at[k], (unsigned long long)differ,
                (unsigned long long)cell_floats, (unsigned long long)snapshot_differ);
         PF_CHECK(differ == 0);
@@ -314,6 +319,13 @@ PF_TEST(accumulation_and_snapshots_are_the_sum_of_the_single_steps)
     }
     /* The sum is no copy of the injection: the steps added light. */
     PF_CHECK(memcmp(expected, injected, floats * sizeof *expected) != 0);
+    /* Far fields: some light (cascade 1's), none where the snapshot is the end (3) or no step (4). */
+    int lit = 0, dark = 1;
+    for (uint64_t f = 0; f < cell_floats; f++) {
+        lit |= got_snapshot[1 * cell_floats + f] != 0.0f;
+        dark &= got_snapshot[3 * cell_floats + f] == 0.0f && got_snapshot[4 * cell_floats + f] == 0.0f;
+    }
+    PF_CHECK(lit && dark);
     free(injected);
     free(expected);
     free(expected_snapshot);
@@ -369,10 +381,10 @@ PF_TEST(the_host_propagation_agrees_with_the_device)
     }
     uint64_t floats = pf_lpv_volume_floats(&layout, PF_LPV_FLOATS_PER_CELL);
     float *injected = malloc(floats * sizeof(float)), *gv = malloc(floats * sizeof(float));
-    float *device = malloc(floats * sizeof(float)), *device_snapshot = malloc(floats * sizeof(float));
-    float *host = malloc(floats * sizeof(float)), *host_snapshot = malloc(floats * sizeof(float));
+    float *device = malloc(floats * sizeof(float)), *device_far = malloc(floats * sizeof(float));
+    float *host = malloc(floats * sizeof(float)), *host_far = malloc(floats * sizeof(float));
     float *other = malloc(floats * sizeof(float)), *other_snapshot = malloc(floats * sizeof(float));
-    PF_REQUIRE(injected && gv && device && device_snapshot && host && host_snapshot && other &&
+    PF_REQUIRE(injected && gv && device && device_far && host && host_far && other &&
                other_snapshot);
     random_volumes(7u, injected, gv, floats);
     pf_error err = {0};
@@ -383,7 +395,7 @@ PF_TEST(the_host_propagation_agrees_with_the_device)
         PF_REQUIRE_OK(pf_lpv_propagate(lpv, &layout, injected, geometry, &stats, &err), &err);
         PF_CHECK(!stats.on_host);
         PF_REQUIRE_OK(pf_lpv_download(lpv, device, floats, &err), &err);
-        PF_REQUIRE_OK(pf_vk_buffer_download(ctx, pf_lpv_snapshots(lpv), 0, device_snapshot,
+        PF_REQUIRE_OK(pf_vk_buffer_download(ctx, pf_lpv_far_fields(lpv), 0, device_far,
                                             floats * sizeof(float), &err),
                       &err);
         /* The host path of pf_lpv_propagate leaves its results in the device's volumes. */
@@ -393,16 +405,16 @@ PF_TEST(the_host_propagation_agrees_with_the_device)
         PF_CHECK(stats.gpu_ms < 0.0);
         PF_CHECK(stats.cell_updates == 12u * 12u * 12u * (3u + 6u + 5u));
         PF_REQUIRE_OK(pf_lpv_download(lpv, host, floats, &err), &err);
-        PF_REQUIRE_OK(pf_vk_buffer_download(ctx, pf_lpv_snapshots(lpv), 0, host_snapshot,
+        PF_REQUIRE_OK(pf_vk_buffer_download(ctx, pf_lpv_far_fields(lpv), 0, host_far,
                                             floats * sizeof(float), &err),
                       &err);
         pf_lpv_set_site(lpv, PF_LPV_SITE_DEVICE);
         double accumulation = relative_difference(host, device, floats);
-        double snapshots = relative_difference(host_snapshot, device_snapshot, floats);
-        printf("  occlusion %s: host against device %.3g (accumulation), %.3g (snapshots)\n",
-               occlusion ? "on" : "off", accumulation, snapshots);
+        double far_fields = relative_difference(host_far, device_far, floats);
+        printf("  occlusion %s: host against device %.3g (accumulation), %.3g (far fields)\n",
+               occlusion ? "on" : "off", accumulation, far_fields);
         PF_CHECK(accumulation <= 1e-5);
-        PF_CHECK(snapshots <= 1e-5);
+        PF_CHECK(far_fields <= 1e-5);
         /* Light moved: the accumulation is not the injection. */
         PF_CHECK(relative_difference(host, injected, floats) > 0.01);
         for (uint32_t width = 4; width <= 8; width *= 2) {
@@ -414,7 +426,10 @@ PF_TEST(the_host_propagation_agrees_with_the_device)
             printf("  %u-wide step: %s\n", width,
                    memcmp(other, host, floats * sizeof(float)) ? "differs" : "identical");
             PF_CHECK(!memcmp(other, host, floats * sizeof(float)));
-            PF_CHECK(!memcmp(other_snapshot, host_snapshot, floats * sizeof(float)));
+            /* pf_lpv_propagate's far field is this width's accumulation minus its snapshot. */
+            for (uint64_t f = 0; f < floats; f++)
+                other_snapshot[f] = other[f] - other_snapshot[f];
+            PF_CHECK(!memcmp(other_snapshot, host_far, floats * sizeof(float)));
         }
     }
     PF_CHECK(pf_lpv_host_stepper(4) != NULL);
@@ -422,9 +437,9 @@ PF_TEST(the_host_propagation_agrees_with_the_device)
     free(injected);
     free(gv);
     free(device);
-    free(device_snapshot);
+    free(device_far);
     free(host);
-    free(host_snapshot);
+    free(host_far);
     free(other);
     free(other_snapshot);
 }

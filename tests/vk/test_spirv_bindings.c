@@ -43,7 +43,7 @@ PF_TEST(integrators_read_the_tree_and_photon_maps_through_texel_buffers)
      * of their per-pixel buffers (bindings 24..29). The scene's triangles and materials
      * (bindings 1..4, scene_geometry.glsl) are texel buffers in all of them and counted apart.
      * Float texels: the tree's vertices where there is a tree, and fast's four LPV arrays (cells,
-     * cascades, snapshots, geometry; lpv_lookup.glsl). */
+     * cascades, far fields, geometry; lpv_lookup.glsl). */
     static const struct {
         const char *name;
         uint32_t texel_uint, texel_records, texel_float;
@@ -99,12 +99,12 @@ PF_TEST(integrators_read_the_tree_and_photon_maps_through_texel_buffers)
     kinds_of("render_fast", kinds, 20);
     PF_CHECK(kinds[13] == PF_VK_BINDING_TEXEL_FLOAT && kinds[14] == PF_VK_BINDING_TEXEL_FLOAT &&
              kinds[17] == PF_VK_BINDING_TEXEL_FLOAT &&
-             kinds[18] == PF_VK_BINDING_TEXEL_FLOAT); /* LPV cells, cascades, snapshots, geometry */
-    /* The propagation reads its source, the geometry and (through a second binding of the
-     * same buffer) the accumulation as texels, and writes storage. */
-    kinds_of("lpv_propagate", kinds, 6);
+             kinds[18] == PF_VK_BINDING_TEXEL_FLOAT); /* LPV cells, cascades, far fields, geometry */
+    /* The propagation reads its source, the geometry and (through second bindings of the
+     * same buffers) the accumulation and the snapshot as texels, and writes storage. */
+    kinds_of("lpv_propagate", kinds, 7);
     PF_CHECK(kinds[0] == PF_VK_BINDING_TEXEL_FLOAT && kinds[3] == PF_VK_BINDING_TEXEL_FLOAT &&
-             kinds[5] == PF_VK_BINDING_TEXEL_FLOAT);
+             kinds[5] == PF_VK_BINDING_TEXEL_FLOAT && kinds[6] == PF_VK_BINDING_TEXEL_FLOAT);
     PF_CHECK(kinds[1] == PF_VK_BINDING_STORAGE && kinds[2] == PF_VK_BINDING_STORAGE &&
              kinds[4] == PF_VK_BINDING_STORAGE);
     kinds_of("photon_irradiance_precompute", kinds, 6);
