@@ -32,6 +32,8 @@ struct pf_lpv {
     pf_lpv_site site;
     float *host_volumes;  /* the host path's accumulation, then its snapshot / far field */
     uint64_t host_floats; /* floats of each */
+    /* snapshot: the accumulation after snapshot_iterations, and once a propagation is
+     * done, the far field (accumulated − snapshot) that pf_lpv_far_fields gives. */
     pf_vk_buffer *injected, *ping, *pong, *accumulated, *geometry, *snapshot;
 };
 
@@ -112,7 +114,7 @@ static pf_status ensure_volumes(pf_lpv *lpv, uint64_t floats, pf_error *err)
         status = pf_vk_buffer_create(lpv->ctx, gv_bytes, "LPV geometry volume", &lpv->geometry,
                                      err);
     if (status == PF_OK)
-        status = pf_vk_buffer_create(lpv->ctx, bytes, "LPV snapshot volume", &lpv->snapshot,
+        status = pf_vk_buffer_create(lpv->ctx, bytes, "LPV snapshot / far-field volume", &lpv->snapshot,
                                      err);
     if (status != PF_OK) {
         release_volumes(lpv);
