@@ -114,8 +114,8 @@ static pf_status ensure_volumes(pf_lpv *lpv, uint64_t floats, pf_error *err)
         status = pf_vk_buffer_create(lpv->ctx, gv_bytes, "LPV geometry volume", &lpv->geometry,
                                      err);
     if (status == PF_OK)
-        status = pf_vk_buffer_create(lpv->ctx, bytes, "LPV snapshot / far-field volume", &lpv->snapshot,
-                                     err);
+        status = pf_vk_buffer_create(lpv->ctx, bytes, "LPV snapshot / far-field volume",
+                                     &lpv->snapshot, err);
     if (status != PF_OK) {
         release_volumes(lpv);
         return status;
@@ -242,10 +242,10 @@ pf_status pf_lpv_propagate(pf_lpv *lpv, const pf_lpv_layout *layout, const float
     memset(stats, 0, sizeof *stats);
     stats->gpu_ms = -1.0;
     uint64_t floats = pf_lpv_volume_floats(layout, PF_LPV_FLOATS_PER_CELL);
+    uint64_t cells = (uint64_t)layout->size * layout->size * layout->size;
+    for (uint32_t k = 0; k < layout->count; k++)
+        stats->cell_updates += cells * layout->cascades[k].iterations;
     if (runs_on_host(lpv)) {
-        uint64_t cells = (uint64_t)layout->size * layout->size * layout->size;
-        for (uint32_t k = 0; k < layout->count; k++)
-            stats->cell_updates += cells * layout->cascades[k].iterations;
         stats->on_host = 1;
         return propagate_on_host(lpv, layout, injected, gv, floats, err);
     }
@@ -254,7 +254,6 @@ pf_status pf_lpv_propagate(pf_lpv *lpv, const pf_lpv_layout *layout, const float
     if (status != PF_OK)
         return status;
     uint32_t groups = (layout->size + GROUP_EDGE - 1) / GROUP_EDGE;
-    uint64_t cells = (uint64_t)layout->size * layout->size * layout->size;
     /* A cascade without iterations has no last one to make its far field: none, zeros. */
     for (uint32_t k = 0; status == PF_OK && k < layout->count; k++)
         if (layout->cascades[k].iterations == 0)
@@ -284,7 +283,6 @@ pf_status pf_lpv_propagate(pf_lpv *lpv, const pf_lpv_layout *layout, const float
                                             sizeof push, groups, groups, groups, err);
             pf_vk_cmd_barrier(cmds);
             source = destination;
-            stats->cell_updates += cells;
         }
     }
     int end = pf_vk_cmd_timestamp(cmds);

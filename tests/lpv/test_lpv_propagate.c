@@ -241,6 +241,25 @@ PF_TEST(camera_moves_below_a_cell_change_nothing_and_a_cell_shifts_by_one)
 }
 
 /*
+ * Random SH coefficients (c0 above the other coefficients' reach, so few
+ * directions clamp at 0) and, when gv is not NULL, a sparse geometry volume.
+ */
+static void random_volumes(uint32_t seed, float *sh, float *gv, uint64_t floats)
+{
+    uint32_t state = seed;
+    for (uint64_t i = 0; i < floats; i++) {
+        state = state * 1664525u + 1013904223u;
+        float r = (float)(state >> 8) / 16777216.0f;
+        sh[i] = i % 4 == 0 ? 1.0f + r : r - 0.5f;
+        if (!gv)
+            continue;
+        state = state * 1664525u + 1013904223u;
+        /* A face in 5 blocks something, some of them fully (coefficients up to 2). */
+        gv[i] = (state >> 8) % 5 == 0 ? 2.0f * (float)(state >> 8) / 16777216.0f : 0.0f;
+    }
+}
+
+/*
  * pf_lpv_propagate adds to the accumulation every other iteration, two
  * results at a time (lpv_gpu.c). Whatever the parity of a cascade's
  * iteration count and snapshot, its accumulation must be the injection plus
@@ -272,13 +291,7 @@ PF_TEST(accumulation_and_snapshots_are_the_sum_of_the_single_steps)
     float *step = malloc(cell_floats * sizeof *step);
     float *next = malloc(cell_floats * sizeof *next);
     PF_REQUIRE(injected && expected && expected_snapshot && got && got_snapshot && step && next);
-    uint32_t state = 12345u;
-    for (uint64_t i = 0; i < floats; i++) {
-        state = state * 1664525u + 1013904223u;
-        float r = (float)(state >> 8) / 16777216.0f;
-        /* c0 above the other coefficients' reach, so few directions clamp at 0. */
-        injected[i] = i % 4 == 0 ? 1.0f + r : r - 0.5f;
-    }
+    random_volumes(12345u, injected, NULL, floats);
     memcpy(expected, injected, floats * sizeof *expected);
     memcpy(expected_snapshot, injected, floats * sizeof *expected_snapshot);
     pf_error err = {0};
@@ -319,11 +332,13 @@ PF_TEST(accumulation_and_snapshots_are_the_sum_of_the_single_steps)
     }
     /* The sum is no copy of the injection: the steps added light. */
     PF_CHECK(memcmp(expected, injected, floats * sizeof *expected) != 0);
-    /* Far fields: some light (cascade 1's), none where the snapshot is the end (3) or no step (4). */
+    /* Far fields: some light (cascade 1's), none where the snapshot is the end (3) or no
+     * step (4). */
     int lit = 0, dark = 1;
     for (uint64_t f = 0; f < cell_floats; f++) {
         lit |= got_snapshot[1 * cell_floats + f] != 0.0f;
-        dark &= got_snapshot[3 * cell_floats + f] == 0.0f && got_snapshot[4 * cell_floats + f] == 0.0f;
+        dark &= got_snapshot[3 * cell_floats + f] == 0.0f &&
+                got_snapshot[4 * cell_floats + f] == 0.0f;
     }
     PF_CHECK(lit && dark);
     free(injected);
@@ -333,20 +348,6 @@ PF_TEST(accumulation_and_snapshots_are_the_sum_of_the_single_steps)
     free(got_snapshot);
     free(step);
     free(next);
-}
-
-/* Random SH coefficients (c0 positive, so few directions clamp) and a sparse geometry volume. */
-static void random_volumes(uint32_t seed, float *sh, float *gv, uint64_t floats)
-{
-    uint32_t state = seed;
-    for (uint64_t i = 0; i < floats; i++) {
-        state = state * 1664525u + 1013904223u;
-        float r = (float)(state >> 8) / 16777216.0f;
-        sh[i] = i % 4 == 0 ? 1.0f + r : r - 0.5f;
-        state = state * 1664525u + 1013904223u;
-        /* A face in 5 blocks something, some of them fully (coefficients up to 2). */
-        gv[i] = (state >> 8) % 5 == 0 ? 2.0f * (float)(state >> 8) / 16777216.0f : 0.0f;
-    }
 }
 
 /* max |a − b| over max |b|: the difference against the volume's scale. */
