@@ -71,6 +71,19 @@ struct BihHit {
     float u, v;     // barycentrics of vertices 1 and 2
 };
 
+// min and max as compare-and-select, as pf_bih_min/max on the CPU: GLSL's min and
+// max return the other operand for a NaN, which llvmpipe pays with an unordered
+// compare and a blend per call; the traversal's operands are never NaN.
+float bih_min(float a, float b)
+{
+    return b < a ? b : a;
+}
+
+float bih_max(float a, float b)
+{
+    return b > a ? b : a;
+}
+
 float bih_widen_far(float t)
 {
     // precise: no FMA, so the bound rounds as on the CPU.
@@ -122,8 +135,8 @@ BihHit trace_bih(vec3 origin, vec3 direction, float tmin, float tmax, bool any_h
             t0 = t1;
             t1 = swap_t;
         }
-        t_near = max(t_near, t0);
-        t_far = min(t_far, bih_widen_far(t1));
+        t_near = bih_max(t_near, t0);
+        t_far = bih_min(t_far, bih_widen_far(t1));
     }
     if (!(t_near <= t_far))
         return hit;
@@ -156,7 +169,7 @@ BihHit trace_bih(vec3 origin, vec3 direction, float tmin, float tmax, bool any_h
             uint axis = word & 3u, child = word >> 2u;
             float clip_left = uintBitsToFloat(fields.x);
             float clip_right = uintBitsToFloat(fields.y);
-            float far_limit = min(t_far, bih_widen_far(closest));
+            float far_limit = bih_min(t_far, bih_widen_far(closest));
             float left_near = t_near, left_far = far_limit;
             float right_near = t_near, right_far = far_limit;
             bool left_first = true;
@@ -168,12 +181,12 @@ BihHit trace_bih(vec3 origin, vec3 direction, float tmin, float tmax, bool any_h
                 float t_left = (clip_left - origin[axis]) * inv[axis];
                 float t_right = (clip_right - origin[axis]) * inv[axis];
                 if (inv[axis] > 0.0) {
-                    left_far = min(left_far, bih_widen_far(t_left));
-                    right_near = max(right_near, t_right);
+                    left_far = bih_min(left_far, bih_widen_far(t_left));
+                    right_near = bih_max(right_near, t_right);
                 } else {
                     left_first = false;
-                    right_far = min(right_far, bih_widen_far(t_right));
-                    left_near = max(left_near, t_left);
+                    right_far = bih_min(right_far, bih_widen_far(t_right));
+                    left_near = bih_max(left_near, t_left);
                 }
             }
             bool visit_left = left_open && left_near <= left_far;
@@ -209,7 +222,7 @@ BihHit trace_bih(vec3 origin, vec3 direction, float tmin, float tmax, bool any_h
             while (stack_size > 0u) {
                 stack_size--;
                 vec2 entry = bih_unpack_interval(stack_interval[stack_size]);
-                float limit = min(entry.y, bih_widen_far(closest));
+                float limit = bih_min(entry.y, bih_widen_far(closest));
                 if (entry.x <= limit) {
                     node = stack_node[stack_size];
                     t_near = entry.x;
@@ -246,7 +259,7 @@ BihHit trace_bih(vec3 origin, vec3 direction, float tmin, float tmax, bool any_h
         while (stack_size > 0u) {
             stack_size--;
             vec2 entry = bih_unpack_interval(stack_interval[stack_size]);
-            float limit = min(entry.y, bih_widen_far(closest));
+            float limit = bih_min(entry.y, bih_widen_far(closest));
             if (entry.x <= limit) {
                 node = stack_node[stack_size];
                 t_near = entry.x;
