@@ -47,15 +47,18 @@ const float BIH_TWO_GAMMA3 = 6.0 * 5.9604644775390625e-8 / (1.0 - 3.0 * 5.960464
 const float BIH_FLT_MIN = 1.17549435e-38; // smallest normal float
 
 // A stack entry's interval in one word: near rounded down and far rounded up to
-// their 16 high bits (8 bits of mantissa). Looser bounds only cull less, so the hits
-// stay exact; the entry is two words instead of three, and llvmpipe stores and loads
-// a private array's word lane by lane (bench/RESULTS.md, "The stack in one word less").
+// their 16 high bits (sign, exponent, 7 bits of mantissa). Looser bounds only cull
+// less, so the hits stay exact; the entry is two words instead of three, and llvmpipe
+// stores and loads a private array's word lane by lane (bench/RESULTS.md, "The stack
+// entry in two words").
 uint bih_pack_interval(float near, float far)
 {
-    uint near_bits = floatBitsToUint(near) + (near < 0.0 ? 0xFFFFu : 0u);
+    // Away from zero (a larger magnitude) where that is the outward direction, and
+    // then to at least the smallest normal magnitude, so that a device flushing
+    // subnormals cannot turn the rounded value back towards zero.
+    uint near_bits = floatBitsToUint(near);
+    near_bits = near < 0.0 ? max(near_bits + 0xFFFFu, 0x80800000u) : near_bits;
     uint far_bits = floatBitsToUint(far);
-    // Up to the next 16-bit value, and at least the smallest normal, so that a
-    // device flushing subnormals cannot turn a positive far end into 0.
     far_bits = far > 0.0 ? max(far_bits + 0xFFFFu, 0x00800000u) : far_bits;
     return (far_bits & 0xFFFF0000u) | (near_bits >> 16u);
 }
