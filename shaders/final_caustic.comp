@@ -15,6 +15,8 @@ layout(local_size_x = 8, local_size_y = 8) in;
 #include "scene_bindings.glsl"
 #include "photon_types.glsl"
 #include "photon_grid.glsl"
+// The k-NN keeps no more neighbours than the one k asked for, CAUSTIC_NEAREST.
+#define PHOTON_KNN_MAX 8u
 #include "final_shared.glsl"
 #include "materials.glsl"
 #include "kernel_guard.glsl"
@@ -32,7 +34,7 @@ layout(local_size_x = 8, local_size_y = 8) in;
 // and the passes average the extra noise away (on caustic-anim's caustic the
 // block error after 16 passes was 0.006 at k = 8 against 0.028 at k = 32,
 // tests/render/test_final_caustic.c's measure, 10,000 photons per pass).
-const uint CAUSTIC_NEAREST = 8u;
+const uint CAUSTIC_NEAREST = PHOTON_KNN_MAX;
 
 // Radiance a Lambertian surface reflects (albedo/π × irradiance, in watts by
 // the map's flux scale) from the bound caustic map, at the pixel's

@@ -78,6 +78,8 @@ layout(set = 0, binding = 19) uniform usamplerBuffer grid_flux;
 #include "sampler.glsl"
 // One estimate per invocation: most of the 65,535 loop iterations are its.
 #define PHOTON_ESTIMATE_MAX_ITERATIONS 32768u
+// The k-NN keeps no more neighbours than the one k asked for, CAUSTIC_NEAREST.
+#define PHOTON_KNN_MAX 16u
 #include "photon_estimate.glsl"
 #include "lpv_sh.glsl"
 #include "lpv_geometry.glsl"
@@ -87,7 +89,7 @@ layout(set = 0, binding = 19) uniform usamplerBuffer grid_flux;
 
 // The caustic estimate's k (one photon set, no progressive passes to
 // average: more neighbours than final's 8 keep the single estimate quiet).
-const uint CAUSTIC_NEAREST = 16u;
+const uint CAUSTIC_NEAREST = PHOTON_KNN_MAX;
 
 
 #include "direct_light.glsl"

@@ -23,6 +23,7 @@
 // side of a thin wall or round a corner would leak light (REFERENCE.md).
 #ifndef PF_PHOTON_ESTIMATE_GLSL
 #define PF_PHOTON_ESTIMATE_GLSL
+#extension GL_EXT_control_flow_attributes : require // [[unroll]]
 
 #include "materials.glsl"
 #include "rng.glsl"
@@ -39,9 +40,9 @@ const float PHOTON_CONE_NORMALISATION = 1.0 - 2.0 / (3.0 * PHOTON_CONE_K);
 // until its slowest lane is done, and nested loops over divergent lanes add
 // up beyond any one lane's count. So an estimate visits its candidate cells
 // and photons in ONE flat loop of at most this many steps (one per photon,
-// one per cell), keeps the k-NN heap's sifts loop-free, and reports when it
-// stops early (`truncated`). Its other loops: the cell search of
-// photon_grid.glsl (< 400 iterations) and the k-NN sum (<= PHOTON_KNN_MAX).
+// one per cell), keeps the k-NN's insertion loop-free (unrolled), and reports when it
+// stops early (`truncated`). Its other loop: the cell search of
+// photon_grid.glsl (< 400 iterations); the k-NN's loops are unrolled.
 // Half the cap by default, leaving the rest to the calling kernel (its BIH
 // traversals count too); a kernel that runs several estimates per
 // invocation defines a smaller budget before including this file, the probe
@@ -49,10 +50,12 @@ const float PHOTON_CONE_NORMALISATION = 1.0 - 2.0 / (3.0 * PHOTON_CONE_K);
 #ifndef PHOTON_ESTIMATE_MAX_ITERATIONS
 #define PHOTON_ESTIMATE_MAX_ITERATIONS 32768u
 #endif
-// Largest k of photon_irradiance_knn (its heap is two private arrays of this
-// many entries, 512 bytes per invocation) and the heap's depth, log2 of it.
-const uint PHOTON_KNN_MAX = 64u;
-const uint PHOTON_KNN_HEAP_DEPTH = 6u;
+// Largest k of photon_irradiance_knn (pf_photon.h's PF_PHOTON_KNN_MAX). A kernel
+// whose k is smaller defines its own before including this file: the estimate
+// keeps this many neighbours in registers and compares each photon with all of them.
+#ifndef PHOTON_KNN_MAX
+#define PHOTON_KNN_MAX 64u
+#endif
 // Smallest k-NN radius as a fraction of max_radius (coincident photons).
 const float PHOTON_KNN_MIN_RADIUS_FRACTION = 1.0 / 1024.0;
 
@@ -182,59 +185,36 @@ vec3 photon_irradiance(vec3 x, vec3 normal, float radius, PhotonGrid grid)
     return photon_irradiance_guarded(x, normal, radius, grid, truncated);
 }
 
-// The k-NN max-heap on distance² (root = the farthest kept photon), private
-// to the invocation; global so that the sift steps below reach it without
-// copying arrays in and out of functions.
-float photon_knn_distance2[PHOTON_KNN_MAX];
-uint photon_knn_photon[PHOTON_KNN_MAX];
-
-// One level of sifting a new entry (distance2) up from slot in a heap of
-// size entries; false once it has settled. Called PHOTON_KNN_HEAP_DEPTH
-// times in straight-line code: no loop to count against the cap.
-bool photon_knn_sift_up(inout uint slot, float distance2)
-{
-    if (slot == 0u)
-        return false;
-    uint parent = (slot - 1u) / 2u;
-    if (photon_knn_distance2[parent] >= distance2)
-        return false;
-    photon_knn_distance2[slot] = photon_knn_distance2[parent];
-    photon_knn_photon[slot] = photon_knn_photon[parent];
-    slot = parent;
-    return true;
-}
-
-// One level of sifting a replacement root (distance2) down.
-bool photon_knn_sift_down(inout uint slot, float distance2, uint size)
-{
-    uint child = 2u * slot + 1u;
-    if (child >= size)
-        return false;
-    if (child + 1u < size && photon_knn_distance2[child + 1u] > photon_knn_distance2[child])
-        child++;
-    if (photon_knn_distance2[child] <= distance2)
-        return false;
-    photon_knn_distance2[slot] = photon_knn_distance2[child];
-    photon_knn_photon[slot] = photon_knn_photon[child];
-    slot = child;
-    return true;
-}
-
 // Adaptive-radius irradiance (Jensen 2001, eq. 7.6 with the cone filter):
 // the k nearest accepted photons within max_radius (<= the grid's build
 // radius; k is clamped to [1, PHOTON_KNN_MAX]), cone-filtered over the
 // distance r_k of the k-th and divided by π r_k² (× the cone's
 // normalisation); with fewer than k within max_radius, r = max_radius.
 // radius_used returns r, never below PHOTON_KNN_MIN_RADIUS_FRACTION ×
-// max_radius (k photons in one spot would otherwise divide by zero). The k
-// nearest are kept in a max-heap, so an insertion costs log2(k) sift steps,
-// unrolled. truncated as for photon_irradiance_guarded: then the estimate
-// uses the k nearest of the photons visited.
+// max_radius (k photons in one spot would otherwise divide by zero).
+// truncated as for photon_irradiance_guarded: then the estimate uses the k
+// nearest of the photons visited.
+//
+// The PHOTON_KNN_MAX nearest so far are kept sorted by distance², and a photon
+// is inserted by one compare-exchange per entry, unrolled: every index is a
+// constant, so the entries stay in registers. A max-heap in private arrays
+// (log2 k sift steps) was over half of `fast`'s shading on staircase2 on
+// llvmpipe: it stores and loads a private array lane by lane, and it runs both
+// the heap's insertion and its replacement for every photon, since it runs an
+// `if` for all lanes (bench/RESULTS.md, "The caustic k-NN"). Of photons at
+// the same distance the one visited first is kept.
 vec3 photon_irradiance_knn(vec3 x, vec3 normal, uint k, float max_radius, PhotonGrid grid,
                            out float radius_used, out bool truncated)
 {
     uint wanted = clamp(k, 1u, PHOTON_KNN_MAX);
-    uint heap_size = 0u;
+    const float infinity = uintBitsToFloat(0x7f800000u);
+    float nearest_distance2[PHOTON_KNN_MAX];
+    uint nearest_photon[PHOTON_KNN_MAX];
+    [[unroll]] for (uint j = 0u; j < PHOTON_KNN_MAX; j++) {
+        nearest_distance2[j] = infinity;
+        nearest_photon[j] = 0u;
+    }
+    uint found = 0u;
     uint keys[PHOTON_GRID_MAX_KEYS];
     uint key_count = photon_grid_candidate_keys(x, max_radius, grid, keys);
     float max_radius2 = max_radius * max_radius;
@@ -248,39 +228,34 @@ vec3 photon_irradiance_knn(vec3 x, vec3 normal, uint k, float max_radius, Photon
         float distance2 = dot(d, d);
         if (distance2 > max_radius2 || !photon_accepted(photon, normal))
             continue;
-        uint slot;
-        bool moving = true;
-        if (heap_size < wanted) {
-            slot = heap_size++;
-            // PHOTON_KNN_HEAP_DEPTH (6) levels from a leaf to the root.
-            moving = moving && photon_knn_sift_up(slot, distance2);
-            moving = moving && photon_knn_sift_up(slot, distance2);
-            moving = moving && photon_knn_sift_up(slot, distance2);
-            moving = moving && photon_knn_sift_up(slot, distance2);
-            moving = moving && photon_knn_sift_up(slot, distance2);
-            moving = moving && photon_knn_sift_up(slot, distance2);
-        } else if (distance2 < photon_knn_distance2[0]) {
-            slot = 0u;
-            moving = moving && photon_knn_sift_down(slot, distance2, heap_size);
-            moving = moving && photon_knn_sift_down(slot, distance2, heap_size);
-            moving = moving && photon_knn_sift_down(slot, distance2, heap_size);
-            moving = moving && photon_knn_sift_down(slot, distance2, heap_size);
-            moving = moving && photon_knn_sift_down(slot, distance2, heap_size);
-            moving = moving && photon_knn_sift_down(slot, distance2, heap_size);
-        } else {
-            continue;
+        found++;
+        // The new entry sinks past the nearer ones; each farther one moves down a place.
+        float carried = distance2;
+        uint carried_photon = i;
+        [[unroll]] for (uint j = 0u; j < PHOTON_KNN_MAX; j++) {
+            bool nearer = carried < nearest_distance2[j];
+            float kept = nearest_distance2[j];
+            uint kept_photon = nearest_photon[j];
+            nearest_distance2[j] = nearer ? carried : kept;
+            nearest_photon[j] = nearer ? carried_photon : kept_photon;
+            carried = nearer ? kept : carried;
+            carried_photon = nearer ? kept_photon : carried_photon;
         }
-        photon_knn_distance2[slot] = distance2;
-        photon_knn_photon[slot] = i;
     }
     truncated = !done;
-    float radius = heap_size == wanted ? sqrt(photon_knn_distance2[0]) : max_radius;
+    uint used = min(found, wanted);
+    float kth_distance2 = 0.0;
+    [[unroll]] for (uint j = 0u; j < PHOTON_KNN_MAX; j++)
+        kth_distance2 = j + 1u == wanted ? nearest_distance2[j] : kth_distance2;
+    float radius = found >= wanted ? sqrt(kth_distance2) : max_radius;
     radius = max(radius, PHOTON_KNN_MIN_RADIUS_FRACTION * max_radius);
     radius_used = radius;
     vec3 sum = vec3(0.0);
-    for (uint h = 0u; h < heap_size; h++) {
-        Photon photon = grid_photon(photon_knn_photon[h]);
-        sum += photon.flux * (1.0 - sqrt(photon_knn_distance2[h]) / (PHOTON_CONE_K * radius));
+    [[unroll]] for (uint j = 0u; j < PHOTON_KNN_MAX; j++) {
+        if (j < used) {
+            Photon photon = grid_photon(nearest_photon[j]);
+            sum += photon.flux * (1.0 - sqrt(nearest_distance2[j]) / (PHOTON_CONE_K * radius));
+        }
     }
     return sum / (PHOTON_CONE_NORMALISATION * PI * radius * radius);
 }
