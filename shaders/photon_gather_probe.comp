@@ -26,12 +26,15 @@ void main()
     vec3 x = queries[q].xyz;
     float radius = queries[q].w;
     PhotonGrid grid = photon_grid_from_push();
-    uint keys[PHOTON_GRID_MAX_KEYS];
-    uint key_count = photon_grid_candidate_keys(x, radius, grid, keys);
+    PhotonCellWalk walk = photon_cell_walk(x, radius, grid);
     precise float radius2 = radius * radius;
     uint found = 0u;
-    for (uint k = 0u; k < key_count; k++) {
-        uvec2 range = grid_ranges[keys[k]];
+    uint key;
+    bool fresh;
+    while (photon_cell_walk_next(walk, grid, key, fresh)) {
+        if (!fresh)
+            continue;
+        uvec2 range = grid_ranges[key];
         for (uint i = range.x; i < range.y; i++) {
             vec3 p = uintBitsToFloat(grid_records[i].xyz);
             precise vec3 d = p - x;

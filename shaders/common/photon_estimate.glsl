@@ -78,19 +78,22 @@ uvec2 photon_texel_range(isamplerBuffer ranges, uint key)
 }
 
 // The flat loop's move to the next cell: once the photons [index, end) of
-// the current cell are used up, the range of the next of keys[0..key_count),
-// or done = true and out of the loop after the last. Each estimate's loop
-// starts with it; a macro, since it breaks and continues the caller's loop
-// (whose variables key, key_count, keys, index, end and done it uses).
+// the current cell are used up, the range of the walk's next cell (none for a
+// cell whose key an earlier one had), or done = true and out of the loop after
+// the last. Each estimate's loop starts with it; a macro, since it breaks and
+// continues the caller's loop (whose variables walk, grid, index, end and done
+// it uses).
 #define PHOTON_NEXT_CELL(RANGES)                                                              \
     if (index >= end) {                                                                       \
-        if (key >= key_count) {                                                               \
+        uint cell_key;                                                                        \
+        bool fresh;                                                                           \
+        if (!photon_cell_walk_next(walk, grid, cell_key, fresh)) {                            \
             done = true;                                                                      \
             break;                                                                            \
         }                                                                                     \
-        uvec2 range = photon_texel_range(RANGES, keys[key++]);                                \
+        uvec2 range = photon_texel_range(RANGES, cell_key);                                   \
         index = range.x;                                                                      \
-        end = range.y;                                                                        \
+        end = fresh ? range.y : range.x;                                                      \
         continue;                                                                             \
     }
 
@@ -146,11 +149,10 @@ bool photon_is_irradiance_point(vec3 position)
 vec3 photon_irradiance_sum(vec3 x, vec3 normal, float radius, PhotonGrid grid, bool skip_points,
                            out bool truncated)
 {
-    uint keys[PHOTON_GRID_MAX_KEYS];
-    uint key_count = photon_grid_candidate_keys(x, radius, grid, keys);
+    PhotonCellWalk walk = photon_cell_walk(x, radius, grid);
     vec3 sum = vec3(0.0);
     float radius2 = radius * radius;
-    uint key = 0u, index = 0u, end = 0u;
+    uint index = 0u, end = 0u;
     bool done = false;
     for (uint step = 0u; step < PHOTON_ESTIMATE_MAX_ITERATIONS; step++) {
         PHOTON_NEXT_CELL(grid_ranges)
@@ -215,10 +217,9 @@ vec3 photon_irradiance_knn(vec3 x, vec3 normal, uint k, float max_radius, Photon
         nearest_photon[j] = 0u;
     }
     uint found = 0u;
-    uint keys[PHOTON_GRID_MAX_KEYS];
-    uint key_count = photon_grid_candidate_keys(x, max_radius, grid, keys);
+    PhotonCellWalk walk = photon_cell_walk(x, max_radius, grid);
     float max_radius2 = max_radius * max_radius;
-    uint key = 0u, index = 0u, end = 0u;
+    uint index = 0u, end = 0u;
     bool done = false;
     for (uint step = 0u; step < PHOTON_ESTIMATE_MAX_ITERATIONS; step++) {
         PHOTON_NEXT_CELL(grid_ranges)

@@ -1,6 +1,6 @@
 // Photon grid lookup (core/photon/pf_photon.h describes the grid): the cells
-// whose photons can lie within a radius of a point, as distinct table keys.
-// Every radiance estimate gathers through these functions.
+// whose photons can lie within a radius of a point, walked one distinct table
+// key at a time. Every radiance estimate gathers through these functions.
 //
 // Cell coordinates are floor((p - origin) * inv_cell) with `precise`
 // arithmetic: correctly rounded subtraction and multiplication are monotone,
@@ -13,7 +13,6 @@
 #ifndef PF_PHOTON_GRID_GLSL
 #define PF_PHOTON_GRID_GLSL
 
-const uint PHOTON_GRID_MAX_KEYS = 64u;
 const float PHOTON_GRID_BOX_MARGIN = 1.0 + 1.0 / 256.0;
 // Cell coordinates are clamped to ±2^30 before conversion to int (a query
 // far outside the grid then still converts without overflow).
@@ -74,8 +73,9 @@ uint photon_grid_key(ivec3 cell, PhotonGrid grid)
 // most 3 cells per axis the box touches at most 2 blocks per axis (b0, b1),
 // whose 8 combinations are compared pairwise in straight-line code (4 cells
 // per axis, in far-out grids: assumed to repeat). Deciding this first lets
-// photon_grid_box_keys skip its de-duplication loop, which for 27 cells took
-// 351 steps (~12 % of an estimate on llvmpipe, bench/RESULTS.md).
+// photon_cell_walk skip its comparison of each cell's key with the earlier
+// cells', which for 27 cells takes 351 steps (~12 % of an estimate on llvmpipe,
+// bench/RESULTS.md).
 bool photon_grid_keys_may_repeat(ivec3 low, ivec3 high, PhotonGrid grid)
 {
     if (grid.hashed == 0u)
@@ -101,46 +101,86 @@ bool photon_grid_keys_may_repeat(ivec3 low, ivec3 high, PhotonGrid grid)
     return repeat;
 }
 
-// The distinct keys of the cells low..high (inclusive, at most 4 per axis);
-// returns how many. A key shared by two cells (hash collision, or clamping
-// at the grid's border) is listed once, so no photon is counted twice.
-uint photon_grid_box_keys(ivec3 low, ivec3 high, PhotonGrid grid,
-                          out uint keys[PHOTON_GRID_MAX_KEYS])
+// The cells overlapping the box [x - r, x + r] (27 at most when r <= the build
+// radius, 64 in far-out grids), x fastest, then y, then z, walked by
+// photon_cell_walk_next. The walk computes each cell's key when it gets there
+// instead of listing the keys first: llvmpipe stores and loads a private array
+// with a per-lane index lane by lane (bench/RESULTS.md, "The photon grid's cells
+// walked").
+struct PhotonCellWalk {
+    ivec3 low, high; // the box's cells (inclusive, at most 4 per axis)
+    ivec3 cell;      // the next cell
+    uint ordinal;    // the next cell's place in the walk
+    bool left;       // whether there is a next cell
+    uvec2 repeats;   // bit n of 64: cell n's key an earlier cell of the box had
+};
+
+// The cell after cell in the walk's order; false after high.
+bool photon_cell_walk_step(inout ivec3 cell, ivec3 low, ivec3 high)
 {
-    uint count = 0u;
-    uint compared = photon_grid_keys_may_repeat(low, high, grid) ? PHOTON_GRID_MAX_KEYS : 0u;
+    bool wrap_x = cell.x >= high.x;
+    bool wrap_y = wrap_x && cell.y >= high.y;
+    bool more = !(wrap_y && cell.z >= high.z);
+    cell.x = wrap_x ? low.x : cell.x + 1;
+    cell.y = wrap_y ? low.y : (wrap_x ? cell.y + 1 : cell.y);
+    cell.z = wrap_y ? cell.z + 1 : cell.z;
+    return more;
+}
+
+PhotonCellWalk photon_cell_walk(vec3 x, float radius, PhotonGrid grid)
+{
+    float reach = radius * PHOTON_GRID_BOX_MARGIN;
+    PhotonCellWalk walk;
+    walk.low = photon_grid_cell(x - vec3(reach), grid);
+    walk.high = min(photon_grid_cell(x + vec3(reach), grid), walk.low + 3);
+    walk.cell = walk.low;
+    walk.ordinal = 0u;
     // A dense grid holds every photon in its cells, or (rounding of the
     // host's bounding box) in a cell just outside, clamped into the border
     // cell: a query box that misses the grid by more than one cell can find
     // nothing, and skipping it keeps far queries from scanning border cells.
-    if (grid.hashed == 0u &&
-        (any(lessThan(high, ivec3(-1))) || any(greaterThan(low, ivec3(grid.dims))))) {
-        return 0u;
-    }
-    for (int z = low.z; z <= high.z; z++) {
-        for (int y = low.y; y <= high.y; y++) {
-            for (int cx = low.x; cx <= high.x; cx++) {
-                uint key = photon_grid_key(ivec3(cx, y, z), grid);
-                bool seen = false;
-                for (uint k = 0u; k < min(count, compared); k++)
-                    seen = seen || keys[k] == key;
-                if (!seen)
-                    keys[count++] = key;
-            }
+    walk.left = all(lessThanEqual(walk.low, walk.high)) &&
+                !(grid.hashed == 0u && (any(lessThan(walk.high, ivec3(-1))) ||
+                                        any(greaterThan(walk.low, ivec3(grid.dims)))));
+    // A cell whose key an earlier cell had (a hash collision, or clamping at a dense
+    // grid's border) is marked, so that no photon is counted twice. Only where keys
+    // may repeat: elsewhere these loops run no iteration.
+    walk.repeats = uvec2(0u);
+    ivec3 extent = walk.high - walk.low + 1;
+    uint cells = walk.left && photon_grid_keys_may_repeat(walk.low, walk.high, grid)
+                     ? uint(extent.x * extent.y * extent.z)
+                     : 0u;
+    ivec3 cell = walk.low;
+    for (uint n = 0u; n < cells; n++) {
+        uint key = photon_grid_key(cell, grid);
+        ivec3 earlier = walk.low;
+        bool repeat = false;
+        for (uint m = 0u; m < n; m++) {
+            repeat = repeat || photon_grid_key(earlier, grid) == key;
+            photon_cell_walk_step(earlier, walk.low, walk.high);
         }
+        uint bit = repeat ? 1u << (n & 31u) : 0u;
+        walk.repeats |= n < 32u ? uvec2(bit, 0u) : uvec2(0u, bit);
+        photon_cell_walk_step(cell, walk.low, walk.high);
     }
-    return count;
+    return walk;
 }
 
-// The distinct keys of the cells overlapping the box [x - r, x + r] (27 at
-// most when r <= the build radius, 64 in far-out grids).
-uint photon_grid_candidate_keys(vec3 x, float radius, PhotonGrid grid,
-                                out uint keys[PHOTON_GRID_MAX_KEYS])
+// The next cell's key, and the walk moved past it; false when no cell is left.
+// fresh is false for a cell whose key an earlier cell of the walk had: its
+// photons were visited already.
+bool photon_cell_walk_next(inout PhotonCellWalk walk, PhotonGrid grid, out uint key,
+                           out bool fresh)
 {
-    float reach = radius * PHOTON_GRID_BOX_MARGIN;
-    ivec3 low = photon_grid_cell(x - vec3(reach), grid);
-    ivec3 high = min(photon_grid_cell(x + vec3(reach), grid), low + 3);
-    return photon_grid_box_keys(low, high, grid, keys);
+    key = 0u;
+    fresh = false;
+    if (!walk.left)
+        return false;
+    key = photon_grid_key(walk.cell, grid);
+    uint n = walk.ordinal++;
+    fresh = (((n < 32u ? walk.repeats.x : walk.repeats.y) >> (n & 31u)) & 1u) == 0u;
+    walk.left = photon_cell_walk_step(walk.cell, walk.low, walk.high);
+    return true;
 }
 
 // The 2×2×2 cells nearest to x: photon_grid_nearby_cell(low, i) for i in
