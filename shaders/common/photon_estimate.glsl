@@ -40,9 +40,9 @@ const float PHOTON_CONE_NORMALISATION = 1.0 - 2.0 / (3.0 * PHOTON_CONE_K);
 // until its slowest lane is done, and nested loops over divergent lanes add
 // up beyond any one lane's count. So an estimate visits its candidate cells
 // and photons in ONE flat loop of at most this many steps (one per photon,
-// one per cell), keeps the k-NN's insertion loop-free (unrolled), and reports when it
-// stops early (`truncated`). Its other loop: the cell search of
-// photon_grid.glsl (< 400 iterations); the k-NN's loops are unrolled.
+// one per cell), keeps the k-NN's loops unrolled, and reports when it stops
+// early (`truncated`). Its other loops: photon_grid.glsl's marking of repeated
+// cells (351 iterations for 27 cells, only where keys may repeat).
 // Half the cap by default, leaving the rest to the calling kernel (its BIH
 // traversals count too); a kernel that runs several estimates per
 // invocation defines a smaller budget before including this file, the probe
