@@ -57,9 +57,9 @@ uint bih_pack_interval(float near, float far)
     // then to at least the smallest normal magnitude, so that a device flushing
     // subnormals cannot turn the rounded value back towards zero.
     uint near_bits = floatBitsToUint(near);
-    near_bits = near < 0.0 ? max(near_bits + 0xFFFFu, 0x80800000u) : near_bits;
+    near_bits = near < 0.0 ? max(near_bits + 0xFFFFu, floatBitsToUint(-BIH_FLT_MIN)) : near_bits;
     uint far_bits = floatBitsToUint(far);
-    far_bits = far > 0.0 ? max(far_bits + 0xFFFFu, 0x00800000u) : far_bits;
+    far_bits = far > 0.0 ? max(far_bits + 0xFFFFu, floatBitsToUint(BIH_FLT_MIN)) : far_bits;
     return (far_bits & 0xFFFF0000u) | (near_bits >> 16u);
 }
 
