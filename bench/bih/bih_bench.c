@@ -616,6 +616,7 @@ static double embree_builder_sah(RTCDevice dev, const pf_scene_frame *f, enum RT
 
 typedef struct cpu_job {
     const pf_bih *bih;
+    const pf_bih_wide *wide; /* NULL: packets */
     const pf_ray *rays;
     uint32_t first, count;
     int any_hit;
@@ -628,8 +629,12 @@ static void *cpu_trace(void *arg)
 {
     cpu_job *j = arg;
     pf_error err = {0};
-    if (pf_bih_trace_cpu_rays(j->bih, &j->rays[j->first], j->count, j->any_hit,
-                              &j->hits[j->first], &err) != PF_OK)
+    pf_status status =
+        j->wide ? pf_bih_wide_trace_rays(j->bih, j->wide, &j->rays[j->first], j->count,
+                                         j->any_hit, &j->hits[j->first], &err)
+                : pf_bih_trace_cpu_rays(j->bih, &j->rays[j->first], j->count, j->any_hit,
+                                        &j->hits[j->first], &err);
+    if (status != PF_OK)
         j->failed = 1;
     return NULL;
 }
@@ -638,8 +643,8 @@ static void *cpu_trace(void *arg)
  * Separates the algorithm from the driver: the same traversal on the CPU with
  * BENCH_THREADS pthreads. Returns ms, or -1 when a ray overflowed the stack.
  */
-static double cpu_cast(const pf_bih *bih, const pf_ray *rays, uint32_t count, int any_hit,
-                       pf_hit *hits)
+static double cpu_cast_view(const pf_bih *bih, const pf_bih_wide *wide, const pf_ray *rays,
+                            uint32_t count, int any_hit, pf_hit *hits)
 {
     pthread_t th[BENCH_THREADS];
     cpu_job jobs[BENCH_THREADS];
@@ -647,7 +652,7 @@ static double cpu_cast(const pf_bih *bih, const pf_ray *rays, uint32_t count, in
     uint32_t per = (count + BENCH_THREADS - 1) / BENCH_THREADS;
     for (int i = 0; i < BENCH_THREADS; i++) {
         uint32_t first = (uint32_t)i * per;
-        jobs[i] = (cpu_job){bih, rays, first,
+        jobs[i] = (cpu_job){bih, wide, rays, first,
                             first >= count ? 0 : (count - first < per ? count - first : per),
                             any_hit, hits, 0};
         pthread_create(&th[i], NULL, cpu_trace, &jobs[i]);
@@ -659,6 +664,13 @@ static double cpu_cast(const pf_bih *bih, const pf_ray *rays, uint32_t count, in
     }
     double ms = pf_time_ms() - t0;
     return failed ? -1.0 : ms;
+}
+
+/* The packets (pf_bih_trace_cpu_rays). */
+static double cpu_cast(const pf_bih *bih, const pf_ray *rays, uint32_t count, int any_hit,
+                       pf_hit *hits)
+{
+    return cpu_cast_view(bih, NULL, rays, count, any_hit, hits);
 }
 
 /* ---------- comparison ---------- */
@@ -1107,15 +1119,28 @@ static int traversal_rounds(const bench_mesh *m, RTCDevice dev, pf_vk_context *c
         ok = ok && gpu_cast(gpu, rays[0], np, 0, hits) >= 0.0 &&
              gpu_cast(gpu, rays[1], counts[1], 1, hits) >= 0.0;
     }
+    /* In "cpu" mode also the wide view, one ray at a time (pf_bih_wide). */
+    pf_bih_wide wide = {0};
+    double wide_build_ms = -1.0;
+    if (ok && !ctx) {
+        pf_error err = {0};
+        double t0 = pf_time_ms();
+        ok = pf_bih_wide_build(&sah, &wide, &err) == PF_OK;
+        wide_build_ms = pf_time_ms() - t0;
+        if (!ok)
+            fprintf(stderr, "bih_bench: %s\n", err.message);
+    }
     const char *what = ctx ? "gpu" : "cpu";
     static const char *const kinds[3] = {"primary", "shadow", "diffuse"};
-    double ours[3][CPU_ROUNDS], theirs[3][CPU_ROUNDS];
+    double ours[3][CPU_ROUNDS], theirs[3][CPU_ROUNDS], wide_ms[3][CPU_ROUNDS];
     for (int round = 0; round < CPU_ROUNDS && ok; round++)
         for (int k = 0; k < 3 && ok; k++) {
             ours[k][round] = ctx ? gpu_cast(gpu, rays[k], counts[k], k == 1, hits)
                                  : cpu_cast(&sah, rays[k], counts[k], k == 1, hits);
             theirs[k][round] = embree_cast(hq, rays[k], counts[k], k == 1, hits);
-            ok = ours[k][round] >= 0.0;
+            wide_ms[k][round] =
+                ctx ? 0.0 : cpu_cast_view(&sah, &wide, rays[k], counts[k], k == 1, hits);
+            ok = ours[k][round] >= 0.0 && wide_ms[k][round] >= 0.0;
         }
     if (ok) {
         printf("\n=== %s: %u triangles, SAH tree, %d rounds, %d threads each ===\n", m->name, n,
@@ -1130,7 +1155,20 @@ static int traversal_rounds(const bench_mesh *m, RTCDevice dev, pf_vk_context *c
                    mrays(counts[k], theirs[k][0]), mrays(counts[k], their_median),
                    ctx ? "GPU" : "CPU", their_median / our_median);
         }
+        for (int k = 0; k < 3 && !ctx; k++) {
+            qsort(wide_ms[k], CPU_ROUNDS, sizeof wide_ms[k][0], compare_ms);
+            double median = wide_ms[k][CPU_ROUNDS / 2];
+            printf("cpu-wide %-8s ours best %7.3f median %7.3f Mrays/s | wide/Embree median "
+                   "%.3fx%s\n",
+                   kinds[k], mrays(counts[k], wide_ms[k][0]), mrays(counts[k], median),
+                   theirs[k][CPU_ROUNDS / 2] / median,
+                   pf_bih_wide_available() ? "" : " (no AVX2: the packets)");
+        }
+        if (!ctx)
+            printf("cpu-wide view: %u nodes from %u, built in %.2f ms\n", wide.node_count,
+                   sah.node_count, wide_build_ms);
     }
+    pf_bih_wide_free(&wide);
     if (hq)
         rtcReleaseScene(hq);
     pf_bih_gpu_destroy(gpu);

@@ -151,4 +151,38 @@ pf_status pf_bih_trace_packet_8(const pf_bih *bih, const pf_ray *rays, uint32_t 
                                 int any_hit, pf_hit *hits, pf_error *err);
 pf_bih_packet_trace_fn pf_bih_packet_tracer(uint32_t width);
 
+/*
+ * The wide view's node (pf_bih.h, pf_bih_wide): up to 8 children, each with
+ * the box of its triangles, stored axis by axis so one AVX load reads one
+ * bound of all 8. child[i] is a wide node's index, or PF_BIH_WIDE_LEAF | the
+ * first of the BIH leaf's blocks (pf_bih_wide_block) with count[i] triangles.
+ * An unused slot has the empty box (lo = +inf, hi = -inf), which no ray
+ * enters.
+ */
+#define PF_BIH_WIDE_SLOTS 8u
+#define PF_BIH_WIDE_LEAF 0x80000000u
+struct pf_bih_wide_node {
+    _Alignas(64) float lo[3][PF_BIH_WIDE_SLOTS];
+    float hi[3][PF_BIH_WIDE_SLOTS];
+    uint32_t child[PF_BIH_WIDE_SLOTS];
+    uint32_t count[PF_BIH_WIDE_SLOTS];
+};
+
+/*
+ * Up to 4 consecutive triangles of one leaf, lane by lane, so one ray's
+ * watertight test runs on 4 of them at once: v[vertex][axis][lane], the
+ * leaf-order position of each lane's triangle (PF_NO_HIT past the leaf's
+ * end), and the lanes to test (not degenerate, not past the end).
+ */
+#define PF_BIH_WIDE_LANES 4u
+struct pf_bih_wide_block {
+    _Alignas(16) float v[3][3][PF_BIH_WIDE_LANES];
+    uint32_t position[PF_BIH_WIDE_LANES];
+    uint32_t live;
+};
+
+/* The wide traversal with AVX2 (bih_wide_traverse_avx2.c), where it was built. */
+pf_status pf_bih_wide_trace_avx2(const pf_bih *bih, const pf_bih_wide *wide, const pf_ray *rays,
+                                 uint32_t count, int any_hit, pf_hit *hits, pf_error *err);
+
 #endif

@@ -255,6 +255,41 @@ pf_status pf_bih_trace_cpu_rays(const pf_bih *bih, const pf_ray *rays, uint32_t 
                                 int any_hit, pf_hit *hits, pf_error *err);
 
 /*
+ * A wide view of a BIH for the CPU: up to 8 children a node, each with the
+ * full box of its triangles, so that one ray at a time tests 8 boxes in one
+ * AVX2 step. Incoherent rays (bounces) part ways within a few nodes of a
+ * packet (pf_bih_trace_cpu_rays), and a binary node with one clip plane gives
+ * a lone ray one test a load. Built from the BIH by collapsing its top
+ * levels into each node (the child with the largest box opened first, as for
+ * Embree's BVH8) over the BIH's own leaves, whose triangles it copies 4 to a
+ * block so that one ray tests 4 at once. It is a view of bih at the time of
+ * the call (build again after pf_bih_refit). out is zeroed on failure
+ * (PF_ERR_NOMEM); free with pf_bih_wide_free.
+ */
+typedef struct pf_bih_wide_node pf_bih_wide_node;
+typedef struct pf_bih_wide_block pf_bih_wide_block;
+typedef struct pf_bih_wide {
+    uint32_t node_count;
+    pf_bih_wide_node *nodes;
+    uint32_t block_count;        /* the leaves' triangles, 4 to a block */
+    pf_bih_wide_block *blocks;
+} pf_bih_wide;
+
+pf_status pf_bih_wide_build(const pf_bih *bih, pf_bih_wide *out, pf_error *err);
+void pf_bih_wide_free(pf_bih_wide *wide);
+
+/*
+ * Traces rays one at a time through wide (built from bih): hits as
+ * pf_bih_trace_cpu_packet's, the same closest hit as pf_bih_trace_cpu but for
+ * a tie at exactly equal t, any hit whenever it finds one. Where the CPU has
+ * no AVX2 (or the build could not target it) it is pf_bih_trace_cpu_rays.
+ * pf_bih_wide_available says which.
+ */
+pf_status pf_bih_wide_trace_rays(const pf_bih *bih, const pf_bih_wide *wide, const pf_ray *rays,
+                                 uint32_t count, int any_hit, pf_hit *hits, pf_error *err);
+int pf_bih_wide_available(void);
+
+/*
  * A BIH on the GPU and the pipelines that trace it. Created empty; filled by
  * pf_bih_gpu_upload. Owns its buffers; destroy before the context.
  */

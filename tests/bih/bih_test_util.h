@@ -690,6 +690,126 @@ static inline void bih_check_packets(const char *label, const pf_scene_frame *fr
 }
 
 /*
+ * The wide view's invariants: every BIH leaf with triangles in exactly one
+ * slot, with its first triangle and count, and every slot's box holding
+ * its subtree (a leaf's triangles, an inner slot's node's boxes); unused
+ * slots empty. Returns the failures (each printed).
+ */
+static inline uint32_t bih_wide_structure_failures(const char *label, const pf_bih *bih,
+                                                   const pf_bih_wide *wide)
+{
+    uint32_t failures = 0, leaves_seen = 0, triangles_seen = 0;
+    uint8_t *seen = calloc(bih->triangle_count + 1, 1);
+    if (!seen) {
+        printf("%s: out of memory\n", label);
+        return 1;
+    }
+    for (uint32_t n = 0; n < wide->node_count; n++) {
+        const pf_bih_wide_node *node = &wide->nodes[n];
+        for (uint32_t i = 0; i < PF_BIH_WIDE_SLOTS; i++) {
+            int empty = node->lo[0][i] > node->hi[0][i];
+            uint32_t child = node->child[i];
+            if (empty) {
+                failures += child != PF_BIH_WIDE_LEAF || node->count[i] != 0;
+                continue;
+            }
+            if (child & PF_BIH_WIDE_LEAF) {
+                uint32_t first = child & ~PF_BIH_WIDE_LEAF, count = node->count[i];
+                uint32_t blocks = (count + PF_BIH_WIDE_LANES - 1) / PF_BIH_WIDE_LANES;
+                leaves_seen++;
+                if (count == 0 || first + blocks > wide->block_count) {
+                    printf("%s: wide node %u slot %u: blocks %u+%u out of range\n", label, n, i,
+                           first, blocks);
+                    failures++;
+                    continue;
+                }
+                uint32_t start = wide->blocks[first].position[0];
+                for (uint32_t lane = 0; lane < PF_BIH_WIDE_LANES * blocks; lane++) {
+                    const pf_bih_wide_block *block = &wide->blocks[first + lane / PF_BIH_WIDE_LANES];
+                    uint32_t l = lane % PF_BIH_WIDE_LANES, p = block->position[l];
+                    /* The leaf's triangles in order, then unused lanes. */
+                    if (lane >= count) {
+                        failures += p != PF_NO_HIT || (block->live >> l & 1u);
+                        continue;
+                    }
+                    if (p != start + lane || p >= bih->triangle_count) {
+                        printf("%s: wide node %u slot %u: lane %u holds %u\n", label, n, i,
+                               lane, p);
+                        failures++;
+                        continue;
+                    }
+                    failures += seen[p]++ != 0;
+                    triangles_seen++;
+                    failures += (block->live >> l & 1u) != (bih->vertices[3 * p][3] == 0.0f);
+                    for (int v = 0; v < 3; v++)
+                        for (int k = 0; k < 3; k++) {
+                            float x = bih->vertices[3 * p + v][k];
+                            failures += memcmp(&block->v[v][k][l], &x, sizeof x) != 0;
+                            failures += !(x >= node->lo[k][i] && x <= node->hi[k][i]);
+                        }
+                }
+            } else if (child <= n || child >= wide->node_count) {
+                printf("%s: wide node %u slot %u: child %u out of order\n", label, n, i, child);
+                failures++;
+            } else {
+                const pf_bih_wide_node *c = &wide->nodes[child];
+                for (uint32_t j = 0; j < PF_BIH_WIDE_SLOTS; j++)
+                    for (int k = 0; k < 3; k++)
+                        failures += c->lo[k][j] <= c->hi[k][j] &&
+                                    !(c->lo[k][j] >= node->lo[k][i] && c->hi[k][j] <= node->hi[k][i]);
+            }
+        }
+    }
+    uint32_t bih_leaves = 0;
+    for (uint32_t n = 0; n < bih->node_count; n++)
+        bih_leaves += pf_bih_is_leaf(&bih->nodes[n]) && pf_bih_leaf_count(&bih->nodes[n]) > 0;
+    if (leaves_seen != bih_leaves || triangles_seen != bih->triangle_count) {
+        printf("%s: wide view has %u leaves, %u triangles; the BIH %u, %u\n", label, leaves_seen,
+               triangles_seen, bih_leaves, bih->triangle_count);
+        failures++;
+    }
+    free(seen);
+    return failures;
+}
+
+/*
+ * The wide view (pf_bih_wide) against the one-ray traversal, as
+ * bih_check_packets checks the packets: its structure, closest hits as
+ * bih_same_closest asks, any hits whenever the ray is occluded. Where the
+ * machine has no AVX2 the call is the packets', and says so.
+ */
+static inline void bih_check_wide(const char *label, const pf_scene_frame *frame,
+                                  const pf_bih *bih, const bih_ray_set *set)
+{
+    pf_error err = {0};
+    pf_bih_wide wide;
+    PF_CHECK_OK(pf_bih_wide_build(bih, &wide, &err), &err);
+    if (err.status != PF_OK)
+        return;
+    if (!pf_bih_wide_available())
+        printf("%s: no AVX2 here: the wide traversal is the packets'\n", label);
+    uint32_t structure = bih_wide_structure_failures(label, bih, &wide);
+    PF_CHECK_MSG(structure == 0, "%s: %u wrong slots in the wide view", label, structure);
+    pf_hit *closest = malloc(set->count * sizeof(pf_hit));
+    pf_hit *any = malloc(set->count * sizeof(pf_hit));
+    PF_REQUIRE(closest && any);
+    PF_CHECK_OK(pf_bih_wide_trace_rays(bih, &wide, set->rays, set->count, 0, closest, &err), &err);
+    PF_CHECK_OK(pf_bih_wide_trace_rays(bih, &wide, set->rays, set->count, 1, any, &err), &err);
+    uint32_t closest_differ = 0, any_differ = 0;
+    for (uint32_t r = 0; r < set->count; r++) {
+        closest_differ += !bih_same_closest(frame, &set->rays[r], &set->closest[r], &closest[r]);
+        any_differ += (any[r].triangle == PF_NO_HIT) != (set->any[r].triangle == PF_NO_HIT);
+    }
+    PF_CHECK_MSG(closest_differ == 0, "%s: wide view: %u of %u closest hits differ from one ray's",
+                 label, closest_differ, set->count);
+    PF_CHECK_MSG(any_differ == 0, "%s: wide view: %u of %u any-hit answers differ", label,
+                 any_differ, set->count);
+    free(closest);
+    free(any);
+    pf_bih_wide_free(&wide);
+}
+
+/*
  * Checks set->closest and set->any against set->oracle (bih_compare_closest
  * and bih_compare_any; exact: the CPU ran the oracle's very test), that the
  * rays hit something often enough to test anything, and what expect asks:

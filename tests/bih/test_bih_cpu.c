@@ -50,6 +50,7 @@ static int build_and_trace(const char *label, const pf_scene_frame *frame, bih_e
     bih_trace_cpu_both(label, bih, &set);
     bih_check_answers(label, frame, expect, &set, 1);
     bih_check_packets(label, frame, bih, &set);
+    bih_check_wide(label, frame, bih, &set);
     bih_ray_set_free(&set);
     return 1;
 }

@@ -100,6 +100,8 @@ static void check_traversals(const char *build, const pf_scene_frame *frame, con
     bih_check_answers(label, frame, expect, set, 0);
     snprintf(label, sizeof label, "2M, %s build, CPU packets", build);
     bih_check_packets(label, frame, bih, set);
+    snprintf(label, sizeof label, "2M, %s build, CPU wide view", build);
+    bih_check_wide(label, frame, bih, set);
 }
 
 PF_TEST(two_million_triangles)
