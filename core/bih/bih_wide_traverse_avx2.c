@@ -28,6 +28,7 @@ typedef struct wide_entry {
 
 typedef struct wide_ray {
     __m256 origin[3], inv[3], t_min;
+    __m256 parallel_mask[3]; /* all ones on an axis the ray is parallel to */
     /* Per axis: where the near and far bounds sit (lo for a positive direction). */
     uint32_t near_offset[3], far_offset[3];
     int any_parallel, parallel[3];
@@ -43,12 +44,23 @@ static void wide_ray_prepare(const pf_ray *ray, wide_ray *w)
         w->inv[k] = _mm256_set1_ps(w->prepared.inv[k]);
         w->parallel[k] = w->prepared.parallel[k];
         w->any_parallel |= w->parallel[k];
+        w->parallel_mask[k] = _mm256_castsi256_ps(_mm256_set1_epi32(w->parallel[k] ? -1 : 0));
         int positive = w->prepared.inv[k] >= 0.0f;
         /* Offsets in floats from the node's start: lo[k] at 8k, hi[k] at 24 + 8k. */
         w->near_offset[k] = positive ? 8u * (uint32_t)k : 24u + 8u * (uint32_t)k;
         w->far_offset[k] = positive ? 24u + 8u * (uint32_t)k : 8u * (uint32_t)k;
     }
     w->t_min = _mm256_set1_ps(ray->tmin);
+}
+
+/* All ones where axis k is not parallel or the slot's slab holds the origin. */
+static __m256 slab_holds_origin(const float *base, const wide_ray *w, int k)
+{
+    __m256 inside = _mm256_and_ps(
+        _mm256_cmp_ps(_mm256_load_ps(base + 8 * k), w->origin[k], _CMP_LE_OQ),
+        _mm256_cmp_ps(w->origin[k], _mm256_load_ps(base + 24 + 8 * k), _CMP_LE_OQ));
+    return _mm256_or_ps(inside, _mm256_xor_ps(w->parallel_mask[k],
+                                              _mm256_castsi256_ps(_mm256_set1_epi32(-1))));
 }
 
 /*
@@ -59,26 +71,34 @@ static uint32_t wide_node_step(const pf_bih_wide_node *node, const wide_ray *w, 
                                float t_near[8])
 {
     const float *base = (const float *)node;
-    __m256 near[3], far[3];
-    for (int k = 0; k < 3; k++) {
-        near[k] = _mm256_mul_ps(
-            _mm256_sub_ps(_mm256_load_ps(base + w->near_offset[k]), w->origin[k]), w->inv[k]);
-        far[k] = _mm256_mul_ps(
-            _mm256_sub_ps(_mm256_load_ps(base + w->far_offset[k]), w->origin[k]), w->inv[k]);
-    }
+    /* Written out per axis: as a loop over k, GCC -O2 kept the six slab vectors in memory. */
+    __m256 near_x = _mm256_mul_ps(
+        _mm256_sub_ps(_mm256_load_ps(base + w->near_offset[0]), w->origin[0]), w->inv[0]);
+    __m256 near_y = _mm256_mul_ps(
+        _mm256_sub_ps(_mm256_load_ps(base + w->near_offset[1]), w->origin[1]), w->inv[1]);
+    __m256 near_z = _mm256_mul_ps(
+        _mm256_sub_ps(_mm256_load_ps(base + w->near_offset[2]), w->origin[2]), w->inv[2]);
+    __m256 far_x = _mm256_mul_ps(
+        _mm256_sub_ps(_mm256_load_ps(base + w->far_offset[0]), w->origin[0]), w->inv[0]);
+    __m256 far_y = _mm256_mul_ps(
+        _mm256_sub_ps(_mm256_load_ps(base + w->far_offset[1]), w->origin[1]), w->inv[1]);
+    __m256 far_z = _mm256_mul_ps(
+        _mm256_sub_ps(_mm256_load_ps(base + w->far_offset[2]), w->origin[2]), w->inv[2]);
     __m256 open = _mm256_castsi256_ps(_mm256_set1_epi32(-1));
     if (w->any_parallel) {
-        for (int k = 0; k < 3; k++) {
-            if (!w->parallel[k])
-                continue;
-            /* Inside the slab or not, whatever t: the axis adds no bound. */
-            __m256 lo = _mm256_load_ps(base + 8 * k), hi = _mm256_load_ps(base + 24 + 8 * k);
-            open = _mm256_and_ps(open, _mm256_cmp_ps(lo, w->origin[k], _CMP_LE_OQ));
-            open = _mm256_and_ps(open, _mm256_cmp_ps(w->origin[k], hi, _CMP_LE_OQ));
-            near[k] = _mm256_set1_ps(-INFINITY);
-            far[k] = _mm256_set1_ps(INFINITY);
-        }
+        /* A parallel axis: inside the slab or not, whatever t; it adds no bound. */
+        __m256 minus_inf = _mm256_set1_ps(-INFINITY), plus_inf = _mm256_set1_ps(INFINITY);
+        open = _mm256_and_ps(open, slab_holds_origin(base, w, 0));
+        open = _mm256_and_ps(open, slab_holds_origin(base, w, 1));
+        open = _mm256_and_ps(open, slab_holds_origin(base, w, 2));
+        near_x = _mm256_blendv_ps(near_x, minus_inf, w->parallel_mask[0]);
+        near_y = _mm256_blendv_ps(near_y, minus_inf, w->parallel_mask[1]);
+        near_z = _mm256_blendv_ps(near_z, minus_inf, w->parallel_mask[2]);
+        far_x = _mm256_blendv_ps(far_x, plus_inf, w->parallel_mask[0]);
+        far_y = _mm256_blendv_ps(far_y, plus_inf, w->parallel_mask[1]);
+        far_z = _mm256_blendv_ps(far_z, plus_inf, w->parallel_mask[2]);
     }
+    __m256 near[3] = {near_x, near_y, near_z}, far[3] = {far_x, far_y, far_z};
     __m256 t_enter = _mm256_max_ps(_mm256_max_ps(near[0], near[1]), _mm256_max_ps(near[2], w->t_min));
     __m256 t_exit = _mm256_min_ps(_mm256_min_ps(far[0], far[1]),
                                   _mm256_min_ps(far[2], _mm256_set1_ps(closest)));
