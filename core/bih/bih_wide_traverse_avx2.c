@@ -244,9 +244,13 @@ static pf_status wide_trace(const pf_bih *bih, const pf_bih_wide *wide, const pf
                 for (uint32_t bits = open; bits; bits &= bits - 1) {
                     uint32_t i = (uint32_t)__builtin_ctz(bits);
                     wide_entry e = {node->child[i], node->count[i], t_near[i]};
-                    /* Insertion by descending entry distance: the nearest ends on top. */
+                    /*
+                     * Insertion by descending entry distance: the nearest ends on top. Any
+                     * hit will do for an any-hit ray, so its slots stay in their order
+                     * (shadow rays +2-14 %, bench/RESULTS.md).
+                     */
                     uint32_t j = size++;
-                    while (j > base && stack[j - 1].t_near < e.t_near) {
+                    while (!any_hit && j > base && stack[j - 1].t_near < e.t_near) {
                         stack[j] = stack[j - 1];
                         j--;
                     }
