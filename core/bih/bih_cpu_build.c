@@ -58,16 +58,17 @@
  * writes each array once, fresh from mmap, and on this project's VMs a 4 KiB
  * page fault costs ~3 µs, so 1M triangles' ~130 MB paid ~18 % of the build's
  * CPU time in faults; 2 MiB pages cut that share by half (bench/RESULTS.md).
- * Freed with free() like any malloc'd block.
+ * Smaller blocks are 64-byte aligned (a cache line, and AVX loads). Freed
+ * with free() like any malloc'd block.
  */
 #define LARGE_ALLOCATION_BYTES (4u << 20)
 #define HUGE_PAGE_BYTES (2u << 20)
 
-static void *alloc_large(size_t bytes)
+void *pf_bih_alloc_large(size_t bytes)
 {
+    void *block = NULL;
 #ifdef MADV_HUGEPAGE
     if (bytes >= LARGE_ALLOCATION_BYTES) {
-        void *block = NULL;
         if (posix_memalign(&block, HUGE_PAGE_BYTES, bytes) != 0)
             return NULL;
         /* Only a hint: without huge pages the block works the same. */
@@ -75,7 +76,7 @@ static void *alloc_large(size_t bytes)
         return block;
     }
 #endif
-    return malloc(bytes);
+    return posix_memalign(&block, 64, bytes) == 0 ? block : NULL;
 }
 
 typedef struct box3 {
@@ -817,7 +818,7 @@ static pf_status build_node(subtree_builder *b, uint32_t node, uint32_t first, u
                             right_count);
     job->builder = (subtree_builder){.cfg = cfg, .err = &job->err};
     job->builder.node_capacity = 2 * right_count + 1;
-    job->builder.nodes = alloc_large((size_t)job->builder.node_capacity * sizeof(pf_bih_node));
+    job->builder.nodes = pf_bih_alloc_large((size_t)job->builder.node_capacity * sizeof(pf_bih_node));
     job->builder.node_count = 1;
     job->first = first + left_count;
     job->count = right_count;
@@ -940,7 +941,7 @@ static void task_part(void *arg, uint32_t part, uint32_t parts)
         subtree_builder b = {.cfg = c->cfg, .err = &task->err};
         /* Node 0 is the root; pairs follow from 1 on. */
         b.node_capacity = 2 * task->count + 1;
-        b.nodes = alloc_large((size_t)b.node_capacity * sizeof *b.nodes);
+        b.nodes = pf_bih_alloc_large((size_t)b.node_capacity * sizeof *b.nodes);
         b.node_count = 1;
         if (!b.nodes) {
             task->status = pf_error_set(&task->err, PF_ERR_NOMEM, "BIH build: subtree of %u triangles",
@@ -1044,13 +1045,13 @@ pf_status pf_bih_build_cpu(const pf_scene_frame *frame, const pf_bih_build_optio
         threads = 1;
     build_config cfg = {.leaf_size = leaf_size, .max_depth = max_depth, .heuristic = heuristic,
                         .threads = threads};
-    cfg.prims = alloc_large((n ? n : 1) * sizeof *cfg.prims);
+    cfg.prims = pf_bih_alloc_large((n ? n : 1) * sizeof *cfg.prims);
     subtree_builder top = {.cfg = &cfg, .err = err};
     top.node_capacity = n > 0 ? 2 * n - 1 : 1;
-    top.nodes = alloc_large((size_t)top.node_capacity * sizeof *top.nodes);
+    top.nodes = pf_bih_alloc_large((size_t)top.node_capacity * sizeof *top.nodes);
     top.node_count = 1;
-    out->vertices = alloc_large((n ? 3 * (size_t)n : 1) * sizeof *out->vertices);
-    out->triangle_index = alloc_large((n ? n : 1) * sizeof *out->triangle_index);
+    out->vertices = pf_bih_alloc_large((n ? 3 * (size_t)n : 1) * sizeof *out->vertices);
+    out->triangle_index = pf_bih_alloc_large((n ? n : 1) * sizeof *out->triangle_index);
     pf_status status = PF_OK;
     if (!cfg.prims || !top.nodes || !out->vertices || !out->triangle_index)
         status = pf_error_set(err, PF_ERR_NOMEM, "BIH build: %u triangles", n);
@@ -1095,7 +1096,7 @@ pf_status pf_bih_build_cpu(const pf_scene_frame *frame, const pf_bih_build_optio
                               (unsigned long long)node_count, PF_BIH_MAX_NODES);
     pf_bih_node *nodes = NULL;
     if (status == PF_OK) {
-        nodes = top.task_count ? alloc_large((size_t)node_count * sizeof *nodes) : top.nodes;
+        nodes = top.task_count ? pf_bih_alloc_large((size_t)node_count * sizeof *nodes) : top.nodes;
         if (!nodes)
             status = pf_error_set(err, PF_ERR_NOMEM, "BIH build: %llu nodes",
                                   (unsigned long long)node_count);

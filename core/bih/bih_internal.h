@@ -152,6 +152,13 @@ pf_status pf_bih_trace_packet_8(const pf_bih *bih, const pf_ray *rays, uint32_t 
 pf_bih_packet_trace_fn pf_bih_packet_tracer(uint32_t width);
 
 /*
+ * A block of at least 64-byte alignment for an array of many megabytes,
+ * on transparent huge pages where the kernel offers them (bih_cpu_build.c
+ * says why); free() frees it. NULL when out of memory.
+ */
+void *pf_bih_alloc_large(size_t bytes);
+
+/*
  * The wide view's node (pf_bih.h, pf_bih_wide): up to 8 children, each with
  * the box of its triangles, stored axis by axis so one AVX load reads one
  * bound of all 8. child[i] is a wide node's index, or PF_BIH_WIDE_LEAF | the

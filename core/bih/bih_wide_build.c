@@ -176,8 +176,10 @@ pf_status pf_bih_wide_build(const pf_bih *bih, pf_bih_wide *out, pf_error *err)
     box *boxes = malloc((size_t)bih->node_count * sizeof *boxes);
     pf_bih_wide_node *nodes = NULL;
     pf_bih_wide_block *blocks = NULL;
-    if (!boxes || posix_memalign((void **)&nodes, 64, (size_t)capacity * sizeof *nodes) != 0 ||
-        posix_memalign((void **)&blocks, 64, ((size_t)block_capacity + 1) * sizeof *blocks) != 0) {
+    nodes = pf_bih_alloc_large((size_t)capacity * sizeof *nodes);
+    blocks = pf_bih_alloc_large(((size_t)block_capacity + 1) * sizeof *blocks);
+    if (!boxes || !nodes || !blocks) {
+        free(blocks);
         free(boxes);
         free(nodes);
         return pf_error_set(err, PF_ERR_NOMEM,
