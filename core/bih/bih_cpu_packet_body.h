@@ -182,6 +182,10 @@ static lane_float permuted(lane_int is_0, lane_int is_1, const lane_float v[3])
     return select_f(is_0, v[0], select_f(is_1, v[1], v[2]));
 }
 
+#define WATERTIGHT_T lane_float
+#define WATERTIGHT_EDGES lane_edges
+#include "bih_watertight_edges.h"
+
 /*
  * One triangle against a vector of lanes (vector h): pf_ray_triangle_sheared's
  * operations per lane (translation, permutation, shear, edges, sign test,
@@ -212,21 +216,9 @@ static uint32_t triangle_lanes(const packet *p, uint32_t h, const float (*leaf)[
             c[i] = permuted(p->k_is_0[i][h], p->k_is_1[i][h], d[2]);
         }
     }
-    lane_float sx = p->shear_s[0][h], sy = p->shear_s[1][h], sz = p->shear_s[2][h];
-    lane_float ax = a[0] - sx * a[2];
-    lane_float ay = a[1] - sy * a[2];
-    lane_float bx = b[0] - sx * b[2];
-    lane_float by = b[1] - sy * b[2];
-    lane_float cx = c[0] - sx * c[2];
-    lane_float cy = c[1] - sy * c[2];
-    lane_float eu = cx * by - cy * bx;
-    lane_float ev = ax * cy - ay * cx;
-    lane_float ew = bx * ay - by * ax;
-    lane_float det = (eu + ev) + ew;
-    lane_float az = sz * a[2];
-    lane_float bz = sz * b[2];
-    lane_float cz = sz * c[2];
-    lane_float scaled_t = (eu * az + ev * bz) + ew * cz;
+    lane_edges_result e =
+        lane_edges(a, b, c, p->shear_s[0][h], p->shear_s[1][h], p->shear_s[2][h]);
+    lane_float eu = e.eu, ev = e.ev, ew = e.ew, det = e.det, scaled_t = e.scaled_t;
     lane_int valid = p->shear_valid[h];
     lane_int small = (lane_abs(eu) < PF_BIH_WATERTIGHT_RESCALE_BELOW) |
                      (lane_abs(ev) < PF_BIH_WATERTIGHT_RESCALE_BELOW) |

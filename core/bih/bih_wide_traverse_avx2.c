@@ -113,6 +113,10 @@ static uint32_t wide_node_step(const pf_bih_wide_node *node, const wide_ray *w, 
 typedef float lanes_f __attribute__((vector_size(16)));
 typedef int32_t lanes_i __attribute__((vector_size(16)));
 
+#define WATERTIGHT_T lanes_f
+#define WATERTIGHT_EDGES wide_edges
+#include "bih_watertight_edges.h"
+
 static uint32_t lane_bits(lanes_i mask)
 {
     return (uint32_t)_mm_movemask_ps((__m128)mask);
@@ -155,20 +159,8 @@ static int wide_leaf(const pf_bih *bih, const pf_bih_wide *wide, const pf_ray *r
             bv[i] = *(const lanes_f *)block->v[1][k] - o;
             c[i] = *(const lanes_f *)block->v[2][k] - o;
         }
-        lanes_f ax = a[0] - sx * a[2];
-        lanes_f ay = a[1] - sy * a[2];
-        lanes_f bx = bv[0] - sx * bv[2];
-        lanes_f by = bv[1] - sy * bv[2];
-        lanes_f cx = c[0] - sx * c[2];
-        lanes_f cy = c[1] - sy * c[2];
-        lanes_f eu = cx * by - cy * bx;
-        lanes_f ev = ax * cy - ay * cx;
-        lanes_f ew = bx * ay - by * ax;
-        lanes_f det = (eu + ev) + ew;
-        lanes_f az = sz * a[2];
-        lanes_f bz = sz * bv[2];
-        lanes_f cz = sz * c[2];
-        lanes_f scaled_t = (eu * az + ev * bz) + ew * cz;
+        wide_edges_result e = wide_edges(a, bv, c, sx, sy, sz);
+        lanes_f eu = e.eu, ev = e.ev, ew = e.ew, det = e.det, scaled_t = e.scaled_t;
         lanes_i small = (lanes_abs(eu) < below) | (lanes_abs(ev) < below) |
                         (lanes_abs(ew) < below) | (lanes_abs(scaled_t) < lanes_abs(det) * below);
         lanes_i mixed = ((eu < 0.0f) | (ev < 0.0f) | (ew < 0.0f)) &

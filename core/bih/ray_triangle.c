@@ -78,31 +78,10 @@ int pf_triangle_is_degenerate(const float v0[3], const float v1[3], const float 
     return !(n2 > DEGENERATE_BOUND2 * edges2);
 }
 
-/* The sheared edge functions and the scaled distance of ray_triangle.glsl's watertight_edges. */
-typedef struct edges {
-    float eu, ev, ew, det, scaled_t;
-} edges;
-
-static inline edges watertight_edges(const float a[3], const float b[3], const float c[3],
-                                     float sx, float sy, float sz)
-{
-    float ax = a[0] - sx * a[2];
-    float ay = a[1] - sy * a[2];
-    float bx = b[0] - sx * b[2];
-    float by = b[1] - sy * b[2];
-    float cx = c[0] - sx * c[2];
-    float cy = c[1] - sy * c[2];
-    edges e;
-    e.eu = cx * by - cy * bx;
-    e.ev = ax * cy - ay * cx;
-    e.ew = bx * ay - by * ax;
-    e.det = (e.eu + e.ev) + e.ew;
-    float az = sz * a[2];
-    float bz = sz * b[2];
-    float cz = sz * c[2];
-    e.scaled_t = (e.eu * az + e.ev * bz) + e.ew * cz;
-    return e;
-}
+/* The sheared edge functions and the scaled distance (bih_watertight_edges.h). */
+#define WATERTIGHT_T float
+#define WATERTIGHT_EDGES watertight_edges
+#include "bih_watertight_edges.h"
 
 /* frexp's exponent of the largest of three magnitudes, 0 when all are 0. */
 static int column_exponent(float a, float b, float c)
@@ -167,7 +146,7 @@ int pf_ray_triangle_sheared(const float origin[3], const pf_ray_shear *s, const 
     float a[3] = {v0[kx] - origin[kx], v0[ky] - origin[ky], v0[kz] - origin[kz]};
     float b[3] = {v1[kx] - origin[kx], v1[ky] - origin[ky], v1[kz] - origin[kz]};
     float c[3] = {v2[kx] - origin[kx], v2[ky] - origin[ky], v2[kz] - origin[kz]};
-    edges e = watertight_edges(a, b, c, sx, sy, sz);
+    watertight_edges_result e = watertight_edges(a, b, c, sx, sy, sz);
     int t_exponent = 0;
     /* min(|eu|, |ev|, |ew|) < R as fminf answers it (NaN ignored), without its libm call. */
     const float below = PF_BIH_WATERTIGHT_RESCALE_BELOW;
