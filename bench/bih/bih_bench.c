@@ -13,12 +13,15 @@
  *     quality with spatial splits, leaves of at most PF_BIH_DEFAULT_LEAF_SIZE),
  *     measured with the same cost model as pf_bih_quality_measure;
  *   - for both CPU trees, Mrays/s of pf_bih_raycast, of our CPU traversal
- *     (pf_bih_trace_cpu_rays: packets of 16 consecutive rays) and of Embree's
+ *     (pf_bih_trace_cpu_rays: packets of 16 consecutive rays), of its wide
+ *     view one ray at a time (pf_bih_wide_trace_rays) and of Embree's
  *     single rays, rtcIntersect1/rtcOccluded1 (both CPU sides in 2 pthreads)
  *     for primary (640x480, in 4x4 pixel tiles: primary_index), shadow (any
  *     hit) and diffuse-bounce rays;
- *   - the fraction of rays where both agree (t within 1e-4 relative, or the
- *     same occluded answer) and the ours/Embree ratios.
+ *   - the fraction of rays where the GPU and Embree agree (t within 1e-4
+ *     relative, or the same occluded answer), the same for the wide view, and
+ *     the ours/Embree ratios (every CPU and Embree figure best of
+ *     TIMING_REPEATS).
  * Figures are reports, never pass/fail. Usage:
  *   bih_bench [scenes_dir [only]]   (scenes_dir default $PF_SHARED_SCENES)
  * where only, when given, runs just the scene of that name ("sphere" for the
@@ -29,7 +32,10 @@
  * A/B on a shared machine. A third argument "cpu" (bih_bench DIR SCENE cpu)
  * times only our CPU traversal of the SAH tree and Embree on the same rays,
  * CPU_ROUNDS rounds taking one of each in turn, best and median: the A/B
- * harness for core/bih's C traversal. "gpu" (bih_bench DIR SCENE gpu) does the
+ * harness for core/bih's C traversal. Its "cpu-wide" rows time the wide view
+ * (pf_bih_wide_trace_rays: one ray at a time, 8 boxes a step with AVX2) in
+ * the same rounds, and the last line the view's build from the SAH tree.
+ * "gpu" (bih_bench DIR SCENE gpu) does the
  * same for the device traversal (pf_bih_raycast of the SAH tree, its shader
  * compiled before the first round): the A/B harness for bih_traverse.glsl.
  * Run with LP_NUM_THREADS=2 so lavapipe gets the 2 threads Embree is given.
@@ -740,22 +746,42 @@ static double mrays(uint32_t count, double ms)
     return ms > 0.0 ? (double)count / (ms * 1e3) : 0.0;
 }
 
+/* Best-of-TIMING_REPEATS CPU cast (packets, or the wide view where wide is given); -1 on failure. */
+static double best_cpu_cast(const pf_bih *bih, const pf_bih_wide *wide, const pf_ray *rays,
+                            uint32_t count, int any_hit, pf_hit *hits)
+{
+    double best = -1.0;
+    for (int rep = 0; rep < TIMING_REPEATS; rep++) {
+        double ms = cpu_cast_view(bih, wide, rays, count, any_hit, hits);
+        if (ms < 0.0)
+            return -1.0;
+        if (best < 0.0 || ms < best)
+            best = ms;
+    }
+    return best;
+}
+
 /*
- * One ray type: GPU (pf_bih_raycast), our CPU traversal and Embree, with the
- * agreement of the GPU hits against Embree's. Leaves the GPU hits in ours.
+ * One ray type: GPU (pf_bih_raycast), our CPU traversals (the packets, and
+ * the wide view one ray at a time) and Embree, with the agreement of the GPU
+ * hits and of the wide view's against Embree's. Leaves the GPU hits in ours.
  */
 static void report_rays(const char *kind, const char *tree, pf_bih_gpu *gpu, const pf_bih *bih,
-                        RTCScene hq, const pf_ray *rays, uint32_t count, int any_hit,
-                        pf_hit *ours, pf_hit *theirs)
+                        const pf_bih_wide *wide, RTCScene hq, const pf_ray *rays, uint32_t count,
+                        int any_hit, pf_hit *ours, pf_hit *theirs)
 {
-    double c_ms = cpu_cast(bih, rays, count, any_hit, theirs);
+    double c_ms = best_cpu_cast(bih, NULL, rays, count, any_hit, theirs);
+    double w_ms = best_cpu_cast(bih, wide, rays, count, any_hit, ours);
     double e_ms = best_embree_cast(hq, rays, count, any_hit, theirs);
+    double wide_agree = agreement(ours, theirs, count, any_hit);
     double o_ms = ours_cast(gpu, rays, count, any_hit, ours);
     double agree = agreement(ours, theirs, count, any_hit);
-    printf("rays    %-8s %-6s %7u rays: ours GPU %7.3f Mrays/s | ours CPU %7.3f | Embree %7.3f | "
-           "GPU/Embree %.3fx | CPU/Embree %.3fx | agree %.4f\n",
-           kind, tree, count, mrays(count, o_ms), mrays(count, c_ms), mrays(count, e_ms),
-           o_ms > 0 ? e_ms / o_ms : 0.0, c_ms > 0 ? e_ms / c_ms : 0.0, agree);
+    printf("rays    %-8s %-6s %7u rays: ours GPU %7.3f Mrays/s | ours CPU %7.3f | wide %7.3f | "
+           "Embree %7.3f | GPU/Embree %.3fx | CPU/Embree %.3fx | wide/Embree %.3fx | agree %.4f "
+           "(wide %.4f)\n",
+           kind, tree, count, mrays(count, o_ms), mrays(count, c_ms), mrays(count, w_ms),
+           mrays(count, e_ms), o_ms > 0 ? e_ms / o_ms : 0.0, c_ms > 0 ? e_ms / c_ms : 0.0,
+           w_ms > 0 ? e_ms / w_ms : 0.0, agree, wide_agree);
 }
 
 /* Lanes llvmpipe runs a compute shader on at 256 bits: 8 consecutive invocations move together. */
@@ -956,13 +982,15 @@ static int bench_mesh_run(const bench_mesh *m, pf_vk_context *ctx, RTCDevice dev
 
     /* GPU copies of both trees. */
     pf_bih_gpu *gpus[2] = {NULL, NULL};
+    pf_bih_wide wides[2] = {{0}, {0}};
     pf_error err = {0};
     int ok = 1;
     for (int t = 0; t < 2 && ok; t++)
         ok = pf_bih_gpu_create(ctx, &gpus[t], &err) == PF_OK &&
-             pf_bih_gpu_upload(gpus[t], bihs[t], &err) == PF_OK;
+             pf_bih_gpu_upload(gpus[t], bihs[t], &err) == PF_OK &&
+             pf_bih_wide_build(bihs[t], &wides[t], &err) == PF_OK;
     if (!ok)
-        fprintf(stderr, "bih_bench: %s: GPU upload: %s\n", m->name, err.message);
+        fprintf(stderr, "bih_bench: %s: GPU upload or wide view: %s\n", m->name, err.message);
 
     uint32_t np = BENCH_WIDTH * BENCH_HEIGHT;
     pf_ray *primary = malloc(np * sizeof *primary);
@@ -973,18 +1001,18 @@ static int bench_mesh_run(const bench_mesh *m, pf_vk_context *ctx, RTCDevice dev
     if (ok && primary && shadow && diffuse && ours && theirs) {
         make_primary(f, primary);
         for (int t = 1; t >= 0; t--)
-            report_rays("primary", tree_names[t], gpus[t], bihs[t], hq, primary, np, 0, ours,
-                        theirs);
+            report_rays("primary", tree_names[t], gpus[t], bihs[t], &wides[t], hq, primary, np, 0,
+                        ours, theirs);
         uint32_t ns = make_secondary(m, primary, ours, np, shadow, diffuse);
         profile_rays("primary", &sah_bih, primary, np, 0);
         profile_rays("shadow", &sah_bih, shadow, ns, 1);
         profile_rays("diffuse", &sah_bih, diffuse, ns, 0);
         for (int t = 0; t < 2; t++)
-            report_rays("shadow", tree_names[t], gpus[t], bihs[t], hq, shadow, ns, 1, ours,
-                        theirs);
+            report_rays("shadow", tree_names[t], gpus[t], bihs[t], &wides[t], hq, shadow, ns, 1,
+                        ours, theirs);
         for (int t = 0; t < 2; t++)
-            report_rays("diffuse", tree_names[t], gpus[t], bihs[t], hq, diffuse, ns, 0, ours,
-                        theirs);
+            report_rays("diffuse", tree_names[t], gpus[t], bihs[t], &wides[t], hq, diffuse, ns, 0,
+                        ours, theirs);
     }
     free(primary);
     free(shadow);
@@ -993,6 +1021,8 @@ static int bench_mesh_run(const bench_mesh *m, pf_vk_context *ctx, RTCDevice dev
     free(theirs);
     pf_bih_gpu_destroy(gpus[0]);
     pf_bih_gpu_destroy(gpus[1]);
+    pf_bih_wide_free(&wides[0]);
+    pf_bih_wide_free(&wides[1]);
     rtcReleaseScene(hq);
     free(indices);
     pf_bih_free(&bih);
