@@ -746,7 +746,7 @@ static double mrays(uint32_t count, double ms)
     return ms > 0.0 ? (double)count / (ms * 1e3) : 0.0;
 }
 
-/* Best-of-TIMING_REPEATS CPU cast (packets, or the wide view where wide is given); -1 on failure. */
+/* Best-of-TIMING_REPEATS CPU cast (the packets, or the wide view if given); -1 on failure. */
 static double best_cpu_cast(const pf_bih *bih, const pf_bih_wide *wide, const pf_ray *rays,
                             uint32_t count, int any_hit, pf_hit *hits)
 {

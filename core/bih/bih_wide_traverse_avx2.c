@@ -98,11 +98,10 @@ static uint32_t wide_node_step(const pf_bih_wide_node *node, const wide_ray *w, 
         far_y = _mm256_blendv_ps(far_y, plus_inf, w->parallel_mask[1]);
         far_z = _mm256_blendv_ps(far_z, plus_inf, w->parallel_mask[2]);
     }
-    __m256 near[3] = {near_x, near_y, near_z}, far[3] = {far_x, far_y, far_z};
-    __m256 t_enter = _mm256_max_ps(_mm256_max_ps(near[0], near[1]), _mm256_max_ps(near[2], w->t_min));
-    __m256 t_exit = _mm256_min_ps(_mm256_min_ps(far[0], far[1]),
-                                  _mm256_min_ps(far[2], _mm256_set1_ps(closest)));
-    /* Widened by 2γ(3)·|t| (pf_bih_widen_far): -inf (an empty slot) becomes NaN and stays shut. */
+    __m256 t_enter = _mm256_max_ps(_mm256_max_ps(near_x, near_y), _mm256_max_ps(near_z, w->t_min));
+    __m256 t_exit = _mm256_min_ps(_mm256_min_ps(far_x, far_y),
+                                  _mm256_min_ps(far_z, _mm256_set1_ps(closest)));
+    /* Widened by 2γ(3)·|t| (pf_bih_widen_far); -inf (an empty slot) turns NaN: still shut. */
     __m256 magnitude = _mm256_andnot_ps(_mm256_set1_ps(-0.0f), t_exit);
     t_exit = _mm256_add_ps(t_exit, _mm256_mul_ps(magnitude, _mm256_set1_ps(PF_BIH_TWO_GAMMA3)));
     open = _mm256_and_ps(open, _mm256_cmp_ps(t_enter, t_exit, _CMP_LE_OQ));

@@ -29,6 +29,7 @@ struct pf_lpv {
     /* [ACCUMULATE][SNAPSHOT][FAR_FIELD], each created on first use (a layout needs 4 to 7). */
     pf_vk_pipeline *propagate[ACCUMULATE_MODES][2][2];
     uint64_t floats; /* SH floats of one volume (0: none allocated) */
+    int iterating;   /* the injected, ping and pong volumes exist too (the device path) */
     pf_lpv_site site;
     float *host_volumes;  /* the host path's accumulation, then its snapshot / far field */
     uint64_t host_floats; /* floats of each */
@@ -77,6 +78,7 @@ static void release_volumes(pf_lpv *lpv)
         *all[i] = NULL;
     }
     lpv->floats = 0;
+    lpv->iterating = 0;
 }
 
 void pf_lpv_destroy(pf_lpv *lpv)
@@ -93,20 +95,29 @@ void pf_lpv_destroy(pf_lpv *lpv)
     free(lpv);
 }
 
-/* Makes every volume hold floats SH floats (and a geometry volume of a third of that). */
-static pf_status ensure_volumes(pf_lpv *lpv, uint64_t floats, pf_error *err)
+/*
+ * Makes the volumes the lookups read hold floats SH floats (the accumulation,
+ * the snapshot, and a geometry volume of a third of that), and with iterating
+ * also the ones the device's iterations use (injected, ping, pong). The host
+ * path iterates in its own memory, so on a CPU device it allocates only the
+ * first three.
+ */
+static pf_status ensure_volumes(pf_lpv *lpv, uint64_t floats, int iterating, pf_error *err)
 {
-    if (lpv->floats == floats)
+    if (lpv->floats == floats && (lpv->iterating || !iterating))
         return PF_OK;
     release_volumes(lpv);
     uint64_t bytes = floats * sizeof(float);
     uint64_t gv_bytes = bytes / PF_LPV_FLOATS_PER_CELL * PF_LPV_GV_FLOATS_PER_CELL;
-    pf_status status = pf_vk_buffer_create(lpv->ctx, bytes, "LPV injected volume",
-                                           &lpv->injected, err);
-    if (status == PF_OK)
-        status = pf_vk_buffer_create(lpv->ctx, bytes, "LPV ping volume", &lpv->ping, err);
-    if (status == PF_OK)
-        status = pf_vk_buffer_create(lpv->ctx, bytes, "LPV pong volume", &lpv->pong, err);
+    pf_status status = PF_OK;
+    if (iterating) {
+        status = pf_vk_buffer_create(lpv->ctx, bytes, "LPV injected volume", &lpv->injected,
+                                     err);
+        if (status == PF_OK)
+            status = pf_vk_buffer_create(lpv->ctx, bytes, "LPV ping volume", &lpv->ping, err);
+        if (status == PF_OK)
+            status = pf_vk_buffer_create(lpv->ctx, bytes, "LPV pong volume", &lpv->pong, err);
+    }
     if (status == PF_OK)
         status = pf_vk_buffer_create(lpv->ctx, bytes, "LPV accumulation volume",
                                      &lpv->accumulated, err);
@@ -121,6 +132,7 @@ static pf_status ensure_volumes(pf_lpv *lpv, uint64_t floats, pf_error *err)
         return status;
     }
     lpv->floats = floats;
+    lpv->iterating = iterating;
     return PF_OK;
 }
 
@@ -159,7 +171,7 @@ static pf_status begin_propagation(pf_lpv *lpv, uint64_t floats, const float *in
                                    pf_error *err)
 {
     uint64_t bytes = floats * sizeof(float);
-    pf_status status = ensure_volumes(lpv, floats, err);
+    pf_status status = ensure_volumes(lpv, floats, 1, err);
     pf_vk_buffer *targets[3] = {lpv->injected, lpv->accumulated, lpv->snapshot};
     for (int t = 0; status == PF_OK && t < (accumulate ? 3 : 1); t++)
         status = pf_vk_buffer_upload(lpv->ctx, targets[t], 0, injected, bytes, err);
@@ -207,7 +219,7 @@ static pf_status propagate_on_host(pf_lpv *lpv, const pf_lpv_layout *layout,
                                    const float *injected, const float *gv, uint64_t floats,
                                    pf_error *err)
 {
-    pf_status status = ensure_volumes(lpv, floats, err);
+    pf_status status = ensure_volumes(lpv, floats, 0, err);
     if (status == PF_OK && lpv->host_floats != floats) {
         free(lpv->host_volumes);
         lpv->host_floats = 0;

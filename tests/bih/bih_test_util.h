@@ -725,7 +725,8 @@ static inline uint32_t bih_wide_structure_failures(const char *label, const pf_b
                 }
                 uint32_t start = wide->blocks[first].position[0];
                 for (uint32_t lane = 0; lane < PF_BIH_WIDE_LANES * blocks; lane++) {
-                    const pf_bih_wide_block *block = &wide->blocks[first + lane / PF_BIH_WIDE_LANES];
+                    const pf_bih_wide_block *block =
+                        &wide->blocks[first + lane / PF_BIH_WIDE_LANES];
                     uint32_t l = lane % PF_BIH_WIDE_LANES, p = block->position[l];
                     /* The leaf's triangles in order, then unused lanes. */
                     if (lane >= count) {
@@ -755,8 +756,8 @@ static inline uint32_t bih_wide_structure_failures(const char *label, const pf_b
                 const pf_bih_wide_node *c = &wide->nodes[child];
                 for (uint32_t j = 0; j < PF_BIH_WIDE_SLOTS; j++)
                     for (int k = 0; k < 3; k++)
-                        failures += c->lo[k][j] <= c->hi[k][j] &&
-                                    !(c->lo[k][j] >= node->lo[k][i] && c->hi[k][j] <= node->hi[k][i]);
+                        failures += c->lo[k][j] <= c->hi[k][j] && !(c->lo[k][j] >= node->lo[k][i] &&
+                                                                    c->hi[k][j] <= node->hi[k][i]);
             }
         }
     }

@@ -433,6 +433,27 @@ PF_TEST(the_host_propagation_agrees_with_the_device)
             PF_CHECK(!memcmp(other_snapshot, host_far, floats * sizeof(float)));
         }
     }
+    /*
+     * A fresh pf_lpv on the host first, then on the device: the host path allocates only
+     * the volumes the lookups read, and the device path then needs its own three
+     * (the result must be the device's above, occlusion on).
+     */
+    pf_lpv *fresh = NULL;
+    PF_REQUIRE_OK(pf_lpv_create(ctx, &fresh, &err), &err);
+    pf_lpv_propagate_stats stats;
+    pf_lpv_set_site(fresh, PF_LPV_SITE_HOST);
+    PF_REQUIRE_OK(pf_lpv_propagate(fresh, &layout, injected, gv, &stats, &err), &err);
+    PF_CHECK(stats.on_host);
+    PF_REQUIRE_OK(pf_lpv_download(fresh, other, floats, &err), &err);
+    PF_CHECK(!memcmp(other, host, floats * sizeof(float)));
+    pf_lpv_set_site(fresh, PF_LPV_SITE_DEVICE);
+    PF_REQUIRE_OK(pf_lpv_propagate(fresh, &layout, injected, gv, &stats, &err), &err);
+    PF_CHECK(!stats.on_host);
+    PF_REQUIRE_OK(pf_lpv_download(fresh, other, floats, &err), &err);
+    PF_CHECK_MSG(!memcmp(other, device, floats * sizeof(float)),
+                 "device after host: %.3g from the device's own",
+                 relative_difference(other, device, floats));
+    pf_lpv_destroy(fresh);
     PF_CHECK(pf_lpv_host_stepper(4) != NULL);
     PF_CHECK(pf_lpv_host_stepper(16) == NULL);
     free(injected);
