@@ -53,6 +53,12 @@ static void wide_ray_prepare(const pf_ray *ray, wide_ray *w)
     w->t_min = _mm256_set1_ps(ray->tmin);
 }
 
+/* The 8 slots' distances along the ray to the planes at bounds (one bound of axis k each). */
+static inline __m256 slab_distances(const float *bounds, const wide_ray *w, int k)
+{
+    return _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(bounds), w->origin[k]), w->inv[k]);
+}
+
 /* All ones where axis k is not parallel or the slot's slab holds the origin. */
 static __m256 slab_holds_origin(const float *base, const wide_ray *w, int k)
 {
@@ -71,19 +77,13 @@ static uint32_t wide_node_step(const pf_bih_wide_node *node, const wide_ray *w, 
                                float t_near[8])
 {
     const float *base = (const float *)node;
-    /* Written out per axis: as a loop over k, GCC -O2 kept the six slab vectors in memory. */
-    __m256 near_x = _mm256_mul_ps(
-        _mm256_sub_ps(_mm256_load_ps(base + w->near_offset[0]), w->origin[0]), w->inv[0]);
-    __m256 near_y = _mm256_mul_ps(
-        _mm256_sub_ps(_mm256_load_ps(base + w->near_offset[1]), w->origin[1]), w->inv[1]);
-    __m256 near_z = _mm256_mul_ps(
-        _mm256_sub_ps(_mm256_load_ps(base + w->near_offset[2]), w->origin[2]), w->inv[2]);
-    __m256 far_x = _mm256_mul_ps(
-        _mm256_sub_ps(_mm256_load_ps(base + w->far_offset[0]), w->origin[0]), w->inv[0]);
-    __m256 far_y = _mm256_mul_ps(
-        _mm256_sub_ps(_mm256_load_ps(base + w->far_offset[1]), w->origin[1]), w->inv[1]);
-    __m256 far_z = _mm256_mul_ps(
-        _mm256_sub_ps(_mm256_load_ps(base + w->far_offset[2]), w->origin[2]), w->inv[2]);
+    /* Named per axis: as a loop over k into arrays, GCC -O2 kept the six vectors in memory. */
+    __m256 near_x = slab_distances(base + w->near_offset[0], w, 0);
+    __m256 near_y = slab_distances(base + w->near_offset[1], w, 1);
+    __m256 near_z = slab_distances(base + w->near_offset[2], w, 2);
+    __m256 far_x = slab_distances(base + w->far_offset[0], w, 0);
+    __m256 far_y = slab_distances(base + w->far_offset[1], w, 1);
+    __m256 far_z = slab_distances(base + w->far_offset[2], w, 2);
     __m256 open = _mm256_castsi256_ps(_mm256_set1_epi32(-1));
     if (w->any_parallel) {
         /* A parallel axis: inside the slab or not, whatever t; it adds no bound. */
