@@ -27,35 +27,10 @@ static float box_half_area(const box *b)
     return dx >= 0.0f ? dx * dy + dy * dz + dz * dx : -1.0f;
 }
 
-/*
- * Node n's box: its triangles' vertices (the degenerate ones too: they are
- * in the leaf, never hit, and widen the box only where the leaf is anyway).
- * Recursive: the tree's depth is at most PF_BIH_STACK_SIZE (pf_bih_check).
- */
-static box node_boxes(const pf_bih *bih, uint32_t n, box *boxes)
-{
-    const pf_bih_node *node = &bih->nodes[n];
-    box b = EMPTY_BOX;
-    if (pf_bih_is_leaf(node)) {
-        uint32_t first = pf_bih_leaf_first(node), count = pf_bih_leaf_count(node);
-        for (uint32_t v = 3 * first; v < 3 * (first + count); v++)
-            for (int k = 0; k < 3; k++) {
-                b.lo[k] = pf_bih_min(b.lo[k], bih->vertices[v][k]);
-                b.hi[k] = pf_bih_max(b.hi[k], bih->vertices[v][k]);
-            }
-    } else {
-        uint32_t child = pf_bih_first_child(node);
-        box left = node_boxes(bih, child, boxes), right = node_boxes(bih, child + 1, boxes);
-        b = left;
-        box_grow(&b, &right);
-    }
-    boxes[n] = b;
-    return b;
-}
-
 typedef struct collapse {
     const pf_bih *bih;
-    const box *boxes;
+    box *boxes;            /* per BIH node */
+    uint32_t *leaf_block;  /* per BIH leaf: its first block */
     pf_bih_wide_node *nodes;
     uint32_t count;
     pf_bih_wide_block *blocks;
@@ -89,6 +64,37 @@ static uint32_t copy_leaf(collapse *c, uint32_t first, uint32_t count)
         }
     }
     return index;
+}
+
+/*
+ * Node n's box from its triangles' vertices (the degenerate ones too: they
+ * are in the leaf, never hit, and widen the box only where the leaf is
+ * anyway), and each leaf's triangles copied into blocks on the way: the
+ * walk reads the leaf-order vertices in about the order the build wrote
+ * them, where copying them in the collapse's order missed the cache.
+ * Recursive: the tree's depth is at most PF_BIH_STACK_SIZE (pf_bih_check).
+ */
+static box node_boxes(collapse *c, uint32_t n)
+{
+    const pf_bih *bih = c->bih;
+    const pf_bih_node *node = &bih->nodes[n];
+    box b = EMPTY_BOX;
+    if (pf_bih_is_leaf(node)) {
+        uint32_t first = pf_bih_leaf_first(node), count = pf_bih_leaf_count(node);
+        for (uint32_t v = 3 * first; v < 3 * (first + count); v++)
+            for (int k = 0; k < 3; k++) {
+                b.lo[k] = pf_bih_min(b.lo[k], bih->vertices[v][k]);
+                b.hi[k] = pf_bih_max(b.hi[k], bih->vertices[v][k]);
+            }
+        c->leaf_block[n] = copy_leaf(c, first, count);
+    } else {
+        uint32_t child = pf_bih_first_child(node);
+        box left = node_boxes(c, child), right = node_boxes(c, child + 1);
+        b = left;
+        box_grow(&b, &right);
+    }
+    c->boxes[n] = b;
+    return b;
 }
 
 /*
@@ -145,8 +151,7 @@ static uint32_t collapse_node(collapse *c, uint32_t n)
         }
         const pf_bih_node *bn = &bih->nodes[slots[i]];
         if (pf_bih_is_leaf(bn)) {
-            node->child[filled] =
-                PF_BIH_WIDE_LEAF | copy_leaf(c, pf_bih_leaf_first(bn), pf_bih_leaf_count(bn));
+            node->child[filled] = PF_BIH_WIDE_LEAF | c->leaf_block[slots[i]];
             node->count[filled] = pf_bih_leaf_count(bn);
         }
         filled++;
@@ -174,21 +179,23 @@ pf_status pf_bih_wide_build(const pf_bih *bih, pf_bih_wide *out, pf_error *err)
         if (pf_bih_is_leaf(&bih->nodes[n]))
             block_capacity += blocks_for(pf_bih_leaf_count(&bih->nodes[n]));
     box *boxes = malloc((size_t)bih->node_count * sizeof *boxes);
-    pf_bih_wide_node *nodes = NULL;
-    pf_bih_wide_block *blocks = NULL;
-    nodes = pf_bih_alloc_large((size_t)capacity * sizeof *nodes);
-    blocks = pf_bih_alloc_large(((size_t)block_capacity + 1) * sizeof *blocks);
-    if (!boxes || !nodes || !blocks) {
+    uint32_t *leaf_block = malloc((size_t)bih->node_count * sizeof *leaf_block);
+    pf_bih_wide_node *nodes = pf_bih_alloc_large((size_t)capacity * sizeof *nodes);
+    pf_bih_wide_block *blocks =
+        pf_bih_alloc_large(((size_t)block_capacity + 1) * sizeof *blocks);
+    if (!boxes || !leaf_block || !nodes || !blocks) {
         free(blocks);
-        free(boxes);
         free(nodes);
+        free(leaf_block);
+        free(boxes);
         return pf_error_set(err, PF_ERR_NOMEM,
                             "BIH wide view: out of memory for %u nodes and %u blocks", capacity,
                             block_capacity);
     }
-    node_boxes(bih, 0, boxes);
-    collapse c = {bih, boxes, nodes, 0, blocks, 0};
+    collapse c = {bih, boxes, leaf_block, nodes, 0, blocks, 0};
+    node_boxes(&c, 0);
     collapse_node(&c, 0);
+    free(leaf_block);
     free(boxes);
     *out = (pf_bih_wide){c.count, nodes, c.block_count, blocks};
     return PF_OK;
