@@ -1195,8 +1195,8 @@ static int traversal_rounds(const bench_mesh *m, RTCDevice dev, pf_vk_context *c
                    pf_bih_wide_available() ? "" : " (no AVX2: the packets)");
         }
         if (!ctx)
-            printf("cpu-wide view: %u nodes from %u, built in %.2f ms\n", wide.node_count,
-                   sah.node_count, wide_build_ms);
+            printf("cpu-wide view: %u nodes from %u, %u blocks of 4 triangles, built in %.2f ms\n",
+                   wide.node_count, sah.node_count, wide.block_count, wide_build_ms);
     }
     pf_bih_wide_free(&wide);
     if (hq)
