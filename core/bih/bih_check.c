@@ -7,32 +7,6 @@
 #include <math.h>
 #include <stdlib.h>
 
-typedef struct box3 {
-    float lo[3], hi[3];
-} box3;
-
-static box3 empty_box(void)
-{
-    return (box3){{INFINITY, INFINITY, INFINITY}, {-INFINITY, -INFINITY, -INFINITY}};
-}
-
-static void box_grow(box3 *box, const float p[3])
-{
-    for (int k = 0; k < 3; k++) {
-        box->lo[k] = p[k] < box->lo[k] ? p[k] : box->lo[k];
-        box->hi[k] = p[k] > box->hi[k] ? p[k] : box->hi[k];
-    }
-}
-
-/* Side by side, not corner by corner: an empty box (lo = +inf, hi = -inf) merges as nothing. */
-static void box_merge(box3 *box, const box3 *other)
-{
-    for (int k = 0; k < 3; k++) {
-        box->lo[k] = other->lo[k] < box->lo[k] ? other->lo[k] : box->lo[k];
-        box->hi[k] = other->hi[k] > box->hi[k] ? other->hi[k] : box->hi[k];
-    }
-}
-
 typedef struct check_state {
     const pf_bih *bih;
     uint8_t *node_seen;
@@ -47,7 +21,7 @@ typedef struct check_state {
  * empty child of an empty-space cut), besides an empty tree's root.
  */
 static pf_status check_node(check_state *s, uint32_t node, uint32_t depth, int unreachable,
-                            box3 *bounds)
+                            pf_bih_box *bounds)
 {
     const pf_bih *bih = s->bih;
     if (node >= bih->node_count)
@@ -56,7 +30,7 @@ static pf_status check_node(check_state *s, uint32_t node, uint32_t depth, int u
     if (s->node_seen[node]++)
         return pf_error_set(s->err, PF_ERR_INTERNAL, "BIH node %u: reached twice", node);
     const pf_bih_node *n = &bih->nodes[node];
-    *bounds = empty_box();
+    *bounds = pf_bih_box_empty();
     if (pf_bih_is_leaf(n)) {
         if (n->word != PF_BIH_LEAF)
             return pf_error_set(s->err, PF_ERR_INTERNAL, "BIH node %u: leaf word 0x%x has stray bits",
@@ -77,7 +51,7 @@ static pf_status check_node(check_state *s, uint32_t node, uint32_t depth, int u
                                     "BIH leaf %u: triangle position %llu in two leaves", node,
                                     (unsigned long long)p);
             for (int c = 0; c < 3; c++)
-                box_grow(bounds, bih->vertices[3 * p + c]);
+                pf_bih_box_merge(bounds, bih->vertices[3 * p + c], bih->vertices[3 * p + c]);
         }
         return PF_OK;
     }
@@ -89,7 +63,7 @@ static pf_status check_node(check_state *s, uint32_t node, uint32_t depth, int u
     if (child == 0 || child + 1 >= bih->node_count)
         return pf_error_set(s->err, PF_ERR_INTERNAL, "BIH node %u: children %u, %u out of range",
                             node, child, child + 1);
-    box3 left, right;
+    pf_bih_box left, right;
     pf_status status = check_node(s, child, depth + 1, n->clip[0] == -INFINITY, &left);
     if (status == PF_OK)
         status = check_node(s, child + 1, depth + 1, n->clip[1] == INFINITY, &right);
@@ -104,7 +78,7 @@ static pf_status check_node(check_state *s, uint32_t node, uint32_t depth, int u
                             "BIH node %u: right subtree reaches %.9g along axis %u, below its clip %.9g",
                             node, right.lo[axis], axis, n->clip[1]);
     *bounds = left;
-    box_merge(bounds, &right);
+    pf_bih_box_merge(bounds, right.lo, right.hi);
     return PF_OK;
 }
 
@@ -146,7 +120,7 @@ pf_status pf_bih_check(const pf_bih *bih, const pf_scene_frame *frame, pf_error 
                                   p, (double)leaf[0][3], (double)leaf[1][3], (double)leaf[2][3],
                                   (double)degenerate_w);
     }
-    box3 root;
+    pf_bih_box root;
     if (status == PF_OK)
         status = check_node(&s, 0, 0, 0, &root);
     for (uint32_t p = 0; status == PF_OK && p < n; p++)
@@ -166,7 +140,7 @@ pf_status pf_bih_check(const pf_bih *bih, const pf_scene_frame *frame, pf_error 
     return status;
 }
 
-static double box_area(const box3 *box)
+static double box_area(const pf_bih_box *box)
 {
     double e[3];
     for (int k = 0; k < 3; k++) {
@@ -186,17 +160,20 @@ typedef struct quality_state {
 } quality_state;
 
 /* Returns the subtree's triangle box; clip is the box the ancestors' planes cut out. */
-static box3 measure_node(quality_state *s, uint32_t node, const box3 *clip, uint32_t depth)
+static pf_bih_box measure_node(quality_state *s, uint32_t node, const pf_bih_box *clip,
+                                 uint32_t depth)
 {
     const pf_bih_node *n = &s->bih->nodes[node];
-    box3 bounds = empty_box();
+    pf_bih_box bounds = pf_bih_box_empty();
     double count = 0;
     if (pf_bih_is_leaf(n)) {
         uint32_t first = pf_bih_leaf_first(n);
         count = pf_bih_leaf_count(n);
         for (uint32_t p = first; p < first + pf_bih_leaf_count(n); p++)
-            for (int c = 0; c < 3; c++)
-                box_grow(&bounds, s->bih->vertices[3 * p + c]);
+            for (int c = 0; c < 3; c++) {
+                const float *vertex = s->bih->vertices[3 * p + c];
+                pf_bih_box_merge(&bounds, vertex, vertex);
+            }
         s->q->leaf_count += count > 0;
         if (pf_bih_leaf_count(n) > s->q->largest_leaf)
             s->q->largest_leaf = pf_bih_leaf_count(n);
@@ -204,15 +181,15 @@ static box3 measure_node(quality_state *s, uint32_t node, const box3 *clip, uint
             s->q->depth = depth;
     } else {
         uint32_t child = pf_bih_first_child(n), axis = pf_bih_axis(n);
-        box3 left_clip = *clip, right_clip = *clip;
+        pf_bih_box left_clip = *clip, right_clip = *clip;
         left_clip.hi[axis] = fminf(left_clip.hi[axis], n->clip[0]);
         right_clip.lo[axis] = fmaxf(right_clip.lo[axis], n->clip[1]);
         bounds = measure_node(s, child, &left_clip, depth + 1);
-        box3 right = measure_node(s, child + 1, &right_clip, depth + 1);
-        box_merge(&bounds, &right);
+        pf_bih_box right = measure_node(s, child + 1, &right_clip, depth + 1);
+        pf_bih_box_merge(&bounds, right.lo, right.hi);
         s->q->inner_count++;
     }
-    box3 region = bounds;
+    pf_bih_box region = bounds;
     for (int k = 0; k < 3; k++) {
         region.lo[k] = fmaxf(region.lo[k], clip->lo[k]);
         region.hi[k] = fminf(region.hi[k], clip->hi[k]);
@@ -235,7 +212,7 @@ void pf_bih_quality_measure(const pf_bih *bih, pf_bih_quality *quality)
     quality->bytes_per_node = sizeof(pf_bih_node);
     if (!bih || bih->triangle_count == 0 || bih->node_count == 0)
         return;
-    box3 root;
+    pf_bih_box root;
     memcpy(root.lo, bih->bounds_min, sizeof root.lo);
     memcpy(root.hi, bih->bounds_max, sizeof root.hi);
     quality_state s = {bih, box_area(&root), 0.0, 0.0, 0.0, quality};

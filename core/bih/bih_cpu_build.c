@@ -79,10 +79,6 @@ void *pf_bih_alloc_large(size_t bytes)
     return posix_memalign(&block, 64, bytes) == 0 ? block : NULL;
 }
 
-typedef struct box3 {
-    float lo[3], hi[3];
-} box3;
-
 typedef struct build_prim {
     float lo[3], hi[3];  /* the triangle's bounding box */
     uint32_t triangle;   /* frame index */
@@ -100,7 +96,7 @@ typedef struct build_config {
 typedef struct subtree_task {
     uint32_t node;        /* placeholder in the top tree */
     uint32_t first, count, depth;
-    box3 region, bounds, centres;
+    pf_bih_box region, bounds, centres;
     /* Filled by the worker: */
     pf_bih_node *nodes;   /* node 0 = the subtree root */
     uint32_t node_count;
@@ -121,34 +117,6 @@ typedef struct subtree_builder {
     pf_error *err;
 } subtree_builder;
 
-static box3 empty_box(void)
-{
-    return (box3){{INFINITY, INFINITY, INFINITY}, {-INFINITY, -INFINITY, -INFINITY}};
-}
-
-/*
- * Written out per axis, as the hot loops below are: GCC -O2 kept small
- * per-axis loops as loops over arrays in memory, and they ran once or three
- * times per triangle per level (the SAH build spent most of its time there).
- */
-static inline void box_merge(box3 *box, const float lo[3], const float hi[3])
-{
-    box->lo[0] = lo[0] < box->lo[0] ? lo[0] : box->lo[0];
-    box->lo[1] = lo[1] < box->lo[1] ? lo[1] : box->lo[1];
-    box->lo[2] = lo[2] < box->lo[2] ? lo[2] : box->lo[2];
-    box->hi[0] = hi[0] > box->hi[0] ? hi[0] : box->hi[0];
-    box->hi[1] = hi[1] > box->hi[1] ? hi[1] : box->hi[1];
-    box->hi[2] = hi[2] > box->hi[2] ? hi[2] : box->hi[2];
-}
-
-static inline float half_area(const box3 *box)
-{
-    float ex = box->hi[0] > box->lo[0] ? box->hi[0] - box->lo[0] : 0.0f;
-    float ey = box->hi[1] > box->lo[1] ? box->hi[1] - box->lo[1] : 0.0f;
-    float ez = box->hi[2] > box->lo[2] ? box->hi[2] - box->lo[2] : 0.0f;
-    return ex * ey + ey * ez + ez * ex;
-}
-
 static float prim_centre(const build_prim *p, int axis)
 {
     return 0.5f * p->lo[axis] + 0.5f * p->hi[axis];
@@ -162,7 +130,7 @@ static uint32_t ceil_log2(uint32_t value)
     return bits;
 }
 
-static int longest_axis(const box3 *box)
+static int longest_axis(const pf_bih_box *box)
 {
     int a = 0;
     for (int k = 1; k < 3; k++)
@@ -172,16 +140,16 @@ static int longest_axis(const box3 *box)
 }
 
 /* Triangle box and centre bounds of prims[first, first + count). */
-static void prim_bounds(const build_prim *prims, uint32_t first, uint32_t count, box3 *bounds,
-                        box3 *centres)
+static void prim_bounds(const build_prim *prims, uint32_t first, uint32_t count,
+                        pf_bih_box *bounds, pf_bih_box *centres)
 {
-    *bounds = empty_box();
-    *centres = empty_box();
+    *bounds = pf_bih_box_empty();
+    *centres = pf_bih_box_empty();
     for (uint32_t i = first; i < first + count; i++) {
         float c[3] = {prim_centre(&prims[i], 0), prim_centre(&prims[i], 1),
                       prim_centre(&prims[i], 2)};
-        box_merge(bounds, prims[i].lo, prims[i].hi);
-        box_merge(centres, c, c);
+        pf_bih_box_merge(bounds, prims[i].lo, prims[i].hi);
+        pf_bih_box_merge(centres, c, c);
     }
 }
 
@@ -244,11 +212,11 @@ static inline int goes_left(const build_prim *p, const split_rule *rule)
  * move. The earlier one-ended form swapped every right prim with the top and
  * read it back at once, and that read waited on the store it had just made
  * (a quarter of the pass's samples on one instruction). The bounds are
- * scalars (side_bounds), not box3 arrays: GCC -O2 kept those in memory.
+ * scalars (side_bounds), not pf_bih_box arrays: GCC -O2 kept those in memory.
  */
 static uint32_t partition(build_prim *prims, uint32_t first, uint32_t count,
-                          const split_rule *rule, box3 *left_centres, box3 *right_centres,
-                          float *left_clip, float *right_clip)
+                          const split_rule *rule, pf_bih_box *left_centres,
+                          pf_bih_box *right_centres, float *left_clip, float *right_clip)
 {
     const int axis = rule->axis;
     side_bounds left = {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY, -INFINITY};
@@ -278,8 +246,8 @@ static uint32_t partition(build_prim *prims, uint32_t first, uint32_t count,
         prims[hi] = swap;
         lo++;
     }
-    *left_centres = (box3){{left.lx, left.ly, left.lz}, {left.hx, left.hy, left.hz}};
-    *right_centres = (box3){{right.lx, right.ly, right.lz}, {right.hx, right.hy, right.hz}};
+    *left_centres = (pf_bih_box){{left.lx, left.ly, left.lz}, {left.hx, left.hy, left.hz}};
+    *right_centres = (pf_bih_box){{right.lx, right.ly, right.lz}, {right.hx, right.hy, right.hz}};
     *left_clip = left.clip;
     *right_clip = right.clip;
     return lo - first;
@@ -302,7 +270,7 @@ typedef struct parts_context {
     uint32_t first, count;
     const split_rule *rule;
     uint32_t left_count[ROOT_PARTITION_PARTS];
-    box3 left_centres[ROOT_PARTITION_PARTS], right_centres[ROOT_PARTITION_PARTS];
+    pf_bih_box left_centres[ROOT_PARTITION_PARTS], right_centres[ROOT_PARTITION_PARTS];
     float left_clip[ROOT_PARTITION_PARTS], right_clip[ROOT_PARTITION_PARTS];
     /* The swap: prims[swap_a + i] with prims[swap_b + i] for i < swap_count. */
     uint32_t swap_a, swap_b, swap_count;
@@ -348,8 +316,9 @@ static void run_parts(void (*run)(void *, uint32_t, uint32_t), void *context, ui
 }
 
 static uint32_t partition_in_parts(build_prim *prims, uint32_t first, uint32_t count,
-                                   const split_rule *rule, uint32_t threads, box3 *left_centres,
-                                   box3 *right_centres, float *left_clip, float *right_clip)
+                                   const split_rule *rule, uint32_t threads,
+                                   pf_bih_box *left_centres, pf_bih_box *right_centres,
+                                   float *left_clip, float *right_clip)
 {
     parts_context c = {.prims = prims, .first = first, .count = count, .rule = rule};
     uint32_t parts = ROOT_PARTITION_PARTS;
@@ -368,8 +337,8 @@ static uint32_t partition_in_parts(build_prim *prims, uint32_t first, uint32_t c
         c.swap_b = begin + left_here - c.swap_count;
         run_parts(swap_part, &c, parts, threads);
         left_end += left_here;
-        box_merge(left_centres, c.left_centres[part].lo, c.left_centres[part].hi);
-        box_merge(right_centres, c.right_centres[part].lo, c.right_centres[part].hi);
+        pf_bih_box_merge(left_centres, c.left_centres[part].lo, c.left_centres[part].hi);
+        pf_bih_box_merge(right_centres, c.right_centres[part].lo, c.right_centres[part].hi);
         *left_clip = pf_bih_max(*left_clip, c.left_clip[part]);
         *right_clip = pf_bih_min(*right_clip, c.right_clip[part]);
     }
@@ -429,7 +398,7 @@ static void make_leaf(subtree_builder *b, uint32_t node, uint32_t first, uint32_
  * the midpoint separates the centres (returns 1 with *axis, *plane) or can no
  * longer move (returns 0). cand is narrowed in place to the box that split.
  */
-static int global_split(box3 *cand, const box3 *centres, int *axis, float *plane)
+static int global_split(pf_bih_box *cand, const pf_bih_box *centres, int *axis, float *plane)
 {
     for (uint32_t step = 0; step < MAX_CANDIDATE_HALVINGS; step++) {
         int a = longest_axis(cand);
@@ -465,7 +434,8 @@ static int compare_keyed(const void *a, const void *b)
 }
 
 /* Sorts by centre along the centres' widest axis, ties by triangle index; -1 when out of memory. */
-static int median_split(build_prim *prims, uint32_t first, uint32_t count, const box3 *centres)
+static int median_split(build_prim *prims, uint32_t first, uint32_t count,
+                        const pf_bih_box *centres)
 {
     int a = longest_axis(centres);
     keyed_prim *keyed = malloc((size_t)count * sizeof *keyed);
@@ -488,7 +458,7 @@ static int median_split(build_prim *prims, uint32_t first, uint32_t count, const
 }
 
 typedef struct sah_bin {
-    box3 bounds;
+    pf_bih_box bounds;
     uint32_t count;
 } sah_bin;
 
@@ -501,7 +471,7 @@ static int bin_of(float centre, float lo, float scale)
 typedef struct sah_choice {
     int axis, last_left_bin;
     float scale;
-    box3 left_bounds, right_bounds;
+    pf_bih_box left_bounds, right_bounds;
 } sah_choice;
 
 /*
@@ -510,7 +480,7 @@ typedef struct sah_choice {
  * Returns 0 when the centres coincide (no axis to bin).
  */
 static int sah_split(const build_prim *prims, uint32_t first, uint32_t count,
-                     const box3 *centres, sah_choice *choice)
+                     const pf_bih_box *centres, sah_choice *choice)
 {
     sah_bin bins[3][SAH_BINS];
     float scale[3];
@@ -518,18 +488,18 @@ static int sah_split(const build_prim *prims, uint32_t first, uint32_t count,
         float extent = centres->hi[k] - centres->lo[k];
         scale[k] = extent > 0.0f ? (float)SAH_BINS / extent : 0.0f;
         for (int i = 0; i < SAH_BINS; i++)
-            bins[k][i] = (sah_bin){empty_box(), 0};
+            bins[k][i] = (sah_bin){pf_bih_box_empty(), 0};
     }
     for (uint32_t i = first; i < first + count; i++) {
         const build_prim *p = &prims[i];
         sah_bin *x = &bins[0][bin_of(prim_centre(p, 0), centres->lo[0], scale[0])];
         sah_bin *y = &bins[1][bin_of(prim_centre(p, 1), centres->lo[1], scale[1])];
         sah_bin *z = &bins[2][bin_of(prim_centre(p, 2), centres->lo[2], scale[2])];
-        box_merge(&x->bounds, p->lo, p->hi);
+        pf_bih_box_merge(&x->bounds, p->lo, p->hi);
         x->count++;
-        box_merge(&y->bounds, p->lo, p->hi);
+        pf_bih_box_merge(&y->bounds, p->lo, p->hi);
         y->count++;
-        box_merge(&z->bounds, p->lo, p->hi);
+        pf_bih_box_merge(&z->bounds, p->lo, p->hi);
         z->count++;
     }
     float best_cost = INFINITY;
@@ -538,21 +508,22 @@ static int sah_split(const build_prim *prims, uint32_t first, uint32_t count,
         if (scale[k] == 0.0f)
             continue;
         float right_cost[SAH_BINS];
-        box3 right = empty_box();
+        pf_bih_box right = pf_bih_box_empty();
         uint32_t right_count = 0;
         for (int i = SAH_BINS - 1; i > 0; i--) {
-            box_merge(&right, bins[k][i].bounds.lo, bins[k][i].bounds.hi);
+            pf_bih_box_merge(&right, bins[k][i].bounds.lo, bins[k][i].bounds.hi);
             right_count += bins[k][i].count;
-            right_cost[i] = right_count ? (float)right_count * half_area(&right) : INFINITY;
+            right_cost[i] =
+                right_count ? (float)right_count * pf_bih_box_half_area(&right) : INFINITY;
         }
-        box3 left = empty_box();
+        pf_bih_box left = pf_bih_box_empty();
         uint32_t left_count = 0;
         for (int i = 0; i < SAH_BINS - 1; i++) {
-            box_merge(&left, bins[k][i].bounds.lo, bins[k][i].bounds.hi);
+            pf_bih_box_merge(&left, bins[k][i].bounds.lo, bins[k][i].bounds.hi);
             left_count += bins[k][i].count;
             if (!left_count)
                 continue;
-            float cost = (float)left_count * half_area(&left) + right_cost[i + 1];
+            float cost = (float)left_count * pf_bih_box_half_area(&left) + right_cost[i + 1];
             if (cost < best_cost) {
                 best_cost = cost;
                 choice->axis = k;
@@ -565,9 +536,9 @@ static int sah_split(const build_prim *prims, uint32_t first, uint32_t count,
         return 0;
     int k = choice->axis;
     choice->scale = scale[k];
-    choice->left_bounds = choice->right_bounds = empty_box();
+    choice->left_bounds = choice->right_bounds = pf_bih_box_empty();
     for (int i = 0; i < SAH_BINS; i++)
-        box_merge(i <= choice->last_left_bin ? &choice->left_bounds : &choice->right_bounds,
+        pf_bih_box_merge(i <= choice->last_left_bin ? &choice->left_bounds : &choice->right_bounds,
                   bins[k][i].bounds.lo, bins[k][i].bounds.hi);
     return 1;
 }
@@ -578,10 +549,10 @@ static int sah_split(const build_prim *prims, uint32_t first, uint32_t count,
  * node (see EMPTY_CUT_MAX_AREA_RATIO). Returns 0 for no cut; else *axis and
  * *high (1: the region's upper side moves down to bounds).
  */
-static int empty_cut(const box3 *region, const box3 *bounds, uint32_t count, int *axis,
+static int empty_cut(const pf_bih_box *region, const pf_bih_box *bounds, uint32_t count, int *axis,
                      int *high)
 {
-    float area = half_area(region);
+    float area = pf_bih_box_half_area(region);
     float limit = 1.0f - 1.0f / (float)count;
     if (limit > EMPTY_CUT_MAX_AREA_RATIO)
         limit = EMPTY_CUT_MAX_AREA_RATIO;
@@ -589,12 +560,12 @@ static int empty_cut(const box3 *region, const box3 *bounds, uint32_t count, int
     int found = 0;
     for (int k = 0; k < 3; k++)
         for (int side = 0; side < 2; side++) {
-            box3 cut = *region;
+            pf_bih_box cut = *region;
             if (side)
                 cut.hi[k] = bounds->hi[k];
             else
                 cut.lo[k] = bounds->lo[k];
-            float cut_area = half_area(&cut);
+            float cut_area = pf_bih_box_half_area(&cut);
             if (cut_area < best) {
                 best = cut_area;
                 *axis = k;
@@ -622,8 +593,8 @@ static pf_status reserve_tasks(subtree_builder *b, uint32_t extra)
 }
 
 static pf_status defer_subtree(subtree_builder *b, uint32_t node, uint32_t first, uint32_t count,
-                               const box3 *region, const box3 *bounds, const box3 *centres,
-                               uint32_t depth)
+                               const pf_bih_box *region, const pf_bih_box *bounds,
+                               const pf_bih_box *centres, uint32_t depth)
 {
     pf_status status = reserve_tasks(b, 1);
     if (status != PF_OK)
@@ -634,7 +605,8 @@ static pf_status defer_subtree(subtree_builder *b, uint32_t node, uint32_t first
 }
 
 static pf_status build_node(subtree_builder *b, uint32_t node, uint32_t first, uint32_t count,
-                            box3 region, const box3 *bounds, const box3 *centres, uint32_t depth);
+                            pf_bih_box region, const pf_bih_box *bounds,
+                            const pf_bih_box *centres, uint32_t depth);
 
 /* Moves a subtree's nodes (root at node 0) into the tree: root to node, the rest from base on. */
 static void stitch(pf_bih_node *nodes, uint32_t node, uint32_t base, const pf_bih_node *subtree,
@@ -653,7 +625,7 @@ typedef struct fork_job {
     subtree_builder builder; /* node 0 = the child */
     pf_error err;
     uint32_t first, count, depth;
-    box3 region, bounds, centres;
+    pf_bih_box region, bounds, centres;
     pf_status status;
 } fork_job;
 
@@ -702,7 +674,7 @@ static pf_status join_fork(subtree_builder *b, uint32_t node, fork_job *job)
 
 /* A node's partition: in pieces at the root of a build that has subtree tasks, else in one pass. */
 static uint32_t split(const build_config *cfg, uint32_t depth, uint32_t first, uint32_t count,
-                      const split_rule *rule, box3 *left_centres, box3 *right_centres,
+                      const split_rule *rule, pf_bih_box *left_centres, pf_bih_box *right_centres,
                       float *left_clip, float *right_clip)
 {
     if (depth == 0 && cfg->defer_below)
@@ -719,7 +691,8 @@ static uint32_t split(const build_config *cfg, uint32_t depth, uint32_t first, u
  * and centre bounds. depth: inner nodes above this one.
  */
 static pf_status build_node(subtree_builder *b, uint32_t node, uint32_t first, uint32_t count,
-                            box3 region, const box3 *bounds, const box3 *centres, uint32_t depth)
+                            pf_bih_box region, const pf_bih_box *bounds,
+                            const pf_bih_box *centres, uint32_t depth)
 {
     const build_config *cfg = b->cfg;
     if (count <= cfg->leaf_size || depth >= cfg->max_depth) {
@@ -755,8 +728,8 @@ static pf_status build_node(subtree_builder *b, uint32_t node, uint32_t first, u
 
     int axis = 0;
     uint32_t left_count = 0;
-    box3 left_region = region, right_region = region;
-    box3 left_bounds, right_bounds, left_centres, right_centres;
+    pf_bih_box left_region = region, right_region = region;
+    pf_bih_box left_bounds, right_bounds, left_centres, right_centres;
     sah_choice choice;
     float plane = 0.0f;
     float left_clip, right_clip;
@@ -775,7 +748,7 @@ static pf_status build_node(subtree_builder *b, uint32_t node, uint32_t first, u
         left_region.hi[axis] = plane;
         right_region.lo[axis] = plane;
         /* The global heuristic needs only the clip values of the children's boxes. */
-        left_bounds = right_bounds = empty_box();
+        left_bounds = right_bounds = pf_bih_box_empty();
         left_bounds.hi[axis] = left_clip;
         right_bounds.lo[axis] = right_clip;
     } else {
@@ -885,7 +858,7 @@ static void parallel_run(void (*run)(void *, uint32_t, uint32_t), void *context,
 typedef struct setup_context {
     const pf_scene_frame *frame;
     build_prim *prims;
-    box3 bounds[PF_BIH_MAX_BUILD_THREADS], centres[PF_BIH_MAX_BUILD_THREADS];
+    pf_bih_box bounds[PF_BIH_MAX_BUILD_THREADS], centres[PF_BIH_MAX_BUILD_THREADS];
     uint32_t bad_triangle[PF_BIH_MAX_BUILD_THREADS]; /* first non-finite one, or UINT32_MAX */
 } setup_context;
 
@@ -895,7 +868,7 @@ static void setup_part(void *arg, uint32_t part, uint32_t parts)
     uint32_t n = c->frame->triangle_count;
     uint32_t begin = (uint32_t)((uint64_t)n * part / parts);
     uint32_t end = (uint32_t)((uint64_t)n * (part + 1) / parts);
-    box3 bounds = empty_box(), centres = empty_box();
+    pf_bih_box bounds = pf_bih_box_empty(), centres = pf_bih_box_empty();
     c->bad_triangle[part] = UINT32_MAX;
     for (uint32_t t = begin; t < end; t++) {
         build_prim *p = &c->prims[t];
@@ -914,8 +887,8 @@ static void setup_part(void *arg, uint32_t part, uint32_t parts)
         float centre[3];
         for (int k = 0; k < 3; k++)
             centre[k] = prim_centre(p, k);
-        box_merge(&bounds, p->lo, p->hi);
-        box_merge(&centres, centre, centre);
+        pf_bih_box_merge(&bounds, p->lo, p->hi);
+        pf_bih_box_merge(&centres, centre, centre);
     }
     c->bounds[part] = bounds;
     c->centres[part] = centres;
@@ -1057,7 +1030,7 @@ pf_status pf_bih_build_cpu(const pf_scene_frame *frame, const pf_bih_build_optio
         status = pf_error_set(err, PF_ERR_NOMEM, "BIH build: %u triangles", n);
 
     setup_context setup = {.frame = frame, .prims = cfg.prims};
-    box3 bounds = empty_box(), centres = empty_box();
+    pf_bih_box bounds = pf_bih_box_empty(), centres = pf_bih_box_empty();
     if (status == PF_OK && n > 0) {
         parallel_run(setup_part, &setup, threads);
         for (uint32_t i = 0; i < threads && status == PF_OK; i++) {
@@ -1065,8 +1038,8 @@ pf_status pf_bih_build_cpu(const pf_scene_frame *frame, const pf_bih_build_optio
                 status = pf_error_set(err, PF_ERR_INVALID,
                                       "BIH build: triangle %u: non-finite vertex coordinate",
                                       setup.bad_triangle[i]);
-            box_merge(&bounds, setup.bounds[i].lo, setup.bounds[i].hi);
-            box_merge(&centres, setup.centres[i].lo, setup.centres[i].hi);
+            pf_bih_box_merge(&bounds, setup.bounds[i].lo, setup.bounds[i].hi);
+            pf_bih_box_merge(&centres, setup.centres[i].lo, setup.centres[i].hi);
         }
     }
     /* The decomposition into subtrees depends on n only, not on threads. */

@@ -52,6 +52,49 @@ static inline uint32_t pf_bih_first_child(const pf_bih_node *node)
     return node->word >> 2;
 }
 
+/*
+ * An axis-aligned box, for the build, the check, the refit and the wide view.
+ * The empty box (lo = +inf, hi = -inf) merges as nothing: boxes merge side
+ * by side, never corner by corner.
+ */
+typedef struct pf_bih_box {
+    float lo[3], hi[3];
+} pf_bih_box;
+
+static inline pf_bih_box pf_bih_box_empty(void)
+{
+    return (pf_bih_box){{INFINITY, INFINITY, INFINITY}, {-INFINITY, -INFINITY, -INFINITY}};
+}
+
+static inline int pf_bih_box_is_empty(const pf_bih_box *box)
+{
+    return !(box->lo[0] <= box->hi[0]);
+}
+
+/*
+ * box grown to hold [lo, hi] (a point: lo = hi). Written out per axis: GCC -O2
+ * kept small per-axis loops as loops over arrays in memory, and the build's hot
+ * loops merge once or three times per triangle per level.
+ */
+static inline void pf_bih_box_merge(pf_bih_box *box, const float lo[3], const float hi[3])
+{
+    box->lo[0] = lo[0] < box->lo[0] ? lo[0] : box->lo[0];
+    box->lo[1] = lo[1] < box->lo[1] ? lo[1] : box->lo[1];
+    box->lo[2] = lo[2] < box->lo[2] ? lo[2] : box->lo[2];
+    box->hi[0] = hi[0] > box->hi[0] ? hi[0] : box->hi[0];
+    box->hi[1] = hi[1] > box->hi[1] ? hi[1] : box->hi[1];
+    box->hi[2] = hi[2] > box->hi[2] ? hi[2] : box->hi[2];
+}
+
+/* Half the surface area; an empty axis counts as 0 wide. */
+static inline float pf_bih_box_half_area(const pf_bih_box *box)
+{
+    float ex = box->hi[0] > box->lo[0] ? box->hi[0] - box->lo[0] : 0.0f;
+    float ey = box->hi[1] > box->lo[1] ? box->hi[1] - box->lo[1] : 0.0f;
+    float ez = box->hi[2] > box->lo[2] ? box->hi[2] - box->lo[2] : 0.0f;
+    return ex * ey + ey * ez + ez * ex;
+}
+
 /* What every traversal reports for a ray that hits nothing (pf_bih.h: t = -1, PF_NO_HIT). */
 #define PF_BIH_MISS ((pf_hit){-1.0f, PF_NO_HIT, 0.0f, 0.0f})
 

@@ -21,9 +21,6 @@
 #include <math.h>
 #include <stdlib.h>
 
-typedef struct refit_box {
-    float lo[3], hi[3];
-} refit_box;
 
 /*
  * Lists the nodes reachable from the root, parents before children, in order
@@ -61,23 +58,6 @@ static pf_status list_top_down(const pf_bih *bih, uint32_t *order, uint32_t *lis
     return PF_OK;
 }
 
-static void box_grow(refit_box *box, const float p[3])
-{
-    for (int k = 0; k < 3; k++) {
-        box->lo[k] = p[k] < box->lo[k] ? p[k] : box->lo[k];
-        box->hi[k] = p[k] > box->hi[k] ? p[k] : box->hi[k];
-    }
-}
-
-/* Merges by sides, not corners: an empty leaf's box (lo +inf, hi -inf) changes nothing. */
-static void box_merge(refit_box *box, const refit_box *other)
-{
-    for (int k = 0; k < 3; k++) {
-        box->lo[k] = other->lo[k] < box->lo[k] ? other->lo[k] : box->lo[k];
-        box->hi[k] = other->hi[k] > box->hi[k] ? other->hi[k] : box->hi[k];
-    }
-}
-
 pf_status pf_bih_refit(pf_bih *bih, const pf_scene_frame *frame, pf_error *err)
 {
     if (!bih || !frame)
@@ -99,7 +79,7 @@ pf_status pf_bih_refit(pf_bih *bih, const pf_scene_frame *frame, pf_error *err)
                                         "BIH refit: triangle %u vertex %d: non-finite coordinate",
                                         t, c);
     uint32_t *order = malloc(bih->node_count * sizeof *order);
-    refit_box *boxes = malloc(bih->node_count * sizeof *boxes);
+    pf_bih_box *boxes = malloc(bih->node_count * sizeof *boxes);
     pf_status status = PF_OK;
     uint32_t listed = 0;
     if (!order || !boxes)
@@ -114,20 +94,20 @@ pf_status pf_bih_refit(pf_bih *bih, const pf_scene_frame *frame, pf_error *err)
         for (uint32_t i = listed; i-- > 0;) {
             uint32_t node = order[i];
             pf_bih_node *current = &bih->nodes[node];
-            refit_box *box = &boxes[node];
-            *box = (refit_box){{INFINITY, INFINITY, INFINITY}, {-INFINITY, -INFINITY, -INFINITY}};
+            pf_bih_box *box = &boxes[node];
+            *box = pf_bih_box_empty();
             if (pf_bih_is_leaf(current)) {
                 uint32_t first = pf_bih_leaf_first(current);
                 for (uint32_t p = first; p < first + pf_bih_leaf_count(current); p++)
                     for (int c = 0; c < 3; c++)
-                        box_grow(box, bih->vertices[3 * p + c]);
+                        pf_bih_box_merge(box, bih->vertices[3 * p + c], bih->vertices[3 * p + c]);
                 continue;
             }
             uint32_t child = pf_bih_first_child(current), axis = pf_bih_axis(current);
             current->clip[0] = boxes[child].hi[axis];
             current->clip[1] = boxes[child + 1].lo[axis];
-            box_merge(box, &boxes[child]);
-            box_merge(box, &boxes[child + 1]);
+            pf_bih_box_merge(box, boxes[child].lo, boxes[child].hi);
+            pf_bih_box_merge(box, boxes[child + 1].lo, boxes[child + 1].hi);
         }
         /* The build's convention: an empty tree has a zero box. */
         for (int k = 0; k < 3; k++) {

@@ -7,29 +7,9 @@
 
 #include <stdlib.h>
 
-typedef struct box {
-    float lo[3], hi[3];
-} box;
-
-static const box EMPTY_BOX = {{INFINITY, INFINITY, INFINITY}, {-INFINITY, -INFINITY, -INFINITY}};
-
-static void box_grow(box *b, const box *other)
-{
-    for (int k = 0; k < 3; k++) {
-        b->lo[k] = pf_bih_min(b->lo[k], other->lo[k]);
-        b->hi[k] = pf_bih_max(b->hi[k], other->hi[k]);
-    }
-}
-
-static float box_half_area(const box *b)
-{
-    float dx = b->hi[0] - b->lo[0], dy = b->hi[1] - b->lo[1], dz = b->hi[2] - b->lo[2];
-    return dx >= 0.0f ? dx * dy + dy * dz + dz * dx : -1.0f;
-}
-
 typedef struct collapse {
     const pf_bih *bih;
-    box *boxes;            /* per BIH node */
+    pf_bih_box *boxes;            /* per BIH node */
     uint32_t *leaf_block;  /* per BIH leaf: its first block */
     pf_bih_wide_node *nodes;
     uint32_t count;
@@ -74,24 +54,21 @@ static uint32_t copy_leaf(collapse *c, uint32_t first, uint32_t count)
  * them, where copying them in the collapse's order missed the cache.
  * Recursive: the tree's depth is at most PF_BIH_STACK_SIZE (pf_bih_check).
  */
-static box node_boxes(collapse *c, uint32_t n)
+static pf_bih_box node_boxes(collapse *c, uint32_t n)
 {
     const pf_bih *bih = c->bih;
     const pf_bih_node *node = &bih->nodes[n];
-    box b = EMPTY_BOX;
+    pf_bih_box b = pf_bih_box_empty();
     if (pf_bih_is_leaf(node)) {
         uint32_t first = pf_bih_leaf_first(node), count = pf_bih_leaf_count(node);
         for (uint32_t v = 3 * first; v < 3 * (first + count); v++)
-            for (int k = 0; k < 3; k++) {
-                b.lo[k] = pf_bih_min(b.lo[k], bih->vertices[v][k]);
-                b.hi[k] = pf_bih_max(b.hi[k], bih->vertices[v][k]);
-            }
+            pf_bih_box_merge(&b, bih->vertices[v], bih->vertices[v]);
         c->leaf_block[n] = copy_leaf(c, first, count);
     } else {
         uint32_t child = pf_bih_first_child(node);
-        box left = node_boxes(c, child), right = node_boxes(c, child + 1);
+        pf_bih_box left = node_boxes(c, child), right = node_boxes(c, child + 1);
         b = left;
-        box_grow(&b, &right);
+        pf_bih_box_merge(&b, right.lo, right.hi);
     }
     c->boxes[n] = b;
     return b;
@@ -117,8 +94,10 @@ static uint32_t collapse_node(collapse *c, uint32_t n)
         int widest = -1;
         float widest_area = -1.0f;
         for (uint32_t i = 0; i < used; i++) {
-            float area = box_half_area(&c->boxes[slots[i]]);
-            if (!pf_bih_is_leaf(&bih->nodes[slots[i]]) && area > widest_area) {
+            const pf_bih_box *b = &c->boxes[slots[i]];
+            float area = pf_bih_box_half_area(b);
+            if (!pf_bih_is_leaf(&bih->nodes[slots[i]]) && !pf_bih_box_is_empty(b) &&
+                area > widest_area) {
                 widest = (int)i;
                 widest_area = area;
             }
@@ -142,8 +121,8 @@ static uint32_t collapse_node(collapse *c, uint32_t n)
         node->count[i] = 0;
     }
     for (uint32_t i = 0; i < used; i++) {
-        const box *b = &c->boxes[slots[i]];
-        if (box_half_area(b) < 0.0f)
+        const pf_bih_box *b = &c->boxes[slots[i]];
+        if (pf_bih_box_is_empty(b))
             continue; /* no triangle below: no ray needs it */
         for (int k = 0; k < 3; k++) {
             node->lo[k][filled] = b->lo[k];
@@ -159,7 +138,7 @@ static uint32_t collapse_node(collapse *c, uint32_t n)
     /* The children after the slots are written: c->nodes does not move (capacity is fixed). */
     filled = 0;
     for (uint32_t i = 0; i < used; i++) {
-        if (box_half_area(&c->boxes[slots[i]]) < 0.0f)
+        if (pf_bih_box_is_empty(&c->boxes[slots[i]]))
             continue;
         if (!pf_bih_is_leaf(&bih->nodes[slots[i]])) {
             uint32_t child = collapse_node(c, slots[i]);
@@ -178,7 +157,7 @@ pf_status pf_bih_wide_build(const pf_bih *bih, pf_bih_wide *out, pf_error *err)
     for (uint32_t n = 0; n < bih->node_count; n++)
         if (pf_bih_is_leaf(&bih->nodes[n]))
             block_capacity += blocks_for(pf_bih_leaf_count(&bih->nodes[n]));
-    box *boxes = malloc((size_t)bih->node_count * sizeof *boxes);
+    pf_bih_box *boxes = malloc((size_t)bih->node_count * sizeof *boxes);
     uint32_t *leaf_block = malloc((size_t)bih->node_count * sizeof *leaf_block);
     pf_bih_wide_node *nodes = pf_bih_alloc_large((size_t)capacity * sizeof *nodes);
     pf_bih_wide_block *blocks =
