@@ -15,9 +15,11 @@
  * is the same on every run.
  */
 #include "bih_internal.h"
+#include "bih_lanes4.h"
 
 #include <math.h>
 #include <pthread.h>
+#include <stddef.h>
 #include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
@@ -164,42 +166,62 @@ typedef struct split_rule {
 
 static int bin_of(float centre, float lo, float scale);
 
+/*
+ * A prim's centre on all three axes in one vector (lane 3 zero): the box's two
+ * corners read as 4 floats each (lo with hi[0], hi with the triangle index),
+ * the extra lane cleared before the arithmetic, since an index read as a float
+ * is subnormal, which the multiply would take a slow path for. Lane by lane the
+ * value is prim_centre's.
+ */
+static inline lanes4_f prim_centre4(const build_prim *p)
+{
+    const lanes4_i xyz = {-1, -1, -1, 0};
+    lanes4_f lo = (lanes4_f)((lanes4_i)lanes4_load(p->lo) & xyz);
+    lanes4_f hi = (lanes4_f)((lanes4_i)lanes4_load(p->hi) & xyz);
+    return 0.5f * lo + 0.5f * hi;
+}
+_Static_assert(offsetof(build_prim, hi) + 4 * sizeof(float) <= sizeof(build_prim),
+               "prim_centre4 reads 4 floats at hi");
+
 /* One side's running bounds in partition: its centres, and its clip value along the axis. */
 typedef struct side_bounds {
-    float lx, ly, lz, hx, hy, hz;
+    lanes4_f lo, hi;
     float clip; /* left: largest max, right: smallest min */
 } side_bounds;
 
-static inline void side_merge_centre(side_bounds *side, const build_prim *p)
+static inline void side_merge_centre(side_bounds *side, lanes4_f centre)
 {
-    float cx = prim_centre(p, 0), cy = prim_centre(p, 1), cz = prim_centre(p, 2);
-    side->lx = pf_bih_min(side->lx, cx);
-    side->ly = pf_bih_min(side->ly, cy);
-    side->lz = pf_bih_min(side->lz, cz);
-    side->hx = pf_bih_max(side->hx, cx);
-    side->hy = pf_bih_max(side->hy, cy);
-    side->hz = pf_bih_max(side->hz, cz);
+    side->lo = lanes4_min(side->lo, centre);
+    side->hi = lanes4_max(side->hi, centre);
 }
 
 /* p counted on the left side: its centre, and its max along the axis into the clip. */
-static inline void side_take_left(side_bounds *left, const build_prim *p, int axis)
+static inline void side_take_left(side_bounds *left, const build_prim *p, lanes4_f centre, int axis)
 {
-    side_merge_centre(left, p);
+    side_merge_centre(left, centre);
     left->clip = pf_bih_max(left->clip, p->hi[axis]);
 }
 
 /* p counted on the right side: its centre, and its min along the axis into the clip. */
-static inline void side_take_right(side_bounds *right, const build_prim *p, int axis)
+static inline void side_take_right(side_bounds *right, const build_prim *p, lanes4_f centre,
+                                   int axis)
 {
-    side_merge_centre(right, p);
+    side_merge_centre(right, centre);
     right->clip = pf_bih_min(right->clip, p->lo[axis]);
 }
 
-static inline int goes_left(const build_prim *p, const split_rule *rule)
+static inline int goes_left(const build_prim *p, lanes4_f centre, const split_rule *rule,
+                            lanes4_f plane, unsigned axis_bit, int use_bins)
 {
-    float c = prim_centre(p, rule->axis);
-    return rule->use_bins ? bin_of(c, rule->bin_lo, rule->bin_scale) <= rule->last_bin
-                          : c <= rule->plane;
+    if (use_bins)
+        return bin_of(prim_centre(p, rule->axis), rule->bin_lo, rule->bin_scale) <= rule->last_bin;
+    return (lanes4_bits(centre <= plane) & axis_bit) != 0;
+}
+
+static pf_bih_box side_centre_box(const side_bounds *side)
+{
+    return (pf_bih_box){{side->lo[0], side->lo[1], side->lo[2]},
+                        {side->hi[0], side->hi[1], side->hi[2]}};
 }
 
 /*
@@ -211,33 +233,46 @@ static inline int goes_left(const build_prim *p, const split_rule *rule)
  * left one, then one swap, so each prim is read once and only misplaced pairs
  * move. The earlier one-ended form swapped every right prim with the top and
  * read it back at once, and that read waited on the store it had just made
- * (a quarter of the pass's samples on one instruction). The bounds are
- * scalars (side_bounds), not pf_bih_box arrays: GCC -O2 kept those in memory.
+ * (a quarter of the pass's samples on one instruction). The centres and their
+ * bounds are 4-lane vectors (one multiply-add and one min and max a prim
+ * instead of three each), and the pass is compiled once per rule kind
+ * (use_bins a constant), so the global heuristic's plane test is one compare.
  */
-static uint32_t partition(build_prim *prims, uint32_t first, uint32_t count,
-                          const split_rule *rule, pf_bih_box *left_centres,
-                          pf_bih_box *right_centres, float *left_clip, float *right_clip)
+static inline __attribute__((always_inline)) uint32_t
+partition_pass(build_prim *prims, uint32_t first, uint32_t count, const split_rule *rule,
+               pf_bih_box *left_centres, pf_bih_box *right_centres, float *left_clip,
+               float *right_clip, const int use_bins)
 {
     const int axis = rule->axis;
-    side_bounds left = {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY, -INFINITY};
-    side_bounds right = {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY, INFINITY};
+    const lanes4_f plane = {rule->plane, rule->plane, rule->plane, rule->plane};
+    const unsigned axis_bit = 1u << axis;
+    const lanes4_f empty_lo = {INFINITY, INFINITY, INFINITY, INFINITY};
+    const lanes4_f empty_hi = -empty_lo;
+    side_bounds left = {empty_lo, empty_hi, -INFINITY};
+    side_bounds right = {empty_lo, empty_hi, INFINITY};
     /* [first, lo): left; [hi, first + count): right; [lo, hi): not yet read. */
     uint32_t lo = first, hi = first + count;
     for (;;) {
-        while (lo < hi && goes_left(&prims[lo], rule))
-            side_take_left(&left, &prims[lo++], axis);
+        lanes4_f centre = {0};
+        while (lo < hi) {
+            centre = prim_centre4(&prims[lo]);
+            if (!goes_left(&prims[lo], centre, rule, plane, axis_bit, use_bins))
+                break;
+            side_take_left(&left, &prims[lo++], centre, axis);
+        }
         if (lo == hi)
             break;
         /* prims[lo] goes right; look for a left one above it to swap with. */
-        side_take_right(&right, &prims[lo], axis);
+        side_take_right(&right, &prims[lo], centre, axis);
         int found = 0;
         while (--hi > lo) {
-            if (goes_left(&prims[hi], rule)) {
-                side_take_left(&left, &prims[hi], axis);
+            lanes4_f above = prim_centre4(&prims[hi]);
+            if (goes_left(&prims[hi], above, rule, plane, axis_bit, use_bins)) {
+                side_take_left(&left, &prims[hi], above, axis);
                 found = 1;
                 break;
             }
-            side_take_right(&right, &prims[hi], axis);
+            side_take_right(&right, &prims[hi], above, axis);
         }
         if (!found)
             break;
@@ -246,11 +281,22 @@ static uint32_t partition(build_prim *prims, uint32_t first, uint32_t count,
         prims[hi] = swap;
         lo++;
     }
-    *left_centres = (pf_bih_box){{left.lx, left.ly, left.lz}, {left.hx, left.hy, left.hz}};
-    *right_centres = (pf_bih_box){{right.lx, right.ly, right.lz}, {right.hx, right.hy, right.hz}};
+    *left_centres = side_centre_box(&left);
+    *right_centres = side_centre_box(&right);
     *left_clip = left.clip;
     *right_clip = right.clip;
     return lo - first;
+}
+
+static uint32_t partition(build_prim *prims, uint32_t first, uint32_t count,
+                          const split_rule *rule, pf_bih_box *left_centres,
+                          pf_bih_box *right_centres, float *left_clip, float *right_clip)
+{
+    if (rule->use_bins)
+        return partition_pass(prims, first, count, rule, left_centres, right_centres, left_clip,
+                              right_clip, 1);
+    return partition_pass(prims, first, count, rule, left_centres, right_centres, left_clip,
+                          right_clip, 0);
 }
 
 static void parallel_run(void (*run)(void *, uint32_t, uint32_t), void *context, uint32_t parts);
@@ -958,6 +1004,8 @@ typedef struct order_context {
  * steps ahead overlaps the misses (1M triangles: the pass 45-55 -> 24-45 ms).
  */
 #define ORDER_PREFETCH_DISTANCE 16u
+/* The degenerate flags are set a block at a time, while the block's copy is in L1 (3 KiB). */
+#define ORDER_FLAG_BLOCK 64u
 
 static void prefetch_triangle(const pf_scene_frame *frame, uint32_t t)
 {
@@ -977,12 +1025,16 @@ static void order_part(void *arg, uint32_t part, uint32_t parts)
     uint32_t n = c->frame->triangle_count;
     uint32_t begin = (uint32_t)((uint64_t)n * part / parts);
     uint32_t end = (uint32_t)((uint64_t)n * (part + 1) / parts);
-    for (uint32_t i = begin; i < end; i++) {
-        if (i + ORDER_PREFETCH_DISTANCE < end)
-            prefetch_triangle(c->frame, c->prims[i + ORDER_PREFETCH_DISTANCE].triangle);
-        uint32_t t = c->prims[i].triangle;
-        c->out->triangle_index[i] = t;
-        pf_bih_store_leaf_triangle(&c->out->vertices[3 * (size_t)i], c->frame, t);
+    for (uint32_t block = begin; block < end; block += ORDER_FLAG_BLOCK) {
+        uint32_t block_end = end - block > ORDER_FLAG_BLOCK ? block + ORDER_FLAG_BLOCK : end;
+        for (uint32_t i = block; i < block_end; i++) {
+            if (i + ORDER_PREFETCH_DISTANCE < end)
+                prefetch_triangle(c->frame, c->prims[i + ORDER_PREFETCH_DISTANCE].triangle);
+            uint32_t t = c->prims[i].triangle;
+            c->out->triangle_index[i] = t;
+            pf_bih_copy_leaf_triangle(&c->out->vertices[3 * (size_t)i], c->frame, t);
+        }
+        pf_bih_flag_degenerate(&c->out->vertices[3 * (size_t)block], block_end - block);
     }
 }
 

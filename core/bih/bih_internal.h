@@ -142,19 +142,18 @@ static inline float pf_bih_next_up(float t)
 }
 
 /*
- * Frame triangle t's vertices into leaf (its 3 leaf-order vertices), w = 0
- * but for the degenerate flag on the first (pf_bih.h): the build and the
- * refit store every leaf triangle so, and pf_bih_check expects it.
+ * Frame triangle t's vertices into leaf (its 3 leaf-order vertices), w = 0:
+ * the build and the refit copy every leaf triangle so, then set the
+ * degenerate flags with pf_bih_flag_degenerate (pf_bih.h), which
+ * pf_bih_check expects.
  */
-static inline void pf_bih_store_leaf_triangle(float (*leaf)[4], const pf_scene_frame *frame,
-                                              uint32_t t)
+static inline void pf_bih_copy_leaf_triangle(float (*leaf)[4], const pf_scene_frame *frame,
+                                             uint32_t t)
 {
     for (int v = 0; v < 3; v++) {
         memcpy(leaf[v], frame->vertices[3 * (size_t)t + v], 3 * sizeof(float));
         leaf[v][3] = 0.0f;
     }
-    if (pf_triangle_is_degenerate(leaf[0], leaf[1], leaf[2]))
-        leaf[0][3] = PF_BIH_DEGENERATE_W;
 }
 
 /*

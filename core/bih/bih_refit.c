@@ -87,10 +87,9 @@ pf_status pf_bih_refit(pf_bih *bih, const pf_scene_frame *frame, pf_error *err)
     if (status == PF_OK)
         status = list_top_down(bih, order, &listed, err);
     if (status == PF_OK) {
-        for (uint32_t p = 0; p < n; p++) {
-            pf_bih_store_leaf_triangle(&bih->vertices[3 * (size_t)p], frame,
-                                       bih->triangle_index[p]);
-        }
+        for (uint32_t p = 0; p < n; p++)
+            pf_bih_copy_leaf_triangle(&bih->vertices[3 * (size_t)p], frame, bih->triangle_index[p]);
+        pf_bih_flag_degenerate(bih->vertices, n);
         for (uint32_t i = listed; i-- > 0;) {
             uint32_t node = order[i];
             pf_bih_node *current = &bih->nodes[node];

@@ -88,9 +88,15 @@ int pf_ray_triangle_sheared(const float origin[3], const pf_ray_shear *s, const 
 /* A zero-area or collinear triangle, within rounding of its coordinates (ray_triangle.glsl). */
 int pf_triangle_is_degenerate(const float v0[3], const float v1[3], const float v2[3]);
 
-/* Traversal stack entries (GPU and CPU); the build bounds the depth by it. */
 /* The w of a degenerate triangle's first leaf-order vertex (pf_bih.vertices). */
 #define PF_BIH_DEGENERATE_W 1.0f
+/*
+ * Sets the first vertex's w of each of count triangles in leaf format (3 float[4]
+ * each) to PF_BIH_DEGENERATE_W where pf_triangle_is_degenerate, else 0; 4 at a time.
+ */
+void pf_bih_flag_degenerate(float (*vertices)[4], uint32_t count);
+
+/* Traversal stack entries (GPU and CPU); the build bounds the depth by it. */
 
 #define PF_BIH_STACK_SIZE 64u
 #define PF_BIH_LEAF 3u

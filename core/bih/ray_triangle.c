@@ -4,6 +4,7 @@
  * tests of the GPU oracle.
  */
 #include "bih_internal.h"
+#include "bih_lanes4.h"
 
 #include <float.h>
 #include <math.h>
@@ -76,6 +77,84 @@ int pf_triangle_is_degenerate(const float v0[3], const float v1[3], const float 
     float edges2 = ((e1[0] * e1[0] + e1[1] * e1[1]) + e1[2] * e1[2]) +
                    ((e2[0] * e2[0] + e2[1] * e2[1]) + e2[2] * e2[2]);
     return !(n2 > DEGENERATE_BOUND2 * edges2);
+}
+
+/* max_ignoring_nan per lane: a where a >= b or b is NaN, else b. */
+static lanes4_f lanes4_max_ignoring_nan(lanes4_f a, lanes4_f b)
+{
+    return lanes4_select((a >= b) | (b != b), a, b);
+}
+
+/* Coordinate k of vertex corner of the 4 triangles at tri (3 float[4] each). */
+static lanes4_f lanes4_coordinate(const float (*tri)[4], int corner, int k)
+{
+    return (lanes4_f){tri[corner][k], tri[3 + corner][k], tri[6 + corner][k], tri[9 + corner][k]};
+}
+
+/*
+ * pf_triangle_is_degenerate on 4 triangles at once, lane by lane the same
+ * operations in the same order (no FMA: ISO C mode), for the build's and the
+ * refit's leaf-order copy, which tests every triangle: one at a time the test
+ * was ~12 % of the 1M-triangle build (bench/RESULTS.md). A lane whose largest
+ * coordinate is 0, not a normal float, or too large for a normal 2^-exponent
+ * sends the 4 to the scalar test, which covers those cases with frexpf and
+ * ldexpf; it is exact for the rest, since scaling by a normal power of two
+ * rounds as ldexpf does.
+ *
+ * Returns lane i's bit set where triangle i of the 4 at tri is degenerate.
+ */
+static unsigned degenerate_mask4(const float (*tri)[4])
+{
+    lanes4_f v0[3], v1[3], v2[3];
+    lanes4_f largest = {0.0f, 0.0f, 0.0f, 0.0f};
+    for (int k = 0; k < 3; k++) {
+        v0[k] = lanes4_coordinate(tri, 0, k);
+        v1[k] = lanes4_coordinate(tri, 1, k);
+        v2[k] = lanes4_coordinate(tri, 2, k);
+        largest = lanes4_max_ignoring_nan(
+            largest, lanes4_max_ignoring_nan(lanes4_abs(v0[k]),
+                                             lanes4_max_ignoring_nan(lanes4_abs(v1[k]),
+                                                                     lanes4_abs(v2[k]))));
+    }
+    /* power_of_two_scale's normal case: biased exponent 1..252 (its scale's, 253 - biased, too). */
+    lanes4_i biased = ((lanes4_i)largest >> 23) & 0xff;
+    lanes4_i exact = (biased >= 1) & (biased <= 252);
+    if (lanes4_bits(exact) != 0xfu) {
+        unsigned mask = 0;
+        for (int i = 0; i < 4; i++)
+            mask |= (unsigned)pf_triangle_is_degenerate(tri[3 * i], tri[3 * i + 1], tri[3 * i + 2])
+                    << i;
+        return mask;
+    }
+    lanes4_f scale = (lanes4_f)((253 - biased) << 23);
+    lanes4_f e1[3], e2[3];
+    for (int k = 0; k < 3; k++) {
+        e1[k] = (v1[k] - v0[k]) * scale;
+        e2[k] = (v2[k] - v0[k]) * scale;
+    }
+    lanes4_f n0 = e1[1] * e2[2] - e1[2] * e2[1];
+    lanes4_f n1 = e1[2] * e2[0] - e1[0] * e2[2];
+    lanes4_f n2 = e1[0] * e2[1] - e1[1] * e2[0];
+    lanes4_f normal2 = (n0 * n0 + n1 * n1) + n2 * n2;
+    lanes4_f edges2 = ((e1[0] * e1[0] + e1[1] * e1[1]) + e1[2] * e1[2]) +
+                      ((e2[0] * e2[0] + e2[1] * e2[1]) + e2[2] * e2[2]);
+    lanes4_i kept = normal2 > DEGENERATE_BOUND2 * edges2;
+    return ~lanes4_bits(kept) & 0xfu;
+}
+
+void pf_bih_flag_degenerate(float (*vertices)[4], uint32_t count)
+{
+    uint32_t t = 0;
+    for (; t + 4 <= count; t += 4) {
+        float(*tri)[4] = &vertices[3 * (size_t)t];
+        unsigned mask = degenerate_mask4((const float(*)[4])tri);
+        for (int i = 0; i < 4; i++)
+            tri[3 * i][3] = (mask >> i & 1u) ? PF_BIH_DEGENERATE_W : 0.0f;
+    }
+    for (; t < count; t++) {
+        float(*tri)[4] = &vertices[3 * (size_t)t];
+        tri[0][3] = pf_triangle_is_degenerate(tri[0], tri[1], tri[2]) ? PF_BIH_DEGENERATE_W : 0.0f;
+    }
 }
 
 /* The sheared edge functions and the scaled distance (bih_watertight_edges.h). */

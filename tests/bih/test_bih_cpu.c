@@ -212,6 +212,52 @@ PF_TEST(build_is_the_same_for_any_thread_count)
     bih_frame_free(&frame);
 }
 
+/*
+ * The global heuristic on a regular grid: GRID³ small triangles centred in
+ * unit cells, listed in a shuffled order. Each split halves a candidate box
+ * on its longest axis, and the halves always fall between two layers of
+ * centres, so with leaves of 1 the tree is complete: log2(GRID³) levels, one
+ * triangle a leaf, no median fallback. A partition that sends a triangle to
+ * the wrong side, or gathers a side's centre bounds wrongly, breaks that
+ * balance. 32³ is past the threading threshold, so the root's partition
+ * runs in its two pieces too.
+ */
+#define GRID_CELLS 32u
+PF_TEST(global_heuristic_halves_a_regular_grid)
+{
+    const uint32_t n = GRID_CELLS * GRID_CELLS * GRID_CELLS;
+    pf_scene_frame frame;
+    PF_REQUIRE(bih_frame_alloc(&frame, n));
+    static const float corner[3][3] = {
+        {-0.1f, -0.1f, -0.1f}, {0.1f, -0.1f, 0.1f}, {0.0f, 0.1f, 0.0f}};
+    for (uint32_t t = 0; t < n; t++) {
+        /* 40503 is odd, so t -> 40503·t mod n visits every cell once. */
+        uint32_t cell = (uint32_t)((40503ull * t) % n);
+        float centre[3] = {(float)(cell % GRID_CELLS) + 0.5f,
+                           (float)(cell / GRID_CELLS % GRID_CELLS) + 0.5f,
+                           (float)(cell / (GRID_CELLS * GRID_CELLS)) + 0.5f};
+        for (int v = 0; v < 3; v++)
+            for (int k = 0; k < 3; k++)
+                frame.vertices[3 * t + v][k] = centre[k] + corner[v][k];
+    }
+    bih_frame_bounds(&frame);
+    pf_bih_build_options options = {0};
+    options.max_leaf_size = 1;
+    options.thread_count = 2;
+    pf_bih bih;
+    pf_error err = {0};
+    PF_CHECK_OK(pf_bih_build_cpu(&frame, &options, &bih, &err), &err);
+    if (err.status == PF_OK) {
+        PF_CHECK_OK(pf_bih_check(&bih, &frame, &err), &err);
+        PF_CHECK_MSG(bih.depth == 15 && bih.leaf_count == n && bih.largest_leaf == 1 &&
+                         bih.node_count == 2 * n - 1,
+                     "depth %u, %u leaves (largest %u), %u nodes; complete: 15, %u (1), %u",
+                     bih.depth, bih.leaf_count, bih.largest_leaf, bih.node_count, n, 2 * n - 1);
+        pf_bih_free(&bih);
+    }
+    bih_frame_free(&frame);
+}
+
 PF_TEST(depth_limit_is_kept)
 {
     pf_scene_frame frame;
@@ -445,6 +491,7 @@ int main(void)
     PF_RUN(sah_tree_hard_cases_match_brute_force);
     PF_RUN(sah_tree_shared_scenes_match_brute_force);
     PF_RUN(build_is_the_same_for_any_thread_count);
+    PF_RUN(global_heuristic_halves_a_regular_grid);
     PF_RUN(depth_limit_is_kept);
     PF_RUN(bad_input_is_refused);
     PF_RUN(checker_catches_broken_trees);

@@ -4,6 +4,7 @@
 
 #include <math.h>
 #include <stdint.h>
+#include <stdlib.h>
 #include <string.h>
 #if defined(__SSE2__)
 #include <pmmintrin.h>
@@ -169,11 +170,34 @@ static int degenerate_by_frexp(const float v0[3], const float v1[3], const float
     return !(n2 > bound2 * edges2);
 }
 
+/* Flags of pf_bih_flag_degenerate (4 at a time, a tail alone) against the oracle's answers. */
+static int flag_mismatches(float (*leaf)[4], const int *expected, uint32_t count)
+{
+    for (uint32_t t = 0; t < count; t++)
+        leaf[3 * t][3] = -7.0f; /* overwritten either way */
+    pf_bih_flag_degenerate(leaf, count);
+    int mismatches = 0;
+    for (uint32_t t = 0; t < count; t++)
+        mismatches += leaf[3 * t][3] != (expected[t] ? PF_BIH_DEGENERATE_W : 0.0f);
+    return mismatches;
+}
+
 PF_TEST(degeneracy_matches_the_frexp_formulation)
 {
-    uint32_t state = 777;
+    /* Not a multiple of 4: pf_bih_flag_degenerate's tail runs too. */
+    enum { COUNT = 200003 };
+    float(*leaf)[4] = calloc(3 * (size_t)COUNT, sizeof *leaf);
+    float(*collinear)[4] = calloc(3 * (size_t)COUNT, sizeof *collinear);
+    int *expected = calloc(COUNT, sizeof *expected);
+    int *collinear_expected = calloc(COUNT, sizeof *collinear_expected);
+    PF_CHECK(leaf && collinear && expected && collinear_expected);
+    if (!leaf || !collinear || !expected || !collinear_expected) {
+        free(leaf), free(collinear), free(expected), free(collinear_expected);
+        return;
+    }
+    uint32_t state = 777, collinear_count = 0;
     int mismatches = 0, degenerate = 0, checked = 0;
-    for (int i = 0; i < 200000; i++) {
+    for (int i = 0; i < COUNT; i++) {
         float v[3][3];
         int mode = i % 3;
         for (int a = 0; a < 3; a++)
@@ -196,14 +220,50 @@ PF_TEST(degeneracy_matches_the_frexp_formulation)
                 for (int k = 0; k < 3; k++)
                     v[a][k] = ldexpf(v[a][k], scale);
         }
-        int expected = degenerate_by_frexp(v[0], v[1], v[2]);
-        mismatches += pf_triangle_is_degenerate(v[0], v[1], v[2]) != expected;
-        degenerate += expected;
+        int answer = degenerate_by_frexp(v[0], v[1], v[2]);
+        mismatches += pf_triangle_is_degenerate(v[0], v[1], v[2]) != answer;
+        degenerate += answer;
         checked++;
+        expected[i] = answer;
+        for (int a = 0; a < 3; a++)
+            memcpy(leaf[3 * i + a], v[a], sizeof v[a]);
+        if (mode == 2) {
+            /*
+             * A triangle whose height is around the bound (2^-26 to 2^-14 of its size;
+             * the bound is ~2^-19.5), at a scale where all 4 of a block take the vector
+             * path, packed together.
+             */
+            float c[3][3], s = uniform(&state, 0.2f, 0.8f);
+            float height = ldexpf(1.0f, -14 - (int)(next_random(&state) % 13));
+            int scale = (int)(next_random(&state) % 201) - 100;
+            for (int k = 0; k < 3; k++) {
+                c[0][k] = uniform(&state, -1, 1);
+                c[1][k] = uniform(&state, -1, 1);
+                c[2][k] = c[0][k] + s * (c[1][k] - c[0][k]) + height * uniform(&state, -1, 1);
+            }
+            for (int a = 0; a < 3; a++) {
+                for (int k = 0; k < 3; k++)
+                    c[a][k] = ldexpf(c[a][k], scale);
+                memcpy(collinear[3 * collinear_count + a], c[a], sizeof c[a]);
+            }
+            collinear_expected[collinear_count++] = degenerate_by_frexp(c[0], c[1], c[2]);
+        }
     }
     PF_CHECK_MSG(mismatches == 0, "%d of %d triangles disagree", mismatches, checked);
     /* Both answers occur often enough for the comparison to mean something. */
     PF_CHECK(degenerate > checked / 10 && degenerate < checked * 9 / 10);
+    int flags_wrong = flag_mismatches(leaf, expected, COUNT);
+    PF_CHECK_MSG(flags_wrong == 0, "pf_bih_flag_degenerate: %d of %d flags wrong", flags_wrong,
+                 COUNT);
+    int collinear_degenerate = 0;
+    for (uint32_t t = 0; t < collinear_count; t++)
+        collinear_degenerate += collinear_expected[t];
+    PF_CHECK(collinear_degenerate > (int)collinear_count / 10 &&
+             collinear_degenerate < (int)collinear_count * 9 / 10);
+    flags_wrong = flag_mismatches(collinear, collinear_expected, collinear_count);
+    PF_CHECK_MSG(flags_wrong == 0, "pf_bih_flag_degenerate, near the bound: %d of %u flags wrong",
+                 flags_wrong, collinear_count);
+    free(leaf), free(collinear), free(expected), free(collinear_expected);
 }
 
 PF_TEST(shared_edge_and_vertex_never_leak)
