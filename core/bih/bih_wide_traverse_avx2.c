@@ -15,6 +15,7 @@
  * packets).
  */
 #include "bih_internal.h"
+#include "bih_lanes4.h"
 
 #include <immintrin.h>
 
@@ -109,22 +110,9 @@ static uint32_t wide_node_step(const pf_bih_wide_node *node, const wide_ray *w, 
     return (uint32_t)_mm256_movemask_ps(open);
 }
 
-typedef float lanes_f __attribute__((vector_size(16)));
-typedef int32_t lanes_i __attribute__((vector_size(16)));
-
-#define WATERTIGHT_T lanes_f
+#define WATERTIGHT_T lanes4_f
 #define WATERTIGHT_EDGES wide_edges
 #include "bih_watertight_edges.h"
-
-static uint32_t lane_bits(lanes_i mask)
-{
-    return (uint32_t)_mm_movemask_ps((__m128)mask);
-}
-
-static lanes_f lanes_abs(lanes_f x)
-{
-    return (lanes_f)((lanes_i)x & 0x7fffffff);
-}
 
 /*
  * The leaf's triangles, 4 a block, as bih_cpu_traverse.c's walk tests them:
@@ -141,36 +129,36 @@ static int wide_leaf(const pf_bih *bih, const pf_bih_wide *wide, const pf_ray *r
 {
     const pf_ray_shear *shear = &w->prepared.shear;
     const int axes[3] = {shear->kx, shear->ky, shear->kz};
-    const lanes_f sx = {shear->sx, shear->sx, shear->sx, shear->sx};
-    const lanes_f sy = {shear->sy, shear->sy, shear->sy, shear->sy};
-    const lanes_f sz = {shear->sz, shear->sz, shear->sz, shear->sz};
+    const lanes4_f sx = {shear->sx, shear->sx, shear->sx, shear->sx};
+    const lanes4_f sy = {shear->sy, shear->sy, shear->sy, shear->sy};
+    const lanes4_f sz = {shear->sz, shear->sz, shear->sz, shear->sz};
     const float below = PF_BIH_WATERTIGHT_RESCALE_BELOW;
     for (uint32_t b = first; b < first + (count + PF_BIH_WIDE_LANES - 1) / PF_BIH_WIDE_LANES;
          b++) {
         const pf_bih_wide_block *block = &wide->blocks[b];
         if (!block->live)
             continue;
-        lanes_f a[3], bv[3], c[3];
+        lanes4_f a[3], bv[3], c[3];
         for (int i = 0; i < 3; i++) {
             int k = axes[i];
-            lanes_f o = {ray->origin[k], ray->origin[k], ray->origin[k], ray->origin[k]};
-            a[i] = *(const lanes_f *)block->v[0][k] - o;
-            bv[i] = *(const lanes_f *)block->v[1][k] - o;
-            c[i] = *(const lanes_f *)block->v[2][k] - o;
+            lanes4_f o = {ray->origin[k], ray->origin[k], ray->origin[k], ray->origin[k]};
+            a[i] = *(const lanes4_f *)block->v[0][k] - o;
+            bv[i] = *(const lanes4_f *)block->v[1][k] - o;
+            c[i] = *(const lanes4_f *)block->v[2][k] - o;
         }
         wide_edges_result e = wide_edges(a, bv, c, sx, sy, sz);
-        lanes_f eu = e.eu, ev = e.ev, ew = e.ew, det = e.det, scaled_t = e.scaled_t;
-        lanes_i small = (lanes_abs(eu) < below) | (lanes_abs(ev) < below) |
-                        (lanes_abs(ew) < below) | (lanes_abs(scaled_t) < lanes_abs(det) * below);
-        lanes_i mixed = ((eu < 0.0f) | (ev < 0.0f) | (ew < 0.0f)) &
+        lanes4_f eu = e.eu, ev = e.ev, ew = e.ew, det = e.det, scaled_t = e.scaled_t;
+        lanes4_i small = (lanes4_abs(eu) < below) | (lanes4_abs(ev) < below) |
+                        (lanes4_abs(ew) < below) | (lanes4_abs(scaled_t) < lanes4_abs(det) * below);
+        lanes4_i mixed = ((eu < 0.0f) | (ev < 0.0f) | (ew < 0.0f)) &
                         ((eu > 0.0f) | (ev > 0.0f) | (ew > 0.0f));
-        lanes_f rcp_det = 1.0f / det;
-        lanes_f t = scaled_t * rcp_det;
+        lanes4_f rcp_det = 1.0f / det;
+        lanes4_f t = scaled_t * rcp_det;
         float up = pf_bih_next_up(*closest);
-        lanes_i in_range = (t > ray->tmin) & (t < up) & (t >= FLT_MIN);
+        lanes4_i in_range = (t > ray->tmin) & (t < up) & (t >= FLT_MIN);
         uint32_t live = block->live;
-        uint32_t rescale = lane_bits(small) & live;
-        uint32_t hits = lane_bits(~small & ~mixed & (det != 0.0f) & in_range) & live;
+        uint32_t rescale = lanes4_bits(small) & live;
+        uint32_t hits = lanes4_bits(~small & ~mixed & (det != 0.0f) & in_range) & live;
         for (uint32_t bits = hits | rescale; bits; bits &= bits - 1) {
             uint32_t lane = (uint32_t)__builtin_ctz(bits);
             uint32_t p = block->position[lane];
