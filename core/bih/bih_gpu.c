@@ -66,18 +66,8 @@ pf_status pf_bih_gpu_create(pf_vk_context *ctx, pf_bih_gpu **out, pf_error *err)
     if (!gpu)
         return pf_error_set(err, PF_ERR_NOMEM, "pf_bih_gpu_create");
     gpu->ctx = ctx;
-    pf_vk_spec_constant closest = {RAYCAST_SPEC_ANY_HIT, 0};
-    pf_vk_spec_constant any = {RAYCAST_SPEC_ANY_HIT, 1};
-    pf_status status = pf_vk_pipeline_create_named(ctx, "bih_raycast", RAYCAST_BUFFERS,
-                                                   sizeof(raycast_push), &closest, 1,
-                                                   &gpu->raycast_closest, err);
-    if (status == PF_OK)
-        status = pf_vk_pipeline_create_named(ctx, "bih_raycast", RAYCAST_BUFFERS,
-                                             sizeof(raycast_push), &any, 1, &gpu->raycast_any,
-                                             err);
-    if (status == PF_OK)
-        status = pf_vk_buffer_create(ctx, MIN_BUFFER_BYTES, "BIH traversal failures",
-                                     &gpu->failures, err);
+    pf_status status = pf_vk_buffer_create(ctx, MIN_BUFFER_BYTES, "BIH traversal failures",
+                                           &gpu->failures, err);
     if (status != PF_OK) {
         pf_bih_gpu_destroy(gpu);
         return status;
@@ -164,6 +154,28 @@ pf_status pf_bih_gpu_view_get(const pf_bih_gpu *gpu, pf_bih_gpu_view *out, pf_er
     return PF_OK;
 }
 
+/*
+ * The raycast kernel of one kind (closest or any hit), made at its first use: the
+ * renderer uploads a tree for its own kernels and never casts through this one, and
+ * each pipeline costs a process ~25 ms on lavapipe even from a warm cache (its
+ * SPIR-V translated to NIR), more on a cold one (bench/RESULTS.md, "Process start").
+ */
+static pf_status raycast_pipeline(pf_bih_gpu *gpu, int any_hit, pf_vk_pipeline **out,
+                                  pf_error *err)
+{
+    pf_vk_pipeline **pipeline = any_hit ? &gpu->raycast_any : &gpu->raycast_closest;
+    if (!*pipeline) {
+        pf_vk_spec_constant kind = {RAYCAST_SPEC_ANY_HIT, any_hit ? 1u : 0u};
+        pf_status status = pf_vk_pipeline_create_named(gpu->ctx, "bih_raycast", RAYCAST_BUFFERS,
+                                                       sizeof(raycast_push), &kind, 1, pipeline,
+                                                       err);
+        if (status != PF_OK)
+            return status;
+    }
+    *out = *pipeline;
+    return PF_OK;
+}
+
 pf_status pf_bih_raycast(pf_bih_gpu *gpu, const pf_ray *rays, uint32_t ray_count, int any_hit,
                          pf_hit *hits, pf_error *err)
 {
@@ -178,8 +190,11 @@ pf_status pf_bih_raycast(pf_bih_gpu *gpu, const pf_ray *rays, uint32_t ray_count
     pf_vk_buffer *ray_buffer = NULL, *hit_buffer = NULL;
     const uint32_t zero[MIN_BUFFER_BYTES / sizeof(uint32_t)] = {0};
     uint32_t failures[MIN_BUFFER_BYTES / sizeof(uint32_t)] = {0};
-    pf_status status = pf_vk_buffer_create(ctx, (uint64_t)batch * sizeof(pf_ray), "BIH rays",
-                                           &ray_buffer, err);
+    pf_vk_pipeline *pipeline = NULL;
+    pf_status status = raycast_pipeline(gpu, any_hit, &pipeline, err);
+    if (status == PF_OK)
+        status = pf_vk_buffer_create(ctx, (uint64_t)batch * sizeof(pf_ray), "BIH rays",
+                                     &ray_buffer, err);
     if (status == PF_OK)
         status = pf_vk_buffer_create(ctx, (uint64_t)batch * sizeof(pf_hit), "BIH hits",
                                      &hit_buffer, err);
@@ -201,8 +216,7 @@ pf_status pf_bih_raycast(pf_bih_gpu *gpu, const pf_ray *rays, uint32_t ray_count
             count, gpu->triangle_count, gpu->node_count, 0};
         pf_vk_buffer *buffers[RAYCAST_BUFFERS] = {gpu->nodes,  gpu->vertices, gpu->triangle_index,
                                                   ray_buffer, hit_buffer,    gpu->failures};
-        status = pf_vk_cmd_dispatch(cmds, any_hit ? gpu->raycast_any : gpu->raycast_closest,
-                                    buffers, RAYCAST_BUFFERS, &push, sizeof push,
+        status = pf_vk_cmd_dispatch(cmds, pipeline, buffers, RAYCAST_BUFFERS, &push, sizeof push,
                                     (count + RAYCAST_GROUP_SIZE - 1) / RAYCAST_GROUP_SIZE, 1, 1,
                                     err);
         if (status == PF_OK)

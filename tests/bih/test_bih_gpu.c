@@ -93,6 +93,39 @@ PF_TEST(raycast_needs_an_upload)
     pf_bih_gpu_destroy(fresh);
 }
 
+/*
+ * The raycast kernels are made at their first cast, one per kind: a renderer
+ * uploads trees for its own kernels and must not pay for these.
+ */
+PF_TEST(raycast_pipelines_are_made_at_first_use)
+{
+    pf_bih_gpu *gpu = NULL;
+    pf_error err = {0};
+    uint32_t before = pf_vk_pipeline_cache_stats(env.ctx).pipelines;
+    PF_REQUIRE_OK(pf_bih_gpu_create(env.ctx, &gpu, &err), &err);
+    pf_scene_frame frame;
+    PF_REQUIRE(bih_make_soup(&frame, 50, 9));
+    pf_bih bih;
+    PF_REQUIRE_OK(pf_bih_build_cpu(&frame, NULL, &bih, &err), &err);
+    PF_CHECK_OK(pf_bih_gpu_upload(gpu, &bih, &err), &err);
+    PF_CHECK(pf_vk_pipeline_cache_stats(env.ctx).pipelines == before);
+    pf_ray ray = {{0.0f, 0.0f, -10.0f}, 0.0f, {0.0f, 0.0f, 1.0f}, INFINITY};
+    pf_hit hit;
+    static const struct {
+        int any_hit;
+        uint32_t made; /* pipelines made since before, after this cast */
+    } casts[] = {{0, 1}, {0, 1}, {1, 2}, {1, 2}, {0, 2}};
+    for (size_t i = 0; i < sizeof casts / sizeof casts[0]; i++) {
+        PF_CHECK_OK(pf_bih_raycast(gpu, &ray, 1, casts[i].any_hit, &hit, &err), &err);
+        uint32_t made = pf_vk_pipeline_cache_stats(env.ctx).pipelines - before;
+        PF_CHECK_MSG(made == casts[i].made, "cast %zu: %u pipelines made, expected %u", i, made,
+                     casts[i].made);
+    }
+    pf_bih_gpu_destroy(gpu);
+    pf_bih_free(&bih);
+    bih_frame_free(&frame);
+}
+
 /* The chain of test_bih_cpu.c's stack_overflow_is_reported, on the GPU. */
 PF_TEST(stack_overflow_is_reported)
 {
@@ -138,6 +171,7 @@ int main(void)
     PF_RUN(sah_tree_hard_cases_match_oracle);
     PF_RUN(sah_tree_shared_scenes_match_oracle);
     PF_RUN(raycast_needs_an_upload);
+    PF_RUN(raycast_pipelines_are_made_at_first_use);
     PF_RUN(stack_overflow_is_reported);
     bih_gpu_env_destroy(&env);
     return pf_test_finish();
