@@ -167,21 +167,32 @@ typedef struct split_rule {
 static int bin_of(float centre, float lo, float scale);
 
 /*
- * A prim's centre on all three axes in one vector (lane 3 zero): the box's two
- * corners read as 4 floats each (lo with hi[0], hi with the triangle index),
- * the extra lane cleared before the arithmetic, since an index read as a float
- * is subnormal, which the multiply would take a slow path for. Lane by lane the
- * value is prim_centre's.
+ * A prim's box corners as vectors (lane 3 zero), and its centre on all three
+ * axes in one vector: each corner read as 4 floats (lo with hi[0], hi with the
+ * triangle index), the extra lane cleared before the arithmetic, since an index
+ * read as a float is subnormal, which the multiply would take a slow path for.
+ * Lane by lane the centre is prim_centre's.
  */
-static inline lanes4_f prim_centre4(const build_prim *p)
+static inline void prim_corners4(const build_prim *p, lanes4_f *lo, lanes4_f *hi)
 {
     const lanes4_i xyz = {-1, -1, -1, 0};
-    lanes4_f lo = (lanes4_f)((lanes4_i)lanes4_load(p->lo) & xyz);
-    lanes4_f hi = (lanes4_f)((lanes4_i)lanes4_load(p->hi) & xyz);
-    return 0.5f * lo + 0.5f * hi;
+    *lo = (lanes4_f)((lanes4_i)lanes4_load(p->lo) & xyz);
+    *hi = (lanes4_f)((lanes4_i)lanes4_load(p->hi) & xyz);
 }
 _Static_assert(offsetof(build_prim, hi) + 4 * sizeof(float) <= sizeof(build_prim),
-               "prim_centre4 reads 4 floats at hi");
+               "prim_corners4 reads 4 floats at hi");
+
+static inline lanes4_f corners_centre4(lanes4_f lo, lanes4_f hi)
+{
+    return 0.5f * lo + 0.5f * hi;
+}
+
+static inline lanes4_f prim_centre4(const build_prim *p)
+{
+    lanes4_f lo, hi;
+    prim_corners4(p, &lo, &hi);
+    return corners_centre4(lo, hi);
+}
 
 /* One side's running bounds in partition: its centres, and its clip value along the axis. */
 typedef struct side_bounds {
@@ -517,7 +528,7 @@ static int bin_of(float centre, float lo, float scale)
 /*
  * The binning pass of sah_split: each prim's box into its centre's bin on all
  * three axes. The centre, its three bins and the boxes' merges are 4-lane
- * vectors (prim_centre4; the bins' boxes as lo and hi vectors): the same
+ * vectors (prim_corners4; the bins' boxes as lo and hi vectors): the same
  * values as bin_of and pf_bih_box_merge one axis at a time, which made this
  * pass half of the SAH build's time.
  */
@@ -535,16 +546,15 @@ static void bin_prims(const build_prim *prims, uint32_t first, uint32_t count,
             boxes[k][i].lo = empty_lo;
             boxes[k][i].hi = -empty_lo;
         }
-    const lanes4_i xyz = {-1, -1, -1, 0};
     const lanes4_f centre_lo = {centres->lo[0], centres->lo[1], centres->lo[2], 0.0f};
     const lanes4_f bin_scale = {scale[0], scale[1], scale[2], 0.0f};
     const lanes4_i last_bin = {SAH_BINS - 1, SAH_BINS - 1, SAH_BINS - 1, SAH_BINS - 1};
     for (uint32_t i = first; i < first + count; i++) {
-        const build_prim *p = &prims[i];
-        lanes4_f lo = (lanes4_f)((lanes4_i)lanes4_load(p->lo) & xyz);
-        lanes4_f hi = (lanes4_f)((lanes4_i)lanes4_load(p->hi) & xyz);
+        lanes4_f lo, hi;
+        prim_corners4(&prims[i], &lo, &hi);
         /* bin_of on three axes: truncation as (int), then clamped to [0, SAH_BINS - 1]. */
-        lanes4_i bin = __builtin_convertvector((prim_centre4(p) - centre_lo) * bin_scale, lanes4_i);
+        lanes4_i bin =
+            __builtin_convertvector((corners_centre4(lo, hi) - centre_lo) * bin_scale, lanes4_i);
         bin &= ~(bin < 0);
         bin = (bin & ~(bin > last_bin)) | (last_bin & (bin > last_bin));
         for (int k = 0; k < 3; k++) {
