@@ -676,15 +676,16 @@ static void animate_short_block(gltf_doc *doc, int node, const double origin[3])
 
 /*
  * Point light: circles once above the blocks (LINEAR between 9 keys: an octagon).
- * Intensity 0.05 W/sr lights the floor about a quarter as much as the ceiling
- * light (0.05 / 0.4² ≈ 0.3 W/m² against 17 · 0.0137 m² / 0.55² ≈ 0.77 W/m²).
+ * Intensity 0.05 W/sr (34.15 cd at the spec's 683 lm/W) lights the floor about
+ * a quarter as much as the ceiling light (0.05 / 0.4² ≈ 0.3 W/m² against
+ * 17 · 0.0137 m² / 0.55² ≈ 0.77 W/m²).
  */
 #define POINT_LIGHT_KEYS 9
 #define POINT_LIGHT_RADIUS_M 0.15
 #define POINT_LIGHT_HEIGHT_M 0.40
 static const char point_light_json[] =
     "{\"name\": \"moving_point_light\", \"type\": \"point\", \"color\": [1, 0.85, 0.7], "
-    "\"intensity\": 0.05}";
+    "\"intensity\": 34.15}";
 
 static int add_moving_point_light(gltf_doc *doc)
 {

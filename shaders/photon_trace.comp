@@ -171,9 +171,8 @@ Emission emit(PhotonEmitter emitter, vec2 xi_position, vec2 xi_direction)
     // Spot: uniform in the outer cone; the falloff over its mean over the
     // cone is the sample's weight, since the power already integrates it.
     float cos_outer = light.cos_outer_cone;
-    float cone = 1.0 - cos_outer;
     float inner = light.cos_inner_cone;
-    float mean_falloff = inner > cos_outer ? ((1.0 - inner) + 0.5 * (inner - cos_outer)) / cone : 1.0;
+    float mean_falloff = spot_cone_integral(inner, cos_outer) / (1.0 - cos_outer);
     e.direction = uniform_cone(light.direction, cos_outer, xi_direction);
     e.flux *= spot_falloff(dot(e.direction, light.direction), inner, cos_outer) / mean_falloff;
     return e;

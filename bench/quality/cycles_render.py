@@ -17,11 +17,12 @@
 # otherwise Lambert (Diffuse BSDF, base colour). An emissive material adds
 # emissiveFactor × emissiveStrength from its front face only (photonfarm's
 # area lights are one-sided). Point lights: the importer's conversion is
-# replaced by photonfarm's reading of KHR_lights_punctual (intensity in W/sr,
-# i.e. Blender watts = 4π × intensity). Film: Blackman-Harris 1.5 px (Cycles'
-# default; photonfarm renders this bench with --filter blackman-harris), no
-# denoising, no adaptive sampling, no clamping, no filter glossy, caustics on,
-# and bounce limits high enough not to cut paths that matter (128).
+# replaced by photonfarm's reading of KHR_lights_punctual (candela / 683, or
+# W/sr where extras.photonfarm.intensityUnits says so; Blender watts =
+# 4π × W/sr). Film: Blackman-Harris 1.5 px (Cycles' default; photonfarm
+# renders this bench with --filter blackman-harris), no denoising, no
+# adaptive sampling, no clamping, no filter glossy, caustics on, and bounce
+# limits high enough not to cut paths that matter (128).
 import json
 import math
 import os
@@ -111,6 +112,14 @@ def photonfarm_material(material, kind, base, ior, emission):
     tree.links.new(shader, output.inputs["Surface"])
 
 
+def radiant_intensity(light):
+    """A point light's W/sr as photonfarm reads it: the spec's candela at
+    683 lm/W, unless extras.photonfarm.intensityUnits says "W/sr"."""
+    intensity = light.get("intensity", 1.0)
+    units = light.get("extras", {}).get("photonfarm", {}).get("intensityUnits", "cd")
+    return intensity if units == "W/sr" else intensity / 683.0
+
+
 def main():
     scene_path, out_path, width, height, samples, seed, threads = arguments()
     bpy.ops.wm.read_factory_settings(use_empty=True)
@@ -128,7 +137,7 @@ def main():
     point_lights = [o for o in scene.objects if o.type == "LIGHT"]
     for obj, light in zip(point_lights, lights):
         if obj.data.type == "POINT" and light.get("type") == "point":
-            obj.data.energy = 4.0 * math.pi * light.get("intensity", 1.0)
+            obj.data.energy = 4.0 * math.pi * radiant_intensity(light)
             obj.data.color = light.get("color", [1, 1, 1])
             obj.data.shadow_soft_size = 0.0
     cameras = [o for o in scene.objects if o.type == "CAMERA"]

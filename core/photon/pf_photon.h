@@ -263,9 +263,9 @@ pf_status pf_photon_grid_gather(pf_photon_grid *grid, const float (*queries)[4],
  * each light are proportional to its power. std430 mirror PhotonEmitter
  * (32 bytes). Powers:
  *   point        4π I
- *   spot         2π I [(1 − cos_inner) + (cos_inner − cos_outer) / 2]: the
- *                smoothstep falloff of lights.glsl integrates to half its
- *                band (a hard edge: 2π I (1 − cos_outer))
+ *   spot         2π I [(1 − cos_inner) + (cos_inner − cos_outer) / 3]: the
+ *                spec's squared linear falloff (lights.glsl) integrates to a
+ *                third of its band (a hard edge: 2π I (1 − cos_outer))
  *   directional  E π R², R = the radius of the scene's bounding sphere: the
  *                photons start on a disk of that radius facing the light
  *   triangle     π Le A, front face only (a Lambertian emitter)

@@ -25,7 +25,9 @@ void pf_photon_light_power(const pf_light *light, float scene_radius, float powe
         break;
     case PF_LIGHT_SPOT: {
         double inner = light->cos_inner_cone, outer = light->cos_outer_cone;
-        factor = inner > outer ? 2.0 * PI * ((1.0 - inner) + 0.5 * (inner - outer))
+        /* lights.glsl spot_cone_integral: the squared ramp between the cones
+         * integrates to a third of its band. */
+        factor = inner > outer ? 2.0 * PI * ((1.0 - inner) + (inner - outer) / 3.0)
                                : 2.0 * PI * (1.0 - outer);
         break;
     }

@@ -42,6 +42,10 @@
 /* KHR_lights_punctual spot.outerConeAngle default: π/4. */
 #define GLTF_SPOT_OUTER_DEFAULT 0.78539816
 #define GLTF_PI 3.141592653589793
+/* KHR_lights_punctual: point and spot intensity in candela (lm/sr), directional
+ * in lux (lm/m²); the spec's (and Blender's exporter's) luminous efficacy turns
+ * them into W/sr and W/m². */
+#define GLTF_LUMENS_PER_WATT 683.0
 #define GLTF_HALF_PI 1.5707963267948966
 
 static const char *const supported_extensions[] = {
@@ -651,6 +655,37 @@ static pf_status load_cameras(gltf_context *ctx, pf_error *err)
     return PF_OK;
 }
 
+/*
+ * What one unit of a light's "intensity" is in watts: 1/683 for the spec's
+ * photometric units (candela for point and spot, lux for directional), 1 for
+ * a light whose extras.photonfarm.intensityUnits says it was written
+ * radiometric ("W/sr" for point and spot, "W/m2" for directional). Any other
+ * value there is a format error naming it, not a guess.
+ */
+static pf_status light_units(gltf_context *ctx, const cJSON *light, pf_light_kind kind,
+                             const char *element, double *watts_per_unit, pf_error *err)
+{
+    *watts_per_unit = 1.0 / GLTF_LUMENS_PER_WATT;
+    const cJSON *extras = cJSON_GetObjectItemCaseSensitive(light, "extras");
+    const cJSON *ours = cJSON_GetObjectItemCaseSensitive(extras, "photonfarm");
+    const cJSON *units = cJSON_GetObjectItemCaseSensitive(ours, "intensityUnits");
+    if (!units)
+        return PF_OK;
+    const char *photometric = kind == PF_LIGHT_DIRECTIONAL ? "lux" : "cd";
+    const char *radiometric = kind == PF_LIGHT_DIRECTIONAL ? "W/m2" : "W/sr";
+    if (cJSON_IsString(units) && strcmp(units->valuestring, radiometric) == 0) {
+        *watts_per_unit = 1.0;
+        return PF_OK;
+    }
+    if (cJSON_IsString(units) && strcmp(units->valuestring, photometric) == 0)
+        return PF_OK;
+    return gltf_fail(ctx, err, PF_ERR_FORMAT, element,
+                     "extras.photonfarm.intensityUnits must be \"%s\" or \"%s\" for a %s "
+                     "light", photometric, radiometric,
+                     kind == PF_LIGHT_DIRECTIONAL ? "directional"
+                                                  : kind == PF_LIGHT_SPOT ? "spot" : "point");
+}
+
 static pf_status load_lights(gltf_context *ctx, pf_error *err)
 {
     pf_scene *scene = ctx->scene;
@@ -699,8 +734,12 @@ static pf_status load_lights(gltf_context *ctx, pf_error *err)
         if (intensity < 0 || range < 0 || color[0] < 0 || color[1] < 0 || color[2] < 0)
             return gltf_fail(ctx, err, PF_ERR_FORMAT, element,
                              "color, intensity and range must be non-negative");
+        double watts_per_unit;
+        status = light_units(ctx, light, def->kind, element, &watts_per_unit, err);
+        if (status)
+            return status;
         for (int c = 0; c < 3; c++)
-            def->intensity[c] = color[c] * (float)intensity;
+            def->intensity[c] = (float)(color[c] * intensity * watts_per_unit);
         def->range = def->kind == PF_LIGHT_DIRECTIONAL ? 0.0f : (float)range;
         double inner = 0, outer = GLTF_SPOT_OUTER_DEFAULT;
         if (def->kind == PF_LIGHT_SPOT) {

@@ -3,9 +3,12 @@
  * and flat world-space arrays ready to upload to the GPU.
  *
  * Units follow glTF: meters; emitted radiance in W/(sr·m²)
- * (emissiveFactor × KHR_materials_emissive_strength); point/spot intensity in
- * W/sr; directional light in W/m². Emissive triangles emit from their front
- * (counter-clockwise) face only.
+ * (emissiveFactor × KHR_materials_emissive_strength). KHR_lights_punctual
+ * intensities are the spec's photometric units, candela (point, spot) and lux
+ * (directional), converted at 683 lm/W to the W/sr and W/m² that pf_light
+ * holds; a light whose extras.photonfarm.intensityUnits is "W/sr" ("W/m2" for
+ * directional) was written radiometric and is taken as it is. Emissive
+ * triangles emit from their front (counter-clockwise) face only.
  *
  * Unsupported features produce one PF_LOG_WARN each per scene and map to the
  * nearest supported thing. Bad files fail with a message naming the file and

@@ -27,14 +27,27 @@ float light_range_window(float distance, float range)
     return window * window;
 }
 
-// Smoothstep from the outer cone (0) to the inner cone (1). GLSL's
-// smoothstep is undefined for equal edges, which a hard-edged spot has.
+// KHR_lights_punctual's spot falloff, as the spec's reference implementation
+// writes it: the cosine mapped linearly from the outer cone (0) to the inner
+// cone (1), clamped, then squared. Equal cones (a hard edge) are the limit
+// of that ramp: a step at the outer cone (the spec's max(0.001, ...) guard
+// keeps a ramp 0.001 wide there instead).
 float spot_falloff(float cos_angle, float cos_inner, float cos_outer)
 {
     if (cos_inner <= cos_outer)
         return cos_angle >= cos_outer ? 1.0 : 0.0;
     float x = clamp((cos_angle - cos_outer) / (cos_inner - cos_outer), 0.0, 1.0);
-    return x * x * (3.0 - 2.0 * x);
+    return x * x;
+}
+
+// ∫ spot_falloff dω / 2π over the sphere: 1 − cos_inner inside the inner
+// cone, plus the squared ramp's (cos_inner − cos_outer)/3 between the cones
+// (pf_photon_light_power uses the same integral for the spot's power).
+float spot_cone_integral(float cos_inner, float cos_outer)
+{
+    if (cos_inner <= cos_outer)
+        return 1.0 - cos_outer;
+    return (1.0 - cos_inner) + (cos_inner - cos_outer) / 3.0;
 }
 
 LightSample light_sample(Light light, vec3 position)

@@ -1,6 +1,6 @@
 /*
  * Photon emitters: each light's power against its closed form (the spot's
- * smooth cone against numerical integration of the falloff lights.glsl
+ * falloff cone against numerical integration of the falloff lights.glsl
  * applies), emissive triangles π·Le·A, zero-power lights left out, and pick
  * probabilities proportional to luminance power.
  */
@@ -18,7 +18,7 @@ static double spot_falloff(double cos_angle, double cos_inner, double cos_outer)
     if (cos_inner <= cos_outer)
         return cos_angle >= cos_outer ? 1.0 : 0.0;
     double x = fmin(fmax((cos_angle - cos_outer) / (cos_inner - cos_outer), 0.0), 1.0);
-    return x * x * (3.0 - 2.0 * x);
+    return x * x;
 }
 
 PF_TEST(light_powers_match_closed_forms)

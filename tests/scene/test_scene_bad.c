@@ -311,6 +311,13 @@ PF_TEST(malformed_structure)
     st_write_gltf(&spec, path, sizeof path);
     st_expect_error(path, PF_ERR_FORMAT, "KHR_lights_punctual.lights[0]", "area");
 
+    /* Radiometric units are "W/sr" for a point light; "W/m2" is a directional's. */
+    spec.name = "badlightunits";
+    spec.extensions = "{\"KHR_lights_punctual\":{\"lights\":[{\"type\":\"point\","
+                      "\"extras\":{\"photonfarm\":{\"intensityUnits\":\"W/m2\"}}}]}}";
+    st_write_gltf(&spec, path, sizeof path);
+    st_expect_error(path, PF_ERR_FORMAT, "KHR_lights_punctual.lights[0]", "intensityUnits");
+
     spec.name = "badcamera";
     spec.extensions = NULL;
     spec.cameras = "[{\"type\":\"perspective\",\"perspective\":{\"znear\":0.1}}]";

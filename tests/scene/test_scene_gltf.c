@@ -127,10 +127,16 @@ PF_TEST(lights_converted)
                  "\"extensions\":{\"KHR_lights_punctual\":{\"light\":2}}}]",
         .scenes = "[{\"nodes\":[0,1,2,3]}]",
         .extensions = "{\"KHR_lights_punctual\":{\"lights\":["
-                      "{\"type\":\"point\",\"color\":[1,0.5,0.25],\"intensity\":8,\"range\":5},"
+                      /* 8 W/sr in candela (× 683 lm/W), as Blender's exporter writes it. */
+                      "{\"type\":\"point\",\"color\":[1,0.5,0.25],\"intensity\":5464,"
+                      "\"range\":5},"
+                      /* Written radiometric: taken as it is. */
                       "{\"type\":\"spot\",\"intensity\":3,\"spot\":{\"innerConeAngle\":0.2,"
-                      "\"outerConeAngle\":0.5}},"
-                      "{\"type\":\"directional\",\"color\":[0.5,0.5,1],\"intensity\":2}]}}",
+                      "\"outerConeAngle\":0.5},"
+                      "\"extras\":{\"photonfarm\":{\"intensityUnits\":\"W/sr\"}}},"
+                      /* 2 W/m² in lux; "lux" said outright is the default. */
+                      "{\"type\":\"directional\",\"color\":[0.5,0.5,1],\"intensity\":1366,"
+                      "\"extras\":{\"photonfarm\":{\"intensityUnits\":\"lux\"}}}]}}",
         .extensions_used = "[\"KHR_lights_punctual\"]",
     };
     pf_scene *scene = load_ok(st_write_gltf(&spec, path, sizeof path));
@@ -144,7 +150,7 @@ PF_TEST(lights_converted)
                    *directional = &frame.lights[2];
     PF_CHECK(point->kind == PF_LIGHT_POINT);
     check_vec3(point->position, 1, 2, 3, 1e-6);
-    check_vec3(point->intensity, 8, 4, 2, 1e-6);
+    check_vec3(point->intensity, 8, 4, 2, 1e-5);
     PF_CHECK_NEAR(point->range, 5, 0);
     PF_CHECK(spot->kind == PF_LIGHT_SPOT);
     check_vec3(spot->position, 0, 4, 0, 1e-6);

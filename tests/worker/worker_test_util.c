@@ -192,7 +192,7 @@ void wt_write_tiny_scene(const char *path, int frame_count)
             "{\"asset\":{\"version\":\"2.0\",\"extras\":{\"frames\":%d,\"fps\":24}},\n"
             " \"extensionsUsed\":[\"KHR_lights_punctual\"],\n"
             " \"extensions\":{\"KHR_lights_punctual\":{\"lights\":[{\"type\":\"point\","
-            "\"intensity\":10}]}},\n"
+            "\"intensity\":6830}]}},\n"
             " \"scene\":0,\"scenes\":[{\"nodes\":[0,1,2]}],\n"
             " \"nodes\":[{\"mesh\":0},{\"camera\":0,\"translation\":[0,0,3]},\n"
             "  {\"translation\":[0,0,2],\"extensions\":{\"KHR_lights_punctual\":{\"light\":0}}}],\n"
