@@ -12,7 +12,7 @@ layout(push_constant) uniform Push {
 
 #include "materials.glsl"
 
-// pf_material_probe_query, 80 bytes.
+// pf_material_probe_query, 112 bytes.
 struct ProbeQuery {
     Material material;
     vec3 wo;          // unit, away from the surface
@@ -52,9 +52,11 @@ void main()
     result.pdf = s.pdf;
     result.weight = s.weight;
     result.flags = (s.specular ? 1u : 0u) | (s.transmitted ? 2u : 0u);
+    bool front = (query.front & 1u) != 0u;
     result.eval_cos = bsdf_eval_cos(query.material, query.wo, s.direction, query.normal,
-                                    query.normal);
-    result.eval_pdf = bsdf_pdf(query.material, query.wo, s.direction, query.normal, query.normal);
+                                    query.normal, front);
+    result.eval_pdf = bsdf_pdf(query.material, query.wo, s.direction, query.normal, query.normal,
+                               front);
     result.fresnel = fresnel_dielectric(query.fresnel_cos, query.fresnel_eta);
     result.padding0 = 0.0;
     result.padding1 = 0.0;

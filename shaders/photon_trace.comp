@@ -263,10 +263,11 @@ void main()
         vec3 geometric_normal = surface.geometric_normal;
         vec3 shading_normal = surface.shading_normal;
         vec3 position = surface.position;
-        bool diffuse = material.kind == MATERIAL_LAMBERT;
+        bool diffuse = material_has_rough_lobe(material);
         if (diffuse && (depth > 0u || params.store_direct != 0u))
-            store(specular_only && depth > 0u, position, flux, flux * material.albedo, direction,
-                  geometric_normal);
+            store(specular_only && depth > 0u, position, flux,
+                  flux * material_rough_albedo(material, -direction, shading_normal, front),
+                  direction, geometric_normal);
         specular_only = specular_only && !diffuse;
 
         vec3 xi = vec3(rng_float(rng), rng_float(rng), rng_float(rng));

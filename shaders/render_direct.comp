@@ -62,6 +62,7 @@ struct Path {
     vec3 position;
     vec3 shading_normal;
     vec3 geometric_normal; // faces the incoming ray
+    bool front;            // the ray arrived at the surface's front face
     Material surface;
 };
 
@@ -96,6 +97,7 @@ void path_follow_hit(inout Path path, BihHit hit, uint depth, float ray_offset, 
     Material material = surface.material;
     bool front = surface.front;
     path.geometric_normal = surface.geometric_normal;
+    path.front = front;
     path.shading_normal = surface.shading_normal;
     path.position = surface.position;
     if (depth == 0u) {
@@ -162,7 +164,9 @@ void main()
     path.position = vec3(0.0);
     path.shading_normal = vec3(0.0, 0.0, 1.0);
     path.geometric_normal = vec3(0.0, 0.0, 1.0);
-    path.surface = Material(vec3(0.0), MATERIAL_LAMBERT, vec3(0.0), 1.0);
+    path.front = true;
+    path.surface = Material(vec3(0.0), MATERIAL_LAMBERT, vec3(0.0), 1.0, 0.0, 1.0, 0.0, 0.0,
+                            vec3(1.0), 0.0);
 
     // Camera ray, then the specular chain through mirrors and glass.
     for (uint depth = 0u; depth <= params.max_specular_depth && path.tracing; depth++) {
@@ -184,7 +188,7 @@ void main()
         xi.w = rng_float(rng);
         vec3 shadow_origin = path.position + ray_offset * path.geometric_normal;
         path.radiance += direct_light(path.surface, path.position, shadow_origin, -path.direction,
-                                      path.shading_normal, path.geometric_normal,
+                                      path.shading_normal, path.geometric_normal, path.front,
                                       path.throughput, xi, 0.0, sums.rays);
     }
 

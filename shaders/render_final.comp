@@ -147,8 +147,9 @@ void primary(uint pixel_index, uvec2 pixel)
             normal_aov = surface.shading_normal;
             vec3 surface_origin = surface.position + ray_offset * surface.geometric_normal;
             direct += direct_light(material, surface.position, surface_origin, wo,
-                                   surface.shading_normal, surface.geometric_normal, throughput,
-                                   sampler_next_4d(samples), float(push.gather_total), rays);
+                                   surface.shading_normal, surface.geometric_normal,
+                                   surface.front, throughput, sampler_next_4d(samples),
+                                   float(push.gather_total), rays);
             vertices[base] = vec4(surface.position, push.gather_total > 0u ? 1.0 : 0.0);
             vertices[base + 1u] = vec4(surface.shading_normal,
                                        uintBitsToFloat(scene_triangle_material(hit.triangle)));

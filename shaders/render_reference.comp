@@ -8,7 +8,8 @@
 // (params.pixel_filter, pixel_filter.glsl), then at every vertex
 //   - emission of a front face hit, weighted by MIS against light sampling
 //     (power heuristic) unless the previous vertex was specular or the camera;
-//   - at diffuse vertices, next-event estimation: one emissive triangle picked
+//   - at vertices with a rough (non-delta) lobe, next-event estimation
+//     through the full BSDF: one emissive triangle picked
 //     by power (MIS-weighted) and every punctual light (no MIS: a delta
 //     light is reachable only this way), each with an any-hit shadow ray;
 //   - a direction from bsdf_sample (materials.glsl); Russian roulette from the
@@ -20,7 +21,8 @@
 // camera.
 //
 // Light is split by path (E camera, S specular vertex, D diffuse vertex,
-// L light), counting vertices from the camera; D₁ is the first diffuse vertex:
+// L light; a vertex is S or D by the lobe its path sampled there, delta or
+// not), counting vertices from the camera; D₁ is the first diffuse vertex:
 //   direct    L S* E, and L D₁ S* E: emission seen directly or through
 //             specular chains, and light arriving at D₁ straight from a light
 //   indirect  everything else: light that scattered at least once more after
@@ -171,15 +173,11 @@ void main()
         if (depth > params.max_bounces)
             break;
 
-        bool diffuse = material.kind == MATERIAL_LAMBERT;
-        if (diffuse) {
-            region = region == REGION_BEFORE_DIFFUSE ? REGION_AT_DIFFUSE : REGION_BEYOND;
-            caustic_chain = false;
-        } else if (region != REGION_BEFORE_DIFFUSE) {
-            caustic_chain = region == REGION_AT_DIFFUSE ? true : caustic_chain;
-            region = REGION_BEYOND;
-        }
-        if (diffuse && !aov_recorded) {
+        // A vertex with a rough lobe estimates direct light as a D vertex; the
+        // lobe the path then samples decides whether it continues as D or S.
+        bool rough = material_has_rough_lobe(material);
+        uint diffuse_region = region == REGION_BEFORE_DIFFUSE ? REGION_AT_DIFFUSE : REGION_BEYOND;
+        if (rough && !aov_recorded) {
             aov_recorded = true;
             albedo_aov = material.albedo;
             normal_aov = shading_normal;
@@ -188,15 +186,23 @@ void main()
         vec3 wo = -direction;
         vec3 surface_origin = position + ray_offset * geometric_normal;
         vec4 light_xi = sampler_next_4d(samples);
-        if (diffuse)
+        if (rough)
             radiance_add(radiance,
                          direct_light(material, position, surface_origin, wo, shading_normal,
-                                      geometric_normal, throughput, light_xi, 1.0, rays),
-                         region, caustic_chain);
+                                      geometric_normal, front, throughput, light_xi, 1.0,
+                                      rays),
+                         diffuse_region, false);
 
         vec4 bsdf_xi = sampler_next_4d(samples);
         BsdfSample scattered = bsdf_sample(material, wo, shading_normal, geometric_normal, front,
                                            bsdf_xi.xyz, TRANSPORT_RADIANCE);
+        if (!scattered.specular) {
+            region = diffuse_region;
+            caustic_chain = false;
+        } else if (region != REGION_BEFORE_DIFFUSE) {
+            caustic_chain = region == REGION_AT_DIFFUSE ? true : caustic_chain;
+            region = REGION_BEYOND;
+        }
         throughput *= scattered.weight;
         if (!all_finite(throughput)) {
             valid = false;

@@ -53,6 +53,7 @@ static const char *const supported_extensions[] = {
     "KHR_materials_emissive_strength",
     "KHR_materials_transmission",
     "KHR_materials_ior",
+    "KHR_materials_specular",
 };
 
 pf_status gltf_fail(gltf_context *ctx, pf_error *err, pf_status status, const char *element,
@@ -352,10 +353,7 @@ static int32_t default_material(gltf_context *ctx)
      * white Lambert surface conserves all energy and makes GI slow to converge and
      * unlike any real surface (pbrt and Blender default to 0.5–0.8 as well). */
     pf_material *material = &grown[scene->material_count];
-    memset(material, 0, sizeof *material);
-    material->albedo[0] = material->albedo[1] = material->albedo[2] = 0.8f;
-    material->kind = PF_MATERIAL_LAMBERT;
-    material->ior = 1.5f;
+    *material = pf_material_lambert(0.8f, 0.8f, 0.8f);
     ctx->default_material = (int32_t)scene->material_count++;
     return ctx->default_material;
 }

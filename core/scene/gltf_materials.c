@@ -1,13 +1,13 @@
 /*
- * glTF materials → the three pf_material kinds (DESIGN.md §5):
- *   glass   KHR_materials_transmission.transmissionFactor > 0, ior from
- *           KHR_materials_ior (default 1.5), tinted by baseColorFactor;
- *   mirror  metallicFactor >= 0.5 and roughnessFactor <= MIRROR_ROUGHNESS_MAX
- *           (both default to 1 in glTF, so a bare material is not a mirror);
- *   Lambert otherwise, albedo = baseColorFactor.rgb. A metallic but rough
- *           material has no faithful match and becomes Lambert with a warning.
- * Emission = emissiveFactor × KHR_materials_emissive_strength.emissiveStrength.
- * Textures are not sampled: the factors are used, with one warning.
+ * glTF materials -> pf_material: the parameters of the metallic-roughness
+ * BSDF (pf_scene.h; evaluated by shaders/common/materials.glsl):
+ *   baseColorFactor.rgb, metallicFactor, roughnessFactor (both default 1);
+ *   KHR_materials_transmission.transmissionFactor (0), KHR_materials_ior.ior
+ *   (1.5), KHR_materials_specular.specularFactor (1) and
+ *   .specularColorFactor (1, 1, 1).
+ * Emission = emissiveFactor x KHR_materials_emissive_strength.emissiveStrength.
+ * Factors outside the spec's ranges are format errors naming the field.
+ * Textures are not sampled yet: the factors are used, with one warning.
  */
 #include "gltf_internal.h"
 
@@ -15,12 +15,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-/* Roughness at or below this counts as a perfect mirror: the glTF GGX lobe at
- * roughness 0.01 (alpha = 1e-4) is narrower than a pixel at any practical
- * resolution. */
-#define MIRROR_ROUGHNESS_MAX 0.01
-/* glTF metallicFactor at or above this is treated as a metal. */
-#define METALLIC_THRESHOLD 0.5
 /* KHR_materials_ior default. */
 #define GLTF_DEFAULT_IOR 1.5
 
@@ -28,7 +22,8 @@ static const char *const texture_keys[] = {"normalTexture", "occlusionTexture",
                                            "emissiveTexture"};
 static const char *const pbr_texture_keys[] = {"baseColorTexture", "metallicRoughnessTexture"};
 static const char *const known_material_extensions[] = {
-    "KHR_materials_emissive_strength", "KHR_materials_transmission", "KHR_materials_ior"};
+    "KHR_materials_emissive_strength", "KHR_materials_transmission", "KHR_materials_ior",
+    "KHR_materials_specular"};
 
 static void warn_unhandled(gltf_context *ctx, const cJSON *material, const cJSON *pbr,
                            const char *element)
@@ -75,12 +70,16 @@ static pf_status load_material(gltf_context *ctx, const cJSON *material, const c
     const cJSON *transmission_ext =
         cJSON_GetObjectItemCaseSensitive(extensions, "KHR_materials_transmission");
     const cJSON *ior_ext = cJSON_GetObjectItemCaseSensitive(extensions, "KHR_materials_ior");
+    const cJSON *specular_ext =
+        cJSON_GetObjectItemCaseSensitive(extensions, "KHR_materials_specular");
     char pbr_element[128], ext_element[192];
     snprintf(pbr_element, sizeof pbr_element, "%s.pbrMetallicRoughness", element);
 
     float base_color[4] = {1, 1, 1, 1};
     float emissive[3] = {0, 0, 0};
+    float specular_color[3] = {1, 1, 1};
     double metallic = 1, roughness = 1, strength = 1, transmission = 0, ior = GLTF_DEFAULT_IOR;
+    double specular = 1;
     pf_status status = gltf_floats(ctx, pbr, "baseColorFactor", 4, base_color, pbr_element, err);
     if (!status)
         status = gltf_number(ctx, pbr, "metallicFactor", 1, &metallic, pbr_element, err);
@@ -107,35 +106,58 @@ static pf_status load_material(gltf_context *ctx, const cJSON *material, const c
         if (!status && ior != 0 && ior < 1)
             status = gltf_fail(ctx, err, PF_ERR_FORMAT, ext_element, "ior %g must be >= 1", ior);
     }
+    if (!status) {
+        snprintf(ext_element, sizeof ext_element, "%s.extensions.KHR_materials_specular",
+                 element);
+        status = gltf_number(ctx, specular_ext, "specularFactor", 1, &specular, ext_element,
+                             err);
+        if (!status)
+            status = gltf_floats(ctx, specular_ext, "specularColorFactor", 3, specular_color,
+                                 ext_element, err);
+    }
     if (status)
         return status;
     if (strength < 0 || emissive[0] < 0 || emissive[1] < 0 || emissive[2] < 0)
         return gltf_fail(ctx, err, PF_ERR_FORMAT, element,
                          "emissiveFactor and emissiveStrength must be non-negative");
+    const struct {
+        const char *name;
+        double value;
+    } unit_factors[] = {{"pbrMetallicRoughness.metallicFactor", metallic},
+                        {"pbrMetallicRoughness.roughnessFactor", roughness},
+                        {"pbrMetallicRoughness.baseColorFactor", base_color[0]},
+                        {"pbrMetallicRoughness.baseColorFactor", base_color[1]},
+                        {"pbrMetallicRoughness.baseColorFactor", base_color[2]},
+                        {"extensions.KHR_materials_transmission.transmissionFactor",
+                         transmission},
+                        {"extensions.KHR_materials_specular.specularFactor", specular}};
+    for (size_t k = 0; k < sizeof unit_factors / sizeof *unit_factors; k++)
+        if (!(unit_factors[k].value >= 0 && unit_factors[k].value <= 1))
+            return gltf_fail(ctx, err, PF_ERR_FORMAT, element, "%s %g is outside [0, 1]",
+                             unit_factors[k].name, unit_factors[k].value);
+    if (specular_color[0] < 0 || specular_color[1] < 0 || specular_color[2] < 0)
+        return gltf_fail(ctx, err, PF_ERR_FORMAT, element,
+                         "extensions.KHR_materials_specular.specularColorFactor must be "
+                         "non-negative");
     warn_unhandled(ctx, material, pbr, element);
 
     memset(out, 0, sizeof *out);
     memcpy(out->albedo, base_color, sizeof out->albedo);
     for (int c = 0; c < 3; c++)
         out->emission[c] = emissive[c] * (float)strength;
-    out->ior = (float)GLTF_DEFAULT_IOR;
-    if (transmission > 0) {
-        out->kind = PF_MATERIAL_GLASS;
-        out->ior = ior == 0 ? (float)GLTF_DEFAULT_IOR : (float)ior;
-        if (transmission < 1)
-            scene_warn_once(ctx->scene, "partial transmission",
-                            "%s: %s: transmissionFactor %g < 1 is rendered as clear glass",
-                            ctx->path, element, transmission);
-    } else if (metallic >= METALLIC_THRESHOLD && roughness <= MIRROR_ROUGHNESS_MAX) {
-        out->kind = PF_MATERIAL_MIRROR;
-    } else {
-        out->kind = PF_MATERIAL_LAMBERT;
-        if (metallic >= METALLIC_THRESHOLD)
-            scene_warn_once(ctx->scene, "rough metal",
-                            "%s: %s: rough metal (metallic %g, roughness %g) is not supported: "
-                            "rendered as Lambert with its base color",
-                            ctx->path, element, metallic, roughness);
-    }
+    /* KHR_materials_ior: 0 is the legacy "unknown" value: the default. */
+    out->ior = ior == 0 ? (float)GLTF_DEFAULT_IOR : (float)ior;
+    out->metallic = (float)metallic;
+    out->roughness = (float)roughness;
+    out->transmission = (float)transmission;
+    out->specular = (float)specular;
+    memcpy(out->specular_color, specular_color, sizeof out->specular_color);
+    pf_material_classify(out);
+    if (transmission > 0 && metallic < 1 && roughness > PF_MATERIAL_DELTA_ROUGHNESS)
+        scene_warn_once(ctx->scene, "rough transmission",
+                        "%s: %s: rough transmission (roughness %g) is not supported yet: "
+                        "transmitted as smooth glass",
+                        ctx->path, element, roughness);
     return PF_OK;
 }
 

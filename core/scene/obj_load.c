@@ -123,10 +123,8 @@ static pf_status add_material(obj_state *state, const char *name, obj_material *
     obj_material *material = &grown[state->material_count++];
     memset(material, 0, sizeof *material);
     snprintf(material->name, sizeof material->name, "%s", name);
-    material->material.albedo[0] = material->material.albedo[1] =
-        material->material.albedo[2] = OBJ_DEFAULT_ALBEDO;
-    material->material.kind = PF_MATERIAL_LAMBERT;
-    material->material.ior = OBJ_DEFAULT_IOR;
+    material->material =
+        pf_material_lambert(OBJ_DEFAULT_ALBEDO, OBJ_DEFAULT_ALBEDO, OBJ_DEFAULT_ALBEDO);
     *out = material;
     return PF_OK;
 }
@@ -146,24 +144,20 @@ static void mtl_block_finish(const mtl_block *block)
     if (!block->target)
         return;
     pf_material *material = &block->target->material;
-    memcpy(material->emission, block->ke, sizeof material->emission);
     int glass = block->illum == 4 || block->illum == 6 || block->illum == 7 ||
                 block->illum == 9 || block->dissolve < 1.0f;
     int mirror = block->illum == 3 || block->illum == 5 || block->illum == 8;
     if (glass) {
-        material->kind = PF_MATERIAL_GLASS;
-        material->ior = block->has_ni && block->ni >= 1.0f ? block->ni : OBJ_DEFAULT_IOR;
-        for (int c = 0; c < 3; c++)
-            material->albedo[c] = block->has_tf ? block->tf[c] : 1.0f;
+        const float *tint = block->has_tf ? block->tf : (const float[3]){1, 1, 1};
+        float ior = block->has_ni && block->ni >= 1.0f ? block->ni : OBJ_DEFAULT_IOR;
+        *material = pf_material_glass(ior, tint[0], tint[1], tint[2]);
     } else if (mirror) {
-        material->kind = PF_MATERIAL_MIRROR;
-        for (int c = 0; c < 3; c++)
-            material->albedo[c] = block->has_ks ? block->ks[c] : 1.0f;
-    } else {
-        material->kind = PF_MATERIAL_LAMBERT;
-        if (block->has_kd)
-            memcpy(material->albedo, block->kd, sizeof material->albedo);
+        const float *tint = block->has_ks ? block->ks : (const float[3]){1, 1, 1};
+        *material = pf_material_mirror(tint[0], tint[1], tint[2]);
+    } else if (block->has_kd) {
+        *material = pf_material_lambert(block->kd[0], block->kd[1], block->kd[2]);
     }
+    memcpy(material->emission, block->ke, sizeof material->emission);
 }
 
 static pf_status load_mtl(obj_state *state, const char *mtl_path, pf_error *err)

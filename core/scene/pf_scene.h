@@ -25,19 +25,52 @@
 
 typedef struct pf_scene pf_scene;
 
+/*
+ * A material is the glTF metallic-roughness BSDF (spec Appendix B, with
+ * KHR_materials_transmission, _ior and _specular), given by the parameters
+ * of pf_material; shaders/common/materials.glsl evaluates and samples it.
+ * Mirrors and smooth glass are its roughness -> 0 limits: at roughness <=
+ * PF_MATERIAL_DELTA_ROUGHNESS the specular lobes are deltas.
+ *
+ * pf_material_kind is not a separate material model but a summary of the
+ * parameters (pf_material_classify), for the questions a kernel asks before
+ * it runs the BSDF: does the surface have any lobe that is not a delta?
+ */
 typedef enum pf_material_kind {
-    PF_MATERIAL_LAMBERT = 0, /* diffuse reflectance = albedo */
-    PF_MATERIAL_MIRROR = 1,  /* ideal specular reflection tinted by albedo */
-    PF_MATERIAL_GLASS = 2    /* smooth dielectric with index ior, tinted by albedo */
+    PF_MATERIAL_LAMBERT = 0, /* has a non-delta lobe (diffuse or glossy): "rough" */
+    PF_MATERIAL_MIRROR = 1,  /* only a delta reflection: a smooth metal */
+    PF_MATERIAL_GLASS = 2    /* only delta reflection and transmission: smooth clear glass */
 } pf_material_kind;
 
-/* std430-compatible (32 bytes): uploaded as-is. */
+/*
+ * GGX roughness at or below which a lobe is a delta: alpha = roughness² =
+ * 4e-4 rad is 0.023°, the angle one pixel of a 3840-pixel-wide frame spans at
+ * a 90° field of view, so a narrower lobe reflects no visible blur and would
+ * only add the noise of sampling a near-delta peak.
+ */
+#define PF_MATERIAL_DELTA_ROUGHNESS 0.02f
+
+/* std430-compatible (64 bytes): uploaded as-is (scene_types.glsl Material). */
 typedef struct pf_material {
-    float albedo[3];
-    uint32_t kind;         /* pf_material_kind */
-    float emission[3];     /* emitted radiance, W/(sr·m²); zero if not emissive */
-    float ior;             /* glass only; 1.5 default */
+    float albedo[3];         /* glTF baseColor, linear: diffuse colour, metal F0, glass tint */
+    uint32_t kind;           /* pf_material_kind, set by pf_material_classify */
+    float emission[3];       /* emitted radiance, W/(sr·m²); zero if not emissive */
+    float ior;               /* dielectric index of refraction; 1.5 default */
+    float metallic;          /* 0 dielectric .. 1 metal */
+    float roughness;         /* perceptual roughness; GGX alpha = roughness² */
+    float transmission;      /* KHR_materials_transmission: 0 opaque .. 1 transmits */
+    float specular;          /* KHR_materials_specular factor: the dielectric's reflection
+                              * (1 glTF default; 0 leaves a pure Lambert base) */
+    float specular_color[3]; /* KHR_materials_specular colour, tints the dielectric's F0 */
+    float padding;
 } pf_material;
+
+/* Sets material->kind from its parameters (see pf_material_kind). */
+void pf_material_classify(pf_material *material);
+/* Constructors of the limits tests and generated scenes use, classified. */
+pf_material pf_material_lambert(float r, float g, float b); /* specular 0: diffuse only */
+pf_material pf_material_mirror(float r, float g, float b);  /* metal, roughness 0, F0 = rgb */
+pf_material pf_material_glass(float ior, float r, float g, float b); /* smooth, tinted */
 
 typedef enum pf_light_kind {
     PF_LIGHT_POINT = 0,

@@ -117,7 +117,7 @@ pf_status pf_scene_frame_point_light_to_sphere(pf_scene_frame *frame, uint32_t l
         frame->triangle_node[i] = UINT32_MAX;
     }
     /* Power of an isotropic point light 4π·I = power of a Lambert emitter π·Le·A. */
-    pf_material emitter = {{0.0f, 0.0f, 0.0f}, PF_MATERIAL_LAMBERT, {0.0f, 0.0f, 0.0f}, 1.5f};
+    pf_material emitter = pf_material_lambert(0.0f, 0.0f, 0.0f);
     for (int i = 0; i < 3; i++)
         emitter.emission[i] = (float)(4.0 * point.intensity[i] / area);
     frame->materials[material] = emitter;

@@ -43,7 +43,8 @@ float emission_mis_weight(vec3 emission, vec3 face_normal, vec3 direction, float
 // punctual light) with a single trace call: every call site of trace_bih is
 // inlined, and llvmpipe's compile time grows with each.
 vec3 direct_light(Material material, vec3 position, vec3 surface_origin, vec3 wo,
-                  vec3 shading_normal, vec3 geometric_normal, vec3 throughput, vec4 light_xi,
+                  vec3 shading_normal, vec3 geometric_normal, bool front, vec3 throughput,
+                  vec4 light_xi,
                   float bsdf_sample_count, inout uint rays)
 {
     float ray_offset = params.camera_right.w;
@@ -55,13 +56,14 @@ vec3 direct_light(Material material, vec3 position, vec3 surface_origin, vec3 wo
         AreaLightSample light = emissive_sample(position, light_xi, params.emissive_count,
                                                 params.emissive_weight_total);
         vec3 reflected = bsdf_eval_cos(material, wo, light.to_light, shading_normal,
-                                       geometric_normal);
+                                       geometric_normal, front);
         if (light.pdf_solid_angle > 0.0) {
             float weight = bsdf_sample_count > 0.0
                                ? mis_power(light.pdf_solid_angle,
                                            bsdf_sample_count *
                                                bsdf_pdf(material, wo, light.to_light,
-                                                        shading_normal, geometric_normal))
+                                                        shading_normal, geometric_normal,
+                                                        front))
                                : 1.0;
             area_contribution = throughput * reflected * light.radiance *
                                 (weight / light.pdf_solid_angle);
@@ -78,7 +80,7 @@ vec3 direct_light(Material material, vec3 position, vec3 surface_origin, vec3 wo
             LightSample light = light_sample(lights[candidate - 1u], position);
             contribution = throughput * light.irradiance *
                            bsdf_eval_cos(material, wo, light.to_light, shading_normal,
-                                         geometric_normal);
+                                         geometric_normal, front);
             to_light = light.to_light;
             tmax = light.distance - ray_offset;
         }

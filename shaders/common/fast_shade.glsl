@@ -161,9 +161,12 @@ void main()
             // here (one was tried: on the Cornell box it changed the error by
             // less than 0.1% for a ray more per sample).
             direct += direct_light(material, surface.position, surface_origin, wo,
-                                   surface.shading_normal, surface.geometric_normal, throughput,
-                                   sampler_next_4d(samples), 0.0, rays);
-            vec3 reflectance = throughput * material.albedo / PI;
+                                   surface.shading_normal, surface.geometric_normal,
+                                   surface.front, throughput, sampler_next_4d(samples), 0.0,
+                                   rays);
+            vec3 reflectance = throughput *
+                               material_rough_albedo(material, wo, surface.shading_normal,
+                                                     surface.front) / PI;
             if (push.cascade_count > 0u) {
                 bool covered;
                 indirect += reflectance * lpv_irradiance(surface.position, surface.shading_normal,

@@ -98,8 +98,11 @@ void gather_ray(uint pixel_index, uint gather_index, Material d1_material, vec3 
         }
         vec3 wo_hit = -direction;
         if (material.kind == MATERIAL_LAMBERT) {
-            // Reflected radiance: albedo/π × irradiance, in watts by the map's flux scale.
-            vec3 weight = path * (material.albedo * (push.flux_scale / PI));
+            // Reflected radiance: albedo/π × irradiance, in watts by the map's flux
+            // scale (the directional albedo of the rough lobes towards the gather ray).
+            vec3 weight = path * (material_rough_albedo(material, wo_hit,
+                                                        surface.shading_normal, surface.front) *
+                                  (push.flux_scale / PI));
             vec3 irradiance;
             if (global_irradiance_lookup(surface.position, surface.geometric_normal, irradiance,
                                          truncated)) {

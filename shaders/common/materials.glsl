@@ -1,6 +1,36 @@
-// Materials (pf_material_kind): the one definition of how each material
-// scatters light, shared by every integrator (preview, reference path
-// tracing, photon tracing, final gather).
+// Materials: the one definition of how a surface scatters light, shared by
+// every integrator (preview, fast, final, reference, photon tracing). The
+// model is the glTF metallic-roughness BSDF of the spec's Appendix B
+// (pf_material's parameters, pf_scene.h):
+//
+//   metal       = F_schlick(F0 = baseColor) · D·V                 (specular)
+//   dielectric  = (1 − s·max(F)) · [(1 − T) · baseColor/π + T · btdf]
+//                 + s · F · D·V                                     (KHR_materials_specular:
+//                                                                    s = specularFactor)
+//   bsdf        = mix(dielectric, metal, metallic)
+//
+// with D the GGX (Trowbridge-Reitz) distribution, α = roughness², V the
+// height-correlated Smith visibility G₂/(4|n·wo||n·wi|) (Heitz 2014), and F
+// evaluated at the microfacet normal h. The dielectric's F is the exact
+// unpolarized Fresnel reflectance of its index (pbrt-v4 FrDielectric; at
+// normal incidence ((n−1)/(n+1))² = 0.04 at 1.5, the spec's F0), tinted by
+// specularColor, so total internal reflection inside glass is right. T is
+// KHR_materials_transmission; the btdf is the smooth refraction below.
+//
+// Delta limits: at roughness <= DELTA_ROUGHNESS (pf_scene.h
+// PF_MATERIAL_DELTA_ROUGHNESS) the specular reflection is a mirror; the
+// transmission is always smooth (rough transmission is not modelled yet).
+// A smooth metal is the old "mirror", a smooth T = 1 dielectric the old
+// "glass", a specular 0 dielectric exactly Lambert.
+//
+// Sampling picks one lobe (specular reflection, diffuse, transmission) by a
+// Fresnel estimate at n·wo and the lobes' colours, then samples it: GGX
+// visible normals (Heitz 2018, "Sampling the GGX Distribution of Visible
+// Normals", JCGT 7(4)) for the glossy lobe, cosine-weighted for the diffuse
+// one. The reported pdf of a non-delta direction is the lobe-choice-weighted
+// sum over the non-delta lobes (one-sample MIS, balance heuristic), and the
+// weight is f·cos/pdf of the whole non-delta BSDF, so bsdf_eval_cos and
+// bsdf_pdf agree with bsdf_sample and next-event estimation can MIS against it.
 //
 // Conventions of every function here:
 //   wo               unit direction from the surface back along the arriving
@@ -13,21 +43,17 @@
 // shading normals can produce) is never returned: the geometric normal
 // decides reflection and transmission, so no light leaks through a surface.
 //
-// Lambert: f = albedo/π, cosine-weighted sampling (weight = albedo).
-// Mirror (ideal, specular): reflection tinted by albedo (the metal's colour).
-// Glass (smooth dielectric, specular): reflection with probability F (exact
-//   Fresnel, 1 under total internal reflection), else refraction. Reflection
-//   is untinted and transmission is tinted by albedo (glTF base colour of a
-//   transmissive material), so with albedo 1 the two weights are exactly 1
-//   and the expected throughput is exactly F + (1 − F) = 1 for photons.
-//   Paths that carry radiance (camera rays, gather rays) also take the
-//   (η_i/η_t)² factor of refraction (Veach 1997, §5.2; pbrt's
-//   TransportMode::Radiance): radiance inside a denser medium is η² times
-//   the radiance of the same flux outside. Photons carry flux (importance
-//   transport) and take no such factor. Leaving it out of camera paths
-//   cancels only on paths that enter and leave a medium; a camera path that
-//   ends inside one (a floor under water) meets photon estimates of
-//   physical irradiance there and came out η² too bright (issue 16).
+// Smooth transmission: reflection with probability ∝ F, else refraction.
+// Reflection is untinted and transmission is tinted by baseColor, so glass
+// with baseColor 1 has weights exactly 1 and throughput F + (1 − F) = 1 for
+// photons. Paths that carry radiance (camera rays, gather rays) also take the
+// (η_i/η_t)² factor of refraction (Veach 1997, §5.2; pbrt's
+// TransportMode::Radiance): radiance inside a denser medium is η² times the
+// radiance of the same flux outside. Photons carry flux (importance
+// transport) and take no such factor. Leaving it out of camera paths cancels
+// only on paths that enter and leave a medium; a camera path that ends inside
+// one (a floor under water) meets photon estimates of physical irradiance
+// there and came out η² too bright (issue 16).
 #ifndef PF_MATERIALS_GLSL
 #define PF_MATERIALS_GLSL
 
@@ -110,30 +136,203 @@ vec3 material_reflect(vec3 wo, vec3 shading_normal, vec3 geometric_normal)
     return dot(reflected, geometric_normal) > 0.0 ? reflected : reflect(-wo, geometric_normal);
 }
 
-// f·|cos(wi)| of the non-specular lobes for light arriving from wi (unit,
-// away from the surface); 0 for specular materials and for wi below the
-// surface.
-vec3 bsdf_eval_cos(Material material, vec3 wo, vec3 wi, vec3 shading_normal,
-                   vec3 geometric_normal)
+// pf_scene.h PF_MATERIAL_DELTA_ROUGHNESS: at or below it the specular lobe is a mirror.
+const float DELTA_ROUGHNESS = 0.02;
+
+// Rec. 709 luminance of a reflectance (lobe choice weights).
+float material_luminance(vec3 colour)
 {
-    if (material.kind != MATERIAL_LAMBERT)
-        return vec3(0.0);
-    float cos_shading = dot(wi, shading_normal);
-    if (cos_shading <= 0.0 || dot(wi, geometric_normal) <= 0.0)
-        return vec3(0.0);
-    return material.albedo * (cos_shading / PI);
+    return dot(colour, vec3(0.2126, 0.7152, 0.0722));
 }
 
-// Solid-angle density with which bsdf_sample returns wi (non-specular lobes;
-// 0 for specular materials and for directions it never returns).
-float bsdf_pdf(Material material, vec3 wo, vec3 wi, vec3 shading_normal, vec3 geometric_normal)
+float material_max3(vec3 v)
 {
-    if (material.kind != MATERIAL_LAMBERT)
+    return max(v.x, max(v.y, v.z));
+}
+
+// Schlick's Fresnel (the spec's conductor_fresnel): f0 at normal incidence, 1 at grazing.
+vec3 fresnel_schlick(vec3 f0, float cos_theta)
+{
+    float m = clamp(1.0 - cos_theta, 0.0, 1.0);
+    float m2 = m * m;
+    return f0 + (1.0 - f0) * (m2 * m2 * m);
+}
+
+// The dielectric layer's reflectance at the microfacet cosine cos_h:
+// specularFactor · min(F_exact · specularColor, 1) (see the header).
+vec3 dielectric_fresnel(Material material, float cos_h, float eta)
+{
+    float exact = fresnel_dielectric(cos_h, eta);
+    return material.specular * min(exact * material.specular_color, vec3(1.0));
+}
+
+// The index ratio a dielectric's Fresnel sees: through a transmissive
+// surface the side matters (inside glass, TIR), an opaque one looks the same
+// from both sides.
+float material_eta(Material material, bool front)
+{
+    return (material.transmission > 0.0 && !front) ? 1.0 / material.ior : material.ior;
+}
+
+// GGX normal distribution D(h) for cos_h = n·h (Trowbridge & Reitz 1975; Walter et al. 2007).
+float ggx_d(float cos_h, float alpha)
+{
+    float a2 = alpha * alpha;
+    float t = cos_h * cos_h * (a2 - 1.0) + 1.0;
+    return a2 / (PI * t * t);
+}
+
+// Smith's Λ for GGX at a direction of cosine cos_theta to the normal.
+float ggx_lambda(float cos_theta, float alpha)
+{
+    float c2 = max(cos_theta * cos_theta, 1e-12);
+    float tan2 = max(1.0 - c2, 0.0) / c2;
+    return 0.5 * (sqrt(1.0 + alpha * alpha * tan2) - 1.0);
+}
+
+// Height-correlated Smith visibility V = G₂ / (4 |n·wo| |n·wi|) (the spec's
+// V_GGX, Heitz 2014 eq. 99).
+float ggx_visibility(float cos_o, float cos_i, float alpha)
+{
+    float a2 = alpha * alpha;
+    float term_o = cos_i * sqrt(cos_o * cos_o * (1.0 - a2) + a2);
+    float term_i = cos_o * sqrt(cos_i * cos_i * (1.0 - a2) + a2);
+    float denominator = term_o + term_i;
+    return denominator > 0.0 ? 0.5 / denominator : 0.0;
+}
+
+// A visible microfacet normal for wo (local frame, z = normal, wo.z > 0) from
+// xi in [0,1)² (Heitz 2018, listing 1).
+vec3 ggx_sample_visible_normal(vec3 wo_local, float alpha, vec2 xi)
+{
+    vec3 vh = normalize(vec3(alpha * wo_local.x, alpha * wo_local.y, wo_local.z));
+    float length2 = vh.x * vh.x + vh.y * vh.y;
+    vec3 t1 = length2 > 0.0 ? vec3(-vh.y, vh.x, 0.0) * inversesqrt(length2) : vec3(1.0, 0.0, 0.0);
+    vec3 t2 = cross(vh, t1);
+    float r = sqrt(xi.x);
+    float phi = 2.0 * PI * xi.y;
+    float p1 = r * cos(phi);
+    float p2 = r * sin(phi);
+    float s = 0.5 * (1.0 + vh.z);
+    p2 = (1.0 - s) * sqrt(max(0.0, 1.0 - p1 * p1)) + s * p2;
+    vec3 nh = p1 * t1 + p2 * t2 + sqrt(max(0.0, 1.0 - p1 * p1 - p2 * p2)) * vh;
+    return normalize(vec3(alpha * nh.x, alpha * nh.y, max(1e-6, nh.z)));
+}
+
+// Density of reflected directions that visible-normal sampling produces:
+// G₁(wo) D(h) / (4 cos_o) (Heitz 2018, eq. 17 with the reflection Jacobian).
+float ggx_reflection_pdf(float cos_o, float cos_h, float alpha)
+{
+    float g1 = 1.0 / (1.0 + ggx_lambda(cos_o, alpha));
+    return g1 * ggx_d(cos_h, alpha) / (4.0 * cos_o);
+}
+
+// How the BSDF splits at wo: lobe choice probabilities (specular
+// reflection, diffuse, transmission; they sum to 1, or all 0 for a black
+// surface) from a Fresnel estimate at n·wo.
+struct LobeChoice {
+    float specular;
+    float diffuse;
+    float transmission;
+};
+
+LobeChoice material_lobe_choice(Material material, float cos_o, float eta)
+{
+    // Largest channels, not luminance: white surfaces then split exactly by
+    // F and 1 − F, so a white glass's weights are exactly 1.
+    float dielectric = 1.0 - material.metallic;
+    float fresnel = material_max3(dielectric_fresnel(material, cos_o, eta));
+    float albedo = material_max3(material.albedo);
+    LobeChoice choice;
+    choice.specular = material.metallic * material_max3(fresnel_schlick(material.albedo, cos_o)) +
+                      dielectric * fresnel;
+    choice.diffuse = dielectric * (1.0 - material.transmission) * (1.0 - fresnel) * albedo;
+    choice.transmission = dielectric * material.transmission * (1.0 - fresnel) * albedo;
+    float total = choice.specular + choice.diffuse + choice.transmission;
+    if (!(total > 0.0))
+        return LobeChoice(0.0, 0.0, 0.0);
+    if (total != 1.0) {
+        choice.specular /= total;
+        choice.diffuse /= total;
+        choice.transmission /= total;
+    }
+    return choice;
+}
+
+bool material_specular_is_delta(Material material)
+{
+    return material.roughness <= DELTA_ROUGHNESS;
+}
+
+float material_alpha(Material material)
+{
+    return material.roughness * material.roughness;
+}
+
+// f·cos of the non-delta lobes for wo and wi on the same side (cos_o, cos_i
+// against the shading normal, both > 0; cos_h = n·h, cos_oh = wo·h).
+vec3 material_reflection_eval(Material material, float cos_o, float cos_i, float cos_h,
+                              float cos_oh, float eta)
+{
+    vec3 dielectric_f = dielectric_fresnel(material, cos_oh, eta);
+    float base = 1.0 - material_max3(dielectric_f);
+    vec3 value = (1.0 - material.metallic) * (1.0 - material.transmission) * base *
+                 material.albedo * (cos_i / PI);
+    if (!material_specular_is_delta(material)) {
+        float alpha = material_alpha(material);
+        vec3 fresnel = mix(dielectric_f, fresnel_schlick(material.albedo, cos_oh),
+                           material.metallic);
+        value += fresnel * (ggx_d(cos_h, alpha) * ggx_visibility(cos_o, cos_i, alpha) * cos_i);
+    }
+    return value;
+}
+
+// pdf with which bsdf_sample returns wi among its non-delta lobes.
+float material_reflection_pdf(Material material, LobeChoice choice, float cos_o, float cos_i,
+                              float cos_h)
+{
+    float pdf = choice.diffuse * cos_i / PI;
+    if (!material_specular_is_delta(material))
+        pdf += choice.specular * ggx_reflection_pdf(cos_o, cos_h, material_alpha(material));
+    return pdf;
+}
+
+// f·|cos(wi)| of the non-delta lobes for light arriving from wi (unit, away
+// from the surface); 0 for delta-only materials and for wi below the surface.
+// front: the side wo lies on (transmissive materials' Fresnel depends on it).
+vec3 bsdf_eval_cos(Material material, vec3 wo, vec3 wi, vec3 shading_normal,
+                   vec3 geometric_normal, bool front)
+{
+    float cos_i = dot(wi, shading_normal);
+    float cos_o = dot(wo, shading_normal);
+    if (cos_i <= 0.0 || cos_o <= 0.0 || dot(wi, geometric_normal) <= 0.0)
+        return vec3(0.0);
+    vec3 h = normalize(wo + wi);
+    return material_reflection_eval(material, cos_o, cos_i, dot(h, shading_normal),
+                                     clamp(dot(wo, h), 0.0, 1.0), material_eta(material, front));
+}
+
+// Solid-angle density with which bsdf_sample returns wi (non-delta lobes;
+// 0 for delta-only materials and for directions it never returns).
+float bsdf_pdf(Material material, vec3 wo, vec3 wi, vec3 shading_normal, vec3 geometric_normal,
+               bool front)
+{
+    float cos_i = dot(wi, shading_normal);
+    float cos_o = dot(wo, shading_normal);
+    if (cos_i <= 0.0 || cos_o <= 0.0 || dot(wi, geometric_normal) <= 0.0)
         return 0.0;
-    float cos_shading = dot(wi, shading_normal);
-    if (cos_shading <= 0.0 || dot(wi, geometric_normal) <= 0.0)
-        return 0.0;
-    return cos_shading / PI;
+    float eta = material_eta(material, front);
+    LobeChoice choice = material_lobe_choice(material, cos_o, eta);
+    vec3 h = normalize(wo + wi);
+    return material_reflection_pdf(material, choice, cos_o, cos_i, dot(h, shading_normal));
+}
+
+// Whether the material has any non-delta lobe: a kernel that estimates light
+// at a surface (next-event estimation, photon and irradiance lookups) does so
+// only there; a delta-only surface is passed through by sampling.
+bool material_has_rough_lobe(Material material)
+{
+    return material.kind == MATERIAL_LAMBERT;
 }
 
 // What a sampled path carries (see the header): radiance paths start at the
@@ -142,39 +341,101 @@ const uint TRANSPORT_RADIANCE = 0u;
 const uint TRANSPORT_IMPORTANCE = 1u;
 
 // Samples a scattering direction from xi in [0,1)³ (xy: the direction,
-// z: the reflect/refract choice of glass) for a path carrying `transport`.
+// z: the lobe) for a path carrying `transport`.
 BsdfSample bsdf_sample(Material material, vec3 wo, vec3 shading_normal, vec3 geometric_normal,
                        bool front, vec3 xi, uint transport)
 {
     BsdfSample s = BsdfSample(vec3(0.0), vec3(0.0), 0.0, false, false);
-    if (material.kind == MATERIAL_LAMBERT) {
-        s.direction = material_cosine_direction(shading_normal, xi.xy);
-        s.pdf = bsdf_pdf(material, wo, s.direction, shading_normal, geometric_normal);
-        // Below the geometric surface (a shading normal tilted past it): absorbed.
-        s.weight = s.pdf > 0.0 ? material.albedo : vec3(0.0);
+    float eta = material_eta(material, front);
+    float cos_o = dot(wo, shading_normal);
+    // A shading normal facing away from wo (interpolated normals at grazing
+    // angles): the geometric normal stands in for it.
+    vec3 normal = cos_o > 0.0 ? shading_normal : geometric_normal;
+    cos_o = max(dot(wo, normal), 1e-6);
+    LobeChoice choice = material_lobe_choice(material, cos_o, eta);
+    float pick = xi.z;
+    bool delta_specular = material_specular_is_delta(material);
+
+    // Lobes in the order specular, transmission, diffuse along xi.z, so a
+    // smooth glass reflects exactly when xi.z < F.
+    if (pick < choice.specular && delta_specular) {
+        s.direction = material_reflect(wo, normal, geometric_normal);
+        s.specular = true;
+        vec3 fresnel = mix(dielectric_fresnel(material, cos_o, eta),
+                           fresnel_schlick(material.albedo, cos_o), material.metallic);
+        s.weight = fresnel / choice.specular;
         return s;
     }
-    s.specular = true;
-    if (material.kind == MATERIAL_MIRROR) {
-        s.direction = material_reflect(wo, shading_normal, geometric_normal);
-        s.weight = material.albedo;
+    bool glossy = pick < choice.specular;
+    pick -= choice.specular;
+    if (!glossy && pick < choice.transmission) {
+        vec3 refracted = refract(-wo, normal, 1.0 / eta);
+        if (refracted != vec3(0.0) && dot(refracted, geometric_normal) >= 0.0)
+            refracted = refract(-wo, geometric_normal, 1.0 / eta);
+        if (refracted == vec3(0.0))
+            return s; // total internal reflection: F = 1 gave this lobe no weight
+        float base = 1.0 - material_max3(dielectric_fresnel(material, cos_o, eta));
+        s.direction = normalize(refracted);
+        s.specular = true;
+        s.transmitted = true;
+        // eta = η_t/η_i: (η_i/η_t)² = 1/eta² for radiance.
+        float scale = transport == TRANSPORT_RADIANCE ? 1.0 / (eta * eta) : 1.0;
+        s.weight = (1.0 - material.metallic) * material.transmission * base * material.albedo *
+                   (scale / choice.transmission);
         return s;
     }
-    float eta = front ? material.ior : 1.0 / material.ior;
-    float reflectance = fresnel_dielectric(dot(wo, shading_normal), eta);
-    vec3 refracted = refract(-wo, shading_normal, 1.0 / eta);
-    if (refracted != vec3(0.0) && dot(refracted, geometric_normal) >= 0.0)
-        refracted = refract(-wo, geometric_normal, 1.0 / eta);
-    if (xi.z < reflectance || refracted == vec3(0.0)) {
-        s.direction = material_reflect(wo, shading_normal, geometric_normal);
-        s.weight = vec3(1.0);
+
+    vec3 tangent, bitangent;
+    material_basis(normal, tangent, bitangent);
+    if (glossy) {
+        vec3 wo_local = vec3(dot(wo, tangent), dot(wo, bitangent), cos_o);
+        vec3 h_local = ggx_sample_visible_normal(wo_local, material_alpha(material), xi.xy);
+        vec3 h = h_local.x * tangent + h_local.y * bitangent + h_local.z * normal;
+        s.direction = reflect(-wo, h);
+    } else if (choice.diffuse > 0.0) {
+        s.direction = material_cosine_direction(normal, xi.xy);
+    } else {
         return s;
     }
-    s.direction = normalize(refracted);
-    // eta = η_t/η_i: (η_i/η_t)² = 1/eta² for radiance.
-    s.weight = transport == TRANSPORT_RADIANCE ? material.albedo / (eta * eta) : material.albedo;
-    s.transmitted = true;
+    float cos_i = dot(s.direction, normal);
+    if (cos_i <= 0.0 || dot(s.direction, geometric_normal) <= 0.0)
+        return s; // below the surface: absorbed
+    vec3 h = normalize(wo + s.direction);
+    float cos_h = dot(h, normal);
+    s.pdf = material_reflection_pdf(material, choice, cos_o, cos_i, cos_h);
+    if (!(s.pdf > 0.0))
+        return s;
+    s.weight = material_reflection_eval(material, cos_o, cos_i, cos_h, clamp(dot(wo, h), 0.0, 1.0),
+                                        eta) / s.pdf;
     return s;
+}
+
+// The surface's directional albedo towards wo for its non-delta lobes: what a
+// kernel multiplies an irradiance estimate by (over π) where it does not
+// sample the BSDF (photon, LPV and gather lookups). Exact for a pure Lambert
+// base. The base's 1 − F is taken at the half vector of wo and the normal
+// (where the base reflects most: the spec's F(wo·h) is smallest there, and
+// F at n·wo itself would darken grazing views ~10 % below the model); the
+// glossy lobe's ∫ F·D·V·cos is the split-sum fit of Karis 2014 ("Physically
+// Based Shading on Mobile", after Lazarov 2013).
+vec3 material_rough_albedo(Material material, vec3 wo, vec3 shading_normal, bool front)
+{
+    float cos_o = clamp(dot(wo, shading_normal), 1e-4, 1.0);
+    float eta = material_eta(material, front);
+    vec3 dielectric_f0 = dielectric_fresnel(material, 1.0, eta);
+    float cos_half = sqrt(0.5 * (1.0 + cos_o));
+    vec3 base = (1.0 - material.metallic) * (1.0 - material.transmission) *
+                (1.0 - material_max3(dielectric_fresnel(material, cos_half, eta))) *
+                material.albedo;
+    if (material_specular_is_delta(material))
+        return base;
+    vec4 r = material.roughness * vec4(-1.0, -0.0275, -0.572, 0.022) +
+             vec4(1.0, 0.0425, 1.04, -0.04);
+    float a004 = min(r.x * r.x, exp2(-9.28 * cos_o)) * r.x + r.y;
+    vec2 scale_bias = vec2(-1.04, 1.04) * a004 + r.zw;
+    vec3 f0 = mix(dielectric_f0, material.albedo, material.metallic);
+    vec3 f90 = vec3(mix(material.specular, 1.0, material.metallic));
+    return base + f0 * scale_bias.x + f90 * scale_bias.y;
 }
 
 #endif

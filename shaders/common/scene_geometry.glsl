@@ -7,7 +7,7 @@
 //   binding 1  scene_vertices           3 RGBA32F texels per triangle (xyz, w unused)
 //   binding 2  scene_normals            3 RGBA32F texels per triangle (shading normals)
 //   binding 3  scene_triangle_materials one word per triangle: its material
-//   binding 4  scene_materials          2 texels per material (pf_material, 32 bytes)
+//   binding 4  scene_materials          4 texels per material (pf_material, 64 bytes)
 #ifndef PF_SCENE_GEOMETRY_GLSL
 #define PF_SCENE_GEOMETRY_GLSL
 
@@ -38,10 +38,13 @@ uint scene_triangle_material(uint triangle)
 
 Material scene_material(uint index)
 {
-    uvec4 first = uvec4(texelFetch(scene_materials, int(2u * index)));
-    uvec4 second = uvec4(texelFetch(scene_materials, int(2u * index + 1u)));
-    return Material(uintBitsToFloat(first.xyz), first.w, uintBitsToFloat(second.xyz),
-                    uintBitsToFloat(second.w));
+    int first = int(4u * index);
+    uvec4 t0 = uvec4(texelFetch(scene_materials, first));
+    uvec4 t1 = uvec4(texelFetch(scene_materials, first + 1));
+    vec4 t2 = uintBitsToFloat(uvec4(texelFetch(scene_materials, first + 2)));
+    vec4 t3 = uintBitsToFloat(uvec4(texelFetch(scene_materials, first + 3)));
+    return Material(uintBitsToFloat(t0.xyz), t0.w, uintBitsToFloat(t1.xyz),
+                    uintBitsToFloat(t1.w), t2.x, t2.y, t2.z, t2.w, t3.xyz, t3.w);
 }
 
 #endif

@@ -14,12 +14,18 @@ const uint LIGHT_DIRECTIONAL = 2u;
 
 const uint NO_HIT = 0xFFFFFFFFu;
 
-// pf_material, 32 bytes.
+// pf_material, 64 bytes (pf_scene.h: the glTF metallic-roughness parameters).
 struct Material {
-    vec3 albedo;
-    uint kind;
-    vec3 emission; // W/(sr·m²), front face only
+    vec3 albedo;          // glTF baseColor: diffuse colour, metal F0, transmission tint
+    uint kind;            // pf_material_kind: a summary of the parameters below
+    vec3 emission;        // W/(sr·m²), front face only
     float ior;
+    float metallic;
+    float roughness;      // perceptual; GGX alpha = roughness²
+    float transmission;
+    float specular;       // KHR_materials_specular factor (0: diffuse base only)
+    vec3 specular_color;  // KHR_materials_specular colour
+    float padding;
 };
 
 // pf_light, 64 bytes.

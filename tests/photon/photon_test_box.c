@@ -25,9 +25,8 @@ void box_init(box_scene *s, float albedo)
     s->frame.materials = s->materials;
     s->frame.material_count = 2;
     s->frame.lights = s->lights;
-    s->materials[0] = (pf_material){.albedo = {albedo, albedo, albedo}, .kind = PF_MATERIAL_LAMBERT,
-                                    .ior = 1.5f};
-    s->materials[1] = (pf_material){.albedo = {1, 1, 1}, .kind = PF_MATERIAL_MIRROR, .ior = 1.5f};
+    s->materials[0] = pf_material_lambert(albedo, albedo, albedo);
+    s->materials[1] = pf_material_mirror(1, 1, 1);
     const float p[8][3] = {{-1, -1, -1}, {1, -1, -1}, {1, 1, -1}, {-1, 1, -1},
                            {-1, -1, 1},  {1, -1, 1},  {1, 1, 1},  {-1, 1, 1}};
     const int faces[6][4] = {{0, 1, 2, 3}, {4, 7, 6, 5}, {0, 4, 5, 1},

@@ -41,12 +41,24 @@ uint32_t ref_scene_add_material(ref_scene *scene, pf_material material)
 
 pf_material ref_material(pf_material_kind kind, float r, float g, float b)
 {
-    return (pf_material){{r, g, b}, (uint32_t)kind, {0, 0, 0}, 1.5f};
+    switch (kind) {
+    case PF_MATERIAL_MIRROR:
+        return pf_material_mirror(r, g, b);
+    case PF_MATERIAL_GLASS:
+        return pf_material_glass(1.5f, r, g, b);
+    case PF_MATERIAL_LAMBERT:
+        break;
+    }
+    return pf_material_lambert(r, g, b);
 }
 
 pf_material ref_material_emitter(float r, float g, float b)
 {
-    return (pf_material){{0, 0, 0}, PF_MATERIAL_LAMBERT, {r, g, b}, 1.5f};
+    pf_material emitter = pf_material_lambert(0, 0, 0);
+    emitter.emission[0] = r;
+    emitter.emission[1] = g;
+    emitter.emission[2] = b;
+    return emitter;
 }
 
 void ref_scene_add_light(ref_scene *scene, pf_light light)

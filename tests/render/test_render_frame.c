@@ -267,7 +267,7 @@ PF_TEST(mirror_reflects_the_emitter_tinted)
     test_scene scene;
     float rgb[3], alpha;
     floor_scene(&scene, 1.0f);
-    scene.materials[0] = (pf_material){{0.9f, 0.8f, 0.7f}, PF_MATERIAL_MIRROR, {0, 0, 0}, 1.5f};
+    scene.materials[0] = pf_material_mirror(0.9f, 0.8f, 0.7f);
     scene.materials[1] = (pf_material){{0, 0, 0}, PF_MATERIAL_LAMBERT, {10, 10, 10}, 1.5f};
     float e1[3] = {-5, -5, 2}, e2[3] = {5, 5, 2}, e3[3] = {5, -5, 2}, e4[3] = {-5, 5, 2};
     add_triangle(&scene, e1, e2, e3, 1);

@@ -1,0 +1,62 @@
+/*
+ * The material parameters' summary (pf_material_classify) and constructors
+ * for the limits of the glTF BSDF (pf_scene.h).
+ */
+#include "pf_scene.h"
+
+#include <string.h>
+
+/* glTF's (and KHR_materials_ior's) default index of refraction. */
+#define DEFAULT_IOR 1.5f
+
+void pf_material_classify(pf_material *material)
+{
+    int smooth = material->roughness <= PF_MATERIAL_DELTA_ROUGHNESS;
+    /* The diffuse base has weight (1 - metallic)(1 - transmission). */
+    int has_diffuse = material->metallic < 1.0f && material->transmission < 1.0f;
+    if (!smooth || has_diffuse)
+        material->kind = PF_MATERIAL_LAMBERT;
+    else if (material->metallic >= 1.0f)
+        material->kind = PF_MATERIAL_MIRROR;
+    else
+        material->kind = PF_MATERIAL_GLASS;
+}
+
+static pf_material base_material(float r, float g, float b)
+{
+    pf_material material;
+    memset(&material, 0, sizeof material);
+    material.albedo[0] = r;
+    material.albedo[1] = g;
+    material.albedo[2] = b;
+    material.ior = DEFAULT_IOR;
+    material.specular = 1.0f;
+    material.specular_color[0] = material.specular_color[1] = material.specular_color[2] = 1.0f;
+    return material;
+}
+
+pf_material pf_material_lambert(float r, float g, float b)
+{
+    pf_material material = base_material(r, g, b);
+    material.specular = 0.0f;
+    material.roughness = 1.0f;
+    pf_material_classify(&material);
+    return material;
+}
+
+pf_material pf_material_mirror(float r, float g, float b)
+{
+    pf_material material = base_material(r, g, b);
+    material.metallic = 1.0f;
+    pf_material_classify(&material);
+    return material;
+}
+
+pf_material pf_material_glass(float ior, float r, float g, float b)
+{
+    pf_material material = base_material(r, g, b);
+    material.ior = ior;
+    material.transmission = 1.0f;
+    pf_material_classify(&material);
+    return material;
+}
