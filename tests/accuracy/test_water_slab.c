@@ -50,17 +50,6 @@ static pf_renderer *renderer;
 #define ALBEDO HARD_WATER_ALBEDO
 #define IRRADIANCE HARD_WATER_IRRADIANCE
 #define THETA_DEG HARD_WATER_THETA_DEG
-/* Unpolarized Fresnel reflectance, cos_i on the incident side, eta = η_t/η_i. */
-static double fresnel(double cos_i, double eta)
-{
-    double sin2_t = (1.0 - cos_i * cos_i) / (eta * eta);
-    if (sin2_t >= 1.0)
-        return 1.0;
-    double cos_t = sqrt(1.0 - sin2_t);
-    double rp = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
-    double rs = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
-    return 0.5 * (rp * rp + rs * rs);
-}
 
 /* External diffuse reflectance: ∫ F(θ) 2 cos θ sin θ dθ over the hemisphere (midpoint rule). */
 static double external_diffuse_reflectance(double eta)
@@ -69,7 +58,7 @@ static double external_diffuse_reflectance(double eta)
     double sum = 0.0;
     for (int i = 0; i < steps; i++) {
         double theta = (i + 0.5) * (PI / 2.0) / steps;
-        sum += fresnel(cos(theta), eta) * 2.0 * cos(theta) * sin(theta);
+        sum += ref_fresnel_dielectric(cos(theta), eta) * 2.0 * cos(theta) * sin(theta);
     }
     return sum * (PI / 2.0) / steps;
 }
@@ -111,8 +100,9 @@ PF_TEST(floor_under_water_matches_the_analytic_radiance)
     ref_scene scene;
     hard_case_build(HARD_WATER, &scene);
     double theta = THETA_DEG * PI / 180.0;
-    double seen = (1.0 - fresnel(1.0, ETA)) / (ETA * ETA);
-    double e_direct = IRRADIANCE * cos(theta) * (1.0 - fresnel(cos(theta), ETA));
+    double seen = (1.0 - ref_fresnel_dielectric(1.0, ETA)) / (ETA * ETA);
+    double e_direct =
+        IRRADIANCE * cos(theta) * (1.0 - ref_fresnel_dielectric(cos(theta), ETA));
     double r_internal = 1.0 - (1.0 - external_diffuse_reflectance(ETA)) / (ETA * ETA);
     double e_total = e_direct / (1.0 - ALBEDO * r_internal);
     double caustic = seen * ALBEDO / PI * e_direct, beauty = seen * ALBEDO / PI * e_total;
@@ -161,7 +151,8 @@ PF_TEST(slab_above_the_floor_transmits_one_minus_f_over_one_plus_f)
     ref_scene scene;
     hard_case_build_water(&scene, 0.05f, 0.12f);
     double theta = THETA_DEG * PI / 180.0;
-    double f_light = fresnel(cos(theta), ETA), f_view = fresnel(1.0, ETA);
+    double f_light = ref_fresnel_dielectric(cos(theta), ETA);
+    double f_view = ref_fresnel_dielectric(1.0, ETA);
     double through_light = (1.0 - f_light) / (1.0 + f_light);
     double through_view = (1.0 - f_view) / (1.0 + f_view);
     double caustic = through_view * ALBEDO / PI * IRRADIANCE * cos(theta) * through_light;

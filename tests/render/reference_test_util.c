@@ -52,6 +52,17 @@ pf_material ref_material(pf_material_kind kind, float r, float g, float b)
     return pf_material_lambert(r, g, b);
 }
 
+double ref_fresnel_dielectric(double cos_i, double eta)
+{
+    double sin2_t = (1.0 - cos_i * cos_i) / (eta * eta);
+    if (sin2_t >= 1.0)
+        return 1.0;
+    double cos_t = sqrt(1.0 - sin2_t);
+    double rp = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
+    double rs = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
+    return 0.5 * (rp * rp + rs * rs);
+}
+
 pf_material ref_material_emitter(float r, float g, float b)
 {
     pf_material emitter = pf_material_lambert(0, 0, 0);

@@ -44,6 +44,11 @@ void ref_scene_free(ref_scene *scene);
 uint32_t ref_scene_add_material(ref_scene *scene, pf_material material);
 /* Shorthands: a material of that kind with albedo (r, g, b), no emission, ior 1.5. */
 pf_material ref_material(pf_material_kind kind, float r, float g, float b);
+
+/* Unpolarized Fresnel reflectance of a smooth dielectric in doubles, an oracle
+ * for the shaders' (cos_i on the incident side, eta = η_t/η_i; 1 under total
+ * internal reflection). */
+double ref_fresnel_dielectric(double cos_i, double eta);
 /* A black Lambert emitter of radiance (r, g, b) W/(sr·m²). */
 pf_material ref_material_emitter(float r, float g, float b);
 /* Appends a light. Aborts beyond REF_SCENE_LIGHTS_MAX. */

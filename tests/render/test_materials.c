@@ -9,6 +9,7 @@
  */
 #include "pf_test.h"
 #include "render_internal.h"
+#include "reference_test_util.h"
 #include "render_test_env.h"
 
 #include <math.h>
@@ -275,17 +276,6 @@ PF_TEST(lambert_samples_the_cosine_density_it_reports)
  * specular for the dielectric over a (1 − max F) Lambert base), not from
  * the shader.
  */
-static double fresnel_exact(double cos_i, double eta)
-{
-    double sin2_t = (1.0 - cos_i * cos_i) / (eta * eta);
-    if (sin2_t >= 1.0)
-        return 1.0;
-    double cos_t = sqrt(1.0 - sin2_t);
-    double r_par = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
-    double r_perp = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
-    return 0.5 * (r_par * r_par + r_perp * r_perp);
-}
-
 static double oracle_albedo(const pf_material *m, double theta_o, int channel)
 {
     const int steps_theta = 512, steps_phi = 512;
@@ -303,13 +293,15 @@ static double oracle_albedo(const pf_material *m, double theta_o, int channel)
             double co = wo[2], ci = wi[2];
             double t = cos_h * cos_h * (a2 - 1) + 1;
             double d = a2 / (PI_D * t * t);
-            double v = 0.5 / (ci * sqrt(co * co * (1 - a2) + a2) + co * sqrt(ci * ci * (1 - a2) + a2));
+            double v = 0.5 / (ci * sqrt(co * co * (1 - a2) + a2) +
+                              co * sqrt(ci * ci * (1 - a2) + a2));
             double base = m->albedo[channel];
             double metal_f = base + (1 - base) * pow(1 - cos_oh, 5);
-            double dielectric_f = m->specular * fmin(fresnel_exact(cos_oh, m->ior) *
+            double dielectric_f = m->specular * fmin(ref_fresnel_dielectric(cos_oh, m->ior) *
                                                          m->specular_color[channel], 1.0);
             double f = m->metallic * metal_f * d * v +
-                       (1 - m->metallic) * (dielectric_f * d * v + (1 - dielectric_f) * base / PI_D);
+                       (1 - m->metallic) *
+                           (dielectric_f * d * v + (1 - dielectric_f) * base / PI_D);
             double solid_angle = sin(theta) * (PI_D / 2 / steps_theta) * (2 * PI_D / steps_phi);
             sum += f * ci * solid_angle;
         }
@@ -343,7 +335,8 @@ PF_TEST(ggx_white_furnace_loses_what_single_scattering_predicts)
     PF_REQUIRE(queries && results);
     for (int kind = 0; kind < 2; kind++) {
         for (int r = 0; r < 4; r++) {
-            pf_material material = kind == 0 ? pf_material_mirror(1, 1, 1) : pf_material_lambert(1, 1, 1);
+            pf_material material =
+                kind == 0 ? pf_material_mirror(1, 1, 1) : pf_material_lambert(1, 1, 1);
             material.roughness = roughnesses[r];
             material.specular = 1.0f; /* the dielectric: a white base under its coat */
             pf_material_classify(&material);
