@@ -139,12 +139,6 @@ vec3 material_reflect(vec3 wo, vec3 shading_normal, vec3 geometric_normal)
 // pf_scene.h PF_MATERIAL_DELTA_ROUGHNESS: at or below it the specular lobe is a mirror.
 const float DELTA_ROUGHNESS = 0.02;
 
-// Rec. 709 luminance of a reflectance (lobe choice weights).
-float material_luminance(vec3 colour)
-{
-    return dot(colour, vec3(0.2126, 0.7152, 0.0722));
-}
-
 float material_max3(vec3 v)
 {
     return max(v.x, max(v.y, v.z));
@@ -229,11 +223,14 @@ float ggx_reflection_pdf(float cos_o, float cos_h, float alpha)
 
 // How the BSDF splits at wo: lobe choice probabilities (specular
 // reflection, diffuse, transmission; they sum to 1, or all 0 for a black
-// surface) from a Fresnel estimate at n·wo.
+// surface) from a Fresnel estimate at n·wo, and that estimate, which is also
+// the smooth lobes' exact reflectance and base weight.
 struct LobeChoice {
     float specular;
     float diffuse;
     float transmission;
+    vec3 reflectance; // metal and dielectric Fresnel at n·wo, mixed by metallic
+    float base;       // 1 − max(dielectric F) at n·wo: the base's and transmission's share
 };
 
 LobeChoice material_lobe_choice(Material material, float cos_o, float eta)
@@ -241,17 +238,20 @@ LobeChoice material_lobe_choice(Material material, float cos_o, float eta)
     // Largest channels, not luminance: white surfaces then split exactly by
     // F and 1 − F, so a white glass's weights are exactly 1.
     float dielectric = 1.0 - material.metallic;
-    float fresnel = material_max3(dielectric_fresnel(material, cos_o, eta));
+    vec3 dielectric_f = dielectric_fresnel(material, cos_o, eta);
+    vec3 metal_f = fresnel_schlick(material.albedo, cos_o);
+    float fresnel = material_max3(dielectric_f);
     float albedo = material_max3(material.albedo);
     LobeChoice choice;
-    choice.specular = material.metallic * material_max3(fresnel_schlick(material.albedo, cos_o)) +
-                      dielectric * fresnel;
-    choice.diffuse = dielectric * (1.0 - material.transmission) * (1.0 - fresnel) * albedo;
-    choice.transmission = dielectric * material.transmission * (1.0 - fresnel) * albedo;
+    choice.reflectance = mix(dielectric_f, metal_f, material.metallic);
+    choice.base = 1.0 - fresnel;
+    choice.specular = material.metallic * material_max3(metal_f) + dielectric * fresnel;
+    choice.diffuse = dielectric * (1.0 - material.transmission) * choice.base * albedo;
+    choice.transmission = dielectric * material.transmission * choice.base * albedo;
     float total = choice.specular + choice.diffuse + choice.transmission;
-    if (!(total > 0.0))
-        return LobeChoice(0.0, 0.0, 0.0);
-    if (total != 1.0) {
+    if (!(total > 0.0)) {
+        choice.specular = choice.diffuse = choice.transmission = 0.0;
+    } else if (total != 1.0) {
         choice.specular /= total;
         choice.diffuse /= total;
         choice.transmission /= total;
@@ -361,9 +361,7 @@ BsdfSample bsdf_sample(Material material, vec3 wo, vec3 shading_normal, vec3 geo
     if (pick < choice.specular && delta_specular) {
         s.direction = material_reflect(wo, normal, geometric_normal);
         s.specular = true;
-        vec3 fresnel = mix(dielectric_fresnel(material, cos_o, eta),
-                           fresnel_schlick(material.albedo, cos_o), material.metallic);
-        s.weight = fresnel / choice.specular;
+        s.weight = choice.reflectance / choice.specular;
         return s;
     }
     bool glossy = pick < choice.specular;
@@ -374,14 +372,13 @@ BsdfSample bsdf_sample(Material material, vec3 wo, vec3 shading_normal, vec3 geo
             refracted = refract(-wo, geometric_normal, 1.0 / eta);
         if (refracted == vec3(0.0))
             return s; // total internal reflection: F = 1 gave this lobe no weight
-        float base = 1.0 - material_max3(dielectric_fresnel(material, cos_o, eta));
         s.direction = normalize(refracted);
         s.specular = true;
         s.transmitted = true;
         // eta = η_t/η_i: (η_i/η_t)² = 1/eta² for radiance.
         float scale = transport == TRANSPORT_RADIANCE ? 1.0 / (eta * eta) : 1.0;
-        s.weight = (1.0 - material.metallic) * material.transmission * base * material.albedo *
-                   (scale / choice.transmission);
+        s.weight = (1.0 - material.metallic) * material.transmission * choice.base *
+                   material.albedo * (scale / choice.transmission);
         return s;
     }
 
