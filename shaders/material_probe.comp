@@ -12,15 +12,17 @@ layout(push_constant) uniform Push {
 
 #include "materials.glsl"
 
-// pf_material_probe_query, 112 bytes.
+// pf_material_probe_query, 128 bytes.
 struct ProbeQuery {
     Material material;
     vec3 wo;          // unit, away from the surface
     uint front;       // bit 0: arriving at the front face; bit 1: importance transport (photons)
-    vec3 normal;      // unit shading = geometric normal, on wo's side
+    vec3 normal;      // unit shading normal
     float fresnel_cos;
     vec3 xi;          // bsdf_sample's random numbers
     float fresnel_eta;
+    vec3 geometric_normal; // unit, on wo's side
+    float padding;
 };
 
 // pf_material_probe_result, 64 bytes.
@@ -44,7 +46,7 @@ void main()
     if (index >= push.query_count)
         return;
     ProbeQuery query = queries[index];
-    BsdfSample s = bsdf_sample(query.material, query.wo, query.normal, query.normal,
+    BsdfSample s = bsdf_sample(query.material, query.wo, query.normal, query.geometric_normal,
                                (query.front & 1u) != 0u, query.xi,
                                (query.front & 2u) != 0u ? TRANSPORT_IMPORTANCE : TRANSPORT_RADIANCE);
     ProbeResult result;
@@ -54,9 +56,9 @@ void main()
     result.flags = (s.specular ? 1u : 0u) | (s.transmitted ? 2u : 0u);
     bool front = (query.front & 1u) != 0u;
     result.eval_cos = bsdf_eval_cos(query.material, query.wo, s.direction, query.normal,
-                                    query.normal, front);
-    result.eval_pdf = bsdf_pdf(query.material, query.wo, s.direction, query.normal, query.normal,
-                               front);
+                                    query.geometric_normal, front);
+    result.eval_pdf = bsdf_pdf(query.material, query.wo, s.direction, query.normal,
+                               query.geometric_normal, front);
     result.fresnel = fresnel_dielectric(query.fresnel_cos, query.fresnel_eta);
     result.padding0 = 0.0;
     result.padding1 = 0.0;

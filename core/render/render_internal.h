@@ -408,15 +408,17 @@ void pf_frame_params_fill(const pf_scene_frame *frame, const pf_render_settings 
                           uint32_t spp, const pf_gpu_scene *scene, const pf_bih_gpu_view *bih,
                           pf_frame_params *params);
 
-/* material_probe.comp's input (std430 ProbeQuery, 112 bytes). */
+/* material_probe.comp's input (std430 ProbeQuery, 128 bytes). */
 typedef struct pf_material_probe_query {
     pf_material material;
     float wo[3];          /* unit, away from the surface */
     uint32_t front;       /* PF_PROBE_FRONT (glass: entering) | PF_PROBE_IMPORTANCE */
-    float normal[3];      /* unit shading = geometric normal, on wo's side */
+    float normal[3];      /* unit shading normal */
     float fresnel_cos;    /* cosine of incidence for fresnel_dielectric */
     float xi[3];          /* bsdf_sample's random numbers, each in [0, 1) */
     float fresnel_eta;    /* transmitted over incident index for fresnel_dielectric */
+    float geometric_normal[3]; /* unit, on wo's side */
+    float padding;
 } pf_material_probe_query;
 
 /* pf_material_probe_query.front: arriving at the front face; sampling for a photon (flux). */
@@ -438,7 +440,7 @@ typedef struct pf_material_probe_result {
     float padding[3];
 } pf_material_probe_result;
 
-_Static_assert(sizeof(pf_material_probe_query) == 112, "must match ProbeQuery");
+_Static_assert(sizeof(pf_material_probe_query) == 128, "must match ProbeQuery");
 _Static_assert(sizeof(pf_material_probe_result) == 64, "must match ProbeResult");
 
 /*

@@ -269,6 +269,15 @@ float material_alpha(Material material)
     return material.roughness * material.roughness;
 }
 
+// The normal the lobes are built around: the shading normal, or the
+// geometric one where wo lies below the shading normal's hemisphere (an
+// interpolated normal at a smooth mesh's silhouette). Sampling, evaluation
+// and pdf all use it, so next-event estimation sees what sampling does.
+vec3 material_lobe_normal(vec3 wo, vec3 shading_normal, vec3 geometric_normal)
+{
+    return dot(wo, shading_normal) > 0.0 ? shading_normal : geometric_normal;
+}
+
 // f·cos of the non-delta lobes for wo and wi on the same side (cos_o, cos_i
 // against the shading normal, both > 0; cos_h = n·h, cos_oh = wo·h).
 vec3 material_reflection_eval(Material material, float cos_o, float cos_i, float cos_h,
@@ -303,12 +312,13 @@ float material_reflection_pdf(Material material, LobeChoice choice, float cos_o,
 vec3 bsdf_eval_cos(Material material, vec3 wo, vec3 wi, vec3 shading_normal,
                    vec3 geometric_normal, bool front)
 {
-    float cos_i = dot(wi, shading_normal);
-    float cos_o = dot(wo, shading_normal);
-    if (cos_i <= 0.0 || cos_o <= 0.0 || dot(wi, geometric_normal) <= 0.0)
+    vec3 normal = material_lobe_normal(wo, shading_normal, geometric_normal);
+    float cos_i = dot(wi, normal);
+    float cos_o = max(dot(wo, normal), 1e-6);
+    if (cos_i <= 0.0 || dot(wi, geometric_normal) <= 0.0)
         return vec3(0.0);
     vec3 h = normalize(wo + wi);
-    return material_reflection_eval(material, cos_o, cos_i, dot(h, shading_normal),
+    return material_reflection_eval(material, cos_o, cos_i, dot(h, normal),
                                      clamp(dot(wo, h), 0.0, 1.0), material_eta(material, front));
 }
 
@@ -317,14 +327,14 @@ vec3 bsdf_eval_cos(Material material, vec3 wo, vec3 wi, vec3 shading_normal,
 float bsdf_pdf(Material material, vec3 wo, vec3 wi, vec3 shading_normal, vec3 geometric_normal,
                bool front)
 {
-    float cos_i = dot(wi, shading_normal);
-    float cos_o = dot(wo, shading_normal);
-    if (cos_i <= 0.0 || cos_o <= 0.0 || dot(wi, geometric_normal) <= 0.0)
+    vec3 normal = material_lobe_normal(wo, shading_normal, geometric_normal);
+    float cos_i = dot(wi, normal);
+    float cos_o = max(dot(wo, normal), 1e-6);
+    if (cos_i <= 0.0 || dot(wi, geometric_normal) <= 0.0)
         return 0.0;
-    float eta = material_eta(material, front);
-    LobeChoice choice = material_lobe_choice(material, cos_o, eta);
+    LobeChoice choice = material_lobe_choice(material, cos_o, material_eta(material, front));
     vec3 h = normalize(wo + wi);
-    return material_reflection_pdf(material, choice, cos_o, cos_i, dot(h, shading_normal));
+    return material_reflection_pdf(material, choice, cos_o, cos_i, dot(h, normal));
 }
 
 // Whether the material has any non-delta lobe: a kernel that estimates light
@@ -347,11 +357,8 @@ BsdfSample bsdf_sample(Material material, vec3 wo, vec3 shading_normal, vec3 geo
 {
     BsdfSample s = BsdfSample(vec3(0.0), vec3(0.0), 0.0, false, false);
     float eta = material_eta(material, front);
-    float cos_o = dot(wo, shading_normal);
-    // A shading normal facing away from wo (interpolated normals at grazing
-    // angles): the geometric normal stands in for it.
-    vec3 normal = cos_o > 0.0 ? shading_normal : geometric_normal;
-    cos_o = max(dot(wo, normal), 1e-6);
+    vec3 normal = material_lobe_normal(wo, shading_normal, geometric_normal);
+    float cos_o = max(dot(wo, normal), 1e-6);
     LobeChoice choice = material_lobe_choice(material, cos_o, eta);
     float pick = xi.z;
     bool delta_specular = material_specular_is_delta(material);
