@@ -19,6 +19,7 @@
 //   directional  uniform point on a disk of the scene's bounding radius
 //                facing the light, outside the scene
 //   triangle     uniform point, cosine-weighted direction about the front face
+//                (either face, half each, for a double-sided material)
 // A punctual light's glTF range window scales the flux at the first hit, as
 // the integrators' shadow rays apply it.
 //
@@ -145,6 +146,15 @@ Emission emit(PhotonEmitter emitter, vec2 xi_position, vec2 xi_direction)
         float root = sqrt(xi_position.x);
         vec3 point = (1.0 - root) * a + root * (1.0 - xi_position.y) * b + root * xi_position.y * c;
         vec3 normal = normalize(cross(b - a, c - a));
+        // A double-sided emitter's power is both faces' (pf_photon_emitters):
+        // the direction's second number picks the face, half each, and is
+        // stretched back over [0, 1) for the direction within that face.
+        if ((scene_material(scene_triangle_material(emitter.index)).flags &
+             MATERIAL_DOUBLE_SIDED) != 0u) {
+            bool back = xi_direction.y >= 0.5;
+            xi_direction.y = fract(2.0 * xi_direction.y);
+            normal = back ? -normal : normal;
+        }
         e.origin = point + params.ray_offset * normal;
         e.direction = material_cosine_direction(normal, xi_direction);
         return e;

@@ -104,7 +104,7 @@ void path_follow_hit(inout Path path, BihHit hit, uint depth, float ray_offset, 
         sums.coverage += 1.0;
         sums.depth += hit.t;
     }
-    if (front)
+    if (material_emits(material, front))
         path.radiance += path.throughput * material.emission;
     if (material.kind == MATERIAL_LAMBERT) {
         path.diffuse_hit = true;
@@ -166,7 +166,7 @@ void main()
     path.geometric_normal = vec3(0.0, 0.0, 1.0);
     path.front = true;
     path.surface = Material(vec3(0.0), MATERIAL_LAMBERT, vec3(0.0), 1.0, 0.0, 1.0, 0.0, 0.0,
-                            vec3(1.0), 0.0);
+                            vec3(1.0), 0u);
 
     // Camera ray, then the specular chain through mirrors and glass.
     for (uint depth = 0u; depth <= params.max_specular_depth && path.tracing; depth++) {

@@ -139,7 +139,7 @@ void primary(uint pixel_index, uvec2 pixel)
         }
         // Seen from the camera or through specular vertices only: no light
         // sampling reaches it, so it has full weight.
-        if (surface.front)
+        if (material_emits(material, surface.front))
             direct += throughput * material.emission;
         vec3 wo = -direction;
         if (material.kind == MATERIAL_LAMBERT) {

@@ -6,7 +6,7 @@
 //
 // Per sample: a camera ray through a point drawn from the pixel filter
 // (params.pixel_filter, pixel_filter.glsl), then at every vertex
-//   - emission of a front face hit, weighted by MIS against light sampling
+//   - emission of a hit emitter (material_emits), weighted by MIS against light sampling
 //     (power heuristic) unless the previous vertex was specular or the camera;
 //   - at vertices with a rough (non-delta) lobe, next-event estimation
 //     through the full BSDF: one emissive triangle picked
@@ -158,7 +158,7 @@ void main()
             depth_aov = hit.t;
         }
 
-        if (front && any(greaterThan(material.emission, vec3(0.0)))) {
+        if (material_emits(material, front)) {
             float weight = 1.0;
             if (!previous_specular)
                 weight = emission_mis_weight(material.emission, face_normal, direction, hit.t,

@@ -268,7 +268,8 @@ pf_status pf_photon_grid_gather(pf_photon_grid *grid, const float (*queries)[4],
  *                third of its band (a hard edge: 2π I (1 − cos_outer))
  *   directional  E π R², R = the radius of the scene's bounding sphere: the
  *                photons start on a disk of that radius facing the light
- *   triangle     π Le A, front face only (a Lambertian emitter)
+ *   triangle     π Le A from its front face (a Lambertian emitter); 2π Le A
+ *                for a double-sided material, which emits from both
  * A light's glTF range window is not part of its power: tracing applies it
  * at the photon's first hit, as the integrators' shadow rays do.
  */

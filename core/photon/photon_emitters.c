@@ -104,13 +104,15 @@ pf_status pf_photon_emitters_build(const pf_scene_frame *frame, pf_photon_emitte
             add_emitter(out, weights, frame->lights[i].kind, i, power);
     }
     for (uint32_t t = 0; status == PF_OK && t < frame->triangle_count; t++) {
-        const float *emission = frame->materials[frame->triangle_material[t]].emission;
+        const pf_material *material = &frame->materials[frame->triangle_material[t]];
+        const float *emission = material->emission;
         if (emission[0] <= 0.0f && emission[1] <= 0.0f && emission[2] <= 0.0f)
             continue;
         double area = triangle_area(frame->vertices + 3 * (size_t)t);
+        double faces = material->flags & PF_MATERIAL_DOUBLE_SIDED ? 2.0 : 1.0;
         float power[3];
         for (int c = 0; c < 3; c++)
-            power[c] = (float)(PI * area * fmax(emission[c], 0.0f));
+            power[c] = (float)(faces * PI * area * fmax(emission[c], 0.0f));
         if (!isfinite(power[0]) || !isfinite(power[1]) || !isfinite(power[2]))
             status = pf_error_set(err, PF_ERR_INVALID, "emissive triangle %u: power is not finite",
                                   t);

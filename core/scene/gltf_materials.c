@@ -5,7 +5,8 @@
  *   KHR_materials_transmission.transmissionFactor (0), KHR_materials_ior.ior
  *   (1.5), KHR_materials_specular.specularFactor (1) and
  *   .specularColorFactor (1, 1, 1).
- * Emission = emissiveFactor x KHR_materials_emissive_strength.emissiveStrength.
+ * Emission = emissiveFactor x KHR_materials_emissive_strength.emissiveStrength,
+ * from both faces when the material is doubleSided.
  * Factors outside the spec's ranges are format errors naming the field.
  * Textures are not sampled yet: the factors are used, with one warning.
  */
@@ -152,6 +153,11 @@ static pf_status load_material(gltf_context *ctx, const cJSON *material, const c
     out->transmission = (float)transmission;
     out->specular = (float)specular;
     memcpy(out->specular_color, specular_color, sizeof out->specular_color);
+    const cJSON *double_sided = cJSON_GetObjectItemCaseSensitive(material, "doubleSided");
+    if (double_sided && !cJSON_IsBool(double_sided))
+        return gltf_fail(ctx, err, PF_ERR_FORMAT, element, "doubleSided must be true or false");
+    if (cJSON_IsTrue(double_sided))
+        out->flags |= PF_MATERIAL_DOUBLE_SIDED;
     pf_material_classify(out);
     if (transmission > 0 && metallic < 1 && roughness > PF_MATERIAL_DELTA_ROUGHNESS)
         scene_warn_once(ctx->scene, "rough transmission",

@@ -3,12 +3,12 @@
  * and flat world-space arrays ready to upload to the GPU.
  *
  * Units follow glTF: meters; emitted radiance in W/(sr·m²)
- * (emissiveFactor × KHR_materials_emissive_strength). KHR_lights_punctual
+ * (emissiveFactor × KHR_materials_emissive_strength), from the front
+ * (counter-clockwise) face, or from both faces of a doubleSided material. KHR_lights_punctual
  * intensities are the spec's photometric units, candela (point, spot) and lux
  * (directional), converted at 683 lm/W to the W/sr and W/m² that pf_light
  * holds; a light whose extras.photonfarm.intensityUnits is "W/sr" ("W/m2" for
- * directional) was written radiometric and is taken as it is. Emissive
- * triangles emit from their front (counter-clockwise) face only.
+ * directional) was written radiometric and is taken as it is.
  *
  * Unsupported features produce one PF_LOG_WARN each per scene and map to the
  * nearest supported thing. Bad files fail with a message naming the file and
@@ -62,8 +62,12 @@ typedef struct pf_material {
     float specular;          /* KHR_materials_specular factor: the dielectric's reflection
                               * (1 glTF default; 0 leaves a pure Lambert base) */
     float specular_color[3]; /* KHR_materials_specular colour, tints the dielectric's F0 */
-    float padding;
+    uint32_t flags;          /* PF_MATERIAL_DOUBLE_SIDED */
 } pf_material;
+
+/* glTF material.doubleSided: its emission leaves both faces (Blender's exporter
+ * writes it for every material whose backface culling is off, the default). */
+#define PF_MATERIAL_DOUBLE_SIDED 1u
 
 /* Sets material->kind from its parameters (see pf_material_kind). */
 void pf_material_classify(pf_material *material);

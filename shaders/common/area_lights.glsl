@@ -1,4 +1,5 @@
-// Emissive triangles as area lights (front face only), shared by every
+// Emissive triangles as area lights (their front face, or both faces of a
+// double-sided material: material_emits), shared by every
 // integrator: picked by power through the alias table built by
 // pf_emissive_table_build, a point uniform on the picked triangle.
 //
@@ -55,10 +56,13 @@ AreaLightSample emissive_sample(vec3 position, vec4 xi, uint count, float weight
         return s;
     s.distance = sqrt(distance2);
     s.to_light = offset / s.distance;
+    Material material = scene_material(scene_triangle_material(triangle));
     float cos_light = -dot(light_normal, s.to_light);
+    if ((material.flags & MATERIAL_DOUBLE_SIDED) != 0u)
+        cos_light = abs(cos_light); // the receiver sees the back face, which emits too
     if (!(cos_light > 0.0))
         return s;
-    s.radiance = scene_material(scene_triangle_material(triangle)).emission;
+    s.radiance = material.emission;
     s.pdf_solid_angle = emissive_pdf_area(s.radiance, weight_total) * distance2 / cos_light;
     return s;
 }

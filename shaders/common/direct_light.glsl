@@ -27,12 +27,12 @@ float mis_power(float pdf_this, float pdf_other)
 
 // The BSDF half of the direct-light MIS: the weight of emission Le that a
 // BSDF-sampled ray (solid-angle pdf bsdf_pdf, already times its sample
-// count) found on an emissive front face of unit normal face_normal at
+// count) found on an emitting face (either side) of unit normal face_normal at
 // distance t along direction, against the light sampling of direct_light.
 float emission_mis_weight(vec3 emission, vec3 face_normal, vec3 direction, float t,
                           float bsdf_pdf)
 {
-    float cos_light = -dot(face_normal, direction);
+    float cos_light = abs(dot(face_normal, direction));
     float light_pdf = emissive_pdf_area(emission, params.emissive_weight_total) * t * t / cos_light;
     return mis_power(bsdf_pdf, light_pdf);
 }

@@ -150,7 +150,7 @@ void main()
             coverage = 1.0;
             depth_aov = hit.t;
         }
-        if (surface.front)
+        if (material_emits(material, surface.front))
             direct += throughput * material.emission;
         vec3 wo = -direction;
         if (material.kind == MATERIAL_LAMBERT) {

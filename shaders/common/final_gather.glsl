@@ -91,7 +91,7 @@ void gather_ray(uint pixel_index, uint gather_index, Material d1_material, vec3 
             return;
         }
         Material material = surface.material;
-        if (bounce == 0u && surface.front && any(greaterThan(material.emission, vec3(0.0)))) {
+        if (bounce == 0u && material_emits(material, surface.front)) {
             direct += path * material.emission *
                       emission_mis_weight(material.emission, surface.face_normal, direction,
                                           hit.t, gather_total * first.pdf);

@@ -345,6 +345,15 @@ bool material_has_rough_lobe(Material material)
     return material.kind == MATERIAL_LAMBERT;
 }
 
+// Whether the surface sends its emission towards a ray that arrived at its
+// front face (front) or its back face: emitters are one-sided (the front,
+// counter-clockwise face) unless their material is double-sided.
+bool material_emits(Material material, bool front)
+{
+    return (front || (material.flags & MATERIAL_DOUBLE_SIDED) != 0u) &&
+           any(greaterThan(material.emission, vec3(0.0)));
+}
+
 // What a sampled path carries (see the header): radiance paths start at the
 // camera, importance paths (photons) at a light.
 const uint TRANSPORT_RADIANCE = 0u;

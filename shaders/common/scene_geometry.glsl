@@ -42,9 +42,9 @@ Material scene_material(uint index)
     uvec4 t0 = uvec4(texelFetch(scene_materials, first));
     uvec4 t1 = uvec4(texelFetch(scene_materials, first + 1));
     vec4 t2 = uintBitsToFloat(uvec4(texelFetch(scene_materials, first + 2)));
-    vec4 t3 = uintBitsToFloat(uvec4(texelFetch(scene_materials, first + 3)));
+    uvec4 t3 = uvec4(texelFetch(scene_materials, first + 3));
     return Material(uintBitsToFloat(t0.xyz), t0.w, uintBitsToFloat(t1.xyz),
-                    uintBitsToFloat(t1.w), t2.x, t2.y, t2.z, t2.w, t3.xyz, t3.w);
+                    uintBitsToFloat(t1.w), t2.x, t2.y, t2.z, t2.w, uintBitsToFloat(t3.xyz), t3.w);
 }
 
 #endif

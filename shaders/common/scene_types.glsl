@@ -8,6 +8,9 @@ const uint MATERIAL_LAMBERT = 0u;
 const uint MATERIAL_MIRROR = 1u;
 const uint MATERIAL_GLASS = 2u;
 
+// pf_material.flags (pf_scene.h PF_MATERIAL_DOUBLE_SIDED): emits from both faces.
+const uint MATERIAL_DOUBLE_SIDED = 1u;
+
 const uint LIGHT_POINT = 0u;
 const uint LIGHT_SPOT = 1u;
 const uint LIGHT_DIRECTIONAL = 2u;
@@ -18,14 +21,14 @@ const uint NO_HIT = 0xFFFFFFFFu;
 struct Material {
     vec3 albedo;          // glTF baseColor: diffuse colour, metal F0, transmission tint
     uint kind;            // pf_material_kind: a summary of the parameters below
-    vec3 emission;        // W/(sr·m²), front face only
+    vec3 emission;        // W/(sr·m²), front face (both: MATERIAL_DOUBLE_SIDED)
     float ior;
     float metallic;
     float roughness;      // perceptual; GGX alpha = roughness²
     float transmission;
     float specular;       // KHR_materials_specular factor (0: diffuse base only)
     vec3 specular_color;  // KHR_materials_specular colour
-    float padding;
+    uint flags;           // MATERIAL_DOUBLE_SIDED
 };
 
 // pf_light, 64 bytes.

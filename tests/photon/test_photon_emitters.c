@@ -86,6 +86,15 @@ PF_TEST(emitters_list_lights_and_triangles_by_power)
     PF_CHECK_NEAR(emitters.scene_radius, sqrt(1.0 + 0.25 + 0.25), 1e-6);
     pf_photon_emitters_free(&emitters);
 
+    /* A double-sided emitter (glTF doubleSided) emits π Le A from each face. */
+    materials[0].flags = PF_MATERIAL_DOUBLE_SIDED;
+    PF_REQUIRE_OK(pf_photon_emitters_build(&frame, &emitters, &err), &err);
+    PF_REQUIRE(emitters.count == 2);
+    PF_CHECK_NEAR(emitters.entries[1].power[0], 2.0 * PI, 1e-5);
+    PF_CHECK_NEAR(emitters.total_power[0], 4.0 * PI + 2.0 * PI, 1e-4);
+    pf_photon_emitters_free(&emitters);
+    materials[0].flags = 0;
+
     /* No power anywhere: nothing to emit, not an error. */
     materials[0].emission[0] = materials[0].emission[1] = materials[0].emission[2] = 0.0f;
     lights[0].intensity[0] = lights[0].intensity[1] = lights[0].intensity[2] = 0.0f;

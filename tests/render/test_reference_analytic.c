@@ -440,12 +440,15 @@ static double rectangle_form_factor(double px, double py, double x0, double x1, 
            corner_form_factor(x1 - px, y0 - py, c) + corner_form_factor(x0 - px, y0 - py, c);
 }
 
-/* Emitter [-h, h]² at height `height` facing -z over a Lambert receiver at z = 0. */
+/* Emitter [-h, h]² at height `height` facing -z over a Lambert receiver at z = 0;
+ * back_face_double_sided: its front faces +z instead, away from the receiver,
+ * and its material is double-sided, so the receiver sees the emitting back face. */
 typedef struct square_setup {
     double emitter_half;
     double height;
     double emission[3];
     double albedo[3];
+    int back_face_double_sided;
 } square_setup;
 
 static int square_radiance(const void *opaque, const pf_camera *camera, uint32_t width,
@@ -470,16 +473,19 @@ static void square_scene(ref_scene *scene, const square_setup *setup)
     uint32_t receiver = ref_scene_add_material(
         scene, ref_material(PF_MATERIAL_LAMBERT, (float)setup->albedo[0], (float)setup->albedo[1],
                             (float)setup->albedo[2]));
-    uint32_t emitter = ref_scene_add_material(
-        scene, ref_material_emitter((float)setup->emission[0], (float)setup->emission[1],
-                                    (float)setup->emission[2]));
+    pf_material emitter_material = ref_material_emitter(
+        (float)setup->emission[0], (float)setup->emission[1], (float)setup->emission[2]);
+    if (setup->back_face_double_sided)
+        emitter_material.flags |= PF_MATERIAL_DOUBLE_SIDED;
+    uint32_t emitter = ref_scene_add_material(scene, emitter_material);
     const float receiver_centre[3] = {0, 0, 0}, receiver_u[3] = {1, 0, 0},
                 receiver_v[3] = {0, 1, 0};
     ref_scene_add_quad(scene, receiver_centre, receiver_u, receiver_v, receiver);
-    /* half_u × half_v = -z: the emitting face looks down at the receiver. */
+    /* half_u × half_v = -z: the front face looks down at the receiver (+z: up). */
     float h = (float)setup->emitter_half;
+    float v_sign = setup->back_face_double_sided ? 1.0f : -1.0f;
     const float emitter_centre[3] = {0, 0, (float)setup->height}, emitter_u[3] = {h, 0, 0},
-                emitter_v[3] = {0, -h, 0};
+                emitter_v[3] = {0, v_sign * h, 0};
     ref_scene_add_quad(scene, emitter_centre, emitter_u, emitter_v, emitter);
 }
 
@@ -488,9 +494,8 @@ static void square_scene(ref_scene *scene, const square_setup *setup)
 /* Tiles for the standard error: 4 px ≥ twice REF_FILTER_RADIUS_PIXELS. */
 #define SQUARE_BLOCK 4u
 
-PF_TEST(area_light_over_a_parallel_square_matches_the_form_factor)
+static void check_square_area_light(const square_setup setup, const char *label)
 {
-    const square_setup setup = {0.5, 1.0, {2.0, 3.0, 4.0}, {0.7, 0.6, 0.5}};
     ref_scene scene;
     square_scene(&scene, &setup);
     /* The camera between the squares looks straight down at |x|, |y| ≤ 0.4 of the
@@ -556,9 +561,9 @@ PF_TEST(area_light_over_a_parallel_square_matches_the_form_factor)
         double centre_tolerance = NOISE_SIGMAS * stats.deviation + bias[c] +
                                   FLOAT_RELATIVE_SLACK * centre_exact[c];
         PF_CHECK_NEAR(direct_centre[c], centre_exact[c], centre_tolerance);
-        printf("  area light, channel %d: centre %.5g vs exact %.5g (F = %.5f); mean residual "
+        printf("  %s, channel %d: centre %.5g vs exact %.5g (F = %.5f); mean residual "
                "%.3g ± %.3g (tolerance %.3g)\n",
-               c, direct_centre[c], centre_exact[c],
+               label, c, direct_centre[c], centre_exact[c],
                rectangle_form_factor(0, 0, -0.5, 0.5, -0.5, 0.5, 1.0), stats.mean,
                stats.standard_error, tolerance);
     }
@@ -573,9 +578,23 @@ PF_TEST(area_light_over_a_parallel_square_matches_the_form_factor)
     ref_scene_free(&scene);
 }
 
-PF_TEST(visible_emitter_is_direct_light_from_its_front_face_only)
+PF_TEST(area_light_over_a_parallel_square_matches_the_form_factor)
 {
-    const square_setup setup = {0.5, 1.0, {2.0, 3.0, 4.0}, {0.7, 0.6, 0.5}};
+    const square_setup setup = {0.5, 1.0, {2.0, 3.0, 4.0}, {0.7, 0.6, 0.5}, 0};
+    check_square_area_light(setup, "area light");
+}
+
+/* glTF doubleSided (Blender's default): the same light from the emitter's back
+ * face, through light sampling and emission hits alike. */
+PF_TEST(double_sided_emitter_lights_from_its_back_face_too)
+{
+    const square_setup setup = {0.5, 1.0, {2.0, 3.0, 4.0}, {0.7, 0.6, 0.5}, 1};
+    check_square_area_light(setup, "back face of a double-sided light");
+}
+
+PF_TEST(visible_emitter_is_direct_light_from_its_emitting_faces_only)
+{
+    const square_setup setup = {0.5, 1.0, {2.0, 3.0, 4.0}, {0.7, 0.6, 0.5}, 0};
     ref_scene scene;
     square_scene(&scene, &setup);
     /* From below, looking up: the emitting face fills the view. */
@@ -611,6 +630,19 @@ PF_TEST(visible_emitter_is_direct_light_from_its_front_face_only)
         PF_CHECK(means[c] == 0.0);
     PF_CHECK(ref_region_stats(&image, layers.alpha, middle).mean == 1.0);
     pf_image_free(&image);
+
+    /* The same view of a double-sided emitter: its back face shows Le. */
+    for (uint32_t m = 0; m < scene.frame.material_count; m++)
+        if (scene.frame.materials[m].emission[0] > 0.0f)
+            scene.frame.materials[m].flags |= PF_MATERIAL_DOUBLE_SIDED;
+    PF_REQUIRE_OK(pf_render_frame(renderer, &scene.frame, &settings, &image, NULL, &err), &err);
+    PF_REQUIRE(find_layers(&image, &layers));
+    ref_region_means(&image, "", middle, means);
+    for (int c = 0; c < 3; c++)
+        PF_CHECK_MSG(fabs(means[c] - setup.emission[c]) <= FLOAT_RELATIVE_SLACK * setup.emission[c],
+                     "double-sided back face, channel %d: %.5g, emitted %.5g", c, means[c],
+                     setup.emission[c]);
+    pf_image_free(&image);
     ref_scene_free(&scene);
 }
 
@@ -622,6 +654,7 @@ int main(void)
     PF_RUN(spot_light_inside_its_inner_cone_matches_a_point_light);
     PF_RUN(directional_light_over_a_plane_matches_cosine_law);
     PF_RUN(area_light_over_a_parallel_square_matches_the_form_factor);
-    PF_RUN(visible_emitter_is_direct_light_from_its_front_face_only);
+    PF_RUN(double_sided_emitter_lights_from_its_back_face_too);
+    PF_RUN(visible_emitter_is_direct_light_from_its_emitting_faces_only);
     return render_test_finish(ctx, renderer);
 }

@@ -318,6 +318,13 @@ PF_TEST(malformed_structure)
     st_write_gltf(&spec, path, sizeof path);
     st_expect_error(path, PF_ERR_FORMAT, "KHR_lights_punctual.lights[0]", "intensityUnits");
 
+    spec.name = "baddoublesided";
+    spec.extensions = NULL;
+    spec.materials = "[{\"doubleSided\":1}]";
+    st_write_gltf(&spec, path, sizeof path);
+    st_expect_error(path, PF_ERR_FORMAT, "materials[0]", "doubleSided");
+    spec.materials = NULL;
+
     spec.name = "badcamera";
     spec.extensions = NULL;
     spec.cameras = "[{\"type\":\"perspective\",\"perspective\":{\"znear\":0.1}}]";

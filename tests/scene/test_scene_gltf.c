@@ -229,6 +229,7 @@ PF_TEST(materials_mapped)
             "{\"pbrMetallicRoughness\":{\"baseColorFactor\":[0.3,0.3,0.3,1],\"metallicFactor\":0,"
             "\"baseColorTexture\":{\"index\":0}}},"
             "{\"emissiveFactor\":[1,0.5,0.25],\"pbrMetallicRoughness\":{\"metallicFactor\":0},"
+            "\"doubleSided\":true,"
             "\"extensions\":{\"KHR_materials_emissive_strength\":{\"emissiveStrength\":4}}}]",
     };
     uint32_t warnings_before = pf_log_warning_count();
@@ -273,6 +274,7 @@ PF_TEST(materials_mapped)
     PF_CHECK(m[6]->kind == PF_MATERIAL_LAMBERT); /* texture ignored, factor kept */
     check_vec3(m[6]->albedo, 0.3f, 0.3f, 0.3f, 1e-6);
     check_vec3(m[7]->emission, 4, 2, 1, 1e-6);   /* emissiveFactor × strength */
+    PF_CHECK(m[7]->flags == PF_MATERIAL_DOUBLE_SIDED && m[0]->flags == 0);
     check_vec3(m[0]->emission, 0, 0, 0, 0);
     PF_CHECK(m[8]->kind == PF_MATERIAL_LAMBERT); /* no material: grey default */
     check_vec3(m[8]->albedo, 0.8f, 0.8f, 0.8f, 1e-6);
