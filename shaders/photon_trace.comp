@@ -273,7 +273,7 @@ void main()
         vec3 geometric_normal = surface.geometric_normal;
         vec3 shading_normal = surface.shading_normal;
         vec3 position = surface.position;
-        bool diffuse = material_has_rough_lobe(material);
+        bool diffuse = material_stores_photons(material);
         if (diffuse && (depth > 0u || params.store_direct != 0u))
             store(specular_only && depth > 0u, position, flux,
                   flux * material_rough_albedo(material, -direction, shading_normal, front),

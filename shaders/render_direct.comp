@@ -118,9 +118,13 @@ void path_follow_hit(inout Path path, BihHit hit, uint depth, float ray_offset, 
         path.tracing = false; // chain too long: contributes nothing more
         return;
     }
+    // A delta lobe needs only the lobe choice; rough glass also a direction
+    // (drawn only then, so smooth scenes keep their random sequence).
+    vec3 xi = vec3(0.0, 0.0, rng_float(rng));
+    if (!material_specular_is_delta(material))
+        xi.xy = vec2(rng_float(rng), rng_float(rng));
     BsdfSample scattered = bsdf_sample(material, -path.direction, path.shading_normal,
-                                       path.geometric_normal, front,
-                                       vec3(0.0, 0.0, rng_float(rng)), TRANSPORT_RADIANCE);
+                                       path.geometric_normal, front, xi, TRANSPORT_RADIANCE);
     path.throughput *= scattered.weight;
     path.direction = scattered.direction;
     path.origin = path.position +

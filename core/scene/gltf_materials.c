@@ -159,11 +159,6 @@ static pf_status load_material(gltf_context *ctx, const cJSON *material, const c
     if (cJSON_IsTrue(double_sided))
         out->flags |= PF_MATERIAL_DOUBLE_SIDED;
     pf_material_classify(out);
-    if (transmission > 0 && metallic < 1 && roughness > PF_MATERIAL_DELTA_ROUGHNESS)
-        scene_warn_once(ctx->scene, "rough transmission",
-                        "%s: %s: rough transmission (roughness %g) is not supported yet: "
-                        "transmitted as smooth glass",
-                        ctx->path, element, roughness);
     return PF_OK;
 }
 

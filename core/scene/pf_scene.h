@@ -33,13 +33,15 @@ typedef struct pf_scene pf_scene;
  * PF_MATERIAL_DELTA_ROUGHNESS the specular lobes are deltas.
  *
  * pf_material_kind is not a separate material model but a summary of the
- * parameters (pf_material_classify), for the questions a kernel asks before
- * it runs the BSDF: does the surface have any lobe that is not a delta?
+ * parameters (pf_material_classify), for the question the photon, LPV and
+ * final-gather kernels ask before they run the BSDF: is light estimated at
+ * this surface, or is it passed through by sampling?
  */
 typedef enum pf_material_kind {
-    PF_MATERIAL_LAMBERT = 0, /* has a non-delta lobe (diffuse or glossy): "rough" */
+    PF_MATERIAL_LAMBERT = 0, /* a diffuse base or a rough metal's glossy lobe: estimated there */
     PF_MATERIAL_MIRROR = 1,  /* only a delta reflection: a smooth metal */
-    PF_MATERIAL_GLASS = 2    /* only delta reflection and transmission: smooth clear glass */
+    PF_MATERIAL_GLASS = 2    /* a fully transmissive dielectric, smooth or rough (or a
+                              * smooth metal and glass mix): passed through by sampling */
 } pf_material_kind;
 
 /*

@@ -15,11 +15,16 @@
 // unpolarized Fresnel reflectance of its index (pbrt-v4 FrDielectric; at
 // normal incidence ((n−1)/(n+1))² = 0.04 at 1.5, the spec's F0), tinted by
 // specularColor, so total internal reflection inside glass is right. T is
-// KHR_materials_transmission; the btdf is the smooth refraction below.
+// KHR_materials_transmission; the btdf refracts by the index (a solid
+// object's boundary, as Cycles renders Blender's transmissive materials;
+// glTF's thin-walled reading without KHR_materials_volume is not modelled):
+// the GGX microfacet BTDF of Walter et al. 2007 ("Microfacet Models for
+// Refraction through Rough Surfaces", eq. 21) with the same D, G₂ and F,
+// in pbrt-v4's form (DielectricBxDF::f), tinted by baseColor.
 //
 // Delta limits: at roughness <= DELTA_ROUGHNESS (pf_scene.h
-// PF_MATERIAL_DELTA_ROUGHNESS) the specular reflection is a mirror; the
-// transmission is always smooth (rough transmission is not modelled yet).
+// PF_MATERIAL_DELTA_ROUGHNESS) the specular reflection is a mirror and the
+// transmission a smooth refraction.
 // A smooth metal is the old "mirror", a smooth T = 1 dielectric the old
 // "glass", a specular 0 dielectric exactly Lambert.
 //
@@ -221,6 +226,28 @@ float ggx_reflection_pdf(float cos_o, float cos_h, float alpha)
     return g1 * ggx_d(cos_h, alpha) / (4.0 * cos_o);
 }
 
+bool material_specular_is_delta(Material material)
+{
+    return material.roughness <= DELTA_ROUGHNESS;
+}
+
+float material_alpha(Material material)
+{
+    return material.roughness * material.roughness;
+}
+
+// A rough (non-delta) transmission lobe: some transmission, not all metal, rough.
+bool material_has_rough_transmission(Material material)
+{
+    return material.transmission > 0.0 && material.metallic < 1.0 &&
+           !material_specular_is_delta(material);
+}
+
+// The least share of rough transmission's choice weight (any positive value
+// keeps the one-sample estimate unbiased; a quarter keeps the light that
+// microfacets let out past the critical angle from being a rare event).
+const float ROUGH_TRANSMISSION_MIN_SHARE = 0.25;
+
 // How the BSDF splits at wo: lobe choice probabilities (specular
 // reflection, diffuse, transmission; they sum to 1, or all 0 for a black
 // surface) from a Fresnel estimate at n·wo, and that estimate, which is also
@@ -247,7 +274,14 @@ LobeChoice material_lobe_choice(Material material, float cos_o, float eta)
     choice.base = 1.0 - fresnel;
     choice.specular = material.metallic * material_max3(metal_f) + dielectric * fresnel;
     choice.diffuse = dielectric * (1.0 - material.transmission) * choice.base * albedo;
-    choice.transmission = dielectric * material.transmission * choice.base * albedo;
+    // Rough glass still transmits where the macro surface reflects totally
+    // (leaving beyond the critical angle, its microfacets tilt): its choice
+    // never drops below ROUGH_TRANSMISSION_MIN_SHARE, or sampling would miss
+    // light that evaluation counts.
+    float transmit_share = material_has_rough_transmission(material)
+                               ? max(choice.base, ROUGH_TRANSMISSION_MIN_SHARE)
+                               : choice.base;
+    choice.transmission = dielectric * material.transmission * transmit_share * albedo;
     float total = choice.specular + choice.diffuse + choice.transmission;
     if (!(total > 0.0)) {
         choice.specular = choice.diffuse = choice.transmission = 0.0;
@@ -257,16 +291,6 @@ LobeChoice material_lobe_choice(Material material, float cos_o, float eta)
         choice.transmission /= total;
     }
     return choice;
-}
-
-bool material_specular_is_delta(Material material)
-{
-    return material.roughness <= DELTA_ROUGHNESS;
-}
-
-float material_alpha(Material material)
-{
-    return material.roughness * material.roughness;
 }
 
 // The normal the lobes are built around: the shading normal, or the
@@ -296,6 +320,51 @@ vec3 material_reflection_eval(Material material, float cos_o, float cos_i, float
     return value;
 }
 
+// The rough BTDF's half vector for wo above and wi below the surface (eta =
+// η_t/η_i): normalize(eta·wi + wo), turned to wo's side; false where a
+// microfacet with that normal cannot refract wo into wi (it faces away from
+// one of them).
+bool ggx_refraction_half_vector(vec3 wo, vec3 wi, vec3 normal, float eta, out vec3 h)
+{
+    h = eta * wi + wo;
+    if (!(dot(h, h) > 0.0))
+        return false;
+    h = normalize(h);
+    h = dot(h, normal) < 0.0 ? -h : h;
+    return dot(h, wo) > 0.0 && dot(h, wi) < 0.0;
+}
+
+// f·|cos_i| of the rough transmission lobe (Walter et al. 2007 in pbrt-v4's
+// form) for wo above (cos_o > 0) and wi below (cos_i < 0) the lobe normal,
+// half vector h from ggx_refraction_half_vector; radiance transport: the
+// (η_i/η_t)² of refraction included (see the header).
+vec3 material_transmission_eval(Material material, vec3 wo, vec3 wi, vec3 h, vec3 normal,
+                                float eta)
+{
+    float alpha = material_alpha(material);
+    float cos_o = dot(wo, normal), cos_i = -dot(wi, normal);
+    float cos_oh = dot(wo, h), cos_ih = -dot(wi, h);
+    float fresnel = material_max3(dielectric_fresnel(material, cos_oh, eta));
+    float g2 = ggx_visibility(cos_o, cos_i, alpha) * 4.0 * cos_o * cos_i;
+    float denominator = -cos_ih + cos_oh / eta; // dot(wi, h) + dot(wo, h)/eta, < 0
+    float btdf_cos = (1.0 - fresnel) * ggx_d(dot(h, normal), alpha) * g2 * cos_ih * cos_oh /
+                     (cos_o * denominator * denominator * eta * eta);
+    return (1.0 - material.metallic) * material.transmission * material.albedo * btdf_cos;
+}
+
+// Density with which the transmission lobe's visible-normal sampling
+// produces wi: the visible normals' density G₁(wo)·(wo·h)·D(h)/cos_o times
+// the refraction's Jacobian |wi·h| / (wi·h + wo·h/eta)² (Walter 2007, eq. 17).
+float ggx_transmission_pdf(vec3 wo, vec3 wi, vec3 h, vec3 normal, float eta, float alpha)
+{
+    float cos_o = dot(wo, normal);
+    float cos_oh = dot(wo, h), cos_ih = dot(wi, h);
+    float g1 = 1.0 / (1.0 + ggx_lambda(cos_o, alpha));
+    float denominator = cos_ih + cos_oh / eta;
+    return g1 * cos_oh * ggx_d(dot(h, normal), alpha) / cos_o * abs(cos_ih) /
+           (denominator * denominator);
+}
+
 // pdf with which bsdf_sample returns wi among its non-delta lobes.
 float material_reflection_pdf(Material material, LobeChoice choice, float cos_o, float cos_i,
                               float cos_h)
@@ -315,11 +384,19 @@ vec3 bsdf_eval_cos(Material material, vec3 wo, vec3 wi, vec3 shading_normal,
     vec3 normal = material_lobe_normal(wo, shading_normal, geometric_normal);
     float cos_i = dot(wi, normal);
     float cos_o = max(dot(wo, normal), 1e-6);
-    if (cos_i <= 0.0 || dot(wi, geometric_normal) <= 0.0)
+    float eta = material_eta(material, front);
+    if (dot(wi, geometric_normal) < 0.0) {
+        vec3 h;
+        if (cos_i >= 0.0 || !material_has_rough_transmission(material) ||
+            !ggx_refraction_half_vector(wo, wi, normal, eta, h))
+            return vec3(0.0);
+        return material_transmission_eval(material, wo, wi, h, normal, eta);
+    }
+    if (cos_i <= 0.0 || dot(wi, geometric_normal) == 0.0)
         return vec3(0.0);
     vec3 h = normalize(wo + wi);
     return material_reflection_eval(material, cos_o, cos_i, dot(h, normal),
-                                     clamp(dot(wo, h), 0.0, 1.0), material_eta(material, front));
+                                     clamp(dot(wo, h), 0.0, 1.0), eta);
 }
 
 // Solid-angle density with which bsdf_sample returns wi (non-delta lobes;
@@ -330,17 +407,34 @@ float bsdf_pdf(Material material, vec3 wo, vec3 wi, vec3 shading_normal, vec3 ge
     vec3 normal = material_lobe_normal(wo, shading_normal, geometric_normal);
     float cos_i = dot(wi, normal);
     float cos_o = max(dot(wo, normal), 1e-6);
-    if (cos_i <= 0.0 || dot(wi, geometric_normal) <= 0.0)
+    float eta = material_eta(material, front);
+    LobeChoice choice = material_lobe_choice(material, cos_o, eta);
+    if (dot(wi, geometric_normal) < 0.0) {
+        vec3 h;
+        if (cos_i >= 0.0 || !material_has_rough_transmission(material) ||
+            !ggx_refraction_half_vector(wo, wi, normal, eta, h))
+            return 0.0;
+        return choice.transmission *
+               ggx_transmission_pdf(wo, wi, h, normal, eta, material_alpha(material));
+    }
+    if (cos_i <= 0.0 || dot(wi, geometric_normal) == 0.0)
         return 0.0;
-    LobeChoice choice = material_lobe_choice(material, cos_o, material_eta(material, front));
     vec3 h = normalize(wo + wi);
     return material_reflection_pdf(material, choice, cos_o, cos_i, dot(h, normal));
 }
 
-// Whether the material has any non-delta lobe: a kernel that estimates light
-// at a surface (next-event estimation, photon and irradiance lookups) does so
-// only there; a delta-only surface is passed through by sampling.
+// Whether the material has any non-delta lobe: where next-event estimation
+// (and its MIS) applies. Rough glass has one, though it stores no photons.
 bool material_has_rough_lobe(Material material)
+{
+    return material.kind == MATERIAL_LAMBERT || !material_specular_is_delta(material);
+}
+
+// Whether light is estimated at the surface from stored photons, the LPV or
+// the irradiance cache (multiplied by material_rough_albedo): surfaces with a
+// diffuse base or a glossy reflection (pf_material_kind LAMBERT). Mirrors and
+// glass, smooth or rough, are passed through by sampling bsdf_sample instead.
+bool material_stores_photons(Material material)
 {
     return material.kind == MATERIAL_LAMBERT;
 }
@@ -382,6 +476,31 @@ BsdfSample bsdf_sample(Material material, vec3 wo, vec3 shading_normal, vec3 geo
     }
     bool glossy = pick < choice.specular;
     pick -= choice.specular;
+    vec3 tangent, bitangent;
+    material_basis(normal, tangent, bitangent);
+    if (!glossy && pick < choice.transmission && material_has_rough_transmission(material)) {
+        vec3 wo_local = vec3(dot(wo, tangent), dot(wo, bitangent), cos_o);
+        vec3 m_local = ggx_sample_visible_normal(wo_local, material_alpha(material), xi.xy);
+        vec3 m = m_local.x * tangent + m_local.y * bitangent + m_local.z * normal;
+        vec3 wi = refract(-wo, m, 1.0 / eta);
+        vec3 h;
+        if (wi == vec3(0.0) || dot(wi, normal) >= 0.0 || dot(wi, geometric_normal) >= 0.0)
+            return s; // total internal reflection at that microfacet, or above the surface
+        wi = normalize(wi);
+        if (!ggx_refraction_half_vector(wo, wi, normal, eta, h))
+            return s;
+        s.direction = wi;
+        s.transmitted = true;
+        s.pdf = choice.transmission *
+                ggx_transmission_pdf(wo, wi, h, normal, eta, material_alpha(material));
+        if (!(s.pdf > 0.0))
+            return s;
+        // Photons carry flux: without radiance's (η_i/η_t)².
+        float scale = transport == TRANSPORT_RADIANCE ? 1.0 : eta * eta;
+        s.weight = material_transmission_eval(material, wo, wi, h, normal, eta) *
+                   (scale / s.pdf);
+        return s;
+    }
     if (!glossy && pick < choice.transmission) {
         vec3 refracted = refract(-wo, normal, 1.0 / eta);
         if (refracted != vec3(0.0) && dot(refracted, geometric_normal) >= 0.0)
@@ -398,8 +517,6 @@ BsdfSample bsdf_sample(Material material, vec3 wo, vec3 shading_normal, vec3 geo
         return s;
     }
 
-    vec3 tangent, bitangent;
-    material_basis(normal, tangent, bitangent);
     if (glossy) {
         vec3 wo_local = vec3(dot(wo, tangent), dot(wo, bitangent), cos_o);
         vec3 h_local = ggx_sample_visible_normal(wo_local, material_alpha(material), xi.xy);
