@@ -219,6 +219,7 @@ void main()
     uint rng = 0u, depth = 0u;
     vec3 origin = vec3(0.0), direction = vec3(0.0, 0.0, 1.0), flux = vec3(0.0);
     float range = 0.0;
+    vec3 medium = vec3(0.0); // absorption of the medium the photon travels in
     bool specular_only = true; // every bounce so far was specular (caustic path)
     while (true) {
         if (!alive) {
@@ -240,6 +241,7 @@ void main()
             direction = e.direction;
             flux = e.flux;
             range = e.range;
+            medium = vec3(0.0);
             specular_only = true;
             depth = 0u;
             // On into its first bounce in this same step: a lane never idles a step to start.
@@ -262,6 +264,7 @@ void main()
         }
         if (depth == 0u)
             flux *= light_range_window(hit.t, range);
+        flux *= medium_transmittance(medium, hit.t);
         Surface surface = surface_at(hit, origin, direction);
         if (!surface.valid || !all_finite(flux)) {
             atomicAdd(counters.non_finite, 1u);
@@ -292,6 +295,8 @@ void main()
         origin = position +
                  (scattered.transmitted ? -params.ray_offset : params.ray_offset) * geometric_normal;
         direction = scattered.direction;
+        if (scattered.transmitted)
+            medium = medium_after_transmission(material, front);
         alive = ++depth < params.max_depth;
     }
     if (!loops_completed())

@@ -63,6 +63,7 @@ struct Path {
     vec3 shading_normal;
     vec3 geometric_normal; // faces the incoming ray
     bool front;            // the ray arrived at the surface's front face
+    vec3 medium;           // absorption of the medium the ray is in (medium_after_transmission)
     Material surface;
 };
 
@@ -88,6 +89,7 @@ void path_follow_hit(inout Path path, BihHit hit, uint depth, float ray_offset, 
         path.tracing = false;
         return;
     }
+    path.throughput *= medium_transmittance(path.medium, hit.t);
     Surface surface = surface_at(hit, path.origin, path.direction);
     if (!surface.valid) {
         path.tracing = false;
@@ -129,6 +131,8 @@ void path_follow_hit(inout Path path, BihHit hit, uint depth, float ray_offset, 
     path.direction = scattered.direction;
     path.origin = path.position +
                   (scattered.transmitted ? -ray_offset : ray_offset) * path.geometric_normal;
+    if (scattered.transmitted)
+        path.medium = medium_after_transmission(material, front);
 }
 
 void main()
@@ -169,8 +173,9 @@ void main()
     path.shading_normal = vec3(0.0, 0.0, 1.0);
     path.geometric_normal = vec3(0.0, 0.0, 1.0);
     path.front = true;
+    path.medium = vec3(0.0);
     path.surface = Material(vec3(0.0), MATERIAL_LAMBERT, vec3(0.0), 1.0, 0.0, 1.0, 0.0, 0.0,
-                            vec3(1.0), 0u);
+                            vec3(1.0), 0u, vec3(0.0), 0.0);
 
     // Camera ray, then the specular chain through mirrors and glass.
     for (uint depth = 0u; depth <= params.max_specular_depth && path.tracing; depth++) {

@@ -14,6 +14,8 @@
 //     light is reachable only this way), each with an any-hit shadow ray;
 //   - a direction from bsdf_sample (materials.glsl); Russian roulette from the
 //     RR_START_DEPTH-th bounce on, survival from the throughput (below);
+//   - inside a transmissive material's volume (KHR_materials_volume), each
+//     segment's Beer-Lambert transmittance;
 //   - at most params.max_path_depth vertices, and light of at most
 //     params.max_bounces bounces after the first surface (--max-bounces).
 // Random numbers: shuffled Owen-scrambled Sobol, two 4D groups per vertex
@@ -129,6 +131,7 @@ void main()
     uint region = REGION_BEFORE_DIFFUSE;
     bool caustic_chain = false;
     bool previous_specular = true; // the camera: emission it sees is not light-sampled
+    vec3 medium = vec3(0.0);       // absorption of the medium the ray is in (camera's: clear)
     float previous_pdf = 0.0;
     float coverage = 0.0, depth_aov = 0.0;
     vec3 albedo_aov = vec3(0.0), normal_aov = vec3(0.0);
@@ -140,6 +143,7 @@ void main()
         rays++;
         if (hit.triangle == NO_HIT)
             break;
+        throughput *= medium_transmittance(medium, hit.t);
         Surface surface = surface_at(hit, origin, direction);
         // A non-finite shading normal poisons the sample (discarded and
         // counted, never silently repaired).
@@ -214,6 +218,8 @@ void main()
         previous_pdf = scattered.pdf;
         origin = position + (scattered.transmitted ? -ray_offset : ray_offset) * geometric_normal;
         direction = scattered.direction;
+        if (scattered.transmitted)
+            medium = medium_after_transmission(material, front);
         if (depth + 1u >= RR_START_DEPTH) {
             float survival =
                 min(1.0, max(throughput.r, max(throughput.g, throughput.b)) / RR_THRESHOLD);

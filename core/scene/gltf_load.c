@@ -54,6 +54,7 @@ static const char *const supported_extensions[] = {
     "KHR_materials_transmission",
     "KHR_materials_ior",
     "KHR_materials_specular",
+    "KHR_materials_volume",
 };
 
 pf_status gltf_fail(gltf_context *ctx, pf_error *err, pf_status status, const char *element,

@@ -4,7 +4,11 @@
  *   baseColorFactor.rgb, metallicFactor, roughnessFactor (both default 1);
  *   KHR_materials_transmission.transmissionFactor (0), KHR_materials_ior.ior
  *   (1.5), KHR_materials_specular.specularFactor (1) and
- *   .specularColorFactor (1, 1, 1).
+ *   .specularColorFactor (1, 1, 1); KHR_materials_volume's attenuationColor
+ *   (1, 1, 1) and attenuationDistance (infinite) as the Beer-Lambert
+ *   coefficient -ln(colour)/distance, where thicknessFactor (0) says the mesh
+ *   is a volume (> 0; the thickness itself is for rasterisers: a ray tracer
+ *   measures the distance travelled inside).
  * Emission = emissiveFactor x KHR_materials_emissive_strength.emissiveStrength,
  * from both faces when the material is doubleSided.
  * Factors outside the spec's ranges are format errors naming the field.
@@ -12,19 +16,22 @@
  */
 #include "gltf_internal.h"
 
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 /* KHR_materials_ior default. */
 #define GLTF_DEFAULT_IOR 1.5
+/* The least attenuation colour taken: exp(-ln(1e-6)) keeps the coefficient finite. */
+#define VOLUME_COLOUR_MIN 1e-6
 
 static const char *const texture_keys[] = {"normalTexture", "occlusionTexture",
                                            "emissiveTexture"};
 static const char *const pbr_texture_keys[] = {"baseColorTexture", "metallicRoughnessTexture"};
 static const char *const known_material_extensions[] = {
     "KHR_materials_emissive_strength", "KHR_materials_transmission", "KHR_materials_ior",
-    "KHR_materials_specular"};
+    "KHR_materials_specular", "KHR_materials_volume"};
 
 static void warn_unhandled(gltf_context *ctx, const cJSON *material, const cJSON *pbr,
                            const char *element)
@@ -73,6 +80,7 @@ static pf_status load_material(gltf_context *ctx, const cJSON *material, const c
     const cJSON *ior_ext = cJSON_GetObjectItemCaseSensitive(extensions, "KHR_materials_ior");
     const cJSON *specular_ext =
         cJSON_GetObjectItemCaseSensitive(extensions, "KHR_materials_specular");
+    const cJSON *volume_ext = cJSON_GetObjectItemCaseSensitive(extensions, "KHR_materials_volume");
     char pbr_element[128], ext_element[192];
     snprintf(pbr_element, sizeof pbr_element, "%s.pbrMetallicRoughness", element);
 
@@ -81,6 +89,8 @@ static pf_status load_material(gltf_context *ctx, const cJSON *material, const c
     float specular_color[3] = {1, 1, 1};
     double metallic = 1, roughness = 1, strength = 1, transmission = 0, ior = GLTF_DEFAULT_IOR;
     double specular = 1;
+    float attenuation_color[3] = {1, 1, 1};
+    double thickness = 0, attenuation_distance = 0; /* 0: absent, i.e. infinite */
     pf_status status = gltf_floats(ctx, pbr, "baseColorFactor", 4, base_color, pbr_element, err);
     if (!status)
         status = gltf_number(ctx, pbr, "metallicFactor", 1, &metallic, pbr_element, err);
@@ -115,6 +125,25 @@ static pf_status load_material(gltf_context *ctx, const cJSON *material, const c
         if (!status)
             status = gltf_floats(ctx, specular_ext, "specularColorFactor", 3, specular_color,
                                  ext_element, err);
+    }
+    if (!status) {
+        snprintf(ext_element, sizeof ext_element, "%s.extensions.KHR_materials_volume", element);
+        status = gltf_number(ctx, volume_ext, "thicknessFactor", 0, &thickness, ext_element, err);
+        if (!status)
+            status = gltf_number(ctx, volume_ext, "attenuationDistance", 0,
+                                 &attenuation_distance, ext_element, err);
+        if (!status)
+            status = gltf_floats(ctx, volume_ext, "attenuationColor", 3, attenuation_color,
+                                 ext_element, err);
+        if (!status && (thickness < 0 || attenuation_distance < 0 ||
+                        (cJSON_GetObjectItemCaseSensitive(volume_ext, "attenuationDistance") &&
+                         attenuation_distance == 0)))
+            status = gltf_fail(ctx, err, PF_ERR_FORMAT, ext_element,
+                               "thicknessFactor must be >= 0 and attenuationDistance > 0");
+        for (int c = 0; !status && c < 3; c++)
+            if (!(attenuation_color[c] >= 0 && attenuation_color[c] <= 1))
+                status = gltf_fail(ctx, err, PF_ERR_FORMAT, ext_element,
+                                   "attenuationColor %g is outside [0, 1]", attenuation_color[c]);
     }
     if (status)
         return status;
@@ -153,6 +182,11 @@ static pf_status load_material(gltf_context *ctx, const cJSON *material, const c
     out->transmission = (float)transmission;
     out->specular = (float)specular;
     memcpy(out->specular_color, specular_color, sizeof out->specular_color);
+    /* Beer-Lambert: a colour c left after distance d is a coefficient -ln(c)/d; a black
+     * attenuation colour absorbs everything (a large finite coefficient, no infinity). */
+    for (int c = 0; thickness > 0 && attenuation_distance > 0 && c < 3; c++)
+        out->absorption[c] = (float)(-log(fmax(attenuation_color[c], VOLUME_COLOUR_MIN)) /
+                                     attenuation_distance);
     const cJSON *double_sided = cJSON_GetObjectItemCaseSensitive(material, "doubleSided");
     if (double_sided && !cJSON_IsBool(double_sided))
         return gltf_fail(ctx, err, PF_ERR_FORMAT, element, "doubleSided must be true or false");

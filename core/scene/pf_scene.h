@@ -27,7 +27,7 @@ typedef struct pf_scene pf_scene;
 
 /*
  * A material is the glTF metallic-roughness BSDF (spec Appendix B, with
- * KHR_materials_transmission, _ior and _specular), given by the parameters
+ * KHR_materials_transmission, _ior, _specular and _volume's absorption), given by the parameters
  * of pf_material; shaders/common/materials.glsl evaluates and samples it.
  * Mirrors and smooth glass are its roughness -> 0 limits: at roughness <=
  * PF_MATERIAL_DELTA_ROUGHNESS the specular lobes are deltas.
@@ -52,7 +52,7 @@ typedef enum pf_material_kind {
  */
 #define PF_MATERIAL_DELTA_ROUGHNESS 0.02f
 
-/* std430-compatible (64 bytes): uploaded as-is (scene_types.glsl Material). */
+/* std430-compatible (80 bytes): uploaded as-is (scene_types.glsl Material). */
 typedef struct pf_material {
     float albedo[3];         /* glTF baseColor, linear: diffuse colour, metal F0, glass tint */
     uint32_t kind;           /* pf_material_kind, set by pf_material_classify */
@@ -65,6 +65,10 @@ typedef struct pf_material {
                               * (1 glTF default; 0 leaves a pure Lambert base) */
     float specular_color[3]; /* KHR_materials_specular colour, tints the dielectric's F0 */
     uint32_t flags;          /* PF_MATERIAL_DOUBLE_SIDED */
+    float absorption[3];     /* KHR_materials_volume: Beer-Lambert coefficient inside the
+                              * closed mesh, 1/m (-ln(attenuationColor)/attenuationDistance);
+                              * 0: clear, or thin-walled (thicknessFactor 0) */
+    float padding;
 } pf_material;
 
 /* glTF material.doubleSided: its emission leaves both faces (Blender's exporter

@@ -135,11 +135,13 @@ void main()
     bool valid = true, truncated = false;
     uint rays = 0u;
 
+    vec3 medium = vec3(0.0); // absorption of the medium the ray travels in
     for (uint depth = 0u; depth <= params.max_specular_depth; depth++) {
         BihHit hit = trace(origin, direction, infinity, false);
         rays++;
         if (hit.triangle == NO_HIT)
             break;
+        throughput *= medium_transmittance(medium, hit.t);
         Surface surface = surface_at(hit, origin, direction);
         if (!surface.valid) {
             valid = false;
@@ -192,6 +194,8 @@ void main()
             break;
         origin = surface.position +
                  (scattered.transmitted ? -ray_offset : ray_offset) * surface.geometric_normal;
+        if (scattered.transmitted)
+            medium = medium_after_transmission(material, surface.front);
         direction = scattered.direction;
     }
 

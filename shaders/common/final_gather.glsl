@@ -80,11 +80,15 @@ void gather_ray(uint pixel_index, uint gather_index, Material d1_material, vec3 
         return;
     vec3 origin = d1_position + ray_offset * geometric_normal;
     vec3 direction = first.direction;
+    // Absorption of the medium the gather ray travels in: D₁ is taken to lie
+    // in clear space (a floor under absorbing water gathers unattenuated).
+    vec3 medium = vec3(0.0);
     for (uint bounce = 0u; bounce <= GATHER_MAX_SPECULAR; bounce++) {
         BihHit hit = trace(origin, direction, infinity, false);
         rays++;
         if (hit.triangle == NO_HIT)
             return;
+        path *= medium_transmittance(medium, hit.t);
         Surface surface = surface_at(hit, origin, direction);
         if (!surface.valid) {
             valid = false;
@@ -142,6 +146,8 @@ void gather_ray(uint pixel_index, uint gather_index, Material d1_material, vec3 
         origin = surface.position +
                  (scattered.transmitted ? -ray_offset : ray_offset) * surface.geometric_normal;
         direction = scattered.direction;
+        if (scattered.transmitted)
+            medium = medium_after_transmission(material, surface.front);
     }
 }
 

@@ -439,6 +439,21 @@ bool material_stores_photons(Material material)
     return material.kind == MATERIAL_LAMBERT;
 }
 
+// The absorption coefficient (1/m) of the medium a path is in after it was
+// transmitted through a surface of this material, arriving at its front face
+// (entering) or back face (leaving into clear space: nested media are not
+// tracked). KHR_materials_volume's Beer-Lambert attenuation.
+vec3 medium_after_transmission(Material material, bool front)
+{
+    return front ? material.absorption : vec3(0.0);
+}
+
+// The fraction of light left after distance t in a medium of coefficient absorption.
+vec3 medium_transmittance(vec3 absorption, float t)
+{
+    return any(greaterThan(absorption, vec3(0.0))) ? exp(-absorption * t) : vec3(1.0);
+}
+
 // Whether the surface sends its emission towards a ray that arrived at its
 // front face (front) or its back face: emitters are one-sided (the front,
 // counter-clockwise face) unless their material is double-sided.

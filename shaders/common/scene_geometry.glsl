@@ -7,7 +7,7 @@
 //   binding 1  scene_vertices           3 RGBA32F texels per triangle (xyz, w unused)
 //   binding 2  scene_normals            3 RGBA32F texels per triangle (shading normals)
 //   binding 3  scene_triangle_materials one word per triangle: its material
-//   binding 4  scene_materials          4 texels per material (pf_material, 64 bytes)
+//   binding 4  scene_materials          5 texels per material (pf_material, 80 bytes)
 #ifndef PF_SCENE_GEOMETRY_GLSL
 #define PF_SCENE_GEOMETRY_GLSL
 
@@ -38,13 +38,15 @@ uint scene_triangle_material(uint triangle)
 
 Material scene_material(uint index)
 {
-    int first = int(4u * index);
+    int first = int(5u * index);
     uvec4 t0 = uvec4(texelFetch(scene_materials, first));
     uvec4 t1 = uvec4(texelFetch(scene_materials, first + 1));
     vec4 t2 = uintBitsToFloat(uvec4(texelFetch(scene_materials, first + 2)));
     uvec4 t3 = uvec4(texelFetch(scene_materials, first + 3));
+    vec4 t4 = uintBitsToFloat(uvec4(texelFetch(scene_materials, first + 4)));
     return Material(uintBitsToFloat(t0.xyz), t0.w, uintBitsToFloat(t1.xyz),
-                    uintBitsToFloat(t1.w), t2.x, t2.y, t2.z, t2.w, uintBitsToFloat(t3.xyz), t3.w);
+                    uintBitsToFloat(t1.w), t2.x, t2.y, t2.z, t2.w, uintBitsToFloat(t3.xyz), t3.w,
+                    t4.xyz, t4.w);
 }
 
 #endif

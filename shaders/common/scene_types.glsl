@@ -17,7 +17,7 @@ const uint LIGHT_DIRECTIONAL = 2u;
 
 const uint NO_HIT = 0xFFFFFFFFu;
 
-// pf_material, 64 bytes (pf_scene.h: the glTF metallic-roughness parameters).
+// pf_material, 80 bytes (pf_scene.h: the glTF metallic-roughness parameters).
 struct Material {
     vec3 albedo;          // glTF baseColor: diffuse colour, metal F0, transmission tint
     uint kind;            // pf_material_kind: a summary of the parameters below
@@ -29,6 +29,8 @@ struct Material {
     float specular;       // KHR_materials_specular factor (0: diffuse base only)
     vec3 specular_color;  // KHR_materials_specular colour
     uint flags;           // MATERIAL_DOUBLE_SIDED
+    vec3 absorption;      // KHR_materials_volume: Beer-Lambert coefficient inside, 1/m
+    float padding;
 };
 
 // pf_light, 64 bytes.

@@ -318,6 +318,17 @@ PF_TEST(malformed_structure)
     st_write_gltf(&spec, path, sizeof path);
     st_expect_error(path, PF_ERR_FORMAT, "KHR_lights_punctual.lights[0]", "intensityUnits");
 
+    spec.name = "badvolume";
+    spec.extensions = NULL;
+    spec.materials = "[{\"extensions\":{\"KHR_materials_volume\":{\"thicknessFactor\":1,"
+                     "\"attenuationDistance\":0}}}]";
+    st_write_gltf(&spec, path, sizeof path);
+    st_expect_error(path, PF_ERR_FORMAT, "KHR_materials_volume", "attenuationDistance");
+    spec.materials = "[{\"extensions\":{\"KHR_materials_volume\":{\"thicknessFactor\":1,"
+                     "\"attenuationColor\":[2,0,0]}}}]";
+    st_write_gltf(&spec, path, sizeof path);
+    st_expect_error(path, PF_ERR_FORMAT, "KHR_materials_volume", "attenuationColor");
+
     spec.name = "baddoublesided";
     spec.extensions = NULL;
     spec.materials = "[{\"doubleSided\":1}]";

@@ -166,6 +166,40 @@ PF_TEST(lights_converted)
     pf_scene_destroy(scene);
 }
 
+/* KHR_materials_volume: the Beer-Lambert coefficient -ln(attenuationColor) /
+ * attenuationDistance where thicknessFactor makes the mesh a volume, none where
+ * it is thin-walled (thicknessFactor 0, the default). */
+PF_TEST(volume_absorption)
+{
+    char path[512];
+    st_gltf spec = {
+        .name = "volume",
+        .nodes = "[" QUAD_NODE_MESH "]",
+        .materials = "[{\"extensions\":{\"KHR_materials_transmission\":{\"transmissionFactor\":1},"
+                     "\"KHR_materials_volume\":{\"thicknessFactor\":0.1,"
+                     "\"attenuationColor\":[0.5,1,0.25],\"attenuationDistance\":2}}}]",
+    };
+    pf_scene *scene = load_ok(st_write_gltf(&spec, path, sizeof path));
+    PF_REQUIRE(scene);
+    pf_scene_frame frame;
+    pf_error err;
+    PF_REQUIRE_OK(pf_scene_eval(scene, 0.0, &frame, &err), &err);
+    check_vec3(frame.materials[frame.triangle_material[0]].absorption, log(2.0) / 2, 0,
+               log(4.0) / 2, 1e-6);
+    pf_scene_frame_free(&frame);
+    pf_scene_destroy(scene);
+
+    spec.name = "thin";
+    spec.materials = "[{\"extensions\":{\"KHR_materials_volume\":{"
+                     "\"attenuationColor\":[0.5,0.5,0.5],\"attenuationDistance\":2}}}]";
+    scene = load_ok(st_write_gltf(&spec, path, sizeof path));
+    PF_REQUIRE(scene);
+    PF_REQUIRE_OK(pf_scene_eval(scene, 0.0, &frame, &err), &err);
+    check_vec3(frame.materials[frame.triangle_material[0]].absorption, 0, 0, 0, 0);
+    pf_scene_frame_free(&frame);
+    pf_scene_destroy(scene);
+}
+
 PF_TEST(camera_values)
 {
     char path[512];
@@ -584,6 +618,7 @@ int main(void)
     PF_RUN(hierarchy_trs_and_matrix);
     PF_RUN(lights_converted);
     PF_RUN(camera_values);
+    PF_RUN(volume_absorption);
     PF_RUN(materials_mapped);
     PF_RUN(linear_translation_and_clamping);
     PF_RUN(linear_rotation_slerp);
