@@ -326,6 +326,25 @@ static double oracle_albedo(const pf_material *m, double theta_o, int channel)
  */
 #define FURNACE_EDGE 64u
 
+/* Query i of FURNACE_EDGE² takes a jittered point of its cell of the
+ * FURNACE_EDGE × FURNACE_EDGE grid for the direction and a uniform lobe choice. */
+static void stratified_xi(pf_material_probe_query *query, uint32_t i, uint64_t *state)
+{
+    query->xi[0] = (float)(((i % FURNACE_EDGE) + next_uniform(state)) / FURNACE_EDGE);
+    query->xi[1] = (float)(((i / FURNACE_EDGE) + next_uniform(state)) / FURNACE_EDGE);
+    query->xi[2] = (float)next_uniform(state);
+}
+
+/* A non-delta sample whose pdf is not bsdf_pdf's or whose weight is not
+ * eval_cos/eval_pdf, within relative tolerance; 0 for delta and absorbed ones. */
+static int sample_inconsistent(const pf_material_probe_result *s, double tolerance)
+{
+    if (!(s->pdf > 0.0f))
+        return 0;
+    return fabs(s->pdf - s->eval_pdf) > tolerance * s->pdf ||
+           fabs(s->weight[0] - s->eval_cos[0] / s->eval_pdf) > tolerance * (1.0 + s->weight[0]);
+}
+
 PF_TEST(ggx_white_furnace_loses_what_single_scattering_predicts)
 {
     const float roughnesses[4] = {0.25f, 0.5f, 0.75f, 1.0f};
@@ -346,11 +365,7 @@ PF_TEST(ggx_white_furnace_loses_what_single_scattering_predicts)
                 uint64_t state = 7 + (uint64_t)(r * 3 + a);
                 for (uint32_t i = 0; i < count; i++) {
                     queries[i] = query_at(&material, theta, 1, 0.0f, 0);
-                    queries[i].xi[0] = (float)(((i % FURNACE_EDGE) + next_uniform(&state)) /
-                                               FURNACE_EDGE);
-                    queries[i].xi[1] = (float)(((i / FURNACE_EDGE) + next_uniform(&state)) /
-                                               FURNACE_EDGE);
-                    queries[i].xi[2] = (float)next_uniform(&state);
+                    stratified_xi(&queries[i], i, &state);
                 }
                 pf_error err = {0};
                 PF_REQUIRE_OK(pf_material_probe(renderer, queries, count, results, &err), &err);
@@ -361,9 +376,7 @@ PF_TEST(ggx_white_furnace_loses_what_single_scattering_predicts)
                     mean += s->weight[0] / count;
                     mean_square += (double)s->weight[0] * s->weight[0] / count;
                     if (s->pdf > 0.0f)
-                        inconsistent += fabs(s->pdf - s->eval_pdf) > 1e-4 * s->pdf ||
-                                        fabs(s->weight[0] - s->eval_cos[0] / s->eval_pdf) >
-                                            1e-4 * (1.0 + s->weight[0]);
+                        inconsistent += sample_inconsistent(s, 1e-4);
                     else
                         inconsistent += s->weight[0] != 0.0f; /* no delta lobe when rough */
                 }
@@ -467,11 +480,7 @@ PF_TEST(rough_glass_transmits_by_walters_btdf)
                     for (uint32_t i = 0; i < count; i++) {
                         queries[i] = query_at(&material, theta, side == 0, 0.0f,
                                               transport ? PF_PROBE_IMPORTANCE : 0);
-                        queries[i].xi[0] = (float)(((i % FURNACE_EDGE) + next_uniform(&state)) /
-                                                   FURNACE_EDGE);
-                        queries[i].xi[1] = (float)(((i / FURNACE_EDGE) + next_uniform(&state)) /
-                                                   FURNACE_EDGE);
-                        queries[i].xi[2] = (float)next_uniform(&state);
+                        stratified_xi(&queries[i], i, &state);
                     }
                     pf_error err = {0};
                     PF_REQUIRE_OK(pf_material_probe(renderer, queries, count, results, &err),
@@ -483,10 +492,8 @@ PF_TEST(rough_glass_transmits_by_walters_btdf)
                         mean += s->weight[0] / count;
                         mean_square += (double)s->weight[0] * s->weight[0] / count;
                         transmitted += (s->flags & PF_PROBE_TRANSMITTED) != 0;
-                        if (transport == 0 && s->pdf > 0.0f)
-                            inconsistent += fabs(s->pdf - s->eval_pdf) > 1e-3 * s->pdf ||
-                                            fabs(s->weight[0] - s->eval_cos[0] / s->eval_pdf) >
-                                                1e-3 * (1.0 + s->weight[0]);
+                        if (transport == 0)
+                            inconsistent += sample_inconsistent(s, 1e-3);
                         inconsistent += (s->flags & PF_PROBE_SPECULAR) != 0;
                     }
                     const char *where = side == 0 ? "entering" : "leaving";
@@ -563,9 +570,7 @@ PF_TEST(lobes_agree_where_the_shading_normal_faces_away)
             if (!(s->pdf > 0.0f))
                 continue;
             kept++;
-            inconsistent += fabs(s->pdf - s->eval_pdf) > 1e-4 * s->pdf ||
-                            fabs(s->weight[0] - s->eval_cos[0] / s->eval_pdf) >
-                                1e-4 * (1.0 + s->weight[0]);
+            inconsistent += sample_inconsistent(s, 1e-4);
         }
         PF_CHECK_MSG(inconsistent == 0, "%s: %u of %u samples whose eval/pdf disagree with "
                      "sampling", names[k], inconsistent, kept);
