@@ -40,6 +40,9 @@ PACKAGES=(
   postgresql              # tests: the queue tests also run on a throwaway cluster
   python3-yaml            # tests: the Kubernetes manifests are parsed and checked
   libcjson-dev            # glTF JSON parsing
+  libspng-dev             # texture images: PNG
+  libturbojpeg0-dev       # texture images: JPEG
+  libwebp-dev             # texture images: WebP (EXT_texture_webp)
   libembree-dev           # bench/: CPU ray-casting peer for speed comparisons
 )
 

@@ -12,7 +12,7 @@ layout(push_constant) uniform Push {
 
 #include "materials.glsl"
 
-// pf_material_probe_query, 144 bytes.
+// pf_material_probe_query, 176 bytes.
 struct ProbeQuery {
     Material material;
     vec3 wo;          // unit, away from the surface

@@ -43,6 +43,7 @@ layout(push_constant) uniform Push {
     uint loop_sentinel; // 1; kernel_guard.glsl's end-of-invocation proof loop
 } push;
 
+#include "scene_binding_numbers.glsl"
 #include "scene_types.glsl"
 #include "photon_types.glsl"
 
@@ -79,13 +80,13 @@ const uint EMITTER_SPOT = 1u;
 const uint EMITTER_DIRECTIONAL = 2u;
 const uint EMITTER_TRIANGLE = 3u;
 
-layout(std430, set = 0, binding = 0) readonly buffer Params { PhotonTraceParams params; };
-#include "scene_geometry.glsl" // bindings 1..4
-layout(std430, set = 0, binding = 5) readonly buffer Lights { Light lights[]; };
-layout(std430, set = 0, binding = 6) readonly buffer Emitters { PhotonEmitter emitters[]; };
-layout(std430, set = 0, binding = 10) buffer GlobalMap { uint global_words[]; };
-layout(std430, set = 0, binding = 11) buffer CausticMap { uint caustic_words[]; };
-layout(std430, set = 0, binding = 12) buffer Counters {
+layout(std430, set = 0, binding = PF_SCENE_BINDING_PARAMS) readonly buffer Params { PhotonTraceParams params; };
+#include "scene_geometry.glsl" // the surfaces: triangles, materials, textures
+layout(std430, set = 0, binding = PF_SCENE_BINDING_LIGHTS) readonly buffer Lights { Light lights[]; };
+layout(std430, set = 0, binding = PF_SCENE_BINDING_EMISSIVE) readonly buffer Emitters { PhotonEmitter emitters[]; };
+layout(std430, set = 0, binding = PF_SCENE_BINDING_COUNT + 3) buffer GlobalMap { uint global_words[]; };
+layout(std430, set = 0, binding = PF_SCENE_BINDING_COUNT + 4) buffer CausticMap { uint caustic_words[]; };
+layout(std430, set = 0, binding = PF_SCENE_BINDING_COUNT + 5) buffer Counters {
     uint global_stored;      // photons offered to the global map (stored while below capacity)
     uint caustic_stored;
     uint traversal_failures;
@@ -93,7 +94,7 @@ layout(std430, set = 0, binding = 12) buffer Counters {
     uint loop_truncated;     // invocations llvmpipe's loop cap stopped (their photons cut short)
 } counters;
 
-#define BIH_BINDING 7 // nodes, vertices, triangle index at bindings 7, 8, 9
+#define BIH_BINDING (PF_SCENE_BINDING_COUNT + 0) // nodes, vertices, triangle index: its first three
 #include "bih_traverse.glsl"
 #include "lights.glsl"
 #include "materials.glsl"

@@ -30,14 +30,14 @@ layout(push_constant) uniform Push {
 } push;
 
 #include "scene_bindings.glsl"
-layout(std430, set = 0, binding = 7) buffer Film { vec4 film[]; };
-layout(std430, set = 0, binding = 8) buffer Counters {
+layout(std430, set = 0, binding = PF_SCENE_BINDING_COUNT + 0) buffer Film { vec4 film[]; };
+layout(std430, set = 0, binding = PF_SCENE_BINDING_COUNT + 1) buffer Counters {
     uint discarded_samples;
     uint rays_traced;
     uint traversal_failures; // rays whose BIH traversal overflowed: the host fails the frame
 } counters;
 
-#define BIH_BINDING 9
+#define BIH_BINDING (PF_SCENE_BINDING_COUNT + 2)
 #include "scene_trace.glsl"
 #include "camera.glsl"
 #include "area_lights.glsl"
@@ -175,7 +175,8 @@ void main()
     path.front = true;
     path.medium = vec3(0.0);
     path.surface = Material(vec3(0.0), MATERIAL_LAMBERT, vec3(0.0), 1.0, 0.0, 1.0, 0.0, 0.0,
-                            vec3(1.0), 0u, vec3(0.0), 0.0);
+                            vec3(1.0), 0u, vec3(0.0), 1.0, NO_TEXTURE, NO_TEXTURE, NO_TEXTURE,
+                            NO_TEXTURE, ALPHA_OPAQUE, 0.5, 1.0);
 
     // Camera ray, then the specular chain through mirrors and glass.
     for (uint depth = 0u; depth <= params.max_specular_depth && path.tracing; depth++) {

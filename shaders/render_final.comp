@@ -84,7 +84,7 @@ layout(local_size_x = 8, local_size_y = 8) in;
 #include "photon_grid.glsl"
 #include "final_shared.glsl"
 
-#define BIH_BINDING 10
+#define BIH_BINDING (PF_SCENE_BINDING_COUNT + 3)
 #include "scene_trace.glsl"
 #include "camera.glsl"
 #include "area_lights.glsl"

@@ -53,16 +53,16 @@ layout(push_constant) uniform Push {
 } push;
 
 #include "scene_bindings.glsl"
-layout(std430, set = 0, binding = 7) buffer Film { vec4 film[]; };
-layout(std430, set = 0, binding = 8) buffer FilmAov { vec4 film_aov[]; };
-layout(std430, set = 0, binding = 9) buffer Counters {
+layout(std430, set = 0, binding = PF_SCENE_BINDING_COUNT + 0) buffer Film { vec4 film[]; };
+layout(std430, set = 0, binding = PF_SCENE_BINDING_COUNT + 1) buffer FilmAov { vec4 film_aov[]; };
+layout(std430, set = 0, binding = PF_SCENE_BINDING_COUNT + 2) buffer Counters {
     uint discarded_samples;
     uint traversal_failures; // rays whose BIH traversal overflowed: the host fails the frame
     uint rays_low;           // rays traced, a 64-bit count in two words
     uint rays_high;
 } counters;
 
-#define BIH_BINDING 10
+#define BIH_BINDING (PF_SCENE_BINDING_COUNT + 3)
 #include "scene_trace.glsl"
 #include "camera.glsl"
 #include "area_lights.glsl"
@@ -165,7 +165,7 @@ void main()
         if (material_emits(material, front)) {
             float weight = 1.0;
             if (!previous_specular)
-                weight = emission_mis_weight(material.emission, face_normal, direction, hit.t,
+                weight = emission_mis_weight(surface.pick_emission, face_normal, direction, hit.t,
                                              previous_pdf);
             radiance_add(radiance, throughput * material.emission * weight, region,
                          caustic_chain);

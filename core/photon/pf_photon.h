@@ -333,6 +333,9 @@ typedef struct pf_photon_scene {
     uint32_t triangle_count;
     pf_bih_gpu_view bih;
     float ray_offset;             /* secondary rays leave surfaces this far along the normal */
+    /* The scene's texture bindings (PF_SCENE_BINDING_CORNERS, _TEXTURES, _TEXELS); NULL: the
+     * scene has no textures (the tracer binds a placeholder). */
+    pf_vk_buffer *corners, *textures, *texels;
 } pf_photon_scene;
 
 /* Hits a photon path may have (REFERENCE.md: bound every loop). */

@@ -13,7 +13,7 @@
 #define TRACE_MAX_GROUPS 16384u
 /* Default map capacity: stores per emitted photon (a bounce or two survive roulette on average). */
 #define DEFAULT_STORES_PER_PHOTON 4u
-#define TRACE_BUFFERS 13u
+#define TRACE_BUFFERS (PF_SCENE_BINDING_COUNT + 6u)
 
 /* PhotonTraceParams in photon_trace.comp (std430, 96 bytes). */
 typedef struct photon_trace_params {
@@ -202,6 +202,7 @@ pf_status pf_photon_trace(pf_photon_tracer *tracer, const pf_photon_scene *scene
     params.ray_offset = scene->ray_offset;
 
     pf_vk_buffer *params_buffer = NULL, *emitter_buffer = NULL, *counter_buffer = NULL;
+    pf_vk_buffer *placeholder = NULL; /* the texture bindings of a scene without textures */
     const trace_counters zero = {0, 0, 0, 0, 0};
     status = pf_vk_buffer_create(ctx, sizeof params, "photon trace parameters", &params_buffer, err);
     if (status == PF_OK)
@@ -228,11 +229,29 @@ pf_status pf_photon_trace(pf_photon_tracer *tracer, const pf_photon_scene *scene
                                          sizeof(pf_photon),
                                      "caustic photon map", &out->caustic, err);
 
+    if (status == PF_OK && !(scene->corners && scene->textures && scene->texels)) {
+        static const uint32_t zeros[4];
+        status = pf_vk_buffer_create(ctx, sizeof zeros, "no textures", &placeholder, err);
+        if (status == PF_OK)
+            status = pf_vk_buffer_upload(ctx, placeholder, 0, zeros, sizeof zeros, err);
+    }
     pf_vk_buffer *buffers[TRACE_BUFFERS] = {
-        params_buffer,         scene->vertices, scene->normals,      scene->triangle_material,
-        scene->materials,      scene->lights,   emitter_buffer,      scene->bih.nodes,
-        scene->bih.vertices,   scene->bih.triangle_index, out->global, out->caustic,
-        counter_buffer};
+        [PF_SCENE_BINDING_PARAMS] = params_buffer,
+        [PF_SCENE_BINDING_VERTICES] = scene->vertices,
+        [PF_SCENE_BINDING_NORMALS] = scene->normals,
+        [PF_SCENE_BINDING_TRIANGLE_MATERIALS] = scene->triangle_material,
+        [PF_SCENE_BINDING_MATERIALS] = scene->materials,
+        [PF_SCENE_BINDING_LIGHTS] = scene->lights,
+        [PF_SCENE_BINDING_EMISSIVE] = emitter_buffer,
+        [PF_SCENE_BINDING_CORNERS] = scene->corners ? scene->corners : placeholder,
+        [PF_SCENE_BINDING_TEXTURES] = scene->textures ? scene->textures : placeholder,
+        [PF_SCENE_BINDING_TEXELS] = scene->texels ? scene->texels : placeholder,
+        [PF_SCENE_BINDING_COUNT + 0] = scene->bih.nodes,
+        [PF_SCENE_BINDING_COUNT + 1] = scene->bih.vertices,
+        [PF_SCENE_BINDING_COUNT + 2] = scene->bih.triangle_index,
+        [PF_SCENE_BINDING_COUNT + 3] = out->global,
+        [PF_SCENE_BINDING_COUNT + 4] = out->caustic,
+        [PF_SCENE_BINDING_COUNT + 5] = counter_buffer};
     uint32_t per_invocation = settings->per_invocation ? settings->per_invocation
                               : strcmp(info->type, "cpu") == 0 ? PF_PHOTON_TRACE_PER_INVOCATION
                                                               : 1u;
@@ -253,6 +272,7 @@ pf_status pf_photon_trace(pf_photon_tracer *tracer, const pf_photon_scene *scene
     release(ctx, &params_buffer);
     release(ctx, &emitter_buffer);
     release(ctx, &counter_buffer);
+    release(ctx, &placeholder);
     if (status == PF_OK && counters.traversal_failures > 0)
         status = pf_error_set(err, PF_ERR_LIMIT,
                               "%u photons overflowed the %u-entry BIH traversal stack",

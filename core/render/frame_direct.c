@@ -41,7 +41,7 @@ typedef struct render_counters {
 } render_counters;
 
 /* render_direct.comp's bindings: params, 6 scene arrays, film, counters, 3 BIH buffers. */
-#define RENDER_BUFFERS 12u
+#define RENDER_BUFFERS (PF_SCENE_BINDING_COUNT + 5u)
 
 /*
  * Turns one tile of film sums into pixel values: beauty averaged over the
@@ -81,7 +81,7 @@ static pf_status render_tile(pf_renderer *renderer, pf_vk_buffer *const *buffers
 {
     pf_vk_context *ctx = renderer->ctx;
     const render_counters zero = {0, 0, 0, 0};
-    pf_status status = pf_vk_buffer_upload(ctx, buffers[8], 0, &zero, sizeof zero, err);
+    pf_status status = pf_vk_buffer_upload(ctx, buffers[PF_SCENE_BINDING_COUNT + 1], 0, &zero, sizeof zero, err);
     if (status != PF_OK)
         return status;
     pf_vk_pipeline *pipeline = NULL;
@@ -113,12 +113,12 @@ static pf_status render_tile(pf_renderer *renderer, pf_vk_buffer *const *buffers
     }
     pf_vk_commands_destroy(cmds);
     if (status == PF_OK)
-        status = pf_vk_buffer_download(ctx, buffers[7], 0, film,
+        status = pf_vk_buffer_download(ctx, buffers[PF_SCENE_BINDING_COUNT], 0, film,
                                        (uint64_t)tile->tile_size[0] * tile->tile_size[1] *
                                            FILM_VEC4_PER_PIXEL * 4 * sizeof(float),
                                        err);
     if (status == PF_OK)
-        status = pf_vk_buffer_download(ctx, buffers[8], 0, counters, sizeof *counters, err);
+        status = pf_vk_buffer_download(ctx, buffers[PF_SCENE_BINDING_COUNT + 1], 0, counters, sizeof *counters, err);
     return status;
 }
 
@@ -181,10 +181,10 @@ static pf_status preview_run(pf_frame_run *run, pf_stage_id stage, uint32_t pass
     if (status == PF_OK)
         status = pf_vk_buffer_create(ctx, sizeof(render_counters), "render counters",
                                      &counter_buffer, err);
-    pf_vk_buffer *buffers[RENDER_BUFFERS] = {
-        params_buffer,  scene.vertices, scene.normals,        scene.triangle_material,
-        scene.materials, scene.lights,  scene.emissive,       film_buffer,
-        counter_buffer, bih.nodes,      bih.vertices,         bih.triangle_index};
+    pf_vk_buffer *own[] = {film_buffer, counter_buffer, bih.nodes, bih.vertices,
+                           bih.triangle_index};
+    pf_vk_buffer *buffers[RENDER_BUFFERS];
+    pf_gpu_scene_bindings(&scene, params_buffer, own, sizeof own / sizeof *own, buffers);
     for (uint32_t y = 0; status == PF_OK && y < settings->height; y += RENDER_TILE_EDGE) {
         for (uint32_t x = 0; status == PF_OK && x < settings->width; x += RENDER_TILE_EDGE) {
             render_push tile = {{x, y},

@@ -309,12 +309,15 @@ static pf_status shade(pf_renderer *renderer, struct pf_fast_cache *cache,
         flux = view.flux;
         ranges = view.ranges;
     }
-    pf_vk_buffer *buffers[PF_FAST_BUFFERS] = {
-        owned.params,    scene->vertices, scene->normals,   scene->triangle_material,
-        scene->materials, scene->lights,  scene->emissive,  owned.film,
-        owned.film_aov,  owned.counters,  bih->nodes,       bih->vertices,
-        bih->triangle_index, pf_lpv_accumulated(cache->lpv), cache->cascades, records,
-        ranges, pf_lpv_far_fields(cache->lpv), pf_lpv_geometry(cache->lpv), flux};
+    pf_vk_buffer *own[] = {owned.film,       owned.film_aov,
+                           owned.counters,   bih->nodes,
+                           bih->vertices,    bih->triangle_index,
+                           pf_lpv_accumulated(cache->lpv), cache->cascades,
+                           records,          ranges,
+                           pf_lpv_far_fields(cache->lpv),  pf_lpv_geometry(cache->lpv),
+                           flux};
+    pf_vk_buffer *buffers[PF_FAST_BUFFERS];
+    pf_gpu_scene_bindings(scene, owned.params, own, sizeof own / sizeof *own, buffers);
     /* The kernel with the caustic estimate only for a frame with caustic photons. */
     pf_vk_pipeline *kernel = NULL;
     if (status == PF_OK)

@@ -83,8 +83,11 @@
 #define GROUP_EDGE 8u
 /* The shade kernels' bindings (final_shared.glsl) of the photon grid they gather from and of its
  * irradiance points: records, flux, ranges. */
-static const uint32_t grid_bindings[3] = {15u, 22u, 16u};
-static const uint32_t points_bindings[3] = {18u, 23u, 19u};
+static const uint32_t grid_bindings[3] = {PF_SCENE_BINDING_COUNT + 8u, PF_SCENE_BINDING_COUNT + 15u,
+                                          PF_SCENE_BINDING_COUNT + 9u};
+static const uint32_t points_bindings[3] = {PF_SCENE_BINDING_COUNT + 11u,
+                                            PF_SCENE_BINDING_COUNT + 16u,
+                                            PF_SCENE_BINDING_COUNT + 12u};
 /*
  * The gather's deferred estimates (final_deferred.comp): at
  * most one request per pixel and sample is held (a quarter of the gather
@@ -690,18 +693,17 @@ static pf_status final_begin(pf_frame_run *run, pf_error *err)
                         settings->height, run->frame->triangle_count);
         return status;
     }
-    pf_vk_buffer *buffers[PF_FINAL_BUFFERS] = {
-        owned->params,     scene->vertices,  scene->normals,  scene->triangle_material,
-        scene->materials,  scene->lights,    scene->emissive, owned->film,
+    pf_vk_buffer *own[] = {
+        owned->film,
         owned->film_aov,   owned->counters,  bih->nodes,      bih->vertices,
         bih->triangle_index, owned->vertices, owned->samples, NULL,
         NULL,              owned->caustic_radii, NULL,           NULL,
         owned->fallback_requests, owned->pixel_fallbacks, NULL,       NULL,
-        /* 24..29: texel views of the film, the AOVs, the vertices, the sample sums, the
+        /* 17..22 after the scene's: texel views of the film, the AOVs, the vertices, the sample sums, the
          * deferred estimates and their per-pixel slots (final_shared.glsl) */
         owned->film,       owned->film_aov,  owned->vertices, owned->samples,
         owned->fallback_requests, owned->pixel_fallbacks};
-    memcpy(f->buffers, buffers, sizeof buffers);
+    pf_gpu_scene_bindings(scene, owned->params, own, sizeof own / sizeof *own, f->buffers);
     run->state = f;
     return PF_OK;
 }

@@ -29,10 +29,10 @@
 #define REFERENCE_BATCH_MAX_PASSES 64u
 
 /* render_reference.comp's bindings: params, 6 scene arrays, 2 films, counters, 3 BIH buffers. */
-#define REFERENCE_BUFFERS 13u
+#define REFERENCE_BUFFERS (PF_SCENE_BINDING_COUNT + 6u)
 #define REFERENCE_FILM_BINDING 7u
 #define REFERENCE_AOV_BINDING 8u
-#define REFERENCE_COUNTER_BINDING 9u
+#define REFERENCE_COUNTER_BINDING (PF_SCENE_BINDING_COUNT + 2u)
 
 
 typedef struct reference_push {
@@ -170,11 +170,10 @@ static pf_status shade(pf_renderer *renderer, const pf_scene_frame *frame,
     if (status == PF_OK)
         status = pf_vk_buffer_create(ctx, sizeof(reference_counters), "reference counters",
                                      &owned.counters, err);
-    pf_vk_buffer *buffers[REFERENCE_BUFFERS] = {
-        owned.params,   scene.vertices, scene.normals, scene.triangle_material,
-        scene.materials, scene.lights,  scene.emissive, owned.film,
-        owned.film_aov, owned.counters, bih.nodes,     bih.vertices,
-        bih.triangle_index};
+    pf_vk_buffer *own[] = {owned.film, owned.film_aov, owned.counters,
+                           bih.nodes,  bih.vertices,   bih.triangle_index};
+    pf_vk_buffer *buffers[REFERENCE_BUFFERS];
+    pf_gpu_scene_bindings(&scene, owned.params, own, sizeof own / sizeof *own, buffers);
     pf_vk_pipeline *pipeline = NULL;
     if (status == PF_OK)
         status = pf_renderer_pipeline(

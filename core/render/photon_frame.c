@@ -73,7 +73,9 @@ pf_status pf_photon_frame_prepare(pf_renderer *renderer, const pf_scene_frame *f
     out->photons = (pf_photon_scene){out->scene.vertices,  out->scene.normals,
                                      out->scene.triangle_material, out->scene.materials,
                                      out->scene.lights,    frame->triangle_count,
-                                     out->bih,             pf_render_ray_offset(frame)};
+                                     out->bih,             pf_render_ray_offset(frame),
+                                     out->scene.corners,   out->scene.textures,
+                                     out->scene.texels};
     out->tracer = renderer->photon_tracer;
     return PF_OK;
 }

@@ -47,9 +47,9 @@ typedef enum pf_renderer_pipeline_id {
 } pf_renderer_pipeline_id;
 
 /* The final kernels' bindings (final_shared.glsl), the same in all six pipelines. */
-#define PF_FINAL_BUFFERS 30u
+#define PF_FINAL_BUFFERS (PF_SCENE_BINDING_COUNT + 23u)
 /* The fast kernels' bindings (fast_shade.glsl), the same in both pipelines. */
-#define PF_FAST_BUFFERS 20u
+#define PF_FAST_BUFFERS (PF_SCENE_BINDING_COUNT + 13u)
 
 /*
  * The stage plan (stage_plan.c): each stage of a frame, its decision and
@@ -258,7 +258,8 @@ typedef struct pf_emissive_entry {
 /* The GLSL mirrors assume these std430 sizes. */
 _Static_assert(sizeof(pf_frame_params) == 160, "pf_frame_params must match FrameParams");
 _Static_assert(sizeof(pf_emissive_entry) == 32, "pf_emissive_entry must match EmissiveEntry");
-_Static_assert(sizeof(pf_material) == 80, "pf_material must match Material");
+_Static_assert(sizeof(pf_material) == 112, "pf_material must match Material");
+_Static_assert(sizeof(pf_texture_ref) == 48, "pf_texture_ref must match TextureRef");
 _Static_assert(sizeof(pf_light) == 64, "pf_light must match Light");
 _Static_assert(sizeof(pf_ray) == 32, "pf_ray must match raycast_brute.comp's Ray");
 _Static_assert(sizeof(pf_hit) == 16, "pf_hit must match raycast_brute.comp's HitRecord");
@@ -275,6 +276,9 @@ typedef struct pf_gpu_scene {
     pf_vk_buffer *materials;
     pf_vk_buffer *lights;
     pf_vk_buffer *emissive;          /* pf_emissive_entry table */
+    pf_vk_buffer *corners;           /* texture coordinates, colours, tangents per corner */
+    pf_vk_buffer *textures;          /* the texture table */
+    pf_vk_buffer *texels;            /* the textures' mip chains */
     uint32_t emissive_count;
     float emissive_weight_total;     /* pf_emissive_table_build's weight_total */
 } pf_gpu_scene;
@@ -323,6 +327,15 @@ pf_status pf_photon_frame_prepare(pf_renderer *renderer, const pf_scene_frame *f
                                   const pf_photon_emitters *emitters, pf_photon_frame *out,
                                   pf_error *err);
 void pf_photon_frame_release(pf_vk_context *ctx, pf_photon_frame *photon_frame);
+
+/*
+ * Fills bindings[0 .. PF_SCENE_BINDING_COUNT) with scene's buffers (params at
+ * PF_SCENE_BINDING_PARAMS) and the kernel's own buffers after them, in order;
+ * returns PF_SCENE_BINDING_COUNT + own_count.
+ */
+uint32_t pf_gpu_scene_bindings(const pf_gpu_scene *scene, pf_vk_buffer *params,
+                               pf_vk_buffer *const *own, uint32_t own_count,
+                               pf_vk_buffer **bindings);
 
 /* Uploads only the vertex buffer (all the ray-casting oracle needs) when full is 0. */
 pf_status pf_gpu_scene_upload(pf_vk_context *ctx, const pf_scene_frame *frame, int full,
@@ -408,7 +421,7 @@ void pf_frame_params_fill(const pf_scene_frame *frame, const pf_render_settings 
                           uint32_t spp, const pf_gpu_scene *scene, const pf_bih_gpu_view *bih,
                           pf_frame_params *params);
 
-/* material_probe.comp's input (std430 ProbeQuery, 144 bytes). */
+/* material_probe.comp's input (std430 ProbeQuery, 176 bytes). */
 typedef struct pf_material_probe_query {
     pf_material material;
     float wo[3];          /* unit, away from the surface */
@@ -440,7 +453,7 @@ typedef struct pf_material_probe_result {
     float padding[3];
 } pf_material_probe_result;
 
-_Static_assert(sizeof(pf_material_probe_query) == 144, "must match ProbeQuery");
+_Static_assert(sizeof(pf_material_probe_query) == 176, "must match ProbeQuery");
 _Static_assert(sizeof(pf_material_probe_result) == 64, "must match ProbeResult");
 
 /*

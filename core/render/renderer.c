@@ -9,11 +9,11 @@
 #define RAYCAST_BUFFERS 3u
 /* raycast_brute.comp's Push: ray count, triangle range begin/end, carry flag. */
 #define RAYCAST_PUSH_BYTES 16u
-#define RENDER_DIRECT_BUFFERS 12u
+#define RENDER_DIRECT_BUFFERS (PF_SCENE_BINDING_COUNT + 5u)
 #define RENDER_DIRECT_PUSH_BYTES 20u
 /* render_reference.comp: constant_id 0 says whether the AOV film is written. */
 #define REFERENCE_SPEC_AOVS 0u
-#define RENDER_REFERENCE_BUFFERS 13u
+#define RENDER_REFERENCE_BUFFERS (PF_SCENE_BINDING_COUNT + 6u)
 #define RENDER_REFERENCE_PUSH_BYTES 4u
 /* render_final.comp (primary), final_caustic.comp, final_gather.comp,
  * final_gather_estimate.comp, final_deferred.comp and final_resolve.comp: PF_FINAL_BUFFERS

@@ -132,7 +132,78 @@ void pf_gpu_scene_release(pf_vk_context *ctx, pf_gpu_scene *scene)
     pf_render_buffer_release(ctx, &scene->materials);
     pf_render_buffer_release(ctx, &scene->lights);
     pf_render_buffer_release(ctx, &scene->emissive);
+    pf_render_buffer_release(ctx, &scene->corners);
+    pf_render_buffer_release(ctx, &scene->textures);
+    pf_render_buffer_release(ctx, &scene->texels);
     scene->emissive_count = 0;
+}
+
+uint32_t pf_gpu_scene_bindings(const pf_gpu_scene *scene, pf_vk_buffer *params,
+                               pf_vk_buffer *const *own, uint32_t own_count,
+                               pf_vk_buffer **bindings)
+{
+    bindings[PF_SCENE_BINDING_PARAMS] = params;
+    bindings[PF_SCENE_BINDING_VERTICES] = scene->vertices;
+    bindings[PF_SCENE_BINDING_NORMALS] = scene->normals;
+    bindings[PF_SCENE_BINDING_TRIANGLE_MATERIALS] = scene->triangle_material;
+    bindings[PF_SCENE_BINDING_MATERIALS] = scene->materials;
+    bindings[PF_SCENE_BINDING_LIGHTS] = scene->lights;
+    bindings[PF_SCENE_BINDING_EMISSIVE] = scene->emissive;
+    bindings[PF_SCENE_BINDING_CORNERS] = scene->corners;
+    bindings[PF_SCENE_BINDING_TEXTURES] = scene->textures;
+    bindings[PF_SCENE_BINDING_TEXELS] = scene->texels;
+    for (uint32_t i = 0; i < own_count; i++)
+        bindings[PF_SCENE_BINDING_COUNT + i] = own[i];
+    return PF_SCENE_BINDING_COUNT + own_count;
+}
+
+/*
+ * The triangle material words with TRIANGLE_ALPHA_TESTED (scene_geometry.glsl) set where the
+ * material's alphaMode is MASK or BLEND; *words NULL when no material is (the frame's array
+ * is uploaded as it is).
+ */
+#define TRIANGLE_ALPHA_TESTED 0x80000000u
+static pf_status triangle_material_words(const pf_scene_frame *frame, uint32_t **words,
+                                         pf_error *err)
+{
+    *words = NULL;
+    int any = 0;
+    for (uint32_t m = 0; m < frame->material_count; m++)
+        any |= frame->materials[m].alpha_mode != PF_ALPHA_OPAQUE;
+    if (!any)
+        return PF_OK;
+    if (frame->material_count >= TRIANGLE_ALPHA_TESTED)
+        return pf_error_set(err, PF_ERR_LIMIT, "%u materials: too many", frame->material_count);
+    *words = malloc((size_t)frame->triangle_count * sizeof **words + 1);
+    if (!*words)
+        return pf_error_set(err, PF_ERR_NOMEM, "triangle materials: out of memory");
+    for (uint32_t t = 0; t < frame->triangle_count; t++) {
+        uint32_t m = frame->triangle_material[t];
+        (*words)[t] = m | (frame->materials[m].alpha_mode != PF_ALPHA_OPAQUE
+                               ? TRIANGLE_ALPHA_TESTED
+                               : 0u);
+    }
+    return PF_OK;
+}
+
+/* The materials with PF_MATERIAL_CORNERS set where the frame has per-corner attributes. */
+static pf_status upload_materials(pf_vk_context *ctx, const pf_scene_frame *frame,
+                                  pf_gpu_scene *out, pf_error *err)
+{
+    pf_material *materials = malloc((frame->material_count + 1u) * sizeof *materials);
+    if (!materials)
+        return pf_error_set(err, PF_ERR_NOMEM, "materials: out of memory");
+    for (uint32_t m = 0; m < frame->material_count; m++) {
+        materials[m] = frame->materials[m];
+        materials[m].flags &= ~PF_MATERIAL_CORNERS;
+        if (frame->corners)
+            materials[m].flags |= PF_MATERIAL_CORNERS;
+    }
+    pf_status status = pf_render_buffer_with_data(ctx, "materials", materials,
+                                                  frame->material_count * sizeof(pf_material),
+                                                  sizeof(pf_material), &out->materials, err);
+    free(materials);
+    return status;
 }
 
 pf_status pf_gpu_scene_upload(pf_vk_context *ctx, const pf_scene_frame *frame, int full,
@@ -156,16 +227,18 @@ pf_status pf_gpu_scene_upload(pf_vk_context *ctx, const pf_scene_frame *frame, i
     }
     pf_emissive_entry *table = NULL;
     double weight_total = 0.0;
+    uint32_t *material_words = NULL;
     status = pf_render_buffer_with_data(ctx, "triangle normals", frame->normals, vertex_bytes,
                                         3 * sizeof(float[4]), &out->normals, err);
     if (status == PF_OK)
-        status = pf_render_buffer_with_data(ctx, "triangle materials", frame->triangle_material,
-                                            triangles * sizeof(uint32_t), sizeof(uint32_t),
-                                            &out->triangle_material, err);
+        status = triangle_material_words(frame, &material_words, err);
     if (status == PF_OK)
-        status = pf_render_buffer_with_data(ctx, "materials", frame->materials,
-                                            frame->material_count * sizeof(pf_material),
-                                            sizeof(pf_material), &out->materials, err);
+        status = pf_render_buffer_with_data(
+            ctx, "triangle materials", material_words ? material_words : frame->triangle_material,
+            triangles * sizeof(uint32_t), sizeof(uint32_t), &out->triangle_material, err);
+    free(material_words);
+    if (status == PF_OK)
+        status = upload_materials(ctx, frame, out, err);
     if (status == PF_OK)
         status = pf_render_buffer_with_data(ctx, "lights", frame->lights,
                                             frame->light_count * sizeof(pf_light),
@@ -177,6 +250,20 @@ pf_status pf_gpu_scene_upload(pf_vk_context *ctx, const pf_scene_frame *frame, i
                                             out->emissive_count * sizeof(pf_emissive_entry),
                                             sizeof(pf_emissive_entry), &out->emissive, err);
     free(table);
+    /* Without corners the buffer is one texel: scene_has_corners() reads that. */
+    if (status == PF_OK)
+        status = pf_render_buffer_with_data(
+            ctx, "triangle corners", frame->corners,
+            frame->corners ? triangles * 3 * PF_CORNER_TEXELS * sizeof(float[4]) : 0, 16,
+            &out->corners, err);
+    if (status == PF_OK)
+        status = pf_render_buffer_with_data(ctx, "textures", frame->textures,
+                                            frame->texture_count * sizeof(pf_texture_ref), 16,
+                                            &out->textures, err);
+    if (status == PF_OK)
+        status = pf_render_buffer_with_data(ctx, "texels", frame->texels,
+                                            frame->texel_count * sizeof(uint32_t), 16,
+                                            &out->texels, err);
     out->emissive_weight_total = (float)weight_total;
     if (status != PF_OK)
         pf_gpu_scene_release(ctx, out);

@@ -122,23 +122,34 @@ static pf_status load_buffer(gltf_context *ctx, uint32_t index, const cJSON *buf
         out->owned = 0;
         return PF_OK;
     }
+    size_t available = 0;
+    status = gltf_read_uri(ctx, uri, element, &out->data, &available, err);
+    if (status)
+        return status;
+    out->owned = 1;
+    if (available < out->size)
+        return gltf_fail(ctx, err, PF_ERR_FORMAT, element,
+                         "byteLength %zu but uri \"%s\" holds %zu bytes (truncated?)", out->size,
+                         uri->valuestring, available);
+    return PF_OK;
+}
+
+pf_status gltf_read_uri(gltf_context *ctx, const cJSON *uri, const char *element,
+                        unsigned char **data, size_t *size, pf_error *err)
+{
+    *data = NULL;
+    *size = 0;
     if (!cJSON_IsString(uri))
         return gltf_fail(ctx, err, PF_ERR_FORMAT, element, "uri: expected a string");
     const char *text = uri->valuestring;
-    size_t available = 0;
     if (strncmp(text, "data:", 5) == 0) {
         const char *marker = strstr(text, ";base64,");
         if (!marker)
             return gltf_fail(ctx, err, PF_ERR_UNSUPPORTED, element,
                              "data: URI without base64 encoding");
-        out->data = base64_decode(marker + strlen(";base64,"), &available);
-        if (!out->data)
+        *data = base64_decode(marker + strlen(";base64,"), size);
+        if (!*data)
             return gltf_fail(ctx, err, PF_ERR_FORMAT, element, "data: URI: invalid base64");
-        out->owned = 1;
-        if (available < out->size)
-            return gltf_fail(ctx, err, PF_ERR_FORMAT, element,
-                             "byteLength %zu but the data: URI decodes to %zu bytes", out->size,
-                             available);
         return PF_OK;
     }
     if (strstr(text, "://") || text[0] == '/')
@@ -155,25 +166,17 @@ static pf_status load_buffer(gltf_context *ctx, uint32_t index, const cJSON *buf
                          "symbolic links): refused (--allow-outside-scene-dir permits it)",
                          text);
     }
-    char *data;
-    status = scene_read_file(file_path, &data, &available, err);
+    char *bytes;
+    pf_status status = scene_read_file(file_path, &bytes, size, err);
+    free(file_path);
     if (status) {
         pf_error_prefix(err, "%s: %s", ctx->path, element);
-        free(file_path);
         return status;
     }
-    out->data = (unsigned char *)data;
-    out->owned = 1;
-    if (available < out->size) {
-        status = gltf_fail(ctx, err, PF_ERR_FORMAT, element,
-                           "byteLength %zu but %s has %zu bytes (truncated?)", out->size,
-                           file_path, available);
-        free(file_path);
-        return status;
-    }
-    free(file_path);
+    *data = (unsigned char *)bytes;
     return PF_OK;
 }
+
 
 pf_status gltf_load_buffers(gltf_context *ctx, pf_error *err)
 {
@@ -524,5 +527,30 @@ pf_status gltf_read_indices(gltf_context *ctx, int32_t index, uint32_t **out, ui
         indices[k] = (uint32_t)values[k];
     free(values);
     *out = indices;
+    return PF_OK;
+}
+
+pf_status gltf_view_bytes(gltf_context *ctx, int32_t view_index, const char *element,
+                          const unsigned char **data, size_t *size, pf_error *err)
+{
+    const cJSON *views = cJSON_GetObjectItemCaseSensitive(ctx->root, "bufferViews");
+    const cJSON *view = cJSON_GetArrayItem(views, view_index);
+    if (!cJSON_IsObject(view))
+        return gltf_fail(ctx, err, PF_ERR_FORMAT, element, "bufferView %d: expected an object",
+                         view_index);
+    double length;
+    pf_status status = gltf_number(ctx, view, "byteLength", -1, &length, element, err);
+    if (status)
+        return status;
+    if (!(length >= 1 && length == floor(length)))
+        return gltf_fail(ctx, err, PF_ERR_FORMAT, element,
+                         "bufferViews[%d].byteLength must be a positive integer", view_index);
+    strided_view strided;
+    status = resolve_view(ctx, view_index, 0, (uint32_t)1, (size_t)length, 0, &strided, element,
+                          err);
+    if (status)
+        return status;
+    *data = strided.base;
+    *size = (size_t)length;
     return PF_OK;
 }

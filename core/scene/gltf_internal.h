@@ -30,6 +30,11 @@ typedef struct gltf_context {
     gltf_buffer *buffers;
     uint32_t file_material_count; /* materials in the file; a default may follow */
     int32_t default_material;     /* index of the grey default, SCENE_NONE until needed */
+    /* Per images[i] and colour space (0 linear, 1 sRGB): its mip chain's first texel + 1 in
+     * scene->texels (0: not decoded yet), its size and levels (gltf_textures.c). */
+    uint32_t image_count;
+    uint64_t (*image_chain)[2];
+    uint32_t (*image_size)[3];
 } gltf_context;
 
 /* PF_ERR_FORMAT (or the given status) with "path: element: message". */
@@ -64,6 +69,21 @@ pf_status gltf_read_indices(gltf_context *ctx, int32_t index, uint32_t **out, ui
 /* Little-endian u32 at bytes (GLB headers). */
 uint32_t gltf_read_u32le(const unsigned char *bytes);
 
+/* The bytes a uri names (a data: URI or a file beside the scene, as for buffers); *data is
+ * malloc'ed. */
+pf_status gltf_read_uri(gltf_context *ctx, const cJSON *uri, const char *element,
+                        unsigned char **data, size_t *size, pf_error *err);
+/* The bytes of bufferViews[view_index], checked against its buffer; *data points into it. */
+pf_status gltf_view_bytes(gltf_context *ctx, int32_t view_index, const char *element,
+                          const unsigned char **data, size_t *size, pf_error *err);
+/*
+ * gltf_textures.c: a textureInfo (index, texCoord, KHR_texture_transform) to a material slot
+ * (1 + its pf_texture_ref's index; PF_NO_TEXTURE when info is NULL). The image is decoded and
+ * its mip chain built once per (image, srgb). Errors name the image, its index and element.
+ */
+pf_status gltf_texture_slot(gltf_context *ctx, const cJSON *info, int srgb, const char *element,
+                            uint32_t *slot, float *scale, pf_error *err);
+void gltf_textures_free(gltf_context *ctx);
 /* gltf_accessors.c: every entry of "buffers" into ctx->buffers, sizes checked. */
 pf_status gltf_load_buffers(gltf_context *ctx, pf_error *err);
 pf_status gltf_load_materials(gltf_context *ctx, pf_error *err);

@@ -359,11 +359,106 @@ static int32_t default_material(gltf_context *ctx)
     return ctx->default_material;
 }
 
+/* A primitive's optional per-vertex attributes (NULL where absent). */
+typedef struct vertex_attributes {
+    float *uv[2];
+    float *color;
+    uint32_t color_components; /* 3 or 4 */
+    float *tangent;
+} vertex_attributes;
+
+static void vertex_attributes_free(vertex_attributes *a)
+{
+    free(a->uv[0]);
+    free(a->uv[1]);
+    free(a->color);
+    free(a->tangent);
+}
+
+void scene_corner_defaults(float corner[SCENE_CORNER_FLOATS])
+{
+    memset(corner, 0, SCENE_CORNER_FLOATS * sizeof *corner);
+    for (int c = 4; c < 8; c++)
+        corner[c] = 1.0f;
+}
+
+/* Corner c of a triangle from vertex v's attributes. */
+static void fill_corner(const vertex_attributes *a, uint32_t v, float *corner)
+{
+    scene_corner_defaults(corner);
+    for (int set = 0; set < 2; set++)
+        if (a->uv[set])
+            memcpy(corner + 2 * set, a->uv[set] + 2 * (size_t)v, 2 * sizeof *corner);
+    if (a->color)
+        memcpy(corner + 4, a->color + (size_t)a->color_components * v,
+               a->color_components * sizeof *corner);
+    if (a->tangent)
+        memcpy(corner + 8, a->tangent + 4 * (size_t)v, 4 * sizeof *corner);
+}
+
+/* Reads the optional attributes a material's textures and COLOR_0 need. */
+static pf_status read_vertex_attributes(gltf_context *ctx, const cJSON *attributes,
+                                        uint32_t accessor_count, uint32_t vertex_count,
+                                        const char *element, vertex_attributes *out,
+                                        pf_error *err)
+{
+    static const char *const names[] = {"TEXCOORD_0", "TEXCOORD_1", "COLOR_0", "TANGENT"};
+    memset(out, 0, sizeof *out);
+    pf_status status = PF_OK;
+    for (int k = 0; k < 4 && !status; k++) {
+        int32_t index;
+        char sub[224];
+        snprintf(sub, sizeof sub, "%s.attributes.%s", element, names[k]);
+        status = gltf_index(ctx, attributes, names[k], accessor_count, &index, sub, err);
+        if (status || index == SCENE_NONE)
+            continue;
+        uint32_t components = k < 2 ? 2 : 4, count = 0;
+        if (k == 2) {
+            const cJSON *accessor = cJSON_GetArrayItem(
+                cJSON_GetObjectItemCaseSensitive(ctx->root, "accessors"), index);
+            const cJSON *type = cJSON_GetObjectItemCaseSensitive(accessor, "type");
+            components = cJSON_IsString(type) && strcmp(type->valuestring, "VEC3") == 0 ? 3 : 4;
+            out->color_components = components;
+        }
+        float *data = NULL;
+        status = gltf_read_floats(ctx, index, components, &data, &count, sub, err);
+        if (!status && count != vertex_count)
+            status = gltf_fail(ctx, err, PF_ERR_FORMAT, sub, "%u values for %u positions", count,
+                               vertex_count);
+        float **slot = k < 2 ? &out->uv[k] : k == 2 ? &out->color : &out->tangent;
+        *slot = data;
+    }
+    if (status)
+        vertex_attributes_free(out);
+    return status;
+}
+
 /* Appends the primitive's triangles (corner vertex indices in corners) to mesh. */
 static pf_status append_triangles(gltf_context *ctx, scene_mesh *mesh, const uint32_t *corners,
                                   uint32_t triangle_count, const float *positions,
-                                  const float *normals, uint32_t material, pf_error *err)
+                                  const float *normals, const vertex_attributes *attributes,
+                                  uint32_t material, pf_error *err)
 {
+    int has_attributes = attributes->uv[0] || attributes->uv[1] || attributes->color ||
+                         attributes->tangent;
+    if (has_attributes || mesh->corners) {
+        uint32_t before = mesh->corners ? mesh->triangle_count : 0;
+        float(*grown)[3 * SCENE_CORNER_FLOATS] =
+            realloc(mesh->corners,
+                    ((size_t)mesh->triangle_count + triangle_count) * sizeof *mesh->corners);
+        if (!grown)
+            return gltf_fail(ctx, err, PF_ERR_NOMEM, "meshes", "out of memory");
+        mesh->corners = grown;
+        mesh->has_color |= attributes->color != NULL;
+        /* Earlier primitives without attributes get the defaults. */
+        for (uint32_t t = before; t < mesh->triangle_count; t++)
+            for (int c = 0; c < 3; c++)
+                scene_corner_defaults(mesh->corners[t] + SCENE_CORNER_FLOATS * c);
+        for (uint32_t t = 0; t < triangle_count; t++)
+            for (int c = 0; c < 3; c++)
+                fill_corner(attributes, corners[3 * t + c],
+                            mesh->corners[mesh->triangle_count + t] + SCENE_CORNER_FLOATS * c);
+    }
     uint32_t total = mesh->triangle_count + triangle_count;
     float(*grown_positions)[9] = realloc(mesh->positions, (size_t)total * sizeof *mesh->positions);
     if (grown_positions)
@@ -476,6 +571,7 @@ static pf_status load_primitive(gltf_context *ctx, scene_mesh *mesh, const cJSON
         return gltf_fail(ctx, err, PF_ERR_FORMAT, attribute_element, "POSITION is missing");
 
     float *positions = NULL, *normals = NULL;
+    vertex_attributes extra = {{NULL, NULL}, NULL, 0, NULL};
     uint32_t *indices = NULL, *corners = NULL;
     uint32_t vertex_count = 0, normal_count = 0, index_count = 0, triangle_count = 0;
     char sub[192];
@@ -488,6 +584,9 @@ static pf_status load_primitive(gltf_context *ctx, scene_mesh *mesh, const cJSON
             status = gltf_fail(ctx, err, PF_ERR_FORMAT, sub, "%u normals for %u positions",
                                normal_count, vertex_count);
     }
+    if (!status)
+        status = read_vertex_attributes(ctx, attributes, accessor_count, vertex_count, element,
+                                        &extra, err);
     if (!status) {
         snprintf(sub, sizeof sub, "%s.indices", element);
         if (indices_index != SCENE_NONE) {
@@ -520,8 +619,9 @@ static pf_status load_primitive(gltf_context *ctx, scene_mesh *mesh, const cJSON
             status = gltf_fail(ctx, err, PF_ERR_NOMEM, element, "out of memory");
     }
     if (!status)
-        status = append_triangles(ctx, mesh, corners, triangle_count, positions, normals,
+        status = append_triangles(ctx, mesh, corners, triangle_count, positions, normals, &extra,
                                   (uint32_t)material, err);
+    vertex_attributes_free(&extra);
     free(positions);
     free(normals);
     free(indices);
@@ -954,6 +1054,7 @@ static void context_free(gltf_context *ctx)
         if (ctx->buffers[k].owned)
             free(ctx->buffers[k].data);
     free(ctx->buffers);
+    gltf_textures_free(ctx);
     cJSON_Delete(ctx->root);
     free(ctx->file_data);
 }

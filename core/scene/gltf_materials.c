@@ -11,8 +11,11 @@
  *   measures the distance travelled inside).
  * Emission = emissiveFactor x KHR_materials_emissive_strength.emissiveStrength,
  * from both faces when the material is doubleSided.
+ * Textures (gltf_textures.c): baseColor and emissive (sRGB) and
+ * metallicRoughness multiply their factors; alphaMode MASK (alphaCutoff, 0.5)
+ * and BLEND read baseColor's alpha. occlusionTexture is not read: a global
+ * illumination renderer computes the occlusion it approximates.
  * Factors outside the spec's ranges are format errors naming the field.
- * Textures are not sampled yet: the factors are used, with one warning.
  */
 #include "gltf_internal.h"
 
@@ -26,9 +29,6 @@
 /* The least attenuation colour taken: exp(-ln(1e-6)) keeps the coefficient finite. */
 #define VOLUME_COLOUR_MIN 1e-6
 
-static const char *const texture_keys[] = {"normalTexture", "occlusionTexture",
-                                           "emissiveTexture"};
-static const char *const pbr_texture_keys[] = {"baseColorTexture", "metallicRoughnessTexture"};
 static const char *const known_material_extensions[] = {
     "KHR_materials_emissive_strength", "KHR_materials_transmission", "KHR_materials_ior",
     "KHR_materials_specular", "KHR_materials_volume"};
@@ -36,20 +36,11 @@ static const char *const known_material_extensions[] = {
 static void warn_unhandled(gltf_context *ctx, const cJSON *material, const cJSON *pbr,
                            const char *element)
 {
-    int textured = 0;
-    for (size_t k = 0; k < sizeof texture_keys / sizeof *texture_keys; k++)
-        textured |= cJSON_GetObjectItemCaseSensitive(material, texture_keys[k]) != NULL;
-    for (size_t k = 0; k < sizeof pbr_texture_keys / sizeof *pbr_texture_keys; k++)
-        textured |= cJSON_GetObjectItemCaseSensitive(pbr, pbr_texture_keys[k]) != NULL;
-    if (textured)
-        scene_warn_once(ctx->scene, "textures",
-                        "%s: %s: textures are not supported: using the material factors",
+    (void)pbr;
+    if (cJSON_GetObjectItemCaseSensitive(material, "normalTexture"))
+        scene_warn_once(ctx->scene, "normalTexture",
+                        "%s: %s: normal maps are not supported yet: the mesh's normals are used",
                         ctx->path, element);
-    const cJSON *alpha_mode = cJSON_GetObjectItemCaseSensitive(material, "alphaMode");
-    if (cJSON_IsString(alpha_mode) && strcmp(alpha_mode->valuestring, "OPAQUE") != 0)
-        scene_warn_once(ctx->scene, "alphaMode",
-                        "%s: %s: alphaMode %s is not supported: rendered opaque", ctx->path,
-                        element, alpha_mode->valuestring);
     const cJSON *extensions = cJSON_GetObjectItemCaseSensitive(material, "extensions");
     const cJSON *extension;
     cJSON_ArrayForEach(extension, extensions)
@@ -66,6 +57,60 @@ static void warn_unhandled(gltf_context *ctx, const cJSON *material, const cJSON
                             "ignored", ctx->path, element, extension->string);
         }
     }
+}
+
+/* alphaMode and alphaCutoff; the alpha itself is baseColorFactor's (and its texture's). */
+static pf_status load_alpha(gltf_context *ctx, const cJSON *material, const char *element,
+                            pf_material *out, pf_error *err)
+{
+    const cJSON *mode = cJSON_GetObjectItemCaseSensitive(material, "alphaMode");
+    out->alpha_mode = PF_ALPHA_OPAQUE;
+    if (mode && !cJSON_IsString(mode))
+        return gltf_fail(ctx, err, PF_ERR_FORMAT, element, "alphaMode must be a string");
+    if (mode && strcmp(mode->valuestring, "MASK") == 0)
+        out->alpha_mode = PF_ALPHA_MASK;
+    else if (mode && strcmp(mode->valuestring, "BLEND") == 0)
+        out->alpha_mode = PF_ALPHA_BLEND;
+    else if (mode && strcmp(mode->valuestring, "OPAQUE") != 0)
+        return gltf_fail(ctx, err, PF_ERR_FORMAT, element,
+                         "alphaMode \"%s\" is not OPAQUE, MASK or BLEND", mode->valuestring);
+    double cutoff;
+    pf_status status = gltf_number(ctx, material, "alphaCutoff", 0.5, &cutoff, element, err);
+    if (status)
+        return status;
+    if (!(cutoff >= 0))
+        return gltf_fail(ctx, err, PF_ERR_FORMAT, element, "alphaCutoff %g must be >= 0",
+                         cutoff);
+    out->alpha_cutoff = (float)cutoff;
+    if (out->alpha_mode != PF_ALPHA_OPAQUE)
+        ctx->scene->info.has_alpha = 1;
+    return PF_OK;
+}
+
+/* The textured slots: baseColor and emissive in sRGB, metallicRoughness and normal linear. */
+static pf_status load_texture_slots(gltf_context *ctx, const cJSON *material, const cJSON *pbr,
+                                    const char *element, pf_material *out, pf_error *err)
+{
+    char slot_element[192];
+    snprintf(slot_element, sizeof slot_element, "%s.pbrMetallicRoughness.baseColorTexture",
+             element);
+    pf_status status = gltf_texture_slot(
+        ctx, cJSON_GetObjectItemCaseSensitive(pbr, "baseColorTexture"), 1, slot_element,
+        &out->base_color_texture, NULL, err);
+    if (!status) {
+        snprintf(slot_element, sizeof slot_element,
+                 "%s.pbrMetallicRoughness.metallicRoughnessTexture", element);
+        status = gltf_texture_slot(
+            ctx, cJSON_GetObjectItemCaseSensitive(pbr, "metallicRoughnessTexture"), 0,
+            slot_element, &out->metallic_roughness_texture, NULL, err);
+    }
+    if (!status) {
+        snprintf(slot_element, sizeof slot_element, "%s.emissiveTexture", element);
+        status = gltf_texture_slot(ctx, cJSON_GetObjectItemCaseSensitive(material,
+                                                                         "emissiveTexture"),
+                                   1, slot_element, &out->emissive_texture, NULL, err);
+    }
+    return status;
 }
 
 static pf_status load_material(gltf_context *ctx, const cJSON *material, const char *element,
@@ -169,10 +214,21 @@ static pf_status load_material(gltf_context *ctx, const cJSON *material, const c
         return gltf_fail(ctx, err, PF_ERR_FORMAT, element,
                          "extensions.KHR_materials_specular.specularColorFactor must be "
                          "non-negative");
+    if (!(base_color[3] >= 0 && base_color[3] <= 1))
+        return gltf_fail(ctx, err, PF_ERR_FORMAT, element,
+                         "pbrMetallicRoughness.baseColorFactor alpha %g is outside [0, 1]",
+                         base_color[3]);
     warn_unhandled(ctx, material, pbr, element);
 
     memset(out, 0, sizeof *out);
+    status = load_alpha(ctx, material, element, out, err);
+    if (!status)
+        status = load_texture_slots(ctx, material, pbr, element, out, err);
+    if (status)
+        return status;
     memcpy(out->albedo, base_color, sizeof out->albedo);
+    out->alpha = base_color[3];
+    out->normal_scale = 1.0f;
     for (int c = 0; c < 3; c++)
         out->emission[c] = emissive[c] * (float)strength;
     /* KHR_materials_ior: 0 is the legacy "unknown" value: the default. */

@@ -52,7 +52,18 @@ typedef enum pf_material_kind {
  */
 #define PF_MATERIAL_DELTA_ROUGHNESS 0.02f
 
-/* std430-compatible (80 bytes): uploaded as-is (scene_types.glsl Material). */
+/* A material slot without a texture: 0, so that a zeroed material has none (a slot holds
+ * its texture's index + 1). */
+#define PF_NO_TEXTURE 0u
+
+/* glTF material.alphaMode. */
+typedef enum pf_alpha_mode {
+    PF_ALPHA_OPAQUE = 0,
+    PF_ALPHA_MASK = 1, /* a hit counts where alpha >= alpha_cutoff */
+    PF_ALPHA_BLEND = 2 /* a hit counts with probability alpha (stochastic transparency) */
+} pf_alpha_mode;
+
+/* std430-compatible (112 bytes): uploaded as-is (scene_types.glsl Material). */
 typedef struct pf_material {
     float albedo[3];         /* glTF baseColor, linear: diffuse colour, metal F0, glass tint */
     uint32_t kind;           /* pf_material_kind, set by pf_material_classify */
@@ -68,12 +79,63 @@ typedef struct pf_material {
     float absorption[3];     /* KHR_materials_volume: Beer-Lambert coefficient inside the
                               * closed mesh, 1/m (-ln(attenuationColor)/attenuationDistance);
                               * 0: clear, or thin-walled (thicknessFactor 0) */
+    float alpha;             /* baseColorFactor's alpha (read only for MASK and BLEND) */
+    /* Texture slots: 1 + an index into pf_scene_frame.textures, PF_NO_TEXTURE (0) if none.
+     * baseColor and emissive multiply their factors (sRGB images); metallicRoughness's
+     * G scales roughness and B metallic; normal is tangent space, scaled by normal_scale. */
+    uint32_t base_color_texture;
+    uint32_t metallic_roughness_texture;
+    uint32_t normal_texture;
+    uint32_t emissive_texture;
+    uint32_t alpha_mode;     /* pf_alpha_mode */
+    float alpha_cutoff;      /* MASK: 0.5 unless the file says */
+    float normal_scale;      /* normalTexture.scale (1) */
     float padding;
 } pf_material;
 
 /* glTF material.doubleSided: its emission leaves both faces (Blender's exporter
  * writes it for every material whose backface culling is off, the default). */
 #define PF_MATERIAL_DOUBLE_SIDED 1u
+/* Set by the renderer's upload where the frame has per-corner attributes
+ * (pf_scene_frame.corners): the shaders read textures and COLOR_0 then. */
+#define PF_MATERIAL_CORNERS 2u
+
+/*
+ * One texture as a material slot reads it (std430, 48 bytes; scene_types.glsl
+ * TextureRef): the image's mip chain in the scene's texel array, the
+ * sampler, the texture-coordinate set and KHR_texture_transform.
+ * Texels are RGBA8 words (R in the low byte); an sRGB slot (baseColor,
+ * emissive) holds sRGB-encoded texels whose mip levels were averaged in linear
+ * light, and the shader decodes each texel before filtering.
+ * Level k (k < levels) is max(1, width >> k) × max(1, height >> k) texels,
+ * right after level k - 1.
+ */
+typedef struct pf_texture_ref {
+    uint32_t first_texel;  /* level 0's first texel */
+    uint32_t width, height;
+    uint32_t sampling;     /* PF_TEXTURE_* bits below */
+    float transform[6];    /* uv' = (t0 u + t1 v + t2, t3 u + t4 v + t5) */
+    uint32_t padding[2];
+} pf_texture_ref;
+
+/* pf_texture_ref.sampling: levels - 1 in bits 0..4, then the sampler and slot. */
+#define PF_TEXTURE_LEVELS_MASK 0x1Fu
+#define PF_TEXTURE_WRAP_S_SHIFT 5u /* 2 bits each: PF_TEXTURE_WRAP_* */
+#define PF_TEXTURE_WRAP_T_SHIFT 7u
+#define PF_TEXTURE_WRAP_REPEAT 0u
+#define PF_TEXTURE_WRAP_CLAMP 1u
+#define PF_TEXTURE_WRAP_MIRROR 2u
+#define PF_TEXTURE_MAG_NEAREST (1u << 9)
+#define PF_TEXTURE_MIN_NEAREST (1u << 10)
+#define PF_TEXTURE_NO_MIPS (1u << 11) /* minFilter NEAREST or LINEAR: level 0 only */
+#define PF_TEXTURE_SRGB (1u << 12)
+#define PF_TEXTURE_TEXCOORD_1 (1u << 13)
+
+/* The most texels (RGBA8 words, mip chains included) a scene's textures may take: 256 MiB. */
+#define PF_SCENE_TEXEL_BUDGET (64u << 20)
+/* The longest edge and the most pixels an image may have before it is decoded. */
+#define PF_IMAGE_MAX_EDGE 16384u
+#define PF_IMAGE_MAX_PIXELS (64u << 20)
 
 /* Sets material->kind from its parameters (see pf_material_kind). */
 void pf_material_classify(pf_material *material);
@@ -81,6 +143,25 @@ void pf_material_classify(pf_material *material);
 pf_material pf_material_lambert(float r, float g, float b); /* specular 0: diffuse only */
 pf_material pf_material_mirror(float r, float g, float b);  /* metal, roughness 0, F0 = rgb */
 pf_material pf_material_glass(float ior, float r, float g, float b); /* smooth, tinted */
+
+/*
+ * The scene's device bindings (set 0) in every kernel that reads surfaces:
+ * shaders/common/scene_binding_numbers.glsl names the same numbers, and a
+ * kernel numbers its own bindings from PF_SCENE_BINDING_COUNT on.
+ */
+typedef enum pf_scene_binding {
+    PF_SCENE_BINDING_PARAMS = 0,   /* the kernel's parameters */
+    PF_SCENE_BINDING_VERTICES,
+    PF_SCENE_BINDING_NORMALS,
+    PF_SCENE_BINDING_TRIANGLE_MATERIALS,
+    PF_SCENE_BINDING_MATERIALS,
+    PF_SCENE_BINDING_LIGHTS,
+    PF_SCENE_BINDING_EMISSIVE,     /* photon_trace: its emitters */
+    PF_SCENE_BINDING_CORNERS,      /* texture coordinates, colours, tangents */
+    PF_SCENE_BINDING_TEXTURES,     /* the texture table */
+    PF_SCENE_BINDING_TEXELS,       /* every texture's mip chain */
+    PF_SCENE_BINDING_COUNT
+} pf_scene_binding;
 
 typedef enum pf_light_kind {
     PF_LIGHT_POINT = 0,
@@ -116,10 +197,17 @@ typedef struct pf_camera {
  * Triangles are in a stable order across frames of one scene (node order, then
  * primitive order), so per-triangle data can be compared frame to frame.
  */
+/* Per-corner attributes: PF_CORNER_TEXELS RGBA32F texels a corner, 3 corners a triangle:
+ * (TEXCOORD_0.uv, TEXCOORD_1.uv), COLOR_0 (rgba, 1 where absent),
+ * tangent (world xyz, w = bitangent sign; 0 where absent). */
+#define PF_CORNER_TEXELS 3u
+
 typedef struct pf_scene_frame {
     uint32_t triangle_count;
     float (*vertices)[4];
     float (*normals)[4];          /* shading normals (geometric if the file has none) */
+    float (*corners)[4];          /* 3 × PF_CORNER_TEXELS per triangle; NULL when no material
+                                   * has a texture and no mesh has COLOR_0 */
     uint32_t *triangle_material;  /* index into materials */
     uint32_t *triangle_node;      /* index of the glTF node (or OBJ object) it came from */
     uint32_t material_count;
@@ -129,6 +217,11 @@ typedef struct pf_scene_frame {
     uint32_t emissive_triangle_count; /* triangles whose material emits */
     pf_camera camera;
     float bounds_min[3], bounds_max[3]; /* of all triangles; zero box if none */
+    /* The scene's textures (owned by the scene, the same in every frame of it). */
+    uint32_t texture_count;
+    const pf_texture_ref *textures;
+    uint64_t texel_count;
+    const uint32_t *texels;
 } pf_scene_frame;
 
 typedef struct pf_scene_info {
@@ -148,6 +241,11 @@ typedef struct pf_scene_info {
     int lights_animated;           /* some animated node carries a light */
     int camera_animated;
     int has_specular;              /* any mirror or glass material */
+    uint32_t texture_count;        /* material slots with a texture */
+    uint32_t image_count;          /* images decoded for them */
+    uint64_t texel_count;          /* their mip chains, RGBA8 texels */
+    double decode_ms;              /* decoding the images and building the mip chains */
+    int has_alpha;                 /* a material with alphaMode MASK or BLEND */
     int has_emissive;
 } pf_scene_info;
 

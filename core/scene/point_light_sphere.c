@@ -87,7 +87,9 @@ pf_status pf_scene_frame_point_light_to_sphere(pf_scene_frame *frame, uint32_t l
         !grow((void **)&frame->normals, 3 * total, sizeof *frame->normals) ||
         !grow((void **)&frame->triangle_material, total, sizeof *frame->triangle_material) ||
         !grow((void **)&frame->triangle_node, total, sizeof *frame->triangle_node) ||
-        !grow((void **)&frame->materials, frame->material_count + 1u, sizeof *frame->materials))
+        !grow((void **)&frame->materials, frame->material_count + 1u, sizeof *frame->materials) ||
+        (frame->corners &&
+         !grow((void **)&frame->corners, 3 * PF_CORNER_TEXELS * total, sizeof *frame->corners)))
         return pf_error_set(err, PF_ERR_NOMEM, "sphere light: out of memory for %zu triangles",
                             total);
     pf_light point = frame->lights[light];
@@ -115,6 +117,12 @@ pf_status pf_scene_frame_point_light_to_sphere(pf_scene_frame *frame, uint32_t l
     for (uint32_t i = frame->triangle_count; i < t; i++) {
         frame->triangle_material[i] = material;
         frame->triangle_node[i] = UINT32_MAX;
+        /* Untextured corners: uv 0, white, no tangent. */
+        for (uint32_t k = 0; frame->corners && k < 3 * PF_CORNER_TEXELS; k++) {
+            float *texel = frame->corners[3 * PF_CORNER_TEXELS * (size_t)i + k];
+            float value = k % PF_CORNER_TEXELS == 1 ? 1.0f : 0.0f;
+            texel[0] = texel[1] = texel[2] = texel[3] = value;
+        }
     }
     /* Power of an isotropic point light 4π·I = power of a Lambert emitter π·Le·A. */
     pf_material emitter = pf_material_lambert(0.0f, 0.0f, 0.0f);

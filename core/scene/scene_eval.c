@@ -125,6 +125,7 @@ void pf_scene_destroy(pf_scene *scene)
     for (uint32_t k = 0; k < scene->mesh_count; k++) {
         free(scene->meshes[k].positions);
         free(scene->meshes[k].normals);
+        free(scene->meshes[k].corners);
         free(scene->meshes[k].materials);
     }
     for (uint32_t k = 0; k < scene->channel_count; k++) {
@@ -137,6 +138,8 @@ void pf_scene_destroy(pf_scene *scene)
     free(scene->channels);
     free(scene->meshes);
     free(scene->materials);
+    free(scene->textures);
+    free(scene->texels);
     free(scene->cameras);
     free(scene->lights);
     free(scene->nodes);
@@ -229,6 +232,28 @@ static void camera_from_matrix(const float world[16], const scene_camera_def *de
     camera->zfar = def->zfar;
 }
 
+/* Triangle t's corners in world space (PF_CORNER_TEXELS texels each): the tangent turns
+ * with the node (a mirroring node flips the bitangent's sign with the winding). */
+static void flatten_corners(const scene_mesh *mesh, uint32_t t, const float world[16],
+                            float det, const int corner_order[3], float (*out)[4])
+{
+    for (int c = 0; c < 3; c++) {
+        float defaults[SCENE_CORNER_FLOATS];
+        scene_corner_defaults(defaults);
+        const float *corner = mesh->corners
+                                  ? mesh->corners[t] + SCENE_CORNER_FLOATS * corner_order[c]
+                                  : defaults;
+        float(*texels)[4] = out + PF_CORNER_TEXELS * c;
+        memcpy(texels[0], corner, 4 * sizeof(float));
+        memcpy(texels[1], corner + 4, 4 * sizeof(float));
+        scene_mat4_vector(world, corner + 8, texels[2]);
+        float length = scene_vec3_normalize(texels[2]);
+        if (!(length > 0.0f) || !isfinite(length))
+            memset(texels[2], 0, 3 * sizeof(float));
+        texels[2][3] = det < 0.0f ? -corner[11] : corner[11];
+    }
+}
+
 /* Fills the triangle arrays for every mesh node, in order. */
 static void flatten_triangles(const pf_scene *scene, const float (*world)[16],
                               pf_scene_frame *out)
@@ -277,6 +302,9 @@ static void flatten_triangles(const pf_scene *scene, const float (*world)[16],
             }
             out->triangle_material[next] = mesh->materials[t];
             out->triangle_node[next] = index;
+            if (out->corners)
+                flatten_corners(mesh, t, world[index], det, corner_order,
+                                out->corners + 3 * PF_CORNER_TEXELS * (size_t)next);
         }
     }
 }
@@ -302,8 +330,14 @@ pf_status pf_scene_eval(const pf_scene *scene, double time_seconds, pf_scene_fra
     out->materials = malloc(((size_t)scene->material_count + 1) * sizeof *out->materials);
     out->light_count = scene->info.light_count;
     out->lights = calloc((size_t)scene->info.light_count + 1, sizeof *out->lights);
+    if (scene->frame_corners)
+        out->corners = malloc(3 * PF_CORNER_TEXELS * triangles * sizeof *out->corners);
+    out->texture_count = scene->texture_count;
+    out->textures = scene->textures;
+    out->texel_count = scene->texel_count;
+    out->texels = scene->texels;
     if (!out->vertices || !out->normals || !out->triangle_material || !out->triangle_node ||
-        !out->materials || !out->lights) {
+        !out->materials || !out->lights || (scene->frame_corners && !out->corners)) {
         free(world);
         pf_scene_frame_free(out);
         return pf_error_set(err, PF_ERR_NOMEM, "%s: out of memory for %zu triangles",
@@ -352,6 +386,7 @@ void pf_scene_frame_free(pf_scene_frame *frame)
         return;
     free(frame->vertices);
     free(frame->normals);
+    free(frame->corners);
     free(frame->triangle_material);
     free(frame->triangle_node);
     free(frame->materials);
@@ -433,6 +468,11 @@ pf_status scene_finalize(pf_scene *scene, pf_error *err)
     for (uint32_t m = 0; m < scene->material_count; m++)
         if (material_used[m] && scene->materials[m].kind != PF_MATERIAL_LAMBERT)
             info->has_specular = 1;
+    scene->frame_corners = scene->texture_count > 0;
+    for (uint32_t m = 0; m < scene->mesh_count; m++)
+        scene->frame_corners |= scene->meshes[m].has_color;
+    info->texture_count = scene->texture_count;
+    info->texel_count = scene->texel_count;
     free(material_used);
     if (triangles == 0)
         return pf_error_set(err, PF_ERR_FORMAT, "%s: no triangles in the scene", scene->path);

@@ -18,14 +18,23 @@
  * the film convention that Blender's glTF exporter also assumes. */
 #define SCENE_DEFAULT_FPS 24.0
 
+/* A corner's attributes in the mesh: uv0 (2), uv1 (2), colour (4), tangent (4). */
+#define SCENE_CORNER_FLOATS 12
+
 /* Triangles of one mesh in its local space, 3 corners per triangle. */
 typedef struct scene_mesh {
     uint32_t triangle_count;
     float (*positions)[9];
     float (*normals)[9];
+    /* Per corner (3 a triangle): uv0, uv1, colour rgba, tangent xyzw, local space
+     * (PF_CORNER_TEXELS texels of pf_scene_frame.corners); NULL when the mesh has none. */
+    float (*corners)[3 * SCENE_CORNER_FLOATS];
     uint32_t *materials;
+    int has_color;           /* some primitive has COLOR_0 */
     uint32_t emissive_count; /* set by scene_finalize */
 } scene_mesh;
+/* Where a corner has no such attribute: uv 0, white, no tangent. */
+void scene_corner_defaults(float corner[SCENE_CORNER_FLOATS]);
 
 typedef struct scene_node {
     float translation[3];
@@ -88,6 +97,11 @@ struct pf_scene {
     scene_mesh *meshes;
     uint32_t material_count;
     pf_material *materials;
+    uint32_t texture_count;      /* material slots' textures (pf_texture_ref) */
+    pf_texture_ref *textures;
+    uint64_t texel_count;        /* every texture's mip chain, RGBA8 words */
+    uint32_t *texels;
+    int frame_corners;           /* frames carry corners: textures or COLOR_0 (scene_finalize) */
     uint32_t camera_def_count;
     scene_camera_def *cameras;
     uint32_t light_def_count;
@@ -107,6 +121,21 @@ struct pf_scene {
     char **warned;
 };
 
+/* image_decode.c: PNG, JPEG or WebP bytes (told apart by signature) to RGBA8 rows,
+ * *rgba malloc'ed. The header's size is checked against PF_IMAGE_MAX_EDGE and
+ * PF_IMAGE_MAX_PIXELS (PF_ERR_LIMIT) before decoding; corrupt or truncated data is
+ * PF_ERR_FORMAT with the decoder's reason. */
+pf_status scene_image_decode(const unsigned char *data, size_t size, uint32_t *width,
+                             uint32_t *height, uint8_t **rgba, pf_error *err);
+/* texture_mips.c: the mip chain of a width × height RGBA8 image (scene_mip_levels
+ * levels, scene_mip_chain_texels words at out), averaged in linear light; srgb: the
+ * RGB channels are sRGB-encoded. */
+float scene_srgb_to_linear(float c);
+float scene_linear_to_srgb(float c);
+uint32_t scene_mip_levels(uint32_t width, uint32_t height);
+uint64_t scene_mip_chain_texels(uint32_t width, uint32_t height, uint32_t levels);
+pf_status scene_mip_chain_build(const uint8_t *rgba, uint32_t width, uint32_t height,
+                                uint32_t levels, int srgb, uint32_t *out, pf_error *err);
 /* Loaders: fill scene (allocated, zeroed, path set) from the file. */
 pf_status scene_load_gltf(pf_scene *scene, int binary_hint, pf_error *err);
 pf_status scene_load_obj(pf_scene *scene, pf_error *err);

@@ -27,14 +27,41 @@ static pf_status check_desc(const pf_vk_context *ctx, const pf_vk_pipeline_desc 
     if (desc->spec_constant_count && !desc->spec_constants)
         return pf_error_set(err, PF_ERR_INVALID, "shader '%s': %u spec constants but no array",
                             name, desc->spec_constant_count);
+    return PF_OK;
+}
+
+/* The device's per-stage descriptor limits, checked once the module's binding kinds are known:
+ * storage buffers and uniform texel buffers (sampled images) count against separate limits. */
+static pf_status check_descriptor_limits(pf_vk_context *ctx, const char *name,
+                                         const uint8_t *kinds, uint32_t count, pf_error *err)
+{
     VkPhysicalDeviceProperties properties;
     vkGetPhysicalDeviceProperties(ctx->physical_device, &properties);
-    uint32_t max_buffers = properties.limits.maxPerStageDescriptorStorageBuffers;
-    if (desc->buffer_count > max_buffers)
+    uint32_t storage = 0, texel = 0;
+    for (uint32_t i = 0; i < count; i++) {
+        if (kinds[i] == PF_VK_BINDING_STORAGE)
+            storage++;
+        else
+            texel++;
+    }
+    const VkPhysicalDeviceLimits *limits = &properties.limits;
+    if (storage > limits->maxPerStageDescriptorStorageBuffers)
         return pf_error_set(err, PF_ERR_LIMIT,
                             "shader '%s': %u storage buffers exceed "
                             "maxPerStageDescriptorStorageBuffers %u of device '%s'",
-                            name, desc->buffer_count, max_buffers, ctx->info.name);
+                            name, storage, limits->maxPerStageDescriptorStorageBuffers,
+                            ctx->info.name);
+    if (texel > limits->maxPerStageDescriptorSampledImages)
+        return pf_error_set(err, PF_ERR_LIMIT,
+                            "shader '%s': %u texel buffers exceed "
+                            "maxPerStageDescriptorSampledImages %u of device '%s'",
+                            name, texel, limits->maxPerStageDescriptorSampledImages,
+                            ctx->info.name);
+    if (count > limits->maxPerStageResources)
+        return pf_error_set(err, PF_ERR_LIMIT,
+                            "shader '%s': %u bindings exceed maxPerStageResources %u of device "
+                            "'%s'",
+                            name, count, limits->maxPerStageResources, ctx->info.name);
     return PF_OK;
 }
 
@@ -71,6 +98,9 @@ pf_status pf_vk_pipeline_create(pf_vk_context *ctx, const pf_vk_pipeline_desc *d
                                              pipeline->binding_kinds, checked.buffer_count, err)
                  : pf_error_set(err, PF_ERR_NOMEM, "shader '%s': out of host memory",
                                 checked.name);
+    if (status == PF_OK)
+        status = check_descriptor_limits(ctx, checked.name, pipeline->binding_kinds,
+                                         checked.buffer_count, err);
     if (status != PF_OK) {
         pf_error_prefix(err, "shader '%s'", checked.name);
         pf_vk_pipeline_destroy(ctx, pipeline);

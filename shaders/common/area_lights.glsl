@@ -62,8 +62,13 @@ AreaLightSample emissive_sample(vec3 position, vec4 xi, uint count, float weight
         cos_light = abs(cos_light); // the receiver sees the back face, which emits too
     if (!(cos_light > 0.0))
         return s;
+    // The pick pdf weighs the untextured emission (the table's); the radiance is the
+    // emissive texture's at the point.
+    s.pdf_solid_angle = emissive_pdf_area(material.emission, weight_total) * distance2 / cos_light;
     s.radiance = material.emission;
-    s.pdf_solid_angle = emissive_pdf_area(s.radiance, weight_total) * distance2 / cos_light;
+    if (material.emissive_texture != NO_TEXTURE)
+        s.radiance = scene_material_textured(material, triangle, root * (1.0 - xi.w), root * xi.w,
+                                             0.0, 1.0, a, b, c).emission;
     return s;
 }
 

@@ -252,6 +252,11 @@ BihHit trace_bih(vec3 origin, vec3 direction, float tmin, float tmax, bool any_h
             uint original = texelFetch(bih_triangle_index, int(p)).x;
             // Equal t: the lower original index wins, as in the brute-force oracle.
             if (t < closest || (t == closest && hit.triangle != BIH_NO_HIT && original < hit.triangle)) {
+#ifdef PF_SCENE_TEXTURES_GLSL
+                // Where the scene's surfaces are bound: alpha-masked and blended triangles.
+                if (!scene_alpha_passes(original, u, v, origin, direction))
+                    continue;
+#endif
                 closest = t;
                 hit = BihHit(t, original, u, v);
                 if (any_hit)

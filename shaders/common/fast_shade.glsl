@@ -49,9 +49,9 @@ layout(push_constant) uniform Push {
 #include "photon_types.glsl"
 #include "photon_grid.glsl"
 
-layout(std430, set = 0, binding = 7) buffer Film { vec4 film[]; };
-layout(std430, set = 0, binding = 8) buffer FilmAov { vec4 film_aov[]; };
-layout(std430, set = 0, binding = 9) buffer Counters {
+layout(std430, set = 0, binding = PF_SCENE_BINDING_COUNT + 0) buffer Film { vec4 film[]; };
+layout(std430, set = 0, binding = PF_SCENE_BINDING_COUNT + 1) buffer FilmAov { vec4 film_aov[]; };
+layout(std430, set = 0, binding = PF_SCENE_BINDING_COUNT + 2) buffer Counters {
     uint discarded_samples; // non-finite or loop-truncated samples kept off the film
     uint traversal_failures;
     uint rays_low;
@@ -59,16 +59,16 @@ layout(std430, set = 0, binding = 9) buffer Counters {
     uint loop_truncated;
     uint lpv_outside;       // D₁ vertices no cascade held (no LPV light there)
 } counters;
-layout(set = 0, binding = 13) uniform samplerBuffer lpv_cell_texels;
-layout(set = 0, binding = 14) uniform samplerBuffer lpv_cascade_texels;
+layout(set = 0, binding = PF_SCENE_BINDING_COUNT + 6) uniform samplerBuffer lpv_cell_texels;
+layout(set = 0, binding = PF_SCENE_BINDING_COUNT + 7) uniform samplerBuffer lpv_cascade_texels;
 // The caustic map (photon_estimate.glsl: texel buffers).
-layout(set = 0, binding = 15) uniform isamplerBuffer grid_records;
-layout(set = 0, binding = 16) uniform isamplerBuffer grid_ranges;
-layout(set = 0, binding = 17) uniform samplerBuffer lpv_far_texels;
-layout(set = 0, binding = 18) uniform samplerBuffer lpv_geometry_texels;
-layout(set = 0, binding = 19) uniform usamplerBuffer grid_flux;
+layout(set = 0, binding = PF_SCENE_BINDING_COUNT + 8) uniform isamplerBuffer grid_records;
+layout(set = 0, binding = PF_SCENE_BINDING_COUNT + 9) uniform isamplerBuffer grid_ranges;
+layout(set = 0, binding = PF_SCENE_BINDING_COUNT + 10) uniform samplerBuffer lpv_far_texels;
+layout(set = 0, binding = PF_SCENE_BINDING_COUNT + 11) uniform samplerBuffer lpv_geometry_texels;
+layout(set = 0, binding = PF_SCENE_BINDING_COUNT + 12) uniform usamplerBuffer grid_flux;
 
-#define BIH_BINDING 10
+#define BIH_BINDING (PF_SCENE_BINDING_COUNT + 3)
 #include "scene_trace.glsl"
 #include "camera.glsl"
 #include "area_lights.glsl"

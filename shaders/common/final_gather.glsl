@@ -25,7 +25,7 @@ layout(local_size_x = 8, local_size_y = 8) in;
 #include "photon_grid.glsl"
 #include "final_shared.glsl"
 
-#define BIH_BINDING 10
+#define BIH_BINDING (PF_SCENE_BINDING_COUNT + 3)
 #include "scene_trace.glsl"
 #include "area_lights.glsl"
 #include "lights.glsl"
@@ -97,7 +97,7 @@ void gather_ray(uint pixel_index, uint gather_index, Material d1_material, vec3 
         Material material = surface.material;
         if (bounce == 0u && material_emits(material, surface.front)) {
             direct += path * material.emission *
-                      emission_mis_weight(material.emission, surface.face_normal, direction,
+                      emission_mis_weight(surface.pick_emission, surface.face_normal, direction,
                                           hit.t, gather_total * first.pdf);
         }
         vec3 wo_hit = -direction;

@@ -35,9 +35,9 @@ layout(push_constant) uniform Push {
     uint gather_retrace; // final_gather_estimate.comp: trace only the OVERFLOW_REQUEST rays
 } push;
 
-layout(std430, set = 0, binding = 7) buffer Film { vec4 film[]; };
-layout(std430, set = 0, binding = 8) buffer FilmAov { vec4 film_aov[]; };
-layout(std430, set = 0, binding = 9) buffer Counters {
+layout(std430, set = 0, binding = PF_SCENE_BINDING_COUNT + 0) buffer Film { vec4 film[]; };
+layout(std430, set = 0, binding = PF_SCENE_BINDING_COUNT + 1) buffer FilmAov { vec4 film_aov[]; };
+layout(std430, set = 0, binding = PF_SCENE_BINDING_COUNT + 2) buffer Counters {
     uint discarded_samples; // non-finite or loop-truncated samples kept off the film
     uint traversal_failures;
     uint rays_low;
@@ -46,46 +46,46 @@ layout(std430, set = 0, binding = 9) buffer Counters {
     uint gather_dropped;    // gather rays past GATHER_MAX_SPECULAR specular vertices
     uint fallback_requests; // estimates the gather deferred (those past the capacity ran at once)
 } counters;
-layout(std430, set = 0, binding = 13) buffer Vertices { vec4 vertices[]; };
-layout(std430, set = 0, binding = 14) buffer SampleSums { vec4 sample_sums[]; };
-// The bound map (photon_estimate.glsl: texel buffers; its flux at binding 22).
-layout(set = 0, binding = 15) uniform isamplerBuffer grid_records;
-layout(set = 0, binding = 16) uniform isamplerBuffer grid_ranges;
+layout(std430, set = 0, binding = PF_SCENE_BINDING_COUNT + 6) buffer Vertices { vec4 vertices[]; };
+layout(std430, set = 0, binding = PF_SCENE_BINDING_COUNT + 7) buffer SampleSums { vec4 sample_sums[]; };
+// The bound map (photon_estimate.glsl: texel buffers; its flux at grid_flux below).
+layout(set = 0, binding = PF_SCENE_BINDING_COUNT + 8) uniform isamplerBuffer grid_records;
+layout(set = 0, binding = PF_SCENE_BINDING_COUNT + 9) uniform isamplerBuffer grid_ranges;
 // Per pixel: the caustic radius chosen in the first pass (see caustic_radiance).
-layout(std430, set = 0, binding = 17) buffer CausticRadii { float caustic_radii[]; };
+layout(std430, set = 0, binding = PF_SCENE_BINDING_COUNT + 10) buffer CausticRadii { float caustic_radii[]; };
 // The global map's precomputed irradiance points (photon_estimate.glsl's
-// lookup; their flux at binding 23).
-layout(set = 0, binding = 18) uniform isamplerBuffer points_records;
-layout(set = 0, binding = 19) uniform isamplerBuffer points_ranges;
+// lookup; their flux at points_flux below).
+layout(set = 0, binding = PF_SCENE_BINDING_COUNT + 11) uniform isamplerBuffer points_records;
+layout(set = 0, binding = PF_SCENE_BINDING_COUNT + 12) uniform isamplerBuffer points_ranges;
 #define PHOTON_LOOKUP_RECORDS points_records
 #define PHOTON_LOOKUP_FLUX points_flux
 #define PHOTON_LOOKUP_RANGES points_ranges
 // Deferred estimates, 3 vec4 each: (position, 0), (geometric normal, 0),
 // (weight, 0) from the gather; (weight × irradiance, 1 if the estimate
 // stopped at the loop guard) after final_deferred.comp.
-layout(std430, set = 0, binding = 20) buffer FallbackRequests { vec4 fallback_requests[]; };
+layout(std430, set = 0, binding = PF_SCENE_BINDING_COUNT + 13) buffer FallbackRequests { vec4 fallback_requests[]; };
 // Per pixel: the request of each of the sample's gather rays, or NO_REQUEST.
-layout(std430, set = 0, binding = 21) buffer PixelFallbacks { uvec4 pixel_fallbacks[]; };
-layout(set = 0, binding = 22) uniform usamplerBuffer grid_flux;
-layout(set = 0, binding = 23) uniform usamplerBuffer points_flux;
+layout(std430, set = 0, binding = PF_SCENE_BINDING_COUNT + 14) buffer PixelFallbacks { uvec4 pixel_fallbacks[]; };
+layout(set = 0, binding = PF_SCENE_BINDING_COUNT + 15) uniform usamplerBuffer grid_flux;
+layout(set = 0, binding = PF_SCENE_BINDING_COUNT + 16) uniform usamplerBuffer points_flux;
 const uint NO_REQUEST = 0xFFFFFFFFu;
 // A gather ray whose request found fallback_requests full: its estimate is
 // left to final_gather_estimate.comp's retrace, before the resolve.
 const uint OVERFLOW_REQUEST = 0xFFFFFFFEu;
-// The same buffers as film (7), film_aov (8), vertices (13), sample_sums
-// (14), fallback_requests (20) and pixel_fallbacks (21), bound a second time
+// The same buffers as film, film_aov, vertices, sample_sums,
+// fallback_requests and pixel_fallbacks, bound a second time
 // as 16-byte texel views for the reads: llvmpipe loads a storage buffer lane
 // by lane in a branchy loop and a texel fetch is one vector gather
 // (bench/RESULTS.md). Signed-integer texels, read as bits, so that what a
 // float slot holds (a material index's bits, a flag, a NaN) comes back as
 // written. A kernel reads a texel only where an earlier dispatch wrote it,
 // or its own invocation before writing it.
-layout(set = 0, binding = 24) uniform isamplerBuffer film_texels;
-layout(set = 0, binding = 25) uniform isamplerBuffer film_aov_texels;
-layout(set = 0, binding = 26) uniform isamplerBuffer vertex_texels;
-layout(set = 0, binding = 27) uniform isamplerBuffer sample_sum_texels;
-layout(set = 0, binding = 28) uniform isamplerBuffer fallback_request_texels;
-layout(set = 0, binding = 29) uniform isamplerBuffer pixel_fallback_texels;
+layout(set = 0, binding = PF_SCENE_BINDING_COUNT + 17) uniform isamplerBuffer film_texels;
+layout(set = 0, binding = PF_SCENE_BINDING_COUNT + 18) uniform isamplerBuffer film_aov_texels;
+layout(set = 0, binding = PF_SCENE_BINDING_COUNT + 19) uniform isamplerBuffer vertex_texels;
+layout(set = 0, binding = PF_SCENE_BINDING_COUNT + 20) uniform isamplerBuffer sample_sum_texels;
+layout(set = 0, binding = PF_SCENE_BINDING_COUNT + 21) uniform isamplerBuffer fallback_request_texels;
+layout(set = 0, binding = PF_SCENE_BINDING_COUNT + 22) uniform isamplerBuffer pixel_fallback_texels;
 
 vec4 texel_vec4(isamplerBuffer texels, uint index)
 {

@@ -141,9 +141,6 @@ vec3 material_reflect(vec3 wo, vec3 shading_normal, vec3 geometric_normal)
     return dot(reflected, geometric_normal) > 0.0 ? reflected : reflect(-wo, geometric_normal);
 }
 
-// pf_scene.h PF_MATERIAL_DELTA_ROUGHNESS: at or below it the specular lobe is a mirror.
-const float DELTA_ROUGHNESS = 0.02;
-
 float material_max3(vec3 v)
 {
     return max(v.x, max(v.y, v.z));

@@ -1,24 +1,29 @@
-// The scene's triangles and materials (core/render/scene_upload.c's buffers
-// at bindings 1..4), read through uniform texel buffers: llvmpipe loads a
+// The scene's triangles, materials and textures (core/render/scene_upload.c's
+// buffers at the bindings scene_binding_numbers.glsl names), read through uniform texel buffers: llvmpipe loads a
 // storage-buffer word lane by lane in a branchy loop, a texel fetch is one
 // vector gather (bench/RESULTS.md, "The storage-buffer loads"), and a hit's
 // surface reads 27 words at addresses that differ from lane to lane. core/vk
 // views each buffer by the declared type (spirv_bindings.c).
-//   binding 1  scene_vertices           3 RGBA32F texels per triangle (xyz, w unused)
-//   binding 2  scene_normals            3 RGBA32F texels per triangle (shading normals)
-//   binding 3  scene_triangle_materials one word per triangle: its material
-//   binding 4  scene_materials          5 texels per material (pf_material, 80 bytes)
+//   scene_vertices           3 RGBA32F texels per triangle (xyz, w unused)
+//   scene_normals            3 RGBA32F texels per triangle (shading normals)
+//   scene_triangle_materials one word per triangle: its material
+//   scene_materials          7 texels per material (pf_material, 112 bytes)
+//   scene_corners            PF_CORNER_TEXELS texels per triangle corner (uv0, uv1;
+//                            colour; tangent), when the scene has textures or colours
+//   scene_textures           3 texels per TextureRef
+//   scene_texels             RGBA8 words: every texture's mip chain
 #ifndef PF_SCENE_GEOMETRY_GLSL
 #define PF_SCENE_GEOMETRY_GLSL
 
+#include "scene_binding_numbers.glsl"
 #include "scene_types.glsl"
 
-layout(set = 0, binding = 1) uniform samplerBuffer scene_vertices;
-layout(set = 0, binding = 2) uniform samplerBuffer scene_normals;
-layout(set = 0, binding = 3) uniform usamplerBuffer scene_triangle_materials;
+layout(set = 0, binding = PF_SCENE_BINDING_VERTICES) uniform samplerBuffer scene_vertices;
+layout(set = 0, binding = PF_SCENE_BINDING_NORMALS) uniform samplerBuffer scene_normals;
+layout(set = 0, binding = PF_SCENE_BINDING_TRIANGLE_MATERIALS) uniform usamplerBuffer scene_triangle_materials;
 // Signed RGBA32 texels, read as bits: a material's uint kind stays an integer
 // (as a float texel it would be a subnormal, which a device may flush).
-layout(set = 0, binding = 4) uniform isamplerBuffer scene_materials;
+layout(set = 0, binding = PF_SCENE_BINDING_MATERIALS) uniform isamplerBuffer scene_materials;
 
 // Vertex (or shading normal) k of 3 of triangle t is element 3t + k.
 vec3 scene_vertex(uint element)
@@ -31,22 +36,59 @@ vec3 scene_normal(uint element)
     return texelFetch(scene_normals, int(element)).xyz;
 }
 
+// A triangle's material word: the index, and TRIANGLE_ALPHA_TESTED where its material's
+// alphaMode is MASK or BLEND (scene_upload.c), so the traversal tests alpha only there.
+const uint TRIANGLE_ALPHA_TESTED = 0x80000000u;
+
 uint scene_triangle_material(uint triangle)
 {
-    return texelFetch(scene_triangle_materials, int(triangle)).x;
+    return texelFetch(scene_triangle_materials, int(triangle)).x & ~TRIANGLE_ALPHA_TESTED;
 }
 
 Material scene_material(uint index)
 {
-    int first = int(5u * index);
+    int first = int(7u * index);
     uvec4 t0 = uvec4(texelFetch(scene_materials, first));
     uvec4 t1 = uvec4(texelFetch(scene_materials, first + 1));
     vec4 t2 = uintBitsToFloat(uvec4(texelFetch(scene_materials, first + 2)));
     uvec4 t3 = uvec4(texelFetch(scene_materials, first + 3));
     vec4 t4 = uintBitsToFloat(uvec4(texelFetch(scene_materials, first + 4)));
+    uvec4 t5 = uvec4(texelFetch(scene_materials, first + 5));
+    uvec4 t6 = uvec4(texelFetch(scene_materials, first + 6));
     return Material(uintBitsToFloat(t0.xyz), t0.w, uintBitsToFloat(t1.xyz),
                     uintBitsToFloat(t1.w), t2.x, t2.y, t2.z, t2.w, uintBitsToFloat(t3.xyz), t3.w,
-                    t4.xyz, t4.w);
+                    t4.xyz, t4.w, t5.x, t5.y, t5.z, t5.w, t6.x, uintBitsToFloat(t6.y),
+                    uintBitsToFloat(t6.z));
+}
+
+#include "rng.glsl"            // pcg_hash
+#include "scene_textures.glsl" // the textures and corners; scene_material_textured
+
+// Whether a ray's hit on triangle at barycentrics (u, v) counts (bih_traverse.glsl asks for
+// each hit closer than the best so far): always, but for alphaMode MASK where the alpha
+// (baseColorFactor × COLOR_0 × baseColorTexture, level 0) is below alphaCutoff, and BLEND,
+// where it counts with probability alpha: stochastic transparency, decided by a hash of
+// the ray and the triangle, so camera, shadow, photon and gather rays all see the same
+// coverage on average (a masked leaf casts a leaf-shaped shadow).
+bool scene_alpha_passes(uint triangle, float u, float v, vec3 origin, vec3 direction)
+{
+    uint word = texelFetch(scene_triangle_materials, int(triangle)).x;
+    if ((word & TRIANGLE_ALPHA_TESTED) == 0u)
+        return true;
+    Material m = scene_material(word & ~TRIANGLE_ALPHA_TESTED);
+    float alpha = m.alpha;
+    if (scene_has_corners(m)) {
+        alpha *= scene_corner(triangle, 1u, u, v).a;
+        if (m.base_color_texture != NO_TEXTURE)
+            alpha *= scene_slot_sample(m.base_color_texture, triangle, u, v, 0.0, 1.0, vec3(0.0),
+                                       vec3(0.0), vec3(0.0)).a;
+    }
+    if (m.alpha_mode == ALPHA_MASK)
+        return alpha >= m.alpha_cutoff;
+    uvec3 o = floatBitsToUint(origin), d = floatBitsToUint(direction);
+    uint h = pcg_hash(triangle ^ pcg_hash(o.x ^ pcg_hash(o.y ^ pcg_hash(o.z ^ pcg_hash(
+                 d.x ^ pcg_hash(d.y ^ pcg_hash(d.z ^ floatBitsToUint(u))))))));
+    return float(h >> 8) * (1.0 / 16777216.0) < alpha;
 }
 
 #endif

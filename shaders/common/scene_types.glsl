@@ -10,6 +10,9 @@ const uint MATERIAL_GLASS = 2u;
 
 // pf_material.flags (pf_scene.h PF_MATERIAL_DOUBLE_SIDED): emits from both faces.
 const uint MATERIAL_DOUBLE_SIDED = 1u;
+// pf_material.flags (render_internal.h PF_MATERIAL_CORNERS): the frame has per-corner
+// attributes (scene_textures.glsl), set by the upload.
+const uint MATERIAL_CORNERS = 2u;
 
 const uint LIGHT_POINT = 0u;
 const uint LIGHT_SPOT = 1u;
@@ -17,7 +20,7 @@ const uint LIGHT_DIRECTIONAL = 2u;
 
 const uint NO_HIT = 0xFFFFFFFFu;
 
-// pf_material, 80 bytes (pf_scene.h: the glTF metallic-roughness parameters).
+// pf_material, 112 bytes (pf_scene.h: the glTF metallic-roughness parameters).
 struct Material {
     vec3 albedo;          // glTF baseColor: diffuse colour, metal F0, transmission tint
     uint kind;            // pf_material_kind: a summary of the parameters below
@@ -30,8 +33,56 @@ struct Material {
     vec3 specular_color;  // KHR_materials_specular colour
     uint flags;           // MATERIAL_DOUBLE_SIDED
     vec3 absorption;      // KHR_materials_volume: Beer-Lambert coefficient inside, 1/m
-    float padding;
+    float alpha;          // baseColorFactor's alpha (MASK, BLEND)
+    // Texture slots: 1 + the TextureRef's index, 0 (NO_TEXTURE) if none. surface_at has
+    // applied them: a Material a kernel shades with holds the values at the hit.
+    uint base_color_texture;
+    uint metallic_roughness_texture;
+    uint normal_texture;
+    uint emissive_texture;
+    uint alpha_mode;      // ALPHA_OPAQUE, ALPHA_MASK, ALPHA_BLEND
+    float alpha_cutoff;
+    float normal_scale;
 };
+
+// pf_scene.h PF_MATERIAL_DELTA_ROUGHNESS: at or below it the specular lobe is a mirror.
+const float DELTA_ROUGHNESS = 0.02;
+
+// pf_material_classify (core/scene/material.c), for a material its textures changed.
+uint material_kind_of(Material m)
+{
+    bool smooth_lobe = m.roughness <= DELTA_ROUGHNESS;
+    bool has_diffuse = m.metallic < 1.0 && m.transmission < 1.0;
+    if (has_diffuse || (!smooth_lobe && m.metallic > 0.0))
+        return MATERIAL_LAMBERT;
+    return m.metallic >= 1.0 ? MATERIAL_MIRROR : MATERIAL_GLASS;
+}
+
+const uint NO_TEXTURE = 0u;
+const uint ALPHA_OPAQUE = 0u;
+const uint ALPHA_MASK = 1u;
+const uint ALPHA_BLEND = 2u;
+
+// pf_texture_ref, 48 bytes: an image's mip chain in scene_texels and how a slot samples it.
+struct TextureRef {
+    uint first_texel;
+    uint width, height;
+    uint sampling;        // TEXTURE_* bits (pf_scene.h PF_TEXTURE_*)
+    vec3 transform_u;     // u' = dot(transform_u, (u, v, 1))
+    vec3 transform_v;
+};
+
+const uint TEXTURE_LEVELS_MASK = 0x1Fu;
+const uint TEXTURE_WRAP_S_SHIFT = 5u;
+const uint TEXTURE_WRAP_T_SHIFT = 7u;
+const uint TEXTURE_WRAP_REPEAT = 0u;
+const uint TEXTURE_WRAP_CLAMP = 1u;
+const uint TEXTURE_WRAP_MIRROR = 2u;
+const uint TEXTURE_MAG_NEAREST = 1u << 9;
+const uint TEXTURE_MIN_NEAREST = 1u << 10;
+const uint TEXTURE_NO_MIPS = 1u << 11;
+const uint TEXTURE_SRGB = 1u << 12;
+const uint TEXTURE_TEXCOORD_1 = 1u << 13;
 
 // pf_light, 64 bytes.
 struct Light {

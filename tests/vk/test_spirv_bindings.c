@@ -7,6 +7,7 @@
  * the dispatches bind: the VULKAN tests run with the validation layer).
  */
 #include "pf_test.h"
+#include "pf_scene.h"
 #include "pf_vk_internal.h"
 
 #include "pf_shaders.h"
@@ -40,8 +41,10 @@ PF_TEST(integrators_read_the_tree_and_photon_maps_through_texel_buffers)
      * integrator; a photon map adds 2 records views (its records, its ranges) and 1 uint (its
      * flux): fast's caustic map,
      * final's bound map and its irradiance points, and final's kernels 6 more records views
-     * of their per-pixel buffers (bindings 24..29). The scene's triangles and materials
-     * (bindings 1..4, scene_geometry.glsl) are texel buffers in all of them and counted apart.
+     * of their per-pixel buffers. Each kernel's own bindings follow the scene's
+     * (PF_SCENE_BINDING_COUNT of them). The scene's triangles, materials and textures
+     * (scene_geometry.glsl, scene_textures.glsl) are texel buffers in all of them and counted
+     * apart.
      * Float texels: the tree's vertices where there is a tree, and fast's four LPV arrays (cells,
      * cascades, far fields, geometry; lpv_lookup.glsl). */
     static const struct {
@@ -52,11 +55,12 @@ PF_TEST(integrators_read_the_tree_and_photon_maps_through_texel_buffers)
                        {"render_reference", 1, 1, 1}, {"final_deferred", 2, 10, 0},
                        {"final_caustic", 2, 10, 0},   {"final_resolve", 2, 10, 0},
                        {"final_gather_estimate", 3, 11, 1}, {"render_fast_caustic", 2, 3, 5}};
+    enum { S = PF_SCENE_BINDING_COUNT, ALL = PF_SCENE_BINDING_COUNT + 23 };
     for (size_t i = 0; i < sizeof integrators / sizeof *integrators; i++) {
-        uint8_t kinds[32];
-        kinds_of(integrators[i].name, kinds, 32);
+        uint8_t kinds[ALL];
+        kinds_of(integrators[i].name, kinds, ALL);
         uint32_t texel_uint = 0, texel_float = 0, texel_records = 0;
-        for (int b = 7; b < 32; b++) {
+        for (int b = S; b < ALL; b++) {
             texel_uint += kinds[b] == PF_VK_BINDING_TEXEL_UINT;
             texel_float += kinds[b] == PF_VK_BINDING_TEXEL_FLOAT;
             texel_records += kinds[b] == PF_VK_BINDING_TEXEL_INT4;
@@ -78,28 +82,39 @@ PF_TEST(integrators_read_the_tree_and_photon_maps_through_texel_buffers)
                      kinds[2], kinds[3], kinds[4]);
         PF_CHECK(kinds[0] == PF_VK_BINDING_STORAGE && kinds[5] == PF_VK_BINDING_STORAGE &&
                  kinds[6] == PF_VK_BINDING_STORAGE);
+        /* Corners as float texels, the texture table as records, the texels as words. */
+        PF_CHECK_MSG(kinds[PF_SCENE_BINDING_CORNERS] == PF_VK_BINDING_TEXEL_FLOAT &&
+                         kinds[PF_SCENE_BINDING_TEXTURES] == PF_VK_BINDING_TEXEL_INT4 &&
+                         kinds[PF_SCENE_BINDING_TEXELS] == PF_VK_BINDING_TEXEL_UINT,
+                     "%s: texture bindings of kinds %d %d %d", integrators[i].name,
+                     kinds[PF_SCENE_BINDING_CORNERS], kinds[PF_SCENE_BINDING_TEXTURES],
+                     kinds[PF_SCENE_BINDING_TEXELS]);
     }
-    uint8_t kinds[30];
-    kinds_of("render_final", kinds, 30);
-    PF_CHECK(kinds[10] == PF_VK_BINDING_TEXEL_INT4 && kinds[11] == PF_VK_BINDING_TEXEL_FLOAT &&
-             kinds[12] == PF_VK_BINDING_TEXEL_UINT); /* BIH_BINDING 10 */
-    /* Records and ranges of the map (15, 16) and the points (18, 19); their flux (22, 23). */
-    PF_CHECK(kinds[15] == PF_VK_BINDING_TEXEL_INT4 && kinds[16] == PF_VK_BINDING_TEXEL_INT4 &&
-             kinds[18] == PF_VK_BINDING_TEXEL_INT4 && kinds[19] == PF_VK_BINDING_TEXEL_INT4);
-    PF_CHECK(kinds[22] == PF_VK_BINDING_TEXEL_UINT && kinds[23] == PF_VK_BINDING_TEXEL_UINT);
-    PF_CHECK(kinds[7] == PF_VK_BINDING_STORAGE && kinds[13] == PF_VK_BINDING_STORAGE &&
-             kinds[20] == PF_VK_BINDING_STORAGE); /* film, vertices, deferred estimates */
-    for (int b = 24; b < 30; b++) /* the same buffers' texel views, for reading */
+    uint8_t kinds[ALL];
+    kinds_of("render_final", kinds, ALL);
+    PF_CHECK(kinds[S + 3] == PF_VK_BINDING_TEXEL_INT4 &&
+             kinds[S + 4] == PF_VK_BINDING_TEXEL_FLOAT &&
+             kinds[S + 5] == PF_VK_BINDING_TEXEL_UINT); /* BIH_BINDING */
+    /* Records and ranges of the map (S+8, S+9) and the points (S+11, S+12); their flux. */
+    PF_CHECK(kinds[S + 8] == PF_VK_BINDING_TEXEL_INT4 && kinds[S + 9] == PF_VK_BINDING_TEXEL_INT4 &&
+             kinds[S + 11] == PF_VK_BINDING_TEXEL_INT4 &&
+             kinds[S + 12] == PF_VK_BINDING_TEXEL_INT4);
+    PF_CHECK(kinds[S + 15] == PF_VK_BINDING_TEXEL_UINT && kinds[S + 16] == PF_VK_BINDING_TEXEL_UINT);
+    PF_CHECK(kinds[S] == PF_VK_BINDING_STORAGE && kinds[S + 6] == PF_VK_BINDING_STORAGE &&
+             kinds[S + 13] == PF_VK_BINDING_STORAGE); /* film, vertices, deferred estimates */
+    for (int b = S + 17; b < ALL; b++) /* the same buffers' texel views, for reading */
         PF_CHECK(kinds[b] == PF_VK_BINDING_TEXEL_INT4);
-    kinds_of("photon_trace", kinds, 20);
+    kinds_of("photon_trace", kinds, S + 6);
     PF_CHECK(kinds[1] == PF_VK_BINDING_TEXEL_FLOAT && kinds[4] == PF_VK_BINDING_TEXEL_INT4 &&
              kinds[6] == PF_VK_BINDING_STORAGE); /* scene_geometry.glsl; the emitters */
-    PF_CHECK(kinds[7] == PF_VK_BINDING_TEXEL_INT4 && kinds[8] == PF_VK_BINDING_TEXEL_FLOAT &&
-             kinds[9] == PF_VK_BINDING_TEXEL_UINT); /* BIH_BINDING 7 */
-    kinds_of("render_fast", kinds, 20);
-    PF_CHECK(kinds[13] == PF_VK_BINDING_TEXEL_FLOAT && kinds[14] == PF_VK_BINDING_TEXEL_FLOAT &&
-             kinds[17] == PF_VK_BINDING_TEXEL_FLOAT &&
-             kinds[18] == PF_VK_BINDING_TEXEL_FLOAT); /* LPV cells, cascades, far fields, geometry */
+    PF_CHECK(kinds[S] == PF_VK_BINDING_TEXEL_INT4 && kinds[S + 1] == PF_VK_BINDING_TEXEL_FLOAT &&
+             kinds[S + 2] == PF_VK_BINDING_TEXEL_UINT); /* BIH_BINDING */
+    kinds_of("render_fast", kinds, S + 13);
+    PF_CHECK(kinds[S + 6] == PF_VK_BINDING_TEXEL_FLOAT &&
+             kinds[S + 7] == PF_VK_BINDING_TEXEL_FLOAT &&
+             kinds[S + 10] == PF_VK_BINDING_TEXEL_FLOAT &&
+             kinds[S + 11] == PF_VK_BINDING_TEXEL_FLOAT); /* LPV cells, cascades, far fields,
+                                                           * geometry */
     /* The propagation reads its source, the geometry and (through second bindings of the
      * same buffers) the accumulation and the snapshot as texels, and writes storage. */
     kinds_of("lpv_propagate", kinds, 7);

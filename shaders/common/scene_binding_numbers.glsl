@@ -1,0 +1,21 @@
+// The scene's bindings (set 0), by name: every kernel that reads the scene
+// has them at these numbers and numbers its own bindings from
+// PF_SCENE_BINDING_COUNT on, so a new scene buffer renumbers no kernel.
+// core/scene/pf_scene.h's pf_scene_binding mirrors the numbers, and
+// pf_gpu_scene_bindings (core/render/scene_upload.c) fills them on the host.
+#ifndef PF_SCENE_BINDING_NUMBERS_GLSL
+#define PF_SCENE_BINDING_NUMBERS_GLSL
+
+#define PF_SCENE_BINDING_PARAMS 0             // the kernel's parameters
+#define PF_SCENE_BINDING_VERTICES 1
+#define PF_SCENE_BINDING_NORMALS 2
+#define PF_SCENE_BINDING_TRIANGLE_MATERIALS 3
+#define PF_SCENE_BINDING_MATERIALS 4
+#define PF_SCENE_BINDING_LIGHTS 5
+#define PF_SCENE_BINDING_EMISSIVE 6           // photon_trace: its emitters
+#define PF_SCENE_BINDING_CORNERS 7            // texture coordinates, colours, tangents
+#define PF_SCENE_BINDING_TEXTURES 8           // the texture table
+#define PF_SCENE_BINDING_TEXELS 9             // every texture's mip chain
+#define PF_SCENE_BINDING_COUNT 10
+
+#endif

@@ -1,0 +1,185 @@
+// The scene's textures and per-corner attributes, and the one place a
+// surface's material meets them (scene_material_at): baseColor × COLOR_0 ×
+// baseColorTexture, metallicRoughness's G (roughness) and B (metallic),
+// emissiveTexture, and the alpha that MASK and BLEND test in the traversal.
+//
+// Textures are texel buffers, not sampled images: an image array needs
+// descriptor indexing and one descriptor per texture, where one R32_UINT
+// view serves every texture of the scene, and lavapipe fetches a texel of
+// either at the same cost (a texel buffer is an image in llvmpipe). Filtering
+// is done here: bilinear within the level a ray cone picks (ray cones,
+// Akenine-Möller et al. 2019), nearest where the sampler asks, wrap modes as
+// glTF's samplers define them.
+//
+// The including file declares scene_triangle_materials and scene_materials
+// (scene_geometry.glsl) first.
+#ifndef PF_SCENE_TEXTURES_GLSL
+#define PF_SCENE_TEXTURES_GLSL
+
+#include "scene_binding_numbers.glsl"
+#include "scene_types.glsl"
+
+layout(set = 0, binding = PF_SCENE_BINDING_CORNERS) uniform samplerBuffer scene_corners;
+layout(set = 0, binding = PF_SCENE_BINDING_TEXTURES) uniform isamplerBuffer scene_textures;
+layout(set = 0, binding = PF_SCENE_BINDING_TEXELS) uniform usamplerBuffer scene_texels;
+
+const uint CORNER_TEXELS = 3u; // PF_CORNER_TEXELS
+
+// The frame has per-corner attributes (a texture or COLOR_0 somewhere): the upload marks
+// every material (MATERIAL_CORNERS); else scene_corners is a placeholder. A flag, not the
+// buffer's textureSize: a texel view may cover more than the bytes uploaded.
+bool scene_has_corners(Material m)
+{
+    return (m.flags & MATERIAL_CORNERS) != 0u;
+}
+
+TextureRef scene_texture(uint slot)
+{
+    int first = 3 * int(slot - 1u);
+    uvec4 t0 = uvec4(texelFetch(scene_textures, first));
+    vec4 t1 = intBitsToFloat(texelFetch(scene_textures, first + 1));
+    vec4 t2 = intBitsToFloat(texelFetch(scene_textures, first + 2));
+    return TextureRef(t0.x, t0.y, t0.z, t0.w, t1.xyz, vec3(t1.w, t2.xy));
+}
+
+float srgb_to_linear(float c)
+{
+    return c <= 0.04045 ? c / 12.92 : pow((c + 0.055) / 1.055, 2.4);
+}
+
+// A texel coordinate on one axis of n texels, wrapped by the sampler's mode.
+int texture_wrap(int x, int n, uint mode)
+{
+    if (mode == TEXTURE_WRAP_CLAMP)
+        return clamp(x, 0, n - 1);
+    if (mode == TEXTURE_WRAP_MIRROR) {
+        int period = 2 * n;
+        int m = ((x % period) + period) % period;
+        return m < n ? m : period - 1 - m;
+    }
+    return ((x % n) + n) % n;
+}
+
+// Texel xy of a level that starts at first and is w texels wide, in linear light.
+vec4 texture_texel(TextureRef ref, uint first, ivec2 size, ivec2 xy)
+{
+    int x = texture_wrap(xy.x, size.x, (ref.sampling >> TEXTURE_WRAP_S_SHIFT) & 3u);
+    int y = texture_wrap(xy.y, size.y, (ref.sampling >> TEXTURE_WRAP_T_SHIFT) & 3u);
+    vec4 c = unpackUnorm4x8(texelFetch(scene_texels, int(first) + y * size.x + x).x);
+    if ((ref.sampling & TEXTURE_SRGB) != 0u)
+        c.rgb = vec3(srgb_to_linear(c.r), srgb_to_linear(c.g), srgb_to_linear(c.b));
+    return c;
+}
+
+// The mip level for a footprint of lod (log2 texels of level 0 per footprint); the
+// nearest level, bounded by the chain.
+uint texture_level(TextureRef ref, float lod)
+{
+    uint last = ref.sampling & TEXTURE_LEVELS_MASK;
+    if ((ref.sampling & TEXTURE_NO_MIPS) != 0u || !(lod > 0.5))
+        return 0u;
+    return min(uint(lod + 0.5), last);
+}
+
+bool all_finite_vec2(vec2 v)
+{
+    return !any(isnan(v)) && !any(isinf(v));
+}
+
+// The texture at uv (before KHR_texture_transform), linear RGBA; lod as texture_level's.
+vec4 texture_sample(TextureRef ref, vec2 uv, float lod)
+{
+    vec2 st = vec2(dot(ref.transform_u, vec3(uv, 1.0)), dot(ref.transform_v, vec3(uv, 1.0)));
+    uint level = texture_level(ref, lod);
+    uint first = ref.first_texel;
+    ivec2 size = ivec2(ref.width, ref.height);
+    for (uint k = 0u; k < level; k++) {
+        first += uint(size.x * size.y);
+        size = max(size / 2, ivec2(1));
+    }
+    bool nearest = lod > 0.0 ? (ref.sampling & TEXTURE_MIN_NEAREST) != 0u
+                             : (ref.sampling & TEXTURE_MAG_NEAREST) != 0u;
+    // Non-finite coordinates (a broken UV) read texel 0 rather than an undefined index.
+    vec2 p = all_finite_vec2(st) ? st * vec2(size) : vec2(0.0);
+    // Wrapping happens per texel; a huge coordinate is wrapped first so its int is exact.
+    p = clamp(p, vec2(-1.0e7), vec2(1.0e7));
+    if (nearest)
+        return texture_texel(ref, first, size, ivec2(floor(p)));
+    p -= 0.5;
+    ivec2 i = ivec2(floor(p));
+    vec2 f = p - floor(p);
+    vec4 a = mix(texture_texel(ref, first, size, i), texture_texel(ref, first, size, i + ivec2(1, 0)),
+                 f.x);
+    vec4 b = mix(texture_texel(ref, first, size, i + ivec2(0, 1)),
+                 texture_texel(ref, first, size, i + ivec2(1, 1)), f.x);
+    return mix(a, b, f.y);
+}
+
+// Texel k (0 uvs, 1 colour, 2 tangent) of the corners of triangle, interpolated.
+vec4 scene_corner(uint triangle, uint k, float u, float v)
+{
+    int first = int(3u * CORNER_TEXELS * triangle + k);
+    return (1.0 - u - v) * texelFetch(scene_corners, first) +
+           u * texelFetch(scene_corners, first + int(CORNER_TEXELS)) +
+           v * texelFetch(scene_corners, first + int(2u * CORNER_TEXELS));
+}
+
+// log2 of the texels of a w × h texture per unit of cone width on triangle's surface,
+// 0.5·log2(texel area / world area) (Akenine-Möller et al. 2019, eq. 34), for set.
+float scene_texel_density(uint triangle, bool set1, vec3 p0, vec3 p1, vec3 p2, TextureRef ref)
+{
+    int first = int(3u * CORNER_TEXELS * triangle);
+    vec4 a = texelFetch(scene_corners, first);
+    vec4 b = texelFetch(scene_corners, first + int(CORNER_TEXELS));
+    vec4 c = texelFetch(scene_corners, first + int(2u * CORNER_TEXELS));
+    vec2 ta = set1 ? a.zw : a.xy, tb = set1 ? b.zw : b.xy, tc = set1 ? c.zw : c.xy;
+    vec2 e1 = tb - ta, e2 = tc - ta;
+    float texel_area = float(ref.width) * float(ref.height) * abs(e1.x * e2.y - e1.y * e2.x);
+    float world_area = length(cross(p1 - p0, p2 - p0));
+    return 0.5 * log2(max(texel_area, 1e-30) / max(world_area, 1e-30));
+}
+
+// One slot's value at barycentrics (u, v): lod from the cone's width at the hit over
+// |cos| of the arriving ray (cone_width 0: level 0).
+vec4 scene_slot_sample(uint slot, uint triangle, float u, float v, float cone_width,
+                       float cos_arrival, vec3 p0, vec3 p1, vec3 p2)
+{
+    TextureRef ref = scene_texture(slot);
+    bool set1 = (ref.sampling & TEXTURE_TEXCOORD_1) != 0u;
+    vec4 uvs = scene_corner(triangle, 0u, u, v);
+    float lod = -1.0;
+    if (cone_width > 0.0)
+        lod = scene_texel_density(triangle, set1, p0, p1, p2, ref) +
+              log2(cone_width / max(cos_arrival, 1e-4));
+    return texture_sample(ref, set1 ? uvs.zw : uvs.xy, lod);
+}
+
+// The material of triangle at barycentrics (u, v) with its textures and COLOR_0 applied.
+Material scene_material_textured(Material m, uint triangle, float u, float v, float cone_width,
+                                 float cos_arrival, vec3 p0, vec3 p1, vec3 p2)
+{
+    if (!scene_has_corners(m))
+        return m;
+    vec4 color = scene_corner(triangle, 1u, u, v);
+    m.albedo *= color.rgb;
+    m.alpha *= color.a;
+    if (m.base_color_texture != NO_TEXTURE) {
+        vec4 t = scene_slot_sample(m.base_color_texture, triangle, u, v, cone_width, cos_arrival,
+                                   p0, p1, p2);
+        m.albedo *= t.rgb;
+        m.alpha *= t.a;
+    }
+    if (m.metallic_roughness_texture != NO_TEXTURE) {
+        vec4 t = scene_slot_sample(m.metallic_roughness_texture, triangle, u, v, cone_width,
+                                   cos_arrival, p0, p1, p2);
+        m.roughness *= t.g;
+        m.metallic *= t.b;
+    }
+    if (m.emissive_texture != NO_TEXTURE)
+        m.emission *= scene_slot_sample(m.emissive_texture, triangle, u, v, cone_width,
+                                        cos_arrival, p0, p1, p2).rgb;
+    m.kind = material_kind_of(m);
+    return m;
+}
+
+#endif

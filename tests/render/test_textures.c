@@ -1,0 +1,205 @@
+/*
+ * Textures in the kernels (scene_textures.glsl, surface_at, the traversal's
+ * alpha test), on frames built here:
+ * - a plane with an sRGB checker baseColorTexture under a directional light:
+ *   the image's mean is mean(linear albedo)·E·cosθ/π, in preview and in the
+ *   reference (the view covers one whole period, so bilinear filtering keeps
+ *   the texels' mean);
+ * - an alpha-masked card (left half opaque, right half cut away) 0.5 m over
+ *   a white plane, lit straight down: the dark pixels are the opaque half
+ *   (its shadow lies hidden under it), 0.5 m² seen from 1.5 m, i.e.
+ *   0.5·(2/1.5)²/4 = 2/9 of the view, in every preset: camera rays see
+ *   through the cut-away half and shadow rays pass it (a card without its
+ *   mask would darken 4/9; shadow rays that ignored it, 2/9 + 1/8).
+ */
+#include "pf_test.h"
+#include "reference_test_util.h"
+#include "render_test_env.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+static pf_vk_context *ctx;
+static pf_renderer *renderer;
+
+#define EDGE 64u
+#define CHECKER 8u
+
+/* sRGB bytes of the checker's two squares. */
+#define DARK_SRGB 50u
+#define LIGHT_SRGB 200u
+
+static double srgb_to_linear(double c)
+{
+    return c <= 0.04045 ? c / 12.92 : pow((c + 0.055) / 1.055, 2.4);
+}
+
+/* The camera 2 m above the origin looking down, its view exactly [-1, 1]². */
+static void look_down(ref_scene *scene)
+{
+    const float eye[3] = {0, 0, 2}, target[3] = {0, 0, 0}, up[3] = {0, 1, 0};
+    ref_scene_look_at(scene, eye, target, up, (float)(2.0 * atan(0.5)));
+}
+
+/* Corners for every triangle: uv from the vertex's x, y (u = (x - x0)·su, v = (y0 - y)·sv per
+ * triangle range), white, no tangent. */
+static void set_corners(pf_scene_frame *frame, uint32_t first, uint32_t count, float x0,
+                        float y0, float su, float sv)
+{
+    for (uint32_t t = first; t < first + count; t++)
+        for (uint32_t c = 0; c < 3; c++) {
+            const float *p = frame->vertices[3 * t + c];
+            float(*texel)[4] = frame->corners + PF_CORNER_TEXELS * (3 * t + c);
+            texel[0][0] = (p[0] - x0) * su;
+            texel[0][1] = (y0 - p[1]) * sv;
+            texel[0][2] = texel[0][3] = 0.0f;
+            texel[1][0] = texel[1][1] = texel[1][2] = texel[1][3] = 1.0f;
+            memset(texel[2], 0, sizeof texel[2]);
+        }
+}
+
+static pf_status render(const pf_scene_frame *frame, pf_quality quality, pf_image *image)
+{
+    pf_render_settings settings = ref_settings(EDGE, EDGE, 16, 7, 0);
+    settings.quality = quality;
+    pf_frame_report report;
+    pf_error err = {0};
+    pf_status status = pf_render_frame(renderer, frame, &settings, image, &report, &err);
+    if (status != PF_OK)
+        PF_CHECK_MSG(0, "%s: %s", pf_quality_name(quality), err.message);
+    return status;
+}
+
+static double red_mean(const pf_image *image)
+{
+    double sum = 0.0;
+    for (uint32_t i = 0; i < image->width * image->height; i++)
+        sum += image->pixels[(size_t)i * image->channel_count];
+    return sum / (image->width * image->height);
+}
+
+PF_TEST(textured_plane_mean_is_mean_albedo_times_irradiance)
+{
+    ref_scene scene;
+    ref_scene_init(&scene);
+    pf_material white = pf_material_lambert(1, 1, 1);
+    white.base_color_texture = 1;
+    uint32_t plane = ref_scene_add_material(&scene, white);
+    const float centre[3] = {0, 0, 0}, half_u[3] = {2, 0, 0}, half_v[3] = {0, 2, 0};
+    ref_scene_add_quad(&scene, centre, half_u, half_v, plane);
+    const float e = 3.0f, cos_theta = 0.8f;
+    ref_scene_add_light(&scene, (pf_light){{0, 0, 0}, PF_LIGHT_DIRECTIONAL, {0.6f, 0, -0.8f}, 0,
+                                           {e, e, e}, 1, 1, {0, 0, 0}});
+    look_down(&scene);
+    pf_scene_frame *frame = &scene.frame;
+    /* uv over the plane [-2, 2]²: [0, 2]², two periods; the view [-1, 1]² is one. */
+    frame->corners = calloc(3 * PF_CORNER_TEXELS * frame->triangle_count, sizeof *frame->corners);
+    PF_REQUIRE(frame->corners != NULL);
+    set_corners(frame, 0, frame->triangle_count, -2.0f, 2.0f, 0.5f, 0.5f);
+    uint32_t texels[CHECKER * CHECKER];
+    for (uint32_t y = 0; y < CHECKER; y++)
+        for (uint32_t x = 0; x < CHECKER; x++) {
+            uint32_t v = (x + y) % 2 ? LIGHT_SRGB : DARK_SRGB;
+            texels[y * CHECKER + x] = v | v << 8 | v << 16 | 255u << 24;
+        }
+    /* Level 0 only (NO_MIPS): the kernels here sample the finest level anyway. */
+    pf_texture_ref ref = {0, CHECKER, CHECKER, PF_TEXTURE_SRGB | PF_TEXTURE_NO_MIPS,
+                          {1, 0, 0, 0, 1, 0}, {0, 0}};
+    frame->texture_count = 1;
+    frame->textures = &ref;
+    frame->texel_count = CHECKER * CHECKER;
+    frame->texels = texels;
+    double albedo = 0.5 * (srgb_to_linear(DARK_SRGB / 255.0) + srgb_to_linear(LIGHT_SRGB / 255.0));
+    double expected = albedo * e * cos_theta / M_PI;
+    const pf_quality qualities[] = {PF_QUALITY_PREVIEW, PF_QUALITY_REFERENCE};
+    for (size_t q = 0; q < 2; q++) {
+        pf_image image = {0};
+        if (render(frame, qualities[q], &image) != PF_OK)
+            continue;
+        double mean = red_mean(&image);
+        printf("  %s: textured plane mean %.5f, expected %.5f (%+.2f%%)\n",
+               pf_quality_name(qualities[q]), mean, expected, 100.0 * (mean / expected - 1.0));
+        PF_CHECK_MSG(fabs(mean / expected - 1.0) < 0.01, "%s: mean %g, expected %g",
+                     pf_quality_name(qualities[q]), mean, expected);
+        PF_CHECK(ref_image_non_finite(&image) == 0);
+        pf_image_free(&image);
+    }
+    free(frame->corners);
+    frame->corners = NULL;
+    frame->textures = NULL;
+    frame->texels = NULL;
+    ref_scene_free(&scene);
+}
+
+PF_TEST(alpha_masked_card_hides_and_shadows_only_its_opaque_half)
+{
+    ref_scene scene;
+    ref_scene_init(&scene);
+    uint32_t plane = ref_scene_add_material(&scene, pf_material_lambert(1, 1, 1));
+    pf_material card = pf_material_lambert(0, 0, 0);
+    card.base_color_texture = 1;
+    card.alpha = 1.0f;
+    card.alpha_mode = PF_ALPHA_MASK;
+    card.alpha_cutoff = 0.5f;
+    uint32_t card_material = ref_scene_add_material(&scene, card);
+    const float centre[3] = {0, 0, 0}, half_u[3] = {2, 0, 0}, half_v[3] = {0, 2, 0};
+    ref_scene_add_quad(&scene, centre, half_u, half_v, plane);
+    uint32_t card_first = scene.frame.triangle_count;
+    const float card_centre[3] = {0, 0, 0.5f}, card_u[3] = {0.5f, 0, 0},
+                card_v[3] = {0, 0.5f, 0};
+    ref_scene_add_quad(&scene, card_centre, card_u, card_v, card_material);
+    const float e = 3.0f;
+    ref_scene_add_light(&scene, (pf_light){{0, 0, 0}, PF_LIGHT_DIRECTIONAL, {0, 0, -1}, 0,
+                                           {e, e, e}, 1, 1, {0, 0, 0}});
+    look_down(&scene);
+    pf_scene_frame *frame = &scene.frame;
+    frame->corners = calloc(3 * PF_CORNER_TEXELS * frame->triangle_count, sizeof *frame->corners);
+    PF_REQUIRE(frame->corners != NULL);
+    set_corners(frame, 0, card_first, -2.0f, 2.0f, 0.25f, 0.25f);
+    set_corners(frame, card_first, frame->triangle_count - card_first, -0.5f, 0.5f, 1.0f, 1.0f);
+    /* 4×1: alpha 1, 1, 0, 0 from left to right; nearest, clamped. */
+    uint32_t texels[4] = {0xFF000000u, 0xFF000000u, 0x00000000u, 0x00000000u};
+    pf_texture_ref ref = {0, 4, 1,
+                          PF_TEXTURE_NO_MIPS | PF_TEXTURE_MAG_NEAREST | PF_TEXTURE_MIN_NEAREST |
+                              PF_TEXTURE_WRAP_CLAMP << PF_TEXTURE_WRAP_S_SHIFT |
+                              PF_TEXTURE_WRAP_CLAMP << PF_TEXTURE_WRAP_T_SHIFT,
+                          {1, 0, 0, 0, 1, 0}, {0, 0}};
+    frame->texture_count = 1;
+    frame->textures = &ref;
+    frame->texel_count = 4;
+    frame->texels = texels;
+    double lit = e / M_PI; /* a white plane under E straight down */
+    const pf_quality qualities[] = {PF_QUALITY_PREVIEW, PF_QUALITY_REFERENCE, PF_QUALITY_FAST,
+                                    PF_QUALITY_FINAL};
+    for (size_t q = 0; q < sizeof qualities / sizeof *qualities; q++) {
+        pf_image image = {0};
+        if (render(frame, qualities[q], &image) != PF_OK)
+            continue;
+        uint32_t dark = 0;
+        for (uint32_t i = 0; i < EDGE * EDGE; i++)
+            dark += image.pixels[(size_t)i * image.channel_count] < 0.5 * lit;
+        double fraction = (double)dark / (EDGE * EDGE);
+        printf("  %s: %.4f of the view dark (the opaque half: 2/9 = 0.2222)\n",
+               pf_quality_name(qualities[q]), fraction);
+        /* The half's edges cross ~3 × 21 pixels of 64²: 0.015 at most. */
+        PF_CHECK_MSG(fabs(fraction - 2.0 / 9.0) < 0.015, "%s: dark fraction %g",
+                     pf_quality_name(qualities[q]), fraction);
+        PF_CHECK(ref_image_non_finite(&image) == 0);
+        pf_image_free(&image);
+    }
+    free(frame->corners);
+    frame->corners = NULL;
+    frame->textures = NULL;
+    frame->texels = NULL;
+    ref_scene_free(&scene);
+}
+
+int main(void)
+{
+    if (!render_test_setup(&ctx, &renderer))
+        return 1;
+    PF_RUN(textured_plane_mean_is_mean_albedo_times_irradiance);
+    PF_RUN(alpha_masked_card_hides_and_shadows_only_its_opaque_half);
+    return render_test_finish(ctx, renderer);
+}
