@@ -70,9 +70,12 @@ void caustic(uint pixel_index)
     vec4 sample_indirect = texel_vec4(sample_sum_texels, sample_base + 1u);
     if (geometric.w == 0.0 || sample_indirect.w == 0.0)
         return;
-    Material material = scene_material(floatBitsToUint(texel_vec4(vertex_texels, base + 1u).w));
+    vec4 throughput = texel_vec4(vertex_texels, base + 3u);
+    Material material =
+        scene_material_at(floatBitsToUint(texel_vec4(vertex_texels, base + 1u).w), throughput.w,
+                          texel_vec4(vertex_texels, base + 4u).w);
     bool truncated = false;
-    vec3 light = texel_vec4(vertex_texels, base + 3u).xyz *
+    vec3 light = throughput.xyz *
                  caustic_radiance(material, d1.xyz, geometric.xyz, pixel_index, truncated);
     bool completed = loops_completed() && !truncated;
     if (!completed)

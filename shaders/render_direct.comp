@@ -64,6 +64,7 @@ struct Path {
     vec3 geometric_normal; // faces the incoming ray
     bool front;            // the ray arrived at the surface's front face
     vec3 medium;           // absorption of the medium the ray is in (medium_after_transmission)
+    float cone_distance;   // the camera ray's length so far (its cone's width: camera.glsl)
     Material surface;
 };
 
@@ -90,7 +91,11 @@ void path_follow_hit(inout Path path, BihHit hit, uint depth, float ray_offset, 
         return;
     }
     path.throughput *= medium_transmittance(path.medium, hit.t);
-    Surface surface = surface_at(hit, path.origin, path.direction);
+    // The camera's ray cone along the specular chain (camera.glsl).
+    path.cone_distance += hit.t;
+    Surface surface = surface_at_cone(
+        hit, path.origin, path.direction,
+        path.cone_distance * camera_cone_spread(params.camera_forward.w, params.height));
     if (!surface.valid) {
         path.tracing = false;
         path.poisoned = true; // a non-finite normal: the sample is discarded, not repaired
@@ -174,6 +179,7 @@ void main()
     path.geometric_normal = vec3(0.0, 0.0, 1.0);
     path.front = true;
     path.medium = vec3(0.0);
+    path.cone_distance = 0.0;
     path.surface = Material(vec3(0.0), MATERIAL_LAMBERT, vec3(0.0), 1.0, 0.0, 1.0, 0.0, 0.0,
                             vec3(1.0), 0u, vec3(0.0), 1.0, NO_TEXTURE, NO_TEXTURE, NO_TEXTURE,
                             NO_TEXTURE, ALPHA_OPAQUE, 0.5, 1.0);

@@ -68,10 +68,12 @@
 //
 // Records (one per pixel, rewritten by every sample):
 //   vertices[5p]      (D₁ position, gather from it: 0 no, 1 yes)
-//   vertices[5p + 1]  (shading normal, material index bits)
+//   vertices[5p + 1]  (shading normal, triangle index bits)
 //   vertices[5p + 2]  (geometric normal, D₁ found: 0 no, 1 yes)
-//   vertices[5p + 3]  (throughput up to D₁, 0)
-//   vertices[5p + 4]  (wo at D₁, 0)
+//   vertices[5p + 3]  (throughput up to D₁, barycentric u)
+//   vertices[5p + 4]  (wo at D₁, barycentric v)
+// (the triangle and barycentrics give the deferred passes D₁'s textured material:
+// scene_material_at)
 //   sample_sums[3p]   (direct, coverage), (indirect, kept 1/0), (caustic, 0)
 // Film (sums over samples, reference layout): film[3p..3p+2] as the
 // sample, film_aov[2p] (albedo, depth), film_aov[2p + 1] (normal, samples
@@ -123,13 +125,17 @@ void primary(uint pixel_index, uvec2 pixel)
         caustic_radii[pixel_index] = push.radius; // no first diffuse vertex yet: the pass radius
 
     vec3 medium = vec3(0.0); // absorption of the medium the ray travels in
+    // The camera's ray cone along its specular chain (camera.glsl).
+    float cone_spread = camera_cone_spread(params.camera_forward.w, params.height);
+    float cone_distance = 0.0;
     for (uint depth = 0u; depth <= params.max_specular_depth; depth++) {
         BihHit hit = trace(origin, direction, infinity, false);
         rays++;
         if (hit.triangle == NO_HIT)
             break;
         throughput *= medium_transmittance(medium, hit.t);
-        Surface surface = surface_at(hit, origin, direction);
+        cone_distance += hit.t;
+        Surface surface = surface_at_cone(hit, origin, direction, cone_distance * cone_spread);
         if (!surface.valid) {
             valid = false;
             break;
@@ -153,11 +159,10 @@ void primary(uint pixel_index, uvec2 pixel)
                                    surface.front, throughput, sampler_next_4d(samples),
                                    float(push.gather_total), rays);
             vertices[base] = vec4(surface.position, push.gather_total > 0u ? 1.0 : 0.0);
-            vertices[base + 1u] = vec4(surface.shading_normal,
-                                       uintBitsToFloat(scene_triangle_material(hit.triangle)));
+            vertices[base + 1u] = vec4(surface.shading_normal, uintBitsToFloat(hit.triangle));
             vertices[base + 2u] = vec4(surface.geometric_normal, 1.0); // w: D₁ found
-            vertices[base + 3u] = vec4(throughput, 0.0);
-            vertices[base + 4u] = vec4(wo, 0.0);
+            vertices[base + 3u] = vec4(throughput, hit.u);
+            vertices[base + 4u] = vec4(wo, hit.v);
             break;
         }
         BsdfSample scattered = bsdf_sample(material, wo, surface.shading_normal,

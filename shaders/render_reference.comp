@@ -131,6 +131,11 @@ void main()
     uint region = REGION_BEFORE_DIFFUSE;
     bool caustic_chain = false;
     bool previous_specular = true; // the camera: emission it sees is not light-sampled
+    // The camera's ray cone while the path has bounced only specularly (camera.glsl);
+    // after a rough bounce the textures are read at their finest level.
+    float cone_spread = camera_cone_spread(params.camera_forward.w, params.height);
+    float cone_distance = 0.0;
+    bool on_camera_cone = true;
     vec3 medium = vec3(0.0);       // absorption of the medium the ray is in (camera's: clear)
     float previous_pdf = 0.0;
     float coverage = 0.0, depth_aov = 0.0;
@@ -144,7 +149,9 @@ void main()
         if (hit.triangle == NO_HIT)
             break;
         throughput *= medium_transmittance(medium, hit.t);
-        Surface surface = surface_at(hit, origin, direction);
+        cone_distance += hit.t;
+        Surface surface = surface_at_cone(hit, origin, direction,
+                                          on_camera_cone ? cone_distance * cone_spread : 0.0);
         // A non-finite shading normal poisons the sample (discarded and
         // counted, never silently repaired).
         if (!surface.valid) {
@@ -215,6 +222,7 @@ void main()
         if (!any(greaterThan(throughput, vec3(0.0))))
             break;
         previous_specular = scattered.specular;
+        on_camera_cone = on_camera_cone && scattered.specular;
         previous_pdf = scattered.pdf;
         origin = position + (scattered.transmitted ? -ray_offset : ray_offset) * geometric_normal;
         direction = scattered.direction;

@@ -165,7 +165,7 @@ static pf_status preview_run(pf_frame_run *run, pf_stage_id stage, uint32_t pass
     uint64_t rays = 0, discarded = 0, failures = 0;
     double gpu_ms = -1.0;
 
-    status = film ? pf_gpu_scene_upload(ctx, frame, 1, &scene, err)
+    status = film ? pf_gpu_scene_upload(ctx, frame, 1, &renderer->textures, &scene, err)
                   : pf_error_set(err, PF_ERR_NOMEM, "film tile: out of memory");
     if (status != PF_OK) {
         free(film);

@@ -155,7 +155,7 @@ static pf_status shade(pf_renderer *renderer, const pf_scene_frame *frame,
     if (status != PF_OK)
         return status;
     pf_gpu_scene scene;
-    status = pf_gpu_scene_upload(ctx, frame, 1, &scene, err);
+    status = pf_gpu_scene_upload(ctx, frame, 1, &renderer->textures, &scene, err);
     if (status != PF_OK)
         return status;
     pf_frame_params params;

@@ -67,7 +67,8 @@ pf_status pf_photon_frame_prepare(pf_renderer *renderer, const pf_scene_frame *f
     if (status == PF_OK && !renderer->photon_tracer)
         status = pf_photon_tracer_create(renderer->ctx, &renderer->photon_tracer, err);
     if (status == PF_OK)
-        status = pf_gpu_scene_upload(renderer->ctx, frame, 1, &out->scene, err);
+        status = pf_gpu_scene_upload(renderer->ctx, frame, 1, &renderer->textures, &out->scene,
+                                     err);
     if (status != PF_OK)
         return status;
     out->photons = (pf_photon_scene){out->scene.vertices,  out->scene.normals,

@@ -52,7 +52,7 @@ pf_status pf_raycast_brute(pf_renderer *renderer, const pf_scene_frame *frame,
         return PF_OK;
     pf_vk_context *ctx = renderer->ctx;
     pf_gpu_scene scene;
-    pf_status status = pf_gpu_scene_upload(ctx, frame, 0, &scene, err);
+    pf_status status = pf_gpu_scene_upload(ctx, frame, 0, NULL, &scene, err);
     if (status != PF_OK)
         return status;
     uint32_t batch = ray_count < RAYCAST_BATCH_RAYS ? ray_count : RAYCAST_BATCH_RAYS;

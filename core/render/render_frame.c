@@ -83,13 +83,15 @@ static int per_pass(const pf_integrator *integrator, int stage)
  * pf_stage_id order as planned: the once-per-frame ones when the plan runs
  * them, then the per-pass ones (final's progressive passes) once per pass
  * unless the plan skips them; the time budget ends the passes after the
- * first. Rows: bih_build here, the rest at the integrator's end.
+ * first. Rows: textures and bih_build here, the rest at the integrator's end.
  */
 static pf_status run_stages(const pf_integrator *integrator, pf_frame_run *run, pf_error *err)
 {
     const pf_stage_plan *plan = run->plan;
-    pf_status status = pf_render_prepare_bih(run->renderer, run->frame,
-                                             &plan->stages[PF_STAGE_BIH_BUILD], run->report, err);
+    pf_status status = pf_render_prepare_textures(run->renderer, run->frame, run->report, err);
+    if (status == PF_OK)
+        status = pf_render_prepare_bih(run->renderer, run->frame,
+                                       &plan->stages[PF_STAGE_BIH_BUILD], run->report, err);
     if (status == PF_OK && integrator->begin)
         status = integrator->begin(run, err);
     if (status != PF_OK)

@@ -174,6 +174,16 @@ extern const pf_integrator pf_integrator_reference;
 extern const pf_integrator pf_integrator_fast;
 extern const pf_integrator pf_integrator_final;
 
+/*
+ * The scene's textures on the device, uploaded once per scene (pf_scene_frame.texture_set)
+ * and kept across frames and presets: the DESIGN's scene-lifetime cache.
+ */
+typedef struct pf_texture_cache {
+    uint64_t texture_set;   /* 0: empty */
+    pf_vk_buffer *textures; /* the texture table */
+    pf_vk_buffer *texels;   /* every mip chain */
+} pf_texture_cache;
+
 struct pf_renderer {
     pf_vk_context *ctx;
     struct pf_plan_cache plan;
@@ -198,6 +208,7 @@ struct pf_renderer {
     uint64_t bih_frames;
     pf_bih_gpu *bih_gpu;
     pf_bih_gpu_builder *bih_builder;
+    pf_texture_cache textures;
     /* The integrators' pipelines, each created at its first use (pf_renderer_pipeline). */
     pf_vk_pipeline *pipelines[PF_PIPELINE_COUNT];
     /* The final integrator's photon passes kept for reuse by the next frame (frame_final.c). */
@@ -279,6 +290,7 @@ typedef struct pf_gpu_scene {
     pf_vk_buffer *corners;           /* texture coordinates, colours, tangents per corner */
     pf_vk_buffer *textures;          /* the texture table */
     pf_vk_buffer *texels;            /* the textures' mip chains */
+    int textures_borrowed;           /* textures and texels are the renderer's texture cache's */
     uint32_t emissive_count;
     float emissive_weight_total;     /* pf_emissive_table_build's weight_total */
 } pf_gpu_scene;
@@ -329,6 +341,14 @@ pf_status pf_photon_frame_prepare(pf_renderer *renderer, const pf_scene_frame *f
 void pf_photon_frame_release(pf_vk_context *ctx, pf_photon_frame *photon_frame);
 
 /*
+ * The `textures` stage (before bih_build): uploads the frame's textures into the renderer's
+ * cache unless they are there already, and appends the row (skipped without textures;
+ * counters textures, megabytes, uploaded 0/1).
+ */
+pf_status pf_render_prepare_textures(pf_renderer *renderer, const pf_scene_frame *frame,
+                                     pf_frame_report *report, pf_error *err);
+
+/*
  * Fills bindings[0 .. PF_SCENE_BINDING_COUNT) with scene's buffers (params at
  * PF_SCENE_BINDING_PARAMS) and the kernel's own buffers after them, in order;
  * returns PF_SCENE_BINDING_COUNT + own_count.
@@ -337,9 +357,10 @@ uint32_t pf_gpu_scene_bindings(const pf_gpu_scene *scene, pf_vk_buffer *params,
                                pf_vk_buffer *const *own, uint32_t own_count,
                                pf_vk_buffer **bindings);
 
-/* Uploads only the vertex buffer (all the ray-casting oracle needs) when full is 0. */
+/* Uploads only the vertex buffer (all the ray-casting oracle needs) when full is 0. The
+ * textures come from cache when it holds the frame's (else they are uploaded for this use). */
 pf_status pf_gpu_scene_upload(pf_vk_context *ctx, const pf_scene_frame *frame, int full,
-                              pf_gpu_scene *out, pf_error *err);
+                              const pf_texture_cache *cache, pf_gpu_scene *out, pf_error *err);
 void pf_gpu_scene_release(pf_vk_context *ctx, pf_gpu_scene *scene);
 
 /*

@@ -155,6 +155,8 @@ void pf_renderer_destroy(pf_renderer *renderer)
     pf_fast_cache_destroy(renderer->ctx, renderer->fast_cache);
     pf_photon_tracer_destroy(renderer->photon_tracer);
     pf_bih_gpu_destroy(renderer->bih_gpu);
+    pf_render_buffer_release(renderer->ctx, &renderer->textures.textures);
+    pf_render_buffer_release(renderer->ctx, &renderer->textures.texels);
     pf_bih_gpu_builder_destroy(renderer->bih_builder);
     if (renderer->bih_valid)
         pf_bih_free(&renderer->bih);

@@ -133,8 +133,12 @@ void pf_gpu_scene_release(pf_vk_context *ctx, pf_gpu_scene *scene)
     pf_render_buffer_release(ctx, &scene->lights);
     pf_render_buffer_release(ctx, &scene->emissive);
     pf_render_buffer_release(ctx, &scene->corners);
-    pf_render_buffer_release(ctx, &scene->textures);
-    pf_render_buffer_release(ctx, &scene->texels);
+    if (!scene->textures_borrowed) {
+        pf_render_buffer_release(ctx, &scene->textures);
+        pf_render_buffer_release(ctx, &scene->texels);
+    }
+    scene->textures = scene->texels = NULL;
+    scene->textures_borrowed = 0;
     scene->emissive_count = 0;
 }
 
@@ -186,6 +190,58 @@ static pf_status triangle_material_words(const pf_scene_frame *frame, uint32_t *
     return PF_OK;
 }
 
+/* The frame's texture table and texels in two new buffers (16-byte placeholders if none). */
+static pf_status pf_texture_upload(pf_vk_context *ctx, const pf_scene_frame *frame,
+                                   pf_vk_buffer **textures, pf_vk_buffer **texels, pf_error *err)
+{
+    pf_status status = pf_render_buffer_with_data(ctx, "textures", frame->textures,
+                                                  frame->texture_count * sizeof(pf_texture_ref),
+                                                  16, textures, err);
+    if (status == PF_OK)
+        status = pf_render_buffer_with_data(ctx, "texels", frame->texels,
+                                            frame->texel_count * sizeof(uint32_t), 16, texels,
+                                            err);
+    if (status != PF_OK)
+        pf_render_buffer_release(ctx, textures);
+    return status;
+}
+
+pf_status pf_render_prepare_textures(pf_renderer *renderer, const pf_scene_frame *frame,
+                                     pf_frame_report *report, pf_error *err)
+{
+    double start = pf_time_ms();
+    pf_texture_cache *cache = &renderer->textures;
+    if (frame->texture_count == 0) {
+        pf_frame_report_row(report, "textures", "no textures", 0.0, -1.0);
+        return PF_OK;
+    }
+    double megabytes = (double)(frame->texel_count * sizeof(uint32_t) +
+                                frame->texture_count * sizeof(pf_texture_ref)) /
+                       (1024.0 * 1024.0);
+    int uploaded = 0;
+    if (frame->texture_set == 0 || cache->texture_set != frame->texture_set) {
+        pf_render_buffer_release(renderer->ctx, &cache->textures);
+        pf_render_buffer_release(renderer->ctx, &cache->texels);
+        cache->texture_set = 0;
+        pf_status status =
+            pf_texture_upload(renderer->ctx, frame, &cache->textures, &cache->texels, err);
+        if (status != PF_OK) {
+            pf_error_prefix(err, "textures (%u, %.1f MiB)", frame->texture_count, megabytes);
+            return status;
+        }
+        cache->texture_set = frame->texture_set;
+        uploaded = 1;
+    }
+    pf_stage_timing *row = pf_frame_report_row(
+        report, "textures",
+        uploaded ? NULL : "the scene's textures are on the device already → reused", pf_time_ms() - start,
+        -1.0);
+    pf_stage_add_counter(row, "textures", frame->texture_count);
+    pf_stage_add_counter(row, "megabytes", megabytes);
+    pf_stage_add_counter(row, "uploaded", uploaded);
+    return PF_OK;
+}
+
 /* The materials with PF_MATERIAL_CORNERS set where the frame has per-corner attributes. */
 static pf_status upload_materials(pf_vk_context *ctx, const pf_scene_frame *frame,
                                   pf_gpu_scene *out, pf_error *err)
@@ -207,7 +263,7 @@ static pf_status upload_materials(pf_vk_context *ctx, const pf_scene_frame *fram
 }
 
 pf_status pf_gpu_scene_upload(pf_vk_context *ctx, const pf_scene_frame *frame, int full,
-                              pf_gpu_scene *out, pf_error *err)
+                              const pf_texture_cache *cache, pf_gpu_scene *out, pf_error *err)
 {
     memset(out, 0, sizeof *out);
     uint64_t triangles = frame->triangle_count;
@@ -256,14 +312,14 @@ pf_status pf_gpu_scene_upload(pf_vk_context *ctx, const pf_scene_frame *frame, i
             ctx, "triangle corners", frame->corners,
             frame->corners ? triangles * 3 * PF_CORNER_TEXELS * sizeof(float[4]) : 0, 16,
             &out->corners, err);
-    if (status == PF_OK)
-        status = pf_render_buffer_with_data(ctx, "textures", frame->textures,
-                                            frame->texture_count * sizeof(pf_texture_ref), 16,
-                                            &out->textures, err);
-    if (status == PF_OK)
-        status = pf_render_buffer_with_data(ctx, "texels", frame->texels,
-                                            frame->texel_count * sizeof(uint32_t), 16,
-                                            &out->texels, err);
+    if (status == PF_OK && cache && frame->texture_set != 0 &&
+        cache->texture_set == frame->texture_set) {
+        out->textures = cache->textures;
+        out->texels = cache->texels;
+        out->textures_borrowed = 1;
+    } else if (status == PF_OK) {
+        status = pf_texture_upload(ctx, frame, &out->textures, &out->texels, err);
+    }
     out->emissive_weight_total = (float)weight_total;
     if (status != PF_OK)
         pf_gpu_scene_release(ctx, out);

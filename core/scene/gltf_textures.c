@@ -70,7 +70,7 @@ static pf_status sampler_bits(gltf_context *ctx, int32_t index, uint32_t *bits, 
     if (!cJSON_IsObject(sampler))
         return gltf_fail(ctx, err, PF_ERR_FORMAT, element, "expected an object");
     double mag, min;
-    uint32_t wrap_s, wrap_t;
+    uint32_t wrap_s = PF_TEXTURE_WRAP_REPEAT, wrap_t = PF_TEXTURE_WRAP_REPEAT;
     pf_status status = gltf_number(ctx, sampler, "magFilter", GL_LINEAR, &mag, element, err);
     if (!status)
         status = gltf_number(ctx, sampler, "minFilter", GL_LINEAR_MIPMAP_LINEAR, &min, element,
@@ -273,7 +273,7 @@ pf_status gltf_texture_slot(gltf_context *ctx, const cJSON *info, int srgb, cons
                         ctx->path, element, tex_coord);
         tex_coord = 0;
     }
-    uint32_t bits;
+    uint32_t bits = 0;
     status = sampler_bits(ctx, sampler, &bits, err);
     if (!status && !ctx->image_chain) {
         ctx->image_count = images;

@@ -217,7 +217,10 @@ typedef struct pf_scene_frame {
     uint32_t emissive_triangle_count; /* triangles whose material emits */
     pf_camera camera;
     float bounds_min[3], bounds_max[3]; /* of all triangles; zero box if none */
-    /* The scene's textures (owned by the scene, the same in every frame of it). */
+    /* The scene's textures (owned by the scene, the same in every frame of it).
+     * texture_set names them: frames with the same non-zero texture_set have the same
+     * textures (every pf_scene_load gets its own; 0: a frame built by hand, never cached). */
+    uint64_t texture_set;
     uint32_t texture_count;
     const pf_texture_ref *textures;
     uint64_t texel_count;

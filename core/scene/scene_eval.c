@@ -8,6 +8,7 @@
 
 #include <errno.h>
 #include <math.h>
+#include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -94,7 +95,10 @@ pf_status pf_scene_load_with(const char *path, const pf_scene_load_options *opti
         return pf_error_set(err, PF_ERR_UNSUPPORTED,
                             "%s: unknown scene file extension (expected .gltf, .glb or .obj)",
                             path);
+    static atomic_uint_fast64_t loads;
     pf_scene *scene = calloc(1, sizeof *scene);
+    if (scene)
+        scene->texture_set = atomic_fetch_add(&loads, 1) + 1;
     if (!scene)
         return pf_error_set(err, PF_ERR_NOMEM, "%s: out of memory", path);
     scene->path = strdup(path);
@@ -332,6 +336,7 @@ pf_status pf_scene_eval(const pf_scene *scene, double time_seconds, pf_scene_fra
     out->lights = calloc((size_t)scene->info.light_count + 1, sizeof *out->lights);
     if (scene->frame_corners)
         out->corners = malloc(3 * PF_CORNER_TEXELS * triangles * sizeof *out->corners);
+    out->texture_set = scene->texture_set;
     out->texture_count = scene->texture_count;
     out->textures = scene->textures;
     out->texel_count = scene->texel_count;

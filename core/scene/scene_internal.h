@@ -102,6 +102,7 @@ struct pf_scene {
     uint64_t texel_count;        /* every texture's mip chain, RGBA8 words */
     uint32_t *texels;
     int frame_corners;           /* frames carry corners: textures or COLOR_0 (scene_finalize) */
+    uint64_t texture_set;        /* pf_scene_frame.texture_set: unique per load in the process */
     uint32_t camera_def_count;
     scene_camera_def *cameras;
     uint32_t light_def_count;

@@ -12,4 +12,13 @@ vec3 camera_ray_direction(vec3 forward, vec3 right, vec3 up, float tan_half_x, f
     return normalize(forward + (ndc.x * tan_half_x) * right + (ndc.y * tan_half_y) * up);
 }
 
+// The angle one pixel spans at the image's centre: the spread of a camera ray's
+// cone (ray cones, Akenine-Möller et al. 2019). Its width at distance d along the
+// camera's path (through mirrors and glass too, whose curvature it ignores) is
+// d times this: surface_at_cone's cone_width, which picks the textures' mip level.
+float camera_cone_spread(float tan_half_y, uint height)
+{
+    return 2.0 * tan_half_y / float(height);
+}
+
 #endif

@@ -136,13 +136,17 @@ void main()
     uint rays = 0u;
 
     vec3 medium = vec3(0.0); // absorption of the medium the ray travels in
+    // The camera's ray cone along its specular chain (camera.glsl).
+    float cone_spread = camera_cone_spread(params.camera_forward.w, params.height);
+    float cone_distance = 0.0;
     for (uint depth = 0u; depth <= params.max_specular_depth; depth++) {
         BihHit hit = trace(origin, direction, infinity, false);
         rays++;
         if (hit.triangle == NO_HIT)
             break;
         throughput *= medium_transmittance(medium, hit.t);
-        Surface surface = surface_at(hit, origin, direction);
+        cone_distance += hit.t;
+        Surface surface = surface_at_cone(hit, origin, direction, cone_distance * cone_spread);
         if (!surface.valid) {
             valid = false;
             break;

@@ -165,11 +165,13 @@ void gather(uint pixel_index)
         vec4 sample_direct = texel_vec4(sample_sum_texels, sample_base);
         vec4 sample_indirect = texel_vec4(sample_sum_texels, sample_base + 1u);
         vec4 shading = texel_vec4(vertex_texels, base + 1u);
-        Material material = scene_material(floatBitsToUint(shading.w));
         vec3 direct = vec3(0.0), indirect = vec3(0.0);
         vec3 geometric_normal = texel_vec4(vertex_texels, base + 2u).xyz;
-        vec3 throughput = texel_vec4(vertex_texels, base + 3u).xyz;
-        vec3 wo = texel_vec4(vertex_texels, base + 4u).xyz;
+        vec4 throughput_u = texel_vec4(vertex_texels, base + 3u);
+        vec4 wo_v = texel_vec4(vertex_texels, base + 4u);
+        vec3 throughput = throughput_u.xyz;
+        vec3 wo = wo_v.xyz;
+        Material material = scene_material_at(floatBitsToUint(shading.w), throughput_u.w, wo_v.w);
         uint end = min(push.gather_first + push.gather_count, push.gather_total);
         for (uint g = push.gather_first; g < end; g++) {
 #ifdef FINAL_GATHER_ESTIMATES

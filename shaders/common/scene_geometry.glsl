@@ -64,6 +64,14 @@ Material scene_material(uint index)
 #include "rng.glsl"            // pcg_hash
 #include "scene_textures.glsl" // the textures and corners; scene_material_textured
 
+// The material of triangle at barycentrics (u, v) with its textures at the finest level: what
+// surface_at gave the kernel that recorded the hit (final's deferred passes).
+Material scene_material_at(uint triangle, float u, float v)
+{
+    return scene_material_textured(scene_material(scene_triangle_material(triangle)), triangle,
+                                   u, v, 0.0, 1.0, vec3(0.0), vec3(0.0), vec3(0.0));
+}
+
 // Whether a ray's hit on triangle at barycentrics (u, v) counts (bih_traverse.glsl asks for
 // each hit closer than the best so far): always, but for alphaMode MASK where the alpha
 // (baseColorFactor × COLOR_0 × baseColorTexture, level 0) is below alphaCutoff, and BLEND,

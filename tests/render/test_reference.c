@@ -264,12 +264,15 @@ PF_TEST(channels_follow_the_contract)
     PF_CHECK(direct > 0.0 && indirect > 0.0);
     PF_CHECK(caustic == 0.0);
     PF_CHECK(covered > 0.0);
-    PF_REQUIRE(report.stage_count == 3);
-    PF_CHECK(!strcmp(report.stages[0].stage, "bih_build"));
-    PF_CHECK(!strcmp(report.stages[1].stage, "shade"));
+    PF_REQUIRE(report.stage_count == 4);
+    /* No textures: the textures row is skipped with its reason. */
+    PF_CHECK(!strcmp(report.stages[0].stage, "textures") && report.stages[0].skipped &&
+             strstr(report.stages[0].reason, "no textures"));
+    PF_CHECK(!strcmp(report.stages[1].stage, "bih_build"));
+    PF_CHECK(!strcmp(report.stages[2].stage, "shade"));
     /* No mirror or glass: the caustics row is skipped with its reason. */
-    PF_CHECK(!strcmp(report.stages[2].stage, "caustics") && report.stages[2].skipped &&
-             strstr(report.stages[2].reason, "no specular"));
+    PF_CHECK(!strcmp(report.stages[3].stage, "caustics") && report.stages[3].skipped &&
+             strstr(report.stages[3].reason, "no specular"));
     PF_CHECK(counter(&report, "shade", "samples_per_pixel") == 8);
     PF_CHECK(counter(&report, "shade", "rays") >= 8.0 * 24 * 18);
     PF_CHECK(counter(&report, "shade", "discarded_samples") == 0);

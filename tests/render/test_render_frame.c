@@ -75,17 +75,18 @@ static void check_scene(const char *name)
     PF_CHECK_MSG(non_finite == 0, "%s: %u non-finite values", name, non_finite);
     PF_CHECK_MSG(rgb_sum > 0.0, "%s: black image", name);
     PF_CHECK_MSG(covered > 0, "%s: no pixel hit geometry", name);
-    PF_REQUIRE(report.stage_count == 2);
-    PF_CHECK(!strcmp(report.stages[0].stage, "bih_build"));
-    PF_CHECK(!strcmp(report.stages[1].stage, "shade"));
-    PF_CHECK(report.stages[1].wall_ms > 0);
+    PF_REQUIRE(report.stage_count == 3);
+    PF_CHECK(!strcmp(report.stages[0].stage, "textures"));
+    PF_CHECK(!strcmp(report.stages[1].stage, "bih_build"));
+    PF_CHECK(!strcmp(report.stages[2].stage, "shade"));
+    PF_CHECK(report.stages[2].wall_ms > 0);
     PF_CHECK(report.discarded_samples == 0);
     double rays = -1, reported_triangles = -1;
-    for (uint32_t c = 0; c < report.stages[1].counter_count; c++) {
-        if (!strcmp(report.stages[1].counters[c].name, "rays"))
-            rays = report.stages[1].counters[c].value;
-        if (!strcmp(report.stages[1].counters[c].name, "triangles"))
-            reported_triangles = report.stages[1].counters[c].value;
+    for (uint32_t c = 0; c < report.stages[2].counter_count; c++) {
+        if (!strcmp(report.stages[2].counters[c].name, "rays"))
+            rays = report.stages[2].counters[c].value;
+        if (!strcmp(report.stages[2].counters[c].name, "triangles"))
+            reported_triangles = report.stages[2].counters[c].value;
     }
     /* At least one camera ray per pixel. */
     PF_CHECK_MSG(rays >= TEST_WIDTH * TEST_HEIGHT, "%s: %g rays", name, rays);

@@ -232,20 +232,21 @@ static int rows_are(const pf_frame_report *report, const char *const *names, uin
 
 PF_TEST(every_preset_reports_each_of_its_stages_once_in_order)
 {
-    static const char *const preview[] = {"bih_build", "shade"};
-    static const char *const reference[] = {"bih_build", "shade", "caustics"};
-    static const char *const fast[] = {"bih_build",    "photon_trace",  "caustic_map", "lpv_geometry",
-                                       "lpv_inject",   "lpv_propagate", "shade"};
-    static const char *const final[] = {"bih_build", "photon_trace", "photon_grid", "caustic_map",
-                                        "shade"};
+    static const char *const preview[] = {"textures", "bih_build", "shade"};
+    static const char *const reference[] = {"textures", "bih_build", "shade", "caustics"};
+    static const char *const fast[] = {"textures",   "bih_build",     "photon_trace",
+                                       "caustic_map", "lpv_geometry", "lpv_inject",
+                                       "lpv_propagate", "shade"};
+    static const char *const final[] = {"textures",    "bih_build", "photon_trace",
+                                        "photon_grid", "caustic_map", "shade"};
     const struct {
         pf_quality quality;
         const char *const *rows;
         uint32_t count;
-    } presets[] = {{PF_QUALITY_PREVIEW, preview, 2},
-                   {PF_QUALITY_REFERENCE, reference, 3},
-                   {PF_QUALITY_FAST, fast, 7},
-                   {PF_QUALITY_FINAL, final, 5}};
+    } presets[] = {{PF_QUALITY_PREVIEW, preview, 3},
+                   {PF_QUALITY_REFERENCE, reference, 4},
+                   {PF_QUALITY_FAST, fast, 8},
+                   {PF_QUALITY_FINAL, final, 6}};
     ref_scene room;
     build_room(&room, 0.0f);
     pf_frame_report report;

@@ -5,6 +5,10 @@
  *   the image's mean is mean(linear albedo)·E·cosθ/π, in preview and in the
  *   reference (the view covers one whole period, so bilinear filtering keeps
  *   the texels' mean);
+ * - the mip level a camera ray's cone picks: a 256² single-texel checker
+ *   whose coarser levels are uniform grey, seen at 2 texels a pixel (level
+ *   1): every pixel is grey (relative spread under 2 %), where sampling level 0
+ *   would leave each pixel 16 samples of black and white (25 %);
  * - an alpha-masked card (left half opaque, right half cut away) 0.5 m over
  *   a white plane, lit straight down: the dark pixels are the opaque half
  *   (its shadow lies hidden under it), 0.5 m² seen from 1.5 m, i.e.
@@ -59,12 +63,14 @@ static void set_corners(pf_scene_frame *frame, uint32_t first, uint32_t count, f
         }
 }
 
+static pf_frame_report report;
+
 static pf_status render(const pf_scene_frame *frame, pf_quality quality, pf_image *image)
 {
     pf_render_settings settings = ref_settings(EDGE, EDGE, 16, 7, 0);
     settings.quality = quality;
-    pf_frame_report report;
     pf_error err = {0};
+    memset(&report, 0, sizeof report);
     pf_status status = pf_render_frame(renderer, frame, &settings, image, &report, &err);
     if (status != PF_OK)
         PF_CHECK_MSG(0, "%s: %s", pf_quality_name(quality), err.message);
@@ -110,6 +116,8 @@ PF_TEST(textured_plane_mean_is_mean_albedo_times_irradiance)
     frame->textures = &ref;
     frame->texel_count = CHECKER * CHECKER;
     frame->texels = texels;
+    /* As pf_scene_eval names a loaded scene's textures: uploaded by the first frame only. */
+    frame->texture_set = 0x7E57u;
     double albedo = 0.5 * (srgb_to_linear(DARK_SRGB / 255.0) + srgb_to_linear(LIGHT_SRGB / 255.0));
     double expected = albedo * e * cos_theta / M_PI;
     const pf_quality qualities[] = {PF_QUALITY_PREVIEW, PF_QUALITY_REFERENCE};
@@ -123,8 +131,77 @@ PF_TEST(textured_plane_mean_is_mean_albedo_times_irradiance)
         PF_CHECK_MSG(fabs(mean / expected - 1.0) < 0.01, "%s: mean %g, expected %g",
                      pf_quality_name(qualities[q]), mean, expected);
         PF_CHECK(ref_image_non_finite(&image) == 0);
+        /* The textures row: uploaded by the first frame, reused by the second (another
+         * preset: the cache lives as long as the scene's textures). */
+        PF_CHECK(ref_stage_counter(&report, "textures", "uploaded") == (q == 0 ? 1.0 : 0.0));
+        PF_CHECK(ref_stage_counter(&report, "textures", "textures") == 1.0);
         pf_image_free(&image);
     }
+    free(frame->corners);
+    frame->corners = NULL;
+    frame->textures = NULL;
+    frame->texels = NULL;
+    ref_scene_free(&scene);
+}
+
+#define MIP_EDGE 256u
+
+PF_TEST(camera_ray_cones_pick_the_mip_level)
+{
+    ref_scene scene;
+    ref_scene_init(&scene);
+    pf_material white = pf_material_lambert(1, 1, 1);
+    white.base_color_texture = 1;
+    uint32_t plane = ref_scene_add_material(&scene, white);
+    const float centre[3] = {0, 0, 0}, half_u[3] = {2, 0, 0}, half_v[3] = {0, 2, 0};
+    ref_scene_add_quad(&scene, centre, half_u, half_v, plane);
+    const float e = 2.0f;
+    ref_scene_add_light(&scene, (pf_light){{0, 0, 0}, PF_LIGHT_DIRECTIONAL, {0, 0, -1}, 0,
+                                           {e, e, e}, 1, 1, {0, 0, 0}});
+    look_down(&scene);
+    pf_scene_frame *frame = &scene.frame;
+    frame->corners = calloc(3 * PF_CORNER_TEXELS * frame->triangle_count, sizeof *frame->corners);
+    PF_REQUIRE(frame->corners != NULL);
+    /* uv [0, 1] over the plane's 4 m: 64 texels a metre; the view has 32 pixels a metre. */
+    set_corners(frame, 0, frame->triangle_count, -2.0f, 2.0f, 0.25f, 0.25f);
+    uint32_t levels = 9, total = 0;
+    for (uint32_t k = 0; k < levels; k++)
+        total += (MIP_EDGE >> k) * (MIP_EDGE >> k);
+    uint32_t *texels = malloc(total * sizeof *texels);
+    PF_REQUIRE(texels != NULL);
+    for (uint32_t i = 0; i < total; i++) {
+        uint32_t v = 128u;
+        if (i < MIP_EDGE * MIP_EDGE)
+            v = (i % MIP_EDGE + i / MIP_EDGE) % 2 ? 255u : 0u;
+        texels[i] = v | v << 8 | v << 16 | 255u << 24;
+    }
+    pf_texture_ref ref = {0, MIP_EDGE, MIP_EDGE, levels - 1, {1, 0, 0, 0, 1, 0}, {0, 0}};
+    frame->texture_count = 1;
+    frame->textures = &ref;
+    frame->texel_count = total;
+    frame->texels = texels;
+    double expected = 128.0 / 255.0 * e / M_PI;
+    const pf_quality qualities[] = {PF_QUALITY_PREVIEW, PF_QUALITY_REFERENCE};
+    for (size_t q = 0; q < 2; q++) {
+        pf_image image = {0};
+        if (render(frame, qualities[q], &image) != PF_OK)
+            continue;
+        double sum = 0.0, sum2 = 0.0;
+        for (uint32_t i = 0; i < EDGE * EDGE; i++) {
+            double v = image.pixels[(size_t)i * image.channel_count];
+            sum += v;
+            sum2 += v * v;
+        }
+        double mean = sum / (EDGE * EDGE);
+        double spread = sqrt(fmax(sum2 / (EDGE * EDGE) - mean * mean, 0.0)) / mean;
+        printf("  %s: mean %.5f (level 1: %.5f), pixels' relative spread %.4f\n",
+               pf_quality_name(qualities[q]), mean, expected, spread);
+        PF_CHECK_MSG(spread < 0.02, "%s: relative spread %g: level 0 was read",
+                     pf_quality_name(qualities[q]), spread);
+        PF_CHECK(fabs(mean / expected - 1.0) < 0.01);
+        pf_image_free(&image);
+    }
+    free(texels);
     free(frame->corners);
     frame->corners = NULL;
     frame->textures = NULL;
@@ -200,6 +277,7 @@ int main(void)
     if (!render_test_setup(&ctx, &renderer))
         return 1;
     PF_RUN(textured_plane_mean_is_mean_albedo_times_irradiance);
+    PF_RUN(camera_ray_cones_pick_the_mip_level);
     PF_RUN(alpha_masked_card_hides_and_shadows_only_its_opaque_half);
     return render_test_finish(ctx, renderer);
 }

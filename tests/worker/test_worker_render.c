@@ -193,8 +193,9 @@ PF_TEST(worker_renders_a_job_and_timings_report_every_stage)
     }
     PF_CHECK_MSG(found == 4, "%d stages with the expected counts in the JSON", found);
     PF_CHECK(cJSON_GetArraySize(cJSON_GetObjectItem(root, "slowest_frames")) == 3);
-    /* The decisions the rows record: bih_build built once, reused twice; shade's samples 3 times. */
-    int built = 0, reused = 0, shaded = 0, decision_rows = 0;
+    /* The decisions the rows record: bih_build built once, reused twice; shade's samples 3 times;
+     * textures skipped 3 times (the tiny scene has none). */
+    int built = 0, reused = 0, shaded = 0, untextured = 0, decision_rows = 0;
     const cJSON *decision;
     cJSON_ArrayForEach(decision, cJSON_GetObjectItem(root, "decisions"))
     {
@@ -206,13 +207,17 @@ PF_TEST(worker_renders_a_job_and_timings_report_every_stage)
             continue;
         if (!strcmp(stage_name, "shade"))
             shaded += !strcmp(what, "camera samples") ? count->valueint : 0;
+        if (!strcmp(stage_name, "textures"))
+            untextured += !strcmp(what, "no textures") ? count->valueint : 0;
         if (strcmp(stage_name, "bih_build"))
             continue;
         built += !strcmp(what, "built") ? count->valueint : 0;
         reused += !strcmp(what, "geometry unchanged → BIH reused") ? count->valueint : 0;
     }
-    PF_CHECK_MSG(built == 1 && reused == 2 && shaded == 3 && decision_rows == 3,
-                 "decisions: %d built, %d reused, %d shaded in %d rows", built, reused, shaded,
+    PF_CHECK_MSG(built == 1 && reused == 2 && shaded == 3 && untextured == 3 &&
+                     decision_rows == 4,
+                 "decisions: %d built, %d reused, %d shaded, %d untextured in %d rows", built,
+                 reused, shaded, untextured,
                  decision_rows);
     /* Every frame's rows carry the build that rendered them: `photonfarm version`'s. */
     char version_path[WT_PATH_MAX + 32];
