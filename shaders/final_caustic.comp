@@ -1,5 +1,6 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
+// pf-variant: surfaces PF_SURFACE_TEXTURES
 // The `final` shade stage's caustic dispatch (render_final.comp's header
 // describes a sample's dispatches), run after the primary only when the
 // pass has a caustic map bound: the caustic estimate at each pixel's first

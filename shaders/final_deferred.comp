@@ -1,5 +1,6 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
+// pf-variant: surfaces PF_SURFACE_TEXTURES
 // The `final` shade stage's deferred estimates (the header of
 // render_final.comp describes a sample's dispatches): the estimates the
 // gather deferred, one per invocation (invocation index = pixel index; the

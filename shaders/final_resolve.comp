@@ -1,5 +1,6 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
+// pf-variant: surfaces PF_SURFACE_TEXTURES
 // The `final` shade stage's last dispatch of a pixel sample (the header of
 // render_final.comp describes them all): each pixel's deferred estimates
 // (final_deferred.comp wrote them over their requests) and its sample into

@@ -6,6 +6,10 @@
 # all into the static library <target>, whose generated header pf_shaders.h
 # offers pf_shader_find("<file stem>").
 #
+# A shader with a line `// pf-variant: <suffix> <MACRO>` is compiled a second
+# time with -D<MACRO>, embedded as "<stem>_<suffix>" (the kernels' textured
+# variant: a scene without textures runs, and compiles, none of that code).
+#
 # The glob is CONFIGURE_DEPENDS, so a new shader needs no CMake edit. Each
 # shader rebuilds when it, anything it includes (glslang's depfile), or any
 # <INCLUDE_DIR>/*.glsl changes. A compile error fails the build with glslang's
@@ -66,19 +70,38 @@ function(pf_add_shader_library target)
   set(generated_sources)
   set(declarations "")
   set(entries "")
+  set(builds)
   foreach(source IN LISTS shader_sources)
     get_filename_component(stem "${source}" NAME_WE)
+    list(APPEND builds "${source}|${stem}|")
+    file(STRINGS "${source}" variant_lines REGEX "^// pf-variant: [a-z_]+ [A-Z_]+$")
+    foreach(line IN LISTS variant_lines)
+      string(REGEX REPLACE "^// pf-variant: ([a-z_]+) ([A-Z_]+)$" "\\1;\\2" variant "${line}")
+      list(GET variant 0 suffix)
+      list(GET variant 1 macro)
+      list(APPEND builds "${source}|${stem}_${suffix}|-D${macro}")
+    endforeach()
+  endforeach()
+  foreach(build IN LISTS builds)
+    string(REPLACE "|" ";" fields "${build}")
+    list(GET fields 0 source)
+    list(GET fields 1 stem)
+    list(LENGTH fields field_count)
+    set(define)
+    if(field_count GREATER 2)
+      list(GET fields 2 define)
+    endif()
     string(MAKE_C_IDENTIFIER "${stem}" symbol)
     set(spv "${out_dir}/${stem}.spv")
     set(embedded "${out_dir}/${stem}.spv.c")
     add_custom_command(
       OUTPUT "${spv}"
-      COMMAND "${GLSLANG_VALIDATOR}" -V --target-env vulkan1.2 "-I${S_INCLUDE_DIR}"
+      COMMAND "${GLSLANG_VALIDATOR}" -V --target-env vulkan1.2 "-I${S_INCLUDE_DIR}" ${define}
               --depfile "${spv}.d" -o "${spv}" "${source}"
       COMMAND "${SPIRV_VAL}" --target-env vulkan1.2 "${spv}"
       DEPENDS "${source}" ${shader_includes}
       DEPFILE "${spv}.d"
-      COMMENT "Compiling shader ${stem}.comp"
+      COMMENT "Compiling shader ${stem} (${source})"
       VERBATIM)
     add_custom_command(
       OUTPUT "${embedded}"

@@ -1,5 +1,6 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
+// pf-variant: surfaces PF_SURFACE_TEXTURES
 // Photon tracing (the photon_trace stage). An invocation traces several
 // photons in turn (push.photon_stride apart): in one flat loop of bounces, a
 // lane whose photon has ended starts its next one, so the lanes of a SIMD
@@ -147,11 +148,22 @@ Emission emit(PhotonEmitter emitter, vec2 xi_position, vec2 xi_direction)
         float root = sqrt(xi_position.x);
         vec3 point = (1.0 - root) * a + root * (1.0 - xi_position.y) * b + root * xi_position.y * c;
         vec3 normal = normalize(cross(b - a, c - a));
+        Material material = scene_material(scene_triangle_material(emitter.index));
+        // The emitter's power is its emissive factor's (pf_photon_emitters); an emissive
+        // texture scales the photon by its value at the point over that factor, channel by
+        // channel: unbiased, as the point is drawn uniformly over the area.
+        if (material.emissive_texture != NO_TEXTURE) {
+            vec3 textured = scene_material_textured(material, emitter.index,
+                                                    root * (1.0 - xi_position.y),
+                                                    root * xi_position.y, 0.0, 1.0, a, b, c)
+                                .emission;
+            bvec3 lit = greaterThan(material.emission, vec3(0.0));
+            e.flux *= mix(vec3(0.0), textured / max(material.emission, vec3(1e-30)), lit);
+        }
         // A double-sided emitter's power is both faces' (pf_photon_emitters):
         // the direction's second number picks the face, half each, and is
         // stretched back over [0, 1) for the direction within that face.
-        if ((scene_material(scene_triangle_material(emitter.index)).flags &
-             MATERIAL_DOUBLE_SIDED) != 0u) {
+        if ((material.flags & MATERIAL_DOUBLE_SIDED) != 0u) {
             bool back = xi_direction.y >= 0.5;
             xi_direction.y = fract(2.0 * xi_direction.y);
             normal = back ? -normal : normal;

@@ -1,5 +1,6 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
+// pf-variant: surfaces PF_SURFACE_TEXTURES
 // Preview integrator (the `shade` stage of the preview preset): camera rays
 // through the pixel centres (through the pixel filter when spp > 1), a bounded specular chain
 // through mirrors and glass, then at the first diffuse hit direct light from

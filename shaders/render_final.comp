@@ -1,5 +1,6 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
+// pf-variant: surfaces PF_SURFACE_TEXTURES
 // The `final` integrator's `shade` stage (core/render/frame_final.c drives
 // it): direct light, caustics from the caustic map and indirect light by
 // final gather into the global map. One pixel sample is four or five

@@ -1,5 +1,6 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
+// pf-variant: surfaces PF_SURFACE_TEXTURES
 // Reference integrator (the `shade` stage of the reference preset): an
 // unbiased unidirectional path tracer. One dispatch adds one sample to every
 // pixel of the image (a progressive pass); the host divides the sums.

@@ -2,7 +2,12 @@
 # glTF exporter (issue 38): rough gold, glossy red plastic, near-mirror chrome
 # and white plastic spheres on a rough floor in front of a grey wall, lit by an
 # emissive ceiling panel (room-panel.gltf) or by a Blender point and spot light
-# instead (room-lamps.gltf). Untextured: textures are not read yet.
+# instead (room-lamps.gltf). room-textured.gltf is the panel room with the maps
+# users bring: a colour-checker floor (baseColorTexture), a bumpy wall
+# (normalTexture, tangents left to the renderer as Blender exports them), a cube
+# whose metallicRoughnessTexture alternates metal and rough plastic, and an
+# alpha-masked leaf card (alphaMode MASK). The images are made here, so the
+# exporter writes them as PNG files beside the scene.
 #
 #   blender -b --factory-startup --python make_room.py -- OUTDIR
 import math
@@ -42,6 +47,83 @@ def sphere(name, radius, location, material):
     bpy.ops.object.shade_smooth()
     obj.data.materials.append(material)
     return obj
+
+
+def image(name, size, pixel, colour_space="sRGB"):
+    """A size × size image whose texel (x, y) is pixel(x, y) -> (r, g, b, a)."""
+    img = bpy.data.images.new(name, size, size, alpha=True)
+    img.colorspace_settings.name = colour_space
+    values = []
+    for y in range(size):
+        for x in range(size):
+            values.extend(pixel(x, y))
+    img.pixels = values
+    img.file_format = "PNG"
+    img.pack()
+    return img
+
+
+def image_node(material, img, non_color=False):
+    nodes = material.node_tree.nodes
+    node = nodes.new("ShaderNodeTexImage")
+    node.image = img
+    if non_color:
+        img.colorspace_settings.name = "Non-Color"
+    return node
+
+
+def textured_materials():
+    # A 6 × 4 colour checker of saturated and grey patches, 8 texels a patch.
+    patches = [(0.8, 0.1, 0.1), (0.1, 0.6, 0.1), (0.1, 0.2, 0.8), (0.9, 0.8, 0.1),
+               (0.8, 0.4, 0.1), (0.5, 0.1, 0.6), (0.9, 0.9, 0.9), (0.6, 0.6, 0.6),
+               (0.35, 0.35, 0.35), (0.15, 0.15, 0.15), (0.05, 0.05, 0.05), (0.3, 0.6, 0.7)]
+    checker = image("checker", 64,
+                    lambda x, y: (*patches[((x // 8) + 3 * (y // 8)) % len(patches)], 1.0))
+    floor = principled("CheckerFloor", (1, 1, 1), roughness=0.8)
+    tree = floor.node_tree
+    node = image_node(floor, checker)
+    tree.links.new(node.outputs["Color"], tree.nodes["Principled BSDF"].inputs["Base Color"])
+
+    # Bumps: a tangent-space normal map of rounded ridges along u.
+    def bump(x, y):
+        slope = 0.6 * math.sin(2 * math.pi * x / 16)
+        n = (-slope, 0.0, 1.0)
+        length = math.sqrt(sum(c * c for c in n))
+        return (*(0.5 * c / length + 0.5 for c in n), 1.0)
+    wall = principled("BumpyWall", (0.7, 0.7, 0.7), roughness=0.9)
+    tree = wall.node_tree
+    node = image_node(wall, image("bumps", 64, bump), non_color=True)
+    normal_map = tree.nodes.new("ShaderNodeNormalMap")
+    tree.links.new(node.outputs["Color"], normal_map.inputs["Color"])
+    tree.links.new(normal_map.outputs["Normal"], tree.nodes["Principled BSDF"].inputs["Normal"])
+
+    # Metal and rough plastic in 4 × 4 squares: G roughness, B metallic (glTF's packing).
+    def metal_rough(x, y):
+        metal = ((x // 16) + (y // 16)) % 2
+        return (0.0, 0.25 if metal else 0.7, 1.0 if metal else 0.0, 1.0)
+    cube = principled("MetalRoughCube", (0.9, 0.7, 0.4), roughness=1.0)
+    tree = cube.node_tree
+    node = image_node(cube, image("metal_rough", 64, metal_rough), non_color=True)
+    separate = tree.nodes.new("ShaderNodeSeparateRGB")
+    tree.links.new(node.outputs["Color"], separate.inputs["Image"])
+    bsdf = tree.nodes["Principled BSDF"]
+    tree.links.new(separate.outputs["G"], bsdf.inputs["Roughness"])
+    tree.links.new(separate.outputs["B"], bsdf.inputs["Metallic"])
+
+    # A leaf: opaque inside an ellipse, cut away outside (alpha 0).
+    def leaf(x, y):
+        u, v = (x - 31.5) / 14.0, (y - 31.5) / 30.0
+        inside = u * u + v * v <= 1.0
+        return (0.15, 0.55, 0.1, 1.0 if inside else 0.0)
+    card = principled("LeafCard", (1, 1, 1), roughness=0.6)
+    tree = card.node_tree
+    node = image_node(card, image("leaf", 64, leaf))
+    bsdf = tree.nodes["Principled BSDF"]
+    tree.links.new(node.outputs["Color"], bsdf.inputs["Base Color"])
+    tree.links.new(node.outputs["Alpha"], bsdf.inputs["Alpha"])
+    card.blend_method = "CLIP"
+    card.alpha_threshold = 0.5
+    return floor, wall, cube, card
 
 
 def build_room():
@@ -97,6 +179,19 @@ def main():
     spot.spot_blend = 0.3
     spot.shadow_soft_size = 0.0
     export(os.path.join(out, "room-lamps.gltf"), lights=True)
+
+    build_room()
+    floor, wall, cube, card = textured_materials()
+    bpy.data.objects["Floor"].data.materials[0] = floor
+    bpy.data.objects["BackWall"].data.materials[0] = wall
+    bpy.data.objects["WhiteSphere"].hide_render = True
+    bpy.data.objects.remove(bpy.data.objects["WhiteSphere"])
+    bpy.ops.mesh.primitive_cube_add(size=0.6, location=(0.0, 1.0, 0.3))
+    bpy.context.object.data.materials.append(cube)
+    plane("Leaf", 1.0, (1.5, -0.3, 0.8), (math.pi / 2, 0, math.radians(-30)), card)
+    panel = principled("Panel", (0.0, 0.0, 0.0), emission=(1.0, 1.0, 1.0), strength=8.0)
+    plane("Panel", 1.0, (0, 0.3, 2.5), (math.pi, 0, 0), panel)
+    export(os.path.join(out, "room-textured.gltf"), lights=False)
 
 
 main()

@@ -15,7 +15,7 @@ reference_spp=${4:-64}
 photonfarm=$root/build/worker/photonfarm
 mkdir -p "$out"
 blender -b --factory-startup --python "$here/make_room.py" -- "$out" >/dev/null
-for scene in panel lamps; do
+for scene in panel lamps textured; do
   blender -b --factory-startup --python "$here/cycles_import_render.py" -- \
     "$out/room-$scene.gltf" "$out/cycles-$scene.exr" "${size%x*}" "${size#*x}" "$cycles_spp" \
     >/dev/null

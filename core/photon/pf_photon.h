@@ -336,6 +336,7 @@ typedef struct pf_photon_scene {
     /* The scene's texture bindings (PF_SCENE_BINDING_CORNERS, _TEXTURES, _TEXELS); NULL: the
      * scene has no textures (the tracer binds a placeholder). */
     pf_vk_buffer *corners, *textures, *texels;
+    uint32_t surface_features; /* PF_SURFACE_* of the frame (pf_scene_frame_surface_features) */
 } pf_photon_scene;
 
 /* Hits a photon path may have (REFERENCE.md: bound every loop). */

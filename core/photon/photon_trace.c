@@ -53,8 +53,29 @@ typedef struct trace_push {
 
 struct pf_photon_tracer {
     pf_vk_context *ctx;
-    pf_vk_pipeline *trace;
+    /* Per PF_SURFACE_* combination: the plain kernel, or its "_surfaces" variant specialised
+     * for the scene's (pf_scene.h), each made at first use. */
+    pf_vk_pipeline *trace[PF_SURFACE_VARIANTS];
 };
+
+/* The kernel for a scene with these surface features. */
+static pf_status trace_pipeline(pf_photon_tracer *tracer, uint32_t features,
+                                pf_vk_pipeline **out, pf_error *err)
+{
+    features %= PF_SURFACE_VARIANTS;
+    if (!tracer->trace[features]) {
+        pf_vk_spec_constant constants[2] = {
+            {PF_SPEC_SCENE_HAS_ALPHA, (features & PF_SURFACE_ALPHA) ? 1u : 0u},
+            {PF_SPEC_SCENE_HAS_CORNERS, (features & PF_SURFACE_CORNERS) ? 1u : 0u}};
+        pf_status status = pf_vk_pipeline_create_named(
+            tracer->ctx, features ? "photon_trace_surfaces" : "photon_trace", TRACE_BUFFERS,
+            sizeof(trace_push), constants, 2, &tracer->trace[features], err);
+        if (status != PF_OK)
+            return status;
+    }
+    *out = tracer->trace[features];
+    return PF_OK;
+}
 
 pf_status pf_photon_tracer_create(pf_vk_context *ctx, pf_photon_tracer **out, pf_error *err)
 {
@@ -63,9 +84,8 @@ pf_status pf_photon_tracer_create(pf_vk_context *ctx, pf_photon_tracer **out, pf
     if (!tracer)
         return pf_error_set(err, PF_ERR_NOMEM, "photon tracer: out of memory");
     tracer->ctx = ctx;
-    pf_status status = pf_vk_pipeline_create_named(ctx, "photon_trace", TRACE_BUFFERS,
-                                                   sizeof(trace_push), NULL, 0, &tracer->trace,
-                                                   err);
+    pf_vk_pipeline *plain;
+    pf_status status = trace_pipeline(tracer, 0, &plain, err);
     if (status != PF_OK) {
         free(tracer);
         return status;
@@ -78,7 +98,9 @@ void pf_photon_tracer_destroy(pf_photon_tracer *tracer)
 {
     if (!tracer)
         return;
-    pf_vk_pipeline_destroy(tracer->ctx, tracer->trace);
+    for (uint32_t v = 0; v < PF_SURFACE_VARIANTS; v++)
+        if (tracer->trace[v])
+            pf_vk_pipeline_destroy(tracer->ctx, tracer->trace[v]);
     free(tracer);
 }
 
@@ -126,9 +148,9 @@ static pf_status map_capacity(const pf_vk_device_info *info, uint32_t requested,
  * invocation per_invocation of them in turn (photon_trace.comp), and reads back the counters
  * and the GPU time (< 0 without timestamps).
  */
-static pf_status trace_photons(pf_photon_tracer *tracer, pf_vk_buffer **buffers, uint32_t count,
-                               uint32_t per_invocation, trace_counters *counters, double *gpu_ms,
-                               pf_error *err)
+static pf_status trace_photons(pf_photon_tracer *tracer, pf_vk_pipeline *kernel,
+                               pf_vk_buffer **buffers, uint32_t count, uint32_t per_invocation,
+                               trace_counters *counters, double *gpu_ms, pf_error *err)
 {
     pf_vk_context *ctx = tracer->ctx;
     pf_vk_buffer *counter_buffer = buffers[TRACE_BUFFERS - 1];
@@ -148,7 +170,7 @@ static pf_status trace_photons(pf_photon_tracer *tracer, pf_vk_buffer **buffers,
         uint32_t invocations = (push.photon_count + per_invocation - 1) / per_invocation;
         uint32_t groups = (invocations + TRACE_GROUP_SIZE - 1) / TRACE_GROUP_SIZE;
         push.photon_stride = groups * TRACE_GROUP_SIZE;
-        status = pf_vk_cmd_dispatch(cmds, tracer->trace, buffers, TRACE_BUFFERS, &push,
+        status = pf_vk_cmd_dispatch(cmds, kernel, buffers, TRACE_BUFFERS, &push,
                                     sizeof push, groups, 1, 1, err);
     }
     int end = status == PF_OK ? pf_vk_cmd_timestamp(cmds) : -1;
@@ -203,8 +225,12 @@ pf_status pf_photon_trace(pf_photon_tracer *tracer, const pf_photon_scene *scene
 
     pf_vk_buffer *params_buffer = NULL, *emitter_buffer = NULL, *counter_buffer = NULL;
     pf_vk_buffer *placeholder = NULL; /* the texture bindings of a scene without textures */
+    pf_vk_pipeline *kernel = NULL;
+    status = trace_pipeline(tracer, scene->surface_features, &kernel, err);
     const trace_counters zero = {0, 0, 0, 0, 0};
-    status = pf_vk_buffer_create(ctx, sizeof params, "photon trace parameters", &params_buffer, err);
+    if (status == PF_OK)
+        status = pf_vk_buffer_create(ctx, sizeof params, "photon trace parameters",
+                                     &params_buffer, err);
     if (status == PF_OK)
         status = pf_vk_buffer_upload(ctx, params_buffer, 0, &params, sizeof params, err);
     if (status == PF_OK)
@@ -257,14 +283,14 @@ pf_status pf_photon_trace(pf_photon_tracer *tracer, const pf_photon_scene *scene
                                                               : 1u;
     trace_counters counters = zero;
     if (status == PF_OK && emitters->count > 0)
-        status = trace_photons(tracer, buffers, settings->photon_count, per_invocation, &counters,
+        status = trace_photons(tracer, kernel, buffers, settings->photon_count, per_invocation, &counters,
                                &out->gpu_ms, err);
     /* Photons that share an invocation add up its loop iterations: where that met the cap,
      * the pass is traced again with one photon each (slots restart at 0: nothing is kept). */
     if (status == PF_OK && counters.loop_truncated > 0 && per_invocation > 1) {
         per_invocation = 1;
         double first_ms = out->gpu_ms;
-        status = trace_photons(tracer, buffers, settings->photon_count, per_invocation,
+        status = trace_photons(tracer, kernel, buffers, settings->photon_count, per_invocation,
                                &counters, &out->gpu_ms, err);
         out->gpu_ms = first_ms >= 0.0 && out->gpu_ms >= 0.0 ? first_ms + out->gpu_ms : -1.0;
     }

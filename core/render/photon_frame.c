@@ -76,7 +76,8 @@ pf_status pf_photon_frame_prepare(pf_renderer *renderer, const pf_scene_frame *f
                                      out->scene.lights,    frame->triangle_count,
                                      out->bih,             pf_render_ray_offset(frame),
                                      out->scene.corners,   out->scene.textures,
-                                     out->scene.texels};
+                                     out->scene.texels,
+                                     pf_scene_frame_surface_features(frame)};
     out->tracer = renderer->photon_tracer;
     return PF_OK;
 }

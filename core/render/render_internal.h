@@ -46,6 +46,7 @@ typedef enum pf_renderer_pipeline_id {
     PF_PIPELINE_COUNT
 } pf_renderer_pipeline_id;
 
+
 /* The final kernels' bindings (final_shared.glsl), the same in all six pipelines. */
 #define PF_FINAL_BUFFERS (PF_SCENE_BINDING_COUNT + 23u)
 /* The fast kernels' bindings (fast_shade.glsl), the same in both pipelines. */
@@ -209,8 +210,10 @@ struct pf_renderer {
     pf_bih_gpu *bih_gpu;
     pf_bih_gpu_builder *bih_builder;
     pf_texture_cache textures;
-    /* The integrators' pipelines, each created at its first use (pf_renderer_pipeline). */
-    pf_vk_pipeline *pipelines[PF_PIPELINE_COUNT];
+    /* The integrators' pipelines, each created at its first use (pf_renderer_pipeline), per
+     * combination of the surface features (PF_SURFACE_*) a frame uses. */
+    pf_vk_pipeline *pipelines[PF_SURFACE_VARIANTS][PF_PIPELINE_COUNT];
+    uint32_t surface_features; /* the current frame's (pf_render_prepare_textures) */
     /* The final integrator's photon passes kept for reuse by the next frame (frame_final.c). */
     struct pf_final_cache *final_cache;
     /* Tests: at most this many of the final gather's estimates deferred per sample, the

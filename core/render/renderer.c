@@ -3,6 +3,7 @@
 
 #include <pthread.h>
 #include <stdlib.h>
+#include <stdio.h>
 
 /* raycast_brute.comp: constant_id 0 selects the any-hit (shadow) variant. */
 #define RAYCAST_SPEC_ANY_HIT 0u
@@ -30,6 +31,7 @@ typedef struct pipeline_spec {
     uint32_t buffers, push_bytes;
     int specialized;
     pf_vk_spec_constant constant;
+    int surfaces; /* reads the scene's surfaces: has a "_surfaces" variant */
 } pipeline_spec;
 
 static const pipeline_spec pipeline_specs[PF_PIPELINE_COUNT] = {
@@ -38,28 +40,28 @@ static const pipeline_spec pipeline_specs[PF_PIPELINE_COUNT] = {
     [PF_PIPELINE_RAYCAST_ANY] = {"raycast_brute", RAYCAST_BUFFERS, RAYCAST_PUSH_BYTES, 1,
                                  {RAYCAST_SPEC_ANY_HIT, 1}},
     [PF_PIPELINE_DIRECT] = {"render_direct", RENDER_DIRECT_BUFFERS, RENDER_DIRECT_PUSH_BYTES, 0,
-                            {0, 0}},
+                            {0, 0}, 1},
     [PF_PIPELINE_REFERENCE] = {"render_reference", RENDER_REFERENCE_BUFFERS,
-                               RENDER_REFERENCE_PUSH_BYTES, 1, {REFERENCE_SPEC_AOVS, 1}},
+                               RENDER_REFERENCE_PUSH_BYTES, 1, {REFERENCE_SPEC_AOVS, 1}, 1},
     [PF_PIPELINE_REFERENCE_RGB] = {"render_reference", RENDER_REFERENCE_BUFFERS,
-                                   RENDER_REFERENCE_PUSH_BYTES, 1, {REFERENCE_SPEC_AOVS, 0}},
+                                   RENDER_REFERENCE_PUSH_BYTES, 1, {REFERENCE_SPEC_AOVS, 0}, 1},
     [PF_PIPELINE_MATERIAL_PROBE] = {"material_probe", MATERIAL_PROBE_BUFFERS,
                                     MATERIAL_PROBE_PUSH_BYTES, 0, {0, 0}},
     [PF_PIPELINE_FINAL_PRIMARY] = {"render_final", PF_FINAL_BUFFERS, RENDER_FINAL_PUSH_BYTES,
-                                   0, {0, 0}},
+                                   0, {0, 0}, 1},
     [PF_PIPELINE_FINAL_GATHER] = {"final_gather", PF_FINAL_BUFFERS, RENDER_FINAL_PUSH_BYTES,
-                                  0, {0, 0}},
+                                  0, {0, 0}, 1},
     [PF_PIPELINE_FINAL_GATHER_ESTIMATE] = {"final_gather_estimate", PF_FINAL_BUFFERS,
-                                           RENDER_FINAL_PUSH_BYTES, 0, {0, 0}},
+                                           RENDER_FINAL_PUSH_BYTES, 0, {0, 0}, 1},
     [PF_PIPELINE_FINAL_FALLBACK] = {"final_deferred", PF_FINAL_BUFFERS,
-                                    RENDER_FINAL_PUSH_BYTES, 0, {0, 0}},
+                                    RENDER_FINAL_PUSH_BYTES, 0, {0, 0}, 1},
     [PF_PIPELINE_FINAL_RESOLVE] = {"final_resolve", PF_FINAL_BUFFERS, RENDER_FINAL_PUSH_BYTES,
-                                   0, {0, 0}},
+                                   0, {0, 0}, 1},
     [PF_PIPELINE_FINAL_CAUSTIC] = {"final_caustic", PF_FINAL_BUFFERS, RENDER_FINAL_PUSH_BYTES,
-                                   0, {0, 0}},
-    [PF_PIPELINE_FAST] = {"render_fast", PF_FAST_BUFFERS, RENDER_FAST_PUSH_BYTES, 0, {0, 0}},
+                                   0, {0, 0}, 1},
+    [PF_PIPELINE_FAST] = {"render_fast", PF_FAST_BUFFERS, RENDER_FAST_PUSH_BYTES, 0, {0, 0}, 1},
     [PF_PIPELINE_FAST_CAUSTIC] = {"render_fast_caustic", PF_FAST_BUFFERS, RENDER_FAST_PUSH_BYTES,
-                                  0, {0, 0}},
+                                  0, {0, 0}, 1},
 };
 
 pf_status pf_renderer_pipeline(pf_renderer *renderer, pf_renderer_pipeline_id id,
@@ -67,16 +69,25 @@ pf_status pf_renderer_pipeline(pf_renderer *renderer, pf_renderer_pipeline_id id
 {
     if ((unsigned)id >= PF_PIPELINE_COUNT)
         return pf_error_set(err, PF_ERR_INTERNAL, "renderer: no pipeline %d", (int)id);
-    if (!renderer->pipelines[id]) {
+    uint32_t features = renderer->surface_features % PF_SURFACE_VARIANTS;
+    pf_vk_pipeline **slot = &renderer->pipelines[features][id];
+    if (!*slot) {
         const pipeline_spec *spec = &pipeline_specs[id];
+        pf_vk_spec_constant constants[3] = {
+            {PF_SPEC_SCENE_HAS_ALPHA, (features & PF_SURFACE_ALPHA) ? 1u : 0u},
+            {PF_SPEC_SCENE_HAS_CORNERS, (features & PF_SURFACE_CORNERS) ? 1u : 0u},
+            spec->constant};
+        /* The kernel's "_surfaces" variant where the frame uses them (pf_scene.h). */
+        char name[64];
+        snprintf(name, sizeof name, "%s%s", spec->shader,
+                 features && spec->surfaces ? "_surfaces" : "");
         pf_status status = pf_vk_pipeline_create_named(
-            renderer->ctx, spec->shader, spec->buffers, spec->push_bytes,
-            spec->specialized ? &spec->constant : NULL, spec->specialized ? 1 : 0,
-            &renderer->pipelines[id], err);
+            renderer->ctx, name, spec->buffers, spec->push_bytes, constants,
+            spec->specialized ? 3 : 2, slot, err);
         if (status != PF_OK)
             return status;
     }
-    *out = renderer->pipelines[id];
+    *out = *slot;
     return PF_OK;
 }
 
@@ -106,7 +117,8 @@ pf_status pf_renderer_pipelines_prepare(pf_renderer *renderer, const pf_renderer
     for (size_t i = 0; i < count && missing < PF_PIPELINE_COUNT; i++) {
         if ((unsigned)ids[i] >= PF_PIPELINE_COUNT)
             return pf_error_set(err, PF_ERR_INTERNAL, "renderer: no pipeline %d", (int)ids[i]);
-        int listed = renderer->pipelines[ids[i]] != NULL;
+        int listed =
+            renderer->pipelines[renderer->surface_features % PF_SURFACE_VARIANTS][ids[i]] != NULL;
         for (size_t j = 0; j < missing; j++)
             listed = listed || jobs[j].id == ids[i];
         if (!listed)
@@ -147,10 +159,10 @@ void pf_renderer_destroy(pf_renderer *renderer)
 {
     if (!renderer)
         return;
-    for (size_t i = 0; i < PF_PIPELINE_COUNT; i++) {
-        if (renderer->pipelines[i])
-            pf_vk_pipeline_destroy(renderer->ctx, renderer->pipelines[i]);
-    }
+    for (size_t v = 0; v < PF_SURFACE_VARIANTS; v++)
+        for (size_t i = 0; i < PF_PIPELINE_COUNT; i++)
+            if (renderer->pipelines[v][i])
+                pf_vk_pipeline_destroy(renderer->ctx, renderer->pipelines[v][i]);
     pf_final_cache_destroy(renderer->final_cache);
     pf_fast_cache_destroy(renderer->ctx, renderer->fast_cache);
     pf_photon_tracer_destroy(renderer->photon_tracer);

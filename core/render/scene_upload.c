@@ -211,6 +211,8 @@ pf_status pf_render_prepare_textures(pf_renderer *renderer, const pf_scene_frame
 {
     double start = pf_time_ms();
     pf_texture_cache *cache = &renderer->textures;
+    /* The surface features the frame's kernels are specialised for (render_internal.h). */
+    renderer->surface_features = pf_scene_frame_surface_features(frame);
     if (frame->texture_count == 0) {
         pf_frame_report_row(report, "textures", "no textures", 0.0, -1.0);
         return PF_OK;

@@ -618,6 +618,19 @@ static pf_status load_primitive(gltf_context *ctx, scene_mesh *mesh, const cJSON
         if (material == SCENE_NONE)
             status = gltf_fail(ctx, err, PF_ERR_NOMEM, element, "out of memory");
     }
+    /* A normal map needs tangents: the file's, else generated from its UV set. */
+    uint32_t normal_slot = status ? PF_NO_TEXTURE : scene->materials[material].normal_texture;
+    if (!status && normal_slot != PF_NO_TEXTURE && !extra.tangent) {
+        int set = (scene->textures[normal_slot - 1].sampling & PF_TEXTURE_TEXCOORD_1) ? 1 : 0;
+        if (extra.uv[set])
+            status = scene_generate_tangents(positions, normals, extra.uv[set], vertex_count,
+                                             corners, triangle_count, &extra.tangent, err);
+        else
+            scene_warn_once(scene, "normal map without uvs",
+                            "%s: %s: normalTexture reads TEXCOORD_%d, which the primitive "
+                            "lacks: its normal map is not applied",
+                            ctx->path, element, set);
+    }
     if (!status)
         status = append_triangles(ctx, mesh, corners, triangle_count, positions, normals, &extra,
                                   (uint32_t)material, err);

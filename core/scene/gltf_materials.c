@@ -12,7 +12,8 @@
  * Emission = emissiveFactor x KHR_materials_emissive_strength.emissiveStrength,
  * from both faces when the material is doubleSided.
  * Textures (gltf_textures.c): baseColor and emissive (sRGB) and
- * metallicRoughness multiply their factors; alphaMode MASK (alphaCutoff, 0.5)
+ * metallicRoughness multiply their factors; normalTexture (with its scale)
+ * tilts the shading normal in tangent space; alphaMode MASK (alphaCutoff, 0.5)
  * and BLEND read baseColor's alpha. occlusionTexture is not read: a global
  * illumination renderer computes the occlusion it approximates.
  * Factors outside the spec's ranges are format errors naming the field.
@@ -37,10 +38,6 @@ static void warn_unhandled(gltf_context *ctx, const cJSON *material, const cJSON
                            const char *element)
 {
     (void)pbr;
-    if (cJSON_GetObjectItemCaseSensitive(material, "normalTexture"))
-        scene_warn_once(ctx->scene, "normalTexture",
-                        "%s: %s: normal maps are not supported yet: the mesh's normals are used",
-                        ctx->path, element);
     const cJSON *extensions = cJSON_GetObjectItemCaseSensitive(material, "extensions");
     const cJSON *extension;
     cJSON_ArrayForEach(extension, extensions)
@@ -103,6 +100,13 @@ static pf_status load_texture_slots(gltf_context *ctx, const cJSON *material, co
         status = gltf_texture_slot(
             ctx, cJSON_GetObjectItemCaseSensitive(pbr, "metallicRoughnessTexture"), 0,
             slot_element, &out->metallic_roughness_texture, NULL, err);
+    }
+    if (!status) {
+        snprintf(slot_element, sizeof slot_element, "%s.normalTexture", element);
+        status = gltf_texture_slot(ctx, cJSON_GetObjectItemCaseSensitive(material,
+                                                                         "normalTexture"),
+                                   0, slot_element, &out->normal_texture, &out->normal_scale,
+                                   err);
     }
     if (!status) {
         snprintf(slot_element, sizeof slot_element, "%s.emissiveTexture", element);
@@ -228,7 +232,8 @@ static pf_status load_material(gltf_context *ctx, const cJSON *material, const c
         return status;
     memcpy(out->albedo, base_color, sizeof out->albedo);
     out->alpha = base_color[3];
-    out->normal_scale = 1.0f;
+    if (out->normal_texture == PF_NO_TEXTURE)
+        out->normal_scale = 1.0f;
     for (int c = 0; c < 3; c++)
         out->emission[c] = emissive[c] * (float)strength;
     /* KHR_materials_ior: 0 is the legacy "unknown" value: the default. */

@@ -9,6 +9,15 @@
 /* glTF's (and KHR_materials_ior's) default index of refraction. */
 #define DEFAULT_IOR 1.5f
 
+uint32_t pf_scene_frame_surface_features(const pf_scene_frame *frame)
+{
+    uint32_t features = frame->corners ? PF_SURFACE_CORNERS : 0u;
+    for (uint32_t m = 0; m < frame->material_count; m++)
+        if (frame->materials[m].alpha_mode != PF_ALPHA_OPAQUE)
+            features |= PF_SURFACE_ALPHA;
+    return features;
+}
+
 void pf_material_classify(pf_material *material)
 {
     int smooth = material->roughness <= PF_MATERIAL_DELTA_ROUGHNESS;

@@ -163,6 +163,20 @@ typedef enum pf_scene_binding {
     PF_SCENE_BINDING_COUNT
 } pf_scene_binding;
 
+/*
+ * What a frame's surfaces use beyond the plain BSDF: alpha-tested materials
+ * (MASK, BLEND) and per-corner attributes (textures, COLOR_0). A kernel that
+ * reads surfaces has a plain variant, compiled without that code, and a
+ * "<kernel>_surfaces" one (shaders/pf_shaders.cmake's pf-variant), whose
+ * specialisation constants PF_SPEC_SCENE_HAS_ALPHA and _CORNERS
+ * (scene_binding_numbers.glsl) say which of the two the frame has.
+ */
+#define PF_SURFACE_ALPHA 1u
+#define PF_SURFACE_CORNERS 2u
+#define PF_SURFACE_VARIANTS 4u
+#define PF_SPEC_SCENE_HAS_ALPHA 1001u
+#define PF_SPEC_SCENE_HAS_CORNERS 1002u
+
 typedef enum pf_light_kind {
     PF_LIGHT_POINT = 0,
     PF_LIGHT_SPOT = 1,
@@ -226,6 +240,9 @@ typedef struct pf_scene_frame {
     uint64_t texel_count;
     const uint32_t *texels;
 } pf_scene_frame;
+
+/* The PF_SURFACE_* bits of frame: corners when it has them, alpha when a material tests it. */
+uint32_t pf_scene_frame_surface_features(const pf_scene_frame *frame);
 
 typedef struct pf_scene_info {
     const char *path;

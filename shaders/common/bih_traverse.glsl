@@ -254,7 +254,7 @@ BihHit trace_bih(vec3 origin, vec3 direction, float tmin, float tmax, bool any_h
             if (t < closest || (t == closest && hit.triangle != BIH_NO_HIT && original < hit.triangle)) {
 #ifdef PF_SCENE_TEXTURES_GLSL
                 // Where the scene's surfaces are bound: alpha-masked and blended triangles.
-                if (!scene_alpha_passes(original, u, v, origin, direction))
+                if (SCENE_HAS_ALPHA && !scene_alpha_passes(original, u, v, origin, direction))
                     continue;
 #endif
                 closest = t;

@@ -18,4 +18,12 @@
 #define PF_SCENE_BINDING_TEXELS 9             // every texture's mip chain
 #define PF_SCENE_BINDING_COUNT 10
 
+// What the frame's surfaces use, as specialisation constants (render_internal.h
+// PF_SPEC_SCENE_*): a pipeline made for a scene without alpha-tested materials,
+// or without textures and colours, has that code removed when it is compiled,
+// so such a scene pays neither its compile time nor its run time. Both default
+// to true: a pipeline made without them reads everything.
+layout(constant_id = 1001) const bool SCENE_HAS_ALPHA = true;
+layout(constant_id = 1002) const bool SCENE_HAS_CORNERS = true;
+
 #endif

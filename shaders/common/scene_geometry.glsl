@@ -61,6 +61,9 @@ Material scene_material(uint index)
                     uintBitsToFloat(t6.z));
 }
 
+#ifdef PF_SURFACE_TEXTURES
+// The kernels' "_surfaces" variant (pf_scene.h PF_SURFACE_*): textures, COLOR_0, normal
+// maps and alpha tests. The plain variant, for frames without them, has none of this code.
 #include "rng.glsl"            // pcg_hash
 #include "scene_textures.glsl" // the textures and corners; scene_material_textured
 
@@ -98,5 +101,24 @@ bool scene_alpha_passes(uint triangle, float u, float v, vec3 origin, vec3 direc
                  d.x ^ pcg_hash(d.y ^ pcg_hash(d.z ^ floatBitsToUint(u))))))));
     return float(h >> 8) * (1.0 / 16777216.0) < alpha;
 }
+#else
+// The plain variant: the materials' factors, the mesh's normals, every hit counts.
+Material scene_material_textured(Material m, uint triangle, float u, float v, float cone_width,
+                                 float cos_arrival, vec3 p0, vec3 p1, vec3 p2)
+{
+    return m;
+}
+
+vec3 scene_normal_mapped(Material m, uint triangle, float u, float v, vec3 n, float cone_width,
+                         float cos_arrival, vec3 p0, vec3 p1, vec3 p2)
+{
+    return n;
+}
+
+Material scene_material_at(uint triangle, float u, float v)
+{
+    return scene_material(scene_triangle_material(triangle));
+}
+#endif
 
 #endif

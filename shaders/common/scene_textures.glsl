@@ -30,7 +30,7 @@ const uint CORNER_TEXELS = 3u; // PF_CORNER_TEXELS
 // buffer's textureSize: a texel view may cover more than the bytes uploaded.
 bool scene_has_corners(Material m)
 {
-    return (m.flags & MATERIAL_CORNERS) != 0u;
+    return SCENE_HAS_CORNERS && (m.flags & MATERIAL_CORNERS) != 0u;
 }
 
 TextureRef scene_texture(uint slot)
@@ -180,6 +180,27 @@ Material scene_material_textured(Material m, uint triangle, float u, float v, fl
                                         cos_arrival, p0, p1, p2).rgb;
     m.kind = material_kind_of(m);
     return m;
+}
+
+// The shading normal n (unit, the mesh's, front side) tilted by the material's normal map
+// (tangent space: T from the corners' tangents, B = cross(n, T)·w, scaled in x and y by
+// normalTexture.scale as the spec asks); n itself without a map or a tangent.
+vec3 scene_normal_mapped(Material m, uint triangle, float u, float v, vec3 n, float cone_width,
+                         float cos_arrival, vec3 p0, vec3 p1, vec3 p2)
+{
+    if (m.normal_texture == NO_TEXTURE || !scene_has_corners(m))
+        return n;
+    vec4 tangent = scene_corner(triangle, 2u, u, v);
+    vec3 t = tangent.xyz - n * dot(n, tangent.xyz);
+    if (!(dot(t, t) > 1e-12))
+        return n;
+    t = normalize(t);
+    vec3 b = cross(n, t) * (tangent.w < 0.0 ? -1.0 : 1.0);
+    vec3 texel = scene_slot_sample(m.normal_texture, triangle, u, v, cone_width, cos_arrival, p0,
+                                   p1, p2).xyz;
+    vec3 local = (2.0 * texel - 1.0) * vec3(m.normal_scale, m.normal_scale, 1.0);
+    vec3 mapped = local.x * t + local.y * b + local.z * n;
+    return dot(mapped, mapped) > 1e-12 ? normalize(mapped) : n;
 }
 
 #endif

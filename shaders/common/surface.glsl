@@ -44,8 +44,12 @@ Surface surface_at_cone(BihHit hit, vec3 origin, vec3 direction, float cone_widt
     s.geometric_normal = s.front ? s.face_normal : -s.face_normal;
     vec3 interpolated = (1.0 - hit.u - hit.v) * scene_normal(first) +
                         hit.u * scene_normal(first + 1u) + hit.v * scene_normal(first + 2u);
-    s.shading_normal = dot(interpolated, interpolated) == 0.0 ? s.geometric_normal
+    // The mesh's normal on its own side (a zero one: the face's), then its normal map.
+    vec3 mesh_normal = dot(interpolated, interpolated) == 0.0 ? s.face_normal
                                                               : normalize(interpolated);
+    s.shading_normal = scene_normal_mapped(s.material, hit.triangle, hit.u, hit.v, mesh_normal,
+                                           cone_width, abs(dot(s.face_normal, direction)), v0, v1,
+                                           v2);
     s.valid = all_finite(s.shading_normal) && all_finite(s.face_normal);
     if (dot(s.shading_normal, s.geometric_normal) < 0.0)
         s.shading_normal = -s.shading_normal;

@@ -9,6 +9,12 @@
  *   whose coarser levels are uniform grey, seen at 2 texels a pixel (level
  *   1): every pixel is grey (relative spread under 2 %), where sampling level 0
  *   would leave each pixel 16 samples of black and white (25 %);
+ * - a constant normal map on a flat plane shades as the plane turned to the
+ *   map's normal: E·cos(light, mapped normal)/π;
+ * - every preset on a textured room (checker walls, a half-metal
+ *   metallicRoughness box, a normal-mapped wall and an area light): no NaN,
+ *   Inf or negative pixel, and each preset's mean within its stated bound of
+ *   the reference's (preview: direct only, below it);
  * - an alpha-masked card (left half opaque, right half cut away) 0.5 m over
  *   a white plane, lit straight down: the dark pixels are the opaque half
  *   (its shadow lies hidden under it), 0.5 m² seen from 1.5 m, i.e.
@@ -135,6 +141,65 @@ PF_TEST(textured_plane_mean_is_mean_albedo_times_irradiance)
          * preset: the cache lives as long as the scene's textures). */
         PF_CHECK(ref_stage_counter(&report, "textures", "uploaded") == (q == 0 ? 1.0 : 0.0));
         PF_CHECK(ref_stage_counter(&report, "textures", "textures") == 1.0);
+        pf_image_free(&image);
+    }
+    free(frame->corners);
+    frame->corners = NULL;
+    frame->textures = NULL;
+    frame->texels = NULL;
+    ref_scene_free(&scene);
+}
+
+PF_TEST(constant_normal_map_shades_as_the_turned_plane)
+{
+    ref_scene scene;
+    ref_scene_init(&scene);
+    pf_material white = pf_material_lambert(1, 1, 1);
+    white.normal_texture = 1;
+    white.normal_scale = 1.0f;
+    uint32_t plane = ref_scene_add_material(&scene, white);
+    const float centre[3] = {0, 0, 0}, half_u[3] = {2, 0, 0}, half_v[3] = {0, 2, 0};
+    ref_scene_add_quad(&scene, centre, half_u, half_v, plane);
+    const float e = 3.0f;
+    const double light[3] = {0.6, 0.0, -0.8};
+    ref_scene_add_light(&scene, (pf_light){{0, 0, 0}, PF_LIGHT_DIRECTIONAL,
+                                           {(float)light[0], 0, (float)light[2]}, 0, {e, e, e}, 1,
+                                           1, {0, 0, 0}});
+    look_down(&scene);
+    pf_scene_frame *frame = &scene.frame;
+    frame->corners = calloc(3 * PF_CORNER_TEXELS * frame->triangle_count, sizeof *frame->corners);
+    PF_REQUIRE(frame->corners != NULL);
+    set_corners(frame, 0, frame->triangle_count, -2.0f, 2.0f, 0.25f, 0.25f);
+    for (uint32_t k = 0; k < 3 * frame->triangle_count; k++) { /* tangent +x, handedness +1 */
+        float *tangent = frame->corners[PF_CORNER_TEXELS * k + 2];
+        tangent[0] = 1.0f;
+        tangent[3] = 1.0f;
+    }
+    /* The map's normal: turned 30° towards the light (x −0.5, z 0.866), as 8-bit texels. */
+    uint32_t rgb[3] = {64u, 128u, 238u};
+    uint32_t texel = rgb[0] | rgb[1] << 8 | rgb[2] << 16 | 255u << 24;
+    pf_texture_ref ref = {0, 1, 1, PF_TEXTURE_NO_MIPS, {1, 0, 0, 0, 1, 0}, {0, 0}};
+    frame->texture_count = 1;
+    frame->textures = &ref;
+    frame->texel_count = 1;
+    frame->texels = &texel;
+    double n[3], length = 0.0;
+    for (int k = 0; k < 3; k++) {
+        n[k] = 2.0 * rgb[k] / 255.0 - 1.0;
+        length += n[k] * n[k];
+    }
+    double cosine = -(n[0] * light[0] + n[1] * light[1] + n[2] * light[2]) / sqrt(length);
+    double expected = e * cosine / M_PI, flat = e * 0.8 / M_PI;
+    const pf_quality qualities[] = {PF_QUALITY_PREVIEW, PF_QUALITY_REFERENCE};
+    for (size_t q = 0; q < 2; q++) {
+        pf_image image = {0};
+        if (render(frame, qualities[q], &image) != PF_OK)
+            continue;
+        double mean = red_mean(&image);
+        printf("  %s: normal-mapped plane %.5f, turned plane %.5f, flat plane %.5f\n",
+               pf_quality_name(qualities[q]), mean, expected, flat);
+        PF_CHECK_MSG(fabs(mean / expected - 1.0) < 0.005, "%s: %g, expected %g",
+                     pf_quality_name(qualities[q]), mean, expected);
         pf_image_free(&image);
     }
     free(frame->corners);
@@ -272,12 +337,128 @@ PF_TEST(alpha_masked_card_hides_and_shadows_only_its_opaque_half)
     ref_scene_free(&scene);
 }
 
+/* An sRGB checker of two colours, 8×8 single-texel squares, level 0 only. */
+static void checker_texels(uint32_t *texels, uint32_t a, uint32_t b)
+{
+    for (uint32_t y = 0; y < CHECKER; y++)
+        for (uint32_t x = 0; x < CHECKER; x++)
+            texels[y * CHECKER + x] = (x + y) % 2 ? a : b;
+}
+
+PF_TEST(every_preset_on_a_textured_room_stays_within_bounds_of_the_reference)
+{
+    ref_scene room;
+    ref_scene_init(&room);
+    pf_material walls = pf_material_lambert(1, 1, 1);
+    walls.base_color_texture = 1;
+    walls.normal_texture = 3;
+    walls.normal_scale = 1.0f;
+    pf_material box = pf_material_lambert(0.9f, 0.8f, 0.6f);
+    box.specular = 1.0f;
+    box.roughness = 1.0f;
+    box.metallic = 1.0f;
+    box.metallic_roughness_texture = 2;
+    pf_material_classify(&box);
+    uint32_t wall_material = ref_scene_add_material(&room, walls);
+    uint32_t box_material = ref_scene_add_material(&room, box);
+    uint32_t light = ref_scene_add_material(&room, ref_material_emitter(6, 6, 6));
+    const float min[3] = {-2.0f, -1.0f, -2.0f}, max[3] = {2.0f, 1.0f, 2.0f};
+    ref_scene_add_box(&room, min, max, 1, wall_material);
+    uint32_t box_first = room.frame.triangle_count;
+    const float box_min[3] = {-0.6f, -1.0f, -1.2f}, box_max[3] = {0.2f, -0.2f, -0.4f};
+    ref_scene_add_box(&room, box_min, box_max, 0, box_material);
+    uint32_t light_first = room.frame.triangle_count;
+    const float centre[3] = {0.0f, 0.99f, -0.5f}, u[3] = {0.4f, 0.0f, 0.0f},
+                v[3] = {0.0f, 0.0f, 0.4f}; /* u × v: down */
+    ref_scene_add_quad(&room, centre, u, v, light);
+    const float eye[3] = {0.0f, 0.0f, 1.8f}, target[3] = {0.0f, -0.3f, -1.0f},
+                up[3] = {0.0f, 1.0f, 0.0f};
+    ref_scene_look_at(&room, eye, target, up, 1.1f);
+    pf_scene_frame *frame = &room.frame;
+    frame->corners = calloc(3 * PF_CORNER_TEXELS * frame->triangle_count, sizeof *frame->corners);
+    PF_REQUIRE(frame->corners != NULL);
+    set_corners(frame, 0, box_first, -2.0f, 1.0f, 0.5f, 0.5f);
+    set_corners(frame, box_first, light_first - box_first, -0.6f, -0.2f, 1.25f, 1.25f);
+    set_corners(frame, light_first, frame->triangle_count - light_first, 0.0f, 0.0f, 1.0f, 1.0f);
+    for (uint32_t k = 0; k < 3 * box_first; k++) { /* the walls' tangent: +x, or +z on x walls */
+        float *tangent = frame->corners[PF_CORNER_TEXELS * k + 2];
+        float nx = fabsf(frame->normals[k][0]);
+        tangent[0] = nx > 0.5f ? 0.0f : 1.0f;
+        tangent[2] = nx > 0.5f ? 1.0f : 0.0f;
+        tangent[3] = 1.0f;
+    }
+    /* Texture 1: an orange and blue sRGB checker; 2: metal (B 1, G roughness 0.3) and rough
+     * plastic (G 0.8) squares; 3: normals tilted ±20° along the tangent, in stripes. */
+    uint32_t texels[3 * CHECKER * CHECKER];
+    checker_texels(texels, 0xFF2060E0u, 0xFF3090F0u);
+    checker_texels(texels + CHECKER * CHECKER, 0xFFFF4D00u, 0xFF00CC00u);
+    checker_texels(texels + 2 * CHECKER * CHECKER, 0xFFF08050u, 0xFFF080AFu);
+    pf_texture_ref refs[3] = {
+        {0, CHECKER, CHECKER, PF_TEXTURE_SRGB | PF_TEXTURE_NO_MIPS, {1, 0, 0, 0, 1, 0}, {0, 0}},
+        {CHECKER * CHECKER, CHECKER, CHECKER, PF_TEXTURE_NO_MIPS, {1, 0, 0, 0, 1, 0}, {0, 0}},
+        {2 * CHECKER * CHECKER, CHECKER, CHECKER, PF_TEXTURE_NO_MIPS, {1, 0, 0, 0, 1, 0},
+         {0, 0}}};
+    frame->texture_count = 3;
+    frame->textures = refs;
+    frame->texel_count = 3 * CHECKER * CHECKER;
+    frame->texels = texels;
+    const struct {
+        pf_quality quality;
+        uint32_t spp;
+        double low, high; /* bounds on mean / reference mean */
+    } presets[] = {{PF_QUALITY_REFERENCE, 64, 1.0, 1.0},
+                   {PF_QUALITY_PREVIEW, 4, 0.2, 1.0},
+                   {PF_QUALITY_FINAL, 4, 0.85, 1.15},
+                   {PF_QUALITY_FAST, 4, 0.7, 1.3}};
+    double reference = 0.0;
+    for (size_t i = 0; i < sizeof presets / sizeof *presets; i++) {
+        pf_render_settings settings = ref_settings(48, 36, presets[i].spp, 5, 0);
+        settings.quality = presets[i].quality;
+        pf_image image = {0};
+        pf_error err = {0};
+        memset(&report, 0, sizeof report);
+        pf_status status = pf_render_frame(renderer, frame, &settings, &image, &report, &err);
+        PF_CHECK_MSG(status == PF_OK, "%s: %s", pf_quality_name(presets[i].quality),
+                     err.message);
+        if (status != PF_OK)
+            continue;
+        double sum = 0.0;
+        uint32_t negative = 0;
+        for (uint32_t p = 0; p < image.width * image.height; p++)
+            for (int c = 0; c < 3; c++) {
+                float value = image.pixels[(size_t)p * image.channel_count + c];
+                sum += value;
+                negative += value < 0.0f;
+            }
+        double mean = sum / (3.0 * image.width * image.height);
+        if (presets[i].quality == PF_QUALITY_REFERENCE)
+            reference = mean;
+        double ratio = reference > 0.0 ? mean / reference : 0.0;
+        printf("  %s: mean %.5f, %.3f of the reference's\n", pf_quality_name(presets[i].quality),
+               mean, ratio);
+        PF_CHECK(ref_image_non_finite(&image) == 0 && negative == 0);
+        PF_CHECK(reference > 0.0);
+        PF_CHECK_MSG(ratio >= presets[i].low - 1e-9 && ratio <= presets[i].high + 1e-9,
+                     "%s: %.3f of the reference's mean, outside [%.2f, %.2f]",
+                     pf_quality_name(presets[i].quality), ratio, presets[i].low,
+                     presets[i].high);
+        pf_image_free(&image);
+    }
+    free(frame->corners);
+    frame->corners = NULL;
+    frame->textures = NULL;
+    frame->texels = NULL;
+    ref_scene_free(&room);
+}
+
 int main(void)
 {
     if (!render_test_setup(&ctx, &renderer))
         return 1;
     PF_RUN(textured_plane_mean_is_mean_albedo_times_irradiance);
+    PF_RUN(constant_normal_map_shades_as_the_turned_plane);
     PF_RUN(camera_ray_cones_pick_the_mip_level);
     PF_RUN(alpha_masked_card_hides_and_shadows_only_its_opaque_half);
+    PF_RUN(every_preset_on_a_textured_room_stays_within_bounds_of_the_reference);
     return render_test_finish(ctx, renderer);
 }

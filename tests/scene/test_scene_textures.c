@@ -465,6 +465,41 @@ PF_TEST(mutated_images_never_crash)
     PF_CHECK(loaded + refused == 180 && refused > 0);
 }
 
+/* A normal map on a primitive without TANGENT gets generated tangents: u runs along +x and v
+ * along −y on the test quad (normal +z), so T = +x and the bitangent's handedness is −1. */
+PF_TEST(normal_map_without_tangents_gets_them_generated)
+{
+    uint8_t rgba[IMAGE_W * IMAGE_H * 4];
+    test_pixels(rgba);
+    size_t size;
+    unsigned char *bytes = encode_png(rgba, IMAGE_W, IMAGE_H, &size);
+    char images[256], path[512];
+    image_file("normal.png", bytes, size, images, sizeof images);
+    free(bytes);
+    write_textured_quad("normal_mapped",
+                        "{\"normalTexture\":{\"index\":0,\"scale\":0.5},"
+                        "\"pbrMetallicRoughness\":{\"metallicFactor\":0}}",
+                        images, "[{\"source\":0}]", "[]", 0, path, sizeof path);
+    pf_scene *scene = NULL;
+    pf_error err = {0};
+    PF_REQUIRE_OK(pf_scene_load(path, &scene, &err), &err);
+    pf_scene_frame frame;
+    PF_REQUIRE_OK(pf_scene_eval(scene, 0.0, &frame, &err), &err);
+    PF_CHECK(frame.materials[0].normal_texture == 1);
+    PF_CHECK_NEAR(frame.materials[0].normal_scale, 0.5, 0);
+    PF_CHECK((frame.textures[0].sampling & PF_TEXTURE_SRGB) == 0); /* normals are linear */
+    PF_REQUIRE(frame.corners != NULL);
+    for (uint32_t k = 0; k < 3 * frame.triangle_count; k++) {
+        const float *tangent = frame.corners[PF_CORNER_TEXELS * k + 2];
+        PF_CHECK_MSG(fabsf(tangent[0] - 1.0f) < 1e-6f && fabsf(tangent[1]) < 1e-6f &&
+                         fabsf(tangent[2]) < 1e-6f && tangent[3] == -1.0f,
+                     "corner %u: tangent (%g, %g, %g, %g)", k, tangent[0], tangent[1],
+                     tangent[2], tangent[3]);
+    }
+    pf_scene_frame_free(&frame);
+    pf_scene_destroy(scene);
+}
+
 PF_TEST(untextured_scene_has_no_corners)
 {
     char path[512];
@@ -487,6 +522,7 @@ int main(void)
     PF_RUN(linear_and_srgb_slots_sampler_and_transform);
     PF_RUN(malformed_images_are_named_errors);
     PF_RUN(mutated_images_never_crash);
+    PF_RUN(normal_map_without_tangents_gets_them_generated);
     PF_RUN(untextured_scene_has_no_corners);
     return pf_test_finish();
 }

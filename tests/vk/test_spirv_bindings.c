@@ -12,6 +12,7 @@
 
 #include "pf_shaders.h"
 
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -82,13 +83,26 @@ PF_TEST(integrators_read_the_tree_and_photon_maps_through_texel_buffers)
                      kinds[2], kinds[3], kinds[4]);
         PF_CHECK(kinds[0] == PF_VK_BINDING_STORAGE && kinds[5] == PF_VK_BINDING_STORAGE &&
                  kinds[6] == PF_VK_BINDING_STORAGE);
-        /* Corners as float texels, the texture table as records, the texels as words. */
-        PF_CHECK_MSG(kinds[PF_SCENE_BINDING_CORNERS] == PF_VK_BINDING_TEXEL_FLOAT &&
-                         kinds[PF_SCENE_BINDING_TEXTURES] == PF_VK_BINDING_TEXEL_INT4 &&
-                         kinds[PF_SCENE_BINDING_TEXELS] == PF_VK_BINDING_TEXEL_UINT,
-                     "%s: texture bindings of kinds %d %d %d", integrators[i].name,
-                     kinds[PF_SCENE_BINDING_CORNERS], kinds[PF_SCENE_BINDING_TEXTURES],
-                     kinds[PF_SCENE_BINDING_TEXELS]);
+        /* The plain variant reads no texture; the "_surfaces" one has the same bindings
+         * otherwise, and corners as float texels, the texture table as records, the texels
+         * as words (pf_scene.h PF_SURFACE_*). */
+        PF_CHECK(kinds[PF_SCENE_BINDING_CORNERS] == PF_VK_BINDING_STORAGE &&
+                 kinds[PF_SCENE_BINDING_TEXTURES] == PF_VK_BINDING_STORAGE &&
+                 kinds[PF_SCENE_BINDING_TEXELS] == PF_VK_BINDING_STORAGE);
+        char surfaces[64];
+        snprintf(surfaces, sizeof surfaces, "%s_surfaces", integrators[i].name);
+        uint8_t variant[ALL];
+        kinds_of(surfaces, variant, ALL);
+        for (int b = 0; b < ALL; b++)
+            if (b < PF_SCENE_BINDING_CORNERS || b > PF_SCENE_BINDING_TEXELS)
+                PF_CHECK_MSG(variant[b] == kinds[b], "%s: binding %d of kind %d, plain %d",
+                             surfaces, b, variant[b], kinds[b]);
+        PF_CHECK_MSG(variant[PF_SCENE_BINDING_CORNERS] == PF_VK_BINDING_TEXEL_FLOAT &&
+                         variant[PF_SCENE_BINDING_TEXTURES] == PF_VK_BINDING_TEXEL_INT4 &&
+                         variant[PF_SCENE_BINDING_TEXELS] == PF_VK_BINDING_TEXEL_UINT,
+                     "%s: texture bindings of kinds %d %d %d", surfaces,
+                     variant[PF_SCENE_BINDING_CORNERS], variant[PF_SCENE_BINDING_TEXTURES],
+                     variant[PF_SCENE_BINDING_TEXELS]);
     }
     uint8_t kinds[ALL];
     kinds_of("render_final", kinds, ALL);
