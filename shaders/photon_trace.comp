@@ -263,9 +263,10 @@ void main()
                 continue;
         }
         bool failed;
-        BihHit hit = trace_bih(origin, direction, 0.0, uintBitsToFloat(0x7f800000u), false,
-                               params.bih_bounds_min.xyz, params.bih_bounds_max.xyz,
-                               params.triangle_count, params.bih_node_count, failed);
+        BihHit hit = trace_bih_surfaces(origin, direction, 0.0, uintBitsToFloat(0x7f800000u),
+                                        false, params.bih_bounds_min.xyz,
+                                        params.bih_bounds_max.xyz, params.triangle_count,
+                                        params.bih_node_count, failed);
         if (failed) {
             atomicAdd(counters.traversal_failures, 1u);
             alive = false;

@@ -252,11 +252,6 @@ BihHit trace_bih(vec3 origin, vec3 direction, float tmin, float tmax, bool any_h
             uint original = texelFetch(bih_triangle_index, int(p)).x;
             // Equal t: the lower original index wins, as in the brute-force oracle.
             if (t < closest || (t == closest && hit.triangle != BIH_NO_HIT && original < hit.triangle)) {
-#ifdef PF_SCENE_TEXTURES_GLSL
-                // Where the scene's surfaces are bound: alpha-masked and blended triangles.
-                if (SCENE_HAS_ALPHA && !scene_alpha_passes(original, u, v, origin, direction))
-                    continue;
-#endif
                 closest = t;
                 hit = BihHit(t, original, u, v);
                 if (any_hit)
@@ -278,6 +273,42 @@ BihHit trace_bih(vec3 origin, vec3 direction, float tmin, float tmax, bool any_h
         }
         if (!resumed)
             return hit;
+    }
+    return hit;
+}
+
+// The hit that counts where the scene's surfaces are bound (scene_textures.glsl): an
+// alpha-masked or blended triangle's hit is tested after the traversal, and where it
+// does not count the ray goes on past it, up to BIH_ALPHA_LAYERS times. Testing after
+// the traversal, not inside its leaf loop, keeps the loop as small as a scene without
+// alpha has it: in the loop, the test doubled llvmpipe's traversal time even where it
+// never ran (bench/RESULTS.md, "Textures"). An any-hit query whose hit does not count
+// goes on as closest-hit queries, which need no order to be right. Past the bound the
+// last hit counts (no light leaks through a dense stack of cut-out cards).
+const uint BIH_ALPHA_LAYERS = 32u;
+
+BihHit trace_bih_surfaces(vec3 origin, vec3 direction, float tmin, float tmax, bool any_hit,
+                          vec3 bounds_min, vec3 bounds_max, uint triangle_count, uint node_count,
+                          out bool failed)
+{
+    // One traversal in the loop (llvmpipe inlines each call site's copy).
+    BihHit hit;
+    float from = tmin;
+    bool any = any_hit;
+    for (uint layer = 0u; layer <= BIH_ALPHA_LAYERS; layer++) {
+        hit = trace_bih(origin, direction, from, tmax, any, bounds_min, bounds_max,
+                        triangle_count, node_count, failed);
+#ifdef PF_SCENE_TEXTURES_GLSL
+        if (!SCENE_HAS_ALPHA || failed || hit.triangle == BIH_NO_HIT ||
+            layer == BIH_ALPHA_LAYERS ||
+            scene_alpha_passes(hit.triangle, hit.u, hit.v, origin, direction))
+            break;
+        // On past this hit; after an any-hit query's, from the start as closest-hit ones.
+        from = any ? from : hit.t;
+        any = false;
+#else
+        break;
+#endif
     }
     return hit;
 }

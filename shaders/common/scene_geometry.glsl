@@ -91,8 +91,10 @@ bool scene_alpha_passes(uint triangle, float u, float v, vec3 origin, vec3 direc
     if (scene_has_corners(m)) {
         alpha *= scene_corner(triangle, 1u, u, v).a;
         if (m.base_color_texture != NO_TEXTURE)
-            alpha *= scene_slot_sample(m.base_color_texture, triangle, u, v, 0.0, 1.0, vec3(0.0),
-                                       vec3(0.0), vec3(0.0)).a;
+            alpha *= scene_slot_sample(m.base_color_texture,
+                                       scene_surface_uv(triangle, u, v, 0.0, 1.0, vec3(0.0),
+                                                        vec3(0.0), vec3(0.0)))
+                         .a;
     }
     if (m.alpha_mode == ALPHA_MASK)
         return alpha >= m.alpha_cutoff;

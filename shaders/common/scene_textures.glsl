@@ -47,17 +47,20 @@ float srgb_to_linear(float c)
     return c <= 0.04045 ? c / 12.92 : pow((c + 0.055) / 1.055, 2.4);
 }
 
-// A texel coordinate on one axis of n texels, wrapped by the sampler's mode.
+// A texel coordinate on one axis of n texels, wrapped by the sampler's mode. In float:
+// llvmpipe runs an integer division or modulo lane by lane, a float floor as one
+// vector instruction (coordinates stay below 2^24, where both are exact).
 int texture_wrap(int x, int n, uint mode)
 {
     if (mode == TEXTURE_WRAP_CLAMP)
         return clamp(x, 0, n - 1);
+    float fx = float(x), fn = float(n);
     if (mode == TEXTURE_WRAP_MIRROR) {
-        int period = 2 * n;
-        int m = ((x % period) + period) % period;
-        return m < n ? m : period - 1 - m;
+        float period = 2.0 * fn;
+        int m = int(fx - period * floor(fx / period));
+        return m < n ? m : 2 * n - 1 - m;
     }
-    return ((x % n) + n) % n;
+    return clamp(int(fx - fn * floor(fx / fn)), 0, n - 1);
 }
 
 // Texel xy of a level that starts at first and is w texels wide, in linear light.
@@ -99,10 +102,10 @@ vec4 texture_sample(TextureRef ref, vec2 uv, float lod)
     }
     bool nearest = lod > 0.0 ? (ref.sampling & TEXTURE_MIN_NEAREST) != 0u
                              : (ref.sampling & TEXTURE_MAG_NEAREST) != 0u;
-    // Non-finite coordinates (a broken UV) read texel 0 rather than an undefined index.
+    // Non-finite coordinates (a broken UV) read texel 0 rather than an undefined index;
+    // huge ones are bounded so their int stays exact (wrapping is per texel).
     vec2 p = all_finite_vec2(st) ? st * vec2(size) : vec2(0.0);
-    // Wrapping happens per texel; a huge coordinate is wrapped first so its int is exact.
-    p = clamp(p, vec2(-1.0e7), vec2(1.0e7));
+    p = clamp(p, vec2(-1.0e6), vec2(1.0e6));
     if (nearest)
         return texture_texel(ref, first, size, ivec2(floor(p)));
     p -= 0.5;
@@ -124,34 +127,43 @@ vec4 scene_corner(uint triangle, uint k, float u, float v)
            v * texelFetch(scene_corners, first + int(2u * CORNER_TEXELS));
 }
 
-// log2 of the texels of a w × h texture per unit of cone width on triangle's surface,
-// 0.5·log2(texel area / world area) (Akenine-Möller et al. 2019, eq. 34), for set.
-float scene_texel_density(uint triangle, bool set1, vec3 p0, vec3 p1, vec3 p2, TextureRef ref)
+// What every slot of one hit shares: both UV sets at the hit and, for the ray cone's mip
+// level, log2 of the UV area over the world area of the triangle per set (Akenine-Möller
+// et al. 2019, eq. 34, before the texture's own texel count) plus log2 of the cone's width
+// over |cos| of the arrival; level 0 when the cone is 0.
+struct SurfaceUv {
+    vec4 uvs;          // (TEXCOORD_0, TEXCOORD_1) at the hit
+    vec2 lod_base;     // per set; -1e30: no cone (the finest level)
+};
+
+SurfaceUv scene_surface_uv(uint triangle, float u, float v, float cone_width, float cos_arrival,
+                           vec3 p0, vec3 p1, vec3 p2)
 {
     int first = int(3u * CORNER_TEXELS * triangle);
     vec4 a = texelFetch(scene_corners, first);
     vec4 b = texelFetch(scene_corners, first + int(CORNER_TEXELS));
     vec4 c = texelFetch(scene_corners, first + int(2u * CORNER_TEXELS));
-    vec2 ta = set1 ? a.zw : a.xy, tb = set1 ? b.zw : b.xy, tc = set1 ? c.zw : c.xy;
-    vec2 e1 = tb - ta, e2 = tc - ta;
-    float texel_area = float(ref.width) * float(ref.height) * abs(e1.x * e2.y - e1.y * e2.x);
-    float world_area = length(cross(p1 - p0, p2 - p0));
-    return 0.5 * log2(max(texel_area, 1e-30) / max(world_area, 1e-30));
+    SurfaceUv s;
+    s.uvs = (1.0 - u - v) * a + u * b + v * c;
+    s.lod_base = vec2(-1.0e30);
+    if (cone_width > 0.0) {
+        vec4 e1 = b - a, e2 = c - a;
+        vec2 uv_area = abs(vec2(e1.x * e2.y - e1.y * e2.x, e1.z * e2.w - e1.w * e2.z));
+        float world_area = max(length(cross(p1 - p0, p2 - p0)), 1e-30);
+        s.lod_base = 0.5 * log2(max(uv_area, vec2(1e-30)) / world_area) +
+                     log2(cone_width / max(cos_arrival, 1e-4));
+    }
+    return s;
 }
 
-// One slot's value at barycentrics (u, v): lod from the cone's width at the hit over
-// |cos| of the arriving ray (cone_width 0: level 0).
-vec4 scene_slot_sample(uint slot, uint triangle, float u, float v, float cone_width,
-                       float cos_arrival, vec3 p0, vec3 p1, vec3 p2)
+// One slot's value at the hit.
+vec4 scene_slot_sample(uint slot, SurfaceUv surface_uv)
 {
     TextureRef ref = scene_texture(slot);
     bool set1 = (ref.sampling & TEXTURE_TEXCOORD_1) != 0u;
-    vec4 uvs = scene_corner(triangle, 0u, u, v);
-    float lod = -1.0;
-    if (cone_width > 0.0)
-        lod = scene_texel_density(triangle, set1, p0, p1, p2, ref) +
-              log2(cone_width / max(cos_arrival, 1e-4));
-    return texture_sample(ref, set1 ? uvs.zw : uvs.xy, lod);
+    float lod = (set1 ? surface_uv.lod_base.y : surface_uv.lod_base.x) +
+                0.5 * log2(float(ref.width) * float(ref.height));
+    return texture_sample(ref, set1 ? surface_uv.uvs.zw : surface_uv.uvs.xy, lod);
 }
 
 // The material of triangle at barycentrics (u, v) with its textures and COLOR_0 applied.
@@ -163,22 +175,24 @@ Material scene_material_textured(Material m, uint triangle, float u, float v, fl
     vec4 color = scene_corner(triangle, 1u, u, v);
     m.albedo *= color.rgb;
     m.alpha *= color.a;
+    if (m.base_color_texture == NO_TEXTURE && m.metallic_roughness_texture == NO_TEXTURE &&
+        m.emissive_texture == NO_TEXTURE)
+        return m;
+    SurfaceUv surface_uv =
+        scene_surface_uv(triangle, u, v, cone_width, cos_arrival, p0, p1, p2);
     if (m.base_color_texture != NO_TEXTURE) {
-        vec4 t = scene_slot_sample(m.base_color_texture, triangle, u, v, cone_width, cos_arrival,
-                                   p0, p1, p2);
+        vec4 t = scene_slot_sample(m.base_color_texture, surface_uv);
         m.albedo *= t.rgb;
         m.alpha *= t.a;
     }
     if (m.metallic_roughness_texture != NO_TEXTURE) {
-        vec4 t = scene_slot_sample(m.metallic_roughness_texture, triangle, u, v, cone_width,
-                                   cos_arrival, p0, p1, p2);
+        vec4 t = scene_slot_sample(m.metallic_roughness_texture, surface_uv);
         m.roughness *= t.g;
         m.metallic *= t.b;
+        m.kind = material_kind_of(m);
     }
     if (m.emissive_texture != NO_TEXTURE)
-        m.emission *= scene_slot_sample(m.emissive_texture, triangle, u, v, cone_width,
-                                        cos_arrival, p0, p1, p2).rgb;
-    m.kind = material_kind_of(m);
+        m.emission *= scene_slot_sample(m.emissive_texture, surface_uv).rgb;
     return m;
 }
 
@@ -196,8 +210,9 @@ vec3 scene_normal_mapped(Material m, uint triangle, float u, float v, vec3 n, fl
         return n;
     t = normalize(t);
     vec3 b = cross(n, t) * (tangent.w < 0.0 ? -1.0 : 1.0);
-    vec3 texel = scene_slot_sample(m.normal_texture, triangle, u, v, cone_width, cos_arrival, p0,
-                                   p1, p2).xyz;
+    vec3 texel = scene_slot_sample(m.normal_texture, scene_surface_uv(triangle, u, v, cone_width,
+                                                                      cos_arrival, p0, p1, p2))
+                     .xyz;
     vec3 local = (2.0 * texel - 1.0) * vec3(m.normal_scale, m.normal_scale, 1.0);
     vec3 mapped = local.x * t + local.y * b + local.z * n;
     return dot(mapped, mapped) > 1e-12 ? normalize(mapped) : n;

@@ -14,9 +14,9 @@
 BihHit trace(vec3 origin, vec3 direction, float tmax, bool any_hit)
 {
     bool failed;
-    BihHit hit = trace_bih(origin, direction, 0.0, tmax, any_hit, params.bih_bounds_min.xyz,
-                           params.bih_bounds_max.xyz, params.triangle_count,
-                           params.bih_node_count, failed);
+    BihHit hit = trace_bih_surfaces(origin, direction, 0.0, tmax, any_hit,
+                                    params.bih_bounds_min.xyz, params.bih_bounds_max.xyz,
+                                    params.triangle_count, params.bih_node_count, failed);
     if (failed)
         atomicAdd(counters.traversal_failures, 1u);
     return hit;
