@@ -55,6 +55,8 @@ static const char *const supported_extensions[] = {
     "KHR_materials_ior",
     "KHR_materials_specular",
     "KHR_materials_volume",
+    "KHR_texture_transform",
+    "EXT_texture_webp",
 };
 
 pf_status gltf_fail(gltf_context *ctx, pf_error *err, pf_status status, const char *element,

@@ -291,6 +291,7 @@ BihHit trace_bih_surfaces(vec3 origin, vec3 direction, float tmin, float tmax, b
                           vec3 bounds_min, vec3 bounds_max, uint triangle_count, uint node_count,
                           out bool failed)
 {
+#ifdef PF_SCENE_TEXTURES_GLSL
     // One traversal in the loop (llvmpipe inlines each call site's copy).
     BihHit hit;
     float from = tmin;
@@ -298,7 +299,6 @@ BihHit trace_bih_surfaces(vec3 origin, vec3 direction, float tmin, float tmax, b
     for (uint layer = 0u; layer <= BIH_ALPHA_LAYERS; layer++) {
         hit = trace_bih(origin, direction, from, tmax, any, bounds_min, bounds_max,
                         triangle_count, node_count, failed);
-#ifdef PF_SCENE_TEXTURES_GLSL
         if (!SCENE_HAS_ALPHA || failed || hit.triangle == BIH_NO_HIT ||
             layer == BIH_ALPHA_LAYERS ||
             scene_alpha_passes(hit.triangle, hit.u, hit.v, origin, direction))
@@ -306,11 +306,13 @@ BihHit trace_bih_surfaces(vec3 origin, vec3 direction, float tmin, float tmax, b
         // On past this hit; after an any-hit query's, from the start as closest-hit ones.
         from = any ? from : hit.t;
         any = false;
-#else
-        break;
-#endif
     }
     return hit;
+#else
+    // The plain variant: no loop around the traversal.
+    return trace_bih(origin, direction, tmin, tmax, any_hit, bounds_min, bounds_max,
+                     triangle_count, node_count, failed);
+#endif
 }
 
 #endif

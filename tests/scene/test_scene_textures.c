@@ -105,6 +105,9 @@ static char *base64(const unsigned char *data, size_t size)
  * A quad (two triangles) with TEXCOORD_0 (and COLOR_0 when colour), one material whose
  * `material` JSON is given, and images/textures/samplers JSON; writes <name>.gltf + .bin.
  */
+/* Root members write_textured_quad adds (",\"extensionsRequired\":[...]"), or "". */
+static const char *extra_root = "";
+
 static const char *write_textured_quad(const char *name, const char *material, const char *images,
                                        const char *textures, const char *samplers, int colour,
                                        char *path, size_t path_size)
@@ -130,7 +133,7 @@ static const char *write_textured_quad(const char *name, const char *material, c
                       strlen(samplers);
     char *json = malloc(capacity);
     snprintf(json, capacity,
-             "{\"asset\":{\"version\":\"2.0\"},\"scene\":0,\"scenes\":[{\"nodes\":[0]}],"
+             "{\"asset\":{\"version\":\"2.0\"}%s,\"scene\":0,\"scenes\":[{\"nodes\":[0]}],"
              "\"nodes\":[{\"mesh\":0}],"
              "\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0,\"TEXCOORD_0\":1%s},"
              "\"indices\":3,\"material\":0}]}],"
@@ -147,7 +150,7 @@ static const char *write_textured_quad(const char *name, const char *material, c
              "{\"buffer\":0,\"byteOffset\":80,\"byteLength\":64},"
              "{\"buffer\":0,\"byteOffset\":144,\"byteLength\":12}],"
              "\"buffers\":[{\"uri\":\"%s\",\"byteLength\":%zu}]}",
-             colour ? ",\"COLOR_0\":2" : "", material, images, textures, samplers, bin_name,
+             extra_root, colour ? ",\"COLOR_0\":2" : "", material, images, textures, samplers, bin_name,
              sizeof bin);
     MUST(st_write_text(path, json) == 0);
     free(json);
@@ -284,10 +287,14 @@ PF_TEST(linear_and_srgb_slots_sampler_and_transform)
         "\"emissiveTexture\":{\"index\":0,\"extensions\":{\"KHR_texture_transform\":"
         "{\"offset\":[0.5,0.25],\"rotation\":1.5707963,\"scale\":[2,3]}}},"
         "\"alphaMode\":\"MASK\",\"alphaCutoff\":0.3}";
+    /* Both extensions are honoured: a file may require them. */
+    extra_root = ",\"extensionsRequired\":[\"KHR_texture_transform\",\"EXT_texture_webp\"],"
+                 "\"extensionsUsed\":[\"KHR_texture_transform\",\"EXT_texture_webp\"]";
     write_textured_quad("slots", material, images, "[{\"source\":0},{\"source\":0,\"sampler\":0}]",
                         "[{\"magFilter\":9728,\"minFilter\":9729,\"wrapS\":33071,"
                         "\"wrapT\":33648}]",
                         1, path, sizeof path);
+    extra_root = "";
     pf_scene *scene = NULL;
     pf_error err = {0};
     PF_REQUIRE_OK(pf_scene_load(path, &scene, &err), &err);
@@ -500,6 +507,35 @@ PF_TEST(normal_map_without_tangents_gets_them_generated)
     pf_scene_destroy(scene);
 }
 
+/* EXT_texture_webp's source wins over the texture's fallback source. */
+PF_TEST(webp_extension_source_is_preferred)
+{
+    uint8_t rgba[IMAGE_W * IMAGE_H * 4], black[IMAGE_W * IMAGE_H * 4];
+    test_pixels(rgba);
+    memset(black, 0, sizeof black);
+    size_t png_size, webp_size;
+    unsigned char *png = encode_png(black, IMAGE_W, IMAGE_H, &png_size);
+    unsigned char *webp = encode_webp(rgba, IMAGE_W, IMAGE_H, &webp_size);
+    char path[512];
+    PF_REQUIRE(st_write(st_path(path, sizeof path, "fallback.png"), png, png_size) == 0);
+    PF_REQUIRE(st_write(st_path(path, sizeof path, "preferred.webp"), webp, webp_size) == 0);
+    free(png);
+    free(webp);
+    write_textured_quad("webp_preferred", BASE_COLOR_MATERIAL,
+                        "[{\"uri\":\"fallback.png\"},{\"uri\":\"preferred.webp\"}]",
+                        "[{\"source\":0,\"extensions\":{\"EXT_texture_webp\":{\"source\":1}}}]",
+                        "[]", 0, path, sizeof path);
+    pf_scene *scene = NULL;
+    pf_error err = {0};
+    PF_REQUIRE_OK(pf_scene_load(path, &scene, &err), &err);
+    pf_scene_frame frame;
+    PF_REQUIRE_OK(pf_scene_eval(scene, 0.0, &frame, &err), &err);
+    PF_CHECK(frame.texel_count == 11 && frame.texels[1] == 0xFFFFFFFFu); /* texel 1: white */
+    PF_CHECK(pf_scene_get_info(scene)->image_count == 1);                /* the PNG unread */
+    pf_scene_frame_free(&frame);
+    pf_scene_destroy(scene);
+}
+
 PF_TEST(untextured_scene_has_no_corners)
 {
     char path[512];
@@ -523,6 +559,7 @@ int main(void)
     PF_RUN(malformed_images_are_named_errors);
     PF_RUN(mutated_images_never_crash);
     PF_RUN(normal_map_without_tangents_gets_them_generated);
+    PF_RUN(webp_extension_source_is_preferred);
     PF_RUN(untextured_scene_has_no_corners);
     return pf_test_finish();
 }
