@@ -23,6 +23,11 @@
 # renders this bench with --filter blackman-harris), no denoising, no
 # adaptive sampling, no clamping, no filter glossy, caustics on, and bounce
 # limits high enough not to cut paths that matter (128).
+#
+# With PF_CYCLES_AS_IMPORTED=1 in the environment the file renders as
+# Blender's importer reads it instead (Principled BSDF with its textures, the
+# importer's light units, punctual lights of radius 0): the comparison issue
+# 38 asks for on users' files, such as bench/materials' room-textured.gltf.
 import json
 import math
 import os
@@ -125,8 +130,14 @@ def main():
     bpy.ops.wm.read_factory_settings(use_empty=True)
     bpy.ops.import_scene.gltf(filepath=os.path.abspath(scene_path))
     scene = bpy.context.scene
+    as_imported = os.environ.get("PF_CYCLES_AS_IMPORTED") == "1"
     kinds, lights = gltf_materials(scene_path)
-    for material in bpy.data.materials:
+    if as_imported:
+        kinds, lights = {}, []
+        for obj in scene.objects:
+            if obj.type == "LIGHT":
+                obj.data.shadow_soft_size = 0.0  # glTF lights are punctual
+    for material in bpy.data.materials if not as_imported else []:
         name = material.name
         while name not in kinds and "." in name:  # Blender's ".001" suffixes
             name = name.rsplit(".", 1)[0]

@@ -21,6 +21,10 @@
  * ~17× faster per sample than photonfarm's reference on lavapipe), or with no
  * Blender photonfarm's reference at TRUTH_SPP. Cached as
  * PREFIX-truth-<hash>.exr.
+ *
+ * PF_CYCLES_AS_IMPORTED=1: Cycles renders the file as Blender's importer reads
+ * it (cycles_render.py), for users' files such as bench/materials'
+ * room-textured.gltf, instead of with photonfarm's material model.
  */
 #include "pf_common.h"
 #include "pf_image.h"
@@ -231,7 +235,12 @@ int main(int argc, char **argv)
     /* The truth, cached by content. */
     char truth_path[4096], scratch[4096];
     snprintf(truth_path, sizeof truth_path, "%s-truth-%016" PRIx64 "-%ux%u-%s%u.exr", prefix,
-             scene_hash(scene_path), width, height, blender ? "cycles" : "reference", TRUTH_SPP);
+             scene_hash(scene_path), width, height,
+             !blender                    ? "reference"
+             : getenv("PF_CYCLES_AS_IMPORTED") && !strcmp(getenv("PF_CYCLES_AS_IMPORTED"), "1")
+                 ? "cycles-imported"
+                 : "cycles",
+             TRUTH_SPP);
     snprintf(scratch, sizeof scratch, "%s-cycles.exr", prefix);
     pf_image truth = {0};
     if (pf_exr_read(truth_path, &truth, NULL, NULL, &err) == PF_OK && rgb_only(&truth)) {

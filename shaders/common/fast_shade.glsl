@@ -90,6 +90,10 @@ layout(set = 0, binding = PF_SCENE_BINDING_COUNT + 12) uniform usamplerBuffer gr
 // The caustic estimate's k (one photon set, no progressive passes to
 // average: more neighbours than final's 8 keep the single estimate quiet).
 const uint CAUSTIC_NEAREST = PHOTON_KNN_MAX;
+// Below this roughness a surface's specular lobe is sharp enough for light sampling alone
+// to leave fireflies: its direct light gets MIS with a BSDF ray (fast_shade below). At 0.5
+// (alpha 0.25) GGX's peak is ~5 /sr, a light-sampled hit at most a few times the mean.
+const float FAST_MIS_ROUGHNESS = 0.5;
 
 
 #include "direct_light.glsl"
@@ -139,6 +143,10 @@ void main()
     // The camera's ray cone along its specular chain (camera.glsl).
     float cone_spread = camera_cone_spread(params.camera_forward.w, params.height);
     float cone_distance = 0.0;
+    // The BSDF half of the direct light's MIS at a glossy D₁ (below): the loop's next ray,
+    // which only looks for an emitter (its pdf in probe_pdf), so no trace call is added.
+    bool emitter_probe = false;
+    float probe_pdf = 0.0;
     for (uint depth = 0u; depth <= params.max_specular_depth; depth++) {
         BihHit hit = trace(origin, direction, infinity, false);
         rays++;
@@ -148,10 +156,17 @@ void main()
         cone_distance += hit.t;
         Surface surface = surface_at_cone(hit, origin, direction, cone_distance * cone_spread);
         if (!surface.valid) {
-            valid = false;
+            valid = !emitter_probe && valid;
             break;
         }
         Material material = surface.material;
+        if (emitter_probe) {
+            if (material_emits(material, surface.front))
+                direct += throughput * material.emission *
+                          emission_mis_weight(surface.pick_emission, surface.face_normal,
+                                              direction, hit.t, probe_pdf);
+            break;
+        }
         if (depth == 0u) {
             coverage = 1.0;
             depth_aov = hit.t;
@@ -163,13 +178,19 @@ void main()
             albedo_aov = material.albedo;
             normal_aov = surface.shading_normal;
             vec3 surface_origin = surface.position + ray_offset * surface.geometric_normal;
-            // Next-event estimation without MIS: no BSDF ray looks for emitters
-            // here (one was tried: on the Cornell box it changed the error by
-            // less than 0.1% for a ray more per sample).
+            // Next-event estimation, with MIS against one BSDF ray only where the surface
+            // has a sharp glossy lobe: light sampling alone through a lobe of roughness
+            // 0.05 leaves fireflies thousands of times the pixel's value (bench/RESULTS.md,
+            // "Textures"). A diffuse or rough surface keeps NEE alone (a BSDF ray more per
+            // sample changed the Cornell box's error by less than 0.1%).
+            bool probe = params.emissive_count > 0u && depth < params.max_specular_depth &&
+                         material.roughness < FAST_MIS_ROUGHNESS &&
+                         (material.metallic > 0.0 || material.specular > 0.0);
             direct += direct_light(material, surface.position, surface_origin, wo,
                                    surface.shading_normal, surface.geometric_normal,
-                                   surface.front, throughput, sampler_next_4d(samples), 0.0,
-                                   rays);
+                                   surface.front, throughput, sampler_next_4d(samples),
+                                   probe ? 1.0 : 0.0, rays);
+            vec4 probe_xi = sampler_next_4d(samples);
             vec3 reflectance = throughput *
                                material_rough_albedo(material, wo, surface.shading_normal,
                                                      surface.front) / PI;
@@ -184,7 +205,20 @@ void main()
             caustic = reflectance * caustic_irradiance(surface.position, surface.geometric_normal,
                                                        truncated);
             indirect += caustic;
-            break;
+            if (!probe)
+                break;
+            BsdfSample probe_ray = bsdf_sample(material, wo, surface.shading_normal,
+                                               surface.geometric_normal, surface.front,
+                                               probe_xi.xyz, TRANSPORT_RADIANCE);
+            // A specular choice has no MIS partner: its light is not light-sampled either.
+            if (probe_ray.specular || !(probe_ray.pdf > 0.0) || probe_ray.transmitted)
+                break;
+            throughput *= probe_ray.weight;
+            origin = surface_origin;
+            direction = probe_ray.direction;
+            probe_pdf = probe_ray.pdf;
+            emitter_probe = true;
+            continue;
         }
         BsdfSample scattered = bsdf_sample(material, wo, surface.shading_normal,
                                            surface.geometric_normal, surface.front,
