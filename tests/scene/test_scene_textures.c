@@ -1,8 +1,8 @@
 /*
  * Textures at load (core/scene: gltf_textures.c, image_decode.c,
  * texture_mips.c): images encoded here by the same libraries (libspng,
- * TurboJPEG, libwebp) and referenced by a file, a data: URI and a GLB-style
- * bufferView; their texels, mip chains in linear light, sampler and
+ * TurboJPEG, libwebp) and referenced by a file, a data: URI and a buffer
+ * view (a .glb's way); their texels, mip chains in linear light, sampler and
  * KHR_texture_transform bits, the per-corner attributes a frame carries, and
  * every malformed image (truncated, corrupt, bomb-sized, not an image,
  * missing, mutated at random) as an error naming the image and the material,
@@ -105,6 +105,11 @@ static char *base64(const unsigned char *data, size_t size)
  * A quad (two triangles) with TEXCOORD_0 (and COLOR_0 when colour), one material whose
  * `material` JSON is given, and images/textures/samplers JSON; writes <name>.gltf + .bin.
  */
+/* Image bytes write_textured_quad appends to the buffer as bufferViews[4] (a GLB's way), or
+ * NULL. */
+static const unsigned char *embedded_image;
+static size_t embedded_size;
+
 /* Root members write_textured_quad adds (",\"extensionsRequired\":[...]"), or "". */
 static const char *extra_root = "";
 
@@ -120,12 +125,20 @@ static const char *write_textured_quad(const char *name, const char *material, c
     memcpy(data + 12, uvs, sizeof uvs);
     memcpy(data + 20, colours, sizeof colours);
     uint16_t indices[6] = {0, 1, 2, 0, 2, 3};
-    unsigned char bin[sizeof data + sizeof indices];
+    size_t head = sizeof data + sizeof indices, bin_size = head + embedded_size;
+    unsigned char *bin = malloc(bin_size);
+    MUST(bin != NULL);
     memcpy(bin, data, sizeof data);
     memcpy(bin + sizeof data, indices, sizeof indices);
-    char bin_name[128], bin_path[512];
+    if (embedded_image)
+        memcpy(bin + head, embedded_image, embedded_size);
+    char bin_name[128], bin_path[512], image_view[96] = "";
     snprintf(bin_name, sizeof bin_name, "%s.bin", name);
-    MUST(st_write(st_path(bin_path, sizeof bin_path, bin_name), bin, sizeof bin) == 0);
+    MUST(st_write(st_path(bin_path, sizeof bin_path, bin_name), bin, bin_size) == 0);
+    free(bin);
+    if (embedded_image)
+        snprintf(image_view, sizeof image_view, ",{\"buffer\":0,\"byteOffset\":%zu,\"byteLength\":%zu}",
+                 head, embedded_size);
     char gltf_name[128];
     snprintf(gltf_name, sizeof gltf_name, "%s.gltf", name);
     st_path(path, path_size, gltf_name);
@@ -148,10 +161,10 @@ static const char *write_textured_quad(const char *name, const char *material, c
              "{\"buffer\":0,\"byteOffset\":0,\"byteLength\":48},"
              "{\"buffer\":0,\"byteOffset\":48,\"byteLength\":32},"
              "{\"buffer\":0,\"byteOffset\":80,\"byteLength\":64},"
-             "{\"buffer\":0,\"byteOffset\":144,\"byteLength\":12}],"
+             "{\"buffer\":0,\"byteOffset\":144,\"byteLength\":12}%s],"
              "\"buffers\":[{\"uri\":\"%s\",\"byteLength\":%zu}]}",
-             extra_root, colour ? ",\"COLOR_0\":2" : "", material, images, textures, samplers, bin_name,
-             sizeof bin);
+             extra_root, colour ? ",\"COLOR_0\":2" : "", material, images, textures, samplers,
+             image_view, bin_name, bin_size);
     MUST(st_write_text(path, json) == 0);
     free(json);
     return path;
@@ -209,24 +222,30 @@ PF_TEST(png_jpeg_and_webp_decode_with_their_mip_chains)
         const char *name, *file;
         unsigned char *(*encode)(const uint8_t *, uint32_t, uint32_t, size_t *);
         int tolerance; /* JPEG is lossy even at quality 100, and has no alpha */
-        int data_uri;
+        int data_uri; /* 0 a file, 1 a data: URI, 2 a buffer view (as in a .glb) */
     } formats[] = {{"tex_png", "tex_png.png", encode_png, 0, 0},
-                   {"tex_jpeg", "tex_jpeg.jpg", encode_jpeg, 12, 0},
+                   {"tex_jpeg", "tex_jpeg.jpg", encode_jpeg, 12, 2},
                    {"tex_webp", "tex_webp.webp", encode_webp, 0, 1}};
     for (size_t f = 0; f < sizeof formats / sizeof *formats; f++) {
         size_t size;
         unsigned char *bytes = formats[f].encode(rgba, IMAGE_W, IMAGE_H, &size);
         char images[8192], path[512];
-        if (formats[f].data_uri) {
+        if (formats[f].data_uri == 2) { /* in the buffer, as a GLB carries its images */
+            embedded_image = bytes;
+            embedded_size = size;
+            snprintf(images, sizeof images, "[{\"bufferView\":4,\"mimeType\":\"image/jpeg\"}]");
+        } else if (formats[f].data_uri) {
             char *text = base64(bytes, size);
             snprintf(images, sizeof images, "[{\"uri\":\"data:image/webp;base64,%s\"}]", text);
             free(text);
         } else {
             image_file(formats[f].file, bytes, size, images, sizeof images);
         }
-        free(bytes);
         write_textured_quad(formats[f].name, BASE_COLOR_MATERIAL, images,
                             "[{\"source\":0}]", "[]", 0, path, sizeof path);
+        embedded_image = NULL;
+        embedded_size = 0;
+        free(bytes);
         pf_scene *scene = NULL;
         pf_error err = {0};
         PF_REQUIRE_OK(pf_scene_load(path, &scene, &err), &err);
