@@ -1,7 +1,8 @@
 // The scene's textures and per-corner attributes, and the one place a
 // surface's material meets them (scene_material_at): baseColor × COLOR_0 ×
 // baseColorTexture, metallicRoughness's G (roughness) and B (metallic),
-// emissiveTexture, and the alpha that MASK and BLEND test in the traversal.
+// emissiveTexture, and the alpha that MASK and BLEND test after the traversal
+// (bih_traverse.glsl trace_bih_surfaces).
 //
 // Textures are texel buffers, not sampled images: an image array needs
 // descriptor indexing and one descriptor per texture, where one R32_UINT
