@@ -171,10 +171,7 @@ static pf_status triangle_material_words(const pf_scene_frame *frame, uint32_t *
                                          pf_error *err)
 {
     *words = NULL;
-    int any = 0;
-    for (uint32_t m = 0; m < frame->material_count; m++)
-        any |= frame->materials[m].alpha_mode != PF_ALPHA_OPAQUE;
-    if (!any)
+    if (!(pf_scene_frame_surface_features(frame) & PF_SURFACE_ALPHA))
         return PF_OK;
     if (frame->material_count >= TRIANGLE_ALPHA_TESTED)
         return pf_error_set(err, PF_ERR_LIMIT, "%u materials: too many", frame->material_count);
@@ -191,7 +188,7 @@ static pf_status triangle_material_words(const pf_scene_frame *frame, uint32_t *
 }
 
 /* The frame's texture table and texels in two new buffers (16-byte placeholders if none). */
-static pf_status pf_texture_upload(pf_vk_context *ctx, const pf_scene_frame *frame,
+static pf_status texture_upload(pf_vk_context *ctx, const pf_scene_frame *frame,
                                    pf_vk_buffer **textures, pf_vk_buffer **texels, pf_error *err)
 {
     pf_status status = pf_render_buffer_with_data(ctx, "textures", frame->textures,
@@ -226,7 +223,7 @@ pf_status pf_render_prepare_textures(pf_renderer *renderer, const pf_scene_frame
         pf_render_buffer_release(renderer->ctx, &cache->texels);
         cache->texture_set = 0;
         pf_status status =
-            pf_texture_upload(renderer->ctx, frame, &cache->textures, &cache->texels, err);
+            texture_upload(renderer->ctx, frame, &cache->textures, &cache->texels, err);
         if (status != PF_OK) {
             pf_error_prefix(err, "textures (%u, %.1f MiB)", frame->texture_count, megabytes);
             return status;
@@ -242,26 +239,6 @@ pf_status pf_render_prepare_textures(pf_renderer *renderer, const pf_scene_frame
     pf_stage_add_counter(row, "megabytes", megabytes);
     pf_stage_add_counter(row, "uploaded", uploaded);
     return PF_OK;
-}
-
-/* The materials with PF_MATERIAL_CORNERS set where the frame has per-corner attributes. */
-static pf_status upload_materials(pf_vk_context *ctx, const pf_scene_frame *frame,
-                                  pf_gpu_scene *out, pf_error *err)
-{
-    pf_material *materials = malloc((frame->material_count + 1u) * sizeof *materials);
-    if (!materials)
-        return pf_error_set(err, PF_ERR_NOMEM, "materials: out of memory");
-    for (uint32_t m = 0; m < frame->material_count; m++) {
-        materials[m] = frame->materials[m];
-        materials[m].flags &= ~PF_MATERIAL_CORNERS;
-        if (frame->corners)
-            materials[m].flags |= PF_MATERIAL_CORNERS;
-    }
-    pf_status status = pf_render_buffer_with_data(ctx, "materials", materials,
-                                                  frame->material_count * sizeof(pf_material),
-                                                  sizeof(pf_material), &out->materials, err);
-    free(materials);
-    return status;
 }
 
 pf_status pf_gpu_scene_upload(pf_vk_context *ctx, const pf_scene_frame *frame, int full,
@@ -296,7 +273,9 @@ pf_status pf_gpu_scene_upload(pf_vk_context *ctx, const pf_scene_frame *frame, i
             triangles * sizeof(uint32_t), sizeof(uint32_t), &out->triangle_material, err);
     free(material_words);
     if (status == PF_OK)
-        status = upload_materials(ctx, frame, out, err);
+        status = pf_render_buffer_with_data(ctx, "materials", frame->materials,
+                                            frame->material_count * sizeof(pf_material),
+                                            sizeof(pf_material), &out->materials, err);
     if (status == PF_OK)
         status = pf_render_buffer_with_data(ctx, "lights", frame->lights,
                                             frame->light_count * sizeof(pf_light),
@@ -308,7 +287,7 @@ pf_status pf_gpu_scene_upload(pf_vk_context *ctx, const pf_scene_frame *frame, i
                                             out->emissive_count * sizeof(pf_emissive_entry),
                                             sizeof(pf_emissive_entry), &out->emissive, err);
     free(table);
-    /* Without corners the buffer is one texel: scene_has_corners() reads that. */
+    /* Without corners a placeholder: the kernels' variant reads none (pf_scene.h PF_SURFACE_*). */
     if (status == PF_OK)
         status = pf_render_buffer_with_data(
             ctx, "triangle corners", frame->corners,
@@ -320,7 +299,7 @@ pf_status pf_gpu_scene_upload(pf_vk_context *ctx, const pf_scene_frame *frame, i
         out->texels = cache->texels;
         out->textures_borrowed = 1;
     } else if (status == PF_OK) {
-        status = pf_texture_upload(ctx, frame, &out->textures, &out->texels, err);
+        status = texture_upload(ctx, frame, &out->textures, &out->texels, err);
     }
     out->emissive_weight_total = (float)weight_total;
     if (status != PF_OK)

@@ -96,9 +96,6 @@ typedef struct pf_material {
 /* glTF material.doubleSided: its emission leaves both faces (Blender's exporter
  * writes it for every material whose backface culling is off, the default). */
 #define PF_MATERIAL_DOUBLE_SIDED 1u
-/* Set by the renderer's upload where the frame has per-corner attributes
- * (pf_scene_frame.corners): the shaders read textures and COLOR_0 then. */
-#define PF_MATERIAL_CORNERS 2u
 
 /*
  * One texture as a material slot reads it (std430, 48 bytes; scene_types.glsl

@@ -22,8 +22,8 @@
 // PF_SPEC_SCENE_*): a pipeline made for a scene without alpha-tested materials,
 // or without textures and colours, has that code removed when it is compiled,
 // so such a scene pays neither its compile time nor its run time. Both default
-// to true: a pipeline made without them reads everything.
-layout(constant_id = 1001) const bool SCENE_HAS_ALPHA = true;
-layout(constant_id = 1002) const bool SCENE_HAS_CORNERS = true;
+// to false: a pipeline made without them reads no corner buffer it was not given.
+layout(constant_id = 1001) const bool SCENE_HAS_ALPHA = false;
+layout(constant_id = 1002) const bool SCENE_HAS_CORNERS = false;
 
 #endif

@@ -88,7 +88,7 @@ bool scene_alpha_passes(uint triangle, float u, float v, vec3 origin, vec3 direc
         return true;
     Material m = scene_material(word & ~TRIANGLE_ALPHA_TESTED);
     float alpha = m.alpha;
-    if (scene_has_corners(m)) {
+    if (scene_has_corners()) {
         alpha *= scene_corner(triangle, 1u, u, v).a;
         if (m.base_color_texture != NO_TEXTURE)
             alpha *= scene_slot_sample(m.base_color_texture,

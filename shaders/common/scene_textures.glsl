@@ -26,12 +26,12 @@ layout(set = 0, binding = PF_SCENE_BINDING_TEXELS) uniform usamplerBuffer scene_
 
 const uint CORNER_TEXELS = 3u; // PF_CORNER_TEXELS
 
-// The frame has per-corner attributes (a texture or COLOR_0 somewhere): the upload marks
-// every material (MATERIAL_CORNERS); else scene_corners is a placeholder. A flag, not the
-// buffer's textureSize: a texel view may cover more than the bytes uploaded.
-bool scene_has_corners(Material m)
+// The frame has per-corner attributes (a texture or COLOR_0 somewhere), as the pipeline was
+// specialised (pf_scene.h PF_SURFACE_CORNERS); else scene_corners is a placeholder. A
+// constant, not the buffer's textureSize: a texel view may cover more than the bytes uploaded.
+bool scene_has_corners()
 {
-    return SCENE_HAS_CORNERS && (m.flags & MATERIAL_CORNERS) != 0u;
+    return SCENE_HAS_CORNERS;
 }
 
 TextureRef scene_texture(uint slot)
@@ -171,7 +171,7 @@ vec4 scene_slot_sample(uint slot, SurfaceUv surface_uv)
 Material scene_material_textured(Material m, uint triangle, float u, float v, float cone_width,
                                  float cos_arrival, vec3 p0, vec3 p1, vec3 p2)
 {
-    if (!scene_has_corners(m))
+    if (!scene_has_corners())
         return m;
     vec4 color = scene_corner(triangle, 1u, u, v);
     m.albedo *= color.rgb;
@@ -203,7 +203,7 @@ Material scene_material_textured(Material m, uint triangle, float u, float v, fl
 vec3 scene_normal_mapped(Material m, uint triangle, float u, float v, vec3 n, float cone_width,
                          float cos_arrival, vec3 p0, vec3 p1, vec3 p2)
 {
-    if (m.normal_texture == NO_TEXTURE || !scene_has_corners(m))
+    if (m.normal_texture == NO_TEXTURE || !scene_has_corners())
         return n;
     vec4 tangent = scene_corner(triangle, 2u, u, v);
     vec3 t = tangent.xyz - n * dot(n, tangent.xyz);

@@ -10,9 +10,6 @@ const uint MATERIAL_GLASS = 2u;
 
 // pf_material.flags (pf_scene.h PF_MATERIAL_DOUBLE_SIDED): emits from both faces.
 const uint MATERIAL_DOUBLE_SIDED = 1u;
-// pf_material.flags (render_internal.h PF_MATERIAL_CORNERS): the frame has per-corner
-// attributes (scene_textures.glsl), set by the upload.
-const uint MATERIAL_CORNERS = 2u;
 
 const uint LIGHT_POINT = 0u;
 const uint LIGHT_SPOT = 1u;

@@ -93,7 +93,7 @@ static void check_scene(const char *name)
     PF_CHECK(reported_triangles == triangles);
     printf("  %s: %u triangles, mean RGB %.4g, coverage %u/%u, %.0f ms\n", name, triangles,
            rgb_sum / (3.0 * TEST_WIDTH * TEST_HEIGHT), covered, TEST_WIDTH * TEST_HEIGHT,
-           report.stages[1].wall_ms);
+           report.stages[2].wall_ms);
     pf_image_free(&image);
 }
 
