@@ -69,6 +69,24 @@ static void set_corners(pf_scene_frame *frame, uint32_t first, uint32_t count, f
         }
 }
 
+/* Zeroed corners for every triangle of frame (owned by the test: scene_free_textured). */
+static int corners_alloc(pf_scene_frame *frame)
+{
+    frame->corners = calloc(3 * PF_CORNER_TEXELS * frame->triangle_count, sizeof *frame->corners);
+    return frame->corners != NULL;
+}
+
+/* Frees the test's corners, forgets the textures it pointed the frame at (its own arrays),
+ * then the scene. */
+static void scene_free_textured(ref_scene *scene)
+{
+    free(scene->frame.corners);
+    scene->frame.corners = NULL;
+    scene->frame.textures = NULL;
+    scene->frame.texels = NULL;
+    ref_scene_free(scene);
+}
+
 static pf_frame_report report;
 
 static pf_status render(const pf_scene_frame *frame, pf_quality quality, pf_image *image)
@@ -106,8 +124,7 @@ PF_TEST(textured_plane_mean_is_mean_albedo_times_irradiance)
     look_down(&scene);
     pf_scene_frame *frame = &scene.frame;
     /* uv over the plane [-2, 2]²: [0, 2]², two periods; the view [-1, 1]² is one. */
-    frame->corners = calloc(3 * PF_CORNER_TEXELS * frame->triangle_count, sizeof *frame->corners);
-    PF_REQUIRE(frame->corners != NULL);
+    PF_REQUIRE(corners_alloc(frame));
     set_corners(frame, 0, frame->triangle_count, -2.0f, 2.0f, 0.5f, 0.5f);
     uint32_t texels[CHECKER * CHECKER];
     for (uint32_t y = 0; y < CHECKER; y++)
@@ -143,11 +160,7 @@ PF_TEST(textured_plane_mean_is_mean_albedo_times_irradiance)
         PF_CHECK(ref_stage_counter(&report, "textures", "textures") == 1.0);
         pf_image_free(&image);
     }
-    free(frame->corners);
-    frame->corners = NULL;
-    frame->textures = NULL;
-    frame->texels = NULL;
-    ref_scene_free(&scene);
+    scene_free_textured(&scene);
 }
 
 PF_TEST(constant_normal_map_shades_as_the_turned_plane)
@@ -167,8 +180,7 @@ PF_TEST(constant_normal_map_shades_as_the_turned_plane)
                                            1, {0, 0, 0}});
     look_down(&scene);
     pf_scene_frame *frame = &scene.frame;
-    frame->corners = calloc(3 * PF_CORNER_TEXELS * frame->triangle_count, sizeof *frame->corners);
-    PF_REQUIRE(frame->corners != NULL);
+    PF_REQUIRE(corners_alloc(frame));
     set_corners(frame, 0, frame->triangle_count, -2.0f, 2.0f, 0.25f, 0.25f);
     for (uint32_t k = 0; k < 3 * frame->triangle_count; k++) { /* tangent +x, handedness +1 */
         float *tangent = frame->corners[PF_CORNER_TEXELS * k + 2];
@@ -202,11 +214,7 @@ PF_TEST(constant_normal_map_shades_as_the_turned_plane)
                      pf_quality_name(qualities[q]), mean, expected);
         pf_image_free(&image);
     }
-    free(frame->corners);
-    frame->corners = NULL;
-    frame->textures = NULL;
-    frame->texels = NULL;
-    ref_scene_free(&scene);
+    scene_free_textured(&scene);
 }
 
 #define MIP_EDGE 256u
@@ -225,8 +233,7 @@ PF_TEST(camera_ray_cones_pick_the_mip_level)
                                            {e, e, e}, 1, 1, {0, 0, 0}});
     look_down(&scene);
     pf_scene_frame *frame = &scene.frame;
-    frame->corners = calloc(3 * PF_CORNER_TEXELS * frame->triangle_count, sizeof *frame->corners);
-    PF_REQUIRE(frame->corners != NULL);
+    PF_REQUIRE(corners_alloc(frame));
     /* uv [0, 1] over the plane's 4 m: 64 texels a metre; the view has 32 pixels a metre. */
     set_corners(frame, 0, frame->triangle_count, -2.0f, 2.0f, 0.25f, 0.25f);
     uint32_t levels = 9, total = 0;
@@ -267,11 +274,7 @@ PF_TEST(camera_ray_cones_pick_the_mip_level)
         pf_image_free(&image);
     }
     free(texels);
-    free(frame->corners);
-    frame->corners = NULL;
-    frame->textures = NULL;
-    frame->texels = NULL;
-    ref_scene_free(&scene);
+    scene_free_textured(&scene);
 }
 
 PF_TEST(alpha_masked_card_hides_and_shadows_only_its_opaque_half)
@@ -296,8 +299,7 @@ PF_TEST(alpha_masked_card_hides_and_shadows_only_its_opaque_half)
                                            {e, e, e}, 1, 1, {0, 0, 0}});
     look_down(&scene);
     pf_scene_frame *frame = &scene.frame;
-    frame->corners = calloc(3 * PF_CORNER_TEXELS * frame->triangle_count, sizeof *frame->corners);
-    PF_REQUIRE(frame->corners != NULL);
+    PF_REQUIRE(corners_alloc(frame));
     set_corners(frame, 0, card_first, -2.0f, 2.0f, 0.25f, 0.25f);
     set_corners(frame, card_first, frame->triangle_count - card_first, -0.5f, 0.5f, 1.0f, 1.0f);
     /* 4×1: alpha 1, 1, 0, 0 from left to right; nearest, clamped. */
@@ -330,11 +332,7 @@ PF_TEST(alpha_masked_card_hides_and_shadows_only_its_opaque_half)
         PF_CHECK(ref_image_non_finite(&image) == 0);
         pf_image_free(&image);
     }
-    free(frame->corners);
-    frame->corners = NULL;
-    frame->textures = NULL;
-    frame->texels = NULL;
-    ref_scene_free(&scene);
+    scene_free_textured(&scene);
 }
 
 /* An sRGB checker of two colours, 8×8 single-texel squares, level 0 only. */
@@ -375,8 +373,7 @@ PF_TEST(every_preset_on_a_textured_room_stays_within_bounds_of_the_reference)
                 up[3] = {0.0f, 1.0f, 0.0f};
     ref_scene_look_at(&room, eye, target, up, 1.1f);
     pf_scene_frame *frame = &room.frame;
-    frame->corners = calloc(3 * PF_CORNER_TEXELS * frame->triangle_count, sizeof *frame->corners);
-    PF_REQUIRE(frame->corners != NULL);
+    PF_REQUIRE(corners_alloc(frame));
     set_corners(frame, 0, box_first, -2.0f, 1.0f, 0.5f, 0.5f);
     set_corners(frame, box_first, light_first - box_first, -0.6f, -0.2f, 1.25f, 1.25f);
     set_corners(frame, light_first, frame->triangle_count - light_first, 0.0f, 0.0f, 1.0f, 1.0f);
@@ -444,11 +441,7 @@ PF_TEST(every_preset_on_a_textured_room_stays_within_bounds_of_the_reference)
                      presets[i].high);
         pf_image_free(&image);
     }
-    free(frame->corners);
-    frame->corners = NULL;
-    frame->textures = NULL;
-    frame->texels = NULL;
-    ref_scene_free(&room);
+    scene_free_textured(&room);
 }
 
 int main(void)
