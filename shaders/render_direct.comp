@@ -114,7 +114,10 @@ void path_follow_hit(inout Path path, BihHit hit, uint depth, float ray_offset, 
     }
     if (material_emits(material, front))
         path.radiance += path.throughput * material.emission;
-    if (material.kind == MATERIAL_LAMBERT) {
+    // Direct light through the full BSDF where the surface has a diffuse base or a glossy
+    // reflection, sharp or not; mirrors and glass, smooth or rough, are passed through.
+    bool metal_lobe = material.kind == MATERIAL_MIRROR && material_has_rough_lobe(material);
+    if (material.kind == MATERIAL_LAMBERT || metal_lobe) {
         path.diffuse_hit = true;
         path.tracing = false;
         path.surface = material;

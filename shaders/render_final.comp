@@ -13,11 +13,13 @@
 // held all four.
 //
 // The primary (this kernel): a camera ray through the
-//   pixel filter (pixel_filter.glsl), specular chain (bsdf_sample) to the
-//   first diffuse vertex D₁, at most params.max_specular_depth specular vertices; emission seen
-//   on the way and direct light at D₁ (direct_light.glsl, the reference's
-//   NEE, MIS-weighted against the gather rays that may hit the same
-//   emitter) go to `direct`. D₁ is written to the vertex record for the
+//   pixel filter (pixel_filter.glsl), specular chain (bsdf_sample through
+//   mirrors, glass and metals sharper than GLOSSY_ROUGHNESS) to the first
+//   diffuse vertex D₁, at most params.max_specular_depth specular vertices;
+//   emission seen on the way and direct light at D₁ (direct_light.glsl, the
+//   reference's NEE, MIS-weighted against the gather rays that may hit the
+//   same emitter) and at every non-delta vertex of the chain (MIS-weighted
+//   against the chain's next ray) go to `direct`. D₁ is written to the vertex record for the
 //   caustic dispatch and the gather.
 // final_caustic.comp (caustic grid bound; only for passes with a caustic
 //   map): the caustic estimate at D₁ (albedo/π × caustic irradiance) into
@@ -129,6 +131,10 @@ void primary(uint pixel_index, uvec2 pixel)
     // The camera's ray cone along its specular chain (camera.glsl).
     float cone_spread = camera_cone_spread(params.camera_forward.w, params.height);
     float cone_distance = 0.0;
+    // The BSDF half of the direct light's MIS at a sharp vertex passed through (below): the
+    // pdf of the ray traced next (0: a delta choice, emission it finds has full weight).
+    float bsdf_pdf = 0.0;
+    bool aov_recorded = false;
     for (uint depth = 0u; depth <= params.max_specular_depth; depth++) {
         BihHit hit = trace(origin, direction, infinity, false);
         rays++;
@@ -146,19 +152,37 @@ void primary(uint pixel_index, uvec2 pixel)
             coverage = 1.0;
             depth_aov = hit.t;
         }
-        // Seen from the camera or through specular vertices only: no light
-        // sampling reaches it, so it has full weight.
+        // Seen from the camera or through delta vertices only, no light sampling reaches
+        // it: full weight. Through a sharp lobe, the BSDF half of that vertex's MIS.
         if (material_emits(material, surface.front))
-            direct += throughput * material.emission;
+            direct += throughput * material.emission *
+                      (bsdf_pdf > 0.0 ? emission_mis_weight(surface.pick_emission,
+                                                            surface.face_normal, direction,
+                                                            hit.t, bsdf_pdf)
+                                      : 1.0);
         vec3 wo = -direction;
-        if (material.kind == MATERIAL_LAMBERT) {
+        // D₁ (estimated: a diffuse base or a rough lobe), or passed through by sampling
+        // (mirrors, glass, sharp glossy metals: pf_scene.h PF_MATERIAL_GLOSSY_ROUGHNESS),
+        // with next-event estimation at any non-delta lobe: one call site, which
+        // llvmpipe inlines with its trace (direct_light.glsl).
+        bool d1 = material.kind == MATERIAL_LAMBERT;
+        bool lit = d1 || material_has_rough_lobe(material);
+        if (lit && !aov_recorded) {
+            aov_recorded = true;
             albedo_aov = material.albedo;
             normal_aov = surface.shading_normal;
-            vec3 surface_origin = surface.position + ray_offset * surface.geometric_normal;
+        }
+        // D₁'s MIS partners are its gather rays; a vertex passed through has the next ray
+        // of this loop, where one follows.
+        float bsdf_rays = d1 ? float(push.gather_total)
+                             : (depth < params.max_specular_depth ? 1.0 : 0.0);
+        vec3 surface_origin = surface.position + ray_offset * surface.geometric_normal;
+        if (lit)
             direct += direct_light(material, surface.position, surface_origin, wo,
                                    surface.shading_normal, surface.geometric_normal,
                                    surface.front, throughput, sampler_next_4d(samples),
-                                   float(push.gather_total), rays);
+                                   bsdf_rays, rays);
+        if (d1) {
             vertices[base] = vec4(surface.position, push.gather_total > 0u ? 1.0 : 0.0);
             vertices[base + 1u] = vec4(surface.shading_normal, uintBitsToFloat(hit.triangle));
             vertices[base + 2u] = vec4(surface.geometric_normal, 1.0); // w: D₁ found
@@ -169,6 +193,7 @@ void primary(uint pixel_index, uvec2 pixel)
         BsdfSample scattered = bsdf_sample(material, wo, surface.shading_normal,
                                            surface.geometric_normal, surface.front,
                                            sampler_next_4d(samples).xyz, TRANSPORT_RADIANCE);
+        bsdf_pdf = bsdf_rays > 0.0 && !scattered.specular ? scattered.pdf : 0.0;
         throughput *= scattered.weight;
         if (!all_finite(throughput)) {
             valid = false;

@@ -20,12 +20,13 @@ uint32_t pf_scene_frame_surface_features(const pf_scene_frame *frame)
 
 void pf_material_classify(pf_material *material)
 {
-    int smooth = material->roughness <= PF_MATERIAL_DELTA_ROUGHNESS;
+    int rough = material->roughness >= PF_MATERIAL_GLOSSY_ROUGHNESS;
     /* The diffuse base has weight (1 - metallic)(1 - transmission). */
     int has_diffuse = material->metallic < 1.0f && material->transmission < 1.0f;
     /* A rough metal's glossy reflection is estimated like a diffuse base; a
-     * fully transmissive dielectric, rough or not, is passed through. */
-    if (has_diffuse || (!smooth && material->metallic > 0.0f))
+     * sharper one, and a fully transmissive dielectric, rough or not, is
+     * passed through. */
+    if (has_diffuse || (rough && material->metallic > 0.0f))
         material->kind = PF_MATERIAL_LAMBERT;
     else if (material->metallic >= 1.0f)
         material->kind = PF_MATERIAL_MIRROR;

@@ -39,7 +39,9 @@ typedef struct pf_scene pf_scene;
  */
 typedef enum pf_material_kind {
     PF_MATERIAL_LAMBERT = 0, /* a diffuse base or a rough metal's glossy lobe: estimated there */
-    PF_MATERIAL_MIRROR = 1,  /* only a delta reflection: a smooth metal */
+    PF_MATERIAL_MIRROR = 1,  /* a metal whose lobe is a delta (smooth) or too sharp for an
+                              * estimate (roughness < PF_MATERIAL_GLOSSY_ROUGHNESS):
+                              * passed through by sampling */
     PF_MATERIAL_GLASS = 2    /* a fully transmissive dielectric, smooth or rough (or a
                               * smooth metal and glass mix): passed through by sampling */
 } pf_material_kind;
@@ -51,6 +53,21 @@ typedef enum pf_material_kind {
  * only add the noise of sampling a near-delta peak.
  */
 #define PF_MATERIAL_DELTA_ROUGHNESS 0.02f
+
+/*
+ * GGX roughness below which a metal's glossy lobe is too sharp to be
+ * estimated from a smooth quantity: a photon density estimate, the LPV or
+ * light sampling alone. Those estimates treat reflected light as the
+ * irradiance times the directional albedo over pi, a Lambert lobe; at
+ * roughness 0.5 (alpha 0.25) GGX's peak is ~4x Lambert's at equal albedo and
+ * a light-sampled hit at most a few times the mean, below it the peak grows
+ * as 1/alpha^2 (16x at the Blender room's gold, roughness 0.35) and the
+ * estimate turns a reflection into a glow. Such a metal is passed through by
+ * sampling its lobe (kind PF_MATERIAL_MIRROR), with next-event estimation
+ * and MIS at the vertex; a dielectric's sharp coat over a diffuse base keeps
+ * the base's estimate and gets MIS with a BSDF ray where it is lit.
+ */
+#define PF_MATERIAL_GLOSSY_ROUGHNESS 0.5f
 
 /* A material slot without a texture: 0, so that a zeroed material has none (a slot holds
  * its texture's index + 1). */

@@ -5,12 +5,14 @@
 // it): one camera sample per pixel per dispatch, added to the split film of
 // the reference and final integrators.
 //
-// A camera ray through the pixel filter (pixel_filter.glsl) follows mirrors and
-// glass (bsdf_sample) to the first diffuse vertex D₁, at most
-// params.max_specular_depth specular vertices. Emission seen on the way and
-// direct light at D₁ by next-event estimation (direct_light.glsl, the one
-// estimator reference and final use; no BSDF ray looks for emitters here,
-// so the light sample has full weight) go to `direct`. Indirect light at D₁
+// A camera ray through the pixel filter (pixel_filter.glsl) follows mirrors,
+// glass and metals sharper than GLOSSY_ROUGHNESS (bsdf_sample) to the first
+// diffuse vertex D₁, at most params.max_specular_depth specular vertices.
+// Emission seen on the way and direct light by next-event estimation
+// (direct_light.glsl, the one estimator reference and final use) at D₁ and
+// at the chain's non-delta vertices go to `direct`; where the lobe is sharp,
+// the light sample is MIS-weighted against the next ray (at D₁ one that only
+// looks for an emitter), else it has full weight. Indirect light at D₁
 // is albedo/π × the LPV irradiance (lpv_lookup.glsl: light that left a
 // diffuse surface at least once, the photon VPLs propagated through the
 // cascades) plus, when a caustic map is bound, albedo/π × its k-nearest
@@ -90,10 +92,6 @@ layout(set = 0, binding = PF_SCENE_BINDING_COUNT + 12) uniform usamplerBuffer gr
 // The caustic estimate's k (one photon set, no progressive passes to
 // average: more neighbours than final's 8 keep the single estimate quiet).
 const uint CAUSTIC_NEAREST = PHOTON_KNN_MAX;
-// Below this roughness a surface's specular lobe is sharp enough for light sampling alone
-// to leave fireflies: its direct light gets MIS with a BSDF ray (fast_shade below). At 0.5
-// (alpha 0.25) GGX's peak is ~5 /sr, a light-sampled hit at most a few times the mean.
-const float FAST_MIS_ROUGHNESS = 0.5;
 
 
 #include "direct_light.glsl"
@@ -143,10 +141,13 @@ void main()
     // The camera's ray cone along its specular chain (camera.glsl).
     float cone_spread = camera_cone_spread(params.camera_forward.w, params.height);
     float cone_distance = 0.0;
-    // The BSDF half of the direct light's MIS at a glossy D₁ (below): the loop's next ray,
-    // which only looks for an emitter (its pdf in probe_pdf), so no trace call is added.
+    // The BSDF half of the direct light's MIS where a vertex's lobe is sharp (below): the
+    // pdf of the ray the loop traces next (0: a delta choice, or no light sampled at the
+    // vertex, so emission it finds has full weight). At a glossy D₁ that ray only looks
+    // for an emitter (emitter_probe), so no trace call is added.
+    float bsdf_pdf = 0.0;
     bool emitter_probe = false;
-    float probe_pdf = 0.0;
+    bool aov_recorded = false;
     for (uint depth = 0u; depth <= params.max_specular_depth; depth++) {
         BihHit hit = trace(origin, direction, infinity, false);
         rays++;
@@ -160,37 +161,45 @@ void main()
             break;
         }
         Material material = surface.material;
-        if (emitter_probe) {
-            if (material_emits(material, surface.front))
-                direct += throughput * material.emission *
-                          emission_mis_weight(surface.pick_emission, surface.face_normal,
-                                              direction, hit.t, probe_pdf);
-            break;
-        }
         if (depth == 0u) {
             coverage = 1.0;
             depth_aov = hit.t;
         }
         if (material_emits(material, surface.front))
-            direct += throughput * material.emission;
+            direct += throughput * material.emission *
+                      (bsdf_pdf > 0.0 ? emission_mis_weight(surface.pick_emission,
+                                                            surface.face_normal, direction,
+                                                            hit.t, bsdf_pdf)
+                                      : 1.0);
+        if (emitter_probe)
+            break;
         vec3 wo = -direction;
-        if (material.kind == MATERIAL_LAMBERT) {
+        // Estimated here (a diffuse base or a rough lobe), or passed through by sampling
+        // (mirrors, glass, sharp glossy metals: pf_scene.h PF_MATERIAL_GLOSSY_ROUGHNESS),
+        // with the direct light of any non-delta lobe.
+        bool estimated = material.kind == MATERIAL_LAMBERT;
+        bool lit = estimated || material_has_rough_lobe(material);
+        if (lit && !aov_recorded) {
+            aov_recorded = true;
             albedo_aov = material.albedo;
             normal_aov = surface.shading_normal;
-            vec3 surface_origin = surface.position + ray_offset * surface.geometric_normal;
-            // Next-event estimation, with MIS against one BSDF ray only where the surface
-            // has a sharp glossy lobe: light sampling alone through a lobe of roughness
-            // 0.05 leaves fireflies thousands of times the pixel's value (bench/RESULTS.md,
-            // "Textures"). A diffuse or rough surface keeps NEE alone (a BSDF ray more per
-            // sample changed the Cornell box's error by less than 0.1%).
-            bool probe = params.emissive_count > 0u && depth < params.max_specular_depth &&
-                         material.roughness < FAST_MIS_ROUGHNESS &&
-                         (material.metallic > 0.0 || material.specular > 0.0);
+        }
+        // Next-event estimation, with MIS against the next BSDF ray where the lobe is sharp:
+        // light sampling alone through a lobe of roughness 0.05 leaves fireflies thousands
+        // of times the pixel's value (bench/RESULTS.md, "Textures"). A diffuse or rough
+        // surface keeps NEE alone (a BSDF ray more per sample changed the Cornell box's
+        // error by less than 0.1%). At the last vertex no ray follows: NEE alone.
+        bool sharp = !estimated || (material.roughness < GLOSSY_ROUGHNESS &&
+                                    (material.metallic > 0.0 || material.specular > 0.0));
+        bool mis = params.emissive_count > 0u && depth < params.max_specular_depth && sharp;
+        vec3 surface_origin = surface.position + ray_offset * surface.geometric_normal;
+        if (lit)
             direct += direct_light(material, surface.position, surface_origin, wo,
                                    surface.shading_normal, surface.geometric_normal,
                                    surface.front, throughput, sampler_next_4d(samples),
-                                   probe ? 1.0 : 0.0, rays);
-            vec4 probe_xi = sampler_next_4d(samples);
+                                   mis ? 1.0 : 0.0, rays);
+        vec4 bsdf_xi = sampler_next_4d(samples);
+        if (estimated) {
             vec3 reflectance = throughput *
                                material_rough_albedo(material, wo, surface.shading_normal,
                                                      surface.front) / PI;
@@ -205,24 +214,20 @@ void main()
             caustic = reflectance * caustic_irradiance(surface.position, surface.geometric_normal,
                                                        truncated);
             indirect += caustic;
-            if (!probe)
+            if (!mis)
                 break;
-            BsdfSample probe_ray = bsdf_sample(material, wo, surface.shading_normal,
-                                               surface.geometric_normal, surface.front,
-                                               probe_xi.xyz, TRANSPORT_RADIANCE);
-            // A specular choice has no MIS partner: its light is not light-sampled either.
-            if (probe_ray.specular || !(probe_ray.pdf > 0.0) || probe_ray.transmitted)
-                break;
-            throughput *= probe_ray.weight;
-            origin = surface_origin;
-            direction = probe_ray.direction;
-            probe_pdf = probe_ray.pdf;
-            emitter_probe = true;
-            continue;
         }
         BsdfSample scattered = bsdf_sample(material, wo, surface.shading_normal,
                                            surface.geometric_normal, surface.front,
-                                           sampler_next_4d(samples).xyz, TRANSPORT_RADIANCE);
+                                           bsdf_xi.xyz, TRANSPORT_RADIANCE);
+        // A delta choice has no MIS partner: its light is not light-sampled either.
+        bsdf_pdf = mis && !scattered.specular ? scattered.pdf : 0.0;
+        if (estimated) {
+            // The probe: only the emission of the glossy lobe's direction.
+            if (!(bsdf_pdf > 0.0) || scattered.transmitted)
+                break;
+            emitter_probe = true;
+        }
         throughput *= scattered.weight;
         if (!all_finite(throughput)) {
             valid = false;

@@ -429,8 +429,9 @@ bool material_has_rough_lobe(Material material)
 
 // Whether light is estimated at the surface from stored photons, the LPV or
 // the irradiance cache (multiplied by material_rough_albedo): surfaces with a
-// diffuse base or a glossy reflection (pf_material_kind LAMBERT). Mirrors and
-// glass, smooth or rough, are passed through by sampling bsdf_sample instead.
+// diffuse base or a rough glossy reflection (pf_material_kind LAMBERT). Mirrors,
+// metals sharper than GLOSSY_ROUGHNESS and glass, smooth or rough, are passed
+// through by sampling bsdf_sample instead.
 bool material_stores_photons(Material material)
 {
     return material.kind == MATERIAL_LAMBERT;

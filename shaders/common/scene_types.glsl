@@ -5,7 +5,7 @@
 #define PF_SCENE_TYPES_GLSL
 
 const uint MATERIAL_LAMBERT = 0u;
-const uint MATERIAL_MIRROR = 1u;
+const uint MATERIAL_MIRROR = 1u; // smooth or sharp glossy metal (pf_scene.h)
 const uint MATERIAL_GLASS = 2u;
 
 // pf_material.flags (pf_scene.h PF_MATERIAL_DOUBLE_SIDED): emits from both faces.
@@ -44,13 +44,16 @@ struct Material {
 
 // pf_scene.h PF_MATERIAL_DELTA_ROUGHNESS: at or below it the specular lobe is a mirror.
 const float DELTA_ROUGHNESS = 0.02;
+// pf_scene.h PF_MATERIAL_GLOSSY_ROUGHNESS: below it a glossy lobe is too sharp for an
+// estimate (photon map, LPV, light sampling alone): traced, with MIS.
+const float GLOSSY_ROUGHNESS = 0.5;
 
 // pf_material_classify (core/scene/material.c), for a material its textures changed.
 uint material_kind_of(Material m)
 {
-    bool smooth_lobe = m.roughness <= DELTA_ROUGHNESS;
+    bool rough_lobe = m.roughness >= GLOSSY_ROUGHNESS;
     bool has_diffuse = m.metallic < 1.0 && m.transmission < 1.0;
-    if (has_diffuse || (!smooth_lobe && m.metallic > 0.0))
+    if (has_diffuse || (rough_lobe && m.metallic > 0.0))
         return MATERIAL_LAMBERT;
     return m.metallic >= 1.0 ? MATERIAL_MIRROR : MATERIAL_GLASS;
 }
