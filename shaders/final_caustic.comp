@@ -37,11 +37,11 @@ layout(local_size_x = 8, local_size_y = 8) in;
 // tests/render/test_final_caustic.c's measure, 10,000 photons per pass).
 const uint CAUSTIC_NEAREST = PHOTON_KNN_MAX;
 
-// Radiance a Lambertian surface reflects (albedo/π × irradiance, in watts by
+// Radiance the surface reflects (directional albedo/π × irradiance, in watts by
 // the map's flux scale) from the bound caustic map, at the pixel's
 // progressive caustic radius (above); the first pass also records that radius.
-vec3 caustic_radiance(Material material, vec3 position, vec3 geometric_normal, uint pixel_index,
-                      inout bool truncated)
+vec3 caustic_radiance(Material material, vec3 wo, vec3 shading_normal, vec3 position,
+                      vec3 geometric_normal, uint pixel_index, inout bool truncated)
 {
     bool stopped;
     vec3 irradiance;
@@ -56,7 +56,9 @@ vec3 caustic_radiance(Material material, vec3 position, vec3 geometric_normal, u
                                                stopped);
     }
     truncated = truncated || stopped;
-    return material.albedo * (push.flux_scale / PI) * irradiance;
+    // The directional albedo of the rough lobes towards wo, as the gather's estimates.
+    return material_rough_albedo(material, wo, shading_normal, true) * (push.flux_scale / PI) *
+           irradiance;
 }
 
 // The pixel's caustic light at D₁, where the primary found one and kept the
@@ -72,12 +74,13 @@ void caustic(uint pixel_index)
     if (geometric.w == 0.0 || sample_indirect.w == 0.0)
         return;
     vec4 throughput = texel_vec4(vertex_texels, base + 3u);
-    Material material =
-        scene_material_at(floatBitsToUint(texel_vec4(vertex_texels, base + 1u).w), throughput.w,
-                          texel_vec4(vertex_texels, base + 4u).w);
+    vec4 shading = texel_vec4(vertex_texels, base + 1u);
+    vec4 wo = texel_vec4(vertex_texels, base + 4u);
+    Material material = scene_material_at(floatBitsToUint(shading.w), throughput.w, wo.w);
     bool truncated = false;
     vec3 light = throughput.xyz *
-                 caustic_radiance(material, d1.xyz, geometric.xyz, pixel_index, truncated);
+                 caustic_radiance(material, wo.xyz, shading.xyz, d1.xyz, geometric.xyz,
+                                  pixel_index, truncated);
     bool completed = loops_completed() && !truncated;
     if (!completed)
         atomicAdd(counters.loop_truncated, 1u);

@@ -28,7 +28,9 @@
 // hits through the BIH; at a diffuse (Lambert) hit the photon is stored in
 // the global map unless it came straight from the light (direct light comes
 // from shadow rays), and in the caustic map when every earlier bounce was
-// specular (L S+ D); nothing is stored on specular surfaces. Then
+// specular (L S+ D); nothing is stored on mirrors and glass, and on a metal
+// sharper than GLOSSY_ROUGHNESS only caustic photons (L S+ G), which count it
+// as specular on their way on. Then
 // bsdf_sample (materials.glsl) scatters it and Russian roulette keeps it
 // with P = min(1, max channel of the scattering weight), flux ⊙ weight / P,
 // so the expected flux is exact and the colour survives. At most
@@ -202,7 +204,8 @@ Emission emit(PhotonEmitter emitter, vec2 xi_position, vec2 xi_direction)
 }
 
 // reflected: the global record's flux (flux ⊙ albedo with params.global_reflected).
-void store(bool caustic, vec3 position, vec3 flux, vec3 reflected, vec3 incoming, vec3 normal)
+void store(bool caustic, bool global, vec3 position, vec3 flux, vec3 reflected, vec3 incoming,
+           vec3 normal)
 {
     uint words[5] = uint[5](floatBitsToUint(position.x), floatBitsToUint(position.y),
                             floatBitsToUint(position.z), rgb9e5_pack(flux),
@@ -214,6 +217,8 @@ void store(bool caustic, vec3 position, vec3 flux, vec3 reflected, vec3 incoming
                 caustic_words[PHOTON_WORDS * slot + w] = words[w];
         }
     }
+    if (!global)
+        return;
     words[3] = rgb9e5_pack(params.global_reflected != 0u ? reflected : flux);
     uint slot = atomicAdd(counters.global_stored, 1u);
     if (slot < params.global_capacity) {
@@ -290,9 +295,15 @@ void main()
         vec3 geometric_normal = surface.geometric_normal;
         vec3 shading_normal = surface.shading_normal;
         vec3 position = surface.position;
+        // Stored where light is estimated (both maps), and on a metal too sharp for that
+        // only when it arrives by a caustic chain: `final` estimates there, where the
+        // camera sees it, the light its gather rays cannot find (material_estimated_at_d1).
+        // Passing it, the photon stays on its caustic chain.
         bool diffuse = material_stores_photons(material);
-        if (diffuse && (depth > 0u || params.store_direct != 0u))
-            store(specular_only && depth > 0u, position, flux,
+        bool caustic = specular_only && depth > 0u;
+        bool sharp_metal = !diffuse && material_estimated_at_d1(material);
+        if ((diffuse && (depth > 0u || params.store_direct != 0u)) || (sharp_metal && caustic))
+            store(caustic, diffuse, position, flux,
                   flux * material_rough_albedo(material, -direction, shading_normal, front),
                   direction, geometric_normal);
         specular_only = specular_only && !diffuse;

@@ -116,8 +116,7 @@ void path_follow_hit(inout Path path, BihHit hit, uint depth, float ray_offset, 
         path.radiance += path.throughput * material.emission;
     // Direct light through the full BSDF where the surface has a diffuse base or a glossy
     // reflection, sharp or not; mirrors and glass, smooth or rough, are passed through.
-    bool metal_lobe = material.kind == MATERIAL_MIRROR && material_has_rough_lobe(material);
-    if (material.kind == MATERIAL_LAMBERT || metal_lobe) {
+    if (material_estimated_at_d1(material)) {
         path.diffuse_hit = true;
         path.tracing = false;
         path.surface = material;

@@ -161,11 +161,13 @@ void primary(uint pixel_index, uvec2 pixel)
                                                             hit.t, bsdf_pdf)
                                       : 1.0);
         vec3 wo = -direction;
-        // D₁ (estimated: a diffuse base or a rough lobe), or passed through by sampling
-        // (mirrors, glass, sharp glossy metals: pf_scene.h PF_MATERIAL_GLOSSY_ROUGHNESS),
-        // with next-event estimation at any non-delta lobe: one call site, which
-        // llvmpipe inlines with its trace (direct_light.glsl).
-        bool d1 = material.kind == MATERIAL_LAMBERT;
+        // D₁: a surface with a diffuse base or a rough lobe, or a metal sharper than
+        // GLOSSY_ROUGHNESS (pf_scene.h; material_estimated_at_d1), whose gather rays then
+        // sample its lobe: many directions a sample where one camera ray would be one.
+        // Mirrors and glass, smooth or rough, are passed through by sampling, with
+        // next-event estimation at any non-delta lobe: one call site, which llvmpipe
+        // inlines with its trace (direct_light.glsl).
+        bool d1 = material_estimated_at_d1(material);
         bool lit = d1 || material_has_rough_lobe(material);
         if (lit && !aov_recorded) {
             aov_recorded = true;

@@ -437,6 +437,18 @@ bool material_stores_photons(Material material)
     return material.kind == MATERIAL_LAMBERT;
 }
 
+// Where a camera path of `final` (and `preview`) ends its specular chain: at a
+// surface estimated from photons, or at a metal too sharp for that, whose own
+// lobe the gather rays (preview: the light samples) then sample. Photons reach
+// it through caustic chains only (photon_trace.comp): light it receives from
+// mirrors, glass and other sharp metals is estimated there from the caustic
+// map, the rest is found by its gather rays.
+bool material_estimated_at_d1(Material material)
+{
+    return material.kind == MATERIAL_LAMBERT ||
+           (material.kind == MATERIAL_MIRROR && material_has_rough_lobe(material));
+}
+
 // The absorption coefficient (1/m) of the medium a path is in after it was
 // transmitted through a surface of this material, arriving at its front face
 // (entering) or back face (leaving into clear space: nested media are not
