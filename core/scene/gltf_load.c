@@ -367,6 +367,7 @@ typedef struct vertex_attributes {
     float *color;
     uint32_t color_components; /* 3 or 4 */
     float *tangent;
+    float *corner_tangent; /* generated: per triangle corner (tangents.c), over tangent */
 } vertex_attributes;
 
 static void vertex_attributes_free(vertex_attributes *a)
@@ -375,6 +376,7 @@ static void vertex_attributes_free(vertex_attributes *a)
     free(a->uv[1]);
     free(a->color);
     free(a->tangent);
+    free(a->corner_tangent);
 }
 
 void scene_corner_defaults(float corner[SCENE_CORNER_FLOATS])
@@ -384,8 +386,8 @@ void scene_corner_defaults(float corner[SCENE_CORNER_FLOATS])
         corner[c] = 1.0f;
 }
 
-/* Corner c of a triangle from vertex v's attributes. */
-static void fill_corner(const vertex_attributes *a, uint32_t v, float *corner)
+/* Corner k (triangle k / 3) from vertex v's attributes. */
+static void fill_corner(const vertex_attributes *a, uint32_t v, size_t k, float *corner)
 {
     scene_corner_defaults(corner);
     for (int set = 0; set < 2; set++)
@@ -394,7 +396,9 @@ static void fill_corner(const vertex_attributes *a, uint32_t v, float *corner)
     if (a->color)
         memcpy(corner + 4, a->color + (size_t)a->color_components * v,
                a->color_components * sizeof *corner);
-    if (a->tangent)
+    if (a->corner_tangent)
+        memcpy(corner + 8, a->corner_tangent + 4 * k, 4 * sizeof *corner);
+    else if (a->tangent)
         memcpy(corner + 8, a->tangent + 4 * (size_t)v, 4 * sizeof *corner);
 }
 
@@ -442,7 +446,7 @@ static pf_status append_triangles(gltf_context *ctx, scene_mesh *mesh, const uin
                                   uint32_t material, pf_error *err)
 {
     int has_attributes = attributes->uv[0] || attributes->uv[1] || attributes->color ||
-                         attributes->tangent;
+                         attributes->tangent || attributes->corner_tangent;
     if (has_attributes || mesh->corners) {
         uint32_t before = mesh->corners ? mesh->triangle_count : 0;
         float(*grown)[3 * SCENE_CORNER_FLOATS] =
@@ -458,7 +462,7 @@ static pf_status append_triangles(gltf_context *ctx, scene_mesh *mesh, const uin
                 scene_corner_defaults(mesh->corners[t] + SCENE_CORNER_FLOATS * c);
         for (uint32_t t = 0; t < triangle_count; t++)
             for (int c = 0; c < 3; c++)
-                fill_corner(attributes, corners[3 * t + c],
+                fill_corner(attributes, corners[3 * t + c], 3 * (size_t)t + c,
                             mesh->corners[mesh->triangle_count + t] + SCENE_CORNER_FLOATS * c);
     }
     uint32_t total = mesh->triangle_count + triangle_count;
@@ -626,7 +630,8 @@ static pf_status load_primitive(gltf_context *ctx, scene_mesh *mesh, const cJSON
         int set = (scene->textures[normal_slot - 1].sampling & PF_TEXTURE_TEXCOORD_1) ? 1 : 0;
         if (extra.uv[set])
             status = scene_generate_tangents(positions, normals, extra.uv[set], vertex_count,
-                                             corners, triangle_count, &extra.tangent, err);
+                                             corners, triangle_count, &extra.corner_tangent,
+                                             err);
         else
             scene_warn_once(scene, "normal map without uvs",
                             "%s: %s: normalTexture reads TEXCOORD_%d, which the primitive "

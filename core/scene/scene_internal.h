@@ -137,9 +137,9 @@ uint32_t scene_mip_levels(uint32_t width, uint32_t height);
 uint64_t scene_mip_chain_texels(uint32_t width, uint32_t height, uint32_t levels);
 pf_status scene_mip_chain_build(const uint8_t *rgba, uint32_t width, uint32_t height,
                                 uint32_t levels, int srgb, uint32_t *out, pf_error *err);
-/* tangents.c: per-vertex tangents (xyz, w handedness; 0 where undefined) of an indexed
+/* tangents.c: per-corner tangents (xyz, w handedness; 0 where undefined) of an indexed
  * primitive from its UV set, for normal maps when the file has none. normals may be NULL
- * (the faces' are used). *out holds 4 floats a vertex, malloc'ed. */
+ * (the faces' are used). *out holds 4 floats a corner, 3 corners a triangle, malloc'ed. */
 pf_status scene_generate_tangents(const float *positions, const float *normals, const float *uvs,
                                   uint32_t vertex_count, const uint32_t *corners,
                                   uint32_t triangle_count, float **out, pf_error *err);

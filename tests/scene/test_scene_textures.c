@@ -526,6 +526,30 @@ PF_TEST(normal_map_without_tangents_gets_them_generated)
     pf_scene_destroy(scene);
 }
 
+/* A UV chart and its mirror image sharing the seam's vertices (a symmetric model's halves):
+ * u = |x| over a strip in the z = 0 plane, so the tangent (along +u) is −x on the left
+ * half and +x on the right, with opposite handedness (n = +z, bitangent +y). One sum per
+ * vertex over both halves would cancel on the seam and leave its corners without a frame. */
+PF_TEST(mirrored_uv_charts_keep_a_frame_each_side_of_the_seam)
+{
+    const float positions[6 * 3] = {-1, 0, 0, 0, 0, 0, 1, 0, 0, -1, 1, 0, 0, 1, 0, 1, 1, 0};
+    const float uvs[6 * 2] = {1, 0, 0, 0, 1, 0, 1, 1, 0, 1, 1, 1};
+    const uint32_t corners[4 * 3] = {0, 1, 4, 0, 4, 3, 1, 2, 5, 1, 5, 4};
+    float *tangents = NULL;
+    pf_error err = {0};
+    PF_REQUIRE_OK(scene_generate_tangents(positions, NULL, uvs, 6, corners, 4, &tangents, &err),
+                  &err);
+    for (uint32_t k = 0; k < 12; k++) {
+        float side = k < 6 ? -1.0f : 1.0f; /* the first two triangles are the left half */
+        const float *t = tangents + 4 * k;
+        PF_CHECK_MSG(fabsf(t[0] - side) < 1e-6f && fabsf(t[1]) < 1e-6f && fabsf(t[2]) < 1e-6f &&
+                         t[3] == side,
+                     "corner %u (vertex %u): tangent (%g, %g, %g, %g)", k, corners[k], t[0],
+                     t[1], t[2], t[3]);
+    }
+    free(tangents);
+}
+
 /* EXT_texture_webp's source wins over the texture's fallback source. */
 PF_TEST(webp_extension_source_is_preferred)
 {
@@ -578,6 +602,7 @@ int main(void)
     PF_RUN(malformed_images_are_named_errors);
     PF_RUN(mutated_images_never_crash);
     PF_RUN(normal_map_without_tangents_gets_them_generated);
+    PF_RUN(mirrored_uv_charts_keep_a_frame_each_side_of_the_seam);
     PF_RUN(webp_extension_source_is_preferred);
     PF_RUN(untextured_scene_has_no_corners);
     return pf_test_finish();
