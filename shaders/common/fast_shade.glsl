@@ -174,10 +174,14 @@ void main()
         if (emitter_probe)
             break;
         vec3 wo = -direction;
-        // Estimated here (a diffuse base or a rough lobe), or passed through by sampling
-        // (mirrors, glass, sharp glossy metals: pf_scene.h PF_MATERIAL_GLOSSY_ROUGHNESS),
-        // with the direct light of any non-delta lobe.
-        bool estimated = material.kind == MATERIAL_LAMBERT;
+        // Estimated here: a diffuse base, a rough lobe or a sharp metal (its highlights by
+        // the light sampling's MIS below, its caustic photons, and the LPV's diffuse light
+        // times its directional albedo, as documented: following one ray through it a
+        // sample, as `final`'s gather rays do many, left the Blender room's gold and chrome
+        // with single-pixel reflections of the lamp at 2 spp, relMSE against Cycles 0.109
+        // where this gives 0.064). Mirrors and glass, smooth or rough, are passed through by
+        // sampling, with the direct light of any non-delta lobe.
+        bool estimated = material_estimated_at_d1(material);
         bool lit = estimated || material_has_rough_lobe(material);
         if (lit && !aov_recorded) {
             aov_recorded = true;
