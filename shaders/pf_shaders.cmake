@@ -47,9 +47,10 @@ endif()
 
 include_guard(GLOBAL)
 
-set(PF_SHADERS_EMBED_SCRIPT "${CMAKE_CURRENT_LIST_FILE}")
-
 function(pf_add_shader_library target)
+  # This file, run in script mode by the build (a variable set beside the include_guard
+  # would be seen only in the directory that included the file first).
+  set(embed_script "${CMAKE_CURRENT_FUNCTION_LIST_FILE}")
   cmake_parse_arguments(S "" "SOURCE_DIR;INCLUDE_DIR" "" ${ARGN})
   if(NOT S_SOURCE_DIR OR NOT S_INCLUDE_DIR)
     message(FATAL_ERROR "pf_add_shader_library(${target}): SOURCE_DIR and INCLUDE_DIR are required")
@@ -106,8 +107,8 @@ function(pf_add_shader_library target)
     add_custom_command(
       OUTPUT "${embedded}"
       COMMAND "${CMAKE_COMMAND}" "-DINPUT=${spv}" "-DOUTPUT=${embedded}"
-              "-DNAME=${stem}" "-DSYMBOL=${symbol}" -P "${PF_SHADERS_EMBED_SCRIPT}"
-      DEPENDS "${spv}" "${PF_SHADERS_EMBED_SCRIPT}"
+              "-DNAME=${stem}" "-DSYMBOL=${symbol}" -P "${embed_script}"
+      DEPENDS "${spv}" "${embed_script}"
       COMMENT "Embedding shader ${stem}.spv"
       VERBATIM)
     list(APPEND generated_sources "${embedded}")

@@ -4,13 +4,15 @@
 // emissiveTexture, and the alpha that MASK and BLEND test after the traversal
 // (bih_traverse.glsl trace_bih_surfaces).
 //
-// Textures are texel buffers, not sampled images: an image array needs
-// descriptor indexing and one descriptor per texture, where one R32_UINT
-// view serves every texture of the scene, and lavapipe fetches a texel of
-// either at the same cost (a texel buffer is an image in llvmpipe). Filtering
-// is done here: bilinear within the level a ray cone picks (ray cones,
-// Akenine-Möller et al. 2019), nearest where the sampler asks, wrap modes as
-// glTF's samplers define them.
+// Textures are texel buffers, not sampled images: one R32_UINT view serves
+// every texture of the scene, whatever its size, format and sampler. Measured
+// on lavapipe (bench/textures, bench/RESULTS.md): an image array indexed per
+// lane needs descriptor indexing that lavapipe 22.3 lacks; one layered image
+// sampled by the sampler is 1.3-1.5x faster a sample than the filtering here,
+// but holds textures of one size only, and the textures' whole share of the
+// textured room's `shade` is ~15 %. Filtering is done here: bilinear within
+// the level a ray cone picks (ray cones, Akenine-Möller et al. 2019), nearest
+// where the sampler asks, wrap modes as glTF's samplers define them.
 //
 // The including file declares scene_triangle_materials and scene_materials
 // (scene_geometry.glsl) first.
