@@ -128,8 +128,10 @@ void pf_bih_plan(const pf_renderer *renderer, const pf_scene_frame *frame,
     decision->action = PF_STAGE_RUN;
     if (!renderer->bih_valid)
         snprintf(decision->reason, sizeof decision->reason, "%s",
-                 renderer->bih_frames == 0 ? "built: first frame"
-                                           : "built: no tree kept (previous frame failed)");
+                 renderer->bih_frames == 0   ? "built: first frame"
+                 : renderer->bih_pilot_replaced ? "built: auto's pilot replaced the previous "
+                                                  "frame's tree"
+                                                : "built: no tree kept (previous frame failed)");
     else if (renderer->bih.triangle_count != frame->triangle_count)
         snprintf(decision->reason, sizeof decision->reason,
                  "built: triangle count changed (%u → %u)", renderer->bih.triangle_count,
@@ -220,6 +222,7 @@ pf_status pf_render_prepare_bih(pf_renderer *renderer, const pf_scene_frame *fra
         return status;
     }
     renderer->bih_frames++;
+    renderer->bih_pilot_replaced = 0;
     pf_stage_timing *row = report ? pf_frame_report_add(report, "bih_build") : NULL;
     if (row) {
         row->wall_ms = pf_time_ms() - start;

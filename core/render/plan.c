@@ -23,7 +23,9 @@
  * grid and LPV rows do not; final's rows are per pass. The decision is
  * kept on the renderer (the job's first frame calibrates; later frames of
  * the same scene and request reuse it), so the frames of a job render
- * with one preset and do not flicker between presets.
+ * with one preset and do not flicker between presets. What the pilot
+ * renders built or traced is dropped after them (pilot.c): the real frame
+ * does its own work, and the pilot's time is the plan row's.
  */
 #include "render_internal.h"
 
@@ -119,6 +121,8 @@ static pf_status calibrate(pf_renderer *renderer, const pf_scene_frame *frame,
     double scale = ((double)settings->width * settings->height) / ((double)base.width * base.height);
     pf_frame_report report;
     pf_image image = {0};
+    pf_pilot_history history;
+    pf_pilot_begin(renderer, &history);
     /* Warm-up: pipelines compile on their first dispatch on some drivers (lavapipe). */
     pf_render_settings warm = base;
     warm.width = warm.height = PLAN_WARMUP_EDGE;
@@ -199,6 +203,7 @@ static pf_status calibrate(pf_renderer *renderer, const pf_scene_frame *frame,
     pf_image_free(&fast_image);
     pf_image_free(&final_image);
     pf_image_free(&estimate);
+    pf_pilot_end(renderer, &history);
     return status;
 }
 

@@ -155,6 +155,7 @@ pf_status pf_render_frame(pf_renderer *renderer, const pf_scene_frame *frame,
     if (status != PF_OK)
         return status;
     renderer->stage_memory[settings->quality].frames++;
+    renderer->stage_memory[settings->quality].pilot_replaced = 0; /* said in this plan */
     static const pf_integrator *const integrators[] = {
         [PF_QUALITY_PREVIEW] = &pf_integrator_preview,
         [PF_QUALITY_FAST] = &pf_integrator_fast,

@@ -98,6 +98,7 @@ typedef struct pf_stage_memory {
     uint64_t made_from[PF_STAGE_COUNT][PF_INPUT_COUNT];
     uint32_t kept_passes; /* final: photon passes kept, a prefix of the next frame's */
     uint64_t frames;      /* frames planned with this memory */
+    int pilot_replaced;   /* auto's pilot dropped what the previous frame kept (pilot.c) */
 } pf_stage_memory;
 
 typedef struct pf_stage_plan {
@@ -207,6 +208,7 @@ struct pf_renderer {
     double bih_fresh_sah;
     pf_bih_build_site bih_build_site; /* pf_renderer_set_bih_build */
     uint64_t bih_frames;
+    int bih_pilot_replaced; /* auto's pilot dropped the previous frame's tree (pilot.c) */
     pf_bih_gpu *bih_gpu;
     pf_bih_gpu_builder *bih_builder;
     pf_texture_cache textures;
@@ -390,6 +392,22 @@ pf_status pf_raycast_brute(pf_renderer *renderer, const pf_scene_frame *frame,
  * *chosen (a copy of settings with quality and samples_per_pixel set); adds
  * the `plan` row (run, its reason the decision). May render pilots first.
  */
+/*
+ * What real frames leave on the renderer for the next one (pilot.c): the stage memories'
+ * frame counts, the BIH's, the texture cache's set. auto's pilot renders through the
+ * same renderer; pf_pilot_begin saves this before them and pf_pilot_end drops all they
+ * kept, so the real frame's rows say what it did, and claim work from previous real
+ * frames only (issue 45).
+ */
+typedef struct pf_pilot_history {
+    uint64_t frames[PF_QUALITY_AUTO];
+    uint64_t bih_frames;
+    uint64_t texture_set;
+} pf_pilot_history;
+
+void pf_pilot_begin(const pf_renderer *renderer, pf_pilot_history *saved);
+void pf_pilot_end(pf_renderer *renderer, const pf_pilot_history *saved);
+
 pf_status pf_plan_frame(pf_renderer *renderer, const pf_scene_frame *frame,
                         const pf_render_settings *settings, pf_render_settings *chosen,
                         pf_frame_report *report, pf_error *err);

@@ -155,9 +155,11 @@ void pf_stage_decide(pf_stage_plan *plan, pf_stage_id stage, const pf_stage_memo
     }
     if (!memory || !memory->valid[stage]) {
         snprintf(d->reason, sizeof d->reason, "%s: %s", spec->verb,
-                 memory && memory->frames > 0 ? "nothing kept (the previous frame did not keep "
-                                                "it)"
-                                              : "first frame");
+                 !memory || memory->frames == 0 ? "first frame"
+                 : memory->pilot_replaced      ? "nothing kept (auto's pilot replaced what "
+                                                 "the previous frame kept)"
+                                               : "nothing kept (the previous frame did not "
+                                                 "keep it)");
         return;
     }
     size_t used = (size_t)snprintf(d->reason, sizeof d->reason, "%s: ", spec->verb);

@@ -8,6 +8,9 @@
  *     passes) is within the budget and above half of it, the shade row's
  *     passes equal to the plan's; the next frame reuses the decision
  *     (no second pilot, same preset and passes);
+ *   - the first frame of a budgeted job on a fresh renderer: its rows claim no
+ *     work from the pilot (bih_build "built: first frame", nothing reused);
+ *     the second frame reuses the tree;
  *   - a budget below fast's predicted time → preview;
  *   - a loose error target → fast; a tighter one than fast's pilot error →
  *     final with ⌈(one pass's relMSE / target)^1.5⌉ passes;
@@ -127,6 +130,54 @@ PF_TEST(budget_plans_final_passes_that_fit)
     PF_CHECK(ref_stage_counter(&report, "plan", "passes") == passes);
 }
 
+/* Whether a row's reason claims work an earlier frame did. */
+static int claims_earlier_work(const pf_stage_timing *row)
+{
+    return strstr(row->reason, "reused") || strstr(row->reason, "kept from") ||
+           strstr(row->reason, "refit") || strstr(row->reason, "on the device already");
+}
+
+/*
+ * The first frame of a budgeted job on a fresh renderer: the pilot renders built the BIH and
+ * traced photons through this renderer, but the frame's rows say what the frame did, built
+ * and traced, "first frame"; only the second frame reuses (issue 45).
+ */
+PF_TEST(first_frame_rows_claim_nothing_from_the_pilot)
+{
+    pf_renderer *fresh = NULL;
+    pf_error err = {0};
+    PF_REQUIRE_OK(pf_renderer_create(ctx, &fresh, &err), &err);
+    pf_renderer *shared = renderer;
+    renderer = fresh;
+    pf_frame_report report;
+    pf_status status = render_auto(&cornell, 1000.0, 0.0, &report, &err);
+    PF_CHECK_MSG(status == PF_OK, "%s", err.message);
+    if (status == PF_OK) {
+        PF_CHECK(ref_stage_counter(&report, "plan", "calibrated") == 1.0);
+        const pf_stage_timing *bih = ref_row(&report, "bih_build");
+        PF_CHECK_MSG(bih && !bih->skipped && !strcmp(bih->reason, "built: first frame"),
+                     "bih_build: %s", bih ? bih->reason : "missing");
+        for (uint32_t i = 0; i < report.stage_count; i++) {
+            const pf_stage_timing *row = &report.stages[i];
+            PF_CHECK_MSG(!claims_earlier_work(row), "frame 1, %s: %s", row->stage, row->reason);
+            printf("  frame 1 %-14s %s\n", row->stage, row->reason);
+        }
+        const pf_stage_timing *trace = ref_row(&report, "photon_trace");
+        if (report.quality == PF_QUALITY_FINAL || report.quality == PF_QUALITY_FAST)
+            PF_CHECK_MSG(trace && !trace->skipped && strstr(trace->reason, "first frame"),
+                         "photon_trace: %s", trace ? trace->reason : "missing");
+        /* Frame 2, the same request: the decision is kept and the tree reused. */
+        status = render_auto(&cornell, 1000.0, 0.0, &report, &err);
+        PF_CHECK_MSG(status == PF_OK, "%s", err.message);
+        bih = ref_row(&report, "bih_build");
+        PF_CHECK(ref_stage_counter(&report, "plan", "calibrated") == 0.0);
+        PF_CHECK_MSG(bih && strstr(bih->reason, "BIH reused"), "frame 2 bih_build: %s",
+                     bih ? bih->reason : "missing");
+    }
+    renderer = shared;
+    pf_renderer_destroy(fresh);
+}
+
 PF_TEST(budget_below_fast_plans_preview)
 {
     const double budget = 0.001;
@@ -178,6 +229,7 @@ int main(void)
     PF_RUN(no_lights_plan_preview);
     PF_RUN(no_budget_plans_fast_without_a_pilot);
     PF_RUN(budget_plans_final_passes_that_fit);
+    PF_RUN(first_frame_rows_claim_nothing_from_the_pilot);
     PF_RUN(budget_below_fast_plans_preview);
     PF_RUN(error_targets_plan_fast_or_enough_final_passes);
     PF_RUN(negative_budget_or_target_is_refused);

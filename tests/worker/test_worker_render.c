@@ -104,6 +104,62 @@ static void check_bih_decisions(const char *db_path, int64_t job_id)
     sqlite3_close(db);
 }
 
+/*
+ * A budgeted `auto` job of two frames on one worker: the first frame's pilot renders build
+ * the BIH and trace photons through the worker's renderer, but the stored rows of frame 1
+ * claim no work from an earlier frame; frame 2 reuses the tree (issue 45).
+ */
+PF_TEST(a_budgeted_auto_job_stores_reuse_only_from_real_frames)
+{
+    char out[WT_PATH_MAX + 32], db_path[WT_PATH_MAX + 32], pattern[2 * WT_PATH_MAX],
+        args[8 * WT_PATH_MAX];
+    wt_fresh_dir("auto-out", out, sizeof out);
+    wt_format(db_path, sizeof db_path, "%s/auto.db", dir);
+    unlink(db_path);
+    wt_format(pattern, sizeof pattern, "%s/a.####.exr", out);
+    wt_format(args, sizeof args,
+              "'%s' --frames 1-2 --out '%s' --size 16x16 --quality auto --budget-ms 2000 "
+              "--db '%s'",
+              scene, pattern, db_path);
+    int64_t job_id = wt_enqueue(args, log_path);
+    PF_REQUIRE(job_id > 0);
+    wt_format(args, sizeof args, "worker --once --db '%s'", db_path);
+    PF_REQUIRE(wt_run(args, log_path) == 0);
+    sqlite3 *db = NULL;
+    sqlite3_stmt *statement = NULL;
+    PF_REQUIRE(sqlite3_open_v2(db_path, &db, SQLITE_OPEN_READONLY, NULL) == SQLITE_OK);
+    int rc = sqlite3_prepare_v2(db,
+                                "SELECT s.frame, s.stage, s.reason FROM stage_timings s JOIN "
+                                "tasks t ON t.id = s.task_id WHERE t.job_id = ? ORDER BY s.frame",
+                                -1, &statement, NULL);
+    PF_CHECK_MSG(rc == SQLITE_OK, "%s", sqlite3_errmsg(db));
+    if (rc == SQLITE_OK)
+        sqlite3_bind_int64(statement, 1, job_id);
+    int rows[3] = {0, 0, 0}, calibrated = 0, reused_tree = 0;
+    while (rc == SQLITE_OK && sqlite3_step(statement) == SQLITE_ROW) {
+        int frame = sqlite3_column_int(statement, 0);
+        const char *stage = (const char *)sqlite3_column_text(statement, 1);
+        const char *reason = (const char *)sqlite3_column_text(statement, 2);
+        reason = reason ? reason : "";
+        if (frame < 1 || frame > 2)
+            continue;
+        rows[frame]++;
+        if (frame == 1) {
+            PF_CHECK_MSG(!strstr(reason, "reused") && !strstr(reason, "kept from") &&
+                             !strstr(reason, "refit"),
+                         "frame 1, %s: %s", stage, reason);
+            calibrated |= !strcmp(stage, "plan") && strstr(reason, "pilot") != NULL;
+        } else if (!strcmp(stage, "bih_build")) {
+            reused_tree = !strcmp(reason, "geometry unchanged → BIH reused");
+        }
+    }
+    PF_CHECK_MSG(rows[1] > 0 && rows[2] > 0, "rows: frame 1 %d, frame 2 %d", rows[1], rows[2]);
+    PF_CHECK_MSG(calibrated, "frame 1 has no plan row from a pilot");
+    PF_CHECK_MSG(reused_tree, "frame 2 did not reuse the tree");
+    sqlite3_finalize(statement);
+    sqlite3_close(db);
+}
+
 PF_TEST(worker_renders_a_job_and_timings_report_every_stage)
 {
     char out[WT_PATH_MAX + 32], db[WT_PATH_MAX + 32], pattern[2 * WT_PATH_MAX], args[8 * WT_PATH_MAX];
@@ -702,6 +758,7 @@ int main(void)
     wt_format(log_path, sizeof log_path, "%s/run.log", dir);
     wt_write_tiny_scene(scene, 3);
     PF_RUN(worker_renders_a_job_and_timings_report_every_stage);
+    PF_RUN(a_budgeted_auto_job_stores_reuse_only_from_real_frames);
     PF_RUN(failing_frames_record_each_attempt_and_stop_at_max_attempts);
     PF_RUN(a_worker_failing_a_jobs_frames_is_blocked_and_status_says_so);
     PF_RUN(a_vanished_scene_pauses_its_job_and_blames_no_worker);
