@@ -7,6 +7,7 @@
 #include "cli_queue.h"
 #include "pf_render.h"
 #include "pf_cli.h"
+#include "frame_fault.h"
 
 #include <inttypes.h>
 #include <stdlib.h>

@@ -10,6 +10,7 @@
 #include "pf_queue.h"
 #include "pf_scene.h"
 #include "storage_roots.h"
+#include "job_extras.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -158,7 +159,7 @@ static int output_conflict(const pf_queue_job *other, void *user, char *reason,
         if (bsearch(&ours->paths[i], theirs, theirs_frames.count, sizeof *theirs,
                     compare_paths)) {
             char name[128], shown[PF_CLI_PATH_MAX];
-            pf_settings_job_name(other->parameters_json, name, sizeof name);
+            pf_job_name(other->parameters_json, name, sizeof name);
             snprintf(reason, reason_size,
                      "--out: job %" PRId64 "%s%s%s (%s) already writes %s; --force enqueues "
                      "anyway",
@@ -236,7 +237,7 @@ int pf_cli_enqueue(int argc, char **argv)
             code = pf_cli_fail(COMMAND, 2, "--out: %s", err.message);
     char parameters[PARAMETERS_MAX];
     pf_job_extras extras = {options.name, options.scene.load.allow_outside_scene_dir};
-    if (!code && !pf_settings_format(&options.settings, &extras, parameters,
+    if (!code && !pf_job_parameters_format(&options.settings, &extras, parameters,
                                        sizeof parameters))
         code = pf_cli_fail(COMMAND, 2, "--name is too long");
 

@@ -7,6 +7,7 @@
 #include "pf_cli.h"
 #include "progress.h"
 #include "storage_roots.h"
+#include "job_extras.h"
 
 #include <inttypes.h>
 #include <stdio.h>
@@ -42,7 +43,7 @@ static void print_job(pf_queue *queue, const pf_queue_job *job, int64_t now,
 {
     char bar[320], name[128], shown[4][PF_CLI_PATH_MAX];
     pf_progress_bar(bar, sizeof bar, job->frames_done, job->frames_total, BAR_CELLS);
-    pf_settings_job_name(job->parameters_json, name, sizeof name);
+    pf_job_name(job->parameters_json, name, sizeof name);
     printf("job %" PRId64 "%s%s%s  %-8s %s  priority %d\n", job->job_id, name[0] ? " (" : "",
            pf_cli_printable(name, shown[0], sizeof shown[0]), name[0] ? ")" : "", job->status,
            bar, job->priority);

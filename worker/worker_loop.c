@@ -12,6 +12,8 @@
 #include "pf_cli.h"
 #include "pf_queue.h"
 #include "progress.h"
+#include "frame_fault.h"
+#include "job_extras.h"
 
 #include <inttypes.h>
 #include <signal.h>
@@ -341,7 +343,8 @@ static void finish_run(db_op *op)
     }
     for (size_t i = 0; i < w->output_count && op->status == PF_OK; i++) {
         op->status = pf_frame_commit(&w->outputs[i], &op->err);
-        op->job_fault = op->status != PF_OK && w->outputs[i].fault != PF_FRAME_FAULT_WORKER;
+        op->job_fault = op->status != PF_OK &&
+                        pf_frame_fault_of(w->outputs[i].failed) != PF_FRAME_FAULT_WORKER;
     }
     if (op->status == PF_OK) {
         op->status = pf_queue_complete(w->queue, op->token, rows, row_count, NULL,
@@ -469,7 +472,7 @@ static void render_work(uv_work_t *request)
         pf_scene_destroy(w->scene);
         w->scene = NULL;
         w->scene_job_id = 0;
-        pf_scene_load_options load = {pf_settings_allow_outside(w->job.parameters_json)};
+        pf_scene_load_options load = {pf_job_allow_outside(w->job.parameters_json)};
         w->render_status = pf_scene_load_with(scene_path, &load, &w->scene, &w->render_err);
         if (w->render_status != PF_OK) {
             w->render_fault = PF_FRAME_FAULT_SCENE;
@@ -517,7 +520,7 @@ static void render_work(uv_work_t *request)
                                            &w->render_err);
         w->output_count = (size_t)i + 1;
         if (w->render_status != PF_OK) {
-            w->render_fault = w->outputs[i].fault;
+            w->render_fault = pf_frame_fault_of(w->outputs[i].failed);
             return;
         }
         save_pipeline_cache(w);

@@ -281,21 +281,9 @@ pf_status pf_raycast_brute_force(pf_renderer *renderer, const pf_scene_frame *fr
 #define PF_SETTINGS_MAX_BUDGET_MS 86400000.0
 #define PF_SETTINGS_MAX_TARGET_RELMSE 100.0
 
-/* What a job's JSON carries besides its render settings. */
-typedef struct pf_job_extras {
-    const char *name;            /* "name": a label for status (NULL: none) */
-    int allow_outside_scene_dir; /* "allow_outside_scene_dir": true (pf_scene_load_options) */
-} pf_job_extras;
-
-/* Formats settings (and extras, when not NULL) as the JSON object above into
- * out (0 if it does not fit). */
-int pf_settings_format(const pf_render_settings *settings, const pf_job_extras *extras,
-                       char *out, size_t size);
-
-/* Copies the job's "name" (or "" when none) into out. */
-void pf_settings_job_name(const char *json, char *out, size_t size);
-/* The job's "allow_outside_scene_dir" (0 when absent or not true). */
-int pf_settings_allow_outside(const char *json);
+/* Formats settings as the JSON object above into out (0 if it does not fit). A job's
+ * parameters add the farm's own keys to it (worker/job_extras.h). */
+int pf_settings_format(const pf_render_settings *settings, char *out, size_t size);
 
 /*
  * Parses a job's parameters into *settings (absent keys keep their defaults:
@@ -346,22 +334,14 @@ typedef struct pf_frame_request {
 } pf_frame_request;
 
 /*
- * Whose fault a failed frame is. The queue worker fails the task under the
- * retry policy (and may block itself for the job) only for its own; the
- * others are the job's, which every worker would hit alike, so the job is
- * paused with the reason instead (issue 14).
+ * Where a failed frame failed; the worker decides what that means for the queue
+ * (worker/frame_fault.h: whose fault it is).
  */
-typedef enum pf_frame_fault {
-    PF_FRAME_FAULT_WORKER = 0, /* rendering failed here: device, memory, limits */
-    PF_FRAME_FAULT_SCENE,      /* the job's scene cannot be read or evaluated */
-    PF_FRAME_FAULT_SETTINGS,   /* the job's stored settings cannot be parsed */
-    PF_FRAME_FAULT_OUTPUT,     /* the job's output storage refused the frame */
-    PF_FRAME_FAULT_REFUSED     /* the job asks for what this farm refuses (a path outside
-                                  the storage roots): the task fails for good */
-} pf_frame_fault;
-
-/* "worker", "scene", "settings", "output", "refused". */
-const char *pf_frame_fault_name(pf_frame_fault fault);
+typedef enum pf_frame_failure {
+    PF_FRAME_FAILED_RENDER = 0, /* the render itself: device, memory, limits */
+    PF_FRAME_FAILED_SCENE,      /* evaluating the scene at the frame's time */
+    PF_FRAME_FAILED_OUTPUT      /* writing, checking or committing the EXR */
+} pf_frame_failure;
 
 typedef struct pf_frame_output {
     char final_path[PF_FRAME_PATH_MAX];
@@ -370,7 +350,7 @@ typedef struct pf_frame_output {
     uint32_t width, height;            /* as rendered */
     double total_ms;
     int aborted;                       /* the abort flag stopped it; nothing on disk */
-    pf_frame_fault fault;              /* after a failure: whose it is */
+    pf_frame_failure failed;           /* after a failure: where it failed */
 } pf_frame_output;
 
 /*
@@ -378,14 +358,14 @@ typedef struct pf_frame_output {
  * On success the complete EXR (fsynced) lies at out->temp_path, unless
  * out->aborted (the abort flag was seen between stages: nothing is left on
  * disk). On failure nothing is left on disk, err names the scene/frame or
- * the file and out->fault says whose fault it is (scene evaluation: scene;
- * writing the EXR: output; rendering: worker).
+ * the file and out->failed says where it failed (scene evaluation, the
+ * render, the EXR).
  */
 pf_status pf_frame_render(pf_renderer *renderer, const pf_frame_request *request,
                           pf_frame_output *out, pf_error *err);
 
 /* Renames the temporary into place and fsyncs the directory. On failure the
- * temporary is removed, err names both paths and out->fault is output. */
+ * temporary is removed, err names both paths and out->failed is PF_FRAME_FAILED_OUTPUT. */
 pf_status pf_frame_commit(pf_frame_output *out, pf_error *err);
 
 /*
@@ -414,15 +394,12 @@ pf_status pf_frame_memory_check(uint32_t width, uint32_t height, uint64_t availa
 void pf_frame_discard(pf_frame_output *out);
 
 /*
- * Removes the leftovers of earlier attempts of one queue task at output_path:
- * "<output_path>.partial-t<task_id>-*" (the worker's temporaries are tagged
- * "t<task_id>-<lease token>", pf_frame_task_tag). Another task's temporary —
- * another job writing the same path under --force, a frame in flight — is
- * never touched. Returns how many files were removed.
+ * Removes the temporaries whose tag (pf_frame_request.temp_tag) starts with
+ * tag_prefix at output_path: "<output_path>.partial-<tag_prefix>*", the
+ * leftovers of earlier attempts that tagged them so. Nothing else is touched.
+ * Returns how many files were removed.
  */
-int pf_frame_remove_stale(const char *output_path, int64_t task_id);
-/* The temporary-file tag of a queue task's attempt: "t<task_id>-<lease token>". */
-void pf_frame_task_tag(int64_t task_id, const char *lease_token, char *out, size_t size);
+int pf_frame_remove_partials(const char *output_path, const char *tag_prefix);
 
 /* Splits path into its directory ("." when none, "/" at the root) and its file name. */
 void pf_frame_split_path(const char *path, char *dir, size_t dir_size, const char **base);

@@ -14,22 +14,6 @@
 #define PARTIAL_INFIX ".partial-"
 #define ATTRIBUTE_COUNT 8
 
-const char *pf_frame_fault_name(pf_frame_fault fault)
-{
-    switch (fault) {
-    case PF_FRAME_FAULT_SCENE:
-        return "scene";
-    case PF_FRAME_FAULT_SETTINGS:
-        return "settings";
-    case PF_FRAME_FAULT_OUTPUT:
-        return "output";
-    case PF_FRAME_FAULT_REFUSED:
-        return "refused";
-    default:
-        return "worker";
-    }
-}
-
 static int aborted(const pf_frame_request *request)
 {
     return request->abort && atomic_load(request->abort);
@@ -61,17 +45,12 @@ void pf_frame_split_path(const char *path, char *dir, size_t dir_size, const cha
     }
 }
 
-void pf_frame_task_tag(int64_t task_id, const char *lease_token, char *out, size_t size)
-{
-    snprintf(out, size, "t%" PRId64 "-%s", task_id, lease_token ? lease_token : "");
-}
-
-int pf_frame_remove_stale(const char *output_path, int64_t task_id)
+int pf_frame_remove_partials(const char *output_path, const char *tag_prefix)
 {
     char dir[PF_FRAME_PATH_MAX], prefix[PF_FRAME_PATH_MAX], path[2 * PF_FRAME_PATH_MAX];
     const char *base;
     pf_frame_split_path(output_path, dir, sizeof dir, &base);
-    snprintf(prefix, sizeof prefix, "%s" PARTIAL_INFIX "t%" PRId64 "-", base, task_id);
+    snprintf(prefix, sizeof prefix, "%s" PARTIAL_INFIX "%s", base, tag_prefix);
     size_t prefix_length = strlen(prefix);
     DIR *listing = opendir(dir);
     if (!listing)
@@ -122,7 +101,7 @@ static void fill_attributes(const pf_frame_request *request, const pf_render_set
     /* The preset that rendered (auto resolved); the settings as the job's JSON codec writes them. */
     snprintf(attributes[2].value, sizeof attributes[2].value, "%s",
              pf_quality_name(preset));
-    if (!pf_settings_format(settings, NULL, attributes[3].value, sizeof attributes[3].value))
+    if (!pf_settings_format(settings, attributes[3].value, sizeof attributes[3].value))
         snprintf(attributes[3].value, sizeof attributes[3].value, "quality=%s",
                  pf_quality_name(settings->quality));
     snprintf(attributes[4].value, sizeof attributes[4].value, "%.3f", render_ms);
@@ -145,7 +124,7 @@ pf_status pf_frame_render(pf_renderer *renderer, const pf_frame_request *request
     double start = pf_time_ms();
     if (snprintf(out->final_path, sizeof out->final_path, "%s", request->output_path) >=
         (int)sizeof out->final_path) {
-        out->fault = PF_FRAME_FAULT_OUTPUT;
+        out->failed = PF_FRAME_FAILED_OUTPUT;
         return pf_error_set(err, PF_ERR_INVALID, "output path too long: %s", request->output_path);
     }
     if (aborted(request)) {
@@ -157,7 +136,7 @@ pf_status pf_frame_render(pf_renderer *renderer, const pf_frame_request *request
     pf_status status = pf_scene_eval(
         request->scene, pf_scene_frame_time(request->scene, request->frame), &frame, err);
     if (status != PF_OK) {
-        out->fault = PF_FRAME_FAULT_SCENE;
+        out->failed = PF_FRAME_FAILED_SCENE;
         pf_error_prefix(err, "%s frame %" PRId64, request->scene_path, request->frame);
         return status;
     }
@@ -204,7 +183,7 @@ pf_status pf_frame_render(pf_renderer *renderer, const pf_frame_request *request
         (int)sizeof out->temp_path) {
         pf_image_free(&image);
         out->temp_path[0] = '\0';
-        out->fault = PF_FRAME_FAULT_OUTPUT;
+        out->failed = PF_FRAME_FAILED_OUTPUT;
         return pf_error_set(err, PF_ERR_INVALID, "output path too long: %s", request->output_path);
     }
     /* Without AOVs the file is the beauty alone: RGBA, which every EXR reader opens
@@ -226,7 +205,7 @@ pf_status pf_frame_render(pf_renderer *renderer, const pf_frame_request *request
     if (status != PF_OK) {
         unlink(out->temp_path);
         out->temp_path[0] = '\0';
-        out->fault = writing ? PF_FRAME_FAULT_OUTPUT : PF_FRAME_FAULT_WORKER;
+        out->failed = writing ? PF_FRAME_FAILED_OUTPUT : PF_FRAME_FAILED_RENDER;
         pf_error_prefix(err, "writing frame %" PRId64, request->frame);
         return status;
     }
@@ -294,7 +273,7 @@ pf_status pf_frame_commit(pf_frame_output *out, pf_error *err)
         pf_status status = pf_error_set(err, PF_ERR_IO, "renaming %s to %s: %s", out->temp_path,
                                         out->final_path, strerror(errno));
         pf_frame_discard(out);
-        out->fault = PF_FRAME_FAULT_OUTPUT;
+        out->failed = PF_FRAME_FAILED_OUTPUT;
         return status;
     }
     out->temp_path[0] = '\0';
@@ -307,7 +286,7 @@ pf_status pf_frame_commit(pf_frame_output *out, pf_error *err)
         int synced = fsync(fd);
         close(fd);
         if (synced != 0) {
-            out->fault = PF_FRAME_FAULT_OUTPUT;
+            out->failed = PF_FRAME_FAILED_OUTPUT;
             return pf_error_set(err, PF_ERR_IO, "fsync of directory %s: %s", dir,
                                 strerror(errno));
         }

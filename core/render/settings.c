@@ -145,16 +145,11 @@ static pf_status read_lpv(const cJSON *root, pf_lpv_settings *lpv, pf_error *err
     return PF_OK;
 }
 
-int pf_settings_format(const pf_render_settings *settings, const pf_job_extras *extras,
-                         char *out, size_t size)
+int pf_settings_format(const pf_render_settings *settings, char *out, size_t size)
 {
     cJSON *root = cJSON_CreateObject();
     if (!root)
         return 0;
-    if (extras && extras->name)
-        cJSON_AddStringToObject(root, "name", extras->name);
-    if (extras && extras->allow_outside_scene_dir)
-        cJSON_AddBoolToObject(root, "allow_outside_scene_dir", 1);
     cJSON_AddNumberToObject(root, "width", settings->width);
     cJSON_AddNumberToObject(root, "height", settings->height);
     cJSON_AddStringToObject(root, "quality", pf_quality_name(settings->quality));
@@ -187,16 +182,6 @@ int pf_settings_format(const pf_render_settings *settings, const pf_job_extras *
         memcpy(out, text, strlen(text) + 1);
     cJSON_free(text);
     return fits;
-}
-
-void pf_settings_job_name(const char *json, char *out, size_t size)
-{
-    out[0] = '\0';
-    cJSON *root = cJSON_Parse(json ? json : "{}");
-    const cJSON *name = cJSON_GetObjectItemCaseSensitive(root, "name");
-    if (cJSON_IsString(name))
-        snprintf(out, size, "%s", name->valuestring);
-    cJSON_Delete(root);
 }
 
 pf_status pf_settings_parse(const char *json, pf_render_settings *settings, pf_error *err)
@@ -266,10 +251,3 @@ pf_status pf_settings_parse(const char *json, pf_render_settings *settings, pf_e
     return PF_OK;
 }
 
-int pf_settings_allow_outside(const char *json)
-{
-    cJSON *root = cJSON_Parse(json ? json : "{}");
-    int allowed = cJSON_IsTrue(cJSON_GetObjectItemCaseSensitive(root, "allow_outside_scene_dir"));
-    cJSON_Delete(root);
-    return allowed;
-}

@@ -4,6 +4,7 @@
  * frame, another output's files); the output check refuses a missing
  * directory and a # in a directory name before anything renders.
  */
+#include "frame_fault.h"
 #include "pf_render.h"
 #include "pf_test.h"
 #include "worker_test_util.h"

@@ -5,6 +5,7 @@
  * in the queue and in an EXR's photonfarm/settings decodes to what was asked.
  */
 #include "cli_queue.h"
+#include "job_extras.h"
 #include "pf_image.h"
 #include "pf_test.h"
 #include "worker_test_util.h"
@@ -114,14 +115,18 @@ static void expect_json_round_trip(const pf_render_settings *settings, const cha
 {
     char json[2048];
     pf_job_extras extras = {"name", 1};
-    PF_REQUIRE(pf_settings_format(settings, &extras, json, sizeof json));
+    PF_REQUIRE(pf_job_parameters_format(settings, &extras, json, sizeof json));
     pf_render_settings decoded;
     pf_error err = {0};
     PF_CHECK_OK(pf_settings_parse(json, &decoded, &err), &err);
     PF_CHECK_MSG(settings_equal(settings, &decoded), "%s: %s", what, json);
     char name[16];
-    pf_settings_job_name(json, name, sizeof name);
-    PF_CHECK(!strcmp(name, "name") && pf_settings_allow_outside(json) == 1);
+    pf_job_name(json, name, sizeof name);
+    PF_CHECK(!strcmp(name, "name") && pf_job_allow_outside(json) == 1);
+    /* The settings alone carry none of the farm's keys. */
+    PF_REQUIRE(pf_settings_format(settings, json, sizeof json));
+    pf_job_name(json, name, sizeof name);
+    PF_CHECK(!strcmp(name, "") && pf_job_allow_outside(json) == 0);
 }
 
 PF_TEST(the_command_line_sets_every_field)
