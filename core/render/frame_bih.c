@@ -85,19 +85,6 @@ typedef enum bih_decision {
 #define BIH_REFIT_SAH_TOLERANCE 1.10
 
 /* Bitwise-equal triangles: the frame's vertices against the tree's leaf-order copy. */
-static int same_triangles(const pf_bih *bih, const pf_scene_frame *frame)
-{
-    if (bih->triangle_count != frame->triangle_count)
-        return 0;
-    for (uint32_t p = 0; p < bih->triangle_count; p++) {
-        uint32_t t = bih->triangle_index[p];
-        for (int c = 0; c < 3; c++)
-            if (memcmp(bih->vertices[3 * p + c], frame->vertices[3 * t + c], 3 * sizeof(float)))
-                return 0;
-    }
-    return 1;
-}
-
 static double sah_of(const pf_bih *bih)
 {
     pf_bih_quality quality;
@@ -120,27 +107,6 @@ static pf_status build_fresh(pf_renderer *renderer, const pf_scene_frame *frame,
     renderer->bih_sah = sah_of(&renderer->bih);
     renderer->bih_fresh_sah = renderer->bih_sah;
     return PF_OK;
-}
-
-void pf_bih_plan(const pf_renderer *renderer, const pf_scene_frame *frame,
-                 pf_stage_decision *decision)
-{
-    decision->action = PF_STAGE_RUN;
-    if (!renderer->bih_valid)
-        snprintf(decision->reason, sizeof decision->reason, "%s",
-                 renderer->bih_frames == 0   ? "built: first frame"
-                 : renderer->bih_pilot_replaced ? "built: auto's pilot replaced the previous "
-                                                  "frame's tree"
-                                                : "built: no tree kept (previous frame failed)");
-    else if (renderer->bih.triangle_count != frame->triangle_count)
-        snprintf(decision->reason, sizeof decision->reason,
-                 "built: triangle count changed (%u → %u)", renderer->bih.triangle_count,
-                 frame->triangle_count);
-    else if (same_triangles(&renderer->bih, frame)) {
-        decision->action = PF_STAGE_REUSE;
-        snprintf(decision->reason, sizeof decision->reason, "geometry unchanged → BIH reused");
-    } else
-        snprintf(decision->reason, sizeof decision->reason, "refit: triangles moved");
 }
 
 /*

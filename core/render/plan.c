@@ -89,7 +89,7 @@ static pf_status pilot_render(pf_renderer *renderer, const pf_scene_frame *frame
     s.aovs = 0;
     s.time_budget_ms = 0.0;
     memset(report, 0, sizeof *report);
-    return pf_render_frame(renderer, frame, &s, image, report, err);
+    return pf_render_preset(renderer, frame, &s, image, report, err);
 }
 
 /* A pilot's side: a quarter of the frame's, at least PLAN_PILOT_MIN_EDGE (or the whole side). */

@@ -1,76 +1,17 @@
 /*
- * pf_render_frame: checks the settings, lets auto's planner pick the preset
- * (plan.c), plans the frame's stages (stage_plan.c) and runs them in one
- * loop (run_stages) through the preset's integrator (preview:
- * frame_direct.c; reference: frame_reference.c; final: frame_final.c;
- * fast: frame_fast.c). Also the FrameParams the integrators upload.
+ * One frame of a preset (pf_render_preset, under pf_render_frame and auto's
+ * pilot): checks the settings, plans the frame's stages (stage_plan.c) and
+ * runs them in one loop (run_stages) through the preset's integrator
+ * (preview: frame_direct.c; reference: frame_reference.c; final:
+ * frame_final.c; fast: frame_fast.c).
  */
 #include "render_internal.h"
 
 #include <math.h>
 #include <string.h>
 
-/*
- * Secondary rays start this far (relative to the scene's magnitude) off the
- * surface along its geometric normal: ~800 float ulps at the largest
- * coordinate, safely past self-intersection, far below any feature size of
- * the shipped scenes.
- */
-#define RAY_OFFSET_RELATIVE 1e-4f
 /* Largest image side accepted: pixel indices (y * width + x) stay well inside 32 bits. */
 #define RENDER_MAX_EDGE 16384u
-
-/* Largest coordinate magnitude or extent of the scene, at least 1 (meters). */
-static float scene_magnitude(const pf_scene_frame *frame)
-{
-    float magnitude = 1.0f;
-    for (int i = 0; i < 3; i++) {
-        float extent = frame->bounds_max[i] - frame->bounds_min[i];
-        float largest = fmaxf(fabsf(frame->bounds_min[i]), fabsf(frame->bounds_max[i]));
-        magnitude = fmaxf(magnitude, fmaxf(extent, largest));
-    }
-    return magnitude;
-}
-
-float pf_render_ray_offset(const pf_scene_frame *frame)
-{
-    return RAY_OFFSET_RELATIVE * scene_magnitude(frame);
-}
-
-void pf_frame_params_fill(const pf_scene_frame *frame, const pf_render_settings *settings,
-                          uint32_t spp, const pf_gpu_scene *scene, const pf_bih_gpu_view *bih,
-                          pf_frame_params *params)
-{
-    memset(params, 0, sizeof *params);
-    const pf_camera *camera = &frame->camera;
-    float tan_half_x = 0.0f, tan_half_y = 0.0f;
-    pf_camera_image_plane(camera, settings->width, settings->height, &tan_half_x, &tan_half_y);
-    for (int i = 0; i < 3; i++) {
-        params->camera_position[i] = camera->position[i];
-        params->camera_forward[i] = camera->forward[i];
-        params->camera_right[i] = camera->right[i];
-        params->camera_up[i] = camera->up[i];
-    }
-    params->camera_position[3] = tan_half_x;
-    params->camera_forward[3] = tan_half_y;
-    params->camera_right[3] = pf_render_ray_offset(frame);
-    params->width = settings->width;
-    params->height = settings->height;
-    params->samples_per_pixel = spp;
-    params->triangle_count = frame->triangle_count;
-    params->light_count = frame->light_count;
-    params->emissive_count = scene->emissive_count;
-    params->emissive_weight_total = scene->emissive_weight_total;
-    params->seed_lo = (uint32_t)settings->seed;
-    params->seed_hi = (uint32_t)(settings->seed >> 32);
-    params->pixel_filter = (uint32_t)settings->pixel_filter;
-    params->max_bounces = settings->bounce_limit ? settings->bounce_limit - 1u : 0xffffffffu;
-    params->bih_node_count = bih->node_count;
-    for (int i = 0; i < 3; i++) {
-        params->bih_bounds_min[i] = bih->bounds_min[i];
-        params->bih_bounds_max[i] = bih->bounds_max[i];
-    }
-}
 
 /* Whether stage runs in this pass loop or once. */
 static int per_pass(const pf_integrator *integrator, int stage)
@@ -112,14 +53,8 @@ static pf_status run_stages(const pf_integrator *integrator, pf_frame_run *run, 
     return integrator->end ? integrator->end(run, status, err) : status;
 }
 
-pf_status pf_render_frame(pf_renderer *renderer, const pf_scene_frame *frame,
-                          const pf_render_settings *settings, pf_image *image,
-                          pf_frame_report *report, pf_error *err)
+pf_status pf_render_settings_check(const pf_render_settings *settings, pf_error *err)
 {
-    double start_ms = pf_time_ms();
-    if (!renderer || !frame || !settings || !image)
-        return pf_error_set(err, PF_ERR_INVALID, "pf_render_frame: NULL argument");
-    memset(image, 0, sizeof *image);
     if (settings->width == 0 || settings->height == 0 || settings->width > RENDER_MAX_EDGE ||
         settings->height > RENDER_MAX_EDGE)
         return pf_error_set(err, PF_ERR_INVALID, "image size %ux%u: each side must be 1..%u",
@@ -133,15 +68,18 @@ pf_status pf_render_frame(pf_renderer *renderer, const pf_scene_frame *frame,
                             "auto's budget %g ms / target relMSE %g: expected 0 (none) or a "
                             "positive number",
                             settings->budget_ms, settings->target_relmse);
-    if (settings->quality == PF_QUALITY_AUTO) {
-        pf_render_settings chosen;
-        pf_frame_report own = {0};
-        pf_status status =
-            pf_plan_frame(renderer, frame, settings, &chosen, report ? report : &own, err);
-        if (status != PF_OK)
-            return status;
-        return pf_render_frame(renderer, frame, &chosen, image, report, err);
-    }
+    return PF_OK;
+}
+
+pf_status pf_render_preset(pf_renderer *renderer, const pf_scene_frame *frame,
+                           const pf_render_settings *settings, pf_image *image,
+                           pf_frame_report *report, pf_error *err)
+{
+    double start_ms = pf_time_ms();
+    memset(image, 0, sizeof *image);
+    pf_status status = pf_render_settings_check(settings, err);
+    if (status != PF_OK)
+        return status;
     if ((unsigned)settings->quality > PF_QUALITY_REFERENCE)
         return pf_error_set(err, PF_ERR_UNSUPPORTED,
                             "quality '%s' is not available (available: preview, fast, final, "
@@ -151,7 +89,8 @@ pf_status pf_render_frame(pf_renderer *renderer, const pf_scene_frame *frame,
         report->quality = settings->quality;
     /* The planner decides every stage before any runs; the loop carries the plan out. */
     pf_stage_plan plan;
-    pf_status status = pf_plan_stages(renderer, frame, settings, &plan, err);
+    pf_stage_previous previous = pf_stage_previous_of(renderer, settings->quality);
+    status = pf_plan_stages(frame, settings, &previous, &plan, err);
     if (status != PF_OK)
         return status;
     renderer->stage_memory[settings->quality].frames++;

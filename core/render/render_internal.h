@@ -115,10 +115,25 @@ typedef struct pf_stage_plan {
     pf_lpv_layout layout;
 } pf_stage_plan;
 
-/* Plans the frame's stages for settings->quality (not auto); PF_ERR_INVALID for LPV settings
- * the device cannot hold, PF_ERR_NOMEM. */
-pf_status pf_plan_stages(pf_renderer *renderer, const pf_scene_frame *frame,
-                         const pf_render_settings *settings, pf_stage_plan *plan, pf_error *err);
+/*
+ * What the previous frame left that a plan may reuse, and the device's limits: with the
+ * frame and the settings, all a plan depends on (pf_stage_previous_of reads them off a
+ * renderer; a test writes them by hand, with no device).
+ */
+typedef struct pf_stage_previous {
+    const pf_stage_memory *memory; /* the preset's stage memory (NULL: none) */
+    const pf_bih *tree;            /* the BIH kept from the previous frame (NULL: none) */
+    uint64_t bih_frames;           /* frames that got a tree so far */
+    int bih_pilot_replaced;        /* auto's pilot dropped the previous frame's tree */
+    uint64_t max_buffer_range;     /* the device's largest storage buffer (the LPV's bound) */
+} pf_stage_previous;
+
+pf_stage_previous pf_stage_previous_of(const pf_renderer *renderer, pf_quality preset);
+
+/* Plans the frame's stages for settings->quality (not auto): a pure function of its
+ * arguments. PF_ERR_LIMIT for LPV settings the device cannot hold, PF_ERR_NOMEM. */
+pf_status pf_plan_stages(const pf_scene_frame *frame, const pf_render_settings *settings,
+                         const pf_stage_previous *previous, pf_stage_plan *plan, pf_error *err);
 /* Frees what the plan owns (its emitters); a zeroed plan is fine. */
 void pf_stage_plan_release(pf_stage_plan *plan);
 /* Run (naming the changed inputs) or reuse, by memory's fingerprints for the stage. */
@@ -132,8 +147,9 @@ const char *pf_stage_name(pf_stage_id stage);
 /* The row of a planned stage: skipped unless it runs, with the plan's reason. */
 pf_stage_timing *pf_stage_row(pf_frame_report *report, const pf_stage_plan *plan,
                               pf_stage_id stage, double wall_ms, double gpu_ms);
-/* bih_build's decision (frame_bih.c): reuse for bitwise-equal triangles, else build or refit. */
-void pf_bih_plan(const pf_renderer *renderer, const pf_scene_frame *frame,
+/* bih_build's decision: reuse the kept tree for bitwise-equal triangles, else build or
+ * refit (frame_bih.c carries it out). */
+void pf_bih_plan(const pf_stage_previous *previous, const pf_scene_frame *frame,
                  pf_stage_decision *decision);
 
 /*
@@ -408,6 +424,15 @@ typedef struct pf_pilot_history {
 void pf_pilot_begin(const pf_renderer *renderer, pf_pilot_history *saved);
 void pf_pilot_end(pf_renderer *renderer, const pf_pilot_history *saved);
 
+/* The request's image size, budgets and target in range (PF_ERR_INVALID naming them). */
+pf_status pf_render_settings_check(const pf_render_settings *settings, pf_error *err);
+
+/* One frame of settings->quality, which is a preset, not auto (render_frame.c):
+ * pf_render_frame's and auto's pilot's. */
+pf_status pf_render_preset(pf_renderer *renderer, const pf_scene_frame *frame,
+                           const pf_render_settings *settings, pf_image *image,
+                           pf_frame_report *report, pf_error *err);
+
 pf_status pf_plan_frame(pf_renderer *renderer, const pf_scene_frame *frame,
                         const pf_render_settings *settings, pf_render_settings *chosen,
                         pf_frame_report *report, pf_error *err);
@@ -507,10 +532,6 @@ _Static_assert(sizeof(pf_material_probe_result) == 64, "must match ProbeResult")
 pf_status pf_material_probe(pf_renderer *renderer, const pf_material_probe_query *queries,
                             uint32_t count, pf_material_probe_result *results, pf_error *err);
 
-/* 1 when some triangle has a mirror or glass material (photons can make caustics). */
-int pf_scene_frame_has_specular(const pf_scene_frame *frame);
-double pf_scene_frame_area(const pf_scene_frame *frame);
-double pf_scene_frame_diagonal(const pf_scene_frame *frame);
 /*
  * The radius holding `neighbours` photons at the mean density of `stored`
  * photons over the scene's surface area, r² = K A / (π N); with none

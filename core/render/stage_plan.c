@@ -272,12 +272,56 @@ static uint32_t photon_depth_of(const pf_render_settings *settings)
     return settings->bounce_limit > 1 ? settings->bounce_limit - 1 : 1;
 }
 
-pf_status pf_plan_stages(pf_renderer *renderer, const pf_scene_frame *frame,
-                         const pf_render_settings *settings, pf_stage_plan *plan, pf_error *err)
+/* Whether the kept tree holds exactly frame's triangles (in its leaf order). */
+static int same_triangles(const pf_bih *bih, const pf_scene_frame *frame)
+{
+    if (bih->triangle_count != frame->triangle_count)
+        return 0;
+    for (uint32_t p = 0; p < bih->triangle_count; p++) {
+        uint32_t t = bih->triangle_index[p];
+        for (int c = 0; c < 3; c++)
+            if (memcmp(bih->vertices[3 * p + c], frame->vertices[3 * t + c], 3 * sizeof(float)))
+                return 0;
+    }
+    return 1;
+}
+
+void pf_bih_plan(const pf_stage_previous *previous, const pf_scene_frame *frame,
+                 pf_stage_decision *decision)
+{
+    decision->action = PF_STAGE_RUN;
+    if (!previous->tree)
+        snprintf(decision->reason, sizeof decision->reason, "%s",
+                 previous->bih_frames == 0   ? "built: first frame"
+                 : previous->bih_pilot_replaced ? "built: auto's pilot replaced the previous "
+                                                  "frame's tree"
+                                                : "built: no tree kept (previous frame failed)");
+    else if (previous->tree->triangle_count != frame->triangle_count)
+        snprintf(decision->reason, sizeof decision->reason,
+                 "built: triangle count changed (%u → %u)", previous->tree->triangle_count,
+                 frame->triangle_count);
+    else if (same_triangles(previous->tree, frame)) {
+        decision->action = PF_STAGE_REUSE;
+        snprintf(decision->reason, sizeof decision->reason, "geometry unchanged → BIH reused");
+    } else
+        snprintf(decision->reason, sizeof decision->reason, "refit: triangles moved");
+}
+
+pf_stage_previous pf_stage_previous_of(const pf_renderer *renderer, pf_quality preset)
+{
+    pf_stage_previous previous = {
+        (unsigned)preset < PF_QUALITY_AUTO ? &renderer->stage_memory[preset] : NULL,
+        renderer->bih_valid ? &renderer->bih : NULL, renderer->bih_frames,
+        renderer->bih_pilot_replaced, pf_vk_info(renderer->ctx)->max_storage_buffer_range};
+    return previous;
+}
+
+pf_status pf_plan_stages(const pf_scene_frame *frame, const pf_render_settings *settings,
+                         const pf_stage_previous *previous, pf_stage_plan *plan, pf_error *err)
 {
     memset(plan, 0, sizeof *plan);
     plan->preset = settings->quality;
-    pf_bih_plan(renderer, frame, &plan->stages[PF_STAGE_BIH_BUILD]);
+    pf_bih_plan(previous, frame, &plan->stages[PF_STAGE_BIH_BUILD]);
     plan->stages[PF_STAGE_SHADE].action = PF_STAGE_RUN;
     switch (settings->quality) {
     case PF_QUALITY_PREVIEW:
@@ -293,7 +337,7 @@ pf_status pf_plan_stages(pf_renderer *renderer, const pf_scene_frame *frame,
         return pf_error_set(err, PF_ERR_UNSUPPORTED, "no stage plan for quality '%s'",
                             pf_quality_name(settings->quality));
     }
-    pf_stage_memory *memory = &renderer->stage_memory[settings->quality];
+    const pf_stage_memory *memory = previous->memory;
     fingerprint_scene(frame, plan->inputs);
     /* What photon emission picks from (lights and emissive triangles of positive power),
      * built once: the integrator traces from the plan's table. */
@@ -316,7 +360,7 @@ pf_status pf_plan_stages(pf_renderer *renderer, const pf_scene_frame *frame,
     }
     pf_lpv_setting which;
     status = pf_lpv_settings_check(
-        &settings->lpv, pf_vk_info(renderer->ctx)->max_storage_buffer_range, &which, err);
+        &settings->lpv, previous->max_buffer_range, &which, err);
     if (status != PF_OK) {
         pf_stage_plan_release(plan);
         return status;

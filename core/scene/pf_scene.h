@@ -258,6 +258,15 @@ typedef struct pf_scene_frame {
 /* The PF_SURFACE_* bits of frame: corners when it has them, alpha when a material tests it. */
 uint32_t pf_scene_frame_surface_features(const pf_scene_frame *frame);
 
+/* Measures of a frame (frame_measures.c). 1 when some triangle's material is passed
+ * through by sampling (a mirror, glass or a sharp metal: photons can make caustics). */
+int pf_scene_frame_has_specular(const pf_scene_frame *frame);
+/* The triangles' total area (m²) and the bounding box's diagonal (m). */
+double pf_scene_frame_area(const pf_scene_frame *frame);
+double pf_scene_frame_diagonal(const pf_scene_frame *frame);
+/* The largest coordinate magnitude or extent of the frame, at least 1 (m). */
+float pf_scene_frame_magnitude(const pf_scene_frame *frame);
+
 typedef struct pf_scene_info {
     const char *path;
     uint32_t node_count;

@@ -1,0 +1,193 @@
+/*
+ * The stage planner as a pure function (issue 45): pf_plan_stages of a frame,
+ * the settings, what the previous frame left (stage memory, the kept BIH) and
+ * the device's limits, on the host. ctest runs it with no Vulkan driver to be
+ * found (VK_ICD_FILENAMES points nowhere), so it cannot lean on a device.
+ *   - a first frame builds and traces everything, "first frame";
+ *   - a second frame whose inputs all match what the first left reuses every
+ *     stage, and one whose light changed re-traces its photons naming the
+ *     lights (the BIH is reused: the geometry is the same);
+ *   - the BIH: reuse for bitwise-equal triangles, refit for moved ones, a
+ *     build for another triangle count;
+ *   - auto's pilot having replaced the previous frame's outputs is said;
+ *   - fast's LPV settings against a device limit: too small a buffer range is
+ *     PF_ERR_LIMIT naming it, decided without a device.
+ */
+#include "pf_test.h"
+#include "reference_test_util.h"
+#include "render_internal.h"
+
+#include <stdio.h>
+#include <string.h>
+
+static ref_scene room;
+
+/* A white box with a point light and a small emissive quad: a photon scene, Lambert only. */
+static void build_room(void)
+{
+    ref_scene_init(&room);
+    uint32_t white = ref_scene_add_material(&room, pf_material_lambert(0.8f, 0.8f, 0.8f));
+    uint32_t lamp = ref_scene_add_material(&room, ref_material_emitter(5, 5, 5));
+    const float min[3] = {-1, -1, -1}, max[3] = {1, 1, 1};
+    ref_scene_add_box(&room, min, max, 1, white);
+    const float centre[3] = {0, 0.99f, 0}, u[3] = {0.2f, 0, 0}, v[3] = {0, 0, 0.2f};
+    ref_scene_add_quad(&room, centre, u, v, lamp);
+    ref_scene_add_light(&room, (pf_light){{0.3f, 0.5f, 0.2f}, PF_LIGHT_POINT, {0, -1, 0}, 0,
+                                          {2, 2, 2}, 1, 1, {0, 0, 0}});
+    const float eye[3] = {0, 0, 0.9f}, target[3] = {0, 0, -1}, up[3] = {0, 1, 0};
+    ref_scene_look_at(&room, eye, target, up, 1.0f);
+}
+
+static pf_render_settings settings_of(pf_quality quality)
+{
+    pf_render_settings settings = ref_settings(32, 24, 0, 1, 0);
+    settings.quality = quality;
+    return settings;
+}
+
+/* No memory, no tree: a first frame on a device whose buffers are as large as lavapipe's. */
+static pf_stage_previous first_frame(const pf_stage_memory *memory)
+{
+    pf_stage_previous previous = {memory, NULL, 0, 0, 128u << 20};
+    return previous;
+}
+
+static int has(const pf_stage_decision *decision, const char *text)
+{
+    return strstr(decision->reason, text) != NULL;
+}
+
+PF_TEST(a_first_frame_runs_every_stage_it_needs)
+{
+    pf_stage_memory memory = {0};
+    const pf_quality presets[] = {PF_QUALITY_PREVIEW, PF_QUALITY_REFERENCE, PF_QUALITY_FINAL,
+                                  PF_QUALITY_FAST};
+    for (size_t p = 0; p < sizeof presets / sizeof *presets; p++) {
+        pf_render_settings settings = settings_of(presets[p]);
+        pf_stage_previous previous = first_frame(&memory);
+        pf_stage_plan plan;
+        pf_error err = {0};
+        PF_REQUIRE_OK(pf_plan_stages(&room.frame, &settings, &previous, &plan, &err), &err);
+        const pf_stage_decision *bih = &plan.stages[PF_STAGE_BIH_BUILD];
+        PF_CHECK_MSG(bih->action == PF_STAGE_RUN && !strcmp(bih->reason, "built: first frame"),
+                     "%s: bih_build %s", pf_quality_name(presets[p]), bih->reason);
+        PF_CHECK(plan.stages[PF_STAGE_SHADE].action == PF_STAGE_RUN);
+        if (presets[p] == PF_QUALITY_FINAL || presets[p] == PF_QUALITY_FAST) {
+            const pf_stage_decision *trace = &plan.stages[PF_STAGE_PHOTON_TRACE];
+            PF_CHECK_MSG(trace->action == PF_STAGE_RUN && has(trace, "first frame"),
+                         "photon_trace: %s", trace->reason);
+            /* Lambert only: no caustic map, and the row says why. */
+            const pf_stage_decision *caustic = &plan.stages[PF_STAGE_CAUSTIC_MAP];
+            PF_CHECK_MSG(caustic->action == PF_STAGE_SKIP && has(caustic, "no specular"),
+                         "caustic_map: %s", caustic->reason);
+            PF_CHECK(plan.emitters.count > 0);
+        }
+        if (presets[p] == PF_QUALITY_FAST)
+            PF_CHECK(plan.stages[PF_STAGE_LPV_PROPAGATE].action == PF_STAGE_RUN);
+        pf_stage_plan_release(&plan);
+    }
+}
+
+/* Plans final, then remembers every stage as the frame's integrator would. */
+static void plan_and_remember(const pf_stage_previous *previous, pf_stage_memory *memory,
+                              pf_stage_plan *plan)
+{
+    pf_render_settings settings = settings_of(PF_QUALITY_FINAL);
+    pf_error err = {0};
+    PF_REQUIRE_OK(pf_plan_stages(&room.frame, &settings, previous, plan, &err), &err);
+    for (int s = 0; s < PF_STAGE_COUNT; s++)
+        if (plan->stages[s].action == PF_STAGE_RUN)
+            pf_stage_remember(memory, plan, (pf_stage_id)s);
+    memory->frames++;
+    memory->kept_passes = plan->samples;
+}
+
+PF_TEST(a_second_frame_reuses_what_did_not_change)
+{
+    pf_stage_memory memory = {0};
+    pf_stage_previous previous = first_frame(&memory);
+    pf_stage_plan plan;
+    plan_and_remember(&previous, &memory, &plan);
+    pf_stage_plan_release(&plan);
+    pf_render_settings settings = settings_of(PF_QUALITY_FINAL);
+    pf_error err = {0};
+    PF_REQUIRE_OK(pf_plan_stages(&room.frame, &settings, &previous, &plan, &err), &err);
+    const pf_stage_decision *trace = &plan.stages[PF_STAGE_PHOTON_TRACE];
+    PF_CHECK_MSG(trace->action == PF_STAGE_REUSE && has(trace, "photon maps reused"),
+                 "photon_trace: %s", trace->reason);
+    PF_CHECK(plan.reused_passes == plan.samples);
+    pf_stage_plan_release(&plan);
+    /* The point light brighter: the photons are traced again, naming the lights. */
+    room.lights[0].intensity[0] = 3.0f;
+    PF_REQUIRE_OK(pf_plan_stages(&room.frame, &settings, &previous, &plan, &err), &err);
+    PF_CHECK_MSG(trace->action == PF_STAGE_RUN && has(trace, "lights changed"),
+                 "photon_trace after the light changed: %s", trace->reason);
+    room.lights[0].intensity[0] = 2.0f;
+    pf_stage_plan_release(&plan);
+    /* auto's pilot dropped what the previous frame kept: the reason says so. */
+    pf_stage_forget(&memory);
+    memory.pilot_replaced = 1;
+    PF_REQUIRE_OK(pf_plan_stages(&room.frame, &settings, &previous, &plan, &err), &err);
+    PF_CHECK_MSG(has(trace, "auto's pilot replaced"), "photon_trace: %s", trace->reason);
+    pf_stage_plan_release(&plan);
+}
+
+PF_TEST(the_bih_decision_follows_the_kept_tree)
+{
+    pf_bih tree;
+    pf_bih_build_options options = {.heuristic = PF_BIH_HEURISTIC_SAH};
+    pf_error err = {0};
+    PF_REQUIRE_OK(pf_bih_build_cpu(&room.frame, &options, &tree, &err), &err);
+    pf_stage_previous previous = {NULL, &tree, 1, 0, 128u << 20};
+    pf_stage_decision decision;
+    pf_bih_plan(&previous, &room.frame, &decision);
+    PF_CHECK_MSG(decision.action == PF_STAGE_REUSE &&
+                     !strcmp(decision.reason, "geometry unchanged → BIH reused"),
+                 "same triangles: %s", decision.reason);
+    room.frame.vertices[0][0] += 0.01f;
+    pf_bih_plan(&previous, &room.frame, &decision);
+    PF_CHECK_MSG(decision.action == PF_STAGE_RUN && has(&decision, "refit"),
+                 "a moved vertex: %s", decision.reason);
+    room.frame.vertices[0][0] -= 0.01f;
+    room.frame.triangle_count--;
+    pf_bih_plan(&previous, &room.frame, &decision);
+    PF_CHECK_MSG(decision.action == PF_STAGE_RUN && has(&decision, "triangle count changed"),
+                 "a triangle fewer: %s", decision.reason);
+    room.frame.triangle_count++;
+    previous.tree = NULL;
+    previous.bih_pilot_replaced = 1;
+    pf_bih_plan(&previous, &room.frame, &decision);
+    PF_CHECK_MSG(has(&decision, "auto's pilot replaced"), "%s", decision.reason);
+    pf_bih_free(&tree);
+}
+
+PF_TEST(lpv_settings_are_checked_against_the_device_limit)
+{
+    pf_stage_memory memory = {0};
+    pf_render_settings settings = settings_of(PF_QUALITY_FAST);
+    settings.lpv.size = 128;
+    settings.lpv.cascades = 8;
+    pf_stage_previous previous = first_frame(&memory);
+    previous.max_buffer_range = 1u << 20; /* 1 MiB: 8 cascades of 128³ cannot fit */
+    pf_stage_plan plan;
+    pf_error err = {0};
+    PF_CHECK(pf_plan_stages(&room.frame, &settings, &previous, &plan, &err) == PF_ERR_LIMIT);
+    PF_CHECK(strstr(err.message, "device allows 1 MiB") != NULL);
+    printf("  refused: %s\n", err.message);
+    previous.max_buffer_range = 128u << 20;
+    settings.lpv.size = 0;
+    settings.lpv.cascades = 0;
+    PF_CHECK_OK(pf_plan_stages(&room.frame, &settings, &previous, &plan, &err), &err);
+    pf_stage_plan_release(&plan);
+}
+
+int main(void)
+{
+    build_room();
+    PF_RUN(a_first_frame_runs_every_stage_it_needs);
+    PF_RUN(a_second_frame_reuses_what_did_not_change);
+    PF_RUN(the_bih_decision_follows_the_kept_tree);
+    PF_RUN(lpv_settings_are_checked_against_the_device_limit);
+    ref_scene_free(&room);
+    return pf_test_finish();
+}
