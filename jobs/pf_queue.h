@@ -101,7 +101,7 @@ void pf_queue_close(pf_queue *queue);
 int pf_queue_is_url(const char *db);
 
 /* Schema version this build creates and understands. */
-#define PF_QUEUE_SCHEMA_VERSION 4
+#define PF_QUEUE_SCHEMA_VERSION 5
 
 /* Current schema version recorded in the file (fills *version). */
 pf_status pf_queue_schema_version(pf_queue *queue, int *version, pf_error *err);
@@ -162,7 +162,23 @@ typedef struct pf_queue_worker_spec {
     const char *device; /* NULL → "" */
     int64_t lease_ms;   /* its lease: silent for this long, it counts as dead (0: the
                          * queue's worker_alive_ms) */
+    /* Capabilities (issue 42), detected by the worker at start; 0 or NULL: unknown. */
+    const char *device_type; /* "gpu" or "cpu" */
+    int64_t device_memory;   /* bytes of the device's largest device-local heap */
+    int64_t host_memory;     /* bytes of RAM */
+    int64_t cores;           /* online CPU cores */
+    const char *tags;        /* "a,b": sorted, distinct (pf_queue_tags_normalize) */
 } pf_queue_worker_spec;
+
+#define PF_QUEUE_TAGS_MAX 256 /* bytes of a worker's tag list, with its terminator */
+#define PF_QUEUE_TAG_MAX 64   /* bytes of one tag, with its terminator */
+
+/*
+ * Tags as stored: every comma- or space-separated word of text (letters, digits,
+ * '.', '_', '-'; 1..PF_QUEUE_TAG_MAX-1 bytes), sorted and distinct, joined by ','.
+ * A bad word, or a list over PF_QUEUE_TAGS_MAX, is PF_ERR_INVALID naming it.
+ */
+pf_status pf_queue_tags_normalize(const char *text, char *out, size_t size, pf_error *err);
 
 /*
  * Registers a worker, or re-registers one of the same name (a restart: host,
@@ -390,6 +406,9 @@ typedef struct pf_queue_worker_info {
     int64_t current_task_id;  /* 0 when idle */
     int64_t current_job_id;   /* 0 when idle */
     int32_t current_frame;    /* first frame of the current task */
+    char device_type[8];      /* its capabilities as registered ("" and 0: unknown) */
+    int64_t device_memory, host_memory, cores;
+    char tags[PF_QUEUE_TAGS_MAX];
 } pf_queue_worker_info;
 
 /* Every registered worker by id (malloc'ed array, free()). */

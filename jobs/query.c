@@ -305,6 +305,11 @@ static void read_worker(queue_stmt *stmt, void *row)
     worker->current_task_id = queue_column_int64(stmt, 9);
     worker->current_job_id = queue_column_int64(stmt, 10);
     worker->current_frame = (int)queue_column_int64(stmt, 11);
+    queue_copy_text(worker->device_type, sizeof worker->device_type, queue_column_text(stmt, 12));
+    worker->device_memory = queue_column_int64(stmt, 13);
+    worker->host_memory = queue_column_int64(stmt, 14);
+    worker->cores = queue_column_int64(stmt, 15);
+    queue_copy_text(worker->tags, sizeof worker->tags, queue_column_text(stmt, 16));
 }
 
 static pf_status worker_list_body(pf_queue *queue, void *context, pf_error *err)
@@ -316,7 +321,8 @@ static pf_status worker_list_body(pf_queue *queue, void *context, pf_error *err)
         "SELECT w.id, w.name, w.host, w.device, w.pid, w.heartbeat_at, w.started_at,"
         "  w.stopped_at, w.stopped_at IS NULL AND w.heartbeat_at >= "
         "  ?1 - CASE WHEN w.lease_ms > 0 THEN w.lease_ms ELSE ?2 END, w.current_task_id,"
-        "  t.job_id, t.first_frame "
+        "  t.job_id, t.first_frame, w.device_type, w.device_memory, w.host_memory, w.cores,"
+        "  w.tags "
         "FROM workers w LEFT JOIN tasks t ON t.id = w.current_task_id ORDER BY w.id",
         &stmt, err);
     if (status != PF_OK)

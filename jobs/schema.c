@@ -26,6 +26,14 @@
 #define QUEUE_DEFAULT_BLOCK_AFTER 3
 #define QUEUE_DEFAULT_WORKER_ALIVE_MS 90000 /* three default leases */
 
+/* Version 5's columns, on either engine (its integer type). */
+#define WORKER_CAPABILITIES(integer)                                                        \
+    "ALTER TABLE workers ADD COLUMN device_type TEXT NOT NULL DEFAULT '';"                   \
+    "ALTER TABLE workers ADD COLUMN device_memory " integer " NOT NULL DEFAULT 0;"           \
+    "ALTER TABLE workers ADD COLUMN host_memory " integer " NOT NULL DEFAULT 0;"             \
+    "ALTER TABLE workers ADD COLUMN cores " integer " NOT NULL DEFAULT 0;"                   \
+    "ALTER TABLE workers ADD COLUMN tags TEXT NOT NULL DEFAULT '';"
+
 /* Migration N (1-based) brings the schema from version N-1 to N. */
 static const char *const migrations[PF_QUEUE_SCHEMA_VERSION] = {
     "CREATE TABLE jobs ("
@@ -112,11 +120,14 @@ static const char *const migrations[PF_QUEUE_SCHEMA_VERSION] = {
      * job with their reason instead of counting against the worker (issue 14). */
     "ALTER TABLE jobs ADD COLUMN pause_reason TEXT;"
     "ALTER TABLE task_failures ADD COLUMN job_fault INTEGER NOT NULL DEFAULT 0;",
+    /* 5: each worker's capabilities (issue 42): its device's type and memory, the host's
+     * memory and cores, and its tags ("a,b"). */
+    WORKER_CAPABILITIES("INTEGER"),
 };
 
 /*
  * PostgreSQL: the latest schema in one go (PostgreSQL support began at
- * version 4, so it has no older versions to migrate from). The same tables
+ * version 4; a database made then climbs pg_migrations below). The same tables
  * as the SQLite migrations above; times are BIGINT (ms since the epoch), a
  * JSON column is checked by a jsonb cast, and workers' reference to tasks is
  * added once both tables exist.
@@ -200,7 +211,15 @@ static const char pg_schema[] =
     "  skipped INTEGER NOT NULL DEFAULT 0,"
     "  reason TEXT,"
     "  build TEXT);"
-    "CREATE INDEX stage_timings_task ON stage_timings(task_id);";
+    "CREATE INDEX stage_timings_task ON stage_timings(task_id);"
+    WORKER_CAPABILITIES("BIGINT");
+
+/* PostgreSQL from version N-1 to N, for N after PF_QUEUE_PG_FIRST_VERSION (the schema
+ * above is the latest; a database created at an older version climbs these). */
+#define PF_QUEUE_PG_FIRST_VERSION 4
+static const char *const pg_migrations[PF_QUEUE_SCHEMA_VERSION + 1] = {
+    [5] = WORKER_CAPABILITIES("BIGINT"),
+};
 
 static int64_t wall_clock_ms(void *user)
 {
@@ -397,10 +416,17 @@ static pf_status pg_migrate(pf_queue *queue, void *context, pf_error *err)
                             "%s: queue schema version %lld is newer than this photonfarm (%d); "
                             "upgrade photonfarm",
                             queue->path, (long long)version, PF_QUEUE_SCHEMA_VERSION);
-    if (status == PF_OK && version < PF_QUEUE_SCHEMA_VERSION)
+    if (status == PF_OK && version < PF_QUEUE_PG_FIRST_VERSION)
         return pf_error_set(err, PF_ERR_UNSUPPORTED,
                             "%s: queue schema version %lld predates PostgreSQL support (%d)",
-                            queue->path, (long long)version, PF_QUEUE_SCHEMA_VERSION);
+                            queue->path, (long long)version, PF_QUEUE_PG_FIRST_VERSION);
+    for (int64_t next = version + 1; status == PF_OK && next <= PF_QUEUE_SCHEMA_VERSION; next++) {
+        status = queue_exec(queue, pg_migrations[next], err);
+        if (status == PF_OK)
+            status = record_version(queue, next, err);
+        if (status != PF_OK)
+            pf_error_prefix(err, "migrating the queue schema to version %lld", (long long)next);
+    }
     return status;
 }
 

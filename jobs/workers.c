@@ -3,6 +3,8 @@
  * stopping every claim of the farm while a worker starts or stops. */
 #include "queue_internal.h"
 
+#include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 typedef struct register_context {
@@ -17,10 +19,12 @@ static pf_status register_body(pf_queue *queue, void *context, pf_error *err)
     queue_stmt *stmt;
     pf_status status = queue_prepare(
         queue,
-        "INSERT INTO workers (name, host, pid, device, heartbeat_at, started_at, lease_ms) "
-        "VALUES (?1, ?2, ?3, ?4, ?5, ?5, ?6) ON CONFLICT (name) DO UPDATE SET host = ?2, "
-        "pid = ?3, device = ?4, heartbeat_at = ?5, started_at = ?5, stopped_at = NULL, "
-        "lease_ms = ?6 RETURNING id",
+        "INSERT INTO workers (name, host, pid, device, heartbeat_at, started_at, lease_ms, "
+        "device_type, device_memory, host_memory, cores, tags) "
+        "VALUES (?1, ?2, ?3, ?4, ?5, ?5, ?6, ?7, ?8, ?9, ?10, ?11) ON CONFLICT (name) DO UPDATE "
+        "SET host = ?2, pid = ?3, device = ?4, heartbeat_at = ?5, started_at = ?5, "
+        "stopped_at = NULL, lease_ms = ?6, device_type = ?7, device_memory = ?8, "
+        "host_memory = ?9, cores = ?10, tags = ?11 RETURNING id",
         &stmt, err);
     if (status != PF_OK)
         return status;
@@ -30,12 +34,67 @@ static pf_status register_body(pf_queue *queue, void *context, pf_error *err)
     queue_bind_text(stmt, 4, ctx->spec->device ? ctx->spec->device : "");
     queue_bind_int64(stmt, 5, now);
     queue_bind_int64(stmt, 6, ctx->spec->lease_ms > 0 ? ctx->spec->lease_ms : 0);
+    queue_bind_text(stmt, 7, ctx->spec->device_type ? ctx->spec->device_type : "");
+    queue_bind_int64(stmt, 8, ctx->spec->device_memory > 0 ? ctx->spec->device_memory : 0);
+    queue_bind_int64(stmt, 9, ctx->spec->host_memory > 0 ? ctx->spec->host_memory : 0);
+    queue_bind_int64(stmt, 10, ctx->spec->cores > 0 ? ctx->spec->cores : 0);
+    queue_bind_text(stmt, 11, ctx->spec->tags ? ctx->spec->tags : "");
     if (queue_step(stmt) == QUEUE_ROW)
         ctx->worker_id = queue_column_int64(stmt, 0);
     else
         status = queue_db_error(queue, err, "registering a worker");
     queue_finalize(stmt);
     return status;
+}
+
+/* One tag's characters: letters, digits, '.', '_', '-'. */
+static int tag_char(char c)
+{
+    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
+           c == '.' || c == '_' || c == '-';
+}
+
+static int compare_tags(const void *a, const void *b) { return strcmp(a, b); }
+
+pf_status pf_queue_tags_normalize(const char *text, char *out, size_t size, pf_error *err)
+{
+    char tags[PF_QUEUE_TAGS_MAX / 2][PF_QUEUE_TAG_MAX];
+    size_t count = 0;
+    for (const char *p = text ? text : ""; *p;) {
+        if (*p == ',' || *p == ' ') {
+            p++;
+            continue;
+        }
+        size_t length = 0;
+        while (p[length] && p[length] != ',' && p[length] != ' ')
+            length++;
+        for (size_t i = 0; i < length; i++)
+            if (!tag_char(p[i]))
+                return pf_error_set(err, PF_ERR_INVALID,
+                                    "tag \"%.*s\": only letters, digits, '.', '_' and '-'",
+                                    (int)(length < 64 ? length : 64), p);
+        if (length >= PF_QUEUE_TAG_MAX || count == sizeof tags / sizeof *tags)
+            return pf_error_set(err, PF_ERR_INVALID,
+                                "tag \"%.*s\": tags are 1 to %d bytes, at most %zu of them",
+                                (int)(length < 64 ? length : 64), p, PF_QUEUE_TAG_MAX - 1,
+                                sizeof tags / sizeof *tags);
+        memcpy(tags[count], p, length);
+        tags[count++][length] = '\0';
+        p += length;
+    }
+    qsort(tags, count, sizeof *tags, compare_tags);
+    size_t used = 0;
+    out[0] = '\0';
+    for (size_t i = 0; i < count; i++) {
+        if (i > 0 && !strcmp(tags[i], tags[i - 1]))
+            continue;
+        int written = snprintf(out + used, size - used, "%s%s", used ? "," : "", tags[i]);
+        if (written < 0 || (size_t)written >= size - used || used + written >= PF_QUEUE_TAGS_MAX)
+            return pf_error_set(err, PF_ERR_INVALID, "tags \"%.60s...\": over %d bytes", text,
+                                PF_QUEUE_TAGS_MAX - 1);
+        used += (size_t)written;
+    }
+    return PF_OK;
 }
 
 pf_status pf_queue_worker_register(pf_queue *queue, const pf_queue_worker_spec *spec,
@@ -45,6 +104,9 @@ pf_status pf_queue_worker_register(pf_queue *queue, const pf_queue_worker_spec *
         return pf_error_set(err, PF_ERR_INVALID,
                             "worker name must be 1 to %d bytes (got \"%.40s\")",
                             PF_QUEUE_NAME_MAX - 1, spec->name ? spec->name : "");
+    if (spec->tags && strlen(spec->tags) >= PF_QUEUE_TAGS_MAX)
+        return pf_error_set(err, PF_ERR_INVALID, "worker tags: over %d bytes",
+                            PF_QUEUE_TAGS_MAX - 1);
     register_context ctx = {.spec = spec};
     pf_status status = queue_write_lease(queue, "registering a worker", register_body, &ctx, err);
     if (status == PF_OK)

@@ -7,6 +7,7 @@
 #include "worker_loop.h"
 
 #include <stdio.h>
+#include <stdlib.h>
 #include <sys/stat.h>
 #include <string.h>
 
@@ -17,6 +18,23 @@
 #define MAX_LEASE_SECONDS 86400
 /* Idle-exit bound: a day; "forever" is the default (no --idle-exit). */
 #define MAX_IDLE_EXIT_SECONDS 86400
+
+/* --tag NAME (repeatable): appended to the list in option->target, checked at the end. */
+typedef struct tag_list {
+    char text[PF_QUEUE_TAGS_MAX * 2];
+} tag_list;
+
+static int store_tag(const char *command, const pf_cli_option *option, const char *value)
+{
+    tag_list *tags = option->target;
+    size_t used = strlen(tags->text);
+    int written = snprintf(tags->text + used, sizeof tags->text - used, "%s%s",
+                           used ? "," : "", value);
+    if (written < 0 || (size_t)written >= sizeof tags->text - used)
+        return pf_cli_fail(command, 2, "--tag '%.40s': too many tags (at most %d bytes)", value,
+                           PF_QUEUE_TAGS_MAX - 1);
+    return 0;
+}
 
 /* --name: 1..PF_QUEUE_NAME_MAX-1 characters (the queue's column). */
 static int store_name(const char *command, const pf_cli_option *option, const char *value)
@@ -36,6 +54,7 @@ int pf_cli_worker(int argc, char **argv)
     int64_t max_frames = 0, idle_exit = -1, lease_seconds = DEFAULT_LEASE_SECONDS;
     pf_storage storage;
     pf_storage_init(&storage);
+    tag_list tags = {""};
     char lease_default[32];
     snprintf(lease_default, sizeof lease_default, "%d", DEFAULT_LEASE_SECONDS);
     const pf_cli_option options[] = {
@@ -61,6 +80,9 @@ int pf_cli_worker(int argc, char **argv)
          store_name, &config.name, 0, 0, NULL},
         {"--lease-seconds", NULL, "S", "lease length; renewed every S/3", lease_default,
          pf_cli_store_int, &lease_seconds, 1, MAX_LEASE_SECONDS, NULL},
+        {"--tag", NULL, "NAME",
+         "a tag jobs can require (repeatable; letters, digits, . _ -)",
+         "$PHOTONFARM_WORKER_TAGS (comma-separated), else none", store_tag, &tags, 0, 0, NULL},
         pf_roots_option(&storage.scene),
         pf_roots_option(&storage.output),
     };
@@ -86,6 +108,14 @@ int pf_cli_worker(int argc, char **argv)
     if (config.name && strlen(config.name) >= PF_QUEUE_NAME_MAX)
         return pf_cli_fail(COMMAND, 2, "$PHOTONFARM_WORKER_NAME: expected 1..%d characters",
                            PF_QUEUE_NAME_MAX - 1);
+    /* The tags: --tag's, else $PHOTONFARM_WORKER_TAGS; stored sorted and distinct. */
+    const char *tag_text = tags.text[0] ? tags.text : getenv("PHOTONFARM_WORKER_TAGS");
+    char normalized[PF_QUEUE_TAGS_MAX];
+    pf_error err = {0};
+    if (pf_queue_tags_normalize(tag_text, normalized, sizeof normalized, &err) != PF_OK)
+        return pf_cli_fail(COMMAND, 2, "%s%s", tags.text[0] ? "--tag: " : "$PHOTONFARM_WORKER_TAGS: ",
+                           err.message);
+    config.tags = normalized;
     config.storage = &storage;
     config.once = once;
     config.max_frames = max_frames;

@@ -12,6 +12,17 @@
 
 #define COMMAND "workers"
 
+/* "24.0 GiB", "512 MiB"; "-" when unknown (0). */
+static void format_bytes(int64_t bytes, char *out, size_t size)
+{
+    if (bytes <= 0)
+        snprintf(out, size, "-");
+    else if (bytes >= (1ll << 30))
+        snprintf(out, size, "%.1f GiB", (double)bytes / (double)(1ll << 30));
+    else
+        snprintf(out, size, "%.0f MiB", (double)bytes / (double)(1ll << 20));
+}
+
 int pf_cli_workers(int argc, char **argv)
 {
     const char *db = NULL, *check = NULL;
@@ -26,7 +37,8 @@ int pf_cli_workers(int argc, char **argv)
         .name = COMMAND,
         .synopsis = "[options]",
         .description = "Lists every registered worker: alive (heard from within its lease),\n"
-                       "dead or stopped, its heartbeat age, device and current frame.",
+                       "dead or stopped, its heartbeat age, device, capabilities (device\n"
+                       "type and memory, host memory and cores, tags) and current frame.",
         .options = options,
         .option_count = sizeof options / sizeof options[0],
     };
@@ -59,7 +71,8 @@ int pf_cli_workers(int argc, char **argv)
     if (count == 0)
         printf("no workers\n");
     else
-        printf("%-24s %-8s %-10s %-28s %s\n", "name", "state", "heartbeat", "device", "current");
+        printf("%-24s %-8s %-10s %-28s %-4s %8s %8s %5s %-16s %s\n", "name", "state",
+               "heartbeat", "device", "type", "dev mem", "host mem", "cores", "tags", "current");
     for (size_t i = 0; i < count; i++) {
         const pf_queue_worker_info *worker = &workers[i];
         const char *state = worker->stopped_at ? "stopped" : worker->alive ? "alive" : "dead";
@@ -70,9 +83,16 @@ int pf_cli_workers(int argc, char **argv)
                      worker->current_frame);
         else
             snprintf(current, sizeof current, "-");
-        char name[256], device[256];
-        printf("%-24s %-8s %-10s %-28.28s %s\n", pf_cli_printable(worker->name, name, sizeof name),
-               state, age, pf_cli_printable(worker->device, device, sizeof device), current);
+        char name[256], device[256], tags[PF_QUEUE_TAGS_MAX + 8], device_memory[32],
+            host_memory[32];
+        format_bytes(worker->device_memory, device_memory, sizeof device_memory);
+        format_bytes(worker->host_memory, host_memory, sizeof host_memory);
+        pf_cli_printable(worker->tags[0] ? worker->tags : "-", tags, sizeof tags);
+        printf("%-24s %-8s %-10s %-28.28s %-4s %8s %8s %5" PRId64 " %-16s %s\n",
+               pf_cli_printable(worker->name, name, sizeof name), state, age,
+               pf_cli_printable(worker->device, device, sizeof device),
+               worker->device_type[0] ? worker->device_type : "-", device_memory, host_memory,
+               worker->cores, tags, current);
     }
     free(workers);
     return 0;

@@ -786,7 +786,22 @@ static int open_everything(worker *w)
         snprintf(w->name, sizeof w->name, "%s", w->config.name);
     else
         snprintf(w->name, sizeof w->name, "%.100s-%ld", host, (long)getpid());
-    pf_queue_worker_spec spec = {w->name, host, (int64_t)getpid(), w->device_name, w->lease_ms};
+    /* Capabilities: the device's type and memory, the host's memory and cores, the tags. */
+    const pf_vk_device_info *device = pf_vk_info(w->vk);
+    long pages = sysconf(_SC_PHYS_PAGES), page_size = sysconf(_SC_PAGE_SIZE);
+    long cores = sysconf(_SC_NPROCESSORS_ONLN);
+    pf_queue_worker_spec spec = {
+        .name = w->name,
+        .host = host,
+        .pid = (int64_t)getpid(),
+        .device = w->device_name,
+        .lease_ms = w->lease_ms,
+        .device_type = strcmp(device->type, "cpu") == 0 ? "cpu" : "gpu",
+        .device_memory = (int64_t)device->device_local_bytes,
+        .host_memory = pages > 0 && page_size > 0 ? (int64_t)pages * page_size : 0,
+        .cores = cores > 0 ? cores : 0,
+        .tags = w->config.tags,
+    };
     status = pf_queue_worker_register(w->queue, &spec, &w->worker_id, &err);
     if (status != PF_OK) {
         fprintf(stderr, "photonfarm worker: %s\n", err.message);
@@ -878,9 +893,10 @@ int pf_worker_run(const pf_worker_config *config)
     uv_timer_start(&w->maintenance_timer, maintenance_tick, 0, (uint64_t)maintenance_ms);
 
     pf_wlog(PF_LOG_INFO, "started",
-            "worker=%s worker_id=%" PRId64 " device=\"%s\" db=%s lease_ms=%" PRId64 " version=%s",
-            w->name, w->worker_id, w->device_name, config->db_path, w->lease_ms,
-            pf_version_string());
+            "worker=%s worker_id=%" PRId64 " device=\"%s\" tags=\"%s\" db=%s lease_ms=%" PRId64
+            " version=%s",
+            w->name, w->worker_id, w->device_name, config->tags ? config->tags : "",
+            config->db_path, w->lease_ms, pf_version_string());
     log_roots(w);
     w->poll_delay_ms = PF_WORKER_POLL_MIN_MS;
     w->idle_since_ms = pf_time_ms();

@@ -23,6 +23,7 @@ typedef struct pf_worker_config {
     const char *db_path;
     const char *name;          /* NULL: "<host>-<pid>" */
     const char *device;        /* NULL: automatic ($PHOTONFARM_DEVICE) */
+    const char *tags;          /* "a,b" (pf_queue_tags_normalize'd); NULL or "": none */
     const char *cache_dir;     /* compiled-shader cache (pf_cli_cache_dir); NULL: none */
     const pf_storage *storage;  /* storage_roots.h: the roots (none: anywhere) */
     int once;                  /* exit as soon as a claim finds nothing eligible */

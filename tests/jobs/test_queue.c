@@ -1032,6 +1032,47 @@ PF_TEST(workers_are_dead_after_their_own_lease)
     pf_queue_close(queue);
 }
 
+/* A worker's capabilities (issue 42) as registered, re-registered and listed; tags normalised. */
+PF_TEST(workers_record_their_capabilities)
+{
+    pf_queue *queue = open_fresh("worker-capabilities");
+    PF_REQUIRE(queue);
+    pf_error err = {0};
+    char tags[PF_QUEUE_TAGS_MAX];
+    PF_CHECK_OK(pf_queue_tags_normalize("show-a, night,show-a  gpu.big", tags, sizeof tags, &err),
+                &err);
+    PF_CHECK_MSG(!strcmp(tags, "gpu.big,night,show-a"), "normalised: %s", tags);
+    PF_CHECK(pf_queue_tags_normalize("ok,no/slash", tags, sizeof tags, &err) == PF_ERR_INVALID);
+    PF_CHECK(strstr(err.message, "no/slash") != NULL);
+    PF_CHECK_OK(pf_queue_tags_normalize(NULL, tags, sizeof tags, &err), &err);
+    PF_CHECK(tags[0] == '\0');
+    pf_queue_worker_spec spec = {.name = "gpu-node", .host = "h", .pid = 2, .device = "H200",
+                                 .lease_ms = 30000, .device_type = "gpu",
+                                 .device_memory = 150000000000ll, .host_memory = 2ll << 40,
+                                 .cores = 96, .tags = "night,show-a"};
+    int64_t id = 0;
+    PF_CHECK_OK(pf_queue_worker_register(queue, &spec, &id, &err), &err);
+    pf_queue_worker_info *workers = NULL;
+    size_t count = 0;
+    PF_CHECK_OK(pf_queue_worker_list(queue, &workers, &count, &err), &err);
+    PF_REQUIRE(count == 1);
+    PF_CHECK(!strcmp(workers[0].device_type, "gpu") && workers[0].device_memory == 150000000000ll &&
+             workers[0].host_memory == (2ll << 40) && workers[0].cores == 96 &&
+             !strcmp(workers[0].tags, "night,show-a"));
+    free(workers);
+    /* Restarted on other hardware: the row says what it has now. */
+    spec.device_type = "cpu";
+    spec.device_memory = 0;
+    spec.tags = NULL;
+    PF_CHECK_OK(pf_queue_worker_register(queue, &spec, &id, &err), &err);
+    PF_CHECK_OK(pf_queue_worker_list(queue, &workers, &count, &err), &err);
+    PF_REQUIRE(count == 1);
+    PF_CHECK(!strcmp(workers[0].device_type, "cpu") && workers[0].device_memory == 0 &&
+             workers[0].tags[0] == '\0' && workers[0].cores == 96);
+    free(workers);
+    pf_queue_close(queue);
+}
+
 /*
  * PostgreSQL only: a URL that cannot be used is bad input naming the cause
  * and never the password; a schema from a newer photonfarm is refused.
@@ -1134,6 +1175,7 @@ int main(void)
     PF_RUN(reaping_counts_attempts_and_blocks_the_silent_worker);
     PF_RUN(locked_database_is_retried_then_reported);
     PF_RUN(workers_are_dead_after_their_own_lease);
+    PF_RUN(workers_record_their_capabilities);
     PF_RUN(enqueue_conflicts_are_decided_under_the_write_lock);
     PF_RUN(postgres_bad_urls_and_newer_schema_are_refused);
     PF_RUN(postgres_reconnect_keeps_the_lock_timeout);

@@ -349,8 +349,53 @@ PF_TEST(sqlite_migrations_and_the_postgres_schema_agree)
     }
 }
 
+/*
+ * PostgreSQL only: a database made at version 4 (before the workers' capabilities) climbs to
+ * the latest on open, and ends with the schema a fresh one has.
+ */
+PF_TEST(a_version_4_postgres_database_migrates_to_the_latest)
+{
+    const char *url = queue_test_postgres();
+    if (!url) {
+        printf("  no $PF_TEST_POSTGRES_URL: nothing to migrate\n");
+        return;
+    }
+    char buffer[1024];
+    fresh_db_path("unused", buffer, sizeof buffer);
+    pf_queue *queue = NULL;
+    pf_error err = {0};
+    PF_REQUIRE_OK(pf_queue_open(url, NULL, &queue, &err), &err);
+    pf_queue_close(queue);
+    /* Back to version 4 as PostgreSQL support began it: one row, version 4, and no
+     * version 5 columns. */
+    PGconn *conn = PQconnectdb(url);
+    PF_REQUIRE(PQstatus(conn) == CONNECTION_OK);
+    PGresult *result = PQexec(conn,
+                              "ALTER TABLE workers DROP COLUMN device_type, DROP COLUMN "
+                              "device_memory, DROP COLUMN host_memory, DROP COLUMN cores, "
+                              "DROP COLUMN tags; DELETE FROM schema_version WHERE version = 5; "
+                              "INSERT INTO schema_version (version, applied_at) VALUES (4, 0) "
+                              "ON CONFLICT DO NOTHING");
+    PF_CHECK_MSG(PQresultStatus(result) == PGRES_COMMAND_OK, "%s", PQerrorMessage(conn));
+    PQclear(result);
+    PQfinish(conn);
+    PF_REQUIRE_OK(pf_queue_open(url, NULL, &queue, &err), &err);
+    int version = 0;
+    PF_CHECK_OK(pf_queue_schema_version(queue, &version, &err), &err);
+    PF_CHECK(version == PF_QUEUE_SCHEMA_VERSION);
+    pf_queue_close(queue);
+    schema migrated = {.count = 0};
+    read_postgres(url, &migrated);
+    sort_schema(&migrated);
+    size_t differences = report_differences(&sqlite_side, "SQLite", &migrated, "migrated");
+    printf("  version 4 → %d: %zu differences from SQLite's schema\n", PF_QUEUE_SCHEMA_VERSION,
+           differences);
+    PF_CHECK(differences == 0);
+}
+
 int main(void)
 {
     PF_RUN(sqlite_migrations_and_the_postgres_schema_agree);
+    PF_RUN(a_version_4_postgres_database_migrates_to_the_latest);
     return pf_test_finish();
 }

@@ -160,6 +160,32 @@ PF_TEST(a_budgeted_auto_job_stores_reuse_only_from_real_frames)
     sqlite3_close(db);
 }
 
+/*
+ * A worker registers its capabilities (issue 42): the device's type and memory, the host's
+ * memory and cores, and its tags, from --tag or $PHOTONFARM_WORKER_TAGS, sorted and
+ * distinct; `workers` shows them. A bad tag is bad input (exit 2) naming it.
+ */
+PF_TEST(workers_show_the_capabilities_a_worker_registered)
+{
+    char db[WT_PATH_MAX + 32], args[4 * WT_PATH_MAX];
+    wt_format(db, sizeof db, "%s/capabilities.db", dir);
+    unlink(db);
+    wt_format(args, sizeof args,
+              "worker --once --create-db --db '%s' --name tagged --tag show-a --tag night,show-a",
+              db);
+    PF_REQUIRE(wt_run(args, log_path) == 0);
+    PF_CHECK(wt_file_contains(log_path, "tags=\"night,show-a\""));
+    wt_format(args, sizeof args, "workers --db '%s'", db);
+    PF_REQUIRE(wt_run(args, log_path) == 0);
+    PF_CHECK(wt_file_contains(log_path, "night,show-a"));
+    PF_CHECK(wt_file_contains(log_path, " cpu ")); /* lavapipe */
+    PF_CHECK(wt_file_contains(log_path, "GiB"));   /* the host's memory, at least */
+    wt_format(args, sizeof args,
+              "worker --once --db '%s' --name bad --tag 'ok,no/slash'", db);
+    PF_CHECK(wt_run(args, log_path) == 2);
+    PF_CHECK(wt_file_contains(log_path, "no/slash"));
+}
+
 PF_TEST(worker_renders_a_job_and_timings_report_every_stage)
 {
     char out[WT_PATH_MAX + 32], db[WT_PATH_MAX + 32], pattern[2 * WT_PATH_MAX], args[8 * WT_PATH_MAX];
@@ -757,6 +783,7 @@ int main(void)
     wt_format(scene, sizeof scene, "%s/tiny.gltf", dir);
     wt_format(log_path, sizeof log_path, "%s/run.log", dir);
     wt_write_tiny_scene(scene, 3);
+    PF_RUN(workers_show_the_capabilities_a_worker_registered);
     PF_RUN(worker_renders_a_job_and_timings_report_every_stage);
     PF_RUN(a_budgeted_auto_job_stores_reuse_only_from_real_frames);
     PF_RUN(failing_frames_record_each_attempt_and_stop_at_max_attempts);
