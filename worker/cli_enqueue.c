@@ -215,6 +215,13 @@ int pf_cli_enqueue(int argc, char **argv)
                            "--out '%s' has no #### for the frame number, but %zu frames were "
                            "asked for",
                            options.pattern, frame_count);
+    /* A missing output directory is made, as Blender does; with roots, only inside them. */
+    int created = 0;
+    if (!code && pf_roots_make_output_directory(&options.storage.output, options.pattern,
+                                                &created, &err) != PF_OK)
+        code = pf_cli_fail(COMMAND, 2, "--out '%s': %s", options.pattern, err.message);
+    if (!code && created)
+        fprintf(stderr, "enqueue: created the output directory of %s\n", options.pattern);
     if (!code)
         code = check_output(options.pattern, pattern, sizeof pattern);
     if (!code)

@@ -238,3 +238,74 @@ pf_status pf_roots_check_output_file(const pf_roots *roots, const char *path, pf
                             path);
     return PF_OK;
 }
+
+pf_status pf_roots_make_output_directory(const pf_roots *roots, const char *pattern,
+                                         int *created, pf_error *err)
+{
+    *created = 0;
+    char directory[PATH_MAX];
+    const char *slash = strrchr(pattern, '/');
+    if (!slash)
+        return PF_OK; /* the working directory: it exists */
+    if (snprintf(directory, sizeof directory, "%.*s", (int)(slash - pattern), pattern) >=
+            (int)sizeof directory ||
+        !directory[0])
+        return PF_OK;
+    struct stat info;
+    if (stat(directory, &info) == 0 || strchr(directory, '#'))
+        return PF_OK; /* exists, or pf_frame_output_check refuses it */
+    /* The nearest existing ancestor, and the names below it that are missing. */
+    char ancestor[PATH_MAX];
+    snprintf(ancestor, sizeof ancestor, "%s", directory);
+    char *cut;
+    while ((cut = strrchr(ancestor, '/')) != NULL) {
+        *cut = '\0';
+        if (!ancestor[0] || stat(ancestor, &info) == 0)
+            break;
+    }
+    const char *missing = directory + (cut ? strlen(ancestor) + 1 : 0);
+    if (cut && !ancestor[0])
+        snprintf(ancestor, sizeof ancestor, "/");
+    else if (!cut)
+        snprintf(ancestor, sizeof ancestor, ".");
+    for (const char *name = missing; *name;) {
+        size_t length = strcspn(name, "/");
+        if ((length == 1 && name[0] == '.') || (length == 2 && name[0] == '.' && name[1] == '.'))
+            return PF_OK; /* not made up of plain names: left to the output check */
+        name += length;
+        while (*name == '/')
+            name++;
+    }
+    char resolved[PATH_MAX];
+    if (!realpath(ancestor, resolved))
+        return pf_error_set(err, PF_ERR_IO, "%s: %s", ancestor, strerror(errno));
+    if (roots->count > 0) {
+        int held = 0;
+        for (size_t i = 0; i < roots->count; i++)
+            held |= inside(roots->resolved[i], resolved);
+        if (!held) {
+            char list[PF_ROOTS_MAX * (PATH_MAX + 2)];
+            return pf_error_set(err, PF_ERR_INVALID,
+                                "%s does not exist and lies outside the %s roots (%s): not "
+                                "created",
+                                directory, roots->kind, pf_roots_list(roots, list, sizeof list));
+        }
+    }
+    /* mkdir -p under the resolved ancestor, one name at a time. */
+    char path[PATH_MAX];
+    snprintf(path, sizeof path, "%s", resolved);
+    for (const char *name = missing; *name;) {
+        size_t length = strcspn(name, "/");
+        size_t used = strlen(path);
+        if (snprintf(path + used, sizeof path - used, "%s%.*s", used > 1 ? "/" : "",
+                     (int)length, name) >= (int)(sizeof path - used))
+            return pf_error_set(err, PF_ERR_INVALID, "path too long: %s", directory);
+        if (mkdir(path, 0777) != 0 && errno != EEXIST)
+            return pf_error_set(err, PF_ERR_IO, "cannot create %s: %s", path, strerror(errno));
+        name += length;
+        while (*name == '/')
+            name++;
+    }
+    *created = 1;
+    return PF_OK;
+}

@@ -86,6 +86,16 @@ pf_status pf_roots_output_resolve(const pf_roots *roots, const char *stored_patt
                                   size_t size, pf_error *err);
 
 /*
+ * enqueue: the output pattern's directory, created with its missing parents when it does
+ * not exist yet, as Blender does (*created says so). With roots, only inside them: the
+ * nearest existing ancestor, resolved, must lie in one (PF_ERR_INVALID naming the roots
+ * otherwise, nothing created). A name "." or "..", or a '#', in the missing part is left
+ * alone for pf_frame_output_check to refuse; a mkdir that fails is PF_ERR_IO naming it.
+ */
+pf_status pf_roots_make_output_directory(const pf_roots *roots, const char *pattern,
+                                         int *created, pf_error *err);
+
+/*
  * With roots, an output file that already exists as a symbolic link is
  * refused (PF_ERR_INVALID): the frame would land wherever it points.
  */

@@ -100,6 +100,21 @@ PF_TEST(enqueue_refuses_paths_outside_the_roots_and_stores_them_relative)
     expect_refused(args, "outside the scene roots", NULL);
     unsetenv("PHOTONFARM_SCENE_ROOTS");
 
+    /* A missing output directory: made inside the roots, as Blender does; refused, and not
+     * made, outside them. */
+    wt_format(args, sizeof args,
+              "enqueue '%s/tiny.gltf' --out '%s/../../enqueue-outside/new/f.####.exr' %s", scenes,
+              out, roots);
+    expect_refused(args, "outside the output roots", NULL);
+    wt_format(target, sizeof target, "%s/new", outside);
+    PF_CHECK_MSG(access(target, F_OK) != 0, "%s was made outside the roots", target);
+    wt_format(args, sizeof args, "'%s/tiny.gltf' --out '%s/made/here/f.####.exr' %s", scenes,
+              out, roots);
+    PF_CHECK(wt_enqueue(args, log_path) > 0);
+    PF_CHECK(wt_file_contains(log_path, "created the output directory"));
+    wt_format(target, sizeof target, "%s/made/here", out);
+    PF_CHECK_MSG(access(target, F_OK) == 0, "%s was not made", target);
+
     /* Inside: accepted, stored relative to the root that holds each path. */
     wt_format(args, sizeof args, "'%s/tiny.gltf' --out '%s/f.####.exr' %s", scenes, out, roots);
     int64_t job_id = wt_enqueue(args, log_path);
