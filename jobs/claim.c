@@ -94,8 +94,10 @@ typedef struct claim_context {
 } claim_context;
 
 /*
- * The claim: the highest-priority job this worker may render, then its first
- * eligible task after the affinity frame, else its first eligible task. The
+ * The claim: the highest-priority job this worker may render (not blocked for
+ * it, and whose requirements its registered capabilities meet:
+ * QUEUE_WORKER_MEETS), then its first eligible task after the affinity frame,
+ * else its first eligible task. The
  * job is picked once (the CTE) and reaches the task picks as scalars, so each
  * is a walk of the (job_id, status, first_frame) index that stops at its first
  * row; joining the CTE instead made PostgreSQL fetch and sort every queued
@@ -114,7 +116,8 @@ typedef struct claim_context {
     "WHERE EXISTS (SELECT 1 FROM workers w WHERE w.id = :worker) AND id = ("                   \
     "  WITH chosen (job_id, after_frame) AS ("                                                 \
     "    SELECT j.id, CASE WHEN j.id = :job THEN :frame ELSE -1 END FROM jobs j"               \
-    "    WHERE j.status IN ('queued', 'running')"                                              \
+    "    JOIN workers w ON w.id = :worker"                                                     \
+    "    WHERE j.status IN ('queued', 'running') AND " QUEUE_WORKER_MEETS("j", "w")            \
     "      AND NOT EXISTS (SELECT 1 FROM worker_blocks b"                                      \
     "                      WHERE b.job_id = j.id AND b.worker_id = :worker)"                   \
     "      AND (SELECT e.first_frame FROM tasks e WHERE e.job_id = j.id"                       \

@@ -12,6 +12,7 @@ typedef struct enqueue_context {
     const pf_frame_list *frames;
     int max_attempts;
     int frames_per_task;
+    char required_tags[PF_QUEUE_TAGS_MAX]; /* normalised */
     int64_t job_id;
 } enqueue_context;
 
@@ -91,8 +92,9 @@ static pf_status enqueue_body(pf_queue *queue, void *context, pf_error *err)
     status = queue_prepare(
         queue,
         "INSERT INTO jobs (scene_path, parameters, frame_range, output_pattern, priority, "
-        "max_attempts, frames_per_task, created_at, updated_at) "
-        "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?) RETURNING id",
+        "max_attempts, frames_per_task, created_at, updated_at, requires_device, "
+        "min_device_memory, min_host_memory, required_tags) "
+        "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?) RETURNING id",
         &stmt, err);
     if (status != PF_OK)
         return status;
@@ -105,6 +107,10 @@ static pf_status enqueue_body(pf_queue *queue, void *context, pf_error *err)
     queue_bind_int64(stmt, 7, ctx->frames_per_task);
     queue_bind_int64(stmt, 8, now);
     queue_bind_int64(stmt, 9, now);
+    queue_bind_text(stmt, 10, spec->requires_device ? spec->requires_device : "");
+    queue_bind_int64(stmt, 11, spec->min_device_memory);
+    queue_bind_int64(stmt, 12, spec->min_host_memory);
+    queue_bind_text(stmt, 13, ctx->required_tags);
     if (queue_step(stmt) == QUEUE_ROW)
         ctx->job_id = queue_column_int64(stmt, 0);
     else
@@ -149,6 +155,13 @@ pf_status pf_queue_enqueue(pf_queue *queue, const pf_queue_job_spec *spec, int64
                             "positive",
                             spec->max_attempts, spec->frames_per_task);
 
+    if (spec->requires_device && *spec->requires_device &&
+        strcmp(spec->requires_device, "gpu") != 0 && strcmp(spec->requires_device, "cpu") != 0)
+        return pf_error_set(err, PF_ERR_INVALID,
+                            "enqueue: required device \"%.20s\": expected gpu or cpu",
+                            spec->requires_device);
+    if (spec->min_device_memory < 0 || spec->min_host_memory < 0)
+        return pf_error_set(err, PF_ERR_INVALID, "enqueue: a memory requirement is negative");
     enqueue_context ctx = {
         .spec = spec,
         .max_attempts = spec->max_attempts ? spec->max_attempts : QUEUE_DEFAULT_MAX_ATTEMPTS,
@@ -163,8 +176,13 @@ pf_status pf_queue_enqueue(pf_queue *queue, const pf_queue_job_spec *spec, int64
             return pf_error_set(err, PF_ERR_INVALID, "enqueue: parameters are not valid JSON: %s",
                                 spec->parameters_json);
     }
+    pf_status status =
+        pf_queue_tags_normalize(spec->required_tags, ctx.required_tags, sizeof ctx.required_tags,
+                                err);
+    if (status != PF_OK)
+        return pf_error_prefix(err, "enqueue"), status;
     pf_frame_list frames;
-    pf_status status = pf_frame_range_parse(spec->frame_range, &frames, err);
+    status = pf_frame_range_parse(spec->frame_range, &frames, err);
     if (status != PF_OK)
         return status;
     ctx.frames = &frames;

@@ -137,7 +137,24 @@ typedef struct pf_queue_job_spec {
      * the same files). */
     pf_queue_conflict_fn conflicts;
     void *conflicts_user;
+    /* Requirements (issue 42): a claim takes the job's tasks only for a worker that meets
+     * them all. NULL, "" or 0: none. */
+    const char *requires_device;  /* "gpu" or "cpu" */
+    int64_t min_device_memory;    /* bytes */
+    int64_t min_host_memory;      /* bytes */
+    const char *required_tags;    /* every one (pf_queue_tags_normalize syntax) */
 } pf_queue_job_spec;
+
+/* "a gpu with >= 24.0 GiB of device memory, >= 64.0 GiB of memory and the tags a,b", for
+ * messages ("any device" when nothing is required of it). */
+void pf_queue_requirements_text(const char *device, int64_t min_device_memory,
+                                int64_t min_host_memory, const char *tags, char *out,
+                                size_t size);
+
+/* How many registered workers, alive or not, meet spec's requirements (the other fields
+ * are not read): enqueue warns when none ever has. */
+pf_status pf_queue_workers_meeting(pf_queue *queue, const pf_queue_job_spec *spec,
+                                   int64_t *count, pf_error *err);
 
 /*
  * Inserts a job and its tasks in one transaction. Consecutive frames of the
@@ -353,8 +370,14 @@ struct pf_queue_job {
     int blocked_live_workers;  /* of those, blocked for this job */
     /* Why the queue paused the job (pf_queue_fail_job); "" when it did not. */
     char pause_reason[512];
+    /* Its requirements ("" and 0: none) and the live workers that meet them. */
+    char requires_device[8];
+    int64_t min_device_memory, min_host_memory;
+    char required_tags[PF_QUEUE_TAGS_MAX];
+    int qualified_live_workers;
     /* "" or why the job cannot progress, e.g. "no eligible worker: all 2 live
-     * workers are blocked for this job", or "paused: <pause reason>". */
+     * workers are blocked for this job", "waiting: no live worker has a gpu with
+     * >= 24.0 GiB of device memory", or "paused: <pause reason>". */
     char note[640];
 };
 

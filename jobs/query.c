@@ -56,12 +56,27 @@ static pf_status read_job_row(pf_queue *queue, queue_stmt *stmt, pf_queue_job *j
     job->live_workers = (int)queue_column_int64(stmt, 19);
     job->blocked_live_workers = (int)queue_column_int64(stmt, 20);
     queue_copy_text(job->pause_reason, sizeof job->pause_reason, queue_column_text(stmt, 21));
+    queue_copy_text(job->requires_device, sizeof job->requires_device,
+                    queue_column_text(stmt, 22));
+    job->min_device_memory = queue_column_int64(stmt, 23);
+    job->min_host_memory = queue_column_int64(stmt, 24);
+    queue_copy_text(job->required_tags, sizeof job->required_tags, queue_column_text(stmt, 25));
+    job->qualified_live_workers = (int)queue_column_int64(stmt, 26);
     if (!job->scene_path || !job->parameters_json || !job->frame_range || !job->output_pattern)
         return pf_error_set(err, PF_ERR_NOMEM, "%s: out of memory reading job %lld",
                             queue->path, (long long)job->job_id);
     bool waiting = job->tasks_queued > 0 &&
                    (!strcmp(job->status, "queued") || !strcmp(job->status, "running"));
-    if (waiting && job->live_workers > 0 && job->blocked_live_workers == job->live_workers)
+    bool requires = job->requires_device[0] || job->min_device_memory > 0 ||
+                    job->min_host_memory > 0 || job->required_tags[0];
+    if (waiting && requires && job->qualified_live_workers == 0) {
+        char needs[PF_QUEUE_TAGS_MAX + 160];
+        pf_queue_requirements_text(job->requires_device, job->min_device_memory,
+                                   job->min_host_memory, job->required_tags, needs,
+                                   sizeof needs);
+        snprintf(job->note, sizeof job->note, "waiting: no live worker has %s", needs);
+    } else if (waiting && job->live_workers > 0 &&
+               job->blocked_live_workers == job->live_workers)
         snprintf(job->note, sizeof job->note,
                  "no eligible worker: all %d live workers are blocked for this job",
                  job->live_workers);
@@ -77,7 +92,7 @@ static pf_status job_query_body(pf_queue *queue, void *context, pf_error *err)
     queue_stmt *stmt;
     pf_status status = queue_prepare(
         queue,
-        "WITH live AS (SELECT id FROM workers WHERE stopped_at IS NULL AND heartbeat_at >= "
+        "WITH live AS (SELECT * FROM workers WHERE stopped_at IS NULL AND heartbeat_at >= "
         "  ?2 - CASE WHEN lease_ms > 0 THEN lease_ms ELSE ?3 END) "
         "SELECT j.id, j.status, j.priority, j.max_attempts, j.frames_per_task, j.scene_path,"
         "  j.parameters, j.frame_range, j.output_pattern, j.created_at, j.updated_at,"
@@ -91,7 +106,9 @@ static pf_status job_query_body(pf_queue *queue, void *context, pf_error *err)
         "  coalesce(sum(CASE WHEN t.status = 'done' THEN t.frame_count END), 0),"
         "  (SELECT count(*) FROM live),"
         "  (SELECT count(*) FROM live JOIN worker_blocks b ON b.worker_id = live.id"
-        "   WHERE b.job_id = j.id), j.pause_reason "
+        "   WHERE b.job_id = j.id), j.pause_reason, j.requires_device, j.min_device_memory,"
+        "  j.min_host_memory, j.required_tags,"
+        "  (SELECT count(*) FROM live w WHERE " QUEUE_WORKER_MEETS("j", "w") ") "
         "FROM jobs j LEFT JOIN tasks t ON t.job_id = j.id "
         "WHERE ?1 = 0 OR j.id = ?1 GROUP BY j.id ORDER BY j.id",
         &stmt, err);

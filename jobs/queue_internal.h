@@ -198,4 +198,19 @@ pf_status queue_pg_transaction(pf_queue *queue, queue_pg_tx kind, const char *wh
                                queue_tx_body body, queue_tx_body settle, void *context,
                                pf_error *err);
 
+/*
+ * SQL: worker row W meets the requirements of job row J (issue 42), on both engines. The
+ * tags: J's sorted list "a,b" must be a subsequence of W's sorted list, matched as LIKE
+ * '%,a,%,b,%' against ",a,,b,,c," (each of W's tags between its own commas; '_', a LIKE
+ * wildcard that tags may hold, escaped; tags are lower case, so LIKE's case folding on
+ * SQLite changes nothing).
+ */
+#define QUEUE_WORKER_MEETS(J, W)                                                              \
+    "(" J ".requires_device = '' OR " J ".requires_device = " W ".device_type)"               \
+    " AND " J ".min_device_memory <= " W ".device_memory"                                     \
+    " AND " J ".min_host_memory <= " W ".host_memory"                                         \
+    " AND (" J ".required_tags = '' OR ',' || replace(" W ".tags, ',', ',,') || ','"          \
+    " LIKE '%,' || replace(replace(" J ".required_tags, '_', '\\_'), ',', ',%,') || ',%'"    \
+    " ESCAPE '\\')"
+
 #endif

@@ -26,13 +26,19 @@
 #define QUEUE_DEFAULT_BLOCK_AFTER 3
 #define QUEUE_DEFAULT_WORKER_ALIVE_MS 90000 /* three default leases */
 
-/* Version 5's columns, on either engine (its integer type). */
+/* Version 5's columns, on either engine (its integer type): the workers' capabilities and
+ * the jobs' requirements (issue 42). */
 #define WORKER_CAPABILITIES(integer)                                                        \
     "ALTER TABLE workers ADD COLUMN device_type TEXT NOT NULL DEFAULT '';"                   \
     "ALTER TABLE workers ADD COLUMN device_memory " integer " NOT NULL DEFAULT 0;"           \
     "ALTER TABLE workers ADD COLUMN host_memory " integer " NOT NULL DEFAULT 0;"             \
     "ALTER TABLE workers ADD COLUMN cores " integer " NOT NULL DEFAULT 0;"                   \
-    "ALTER TABLE workers ADD COLUMN tags TEXT NOT NULL DEFAULT '';"
+    "ALTER TABLE workers ADD COLUMN tags TEXT NOT NULL DEFAULT '';"                          \
+    "ALTER TABLE jobs ADD COLUMN requires_device TEXT NOT NULL DEFAULT '' CHECK"            \
+    "  (requires_device IN ('', 'gpu', 'cpu'));"                                             \
+    "ALTER TABLE jobs ADD COLUMN min_device_memory " integer " NOT NULL DEFAULT 0;"          \
+    "ALTER TABLE jobs ADD COLUMN min_host_memory " integer " NOT NULL DEFAULT 0;"            \
+    "ALTER TABLE jobs ADD COLUMN required_tags TEXT NOT NULL DEFAULT '';"
 
 /* Migration N (1-based) brings the schema from version N-1 to N. */
 static const char *const migrations[PF_QUEUE_SCHEMA_VERSION] = {
@@ -121,7 +127,7 @@ static const char *const migrations[PF_QUEUE_SCHEMA_VERSION] = {
     "ALTER TABLE jobs ADD COLUMN pause_reason TEXT;"
     "ALTER TABLE task_failures ADD COLUMN job_fault INTEGER NOT NULL DEFAULT 0;",
     /* 5: each worker's capabilities (issue 42): its device's type and memory, the host's
-     * memory and cores, and its tags ("a,b"). */
+     * memory and cores, and its tags ("a,b"); each job's requirements of them. */
     WORKER_CAPABILITIES("INTEGER"),
 };
 

@@ -78,7 +78,8 @@ pf_status pf_queue_tags_normalize(const char *text, char *out, size_t size, pf_e
                                 "tag \"%.*s\": tags are 1 to %d bytes, at most %zu of them",
                                 (int)(length < 64 ? length : 64), p, PF_QUEUE_TAG_MAX - 1,
                                 sizeof tags / sizeof *tags);
-        memcpy(tags[count], p, length);
+        for (size_t i = 0; i < length; i++) /* case-insensitive: stored lower case */
+            tags[count][i] = (char)((p[i] >= 'A' && p[i] <= 'Z') ? p[i] - 'A' + 'a' : p[i]);
         tags[count++][length] = '\0';
         p += length;
     }
@@ -149,4 +150,66 @@ pf_status pf_queue_worker_stop(pf_queue *queue, int64_t worker_id, pf_error *err
         "UPDATE workers SET stopped_at = ?1, heartbeat_at = ?1, current_task_id = NULL "
         "WHERE id = ?2"};
     return queue_write_lease(queue, "stopping a worker", worker_update_body, &ctx, err);
+}
+
+typedef struct meeting_context {
+    const pf_queue_job_spec *spec;
+    const char *tags; /* normalised */
+    int64_t count;
+} meeting_context;
+
+static pf_status meeting_body(pf_queue *queue, void *context, pf_error *err)
+{
+    meeting_context *ctx = context;
+    queue_stmt *stmt;
+    pf_status status = queue_prepare(
+        queue,
+        "SELECT count(*) FROM workers w, (SELECT CAST(?1 AS TEXT) AS requires_device,"
+        "  CAST(?2 AS BIGINT) AS min_device_memory, CAST(?3 AS BIGINT) AS min_host_memory,"
+        "  CAST(?4 AS TEXT) AS required_tags) j WHERE " QUEUE_WORKER_MEETS("j", "w"),
+        &stmt, err);
+    if (status != PF_OK)
+        return status;
+    queue_bind_text(stmt, 1, ctx->spec->requires_device ? ctx->spec->requires_device : "");
+    queue_bind_int64(stmt, 2, ctx->spec->min_device_memory);
+    queue_bind_int64(stmt, 3, ctx->spec->min_host_memory);
+    queue_bind_text(stmt, 4, ctx->tags);
+    if (queue_step(stmt) == QUEUE_ROW)
+        ctx->count = queue_column_int64(stmt, 0);
+    else
+        status = queue_db_error(queue, err, "counting the workers that meet a job's needs");
+    queue_finalize(stmt);
+    return status;
+}
+
+pf_status pf_queue_workers_meeting(pf_queue *queue, const pf_queue_job_spec *spec,
+                                   int64_t *count, pf_error *err)
+{
+    char tags[PF_QUEUE_TAGS_MAX];
+    pf_status status = pf_queue_tags_normalize(spec->required_tags, tags, sizeof tags, err);
+    if (status != PF_OK)
+        return status;
+    meeting_context ctx = {spec, tags, 0};
+    status = queue_read(queue, "counting workers", meeting_body, &ctx, err);
+    if (status == PF_OK)
+        *count = ctx.count;
+    return status;
+}
+
+void pf_queue_requirements_text(const char *device, int64_t min_device_memory,
+                                int64_t min_host_memory, const char *tags, char *out,
+                                size_t size)
+{
+    int used = snprintf(out, size, "%s", device && *device ? (!strcmp(device, "gpu") ? "a gpu"
+                                                                                   : "a cpu")
+                                                          : "any device");
+    if (min_device_memory > 0 && used >= 0 && (size_t)used < size)
+        used += snprintf(out + used, size - used, " with >= %.1f GiB of device memory",
+                         (double)min_device_memory / (double)(1ll << 30));
+    if (min_host_memory > 0 && used >= 0 && (size_t)used < size)
+        used += snprintf(out + used, size - used, ", >= %.1f GiB of memory",
+                         (double)min_host_memory / (double)(1ll << 30));
+    if (tags && *tags && used >= 0 && (size_t)used < size)
+        snprintf(out + used, size - used, " and the tag%s %s", strchr(tags, ',') ? "s" : "",
+                 tags);
 }

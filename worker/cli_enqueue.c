@@ -27,6 +27,8 @@
 #define MAX_ATTEMPTS 100
 #define MAX_FRAMES_PER_TASK 10000
 #define PARAMETERS_MAX 1024
+/* --min-device-memory, --min-memory: a pebibyte. */
+#define MAX_MEMORY_BYTES (1ll << 50)
 
 typedef struct enqueue_options {
     pf_cli_scene scene;
@@ -35,6 +37,10 @@ typedef struct enqueue_options {
     int64_t priority, max_attempts, frames_per_task;
     int force; /* --force: enqueue even when an unfinished job writes the same files */
     pf_storage storage; /* storage_roots.h */
+    /* Requirements of the workers that may render it (issue 42). */
+    const char *requires;
+    int64_t min_device_memory, min_host_memory;
+    pf_cli_tags tags;
 } enqueue_options;
 
 static int parse_options(int argc, char **argv, enqueue_options *options, int *help)
@@ -62,6 +68,16 @@ static int parse_options(int argc, char **argv, enqueue_options *options, int *h
         {"--force", NULL, NULL,
          "enqueue even when an unfinished job writes the same\noutput files",
          "refused, naming that job", pf_cli_store_flag, &options->force, 0, 0, NULL},
+        {"--requires", NULL, "gpu|cpu", "only workers with that kind of device render it",
+         "any", pf_cli_store_choice, &options->requires, 0, 0, "gpu|cpu"},
+        {"--min-device-memory", NULL, "SIZE",
+         "only workers whose device has this much memory (24G, 512M)", "any",
+         pf_cli_store_bytes, &options->min_device_memory, 0, MAX_MEMORY_BYTES, NULL},
+        {"--min-memory", NULL, "SIZE", "only workers whose host has this much memory", "any",
+         pf_cli_store_bytes, &options->min_host_memory, 0, MAX_MEMORY_BYTES, NULL},
+        {"--tag", NULL, "NAME",
+         "only workers with this tag (repeatable: all of them;\nworker --tag)", "none",
+         pf_cli_store_tag, &options->tags, 0, 0, NULL},
         pf_cli_db_option(&options->db),
         pf_roots_option(&options->storage.scene),
         pf_roots_option(&options->storage.output),
@@ -267,9 +283,30 @@ int pf_cli_enqueue(int argc, char **argv)
                               (int)options.max_attempts,
                               (int)options.frames_per_task,
                               options.force ? NULL : output_conflict,
-                              &ours};
+                              &ours,
+                              options.requires,
+                              options.min_device_memory,
+                              options.min_host_memory,
+                              options.tags.text};
     int64_t job_id = 0;
     pf_status status = pf_queue_enqueue(queue, &spec, &job_id, &err);
+    /* Requirements no worker has ever met: enqueued all the same (one may join), but said. */
+    int64_t meeting = 1;
+    int requires = (options.requires && *options.requires) || options.min_device_memory > 0 ||
+                   options.min_host_memory > 0 || options.tags.text[0];
+    pf_error count_err = {0};
+    if (status == PF_OK && requires &&
+        pf_queue_workers_meeting(queue, &spec, &meeting, &count_err) == PF_OK && meeting == 0) {
+        char tags[PF_QUEUE_TAGS_MAX], needs[PF_QUEUE_TAGS_MAX + 160];
+        if (pf_queue_tags_normalize(options.tags.text, tags, sizeof tags, &count_err) != PF_OK)
+            tags[0] = '\0';
+        pf_queue_requirements_text(options.requires, options.min_device_memory,
+                                   options.min_host_memory, tags, needs, sizeof needs);
+        fprintf(stderr,
+                "photonfarm enqueue: warning: no worker registered with this queue has %s; "
+                "the job waits until one does\n",
+                needs);
+    }
     pf_queue_close(queue);
     free_files(ours.paths, ours.count);
     if (status != PF_OK)

@@ -3,6 +3,8 @@
 #include "cli_queue.h"
 #include "pf_cli.h"
 
+#include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 /* Column where option descriptions start in --help. */
@@ -46,6 +48,47 @@ int pf_cli_store_choice(const char *command, const pf_cli_option *option, const 
     }
     return pf_cli_fail(command, 2, "%s '%s': expected one of %s", option->name, value,
                        option->choices);
+}
+
+int pf_cli_store_tag(const char *command, const pf_cli_option *option, const char *value)
+{
+    pf_cli_tags *tags = option->target;
+    size_t used = strlen(tags->text);
+    int written = snprintf(tags->text + used, sizeof tags->text - used, "%s%s", used ? "," : "",
+                           value);
+    if (written < 0 || (size_t)written >= sizeof tags->text - used)
+        return pf_cli_fail(command, 2, "%s '%.40s': too many tags", option->name, value);
+    return 0;
+}
+
+int pf_cli_store_bytes(const char *command, const pf_cli_option *option, const char *value)
+{
+    char *end = NULL;
+    double number = strtod(value, &end);
+    double scale = 1.0;
+    if (end && *end) {
+        switch (*end == 'k' || *end == 'm' || *end == 'g' || *end == 't' ? *end - 32 : *end) {
+        case 'K': scale = 1024.0; break;
+        case 'M': scale = 1024.0 * 1024.0; break;
+        case 'G': scale = 1024.0 * 1024.0 * 1024.0; break;
+        case 'T': scale = 1024.0 * 1024.0 * 1024.0 * 1024.0; break;
+        default: scale = 0.0; break;
+        }
+        end++;
+        if (*end == 'i' || *end == 'I')
+            end++;
+        if (*end == 'B' || *end == 'b')
+            end++;
+    }
+    double bytes = number * scale;
+    if (end == value || (end && *end) || !(scale > 0.0) || !(bytes >= (double)option->min) ||
+        !(bytes <= (double)option->max))
+        return pf_cli_fail(command, 2,
+                           "%s '%s': expected a size such as 24G, 512M or 1073741824 (bytes), "
+                           "at most %lld",
+                           option->name, value, (long long)option->max);
+    *(int64_t *)option->target = (int64_t)bytes;
+    return 0;
 }
 
 pf_cli_option pf_cli_db_option(const char **target)

@@ -30,11 +30,20 @@ struct pf_cli_option {
     const char *choices;      /* pf_cli_store_choice's words, "a|b|c" */
 };
 
-/* Stores: flag (int = 1), text (const char *), integer in [min, max] (int64_t), choice (const char *). */
+/* --tag NAME, repeatable: the names joined by ',' (checked by pf_queue_tags_normalize). */
+typedef struct pf_cli_tags {
+    char text[512];
+} pf_cli_tags;
+
+/* Stores: flag (int = 1), text (const char *), integer in [min, max] (int64_t), choice (const
+ * char *), a tag appended (pf_cli_tags), bytes as N with an optional K, M, G or T (binary:
+ * 24G = 24 GiB) in [min, max] (int64_t). */
 int pf_cli_store_flag(const char *command, const pf_cli_option *option, const char *value);
 int pf_cli_store_text(const char *command, const pf_cli_option *option, const char *value);
 int pf_cli_store_int(const char *command, const pf_cli_option *option, const char *value);
 int pf_cli_store_choice(const char *command, const pf_cli_option *option, const char *value);
+int pf_cli_store_tag(const char *command, const pf_cli_option *option, const char *value);
+int pf_cli_store_bytes(const char *command, const pf_cli_option *option, const char *value);
 
 typedef struct pf_cli_command {
     const char *name;        /* "worker" */

@@ -55,6 +55,17 @@ static void print_job(pf_queue *queue, const pf_queue_job *job, int64_t now,
            " failed, %" PRId64 " canceled\n",
            job->tasks_queued, job->tasks_running, job->tasks_done, job->tasks_failed,
            job->tasks_canceled);
+    if (job->requires_device[0] || job->min_device_memory > 0 || job->min_host_memory > 0 ||
+        job->required_tags[0]) {
+        char needs[PF_QUEUE_TAGS_MAX + 160];
+        pf_queue_requirements_text(job->requires_device, job->min_device_memory,
+                                   job->min_host_memory, job->required_tags, needs,
+                                   sizeof needs);
+        printf("  requires: %s (%d live worker%s qualif%s)\n",
+               pf_cli_printable(needs, shown[0], sizeof shown[0]), job->qualified_live_workers,
+               job->qualified_live_workers == 1 ? "" : "s",
+               job->qualified_live_workers == 1 ? "ies" : "y");
+    }
     if (job->note[0])
         printf("  note: %s\n", pf_cli_printable(job->note, shown[0], sizeof shown[0]));
 

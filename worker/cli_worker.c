@@ -19,23 +19,6 @@
 /* Idle-exit bound: a day; "forever" is the default (no --idle-exit). */
 #define MAX_IDLE_EXIT_SECONDS 86400
 
-/* --tag NAME (repeatable): appended to the list in option->target, checked at the end. */
-typedef struct tag_list {
-    char text[PF_QUEUE_TAGS_MAX * 2];
-} tag_list;
-
-static int store_tag(const char *command, const pf_cli_option *option, const char *value)
-{
-    tag_list *tags = option->target;
-    size_t used = strlen(tags->text);
-    int written = snprintf(tags->text + used, sizeof tags->text - used, "%s%s",
-                           used ? "," : "", value);
-    if (written < 0 || (size_t)written >= sizeof tags->text - used)
-        return pf_cli_fail(command, 2, "--tag '%.40s': too many tags (at most %d bytes)", value,
-                           PF_QUEUE_TAGS_MAX - 1);
-    return 0;
-}
-
 /* --name: 1..PF_QUEUE_NAME_MAX-1 characters (the queue's column). */
 static int store_name(const char *command, const pf_cli_option *option, const char *value)
 {
@@ -54,7 +37,7 @@ int pf_cli_worker(int argc, char **argv)
     int64_t max_frames = 0, idle_exit = -1, lease_seconds = DEFAULT_LEASE_SECONDS;
     pf_storage storage;
     pf_storage_init(&storage);
-    tag_list tags = {""};
+    pf_cli_tags tags = {""};
     char lease_default[32];
     snprintf(lease_default, sizeof lease_default, "%d", DEFAULT_LEASE_SECONDS);
     const pf_cli_option options[] = {
@@ -82,7 +65,7 @@ int pf_cli_worker(int argc, char **argv)
          pf_cli_store_int, &lease_seconds, 1, MAX_LEASE_SECONDS, NULL},
         {"--tag", NULL, "NAME",
          "a tag jobs can require (repeatable; letters, digits, . _ -)",
-         "$PHOTONFARM_WORKER_TAGS (comma-separated), else none", store_tag, &tags, 0, 0, NULL},
+         "$PHOTONFARM_WORKER_TAGS (comma-separated), else none", pf_cli_store_tag, &tags, 0, 0, NULL},
         pf_roots_option(&storage.scene),
         pf_roots_option(&storage.output),
     };

@@ -11,6 +11,10 @@
  *     worker process counts to run (default 1 4 16; naming any skips the
  *     100,000-frame enqueue, for profiling one count)
  *
+ * With PF_BENCH_REQUIREMENTS=1 every job requires a GPU with 24 GiB, 64 GiB
+ * of host memory and a tag, and every worker registers capabilities that meet
+ * them (issue 42: what the requirements cost a claim).
+ *
  * Prints figures; never pass/fail.
  */
 #include "pf_queue.h"
@@ -26,6 +30,15 @@
 #define DEFAULT_TASKS 4000
 #define BIG_JOB_FRAMES 100000
 #define STAGES_PER_FRAME 3
+
+/* PF_BENCH_REQUIREMENTS=1: jobs with requirements, workers that meet them. */
+static int with_requirements(void)
+{
+    const char *value = getenv("PF_BENCH_REQUIREMENTS");
+    return value && !strcmp(value, "1");
+}
+
+#define GIB (1ll << 30)
 
 static void die(const char *what, const pf_error *err)
 {
@@ -71,6 +84,13 @@ static int worker_process(const char *db_path, int index)
     char name[64];
     snprintf(name, sizeof name, "bench-%d", index);
     pf_queue_worker_spec spec = {name, "bench", getpid(), "none"};
+    if (with_requirements()) {
+        spec.device_type = "gpu";
+        spec.device_memory = 80 * GIB;
+        spec.host_memory = 512 * GIB;
+        spec.cores = 64;
+        spec.tags = "farm-a,night,show-b";
+    }
     int64_t worker_id = 0;
     if (pf_queue_worker_register(queue, &spec, &worker_id, &err) != PF_OK)
         die("register", &err);
@@ -115,6 +135,12 @@ static double throughput(const char *dir, int processes, int tasks)
         die("open", &err);
     snprintf(range, sizeof range, "1-%d", tasks);
     pf_queue_job_spec spec = {"bench.gltf", NULL, range, "out/f.####.exr", 0, 0, 1};
+    if (with_requirements()) {
+        spec.requires_device = "gpu";
+        spec.min_device_memory = 24 * GIB;
+        spec.min_host_memory = 64 * GIB;
+        spec.required_tags = "farm-a,show-b";
+    }
     int64_t job_id;
     if (pf_queue_enqueue(queue, &spec, &job_id, &err) != PF_OK)
         die("enqueue", &err);
@@ -184,8 +210,9 @@ int main(int argc, char **argv)
         return 2;
     }
     long cores = sysconf(_SC_NPROCESSORS_ONLN);
-    printf("queue_bench: %d tasks per run, %d stage rows per completion, %ld cores, db in %s\n",
-           tasks, STAGES_PER_FRAME, cores, dir);
+    printf("queue_bench: %d tasks per run, %d stage rows per completion, %ld cores, db in %s%s\n",
+           tasks, STAGES_PER_FRAME, cores, dir,
+           with_requirements() ? ", jobs with requirements" : "");
     for (size_t i = 0; i < runs; i++)
         printf("claim+complete, %2d process(es): %8.0f tasks/s\n", process_counts[i],
                throughput(dir, process_counts[i], tasks));

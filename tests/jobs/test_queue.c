@@ -1073,6 +1073,99 @@ PF_TEST(workers_record_their_capabilities)
     pf_queue_close(queue);
 }
 
+/* A job with requirements (issue 42), one frame. */
+static int64_t enqueue_requiring(pf_queue *queue, const char *device, int64_t device_memory,
+                                 int64_t host_memory, const char *tags)
+{
+    pf_queue_job_spec spec = {.scene_path = "scenes/box.gltf",
+                              .frame_range = "1",
+                              .output_pattern = "out/f_####.exr",
+                              .requires_device = device,
+                              .min_device_memory = device_memory,
+                              .min_host_memory = host_memory,
+                              .required_tags = tags};
+    pf_error err = {0};
+    int64_t job_id = 0;
+    PF_CHECK_OK(pf_queue_enqueue(queue, &spec, &job_id, &err), &err);
+    return job_id;
+}
+
+/*
+ * Claims take only jobs whose requirements the worker meets (issue 42): device type,
+ * device and host memory, every tag (matched whole, '_' literally); a job no live worker
+ * meets says so in its note; pf_queue_workers_meeting counts who could.
+ */
+PF_TEST(claims_follow_the_jobs_requirements)
+{
+    pf_queue *queue = open_fresh("requirements");
+    PF_REQUIRE(queue);
+    pf_error err = {0};
+    const int64_t gib = 1ll << 30;
+    pf_queue_worker_spec cpu_spec = {.name = "laptop", .host = "a", .pid = 1, .device = "lvp",
+                                     .device_type = "cpu", .device_memory = 2 * gib,
+                                     .host_memory = 16 * gib, .cores = 8, .tags = "a_b"};
+    pf_queue_worker_spec gpu_spec = {.name = "h200", .host = "b", .pid = 2, .device = "H200",
+                                     .device_type = "gpu", .device_memory = 140 * gib,
+                                     .host_memory = 256 * gib, .cores = 64,
+                                     .tags = "night,show-a"};
+    int64_t cpu = 0, gpu = 0;
+    PF_CHECK_OK(pf_queue_worker_register(queue, &cpu_spec, &cpu, &err), &err);
+    PF_CHECK_OK(pf_queue_worker_register(queue, &gpu_spec, &gpu, &err), &err);
+    /* In priority order of insertion (all priority 0: oldest first). */
+    int64_t needs_gpu = enqueue_requiring(queue, "gpu", 0, 0, NULL);
+    int64_t needs_memory = enqueue_requiring(queue, NULL, 24 * gib, 64 * gib, NULL);
+    int64_t needs_tags = enqueue_requiring(queue, NULL, 0, 0, "show-a,NIGHT");
+    int64_t needs_other_show = enqueue_requiring(queue, NULL, 0, 0, "night,show-b");
+    int64_t needs_axb = enqueue_requiring(queue, NULL, 0, 0, "axb"); /* '_' is not a wildcard */
+    int64_t needs_cpu_tag = enqueue_requiring(queue, "cpu", 0, 0, "a_b");
+    int64_t anyone = enqueue_requiring(queue, NULL, 0, 0, NULL);
+    /* The laptop: only the job for a cpu tagged a_b, then the one for anyone. */
+    pf_queue_task task = claim(queue, cpu, 0, 0);
+    PF_CHECK_MSG(task.job_id == needs_cpu_tag, "laptop claimed job %lld", (long long)task.job_id);
+    task = claim(queue, cpu, 0, 0);
+    PF_CHECK_MSG(task.job_id == anyone, "laptop claimed job %lld", (long long)task.job_id);
+    PF_CHECK(claim(queue, cpu, 0, 0).task_id == 0);
+    /* The H200: the gpu job, the memory job, the tagged job; never the others. */
+    const int64_t expected[3] = {needs_gpu, needs_memory, needs_tags};
+    for (int i = 0; i < 3; i++) {
+        task = claim(queue, gpu, 0, 0);
+        PF_CHECK_MSG(task.job_id == expected[i], "h200 claim %d: job %lld", i,
+                     (long long)task.job_id);
+    }
+    PF_CHECK(claim(queue, gpu, 0, 0).task_id == 0);
+    /* Nobody live meets the two left: their notes say what is missing. */
+    pf_queue_job job = job_get(queue, needs_other_show);
+    PF_CHECK_MSG(strstr(job.note, "waiting: no live worker has any device and the tags "
+                                  "night,show-b"),
+                 "note: %s", job.note);
+    PF_CHECK(job.qualified_live_workers == 0 && !strcmp(job.required_tags, "night,show-b"));
+    pf_queue_job_clear(&job);
+    job = job_get(queue, needs_axb);
+    PF_CHECK_MSG(strstr(job.note, "waiting: no live worker") != NULL, "note: %s", job.note);
+    pf_queue_job_clear(&job);
+    job = job_get(queue, needs_gpu);
+    PF_CHECK(!strcmp(job.requires_device, "gpu") && job.qualified_live_workers == 1);
+    pf_queue_job_clear(&job);
+    /* Who could ever take a job: enqueue's warning. */
+    int64_t count = -1;
+    pf_queue_job_spec spec = {.requires_device = "gpu", .min_device_memory = 100 * gib};
+    PF_CHECK_OK(pf_queue_workers_meeting(queue, &spec, &count, &err), &err);
+    PF_CHECK(count == 1);
+    spec.min_device_memory = 200 * gib;
+    PF_CHECK_OK(pf_queue_workers_meeting(queue, &spec, &count, &err), &err);
+    PF_CHECK(count == 0);
+    /* Bad requirements are refused, nothing inserted. */
+    pf_queue_job_spec bad = {.scene_path = "s.gltf", .frame_range = "1", .output_pattern = "o",
+                             .requires_device = "tpu"};
+    int64_t job_id = 0;
+    PF_CHECK(pf_queue_enqueue(queue, &bad, &job_id, &err) == PF_ERR_INVALID);
+    bad.requires_device = NULL;
+    bad.required_tags = "ok,not/ok";
+    PF_CHECK(pf_queue_enqueue(queue, &bad, &job_id, &err) == PF_ERR_INVALID);
+    PF_CHECK(strstr(err.message, "not/ok") != NULL);
+    pf_queue_close(queue);
+}
+
 /*
  * PostgreSQL only: a URL that cannot be used is bad input naming the cause
  * and never the password; a schema from a newer photonfarm is refused.
@@ -1176,6 +1269,7 @@ int main(void)
     PF_RUN(locked_database_is_retried_then_reported);
     PF_RUN(workers_are_dead_after_their_own_lease);
     PF_RUN(workers_record_their_capabilities);
+    PF_RUN(claims_follow_the_jobs_requirements);
     PF_RUN(enqueue_conflicts_are_decided_under_the_write_lock);
     PF_RUN(postgres_bad_urls_and_newer_schema_are_refused);
     PF_RUN(postgres_reconnect_keeps_the_lock_timeout);

@@ -1,8 +1,10 @@
 /*
  * Atomic claims across processes: 4 forked workers on one database claim and
- * complete 200 one-frame tasks at once. Every task must be completed exactly
- * once (each child logs what it completed), none lost, and every completion's
- * stage rows present exactly once.
+ * complete 200 one-frame tasks at once, and 40 more of a job that requires a
+ * GPU and a tag (issue 42), which only the two workers registered with both
+ * may take. Every task must be completed exactly once (each child logs what it
+ * completed), none lost, every completion's stage rows present exactly once,
+ * and no task of the demanding job done by a worker that does not meet it.
  */
 #include "queue_test_util.h"
 
@@ -14,6 +16,9 @@
 
 #define WORKER_COUNT 4
 #define FRAME_COUNT 200
+/* The second job's frames: task ids FRAME_COUNT + 1 .. TASK_COUNT. */
+#define GPU_FRAME_COUNT 40
+#define TASK_COUNT (FRAME_COUNT + GPU_FRAME_COUNT)
 #define STAGES_PER_FRAME 2
 /* Stand-in for rendering a tiny frame, outside any transaction as a real
  * worker's render is; without it one process can win every lock in a row
@@ -38,7 +43,10 @@ static int run_child(const char *db_path, const char *log_path, int index, int s
     }
     char name[32];
     snprintf(name, sizeof name, "worker-%d", index);
-    pf_queue_worker_spec spec = {.name = name, .host = "test", .pid = getpid()};
+    /* Workers 0 and 1 have a GPU and the tag the second job asks for; 2 and 3 do not. */
+    pf_queue_worker_spec spec = {.name = name, .host = "test", .pid = getpid(),
+                                 .device_type = index < 2 ? "gpu" : "cpu",
+                                 .tags = index < 2 ? "farm-a" : ""};
     int64_t worker_id = 0;
     int result = CHILD_OK;
     if (pf_queue_worker_register(queue, &spec, &worker_id, &err) != PF_OK)
@@ -97,6 +105,11 @@ PF_TEST(four_processes_complete_each_task_exactly_once)
                               .output_pattern = "tiny_####.exr"};
     int64_t job_id = 0;
     PF_REQUIRE_OK(pf_queue_enqueue(queue, &spec, &job_id, &err), &err);
+    pf_queue_job_spec demanding = {.scene_path = "big.gltf", .frame_range = "1-40",
+                                   .output_pattern = "big_####.exr", .requires_device = "gpu",
+                                   .required_tags = "farm-a"};
+    int64_t demanding_id = 0;
+    PF_REQUIRE_OK(pf_queue_enqueue(queue, &demanding, &demanding_id, &err), &err);
     pf_queue_close(queue); /* a connection must not cross fork() */
 
     char log_paths[WORKER_COUNT][1200];
@@ -123,27 +136,27 @@ PF_TEST(four_processes_complete_each_task_exactly_once)
     }
 
     /* Each task id appears in exactly one log, exactly once. */
-    int completions[FRAME_COUNT + 1] = {0};
+    int completions[TASK_COUNT + 1] = {0};
     int per_child[WORKER_COUNT] = {0};
     for (int i = 0; i < WORKER_COUNT; i++) {
         FILE *log = fopen(log_paths[i], "r");
         PF_REQUIRE(log);
         long long task_id;
         while (fscanf(log, "%lld", &task_id) == 1) {
-            PF_CHECK(task_id >= 1 && task_id <= FRAME_COUNT);
-            if (task_id >= 1 && task_id <= FRAME_COUNT)
+            PF_CHECK(task_id >= 1 && task_id <= TASK_COUNT);
+            if (task_id >= 1 && task_id <= TASK_COUNT)
                 completions[task_id]++;
             per_child[i]++;
         }
         fclose(log);
     }
     int once = 0;
-    for (int task = 1; task <= FRAME_COUNT; task++) {
+    for (int task = 1; task <= TASK_COUNT; task++) {
         PF_CHECK_MSG(completions[task] == 1, "task %d completed %d times", task,
                      completions[task]);
         once += completions[task] == 1;
     }
-    PF_CHECK(once == FRAME_COUNT);
+    PF_CHECK(once == TASK_COUNT);
     /* The race really happened: more than one process completed frames. */
     int busy_children = 0;
     for (int i = 0; i < WORKER_COUNT; i++)
@@ -152,18 +165,29 @@ PF_TEST(four_processes_complete_each_task_exactly_once)
     printf("completions per worker: %d %d %d %d\n", per_child[0], per_child[1], per_child[2],
            per_child[3]);
 
-    PF_CHECK(count(db_path, "SELECT count(*) FROM tasks WHERE status = 'done'") == FRAME_COUNT);
+    PF_CHECK(count(db_path, "SELECT count(*) FROM tasks WHERE status = 'done'") == TASK_COUNT);
     PF_CHECK(count(db_path, "SELECT count(*) FROM tasks WHERE attempt != 1") == 0);
     PF_CHECK(count(db_path, "SELECT count(*) FROM task_failures") == 0);
     PF_CHECK(count(db_path, "SELECT count(*) FROM stage_timings") ==
-             FRAME_COUNT * STAGES_PER_FRAME);
+             TASK_COUNT * STAGES_PER_FRAME);
     /* Exactly one row per (task, stage), and each on the task's own frame. */
     PF_CHECK(count(db_path, "SELECT count(*) FROM (SELECT task_id, stage FROM stage_timings "
                            "GROUP BY task_id, stage HAVING count(*) != 1) AS twice") == 0);
-    PF_CHECK(count(db_path, "SELECT count(DISTINCT task_id) FROM stage_timings") == FRAME_COUNT);
+    PF_CHECK(count(db_path, "SELECT count(DISTINCT task_id) FROM stage_timings") == TASK_COUNT);
     PF_CHECK(count(db_path, "SELECT count(*) FROM stage_timings s JOIN tasks t ON t.id = "
                            "s.task_id WHERE s.frame != t.first_frame") == 0);
-    PF_CHECK(count(db_path, "SELECT count(*) FROM jobs WHERE status = 'done'") == 1);
+    PF_CHECK(count(db_path, "SELECT count(*) FROM jobs WHERE status = 'done'") == 2);
+    /* Not one of the demanding job's frames went to a worker without a GPU and the tag. */
+    char sql[256];
+    snprintf(sql, sizeof sql,
+             "SELECT count(*) FROM tasks t JOIN workers w ON w.id = t.worker_id WHERE "
+             "t.job_id = %lld AND (w.device_type <> 'gpu' OR w.tags <> 'farm-a')",
+             (long long)demanding_id);
+    PF_CHECK(count(db_path, sql) == 0);
+    snprintf(sql, sizeof sql,
+             "SELECT count(*) FROM tasks WHERE job_id = %lld AND status = 'done'",
+             (long long)demanding_id);
+    PF_CHECK(count(db_path, sql) == GPU_FRAME_COUNT);
 }
 
 int main(void)

@@ -350,7 +350,8 @@ PF_TEST(sqlite_migrations_and_the_postgres_schema_agree)
 }
 
 /*
- * PostgreSQL only: a database made at version 4 (before the workers' capabilities) climbs to
+ * PostgreSQL only: a database made at version 4 (before the workers' capabilities and the
+ * jobs' requirements) climbs to
  * the latest on open, and ends with the schema a fresh one has.
  */
 PF_TEST(a_version_4_postgres_database_migrates_to_the_latest)
@@ -373,7 +374,10 @@ PF_TEST(a_version_4_postgres_database_migrates_to_the_latest)
     PGresult *result = PQexec(conn,
                               "ALTER TABLE workers DROP COLUMN device_type, DROP COLUMN "
                               "device_memory, DROP COLUMN host_memory, DROP COLUMN cores, "
-                              "DROP COLUMN tags; DELETE FROM schema_version WHERE version = 5; "
+                              "DROP COLUMN tags; ALTER TABLE jobs DROP COLUMN requires_device, "
+                              "DROP COLUMN min_device_memory, DROP COLUMN min_host_memory, "
+                              "DROP COLUMN required_tags; "
+                              "DELETE FROM schema_version WHERE version = 5; "
                               "INSERT INTO schema_version (version, applied_at) VALUES (4, 0) "
                               "ON CONFLICT DO NOTHING");
     PF_CHECK_MSG(PQresultStatus(result) == PGRES_COMMAND_OK, "%s", PQerrorMessage(conn));

@@ -99,6 +99,36 @@ typedef struct bad_case {
     const char *message;
 } bad_case;
 
+/* A job's requirements (issue 42): stored (tags normalised), shown by status, and a warning
+ * when no worker registered with the queue has ever met them. */
+PF_TEST(requirements_are_stored_shown_and_warned_about)
+{
+    char args[8 * WT_PATH_MAX];
+    wt_format(args, sizeof args,
+              "enqueue '%s' --frames 1 --out '%s/req.exr' --size 16x12 --quality preview "
+              "--requires gpu --min-device-memory 24G --min-memory 512M --tag Show-A --tag night "
+              "--db '%s'",
+              scene, out_dir, db);
+    int64_t job_id = enqueue_job(args);
+    PF_REQUIRE(job_id >= 1);
+    PF_CHECK(wt_file_contains(log_path, "warning: no worker registered with this queue has a gpu"));
+    pf_queue *queue = wt_open_queue(db);
+    PF_REQUIRE(queue != NULL);
+    pf_queue_job job = {0};
+    pf_error err = {0};
+    PF_CHECK_OK(pf_queue_job_get(queue, job_id, &job, &err), &err);
+    PF_CHECK(!strcmp(job.requires_device, "gpu") && job.min_device_memory == (24ll << 30) &&
+             job.min_host_memory == (512ll << 20) && !strcmp(job.required_tags, "night,show-a"));
+    pf_queue_job_clear(&job);
+    pf_queue_close(queue);
+    wt_format(args, sizeof args, "status %lld --db '%s'", (long long)job_id, db);
+    PF_CHECK(wt_run(args, log_path) == 0);
+    PF_CHECK(wt_file_contains(log_path, "requires: a gpu with >= 24.0 GiB of device memory, "
+                                        ">= 0.5 GiB of memory and the tags night,show-a"));
+    wt_format(args, sizeof args, "cancel %lld --db '%s'", (long long)job_id, db);
+    PF_CHECK(wt_run(args, log_path) == 0);
+}
+
 PF_TEST(bad_input_exits_2_and_inserts_nothing)
 {
     char corrupt[WT_PATH_MAX + 32], readonly[WT_PATH_MAX + 32], args[8 * WT_PATH_MAX];
@@ -115,7 +145,7 @@ PF_TEST(bad_input_exits_2_and_inserts_nothing)
     struct {
         char arguments[4 * WT_PATH_MAX];
         const char *message;
-    } cases[32];
+    } cases[40];
     int count = 0;
 #define CASE(msg, ...)                                                                    \
     do {                                                                                  \
@@ -162,7 +192,14 @@ PF_TEST(bad_input_exits_2_and_inserts_nothing)
          out_dir);
     CASE("--target-relmse", "enqueue '%s' --frames 1 --out '%s/f.exr' --target-relmse -0.1",
          scene, out_dir);
+    /* Requirements (issue 42). */
+    CASE("gpu|cpu", "enqueue '%s' --frames 1 --out '%s/f.exr' --requires tpu", scene, out_dir);
+    CASE("24X", "enqueue '%s' --frames 1 --out '%s/f.exr' --min-device-memory 24X", scene,
+         out_dir);
+    CASE("bad/tag", "enqueue '%s' --frames 1 --out '%s/f.exr' --tag ok --tag bad/tag", scene,
+         out_dir);
 #undef CASE
+    PF_REQUIRE(count <= (int)(sizeof cases / sizeof *cases));
     for (int i = 0; i < count; i++) {
         wt_format(args, sizeof args, "%s --db '%s'", cases[i].arguments, db);
         int code = wt_run(args, log_path);
@@ -438,6 +475,7 @@ int main(void)
     wt_fresh_dir("out", out_dir, sizeof out_dir);
     wt_write_tiny_scene(scene, 3);
     PF_RUN(enqueue_inserts_a_validated_job_and_prints_its_id);
+    PF_RUN(requirements_are_stored_shown_and_warned_about);
     PF_RUN(bad_input_exits_2_and_inserts_nothing);
     PF_RUN(corrupt_or_foreign_database_exits_2_and_is_untouched);
     PF_RUN(control_commands_change_job_state);
