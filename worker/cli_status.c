@@ -10,11 +10,16 @@
 #include "job_extras.h"
 
 #include <inttypes.h>
+#include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
+#include <unistd.h>
 
 #define COMMAND "status"
+/* --watch's longest interval: an hour. */
+#define MAX_WATCH_SECONDS 3600
 #define BAR_CELLS 30
 /* Failures listed per job; the rest are counted ("... and N more"). */
 #define FAILURES_SHOWN 10
@@ -101,13 +106,70 @@ static void print_job(pf_queue *queue, const pf_queue_job *job, int64_t now,
     }
 }
 
+/* Whether a job has ended: nothing of it will change any more. */
+static int job_ended(const pf_queue_job *job)
+{
+    return !strcmp(job->status, "done") || !strcmp(job->status, "failed") ||
+           !strcmp(job->status, "canceled");
+}
+
+/* One report of the job (or every job); *active says whether any shown job has not ended. */
+static int print_status(pf_queue *queue, int64_t job_id, const pf_storage *storage, int *active)
+{
+    pf_error err = {0};
+    int64_t now = pf_queue_now(queue);
+    int code = 0;
+    *active = 0;
+    if (job_id) {
+        pf_queue_job job = {0};
+        pf_status status = pf_queue_job_get(queue, job_id, &job, &err);
+        if (status == PF_OK) {
+            print_job(queue, &job, now, storage);
+            *active = !job_ended(&job);
+        } else {
+            code = pf_cli_fail(COMMAND, pf_status_exit_code(status), "%s", err.message);
+        }
+        pf_queue_job_clear(&job);
+        return code;
+    }
+    pf_queue_job *jobs = NULL;
+    size_t count = 0;
+    pf_status status = pf_queue_job_list(queue, &jobs, &count, &err);
+    if (status != PF_OK) {
+        code = pf_cli_fail(COMMAND, pf_status_exit_code(status), "%s", err.message);
+    } else if (count == 0) {
+        printf("no jobs\n");
+    } else {
+        for (size_t i = 0; i < count; i++) {
+            print_job(queue, &jobs[i], now, storage);
+            *active |= !job_ended(&jobs[i]);
+        }
+    }
+    pf_queue_job_list_free(jobs, count);
+    return code;
+}
+
+static volatile sig_atomic_t interrupted;
+
+static void on_interrupt(int signal_number)
+{
+    (void)signal_number;
+    interrupted = 1;
+}
+
 int pf_cli_status(int argc, char **argv)
 {
     const char *db = NULL, *job_text = NULL;
+    int64_t watch = 0;
     pf_storage storage;
     pf_storage_init(&storage);
-    const pf_cli_option options[] = {pf_cli_db_option(&db), pf_roots_option(&storage.scene),
-                                     pf_roots_option(&storage.output)};
+    const pf_cli_option options[] = {
+        pf_cli_db_option(&db),
+        {"--watch", NULL, "SECONDS",
+         "report again every SECONDS until every job shown has ended\n(done, failed or "
+         "canceled) or Ctrl-C; on a terminal in place",
+         "once", pf_cli_store_int, &watch, 1, MAX_WATCH_SECONDS, NULL},
+        pf_roots_option(&storage.scene), pf_roots_option(&storage.output)};
     pf_cli_command command = {
         .name = COMMAND,
         .synopsis = "[JOB] [options]",
@@ -133,29 +195,22 @@ int pf_cli_status(int argc, char **argv)
     code = pf_cli_open_queue(COMMAND, pf_cli_db_path(db), 1, &queue);
     if (code)
         return code;
-    pf_error err = {0};
-    int64_t now = pf_queue_now(queue);
-    if (job_id) {
-        pf_queue_job job = {0};
-        pf_status status = pf_queue_job_get(queue, job_id, &job, &err);
-        if (status == PF_OK)
-            print_job(queue, &job, now, &storage);
-        else
-            code = pf_cli_fail(COMMAND, pf_status_exit_code(status), "%s", err.message);
-        pf_queue_job_clear(&job);
-    } else {
-        pf_queue_job *jobs = NULL;
-        size_t count = 0;
-        pf_status status = pf_queue_job_list(queue, &jobs, &count, &err);
-        if (status != PF_OK) {
-            code = pf_cli_fail(COMMAND, pf_status_exit_code(status), "%s", err.message);
-        } else if (count == 0) {
-            printf("no jobs\n");
-        } else {
-            for (size_t i = 0; i < count; i++)
-                print_job(queue, &jobs[i], now, &storage);
+    int active = 0;
+    code = print_status(queue, job_id, &storage, &active);
+    if (watch > 0) {
+        /* A terminal is redrawn from its top-left corner; anything else gets one report after
+         * another, each ended by a blank line. */
+        int terminal = isatty(STDOUT_FILENO);
+        signal(SIGINT, on_interrupt);
+        while (!code && active && !interrupted) {
+            fflush(stdout);
+            for (int64_t slept = 0; slept < watch * 10 && !interrupted; slept++)
+                nanosleep(&(struct timespec){0, 100000000L}, NULL);
+            if (interrupted)
+                break;
+            printf(terminal ? "\033[H\033[J" : "\n");
+            code = print_status(queue, job_id, &storage, &active);
         }
-        pf_queue_job_list_free(jobs, count);
     }
     pf_queue_close(queue);
     return code;

@@ -7,7 +7,12 @@
 #include "pf_test.h"
 #include "worker_test_util.h"
 
+#include <fcntl.h>
+#include <signal.h>
+#include <stdlib.h>
+#include <string.h>
 #include <sys/stat.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 static char dir[WT_PATH_MAX], db[WT_PATH_MAX + 32], scene[WT_PATH_MAX + 32],
@@ -127,6 +132,78 @@ PF_TEST(requirements_are_stored_shown_and_warned_about)
                                         ">= 0.5 GiB of memory and the tags night,show-a"));
     wt_format(args, sizeof args, "cancel %lld --db '%s'", (long long)job_id, db);
     PF_CHECK(wt_run(args, log_path) == 0);
+}
+
+/* How many times text occurs in path's content. */
+static int occurrences(const char *path, const char *text)
+{
+    char *content = wt_read_file(path, NULL);
+    int found = 0;
+    for (const char *p = content; p && (p = strstr(p, text)) != NULL; p += strlen(text))
+        found++;
+    free(content);
+    return found;
+}
+
+/*
+ * status --watch (issue 42): reports again until every job shown has ended. Decided by
+ * events, never by how long a report took: the watch has printed the queued job, then the
+ * job is canceled, then the watch must end by itself, its last report the canceled job.
+ * An ended job's watch prints once and returns at once.
+ */
+PF_TEST(status_watch_reports_until_the_jobs_end)
+{
+    char args[8 * WT_PATH_MAX], watch_log[WT_PATH_MAX + 32];
+    wt_format(args, sizeof args,
+              "enqueue '%s' --frames 1 --out '%s/watched.exr' --size 16x12 --quality preview "
+              "--db '%s'",
+              scene, out_dir, db);
+    int64_t job_id = enqueue_job(args);
+    PF_REQUIRE(job_id >= 1);
+    wt_format(watch_log, sizeof watch_log, "%s/watch.log", dir);
+    char job[32];
+    snprintf(job, sizeof job, "%lld", (long long)job_id);
+    fflush(NULL);
+    pid_t child = fork();
+    PF_REQUIRE(child >= 0);
+    if (child == 0) {
+        int out = open(watch_log, O_WRONLY | O_CREAT | O_TRUNC, 0644);
+        dup2(out, STDOUT_FILENO);
+        execl(getenv("PHOTONFARM"), "photonfarm", "status", job, "--watch", "1", "--db", db,
+              (char *)NULL);
+        _exit(127);
+    }
+    int printed = 0;
+    for (int waited = 0; waited < 60000 && !printed; waited += 50) {
+        printed = occurrences(watch_log, "queued") > 0;
+        if (!printed)
+            wt_sleep_ms(50);
+    }
+    PF_CHECK_MSG(printed, "the watch never printed the queued job");
+    wt_format(args, sizeof args, "cancel %lld --db '%s'", (long long)job_id, db);
+    PF_CHECK(wt_run(args, log_path) == 0);
+    int status = 0, ended = 0;
+    for (int waited = 0; waited < 60000 && !ended; waited += 50) {
+        ended = waitpid(child, &status, WNOHANG) == child;
+        if (!ended)
+            wt_sleep_ms(50);
+    }
+    if (!ended) {
+        kill(child, SIGKILL);
+        waitpid(child, &status, 0);
+    }
+    PF_CHECK_MSG(ended && WIFEXITED(status) && WEXITSTATUS(status) == 0,
+                 "the watch did not end by itself (status %d)", status);
+    /* At least two reports, the last one the canceled job's. */
+    char *content = wt_read_file(watch_log, NULL);
+    const char *last = content ? strstr(content, "canceled [") : NULL;
+    PF_CHECK_MSG(occurrences(watch_log, "tasks:") >= 2 && last && !strstr(last, "queued ["),
+                 "watch output:\n%s", content ? content : "(none)");
+    free(content);
+    /* Ended: one report, then exit. */
+    wt_format(args, sizeof args, "status %lld --watch 1 --db '%s'", (long long)job_id, db);
+    PF_CHECK(wt_run(args, log_path) == 0);
+    PF_CHECK(occurrences(log_path, "tasks:") == 1 && occurrences(log_path, "canceled [") == 1);
 }
 
 PF_TEST(bad_input_exits_2_and_inserts_nothing)
@@ -476,6 +553,7 @@ int main(void)
     wt_write_tiny_scene(scene, 3);
     PF_RUN(enqueue_inserts_a_validated_job_and_prints_its_id);
     PF_RUN(requirements_are_stored_shown_and_warned_about);
+    PF_RUN(status_watch_reports_until_the_jobs_end);
     PF_RUN(bad_input_exits_2_and_inserts_nothing);
     PF_RUN(corrupt_or_foreign_database_exits_2_and_is_untouched);
     PF_RUN(control_commands_change_job_state);
