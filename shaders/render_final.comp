@@ -14,16 +14,18 @@
 //
 // The primary (this kernel): a camera ray through the
 //   pixel filter (pixel_filter.glsl), specular chain (bsdf_sample through
-//   mirrors, glass and metals sharper than GLOSSY_ROUGHNESS) to the first
-//   diffuse vertex D₁, at most params.max_specular_depth specular vertices;
-//   emission seen on the way and direct light at D₁ (direct_light.glsl, the
-//   reference's NEE, MIS-weighted against the gather rays that may hit the
-//   same emitter) and at every non-delta vertex of the chain (MIS-weighted
-//   against the chain's next ray) go to `direct`. D₁ is written to the vertex record for the
-//   caustic dispatch and the gather.
+//   mirrors and glass, smooth or rough) to the first vertex D₁ estimated
+//   there (a diffuse base, a rough lobe or a sharp metal:
+//   material_estimated_at_d1), at most params.max_specular_depth specular
+//   vertices; emission seen on the way and direct light at D₁
+//   (direct_light.glsl, the reference's NEE, MIS-weighted against the gather
+//   rays that may hit the same emitter) and at every non-delta vertex of the
+//   chain (rough glass, MIS-weighted against the chain's next ray) go to
+//   `direct`. D₁ is written to the vertex record for the caustic dispatch
+//   and the gather.
 // final_caustic.comp (caustic grid bound; only for passes with a caustic
-//   map): the caustic estimate at D₁ (albedo/π × caustic irradiance) into
-//   `caustic` and `indirect`.
+//   map): the caustic estimate at D₁ (directional albedo/π × caustic
+//   irradiance) into `caustic` and `indirect`.
 // final_gather.comp (global grid bound): push.gather_count of the sample's
 //   push.gather_total cosine-distributed gather rays from D₁ per dispatch.
 //   At a gather ray's first diffuse hit x₂: albedo/π × global-map irradiance,

@@ -84,7 +84,6 @@ typedef enum bih_decision {
  */
 #define BIH_REFIT_SAH_TOLERANCE 1.10
 
-/* Bitwise-equal triangles: the frame's vertices against the tree's leaf-order copy. */
 static double sah_of(const pf_bih *bih)
 {
     pf_bih_quality quality;

@@ -7,7 +7,6 @@
  */
 #include "render_internal.h"
 
-#include <math.h>
 #include <string.h>
 
 /* Largest image side accepted: pixel indices (y * width + x) stay well inside 32 bits. */

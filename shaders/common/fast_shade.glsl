@@ -5,9 +5,11 @@
 // it): one camera sample per pixel per dispatch, added to the split film of
 // the reference and final integrators.
 //
-// A camera ray through the pixel filter (pixel_filter.glsl) follows mirrors,
-// glass and metals sharper than GLOSSY_ROUGHNESS (bsdf_sample) to the first
-// diffuse vertex D₁, at most params.max_specular_depth specular vertices.
+// A camera ray through the pixel filter (pixel_filter.glsl) follows mirrors
+// and glass, smooth or rough (bsdf_sample), to the first vertex D₁ estimated
+// there (a diffuse base, a rough lobe or a sharp metal:
+// material_estimated_at_d1), at most params.max_specular_depth specular
+// vertices.
 // Emission seen on the way and direct light by next-event estimation
 // (direct_light.glsl, the one estimator reference and final use) at D₁ and
 // at the chain's non-delta vertices go to `direct`; where the lobe is sharp,
