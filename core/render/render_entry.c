@@ -13,11 +13,13 @@ pf_status pf_render_frame(pf_renderer *renderer, const pf_scene_frame *frame,
 {
     if (!renderer || !frame || !settings || !image)
         return pf_error_set(err, PF_ERR_INVALID, "pf_render_frame: NULL argument");
+    if (settings->quality != PF_QUALITY_AUTO) /* it checks the settings itself */
+        return pf_render_preset(renderer, frame, settings, image, report, err);
+    /* auto's request is checked before any pilot renders. */
     memset(image, 0, sizeof *image);
     pf_status status = pf_render_settings_check(settings, err);
-    if (status != PF_OK || settings->quality != PF_QUALITY_AUTO)
-        return status != PF_OK ? status
-                               : pf_render_preset(renderer, frame, settings, image, report, err);
+    if (status != PF_OK)
+        return status;
     pf_render_settings chosen;
     pf_frame_report own = {0};
     status = pf_plan_frame(renderer, frame, settings, &chosen, report ? report : &own, err);
