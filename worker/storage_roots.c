@@ -244,16 +244,13 @@ pf_status pf_roots_make_output_directory(const pf_roots *roots, const char *patt
 {
     *created = 0;
     char directory[PATH_MAX];
-    const char *slash = strrchr(pattern, '/');
-    if (!slash)
-        return PF_OK; /* the working directory: it exists */
-    if (snprintf(directory, sizeof directory, "%.*s", (int)(slash - pattern), pattern) >=
-            (int)sizeof directory ||
-        !directory[0])
-        return PF_OK;
+    const char *base;
+    if (strlen(pattern) >= sizeof directory)
+        return PF_OK; /* too long to be a path: left to the output check */
+    pf_frame_split_path(pattern, directory, sizeof directory, &base);
     struct stat info;
     if (stat(directory, &info) == 0 || strchr(directory, '#'))
-        return PF_OK; /* exists, or pf_frame_output_check refuses it */
+        return PF_OK; /* exists ("." and "/" do), or pf_frame_output_check refuses it */
     /* The nearest existing ancestor, and the names below it that are missing. */
     char ancestor[PATH_MAX];
     snprintf(ancestor, sizeof ancestor, "%s", directory);

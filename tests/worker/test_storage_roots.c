@@ -108,6 +108,10 @@ PF_TEST(enqueue_refuses_paths_outside_the_roots_and_stores_them_relative)
     expect_refused(args, "outside the output roots", NULL);
     wt_format(target, sizeof target, "%s/new", outside);
     PF_CHECK_MSG(access(target, F_OK) != 0, "%s was made outside the roots", target);
+    wt_format(target, sizeof target, "%s/made/here", out);
+    rmdir(target); /* an earlier run's */
+    wt_format(target, sizeof target, "%s/made", out);
+    rmdir(target);
     wt_format(args, sizeof args, "'%s/tiny.gltf' --out '%s/made/here/f.####.exr' %s", scenes,
               out, roots);
     PF_CHECK(wt_enqueue(args, log_path) > 0);
