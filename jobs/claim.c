@@ -95,8 +95,9 @@ typedef struct claim_context {
 
 /*
  * The claim: the highest-priority job this worker may render (not blocked for
- * it, and whose requirements its registered capabilities meet:
- * QUEUE_WORKER_MEETS), then its first eligible task after the affinity frame,
+ * it, whose requirements its registered capabilities meet: QUEUE_WORKER_MEETS,
+ * and which waits for no unfinished job: QUEUE_JOB_RELEASED), then its first
+ * eligible task (backoff passed, QUEUE_TASK_RELEASED) after the affinity frame,
  * else its first eligible task. The
  * job is picked once (the CTE) and reaches the task picks as scalars, so each
  * is a walk of the (job_id, status, first_frame) index that stops at its first
@@ -120,16 +121,20 @@ typedef struct claim_context {
     "    WHERE j.status IN ('queued', 'running') AND " QUEUE_WORKER_MEETS("j", "w")            \
     "      AND NOT EXISTS (SELECT 1 FROM worker_blocks b"                                      \
     "                      WHERE b.job_id = j.id AND b.worker_id = :worker)"                   \
+    "      AND " QUEUE_JOB_RELEASED("j") ""                                                    \
     "      AND (SELECT e.first_frame FROM tasks e WHERE e.job_id = j.id"                       \
     "           AND e.status = 'queued' AND e.eligible_at <= :now"                             \
+    "           AND " QUEUE_TASK_RELEASED("e") ""                                              \
     "           ORDER BY e.first_frame LIMIT 1) IS NOT NULL"                                   \
     "    ORDER BY j.priority DESC, j.id = :job DESC, j.id LIMIT 1)"                            \
     "  SELECT coalesce("                                                                       \
     "    (SELECT t.id FROM tasks t WHERE t.job_id = (SELECT job_id FROM chosen)"               \
     "       AND t.status = 'queued' AND t.first_frame > (SELECT after_frame FROM chosen)"      \
-    "       AND t.eligible_at <= :now ORDER BY t.first_frame LIMIT 1" LOCK "),"                \
+    "       AND t.eligible_at <= :now AND " QUEUE_TASK_RELEASED("t") ""                        \
+    "     ORDER BY t.first_frame LIMIT 1" LOCK "),"                                            \
     "    (SELECT t.id FROM tasks t WHERE t.job_id = (SELECT job_id FROM chosen)"               \
     "       AND t.status = 'queued' AND t.eligible_at <= :now"                                 \
+    "       AND " QUEUE_TASK_RELEASED("t") ""                                                  \
     "     ORDER BY t.first_frame LIMIT 1" LOCK "))) "                                          \
     "RETURNING id, job_id, first_frame, last_frame, frame_step, frame_count, attempt,"         \
     "  lease_expires"

@@ -116,6 +116,8 @@ static pf_status enqueue_body(pf_queue *queue, void *context, pf_error *err)
     else
         status = queue_db_error(queue, err, "inserting the job");
     queue_finalize(stmt);
+    if (status == PF_OK)
+        status = queue_dependencies_add(queue, ctx->job_id, spec->after, spec->after_count, err);
     if (status != PF_OK)
         return status;
 

@@ -101,7 +101,7 @@ void pf_queue_close(pf_queue *queue);
 int pf_queue_is_url(const char *db);
 
 /* Schema version this build creates and understands. */
-#define PF_QUEUE_SCHEMA_VERSION 5
+#define PF_QUEUE_SCHEMA_VERSION 6
 
 /* Current schema version recorded in the file (fills *version). */
 pf_status pf_queue_schema_version(pf_queue *queue, int *version, pf_error *err);
@@ -124,6 +124,17 @@ typedef struct pf_queue_job pf_queue_job;
 typedef int (*pf_queue_conflict_fn)(const pf_queue_job *other, void *user, char *reason,
                                     size_t reason_size);
 
+/* A job a job waits for (issue 42). */
+typedef struct pf_queue_dependency {
+    int64_t job_id; /* the prerequisite */
+    bool per_frame; /* frame n waits for frame n of it (its tasks whose frames overlap the
+                       task's: conservative where the two jobs step differently); false:
+                       every frame waits until the whole prerequisite is done */
+} pf_queue_dependency;
+
+/* Prerequisites one call may name. */
+#define PF_QUEUE_DEPENDENCIES_MAX 64
+
 typedef struct pf_queue_job_spec {
     const char *scene_path;      /* required; stored as given */
     const char *parameters_json; /* opaque JSON text (size, quality, spp, seed...); NULL → "{}" */
@@ -143,6 +154,9 @@ typedef struct pf_queue_job_spec {
     int64_t min_device_memory;    /* bytes */
     int64_t min_host_memory;      /* bytes */
     const char *required_tags;    /* every one (pf_queue_tags_normalize syntax) */
+    /* The jobs it waits for (pf_queue_add_dependencies' rules); after_count 0: none. */
+    const pf_queue_dependency *after;
+    size_t after_count;
 } pf_queue_job_spec;
 
 /* "a gpu with >= 24.0 GiB of device memory, >= 64.0 GiB of memory and the tags a,b", for
@@ -161,12 +175,27 @@ pf_status pf_queue_workers_meeting(pf_queue *queue, const pf_queue_job_spec *spe
  * range are grouped into tasks of up to frames_per_task frames; a task covers
  * an arithmetic run first..last by step, so "1,5,9-12" with 2 per task gives
  * {1,5}, {9,10}, {11,12}. Invalid spec (missing field, bad range, parameters
- * that are not JSON, max_attempts or frames_per_task < 0) → PF_ERR_INVALID and
- * nothing inserted; a conflict (spec->conflicts) → PF_ERR_INVALID with its
- * reason and nothing inserted. Fills *job_id.
+ * that are not JSON, max_attempts or frames_per_task < 0, a prerequisite that
+ * is unknown or named twice) → PF_ERR_INVALID and nothing inserted; a conflict
+ * (spec->conflicts) → PF_ERR_INVALID with its reason and nothing inserted.
+ * Fills *job_id.
  */
 pf_status pf_queue_enqueue(pf_queue *queue, const pf_queue_job_spec *spec, int64_t *job_id,
                            pf_error *err);
+
+/*
+ * Makes job_id wait for the jobs in after[0..count), in one transaction: a claim takes
+ * none of its tasks until each prerequisite is done (per_frame: until the prerequisite's
+ * tasks overlapping the task's frames are). A prerequisite that fails or is canceled
+ * leaves the job blocked (pf_queue_job.status) until it is retried. Refused with
+ * PF_ERR_INVALID naming the cause, nothing added: an unknown job or prerequisite, a job
+ * that has ended (done, failed, canceled), a prerequisite named twice or already waited
+ * for, the job itself, or a cycle (the prerequisite waits for job_id, directly or through
+ * others).
+ */
+pf_status pf_queue_add_dependencies(pf_queue *queue, int64_t job_id,
+                                    const pf_queue_dependency *after, size_t count,
+                                    pf_error *err);
 
 /* ---- Workers ------------------------------------------------------------- */
 
@@ -355,7 +384,11 @@ pf_status pf_queue_retry(pf_queue *queue, int64_t job_id, int64_t *requeued, pf_
 
 struct pf_queue_job {
     int64_t job_id;
-    char status[16]; /* queued running paused done failed canceled */
+    /* queued running paused done failed canceled as stored, or as its prerequisites make
+     * it: "waiting" (queued, and a job it waits for as a whole has not finished) or
+     * "blocked" (queued or running, and a job it waits for, directly or through others
+     * that have not finished, failed or was canceled; note says which) */
+    char status[16];
     int priority;
     int max_attempts;
     int frames_per_task;
@@ -375,9 +408,13 @@ struct pf_queue_job {
     int64_t min_device_memory, min_host_memory;
     char required_tags[PF_QUEUE_TAGS_MAX];
     int qualified_live_workers;
+    /* The jobs it waits for with their status, "3 (done), 5 frame by frame (running)";
+     * "" when none. */
+    char prerequisites[256];
     /* "" or why the job cannot progress, e.g. "no eligible worker: all 2 live
      * workers are blocked for this job", "waiting: no live worker has a gpu with
-     * >= 24.0 GiB of device memory", or "paused: <pause reason>". */
+     * >= 24.0 GiB of device memory", "waiting for job 3 (running)", "blocked: job 3,
+     * which it waits for, failed ...", or "paused: <pause reason>". */
     char note[640];
 };
 

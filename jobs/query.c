@@ -129,7 +129,9 @@ static pf_status job_query_body(pf_queue *queue, void *context, pf_error *err)
     if (status == PF_OK && rc != QUEUE_DONE)
         status = queue_db_error(queue, err, "listing jobs");
     queue_finalize(stmt);
-    return status;
+    return status == PF_OK ? queue_dependencies_describe(queue, query->job_id, query->jobs.items,
+                                                         query->jobs.count, err)
+                           : status;
 }
 
 static pf_status run_job_query(pf_queue *queue, job_query *query, pf_error *err)

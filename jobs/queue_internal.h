@@ -213,4 +213,30 @@ pf_status queue_pg_transaction(pf_queue *queue, queue_pg_tx kind, const char *wh
     " LIKE '%,' || replace(replace(" J ".required_tags, '_', '\\_'), ',', ',%,') || ',%'"    \
     " ESCAPE '\\')"
 
+/*
+ * SQL: job row J waits for no unfinished job as a whole (issue 42): one probe of
+ * job_dependencies' primary key for a job without prerequisites.
+ */
+#define QUEUE_JOB_RELEASED(J)                                                                 \
+    "NOT EXISTS (SELECT 1 FROM job_dependencies d JOIN jobs p ON p.id = d.after_job"         \
+    " WHERE d.job_id = " J ".id AND d.per_frame = 0 AND p.status <> 'done')"
+
+/*
+ * SQL: task row T waits for no frame (issue 42): no task of a job that T's job waits for
+ * frame by frame overlaps T's frames without being done.
+ */
+#define QUEUE_TASK_RELEASED(T)                                                                \
+    "NOT EXISTS (SELECT 1 FROM job_dependencies d JOIN tasks p ON p.job_id = d.after_job"    \
+    " WHERE d.job_id = " T ".job_id AND d.per_frame = 1 AND p.status <> 'done'"             \
+    " AND p.first_frame <= " T ".last_frame AND p.last_frame >= " T ".first_frame)"
+
+/* Adds job_id's prerequisites, checked as pf_queue_add_dependencies says (inside a write
+ * transaction). */
+pf_status queue_dependencies_add(pf_queue *queue, int64_t job_id,
+                                 const pf_queue_dependency *after, size_t count, pf_error *err);
+/* Fills each job's prerequisites, and its status and note where they make it waiting or
+ * blocked (inside a read; jobs sorted by id, job_id 0: all of them). */
+pf_status queue_dependencies_describe(pf_queue *queue, int64_t job_id, pf_queue_job *jobs,
+                                      size_t count, pf_error *err);
+
 #endif

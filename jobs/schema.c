@@ -40,6 +40,16 @@
     "ALTER TABLE jobs ADD COLUMN min_host_memory " integer " NOT NULL DEFAULT 0;"            \
     "ALTER TABLE jobs ADD COLUMN required_tags TEXT NOT NULL DEFAULT '';"
 
+/* Version 6's table, on either engine (its integer type): which jobs a job waits for
+ * (issue 42). per_frame 0: every frame of after_job done; 1: frame n waits for after_job's
+ * tasks whose frames overlap it. No job is ever deleted, so after_job needs no cascade. */
+#define JOB_DEPENDENCIES(integer)                                                           \
+    "CREATE TABLE job_dependencies ("                                                        \
+    "  job_id " integer " NOT NULL REFERENCES jobs(id) ON DELETE CASCADE,"                  \
+    "  after_job " integer " NOT NULL REFERENCES jobs(id),"                                  \
+    "  per_frame INTEGER NOT NULL DEFAULT 0 CHECK (per_frame IN (0, 1)),"                    \
+    "  PRIMARY KEY (job_id, after_job));"
+
 /* Migration N (1-based) brings the schema from version N-1 to N. */
 static const char *const migrations[PF_QUEUE_SCHEMA_VERSION] = {
     "CREATE TABLE jobs ("
@@ -129,6 +139,8 @@ static const char *const migrations[PF_QUEUE_SCHEMA_VERSION] = {
     /* 5: each worker's capabilities (issue 42): its device's type and memory, the host's
      * memory and cores, and its tags ("a,b"); each job's requirements of them. */
     WORKER_CAPABILITIES("INTEGER"),
+    /* 6: job dependencies (issue 42). */
+    JOB_DEPENDENCIES("INTEGER"),
 };
 
 /*
@@ -218,13 +230,14 @@ static const char pg_schema[] =
     "  reason TEXT,"
     "  build TEXT);"
     "CREATE INDEX stage_timings_task ON stage_timings(task_id);"
-    WORKER_CAPABILITIES("BIGINT");
+    WORKER_CAPABILITIES("BIGINT") JOB_DEPENDENCIES("BIGINT");
 
 /* PostgreSQL from version N-1 to N, for N after PF_QUEUE_PG_FIRST_VERSION (the schema
  * above is the latest; a database created at an older version climbs these). */
 #define PF_QUEUE_PG_FIRST_VERSION 4
 static const char *const pg_migrations[PF_QUEUE_SCHEMA_VERSION + 1] = {
     [5] = WORKER_CAPABILITIES("BIGINT"),
+    [6] = JOB_DEPENDENCIES("BIGINT"),
 };
 
 static int64_t wall_clock_ms(void *user)

@@ -41,6 +41,7 @@ typedef struct enqueue_options {
     const char *requires;
     int64_t min_device_memory, min_host_memory;
     pf_cli_tags tags;
+    pf_cli_prerequisites after; /* --after, --after-frames */
 } enqueue_options;
 
 static int parse_options(int argc, char **argv, enqueue_options *options, int *help)
@@ -78,6 +79,12 @@ static int parse_options(int argc, char **argv, enqueue_options *options, int *h
         {"--tag", NULL, "NAME",
          "only workers with this tag (repeatable: all of them;\nworker --tag)", "none",
          pf_cli_store_tag, &options->tags, 0, 0, NULL},
+        {"--after", NULL, "JOB[,JOB]",
+         "its frames wait until these jobs are done (repeatable;\na failed one blocks it)",
+         "none", pf_cli_store_after, &options->after, 0, 0, NULL},
+        {"--after-frames", NULL, "JOB[,JOB]",
+         "frame n waits for frame n of these jobs (repeatable)", "none",
+         pf_cli_store_after_frames, &options->after, 0, 0, NULL},
         pf_cli_db_option(&options->db),
         pf_roots_option(&options->storage.scene),
         pf_roots_option(&options->storage.output),
@@ -287,7 +294,9 @@ int pf_cli_enqueue(int argc, char **argv)
                               options.requires,
                               options.min_device_memory,
                               options.min_host_memory,
-                              options.tags.text};
+                              options.tags.text,
+                              options.after.jobs,
+                              options.after.count};
     int64_t job_id = 0;
     pf_status status = pf_queue_enqueue(queue, &spec, &job_id, &err);
     /* Requirements no worker has ever met: enqueued all the same (one may join), but said. */

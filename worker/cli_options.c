@@ -216,3 +216,42 @@ int pf_cli_job_id(const char *command, const char *text, int required, int64_t *
         return pf_cli_fail(command, 2, "'%s' is not a job id (a positive integer)", text);
     return 0;
 }
+
+/* Appends every job id of value ("3,4") to the prerequisites, each waited for per_frame. */
+static int store_prerequisites(const char *command, const pf_cli_option *option,
+                               const char *value, bool per_frame)
+{
+    pf_cli_prerequisites *after = option->target;
+    const char *word = value;
+    for (;;) {
+        size_t length = strcspn(word, ",");
+        char text[24];
+        int64_t job_id = 0;
+        if (length == 0 || length >= sizeof text)
+            return pf_cli_fail(command, 2, "%s '%s': expected job ids, e.g. 3 or 3,4",
+                               option->name, value);
+        memcpy(text, word, length);
+        text[length] = '\0';
+        if (!pf_cli_parse_int(text, 1, INT64_MAX, &job_id))
+            return pf_cli_fail(command, 2, "%s '%s': '%s' is not a job id (a positive integer)",
+                               option->name, value, text);
+        if (after->count == PF_QUEUE_DEPENDENCIES_MAX)
+            return pf_cli_fail(command, 2, "%s: more than %d prerequisite jobs", option->name,
+                               PF_QUEUE_DEPENDENCIES_MAX);
+        after->jobs[after->count++] = (pf_queue_dependency){job_id, per_frame};
+        if (!word[length])
+            return 0;
+        word += length + 1;
+    }
+}
+
+int pf_cli_store_after(const char *command, const pf_cli_option *option, const char *value)
+{
+    return store_prerequisites(command, option, value, false);
+}
+
+int pf_cli_store_after_frames(const char *command, const pf_cli_option *option,
+                              const char *value)
+{
+    return store_prerequisites(command, option, value, true);
+}

@@ -29,6 +29,20 @@ const char *pf_cli_db_path(const char *given);
  */
 int pf_cli_open_queue(const char *command, const char *path, int must_exist, pf_queue **out);
 
+/*
+ * --after JOB[,JOB] and --after-frames JOB[,JOB], repeatable (enqueue, depend): the jobs
+ * a job waits for, as a whole (pf_cli_store_after) or frame by frame
+ * (pf_cli_store_after_frames). A word that is not a job id, or more than
+ * PF_QUEUE_DEPENDENCIES_MAX, is exit 2 naming it.
+ */
+typedef struct pf_cli_prerequisites {
+    pf_queue_dependency jobs[PF_QUEUE_DEPENDENCIES_MAX];
+    size_t count;
+} pf_cli_prerequisites;
+int pf_cli_store_after(const char *command, const pf_cli_option *option, const char *value);
+int pf_cli_store_after_frames(const char *command, const pf_cli_option *option,
+                              const char *value);
+
 /* Strict decimal integer in [min, max] (no trailing text). 1 on success. */
 int pf_cli_parse_int(const char *text, int64_t min, int64_t max, int64_t *out);
 

@@ -71,6 +71,8 @@ static void print_job(pf_queue *queue, const pf_queue_job *job, int64_t now,
                job->qualified_live_workers == 1 ? "" : "s",
                job->qualified_live_workers == 1 ? "ies" : "y");
     }
+    if (job->prerequisites[0])
+        printf("  after: job %s\n", job->prerequisites);
     if (job->note[0])
         printf("  note: %s\n", pf_cli_printable(job->note, shown[0], sizeof shown[0]));
 
@@ -106,11 +108,12 @@ static void print_job(pf_queue *queue, const pf_queue_job *job, int64_t now,
     }
 }
 
-/* Whether a job has ended: nothing of it will change any more. */
+/* Whether a job has ended: nothing of it will change any more unless someone acts (a
+ * blocked job waits for a retry of the job that blocks it, as a failed one does). */
 static int job_ended(const pf_queue_job *job)
 {
     return !strcmp(job->status, "done") || !strcmp(job->status, "failed") ||
-           !strcmp(job->status, "canceled");
+           !strcmp(job->status, "canceled") || !strcmp(job->status, "blocked");
 }
 
 /* One report of the job (or every job); *active says whether any shown job has not ended. */
@@ -166,8 +169,8 @@ int pf_cli_status(int argc, char **argv)
     const pf_cli_option options[] = {
         pf_cli_db_option(&db),
         {"--watch", NULL, "SECONDS",
-         "report again every SECONDS until every job shown has ended\n(done, failed or "
-         "canceled) or Ctrl-C; on a terminal in place",
+         "report again every SECONDS until every job shown has ended\n(done, failed, "
+         "canceled, or blocked by one that did) or Ctrl-C;\non a terminal in place",
          "once", pf_cli_store_int, &watch, 1, MAX_WATCH_SECONDS, NULL},
         pf_roots_option(&storage.scene), pf_roots_option(&storage.output)};
     pf_cli_command command = {

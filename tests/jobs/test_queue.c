@@ -1166,6 +1166,213 @@ PF_TEST(claims_follow_the_jobs_requirements)
     pf_queue_close(queue);
 }
 
+static int64_t enqueue_after(pf_queue *queue, const char *range, int priority,
+                             const pf_queue_dependency *after, size_t after_count)
+{
+    pf_queue_job_spec spec = {.scene_path = "scenes/box.gltf",
+                              .frame_range = range,
+                              .output_pattern = "out/g_####.exr",
+                              .priority = priority,
+                              .max_attempts = 1,
+                              .after = after,
+                              .after_count = after_count};
+    pf_error err = {0};
+    int64_t job_id = 0;
+    PF_CHECK_OK(pf_queue_enqueue(queue, &spec, &job_id, &err), &err);
+    return job_id;
+}
+
+static void check_note(pf_queue *queue, int64_t job_id, const char *status, const char *note)
+{
+    pf_queue_job job = job_get(queue, job_id);
+    PF_CHECK_MSG(!strcmp(job.status, status) && strstr(job.note, note),
+                 "job %lld: %s, note \"%s\"; expected %s, \"%s\"", (long long)job_id, job.status,
+                 job.note, status, note);
+    pf_queue_job_clear(&job);
+}
+
+/*
+ * --after (issue 42): a job waits, whatever its priority, until its prerequisite is done,
+ * its status saying so, and then runs.
+ */
+PF_TEST(a_dependent_job_waits_then_runs)
+{
+    pf_queue *queue = open_fresh("dependent");
+    PF_REQUIRE(queue);
+    int64_t worker = register_worker(queue, "w");
+    int64_t plates = enqueue_after(queue, "1-2", 0, NULL, 0);
+    pf_queue_dependency after = {plates, false};
+    int64_t comp = enqueue_after(queue, "1-2", 10, &after, 1);
+    char waiting[64];
+    snprintf(waiting, sizeof waiting, "waiting for job %lld (queued)", (long long)plates);
+    check_note(queue, comp, "waiting", waiting);
+    pf_queue_task first = claim(queue, worker, 0, 0);
+    PF_CHECK_MSG(first.job_id == plates, "claimed job %lld", (long long)first.job_id);
+    pf_queue_task second = claim(queue, worker, 0, 0);
+    PF_CHECK_MSG(second.job_id == plates, "claimed job %lld", (long long)second.job_id);
+    PF_CHECK(claim(queue, worker, 0, 0).task_id == 0); /* comp waits */
+    snprintf(waiting, sizeof waiting, "waiting for job %lld (running)", (long long)plates);
+    check_note(queue, comp, "waiting", waiting);
+    complete_plain(queue, &first);
+    PF_CHECK(claim(queue, worker, 0, 0).task_id == 0); /* one frame of plates is not enough */
+    complete_plain(queue, &second);
+    check_job_status(queue, plates, "done");
+    pf_queue_job job = job_get(queue, comp);
+    PF_CHECK_MSG(!strcmp(job.status, "queued") && !job.note[0], "%s, %s", job.status, job.note);
+    char prerequisites[64];
+    snprintf(prerequisites, sizeof prerequisites, "%lld (done)", (long long)plates);
+    PF_CHECK_MSG(!strcmp(job.prerequisites, prerequisites), "%s", job.prerequisites);
+    pf_queue_job_clear(&job);
+    pf_queue_task task = claim(queue, worker, 0, 0);
+    PF_CHECK_MSG(task.job_id == comp, "claimed job %lld", (long long)task.job_id);
+    pf_queue_close(queue);
+}
+
+/*
+ * A failed or canceled prerequisite blocks its dependents, directly or through others,
+ * with the reason; a retry of it lifts the block.
+ */
+PF_TEST(a_failed_prerequisite_blocks_its_dependents)
+{
+    pf_queue *queue = open_fresh("blocked");
+    PF_REQUIRE(queue);
+    pf_error err = {0};
+    int64_t worker = register_worker(queue, "w");
+    int64_t first = enqueue_after(queue, "1", 0, NULL, 0);
+    pf_queue_dependency after = {first, false};
+    int64_t second = enqueue_after(queue, "1", 0, &after, 1);
+    after.job_id = second;
+    int64_t third = enqueue_after(queue, "1-2", 0, &after, 1);
+    pf_queue_task task = claim(queue, worker, 0, 0);
+    PF_REQUIRE(task.job_id == first);
+    PF_CHECK_OK(pf_queue_fail(queue, task.lease_token, "out of memory", &err), &err);
+    check_job_status(queue, first, "failed");
+    char reason[128];
+    snprintf(reason, sizeof reason, "blocked: job %lld, which it waits for, failed",
+             (long long)first);
+    check_note(queue, second, "blocked", reason);
+    snprintf(reason, sizeof reason, "blocked: job %lld, which it waits for through others, "
+             "failed", (long long)first);
+    check_note(queue, third, "blocked", reason);
+    PF_CHECK(claim(queue, worker, 0, 0).task_id == 0);
+    /* A retry makes them wait again, and a cancel blocks them with that reason. */
+    PF_CHECK_OK(pf_queue_retry(queue, first, NULL, &err), &err);
+    check_job_status(queue, second, "waiting");
+    check_job_status(queue, third, "waiting");
+    PF_CHECK_OK(pf_queue_cancel(queue, first, &err), &err);
+    snprintf(reason, sizeof reason, "job %lld, which it waits for, canceled", (long long)first);
+    check_note(queue, second, "blocked", reason);
+    PF_CHECK(claim(queue, worker, 0, 0).task_id == 0);
+    /* The blocked job itself can still be canceled. */
+    PF_CHECK_OK(pf_queue_cancel(queue, third, &err), &err);
+    check_job_status(queue, third, "canceled");
+    pf_queue_close(queue);
+}
+
+/* --after-frames: frame n of the dependent is claimable once frame n of the other is done. */
+PF_TEST(after_frames_releases_frame_n_after_frame_n)
+{
+    pf_queue *queue = open_fresh("after_frames");
+    PF_REQUIRE(queue);
+    int64_t worker = register_worker(queue, "w");
+    int64_t plates = enqueue_after(queue, "1-3", 0, NULL, 0);
+    pf_queue_dependency after = {plates, true};
+    /* Two frames a task: 1-2 waits for plates' 1 and 2, 3 for plates' 3. */
+    pf_queue_job_spec spec = {.scene_path = "scenes/box.gltf",
+                              .frame_range = "1-3",
+                              .output_pattern = "out/g_####.exr",
+                              .priority = 10,
+                              .frames_per_task = 2,
+                              .after = &after,
+                              .after_count = 1};
+    pf_error err = {0};
+    int64_t comp = 0;
+    PF_CHECK_OK(pf_queue_enqueue(queue, &spec, &comp, &err), &err);
+    check_job_status(queue, comp, "queued"); /* frame by frame: not waiting as a whole */
+    pf_queue_task plate[3];
+    for (int i = 0; i < 3; i++) {
+        plate[i] = claim(queue, worker, 0, 0);
+        PF_CHECK_MSG(plate[i].job_id == plates && plate[i].first_frame == i + 1,
+                     "claim %d: job %lld frame %d", i, (long long)plate[i].job_id,
+                     plate[i].first_frame);
+    }
+    complete_plain(queue, &plate[2]); /* plates' frame 3: comp's 3 is free, 1-2 are not */
+    pf_queue_task task = claim(queue, worker, 0, 0);
+    PF_CHECK_MSG(task.job_id == comp && task.first_frame == 3, "job %lld frame %d",
+                 (long long)task.job_id, task.first_frame);
+    complete_plain(queue, &plate[0]);
+    PF_CHECK(claim(queue, worker, 0, 0).task_id == 0); /* 1-2 still waits for plates' 2 */
+    complete_plain(queue, &plate[1]);
+    task = claim(queue, worker, 0, 0);
+    PF_CHECK_MSG(task.job_id == comp && task.first_frame == 1 && task.frame_count == 2,
+                 "job %lld frame %d", (long long)task.job_id, task.first_frame);
+    pf_queue_close(queue);
+}
+
+static size_t job_count(pf_queue *queue)
+{
+    pf_queue_job *jobs = NULL;
+    size_t count = 0;
+    pf_error err = {0};
+    PF_CHECK_OK(pf_queue_job_list(queue, &jobs, &count, &err), &err);
+    pf_queue_job_list_free(jobs, count);
+    return count;
+}
+
+/* Cycles, unknown jobs, repeats and ended jobs are refused, and nothing is added. */
+PF_TEST(dependency_cycles_and_unknown_jobs_are_refused)
+{
+    pf_queue *queue = open_fresh("cycles");
+    PF_REQUIRE(queue);
+    pf_error err = {0};
+    int64_t a = enqueue_after(queue, "1", 0, NULL, 0);
+    pf_queue_dependency after = {a, false};
+    int64_t b = enqueue_after(queue, "1", 0, &after, 1);
+    after.job_id = b;
+    int64_t c = enqueue_after(queue, "1", 0, &after, 1);
+    pf_queue_dependency back = {b, false};
+    PF_CHECK(pf_queue_add_dependencies(queue, a, &back, 1, &err) == PF_ERR_INVALID);
+    PF_CHECK_MSG(strstr(err.message, "cycle") != NULL, "%s", err.message);
+    back.job_id = c; /* a ← b ← c ← a, through b */
+    PF_CHECK(pf_queue_add_dependencies(queue, a, &back, 1, &err) == PF_ERR_INVALID);
+    PF_CHECK_MSG(strstr(err.message, "cycle") != NULL, "%s", err.message);
+    back.job_id = a;
+    PF_CHECK(pf_queue_add_dependencies(queue, a, &back, 1, &err) == PF_ERR_INVALID);
+    PF_CHECK_MSG(strstr(err.message, "itself") != NULL, "%s", err.message);
+    PF_CHECK(pf_queue_add_dependencies(queue, b, &back, 1, &err) == PF_ERR_INVALID);
+    PF_CHECK_MSG(strstr(err.message, "already waits") != NULL, "%s", err.message);
+    /* Two prerequisites, the second unknown: neither is added. */
+    pf_queue_dependency two[2] = {{a, false}, {999, true}};
+    PF_CHECK(pf_queue_add_dependencies(queue, c, two, 2, &err) == PF_ERR_INVALID);
+    PF_CHECK_MSG(strstr(err.message, "no job 999") != NULL, "%s", err.message);
+    pf_queue_job job = job_get(queue, c);
+    char expected[32];
+    snprintf(expected, sizeof expected, "%lld (queued)", (long long)b);
+    PF_CHECK_MSG(!strcmp(job.prerequisites, expected), "%s", job.prerequisites);
+    pf_queue_job_clear(&job);
+    /* An enqueue after an unknown job, or after one named twice, inserts nothing. */
+    size_t jobs_before = job_count(queue);
+    pf_queue_job_spec spec = {.scene_path = "s.gltf", .frame_range = "1",
+                              .output_pattern = "o", .after = two, .after_count = 2};
+    int64_t job_id = 0;
+    PF_CHECK(pf_queue_enqueue(queue, &spec, &job_id, &err) == PF_ERR_INVALID);
+    two[1].job_id = a;
+    PF_CHECK(pf_queue_enqueue(queue, &spec, &job_id, &err) == PF_ERR_INVALID);
+    PF_CHECK_MSG(strstr(err.message, "twice") != NULL, "%s", err.message);
+    PF_CHECK(job_count(queue) == jobs_before);
+    /* A job that has ended waits for nothing. */
+    PF_CHECK_OK(pf_queue_cancel(queue, c, &err), &err);
+    after.job_id = a;
+    PF_CHECK(pf_queue_add_dependencies(queue, c, &after, 1, &err) == PF_ERR_INVALID);
+    PF_CHECK_MSG(strstr(err.message, "has ended") != NULL, "%s", err.message);
+    /* A later dependency that makes no cycle is taken: a waits for a new job d. */
+    int64_t d = enqueue_after(queue, "1", 0, NULL, 0);
+    after.job_id = d;
+    PF_CHECK_OK(pf_queue_add_dependencies(queue, a, &after, 1, &err), &err);
+    check_job_status(queue, a, "waiting");
+    pf_queue_close(queue);
+}
+
 /*
  * PostgreSQL only: a URL that cannot be used is bad input naming the cause
  * and never the password; a schema from a newer photonfarm is refused.
@@ -1270,6 +1477,10 @@ int main(void)
     PF_RUN(workers_are_dead_after_their_own_lease);
     PF_RUN(workers_record_their_capabilities);
     PF_RUN(claims_follow_the_jobs_requirements);
+    PF_RUN(a_dependent_job_waits_then_runs);
+    PF_RUN(a_failed_prerequisite_blocks_its_dependents);
+    PF_RUN(after_frames_releases_frame_n_after_frame_n);
+    PF_RUN(dependency_cycles_and_unknown_jobs_are_refused);
     PF_RUN(enqueue_conflicts_are_decided_under_the_write_lock);
     PF_RUN(postgres_bad_urls_and_newer_schema_are_refused);
     PF_RUN(postgres_reconnect_keeps_the_lock_timeout);

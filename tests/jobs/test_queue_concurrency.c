@@ -1,10 +1,13 @@
 /*
  * Atomic claims across processes: 4 forked workers on one database claim and
- * complete 200 one-frame tasks at once, and 40 more of a job that requires a
- * GPU and a tag (issue 42), which only the two workers registered with both
- * may take. Every task must be completed exactly once (each child logs what it
- * completed), none lost, every completion's stage rows present exactly once,
- * and no task of the demanding job done by a worker that does not meet it.
+ * complete 200 one-frame tasks at once, 40 more of a job that requires a GPU
+ * and a tag (issue 42), which only the two workers registered with both may
+ * take, 20 of a job that waits for the first one (--after) and 40 of one whose
+ * frame n waits for the demanding job's frame n (--after-frames). Every task
+ * must be completed exactly once (each child logs what it completed), none
+ * lost, every completion's stage rows present exactly once, no task of the
+ * demanding job done by a worker that does not meet it, and no waiting frame
+ * claimed before what it waits for was done.
  */
 #include "queue_test_util.h"
 
@@ -18,7 +21,12 @@
 #define FRAME_COUNT 200
 /* The second job's frames: task ids FRAME_COUNT + 1 .. TASK_COUNT. */
 #define GPU_FRAME_COUNT 40
-#define TASK_COUNT (FRAME_COUNT + GPU_FRAME_COUNT)
+/* The third (after the first) and fourth (frame by frame after the second). */
+#define AFTER_FRAME_COUNT 20
+#define AFTER_FRAMES_FRAME_COUNT GPU_FRAME_COUNT
+#define TASK_COUNT (FRAME_COUNT + GPU_FRAME_COUNT + AFTER_FRAME_COUNT + AFTER_FRAMES_FRAME_COUNT)
+/* A worker that finds nothing to claim while frames still wait polls again after this. */
+#define WAIT_POLL_NS 2000000L
 #define STAGES_PER_FRAME 2
 /* Stand-in for rendering a tiny frame, outside any transaction as a real
  * worker's render is; without it one process can win every lock in a row
@@ -63,8 +71,13 @@ static int run_child(const char *db_path, const char *log_path, int index, int s
             result = CHILD_QUEUE_ERROR;
             break;
         }
-        if (!claimed)
+        if (!claimed && queue_test_query_int(db_path, "SELECT count(*) FROM tasks WHERE "
+                                                      "status = 'queued'") == 0)
             break; /* every task is claimed: the others finish theirs */
+        if (!claimed) { /* frames that wait for others' */
+            nanosleep(&(struct timespec){0, WAIT_POLL_NS}, NULL);
+            continue;
+        }
         nanosleep(&(struct timespec){0, RENDER_PAUSE_NS}, NULL);
         pf_queue_stage_row rows[STAGES_PER_FRAME] = {
             {task.first_frame, "render", task.first_frame * 0.5, 1.0, NULL, false, NULL},
@@ -110,6 +123,16 @@ PF_TEST(four_processes_complete_each_task_exactly_once)
                                    .required_tags = "farm-a"};
     int64_t demanding_id = 0;
     PF_REQUIRE_OK(pf_queue_enqueue(queue, &demanding, &demanding_id, &err), &err);
+    pf_queue_dependency after_first = {job_id, false}, after_frames = {demanding_id, true};
+    pf_queue_job_spec waiting = {.scene_path = "comp.gltf", .frame_range = "1-20",
+                                 .output_pattern = "comp_####.exr", .priority = 5,
+                                 .after = &after_first, .after_count = 1};
+    int64_t waiting_id = 0, frame_waiting_id = 0;
+    PF_REQUIRE_OK(pf_queue_enqueue(queue, &waiting, &waiting_id, &err), &err);
+    pf_queue_job_spec frame_waiting = {.scene_path = "grade.gltf", .frame_range = "1-40",
+                                       .output_pattern = "grade_####.exr", .priority = 5,
+                                       .after = &after_frames, .after_count = 1};
+    PF_REQUIRE_OK(pf_queue_enqueue(queue, &frame_waiting, &frame_waiting_id, &err), &err);
     pf_queue_close(queue); /* a connection must not cross fork() */
 
     char log_paths[WORKER_COUNT][1200];
@@ -176,7 +199,7 @@ PF_TEST(four_processes_complete_each_task_exactly_once)
     PF_CHECK(count(db_path, "SELECT count(DISTINCT task_id) FROM stage_timings") == TASK_COUNT);
     PF_CHECK(count(db_path, "SELECT count(*) FROM stage_timings s JOIN tasks t ON t.id = "
                            "s.task_id WHERE s.frame != t.first_frame") == 0);
-    PF_CHECK(count(db_path, "SELECT count(*) FROM jobs WHERE status = 'done'") == 2);
+    PF_CHECK(count(db_path, "SELECT count(*) FROM jobs WHERE status = 'done'") == 4);
     /* Not one of the demanding job's frames went to a worker without a GPU and the tag. */
     char sql[256];
     snprintf(sql, sizeof sql,
@@ -188,6 +211,22 @@ PF_TEST(four_processes_complete_each_task_exactly_once)
              "SELECT count(*) FROM tasks WHERE job_id = %lld AND status = 'done'",
              (long long)demanding_id);
     PF_CHECK(count(db_path, sql) == GPU_FRAME_COUNT);
+    /* No frame of the third job claimed before the first job's last frame was done, and
+     * no frame n of the fourth before the second's frame n (times in ms: equal is after). */
+    snprintf(sql, sizeof sql,
+             "SELECT count(*) FROM tasks t WHERE t.job_id = %lld AND t.started_at < "
+             "(SELECT max(p.finished_at) FROM tasks p WHERE p.job_id = %lld)",
+             (long long)waiting_id, (long long)job_id);
+    PF_CHECK(count(db_path, sql) == 0);
+    snprintf(sql, sizeof sql,
+             "SELECT count(*) FROM tasks t JOIN tasks p ON p.job_id = %lld AND "
+             "p.first_frame = t.first_frame WHERE t.job_id = %lld AND "
+             "t.started_at < p.finished_at",
+             (long long)demanding_id, (long long)frame_waiting_id);
+    PF_CHECK(count(db_path, sql) == 0);
+    snprintf(sql, sizeof sql, "SELECT count(*) FROM tasks WHERE job_id IN (%lld, %lld) AND "
+             "status = 'done'", (long long)waiting_id, (long long)frame_waiting_id);
+    PF_CHECK(count(db_path, sql) == AFTER_FRAME_COUNT + AFTER_FRAMES_FRAME_COUNT);
 }
 
 int main(void)

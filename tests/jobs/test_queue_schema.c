@@ -338,7 +338,7 @@ PF_TEST(sqlite_migrations_and_the_postgres_schema_agree)
     /* The tables the queue needs are all there (a reading that found nothing agrees too). */
     static const char *const tables[] = {"jobs",          "workers",       "tasks",
                                          "task_failures", "worker_blocks", "stage_timings",
-                                         "schema_version"};
+                                         "job_dependencies", "schema_version"};
     for (size_t t = 0; t < sizeof tables / sizeof *tables; t++) {
         char line[SCHEMA_LINE_MAX];
         snprintf(line, sizeof line, "%s: primary key (", tables[t]);
@@ -350,9 +350,9 @@ PF_TEST(sqlite_migrations_and_the_postgres_schema_agree)
 }
 
 /*
- * PostgreSQL only: a database made at version 4 (before the workers' capabilities and the
- * jobs' requirements) climbs to
- * the latest on open, and ends with the schema a fresh one has.
+ * PostgreSQL only: a database made at version 4 (before the workers' capabilities, the
+ * jobs' requirements and the job dependencies) climbs to the latest on open, and ends with
+ * the schema a fresh one has.
  */
 PF_TEST(a_version_4_postgres_database_migrates_to_the_latest)
 {
@@ -367,8 +367,8 @@ PF_TEST(a_version_4_postgres_database_migrates_to_the_latest)
     pf_error err = {0};
     PF_REQUIRE_OK(pf_queue_open(url, NULL, &queue, &err), &err);
     pf_queue_close(queue);
-    /* Back to version 4 as PostgreSQL support began it: one row, version 4, and no
-     * version 5 columns. */
+    /* Back to version 4 as PostgreSQL support began it: one row, version 4, no version 5
+     * columns and no version 6 table. */
     PGconn *conn = PQconnectdb(url);
     PF_REQUIRE(PQstatus(conn) == CONNECTION_OK);
     PGresult *result = PQexec(conn,
@@ -376,8 +376,8 @@ PF_TEST(a_version_4_postgres_database_migrates_to_the_latest)
                               "device_memory, DROP COLUMN host_memory, DROP COLUMN cores, "
                               "DROP COLUMN tags; ALTER TABLE jobs DROP COLUMN requires_device, "
                               "DROP COLUMN min_device_memory, DROP COLUMN min_host_memory, "
-                              "DROP COLUMN required_tags; "
-                              "DELETE FROM schema_version WHERE version = 5; "
+                              "DROP COLUMN required_tags; DROP TABLE job_dependencies; "
+                              "DELETE FROM schema_version WHERE version >= 5; "
                               "INSERT INTO schema_version (version, applied_at) VALUES (4, 0) "
                               "ON CONFLICT DO NOTHING");
     PF_CHECK_MSG(PQresultStatus(result) == PGRES_COMMAND_OK, "%s", PQerrorMessage(conn));

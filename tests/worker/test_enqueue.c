@@ -134,6 +134,69 @@ PF_TEST(requirements_are_stored_shown_and_warned_about)
     PF_CHECK(wt_run(args, log_path) == 0);
 }
 
+/*
+ * Job dependencies from the command line (issue 42): enqueue --after and depend store
+ * them, status shows them and the waiting or blocked state, and an unknown job, a bad id
+ * or a cycle is exit 2 with nothing added.
+ */
+PF_TEST(dependencies_are_stored_shown_and_checked)
+{
+    char args[8 * WT_PATH_MAX];
+    wt_format(args, sizeof args,
+              "enqueue '%s' --frames 1 --out '%s/plate.exr' --size 16x12 --quality preview "
+              "--db '%s'",
+              scene, out_dir, db);
+    int64_t plate = enqueue_job(args);
+    PF_REQUIRE(plate >= 1);
+    wt_format(args, sizeof args,
+              "enqueue '%s' --frames 1 --out '%s/comp.exr' --size 16x12 --quality preview "
+              "--after %lld --db '%s'",
+              scene, out_dir, (long long)plate, db);
+    int64_t comp = enqueue_job(args);
+    PF_REQUIRE(comp >= 1);
+    char text[128];
+    wt_format(args, sizeof args, "status %lld --db '%s'", (long long)comp, db);
+    PF_CHECK(wt_run(args, log_path) == 0);
+    PF_CHECK(wt_file_contains(log_path, "waiting"));
+    wt_format(text, sizeof text, "after: job %lld (queued)", (long long)plate);
+    PF_CHECK(wt_file_contains(log_path, text));
+    wt_format(text, sizeof text, "note: waiting for job %lld (queued)", (long long)plate);
+    PF_CHECK(wt_file_contains(log_path, text));
+
+    int64_t jobs_before = job_count();
+    static const char *const refused[][2] = {
+        {"enqueue '%s' --frames 1 --out '%s/x.exr' --after 99999 --db '%s'", "no job 99999"},
+        {"enqueue '%s' --frames 1 --out '%s/x.exr' --after 1,two --db '%s'",
+         "'two' is not a job id"},
+        {"enqueue '%s' --frames 1 --out '%s/x.exr' --after-frames 0 --db '%s'",
+         "'0' is not a job id"},
+    };
+    for (size_t i = 0; i < sizeof refused / sizeof refused[0]; i++) {
+        wt_format(args, sizeof args, refused[i][0], scene, out_dir, db);
+        PF_CHECK_MSG(wt_run(args, log_path) == 2, "%s", refused[i][0]);
+        PF_CHECK_MSG(wt_file_contains(log_path, refused[i][1]), "%s", refused[i][1]);
+    }
+    PF_CHECK(job_count() == jobs_before);
+    /* The plate waiting for the comp would be a cycle. */
+    wt_format(args, sizeof args, "depend %lld --after %lld --db '%s'", (long long)plate,
+              (long long)comp, db);
+    PF_CHECK(wt_run(args, log_path) == 2);
+    PF_CHECK(wt_file_contains(log_path, "cycle"));
+    wt_format(args, sizeof args, "depend %lld --db '%s'", (long long)plate, db);
+    PF_CHECK(wt_run(args, log_path) == 2);
+    PF_CHECK(wt_file_contains(log_path, "no prerequisite given"));
+    /* A canceled plate blocks the comp, and a watch of it ends: nothing changes by itself. */
+    wt_format(args, sizeof args, "cancel %lld --db '%s'", (long long)plate, db);
+    PF_CHECK(wt_run(args, log_path) == 0);
+    wt_format(args, sizeof args, "status %lld --watch 1 --db '%s'", (long long)comp, db);
+    PF_CHECK(wt_run(args, log_path) == 0);
+    wt_format(text, sizeof text, "blocked: job %lld, which it waits for, canceled",
+              (long long)plate);
+    PF_CHECK(wt_file_contains(log_path, text));
+    wt_format(args, sizeof args, "cancel %lld --db '%s'", (long long)comp, db);
+    PF_CHECK(wt_run(args, log_path) == 0);
+}
+
 /* How many times text occurs in path's content. */
 static int occurrences(const char *path, const char *text)
 {
@@ -465,7 +528,8 @@ PF_TEST(every_subcommand_shares_help_errors_and_exit_codes)
 {
     static const char *const commands[] = {"render", "enqueue", "worker",  "status",
                                            "timings", "cancel", "pause",   "resume",
-                                           "retry",  "workers", "devices", "compare"};
+                                           "retry",  "workers", "devices", "compare",
+                                           "depend"};
     char args[256];
     for (size_t i = 0; i < sizeof commands / sizeof commands[0]; i++) {
         wt_format(args, sizeof args, "%s --help", commands[i]);
@@ -553,6 +617,7 @@ int main(void)
     wt_write_tiny_scene(scene, 3);
     PF_RUN(enqueue_inserts_a_validated_job_and_prints_its_id);
     PF_RUN(requirements_are_stored_shown_and_warned_about);
+    PF_RUN(dependencies_are_stored_shown_and_checked);
     PF_RUN(status_watch_reports_until_the_jobs_end);
     PF_RUN(bad_input_exits_2_and_inserts_nothing);
     PF_RUN(corrupt_or_foreign_database_exits_2_and_is_untouched);
