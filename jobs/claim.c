@@ -300,6 +300,8 @@ typedef struct token_context {
     pf_status (*settle)(pf_queue *queue, int64_t task_id, const char *error_text, pf_error *err);
     const pf_queue_stage_row *rows;
     size_t row_count;
+    const pf_queue_frame_resources *frames; /* complete: each frame's resources */
+    size_t frame_count;
     bool repeated;
     int64_t job_id; /* complete: the task's job */
 } token_context;
@@ -536,6 +538,10 @@ static pf_status complete_body(pf_queue *queue, void *context, pf_error *err)
     ctx->job_id = task.job_id;
     for (size_t i = 0; i < ctx->row_count && status == PF_OK; i++)
         status = check_stage_frame(queue, &task, &ctx->rows[i], i, err);
+    if (status == PF_OK && ctx->frame_count > 0)
+        status = queue_frame_resources_store(queue, task.task_id, task.attempt, task.first_frame,
+                                             task.last_frame, task.frame_step, ctx->frames,
+                                             ctx->frame_count, err);
     if (status != PF_OK)
         return status;
     if (!queue->pg)
@@ -556,7 +562,16 @@ static pf_status complete_settle(pf_queue *queue, void *context, pf_error *err)
 pf_status pf_queue_complete(pf_queue *queue, const char *token, const pf_queue_stage_row *rows,
                             size_t row_count, bool *repeated, pf_error *err)
 {
-    token_context ctx = {.token = token, .rows = rows, .row_count = row_count};
+    return pf_queue_complete_frames(queue, token, rows, row_count, NULL, 0, repeated, err);
+}
+
+pf_status pf_queue_complete_frames(pf_queue *queue, const char *token,
+                                   const pf_queue_stage_row *rows, size_t row_count,
+                                   const pf_queue_frame_resources *frames, size_t frame_count,
+                                   bool *repeated, pf_error *err)
+{
+    token_context ctx = {.token = token, .rows = rows, .row_count = row_count,
+                         .frames = frames, .frame_count = frame_count};
     /*
      * Completions running side by side (PostgreSQL) would each derive the
      * job's status without seeing the others' uncommitted tasks: the last two

@@ -307,6 +307,24 @@ typedef struct pf_queue_stage_row {
 pf_status pf_queue_complete(pf_queue *queue, const char *token, const pf_queue_stage_row *rows,
                             size_t row_count, bool *repeated, pf_error *err);
 
+/* What one frame took (issue 42), in bytes; -1: not measured. */
+typedef struct pf_queue_frame_resources {
+    int32_t frame;              /* one of the task's frames, at most one entry each */
+    int64_t peak_rss;           /* the worker's peak resident memory during the frame */
+    int64_t peak_device_memory; /* its device's peak memory during the frame */
+    int64_t bytes_written;      /* the frame's file */
+} pf_queue_frame_resources;
+
+/*
+ * pf_queue_complete, and each frame's resources stored beside its stage rows in the same
+ * transaction. A frame outside the task or listed twice, or a value below -1, is
+ * PF_ERR_INVALID naming it, nothing written.
+ */
+pf_status pf_queue_complete_frames(pf_queue *queue, const char *token,
+                                   const pf_queue_stage_row *rows, size_t row_count,
+                                   const pf_queue_frame_resources *frames, size_t frame_count,
+                                   bool *repeated, pf_error *err);
+
 /*
  * Records a failure of the task holding token (a task_failures row with the
  * attempt, worker and error text) and either requeues it eligible after
@@ -411,6 +429,11 @@ struct pf_queue_job {
     /* The jobs it waits for with their status, "3 (done), 5 frame by frame (running)";
      * "" when none. */
     char prerequisites[256];
+    /* Its failures that ran out of memory (host or device: the error says "out of ...
+     * memory"), and the most memory any of its completed frames took (bytes; 0: none
+     * recorded), from which status suggests --min-memory. */
+    int64_t memory_failures;
+    int64_t peak_rss_max, peak_device_memory_max;
     /* "" or why the job cannot progress, e.g. "no eligible worker: all 2 live
      * workers are blocked for this job", "waiting: no live worker has a gpu with
      * >= 24.0 GiB of device memory", "waiting for job 3 (running)", "blocked: job 3,
@@ -531,6 +554,9 @@ typedef struct pf_queue_timings {
     size_t decision_count;
     pf_queue_build_count *builds;       /* first recorded first */
     size_t build_count;
+    /* Per frame, over the frames whose resources were recorded (pf_queue_complete_frames;
+     * a value not measured left out), in bytes. */
+    pf_queue_stat peak_rss, peak_device_memory, bytes_written;
 } pf_queue_timings;
 
 /*
@@ -542,5 +568,37 @@ typedef struct pf_queue_timings {
 pf_status pf_queue_timings_get(pf_queue *queue, int64_t job_id, size_t slowest_n,
                                pf_queue_timings *out, pf_error *err);
 void pf_queue_timings_free(pf_queue_timings *timings);
+
+/* One stage row of a frame (pf_queue_frame_details). */
+typedef struct pf_queue_frame_stage {
+    char stage[PF_QUEUE_STAGE_NAME_MAX];
+    double wall_ms;
+    bool skipped;
+    char decision[PF_QUEUE_DECISION_MAX]; /* its reason up to the first ':'; "" when none */
+} pf_queue_frame_stage;
+
+/* One completed frame: who rendered it, what it took, its stage rows. */
+typedef struct pf_queue_frame_detail {
+    int64_t task_id;
+    int32_t frame;
+    int attempt;                         /* the attempt that completed it */
+    char worker_name[PF_QUEUE_NAME_MAX]; /* "" when unknown */
+    int64_t peak_rss, peak_device_memory, bytes_written; /* bytes; -1: not recorded */
+    double wall_ms;                      /* its stages that ran */
+    size_t first_stage, stage_count;     /* its rows in pf_queue_frame_details.stages */
+} pf_queue_frame_detail;
+
+typedef struct pf_queue_frame_details {
+    pf_queue_frame_detail *frames; /* by frame, then task */
+    size_t frame_count;
+    pf_queue_frame_stage *stages;  /* in the order each frame recorded them */
+    size_t stage_count;
+} pf_queue_frame_details;
+
+/* Every completed frame of the job (timings --frames). Unknown job → PF_ERR_INVALID. Free
+ * with pf_queue_frame_details_free. */
+pf_status pf_queue_frame_details_get(pf_queue *queue, int64_t job_id,
+                                     pf_queue_frame_details *out, pf_error *err);
+void pf_queue_frame_details_free(pf_queue_frame_details *details);
 
 #endif

@@ -230,6 +230,13 @@ pf_status queue_pg_transaction(pf_queue *queue, queue_pg_tx kind, const char *wh
     " WHERE d.job_id = " T ".job_id AND d.per_frame = 1 AND p.status <> 'done'"             \
     " AND p.first_frame <= " T ".last_frame AND p.last_frame >= " T ".first_frame)"
 
+/* Stores a completing task's frames' resources (inside its completion's transaction),
+ * refusing a frame outside first..last by step, one listed twice, or a value below -1. */
+pf_status queue_frame_resources_store(pf_queue *queue, int64_t task_id, int attempt,
+                                      int32_t first_frame, int32_t last_frame, int32_t frame_step,
+                                      const pf_queue_frame_resources *frames, size_t count,
+                                      pf_error *err);
+
 /* Adds job_id's prerequisites, checked as pf_queue_add_dependencies says (inside a write
  * transaction). */
 pf_status queue_dependencies_add(pf_queue *queue, int64_t job_id,

@@ -40,15 +40,26 @@
     "ALTER TABLE jobs ADD COLUMN min_host_memory " integer " NOT NULL DEFAULT 0;"            \
     "ALTER TABLE jobs ADD COLUMN required_tags TEXT NOT NULL DEFAULT '';"
 
-/* Version 6's table, on either engine (its integer type): which jobs a job waits for
- * (issue 42). per_frame 0: every frame of after_job done; 1: frame n waits for after_job's
- * tasks whose frames overlap it. No job is ever deleted, so after_job needs no cascade. */
+/* Version 6's tables, on either engine (its integer type), both issue 42's. Which jobs a
+ * job waits for: per_frame 0, every frame of after_job done; 1, frame n waits for
+ * after_job's tasks whose frames overlap it (no job is ever deleted, so after_job needs
+ * no cascade). What each completed frame took: the worker's peak resident memory and its
+ * device's peak memory during the frame, and the bytes of the frame's file (bytes; -1:
+ * not measured). */
 #define JOB_DEPENDENCIES(integer)                                                           \
     "CREATE TABLE job_dependencies ("                                                        \
     "  job_id " integer " NOT NULL REFERENCES jobs(id) ON DELETE CASCADE,"                  \
     "  after_job " integer " NOT NULL REFERENCES jobs(id),"                                  \
     "  per_frame INTEGER NOT NULL DEFAULT 0 CHECK (per_frame IN (0, 1)),"                    \
-    "  PRIMARY KEY (job_id, after_job));"
+    "  PRIMARY KEY (job_id, after_job));"                                                    \
+    "CREATE TABLE frame_resources ("                                                         \
+    "  task_id " integer " NOT NULL REFERENCES tasks(id) ON DELETE CASCADE,"                \
+    "  attempt INTEGER NOT NULL,"                                                            \
+    "  frame INTEGER NOT NULL,"                                                              \
+    "  peak_rss " integer " NOT NULL,"                                                       \
+    "  peak_device_memory " integer " NOT NULL,"                                             \
+    "  bytes_written " integer " NOT NULL,"                                                  \
+    "  PRIMARY KEY (task_id, frame));"
 
 /* Migration N (1-based) brings the schema from version N-1 to N. */
 static const char *const migrations[PF_QUEUE_SCHEMA_VERSION] = {
@@ -139,7 +150,7 @@ static const char *const migrations[PF_QUEUE_SCHEMA_VERSION] = {
     /* 5: each worker's capabilities (issue 42): its device's type and memory, the host's
      * memory and cores, and its tags ("a,b"); each job's requirements of them. */
     WORKER_CAPABILITIES("INTEGER"),
-    /* 6: job dependencies (issue 42). */
+    /* 6: job dependencies and per-frame resources (issue 42). */
     JOB_DEPENDENCIES("INTEGER"),
 };
 

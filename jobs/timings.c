@@ -19,7 +19,8 @@ static double percentile(const double *sorted, size_t count, double p)
     return sorted[low] + (sorted[high] - sorted[low]) * (rank - (double)low);
 }
 
-/* Reads one column of doubles (already sorted by the query) into a stat. */
+/* Reads one column of doubles (already sorted by the query) into a stat; the query's ?1 is
+ * job_id, its ?2 stage (when not NULL). */
 static pf_status sample_stat(pf_queue *queue, const char *sql, int64_t job_id, const char *stage,
                              pf_queue_stat *stat, pf_error *err)
 {
@@ -28,7 +29,8 @@ static pf_status sample_stat(pf_queue *queue, const char *sql, int64_t job_id, c
     if (status != PF_OK)
         return status;
     queue_bind_int64(stmt, 1, job_id);
-    queue_bind_text(stmt, 2, stage);
+    if (stage)
+        queue_bind_text(stmt, 2, stage);
     queue_records records = {NULL, 0, 0, sizeof(double)};
     int rc;
     while ((rc = queue_step(stmt)) == QUEUE_ROW) {
@@ -254,6 +256,23 @@ static pf_status timings_body(pf_queue *queue, void *context, pf_error *err)
         status = decision_counts(queue, ctx, err);
     if (status == PF_OK)
         status = build_counts(queue, ctx, err);
+    if (status == PF_OK)
+        status = sample_stat(queue,
+                             "SELECT r.peak_rss FROM frame_resources r JOIN tasks t ON t.id = "
+                             "r.task_id WHERE t.job_id = ?1 AND r.peak_rss >= 0 ORDER BY 1",
+                             ctx->job_id, NULL, &out->peak_rss, err);
+    if (status == PF_OK)
+        status = sample_stat(queue,
+                             "SELECT r.peak_device_memory FROM frame_resources r JOIN tasks t ON "
+                             "t.id = r.task_id WHERE t.job_id = ?1 AND r.peak_device_memory >= 0 "
+                             "ORDER BY 1",
+                             ctx->job_id, NULL, &out->peak_device_memory, err);
+    if (status == PF_OK)
+        status = sample_stat(queue,
+                             "SELECT r.bytes_written FROM frame_resources r JOIN tasks t ON "
+                             "t.id = r.task_id WHERE t.job_id = ?1 AND r.bytes_written >= 0 "
+                             "ORDER BY 1",
+                             ctx->job_id, NULL, &out->bytes_written, err);
     return status;
 }
 

@@ -61,6 +61,20 @@ int pf_cli_store_tag(const char *command, const pf_cli_option *option, const cha
     return 0;
 }
 
+void pf_cli_format_bytes(int64_t bytes, char *out, size_t size)
+{
+    if (bytes <= 0)
+        snprintf(out, size, "-");
+    else if (bytes >= (1ll << 30))
+        snprintf(out, size, "%.1f GiB", (double)bytes / (double)(1ll << 30));
+    else if (bytes >= (1ll << 20))
+        snprintf(out, size, "%.0f MiB", (double)bytes / (double)(1ll << 20));
+    else if (bytes >= (1ll << 10))
+        snprintf(out, size, "%.0f KiB", (double)bytes / (double)(1ll << 10));
+    else
+        snprintf(out, size, "%lld B", (long long)bytes);
+}
+
 int pf_cli_store_bytes(const char *command, const pf_cli_option *option, const char *value)
 {
     char *end = NULL;

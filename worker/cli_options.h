@@ -45,6 +45,10 @@ int pf_cli_store_choice(const char *command, const pf_cli_option *option, const 
 int pf_cli_store_tag(const char *command, const pf_cli_option *option, const char *value);
 int pf_cli_store_bytes(const char *command, const pf_cli_option *option, const char *value);
 
+/* "24.0 GiB", "512 MiB", "12 KiB", "300 B" (binary units, as pf_cli_store_bytes reads
+ * them); "-" when unknown (0 or less). */
+void pf_cli_format_bytes(int64_t bytes, char *out, size_t size);
+
 typedef struct pf_cli_command {
     const char *name;        /* "worker" */
     const char *synopsis;    /* after "usage: photonfarm NAME " */

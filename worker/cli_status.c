@@ -43,6 +43,51 @@ static const char *shown_path(const pf_roots *roots, const char *stored, int out
     return out;
 }
 
+/* Headroom over the largest measured peak in a suggested requirement, and its step. */
+#define SUGGESTED_HEADROOM 1.25
+#define SUGGESTED_STEP (256ll << 20)
+
+/* peak with headroom, rounded up to a step, as --min-memory reads it ("6G", "768M"). */
+static void suggested_size(int64_t peak, char *out, size_t size)
+{
+    int64_t steps = (int64_t)((double)peak * SUGGESTED_HEADROOM / (double)SUGGESTED_STEP) + 1;
+    int64_t mib = steps * (SUGGESTED_STEP >> 20);
+    if (mib % 1024 == 0)
+        snprintf(out, size, "%lldG", (long long)(mib / 1024));
+    else
+        snprintf(out, size, "%lldM", (long long)mib);
+}
+
+/* A job whose frames ran out of memory: what its finished frames took, and the
+ * requirements that would keep it off smaller workers (issue 42). */
+static void print_memory_advice(const pf_queue_job *job)
+{
+    if (job->memory_failures == 0)
+        return;
+    printf("  memory: %" PRId64 " failure%s ran out of memory", job->memory_failures,
+           job->memory_failures == 1 ? "" : "s");
+    if (job->peak_rss_max <= 0 && job->peak_device_memory_max <= 0) {
+        printf("; no frame of it has finished to measure\n");
+        return;
+    }
+    char peaks[2][32], suggested[2][32];
+    pf_cli_format_bytes(job->peak_rss_max, peaks[0], sizeof peaks[0]);
+    pf_cli_format_bytes(job->peak_device_memory_max, peaks[1], sizeof peaks[1]);
+    printf("; its finished frames peaked at %s of memory and %s of device memory\n", peaks[0],
+           peaks[1]);
+    printf("  suggestion: enqueue it again with");
+    if (job->peak_rss_max > 0) {
+        suggested_size(job->peak_rss_max, suggested[0], sizeof suggested[0]);
+        printf(" --min-memory %s", suggested[0]);
+    }
+    if (job->peak_device_memory_max > 0) {
+        suggested_size(job->peak_device_memory_max, suggested[1], sizeof suggested[1]);
+        printf(" --min-device-memory %s", suggested[1]);
+    }
+    printf(" (%.0f%% over those peaks), so that smaller workers do not claim it\n",
+           (SUGGESTED_HEADROOM - 1.0) * 100.0);
+}
+
 static void print_job(pf_queue *queue, const pf_queue_job *job, int64_t now,
                       const pf_storage *storage)
 {
@@ -75,6 +120,7 @@ static void print_job(pf_queue *queue, const pf_queue_job *job, int64_t now,
         printf("  after: job %s\n", job->prerequisites);
     if (job->note[0])
         printf("  note: %s\n", pf_cli_printable(job->note, shown[0], sizeof shown[0]));
+    print_memory_advice(job);
 
     pf_error err = {0};
     pf_queue_task_info *tasks = NULL;

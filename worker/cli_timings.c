@@ -1,12 +1,15 @@
 /*
- * photonfarm timings JOB [--format table|csv|json]: per-stage statistics of
- * a job from its recorded stage rows — count, skipped count, min / median /
- * p95 / max and total of wall and GPU milliseconds — the job's totals, its
- * slowest frames, and how often each stage took each decision its rows
- * record (bih_build: reused / refit / rebuilt / built; table and JSON).
+ * photonfarm timings JOB [--frames] [--format table|csv|json]: per-stage
+ * statistics of a job from its recorded stage rows — count, skipped count,
+ * min / median / p95 / max and total of wall and GPU milliseconds — the job's
+ * totals, the same statistics of its frames' peak memory and bytes written,
+ * its slowest frames, and how often each stage took each decision its rows
+ * record (bih_build: reused / refit / rebuilt / built; table and JSON). With
+ * --frames, every frame instead (timings_frames.c).
  */
 #include "cli_queue.h"
 #include "pf_cli.h"
+#include "timings_frames.h"
 
 #include <cjson/cJSON.h>
 #include <inttypes.h>
@@ -16,6 +19,31 @@
 
 #define COMMAND "timings"
 #define SLOWEST_FRAMES 5
+
+/* Each frame's peak memory and bytes written: min / median / p95 / max over the frames. */
+static void print_resources(const pf_queue_timings *timings)
+{
+    const struct {
+        const char *what;
+        const pf_queue_stat *stat;
+    } rows[] = {{"peak rss", &timings->peak_rss},
+                {"peak device", &timings->peak_device_memory},
+                {"written", &timings->bytes_written}};
+    if (timings->peak_rss.count + timings->peak_device_memory.count +
+            timings->bytes_written.count == 0)
+        return;
+    printf("\nper frame      %6s | %10s %10s %10s %10s\n", "frames", "min", "median", "p95",
+           "max");
+    for (size_t i = 0; i < sizeof rows / sizeof rows[0]; i++) {
+        char values[4][32];
+        pf_cli_format_bytes((int64_t)rows[i].stat->min, values[0], sizeof values[0]);
+        pf_cli_format_bytes((int64_t)rows[i].stat->median, values[1], sizeof values[1]);
+        pf_cli_format_bytes((int64_t)rows[i].stat->p95, values[2], sizeof values[2]);
+        pf_cli_format_bytes((int64_t)rows[i].stat->max, values[3], sizeof values[3]);
+        printf("%-14s %6" PRId64 " | %10s %10s %10s %10s\n", rows[i].what, rows[i].stat->count,
+               values[0], values[1], values[2], values[3]);
+    }
+}
 
 static void print_table(int64_t job_id, const pf_queue_timings *timings)
 {
@@ -35,6 +63,7 @@ static void print_table(int64_t job_id, const pf_queue_timings *timings)
             printf(" %9s %9s %9s %9s %11s\n", "-", "-", "-", "-", "-");
     }
     printf("\ntotal: wall %.2f ms, gpu %.2f ms\n", timings->total_wall_ms, timings->total_gpu_ms);
+    print_resources(timings);
     if (timings->slowest_count > 0)
         printf("slowest frames:");
     for (size_t i = 0; i < timings->slowest_count; i++)
@@ -84,6 +113,18 @@ static cJSON *stat_json(const pf_queue_stat *stat)
     return object;
 }
 
+/* A sample of bytes: the same statistics as stat_json, named for bytes. */
+static cJSON *bytes_json(const pf_queue_stat *stat)
+{
+    cJSON *object = cJSON_CreateObject();
+    cJSON_AddNumberToObject(object, "frames", (double)stat->count);
+    cJSON_AddNumberToObject(object, "min", stat->min);
+    cJSON_AddNumberToObject(object, "median", stat->median);
+    cJSON_AddNumberToObject(object, "p95", stat->p95);
+    cJSON_AddNumberToObject(object, "max", stat->max);
+    return object;
+}
+
 static int print_json(int64_t job_id, const pf_queue_timings *timings)
 {
     cJSON *root = cJSON_CreateObject();
@@ -102,6 +143,11 @@ static int print_json(int64_t job_id, const pf_queue_timings *timings)
         cJSON_AddItemToObject(row, "gpu", stat_json(&stage->gpu));
         cJSON_AddItemToArray(stages, row);
     }
+    cJSON *resources = cJSON_AddObjectToObject(root, "per_frame_bytes");
+    cJSON_AddItemToObject(resources, "peak_rss", bytes_json(&timings->peak_rss));
+    cJSON_AddItemToObject(resources, "peak_device_memory",
+                          bytes_json(&timings->peak_device_memory));
+    cJSON_AddItemToObject(resources, "bytes_written", bytes_json(&timings->bytes_written));
     cJSON *builds = cJSON_AddArrayToObject(root, "builds");
     for (size_t i = 0; i < timings->build_count; i++) {
         cJSON *row = cJSON_CreateObject();
@@ -137,16 +183,23 @@ static int print_json(int64_t job_id, const pf_queue_timings *timings)
 int pf_cli_timings(int argc, char **argv)
 {
     const char *db = NULL, *format = "table", *job_text = NULL;
+    int frames = 0;
     const pf_cli_option options[] = {
         {"--format", NULL, "F", "table, csv or json", "table", pf_cli_store_choice, &format, 0, 0,
          "table|csv|json"},
+        {"--frames", NULL, NULL,
+         "every frame instead: worker, attempt, wall time per\nstage, peak memory, bytes "
+         "written, decisions",
+         "the statistics", pf_cli_store_flag, &frames, 0, 0, NULL},
         pf_cli_db_option(&db),
     };
     char description[512];
     snprintf(description, sizeof description,
              "Per stage: frames that ran it, frames that skipped it, min/median/p95/max\n"
-             "and total of wall and GPU time in ms; then totals, the %d slowest frames\n"
-             "and the decisions stages recorded (e.g. bih_build reused, refit, rebuilt).",
+             "and total of wall and GPU time in ms; then totals, the same statistics of\n"
+             "each frame's peak memory (the worker's resident memory, its device's) and\n"
+             "bytes written, the %d slowest frames and the decisions stages recorded\n"
+             "(e.g. bih_build reused, refit, rebuilt).",
              SLOWEST_FRAMES);
     pf_cli_command command = {
         .name = COMMAND,
@@ -169,6 +222,11 @@ int pf_cli_timings(int argc, char **argv)
     code = pf_cli_open_queue(COMMAND, pf_cli_db_path(db), 1, &queue);
     if (code)
         return code;
+    if (frames) {
+        code = pf_timings_print_frames(queue, job_id, format);
+        pf_queue_close(queue);
+        return code;
+    }
     pf_error err = {0};
     pf_queue_timings timings = {0};
     pf_status status = pf_queue_timings_get(queue, job_id, SLOWEST_FRAMES, &timings, &err);

@@ -12,17 +12,6 @@
 
 #define COMMAND "workers"
 
-/* "24.0 GiB", "512 MiB"; "-" when unknown (0). */
-static void format_bytes(int64_t bytes, char *out, size_t size)
-{
-    if (bytes <= 0)
-        snprintf(out, size, "-");
-    else if (bytes >= (1ll << 30))
-        snprintf(out, size, "%.1f GiB", (double)bytes / (double)(1ll << 30));
-    else
-        snprintf(out, size, "%.0f MiB", (double)bytes / (double)(1ll << 20));
-}
-
 int pf_cli_workers(int argc, char **argv)
 {
     const char *db = NULL, *check = NULL;
@@ -85,8 +74,8 @@ int pf_cli_workers(int argc, char **argv)
             snprintf(current, sizeof current, "-");
         char name[256], device[256], tags[PF_QUEUE_TAGS_MAX + 8], device_memory[32],
             host_memory[32];
-        format_bytes(worker->device_memory, device_memory, sizeof device_memory);
-        format_bytes(worker->host_memory, host_memory, sizeof host_memory);
+        pf_cli_format_bytes(worker->device_memory, device_memory, sizeof device_memory);
+        pf_cli_format_bytes(worker->host_memory, host_memory, sizeof host_memory);
         pf_cli_printable(worker->tags[0] ? worker->tags : "-", tags, sizeof tags);
         printf("%-24s %-8s %-10s %-28.28s %-4s %8s %8s %5" PRId64 " %-16s %s\n",
                pf_cli_printable(worker->name, name, sizeof name), state, age,

@@ -9,6 +9,7 @@
 
 #include "pf_render.h"
 #include "log.h"
+#include "peak_memory.h"
 #include "pf_cli.h"
 #include "pf_queue.h"
 #include "progress.h"
@@ -89,6 +90,7 @@ struct worker {
     pf_scene *scene;
     uv_work_t render_request;
     pf_frame_output *outputs;
+    int64_t *output_peak_rss; /* each output's peak resident memory (bytes; -1: unknown) */
     size_t output_count;
     pf_status render_status;
     pf_error render_err;
@@ -163,6 +165,8 @@ static void discard_outputs(worker *w)
         pf_frame_discard(&w->outputs[i]);
     free(w->outputs);
     w->outputs = NULL;
+    free(w->output_peak_rss);
+    w->output_peak_rss = NULL;
     w->output_count = 0;
 }
 
@@ -327,9 +331,20 @@ static void finish_run(db_op *op)
         return;
     }
     size_t row_count = 0;
+    pf_queue_frame_resources *resources = calloc(w->output_count ? w->output_count : 1,
+                                                 sizeof *resources);
+    if (!resources) {
+        free(rows);
+        free(counters);
+        op->status = pf_error_set(&op->err, PF_ERR_NOMEM, "frame resources");
+        return;
+    }
     for (size_t i = 0; i < w->output_count; i++) {
         const pf_frame_report *report = &w->outputs[i].report;
         int32_t frame = w->task.first_frame + (int32_t)i * w->task.frame_step;
+        resources[i] = (pf_queue_frame_resources){frame, w->output_peak_rss[i],
+                                                  (int64_t)w->outputs[i].peak_device_bytes,
+                                                  (int64_t)w->outputs[i].bytes_written};
         for (uint32_t s = 0; s < report->stage_count; s++) {
             const pf_stage_timing *stage = &report->stages[s];
             counters[row_count] = counters_json(stage);
@@ -347,8 +362,8 @@ static void finish_run(db_op *op)
                         pf_frame_fault_of(w->outputs[i].failed) != PF_FRAME_FAULT_WORKER;
     }
     if (op->status == PF_OK) {
-        op->status = pf_queue_complete(w->queue, op->token, rows, row_count, NULL,
-                                       &op->err);
+        op->status = pf_queue_complete_frames(w->queue, op->token, rows, row_count, resources,
+                                              w->output_count, NULL, &op->err);
         /* The lease lapsed during the commit (a rename slower than what was left of the
          * lease) and the task was reaped: the frame on disk is whole, and whoever holds
          * the task now renders it again and replaces it. A lost lease, not a failure of
@@ -380,6 +395,7 @@ static void finish_run(db_op *op)
         free(counters[i]);
     free(counters);
     free(rows);
+    free(resources);
 }
 
 static void update_progress(void *user)
@@ -489,7 +505,8 @@ static void render_work(uv_work_t *request)
         return;
     }
     w->outputs = calloc((size_t)w->task.frame_count, sizeof *w->outputs);
-    if (!w->outputs) {
+    w->output_peak_rss = calloc((size_t)w->task.frame_count, sizeof *w->output_peak_rss);
+    if (!w->outputs || !w->output_peak_rss) {
         w->render_status = pf_error_set(&w->render_err, PF_ERR_NOMEM, "frame outputs");
         return;
     }
@@ -516,8 +533,11 @@ static void render_work(uv_work_t *request)
         pf_frame_task_tag(w->task.task_id, w->task.lease_token, tag, sizeof tag);
         pf_frame_request frame_request = {w->scene, scene_path, frame,          settings,
                                           path,     tag,               w->device_name, &w->abort};
+        int peak_from_frame = pf_peak_rss_reset();
         w->render_status = pf_frame_render(w->renderer, &frame_request, &w->outputs[i],
                                            &w->render_err);
+        /* Without a reset the high-water mark is the process's, not the frame's. */
+        w->output_peak_rss[i] = peak_from_frame ? pf_peak_rss() : -1;
         w->output_count = (size_t)i + 1;
         if (w->render_status != PF_OK) {
             w->render_fault = pf_frame_fault_of(w->outputs[i].failed);
@@ -898,6 +918,11 @@ int pf_worker_run(const pf_worker_config *config)
             w->name, w->worker_id, w->device_name, config->tags ? config->tags : "",
             config->db_path, w->lease_ms, pf_version_string());
     log_roots(w);
+    if (!pf_peak_rss_reset())
+        pf_wlog(PF_LOG_WARN, "peak_memory_unmeasured",
+                "worker=%s reason=\"/proc/self/clear_refs is not writable: frames record no "
+                "peak resident memory\"",
+                w->name);
     w->poll_delay_ms = PF_WORKER_POLL_MIN_MS;
     w->idle_since_ms = pf_time_ms();
     claim_next(w);

@@ -151,6 +151,8 @@ void pf_stage_add_counter(pf_stage_timing *stage, const char *name, double value
 
 pf_status pf_renderer_create(pf_vk_context *ctx, pf_renderer **out, pf_error *err);
 void pf_renderer_destroy(pf_renderer *renderer);
+/* The device context it renders with (the one it was created with). */
+pf_vk_context *pf_renderer_context(const pf_renderer *renderer);
 
 /* Where the bih_build stage builds a fresh tree (core/render/frame_bih.c). */
 typedef enum pf_bih_build_site {
@@ -351,6 +353,11 @@ typedef struct pf_frame_output {
     double total_ms;
     int aborted;                       /* the abort flag stopped it; nothing on disk */
     pf_frame_failure failed;           /* after a failure: where it failed */
+    /* What the frame took (issue 42), filled as far as it got: the most device memory
+     * its context held at once from the frame's start (pf_vk_memory_use: the buffers
+     * it keeps across frames included), and the bytes of the EXR it wrote. */
+    uint64_t peak_device_bytes;
+    uint64_t bytes_written;
 } pf_frame_output;
 
 /*

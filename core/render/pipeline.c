@@ -9,6 +9,7 @@
 #include <stdlib.h>
 #include <stdio.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #define PARTIAL_INFIX ".partial-"
@@ -132,6 +133,7 @@ pf_status pf_frame_render(pf_renderer *renderer, const pf_frame_request *request
         return PF_OK;
     }
 
+    pf_vk_memory_peak_reset(pf_renderer_context(renderer));
     pf_scene_frame frame = {0};
     pf_status status = pf_scene_eval(
         request->scene, pf_scene_frame_time(request->scene, request->frame), &frame, err);
@@ -164,6 +166,7 @@ pf_status pf_frame_render(pf_renderer *renderer, const pf_frame_request *request
     }
     pf_image image = {0};
     status = pf_render_frame(renderer, &frame, &settings, &image, &out->report, err);
+    out->peak_device_bytes = pf_vk_memory_use_of(pf_renderer_context(renderer)).peak;
     pf_scene_frame_free(&frame);
     if (status != PF_OK) {
         pf_error_prefix(err, "%s frame %" PRId64, request->scene_path, request->frame);
@@ -209,11 +212,15 @@ pf_status pf_frame_render(pf_renderer *renderer, const pf_frame_request *request
         pf_error_prefix(err, "writing frame %" PRId64, request->frame);
         return status;
     }
+    struct stat written_file;
+    if (stat(out->temp_path, &written_file) == 0)
+        out->bytes_written = (uint64_t)written_file.st_size;
     pf_stage_timing *write_row = pf_frame_report_add(&out->report, "exr_write");
     if (write_row) {
         write_row->wall_ms = pf_time_ms() - write_start;
         write_row->gpu_ms = -1.0;
         pf_stage_add_counter(write_row, "pixels", (double)settings.width * settings.height);
+        pf_stage_add_counter(write_row, "bytes", (double)out->bytes_written);
     }
     out->total_ms = pf_time_ms() - start;
     return PF_OK;

@@ -14,6 +14,8 @@ pf_status pf_renderer_create(pf_vk_context *ctx, pf_renderer **out, pf_error *er
     return PF_OK;
 }
 
+pf_vk_context *pf_renderer_context(const pf_renderer *renderer) { return renderer->ctx; }
+
 void pf_renderer_destroy(pf_renderer *renderer)
 {
     if (!renderer)

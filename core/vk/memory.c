@@ -26,12 +26,39 @@ static uint32_t find_memory_type(const pf_vk_context *ctx, uint32_t type_bits,
     return UINT32_MAX;
 }
 
-/* A VkBuffer with bound memory; *mapped is set when the memory is host-visible + coherent. */
+pf_vk_memory_use pf_vk_memory_use_of(pf_vk_context *ctx)
+{
+    return (pf_vk_memory_use){atomic_load(&ctx->memory_in_use), atomic_load(&ctx->memory_peak)};
+}
+
+void pf_vk_memory_peak_reset(pf_vk_context *ctx)
+{
+    atomic_store(&ctx->memory_peak, atomic_load(&ctx->memory_in_use));
+}
+
+/* Counts an allocation of bytes, raising the peak when it is passed. */
+static void memory_held(pf_vk_context *ctx, uint64_t bytes)
+{
+    uint64_t now = atomic_fetch_add(&ctx->memory_in_use, bytes) + bytes;
+    uint64_t peak = atomic_load(&ctx->memory_peak);
+    while (peak < now && !atomic_compare_exchange_weak(&ctx->memory_peak, &peak, now))
+        continue;
+}
+
+static void memory_freed(pf_vk_context *ctx, VkDeviceMemory memory, uint64_t bytes)
+{
+    vkFreeMemory(ctx->device, memory, NULL);
+    atomic_fetch_sub(&ctx->memory_in_use, bytes);
+}
+
+/* A VkBuffer with bound memory of *bytes (counted as held until memory_freed);
+ * *mapped is set when the memory is host-visible + coherent. */
 static pf_status allocate(pf_vk_context *ctx, uint64_t size, VkBufferUsageFlags usage,
                           VkMemoryPropertyFlags required, VkMemoryPropertyFlags preferred,
                           const char *label, VkBuffer *buffer, VkDeviceMemory *memory,
-                          void **mapped, pf_error *err)
+                          void **mapped, uint64_t *bytes, pf_error *err)
 {
+    *bytes = 0;
     *buffer = VK_NULL_HANDLE;
     *memory = VK_NULL_HANDLE;
     *mapped = NULL;
@@ -63,17 +90,21 @@ static pf_status allocate(pf_vk_context *ctx, uint64_t size, VkBufferUsageFlags 
         .memoryTypeIndex = type,
     };
     result = vkAllocateMemory(ctx->device, &allocation, NULL, memory);
-    if (result != VK_SUCCESS)
+    if (result != VK_SUCCESS) {
         *memory = VK_NULL_HANDLE; /* a failed call leaves its output undefined */
-    else
+    } else {
+        *bytes = requirements.size;
+        memory_held(ctx, *bytes);
         result = vkBindBufferMemory(ctx->device, *buffer, *memory, 0);
+    }
     VkMemoryPropertyFlags flags = ctx->memory_properties.memoryTypes[type].propertyFlags;
     if (result == VK_SUCCESS && (flags & host_coherent) == host_coherent &&
         !(ctx->force_staging && (usage & VK_BUFFER_USAGE_STORAGE_BUFFER_BIT)))
         result = vkMapMemory(ctx->device, *memory, 0, VK_WHOLE_SIZE, 0, mapped);
     if (result != VK_SUCCESS) {
         if (*memory)
-            vkFreeMemory(ctx->device, *memory, NULL);
+            memory_freed(ctx, *memory, *bytes);
+        *bytes = 0;
         vkDestroyBuffer(ctx->device, *buffer, NULL);
         *buffer = VK_NULL_HANDLE;
         *memory = VK_NULL_HANDLE;
@@ -148,7 +179,7 @@ pf_status pf_vk_buffer_create(pf_vk_context *ctx, uint64_t size, const char *lab
         VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_UNIFORM_TEXEL_BUFFER_BIT |
             VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
         VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, 0, buffer->label, &buffer->buffer, &buffer->memory,
-        &buffer->mapped, err);
+        &buffer->mapped, &buffer->memory_bytes, err);
     if (status != PF_OK) {
         free(buffer);
         return status;
@@ -167,7 +198,7 @@ void pf_vk_buffer_destroy(pf_vk_context *ctx, pf_vk_buffer *buffer)
         if (buffer->views[kind])
             vkDestroyBufferView(ctx->device, buffer->views[kind], NULL);
     vkDestroyBuffer(ctx->device, buffer->buffer, NULL);
-    vkFreeMemory(ctx->device, buffer->memory, NULL);
+    memory_freed(ctx, buffer->memory, buffer->memory_bytes);
     free(buffer);
 }
 
@@ -239,10 +270,11 @@ static pf_status staged_copy(pf_vk_context *ctx, pf_vk_buffer *buffer, uint64_t 
     VkBuffer staging;
     VkDeviceMemory staging_memory;
     void *staging_mapped;
+    uint64_t staging_bytes;
     pf_status status = allocate(
         ctx, size, to_device ? VK_BUFFER_USAGE_TRANSFER_SRC_BIT : VK_BUFFER_USAGE_TRANSFER_DST_BIT,
         host_coherent, to_device ? 0 : VK_MEMORY_PROPERTY_HOST_CACHED_BIT, buffer->label,
-        &staging, &staging_memory, &staging_mapped, err);
+        &staging, &staging_memory, &staging_mapped, &staging_bytes, err);
     if (status != PF_OK)
         return status;
     if (to_device)
@@ -322,7 +354,7 @@ static pf_status staged_copy(pf_vk_context *ctx, pf_vk_buffer *buffer, uint64_t 
         memcpy(host, staging_mapped, size);
     vkUnmapMemory(ctx->device, staging_memory);
     vkDestroyBuffer(ctx->device, staging, NULL);
-    vkFreeMemory(ctx->device, staging_memory, NULL);
+    memory_freed(ctx, staging_memory, staging_bytes);
     if (result != VK_SUCCESS)
         return pf_error_set(err, PF_ERR_VULKAN,
                             "buffer '%s': %s of %llu bytes: %s failed: %s", buffer->label,

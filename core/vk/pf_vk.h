@@ -74,6 +74,19 @@ int pf_vk_validation_enabled(const pf_vk_context *ctx);
 uint32_t pf_vk_validation_message_count(const pf_vk_context *ctx);
 
 /*
+ * Device memory the context's buffers hold now (current) and the most they held at once
+ * since the context was made or pf_vk_memory_peak_reset (peak), in bytes as allocated:
+ * padding and staging copies included. A frame's peak is what a device must have to
+ * render it (issue 42's per-frame resources).
+ */
+typedef struct pf_vk_memory_use {
+    uint64_t current, peak;
+} pf_vk_memory_use;
+pf_vk_memory_use pf_vk_memory_use_of(pf_vk_context *ctx);
+/* Starts a new peak from what is held now. */
+void pf_vk_memory_peak_reset(pf_vk_context *ctx);
+
+/*
  * A device-local storage buffer of size bytes (label names it in errors).
  * A size above maxStorageBufferRange is refused with PF_ERR_LIMIT and a message
  * giving both numbers, the label and the device: callers split big data.

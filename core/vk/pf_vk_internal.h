@@ -39,6 +39,9 @@ struct pf_vk_context {
     int exact_division;
     uint32_t max_texel_buffer_elements;
     pthread_mutex_t view_lock; /* a buffer's texel views are made on first use, from any thread */
+    /* Device memory held by buffers now, and the most held since creation or the last
+     * pf_vk_memory_peak_reset (bytes; buffers are made from any thread). */
+    _Atomic uint64_t memory_in_use, memory_peak;
 
     struct {
         VkPipelineCache handle; /* the file is stats.path ("" without a directory) */
@@ -70,6 +73,7 @@ struct pf_vk_buffer {
     uint64_t allocated; /* the VkBuffer's size: pf_vk_buffer_allocation_size(size) */
     VkBufferView views[PF_VK_BINDING_KINDS]; /* by PF_VK_BINDING_TEXEL_*, made on first use */
     void *mapped; /* non-NULL when the memory is host-visible + coherent */
+    uint64_t memory_bytes; /* the allocation's size, counted in memory_in_use */
     char label[64];
 };
 

@@ -1374,6 +1374,98 @@ PF_TEST(dependency_cycles_and_unknown_jobs_are_refused)
 }
 
 /*
+ * Per-frame resources (issue 42): stored with the completion beside the stage rows, bad
+ * ones refused with nothing written, summarised in the timings (min/median/p95/max), listed
+ * per frame with worker, attempt, stages and decisions, and behind status's memory advice.
+ */
+PF_TEST(frame_resources_are_stored_summarised_and_listed)
+{
+    pf_queue *queue = open_fresh("resources");
+    PF_REQUIRE(queue);
+    pf_error err = {0};
+    int64_t worker = register_worker(queue, "big-worker");
+    int64_t job = enqueue(queue, "1-4", 0, 2, 3); /* tasks {1,2} and {3,4} */
+    const int64_t mib = 1 << 20;
+    pf_queue_task task = claim(queue, worker, 0, 0);
+    pf_queue_stage_row rows[3] = {
+        {1, "bih_build", 2.0, PF_QUEUE_NO_GPU_MS, NULL, false, "built: 12 nodes", NULL},
+        {1, "shade", 10.0, 8.0, NULL, false, NULL, NULL},
+        {2, "bih_build", 0.0, PF_QUEUE_NO_GPU_MS, NULL, true, "geometry unchanged", NULL}};
+    /* A frame outside the task, or given twice, or a negative size: nothing written. */
+    pf_queue_frame_resources bad[2] = {{1, 100 * mib, 10 * mib, 5000}, {3, 1, 1, 1}};
+    PF_CHECK(pf_queue_complete_frames(queue, task.lease_token, rows, 3, bad, 2, NULL, &err) ==
+             PF_ERR_INVALID);
+    PF_CHECK_MSG(strstr(err.message, "frame 3") != NULL, "%s", err.message);
+    bad[1].frame = 1;
+    PF_CHECK(pf_queue_complete_frames(queue, task.lease_token, rows, 3, bad, 2, NULL, &err) ==
+             PF_ERR_INVALID);
+    bad[1] = (pf_queue_frame_resources){2, -5, 1, 1};
+    PF_CHECK(pf_queue_complete_frames(queue, task.lease_token, rows, 3, bad, 2, NULL, &err) ==
+             PF_ERR_INVALID);
+    pf_queue_task_info *tasks = NULL;
+    size_t task_count = 0;
+    PF_CHECK_OK(pf_queue_task_list(queue, job, &tasks, &task_count, &err), &err);
+    PF_CHECK(task_count == 2 && !strcmp(tasks[0].status, "running"));
+    free(tasks);
+    pf_queue_frame_resources first[2] = {{1, 100 * mib, 10 * mib, 5000},
+                                         {2, 300 * mib, -1, 7000}};
+    PF_CHECK_OK(pf_queue_complete_frames(queue, task.lease_token, rows, 3, first, 2, NULL, &err),
+                &err);
+    task = claim(queue, worker, 0, 0);
+    pf_queue_stage_row later[2] = {{3, "shade", 20.0, 15.0, NULL, false, NULL, NULL},
+                                   {4, "shade", 30.0, 25.0, NULL, false, NULL, NULL}};
+    pf_queue_frame_resources second[2] = {{3, 200 * mib, 30 * mib, 6000},
+                                          {4, 400 * mib, 20 * mib, 8000}};
+    PF_CHECK_OK(pf_queue_complete_frames(queue, task.lease_token, later, 2, second, 2, NULL, &err),
+                &err);
+
+    pf_queue_timings timings;
+    PF_REQUIRE_OK(pf_queue_timings_get(queue, job, 3, &timings, &err), &err);
+    /* rss 100, 200, 300, 400 MiB: median 250, p95 385 (rank 2.85); device without frame 2. */
+    PF_CHECK(timings.peak_rss.count == 4 && timings.peak_rss.min == 100.0 * mib &&
+             timings.peak_rss.median == 250.0 * mib && timings.peak_rss.p95 == 385.0 * mib &&
+             timings.peak_rss.max == 400.0 * mib);
+    PF_CHECK(timings.peak_device_memory.count == 3 &&
+             timings.peak_device_memory.median == 20.0 * mib &&
+             timings.peak_device_memory.max == 30.0 * mib);
+    PF_CHECK(timings.bytes_written.count == 4 && timings.bytes_written.total == 26000.0);
+    pf_queue_timings_free(&timings);
+
+    pf_queue_frame_details details;
+    PF_REQUIRE_OK(pf_queue_frame_details_get(queue, job, &details, &err), &err);
+    PF_REQUIRE(details.frame_count == 4 && details.stage_count == 5);
+    const pf_queue_frame_detail *one = &details.frames[0], *two = &details.frames[1];
+    PF_CHECK(one->frame == 1 && one->attempt == 1 && !strcmp(one->worker_name, "big-worker") &&
+             one->peak_rss == 100 * mib && one->bytes_written == 5000 && one->stage_count == 2 &&
+             one->wall_ms == 12.0);
+    PF_CHECK(!strcmp(details.stages[one->first_stage].decision, "built") &&
+             !details.stages[one->first_stage + 1].decision[0]);
+    PF_CHECK(two->frame == 2 && two->peak_device_memory == -1 && two->stage_count == 1 &&
+             details.stages[two->first_stage].skipped && two->wall_ms == 0.0 &&
+             !strcmp(details.stages[two->first_stage].decision, "geometry unchanged"));
+    PF_CHECK(details.frames[3].frame == 4 && details.frames[3].peak_rss == 400 * mib);
+    pf_queue_frame_details_free(&details);
+
+    /* Memory failures: counted for status's advice, beside the largest peaks measured. */
+    int64_t other = enqueue(queue, "1-2", 5, 1, 3);
+    task = claim(queue, worker, 0, 0);
+    PF_REQUIRE(task.job_id == other);
+    PF_CHECK_OK(pf_queue_fail(queue, task.lease_token,
+                              "buffer 'film': allocating 9 bytes on 'x' failed: "
+                              "VK_ERROR_OUT_OF_DEVICE_MEMORY",
+                              &err),
+                &err);
+    pf_queue_job info = job_get(queue, other);
+    PF_CHECK(info.memory_failures == 1 && info.peak_rss_max == 0);
+    pf_queue_job_clear(&info);
+    info = job_get(queue, job);
+    PF_CHECK(info.memory_failures == 0 && info.peak_rss_max == 400 * mib &&
+             info.peak_device_memory_max == 30 * mib);
+    pf_queue_job_clear(&info);
+    pf_queue_close(queue);
+}
+
+/*
  * PostgreSQL only: a URL that cannot be used is bad input naming the cause
  * and never the password; a schema from a newer photonfarm is refused.
  */
@@ -1481,6 +1573,7 @@ int main(void)
     PF_RUN(a_failed_prerequisite_blocks_its_dependents);
     PF_RUN(after_frames_releases_frame_n_after_frame_n);
     PF_RUN(dependency_cycles_and_unknown_jobs_are_refused);
+    PF_RUN(frame_resources_are_stored_summarised_and_listed);
     PF_RUN(enqueue_conflicts_are_decided_under_the_write_lock);
     PF_RUN(postgres_bad_urls_and_newer_schema_are_refused);
     PF_RUN(postgres_reconnect_keeps_the_lock_timeout);

@@ -338,7 +338,8 @@ PF_TEST(sqlite_migrations_and_the_postgres_schema_agree)
     /* The tables the queue needs are all there (a reading that found nothing agrees too). */
     static const char *const tables[] = {"jobs",          "workers",       "tasks",
                                          "task_failures", "worker_blocks", "stage_timings",
-                                         "job_dependencies", "schema_version"};
+                                         "job_dependencies", "frame_resources",
+                                         "schema_version"};
     for (size_t t = 0; t < sizeof tables / sizeof *tables; t++) {
         char line[SCHEMA_LINE_MAX];
         snprintf(line, sizeof line, "%s: primary key (", tables[t]);
@@ -351,7 +352,7 @@ PF_TEST(sqlite_migrations_and_the_postgres_schema_agree)
 
 /*
  * PostgreSQL only: a database made at version 4 (before the workers' capabilities, the
- * jobs' requirements and the job dependencies) climbs to the latest on open, and ends with
+ * jobs' requirements, the job dependencies and the frames' resources) climbs to the latest on open, and ends with
  * the schema a fresh one has.
  */
 PF_TEST(a_version_4_postgres_database_migrates_to_the_latest)
@@ -368,7 +369,7 @@ PF_TEST(a_version_4_postgres_database_migrates_to_the_latest)
     PF_REQUIRE_OK(pf_queue_open(url, NULL, &queue, &err), &err);
     pf_queue_close(queue);
     /* Back to version 4 as PostgreSQL support began it: one row, version 4, no version 5
-     * columns and no version 6 table. */
+     * columns and no version 6 tables. */
     PGconn *conn = PQconnectdb(url);
     PF_REQUIRE(PQstatus(conn) == CONNECTION_OK);
     PGresult *result = PQexec(conn,
@@ -376,7 +377,7 @@ PF_TEST(a_version_4_postgres_database_migrates_to_the_latest)
                               "device_memory, DROP COLUMN host_memory, DROP COLUMN cores, "
                               "DROP COLUMN tags; ALTER TABLE jobs DROP COLUMN requires_device, "
                               "DROP COLUMN min_device_memory, DROP COLUMN min_host_memory, "
-                              "DROP COLUMN required_tags; DROP TABLE job_dependencies; "
+                              "DROP COLUMN required_tags; DROP TABLE job_dependencies, frame_resources; "
                               "DELETE FROM schema_version WHERE version >= 5; "
                               "INSERT INTO schema_version (version, applied_at) VALUES (4, 0) "
                               "ON CONFLICT DO NOTHING");

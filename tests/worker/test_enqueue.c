@@ -197,6 +197,46 @@ PF_TEST(dependencies_are_stored_shown_and_checked)
     PF_CHECK(wt_run(args, log_path) == 0);
 }
 
+/* A job whose frames ran out of memory: status shows the finished frames' peaks and
+ * suggests the requirements that would keep it off smaller workers (issue 42). */
+PF_TEST(status_suggests_memory_requirements_after_memory_failures)
+{
+    char args[8 * WT_PATH_MAX];
+    wt_format(args, sizeof args,
+              "enqueue '%s' --frames 1-2 --out '%s/oom.####.exr' --size 16x12 --quality preview "
+              "--priority 1000 --db '%s'",
+              scene, out_dir, db);
+    int64_t job_id = enqueue_job(args);
+    PF_REQUIRE(job_id >= 1);
+    pf_queue *queue = wt_open_queue(db);
+    PF_REQUIRE(queue != NULL);
+    pf_error err = {0};
+    pf_queue_worker_spec spec = {.name = "small", .host = "h", .pid = 1};
+    int64_t worker = 0;
+    PF_REQUIRE_OK(pf_queue_worker_register(queue, &spec, &worker, &err), &err);
+    pf_queue_task task;
+    bool claimed = false;
+    PF_REQUIRE_OK(pf_queue_claim(queue, worker, job_id, 0, &task, &claimed, &err), &err);
+    PF_REQUIRE(claimed && task.job_id == job_id);
+    /* 3 GiB of memory and 700 MiB of device memory at most: 3.75 GiB and 875 MiB with
+     * headroom, rounded up to 256 MiB steps. */
+    pf_queue_frame_resources took = {task.first_frame, 3ll << 30, 700ll << 20, 1000};
+    PF_CHECK_OK(pf_queue_complete_frames(queue, task.lease_token, NULL, 0, &took, 1, NULL, &err),
+                &err);
+    PF_REQUIRE_OK(pf_queue_claim(queue, worker, job_id, 0, &task, &claimed, &err), &err);
+    PF_REQUIRE(claimed && task.job_id == job_id);
+    PF_CHECK_OK(pf_queue_fail(queue, task.lease_token, "scene: out of memory", &err), &err);
+    pf_queue_close(queue);
+    wt_format(args, sizeof args, "status %lld --db '%s'", (long long)job_id, db);
+    PF_CHECK(wt_run(args, log_path) == 0);
+    PF_CHECK(wt_file_contains(log_path, "memory: 1 failure ran out of memory; its finished "
+                                        "frames peaked at 3.0 GiB of memory and 700 MiB of "
+                                        "device memory"));
+    PF_CHECK(wt_file_contains(log_path, "--min-memory 4G --min-device-memory 1G"));
+    wt_format(args, sizeof args, "cancel %lld --db '%s'", (long long)job_id, db);
+    PF_CHECK(wt_run(args, log_path) == 0);
+}
+
 /* How many times text occurs in path's content. */
 static int occurrences(const char *path, const char *text)
 {
@@ -618,6 +658,7 @@ int main(void)
     PF_RUN(enqueue_inserts_a_validated_job_and_prints_its_id);
     PF_RUN(requirements_are_stored_shown_and_warned_about);
     PF_RUN(dependencies_are_stored_shown_and_checked);
+    PF_RUN(status_suggests_memory_requirements_after_memory_failures);
     PF_RUN(status_watch_reports_until_the_jobs_end);
     PF_RUN(bad_input_exits_2_and_inserts_nothing);
     PF_RUN(corrupt_or_foreign_database_exits_2_and_is_untouched);

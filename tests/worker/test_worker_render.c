@@ -275,6 +275,17 @@ PF_TEST(worker_renders_a_job_and_timings_report_every_stage)
     }
     PF_CHECK_MSG(found == 4, "%d stages with the expected counts in the JSON", found);
     PF_CHECK(cJSON_GetArraySize(cJSON_GetObjectItem(root, "slowest_frames")) == 3);
+    /* Every frame's resources (issue 42): its peak memory and the bytes it wrote. */
+    const cJSON *per_frame = cJSON_GetObjectItem(root, "per_frame_bytes");
+    const char *const resources[] = {"peak_rss", "peak_device_memory", "bytes_written"};
+    for (int r = 0; r < 3; r++) {
+        const cJSON *stat = cJSON_GetObjectItem(per_frame, resources[r]);
+        PF_CHECK_MSG(cJSON_GetNumberValue(cJSON_GetObjectItem(stat, "frames")) == 3 &&
+                         cJSON_GetNumberValue(cJSON_GetObjectItem(stat, "min")) > 0,
+                     "%s: %g frames, min %g", resources[r],
+                     cJSON_GetNumberValue(cJSON_GetObjectItem(stat, "frames")),
+                     cJSON_GetNumberValue(cJSON_GetObjectItem(stat, "min")));
+    }
     /* The decisions the rows record: bih_build built once, reused twice; shade's samples 3 times;
      * textures skipped 3 times (the tiny scene has none). */
     int built = 0, reused = 0, shaded = 0, untextured = 0, decision_rows = 0;
@@ -323,6 +334,90 @@ PF_TEST(worker_renders_a_job_and_timings_report_every_stage)
     PF_CHECK(wt_run(args, log_path) == 0);
     PF_CHECK(wt_file_contains(log_path, "slowest frames"));
     PF_CHECK(wt_file_contains(log_path, "geometry unchanged → BIH reused"));
+    PF_CHECK(wt_file_contains(log_path, "peak rss"));
+
+    /* --frames: each frame with its worker, attempt, stages, peaks and decisions. */
+    wt_format(args, sizeof args, "timings %lld --frames --format json --db '%s'",
+              (long long)job_id, db);
+    PF_REQUIRE(wt_run(args, csv_path) == 0);
+    json = wt_read_file(csv_path, NULL);
+    root = cJSON_Parse(json);
+    free(json);
+    PF_REQUIRE(root != NULL);
+    const cJSON *frames = cJSON_GetObjectItem(root, "frames");
+    PF_CHECK(cJSON_GetArraySize(frames) == 3);
+    int listed = 0;
+    const cJSON *frame;
+    cJSON_ArrayForEach(frame, frames)
+    {
+        const char *worker = cJSON_GetStringValue(cJSON_GetObjectItem(frame, "worker"));
+        const cJSON *frame_stages = cJSON_GetObjectItem(frame, "stages");
+        const cJSON *bih = NULL, *item;
+        cJSON_ArrayForEach(item, frame_stages)
+            if (!strcmp(cJSON_GetStringValue(cJSON_GetObjectItem(item, "stage")), "bih_build"))
+                bih = item;
+        const char *bih_decision = cJSON_GetStringValue(cJSON_GetObjectItem(bih, "decision"));
+        int number = (int)cJSON_GetNumberValue(cJSON_GetObjectItem(frame, "frame"));
+        PF_CHECK_MSG(worker && worker[0] &&
+                         cJSON_GetNumberValue(cJSON_GetObjectItem(frame, "attempt")) == 1 &&
+                         cJSON_GetArraySize(frame_stages) >= 4 &&
+                         cJSON_GetNumberValue(cJSON_GetObjectItem(frame, "peak_rss_bytes")) > 0 &&
+                         cJSON_GetNumberValue(cJSON_GetObjectItem(frame, "peak_device_bytes")) >
+                             0 &&
+                         cJSON_GetNumberValue(cJSON_GetObjectItem(frame, "bytes_written")) > 0 &&
+                         bih_decision && !strcmp(bih_decision, number == 1 ? "built"
+                                                                   : "geometry unchanged → BIH "
+                                                                     "reused"),
+                     "frame %d", number);
+        listed += number == listed + 1;
+    }
+    PF_CHECK(listed == 3);
+    cJSON_Delete(root);
+    wt_format(args, sizeof args, "timings %lld --frames --db '%s'", (long long)job_id, db);
+    PF_CHECK(wt_run(args, log_path) == 0);
+    PF_CHECK(wt_file_contains(log_path, "bih_build=built"));
+    PF_CHECK(wt_file_contains(log_path, "3 frame(s)"));
+}
+
+/* The peak memory a frame records (issue 42) grows with the frame: a 320x320 frame's is
+ * above a 16x16 frame's, on the device and in the worker's resident memory. fast, whose
+ * film lives on the device whole (preview renders through one 64x64 tile whatever the
+ * size). The small job has two frames, the first warming up what every frame shares
+ * (pipelines, the scene). */
+PF_TEST(a_larger_frame_records_more_peak_memory)
+{
+    char out[WT_PATH_MAX + 32], db[WT_PATH_MAX + 32], pattern[2 * WT_PATH_MAX],
+        args[8 * WT_PATH_MAX];
+    wt_fresh_dir("peaks-out", out, sizeof out);
+    wt_format(db, sizeof db, "%s/peaks.db", dir);
+    unlink(db);
+    wt_format(pattern, sizeof pattern, "%s/small.####.exr", out);
+    int64_t small =
+        enqueue(db, scene, "1-2", pattern, "--priority 1 --quality fast --photons 1000 --spp 1");
+    wt_format(pattern, sizeof pattern, "%s/large.####.exr", out);
+    int64_t large =
+        enqueue(db, scene, "1", pattern, "--size 320x320 --quality fast --photons 1000 --spp 1");
+    PF_REQUIRE(small > 0 && large > 0);
+    wt_format(args, sizeof args, "worker --once --max-frames 3 --db '%s'", db);
+    PF_REQUIRE(wt_run(args, log_path) == 0);
+    pf_queue *queue = wt_open_queue(db);
+    PF_REQUIRE(queue != NULL);
+    pf_queue_frame_details details[2];
+    pf_error err = {0};
+    PF_REQUIRE_OK(pf_queue_frame_details_get(queue, small, &details[0], &err), &err);
+    PF_REQUIRE_OK(pf_queue_frame_details_get(queue, large, &details[1], &err), &err);
+    pf_queue_close(queue);
+    PF_REQUIRE(details[0].frame_count == 2 && details[1].frame_count == 1);
+    const pf_queue_frame_detail *a = &details[0].frames[1], *b = &details[1].frames[0];
+    printf("  peak rss %lld -> %lld bytes, device %lld -> %lld, written %lld -> %lld\n",
+           (long long)a->peak_rss, (long long)b->peak_rss, (long long)a->peak_device_memory,
+           (long long)b->peak_device_memory, (long long)a->bytes_written,
+           (long long)b->bytes_written);
+    PF_CHECK(a->peak_rss > 0 && b->peak_rss > a->peak_rss);
+    PF_CHECK(a->peak_device_memory > 0 && b->peak_device_memory > a->peak_device_memory);
+    PF_CHECK(a->bytes_written > 0 && b->bytes_written > a->bytes_written);
+    pf_queue_frame_details_free(&details[0]);
+    pf_queue_frame_details_free(&details[1]);
 }
 
 /*
@@ -785,6 +880,7 @@ int main(void)
     wt_write_tiny_scene(scene, 3);
     PF_RUN(workers_show_the_capabilities_a_worker_registered);
     PF_RUN(worker_renders_a_job_and_timings_report_every_stage);
+    PF_RUN(a_larger_frame_records_more_peak_memory);
     PF_RUN(a_budgeted_auto_job_stores_reuse_only_from_real_frames);
     PF_RUN(failing_frames_record_each_attempt_and_stop_at_max_attempts);
     PF_RUN(a_worker_failing_a_jobs_frames_is_blocked_and_status_says_so);

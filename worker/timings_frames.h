@@ -1,0 +1,14 @@
+/* timings JOB --frames (issue 42): every completed frame of a job, one by one. */
+#ifndef PF_TIMINGS_FRAMES_H
+#define PF_TIMINGS_FRAMES_H
+
+#include "pf_queue.h"
+
+#include <stdint.h>
+
+/* Prints the job's frames in format ("table", "csv" or "json"): each frame's worker,
+ * attempt, wall time per stage, peak memory, bytes written and decisions. 0, or the exit
+ * code after printing why. */
+int pf_timings_print_frames(pf_queue *queue, int64_t job_id, const char *format);
+
+#endif
