@@ -95,9 +95,9 @@ typedef struct claim_context {
 
 /*
  * The claim: the highest-priority job this worker may render (not blocked for
- * it, whose requirements its registered capabilities meet: QUEUE_WORKER_MEETS,
- * and which waits for no unfinished job: QUEUE_JOB_RELEASED), then its first
- * eligible task (backoff passed, QUEUE_TASK_RELEASED) after the affinity frame,
+ * it, and whose requirements its registered capabilities meet:
+ * QUEUE_WORKER_MEETS), then its first eligible task after the affinity frame
+ * (a task that waits for other jobs is not eligible: dependencies.c holds it),
  * else its first eligible task. The
  * job is picked once (the CTE) and reaches the task picks as scalars, so each
  * is a walk of the (job_id, status, first_frame) index that stops at its first
@@ -121,20 +121,16 @@ typedef struct claim_context {
     "    WHERE j.status IN ('queued', 'running') AND " QUEUE_WORKER_MEETS("j", "w")            \
     "      AND NOT EXISTS (SELECT 1 FROM worker_blocks b"                                      \
     "                      WHERE b.job_id = j.id AND b.worker_id = :worker)"                   \
-    "      AND " QUEUE_JOB_RELEASED("j") ""                                                    \
     "      AND (SELECT e.first_frame FROM tasks e WHERE e.job_id = j.id"                       \
     "           AND e.status = 'queued' AND e.eligible_at <= :now"                             \
-    "           AND " QUEUE_TASK_RELEASED("e") ""                                              \
     "           ORDER BY e.first_frame LIMIT 1) IS NOT NULL"                                   \
     "    ORDER BY j.priority DESC, j.id = :job DESC, j.id LIMIT 1)"                            \
     "  SELECT coalesce("                                                                       \
     "    (SELECT t.id FROM tasks t WHERE t.job_id = (SELECT job_id FROM chosen)"               \
     "       AND t.status = 'queued' AND t.first_frame > (SELECT after_frame FROM chosen)"      \
-    "       AND t.eligible_at <= :now AND " QUEUE_TASK_RELEASED("t") ""                        \
-    "     ORDER BY t.first_frame LIMIT 1" LOCK "),"                                            \
+    "       AND t.eligible_at <= :now ORDER BY t.first_frame LIMIT 1" LOCK "),"                \
     "    (SELECT t.id FROM tasks t WHERE t.job_id = (SELECT job_id FROM chosen)"               \
     "       AND t.status = 'queued' AND t.eligible_at <= :now"                                 \
-    "       AND " QUEUE_TASK_RELEASED("t") ""                                                  \
     "     ORDER BY t.first_frame LIMIT 1" LOCK "))) "                                          \
     "RETURNING id, job_id, first_frame, last_frame, frame_step, frame_count, attempt,"         \
     "  lease_expires"
@@ -304,6 +300,7 @@ typedef struct token_context {
     size_t frame_count;
     bool repeated;
     int64_t job_id; /* complete: the task's job */
+    int32_t first_frame, last_frame; /* complete: the task's frames */
 } token_context;
 
 static pf_status heartbeat_body(pf_queue *queue, void *context, pf_error *err)
@@ -529,6 +526,8 @@ static pf_status complete_body(pf_queue *queue, void *context, pf_error *err)
         if (status != PF_OK)
             return status;
         ctx->job_id = task.job_id;
+        ctx->first_frame = task.first_frame;
+        ctx->last_frame = task.last_frame;
         if (task.found && !strcmp(task.status, "done")) {
             ctx->repeated = true;
             return PF_OK;
@@ -536,6 +535,8 @@ static pf_status complete_body(pf_queue *queue, void *context, pf_error *err)
         return lease_lost(queue, ctx->token, err);
     }
     ctx->job_id = task.job_id;
+    ctx->first_frame = task.first_frame;
+    ctx->last_frame = task.last_frame;
     for (size_t i = 0; i < ctx->row_count && status == PF_OK; i++)
         status = check_stage_frame(queue, &task, &ctx->rows[i], i, err);
     if (status == PF_OK && ctx->frame_count > 0)
@@ -552,11 +553,18 @@ static pf_status complete_body(pf_queue *queue, void *context, pf_error *err)
     return PF_OK;
 }
 
-/* The completed task's job: its status derived from its tasks. */
+/* The completed task's job: its status derived from its tasks; then, when jobs wait for
+ * it, their tasks this completion unblocked released (after the status: a job that has
+ * just become done releases its dependents' tasks). */
 static pf_status complete_settle(pf_queue *queue, void *context, pf_error *err)
 {
     const token_context *ctx = context;
-    return queue_job_refresh(queue, ctx->job_id, err);
+    bool dependents = false;
+    pf_status status = queue_job_refresh_with(queue, ctx->job_id, &dependents, err);
+    if (status == PF_OK && dependents)
+        status = queue_dependents_release(queue, ctx->job_id, ctx->first_frame,
+                                          ctx->last_frame, err);
+    return status;
 }
 
 pf_status pf_queue_complete(pf_queue *queue, const char *token, const pf_queue_stage_row *rows,

@@ -111,6 +111,9 @@ static pf_status retry_body(pf_queue *queue, void *context, pf_error *err)
             "ELSE 'queued' END, block_failures_after = (SELECT coalesce(max(id), 0) FROM "
             "task_failures) WHERE id = ?1",
             ctx->job_id, "retrying a job", err);
+    /* Requeued tasks of a job that waits for others wait again until those are done. */
+    if (status == PF_OK)
+        status = queue_dependencies_hold(queue, ctx->job_id, err);
     if (status == PF_OK)
         status = queue_job_refresh(queue, ctx->job_id, err);
     return status;

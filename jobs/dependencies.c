@@ -1,8 +1,10 @@
 /*
  * Job dependencies (issue 42): which jobs a job waits for, checked when added (no unknown
- * job, no cycle), and what they make of its status when read (waiting, blocked). Claims
- * test them in their own statement (QUEUE_JOB_RELEASED, QUEUE_TASK_RELEASED), so nothing
- * here runs when a prerequisite finishes: a dependent's frames are claimable from then on.
+ * job, no cycle); its tasks held until what they wait for is done and released by the
+ * completions that finish it (queue_internal.h says how); and what they make of a job's
+ * status when read (waiting, blocked). The claim itself tests nothing: a test in its
+ * statement, even one PostgreSQL never ran, cost 14 % of its claims at 16 processes
+ * (bench/RESULTS.md).
  */
 #include "queue_internal.h"
 
@@ -87,8 +89,77 @@ pf_status queue_dependencies_add(pf_queue *queue, int64_t job_id,
         queue_bind_int64(stmt, 2, after[i].job_id);
         queue_bind_int64(stmt, 3, after[i].per_frame ? 1 : 0);
         status = queue_step_done(queue, stmt, "adding a job dependency", err);
+        /* Its completions look for tasks to release from now on. */
+        if (status == PF_OK)
+            status = queue_prepare(queue, "UPDATE jobs SET dependents = 1 WHERE id = ?", &stmt,
+                                   err);
+        if (status != PF_OK)
+            break;
+        queue_bind_int64(stmt, 1, after[i].job_id);
+        status = queue_step_done(queue, stmt, "marking a prerequisite", err);
     }
-    return status;
+    return status == PF_OK && count > 0 ? queue_dependencies_hold(queue, job_id, err) : status;
+}
+
+/*
+ * SQL: held task row T may be released: every job its job waits for as a whole is done,
+ * and no task overlapping T's frames of a job it waits for frame by frame is unfinished
+ * (statuses listed, so that the probe seeks the (job_id, status, first_frame) index).
+ */
+#define TASK_RELEASABLE(T)                                                                     \
+    "NOT EXISTS (SELECT 1 FROM job_dependencies d JOIN jobs p ON p.id = d.after_job"         \
+    "  WHERE d.job_id = " T ".job_id AND d.per_frame = 0 AND p.status <> 'done')"            \
+    " AND NOT EXISTS (SELECT 1 FROM job_dependencies d JOIN tasks p"                         \
+    "  ON p.job_id = d.after_job WHERE d.job_id = " T ".job_id AND d.per_frame = 1"          \
+    "  AND p.status IN ('queued', 'running', 'failed', 'canceled')"                          \
+    "  AND p.first_frame <= " T ".last_frame AND p.last_frame >= " T ".first_frame)"
+
+pf_status queue_dependencies_hold(pf_queue *queue, int64_t job_id, pf_error *err)
+{
+    queue_stmt *stmt;
+    pf_status status = queue_prepare(queue,
+                                     "UPDATE tasks SET eligible_at = " QUEUE_HELD_AT_SQL " "
+                                     "WHERE job_id = ? AND status = 'queued' AND EXISTS "
+                                     "(SELECT 1 FROM job_dependencies d WHERE d.job_id = "
+                                     "tasks.job_id)",
+                                     &stmt, err);
+    if (status != PF_OK)
+        return status;
+    queue_bind_int64(stmt, 1, job_id);
+    status = queue_step_done(queue, stmt, "holding a job's tasks", err);
+    if (status == PF_OK)
+        status = queue_prepare(queue,
+                               "UPDATE tasks SET eligible_at = 0 WHERE job_id = ? AND "
+                               "status = 'queued' AND eligible_at = " QUEUE_HELD_AT_SQL
+                               " AND " TASK_RELEASABLE("tasks"),
+                               &stmt, err);
+    if (status != PF_OK)
+        return status;
+    queue_bind_int64(stmt, 1, job_id);
+    return queue_step_done(queue, stmt, "releasing a job's tasks", err);
+}
+
+pf_status queue_dependents_release(pf_queue *queue, int64_t job_id, int32_t first_frame,
+                                   int32_t last_frame, pf_error *err)
+{
+    /* Only the tasks this completion can have freed: those overlapping its frames, or
+     * all of them once the whole job is done. */
+    queue_stmt *stmt;
+    pf_status status = queue_prepare(
+        queue,
+        "UPDATE tasks SET eligible_at = 0 WHERE status = 'queued' AND eligible_at = "
+        QUEUE_HELD_AT_SQL " AND job_id IN (SELECT d.job_id FROM job_dependencies d"
+        "  WHERE d.after_job = ?1)"
+        " AND ((SELECT j.status FROM jobs j WHERE j.id = ?1) = 'done'"
+        "      OR (first_frame <= ?3 AND last_frame >= ?2))"
+        " AND " TASK_RELEASABLE("tasks"),
+        &stmt, err);
+    if (status != PF_OK)
+        return status;
+    queue_bind_int64(stmt, 1, job_id);
+    queue_bind_int64(stmt, 2, first_frame);
+    queue_bind_int64(stmt, 3, last_frame);
+    return queue_step_done(queue, stmt, "releasing the tasks that waited for a frame", err);
 }
 
 typedef struct add_context {

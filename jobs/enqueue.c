@@ -116,8 +116,6 @@ static pf_status enqueue_body(pf_queue *queue, void *context, pf_error *err)
     else
         status = queue_db_error(queue, err, "inserting the job");
     queue_finalize(stmt);
-    if (status == PF_OK)
-        status = queue_dependencies_add(queue, ctx->job_id, spec->after, spec->after_count, err);
     if (status != PF_OK)
         return status;
 
@@ -141,6 +139,9 @@ static pf_status enqueue_body(pf_queue *queue, void *context, pf_error *err)
             batched = 0;
         }
     }
+    /* After the tasks: adding the dependencies holds those that must wait. */
+    if (status == PF_OK && spec->after_count > 0)
+        status = queue_dependencies_add(queue, ctx->job_id, spec->after, spec->after_count, err);
     return status;
 }
 

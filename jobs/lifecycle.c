@@ -48,6 +48,12 @@ pf_status queue_job_require(pf_queue *queue, int64_t job_id, char *status_text,
 
 pf_status queue_job_refresh(pf_queue *queue, int64_t job_id, pf_error *err)
 {
+    return queue_job_refresh_with(queue, job_id, NULL, err);
+}
+
+pf_status queue_job_refresh_with(pf_queue *queue, int64_t job_id, bool *dependents,
+                                 pf_error *err)
+{
     /* EXISTS probes on (job_id, status) instead of counting every task: this
      * runs after each completion and failure, and a job may have 100,000 tasks.
      * The order of the cases is the precedence of the states. */
@@ -64,7 +70,7 @@ pf_status queue_job_refresh(pf_queue *queue, int64_t job_id, pf_error *err)
         "                   AND t.status IN ('queued', 'running'))"
         "   THEN 'failed'"
         "  WHEN j.started_at IS NOT NULL THEN 'running'"
-        "  ELSE 'queued' END "
+        "  ELSE 'queued' END, j.dependents "
         "FROM jobs j WHERE j.id = ?";
     for (int attempt = 0; attempt < QUEUE_REFRESH_TRIES; attempt++) {
         queue_stmt *stmt;
@@ -80,6 +86,8 @@ pf_status queue_job_refresh(pf_queue *queue, int64_t job_id, pf_error *err)
         char current[16], next[16];
         queue_copy_text(current, sizeof current, queue_column_text(stmt, 0));
         queue_copy_text(next, sizeof next, queue_column_text(stmt, 1));
+        if (dependents)
+            *dependents = queue_column_int64(stmt, 2) != 0;
         queue_finalize(stmt);
         if (!strcmp(current, next))
             return PF_OK;

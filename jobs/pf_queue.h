@@ -255,8 +255,9 @@ typedef struct pf_queue_task {
 /*
  * Claims one task for worker_id under a fresh lease (lease_ms) in one
  * UPDATE ... RETURNING, so two claimers can never get the same task. Only
- * queued tasks whose backoff has passed, of queued/running jobs, for which
- * the worker is not blocked, are candidates. Order: job priority (highest
+ * queued tasks whose backoff has passed and that wait for no other job
+ * (pf_queue_add_dependencies), of queued/running jobs, for which the worker is
+ * not blocked and whose requirements it meets, are candidates. Order: job priority (highest
  * first), then frame affinity — the job preferred_job (0: none) and within it
  * the first task after after_frame, wrapping round to its earlier tasks —
  * then lower job id, then lower first frame. The job becomes running at its
@@ -456,7 +457,8 @@ typedef struct pf_queue_task_info {
     int attempt;
     int64_t worker_id;                  /* 0 when none */
     char worker_name[PF_QUEUE_NAME_MAX]; /* "" when none */
-    int64_t lease_expires, eligible_at, started_at, finished_at; /* 0 when unset */
+    int64_t lease_expires, eligible_at, started_at, finished_at; /* 0 when unset;
+                                           eligible_at 2^53 - 1 while it waits for another job */
     char last_error[512];               /* truncated; "" when none */
 } pf_queue_task_info;
 

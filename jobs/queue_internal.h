@@ -157,6 +157,10 @@ pf_status queue_task_reject(pf_queue *queue, int64_t task_id, const char *error_
                             pf_error *err);
 /* Derives and stores the job's status from its tasks (inside a write transaction). */
 pf_status queue_job_refresh(pf_queue *queue, int64_t job_id, pf_error *err);
+/* The same, and *dependents tells whether some job waits for it (jobs.dependents), read
+ * by the same statement. */
+pf_status queue_job_refresh_with(pf_queue *queue, int64_t job_id, bool *dependents,
+                                 pf_error *err);
 /* Whether job_id exists (PF_ERR_INVALID naming it when not). */
 pf_status queue_job_require(pf_queue *queue, int64_t job_id, char *status, size_t status_size,
                             pf_error *err);
@@ -214,21 +218,23 @@ pf_status queue_pg_transaction(pf_queue *queue, queue_pg_tx kind, const char *wh
     " ESCAPE '\\')"
 
 /*
- * SQL: job row J waits for no unfinished job as a whole (issue 42): one probe of
- * job_dependencies' primary key for a job without prerequisites.
+ * Job dependencies (dependencies.c, issue 42). A task that waits for another job is held:
+ * its eligible_at is QUEUE_HELD_AT, past any clock, so the claim, which takes only tasks
+ * whose eligible_at has passed, never sees it and tests no dependency itself. It is
+ * released (eligible_at 0) when what it waits for is done: every job it waits for as a
+ * whole, and the tasks overlapping its frames of every job it waits for frame by frame.
  */
-#define QUEUE_JOB_RELEASED(J)                                                                 \
-    "NOT EXISTS (SELECT 1 FROM job_dependencies d JOIN jobs p ON p.id = d.after_job"         \
-    " WHERE d.job_id = " J ".id AND d.per_frame = 0 AND p.status <> 'done')"
+#define QUEUE_HELD_AT INT64_C(9007199254740991) /* 2^53 - 1: exact as a double too */
+#define QUEUE_HELD_AT_SQL "9007199254740991"
 
-/*
- * SQL: task row T waits for no frame (issue 42): no task of a job that T's job waits for
- * frame by frame overlaps T's frames without being done.
- */
-#define QUEUE_TASK_RELEASED(T)                                                                \
-    "NOT EXISTS (SELECT 1 FROM job_dependencies d JOIN tasks p ON p.job_id = d.after_job"    \
-    " WHERE d.job_id = " T ".job_id AND d.per_frame = 1 AND p.status <> 'done'"             \
-    " AND p.first_frame <= " T ".last_frame AND p.last_frame >= " T ".first_frame)"
+/* Holds job_id's queued tasks, then releases those whose prerequisites are done (inside a
+ * write transaction: after its dependencies changed, or a retry requeued tasks). */
+pf_status queue_dependencies_hold(pf_queue *queue, int64_t job_id, pf_error *err);
+/* After a task of job_id covering first..last frames completed (and its job's status was
+ * derived): releases the tasks of the jobs waiting for it that it unblocked. On PostgreSQL
+ * a settle statement of its own (queue_write_lease_settled). */
+pf_status queue_dependents_release(pf_queue *queue, int64_t job_id, int32_t first_frame,
+                                   int32_t last_frame, pf_error *err);
 
 /* Stores a completing task's frames' resources (inside its completion's transaction),
  * refusing a frame outside first..last by step, one listed twice, or a value below -1. */

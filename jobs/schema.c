@@ -43,15 +43,18 @@
 /* Version 6's tables, on either engine (its integer type), both issue 42's. Which jobs a
  * job waits for: per_frame 0, every frame of after_job done; 1, frame n waits for
  * after_job's tasks whose frames overlap it (no job is ever deleted, so after_job needs
- * no cascade). What each completed frame took: the worker's peak resident memory and its
+ * no cascade); jobs.dependents is 1 once some job waits for it, so that a completion
+ * looks for tasks to release (dependencies.c) only then. What each completed frame took: the worker's peak resident memory and its
  * device's peak memory during the frame, and the bytes of the frame's file (bytes; -1:
  * not measured). */
 #define JOB_DEPENDENCIES(integer)                                                           \
+    "ALTER TABLE jobs ADD COLUMN dependents INTEGER NOT NULL DEFAULT 0;"                     \
     "CREATE TABLE job_dependencies ("                                                        \
     "  job_id " integer " NOT NULL REFERENCES jobs(id) ON DELETE CASCADE,"                  \
     "  after_job " integer " NOT NULL REFERENCES jobs(id),"                                  \
     "  per_frame INTEGER NOT NULL DEFAULT 0 CHECK (per_frame IN (0, 1)),"                    \
     "  PRIMARY KEY (job_id, after_job));"                                                    \
+    "CREATE INDEX job_dependencies_after ON job_dependencies(after_job);"                    \
     "CREATE TABLE frame_resources ("                                                         \
     "  task_id " integer " NOT NULL REFERENCES tasks(id) ON DELETE CASCADE,"                \
     "  attempt INTEGER NOT NULL,"                                                            \

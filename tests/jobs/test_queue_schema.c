@@ -369,7 +369,7 @@ PF_TEST(a_version_4_postgres_database_migrates_to_the_latest)
     PF_REQUIRE_OK(pf_queue_open(url, NULL, &queue, &err), &err);
     pf_queue_close(queue);
     /* Back to version 4 as PostgreSQL support began it: one row, version 4, no version 5
-     * columns and no version 6 tables. */
+     * columns and no version 6 column or tables. */
     PGconn *conn = PQconnectdb(url);
     PF_REQUIRE(PQstatus(conn) == CONNECTION_OK);
     PGresult *result = PQexec(conn,
@@ -377,7 +377,8 @@ PF_TEST(a_version_4_postgres_database_migrates_to_the_latest)
                               "device_memory, DROP COLUMN host_memory, DROP COLUMN cores, "
                               "DROP COLUMN tags; ALTER TABLE jobs DROP COLUMN requires_device, "
                               "DROP COLUMN min_device_memory, DROP COLUMN min_host_memory, "
-                              "DROP COLUMN required_tags; DROP TABLE job_dependencies, frame_resources; "
+                              "DROP COLUMN required_tags, DROP COLUMN dependents; "
+                              "DROP TABLE job_dependencies, frame_resources; "
                               "DELETE FROM schema_version WHERE version >= 5; "
                               "INSERT INTO schema_version (version, applied_at) VALUES (4, 0) "
                               "ON CONFLICT DO NOTHING");
