@@ -171,13 +171,7 @@ static int print_json(int64_t job_id, const pf_queue_timings *timings)
         cJSON_AddNumberToObject(row, "wall_ms", timings->slowest[i].wall_ms);
         cJSON_AddItemToArray(slowest, row);
     }
-    char *text = cJSON_Print(root);
-    cJSON_Delete(root);
-    if (!text)
-        return pf_cli_fail(COMMAND, 1, "out of memory formatting JSON");
-    printf("%s\n", text);
-    cJSON_free(text);
-    return 0;
+    return pf_timings_print_json(root);
 }
 
 int pf_cli_timings(int argc, char **argv)

@@ -133,7 +133,12 @@ static int print_json(int64_t job_id, const pf_queue_frame_details *details)
         }
         cJSON_AddItemToArray(frames, row);
     }
-    char *text = cJSON_Print(root);
+    return pf_timings_print_json(root);
+}
+
+int pf_timings_print_json(cJSON *root)
+{
+    char *text = root ? cJSON_Print(root) : NULL;
     cJSON_Delete(root);
     if (!text)
         return pf_cli_fail(COMMAND, 1, "out of memory formatting JSON");
