@@ -37,6 +37,7 @@ PACKAGES=(
   libuv1-dev              # worker event loop
   libsqlite3-dev          # the job queue
   libpq-dev               # the job queue on PostgreSQL (farms spanning hosts)
+  libmicrohttpd-dev       # photonfarm serve: the monitor's HTTP server
   postgresql              # tests: the queue tests also run on a throwaway cluster
   python3-yaml            # tests: the Kubernetes manifests are parsed and checked
   libcjson-dev            # glTF JSON parsing

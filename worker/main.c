@@ -23,6 +23,7 @@ static const command commands[] = {
     {"resume", pf_cli_resume, "resume a paused job"},
     {"retry", pf_cli_retry, "requeue a job's failed and canceled frames"},
     {"depend", pf_cli_depend, "make a job wait for other jobs (or their frames)"},
+    {"serve", pf_cli_serve, "the farm monitor in a browser (and JSON under /api/)"},
     {"workers", pf_cli_workers, "registered workers: alive or dead, current frame"},
     {"version", NULL, "the version and git revision of this build (also --version)"},
 };

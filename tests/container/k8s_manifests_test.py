@@ -5,7 +5,8 @@ Service, the queue URL in a Secret that names that Service, the worker
 Deployment (image, command, queue URL from the Secret, LP_NUM_THREADS equal
 to its CPU request, memory requests, the heartbeat liveness probe, the shared
 frames volume, the image's unprivileged user, a grace period for one frame),
-the ReadWriteMany claim, and the enqueue Job. Prints one line per check."""
+the ReadWriteMany claim, the enqueue Job, and the monitor (issue 41). Prints one line
+per check."""
 import glob
 import os
 import sys
@@ -92,4 +93,30 @@ probe = " ".join(container.get("livenessProbe", {}).get("exec", {}).get("command
 check("worker: liveness is the heartbeat (workers --check)", "workers --check" in probe)
 check("worker: a grace period for the frame in flight",
       pod.get("terminationGracePeriodSeconds", 0) >= 60)
+# The monitor (issue 41): serve with a token from its Secret, the queue URL from the
+# database's, /healthz probes, the image's user, and a Service in front of it.
+monitor = one("Deployment", "photonfarm-monitor")
+monitor_service = one("Service", "photonfarm-monitor")
+monitor_token = one("Secret", "photonfarm-monitor-token")
+pod = monitor.get("spec", {}).get("template", {}).get("spec", {})
+container = (pod.get("containers") or [{}])[0]
+args = container.get("args") or [""]
+ref = env_of(container).get("PHOTONFARM_DB", {}).get("valueFrom", {}).get("secretKeyRef", {})
+check("monitor: photonfarm serve on every address with a token file",
+      container.get("image", "").startswith("photonfarm") and args[0] == "serve" and
+      "--token-file" in args and "--listen" in args and
+      args[args.index("--listen") + 1].startswith("0.0.0.0:"))
+check("monitor: PHOTONFARM_DB from the Secret",
+      ref.get("name") == "photonfarm-db" and ref.get("key") == "PHOTONFARM_DB")
+check("monitor: the token file is the token Secret's",
+      any(v.get("secret", {}).get("secretName") == "photonfarm-monitor-token"
+          for v in pod.get("volumes", [])) and "token" in monitor_token.get("stringData", {}))
+check("monitor: readiness and liveness ask /healthz",
+      all(container.get(p, {}).get("httpGet", {}).get("path") == "/healthz"
+          for p in ("readinessProbe", "livenessProbe")))
+check("monitor: runs as the image's user 10001",
+      pod.get("securityContext", {}).get("runAsUser") == 10001)
+check("monitor: the Service selects it",
+      monitor_service.get("spec", {}).get("selector") ==
+      monitor.get("spec", {}).get("selector", {}).get("matchLabels"))
 sys.exit(1 if failed else 0)

@@ -1,0 +1,214 @@
+// photonfarm monitor: the queue's JSON (/api/...) as tables, a frame grid and stage bars,
+// refreshed at every "update" event of /api/events. Every value from the queue is set as
+// text (textContent, attributes), never parsed as HTML.
+'use strict';
+
+const stageColours = ['#4e79a7', '#f28e2b', '#e15759', '#76b7b2', '#59a14f', '#edc948',
+  '#b07aa1', '#ff9da7', '#9c755f', '#bab0ac', '#86bcb6', '#d37295'];
+let selectedJob = null;
+
+function el(tag, text, className) {
+  const node = document.createElement(tag);
+  if (text !== undefined && text !== null) node.textContent = String(text);
+  if (className) node.className = className;
+  return node;
+}
+
+function bytes(value) {
+  if (!(value > 0)) return '-';
+  if (value >= 2 ** 30) return (value / 2 ** 30).toFixed(1) + ' GiB';
+  if (value >= 2 ** 20) return (value / 2 ** 20).toFixed(0) + ' MiB';
+  return (value / 1024).toFixed(0) + ' KiB';
+}
+
+function duration(seconds) {
+  if (seconds === null || seconds === undefined) return '-';
+  if (seconds < 60) return seconds.toFixed(0) + ' s';
+  if (seconds < 3600) return (seconds / 60).toFixed(1) + ' min';
+  return (seconds / 3600).toFixed(1) + ' h';
+}
+
+// The server's clock, from its responses' Date header: ages and ETAs are measured on it.
+let serverOffsetMs = 0;
+
+async function getJson(path) {
+  const response = await fetch(path, {cache: 'no-store'});
+  if (!response.ok) throw new Error(path + ': ' + response.status);
+  const date = Date.parse(response.headers.get('Date') || '');
+  if (!Number.isNaN(date)) serverOffsetMs = date - Date.now();
+  return response.json();
+}
+
+function serverNow() { return Date.now() + serverOffsetMs; }
+
+// From the job's pace so far: frames done over the time since it was enqueued.
+function eta(job) {
+  const left = job.frames_total - job.frames_done;
+  const elapsed = (serverNow() - job.created_at) / 1000;
+  if (job.frames_done <= 0 || left <= 0 || elapsed <= 0 ||
+      !['running', 'queued'].includes(job.status)) return null;
+  return elapsed / job.frames_done * left;
+}
+
+function jobName(job) {
+  return (job.parameters && typeof job.parameters.name === 'string') ? job.parameters.name : '';
+}
+
+function renderJobs(jobs) {
+  const body = document.querySelector('#jobs tbody');
+  body.replaceChildren();
+  for (const job of jobs) {
+    const row = el('tr', null, 'job' + (job.id === selectedJob ? ' selected' : ''));
+    row.dataset.job = job.id;
+    const progress = el('progress');
+    progress.max = Math.max(job.frames_total, 1);
+    progress.value = job.frames_done;
+    const cells = [job.id, jobName(job), null, null, job.frames_done + '/' + job.frames_total,
+      job.tasks.running, job.tasks.failed, job.priority,
+      job.parameters ? job.parameters.quality : '', duration(eta(job)), job.note];
+    cells.forEach((value, index) => {
+      const cell = el('td', value);
+      if (index === 2) { cell.textContent = job.status; cell.className = 'state-' + job.status; }
+      if (index === 3) cell.append(progress);
+      if (index === 10) cell.className = 'note';
+      row.append(cell);
+    });
+    row.addEventListener('click', () => { selectedJob = job.id; refresh(); });
+    body.append(row);
+  }
+}
+
+function renderWorkers(workers) {
+  const body = document.querySelector('#workers tbody');
+  body.replaceChildren();
+  for (const worker of workers) {
+    const state = worker.stopped ? 'stopped' : (worker.alive ? 'alive' : 'dead');
+    const doing = worker.job === null ? 'idle' : 'job ' + worker.job + ' frame ' + worker.frame;
+    const row = el('tr');
+    for (const value of [worker.name, state,
+      duration(Math.max(0, (serverNow() - worker.heartbeat_at) / 1000)) + ' ago',
+      worker.device, worker.device_type, bytes(worker.device_memory), bytes(worker.host_memory),
+      worker.cores || '-', worker.tags, doing]) row.append(el('td', value));
+    row.children[1].className = worker.alive ? 'state-running' : 'state-failed';
+    body.append(row);
+  }
+}
+
+function renderDetail(job, timings, frames) {
+  document.getElementById('detail').hidden = false;
+  document.getElementById('detail-title').textContent =
+    'Job ' + job.id + (jobName(job) ? ' (' + jobName(job) + ')' : '');
+  const plan = timings.decisions.find((d) => d.stage === 'plan');
+  document.getElementById('detail-summary').textContent =
+    job.status + ', ' + job.frames_done + '/' + job.frames_total + ' frames, scene ' + job.scene +
+    ' -> ' + job.output + (plan ? ', preset: ' + plan.decision : '') +
+    (job.requires ? ', requires ' + job.requires : '') +
+    (job.prerequisites ? ', after job ' + job.prerequisites : '') +
+    (job.note ? ' - ' + job.note : '');
+
+  const grid = document.getElementById('frame-grid');
+  grid.replaceChildren();
+  for (const task of job.task_list) {
+    const cell = el('span', null, 'cell ' + task.status);
+    cell.title = 'frame ' + task.first_frame +
+      (task.last_frame !== task.first_frame ? '-' + task.last_frame : '') + ': ' + task.status +
+      (task.worker ? ' on ' + task.worker : '') + (task.last_error ? ' - ' + task.last_error : '');
+    cell.dataset.status = task.status;
+    grid.append(cell);
+  }
+
+  // Per stage: the distribution over frames, and the frame behind the slowest.
+  const stageBody = document.querySelector('#stages tbody');
+  stageBody.replaceChildren();
+  const colour = {};
+  timings.stages.forEach((stage, index) => { colour[stage.stage] = stageColours[index % stageColours.length]; });
+  for (const stage of timings.stages) {
+    let slowest = null;
+    for (const frame of frames.frames)
+      for (const row of frame.stages)
+        if (row.stage === stage.stage && !row.skipped && (!slowest || row.wall_ms > slowest.ms))
+          slowest = {frame: frame.frame, ms: row.wall_ms};
+    const row = el('tr');
+    const w = stage.wall_ms;
+    for (const value of [stage.stage, stage.count, stage.skipped, w.min.toFixed(2),
+      w.median.toFixed(2), w.p95.toFixed(2), w.max.toFixed(2), slowest ? slowest.frame : '-'])
+      row.append(el('td', value));
+    stageBody.append(row);
+  }
+  const legend = document.getElementById('legend');
+  legend.replaceChildren();
+  for (const stage of timings.stages) {
+    const item = el('span', stage.stage);
+    const swatch = el('i');
+    swatch.style.background = colour[stage.stage];
+    item.prepend(swatch);
+    legend.append(item);
+  }
+  // Each frame's stages as a stacked bar, one colour per stage; skipped stages take no room.
+  const bars = document.getElementById('frame-bars');
+  bars.replaceChildren();
+  const longest = Math.max(1, ...frames.frames.map((f) => f.wall_ms));
+  for (const frame of frames.frames) {
+    const row = el('div', null, 'row');
+    row.append(el('span', frame.frame, 'label'));
+    const bar = el('span', null, 'bar');
+    bar.dataset.frame = frame.frame;
+    for (const stage of frame.stages) {
+      if (stage.skipped) continue;
+      const part = el('i');
+      part.style.width = (400 * stage.wall_ms / longest).toFixed(1) + 'px';
+      part.style.background = colour[stage.stage] || '#999';
+      part.title = stage.stage + ': ' + stage.wall_ms.toFixed(1) + ' ms' +
+        (stage.decision ? ' (' + stage.decision + ')' : '');
+      part.dataset.stage = stage.stage;
+      bar.append(part);
+    }
+    row.append(bar, el('span', frame.wall_ms.toFixed(0) + ' ms, ' + bytes(frame.peak_rss) +
+      ' peak, ' + (frame.worker || '-'), 'label wide'));
+    bars.append(row);
+  }
+
+  const failures = document.getElementById('failures');
+  failures.replaceChildren();
+  for (const failure of job.failures.slice(-50))
+    failures.append(el('li', 'frame ' + failure.frame + ' attempt ' + failure.attempt + ' on ' +
+      failure.worker + ': ' + failure.error));
+}
+
+async function refresh() {
+  try {
+    const [jobs, workers] = await Promise.all([getJson('/api/jobs'), getJson('/api/workers')]);
+    renderJobs(jobs);
+    renderWorkers(workers);
+    if (selectedJob !== null) {
+      const base = '/api/jobs/' + selectedJob;
+      const [job, timings, frames] = await Promise.all(
+        [getJson(base), getJson(base + '/timings'), getJson(base + '/frames')]);
+      renderDetail(job, timings, frames);
+    }
+    document.getElementById('updated').textContent = 'updated ' + new Date().toLocaleTimeString();
+  } catch (error) {
+    document.getElementById('updated').textContent = String(error);
+  }
+}
+
+async function act(action) {
+  const result = document.getElementById('action-result');
+  const response = await fetch('/api/jobs/' + selectedJob + '/' + action, {
+    method: 'POST', headers: {'X-Photonfarm-Token': document.getElementById('token').value}});
+  const body = await response.json().catch(() => ({}));
+  result.textContent = response.ok ? action + ': done' : (body.error || response.status);
+}
+
+function connect() {
+  const live = document.getElementById('live');
+  const events = new EventSource('/api/events');
+  events.addEventListener('update', () => { live.textContent = 'live'; live.className = 'live on'; refresh(); });
+  events.onerror = () => { live.textContent = 'reconnecting'; live.className = 'live off'; };
+}
+
+document.querySelectorAll('#actions button').forEach((button) =>
+  button.addEventListener('click', () => act(button.dataset.action)));
+const params = new URLSearchParams(location.search);
+if (params.has('job')) selectedJob = Number(params.get('job'));
+connect();

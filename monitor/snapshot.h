@@ -1,0 +1,48 @@
+/*
+ * The monitor's shared view of the queue (snapshot.c): one thread reads the jobs and the
+ * workers every poll and keeps their JSON; a generation number counts the changes, and
+ * clients wait on it for the next one (Server-Sent Events).
+ */
+#ifndef PF_MONITOR_SNAPSHOT_H
+#define PF_MONITOR_SNAPSHOT_H
+
+#include "pf_common.h"
+
+#include <pthread.h>
+#include <stdint.h>
+
+typedef struct pf_snapshot {
+    pthread_mutex_t lock;
+    pthread_cond_t changed;    /* broadcast at every new generation, poke and stop */
+    uint64_t generation;       /* 1 after the first read; +1 whenever the JSON changes */
+    char *jobs_json;           /* owned, under lock */
+    char *workers_json;
+    int64_t reads;             /* polls of the queue so far (bench: they do not grow with
+                                  clients) */
+    char error[PF_ERROR_MESSAGE_MAX]; /* the last read's failure, "" when it succeeded */
+    int stopping, poked;
+    int poll_ms;
+    char *db_path;
+    pthread_t thread;
+} pf_snapshot;
+
+/* Opens the queue, reads it once (so the first client has data) and starts the poller. */
+pf_status pf_snapshot_start(pf_snapshot *snapshot, const char *db_path, int poll_ms,
+                            pf_error *err);
+/* Stops the poller; waits return at once from then on (pf_snapshot_wait gives 0), and
+ * the last view can still be read. */
+void pf_snapshot_stop(pf_snapshot *snapshot);
+/* Frees everything, once nobody reads it any more. */
+void pf_snapshot_free(pf_snapshot *snapshot);
+/* A copy of the jobs' (jobs != 0) or workers' JSON (malloc'ed; NULL when out of memory)
+ * and its generation. */
+char *pf_snapshot_copy(pf_snapshot *snapshot, int jobs, uint64_t *generation);
+/* Waits until the generation passes seen, at most timeout_ms; returns the current one (0
+ * once stopping). */
+uint64_t pf_snapshot_wait(pf_snapshot *snapshot, uint64_t seen, int timeout_ms);
+/* Reads the queue now instead of at the next poll (after an action). */
+void pf_snapshot_poke(pf_snapshot *snapshot);
+/* The current generation. */
+uint64_t pf_snapshot_generation(pf_snapshot *snapshot);
+
+#endif

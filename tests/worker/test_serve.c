@@ -1,0 +1,374 @@
+/*
+ * photonfarm serve (issue 41), over HTTP on loopback: the API against the queue's state,
+ * stored strings reaching the page only as JSON text, the action token, paths outside the
+ * embedded files refused, a malformed request answered 4xx with the server still serving,
+ * live events at a change, and a non-loopback address without a token refused.
+ */
+#include "worker_test_util.h"
+
+#include "pf_test.h"
+
+#include <arpa/inet.h>
+#include <cjson/cJSON.h>
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/socket.h>
+#include <sys/time.h>
+#include <unistd.h>
+
+#define EVIL_NAME "<script>alert(1)</script>"
+#define TOKEN "a-long-enough-action-token"
+
+static char dir[WT_PATH_MAX], db[WT_PATH_MAX + 32], log_path[WT_PATH_MAX + 32];
+
+/* A running `serve` and its port. */
+typedef struct served {
+    pid_t pid;
+    int port;
+    char log[WT_PATH_MAX + 48];
+} served;
+
+static served serve(const char *name, const char *token_file)
+{
+    served server = {0};
+    wt_format(server.log, sizeof server.log, "%s/%s.log", dir, name);
+    unlink(server.log);
+    const char *arguments[] = {"serve", "--listen", "127.0.0.1:0", "--poll-ms", "100", "--db", db,
+                               token_file ? "--token-file" : NULL, token_file, NULL};
+    server.pid = wt_spawn(arguments, server.log, NULL);
+    for (int tries = 0; tries < 100 && !server.port; tries++) {
+        wt_sleep_ms(50);
+        char *text = wt_read_file(server.log, NULL);
+        const char *at = text ? strstr(text, "listening on http://127.0.0.1:") : NULL;
+        if (at)
+            server.port = atoi(at + strlen("listening on http://127.0.0.1:"));
+        free(text);
+    }
+    PF_CHECK_MSG(server.port > 0, "serve did not say where it listens");
+    return server;
+}
+
+static void stop(served *server)
+{
+    kill(server->pid, SIGTERM);
+    PF_CHECK_MSG(wt_wait(server->pid, 10000) == 0, "serve did not stop cleanly on SIGTERM");
+}
+
+/* Sends request (raw) and reads the whole response, at most 2 s; malloc'ed. */
+static char *exchange(int port, const char *request)
+{
+    int fd = socket(AF_INET, SOCK_STREAM, 0);
+    struct sockaddr_in address = {.sin_family = AF_INET, .sin_port = htons((uint16_t)port)};
+    inet_pton(AF_INET, "127.0.0.1", &address.sin_addr);
+    struct timeval timeout = {2, 0};
+    setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &timeout, sizeof timeout);
+    if (connect(fd, (struct sockaddr *)&address, sizeof address) != 0) {
+        close(fd);
+        return strdup("");
+    }
+    size_t length = strlen(request);
+    for (size_t sent = 0; sent < length;) {
+        ssize_t n = write(fd, request + sent, length - sent);
+        if (n <= 0)
+            break;
+        sent += (size_t)n;
+    }
+    size_t capacity = 1 << 16, used = 0;
+    char *response = malloc(capacity);
+    ssize_t n;
+    while (response && (n = read(fd, response + used, capacity - used - 1)) > 0) {
+        used += (size_t)n;
+        if (used + 1 == capacity)
+            response = realloc(response, capacity *= 2);
+    }
+    close(fd);
+    if (response)
+        response[used] = '\0';
+    return response;
+}
+
+/* GET path (or POST with an optional token header); the response's status code, and its
+ * body in *body (malloc'ed) when body is not NULL. */
+static int http(int port, const char *method, const char *path, const char *token, char **body)
+{
+    char request[1024];
+    wt_format(request, sizeof request,
+              "%s %s HTTP/1.1\r\nHost: 127.0.0.1\r\nConnection: close\r\n%s%s%s%s\r\n", method,
+              path, token ? "X-Photonfarm-Token: " : "", token ? token : "", token ? "\r\n" : "",
+              strcmp(method, "POST") ? "" : "Content-Length: 0\r\n");
+    char *response = exchange(port, request);
+    int code = 0;
+    if (response)
+        sscanf(response, "HTTP/1.%*d %d", &code);
+    if (body) {
+        const char *start = response ? strstr(response, "\r\n\r\n") : NULL;
+        *body = strdup(start ? start + 4 : "");
+    }
+    free(response);
+    return code;
+}
+
+static cJSON *get_json(int port, const char *path)
+{
+    char *body = NULL;
+    int code = http(port, "GET", path, NULL, &body);
+    PF_CHECK_MSG(code == 200, "GET %s: %d", path, code);
+    cJSON *parsed = cJSON_Parse(body);
+    PF_CHECK_MSG(parsed != NULL, "GET %s: not JSON: %.200s", path, body);
+    free(body);
+    return parsed;
+}
+
+/* A queue with a queued job named EVIL_NAME, a failed frame, a done frame and a worker. */
+static void fill_queue(int64_t *job_id)
+{
+    unlink(db);
+    pf_queue *queue = NULL;
+    pf_error err = {0};
+    PF_REQUIRE_OK(pf_queue_open(db, NULL, &queue, &err), &err);
+    pf_queue_job_spec spec = {.scene_path = "scenes/box.gltf",
+                              .parameters_json = "{\"name\": \"" EVIL_NAME "\", "
+                                                 "\"quality\": \"final\"}",
+                              .frame_range = "1-3", .output_pattern = "out/f_####.exr",
+                              .max_attempts = 1};
+    PF_REQUIRE_OK(pf_queue_enqueue(queue, &spec, job_id, &err), &err);
+    pf_queue_worker_spec worker = {.name = "w-" EVIL_NAME, .host = "h", .pid = 1,
+                                   .device = "lvp", .device_type = "cpu"};
+    int64_t worker_id = 0;
+    PF_REQUIRE_OK(pf_queue_worker_register(queue, &worker, &worker_id, &err), &err);
+    pf_queue_task task;
+    bool claimed = false;
+    PF_REQUIRE_OK(pf_queue_claim(queue, worker_id, 0, 0, &task, &claimed, &err), &err);
+    pf_queue_stage_row row = {task.first_frame, "shade", 12.5, PF_QUEUE_NO_GPU_MS, NULL, false,
+                              "camera samples", NULL};
+    PF_REQUIRE_OK(pf_queue_complete(queue, task.lease_token, &row, 1, NULL, &err), &err);
+    PF_REQUIRE_OK(pf_queue_claim(queue, worker_id, 0, 0, &task, &claimed, &err), &err);
+    PF_REQUIRE_OK(pf_queue_fail(queue, task.lease_token, "error " EVIL_NAME, &err), &err);
+    pf_queue_close(queue);
+}
+
+PF_TEST(the_api_shows_the_queue_and_stored_strings_stay_text)
+{
+    int64_t job_id = 0;
+    fill_queue(&job_id);
+    served server = serve("api", NULL);
+    cJSON *jobs = get_json(server.port, "/api/jobs");
+    const cJSON *job = cJSON_GetArrayItem(jobs, 0);
+    PF_CHECK(cJSON_GetArraySize(jobs) == 1);
+    const cJSON *parameters = cJSON_GetObjectItem(job, "parameters");
+    PF_CHECK(!strcmp(cJSON_GetStringValue(cJSON_GetObjectItem(parameters, "name")), EVIL_NAME));
+    PF_CHECK(cJSON_GetNumberValue(cJSON_GetObjectItem(job, "frames_done")) == 1 &&
+             cJSON_GetNumberValue(cJSON_GetObjectItem(job, "frames_total")) == 3);
+    const cJSON *tasks = cJSON_GetObjectItem(job, "tasks");
+    PF_CHECK(cJSON_GetNumberValue(cJSON_GetObjectItem(tasks, "failed")) == 1 &&
+             cJSON_GetNumberValue(cJSON_GetObjectItem(tasks, "queued")) == 1);
+    cJSON_Delete(jobs);
+    cJSON *workers = get_json(server.port, "/api/workers");
+    PF_CHECK(!strcmp(cJSON_GetStringValue(cJSON_GetObjectItem(cJSON_GetArrayItem(workers, 0),
+                                                              "name")),
+                     "w-" EVIL_NAME));
+    cJSON_Delete(workers);
+    char path[64];
+    wt_format(path, sizeof path, "/api/jobs/%lld", (long long)job_id);
+    cJSON *detail = get_json(server.port, path);
+    PF_CHECK(cJSON_GetArraySize(cJSON_GetObjectItem(detail, "task_list")) == 3);
+    const cJSON *failure = cJSON_GetArrayItem(cJSON_GetObjectItem(detail, "failures"), 0);
+    PF_CHECK(!strcmp(cJSON_GetStringValue(cJSON_GetObjectItem(failure, "error")),
+                     "error " EVIL_NAME));
+    cJSON_Delete(detail);
+    wt_format(path, sizeof path, "/api/jobs/%lld/timings", (long long)job_id);
+    cJSON *timings = get_json(server.port, path);
+    const cJSON *stage = cJSON_GetArrayItem(cJSON_GetObjectItem(timings, "stages"), 0);
+    PF_CHECK(!strcmp(cJSON_GetStringValue(cJSON_GetObjectItem(stage, "stage")), "shade") &&
+             cJSON_GetNumberValue(cJSON_GetObjectItem(cJSON_GetObjectItem(stage, "wall_ms"),
+                                                      "median")) == 12.5);
+    cJSON_Delete(timings);
+    wt_format(path, sizeof path, "/api/jobs/%lld/frames", (long long)job_id);
+    cJSON *frames = get_json(server.port, path);
+    PF_CHECK(cJSON_GetNumberValue(cJSON_GetObjectItem(frames, "count")) == 1);
+    cJSON_Delete(frames);
+    PF_CHECK(http(server.port, "GET", "/api/jobs/999", NULL, NULL) == 404);
+    PF_CHECK(http(server.port, "GET", "/api/jobs/x", NULL, NULL) == 404);
+
+    /* JSON served as JSON only, and a page that never turns text into HTML. */
+    char *response = exchange(server.port, "GET /api/jobs HTTP/1.1\r\nHost: x\r\n"
+                                           "Connection: close\r\n\r\n");
+    PF_CHECK(response && strstr(response, "Content-Type: application/json") &&
+             strstr(response, "X-Content-Type-Options: nosniff"));
+    free(response);
+    char *script = NULL;
+    PF_CHECK(http(server.port, "GET", "/monitor.js", NULL, &script) == 200);
+    PF_CHECK(script && strstr(script, "textContent") && !strstr(script, "innerHTML") &&
+             !strstr(script, "outerHTML") && !strstr(script, "insertAdjacentHTML") &&
+             !strstr(script, "document.write") && !strstr(script, "eval("));
+    free(script);
+    char *page = NULL;
+    PF_CHECK(http(server.port, "GET", "/", NULL, &page) == 200);
+    PF_CHECK(page && strstr(page, "<script src=\"/monitor.js\"") && !strstr(page, EVIL_NAME));
+    free(page);
+    stop(&server);
+}
+
+PF_TEST(actions_need_the_token)
+{
+    int64_t job_id = 0;
+    fill_queue(&job_id);
+    char path[64];
+    wt_format(path, sizeof path, "/api/jobs/%lld/pause", (long long)job_id);
+    served read_only = serve("read-only", NULL);
+    PF_CHECK(http(read_only.port, "POST", path, TOKEN, NULL) == 403);
+    stop(&read_only);
+
+    char token_file[WT_PATH_MAX + 32];
+    wt_format(token_file, sizeof token_file, "%s/token", dir);
+    FILE *file = fopen(token_file, "w");
+    PF_REQUIRE(file);
+    fprintf(file, "%s\n", TOKEN);
+    fclose(file);
+    served server = serve("token", token_file);
+    PF_CHECK(http(server.port, "POST", path, NULL, NULL) == 403);
+    PF_CHECK(http(server.port, "POST", path, "wrong-token-of-some-length", NULL) == 403);
+    PF_CHECK(http(server.port, "GET", path, TOKEN, NULL) == 404); /* GET never acts */
+    pf_queue *queue = wt_open_queue(db);
+    PF_REQUIRE(queue);
+    pf_queue_job job = {0};
+    pf_error err = {0};
+    PF_CHECK_OK(pf_queue_job_get(queue, job_id, &job, &err), &err);
+    PF_CHECK_MSG(strcmp(job.status, "paused") != 0, "paused without the token");
+    pf_queue_job_clear(&job);
+    PF_CHECK(http(server.port, "POST", path, TOKEN, NULL) == 200);
+    PF_CHECK_OK(pf_queue_job_get(queue, job_id, &job, &err), &err);
+    PF_CHECK_MSG(!strcmp(job.status, "paused"), "status %s after pause", job.status);
+    pf_queue_job_clear(&job);
+    PF_CHECK(http(server.port, "POST", path, TOKEN, NULL) == 409); /* paused already */
+    wt_format(path, sizeof path, "/api/jobs/%lld/explode", (long long)job_id);
+    PF_CHECK(http(server.port, "POST", path, TOKEN, NULL) == 404);
+    pf_queue_close(queue);
+    stop(&server);
+}
+
+PF_TEST(bad_requests_and_paths_outside_the_page_are_refused)
+{
+    int64_t job_id = 0;
+    fill_queue(&job_id);
+    served server = serve("paths", NULL);
+    static const char *const outside[] = {
+        "/../../../../etc/passwd", "/%2e%2e/%2e%2e/etc/passwd", "/api/../../etc/passwd",
+        "/monitor.js/../../../etc/passwd", "/etc/passwd", "/api/jobs/1/../../../etc/passwd"};
+    for (size_t i = 0; i < sizeof outside / sizeof outside[0]; i++) {
+        char *body = NULL;
+        int code = http(server.port, "GET", outside[i], NULL, &body);
+        PF_CHECK_MSG(code >= 400 && code < 500 && body && !strstr(body, "root:"), "%s: %d",
+                     outside[i], code);
+        free(body);
+    }
+    /* Malformed headers are 400; a request line that is no HTTP at all is closed unanswered
+     * (libmicrohttpd's way); the server serves on after each. */
+    static const char *const malformed[] = {
+        "GET / HTTP/1.1\r\nHost: x\r\nBad Header\r\n\r\n",
+        "GET / HTTP/1.1\r\nHost: x\r\nContent-Length: abc\r\n\r\n"};
+    char *response = NULL;
+    int code = 0;
+    for (size_t i = 0; i < sizeof malformed / sizeof malformed[0]; i++) {
+        response = exchange(server.port, malformed[i]);
+        code = 0;
+        if (response)
+            sscanf(response, "HTTP/1.%*d %d", &code);
+        PF_CHECK_MSG(code == 400, "malformed request %zu: %d", i, code);
+        free(response);
+    }
+    response = exchange(server.port, "NONSENSE\r\n\r\n");
+    PF_CHECK(response && !strstr(response, "200 OK"));
+    free(response);
+    /* An oversized request is refused too, and the server keeps serving. */
+    char *huge = malloc(100 * 1024);
+    PF_REQUIRE(huge);
+    int used = snprintf(huge, 100 * 1024, "GET / HTTP/1.1\r\nHost: x\r\nX-Big: ");
+    memset(huge + used, 'a', 90 * 1024);
+    strcpy(huge + used + 90 * 1024, "\r\n\r\n");
+    response = exchange(server.port, huge);
+    code = 0;
+    if (response && *response)
+        sscanf(response, "HTTP/1.%*d %d", &code);
+    PF_CHECK_MSG(code == 0 || (code >= 400 && code < 500), "an oversized request: %d", code);
+    free(response);
+    free(huge);
+    PF_CHECK(http(server.port, "DELETE", "/api/jobs/1", NULL, NULL) == 405);
+    PF_CHECK(http(server.port, "GET", "/healthz", NULL, NULL) == 200);
+    stop(&server);
+}
+
+static int occurrences(const char *text, const char *word)
+{
+    int count = 0;
+    for (const char *at = strstr(text, word); at; at = strstr(at + 1, word))
+        count++;
+    return count;
+}
+
+/* The event stream says "update" when the queue changes, within the poll (100 ms here). */
+PF_TEST(events_announce_a_change)
+{
+    int64_t job_id = 0;
+    fill_queue(&job_id);
+    served server = serve("events", NULL);
+    int fd = socket(AF_INET, SOCK_STREAM, 0);
+    struct sockaddr_in address = {.sin_family = AF_INET, .sin_port = htons((uint16_t)server.port)};
+    inet_pton(AF_INET, "127.0.0.1", &address.sin_addr);
+    struct timeval timeout = {3, 0};
+    setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &timeout, sizeof timeout);
+    PF_REQUIRE(connect(fd, (struct sockaddr *)&address, sizeof address) == 0);
+    const char request[] = "GET /api/events HTTP/1.1\r\nHost: x\r\n\r\n";
+    PF_REQUIRE(write(fd, request, sizeof request - 1) == (ssize_t)(sizeof request - 1));
+    char buffer[4096];
+    size_t used = 0;
+    int events = 0;
+    /* The first event comes at once; pause the job, and a second must follow. */
+    for (int reads = 0; reads < 20 && events < 2; reads++) {
+        ssize_t n = read(fd, buffer + used, sizeof buffer - used - 1);
+        if (n <= 0)
+            break;
+        used += (size_t)n;
+        buffer[used] = '\0';
+        events = occurrences(buffer, "event: update");
+        if (events == 1) {
+            pf_queue *queue = wt_open_queue(db);
+            pf_error err = {0};
+            if (queue && pf_queue_pause(queue, job_id, &err) != PF_OK)
+                PF_CHECK_MSG(0, "%s", err.message);
+            pf_queue_close(queue);
+        }
+    }
+    close(fd);
+    PF_CHECK_MSG(events >= 2, "%d update events: %s", events, buffer);
+    stop(&server);
+}
+
+PF_TEST(a_public_address_needs_a_token)
+{
+    int64_t job_id = 0;
+    fill_queue(&job_id);
+    char args[2 * WT_PATH_MAX];
+    wt_format(args, sizeof args, "serve --listen 0.0.0.0:0 --db '%s'", db);
+    PF_CHECK(wt_run(args, log_path) == 2);
+    PF_CHECK(wt_file_contains(log_path, "not a loopback address"));
+    wt_format(args, sizeof args, "serve --listen localhost --db '%s'", db);
+    PF_CHECK(wt_run(args, log_path) == 2);
+    wt_format(args, sizeof args, "serve --db '%s/missing.db'", dir);
+    PF_CHECK(wt_run(args, log_path) == 2);
+}
+
+int main(void)
+{
+    pf_test_tmpdir(dir, sizeof dir);
+    wt_format(db, sizeof db, "%s/serve.db", dir);
+    wt_format(log_path, sizeof log_path, "%s/serve-cli.log", dir);
+    PF_RUN(the_api_shows_the_queue_and_stored_strings_stay_text);
+    PF_RUN(actions_need_the_token);
+    PF_RUN(bad_requests_and_paths_outside_the_page_are_refused);
+    PF_RUN(events_announce_a_change);
+    PF_RUN(a_public_address_needs_a_token);
+    return pf_test_finish();
+}
