@@ -29,6 +29,10 @@ typedef struct pf_monitor_config {
     /* Called once the server listens, with the port it got. */
     void (*listening)(uint16_t port, void *user);
     void *user;
+    /* The file of frame of a job whose output pattern is stored as pattern, resolved
+     * within the storage roots (0 when it is outside them or does not fit out); NULL: no
+     * frame previews. */
+    int (*frame_path)(const char *pattern, int64_t frame, char *out, size_t size, void *user);
 } pf_monitor_config;
 
 /* Whether address (numeric IPv4) is a loopback one (127.0.0.0/8). */

@@ -11,22 +11,26 @@
  *   GET  /api/jobs/N               the job, its tasks and failures
  *   GET  /api/jobs/N/timings       its stage statistics (timings JOB)
  *   GET  /api/jobs/N/frames        its frames (timings JOB --frames; the first 2,000)
+ *   GET  /api/jobs/N/last.png      its latest finished frame, tone-mapped (?exposure=EV)
  *   POST /api/jobs/N/ACTION        pause, resume, cancel, retry: with the token in
  *                                  X-Photonfarm-Token, else 403
  */
 #include "pf_monitor.h"
 
+#include "frame_image.h"
 #include "json_views.h"
 #include "pf_queue.h"
 #include "snapshot.h"
 
 #include <arpa/inet.h>
 #include <inttypes.h>
+#include <math.h>
 #include <microhttpd.h>
 #include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <time.h>
 
 /* The page's files, embedded by monitor/CMakeLists.txt: the only files ever served. */
@@ -68,6 +72,19 @@ typedef struct detail_entry {
     char *text;
 } detail_entry;
 
+/* Previews kept: a page asks for its job's latest frame at every change. */
+#define PREVIEW_CACHE 8
+/* Exposure the page may ask for, in stops either way. */
+#define MAX_EXPOSURE 16.0
+
+typedef struct preview_entry {
+    char path[4096];
+    double exposure;
+    struct timespec modified;
+    unsigned char *png;
+    size_t size;
+} preview_entry;
+
 typedef struct server {
     const pf_monitor_config *config;
     pf_snapshot snapshot;
@@ -76,6 +93,8 @@ typedef struct server {
     pf_queue *detail_queue;
     detail_entry cache[DETAIL_CACHE];
     size_t cache_next;
+    preview_entry previews[PREVIEW_CACHE];
+    size_t preview_next;
 } server;
 
 /* ---- responses ---- */
@@ -192,6 +211,99 @@ static char *detail_text(server *srv, int64_t job_id, detail_kind kind, pf_error
     }
     pthread_mutex_unlock(&srv->detail_lock);
     return text;
+}
+
+/* ---- a job's latest frame as an image ---- */
+
+/* The latest finished frame's file (out), found with the detail connection (under its
+ * lock); PF_ERR_INVALID when the job has none yet or it lies outside the roots. */
+static pf_status latest_frame(server *srv, int64_t job_id, char *out, size_t size,
+                              pf_error *err)
+{
+    pf_status status = srv->detail_queue ? PF_OK
+                                         : pf_queue_open(srv->config->db_path, NULL,
+                                                         &srv->detail_queue, err);
+    pf_queue_job job = {0};
+    pf_queue_task_info *tasks = NULL;
+    size_t count = 0;
+    if (status == PF_OK)
+        status = pf_queue_job_get(srv->detail_queue, job_id, &job, err);
+    if (status == PF_OK)
+        status = pf_queue_task_list(srv->detail_queue, job_id, &tasks, &count, err);
+    const pf_queue_task_info *latest = NULL;
+    for (size_t i = 0; status == PF_OK && i < count; i++)
+        if (!strcmp(tasks[i].status, "done") &&
+            (!latest || tasks[i].finished_at > latest->finished_at))
+            latest = &tasks[i];
+    if (status == PF_OK && !latest)
+        status = pf_error_set(err, PF_ERR_INVALID, "job %" PRId64 " has no finished frame yet",
+                              job_id);
+    if (status == PF_OK && !srv->config->frame_path(job.output_pattern, latest->last_frame, out,
+                                                    size, srv->config->user))
+        status = pf_error_set(err, PF_ERR_INVALID,
+                              "job %" PRId64 "'s frames are outside this monitor's roots",
+                              job_id);
+    free(tasks);
+    pf_queue_job_clear(&job);
+    return status;
+}
+
+static enum MHD_Result respond_preview(server *srv, struct MHD_Connection *connection,
+                                       int64_t job_id)
+{
+    if (!srv->config->frame_path)
+        return respond_error(connection, MHD_HTTP_NOT_FOUND, "no frame previews here");
+    const char *text = MHD_lookup_connection_value(connection, MHD_GET_ARGUMENT_KIND,
+                                                   "exposure");
+    char *end = NULL;
+    double exposure = text ? strtod(text, &end) : 0.0;
+    if (text && (end == text || *end || !isfinite(exposure) || fabs(exposure) > MAX_EXPOSURE))
+        return respond_error(connection, MHD_HTTP_BAD_REQUEST, "exposure: -16 to 16 stops");
+    pf_error err = {0};
+    char path[sizeof ((preview_entry *)0)->path];
+    unsigned char *png = NULL;
+    size_t size = 0;
+    pthread_mutex_lock(&srv->detail_lock);
+    pf_status status = latest_frame(srv, job_id, path, sizeof path, &err);
+    struct stat info;
+    if (status == PF_OK && stat(path, &info) != 0)
+        status = pf_error_set(&err, PF_ERR_INVALID,
+                              "the latest frame's file is gone");
+    /* The same file, unchanged since, at the same exposure: the PNG made then. */
+    for (size_t i = 0; status == PF_OK && i < PREVIEW_CACHE && !png; i++) {
+        const preview_entry *entry = &srv->previews[i];
+        if (entry->png && !strcmp(entry->path, path) && entry->exposure == exposure &&
+            entry->modified.tv_sec == info.st_mtim.tv_sec &&
+            entry->modified.tv_nsec == info.st_mtim.tv_nsec && (png = malloc(entry->size))) {
+            memcpy(png, entry->png, entry->size);
+            size = entry->size;
+        }
+    }
+    if (status == PF_OK && !png) {
+        status = pf_monitor_frame_png(path, exposure, &png, &size, &err);
+        preview_entry *entry = &srv->previews[srv->preview_next];
+        unsigned char *kept = status == PF_OK ? malloc(size) : NULL;
+        if (kept) {
+            srv->preview_next = (srv->preview_next + 1) % PREVIEW_CACHE;
+            free(entry->png);
+            memcpy(kept, png, size);
+            snprintf(entry->path, sizeof entry->path, "%s", path);
+            entry->exposure = exposure;
+            entry->modified = info.st_mtim;
+            entry->png = kept;
+            entry->size = size;
+        }
+    }
+    pthread_mutex_unlock(&srv->detail_lock);
+    if (status != PF_OK) {
+        free(png);
+        return respond_error(connection,
+                             status == PF_ERR_INVALID || status == PF_ERR_IO
+                                 ? MHD_HTTP_NOT_FOUND
+                                 : MHD_HTTP_UNPROCESSABLE_CONTENT,
+                             err.message);
+    }
+    return respond(connection, MHD_HTTP_OK, "image/png", (const char *)png, size, 0);
 }
 
 /* ---- actions ---- */
@@ -339,6 +451,8 @@ static enum MHD_Result route_get(server *srv, struct MHD_Connection *connection,
                        : !strcmp(rest, "timings") ? DETAIL_TIMINGS
                        : !strcmp(rest, "frames")  ? DETAIL_FRAMES
                                                   : DETAIL_KINDS;
+    if (job_id > 0 && rest && !strcmp(rest, "last.png"))
+        return respond_preview(srv, connection, job_id);
     if (job_id <= 0 || kind == DETAIL_KINDS)
         return respond_error(connection, MHD_HTTP_NOT_FOUND, "not found");
     pf_error err = {0};
@@ -456,6 +570,8 @@ pf_status pf_monitor_run(const pf_monitor_config *config, volatile sig_atomic_t 
     pf_snapshot_free(&srv->snapshot);
     for (size_t i = 0; i < DETAIL_CACHE; i++)
         free(srv->cache[i].text);
+    for (size_t i = 0; i < PREVIEW_CACHE; i++)
+        free(srv->previews[i].png);
     pf_queue_close(srv->detail_queue);
     pthread_mutex_destroy(&srv->detail_lock);
     free(srv);

@@ -6,8 +6,11 @@
 #include "cli_queue.h"
 #include "pf_cli.h"
 #include "pf_monitor.h"
+#include "pf_render.h"
+#include "storage_roots.h"
 
 #include <errno.h>
+#include <limits.h>
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -27,11 +30,30 @@ static void on_stop(int signal_number)
     stop_requested = 1;
 }
 
+/* What the monitor's callbacks need. */
+typedef struct serve_context {
+    const char *address;
+    const pf_storage *storage;
+} serve_context;
+
 static void report_listening(uint16_t port, void *user)
 {
-    const char *address = user;
-    printf("photonfarm serve: listening on http://%s:%u/\n", address, (unsigned)port);
+    const serve_context *context = user;
+    printf("photonfarm serve: listening on http://%s:%u/\n", context->address, (unsigned)port);
     fflush(stdout);
+}
+
+/* A job's frame file as a worker of this farm would write it, refused outside the output
+ * roots (after symbolic links) as the worker refuses it. */
+static int frame_path(const char *pattern, int64_t frame, char *out, size_t size, void *user)
+{
+    const serve_context *context = user;
+    char resolved[PATH_MAX];
+    pf_error err = {0};
+    return pf_roots_output_resolve(&context->storage->output, pattern, resolved,
+                                   sizeof resolved, &err) == PF_OK &&
+           pf_frame_output_path(resolved, frame, out, size) &&
+           pf_roots_check_output_file(&context->storage->output, out, &err) == PF_OK;
 }
 
 /* The token: the file's first line, without its newline; 0, or 2 after printing why. */
@@ -74,6 +96,8 @@ int pf_cli_serve(int argc, char **argv)
 {
     const char *db = NULL, *listen = DEFAULT_LISTEN, *token_file = NULL;
     int64_t poll_ms = PF_MONITOR_DEFAULT_POLL_MS;
+    pf_storage storage;
+    pf_storage_init(&storage);
     const pf_cli_option options[] = {
         {"--listen", NULL, "ADDRESS:PORT",
          "where to serve (port 0: any free one); an address\nother than loopback needs "
@@ -85,7 +109,7 @@ int pf_cli_serve(int argc, char **argv)
          "read-only", pf_cli_store_text, &token_file, 0, 0, NULL},
         {"--poll-ms", NULL, "MS", "how often the queue is read for every client", "250",
          pf_cli_store_int, &poll_ms, 50, 60000, NULL},
-        pf_cli_db_option(&db)};
+        pf_cli_db_option(&db), pf_roots_option(&storage.scene), pf_roots_option(&storage.output)};
     pf_cli_command command = {
         .name = COMMAND,
         .synopsis = "[options]",
@@ -101,7 +125,9 @@ int pf_cli_serve(int argc, char **argv)
         return code;
     char address[64], token[TOKEN_MAX + 2];
     uint16_t port = 0;
-    code = parse_listen(listen, address, sizeof address, &port);
+    code = pf_storage_finish(COMMAND, &storage);
+    if (!code)
+        code = parse_listen(listen, address, sizeof address, &port);
     if (!code && token_file)
         code = read_token(token_file, token, sizeof token);
     if (code)
@@ -116,8 +142,9 @@ int pf_cli_serve(int argc, char **argv)
     signal(SIGINT, on_stop);
     signal(SIGTERM, on_stop);
     signal(SIGPIPE, SIG_IGN);
-    pf_monitor_config config = {db_path, address, port, token_file ? token : NULL,
-                                (int)poll_ms, report_listening, address};
+    serve_context context = {address, &storage};
+    pf_monitor_config config = {db_path,          address, port, token_file ? token : NULL,
+                                (int)poll_ms,     report_listening, &context, frame_path};
     pf_error err = {0};
     pf_status status = pf_monitor_run(&config, &stop_requested, &err);
     memset(token, 0, sizeof token);

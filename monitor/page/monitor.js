@@ -168,6 +168,14 @@ function renderDetail(job, timings, frames) {
     bars.append(row);
   }
 
+  // The latest finished frame, fetched again at each update (the server caches it).
+  const image = document.getElementById('last-frame');
+  const exposure = document.getElementById('exposure').value;
+  image.onload = () => { image.hidden = false; };
+  image.onerror = () => { image.hidden = true; };
+  image.src = '/api/jobs/' + job.id + '/last.png?exposure=' + encodeURIComponent(exposure) +
+    '&done=' + job.frames_done;
+
   const failures = document.getElementById('failures');
   failures.replaceChildren();
   for (const failure of job.failures.slice(-50))
@@ -207,6 +215,10 @@ function connect() {
   events.onerror = () => { live.textContent = 'reconnecting'; live.className = 'live off'; };
 }
 
+document.getElementById('exposure').addEventListener('change', (event) => {
+  document.getElementById('exposure-value').textContent = event.target.value + ' EV';
+  refresh();
+});
 document.querySelectorAll('#actions button').forEach((button) =>
   button.addEventListener('click', () => act(button.dataset.action)));
 const params = new URLSearchParams(location.search);

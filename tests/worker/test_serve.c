@@ -6,6 +6,7 @@
  */
 #include "worker_test_util.h"
 
+#include "pf_image.h"
 #include "pf_test.h"
 
 #include <arpa/inet.h>
@@ -56,8 +57,9 @@ static void stop(served *server)
     PF_CHECK_MSG(wt_wait(server->pid, 10000) == 0, "serve did not stop cleanly on SIGTERM");
 }
 
-/* Sends request (raw) and reads the whole response, at most 2 s; malloc'ed. */
-static char *exchange(int port, const char *request)
+/* Sends request (raw) and reads the whole response, at most 2 s; malloc'ed, its length in
+ * *length when not NULL. */
+static char *exchange_sized(int port, const char *request, size_t *length_out)
 {
     int fd = socket(AF_INET, SOCK_STREAM, 0);
     struct sockaddr_in address = {.sin_family = AF_INET, .sin_port = htons((uint16_t)port)};
@@ -86,7 +88,14 @@ static char *exchange(int port, const char *request)
     close(fd);
     if (response)
         response[used] = '\0';
+    if (length_out)
+        *length_out = used;
     return response;
+}
+
+static char *exchange(int port, const char *request)
+{
+    return exchange_sized(port, request, NULL);
 }
 
 /* GET path (or POST with an optional token header); the response's status code, and its
@@ -128,10 +137,12 @@ static void fill_queue(int64_t *job_id)
     pf_queue *queue = NULL;
     pf_error err = {0};
     PF_REQUIRE_OK(pf_queue_open(db, NULL, &queue, &err), &err);
+    char pattern[WT_PATH_MAX + 32];
+    wt_format(pattern, sizeof pattern, "%s/f_####.exr", dir);
     pf_queue_job_spec spec = {.scene_path = "scenes/box.gltf",
                               .parameters_json = "{\"name\": \"" EVIL_NAME "\", "
                                                  "\"quality\": \"final\"}",
-                              .frame_range = "1-3", .output_pattern = "out/f_####.exr",
+                              .frame_range = "1-3", .output_pattern = pattern,
                               .max_attempts = 1};
     PF_REQUIRE_OK(pf_queue_enqueue(queue, &spec, job_id, &err), &err);
     pf_queue_worker_spec worker = {.name = "w-" EVIL_NAME, .host = "h", .pid = 1,
@@ -308,6 +319,73 @@ static int occurrences(const char *text, const char *word)
     return count;
 }
 
+/* Big-endian 32 bits at bytes (PNG's IHDR fields). */
+static uint32_t be32(const unsigned char *bytes)
+{
+    return (uint32_t)bytes[0] << 24 | (uint32_t)bytes[1] << 16 | (uint32_t)bytes[2] << 8 |
+           bytes[3];
+}
+
+/* The latest finished frame as a PNG, at the frame's size, changing with the exposure. */
+PF_TEST(the_latest_frame_is_served_as_a_png)
+{
+    int64_t job_id = 0;
+    fill_queue(&job_id); /* frame 1 is done */
+    char file[WT_PATH_MAX + 32];
+    wt_format(file, sizeof file, "%s/f_0001.exr", dir);
+    unlink(file); /* an earlier run's */
+    served server = serve("preview", NULL);
+    char path[96];
+    wt_format(path, sizeof path, "/api/jobs/%lld/last.png", (long long)job_id);
+    PF_CHECK(http(server.port, "GET", path, NULL, NULL) == 404); /* no file yet */
+    static const char *const channels[] = {"R", "G", "B", "A"};
+    pf_image image = {0};
+    pf_error err = {0};
+    PF_REQUIRE_OK(pf_image_create(&image, 4, 3, 4, channels, &err), &err);
+    for (uint32_t p = 0; p < 12; p++)
+        for (int c = 0; c < 4; c++)
+            image.pixels[p * 4 + (uint32_t)c] = c == 3 ? 1.0f : 0.05f * (float)(p + 1);
+    PF_REQUIRE_OK(pf_exr_write(file, &image, PF_EXR_HALF, NULL, 0, &err), &err);
+    pf_image_free(&image);
+    char *response = NULL;
+    char request[256];
+    wt_format(request, sizeof request, "GET %s HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n",
+              path);
+    response = exchange(server.port, request);
+    PF_REQUIRE(response != NULL);
+    PF_CHECK(strstr(response, "200 OK") && strstr(response, "Content-Type: image/png"));
+    const char *body = strstr(response, "\r\n\r\n");
+    PF_REQUIRE(body);
+    const unsigned char *png = (const unsigned char *)body + 4;
+    PF_CHECK(!memcmp(png, "\x89PNG\r\n\x1a\n", 8) && !memcmp(png + 12, "IHDR", 4));
+    PF_CHECK_MSG(be32(png + 16) == 4 && be32(png + 20) == 3, "%ux%u", be32(png + 16),
+                 be32(png + 20));
+    free(response);
+    /* Another exposure, another image: the PNG bodies differ (the headers' dates may not). */
+    char *exposed[2];
+    size_t sizes[2];
+    for (int i = 0; i < 2; i++) {
+        wt_format(request, sizeof request,
+                  "GET %s?exposure=%d HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n",
+                  path, i ? -3 : 2);
+        exposed[i] = exchange_sized(server.port, request, &sizes[i]);
+    }
+    const char *bodies[2] = {exposed[0] ? strstr(exposed[0], "\r\n\r\n") : NULL,
+                             exposed[1] ? strstr(exposed[1], "\r\n\r\n") : NULL};
+    PF_CHECK(bodies[0] && bodies[1]);
+    if (bodies[0] && bodies[1]) {
+        size_t a = sizes[0] - (size_t)(bodies[0] - exposed[0]);
+        size_t b = sizes[1] - (size_t)(bodies[1] - exposed[1]);
+        PF_CHECK(a > 8 && b > 8 && (a != b || memcmp(bodies[0], bodies[1], a) != 0));
+    }
+    free(exposed[0]);
+    free(exposed[1]);
+    wt_format(request, sizeof request, "%s?exposure=lots", path);
+    PF_CHECK(http(server.port, "GET", request, NULL, NULL) == 400);
+    PF_CHECK(http(server.port, "GET", "/api/jobs/999/last.png", NULL, NULL) == 404);
+    stop(&server);
+}
+
 /* The event stream says "update" when the queue changes, within the poll (100 ms here). */
 PF_TEST(events_announce_a_change)
 {
@@ -368,6 +446,7 @@ int main(void)
     PF_RUN(the_api_shows_the_queue_and_stored_strings_stay_text);
     PF_RUN(actions_need_the_token);
     PF_RUN(bad_requests_and_paths_outside_the_page_are_refused);
+    PF_RUN(the_latest_frame_is_served_as_a_png);
     PF_RUN(events_announce_a_change);
     PF_RUN(a_public_address_needs_a_token);
     return pf_test_finish();
