@@ -18,7 +18,7 @@
 #include <stdint.h>
 
 /* The monitor's default poll of the queue: well inside issue 41's "within 1 s". */
-#define PF_MONITOR_DEFAULT_POLL_MS 250
+#define PF_MONITOR_DEFAULT_POLL_MS 500
 
 typedef struct pf_monitor_config {
     const char *db_path; /* a queue file or a postgresql:// URL */

@@ -8,6 +8,7 @@
  *   GET  /api/jobs                 every job (the shared snapshot)
  *   GET  /api/workers              every worker (the shared snapshot)
  *   GET  /api/events               Server-Sent Events: "update" at each change
+ *   GET  /api/stats                the queue reads so far (snapshot polls, job details)
  *   GET  /api/jobs/N               the job, its tasks and failures
  *   GET  /api/jobs/N/timings       its stage statistics (timings JOB)
  *   GET  /api/jobs/N/frames        its frames (timings JOB --frames; the first 2,000)
@@ -59,8 +60,9 @@ static const struct {
 #define MAX_BODY_BYTES 1024
 /* Frames a job's page lists at most. */
 #define FRAMES_SHOWN 2000
-/* A job's details kept per snapshot generation (several pages on the same job). */
-#define DETAIL_CACHE 32
+/* A job's details are kept until the snapshot changes, at most this many (every job's
+ * page of a large farm, each kind). */
+#define DETAIL_CACHE 4096
 #define TOKEN_HEADER "X-Photonfarm-Token"
 
 typedef enum detail_kind { DETAIL_JOB, DETAIL_TIMINGS, DETAIL_FRAMES, DETAIL_KINDS } detail_kind;
@@ -68,7 +70,6 @@ typedef enum detail_kind { DETAIL_JOB, DETAIL_TIMINGS, DETAIL_FRAMES, DETAIL_KIN
 typedef struct detail_entry {
     int64_t job_id;
     detail_kind kind;
-    uint64_t generation;
     char *text;
 } detail_entry;
 
@@ -91,10 +92,12 @@ typedef struct server {
     /* Details and actions: one connection of their own, one request at a time. */
     pthread_mutex_t detail_lock;
     pf_queue *detail_queue;
-    detail_entry cache[DETAIL_CACHE];
-    size_t cache_next;
+    detail_entry *cache;        /* the generation's details read so far */
+    size_t cache_count;
+    uint64_t cache_generation;
     preview_entry previews[PREVIEW_CACHE];
     size_t preview_next;
+    int64_t detail_reads; /* details read from the queue (cache misses), under detail_lock */
 } server;
 
 /* ---- responses ---- */
@@ -182,11 +185,16 @@ static char *detail_text(server *srv, int64_t job_id, detail_kind kind, pf_error
 {
     uint64_t generation = pf_snapshot_generation(&srv->snapshot);
     pthread_mutex_lock(&srv->detail_lock);
+    if (generation != srv->cache_generation) { /* the queue changed: read anew */
+        for (size_t i = 0; i < srv->cache_count; i++)
+            free(srv->cache[i].text);
+        srv->cache_count = 0;
+        srv->cache_generation = generation;
+    }
     char *text = NULL;
-    for (size_t i = 0; i < DETAIL_CACHE && !text; i++) {
+    for (size_t i = 0; i < srv->cache_count && !text; i++) {
         const detail_entry *entry = &srv->cache[i];
-        if (entry->text && entry->job_id == job_id && entry->kind == kind &&
-            entry->generation == generation)
+        if (entry->job_id == job_id && entry->kind == kind)
             text = strdup(entry->text);
     }
     if (!text) {
@@ -195,18 +203,20 @@ static char *detail_text(server *srv, int64_t job_id, detail_kind kind, pf_error
             srv->detail_queue = NULL;
         cJSON *object = srv->detail_queue ? read_detail(srv->detail_queue, job_id, kind, err)
                                           : NULL;
+        srv->detail_reads++;
         if (!object && err->status == PF_ERR_IO) { /* a lost connection: a new one next time */
             pf_queue_close(srv->detail_queue);
             srv->detail_queue = NULL;
         }
         char *fresh = object ? cJSON_PrintUnformatted(object) : NULL;
         cJSON_Delete(object);
-        if (fresh) {
-            detail_entry *entry = &srv->cache[srv->cache_next];
-            srv->cache_next = (srv->cache_next + 1) % DETAIL_CACHE;
-            free(entry->text);
-            *entry = (detail_entry){job_id, kind, generation, fresh};
+        if (fresh && !srv->cache) /* without it, served uncached */
+            srv->cache = calloc(DETAIL_CACHE, sizeof *srv->cache);
+        if (fresh && srv->cache && srv->cache_count < DETAIL_CACHE) {
+            srv->cache[srv->cache_count++] = (detail_entry){job_id, kind, fresh};
             text = strdup(fresh);
+        } else {
+            text = fresh;
         }
     }
     pthread_mutex_unlock(&srv->detail_lock);
@@ -444,6 +454,19 @@ static enum MHD_Result route_get(server *srv, struct MHD_Connection *connection,
                             pf_snapshot_copy(&srv->snapshot, !strcmp(url, "/api/jobs"), NULL));
     if (!strcmp(url, "/api/events"))
         return respond_events(srv, connection);
+    if (!strcmp(url, "/api/stats")) { /* what the server has asked of the queue so far */
+        cJSON *object = cJSON_CreateObject();
+        pthread_mutex_lock(&srv->snapshot.lock);
+        cJSON_AddNumberToObject(object, "snapshot_reads", (double)srv->snapshot.reads);
+        cJSON_AddNumberToObject(object, "generation", (double)srv->snapshot.generation);
+        pthread_mutex_unlock(&srv->snapshot.lock);
+        pthread_mutex_lock(&srv->detail_lock);
+        cJSON_AddNumberToObject(object, "detail_reads", (double)srv->detail_reads);
+        pthread_mutex_unlock(&srv->detail_lock);
+        char *text = cJSON_PrintUnformatted(object);
+        cJSON_Delete(object);
+        return respond_json(connection, MHD_HTTP_OK, text);
+    }
     const char *rest = NULL;
     int64_t job_id = job_path(url, &rest);
     detail_kind kind = !rest                      ? DETAIL_KINDS
@@ -568,8 +591,9 @@ pf_status pf_monitor_run(const pf_monitor_config *config, volatile sig_atomic_t 
     if (daemon)
         MHD_stop_daemon(daemon);
     pf_snapshot_free(&srv->snapshot);
-    for (size_t i = 0; i < DETAIL_CACHE; i++)
+    for (size_t i = 0; i < srv->cache_count; i++)
         free(srv->cache[i].text);
+    free(srv->cache);
     for (size_t i = 0; i < PREVIEW_CACHE; i++)
         free(srv->previews[i].png);
     pf_queue_close(srv->detail_queue);

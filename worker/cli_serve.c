@@ -107,7 +107,7 @@ int pf_cli_serve(int argc, char **argv)
          "allow actions (pause, resume, cancel, retry) to\nrequests that send this file's "
          "first line in the\nX-Photonfarm-Token header",
          "read-only", pf_cli_store_text, &token_file, 0, 0, NULL},
-        {"--poll-ms", NULL, "MS", "how often the queue is read for every client", "250",
+        {"--poll-ms", NULL, "MS", "how often the queue is read for every client", "500",
          pf_cli_store_int, &poll_ms, 50, 60000, NULL},
         pf_cli_db_option(&db), pf_roots_option(&storage.scene), pf_roots_option(&storage.output)};
     pf_cli_command command = {
