@@ -40,6 +40,7 @@ PACKAGES=(
   libmicrohttpd-dev       # photonfarm serve: the monitor's HTTP server
   postgresql              # tests: the queue tests also run on a throwaway cluster
   python3-yaml            # tests: the Kubernetes manifests are parsed and checked
+  chromium                # tests: the monitor's page is checked in a real (headless) browser
   libcjson-dev            # glTF JSON parsing
   libspng-dev             # texture images: PNG
   libturbojpeg0-dev       # texture images: JPEG
