@@ -1,11 +1,11 @@
-/* Job control from the user: cancel, pause, resume, retry. */
+/* Job control from the user: cancel, pause, resume, retry, priority. */
 #include "queue_internal.h"
 
 #include <string.h>
 
 typedef struct control_context {
     int64_t job_id;
-    int64_t requeued;
+    int64_t requeued; /* retry: tasks requeued; priority: the new priority */
 } control_context;
 
 static pf_status run_job_sql(pf_queue *queue, const char *sql, int64_t job_id, const char *what,
@@ -144,4 +144,29 @@ pf_status pf_queue_retry(pf_queue *queue, int64_t job_id, int64_t *requeued, pf_
     if (requeued)
         *requeued = status == PF_OK ? ctx.requeued : 0;
     return status;
+}
+
+static pf_status priority_body(pf_queue *queue, void *context, pf_error *err)
+{
+    control_context *ctx = context;
+    pf_status status = queue_job_require(queue, ctx->job_id, NULL, 0, err);
+    queue_stmt *stmt;
+    if (status == PF_OK)
+        status = queue_prepare(queue, "UPDATE jobs SET priority = ?, updated_at = ? WHERE id = ?",
+                               &stmt, err);
+    if (status != PF_OK)
+        return status;
+    queue_bind_int64(stmt, 1, ctx->requeued);
+    queue_bind_int64(stmt, 2, pf_queue_now(queue));
+    queue_bind_int64(stmt, 3, ctx->job_id);
+    return queue_step_done(queue, stmt, "setting a job's priority", err);
+}
+
+pf_status pf_queue_set_priority(pf_queue *queue, int64_t job_id, int priority, pf_error *err)
+{
+    if (priority < -PF_QUEUE_PRIORITY_MAX || priority > PF_QUEUE_PRIORITY_MAX)
+        return pf_error_set(err, PF_ERR_INVALID, "priority %d: expected %d to %d", priority,
+                            -PF_QUEUE_PRIORITY_MAX, PF_QUEUE_PRIORITY_MAX);
+    control_context ctx = {job_id, priority};
+    return queue_write(queue, "setting a job's priority", priority_body, &ctx, err);
 }

@@ -399,6 +399,12 @@ pf_status pf_queue_resume(pf_queue *queue, int64_t job_id, pf_error *err);
  */
 pf_status pf_queue_retry(pf_queue *queue, int64_t job_id, int64_t *requeued, pf_error *err);
 
+/* Priorities are small integers in practice; the bound keeps typos visible. */
+#define PF_QUEUE_PRIORITY_MAX 1000000
+/* Sets the job's priority (whatever its state), |priority| <= PF_QUEUE_PRIORITY_MAX; the
+ * next claims follow it (pf_queue_claim: priority before affinity). */
+pf_status pf_queue_set_priority(pf_queue *queue, int64_t job_id, int priority, pf_error *err);
+
 /* ---- Queries ------------------------------------------------------------- */
 
 struct pf_queue_job {

@@ -13,8 +13,8 @@
  *   GET  /api/jobs/N/timings       its stage statistics (timings JOB)
  *   GET  /api/jobs/N/frames        its frames (timings JOB --frames; the first 2,000)
  *   GET  /api/jobs/N/last.png      its latest finished frame, tone-mapped (?exposure=EV)
- *   POST /api/jobs/N/ACTION        pause, resume, cancel, retry: with the token in
- *                                  X-Photonfarm-Token, else 403
+ *   POST /api/jobs/N/ACTION        pause, resume, cancel, retry, priority?value=P: with
+ *                                  the token in X-Photonfarm-Token, else 403
  */
 #include "pf_monitor.h"
 
@@ -340,21 +340,32 @@ static enum MHD_Result act(server *srv, struct MHD_Connection *connection, int64
                              "missing or wrong " TOKEN_HEADER " header");
     pf_status (*const calls[])(pf_queue *, int64_t, pf_error *) = {
         pf_queue_pause, pf_queue_resume, pf_queue_cancel};
-    const char *const names[] = {"pause", "resume", "cancel", "retry"};
+    const char *const names[] = {"pause", "resume", "cancel", "retry", "priority"};
     int which = -1;
-    for (int i = 0; i < 4; i++)
+    for (int i = 0; i < 5; i++)
         if (!strcmp(action, names[i]))
             which = i;
     if (which < 0)
         return respond_error(connection, MHD_HTTP_NOT_FOUND, "no such action");
+    long priority = 0;
+    if (which == 4) { /* ?value=P */
+        const char *text = MHD_lookup_connection_value(connection, MHD_GET_ARGUMENT_KIND, "value");
+        char *end = NULL;
+        priority = text ? strtol(text, &end, 10) : 0;
+        if (!text || end == text || *end || labs(priority) > PF_QUEUE_PRIORITY_MAX)
+            return respond_error(connection, MHD_HTTP_BAD_REQUEST,
+                                 "priority: ?value= an integer of at most 1000000 either way");
+    }
     pf_error err = {0};
     pthread_mutex_lock(&srv->detail_lock);
     pf_status status = srv->detail_queue ? PF_OK
                                          : pf_queue_open(srv->config->db_path, NULL,
                                                          &srv->detail_queue, &err);
     if (status == PF_OK)
-        status = which < 3 ? calls[which](srv->detail_queue, job_id, &err)
-                           : pf_queue_retry(srv->detail_queue, job_id, NULL, &err);
+        status = which < 3    ? calls[which](srv->detail_queue, job_id, &err)
+                 : which == 3 ? pf_queue_retry(srv->detail_queue, job_id, NULL, &err)
+                              : pf_queue_set_priority(srv->detail_queue, job_id, (int)priority,
+                                                      &err);
     pthread_mutex_unlock(&srv->detail_lock);
     pf_snapshot_poke(&srv->snapshot);
     if (status != PF_OK)

@@ -1,8 +1,9 @@
 /*
- * photonfarm cancel | pause | resume | retry JOB: job control. Cancel revokes
- * running leases (their workers discard the frame), pause stops new claims,
- * resume undoes it, retry requeues failed and canceled frames with fresh
- * attempts and lifts the job's worker blocks.
+ * photonfarm cancel | pause | resume | retry JOB, priority JOB P: job control.
+ * Cancel revokes running leases (their workers discard the frame), pause stops
+ * new claims, resume undoes it, retry requeues failed and canceled frames with
+ * fresh attempts and lifts the job's worker blocks, priority changes which job
+ * the next claims take.
  */
 #include "cli_queue.h"
 #include "pf_render.h"
@@ -115,3 +116,43 @@ int pf_cli_cancel(int argc, char **argv) { return control("cancel", argc, argv);
 int pf_cli_pause(int argc, char **argv) { return control("pause", argc, argv); }
 int pf_cli_resume(int argc, char **argv) { return control("resume", argc, argv); }
 int pf_cli_retry(int argc, char **argv) { return control("retry", argc, argv); }
+
+int pf_cli_priority(int argc, char **argv)
+{
+    const char *db = NULL, *positional[2] = {NULL, NULL};
+    const pf_cli_option options[] = {pf_cli_db_option(&db)};
+    pf_cli_command parsed = {
+        .name = "priority",
+        .synopsis = "JOB PRIORITY [options]",
+        .description = "Sets the job's priority: higher runs first, from the next claim on\n"
+                       "(running frames finish where they are).",
+        .options = options,
+        .option_count = 1,
+        .positional = positional,
+        .positional_max = 2,
+    };
+    int help = 0;
+    int64_t job_id = 0, priority = 0;
+    int code = pf_cli_parse(&parsed, argc, argv, &help);
+    if (code || help)
+        return code;
+    code = pf_cli_job_id("priority", positional[0], 1, &job_id);
+    if (code)
+        return code;
+    if (!positional[1] ||
+        !pf_cli_parse_int(positional[1], -PF_QUEUE_PRIORITY_MAX, PF_QUEUE_PRIORITY_MAX, &priority))
+        return pf_cli_fail("priority", 2, "PRIORITY '%s': expected an integer %d..%d",
+                           positional[1] ? positional[1] : "", -PF_QUEUE_PRIORITY_MAX,
+                           PF_QUEUE_PRIORITY_MAX);
+    pf_queue *queue = NULL;
+    code = pf_cli_open_queue("priority", pf_cli_db_path(db), 1, &queue);
+    if (code)
+        return code;
+    pf_error err = {0};
+    pf_status status = pf_queue_set_priority(queue, job_id, (int)priority, &err);
+    pf_queue_close(queue);
+    if (status != PF_OK)
+        return pf_cli_fail("priority", pf_status_exit_code(status), "%s", err.message);
+    printf("job %" PRId64 ": priority %" PRId64 "\n", job_id, priority);
+    return 0;
+}

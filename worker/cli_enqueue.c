@@ -22,8 +22,7 @@
 #include <unistd.h>
 
 #define COMMAND "enqueue"
-/* Priorities are small integers in practice; the bound keeps typos visible. */
-#define MAX_PRIORITY 1000000
+#define MAX_PRIORITY PF_QUEUE_PRIORITY_MAX
 #define MAX_ATTEMPTS 100
 #define MAX_FRAMES_PER_TASK 10000
 #define PARAMETERS_MAX 1024

@@ -142,7 +142,8 @@ int pf_cli_parse(pf_cli_command *command, int argc, char **argv, int *help)
             *help = 1;
             return 0;
         }
-        if (arg[0] != '-' || arg[1] == '\0') {
+        /* "-" alone and negative numbers ("priority 7 -3") are arguments, not options. */
+        if (arg[0] != '-' || arg[1] == '\0' || (arg[1] >= '0' && arg[1] <= '9')) {
             if (command->positional_count >= command->positional_max)
                 return pf_cli_fail(command->name, 2, "unexpected argument '%s' (see --help)",
                                    arg);

@@ -22,6 +22,7 @@ static const command commands[] = {
     {"pause", pf_cli_pause, "stop claiming a job's frames"},
     {"resume", pf_cli_resume, "resume a paused job"},
     {"retry", pf_cli_retry, "requeue a job's failed and canceled frames"},
+    {"priority", pf_cli_priority, "change a job's priority (higher runs first)"},
     {"depend", pf_cli_depend, "make a job wait for other jobs (or their frames)"},
     {"serve", pf_cli_serve, "the farm monitor in a browser (and JSON under /api/)"},
     {"workers", pf_cli_workers, "registered workers: alive or dead, current frame"},

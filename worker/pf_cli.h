@@ -22,6 +22,7 @@ int pf_cli_pause(int argc, char **argv);
 int pf_cli_resume(int argc, char **argv);
 int pf_cli_retry(int argc, char **argv);
 int pf_cli_depend(int argc, char **argv);
+int pf_cli_priority(int argc, char **argv);
 int pf_cli_serve(int argc, char **argv);
 int pf_cli_workers(int argc, char **argv);
 

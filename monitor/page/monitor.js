@@ -202,7 +202,9 @@ async function refresh() {
 
 async function act(action) {
   const result = document.getElementById('action-result');
-  const response = await fetch('/api/jobs/' + selectedJob + '/' + action, {
+  const value = action === 'priority' ?
+    '?value=' + encodeURIComponent(document.getElementById('priority').value) : '';
+  const response = await fetch('/api/jobs/' + selectedJob + '/' + action + value, {
     method: 'POST', headers: {'X-Photonfarm-Token': document.getElementById('token').value}});
   const body = await response.json().catch(() => ({}));
   result.textContent = response.ok ? action + ': done' : (body.error || response.status);

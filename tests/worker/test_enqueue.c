@@ -264,6 +264,7 @@ PF_TEST(status_watch_reports_until_the_jobs_end)
     int64_t job_id = enqueue_job(args);
     PF_REQUIRE(job_id >= 1);
     wt_format(watch_log, sizeof watch_log, "%s/watch.log", dir);
+    unlink(watch_log); /* an earlier run's would look like this run's first report */
     char job[32];
     snprintf(job, sizeof job, "%lld", (long long)job_id);
     fflush(NULL);
@@ -459,6 +460,23 @@ PF_TEST(control_commands_change_job_state)
     }
     wt_format(args, sizeof args, "pause 9999 --db '%s'", db);
     PF_CHECK(wt_run(args, log_path) == 2);
+    /* priority: stored, and a bad value or job is exit 2 */
+    wt_format(args, sizeof args, "priority %lld -3 --db '%s'", (long long)job_id, db);
+    PF_CHECK(wt_run(args, log_path) == 0);
+    pf_queue *queue = wt_open_queue(db);
+    PF_REQUIRE(queue != NULL);
+    pf_queue_job job = {0};
+    pf_error err = {0};
+    PF_CHECK_OK(pf_queue_job_get(queue, job_id, &job, &err), &err);
+    PF_CHECK_MSG(job.priority == -3, "priority %d", job.priority);
+    pf_queue_job_clear(&job);
+    pf_queue_close(queue);
+    wt_format(args, sizeof args, "priority %lld high --db '%s'", (long long)job_id, db);
+    PF_CHECK(wt_run(args, log_path) == 2);
+    wt_format(args, sizeof args, "priority %lld 2000000 --db '%s'", (long long)job_id, db);
+    PF_CHECK(wt_run(args, log_path) == 2);
+    wt_format(args, sizeof args, "priority 9999 1 --db '%s'", db);
+    PF_CHECK(wt_run(args, log_path) == 2);
     wt_format(args, sizeof args, "status --db '%s/absent.db'", dir);
     PF_CHECK(wt_run(args, log_path) == 2);
     PF_CHECK(wt_file_contains(log_path, "no queue database"));
@@ -569,7 +587,7 @@ PF_TEST(every_subcommand_shares_help_errors_and_exit_codes)
     static const char *const commands[] = {"render", "enqueue", "worker",  "status",
                                            "timings", "cancel", "pause",   "resume",
                                            "retry",  "workers", "devices", "compare",
-                                           "depend"};
+                                           "depend", "priority", "serve"};
     char args[256];
     for (size_t i = 0; i < sizeof commands / sizeof commands[0]; i++) {
         wt_format(args, sizeof args, "%s --help", commands[i]);

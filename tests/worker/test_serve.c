@@ -254,6 +254,13 @@ PF_TEST(actions_need_the_token)
     PF_CHECK_MSG(!strcmp(job.status, "paused"), "status %s after pause", job.status);
     pf_queue_job_clear(&job);
     PF_CHECK(http(server.port, "POST", path, TOKEN, NULL) == 409); /* paused already */
+    wt_format(path, sizeof path, "/api/jobs/%lld/priority?value=7", (long long)job_id);
+    PF_CHECK(http(server.port, "POST", path, TOKEN, NULL) == 200);
+    PF_CHECK_OK(pf_queue_job_get(queue, job_id, &job, &err), &err);
+    PF_CHECK_MSG(job.priority == 7, "priority %d", job.priority);
+    pf_queue_job_clear(&job);
+    wt_format(path, sizeof path, "/api/jobs/%lld/priority?value=seven", (long long)job_id);
+    PF_CHECK(http(server.port, "POST", path, TOKEN, NULL) == 400);
     wt_format(path, sizeof path, "/api/jobs/%lld/explode", (long long)job_id);
     PF_CHECK(http(server.port, "POST", path, TOKEN, NULL) == 404);
     pf_queue_close(queue);
