@@ -506,6 +506,19 @@ typedef struct pf_queue_worker_info {
 pf_status pf_queue_worker_list(pf_queue *queue, pf_queue_worker_info **workers, size_t *count,
                                pf_error *err);
 
+/* What a worker has done (the monitor's worker table): frames it completed, failures it
+ * recorded, and the jobs it is blocked for ("3,7"). One scan of the tasks and failures
+ * for every worker: not for a hot path. */
+typedef struct pf_queue_worker_stats {
+    int64_t worker_id;
+    int64_t frames_done, failures;
+    char blocked_jobs[256]; /* cut to fit */
+} pf_queue_worker_stats;
+
+/* Every registered worker's stats, by id (malloc'ed array, free()). */
+pf_status pf_queue_worker_stats_list(pf_queue *queue, pf_queue_worker_stats **stats,
+                                     size_t *count, pf_error *err);
+
 /* ---- Stage timings ------------------------------------------------------- */
 
 /* Order statistics of a sample; median and p95 interpolate linearly between

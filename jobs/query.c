@@ -372,3 +372,63 @@ pf_status pf_queue_worker_list(pf_queue *queue, pf_queue_worker_info **workers, 
     *workers = rows;
     return status;
 }
+
+static void read_worker_stats(queue_stmt *stmt, void *row)
+{
+    pf_queue_worker_stats *stats = row;
+    stats->worker_id = queue_column_int64(stmt, 0);
+    stats->frames_done = queue_column_int64(stmt, 1);
+    stats->failures = queue_column_int64(stmt, 2);
+}
+
+static pf_status worker_stats_body(pf_queue *queue, void *context, pf_error *err)
+{
+    list_query *query = context;
+    queue_stmt *stmt;
+    pf_status status = queue_prepare(
+        queue,
+        "SELECT w.id, coalesce(d.frames, 0), coalesce(f.failures, 0) FROM workers w"
+        " LEFT JOIN (SELECT worker_id, sum(frame_count) AS frames FROM tasks"
+        "   WHERE status = 'done' GROUP BY worker_id) d ON d.worker_id = w.id"
+        " LEFT JOIN (SELECT worker_id, count(*) AS failures FROM task_failures"
+        "   GROUP BY worker_id) f ON f.worker_id = w.id "
+        "ORDER BY w.id",
+        &stmt, err);
+    if (status == PF_OK)
+        status = collect(queue, stmt, query, read_worker_stats, "reading worker stats", err);
+    if (status != PF_OK)
+        return status;
+    /* The jobs each is blocked for, appended to its row. */
+    status = queue_prepare(queue,
+                           "SELECT worker_id, job_id FROM worker_blocks ORDER BY worker_id, job_id",
+                           &stmt, err);
+    if (status != PF_OK)
+        return status;
+    pf_queue_worker_stats *rows = query->rows.items;
+    int rc;
+    while ((rc = queue_step(stmt)) == QUEUE_ROW) {
+        int64_t worker_id = queue_column_int64(stmt, 0);
+        for (size_t i = 0; i < query->rows.count; i++) {
+            if (rows[i].worker_id != worker_id)
+                continue;
+            size_t used = strlen(rows[i].blocked_jobs);
+            snprintf(rows[i].blocked_jobs + used, sizeof rows[i].blocked_jobs - used,
+                     "%s%lld", used ? "," : "", (long long)queue_column_int64(stmt, 1));
+        }
+    }
+    if (rc != QUEUE_DONE)
+        status = queue_db_error(queue, err, "reading worker blocks");
+    queue_finalize(stmt);
+    return status;
+}
+
+pf_status pf_queue_worker_stats_list(pf_queue *queue, pf_queue_worker_stats **stats,
+                                     size_t *count, pf_error *err)
+{
+    list_query query = {0};
+    void *rows;
+    pf_status status =
+        run_list(queue, &query, sizeof **stats, worker_stats_body, &rows, count, err);
+    *stats = rows;
+    return status;
+}

@@ -80,6 +80,20 @@ cJSON *pf_monitor_worker_json(const pf_queue_worker_info *worker)
     return object;
 }
 
+cJSON *pf_monitor_worker_stats_json(const pf_queue_worker_stats *stats, size_t count)
+{
+    cJSON *array = cJSON_CreateArray();
+    for (size_t i = 0; i < count; i++) {
+        cJSON *object = cJSON_CreateObject();
+        cJSON_AddNumberToObject(object, "id", (double)stats[i].worker_id);
+        cJSON_AddNumberToObject(object, "frames_done", (double)stats[i].frames_done);
+        cJSON_AddNumberToObject(object, "failures", (double)stats[i].failures);
+        cJSON_AddStringToObject(object, "blocked_jobs", stats[i].blocked_jobs);
+        cJSON_AddItemToArray(array, object);
+    }
+    return array;
+}
+
 cJSON *pf_monitor_tasks_json(const pf_queue_task_info *tasks, size_t count)
 {
     cJSON *array = cJSON_CreateArray();

@@ -10,6 +10,7 @@
 
 cJSON *pf_monitor_job_json(const pf_queue_job *job);
 cJSON *pf_monitor_worker_json(const pf_queue_worker_info *worker);
+cJSON *pf_monitor_worker_stats_json(const pf_queue_worker_stats *stats, size_t count);
 cJSON *pf_monitor_tasks_json(const pf_queue_task_info *tasks, size_t count);
 cJSON *pf_monitor_failures_json(const pf_queue_failure *failures, size_t count);
 cJSON *pf_monitor_timings_json(const pf_queue_timings *timings);

@@ -7,6 +7,7 @@
  *   GET  /healthz                  "ok" while the queue can be read
  *   GET  /api/jobs                 every job (the shared snapshot)
  *   GET  /api/workers              every worker (the shared snapshot)
+ *   GET  /api/workers/stats        frames done, failures and blocks of every worker
  *   GET  /api/events               Server-Sent Events: "update" at each change
  *   GET  /api/stats                the queue reads so far (snapshot polls, job details)
  *   GET  /api/jobs/N               the job, its tasks and failures
@@ -65,7 +66,13 @@ static const struct {
 #define DETAIL_CACHE 4096
 #define TOKEN_HEADER "X-Photonfarm-Token"
 
-typedef enum detail_kind { DETAIL_JOB, DETAIL_TIMINGS, DETAIL_FRAMES, DETAIL_KINDS } detail_kind;
+typedef enum detail_kind {
+    DETAIL_JOB,
+    DETAIL_TIMINGS,
+    DETAIL_FRAMES,
+    DETAIL_WORKER_STATS, /* every worker's, under job id 0 */
+    DETAIL_KINDS
+} detail_kind;
 
 typedef struct detail_entry {
     int64_t job_id;
@@ -169,6 +176,12 @@ static cJSON *read_detail(pf_queue *queue, int64_t job_id, detail_kind kind, pf_
             object = pf_monitor_timings_json(&timings);
             pf_queue_timings_free(&timings);
         }
+    } else if (kind == DETAIL_WORKER_STATS) {
+        pf_queue_worker_stats *stats = NULL;
+        size_t count = 0;
+        if (pf_queue_worker_stats_list(queue, &stats, &count, err) == PF_OK)
+            object = pf_monitor_worker_stats_json(stats, count);
+        free(stats);
     } else {
         pf_queue_frame_details details;
         if (pf_queue_frame_details_get(queue, job_id, &details, err) == PF_OK) {
@@ -465,6 +478,13 @@ static enum MHD_Result route_get(server *srv, struct MHD_Connection *connection,
                             pf_snapshot_copy(&srv->snapshot, !strcmp(url, "/api/jobs"), NULL));
     if (!strcmp(url, "/api/events"))
         return respond_events(srv, connection);
+    if (!strcmp(url, "/api/workers/stats")) {
+        pf_error err = {0};
+        char *text = detail_text(srv, 0, DETAIL_WORKER_STATS, &err);
+        return text ? respond_json(connection, MHD_HTTP_OK, text)
+                    : respond_error(connection, MHD_HTTP_SERVICE_UNAVAILABLE,
+                                    err.message[0] ? err.message : "out of memory");
+    }
     if (!strcmp(url, "/api/stats")) { /* what the server has asked of the queue so far */
         cJSON *object = cJSON_CreateObject();
         pthread_mutex_lock(&srv->snapshot.lock);

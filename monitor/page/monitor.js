@@ -78,17 +78,21 @@ function renderJobs(jobs) {
   }
 }
 
-function renderWorkers(workers) {
+function renderWorkers(workers, stats) {
   const body = document.querySelector('#workers tbody');
   body.replaceChildren();
+  const statsOf = {};
+  for (const entry of stats) statsOf[entry.id] = entry;
   for (const worker of workers) {
+    const done = statsOf[worker.id] || {frames_done: '-', failures: '-', blocked_jobs: ''};
     const state = worker.stopped ? 'stopped' : (worker.alive ? 'alive' : 'dead');
     const doing = worker.job === null ? 'idle' : 'job ' + worker.job + ' frame ' + worker.frame;
     const row = el('tr');
     for (const value of [worker.name, state,
       duration(Math.max(0, (serverNow() - worker.heartbeat_at) / 1000)) + ' ago',
       worker.device, worker.device_type, bytes(worker.device_memory), bytes(worker.host_memory),
-      worker.cores || '-', worker.tags, doing]) row.append(el('td', value));
+      worker.cores || '-', worker.tags, doing, done.frames_done, done.failures,
+      done.blocked_jobs || '-']) row.append(el('td', value));
     row.children[1].className = worker.alive ? 'state-running' : 'state-failed';
     body.append(row);
   }
@@ -185,9 +189,10 @@ function renderDetail(job, timings, frames) {
 
 async function refresh() {
   try {
-    const [jobs, workers] = await Promise.all([getJson('/api/jobs'), getJson('/api/workers')]);
+    const [jobs, workers, stats] = await Promise.all(
+      [getJson('/api/jobs'), getJson('/api/workers'), getJson('/api/workers/stats')]);
     renderJobs(jobs);
-    renderWorkers(workers);
+    renderWorkers(workers, stats);
     if (selectedJob !== null) {
       const base = '/api/jobs/' + selectedJob;
       const [job, timings, frames] = await Promise.all(

@@ -453,6 +453,16 @@ PF_TEST(blocklist_after_repeated_failures)
     PF_CHECK(status.live_workers == 2 && status.blocked_live_workers == 1);
     PF_CHECK(status.note[0] == '\0');
     pf_queue_job_clear(&status);
+    /* The monitor's worker table lists the block, and the failures behind it. */
+    pf_queue_worker_stats *stats = NULL;
+    size_t stats_count = 0;
+    pf_error stats_err = {0};
+    PF_CHECK_OK(pf_queue_worker_stats_list(queue, &stats, &stats_count, &stats_err), &stats_err);
+    char blocked[32];
+    snprintf(blocked, sizeof blocked, "%lld", (long long)job);
+    PF_CHECK(stats_count == 2 && stats[0].worker_id == bad && stats[0].failures == 3 &&
+             !strcmp(stats[0].blocked_jobs, blocked) && !stats[1].blocked_jobs[0]);
+    free(stats);
 
     /* The block is per job: another job is still served to the bad worker. */
     int64_t other = enqueue(queue, "1", 0, 1, 0);
@@ -1462,6 +1472,16 @@ PF_TEST(frame_resources_are_stored_summarised_and_listed)
     PF_CHECK(info.memory_failures == 0 && info.peak_rss_max == 400 * mib &&
              info.peak_device_memory_max == 30 * mib);
     pf_queue_job_clear(&info);
+    /* The worker's record (the monitor's worker table): 4 frames done, 1 failure. */
+    pf_queue_worker_stats *stats = NULL;
+    size_t stats_count = 0;
+    PF_CHECK_OK(pf_queue_worker_stats_list(queue, &stats, &stats_count, &err), &err);
+    PF_CHECK_MSG(stats_count == 1 && stats[0].worker_id == worker && stats[0].frames_done == 4 &&
+                     stats[0].failures == 1 && !stats[0].blocked_jobs[0],
+                 "%zu workers, %lld frames, %lld failures", stats_count,
+                 stats_count ? (long long)stats[0].frames_done : -1LL,
+                 stats_count ? (long long)stats[0].failures : -1LL);
+    free(stats);
     pf_queue_close(queue);
 }
 

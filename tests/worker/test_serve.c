@@ -181,6 +181,11 @@ PF_TEST(the_api_shows_the_queue_and_stored_strings_stay_text)
                                                               "name")),
                      "w-" EVIL_NAME));
     cJSON_Delete(workers);
+    cJSON *stats = get_json(server.port, "/api/workers/stats");
+    const cJSON *worker_stats = cJSON_GetArrayItem(stats, 0);
+    PF_CHECK(cJSON_GetNumberValue(cJSON_GetObjectItem(worker_stats, "frames_done")) == 1 &&
+             cJSON_GetNumberValue(cJSON_GetObjectItem(worker_stats, "failures")) == 1);
+    cJSON_Delete(stats);
     char path[64];
     wt_format(path, sizeof path, "/api/jobs/%lld", (long long)job_id);
     cJSON *detail = get_json(server.port, path);
