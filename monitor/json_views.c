@@ -1,7 +1,7 @@
 /*
- * The queue's records as the JSON the monitor serves (README "The monitor"): the same
- * fields `status`, `workers` and `timings` show. cJSON escapes every string; the page
- * shows them as text.
+ * The queue's records as JSON (README "The monitor"): what the monitor serves, and the
+ * one codec of `timings --format json` (with --frames too). cJSON escapes every string;
+ * the page shows them as text.
  */
 #include "json_views.h"
 
@@ -133,35 +133,57 @@ static cJSON *stat_json(const pf_queue_stat *stat)
 {
     cJSON *object = cJSON_CreateObject();
     cJSON_AddNumberToObject(object, "count", (double)stat->count);
+    cJSON_AddNumberToObject(object, "min_ms", stat->min);
+    cJSON_AddNumberToObject(object, "median_ms", stat->median);
+    cJSON_AddNumberToObject(object, "p95_ms", stat->p95);
+    cJSON_AddNumberToObject(object, "max_ms", stat->max);
+    cJSON_AddNumberToObject(object, "total_ms", stat->total);
+    return object;
+}
+
+/* A sample of bytes: the same statistics as stat_json, named for bytes. */
+static cJSON *bytes_json(const pf_queue_stat *stat)
+{
+    cJSON *object = cJSON_CreateObject();
+    cJSON_AddNumberToObject(object, "frames", (double)stat->count);
     cJSON_AddNumberToObject(object, "min", stat->min);
     cJSON_AddNumberToObject(object, "median", stat->median);
     cJSON_AddNumberToObject(object, "p95", stat->p95);
     cJSON_AddNumberToObject(object, "max", stat->max);
-    cJSON_AddNumberToObject(object, "total", stat->total);
     return object;
 }
 
-cJSON *pf_monitor_timings_json(const pf_queue_timings *timings)
+cJSON *pf_monitor_timings_json(int64_t job_id, const pf_queue_timings *timings)
 {
-    cJSON *object = cJSON_CreateObject();
-    cJSON_AddNumberToObject(object, "frames", (double)timings->frames);
-    cJSON *stages = cJSON_AddArrayToObject(object, "stages");
+    cJSON *root = cJSON_CreateObject();
+    cJSON_AddNumberToObject(root, "job", (double)job_id);
+    cJSON_AddNumberToObject(root, "frames", (double)timings->frames);
+    cJSON_AddNumberToObject(root, "total_wall_ms", timings->total_wall_ms);
+    cJSON_AddNumberToObject(root, "total_gpu_ms", timings->total_gpu_ms);
+    cJSON *stages = cJSON_AddArrayToObject(root, "stages");
     for (size_t i = 0; i < timings->stage_count; i++) {
         const pf_queue_stage_stats *stage = &timings->stages[i];
         cJSON *row = cJSON_CreateObject();
         cJSON_AddStringToObject(row, "stage", stage->stage);
         cJSON_AddNumberToObject(row, "count", (double)stage->count);
         cJSON_AddNumberToObject(row, "skipped", (double)stage->skipped);
-        cJSON_AddItemToObject(row, "wall_ms", stat_json(&stage->wall));
-        cJSON_AddItemToObject(row, "gpu_ms", stat_json(&stage->gpu));
+        cJSON_AddItemToObject(row, "wall", stat_json(&stage->wall));
+        cJSON_AddItemToObject(row, "gpu", stat_json(&stage->gpu));
         cJSON_AddItemToArray(stages, row);
     }
-    cJSON *per_frame = cJSON_AddObjectToObject(object, "per_frame_bytes");
-    cJSON_AddItemToObject(per_frame, "peak_rss", stat_json(&timings->peak_rss));
-    cJSON_AddItemToObject(per_frame, "peak_device_memory",
-                          stat_json(&timings->peak_device_memory));
-    cJSON_AddItemToObject(per_frame, "bytes_written", stat_json(&timings->bytes_written));
-    cJSON *decisions = cJSON_AddArrayToObject(object, "decisions");
+    cJSON *resources = cJSON_AddObjectToObject(root, "per_frame_bytes");
+    cJSON_AddItemToObject(resources, "peak_rss", bytes_json(&timings->peak_rss));
+    cJSON_AddItemToObject(resources, "peak_device_memory",
+                          bytes_json(&timings->peak_device_memory));
+    cJSON_AddItemToObject(resources, "bytes_written", bytes_json(&timings->bytes_written));
+    cJSON *builds = cJSON_AddArrayToObject(root, "builds");
+    for (size_t i = 0; i < timings->build_count; i++) {
+        cJSON *row = cJSON_CreateObject();
+        cJSON_AddStringToObject(row, "build", timings->builds[i].build);
+        cJSON_AddNumberToObject(row, "frames", (double)timings->builds[i].frames);
+        cJSON_AddItemToArray(builds, row);
+    }
+    cJSON *decisions = cJSON_AddArrayToObject(root, "decisions");
     for (size_t i = 0; i < timings->decision_count; i++) {
         cJSON *row = cJSON_CreateObject();
         cJSON_AddStringToObject(row, "stage", timings->decisions[i].stage);
@@ -169,24 +191,45 @@ cJSON *pf_monitor_timings_json(const pf_queue_timings *timings)
         cJSON_AddNumberToObject(row, "count", (double)timings->decisions[i].count);
         cJSON_AddItemToArray(decisions, row);
     }
-    return object;
+    cJSON *slowest = cJSON_AddArrayToObject(root, "slowest_frames");
+    for (size_t i = 0; i < timings->slowest_count; i++) {
+        cJSON *row = cJSON_CreateObject();
+        cJSON_AddNumberToObject(row, "frame", timings->slowest[i].frame);
+        cJSON_AddNumberToObject(row, "task", (double)timings->slowest[i].task_id);
+        cJSON_AddNumberToObject(row, "wall_ms", timings->slowest[i].wall_ms);
+        cJSON_AddItemToArray(slowest, row);
+    }
+    return root;
 }
 
-cJSON *pf_monitor_frames_json(const pf_queue_frame_details *details, size_t limit)
+cJSON *pf_monitor_frames_json(int64_t job_id, const pf_queue_frame_details *details,
+                              size_t limit)
 {
-    cJSON *object = cJSON_CreateObject();
-    cJSON_AddNumberToObject(object, "count", (double)details->frame_count);
-    cJSON *frames = cJSON_AddArrayToObject(object, "frames");
+    cJSON *root = cJSON_CreateObject();
+    cJSON_AddNumberToObject(root, "job", (double)job_id);
+    cJSON_AddNumberToObject(root, "count", (double)details->frame_count);
+    cJSON *frames = cJSON_AddArrayToObject(root, "frames");
     for (size_t i = 0; i < details->frame_count && i < limit; i++) {
         const pf_queue_frame_detail *frame = &details->frames[i];
         cJSON *row = cJSON_CreateObject();
         cJSON_AddNumberToObject(row, "frame", frame->frame);
+        cJSON_AddNumberToObject(row, "task", (double)frame->task_id);
         cJSON_AddNumberToObject(row, "attempt", frame->attempt);
         cJSON_AddStringToObject(row, "worker", frame->worker_name);
         cJSON_AddNumberToObject(row, "wall_ms", frame->wall_ms);
-        cJSON_AddNumberToObject(row, "peak_rss", (double)frame->peak_rss);
-        cJSON_AddNumberToObject(row, "peak_device_memory", (double)frame->peak_device_memory);
-        cJSON_AddNumberToObject(row, "bytes_written", (double)frame->bytes_written);
+        /* null where the worker did not measure it */
+        const struct {
+            const char *name;
+            int64_t value;
+        } sizes[] = {{"peak_rss_bytes", frame->peak_rss},
+                     {"peak_device_bytes", frame->peak_device_memory},
+                     {"bytes_written", frame->bytes_written}};
+        for (size_t k = 0; k < sizeof sizes / sizeof sizes[0]; k++) {
+            if (sizes[k].value >= 0)
+                cJSON_AddNumberToObject(row, sizes[k].name, (double)sizes[k].value);
+            else
+                cJSON_AddNullToObject(row, sizes[k].name);
+        }
         cJSON *stages = cJSON_AddArrayToObject(row, "stages");
         for (size_t s = 0; s < frame->stage_count; s++) {
             const pf_queue_frame_stage *stage = &details->stages[frame->first_stage + s];
@@ -199,5 +242,5 @@ cJSON *pf_monitor_frames_json(const pf_queue_frame_details *details, size_t limi
         }
         cJSON_AddItemToArray(frames, row);
     }
-    return object;
+    return root;
 }

@@ -173,7 +173,7 @@ static cJSON *read_detail(pf_queue *queue, int64_t job_id, detail_kind kind, pf_
     } else if (kind == DETAIL_TIMINGS) {
         pf_queue_timings timings;
         if (pf_queue_timings_get(queue, job_id, 0, &timings, err) == PF_OK) {
-            object = pf_monitor_timings_json(&timings);
+            object = pf_monitor_timings_json(job_id, &timings);
             pf_queue_timings_free(&timings);
         }
     } else if (kind == DETAIL_WORKER_STATS) {
@@ -185,7 +185,7 @@ static cJSON *read_detail(pf_queue *queue, int64_t job_id, detail_kind kind, pf_
     } else {
         pf_queue_frame_details details;
         if (pf_queue_frame_details_get(queue, job_id, &details, err) == PF_OK) {
-            object = pf_monitor_frames_json(&details, FRAMES_SHOWN);
+            object = pf_monitor_frames_json(job_id, &details, FRAMES_SHOWN);
             pf_queue_frame_details_free(&details);
         }
     }

@@ -9,6 +9,7 @@
  */
 #include "cli_queue.h"
 #include "pf_cli.h"
+#include "json_views.h"
 #include "timings_frames.h"
 
 #include <cjson/cJSON.h>
@@ -101,79 +102,6 @@ static void print_csv(const pf_queue_timings *timings)
     }
 }
 
-static cJSON *stat_json(const pf_queue_stat *stat)
-{
-    cJSON *object = cJSON_CreateObject();
-    cJSON_AddNumberToObject(object, "count", (double)stat->count);
-    cJSON_AddNumberToObject(object, "min_ms", stat->min);
-    cJSON_AddNumberToObject(object, "median_ms", stat->median);
-    cJSON_AddNumberToObject(object, "p95_ms", stat->p95);
-    cJSON_AddNumberToObject(object, "max_ms", stat->max);
-    cJSON_AddNumberToObject(object, "total_ms", stat->total);
-    return object;
-}
-
-/* A sample of bytes: the same statistics as stat_json, named for bytes. */
-static cJSON *bytes_json(const pf_queue_stat *stat)
-{
-    cJSON *object = cJSON_CreateObject();
-    cJSON_AddNumberToObject(object, "frames", (double)stat->count);
-    cJSON_AddNumberToObject(object, "min", stat->min);
-    cJSON_AddNumberToObject(object, "median", stat->median);
-    cJSON_AddNumberToObject(object, "p95", stat->p95);
-    cJSON_AddNumberToObject(object, "max", stat->max);
-    return object;
-}
-
-static int print_json(int64_t job_id, const pf_queue_timings *timings)
-{
-    cJSON *root = cJSON_CreateObject();
-    cJSON_AddNumberToObject(root, "job", (double)job_id);
-    cJSON_AddNumberToObject(root, "frames", (double)timings->frames);
-    cJSON_AddNumberToObject(root, "total_wall_ms", timings->total_wall_ms);
-    cJSON_AddNumberToObject(root, "total_gpu_ms", timings->total_gpu_ms);
-    cJSON *stages = cJSON_AddArrayToObject(root, "stages");
-    for (size_t i = 0; i < timings->stage_count; i++) {
-        const pf_queue_stage_stats *stage = &timings->stages[i];
-        cJSON *row = cJSON_CreateObject();
-        cJSON_AddStringToObject(row, "stage", stage->stage);
-        cJSON_AddNumberToObject(row, "count", (double)stage->count);
-        cJSON_AddNumberToObject(row, "skipped", (double)stage->skipped);
-        cJSON_AddItemToObject(row, "wall", stat_json(&stage->wall));
-        cJSON_AddItemToObject(row, "gpu", stat_json(&stage->gpu));
-        cJSON_AddItemToArray(stages, row);
-    }
-    cJSON *resources = cJSON_AddObjectToObject(root, "per_frame_bytes");
-    cJSON_AddItemToObject(resources, "peak_rss", bytes_json(&timings->peak_rss));
-    cJSON_AddItemToObject(resources, "peak_device_memory",
-                          bytes_json(&timings->peak_device_memory));
-    cJSON_AddItemToObject(resources, "bytes_written", bytes_json(&timings->bytes_written));
-    cJSON *builds = cJSON_AddArrayToObject(root, "builds");
-    for (size_t i = 0; i < timings->build_count; i++) {
-        cJSON *row = cJSON_CreateObject();
-        cJSON_AddStringToObject(row, "build", timings->builds[i].build);
-        cJSON_AddNumberToObject(row, "frames", (double)timings->builds[i].frames);
-        cJSON_AddItemToArray(builds, row);
-    }
-    cJSON *decisions = cJSON_AddArrayToObject(root, "decisions");
-    for (size_t i = 0; i < timings->decision_count; i++) {
-        cJSON *row = cJSON_CreateObject();
-        cJSON_AddStringToObject(row, "stage", timings->decisions[i].stage);
-        cJSON_AddStringToObject(row, "decision", timings->decisions[i].decision);
-        cJSON_AddNumberToObject(row, "count", (double)timings->decisions[i].count);
-        cJSON_AddItemToArray(decisions, row);
-    }
-    cJSON *slowest = cJSON_AddArrayToObject(root, "slowest_frames");
-    for (size_t i = 0; i < timings->slowest_count; i++) {
-        cJSON *row = cJSON_CreateObject();
-        cJSON_AddNumberToObject(row, "frame", timings->slowest[i].frame);
-        cJSON_AddNumberToObject(row, "task", (double)timings->slowest[i].task_id);
-        cJSON_AddNumberToObject(row, "wall_ms", timings->slowest[i].wall_ms);
-        cJSON_AddItemToArray(slowest, row);
-    }
-    return pf_timings_print_json(root);
-}
-
 int pf_cli_timings(int argc, char **argv)
 {
     const char *db = NULL, *format = "table", *job_text = NULL;
@@ -230,7 +158,7 @@ int pf_cli_timings(int argc, char **argv)
     if (!strcmp(format, "csv"))
         print_csv(&timings);
     else if (!strcmp(format, "json"))
-        code = print_json(job_id, &timings);
+        code = pf_timings_print_json(pf_monitor_timings_json(job_id, &timings));
     else
         print_table(job_id, &timings);
     pf_queue_timings_free(&timings);

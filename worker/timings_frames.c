@@ -5,11 +5,13 @@
 #include "timings_frames.h"
 
 #include "cli_options.h"
+#include "json_views.h"
 #include "pf_cli.h"
 
 #include <cjson/cJSON.h>
 #include <inttypes.h>
 #include <stdio.h>
+#include <stdint.h>
 #include <string.h>
 
 #define COMMAND "timings"
@@ -97,45 +99,6 @@ static void print_csv(const pf_queue_frame_details *details)
     }
 }
 
-static int print_json(int64_t job_id, const pf_queue_frame_details *details)
-{
-    cJSON *root = cJSON_CreateObject();
-    cJSON_AddNumberToObject(root, "job", (double)job_id);
-    cJSON *frames = cJSON_AddArrayToObject(root, "frames");
-    for (size_t i = 0; i < details->frame_count; i++) {
-        const pf_queue_frame_detail *frame = &details->frames[i];
-        cJSON *row = cJSON_CreateObject();
-        cJSON_AddNumberToObject(row, "frame", frame->frame);
-        cJSON_AddNumberToObject(row, "task", (double)frame->task_id);
-        cJSON_AddNumberToObject(row, "attempt", frame->attempt);
-        cJSON_AddStringToObject(row, "worker", frame->worker_name);
-        cJSON_AddNumberToObject(row, "wall_ms", frame->wall_ms);
-        /* null where the worker did not measure it */
-        const struct { const char *name; int64_t value; } sizes[] = {
-            {"peak_rss_bytes", frame->peak_rss},
-            {"peak_device_bytes", frame->peak_device_memory},
-            {"bytes_written", frame->bytes_written}};
-        for (size_t k = 0; k < sizeof sizes / sizeof sizes[0]; k++) {
-            if (sizes[k].value >= 0)
-                cJSON_AddNumberToObject(row, sizes[k].name, (double)sizes[k].value);
-            else
-                cJSON_AddNullToObject(row, sizes[k].name);
-        }
-        cJSON *stages = cJSON_AddArrayToObject(row, "stages");
-        for (size_t s = 0; s < frame->stage_count; s++) {
-            const pf_queue_frame_stage *stage = &details->stages[frame->first_stage + s];
-            cJSON *item = cJSON_CreateObject();
-            cJSON_AddStringToObject(item, "stage", stage->stage);
-            cJSON_AddNumberToObject(item, "wall_ms", stage->wall_ms);
-            cJSON_AddBoolToObject(item, "skipped", stage->skipped);
-            cJSON_AddStringToObject(item, "decision", stage->decision);
-            cJSON_AddItemToArray(stages, item);
-        }
-        cJSON_AddItemToArray(frames, row);
-    }
-    return pf_timings_print_json(root);
-}
-
 int pf_timings_print_json(cJSON *root)
 {
     char *text = root ? cJSON_Print(root) : NULL;
@@ -158,7 +121,7 @@ int pf_timings_print_frames(pf_queue *queue, int64_t job_id, const char *format)
     if (!strcmp(format, "csv"))
         print_csv(&details);
     else if (!strcmp(format, "json"))
-        code = print_json(job_id, &details);
+        code = pf_timings_print_json(pf_monitor_frames_json(job_id, &details, SIZE_MAX));
     else
         print_table(&details);
     pf_queue_frame_details_free(&details);

@@ -133,9 +133,10 @@ function renderDetail(job, timings, frames) {
         if (row.stage === stage.stage && !row.skipped && (!slowest || row.wall_ms > slowest.ms))
           slowest = {frame: frame.frame, ms: row.wall_ms};
     const row = el('tr');
-    const w = stage.wall_ms;
-    for (const value of [stage.stage, stage.count, stage.skipped, w.min.toFixed(2),
-      w.median.toFixed(2), w.p95.toFixed(2), w.max.toFixed(2), slowest ? slowest.frame : '-'])
+    const w = stage.wall;
+    for (const value of [stage.stage, stage.count, stage.skipped, w.min_ms.toFixed(2),
+      w.median_ms.toFixed(2), w.p95_ms.toFixed(2), w.max_ms.toFixed(2),
+      slowest ? slowest.frame : '-'])
       row.append(el('td', value));
     stageBody.append(row);
   }
@@ -167,7 +168,7 @@ function renderDetail(job, timings, frames) {
       part.dataset.stage = stage.stage;
       bar.append(part);
     }
-    row.append(bar, el('span', frame.wall_ms.toFixed(0) + ' ms, ' + bytes(frame.peak_rss) +
+    row.append(bar, el('span', frame.wall_ms.toFixed(0) + ' ms, ' + bytes(frame.peak_rss_bytes) +
       ' peak, ' + (frame.worker || '-'), 'label wide'));
     bars.append(row);
   }

@@ -198,8 +198,8 @@ PF_TEST(the_api_shows_the_queue_and_stored_strings_stay_text)
     cJSON *timings = get_json(server.port, path);
     const cJSON *stage = cJSON_GetArrayItem(cJSON_GetObjectItem(timings, "stages"), 0);
     PF_CHECK(!strcmp(cJSON_GetStringValue(cJSON_GetObjectItem(stage, "stage")), "shade") &&
-             cJSON_GetNumberValue(cJSON_GetObjectItem(cJSON_GetObjectItem(stage, "wall_ms"),
-                                                      "median")) == 12.5);
+             cJSON_GetNumberValue(cJSON_GetObjectItem(cJSON_GetObjectItem(stage, "wall"),
+                                                      "median_ms")) == 12.5);
     cJSON_Delete(timings);
     wt_format(path, sizeof path, "/api/jobs/%lld/frames", (long long)job_id);
     cJSON *frames = get_json(server.port, path);
