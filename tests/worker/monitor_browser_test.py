@@ -153,6 +153,7 @@ port = int(line.rsplit(":", 1)[1].strip("/\n")) if "listening" in line else 0
 check("serve listens", port > 0)
 debug_port = free_port()
 chrome = subprocess.Popen([browser, "--headless=new", "--no-sandbox", "--disable-gpu",
+                           "--disable-dev-shm-usage",  # containers' /dev/shm is small
                            "--remote-debugging-port=%d" % debug_port,
                            "--user-data-dir=" + os.path.join(work, "profile"),
                            "http://127.0.0.1:%d/?job=%d" % (port, done)],
