@@ -107,6 +107,7 @@ cJSON *pf_monitor_tasks_json(const pf_queue_task_info *tasks, size_t count)
         cJSON_AddStringToObject(object, "status", task->status);
         cJSON_AddNumberToObject(object, "attempt", task->attempt);
         cJSON_AddStringToObject(object, "worker", task->worker_name);
+        cJSON_AddNumberToObject(object, "lease_expires", (double)task->lease_expires);
         cJSON_AddStringToObject(object, "last_error", task->last_error);
         cJSON_AddItemToArray(array, object);
     }

@@ -173,6 +173,37 @@ function renderDetail(job, timings, frames) {
     bars.append(row);
   }
 
+  // What `timings` adds: each frame's peaks and bytes, totals, builds and decisions.
+  const perFrame = document.querySelector('#per-frame tbody');
+  perFrame.replaceChildren();
+  for (const [label, key] of [['peak memory', 'peak_rss'], ['peak device memory', 'peak_device_memory'],
+    ['written', 'bytes_written']]) {
+    const stat = timings.per_frame_bytes[key];
+    const row = el('tr');
+    for (const value of [label, stat.frames, bytes(stat.min), bytes(stat.median), bytes(stat.p95),
+      bytes(stat.max)]) row.append(el('td', value));
+    perFrame.append(row);
+  }
+  document.getElementById('totals').textContent = 'total: wall ' +
+    timings.total_wall_ms.toFixed(0) + ' ms, gpu ' + timings.total_gpu_ms.toFixed(0) + ' ms' +
+    (timings.builds.length ? '; rendered by ' + timings.builds.map((b) =>
+      'photonfarm ' + b.build + ' (' + b.frames + ')').join(', ') : '');
+  const decisions = document.querySelector('#decisions tbody');
+  decisions.replaceChildren();
+  for (const decision of timings.decisions) {
+    const row = el('tr');
+    for (const value of [decision.stage, decision.decision, decision.count]) row.append(el('td', value));
+    decisions.append(row);
+  }
+  // What `status` adds: the running frames, their workers and their leases.
+  const running = document.getElementById('running');
+  running.replaceChildren();
+  for (const task of job.task_list.filter((t) => t.status === 'running'))
+    running.append(el('li', 'frame ' + task.first_frame +
+      (task.last_frame !== task.first_frame ? '-' + task.last_frame : '') + ' on ' + task.worker +
+      ' (attempt ' + task.attempt + ', lease ' +
+      Math.max(0, (task.lease_expires - serverNow()) / 1000).toFixed(1) + ' s left)'));
+
   // The latest finished frame, fetched again at each update (the server caches it).
   const image = document.getElementById('last-frame');
   const exposure = document.getElementById('exposure').value;

@@ -203,6 +203,14 @@ try:
                      "document.getElementById('last-frame').naturalHeight")
     check("the latest frame is shown at its size (%s)" % size, size == "16x12")
 
+    decisions = page.wait("[...document.querySelectorAll('#decisions tbody tr')].map(r => "
+                          "[...r.children].map(c => c.textContent).join(':')).join(' ')")
+    check("the decisions table has bih_build built once (%s)" % decisions,
+          bool(decisions) and "bih_build:built:1" in decisions.split(" "))
+    per_frame = page.value("[...document.querySelectorAll('#per-frame tbody tr')].map(r => "
+                           "r.children[1].textContent).join(',')")
+    check("peaks and bytes are listed for both frames (%s)" % per_frame, per_frame == "2,2,2")
+
     # Live: a worker renders one frame of the "live" job; the page follows, no reload.
     page.value("window.notReloaded = true")
     before = page.value("document.querySelector('#jobs tr[data-job=\"%d\"] progress').value" % live)
