@@ -104,7 +104,7 @@ int pf_cli_serve(int argc, char **argv)
          "--token-file",
          DEFAULT_LISTEN, pf_cli_store_text, &listen, 0, 0, NULL},
         {"--token-file", NULL, "PATH",
-         "allow actions (pause, resume, cancel, retry) to\nrequests that send this file's "
+         "allow actions (pause, resume, cancel, retry, priority)\nto requests that send this file's "
          "first line in the\nX-Photonfarm-Token header",
          "read-only", pf_cli_store_text, &token_file, 0, 0, NULL},
         {"--poll-ms", NULL, "MS", "how often the queue is read for every client", "500",
