@@ -5,7 +5,8 @@
 
 typedef struct control_context {
     int64_t job_id;
-    int64_t requeued; /* retry: tasks requeued; priority: the new priority */
+    int64_t requeued; /* retry: tasks requeued */
+    int priority;     /* priority: the new one */
 } control_context;
 
 static pf_status run_job_sql(pf_queue *queue, const char *sql, int64_t job_id, const char *what,
@@ -156,7 +157,7 @@ static pf_status priority_body(pf_queue *queue, void *context, pf_error *err)
                                &stmt, err);
     if (status != PF_OK)
         return status;
-    queue_bind_int64(stmt, 1, ctx->requeued);
+    queue_bind_int64(stmt, 1, ctx->priority);
     queue_bind_int64(stmt, 2, pf_queue_now(queue));
     queue_bind_int64(stmt, 3, ctx->job_id);
     return queue_step_done(queue, stmt, "setting a job's priority", err);
@@ -167,6 +168,6 @@ pf_status pf_queue_set_priority(pf_queue *queue, int64_t job_id, int priority, p
     if (priority < -PF_QUEUE_PRIORITY_MAX || priority > PF_QUEUE_PRIORITY_MAX)
         return pf_error_set(err, PF_ERR_INVALID, "priority %d: expected %d to %d", priority,
                             -PF_QUEUE_PRIORITY_MAX, PF_QUEUE_PRIORITY_MAX);
-    control_context ctx = {job_id, priority};
+    control_context ctx = {.job_id = job_id, .priority = priority};
     return queue_write(queue, "setting a job's priority", priority_body, &ctx, err);
 }

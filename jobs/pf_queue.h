@@ -437,10 +437,9 @@ struct pf_queue_job {
      * "" when none. */
     char prerequisites[256];
     /* Its failures that ran out of memory (host or device: the error says "out of ...
-     * memory"), and the most memory any of its completed frames took (bytes; 0: none
-     * recorded), from which status suggests --min-memory. */
+     * memory"); status then suggests --min-memory from the frames' peaks
+     * (pf_queue_timings). */
     int64_t memory_failures;
-    int64_t peak_rss_max, peak_device_memory_max;
     /* "" or why the job cannot progress, e.g. "no eligible worker: all 2 live
      * workers are blocked for this job", "waiting: no live worker has a gpu with
      * >= 24.0 GiB of device memory", "waiting for job 3 (running)", "blocked: job 3,

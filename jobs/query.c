@@ -63,8 +63,6 @@ static pf_status read_job_row(pf_queue *queue, queue_stmt *stmt, pf_queue_job *j
     queue_copy_text(job->required_tags, sizeof job->required_tags, queue_column_text(stmt, 25));
     job->qualified_live_workers = (int)queue_column_int64(stmt, 26);
     job->memory_failures = queue_column_int64(stmt, 27);
-    job->peak_rss_max = queue_column_int64(stmt, 28);
-    job->peak_device_memory_max = queue_column_int64(stmt, 29);
     if (!job->scene_path || !job->parameters_json || !job->frame_range || !job->output_pattern)
         return pf_error_set(err, PF_ERR_NOMEM, "%s: out of memory reading job %lld",
                             queue->path, (long long)job->job_id);
@@ -115,11 +113,7 @@ static pf_status job_query_body(pf_queue *queue, void *context, pf_error *err)
         /* '_' is LIKE's one-character wildcard: "out of host memory" and
          * "VK_ERROR_OUT_OF_DEVICE_MEMORY" both match. */
         "  (SELECT count(*) FROM task_failures f JOIN tasks u ON u.id = f.task_id"
-        "   WHERE u.job_id = j.id AND lower(f.error) LIKE '%out_of%memory%'),"
-        "  (SELECT coalesce(max(r.peak_rss), 0) FROM frame_resources r JOIN tasks u"
-        "   ON u.id = r.task_id WHERE u.job_id = j.id),"
-        "  (SELECT coalesce(max(r.peak_device_memory), 0) FROM frame_resources r JOIN tasks u"
-        "   ON u.id = r.task_id WHERE u.job_id = j.id) "
+        "   WHERE u.job_id = j.id AND lower(f.error) LIKE '%out_of%memory%') "
         "FROM jobs j LEFT JOIN tasks t ON t.job_id = j.id "
         "WHERE ?1 = 0 OR j.id = ?1 GROUP BY j.id ORDER BY j.id",
         &stmt, err);

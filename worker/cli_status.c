@@ -58,30 +58,40 @@ static void suggested_size(int64_t peak, char *out, size_t size)
         snprintf(out, size, "%lldM", (long long)mib);
 }
 
-/* A job whose frames ran out of memory: what its finished frames took, and the
- * requirements that would keep it off smaller workers (issue 42). */
-static void print_memory_advice(const pf_queue_job *job)
+/* A job whose frames ran out of memory: what its finished frames took (the largest of
+ * the peaks `timings` reports), and the requirements that would keep it off smaller
+ * workers (issue 42). Read only for such a job. */
+static void print_memory_advice(pf_queue *queue, const pf_queue_job *job)
 {
     if (job->memory_failures == 0)
         return;
     printf("  memory: %" PRId64 " failure%s ran out of memory", job->memory_failures,
            job->memory_failures == 1 ? "" : "s");
-    if (job->peak_rss_max <= 0 && job->peak_device_memory_max <= 0) {
+    pf_queue_timings timings;
+    pf_error err = {0};
+    if (pf_queue_timings_get(queue, job->job_id, 0, &timings, &err) != PF_OK) {
+        printf("; its frames' peaks cannot be read: %s\n", err.message);
+        return;
+    }
+    int64_t peak_rss = (int64_t)timings.peak_rss.max;
+    int64_t peak_device = (int64_t)timings.peak_device_memory.max;
+    pf_queue_timings_free(&timings);
+    if (peak_rss <= 0 && peak_device <= 0) {
         printf("; no frame of it has finished to measure\n");
         return;
     }
     char peaks[2][32], suggested[2][32];
-    pf_cli_format_bytes(job->peak_rss_max, peaks[0], sizeof peaks[0]);
-    pf_cli_format_bytes(job->peak_device_memory_max, peaks[1], sizeof peaks[1]);
+    pf_cli_format_bytes(peak_rss, peaks[0], sizeof peaks[0]);
+    pf_cli_format_bytes(peak_device, peaks[1], sizeof peaks[1]);
     printf("; its finished frames peaked at %s of memory and %s of device memory\n", peaks[0],
            peaks[1]);
     printf("  suggestion: enqueue it again with");
-    if (job->peak_rss_max > 0) {
-        suggested_size(job->peak_rss_max, suggested[0], sizeof suggested[0]);
+    if (peak_rss > 0) {
+        suggested_size(peak_rss, suggested[0], sizeof suggested[0]);
         printf(" --min-memory %s", suggested[0]);
     }
-    if (job->peak_device_memory_max > 0) {
-        suggested_size(job->peak_device_memory_max, suggested[1], sizeof suggested[1]);
+    if (peak_device > 0) {
+        suggested_size(peak_device, suggested[1], sizeof suggested[1]);
         printf(" --min-device-memory %s", suggested[1]);
     }
     printf(" (%.0f%% over those peaks), so that smaller workers do not claim it\n",
@@ -120,7 +130,7 @@ static void print_job(pf_queue *queue, const pf_queue_job *job, int64_t now,
         printf("  after: job %s\n", job->prerequisites);
     if (job->note[0])
         printf("  note: %s\n", pf_cli_printable(job->note, shown[0], sizeof shown[0]));
-    print_memory_advice(job);
+    print_memory_advice(queue, job);
 
     pf_error err = {0};
     pf_queue_task_info *tasks = NULL;

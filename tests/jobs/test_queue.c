@@ -1466,11 +1466,13 @@ PF_TEST(frame_resources_are_stored_summarised_and_listed)
                               &err),
                 &err);
     pf_queue_job info = job_get(queue, other);
-    PF_CHECK(info.memory_failures == 1 && info.peak_rss_max == 0);
+    PF_CHECK(info.memory_failures == 1);
     pf_queue_job_clear(&info);
+    PF_REQUIRE_OK(pf_queue_timings_get(queue, other, 0, &timings, &err), &err);
+    PF_CHECK(timings.peak_rss.count == 0 && timings.peak_rss.max == 0.0); /* none finished */
+    pf_queue_timings_free(&timings);
     info = job_get(queue, job);
-    PF_CHECK(info.memory_failures == 0 && info.peak_rss_max == 400 * mib &&
-             info.peak_device_memory_max == 30 * mib);
+    PF_CHECK(info.memory_failures == 0);
     pf_queue_job_clear(&info);
     /* The worker's record (the monitor's worker table): 4 frames done, 1 failure. */
     pf_queue_worker_stats *stats = NULL;
