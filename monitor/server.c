@@ -146,6 +146,17 @@ static enum MHD_Result respond_error(struct MHD_Connection *connection, unsigned
     return respond_json(connection, code, text);
 }
 
+/* The details' and actions' connection (the caller holds detail_lock), opened at first
+ * use; the queue re-establishes a lost PostgreSQL connection itself. NULL with err set
+ * when it cannot be opened. */
+static pf_queue *detail_connection(server *srv, pf_error *err)
+{
+    if (!srv->detail_queue &&
+        pf_queue_open(srv->config->db_path, NULL, &srv->detail_queue, err) != PF_OK)
+        srv->detail_queue = NULL;
+    return srv->detail_queue;
+}
+
 /* ---- a job's details, read once per snapshot generation ---- */
 
 static cJSON *read_detail(pf_queue *queue, int64_t job_id, detail_kind kind, pf_error *err)
@@ -211,16 +222,9 @@ static char *detail_text(server *srv, int64_t job_id, detail_kind kind, pf_error
             text = strdup(entry->text);
     }
     if (!text) {
-        if (!srv->detail_queue &&
-            pf_queue_open(srv->config->db_path, NULL, &srv->detail_queue, err) != PF_OK)
-            srv->detail_queue = NULL;
-        cJSON *object = srv->detail_queue ? read_detail(srv->detail_queue, job_id, kind, err)
-                                          : NULL;
+        pf_queue *queue = detail_connection(srv, err);
+        cJSON *object = queue ? read_detail(queue, job_id, kind, err) : NULL;
         srv->detail_reads++;
-        if (!object && err->status == PF_ERR_IO) { /* a lost connection: a new one next time */
-            pf_queue_close(srv->detail_queue);
-            srv->detail_queue = NULL;
-        }
         char *fresh = object ? cJSON_PrintUnformatted(object) : NULL;
         cJSON_Delete(object);
         if (fresh && !srv->cache) /* without it, served uncached */
@@ -243,16 +247,15 @@ static char *detail_text(server *srv, int64_t job_id, detail_kind kind, pf_error
 static pf_status latest_frame(server *srv, int64_t job_id, char *out, size_t size,
                               pf_error *err)
 {
-    pf_status status = srv->detail_queue ? PF_OK
-                                         : pf_queue_open(srv->config->db_path, NULL,
-                                                         &srv->detail_queue, err);
+    pf_queue *queue = detail_connection(srv, err);
+    pf_status status = queue ? PF_OK : err->status;
     pf_queue_job job = {0};
     pf_queue_task_info *tasks = NULL;
     size_t count = 0;
     if (status == PF_OK)
-        status = pf_queue_job_get(srv->detail_queue, job_id, &job, err);
+        status = pf_queue_job_get(queue, job_id, &job, err);
     if (status == PF_OK)
-        status = pf_queue_task_list(srv->detail_queue, job_id, &tasks, &count, err);
+        status = pf_queue_task_list(queue, job_id, &tasks, &count, err);
     const pf_queue_task_info *latest = NULL;
     for (size_t i = 0; status == PF_OK && i < count; i++)
         if (!strcmp(tasks[i].status, "done") &&
@@ -371,14 +374,12 @@ static enum MHD_Result act(server *srv, struct MHD_Connection *connection, int64
     }
     pf_error err = {0};
     pthread_mutex_lock(&srv->detail_lock);
-    pf_status status = srv->detail_queue ? PF_OK
-                                         : pf_queue_open(srv->config->db_path, NULL,
-                                                         &srv->detail_queue, &err);
+    pf_queue *queue = detail_connection(srv, &err);
+    pf_status status = queue ? PF_OK : err.status;
     if (status == PF_OK)
-        status = which < 3    ? calls[which](srv->detail_queue, job_id, &err)
-                 : which == 3 ? pf_queue_retry(srv->detail_queue, job_id, NULL, &err)
-                              : pf_queue_set_priority(srv->detail_queue, job_id, (int)priority,
-                                                      &err);
+        status = which < 3    ? calls[which](queue, job_id, &err)
+                 : which == 3 ? pf_queue_retry(queue, job_id, NULL, &err)
+                              : pf_queue_set_priority(queue, job_id, (int)priority, &err);
     pthread_mutex_unlock(&srv->detail_lock);
     pf_snapshot_poke(&srv->snapshot);
     if (status != PF_OK)

@@ -90,7 +90,8 @@ static void *poll_loop(void *user)
         pthread_mutex_unlock(&snapshot->lock);
         if (stopping)
             break;
-        /* A lost connection (a restarted database) is opened again at the next poll. */
+        /* Opened at the first poll that can (the queue re-establishes a lost PostgreSQL
+         * connection itself, at the next read). */
         pf_error err = {0};
         char *jobs_text = NULL, *workers_text = NULL;
         pf_status status = queue ? PF_OK : pf_queue_open(snapshot->db_path, NULL, &queue, &err);
@@ -100,8 +101,6 @@ static void *poll_loop(void *user)
             store(snapshot, jobs_text, workers_text);
             continue;
         }
-        pf_queue_close(queue);
-        queue = NULL;
         pthread_mutex_lock(&snapshot->lock);
         snprintf(snapshot->error, sizeof snapshot->error, "%s", err.message);
         pthread_mutex_unlock(&snapshot->lock);
