@@ -101,7 +101,7 @@ void pf_queue_close(pf_queue *queue);
 int pf_queue_is_url(const char *db);
 
 /* Schema version this build creates and understands. */
-#define PF_QUEUE_SCHEMA_VERSION 6
+#define PF_QUEUE_SCHEMA_VERSION 7
 
 /* Current schema version recorded in the file (fills *version). */
 pf_status pf_queue_schema_version(pf_queue *queue, int *version, pf_error *err);
@@ -484,6 +484,34 @@ typedef struct pf_queue_failure {
 /* The job's failures in the order they happened (malloc'ed array, free()). */
 pf_status pf_queue_failure_list(pf_queue *queue, int64_t job_id, pf_queue_failure **failures,
                                 size_t *count, pf_error *err);
+
+/* Bytes of one attempt's log at most (the worker keeps its first and last lines within it). */
+#define PF_QUEUE_LOG_MAX (64 * 1024)
+
+/*
+ * Stores the lines a worker logged during attempt `attempt` of task task_id (issue 41),
+ * replacing what that attempt stored before. Bytes that are not UTF-8 are stored as '?'.
+ * worker_id 0: unknown. An unknown task or attempt, or text over PF_QUEUE_LOG_MAX, is
+ * PF_ERR_INVALID, nothing stored. Needs no lease: a worker that lost its lease still
+ * tells what happened.
+ */
+pf_status pf_queue_attempt_log_store(pf_queue *queue, int64_t task_id, int attempt,
+                                     int64_t worker_id, const char *text, pf_error *err);
+
+typedef struct pf_queue_attempt_log {
+    int64_t task_id;
+    int32_t first_frame, last_frame; /* the task's frames */
+    int attempt;
+    char worker_name[PF_QUEUE_NAME_MAX]; /* "" when unknown */
+    int64_t written_at;
+    char *text; /* the lines, '\n'-terminated (malloc'ed) */
+} pf_queue_attempt_log;
+
+/* The logs of every attempt of the job's task(s) holding frame, oldest first (malloc'ed
+ * array; pf_queue_attempt_logs_free). An unknown job is PF_ERR_INVALID. */
+pf_status pf_queue_attempt_logs(pf_queue *queue, int64_t job_id, int32_t frame,
+                                pf_queue_attempt_log **logs, size_t *count, pf_error *err);
+void pf_queue_attempt_logs_free(pf_queue_attempt_log *logs, size_t count);
 
 typedef struct pf_queue_worker_info {
     int64_t worker_id;

@@ -64,6 +64,17 @@
     "  bytes_written " integer " NOT NULL,"                                                  \
     "  PRIMARY KEY (task_id, frame));"
 
+/* Version 7's table, on either engine (its integer type): each attempt's log lines
+ * (issue 41; attempt_logs.c). */
+#define ATTEMPT_LOGS(integer)                                                               \
+    "CREATE TABLE attempt_logs ("                                                            \
+    "  task_id " integer " NOT NULL REFERENCES tasks(id) ON DELETE CASCADE,"                \
+    "  attempt INTEGER NOT NULL,"                                                            \
+    "  worker_id " integer " REFERENCES workers(id) ON DELETE SET NULL,"                    \
+    "  written_at " integer " NOT NULL,"                                                     \
+    "  log TEXT NOT NULL,"                                                                   \
+    "  PRIMARY KEY (task_id, attempt));"
+
 /* Migration N (1-based) brings the schema from version N-1 to N. */
 static const char *const migrations[PF_QUEUE_SCHEMA_VERSION] = {
     "CREATE TABLE jobs ("
@@ -155,6 +166,8 @@ static const char *const migrations[PF_QUEUE_SCHEMA_VERSION] = {
     WORKER_CAPABILITIES("INTEGER"),
     /* 6: job dependencies and per-frame resources (issue 42). */
     JOB_DEPENDENCIES("INTEGER"),
+    /* 7: each attempt's log lines (issue 41). */
+    ATTEMPT_LOGS("INTEGER"),
 };
 
 /*
@@ -244,7 +257,7 @@ static const char pg_schema[] =
     "  reason TEXT,"
     "  build TEXT);"
     "CREATE INDEX stage_timings_task ON stage_timings(task_id);"
-    WORKER_CAPABILITIES("BIGINT") JOB_DEPENDENCIES("BIGINT");
+    WORKER_CAPABILITIES("BIGINT") JOB_DEPENDENCIES("BIGINT") ATTEMPT_LOGS("BIGINT");
 
 /* PostgreSQL from version N-1 to N, for N after PF_QUEUE_PG_FIRST_VERSION (the schema
  * above is the latest; a database created at an older version climbs these). */
@@ -252,6 +265,7 @@ static const char pg_schema[] =
 static const char *const pg_migrations[PF_QUEUE_SCHEMA_VERSION + 1] = {
     [5] = WORKER_CAPABILITIES("BIGINT"),
     [6] = JOB_DEPENDENCIES("BIGINT"),
+    [7] = ATTEMPT_LOGS("BIGINT"),
 };
 
 static int64_t wall_clock_ms(void *user)

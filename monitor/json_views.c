@@ -130,6 +130,27 @@ cJSON *pf_monitor_failures_json(const pf_queue_failure *failures, size_t count)
     return array;
 }
 
+cJSON *pf_monitor_logs_json(int64_t job_id, int32_t frame, const pf_queue_attempt_log *logs,
+                            size_t count)
+{
+    cJSON *object = cJSON_CreateObject();
+    cJSON_AddNumberToObject(object, "job", (double)job_id);
+    cJSON_AddNumberToObject(object, "frame", frame);
+    cJSON *array = cJSON_AddArrayToObject(object, "attempts");
+    for (size_t i = 0; i < count; i++) {
+        cJSON *log = cJSON_CreateObject();
+        cJSON_AddNumberToObject(log, "task", (double)logs[i].task_id);
+        cJSON_AddNumberToObject(log, "first_frame", logs[i].first_frame);
+        cJSON_AddNumberToObject(log, "last_frame", logs[i].last_frame);
+        cJSON_AddNumberToObject(log, "attempt", logs[i].attempt);
+        cJSON_AddStringToObject(log, "worker", logs[i].worker_name);
+        cJSON_AddNumberToObject(log, "written_at", (double)logs[i].written_at);
+        cJSON_AddStringToObject(log, "log", logs[i].text);
+        cJSON_AddItemToArray(array, log);
+    }
+    return object;
+}
+
 static cJSON *stat_json(const pf_queue_stat *stat)
 {
     cJSON *object = cJSON_CreateObject();

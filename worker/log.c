@@ -3,6 +3,7 @@
 
 #include <pthread.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 #include <sys/time.h>
 #include <time.h>
@@ -12,6 +13,98 @@
 static pthread_mutex_t log_mutex = PTHREAD_MUTEX_INITIALIZER;
 static pf_wlog_hook log_hook;
 static void *log_hook_user;
+
+/* The capture (under log_mutex): the first lines in head, then the last ones in a ring of
+ * lines whose bytes stay within TAIL_BYTES; what falls out of the ring is counted. The
+ * marker line between them takes at most MARKER_BYTES. */
+#define HEAD_BYTES (PF_WLOG_CAPTURE_MAX / 4)
+#define MARKER_BYTES 64
+#define TAIL_BYTES (PF_WLOG_CAPTURE_MAX - HEAD_BYTES - MARKER_BYTES - 1)
+#define TAIL_LINES 2048
+static struct {
+    int active;
+    char head[HEAD_BYTES];
+    size_t head_used;
+    int head_full; /* a line did not fit: every later line goes to the tail */
+    char *tail[TAIL_LINES];
+    size_t tail_first, tail_count, tail_bytes;
+    long dropped;
+} capture;
+
+static void capture_reset(void)
+{
+    for (size_t i = 0; i < capture.tail_count; i++)
+        free(capture.tail[(capture.tail_first + i) % TAIL_LINES]);
+    memset(&capture, 0, sizeof capture);
+}
+
+static void capture_drop_oldest(void)
+{
+    char **oldest = &capture.tail[capture.tail_first];
+    capture.tail_bytes -= strlen(*oldest);
+    free(*oldest);
+    *oldest = NULL;
+    capture.tail_first = (capture.tail_first + 1) % TAIL_LINES;
+    capture.tail_count--;
+    capture.dropped++;
+}
+
+static void capture_line(const char *line, size_t length)
+{
+    if (!capture.head_full && capture.head_used + length <= HEAD_BYTES) {
+        memcpy(capture.head + capture.head_used, line, length);
+        capture.head_used += length;
+        return;
+    }
+    capture.head_full = 1;
+    if (length > TAIL_BYTES) {
+        capture.dropped++;
+        return;
+    }
+    while (capture.tail_count > 0 &&
+           (capture.tail_count == TAIL_LINES || capture.tail_bytes + length > TAIL_BYTES))
+        capture_drop_oldest();
+    char *copy = strdup(line);
+    if (!copy) {
+        capture.dropped++;
+        return;
+    }
+    capture.tail[(capture.tail_first + capture.tail_count) % TAIL_LINES] = copy;
+    capture.tail_count++;
+    capture.tail_bytes += length;
+}
+
+void pf_wlog_capture_begin(void)
+{
+    pthread_mutex_lock(&log_mutex);
+    capture_reset();
+    capture.active = 1;
+    pthread_mutex_unlock(&log_mutex);
+}
+
+char *pf_wlog_capture_end(void)
+{
+    pthread_mutex_lock(&log_mutex);
+    char *text = NULL;
+    if (capture.active &&
+        (text = malloc(capture.head_used + MARKER_BYTES + capture.tail_bytes + 1))) {
+        size_t used = capture.head_used;
+        memcpy(text, capture.head, used);
+        if (capture.dropped > 0)
+            used += (size_t)snprintf(text + used, MARKER_BYTES, "... %ld lines left out ...\n",
+                                     capture.dropped);
+        for (size_t i = 0; i < capture.tail_count; i++) {
+            const char *line = capture.tail[(capture.tail_first + i) % TAIL_LINES];
+            size_t length = strlen(line);
+            memcpy(text + used, line, length);
+            used += length;
+        }
+        text[used] = '\0';
+    }
+    capture_reset();
+    pthread_mutex_unlock(&log_mutex);
+    return text;
+}
 
 void pf_wlog_set_hook(pf_wlog_hook hook, void *user)
 {
@@ -66,6 +159,8 @@ void pf_wlog(pf_log_level level, const char *event, const char *format, ...)
         log_hook(1, log_hook_user);
     fputs(line, stderr);
     fflush(stderr);
+    if (capture.active)
+        capture_line(line, length);
     if (log_hook)
         log_hook(0, log_hook_user);
     pthread_mutex_unlock(&log_mutex);

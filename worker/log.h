@@ -34,6 +34,18 @@ void pf_wlog(pf_log_level level, const char *event, const char *format, ...)
  */
 void pf_wlog_capture_core(void);
 
+/*
+ * Keeps a copy of every line logged from now on (any thread) until pf_wlog_capture_end:
+ * the worker captures the lines of each task attempt and stores them in the queue
+ * (issue 41). At most PF_WLOG_CAPTURE_MAX bytes are kept: the first lines and the last,
+ * with a line in between saying how many were left out. A capture already running is
+ * discarded.
+ */
+#define PF_WLOG_CAPTURE_MAX (64 * 1024)
+void pf_wlog_capture_begin(void);
+/* Ends the capture: its text (malloc'ed), or NULL when none ran or out of memory. */
+char *pf_wlog_capture_end(void);
+
 /* Writes text into out as a double-quoted value with '"', '\\' and control
  * characters escaped, truncating to fit; returns out. */
 const char *pf_wlog_quote(const char *text, char *out, size_t size);

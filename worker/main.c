@@ -18,6 +18,7 @@ static const command commands[] = {
     {"worker", pf_cli_worker, "claim and render queued frames until stopped"},
     {"status", pf_cli_status, "jobs, progress bars, running frames, failures"},
     {"timings", pf_cli_timings, "per-stage timing statistics of a job"},
+    {"log", pf_cli_log, "what a frame's attempts logged on their workers"},
     {"cancel", pf_cli_cancel, "cancel a job (running frames are discarded)"},
     {"pause", pf_cli_pause, "stop claiming a job's frames"},
     {"resume", pf_cli_resume, "resume a paused job"},

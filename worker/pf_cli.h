@@ -17,6 +17,7 @@ int pf_cli_enqueue(int argc, char **argv);
 int pf_cli_worker(int argc, char **argv);
 int pf_cli_status(int argc, char **argv);
 int pf_cli_timings(int argc, char **argv);
+int pf_cli_log(int argc, char **argv);
 int pf_cli_cancel(int argc, char **argv);
 int pf_cli_pause(int argc, char **argv);
 int pf_cli_resume(int argc, char **argv);

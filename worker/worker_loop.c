@@ -146,6 +146,25 @@ static void log_db_error(worker *w, const char *what, const db_op *op)
             pf_wlog_quote(op->err.message, quoted, sizeof quoted));
 }
 
+/* Stores the lines logged since the claim as this attempt's log (issue 41), first thing
+ * when the task is let go, whatever the outcome. On the thread pool, under queue_mutex.
+ * A log the queue refuses is reported, and the task is settled all the same. */
+static void store_attempt_log(worker *w)
+{
+    char *text = pf_wlog_capture_end();
+    if (!text)
+        return;
+    pf_error err = {0};
+    if (pf_queue_attempt_log_store(w->queue, w->task.task_id, w->task.attempt, w->worker_id,
+                                   text, &err) != PF_OK) {
+        char quoted[PF_ERROR_MESSAGE_MAX + 8];
+        pf_wlog(PF_LOG_WARN, "log_not_stored", "job=%" PRId64 " task=%" PRId64 " worker=%s "
+                "error=%s", w->task.job_id, w->task.task_id, w->name,
+                pf_wlog_quote(err.message, quoted, sizeof quoted));
+    }
+    free(text);
+}
+
 /* ---- progress ------------------------------------------------------------ */
 
 static void progress_hook(int before, void *user)
@@ -174,6 +193,7 @@ static void discard_outputs(worker *w)
 static void task_finished(worker *w)
 {
     discard_outputs(w);
+    free(pf_wlog_capture_end()); /* a task let go without settling (its lease lost) */
     w->frames_processed += w->task.frame_count;
     w->last_job_id = w->task.job_id;
     w->last_frame = w->task.last_frame;
@@ -195,6 +215,7 @@ static void task_finished(worker *w)
 
 static void release_run(db_op *op)
 {
+    store_attempt_log(op->owner);
     op->status = pf_queue_release(op->owner->queue, op->token, &op->err);
 }
 
@@ -214,6 +235,7 @@ static void release_done(db_op *op)
 static void fail_run(db_op *op)
 {
     worker *w = op->owner;
+    store_attempt_log(w);
     op->status = pf_queue_fail(w->queue, op->token, w->render_err.message, &op->err);
 }
 
@@ -238,6 +260,7 @@ static void fail_done(db_op *op)
 static void fail_job_run(db_op *op)
 {
     worker *w = op->owner;
+    store_attempt_log(w);
     char reason[sizeof w->render_err.message + 32];
     snprintf(reason, sizeof reason, "%s: %s", pf_frame_fault_name(w->render_fault),
              w->render_err.message);
@@ -273,6 +296,7 @@ static void fail_job_done(db_op *op)
 static void reject_run(db_op *op)
 {
     worker *w = op->owner;
+    store_attempt_log(w);
     op->status = pf_queue_reject(w->queue, op->token, w->render_err.message, &op->err);
 }
 
@@ -310,6 +334,7 @@ static char *counters_json(const pf_stage_timing *stage)
 static void finish_run(db_op *op)
 {
     worker *w = op->owner;
+    store_attempt_log(w);
     /* Renew first: a rename with a lease about to lapse could race the reaper. */
     op->status = pf_queue_heartbeat(w->queue, op->token, NULL, &op->err);
     if (op->status == PF_ERR_INVALID) {
@@ -455,6 +480,29 @@ static void save_pipeline_cache(worker *w)
                 pf_wlog_quote(err.message, quoted, sizeof quoted));
 }
 
+/* One line per rendered frame, for the attempt's log and a shipper: how long, which
+ * preset, which stages ran and which were skipped (their reasons are in the stage rows). */
+static void log_rendered(worker *w, int64_t frame, const pf_frame_output *output)
+{
+    char ran[512] = "", skipped[512] = "";
+    size_t ran_used = 0, skipped_used = 0;
+    for (uint32_t s = 0; s < output->report.stage_count; s++) {
+        const pf_stage_timing *stage = &output->report.stages[s];
+        char *list = stage->skipped ? skipped : ran;
+        size_t *used = stage->skipped ? &skipped_used : &ran_used;
+        int n = snprintf(list + *used, sizeof ran - *used, "%s%s", *used ? "," : "",
+                         stage->stage);
+        if (n > 0 && *used + (size_t)n < sizeof ran)
+            *used += (size_t)n;
+    }
+    pf_wlog(PF_LOG_INFO, "rendered",
+            "job=%" PRId64 " frame=%" PRId64 " worker=%s ms=%.1f preset=%s size=%ux%u "
+            "ran=%s skipped=%s",
+            w->job.job_id, frame, w->name, output->total_ms,
+            pf_quality_name(output->report.quality), output->width, output->height,
+            ran[0] ? ran : "-", skipped[0] ? skipped : "-");
+}
+
 static void render_work(uv_work_t *request)
 {
     worker *w = request->data;
@@ -541,8 +589,14 @@ static void render_work(uv_work_t *request)
         w->output_count = (size_t)i + 1;
         if (w->render_status != PF_OK) {
             w->render_fault = pf_frame_fault_of(w->outputs[i].failed);
+            char quoted[PF_ERROR_MESSAGE_MAX + 8];
+            pf_wlog(PF_LOG_WARN, "render_failed",
+                    "job=%" PRId64 " frame=%" PRId64 " worker=%s fault=%s error=%s",
+                    w->job.job_id, frame, w->name, pf_frame_fault_name(w->render_fault),
+                    pf_wlog_quote(w->render_err.message, quoted, sizeof quoted));
             return;
         }
+        log_rendered(w, frame, &w->outputs[i]);
         save_pipeline_cache(w);
     }
 }
@@ -647,6 +701,7 @@ static void claim_done(db_op *op)
             db_submit(w, release_run, release_done);
             return;
         }
+        pf_wlog_capture_begin();
         pf_wlog(PF_LOG_INFO, "claimed",
                 "job=%" PRId64 " frame=%d frames=%d task=%" PRId64 " attempt=%d worker=%s",
                 w->task.job_id, w->task.first_frame, w->task.frame_count, w->task.task_id,

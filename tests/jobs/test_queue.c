@@ -1388,6 +1388,57 @@ PF_TEST(dependency_cycles_and_unknown_jobs_are_refused)
  * ones refused with nothing written, summarised in the timings (min/median/p95/max), listed
  * per frame with worker, attempt, stages and decisions, and behind status's memory advice.
  */
+PF_TEST(attempt_logs_are_stored_per_attempt_and_listed_per_frame)
+{
+    pf_queue *queue = open_fresh("attempt_logs");
+    PF_REQUIRE(queue);
+    pf_error err = {0};
+    int64_t worker = register_worker(queue, "log-worker");
+    int64_t job = enqueue(queue, "1-4", 0, 2, 3); /* tasks {1,2} and {3,4} */
+    pf_queue_task task = claim(queue, worker, 0, 0);
+    PF_REQUIRE(task.first_frame == 1);
+    /* Attempt 1 fails; its log is stored without a lease (the task is back in the queue). */
+    PF_CHECK_OK(pf_queue_fail(queue, task.lease_token, "device lost", &err), &err);
+    PF_CHECK_OK(pf_queue_attempt_log_store(queue, task.task_id, 1, worker,
+                                           "claimed\nbad byte \xff here\n", &err), &err);
+    /* No attempt 2 yet, no task 999, and a log over the limit: refused, nothing stored. */
+    PF_CHECK(pf_queue_attempt_log_store(queue, task.task_id, 2, worker, "x", &err) ==
+             PF_ERR_INVALID);
+    PF_CHECK_MSG(strstr(err.message, "attempt 2") != NULL, "%s", err.message);
+    PF_CHECK(pf_queue_attempt_log_store(queue, 999, 1, worker, "x", &err) == PF_ERR_INVALID);
+    char *huge = malloc(PF_QUEUE_LOG_MAX + 2);
+    PF_REQUIRE(huge);
+    memset(huge, 'a', PF_QUEUE_LOG_MAX + 1);
+    huge[PF_QUEUE_LOG_MAX + 1] = '\0';
+    PF_CHECK(pf_queue_attempt_log_store(queue, task.task_id, 1, worker, huge, &err) ==
+             PF_ERR_INVALID);
+    free(huge);
+
+    clock_now.now += 60000; /* past the backoff */
+    task = claim(queue, worker, 0, 0);
+    PF_REQUIRE(task.first_frame == 1 && task.attempt == 2);
+    PF_CHECK_OK(pf_queue_attempt_log_store(queue, task.task_id, 2, worker, "first\n", &err), &err);
+    /* The same attempt again replaces its log. */
+    PF_CHECK_OK(pf_queue_attempt_log_store(queue, task.task_id, 2, 0, "rendered\n", &err), &err);
+
+    pf_queue_attempt_log *logs = NULL;
+    size_t count = 0;
+    PF_REQUIRE_OK(pf_queue_attempt_logs(queue, job, 2, &logs, &count, &err), &err);
+    PF_REQUIRE(count == 2);
+    PF_CHECK(logs[0].attempt == 1 && logs[0].first_frame == 1 && logs[0].last_frame == 2 &&
+             !strcmp(logs[0].worker_name, "log-worker"));
+    PF_CHECK_MSG(!strcmp(logs[0].text, "claimed\nbad byte ? here\n"), "%s", logs[0].text);
+    PF_CHECK(logs[1].attempt == 2 && !strcmp(logs[1].text, "rendered\n") &&
+             !logs[1].worker_name[0] && logs[1].written_at >= logs[0].written_at);
+    pf_queue_attempt_logs_free(logs, count);
+    /* Frame 3's task logged nothing; an unknown job is an error. */
+    PF_CHECK_OK(pf_queue_attempt_logs(queue, job, 3, &logs, &count, &err), &err);
+    PF_CHECK(count == 0);
+    pf_queue_attempt_logs_free(logs, count);
+    PF_CHECK(pf_queue_attempt_logs(queue, job + 100, 1, &logs, &count, &err) == PF_ERR_INVALID);
+    pf_queue_close(queue);
+}
+
 PF_TEST(frame_resources_are_stored_summarised_and_listed)
 {
     pf_queue *queue = open_fresh("resources");
@@ -1596,6 +1647,7 @@ int main(void)
     PF_RUN(after_frames_releases_frame_n_after_frame_n);
     PF_RUN(dependency_cycles_and_unknown_jobs_are_refused);
     PF_RUN(frame_resources_are_stored_summarised_and_listed);
+    PF_RUN(attempt_logs_are_stored_per_attempt_and_listed_per_frame);
     PF_RUN(enqueue_conflicts_are_decided_under_the_write_lock);
     PF_RUN(postgres_bad_urls_and_newer_schema_are_refused);
     PF_RUN(postgres_reconnect_keeps_the_lock_timeout);

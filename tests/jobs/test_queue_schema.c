@@ -352,8 +352,8 @@ PF_TEST(sqlite_migrations_and_the_postgres_schema_agree)
 
 /*
  * PostgreSQL only: a database made at version 4 (before the workers' capabilities, the
- * jobs' requirements, the job dependencies and the frames' resources) climbs to the latest on open, and ends with
- * the schema a fresh one has.
+ * jobs' requirements, the job dependencies, the frames' resources and the attempts' logs)
+ * climbs to the latest on open, and ends with the schema a fresh one has.
  */
 PF_TEST(a_version_4_postgres_database_migrates_to_the_latest)
 {
@@ -369,7 +369,7 @@ PF_TEST(a_version_4_postgres_database_migrates_to_the_latest)
     PF_REQUIRE_OK(pf_queue_open(url, NULL, &queue, &err), &err);
     pf_queue_close(queue);
     /* Back to version 4 as PostgreSQL support began it: one row, version 4, no version 5
-     * columns and no version 6 column or tables. */
+     * columns and no version 6 or 7 column or tables. */
     PGconn *conn = PQconnectdb(url);
     PF_REQUIRE(PQstatus(conn) == CONNECTION_OK);
     PGresult *result = PQexec(conn,
@@ -378,7 +378,7 @@ PF_TEST(a_version_4_postgres_database_migrates_to_the_latest)
                               "DROP COLUMN tags; ALTER TABLE jobs DROP COLUMN requires_device, "
                               "DROP COLUMN min_device_memory, DROP COLUMN min_host_memory, "
                               "DROP COLUMN required_tags, DROP COLUMN dependents; "
-                              "DROP TABLE job_dependencies, frame_resources; "
+                              "DROP TABLE job_dependencies, frame_resources, attempt_logs; "
                               "DELETE FROM schema_version WHERE version >= 5; "
                               "INSERT INTO schema_version (version, applied_at) VALUES (4, 0) "
                               "ON CONFLICT DO NOTHING");

@@ -226,6 +226,20 @@ PF_TEST(worker_renders_a_job_and_timings_report_every_stage)
     }
     free(tasks);
 
+    /* Each attempt's log lines, stored by the worker (issue 41): frames 1-2 were one task,
+     * the first, which loaded the scene; frame 3's task found it loaded. */
+    wt_format(args, sizeof args, "log %lld 2 --db '%s'", (long long)job_id, db);
+    PF_REQUIRE(wt_run(args, log_path) == 0);
+    PF_CHECK(wt_count_in_file(log_path, "attempt 1 on ") == 1);
+    PF_CHECK(wt_count_in_file(log_path, "event=claimed") == 1);
+    PF_CHECK(wt_count_in_file(log_path, "event=scene_loaded") == 1);
+    PF_CHECK(wt_count_in_file(log_path, "event=rendered") == 2);
+    PF_CHECK(wt_file_contains(log_path, "frame=2 worker="));
+    wt_format(args, sizeof args, "log %lld 3 --db '%s'", (long long)job_id, db);
+    PF_REQUIRE(wt_run(args, log_path) == 0);
+    PF_CHECK(wt_count_in_file(log_path, "event=scene_loaded") == 0);
+    PF_CHECK(wt_count_in_file(log_path, "event=rendered job=") == 1);
+
     wt_format(args, sizeof args, "timings %lld --format csv --db '%s'", (long long)job_id, db);
     char csv_path[WT_PATH_MAX + 32];
     wt_format(csv_path, sizeof csv_path, "%s/timings.csv", dir);
@@ -480,6 +494,12 @@ PF_TEST(failing_frames_record_each_attempt_and_stop_at_max_attempts)
     PF_CHECK(wt_file_contains(log_path, "failed"));
     PF_CHECK(wt_file_contains(log_path, "failures (4)"));
     PF_CHECK(wt_file_contains(log_path, "16384x16384"));
+    /* Both attempts at frame 1 stored their lines, the failure among them (issue 41). */
+    wt_format(args, sizeof args, "log %lld 1 --format json --db '%s'", (long long)job_id, db);
+    PF_CHECK(wt_run(args, log_path) == 0);
+    PF_CHECK(wt_count_in_file(log_path, "\"attempt\":\t1") == 1);
+    PF_CHECK(wt_count_in_file(log_path, "\"attempt\":\t2") == 1);
+    PF_CHECK(wt_count_in_file(log_path, "event=render_failed") == 2);
 }
 
 PF_TEST(a_worker_failing_a_jobs_frames_is_blocked_and_status_says_so)
