@@ -259,6 +259,10 @@ cJSON *pf_monitor_frames_json(int64_t job_id, const pf_queue_frame_details *deta
             cJSON_AddStringToObject(item, "stage", stage->stage);
             cJSON_AddNumberToObject(item, "wall_ms", stage->wall_ms);
             cJSON_AddBoolToObject(item, "skipped", stage->skipped);
+            /* Reused: skipped because the frame before made the same output; every reuse
+             * reason the planner writes says "reused" (core/render/stage_plan.c). */
+            cJSON_AddBoolToObject(item, "reused",
+                                  stage->skipped && strstr(stage->decision, "reused") != NULL);
             cJSON_AddStringToObject(item, "decision", stage->decision);
             cJSON_AddItemToArray(stages, item);
         }

@@ -13,6 +13,7 @@
  *   GET  /api/jobs/N               the job, its tasks and failures
  *   GET  /api/jobs/N/timings       its stage statistics (timings JOB)
  *   GET  /api/jobs/N/frames        its frames (timings JOB --frames; the first 2,000)
+ *   GET  /api/jobs/N/frames/F/log  what each attempt at frame F logged (log JOB F)
  *   GET  /api/jobs/N/last.png      its latest finished frame, tone-mapped (?exposure=EV)
  *   POST /api/jobs/N/ACTION        pause, resume, cancel, retry, priority?value=P: with
  *                                  the token in X-Photonfarm-Token, else 403
@@ -71,12 +72,14 @@ typedef enum detail_kind {
     DETAIL_TIMINGS,
     DETAIL_FRAMES,
     DETAIL_WORKER_STATS, /* every worker's, under job id 0 */
+    DETAIL_LOG,          /* a frame's attempts' logs */
     DETAIL_KINDS
 } detail_kind;
 
 typedef struct detail_entry {
     int64_t job_id;
     detail_kind kind;
+    int32_t frame; /* DETAIL_LOG's; 0 for the others */
     char *text;
 } detail_entry;
 
@@ -159,7 +162,8 @@ static pf_queue *detail_connection(server *srv, pf_error *err)
 
 /* ---- a job's details, read once per snapshot generation ---- */
 
-static cJSON *read_detail(pf_queue *queue, int64_t job_id, detail_kind kind, pf_error *err)
+static cJSON *read_detail(pf_queue *queue, int64_t job_id, detail_kind kind, int32_t frame,
+                          pf_error *err)
 {
     cJSON *object = NULL;
     if (kind == DETAIL_JOB) {
@@ -193,6 +197,12 @@ static cJSON *read_detail(pf_queue *queue, int64_t job_id, detail_kind kind, pf_
         if (pf_queue_worker_stats_list(queue, &stats, &count, err) == PF_OK)
             object = pf_monitor_worker_stats_json(stats, count);
         free(stats);
+    } else if (kind == DETAIL_LOG) {
+        pf_queue_attempt_log *logs = NULL;
+        size_t count = 0;
+        if (pf_queue_attempt_logs(queue, job_id, frame, &logs, &count, err) == PF_OK)
+            object = pf_monitor_logs_json(job_id, frame, logs, count);
+        pf_queue_attempt_logs_free(logs, count);
     } else {
         pf_queue_frame_details details;
         if (pf_queue_frame_details_get(queue, job_id, &details, err) == PF_OK) {
@@ -205,7 +215,8 @@ static cJSON *read_detail(pf_queue *queue, int64_t job_id, detail_kind kind, pf_
 
 /* The detail's JSON (malloc'ed), from the cache when the snapshot has not changed since;
  * NULL with err set when the job is unknown or the queue failed. */
-static char *detail_text(server *srv, int64_t job_id, detail_kind kind, pf_error *err)
+static char *detail_text(server *srv, int64_t job_id, detail_kind kind, int32_t frame,
+                         pf_error *err)
 {
     uint64_t generation = pf_snapshot_generation(&srv->snapshot);
     pthread_mutex_lock(&srv->detail_lock);
@@ -218,19 +229,19 @@ static char *detail_text(server *srv, int64_t job_id, detail_kind kind, pf_error
     char *text = NULL;
     for (size_t i = 0; i < srv->cache_count && !text; i++) {
         const detail_entry *entry = &srv->cache[i];
-        if (entry->job_id == job_id && entry->kind == kind)
+        if (entry->job_id == job_id && entry->kind == kind && entry->frame == frame)
             text = strdup(entry->text);
     }
     if (!text) {
         pf_queue *queue = detail_connection(srv, err);
-        cJSON *object = queue ? read_detail(queue, job_id, kind, err) : NULL;
+        cJSON *object = queue ? read_detail(queue, job_id, kind, frame, err) : NULL;
         srv->detail_reads++;
         char *fresh = object ? cJSON_PrintUnformatted(object) : NULL;
         cJSON_Delete(object);
         if (fresh && !srv->cache) /* without it, served uncached */
             srv->cache = calloc(DETAIL_CACHE, sizeof *srv->cache);
         if (fresh && srv->cache && srv->cache_count < DETAIL_CACHE) {
-            srv->cache[srv->cache_count++] = (detail_entry){job_id, kind, fresh};
+            srv->cache[srv->cache_count++] = (detail_entry){job_id, kind, frame, fresh};
             text = strdup(fresh);
         } else {
             text = fresh;
@@ -459,6 +470,25 @@ static int64_t job_path(const char *url, const char **rest)
     return job_id;
 }
 
+/* "frames/F/log" (F an integer, possibly negative): 1 with *frame set, else 0. */
+static int frame_log_path(const char *rest, int32_t *frame)
+{
+    static const char prefix[] = "frames/";
+    if (strncmp(rest, prefix, sizeof prefix - 1) != 0)
+        return 0;
+    const char *c = rest + sizeof prefix - 1;
+    int negative = *c == '-';
+    c += negative;
+    const char *digits = c;
+    int64_t value = 0;
+    for (; *c >= '0' && *c <= '9' && c - digits < 10; c++)
+        value = value * 10 + (*c - '0');
+    if (c == digits || strcmp(c, "/log") != 0 || value > INT32_MAX)
+        return 0;
+    *frame = (int32_t)(negative ? -value : value);
+    return 1;
+}
+
 static enum MHD_Result route_get(server *srv, struct MHD_Connection *connection,
                                  const char *url)
 {
@@ -481,7 +511,7 @@ static enum MHD_Result route_get(server *srv, struct MHD_Connection *connection,
         return respond_events(srv, connection);
     if (!strcmp(url, "/api/workers/stats")) {
         pf_error err = {0};
-        char *text = detail_text(srv, 0, DETAIL_WORKER_STATS, &err);
+        char *text = detail_text(srv, 0, DETAIL_WORKER_STATS, 0, &err);
         return text ? respond_json(connection, MHD_HTTP_OK, text)
                     : respond_error(connection, MHD_HTTP_SERVICE_UNAVAILABLE,
                                     err.message[0] ? err.message : "out of memory");
@@ -501,17 +531,19 @@ static enum MHD_Result route_get(server *srv, struct MHD_Connection *connection,
     }
     const char *rest = NULL;
     int64_t job_id = job_path(url, &rest);
-    detail_kind kind = !rest                      ? DETAIL_KINDS
-                       : !*rest                   ? DETAIL_JOB
-                       : !strcmp(rest, "timings") ? DETAIL_TIMINGS
-                       : !strcmp(rest, "frames")  ? DETAIL_FRAMES
-                                                  : DETAIL_KINDS;
+    int32_t frame = 0;
+    detail_kind kind = !rest                       ? DETAIL_KINDS
+                       : !*rest                    ? DETAIL_JOB
+                       : !strcmp(rest, "timings")  ? DETAIL_TIMINGS
+                       : !strcmp(rest, "frames")   ? DETAIL_FRAMES
+                       : frame_log_path(rest, &frame) ? DETAIL_LOG
+                                                   : DETAIL_KINDS;
     if (job_id > 0 && rest && !strcmp(rest, "last.png"))
         return respond_preview(srv, connection, job_id);
     if (job_id <= 0 || kind == DETAIL_KINDS)
         return respond_error(connection, MHD_HTTP_NOT_FOUND, "not found");
     pf_error err = {0};
-    char *text = detail_text(srv, job_id, kind, &err);
+    char *text = detail_text(srv, job_id, kind, frame, &err);
     if (text)
         return respond_json(connection, MHD_HTTP_OK, text);
     return respond_error(connection,

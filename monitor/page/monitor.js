@@ -6,6 +6,9 @@
 const stageColours = ['#4e79a7', '#f28e2b', '#e15759', '#76b7b2', '#59a14f', '#edc948',
   '#b07aa1', '#ff9da7', '#9c755f', '#bab0ac', '#86bcb6', '#d37295'];
 let selectedJob = null;
+let selectedFrame = null;
+
+function selectFrame(frame) { selectedFrame = frame; refresh(); }
 
 function el(tag, text, className) {
   const node = document.createElement(tag);
@@ -73,7 +76,7 @@ function renderJobs(jobs) {
       if (index === 10) cell.className = 'note';
       row.append(cell);
     });
-    row.addEventListener('click', () => { selectedJob = job.id; refresh(); });
+    row.addEventListener('click', () => { selectedJob = job.id; selectedFrame = null; refresh(); });
     body.append(row);
   }
 }
@@ -98,7 +101,30 @@ function renderWorkers(workers, stats) {
   }
 }
 
-function renderDetail(job, timings, frames) {
+// The selected frame: its failures and what each attempt at it logged on its worker.
+function renderFrame(job, frameLog) {
+  const detail = document.getElementById('frame-detail');
+  detail.hidden = frameLog === null;
+  if (frameLog === null) return;
+  document.getElementById('frame-title').textContent = 'Frame ' + frameLog.frame;
+  const failures = document.getElementById('frame-failures');
+  failures.replaceChildren();
+  for (const failure of job.failures.filter((f) => f.frame === frameLog.frame))
+    failures.append(el('li', 'attempt ' + failure.attempt + ' on ' + failure.worker + ' failed: ' +
+      failure.error));
+  const logs = document.getElementById('frame-logs');
+  logs.replaceChildren();
+  if (frameLog.attempts.length === 0)
+    logs.append(el('p', 'No log stored: not rendered yet, or its worker was killed.'));
+  for (const attempt of frameLog.attempts) {
+    logs.append(el('h4', 'attempt ' + attempt.attempt + ' on ' + (attempt.worker || 'an unknown worker') +
+      ' (frames ' + attempt.first_frame + '-' + attempt.last_frame + '), ' +
+      new Date(attempt.written_at).toLocaleString()));
+    logs.append(el('pre', attempt.log, 'log'));
+  }
+}
+
+function renderDetail(job, timings, frames, frameLog) {
   document.getElementById('detail').hidden = false;
   document.getElementById('detail-title').textContent =
     'Job ' + job.id + (jobName(job) ? ' (' + jobName(job) + ')' : '');
@@ -113,7 +139,10 @@ function renderDetail(job, timings, frames) {
   const grid = document.getElementById('frame-grid');
   grid.replaceChildren();
   for (const task of job.task_list) {
-    const cell = el('span', null, 'cell ' + task.status);
+    const holds = selectedFrame !== null && task.first_frame <= selectedFrame &&
+      selectedFrame <= task.last_frame;
+    const cell = el('span', null, 'cell ' + task.status + (holds ? ' selected' : ''));
+    cell.addEventListener('click', () => selectFrame(task.first_frame));
     cell.title = 'frame ' + task.first_frame +
       (task.last_frame !== task.first_frame ? '-' + task.last_frame : '') + ': ' + task.status +
       (task.worker ? ' on ' + task.worker : '') + (task.last_error ? ' - ' + task.last_error : '');
@@ -121,11 +150,16 @@ function renderDetail(job, timings, frames) {
     grid.append(cell);
   }
 
-  // Per stage: the distribution over frames, and the frame behind the slowest.
+  // Per stage: the distribution over frames as a chart on one log scale for every stage
+  // (min to max, median to p95), and the frame behind the slowest, which opens its log.
   const stageBody = document.querySelector('#stages tbody');
   stageBody.replaceChildren();
   const colour = {};
   timings.stages.forEach((stage, index) => { colour[stage.stage] = stageColours[index % stageColours.length]; });
+  const ran = timings.stages.filter((stage) => stage.wall.count > 0);
+  const low = Math.max(0.01, Math.min(...ran.map((stage) => stage.wall.min_ms), 1e9));
+  const high = Math.max(low * 10, ...ran.map((stage) => stage.wall.max_ms));
+  const x = (ms) => (200 * Math.log(Math.max(ms, low) / low) / Math.log(high / low));
   for (const stage of timings.stages) {
     let slowest = null;
     for (const frame of frames.frames)
@@ -135,9 +169,37 @@ function renderDetail(job, timings, frames) {
     const row = el('tr');
     const w = stage.wall;
     for (const value of [stage.stage, stage.count, stage.skipped, w.min_ms.toFixed(2),
-      w.median_ms.toFixed(2), w.p95_ms.toFixed(2), w.max_ms.toFixed(2),
-      slowest ? slowest.frame : '-'])
+      w.median_ms.toFixed(2), w.p95_ms.toFixed(2), w.max_ms.toFixed(2)])
       row.append(el('td', value));
+    const chart = el('span', null, 'dist');
+    chart.dataset.stage = stage.stage;
+    if (w.count > 0) {
+      chart.title = stage.stage + ': min ' + w.min_ms.toFixed(2) + ', median ' +
+        w.median_ms.toFixed(2) + ', p95 ' + w.p95_ms.toFixed(2) + ', max ' + w.max_ms.toFixed(2) + ' ms';
+      const whisker = el('i', null, 'whisker');
+      whisker.style.left = x(w.min_ms).toFixed(1) + 'px';
+      whisker.style.width = Math.max(1, x(w.max_ms) - x(w.min_ms)).toFixed(1) + 'px';
+      const box = el('i', null, 'box');
+      box.style.left = x(w.median_ms).toFixed(1) + 'px';
+      box.style.width = (x(w.p95_ms) - x(w.median_ms)).toFixed(1) + 'px';
+      box.style.background = colour[stage.stage];
+      const median = el('i', null, 'median');
+      median.style.left = x(w.median_ms).toFixed(1) + 'px';
+      chart.append(whisker, box, median);
+    }
+    const chartCell = el('td');
+    chartCell.append(chart);
+    row.append(chartCell);
+    const slowestCell = el('td');
+    if (slowest) {
+      const link = el('button', slowest.frame, 'frame-link');
+      link.title = slowest.ms.toFixed(2) + ' ms: show frame ' + slowest.frame;
+      link.addEventListener('click', () => selectFrame(slowest.frame));
+      slowestCell.append(link);
+    } else {
+      slowestCell.textContent = '-';
+    }
+    row.append(slowestCell);
     stageBody.append(row);
   }
   const legend = document.getElementById('legend');
@@ -155,13 +217,14 @@ function renderDetail(job, timings, frames) {
   const longest = Math.max(1, ...frames.frames.map((f) => f.wall_ms));
   for (const frame of frames.frames) {
     const row = el('div', null, 'row');
+    row.addEventListener('click', () => selectFrame(frame.frame));
     row.append(el('span', frame.frame, 'label'));
     const bar = el('span', null, 'bar');
     bar.dataset.frame = frame.frame;
     for (const stage of frame.stages) {
-      if (stage.skipped) continue;
-      const part = el('i');
-      part.style.width = (400 * stage.wall_ms / longest).toFixed(1) + 'px';
+      if (stage.skipped && !stage.reused) continue;
+      const part = el('i', null, stage.reused ? 'reused' : null);
+      if (!stage.reused) part.style.width = (400 * stage.wall_ms / longest).toFixed(1) + 'px';
       part.style.background = colour[stage.stage] || '#999';
       part.title = stage.stage + ': ' + stage.wall_ms.toFixed(1) + ' ms' +
         (stage.decision ? ' (' + stage.decision + ')' : '');
@@ -193,6 +256,12 @@ function renderDetail(job, timings, frames) {
   for (const decision of timings.decisions) {
     const row = el('tr');
     for (const value of [decision.stage, decision.decision, decision.count]) row.append(el('td', value));
+    const share = el('span', null, 'share');
+    share.style.width = (150 * decision.count / Math.max(1, frames.count)).toFixed(1) + 'px';
+    share.style.background = colour[decision.stage] || '#999';
+    const shareCell = el('td');
+    shareCell.append(share);
+    row.append(shareCell);
     decisions.append(row);
   }
   // What `status` adds: the running frames, their workers and their leases.
@@ -212,6 +281,8 @@ function renderDetail(job, timings, frames) {
   image.src = '/api/jobs/' + job.id + '/last.png?exposure=' + encodeURIComponent(exposure) +
     '&done=' + job.frames_done;
 
+  renderFrame(job, frameLog);
+
   const failures = document.getElementById('failures');
   failures.replaceChildren();
   for (const failure of job.failures.slice(-50))
@@ -227,9 +298,10 @@ async function refresh() {
     renderWorkers(workers, stats);
     if (selectedJob !== null) {
       const base = '/api/jobs/' + selectedJob;
-      const [job, timings, frames] = await Promise.all(
-        [getJson(base), getJson(base + '/timings'), getJson(base + '/frames')]);
-      renderDetail(job, timings, frames);
+      const [job, timings, frames, frameLog] = await Promise.all(
+        [getJson(base), getJson(base + '/timings'), getJson(base + '/frames'),
+          selectedFrame === null ? null : getJson(base + '/frames/' + selectedFrame + '/log')]);
+      renderDetail(job, timings, frames, frameLog);
     }
     document.getElementById('updated').textContent = 'updated ' + new Date().toLocaleTimeString();
   } catch (error) {
@@ -262,4 +334,5 @@ document.querySelectorAll('#actions button').forEach((button) =>
   button.addEventListener('click', () => act(button.dataset.action)));
 const params = new URLSearchParams(location.search);
 if (params.has('job')) selectedJob = Number(params.get('job'));
+if (params.has('frame')) selectedFrame = Number(params.get('frame'));
 connect();

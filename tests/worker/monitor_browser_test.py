@@ -204,12 +204,47 @@ try:
     check("the latest frame is shown at its size (%s)" % size, size == "16x12")
 
     decisions = page.wait("[...document.querySelectorAll('#decisions tbody tr')].map(r => "
-                          "[...r.children].map(c => c.textContent).join(':')).join(' ')")
+                          "[...r.children].slice(0, 3).map(c => c.textContent).join(':'))"
+                          ".join(' ')")
     check("the decisions table has bih_build built once (%s)" % decisions,
           bool(decisions) and "bih_build:built:1" in decisions.split(" "))
     per_frame = page.value("[...document.querySelectorAll('#per-frame tbody tr')].map(r => "
                            "r.children[1].textContent).join(',')")
     check("peaks and bytes are listed for both frames (%s)" % per_frame, per_frame == "2,2,2")
+
+    # Charts: each stage that ran has its distribution (a box from median to p95 and a
+    # median tick); the decisions have their share bars.
+    charts = page.value("[...document.querySelectorAll('#stages .dist')].map(d => "
+                        "d.dataset.stage + '=' + d.querySelectorAll('.box, .median, .whisker')"
+                        ".length).join(',')")
+    check("every stage that ran has its distribution chart (%s)" % charts,
+          bool(charts) and "shade=3" in charts.split(",") and "bih_build=3" in charts.split(","))
+    shares = page.value("document.querySelectorAll('#decisions .share').length")
+    check("every decision has its share bar (%s)" % shares, bool(shares) and shares >= 2)
+    reused = page.value("[...document.querySelectorAll('#frame-bars i.reused')].map(i => "
+                        "i.dataset.stage).join(',')")
+    print("     reused parts in the bars: %s" % (reused or "none"))
+
+    # A frame's log: clicking its cell shows what each attempt logged on its worker; a
+    # hostile line stored in the queue is shown as text.
+    with sqlite3.connect(db) as connection:
+        connection.execute("UPDATE attempt_logs SET log = log || ? WHERE task_id = "
+                           "(SELECT id FROM tasks WHERE job_id = ? AND first_frame = 2)",
+                           (HOSTILE + "\n", done))
+    page.value("document.querySelectorAll('#frame-grid .cell')[0].click()")
+    log = page.wait("document.getElementById('frame-title').textContent === 'Frame 1' && "
+                    "document.querySelector('#frame-logs pre') && "
+                    "document.querySelector('#frame-logs pre').textContent")
+    check("frame 1's log is shown on a click (%s lines)" % (log.count("\n") if log else 0),
+          bool(log) and "event=claimed" in log and "event=rendered job=%d frame=1" % done in log)
+    page.value("document.querySelectorAll('#frame-grid .cell')[1].click()")
+    log = page.wait("document.getElementById('frame-title').textContent === 'Frame 2' && "
+                    "document.querySelector('#frame-logs pre') && "
+                    "document.querySelector('#frame-logs pre').textContent")
+    check("a hostile log line is shown as its text",
+          bool(log) and HOSTILE in log and
+          page.value("document.querySelectorAll('img[src=\"x\"]').length") == 0 and
+          page.value("document.title") != "pwned")
 
     # Live: a worker renders one frame of the "live" job; the page follows, no reload.
     page.value("window.notReloaded = true")

@@ -152,9 +152,14 @@ static void fill_queue(int64_t *job_id)
     pf_queue_task task;
     bool claimed = false;
     PF_REQUIRE_OK(pf_queue_claim(queue, worker_id, 0, 0, &task, &claimed, &err), &err);
-    pf_queue_stage_row row = {task.first_frame, "shade", 12.5, PF_QUEUE_NO_GPU_MS, NULL, false,
-                              "camera samples", NULL};
-    PF_REQUIRE_OK(pf_queue_complete(queue, task.lease_token, &row, 1, NULL, &err), &err);
+    pf_queue_stage_row rows[2] = {
+        {task.first_frame, "bih_build", 0.0, PF_QUEUE_NO_GPU_MS, NULL, true,
+         "geometry unchanged → BIH reused", NULL},
+        {task.first_frame, "shade", 12.5, PF_QUEUE_NO_GPU_MS, NULL, false, "camera samples",
+         NULL}};
+    PF_REQUIRE_OK(pf_queue_complete(queue, task.lease_token, rows, 2, NULL, &err), &err);
+    PF_REQUIRE_OK(pf_queue_attempt_log_store(queue, task.task_id, 1, worker_id,
+                                             "event=rendered " EVIL_NAME "\n", &err), &err);
     PF_REQUIRE_OK(pf_queue_claim(queue, worker_id, 0, 0, &task, &claimed, &err), &err);
     PF_REQUIRE_OK(pf_queue_fail(queue, task.lease_token, "error " EVIL_NAME, &err), &err);
     pf_queue_close(queue);
@@ -196,7 +201,7 @@ PF_TEST(the_api_shows_the_queue_and_stored_strings_stay_text)
     cJSON_Delete(detail);
     wt_format(path, sizeof path, "/api/jobs/%lld/timings", (long long)job_id);
     cJSON *timings = get_json(server.port, path);
-    const cJSON *stage = cJSON_GetArrayItem(cJSON_GetObjectItem(timings, "stages"), 0);
+    const cJSON *stage = cJSON_GetArrayItem(cJSON_GetObjectItem(timings, "stages"), 1);
     PF_CHECK(!strcmp(cJSON_GetStringValue(cJSON_GetObjectItem(stage, "stage")), "shade") &&
              cJSON_GetNumberValue(cJSON_GetObjectItem(cJSON_GetObjectItem(stage, "wall"),
                                                       "median_ms")) == 12.5);
@@ -204,7 +209,34 @@ PF_TEST(the_api_shows_the_queue_and_stored_strings_stay_text)
     wt_format(path, sizeof path, "/api/jobs/%lld/frames", (long long)job_id);
     cJSON *frames = get_json(server.port, path);
     PF_CHECK(cJSON_GetNumberValue(cJSON_GetObjectItem(frames, "count")) == 1);
+    /* A stage the frame reused is told apart from one it skipped (the page hatches it). */
+    const cJSON *frame_stages = cJSON_GetObjectItem(cJSON_GetArrayItem(
+                                                        cJSON_GetObjectItem(frames, "frames"), 0),
+                                                    "stages");
+    PF_CHECK(cJSON_IsTrue(cJSON_GetObjectItem(cJSON_GetArrayItem(frame_stages, 0), "reused")) &&
+             cJSON_IsFalse(cJSON_GetObjectItem(cJSON_GetArrayItem(frame_stages, 1), "reused")));
     cJSON_Delete(frames);
+    /* Frame 1's log, as stored; frame 2 failed without one; a malformed frame is 404. */
+    wt_format(path, sizeof path, "/api/jobs/%lld/frames/1/log", (long long)job_id);
+    cJSON *log = get_json(server.port, path);
+    const cJSON *attempt = cJSON_GetArrayItem(cJSON_GetObjectItem(log, "attempts"), 0);
+    PF_CHECK(cJSON_GetArraySize(cJSON_GetObjectItem(log, "attempts")) == 1 &&
+             !strcmp(cJSON_GetStringValue(cJSON_GetObjectItem(attempt, "log")),
+                     "event=rendered " EVIL_NAME "\n") &&
+             !strcmp(cJSON_GetStringValue(cJSON_GetObjectItem(attempt, "worker")),
+                     "w-" EVIL_NAME));
+    cJSON_Delete(log);
+    wt_format(path, sizeof path, "/api/jobs/%lld/frames/2/log", (long long)job_id);
+    log = get_json(server.port, path);
+    PF_CHECK(cJSON_GetArraySize(cJSON_GetObjectItem(log, "attempts")) == 0);
+    cJSON_Delete(log);
+    const char *malformed[] = {"frames/x/log", "frames//log", "frames/1/log/", "frames/1",
+                               "frames/99999999999/log"};
+    for (size_t i = 0; i < sizeof malformed / sizeof malformed[0]; i++) {
+        wt_format(path, sizeof path, "/api/jobs/%lld/%s", (long long)job_id, malformed[i]);
+        PF_CHECK_MSG(http(server.port, "GET", path, NULL, NULL) == 404, "%s", path);
+    }
+    PF_CHECK(http(server.port, "GET", "/api/jobs/999/frames/1/log", NULL, NULL) == 404);
     PF_CHECK(http(server.port, "GET", "/api/jobs/999", NULL, NULL) == 404);
     PF_CHECK(http(server.port, "GET", "/api/jobs/x", NULL, NULL) == 404);
 
