@@ -19,6 +19,11 @@
 
 /* The monitor's default poll of the queue: well inside issue 41's "within 1 s". */
 #define PF_MONITOR_DEFAULT_POLL_MS 500
+/* Requests per second from one client address, and the burst above it: an open page asks
+ * for at most ~8 resources per change, so this lets a dozen pages behind one address
+ * follow a busy farm while a runaway script is answered 429. */
+#define PF_MONITOR_DEFAULT_RATE 100
+#define PF_MONITOR_BURST_SECONDS 2
 
 typedef struct pf_monitor_config {
     const char *db_path; /* a queue file or a postgresql:// URL */
@@ -26,6 +31,9 @@ typedef struct pf_monitor_config {
     uint16_t port;       /* 0: any free port (reported through listening) */
     const char *token;   /* the action token; NULL: read-only, every action refused */
     int poll_ms;         /* 0: PF_MONITOR_DEFAULT_POLL_MS */
+    /* Requests per second per client address (PF_MONITOR_BURST_SECONDS' worth at once);
+     * beyond it 429 with Retry-After. 0: no limit. */
+    double rate_per_second;
     /* Called once the server listens, with the port it got. */
     void (*listening)(uint16_t port, void *user);
     void *user;

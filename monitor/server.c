@@ -1,7 +1,7 @@
 /*
  * The monitor's HTTP server (pf_monitor.h): libmicrohttpd, one thread per connection, so
- * a slow client holds only its own thread; limits on connections, request size and idle
- * time. Routes:
+ * a slow client holds only its own thread; limits on connections, request size, idle
+ * time and requests per second per address (rate_limit.c). Routes:
  *
  *   GET  /, /monitor.js, /monitor.css   the page (embedded; no file is read from disk)
  *   GET  /healthz                  "ok" while the queue can be read
@@ -23,6 +23,7 @@
 #include "frame_image.h"
 #include "json_views.h"
 #include "pf_queue.h"
+#include "rate_limit.h"
 #include "snapshot.h"
 
 #include <arpa/inet.h>
@@ -108,6 +109,8 @@ typedef struct server {
     preview_entry previews[PREVIEW_CACHE];
     size_t preview_next;
     int64_t detail_reads; /* details read from the queue (cache misses), under detail_lock */
+    pf_rate_limiter rate;
+    int64_t rate_refused; /* requests answered 429, under detail_lock */
 } server;
 
 /* ---- responses ---- */
@@ -524,6 +527,7 @@ static enum MHD_Result route_get(server *srv, struct MHD_Connection *connection,
         pthread_mutex_unlock(&srv->snapshot.lock);
         pthread_mutex_lock(&srv->detail_lock);
         cJSON_AddNumberToObject(object, "detail_reads", (double)srv->detail_reads);
+        cJSON_AddNumberToObject(object, "rate_refused", (double)srv->rate_refused);
         pthread_mutex_unlock(&srv->detail_lock);
         char *text = cJSON_PrintUnformatted(object);
         cJSON_Delete(object);
@@ -552,6 +556,28 @@ static enum MHD_Result route_get(server *srv, struct MHD_Connection *connection,
                          err.message[0] ? err.message : "out of memory");
 }
 
+/* 429: this address asked more often than --rate-limit allows. */
+static enum MHD_Result respond_too_many(server *srv, struct MHD_Connection *connection,
+                                        int retry_after_s)
+{
+    pthread_mutex_lock(&srv->detail_lock);
+    srv->rate_refused++;
+    pthread_mutex_unlock(&srv->detail_lock);
+    static const char body[] = "{\"error\":\"too many requests from this address\"}";
+    struct MHD_Response *response = MHD_create_response_from_buffer(
+        sizeof body - 1, (void *)body, MHD_RESPMEM_PERSISTENT);
+    if (!response)
+        return MHD_NO;
+    char retry[16];
+    snprintf(retry, sizeof retry, "%d", retry_after_s);
+    MHD_add_response_header(response, MHD_HTTP_HEADER_CONTENT_TYPE, "application/json");
+    MHD_add_response_header(response, MHD_HTTP_HEADER_RETRY_AFTER, retry);
+    enum MHD_Result result =
+        MHD_queue_response(connection, MHD_HTTP_TOO_MANY_REQUESTS, response);
+    MHD_destroy_response(response);
+    return result;
+}
+
 /* A request's body so far (actions have none; a longer one is refused). */
 typedef struct request_state {
     size_t body_bytes;
@@ -565,6 +591,12 @@ static enum MHD_Result handle(void *user, struct MHD_Connection *connection, con
     (void)upload_data;
     server *srv = user;
     if (!*request_user) { /* the headers: the body, if any, comes in the next calls */
+        const union MHD_ConnectionInfo *client =
+            MHD_get_connection_info(connection, MHD_CONNECTION_INFO_CLIENT_ADDRESS);
+        int retry_after = 1;
+        if (!pf_rate_limit_take(&srv->rate, client ? client->client_addr : NULL,
+                                pf_time_ms() / 1000.0, &retry_after))
+            return respond_too_many(srv, connection, retry_after);
         request_state *state = calloc(1, sizeof *state);
         if (!state)
             return MHD_NO;
@@ -624,11 +656,17 @@ pf_status pf_monitor_run(const pf_monitor_config *config, volatile sig_atomic_t 
     if (!srv)
         return pf_error_set(err, PF_ERR_NOMEM, "out of memory starting the monitor");
     srv->config = config;
+    if (pf_rate_limiter_init(&srv->rate, config->rate_per_second,
+                             config->rate_per_second * PF_MONITOR_BURST_SECONDS) != 0) {
+        free(srv);
+        return pf_error_set(err, PF_ERR_NOMEM, "out of memory starting the monitor");
+    }
     pthread_mutex_init(&srv->detail_lock, NULL);
     int poll_ms = config->poll_ms > 0 ? config->poll_ms : PF_MONITOR_DEFAULT_POLL_MS;
     pf_status status = pf_snapshot_start(&srv->snapshot, config->db_path, poll_ms, err);
     if (status != PF_OK) {
         pthread_mutex_destroy(&srv->detail_lock);
+        pf_rate_limiter_free(&srv->rate);
         free(srv);
         return status;
     }
@@ -662,6 +700,7 @@ pf_status pf_monitor_run(const pf_monitor_config *config, volatile sig_atomic_t 
         free(srv->previews[i].png);
     pf_queue_close(srv->detail_queue);
     pthread_mutex_destroy(&srv->detail_lock);
+    pf_rate_limiter_free(&srv->rate);
     free(srv);
     return status;
 }

@@ -95,7 +95,7 @@ static int parse_listen(const char *text, char *address, size_t size, uint16_t *
 int pf_cli_serve(int argc, char **argv)
 {
     const char *db = NULL, *listen = DEFAULT_LISTEN, *token_file = NULL;
-    int64_t poll_ms = PF_MONITOR_DEFAULT_POLL_MS;
+    int64_t poll_ms = PF_MONITOR_DEFAULT_POLL_MS, rate = PF_MONITOR_DEFAULT_RATE;
     pf_storage storage;
     pf_storage_init(&storage);
     const pf_cli_option options[] = {
@@ -109,6 +109,10 @@ int pf_cli_serve(int argc, char **argv)
          "read-only", pf_cli_store_text, &token_file, 0, 0, NULL},
         {"--poll-ms", NULL, "MS", "how often the queue is read for every client", "500",
          pf_cli_store_int, &poll_ms, 50, 60000, NULL},
+        {"--rate-limit", NULL, "N",
+         "requests per second from one client address (2 s\nworth at once); beyond it 429 "
+         "with Retry-After;\n0: no limit",
+         "100", pf_cli_store_int, &rate, 0, 1000000, NULL},
         pf_cli_db_option(&db), pf_roots_option(&storage.scene), pf_roots_option(&storage.output)};
     pf_cli_command command = {
         .name = COMMAND,
@@ -143,8 +147,15 @@ int pf_cli_serve(int argc, char **argv)
     signal(SIGTERM, on_stop);
     signal(SIGPIPE, SIG_IGN);
     serve_context context = {address, &storage};
-    pf_monitor_config config = {db_path,          address, port, token_file ? token : NULL,
-                                (int)poll_ms,     report_listening, &context, frame_path};
+    pf_monitor_config config = {.db_path = db_path,
+                                .address = address,
+                                .port = port,
+                                .token = token_file ? token : NULL,
+                                .poll_ms = (int)poll_ms,
+                                .rate_per_second = (double)rate,
+                                .listening = report_listening,
+                                .user = &context,
+                                .frame_path = frame_path};
     pf_error err = {0};
     pf_status status = pf_monitor_run(&config, &stop_requested, &err);
     memset(token, 0, sizeof token);

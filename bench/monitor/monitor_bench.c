@@ -198,7 +198,8 @@ int main(int argc, char **argv)
     if (server == 0) {
         dup2(out[1], 1);
         close(out[0]);
-        execl(argv[1], argv[1], "serve", "--listen", "127.0.0.1:0", "--db", db, (char *)NULL);
+        execl(argv[1], argv[1], "serve", "--listen", "127.0.0.1:0", "--rate-limit", "0",
+              "--db", db, (char *)NULL);
         _exit(127);
     }
     close(out[1]);

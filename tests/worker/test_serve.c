@@ -31,13 +31,23 @@ typedef struct served {
     char log[WT_PATH_MAX + 48];
 } served;
 
-static served serve(const char *name, const char *token_file)
+/* serve, with --token-file when token_file is not NULL and --rate-limit when rate is. */
+static served serve_limited(const char *name, const char *token_file, const char *rate)
 {
     served server = {0};
     wt_format(server.log, sizeof server.log, "%s/%s.log", dir, name);
     unlink(server.log);
-    const char *arguments[] = {"serve", "--listen", "127.0.0.1:0", "--poll-ms", "100", "--db", db,
-                               token_file ? "--token-file" : NULL, token_file, NULL};
+    const char *arguments[11] = {"serve", "--listen", "127.0.0.1:0", "--poll-ms", "100", "--db",
+                                 db};
+    size_t count = 7;
+    if (token_file) {
+        arguments[count++] = "--token-file";
+        arguments[count++] = token_file;
+    }
+    if (rate) {
+        arguments[count++] = "--rate-limit";
+        arguments[count++] = rate;
+    }
     server.pid = wt_spawn(arguments, server.log, NULL);
     for (int tries = 0; tries < 100 && !server.port; tries++) {
         wt_sleep_ms(50);
@@ -49,6 +59,11 @@ static served serve(const char *name, const char *token_file)
     }
     PF_CHECK_MSG(server.port > 0, "serve did not say where it listens");
     return server;
+}
+
+static served serve(const char *name, const char *token_file)
+{
+    return serve_limited(name, token_file, NULL);
 }
 
 static void stop(served *server)
@@ -468,6 +483,40 @@ PF_TEST(events_announce_a_change)
     stop(&server);
 }
 
+/* --rate-limit 2: a burst of 4, then 2 a second; the rest 429 with Retry-After, and the
+ * address is served again once its bucket refills. Bounds from the elapsed time, so a
+ * slow machine cannot fail it. */
+PF_TEST(requests_beyond_the_rate_limit_get_429)
+{
+    int64_t job_id = 0;
+    fill_queue(&job_id);
+    served server = serve_limited("rate", NULL, "2");
+    double start = pf_time_ms();
+    int allowed = 0, refused = 0, retry_after = 0;
+    for (int i = 0; i < 20; i++) {
+        char *response = exchange(server.port, "GET /healthz HTTP/1.1\r\nHost: x\r\n"
+                                               "Connection: close\r\n\r\n");
+        int code = 0;
+        if (response)
+            sscanf(response, "HTTP/1.%*d %d", &code);
+        allowed += code == 200;
+        refused += code == 429;
+        retry_after += code == 429 && strstr(response, "Retry-After: ") != NULL;
+        free(response);
+    }
+    double elapsed_s = (pf_time_ms() - start) / 1000.0;
+    PF_CHECK_MSG(allowed + refused == 20, "%d allowed, %d refused", allowed, refused);
+    PF_CHECK_MSG(allowed <= 4 + 2 * elapsed_s + 1, "%d allowed in %.2f s", allowed, elapsed_s);
+    if (elapsed_s < 7.0) /* 20 requests outrun 4 + 2/s */
+        PF_CHECK_MSG(refused >= 1 && retry_after == refused, "%d refused, %d with Retry-After",
+                     refused, retry_after);
+    wt_sleep_ms(1100); /* at least two requests' worth back */
+    cJSON *stats = get_json(server.port, "/api/stats");
+    PF_CHECK(cJSON_GetNumberValue(cJSON_GetObjectItem(stats, "rate_refused")) == refused);
+    cJSON_Delete(stats);
+    stop(&server);
+}
+
 PF_TEST(a_public_address_needs_a_token)
 {
     int64_t job_id = 0;
@@ -492,6 +541,7 @@ int main(void)
     PF_RUN(bad_requests_and_paths_outside_the_page_are_refused);
     PF_RUN(the_latest_frame_is_served_as_a_png);
     PF_RUN(events_announce_a_change);
+    PF_RUN(requests_beyond_the_rate_limit_get_429);
     PF_RUN(a_public_address_needs_a_token);
     return pf_test_finish();
 }
