@@ -485,6 +485,18 @@ typedef struct pf_queue_failure {
 pf_status pf_queue_failure_list(pf_queue *queue, int64_t job_id, pf_queue_failure **failures,
                                 size_t *count, pf_error *err);
 
+/*
+ * A mark of what this connection sees committed (for pollers such as the monitor): equal
+ * marks read through the same connection mean that nothing was committed by anyone in
+ * between, so a read made after the first mark still holds. A change may also be
+ * reported without a commit (a transaction started writing, or ended without changes).
+ * SQLite: PRAGMA data_version (other connections' commits). PostgreSQL: the md5 of the
+ * transaction snapshot, pg_current_snapshot() (equal snapshots see the same transactions
+ * as committed, however many are in progress). Read at the cost of one query.
+ */
+#define PF_QUEUE_MARK_MAX 64
+pf_status pf_queue_change_mark(pf_queue *queue, char *mark, size_t size, pf_error *err);
+
 /* Bytes of one attempt's log at most (the worker keeps its first and last lines within it). */
 #define PF_QUEUE_LOG_MAX (64 * 1024)
 

@@ -426,3 +426,33 @@ pf_status pf_queue_worker_stats_list(pf_queue *queue, pf_queue_worker_stats **st
     *stats = rows;
     return status;
 }
+
+/* ---- has anything changed? ---- */
+
+typedef struct mark_context {
+    char *mark;
+    size_t size;
+} mark_context;
+
+static pf_status change_mark_body(pf_queue *queue, void *context, pf_error *err)
+{
+    mark_context *ctx = context;
+    queue_stmt *stmt;
+    pf_status status = queue_prepare(
+        queue, queue_sql(queue, "PRAGMA data_version", "SELECT md5(pg_current_snapshot()::text)"),
+        &stmt, err);
+    if (status != PF_OK)
+        return status;
+    if (queue_step(stmt) == QUEUE_ROW)
+        queue_copy_text(ctx->mark, ctx->size, queue_column_text(stmt, 0));
+    else
+        status = queue_db_error(queue, err, "reading the queue's change mark");
+    queue_finalize(stmt);
+    return status;
+}
+
+pf_status pf_queue_change_mark(pf_queue *queue, char *mark, size_t size, pf_error *err)
+{
+    mark_context ctx = {mark, size};
+    return queue_read(queue, "reading the queue's change mark", change_mark_body, &ctx, err);
+}

@@ -523,6 +523,7 @@ static enum MHD_Result route_get(server *srv, struct MHD_Connection *connection,
         cJSON *object = cJSON_CreateObject();
         pthread_mutex_lock(&srv->snapshot.lock);
         cJSON_AddNumberToObject(object, "snapshot_reads", (double)srv->snapshot.reads);
+        cJSON_AddNumberToObject(object, "change_checks", (double)srv->snapshot.checks);
         cJSON_AddNumberToObject(object, "generation", (double)srv->snapshot.generation);
         pthread_mutex_unlock(&srv->snapshot.lock);
         pthread_mutex_lock(&srv->detail_lock);

@@ -85,7 +85,7 @@ static void *poll_loop(void *user)
         while (!snapshot->stopping && !snapshot->poked &&
                pthread_cond_timedwait(&snapshot->changed, &snapshot->lock, &until) != ETIMEDOUT)
             continue;
-        int stopping = snapshot->stopping;
+        int stopping = snapshot->stopping, poked = snapshot->poked;
         snapshot->poked = 0;
         pthread_mutex_unlock(&snapshot->lock);
         if (stopping)
@@ -95,12 +95,27 @@ static void *poll_loop(void *user)
         pf_error err = {0};
         char *jobs_text = NULL, *workers_text = NULL;
         pf_status status = queue ? PF_OK : pf_queue_open(snapshot->db_path, NULL, &queue, &err);
+        /* Nothing committed since the last read, which is recent: it still holds. The
+         * mark is taken before the read, so a commit during the read shows next time. */
+        char mark[PF_QUEUE_MARK_MAX] = "";
+        double now_ms = pf_time_ms();
+        if (status == PF_OK && pf_queue_change_mark(queue, mark, sizeof mark, &err) == PF_OK &&
+            !poked && snapshot->mark[0] && !strcmp(mark, snapshot->mark) &&
+            now_ms - snapshot->read_at_ms < PF_SNAPSHOT_REFRESH_MS) {
+            pthread_mutex_lock(&snapshot->lock);
+            snapshot->checks++;
+            pthread_mutex_unlock(&snapshot->lock);
+            continue;
+        }
         if (status == PF_OK)
             status = read_queue(queue, &jobs_text, &workers_text, &err);
         if (status == PF_OK) {
+            memcpy(snapshot->mark, mark, sizeof mark); /* the poller's own (not under lock) */
+            snapshot->read_at_ms = now_ms;
             store(snapshot, jobs_text, workers_text);
             continue;
         }
+        snapshot->mark[0] = '\0';
         pthread_mutex_lock(&snapshot->lock);
         snprintf(snapshot->error, sizeof snapshot->error, "%s", err.message);
         pthread_mutex_unlock(&snapshot->lock);

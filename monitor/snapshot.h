@@ -1,15 +1,21 @@
 /*
  * The monitor's shared view of the queue (snapshot.c): one thread reads the jobs and the
- * workers every poll and keeps their JSON; a generation number counts the changes, and
- * clients wait on it for the next one (Server-Sent Events).
+ * workers and keeps their JSON; a generation number counts the changes, and clients wait
+ * on it for the next one (Server-Sent Events). Each poll first asks the queue whether
+ * anything was committed since the last read (pf_queue_change_mark, one small query), and
+ * reads it all only then, or after PF_SNAPSHOT_REFRESH_MS without a read: whether a
+ * worker is alive depends on the clock as well as on the queue.
  */
 #ifndef PF_MONITOR_SNAPSHOT_H
 #define PF_MONITOR_SNAPSHOT_H
 
 #include "pf_common.h"
+#include "pf_queue.h"
 
 #include <pthread.h>
 #include <stdint.h>
+
+#define PF_SNAPSHOT_REFRESH_MS 5000
 
 typedef struct pf_snapshot {
     pthread_mutex_t lock;
@@ -17,8 +23,11 @@ typedef struct pf_snapshot {
     uint64_t generation;       /* 1 after the first read; +1 whenever the JSON changes */
     char *jobs_json;           /* owned, under lock */
     char *workers_json;
-    int64_t reads;             /* polls of the queue so far (bench: they do not grow with
-                                  clients) */
+    int64_t reads;             /* full reads of the queue so far (bench: they do not grow
+                                  with clients) */
+    int64_t checks;            /* polls that found nothing committed since, and read no more */
+    char mark[PF_QUEUE_MARK_MAX]; /* the poller's connection's mark before its last read */
+    double read_at_ms;         /* when it was taken (pf_time_ms) */
     char error[PF_ERROR_MESSAGE_MAX]; /* the last read's failure, "" when it succeeded */
     int stopping, poked;
     int poll_ms;

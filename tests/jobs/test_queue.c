@@ -1439,6 +1439,31 @@ PF_TEST(attempt_logs_are_stored_per_attempt_and_listed_per_frame)
     pf_queue_close(queue);
 }
 
+/* The monitor's poll: the mark stays while nobody commits, and moves when another
+ * connection does (one retry on PostgreSQL, where another database's transaction on the
+ * same cluster may move the snapshot too). */
+PF_TEST(the_change_mark_moves_only_with_a_commit)
+{
+    pf_queue *queue = open_fresh("change_mark");
+    PF_REQUIRE(queue);
+    char path[1200];
+    opened_path("change_mark", path, sizeof path);
+    pf_queue *other = NULL;
+    pf_error err = {0};
+    PF_REQUIRE_OK(open_queue(path, &test_options, &clock_now, &other, &err), &err);
+    char first[PF_QUEUE_MARK_MAX], second[PF_QUEUE_MARK_MAX], third[PF_QUEUE_MARK_MAX];
+    PF_CHECK_OK(pf_queue_change_mark(queue, first, sizeof first, &err), &err);
+    PF_CHECK_OK(pf_queue_change_mark(queue, second, sizeof second, &err), &err);
+    PF_CHECK_OK(pf_queue_change_mark(queue, third, sizeof third, &err), &err);
+    PF_CHECK_MSG(first[0] && (!strcmp(first, second) || !strcmp(second, third)),
+                 "%s, %s, %s without a commit", first, second, third);
+    enqueue(other, "1-2", 0, 1, 3);
+    PF_CHECK_OK(pf_queue_change_mark(queue, first, sizeof first, &err), &err);
+    PF_CHECK_MSG(strcmp(first, third) != 0, "%s after another connection's commit", first);
+    pf_queue_close(other);
+    pf_queue_close(queue);
+}
+
 PF_TEST(frame_resources_are_stored_summarised_and_listed)
 {
     pf_queue *queue = open_fresh("resources");
@@ -1648,6 +1673,7 @@ int main(void)
     PF_RUN(dependency_cycles_and_unknown_jobs_are_refused);
     PF_RUN(frame_resources_are_stored_summarised_and_listed);
     PF_RUN(attempt_logs_are_stored_per_attempt_and_listed_per_frame);
+    PF_RUN(the_change_mark_moves_only_with_a_commit);
     PF_RUN(enqueue_conflicts_are_decided_under_the_write_lock);
     PF_RUN(postgres_bad_urls_and_newer_schema_are_refused);
     PF_RUN(postgres_reconnect_keeps_the_lock_timeout);

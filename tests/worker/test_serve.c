@@ -483,6 +483,43 @@ PF_TEST(events_announce_a_change)
     stop(&server);
 }
 
+static double stat_of(int port, const char *name)
+{
+    cJSON *stats = get_json(port, "/api/stats");
+    double value = cJSON_GetNumberValue(cJSON_GetObjectItem(stats, name));
+    cJSON_Delete(stats);
+    return value;
+}
+
+/* Polls of an unchanged queue ask whether anything was committed and read no more (a full
+ * read at most every 5 s); a commit is read at the next poll. */
+PF_TEST(an_idle_queue_is_checked_not_read)
+{
+    int64_t job_id = 0;
+    fill_queue(&job_id);
+    served server = serve("idle", NULL);
+    wt_sleep_ms(300);
+    double reads = stat_of(server.port, "snapshot_reads");
+    double checks = stat_of(server.port, "change_checks");
+    wt_sleep_ms(1000); /* ten polls at --poll-ms 100 */
+    double reads_after = stat_of(server.port, "snapshot_reads");
+    double checks_after = stat_of(server.port, "change_checks");
+    PF_CHECK_MSG(reads_after - reads <= 1 && checks_after > checks,
+                 "idle for 1 s: %.0f full reads, %.0f checks", reads_after - reads,
+                 checks_after - checks);
+    double generation = stat_of(server.port, "generation");
+    pf_queue *queue = wt_open_queue(db);
+    pf_error err = {0};
+    if (queue)
+        PF_CHECK_OK(pf_queue_pause(queue, job_id, &err), &err);
+    pf_queue_close(queue);
+    for (int tries = 0; tries < 100 && stat_of(server.port, "generation") == generation; tries++)
+        wt_sleep_ms(50);
+    PF_CHECK_MSG(stat_of(server.port, "generation") > generation,
+                 "the pause was not seen within 5 s");
+    stop(&server);
+}
+
 /* --rate-limit 2: a burst of 4, then 2 a second; the rest 429 with Retry-After, and the
  * address is served again once its bucket refills. Bounds from the elapsed time, so a
  * slow machine cannot fail it. */
@@ -511,9 +548,7 @@ PF_TEST(requests_beyond_the_rate_limit_get_429)
         PF_CHECK_MSG(refused >= 1 && retry_after == refused, "%d refused, %d with Retry-After",
                      refused, retry_after);
     wt_sleep_ms(1100); /* at least two requests' worth back */
-    cJSON *stats = get_json(server.port, "/api/stats");
-    PF_CHECK(cJSON_GetNumberValue(cJSON_GetObjectItem(stats, "rate_refused")) == refused);
-    cJSON_Delete(stats);
+    PF_CHECK(stat_of(server.port, "rate_refused") == refused);
     stop(&server);
 }
 
@@ -541,6 +576,7 @@ int main(void)
     PF_RUN(bad_requests_and_paths_outside_the_page_are_refused);
     PF_RUN(the_latest_frame_is_served_as_a_png);
     PF_RUN(events_announce_a_change);
+    PF_RUN(an_idle_queue_is_checked_not_read);
     PF_RUN(requests_beyond_the_rate_limit_get_429);
     PF_RUN(a_public_address_needs_a_token);
     return pf_test_finish();
