@@ -13,6 +13,11 @@
 #       loopback (tests/jobs/pg_throwaway.sh), the containers on the host's
 #       network with PHOTONFARM_DB=postgresql://...
 #
+# Then the monitor (issue 41) the way compose.yaml's `monitor` service runs it: `serve` on
+# every address with an action token from a secret file, its healthcheck command run
+# inside the container, and its API read from the host: the finished job, a frame's log
+# as w2 stored it, an action refused without the token and done with it.
+#
 # Not part of ctest: an image build takes minutes more than CI's budget.
 # Exit status 0 when every check holds, 1 otherwise.
 set -euo pipefail
@@ -35,7 +40,7 @@ check() { # check DESCRIPTION COMMAND...: runs it, counts a failure
 }
 
 cleanup() {
-  $PODMAN rm -f pf-farm-w1 pf-farm-w2 >/dev/null 2>&1 || true
+  $PODMAN rm -f pf-farm-w1 pf-farm-w2 pf-farm-monitor >/dev/null 2>&1 || true
   [ "$POSTGRES" -eq 0 ] || "$ROOT/tests/jobs/pg_throwaway.sh" stop "$WORK/pg"
   rm -rf "$WORK"
 }
@@ -106,5 +111,45 @@ check "no partial file left" \
   bash -c "! ls '$DATA' | grep -q partial"
 
 $PODMAN stop -t 30 pf-farm-w2 >/dev/null 2>&1 || true
+
+# The monitor, as compose.yaml's `monitor` service: every address, a token file.
+MONITOR_PORT=$(python3 -c 'import socket; s = socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])')
+head -c 24 /dev/urandom | base64 > "$WORK/monitor-token"
+chmod 644 "$WORK/monitor-token"
+$PODMAN run -d --name pf-farm-monitor "${DB_ARGS[@]}" -v "$DATA:/data" \
+  -v "$WORK/monitor-token:/run/secrets/monitor-token:ro" \
+  "$IMAGE" serve --listen "0.0.0.0:$MONITOR_PORT" --token-file /run/secrets/monitor-token >/dev/null
+healthy() { # compose.yaml's healthcheck command, inside the container
+  $PODMAN exec pf-farm-monitor bash -c "exec 3<>/dev/tcp/127.0.0.1/$MONITOR_PORT && printf 'GET /healthz HTTP/1.0\r\n\r\n' >&3 && grep -q '^ok' <&3"
+}
+for _ in $(seq 1 50); do healthy 2>/dev/null && break; sleep 0.2; done
+check "the monitor's healthcheck passes" healthy
+monitor_api() { # monitor_api METHOD PATH [TOKEN]: prints "CODE BODY"
+  python3 - "$MONITOR_PORT" "$@" <<'PY'
+import sys, urllib.request, urllib.error
+port, method, path = sys.argv[1], sys.argv[2], sys.argv[3]
+request = urllib.request.Request("http://127.0.0.1:%s%s" % (port, path), method=method)
+if len(sys.argv) > 4:
+    request.add_header("X-Photonfarm-Token", sys.argv[4])
+try:
+    with urllib.request.urlopen(request, timeout=10) as response:
+        print(response.status, response.read().decode())
+except urllib.error.HTTPError as error:
+    print(error.code, error.read().decode())
+PY
+}
+jobs=$(monitor_api GET /api/jobs)
+check "the monitor lists the job, done, $FRAMES/$FRAMES" \
+  python3 -c "import json, sys; code, body = sys.argv[1].split(' ', 1); job = json.loads(body)[0]; \
+sys.exit(not (code == '200' and job['status'] == 'done' and job['frames_done'] == $FRAMES))" "$jobs"
+log=$(monitor_api GET "/api/jobs/1/frames/$FRAMES/log")
+check "frame $FRAMES's log, as w2 stored it" \
+  python3 -c "import json, sys; code, body = sys.argv[1].split(' ', 1); a = json.loads(body)['attempts']; \
+sys.exit(not (code == '200' and any(x['worker'] == 'w2' and 'event=rendered' in x['log'] for x in a)))" "$log"
+check "an action without the token is refused" grep -q '^403 ' <<<"$(monitor_api POST /api/jobs/1/priority?value=5)"
+check "an action with the token is done" \
+  grep -q '^200 ' <<<"$(monitor_api POST /api/jobs/1/priority?value=5 "$(cat "$WORK/monitor-token")")"
+check "the priority was set" grep -q '"priority":5' <<<"$(monitor_api GET /api/jobs)"
+$PODMAN stop -t 10 pf-farm-monitor >/dev/null 2>&1 || true
 echo "farm_test: $failures failure(s)"
 [ "$failures" -eq 0 ]
