@@ -159,6 +159,14 @@ typedef struct pf_queue_job_spec {
     size_t after_count;
 } pf_queue_job_spec;
 
+/* Headroom over the largest measured peak in a suggested memory requirement (status's and
+ * the monitor's advice for a job that ran out of memory), and its step. */
+#define PF_QUEUE_SUGGESTED_HEADROOM 1.25
+#define PF_QUEUE_SUGGESTED_STEP (256ll << 20)
+/* peak (bytes) with headroom, rounded up to a step, as --min-memory reads it ("6G",
+ * "768M"). */
+void pf_queue_suggested_requirement(int64_t peak, char *out, size_t size);
+
 /* "a gpu with >= 24.0 GiB of device memory, >= 64.0 GiB of memory and the tags a,b", for
  * messages ("any device" when nothing is required of it). */
 void pf_queue_requirements_text(const char *device, int64_t min_device_memory,

@@ -213,3 +213,14 @@ void pf_queue_requirements_text(const char *device, int64_t min_device_memory,
         snprintf(out + used, size - used, " and the tag%s %s", strchr(tags, ',') ? "s" : "",
                  tags);
 }
+
+void pf_queue_suggested_requirement(int64_t peak, char *out, size_t size)
+{
+    int64_t steps =
+        (int64_t)((double)peak * PF_QUEUE_SUGGESTED_HEADROOM / (double)PF_QUEUE_SUGGESTED_STEP) + 1;
+    int64_t mib = steps * (PF_QUEUE_SUGGESTED_STEP >> 20);
+    if (mib % 1024 == 0)
+        snprintf(out, size, "%lldG", (long long)(mib / 1024));
+    else
+        snprintf(out, size, "%lldM", (long long)mib);
+}

@@ -52,6 +52,7 @@ cJSON *pf_monitor_job_json(const pf_queue_job *job)
     cJSON_AddNumberToObject(object, "live_workers", job->live_workers);
     cJSON_AddNumberToObject(object, "qualified_live_workers", job->qualified_live_workers);
     cJSON_AddNumberToObject(object, "blocked_live_workers", job->blocked_live_workers);
+    cJSON_AddNumberToObject(object, "memory_failures", (double)job->memory_failures);
     return object;
 }
 
@@ -128,6 +129,24 @@ cJSON *pf_monitor_failures_json(const pf_queue_failure *failures, size_t count)
         cJSON_AddItemToArray(array, object);
     }
     return array;
+}
+
+cJSON *pf_monitor_memory_advice_json(const pf_queue_timings *timings)
+{
+    cJSON *object = cJSON_CreateObject();
+    int64_t peaks[2] = {(int64_t)timings->peak_rss.max, (int64_t)timings->peak_device_memory.max};
+    const char *names[2][2] = {{"peak_rss", "min_memory"},
+                               {"peak_device_memory", "min_device_memory"}};
+    for (int i = 0; i < 2; i++) {
+        char suggested[32] = "";
+        if (peaks[i] > 0)
+            pf_queue_suggested_requirement(peaks[i], suggested, sizeof suggested);
+        cJSON_AddNumberToObject(object, names[i][0], (double)(peaks[i] > 0 ? peaks[i] : 0));
+        cJSON_AddStringToObject(object, names[i][1], suggested);
+    }
+    cJSON_AddNumberToObject(object, "headroom_percent",
+                            (PF_QUEUE_SUGGESTED_HEADROOM - 1.0) * 100.0);
+    return object;
 }
 
 cJSON *pf_monitor_logs_json(int64_t job_id, int32_t frame, const pf_queue_attempt_log *logs,

@@ -13,6 +13,10 @@ cJSON *pf_monitor_worker_json(const pf_queue_worker_info *worker);
 cJSON *pf_monitor_worker_stats_json(const pf_queue_worker_stats *stats, size_t count);
 cJSON *pf_monitor_tasks_json(const pf_queue_task_info *tasks, size_t count);
 cJSON *pf_monitor_failures_json(const pf_queue_failure *failures, size_t count);
+/* status's advice for a job whose frames ran out of memory: the largest peaks its finished
+ * frames recorded (0: none) and the requirements that would keep it off smaller workers
+ * ("" where nothing was measured). */
+cJSON *pf_monitor_memory_advice_json(const pf_queue_timings *timings);
 /* A frame's attempts' logs (`log JOB FRAME --format json`, /api/jobs/N/frames/F/log). */
 cJSON *pf_monitor_logs_json(int64_t job_id, int32_t frame, const pf_queue_attempt_log *logs,
                             size_t count);

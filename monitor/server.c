@@ -179,12 +179,22 @@ static cJSON *read_detail(pf_queue *queue, int64_t job_id, detail_kind kind, int
             status = pf_queue_task_list(queue, job_id, &tasks, &task_count, err);
         if (status == PF_OK)
             status = pf_queue_failure_list(queue, job_id, &failures, &failure_count, err);
+        /* status's memory advice: the timings' peaks, read only for such a job. */
+        pf_queue_timings timings = {0};
+        int advise = status == PF_OK && job.memory_failures > 0;
+        if (advise)
+            status = pf_queue_timings_get(queue, job_id, 0, &timings, err);
         if (status == PF_OK) {
             object = pf_monitor_job_json(&job);
             cJSON_AddItemToObject(object, "task_list", pf_monitor_tasks_json(tasks, task_count));
             cJSON_AddItemToObject(object, "failures",
                                   pf_monitor_failures_json(failures, failure_count));
+            if (advise)
+                cJSON_AddItemToObject(object, "memory_advice",
+                                      pf_monitor_memory_advice_json(&timings));
         }
+        if (advise)
+            pf_queue_timings_free(&timings);
         pf_queue_job_clear(&job);
         free(tasks);
         free(failures);

@@ -43,21 +43,6 @@ static const char *shown_path(const pf_roots *roots, const char *stored, int out
     return out;
 }
 
-/* Headroom over the largest measured peak in a suggested requirement, and its step. */
-#define SUGGESTED_HEADROOM 1.25
-#define SUGGESTED_STEP (256ll << 20)
-
-/* peak with headroom, rounded up to a step, as --min-memory reads it ("6G", "768M"). */
-static void suggested_size(int64_t peak, char *out, size_t size)
-{
-    int64_t steps = (int64_t)((double)peak * SUGGESTED_HEADROOM / (double)SUGGESTED_STEP) + 1;
-    int64_t mib = steps * (SUGGESTED_STEP >> 20);
-    if (mib % 1024 == 0)
-        snprintf(out, size, "%lldG", (long long)(mib / 1024));
-    else
-        snprintf(out, size, "%lldM", (long long)mib);
-}
-
 /* A job whose frames ran out of memory: what its finished frames took (the largest of
  * the peaks `timings` reports), and the requirements that would keep it off smaller
  * workers (issue 42). Read only for such a job. */
@@ -87,15 +72,15 @@ static void print_memory_advice(pf_queue *queue, const pf_queue_job *job)
            peaks[1]);
     printf("  suggestion: enqueue it again with");
     if (peak_rss > 0) {
-        suggested_size(peak_rss, suggested[0], sizeof suggested[0]);
+        pf_queue_suggested_requirement(peak_rss, suggested[0], sizeof suggested[0]);
         printf(" --min-memory %s", suggested[0]);
     }
     if (peak_device > 0) {
-        suggested_size(peak_device, suggested[1], sizeof suggested[1]);
+        pf_queue_suggested_requirement(peak_device, suggested[1], sizeof suggested[1]);
         printf(" --min-device-memory %s", suggested[1]);
     }
     printf(" (%.0f%% over those peaks), so that smaller workers do not claim it\n",
-           (SUGGESTED_HEADROOM - 1.0) * 100.0);
+           (PF_QUEUE_SUGGESTED_HEADROOM - 1.0) * 100.0);
 }
 
 static void print_job(pf_queue *queue, const pf_queue_job *job, int64_t now,

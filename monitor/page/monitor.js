@@ -136,6 +136,23 @@ function renderDetail(job, timings, frames, frameLog) {
     (job.prerequisites ? ', after job ' + job.prerequisites : '') +
     (job.note ? ' - ' + job.note : '');
 
+  // status's advice for a job whose frames ran out of memory.
+  const advice = document.getElementById('memory-advice');
+  const memory = job.memory_advice;
+  advice.hidden = !memory;
+  if (memory) {
+    const failures = job.memory_failures + ' failure' + (job.memory_failures === 1 ? '' : 's') +
+      ' ran out of memory';
+    const flags = (memory.min_memory ? ' --min-memory ' + memory.min_memory : '') +
+      (memory.min_device_memory ? ' --min-device-memory ' + memory.min_device_memory : '');
+    advice.textContent = 'memory: ' + failures + (flags
+      ? '; its finished frames peaked at ' + bytes(memory.peak_rss) + ' of memory and ' +
+        bytes(memory.peak_device_memory) + ' of device memory. Suggestion: enqueue it again with' +
+        flags + ' (' + memory.headroom_percent + '% over those peaks), so that smaller workers ' +
+        'do not claim it'
+      : '; no frame of it has finished to measure');
+  }
+
   const grid = document.getElementById('frame-grid');
   grid.replaceChildren();
   for (const task of job.task_list) {

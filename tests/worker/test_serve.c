@@ -520,6 +520,50 @@ PF_TEST(an_idle_queue_is_checked_not_read)
     stop(&server);
 }
 
+/* A job whose frames ran out of memory carries status's advice: the largest peak its
+ * finished frames recorded and the requirement 25 % over it (3 GiB -> "4G"). */
+PF_TEST(a_job_out_of_memory_carries_the_advice)
+{
+    int64_t job_id = 0;
+    fill_queue(&job_id);
+    pf_queue *queue = wt_open_queue(db);
+    PF_REQUIRE(queue != NULL);
+    pf_error err = {0};
+    pf_queue_worker_spec worker = {.name = "small", .host = "h", .pid = 2, .device = "lvp"};
+    int64_t worker_id = 0;
+    PF_REQUIRE_OK(pf_queue_worker_register(queue, &worker, &worker_id, &err), &err);
+    pf_queue_task task;
+    bool claimed = false;
+    PF_REQUIRE_OK(pf_queue_claim(queue, worker_id, 0, 0, &task, &claimed, &err), &err);
+    PF_REQUIRE(claimed);
+    pf_queue_stage_row row = {task.first_frame, "shade", 1.0, PF_QUEUE_NO_GPU_MS, NULL, false,
+                              NULL, NULL};
+    pf_queue_frame_resources peak = {task.first_frame, 3ll << 30, -1, 1000};
+    PF_REQUIRE_OK(pf_queue_complete_frames(queue, task.lease_token, &row, 1, &peak, 1, NULL, &err),
+                  &err);
+    pf_queue_resume(queue, job_id, &err);
+    pf_queue_retry(queue, job_id, NULL, &err);
+    PF_REQUIRE_OK(pf_queue_claim(queue, worker_id, 0, 0, &task, &claimed, &err), &err);
+    PF_REQUIRE(claimed);
+    PF_REQUIRE_OK(pf_queue_fail(queue, task.lease_token, "vkAllocateMemory: out of device memory",
+                                &err), &err);
+    pf_queue_close(queue);
+    served server = serve("memory", NULL);
+    char path[64];
+    wt_format(path, sizeof path, "/api/jobs/%lld", (long long)job_id);
+    cJSON *job = get_json(server.port, path);
+    const cJSON *advice = cJSON_GetObjectItem(job, "memory_advice");
+    PF_CHECK(cJSON_GetNumberValue(cJSON_GetObjectItem(job, "memory_failures")) == 1);
+    PF_CHECK_MSG(advice && cJSON_GetNumberValue(cJSON_GetObjectItem(advice, "peak_rss")) ==
+                               (double)(3ll << 30) &&
+                     !strcmp(cJSON_GetStringValue(cJSON_GetObjectItem(advice, "min_memory")), "4G") &&
+                     !strcmp(cJSON_GetStringValue(cJSON_GetObjectItem(advice, "min_device_memory")),
+                             ""),
+                 "advice: %s", advice ? cJSON_PrintUnformatted(advice) : "none");
+    cJSON_Delete(job);
+    stop(&server);
+}
+
 /* --rate-limit 2: a burst of 4, then 2 a second; the rest 429 with Retry-After, and the
  * address is served again once its bucket refills. Bounds from the elapsed time, so a
  * slow machine cannot fail it. */
@@ -577,6 +621,7 @@ int main(void)
     PF_RUN(the_latest_frame_is_served_as_a_png);
     PF_RUN(events_announce_a_change);
     PF_RUN(an_idle_queue_is_checked_not_read);
+    PF_RUN(a_job_out_of_memory_carries_the_advice);
     PF_RUN(requests_beyond_the_rate_limit_get_429);
     PF_RUN(a_public_address_needs_a_token);
     return pf_test_finish();
