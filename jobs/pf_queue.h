@@ -448,6 +448,9 @@ struct pf_queue_job {
      * memory"); status then suggests --min-memory from the frames' peaks
      * (pf_queue_timings). */
     int64_t memory_failures;
+    /* The plan row of its highest finished frame: the preset auto chose and why ("auto →
+     * fast: no --budget-ms or --target-relmse ..."); "" before any. */
+    char plan[256];
     /* "" or why the job cannot progress, e.g. "no eligible worker: all 2 live
      * workers are blocked for this job", "waiting: no live worker has a gpu with
      * >= 24.0 GiB of device memory", "waiting for job 3 (running)", "blocked: job 3,

@@ -63,6 +63,7 @@ static pf_status read_job_row(pf_queue *queue, queue_stmt *stmt, pf_queue_job *j
     queue_copy_text(job->required_tags, sizeof job->required_tags, queue_column_text(stmt, 25));
     job->qualified_live_workers = (int)queue_column_int64(stmt, 26);
     job->memory_failures = queue_column_int64(stmt, 27);
+    queue_copy_text(job->plan, sizeof job->plan, queue_column_text(stmt, 28));
     if (!job->scene_path || !job->parameters_json || !job->frame_range || !job->output_pattern)
         return pf_error_set(err, PF_ERR_NOMEM, "%s: out of memory reading job %lld",
                             queue->path, (long long)job->job_id);
@@ -113,7 +114,11 @@ static pf_status job_query_body(pf_queue *queue, void *context, pf_error *err)
         /* '_' is LIKE's one-character wildcard: "out of host memory" and
          * "VK_ERROR_OUT_OF_DEVICE_MEMORY" both match. */
         "  (SELECT count(*) FROM task_failures f JOIN tasks u ON u.id = f.task_id"
-        "   WHERE u.job_id = j.id AND lower(f.error) LIKE '%out_of%memory%') "
+        "   WHERE u.job_id = j.id AND lower(f.error) LIKE '%out_of%memory%'),"
+        /* What auto chose for its highest finished frame, and why: two index probes. */
+        "  (SELECT s.reason FROM stage_timings s WHERE s.stage = 'plan' AND s.task_id = "
+        "   (SELECT d.id FROM tasks d WHERE d.job_id = j.id AND d.status = 'done' "
+        "    ORDER BY d.first_frame DESC LIMIT 1) ORDER BY s.id DESC LIMIT 1) "
         "FROM jobs j LEFT JOIN tasks t ON t.job_id = j.id "
         "WHERE ?1 = 0 OR j.id = ?1 GROUP BY j.id ORDER BY j.id",
         &stmt, err);

@@ -53,6 +53,7 @@ cJSON *pf_monitor_job_json(const pf_queue_job *job)
     cJSON_AddNumberToObject(object, "qualified_live_workers", job->qualified_live_workers);
     cJSON_AddNumberToObject(object, "blocked_live_workers", job->blocked_live_workers);
     cJSON_AddNumberToObject(object, "memory_failures", (double)job->memory_failures);
+    cJSON_AddStringToObject(object, "plan", job->plan);
     return object;
 }
 

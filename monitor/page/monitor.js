@@ -66,13 +66,22 @@ function renderJobs(jobs) {
     const progress = el('progress');
     progress.max = Math.max(job.frames_total, 1);
     progress.value = job.frames_done;
+    // The preset: what auto chose for the highest finished frame, and why (its plan row).
+    const quality = job.parameters ? job.parameters.quality : '';
+    const colon = job.plan.indexOf(':');
+    const preset = job.plan ? (colon >= 0 ? job.plan.slice(0, colon) : job.plan) : quality;
+    const why = colon >= 0 ? job.plan.slice(colon + 1).trim()
+      : quality === 'auto' ? 'chosen at its first frame' : quality ? 'as enqueued' : '';
     const cells = [job.id, jobName(job), null, null, job.frames_done + '/' + job.frames_total,
-      job.tasks.running, job.tasks.failed, job.priority,
-      job.parameters ? job.parameters.quality : '', duration(eta(job)), job.note];
+      job.tasks.running, job.tasks.failed, job.priority, preset, duration(eta(job)), job.note];
     cells.forEach((value, index) => {
       const cell = el('td', value);
       if (index === 2) { cell.textContent = job.status; cell.className = 'state-' + job.status; }
       if (index === 3) cell.append(progress);
+      if (index === 8 && why) {
+        cell.className = 'preset';
+        cell.append(el('div', why, 'why'));
+      }
       if (index === 10) cell.className = 'note';
       row.append(cell);
     });

@@ -182,6 +182,10 @@ try:
           states == "canceled,done,failed,paused,queued,running")
     value = page.value("document.querySelector('#jobs tr[data-job=\"%d\"] progress').value" % done)
     check("the done job's progress bar is full (%s of 2)" % value, value == 2)
+    preset = page.value("document.querySelector('#jobs tr[data-job=\"%d\"] td:nth-child(9)')"
+                        ".textContent" % done)
+    check("the done job shows the preset chosen and why (%s)" % preset,
+          preset == "previewas enqueued")
     name = page.value("document.querySelector('#jobs tr[data-job=\"%d\"] td:nth-child(2)')"
                       ".textContent" % done)
     check("a hostile job name is shown as its text", name == HOSTILE)

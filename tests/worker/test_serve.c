@@ -167,12 +167,14 @@ static void fill_queue(int64_t *job_id)
     pf_queue_task task;
     bool claimed = false;
     PF_REQUIRE_OK(pf_queue_claim(queue, worker_id, 0, 0, &task, &claimed, &err), &err);
-    pf_queue_stage_row rows[2] = {
+    pf_queue_stage_row rows[3] = {
         {task.first_frame, "bih_build", 0.0, PF_QUEUE_NO_GPU_MS, NULL, true,
          "geometry unchanged → BIH reused", NULL},
+        {task.first_frame, "plan", 0.0, PF_QUEUE_NO_GPU_MS, NULL, false,
+         "auto → fast: no --budget-ms or --target-relmse", NULL},
         {task.first_frame, "shade", 12.5, PF_QUEUE_NO_GPU_MS, NULL, false, "camera samples",
          NULL}};
-    PF_REQUIRE_OK(pf_queue_complete(queue, task.lease_token, rows, 2, NULL, &err), &err);
+    PF_REQUIRE_OK(pf_queue_complete(queue, task.lease_token, rows, 3, NULL, &err), &err);
     PF_REQUIRE_OK(pf_queue_attempt_log_store(queue, task.task_id, 1, worker_id,
                                              "event=rendered " EVIL_NAME "\n", &err), &err);
     PF_REQUIRE_OK(pf_queue_claim(queue, worker_id, 0, 0, &task, &claimed, &err), &err);
@@ -192,6 +194,8 @@ PF_TEST(the_api_shows_the_queue_and_stored_strings_stay_text)
     PF_CHECK(!strcmp(cJSON_GetStringValue(cJSON_GetObjectItem(parameters, "name")), EVIL_NAME));
     PF_CHECK(cJSON_GetNumberValue(cJSON_GetObjectItem(job, "frames_done")) == 1 &&
              cJSON_GetNumberValue(cJSON_GetObjectItem(job, "frames_total")) == 3);
+    PF_CHECK(!strcmp(cJSON_GetStringValue(cJSON_GetObjectItem(job, "plan")),
+                     "auto → fast: no --budget-ms or --target-relmse"));
     const cJSON *tasks = cJSON_GetObjectItem(job, "tasks");
     PF_CHECK(cJSON_GetNumberValue(cJSON_GetObjectItem(tasks, "failed")) == 1 &&
              cJSON_GetNumberValue(cJSON_GetObjectItem(tasks, "queued")) == 1);
@@ -216,8 +220,11 @@ PF_TEST(the_api_shows_the_queue_and_stored_strings_stay_text)
     cJSON_Delete(detail);
     wt_format(path, sizeof path, "/api/jobs/%lld/timings", (long long)job_id);
     cJSON *timings = get_json(server.port, path);
-    const cJSON *stage = cJSON_GetArrayItem(cJSON_GetObjectItem(timings, "stages"), 1);
-    PF_CHECK(!strcmp(cJSON_GetStringValue(cJSON_GetObjectItem(stage, "stage")), "shade") &&
+    const cJSON *stage = NULL, *each;
+    cJSON_ArrayForEach(each, cJSON_GetObjectItem(timings, "stages"))
+        if (!strcmp(cJSON_GetStringValue(cJSON_GetObjectItem(each, "stage")), "shade"))
+            stage = each;
+    PF_CHECK(stage &&
              cJSON_GetNumberValue(cJSON_GetObjectItem(cJSON_GetObjectItem(stage, "wall"),
                                                       "median_ms")) == 12.5);
     cJSON_Delete(timings);
@@ -228,8 +235,13 @@ PF_TEST(the_api_shows_the_queue_and_stored_strings_stay_text)
     const cJSON *frame_stages = cJSON_GetObjectItem(cJSON_GetArrayItem(
                                                         cJSON_GetObjectItem(frames, "frames"), 0),
                                                     "stages");
-    PF_CHECK(cJSON_IsTrue(cJSON_GetObjectItem(cJSON_GetArrayItem(frame_stages, 0), "reused")) &&
-             cJSON_IsFalse(cJSON_GetObjectItem(cJSON_GetArrayItem(frame_stages, 1), "reused")));
+    int reused = 0, run = 0;
+    cJSON_ArrayForEach(each, frame_stages) {
+        const char *name = cJSON_GetStringValue(cJSON_GetObjectItem(each, "stage"));
+        reused += !strcmp(name, "bih_build") && cJSON_IsTrue(cJSON_GetObjectItem(each, "reused"));
+        run += !strcmp(name, "shade") && cJSON_IsFalse(cJSON_GetObjectItem(each, "reused"));
+    }
+    PF_CHECK(reused == 1 && run == 1);
     cJSON_Delete(frames);
     /* Frame 1's log, as stored; frame 2 failed without one; a malformed frame is 404. */
     wt_format(path, sizeof path, "/api/jobs/%lld/frames/1/log", (long long)job_id);
