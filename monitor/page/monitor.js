@@ -5,6 +5,8 @@
 
 const stageColours = ['#4e79a7', '#f28e2b', '#e15759', '#76b7b2', '#59a14f', '#edc948',
   '#b07aa1', '#ff9da7', '#9c755f', '#bab0ac', '#86bcb6', '#d37295'];
+// Frames named beside each stage's distribution: those above its p95, slowest first.
+const OUTLIERS_SHOWN = 3;
 let selectedJob = null;
 let selectedFrame = null;
 
@@ -187,11 +189,14 @@ function renderDetail(job, timings, frames, frameLog) {
   const high = Math.max(low * 10, ...ran.map((stage) => stage.wall.max_ms));
   const x = (ms) => (200 * Math.log(Math.max(ms, low) / low) / Math.log(high / low));
   for (const stage of timings.stages) {
-    let slowest = null;
+    // Its outliers: the frames above p95 (the slowest when none is), slowest first.
+    const runs = [];
     for (const frame of frames.frames)
       for (const row of frame.stages)
-        if (row.stage === stage.stage && !row.skipped && (!slowest || row.wall_ms > slowest.ms))
-          slowest = {frame: frame.frame, ms: row.wall_ms};
+        if (row.stage === stage.stage && !row.skipped) runs.push({frame: frame.frame, ms: row.wall_ms});
+    runs.sort((a, b) => b.ms - a.ms);
+    const above = runs.filter((r) => r.ms > stage.wall.p95_ms);
+    const outliers = (above.length ? above : runs).slice(0, OUTLIERS_SHOWN);
     const row = el('tr');
     const w = stage.wall;
     for (const value of [stage.stage, stage.count, stage.skipped, w.min_ms.toFixed(2),
@@ -212,19 +217,24 @@ function renderDetail(job, timings, frames, frameLog) {
       const median = el('i', null, 'median');
       median.style.left = x(w.median_ms).toFixed(1) + 'px';
       chart.append(whisker, box, median);
+      for (const outlier of outliers) {
+        const dot = el('i', null, 'outlier');
+        dot.style.left = (x(outlier.ms) - 2).toFixed(1) + 'px';
+        dot.title = 'frame ' + outlier.frame + ': ' + outlier.ms.toFixed(2) + ' ms';
+        chart.append(dot);
+      }
     }
     const chartCell = el('td');
     chartCell.append(chart);
     row.append(chartCell);
     const slowestCell = el('td');
-    if (slowest) {
-      const link = el('button', slowest.frame, 'frame-link');
-      link.title = slowest.ms.toFixed(2) + ' ms: show frame ' + slowest.frame;
-      link.addEventListener('click', () => selectFrame(slowest.frame));
-      slowestCell.append(link);
-    } else {
-      slowestCell.textContent = '-';
+    for (const outlier of outliers) {
+      const link = el('button', outlier.frame, 'frame-link');
+      link.title = outlier.ms.toFixed(2) + ' ms: show frame ' + outlier.frame;
+      link.addEventListener('click', () => selectFrame(outlier.frame));
+      slowestCell.append(link, ' ');
     }
+    if (!outliers.length) slowestCell.textContent = '-';
     row.append(slowestCell);
     stageBody.append(row);
   }

@@ -221,6 +221,12 @@ try:
     charts = page.value("[...document.querySelectorAll('#stages .dist')].map(d => "
                         "d.dataset.stage + '=' + d.querySelectorAll('.box, .median, .whisker')"
                         ".length).join(',')")
+    outliers = page.value("[...document.querySelectorAll('#stages tbody tr')].map(r => "
+                          "r.children[0].textContent + '=' + r.querySelectorAll('.outlier')"
+                          ".length + '/' + r.querySelectorAll('button.frame-link').length)"
+                          ".join(',')")
+    check("each stage that ran names its outlier frame (%s)" % outliers,
+          bool(outliers) and "shade=1/1" in outliers.split(","))
     check("every stage that ran has its distribution chart (%s)" % charts,
           bool(charts) and "shade=3" in charts.split(",") and "bih_build=3" in charts.split(","))
     shares = page.value("document.querySelectorAll('#decisions .share').length")
