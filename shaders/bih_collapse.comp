@@ -1,6 +1,6 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
-// GPU BIH build, pass 4: collapse and compact into the pf_bih node format.
+// GPU BIH build, pass 4: collapse and compact into the device's node texels.
 // Inner nodes with more than K triangles are kept; rank[i] (the exclusive
 // scan of bih_clip.comp's kept flags) numbers them, and kept node i gets its
 // two children at 1 + 2 * rank[i] and 1 + 2 * rank[i] + 1 — adjacent, as the
@@ -27,12 +27,15 @@ layout(std430, set = 0, binding = 5) writeonly buffer Nodes { uint nodes[]; };
 const uint LEAF_WORD = 3u;
 
 // Raw words: a leaf's fields are uint bits (small values are float
-// denormals, which must not pass through float arithmetic).
+// denormals, which must not pass through float arithmetic). One 16-byte
+// texel per node, the layout traversal reads (pf_bih_gpu_upload's): the
+// tree stays on the device as built (issue 44).
 void write_node(uint slot, uint field0, uint field1, uint word)
 {
-    nodes[3 * slot] = field0;
-    nodes[3 * slot + 1] = field1;
-    nodes[3 * slot + 2] = word;
+    nodes[4 * slot] = field0;
+    nodes[4 * slot + 1] = field1;
+    nodes[4 * slot + 2] = word;
+    nodes[4 * slot + 3] = 0u;
 }
 
 void main()

@@ -139,6 +139,19 @@ pf_status pf_bih_gpu_upload(pf_bih_gpu *gpu, const pf_bih *bih, pf_error *err)
     return PF_OK;
 }
 
+void pf_bih_gpu_adopt(pf_bih_gpu *gpu, const pf_bih *bih, pf_vk_buffer *tree[3])
+{
+    release_tree(gpu);
+    gpu->nodes = tree[0];
+    gpu->vertices = tree[1];
+    gpu->triangle_index = tree[2];
+    gpu->node_count = bih->node_count;
+    gpu->triangle_count = bih->triangle_count;
+    memcpy(gpu->bounds_min, bih->bounds_min, sizeof gpu->bounds_min);
+    memcpy(gpu->bounds_max, bih->bounds_max, sizeof gpu->bounds_max);
+    gpu->uploaded = 1;
+}
+
 pf_status pf_bih_gpu_view_get(const pf_bih_gpu *gpu, pf_bih_gpu_view *out, pf_error *err)
 {
     memset(out, 0, sizeof *out);

@@ -1,9 +1,11 @@
 /*
  * The GPU BIH build (see pf_bih_build_gpu in pf_bih.h for the passes). The
  * host validates the vertices and computes the scene box (the Morton grid),
- * records every pass into one command buffer with a barrier between passes,
- * then downloads the compacted nodes, leaf-order vertices and triangle index
- * and measures the tree (depth, leaves) while walking it once.
+ * then records the vertices' upload, every pass (a barrier between passes)
+ * and the readbacks of the compacted nodes (at their bound, 2n - 1), the
+ * leaf-order vertices and the triangle index into one command buffer: one
+ * submission and one wait (issue 44). It then measures the tree (depth,
+ * leaves) while walking it once.
  */
 #include "bih_internal.h"
 
@@ -20,6 +22,8 @@
 #define MORTON_CELLS 1024.0f
 /* Largest element per node among the build buffers: a box (two vec4). */
 #define BOX_BYTES 32u
+/* A node as bih_collapse.comp writes it: pf_bih_gpu's 16-byte texel (clip, clip, word, 0). */
+#define NODE_TEXEL_WORDS 4u
 
 enum {
     PASS_MORTON,
@@ -241,9 +245,11 @@ static pf_status measure_tree(pf_bih *bih, pf_error *err)
     return status;
 }
 
+/* The build; with tree non-NULL its nodes, leaf-order vertices and triangle index stay on
+ * the device there (tree[0..2], the caller's to destroy or hand to a pf_bih_gpu). */
 static pf_status run_gpu_build(pf_bih_gpu_builder *b, const pf_scene_frame *frame,
                                uint32_t leaf_size, const float lo[3], const float hi[3],
-                               pf_bih *out, pf_error *err)
+                               pf_bih *out, pf_vk_buffer *tree[3], pf_error *err)
 {
     pf_vk_context *ctx = b->ctx;
     uint32_t n = frame->triangle_count;
@@ -273,54 +279,71 @@ static pf_status run_gpu_build(pf_bih_gpu_builder *b, const pf_scene_frame *fram
         [BUF_COUNTS] = {4 * nodes, "BIH build counts"},
         [BUF_CLIPS] = {8 * inner, "BIH build clips"},
         [BUF_RANK] = {4 * (inner + 1), "BIH build ranks"},
-        [BUF_LEAF_VERTICES] = {3 * (uint64_t)n * 16, "BIH build leaf vertices"},
-        [BUF_TRIANGLE_INDEX] = {4 * (uint64_t)n, "BIH build triangle index"},
-        [BUF_NODES] = {sizeof(pf_bih_node) * nodes, "BIH build nodes"},
+        [BUF_LEAF_VERTICES] = {3 * (uint64_t)n * 16, "BIH vertices"},
+        [BUF_TRIANGLE_INDEX] = {4 * (uint64_t)n, "BIH triangle index"},
+        [BUF_NODES] = {4 * NODE_TEXEL_WORDS * nodes, "BIH nodes"},
     };
     pf_vk_buffer *buf[BUF_COUNT] = {0};
     pf_status status = PF_OK;
     for (int i = 0; status == PF_OK && i < BUF_COUNT; i++)
         status = pf_vk_buffer_create(ctx, sizes[i].bytes, sizes[i].label, &buf[i], err);
-    if (status == PF_OK)
-        status = pf_vk_buffer_upload(ctx, buf[BUF_VERTICES], 0, frame->vertices,
-                                     sizes[BUF_VERTICES].bytes, err);
+    /* The host's copies, at their bounds: 2n - 1 node texels, of which 1 + 2 kept are read. */
+    out->triangle_count = n;
+    uint32_t (*texels)[NODE_TEXEL_WORDS] = malloc((size_t)nodes * sizeof *texels);
+    out->nodes = malloc((size_t)nodes * sizeof *out->nodes);
+    out->vertices = malloc(3 * (size_t)n * sizeof *out->vertices);
+    out->triangle_index = malloc((size_t)n * sizeof *out->triangle_index);
+    if (status == PF_OK && (!texels || !out->nodes || !out->vertices || !out->triangle_index))
+        status = pf_error_set(err, PF_ERR_NOMEM, "BIH GPU build: %u triangles", n);
+    /* One submission and one wait (issue 44): the upload, every pass and the readbacks. */
+    uint32_t kept = 0;
     pf_vk_commands *cmds = NULL;
     if (status == PF_OK)
         status = pf_vk_commands_begin(ctx, &cmds, err);
     if (status == PF_OK)
+        status = pf_vk_cmd_upload(cmds, buf[BUF_VERTICES], 0, frame->vertices,
+                                  sizes[BUF_VERTICES].bytes, err);
+    if (status == PF_OK)
         status = record_build(b, cmds, buf, n, leaf_size, lo, hi, err);
+    if (status == PF_OK)
+        status = pf_vk_cmd_download(cmds, buf[BUF_RANK], 4 * inner, &kept, sizeof kept, err);
+    if (status == PF_OK)
+        status = pf_vk_cmd_download(cmds, buf[BUF_NODES], 0, texels, sizes[BUF_NODES].bytes,
+                                    err);
+    if (status == PF_OK)
+        status = pf_vk_cmd_download(cmds, buf[BUF_LEAF_VERTICES], 0, out->vertices,
+                                    sizes[BUF_LEAF_VERTICES].bytes, err);
+    if (status == PF_OK)
+        status = pf_vk_cmd_download(cmds, buf[BUF_TRIANGLE_INDEX], 0, out->triangle_index,
+                                    sizes[BUF_TRIANGLE_INDEX].bytes, err);
     if (status == PF_OK)
         status = pf_vk_commands_submit(cmds, err);
     pf_vk_commands_destroy(cmds);
-    uint32_t kept = 0;
-    if (status == PF_OK)
-        status = pf_vk_buffer_download(ctx, buf[BUF_RANK], 4 * inner, &kept, sizeof kept, err);
     if (status == PF_OK && (kept == 0 || kept > inner))
         status = pf_error_set(err, PF_ERR_INTERNAL,
                               "BIH GPU build: %u kept inner nodes of %u (n = %u > K = %u)", kept,
                               (uint32_t)inner, n, leaf_size);
     if (status == PF_OK) {
         out->node_count = 1 + 2 * kept;
-        out->triangle_count = n;
-        out->nodes = malloc(out->node_count * sizeof *out->nodes);
-        out->vertices = malloc(3 * (size_t)n * sizeof *out->vertices);
-        out->triangle_index = malloc((size_t)n * sizeof *out->triangle_index);
-        if (!out->nodes || !out->vertices || !out->triangle_index)
-            status = pf_error_set(err, PF_ERR_NOMEM, "BIH GPU build: %u triangles", n);
+        for (uint32_t i = 0; i < out->node_count; i++)
+            out->nodes[i] = (pf_bih_node){{pf_bih_bits_to_float(texels[i][0]),
+                                           pf_bih_bits_to_float(texels[i][1])},
+                                          texels[i][2]};
+        pf_bih_node *fitted = realloc(out->nodes, out->node_count * sizeof *out->nodes);
+        out->nodes = fitted ? fitted : out->nodes;
     }
-    if (status == PF_OK)
-        status = pf_vk_buffer_download(ctx, buf[BUF_NODES], 0, out->nodes,
-                                       out->node_count * sizeof *out->nodes, err);
-    if (status == PF_OK)
-        status = pf_vk_buffer_download(ctx, buf[BUF_LEAF_VERTICES], 0, out->vertices,
-                                       sizes[BUF_LEAF_VERTICES].bytes, err);
-    if (status == PF_OK)
-        status = pf_vk_buffer_download(ctx, buf[BUF_TRIANGLE_INDEX], 0, out->triangle_index,
-                                       sizes[BUF_TRIANGLE_INDEX].bytes, err);
+    free(texels);
     if (status == PF_OK) {
         memcpy(out->bounds_min, lo, sizeof out->bounds_min);
         memcpy(out->bounds_max, hi, sizeof out->bounds_max);
         status = measure_tree(out, err);
+    }
+    if (status == PF_OK && tree) { /* kept on the device, as built */
+        const int kept_buffers[3] = {BUF_NODES, BUF_LEAF_VERTICES, BUF_TRIANGLE_INDEX};
+        for (int i = 0; i < 3; i++) {
+            tree[i] = buf[kept_buffers[i]];
+            buf[kept_buffers[i]] = NULL;
+        }
     }
     for (int i = 0; i < BUF_COUNT; i++)
         if (buf[i])
@@ -331,6 +354,14 @@ static pf_status run_gpu_build(pf_bih_gpu_builder *b, const pf_scene_frame *fram
 pf_status pf_bih_build_gpu(pf_bih_gpu_builder *builder, const pf_scene_frame *frame,
                            const pf_bih_build_options *options, pf_bih *out,
                            pf_bih_gpu_build_report *report, pf_error *err)
+{
+    return pf_bih_build_gpu_resident(builder, frame, options, out, NULL, report, err);
+}
+
+pf_status pf_bih_build_gpu_resident(pf_bih_gpu_builder *builder, const pf_scene_frame *frame,
+                                    const pf_bih_build_options *options, pf_bih *out,
+                                    pf_bih_gpu *device, pf_bih_gpu_build_report *report,
+                                    pf_error *err)
 {
     if (!builder || !frame || !out)
         return pf_error_set(err, PF_ERR_INVALID, "pf_bih_build_gpu: NULL argument");
@@ -350,9 +381,10 @@ pf_status pf_bih_build_gpu(pf_bih_gpu_builder *builder, const pf_scene_frame *fr
         return pf_bih_build_cpu(frame, options, out, err);
     }
     float lo[3], hi[3];
+    pf_vk_buffer *tree[3] = {NULL, NULL, NULL};
     pf_status status = scene_box(frame, lo, hi, err);
     if (status == PF_OK)
-        status = run_gpu_build(builder, frame, leaf_size, lo, hi, out, err);
+        status = run_gpu_build(builder, frame, leaf_size, lo, hi, out, device ? tree : NULL, err);
     if (status != PF_OK) {
         pf_bih_free(out);
         memset(out, 0, sizeof *out);
@@ -360,6 +392,13 @@ pf_status pf_bih_build_gpu(pf_bih_gpu_builder *builder, const pf_scene_frame *fr
         return status;
     }
     report->gpu_depth = out->depth;
+    if (out->depth <= max_depth && device) {
+        pf_bih_gpu_adopt(device, out, tree);
+        report->resident = 1;
+    }
+    for (int i = 0; i < 3; i++)
+        if (tree[i] && !report->resident)
+            pf_vk_buffer_destroy(builder->ctx, tree[i]);
     if (out->depth > max_depth) {
         pf_log(PF_LOG_WARN,
                "BIH GPU build: %u triangles gave depth %u > max_depth %u (clustered geometry); built on the CPU instead",

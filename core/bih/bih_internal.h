@@ -234,4 +234,9 @@ struct pf_bih_wide_block {
 pf_status pf_bih_wide_trace_avx2(const pf_bih *bih, const pf_bih_wide *wide, const pf_ray *rays,
                                  uint32_t count, int any_hit, pf_hit *hits, pf_error *err);
 
+/* device takes the build's device buffers (nodes as 16-byte texels, leaf-order vertices,
+ * triangle index; bih_gpu_build.c) for bih, as pf_bih_gpu_upload(device, bih) would have
+ * made them, releasing the tree it held. */
+void pf_bih_gpu_adopt(pf_bih_gpu *device, const pf_bih *bih, pf_vk_buffer *tree[3]);
+
 #endif

@@ -354,6 +354,7 @@ typedef enum pf_bih_build_path {
 typedef struct pf_bih_gpu_build_report {
     pf_bih_build_path path;
     uint32_t gpu_depth;          /* depth of the GPU tree (also when it was refused) */
+    int resident;                /* pf_bih_build_gpu_resident: the tree stayed on the device */
 } pf_bih_gpu_build_report;
 
 pf_status pf_bih_gpu_builder_create(pf_vk_context *ctx, pf_bih_gpu_builder **out, pf_error *err);
@@ -373,6 +374,17 @@ void pf_bih_gpu_builder_destroy(pf_bih_gpu_builder *builder);
 pf_status pf_bih_build_gpu(pf_bih_gpu_builder *builder, const pf_scene_frame *frame,
                            const pf_bih_build_options *options, pf_bih *out,
                            pf_bih_gpu_build_report *report, pf_error *err);
+/*
+ * The same, and the tree stays on the device as built (issue 44): device holds it
+ * afterwards as pf_bih_gpu_upload(device, out) would, without the upload, when
+ * report->resident says so (the GPU path, not a CPU build). The upload of the
+ * vertices, every pass and the host copy's readback are one submission and one wait.
+ * On failure device is left as it was.
+ */
+pf_status pf_bih_build_gpu_resident(pf_bih_gpu_builder *builder, const pf_scene_frame *frame,
+                                    const pf_bih_build_options *options, pf_bih *out,
+                                    pf_bih_gpu *device, pf_bih_gpu_build_report *report,
+                                    pf_error *err);
 
 /*
  * Refits bih (from any build, or an earlier refit) to frame's triangles,

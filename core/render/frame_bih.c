@@ -49,11 +49,15 @@ void pf_renderer_set_bih_build(pf_renderer *renderer, pf_bih_build_site site)
     renderer->bih_build_site = site;
 }
 
+/* A fresh tree in out; built on the GPU, it stays in renderer->bih_gpu as built (*resident,
+ * issue 44: nothing to upload). */
 static pf_status build_tree(pf_renderer *renderer, const pf_scene_frame *frame,
-                            pf_bih_build_site site, pf_bih *out, int *built_on_gpu, pf_error *err)
+                            pf_bih_build_site site, pf_bih *out, int *built_on_gpu, int *resident,
+                            pf_error *err)
 {
     pf_bih_build_options options = {0};
     *built_on_gpu = 0;
+    *resident = 0;
     if (site == PF_BIH_BUILD_CPU) {
         pf_bih_build_options cpu_options = {.heuristic = PF_BIH_HEURISTIC_SAH};
         return pf_bih_build_cpu(frame, &cpu_options, out, err);
@@ -64,9 +68,10 @@ static pf_status build_tree(pf_renderer *renderer, const pf_scene_frame *frame,
             return status;
     }
     pf_bih_gpu_build_report build_report;
-    pf_status status =
-        pf_bih_build_gpu(renderer->bih_builder, frame, &options, out, &build_report, err);
+    pf_status status = pf_bih_build_gpu_resident(renderer->bih_builder, frame, &options, out,
+                                                 renderer->bih_gpu, &build_report, err);
     *built_on_gpu = status == PF_OK && build_report.path == PF_BIH_BUILT_ON_GPU;
+    *resident = status == PF_OK && build_report.resident;
     return status;
 }
 
@@ -93,13 +98,15 @@ static double sah_of(const pf_bih *bih)
 
 /* Replaces renderer->bih with a fresh build and makes it the refit yardstick. */
 static pf_status build_fresh(pf_renderer *renderer, const pf_scene_frame *frame,
-                             pf_bih_build_site site, int *built_on_gpu, pf_error *err)
+                             pf_bih_build_site site, int *built_on_gpu, int *resident,
+                             pf_error *err)
 {
     if (renderer->bih_valid) {
         pf_bih_free(&renderer->bih);
         renderer->bih_valid = 0;
     }
-    pf_status status = build_tree(renderer, frame, site, &renderer->bih, built_on_gpu, err);
+    pf_status status =
+        build_tree(renderer, frame, site, &renderer->bih, built_on_gpu, resident, err);
     if (status != PF_OK)
         return status;
     renderer->bih_valid = 1;
@@ -118,9 +125,10 @@ static pf_status build_fresh(pf_renderer *renderer, const pf_scene_frame *frame,
 static pf_status update_tree(pf_renderer *renderer, const pf_scene_frame *frame,
                              const pf_stage_decision *planned, pf_bih_build_site site,
                              bih_decision *decision, char *reason, size_t reason_size,
-                             int *built_on_gpu, pf_error *err)
+                             int *built_on_gpu, int *resident, pf_error *err)
 {
     *built_on_gpu = 0;
+    *resident = 0;
     snprintf(reason, reason_size, "%s", planned->reason);
     if (planned->action == PF_STAGE_REUSE) {
         *decision = BIH_REUSED;
@@ -128,7 +136,7 @@ static pf_status update_tree(pf_renderer *renderer, const pf_scene_frame *frame,
     }
     if (!renderer->bih_valid || renderer->bih.triangle_count != frame->triangle_count) {
         *decision = BIH_BUILT;
-        return build_fresh(renderer, frame, site, built_on_gpu, err);
+        return build_fresh(renderer, frame, site, built_on_gpu, resident, err);
     }
     pf_status status = pf_bih_refit(&renderer->bih, frame, err);
     if (status != PF_OK)
@@ -155,7 +163,7 @@ static pf_status update_tree(pf_renderer *renderer, const pf_scene_frame *frame,
     snprintf(reason, reason_size, "rebuilt: refit SAH %.1f > %.2f × %.1f", refit_sah,
              BIH_REFIT_SAH_TOLERANCE, renderer->bih_fresh_sah);
     *decision = BIH_REBUILT;
-    return build_fresh(renderer, frame, site, built_on_gpu, err);
+    return build_fresh(renderer, frame, site, built_on_gpu, resident, err);
 }
 
 pf_status pf_render_prepare_bih(pf_renderer *renderer, const pf_scene_frame *frame,
@@ -172,10 +180,10 @@ pf_status pf_render_prepare_bih(pf_renderer *renderer, const pf_scene_frame *fra
     }
     bih_decision decision = BIH_BUILT;
     char reason[PF_STAGE_REASON_MAX];
-    int built_on_gpu = 0;
+    int built_on_gpu = 0, resident = 0;
     status = update_tree(renderer, frame, planned, site, &decision, reason, sizeof reason,
-                         &built_on_gpu, err);
-    if (status == PF_OK && decision != BIH_REUSED)
+                         &built_on_gpu, &resident, err);
+    if (status == PF_OK && decision != BIH_REUSED && !resident)
         status = pf_bih_gpu_upload(renderer->bih_gpu, &renderer->bih, err);
     if (status != PF_OK) {
         /* The CPU tree and the GPU copy may no longer match: start over next frame. */

@@ -24,6 +24,22 @@ void pf_stage_add_counter(pf_stage_timing *stage, const char *name, double value
     counter->value = value;
 }
 
+void pf_traffic_add(pf_vk_traffic *sum, pf_vk_traffic more)
+{
+    sum->submits += more.submits;
+    sum->host_waits += more.host_waits;
+    sum->readback_bytes += more.readback_bytes;
+    sum->upload_bytes += more.upload_bytes;
+}
+
+void pf_stage_add_traffic(pf_stage_timing *row, pf_vk_traffic traffic)
+{
+    pf_stage_add_counter(row, "submits", (double)traffic.submits);
+    pf_stage_add_counter(row, "host_waits", (double)traffic.host_waits);
+    pf_stage_add_counter(row, "readback_bytes", (double)traffic.readback_bytes);
+    pf_stage_add_counter(row, "upload_bytes", (double)traffic.upload_bytes);
+}
+
 pf_stage_timing *pf_frame_report_row(pf_frame_report *report, const char *stage,
                                      const char *skip_reason, double wall_ms, double gpu_ms)
 {

@@ -120,7 +120,7 @@ static inline uint32_t pf_bounce_limit(uint32_t bounces) { return bounces + 1u; 
 
 #define PF_STAGE_NAME_MAX 32
 #define PF_STAGE_REASON_MAX 160
-#define PF_STAGE_COUNTERS_MAX 12
+#define PF_STAGE_COUNTERS_MAX 16
 #define PF_FRAME_STAGES_MAX 16
 
 typedef struct pf_stage_counter {

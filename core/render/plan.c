@@ -213,6 +213,7 @@ pf_status pf_plan_frame(pf_renderer *renderer, const pf_scene_frame *frame,
 {
     *chosen = *settings;
     double start = pf_time_ms();
+    pf_vk_traffic before = pf_vk_traffic_of(renderer->ctx); /* the pilot's, when it runs */
     struct pf_plan_cache *plan = &renderer->plan;
     int has_emitters = frame->light_count > 0 || frame->emissive_triangle_count > 0;
     int calibrated = 0;
@@ -252,6 +253,7 @@ pf_status pf_plan_frame(pf_renderer *renderer, const pf_scene_frame *frame,
     if (row) {
         row->wall_ms = pf_time_ms() - start;
         snprintf(row->reason, sizeof row->reason, "%s", plan->reason);
+        pf_stage_add_traffic(row, pf_vk_traffic_since(renderer->ctx, before));
         pf_stage_add_counter(row, "calibrated", calibrated);
         if (plan->valid) {
             pf_stage_add_counter(row, "budget_ms", settings->budget_ms);

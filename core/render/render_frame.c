@@ -18,6 +18,22 @@ static int per_pass(const pf_integrator *integrator, int stage)
     return (integrator->per_pass >> stage) & 1u;
 }
 
+/* The metered traffic as counters of the rows the stage loop's calls wrote (from
+ * first_row on); rows of skipped stages have none. */
+static void add_traffic_counters(const pf_frame_run *run, uint32_t first_row)
+{
+    for (uint32_t i = first_row; run->report && i < run->report->stage_count; i++) {
+        pf_stage_timing *row = &run->report->stages[i];
+        if (row->skipped)
+            continue;
+        if (!strcmp(row->stage, "textures"))
+            pf_stage_add_traffic(row, run->textures_traffic);
+        for (int stage = 0; stage < PF_STAGE_COUNT; stage++)
+            if (!strcmp(row->stage, pf_stage_name((pf_stage_id)stage)))
+                pf_stage_add_traffic(row, run->traffic[stage]);
+    }
+}
+
 /*
  * The one stage loop: bih_build, then the integrator's stages in
  * pf_stage_id order as planned: the once-per-frame ones when the plan runs
@@ -28,17 +44,29 @@ static int per_pass(const pf_integrator *integrator, int stage)
 static pf_status run_stages(const pf_integrator *integrator, pf_frame_run *run, pf_error *err)
 {
     const pf_stage_plan *plan = run->plan;
+    pf_vk_context *ctx = pf_renderer_context(run->renderer);
+    pf_vk_traffic *shade = &run->traffic[PF_STAGE_SHADE];
+    uint32_t first_row = run->report ? run->report->stage_count : 0;
+    pf_vk_traffic before = pf_vk_traffic_of(ctx);
     pf_status status = pf_render_prepare_textures(run->renderer, run->frame, run->report, err);
+    pf_traffic_add(&run->textures_traffic, pf_vk_traffic_since(ctx, before));
+    before = pf_vk_traffic_of(ctx);
     if (status == PF_OK)
         status = pf_render_prepare_bih(run->renderer, run->frame,
                                        &plan->stages[PF_STAGE_BIH_BUILD], run->report, err);
+    pf_traffic_add(&run->traffic[PF_STAGE_BIH_BUILD], pf_vk_traffic_since(ctx, before));
+    before = pf_vk_traffic_of(ctx);
     if (status == PF_OK && integrator->begin)
         status = integrator->begin(run, err);
+    pf_traffic_add(shade, pf_vk_traffic_since(ctx, before));
     if (status != PF_OK)
         return status;
     for (int stage = PF_STAGE_BIH_BUILD + 1; status == PF_OK && stage < PF_STAGE_COUNT; stage++)
-        if (!per_pass(integrator, stage) && plan->stages[stage].action == PF_STAGE_RUN)
+        if (!per_pass(integrator, stage) && plan->stages[stage].action == PF_STAGE_RUN) {
+            before = pf_vk_traffic_of(ctx);
             status = integrator->run(run, (pf_stage_id)stage, 0, err);
+            pf_traffic_add(&run->traffic[stage], pf_vk_traffic_since(ctx, before));
+        }
     double budget = run->settings->time_budget_ms;
     for (uint32_t pass = 0; integrator->per_pass && status == PF_OK && pass < plan->samples;
          pass++) {
@@ -46,10 +74,17 @@ static pf_status run_stages(const pf_integrator *integrator, pf_frame_run *run, 
             break;
         for (int stage = 0; status == PF_OK && stage < PF_STAGE_COUNT; stage++)
             if (per_pass(integrator, stage) && (plan->stages[stage].action == PF_STAGE_RUN ||
-                                                plan->stages[stage].action == PF_STAGE_REUSE))
+                                                plan->stages[stage].action == PF_STAGE_REUSE)) {
+                before = pf_vk_traffic_of(ctx);
                 status = integrator->run(run, (pf_stage_id)stage, pass, err);
+                pf_traffic_add(&run->traffic[stage], pf_vk_traffic_since(ctx, before));
+            }
     }
-    return integrator->end ? integrator->end(run, status, err) : status;
+    before = pf_vk_traffic_of(ctx);
+    status = integrator->end ? integrator->end(run, status, err) : status;
+    pf_traffic_add(shade, pf_vk_traffic_since(ctx, before));
+    add_traffic_counters(run, first_row);
+    return status;
 }
 
 pf_status pf_render_settings_check(const pf_render_settings *settings, pf_error *err)

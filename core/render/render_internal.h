@@ -165,6 +165,12 @@ typedef struct pf_frame_run {
     pf_frame_report *report;    /* may be NULL */
     double start_ms;            /* when the frame began: time budgets count from here */
     void *state;                /* the integrator's, from begin to end */
+    /* Each stage's device traffic (issue 44), metered by the stage loop around the calls
+     * it makes: textures and bih_build around their preparation, every other stage around
+     * integrator->run, shade also around begin and end (the scene upload, the film's
+     * readback); added to the rows as counters once end has written them. */
+    pf_vk_traffic traffic[PF_STAGE_COUNT];
+    pf_vk_traffic textures_traffic;
 } pf_frame_run;
 
 /*
@@ -330,6 +336,12 @@ pf_status pf_render_prepare_bih(pf_renderer *renderer, const pf_scene_frame *fra
  * Appends a stage row with its times, skipped with skip_reason when that is
  * not NULL; NULL when report is NULL or full.
  */
+/* Adds traffic's submits, host_waits, readback_bytes and upload_bytes to row as counters
+ * (issue 44; nothing when row is NULL). */
+void pf_stage_add_traffic(pf_stage_timing *row, pf_vk_traffic traffic);
+/* sum += more. */
+void pf_traffic_add(pf_vk_traffic *sum, pf_vk_traffic more);
+
 pf_stage_timing *pf_frame_report_row(pf_frame_report *report, const char *stage,
                                      const char *skip_reason, double wall_ms, double gpu_ms);
 

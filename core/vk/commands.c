@@ -18,8 +18,18 @@ typedef struct descriptor_pool {
     uint32_t buffers_left;
 } descriptor_pool;
 
+/* A copy recorded with the commands (pf_vk_cmd_upload / _download). */
+typedef struct recorded_copy {
+    pf_vk_staging staging; /* empty where the device buffer is mapped */
+    void *host;            /* a download's destination, filled once the fence signals */
+    const void *source;    /* a download's mapped or staging source */
+    uint64_t size;
+} recorded_copy;
+
 struct pf_vk_commands {
     pf_vk_context *ctx;
+    recorded_copy *copies;
+    uint32_t copy_count, copy_capacity;
     commands_state state;
     VkCommandPool command_pool;
     VkCommandBuffer command;
@@ -299,6 +309,85 @@ void pf_vk_cmd_barrier(pf_vk_commands *cmds)
                          VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, 0, 1, &barrier, 0, NULL, 0, NULL);
 }
 
+/* Every earlier command's writes before the copies and dispatches after. */
+static void copy_barrier(VkCommandBuffer command)
+{
+    full_barrier(command, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT,
+                 VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT |
+                     VK_ACCESS_TRANSFER_READ_BIT | VK_ACCESS_TRANSFER_WRITE_BIT);
+}
+
+/* Room for one more recorded copy, zeroed; NULL when out of memory. */
+static recorded_copy *add_copy(pf_vk_commands *cmds)
+{
+    if (cmds->copy_count == cmds->copy_capacity) {
+        uint32_t capacity = cmds->copy_capacity ? 2 * cmds->copy_capacity : 8;
+        recorded_copy *grown = realloc(cmds->copies, capacity * sizeof *grown);
+        if (!grown)
+            return NULL;
+        cmds->copies = grown;
+        cmds->copy_capacity = capacity;
+    }
+    recorded_copy *copy = &cmds->copies[cmds->copy_count++];
+    memset(copy, 0, sizeof *copy);
+    return copy;
+}
+
+static pf_status record_copy(pf_vk_commands *cmds, pf_vk_buffer *buffer, uint64_t offset,
+                             void *host, uint64_t size, int to_device, pf_error *err)
+{
+    if (cmds->state != RECORDING)
+        return pf_error_set(err, PF_ERR_INVALID, "commands already submitted");
+    pf_status status = pf_vk_buffer_range_check(buffer, offset, host, size,
+                                                to_device ? "upload" : "download", err);
+    if (status != PF_OK || size == 0)
+        return status;
+    pf_vk_context *ctx = cmds->ctx;
+    pf_vk_count_copy(ctx, size, to_device);
+    if (buffer->mapped && to_device) { /* before any command runs: see pf_vk.h */
+        memcpy((char *)buffer->mapped + offset, host, size);
+        return PF_OK;
+    }
+    recorded_copy *copy = add_copy(cmds);
+    if (!copy)
+        return pf_error_set(err, PF_ERR_NOMEM, "out of host memory recording a copy");
+    copy->size = size;
+    if (buffer->mapped) { /* a download from mapped memory: read once the fence signals */
+        copy->host = host;
+        copy->source = (const char *)buffer->mapped + offset;
+        return PF_OK;
+    }
+    status = pf_vk_staging_create(ctx, size, to_device, buffer->label, &copy->staging, err);
+    if (status != PF_OK) {
+        cmds->copy_count--;
+        return status;
+    }
+    if (to_device) {
+        memcpy(copy->staging.mapped, host, size);
+    } else {
+        copy->host = host;
+        copy->source = copy->staging.mapped;
+    }
+    VkBufferCopy region = {to_device ? 0 : offset, to_device ? offset : 0, size};
+    copy_barrier(cmds->command);
+    vkCmdCopyBuffer(cmds->command, to_device ? copy->staging.buffer : buffer->buffer,
+                    to_device ? buffer->buffer : copy->staging.buffer, 1, &region);
+    copy_barrier(cmds->command);
+    return PF_OK;
+}
+
+pf_status pf_vk_cmd_upload(pf_vk_commands *cmds, pf_vk_buffer *buffer, uint64_t offset,
+                           const void *data, uint64_t size, pf_error *err)
+{
+    return record_copy(cmds, buffer, offset, (void *)data, size, 1, err);
+}
+
+pf_status pf_vk_cmd_download(pf_vk_commands *cmds, pf_vk_buffer *buffer, uint64_t offset,
+                             void *data, uint64_t size, pf_error *err)
+{
+    return record_copy(cmds, buffer, offset, data, size, 0, err);
+}
+
 int pf_vk_cmd_timestamp(pf_vk_commands *cmds)
 {
     if (cmds->state != RECORDING || !cmds->query_pool ||
@@ -331,8 +420,10 @@ pf_status pf_vk_commands_submit(pf_vk_commands *cmds, pf_error *err)
     pthread_mutex_lock(&ctx->queue_lock);
     result = vkQueueSubmit(ctx->queue, 1, &submit, cmds->fence);
     pthread_mutex_unlock(&ctx->queue_lock);
+    atomic_fetch_add(&ctx->submits, 1);
     if (result != VK_SUCCESS)
         return vulkan_error(cmds, "vkQueueSubmit", result, err);
+    atomic_fetch_add(&ctx->host_waits, 1);
     result = vkWaitForFences(ctx->device, 1, &cmds->fence, VK_TRUE, UINT64_MAX);
     if (result != VK_SUCCESS)
         return vulkan_error(cmds, "vkWaitForFences", result, err);
@@ -344,6 +435,9 @@ pf_status pf_vk_commands_submit(pf_vk_commands *cmds, pf_error *err)
         if (result != VK_SUCCESS)
             return vulkan_error(cmds, "vkGetQueryPoolResults", result, err);
     }
+    for (uint32_t i = 0; i < cmds->copy_count; i++)
+        if (cmds->copies[i].host)
+            memcpy(cmds->copies[i].host, cmds->copies[i].source, cmds->copies[i].size);
     cmds->state = SUBMITTED;
     return PF_OK;
 }
@@ -366,6 +460,9 @@ void pf_vk_commands_destroy(pf_vk_commands *cmds)
     if (!cmds)
         return;
     VkDevice device = cmds->ctx->device;
+    for (uint32_t i = 0; i < cmds->copy_count; i++)
+        pf_vk_staging_destroy(cmds->ctx, &cmds->copies[i].staging);
+    free(cmds->copies);
     for (uint32_t i = 0; i < cmds->descriptor_pool_count; i++)
         vkDestroyDescriptorPool(device, cmds->descriptor_pools[i].pool, NULL);
     free(cmds->descriptor_pools);

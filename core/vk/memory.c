@@ -31,6 +31,20 @@ pf_vk_memory_use pf_vk_memory_use_of(pf_vk_context *ctx)
     return (pf_vk_memory_use){atomic_load(&ctx->memory_in_use), atomic_load(&ctx->memory_peak)};
 }
 
+pf_vk_traffic pf_vk_traffic_of(pf_vk_context *ctx)
+{
+    return (pf_vk_traffic){atomic_load(&ctx->submits), atomic_load(&ctx->host_waits),
+                           atomic_load(&ctx->readback_bytes), atomic_load(&ctx->upload_bytes)};
+}
+
+pf_vk_traffic pf_vk_traffic_since(pf_vk_context *ctx, pf_vk_traffic before)
+{
+    pf_vk_traffic now = pf_vk_traffic_of(ctx);
+    return (pf_vk_traffic){now.submits - before.submits, now.host_waits - before.host_waits,
+                           now.readback_bytes - before.readback_bytes,
+                           now.upload_bytes - before.upload_bytes};
+}
+
 void pf_vk_memory_peak_reset(pf_vk_context *ctx)
 {
     atomic_store(&ctx->memory_peak, atomic_load(&ctx->memory_in_use));
@@ -244,8 +258,9 @@ pf_status pf_vk_buffer_texel_view(pf_vk_context *ctx, pf_vk_buffer *buffer, int 
     return PF_OK;
 }
 
-static pf_status check_range(const pf_vk_buffer *buffer, uint64_t offset, const void *data,
-                             uint64_t size, const char *what, pf_error *err)
+pf_status pf_vk_buffer_range_check(const pf_vk_buffer *buffer, uint64_t offset,
+                                   const void *data, uint64_t size, const char *what,
+                                   pf_error *err)
 {
     if (size > 0 && !data)
         return pf_error_set(err, PF_ERR_INVALID, "buffer '%s': %s of %llu bytes with no host data",
@@ -259,6 +274,31 @@ static pf_status check_range(const pf_vk_buffer *buffer, uint64_t offset, const 
     return PF_OK;
 }
 
+pf_status pf_vk_staging_create(pf_vk_context *ctx, uint64_t size, int to_device,
+                               const char *label, pf_vk_staging *out, pf_error *err)
+{
+    return allocate(ctx, size,
+                    to_device ? VK_BUFFER_USAGE_TRANSFER_SRC_BIT : VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                    host_coherent, to_device ? 0 : VK_MEMORY_PROPERTY_HOST_CACHED_BIT, label,
+                    &out->buffer, &out->memory, &out->mapped, &out->bytes, err);
+}
+
+void pf_vk_staging_destroy(pf_vk_context *ctx, pf_vk_staging *staging)
+{
+    if (staging->memory)
+        vkUnmapMemory(ctx->device, staging->memory);
+    if (staging->buffer)
+        vkDestroyBuffer(ctx->device, staging->buffer, NULL);
+    if (staging->memory)
+        memory_freed(ctx, staging->memory, staging->bytes);
+    memset(staging, 0, sizeof *staging);
+}
+
+void pf_vk_count_copy(pf_vk_context *ctx, uint64_t bytes, int upload)
+{
+    atomic_fetch_add(upload ? &ctx->upload_bytes : &ctx->readback_bytes, bytes);
+}
+
 /*
  * One blocking copy between the device buffer and a host-visible staging
  * buffer. The leading barrier orders it after every earlier submission's
@@ -267,18 +307,12 @@ static pf_status check_range(const pf_vk_buffer *buffer, uint64_t offset, const 
 static pf_status staged_copy(pf_vk_context *ctx, pf_vk_buffer *buffer, uint64_t offset,
                              void *host, uint64_t size, int to_device, pf_error *err)
 {
-    VkBuffer staging;
-    VkDeviceMemory staging_memory;
-    void *staging_mapped;
-    uint64_t staging_bytes;
-    pf_status status = allocate(
-        ctx, size, to_device ? VK_BUFFER_USAGE_TRANSFER_SRC_BIT : VK_BUFFER_USAGE_TRANSFER_DST_BIT,
-        host_coherent, to_device ? 0 : VK_MEMORY_PROPERTY_HOST_CACHED_BIT, buffer->label,
-        &staging, &staging_memory, &staging_mapped, &staging_bytes, err);
+    pf_vk_staging staging;
+    pf_status status = pf_vk_staging_create(ctx, size, to_device, buffer->label, &staging, err);
     if (status != PF_OK)
         return status;
     if (to_device)
-        memcpy(staging_mapped, host, size);
+        memcpy(staging.mapped, host, size);
 
     VkCommandBuffer command = VK_NULL_HANDLE;
     VkFence fence = VK_NULL_HANDLE;
@@ -319,8 +353,8 @@ static pf_status staged_copy(pf_vk_context *ctx, pf_vk_buffer *buffer, uint64_t 
             .dstOffset = to_device ? offset : 0,
             .size = size,
         };
-        vkCmdCopyBuffer(command, to_device ? staging : buffer->buffer,
-                        to_device ? buffer->buffer : staging, 1, &region);
+        vkCmdCopyBuffer(command, to_device ? staging.buffer : buffer->buffer,
+                        to_device ? buffer->buffer : staging.buffer, 1, &region);
         VkMemoryBarrier after = {
             .sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER,
             .srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT,
@@ -339,10 +373,12 @@ static pf_status staged_copy(pf_vk_context *ctx, pf_vk_buffer *buffer, uint64_t 
         };
         result = vkQueueSubmit(ctx->queue, 1, &submit, fence);
         failed_call = "vkQueueSubmit";
+        atomic_fetch_add(&ctx->submits, 1);
     }
     if (result == VK_SUCCESS) {
         result = vkWaitForFences(ctx->device, 1, &fence, VK_TRUE, UINT64_MAX);
         failed_call = "vkWaitForFences";
+        atomic_fetch_add(&ctx->host_waits, 1);
     }
     if (fence)
         vkDestroyFence(ctx->device, fence, NULL);
@@ -351,10 +387,8 @@ static pf_status staged_copy(pf_vk_context *ctx, pf_vk_buffer *buffer, uint64_t 
     pthread_mutex_unlock(&ctx->queue_lock);
 
     if (result == VK_SUCCESS && !to_device)
-        memcpy(host, staging_mapped, size);
-    vkUnmapMemory(ctx->device, staging_memory);
-    vkDestroyBuffer(ctx->device, staging, NULL);
-    memory_freed(ctx, staging_memory, staging_bytes);
+        memcpy(host, staging.mapped, size);
+    pf_vk_staging_destroy(ctx, &staging);
     if (result != VK_SUCCESS)
         return pf_error_set(err, PF_ERR_VULKAN,
                             "buffer '%s': %s of %llu bytes: %s failed: %s", buffer->label,
@@ -366,9 +400,10 @@ static pf_status staged_copy(pf_vk_context *ctx, pf_vk_buffer *buffer, uint64_t 
 pf_status pf_vk_buffer_upload(pf_vk_context *ctx, pf_vk_buffer *buffer, uint64_t offset,
                               const void *data, uint64_t size, pf_error *err)
 {
-    pf_status status = check_range(buffer, offset, data, size, "upload", err);
+    pf_status status = pf_vk_buffer_range_check(buffer, offset, data, size, "upload", err);
     if (status != PF_OK || size == 0)
         return status;
+    pf_vk_count_copy(ctx, size, 1);
     if (buffer->mapped) {
         memcpy((char *)buffer->mapped + offset, data, size);
         return PF_OK;
@@ -379,9 +414,10 @@ pf_status pf_vk_buffer_upload(pf_vk_context *ctx, pf_vk_buffer *buffer, uint64_t
 pf_status pf_vk_buffer_download(pf_vk_context *ctx, pf_vk_buffer *buffer, uint64_t offset,
                                 void *data, uint64_t size, pf_error *err)
 {
-    pf_status status = check_range(buffer, offset, data, size, "download", err);
+    pf_status status = pf_vk_buffer_range_check(buffer, offset, data, size, "download", err);
     if (status != PF_OK || size == 0)
         return status;
+    pf_vk_count_copy(ctx, size, 0);
     if (buffer->mapped) {
         memcpy(data, (const char *)buffer->mapped + offset, size);
         return PF_OK;

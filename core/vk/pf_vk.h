@@ -87,6 +87,20 @@ pf_vk_memory_use pf_vk_memory_use_of(pf_vk_context *ctx);
 void pf_vk_memory_peak_reset(pf_vk_context *ctx);
 
 /*
+ * The host's traffic with the device since the context was made (issue 44): queue
+ * submissions, times the host waited for the device (a fence), and the bytes
+ * pf_vk_buffer_upload and pf_vk_buffer_download copied (through a mapping or a staging
+ * submission). A stage's share is the difference of two reads (pf_vk_traffic_since);
+ * stages run one after another, so nothing else adds to it meanwhile.
+ */
+typedef struct pf_vk_traffic {
+    uint64_t submits, host_waits, readback_bytes, upload_bytes;
+} pf_vk_traffic;
+pf_vk_traffic pf_vk_traffic_of(pf_vk_context *ctx);
+/* What was added since before (a read of pf_vk_traffic_of). */
+pf_vk_traffic pf_vk_traffic_since(pf_vk_context *ctx, pf_vk_traffic before);
+
+/*
  * A device-local storage buffer of size bytes (label names it in errors).
  * A size above maxStorageBufferRange is refused with PF_ERR_LIMIT and a message
  * giving both numbers, the label and the device: callers split big data.
@@ -174,6 +188,18 @@ pf_status pf_vk_cmd_dispatch(pf_vk_commands *cmds, pf_vk_pipeline *pipeline,
 void pf_vk_cmd_barrier(pf_vk_commands *cmds);
 /* Writes a GPU timestamp; returns its slot (< 0 when timestamps are unsupported). */
 int pf_vk_cmd_timestamp(pf_vk_commands *cmds);
+/*
+ * Copies recorded with the commands, so that a stage's uploads, passes and readbacks are
+ * one submission and one wait (issue 44). An upload's data is copied now (it may be freed
+ * after the call) and lands before the commands recorded after it run; on a mapped buffer
+ * it is written at once, so record it before any command that uses that buffer. A
+ * download fills data when pf_vk_commands_submit returns. Ranges are checked as
+ * pf_vk_buffer_upload's; the bytes count in pf_vk_traffic.
+ */
+pf_status pf_vk_cmd_upload(pf_vk_commands *cmds, pf_vk_buffer *buffer, uint64_t offset,
+                           const void *data, uint64_t size, pf_error *err);
+pf_status pf_vk_cmd_download(pf_vk_commands *cmds, pf_vk_buffer *buffer, uint64_t offset,
+                             void *data, uint64_t size, pf_error *err);
 pf_status pf_vk_commands_submit(pf_vk_commands *cmds, pf_error *err);
 /* GPU milliseconds between two timestamp slots after submit; negative if unavailable. */
 double pf_vk_commands_elapsed_ms(const pf_vk_commands *cmds, int slot_begin, int slot_end);

@@ -42,6 +42,8 @@ struct pf_vk_context {
     /* Device memory held by buffers now, and the most held since creation or the last
      * pf_vk_memory_peak_reset (bytes; buffers are made from any thread). */
     _Atomic uint64_t memory_in_use, memory_peak;
+    /* pf_vk_traffic's counters (any thread). */
+    _Atomic uint64_t submits, host_waits, readback_bytes, upload_bytes;
 
     struct {
         VkPipelineCache handle; /* the file is stats.path ("" without a directory) */
@@ -173,5 +175,23 @@ void pf_vk_pipeline_cache_note(pf_vk_context *ctx, int cache_hit);
  * uploads and downloads take the staging path that discrete GPUs use.
  */
 void pf_vk_force_staging(pf_vk_context *ctx, int on);
+
+/* A host-visible, coherent buffer for one copy to (to_device) or from a device buffer
+ * (memory.c; commands.c's recorded copies and the blocking ones). */
+typedef struct pf_vk_staging {
+    VkBuffer buffer;
+    VkDeviceMemory memory;
+    void *mapped;
+    uint64_t bytes;
+} pf_vk_staging;
+pf_status pf_vk_staging_create(pf_vk_context *ctx, uint64_t size, int to_device,
+                               const char *label, pf_vk_staging *out, pf_error *err);
+void pf_vk_staging_destroy(pf_vk_context *ctx, pf_vk_staging *staging);
+/* A copy's range within buffer and its host data (PF_ERR_INVALID naming them when not). */
+pf_status pf_vk_buffer_range_check(const pf_vk_buffer *buffer, uint64_t offset,
+                                   const void *data, uint64_t size, const char *what,
+                                   pf_error *err);
+/* Counts bytes copied to (upload) or from the device in pf_vk_traffic. */
+void pf_vk_count_copy(pf_vk_context *ctx, uint64_t bytes, int upload);
 
 #endif

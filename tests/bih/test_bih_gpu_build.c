@@ -10,6 +10,7 @@
  * sort is stable. Validation stays silent.
  */
 #include "bih_test_gpu.h"
+#include "pf_vk_internal.h" /* pf_vk_force_staging */
 
 #define CASE_RAYS 2000u
 #define SCENE_RAYS 2000u
@@ -197,6 +198,39 @@ PF_TEST(too_deep_falls_back_to_cpu)
     bih_frame_free(&frame);
 }
 
+/* Issue 44: the GPU build is one submission and one wait, the vertices' upload and the
+ * readbacks included, whether the buffers are mapped (lavapipe) or staged (a GPU's
+ * device-local memory, forced here); it reads back the node bound, 2n - 1. */
+PF_TEST(the_gpu_build_is_one_submission)
+{
+    pf_scene_frame frame;
+    PF_REQUIRE(bih_make_soup(&frame, 5000, 37));
+    uint64_t n = frame.triangle_count;
+    for (int staged = 0; staged < 2; staged++) {
+        pf_vk_force_staging(env.ctx, staged);
+        pf_bih bih;
+        pf_bih_gpu_build_report report;
+        pf_error err = {0};
+        pf_vk_traffic before = pf_vk_traffic_of(env.ctx);
+        PF_REQUIRE_OK(pf_bih_build_gpu(env.builder, &frame, NULL, &bih, &report, &err), &err);
+        pf_vk_traffic used = pf_vk_traffic_since(env.ctx, before);
+        PF_CHECK(report.path == PF_BIH_BUILT_ON_GPU);
+        PF_CHECK_MSG(used.submits == 1 && used.host_waits == 1,
+                     "%s buffers: %llu submits, %llu waits", staged ? "staged" : "mapped",
+                     (unsigned long long)used.submits, (unsigned long long)used.host_waits);
+        /* kept count, node texels (16 bytes, as traversal reads them), vertices, index. */
+        uint64_t readback = 4 + (2 * n - 1) * 16 + 3 * n * 16 + 4 * n;
+        PF_CHECK_MSG(used.readback_bytes == readback && used.upload_bytes == 3 * n * 16,
+                     "read back %llu bytes (expected %llu), uploaded %llu",
+                     (unsigned long long)used.readback_bytes, (unsigned long long)readback,
+                     (unsigned long long)used.upload_bytes);
+        PF_CHECK_OK(pf_bih_check(&bih, &frame, &err), &err);
+        pf_bih_free(&bih);
+    }
+    pf_vk_force_staging(env.ctx, 0);
+    bih_frame_free(&frame);
+}
+
 PF_TEST(bad_input_is_refused)
 {
     pf_scene_frame frame;
@@ -315,6 +349,7 @@ int main(void)
     PF_RUN(million_triangles_gpu_build);
     PF_RUN(leaf_size_option);
     PF_RUN(too_deep_falls_back_to_cpu);
+    PF_RUN(the_gpu_build_is_one_submission);
     PF_RUN(bad_input_is_refused);
     PF_RUN(radix_sort_is_stable);
     bih_gpu_env_destroy(&env);

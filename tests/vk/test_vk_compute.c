@@ -29,8 +29,10 @@ static pf_vk_pipeline *selftest_pipeline(pf_vk_context *ctx, pf_error *err)
     return pipeline;
 }
 
-/* One upload → dispatch → download round trip over several workgroups. */
-static void round_trip(pf_vk_context *ctx, uint32_t count)
+/* One upload → dispatch → download round trip over several workgroups; recorded: the
+ * copies recorded with the dispatch (pf_vk_cmd_upload / _download), one submission and
+ * one wait in all (issue 44). */
+static void round_trip(pf_vk_context *ctx, uint32_t count, int recorded)
 {
     pf_error err = {0};
     pf_vk_pipeline *pipeline = selftest_pipeline(ctx, &err);
@@ -49,21 +51,45 @@ static void round_trip(pf_vk_context *ctx, uint32_t count)
                 &err);
     if (in_buffer && out_buffer) {
         const uint32_t sentinel = 0x5eed5eedu;
-        PF_CHECK_OK(pf_vk_buffer_upload(ctx, in_buffer, 0, input, count * 4ull, &err), &err);
-        PF_CHECK_OK(pf_vk_buffer_upload(ctx, out_buffer, count * 4ull, &sentinel, 4, &err), &err);
+        pf_vk_traffic before = pf_vk_traffic_of(ctx);
         pf_vk_commands *cmds = NULL;
+        if (!recorded) {
+            PF_CHECK_OK(pf_vk_buffer_upload(ctx, in_buffer, 0, input, count * 4ull, &err), &err);
+            PF_CHECK_OK(pf_vk_buffer_upload(ctx, out_buffer, count * 4ull, &sentinel, 4, &err),
+                        &err);
+        }
         PF_CHECK_OK(pf_vk_commands_begin(ctx, &cmds, &err), &err);
         if (cmds) {
+            if (recorded) {
+                PF_CHECK_OK(pf_vk_cmd_upload(cmds, in_buffer, 0, input, count * 4ull, &err),
+                            &err);
+                PF_CHECK_OK(pf_vk_cmd_upload(cmds, out_buffer, count * 4ull, &sentinel, 4, &err),
+                            &err);
+            }
             selftest_push push = {count, 17};
             pf_vk_buffer *buffers[] = {in_buffer, out_buffer};
             uint32_t groups = (count + SELFTEST_WORKGROUP - 1) / SELFTEST_WORKGROUP;
             PF_CHECK_OK(pf_vk_cmd_dispatch(cmds, pipeline, buffers, 2, &push, sizeof push,
                                            groups, 1, 1, &err),
                         &err);
+            if (recorded)
+                PF_CHECK_OK(pf_vk_cmd_download(cmds, out_buffer, 0, output, count * 4ull, &err),
+                            &err);
             PF_CHECK_OK(pf_vk_commands_submit(cmds, &err), &err);
             pf_vk_commands_destroy(cmds);
-            PF_CHECK_OK(pf_vk_buffer_download(ctx, out_buffer, 0, output, count * 4ull, &err),
-                        &err);
+            if (!recorded)
+                PF_CHECK_OK(pf_vk_buffer_download(ctx, out_buffer, 0, output, count * 4ull, &err),
+                            &err);
+            pf_vk_traffic used = pf_vk_traffic_since(ctx, before);
+            /* Staged blocking copies are a submission and a wait each; mapped ones none. */
+            uint64_t copies = recorded || !ctx->force_staging ? 0 : 3;
+            PF_CHECK_MSG(used.submits == 1 + copies && used.host_waits == 1 + copies &&
+                             used.upload_bytes == count * 4ull + 4 &&
+                             used.readback_bytes == count * 4ull,
+                         "%llu submits, %llu waits, %llu bytes up, %llu down",
+                         (unsigned long long)used.submits, (unsigned long long)used.host_waits,
+                         (unsigned long long)used.upload_bytes,
+                         (unsigned long long)used.readback_bytes);
             uint32_t mismatches = 0;
             for (uint32_t i = 0; i < count; i++) {
                 if (output[i] != expected_value(input[i], i, 17) && mismatches++ < 5)
@@ -90,7 +116,8 @@ PF_TEST(compute_round_trip)
     pf_vk_context *ctx = vk_test_context(&err);
     PF_REQUIRE(ctx);
     /* Not a multiple of the workgroup size: the last group is partial. */
-    round_trip(ctx, 10 * SELFTEST_WORKGROUP + 13);
+    round_trip(ctx, 10 * SELFTEST_WORKGROUP + 13, 0);
+    round_trip(ctx, 10 * SELFTEST_WORKGROUP + 13, 1);
     VK_TEST_FINISH(ctx);
 }
 
@@ -101,7 +128,8 @@ PF_TEST(compute_round_trip_through_staging)
     pf_vk_context *ctx = vk_test_context(&err);
     PF_REQUIRE(ctx);
     pf_vk_force_staging(ctx, 1);
-    round_trip(ctx, 7 * SELFTEST_WORKGROUP + 1);
+    round_trip(ctx, 7 * SELFTEST_WORKGROUP + 1, 0);
+    round_trip(ctx, 7 * SELFTEST_WORKGROUP + 1, 1);
     VK_TEST_FINISH(ctx);
 }
 

@@ -1,0 +1,147 @@
+/*
+ * Issue 44's counts: every stage row records the device traffic its stage caused
+ * (submits, host_waits, readback_bytes, upload_bytes: core/vk counts them, the stage loop
+ * meters each stage), the rows add up to the frame's whole traffic, and the stages meet
+ * their goal where they do: the GPU BIH build is one submission and one wait. Run on
+ * lavapipe with staging forced (a GPU's device-local memory: every copy is a submission)
+ * and the BIH built on the device, for every preset on the bundled Cornell box; the
+ * figures are printed for bench/RESULTS.md. Validation must stay silent.
+ */
+#include "pf_render.h"
+#include "pf_test.h"
+#include "pf_vk_internal.h" /* pf_vk_force_staging */
+#include "reference_test_util.h"
+#include "render_test_env.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#define WIDTH 16u
+#define HEIGHT 12u
+#define FINAL_PASSES 2u
+
+static pf_vk_context *ctx;
+static pf_renderer *renderer;
+
+/* A renderer of its own for each frame, which therefore builds its tree: one kept from
+ * an earlier frame of the same triangles would be reused. */
+static pf_renderer *fresh_renderer(pf_bih_build_site site)
+{
+    pf_error err = {0};
+    pf_renderer *made = NULL;
+    PF_CHECK_OK(pf_renderer_create(ctx, &made, &err), &err);
+    if (made)
+        pf_renderer_set_bih_build(made, site);
+    return made;
+}
+static pf_scene *cornell_scene;
+static pf_scene_frame cornell_frame;
+
+static double counter(const pf_stage_timing *row, const char *name)
+{
+    for (uint32_t c = 0; c < row->counter_count; c++)
+        if (!strcmp(row->counters[c].name, name))
+            return row->counters[c].value;
+    return NAN;
+}
+
+/* Renders the preset; checks each row's counters and their sum against the frame's. */
+static void check_preset(pf_quality quality, uint32_t samples)
+{
+    pf_render_settings settings = {WIDTH, HEIGHT, quality, samples, 7, 0, 0.0, 0};
+    pf_image image = {0};
+    pf_frame_report report = {0};
+    pf_error err = {0};
+    pf_renderer *own = fresh_renderer(PF_BIH_BUILD_GPU);
+    PF_REQUIRE(own);
+    pf_vk_traffic before = pf_vk_traffic_of(ctx);
+    pf_status status = pf_render_frame(own, &cornell_frame, &settings, &image, &report, &err);
+    pf_vk_traffic frame = pf_vk_traffic_since(ctx, before);
+    pf_renderer_destroy(own);
+    PF_REQUIRE_OK(status, &err);
+    pf_image_free(&image);
+    double sums[4] = {0};
+    const char *names[4] = {"submits", "host_waits", "readback_bytes", "upload_bytes"};
+    for (uint32_t i = 0; i < report.stage_count; i++) {
+        const pf_stage_timing *row = &report.stages[i];
+        if (row->skipped)
+            continue;
+        printf("  %-8s %-14s submits %3.0f  waits %3.0f  read back %9.0f B  uploaded %9.0f B\n",
+               pf_quality_name(quality), row->stage, counter(row, names[0]),
+               counter(row, names[1]), counter(row, names[2]), counter(row, names[3]));
+        for (int k = 0; k < 4; k++) {
+            double value = counter(row, names[k]);
+            PF_CHECK_MSG(!isnan(value), "%s %s: no %s counter", pf_quality_name(quality),
+                         row->stage, names[k]);
+            sums[k] += isnan(value) ? 0.0 : value;
+        }
+    }
+    /* Nothing the frame did is left out of its rows. */
+    PF_CHECK_MSG(sums[0] == (double)frame.submits && sums[1] == (double)frame.host_waits &&
+                     sums[2] == (double)frame.readback_bytes &&
+                     sums[3] == (double)frame.upload_bytes,
+                 "%s: rows add up to %.0f submits, %.0f waits, %.0f B back, %.0f B up; the frame "
+                 "made %llu, %llu, %llu, %llu",
+                 pf_quality_name(quality), sums[0], sums[1], sums[2], sums[3],
+                 (unsigned long long)frame.submits, (unsigned long long)frame.host_waits,
+                 (unsigned long long)frame.readback_bytes, (unsigned long long)frame.upload_bytes);
+    const pf_stage_timing *bih = ref_row(&report, "bih_build");
+    PF_REQUIRE(bih != NULL);
+    if (!bih->skipped)
+        PF_CHECK_MSG(counter(bih, "submits") == 1 && counter(bih, "host_waits") == 1 &&
+                         counter(bih, "built_on_gpu") == 1,
+                     "%s bih_build: %.0f submits, %.0f waits, built on the GPU %.0f",
+                     pf_quality_name(quality), counter(bih, "submits"),
+                     counter(bih, "host_waits"), counter(bih, "built_on_gpu"));
+}
+
+/* The tree the GPU build leaves on the device traces as an uploaded CPU build does: the
+ * same preview image (closest hits do not depend on the tree's shape). */
+PF_TEST(the_device_resident_tree_renders_as_an_uploaded_one)
+{
+    pf_render_settings settings = {WIDTH, HEIGHT, PF_QUALITY_PREVIEW, 1, 7, 0, 0.0, 0};
+    pf_image images[2] = {{0}};
+    pf_frame_report reports[2] = {{0}};
+    pf_error err = {0};
+    for (int gpu = 0; gpu < 2; gpu++) {
+        pf_renderer *own = fresh_renderer(gpu ? PF_BIH_BUILD_GPU : PF_BIH_BUILD_CPU);
+        PF_REQUIRE(own);
+        pf_status status = pf_render_frame(own, &cornell_frame, &settings, &images[gpu],
+                                           &reports[gpu], &err);
+        pf_renderer_destroy(own);
+        PF_REQUIRE_OK(status, &err);
+        const pf_stage_timing *bih = ref_row(&reports[gpu], "bih_build");
+        PF_REQUIRE(bih && !bih->skipped);
+        PF_CHECK(counter(bih, "built_on_gpu") == gpu);
+    }
+    PF_REQUIRE(images[0].channel_count == images[1].channel_count);
+    size_t values = (size_t)WIDTH * HEIGHT * images[0].channel_count, differ = 0;
+    for (size_t i = 0; i < values; i++)
+        differ += fabsf(images[0].pixels[i] - images[1].pixels[i]) > 1e-5f;
+    PF_CHECK_MSG(differ == 0, "%zu of %zu values differ between the trees", differ, values);
+    pf_image_free(&images[0]);
+    pf_image_free(&images[1]);
+}
+
+PF_TEST(every_preset_counts_its_traffic_per_stage)
+{
+    check_preset(PF_QUALITY_PREVIEW, 1);
+    check_preset(PF_QUALITY_FAST, 1);
+    check_preset(PF_QUALITY_FINAL, FINAL_PASSES);
+    check_preset(PF_QUALITY_REFERENCE, 2);
+}
+
+int main(void)
+{
+    if (!render_test_setup(&ctx, &renderer))
+        return 1;
+    if (!ref_load_cornell(&cornell_scene, &cornell_frame))
+        return 1;
+    pf_vk_force_staging(ctx, 1);
+    PF_RUN(the_device_resident_tree_renders_as_an_uploaded_one);
+    PF_RUN(every_preset_counts_its_traffic_per_stage);
+    pf_scene_frame_free(&cornell_frame);
+    pf_scene_destroy(cornell_scene);
+    return render_test_finish(ctx, renderer);
+}
