@@ -137,34 +137,37 @@ static pf_status ensure_volumes(pf_lpv *lpv, uint64_t floats, int iterating, pf_
 }
 
 /* floats zeros into buffer from float first on. */
-static pf_status upload_zeros(pf_lpv *lpv, pf_vk_buffer *buffer, uint64_t first, uint64_t floats,
-                              pf_error *err)
+/* Zeros into floats floats of buffer from first, recorded with cmds (issue 44). */
+static pf_status record_zeros(pf_vk_commands *cmds, pf_vk_buffer *buffer, uint64_t first,
+                              uint64_t floats, pf_error *err)
 {
     void *zeros = calloc(floats, sizeof(float));
     if (!zeros)
         return pf_error_set(err, PF_ERR_NOMEM, "LPV: out of memory");
-    pf_status status = pf_vk_buffer_upload(lpv->ctx, buffer, first * sizeof(float), zeros,
-                                           floats * sizeof(float), err);
+    pf_status status = pf_vk_cmd_upload(cmds, buffer, first * sizeof(float), zeros,
+                                        floats * sizeof(float), err);
     free(zeros);
     return status;
 }
 
 /*
- * Uploads gv, or zeros when gv is NULL (no occlusion: the propagation skips
+ * Records gv's upload, or zeros' when gv is NULL (no occlusion: the propagation skips
  * it, and the lookups see every face open).
  */
-static pf_status upload_geometry(pf_lpv *lpv, const float *gv, pf_error *err)
+static pf_status record_geometry(pf_lpv *lpv, pf_vk_commands *cmds, const float *gv,
+                                 pf_error *err)
 {
     uint64_t bytes = pf_vk_buffer_size(lpv->geometry);
     if (gv)
-        return pf_vk_buffer_upload(lpv->ctx, lpv->geometry, 0, gv, bytes, err);
-    return upload_zeros(lpv, lpv->geometry, 0, bytes / sizeof(float), err);
+        return pf_vk_cmd_upload(cmds, lpv->geometry, 0, gv, bytes, err);
+    return record_zeros(cmds, lpv->geometry, 0, bytes / sizeof(float), err);
 }
 
 /*
- * Sizes the volumes for floats SH floats, uploads the injected volume (also
- * as the accumulation and the 0-iteration snapshot when accumulate) and the
- * geometry volume, and begins a command buffer.
+ * Sizes the volumes for floats SH floats and begins a command buffer with the uploads
+ * recorded: the injected volume (also as the accumulation and the 0-iteration snapshot
+ * when accumulate) and the geometry volume. The propagation's dispatches follow in the
+ * same submission.
  */
 static pf_status begin_propagation(pf_lpv *lpv, uint64_t floats, const float *injected,
                                    const float *gv, int accumulate, pf_vk_commands **cmds,
@@ -172,13 +175,17 @@ static pf_status begin_propagation(pf_lpv *lpv, uint64_t floats, const float *in
 {
     uint64_t bytes = floats * sizeof(float);
     pf_status status = ensure_volumes(lpv, floats, 1, err);
-    pf_vk_buffer *targets[3] = {lpv->injected, lpv->accumulated, lpv->snapshot};
-    for (int t = 0; status == PF_OK && t < (accumulate ? 3 : 1); t++)
-        status = pf_vk_buffer_upload(lpv->ctx, targets[t], 0, injected, bytes, err);
-    if (status == PF_OK)
-        status = upload_geometry(lpv, gv, err);
     if (status == PF_OK)
         status = pf_vk_commands_begin(lpv->ctx, cmds, err);
+    pf_vk_buffer *targets[3] = {lpv->injected, lpv->accumulated, lpv->snapshot};
+    for (int t = 0; status == PF_OK && t < (accumulate ? 3 : 1); t++)
+        status = pf_vk_cmd_upload(*cmds, targets[t], 0, injected, bytes, err);
+    if (status == PF_OK)
+        status = record_geometry(lpv, *cmds, gv, err);
+    if (status != PF_OK) {
+        pf_vk_commands_destroy(*cmds);
+        *cmds = NULL;
+    }
     return status;
 }
 
@@ -234,14 +241,20 @@ static pf_status propagate_on_host(pf_lpv *lpv, const pf_lpv_layout *layout,
     /* The snapshot into the far field, the same subtraction as the kernel's FAR_FIELD. */
     for (uint64_t i = 0; status == PF_OK && i < floats; i++)
         far[i] = accumulated[i] - far[i];
+    /* The three volumes' uploads in one submission (issue 44). */
+    pf_vk_commands *cmds = NULL;
     if (status == PF_OK)
-        status = pf_vk_buffer_upload(lpv->ctx, lpv->accumulated, 0, accumulated,
-                                     floats * sizeof(float), err);
+        status = pf_vk_commands_begin(lpv->ctx, &cmds, err);
     if (status == PF_OK)
-        status = pf_vk_buffer_upload(lpv->ctx, lpv->snapshot, 0, far, floats * sizeof(float),
-                                     err);
+        status = pf_vk_cmd_upload(cmds, lpv->accumulated, 0, accumulated,
+                                  floats * sizeof(float), err);
     if (status == PF_OK)
-        status = upload_geometry(lpv, gv, err);
+        status = pf_vk_cmd_upload(cmds, lpv->snapshot, 0, far, floats * sizeof(float), err);
+    if (status == PF_OK)
+        status = record_geometry(lpv, cmds, gv, err);
+    if (status == PF_OK)
+        status = pf_vk_commands_submit(cmds, err);
+    pf_vk_commands_destroy(cmds);
     return status;
 }
 
@@ -269,7 +282,7 @@ pf_status pf_lpv_propagate(pf_lpv *lpv, const pf_lpv_layout *layout, const float
     /* A cascade without iterations has no last one to make its far field: none, zeros. */
     for (uint32_t k = 0; status == PF_OK && k < layout->count; k++)
         if (layout->cascades[k].iterations == 0)
-            status = upload_zeros(lpv, lpv->snapshot, k * cells * PF_LPV_FLOATS_PER_CELL,
+            status = record_zeros(cmds, lpv->snapshot, k * cells * PF_LPV_FLOATS_PER_CELL,
                                   cells * PF_LPV_FLOATS_PER_CELL, err);
     int begin = pf_vk_cmd_timestamp(cmds);
     for (uint32_t k = 0; status == PF_OK && k < layout->count; k++) {
@@ -352,9 +365,9 @@ pf_status pf_lpv_propagate_once(pf_lpv *lpv, uint32_t size, const float *src, co
     status = pf_vk_cmd_dispatch(cmds, once, buffers, PROPAGATE_BUFFERS, &push,
                                 sizeof push, groups, groups, groups, err);
     if (status == PF_OK)
+        status = pf_vk_cmd_download(cmds, lpv->ping, 0, dst, bytes, err);
+    if (status == PF_OK)
         status = pf_vk_commands_submit(cmds, err);
     pf_vk_commands_destroy(cmds);
-    if (status == PF_OK)
-        status = pf_vk_buffer_download(lpv->ctx, lpv->ping, 0, dst, bytes, err);
     return status;
 }

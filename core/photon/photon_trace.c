@@ -148,19 +148,40 @@ static pf_status map_capacity(const pf_vk_device_info *info, uint32_t requested,
  * invocation per_invocation of them in turn (photon_trace.comp), and reads back the counters
  * and the GPU time (< 0 without timestamps).
  */
+/* What a trace uploads before its dispatches: recorded with them (issue 44). */
+typedef struct trace_uploads {
+    const photon_trace_params *params;
+    const pf_photon_emitters *emitters;
+    pf_vk_buffer *placeholder; /* zeroed: the texture bindings of a scene without them */
+} trace_uploads;
+
+/* One submission and one wait: the uploads, the counters zeroed, the dispatches and the
+ * counters' readback. */
 static pf_status trace_photons(pf_photon_tracer *tracer, pf_vk_pipeline *kernel,
-                               pf_vk_buffer **buffers, uint32_t count, uint32_t per_invocation,
-                               trace_counters *counters, double *gpu_ms, pf_error *err)
+                               pf_vk_buffer **buffers, const trace_uploads *uploads,
+                               uint32_t count, uint32_t per_invocation, trace_counters *counters,
+                               double *gpu_ms, pf_error *err)
 {
     pf_vk_context *ctx = tracer->ctx;
     pf_vk_buffer *counter_buffer = buffers[TRACE_BUFFERS - 1];
-    const trace_counters zero = {0, 0, 0, 0, 0};
+    static const trace_counters zero = {0, 0, 0, 0, 0};
+    static const uint32_t zeros[4];
     *counters = zero;
     *gpu_ms = -1.0;
-    pf_status status = pf_vk_buffer_upload(ctx, counter_buffer, 0, &zero, sizeof zero, err);
     pf_vk_commands *cmds = NULL;
+    pf_status status = pf_vk_commands_begin(ctx, &cmds, err);
     if (status == PF_OK)
-        status = pf_vk_commands_begin(ctx, &cmds, err);
+        status = pf_vk_cmd_upload(cmds, counter_buffer, 0, &zero, sizeof zero, err);
+    if (status == PF_OK)
+        status = pf_vk_cmd_upload(cmds, buffers[PF_SCENE_BINDING_PARAMS], 0, uploads->params,
+                                  sizeof *uploads->params, err);
+    if (status == PF_OK && uploads->emitters->count > 0)
+        status = pf_vk_cmd_upload(cmds, buffers[PF_SCENE_BINDING_EMISSIVE], 0,
+                                  uploads->emitters->entries,
+                                  (uint64_t)uploads->emitters->count * sizeof(pf_photon_emitter),
+                                  err);
+    if (status == PF_OK && uploads->placeholder)
+        status = pf_vk_cmd_upload(cmds, uploads->placeholder, 0, zeros, sizeof zeros, err);
     int begin = status == PF_OK ? pf_vk_cmd_timestamp(cmds) : -1;
     const uint64_t per_dispatch = (uint64_t)TRACE_GROUP_SIZE * TRACE_MAX_GROUPS * per_invocation;
     for (uint64_t first = 0; status == PF_OK && first < count; first += per_dispatch) {
@@ -175,12 +196,12 @@ static pf_status trace_photons(pf_photon_tracer *tracer, pf_vk_pipeline *kernel,
     }
     int end = status == PF_OK ? pf_vk_cmd_timestamp(cmds) : -1;
     if (status == PF_OK)
+        status = pf_vk_cmd_download(cmds, counter_buffer, 0, counters, sizeof *counters, err);
+    if (status == PF_OK)
         status = pf_vk_commands_submit(cmds, err);
     if (status == PF_OK && begin >= 0 && end >= 0)
         *gpu_ms = pf_vk_commands_elapsed_ms(cmds, begin, end);
     pf_vk_commands_destroy(cmds);
-    if (status == PF_OK)
-        status = pf_vk_buffer_download(ctx, counter_buffer, 0, counters, sizeof *counters, err);
     return status;
 }
 
@@ -232,15 +253,10 @@ pf_status pf_photon_trace(pf_photon_tracer *tracer, const pf_photon_scene *scene
         status = pf_vk_buffer_create(ctx, sizeof params, "photon trace parameters",
                                      &params_buffer, err);
     if (status == PF_OK)
-        status = pf_vk_buffer_upload(ctx, params_buffer, 0, &params, sizeof params, err);
-    if (status == PF_OK)
         status = pf_vk_buffer_create(ctx,
                                      (uint64_t)(emitters->count ? emitters->count : 1) *
                                          sizeof(pf_photon_emitter),
                                      "photon emitters", &emitter_buffer, err);
-    if (status == PF_OK && emitters->count > 0)
-        status = pf_vk_buffer_upload(ctx, emitter_buffer, 0, emitters->entries,
-                                     (uint64_t)emitters->count * sizeof(pf_photon_emitter), err);
     if (status == PF_OK)
         status = pf_vk_buffer_create(ctx, sizeof zero, "photon trace counters", &counter_buffer,
                                      err);
@@ -255,12 +271,8 @@ pf_status pf_photon_trace(pf_photon_tracer *tracer, const pf_photon_scene *scene
                                          sizeof(pf_photon),
                                      "caustic photon map", &out->caustic, err);
 
-    if (status == PF_OK && !(scene->corners && scene->textures && scene->texels)) {
-        static const uint32_t zeros[4];
-        status = pf_vk_buffer_create(ctx, sizeof zeros, "no textures", &placeholder, err);
-        if (status == PF_OK)
-            status = pf_vk_buffer_upload(ctx, placeholder, 0, zeros, sizeof zeros, err);
-    }
+    if (status == PF_OK && !(scene->corners && scene->textures && scene->texels))
+        status = pf_vk_buffer_create(ctx, 4 * sizeof(uint32_t), "no textures", &placeholder, err);
     pf_vk_buffer *buffers[TRACE_BUFFERS] = {
         [PF_SCENE_BINDING_PARAMS] = params_buffer,
         [PF_SCENE_BINDING_VERTICES] = scene->vertices,
@@ -282,16 +294,17 @@ pf_status pf_photon_trace(pf_photon_tracer *tracer, const pf_photon_scene *scene
                               : strcmp(info->type, "cpu") == 0 ? PF_PHOTON_TRACE_PER_INVOCATION
                                                               : 1u;
     trace_counters counters = zero;
+    trace_uploads uploads = {&params, emitters, placeholder};
     if (status == PF_OK && emitters->count > 0)
-        status = trace_photons(tracer, kernel, buffers, settings->photon_count, per_invocation, &counters,
-                               &out->gpu_ms, err);
+        status = trace_photons(tracer, kernel, buffers, &uploads, settings->photon_count,
+                               per_invocation, &counters, &out->gpu_ms, err);
     /* Photons that share an invocation add up its loop iterations: where that met the cap,
      * the pass is traced again with one photon each (slots restart at 0: nothing is kept). */
     if (status == PF_OK && counters.loop_truncated > 0 && per_invocation > 1) {
         per_invocation = 1;
         double first_ms = out->gpu_ms;
-        status = trace_photons(tracer, kernel, buffers, settings->photon_count, per_invocation,
-                               &counters, &out->gpu_ms, err);
+        status = trace_photons(tracer, kernel, buffers, &uploads, settings->photon_count,
+                               per_invocation, &counters, &out->gpu_ms, err);
         out->gpu_ms = first_ms >= 0.0 && out->gpu_ms >= 0.0 ? first_ms + out->gpu_ms : -1.0;
     }
     out->per_invocation = per_invocation;
