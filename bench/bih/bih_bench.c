@@ -27,7 +27,8 @@
  * where only, when given, runs just the scene of that name ("sphere" for the
  * generated mesh), e.g. to profile one case; "sphere-build" only times the
  * builds of the generated mesh, ours (global and SAH, BENCH_THREADS threads)
- * and Embree's LOW, BUILD_ROUNDS rounds each taking one of each in turn, and
+ * and Embree's LOW, and our GPU build (wall time and its submissions), BUILD_ROUNDS
+ * rounds each taking one of each in turn, and
  * prints the best and the median of each: build figures steady enough for an
  * A/B on a shared machine. A third argument "cpu" (bih_bench DIR SCENE cpu)
  * times only our CPU traversal of the SAH tree and Embree on the same rays,
@@ -1065,7 +1066,8 @@ static int compare_ms(const void *a, const void *b)
 }
 
 /* "sphere-build": the builds alone, interleaved rounds, best and median. */
-static int build_rounds(const bench_mesh *m, RTCDevice dev)
+static int build_rounds(const bench_mesh *m, RTCDevice dev, pf_vk_context *ctx,
+                        pf_bih_gpu_builder *builder)
 {
     const pf_scene_frame *f = &m->frame;
     uint32_t n = f->triangle_count;
@@ -1074,8 +1076,10 @@ static int build_rounds(const bench_mesh *m, RTCDevice dev)
         return 0;
     for (uint32_t i = 0; i < 3 * n; i++)
         indices[i] = i;
-    static const char *const names[3] = {"ours CPU global", "ours CPU SAH", "Embree LOW"};
-    double ms[3][BUILD_ROUNDS];
+    static const char *const names[4] = {"ours CPU global", "ours CPU SAH", "Embree LOW",
+                                         "ours GPU"};
+    double ms[4][BUILD_ROUNDS];
+    pf_vk_traffic gpu_traffic = {0};
     int ok = 1;
     for (int round = 0; round < BUILD_ROUNDS && ok; round++) {
         for (uint32_t h = 0; h < 2 && ok; h++) {
@@ -1094,14 +1098,26 @@ static int build_rounds(const bench_mesh *m, RTCDevice dev)
         }
         if (ok)
             rtcReleaseScene(embree_scene(dev, f, RTC_BUILD_QUALITY_LOW, indices, &ms[2][round]));
+        if (ok) { /* the device build, wall time: on lavapipe an upper bound on its overhead */
+            pf_bih b = {0};
+            pf_error err = {0};
+            pf_vk_traffic before = pf_vk_traffic_of(ctx);
+            double t0 = pf_time_ms();
+            ok = pf_bih_build_gpu(builder, f, NULL, &b, NULL, &err) == PF_OK;
+            ms[3][round] = pf_time_ms() - t0;
+            gpu_traffic = pf_vk_traffic_since(ctx, before);
+            if (!ok)
+                fprintf(stderr, "bih_bench: pf_bih_build_gpu: %s\n", err.message);
+            pf_bih_free(&b);
+        }
     }
     free(indices);
     if (!ok)
         return 0;
     printf("\n=== %s: %u triangles, %d build rounds, %u threads ===\n", m->name, n,
            BUILD_ROUNDS, BENCH_THREADS);
-    double best[3];
-    for (int i = 0; i < 3; i++) {
+    double best[4];
+    for (int i = 0; i < 4; i++) {
         qsort(ms[i], BUILD_ROUNDS, sizeof ms[i][0], compare_ms);
         best[i] = ms[i][0];
         printf("build   %-16s best %8.2f ms  median %8.2f ms\n", names[i], ms[i][0],
@@ -1109,6 +1125,11 @@ static int build_rounds(const bench_mesh *m, RTCDevice dev)
     }
     printf("build   ours global / Embree LOW: best %.2fx, median %.2fx\n", best[0] / best[2],
            ms[0][BUILD_ROUNDS / 2] / ms[2][BUILD_ROUNDS / 2]);
+    printf("build   ours GPU / ours CPU SAH: best %.2fx, median %.2fx; a GPU build: %llu "
+           "submission(s), %llu wait(s), %llu bytes read back\n",
+           best[3] / best[1], ms[3][BUILD_ROUNDS / 2] / ms[1][BUILD_ROUNDS / 2],
+           (unsigned long long)gpu_traffic.submits, (unsigned long long)gpu_traffic.host_waits,
+           (unsigned long long)gpu_traffic.readback_bytes);
     return 1;
 }
 
@@ -1286,7 +1307,7 @@ int main(int argc, char **argv)
     bench_mesh sphere;
     if (only && !strcmp(only, "sphere-build")) {
         if (make_sphere(&sphere)) {
-            failures += !build_rounds(&sphere, dev);
+            failures += !build_rounds(&sphere, dev, ctx, builder);
             mesh_free(&sphere);
         } else {
             failures++;
