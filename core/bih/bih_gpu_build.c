@@ -128,11 +128,22 @@ static uint32_t groups_for(uint32_t items)
     return (items + BUILD_GROUP_SIZE - 1) / BUILD_GROUP_SIZE;
 }
 
-/* Records all passes; the result is in BUF_NODES, BUF_RANK[n - 1] = kept inner nodes. */
+const char *pf_bih_gpu_pass_name(pf_bih_gpu_pass pass)
+{
+    static const char *const names[PF_BIH_GPU_PASSES] = {"morton", "sort", "emit", "clip",
+                                                         "collapse"};
+    return (unsigned)pass < PF_BIH_GPU_PASSES ? names[pass] : "?";
+}
+
+/* Records all passes; the result is in BUF_NODES, BUF_RANK[n - 1] = kept inner nodes.
+ * stamps[0] before the first pass and stamps[p + 1] after pass p (pf_bih_gpu_pass; -1
+ * without timestamps). */
 static pf_status record_build(pf_bih_gpu_builder *b, pf_vk_commands *cmds, pf_vk_buffer **buf,
                               uint32_t n, uint32_t leaf_size, const float lo[3],
-                              const float hi[3], pf_error *err)
+                              const float hi[3], int stamps[PF_BIH_GPU_PASSES + 1],
+                              pf_error *err)
 {
+    stamps[0] = pf_vk_cmd_timestamp(cmds);
     uint32_t groups = groups_for(n);
     struct {
         float scene_min[4];
@@ -145,6 +156,7 @@ static pf_status record_build(pf_bih_gpu_builder *b, pf_vk_commands *cmds, pf_vk
     pf_status status = pf_vk_cmd_dispatch(cmds, b->pipelines[PASS_MORTON], morton_buffers, 3,
                                           &morton, pass_desc[PASS_MORTON].push_bytes, groups, 1,
                                           1, err);
+    stamps[1 + PF_BIH_GPU_PASS_MORTON] = pf_vk_cmd_timestamp(cmds);
     for (uint32_t pass = 0; status == PF_OK && pass < RADIX_PASSES; pass++) {
         pf_vk_cmd_barrier(cmds);
         int from_a = pass % 2 == 0;
@@ -168,6 +180,7 @@ static pf_status record_build(pf_bih_gpu_builder *b, pf_vk_commands *cmds, pf_vk
             status = pf_vk_cmd_dispatch(cmds, b->pipelines[PASS_SCATTER], scatter_buffers, 5,
                                         radix_push, sizeof radix_push, groups, 1, 1, err);
     }
+    stamps[1 + PF_BIH_GPU_PASS_SORT] = pf_vk_cmd_timestamp(cmds);
     /* An even number of passes leaves the sorted keys and values in the A buffers. */
     uint32_t inner_groups = groups_for(n - 1);
     pf_vk_cmd_barrier(cmds);
@@ -176,6 +189,7 @@ static pf_status record_build(pf_bih_gpu_builder *b, pf_vk_commands *cmds, pf_vk
     if (status == PF_OK)
         status = pf_vk_cmd_dispatch(cmds, b->pipelines[PASS_EMIT], emit_buffers, 4, &n, sizeof n,
                                     inner_groups, 1, 1, err);
+    stamps[1 + PF_BIH_GPU_PASS_EMIT] = pf_vk_cmd_timestamp(cmds);
     pf_vk_cmd_barrier(cmds);
     uint32_t tree_push[2] = {n, leaf_size};
     pf_vk_buffer *clip_buffers[] = {buf[BUF_VERTICES], buf[BUF_VALUES_A], buf[BUF_INNER],
@@ -190,12 +204,14 @@ static pf_status record_build(pf_bih_gpu_builder *b, pf_vk_commands *cmds, pf_vk
     if (status == PF_OK)
         status = pf_vk_cmd_dispatch(cmds, b->pipelines[PASS_SCAN], &buf[BUF_RANK], 1,
                                     &inner_count, sizeof inner_count, 1, 1, 1, err);
+    stamps[1 + PF_BIH_GPU_PASS_CLIP] = pf_vk_cmd_timestamp(cmds);
     pf_vk_cmd_barrier(cmds);
     pf_vk_buffer *collapse_buffers[] = {buf[BUF_INNER],  buf[BUF_PARENTS], buf[BUF_COUNTS],
                                         buf[BUF_CLIPS],  buf[BUF_RANK],    buf[BUF_NODES]};
     if (status == PF_OK)
         status = pf_vk_cmd_dispatch(cmds, b->pipelines[PASS_COLLAPSE], collapse_buffers, 6,
                                     tree_push, sizeof tree_push, inner_groups, 1, 1, err);
+    stamps[1 + PF_BIH_GPU_PASS_COLLAPSE] = pf_vk_cmd_timestamp(cmds);
     return status;
 }
 
@@ -249,7 +265,8 @@ static pf_status measure_tree(pf_bih *bih, pf_error *err)
  * the device there (tree[0..2], the caller's to destroy or hand to a pf_bih_gpu). */
 static pf_status run_gpu_build(pf_bih_gpu_builder *b, const pf_scene_frame *frame,
                                uint32_t leaf_size, const float lo[3], const float hi[3],
-                               pf_bih *out, pf_vk_buffer *tree[3], pf_error *err)
+                               pf_bih *out, pf_vk_buffer *tree[3],
+                               pf_bih_gpu_build_report *report, pf_error *err)
 {
     pf_vk_context *ctx = b->ctx;
     uint32_t n = frame->triangle_count;
@@ -303,8 +320,9 @@ static pf_status run_gpu_build(pf_bih_gpu_builder *b, const pf_scene_frame *fram
     if (status == PF_OK)
         status = pf_vk_cmd_upload(cmds, buf[BUF_VERTICES], 0, frame->vertices,
                                   sizes[BUF_VERTICES].bytes, err);
+    int stamps[PF_BIH_GPU_PASSES + 1];
     if (status == PF_OK)
-        status = record_build(b, cmds, buf, n, leaf_size, lo, hi, err);
+        status = record_build(b, cmds, buf, n, leaf_size, lo, hi, stamps, err);
     if (status == PF_OK)
         status = pf_vk_cmd_download(cmds, buf[BUF_RANK], 4 * inner, &kept, sizeof kept, err);
     if (status == PF_OK)
@@ -318,6 +336,10 @@ static pf_status run_gpu_build(pf_bih_gpu_builder *b, const pf_scene_frame *fram
                                     sizes[BUF_TRIANGLE_INDEX].bytes, err);
     if (status == PF_OK)
         status = pf_vk_commands_submit(cmds, err);
+    for (int p = 0; status == PF_OK && p < PF_BIH_GPU_PASSES; p++)
+        report->pass_ms[p] = pf_vk_commands_elapsed_ms(cmds, stamps[p], stamps[p + 1]);
+    if (status == PF_OK)
+        report->gpu_ms = pf_vk_commands_elapsed_ms(cmds, stamps[0], stamps[PF_BIH_GPU_PASSES]);
     pf_vk_commands_destroy(cmds);
     if (status == PF_OK && (kept == 0 || kept > inner))
         status = pf_error_set(err, PF_ERR_INTERNAL,
@@ -370,6 +392,9 @@ pf_status pf_bih_build_gpu_resident(pf_bih_gpu_builder *builder, const pf_scene_
     if (!report)
         report = &local;
     memset(report, 0, sizeof *report);
+    report->gpu_ms = -1.0;
+    for (int p = 0; p < PF_BIH_GPU_PASSES; p++)
+        report->pass_ms[p] = -1.0;
     uint32_t leaf_size = options && options->max_leaf_size ? options->max_leaf_size
                                                            : PF_BIH_DEFAULT_LEAF_SIZE;
     uint32_t max_depth = options && options->max_depth ? options->max_depth : PF_BIH_STACK_SIZE;
@@ -384,7 +409,8 @@ pf_status pf_bih_build_gpu_resident(pf_bih_gpu_builder *builder, const pf_scene_
     pf_vk_buffer *tree[3] = {NULL, NULL, NULL};
     pf_status status = scene_box(frame, lo, hi, err);
     if (status == PF_OK)
-        status = run_gpu_build(builder, frame, leaf_size, lo, hi, out, device ? tree : NULL, err);
+        status = run_gpu_build(builder, frame, leaf_size, lo, hi, out, device ? tree : NULL,
+                               report, err);
     if (status != PF_OK) {
         pf_bih_free(out);
         memset(out, 0, sizeof *out);

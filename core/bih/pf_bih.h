@@ -351,10 +351,27 @@ typedef enum pf_bih_build_path {
     PF_BIH_BUILT_CPU_FALLBACK    /* the GPU tree was deeper than max_depth */
 } pf_bih_build_path;
 
+/* The GPU build's passes as its timestamps split them (issue 44). */
+typedef enum pf_bih_gpu_pass {
+    PF_BIH_GPU_PASS_MORTON,   /* Morton codes */
+    PF_BIH_GPU_PASS_SORT,     /* the 4 radix passes (histogram, scan, scatter) */
+    PF_BIH_GPU_PASS_EMIT,     /* the hierarchy */
+    PF_BIH_GPU_PASS_CLIP,     /* bounds, counts, clip planes, leaf layout, kept ranks */
+    PF_BIH_GPU_PASS_COLLAPSE, /* compaction into node texels */
+    PF_BIH_GPU_PASSES
+} pf_bih_gpu_pass;
+/* "morton", "sort", "emit", "clip", "collapse". */
+const char *pf_bih_gpu_pass_name(pf_bih_gpu_pass pass);
+
 typedef struct pf_bih_gpu_build_report {
     pf_bih_build_path path;
     uint32_t gpu_depth;          /* depth of the GPU tree (also when it was refused) */
     int resident;                /* pf_bih_build_gpu_resident: the tree stayed on the device */
+    /* Device time of each pass and of them all, from timestamps inside the one submission
+     * (also when the tree was then refused); -1 where the device has no timestamps or
+     * nothing was built on it. */
+    double pass_ms[PF_BIH_GPU_PASSES];
+    double gpu_ms;
 } pf_bih_gpu_build_report;
 
 pf_status pf_bih_gpu_builder_create(pf_vk_context *ctx, pf_bih_gpu_builder **out, pf_error *err);

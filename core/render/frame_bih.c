@@ -67,11 +67,11 @@ static pf_status build_tree(pf_renderer *renderer, const pf_scene_frame *frame,
         if (status != PF_OK)
             return status;
     }
-    pf_bih_gpu_build_report build_report;
+    pf_bih_gpu_build_report *build_report = &renderer->bih_gpu_report;
     pf_status status = pf_bih_build_gpu_resident(renderer->bih_builder, frame, &options, out,
-                                                 renderer->bih_gpu, &build_report, err);
-    *built_on_gpu = status == PF_OK && build_report.path == PF_BIH_BUILT_ON_GPU;
-    *resident = status == PF_OK && build_report.resident;
+                                                 renderer->bih_gpu, build_report, err);
+    *built_on_gpu = status == PF_OK && build_report->path == PF_BIH_BUILT_ON_GPU;
+    *resident = status == PF_OK && build_report->resident;
     return status;
 }
 
@@ -208,6 +208,16 @@ pf_status pf_render_prepare_bih(pf_renderer *renderer, const pf_scene_frame *fra
         pf_stage_add_counter(row, "sah", renderer->bih_sah);
         pf_stage_add_counter(row, "built_on_gpu", built_on_gpu);
         pf_stage_add_counter(row, "decision", decision);
+        /* Where the GPU build's device time went, from its timestamps (issue 44). */
+        const pf_bih_gpu_build_report *gpu = &renderer->bih_gpu_report;
+        if (built_on_gpu && gpu->gpu_ms >= 0.0) {
+            row->gpu_ms = gpu->gpu_ms;
+            for (int p = 0; p < PF_BIH_GPU_PASSES; p++) {
+                char name[32];
+                snprintf(name, sizeof name, "gpu_ms_%s", pf_bih_gpu_pass_name((pf_bih_gpu_pass)p));
+                pf_stage_add_counter(row, name, gpu->pass_ms[p]);
+            }
+        }
     }
     return PF_OK;
 }

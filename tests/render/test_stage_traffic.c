@@ -110,12 +110,27 @@ static void check_preset(pf_quality quality, uint32_t samples)
     }
     const pf_stage_timing *bih = ref_row(&report, "bih_build");
     PF_REQUIRE(bih != NULL);
-    if (!bih->skipped)
+    if (!bih->skipped) {
         PF_CHECK_MSG(counter(bih, "submits") == 1 && counter(bih, "host_waits") == 1 &&
                          counter(bih, "built_on_gpu") == 1,
                      "%s bih_build: %.0f submits, %.0f waits, built on the GPU %.0f",
                      pf_quality_name(quality), counter(bih, "submits"),
                      counter(bih, "host_waits"), counter(bih, "built_on_gpu"));
+        /* Its passes' device times from timestamps inside the submission: they add up to
+         * the row's GPU time. */
+        double passes = 0.0;
+        const char *pass_counters[] = {"gpu_ms_morton", "gpu_ms_sort", "gpu_ms_emit",
+                                       "gpu_ms_clip", "gpu_ms_collapse"};
+        for (size_t p = 0; p < sizeof pass_counters / sizeof pass_counters[0]; p++) {
+            double ms = counter(bih, pass_counters[p]);
+            PF_CHECK_MSG(ms >= 0.0, "%s bih_build: %s %g", pf_quality_name(quality),
+                         pass_counters[p], ms);
+            passes += ms;
+        }
+        PF_CHECK_MSG(bih->gpu_ms >= 0.0 && fabs(passes - bih->gpu_ms) <= 1e-6 + 1e-9 * passes,
+                     "%s bih_build: passes %g ms, row %g ms", pf_quality_name(quality), passes,
+                     bih->gpu_ms);
+    }
 }
 
 /* The tree the GPU build leaves on the device traces as an uploaded CPU build does: the
