@@ -334,9 +334,9 @@ static char *counters_json(const pf_stage_timing *stage)
 static void finish_run(db_op *op)
 {
     worker *w = op->owner;
-    store_attempt_log(w);
     /* Renew first: a rename with a lease about to lapse could race the reaper. */
     op->status = pf_queue_heartbeat(w->queue, op->token, NULL, &op->err);
+    store_attempt_log(w);
     if (op->status == PF_ERR_INVALID) {
         op->flag = true;
         discard_outputs(w);
