@@ -72,26 +72,26 @@ static void film_to_image(const float *film, const render_push *tile, uint32_t s
 }
 
 /*
- * Renders one tile: one dispatch per sample (each adds to the film), wait,
- * read back. Adds its GPU time to *gpu_ms.
+ * Renders one tile: one dispatch per sample (each adds to the film) and the
+ * readbacks, one submission and one wait. Adds its GPU time to *gpu_ms.
  */
 static pf_status render_tile(pf_renderer *renderer, pf_vk_buffer *const *buffers,
                              const render_push *tile, uint32_t spp, float *film,
                              render_counters *counters, double *gpu_ms, pf_error *err)
 {
     pf_vk_context *ctx = renderer->ctx;
-    const render_counters zero = {0, 0, 0, 0};
-    pf_status status = pf_vk_buffer_upload(ctx, buffers[PF_SCENE_BINDING_COUNT + 1], 0, &zero, sizeof zero, err);
-    if (status != PF_OK)
-        return status;
+    static const render_counters zero = {0, 0, 0, 0};
     pf_vk_pipeline *pipeline = NULL;
-    status = pf_renderer_pipeline(renderer, PF_PIPELINE_DIRECT, &pipeline, err);
+    pf_status status = pf_renderer_pipeline(renderer, PF_PIPELINE_DIRECT, &pipeline, err);
     if (status != PF_OK)
         return status;
+    /* The counters zeroed, the samples and the readbacks: one submission (issue 44). */
     pf_vk_commands *cmds = NULL;
     status = pf_vk_commands_begin(ctx, &cmds, err);
     if (status != PF_OK)
         return status;
+    status = pf_vk_cmd_upload(cmds, buffers[PF_SCENE_BINDING_COUNT + 1], 0, &zero, sizeof zero,
+                              err);
     int begin = pf_vk_cmd_timestamp(cmds);
     for (uint32_t sample = 0; status == PF_OK && sample < spp; sample++) {
         render_push push = *tile;
@@ -105,6 +105,14 @@ static pf_status render_tile(pf_renderer *renderer, pf_vk_buffer *const *buffers
     }
     int end = pf_vk_cmd_timestamp(cmds);
     if (status == PF_OK)
+        status = pf_vk_cmd_download(cmds, buffers[PF_SCENE_BINDING_COUNT], 0, film,
+                                    (uint64_t)tile->tile_size[0] * tile->tile_size[1] *
+                                        FILM_VEC4_PER_PIXEL * 4 * sizeof(float),
+                                    err);
+    if (status == PF_OK)
+        status = pf_vk_cmd_download(cmds, buffers[PF_SCENE_BINDING_COUNT + 1], 0, counters,
+                                    sizeof *counters, err);
+    if (status == PF_OK)
         status = pf_vk_commands_submit(cmds, err);
     if (status == PF_OK && begin >= 0 && end >= 0) {
         double elapsed = pf_vk_commands_elapsed_ms(cmds, begin, end);
@@ -112,13 +120,6 @@ static pf_status render_tile(pf_renderer *renderer, pf_vk_buffer *const *buffers
             *gpu_ms = (*gpu_ms < 0.0 ? 0.0 : *gpu_ms) + elapsed;
     }
     pf_vk_commands_destroy(cmds);
-    if (status == PF_OK)
-        status = pf_vk_buffer_download(ctx, buffers[PF_SCENE_BINDING_COUNT], 0, film,
-                                       (uint64_t)tile->tile_size[0] * tile->tile_size[1] *
-                                           FILM_VEC4_PER_PIXEL * 4 * sizeof(float),
-                                       err);
-    if (status == PF_OK)
-        status = pf_vk_buffer_download(ctx, buffers[PF_SCENE_BINDING_COUNT + 1], 0, counters, sizeof *counters, err);
     return status;
 }
 

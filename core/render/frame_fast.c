@@ -278,19 +278,21 @@ static pf_status shade(pf_renderer *renderer, struct pf_fast_cache *cache,
     pf_frame_params_fill(frame, settings, samples, scene, bih, &params);
     params.max_specular_depth = FAST_MAX_SPECULAR_DEPTH;
     fast_buffers owned = {0};
-    pf_status status = PF_OK;
-    const fast_counters zero = {0};
+    static const fast_counters zero = {0};
+    /* The uploads, the samples and the counters' readback: one submission (issue 44). */
+    pf_vk_commands *cmds = NULL;
+    pf_status status = pf_vk_commands_begin(ctx, &cmds, err);
     if (status == PF_OK)
-        status = pf_render_buffer_with_data(ctx, "frame parameters", &params, sizeof params,
-                                            sizeof params, &owned.params, err);
+        status = pf_render_buffer_recorded(ctx, cmds, "frame parameters", &params, sizeof params,
+                                           sizeof params, &owned.params, err);
     if (status == PF_OK)
         status = pf_split_film_create(ctx, settings, 1, "fast", &owned.film, &owned.film_aov, err);
     if (status == PF_OK)
-        status = pf_render_buffer_with_data(ctx, "fast counters", &zero, sizeof zero, sizeof zero,
-                                            &owned.counters, err);
+        status = pf_render_buffer_recorded(ctx, cmds, "fast counters", &zero, sizeof zero,
+                                           sizeof zero, &owned.counters, err);
     if (status == PF_OK)
-        status = pf_render_buffer_with_data(ctx, "empty photon grid", NULL, 0, 16,
-                                            &owned.empty_grid, err);
+        status = pf_render_buffer_recorded(ctx, cmds, "empty photon grid", NULL, 0, 16,
+                                           &owned.empty_grid, err);
     fast_push push = {0};
     push.loop_sentinel = 1;
     push.lpv_damping = settings->lpv.undamped ? 0u : 1u;
@@ -324,9 +326,6 @@ static pf_status shade(pf_renderer *renderer, struct pf_fast_cache *cache,
         status = pf_renderer_pipeline(
             renderer, push.grid_photons > 0 ? PF_PIPELINE_FAST_CAUSTIC : PF_PIPELINE_FAST, &kernel,
             err);
-    pf_vk_commands *cmds = NULL;
-    if (status == PF_OK)
-        status = pf_vk_commands_begin(ctx, &cmds, err);
     uint32_t groups_x = (settings->width + GROUP_EDGE - 1) / GROUP_EDGE;
     uint32_t groups_y = (settings->height + GROUP_EDGE - 1) / GROUP_EDGE;
     int begin = status == PF_OK ? pf_vk_cmd_timestamp(cmds) : -1;
@@ -337,14 +336,14 @@ static pf_status shade(pf_renderer *renderer, struct pf_fast_cache *cache,
         pf_vk_cmd_barrier(cmds);
     }
     int end = status == PF_OK ? pf_vk_cmd_timestamp(cmds) : -1;
+    fast_counters counters;
+    if (status == PF_OK)
+        status = pf_vk_cmd_download(cmds, owned.counters, 0, &counters, sizeof counters, err);
     if (status == PF_OK)
         status = pf_vk_commands_submit(cmds, err);
     if (status == PF_OK && begin >= 0 && end >= 0)
         progress->shade_gpu_ms = pf_vk_commands_elapsed_ms(cmds, begin, end);
     pf_vk_commands_destroy(cmds);
-    fast_counters counters;
-    if (status == PF_OK)
-        status = pf_vk_buffer_download(ctx, owned.counters, 0, &counters, sizeof counters, err);
     if (status == PF_OK) {
         progress->samples = samples;
         progress->rays = ((uint64_t)counters.rays_high << 32) | counters.rays_low;

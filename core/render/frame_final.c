@@ -394,8 +394,8 @@ static pf_status shade_sample(pf_renderer *renderer, pf_vk_buffer **buffers,
                               final_progress *progress, pf_error *err)
 {
     pf_vk_context *ctx = renderer->ctx;
-    const final_counters zero = {0};
-    pf_status status = pf_vk_buffer_upload(ctx, owned->counters, 0, &zero, sizeof zero, err);
+    static const final_counters zero = {0};
+    pf_status status = PF_OK;
     pf_vk_pipeline *primary = NULL, *caustic = NULL, *gather = NULL, *fallback = NULL,
                    *resolve = NULL;
     /* The primary and the caustic kernel gather from the caustic map. */
@@ -424,11 +424,15 @@ static pf_status shade_sample(pf_renderer *renderer, pf_vk_buffer **buffers,
         status = pf_renderer_pipeline(renderer, PF_PIPELINE_FINAL_FALLBACK, &fallback, err);
     if (status == PF_OK)
         status = pf_renderer_pipeline(renderer, PF_PIPELINE_FINAL_RESOLVE, &resolve, err);
+    /* Two submissions a sample: the counters zeroed, the primary, caustic and gather
+     * kernels and the counters' readback, which says whether the deferred requests
+     * overflowed; then the retrace, fallback and resolve with the counters again. */
     pf_vk_commands *cmds = NULL;
     if (status == PF_OK)
         status = pf_vk_commands_begin(ctx, &cmds, err);
     if (status != PF_OK)
         return status;
+    status = pf_vk_cmd_upload(cmds, owned->counters, 0, &zero, sizeof zero, err);
     uint32_t groups_x = (settings->width + GROUP_EDGE - 1) / GROUP_EDGE;
     uint32_t groups_y = (settings->height + GROUP_EDGE - 1) / GROUP_EDGE;
     int begin = pf_vk_cmd_timestamp(cmds);
@@ -441,8 +445,9 @@ static pf_status shade_sample(pf_renderer *renderer, pf_vk_buffer **buffers,
     push.loop_sentinel = 1;
     push.gather_retrace = 0;
     bind_points(NULL, owned->empty_grid, &push, buffers);
-    status = pf_vk_cmd_dispatch(cmds, primary, buffers, PF_FINAL_BUFFERS,
-                                &push, sizeof push, groups_x, groups_y, 1, err);
+    if (status == PF_OK)
+        status = pf_vk_cmd_dispatch(cmds, primary, buffers, PF_FINAL_BUFFERS,
+                                    &push, sizeof push, groups_x, groups_y, 1, err);
     if (status == PF_OK && caustics) {
         pf_vk_cmd_barrier(cmds);
         status = pf_vk_cmd_dispatch(cmds, caustic, buffers, PF_FINAL_BUFFERS, &push, sizeof push,
@@ -468,12 +473,12 @@ static pf_status shade_sample(pf_renderer *renderer, pf_vk_buffer **buffers,
                                     &push, sizeof push, groups_x, groups_y, 1, err);
     }
     int end = pf_vk_cmd_timestamp(cmds);
+    final_counters counters;
+    if (status == PF_OK)
+        status = pf_vk_cmd_download(cmds, owned->counters, 0, &counters, sizeof counters, err);
     if (status == PF_OK)
         status = pf_vk_commands_submit(cmds, err);
     finish_commands(cmds, begin, status == PF_OK ? end : -1, progress);
-    final_counters counters;
-    if (status == PF_OK)
-        status = pf_vk_buffer_download(ctx, owned->counters, 0, &counters, sizeof counters, err);
     int overflow =
         status == PF_OK && lookups && counters.fallback_requests > push.fallback_capacity;
     pf_vk_pipeline *retrace = NULL;
@@ -506,12 +511,12 @@ static pf_status shade_sample(pf_renderer *renderer, pf_vk_buffer **buffers,
         status = pf_vk_cmd_dispatch(cmds, resolve, buffers, PF_FINAL_BUFFERS, &push, sizeof push,
                                     groups_x, groups_y, 1, err);
     end = pf_vk_cmd_timestamp(cmds);
+    /* The counters again: the retrace's truncations and failures are the sample's too. */
+    if (status == PF_OK)
+        status = pf_vk_cmd_download(cmds, owned->counters, 0, &counters, sizeof counters, err);
     if (status == PF_OK)
         status = pf_vk_commands_submit(cmds, err);
     finish_commands(cmds, begin, status == PF_OK ? end : -1, progress);
-    /* The counters again: the retrace's truncations and failures are the sample's too. */
-    if (status == PF_OK)
-        status = pf_vk_buffer_download(ctx, owned->counters, 0, &counters, sizeof counters, err);
     if (status == PF_OK) {
         progress->rays += ((uint64_t)counters.rays_high << 32) | counters.rays_low;
         progress->discarded += counters.discarded_samples;

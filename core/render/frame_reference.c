@@ -64,14 +64,14 @@ static pf_status run_passes(pf_renderer *renderer, pf_vk_pipeline *pipeline,
                             uint32_t count, reference_progress *progress, pf_error *err)
 {
     pf_vk_context *ctx = renderer->ctx;
-    const reference_counters zero = {0, 0, 0, 0};
-    pf_status status =
-        pf_vk_buffer_upload(ctx, buffers[REFERENCE_COUNTER_BINDING], 0, &zero, sizeof zero, err);
+    static const reference_counters zero = {0, 0, 0, 0};
+    /* The counters zeroed, the passes and the counters' readback: one submission. */
     pf_vk_commands *cmds = NULL;
-    if (status == PF_OK)
-        status = pf_vk_commands_begin(ctx, &cmds, err);
+    pf_status status = pf_vk_commands_begin(ctx, &cmds, err);
     if (status != PF_OK)
         return status;
+    status = pf_vk_cmd_upload(cmds, buffers[REFERENCE_COUNTER_BINDING], 0, &zero, sizeof zero,
+                              err);
     int begin = pf_vk_cmd_timestamp(cmds);
     for (uint32_t pass = 0; status == PF_OK && pass < count; pass++) {
         reference_push push = {progress->passes + pass};
@@ -83,6 +83,10 @@ static pf_status run_passes(pf_renderer *renderer, pf_vk_pipeline *pipeline,
             (settings->height + REFERENCE_GROUP_EDGE - 1) / REFERENCE_GROUP_EDGE, 1, err);
     }
     int end = pf_vk_cmd_timestamp(cmds);
+    reference_counters counters;
+    if (status == PF_OK)
+        status = pf_vk_cmd_download(cmds, buffers[REFERENCE_COUNTER_BINDING], 0, &counters,
+                                    sizeof counters, err);
     if (status == PF_OK)
         status = pf_vk_commands_submit(cmds, err);
     if (status == PF_OK && begin >= 0 && end >= 0) {
@@ -91,10 +95,6 @@ static pf_status run_passes(pf_renderer *renderer, pf_vk_pipeline *pipeline,
             progress->gpu_ms = (progress->gpu_ms < 0.0 ? 0.0 : progress->gpu_ms) + elapsed;
     }
     pf_vk_commands_destroy(cmds);
-    reference_counters counters;
-    if (status == PF_OK)
-        status = pf_vk_buffer_download(ctx, buffers[REFERENCE_COUNTER_BINDING], 0, &counters,
-                                       sizeof counters, err);
     if (status == PF_OK) {
         progress->passes += count;
         progress->rays += ((uint64_t)counters.rays_high << 32) | counters.rays_low;

@@ -560,5 +560,10 @@ void pf_render_buffer_release(pf_vk_context *ctx, pf_vk_buffer **buffer);
 pf_status pf_render_buffer_with_data(pf_vk_context *ctx, const char *label, const void *data,
                                      uint64_t size, uint64_t min_bytes, pf_vk_buffer **out,
                                      pf_error *err);
+/* The same with the upload recorded in cmds (pf_vk_cmd_upload): it lands before the
+ * commands recorded after it, in the same submission (issue 44). */
+pf_status pf_render_buffer_recorded(pf_vk_context *ctx, pf_vk_commands *cmds, const char *label,
+                                    const void *data, uint64_t size, uint64_t min_bytes,
+                                    pf_vk_buffer **out, pf_error *err);
 
 #endif

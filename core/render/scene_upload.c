@@ -13,24 +13,39 @@
 /* Stand-in contents for an empty array (every GPU struct here is at most 64 bytes). */
 #define EMPTY_ARRAY_BYTES 64u
 
-pf_status pf_render_buffer_with_data(pf_vk_context *ctx, const char *label, const void *data,
-                                     uint64_t size, uint64_t min_bytes, pf_vk_buffer **out,
-                                     pf_error *err)
+/* A buffer of at least min_bytes with data uploaded, blocking (cmds NULL) or recorded. */
+static pf_status buffer_with_data(pf_vk_context *ctx, pf_vk_commands *cmds, const char *label,
+                                  const void *data, uint64_t size, uint64_t min_bytes,
+                                  pf_vk_buffer **out, pf_error *err)
 {
     static const unsigned char zeros[EMPTY_ARRAY_BYTES];
     uint64_t bytes = size > min_bytes ? size : min_bytes;
     pf_status status = pf_vk_buffer_create(ctx, bytes, label, out, err);
     if (status != PF_OK)
         return status;
-    if (size > 0)
-        status = pf_vk_buffer_upload(ctx, *out, 0, data, size, err);
-    else
-        status = pf_vk_buffer_upload(ctx, *out, 0, zeros,
-                                     min_bytes < EMPTY_ARRAY_BYTES ? min_bytes : EMPTY_ARRAY_BYTES,
-                                     err);
+    if (size == 0) {
+        data = zeros;
+        size = min_bytes < EMPTY_ARRAY_BYTES ? min_bytes : EMPTY_ARRAY_BYTES;
+    }
+    status = cmds ? pf_vk_cmd_upload(cmds, *out, 0, data, size, err)
+                  : pf_vk_buffer_upload(ctx, *out, 0, data, size, err);
     if (status != PF_OK)
         pf_render_buffer_release(ctx, out);
     return status;
+}
+
+pf_status pf_render_buffer_with_data(pf_vk_context *ctx, const char *label, const void *data,
+                                     uint64_t size, uint64_t min_bytes, pf_vk_buffer **out,
+                                     pf_error *err)
+{
+    return buffer_with_data(ctx, NULL, label, data, size, min_bytes, out, err);
+}
+
+pf_status pf_render_buffer_recorded(pf_vk_context *ctx, pf_vk_commands *cmds, const char *label,
+                                    const void *data, uint64_t size, uint64_t min_bytes,
+                                    pf_vk_buffer **out, pf_error *err)
+{
+    return buffer_with_data(ctx, cmds, label, data, size, min_bytes, out, err);
 }
 
 static float triangle_area(const float (*vertices)[4])
@@ -188,16 +203,16 @@ static pf_status triangle_material_words(const pf_scene_frame *frame, uint32_t *
 }
 
 /* The frame's texture table and texels in two new buffers (16-byte placeholders if none). */
-static pf_status texture_upload(pf_vk_context *ctx, const pf_scene_frame *frame,
-                                   pf_vk_buffer **textures, pf_vk_buffer **texels, pf_error *err)
+static pf_status texture_upload(pf_vk_context *ctx, pf_vk_commands *cmds,
+                                const pf_scene_frame *frame, pf_vk_buffer **textures,
+                                pf_vk_buffer **texels, pf_error *err)
 {
-    pf_status status = pf_render_buffer_with_data(ctx, "textures", frame->textures,
-                                                  frame->texture_count * sizeof(pf_texture_ref),
-                                                  16, textures, err);
+    pf_status status = buffer_with_data(ctx, cmds, "textures", frame->textures,
+                                        frame->texture_count * sizeof(pf_texture_ref), 16,
+                                        textures, err);
     if (status == PF_OK)
-        status = pf_render_buffer_with_data(ctx, "texels", frame->texels,
-                                            frame->texel_count * sizeof(uint32_t), 16, texels,
-                                            err);
+        status = buffer_with_data(ctx, cmds, "texels", frame->texels,
+                                  frame->texel_count * sizeof(uint32_t), 16, texels, err);
     if (status != PF_OK)
         pf_render_buffer_release(ctx, textures);
     return status;
@@ -223,7 +238,7 @@ pf_status pf_render_prepare_textures(pf_renderer *renderer, const pf_scene_frame
         pf_render_buffer_release(renderer->ctx, &cache->texels);
         cache->texture_set = 0;
         pf_status status =
-            texture_upload(renderer->ctx, frame, &cache->textures, &cache->texels, err);
+            texture_upload(renderer->ctx, NULL, frame, &cache->textures, &cache->texels, err);
         if (status != PF_OK) {
             pf_error_prefix(err, "textures (%u, %.1f MiB)", frame->texture_count, megabytes);
             return status;
@@ -241,56 +256,70 @@ pf_status pf_render_prepare_textures(pf_renderer *renderer, const pf_scene_frame
     return PF_OK;
 }
 
+/* Submits the scene's recorded uploads (when status is PF_OK), or releases it. */
+static pf_status finish_scene_upload(pf_vk_context *ctx, pf_vk_commands *cmds,
+                                     pf_status status, pf_gpu_scene *out, pf_error *err)
+{
+    if (status == PF_OK)
+        status = pf_vk_commands_submit(cmds, err);
+    pf_vk_commands_destroy(cmds);
+    if (status != PF_OK)
+        pf_gpu_scene_release(ctx, out);
+    return status;
+}
+
 pf_status pf_gpu_scene_upload(pf_vk_context *ctx, const pf_scene_frame *frame, int full,
                               const pf_texture_cache *cache, pf_gpu_scene *out, pf_error *err)
 {
     memset(out, 0, sizeof *out);
-    uint64_t triangles = frame->triangle_count;
-    uint64_t vertex_bytes = triangles * 3 * sizeof(float[4]);
-    pf_status status = pf_render_buffer_with_data(ctx, "triangle vertices", frame->vertices,
-                                                  vertex_bytes, 3 * sizeof(float[4]),
-                                                  &out->vertices, err);
-    if (status != PF_OK || !full)
-        return status;
-    for (uint32_t t = 0; t < frame->triangle_count; t++) {
-        if (frame->triangle_material[t] >= frame->material_count) {
-            pf_gpu_scene_release(ctx, out);
+    for (uint32_t t = 0; full && t < frame->triangle_count; t++)
+        if (frame->triangle_material[t] >= frame->material_count)
             return pf_error_set(err, PF_ERR_INVALID,
                                 "triangle %u: material %u out of range (%u materials)", t,
                                 frame->triangle_material[t], frame->material_count);
-        }
-    }
+    /* Every upload recorded, then one submission and one wait (issue 44). */
+    pf_vk_commands *cmds = NULL;
+    pf_status status = pf_vk_commands_begin(ctx, &cmds, err);
+    if (status != PF_OK)
+        return status;
+    uint64_t triangles = frame->triangle_count;
+    uint64_t vertex_bytes = triangles * 3 * sizeof(float[4]);
+    status = buffer_with_data(ctx, cmds, "triangle vertices", frame->vertices, vertex_bytes,
+                              3 * sizeof(float[4]), &out->vertices, err);
+    if (status != PF_OK || !full)
+        return finish_scene_upload(ctx, cmds, status, out, err);
     pf_emissive_entry *table = NULL;
     double weight_total = 0.0;
     uint32_t *material_words = NULL;
-    status = pf_render_buffer_with_data(ctx, "triangle normals", frame->normals, vertex_bytes,
-                                        3 * sizeof(float[4]), &out->normals, err);
+    status = buffer_with_data(ctx, cmds, "triangle normals", frame->normals, vertex_bytes,
+                              3 * sizeof(float[4]), &out->normals, err);
     if (status == PF_OK)
         status = triangle_material_words(frame, &material_words, err);
     if (status == PF_OK)
-        status = pf_render_buffer_with_data(
-            ctx, "triangle materials", material_words ? material_words : frame->triangle_material,
+        status = buffer_with_data(
+            ctx, cmds, "triangle materials",
+            material_words ? material_words : frame->triangle_material,
             triangles * sizeof(uint32_t), sizeof(uint32_t), &out->triangle_material, err);
     free(material_words);
     if (status == PF_OK)
-        status = pf_render_buffer_with_data(ctx, "materials", frame->materials,
-                                            frame->material_count * sizeof(pf_material),
-                                            sizeof(pf_material), &out->materials, err);
+        status = buffer_with_data(ctx, cmds, "materials", frame->materials,
+                                  frame->material_count * sizeof(pf_material),
+                                  sizeof(pf_material), &out->materials, err);
     if (status == PF_OK)
-        status = pf_render_buffer_with_data(ctx, "lights", frame->lights,
-                                            frame->light_count * sizeof(pf_light),
-                                            sizeof(pf_light), &out->lights, err);
+        status = buffer_with_data(ctx, cmds, "lights", frame->lights,
+                                  frame->light_count * sizeof(pf_light), sizeof(pf_light),
+                                  &out->lights, err);
     if (status == PF_OK)
         status = pf_emissive_table_build(frame, &table, &out->emissive_count, &weight_total, err);
     if (status == PF_OK)
-        status = pf_render_buffer_with_data(ctx, "emissive triangles", table,
-                                            out->emissive_count * sizeof(pf_emissive_entry),
-                                            sizeof(pf_emissive_entry), &out->emissive, err);
+        status = buffer_with_data(ctx, cmds, "emissive triangles", table,
+                                  out->emissive_count * sizeof(pf_emissive_entry),
+                                  sizeof(pf_emissive_entry), &out->emissive, err);
     free(table);
     /* Without corners a placeholder: the kernels' variant reads none (pf_scene.h PF_SURFACE_*). */
     if (status == PF_OK)
-        status = pf_render_buffer_with_data(
-            ctx, "triangle corners", frame->corners,
+        status = buffer_with_data(
+            ctx, cmds, "triangle corners", frame->corners,
             frame->corners ? triangles * 3 * PF_CORNER_TEXELS * sizeof(float[4]) : 0, 16,
             &out->corners, err);
     if (status == PF_OK && cache && frame->texture_set != 0 &&
@@ -299,10 +328,8 @@ pf_status pf_gpu_scene_upload(pf_vk_context *ctx, const pf_scene_frame *frame, i
         out->texels = cache->texels;
         out->textures_borrowed = 1;
     } else if (status == PF_OK) {
-        status = texture_upload(ctx, frame, &out->textures, &out->texels, err);
+        status = texture_upload(ctx, cmds, frame, &out->textures, &out->texels, err);
     }
     out->emissive_weight_total = (float)weight_total;
-    if (status != PF_OK)
-        pf_gpu_scene_release(ctx, out);
-    return status;
+    return finish_scene_upload(ctx, cmds, status, out, err);
 }

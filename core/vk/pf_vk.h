@@ -200,6 +200,8 @@ pf_status pf_vk_cmd_upload(pf_vk_commands *cmds, pf_vk_buffer *buffer, uint64_t 
                            const void *data, uint64_t size, pf_error *err);
 pf_status pf_vk_cmd_download(pf_vk_commands *cmds, pf_vk_buffer *buffer, uint64_t offset,
                              void *data, uint64_t size, pf_error *err);
+/* Submits and waits. Commands with nothing for the device (no dispatch, timestamp or
+ * staged copy: only copies to and from mapped buffers) are not submitted. */
 pf_status pf_vk_commands_submit(pf_vk_commands *cmds, pf_error *err);
 /* GPU milliseconds between two timestamp slots after submit; negative if unavailable. */
 double pf_vk_commands_elapsed_ms(const pf_vk_commands *cmds, int slot_begin, int slot_end);
