@@ -89,13 +89,15 @@ void pf_bih_gpu_destroy(pf_bih_gpu *gpu)
     free(gpu);
 }
 
-static pf_status upload_array(pf_vk_context *ctx, const void *data, uint64_t bytes,
-                              const char *label, pf_vk_buffer **out, pf_error *err)
+/* A buffer of at least MIN_BUFFER_BYTES with data's upload recorded in cmds. */
+static pf_status upload_array(pf_vk_context *ctx, pf_vk_commands *cmds, const void *data,
+                              uint64_t bytes, const char *label, pf_vk_buffer **out,
+                              pf_error *err)
 {
     pf_status status = pf_vk_buffer_create(ctx, bytes > MIN_BUFFER_BYTES ? bytes : MIN_BUFFER_BYTES,
                                            label, out, err);
     if (status == PF_OK && bytes > 0)
-        status = pf_vk_buffer_upload(ctx, *out, 0, data, bytes, err);
+        status = pf_vk_cmd_upload(cmds, *out, 0, data, bytes, err);
     return status;
 }
 
@@ -114,17 +116,24 @@ pf_status pf_bih_gpu_upload(pf_bih_gpu *gpu, const pf_bih *bih, pf_error *err)
         texels[i][2] = bih->nodes[i].word;
         texels[i][3] = 0;
     }
-    pf_status status = upload_array(gpu->ctx, texels, (uint64_t)bih->node_count * sizeof *texels,
-                                    "BIH nodes", &gpu->nodes, err);
+    /* The three arrays in one submission (issue 44: a refit tree is uploaded so). */
+    pf_vk_commands *cmds = NULL;
+    pf_status status = pf_vk_commands_begin(gpu->ctx, &cmds, err);
+    if (status == PF_OK)
+        status = upload_array(gpu->ctx, cmds, texels, (uint64_t)bih->node_count * sizeof *texels,
+                              "BIH nodes", &gpu->nodes, err);
     free(texels);
     if (status == PF_OK)
-        status = upload_array(gpu->ctx, bih->vertices,
+        status = upload_array(gpu->ctx, cmds, bih->vertices,
                               (uint64_t)bih->triangle_count * 3 * sizeof bih->vertices[0],
                               "BIH vertices", &gpu->vertices, err);
     if (status == PF_OK)
-        status = upload_array(gpu->ctx, bih->triangle_index,
+        status = upload_array(gpu->ctx, cmds, bih->triangle_index,
                               (uint64_t)bih->triangle_count * sizeof(uint32_t),
                               "BIH triangle index", &gpu->triangle_index, err);
+    if (status == PF_OK)
+        status = pf_vk_commands_submit(cmds, err);
+    pf_vk_commands_destroy(cmds);
     if (status != PF_OK) {
         release_tree(gpu);
         pf_error_prefix(err, "BIH upload (%u nodes, %u triangles)", bih->node_count,

@@ -161,6 +161,35 @@ PF_TEST(the_device_resident_tree_renders_as_an_uploaded_one)
     pf_image_free(&images[1]);
 }
 
+/* A refit tree (the same triangles moved) is uploaded in one submission too. */
+PF_TEST(a_refit_tree_is_one_submission)
+{
+    pf_render_settings settings = {WIDTH, HEIGHT, PF_QUALITY_PREVIEW, 1, 7, 0, 0.0, 0};
+    pf_renderer *own = fresh_renderer(PF_BIH_BUILD_GPU);
+    PF_REQUIRE(own);
+    pf_error err = {0};
+    for (int frame = 0; frame < 2; frame++) {
+        if (frame == 1) /* every vertex 1 mm along x: same tree shape, refit */
+            for (uint32_t v = 0; v < 3 * cornell_frame.triangle_count; v++)
+                cornell_frame.vertices[v][0] += 0.001f;
+        pf_image image = {0};
+        pf_frame_report report = {0};
+        PF_CHECK_OK(pf_render_frame(own, &cornell_frame, &settings, &image, &report, &err), &err);
+        pf_image_free(&image);
+        const pf_stage_timing *bih = ref_row(&report, "bih_build");
+        PF_REQUIRE(bih && !bih->skipped);
+        if (frame == 1)
+            PF_CHECK_MSG(counter(bih, "decision") == 1 && counter(bih, "submits") == 1 &&
+                             counter(bih, "host_waits") == 1,
+                         "decision %.0f (1: refit), %.0f submits, %.0f waits",
+                         counter(bih, "decision"), counter(bih, "submits"),
+                         counter(bih, "host_waits"));
+    }
+    for (uint32_t v = 0; v < 3 * cornell_frame.triangle_count; v++)
+        cornell_frame.vertices[v][0] -= 0.001f;
+    pf_renderer_destroy(own);
+}
+
 PF_TEST(every_preset_counts_its_traffic_per_stage)
 {
     check_preset(PF_QUALITY_PREVIEW, 1);
@@ -177,6 +206,7 @@ int main(void)
         return 1;
     pf_vk_force_staging(ctx, 1);
     PF_RUN(the_device_resident_tree_renders_as_an_uploaded_one);
+    PF_RUN(a_refit_tree_is_one_submission);
     PF_RUN(every_preset_counts_its_traffic_per_stage);
     pf_scene_frame_free(&cornell_frame);
     pf_scene_destroy(cornell_scene);
