@@ -266,6 +266,8 @@ pf_status pf_lpv_propagate(pf_lpv *lpv, const pf_lpv_layout *layout, const float
         stats = &local;
     memset(stats, 0, sizeof *stats);
     stats->gpu_ms = -1.0;
+    for (uint32_t k = 0; k < PF_LPV_MAX_CASCADES; k++)
+        stats->cascade_gpu_ms[k] = -1.0;
     uint64_t floats = pf_lpv_volume_floats(layout, PF_LPV_FLOATS_PER_CELL);
     uint64_t cells = (uint64_t)layout->size * layout->size * layout->size;
     for (uint32_t k = 0; k < layout->count; k++)
@@ -284,7 +286,8 @@ pf_status pf_lpv_propagate(pf_lpv *lpv, const pf_lpv_layout *layout, const float
         if (layout->cascades[k].iterations == 0)
             status = record_zeros(cmds, lpv->snapshot, k * cells * PF_LPV_FLOATS_PER_CELL,
                                   cells * PF_LPV_FLOATS_PER_CELL, err);
-    int begin = pf_vk_cmd_timestamp(cmds);
+    int stamps[PF_LPV_MAX_CASCADES + 1];
+    stamps[0] = pf_vk_cmd_timestamp(cmds);
     for (uint32_t k = 0; status == PF_OK && k < layout->count; k++) {
         propagate_push push = {layout->size, (uint32_t)(k * cells), gv != NULL};
         pf_vk_buffer *source = lpv->injected;
@@ -309,12 +312,14 @@ pf_status pf_lpv_propagate(pf_lpv *lpv, const pf_lpv_layout *layout, const float
             pf_vk_cmd_barrier(cmds);
             source = destination;
         }
+        stamps[k + 1] = pf_vk_cmd_timestamp(cmds);
     }
-    int end = pf_vk_cmd_timestamp(cmds);
     if (status == PF_OK)
         status = pf_vk_commands_submit(cmds, err);
-    if (status == PF_OK && begin >= 0 && end >= 0)
-        stats->gpu_ms = pf_vk_commands_elapsed_ms(cmds, begin, end);
+    for (uint32_t k = 0; status == PF_OK && k < layout->count; k++)
+        stats->cascade_gpu_ms[k] = pf_vk_commands_elapsed_ms(cmds, stamps[k], stamps[k + 1]);
+    if (status == PF_OK && layout->count > 0)
+        stats->gpu_ms = pf_vk_commands_elapsed_ms(cmds, stamps[0], stamps[layout->count]);
     pf_vk_commands_destroy(cmds);
     if (status != PF_OK)
         pf_error_prefix(err, "LPV propagation (%u cascades of %u³)", layout->count, layout->size);

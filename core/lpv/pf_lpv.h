@@ -242,6 +242,9 @@ void pf_lpv_destroy(pf_lpv *lpv);
 
 typedef struct pf_lpv_propagate_stats {
     double gpu_ms;                           /* < 0 without timestamps, or on the host */
+    /* Each cascade's share of gpu_ms, from timestamps between the cascades inside the one
+     * submission (issue 44); < 0 as gpu_ms. */
+    double cascade_gpu_ms[PF_LPV_MAX_CASCADES];
     uint64_t cell_updates;                   /* cells × iterations, all cascades */
     int on_host;                             /* 1: the iterations ran on the host's CPUs */
 } pf_lpv_propagate_stats;

@@ -100,6 +100,7 @@ void pf_fast_cache_destroy(pf_vk_context *ctx, struct pf_fast_cache *cache)
 /* Frame-wide figures for the rows. */
 typedef struct fast_progress {
     double trace_ms, caustic_ms, geometry_ms, inject_ms, propagate_ms, propagate_gpu_ms;
+    double propagate_cascade_gpu_ms[PF_LPV_MAX_CASCADES]; /* < 0: not measured */
     int propagate_on_host; /* the propagation ran on the host's CPUs (pf_lpv_propagate_stats) */
     uint32_t samples;
     uint64_t rays, discarded, truncated, failures, lpv_outside;
@@ -230,6 +231,8 @@ static pf_status propagate(struct pf_fast_cache *cache, const pf_lpv_layout *lay
     pf_status status =
         pf_lpv_propagate(cache->lpv, layout, cache->injected, cache->geometry, &stats, err);
     progress->propagate_gpu_ms = stats.gpu_ms;
+    memcpy(progress->propagate_cascade_gpu_ms, stats.cascade_gpu_ms,
+           sizeof progress->propagate_cascade_gpu_ms);
     progress->propagate_on_host = stats.on_host;
     progress->propagate_ms = pf_time_ms() - start;
     return status;
@@ -412,6 +415,15 @@ static void report_rows(pf_frame_report *report, const struct pf_fast_cache *cac
             char name[32];
             snprintf(name, sizeof name, "iterations_cascade%u", k);
             pf_stage_add_counter(row, name, layout->cascades[k].iterations);
+        }
+        /* Where the device time went, cascade by cascade (issue 44). */
+        for (uint32_t k = 0; k < layout->count && progress->propagate_gpu_ms >= 0.0 &&
+                             row->counter_count + PF_STAGE_TRAFFIC_COUNTERS <
+                                 PF_STAGE_COUNTERS_MAX;
+             k++) {
+            char name[32];
+            snprintf(name, sizeof name, "gpu_ms_cascade%u", k);
+            pf_stage_add_counter(row, name, progress->propagate_cascade_gpu_ms[k]);
         }
     }
     row = pf_stage_row(report, plan, PF_STAGE_SHADE, shade_ms, progress->shade_gpu_ms);

@@ -338,7 +338,9 @@ pf_status pf_render_prepare_bih(pf_renderer *renderer, const pf_scene_frame *fra
  * not NULL; NULL when report is NULL or full.
  */
 /* Adds traffic's submits, host_waits, readback_bytes and upload_bytes to row as counters
- * (issue 44; nothing when row is NULL). */
+ * (issue 44; nothing when row is NULL). The stage loop adds them after the integrator's
+ * own: a row's optional counters leave PF_STAGE_TRAFFIC_COUNTERS free. */
+#define PF_STAGE_TRAFFIC_COUNTERS 4u
 void pf_stage_add_traffic(pf_stage_timing *row, pf_vk_traffic traffic);
 /* sum += more. */
 void pf_traffic_add(pf_vk_traffic *sum, pf_vk_traffic more);

@@ -395,6 +395,16 @@ PF_TEST(the_host_propagation_agrees_with_the_device)
         pf_lpv_set_site(lpv, PF_LPV_SITE_DEVICE);
         PF_REQUIRE_OK(pf_lpv_propagate(lpv, &layout, injected, geometry, &stats, &err), &err);
         PF_CHECK(!stats.on_host);
+        /* Issue 44: each cascade's device time, from timestamps between the cascades in
+         * the one submission, adds up to the propagation's. */
+        double cascades = 0.0;
+        for (uint32_t k = 0; k < layout.count; k++) {
+            PF_CHECK_MSG(stats.cascade_gpu_ms[k] >= 0.0, "cascade %u: %g ms", k,
+                         stats.cascade_gpu_ms[k]);
+            cascades += stats.cascade_gpu_ms[k];
+        }
+        PF_CHECK_MSG(stats.gpu_ms >= 0.0 && fabs(cascades - stats.gpu_ms) <= 1e-6,
+                     "cascades %g ms, propagation %g ms", cascades, stats.gpu_ms);
         PF_REQUIRE_OK(pf_lpv_download(lpv, device, floats, &err), &err);
         PF_REQUIRE_OK(pf_vk_buffer_download(ctx, pf_lpv_far_fields(lpv), 0, device_far,
                                             floats * sizeof(float), &err),
