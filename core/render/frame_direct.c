@@ -76,20 +76,23 @@ static void film_to_image(const float *film, const render_push *tile, uint32_t s
  * readbacks, one submission and one wait. Adds its GPU time to *gpu_ms.
  */
 static pf_status render_tile(pf_renderer *renderer, pf_vk_buffer *const *buffers,
-                             const render_push *tile, uint32_t spp, float *film,
-                             render_counters *counters, double *gpu_ms, pf_error *err)
+                             const render_push *tile, uint32_t spp, pf_vk_commands *setup,
+                             float *film, render_counters *counters, double *gpu_ms,
+                             pf_error *err)
 {
     pf_vk_context *ctx = renderer->ctx;
     static const render_counters zero = {0, 0, 0, 0};
+    /* The counters zeroed, the samples and the readbacks: one submission (issue 44), the
+     * frame's setup (setup: the scene's and parameters' uploads, taken) in the first. */
+    pf_vk_commands *cmds = setup;
     pf_vk_pipeline *pipeline = NULL;
     pf_status status = pf_renderer_pipeline(renderer, PF_PIPELINE_DIRECT, &pipeline, err);
-    if (status != PF_OK)
+    if (status == PF_OK && !cmds)
+        status = pf_vk_commands_begin(ctx, &cmds, err);
+    if (status != PF_OK) {
+        pf_vk_commands_destroy(cmds);
         return status;
-    /* The counters zeroed, the samples and the readbacks: one submission (issue 44). */
-    pf_vk_commands *cmds = NULL;
-    status = pf_vk_commands_begin(ctx, &cmds, err);
-    if (status != PF_OK)
-        return status;
+    }
     status = pf_vk_cmd_upload(cmds, buffers[PF_SCENE_BINDING_COUNT + 1], 0, &zero, sizeof zero,
                               err);
     int begin = pf_vk_cmd_timestamp(cmds);
@@ -166,17 +169,22 @@ static pf_status preview_run(pf_frame_run *run, pf_stage_id stage, uint32_t pass
     uint64_t rays = 0, discarded = 0, failures = 0;
     double gpu_ms = -1.0;
 
-    status = film ? pf_gpu_scene_upload(ctx, frame, 1, &renderer->textures, &scene, err)
+    /* The scene's and the parameters' uploads go with the first tile (issue 44). */
+    pf_vk_commands *setup = NULL;
+    status = film ? pf_vk_commands_begin(ctx, &setup, err)
                   : pf_error_set(err, PF_ERR_NOMEM, "film tile: out of memory");
+    if (status == PF_OK)
+        status = pf_gpu_scene_record(ctx, setup, frame, 1, &renderer->textures, &scene, err);
     if (status != PF_OK) {
+        pf_vk_commands_destroy(setup);
         free(film);
         pf_image_free(image);
         return status;
     }
     pf_frame_params_fill(frame, settings, spp, &scene, &bih, &params);
     params.max_specular_depth = MAX_SPECULAR_DEPTH;
-    status = pf_render_buffer_with_data(ctx, "frame parameters", &params, sizeof params,
-                                        sizeof params, &params_buffer, err);
+    status = pf_render_buffer_recorded(ctx, setup, "frame parameters", &params, sizeof params,
+                                       sizeof params, &params_buffer, err);
     if (status == PF_OK)
         status = pf_vk_buffer_create(ctx, film_bytes, "film tile", &film_buffer, err);
     if (status == PF_OK)
@@ -195,7 +203,9 @@ static pf_status preview_run(pf_frame_run *run, pf_stage_id stage, uint32_t pass
                                                                          : RENDER_TILE_EDGE},
                                 0};
             render_counters counters;
-            status = render_tile(renderer, buffers, &tile, spp, film, &counters, &gpu_ms, err);
+            status = render_tile(renderer, buffers, &tile, spp, setup, film, &counters, &gpu_ms,
+                                 err);
+            setup = NULL; /* render_tile took it */
             if (status == PF_OK) {
                 film_to_image(film, &tile, spp, settings->aovs, image);
                 rays += counters.rays_traced;
@@ -204,6 +214,7 @@ static pf_status preview_run(pf_frame_run *run, pf_stage_id stage, uint32_t pass
             }
         }
     }
+    pf_vk_commands_destroy(setup); /* not taken: a failure before the first tile */
     free(film);
     pf_render_buffer_release(ctx, &counter_buffer);
     pf_render_buffer_release(ctx, &film_buffer);

@@ -61,13 +61,15 @@ typedef struct reference_progress {
  */
 static pf_status run_passes(pf_renderer *renderer, pf_vk_pipeline *pipeline,
                             pf_vk_buffer *const *buffers, const pf_render_settings *settings,
-                            uint32_t count, reference_progress *progress, pf_error *err)
+                            uint32_t count, pf_vk_commands *setup,
+                            reference_progress *progress, pf_error *err)
 {
     pf_vk_context *ctx = renderer->ctx;
     static const reference_counters zero = {0, 0, 0, 0};
-    /* The counters zeroed, the passes and the counters' readback: one submission. */
-    pf_vk_commands *cmds = NULL;
-    pf_status status = pf_vk_commands_begin(ctx, &cmds, err);
+    /* The counters zeroed, the passes and the counters' readback: one submission, the
+     * frame's setup (setup: the scene's and parameters' uploads) in the first. */
+    pf_vk_commands *cmds = setup;
+    pf_status status = cmds ? PF_OK : pf_vk_commands_begin(ctx, &cmds, err);
     if (status != PF_OK)
         return status;
     status = pf_vk_cmd_upload(cmds, buffers[REFERENCE_COUNTER_BINDING], 0, &zero, sizeof zero,
@@ -154,16 +156,23 @@ static pf_status shade(pf_renderer *renderer, const pf_scene_frame *frame,
     pf_status status = pf_bih_gpu_view_get(renderer->bih_gpu, &bih, err);
     if (status != PF_OK)
         return status;
-    pf_gpu_scene scene;
-    status = pf_gpu_scene_upload(ctx, frame, 1, &renderer->textures, &scene, err);
+    /* The scene's and the parameters' uploads go with the first passes (issue 44). */
+    pf_vk_commands *setup = NULL;
+    status = pf_vk_commands_begin(ctx, &setup, err);
     if (status != PF_OK)
         return status;
+    pf_gpu_scene scene;
+    status = pf_gpu_scene_record(ctx, setup, frame, 1, &renderer->textures, &scene, err);
+    if (status != PF_OK) {
+        pf_vk_commands_destroy(setup);
+        return status;
+    }
     pf_frame_params params;
     pf_frame_params_fill(frame, settings, spp, &scene, &bih, &params);
     params.max_path_depth = REFERENCE_MAX_PATH_DEPTH;
     reference_buffers owned = {0};
-    status = pf_render_buffer_with_data(ctx, "frame parameters", &params, sizeof params,
-                                        sizeof params, &owned.params, err);
+    status = pf_render_buffer_recorded(ctx, setup, "frame parameters", &params, sizeof params,
+                                       sizeof params, &owned.params, err);
     if (status == PF_OK)
         status = pf_split_film_create(ctx, settings, settings->aovs, "reference", &owned.film,
                                       &owned.film_aov, err);
@@ -184,9 +193,11 @@ static pf_status shade(pf_renderer *renderer, const pf_scene_frame *frame,
          status == PF_OK && batch > 0;
          batch = next_batch(settings, spp, progress->passes, frame_start, pass_ms)) {
         double batch_start = pf_time_ms();
-        status = run_passes(renderer, pipeline, buffers, settings, batch, progress, err);
+        status = run_passes(renderer, pipeline, buffers, settings, batch, setup, progress, err);
+        setup = NULL; /* run_passes took it */
         pass_ms = (pf_time_ms() - batch_start) / batch;
     }
+    pf_vk_commands_destroy(setup); /* not taken: a failure before the first passes */
     if (status == PF_OK)
         status = pf_split_film_read(ctx, owned.film, owned.film_aov, settings->aovs, 0, image,
                                     err);

@@ -397,6 +397,11 @@ uint32_t pf_gpu_scene_bindings(const pf_gpu_scene *scene, pf_vk_buffer *params,
  * textures come from cache when it holds the frame's (else they are uploaded for this use). */
 pf_status pf_gpu_scene_upload(pf_vk_context *ctx, const pf_scene_frame *frame, int full,
                               const pf_texture_cache *cache, pf_gpu_scene *out, pf_error *err);
+/* The same with every upload recorded in cmds (issue 44): the buffers exist and their
+ * contents land before the commands recorded after; the caller submits. */
+pf_status pf_gpu_scene_record(pf_vk_context *ctx, pf_vk_commands *cmds,
+                              const pf_scene_frame *frame, int full,
+                              const pf_texture_cache *cache, pf_gpu_scene *out, pf_error *err);
 void pf_gpu_scene_release(pf_vk_context *ctx, pf_gpu_scene *scene);
 
 /*

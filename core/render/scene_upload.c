@@ -256,10 +256,15 @@ pf_status pf_render_prepare_textures(pf_renderer *renderer, const pf_scene_frame
     return PF_OK;
 }
 
-/* Submits the scene's recorded uploads (when status is PF_OK), or releases it. */
-static pf_status finish_scene_upload(pf_vk_context *ctx, pf_vk_commands *cmds,
-                                     pf_status status, pf_gpu_scene *out, pf_error *err)
+pf_status pf_gpu_scene_upload(pf_vk_context *ctx, const pf_scene_frame *frame, int full,
+                              const pf_texture_cache *cache, pf_gpu_scene *out, pf_error *err)
 {
+    /* Every upload recorded, then one submission and one wait (issue 44). */
+    pf_vk_commands *cmds = NULL;
+    memset(out, 0, sizeof *out);
+    pf_status status = pf_vk_commands_begin(ctx, &cmds, err);
+    if (status == PF_OK)
+        status = pf_gpu_scene_record(ctx, cmds, frame, full, cache, out, err);
     if (status == PF_OK)
         status = pf_vk_commands_submit(cmds, err);
     pf_vk_commands_destroy(cmds);
@@ -268,7 +273,16 @@ static pf_status finish_scene_upload(pf_vk_context *ctx, pf_vk_commands *cmds,
     return status;
 }
 
-pf_status pf_gpu_scene_upload(pf_vk_context *ctx, const pf_scene_frame *frame, int full,
+/* The recording's end: on failure the scene is released (the caller's commands stay). */
+static pf_status finish_scene_record(pf_vk_context *ctx, pf_status status, pf_gpu_scene *out)
+{
+    if (status != PF_OK)
+        pf_gpu_scene_release(ctx, out);
+    return status;
+}
+
+pf_status pf_gpu_scene_record(pf_vk_context *ctx, pf_vk_commands *cmds,
+                              const pf_scene_frame *frame, int full,
                               const pf_texture_cache *cache, pf_gpu_scene *out, pf_error *err)
 {
     memset(out, 0, sizeof *out);
@@ -277,17 +291,13 @@ pf_status pf_gpu_scene_upload(pf_vk_context *ctx, const pf_scene_frame *frame, i
             return pf_error_set(err, PF_ERR_INVALID,
                                 "triangle %u: material %u out of range (%u materials)", t,
                                 frame->triangle_material[t], frame->material_count);
-    /* Every upload recorded, then one submission and one wait (issue 44). */
-    pf_vk_commands *cmds = NULL;
-    pf_status status = pf_vk_commands_begin(ctx, &cmds, err);
-    if (status != PF_OK)
-        return status;
+    pf_status status = PF_OK;
     uint64_t triangles = frame->triangle_count;
     uint64_t vertex_bytes = triangles * 3 * sizeof(float[4]);
     status = buffer_with_data(ctx, cmds, "triangle vertices", frame->vertices, vertex_bytes,
                               3 * sizeof(float[4]), &out->vertices, err);
     if (status != PF_OK || !full)
-        return finish_scene_upload(ctx, cmds, status, out, err);
+        return finish_scene_record(ctx, status, out);
     pf_emissive_entry *table = NULL;
     double weight_total = 0.0;
     uint32_t *material_words = NULL;
@@ -331,5 +341,5 @@ pf_status pf_gpu_scene_upload(pf_vk_context *ctx, const pf_scene_frame *frame, i
         status = texture_upload(ctx, cmds, frame, &out->textures, &out->texels, err);
     }
     out->emissive_weight_total = (float)weight_total;
-    return finish_scene_upload(ctx, cmds, status, out, err);
+    return finish_scene_record(ctx, status, out);
 }
