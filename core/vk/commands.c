@@ -31,6 +31,10 @@ struct pf_vk_commands {
     recorded_copy *copies;
     uint32_t copy_count, copy_capacity;
     uint32_t device_work; /* dispatches, staged copies and timestamps recorded */
+    /* The buffers the recorded dispatches use: an upload to one of them must be ordered
+     * after those dispatches, so it is staged even where the buffer is mapped. */
+    const pf_vk_buffer **bound;
+    uint32_t bound_count, bound_capacity;
     commands_state state;
     VkCommandPool command_pool;
     VkCommandBuffer command;
@@ -232,6 +236,32 @@ static pf_status check_dispatch(const pf_vk_commands *cmds, const pf_vk_pipeline
     return PF_OK;
 }
 
+/* Remembers that a recorded dispatch uses buffer; 0 when out of memory. */
+static int note_bound(pf_vk_commands *cmds, const pf_vk_buffer *buffer)
+{
+    for (uint32_t i = 0; i < cmds->bound_count; i++)
+        if (cmds->bound[i] == buffer)
+            return 1;
+    if (cmds->bound_count == cmds->bound_capacity) {
+        uint32_t capacity = cmds->bound_capacity ? 2 * cmds->bound_capacity : 16;
+        const pf_vk_buffer **grown = realloc(cmds->bound, capacity * sizeof *grown);
+        if (!grown)
+            return 0;
+        cmds->bound = grown;
+        cmds->bound_capacity = capacity;
+    }
+    cmds->bound[cmds->bound_count++] = buffer;
+    return 1;
+}
+
+static int is_bound(const pf_vk_commands *cmds, const pf_vk_buffer *buffer)
+{
+    for (uint32_t i = 0; i < cmds->bound_count; i++)
+        if (cmds->bound[i] == buffer)
+            return 1;
+    return 0;
+}
+
 pf_status pf_vk_cmd_dispatch(pf_vk_commands *cmds, pf_vk_pipeline *pipeline,
                              pf_vk_buffer *const *buffers, uint32_t buffer_count,
                              const void *push_constants, uint32_t push_constant_bytes,
@@ -295,6 +325,9 @@ pf_status pf_vk_cmd_dispatch(pf_vk_commands *cmds, pf_vk_pipeline *pipeline,
                            push_constant_bytes, push_constants);
     vkCmdDispatch(cmds->command, groups_x, groups_y, groups_z);
     cmds->device_work++;
+    for (uint32_t i = 0; i < buffer_count; i++)
+        if (!note_bound(cmds, buffers[i]))
+            return pf_error_set(err, PF_ERR_NOMEM, "out of host memory recording a dispatch");
     return PF_OK;
 }
 
@@ -346,7 +379,11 @@ static pf_status record_copy(pf_vk_commands *cmds, pf_vk_buffer *buffer, uint64_
         return status;
     pf_vk_context *ctx = cmds->ctx;
     pf_vk_count_copy(ctx, size, to_device);
-    if (buffer->mapped && to_device) { /* before any command runs: see pf_vk.h */
+    /* A mapped buffer no recorded dispatch uses yet: written now, before any command
+     * runs, which is where the upload stands. One a recorded dispatch uses is staged, so
+     * that the copy lands between that dispatch and the ones after, as on a GPU. */
+    int staged = !buffer->mapped || (to_device && is_bound(cmds, buffer));
+    if (!staged && to_device) {
         memcpy((char *)buffer->mapped + offset, host, size);
         return PF_OK;
     }
@@ -354,7 +391,7 @@ static pf_status record_copy(pf_vk_commands *cmds, pf_vk_buffer *buffer, uint64_
     if (!copy)
         return pf_error_set(err, PF_ERR_NOMEM, "out of host memory recording a copy");
     copy->size = size;
-    if (buffer->mapped) { /* a download from mapped memory: read once the fence signals */
+    if (!staged) { /* a download from mapped memory: read once the fence signals */
         copy->host = host;
         copy->source = (const char *)buffer->mapped + offset;
         return PF_OK;
@@ -476,6 +513,7 @@ void pf_vk_commands_destroy(pf_vk_commands *cmds)
     for (uint32_t i = 0; i < cmds->copy_count; i++)
         pf_vk_staging_destroy(cmds->ctx, &cmds->copies[i].staging);
     free(cmds->copies);
+    free(cmds->bound);
     for (uint32_t i = 0; i < cmds->descriptor_pool_count; i++)
         vkDestroyDescriptorPool(device, cmds->descriptor_pools[i].pool, NULL);
     free(cmds->descriptor_pools);

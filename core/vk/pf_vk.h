@@ -191,10 +191,13 @@ int pf_vk_cmd_timestamp(pf_vk_commands *cmds);
 /*
  * Copies recorded with the commands, so that a stage's uploads, passes and readbacks are
  * one submission and one wait (issue 44). An upload's data is copied now (it may be freed
- * after the call) and lands before the commands recorded after it run; on a mapped buffer
- * it is written at once, so record it before any command that uses that buffer. A
- * download fills data when pf_vk_commands_submit returns. Ranges are checked as
- * pf_vk_buffer_upload's; the bytes count in pf_vk_traffic.
+ * after the call) and lands after the commands recorded before it and before those
+ * recorded after it, on every device: a mapped buffer that no recorded dispatch uses yet
+ * is written at once, one that a dispatch uses is staged. A download fills data when
+ * pf_vk_commands_submit returns, with what the buffer holds after the commands recorded
+ * before it; record none that writes the buffer after it (from a mapped buffer it is
+ * read when every command has run). Ranges are checked as pf_vk_buffer_upload's; the
+ * bytes count in pf_vk_traffic.
  */
 pf_status pf_vk_cmd_upload(pf_vk_commands *cmds, pf_vk_buffer *buffer, uint64_t offset,
                            const void *data, uint64_t size, pf_error *err);

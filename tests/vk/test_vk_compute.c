@@ -133,6 +133,67 @@ PF_TEST(compute_round_trip_through_staging)
     VK_TEST_FINISH(ctx);
 }
 
+/* An upload recorded between two dispatches that read its buffer lands between them, on
+ * a mapped buffer (lavapipe) as on a staged one: the first sees the old values, the
+ * second the new (issue 44's recorded copies). */
+static void upload_between_dispatches(pf_vk_context *ctx)
+{
+    enum { COUNT = 256 };
+    pf_error err = {0};
+    pf_vk_pipeline *pipeline = selftest_pipeline(ctx, &err);
+    pf_vk_buffer *in = NULL, *first = NULL, *second = NULL;
+    PF_CHECK_OK(pf_vk_buffer_create(ctx, COUNT * 4, "between in", &in, &err), &err);
+    PF_CHECK_OK(pf_vk_buffer_create(ctx, (COUNT + 1) * 4, "between first", &first, &err), &err);
+    PF_CHECK_OK(pf_vk_buffer_create(ctx, (COUNT + 1) * 4, "between second", &second, &err),
+                &err);
+    pf_vk_commands *cmds = NULL;
+    if (pipeline && in && first && second)
+        PF_CHECK_OK(pf_vk_commands_begin(ctx, &cmds, &err), &err);
+    if (cmds) {
+        static uint32_t old_values[COUNT], new_values[COUNT], out_first[COUNT], out_second[COUNT];
+        for (uint32_t i = 0; i < COUNT; i++) {
+            old_values[i] = i;
+            new_values[i] = 1000 + i;
+        }
+        uint32_t groups = (COUNT + SELFTEST_WORKGROUP - 1) / SELFTEST_WORKGROUP;
+        selftest_push push = {COUNT, 0};
+        pf_vk_buffer *reads_first[2] = {in, first}, *reads_second[2] = {in, second};
+        PF_CHECK_OK(pf_vk_cmd_upload(cmds, in, 0, old_values, sizeof old_values, &err), &err);
+        PF_CHECK_OK(pf_vk_cmd_dispatch(cmds, pipeline, reads_first, 2, &push, sizeof push, groups,
+                                       1, 1, &err),
+                    &err);
+        PF_CHECK_OK(pf_vk_cmd_upload(cmds, in, 0, new_values, sizeof new_values, &err), &err);
+        PF_CHECK_OK(pf_vk_cmd_dispatch(cmds, pipeline, reads_second, 2, &push, sizeof push,
+                                       groups, 1, 1, &err),
+                    &err);
+        PF_CHECK_OK(pf_vk_cmd_download(cmds, first, 0, out_first, sizeof out_first, &err), &err);
+        PF_CHECK_OK(pf_vk_cmd_download(cmds, second, 0, out_second, sizeof out_second, &err),
+                    &err);
+        PF_CHECK_OK(pf_vk_commands_submit(cmds, &err), &err);
+        pf_vk_commands_destroy(cmds);
+        uint32_t wrong = 0;
+        for (uint32_t i = 0; i < COUNT; i++)
+            wrong += out_first[i] != expected_value(old_values[i], i, 0) ||
+                     out_second[i] != expected_value(new_values[i], i, 0);
+        PF_CHECK_MSG(wrong == 0, "%u of %u values read the wrong upload", wrong, COUNT);
+    }
+    pf_vk_buffer_destroy(ctx, in);
+    pf_vk_buffer_destroy(ctx, first);
+    pf_vk_buffer_destroy(ctx, second);
+    pf_vk_pipeline_destroy(ctx, pipeline);
+}
+
+PF_TEST(an_upload_between_dispatches_lands_between_them)
+{
+    pf_error err = {0};
+    pf_vk_context *ctx = vk_test_context(&err);
+    PF_REQUIRE(ctx);
+    upload_between_dispatches(ctx); /* mapped on lavapipe */
+    pf_vk_force_staging(ctx, 1);
+    upload_between_dispatches(ctx);
+    VK_TEST_FINISH(ctx);
+}
+
 /* a → b → a → b with barriers in between; each pass depends on the previous one. */
 PF_TEST(dispatch_chain_with_barriers)
 {
@@ -290,6 +351,7 @@ int main(void)
 {
     PF_RUN(compute_round_trip);
     PF_RUN(compute_round_trip_through_staging);
+    PF_RUN(an_upload_between_dispatches_lands_between_them);
     PF_RUN(dispatch_chain_with_barriers);
     PF_RUN(timestamps_measure_elapsed_time);
     PF_RUN(dispatch_arguments_are_checked);
