@@ -236,12 +236,19 @@ static pf_status check_dispatch(const pf_vk_commands *cmds, const pf_vk_pipeline
     return PF_OK;
 }
 
-/* Remembers that a recorded dispatch uses buffer; 0 when out of memory. */
-static int note_bound(pf_vk_commands *cmds, const pf_vk_buffer *buffer)
+static int is_bound(const pf_vk_commands *cmds, const pf_vk_buffer *buffer)
 {
     for (uint32_t i = 0; i < cmds->bound_count; i++)
         if (cmds->bound[i] == buffer)
             return 1;
+    return 0;
+}
+
+/* Remembers that a recorded dispatch uses buffer; 0 when out of memory. */
+static int note_bound(pf_vk_commands *cmds, const pf_vk_buffer *buffer)
+{
+    if (is_bound(cmds, buffer))
+        return 1;
     if (cmds->bound_count == cmds->bound_capacity) {
         uint32_t capacity = cmds->bound_capacity ? 2 * cmds->bound_capacity : 16;
         const pf_vk_buffer **grown = realloc(cmds->bound, capacity * sizeof *grown);
@@ -252,14 +259,6 @@ static int note_bound(pf_vk_commands *cmds, const pf_vk_buffer *buffer)
     }
     cmds->bound[cmds->bound_count++] = buffer;
     return 1;
-}
-
-static int is_bound(const pf_vk_commands *cmds, const pf_vk_buffer *buffer)
-{
-    for (uint32_t i = 0; i < cmds->bound_count; i++)
-        if (cmds->bound[i] == buffer)
-            return 1;
-    return 0;
 }
 
 pf_status pf_vk_cmd_dispatch(pf_vk_commands *cmds, pf_vk_pipeline *pipeline,
