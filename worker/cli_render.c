@@ -13,6 +13,7 @@
 
 #include <errno.h>
 #include <inttypes.h>
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -80,8 +81,14 @@ static void print_stage_rows(const pf_frame_report *report)
             printf("  %-14s %9.2f ms (GPU %.2f ms)", row->stage, row->wall_ms, row->gpu_ms);
         else
             printf("  %-14s %9.2f ms", row->stage, row->wall_ms);
-        for (uint32_t c = 0; !row->skipped && c < row->counter_count; c++)
-            printf("%s%s=%.6g", c ? " " : "  ", row->counters[c].name, row->counters[c].value);
+        for (uint32_t c = 0; !row->skipped && c < row->counter_count; c++) {
+            double value = row->counters[c].value;
+            /* Counts (bytes, rays) in full; measures to 6 digits. */
+            if (value == floor(value) && fabs(value) < 1e15)
+                printf("%s%s=%.0f", c ? " " : "  ", row->counters[c].name, value);
+            else
+                printf("%s%s=%.6g", c ? " " : "  ", row->counters[c].name, value);
+        }
         if (!row->skipped && row->reason[0])
             printf("\n  %-14s %s", "", row->reason); /* a decision (the planner's) */
         if (!row->skipped)
