@@ -282,7 +282,8 @@ static pf_status shade(pf_renderer *renderer, struct pf_fast_cache *cache,
     params.max_specular_depth = FAST_MAX_SPECULAR_DEPTH;
     fast_buffers owned = {0};
     static const fast_counters zero = {0};
-    /* The uploads, the samples and the counters' readback: one submission (issue 44). */
+    /* The uploads, the samples and the readbacks of the counters and the film: one
+     * submission (issue 44). */
     pf_vk_commands *cmds = NULL;
     pf_status status = pf_vk_commands_begin(ctx, &cmds, err);
     if (status == PF_OK)
@@ -340,8 +341,12 @@ static pf_status shade(pf_renderer *renderer, struct pf_fast_cache *cache,
     }
     int end = status == PF_OK ? pf_vk_cmd_timestamp(cmds) : -1;
     fast_counters counters;
+    pf_split_film_readback readback = {0};
     if (status == PF_OK)
         status = pf_vk_cmd_download(cmds, owned.counters, 0, &counters, sizeof counters, err);
+    if (status == PF_OK)
+        status = pf_split_film_record_read(cmds, owned.film, owned.film_aov, settings->aovs,
+                                           image, &readback, err);
     if (status == PF_OK)
         status = pf_vk_commands_submit(cmds, err);
     if (status == PF_OK && begin >= 0 && end >= 0)
@@ -356,7 +361,9 @@ static pf_status shade(pf_renderer *renderer, struct pf_fast_cache *cache,
         progress->lpv_outside = counters.lpv_outside;
     }
     if (status == PF_OK)
-        status = pf_split_film_read(ctx, owned.film, owned.film_aov, settings->aovs, 1, image, err);
+        pf_split_film_finish_read(&readback, 1, image);
+    else
+        pf_split_film_readback_free(&readback);
     fast_buffers_release(ctx, &owned);
     return status;
 }

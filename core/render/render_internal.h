@@ -496,6 +496,21 @@ pf_status pf_split_film_create(pf_vk_context *ctx, const pf_render_settings *set
 pf_status pf_split_film_read(pf_vk_context *ctx, pf_vk_buffer *film, pf_vk_buffer *film_aov,
                              int aovs, int aov_own_count, pf_image *image, pf_error *err);
 
+/* The same readback recorded in cmds, to go with a stage's dispatches (issue 44):
+ * pf_split_film_record_read records the downloads into host copies it allocates, and once
+ * cmds is submitted pf_split_film_finish_read fills image and frees them (call it, or
+ * pf_split_film_readback_free after a failure, whenever the first succeeded). */
+typedef struct pf_split_film_readback {
+    float *film, *film_aov;
+    int aovs;
+} pf_split_film_readback;
+pf_status pf_split_film_record_read(pf_vk_commands *cmds, pf_vk_buffer *film,
+                                    pf_vk_buffer *film_aov, int aovs, const pf_image *image,
+                                    pf_split_film_readback *out, pf_error *err);
+void pf_split_film_finish_read(pf_split_film_readback *readback, int aov_own_count,
+                               pf_image *image);
+void pf_split_film_readback_free(pf_split_film_readback *readback);
+
 /* How far secondary rays start off a surface in this frame (FrameParams' camera_right.w). */
 float pf_render_ray_offset(const pf_scene_frame *frame);
 

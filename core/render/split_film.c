@@ -73,24 +73,58 @@ pf_status pf_split_film_create(pf_vk_context *ctx, const pf_render_settings *set
     return status;
 }
 
-pf_status pf_split_film_read(pf_vk_context *ctx, pf_vk_buffer *film, pf_vk_buffer *film_aov,
-                             int aovs, int aov_own_count, pf_image *image, pf_error *err)
+pf_status pf_split_film_record_read(pf_vk_commands *cmds, pf_vk_buffer *film,
+                                    pf_vk_buffer *film_aov, int aovs, const pf_image *image,
+                                    pf_split_film_readback *out, pf_error *err)
 {
     uint64_t pixels = (uint64_t)image->width * image->height;
     uint64_t film_bytes = pixels * PF_SPLIT_FILM_VEC4_PER_PIXEL * 16;
     uint64_t aov_bytes = aovs ? pixels * PF_SPLIT_FILM_AOV_VEC4_PER_PIXEL * 16 : 16;
-    float *host = malloc(film_bytes), *host_aov = malloc(aov_bytes);
-    pf_status status = host && host_aov ? PF_OK
-                                        : pf_error_set(err, PF_ERR_NOMEM,
-                                                       "film: out of memory (%llu bytes)",
-                                                       (unsigned long long)(film_bytes + aov_bytes));
+    out->aovs = aovs;
+    out->film = malloc(film_bytes);
+    out->film_aov = malloc(aov_bytes);
+    pf_status status = out->film && out->film_aov
+                           ? PF_OK
+                           : pf_error_set(err, PF_ERR_NOMEM, "film: out of memory (%llu bytes)",
+                                          (unsigned long long)(film_bytes + aov_bytes));
     if (status == PF_OK)
-        status = pf_vk_buffer_download(ctx, film, 0, host, film_bytes, err);
+        status = pf_vk_cmd_download(cmds, film, 0, out->film, film_bytes, err);
     if (status == PF_OK && aovs)
-        status = pf_vk_buffer_download(ctx, film_aov, 0, host_aov, aov_bytes, err);
+        status = pf_vk_cmd_download(cmds, film_aov, 0, out->film_aov, aov_bytes, err);
+    if (status != PF_OK)
+        pf_split_film_readback_free(out);
+    return status;
+}
+
+void pf_split_film_finish_read(pf_split_film_readback *readback, int aov_own_count,
+                               pf_image *image)
+{
+    pf_split_film_to_image(readback->film, readback->film_aov, readback->aovs, aov_own_count,
+                           image);
+    pf_split_film_readback_free(readback);
+}
+
+void pf_split_film_readback_free(pf_split_film_readback *readback)
+{
+    free(readback->film);
+    free(readback->film_aov);
+    readback->film = readback->film_aov = NULL;
+}
+
+pf_status pf_split_film_read(pf_vk_context *ctx, pf_vk_buffer *film, pf_vk_buffer *film_aov,
+                             int aovs, int aov_own_count, pf_image *image, pf_error *err)
+{
+    pf_vk_commands *cmds = NULL;
+    pf_split_film_readback readback = {0};
+    pf_status status = pf_vk_commands_begin(ctx, &cmds, err);
     if (status == PF_OK)
-        pf_split_film_to_image(host, host_aov, aovs, aov_own_count, image);
-    free(host);
-    free(host_aov);
+        status = pf_split_film_record_read(cmds, film, film_aov, aovs, image, &readback, err);
+    if (status == PF_OK)
+        status = pf_vk_commands_submit(cmds, err);
+    pf_vk_commands_destroy(cmds);
+    if (status == PF_OK)
+        pf_split_film_finish_read(&readback, aov_own_count, image);
+    else
+        pf_split_film_readback_free(&readback);
     return status;
 }
