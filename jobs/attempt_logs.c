@@ -66,16 +66,10 @@ typedef struct store_context {
 static pf_status store_body(pf_queue *queue, void *context, pf_error *err)
 {
     store_context *ctx = context;
-    queue_stmt *stmt;
-    pf_status status = queue_prepare(queue, "SELECT attempt FROM tasks WHERE id = ?", &stmt, err);
-    if (status != PF_OK)
-        return status;
-    queue_bind_int64(stmt, 1, ctx->task_id);
-    int rc = queue_step(stmt);
-    int64_t attempts = rc == QUEUE_ROW ? queue_column_int64(stmt, 0) : -1;
-    if (rc != QUEUE_ROW && rc != QUEUE_DONE)
-        status = queue_db_error(queue, err, "reading a task's attempts");
-    queue_finalize(stmt);
+    int64_t attempts = -1; /* -1: no such task */
+    pf_status status = queue_read_int64(
+        queue, "SELECT coalesce(max(attempt), -1) FROM tasks WHERE id = ?", &ctx->task_id, 1,
+        "reading a task's attempts", &attempts, err);
     if (status != PF_OK)
         return status;
     if (attempts < 0)
@@ -84,6 +78,7 @@ static pf_status store_body(pf_queue *queue, void *context, pf_error *err)
     if (ctx->attempt < 1 || ctx->attempt > attempts)
         return pf_error_set(err, PF_ERR_INVALID, "%s: task %lld has no attempt %d", queue->path,
                             (long long)ctx->task_id, ctx->attempt);
+    queue_stmt *stmt;
     status = queue_prepare(
         queue,
         "INSERT INTO attempt_logs (task_id, attempt, worker_id, written_at, log) "

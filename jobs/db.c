@@ -281,6 +281,23 @@ pf_status queue_step_done(pf_queue *queue, queue_stmt *stmt, const char *what, p
     return status;
 }
 
+pf_status queue_read_int64(pf_queue *queue, const char *sql, const int64_t *binds,
+                           int bind_count, const char *what, int64_t *value, pf_error *err)
+{
+    queue_stmt *stmt;
+    pf_status status = queue_prepare(queue, sql, &stmt, err);
+    if (status != PF_OK)
+        return status;
+    for (int i = 0; i < bind_count; i++)
+        queue_bind_int64(stmt, i + 1, binds[i]);
+    if (queue_step(stmt) == QUEUE_ROW)
+        *value = queue_column_int64(stmt, 0);
+    else
+        status = queue_db_error(queue, err, what);
+    queue_finalize(stmt);
+    return status;
+}
+
 static void pause_ms(int ms)
 {
     struct timespec pause = {ms / 1000, (long)(ms % 1000) * 1000000L};

@@ -13,23 +13,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-static pf_status count_of(pf_queue *queue, const char *sql, int64_t first, int64_t second,
-                          int64_t *count, pf_error *err)
-{
-    queue_stmt *stmt;
-    pf_status status = queue_prepare(queue, sql, &stmt, err);
-    if (status != PF_OK)
-        return status;
-    queue_bind_int64(stmt, 1, first);
-    queue_bind_int64(stmt, 2, second);
-    if (queue_step(stmt) == QUEUE_ROW)
-        *count = queue_column_int64(stmt, 0);
-    else
-        status = queue_db_error(queue, err, "reading job dependencies");
-    queue_finalize(stmt);
-    return status;
-}
-
 /* Refuses one prerequisite of job_id (the i-th of after) with the reason, or PF_OK. */
 static pf_status check_one(pf_queue *queue, int64_t job_id, const pf_queue_dependency *after,
                            size_t i, pf_error *err)
@@ -46,20 +29,21 @@ static pf_status check_one(pf_queue *queue, int64_t job_id, const pf_queue_depen
     if (status != PF_OK)
         return status;
     int64_t count = 0;
-    status = count_of(queue,
-                      "SELECT count(*) FROM job_dependencies WHERE job_id = ? AND after_job = ?",
-                      job_id, prerequisite, &count, err);
+    status = queue_read_int64(
+        queue, "SELECT count(*) FROM job_dependencies WHERE job_id = ? AND after_job = ?",
+        (int64_t[]){job_id, prerequisite}, 2, "reading job dependencies", &count, err);
     if (status == PF_OK && count > 0)
         return pf_error_set(err, PF_ERR_INVALID, "job %" PRId64 " already waits for job %" PRId64,
                             job_id, prerequisite);
     /* A cycle: job_id is among the jobs the prerequisite waits for, directly or not. */
     if (status == PF_OK)
-        status = count_of(queue,
-                          "WITH RECURSIVE upstream (id) AS (SELECT CAST(?1 AS BIGINT) UNION "
-                          "  SELECT d.after_job FROM job_dependencies d"
-                          "  JOIN upstream u ON d.job_id = u.id) "
-                          "SELECT count(*) FROM upstream WHERE id = ?2",
-                          prerequisite, job_id, &count, err);
+        status = queue_read_int64(queue,
+                                  "WITH RECURSIVE upstream (id) AS (SELECT CAST(?1 AS BIGINT) "
+                                  "  UNION SELECT d.after_job FROM job_dependencies d"
+                                  "  JOIN upstream u ON d.job_id = u.id) "
+                                  "SELECT count(*) FROM upstream WHERE id = ?2",
+                                  (int64_t[]){prerequisite, job_id}, 2,
+                                  "reading job dependencies", &count, err);
     if (status == PF_OK && count > 0)
         return pf_error_set(err, PF_ERR_INVALID,
                             "job %" PRId64 " waits for job %" PRId64

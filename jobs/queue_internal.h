@@ -79,6 +79,10 @@ pf_status queue_prepare_rows(pf_queue *queue, const char *head, const char *row,
                              const char *tail, queue_stmt **stmt, pf_error *err);
 /* Runs statements without results. */
 pf_status queue_exec(pf_queue *queue, const char *sql, pf_error *err);
+/* The first column of the first row of sql, its ?1..?bind_count bound to binds; no row is
+ * an error naming what. */
+pf_status queue_read_int64(pf_queue *queue, const char *sql, const int64_t *binds,
+                           int bind_count, const char *what, int64_t *value, pf_error *err);
 /* Steps a statement expected to finish (QUEUE_DONE) and finalizes it. */
 pf_status queue_step_done(pf_queue *queue, queue_stmt *stmt, const char *what, pf_error *err);
 

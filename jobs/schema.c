@@ -331,17 +331,7 @@ static pf_status check_header(const char *path, off_t file_size, pf_error *err)
 
 static pf_status single_int(pf_queue *queue, const char *sql, int64_t *value, pf_error *err)
 {
-    queue_stmt *stmt;
-    pf_status status = queue_prepare(queue, sql, &stmt, err);
-    if (status != PF_OK)
-        return status;
-    int rc = queue_step(stmt);
-    if (rc == QUEUE_ROW)
-        *value = queue_column_int64(stmt, 0);
-    else
-        status = queue_db_error(queue, err, sql);
-    queue_finalize(stmt);
-    return status;
+    return queue_read_int64(queue, sql, NULL, 0, sql, value, err);
 }
 
 /* Read-only checks of an existing database: integrity, and that it is ours. */
