@@ -144,13 +144,8 @@ pf_status pf_snapshot_start(pf_snapshot *snapshot, const char *db_path, int poll
         if (pthread_create(&snapshot->thread, NULL, poll_loop, snapshot) != 0)
             status = pf_error_set(err, PF_ERR_NOMEM, "cannot start the monitor's poller");
     }
-    if (status != PF_OK) {
-        free(snapshot->db_path);
-        free(snapshot->jobs_json);
-        free(snapshot->workers_json);
-        pthread_mutex_destroy(&snapshot->lock);
-        pthread_cond_destroy(&snapshot->changed);
-    }
+    if (status != PF_OK)
+        pf_snapshot_free(snapshot);
     return status;
 }
 
