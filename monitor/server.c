@@ -31,6 +31,7 @@
 #include <math.h>
 #include <microhttpd.h>
 #include <pthread.h>
+#include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -110,7 +111,9 @@ typedef struct server {
     size_t preview_next;
     int64_t detail_reads; /* details read from the queue (cache misses), under detail_lock */
     pf_rate_limiter rate;
-    int64_t rate_refused; /* requests answered 429, under detail_lock */
+    /* Requests answered 429: counted without detail_lock, which a queue read may hold
+     * while a flood is being refused. */
+    atomic_llong rate_refused;
 } server;
 
 /* ---- responses ---- */
@@ -538,8 +541,9 @@ static enum MHD_Result route_get(server *srv, struct MHD_Connection *connection,
         pthread_mutex_unlock(&srv->snapshot.lock);
         pthread_mutex_lock(&srv->detail_lock);
         cJSON_AddNumberToObject(object, "detail_reads", (double)srv->detail_reads);
-        cJSON_AddNumberToObject(object, "rate_refused", (double)srv->rate_refused);
         pthread_mutex_unlock(&srv->detail_lock);
+        cJSON_AddNumberToObject(object, "rate_refused",
+                                (double)atomic_load(&srv->rate_refused));
         char *text = cJSON_PrintUnformatted(object);
         cJSON_Delete(object);
         return respond_json(connection, MHD_HTTP_OK, text);
@@ -571,9 +575,7 @@ static enum MHD_Result route_get(server *srv, struct MHD_Connection *connection,
 static enum MHD_Result respond_too_many(server *srv, struct MHD_Connection *connection,
                                         int retry_after_s)
 {
-    pthread_mutex_lock(&srv->detail_lock);
-    srv->rate_refused++;
-    pthread_mutex_unlock(&srv->detail_lock);
+    atomic_fetch_add(&srv->rate_refused, 1);
     static const char body[] = "{\"error\":\"too many requests from this address\"}";
     struct MHD_Response *response = MHD_create_response_from_buffer(
         sizeof body - 1, (void *)body, MHD_RESPMEM_PERSISTENT);
