@@ -34,6 +34,14 @@ static void add_traffic_counters(const pf_frame_run *run, uint32_t first_row)
     }
 }
 
+/* Adds the device traffic since *mark to *to and moves the mark: charged in turn, the
+ * stages share every submission of the frame between them. */
+static void charge(pf_vk_context *ctx, pf_vk_traffic *mark, pf_vk_traffic *to)
+{
+    pf_traffic_add(to, pf_vk_traffic_since(ctx, *mark));
+    *mark = pf_vk_traffic_of(ctx); /* the frame's stages run on one thread: nothing between */
+}
+
 /*
  * The one stage loop: bih_build, then the integrator's stages in
  * pf_stage_id order as planned: the once-per-frame ones when the plan runs
@@ -47,25 +55,22 @@ static pf_status run_stages(const pf_integrator *integrator, pf_frame_run *run, 
     pf_vk_context *ctx = pf_renderer_context(run->renderer);
     pf_vk_traffic *shade = &run->traffic[PF_STAGE_SHADE];
     uint32_t first_row = run->report ? run->report->stage_count : 0;
-    pf_vk_traffic before = pf_vk_traffic_of(ctx);
+    pf_vk_traffic mark = pf_vk_traffic_of(ctx);
     pf_status status = pf_render_prepare_textures(run->renderer, run->frame, run->report, err);
-    pf_traffic_add(&run->textures_traffic, pf_vk_traffic_since(ctx, before));
-    before = pf_vk_traffic_of(ctx);
+    charge(ctx, &mark, &run->textures_traffic);
     if (status == PF_OK)
         status = pf_render_prepare_bih(run->renderer, run->frame,
                                        &plan->stages[PF_STAGE_BIH_BUILD], run->report, err);
-    pf_traffic_add(&run->traffic[PF_STAGE_BIH_BUILD], pf_vk_traffic_since(ctx, before));
-    before = pf_vk_traffic_of(ctx);
+    charge(ctx, &mark, &run->traffic[PF_STAGE_BIH_BUILD]);
     if (status == PF_OK && integrator->begin)
         status = integrator->begin(run, err);
-    pf_traffic_add(shade, pf_vk_traffic_since(ctx, before));
+    charge(ctx, &mark, shade);
     if (status != PF_OK)
         return status;
     for (int stage = PF_STAGE_BIH_BUILD + 1; status == PF_OK && stage < PF_STAGE_COUNT; stage++)
         if (!per_pass(integrator, stage) && plan->stages[stage].action == PF_STAGE_RUN) {
-            before = pf_vk_traffic_of(ctx);
             status = integrator->run(run, (pf_stage_id)stage, 0, err);
-            pf_traffic_add(&run->traffic[stage], pf_vk_traffic_since(ctx, before));
+            charge(ctx, &mark, &run->traffic[stage]);
         }
     double budget = run->settings->time_budget_ms;
     for (uint32_t pass = 0; integrator->per_pass && status == PF_OK && pass < plan->samples;
@@ -75,14 +80,12 @@ static pf_status run_stages(const pf_integrator *integrator, pf_frame_run *run, 
         for (int stage = 0; status == PF_OK && stage < PF_STAGE_COUNT; stage++)
             if (per_pass(integrator, stage) && (plan->stages[stage].action == PF_STAGE_RUN ||
                                                 plan->stages[stage].action == PF_STAGE_REUSE)) {
-                before = pf_vk_traffic_of(ctx);
                 status = integrator->run(run, (pf_stage_id)stage, pass, err);
-                pf_traffic_add(&run->traffic[stage], pf_vk_traffic_since(ctx, before));
+                charge(ctx, &mark, &run->traffic[stage]);
             }
     }
-    before = pf_vk_traffic_of(ctx);
     status = integrator->end ? integrator->end(run, status, err) : status;
-    pf_traffic_add(shade, pf_vk_traffic_since(ctx, before));
+    charge(ctx, &mark, shade);
     add_traffic_counters(run, first_row);
     return status;
 }
