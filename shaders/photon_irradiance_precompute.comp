@@ -7,9 +7,9 @@
 // the other, non-point photons within the radius, at its position on its
 // own surface), or, where that estimate stopped at the loop guard, a record
 // without a photon (photon_types.glsl), which the grid build keeps out of
-// every cell. Only the points are written, so the points' grid is built
-// over them alone (a quarter of the map: its sort and its hash table a
-// quarter of the size). Their order is the order of the list's atomic
+// every cell. The slots after the points hold records without a photon,
+// which the points' grid sorts past every cell; its hash table is planned
+// for the points alone (a quarter of the map's). Their order is the order of the list's atomic
 // claims; nothing depends on it (the lookup breaks ties by position).
 
 layout(local_size_x = 64) in;
@@ -30,7 +30,7 @@ layout(push_constant) uniform Push {
 } push;
 
 // After photon_irradiance_mark.comp listed the points, one invocation per
-// listed point (the host sizes the dispatch by their count): its record.
+// photon of the map: the first ones, one per listed point, its record.
 // Listing first keeps the SIMD lanes of the estimates full; with the coin
 // tested in the estimate dispatch itself nearly every 8-lane group held a
 // point and ran the whole loop. The listing is a module of its own: llvmpipe
@@ -78,9 +78,22 @@ void estimate(uint k)
         atomicAdd(counts.truncated, 1u);
 }
 
+// Slot k past the listed points: a record without a photon, so that the points' grid can
+// be built over every slot in the same submission without the host reading the count
+// (core/photon/photon_grid.c's record_points; issue 44).
+void empty_slot(uint k)
+{
+    uint base = PHOTON_WORDS * k;
+    for (uint w = 0u; w < 4u; w++)
+        point_words[base + w] = 0u;
+    point_words[base + 4u] = PHOTON_NO_RECORD;
+}
+
 void main()
 {
     uint k = gl_GlobalInvocationID.x;
     if (k < counts.points)
         estimate(k);
+    else if (k < push.photons)
+        empty_slot(k);
 }

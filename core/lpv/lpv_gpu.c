@@ -4,7 +4,7 @@
  * shaders/lpv_propagate.comp, every cascade's iterations in one submission,
  * or on the host (lpv_propagate_host.c) with the results uploaded.
  */
-#include "pf_lpv.h"
+#include "lpv_gpu_internal.h"
 
 #include <stdlib.h>
 #include <string.h>
@@ -17,26 +17,11 @@
 #define ACCUMULATE_NONE 0u
 #define ACCUMULATE_RESULT 1u
 #define ACCUMULATE_SOURCE_AND_RESULT 2u
-#define ACCUMULATE_MODES 3u
 #define GROUP_EDGE 4u
 
 typedef struct propagate_push {
     uint32_t size, base, occlusion;
 } propagate_push;
-
-struct pf_lpv {
-    pf_vk_context *ctx;
-    /* [ACCUMULATE][SNAPSHOT][FAR_FIELD], each created on first use (a layout needs 4 to 7). */
-    pf_vk_pipeline *propagate[ACCUMULATE_MODES][2][2];
-    uint64_t floats; /* SH floats of one volume (0: none allocated) */
-    int iterating;   /* the injected, ping and pong volumes exist too (the device path) */
-    pf_lpv_site site;
-    float *host_volumes;  /* the host path's accumulation, then its snapshot / far field */
-    uint64_t host_floats; /* floats of each */
-    /* snapshot: the accumulation after snapshot_iterations, and once a propagation is
-     * done, the far field (accumulated − snapshot) that pf_lpv_far_fields gives. */
-    pf_vk_buffer *injected, *ping, *pong, *accumulated, *geometry, *snapshot;
-};
 
 pf_status pf_lpv_create(pf_vk_context *ctx, pf_lpv **out, pf_error *err)
 {
@@ -86,8 +71,9 @@ void pf_lpv_destroy(pf_lpv *lpv)
     if (!lpv)
         return;
     release_volumes(lpv);
+    pf_lpv_inject_release(lpv);
     free(lpv->host_volumes);
-    for (uint32_t mode = 0; mode < ACCUMULATE_MODES; mode++)
+    for (uint32_t mode = 0; mode < PF_LPV_ACCUMULATE_MODES; mode++)
         for (int snapshot = 0; snapshot < 2; snapshot++)
             for (int far = 0; far < 2; far++)
                 if (lpv->propagate[mode][snapshot][far])
@@ -95,14 +81,10 @@ void pf_lpv_destroy(pf_lpv *lpv)
     free(lpv);
 }
 
-/*
- * Makes the volumes the lookups read hold floats SH floats (the accumulation,
- * the snapshot, and a geometry volume of a third of that), and with iterating
- * also the ones the device's iterations use (injected, ping, pong). The host
- * path iterates in its own memory, so on a CPU device it allocates only the
- * first three.
- */
-static pf_status ensure_volumes(pf_lpv *lpv, uint64_t floats, int iterating, pf_error *err)
+/* The volumes (lpv_gpu_internal.h): the accumulation, the snapshot, and a geometry volume of
+ * a third of that, and with iterating the injected, ping and pong volumes. The host path
+ * iterates in its own memory, so on a CPU device it allocates only the first three. */
+pf_status pf_lpv_ensure_volumes(pf_lpv *lpv, uint64_t floats, int iterating, pf_error *err)
 {
     if (lpv->floats == floats && (lpv->iterating || !iterating))
         return PF_OK;
@@ -166,19 +148,23 @@ static pf_status record_geometry(pf_lpv *lpv, pf_vk_commands *cmds, const float 
 /*
  * Sizes the volumes for floats SH floats and begins a command buffer with the uploads
  * recorded: the injected volume (also as the accumulation and the 0-iteration snapshot
- * when accumulate) and the geometry volume. The propagation's dispatches follow in the
- * same submission.
+ * when accumulate; injected NULL: the kept device injection resolved into the three
+ * instead) and the geometry volume. The propagation's dispatches follow in the same
+ * submission.
  */
 static pf_status begin_propagation(pf_lpv *lpv, uint64_t floats, const float *injected,
                                    const float *gv, int accumulate, pf_vk_commands **cmds,
                                    pf_error *err)
 {
     uint64_t bytes = floats * sizeof(float);
-    pf_status status = ensure_volumes(lpv, floats, 1, err);
+    pf_status status = pf_lpv_ensure_volumes(lpv, floats, 1, err);
     if (status == PF_OK)
         status = pf_vk_commands_begin(lpv->ctx, cmds, err);
     pf_vk_buffer *targets[3] = {lpv->injected, lpv->accumulated, lpv->snapshot};
-    for (int t = 0; status == PF_OK && t < (accumulate ? 3 : 1); t++)
+    if (status == PF_OK && !injected) /* the device injection's sums, kept on the device */
+        status = accumulate ? pf_lpv_record_resolve(lpv, *cmds, floats, err)
+                            : pf_error_set(err, PF_ERR_INVALID, "LPV: no injected volume");
+    for (int t = 0; status == PF_OK && injected && t < (accumulate ? 3 : 1); t++)
         status = pf_vk_cmd_upload(*cmds, targets[t], 0, injected, bytes, err);
     if (status == PF_OK)
         status = record_geometry(lpv, *cmds, gv, err);
@@ -214,7 +200,7 @@ void pf_lpv_set_site(pf_lpv *lpv, pf_lpv_site site)
     lpv->site = site;
 }
 
-static int runs_on_host(const pf_lpv *lpv)
+int pf_lpv_propagates_on_host(const pf_lpv *lpv)
 {
     if (lpv->site != PF_LPV_SITE_AUTO)
         return lpv->site == PF_LPV_SITE_HOST;
@@ -226,7 +212,7 @@ static pf_status propagate_on_host(pf_lpv *lpv, const pf_lpv_layout *layout,
                                    const float *injected, const float *gv, uint64_t floats,
                                    pf_error *err)
 {
-    pf_status status = ensure_volumes(lpv, floats, 0, err);
+    pf_status status = pf_lpv_ensure_volumes(lpv, floats, 0, err);
     if (status == PF_OK && lpv->host_floats != floats) {
         free(lpv->host_volumes);
         lpv->host_floats = 0;
@@ -272,7 +258,10 @@ pf_status pf_lpv_propagate(pf_lpv *lpv, const pf_lpv_layout *layout, const float
     uint64_t cells = (uint64_t)layout->size * layout->size * layout->size;
     for (uint32_t k = 0; k < layout->count; k++)
         stats->cell_updates += cells * layout->cascades[k].iterations;
-    if (runs_on_host(lpv)) {
+    if (pf_lpv_propagates_on_host(lpv)) {
+        if (!injected)
+            return pf_error_set(err, PF_ERR_INVALID,
+                                "LPV: the host's propagation needs the injected volume on the host");
         stats->on_host = 1;
         return propagate_on_host(lpv, layout, injected, gv, floats, err);
     }

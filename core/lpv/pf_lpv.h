@@ -9,14 +9,15 @@
  * cell, R then G then B; the basis and constants below). ∫ I dω over the
  * sphere is the cell's flux, c0 · Y00 · 4π.
  *
- * Injection (CPU, pf_lpv_inject): a virtual point light of reflected flux Φ
- * on a surface of normal n is a Lambertian emitter, I(ω) = (Φ/π) max(0, n·ω),
- * so the cell gains (Φ/π) × the clamped-cosine lobe's coefficients (∫ = Φ
- * exactly). It goes into the cell that holds its position moved
- * offset_cells × cell_size along n (out of the surface it lies on), in every
- * cascade that contains that point. On the CPU because the order of the sum
- * is then fixed (the same VPLs give bit-identical grids) and it costs well
- * under a millisecond for the VPL counts the presets use.
+ * Injection (on the device, pf_lpv_inject_photons; pf_lpv_inject is the host's
+ * reference and the path of a device without 64-bit atomics): a virtual point
+ * light of reflected flux Φ on a surface of normal n is a Lambertian emitter,
+ * I(ω) = (Φ/π) max(0, n·ω), so the cell gains (Φ/π) × the clamped-cosine
+ * lobe's coefficients (∫ = Φ exactly). It goes into the cell that holds its
+ * position moved offset_cells × cell_size along n (out of the surface it lies
+ * on), in every cascade that contains that point. The device sums in 64-bit
+ * fixed point, so the same VPLs give bit-identical grids in any order; the
+ * photons then never leave the device (issue 44).
  *
  * Geometry volume (CPU, pf_lpv_geometry_build): the blocking potential of
  * the scene's own triangles at every face between two LPV cells, the one
@@ -260,13 +261,40 @@ typedef enum pf_lpv_site {
 void pf_lpv_set_site(pf_lpv *lpv, pf_lpv_site site);
 
 /*
+ * Injects count VPLs on the device (shaders/lpv_inject.comp; pf_lpv_inject is its
+ * reference): the records of a photon map (pf_photon, flux in units of flux_scale, as
+ * the trace left them) into every cascade of layout, in one submission. The sums are
+ * 64-bit fixed point, so the volume does not depend on the order the invocations add in
+ * (the same to the bit on every run). They stay on the device for the next
+ * pf_lpv_propagate with injected NULL; read_back, where not NULL, also receives the
+ * injected volume (pf_lpv_volume_floats(layout, 12) floats) in the same submission, for
+ * the host's propagation. stats as pf_lpv_inject's; *gpu_ms the passes' device time
+ * (< 0 without timestamps). Needs pf_lpv_injects_on_device: PF_ERR_UNSUPPORTED
+ * otherwise; PF_ERR_NOMEM, PF_ERR_VULKAN.
+ */
+pf_status pf_lpv_inject_photons(pf_lpv *lpv, const pf_lpv_layout *layout,
+                                pf_vk_buffer *photons, uint32_t count, float flux_scale,
+                                float *read_back, pf_lpv_inject_stats *stats, double *gpu_ms,
+                                pf_error *err);
+
+/* Whether the device can inject layout's volume: 64-bit buffer atomics, and sums that
+ * fit in one storage buffer (twice the bytes of the float volume). */
+int pf_lpv_injects_on_device(const pf_lpv *lpv, const pf_lpv_layout *layout);
+
+/* Whether pf_lpv_propagate runs the iterations on the host (pf_lpv_set_site, or AUTO on
+ * a CPU device). */
+int pf_lpv_propagates_on_host(const pf_lpv *lpv);
+
+/*
  * Uploads the injected grid and the geometry volume (gv NULL: no occlusion)
  * for layout, then runs each cascade's iterations; afterwards the
  * accumulation volume holds injected + every iteration. Buffers are
  * (re)allocated when the layout's shape changes. On a CPU device (lavapipe)
  * the iterations run on the host (pf_lpv_propagate_host, ~3× faster there:
- * bench/RESULTS.md) and the volumes are uploaded. PF_ERR_LIMIT when a
- * volume exceeds the device's buffer limit, PF_ERR_NOMEM, PF_ERR_VULKAN.
+ * bench/RESULTS.md) and the volumes are uploaded. injected NULL on the device: the
+ * volume pf_lpv_inject_photons left there for this layout (PF_ERR_INVALID where none is
+ * kept, or on the host). PF_ERR_LIMIT when a volume exceeds the device's buffer limit,
+ * PF_ERR_NOMEM, PF_ERR_VULKAN.
  */
 pf_status pf_lpv_propagate(pf_lpv *lpv, const pf_lpv_layout *layout, const float *injected,
                            const float *gv, pf_lpv_propagate_stats *stats, pf_error *err);

@@ -183,10 +183,12 @@ pf_status pf_photon_grid_irradiance_knn(pf_photon_grid *grid, const float (*quer
  * then reads one nearby value instead of summing every photon within the
  * radius. radius: the estimate's, <= map's build radius; also the points
  * grid's build radius (the lookup's reach). bounds as for
- * pf_photon_grid_build_device. The grid's records are the points alone
+ * pf_photon_grid_build_device. The grid's records are the points
  * (photon_count = counts->points; those dropped because their estimate
  * stopped at the loop guard, counts->truncated, sit past every cell), in
- * the order a GPU listed them. Records its GPU time.
+ * the order a GPU listed them, then a slot without a photon for each other
+ * photon of the map (the build sizes nothing by the count it has not read
+ * back). One submission; records its GPU time.
  */
 #define PF_PHOTON_IRRADIANCE_STRIDE 4u
 typedef struct pf_photon_irradiance_counts {
@@ -197,6 +199,18 @@ pf_status pf_photon_grid_build_irradiance(pf_photon_grid *points, const pf_photo
                                           float radius, const float bounds_min[3],
                                           const float bounds_max[3],
                                           pf_photon_irradiance_counts *counts, pf_error *err);
+/*
+ * pf_photon_grid_build_device of map, then pf_photon_grid_build_irradiance of points from
+ * it (radius both grids'), in one submission with no readback in between (issue 44): the
+ * points' grid holds a slot for every photon of the map, those after the points without
+ * a photon. Errors as the two.
+ */
+pf_status pf_photon_grid_build_with_irradiance(pf_photon_grid *map, pf_photon_grid *points,
+                                               pf_vk_buffer *photons, uint32_t count,
+                                               const float bounds_min[3],
+                                               const float bounds_max[3], float radius,
+                                               pf_photon_irradiance_counts *counts,
+                                               pf_error *err);
 /*
  * photon_irradiance_lookup at query points (xyz + the points' estimate
  * radius in w) with unit normals: irradiance[q] rgb as

@@ -239,16 +239,39 @@ static pf_status check_fits(pf_vk_context *ctx, const pf_photon_grid_info *info,
     return PF_OK;
 }
 
-/* Builds the grid over count photons in input (a device buffer the caller keeps) lying in [lo, hi]. */
-static pf_status build_grid(pf_photon_grid *grid, pf_vk_buffer *input, uint32_t count,
-                            const float lo[3], const float hi[3], float radius, pf_error *err)
+/* A recorded build's scratch buffers, released once its submission is done. */
+typedef struct grid_scratch {
+    pf_vk_buffer *keys, *ranks, *starts, *block_sums;
+} grid_scratch;
+
+static void release_scratch(pf_vk_context *ctx, grid_scratch *scratch)
+{
+    release(ctx, &scratch->keys);
+    release(ctx, &scratch->ranks);
+    release(ctx, &scratch->starts);
+    release(ctx, &scratch->block_sums);
+}
+
+/*
+ * Records the grid's build over the records input[0 .. records) lying in [lo, hi] (a device
+ * buffer the caller keeps until the submission is done), its table planned for planned
+ * photons, with timestamps around it (*begin, *end; < 0 without). The grid's buffers are
+ * made here; its info holds photon_count = records until the caller sets it.
+ */
+static pf_status record_grid(pf_photon_grid *grid, pf_vk_commands *cmds, pf_vk_buffer *input,
+                             uint32_t records, uint32_t planned, const float lo[3],
+                             const float hi[3], float radius, grid_scratch *scratch, int *begin,
+                             int *end, pf_error *err)
 {
     pf_photon_grid_info info;
-    plan_grid(lo, hi, count, radius, &info);
+    plan_grid(lo, hi, planned, radius, &info);
+    info.photon_count = records;
+    *begin = *end = -1;
     pf_vk_context *ctx = grid->ctx;
     pf_status status = check_fits(ctx, &info, err);
     if (status != PF_OK)
         return status;
+    uint32_t count = records;
     uint64_t record_bytes = (uint64_t)(count ? count : 1) * 16;
     uint64_t range_bytes = range_bytes_of(info.table_size);
     uint64_t index_bytes = (uint64_t)(count ? count : 1) * 4;
@@ -256,7 +279,6 @@ static pf_status build_grid(pf_photon_grid *grid, pf_vk_buffer *input, uint32_t 
      * total (photon_grid_scan.comp). */
     uint64_t scan_entries = (uint64_t)info.table_size + 2;
     uint32_t scan_blocks = groups_for(scan_entries, SCAN_BLOCK);
-    pf_vk_buffer *keys = NULL, *ranks = NULL, *starts = NULL, *block_sums = NULL;
     status = pf_vk_buffer_create(ctx, record_bytes, "photon records (cell order)",
                                  &grid->sorted_records, err);
     if (status == PF_OK)
@@ -268,41 +290,40 @@ static pf_status build_grid(pf_photon_grid *grid, pf_vk_buffer *input, uint32_t 
     if (status == PF_OK)
         status = pf_vk_buffer_create(ctx, range_bytes, "photon grid ranges", &grid->ranges, err);
     if (status == PF_OK)
-        status = pf_vk_buffer_create(ctx, index_bytes, "photon grid keys", &keys, err);
+        status = pf_vk_buffer_create(ctx, index_bytes, "photon grid keys", &scratch->keys, err);
     if (status == PF_OK)
-        status = pf_vk_buffer_create(ctx, index_bytes, "photon grid ranks", &ranks, err);
+        status = pf_vk_buffer_create(ctx, index_bytes, "photon grid ranks", &scratch->ranks, err);
     if (status == PF_OK)
-        status = pf_vk_buffer_create(ctx, scan_entries * 4, "photon grid counts", &starts, err);
+        status = pf_vk_buffer_create(ctx, scan_entries * 4, "photon grid counts",
+                                     &scratch->starts, err);
     if (status == PF_OK)
         status = pf_vk_buffer_create(ctx, ((uint64_t)scan_blocks + 1) * 4,
-                                     "photon grid block sums", &block_sums, err);
-
-    pf_vk_commands *cmds = NULL;
-    if (status == PF_OK)
-        status = pf_vk_commands_begin(ctx, &cmds, err);
-    int begin = status == PF_OK ? pf_vk_cmd_timestamp(cmds) : -1;
-    pf_vk_buffer *finish_buffers[] = {keys,           ranks,           input, grid->sorted_records,
-                                      grid->ranges,   grid->sorted_flux, starts, grid->original};
+                                     "photon grid block sums", &scratch->block_sums, err);
+    if (status != PF_OK)
+        return status;
+    *begin = pf_vk_cmd_timestamp(cmds);
+    pf_vk_buffer *finish_buffers[] = {scratch->keys,    scratch->ranks,    input,
+                                      grid->sorted_records, grid->ranges, grid->sorted_flux,
+                                      scratch->starts,  grid->original};
     photon_grid_push push = push_for(&info, count, FINISH_CLEAR);
-    if (status == PF_OK)
-        status = pf_vk_cmd_dispatch(cmds, grid->finish_pipeline, finish_buffers, 8, &push,
-                                    sizeof push, groups_for(scan_entries, GRID_GROUP_SIZE), 1, 1,
-                                    err);
+    status = pf_vk_cmd_dispatch(cmds, grid->finish_pipeline, finish_buffers, 8, &push,
+                                sizeof push, groups_for(scan_entries, GRID_GROUP_SIZE), 1, 1,
+                                err);
+    pf_vk_cmd_barrier(cmds);
     if (status == PF_OK && count > 0) {
-        pf_vk_cmd_barrier(cmds);
-        pf_vk_buffer *key_buffers[] = {input, keys, ranks, starts};
+        pf_vk_buffer *key_buffers[] = {input, scratch->keys, scratch->ranks, scratch->starts};
         status = pf_vk_cmd_dispatch(cmds, grid->keys_pipeline, key_buffers, 4, &push, sizeof push,
                                     groups_for(count, GRID_GROUP_SIZE), 1, 1, err);
         /* Counts to first slots: block sums, their scan, each block's scan from its sum. */
         photon_grid_push scan = push_for(&info, (uint32_t)scan_entries, SCAN_REDUCE);
-        pf_vk_buffer *scan_buffers[] = {starts, block_sums};
+        pf_vk_buffer *scan_buffers[] = {scratch->starts, scratch->block_sums};
         pf_vk_cmd_barrier(cmds);
         if (status == PF_OK)
             status = pf_vk_cmd_dispatch(cmds, grid->scan_pipeline, scan_buffers, 2, &scan,
                                         sizeof scan, scan_blocks, 1, 1, err);
         pf_vk_cmd_barrier(cmds);
         if (status == PF_OK)
-            status = pf_vk_cmd_dispatch(cmds, grid->block_scan_pipeline, &block_sums, 1,
+            status = pf_vk_cmd_dispatch(cmds, grid->block_scan_pipeline, &scratch->block_sums, 1,
                                         &scan_blocks, sizeof scan_blocks, 1, 1, 1, err);
         pf_vk_cmd_barrier(cmds);
         scan.mode = SCAN_BLOCKS;
@@ -317,24 +338,36 @@ static pf_status build_grid(pf_photon_grid *grid, pf_vk_buffer *input, uint32_t 
                                         err);
         pf_vk_cmd_barrier(cmds);
     }
-    int end = status == PF_OK ? pf_vk_cmd_timestamp(cmds) : -1;
+    *end = status == PF_OK ? pf_vk_cmd_timestamp(cmds) : -1;
+    grid->info = info;
+    return status;
+}
+
+/* Builds the grid over count photons in input (a device buffer the caller keeps) lying in
+ * [lo, hi]: one submission. */
+static pf_status build_grid(pf_photon_grid *grid, pf_vk_buffer *input, uint32_t count,
+                            const float lo[3], const float hi[3], float radius, pf_error *err)
+{
+    pf_vk_context *ctx = grid->ctx;
+    grid_scratch scratch = {0};
+    pf_vk_commands *cmds = NULL;
+    int begin = -1, end = -1;
+    pf_status status = pf_vk_commands_begin(ctx, &cmds, err);
+    if (status == PF_OK)
+        status = record_grid(grid, cmds, input, count, count, lo, hi, radius, &scratch, &begin,
+                             &end, err);
     if (status == PF_OK)
         status = pf_vk_commands_submit(cmds, err);
     double gpu_ms = status == PF_OK && begin >= 0 && end >= 0
                         ? pf_vk_commands_elapsed_ms(cmds, begin, end)
                         : -1.0;
     pf_vk_commands_destroy(cmds);
-
-    release(ctx, &keys);
-    release(ctx, &ranks);
-    release(ctx, &starts);
-    release(ctx, &block_sums);
+    release_scratch(ctx, &scratch);
     if (status != PF_OK) {
         release_grid(grid);
         pf_error_prefix(err, "photon grid build (%u photons, radius %g)", count, (double)radius);
         return status;
     }
-    grid->info = info;
     grid->gpu_ms = gpu_ms;
     grid->built = 1;
     return PF_OK;
@@ -572,47 +605,48 @@ pf_status pf_photon_grid_irradiance_lookup(pf_photon_grid *points, const float (
                         err);
 }
 
-/* One dispatch of pipeline over groups groups of one submission; its GPU time added to
- * *gpu_ms (which goes negative for good when a timestamp is missing). */
-static pf_status precompute_dispatch(pf_vk_context *ctx, pf_vk_pipeline *pipeline,
-                                     pf_vk_buffer **buffers, const precompute_push *push,
-                                     uint32_t groups, double *gpu_ms, pf_error *err)
+/* What a recorded points build needs until its submission is done. */
+typedef struct points_scratch {
+    pf_vk_buffer *counter, *list, *input;
+    grid_scratch grid;
+} points_scratch;
+
+static void release_points_scratch(pf_vk_context *ctx, points_scratch *scratch)
 {
-    pf_vk_commands *cmds = NULL;
-    pf_status status = pf_vk_commands_begin(ctx, &cmds, err);
-    if (status != PF_OK)
-        return status;
-    int begin = pf_vk_cmd_timestamp(cmds);
-    status = pf_vk_cmd_dispatch(cmds, pipeline, buffers, 6, push, sizeof *push, groups, 1, 1,
-                                err);
-    int end = pf_vk_cmd_timestamp(cmds);
-    if (status == PF_OK)
-        status = pf_vk_commands_submit(cmds, err);
-    if (status == PF_OK && begin >= 0 && end >= 0 && *gpu_ms >= 0.0)
-        *gpu_ms += pf_vk_commands_elapsed_ms(cmds, begin, end);
-    else
-        *gpu_ms = -1.0;
-    pf_vk_commands_destroy(cmds);
-    return status;
+    release(ctx, &scratch->counter);
+    release(ctx, &scratch->list);
+    release(ctx, &scratch->input);
+    release_scratch(ctx, &scratch->grid);
 }
 
-/* The irradiance points of map into out (one record per point): photon_irradiance_mark.comp
- * lists them, then photon_irradiance_precompute.comp estimates at them, its dispatch sized by
- * the listed count (read back between the two). */
-static pf_status precompute_points(pf_photon_grid *points, const pf_photon_grid *map,
-                                   float radius, pf_vk_buffer *out, uint32_t counts[2],
-                                   double *gpu_ms, pf_error *err)
+/*
+ * Records the irradiance points of map (built, or its build recorded before in cmds) and
+ * their grid, with no readback in between (issue 44): photon_irradiance_mark.comp lists
+ * the points; photon_irradiance_precompute.comp, dispatched for every photon of the map
+ * since the host does not know how many were listed, estimates at the listed ones and
+ * fills the slots after them with records without a photon; the points' grid is built
+ * over all those slots, its table planned for the points expected (one photon in
+ * PF_PHOTON_IRRADIANCE_STRIDE), the empty slots sorted past every cell. counts (points
+ * listed, estimates stopped) are downloaded with the commands; the grid's photon_count
+ * is set from them once they are in. *begin and *end: timestamps around it all.
+ */
+static pf_status record_points(pf_photon_grid *points, const pf_photon_grid *map,
+                               pf_vk_commands *cmds, float radius, const float lo[3],
+                               const float hi[3], points_scratch *scratch, uint32_t counts[2],
+                               int *begin, int *end, pf_error *err)
 {
     pf_vk_context *ctx = points->ctx;
-    const uint32_t zero[2] = {0, 0};
-    pf_vk_buffer *counter = NULL, *list = NULL;
-    pf_status status = pf_vk_buffer_create(ctx, sizeof zero, "irradiance point counts", &counter,
-                                           err);
+    static const uint32_t zero[2] = {0, 0};
+    uint32_t photons = map->info.photon_count;
+    *begin = *end = -1;
+    pf_status status = pf_vk_buffer_create(ctx, sizeof zero, "irradiance point counts",
+                                           &scratch->counter, err);
     if (status == PF_OK)
-        status = pf_vk_buffer_create(ctx, (uint64_t)map->info.photon_count * 4,
-                                     "irradiance point list", &list, err);
+        status = pf_vk_buffer_create(ctx, (uint64_t)(photons ? photons : 1) * 4,
+                                     "irradiance point list", &scratch->list, err);
     if (status == PF_OK)
-        status = pf_vk_buffer_upload(ctx, counter, 0, zero, sizeof zero, err);
+        status = pf_vk_buffer_create(ctx, (uint64_t)(photons ? photons : 1) * sizeof(pf_photon),
+                                     "irradiance points (unsorted)", &scratch->input, err);
     if (status == PF_OK && !points->mark_pipeline)
         status = pf_vk_pipeline_create_named(ctx, "photon_irradiance_mark", 6,
                                              sizeof(precompute_push), NULL, 0,
@@ -621,30 +655,51 @@ static pf_status precompute_points(pf_photon_grid *points, const pf_photon_grid 
         status = pf_vk_pipeline_create_named(ctx, "photon_irradiance_precompute", 6,
                                              sizeof(precompute_push), NULL, 0,
                                              &points->precompute_pipeline, err);
+    if (status == PF_OK)
+        status = pf_vk_cmd_upload(cmds, scratch->counter, 0, zero, sizeof zero, err);
+    if (status != PF_OK)
+        return status;
     precompute_push push;
     memset(&push, 0, sizeof push);
     push.grid = pf_photon_grid_push_of(&map->info);
-    push.photons = map->info.photon_count;
+    push.photons = photons;
     push.radius = radius;
-    pf_vk_buffer *buffers[] = {map->sorted_records, map->ranges, out, counter, list,
-                               map->sorted_flux};
-    *gpu_ms = 0.0;
+    pf_vk_buffer *buffers[] = {map->sorted_records, map->ranges,   scratch->input,
+                               scratch->counter,    scratch->list, map->sorted_flux};
+    *begin = pf_vk_cmd_timestamp(cmds);
+    uint32_t groups = groups_for(photons, GATHER_GROUP_SIZE);
+    if (photons > 0) {
+        status = pf_vk_cmd_dispatch(cmds, points->mark_pipeline, buffers, 6, &push, sizeof push,
+                                    groups, 1, 1, err);
+        pf_vk_cmd_barrier(cmds);
+        if (status == PF_OK)
+            status = pf_vk_cmd_dispatch(cmds, points->precompute_pipeline, buffers, 6, &push,
+                                        sizeof push, groups, 1, 1, err);
+        pf_vk_cmd_barrier(cmds);
+    }
+    uint32_t expected = (photons + PF_PHOTON_IRRADIANCE_STRIDE - 1) / PF_PHOTON_IRRADIANCE_STRIDE;
+    int grid_begin, grid_end;
     if (status == PF_OK)
-        status = precompute_dispatch(ctx, points->mark_pipeline, buffers, &push,
-                                     groups_for(push.photons, GATHER_GROUP_SIZE), gpu_ms, err);
+        status = record_grid(points, cmds, scratch->input, photons, expected, lo, hi, radius,
+                             &scratch->grid, &grid_begin, &grid_end, err);
+    *end = status == PF_OK ? grid_end : -1;
     if (status == PF_OK)
-        status = pf_vk_buffer_download(ctx, counter, 0, counts, sizeof zero, err);
-    if (status == PF_OK && counts[0] > push.photons)
-        status = pf_error_set(err, PF_ERR_INTERNAL, "irradiance points: %u listed of %u photons",
-                              counts[0], push.photons);
-    if (status == PF_OK && counts[0] > 0)
-        status = precompute_dispatch(ctx, points->precompute_pipeline, buffers, &push,
-                                     groups_for(counts[0], GATHER_GROUP_SIZE), gpu_ms, err);
-    if (status == PF_OK)
-        status = pf_vk_buffer_download(ctx, counter, 0, counts, sizeof zero, err);
-    release(ctx, &list);
-    release(ctx, &counter);
+        status = pf_vk_cmd_download(cmds, scratch->counter, 0, counts, sizeof zero, err);
     return status;
+}
+
+/* The points' grid once its submission is done: the counts checked, its time, built. */
+static pf_status finish_points(pf_photon_grid *points, const uint32_t counts[2],
+                               uint32_t photons, double gpu_ms, pf_error *err)
+{
+    if (counts[0] > photons || counts[1] > counts[0])
+        return pf_error_set(err, PF_ERR_INTERNAL,
+                            "irradiance points: %u listed (%u stopped) of %u photons", counts[0],
+                            counts[1], photons);
+    points->info.photon_count = counts[0];
+    points->gpu_ms = gpu_ms;
+    points->built = 1;
+    return PF_OK;
 }
 
 pf_status pf_photon_grid_build_irradiance(pf_photon_grid *points, const pf_photon_grid *map,
@@ -664,26 +719,79 @@ pf_status pf_photon_grid_build_irradiance(pf_photon_grid *points, const pf_photo
                             (double)radius, (double)map->info.cell_size);
     release_grid(points);
     uint32_t photons = map->info.photon_count;
-    pf_vk_buffer *input = NULL;
-    status = pf_vk_buffer_create(points->ctx,
-                                 (uint64_t)(photons ? photons : 1) * sizeof(pf_photon),
-                                 "irradiance points (unsorted)", &input, err);
-    double precompute_ms = 0.0;
+    points_scratch scratch = {0};
     uint32_t found[2] = {0, 0};
-    if (status == PF_OK && photons > 0)
-        status = precompute_points(points, map, radius, input, found, &precompute_ms, err);
-    /* The grid over the points alone (records 0 .. found[0]), its table planned for them: a
-     * quarter of the map's, which the lookups' random range reads find in cache far more often
-     * than they lose to the fuller buckets (bench/RESULTS.md). */
+    int begin = -1, end = -1;
+    pf_vk_commands *cmds = NULL;
+    status = pf_vk_commands_begin(points->ctx, &cmds, err);
     if (status == PF_OK)
-        status = build_grid(points, input, found[0], bounds_min, bounds_max, radius, err);
-    release(points->ctx, &input);
+        status = record_points(points, map, cmds, radius, bounds_min, bounds_max, &scratch,
+                               found, &begin, &end, err);
+    if (status == PF_OK)
+        status = pf_vk_commands_submit(cmds, err);
+    double gpu_ms = status == PF_OK && begin >= 0 && end >= 0
+                        ? pf_vk_commands_elapsed_ms(cmds, begin, end)
+                        : -1.0;
+    pf_vk_commands_destroy(cmds);
+    release_points_scratch(points->ctx, &scratch);
+    if (status == PF_OK)
+        status = finish_points(points, found, photons, gpu_ms, err);
     if (status != PF_OK) {
+        release_grid(points);
         pf_error_prefix(err, "irradiance points (%u photons)", photons);
         return status;
     }
-    if (points->gpu_ms >= 0.0 && precompute_ms >= 0.0)
-        points->gpu_ms += precompute_ms;
+    counts->points = found[0];
+    counts->truncated = found[1];
+    return PF_OK;
+}
+
+pf_status pf_photon_grid_build_with_irradiance(pf_photon_grid *map, pf_photon_grid *points,
+                                               pf_vk_buffer *photons, uint32_t count,
+                                               const float bounds_min[3],
+                                               const float bounds_max[3], float radius,
+                                               pf_photon_irradiance_counts *counts,
+                                               pf_error *err)
+{
+    memset(counts, 0, sizeof *counts);
+    pf_status status = check_radius(radius, err);
+    if (status != PF_OK)
+        return status;
+    release_grid(map);
+    release_grid(points);
+    pf_vk_context *ctx = map->ctx;
+    grid_scratch map_scratch = {0};
+    points_scratch scratch = {0};
+    uint32_t found[2] = {0, 0};
+    int stamps[4] = {-1, -1, -1, -1};
+    pf_vk_commands *cmds = NULL;
+    status = pf_vk_commands_begin(ctx, &cmds, err);
+    if (status == PF_OK)
+        status = record_grid(map, cmds, photons, count, count, bounds_min, bounds_max, radius,
+                             &map_scratch, &stamps[0], &stamps[1], err);
+    if (status == PF_OK)
+        status = record_points(points, map, cmds, radius, bounds_min, bounds_max, &scratch,
+                               found, &stamps[2], &stamps[3], err);
+    if (status == PF_OK)
+        status = pf_vk_commands_submit(cmds, err);
+    double map_ms = status == PF_OK ? pf_vk_commands_elapsed_ms(cmds, stamps[0], stamps[1]) : -1.0;
+    double points_ms = status == PF_OK ? pf_vk_commands_elapsed_ms(cmds, stamps[2], stamps[3])
+                                       : -1.0;
+    pf_vk_commands_destroy(cmds);
+    release_scratch(ctx, &map_scratch);
+    release_points_scratch(ctx, &scratch);
+    if (status == PF_OK) {
+        map->gpu_ms = map_ms;
+        map->built = 1;
+        status = finish_points(points, found, count, points_ms, err);
+    }
+    if (status != PF_OK) {
+        release_grid(map);
+        release_grid(points);
+        pf_error_prefix(err, "photon grid and irradiance points (%u photons, radius %g)", count,
+                        (double)radius);
+        return status;
+    }
     counts->points = found[0];
     counts->truncated = found[1];
     return PF_OK;

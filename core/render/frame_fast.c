@@ -68,9 +68,11 @@ typedef struct fast_counters {
 } fast_counters;
 
 struct pf_fast_cache {
-    /* Photons: the VPLs and the caustic grid. */
-    pf_lpv_vpl *vpls;
+    /* Photons: the VPLs (the global map's records, kept on the device) and the caustic
+     * grid. */
+    pf_vk_buffer *vpls;
     uint32_t vpl_count;
+    float vpl_flux_scale;
     uint32_t emitted, caustic_count;
     pf_photon_grid *caustic;      /* NULL: no caustic map */
     float caustic_radius, caustic_flux_scale;
@@ -79,6 +81,8 @@ struct pf_fast_cache {
     pf_lpv *lpv;
     pf_lpv_layout layout;
     float *geometry, *injected;
+    int injected_on_host; /* injected holds the volume (else the device keeps it: pf_lpv) */
+    int injected_on_device; /* the last injection ran on the device */
     pf_lpv_inject_stats inject_stats;
     uint64_t geometry_pieces;
     pf_vk_buffer *cascades;       /* vec4 per cascade: origin, cell size */
@@ -88,7 +92,7 @@ void pf_fast_cache_destroy(pf_vk_context *ctx, struct pf_fast_cache *cache)
 {
     if (!cache)
         return;
-    free(cache->vpls);
+    pf_render_buffer_release(ctx, &cache->vpls);
     free(cache->geometry);
     free(cache->injected);
     pf_photon_grid_destroy(cache->caustic);
@@ -99,7 +103,8 @@ void pf_fast_cache_destroy(pf_vk_context *ctx, struct pf_fast_cache *cache)
 
 /* Frame-wide figures for the rows. */
 typedef struct fast_progress {
-    double trace_ms, caustic_ms, geometry_ms, inject_ms, propagate_ms, propagate_gpu_ms;
+    double trace_ms, caustic_ms, geometry_ms, inject_ms, inject_gpu_ms, propagate_ms;
+    double propagate_gpu_ms;
     double propagate_cascade_gpu_ms[PF_LPV_MAX_CASCADES]; /* < 0: not measured */
     int propagate_on_host; /* the propagation ran on the host's CPUs (pf_lpv_propagate_stats) */
     uint32_t samples;
@@ -107,13 +112,13 @@ typedef struct fast_progress {
     double shade_gpu_ms;
 } fast_progress;
 
-/* Traces the frame's photons into *maps and keeps the VPLs (every diffuse hit, reflected flux). */
-static pf_status trace_photons(pf_renderer *renderer, struct pf_fast_cache *cache,
-                               const pf_photon_frame *inputs, const pf_scene_frame *frame,
-                               const pf_render_settings *settings, const pf_stage_plan *plan,
-                               pf_photon_maps *maps, fast_progress *progress, pf_error *err)
+/* Traces the frame's photons into *maps and keeps the VPLs (every diffuse hit, reflected
+ * flux): the global map, which stays on the device. */
+static pf_status trace_photons(struct pf_fast_cache *cache, const pf_photon_frame *inputs,
+                               const pf_scene_frame *frame, const pf_render_settings *settings,
+                               const pf_stage_plan *plan, pf_photon_maps *maps,
+                               fast_progress *progress, pf_error *err)
 {
-    pf_vk_context *ctx = renderer->ctx;
     double start = pf_time_ms();
     pf_photon_trace_settings trace = {.photon_count = plan->photons,
                                       .seed = settings->seed,
@@ -128,26 +133,12 @@ static pf_status trace_photons(pf_renderer *renderer, struct pf_fast_cache *cach
         status = pf_error_set(err, PF_ERR_LIMIT,
                               "%u photons overflowed the BIH traversal stack",
                               maps->traversal_failures);
-    pf_photon *photons_host = NULL;
-    if (status == PF_OK)
-        status = pf_photon_map_download(ctx, maps->global, maps->global_count, &photons_host,
-                                        err);
-    if (status == PF_OK && maps->global_count > 0) {
-        cache->vpls = malloc((size_t)maps->global_count * sizeof *cache->vpls);
-        if (!cache->vpls)
-            status = pf_error_set(err, PF_ERR_NOMEM, "fast: out of memory for %u VPLs",
-                                  maps->global_count);
-    }
-    for (uint32_t i = 0; status == PF_OK && i < maps->global_count; i++) {
-        pf_lpv_vpl *vpl = &cache->vpls[i];
-        float incoming[3];
-        pf_photon_unpack(&photons_host[i], vpl->position, vpl->flux, incoming, vpl->normal);
-        for (int c = 0; c < 3; c++)
-            vpl->flux[c] *= maps->flux_scale;
-    }
-    free(photons_host);
-    if (status == PF_OK)
+    if (status == PF_OK) { /* the VPLs stay on the device, the cache's now */
+        cache->vpls = maps->global;
+        maps->global = NULL;
         cache->vpl_count = maps->global_count;
+        cache->vpl_flux_scale = maps->flux_scale;
+    }
     cache->emitted = maps->emitted;
     cache->caustic_count = plan->caustic_map && status == PF_OK ? maps->caustic_count : 0;
     cache->caustic_flux_scale = maps->flux_scale;
@@ -206,18 +197,64 @@ static pf_status build_geometry_volume(struct pf_fast_cache *cache, const pf_sce
     return status;
 }
 
-/* lpv_inject: the VPLs' SH into every cascade. */
-static pf_status inject_vpls(struct pf_fast_cache *cache, const pf_lpv_layout *layout,
-                             fast_progress *progress, pf_error *err)
+/* The host's injection, where the device cannot (no 64-bit atomics): the VPLs read back. */
+static pf_status inject_on_host(pf_vk_context *ctx, struct pf_fast_cache *cache,
+                                const pf_lpv_layout *layout, uint64_t sh_floats, pf_error *err)
+{
+    pf_photon *photons = NULL;
+    pf_lpv_vpl *vpls = NULL;
+    pf_status status = pf_photon_map_download(ctx, cache->vpls, cache->vpl_count,
+                                              &photons, err);
+    if (status == PF_OK && cache->vpl_count > 0) {
+        vpls = malloc((size_t)cache->vpl_count * sizeof *vpls);
+        if (!vpls)
+            status = pf_error_set(err, PF_ERR_NOMEM, "fast: out of memory for %u VPLs",
+                                  cache->vpl_count);
+    }
+    for (uint32_t i = 0; status == PF_OK && i < cache->vpl_count; i++) {
+        float incoming[3];
+        pf_photon_unpack(&photons[i], vpls[i].position, vpls[i].flux, incoming, vpls[i].normal);
+        for (int c = 0; c < 3; c++)
+            vpls[i].flux[c] *= cache->vpl_flux_scale;
+    }
+    if (status == PF_OK) {
+        memset(cache->injected, 0, sh_floats * sizeof *cache->injected);
+        pf_lpv_inject(layout, vpls, cache->vpl_count, cache->injected, &cache->inject_stats);
+    }
+    free(photons);
+    free(vpls);
+    return status;
+}
+
+/*
+ * lpv_inject: the VPLs' SH into every cascade, where the propagation runs. On a GPU that
+ * is the device: one submission, and neither the photons nor the volume leave it. Where
+ * the propagation runs on the host (a CPU device, lavapipe), the injection does too: the
+ * records are read from mapped memory without a submission, and the host's loop measures
+ * 2.7× faster there than the kernel's 64-bit atomics, which llvmpipe serialises (428k VPLs
+ * into 4 cascades on staircase2: 60 ms against 160 ms, bench/RESULTS.md). A device
+ * without 64-bit atomics injects on the host as well.
+ */
+static pf_status inject_vpls(pf_vk_context *ctx, struct pf_fast_cache *cache,
+                             const pf_lpv_layout *layout, fast_progress *progress, pf_error *err)
 {
     double start = pf_time_ms();
     uint64_t sh_floats = pf_lpv_volume_floats(layout, PF_LPV_FLOATS_PER_CELL);
-    pf_status status = ensure_host_volume(&cache->injected, sh_floats, err);
-    if (status == PF_OK) {
-        memset(cache->injected, 0, sh_floats * sizeof *cache->injected);
-        pf_lpv_inject(layout, cache->vpls, cache->vpl_count, cache->injected,
-                      &cache->inject_stats);
+    int on_device = !pf_lpv_propagates_on_host(cache->lpv) &&
+                    pf_lpv_injects_on_device(cache->lpv, layout);
+    pf_status status = PF_OK;
+    progress->inject_gpu_ms = -1.0;
+    if (on_device) {
+        status = pf_lpv_inject_photons(cache->lpv, layout, cache->vpls, cache->vpl_count,
+                                       cache->vpl_flux_scale, NULL, &cache->inject_stats,
+                                       &progress->inject_gpu_ms, err);
+    } else {
+        status = ensure_host_volume(&cache->injected, sh_floats, err);
+        if (status == PF_OK)
+            status = inject_on_host(ctx, cache, layout, sh_floats, err);
     }
+    cache->injected_on_host = status == PF_OK && !on_device;
+    cache->injected_on_device = on_device;
     progress->inject_ms = pf_time_ms() - start;
     return status;
 }
@@ -229,7 +266,8 @@ static pf_status propagate(struct pf_fast_cache *cache, const pf_lpv_layout *lay
     double start = pf_time_ms();
     pf_lpv_propagate_stats stats;
     pf_status status =
-        pf_lpv_propagate(cache->lpv, layout, cache->injected, cache->geometry, &stats, err);
+        pf_lpv_propagate(cache->lpv, layout, cache->injected_on_host ? cache->injected : NULL,
+                         cache->geometry, &stats, err);
     progress->propagate_gpu_ms = stats.gpu_ms;
     memcpy(progress->propagate_cascade_gpu_ms, stats.cascade_gpu_ms,
            sizeof progress->propagate_cascade_gpu_ms);
@@ -400,9 +438,11 @@ static void report_rows(pf_frame_report *report, const struct pf_fast_cache *cac
         pf_stage_add_counter(row, "finest_cell_m", layout->cascades[0].cell_size);
         pf_stage_add_counter(row, "scene_covered", layout->covers_scene);
     }
-    row = pf_stage_row(report, plan, PF_STAGE_LPV_INJECT, progress->inject_ms, -1.0);
+    row = pf_stage_row(report, plan, PF_STAGE_LPV_INJECT, progress->inject_ms,
+                       progress->inject_gpu_ms);
     if (row) {
         pf_stage_add_counter(row, "vpls", cache->vpl_count);
+        pf_stage_add_counter(row, "on_device", cache->injected_on_device);
         pf_stage_add_counter(row, "outside", cache->inject_stats.outside);
         for (uint32_t k = 0; k < layout->count && row->counter_count < PF_STAGE_COUNTERS_MAX;
              k++) {
@@ -446,6 +486,13 @@ static void report_rows(pf_frame_report *report, const struct pf_fast_cache *cac
         report->discarded_samples += progress->discarded;
 }
 
+void pf_renderer_set_lpv_site(pf_renderer *renderer, pf_lpv_site site)
+{
+    renderer->lpv_site = site;
+    /* The kept injection is where the old site read it: the next frame runs every stage. */
+    pf_stage_forget(&renderer->stage_memory[PF_QUALITY_FAST]);
+}
+
 /* The frame's state between its stages (pf_frame_run.state). */
 typedef struct fast_frame {
     pf_photon_frame inputs;
@@ -485,7 +532,7 @@ static pf_status fast_begin(pf_frame_run *run, pf_error *err)
         return status;
     struct pf_fast_cache *cache = renderer->fast_cache;
     f->start_ms = pf_time_ms();
-    f->progress.shade_gpu_ms = f->progress.propagate_gpu_ms = -1.0;
+    f->progress.shade_gpu_ms = f->progress.propagate_gpu_ms = f->progress.inject_gpu_ms = -1.0;
     status = pf_split_image_create(run->image, settings->width, settings->height, settings->aovs,
                                    err);
     if (status == PF_OK)
@@ -495,8 +542,7 @@ static pf_status fast_begin(pf_frame_run *run, pf_error *err)
     if (trace != PF_STAGE_REUSE) {
         /* Traced anew or not at all: the kept VPLs and caustic grid no longer hold. */
         memory->valid[PF_STAGE_PHOTON_TRACE] = memory->valid[PF_STAGE_CAUSTIC_MAP] = 0;
-        free(cache->vpls);
-        cache->vpls = NULL;
+        pf_render_buffer_release(renderer->ctx, &cache->vpls);
         cache->vpl_count = cache->emitted = cache->caustic_count = 0;
         if (plan->stages[PF_STAGE_CAUSTIC_MAP].action != PF_STAGE_RUN) {
             pf_photon_grid_destroy(cache->caustic);
@@ -511,6 +557,8 @@ static pf_status fast_begin(pf_frame_run *run, pf_error *err)
                layout->size, (double)layout->cascades[layout->count - 1].cell_size);
     if (status == PF_OK && !cache->lpv)
         status = pf_lpv_create(renderer->ctx, &cache->lpv, err);
+    if (status == PF_OK)
+        pf_lpv_set_site(cache->lpv, renderer->lpv_site);
     if (status == PF_OK)
         status = upload_cascades(renderer->ctx, cache, layout, err);
     cache->layout = *layout;
@@ -540,8 +588,8 @@ static pf_status fast_run(pf_frame_run *run, pf_stage_id stage, uint32_t pass, p
         memory->valid[stage] = 0;
     switch (stage) {
     case PF_STAGE_PHOTON_TRACE:
-        status = trace_photons(renderer, cache, &f->inputs, run->frame, run->settings, plan,
-                               &f->maps, &f->progress, err);
+        status = trace_photons(cache, &f->inputs, run->frame, run->settings, plan, &f->maps,
+                               &f->progress, err);
         f->maps_held = status == PF_OK;
         /* Without a caustic stage the caustic photons are not wanted. */
         if (f->maps_held && plan->stages[PF_STAGE_CAUSTIC_MAP].action != PF_STAGE_RUN) {
@@ -561,7 +609,7 @@ static pf_status fast_run(pf_frame_run *run, pf_stage_id stage, uint32_t pass, p
         status = build_geometry_volume(cache, run->frame, &plan->layout, &f->progress, err);
         break;
     case PF_STAGE_LPV_INJECT:
-        status = inject_vpls(cache, &plan->layout, &f->progress, err);
+        status = inject_vpls(renderer->ctx, cache, &plan->layout, &f->progress, err);
         break;
     case PF_STAGE_LPV_PROPAGATE:
         status = propagate(cache, &plan->layout, &f->progress, err);

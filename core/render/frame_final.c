@@ -195,6 +195,8 @@ typedef struct final_progress {
     uint64_t emitted, global_stored, caustic_stored, points, points_skipped;
     uint32_t lookup_passes; /* passes shaded with precomputed irradiance */
     double trace_ms, trace_gpu_ms, grid_ms, grid_gpu_ms, caustic_ms;
+    /* grid_gpu_ms's two parts: the maps' grids, and the irradiance points with theirs. */
+    double map_grid_gpu_ms, points_gpu_ms;
     float radius_first, radius_last;
     uint64_t rays, discarded, truncated, dropped, failures;
     uint64_t deferred, estimated_at_once; /* gather estimates run by final_deferred.comp, and not */
@@ -265,26 +267,29 @@ static pf_status grid_pass(pf_vk_context *ctx, const pf_scene_frame *frame,
     pf_status status = PF_OK;
     if (!slot->global)
         status = pf_photon_grid_create(ctx, &slot->global, err);
-    if (status == PF_OK)
-        status = pf_photon_grid_build_device(slot->global, maps->global, maps->global_count,
-                                             frame->bounds_min, frame->bounds_max, slot->radius,
-                                             err);
-    if (status == PF_OK)
-        add_gpu(&progress->grid_gpu_ms, pf_photon_grid_gpu_ms(slot->global));
     slot->points_built = 0;
     int lookups = status == PF_OK && wants_lookups(settings, plan, maps->global_count);
     if (lookups && !slot->points)
         status = pf_photon_grid_create(ctx, &slot->points, err);
+    /* The map's grid and its irradiance points: one submission either way (issue 44). */
     pf_photon_irradiance_counts counts = {0, 0};
-    if (lookups && status == PF_OK)
-        status = pf_photon_grid_build_irradiance(slot->points, slot->global, slot->radius,
-                                                 frame->bounds_min, frame->bounds_max, &counts,
-                                                 err);
+    if (status == PF_OK && lookups)
+        status = pf_photon_grid_build_with_irradiance(
+            slot->global, slot->points, maps->global, maps->global_count, frame->bounds_min,
+            frame->bounds_max, slot->radius, &counts, err);
+    else if (status == PF_OK)
+        status = pf_photon_grid_build_device(slot->global, maps->global, maps->global_count,
+                                             frame->bounds_min, frame->bounds_max, slot->radius,
+                                             err);
     if (status == PF_OK) {
+        add_gpu(&progress->grid_gpu_ms, pf_photon_grid_gpu_ms(slot->global));
+        add_gpu(&progress->map_grid_gpu_ms, pf_photon_grid_gpu_ms(slot->global));
         progress->grid_ms += pf_time_ms() - start;
         slot->points_built = lookups;
-        if (lookups)
+        if (lookups) {
             add_gpu(&progress->grid_gpu_ms, pf_photon_grid_gpu_ms(slot->points));
+            add_gpu(&progress->points_gpu_ms, pf_photon_grid_gpu_ms(slot->points));
+        }
         progress->points += counts.points;
         progress->points_skipped += counts.truncated;
     }
@@ -557,6 +562,12 @@ static void report_rows(pf_frame_report *report, const pf_stage_plan *plan,
         pf_stage_add_counter(row, "radius_last", progress->radius_last);
         pf_stage_add_counter(row, "irradiance_points", (double)progress->points);
         pf_stage_add_counter(row, "irradiance_points_skipped", (double)progress->points_skipped);
+        /* Where the GPU time went inside the passes' submissions (issue 44). */
+        if (progress->grid_gpu_ms >= 0.0) {
+            pf_stage_add_counter(row, "gpu_ms_map_grid", progress->map_grid_gpu_ms);
+            pf_stage_add_counter(row, "gpu_ms_irradiance_points",
+                                 progress->points_gpu_ms > 0.0 ? progress->points_gpu_ms : 0.0);
+        }
     }
     row = pf_stage_row(report, plan, PF_STAGE_CAUSTIC_MAP, progress->caustic_ms, -1.0);
     if (row) {
@@ -640,6 +651,7 @@ static pf_status final_begin(pf_frame_run *run, pf_error *err)
         return status;
     f->start_ms = pf_time_ms();
     f->progress.trace_gpu_ms = f->progress.grid_gpu_ms = f->progress.shade_gpu_ms = -1.0;
+    f->progress.map_grid_gpu_ms = f->progress.points_gpu_ms = -1.0;
     status = pf_split_image_create(run->image, settings->width, settings->height, settings->aovs,
                                    err);
     if (status == PF_OK)

@@ -164,6 +164,10 @@ typedef enum pf_bih_build_site {
 /* Forces the build site of later frames (tests cover both paths with it). */
 void pf_renderer_set_bih_build(pf_renderer *renderer, pf_bih_build_site site);
 
+/* Forces where fast's LPV propagation runs in later frames (pf_lpv_set_site: tests cover
+ * the device's path on lavapipe, where AUTO picks the host). */
+void pf_renderer_set_lpv_site(pf_renderer *renderer, pf_lpv_site site);
+
 /*
  * Renders one frame of an evaluated scene into image (allocated here) with
  * the integrator of settings->quality and appends its stage rows to report

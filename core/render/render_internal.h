@@ -229,6 +229,7 @@ struct pf_renderer {
     double bih_sah;
     double bih_fresh_sah;
     pf_bih_build_site bih_build_site; /* pf_renderer_set_bih_build */
+    pf_lpv_site lpv_site;             /* pf_renderer_set_lpv_site */
     pf_bih_gpu_build_report bih_gpu_report; /* the last GPU build's, for its row */
     uint64_t bih_frames;
     int bih_pilot_replaced; /* auto's pilot dropped the previous frame's tree (pilot.c) */
