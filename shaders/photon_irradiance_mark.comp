@@ -19,7 +19,7 @@ layout(push_constant) uniform Push {
     uint hashed;
     uint table_size;
     uint photons;  // photons in the map
-    uint padding;
+    uint capacity; // slots of the point list and the output (core/photon/photon_grid.c)
     float radius;
 } push;
 
@@ -40,6 +40,11 @@ void main()
     if (i >= push.photons)
         return;
     vec3 position = uintBitsToFloat(photon_texel_record(grid_records, i).xyz);
-    if (photon_is_irradiance_point(position))
-        point_list[atomicAdd(counts.points, 1u)] = i;
+    // Past the capacity a point is counted, not listed: the host sees the count above it
+    // and lists again with room for every photon (which the coin makes all but impossible).
+    if (photon_is_irradiance_point(position)) {
+        uint slot = atomicAdd(counts.points, 1u);
+        if (slot < push.capacity)
+            point_list[slot] = i;
+    }
 }

@@ -25,12 +25,14 @@ layout(push_constant) uniform Push {
     uint hashed;
     uint table_size;
     uint photons;  // photons in the map
-    uint padding;
+    uint capacity; // slots of the point list and the output (core/photon/photon_grid.c)
     float radius;  // the estimate's radius (<= the map's build radius)
 } push;
 
 // After photon_irradiance_mark.comp listed the points, one invocation per
-// photon of the map: the first ones, one per listed point, its record.
+// slot of the output (push.capacity, a bound on the points the host sets
+// without reading their count): the first ones, one per listed point, its
+// record.
 // Listing first keeps the SIMD lanes of the estimates full; with the coin
 // tested in the estimate dispatch itself nearly every 8-lane group held a
 // point and ran the whole loop. The listing is a module of its own: llvmpipe
@@ -92,8 +94,8 @@ void empty_slot(uint k)
 void main()
 {
     uint k = gl_GlobalInvocationID.x;
-    if (k < counts.points)
+    if (k < min(counts.points, push.capacity))
         estimate(k);
-    else if (k < push.photons)
+    else if (k < push.capacity)
         empty_slot(k);
 }

@@ -30,7 +30,7 @@ enum { ESTIMATE_FIXED = 0, ESTIMATE_KNN = 1, ESTIMATE_LOOKUP = 2 };
 typedef struct precompute_push {
     pf_photon_grid_push grid;
     uint32_t photons;
-    uint32_t padding;
+    uint32_t capacity; /* slots of the point list and the unsorted points (record_points) */
     float radius;
 } precompute_push;
 
@@ -620,20 +620,32 @@ static void release_points_scratch(pf_vk_context *ctx, points_scratch *scratch)
 }
 
 /*
+ * Slots for the points of a map of photons without reading their count back: the coin
+ * makes one photon in PF_PHOTON_IRRADIANCE_STRIDE a point (binomial), so the expected
+ * count plus 8 standard deviations and 256; every photon when that is more.
+ */
+static uint32_t points_capacity(uint32_t photons)
+{
+    double p = 1.0 / PF_PHOTON_IRRADIANCE_STRIDE;
+    double bound = ceil(photons * p + 8.0 * sqrt(photons * p * (1.0 - p)) + 256.0);
+    return bound < (double)photons ? (uint32_t)bound : photons;
+}
+
+/*
  * Records the irradiance points of map (built, or its build recorded before in cmds) and
  * their grid, with no readback in between (issue 44): photon_irradiance_mark.comp lists
- * the points; photon_irradiance_precompute.comp, dispatched for every photon of the map
+ * up to capacity points; photon_irradiance_precompute.comp, dispatched for capacity slots
  * since the host does not know how many were listed, estimates at the listed ones and
  * fills the slots after them with records without a photon; the points' grid is built
- * over all those slots, its table planned for the points expected (one photon in
+ * over all capacity slots, its table planned for the points expected (one photon in
  * PF_PHOTON_IRRADIANCE_STRIDE), the empty slots sorted past every cell. counts (points
- * listed, estimates stopped) are downloaded with the commands; the grid's photon_count
- * is set from them once they are in. *begin and *end: timestamps around it all.
+ * found, estimates stopped) are downloaded with the commands; finish_points checks them
+ * against capacity. *begin and *end: timestamps around it all.
  */
 static pf_status record_points(pf_photon_grid *points, const pf_photon_grid *map,
                                pf_vk_commands *cmds, float radius, const float lo[3],
-                               const float hi[3], points_scratch *scratch, uint32_t counts[2],
-                               int *begin, int *end, pf_error *err)
+                               const float hi[3], uint32_t capacity, points_scratch *scratch,
+                               uint32_t counts[2], int *begin, int *end, pf_error *err)
 {
     pf_vk_context *ctx = points->ctx;
     static const uint32_t zero[2] = {0, 0};
@@ -642,10 +654,10 @@ static pf_status record_points(pf_photon_grid *points, const pf_photon_grid *map
     pf_status status = pf_vk_buffer_create(ctx, sizeof zero, "irradiance point counts",
                                            &scratch->counter, err);
     if (status == PF_OK)
-        status = pf_vk_buffer_create(ctx, (uint64_t)(photons ? photons : 1) * 4,
+        status = pf_vk_buffer_create(ctx, (uint64_t)(capacity ? capacity : 1) * 4,
                                      "irradiance point list", &scratch->list, err);
     if (status == PF_OK)
-        status = pf_vk_buffer_create(ctx, (uint64_t)(photons ? photons : 1) * sizeof(pf_photon),
+        status = pf_vk_buffer_create(ctx, (uint64_t)(capacity ? capacity : 1) * sizeof(pf_photon),
                                      "irradiance points (unsorted)", &scratch->input, err);
     if (status == PF_OK && !points->mark_pipeline)
         status = pf_vk_pipeline_create_named(ctx, "photon_irradiance_mark", 6,
@@ -663,24 +675,25 @@ static pf_status record_points(pf_photon_grid *points, const pf_photon_grid *map
     memset(&push, 0, sizeof push);
     push.grid = pf_photon_grid_push_of(&map->info);
     push.photons = photons;
+    push.capacity = capacity;
     push.radius = radius;
     pf_vk_buffer *buffers[] = {map->sorted_records, map->ranges,   scratch->input,
                                scratch->counter,    scratch->list, map->sorted_flux};
     *begin = pf_vk_cmd_timestamp(cmds);
-    uint32_t groups = groups_for(photons, GATHER_GROUP_SIZE);
     if (photons > 0) {
         status = pf_vk_cmd_dispatch(cmds, points->mark_pipeline, buffers, 6, &push, sizeof push,
-                                    groups, 1, 1, err);
+                                    groups_for(photons, GATHER_GROUP_SIZE), 1, 1, err);
         pf_vk_cmd_barrier(cmds);
         if (status == PF_OK)
             status = pf_vk_cmd_dispatch(cmds, points->precompute_pipeline, buffers, 6, &push,
-                                        sizeof push, groups, 1, 1, err);
+                                        sizeof push, groups_for(capacity, GATHER_GROUP_SIZE), 1,
+                                        1, err);
         pf_vk_cmd_barrier(cmds);
     }
     uint32_t expected = (photons + PF_PHOTON_IRRADIANCE_STRIDE - 1) / PF_PHOTON_IRRADIANCE_STRIDE;
     int grid_begin, grid_end;
     if (status == PF_OK)
-        status = record_grid(points, cmds, scratch->input, photons, expected, lo, hi, radius,
+        status = record_grid(points, cmds, scratch->input, capacity, expected, lo, hi, radius,
                              &scratch->grid, &grid_begin, &grid_end, err);
     *end = status == PF_OK ? grid_end : -1;
     if (status == PF_OK)
@@ -688,10 +701,15 @@ static pf_status record_points(pf_photon_grid *points, const pf_photon_grid *map
     return status;
 }
 
-/* The points' grid once its submission is done: the counts checked, its time, built. */
+/* The points' grid once its submission is done: the counts checked, its time, built.
+ * PF_ERR_LIMIT when more points were found than capacity (the caller lists again). */
 static pf_status finish_points(pf_photon_grid *points, const uint32_t counts[2],
-                               uint32_t photons, double gpu_ms, pf_error *err)
+                               uint32_t photons, uint32_t capacity, double gpu_ms,
+                               pf_error *err)
 {
+    if (counts[0] > capacity && counts[0] <= photons)
+        return pf_error_set(err, PF_ERR_LIMIT, "irradiance points: %u found, room for %u",
+                            counts[0], capacity);
     if (counts[0] > photons || counts[1] > counts[0])
         return pf_error_set(err, PF_ERR_INTERNAL,
                             "irradiance points: %u listed (%u stopped) of %u photons", counts[0],
@@ -700,6 +718,33 @@ static pf_status finish_points(pf_photon_grid *points, const uint32_t counts[2],
     points->gpu_ms = gpu_ms;
     points->built = 1;
     return PF_OK;
+}
+
+/* The points of a built map with room for capacity of them: one submission. */
+static pf_status build_points(pf_photon_grid *points, const pf_photon_grid *map, float radius,
+                              const float lo[3], const float hi[3], uint32_t capacity,
+                              uint32_t found[2], pf_error *err)
+{
+    release_grid(points);
+    points_scratch scratch = {0};
+    int begin = -1, end = -1;
+    pf_vk_commands *cmds = NULL;
+    pf_status status = pf_vk_commands_begin(points->ctx, &cmds, err);
+    if (status == PF_OK)
+        status = record_points(points, map, cmds, radius, lo, hi, capacity, &scratch, found,
+                               &begin, &end, err);
+    if (status == PF_OK)
+        status = pf_vk_commands_submit(cmds, err);
+    double gpu_ms = status == PF_OK && begin >= 0 && end >= 0
+                        ? pf_vk_commands_elapsed_ms(cmds, begin, end)
+                        : -1.0;
+    pf_vk_commands_destroy(cmds);
+    release_points_scratch(points->ctx, &scratch);
+    if (status == PF_OK)
+        status = finish_points(points, found, map->info.photon_count, capacity, gpu_ms, err);
+    if (status != PF_OK)
+        release_grid(points);
+    return status;
 }
 
 pf_status pf_photon_grid_build_irradiance(pf_photon_grid *points, const pf_photon_grid *map,
@@ -717,27 +762,13 @@ pf_status pf_photon_grid_build_irradiance(pf_photon_grid *points, const pf_photo
         return pf_error_set(err, PF_ERR_INVALID,
                             "irradiance points: radius %g exceeds the map's cell %g",
                             (double)radius, (double)map->info.cell_size);
-    release_grid(points);
     uint32_t photons = map->info.photon_count;
-    points_scratch scratch = {0};
     uint32_t found[2] = {0, 0};
-    int begin = -1, end = -1;
-    pf_vk_commands *cmds = NULL;
-    status = pf_vk_commands_begin(points->ctx, &cmds, err);
-    if (status == PF_OK)
-        status = record_points(points, map, cmds, radius, bounds_min, bounds_max, &scratch,
-                               found, &begin, &end, err);
-    if (status == PF_OK)
-        status = pf_vk_commands_submit(cmds, err);
-    double gpu_ms = status == PF_OK && begin >= 0 && end >= 0
-                        ? pf_vk_commands_elapsed_ms(cmds, begin, end)
-                        : -1.0;
-    pf_vk_commands_destroy(cmds);
-    release_points_scratch(points->ctx, &scratch);
-    if (status == PF_OK)
-        status = finish_points(points, found, photons, gpu_ms, err);
+    status = build_points(points, map, radius, bounds_min, bounds_max, points_capacity(photons),
+                          found, err);
+    if (status == PF_ERR_LIMIT) /* more points than the bound: room for every photon */
+        status = build_points(points, map, radius, bounds_min, bounds_max, photons, found, err);
     if (status != PF_OK) {
-        release_grid(points);
         pf_error_prefix(err, "irradiance points (%u photons)", photons);
         return status;
     }
@@ -763,6 +794,7 @@ pf_status pf_photon_grid_build_with_irradiance(pf_photon_grid *map, pf_photon_gr
     grid_scratch map_scratch = {0};
     points_scratch scratch = {0};
     uint32_t found[2] = {0, 0};
+    uint32_t capacity = points_capacity(count);
     int stamps[4] = {-1, -1, -1, -1};
     pf_vk_commands *cmds = NULL;
     status = pf_vk_commands_begin(ctx, &cmds, err);
@@ -770,8 +802,8 @@ pf_status pf_photon_grid_build_with_irradiance(pf_photon_grid *map, pf_photon_gr
         status = record_grid(map, cmds, photons, count, count, bounds_min, bounds_max, radius,
                              &map_scratch, &stamps[0], &stamps[1], err);
     if (status == PF_OK)
-        status = record_points(points, map, cmds, radius, bounds_min, bounds_max, &scratch,
-                               found, &stamps[2], &stamps[3], err);
+        status = record_points(points, map, cmds, radius, bounds_min, bounds_max, capacity,
+                               &scratch, found, &stamps[2], &stamps[3], err);
     if (status == PF_OK)
         status = pf_vk_commands_submit(cmds, err);
     double map_ms = status == PF_OK ? pf_vk_commands_elapsed_ms(cmds, stamps[0], stamps[1]) : -1.0;
@@ -783,7 +815,13 @@ pf_status pf_photon_grid_build_with_irradiance(pf_photon_grid *map, pf_photon_gr
     if (status == PF_OK) {
         map->gpu_ms = map_ms;
         map->built = 1;
-        status = finish_points(points, found, count, points_ms, err);
+        status = finish_points(points, found, count, capacity, points_ms, err);
+    }
+    if (status == PF_ERR_LIMIT) { /* more points than the bound: again, room for every photon */
+        status = build_points(points, map, radius, bounds_min, bounds_max, count, found, err);
+        double again_ms = pf_photon_grid_gpu_ms(points);
+        if (status == PF_OK && points_ms >= 0.0 && again_ms >= 0.0)
+            points->gpu_ms = points_ms + again_ms;
     }
     if (status != PF_OK) {
         release_grid(map);

@@ -519,6 +519,36 @@ PF_TEST(irradiance_lookups_average_to_the_estimate)
     free(photons);
 }
 
+/* A map whose every photon is a point (far above the bound record_points lists without
+ * reading the count): found all the same, the points listed again with room for each. */
+PF_TEST(more_points_than_the_bound_are_listed_again)
+{
+    enum { COUNT = 24000 };
+    const float radius = 0.03f;
+    uint32_t rng = 5u;
+    pf_photon *photons = malloc(COUNT * sizeof *photons);
+    PF_REQUIRE(photons);
+    float lo[3] = {-1.0f, 0.0f, -1.0f}, hi[3] = {1.0f, 0.0f, 1.0f};
+    plane_photons(photons, COUNT, hi[1], &rng);
+    uint32_t kept = 0;
+    for (uint32_t i = 0; i < COUNT; i++)
+        if (is_irradiance_point(&photons[i]))
+            photons[kept++] = photons[i];
+    PF_REQUIRE(kept > 2000);
+    pf_error err = {0};
+    pf_photon_grid *points = NULL;
+    PF_REQUIRE_OK(pf_photon_grid_build(grid, photons, kept, radius, &err), &err);
+    PF_REQUIRE_OK(pf_photon_grid_create(ctx, &points, &err), &err);
+    pf_photon_irradiance_counts counts;
+    PF_CHECK_OK(pf_photon_grid_build_irradiance(points, grid, radius, lo, hi, &counts, &err),
+                &err);
+    printf("  %u photons, every one a point: %u points\n", kept, counts.points);
+    PF_CHECK(counts.points == kept);
+    PF_CHECK(pf_photon_grid_get_info(points).photon_count == kept);
+    pf_photon_grid_destroy(points);
+    free(photons);
+}
+
 int main(void)
 {
     pf_error err = {0};
@@ -532,6 +562,7 @@ int main(void)
     PF_RUN(clustered_photons_stop_at_the_loop_guard_and_say_so);
     PF_RUN(k_outside_its_bounds_is_refused);
     PF_RUN(irradiance_lookups_average_to_the_estimate);
+    PF_RUN(more_points_than_the_bound_are_listed_again);
     pf_photon_grid_destroy(grid);
     VK_TEST_FINISH(ctx);
     return pf_test_finish();
