@@ -197,7 +197,8 @@ static pf_status build_geometry_volume(struct pf_fast_cache *cache, const pf_sce
     return status;
 }
 
-/* The host's injection, where the device cannot (no 64-bit atomics): the VPLs read back. */
+/* The host's injection (inject_vpls says where it runs): the VPL records read from the
+ * device, mapped memory on a CPU device. */
 static pf_status inject_on_host(pf_vk_context *ctx, struct pf_fast_cache *cache,
                                 const pf_lpv_layout *layout, uint64_t sh_floats, pf_error *err)
 {
