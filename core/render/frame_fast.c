@@ -81,8 +81,9 @@ struct pf_fast_cache {
     pf_lpv *lpv;
     pf_lpv_layout layout;
     float *geometry, *injected;
-    int injected_on_host; /* injected holds the volume (else the device keeps it: pf_lpv) */
-    int injected_on_device; /* the last injection ran on the device */
+    /* The last injection ran on the device, which keeps the volume (pf_lpv); else injected
+     * holds it. */
+    int injected_on_device;
     pf_lpv_inject_stats inject_stats;
     uint64_t geometry_pieces;
     pf_vk_buffer *cascades;       /* vec4 per cascade: origin, cell size */
@@ -254,7 +255,6 @@ static pf_status inject_vpls(pf_vk_context *ctx, struct pf_fast_cache *cache,
         if (status == PF_OK)
             status = inject_on_host(ctx, cache, layout, sh_floats, err);
     }
-    cache->injected_on_host = status == PF_OK && !on_device;
     cache->injected_on_device = on_device;
     progress->inject_ms = pf_time_ms() - start;
     return status;
@@ -267,7 +267,7 @@ static pf_status propagate(struct pf_fast_cache *cache, const pf_lpv_layout *lay
     double start = pf_time_ms();
     pf_lpv_propagate_stats stats;
     pf_status status =
-        pf_lpv_propagate(cache->lpv, layout, cache->injected_on_host ? cache->injected : NULL,
+        pf_lpv_propagate(cache->lpv, layout, cache->injected_on_device ? NULL : cache->injected,
                          cache->geometry, &stats, err);
     progress->propagate_gpu_ms = stats.gpu_ms;
     memcpy(progress->propagate_cascade_gpu_ms, stats.cascade_gpu_ms,
