@@ -720,30 +720,54 @@ static pf_status finish_points(pf_photon_grid *points, const uint32_t counts[2],
     return PF_OK;
 }
 
-/* The points of a built map with room for capacity of them: one submission. */
-static pf_status build_points(pf_photon_grid *points, const pf_photon_grid *map, float radius,
-                              const float lo[3], const float hi[3], uint32_t capacity,
-                              uint32_t found[2], pf_error *err)
+/*
+ * The points of map with room for capacity of them, in one submission. building: NULL
+ * when map is built, else map itself, whose grid over photons (count records) is built
+ * first in the same submission. gpu_ms[0] and [1]: the map's build and the points' (< 0
+ * without timestamps). On failure the points are not left built, nor the map unless only
+ * the list was full (PF_ERR_LIMIT).
+ */
+static pf_status submit_grids(const pf_photon_grid *map, pf_photon_grid *building,
+                              pf_vk_buffer *photons, uint32_t count, pf_photon_grid *points,
+                              float radius, const float lo[3], const float hi[3],
+                              uint32_t capacity, uint32_t found[2], double gpu_ms[2],
+                              pf_error *err)
 {
+    pf_vk_context *ctx = points->ctx;
     release_grid(points);
+    if (building)
+        release_grid(building);
+    grid_scratch map_scratch = {0};
     points_scratch scratch = {0};
-    int begin = -1, end = -1;
+    int stamps[4] = {-1, -1, -1, -1};
     pf_vk_commands *cmds = NULL;
-    pf_status status = pf_vk_commands_begin(points->ctx, &cmds, err);
+    pf_status status = pf_vk_commands_begin(ctx, &cmds, err);
+    if (status == PF_OK && building)
+        status = record_grid(building, cmds, photons, count, count, lo, hi, radius, &map_scratch,
+                             &stamps[0], &stamps[1], err);
     if (status == PF_OK)
         status = record_points(points, map, cmds, radius, lo, hi, capacity, &scratch, found,
-                               &begin, &end, err);
+                               &stamps[2], &stamps[3], err);
     if (status == PF_OK)
         status = pf_vk_commands_submit(cmds, err);
-    double gpu_ms = status == PF_OK && begin >= 0 && end >= 0
-                        ? pf_vk_commands_elapsed_ms(cmds, begin, end)
-                        : -1.0;
+    for (int g = 0; g < 2; g++)
+        gpu_ms[g] = status == PF_OK ? pf_vk_commands_elapsed_ms(cmds, stamps[2 * g],
+                                                                 stamps[2 * g + 1])
+                                    : -1.0;
     pf_vk_commands_destroy(cmds);
-    release_points_scratch(points->ctx, &scratch);
+    release_scratch(ctx, &map_scratch);
+    release_points_scratch(ctx, &scratch);
+    if (status == PF_OK && building) {
+        building->gpu_ms = gpu_ms[0];
+        building->built = 1;
+    }
     if (status == PF_OK)
-        status = finish_points(points, found, map->info.photon_count, capacity, gpu_ms, err);
-    if (status != PF_OK)
+        status = finish_points(points, found, map->info.photon_count, capacity, gpu_ms[1], err);
+    if (status != PF_OK) {
         release_grid(points);
+        if (building && status != PF_ERR_LIMIT) /* a full list leaves the map built */
+            release_grid(building);
+    }
     return status;
 }
 
@@ -764,10 +788,12 @@ pf_status pf_photon_grid_build_irradiance(pf_photon_grid *points, const pf_photo
                             (double)radius, (double)map->info.cell_size);
     uint32_t photons = map->info.photon_count;
     uint32_t found[2] = {0, 0};
-    status = build_points(points, map, radius, bounds_min, bounds_max, points_capacity(photons),
-                          found, err);
+    double gpu_ms[2];
+    status = submit_grids(map, NULL, NULL, 0, points, radius, bounds_min, bounds_max,
+                          points_capacity(photons), found, gpu_ms, err);
     if (status == PF_ERR_LIMIT) /* more points than the bound: room for every photon */
-        status = build_points(points, map, radius, bounds_min, bounds_max, photons, found, err);
+        status = submit_grids(map, NULL, NULL, 0, points, radius, bounds_min, bounds_max,
+                              photons, found, gpu_ms, err);
     if (status != PF_OK) {
         pf_error_prefix(err, "irradiance points (%u photons)", photons);
         return status;
@@ -788,40 +814,16 @@ pf_status pf_photon_grid_build_with_irradiance(pf_photon_grid *map, pf_photon_gr
     pf_status status = check_radius(radius, err);
     if (status != PF_OK)
         return status;
-    release_grid(map);
-    release_grid(points);
-    pf_vk_context *ctx = map->ctx;
-    grid_scratch map_scratch = {0};
-    points_scratch scratch = {0};
     uint32_t found[2] = {0, 0};
-    uint32_t capacity = points_capacity(count);
-    int stamps[4] = {-1, -1, -1, -1};
-    pf_vk_commands *cmds = NULL;
-    status = pf_vk_commands_begin(ctx, &cmds, err);
-    if (status == PF_OK)
-        status = record_grid(map, cmds, photons, count, count, bounds_min, bounds_max, radius,
-                             &map_scratch, &stamps[0], &stamps[1], err);
-    if (status == PF_OK)
-        status = record_points(points, map, cmds, radius, bounds_min, bounds_max, capacity,
-                               &scratch, found, &stamps[2], &stamps[3], err);
-    if (status == PF_OK)
-        status = pf_vk_commands_submit(cmds, err);
-    double map_ms = status == PF_OK ? pf_vk_commands_elapsed_ms(cmds, stamps[0], stamps[1]) : -1.0;
-    double points_ms = status == PF_OK ? pf_vk_commands_elapsed_ms(cmds, stamps[2], stamps[3])
-                                       : -1.0;
-    pf_vk_commands_destroy(cmds);
-    release_scratch(ctx, &map_scratch);
-    release_points_scratch(ctx, &scratch);
-    if (status == PF_OK) {
-        map->gpu_ms = map_ms;
-        map->built = 1;
-        status = finish_points(points, found, count, capacity, points_ms, err);
-    }
+    double gpu_ms[2];
+    status = submit_grids(map, map, photons, count, points, radius, bounds_min, bounds_max,
+                          points_capacity(count), found, gpu_ms, err);
     if (status == PF_ERR_LIMIT) { /* more points than the bound: again, room for every photon */
-        status = build_points(points, map, radius, bounds_min, bounds_max, count, found, err);
-        double again_ms = pf_photon_grid_gpu_ms(points);
-        if (status == PF_OK && points_ms >= 0.0 && again_ms >= 0.0)
-            points->gpu_ms = points_ms + again_ms;
+        double first_ms = gpu_ms[1];
+        status = submit_grids(map, NULL, NULL, 0, points, radius, bounds_min, bounds_max, count,
+                              found, gpu_ms, err);
+        if (status == PF_OK && first_ms >= 0.0 && gpu_ms[1] >= 0.0)
+            points->gpu_ms = first_ms + gpu_ms[1];
     }
     if (status != PF_OK) {
         release_grid(map);
