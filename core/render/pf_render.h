@@ -305,7 +305,8 @@ pf_status pf_settings_parse(const char *json, pf_render_settings *settings, pf_e
  * One frame from an evaluated scene to a finished EXR, shared by `photonfarm
  * render` and the queue worker so the frame code exists once (DESIGN.md §4):
  *
- *   pf_scene_eval            → stage row "scene_eval"
+ *   pf_scene_eval_rigid      → stage row "scene_eval"
+ *   pf_scene_deform          → stage row "deform" (skipped without skins or morph targets)
  *   pf_render_frame          → the renderer's GPU stage rows
  *   pf_exr_write to a temporary name beside the output → stage row "exr_write"
  *

@@ -118,6 +118,42 @@ static void fill_attributes(const pf_frame_request *request, const pf_render_set
         snprintf(attributes[7].value, sizeof attributes[7].value, "default");
 }
 
+/*
+ * The `deform` stage: skins and morph targets blended into the frame (pf_scene_deform),
+ * on the host. Its row names what was deformed, or is skipped when nothing in the scene
+ * deforms, so only deformed meshes pay for it.
+ */
+static pf_status deform(const pf_scene *scene, double time, pf_scene_frame *frame,
+                        pf_frame_report *report, pf_error *err)
+{
+    const pf_scene_info *info = pf_scene_get_info(scene);
+    pf_stage_timing *row;
+    if (info->deformed_node_count == 0) {
+        if ((row = pf_frame_report_add(report, "deform")) != NULL) {
+            row->skipped = 1;
+            snprintf(row->reason, sizeof row->reason, "no skins or morph targets");
+        }
+        return PF_OK;
+    }
+    double start = pf_time_ms();
+    pf_deform_report deformed;
+    pf_status status = pf_scene_deform(scene, time, frame, &deformed, err);
+    if (status != PF_OK)
+        return status;
+    if ((row = pf_frame_report_add(report, "deform")) != NULL) {
+        row->wall_ms = pf_time_ms() - start;
+        snprintf(row->reason, sizeof row->reason,
+                 "%u skinned mesh%s, %u morphed, %llu vertices, on the host",
+                 deformed.skinned_meshes, deformed.skinned_meshes == 1 ? "" : "es",
+                 deformed.morphed_meshes, (unsigned long long)deformed.vertices);
+        pf_stage_add_counter(row, "skinned_meshes", deformed.skinned_meshes);
+        pf_stage_add_counter(row, "morphed_meshes", deformed.morphed_meshes);
+        pf_stage_add_counter(row, "vertices", (double)deformed.vertices);
+        pf_stage_add_counter(row, "on_device", 0);
+    }
+    return PF_OK;
+}
+
 pf_status pf_frame_render(pf_renderer *renderer, const pf_frame_request *request,
                           pf_frame_output *out, pf_error *err)
 {
@@ -135,19 +171,22 @@ pf_status pf_frame_render(pf_renderer *renderer, const pf_frame_request *request
 
     pf_vk_memory_peak_reset(pf_renderer_context(renderer));
     pf_scene_frame frame = {0};
-    pf_status status = pf_scene_eval(
-        request->scene, pf_scene_frame_time(request->scene, request->frame), &frame, err);
+    double time = pf_scene_frame_time(request->scene, request->frame);
+    pf_status status = pf_scene_eval_rigid(request->scene, time, &frame, err);
+    if (status == PF_OK) {
+        pf_stage_timing *eval_row = pf_frame_report_add(&out->report, "scene_eval");
+        if (eval_row) {
+            eval_row->wall_ms = pf_time_ms() - start;
+            pf_stage_add_counter(eval_row, "triangles", frame.triangle_count);
+            pf_stage_add_counter(eval_row, "lights", frame.light_count);
+        }
+        status = deform(request->scene, time, &frame, &out->report, err);
+    }
     if (status != PF_OK) {
+        pf_scene_frame_free(&frame);
         out->failed = PF_FRAME_FAILED_SCENE;
         pf_error_prefix(err, "%s frame %" PRId64, request->scene_path, request->frame);
         return status;
-    }
-    pf_stage_timing *eval_row = pf_frame_report_add(&out->report, "scene_eval");
-    if (eval_row) {
-        eval_row->wall_ms = pf_time_ms() - start;
-        eval_row->gpu_ms = -1.0;
-        pf_stage_add_counter(eval_row, "triangles", frame.triangle_count);
-        pf_stage_add_counter(eval_row, "lights", frame.light_count);
     }
     if (aborted(request)) {
         pf_scene_frame_free(&frame);

@@ -222,7 +222,8 @@ static uint32_t type_components(const char *type)
     static const struct {
         const char *name;
         uint32_t components;
-    } types[] = {{"SCALAR", 1}, {"VEC2", 2}, {"VEC3", 3}, {"VEC4", 4}};
+    } types[] = {{"SCALAR", 1}, {"VEC2", 2}, {"VEC3", 3}, {"VEC4", 4},
+                 {"MAT4", 16} /* float only here: skins' inverse binds, no column padding */};
     for (size_t k = 0; k < sizeof types / sizeof *types; k++)
         if (strcmp(type, types[k].name) == 0)
             return types[k].components;
@@ -511,23 +512,30 @@ pf_status gltf_read_floats(gltf_context *ctx, int32_t index, uint32_t components
     return PF_OK;
 }
 
-pf_status gltf_read_indices(gltf_context *ctx, int32_t index, uint32_t **out, uint32_t *count,
-                            const char *element, pf_error *err)
+pf_status gltf_read_uints(gltf_context *ctx, int32_t index, uint32_t components, uint32_t **out,
+                          uint32_t *count, const char *element, pf_error *err)
 {
     double *values;
-    pf_status status = read_accessor(ctx, index, 1, 1, &values, count, element, err);
+    pf_status status = read_accessor(ctx, index, components, 1, &values, count, element, err);
     if (status)
         return status;
-    uint32_t *indices = malloc((size_t)*count * sizeof *indices);
-    if (!indices) {
+    size_t total = (size_t)*count * components;
+    uint32_t *integers = malloc(total * sizeof *integers);
+    if (!integers) {
         free(values);
         return gltf_fail(ctx, err, PF_ERR_NOMEM, element, "out of memory");
     }
-    for (uint32_t k = 0; k < *count; k++)
-        indices[k] = (uint32_t)values[k];
+    for (size_t k = 0; k < total; k++)
+        integers[k] = (uint32_t)values[k];
     free(values);
-    *out = indices;
+    *out = integers;
     return PF_OK;
+}
+
+pf_status gltf_read_indices(gltf_context *ctx, int32_t index, uint32_t **out, uint32_t *count,
+                            const char *element, pf_error *err)
+{
+    return gltf_read_uints(ctx, index, 1, out, count, element, err);
 }
 
 pf_status gltf_view_bytes(gltf_context *ctx, int32_t view_index, const char *element,

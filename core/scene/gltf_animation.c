@@ -43,11 +43,8 @@ static pf_status load_channel(gltf_context *ctx, const cJSON *channel, const cJS
         out->path = SCENE_PATH_SCALE;
         out->components = 3;
     } else if (strcmp(path_name, "weights") == 0) {
-        scene_warn_once(scene, "morph weights",
-                        "%s: %s: morph target weight animation is not supported: ignored",
-                        ctx->path, element);
-        *skipped = 1;
-        return PF_OK;
+        out->path = SCENE_PATH_WEIGHTS;
+        out->components = 0; /* the node's mesh's target count, below */
     } else {
         return gltf_fail(ctx, err, PF_ERR_FORMAT, target_element,
                          "path \"%s\" is not translation, rotation, scale or weights", path_name);
@@ -59,9 +56,17 @@ static pf_status load_channel(gltf_context *ctx, const cJSON *channel, const cJS
         *skipped = 1;
         return PF_OK;
     }
-    if (scene->nodes[node_index].has_matrix)
+    const scene_node *node = &scene->nodes[node_index];
+    if (out->path == SCENE_PATH_WEIGHTS) {
+        const scene_mesh *mesh = node->mesh == SCENE_NONE ? NULL : &scene->meshes[node->mesh];
+        out->components = mesh && mesh->deform ? mesh->deform->target_count : 0;
+        if (out->components == 0)
+            return gltf_fail(ctx, err, PF_ERR_FORMAT, target_element,
+                             "weights of node %d, whose mesh has no morph targets", node_index);
+    } else if (node->has_matrix) {
         return gltf_fail(ctx, err, PF_ERR_FORMAT, target_element,
                          "node %d has a matrix, which glTF forbids animating", node_index);
+    }
     out->node = (uint32_t)node_index;
 
     char sampler_element[128];
@@ -108,14 +113,21 @@ static pf_status load_channel(gltf_context *ctx, const cJSON *channel, const cJS
                              "key times must increase (key %u: %g after %g)", k, out->times[k],
                              out->times[k - 1]);
     snprintf(sub, sizeof sub, "%s.output", sampler_element);
-    status = gltf_read_floats(ctx, output, out->components, &out->values, &value_count, sub, err);
+    /* Weights are SCALAR: one value per target per key (glTF §3.11). */
+    uint32_t element_components = out->path == SCENE_PATH_WEIGHTS ? 1 : out->components;
+    uint32_t per_element = out->path == SCENE_PATH_WEIGHTS ? out->components : 1;
+    status = gltf_read_floats(ctx, output, element_components, &out->values, &value_count, sub,
+                              err);
     if (status)
         return status;
     uint32_t per_key = out->interpolation == SCENE_INTERP_CUBICSPLINE ? 3 : 1;
-    if ((uint64_t)value_count != (uint64_t)key_count * per_key)
-        return gltf_fail(ctx, err, PF_ERR_FORMAT, sub, "%u values for %u keys (expected %u%s)",
-                         value_count, key_count, key_count * per_key,
-                         per_key == 3 ? ": in-tangent, value, out-tangent per key" : "");
+    uint64_t expected = (uint64_t)key_count * per_key * per_element;
+    if ((uint64_t)value_count != expected)
+        return gltf_fail(ctx, err, PF_ERR_FORMAT, sub,
+                         "%u values for %u keys (expected %llu%s%s)", value_count, key_count,
+                         (unsigned long long)expected,
+                         per_key == 3 ? ": in-tangent, value, out-tangent per key" : "",
+                         per_element > 1 ? ", one per morph target" : "");
     if (out->path == SCENE_PATH_ROTATION && out->interpolation != SCENE_INTERP_CUBICSPLINE)
         for (uint32_t k = 0; k < key_count; k++)
             scene_quat_normalize(out->values + 4 * (size_t)k);
@@ -176,7 +188,10 @@ pf_status gltf_load_animations(gltf_context *ctx, pf_error *err)
                 memset(out, 0, sizeof *out);
                 continue;
             }
-            scene->nodes[out->node].has_channel = 1;
+            if (out->path == SCENE_PATH_WEIGHTS)
+                scene->nodes[out->node].has_weights_channel = 1;
+            else
+                scene->nodes[out->node].has_channel = 1;
         }
     }
     return PF_OK;

@@ -62,6 +62,10 @@ pf_status gltf_array(gltf_context *ctx, const cJSON *object, const char *key,
  */
 pf_status gltf_read_floats(gltf_context *ctx, int32_t index, uint32_t components, float **out,
                            uint32_t *count, const char *element, pf_error *err);
+/* Reads an accessor of unsigned integers (u8/u16/u32, not normalized: indices, JOINTS_n)
+ * with `components` per element into malloc'ed *out. */
+pf_status gltf_read_uints(gltf_context *ctx, int32_t index, uint32_t components, uint32_t **out,
+                          uint32_t *count, const char *element, pf_error *err);
 /* Reads an index accessor (SCALAR u8/u16/u32) into malloc'ed *out. */
 pf_status gltf_read_indices(gltf_context *ctx, int32_t index, uint32_t **out, uint32_t *count,
                             const char *element, pf_error *err);
@@ -88,5 +92,23 @@ void gltf_textures_free(gltf_context *ctx);
 pf_status gltf_load_buffers(gltf_context *ctx, pf_error *err);
 pf_status gltf_load_materials(gltf_context *ctx, pf_error *err);
 pf_status gltf_load_animations(gltf_context *ctx, pf_error *err);
+
+/*
+ * gltf_deform.c: skins and morph targets. gltf_mesh_deforms: some primitive of the mesh
+ * has JOINTS_0 or targets, so every primitive's vertices are kept (scene_deform_mesh).
+ * gltf_append_deform_vertices appends one primitive's (after append_triangles added its
+ * triangles; corners index its vertices). gltf_load_mesh_weights reads mesh.weights once
+ * the primitives are in; gltf_load_skins reads skins and checks the nodes' skin and
+ * weights against them and their meshes (after load_nodes).
+ */
+int gltf_mesh_deforms(const cJSON *mesh);
+pf_status gltf_append_deform_vertices(gltf_context *ctx, scene_mesh *mesh,
+                                      const cJSON *primitive, const char *element,
+                                      const float *positions, const float *normals,
+                                      uint32_t vertex_count, const uint32_t *corners,
+                                      uint32_t triangle_count, pf_error *err);
+pf_status gltf_load_mesh_weights(gltf_context *ctx, const cJSON *mesh_json, scene_mesh *mesh,
+                                 const char *element, pf_error *err);
+pf_status gltf_load_skins(gltf_context *ctx, pf_error *err);
 
 #endif

@@ -531,7 +531,7 @@ static uint32_t *triangulate(int mode, const uint32_t *indices, uint32_t count,
 }
 
 static pf_status load_primitive(gltf_context *ctx, scene_mesh *mesh, const cJSON *primitive,
-                                const char *element, pf_error *err)
+                                int deforms, const char *element, pf_error *err)
 {
     pf_scene *scene = ctx->scene;
     double mode_value;
@@ -557,9 +557,6 @@ static pf_status load_primitive(gltf_context *ctx, scene_mesh *mesh, const cJSON
                         ctx->path, element, mode);
         return PF_OK;
     }
-    if (cJSON_GetObjectItemCaseSensitive(primitive, "targets"))
-        scene_warn_once(scene, "morph targets", "%s: %s: morph targets are not supported: ignored",
-                        ctx->path, element);
     const cJSON *attributes = cJSON_GetObjectItemCaseSensitive(primitive, "attributes");
     if (!cJSON_IsObject(attributes))
         return gltf_fail(ctx, err, PF_ERR_FORMAT, element, "attributes: expected an object");
@@ -641,6 +638,9 @@ static pf_status load_primitive(gltf_context *ctx, scene_mesh *mesh, const cJSON
     if (!status)
         status = append_triangles(ctx, mesh, corners, triangle_count, positions, normals, &extra,
                                   (uint32_t)material, err);
+    if (!status && deforms)
+        status = gltf_append_deform_vertices(ctx, mesh, primitive, element, positions, normals,
+                                             vertex_count, corners, triangle_count, err);
     vertex_attributes_free(&extra);
     free(positions);
     free(normals);
@@ -670,6 +670,7 @@ static pf_status load_meshes(gltf_context *ctx, pf_error *err)
         if (!status)
             status = gltf_array(ctx, mesh, "primitives", &primitives, &primitive_count, element,
                                 err);
+        int deforms = !status && gltf_mesh_deforms(mesh);
         for (uint32_t p = 0; !status && p < primitive_count; p++) {
             char primitive_element[96];
             snprintf(primitive_element, sizeof primitive_element, "meshes[%u].primitives[%u]", m,
@@ -677,9 +678,11 @@ static pf_status load_meshes(gltf_context *ctx, pf_error *err)
             const cJSON *primitive;
             status = array_object(ctx, primitives, p, &primitive, primitive_element, err);
             if (!status)
-                status = load_primitive(ctx, &scene->meshes[m], primitive, primitive_element,
-                                        err);
+                status = load_primitive(ctx, &scene->meshes[m], primitive, deforms,
+                                        primitive_element, err);
         }
+        if (!status)
+            status = gltf_load_mesh_weights(ctx, mesh, &scene->meshes[m], element, err);
         if (status)
             return status;
     }
@@ -903,6 +906,11 @@ static pf_status load_node(gltf_context *ctx, uint32_t index, const cJSON *node,
     if (!status)
         status = gltf_index(ctx, node, "camera", scene->camera_def_count, &out->camera, element,
                             err);
+    if (!status)
+        status = gltf_index(ctx, node, "skin",
+                            (uint32_t)cJSON_GetArraySize(
+                                cJSON_GetObjectItemCaseSensitive(ctx->root, "skins")),
+                            &out->skin, element, err);
     if (status)
         return status;
     float length_squared = 0;
@@ -928,9 +936,6 @@ static pf_status load_node(gltf_context *ctx, uint32_t index, const cJSON *node,
         if (status)
             return status;
     }
-    if (cJSON_GetObjectItemCaseSensitive(node, "skin"))
-        scene_warn_once(scene, "skins", "%s: %s: skinning is not supported: rendered unskinned",
-                        ctx->path, element);
     return PF_OK;
 }
 
@@ -1109,6 +1114,8 @@ pf_status scene_load_gltf(pf_scene *scene, int binary_hint, pf_error *err)
         status = load_lights(&ctx, err);
     if (!status)
         status = load_nodes(&ctx, err);
+    if (!status)
+        status = gltf_load_skins(&ctx, err);
     if (!status)
         status = gltf_load_animations(&ctx, err);
     context_free(&ctx);

@@ -541,7 +541,7 @@ pf_status scene_load_obj(pf_scene *scene, pf_error *err)
         scene_node *node = &scene->nodes[k];
         node->rotation[3] = 1.0f;
         node->scale[0] = node->scale[1] = node->scale[2] = 1.0f;
-        node->parent = node->camera = node->light = SCENE_NONE;
+        node->parent = node->camera = node->light = node->skin = SCENE_NONE;
         node->mesh = (int32_t)k;
         node->in_scene = 1;
         scene->order[k] = k;

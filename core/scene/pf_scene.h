@@ -290,6 +290,10 @@ typedef struct pf_scene_info {
     double decode_ms;              /* decoding the images and building the mip chains */
     int has_alpha;                 /* a material with alphaMode MASK or BLEND */
     int has_emissive;
+    uint32_t skin_count;
+    uint32_t deformed_node_count;  /* mesh nodes skinned or morphed each frame */
+    uint64_t deformed_vertex_count; /* the vertices they deform each frame */
+    int deformation_animated;      /* some deformation changes over time (geometry_animated too) */
 } pf_scene_info;
 
 /*
@@ -328,6 +332,31 @@ double pf_scene_frame_time(const pf_scene *scene, int64_t frame);
 pf_status pf_scene_eval(const pf_scene *scene, double time_seconds, pf_scene_frame *out,
                         pf_error *err);
 void pf_scene_frame_free(pf_scene_frame *frame);
+
+/* What pf_scene_deform did to a frame: the `deform` stage row's counters. */
+typedef struct pf_deform_report {
+    uint32_t skinned_meshes;  /* mesh nodes deformed by their skin */
+    uint32_t morphed_meshes;  /* mesh nodes whose morph targets were blended */
+    uint64_t vertices;        /* vertices deformed */
+} pf_deform_report;
+
+/*
+ * pf_scene_eval in two halves, so that the frame pipeline can time deformation as
+ * its own stage. pf_scene_eval_rigid fills everything but the vertices and normals
+ * of deforming meshes (skins, morph targets: pf_scene_info.deformed_node_count), which
+ * it leaves zero and out of the bounds (an inverted box, min > max, when every mesh
+ * deforms); pf_scene_deform, given that frame at the same time, fills them and widens
+ * and closes the bounds. Deformation is glTF's: morph targets add
+ * their weighted deltas to the rest positions, normals and tangents (weights from the
+ * node, else the mesh, animated by `weights` channels); a skin then blends its joint
+ * matrices (joint world × inverse bind) by the vertex weights (linear blend skinning),
+ * normals by the blended matrix's inverse transpose, and a skinned mesh ignores its own
+ * node's transform (glTF §3.7.3.3). Thread-safe as pf_scene_eval is.
+ */
+pf_status pf_scene_eval_rigid(const pf_scene *scene, double time_seconds, pf_scene_frame *out,
+                              pf_error *err);
+pf_status pf_scene_deform(const pf_scene *scene, double time_seconds, pf_scene_frame *frame,
+                          pf_deform_report *report, pf_error *err);
 
 /*
  * Camera for rendering width×height: when the file gives an aspect ratio that

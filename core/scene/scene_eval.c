@@ -127,6 +127,7 @@ void pf_scene_destroy(pf_scene *scene)
     if (!scene)
         return;
     for (uint32_t k = 0; k < scene->mesh_count; k++) {
+        scene_deform_mesh_free(scene->meshes[k].deform);
         free(scene->meshes[k].positions);
         free(scene->meshes[k].normals);
         free(scene->meshes[k].corners);
@@ -136,6 +137,13 @@ void pf_scene_destroy(pf_scene *scene)
         free(scene->channels[k].times);
         free(scene->channels[k].values);
     }
+    for (uint32_t k = 0; k < scene->skin_count; k++) {
+        free(scene->skins[k].joints);
+        free(scene->skins[k].inverse_bind);
+    }
+    free(scene->skins);
+    for (uint32_t k = 0; k < scene->node_count; k++)
+        free(scene->nodes[k].weights);
     for (uint32_t k = 0; k < scene->warned_count; k++)
         free(scene->warned[k]);
     free(scene->warned);
@@ -171,9 +179,8 @@ void pf_camera_image_plane(const pf_camera *camera, uint32_t width, uint32_t hei
     *tan_half_x = *tan_half_y * aspect;
 }
 
-/* World matrices of every node at time_seconds (nodes outside the scene stay identity). */
-static pf_status world_matrices(const pf_scene *scene, double time_seconds, float (**out)[16],
-                                pf_error *err)
+pf_status scene_world_matrices(const pf_scene *scene, double time_seconds, float (**out)[16],
+                               pf_error *err)
 {
     uint32_t count = scene->node_count;
     float(*world)[16] = malloc(((size_t)count + 1) * sizeof *world);
@@ -192,7 +199,9 @@ static pf_status world_matrices(const pf_scene *scene, double time_seconds, floa
     static const uint32_t path_offset[] = {0, 3, 7};
     for (uint32_t c = 0; c < scene->channel_count; c++) {
         const scene_channel *channel = &scene->channels[c];
-        scene_channel_sample(channel, time_seconds, trs[channel->node] + path_offset[channel->path]);
+        if (channel->path <= SCENE_PATH_SCALE) /* weights are deform.c's */
+            scene_channel_sample(channel, time_seconds,
+                                 trs[channel->node] + path_offset[channel->path]);
     }
     for (uint32_t k = 0; k < scene->order_count; k++) {
         uint32_t index = scene->order[k];
@@ -258,7 +267,8 @@ static void flatten_corners(const scene_mesh *mesh, uint32_t t, const float worl
     }
 }
 
-/* Fills the triangle arrays for every mesh node, in order. */
+/* Fills the triangle arrays for every mesh node, in order; a deforming node's vertices and
+ * normals are left zero (and out of the bounds) for scene_deform_nodes. */
 static void flatten_triangles(const pf_scene *scene, const float (*world)[16],
                               pf_scene_frame *out)
 {
@@ -269,6 +279,17 @@ static void flatten_triangles(const pf_scene *scene, const float (*world)[16],
         if (node->mesh == SCENE_NONE)
             continue;
         const scene_mesh *mesh = &scene->meshes[node->mesh];
+        if (node->deforms) {
+            size_t corners = 3 * (size_t)mesh->triangle_count;
+            memset(out->vertices + 3 * (size_t)next, 0, corners * sizeof *out->vertices);
+            memset(out->normals + 3 * (size_t)next, 0, corners * sizeof *out->normals);
+            for (uint32_t t = 0; t < mesh->triangle_count; t++) {
+                out->triangle_material[next + t] = mesh->materials[t];
+                out->triangle_node[next + t] = index;
+            }
+            next += mesh->triangle_count;
+            continue;
+        }
         float normal_matrix[9];
         float det = scene_mat4_normal_matrix(world[index], normal_matrix);
         /* glTF §3.7.4: a mirroring transform reverses the winding; swapping two
@@ -313,15 +334,25 @@ static void flatten_triangles(const pf_scene *scene, const float (*world)[16],
     }
 }
 
-pf_status pf_scene_eval(const pf_scene *scene, double time_seconds, pf_scene_frame *out,
-                        pf_error *err)
+/* A frame with no triangle has the zero box: an empty bounds box stays inverted until then. */
+static void close_bounds(pf_scene_frame *frame)
+{
+    if (frame->triangle_count == 0 || frame->bounds_min[0] > frame->bounds_max[0])
+        for (int axis = 0; axis < 3; axis++)
+            frame->bounds_min[axis] = frame->bounds_max[axis] = 0.0f;
+}
+
+/* Everything but the deforming nodes' vertices and normals, with the world matrices it used
+ * (*world_out, when not NULL: the caller frees them). */
+static pf_status eval_rigid(const pf_scene *scene, double time_seconds, pf_scene_frame *out,
+                            float (**world_out)[16], pf_error *err)
 {
     memset(out, 0, sizeof *out);
     if (!isfinite(time_seconds))
         return pf_error_set(err, PF_ERR_INVALID, "%s: eval time %g is not finite", scene->path,
                             time_seconds);
     float(*world)[16] = NULL;
-    pf_status status = world_matrices(scene, time_seconds, &world, err);
+    pf_status status = scene_world_matrices(scene, time_seconds, &world, err);
     if (status)
         return status;
     size_t triangles = scene->info.triangle_count;
@@ -355,9 +386,10 @@ pf_status pf_scene_eval(const pf_scene *scene, double time_seconds, pf_scene_fra
         out->bounds_max[axis] = -INFINITY;
     }
     flatten_triangles(scene, (const float(*)[16])world, out);
-    if (triangles == 0)
-        for (int axis = 0; axis < 3; axis++)
-            out->bounds_min[axis] = out->bounds_max[axis] = 0.0f;
+    /* With deforming nodes the box stays open (inverted if nothing rigid) for
+     * pf_scene_deform to widen and close. */
+    if (scene->info.deformed_node_count == 0)
+        close_bounds(out);
 
     uint32_t light = 0;
     out->camera = scene->default_camera;
@@ -381,8 +413,60 @@ pf_status pf_scene_eval(const pf_scene *scene, double time_seconds, pf_scene_fra
         target->cos_inner_cone = def->cos_inner_cone;
         target->cos_outer_cone = def->cos_outer_cone;
     }
-    free(world);
+    if (world_out)
+        *world_out = world;
+    else
+        free(world);
     return PF_OK;
+}
+
+pf_status pf_scene_eval_rigid(const pf_scene *scene, double time_seconds, pf_scene_frame *out,
+                              pf_error *err)
+{
+    return eval_rigid(scene, time_seconds, out, NULL, err);
+}
+
+pf_status pf_scene_deform(const pf_scene *scene, double time_seconds, pf_scene_frame *frame,
+                          pf_deform_report *report, pf_error *err)
+{
+    memset(report, 0, sizeof *report);
+    if (scene->info.deformed_node_count == 0)
+        return PF_OK;
+    if (!isfinite(time_seconds))
+        return pf_error_set(err, PF_ERR_INVALID, "%s: eval time %g is not finite", scene->path,
+                            time_seconds);
+    if (frame->triangle_count != scene->info.triangle_count)
+        return pf_error_set(err, PF_ERR_INVALID, "%s: deform: the frame has %u triangles, the "
+                            "scene %u", scene->path, frame->triangle_count,
+                            scene->info.triangle_count);
+    float(*world)[16] = NULL;
+    pf_status status = scene_world_matrices(scene, time_seconds, &world, err);
+    if (status)
+        return status;
+    status = scene_deform_nodes(scene, time_seconds, (const float(*)[16])world, frame, report,
+                                err);
+    close_bounds(frame);
+    free(world);
+    return status;
+}
+
+pf_status pf_scene_eval(const pf_scene *scene, double time_seconds, pf_scene_frame *out,
+                        pf_error *err)
+{
+    float(*world)[16] = NULL;
+    pf_status status = eval_rigid(scene, time_seconds, out, &world, err);
+    if (status || scene->info.deformed_node_count == 0) {
+        free(world);
+        return status;
+    }
+    pf_deform_report report;
+    status = scene_deform_nodes(scene, time_seconds, (const float(*)[16])world, out, &report,
+                                err);
+    close_bounds(out);
+    free(world);
+    if (status)
+        pf_scene_frame_free(out);
+    return status;
 }
 
 void pf_scene_frame_free(pf_scene_frame *frame)
@@ -433,6 +517,34 @@ static pf_status make_default_camera(pf_scene *scene, pf_error *err)
     return PF_OK;
 }
 
+/*
+ * Whether node's mesh deforms each frame (a skin with JOINTS_0, or morph targets) and
+ * whether that changes over time: a joint (or an ancestor of one) is animated, or the
+ * node's weights are. Joints come after their skinned node in no particular order, so
+ * their `animated` flags are taken from the channels and the hierarchy directly.
+ */
+static int node_or_ancestor_has_channel(const pf_scene *scene, uint32_t index)
+{
+    for (int32_t at = (int32_t)index; at != SCENE_NONE; at = scene->nodes[at].parent)
+        if (scene->nodes[at].has_channel)
+            return 1;
+    return 0;
+}
+
+static void mark_deformation(pf_scene *scene, scene_node *node)
+{
+    const scene_deform_mesh *deform = scene->meshes[node->mesh].deform;
+    int skinned = deform && node->skin != SCENE_NONE && deform->influences > 0;
+    int morphed = deform && deform->target_count > 0;
+    node->deforms = skinned || morphed;
+    node->deform_animated = morphed && node->has_weights_channel;
+    if (skinned) {
+        const scene_skin *skin = &scene->skins[node->skin];
+        for (uint32_t j = 0; j < skin->joint_count && !node->deform_animated; j++)
+            node->deform_animated = node_or_ancestor_has_channel(scene, skin->joints[j]);
+    }
+}
+
 pf_status scene_finalize(pf_scene *scene, pf_error *err)
 {
     pf_scene_info *info = &scene->info;
@@ -455,6 +567,14 @@ pf_status scene_finalize(pf_scene *scene, pf_error *err)
                          (node->parent != SCENE_NONE && scene->nodes[node->parent].animated);
         if (node->mesh != SCENE_NONE) {
             const scene_mesh *mesh = &scene->meshes[node->mesh];
+            node->first_triangle = (uint32_t)(triangles < UINT32_MAX ? triangles : UINT32_MAX);
+            mark_deformation(scene, node);
+            if (node->deforms) {
+                info->deformed_node_count++;
+                info->deformed_vertex_count += mesh->deform->vertex_count;
+                info->deformation_animated |= node->deform_animated;
+                info->geometry_animated |= node->deform_animated && mesh->triangle_count > 0;
+            }
             triangles += mesh->triangle_count;
             emissive += mesh->emissive_count;
             for (uint32_t t = 0; t < mesh->triangle_count; t++)
@@ -478,6 +598,7 @@ pf_status scene_finalize(pf_scene *scene, pf_error *err)
         scene->frame_corners |= scene->meshes[m].has_color;
     info->texture_count = scene->texture_count;
     info->texel_count = scene->texel_count;
+    info->skin_count = scene->skin_count;
     free(material_used);
     if (triangles == 0)
         return pf_error_set(err, PF_ERR_FORMAT, "%s: no triangles in the scene", scene->path);

@@ -21,6 +21,33 @@
 /* A corner's attributes in the mesh: uv0 (2), uv1 (2), colour (4), tangent (4). */
 #define SCENE_CORNER_FLOATS 12
 
+/* Most joint influences a vertex may have: JOINTS_0/WEIGHTS_0 and JOINTS_1/WEIGHTS_1. */
+#define SCENE_MAX_INFLUENCES 8
+
+/*
+ * What a mesh that can deform (a skinned mesh, or one with morph targets) keeps
+ * per vertex besides its flattened triangles: its primitives' vertices one after
+ * the other, the vertex every corner reads, and the data deform.c blends. A
+ * corner's tangent is its flattened one (mesh->corners) plus its vertex's
+ * morphed tangent delta.
+ */
+typedef struct scene_deform_mesh {
+    uint32_t vertex_count;
+    uint32_t *corner_vertex;     /* 3 per triangle, in the mesh's triangle order */
+    float (*positions)[3];       /* the rest (bind) pose */
+    float (*normals)[3];         /* zero where the primitive has none: the face normal */
+    uint32_t influences;         /* 0 (no JOINTS_0), 4 or 8 */
+    uint16_t (*joints)[SCENE_MAX_INFLUENCES];
+    float (*weights)[SCENE_MAX_INFLUENCES]; /* summing to 1; all 0: the vertex stays put */
+    uint32_t max_joint;          /* the largest joint index a weighted influence names */
+    char joints_element[192];    /* the accessor that names it, for messages */
+    uint32_t target_count;
+    float *target_positions;     /* [vertex][target][3] */
+    float *target_normals;       /* the same layout; NULL when no target has NORMAL */
+    float *target_tangents;      /* the same layout; NULL when no target has TANGENT */
+    float *default_weights;      /* mesh.weights: target_count (zero where absent) */
+} scene_deform_mesh;
+
 /* Triangles of one mesh in its local space, 3 corners per triangle. */
 typedef struct scene_mesh {
     uint32_t triangle_count;
@@ -32,7 +59,15 @@ typedef struct scene_mesh {
     uint32_t *materials;
     int has_color;           /* some primitive has COLOR_0 */
     uint32_t emissive_count; /* set by scene_finalize */
+    scene_deform_mesh *deform; /* NULL: a rigid mesh (no JOINTS_0, no morph targets) */
 } scene_mesh;
+
+/* A glTF skin: the joints' nodes and their inverse bind matrices (identity if absent). */
+typedef struct scene_skin {
+    uint32_t joint_count;
+    uint32_t *joints;            /* node indices */
+    float (*inverse_bind)[16];   /* column-major */
+} scene_skin;
 /* Where a corner has no such attribute: uv 0, white, no tangent. */
 void scene_corner_defaults(float corner[SCENE_CORNER_FLOATS]);
 
@@ -44,7 +79,13 @@ typedef struct scene_node {
     int has_matrix;
     int32_t parent;    /* SCENE_NONE for a root */
     int32_t mesh, camera, light;
-    int has_channel;   /* an animation channel targets this node */
+    int32_t skin;      /* SCENE_NONE, or the skin that deforms this node's mesh */
+    float *weights;    /* node.weights (its mesh's target_count), NULL: the mesh's */
+    int has_channel;   /* an animation channel targets this node's transform */
+    int has_weights_channel; /* an animation channel targets this node's morph weights */
+    int deforms;       /* its mesh is skinned or morphed each frame (scene_finalize) */
+    int deform_animated; /* and that changes over time: joints or weights animated */
+    uint32_t first_triangle; /* its mesh's first triangle in a frame (scene_finalize) */
     int animated;      /* has_channel here or on an ancestor (scene_finalize) */
     int in_scene;      /* reached from the scene's roots */
 } scene_node;
@@ -63,7 +104,8 @@ typedef struct scene_light_def {
 typedef enum scene_channel_path {
     SCENE_PATH_TRANSLATION = 0,
     SCENE_PATH_ROTATION = 1,
-    SCENE_PATH_SCALE = 2
+    SCENE_PATH_SCALE = 2,
+    SCENE_PATH_WEIGHTS = 3 /* morph target weights: components = the mesh's target count */
 } scene_channel_path;
 
 typedef enum scene_interpolation {
@@ -78,7 +120,7 @@ typedef struct scene_channel {
     uint32_t path;          /* scene_channel_path */
     uint32_t interpolation; /* scene_interpolation */
     uint32_t key_count;
-    uint32_t components;    /* 3 (translation, scale) or 4 (rotation) */
+    uint32_t components;    /* 3 (translation, scale), 4 (rotation), or the target count */
     float *times;           /* key_count, non-decreasing */
     float *values;          /* key_count × components (× 3 for CUBICSPLINE: in, value, out) */
 } scene_channel;
@@ -107,6 +149,8 @@ struct pf_scene {
     scene_camera_def *cameras;
     uint32_t light_def_count;
     scene_light_def *lights;
+    uint32_t skin_count;
+    scene_skin *skins;
     uint32_t channel_count;
     scene_channel *channels;
     uint32_t animation_count;
@@ -183,5 +227,16 @@ void scene_cross(const float a[3], const float b[3], float out[3]);
 void scene_face_normals(const float p[9], float n[9]);
 /* Samples a channel at time (clamped to its key range); out has channel->components. */
 void scene_channel_sample(const scene_channel *channel, double time, float *out);
+
+/* World matrices of every node at time_seconds (scene_eval.c; nodes outside the scene
+ * stay identity); *out has node_count + 1 entries, malloc'ed. */
+pf_status scene_world_matrices(const pf_scene *scene, double time_seconds, float (**out)[16],
+                               pf_error *err);
+/* deform.c: fills the triangles of every deforming node into frame (rest of the frame
+ * already evaluated at time_seconds with those matrices) and widens its bounds. */
+pf_status scene_deform_nodes(const pf_scene *scene, double time_seconds,
+                             const float (*world)[16], pf_scene_frame *frame,
+                             pf_deform_report *report, pf_error *err);
+void scene_deform_mesh_free(scene_deform_mesh *deform);
 
 #endif

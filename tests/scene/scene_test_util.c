@@ -107,7 +107,7 @@ const char *st_write_gltf(const st_gltf *spec, char *path, size_t size)
     int written = snprintf(
         json, json_capacity,
         "{\"asset\":{\"version\":\"2.0\"%s%s},\"scene\":0,\"scenes\":%s,\"nodes\":%s,"
-        "\"meshes\":%s,%s%s%s%s%s%s%s%s%s%s%s%s"
+        "\"meshes\":%s,%s%s%s%s%s%s%s%s%s%s%s%s%s%s%s"
         "\"accessors\":["
         "{\"bufferView\":0,\"componentType\":5126,\"count\":4,\"type\":\"VEC3\"},"
         "{\"bufferView\":1,\"componentType\":5126,\"count\":4,\"type\":\"VEC3\"},"
@@ -122,6 +122,7 @@ const char *st_write_gltf(const st_gltf *spec, char *path, size_t size)
         spec->cameras ? "," : "",
         spec->animations ? "\"animations\":" : "", spec->animations ? spec->animations : "",
         spec->animations ? "," : "",
+        spec->skins ? "\"skins\":" : "", spec->skins ? spec->skins : "", spec->skins ? "," : "",
         spec->extensions ? "\"extensions\":" : "", spec->extensions ? spec->extensions : "",
         spec->extensions ? "," : "",
         spec->extra_accessors ? spec->extra_accessors : "", views);

@@ -27,6 +27,7 @@ typedef struct st_gltf {
     const char *materials;   /* JSON array text or NULL */
     const char *cameras;
     const char *animations;
+    const char *skins;       /* JSON array text or NULL */
     const char *extensions;       /* root "extensions" object text */
     const char *extensions_used;  /* array text */
     const char *extensions_required; /* array text */

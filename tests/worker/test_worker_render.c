@@ -301,8 +301,8 @@ PF_TEST(worker_renders_a_job_and_timings_report_every_stage)
                      cJSON_GetNumberValue(cJSON_GetObjectItem(stat, "min")));
     }
     /* The decisions the rows record: bih_build built once, reused twice; shade's samples 3 times;
-     * textures skipped 3 times (the tiny scene has none). */
-    int built = 0, reused = 0, shaded = 0, untextured = 0, decision_rows = 0;
+     * textures and deform skipped 3 times (the tiny scene has neither). */
+    int built = 0, reused = 0, shaded = 0, untextured = 0, undeformed = 0, decision_rows = 0;
     const cJSON *decision;
     cJSON_ArrayForEach(decision, cJSON_GetObjectItem(root, "decisions"))
     {
@@ -316,16 +316,18 @@ PF_TEST(worker_renders_a_job_and_timings_report_every_stage)
             shaded += !strcmp(what, "camera samples") ? count->valueint : 0;
         if (!strcmp(stage_name, "textures"))
             untextured += !strcmp(what, "no textures") ? count->valueint : 0;
+        if (!strcmp(stage_name, "deform"))
+            undeformed += !strcmp(what, "no skins or morph targets") ? count->valueint : 0;
         if (strcmp(stage_name, "bih_build"))
             continue;
         built += !strcmp(what, "built") ? count->valueint : 0;
         reused += !strcmp(what, "geometry unchanged → BIH reused") ? count->valueint : 0;
     }
     PF_CHECK_MSG(built == 1 && reused == 2 && shaded == 3 && untextured == 3 &&
-                     decision_rows == 4,
-                 "decisions: %d built, %d reused, %d shaded, %d untextured in %d rows", built,
-                 reused, shaded, untextured,
-                 decision_rows);
+                     undeformed == 3 && decision_rows == 5,
+                 "decisions: %d built, %d reused, %d shaded, %d untextured, %d undeformed in %d "
+                 "rows",
+                 built, reused, shaded, untextured, undeformed, decision_rows);
     /* Every frame's rows carry the build that rendered them: `photonfarm version`'s. */
     char version_path[WT_PATH_MAX + 32];
     wt_format(version_path, sizeof version_path, "%s/version.txt", dir);

@@ -1,0 +1,398 @@
+/*
+ * Skins and morph targets (issue 39): a two-bone skin against the closed form
+ * of linear blend skinning, morph targets at weights 0, 0.5 and 1 against
+ * base + w·delta (sparse targets, node and mesh weights, LINEAR and
+ * CUBICSPLINE weight channels), the skinned node's ignored transform, the two
+ * halves of pf_scene_eval, and malformed skins naming their accessor.
+ */
+#include "pf_scene.h"
+#include "pf_test.h"
+#include "scene_test_util.h"
+
+#include <math.h>
+#include <string.h>
+
+static pf_scene *load_ok(const char *path)
+{
+    pf_scene *scene = NULL;
+    pf_error err = {0};
+    pf_status status = pf_scene_load(path, &scene, &err);
+    PF_CHECK_MSG(status == PF_OK, "%s: %s", path, err.message);
+    return status == PF_OK ? scene : NULL;
+}
+
+static void check_vec3(const float *actual, double x, double y, double z, double tolerance)
+{
+    PF_CHECK_NEAR(actual[0], x, tolerance);
+    PF_CHECK_NEAR(actual[1], y, tolerance);
+    PF_CHECK_NEAR(actual[2], z, tolerance);
+}
+
+/* ---- a two-bone skin ------------------------------------------------------ */
+
+/*
+ * The quad (vertices (0,0,0) (1,0,0) (1,1,0) (0,1,0), normal +Z) skinned to two
+ * bones: bone0 at the origin, bone1 its child at (0, 0.5, 0), rotated about X by
+ * an animation from 0 (t = 0) to 60° (t = 1). Vertices 0 and 1 follow bone0, vertex 2
+ * blends 0.25 bone0 + 0.75 bone1 (in JOINTS_0 order 1, 0 to test the order), vertex 3
+ * follows bone1. The skinned node sits at (5, 0, 0), which glTF says to ignore.
+ * Extra floats: joints (u16 ×16 = 8 floats), weights (16), inverse binds (32),
+ * times (2), rotations (8).
+ */
+#define SKIN_FLOATS 66
+static const char *write_two_bone(const char *name, const uint16_t joints[16],
+                                  const float weights[16], char *path, size_t size)
+{
+    static float extra[SKIN_FLOATS];
+    memset(extra, 0, sizeof extra);
+    memcpy(extra, joints, 16 * sizeof(uint16_t));
+    memcpy(extra + 8, weights, 16 * sizeof(float));
+    float *inverse_bind = extra + 24;
+    for (int m = 0; m < 2; m++)
+        for (int k = 0; k < 4; k++)
+            inverse_bind[16 * m + 5 * k] = 1.0f;
+    inverse_bind[16 + 13] = -0.5f; /* bone1 bound at y = 0.5 */
+    extra[56] = 0.0f;
+    extra[57] = 1.0f;
+    float half = 0.5f * 60.0f * 3.14159265f / 180.0f;
+    float *rotations = extra + 58;
+    rotations[3] = 1.0f;
+    rotations[4] = sinf(half);
+    rotations[7] = cosf(half);
+    st_gltf spec = {
+        .name = name,
+        .extra = extra,
+        .extra_floats = SKIN_FLOATS,
+        .nodes = "[{\"mesh\":0,\"skin\":0,\"translation\":[5,0,0]},"
+                 "{\"children\":[2]},{\"translation\":[0,0.5,0]}]",
+        .scenes = "[{\"nodes\":[0,1]}]",
+        .meshes = "[{\"primitives\":[{\"attributes\":{\"POSITION\":0,\"NORMAL\":1,"
+                  "\"JOINTS_0\":3,\"WEIGHTS_0\":4},\"indices\":2}]}]",
+        .skins = "[{\"joints\":[1,2],\"inverseBindMatrices\":5}]",
+        .extra_accessors =
+            ",{\"bufferView\":3,\"componentType\":5123,\"count\":4,\"type\":\"VEC4\"}"
+            ",{\"bufferView\":3,\"byteOffset\":32,\"componentType\":5126,\"count\":4,"
+            "\"type\":\"VEC4\"}"
+            ",{\"bufferView\":3,\"byteOffset\":96,\"componentType\":5126,\"count\":2,"
+            "\"type\":\"MAT4\"}"
+            ",{\"bufferView\":3,\"byteOffset\":224,\"componentType\":5126,\"count\":2,"
+            "\"type\":\"SCALAR\"}"
+            ",{\"bufferView\":3,\"byteOffset\":232,\"componentType\":5126,\"count\":2,"
+            "\"type\":\"VEC4\"}",
+        .animations = "[{\"channels\":[{\"sampler\":0,\"target\":{\"node\":2,"
+                      "\"path\":\"rotation\"}}],"
+                      "\"samplers\":[{\"input\":6,\"output\":7}]}]",
+    };
+    return st_write_gltf(&spec, path, size);
+}
+
+static const uint16_t good_joints[16] = {0, 0, 0, 0, 0, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0};
+static const float good_weights[16] = {1, 0, 0, 0, 1, 0, 0, 0, 0.75f, 0.25f, 0, 0, 1, 0, 0, 0};
+
+/* Closed form at angle theta: bone1's matrix is a rotation about X through (0, 0.5, 0). */
+static void bone1_apply(double theta, const double p[3], double out[3])
+{
+    double y = p[1] - 0.5, z = p[2];
+    out[0] = p[0];
+    out[1] = 0.5 + y * cos(theta) - z * sin(theta);
+    out[2] = y * sin(theta) + z * cos(theta);
+}
+
+static void check_skin_at(const pf_scene *scene, double time, double theta)
+{
+    pf_scene_frame frame;
+    pf_error err;
+    PF_REQUIRE_OK(pf_scene_eval(scene, time, &frame, &err), &err);
+    PF_REQUIRE(frame.triangle_count == 2);
+    /* Triangle 0 is vertices 0 1 2, triangle 1 is 0 2 3. */
+    check_vec3(frame.vertices[0], 0, 0, 0, 1e-6);
+    check_vec3(frame.vertices[1], 1, 0, 0, 1e-6);
+    check_vec3(frame.normals[1], 0, 0, 1, 1e-6);
+    /* Vertex 3 rides bone1 rigidly: (0, 0.5 + 0.5 cos, 0.5 sin), normal (0, -sin, cos). */
+    check_vec3(frame.vertices[5], 0, 0.5 + 0.5 * cos(theta), 0.5 * sin(theta), 1e-5);
+    check_vec3(frame.normals[5], 0, -sin(theta), cos(theta), 1e-5);
+    /* Vertex 2: 0.25 p + 0.75 bone1(p); its normal is the blended matrix's inverse
+     * transpose on +Z: with a = 0.25 + 0.75 cos, b = 0.75 sin, (0, -b, a)/|.|. */
+    const double p2[3] = {1, 1, 0};
+    double moved[3];
+    bone1_apply(theta, p2, moved);
+    check_vec3(frame.vertices[2], 0.25 * 1 + 0.75 * moved[0], 0.25 * 1 + 0.75 * moved[1],
+               0.75 * moved[2], 1e-5);
+    double a = 0.25 + 0.75 * cos(theta), b = 0.75 * sin(theta), length = sqrt(a * a + b * b);
+    check_vec3(frame.normals[2], 0, -b / length, a / length, 1e-5);
+    check_vec3(frame.vertices[4], frame.vertices[2][0], frame.vertices[2][1],
+               frame.vertices[2][2], 0);
+    pf_scene_frame_free(&frame);
+}
+
+PF_TEST(two_bone_skin_matches_linear_blend_skinning)
+{
+    char path[512];
+    pf_scene *scene = load_ok(write_two_bone("skin", good_joints, good_weights, path,
+                                             sizeof path));
+    PF_REQUIRE(scene);
+    const pf_scene_info *info = pf_scene_get_info(scene);
+    PF_CHECK(info->skin_count == 1);
+    PF_CHECK(info->deformed_node_count == 1);
+    PF_CHECK(info->deformed_vertex_count == 4);
+    PF_CHECK(info->deformation_animated && info->geometry_animated);
+    /* The node's translation (5, 0, 0) is ignored: at rest the quad is where it was bound. */
+    check_skin_at(scene, 0.0, 0.0);
+    check_skin_at(scene, 1.0, 60.0 * 3.14159265358979 / 180.0);
+    /* Halfway the rotation is slerped to 30°. */
+    check_skin_at(scene, 0.5, 30.0 * 3.14159265358979 / 180.0);
+    pf_scene_destroy(scene);
+}
+
+PF_TEST(eval_in_two_halves_equals_eval)
+{
+    char path[512];
+    pf_scene *scene = load_ok(write_two_bone("skin_halves", good_joints, good_weights, path,
+                                             sizeof path));
+    PF_REQUIRE(scene);
+    pf_scene_frame whole, halves;
+    pf_error err;
+    PF_REQUIRE_OK(pf_scene_eval(scene, 0.75, &whole, &err), &err);
+    PF_REQUIRE_OK(pf_scene_eval_rigid(scene, 0.75, &halves, &err), &err);
+    /* Everything deforms here: the rigid half leaves the box inverted and the vertices 0. */
+    PF_CHECK(halves.bounds_min[0] > halves.bounds_max[0]);
+    PF_CHECK(halves.vertices[2][1] == 0.0f);
+    pf_deform_report report;
+    PF_REQUIRE_OK(pf_scene_deform(scene, 0.75, &halves, &report, &err), &err);
+    PF_CHECK(report.skinned_meshes == 1 && report.morphed_meshes == 0);
+    PF_CHECK(report.vertices == 4);
+    PF_CHECK(memcmp(whole.vertices, halves.vertices, 6 * sizeof whole.vertices[0]) == 0);
+    PF_CHECK(memcmp(whole.normals, halves.normals, 6 * sizeof whole.normals[0]) == 0);
+    PF_CHECK(memcmp(whole.bounds_min, halves.bounds_min, sizeof whole.bounds_min) == 0);
+    PF_CHECK(memcmp(whole.bounds_max, halves.bounds_max, sizeof whole.bounds_max) == 0);
+    check_vec3(whole.bounds_min, 0, 0, 0, 1e-6);
+    PF_CHECK(whole.bounds_max[2] > 0.1f);
+    pf_scene_frame_free(&whole);
+    pf_scene_frame_free(&halves);
+    pf_scene_destroy(scene);
+}
+
+PF_TEST(unnormalised_weights_are_normalised)
+{
+    /* Vertex 2 with weights 1.5 and 0.5 (sum 2) blends as 0.75 and 0.25. */
+    float weights[16];
+    memcpy(weights, good_weights, sizeof weights);
+    weights[8] = 1.5f;
+    weights[9] = 0.5f;
+    char path[512];
+    pf_scene *scene = load_ok(write_two_bone("skin_sum", good_joints, weights, path,
+                                             sizeof path));
+    PF_REQUIRE(scene);
+    check_skin_at(scene, 1.0, 60.0 * 3.14159265358979 / 180.0);
+    pf_scene_destroy(scene);
+}
+
+PF_TEST(malformed_skins_name_their_accessor)
+{
+    char path[512];
+    /* A joint index past the skin's two joints, with weight. */
+    uint16_t joints[16];
+    memcpy(joints, good_joints, sizeof joints);
+    joints[12] = 2;
+    st_expect_error(write_two_bone("skin_joint", joints, good_weights, path, sizeof path),
+                    PF_ERR_FORMAT, "JOINTS_0 (accessors[3])", "joint 2 is outside skins[0]");
+    /* A negative weight. */
+    float weights[16];
+    memcpy(weights, good_weights, sizeof weights);
+    weights[9] = -0.25f;
+    st_expect_error(write_two_bone("skin_negative", good_joints, weights, path, sizeof path),
+                    PF_ERR_FORMAT, "WEIGHTS_0 (accessors[4])", "vertex 2 weight 1 is negative");
+    /* A NaN weight. */
+    memcpy(weights, good_weights, sizeof weights);
+    weights[0] = NAN;
+    st_expect_error(write_two_bone("skin_nan", good_joints, weights, path, sizeof path),
+                    PF_ERR_FORMAT, "WEIGHTS_0", "not finite");
+}
+
+/* ---- morph targets -------------------------------------------------------- */
+
+/*
+ * The quad with two targets: target 0 moves vertex 2 by (0, 0, 1) (a dense
+ * accessor), target 1 moves vertex 3 by (0, 0, 2) and vertex 0 by (0, 0, -1)
+ * (a sparse accessor without a bufferView). Extra floats: target 0 (12), the
+ * sparse indices (u16 ×2 = 1 float) and values (6), then the test's animation
+ * data from float 19.
+ */
+#define MORPH_FLOATS 19
+static const char *write_morph(const char *name, const char *mesh_weights,
+                               const char *node_extra, const float *animation_data,
+                               uint32_t animation_floats, const char *accessors,
+                               const char *animations, char *path, size_t size)
+{
+    static float extra[64];
+    memset(extra, 0, sizeof extra);
+    extra[2 * 3 + 2] = 1.0f;
+    const uint16_t sparse_indices[2] = {3, 0};
+    memcpy(extra + 12, sparse_indices, sizeof sparse_indices);
+    extra[13 + 2] = 2.0f;
+    extra[13 + 5] = -1.0f;
+    memcpy(extra + MORPH_FLOATS, animation_data, animation_floats * sizeof(float));
+    static char meshes[512], nodes[256], all_accessors[1024];
+    snprintf(meshes, sizeof meshes,
+             "[{\"primitives\":[{\"attributes\":{\"POSITION\":0,\"NORMAL\":1},\"indices\":2,"
+             "\"targets\":[{\"POSITION\":3},{\"POSITION\":4}]}]%s%s}]",
+             mesh_weights ? ",\"weights\":" : "", mesh_weights ? mesh_weights : "");
+    snprintf(nodes, sizeof nodes, "[{\"mesh\":0%s}]", node_extra ? node_extra : "");
+    snprintf(all_accessors, sizeof all_accessors,
+             ",{\"bufferView\":3,\"componentType\":5126,\"count\":4,\"type\":\"VEC3\"}"
+             ",{\"componentType\":5126,\"count\":4,\"type\":\"VEC3\","
+             "\"sparse\":{\"count\":2,\"indices\":{\"bufferView\":3,\"byteOffset\":48,"
+             "\"componentType\":5123},\"values\":{\"bufferView\":3,\"byteOffset\":52}}}%s",
+             accessors ? accessors : "");
+    st_gltf spec = {.name = name,
+                    .extra = extra,
+                    .extra_floats = MORPH_FLOATS + animation_floats,
+                    .nodes = nodes,
+                    .meshes = meshes,
+                    .extra_accessors = all_accessors,
+                    .animations = animations};
+    return st_write_gltf(&spec, path, size);
+}
+
+/* The quad's vertex v moved by w0 · target 0 + w1 · target 1 (triangle 0: 0 1 2, 1: 0 2 3). */
+static void check_morph(const pf_scene_frame *frame, double w0, double w1, double tolerance)
+{
+    check_vec3(frame->vertices[0], 0, 0, -1 * w1, tolerance);
+    check_vec3(frame->vertices[1], 1, 0, 0, tolerance);
+    check_vec3(frame->vertices[2], 1, 1, w0, tolerance);
+    check_vec3(frame->vertices[5], 0, 1, 2 * w1, tolerance);
+}
+
+PF_TEST(morph_targets_blend_base_plus_weighted_deltas)
+{
+    /* weights channel, LINEAR: (0, 0) at t = 0, (0.5, 0.5) at 1, (1, 1) at 2. */
+    const float data[] = {0, 1, 2, /* values */ 0, 0, 0.5f, 0.5f, 1, 1};
+    char path[512];
+    pf_scene *scene = load_ok(write_morph(
+        "morph", NULL, NULL, data, 9,
+        ",{\"bufferView\":3,\"byteOffset\":76,\"componentType\":5126,\"count\":3,"
+        "\"type\":\"SCALAR\"},{\"bufferView\":3,\"byteOffset\":88,\"componentType\":5126,"
+        "\"count\":6,\"type\":\"SCALAR\"}",
+        "[{\"channels\":[{\"sampler\":0,\"target\":{\"node\":0,\"path\":\"weights\"}}],"
+        "\"samplers\":[{\"input\":5,\"output\":6}]}]",
+        path, sizeof path));
+    PF_REQUIRE(scene);
+    const pf_scene_info *info = pf_scene_get_info(scene);
+    PF_CHECK(info->deformed_node_count == 1 && info->skin_count == 0);
+    PF_CHECK(info->deformation_animated && info->geometry_animated);
+    PF_CHECK(info->frame_count == 49); /* 2 s at 24 fps */
+    static const double times[] = {0.0, 1.0, 2.0, 0.5};
+    static const double weights[] = {0.0, 0.5, 1.0, 0.25};
+    for (int k = 0; k < 4; k++) {
+        pf_scene_frame frame;
+        pf_error err;
+        PF_REQUIRE_OK(pf_scene_eval(scene, times[k], &frame, &err), &err);
+        check_morph(&frame, weights[k], weights[k], 1e-6);
+        /* Vertex 2 lifted: its triangle's normal follows the file's (+Z, no NORMAL target). */
+        check_vec3(frame.normals[2], 0, 0, 1, 1e-6);
+        pf_scene_frame_free(&frame);
+    }
+    pf_scene_destroy(scene);
+}
+
+PF_TEST(morph_weights_from_the_node_then_the_mesh)
+{
+    char path[512];
+    pf_scene *scene = load_ok(write_morph("morph_mesh", "[0.5,0.25]", NULL, NULL, 0, NULL, NULL,
+                                          path, sizeof path));
+    PF_REQUIRE(scene);
+    PF_CHECK(!pf_scene_get_info(scene)->deformation_animated);
+    pf_scene_frame frame;
+    pf_error err;
+    PF_REQUIRE_OK(pf_scene_eval(scene, 0.0, &frame, &err), &err);
+    check_morph(&frame, 0.5, 0.25, 1e-6);
+    pf_scene_frame_free(&frame);
+    pf_scene_destroy(scene);
+
+    scene = load_ok(write_morph("morph_node", "[0.5,0.25]", ",\"weights\":[1,0]", NULL, 0, NULL,
+                                NULL, path, sizeof path));
+    PF_REQUIRE(scene);
+    PF_REQUIRE_OK(pf_scene_eval(scene, 0.0, &frame, &err), &err);
+    check_morph(&frame, 1.0, 0.0, 1e-6);
+    pf_scene_frame_free(&frame);
+    pf_scene_destroy(scene);
+
+    /* A morphed (not skinned) mesh keeps its node's transform. */
+    scene = load_ok(write_morph("morph_moved", "[1,1]", ",\"translation\":[0,0,10]", NULL, 0,
+                                NULL, NULL, path, sizeof path));
+    PF_REQUIRE(scene);
+    PF_REQUIRE_OK(pf_scene_eval(scene, 0.0, &frame, &err), &err);
+    check_vec3(frame.vertices[5], 0, 1, 12, 1e-6);
+    pf_scene_frame_free(&frame);
+    pf_scene_destroy(scene);
+}
+
+PF_TEST(cubicspline_weights)
+{
+    /* Two keys (t = 0, 2), each in-tangent, value, out-tangent for both targets:
+     * target 0 goes 0 → 1 with out-tangent 0.5/s and in-tangent 2/s. */
+    const float data[] = {0, 2,
+                          /* key 0: in */ 0, 0, /* value */ 0, 0, /* out */ 0.5f, 0,
+                          /* key 1: in */ 2, 0, /* value */ 1, 0, /* out */ 0, 0};
+    char path[512];
+    pf_scene *scene = load_ok(write_morph(
+        "morph_cubic", NULL, NULL, data, 14,
+        ",{\"bufferView\":3,\"byteOffset\":76,\"componentType\":5126,\"count\":2,"
+        "\"type\":\"SCALAR\"},{\"bufferView\":3,\"byteOffset\":84,\"componentType\":5126,"
+        "\"count\":12,\"type\":\"SCALAR\"}",
+        "[{\"channels\":[{\"sampler\":0,\"target\":{\"node\":0,\"path\":\"weights\"}}],"
+        "\"samplers\":[{\"input\":5,\"output\":6,\"interpolation\":\"CUBICSPLINE\"}]}]",
+        path, sizeof path));
+    PF_REQUIRE(scene);
+    static const double times[] = {0.5, 1.0, 1.5};
+    for (int k = 0; k < 3; k++) {
+        pf_scene_frame frame;
+        pf_error err;
+        PF_REQUIRE_OK(pf_scene_eval(scene, times[k], &frame, &err), &err);
+        double u = times[k] / 2.0;
+        double expected = pf_cubic_hermite(0, 0.5f, 1, 2, 2.0f, (float)u);
+        /* By hand: h10 = u³ - 2u² + u, h01 = -2u³ + 3u², h11 = u³ - u². */
+        double by_hand = (u * u * u - 2 * u * u + u) * 2 * 0.5 +
+                         (-2 * u * u * u + 3 * u * u) * 1 + (u * u * u - u * u) * 2 * 2;
+        PF_CHECK_NEAR(expected, by_hand, 1e-6);
+        check_morph(&frame, by_hand, 0.0, 1e-5);
+        pf_scene_frame_free(&frame);
+    }
+    pf_scene_destroy(scene);
+}
+
+PF_TEST(malformed_morphs_are_refused)
+{
+    char path[512];
+    st_expect_error(write_morph("morph_bad_weights", "[1]", NULL, NULL, 0, NULL, NULL, path,
+                                sizeof path),
+                    PF_ERR_FORMAT, "meshes[0]", "1 values for 2 morph targets");
+    st_expect_error(write_morph("morph_bad_node", NULL, ",\"weights\":[1,2,3]", NULL, 0, NULL,
+                                NULL, path, sizeof path),
+                    PF_ERR_FORMAT, "nodes[0]", "3 values for 2 morph targets");
+    /* A weights channel with 3 values for 2 keys × 2 targets. */
+    const float data[] = {0, 1, 0, 0, 1};
+    st_expect_error(write_morph(
+                        "morph_bad_channel", NULL, NULL, data, 5,
+                        ",{\"bufferView\":3,\"byteOffset\":76,\"componentType\":5126,\"count\":2,"
+                        "\"type\":\"SCALAR\"},{\"bufferView\":3,\"byteOffset\":84,"
+                        "\"componentType\":5126,\"count\":3,\"type\":\"SCALAR\"}",
+                        "[{\"channels\":[{\"sampler\":0,\"target\":{\"node\":0,"
+                        "\"path\":\"weights\"}}],\"samplers\":[{\"input\":5,\"output\":6}]}]",
+                        path, sizeof path),
+                    PF_ERR_FORMAT, "animations[0].samplers[0].output",
+                    "one per morph target");
+}
+
+int main(void)
+{
+    PF_RUN(two_bone_skin_matches_linear_blend_skinning);
+    PF_RUN(eval_in_two_halves_equals_eval);
+    PF_RUN(unnormalised_weights_are_normalised);
+    PF_RUN(malformed_skins_name_their_accessor);
+    PF_RUN(morph_targets_blend_base_plus_weighted_deltas);
+    PF_RUN(morph_weights_from_the_node_then_the_mesh);
+    PF_RUN(cubicspline_weights);
+    PF_RUN(malformed_morphs_are_refused);
+    return pf_test_finish();
+}
