@@ -4,10 +4,13 @@
 # photonfarm's. Film as photonfarm renders with --filter blackman-harris
 # (Cycles' 1.5 px Blackman-Harris), no denoising, adaptive sampling or
 # clamping, black world, 64 bounces (or MAX_BOUNCES, as photonfarm's
-# --max-bounces).
+# --max-bounces). FRAME (default 1) is the frame rendered; every animation in
+# the file plays, as photonfarm renders it: Blender's importer makes the first
+# animation the active action and leaves the others muted in NLA tracks, so
+# each of those is made its object's (or shape keys') action here.
 #
 #   blender -b --factory-startup --python cycles_import_render.py -- \
-#       SCENE.gltf OUT.exr WIDTH HEIGHT SAMPLES [MAX_BOUNCES]
+#       SCENE.gltf OUT.exr WIDTH HEIGHT SAMPLES [MAX_BOUNCES [FRAME]]
 import os
 import sys
 
@@ -20,13 +23,29 @@ if "bool" not in numpy.__dict__:
     numpy.bool = bool
 
 
+def play_every_animation(scene):
+    owners = list(scene.objects)
+    owners += [o.data.shape_keys for o in scene.objects
+               if o.type == "MESH" and o.data.shape_keys]
+    for owner in owners:
+        data = owner.animation_data
+        if data and not data.action and data.nla_tracks:
+            strips = [s for t in data.nla_tracks for s in t.strips]
+            if strips:
+                data.action = strips[0].action
+                print("cycles_import_render: %s plays %s" % (owner.name, data.action.name))
+
+
 def main():
     args = sys.argv[sys.argv.index("--") + 1:]
     scene_path, out_path, width, height, samples = args[:5]
     bounces = int(args[5]) if len(args) > 5 else 64
+    frame = int(args[6]) if len(args) > 6 else 1
     bpy.ops.wm.read_factory_settings(use_empty=True)
     bpy.ops.import_scene.gltf(filepath=os.path.abspath(scene_path))
     scene = bpy.context.scene
+    play_every_animation(scene)
+    scene.frame_set(frame)
     cameras = [o for o in scene.objects if o.type == "CAMERA"]
     if not cameras:
         sys.exit("cycles_import_render: the scene has no camera")

@@ -47,6 +47,9 @@
  * them into W/sr and W/m². */
 #define GLTF_LUMENS_PER_WATT 683.0
 #define GLTF_HALF_PI 1.5707963267948966
+/* asset.generator of Blender's glTF exporter ("Khronos glTF Blender I/O v3.4.50"). */
+#define GLTF_BLENDER_GENERATOR "Khronos glTF Blender I/O"
+
 
 static const char *const supported_extensions[] = {
     "KHR_lights_punctual",
@@ -337,6 +340,14 @@ static pf_status read_asset_extras(gltf_context *ctx, pf_error *err)
     }
     ctx->scene->fps = fps;
     ctx->scene->file_frame_count = (uint32_t)frames;
+    /* Blender's exporter writes frame f's keys at time f / fps (and its importer reads them
+     * back there), so for its files frame f is sampled there: the pose Blender showed for
+     * frame f, not the one before it. */
+    const cJSON *generator = cJSON_GetObjectItemCaseSensitive(asset, "generator");
+    if (cJSON_IsString(generator) &&
+        strncmp(generator->valuestring, GLTF_BLENDER_GENERATOR,
+                strlen(GLTF_BLENDER_GENERATOR)) == 0)
+        ctx->scene->frame_offset = 1;
     return PF_OK;
 }
 

@@ -278,6 +278,7 @@ typedef struct pf_scene_info {
     uint32_t emissive_triangle_count;
     double fps;                    /* asset.extras.fps, else 24 */
     uint32_t frame_count;          /* asset.extras.frames, else from the animation length, >= 1 */
+    uint32_t frame_offset;         /* 1 when frame f is at time f / fps (Blender's exporter), else 0 */
     double duration_seconds;       /* last keyframe time, 0 if static */
     int has_camera;                /* 0: a default camera frames the scene */
     int geometry_animated;         /* some animated node carries a mesh */
@@ -320,7 +321,8 @@ pf_status pf_scene_load_with(const char *path, const pf_scene_load_options *opti
 void pf_scene_destroy(pf_scene *scene);
 const pf_scene_info *pf_scene_get_info(const pf_scene *scene);
 
-/* Frame numbers start at 1; frame f is sampled at time (f - 1) / fps. */
+/* Frame numbers start at 1; frame f is sampled at time (f - 1 + frame_offset) / fps:
+ * (f - 1) / fps, or f / fps in a file Blender exported (pf_scene_info.frame_offset). */
 double pf_scene_frame_time(const pf_scene *scene, int64_t frame);
 
 /*

@@ -164,7 +164,7 @@ const pf_scene_info *pf_scene_get_info(const pf_scene *scene) { return &scene->i
 
 double pf_scene_frame_time(const pf_scene *scene, int64_t frame)
 {
-    return (double)(frame - 1) / scene->info.fps;
+    return (double)(frame - 1 + (int64_t)scene->info.frame_offset) / scene->info.fps;
 }
 
 void pf_camera_image_plane(const pf_camera *camera, uint32_t width, uint32_t height,
@@ -628,9 +628,11 @@ pf_status scene_finalize(pf_scene *scene, pf_error *err)
     info->emissive_triangle_count = (uint32_t)emissive;
     info->has_emissive = emissive > 0;
     info->duration_seconds = duration;
-    info->frame_count = scene->file_frame_count
-                            ? scene->file_frame_count
-                            : (uint32_t)llround(duration * info->fps) + 1;
+    info->frame_offset = scene->frame_offset;
+    /* The last key's frame: frames 1 .. that (at time 0 a Blender file has frame 0). */
+    uint32_t last_key_frame = (uint32_t)llround(duration * info->fps) + 1 - scene->frame_offset;
+    info->frame_count = scene->file_frame_count ? scene->file_frame_count
+                                                : (last_key_frame > 1 ? last_key_frame : 1);
     info->has_camera = scene->camera_node != SCENE_NONE;
     if (!info->has_camera)
         return make_default_camera(scene, err);

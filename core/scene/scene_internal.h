@@ -157,6 +157,7 @@ struct pf_scene {
 
     double fps;             /* 0 until the loader sets it: SCENE_DEFAULT_FPS */
     uint32_t file_frame_count; /* asset.extras.frames, 0 if absent */
+    uint32_t frame_offset;  /* pf_scene_info.frame_offset */
 
     int32_t camera_node;    /* first camera node in order, SCENE_NONE → default_camera */
     pf_camera default_camera;

@@ -106,7 +106,7 @@ const char *st_write_gltf(const st_gltf *spec, char *path, size_t size)
     }
     int written = snprintf(
         json, json_capacity,
-        "{\"asset\":{\"version\":\"2.0\"%s%s},\"scene\":0,\"scenes\":%s,\"nodes\":%s,"
+        "{\"asset\":{\"version\":\"2.0\"%s%s%s%s%s},\"scene\":0,\"scenes\":%s,\"nodes\":%s,"
         "\"meshes\":%s,%s%s%s%s%s%s%s%s%s%s%s%s%s%s%s"
         "\"accessors\":["
         "{\"bufferView\":0,\"componentType\":5126,\"count\":4,\"type\":\"VEC3\"},"
@@ -114,6 +114,8 @@ const char *st_write_gltf(const st_gltf *spec, char *path, size_t size)
         "{\"bufferView\":2,\"componentType\":5123,\"count\":6,\"type\":\"SCALAR\"}%s],"
         "\"bufferViews\":%s,\"buffers\":",
         spec->asset_extras ? ",\"extras\":" : "", spec->asset_extras ? spec->asset_extras : "",
+        spec->generator ? ",\"generator\":\"" : "", spec->generator ? spec->generator : "",
+        spec->generator ? "\"" : "",
         spec->scenes ? spec->scenes : "[{\"nodes\":[0]}]", spec->nodes,
         spec->meshes ? spec->meshes : default_mesh,
         spec->materials ? "\"materials\":" : "", spec->materials ? spec->materials : "",

@@ -33,6 +33,7 @@ typedef struct st_gltf {
     const char *extensions_required; /* array text */
     const char *extra_accessors;  /* ", {...}, {...}" appended after accessors[2] */
     const char *asset_extras;     /* object text */
+    const char *generator;        /* asset.generator, or NULL */
     int data_uri;            /* embed the buffer as a base64 data: URI */
     int glb;                 /* write <name>.glb with a BIN chunk instead */
 } st_gltf;

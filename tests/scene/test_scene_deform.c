@@ -219,6 +219,7 @@ PF_TEST(malformed_skins_name_their_accessor)
  * data from float 19.
  */
 #define MORPH_FLOATS 19
+static const char *morph_generator; /* asset.generator of the next write_morph, or NULL */
 static const char *write_morph(const char *name, const char *mesh_weights,
                                const char *node_extra, const float *animation_data,
                                uint32_t animation_floats, const char *accessors,
@@ -250,7 +251,8 @@ static const char *write_morph(const char *name, const char *mesh_weights,
                     .nodes = nodes,
                     .meshes = meshes,
                     .extra_accessors = all_accessors,
-                    .animations = animations};
+                    .animations = animations,
+                    .generator = morph_generator};
     return st_write_gltf(&spec, path, size);
 }
 
@@ -384,6 +386,43 @@ PF_TEST(malformed_morphs_are_refused)
                     "one per morph target");
 }
 
+PF_TEST(blender_files_put_frame_f_at_f_over_fps)
+{
+    /* Blender's exporter writes frame f at f / 24 s: a clip of frames 1-24 has keys at
+     * 1/24 .. 1 s, and frame 24 must sample 1 s, the pose Blender showed for it. */
+    const float data[] = {1.0f / 24.0f, 1.0f, 0, 0, 1, 1};
+    static const char accessors[] =
+        ",{\"bufferView\":3,\"byteOffset\":76,\"componentType\":5126,\"count\":2,"
+        "\"type\":\"SCALAR\"},{\"bufferView\":3,\"byteOffset\":84,\"componentType\":5126,"
+        "\"count\":4,\"type\":\"SCALAR\"}";
+    static const char animations[] =
+        "[{\"channels\":[{\"sampler\":0,\"target\":{\"node\":0,\"path\":\"weights\"}}],"
+        "\"samplers\":[{\"input\":5,\"output\":6}]}]";
+    static const char *const generators[2] = {"some other exporter",
+                                              "Khronos glTF Blender I/O v3.4.50"};
+    for (int blender = 0; blender < 2; blender++) {
+        char path[512];
+        morph_generator = generators[blender];
+        pf_scene *scene = load_ok(write_morph(blender ? "morph_blender" : "morph_other", NULL,
+                                              NULL, data, 6, accessors, animations, path,
+                                              sizeof path));
+        morph_generator = NULL;
+        PF_REQUIRE(scene);
+        const pf_scene_info *info = pf_scene_get_info(scene);
+        PF_CHECK(info->frame_offset == (uint32_t)blender);
+        /* Frames 1-25 at (f - 1) / 24 s; Blender's 1-24 at f / 24 s. */
+        PF_CHECK(info->frame_count == (blender ? 24u : 25u));
+        PF_CHECK_NEAR(pf_scene_frame_time(scene, 24), blender ? 1.0 : 23.0 / 24.0, 1e-12);
+        pf_scene_frame frame;
+        pf_error err;
+        PF_REQUIRE_OK(pf_scene_eval(scene, pf_scene_frame_time(scene, 24), &frame, &err), &err);
+        double w = blender ? 1.0 : (23.0 / 24.0 - 1.0 / 24.0) / (1.0 - 1.0 / 24.0);
+        check_morph(&frame, w, w, 1e-5);
+        pf_scene_frame_free(&frame);
+        pf_scene_destroy(scene);
+    }
+}
+
 int main(void)
 {
     PF_RUN(two_bone_skin_matches_linear_blend_skinning);
@@ -394,5 +433,6 @@ int main(void)
     PF_RUN(morph_weights_from_the_node_then_the_mesh);
     PF_RUN(cubicspline_weights);
     PF_RUN(malformed_morphs_are_refused);
+    PF_RUN(blender_files_put_frame_f_at_f_over_fps);
     return pf_test_finish();
 }
