@@ -894,6 +894,70 @@ PF_TEST(a_frame_that_cannot_be_committed_pauses_its_job_at_once)
     PF_CHECK(!strcmp(first_task(db, job_id).status, "done"));
 }
 
+/* scenes/character/character.gltf: the skinned and morphed scene Blender exported (issue 39). */
+static const char *character_scene(char *out, size_t size)
+{
+    const char *source = getenv("PF_SOURCE_DIR");
+    wt_format(out, size, "%s/scenes/character/character.gltf", source ? source : ".");
+    return out;
+}
+
+/*
+ * Issue 39: `render --frames` on the Blender-exported character bends the arm and bulges
+ * the sheet every frame: each frame has a deform row naming what it deformed, and the tree
+ * is refit (or rebuilt when the refit loses its SAH), never reused, after the first frame.
+ * A jump from the rest pose to the arm bent 80° (frames 1, 24) shows the SAH check.
+ */
+PF_TEST(render_frames_deforms_a_blender_character_and_refits_its_tree)
+{
+    char character[WT_PATH_MAX + 64], args[4 * WT_PATH_MAX];
+    character_scene(character, sizeof character);
+    wt_format(args, sizeof args,
+              "render '%s' --frames 1-3,24 --size 16x16 --quality preview --timings "
+              "-o '%s/character.####.exr'",
+              character, dir);
+    PF_REQUIRE(wt_run(args, log_path) == 0);
+    PF_CHECK(wt_count_in_file(log_path, "1 skinned mesh, 1 morphed, ") == 4);
+    PF_CHECK(wt_count_in_file(log_path, "skinned_meshes=1 morphed_meshes=1") == 4);
+    PF_CHECK(wt_count_in_file(log_path, "built: first frame") == 1);
+    int refit = wt_count_in_file(log_path, "refit: SAH");
+    int rebuilt = wt_count_in_file(log_path, "rebuilt: refit SAH");
+    PF_CHECK_MSG(refit + rebuilt == 3, "%d refit, %d rebuilt of 3 frames", refit, rebuilt);
+    PF_CHECK(wt_count_in_file(log_path, "BIH reused") == 0);
+    /* Consecutive frames move the arm a few degrees: the refit tree holds. */
+    PF_CHECK_MSG(refit >= 2, "%d refit", refit);
+    for (int frame = 1; frame <= 3; frame++) {
+        char path[2 * WT_PATH_MAX];
+        wt_format(path, sizeof path, "%s/character.%04d.exr", dir, frame);
+        PF_CHECK_MSG(wt_exr_frame(path) == frame, "%s: wrong or missing frame", path);
+    }
+}
+
+/* Issue 39: a job over the character renders every frame deformed; `timings` shows deform. */
+PF_TEST(a_job_over_a_skinned_scene_reports_its_deform_rows)
+{
+    char character[WT_PATH_MAX + 64], out[WT_PATH_MAX + 32], db[WT_PATH_MAX + 32];
+    char pattern[2 * WT_PATH_MAX], args[8 * WT_PATH_MAX];
+    character_scene(character, sizeof character);
+    wt_fresh_dir("character-out", out, sizeof out);
+    wt_format(db, sizeof db, "%s/character.db", dir);
+    unlink(db);
+    wt_format(pattern, sizeof pattern, "%s/c.####.exr", out);
+    int64_t job_id = enqueue(db, character, "1-2", pattern, "--frames-per-task 2");
+    PF_REQUIRE(job_id > 0);
+    wt_format(args, sizeof args, "worker --once --db '%s'", db);
+    PF_REQUIRE(wt_run(args, log_path) == 0);
+    PF_CHECK(wt_count_files(out, "") == 2);
+    wt_format(args, sizeof args, "timings %lld --format csv --db '%s'", (long long)job_id, db);
+    PF_REQUIRE(wt_run(args, log_path) == 0);
+    /* Two frames deformed (none skipped); bih_build ran for both (built, then refit). */
+    PF_CHECK(wt_file_contains(log_path, "\ndeform,2,0,"));
+    PF_CHECK(wt_file_contains(log_path, "\nbih_build,2,0,"));
+    wt_format(args, sizeof args, "timings %lld --format json --db '%s'", (long long)job_id, db);
+    PF_REQUIRE(wt_run(args, log_path) == 0);
+    PF_CHECK(wt_file_contains(log_path, "1 skinned mesh, 1 morphed, "));
+}
+
 int main(void)
 {
     pf_test_tmpdir(dir, sizeof dir);
@@ -913,5 +977,7 @@ int main(void)
     PF_RUN(a_worker_whose_lease_was_taken_over_never_writes);
     PF_RUN(a_lease_lost_inside_the_commit_is_left_to_the_new_owner);
     PF_RUN(a_frame_that_cannot_be_committed_pauses_its_job_at_once);
+    PF_RUN(render_frames_deforms_a_blender_character_and_refits_its_tree);
+    PF_RUN(a_job_over_a_skinned_scene_reports_its_deform_rows);
     return pf_test_finish();
 }
