@@ -265,7 +265,8 @@ int pf_cli_enqueue(int argc, char **argv)
         if (pf_roots_check_output_file(&options.storage.output, ours.paths[i], &err) != PF_OK)
             code = pf_cli_fail(COMMAND, 2, "--out: %s", err.message);
     char parameters[PARAMETERS_MAX];
-    pf_job_extras extras = {options.name, options.scene.load.allow_outside_scene_dir};
+    pf_job_extras extras = {options.name, options.scene.load.allow_outside_scene_dir,
+                            options.scene.load.animation};
     if (!code && !pf_job_parameters_format(&options.settings, &extras, parameters,
                                        sizeof parameters))
         code = pf_cli_fail(COMMAND, 2, "--name is too long");

@@ -187,6 +187,15 @@ static int store_outside(const char *command, const pf_cli_option *option, const
     return 0;
 }
 
+/* pf_cli_store for --animation NAME|INDEX (target: the pf_cli_scene). */
+static int store_animation(const char *command, const pf_cli_option *option, const char *value)
+{
+    if (!*value)
+        return pf_cli_fail(command, 2, "--animation needs a name or an index");
+    ((pf_cli_scene *)option->target)->load.animation = value;
+    return 0;
+}
+
 size_t pf_cli_settings_table(pf_render_settings *settings, pf_cli_scene *scene,
                              pf_cli_option rows[PF_CLI_SETTINGS_OPTIONS])
 {
@@ -239,12 +248,17 @@ size_t pf_cli_settings_table(pf_render_settings *settings, pf_cli_scene *scene,
         {"--allow-outside-scene-dir", NULL, NULL,
          "let the scene's buffers and material libraries lie\noutside its directory (a job "
          "carries it to its workers)",
-         "refused", NULL, NULL, 0, 0, NULL},
+         "refused", store_outside, NULL, 0, 0, NULL},
+        {"--animation", NULL, "NAME|INDEX",
+         "play only this glTF animation (its name, or its index\nin the file); the frame range "
+         "is then its own",
+         "every animation plays, as in the authoring tool", store_animation, NULL, 0, 0, NULL},
     };
     for (size_t i = 0; i < PF_CLI_SETTINGS_OPTIONS; i++) {
         rows[i] = table[i];
-        rows[i].store = i + 1 == PF_CLI_SETTINGS_OPTIONS ? store_outside : store_setting;
-        rows[i].target = i + 1 == PF_CLI_SETTINGS_OPTIONS ? (void *)scene : (void *)settings;
+        int scene_row = i >= PF_CLI_SETTINGS_OPTIONS - PF_CLI_SCENE_OPTIONS;
+        rows[i].store = scene_row ? table[i].store : store_setting;
+        rows[i].target = scene_row ? (void *)scene : (void *)settings;
     }
     return PF_CLI_SETTINGS_OPTIONS;
 }

@@ -21,6 +21,8 @@ int pf_job_parameters_format(const pf_render_settings *settings, const pf_job_ex
         cJSON_AddStringToObject(root, "name", extras->name);
     if (extras && extras->allow_outside_scene_dir)
         cJSON_AddBoolToObject(root, "allow_outside_scene_dir", 1);
+    if (extras && extras->animation)
+        cJSON_AddStringToObject(root, "animation", extras->animation);
     char *keys = root->child ? cJSON_PrintUnformatted(root) : NULL;
     cJSON_Delete(root);
     /* The extras' members, then the settings' as the codec wrote them: not parsed and
@@ -31,14 +33,27 @@ int pf_job_parameters_format(const pf_render_settings *settings, const pf_job_ex
     return written >= 0 && (size_t)written < size;
 }
 
-void pf_job_name(const char *json, char *out, size_t size)
+/* The job's string member key into out ("" and 0 when it has none). */
+static int job_string(const char *json, const char *key, char *out, size_t size)
 {
     out[0] = '\0';
     cJSON *root = cJSON_Parse(json ? json : "{}");
-    const cJSON *name = cJSON_GetObjectItemCaseSensitive(root, "name");
-    if (cJSON_IsString(name))
-        snprintf(out, size, "%s", name->valuestring);
+    const cJSON *value = cJSON_GetObjectItemCaseSensitive(root, key);
+    int found = cJSON_IsString(value);
+    if (found)
+        snprintf(out, size, "%s", value->valuestring);
     cJSON_Delete(root);
+    return found;
+}
+
+void pf_job_name(const char *json, char *out, size_t size)
+{
+    job_string(json, "name", out, size);
+}
+
+int pf_job_animation(const char *json, char *out, size_t size)
+{
+    return job_string(json, "animation", out, size);
 }
 
 int pf_job_allow_outside(const char *json)

@@ -13,6 +13,7 @@
 typedef struct pf_job_extras {
     const char *name;            /* "name": a label for status (NULL: none) */
     int allow_outside_scene_dir; /* "allow_outside_scene_dir": true (pf_scene_load_options) */
+    const char *animation;       /* "animation": the one that plays (NULL: every one) */
 } pf_job_extras;
 
 /* The job's parameters: extras (when not NULL) and settings as one JSON object into out
@@ -24,5 +25,7 @@ int pf_job_parameters_format(const pf_render_settings *settings, const pf_job_ex
 void pf_job_name(const char *json, char *out, size_t size);
 /* The job's "allow_outside_scene_dir" (0 when absent or not true). */
 int pf_job_allow_outside(const char *json);
+/* Copies the job's "animation" into out; returns 0 (out "") when it has none. */
+int pf_job_animation(const char *json, char *out, size_t size);
 
 #endif

@@ -536,7 +536,10 @@ static void render_work(uv_work_t *request)
         pf_scene_destroy(w->scene);
         w->scene = NULL;
         w->scene_job_id = 0;
-        pf_scene_load_options load = {pf_job_allow_outside(w->job.parameters_json)};
+        char animation[256];
+        pf_scene_load_options load = {pf_job_allow_outside(w->job.parameters_json), NULL};
+        if (pf_job_animation(w->job.parameters_json, animation, sizeof animation))
+            load.animation = animation;
         w->render_status = pf_scene_load_with(scene_path, &load, &w->scene, &w->render_err);
         if (w->render_status != PF_OK) {
             w->render_fault = PF_FRAME_FAULT_SCENE;

@@ -134,6 +134,40 @@ static pf_status load_channel(gltf_context *ctx, const cJSON *channel, const cJS
     return PF_OK;
 }
 
+/* The index of the animation the load options chose (by name, else by index), or a
+ * PF_ERR_INVALID naming the choice and the file's animations. */
+static pf_status choose_animation(gltf_context *ctx, const cJSON *animations, uint32_t count,
+                                  pf_error *err)
+{
+    pf_scene *scene = ctx->scene;
+    const char *choice = scene->animation_choice;
+    char names[512] = "";
+    size_t used = 0;
+    for (uint32_t a = 0; a < count; a++) {
+        const cJSON *name = cJSON_GetObjectItemCaseSensitive(
+            cJSON_GetArrayItem(animations, (int)a), "name");
+        const char *text = cJSON_IsString(name) ? name->valuestring : "";
+        if (*text && strcmp(text, choice) == 0) {
+            scene->animation = (int32_t)a;
+            return PF_OK;
+        }
+        if (used < sizeof names) {
+            int wrote = snprintf(names + used, sizeof names - used, "%s%u '%s'", a ? ", " : "", a,
+                                 text);
+            used += wrote > 0 ? (size_t)wrote : 0;
+        }
+    }
+    char *end = NULL;
+    unsigned long index = strtoul(choice, &end, 10);
+    if (*choice >= '0' && *choice <= '9' && end && *end == '\0' && index < count) {
+        scene->animation = (int32_t)index;
+        return PF_OK;
+    }
+    return pf_error_set(err, PF_ERR_INVALID, "%s: --animation '%s': no animation of that name or "
+                        "index (the file's: %s)", ctx->path, choice,
+                        count ? names : "none");
+}
+
 pf_status gltf_load_animations(gltf_context *ctx, pf_error *err)
 {
     pf_scene *scene = ctx->scene;
@@ -141,6 +175,8 @@ pf_status gltf_load_animations(gltf_context *ctx, pf_error *err)
     uint32_t animation_count;
     pf_status status =
         gltf_array(ctx, ctx->root, "animations", &animations, &animation_count, "", err);
+    if (!status && scene->animation_choice)
+        status = choose_animation(ctx, animations, animation_count, err);
     if (status || animation_count == 0)
         return status;
     scene->animation_count = animation_count;
@@ -154,6 +190,8 @@ pf_status gltf_load_animations(gltf_context *ctx, pf_error *err)
     if (!scene->channels)
         return gltf_fail(ctx, err, PF_ERR_NOMEM, "animations", "out of memory");
     for (uint32_t a = 0; a < animation_count; a++) {
+        if (scene->animation != SCENE_NONE && (int32_t)a != scene->animation)
+            continue; /* not the one chosen to play: neither read nor checked */
         char element[64];
         snprintf(element, sizeof element, "animations[%u]", a);
         const cJSON *animation = cJSON_GetArrayItem(animations, (int)a);

@@ -273,7 +273,8 @@ typedef struct pf_scene_info {
     uint32_t mesh_count;
     uint32_t material_count;
     uint32_t light_count;          /* punctual lights */
-    uint32_t animation_count;
+    uint32_t animation_count;      /* in the file (all play unless one was chosen) */
+    int32_t animation;             /* the one chosen to play (pf_scene_load_options), else -1 */
     uint32_t triangle_count;       /* per frame (constant across frames) */
     uint32_t emissive_triangle_count;
     double fps;                    /* asset.extras.fps, else 24 */
@@ -313,6 +314,13 @@ typedef struct pf_scene_load_options {
      * anywhere (absolute URIs stay refused: glTF allows none).
      */
     int allow_outside_scene_dir;
+    /*
+     * NULL (the default): every animation in the file plays, as its author saw them
+     * (Blender writes one action per object). Else the one that plays: its name, or
+     * its index in the file; the frame count is then that animation's. A name or
+     * index the file lacks is PF_ERR_INVALID naming it and the file's animations.
+     */
+    const char *animation;
 } pf_scene_load_options;
 
 /* pf_scene_load with options (NULL: the defaults above). */

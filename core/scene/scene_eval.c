@@ -104,7 +104,15 @@ pf_status pf_scene_load_with(const char *path, const pf_scene_load_options *opti
     scene->path = strdup(path);
     scene->camera_node = SCENE_NONE;
     scene->allow_outside_dir = options && options->allow_outside_scene_dir;
-    pf_status status = scene->path ? PF_OK : pf_error_set(err, PF_ERR_NOMEM, "out of memory");
+    scene->animation = SCENE_NONE;
+    if (options && options->animation)
+        scene->animation_choice = strdup(options->animation);
+    pf_status status = scene->path && (!options || !options->animation || scene->animation_choice)
+                           ? PF_OK
+                           : pf_error_set(err, PF_ERR_NOMEM, "out of memory");
+    if (!status && scene->animation_choice && is_obj)
+        status = pf_error_set(err, PF_ERR_INVALID, "%s: --animation '%s': an OBJ file has no "
+                              "animations", path, scene->animation_choice);
     if (!status)
         status = is_obj ? scene_load_obj(scene, err) : scene_load_gltf(scene, is_glb, err);
     if (!status)
@@ -147,6 +155,7 @@ void pf_scene_destroy(pf_scene *scene)
     for (uint32_t k = 0; k < scene->warned_count; k++)
         free(scene->warned[k]);
     free(scene->warned);
+    free(scene->animation_choice);
     free(scene->channels);
     free(scene->meshes);
     free(scene->materials);
@@ -624,6 +633,7 @@ pf_status scene_finalize(pf_scene *scene, pf_error *err)
     info->material_count = scene->material_count;
     info->light_count = lights;
     info->animation_count = scene->animation_count;
+    info->animation = scene->animation;
     info->triangle_count = (uint32_t)triangles;
     info->emissive_triangle_count = (uint32_t)emissive;
     info->has_emissive = emissive > 0;

@@ -129,6 +129,8 @@ struct pf_scene {
     pf_scene_info info;
     char *path;
     int allow_outside_dir; /* pf_scene_load_options.allow_outside_scene_dir */
+    char *animation_choice; /* pf_scene_load_options.animation (NULL: every animation) */
+    int32_t animation;      /* the chosen animation's index, SCENE_NONE: every one plays */
 
     uint32_t node_count;
     scene_node *nodes;

@@ -10,6 +10,8 @@
 #include "scene_test_util.h"
 
 #include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 static pf_scene *load_ok(const char *path)
@@ -423,6 +425,67 @@ PF_TEST(blender_files_put_frame_f_at_f_over_fps)
     }
 }
 
+/* The largest distance a vertex of node's triangles moves between two frames. */
+static double node_motion(const pf_scene_frame *a, const pf_scene_frame *b, uint32_t node)
+{
+    double most = 0.0;
+    for (uint32_t t = 0; t < a->triangle_count; t++) {
+        if (a->triangle_node[t] != node)
+            continue;
+        for (int c = 0; c < 3; c++)
+            for (int k = 0; k < 3; k++)
+                most = fmax(most, fabs(a->vertices[3 * t + c][k] - b->vertices[3 * t + c][k]));
+    }
+    return most;
+}
+
+/*
+ * Blender writes one animation per object: scenes/character has the armature's
+ * (index 0, "armatureAction") and the sheet's shape keys ("KeyAction"). Both play
+ * unless one is chosen, by name or index; a name the file lacks is refused naming
+ * the file's animations.
+ */
+PF_TEST(every_animation_plays_unless_one_is_chosen)
+{
+    const char *source = getenv("PF_SOURCE_DIR");
+    char path[1024];
+    snprintf(path, sizeof path, "%s/scenes/character/character.gltf", source ? source : ".");
+    enum { ARM_NODE = 5, SHEET_NODE = 7 };
+    static const char *const choices[] = {NULL, "armatureAction", "1"};
+    for (int k = 0; k < 3; k++) {
+        pf_scene_load_options options = {0, choices[k]};
+        pf_scene *scene = NULL;
+        pf_error err = {0};
+        PF_REQUIRE_OK(pf_scene_load_with(path, &options, &scene, &err), &err);
+        const pf_scene_info *info = pf_scene_get_info(scene);
+        PF_CHECK(info->animation_count == 2);
+        PF_CHECK(info->animation == (k == 0 ? -1 : k == 1 ? 0 : 1));
+        PF_CHECK(info->frame_count == 24 && info->frame_offset == 1);
+        pf_scene_frame first, last;
+        PF_REQUIRE_OK(pf_scene_eval(scene, pf_scene_frame_time(scene, 1), &first, &err), &err);
+        PF_REQUIRE_OK(pf_scene_eval(scene, pf_scene_frame_time(scene, 24), &last, &err), &err);
+        double arm = node_motion(&first, &last, ARM_NODE);
+        double sheet = node_motion(&first, &last, SHEET_NODE);
+        /* The arm's upper bone turns 80°: its top moves by ~1.3 m; the bulge is 0.4 m. */
+        PF_CHECK_MSG(k == 2 ? arm == 0.0 : arm > 1.0, "choice %d: arm moved %g", k, arm);
+        PF_CHECK_MSG(k == 1 ? sheet == 0.0 : fabs(sheet - 0.4) < 0.05, "choice %d: sheet %g", k,
+                     sheet);
+        pf_scene_frame_free(&first);
+        pf_scene_frame_free(&last);
+        pf_scene_destroy(scene);
+    }
+    pf_scene_load_options options = {0, "walk"};
+    pf_scene *scene = NULL;
+    pf_error err = {0};
+    PF_CHECK(pf_scene_load_with(path, &options, &scene, &err) == PF_ERR_INVALID);
+    PF_CHECK_MSG(strstr(err.message, "--animation 'walk'") &&
+                     strstr(err.message, "0 'armatureAction', 1 'KeyAction'"),
+                 "%s", err.message);
+    options.animation = "2";
+    PF_CHECK(pf_scene_load_with(path, &options, &scene, &err) == PF_ERR_INVALID);
+    PF_CHECK(scene == NULL);
+}
+
 int main(void)
 {
     PF_RUN(two_bone_skin_matches_linear_blend_skinning);
@@ -434,5 +497,6 @@ int main(void)
     PF_RUN(cubicspline_weights);
     PF_RUN(malformed_morphs_are_refused);
     PF_RUN(blender_files_put_frame_f_at_f_over_fps);
+    PF_RUN(every_animation_plays_unless_one_is_chosen);
     return pf_test_finish();
 }

@@ -933,7 +933,8 @@ PF_TEST(render_frames_deforms_a_blender_character_and_refits_its_tree)
     }
 }
 
-/* Issue 39: a job over the character renders every frame deformed; `timings` shows deform. */
+/* Issue 39: a job over the character renders every frame deformed; `timings` shows deform;
+ * --animation is stored in the job. */
 PF_TEST(a_job_over_a_skinned_scene_reports_its_deform_rows)
 {
     char character[WT_PATH_MAX + 64], out[WT_PATH_MAX + 32], db[WT_PATH_MAX + 32];
@@ -943,8 +944,20 @@ PF_TEST(a_job_over_a_skinned_scene_reports_its_deform_rows)
     wt_format(db, sizeof db, "%s/character.db", dir);
     unlink(db);
     wt_format(pattern, sizeof pattern, "%s/c.####.exr", out);
-    int64_t job_id = enqueue(db, character, "1-2", pattern, "--frames-per-task 2");
+    /* Only the sheet's animation plays: the job stores the choice and its worker honours it
+     * (the arm stays put, still skinned; the sheet bulges, so the tree is refit). */
+    int64_t job_id = enqueue(db, character, "1-2", pattern,
+                             "--frames-per-task 2 --animation KeyAction");
     PF_REQUIRE(job_id > 0);
+    pf_queue *queue = wt_open_queue(db);
+    PF_REQUIRE(queue != NULL);
+    pf_queue_job job = {0};
+    pf_error err = {0};
+    PF_CHECK_OK(pf_queue_job_get(queue, job_id, &job, &err), &err);
+    PF_CHECK_MSG(job.parameters_json && strstr(job.parameters_json, "\"animation\":\"KeyAction\""),
+                 "parameters %s", job.parameters_json ? job.parameters_json : "(none)");
+    pf_queue_job_clear(&job);
+    pf_queue_close(queue);
     wt_format(args, sizeof args, "worker --once --db '%s'", db);
     PF_REQUIRE(wt_run(args, log_path) == 0);
     PF_CHECK(wt_count_files(out, "") == 2);
