@@ -299,6 +299,17 @@ int pf_settings_format(const pf_render_settings *settings, char *out, size_t siz
  */
 pf_status pf_settings_parse(const char *json, pf_render_settings *settings, pf_error *err);
 
+/*
+ * The motion vectors AOV (motion_vectors.c): appends channels motion.X and motion.Y to
+ * image, the screen-space offset in pixels from each pixel's visible point to where that
+ * point was in `previous` (the scene evaluated one frame earlier), with Cycles' Vector
+ * pass convention: previous raster position minus this one, x right, y up; 0 where the
+ * pixel sees nothing. Uses the tree pf_render_frame left for frame; adds a `motion` row.
+ */
+pf_status pf_render_motion(pf_renderer *renderer, const pf_scene_frame *frame,
+                           const pf_scene_frame *previous, pf_image *image,
+                           pf_frame_report *report, pf_error *err);
+
 /* ---- One frame from scene to file (core/render/pipeline.c) ---- */
 
 /*

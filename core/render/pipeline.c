@@ -154,6 +154,24 @@ static pf_status deform(const pf_scene *scene, double time, pf_scene_frame *fram
     return PF_OK;
 }
 
+/* The motion AOV: the scene one frame earlier (a pure function of the frame number, so any
+ * worker computes the same vectors), its points found through this frame's tree. */
+static pf_status motion(pf_renderer *renderer, const pf_scene *scene, double time,
+                        const pf_scene_frame *frame, pf_image *image, pf_frame_report *report,
+                        pf_error *err)
+{
+    pf_scene_frame previous = {0};
+    double previous_time = time - 1.0 / pf_scene_get_info(scene)->fps;
+    pf_deform_report deformed;
+    pf_status status = pf_scene_eval_rigid(scene, previous_time, &previous, err);
+    if (status == PF_OK)
+        status = pf_scene_deform(scene, previous_time, &previous, &deformed, err);
+    if (status == PF_OK)
+        status = pf_render_motion(renderer, frame, &previous, image, report, err);
+    pf_scene_frame_free(&previous);
+    return status;
+}
+
 pf_status pf_frame_render(pf_renderer *renderer, const pf_frame_request *request,
                           pf_frame_output *out, pf_error *err)
 {
@@ -206,6 +224,8 @@ pf_status pf_frame_render(pf_renderer *renderer, const pf_frame_request *request
     pf_image image = {0};
     status = pf_render_frame(renderer, &frame, &settings, &image, &out->report, err);
     out->peak_device_bytes = pf_vk_memory_use_of(pf_renderer_context(renderer)).peak;
+    if (status == PF_OK && settings.aovs)
+        status = motion(renderer, request->scene, time, &frame, &image, &out->report, err);
     pf_scene_frame_free(&frame);
     if (status != PF_OK) {
         pf_error_prefix(err, "%s frame %" PRId64, request->scene_path, request->frame);

@@ -74,7 +74,9 @@ PF_TEST(renders_a_frame_range_to_numbered_exr_files)
         uint32_t attribute_count = 0;
         pf_error err = {0};
         PF_CHECK_OK(pf_exr_read(path, &image, &attributes, &attribute_count, &err), &err);
-        PF_CHECK(image.width == 16 && image.height == 12 && image.channel_count == 11);
+        PF_CHECK(image.width == 16 && image.height == 12 && image.channel_count == 13);
+        PF_CHECK(pf_image_channel(&image, "motion.X") == 11 &&
+                 pf_image_channel(&image, "motion.Y") == 12);
         int found_frame = 0, found_settings = 0, found_device = 0;
         for (uint32_t i = 0; i < attribute_count; i++) {
             if (!strcmp(attributes[i].key, "photonfarm/frame"))

@@ -287,7 +287,8 @@ PF_TEST(worker_renders_a_job_and_timings_report_every_stage)
             cJSON_IsObject(wall) && cJSON_GetObjectItem(wall, "p95_ms"))
             found++;
     }
-    PF_CHECK_MSG(found == 4, "%d stages with the expected counts in the JSON", found);
+    /* scene_eval, bih_build, shade, motion and exr_write. */
+    PF_CHECK_MSG(found == 5, "%d stages with the expected counts in the JSON", found);
     PF_CHECK(cJSON_GetArraySize(cJSON_GetObjectItem(root, "slowest_frames")) == 3);
     /* Every frame's resources (issue 42): its peak memory and the bytes it wrote. */
     const cJSON *per_frame = cJSON_GetObjectItem(root, "per_frame_bytes");
@@ -301,8 +302,10 @@ PF_TEST(worker_renders_a_job_and_timings_report_every_stage)
                      cJSON_GetNumberValue(cJSON_GetObjectItem(stat, "min")));
     }
     /* The decisions the rows record: bih_build built once, reused twice; shade's samples 3 times;
-     * textures and deform skipped 3 times (the tiny scene has neither). */
-    int built = 0, reused = 0, shaded = 0, untextured = 0, undeformed = 0, decision_rows = 0;
+     * textures and deform skipped 3 times (the tiny scene has neither); motion found no pixel
+     * moving 3 times. */
+    int built = 0, reused = 0, shaded = 0, untextured = 0, undeformed = 0, still = 0;
+    int decision_rows = 0;
     const cJSON *decision;
     cJSON_ArrayForEach(decision, cJSON_GetObjectItem(root, "decisions"))
     {
@@ -318,16 +321,19 @@ PF_TEST(worker_renders_a_job_and_timings_report_every_stage)
             untextured += !strcmp(what, "no textures") ? count->valueint : 0;
         if (!strcmp(stage_name, "deform"))
             undeformed += !strcmp(what, "no skins or morph targets") ? count->valueint : 0;
+        /* A static shot: no pixel moves. */
+        if (!strcmp(stage_name, "motion"))
+            still += strstr(what, "; 0 of ") ? count->valueint : 0;
         if (strcmp(stage_name, "bih_build"))
             continue;
         built += !strcmp(what, "built") ? count->valueint : 0;
         reused += !strcmp(what, "geometry unchanged → BIH reused") ? count->valueint : 0;
     }
     PF_CHECK_MSG(built == 1 && reused == 2 && shaded == 3 && untextured == 3 &&
-                     undeformed == 3 && decision_rows == 5,
-                 "decisions: %d built, %d reused, %d shaded, %d untextured, %d undeformed in %d "
-                 "rows",
-                 built, reused, shaded, untextured, undeformed, decision_rows);
+                     undeformed == 3 && still == 3 && decision_rows == 6,
+                 "decisions: %d built, %d reused, %d shaded, %d untextured, %d undeformed, "
+                 "%d still in %d rows",
+                 built, reused, shaded, untextured, undeformed, still, decision_rows);
     /* Every frame's rows carry the build that rendered them: `photonfarm version`'s. */
     char version_path[WT_PATH_MAX + 32];
     wt_format(version_path, sizeof version_path, "%s/version.txt", dir);

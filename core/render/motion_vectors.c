@@ -1,0 +1,195 @@
+/*
+ * The `motion` stage (issue 39): the motion vectors AOV that vector blur in
+ * Blender's compositor or Nuke, and a temporal denoiser, read. For each pixel
+ * the surface seen through the pixel's centre is found by tracing that ray
+ * through the frame's BIH on the host (the CPU copy every bih_build leaves in
+ * the renderer; packets of coherent primary rays), its point is carried to the
+ * previous frame by its triangle's barycentric coordinates (triangles keep
+ * their index from frame to frame, so skinning, morphing and node animation
+ * all move it), and projected by the previous frame's camera.
+ *
+ * Convention, as Cycles' Vector pass (checked against Blender 3.4's: a plane
+ * moving 8 px right and 4 px up reads (-8, -4)): motion.X and motion.Y are
+ * the previous raster position minus this one, in pixels, x to the right and
+ * y up. A pixel that sees nothing, or whose point was behind the previous
+ * camera, reads 0, and so, exactly, does one whose triangle and camera did not
+ * move.
+ */
+#include "render_internal.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* Rays traced per call: a few rows of primary rays, in pixel order. */
+#define MOTION_RAY_BATCH 4096u
+/* The split film's 20 channels and the two added here, with room to spare. */
+#define MOTION_MAX_CHANNELS 64u
+
+static double dot3(const double a[3], const double b[3])
+{
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+
+/* Raster position (x right from the left edge, y down from the top, in pixels) of world
+ * point p seen by camera; 0 when it lies behind the camera. */
+static int project(const pf_camera *camera, uint32_t width, uint32_t height, const double p[3],
+                   double *x, double *y)
+{
+    float tan_x, tan_y;
+    pf_camera_image_plane(camera, width, height, &tan_x, &tan_y);
+    double d[3], forward[3], right[3], up[3];
+    for (int k = 0; k < 3; k++) {
+        d[k] = p[k] - camera->position[k];
+        forward[k] = camera->forward[k];
+        right[k] = camera->right[k];
+        up[k] = camera->up[k];
+    }
+    double z = dot3(d, forward);
+    if (!(z > 0.0))
+        return 0;
+    double ndc_x = dot3(d, right) / (z * tan_x), ndc_y = dot3(d, up) / (z * tan_y);
+    *x = (ndc_x + 1.0) * 0.5 * width;
+    *y = (1.0 - ndc_y) * 0.5 * height;
+    return isfinite(*x) && isfinite(*y);
+}
+
+/* Barycentric weights of p in triangle v (the hit point's, whatever the tracer's u, v
+ * convention): areas of the sub-triangles against the whole, in the triangle's plane. */
+static void barycentric(const float (*v)[4], const double p[3], double w[3])
+{
+    double e1[3], e2[3], ep[3];
+    for (int k = 0; k < 3; k++) {
+        e1[k] = (double)v[1][k] - v[0][k];
+        e2[k] = (double)v[2][k] - v[0][k];
+        ep[k] = p[k] - v[0][k];
+    }
+    double d11 = dot3(e1, e1), d12 = dot3(e1, e2), d22 = dot3(e2, e2);
+    double dp1 = dot3(ep, e1), dp2 = dot3(ep, e2);
+    double det = d11 * d22 - d12 * d12;
+    if (!(det > 0.0)) {
+        w[0] = 1.0;
+        w[1] = w[2] = 0.0;
+        return;
+    }
+    w[1] = (d22 * dp1 - d12 * dp2) / det;
+    w[2] = (d11 * dp2 - d12 * dp1) / det;
+    w[0] = 1.0 - w[1] - w[2];
+}
+
+static pf_status append_motion_channels(pf_image *image, pf_image *out, pf_error *err)
+{
+    const char *names[MOTION_MAX_CHANNELS];
+    uint32_t count = image->channel_count;
+    if (count + 2 > MOTION_MAX_CHANNELS)
+        return pf_error_set(err, PF_ERR_LIMIT, "motion: %u channels leave no room", count);
+    for (uint32_t c = 0; c < count; c++)
+        names[c] = image->channel_names[c];
+    names[count] = "motion.X";
+    names[count + 1] = "motion.Y";
+    pf_status status = pf_image_create(out, image->width, image->height, count + 2, names, err);
+    if (status != PF_OK)
+        return status;
+    size_t pixels = (size_t)image->width * image->height;
+    for (size_t p = 0; p < pixels; p++)
+        memcpy(out->pixels + p * (count + 2), image->pixels + p * count, count * sizeof(float));
+    return PF_OK;
+}
+
+pf_status pf_render_motion(pf_renderer *renderer, const pf_scene_frame *frame,
+                           const pf_scene_frame *previous, pf_image *image,
+                           pf_frame_report *report, pf_error *err)
+{
+    double start = pf_time_ms();
+    if (!renderer->bih_valid || renderer->bih.triangle_count != frame->triangle_count)
+        return pf_error_set(err, PF_ERR_INVALID, "motion: no tree of this frame's triangles");
+    if (previous->triangle_count != frame->triangle_count)
+        return pf_error_set(err, PF_ERR_INVALID,
+                            "motion: the previous frame has %u triangles, this one %u",
+                            previous->triangle_count, frame->triangle_count);
+    pf_image grown = {0};
+    pf_status status = append_motion_channels(image, &grown, err);
+    if (status != PF_OK)
+        return status;
+    uint32_t width = image->width, height = image->height, channels = grown.channel_count;
+    float tan_x, tan_y;
+    pf_camera_image_plane(&frame->camera, width, height, &tan_x, &tan_y);
+    pf_ray *rays = malloc(MOTION_RAY_BATCH * sizeof *rays);
+    pf_hit *hits = malloc(MOTION_RAY_BATCH * sizeof *hits);
+    if (!rays || !hits)
+        status = pf_error_set(err, PF_ERR_NOMEM, "motion: out of memory");
+    size_t pixels = (size_t)width * height;
+    uint64_t moving = 0, seen = 0;
+    int same_camera = memcmp(&frame->camera, &previous->camera, sizeof frame->camera) == 0;
+    for (size_t first = 0; status == PF_OK && first < pixels; first += MOTION_RAY_BATCH) {
+        uint32_t count = (uint32_t)(pixels - first < MOTION_RAY_BATCH ? pixels - first
+                                                                      : MOTION_RAY_BATCH);
+        for (uint32_t i = 0; i < count; i++) {
+            size_t p = first + i;
+            double ndc_x = 2.0 * ((double)(p % width) + 0.5) / width - 1.0;
+            double ndc_y = 1.0 - 2.0 * ((double)(p / width) + 0.5) / height;
+            double d[3], length = 0.0;
+            for (int k = 0; k < 3; k++) {
+                d[k] = frame->camera.forward[k] + ndc_x * tan_x * frame->camera.right[k] +
+                       ndc_y * tan_y * frame->camera.up[k];
+                length += d[k] * d[k];
+            }
+            length = sqrt(length);
+            for (int k = 0; k < 3; k++) {
+                rays[i].origin[k] = frame->camera.position[k];
+                rays[i].direction[k] = (float)(d[k] / length);
+            }
+            rays[i].tmin = 0.0f;
+            rays[i].tmax = INFINITY;
+        }
+        status = pf_bih_trace_cpu_rays(&renderer->bih, rays, count, 0, hits, err);
+        for (uint32_t i = 0; status == PF_OK && i < count; i++) {
+            size_t p = first + i;
+            float *out = grown.pixels + p * channels + channels - 2;
+            out[0] = out[1] = 0.0f;
+            if (hits[i].triangle == PF_NO_HIT)
+                continue;
+            seen++;
+            double point[3], w[3], before[3] = {0, 0, 0};
+            for (int k = 0; k < 3; k++)
+                point[k] = rays[i].origin[k] + (double)hits[i].t * rays[i].direction[k];
+            const float(*now)[4] = frame->vertices + 3 * (size_t)hits[i].triangle;
+            const float(*then)[4] = previous->vertices + 3 * (size_t)hits[i].triangle;
+            /* A still triangle under a still camera: exactly 0, not the rounding of a
+             * round trip through the projection. */
+            if (same_camera && memcmp(now, then, 3 * sizeof *now) == 0)
+                continue;
+            barycentric(now, point, w);
+            for (int c = 0; c < 3; c++)
+                for (int k = 0; k < 3; k++)
+                    before[k] += w[c] * then[c][k];
+            double x, y;
+            if (!project(&previous->camera, width, height, before, &x, &y))
+                continue;
+            /* Previous minus this pixel's centre, y up (Cycles' Vector pass). */
+            out[0] = (float)(x - ((double)(p % width) + 0.5));
+            out[1] = (float)(((double)(p / width) + 0.5) - y);
+            moving += out[0] != 0.0f || out[1] != 0.0f;
+        }
+    }
+    free(rays);
+    free(hits);
+    if (status != PF_OK) {
+        pf_image_free(&grown);
+        pf_error_prefix(err, "motion");
+        return status;
+    }
+    pf_image_free(image);
+    *image = grown;
+    pf_stage_timing *row = pf_frame_report_row(report, "motion", NULL, pf_time_ms() - start, -1.0);
+    if (row) {
+        snprintf(row->reason, sizeof row->reason,
+                 "pixel centres traced on the host; %llu of %llu pixels moved",
+                 (unsigned long long)moving, (unsigned long long)seen);
+        pf_stage_add_counter(row, "pixels", (double)pixels);
+        pf_stage_add_counter(row, "surface_pixels", (double)seen);
+        pf_stage_add_counter(row, "moving_pixels", (double)moving);
+    }
+    return PF_OK;
+}

@@ -1,0 +1,113 @@
+/*
+ * The motion vectors AOV (issue 39) against the projected closed form: a wall
+ * at distance Z facing a pinhole camera, then (1) the camera slides sideways,
+ * (2) a quad in front of the wall moves right and up. A sideways shift c of
+ * the camera moves a point at depth Z by c / (Z tan_x) · W/2 pixels; Cycles'
+ * convention stores previous minus current, x right, y up.
+ */
+#include "pf_test.h"
+#include "reference_test_util.h"
+#include "render_test_env.h"
+
+#include <math.h>
+
+#define WIDTH 48u
+#define HEIGHT 32u
+#define WALL_Z (-4.0f)
+#define YFOV 0.8f
+
+static pf_vk_context *ctx;
+static pf_renderer *renderer;
+
+/* A grey wall at z = WALL_Z (facing +z), a quad at z = -2 offset by (dx, dy), lit by a
+ * point light; the camera at (cx, 0, 0) looking along -z. */
+static void build(ref_scene *scene, float cx, float dx, float dy)
+{
+    ref_scene_init(scene);
+    uint32_t grey = ref_scene_add_material(scene, ref_material(PF_MATERIAL_LAMBERT, 0.5f, 0.5f, 0.5f));
+    const float wall[3] = {0, 0, WALL_Z}, wall_u[3] = {20, 0, 0}, wall_v[3] = {0, 20, 0};
+    ref_scene_add_quad(scene, wall, wall_u, wall_v, grey);
+    const float quad[3] = {dx, dy, -2.0f}, quad_u[3] = {0.3f, 0, 0}, quad_v[3] = {0, 0.3f, 0};
+    ref_scene_add_quad(scene, quad, quad_u, quad_v, grey);
+    pf_light light = {.position = {0, 0, 2}, .kind = PF_LIGHT_POINT, .intensity = {5, 5, 5}};
+    ref_scene_add_light(scene, light);
+    const float eye[3] = {cx, 0, 0}, target[3] = {cx, 0, -1}, up[3] = {0, 1, 0};
+    ref_scene_look_at(scene, eye, target, up, YFOV);
+}
+
+/* Renders `now` (preview, AOVs on) and its motion from `before`. */
+static int render_motion(const ref_scene *now, const ref_scene *before, pf_image *image)
+{
+    pf_render_settings settings = pf_render_settings_default();
+    settings.quality = PF_QUALITY_PREVIEW;
+    settings.width = WIDTH;
+    settings.height = HEIGHT;
+    pf_frame_report report = {0};
+    pf_error err = {0};
+    PF_CHECK_OK(pf_render_frame(renderer, &now->frame, &settings, image, &report, &err), &err);
+    PF_CHECK_OK(pf_render_motion(renderer, &now->frame, &before->frame, image, &report, &err),
+                &err);
+    const pf_stage_timing *row = ref_row(&report, "motion");
+    PF_CHECK(row != NULL);
+    return pf_image_channel(image, "motion.X");
+}
+
+PF_TEST(a_sliding_camera_moves_the_wall_by_the_closed_form)
+{
+    /* The camera moves 0.2 m right from the previous frame: the wall's points were further
+     * right on the previous film by 0.2 / (4 tan_x) · W/2. */
+    ref_scene before, now;
+    build(&before, 0.0f, 100.0f, 0.0f); /* the quad far out of view */
+    build(&now, 0.2f, 100.0f, 0.0f);
+    pf_image image = {0};
+    int mx = render_motion(&now, &before, &image);
+    PF_REQUIRE(mx >= 0);
+    double tan_y = tan(0.5 * YFOV), tan_x = tan_y * WIDTH / HEIGHT;
+    double expected = 0.2 / (4.0 * tan_x) * WIDTH / 2.0;
+    int checked = 0;
+    for (uint32_t y = 0; y < HEIGHT; y += 3)
+        for (uint32_t x = 0; x < WIDTH; x += 3) {
+            PF_CHECK_NEAR(ref_pixel(&image, mx, x, y), expected, 1e-3);
+            PF_CHECK_NEAR(ref_pixel(&image, mx + 1, x, y), 0.0, 1e-3);
+            checked++;
+        }
+    PF_CHECK(checked > 100);
+    pf_image_free(&image);
+    ref_scene_free(&before);
+    ref_scene_free(&now);
+}
+
+PF_TEST(a_moving_object_moves_by_the_closed_form_and_the_still_wall_reads_zero)
+{
+    /* The quad at z = -2 moves 0.1 m right and 0.05 m up: on its pixels the previous point
+     * was 0.1 / (2 tan_x) · W/2 px left and 0.05 / (2 tan_y) · H/2 px lower (y up). */
+    ref_scene before, now;
+    build(&before, 0.0f, 0.0f, 0.0f);
+    build(&now, 0.0f, 0.1f, 0.05f);
+    pf_image image = {0};
+    int mx = render_motion(&now, &before, &image);
+    PF_REQUIRE(mx >= 0);
+    double tan_y = tan(0.5 * YFOV), tan_x = tan_y * WIDTH / HEIGHT;
+    double expected_x = -0.1 / (2.0 * tan_x) * WIDTH / 2.0;
+    double expected_y = -0.05 / (2.0 * tan_y) * HEIGHT / 2.0;
+    /* The quad's centre (0.1, 0.05, -2) projects to this pixel. */
+    uint32_t cx = (uint32_t)((0.1 / (2.0 * tan_x) + 1.0) * 0.5 * WIDTH);
+    uint32_t cy = (uint32_t)((1.0 - 0.05 / (2.0 * tan_y)) * 0.5 * HEIGHT);
+    PF_CHECK_NEAR(ref_pixel(&image, mx, cx, cy), expected_x, 1e-3);
+    PF_CHECK_NEAR(ref_pixel(&image, mx + 1, cx, cy), expected_y, 1e-3);
+    /* The wall did not move and neither did the camera: exactly 0 in the corners. */
+    PF_CHECK(ref_pixel(&image, mx, 0, 0) == 0.0 && ref_pixel(&image, mx + 1, 0, 0) == 0.0);
+    PF_CHECK(ref_pixel(&image, mx, WIDTH - 1, HEIGHT - 1) == 0.0);
+    pf_image_free(&image);
+    ref_scene_free(&before);
+    ref_scene_free(&now);
+}
+
+int main(void)
+{
+    if (!render_test_setup(&ctx, &renderer))
+        return 1;
+    PF_RUN(a_sliding_camera_moves_the_wall_by_the_closed_form);
+    PF_RUN(a_moving_object_moves_by_the_closed_form_and_the_still_wall_reads_zero);
+    return render_test_finish(ctx, renderer);
+}
