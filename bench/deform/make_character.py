@@ -20,32 +20,14 @@ import bmesh
 import bpy
 from mathutils import Vector
 
+# The room's material and plane helpers, as a user's scripts share them.
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "materials"))
+from make_room import plane, principled  # noqa: E402
+
 FRAMES = 24
 ARM_RADIUS = 0.2
 ARM_LENGTH = 2.0
 ARM_X = -0.8
-
-
-def principled(name, base, roughness=0.6, emission=None, strength=1.0):
-    material = bpy.data.materials.new(name)
-    material.use_nodes = True
-    node = material.node_tree.nodes["Principled BSDF"]
-    node.inputs["Base Color"].default_value = (*base, 1.0)
-    node.inputs["Metallic"].default_value = 0.0
-    node.inputs["Roughness"].default_value = roughness
-    node.inputs["Specular"].default_value = 0.5
-    if emission:
-        node.inputs["Emission"].default_value = (*emission, 1.0)
-        node.inputs["Emission Strength"].default_value = strength
-    return material
-
-
-def plane(name, size, location, rotation, material):
-    bpy.ops.mesh.primitive_plane_add(size=size, location=location, rotation=rotation)
-    obj = bpy.context.object
-    obj.name = name
-    obj.data.materials.append(material)
-    return obj
 
 
 def tube_mesh(name, rings, segments):
@@ -157,7 +139,8 @@ def main():
     plane("wall", 8.0, (0.0, 2.0, 4.0), (math.pi / 2, 0.0, 0.0),
           principled("wall", (0.7, 0.7, 0.7), roughness=0.9))
     plane("panel", 1.5, (0.0, -0.5, 3.6), (math.pi, 0.0, 0.0),
-          principled("panel", (0.0, 0.0, 0.0), emission=(1.0, 1.0, 1.0), strength=12.0))
+          principled("panel", (0.0, 0.0, 0.0), roughness=0.6, emission=(1.0, 1.0, 1.0),
+                     strength=12.0))
     add_arm(principled("arm", (0.8, 0.3, 0.1), roughness=0.5), rings, segments)
     add_sheet(principled("sheet", (0.1, 0.3, 0.8), roughness=0.5))
 

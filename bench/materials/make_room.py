@@ -194,4 +194,5 @@ def main():
     export(os.path.join(out, "room-textured.gltf"), lights=False)
 
 
-main()
+if __name__ == "__main__":
+    main()

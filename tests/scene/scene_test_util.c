@@ -193,3 +193,19 @@ void st_expect_error(const char *path, pf_status status, const char *needle1,
     if (result == PF_OK)
         pf_scene_destroy(scene);
 }
+
+pf_scene *st_load_ok(const char *path)
+{
+    pf_scene *scene = NULL;
+    pf_error err = {0};
+    pf_status status = pf_scene_load(path, &scene, &err);
+    PF_CHECK_MSG(status == PF_OK, "%s: %s", path, err.message);
+    return status == PF_OK ? scene : NULL;
+}
+
+void st_check_vec3(const float *actual, double x, double y, double z, double tolerance)
+{
+    PF_CHECK_NEAR(actual[0], x, tolerance);
+    PF_CHECK_NEAR(actual[1], y, tolerance);
+    PF_CHECK_NEAR(actual[2], z, tolerance);
+}

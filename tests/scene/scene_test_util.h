@@ -48,6 +48,11 @@ unsigned char *st_quad_buffer(const float *extra, uint32_t extra_floats, size_t 
 /* Writes the glTF described by spec; returns the path of the .gltf/.glb. */
 const char *st_write_gltf(const st_gltf *spec, char *path, size_t size);
 
+/* Loads path expecting success (a failed check naming the error otherwise); NULL on failure. */
+pf_scene *st_load_ok(const char *path);
+/* Checks actual[0..2] against (x, y, z) within tolerance. */
+void st_check_vec3(const float *actual, double x, double y, double z, double tolerance);
+
 /* Loads path expecting failure with status; checks the message names all needles. */
 void st_expect_error(const char *path, pf_status status, const char *needle1,
                      const char *needle2);

@@ -14,22 +14,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-static pf_scene *load_ok(const char *path)
-{
-    pf_scene *scene = NULL;
-    pf_error err = {0};
-    pf_status status = pf_scene_load(path, &scene, &err);
-    PF_CHECK_MSG(status == PF_OK, "%s: %s", path, err.message);
-    return status == PF_OK ? scene : NULL;
-}
-
-static void check_vec3(const float *actual, double x, double y, double z, double tolerance)
-{
-    PF_CHECK_NEAR(actual[0], x, tolerance);
-    PF_CHECK_NEAR(actual[1], y, tolerance);
-    PF_CHECK_NEAR(actual[2], z, tolerance);
-}
-
 /* ---- a two-bone skin ------------------------------------------------------ */
 
 /*
@@ -107,22 +91,22 @@ static void check_skin_at(const pf_scene *scene, double time, double theta)
     PF_REQUIRE_OK(pf_scene_eval(scene, time, &frame, &err), &err);
     PF_REQUIRE(frame.triangle_count == 2);
     /* Triangle 0 is vertices 0 1 2, triangle 1 is 0 2 3. */
-    check_vec3(frame.vertices[0], 0, 0, 0, 1e-6);
-    check_vec3(frame.vertices[1], 1, 0, 0, 1e-6);
-    check_vec3(frame.normals[1], 0, 0, 1, 1e-6);
+    st_check_vec3(frame.vertices[0], 0, 0, 0, 1e-6);
+    st_check_vec3(frame.vertices[1], 1, 0, 0, 1e-6);
+    st_check_vec3(frame.normals[1], 0, 0, 1, 1e-6);
     /* Vertex 3 rides bone1 rigidly: (0, 0.5 + 0.5 cos, 0.5 sin), normal (0, -sin, cos). */
-    check_vec3(frame.vertices[5], 0, 0.5 + 0.5 * cos(theta), 0.5 * sin(theta), 1e-5);
-    check_vec3(frame.normals[5], 0, -sin(theta), cos(theta), 1e-5);
+    st_check_vec3(frame.vertices[5], 0, 0.5 + 0.5 * cos(theta), 0.5 * sin(theta), 1e-5);
+    st_check_vec3(frame.normals[5], 0, -sin(theta), cos(theta), 1e-5);
     /* Vertex 2: 0.25 p + 0.75 bone1(p); its normal is the blended matrix's inverse
      * transpose on +Z: with a = 0.25 + 0.75 cos, b = 0.75 sin, (0, -b, a)/|.|. */
     const double p2[3] = {1, 1, 0};
     double moved[3];
     bone1_apply(theta, p2, moved);
-    check_vec3(frame.vertices[2], 0.25 * 1 + 0.75 * moved[0], 0.25 * 1 + 0.75 * moved[1],
+    st_check_vec3(frame.vertices[2], 0.25 * 1 + 0.75 * moved[0], 0.25 * 1 + 0.75 * moved[1],
                0.75 * moved[2], 1e-5);
     double a = 0.25 + 0.75 * cos(theta), b = 0.75 * sin(theta), length = sqrt(a * a + b * b);
-    check_vec3(frame.normals[2], 0, -b / length, a / length, 1e-5);
-    check_vec3(frame.vertices[4], frame.vertices[2][0], frame.vertices[2][1],
+    st_check_vec3(frame.normals[2], 0, -b / length, a / length, 1e-5);
+    st_check_vec3(frame.vertices[4], frame.vertices[2][0], frame.vertices[2][1],
                frame.vertices[2][2], 0);
     pf_scene_frame_free(&frame);
 }
@@ -130,7 +114,7 @@ static void check_skin_at(const pf_scene *scene, double time, double theta)
 PF_TEST(two_bone_skin_matches_linear_blend_skinning)
 {
     char path[512];
-    pf_scene *scene = load_ok(write_two_bone("skin", good_joints, good_weights, path,
+    pf_scene *scene = st_load_ok(write_two_bone("skin", good_joints, good_weights, path,
                                              sizeof path));
     PF_REQUIRE(scene);
     const pf_scene_info *info = pf_scene_get_info(scene);
@@ -149,7 +133,7 @@ PF_TEST(two_bone_skin_matches_linear_blend_skinning)
 PF_TEST(eval_in_two_halves_equals_eval)
 {
     char path[512];
-    pf_scene *scene = load_ok(write_two_bone("skin_halves", good_joints, good_weights, path,
+    pf_scene *scene = st_load_ok(write_two_bone("skin_halves", good_joints, good_weights, path,
                                              sizeof path));
     PF_REQUIRE(scene);
     pf_scene_frame whole, halves;
@@ -167,7 +151,7 @@ PF_TEST(eval_in_two_halves_equals_eval)
     PF_CHECK(memcmp(whole.normals, halves.normals, 6 * sizeof whole.normals[0]) == 0);
     PF_CHECK(memcmp(whole.bounds_min, halves.bounds_min, sizeof whole.bounds_min) == 0);
     PF_CHECK(memcmp(whole.bounds_max, halves.bounds_max, sizeof whole.bounds_max) == 0);
-    check_vec3(whole.bounds_min, 0, 0, 0, 1e-6);
+    st_check_vec3(whole.bounds_min, 0, 0, 0, 1e-6);
     PF_CHECK(whole.bounds_max[2] > 0.1f);
     pf_scene_frame_free(&whole);
     pf_scene_frame_free(&halves);
@@ -182,7 +166,7 @@ PF_TEST(unnormalised_weights_are_normalised)
     weights[8] = 1.5f;
     weights[9] = 0.5f;
     char path[512];
-    pf_scene *scene = load_ok(write_two_bone("skin_sum", good_joints, weights, path,
+    pf_scene *scene = st_load_ok(write_two_bone("skin_sum", good_joints, weights, path,
                                              sizeof path));
     PF_REQUIRE(scene);
     check_skin_at(scene, 1.0, 60.0 * 3.14159265358979 / 180.0);
@@ -261,10 +245,10 @@ static const char *write_morph(const char *name, const char *mesh_weights,
 /* The quad's vertex v moved by w0 · target 0 + w1 · target 1 (triangle 0: 0 1 2, 1: 0 2 3). */
 static void check_morph(const pf_scene_frame *frame, double w0, double w1, double tolerance)
 {
-    check_vec3(frame->vertices[0], 0, 0, -1 * w1, tolerance);
-    check_vec3(frame->vertices[1], 1, 0, 0, tolerance);
-    check_vec3(frame->vertices[2], 1, 1, w0, tolerance);
-    check_vec3(frame->vertices[5], 0, 1, 2 * w1, tolerance);
+    st_check_vec3(frame->vertices[0], 0, 0, -1 * w1, tolerance);
+    st_check_vec3(frame->vertices[1], 1, 0, 0, tolerance);
+    st_check_vec3(frame->vertices[2], 1, 1, w0, tolerance);
+    st_check_vec3(frame->vertices[5], 0, 1, 2 * w1, tolerance);
 }
 
 PF_TEST(morph_targets_blend_base_plus_weighted_deltas)
@@ -272,7 +256,7 @@ PF_TEST(morph_targets_blend_base_plus_weighted_deltas)
     /* weights channel, LINEAR: (0, 0) at t = 0, (0.5, 0.5) at 1, (1, 1) at 2. */
     const float data[] = {0, 1, 2, /* values */ 0, 0, 0.5f, 0.5f, 1, 1};
     char path[512];
-    pf_scene *scene = load_ok(write_morph(
+    pf_scene *scene = st_load_ok(write_morph(
         "morph", NULL, NULL, data, 9,
         ",{\"bufferView\":3,\"byteOffset\":76,\"componentType\":5126,\"count\":3,"
         "\"type\":\"SCALAR\"},{\"bufferView\":3,\"byteOffset\":88,\"componentType\":5126,"
@@ -293,7 +277,7 @@ PF_TEST(morph_targets_blend_base_plus_weighted_deltas)
         PF_REQUIRE_OK(pf_scene_eval(scene, times[k], &frame, &err), &err);
         check_morph(&frame, weights[k], weights[k], 1e-6);
         /* Vertex 2 lifted: its triangle's normal follows the file's (+Z, no NORMAL target). */
-        check_vec3(frame.normals[2], 0, 0, 1, 1e-6);
+        st_check_vec3(frame.normals[2], 0, 0, 1, 1e-6);
         pf_scene_frame_free(&frame);
     }
     pf_scene_destroy(scene);
@@ -302,7 +286,7 @@ PF_TEST(morph_targets_blend_base_plus_weighted_deltas)
 PF_TEST(morph_weights_from_the_node_then_the_mesh)
 {
     char path[512];
-    pf_scene *scene = load_ok(write_morph("morph_mesh", "[0.5,0.25]", NULL, NULL, 0, NULL, NULL,
+    pf_scene *scene = st_load_ok(write_morph("morph_mesh", "[0.5,0.25]", NULL, NULL, 0, NULL, NULL,
                                           path, sizeof path));
     PF_REQUIRE(scene);
     PF_CHECK(!pf_scene_get_info(scene)->deformation_animated);
@@ -313,7 +297,7 @@ PF_TEST(morph_weights_from_the_node_then_the_mesh)
     pf_scene_frame_free(&frame);
     pf_scene_destroy(scene);
 
-    scene = load_ok(write_morph("morph_node", "[0.5,0.25]", ",\"weights\":[1,0]", NULL, 0, NULL,
+    scene = st_load_ok(write_morph("morph_node", "[0.5,0.25]", ",\"weights\":[1,0]", NULL, 0, NULL,
                                 NULL, path, sizeof path));
     PF_REQUIRE(scene);
     PF_REQUIRE_OK(pf_scene_eval(scene, 0.0, &frame, &err), &err);
@@ -322,11 +306,11 @@ PF_TEST(morph_weights_from_the_node_then_the_mesh)
     pf_scene_destroy(scene);
 
     /* A morphed (not skinned) mesh keeps its node's transform. */
-    scene = load_ok(write_morph("morph_moved", "[1,1]", ",\"translation\":[0,0,10]", NULL, 0,
+    scene = st_load_ok(write_morph("morph_moved", "[1,1]", ",\"translation\":[0,0,10]", NULL, 0,
                                 NULL, NULL, path, sizeof path));
     PF_REQUIRE(scene);
     PF_REQUIRE_OK(pf_scene_eval(scene, 0.0, &frame, &err), &err);
-    check_vec3(frame.vertices[5], 0, 1, 12, 1e-6);
+    st_check_vec3(frame.vertices[5], 0, 1, 12, 1e-6);
     pf_scene_frame_free(&frame);
     pf_scene_destroy(scene);
 }
@@ -339,7 +323,7 @@ PF_TEST(cubicspline_weights)
                           /* key 0: in */ 0, 0, /* value */ 0, 0, /* out */ 0.5f, 0,
                           /* key 1: in */ 2, 0, /* value */ 1, 0, /* out */ 0, 0};
     char path[512];
-    pf_scene *scene = load_ok(write_morph(
+    pf_scene *scene = st_load_ok(write_morph(
         "morph_cubic", NULL, NULL, data, 14,
         ",{\"bufferView\":3,\"byteOffset\":76,\"componentType\":5126,\"count\":2,"
         "\"type\":\"SCALAR\"},{\"bufferView\":3,\"byteOffset\":84,\"componentType\":5126,"
@@ -405,7 +389,7 @@ PF_TEST(blender_files_put_frame_f_at_f_over_fps)
     for (int blender = 0; blender < 2; blender++) {
         char path[512];
         morph_generator = generators[blender];
-        pf_scene *scene = load_ok(write_morph(blender ? "morph_blender" : "morph_other", NULL,
+        pf_scene *scene = st_load_ok(write_morph(blender ? "morph_blender" : "morph_other", NULL,
                                               NULL, data, 6, accessors, animations, path,
                                               sizeof path));
         morph_generator = NULL;

@@ -8,22 +8,6 @@
 
 #define QUAD_NODE_MESH "{\"mesh\":0}"
 
-static pf_scene *load_ok(const char *path)
-{
-    pf_scene *scene = NULL;
-    pf_error err = {0};
-    pf_status status = pf_scene_load(path, &scene, &err);
-    PF_CHECK_MSG(status == PF_OK, "%s: %s", path, err.message);
-    return status == PF_OK ? scene : NULL;
-}
-
-static void check_vec3(const float *actual, float x, float y, float z, double tolerance)
-{
-    PF_CHECK_NEAR(actual[0], x, tolerance);
-    PF_CHECK_NEAR(actual[1], y, tolerance);
-    PF_CHECK_NEAR(actual[2], z, tolerance);
-}
-
 /* Vertex c (0..2) of triangle t at time. */
 static void eval_vertex(const pf_scene *scene, double time, uint32_t t, int c, float out[3])
 {
@@ -40,7 +24,7 @@ PF_TEST(static_quad_basics)
 {
     char path[512];
     st_gltf spec = {.name = "quad", .nodes = "[" QUAD_NODE_MESH "]"};
-    pf_scene *scene = load_ok(st_write_gltf(&spec, path, sizeof path));
+    pf_scene *scene = st_load_ok(st_write_gltf(&spec, path, sizeof path));
     PF_REQUIRE(scene);
     const pf_scene_info *info = pf_scene_get_info(scene);
     PF_CHECK(info->triangle_count == 2);
@@ -53,23 +37,23 @@ PF_TEST(static_quad_basics)
     pf_error err;
     PF_CHECK_OK(pf_scene_eval(scene, 0.0, &frame, &err), &err);
     PF_CHECK(frame.triangle_count == 2);
-    check_vec3(frame.vertices[0], 0, 0, 0, 0);
-    check_vec3(frame.vertices[1], 1, 0, 0, 0);
-    check_vec3(frame.vertices[2], 1, 1, 0, 0);
-    check_vec3(frame.vertices[5], 0, 1, 0, 0);
+    st_check_vec3(frame.vertices[0], 0, 0, 0, 0);
+    st_check_vec3(frame.vertices[1], 1, 0, 0, 0);
+    st_check_vec3(frame.vertices[2], 1, 1, 0, 0);
+    st_check_vec3(frame.vertices[5], 0, 1, 0, 0);
     PF_CHECK(frame.vertices[1][3] == 0.0f);
-    check_vec3(frame.normals[4], 0, 0, 1, 1e-6);
-    check_vec3(frame.bounds_min, 0, 0, 0, 0);
-    check_vec3(frame.bounds_max, 1, 1, 0, 0);
+    st_check_vec3(frame.normals[4], 0, 0, 1, 1e-6);
+    st_check_vec3(frame.bounds_min, 0, 0, 0, 0);
+    st_check_vec3(frame.bounds_max, 1, 1, 0, 0);
     PF_CHECK(frame.triangle_node[1] == 0);
     /* No material in the file: the documented grey default. */
     PF_CHECK(frame.material_count == 1);
     PF_CHECK(frame.materials[frame.triangle_material[0]].kind == PF_MATERIAL_LAMBERT);
     PF_CHECK_NEAR(frame.materials[frame.triangle_material[0]].albedo[1], 0.8, 1e-6);
     /* Default camera: looks down -Z at the quad from in front of it, which fits the fov. */
-    check_vec3(frame.camera.forward, 0, 0, -1, 1e-6);
-    check_vec3(frame.camera.up, 0, 1, 0, 1e-6);
-    check_vec3(frame.camera.right, 1, 0, 0, 1e-6);
+    st_check_vec3(frame.camera.forward, 0, 0, -1, 1e-6);
+    st_check_vec3(frame.camera.up, 0, 1, 0, 1e-6);
+    st_check_vec3(frame.camera.right, 1, 0, 0, 1e-6);
     PF_CHECK_NEAR(frame.camera.position[0], 0.5, 1e-6);
     PF_CHECK_NEAR(frame.camera.position[1], 0.5, 1e-6);
     float distance = frame.camera.position[2];
@@ -91,15 +75,15 @@ PF_TEST(hierarchy_trs_and_matrix)
                  "{\"mesh\":0,\"scale\":[-1,1,1],\"translation\":[0,0,-5]}]",
         .scenes = "[{\"nodes\":[0,2]}]",
     };
-    pf_scene *scene = load_ok(st_write_gltf(&spec, path, sizeof path));
+    pf_scene *scene = st_load_ok(st_write_gltf(&spec, path, sizeof path));
     PF_REQUIRE(scene);
     PF_CHECK(pf_scene_get_info(scene)->triangle_count == 4);
     pf_scene_frame frame;
     pf_error err;
     PF_REQUIRE_OK(pf_scene_eval(scene, 0.0, &frame, &err), &err);
-    check_vec3(frame.vertices[0], 10 - 2, 0, 0, 1e-5); /* (0,0,0) → child (0,1,0) → (8,0,0) */
-    check_vec3(frame.vertices[1], 8, 2, 0, 1e-5);
-    check_vec3(frame.normals[1], 0, 0, 1, 1e-5);
+    st_check_vec3(frame.vertices[0], 10 - 2, 0, 0, 1e-5); /* (0,0,0) → child (0,1,0) → (8,0,0) */
+    st_check_vec3(frame.vertices[1], 8, 2, 0, 1e-5);
+    st_check_vec3(frame.normals[1], 0, 0, 1, 1e-5);
     PF_CHECK(frame.triangle_node[0] == 1 && frame.triangle_node[2] == 2);
     /* Mirrored node (scale -1 in x): winding is swapped so the face normal from
      * the vertex order still agrees with the shading normal (+Z). */
@@ -108,8 +92,8 @@ PF_TEST(hierarchy_trs_and_matrix)
     float e2[3] = {v2[0] - v0[0], v2[1] - v0[1], v2[2] - v0[2]};
     float face_z = e1[0] * e2[1] - e1[1] * e2[0];
     PF_CHECK(face_z > 0);
-    check_vec3(frame.normals[6], 0, 0, 1, 1e-5);
-    check_vec3(frame.vertices[6], 0, 0, -5, 1e-6);
+    st_check_vec3(frame.normals[6], 0, 0, 1, 1e-5);
+    st_check_vec3(frame.vertices[6], 0, 0, -5, 1e-6);
     pf_scene_frame_free(&frame);
     pf_scene_destroy(scene);
 }
@@ -139,7 +123,7 @@ PF_TEST(lights_converted)
                       "\"extras\":{\"photonfarm\":{\"intensityUnits\":\"lux\"}}}]}}",
         .extensions_used = "[\"KHR_lights_punctual\"]",
     };
-    pf_scene *scene = load_ok(st_write_gltf(&spec, path, sizeof path));
+    pf_scene *scene = st_load_ok(st_write_gltf(&spec, path, sizeof path));
     PF_REQUIRE(scene);
     PF_CHECK(pf_scene_get_info(scene)->light_count == 3);
     pf_scene_frame frame;
@@ -149,19 +133,19 @@ PF_TEST(lights_converted)
     const pf_light *point = &frame.lights[0], *spot = &frame.lights[1],
                    *directional = &frame.lights[2];
     PF_CHECK(point->kind == PF_LIGHT_POINT);
-    check_vec3(point->position, 1, 2, 3, 1e-6);
-    check_vec3(point->intensity, 8, 4, 2, 1e-5);
+    st_check_vec3(point->position, 1, 2, 3, 1e-6);
+    st_check_vec3(point->intensity, 8, 4, 2, 1e-5);
     PF_CHECK_NEAR(point->range, 5, 0);
     PF_CHECK(spot->kind == PF_LIGHT_SPOT);
-    check_vec3(spot->position, 0, 4, 0, 1e-6);
-    check_vec3(spot->direction, 0, -1, 0, 1e-6); /* node -Z turned -90° about X */
-    check_vec3(spot->intensity, 3, 3, 3, 1e-6);
+    st_check_vec3(spot->position, 0, 4, 0, 1e-6);
+    st_check_vec3(spot->direction, 0, -1, 0, 1e-6); /* node -Z turned -90° about X */
+    st_check_vec3(spot->intensity, 3, 3, 3, 1e-6);
     PF_CHECK_NEAR(spot->cos_inner_cone, cos(0.2), 1e-6);
     PF_CHECK_NEAR(spot->cos_outer_cone, cos(0.5), 1e-6);
     PF_CHECK_NEAR(spot->range, 0, 0);
     PF_CHECK(directional->kind == PF_LIGHT_DIRECTIONAL);
-    check_vec3(directional->direction, 0, -1, 0, 1e-6);
-    check_vec3(directional->intensity, 1, 1, 2, 1e-6);
+    st_check_vec3(directional->direction, 0, -1, 0, 1e-6);
+    st_check_vec3(directional->intensity, 1, 1, 2, 1e-6);
     pf_scene_frame_free(&frame);
     pf_scene_destroy(scene);
 }
@@ -179,12 +163,12 @@ PF_TEST(volume_absorption)
                      "\"KHR_materials_volume\":{\"thicknessFactor\":0.1,"
                      "\"attenuationColor\":[0.5,1,0.25],\"attenuationDistance\":2}}}]",
     };
-    pf_scene *scene = load_ok(st_write_gltf(&spec, path, sizeof path));
+    pf_scene *scene = st_load_ok(st_write_gltf(&spec, path, sizeof path));
     PF_REQUIRE(scene);
     pf_scene_frame frame;
     pf_error err;
     PF_REQUIRE_OK(pf_scene_eval(scene, 0.0, &frame, &err), &err);
-    check_vec3(frame.materials[frame.triangle_material[0]].absorption, log(2.0) / 2, 0,
+    st_check_vec3(frame.materials[frame.triangle_material[0]].absorption, log(2.0) / 2, 0,
                log(4.0) / 2, 1e-6);
     pf_scene_frame_free(&frame);
     pf_scene_destroy(scene);
@@ -192,10 +176,10 @@ PF_TEST(volume_absorption)
     spec.name = "thin";
     spec.materials = "[{\"extensions\":{\"KHR_materials_volume\":{"
                      "\"attenuationColor\":[0.5,0.5,0.5],\"attenuationDistance\":2}}}]";
-    scene = load_ok(st_write_gltf(&spec, path, sizeof path));
+    scene = st_load_ok(st_write_gltf(&spec, path, sizeof path));
     PF_REQUIRE(scene);
     PF_REQUIRE_OK(pf_scene_eval(scene, 0.0, &frame, &err), &err);
-    check_vec3(frame.materials[frame.triangle_material[0]].absorption, 0, 0, 0, 0);
+    st_check_vec3(frame.materials[frame.triangle_material[0]].absorption, 0, 0, 0, 0);
     pf_scene_frame_free(&frame);
     pf_scene_destroy(scene);
 }
@@ -210,17 +194,17 @@ PF_TEST(camera_values)
         .cameras = "[{\"type\":\"perspective\",\"perspective\":{\"yfov\":0.6,"
                    "\"aspectRatio\":1.0,\"znear\":0.05,\"zfar\":50}}]",
     };
-    pf_scene *scene = load_ok(st_write_gltf(&spec, path, sizeof path));
+    pf_scene *scene = st_load_ok(st_write_gltf(&spec, path, sizeof path));
     PF_REQUIRE(scene);
     PF_CHECK(pf_scene_get_info(scene)->has_camera == 1);
     pf_scene_frame frame;
     pf_error err;
     PF_REQUIRE_OK(pf_scene_eval(scene, 0.0, &frame, &err), &err);
     const pf_camera *camera = &frame.camera;
-    check_vec3(camera->position, 0, 1, 5, 1e-6);
-    check_vec3(camera->forward, 0, 0, -1, 1e-6);
-    check_vec3(camera->up, 0, 1, 0, 1e-6);
-    check_vec3(camera->right, 1, 0, 0, 1e-6);
+    st_check_vec3(camera->position, 0, 1, 5, 1e-6);
+    st_check_vec3(camera->forward, 0, 0, -1, 1e-6);
+    st_check_vec3(camera->up, 0, 1, 0, 1e-6);
+    st_check_vec3(camera->right, 1, 0, 0, 1e-6);
     PF_CHECK_NEAR(camera->yfov, 0.6, 1e-7);
     PF_CHECK_NEAR(camera->aspect, 1.0, 0);
     PF_CHECK_NEAR(camera->znear, 0.05, 1e-7);
@@ -265,7 +249,7 @@ PF_TEST(materials_mapped)
             "\"doubleSided\":true,"
             "\"extensions\":{\"KHR_materials_emissive_strength\":{\"emissiveStrength\":4}}}]",
     };
-    pf_scene *scene = load_ok(st_write_gltf(&spec, path, sizeof path));
+    pf_scene *scene = st_load_ok(st_write_gltf(&spec, path, sizeof path));
     PF_REQUIRE(scene);
     const pf_scene_info *info = pf_scene_get_info(scene);
     PF_CHECK(info->triangle_count == 18);
@@ -281,9 +265,9 @@ PF_TEST(materials_mapped)
     for (int k = 0; k < 9; k++)
         m[k] = &frame.materials[frame.triangle_material[2 * k]];
     PF_CHECK(m[0]->kind == PF_MATERIAL_LAMBERT);
-    check_vec3(m[0]->albedo, 0.2f, 0.4f, 0.6f, 1e-6);
+    st_check_vec3(m[0]->albedo, 0.2f, 0.4f, 0.6f, 1e-6);
     PF_CHECK(m[1]->kind == PF_MATERIAL_MIRROR); /* metallic defaults to 1 */
-    check_vec3(m[1]->albedo, 0.9f, 0.8f, 0.7f, 1e-6);
+    st_check_vec3(m[1]->albedo, 0.9f, 0.8f, 0.7f, 1e-6);
     PF_CHECK(m[2]->kind == PF_MATERIAL_GLASS);
     PF_CHECK_NEAR(m[2]->ior, 1.33, 1e-6);
     /* Transmission under glTF's default metallicFactor 1: the metal wins (spec
@@ -293,23 +277,23 @@ PF_TEST(materials_mapped)
     PF_CHECK_NEAR(m[3]->ior, 1.5, 0);
     PF_CHECK(m[4]->kind == PF_MATERIAL_LAMBERT); /* a rough metal: a glossy lobe */
     PF_CHECK(m[4]->metallic == 1 && m[4]->roughness == 1);
-    check_vec3(m[4]->albedo, 0.5f, 0.5f, 0.5f, 1e-6);
+    st_check_vec3(m[4]->albedo, 0.5f, 0.5f, 0.5f, 1e-6);
     PF_CHECK(m[5]->kind == PF_MATERIAL_LAMBERT); /* glTF defaults: white, metallic, rough */
-    check_vec3(m[5]->albedo, 1, 1, 1, 0);
+    st_check_vec3(m[5]->albedo, 1, 1, 1, 0);
     /* A dielectric's specular layer is on by default (KHR_materials_specular's 1). */
     PF_CHECK(m[6]->metallic == 0 && m[6]->specular == 1);
-    check_vec3(m[6]->specular_color, 1, 1, 1, 0);
+    st_check_vec3(m[6]->specular_color, 1, 1, 1, 0);
     /* The grey default for primitives without a material is a pure Lambert. */
     PF_CHECK(m[8]->specular == 0 && m[8]->metallic == 0);
     PF_CHECK(m[6]->kind == PF_MATERIAL_LAMBERT); /* texture ignored, factor kept */
-    check_vec3(m[6]->albedo, 0.3f, 0.3f, 0.3f, 1e-6);
-    check_vec3(m[7]->emission, 4, 2, 1, 1e-6);   /* emissiveFactor × strength */
+    st_check_vec3(m[6]->albedo, 0.3f, 0.3f, 0.3f, 1e-6);
+    st_check_vec3(m[7]->emission, 4, 2, 1, 1e-6);   /* emissiveFactor × strength */
     PF_CHECK(m[7]->flags == PF_MATERIAL_DOUBLE_SIDED && m[0]->flags == 0);
-    check_vec3(m[0]->emission, 0, 0, 0, 0);
+    st_check_vec3(m[0]->emission, 0, 0, 0, 0);
     PF_CHECK(m[8]->kind == PF_MATERIAL_LAMBERT); /* no material: grey default */
-    check_vec3(m[8]->albedo, 0.8f, 0.8f, 0.8f, 1e-6);
+    st_check_vec3(m[8]->albedo, 0.8f, 0.8f, 0.8f, 1e-6);
     /* A primitive without NORMAL gets the geometric normal. */
-    check_vec3(frame.normals[3 * 16], 0, 0, 1, 1e-6);
+    st_check_vec3(frame.normals[3 * 16], 0, 0, 1, 1e-6);
     pf_scene_frame_free(&frame);
     pf_scene_destroy(scene);
 }
@@ -337,7 +321,7 @@ static pf_scene *animated_quad(const char *name, const float *data, uint32_t flo
                     .extra_accessors = accessors,
                     .animations = animations,
                     .asset_extras = extras};
-    return load_ok(st_write_gltf(&spec, path, sizeof path));
+    return st_load_ok(st_write_gltf(&spec, path, sizeof path));
 }
 
 PF_TEST(linear_translation_and_clamping)
@@ -355,13 +339,13 @@ PF_TEST(linear_translation_and_clamping)
     PF_CHECK_NEAR(pf_scene_frame_time(scene, 25), 1, 1e-12);
     float v[3];
     eval_vertex(scene, 1.0, 0, 0, v);
-    check_vec3(v, 2, 0, 0, 1e-6);
+    st_check_vec3(v, 2, 0, 0, 1e-6);
     eval_vertex(scene, 0.5, 0, 1, v); /* vertex (1,0,0) + (1,0,0) */
-    check_vec3(v, 2, 0, 0, 1e-6);
+    st_check_vec3(v, 2, 0, 0, 1e-6);
     eval_vertex(scene, -3.0, 0, 0, v);
-    check_vec3(v, 0, 0, 0, 0);
+    st_check_vec3(v, 0, 0, 0, 0);
     eval_vertex(scene, 10.0, 0, 0, v);
-    check_vec3(v, 4, 0, 0, 0);
+    st_check_vec3(v, 4, 0, 0, 0);
     pf_scene_destroy(scene);
 }
 
@@ -378,9 +362,9 @@ PF_TEST(linear_rotation_slerp)
     PF_CHECK(info->frame_count == 11);
     float v[3];
     eval_vertex(scene, pf_scene_frame_time(scene, 6), 0, 1, v);
-    check_vec3(v, c, 0, -c, 1e-5);
+    st_check_vec3(v, c, 0, -c, 1e-5);
     eval_vertex(scene, 1.0, 0, 1, v);
-    check_vec3(v, 0, 0, -1, 1e-5);
+    st_check_vec3(v, 0, 0, -1, 1e-5);
     pf_scene_destroy(scene);
 }
 
@@ -394,7 +378,7 @@ PF_TEST(rotation_shortest_path_in_file)
     PF_REQUIRE(scene);
     float v[3];
     eval_vertex(scene, 0.5, 0, 1, v);
-    check_vec3(v, c, 0, -c, 1e-5);
+    st_check_vec3(v, c, 0, -c, 1e-5);
     pf_scene_destroy(scene);
 }
 
@@ -406,9 +390,9 @@ PF_TEST(step_holds_earlier_value)
     PF_REQUIRE(scene);
     float v[3];
     eval_vertex(scene, 0.99, 0, 0, v);
-    check_vec3(v, 0, 0, 0, 0);
+    st_check_vec3(v, 0, 0, 0, 0);
     eval_vertex(scene, 1.0, 0, 0, v);
-    check_vec3(v, 5, 0, 0, 0);
+    st_check_vec3(v, 5, 0, 0, 0);
     pf_scene_destroy(scene);
 }
 
@@ -427,11 +411,11 @@ PF_TEST(cubicspline_hermite)
     PF_CHECK(info->frame_count == 73); /* round(3 × 24) + 1 */
     float v[3];
     eval_vertex(scene, 1.5, 0, 0, v);
-    check_vec3(v, 1.96875f, 0.1875f, 0, 1e-5);
+    st_check_vec3(v, 1.96875f, 0.1875f, 0, 1e-5);
     eval_vertex(scene, 0.0, 0, 0, v); /* before the first key: its value */
-    check_vec3(v, 1, 0, 0, 0);
+    st_check_vec3(v, 1, 0, 0, 0);
     eval_vertex(scene, 3.5, 0, 0, v);
-    check_vec3(v, 3, 0, 0, 0);
+    st_check_vec3(v, 3, 0, 0, 0);
     pf_scene_destroy(scene);
 }
 
@@ -440,19 +424,19 @@ PF_TEST(glb_and_data_uri)
     const char *lights = "[{\"mesh\":0,\"translation\":[0,0,2]}]";
     char path[512];
     st_gltf spec = {.name = "binary", .nodes = lights, .glb = 1};
-    pf_scene *scene = load_ok(st_write_gltf(&spec, path, sizeof path));
+    pf_scene *scene = st_load_ok(st_write_gltf(&spec, path, sizeof path));
     PF_REQUIRE(scene);
     PF_CHECK(pf_scene_get_info(scene)->triangle_count == 2);
     float v[3];
     eval_vertex(scene, 0, 1, 1, v); /* triangle 1 = (0, 2, 3): vertex 2 = (1,1,0) */
-    check_vec3(v, 1, 1, 2, 0);
+    st_check_vec3(v, 1, 1, 2, 0);
     pf_scene_destroy(scene);
 
     st_gltf embedded = {.name = "embedded", .nodes = lights, .data_uri = 1};
-    scene = load_ok(st_write_gltf(&embedded, path, sizeof path));
+    scene = st_load_ok(st_write_gltf(&embedded, path, sizeof path));
     PF_REQUIRE(scene);
     eval_vertex(scene, 0, 1, 2, v);
-    check_vec3(v, 0, 1, 2, 0);
+    st_check_vec3(v, 0, 1, 2, 0);
     pf_scene_destroy(scene);
 }
 
@@ -479,7 +463,7 @@ PF_TEST(degenerate_triangles_kept_and_modes)
                   "{\"attributes\":{\"POSITION\":0},\"mode\":1}]}]",
     };
     uint32_t warnings_before = pf_log_warning_count();
-    pf_scene *scene = load_ok(st_write_gltf(&spec, path, sizeof path));
+    pf_scene *scene = st_load_ok(st_write_gltf(&spec, path, sizeof path));
     PF_REQUIRE(scene);
     PF_CHECK(pf_log_warning_count() > warnings_before); /* lines skipped */
     PF_CHECK(pf_scene_get_info(scene)->triangle_count == 3);
@@ -511,7 +495,7 @@ PF_TEST(unsupported_extension_used_warns_once)
         .extensions_used = "[\"KHR_materials_clearcoat\"]",
     };
     uint32_t warnings_before = pf_log_warning_count();
-    pf_scene *scene = load_ok(st_write_gltf(&spec, path, sizeof path));
+    pf_scene *scene = st_load_ok(st_write_gltf(&spec, path, sizeof path));
     PF_REQUIRE(scene);
     /* One for the extension (listed in extensionsUsed and used by two materials)
      * and one for the missing camera. */
@@ -542,16 +526,16 @@ PF_TEST(sparse_accessor)
         .meshes = "[{\"primitives\":[{\"attributes\":{\"POSITION\":3},\"indices\":2},"
                   "{\"attributes\":{\"POSITION\":4},\"indices\":2}]}]",
     };
-    pf_scene *scene = load_ok(st_write_gltf(&spec, path, sizeof path));
+    pf_scene *scene = st_load_ok(st_write_gltf(&spec, path, sizeof path));
     PF_REQUIRE(scene);
     pf_scene_frame frame;
     pf_error err;
     PF_REQUIRE_OK(pf_scene_eval(scene, 0, &frame, &err), &err);
     PF_REQUIRE(frame.triangle_count == 4);
-    check_vec3(frame.vertices[1], 1, 0, 0, 0);
-    check_vec3(frame.vertices[2], 2, 2, 0, 0);
-    check_vec3(frame.vertices[6], 0, 0, 0, 0);
-    check_vec3(frame.vertices[8], 2, 2, 0, 0);
+    st_check_vec3(frame.vertices[1], 1, 0, 0, 0);
+    st_check_vec3(frame.vertices[2], 2, 2, 0, 0);
+    st_check_vec3(frame.vertices[6], 0, 0, 0, 0);
+    st_check_vec3(frame.vertices[8], 2, 2, 0, 0);
     pf_scene_frame_free(&frame);
     pf_scene_destroy(scene);
 }
@@ -567,7 +551,7 @@ PF_TEST(orthographic_camera_mapped)
                    "\"znear\":0.1,\"zfar\":10}}]",
     };
     uint32_t warnings_before = pf_log_warning_count();
-    pf_scene *scene = load_ok(st_write_gltf(&spec, path, sizeof path));
+    pf_scene *scene = st_load_ok(st_write_gltf(&spec, path, sizeof path));
     PF_REQUIRE(scene);
     PF_CHECK(pf_log_warning_count() - warnings_before == 1);
     pf_scene_frame frame;
@@ -598,12 +582,12 @@ PF_TEST(animated_ancestor_marks_descendants)
         .animations = "[{\"channels\":[{\"sampler\":0,\"target\":{\"node\":0,\"path\":"
                       "\"translation\"}}],\"samplers\":[{\"input\":3,\"output\":4}]}]",
     };
-    pf_scene *scene = load_ok(st_write_gltf(&spec, path, sizeof path));
+    pf_scene *scene = st_load_ok(st_write_gltf(&spec, path, sizeof path));
     PF_REQUIRE(scene);
     PF_CHECK(pf_scene_get_info(scene)->geometry_animated == 1);
     float v[3];
     eval_vertex(scene, 0.5, 0, 0, v);
-    check_vec3(v, 1, 1.5f, 0, 1e-6);
+    st_check_vec3(v, 1, 1.5f, 0, 1e-6);
     pf_scene_destroy(scene);
 }
 
