@@ -102,7 +102,7 @@ PF_TEST(beauty_is_rgba_and_aovs_are_named_layers)
         "R",          "G",          "B",         "A",         "direct.R",   "direct.G",
         "direct.B",   "indirect.R", "indirect.G", "indirect.B", "caustic.R", "caustic.G",
         "caustic.B",  "albedo.R",   "albedo.G",  "albedo.B",  "normal.X",   "normal.Y",
-        "normal.Z",   "depth.Z"};
+        "normal.Z",   "depth.Z",    "motion.X",  "motion.Y"};
     size_t expected_count = sizeof expected / sizeof expected[0];
     PF_CHECK_MSG(count == (int)expected_count, "%d channels, expected %zu", count, expected_count);
     for (size_t i = 0; i < expected_count; i++)
