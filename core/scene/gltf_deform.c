@@ -69,7 +69,7 @@ static pf_status read_influence_set(gltf_context *ctx, scene_deform_mesh *deform
                                     uint32_t first, uint32_t vertex_count, int *present,
                                     pf_error *err)
 {
-    char joints_name[16], weights_name[16], sub[224];
+    char joints_name[24], weights_name[24], sub[224];
     snprintf(joints_name, sizeof joints_name, "JOINTS_%d", set);
     snprintf(weights_name, sizeof weights_name, "WEIGHTS_%d", set);
     int32_t joints_index, weights_index;

@@ -218,7 +218,8 @@ static const char *write_morph(const char *name, const char *mesh_weights,
     memcpy(extra + 12, sparse_indices, sizeof sparse_indices);
     extra[13 + 2] = 2.0f;
     extra[13 + 5] = -1.0f;
-    memcpy(extra + MORPH_FLOATS, animation_data, animation_floats * sizeof(float));
+    if (animation_floats)
+        memcpy(extra + MORPH_FLOATS, animation_data, animation_floats * sizeof(float));
     static char meshes[512], nodes[256], all_accessors[1024];
     snprintf(meshes, sizeof meshes,
              "[{\"primitives\":[{\"attributes\":{\"POSITION\":0,\"NORMAL\":1},\"indices\":2,"
