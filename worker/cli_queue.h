@@ -77,7 +77,7 @@ typedef struct pf_cli_scene {
  * (cli_options.h): every settings option above, stored into *settings by
  * pf_cli_settings_option, and --allow-outside-scene-dir and --animation into *scene.
  */
-#define PF_CLI_SETTINGS_OPTIONS 18
+#define PF_CLI_SETTINGS_OPTIONS 19
 /* The settings rows that store into the pf_cli_scene, last in the table. */
 #define PF_CLI_SCENE_OPTIONS 2
 size_t pf_cli_settings_table(pf_render_settings *settings, pf_cli_scene *scene,

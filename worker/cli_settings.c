@@ -107,11 +107,16 @@ static int frame_option(const char *command, const char *arg, const char *value,
     return 0;
 }
 
-/* --filter, --max-bounces, --budget-ms, --target-relmse: -1 none of them. */
+/* --denoise, --filter, --max-bounces, --budget-ms, --target-relmse: -1 none of them. */
 static int sampling_option(const char *command, const char *arg, const char *value,
                            pf_render_settings *settings)
 {
-    if (!strcmp(arg, "--filter")) {
+    if (!strcmp(arg, "--denoise")) {
+        int mode = pf_denoise_parse(value);
+        if (mode < 0)
+            return pf_cli_fail(command, 2, "--denoise '%s': expected auto, on or off", value);
+        settings->denoise = (pf_denoise_mode)mode;
+    } else if (!strcmp(arg, "--filter")) {
         int filter = pf_pixel_filter_parse(value);
         if (filter < 0)
             return pf_cli_fail(command, 2,
@@ -145,7 +150,7 @@ static int sampling_option(const char *command, const char *arg, const char *val
 static const char *const valued_options[] = {
     "--size",      "--quality",       "--spp",       "--seed",           "--photons",
     "--time-budget", "--filter",      "--max-bounces", "--budget-ms",    "--target-relmse",
-    "--lpv-cascades", "--lpv-size",   "--lpv-iterations", "--lpv-cell",
+    "--lpv-cascades", "--lpv-size",   "--lpv-iterations", "--lpv-cell", "--denoise",
 };
 
 int pf_cli_settings_option(const char *command, const char *arg, const char *value,
@@ -222,6 +227,10 @@ size_t pf_cli_settings_table(pf_render_settings *settings, pf_cli_scene *scene,
          "beauty RGBA only, without the direct/indirect/caustic\nsplit and the albedo, normal and "
          "depth layers",
          "all layers", NULL, NULL, 0, 0, NULL},
+        {"--denoise", NULL, "MODE",
+         "fast, final, reference: filter the beauty guided by the\nalbedo, normal and depth "
+         "layers (on), or not (off);\nthe raw beauty is kept as noisy.R/G/B",
+         "auto: " PF_DENOISE_AUTO_TEXT, NULL, NULL, 0, 0, NULL},
         {"--filter", NULL, "F",
          "pixel filter: gaussian (sigma 0.5 px, radius 1.5 px),\nbox (1 px), blackman-harris "
          "(1.5 px either side, Cycles')",

@@ -22,6 +22,9 @@
  * Blender photonfarm's reference at TRUTH_SPP. Cached as
  * PREFIX-truth-<hash>.exr.
  *
+ * final+dn and reference+dn are final and reference followed by the denoise
+ * stage (issue 40), its time included.
+ *
  * PF_CYCLES_AS_IMPORTED=1: Cycles renders the file as Blender's importer reads
  * it (cycles_render.py), for users' files such as bench/materials'
  * room-textured.gltf, instead of with photonfarm's material model.
@@ -49,6 +52,7 @@ typedef struct sweep {
     pf_quality quality;
     const char *knob;    /* what the values set */
     uint32_t values[8];  /* 0-terminated */
+    int denoise;         /* the denoise stage after the render (issue 40), timed with it */
 } sweep;
 
 /* What each preset's cost and error are governed by. */
@@ -57,6 +61,8 @@ static const sweep sweeps[] = {
     {"fast", PF_QUALITY_FAST, "spp", {1, 2, 4, 8, 16, 0}},
     {"final", PF_QUALITY_FINAL, "passes", {1, 2, 4, 8, 16, 32, 0}},
     {"reference", PF_QUALITY_REFERENCE, "spp", {4, 16, 64, 256, 0}},
+    {"final+dn", PF_QUALITY_FINAL, "passes", {1, 2, 4, 8, 16, 32, 0}, 1},
+    {"reference+dn", PF_QUALITY_REFERENCE, "spp", {4, 16, 64, 256, 0}, 1},
 };
 static const uint32_t cycles_spp[] = {4, 16, 64, 256, 1024, 0};
 
@@ -148,7 +154,7 @@ static int render_cycles(const char *blender, const char *scene, uint32_t width,
 }
 
 static pf_render_settings settings_for(pf_quality quality, uint32_t width, uint32_t height,
-                                       uint32_t value, uint32_t seed)
+                                       uint32_t value, uint32_t seed, int denoise)
 {
     pf_render_settings s = pf_render_settings_default();
     s.width = width;
@@ -156,7 +162,8 @@ static pf_render_settings settings_for(pf_quality quality, uint32_t width, uint3
     s.quality = quality;
     s.samples_per_pixel = value;
     s.seed = seed;
-    s.aovs = 0;
+    s.aovs = denoise; /* the denoiser's guides */
+    s.denoise = denoise ? PF_DENOISE_ON : PF_DENOISE_OFF;
     s.pixel_filter = PF_FILTER_BLACKMAN_HARRIS;
     return s;
 }
@@ -166,7 +173,9 @@ static int render_ours(pf_renderer *renderer, const pf_scene_frame *frame,
 {
     pf_error err = {0};
     double start = pf_time_ms();
-    if (pf_render_frame(renderer, frame, settings, image, NULL, &err) != PF_OK) {
+    if (pf_render_frame(renderer, frame, settings, image, NULL, &err) != PF_OK ||
+        (settings->denoise == PF_DENOISE_ON &&
+         pf_denoise_image(image, 0, NULL, &err) != PF_OK)) {
         fprintf(stderr, "quality_bench: %s\n", err.message);
         return 0;
     }
@@ -253,7 +262,7 @@ int main(int argc, char **argv)
                                truth_path, &truth, &seconds);
         } else {
             pf_render_settings s =
-                settings_for(PF_QUALITY_REFERENCE, width, height, TRUTH_SPP, 1000);
+                settings_for(PF_QUALITY_REFERENCE, width, height, TRUTH_SPP, 1000, 0);
             ok = render_ours(renderer, &frame, &s, &truth, &seconds);
             ok = ok && pf_exr_write(truth_path, &truth, PF_EXR_FLOAT, NULL, 0, &err) == PF_OK;
         }
@@ -280,7 +289,8 @@ int main(int argc, char **argv)
         pf_image image = {0};
         double seconds;
         /* Warm-up: pipelines compiled and the scene's BIH built before timing. */
-        pf_render_settings warm = settings_for(sweeps[s].quality, width, height, 1, 1);
+        pf_render_settings warm =
+            settings_for(sweeps[s].quality, width, height, 1, 1, sweeps[s].denoise);
         if (!render_ours(renderer, &frame, &warm, &image, &seconds))
             return 1;
         pf_image_free(&image);
@@ -288,7 +298,8 @@ int main(int argc, char **argv)
             /* A seed of its own: the renderer reuses photons and LPVs across frames of
              * the same seed (a static scene), and each point must pay a whole frame. */
             pf_render_settings settings =
-                settings_for(sweeps[s].quality, width, height, *v, 100 + (uint32_t)row_count);
+                settings_for(sweeps[s].quality, width, height, *v, 100 + (uint32_t)row_count,
+                             sweeps[s].denoise);
             if (!render_ours(renderer, &frame, &settings, &image, &seconds) ||
                 !record("photonfarm", sweeps[s].label, sweeps[s].knob, *v, seconds, &image,
                         &truth, csv, rows, &row_count))

@@ -13,7 +13,7 @@
 #include <unistd.h>
 
 #define PARTIAL_INFIX ".partial-"
-#define ATTRIBUTE_COUNT 8
+#define ATTRIBUTE_COUNT 9
 
 static int aborted(const pf_frame_request *request)
 {
@@ -87,13 +87,13 @@ static void resolve_size(const pf_render_settings *asked, const pf_scene_frame *
 }
 
 static void fill_attributes(const pf_frame_request *request, const pf_render_settings *settings,
-                            pf_quality preset,
+                            pf_quality preset, int denoised,
                             double render_ms, pf_image_attribute attributes[ATTRIBUTE_COUNT])
 {
     static const char *const keys[ATTRIBUTE_COUNT] = {
         "photonfarm/scene",    "photonfarm/frame",      "photonfarm/preset",
         "photonfarm/settings", "photonfarm/renderTime", "photonfarm/device",
-        "photonfarm/pixelFilter", "photonfarm/maxBounces"};
+        "photonfarm/pixelFilter", "photonfarm/maxBounces", "photonfarm/denoise"};
     memset(attributes, 0, ATTRIBUTE_COUNT * sizeof *attributes);
     for (int i = 0; i < ATTRIBUTE_COUNT; i++)
         snprintf(attributes[i].key, sizeof attributes[i].key, "%s", keys[i]);
@@ -116,6 +116,8 @@ static void fill_attributes(const pf_frame_request *request, const pf_render_set
                  settings->bounce_limit - 1);
     else
         snprintf(attributes[7].value, sizeof attributes[7].value, "default");
+    /* Whether the beauty was denoised (the settings say what was asked). */
+    snprintf(attributes[8].value, sizeof attributes[8].value, "%s", denoised ? "on" : "off");
 }
 
 /*
@@ -222,10 +224,20 @@ pf_status pf_frame_render(pf_renderer *renderer, const pf_frame_request *request
         return status;
     }
     pf_image image = {0};
-    status = pf_render_frame(renderer, &frame, &settings, &image, &out->report, err);
+    /* The denoiser is guided by the albedo, normal and depth layers: rendered whenever it
+     * may run, and written only when asked for. */
+    pf_render_settings rendered = settings;
+    /* auto quality renders fast or final: final is the one that may be denoised. */
+    rendered.aovs |= pf_denoise_applies(settings.denoise, settings.quality == PF_QUALITY_AUTO
+                                                              ? PF_QUALITY_FINAL
+                                                              : settings.quality);
+    status = pf_render_frame(renderer, &frame, &rendered, &image, &out->report, err);
     out->peak_device_bytes = pf_vk_memory_use_of(pf_renderer_context(renderer)).peak;
     if (status == PF_OK && settings.aovs)
         status = motion(renderer, request->scene, time, &frame, &image, &out->report, err);
+    int denoised = status == PF_OK && pf_denoise_applies(settings.denoise, out->report.quality);
+    if (denoised)
+        status = pf_denoise_image(&image, settings.aovs, &out->report, err);
     pf_scene_frame_free(&frame);
     if (status != PF_OK) {
         pf_error_prefix(err, "%s frame %" PRId64, request->scene_path, request->frame);
@@ -239,7 +251,8 @@ pf_status pf_frame_render(pf_renderer *renderer, const pf_frame_request *request
 
     double write_start = pf_time_ms();
     pf_image_attribute attributes[ATTRIBUTE_COUNT];
-    fill_attributes(request, &settings, out->report.quality, write_start - start, attributes);
+    fill_attributes(request, &settings, out->report.quality, denoised, write_start - start,
+                    attributes);
     if (snprintf(out->temp_path, sizeof out->temp_path, "%s" PARTIAL_INFIX "%s",
                  request->output_path, request->temp_tag ? request->temp_tag : "0") >=
         (int)sizeof out->temp_path) {

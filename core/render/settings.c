@@ -174,6 +174,8 @@ int pf_settings_format(const pf_render_settings *settings, char *out, size_t siz
         cJSON_AddNumberToObject(root, "budget_ms", settings->budget_ms);
     if (settings->target_relmse > 0.0)
         cJSON_AddNumberToObject(root, "target_relmse", settings->target_relmse);
+    if (settings->denoise != PF_DENOISE_AUTO)
+        cJSON_AddStringToObject(root, "denoise", pf_denoise_name(settings->denoise));
     add_lpv(root, &settings->lpv);
     char *text = cJSON_PrintUnformatted(root);
     cJSON_Delete(root);
@@ -216,6 +218,16 @@ pf_status pf_settings_parse(const char *json, pf_render_settings *settings, pf_e
                                   "\"blackman-harris\"");
         else
             parsed.pixel_filter = (pf_pixel_filter)parsed_filter;
+    }
+    const cJSON *denoise = cJSON_GetObjectItemCaseSensitive(root, "denoise");
+    if (status == PF_OK && denoise) {
+        int mode = cJSON_IsString(denoise) ? pf_denoise_parse(denoise->valuestring) : -1;
+        if (mode < 0)
+            status = pf_error_set(err, PF_ERR_FORMAT,
+                                  "job parameters: \"denoise\" must be \"auto\", \"on\" or "
+                                  "\"off\"");
+        else
+            parsed.denoise = (pf_denoise_mode)mode;
     }
     if (status == PF_OK)
         status = read_bool(root, "aovs", &parsed.aovs, err);

@@ -130,7 +130,8 @@ PF_TEST(no_aovs_writes_rgba_only)
         PF_CHECK_MSG(has(names, count, rgba[i]), "no channel %s", rgba[i]);
 }
 
-/* The filter and bounce limit are in the metadata; compare warns about differing filters. */
+/* The filter, bounce limit and denoising are in the metadata; compare warns about differing
+ * filters. */
 PF_TEST(filter_and_bounces_are_recorded_and_compared)
 {
     char with[1200], without[1200], command[4096], log[1300];
@@ -141,13 +142,17 @@ PF_TEST(filter_and_bounces_are_recorded_and_compared)
     uint32_t count = 0;
     pf_error err = {0};
     PF_REQUIRE_OK(pf_exr_read(without, &image, &attributes, &count, &err), &err);
-    const char *filter = NULL, *bounces = NULL;
+    const char *filter = NULL, *bounces = NULL, *denoise = NULL;
     for (uint32_t i = 0; i < count; i++) {
         if (!strcmp(attributes[i].key, "photonfarm/pixelFilter"))
             filter = attributes[i].value;
         if (!strcmp(attributes[i].key, "photonfarm/maxBounces"))
             bounces = attributes[i].value;
+        if (!strcmp(attributes[i].key, "photonfarm/denoise"))
+            denoise = attributes[i].value;
     }
+    /* fast is not denoised unless asked (issue 40's auto). */
+    PF_CHECK_MSG(denoise && !strcmp(denoise, "off"), "denoise %s", denoise ? denoise : "missing");
     PF_CHECK_MSG(filter && !strcmp(filter, "box"), "pixelFilter %s", filter ? filter : "missing");
     PF_CHECK_MSG(bounces && !strcmp(bounces, "2"), "maxBounces %s", bounces ? bounces : "missing");
     free(attributes);

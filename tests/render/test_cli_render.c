@@ -195,6 +195,23 @@ PF_TEST(bad_frames_scenes_and_options_exit_2)
     char final_path[1100];
     snprintf(final_path, sizeof final_path, "%s/final.exr", tmpdir);
     PF_CHECK(file_exists(final_path));
+    /* final is denoised by default (issue 40): the EXR says so and keeps the raw beauty. */
+    pf_image final_image = {0};
+    pf_image_attribute *final_attributes = NULL;
+    uint32_t final_attribute_count = 0;
+    pf_error final_err = {0};
+    PF_CHECK_OK(pf_exr_read(final_path, &final_image, &final_attributes, &final_attribute_count,
+                            &final_err),
+                &final_err);
+    int denoised = 0;
+    for (uint32_t i = 0; i < final_attribute_count; i++)
+        if (!strcmp(final_attributes[i].key, "photonfarm/denoise"))
+            denoised = !strcmp(final_attributes[i].value, "on");
+    PF_CHECK(denoised);
+    PF_CHECK(pf_image_channel(&final_image, "noisy.R") >= 0 &&
+             pf_image_channel(&final_image, "variance.Y") >= 0);
+    free(final_attributes);
+    pf_image_free(&final_image);
     /*
      * No --quality: auto, whose planner picks fast (no budget) and says so; fast renders with
      * its LPV options, and the EXR names the preset that rendered.

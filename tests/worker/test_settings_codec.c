@@ -42,7 +42,8 @@ static int settings_equal_report(const pf_render_settings *a, const pf_render_se
     }
     SAME(width) SAME(height) SAME(quality) SAME(samples_per_pixel) SAME(seed) SAME(aovs)
     SAME(time_budget_ms) SAME(photons_per_pass) SAME(pixel_filter) SAME(bounce_limit)
-    SAME(budget_ms) SAME(target_relmse) SAME(float_pixels) SAME(lpv.cascades) SAME(lpv.size)
+    SAME(budget_ms) SAME(target_relmse) SAME(float_pixels) SAME(denoise) SAME(lpv.cascades)
+    SAME(lpv.size)
     SAME(lpv.cell_size) SAME(lpv.offset_cells) SAME(lpv.undamped)
     for (uint32_t k = 0; k < PF_LPV_MAX_CASCADES; k++)
         SAME(lpv.iterations[k])
@@ -61,7 +62,7 @@ static const char *const every_option[] = {
     "--photons", "54321", "--time-budget", "12.5", "--float", "--no-aovs", "--filter",
     "blackman-harris", "--max-bounces", "3", "--budget-ms", "2500", "--target-relmse", "0.02",
     "--lpv-cascades", "3", "--lpv-size", "24", "--lpv-iterations", "5,6,7", "--lpv-cell",
-    "0.125"};
+    "0.125", "--denoise", "off"};
 #define OPTION_COUNT (sizeof every_option / sizeof every_option[0])
 
 /* What every_option means, written out by hand. */
@@ -87,6 +88,7 @@ static pf_render_settings every_field(void)
     s.lpv.iterations[1] = 6;
     s.lpv.iterations[2] = 7;
     s.lpv.cell_size = 0.125f;
+    s.denoise = PF_DENOISE_OFF;
     return s;
 }
 
@@ -174,6 +176,7 @@ PF_TEST(the_parser_and_the_codec_share_their_bounds)
         {"--size", "1x16384", "4294967297x1", "{\"height\":4294967297}"}, /* no wrap */
         {"--size", "7x5", "7x", "{\"width\":-1}"},
         {"--spp", "1", "1e3", "{\"spp\":1.5}"},
+        {"--denoise", "on", "yes", "{\"denoise\":true}"},
     };
     for (size_t i = 0; i < sizeof bounds / sizeof bounds[0]; i++) {
         pf_render_settings settings;

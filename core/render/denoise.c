@@ -1,0 +1,415 @@
+/*
+ * The `denoise` stage (issue 40): an edge-avoiding à-trous wavelet filter
+ * (Dammertz et al. 2010, "Edge-Avoiding À-Trous Wavelet Transform for fast
+ * Global Illumination Filtering") with the luminance edge-stopping function
+ * of SVGF (Schied et al. 2017), run on the host over the finished image.
+ *
+ * What is filtered is the indirect light without its caustics, the noisiest
+ * part of every preset that has a split film: the direct layer (with the
+ * emission the camera sees: a light source is not noisy, and filtering it
+ * into its surroundings moved the Cornell box's mean by 15 %) and the caustic
+ * layer (sharp by nature) are kept as rendered, and beauty = direct +
+ * indirect still holds. The signal is divided by the albedo of the surface
+ * the pixel sees (the albedo AOV), filtered, and multiplied back, so that
+ * texture detail is not blurred; where that albedo is (nearly) black it is
+ * filtered as it is.
+ *
+ * Guides, per tap q of pixel p (SVGF §4.1):
+ *   normal     max(0, n_p · n_q)^128
+ *   depth      exp(-|z_p - z_q| / (|dz_p| · |p - q| + 1e-3 z_p)), dz the depth's
+ *              change per pixel at p (the larger of its two central differences)
+ *   luminance  exp(-|l_p - l_q| / (4 · sqrt(g(var_p)) + 1e-6)), var the variance of
+ *              the lighting's luminance, g a 3×3 Gaussian blur of it
+ * with the B3-spline kernel (1/16, 1/4, 3/8, 1/4, 1/16) spread 1, 2, 4, 8, 16
+ * pixels over five passes, the variance carried along (var' = Σ (h w)² var / (Σ h w)²).
+ *
+ * The variance is estimated spatially, as SVGF does for pixels without
+ * history, but over the four 4×4 quadrants around the pixel, keeping the
+ * smallest (estimate_variance says why), weighted by the normal and depth
+ * guides. The film keeps no per-sample moments yet.
+ *
+ * A non-finite input value is treated as 0 and gets no weight, so one bad
+ * pixel cannot spread.
+ */
+#include "render_internal.h"
+
+#include <math.h>
+#include <pthread.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#define DENOISE_PASSES 5
+#define DENOISE_NORMAL_SQUARINGS 7 /* the normal weight's exponent: 2^7 = 128 */
+#define DENOISE_SIGMA_LUMINANCE 4.0f
+/* Albedo below which a pixel is filtered as it is (a light source, black paint, nothing). */
+#define DENOISE_MIN_ALBEDO 0.01f
+/* Reach of the spatial variance estimate: quadrants of (1 + this)² pixels. */
+#define DENOISE_VARIANCE_RADIUS 3
+#define DENOISE_MAX_CHANNELS 64u
+/* Threads the passes' rows are split between: the machine's cores, at most this many. */
+#define DENOISE_MAX_THREADS 16
+
+static const float b3[5] = {1.0f / 16.0f, 1.0f / 4.0f, 3.0f / 8.0f, 1.0f / 4.0f, 1.0f / 16.0f};
+
+/* Where the stage reads and writes in the image (channel indices). */
+typedef struct denoise_channels {
+    int beauty[3], direct[3], indirect[3], caustic[3], albedo[3], normal[3], depth;
+} denoise_channels;
+
+/* The guides and the signal of one image, one float array each. */
+typedef struct denoise_planes {
+    uint32_t width, height;
+    float *lighting;   /* 3 per pixel: demodulated */
+    float *albedo;     /* 3 per pixel: what the lighting was divided by (1 where not) */
+    float *normal;     /* 3 per pixel */
+    float *depth;      /* 1 per pixel; 0: nothing seen */
+    float *depth_step; /* 1 per pixel: |dz| per pixel */
+    float *variance;   /* 1 per pixel */
+    float *scratch;    /* 4 per pixel: the next pass's lighting and variance */
+} denoise_planes;
+
+static float luminance(const float *rgb)
+{
+    return 0.2126f * rgb[0] + 0.7152f * rgb[1] + 0.0722f * rgb[2];
+}
+
+static float finite_or_zero(float value)
+{
+    return isfinite(value) ? value : 0.0f;
+}
+
+static void planes_free(denoise_planes *planes)
+{
+    free(planes->lighting);
+    free(planes->albedo);
+    free(planes->normal);
+    free(planes->depth);
+    free(planes->depth_step);
+    free(planes->variance);
+    free(planes->scratch);
+}
+
+/* Demodulated lighting and the guides from the image's channels. */
+static int planes_fill(const pf_image *image, const denoise_channels *at, denoise_planes *planes)
+{
+    size_t pixels = (size_t)image->width * image->height;
+    planes->width = image->width;
+    planes->height = image->height;
+    planes->lighting = malloc(3 * pixels * sizeof(float));
+    planes->albedo = malloc(3 * pixels * sizeof(float));
+    planes->normal = malloc(3 * pixels * sizeof(float));
+    planes->depth = malloc(pixels * sizeof(float));
+    planes->depth_step = malloc(pixels * sizeof(float));
+    planes->variance = malloc(pixels * sizeof(float));
+    planes->scratch = malloc(4 * pixels * sizeof(float));
+    if (!planes->lighting || !planes->albedo || !planes->normal || !planes->depth ||
+        !planes->depth_step || !planes->variance || !planes->scratch)
+        return 0;
+    for (size_t p = 0; p < pixels; p++) {
+        const float *in = image->pixels + p * image->channel_count;
+        for (int c = 0; c < 3; c++) {
+            float albedo = finite_or_zero(in[at->albedo[c]]);
+            float signal = finite_or_zero(in[at->indirect[c]]) - finite_or_zero(in[at->caustic[c]]);
+            int demodulate = albedo >= DENOISE_MIN_ALBEDO;
+            planes->albedo[3 * p + c] = demodulate ? albedo : 1.0f;
+            planes->lighting[3 * p + c] = demodulate ? signal / albedo : signal;
+            planes->normal[3 * p + c] = finite_or_zero(in[at->normal[c]]);
+        }
+        float depth = finite_or_zero(in[at->depth]);
+        planes->depth[p] = depth > 0.0f ? depth : 0.0f;
+    }
+    uint32_t w = image->width, h = image->height;
+    for (uint32_t y = 0; y < h; y++)
+        for (uint32_t x = 0; x < w; x++) {
+            size_t p = (size_t)y * w + x;
+            float z = planes->depth[p];
+            float left = planes->depth[y * (size_t)w + (x > 0 ? x - 1 : x)];
+            float right = planes->depth[y * (size_t)w + (x + 1 < w ? x + 1 : x)];
+            float up = planes->depth[(size_t)(y > 0 ? y - 1 : y) * w + x];
+            float down = planes->depth[(size_t)(y + 1 < h ? y + 1 : y) * w + x];
+            /* Only neighbours on a surface count (the background's 0 is no depth). */
+            float dx = left > 0.0f && right > 0.0f ? 0.5f * fabsf(right - left) : 0.0f;
+            float dy = up > 0.0f && down > 0.0f ? 0.5f * fabsf(down - up) : 0.0f;
+            planes->depth_step[p] = z > 0.0f ? fmaxf(dx, dy) : 0.0f;
+        }
+    return 1;
+}
+
+/* Normal and depth weight of tap q for pixel p, offset pixels apart. */
+static float geometry_weight(const denoise_planes *planes, size_t p, size_t q, float offset)
+{
+    float zp = planes->depth[p], zq = planes->depth[q];
+    if ((zp > 0.0f) != (zq > 0.0f))
+        return 0.0f;
+    if (zp == 0.0f)
+        return 1.0f; /* both see nothing */
+    const float *np = planes->normal + 3 * p, *nq = planes->normal + 3 * q;
+    float cosine = np[0] * nq[0] + np[1] * nq[1] + np[2] * nq[2];
+    /* cosine^128 by seven squarings: powf was most of the stage's time. */
+    float w_normal = cosine > 0.0f ? cosine : 0.0f;
+    for (int k = 0; k < DENOISE_NORMAL_SQUARINGS; k++)
+        w_normal *= w_normal;
+    float w_depth =
+        expf(-fabsf(zp - zq) / (planes->depth_step[p] * offset + 1e-3f * zp));
+    return w_normal * w_depth;
+}
+
+/*
+ * The variance of the lighting's luminance at each pixel, from its neighbours: the
+ * smallest of the guided variances of the four 4×4 windows that have p in a corner
+ * (Kuwahara's quadrants). A window across an edge (a light source beside the ceiling,
+ * a shadow's border) sees the edge's contrast, not noise; the quadrant on p's own side
+ * of it does not, so the edge keeps a low variance and the filter keeps the edge.
+ */
+static void estimate_variance(denoise_planes *planes, int row_begin, int row_end)
+{
+    int w = (int)planes->width, h = (int)planes->height;
+    for (int y = row_begin; y < row_end; y++)
+        for (int x = 0; x < w; x++) {
+            size_t p = (size_t)y * w + x;
+            double smallest = INFINITY;
+            for (int quadrant = 0; quadrant < 4; quadrant++) {
+                int sx = quadrant & 1 ? 1 : -1, sy = quadrant & 2 ? 1 : -1;
+                double sum = 0.0, sum2 = 0.0, weights = 0.0;
+                int taps = 0;
+                for (int j = 0; j <= DENOISE_VARIANCE_RADIUS; j++)
+                    for (int i = 0; i <= DENOISE_VARIANCE_RADIUS; i++) {
+                        int qx = x + sx * i, qy = y + sy * j;
+                        if (qx < 0 || qy < 0 || qx >= w || qy >= h)
+                            continue;
+                        size_t q = (size_t)qy * w + qx;
+                        float offset = sqrtf((float)(i * i + j * j));
+                        float weight = q == p ? 1.0f : geometry_weight(planes, p, q, offset);
+                        double l = luminance(planes->lighting + 3 * q);
+                        sum += weight * l;
+                        sum2 += weight * l * l;
+                        weights += weight;
+                        taps += weight > 0.5f;
+                    }
+                /* A quadrant cut off by the border or the geometry says little. */
+                if (taps < 4)
+                    continue;
+                double mean = sum / weights;
+                smallest = fmin(smallest, fmax(0.0, sum2 / weights - mean * mean));
+            }
+            planes->variance[p] = isfinite(smallest) ? (float)smallest : 0.0f;
+        }
+}
+
+/* The 3×3 Gaussian of the variance at p (SVGF: a steadier edge-stopping scale). */
+static float blurred_variance(const denoise_planes *planes, int x, int y)
+{
+    static const float g[2] = {0.25f, 0.125f}; /* centre 1/4, edges 1/8, corners 1/16 */
+    int w = (int)planes->width, h = (int)planes->height;
+    float sum = 0.0f, weights = 0.0f;
+    for (int dy = -1; dy <= 1; dy++)
+        for (int dx = -1; dx <= 1; dx++) {
+            int qx = x + dx, qy = y + dy;
+            if (qx < 0 || qy < 0 || qx >= w || qy >= h)
+                continue;
+            int ring = abs(dx) + abs(dy);
+            float k = ring == 0 ? g[0] : ring == 1 ? g[1] : 0.0625f;
+            sum += k * planes->variance[(size_t)qy * w + qx];
+            weights += k;
+        }
+    return sum / weights;
+}
+
+/* Rows [row_begin, row_end) of one à-trous pass of spread `step`, from planes->lighting and
+ * variance into planes->scratch. */
+static void atrous_rows(denoise_planes *planes, int step, int row_begin, int row_end)
+{
+    int w = (int)planes->width, h = (int)planes->height;
+    for (int y = row_begin; y < row_end; y++)
+        for (int x = 0; x < w; x++) {
+            size_t p = (size_t)y * w + x;
+            float lp = luminance(planes->lighting + 3 * p);
+            float scale = DENOISE_SIGMA_LUMINANCE * sqrtf(blurred_variance(planes, x, y)) + 1e-6f;
+            float sum[3] = {0, 0, 0}, variance = 0.0f, weights = 0.0f;
+            for (int j = -2; j <= 2; j++)
+                for (int i = -2; i <= 2; i++) {
+                    int qx = x + i * step, qy = y + j * step;
+                    if (qx < 0 || qy < 0 || qx >= w || qy >= h)
+                        continue;
+                    size_t q = (size_t)qy * w + qx;
+                    float weight = b3[i + 2] * b3[j + 2];
+                    if (q != p) {
+                        float offset = (float)step * sqrtf((float)(i * i + j * j));
+                        float lq = luminance(planes->lighting + 3 * q);
+                        weight *= geometry_weight(planes, p, q, offset) *
+                                  expf(-fabsf(lp - lq) / scale);
+                    }
+                    for (int c = 0; c < 3; c++)
+                        sum[c] += weight * planes->lighting[3 * q + c];
+                    variance += weight * weight * planes->variance[q];
+                    weights += weight;
+                }
+            float *out = planes->scratch + 4 * p;
+            for (int c = 0; c < 3; c++)
+                out[c] = sum[c] / weights;
+            out[3] = variance / (weights * weights);
+        }
+}
+
+/* What one thread does: rows [row_begin, row_end) of the variance estimate (step 0) or of
+ * an à-trous pass of spread step. */
+typedef struct denoise_slice {
+    denoise_planes *planes;
+    int step, row_begin, row_end;
+} denoise_slice;
+
+static void *slice_entry(void *argument)
+{
+    denoise_slice *slice = argument;
+    if (slice->step == 0)
+        estimate_variance(slice->planes, slice->row_begin, slice->row_end);
+    else
+        atrous_rows(slice->planes, slice->step, slice->row_begin, slice->row_end);
+    return NULL;
+}
+
+/* Runs step (0: the variance estimate) over every row, split between the cores; rows only
+ * read the planes a pass does not write, so the slices need no locks. */
+static void run_rows(denoise_planes *planes, int step)
+{
+    long cores = sysconf(_SC_NPROCESSORS_ONLN);
+    int threads = cores < 1 ? 1 : cores > DENOISE_MAX_THREADS ? DENOISE_MAX_THREADS : (int)cores;
+    int h = (int)planes->height;
+    if (threads > h)
+        threads = h;
+    denoise_slice slices[DENOISE_MAX_THREADS];
+    pthread_t ids[DENOISE_MAX_THREADS];
+    int started[DENOISE_MAX_THREADS] = {0};
+    for (int t = 0; t < threads; t++)
+        slices[t] = (denoise_slice){planes, step, h * t / threads, h * (t + 1) / threads};
+    for (int t = 1; t < threads; t++)
+        started[t] = pthread_create(&ids[t], NULL, slice_entry, &slices[t]) == 0;
+    slice_entry(&slices[0]);
+    for (int t = 1; t < threads; t++) {
+        if (started[t])
+            pthread_join(ids[t], NULL);
+        else
+            slice_entry(&slices[t]); /* no thread: this one does the slice */
+    }
+}
+
+/* One à-trous pass of spread `step` from planes->lighting/variance into them again. */
+static void atrous_pass(denoise_planes *planes, int step)
+{
+    run_rows(planes, step);
+    size_t pixels = (size_t)planes->width * planes->height;
+    for (size_t p = 0; p < pixels; p++) {
+        memcpy(planes->lighting + 3 * p, planes->scratch + 4 * p, 3 * sizeof(float));
+        planes->variance[p] = planes->scratch[4 * p + 3];
+    }
+}
+
+/* A copy of image with the layers noisy.R/G/B and variance.Y appended. */
+static pf_status grow_image(const pf_image *image, pf_image *out, pf_error *err)
+{
+    static const char *const added[4] = {"noisy.R", "noisy.G", "noisy.B", "variance.Y"};
+    const char *names[DENOISE_MAX_CHANNELS];
+    uint32_t count = image->channel_count;
+    if (count + 4 > DENOISE_MAX_CHANNELS)
+        return pf_error_set(err, PF_ERR_LIMIT, "denoise: %u channels leave no room", count);
+    for (uint32_t c = 0; c < count; c++)
+        names[c] = image->channel_names[c];
+    for (uint32_t c = 0; c < 4; c++)
+        names[count + c] = added[c];
+    pf_status status = pf_image_create(out, image->width, image->height, count + 4, names, err);
+    if (status != PF_OK)
+        return status;
+    size_t pixels = (size_t)image->width * image->height;
+    for (size_t p = 0; p < pixels; p++)
+        memcpy(out->pixels + p * (count + 4), image->pixels + p * count, count * sizeof(float));
+    return PF_OK;
+}
+
+pf_status pf_denoise_image(pf_image *image, int keep_noisy, pf_frame_report *report,
+                           pf_error *err)
+{
+    double start = pf_time_ms();
+    static const char *const layers[6] = {"", "direct.", "indirect.", "caustic.", "albedo.",
+                                          "normal."};
+    static const char *const rgb[3] = {"R", "G", "B"}, *const xyz[3] = {"X", "Y", "Z"};
+    denoise_channels at;
+    int *slots[6] = {at.beauty, at.direct, at.indirect, at.caustic, at.albedo, at.normal};
+    for (int layer = 0; layer < 6; layer++)
+        for (int c = 0; c < 3; c++) {
+            char name[32];
+            snprintf(name, sizeof name, "%s%s", layers[layer], layer == 5 ? xyz[c] : rgb[c]);
+            slots[layer][c] = pf_image_channel(image, name);
+            if (slots[layer][c] < 0)
+                return pf_error_set(err, PF_ERR_INVALID, "denoise: the image has no %s channel",
+                                    name);
+        }
+    at.depth = pf_image_channel(image, "depth.Z");
+    if (at.depth < 0)
+        return pf_error_set(err, PF_ERR_INVALID, "denoise: the image has no depth.Z channel");
+    denoise_planes planes = {0};
+    if (!planes_fill(image, &at, &planes)) {
+        planes_free(&planes);
+        return pf_error_set(err, PF_ERR_NOMEM, "denoise: out of memory for %ux%u",
+                            image->width, image->height);
+    }
+    run_rows(&planes, 0);
+    double noisy_variance = 0.0;
+    size_t pixels = (size_t)image->width * image->height;
+    /* The variance layer is the noisy lighting's, the estimate the filter started from. */
+    float *estimate = keep_noisy ? malloc(pixels * sizeof *estimate + 1) : NULL;
+    if (keep_noisy && !estimate) {
+        planes_free(&planes);
+        return pf_error_set(err, PF_ERR_NOMEM, "denoise: out of memory");
+    }
+    for (size_t p = 0; p < pixels; p++) {
+        noisy_variance += planes.variance[p];
+        if (estimate)
+            estimate[p] = planes.variance[p];
+    }
+    for (int pass = 0; pass < DENOISE_PASSES; pass++)
+        atrous_pass(&planes, 1 << pass);
+
+    pf_image grown = {0};
+    pf_status status = keep_noisy ? grow_image(image, &grown, err) : PF_OK;
+    if (status != PF_OK) {
+        free(estimate);
+        planes_free(&planes);
+        return status;
+    }
+    pf_image *out = keep_noisy ? &grown : image;
+    uint32_t first_added = image->channel_count;
+    for (size_t p = 0; p < pixels; p++) {
+        float *texel = out->pixels + p * out->channel_count;
+        if (keep_noisy) {
+            for (int c = 0; c < 3; c++)
+                texel[first_added + c] = finite_or_zero(texel[at.beauty[c]]);
+            texel[first_added + 3] = estimate[p];
+        }
+        /* beauty = direct + indirect, caustic ⊆ indirect: still so after filtering. */
+        for (int c = 0; c < 3; c++) {
+            float indirect = finite_or_zero(texel[at.caustic[c]]) +
+                             planes.lighting[3 * p + c] * planes.albedo[3 * p + c];
+            texel[at.indirect[c]] = indirect;
+            texel[at.beauty[c]] = finite_or_zero(texel[at.direct[c]]) + indirect;
+        }
+    }
+    free(estimate);
+    planes_free(&planes);
+    if (keep_noisy) {
+        pf_image_free(image);
+        *image = grown;
+    }
+    pf_stage_timing *row = pf_frame_report_row(report, "denoise", NULL, pf_time_ms() - start,
+                                               -1.0);
+    if (row) {
+        snprintf(row->reason, sizeof row->reason,
+                 "à-trous (%d passes) on the demodulated indirect light, on the host",
+                 DENOISE_PASSES);
+        pf_stage_add_counter(row, "pixels", (double)pixels);
+        pf_stage_add_counter(row, "passes", DENOISE_PASSES);
+        pf_stage_add_counter(row, "mean_variance", noisy_variance / (double)pixels);
+    }
+    return PF_OK;
+}
