@@ -326,6 +326,7 @@ int main(int argc, char **argv)
     if (!quality_plot_svg(svg_path, title, rows, row_count))
         fprintf(stderr, "quality_bench: cannot write %s\n", svg_path);
     quality_summary(rows, row_count, 0.01);
+    quality_summary(rows, row_count, 0.002);
     printf("wrote %s and %s\n", csv_path, svg_path);
 
     pf_image_free(&truth);
