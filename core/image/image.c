@@ -161,3 +161,26 @@ pf_status pf_image_select(const pf_image *in, const char *const *names, uint32_t
             out->pixels[p * count + c] = in->pixels[p * in->channel_count + (uint32_t)index[c]];
     return PF_OK;
 }
+
+pf_status pf_image_append_channels(const pf_image *in, const char *const *names, uint32_t count,
+                                   pf_image *out, pf_error *err)
+{
+    const char *all[PF_IMAGE_METRIC_CHANNELS_MAX];
+    uint32_t total = in->channel_count + count;
+    memset(out, 0, sizeof *out);
+    if (total > PF_IMAGE_METRIC_CHANNELS_MAX)
+        return pf_error_set(err, PF_ERR_INVALID, "image: %u channels and %u more exceed %u",
+                            in->channel_count, count, PF_IMAGE_METRIC_CHANNELS_MAX);
+    for (uint32_t c = 0; c < in->channel_count; c++)
+        all[c] = in->channel_names[c];
+    for (uint32_t c = 0; c < count; c++)
+        all[in->channel_count + c] = names[c];
+    pf_status status = pf_image_create(out, in->width, in->height, total, all, err);
+    if (status != PF_OK)
+        return status;
+    uint64_t pixels = (uint64_t)in->width * in->height;
+    for (uint64_t p = 0; p < pixels; p++)
+        memcpy(out->pixels + p * total, in->pixels + p * in->channel_count,
+               in->channel_count * sizeof *in->pixels);
+    return PF_OK;
+}

@@ -109,6 +109,14 @@ pf_status pf_image_select(const pf_image *in, const char *const *names, uint32_t
                           pf_image *out, pf_error *err);
 
 /*
+ * A new image of in's channels followed by count new ones named names[0..count), zero
+ * (AOV stages add their layers to a finished image: motion.*, noisy.*). PF_ERR_INVALID
+ * when a name is taken or more than PF_IMAGE_METRIC_CHANNELS_MAX channels would result.
+ */
+pf_status pf_image_append_channels(const pf_image *in, const char *const *names, uint32_t count,
+                                   pf_image *out, pf_error *err);
+
+/*
  * IEEE half conversion (round to nearest even), shared with GPU readback code.
  * Magnitudes above 65504 round to it up to 65520 (the midpoint to 2^16) and become
  * inf from there; at or below 2^-25 they become (signed) zero; NaN stays a (quiet) NaN.

@@ -47,7 +47,6 @@
 #define DENOISE_MIN_ALBEDO 0.01f
 /* Reach of the spatial variance estimate: quadrants of (1 + this)² pixels. */
 #define DENOISE_VARIANCE_RADIUS 3
-#define DENOISE_MAX_CHANNELS 64u
 /* Threads the passes' rows are split between: the machine's cores, at most this many. */
 #define DENOISE_MAX_THREADS 16
 
@@ -306,27 +305,6 @@ static void atrous_pass(denoise_planes *planes, int step)
     }
 }
 
-/* A copy of image with the layers noisy.R/G/B and variance.Y appended. */
-static pf_status grow_image(const pf_image *image, pf_image *out, pf_error *err)
-{
-    static const char *const added[4] = {"noisy.R", "noisy.G", "noisy.B", "variance.Y"};
-    const char *names[DENOISE_MAX_CHANNELS];
-    uint32_t count = image->channel_count;
-    if (count + 4 > DENOISE_MAX_CHANNELS)
-        return pf_error_set(err, PF_ERR_LIMIT, "denoise: %u channels leave no room", count);
-    for (uint32_t c = 0; c < count; c++)
-        names[c] = image->channel_names[c];
-    for (uint32_t c = 0; c < 4; c++)
-        names[count + c] = added[c];
-    pf_status status = pf_image_create(out, image->width, image->height, count + 4, names, err);
-    if (status != PF_OK)
-        return status;
-    size_t pixels = (size_t)image->width * image->height;
-    for (size_t p = 0; p < pixels; p++)
-        memcpy(out->pixels + p * (count + 4), image->pixels + p * count, count * sizeof(float));
-    return PF_OK;
-}
-
 pf_status pf_denoise_image(pf_image *image, int keep_noisy, pf_frame_report *report,
                            pf_error *err)
 {
@@ -371,8 +349,9 @@ pf_status pf_denoise_image(pf_image *image, int keep_noisy, pf_frame_report *rep
     for (int pass = 0; pass < DENOISE_PASSES; pass++)
         atrous_pass(&planes, 1 << pass);
 
+    static const char *const added[4] = {"noisy.R", "noisy.G", "noisy.B", "variance.Y"};
     pf_image grown = {0};
-    pf_status status = keep_noisy ? grow_image(image, &grown, err) : PF_OK;
+    pf_status status = keep_noisy ? pf_image_append_channels(image, added, 4, &grown, err) : PF_OK;
     if (status != PF_OK) {
         free(estimate);
         planes_free(&planes);

@@ -24,8 +24,6 @@
 
 /* Rays traced per call: a few rows of primary rays, in pixel order. */
 #define MOTION_RAY_BATCH 4096u
-/* The split film's 20 channels and the two added here, with room to spare. */
-#define MOTION_MAX_CHANNELS 64u
 
 static double dot3(const double a[3], const double b[3])
 {
@@ -78,25 +76,6 @@ static void barycentric(const float (*v)[4], const double p[3], double w[3])
     w[0] = 1.0 - w[1] - w[2];
 }
 
-static pf_status append_motion_channels(pf_image *image, pf_image *out, pf_error *err)
-{
-    const char *names[MOTION_MAX_CHANNELS];
-    uint32_t count = image->channel_count;
-    if (count + 2 > MOTION_MAX_CHANNELS)
-        return pf_error_set(err, PF_ERR_LIMIT, "motion: %u channels leave no room", count);
-    for (uint32_t c = 0; c < count; c++)
-        names[c] = image->channel_names[c];
-    names[count] = "motion.X";
-    names[count + 1] = "motion.Y";
-    pf_status status = pf_image_create(out, image->width, image->height, count + 2, names, err);
-    if (status != PF_OK)
-        return status;
-    size_t pixels = (size_t)image->width * image->height;
-    for (size_t p = 0; p < pixels; p++)
-        memcpy(out->pixels + p * (count + 2), image->pixels + p * count, count * sizeof(float));
-    return PF_OK;
-}
-
 pf_status pf_render_motion(pf_renderer *renderer, const pf_scene_frame *frame,
                            const pf_scene_frame *previous, pf_image *image,
                            pf_frame_report *report, pf_error *err)
@@ -108,8 +87,9 @@ pf_status pf_render_motion(pf_renderer *renderer, const pf_scene_frame *frame,
         return pf_error_set(err, PF_ERR_INVALID,
                             "motion: the previous frame has %u triangles, this one %u",
                             previous->triangle_count, frame->triangle_count);
+    static const char *const added[2] = {"motion.X", "motion.Y"};
     pf_image grown = {0};
-    pf_status status = append_motion_channels(image, &grown, err);
+    pf_status status = pf_image_append_channels(image, added, 2, &grown, err);
     if (status != PF_OK)
         return status;
     uint32_t width = image->width, height = image->height, channels = grown.channel_count;

@@ -164,9 +164,32 @@ PF_TEST(mismatches_are_invalid)
     pf_image_free(&d);
 }
 
+/* pf_image_append_channels: the old channels copied, the new ones zero, a taken name refused. */
+PF_TEST(appended_channels_follow_the_old_ones)
+{
+    pf_error err = {0};
+    pf_image a, grown;
+    PF_REQUIRE_OK(pf_image_create(&a, 5, 3, 4, rgba, &err), &err);
+    for (size_t i = 0; i < 5 * 3 * 4; i++)
+        a.pixels[i] = (float)i;
+    static const char *const added[] = {"motion.X", "motion.Y"};
+    PF_REQUIRE_OK(pf_image_append_channels(&a, added, 2, &grown, &err), &err);
+    PF_CHECK(grown.channel_count == 6 && pf_image_channel(&grown, "motion.Y") == 5);
+    for (size_t p = 0; p < 15; p++) {
+        for (int c = 0; c < 4; c++)
+            PF_CHECK(grown.pixels[p * 6 + c] == a.pixels[p * 4 + c]);
+        PF_CHECK(grown.pixels[p * 6 + 4] == 0.0f && grown.pixels[p * 6 + 5] == 0.0f);
+    }
+    pf_image_free(&grown);
+    static const char *const taken[] = {"G"};
+    PF_CHECK(pf_image_append_channels(&a, taken, 1, &grown, &err) == PF_ERR_INVALID);
+    pf_image_free(&a);
+}
+
 int main(void)
 {
     PF_RUN(identical_images_have_zero_error);
+    PF_RUN(appended_channels_follow_the_old_ones);
     PF_RUN(constant_offset);
     PF_RUN(single_differing_pixel);
     PF_RUN(channels_match_by_name);
