@@ -127,11 +127,17 @@ pf_status queue_dependents_release(pf_queue *queue, int64_t job_id, int32_t firs
                                    int32_t last_frame, pf_error *err)
 {
     /* Only the tasks this completion can have freed: those overlapping its frames, or
-     * all of them once the whole job is done. */
+     * all of them once the whole job is done. They become eligible at the time this
+     * completion finished (the done task at first_frame), not at 0: a claim that read its clock before that completion
+     * committed cannot take them with a start time before the finish it waited for (the
+     * order the rows record is the order that happened; a worker on a host whose clock is
+     * behind waits out the difference). */
     queue_stmt *stmt;
     pf_status status = queue_prepare(
         queue,
-        "UPDATE tasks SET eligible_at = 0 WHERE status = 'queued' AND eligible_at = "
+        "UPDATE tasks SET eligible_at = coalesce((SELECT p.finished_at FROM tasks p"
+        "  WHERE p.job_id = ?1 AND p.status = 'done' AND p.first_frame = ?2), 0)"
+        " WHERE status = 'queued' AND eligible_at = "
         QUEUE_HELD_AT_SQL " AND job_id IN (SELECT d.job_id FROM job_dependencies d"
         "  WHERE d.after_job = ?1)"
         " AND ((SELECT j.status FROM jobs j WHERE j.id = ?1) = 'done'"
