@@ -23,9 +23,10 @@
  * blends 0.25 bone0 + 0.75 bone1 (in JOINTS_0 order 1, 0 to test the order), vertex 3
  * follows bone1. The skinned node sits at (5, 0, 0), which glTF says to ignore.
  * Extra floats: joints (u16 ×16 = 8 floats), weights (16), inverse binds (32),
- * times (2), rotations (8).
+ * times (2), rotations (8), then TANGENT (0, 1, 0, +1) and COLOR_0 (white) for every
+ * vertex (16 each): a colour gives the frame its corners, where the tangents are.
  */
-#define SKIN_FLOATS 66
+#define SKIN_FLOATS 98
 static const char *write_two_bone(const char *name, const uint16_t joints[16],
                                   const float weights[16], char *path, size_t size)
 {
@@ -45,6 +46,11 @@ static const char *write_two_bone(const char *name, const uint16_t joints[16],
     rotations[3] = 1.0f;
     rotations[4] = sinf(half);
     rotations[7] = cosf(half);
+    for (int v = 0; v < 4; v++) {
+        float *tangent = extra + 66 + 4 * v, *colour = extra + 82 + 4 * v;
+        tangent[1] = tangent[3] = 1.0f;
+        colour[0] = colour[1] = colour[2] = colour[3] = 1.0f;
+    }
     st_gltf spec = {
         .name = name,
         .extra = extra,
@@ -53,7 +59,7 @@ static const char *write_two_bone(const char *name, const uint16_t joints[16],
                  "{\"children\":[2]},{\"translation\":[0,0.5,0]}]",
         .scenes = "[{\"nodes\":[0,1]}]",
         .meshes = "[{\"primitives\":[{\"attributes\":{\"POSITION\":0,\"NORMAL\":1,"
-                  "\"JOINTS_0\":3,\"WEIGHTS_0\":4},\"indices\":2}]}]",
+                  "\"JOINTS_0\":3,\"WEIGHTS_0\":4,\"TANGENT\":8,\"COLOR_0\":9},\"indices\":2}]}]",
         .skins = "[{\"joints\":[1,2],\"inverseBindMatrices\":5}]",
         .extra_accessors =
             ",{\"bufferView\":3,\"componentType\":5123,\"count\":4,\"type\":\"VEC4\"}"
@@ -64,6 +70,10 @@ static const char *write_two_bone(const char *name, const uint16_t joints[16],
             ",{\"bufferView\":3,\"byteOffset\":224,\"componentType\":5126,\"count\":2,"
             "\"type\":\"SCALAR\"}"
             ",{\"bufferView\":3,\"byteOffset\":232,\"componentType\":5126,\"count\":2,"
+            "\"type\":\"VEC4\"}"
+            ",{\"bufferView\":3,\"byteOffset\":264,\"componentType\":5126,\"count\":4,"
+            "\"type\":\"VEC4\"}"
+            ",{\"bufferView\":3,\"byteOffset\":328,\"componentType\":5126,\"count\":4,"
             "\"type\":\"VEC4\"}",
         .animations = "[{\"channels\":[{\"sampler\":0,\"target\":{\"node\":2,"
                       "\"path\":\"rotation\"}}],"
@@ -108,6 +118,14 @@ static void check_skin_at(const pf_scene *scene, double time, double theta)
     st_check_vec3(frame.normals[2], 0, -b / length, a / length, 1e-5);
     st_check_vec3(frame.vertices[4], frame.vertices[2][0], frame.vertices[2][1],
                frame.vertices[2][2], 0);
+    /* Tangents (0, 1, 0) turn with the blended matrix's 3×3: vertex 3's to (0, cos, sin),
+     * vertex 2's to (0, a, b)/|.|; the handedness stays +1. */
+    PF_REQUIRE(frame.corners != NULL);
+    const float *tangent3 = frame.corners[(3 * 1 + 2) * PF_CORNER_TEXELS + 2];
+    const float *tangent2 = frame.corners[(3 * 0 + 2) * PF_CORNER_TEXELS + 2];
+    st_check_vec3(tangent3, 0, cos(theta), sin(theta), 1e-5);
+    st_check_vec3(tangent2, 0, a / length, b / length, 1e-5);
+    PF_CHECK(tangent3[3] == 1.0f && tangent2[3] == 1.0f);
     pf_scene_frame_free(&frame);
 }
 
@@ -206,6 +224,7 @@ PF_TEST(malformed_skins_name_their_accessor)
  */
 #define MORPH_FLOATS 19
 static const char *morph_generator; /* asset.generator of the next write_morph, or NULL */
+static const char *morph_target0 = ""; /* more attributes of target 0, or "" */
 static const char *write_morph(const char *name, const char *mesh_weights,
                                const char *node_extra, const float *animation_data,
                                uint32_t animation_floats, const char *accessors,
@@ -223,7 +242,8 @@ static const char *write_morph(const char *name, const char *mesh_weights,
     static char meshes[512], nodes[256], all_accessors[1024];
     snprintf(meshes, sizeof meshes,
              "[{\"primitives\":[{\"attributes\":{\"POSITION\":0,\"NORMAL\":1},\"indices\":2,"
-             "\"targets\":[{\"POSITION\":3},{\"POSITION\":4}]}]%s%s}]",
+             "\"targets\":[{\"POSITION\":3%s},{\"POSITION\":4}]}]%s%s}]",
+             morph_target0,
              mesh_weights ? ",\"weights\":" : "", mesh_weights ? mesh_weights : "");
     snprintf(nodes, sizeof nodes, "[{\"mesh\":0%s}]", node_extra ? node_extra : "");
     snprintf(all_accessors, sizeof all_accessors,
@@ -471,6 +491,35 @@ PF_TEST(every_animation_plays_unless_one_is_chosen)
     PF_CHECK(scene == NULL);
 }
 
+PF_TEST(morphed_normals_add_their_deltas)
+{
+    /* Target 0 also tilts vertex 2's normal by (0.5, 0, 0): at weight 1 it is
+     * (0.5, 0, 1)/|.|, at weight 0.5 (0.25, 0, 1)/|.|; the other normals stay +Z. */
+    float deltas[12] = {0};
+    deltas[2 * 3] = 0.5f;
+    static const char accessors[] =
+        ",{\"bufferView\":3,\"byteOffset\":76,\"componentType\":5126,\"count\":4,"
+        "\"type\":\"VEC3\"}";
+    static const char *const weights[2] = {"[1,0]", "[0.5,0]"};
+    for (int k = 0; k < 2; k++) {
+        char path[512];
+        morph_target0 = ",\"NORMAL\":5";
+        pf_scene *scene = st_load_ok(write_morph(k ? "morph_normal_half" : "morph_normal",
+                                                 weights[k], NULL, deltas, 12, accessors, NULL,
+                                                 path, sizeof path));
+        morph_target0 = "";
+        PF_REQUIRE(scene);
+        pf_scene_frame frame;
+        pf_error err;
+        PF_REQUIRE_OK(pf_scene_eval(scene, 0.0, &frame, &err), &err);
+        double x = k ? 0.25 : 0.5, length = sqrt(x * x + 1.0);
+        st_check_vec3(frame.normals[2], x / length, 0, 1 / length, 1e-6);
+        st_check_vec3(frame.normals[1], 0, 0, 1, 1e-6);
+        pf_scene_frame_free(&frame);
+        pf_scene_destroy(scene);
+    }
+}
+
 int main(void)
 {
     PF_RUN(two_bone_skin_matches_linear_blend_skinning);
@@ -483,5 +532,6 @@ int main(void)
     PF_RUN(malformed_morphs_are_refused);
     PF_RUN(blender_files_put_frame_f_at_f_over_fps);
     PF_RUN(every_animation_plays_unless_one_is_chosen);
+    PF_RUN(morphed_normals_add_their_deltas);
     return pf_test_finish();
 }
