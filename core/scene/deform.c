@@ -186,23 +186,17 @@ static void gather_corners(const scene_mesh *mesh, uint32_t t, const uint32_t *v
                            int tangent_deltas, float (*out)[4])
 {
     for (int c = 0; c < 3; c++) {
-        float defaults[SCENE_CORNER_FLOATS];
+        float defaults[SCENE_CORNER_FLOATS], world[3];
         scene_corner_defaults(defaults);
         const float *corner =
             mesh->corners ? mesh->corners[t] + SCENE_CORNER_FLOATS * order[c] : defaults;
-        float(*texels)[4] = out + PF_CORNER_TEXELS * c;
-        memcpy(texels[0], corner, 4 * sizeof(float));
-        memcpy(texels[1], corner + 4, 4 * sizeof(float));
         uint32_t v = vertex[order[c]];
         float tangent[3] = {corner[8], corner[9], corner[10]};
         if (tangent_deltas && corner[11] != 0.0f)
             for (int k = 0; k < 3; k++)
                 tangent[k] += s->tangent[v][k];
-        apply_vector(s->matrix[v], tangent, texels[2]);
-        float length = scene_vec3_normalize(texels[2]);
-        if (!(length > 0.0f) || !isfinite(length))
-            memset(texels[2], 0, 3 * sizeof(float));
-        texels[2][3] = det < 0.0f ? -corner[11] : corner[11];
+        apply_vector(s->matrix[v], tangent, world);
+        scene_corner_texels(corner, world, det, out + PF_CORNER_TEXELS * c);
     }
 }
 
@@ -220,33 +214,14 @@ static void gather_triangles(const scene_mesh *mesh, uint32_t first, const defor
         float det = skinned ? det3(s->matrix[vertex[0]]) : node_det;
         const int *order = det < 0.0f ? swapped : straight;
         size_t at = 3 * ((size_t)first + t);
-        float geometric[3], edge1[3], edge2[3];
         for (int c = 0; c < 3; c++) {
             uint32_t v = vertex[order[c]];
-            float *position = frame->vertices[at + c];
-            memcpy(position, s->position[v], 3 * sizeof(float));
-            position[3] = 0.0f;
+            memcpy(frame->vertices[at + c], s->position[v], 3 * sizeof(float));
+            frame->vertices[at + c][3] = 0.0f;
             memcpy(frame->normals[at + c], s->normal[v], 3 * sizeof(float));
             frame->normals[at + c][3] = 0.0f;
-            for (int axis = 0; axis < 3; axis++) {
-                frame->bounds_min[axis] = fminf(frame->bounds_min[axis], position[axis]);
-                frame->bounds_max[axis] = fmaxf(frame->bounds_max[axis], position[axis]);
-            }
         }
-        const float *p = frame->vertices[at];
-        for (int axis = 0; axis < 3; axis++) {
-            edge1[axis] = p[4 + axis] - p[axis];
-            edge2[axis] = p[8 + axis] - p[axis];
-        }
-        scene_cross(edge1, edge2, geometric);
-        scene_vec3_normalize(geometric);
-        for (int c = 0; c < 3; c++) {
-            float *normal = frame->normals[at + c];
-            float length = scene_vec3_normalize(normal);
-            /* No file normal (zero) or a degenerate one: the face normal. */
-            if (!(length > 0.0f) || !isfinite(length))
-                memcpy(normal, geometric, sizeof geometric);
-        }
+        scene_finish_triangle(frame, (size_t)first + t);
         if (frame->corners)
             gather_corners(mesh, t, vertex, order, det, s, tangent_deltas,
                            frame->corners + 3 * PF_CORNER_TEXELS * ((size_t)first + t));

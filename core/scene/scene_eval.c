@@ -254,25 +254,55 @@ static void camera_from_matrix(const float world[16], const scene_camera_def *de
     camera->zfar = def->zfar;
 }
 
+void scene_corner_texels(const float corner[SCENE_CORNER_FLOATS], const float tangent[3],
+                         float det, float (*texels)[4])
+{
+    memcpy(texels[0], corner, 4 * sizeof(float));
+    memcpy(texels[1], corner + 4, 4 * sizeof(float));
+    memcpy(texels[2], tangent, 3 * sizeof(float));
+    float length = scene_vec3_normalize(texels[2]);
+    if (!(length > 0.0f) || !isfinite(length))
+        memset(texels[2], 0, 3 * sizeof(float));
+    texels[2][3] = det < 0.0f ? -corner[11] : corner[11];
+}
+
+void scene_finish_triangle(pf_scene_frame *frame, size_t t)
+{
+    const float *v = frame->vertices[3 * t];
+    for (int c = 0; c < 3; c++)
+        for (int axis = 0; axis < 3; axis++) {
+            frame->bounds_min[axis] = fminf(frame->bounds_min[axis], v[4 * c + axis]);
+            frame->bounds_max[axis] = fmaxf(frame->bounds_max[axis], v[4 * c + axis]);
+        }
+    float geometric[3], edge1[3], edge2[3];
+    for (int axis = 0; axis < 3; axis++) {
+        edge1[axis] = v[4 + axis] - v[axis];
+        edge2[axis] = v[8 + axis] - v[axis];
+    }
+    scene_cross(edge1, edge2, geometric);
+    scene_vec3_normalize(geometric);
+    for (int c = 0; c < 3; c++) {
+        float *normal = frame->normals[3 * t + c];
+        float length = scene_vec3_normalize(normal);
+        /* A zero (none in the file) or degenerate normal falls back to the face normal. */
+        if (!(length > 0.0f) || !isfinite(length))
+            memcpy(normal, geometric, sizeof geometric);
+    }
+}
+
 /* Triangle t's corners in world space (PF_CORNER_TEXELS texels each): the tangent turns
- * with the node (a mirroring node flips the bitangent's sign with the winding). */
+ * with the node. */
 static void flatten_corners(const scene_mesh *mesh, uint32_t t, const float world[16],
                             float det, const int corner_order[3], float (*out)[4])
 {
     for (int c = 0; c < 3; c++) {
-        float defaults[SCENE_CORNER_FLOATS];
+        float defaults[SCENE_CORNER_FLOATS], tangent[3];
         scene_corner_defaults(defaults);
         const float *corner = mesh->corners
                                   ? mesh->corners[t] + SCENE_CORNER_FLOATS * corner_order[c]
                                   : defaults;
-        float(*texels)[4] = out + PF_CORNER_TEXELS * c;
-        memcpy(texels[0], corner, 4 * sizeof(float));
-        memcpy(texels[1], corner + 4, 4 * sizeof(float));
-        scene_mat4_vector(world, corner + 8, texels[2]);
-        float length = scene_vec3_normalize(texels[2]);
-        if (!(length > 0.0f) || !isfinite(length))
-            memset(texels[2], 0, 3 * sizeof(float));
-        texels[2][3] = det < 0.0f ? -corner[11] : corner[11];
+        scene_mat4_vector(world, corner + 8, tangent);
+        scene_corner_texels(corner, tangent, det, out + PF_CORNER_TEXELS * c);
     }
 }
 
@@ -306,7 +336,6 @@ static void flatten_triangles(const pf_scene *scene, const float (*world)[16],
         static const int straight[3] = {0, 1, 2}, swapped[3] = {0, 2, 1};
         const int *corner_order = det < 0.0f ? swapped : straight;
         for (uint32_t t = 0; t < mesh->triangle_count; t++, next++) {
-            float geometric[3], edge1[3], edge2[3];
             for (int c = 0; c < 3; c++) {
                 int source = corner_order[c];
                 float *vertex = out->vertices[3 * (size_t)next + c];
@@ -315,25 +344,8 @@ static void flatten_triangles(const pf_scene *scene, const float (*world)[16],
                 scene_mat3_vector(normal_matrix, mesh->normals[t] + 3 * source,
                                   out->normals[3 * (size_t)next + c]);
                 out->normals[3 * (size_t)next + c][3] = 0.0f;
-                for (int axis = 0; axis < 3; axis++) {
-                    out->bounds_min[axis] = fminf(out->bounds_min[axis], vertex[axis]);
-                    out->bounds_max[axis] = fmaxf(out->bounds_max[axis], vertex[axis]);
-                }
             }
-            const float *v = out->vertices[3 * (size_t)next];
-            for (int axis = 0; axis < 3; axis++) {
-                edge1[axis] = v[4 + axis] - v[axis];
-                edge2[axis] = v[8 + axis] - v[axis];
-            }
-            scene_cross(edge1, edge2, geometric);
-            scene_vec3_normalize(geometric);
-            for (int c = 0; c < 3; c++) {
-                float *normal = out->normals[3 * (size_t)next + c];
-                float length = scene_vec3_normalize(normal);
-                /* A zero or degenerate file normal falls back to the face normal. */
-                if (!(length > 0.0f) || !isfinite(length))
-                    memcpy(normal, geometric, sizeof geometric);
-            }
+            scene_finish_triangle(out, next);
             out->triangle_material[next] = mesh->materials[t];
             out->triangle_node[next] = index;
             if (out->corners)

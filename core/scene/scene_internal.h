@@ -231,6 +231,18 @@ void scene_face_normals(const float p[9], float n[9]);
 /* Samples a channel at time (clamped to its key range); out has channel->components. */
 void scene_channel_sample(const scene_channel *channel, double time, float *out);
 
+/*
+ * scene_eval.c, for the triangles it flattens and deform.c's: triangle t of frame, whose
+ * world vertices and (unnormalised) normals are written, widens the frame's bounds and
+ * gets unit normals, a zero or degenerate one replaced by the face normal.
+ */
+void scene_finish_triangle(pf_scene_frame *frame, size_t t);
+/* One corner's PF_CORNER_TEXELS texels from its mesh attributes (SCENE_CORNER_FLOATS) and
+ * its tangent in world space (normalised here; 0 where degenerate): a mirroring transform
+ * (det < 0) flips the bitangent's sign with the winding. */
+void scene_corner_texels(const float corner[SCENE_CORNER_FLOATS], const float tangent[3],
+                         float det, float (*texels)[4]);
+
 /* World matrices of every node at time_seconds (scene_eval.c; nodes outside the scene
  * stay identity); *out has node_count + 1 entries, malloc'ed. */
 pf_status scene_world_matrices(const pf_scene *scene, double time_seconds, float (**out)[16],
