@@ -51,6 +51,21 @@ static pf_status read_bool(const cJSON *root, const char *key, int *value, pf_er
     return PF_OK;
 }
 
+/* An optional key naming one of an enum's values (parse: its name → value, -1 unknown);
+ * absent: untouched; anything else: PF_ERR_FORMAT with message. */
+static pf_status read_name(const cJSON *root, const char *key, int (*parse)(const char *),
+                           const char *message, int *value, pf_error *err)
+{
+    const cJSON *item = cJSON_GetObjectItemCaseSensitive(root, key);
+    if (!item)
+        return PF_OK;
+    int parsed = cJSON_IsString(item) ? parse(item->valuestring) : -1;
+    if (parsed < 0)
+        return pf_error_set(err, PF_ERR_FORMAT, "%s", message);
+    *value = parsed;
+    return PF_OK;
+}
+
 /* "lpv": {"cascades", "size", "iterations": [...], "cell"} with the non-default fields only. */
 static void add_lpv(cJSON *root, const pf_lpv_settings *lpv)
 {
@@ -209,26 +224,17 @@ pf_status pf_settings_parse(const char *json, pf_render_settings *settings, pf_e
         status = read_number(root, "max_bounces", PF_MAX_BOUNCES_LIMIT, &bounces, err);
     if (status == PF_OK)
         status = read_lpv(root, &parsed.lpv, err);
-    const cJSON *filter = cJSON_GetObjectItemCaseSensitive(root, "filter");
-    if (status == PF_OK && filter) {
-        int parsed_filter = cJSON_IsString(filter) ? pf_pixel_filter_parse(filter->valuestring) : -1;
-        if (parsed_filter < 0)
-            status = pf_error_set(err, PF_ERR_FORMAT,
-                                  "job parameters: \"filter\" must be \"gaussian\", \"box\" or "
-                                  "\"blackman-harris\"");
-        else
-            parsed.pixel_filter = (pf_pixel_filter)parsed_filter;
-    }
-    const cJSON *denoise = cJSON_GetObjectItemCaseSensitive(root, "denoise");
-    if (status == PF_OK && denoise) {
-        int mode = cJSON_IsString(denoise) ? pf_denoise_parse(denoise->valuestring) : -1;
-        if (mode < 0)
-            status = pf_error_set(err, PF_ERR_FORMAT,
-                                  "job parameters: \"denoise\" must be \"auto\", \"on\" or "
-                                  "\"off\"");
-        else
-            parsed.denoise = (pf_denoise_mode)mode;
-    }
+    int filter = (int)parsed.pixel_filter, denoise = (int)parsed.denoise;
+    int quality = (int)parsed.quality;
+    if (status == PF_OK)
+        status = read_name(root, "filter", pf_pixel_filter_parse,
+                           "job parameters: \"filter\" must be \"gaussian\", \"box\" or "
+                           "\"blackman-harris\"",
+                           &filter, err);
+    if (status == PF_OK)
+        status = read_name(root, "denoise", pf_denoise_parse,
+                           "job parameters: \"denoise\" must be \"auto\", \"on\" or \"off\"",
+                           &denoise, err);
     if (status == PF_OK)
         status = read_bool(root, "aovs", &parsed.aovs, err);
     if (status == PF_OK)
@@ -242,17 +248,15 @@ pf_status pf_settings_parse(const char *json, pf_render_settings *settings, pf_e
     if (status == PF_OK)
         status = read_real(root, "time_budget_ms", 1, PF_SETTINGS_MAX_TIME_BUDGET_MS,
                            &parsed.time_budget_ms, err);
-    const cJSON *quality = cJSON_GetObjectItemCaseSensitive(root, "quality");
-    if (status == PF_OK && quality) {
-        int parsed_quality = cJSON_IsString(quality) ? pf_quality_parse(quality->valuestring) : -1;
-        if (parsed_quality < 0)
-            status = pf_error_set(err, PF_ERR_FORMAT, "job parameters: unknown \"quality\"");
-        else
-            parsed.quality = (pf_quality)parsed_quality;
-    }
+    if (status == PF_OK)
+        status = read_name(root, "quality", pf_quality_parse,
+                           "job parameters: unknown \"quality\"", &quality, err);
     cJSON_Delete(root);
     if (status != PF_OK)
         return status;
+    parsed.pixel_filter = (pf_pixel_filter)filter;
+    parsed.denoise = (pf_denoise_mode)denoise;
+    parsed.quality = (pf_quality)quality;
     parsed.width = (uint32_t)width;
     parsed.height = (uint32_t)height;
     parsed.samples_per_pixel = (uint32_t)spp;
