@@ -228,8 +228,8 @@ size_t pf_cli_settings_table(pf_render_settings *settings, pf_cli_scene *scene,
          "depth layers",
          "all layers", NULL, NULL, 0, 0, NULL},
         {"--denoise", NULL, "MODE",
-         "fast, final, reference: filter the beauty guided by the\nalbedo, normal and depth "
-         "layers (on), or not (off);\nthe raw beauty is kept as noisy.R/G/B",
+         "fast, final, reference: filter the indirect light, guided\nby the albedo, normal and "
+         "depth layers (on), or not\n(off); the raw beauty is kept as noisy.R/G/B",
          "auto: " PF_DENOISE_AUTO_TEXT, NULL, NULL, 0, 0, NULL},
         {"--filter", NULL, "F",
          "pixel filter: gaussian (sigma 0.5 px, radius 1.5 px),\nbox (1 px), blackman-harris "

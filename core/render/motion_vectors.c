@@ -31,12 +31,11 @@ static double dot3(const double a[3], const double b[3])
 }
 
 /* Raster position (x right from the left edge, y down from the top, in pixels) of world
- * point p seen by camera; 0 when it lies behind the camera. */
-static int project(const pf_camera *camera, uint32_t width, uint32_t height, const double p[3],
-                   double *x, double *y)
+ * point p seen by camera, whose image plane's half extents are tan_x, tan_y; 0 when it
+ * lies behind the camera. */
+static int project(const pf_camera *camera, float tan_x, float tan_y, uint32_t width,
+                   uint32_t height, const double p[3], double *x, double *y)
 {
-    float tan_x, tan_y;
-    pf_camera_image_plane(camera, width, height, &tan_x, &tan_y);
     double d[3], forward[3], right[3], up[3];
     for (int k = 0; k < 3; k++) {
         d[k] = p[k] - camera->position[k];
@@ -93,8 +92,9 @@ pf_status pf_render_motion(pf_renderer *renderer, const pf_scene_frame *frame,
     if (status != PF_OK)
         return status;
     uint32_t width = image->width, height = image->height, channels = grown.channel_count;
-    float tan_x, tan_y;
+    float tan_x, tan_y, previous_tan_x, previous_tan_y;
     pf_camera_image_plane(&frame->camera, width, height, &tan_x, &tan_y);
+    pf_camera_image_plane(&previous->camera, width, height, &previous_tan_x, &previous_tan_y);
     pf_ray *rays = malloc(MOTION_RAY_BATCH * sizeof *rays);
     pf_hit *hits = malloc(MOTION_RAY_BATCH * sizeof *hits);
     if (!rays || !hits)
@@ -145,7 +145,8 @@ pf_status pf_render_motion(pf_renderer *renderer, const pf_scene_frame *frame,
                 for (int k = 0; k < 3; k++)
                     before[k] += w[c] * then[c][k];
             double x, y;
-            if (!project(&previous->camera, width, height, before, &x, &y))
+            if (!project(&previous->camera, previous_tan_x, previous_tan_y, width, height,
+                         before, &x, &y))
                 continue;
             /* Previous minus this pixel's centre, y up (Cycles' Vector pass). */
             out[0] = (float)(x - ((double)(p % width) + 0.5));

@@ -1,5 +1,5 @@
 /* One frame: scene evaluation, render, EXR to a temporary, commit (pf_render.h). */
-#include "pf_render.h"
+#include "render_internal.h"
 
 #include <dirent.h>
 #include <errno.h>
@@ -128,13 +128,8 @@ static void fill_attributes(const pf_frame_request *request, const pf_render_set
 static pf_status deform(const pf_scene *scene, double time, pf_scene_frame *frame,
                         pf_frame_report *report, pf_error *err)
 {
-    const pf_scene_info *info = pf_scene_get_info(scene);
-    pf_stage_timing *row;
-    if (info->deformed_node_count == 0) {
-        if ((row = pf_frame_report_add(report, "deform")) != NULL) {
-            row->skipped = 1;
-            snprintf(row->reason, sizeof row->reason, "no skins or morph targets");
-        }
+    if (pf_scene_get_info(scene)->deformed_node_count == 0) {
+        pf_frame_report_row(report, "deform", "no skins or morph targets", 0.0, -1.0);
         return PF_OK;
     }
     double start = pf_time_ms();
@@ -142,8 +137,8 @@ static pf_status deform(const pf_scene *scene, double time, pf_scene_frame *fram
     pf_status status = pf_scene_deform(scene, time, frame, &deformed, err);
     if (status != PF_OK)
         return status;
-    if ((row = pf_frame_report_add(report, "deform")) != NULL) {
-        row->wall_ms = pf_time_ms() - start;
+    pf_stage_timing *row = pf_frame_report_row(report, "deform", NULL, pf_time_ms() - start, -1.0);
+    if (row) {
         snprintf(row->reason, sizeof row->reason,
                  "%u skinned mesh%s, %u morphed, %llu vertices, on the host",
                  deformed.skinned_meshes, deformed.skinned_meshes == 1 ? "" : "es",
@@ -162,12 +157,9 @@ static pf_status motion(pf_renderer *renderer, const pf_scene *scene, double tim
                         const pf_scene_frame *frame, pf_image *image, pf_frame_report *report,
                         pf_error *err)
 {
-    pf_scene_frame previous = {0};
+    pf_scene_frame previous;
     double previous_time = time - 1.0 / pf_scene_get_info(scene)->fps;
-    pf_deform_report deformed;
-    pf_status status = pf_scene_eval_rigid(scene, previous_time, &previous, err);
-    if (status == PF_OK)
-        status = pf_scene_deform(scene, previous_time, &previous, &deformed, err);
+    pf_status status = pf_scene_eval(scene, previous_time, &previous, err);
     if (status == PF_OK)
         status = pf_render_motion(renderer, frame, &previous, image, report, err);
     pf_scene_frame_free(&previous);

@@ -50,7 +50,6 @@
 /* asset.generator of Blender's glTF exporter ("Khronos glTF Blender I/O v3.4.50"). */
 #define GLTF_BLENDER_GENERATOR "Khronos glTF Blender I/O"
 
-
 static const char *const supported_extensions[] = {
     "KHR_lights_punctual",
     "KHR_materials_emissive_strength",
