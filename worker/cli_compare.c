@@ -76,16 +76,6 @@ static void print_text(const char *path_a, const char *path_b, const pf_image *a
                metrics->mean_b[c]);
 }
 
-/* The value of key among attributes, or NULL. */
-static const char *attribute(const pf_image_attribute *attributes, uint32_t count, const char *key)
-{
-    for (uint32_t i = 0; i < count; i++) {
-        if (!strcmp(attributes[i].key, key))
-            return attributes[i].value;
-    }
-    return NULL;
-}
-
 /*
  * Two images sampled through different pixel filters differ at every edge
  * whatever made them (issue 16: 0.048 relMSE on one row of the Cornell box),
@@ -97,7 +87,7 @@ static void warn_filters(const char *const paths[2], pf_image_attribute *const a
 {
     const char *filter[2];
     for (int k = 0; k < 2; k++)
-        filter[k] = attribute(attributes[k], count[k], "photonfarm/pixelFilter");
+        filter[k] = pf_image_attribute_value(attributes[k], count[k], "photonfarm/pixelFilter");
     if (filter[0] && filter[1] && strcmp(filter[0], filter[1]) != 0)
         fprintf(stderr,
                 "photonfarm compare: warning: different pixel filters (%s: %s, %s: %s); edges "

@@ -184,3 +184,12 @@ pf_status pf_image_append_channels(const pf_image *in, const char *const *names,
                in->channel_count * sizeof *in->pixels);
     return PF_OK;
 }
+
+const char *pf_image_attribute_value(const pf_image_attribute *attributes, uint32_t count,
+                                     const char *key)
+{
+    for (uint32_t i = 0; i < count; i++)
+        if (!strcmp(attributes[i].key, key))
+            return attributes[i].value;
+    return NULL;
+}

@@ -108,6 +108,10 @@ pf_status pf_image_compare(const pf_image *a, const pf_image *b, pf_image_metric
 pf_status pf_image_select(const pf_image *in, const char *const *names, uint32_t count,
                           pf_image *out, pf_error *err);
 
+/* The value of key among count attributes (as pf_exr_read returns them), or NULL. */
+const char *pf_image_attribute_value(const pf_image_attribute *attributes, uint32_t count,
+                                     const char *key);
+
 /*
  * A new image of in's channels followed by count new ones named names[0..count), zero
  * (AOV stages add their layers to a finished image: motion.*, noisy.*). PF_ERR_INVALID

@@ -142,15 +142,9 @@ PF_TEST(filter_and_bounces_are_recorded_and_compared)
     uint32_t count = 0;
     pf_error err = {0};
     PF_REQUIRE_OK(pf_exr_read(without, &image, &attributes, &count, &err), &err);
-    const char *filter = NULL, *bounces = NULL, *denoise = NULL;
-    for (uint32_t i = 0; i < count; i++) {
-        if (!strcmp(attributes[i].key, "photonfarm/pixelFilter"))
-            filter = attributes[i].value;
-        if (!strcmp(attributes[i].key, "photonfarm/maxBounces"))
-            bounces = attributes[i].value;
-        if (!strcmp(attributes[i].key, "photonfarm/denoise"))
-            denoise = attributes[i].value;
-    }
+    const char *filter = pf_image_attribute_value(attributes, count, "photonfarm/pixelFilter");
+    const char *bounces = pf_image_attribute_value(attributes, count, "photonfarm/maxBounces");
+    const char *denoise = pf_image_attribute_value(attributes, count, "photonfarm/denoise");
     /* fast is not denoised unless asked (issue 40's auto). */
     PF_CHECK_MSG(denoise && !strcmp(denoise, "off"), "denoise %s", denoise ? denoise : "missing");
     PF_CHECK_MSG(filter && !strcmp(filter, "box"), "pixelFilter %s", filter ? filter : "missing");

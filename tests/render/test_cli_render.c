@@ -77,16 +77,15 @@ PF_TEST(renders_a_frame_range_to_numbered_exr_files)
         PF_CHECK(image.width == 16 && image.height == 12 && image.channel_count == 13);
         PF_CHECK(pf_image_channel(&image, "motion.X") == 11 &&
                  pf_image_channel(&image, "motion.Y") == 12);
-        int found_frame = 0, found_settings = 0, found_device = 0;
-        for (uint32_t i = 0; i < attribute_count; i++) {
-            if (!strcmp(attributes[i].key, "photonfarm/frame"))
-                found_frame = atoi(attributes[i].value) == frame;
-            if (!strcmp(attributes[i].key, "photonfarm/settings"))
-                found_settings = strstr(attributes[i].value, "\"width\":16") != NULL &&
-                                 strstr(attributes[i].value, "\"height\":12") != NULL;
-            if (!strcmp(attributes[i].key, "photonfarm/device"))
-                found_device = attributes[i].value[0] != '\0';
-        }
+        const char *stored_frame =
+            pf_image_attribute_value(attributes, attribute_count, "photonfarm/frame");
+        const char *settings =
+            pf_image_attribute_value(attributes, attribute_count, "photonfarm/settings");
+        const char *device = pf_image_attribute_value(attributes, attribute_count, "photonfarm/device");
+        int found_frame = stored_frame && atoi(stored_frame) == frame;
+        int found_settings = settings && strstr(settings, "\"width\":16") != NULL &&
+                             strstr(settings, "\"height\":12") != NULL;
+        int found_device = device && device[0] != '\0';
         PF_CHECK_MSG(found_frame, "%s: photonfarm/frame attribute missing or wrong", path);
         PF_CHECK_MSG(found_settings, "%s: photonfarm/settings attribute missing or wrong", path);
         PF_CHECK_MSG(found_device, "%s: photonfarm/device attribute missing", path);
@@ -203,11 +202,9 @@ PF_TEST(bad_frames_scenes_and_options_exit_2)
     PF_CHECK_OK(pf_exr_read(final_path, &final_image, &final_attributes, &final_attribute_count,
                             &final_err),
                 &final_err);
-    int denoised = 0;
-    for (uint32_t i = 0; i < final_attribute_count; i++)
-        if (!strcmp(final_attributes[i].key, "photonfarm/denoise"))
-            denoised = !strcmp(final_attributes[i].value, "on");
-    PF_CHECK(denoised);
+    const char *denoised =
+        pf_image_attribute_value(final_attributes, final_attribute_count, "photonfarm/denoise");
+    PF_CHECK(denoised && !strcmp(denoised, "on"));
     PF_CHECK(pf_image_channel(&final_image, "noisy.R") >= 0 &&
              pf_image_channel(&final_image, "variance.Y") >= 0);
     free(final_attributes);
@@ -232,15 +229,12 @@ PF_TEST(bad_frames_scenes_and_options_exit_2)
     PF_CHECK_OK(pf_exr_read(fast_path, &fast_image, &fast_attributes, &fast_attribute_count,
                             &fast_err),
                 &fast_err);
-    int preset_fast = 0, lpv_recorded = 0;
-    for (uint32_t i = 0; i < fast_attribute_count; i++) {
-        if (!strcmp(fast_attributes[i].key, "photonfarm/preset"))
-            preset_fast = !strcmp(fast_attributes[i].value, "fast");
-        if (!strcmp(fast_attributes[i].key, "photonfarm/settings"))
-            lpv_recorded = strstr(fast_attributes[i].value, "\"iterations\":[4,4,6,6]") != NULL;
-    }
-    PF_CHECK(preset_fast);
-    PF_CHECK(lpv_recorded);
+    const char *preset =
+        pf_image_attribute_value(fast_attributes, fast_attribute_count, "photonfarm/preset");
+    const char *recorded =
+        pf_image_attribute_value(fast_attributes, fast_attribute_count, "photonfarm/settings");
+    PF_CHECK(preset && !strcmp(preset, "fast"));
+    PF_CHECK(recorded && strstr(recorded, "\"iterations\":[4,4,6,6]") != NULL);
     free(fast_attributes);
     pf_image_free(&fast_image);
     const char *bad_usage[] = {"--frame 1 --frames 1-2", "--frames 5-1", "--frames 1-4x0",

@@ -282,10 +282,9 @@ static void exr_settings(const char *path, char *out, size_t size)
     pf_error err = {0};
     out[0] = '\0';
     PF_CHECK_OK(pf_exr_read(path, &image, &attributes, &count, &err), &err);
-    for (uint32_t i = 0; i < count; i++) {
-        if (!strcmp(attributes[i].key, "photonfarm/settings"))
-            snprintf(out, size, "%s", attributes[i].value);
-    }
+    const char *settings = pf_image_attribute_value(attributes, count, "photonfarm/settings");
+    if (settings)
+        snprintf(out, size, "%s", settings);
     free(attributes);
     pf_image_free(&image);
 }

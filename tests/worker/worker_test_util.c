@@ -84,9 +84,9 @@ int wt_exr_frame(const char *path)
     pf_error err = {0};
     int frame = -1;
     if (pf_exr_read(path, &image, &attributes, &count, &err) == PF_OK) {
-        for (uint32_t i = 0; i < count; i++)
-            if (!strcmp(attributes[i].key, "photonfarm/frame"))
-                frame = atoi(attributes[i].value);
+        const char *value = pf_image_attribute_value(attributes, count, "photonfarm/frame");
+        if (value)
+            frame = atoi(value);
     }
     free(attributes);
     pf_image_free(&image);
