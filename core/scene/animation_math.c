@@ -225,15 +225,21 @@ void scene_channel_sample(const scene_channel *channel, double time, float *out)
     }
 }
 
+void scene_triangle_normal(const float a[3], const float b[3], const float c[3], float out[3])
+{
+    float edge1[3], edge2[3];
+    for (int k = 0; k < 3; k++) {
+        edge1[k] = b[k] - a[k];
+        edge2[k] = c[k] - a[k];
+    }
+    scene_cross(edge1, edge2, out);
+    scene_vec3_normalize(out);
+}
+
 void scene_face_normals(const float p[9], float n[9])
 {
-    float edge1[3], edge2[3], geometric[3];
-    for (int k = 0; k < 3; k++) {
-        edge1[k] = p[3 + k] - p[k];
-        edge2[k] = p[6 + k] - p[k];
-    }
-    scene_cross(edge1, edge2, geometric);
-    scene_vec3_normalize(geometric);
+    float geometric[3];
+    scene_triangle_normal(p, p + 3, p + 6, geometric);
     for (int corner = 0; corner < 3; corner++)
         memcpy(n + 3 * corner, geometric, sizeof geometric);
 }

@@ -274,13 +274,8 @@ void scene_finish_triangle(pf_scene_frame *frame, size_t t)
             frame->bounds_min[axis] = fminf(frame->bounds_min[axis], v[4 * c + axis]);
             frame->bounds_max[axis] = fmaxf(frame->bounds_max[axis], v[4 * c + axis]);
         }
-    float geometric[3], edge1[3], edge2[3];
-    for (int axis = 0; axis < 3; axis++) {
-        edge1[axis] = v[4 + axis] - v[axis];
-        edge2[axis] = v[8 + axis] - v[axis];
-    }
-    scene_cross(edge1, edge2, geometric);
-    scene_vec3_normalize(geometric);
+    float geometric[3];
+    scene_triangle_normal(v, v + 4, v + 8, geometric);
     for (int c = 0; c < 3; c++) {
         float *normal = frame->normals[3 * t + c];
         float length = scene_vec3_normalize(normal);

@@ -226,6 +226,8 @@ void scene_mat3_vector(const float m[9], const float v[3], float out[3]);
 void scene_quat_normalize(float q[4]);
 float scene_vec3_normalize(float v[3]);
 void scene_cross(const float a[3], const float b[3], float out[3]);
+/* The unit normal of triangle a, b, c (counter-clockwise front; 0 when degenerate). */
+void scene_triangle_normal(const float a[3], const float b[3], const float c[3], float out[3]);
 /* Writes the unit face normal of triangle p[0..8] (counter-clockwise front) to all three corners n[0..8]. */
 void scene_face_normals(const float p[9], float n[9]);
 /* Samples a channel at time (clamped to its key range); out has channel->components. */
