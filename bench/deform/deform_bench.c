@@ -14,6 +14,7 @@
 #include "pf_bih.h"
 #include "pf_image.h"
 #include "pf_scene.h"
+#include "../bench_stats.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -21,18 +22,6 @@
 #include <string.h>
 
 #define REPEATS 5
-
-static int compare_doubles(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return (x > y) - (x < y);
-}
-
-static double median(double *values, int count)
-{
-    qsort(values, (size_t)count, sizeof *values, compare_doubles);
-    return values[count / 2];
-}
 
 static double sah(const pf_bih *bih)
 {
@@ -90,7 +79,7 @@ static int cost(const char *path, int frame_count, char **frames)
         double refit_ms = pf_time_ms() - refit_start;
         if (!status)
             printf("%6lld %10.3f %10.3f %12llu %10.3f %10.2f %10.3f %10.2f\n", (long long)frame,
-                   median(eval_ms, REPEATS), median(deform_ms, REPEATS),
+                   bench_median(eval_ms, REPEATS), bench_median(deform_ms, REPEATS),
                    (unsigned long long)report.vertices, refit_ms, sah(&first), build_ms,
                    sah(&fresh));
         pf_bih_free(&fresh);

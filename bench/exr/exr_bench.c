@@ -8,6 +8,7 @@
  * (argument 2, default 9), fsync included in ours (it is part of every frame).
  */
 #include "pf_image.h"
+#include "../bench_stats.h"
 
 #include <openexr.h>
 #include <math.h>
@@ -22,12 +23,6 @@ static double now_ms(void)
     struct timespec t;
     clock_gettime(CLOCK_MONOTONIC, &t);
     return (double)t.tv_sec * 1e3 + (double)t.tv_nsec / 1e6;
-}
-
-static int compare_doubles(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return (x > y) - (x < y);
 }
 
 /* 20 channels as a frame has them: beauty, AOV layers, smooth with speckle. */
@@ -182,8 +177,8 @@ int main(int argc, char **argv)
         }
         peer_ms[i] = now_ms() - start;
     }
-    qsort(ours_ms, (size_t)repeats, sizeof *ours_ms, compare_doubles);
-    qsort(peer_ms, (size_t)repeats, sizeof *peer_ms, compare_doubles);
+    bench_sort(ours_ms, repeats);
+    bench_sort(peer_ms, repeats);
     int same = same_pixels(ours, peer);
     printf("image %ux%u, %u half channels, %d writes each, %ld online CPUs\n", image.width,
            image.height, image.channel_count, repeats, sysconf(_SC_NPROCESSORS_ONLN));

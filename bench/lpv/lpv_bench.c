@@ -47,6 +47,7 @@
 #include "pf_render.h"
 #include "pf_scene.h"
 #include "pf_vk.h"
+#include "../bench_stats.h"
 
 #include <math.h>
 #include <stdint.h>
@@ -134,18 +135,6 @@ static int indirect_error(const pf_image *a, const pf_image *b, double *relmse, 
     return 1;
 }
 
-static int compare_doubles(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return (x > y) - (x < y);
-}
-
-static double median(double *values, int count)
-{
-    qsort(values, (size_t)count, sizeof *values, compare_doubles);
-    return values[count / 2];
-}
-
 #define SITE_ROUNDS 7
 
 static int part_sites(pf_vk_context *ctx)
@@ -210,8 +199,9 @@ static int part_sites(pf_vk_context *ctx)
             worst = fmax(worst, fabs((double)host[i] - (double)device[i]));
             scale = fmax(scale, fabs((double)device[i]));
         }
-        double dw = median(device_wall, SITE_ROUNDS), dg = median(device_gpu, SITE_ROUNDS);
-        double hw = median(host_wall, SITE_ROUNDS);
+        double dw = bench_median(device_wall, SITE_ROUNDS);
+        double dg = bench_median(device_gpu, SITE_ROUNDS);
+        double hw = bench_median(host_wall, SITE_ROUNDS);
         printf("%4u³ %16.1f %16.1f %14.1f %9.2f× %16.2g\n", sizes[s], dw, dg, hw, dw / hw,
                worst / scale);
         free(injected);
