@@ -114,7 +114,7 @@ static int sampling_option(const char *command, const char *arg, const char *val
     if (!strcmp(arg, "--denoise")) {
         int mode = pf_denoise_parse(value);
         if (mode < 0)
-            return pf_cli_fail(command, 2, "--denoise '%s': expected auto, on or off", value);
+            return pf_cli_fail(command, 2, "--denoise '%s': expected auto, on, spatial or off", value);
         settings->denoise = (pf_denoise_mode)mode;
     } else if (!strcmp(arg, "--filter")) {
         int filter = pf_pixel_filter_parse(value);
@@ -229,7 +229,8 @@ size_t pf_cli_settings_table(pf_render_settings *settings, pf_cli_scene *scene,
          "all layers", NULL, NULL, 0, 0, NULL},
         {"--denoise", NULL, "MODE",
          "fast, final, reference: filter the indirect light, guided\nby the albedo, normal and "
-         "depth layers (on), or not\n(off); the raw beauty is kept as noisy.R/G/B",
+         "depth layers, blending the\nprevious frame's where this worker rendered it (on),\n"
+         "each frame alone (spatial), or not (off); the raw\nbeauty is kept as noisy.R/G/B",
          "auto: " PF_DENOISE_AUTO_TEXT, NULL, NULL, 0, 0, NULL},
         {"--filter", NULL, "F",
          "pixel filter: gaussian (sigma 0.5 px, radius 1.5 px),\nbox (1 px), blackman-harris "

@@ -25,6 +25,18 @@
  * final+dn and reference+dn are final and reference followed by the denoise
  * stage (issue 40), its time included.
  *
+ * final+tr and reference+tr are a still shot of TEMPORAL_FRAMES frames denoised with
+ * temporal reuse (each frame blends the one before, its camera samples salted by the frame
+ * number, as a worker renders a job's consecutive frames): the point's seconds are the mean
+ * time of a frame (render and denoise), its relMSE the last frame's. It is what a frame of a
+ * still shot costs in steady state, not what one frame alone needs. Each also prints the
+ * flicker between the last two frames (their difference over truth² + ε, the relMSE's
+ * scale) and the seam: the last frame denoised without history (another worker's) against
+ * the one before.
+ *
+ * PF_QUALITY_ONLY=label,label,...: only those curves ("cycles" for Cycles'); the truth is
+ * rendered or read as always.
+ *
  * PF_CYCLES_AS_IMPORTED=1: Cycles renders the file as Blender's importer reads
  * it (cycles_render.py), for users' files such as bench/materials'
  * room-textured.gltf, instead of with photonfarm's material model.
@@ -46,6 +58,7 @@
 
 #define TRUTH_SPP 4096u
 #define MAX_ROWS 64
+#define TEMPORAL_FRAMES 8
 
 typedef struct sweep {
     const char *label;   /* curve name */
@@ -53,6 +66,7 @@ typedef struct sweep {
     const char *knob;    /* what the values set */
     uint32_t values[8];  /* 0-terminated */
     int denoise;         /* the denoise stage after the render (issue 40), timed with it */
+    int temporal;        /* a still shot of TEMPORAL_FRAMES frames with temporal reuse */
 } sweep;
 
 /* What each preset's cost and error are governed by. */
@@ -63,7 +77,22 @@ static const sweep sweeps[] = {
     {"reference", PF_QUALITY_REFERENCE, "spp", {4, 16, 64, 256, 0}},
     {"final+dn", PF_QUALITY_FINAL, "passes", {1, 2, 4, 8, 16, 32, 0}, 1},
     {"reference+dn", PF_QUALITY_REFERENCE, "spp", {4, 16, 64, 256, 0}, 1},
+    {"final+tr", PF_QUALITY_FINAL, "passes", {1, 2, 4, 8, 0}, 1, 1},
+    {"reference+tr", PF_QUALITY_REFERENCE, "spp", {1, 2, 4, 16, 64, 0}, 1, 1},
 };
+
+/* Whether PF_QUALITY_ONLY (a comma-separated list of curve labels) lets label run. */
+static int selected(const char *label)
+{
+    const char *only = getenv("PF_QUALITY_ONLY");
+    if (!only || !*only)
+        return 1;
+    size_t length = strlen(label);
+    for (const char *at = only; (at = strstr(at, label)) != NULL; at += length)
+        if ((at == only || at[-1] == ',') && (at[length] == ',' || at[length] == '\0'))
+            return 1;
+    return 0;
+}
 static const uint32_t cycles_spp[] = {4, 16, 64, 256, 1024, 0};
 
 static uint64_t fnv1a(uint64_t hash, const void *data, size_t bytes)
@@ -175,11 +204,79 @@ static int render_ours(pf_renderer *renderer, const pf_scene_frame *frame,
     double start = pf_time_ms();
     if (pf_render_frame(renderer, frame, settings, image, NULL, &err) != PF_OK ||
         (settings->denoise == PF_DENOISE_ON &&
-         pf_denoise_image(image, 0, NULL, &err) != PF_OK)) {
+         pf_denoise_image(image, 0, NULL, NULL, &err) != PF_OK)) {
         fprintf(stderr, "quality_bench: %s\n", err.message);
         return 0;
     }
     *seconds = (pf_time_ms() - start) / 1000.0;
+    return rgb_only(image);
+}
+
+/* The difference of a and b (R, G, B) over truth² + ε, averaged: the flicker between two
+ * frames on the scale of either one's relMSE. */
+static double flicker(const pf_image *a, const pf_image *b, const pf_image *truth)
+{
+    double sum = 0.0;
+    size_t pixels = (size_t)a->width * a->height;
+    for (size_t p = 0; p < pixels; p++)
+        for (uint32_t c = 0; c < 3; c++) {
+            double d = a->pixels[p * a->channel_count + c] - b->pixels[p * b->channel_count + c];
+            double r = truth->pixels[p * truth->channel_count + c];
+            sum += d * d / (r * r + PF_RELMSE_EPSILON);
+        }
+    return sum / (3.0 * pixels);
+}
+
+/*
+ * A still shot of TEMPORAL_FRAMES frames with temporal reuse (see the top): fills image with
+ * the last frame (R, G, B), seconds with the mean frame time, and prints the flicker and
+ * the seam. 1 on success.
+ */
+static int render_still_shot(pf_renderer *renderer, const pf_scene_frame *frame,
+                             const pf_render_settings *settings, uint64_t sequence_id,
+                             const pf_image *truth, pf_image *image, double *seconds)
+{
+    pf_error err = {0};
+    pf_denoise_history *history = NULL;
+    if (pf_denoise_history_create(&history, &err) != PF_OK)
+        return 0;
+    pf_image previous = {0};
+    double total_ms = 0.0, seam = 0.0, last_flicker = 0.0;
+    int ok = 1;
+    for (int64_t number = 1; ok && number <= TEMPORAL_FRAMES; number++) {
+        pf_render_settings s = *settings;
+        s.sample_salt = (uint64_t)number;
+        pf_image current = {0}, alone = {0};
+        double start = pf_time_ms();
+        ok = pf_render_frame(renderer, frame, &s, &current, NULL, &err) == PF_OK;
+        double rendered_ms = pf_time_ms() - start;
+        if (ok && number == TEMPORAL_FRAMES) { /* another worker's: no history (not timed) */
+            ok = pf_image_append_channels(&current, NULL, 0, &alone, &err) == PF_OK && /* a copy */
+                 pf_denoise_image(&alone, 0, NULL, NULL, &err) == PF_OK;
+        }
+        pf_denoise_sequence sequence = {history, sequence_id, number, 1, 1, NULL};
+        start = pf_time_ms();
+        ok = ok && pf_denoise_image(&current, 0, &sequence, NULL, &err) == PF_OK;
+        total_ms += rendered_ms + pf_time_ms() - start;
+        if (ok && number == TEMPORAL_FRAMES) {
+            seam = flicker(&alone, &previous, truth);
+            last_flicker = flicker(&current, &previous, truth);
+        }
+        pf_image_free(&alone);
+        pf_image_free(&previous);
+        previous = current;
+    }
+    pf_denoise_history_destroy(history);
+    if (!ok) {
+        pf_image_free(&previous);
+        fprintf(stderr, "quality_bench: %s\n", err.message);
+        return 0;
+    }
+    printf("  (still shot of %d frames: flicker %.6g between the last two; the last without "
+           "history against the one before %.6g)\n",
+           TEMPORAL_FRAMES, last_flicker, seam);
+    *image = previous;
+    *seconds = total_ms / TEMPORAL_FRAMES / 1000.0;
     return rgb_only(image);
 }
 
@@ -286,6 +383,8 @@ int main(int argc, char **argv)
            "seconds", "relMSE", "RMSE");
 
     for (size_t s = 0; s < sizeof sweeps / sizeof sweeps[0]; s++) {
+        if (!selected(sweeps[s].label))
+            continue;
         pf_image image = {0};
         double seconds;
         /* Warm-up: pipelines compiled and the scene's BIH built before timing. */
@@ -300,13 +399,18 @@ int main(int argc, char **argv)
             pf_render_settings settings =
                 settings_for(sweeps[s].quality, width, height, *v, 100 + (uint32_t)row_count,
                              sweeps[s].denoise);
-            if (!render_ours(renderer, &frame, &settings, &image, &seconds) ||
+            int rendered =
+                sweeps[s].temporal
+                    ? render_still_shot(renderer, &frame, &settings, 1000 + row_count, &truth,
+                                        &image, &seconds)
+                    : render_ours(renderer, &frame, &settings, &image, &seconds);
+            if (!rendered ||
                 !record("photonfarm", sweeps[s].label, sweeps[s].knob, *v, seconds, &image,
                         &truth, csv, rows, &row_count))
                 return 1;
         }
     }
-    for (const uint32_t *spp = cycles_spp; blender && *spp; spp++) {
+    for (const uint32_t *spp = cycles_spp; blender && selected("cycles") && *spp; spp++) {
         pf_image image = {0};
         double seconds;
         if (!render_cycles(blender, scene_path, width, height, *spp, 2, threads, scratch, &image,

@@ -4,6 +4,9 @@
  * Global Illumination Filtering") with the luminance edge-stopping function
  * of SVGF (Schied et al. 2017), run on the host over the finished image.
  *
+ * Before the filter, a frame of a sequence blends the previous frame's lighting where this
+ * renderer kept it (denoise_temporal.c), and the filter then runs on that average.
+ *
  * What is filtered is the indirect light without its caustics, the noisiest
  * part of every preset that has a split film: the direct layer (with the
  * emission the camera sees: a light source is not noisy, and filtering it
@@ -31,6 +34,7 @@
  * A non-finite input value is treated as 0 and gets no weight, so one bad
  * pixel cannot spread.
  */
+#include "denoise_internal.h"
 #include "render_internal.h"
 
 #include <math.h>
@@ -57,18 +61,6 @@ typedef struct denoise_channels {
     int beauty[3], direct[3], indirect[3], caustic[3], albedo[3], normal[3], depth;
 } denoise_channels;
 
-/* The guides and the signal of one image, one float array each. */
-typedef struct denoise_planes {
-    uint32_t width, height;
-    float *lighting;   /* 3 per pixel: demodulated */
-    float *albedo;     /* 3 per pixel: what the lighting was divided by (1 where not) */
-    float *normal;     /* 3 per pixel */
-    float *depth;      /* 1 per pixel; 0: nothing seen */
-    float *depth_step; /* 1 per pixel: |dz| per pixel */
-    float *variance;   /* 1 per pixel */
-    float *scratch;    /* 4 per pixel: the next pass's lighting and variance */
-} denoise_planes;
-
 static float luminance(const float *rgb)
 {
     return 0.2126f * rgb[0] + 0.7152f * rgb[1] + 0.0722f * rgb[2];
@@ -82,11 +74,14 @@ static float finite_or_zero(float value)
 static void planes_free(denoise_planes *planes)
 {
     free(planes->lighting);
+    free(planes->direct);
     free(planes->albedo);
     free(planes->normal);
     free(planes->depth);
     free(planes->depth_step);
     free(planes->variance);
+    free(planes->history_length);
+    free(planes->variance_factor);
     free(planes->scratch);
 }
 
@@ -97,27 +92,39 @@ static int planes_fill(const pf_image *image, const denoise_channels *at, denois
     planes->width = image->width;
     planes->height = image->height;
     planes->lighting = malloc(3 * pixels * sizeof(float));
+    planes->direct = malloc(3 * pixels * sizeof(float));
     planes->albedo = malloc(3 * pixels * sizeof(float));
     planes->normal = malloc(3 * pixels * sizeof(float));
     planes->depth = malloc(pixels * sizeof(float));
     planes->depth_step = malloc(pixels * sizeof(float));
     planes->variance = malloc(pixels * sizeof(float));
+    planes->history_length = malloc(pixels * sizeof(float));
+    planes->variance_factor = malloc(pixels * sizeof(float));
     planes->scratch = malloc(4 * pixels * sizeof(float));
-    if (!planes->lighting || !planes->albedo || !planes->normal || !planes->depth ||
-        !planes->depth_step || !planes->variance || !planes->scratch)
+    if (!planes->lighting || !planes->direct || !planes->albedo || !planes->normal || !planes->depth ||
+        !planes->depth_step || !planes->variance || !planes->history_length ||
+        !planes->variance_factor || !planes->scratch)
         return 0;
     for (size_t p = 0; p < pixels; p++) {
         const float *in = image->pixels + p * image->channel_count;
+        int demodulated = 0;
         for (int c = 0; c < 3; c++) {
             float albedo = finite_or_zero(in[at->albedo[c]]);
             float signal = finite_or_zero(in[at->indirect[c]]) - finite_or_zero(in[at->caustic[c]]);
             int demodulate = albedo >= DENOISE_MIN_ALBEDO;
             planes->albedo[3 * p + c] = demodulate ? albedo : 1.0f;
             planes->lighting[3 * p + c] = demodulate ? signal / albedo : signal;
+            float direct = finite_or_zero(in[at->direct[c]]);
+            planes->direct[3 * p + c] = demodulate ? direct / albedo : direct;
             planes->normal[3 * p + c] = finite_or_zero(in[at->normal[c]]);
+            demodulated += demodulate;
         }
         float depth = finite_or_zero(in[at->depth]);
         planes->depth[p] = depth > 0.0f ? depth : 0.0f;
+        /* A frame's own lighting: a history of one, kept for the next frame where it is a
+         * surface's and divided by its albedo (a light source or black paint is not). */
+        planes->history_length[p] = depth > 0.0f && demodulated == 3 ? 1.0f : 0.0f;
+        planes->variance_factor[p] = 1.0f;
     }
     uint32_t w = image->width, h = image->height;
     for (uint32_t y = 0; y < h; y++)
@@ -305,8 +312,31 @@ static void atrous_pass(denoise_planes *planes, int step)
     }
 }
 
-pf_status pf_denoise_image(pf_image *image, int keep_noisy, pf_frame_report *report,
-                           pf_error *err)
+/* The `temporal` row: what the blend reused, or why it reused nothing. */
+static void temporal_row(pf_frame_report *report, const pf_denoise_sequence *sequence,
+                         int blended, const char *why_not, const denoise_temporal_stats *stats,
+                         double wall_ms)
+{
+    pf_stage_timing *row = pf_frame_report_row(report, "temporal", blended ? NULL : why_not,
+                                               wall_ms, -1.0);
+    if (!row || !blended)
+        return;
+    double share = stats->surface_pixels
+                       ? 100.0 * (double)stats->reprojected_pixels / (double)stats->surface_pixels
+                       : 0.0;
+    snprintf(row->reason, sizeof row->reason,
+             "previous frame (%lld) on this worker; %.0f %% of pixels reprojected, memory %u "
+             "frames (%s)",
+             (long long)(sequence->frame - 1), share, stats->memory,
+             stats->memory > 8 ? "geometry unchanged" : "geometry moved");
+    pf_stage_add_counter(row, "surface_pixels", (double)stats->surface_pixels);
+    pf_stage_add_counter(row, "reprojected_pixels", (double)stats->reprojected_pixels);
+    pf_stage_add_counter(row, "mean_history_frames", stats->mean_history);
+    pf_stage_add_counter(row, "memory_frames", stats->memory);
+}
+
+pf_status pf_denoise_image(pf_image *image, int keep_noisy, const pf_denoise_sequence *sequence,
+                           pf_frame_report *report, pf_error *err)
 {
     double start = pf_time_ms();
     static const char *const layers[6] = {"", "direct.", "indirect.", "caustic.", "albedo.",
@@ -333,9 +363,25 @@ pf_status pf_denoise_image(pf_image *image, int keep_noisy, pf_frame_report *rep
                             image->width, image->height);
     }
     run_rows(&planes, 0);
+    if (sequence) {
+        double temporal_start = pf_time_ms();
+        char why_not[PF_STAGE_REASON_MAX] = "--denoise spatial: every frame filtered alone";
+        denoise_temporal_stats stats = {0};
+        int blended = sequence->history &&
+                      pf_denoise_history_usable(sequence->history, sequence, image->width,
+                                                image->height, why_not, sizeof why_not);
+        if (blended)
+            denoise_temporal_blend(sequence->history, sequence, image, &planes, &stats);
+        /* Kept whatever happened, for the next frame (a fresh history where none was used);
+         * out of memory only costs the next frame its reuse. */
+        if (sequence->history && sequence->sequence)
+            denoise_temporal_keep(sequence->history, sequence, &planes);
+        temporal_row(report, sequence, blended, why_not, &stats, pf_time_ms() - temporal_start);
+        start += pf_time_ms() - temporal_start; /* the denoise row is the filter's alone */
+    }
     double noisy_variance = 0.0;
     size_t pixels = (size_t)image->width * image->height;
-    /* The variance layer is the noisy lighting's, the estimate the filter started from. */
+    /* The variance layer is the estimate the filter started from (after any blend). */
     float *estimate = keep_noisy ? malloc(pixels * sizeof *estimate + 1) : NULL;
     if (keep_noisy && !estimate) {
         planes_free(&planes);
@@ -366,7 +412,11 @@ pf_status pf_denoise_image(pf_image *image, int keep_noisy, pf_frame_report *rep
                 texel[first_added + c] = finite_or_zero(texel[at.beauty[c]]);
             texel[first_added + 3] = estimate[p];
         }
-        /* beauty = direct + indirect, caustic ⊆ indirect: still so after filtering. */
+        /* The direct light where the blend averaged it over frames (else as rendered);
+         * beauty = direct + indirect, caustic ⊆ indirect: still so after filtering. */
+        if (planes.history_length[p] > 1.0f)
+            for (int c = 0; c < 3; c++)
+                texel[at.direct[c]] = planes.direct[3 * p + c] * planes.albedo[3 * p + c];
         for (int c = 0; c < 3; c++) {
             float indirect = finite_or_zero(texel[at.caustic[c]]) +
                              planes.lighting[3 * p + c] * planes.albedo[3 * p + c];

@@ -76,7 +76,7 @@ static void barycentric(const float (*v)[4], const double p[3], double w[3])
 }
 
 pf_status pf_render_motion(pf_renderer *renderer, const pf_scene_frame *frame,
-                           const pf_scene_frame *previous, pf_image *image,
+                           const pf_scene_frame *previous, pf_image *image, float *depth_change,
                            pf_frame_report *report, pf_error *err)
 {
     double start = pf_time_ms();
@@ -128,6 +128,8 @@ pf_status pf_render_motion(pf_renderer *renderer, const pf_scene_frame *frame,
             size_t p = first + i;
             float *out = grown.pixels + p * channels + channels - 2;
             out[0] = out[1] = 0.0f;
+            if (depth_change)
+                depth_change[p] = 0.0f;
             if (hits[i].triangle == PF_NO_HIT)
                 continue;
             seen++;
@@ -148,6 +150,12 @@ pf_status pf_render_motion(pf_renderer *renderer, const pf_scene_frame *frame,
             if (!project(&previous->camera, previous_tan_x, previous_tan_y, width, height,
                          before, &x, &y))
                 continue;
+            if (depth_change) {
+                double away[3];
+                for (int k = 0; k < 3; k++)
+                    away[k] = before[k] - previous->camera.position[k];
+                depth_change[p] = (float)(sqrt(dot3(away, away)) - (double)hits[i].t);
+            }
             /* Previous minus this pixel's centre, y up (Cycles' Vector pass). */
             out[0] = (float)(x - ((double)(p % width) + 0.5));
             out[1] = (float)(((double)(p / width) + 0.5) - y);

@@ -68,19 +68,27 @@ const char *pf_pixel_filter_name(pf_pixel_filter filter);
  * reference, whose indirect light is sampled (bench/RESULTS.md, "Denoising": 2.9× and 1.8×
  * lower relMSE on the Cornell box), off for fast, whose indirect light is the LPV's, smooth
  * already (its error is bias: 0.0161 against 0.0159 denoised).
+ *
+ * on (and auto where it filters) also reuses the previous frame of the sequence when this
+ * renderer denoised it (temporal reuse, denoise_temporal.c), and draws each frame's camera
+ * samples from a seed of its own (pf_render_settings.sample_salt) so that frames average
+ * out; spatial filters each frame alone, its samples the seed's, as off leaves them.
  */
 typedef enum pf_denoise_mode {
     PF_DENOISE_AUTO = 0,
     PF_DENOISE_ON = 1,
-    PF_DENOISE_OFF = 2
+    PF_DENOISE_OFF = 2,
+    PF_DENOISE_SPATIAL = 3
 } pf_denoise_mode;
 #define PF_DENOISE_AUTO_TEXT "on for final and reference"
 
-/* Parses "auto", "on", "off"; -1 if unknown. */
+/* Parses "auto", "on", "off", "spatial"; -1 if unknown. */
 int pf_denoise_parse(const char *name);
 const char *pf_denoise_name(pf_denoise_mode mode);
 /* Whether a frame rendered by preset (auto resolved) is denoised under mode. */
 int pf_denoise_applies(pf_denoise_mode mode, pf_quality preset);
+/* Whether it is denoised with temporal reuse (applies, and mode is not spatial). */
+int pf_denoise_temporal(pf_denoise_mode mode, pf_quality preset);
 
 /* Most bounces --max-bounces accepts. */
 #define PF_MAX_BOUNCES_LIMIT 1024u
@@ -126,6 +134,13 @@ typedef struct pf_render_settings {
     int float_pixels;
     /* The denoise stage (pf_denoise_mode). */
     pf_denoise_mode denoise;
+    /*
+     * Not a job setting (the codec leaves it out): the frame pipeline sets it to the frame
+     * number, and where the frame is denoised with temporal reuse (pf_denoise_temporal) the
+     * camera samples' seed is the seed mixed with it, so that consecutive frames' noise is
+     * independent and their average converges. 0, or any other frame: the seed alone.
+     */
+    uint64_t sample_salt;
 } pf_render_settings;
 
 /* What every field means when nobody asked otherwise: auto quality, AOVs on, the rest 0. */
@@ -327,20 +342,57 @@ pf_status pf_settings_parse(const char *json, pf_render_settings *settings, pf_e
  * point was in `previous` (the scene evaluated one frame earlier), with Cycles' Vector
  * pass convention: previous raster position minus this one, x right, y up; 0 where the
  * pixel sees nothing. Uses the tree pf_render_frame left for frame; adds a `motion` row.
+ * depth_change (NULL: not wanted; else one float per pixel): how much farther the point was
+ * from the previous camera than it is from this one (0 where nothing is seen), which the
+ * temporal denoiser checks the previous frame's depth against.
  */
 pf_status pf_render_motion(pf_renderer *renderer, const pf_scene_frame *frame,
-                           const pf_scene_frame *previous, pf_image *image,
+                           const pf_scene_frame *previous, pf_image *image, float *depth_change,
                            pf_frame_report *report, pf_error *err);
+
+/*
+ * Temporal reuse (denoise_temporal.c): what the denoiser keeps of the frame it denoised
+ * last (its accumulated lighting, normals, depths and per-pixel history lengths), so that
+ * the next frame of the same sequence can reproject and blend it (SVGF, Schied et al.
+ * 2017). A renderer holds one (pf_renderer_denoise_history); tests make their own.
+ */
+typedef struct pf_denoise_history pf_denoise_history;
+pf_status pf_denoise_history_create(pf_denoise_history **out, pf_error *err);
+void pf_denoise_history_destroy(pf_denoise_history *history);
+pf_denoise_history *pf_renderer_denoise_history(pf_renderer *renderer);
+
+/* What the denoiser is told of a frame of a sequence, beyond its image. */
+typedef struct pf_denoise_sequence {
+    pf_denoise_history *history; /* NULL: spatial only (--denoise spatial) */
+    /* Frames that may reuse one another share it (pf_frame_render: the scene's load and the
+     * job's settings); 0: never reuse. */
+    uint64_t sequence;
+    int64_t frame;     /* reuse comes only from frame - 1 */
+    uint64_t lighting; /* fingerprint of the lights and materials: a change drops the history */
+    uint64_t geometry; /* fingerprint of the geometry: a change shortens the memory */
+    /* pf_render_motion's depth_change for this image (NULL: every point is where it was).
+     * The image's motion.X/Y channels say where each pixel's point was (none: nowhere else). */
+    const float *depth_change;
+} pf_denoise_sequence;
+
+/* Whether history holds the frame before sequence's, at this size: 1, else 0 and why not
+ * in reason ("no previous frame on this worker", "frame 12 came before: not consecutive"). */
+int pf_denoise_history_usable(const pf_denoise_history *history,
+                              const pf_denoise_sequence *sequence, uint32_t width,
+                              uint32_t height, char *reason, size_t size);
 
 /*
  * The denoise stage (denoise.c): filters image's indirect light (less its caustics) in place,
  * guided by its albedo, normal and depth channels, and updates the beauty to direct +
  * indirect; the image must have the split layers and those AOVs. Appends a `denoise` row.
  * keep_noisy: also appends noisy.R/G/B (the beauty as rendered) and variance.Y (the
- * estimated variance of its lighting's luminance).
+ * estimated variance of the lighting's luminance the filter started from).
+ * sequence (NULL: this image alone, no row): first blends the previous frame's lighting
+ * where history holds it and it still matches (a `temporal` row, run or skipped with why),
+ * then leaves this frame's in history for the next.
  */
-pf_status pf_denoise_image(pf_image *image, int keep_noisy, pf_frame_report *report,
-                           pf_error *err);
+pf_status pf_denoise_image(pf_image *image, int keep_noisy, const pf_denoise_sequence *sequence,
+                           pf_frame_report *report, pf_error *err);
 
 /* ---- One frame from scene to file (core/render/pipeline.c) ---- */
 

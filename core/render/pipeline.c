@@ -154,16 +154,43 @@ static pf_status deform(const pf_scene *scene, double time, pf_scene_frame *fram
 /* The motion AOV: the scene one frame earlier (a pure function of the frame number, so any
  * worker computes the same vectors), its points found through this frame's tree. */
 static pf_status motion(pf_renderer *renderer, const pf_scene *scene, double time,
-                        const pf_scene_frame *frame, pf_image *image, pf_frame_report *report,
-                        pf_error *err)
+                        const pf_scene_frame *frame, pf_image *image, float *depth_change,
+                        pf_frame_report *report, pf_error *err)
 {
     pf_scene_frame previous;
     double previous_time = time - 1.0 / pf_scene_get_info(scene)->fps;
     pf_status status = pf_scene_eval(scene, previous_time, &previous, err);
     if (status == PF_OK)
-        status = pf_render_motion(renderer, frame, &previous, image, report, err);
+        status = pf_render_motion(renderer, frame, &previous, image, depth_change, report, err);
     pf_scene_frame_free(&previous);
     return status;
+}
+
+/*
+ * What the denoiser needs to know of a frame to reuse the one before it: frames of one
+ * sequence share the scene's load (one job's, on one worker) and the job's settings; the
+ * fingerprints say whether the light changed (no reuse) and whether anything moved (a
+ * shorter memory). --denoise spatial keeps no history.
+ */
+static void sequence_of(pf_renderer *renderer, const pf_frame_request *request,
+                        const pf_render_settings *settings, pf_quality preset,
+                        const pf_scene_frame *frame, pf_denoise_sequence *sequence)
+{
+    memset(sequence, 0, sizeof *sequence);
+    sequence->frame = request->frame;
+    if (!pf_denoise_temporal(settings->denoise, preset))
+        return; /* spatial: history NULL */
+    sequence->history = pf_renderer_denoise_history(renderer);
+    char json[1024];
+    if (frame->texture_set && pf_settings_format(settings, json, sizeof json)) {
+        uint64_t h = pf_hash_bytes(PF_HASH_START, &frame->texture_set, sizeof frame->texture_set);
+        sequence->sequence = pf_hash_bytes(h, json, strlen(json)) | 1u;
+    }
+    uint64_t inputs[PF_INPUT_COUNT] = {0};
+    pf_stage_fingerprint_scene(frame, inputs);
+    sequence->lighting = pf_hash_bytes(inputs[PF_INPUT_LIGHTS], &inputs[PF_INPUT_SURFACES],
+                                       sizeof inputs[PF_INPUT_SURFACES]);
+    sequence->geometry = inputs[PF_INPUT_GEOMETRY];
 }
 
 pf_status pf_frame_render(pf_renderer *renderer, const pf_frame_request *request,
@@ -223,13 +250,31 @@ pf_status pf_frame_render(pf_renderer *renderer, const pf_frame_request *request
     rendered.aovs |= pf_denoise_applies(settings.denoise, settings.quality == PF_QUALITY_AUTO
                                                               ? PF_QUALITY_FINAL
                                                               : settings.quality);
+    rendered.sample_salt = (uint64_t)request->frame;
     status = pf_render_frame(renderer, &frame, &rendered, &image, &out->report, err);
     out->peak_device_bytes = pf_vk_memory_use_of(pf_renderer_context(renderer)).peak;
-    if (status == PF_OK && settings.aovs)
-        status = motion(renderer, request->scene, time, &frame, &image, &out->report, err);
     int denoised = status == PF_OK && pf_denoise_applies(settings.denoise, out->report.quality);
-    if (denoised)
-        status = pf_denoise_image(&image, settings.aovs, &out->report, err);
+    pf_denoise_sequence sequence = {0};
+    int reusing = 0;
+    if (denoised) {
+        sequence_of(renderer, request, &settings, out->report.quality, &frame, &sequence);
+        reusing = pf_denoise_history_usable(sequence.history, &sequence, image.width,
+                                            image.height, NULL, 0);
+    }
+    /* The motion vectors: an AOV, and what temporal reuse finds the previous frame by. */
+    float *depth_change = NULL;
+    if (status == PF_OK && reusing) {
+        depth_change = malloc((size_t)image.width * image.height * sizeof *depth_change);
+        if (!depth_change)
+            status = pf_error_set(err, PF_ERR_NOMEM, "motion: out of memory");
+    }
+    if (status == PF_OK && (settings.aovs || reusing))
+        status = motion(renderer, request->scene, time, &frame, &image, depth_change,
+                        &out->report, err);
+    sequence.depth_change = depth_change;
+    if (status == PF_OK && denoised)
+        status = pf_denoise_image(&image, settings.aovs, &sequence, &out->report, err);
+    free(depth_change);
     pf_scene_frame_free(&frame);
     if (status != PF_OK) {
         pf_error_prefix(err, "%s frame %" PRId64, request->scene_path, request->frame);

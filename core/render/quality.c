@@ -46,7 +46,7 @@ const char *pf_pixel_filter_name(pf_pixel_filter filter)
                                                                      : "unknown";
 }
 
-static const char *const denoise_names[] = {"auto", "on", "off"};
+static const char *const denoise_names[] = {"auto", "on", "off", "spatial"};
 
 int pf_denoise_parse(const char *name)
 {
@@ -63,5 +63,11 @@ int pf_denoise_applies(pf_denoise_mode mode, pf_quality preset)
 {
     if (mode == PF_DENOISE_OFF || preset == PF_QUALITY_PREVIEW)
         return 0;
-    return mode == PF_DENOISE_ON || preset == PF_QUALITY_FINAL || preset == PF_QUALITY_REFERENCE;
+    return mode == PF_DENOISE_ON || mode == PF_DENOISE_SPATIAL || preset == PF_QUALITY_FINAL ||
+           preset == PF_QUALITY_REFERENCE;
+}
+
+int pf_denoise_temporal(pf_denoise_mode mode, pf_quality preset)
+{
+    return mode != PF_DENOISE_SPATIAL && pf_denoise_applies(mode, preset);
 }

@@ -128,6 +128,13 @@ typedef struct pf_stage_previous {
     uint64_t max_buffer_range;     /* the device's largest storage buffer (the LPV's bound) */
 } pf_stage_previous;
 
+/* The geometry, surfaces and lights fingerprints of frame (the planner's; the temporal
+ * denoiser's too). Entries of other inputs are left as they are. */
+void pf_stage_fingerprint_scene(const pf_scene_frame *frame, uint64_t inputs[PF_INPUT_COUNT]);
+/* The fingerprints' 64-bit hash, from h (PF_HASH_START for a fresh one). */
+#define PF_HASH_START 0xcbf29ce484222325ull
+uint64_t pf_hash_bytes(uint64_t h, const void *data, size_t bytes);
+
 pf_stage_previous pf_stage_previous_of(const pf_renderer *renderer, pf_quality preset);
 
 /* Plans the frame's stages for settings->quality (not auto): a pure function of its
@@ -249,6 +256,8 @@ struct pf_renderer {
     struct pf_fast_cache *fast_cache;
     /* The photon tracer final and fast share (created on first use, kept: its pipeline). */
     pf_photon_tracer *photon_tracer;
+    /* What the denoiser kept of the last frame it denoised (created on first use). */
+    pf_denoise_history *denoise_history;
 };
 
 /* The pipeline id, created now if this renderer has not needed it before (renderer.c). */
@@ -520,6 +529,8 @@ float pf_render_ray_offset(const pf_scene_frame *frame);
  * ray offset, the emissive table's total weight and the BIH's root box and
  * node count (integrator-specific fields are left 0 for the caller).
  */
+/* The camera samples' seed of a frame whose settings carry sample_salt (pf_render_settings). */
+uint64_t pf_sample_seed(uint64_t seed, uint64_t salt);
 void pf_frame_params_fill(const pf_scene_frame *frame, const pf_render_settings *settings,
                           uint32_t spp, const pf_gpu_scene *scene, const pf_bih_gpu_view *bih,
                           pf_frame_params *params);

@@ -16,6 +16,14 @@ pf_status pf_renderer_create(pf_vk_context *ctx, pf_renderer **out, pf_error *er
 
 pf_vk_context *pf_renderer_context(const pf_renderer *renderer) { return renderer->ctx; }
 
+pf_denoise_history *pf_renderer_denoise_history(pf_renderer *renderer)
+{
+    /* Out of memory leaves it NULL: the frame is then denoised alone, which is still right. */
+    if (!renderer->denoise_history)
+        pf_denoise_history_create(&renderer->denoise_history, NULL);
+    return renderer->denoise_history;
+}
+
 void pf_renderer_destroy(pf_renderer *renderer)
 {
     if (!renderer)
@@ -27,6 +35,7 @@ void pf_renderer_destroy(pf_renderer *renderer)
     pf_final_cache_destroy(renderer->final_cache);
     pf_fast_cache_destroy(renderer->ctx, renderer->fast_cache);
     pf_photon_tracer_destroy(renderer->photon_tracer);
+    pf_denoise_history_destroy(renderer->denoise_history);
     pf_bih_gpu_destroy(renderer->bih_gpu);
     pf_render_buffer_release(renderer->ctx, &renderer->textures.textures);
     pf_render_buffer_release(renderer->ctx, &renderer->textures.texels);

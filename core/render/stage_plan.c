@@ -96,7 +96,7 @@ static const struct stage_spec {
 const char *pf_stage_name(pf_stage_id stage) { return stage_table[stage].name; }
 
 /* 64-bit content hash (FNV-1a over 8-byte words, then a final mix). */
-static uint64_t hash_bytes(uint64_t h, const void *data, size_t bytes)
+uint64_t pf_hash_bytes(uint64_t h, const void *data, size_t bytes)
 {
     const unsigned char *p = data;
     while (bytes >= 8) {
@@ -112,32 +112,31 @@ static uint64_t hash_bytes(uint64_t h, const void *data, size_t bytes)
     return h;
 }
 
-static uint64_t hash_u64(uint64_t h, uint64_t value) { return hash_bytes(h, &value, sizeof value); }
+static uint64_t hash_u64(uint64_t h, uint64_t value) { return pf_hash_bytes(h, &value, sizeof value); }
 
-#define HASH_START 0xcbf29ce484222325ull
 
-static void fingerprint_scene(const pf_scene_frame *frame, uint64_t inputs[PF_INPUT_COUNT])
+void pf_stage_fingerprint_scene(const pf_scene_frame *frame, uint64_t inputs[PF_INPUT_COUNT])
 {
-    uint64_t h = hash_u64(HASH_START, frame->triangle_count);
+    uint64_t h = hash_u64(PF_HASH_START, frame->triangle_count);
     inputs[PF_INPUT_GEOMETRY] =
-        hash_bytes(h, frame->vertices, (size_t)frame->triangle_count * 3 * sizeof frame->vertices[0]);
-    h = hash_u64(HASH_START, frame->material_count);
-    h = hash_bytes(h, frame->materials, frame->material_count * sizeof(pf_material));
+        pf_hash_bytes(h, frame->vertices, (size_t)frame->triangle_count * 3 * sizeof frame->vertices[0]);
+    h = hash_u64(PF_HASH_START, frame->material_count);
+    h = pf_hash_bytes(h, frame->materials, frame->material_count * sizeof(pf_material));
     inputs[PF_INPUT_SURFACES] =
-        hash_bytes(h, frame->triangle_material, frame->triangle_count * sizeof(uint32_t));
-    h = hash_u64(HASH_START, frame->light_count);
-    inputs[PF_INPUT_LIGHTS] = hash_bytes(h, frame->lights, frame->light_count * sizeof(pf_light));
+        pf_hash_bytes(h, frame->triangle_material, frame->triangle_count * sizeof(uint32_t));
+    h = hash_u64(PF_HASH_START, frame->light_count);
+    inputs[PF_INPUT_LIGHTS] = pf_hash_bytes(h, frame->lights, frame->light_count * sizeof(pf_light));
 }
 
 static void fingerprint_cascades(const pf_lpv_layout *layout, uint64_t inputs[PF_INPUT_COUNT])
 {
-    uint64_t h = hash_u64(HASH_START, layout->count);
+    uint64_t h = hash_u64(PF_HASH_START, layout->count);
     h = hash_u64(h, layout->size);
-    h = hash_bytes(h, &layout->offset_cells, sizeof layout->offset_cells);
-    uint64_t iterations = hash_u64(HASH_START, layout->count);
+    h = pf_hash_bytes(h, &layout->offset_cells, sizeof layout->offset_cells);
+    uint64_t iterations = hash_u64(PF_HASH_START, layout->count);
     for (uint32_t k = 0; k < layout->count; k++) {
-        h = hash_bytes(h, &layout->cascades[k].cell_size, sizeof layout->cascades[k].cell_size);
-        h = hash_bytes(h, layout->cascades[k].origin_cell, sizeof layout->cascades[k].origin_cell);
+        h = pf_hash_bytes(h, &layout->cascades[k].cell_size, sizeof layout->cascades[k].cell_size);
+        h = pf_hash_bytes(h, layout->cascades[k].origin_cell, sizeof layout->cascades[k].origin_cell);
         iterations = hash_u64(iterations, layout->cascades[k].iterations);
     }
     inputs[PF_INPUT_CASCADES] = h;
@@ -338,7 +337,7 @@ pf_status pf_plan_stages(const pf_scene_frame *frame, const pf_render_settings *
                             pf_quality_name(settings->quality));
     }
     const pf_stage_memory *memory = previous->memory;
-    fingerprint_scene(frame, plan->inputs);
+    pf_stage_fingerprint_scene(frame, plan->inputs);
     /* What photon emission picks from (lights and emissive triangles of positive power),
      * built once: the integrator traces from the plan's table. */
     pf_status status = pf_photon_emitters_build(frame, &plan->emitters, err);
@@ -352,7 +351,7 @@ pf_status pf_plan_stages(const pf_scene_frame *frame, const pf_render_settings *
         plan->photon_depth = photon_depth_of(settings);
         plan->caustic_map = plan->has_specular && settings->bounce_limit != 1;
         plan->inputs[PF_INPUT_PHOTONS] =
-            hash_u64(hash_u64(hash_u64(HASH_START, settings->seed), plan->photons),
+            hash_u64(hash_u64(hash_u64(PF_HASH_START, settings->seed), plan->photons),
                      plan->photon_depth);
         plan_photons(plan, memory, 1);
         plan_final_passes(plan, memory);
@@ -369,7 +368,7 @@ pf_status pf_plan_stages(const pf_scene_frame *frame, const pf_render_settings *
     plan->photons = settings->photons_per_pass ? settings->photons_per_pass : FAST_DEFAULT_PHOTONS;
     plan->caustic_map = plan->has_specular;
     plan->inputs[PF_INPUT_PHOTONS] =
-        hash_u64(hash_u64(HASH_START, settings->seed), plan->photons);
+        hash_u64(hash_u64(PF_HASH_START, settings->seed), plan->photons);
     float focus[3];
     pf_lpv_focus(frame, focus);
     pf_lpv_layout_make(&settings->lpv, focus, settings->lpv.cell_size, frame, &plan->layout);

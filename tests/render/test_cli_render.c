@@ -21,8 +21,9 @@ static int run_photonfarm(const char *arguments)
     return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }
 
-/* Whether the last run's output contains text (printed when it does not). */
-static int log_contains(const char *text)
+/* Whether the last run's output contains text, printing the output when it does not
+ * and loud is set. */
+static int log_search(const char *text, int loud)
 {
     char buffer[8192] = {0};
     FILE *file = fopen(log_path, "rb");
@@ -33,9 +34,13 @@ static int log_contains(const char *text)
     buffer[length] = '\0';
     if (strstr(buffer, text))
         return 1;
-    fprintf(stderr, "expected '%s' in the output:\n%s\n", text, buffer);
+    if (loud)
+        fprintf(stderr, "expected '%s' in the output:\n%s\n", text, buffer);
     return 0;
 }
+
+static int log_contains(const char *text) { return log_search(text, 1); }
+static int log_contains_quietly(const char *text) { return log_search(text, 0); }
 
 static int file_exists(const char *path)
 {
@@ -98,6 +103,43 @@ PF_TEST(renders_a_frame_range_to_numbered_exr_files)
     while ((entry = readdir(dir)) != NULL)
         PF_CHECK_MSG(!strstr(entry->d_name, ".tmp"), "temporary file left: %s", entry->d_name);
     closedir(dir);
+}
+
+/*
+ * Temporal reuse through `render --frames` (issue 40): frame 1 has no history, frames 2 and 3
+ * blend the frame before (their motion vectors traced for it even without AOVs, which the
+ * file then leaves out), --denoise spatial keeps every frame alone, and a bad mode is exit 2.
+ */
+PF_TEST(consecutive_frames_reuse_the_one_before)
+{
+    char scene[1024], args[4096], path[2048];
+    pf_test_shared_scene("cornell-anim", scene, sizeof scene);
+    snprintf(args, sizeof args,
+             "render '%s' --frames 1-3 --size 16x12 --quality reference --spp 2 --no-aovs "
+             "--timings -o '%s/t.####.exr'",
+             scene, tmpdir);
+    PF_REQUIRE(run_photonfarm(args) == 0);
+    PF_CHECK(log_contains("temporal       skipped: no previous frame of this sequence"));
+    PF_CHECK(log_contains("previous frame (1) on this worker;"));
+    PF_CHECK(log_contains("previous frame (2) on this worker;"));
+    snprintf(path, sizeof path, "%s/t.0003.exr", tmpdir);
+    pf_image image = {0};
+    pf_error err = {0};
+    PF_CHECK_OK(pf_exr_read(path, &image, NULL, NULL, &err), &err);
+    PF_CHECK_MSG(image.channel_count == 4, "%u channels without AOVs", image.channel_count);
+    pf_image_free(&image);
+    snprintf(args, sizeof args,
+             "render '%s' --frames 1-2 --size 16x12 --quality reference --spp 2 --timings "
+             "--denoise spatial -o '%s/s.####.exr'",
+             scene, tmpdir);
+    PF_REQUIRE(run_photonfarm(args) == 0);
+    PF_CHECK(log_contains("skipped: --denoise spatial: every frame filtered alone"));
+    PF_CHECK(!log_contains_quietly("on this worker;"));
+    snprintf(args, sizeof args,
+             "render '%s' --frame 1 --size 16x12 --denoise sometimes -o '%s/b.exr'", scene,
+             tmpdir);
+    PF_CHECK(run_photonfarm(args) == 2);
+    PF_CHECK(log_contains("expected auto, on, spatial or off"));
 }
 
 /* An unusable cache directory costs compile time, never the frame. */
@@ -253,6 +295,7 @@ int main(void)
     pf_test_tmpdir(tmpdir, sizeof tmpdir);
     snprintf(log_path, sizeof log_path, "%s/photonfarm.log", tmpdir);
     PF_RUN(renders_a_frame_range_to_numbered_exr_files);
+    PF_RUN(consecutive_frames_reuse_the_one_before);
     PF_RUN(unusable_cache_directory_warns_and_renders);
     PF_RUN(the_environment_picks_the_device_through_the_cli);
     PF_RUN(bad_frames_scenes_and_options_exit_2);

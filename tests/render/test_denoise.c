@@ -81,7 +81,7 @@ PF_TEST(a_constant_image_is_unchanged)
     pf_image image, truth;
     make_wall(&image, &truth, 0, 0.0, 1);
     pf_error err = {0};
-    PF_REQUIRE_OK(pf_denoise_image(&image, 0, NULL, &err), &err);
+    PF_REQUIRE_OK(pf_denoise_image(&image, 0, NULL, NULL, &err), &err);
     double largest = 0.0;
     for (size_t k = 0; k < (size_t)SIZE * SIZE * 20; k++)
         largest = fmax(largest, fabs(image.pixels[k] - truth.pixels[k]));
@@ -97,7 +97,7 @@ PF_TEST(a_checker_keeps_its_edges_and_loses_its_noise)
     double before = beauty_relmse(&image, &truth), mean_before = beauty_mean(&image);
     pf_error err = {0};
     pf_frame_report report = {0};
-    PF_REQUIRE_OK(pf_denoise_image(&image, 1, &report, &err), &err);
+    PF_REQUIRE_OK(pf_denoise_image(&image, 1, NULL, &report, &err), &err);
     double after = beauty_relmse(&image, &truth), mean_after = beauty_mean(&image);
     /* Noise of ±30 % of the light: relMSE 0.0075; the filter takes it below a quarter. */
     PF_CHECK_MSG(after < 0.25 * before, "relMSE %g before, %g after", before, after);
@@ -138,7 +138,7 @@ PF_TEST(a_bad_pixel_does_not_spread)
     bad[ALBEDO + 2] = NAN;
     bad[DEPTH] = INFINITY;
     pf_error err = {0};
-    PF_REQUIRE_OK(pf_denoise_image(&image, 1, NULL, &err), &err);
+    PF_REQUIRE_OK(pf_denoise_image(&image, 1, NULL, NULL, &err), &err);
     /* What the stage writes is finite: beauty, indirect, noisy.* and variance.Y (the albedo
      * and depth layers are the renderer's, passed on as they are). */
     static const uint32_t written[] = {R, R + 1, R + 2, INDIRECT, INDIRECT + 1, INDIRECT + 2,
@@ -167,7 +167,7 @@ PF_TEST(the_cornell_box_at_4_spp_gets_closer_to_512_spp)
     PF_REQUIRE_OK(pf_render_frame(renderer, &frame, &low, &noisy, NULL, &err), &err);
     double before = ref_layer_relmse(&noisy, &converged, REF_CH_INDIRECT);
     double beauty_before = beauty_relmse(&noisy, &converged), mean_before = beauty_mean(&noisy);
-    PF_REQUIRE_OK(pf_denoise_image(&noisy, 0, NULL, &err), &err);
+    PF_REQUIRE_OK(pf_denoise_image(&noisy, 0, NULL, NULL, &err), &err);
     double after = ref_layer_relmse(&noisy, &converged, REF_CH_INDIRECT);
     double beauty_after = beauty_relmse(&noisy, &converged), mean_after = beauty_mean(&noisy);
     printf("  cornell 40x30, 4 spp against 512: indirect relMSE %.4f raw, %.4f denoised; "
@@ -187,7 +187,7 @@ PF_TEST(the_cornell_box_at_4_spp_gets_closer_to_512_spp)
                                       "caustic.G", "caustic.B", "albedo.R", "albedo.G",
                                       "albedo.B", "normal.X", "normal.Y", "normal.Z", "depth.Z"};
     PF_REQUIRE_OK(pf_image_select(&converged, all, 20, &filtered, &err), &err);
-    PF_REQUIRE_OK(pf_denoise_image(&filtered, 0, NULL, &err), &err);
+    PF_REQUIRE_OK(pf_denoise_image(&filtered, 0, NULL, NULL, &err), &err);
     double floor_error = beauty_relmse(&filtered, &converged);
     printf("  cornell 40x30 at 512 spp: relMSE %.6f after denoising\n", floor_error);
     PF_CHECK_MSG(floor_error < 0.002, "a converged image moved by relMSE %g", floor_error);

@@ -45,7 +45,7 @@ static int render_motion(const ref_scene *now, const ref_scene *before, pf_image
     pf_frame_report report = {0};
     pf_error err = {0};
     PF_CHECK_OK(pf_render_frame(renderer, &now->frame, &settings, image, &report, &err), &err);
-    PF_CHECK_OK(pf_render_motion(renderer, &now->frame, &before->frame, image, &report, &err),
+    PF_CHECK_OK(pf_render_motion(renderer, &now->frame, &before->frame, image, NULL, &report, &err),
                 &err);
     const pf_stage_timing *row = ref_row(&report, "motion");
     PF_CHECK(row != NULL);

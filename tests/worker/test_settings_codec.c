@@ -14,7 +14,7 @@
 #include <string.h>
 
 /* A new field must be added to settings_equal, every_field and the codec: this fails first. */
-_Static_assert(sizeof(pf_render_settings) == 128,
+_Static_assert(sizeof(pf_render_settings) == 136,
                "pf_render_settings changed: cover the new field in this test and core/render/settings.c");
 
 static char last_failure[1024];
@@ -45,6 +45,7 @@ static int settings_equal_report(const pf_render_settings *a, const pf_render_se
     SAME(budget_ms) SAME(target_relmse) SAME(float_pixels) SAME(denoise) SAME(lpv.cascades)
     SAME(lpv.size)
     SAME(lpv.cell_size) SAME(lpv.offset_cells) SAME(lpv.undamped)
+    /* sample_salt is the frame pipeline's, not a job's: the codec leaves it out (below). */
     for (uint32_t k = 0; k < PF_LPV_MAX_CASCADES; k++)
         SAME(lpv.iterations[k])
 #undef SAME
@@ -157,6 +158,22 @@ PF_TEST(every_field_survives_the_job_json_alone_and_together)
         PF_CHECK_MSG(!settings_equal_report(&one, &defaults, 0), "%s changed nothing", every_option[i]);
         expect_json_round_trip(&one, every_option[i]);
     }
+}
+
+/* The frame number the pipeline salts the camera samples with is no setting of the job:
+ * two frames of one job store and stamp the same JSON. */
+PF_TEST(the_codec_leaves_the_sample_salt_out)
+{
+    pf_render_settings plain = every_field(), salted = plain;
+    salted.sample_salt = 17;
+    char a[1024], b[1024];
+    PF_REQUIRE(pf_settings_format(&plain, a, sizeof a));
+    PF_REQUIRE(pf_settings_format(&salted, b, sizeof b));
+    PF_CHECK_MSG(!strcmp(a, b), "%s\n  against %s", b, a);
+    pf_render_settings parsed;
+    pf_error err = {0};
+    PF_REQUIRE_OK(pf_settings_parse(b, &parsed, &err), &err);
+    PF_CHECK(parsed.sample_salt == 0);
 }
 
 PF_TEST(the_parser_and_the_codec_share_their_bounds)
@@ -344,6 +361,7 @@ int main(void)
     PF_RUN(the_option_table_parses_and_documents_every_option);
     PF_RUN(every_field_survives_the_job_json_alone_and_together);
     PF_RUN(the_parser_and_the_codec_share_their_bounds);
+    PF_RUN(the_codec_leaves_the_sample_salt_out);
     PF_RUN(enqueue_and_render_record_what_the_options_say);
     return pf_test_finish();
 }

@@ -1,0 +1,54 @@
+/*
+ * What the denoise stage's two files share: the planes the filter works on (denoise.c)
+ * and the temporal blend that runs on them before it (denoise_temporal.c).
+ */
+#ifndef PF_DENOISE_INTERNAL_H
+#define PF_DENOISE_INTERNAL_H
+
+#include "pf_render.h"
+
+#include <stdint.h>
+
+/* The guides and the signal of one image, one float array each. */
+typedef struct denoise_planes {
+    uint32_t width, height;
+    float *lighting;   /* 3 per pixel: demodulated */
+    float *direct;     /* 3 per pixel: the direct light, demodulated likewise (blended over
+                        * frames, never filtered) */
+    float *albedo;     /* 3 per pixel: what the lighting was divided by (1 where not) */
+    float *normal;     /* 3 per pixel */
+    float *depth;      /* 1 per pixel; 0: nothing seen */
+    float *depth_step; /* 1 per pixel: |dz| per pixel */
+    float *variance;   /* 1 per pixel */
+    /* 1 per pixel: frames this pixel's lighting averages (0: no surface, or not demodulated:
+     * nothing to carry to the next frame), and what that average did to its variance. */
+    float *history_length;
+    float *variance_factor;
+    float *scratch;    /* 4 per pixel: the next pass's lighting and variance */
+} denoise_planes;
+
+/* What the temporal blend did, for its row. */
+typedef struct denoise_temporal_stats {
+    uint64_t surface_pixels;     /* pixels that see a surface (could have had a history) */
+    uint64_t reprojected_pixels; /* of those, the ones that found their point in history */
+    double mean_history;         /* frames behind the reprojected pixels' lighting, mean */
+    uint32_t memory;             /* the most frames a pixel's lighting averages (1/α_min) */
+} denoise_temporal_stats;
+
+/*
+ * Blends history's lighting into planes (lighting and direct, and variance scaled by what the
+ * blend averaged) where it holds the previous frame and its point still matches; image gives the
+ * motion vectors. Call with history usable (pf_denoise_history_usable) and the variance
+ * already estimated from this frame alone.
+ */
+void denoise_temporal_blend(const pf_denoise_history *history,
+                            const pf_denoise_sequence *sequence, const pf_image *image,
+                            denoise_planes *planes, denoise_temporal_stats *stats);
+
+/* Leaves planes' lighting (blended, before the spatial filter) and guides in history as
+ * the frame sequence->frame; history lengths are those of the last blend (1 when none ran).
+ * 0: out of memory (history is then emptied). */
+int denoise_temporal_keep(pf_denoise_history *history, const pf_denoise_sequence *sequence,
+                          const denoise_planes *planes);
+
+#endif
