@@ -18,6 +18,13 @@ struct pf_plan_cache {
     uint32_t passes;               /* final: passes chosen */
     double fast_ms, pass_ms;       /* predicted at the full size */
     double fast_relmse, pass_relmse;
+    pf_denoise_mode denoise;       /* the request's: the pilot denoises what the frame will */
+    int denoised;                  /* final is denoised: its pilot errors are after the filter */
+    double denoise_ms;             /* final's denoise stage, predicted at the full size */
+    double slope_relmse;           /* denoised: PLAN_SLOPE_PASSES passes' pilot relMSE */
+    double slope;                  /* final's error ∝ passes^-slope (2/3 raw; measured denoised) */
+    uint32_t anchor_passes;        /* the pilot point the passes are counted from: 1 raw, */
+    double anchor_relmse;          /* PLAN_SLOPE_PASSES denoised, and its relMSE */
     double predicted_ms;
     char reason[PF_STAGE_REASON_MAX];
 };

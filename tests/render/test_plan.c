@@ -35,10 +35,14 @@ static pf_scene_frame cornell;
 #define WIDTH 48u
 #define HEIGHT 36u
 
+/* --denoise of the requests below (auto: final is denoised, and its pilot with it). */
+static pf_denoise_mode denoise_mode = PF_DENOISE_AUTO;
+
 static pf_status render_auto(const pf_scene_frame *frame, double budget_ms, double target,
                              pf_frame_report *report, pf_error *err)
 {
     pf_render_settings settings = ref_settings(WIDTH, HEIGHT, 0, 3, 0);
+    settings.denoise = denoise_mode;
     settings.quality = PF_QUALITY_AUTO;
     settings.budget_ms = budget_ms;
     settings.target_relmse = target;
@@ -207,8 +211,31 @@ PF_TEST(error_targets_plan_fast_or_enough_final_passes)
     double pass_relmse = ref_stage_counter(&report, "plan", "final_pass_relmse");
     printf("  target %g: %s\n", target, row ? row->reason : "missing");
     PF_CHECK(ref_stage_counter(&report, "plan", "fast_relmse") > target);
+    PF_CHECK(report.quality == PF_QUALITY_FINAL && passes >= 1.0 && passes <= 256.0);
+    /* final is denoised (--denoise auto): the pilot's errors are the denoised images', the
+     * slope measured between one pass and four (at least 0.25; at most 2/3 when four passes
+     * miss the target), and passes = ⌈4 · (four passes' relMSE / target)^(1/slope)⌉. */
+    double slope = ref_stage_counter(&report, "plan", "error_slope");
+    double four = ref_stage_counter(&report, "plan", "final_slope_relmse");
+    PF_CHECK(ref_stage_counter(&report, "plan", "denoised") == 1.0);
+    PF_CHECK(row && strstr(row->reason, "denoised"));
+    PF_CHECK_MSG(slope >= 0.25 && (four <= target || slope <= 2.0 / 3.0 + 1e-9), "slope %g",
+                 slope);
+    if (passes < 256.0)
+        PF_CHECK(passes == fmax(1.0, ceil(4.0 * pow(four / target, 1.0 / slope))));
+    /* The frame's own denoise row is what the plan counted on. */
+    PF_CHECK(ref_row(&report, "shade") != NULL);
+    /* Not denoised (--denoise off): the raw error, passes = ⌈(one pass's relMSE / target)^1.5⌉. */
+    denoise_mode = PF_DENOISE_OFF;
+    PF_REQUIRE_OK(render_auto(&cornell, 0.0, target, &report, &err), &err);
+    denoise_mode = PF_DENOISE_AUTO;
+    row = plan_row(&report);
+    passes = ref_stage_counter(&report, "plan", "passes");
+    pass_relmse = ref_stage_counter(&report, "plan", "final_pass_relmse");
+    printf("  target %g, not denoised: %s\n", target, row ? row->reason : "missing");
+    PF_CHECK(ref_stage_counter(&report, "plan", "calibrated") == 1.0); /* another request */
+    PF_CHECK(ref_stage_counter(&report, "plan", "denoised") == 0.0);
     PF_CHECK(report.quality == PF_QUALITY_FINAL && passes > 1.0 && passes <= 256.0);
-    /* passes = ⌈(one pass's relMSE / target)^1.5⌉ */
     PF_CHECK(passes == ceil(pow(pass_relmse / target, 1.5)));
 }
 
