@@ -114,7 +114,8 @@ static int sampling_option(const char *command, const char *arg, const char *val
     if (!strcmp(arg, "--denoise")) {
         int mode = pf_denoise_parse(value);
         if (mode < 0)
-            return pf_cli_fail(command, 2, "--denoise '%s': expected auto, on, spatial or off", value);
+            return pf_cli_fail(command, 2, "--denoise '%s': expected auto, on, spatial or off",
+                               value);
         settings->denoise = (pf_denoise_mode)mode;
     } else if (!strcmp(arg, "--filter")) {
         int filter = pf_pixel_filter_parse(value);

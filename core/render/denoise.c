@@ -107,23 +107,20 @@ static int planes_fill(const pf_image *image, const denoise_channels *at, denois
         return 0;
     for (size_t p = 0; p < pixels; p++) {
         const float *in = image->pixels + p * image->channel_count;
-        int demodulated = 0;
         for (int c = 0; c < 3; c++) {
             float albedo = finite_or_zero(in[at->albedo[c]]);
             float signal = finite_or_zero(in[at->indirect[c]]) - finite_or_zero(in[at->caustic[c]]);
             int demodulate = albedo >= DENOISE_MIN_ALBEDO;
             planes->albedo[3 * p + c] = demodulate ? albedo : 1.0f;
             planes->lighting[3 * p + c] = demodulate ? signal / albedo : signal;
-            float direct = finite_or_zero(in[at->direct[c]]);
-            planes->direct[3 * p + c] = demodulate ? direct / albedo : direct;
+            planes->direct[3 * p + c] = finite_or_zero(in[at->direct[c]]);
             planes->normal[3 * p + c] = finite_or_zero(in[at->normal[c]]);
-            demodulated += demodulate;
         }
         float depth = finite_or_zero(in[at->depth]);
         planes->depth[p] = depth > 0.0f ? depth : 0.0f;
-        /* A frame's own lighting: a history of one, kept for the next frame where it is a
-         * surface's and divided by its albedo (a light source or black paint is not). */
-        planes->history_length[p] = depth > 0.0f && demodulated == 3 ? 1.0f : 0.0f;
+        /* A frame's own lighting: a history of one, kept for the next frame where the
+         * pixel sees a surface. */
+        planes->history_length[p] = depth > 0.0f ? 1.0f : 0.0f;
         planes->variance_factor[p] = 1.0f;
     }
     uint32_t w = image->width, h = image->height;
@@ -416,7 +413,7 @@ pf_status pf_denoise_image(pf_image *image, int keep_noisy, const pf_denoise_seq
          * beauty = direct + indirect, caustic ⊆ indirect: still so after filtering. */
         if (planes.history_length[p] > 1.0f)
             for (int c = 0; c < 3; c++)
-                texel[at.direct[c]] = planes.direct[3 * p + c] * planes.albedo[3 * p + c];
+                texel[at.direct[c]] = planes.direct[3 * p + c];
         for (int c = 0; c < 3; c++) {
             float indirect = finite_or_zero(texel[at.caustic[c]]) +
                              planes.lighting[3 * p + c] * planes.albedo[3 * p + c];

@@ -13,8 +13,10 @@
 typedef struct denoise_planes {
     uint32_t width, height;
     float *lighting;   /* 3 per pixel: demodulated */
-    float *direct;     /* 3 per pixel: the direct light, demodulated likewise (blended over
-                        * frames, never filtered) */
+    float *direct;     /* 3 per pixel: the direct light as rendered (blended over frames,
+                        * never filtered, so never divided by the albedo: the light sources
+                        * the camera sees are in it, over an albedo a pixel's samples see
+                        * only in part) */
     float *albedo;     /* 3 per pixel: what the lighting was divided by (1 where not) */
     float *normal;     /* 3 per pixel */
     float *depth;      /* 1 per pixel; 0: nothing seen */

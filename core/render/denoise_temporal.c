@@ -3,7 +3,10 @@
  * et al. 2017, §4.2) on the demodulated indirect light that denoise.c filters.
  *
  * A renderer keeps the last frame it denoised: its lighting as blended (before the spatial
- * filter, so that the filter's bias does not feed back from frame to frame), its direct
+ * filter, so that the filter's bias does not feed back from frame to frame; multiplied back
+ * by its albedo, and divided by this frame's, because the albedo AOV of a pixel whose samples
+ * see a surface only in part, at an edge or a light source's rim, changes from frame to
+ * frame with the share, as its lighting does), its direct
  * light (blended the same way but never filtered: a still shot's soft shadows average out
  * over frames, and their edges stay where they are), its normals
  * and depths and, per pixel, how many frames that lighting averages. The next frame of the
@@ -47,8 +50,8 @@ struct pf_denoise_history {
     uint64_t sequence, lighting_fingerprint, geometry_fingerprint;
     int64_t frame;
     uint32_t width, height;
-    float *lighting;       /* 3 per pixel, demodulated, blended */
-    float *direct;         /* 3 per pixel, likewise */
+    float *lighting;       /* 3 per pixel, blended, multiplied back by its albedo */
+    float *direct;         /* 3 per pixel, as rendered, blended */
     float *normal;         /* 3 per pixel */
     float *depth;          /* 1 per pixel */
     float *length;         /* 1 per pixel: frames averaged; 0 = nothing to reuse */
@@ -211,7 +214,8 @@ void denoise_temporal_blend(const pf_denoise_history *history,
             float alpha = fmaxf(1.0f / (previous_length + 1.0f), alpha_min);
             for (int c = 0; c < 3; c++) {
                 planes->lighting[3 * p + c] =
-                    (1.0f - alpha) * (sum[c] / weights) + alpha * planes->lighting[3 * p + c];
+                    (1.0f - alpha) * (sum[c] / weights) / planes->albedo[3 * p + c] +
+                    alpha * planes->lighting[3 * p + c];
                 planes->direct[3 * p + c] =
                     (1.0f - alpha) * (direct[c] / weights) + alpha * planes->direct[3 * p + c];
             }
@@ -239,15 +243,16 @@ int denoise_temporal_keep(pf_denoise_history *history, const pf_denoise_sequence
         history->depth = malloc(pixels * sizeof(float));
         history->length = malloc(pixels * sizeof(float));
         history->factor = malloc(pixels * sizeof(float));
-        if (!history->lighting || !history->direct || !history->normal || !history->depth || !history->length ||
-            !history->factor) {
+        if (!history->lighting || !history->direct || !history->normal || !history->depth ||
+            !history->length || !history->factor) {
             history_empty(history);
             return 0;
         }
         history->width = planes->width;
         history->height = planes->height;
     }
-    memcpy(history->lighting, planes->lighting, 3 * pixels * sizeof(float));
+    for (size_t k = 0; k < 3 * pixels; k++)
+        history->lighting[k] = planes->lighting[k] * planes->albedo[k];
     memcpy(history->direct, planes->direct, 3 * pixels * sizeof(float));
     memcpy(history->normal, planes->normal, 3 * pixels * sizeof(float));
     memcpy(history->depth, planes->depth, pixels * sizeof(float));

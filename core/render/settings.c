@@ -233,7 +233,8 @@ pf_status pf_settings_parse(const char *json, pf_render_settings *settings, pf_e
                            &filter, err);
     if (status == PF_OK)
         status = read_name(root, "denoise", pf_denoise_parse,
-                           "job parameters: \"denoise\" must be \"auto\", \"on\", \"spatial\" or \"off\"",
+                           "job parameters: \"denoise\" must be \"auto\", \"on\", "
+                           "\"spatial\" or \"off\"",
                            &denoise, err);
     if (status == PF_OK)
         status = read_bool(root, "aovs", &parsed.aovs, err);

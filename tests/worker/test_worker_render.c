@@ -977,6 +977,34 @@ PF_TEST(a_job_over_a_skinned_scene_reports_its_deform_rows)
     PF_CHECK(wt_file_contains(log_path, "1 skinned mesh, 1 morphed, "));
 }
 
+/* Issue 40: a task of consecutive frames on one worker reuses each frame's denoised light in
+ * the next; `timings` shows the temporal rows (the first skipped, the others run). */
+PF_TEST(a_task_of_consecutive_frames_reuses_the_frame_before)
+{
+    char scene_path[WT_PATH_MAX], out[WT_PATH_MAX + 32], db[WT_PATH_MAX + 32];
+    char args[8 * WT_PATH_MAX];
+    pf_test_shared_scene("cornell-anim", scene_path, sizeof scene_path);
+    wt_fresh_dir("temporal-out", out, sizeof out);
+    wt_format(db, sizeof db, "%s/temporal.db", dir);
+    unlink(db);
+    wt_format(args, sizeof args,
+              "'%s' --frames 1-3 --out '%s/t.####.exr' --size 16x12 --quality reference --spp 1 "
+              "--frames-per-task 3 --db '%s'",
+              scene_path, out, db);
+    int64_t job_id = wt_enqueue(args, log_path);
+    PF_REQUIRE(job_id > 0);
+    wt_format(args, sizeof args, "worker --once --db '%s'", db);
+    PF_REQUIRE(wt_run(args, log_path) == 0);
+    PF_CHECK(wt_count_files(out, "") == 3);
+    wt_format(args, sizeof args, "timings %lld --format csv --db '%s'", (long long)job_id, db);
+    PF_REQUIRE(wt_run(args, log_path) == 0);
+    PF_CHECK(wt_file_contains(log_path, "\ntemporal,2,1,")); /* run twice, skipped once */
+    PF_CHECK(wt_file_contains(log_path, "\ndenoise,3,0,"));
+    wt_format(args, sizeof args, "timings %lld --format json --db '%s'", (long long)job_id, db);
+    PF_REQUIRE(wt_run(args, log_path) == 0);
+    PF_CHECK(wt_file_contains(log_path, "previous frame (2) on this worker"));
+}
+
 int main(void)
 {
     pf_test_tmpdir(dir, sizeof dir);
@@ -998,5 +1026,6 @@ int main(void)
     PF_RUN(a_frame_that_cannot_be_committed_pauses_its_job_at_once);
     PF_RUN(render_frames_deforms_a_blender_character_and_refits_its_tree);
     PF_RUN(a_job_over_a_skinned_scene_reports_its_deform_rows);
+    PF_RUN(a_task_of_consecutive_frames_reuses_the_frame_before);
     return pf_test_finish();
 }
