@@ -212,21 +212,6 @@ static int render_ours(pf_renderer *renderer, const pf_scene_frame *frame,
     return rgb_only(image);
 }
 
-/* The difference of a and b (R, G, B) over truth² + ε, averaged: the flicker between two
- * frames on the scale of either one's relMSE. */
-static double flicker(const pf_image *a, const pf_image *b, const pf_image *truth)
-{
-    double sum = 0.0;
-    size_t pixels = (size_t)a->width * a->height;
-    for (size_t p = 0; p < pixels; p++)
-        for (uint32_t c = 0; c < 3; c++) {
-            double d = a->pixels[p * a->channel_count + c] - b->pixels[p * b->channel_count + c];
-            double r = truth->pixels[p * truth->channel_count + c];
-            sum += d * d / (r * r + PF_RELMSE_EPSILON);
-        }
-    return sum / (3.0 * pixels);
-}
-
 /*
  * A still shot of TEMPORAL_FRAMES frames with temporal reuse (see the top): fills image with
  * the last frame (R, G, B), seconds with the mean frame time, and prints the flicker and
@@ -258,10 +243,9 @@ static int render_still_shot(pf_renderer *renderer, const pf_scene_frame *frame,
         start = pf_time_ms();
         ok = ok && pf_denoise_image(&current, 0, &sequence, NULL, &err) == PF_OK;
         total_ms += rendered_ms + pf_time_ms() - start;
-        if (ok && number == TEMPORAL_FRAMES) {
-            seam = flicker(&alone, &previous, truth);
-            last_flicker = flicker(&current, &previous, truth);
-        }
+        if (ok && number == TEMPORAL_FRAMES)
+            ok = pf_image_flicker(&alone, &previous, truth, &seam, &err) == PF_OK &&
+                 pf_image_flicker(&current, &previous, truth, &last_flicker, &err) == PF_OK;
         pf_image_free(&alone);
         pf_image_free(&previous);
         previous = current;

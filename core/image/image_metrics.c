@@ -89,3 +89,34 @@ pf_status pf_image_compare(const pf_image *a, const pf_image *b, pf_image_metric
     }
     return PF_OK;
 }
+
+pf_status pf_image_flicker(const pf_image *a, const pf_image *b, const pf_image *reference,
+                           double *out, pf_error *err)
+{
+    static const char *const rgb[3] = {"R", "G", "B"};
+    const pf_image *images[3] = {a, b, reference};
+    int at[3][3];
+    *out = NAN;
+    for (int i = 0; i < 3; i++) {
+        if (images[i]->width != a->width || images[i]->height != a->height)
+            return pf_error_set(err, PF_ERR_INVALID, "flicker: sizes %ux%u and %ux%u differ",
+                                a->width, a->height, images[i]->width, images[i]->height);
+        for (int c = 0; c < 3; c++) {
+            at[i][c] = pf_image_channel(images[i], rgb[c]);
+            if (at[i][c] < 0)
+                return pf_error_set(err, PF_ERR_INVALID, "flicker: an image has no %s channel",
+                                    rgb[c]);
+        }
+    }
+    double sum = 0.0;
+    size_t pixels = (size_t)a->width * a->height;
+    for (size_t p = 0; p < pixels; p++)
+        for (int c = 0; c < 3; c++) {
+            double d = (double)a->pixels[p * a->channel_count + at[0][c]] -
+                       b->pixels[p * b->channel_count + at[1][c]];
+            double r = reference->pixels[p * reference->channel_count + at[2][c]];
+            sum += d * d / (r * r + PF_RELMSE_EPSILON);
+        }
+    *out = pixels ? sum / (3.0 * (double)pixels) : 0.0;
+    return PF_OK;
+}

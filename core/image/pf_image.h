@@ -101,6 +101,16 @@ pf_status pf_image_compare(const pf_image *a, const pf_image *b, pf_image_metric
                            pf_error *err);
 
 /*
+ * The flicker between two frames a and b of a still shot: the mean over R, G, B of
+ * (a − b)² / (r² + PF_RELMSE_EPSILON), r the reference's value. It is a relMSE with the two
+ * frames' difference in place of one frame's error, on the scale of either frame's relMSE,
+ * and defined where a noisy frame reads 0. The three images must have the same size and
+ * R, G, B channels (else PF_ERR_INVALID).
+ */
+pf_status pf_image_flicker(const pf_image *a, const pf_image *b, const pf_image *reference,
+                           double *out, pf_error *err);
+
+/*
  * A new image of in's channels names[0..count) in that order (compare two
  * images on the channels both have: a preview's RGB against a reference's).
  * PF_ERR_INVALID naming a missing channel.

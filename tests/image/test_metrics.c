@@ -1,4 +1,5 @@
-/* pf_image_compare on constructed images whose metrics are known in closed form. */
+/* pf_image_compare and pf_image_flicker on constructed images whose metrics are known in
+ * closed form. */
 #include "pf_image.h"
 #include "pf_test.h"
 
@@ -186,6 +187,33 @@ PF_TEST(appended_channels_follow_the_old_ones)
     pf_image_free(&a);
 }
 
+/* Flicker: two frames 0.1 apart over a reference of 1 (channels in another order in b), and
+ * what it refuses. */
+PF_TEST(flicker_is_the_difference_over_the_reference)
+{
+    static const char *const reordered[] = {"A", "B", "G", "R"};
+    pf_image a = {0}, b = {0}, reference = {0}, small = {0};
+    pf_error err = {0};
+    PF_REQUIRE_OK(pf_image_create(&a, 5, 3, 4, rgba, &err), &err);
+    PF_REQUIRE_OK(pf_image_create(&b, 5, 3, 4, reordered, &err), &err);
+    PF_REQUIRE_OK(pf_image_create(&reference, 5, 3, 4, rgba, &err), &err);
+    fill(&a, 1.1f);
+    fill(&b, 1.0f);
+    fill(&reference, 1.0f);
+    double flicker = -1.0;
+    PF_CHECK_OK(pf_image_flicker(&a, &b, &reference, &flicker, &err), &err);
+    /* 0.1² / (1 + 0.01) */
+    PF_CHECK_NEAR(flicker, 0.01 / 1.01, 1e-6);
+    PF_CHECK_OK(pf_image_flicker(&a, &a, &reference, &flicker, &err), &err);
+    PF_CHECK(flicker == 0.0);
+    PF_REQUIRE_OK(pf_image_create(&small, 4, 3, 4, rgba, &err), &err);
+    PF_CHECK(pf_image_flicker(&a, &b, &small, &flicker, &err) == PF_ERR_INVALID);
+    pf_image_free(&a);
+    pf_image_free(&b);
+    pf_image_free(&reference);
+    pf_image_free(&small);
+}
+
 int main(void)
 {
     PF_RUN(identical_images_have_zero_error);
@@ -196,5 +224,6 @@ int main(void)
     PF_RUN(without_rgb_every_channel_counts);
     PF_RUN(nan_propagates);
     PF_RUN(mismatches_are_invalid);
+    PF_RUN(flicker_is_the_difference_over_the_reference);
     return pf_test_finish();
 }

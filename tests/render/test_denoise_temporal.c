@@ -85,22 +85,13 @@ static void make_frame(pf_image *image, pf_image *truth, int64_t frame, int movi
         }
 }
 
-/*
- * Flicker: how far two frames of a still shot are apart, as relMSE against the truth's values
- * (the difference of a and b over truth² + ε, averaged over the beauty's channels): the same
- * scale as each frame's own error, and defined where a noisy frame reads 0.
- */
+/* pf_image_flicker, which the test's images always satisfy. */
 static double flicker_relmse(const pf_image *a, const pf_image *b, const pf_image *truth)
 {
-    double sum = 0.0;
-    size_t pixels = (size_t)a->width * a->height;
-    for (size_t p = 0; p < pixels; p++)
-        for (uint32_t c = 0; c < 3; c++) {
-            double d = a->pixels[p * a->channel_count + c] - b->pixels[p * b->channel_count + c];
-            double r = truth->pixels[p * truth->channel_count + c];
-            sum += d * d / (r * r + PF_RELMSE_EPSILON);
-        }
-    return sum / (3.0 * pixels);
+    double flicker = NAN;
+    pf_error err = {0};
+    PF_CHECK_OK(pf_image_flicker(a, b, truth, &flicker, &err), &err);
+    return flicker;
 }
 
 static pf_denoise_sequence sequence_at(pf_denoise_history *history, int64_t frame)
