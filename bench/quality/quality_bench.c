@@ -22,7 +22,7 @@
  * Blender photonfarm's reference at TRUTH_SPP. Cached as
  * PREFIX-truth-<hash>.exr.
  *
- * final+dn and reference+dn are final and reference followed by the denoise
+ * fast+dn, final+dn and reference+dn are those presets followed by the denoise
  * stage (issue 40), its time included.
  *
  * final+tr and reference+tr are a still shot of TEMPORAL_FRAMES frames denoised with
@@ -75,6 +75,7 @@ static const sweep sweeps[] = {
     {"fast", PF_QUALITY_FAST, "spp", {1, 2, 4, 8, 16, 0}},
     {"final", PF_QUALITY_FINAL, "passes", {1, 2, 4, 8, 16, 32, 0}},
     {"reference", PF_QUALITY_REFERENCE, "spp", {4, 16, 64, 256, 0}},
+    {"fast+dn", PF_QUALITY_FAST, "spp", {1, 2, 4, 8, 16, 0}, 1},
     {"final+dn", PF_QUALITY_FINAL, "passes", {1, 2, 4, 8, 16, 32, 0}, 1},
     {"reference+dn", PF_QUALITY_REFERENCE, "spp", {4, 16, 64, 256, 0}, 1},
     {"final+tr", PF_QUALITY_FINAL, "passes", {1, 2, 4, 8, 0}, 1, 1},
