@@ -4,7 +4,8 @@
  * error: renders SCENE with `reference` at SPP (4,096 by default) with its AOVs, denoises
  * it alone and again as the next frame of a still shot (temporal reuse of itself), and
  * prints how far each moved it (relMSE against the image as rendered, R, G, B) and how far
- * its mean moved.
+ * its mean moved. Then times the filter on the host and on the device (pf_render_denoise with
+ * each site forced; the median of TIMING_RUNS, wall and the kernels' GPU time).
  *
  *   denoise_floor SCENE.gltf WIDTH HEIGHT [SPP]
  */
@@ -14,9 +15,14 @@
 #include "pf_scene.h"
 #include "pf_vk.h"
 
+#include "../bench_stats.h"
+
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
+
+#define TIMING_RUNS 5
 
 static double mean_rgb(const pf_image *image)
 {
@@ -26,6 +32,34 @@ static double mean_rgb(const pf_image *image)
         for (int c = 0; c < 3; c++)
             sum += image->pixels[p * image->channel_count + c];
     return sum / (3.0 * (double)pixels);
+}
+
+/* The median wall and GPU ms of the denoise stage on rendered with the filter at site. */
+static int time_site(pf_renderer *renderer, const pf_image *rendered, pf_denoise_site site,
+                     double *wall_ms, double *gpu_ms)
+{
+    double walls[TIMING_RUNS], gpus[TIMING_RUNS];
+    pf_renderer_set_denoise_site(renderer, site);
+    for (int run = 0; run < TIMING_RUNS; run++) {
+        pf_image copy = {0};
+        pf_frame_report report = {0};
+        pf_error err = {0};
+        if (pf_image_append_channels(rendered, NULL, 0, &copy, &err) != PF_OK ||
+            pf_render_denoise(renderer, &copy, 0, NULL, &report, &err) != PF_OK) {
+            fprintf(stderr, "denoise_floor: %s\n", err.message);
+            pf_image_free(&copy);
+            return 0;
+        }
+        for (uint32_t i = 0; i < report.stage_count; i++)
+            if (!strcmp(report.stages[i].stage, "denoise")) {
+                walls[run] = report.stages[i].wall_ms;
+                gpus[run] = report.stages[i].gpu_ms;
+            }
+        pf_image_free(&copy);
+    }
+    *wall_ms = bench_median(walls, TIMING_RUNS);
+    *gpu_ms = bench_median(gpus, TIMING_RUNS);
+    return 1;
 }
 
 /* relMSE of a's R, G, B against b's (the same channels in both). */
@@ -92,6 +126,12 @@ int main(int argc, char **argv)
     printf("  temporal: relMSE %.6g (the image blended with itself, then filtered), mean "
            "%+.3f %%\n",
            moved(&twice, &rendered), 100.0 * (mean_rgb(&twice) / mean_rgb(&rendered) - 1.0));
+    double host_ms, host_gpu, device_ms, device_gpu;
+    if (!time_site(renderer, &rendered, PF_DENOISE_SITE_HOST, &host_ms, &host_gpu) ||
+        !time_site(renderer, &rendered, PF_DENOISE_SITE_DEVICE, &device_ms, &device_gpu))
+        return 1;
+    printf("  filter:   host %.1f ms, device %.1f ms wall (kernels %.1f ms GPU), median of %d\n",
+           host_ms, device_ms, device_gpu, TIMING_RUNS);
     pf_image_free(&rendered);
     pf_image_free(&alone);
     pf_image_free(&twice);

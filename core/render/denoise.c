@@ -332,8 +332,22 @@ static void temporal_row(pf_frame_report *report, const pf_denoise_sequence *seq
     pf_stage_add_counter(row, "memory_frames", stats->memory);
 }
 
-pf_status pf_denoise_image(pf_image *image, int keep_noisy, const pf_denoise_sequence *sequence,
-                           pf_frame_report *report, pf_error *err)
+/* Where the filter runs: the device (renderer given) or the host's cores. */
+static int on_device(const pf_renderer *renderer)
+{
+    if (!renderer)
+        return 0;
+    pf_denoise_site site = renderer->denoise_site;
+    if (site == PF_DENOISE_SITE_AUTO)
+        site = strcmp(pf_vk_info(renderer->ctx)->type, "cpu") ? PF_DENOISE_SITE_DEVICE
+                                                              : PF_DENOISE_SITE_HOST;
+    return site == PF_DENOISE_SITE_DEVICE;
+}
+
+/* The stage, the filter on renderer's device (NULL: on the host). */
+static pf_status denoise_run(pf_renderer *renderer, pf_image *image, int keep_noisy,
+                             const pf_denoise_sequence *sequence, pf_frame_report *report,
+                             pf_error *err)
 {
     double start = pf_time_ms();
     static const char *const layers[6] = {"", "direct.", "indirect.", "caustic.", "albedo.",
@@ -354,12 +368,24 @@ pf_status pf_denoise_image(pf_image *image, int keep_noisy, const pf_denoise_seq
     if (at.depth < 0)
         return pf_error_set(err, PF_ERR_INVALID, "denoise: the image has no depth.Z channel");
     denoise_planes planes = {0};
-    if (!planes_fill(image, &at, &planes)) {
+    size_t pixels = (size_t)image->width * image->height;
+    int device = on_device(renderer);
+    /* The device estimates the variance from this frame's own lighting after the blend has
+     * replaced it on the host: a copy goes along. The variance layer is the estimate the
+     * filter started from (after any blend's factor). */
+    float *noisy = device ? malloc(3 * pixels * sizeof *noisy) : NULL;
+    float *estimate = keep_noisy ? malloc(pixels * sizeof *estimate + 1) : NULL;
+    if (!planes_fill(image, &at, &planes) || (device && !noisy) || (keep_noisy && !estimate)) {
         planes_free(&planes);
+        free(noisy);
+        free(estimate);
         return pf_error_set(err, PF_ERR_NOMEM, "denoise: out of memory for %ux%u",
                             image->width, image->height);
     }
-    run_rows(&planes, 0);
+    if (device)
+        memcpy(noisy, planes.lighting, 3 * pixels * sizeof *noisy);
+    else
+        run_rows(&planes, 0);
     if (sequence) {
         double temporal_start = pf_time_ms();
         char why_not[PF_STAGE_REASON_MAX] = "--denoise spatial: every frame filtered alone";
@@ -376,31 +402,34 @@ pf_status pf_denoise_image(pf_image *image, int keep_noisy, const pf_denoise_seq
         temporal_row(report, sequence, blended, why_not, &stats, pf_time_ms() - temporal_start);
         start += pf_time_ms() - temporal_start; /* the denoise row is the filter's alone */
     }
-    double noisy_variance = 0.0;
-    size_t pixels = (size_t)image->width * image->height;
-    /* The variance layer is the estimate the filter started from (after any blend). */
-    float *estimate = keep_noisy ? malloc(pixels * sizeof *estimate + 1) : NULL;
-    if (keep_noisy && !estimate) {
-        planes_free(&planes);
-        return pf_error_set(err, PF_ERR_NOMEM, "denoise: out of memory");
+    double noisy_variance = 0.0, gpu_ms = -1.0;
+    pf_status status = PF_OK;
+    if (device) {
+        status = denoise_device_filter(renderer, &planes, noisy, DENOISE_PASSES, estimate,
+                                       &gpu_ms, err);
+        for (size_t p = 0; status == PF_OK && estimate && p < pixels; p++)
+            noisy_variance += estimate[p];
+    } else {
+        for (size_t p = 0; p < pixels; p++) {
+            planes.variance[p] *= planes.variance_factor[p];
+            noisy_variance += planes.variance[p];
+            if (estimate)
+                estimate[p] = planes.variance[p];
+        }
+        for (int pass = 0; pass < DENOISE_PASSES; pass++)
+            atrous_pass(&planes, 1 << pass);
     }
-    for (size_t p = 0; p < pixels; p++) {
-        noisy_variance += planes.variance[p];
-        if (estimate)
-            estimate[p] = planes.variance[p];
-    }
-    for (int pass = 0; pass < DENOISE_PASSES; pass++)
-        atrous_pass(&planes, 1 << pass);
+    free(noisy);
 
     static const char *const added[4] = {"noisy.R", "noisy.G", "noisy.B", "variance.Y"};
     pf_image grown = {0};
-    pf_status status = keep_noisy ? pf_image_append_channels(image, added, 4, &grown, err) : PF_OK;
+    if (status == PF_OK && keep_noisy)
+        status = pf_image_append_channels(image, added, 4, &grown, err);
     if (status != PF_OK) {
         free(estimate);
         planes_free(&planes);
         return status;
-    }
-    pf_image *out = keep_noisy ? &grown : image;
+    }    pf_image *out = keep_noisy ? &grown : image;
     uint32_t first_added = image->channel_count;
     for (size_t p = 0; p < pixels; p++) {
         float *texel = out->pixels + p * out->channel_count;
@@ -428,14 +457,28 @@ pf_status pf_denoise_image(pf_image *image, int keep_noisy, const pf_denoise_seq
         *image = grown;
     }
     pf_stage_timing *row = pf_frame_report_row(report, "denoise", NULL, pf_time_ms() - start,
-                                               -1.0);
+                                               gpu_ms);
     if (row) {
         snprintf(row->reason, sizeof row->reason,
-                 "à-trous (%d passes) on the demodulated indirect light, on the host",
-                 DENOISE_PASSES);
+                 "à-trous (%d passes) on the demodulated indirect light, on the %s",
+                 DENOISE_PASSES, device ? "device" : "host");
         pf_stage_add_counter(row, "pixels", (double)pixels);
         pf_stage_add_counter(row, "passes", DENOISE_PASSES);
         pf_stage_add_counter(row, "mean_variance", noisy_variance / (double)pixels);
+        pf_stage_add_counter(row, "on_device", device);
     }
     return PF_OK;
+}
+
+pf_status pf_denoise_image(pf_image *image, int keep_noisy, const pf_denoise_sequence *sequence,
+                           pf_frame_report *report, pf_error *err)
+{
+    return denoise_run(NULL, image, keep_noisy, sequence, report, err);
+}
+
+pf_status pf_render_denoise(pf_renderer *renderer, pf_image *image, int keep_noisy,
+                            const pf_denoise_sequence *sequence, pf_frame_report *report,
+                            pf_error *err)
+{
+    return denoise_run(renderer, image, keep_noisy, sequence, report, err);
 }

@@ -38,10 +38,10 @@ typedef struct denoise_temporal_stats {
 } denoise_temporal_stats;
 
 /*
- * Blends history's lighting into planes (lighting and direct, and variance scaled by what the
- * blend averaged) where it holds the previous frame and its point still matches; image gives the
- * motion vectors. Call with history usable (pf_denoise_history_usable) and the variance
- * already estimated from this frame alone.
+ * Blends history's lighting into planes (lighting and direct; variance_factor says what the
+ * blend did to the variance, by which the filter scales its estimate from this frame alone)
+ * where history holds the previous frame and its point still matches; image gives the
+ * motion vectors. Call with history usable (pf_denoise_history_usable).
  */
 void denoise_temporal_blend(const pf_denoise_history *history,
                             const pf_denoise_sequence *sequence, const pf_image *image,
@@ -52,5 +52,16 @@ void denoise_temporal_blend(const pf_denoise_history *history,
  * 0: out of memory (history is then emptied). */
 int denoise_temporal_keep(pf_denoise_history *history, const pf_denoise_sequence *sequence,
                           const denoise_planes *planes);
+
+/*
+ * The filter on the device (denoise_device.c): the variance estimate of noisy (this frame's
+ * own demodulated lighting, 3 per pixel) times planes' variance factors, then `passes`
+ * à-trous passes of planes' lighting, in one submission. Leaves the filtered lighting and
+ * its variance in planes, the estimate the passes started from in estimate (NULL: not
+ * wanted), the kernels' GPU time in gpu_ms (< 0 without timestamps).
+ */
+pf_status denoise_device_filter(pf_renderer *renderer, denoise_planes *planes,
+                                const float *noisy, int passes, float *estimate,
+                                double *gpu_ms, pf_error *err);
 
 #endif

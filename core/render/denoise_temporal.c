@@ -221,7 +221,6 @@ void denoise_temporal_blend(const pf_denoise_history *history,
             }
             float f = (1.0f - alpha) * (1.0f - alpha) * (factor / weights) + alpha * alpha;
             planes->variance_factor[p] = f;
-            planes->variance[p] *= f;
             planes->history_length[p] = fminf(previous_length + 1.0f, (float)memory);
             stats->reprojected_pixels++;
             history_sum += previous_length;

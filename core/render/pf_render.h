@@ -381,6 +381,18 @@ int pf_denoise_history_usable(const pf_denoise_history *history,
                               const pf_denoise_sequence *sequence, uint32_t width,
                               uint32_t height, char *reason, size_t size);
 
+/* Where the denoise stage's filter runs (the temporal blend and the write-back run on the
+ * host either way). */
+typedef enum pf_denoise_site {
+    PF_DENOISE_SITE_AUTO = 0, /* the host when the device is the CPU (measured faster:
+                               * bench/RESULTS.md, "Denoising"), else the device */
+    PF_DENOISE_SITE_HOST,
+    PF_DENOISE_SITE_DEVICE    /* shaders/denoise_variance.comp, shaders/denoise_atrous.comp */
+} pf_denoise_site;
+
+/* Forces where later frames' filter runs (tests cover the device's path on lavapipe). */
+void pf_renderer_set_denoise_site(pf_renderer *renderer, pf_denoise_site site);
+
 /*
  * The denoise stage (denoise.c): filters image's indirect light (less its caustics) in place,
  * guided by its albedo, normal and depth channels, and updates the beauty to direct +
@@ -393,6 +405,11 @@ int pf_denoise_history_usable(const pf_denoise_history *history,
  */
 pf_status pf_denoise_image(pf_image *image, int keep_noisy, const pf_denoise_sequence *sequence,
                            pf_frame_report *report, pf_error *err);
+/* The same, the filter run where renderer's denoise site says (pf_denoise_image: the host);
+ * the row says where, and has the kernels' GPU time when on the device. */
+pf_status pf_render_denoise(pf_renderer *renderer, pf_image *image, int keep_noisy,
+                            const pf_denoise_sequence *sequence, pf_frame_report *report,
+                            pf_error *err);
 
 /* ---- One frame from scene to file (core/render/pipeline.c) ---- */
 

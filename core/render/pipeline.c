@@ -273,7 +273,7 @@ pf_status pf_frame_render(pf_renderer *renderer, const pf_frame_request *request
                         &out->report, err);
     sequence.depth_change = depth_change;
     if (status == PF_OK && denoised)
-        status = pf_denoise_image(&image, settings.aovs, &sequence, &out->report, err);
+        status = pf_render_denoise(renderer, &image, settings.aovs, &sequence, &out->report, err);
     free(depth_change);
     pf_scene_frame_free(&frame);
     if (status != PF_OK) {

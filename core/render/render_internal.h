@@ -50,6 +50,8 @@ typedef enum pf_renderer_pipeline_id {
     PF_PIPELINE_FINAL_CAUSTIC,   /* final_caustic.comp */
     PF_PIPELINE_FAST,            /* render_fast.comp */
     PF_PIPELINE_FAST_CAUSTIC,    /* render_fast_caustic.comp */
+    PF_PIPELINE_DENOISE_VARIANCE, /* denoise_variance.comp */
+    PF_PIPELINE_DENOISE_ATROUS,  /* denoise_atrous.comp */
     PF_PIPELINE_COUNT
 } pf_renderer_pipeline_id;
 
@@ -265,6 +267,7 @@ struct pf_renderer {
     pf_photon_tracer *photon_tracer;
     /* What the denoiser kept of the last frame it denoised (created on first use). */
     pf_denoise_history *denoise_history;
+    pf_denoise_site denoise_site; /* pf_renderer_set_denoise_site */
 };
 
 /* The pipeline id, created now if this renderer has not needed it before (renderer.c). */

@@ -16,6 +16,11 @@ pf_status pf_renderer_create(pf_vk_context *ctx, pf_renderer **out, pf_error *er
 
 pf_vk_context *pf_renderer_context(const pf_renderer *renderer) { return renderer->ctx; }
 
+void pf_renderer_set_denoise_site(pf_renderer *renderer, pf_denoise_site site)
+{
+    renderer->denoise_site = site;
+}
+
 pf_denoise_history *pf_renderer_denoise_history(pf_renderer *renderer)
 {
     /* Out of memory leaves it NULL: the frame is then denoised alone, which is still right. */

@@ -23,6 +23,10 @@
 /* render_fast.comp and render_fast_caustic.comp: PF_FAST_BUFFERS buffers and the same 72-byte
  * Push (fast_shade.glsl). */
 #define RENDER_FAST_PUSH_BYTES 72u
+/* denoise_variance.comp and denoise_atrous.comp: the same 6 buffers and 16-byte Push
+ * (denoise_filter.glsl). */
+#define DENOISE_BUFFERS 6u
+#define DENOISE_PUSH_BYTES 16u
 #define MATERIAL_PROBE_BUFFERS 2u
 #define MATERIAL_PROBE_PUSH_BYTES 4u
 
@@ -62,6 +66,10 @@ static const pipeline_spec pipeline_specs[PF_PIPELINE_COUNT] = {
     [PF_PIPELINE_FAST] = {"render_fast", PF_FAST_BUFFERS, RENDER_FAST_PUSH_BYTES, 0, {0, 0}, 1},
     [PF_PIPELINE_FAST_CAUSTIC] = {"render_fast_caustic", PF_FAST_BUFFERS, RENDER_FAST_PUSH_BYTES,
                                   0, {0, 0}, 1},
+    [PF_PIPELINE_DENOISE_VARIANCE] = {"denoise_variance", DENOISE_BUFFERS, DENOISE_PUSH_BYTES, 0,
+                                      {0, 0}},
+    [PF_PIPELINE_DENOISE_ATROUS] = {"denoise_atrous", DENOISE_BUFFERS, DENOISE_PUSH_BYTES, 0,
+                                    {0, 0}},
 };
 
 pf_status pf_renderer_pipeline(pf_renderer *renderer, pf_renderer_pipeline_id id,

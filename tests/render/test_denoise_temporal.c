@@ -370,6 +370,60 @@ PF_TEST(the_cornell_box_converges_over_frames_of_a_still_shot)
     pf_scene_destroy(scene);
 }
 
+/*
+ * The filter on the device (denoise_variance.comp, denoise_atrous.comp, forced on lavapipe,
+ * whose AUTO site is the host) gives the host's image within float rounding: the Cornell box
+ * at 4 spp over three frames of a still shot, each path with its own history.
+ */
+PF_TEST(the_device_filters_as_the_host_does)
+{
+    pf_scene *scene = NULL;
+    pf_scene_frame frame;
+    PF_REQUIRE(ref_load_cornell(&scene, &frame));
+    pf_error err = {0};
+    pf_denoise_history *host_history = NULL, *device_history = NULL;
+    PF_REQUIRE_OK(pf_denoise_history_create(&host_history, &err), &err);
+    PF_REQUIRE_OK(pf_denoise_history_create(&device_history, &err), &err);
+    pf_render_settings low = ref_settings(40, 30, 4, 7, 1);
+    for (int64_t number = 1; number <= 3; number++) {
+        pf_image host = {0}, device = {0};
+        low.sample_salt = (uint64_t)number;
+        PF_REQUIRE_OK(pf_render_frame(renderer, &frame, &low, &host, NULL, &err), &err);
+        PF_REQUIRE_OK(pf_image_append_channels(&host, NULL, 0, &device, &err), &err);
+        pf_denoise_sequence on_host = {host_history, 5, number, 1, 1, NULL};
+        pf_denoise_sequence on_device = {device_history, 5, number, 1, 1, NULL};
+        pf_frame_report host_report = {0}, device_report = {0};
+        pf_renderer_set_denoise_site(renderer, PF_DENOISE_SITE_HOST);
+        PF_REQUIRE_OK(pf_render_denoise(renderer, &host, 1, &on_host, &host_report, &err), &err);
+        pf_renderer_set_denoise_site(renderer, PF_DENOISE_SITE_DEVICE);
+        PF_REQUIRE_OK(pf_render_denoise(renderer, &device, 1, &on_device, &device_report, &err),
+                      &err);
+        pf_renderer_set_denoise_site(renderer, PF_DENOISE_SITE_AUTO);
+        PF_CHECK(ref_stage_counter(&device_report, "denoise", "on_device") == 1.0);
+        PF_CHECK(ref_stage_counter(&host_report, "denoise", "on_device") == 0.0);
+        const pf_stage_timing *row = ref_row(&device_report, "denoise");
+        PF_CHECK(row && strstr(row->reason, "on the device"));
+        /* Every channel, the variance layer included: within 1e-4 of the larger value. */
+        double worst = 0.0;
+        size_t values = (size_t)host.width * host.height * host.channel_count;
+        PF_REQUIRE(device.channel_count == host.channel_count);
+        for (size_t k = 0; k < values; k++) {
+            double a = host.pixels[k], b = device.pixels[k];
+            worst = fmax(worst, fabs(a - b) / fmax(fmax(fabs(a), fabs(b)), 1e-3));
+        }
+        printf("  frame %lld: device against host, largest relative difference %.3g\n",
+               (long long)number, worst);
+        PF_CHECK_MSG(worst < 1e-4, "frame %lld: the device differs by %g", (long long)number,
+                     worst);
+        pf_image_free(&host);
+        pf_image_free(&device);
+    }
+    pf_denoise_history_destroy(host_history);
+    pf_denoise_history_destroy(device_history);
+    pf_scene_frame_free(&frame);
+    pf_scene_destroy(scene);
+}
+
 int main(void)
 {
     PF_RUN(a_still_shot_converges_over_frames_and_flickers_less_than_a_frame_errs);
@@ -379,5 +433,6 @@ int main(void)
     if (!render_test_setup(&ctx, &renderer))
         return 1;
     PF_RUN(the_cornell_box_converges_over_frames_of_a_still_shot);
+    PF_RUN(the_device_filters_as_the_host_does);
     return render_test_finish(ctx, renderer);
 }

@@ -1,0 +1,109 @@
+/*
+ * The denoise stage's filter on the device (issue 40): the variance estimate and the five
+ * à-trous passes of denoise.c as compute kernels (shaders/denoise_variance.comp,
+ * shaders/denoise_atrous.comp), recorded in one submission with the uploads before them and
+ * the readbacks after, so the stage waits for the device once. The temporal blend runs on
+ * the host before it (denoise_temporal.c: a gather from the history's few taps per pixel,
+ * under a millisecond at 160×120), and so does the write-back into the image.
+ */
+#include "denoise_internal.h"
+#include "render_internal.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+#define DENOISE_GROUP 8u
+#define DENOISE_DEVICE_BUFFERS 6u
+
+pf_status denoise_device_filter(pf_renderer *renderer, denoise_planes *planes,
+                                const float *noisy, int passes, float *estimate,
+                                double *gpu_ms, pf_error *err)
+{
+    pf_vk_context *ctx = pf_renderer_context(renderer);
+    size_t pixels = (size_t)planes->width * planes->height;
+    *gpu_ms = -1.0;
+    pf_vk_pipeline *variance_kernel = NULL, *atrous_kernel = NULL;
+    pf_status status = pf_renderer_pipeline(renderer, PF_PIPELINE_DENOISE_VARIANCE,
+                                            &variance_kernel, err);
+    if (status == PF_OK)
+        status = pf_renderer_pipeline(renderer, PF_PIPELINE_DENOISE_ATROUS, &atrous_kernel, err);
+    if (status != PF_OK)
+        return status;
+    /* The host's planes as the kernels' vec4 and vec2 arrays. */
+    float *noisy4 = malloc(4 * pixels * sizeof(float));
+    float *guides = malloc(4 * pixels * sizeof(float));
+    float *aux = malloc(2 * pixels * sizeof(float));
+    float *lit = malloc(4 * pixels * sizeof(float));
+    if (!noisy4 || !guides || !aux || !lit) {
+        free(noisy4);
+        free(guides);
+        free(aux);
+        free(lit);
+        return pf_error_set(err, PF_ERR_NOMEM, "denoise: out of memory for the device's copy");
+    }
+    for (size_t p = 0; p < pixels; p++) {
+        for (int c = 0; c < 3; c++) {
+            noisy4[4 * p + c] = noisy[3 * p + c];
+            guides[4 * p + c] = planes->normal[3 * p + c];
+            lit[4 * p + c] = planes->lighting[3 * p + c];
+        }
+        noisy4[4 * p + 3] = 0.0f;
+        guides[4 * p + 3] = planes->depth[p];
+        lit[4 * p + 3] = 0.0f;
+        aux[2 * p] = planes->depth_step[p];
+        aux[2 * p + 1] = planes->variance_factor[p];
+    }
+    pf_vk_commands *cmds = NULL;
+    pf_vk_buffer *buffers[DENOISE_DEVICE_BUFFERS] = {0};
+    static const char *const labels[DENOISE_DEVICE_BUFFERS] = {
+        "denoise noisy", "denoise guides", "denoise aux", "denoise lighting a",
+        "denoise lighting b", "denoise estimate"};
+    const void *data[DENOISE_DEVICE_BUFFERS] = {noisy4, guides, aux, lit, NULL, NULL};
+    const uint64_t bytes[DENOISE_DEVICE_BUFFERS] = {
+        16 * pixels, 16 * pixels, 8 * pixels, 16 * pixels, 16 * pixels, 4 * pixels};
+    status = pf_vk_commands_begin(ctx, &cmds, err);
+    for (int b = 0; status == PF_OK && b < (int)DENOISE_DEVICE_BUFFERS; b++)
+        status = pf_render_buffer_recorded(ctx, cmds, labels[b], data[b],
+                                           data[b] ? bytes[b] : 0, bytes[b], &buffers[b], err);
+    uint32_t push[4] = {planes->width, planes->height, 0, 0};
+    uint32_t groups_x = (planes->width + DENOISE_GROUP - 1) / DENOISE_GROUP;
+    uint32_t groups_y = (planes->height + DENOISE_GROUP - 1) / DENOISE_GROUP;
+    int begin = status == PF_OK ? pf_vk_cmd_timestamp(cmds) : -1;
+    if (status == PF_OK)
+        status = pf_vk_cmd_dispatch(cmds, variance_kernel, buffers, DENOISE_DEVICE_BUFFERS, push,
+                                    sizeof push, groups_x, groups_y, 1, err);
+    for (int pass = 0; status == PF_OK && pass < passes; pass++) {
+        pf_vk_cmd_barrier(cmds);
+        push[2] = 1u << pass;
+        push[3] = (uint32_t)(pass & 1); /* A → B, then back */
+        status = pf_vk_cmd_dispatch(cmds, atrous_kernel, buffers, DENOISE_DEVICE_BUFFERS, push,
+                                    sizeof push, groups_x, groups_y, 1, err);
+    }
+    int end = status == PF_OK ? pf_vk_cmd_timestamp(cmds) : -1;
+    if (status == PF_OK)
+        pf_vk_cmd_barrier(cmds);
+    /* An odd number of passes ends in B, an even one in A. */
+    pf_vk_buffer *result = buffers[(passes & 1) ? 4 : 3];
+    if (status == PF_OK)
+        status = pf_vk_cmd_download(cmds, result, 0, lit, 16 * pixels, err);
+    if (status == PF_OK && estimate)
+        status = pf_vk_cmd_download(cmds, buffers[5], 0, estimate, 4 * pixels, err);
+    if (status == PF_OK)
+        status = pf_vk_commands_submit(cmds, err);
+    if (status == PF_OK && begin >= 0 && end >= 0)
+        *gpu_ms = pf_vk_commands_elapsed_ms(cmds, begin, end);
+    if (status == PF_OK)
+        for (size_t p = 0; p < pixels; p++) {
+            memcpy(planes->lighting + 3 * p, lit + 4 * p, 3 * sizeof(float));
+            planes->variance[p] = lit[4 * p + 3];
+        }
+    if (cmds)
+        pf_vk_commands_destroy(cmds);
+    for (int b = 0; b < (int)DENOISE_DEVICE_BUFFERS; b++)
+        pf_render_buffer_release(ctx, &buffers[b]);
+    free(noisy4);
+    free(guides);
+    free(aux);
+    free(lit);
+    return status;
+}
