@@ -420,6 +420,8 @@ pf_status pf_render_denoise(pf_renderer *renderer, pf_image *image, int keep_noi
  *   pf_scene_eval_rigid      → stage row "scene_eval"
  *   pf_scene_deform          → stage row "deform" (skipped without skins or morph targets)
  *   pf_render_frame          → the renderer's GPU stage rows
+ *   pf_render_motion         → stage row "motion" (with AOVs, or for temporal reuse)
+ *   pf_render_denoise        → stage rows "temporal" and "denoise" (where --denoise applies)
  *   pf_exr_write to a temporary name beside the output → stage row "exr_write"
  *
  * pf_frame_render stops there and hands the temporary back, so the caller can
