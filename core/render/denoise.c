@@ -404,9 +404,12 @@ static pf_status denoise_run(pf_renderer *renderer, pf_image *image, int keep_no
     }
     double noisy_variance = 0.0, gpu_ms = -1.0;
     pf_status status = PF_OK;
+    pf_vk_traffic traffic = {0};
     if (device) {
+        pf_vk_traffic before = pf_vk_traffic_of(renderer->ctx);
         status = denoise_device_filter(renderer, &planes, noisy, DENOISE_PASSES, estimate,
                                        &gpu_ms, err);
+        traffic = pf_vk_traffic_since(renderer->ctx, before);
         for (size_t p = 0; status == PF_OK && estimate && p < pixels; p++)
             noisy_variance += estimate[p];
     } else {
@@ -466,6 +469,8 @@ static pf_status denoise_run(pf_renderer *renderer, pf_image *image, int keep_no
         pf_stage_add_counter(row, "passes", DENOISE_PASSES);
         pf_stage_add_counter(row, "mean_variance", noisy_variance / (double)pixels);
         pf_stage_add_counter(row, "on_device", device);
+        if (device) /* one submission, one wait (issue 44) */
+            pf_stage_add_traffic(row, traffic);
     }
     return PF_OK;
 }

@@ -403,6 +403,14 @@ PF_TEST(the_device_filters_as_the_host_does)
         PF_CHECK(ref_stage_counter(&host_report, "denoise", "on_device") == 0.0);
         const pf_stage_timing *row = ref_row(&device_report, "denoise");
         PF_CHECK(row && strstr(row->reason, "on the device"));
+        /* Uploads, the six kernels and the readbacks: one submission, one wait (issue 44). */
+        PF_CHECK_MSG(ref_stage_counter(&device_report, "denoise", "submits") == 1.0 &&
+                         ref_stage_counter(&device_report, "denoise", "host_waits") == 1.0,
+                     "%g submits, %g waits",
+                     ref_stage_counter(&device_report, "denoise", "submits"),
+                     ref_stage_counter(&device_report, "denoise", "host_waits"));
+        PF_CHECK(ref_stage_counter(&device_report, "denoise", "readback_bytes") ==
+                 20.0 * host.width * host.height);
         /* Every channel, the variance layer included: within 1e-4 of the larger value. */
         double worst = 0.0;
         size_t values = (size_t)host.width * host.height * host.channel_count;
