@@ -13,7 +13,7 @@
  * the previous raster position minus this one, in pixels, x to the right and
  * y up. A pixel that sees nothing, or whose point was behind the previous
  * camera, reads 0, and so, exactly, does one whose triangle and camera did not
- * move.
+ * move. A still shot (the camera and every vertex as in the previous frame) traces nothing.
  */
 #include "render_internal.h"
 
@@ -102,7 +102,20 @@ pf_status pf_render_motion(pf_renderer *renderer, const pf_scene_frame *frame,
     size_t pixels = (size_t)width * height;
     uint64_t moving = 0, seen = 0;
     int same_camera = memcmp(&frame->camera, &previous->camera, sizeof frame->camera) == 0;
-    for (size_t first = 0; status == PF_OK && first < pixels; first += MOTION_RAY_BATCH) {
+    /* A still shot (camera and every vertex as they were): every vector is 0, known without
+     * tracing a ray. */
+    int still = same_camera && memcmp(frame->vertices, previous->vertices,
+                                      (size_t)frame->triangle_count * 3 * sizeof *frame->vertices) == 0;
+    if (still && status == PF_OK) {
+        for (size_t p = 0; p < pixels; p++) {
+            float *out = grown.pixels + p * channels + channels - 2;
+            out[0] = out[1] = 0.0f;
+        }
+        if (depth_change)
+            memset(depth_change, 0, pixels * sizeof *depth_change);
+    }
+    for (size_t first = 0; !still && status == PF_OK && first < pixels;
+         first += MOTION_RAY_BATCH) {
         uint32_t count = (uint32_t)(pixels - first < MOTION_RAY_BATCH ? pixels - first
                                                                       : MOTION_RAY_BATCH);
         for (uint32_t i = 0; i < count; i++) {
@@ -172,13 +185,21 @@ pf_status pf_render_motion(pf_renderer *renderer, const pf_scene_frame *frame,
     pf_image_free(image);
     *image = grown;
     pf_stage_timing *row = pf_frame_report_row(report, "motion", NULL, pf_time_ms() - start, -1.0);
-    if (row) {
+    if (row && still) {
+        snprintf(row->reason, sizeof row->reason,
+                 "camera and geometry still, not traced; 0 of %llu pixels moved",
+                 (unsigned long long)pixels);
+        pf_stage_add_counter(row, "pixels", (double)pixels);
+        pf_stage_add_counter(row, "moving_pixels", 0);
+        pf_stage_add_counter(row, "traced", 0);
+    } else if (row) {
         snprintf(row->reason, sizeof row->reason,
                  "pixel centres traced on the host; %llu of %llu pixels moved",
                  (unsigned long long)moving, (unsigned long long)seen);
         pf_stage_add_counter(row, "pixels", (double)pixels);
         pf_stage_add_counter(row, "surface_pixels", (double)seen);
         pf_stage_add_counter(row, "moving_pixels", (double)moving);
+        pf_stage_add_counter(row, "traced", 1);
     }
     return PF_OK;
 }

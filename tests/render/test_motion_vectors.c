@@ -36,7 +36,35 @@ static void build(ref_scene *scene, float cx, float dx, float dy)
 }
 
 /* Renders `now` (preview, AOVs on) and its motion from `before`. */
+static int render_motion_report(const ref_scene *now, const ref_scene *before, pf_image *image,
+                                pf_frame_report *report);
+
 static int render_motion(const ref_scene *now, const ref_scene *before, pf_image *image)
+{
+    pf_frame_report report = {0};
+    return render_motion_report(now, before, image, &report);
+}
+
+/* A still shot: every vector 0, and nothing traced for it. */
+PF_TEST(a_still_shot_reads_zero_without_tracing)
+{
+    ref_scene scene;
+    build(&scene, 0.0f, 0.1f, 0.05f);
+    pf_image image = {0};
+    pf_frame_report report = {0};
+    int mx = render_motion_report(&scene, &scene, &image, &report);
+    PF_REQUIRE(mx >= 0);
+    size_t nonzero = 0;
+    for (uint32_t y = 0; y < HEIGHT; y++)
+        for (uint32_t x = 0; x < WIDTH; x++)
+            nonzero += ref_pixel(&image, mx, x, y) != 0.0 || ref_pixel(&image, mx + 1, x, y) != 0.0;
+    PF_CHECK_MSG(nonzero == 0, "%zu pixels moved in a still shot", nonzero);
+    PF_CHECK(ref_stage_counter(&report, "motion", "traced") == 0.0);
+    pf_image_free(&image);
+}
+
+static int render_motion_report(const ref_scene *now, const ref_scene *before, pf_image *image,
+                                pf_frame_report *out)
 {
     pf_render_settings settings = pf_render_settings_default();
     settings.quality = PF_QUALITY_PREVIEW;
@@ -49,6 +77,7 @@ static int render_motion(const ref_scene *now, const ref_scene *before, pf_image
                 &err);
     const pf_stage_timing *row = ref_row(&report, "motion");
     PF_CHECK(row != NULL);
+    *out = report;
     return pf_image_channel(image, "motion.X");
 }
 
@@ -60,7 +89,8 @@ PF_TEST(a_sliding_camera_moves_the_wall_by_the_closed_form)
     build(&before, 0.0f, 100.0f, 0.0f); /* the quad far out of view */
     build(&now, 0.2f, 100.0f, 0.0f);
     pf_image image = {0};
-    int mx = render_motion(&now, &before, &image);
+    pf_frame_report report = {0};
+    int mx = render_motion_report(&now, &before, &image, &report);
     PF_REQUIRE(mx >= 0);
     double tan_y = tan(0.5 * YFOV), tan_x = tan_y * WIDTH / HEIGHT;
     double expected = 0.2 / (4.0 * tan_x) * WIDTH / 2.0;
@@ -72,6 +102,7 @@ PF_TEST(a_sliding_camera_moves_the_wall_by_the_closed_form)
             checked++;
         }
     PF_CHECK(checked > 100);
+    PF_CHECK(ref_stage_counter(&report, "motion", "traced") == 1.0);
     pf_image_free(&image);
     ref_scene_free(&before);
     ref_scene_free(&now);
@@ -107,6 +138,7 @@ int main(void)
 {
     if (!render_test_setup(&ctx, &renderer))
         return 1;
+    PF_RUN(a_still_shot_reads_zero_without_tracing);
     PF_RUN(a_sliding_camera_moves_the_wall_by_the_closed_form);
     PF_RUN(a_moving_object_moves_by_the_closed_form_and_the_still_wall_reads_zero);
     return render_test_finish(ctx, renderer);
