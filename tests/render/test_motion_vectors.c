@@ -61,6 +61,7 @@ PF_TEST(a_still_shot_reads_zero_without_tracing)
     PF_CHECK_MSG(nonzero == 0, "%zu pixels moved in a still shot", nonzero);
     PF_CHECK(ref_stage_counter(&report, "motion", "traced") == 0.0);
     pf_image_free(&image);
+    ref_scene_free(&scene);
 }
 
 static int render_motion_report(const ref_scene *now, const ref_scene *before, pf_image *image,
