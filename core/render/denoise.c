@@ -2,10 +2,13 @@
  * The `denoise` stage (issue 40): an edge-avoiding à-trous wavelet filter
  * (Dammertz et al. 2010, "Edge-Avoiding À-Trous Wavelet Transform for fast
  * Global Illumination Filtering") with the luminance edge-stopping function
- * of SVGF (Schied et al. 2017), run on the host over the finished image.
+ * of SVGF (Schied et al. 2017), over the finished image: on the host's cores here, or as
+ * the same arithmetic in two compute kernels (denoise_device.c) where the renderer's site
+ * says so (pf_render_denoise).
  *
  * Before the filter, a frame of a sequence blends the previous frame's lighting where this
- * renderer kept it (denoise_temporal.c), and the filter then runs on that average.
+ * renderer kept it (denoise_temporal.c), and the filter then runs on that average; the
+ * direct light is blended too (never filtered).
  *
  * What is filtered is the indirect light without its caustics, the noisiest
  * part of every preset that has a split film: the direct layer (with the
@@ -29,7 +32,8 @@
  * The variance is estimated spatially, as SVGF does for pixels without
  * history, but over the four 4×4 quadrants around the pixel, keeping the
  * smallest (estimate_variance says why), weighted by the normal and depth
- * guides. The film keeps no per-sample moments yet.
+ * guides, then scaled by what the temporal blend averaged. The film keeps no per-sample
+ * moments yet.
  *
  * A non-finite input value is treated as 0 and gets no weight, so one bad
  * pixel cannot spread.
