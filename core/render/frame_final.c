@@ -174,15 +174,6 @@ static float pass_radius(float radius_1, uint32_t index)
     return (float)sqrt(r2);
 }
 
-/* A pass's photon seed: splitmix64 of the frame seed and the pass index. */
-static uint64_t pass_seed(uint64_t seed, uint32_t index)
-{
-    uint64_t z = seed + 0x9e3779b97f4a7c15ull * (index + 1ull);
-    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
-    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
-    return z ^ (z >> 31);
-}
-
 /* With --max-bounces 0 the frame is direct light only: no caustics, no gather. */
 static uint32_t final_gather_rays(const pf_render_settings *settings)
 {
@@ -222,7 +213,7 @@ static pf_status trace_pass(pf_renderer *renderer, const pf_photon_frame *inputs
     double start = pf_time_ms();
     /* First hits too: the gather's secondary vertices take all their light from the map. */
     pf_photon_trace_settings trace = {.photon_count = plan->photons,
-                                      .seed = pass_seed(settings->seed, index),
+                                      .seed = pf_seed_mix(settings->seed, index),
                                       .max_depth = plan->photon_depth,
                                       .store_direct = 1};
     pf_status status =

@@ -19,10 +19,9 @@ float pf_render_ray_offset(const pf_scene_frame *frame)
     return RAY_OFFSET_RELATIVE * pf_scene_frame_magnitude(frame);
 }
 
-uint64_t pf_sample_seed(uint64_t seed, uint64_t salt)
+uint64_t pf_seed_mix(uint64_t seed, uint64_t index)
 {
-    /* splitmix64 of the two: nearby frame numbers give unrelated seeds. */
-    uint64_t z = seed + 0x9e3779b97f4a7c15ull * (salt + 1ull);
+    uint64_t z = seed + 0x9e3779b97f4a7c15ull * (index + 1ull);
     z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
     z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
     return z ^ (z >> 31);
@@ -54,7 +53,7 @@ void pf_frame_params_fill(const pf_scene_frame *frame, const pf_render_settings 
     params->emissive_weight_total = scene->emissive_weight_total;
     uint64_t seed = settings->seed;
     if (settings->sample_salt && pf_denoise_temporal(settings->denoise, settings->quality))
-        seed = pf_sample_seed(seed, settings->sample_salt);
+        seed = pf_seed_mix(seed, settings->sample_salt);
     params->seed_lo = (uint32_t)seed;
     params->seed_hi = (uint32_t)(seed >> 32);
     params->pixel_filter = (uint32_t)settings->pixel_filter;

@@ -539,8 +539,9 @@ float pf_render_ray_offset(const pf_scene_frame *frame);
  * ray offset, the emissive table's total weight and the BIH's root box and
  * node count (integrator-specific fields are left 0 for the caller).
  */
-/* The camera samples' seed of a frame whose settings carry sample_salt (pf_render_settings). */
-uint64_t pf_sample_seed(uint64_t seed, uint64_t salt);
+/* splitmix64 of seed and index: unrelated seeds for nearby indices (final's photon passes,
+ * the camera samples of a frame whose settings carry sample_salt). */
+uint64_t pf_seed_mix(uint64_t seed, uint64_t index);
 void pf_frame_params_fill(const pf_scene_frame *frame, const pf_render_settings *settings,
                           uint32_t spp, const pf_gpu_scene *scene, const pf_bih_gpu_view *bih,
                           pf_frame_params *params);
