@@ -186,8 +186,8 @@ static void sequence_of(pf_renderer *renderer, const pf_frame_request *request,
         uint64_t h = pf_hash_bytes(PF_HASH_START, &frame->texture_set, sizeof frame->texture_set);
         sequence->sequence = pf_hash_bytes(h, json, strlen(json)) | 1u;
     }
-    uint64_t inputs[PF_INPUT_COUNT] = {0};
-    pf_stage_fingerprint_scene(frame, inputs);
+    /* The planner's fingerprints of this frame (pf_render_frame has just planned it). */
+    const uint64_t *inputs = renderer->frame_inputs;
     sequence->lighting = pf_hash_bytes(inputs[PF_INPUT_LIGHTS], &inputs[PF_INPUT_SURFACES],
                                        sizeof inputs[PF_INPUT_SURFACES]);
     sequence->geometry = inputs[PF_INPUT_GEOMETRY];

@@ -130,6 +130,7 @@ pf_status pf_render_preset(pf_renderer *renderer, const pf_scene_frame *frame,
     status = pf_plan_stages(frame, settings, &previous, &plan, err);
     if (status != PF_OK)
         return status;
+    memcpy(renderer->frame_inputs, plan.inputs, sizeof plan.inputs);
     renderer->stage_memory[settings->quality].frames++;
     renderer->stage_memory[settings->quality].pilot_replaced = 0; /* said in this plan */
     static const pf_integrator *const integrators[] = {

@@ -137,9 +137,6 @@ typedef struct pf_stage_previous {
     uint64_t max_buffer_range;     /* the device's largest storage buffer (the LPV's bound) */
 } pf_stage_previous;
 
-/* The geometry, surfaces and lights fingerprints of frame (the planner's; the temporal
- * denoiser's too). Entries of other inputs are left as they are. */
-void pf_stage_fingerprint_scene(const pf_scene_frame *frame, uint64_t inputs[PF_INPUT_COUNT]);
 /* The fingerprints' 64-bit hash, from h (PF_HASH_START for a fresh one). */
 #define PF_HASH_START 0xcbf29ce484222325ull
 uint64_t pf_hash_bytes(uint64_t h, const void *data, size_t bytes);
@@ -265,6 +262,9 @@ struct pf_renderer {
     struct pf_fast_cache *fast_cache;
     /* The photon tracer final and fast share (created on first use, kept: its pipeline). */
     pf_photon_tracer *photon_tracer;
+    /* The fingerprints of the frame pf_render_preset planned last (after auto's pilots, the
+     * frame's own): what the temporal denoiser compares with its history's. */
+    uint64_t frame_inputs[PF_INPUT_COUNT];
     /* What the denoiser kept of the last frame it denoised (created on first use). */
     pf_denoise_history *denoise_history;
     pf_denoise_site denoise_site; /* pf_renderer_set_denoise_site */

@@ -115,7 +115,7 @@ uint64_t pf_hash_bytes(uint64_t h, const void *data, size_t bytes)
 static uint64_t hash_u64(uint64_t h, uint64_t value) { return pf_hash_bytes(h, &value, sizeof value); }
 
 
-void pf_stage_fingerprint_scene(const pf_scene_frame *frame, uint64_t inputs[PF_INPUT_COUNT])
+static void fingerprint_scene(const pf_scene_frame *frame, uint64_t inputs[PF_INPUT_COUNT])
 {
     uint64_t h = hash_u64(PF_HASH_START, frame->triangle_count);
     inputs[PF_INPUT_GEOMETRY] =
@@ -320,6 +320,9 @@ pf_status pf_plan_stages(const pf_scene_frame *frame, const pf_render_settings *
 {
     memset(plan, 0, sizeof *plan);
     plan->preset = settings->quality;
+    /* Every preset's plan has the scene's fingerprints (the temporal denoiser compares
+     * them with its history's: pf_renderer.frame_inputs). */
+    fingerprint_scene(frame, plan->inputs);
     pf_bih_plan(previous, frame, &plan->stages[PF_STAGE_BIH_BUILD]);
     plan->stages[PF_STAGE_SHADE].action = PF_STAGE_RUN;
     switch (settings->quality) {
@@ -337,7 +340,6 @@ pf_status pf_plan_stages(const pf_scene_frame *frame, const pf_render_settings *
                             pf_quality_name(settings->quality));
     }
     const pf_stage_memory *memory = previous->memory;
-    pf_stage_fingerprint_scene(frame, plan->inputs);
     /* What photon emission picks from (lights and emissive triangles of positive power),
      * built once: the integrator traces from the plan's table. */
     pf_status status = pf_photon_emitters_build(frame, &plan->emitters, err);

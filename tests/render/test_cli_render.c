@@ -108,7 +108,8 @@ PF_TEST(renders_a_frame_range_to_numbered_exr_files)
 /*
  * Temporal reuse through `render --frames` (issue 40): frame 1 has no history, frames 2 and 3
  * blend the frame before (their motion vectors traced for it even without AOVs, which the
- * file then leaves out), --denoise spatial keeps every frame alone, and a bad mode is exit 2.
+ * file then leaves out), a moving light stops the reuse, --denoise spatial keeps every frame
+ * alone, and a bad mode is exit 2.
  */
 PF_TEST(consecutive_frames_reuse_the_one_before)
 {
@@ -135,6 +136,15 @@ PF_TEST(consecutive_frames_reuse_the_one_before)
     PF_REQUIRE(run_photonfarm(args) == 0);
     PF_CHECK(log_contains("skipped: --denoise spatial: every frame filtered alone"));
     PF_CHECK(!log_contains_quietly("on this worker;"));
+    /* caustic-anim's light moves: the light on every surface changed, nothing is reused. */
+    char moving_light[1024];
+    pf_test_shared_scene("caustic-anim", moving_light, sizeof moving_light);
+    snprintf(args, sizeof args,
+             "render '%s' --frames 1-2 --size 16x12 --quality reference --spp 1 --timings "
+             "-o '%s/l.####.exr'",
+             moving_light, tmpdir);
+    PF_REQUIRE(run_photonfarm(args) == 0);
+    PF_CHECK(log_contains("temporal       skipped: lights or materials changed since frame 1"));
     snprintf(args, sizeof args,
              "render '%s' --frame 1 --size 16x12 --denoise sometimes -o '%s/b.exr'", scene,
              tmpdir);
