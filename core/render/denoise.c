@@ -104,10 +104,9 @@ static int planes_fill(const pf_image *image, const denoise_channels *at, denois
     planes->variance = malloc(pixels * sizeof(float));
     planes->history_length = malloc(pixels * sizeof(float));
     planes->variance_factor = malloc(pixels * sizeof(float));
-    planes->scratch = malloc(4 * pixels * sizeof(float));
     if (!planes->lighting || !planes->direct || !planes->albedo || !planes->normal || !planes->depth ||
         !planes->depth_step || !planes->variance || !planes->history_length ||
-        !planes->variance_factor || !planes->scratch)
+        !planes->variance_factor)
         return 0;
     for (size_t p = 0; p < pixels; p++) {
         const float *in = image->pixels + p * image->channel_count;
@@ -329,7 +328,7 @@ static void temporal_row(pf_frame_report *report, const pf_denoise_sequence *seq
              "previous frame (%lld) on this worker; %.0f %% of pixels reprojected, memory %u "
              "frames (%s)",
              (long long)(sequence->frame - 1), share, stats->memory,
-             stats->memory > 8 ? "geometry unchanged" : "geometry moved");
+             stats->still ? "geometry unchanged" : "geometry moved");
     pf_stage_add_counter(row, "surface_pixels", (double)stats->surface_pixels);
     pf_stage_add_counter(row, "reprojected_pixels", (double)stats->reprojected_pixels);
     pf_stage_add_counter(row, "mean_history_frames", stats->mean_history);
@@ -378,8 +377,8 @@ static pf_status denoise_run(pf_renderer *renderer, pf_image *image, int keep_no
      * replaced it on the host: a copy goes along. The variance layer is the estimate the
      * filter started from (after any blend's factor). */
     float *noisy = device ? malloc(3 * pixels * sizeof *noisy) : NULL;
-    float *estimate = keep_noisy ? malloc(pixels * sizeof *estimate + 1) : NULL;
-    if (!planes_fill(image, &at, &planes) || (device && !noisy) || (keep_noisy && !estimate)) {
+    float *estimate = malloc(pixels * sizeof *estimate + 1); /* the row's mean, the layer */
+    if (!planes_fill(image, &at, &planes) || (device && !noisy) || !estimate) {
         planes_free(&planes);
         free(noisy);
         free(estimate);
@@ -414,14 +413,16 @@ static pf_status denoise_run(pf_renderer *renderer, pf_image *image, int keep_no
         status = denoise_device_filter(renderer, &planes, noisy, DENOISE_PASSES, estimate,
                                        &gpu_ms, err);
         traffic = pf_vk_traffic_since(renderer->ctx, before);
-        for (size_t p = 0; status == PF_OK && estimate && p < pixels; p++)
+        for (size_t p = 0; status == PF_OK && p < pixels; p++)
             noisy_variance += estimate[p];
+    } else if (!(planes.scratch = malloc(4 * pixels * sizeof(float)))) {
+        status = pf_error_set(err, PF_ERR_NOMEM, "denoise: out of memory for %ux%u",
+                              image->width, image->height);
     } else {
         for (size_t p = 0; p < pixels; p++) {
             planes.variance[p] *= planes.variance_factor[p];
             noisy_variance += planes.variance[p];
-            if (estimate)
-                estimate[p] = planes.variance[p];
+            estimate[p] = planes.variance[p];
         }
         for (int pass = 0; pass < DENOISE_PASSES; pass++)
             atrous_pass(&planes, 1 << pass);

@@ -86,7 +86,7 @@ pf_status denoise_device_filter(pf_renderer *renderer, denoise_planes *planes,
     pf_vk_buffer *result = buffers[(passes & 1) ? 4 : 3];
     if (status == PF_OK)
         status = pf_vk_cmd_download(cmds, result, 0, lit, 16 * pixels, err);
-    if (status == PF_OK && estimate)
+    if (status == PF_OK)
         status = pf_vk_cmd_download(cmds, buffers[5], 0, estimate, 4 * pixels, err);
     if (status == PF_OK)
         status = pf_vk_commands_submit(cmds, err);

@@ -26,7 +26,8 @@ typedef struct denoise_planes {
      * nothing to carry to the next frame), and what that average did to its variance. */
     float *history_length;
     float *variance_factor;
-    float *scratch;    /* 4 per pixel: the next pass's lighting and variance */
+    float *scratch;    /* 4 per pixel: the next pass's lighting and variance (the host's
+                        * filter alone allocates it) */
 } denoise_planes;
 
 /* What the temporal blend did, for its row. */
@@ -34,6 +35,7 @@ typedef struct denoise_temporal_stats {
     uint64_t surface_pixels;     /* pixels that see a surface (could have had a history) */
     uint64_t reprojected_pixels; /* of those, the ones that found their point in history */
     double mean_history;         /* frames behind the reprojected pixels' lighting, mean */
+    int still;                   /* the geometry is as in the previous frame */
     uint32_t memory;             /* the most frames a pixel's lighting averages (1/α_min) */
 } denoise_temporal_stats;
 
@@ -57,8 +59,8 @@ int denoise_temporal_keep(pf_denoise_history *history, const pf_denoise_sequence
  * The filter on the device (denoise_device.c): the variance estimate of noisy (this frame's
  * own demodulated lighting, 3 per pixel) times planes' variance factors, then `passes`
  * à-trous passes of planes' lighting, in one submission. Leaves the filtered lighting and
- * its variance in planes, the estimate the passes started from in estimate (NULL: not
- * wanted), the kernels' GPU time in gpu_ms (< 0 without timestamps).
+ * its variance in planes, the estimate the passes started from in estimate (one float per
+ * pixel), the kernels' GPU time in gpu_ms (< 0 without timestamps).
  */
 pf_status denoise_device_filter(pf_renderer *renderer, denoise_planes *planes,
                                 const float *noisy, int passes, float *estimate,

@@ -157,6 +157,7 @@ void denoise_temporal_blend(const pf_denoise_history *history,
     int still = history->geometry_fingerprint == sequence->geometry;
     uint32_t memory = still ? TEMPORAL_MEMORY_STILL : TEMPORAL_MEMORY_MOVING;
     float alpha_min = 1.0f / (float)memory;
+    stats->still = still;
     stats->memory = memory;
     int motion_x = pf_image_channel(image, "motion.X");
     int motion_y = pf_image_channel(image, "motion.Y");

@@ -426,6 +426,22 @@ PF_TEST(the_device_filters_as_the_host_does)
         pf_image_free(&host);
         pf_image_free(&device);
     }
+    /* Without the noisy layers the row's mean variance is still the one both paths estimate. */
+    pf_image host = {0}, device = {0};
+    pf_frame_report host_report = {0}, device_report = {0};
+    PF_REQUIRE_OK(pf_render_frame(renderer, &frame, &low, &host, NULL, &err), &err);
+    PF_REQUIRE_OK(pf_image_append_channels(&host, NULL, 0, &device, &err), &err);
+    pf_renderer_set_denoise_site(renderer, PF_DENOISE_SITE_HOST);
+    PF_REQUIRE_OK(pf_render_denoise(renderer, &host, 0, NULL, &host_report, &err), &err);
+    pf_renderer_set_denoise_site(renderer, PF_DENOISE_SITE_DEVICE);
+    PF_REQUIRE_OK(pf_render_denoise(renderer, &device, 0, NULL, &device_report, &err), &err);
+    pf_renderer_set_denoise_site(renderer, PF_DENOISE_SITE_AUTO);
+    double host_mean = ref_stage_counter(&host_report, "denoise", "mean_variance");
+    double device_mean = ref_stage_counter(&device_report, "denoise", "mean_variance");
+    PF_CHECK_MSG(host_mean > 0.0 && fabs(device_mean / host_mean - 1.0) < 1e-4,
+                 "mean variance %g on the host, %g on the device", host_mean, device_mean);
+    pf_image_free(&host);
+    pf_image_free(&device);
     pf_denoise_history_destroy(host_history);
     pf_denoise_history_destroy(device_history);
     pf_scene_frame_free(&frame);
