@@ -36,7 +36,7 @@
 #include <string.h>
 
 /* PF_BIH_BUILD_CPU or PF_BIH_BUILD_GPU: the forced site, else the device's own. */
-static pf_bih_build_site choose_build_site(const pf_renderer *renderer)
+pf_bih_build_site pf_renderer_bih_site(const pf_renderer *renderer)
 {
     if (renderer->bih_build_site != PF_BIH_BUILD_AUTO)
         return renderer->bih_build_site;
@@ -171,7 +171,7 @@ pf_status pf_render_prepare_bih(pf_renderer *renderer, const pf_scene_frame *fra
                                 pf_error *err)
 {
     double start = pf_time_ms();
-    pf_bih_build_site site = choose_build_site(renderer);
+    pf_bih_build_site site = pf_renderer_bih_site(renderer);
     pf_status status = PF_OK;
     if (!renderer->bih_gpu) {
         status = pf_bih_gpu_create(renderer->ctx, &renderer->bih_gpu, err);

@@ -46,15 +46,6 @@ typedef struct reference_counters {
     uint32_t rays_high;
 } reference_counters;
 
-/* Totals over the passes of one frame. */
-typedef struct reference_progress {
-    uint32_t passes;
-    uint64_t rays;
-    uint64_t discarded;
-    uint64_t failures;
-    double gpu_ms;
-} reference_progress;
-
 /*
  * Runs passes [progress->passes, progress->passes + count) in one submission
  * and adds their counters to progress.
@@ -62,7 +53,7 @@ typedef struct reference_progress {
 static pf_status run_passes(pf_renderer *renderer, pf_vk_pipeline *pipeline,
                             pf_vk_buffer *const *buffers, const pf_render_settings *settings,
                             uint32_t count, pf_vk_commands *setup,
-                            reference_progress *progress, pf_error *err)
+                            pf_reference_progress *progress, pf_error *err)
 {
     pf_vk_context *ctx = renderer->ctx;
     static const reference_counters zero = {0, 0, 0, 0};
@@ -148,8 +139,9 @@ static void reference_buffers_release(pf_vk_context *ctx, reference_buffers *buf
 
 /* Renders the passes and reads the film back into image. */
 static pf_status shade(pf_renderer *renderer, const pf_scene_frame *frame,
-                       const pf_render_settings *settings, uint32_t spp, double frame_start,
-                       pf_image *image, reference_progress *progress, pf_error *err)
+                       const pf_render_settings *settings, uint32_t spp, int host_traces,
+                       double frame_start, pf_image *image, pf_reference_progress *progress,
+                       uint32_t *trace_threads, pf_error *err)
 {
     pf_vk_context *ctx = renderer->ctx;
     pf_bih_gpu_view bih;
@@ -184,20 +176,40 @@ static pf_status shade(pf_renderer *renderer, const pf_scene_frame *frame,
     pf_vk_buffer *buffers[REFERENCE_BUFFERS];
     pf_gpu_scene_bindings(&scene, owned.params, own, sizeof own / sizeof *own, buffers);
     pf_vk_pipeline *pipeline = NULL;
-    if (status == PF_OK)
+    pf_reference_wave *wave = NULL;
+    if (status == PF_OK && host_traces)
+        status = pf_reference_wave_create(renderer, settings, frame->light_count, &wave, err);
+    else if (status == PF_OK)
         status = pf_renderer_pipeline(
             renderer, settings->aovs ? PF_PIPELINE_REFERENCE : PF_PIPELINE_REFERENCE_RGB,
             &pipeline, err);
+    if (status == PF_OK && wave) {
+        *trace_threads = pf_reference_wave_threads(wave);
+        /* The counters, which the wavefront's kernels only add discarded samples to. */
+        static const reference_counters zero = {0, 0, 0, 0};
+        status = pf_vk_cmd_upload(setup, owned.counters, 0, &zero, sizeof zero, err);
+    }
     double pass_ms = 0.0;
     for (uint32_t batch = next_batch(settings, spp, 0, frame_start, 0.0);
          status == PF_OK && batch > 0;
          batch = next_batch(settings, spp, progress->passes, frame_start, pass_ms)) {
         double batch_start = pf_time_ms();
-        status = run_passes(renderer, pipeline, buffers, settings, batch, setup, progress, err);
+        if (wave)
+            status = pf_reference_wave_passes(wave, buffers, REFERENCE_BUFFERS, settings, batch,
+                                              setup, progress, err);
+        else
+            status =
+                run_passes(renderer, pipeline, buffers, settings, batch, setup, progress, err);
         setup = NULL; /* run_passes took it */
         pass_ms = (pf_time_ms() - batch_start) / batch;
     }
     pf_vk_commands_destroy(setup); /* not taken: a failure before the first passes */
+    if (status == PF_OK && wave) {
+        reference_counters counters;
+        status = pf_vk_buffer_download(ctx, owned.counters, 0, &counters, sizeof counters, err);
+        progress->discarded += counters.discarded_samples;
+    }
+    pf_reference_wave_destroy(wave);
     if (status == PF_OK)
         status = pf_split_film_read(ctx, owned.film, owned.film_aov, settings->aovs, 0, image,
                                     err);
@@ -265,9 +277,11 @@ static pf_status reference_run(pf_frame_run *run, pf_stage_id stage, uint32_t pa
     if (status != PF_OK)
         return status;
     double shade_start = pf_time_ms();
-    reference_progress progress = {0, 0, 0, 0, -1.0};
+    pf_reference_progress progress = {0, 0, 0, 0, -1.0, 0, 0.0};
+    uint32_t trace_threads = 0;
     if (status == PF_OK)
-        status = shade(renderer, frame, settings, spp, frame_start, image, &progress, err);
+        status = shade(renderer, frame, settings, spp, plan->host_traces, frame_start, image,
+                       &progress, &trace_threads, err);
     if (status == PF_OK)
         status = pf_render_check_traversal(renderer, progress.failures, err);
     if (status != PF_OK) {
@@ -288,6 +302,11 @@ static pf_status reference_run(pf_frame_run *run, pf_stage_id stage, uint32_t pa
             pf_stage_add_counter(row, "rays", (double)progress.rays);
             pf_stage_add_counter(row, "discarded_samples", (double)progress.discarded);
             pf_stage_add_counter(row, "triangles", frame->triangle_count);
+            if (plan->host_traces) {
+                pf_stage_add_counter(row, "waves", progress.waves);
+                pf_stage_add_counter(row, "host_trace_ms", progress.host_trace_ms);
+                pf_stage_add_counter(row, "trace_threads", trace_threads);
+            }
         }
         report_caustics(report, frame);
     }
@@ -296,3 +315,8 @@ static pf_status reference_run(pf_frame_run *run, pf_stage_id stage, uint32_t pa
 
 /* reference: one stage after the BIH (its passes are inside shade: a batch per dispatch). */
 const pf_integrator pf_integrator_reference = {0, NULL, reference_run, NULL};
+
+void pf_renderer_set_trace_site(pf_renderer *renderer, pf_trace_site site)
+{
+    renderer->trace_site = site;
+}

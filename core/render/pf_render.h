@@ -209,6 +209,22 @@ void pf_renderer_set_bih_build(pf_renderer *renderer, pf_bih_build_site site);
 void pf_renderer_set_lpv_site(pf_renderer *renderer, pf_lpv_site site);
 
 /*
+ * Who traces reference's rays (issue 43). AUTO: the host, with the wide AVX2 BIH
+ * traversal on every core, where the device is the CPU and its memory the host's
+ * (the kernels then run as a wavefront, one path vertex a dispatch: render_reference_wave
+ * .comp), unless the scene has alpha-tested materials (the host's traversal has no alpha
+ * test) or the tree was built on the device; elsewhere the device, in one kernel a pass.
+ * The shade row says which ran and why. Tests and benches force either.
+ */
+typedef enum pf_trace_site {
+    PF_TRACE_AUTO = 0,
+    PF_TRACE_DEVICE,
+    PF_TRACE_HOST
+} pf_trace_site;
+
+void pf_renderer_set_trace_site(pf_renderer *renderer, pf_trace_site site);
+
+/*
  * Renders one frame of an evaluated scene into image (allocated here) with
  * the integrator of settings->quality and appends its stage rows to report
  * (may be NULL): `bih_build`, then `shade` (counters samples_per_pixel,

@@ -52,6 +52,9 @@ typedef enum pf_renderer_pipeline_id {
     PF_PIPELINE_FAST_CAUSTIC,    /* render_fast_caustic.comp */
     PF_PIPELINE_DENOISE_VARIANCE, /* denoise_variance.comp */
     PF_PIPELINE_DENOISE_ATROUS,  /* denoise_atrous.comp */
+    PF_PIPELINE_REFERENCE_WAVE_GENERATE, /* render_reference_wave.comp, WAVE_GENERATE */
+    PF_PIPELINE_REFERENCE_WAVE,          /* render_reference_wave.comp, WAVE_SHADE (AOVs) */
+    PF_PIPELINE_REFERENCE_WAVE_RGB,      /* render_reference_wave.comp, WAVE_SHADE_RGB */
     PF_PIPELINE_COUNT
 } pf_renderer_pipeline_id;
 
@@ -122,6 +125,7 @@ typedef struct pf_stage_plan {
     pf_photon_emitters emitters; /* fast, final: what photons are emitted from (plan-owned) */
     uint32_t reused_passes;
     pf_lpv_layout layout;
+    int host_traces; /* reference: the host traces the rays (a wavefront), else the device */
 } pf_stage_plan;
 
 /*
@@ -135,7 +139,74 @@ typedef struct pf_stage_previous {
     uint64_t bih_frames;           /* frames that got a tree so far */
     int bih_pilot_replaced;        /* auto's pilot dropped the previous frame's tree */
     uint64_t max_buffer_range;     /* the device's largest storage buffer (the LPV's bound) */
+    /* Who may trace reference's rays: the renderer's setting, whether the device is the
+     * CPU with its memory the host's, whether this CPU has the wide traversal, and
+     * whether bih_build leaves its tree on the host. */
+    pf_trace_site trace_site;
+    int device_is_host, host_traversal, tree_on_host;
 } pf_stage_previous;
+
+/*
+ * The host's trace step of a wavefront (wave_trace.c): the queues a wave kernel wrote,
+ * in the device's memory as the host sees it. Per path p: queue[p] = its ray waits (bit
+ * 0) | its shadow rays << 1; rays[p] and hits[p]; shadow_rays and shadow_hits at
+ * p × shadow_slots + k.
+ */
+typedef struct pf_wave_queues {
+    const uint32_t *queue;
+    const pf_ray *rays;
+    pf_hit *hits;
+    const pf_ray *shadow_rays;
+    pf_hit *shadow_hits;
+} pf_wave_queues;
+
+typedef struct pf_wave_tracer pf_wave_tracer;
+
+/* A tracer for up to paths paths of shadow_slots shadow rays each, through bih (kept by
+ * the caller while the tracer lives): builds bih's wide view and one scratch per core. */
+pf_status pf_wave_tracer_create(const pf_bih *bih, uint32_t paths, uint32_t shadow_slots,
+                                pf_wave_tracer **out, pf_error *err);
+void pf_wave_tracer_destroy(pf_wave_tracer *tracer);
+uint32_t pf_wave_tracer_threads(const pf_wave_tracer *tracer);
+/*
+ * Traces the waiting rays of the paths active[0..count): closest hits for their rays,
+ * any hits for their shadow rays. Then rewrites active with the paths that waited (in
+ * order; a path whose queue word is 0 is done) and sets *remaining to their number; adds
+ * the rays traced to *rays. A traversal failure fails the call (as the device's fails the
+ * frame).
+ */
+pf_status pf_wave_trace(pf_wave_tracer *tracer, const pf_wave_queues *queues, uint32_t *active,
+                        uint32_t count, uint32_t *remaining, uint64_t *rays, pf_error *err);
+
+/* reference's totals over the passes of one frame (frame_reference.c). */
+typedef struct pf_reference_progress {
+    uint32_t passes;
+    uint64_t rays;
+    uint64_t discarded;
+    uint64_t failures;
+    double gpu_ms;        /* < 0: no timestamps */
+    uint32_t waves;       /* the wavefront's dispatches */
+    double host_trace_ms; /* the wavefront's trace steps on the host */
+} pf_reference_progress;
+
+/*
+ * reference's passes as a wavefront whose rays the host traces (frame_reference_wave.c):
+ * created for a frame (its size, its punctual lights) once bih_build has left the tree in
+ * renderer->bih; run with the megakernel's buffers (frame_reference.c's binding order)
+ * for count passes, adding to progress; setup (may be NULL) goes with the first dispatch,
+ * and is taken either way.
+ */
+#define PF_REFERENCE_WAVE_MAX_BUFFERS 32u
+typedef struct pf_reference_wave pf_reference_wave;
+pf_status pf_reference_wave_create(pf_renderer *renderer, const pf_render_settings *settings,
+                                   uint32_t light_count, pf_reference_wave **out, pf_error *err);
+void pf_reference_wave_destroy(pf_reference_wave *wave);
+uint32_t pf_reference_wave_threads(const pf_reference_wave *wave);
+pf_status pf_reference_wave_passes(pf_reference_wave *wave, pf_vk_buffer *const *reference_buffers,
+                                   uint32_t reference_buffer_count,
+                                   const pf_render_settings *settings, uint32_t count,
+                                   pf_vk_commands *setup, pf_reference_progress *progress,
+                                   pf_error *err);
 
 /* The fingerprints' 64-bit hash, from h (PF_HASH_START for a fresh one). */
 #define PF_HASH_START 0xcbf29ce484222325ull
@@ -268,7 +339,11 @@ struct pf_renderer {
     /* What the denoiser kept of the last frame it denoised (created on first use). */
     pf_denoise_history *denoise_history;
     pf_denoise_site denoise_site; /* pf_renderer_set_denoise_site */
+    pf_trace_site trace_site;     /* pf_renderer_set_trace_site */
 };
+
+/* Where bih_build builds a fresh tree for this renderer: its forced site, else the device's. */
+pf_bih_build_site pf_renderer_bih_site(const pf_renderer *renderer);
 
 /* The pipeline id, created now if this renderer has not needed it before (renderer.c). */
 pf_status pf_renderer_pipeline(pf_renderer *renderer, pf_renderer_pipeline_id id,

@@ -213,6 +213,41 @@ static uint32_t samples_of(const pf_render_settings *settings, uint32_t preset_d
     return samples;
 }
 
+/*
+ * reference: who traces its rays (pf_trace_site), appended to the shade row's reason. The
+ * host traces where it can and the device is the CPU: its wide traversal runs several
+ * times the device's speed there (bench/RESULTS.md, "Rays where the device traces them
+ * best"); a forced site the frame cannot honour falls back to the device, saying why.
+ */
+static void plan_trace(const pf_scene_frame *frame, const pf_stage_previous *previous,
+                       pf_stage_plan *plan)
+{
+    const char *why_not = NULL;
+    if (previous->trace_site == PF_TRACE_DEVICE)
+        why_not = "forced";
+    else if (!previous->device_is_host && previous->trace_site == PF_TRACE_AUTO)
+        why_not = "the device is not the CPU";
+    else if (!previous->device_is_host)
+        why_not = "the device's memory is not the host's";
+    else if (!previous->host_traversal)
+        why_not = "this CPU has no AVX2 for the host's wide traversal";
+    else if (!previous->tree_on_host)
+        why_not = "the BIH is built on the device";
+    else if (pf_scene_frame_surface_features(frame) & PF_SURFACE_ALPHA)
+        why_not = "alpha-tested materials: the host's traversal has no alpha test";
+    plan->host_traces = why_not == NULL;
+    char *reason = plan->stages[PF_STAGE_SHADE].reason;
+    size_t used = strlen(reason);
+    if (plan->host_traces)
+        snprintf(reason + used, PF_STAGE_REASON_MAX - used,
+                 "; a wavefront, its rays traced on the host%s",
+                 previous->trace_site == PF_TRACE_HOST ? " (forced)"
+                                                        : " (the device is the CPU)");
+    else
+        snprintf(reason + used, PF_STAGE_REASON_MAX - used, "; rays traced on the device (%s)",
+                 why_not);
+}
+
 /* final and fast: the photon stages from the scene's emitters and specular surfaces. */
 static void plan_photons(pf_stage_plan *plan, const pf_stage_memory *memory, int with_grid)
 {
@@ -312,6 +347,10 @@ pf_stage_previous pf_stage_previous_of(const pf_renderer *renderer, pf_quality p
         (unsigned)preset < PF_QUALITY_AUTO ? &renderer->stage_memory[preset] : NULL,
         renderer->bih_valid ? &renderer->bih : NULL, renderer->bih_frames,
         renderer->bih_pilot_replaced, pf_vk_info(renderer->ctx)->max_storage_buffer_range};
+    previous.trace_site = renderer->trace_site;
+    previous.device_is_host = strcmp(pf_vk_info(renderer->ctx)->type, "cpu") == 0;
+    previous.host_traversal = pf_bih_wide_available();
+    previous.tree_on_host = pf_renderer_bih_site(renderer) == PF_BIH_BUILD_CPU;
     return previous;
 }
 
@@ -331,6 +370,7 @@ pf_status pf_plan_stages(const pf_scene_frame *frame, const pf_render_settings *
         return PF_OK;
     case PF_QUALITY_REFERENCE:
         plan->samples = samples_of(settings, REFERENCE_DEFAULT_SAMPLES, plan, "path samples");
+        plan_trace(frame, previous, plan);
         return PF_OK;
     case PF_QUALITY_FAST:
     case PF_QUALITY_FINAL:

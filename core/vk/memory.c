@@ -218,6 +218,8 @@ void pf_vk_buffer_destroy(pf_vk_context *ctx, pf_vk_buffer *buffer)
 
 uint64_t pf_vk_buffer_size(const pf_vk_buffer *buffer) { return buffer->size; }
 
+void *pf_vk_buffer_host_memory(pf_vk_buffer *buffer) { return buffer->mapped; }
+
 pf_status pf_vk_buffer_texel_view(pf_vk_context *ctx, pf_vk_buffer *buffer, int kind,
                                   VkBufferView *view, pf_error *err)
 {

@@ -109,6 +109,13 @@ pf_status pf_vk_buffer_create(pf_vk_context *ctx, uint64_t size, const char *lab
                               pf_vk_buffer **out, pf_error *err);
 void pf_vk_buffer_destroy(pf_vk_context *ctx, pf_vk_buffer *buffer);
 uint64_t pf_vk_buffer_size(const pf_vk_buffer *buffer);
+/*
+ * The buffer's memory as the host sees it, where the device's memory is the host's
+ * (host-visible and coherent: lavapipe), else NULL. The host may read what a finished
+ * submission wrote and write what the next one reads, in place, but not while a
+ * submission that uses the buffer runs.
+ */
+void *pf_vk_buffer_host_memory(pf_vk_buffer *buffer);
 /* Blocking copies through a staging buffer; ranges are checked against the size. */
 pf_status pf_vk_buffer_upload(pf_vk_context *ctx, pf_vk_buffer *buffer, uint64_t offset,
                               const void *data, uint64_t size, pf_error *err);

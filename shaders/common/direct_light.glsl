@@ -8,7 +8,11 @@
 // (n_i p_i)² / Σ (n_k p_k)²); bsdf_sample_count 0 means no BSDF ray looks
 // for emission, so the light sample carries full weight. Every punctual
 // light is added without MIS (a delta light is reachable only this way).
-// Each candidate with a non-zero contribution casts one any-hit shadow ray.
+// Each candidate with a non-zero contribution casts one any-hit shadow ray;
+// where the including shader defines PF_DEFERRED_SHADOWS (the wavefront), it
+// hands the ray and its contribution to
+//   void shadow_ray_defer(vec3 origin, vec3 direction, float tmax, vec3 contribution)
+// instead, to be traced later, and the returned sum leaves them out.
 //
 // The including shader declares params (FrameParams), the scene arrays that
 // area_lights.glsl and lights.glsl read, and
@@ -86,8 +90,12 @@ vec3 direct_light(Material material, vec3 position, vec3 surface_origin, vec3 wo
         }
         if (any(greaterThan(contribution, vec3(0.0)))) {
             rays++;
+#ifdef PF_DEFERRED_SHADOWS
+            shadow_ray_defer(surface_origin, to_light, tmax, contribution);
+#else
             if (trace(surface_origin, to_light, tmax, true).triangle == NO_HIT)
                 sum += contribution;
+#endif
         }
     }
     return sum;

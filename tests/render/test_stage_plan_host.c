@@ -11,7 +11,9 @@
  *     build for another triangle count;
  *   - auto's pilot having replaced the previous frame's outputs is said;
  *   - fast's LPV settings against a device limit: too small a buffer range is
- *     PF_ERR_LIMIT naming it, decided without a device.
+ *     PF_ERR_LIMIT naming it, decided without a device;
+ *   - who traces reference's rays (issue 43): the host where the device is the
+ *     CPU and nothing stands against it, else the device, saying why.
  */
 #include "pf_test.h"
 #include "reference_test_util.h"
@@ -181,6 +183,53 @@ PF_TEST(lpv_settings_are_checked_against_the_device_limit)
     pf_stage_plan_release(&plan);
 }
 
+/* reference's plan on a device that is the CPU, its tree on the host, with AVX2. */
+static pf_stage_previous cpu_device(pf_trace_site site)
+{
+    pf_stage_previous previous = first_frame(NULL);
+    previous.trace_site = site;
+    previous.device_is_host = 1;
+    previous.host_traversal = 1;
+    previous.tree_on_host = 1;
+    return previous;
+}
+
+static void check_trace(const pf_stage_previous *previous, int host, const char *reason)
+{
+    pf_render_settings settings = settings_of(PF_QUALITY_REFERENCE);
+    pf_stage_plan plan;
+    pf_error err = {0};
+    PF_CHECK(pf_plan_stages(&room.frame, &settings, previous, &plan, &err) == PF_OK);
+    PF_CHECK_MSG(plan.host_traces == host && has(&plan.stages[PF_STAGE_SHADE], reason),
+                 "host_traces %d, reason '%s' (expected %d, '%s')", plan.host_traces,
+                 plan.stages[PF_STAGE_SHADE].reason, host, reason);
+    pf_stage_plan_release(&plan);
+}
+
+PF_TEST(reference_rays_go_where_they_are_traced_best)
+{
+    pf_stage_previous previous = cpu_device(PF_TRACE_AUTO);
+    check_trace(&previous, 1, "path samples: 64 per pixel (the preset's default); a wavefront, "
+                              "its rays traced on the host (the device is the CPU)");
+    previous.device_is_host = 0;
+    check_trace(&previous, 0, "; rays traced on the device (the device is not the CPU)");
+    previous.trace_site = PF_TRACE_HOST;
+    check_trace(&previous, 0, "; rays traced on the device (the device's memory is not the host's)");
+    previous = cpu_device(PF_TRACE_DEVICE);
+    check_trace(&previous, 0, "; rays traced on the device (forced)");
+    previous = cpu_device(PF_TRACE_HOST);
+    check_trace(&previous, 1, "its rays traced on the host (forced)");
+    previous.host_traversal = 0;
+    check_trace(&previous, 0, "(this CPU has no AVX2 for the host's wide traversal)");
+    previous = cpu_device(PF_TRACE_AUTO);
+    previous.tree_on_host = 0;
+    check_trace(&previous, 0, "(the BIH is built on the device)");
+    previous = cpu_device(PF_TRACE_AUTO);
+    room.materials[0].alpha_mode = PF_ALPHA_MASK;
+    check_trace(&previous, 0, "(alpha-tested materials: the host's traversal has no alpha test)");
+    room.materials[0].alpha_mode = PF_ALPHA_OPAQUE;
+}
+
 int main(void)
 {
     build_room();
@@ -188,6 +237,7 @@ int main(void)
     PF_RUN(a_second_frame_reuses_what_did_not_change);
     PF_RUN(the_bih_decision_follows_the_kept_tree);
     PF_RUN(lpv_settings_are_checked_against_the_device_limit);
+    PF_RUN(reference_rays_go_where_they_are_traced_best);
     ref_scene_free(&room);
     return pf_test_finish();
 }

@@ -1,0 +1,212 @@
+/*
+ * reference's passes as a wavefront (shaders/render_reference_wave.comp), for
+ * a device whose memory is the host's: a dispatch advances every live path
+ * of a slice of the image by one vertex and writes its rays into device
+ * buffers; the host traces them in place (wave_trace.c) and drops the paths
+ * that are done; the next dispatch reads the hits. The megakernel
+ * (frame_reference.c) traces inside its one dispatch a pass with the
+ * device's GLSL traversal instead; both run reference_path.glsl's paths.
+ */
+#include "render_internal.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+/*
+ * Paths in flight at once: the image goes in slices of at most this many pixels, so the
+ * wavefront's buffers (~250 bytes a path plus 64 a shadow ray) stay bounded at any size.
+ */
+#define WAVE_MAX_PATHS (1u << 18)
+#define WAVE_GROUP_SIZE 64u
+/* WavePath in render_reference_wave.comp: 9 vec4. */
+#define WAVE_PATH_BYTES (9u * 16u)
+
+typedef struct wave_push {
+    uint32_t sample_index, count, first_pixel;
+} wave_push;
+
+enum {
+    WAVE_PATHS,
+    WAVE_RAYS,
+    WAVE_HITS,
+    WAVE_SHADOW_RAYS,
+    WAVE_SHADOW_LIGHT,
+    WAVE_SHADOW_HITS,
+    WAVE_QUEUE,
+    WAVE_ACTIVE,
+    WAVE_BUFFER_COUNT
+};
+
+struct pf_reference_wave {
+    pf_renderer *renderer;
+    uint32_t capacity;     /* paths a slice */
+    uint32_t shadow_slots; /* 1 + the frame's punctual lights */
+    pf_vk_buffer *buffers[WAVE_BUFFER_COUNT];
+    pf_wave_queues queues; /* the buffers as the host sees them */
+    uint32_t *active;
+    pf_wave_tracer *tracer;
+};
+
+void pf_reference_wave_destroy(pf_reference_wave *wave)
+{
+    if (!wave)
+        return;
+    for (int b = 0; b < WAVE_BUFFER_COUNT; b++)
+        pf_render_buffer_release(wave->renderer->ctx, &wave->buffers[b]);
+    pf_wave_tracer_destroy(wave->tracer);
+    free(wave);
+}
+
+pf_status pf_reference_wave_create(pf_renderer *renderer, const pf_render_settings *settings,
+                                   uint32_t light_count, pf_reference_wave **out, pf_error *err)
+{
+    *out = NULL;
+    pf_reference_wave *wave = calloc(1, sizeof *wave);
+    if (!wave)
+        return pf_error_set(err, PF_ERR_NOMEM, "wavefront: out of memory");
+    wave->renderer = renderer;
+    wave->shadow_slots = light_count + 1u;
+    uint64_t pixels = (uint64_t)settings->width * settings->height;
+    uint64_t limit = pf_vk_info(renderer->ctx)->max_storage_buffer_range;
+    uint64_t capacity = pixels < WAVE_MAX_PATHS ? pixels : WAVE_MAX_PATHS;
+    uint64_t per_path_limit = limit / ((uint64_t)wave->shadow_slots * sizeof(pf_ray));
+    if (capacity > per_path_limit)
+        capacity = per_path_limit;
+    if (capacity == 0) {
+        free(wave);
+        return pf_error_set(err, PF_ERR_LIMIT,
+                            "wavefront: %u lights' shadow rays of one path exceed the device's "
+                            "largest buffer (%llu bytes)",
+                            light_count, (unsigned long long)limit);
+    }
+    wave->capacity = (uint32_t)capacity;
+    uint64_t slots = capacity * wave->shadow_slots;
+    static const char *labels[WAVE_BUFFER_COUNT] = {
+        "wavefront paths",        "wavefront rays",       "wavefront hits",
+        "wavefront shadow rays",  "wavefront shadow light", "wavefront shadow hits",
+        "wavefront queue",        "wavefront active paths"};
+    const uint64_t sizes[WAVE_BUFFER_COUNT] = {
+        capacity * WAVE_PATH_BYTES, capacity * sizeof(pf_ray), capacity * sizeof(pf_hit),
+        slots * sizeof(pf_ray),     slots * 16u,               slots * sizeof(pf_hit),
+        capacity * 4u,              capacity * 4u};
+    pf_status status = PF_OK;
+    for (int b = 0; status == PF_OK && b < WAVE_BUFFER_COUNT; b++) {
+        status = pf_vk_buffer_create(renderer->ctx, sizes[b], labels[b], &wave->buffers[b], err);
+        if (status == PF_OK && !pf_vk_buffer_host_memory(wave->buffers[b]))
+            status = pf_error_set(err, PF_ERR_INTERNAL,
+                                  "wavefront: the device's %s are not in host memory "
+                                  "(the host traces only where the device is the CPU)",
+                                  labels[b] + strlen("wavefront "));
+    }
+    if (status == PF_OK) {
+        wave->queues.queue = pf_vk_buffer_host_memory(wave->buffers[WAVE_QUEUE]);
+        wave->queues.rays = pf_vk_buffer_host_memory(wave->buffers[WAVE_RAYS]);
+        wave->queues.hits = pf_vk_buffer_host_memory(wave->buffers[WAVE_HITS]);
+        wave->queues.shadow_rays = pf_vk_buffer_host_memory(wave->buffers[WAVE_SHADOW_RAYS]);
+        wave->queues.shadow_hits = pf_vk_buffer_host_memory(wave->buffers[WAVE_SHADOW_HITS]);
+        wave->active = pf_vk_buffer_host_memory(wave->buffers[WAVE_ACTIVE]);
+        status = pf_wave_tracer_create(&renderer->bih, wave->capacity, wave->shadow_slots,
+                                       &wave->tracer, err);
+    }
+    if (status != PF_OK) {
+        pf_reference_wave_destroy(wave);
+        return status;
+    }
+    *out = wave;
+    return PF_OK;
+}
+
+uint32_t pf_reference_wave_threads(const pf_reference_wave *wave)
+{
+    return pf_wave_tracer_threads(wave->tracer);
+}
+
+/* One dispatch of pipeline over count paths of the slice at first_pixel, in a submission of
+ * its own (setup's, when given: the frame's uploads and the counters' zeroing go first). */
+static pf_status dispatch_wave(pf_reference_wave *wave, pf_vk_pipeline *pipeline,
+                               pf_vk_buffer *const *buffers, uint32_t buffer_count,
+                               pf_vk_commands *setup, wave_push push,
+                               pf_reference_progress *progress, pf_error *err)
+{
+    pf_vk_commands *cmds = setup;
+    pf_status status = cmds ? PF_OK : pf_vk_commands_begin(wave->renderer->ctx, &cmds, err);
+    if (status != PF_OK)
+        return status;
+    int begin = pf_vk_cmd_timestamp(cmds);
+    status = pf_vk_cmd_dispatch(cmds, pipeline, buffers, buffer_count, &push, sizeof push,
+                                (push.count + WAVE_GROUP_SIZE - 1) / WAVE_GROUP_SIZE, 1, 1, err);
+    int end = pf_vk_cmd_timestamp(cmds);
+    if (status == PF_OK)
+        status = pf_vk_commands_submit(cmds, err);
+    if (status == PF_OK && begin >= 0 && end >= 0) {
+        double elapsed = pf_vk_commands_elapsed_ms(cmds, begin, end);
+        if (elapsed >= 0.0)
+            progress->gpu_ms = (progress->gpu_ms < 0.0 ? 0.0 : progress->gpu_ms) + elapsed;
+    }
+    pf_vk_commands_destroy(cmds);
+    progress->waves++;
+    return status;
+}
+
+pf_status pf_reference_wave_passes(pf_reference_wave *wave, pf_vk_buffer *const *reference_buffers,
+                                   uint32_t reference_buffer_count,
+                                   const pf_render_settings *settings, uint32_t count,
+                                   pf_vk_commands *setup, pf_reference_progress *progress,
+                                   pf_error *err)
+{
+    pf_renderer *renderer = wave->renderer;
+    pf_vk_buffer *buffers[PF_REFERENCE_WAVE_MAX_BUFFERS];
+    uint32_t buffer_count = reference_buffer_count + WAVE_BUFFER_COUNT + 3u;
+    if (buffer_count > PF_REFERENCE_WAVE_MAX_BUFFERS) {
+        pf_vk_commands_destroy(setup);
+        return pf_error_set(err, PF_ERR_INTERNAL, "wavefront: %u buffers", buffer_count);
+    }
+    memcpy(buffers, reference_buffers, reference_buffer_count * sizeof *buffers);
+    memcpy(buffers + reference_buffer_count, wave->buffers, sizeof wave->buffers);
+    /* The texel views the kernel reads the previous dispatch's writes through. */
+    buffers[buffer_count - 3] = wave->buffers[WAVE_PATHS];
+    buffers[buffer_count - 2] = wave->buffers[WAVE_QUEUE];
+    buffers[buffer_count - 1] = wave->buffers[WAVE_SHADOW_LIGHT];
+    pf_vk_pipeline *generate = NULL, *shade = NULL;
+    pf_status status =
+        pf_renderer_pipeline(renderer, PF_PIPELINE_REFERENCE_WAVE_GENERATE, &generate, err);
+    if (status == PF_OK)
+        status = pf_renderer_pipeline(
+            renderer, settings->aovs ? PF_PIPELINE_REFERENCE_WAVE : PF_PIPELINE_REFERENCE_WAVE_RGB,
+            &shade, err);
+    if (status != PF_OK) {
+        pf_vk_commands_destroy(setup);
+        return status;
+    }
+    uint64_t pixels = (uint64_t)settings->width * settings->height;
+    for (uint32_t pass = 0; status == PF_OK && pass < count; pass++) {
+        uint32_t sample = progress->passes;
+        for (uint64_t first = 0; status == PF_OK && first < pixels; first += wave->capacity) {
+            uint32_t slice = (uint32_t)(pixels - first < wave->capacity ? pixels - first
+                                                                        : wave->capacity);
+            wave_push push = {sample, slice, (uint32_t)first};
+            status = dispatch_wave(wave, generate, buffers, buffer_count, setup, push, progress,
+                                   err);
+            setup = NULL;
+            for (uint32_t i = 0; i < slice; i++)
+                wave->active[i] = i;
+            uint32_t live = slice;
+            while (status == PF_OK) {
+                double trace_start = pf_time_ms();
+                uint32_t remaining = 0;
+                status = pf_wave_trace(wave->tracer, &wave->queues, wave->active, live, &remaining,
+                                       &progress->rays, err);
+                progress->host_trace_ms += pf_time_ms() - trace_start;
+                if (status != PF_OK || remaining == 0)
+                    break;
+                push.count = live = remaining;
+                status = dispatch_wave(wave, shade, buffers, buffer_count, NULL, push, progress,
+                                       err);
+            }
+        }
+        if (status == PF_OK)
+            progress->passes++;
+    }
+    pf_vk_commands_destroy(setup); /* not taken: nothing to render */
+    return status;
+}

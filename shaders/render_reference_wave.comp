@@ -1,0 +1,207 @@
+#version 460
+#extension GL_GOOGLE_include_directive : require
+// pf-variant: surfaces PF_SURFACE_TEXTURES
+// The reference path tracer as a wavefront (issue 43; Laine, Karras & Aila
+// 2013): the paths of one pass advance one vertex per dispatch, and the rays
+// between two dispatches are traced by whoever traces them best. Where the
+// device is the CPU that is the host (core/render/wave_trace.c, the wide BIH
+// traversal on every core, reading and writing these buffers in place); the
+// kernel itself never traces. The paths are reference_path.glsl's, as the
+// megakernel's (render_reference.comp): the same random numbers, the same
+// estimator, the same image but for ties between equally distant triangles.
+//
+// WAVE_MODE (constant_id 0):
+//   WAVE_GENERATE   invocation i starts pixel i's path: its camera ray.
+//   WAVE_SHADE(_RGB) invocation i advances path active_paths[i]: it adds the light
+//                   of the previous vertex's unoccluded shadow rays, then (if
+//                   the path's ray was traced) the vertex at its hit, which
+//                   defers its shadow rays and writes the next ray. A path
+//                   with nothing left to trace adds its sample to the film
+//                   (WAVE_SHADE writes the AOV film too).
+// The paths of one dispatch are a slice of the image's pixels (push.first_pixel
+// on), so the buffers stay bounded at any size.
+// Per path p, what the host reads back: queue[p] = ray live (bit 0) | shadow
+// rays << 1, the ray rays[p] and the shadow rays shadow_rays[p·K + k]
+// (K = 1 + params.light_count, direct_light.glsl's candidates); what it
+// writes: hits[p] and shadow_hits[p·K + k]. The host drops paths whose queue
+// word is 0 from the next dispatch's active list.
+
+layout(local_size_x = 64) in;
+
+const uint WAVE_SHADE_RGB = 0u;
+const uint WAVE_SHADE = 1u;
+const uint WAVE_GENERATE = 2u;
+layout(constant_id = 0) const uint WAVE_MODE = WAVE_SHADE;
+const bool WRITE_AOVS = WAVE_MODE == WAVE_SHADE;
+
+layout(push_constant) uniform Push {
+    uint sample_index; // 0 starts the film's sums
+    uint count;        // invocations: pixels (generate) or active paths
+    uint first_pixel;  // path p is pixel first_pixel + p (the image goes in slices of paths)
+} push;
+
+#include "scene_bindings.glsl"
+layout(std430, set = 0, binding = PF_SCENE_BINDING_COUNT + 0) buffer Film { vec4 film[]; };
+layout(std430, set = 0, binding = PF_SCENE_BINDING_COUNT + 1) buffer FilmAov { vec4 film_aov[]; };
+layout(std430, set = 0, binding = PF_SCENE_BINDING_COUNT + 2) buffer Counters {
+    uint discarded_samples;
+    uint traversal_failures; // bih_traverse.glsl's; the host counts its own
+    uint rays_low;           // unused: the host counts the rays it traces
+    uint rays_high;
+} counters;
+
+// The megakernel's bindings up to here (the BIH's three are declared and bound,
+// never read), so one set of buffers serves both; the wavefront's follow.
+#define BIH_BINDING (PF_SCENE_BINDING_COUNT + 3)
+#include "scene_trace.glsl"
+#include "ray_types.glsl"
+
+#define WAVE_BINDING (PF_SCENE_BINDING_COUNT + 6)
+// One path's state (reference_path.glsl's globals), 9 vec4.
+struct WavePath {
+    vec4 origin_pdf;             // path_origin, path_previous_pdf
+    vec4 direction_cone;         // path_direction, path_cone_distance
+    vec4 throughput_coverage;    // path_throughput, path_coverage
+    vec4 medium_depth_aov;       // path_medium, path_depth_aov
+    vec4 direct_flags;           // path_direct, the bools' bits
+    vec4 indirect_depth;         // path_indirect, path_depth
+    vec4 caustic_regions;        // path_caustic, path_region | path_shadow_region << 8
+    vec4 albedo_group;           // path_albedo_aov, path_samples.group
+    vec4 normal;                 // path_normal_aov
+};
+layout(std430, set = 0, binding = WAVE_BINDING + 0) writeonly buffer Paths { WavePath paths[]; };
+layout(std430, set = 0, binding = WAVE_BINDING + 1) writeonly buffer Rays { Ray rays[]; };
+layout(set = 0, binding = WAVE_BINDING + 2) uniform usamplerBuffer hits;          // HitRecord: 4 words
+layout(std430, set = 0, binding = WAVE_BINDING + 3) writeonly buffer ShadowRays { Ray shadow_rays[]; };
+layout(std430, set = 0, binding = WAVE_BINDING + 4) writeonly buffer ShadowLightOut { vec4 shadow_light_out[]; };
+layout(set = 0, binding = WAVE_BINDING + 5) uniform usamplerBuffer shadow_hits;   // HitRecord: 4 words
+layout(std430, set = 0, binding = WAVE_BINDING + 6) writeonly buffer Queue { uint queue[]; };
+layout(set = 0, binding = WAVE_BINDING + 7) uniform usamplerBuffer active_paths;
+// What this dispatch reads of what the previous one wrote, through texel views of the
+// same buffers: llvmpipe loads a storage buffer word lane by lane, a texel in one gather
+// (bih_traverse.glsl), and the state is most of what a wave moves.
+layout(set = 0, binding = WAVE_BINDING + 8) uniform samplerBuffer paths_in;        // WavePath: 9 texels
+layout(set = 0, binding = WAVE_BINDING + 9) uniform usamplerBuffer queue_in;
+layout(set = 0, binding = WAVE_BINDING + 10) uniform samplerBuffer shadow_light;   // vec4 a slot
+
+// This invocation's shadow rays: the first slot and how many so far.
+uint wave_shadow_base = 0u;
+uint wave_shadow_count = 0u;
+
+void shadow_ray_defer(vec3 origin, vec3 direction, float tmax, vec3 contribution)
+{
+    uint slot = wave_shadow_base + wave_shadow_count;
+    wave_shadow_count++;
+    shadow_rays[slot] = Ray(vec4(origin, 0.0), vec4(direction, tmax));
+    shadow_light_out[slot] = vec4(contribution, 0.0);
+}
+
+#define PF_DEFERRED_SHADOWS
+#include "camera.glsl"
+#include "area_lights.glsl"
+#include "lights.glsl"
+#include "materials.glsl"
+#include "surface.glsl"
+#include "sampler.glsl"
+#include "reference_path.glsl"
+
+const uint FLAG_VALID = 1u, FLAG_CAUSTIC_CHAIN = 2u, FLAG_PREVIOUS_SPECULAR = 4u,
+           FLAG_ON_CAMERA_CONE = 8u, FLAG_AOV_RECORDED = 16u;
+
+void path_load(uint p, uvec2 pixel)
+{
+    uint at = 9u * p;
+    WavePath w = WavePath(texelFetch(paths_in, int(at)), texelFetch(paths_in, int(at + 1u)),
+                          texelFetch(paths_in, int(at + 2u)), texelFetch(paths_in, int(at + 3u)),
+                          texelFetch(paths_in, int(at + 4u)), texelFetch(paths_in, int(at + 5u)),
+                          texelFetch(paths_in, int(at + 6u)), texelFetch(paths_in, int(at + 7u)),
+                          texelFetch(paths_in, int(at + 8u)));
+    path_origin = w.origin_pdf.xyz;
+    path_previous_pdf = w.origin_pdf.w;
+    path_direction = w.direction_cone.xyz;
+    path_cone_distance = w.direction_cone.w;
+    path_throughput = w.throughput_coverage.xyz;
+    path_coverage = w.throughput_coverage.w;
+    path_medium = w.medium_depth_aov.xyz;
+    path_depth_aov = w.medium_depth_aov.w;
+    path_direct = w.direct_flags.xyz;
+    uint flags = floatBitsToUint(w.direct_flags.w);
+    path_valid = (flags & FLAG_VALID) != 0u;
+    path_caustic_chain = (flags & FLAG_CAUSTIC_CHAIN) != 0u;
+    path_previous_specular = (flags & FLAG_PREVIOUS_SPECULAR) != 0u;
+    path_on_camera_cone = (flags & FLAG_ON_CAMERA_CONE) != 0u;
+    path_aov_recorded = (flags & FLAG_AOV_RECORDED) != 0u;
+    path_indirect = w.indirect_depth.xyz;
+    path_depth = floatBitsToUint(w.indirect_depth.w);
+    path_caustic = w.caustic_regions.xyz;
+    uint regions = floatBitsToUint(w.caustic_regions.w);
+    path_region = regions & 0xFFu;
+    path_shadow_region = regions >> 8u;
+    path_albedo_aov = w.albedo_group.xyz;
+    path_normal_aov = w.normal.xyz;
+    path_samples = sampler_init(pixel.y * params.width + pixel.x, push.sample_index,
+                                params.seed_lo, params.seed_hi); // as path_begin's
+    path_samples.group = floatBitsToUint(w.albedo_group.w);
+    path_rays = 0u;
+}
+
+void path_store(uint p)
+{
+    uint flags = (path_valid ? FLAG_VALID : 0u) | (path_caustic_chain ? FLAG_CAUSTIC_CHAIN : 0u) |
+                 (path_previous_specular ? FLAG_PREVIOUS_SPECULAR : 0u) |
+                 (path_on_camera_cone ? FLAG_ON_CAMERA_CONE : 0u) |
+                 (path_aov_recorded ? FLAG_AOV_RECORDED : 0u);
+    paths[p] = WavePath(vec4(path_origin, path_previous_pdf),
+                        vec4(path_direction, path_cone_distance),
+                        vec4(path_throughput, path_coverage), vec4(path_medium, path_depth_aov),
+                        vec4(path_direct, uintBitsToFloat(flags)),
+                        vec4(path_indirect, uintBitsToFloat(path_depth)),
+                        vec4(path_caustic, uintBitsToFloat(path_region | path_shadow_region << 8u)),
+                        vec4(path_albedo_aov, uintBitsToFloat(path_samples.group)),
+                        vec4(path_normal_aov, 0.0));
+}
+
+void main()
+{
+    const float infinity = uintBitsToFloat(0x7f800000u);
+    uint invocation = gl_GlobalInvocationID.x;
+    if (invocation >= push.count)
+        return;
+    uint p = WAVE_MODE == WAVE_GENERATE ? invocation
+                                        : texelFetch(active_paths, int(invocation)).x;
+    uint pixel_index = push.first_pixel + p;
+    uvec2 pixel = uvec2(pixel_index % params.width, pixel_index / params.width);
+    wave_shadow_base = p * (params.light_count + 1u);
+    bool more;
+    if (WAVE_MODE == WAVE_GENERATE) {
+        path_begin(pixel, push.sample_index);
+        more = true;
+    } else {
+        path_load(p, pixel);
+        uint waiting = texelFetch(queue_in, int(p)).x;
+        // The previous vertex's light samples, in the megakernel's order: before this
+        // vertex's emission.
+        vec3 unoccluded = vec3(0.0);
+        for (uint k = 0u; k < (waiting >> 1u); k++)
+            if (texelFetch(shadow_hits, int(4u * (wave_shadow_base + k) + 1u)).x == NO_HIT)
+                unoccluded += texelFetch(shadow_light, int(wave_shadow_base + k)).xyz;
+        path_add(unoccluded, path_shadow_region, false);
+        more = false;
+        if ((waiting & 1u) != 0u) {
+            int at = int(4u * p);
+            more = path_vertex(BihHit(uintBitsToFloat(texelFetch(hits, at).x),
+                                      texelFetch(hits, at + 1).x,
+                                      uintBitsToFloat(texelFetch(hits, at + 2).x),
+                                      uintBitsToFloat(texelFetch(hits, at + 3).x)));
+        }
+    }
+    if (more)
+        rays[p] = Ray(vec4(path_origin, 0.0), vec4(path_direction, infinity));
+    if (more || wave_shadow_count > 0u) {
+        path_store(p);
+        queue[p] = (more ? 1u : 0u) | wave_shadow_count << 1u;
+    } else {
+        path_finish(pixel_index, push.sample_index);
+        queue[p] = 0u;
+    }
+}

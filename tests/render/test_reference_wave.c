@@ -1,0 +1,209 @@
+/*
+ * reference's two drivers (issue 43): the megakernel, whose rays the device
+ * traces inside its one dispatch a pass, and the wavefront, whose rays the
+ * host traces between dispatches (pf_renderer_set_trace_site). Both run
+ * shaders/common/reference_path.glsl's paths from the same random numbers,
+ * so the images must agree but for ties between equally distant triangles;
+ * the shade row must say which ran and why; a frame the host cannot trace
+ * (alpha-tested materials) goes to the device, saying so; an image larger
+ * than the wavefront's slice is rendered slice by slice, every pixel once.
+ */
+#include "pf_test.h"
+#include "reference_test_util.h"
+#include "render_test_env.h"
+
+#include <math.h>
+#include <string.h>
+
+static pf_vk_context *ctx;
+static pf_renderer *renderer;
+
+static int render_with(const pf_scene_frame *frame, const pf_render_settings *settings,
+                       pf_trace_site site, pf_image *image, pf_frame_report *report)
+{
+    pf_renderer_set_trace_site(renderer, site);
+    memset(report, 0, sizeof *report);
+    pf_error err = {0};
+    pf_status status = pf_render_frame(renderer, frame, settings, image, report, &err);
+    pf_renderer_set_trace_site(renderer, PF_TRACE_AUTO);
+    PF_CHECK_MSG(status == PF_OK, "render: %s", err.message);
+    return status == PF_OK;
+}
+
+/* Largest difference over every channel (RGB, layers, AOVs) and the pixels that differ. */
+static double largest_difference(const pf_image *a, const pf_image *b, size_t *differing)
+{
+    double largest = 0.0;
+    *differing = 0;
+    size_t values = (size_t)a->width * a->height * a->channel_count;
+    for (size_t p = 0; p < (size_t)a->width * a->height; p++) {
+        int differs = 0;
+        for (uint32_t c = 0; c < a->channel_count; c++) {
+            size_t i = p * a->channel_count + c;
+            double d = fabs((double)a->pixels[i] - b->pixels[i]);
+            if (i < values && d > largest)
+                largest = d;
+            differs |= d > 1e-5 * (fabs((double)b->pixels[i]) + 1e-3);
+        }
+        *differing += differs;
+    }
+    return largest;
+}
+
+/* Renders frame both ways and checks the images, the counters and the rows' reasons. */
+static void check_drivers_agree(const pf_scene_frame *frame, const pf_render_settings *settings,
+                                const char *what, double allowed_differing_share)
+{
+    pf_image device = {0}, host = {0};
+    pf_frame_report device_report, host_report;
+    if (!render_with(frame, settings, PF_TRACE_DEVICE, &device, &device_report) ||
+        !render_with(frame, settings, PF_TRACE_HOST, &host, &host_report)) {
+        pf_image_free(&device);
+        pf_image_free(&host);
+        return;
+    }
+    PF_CHECK(device.channel_count == host.channel_count);
+    size_t differing = 0;
+    double largest = largest_difference(&host, &device, &differing);
+    double relmse = ref_layer_relmse(&host, &device, REF_CH_RGB);
+    size_t pixels = (size_t)device.width * device.height;
+    printf("  %s: %zu of %zu pixels differ (largest %.3g, RGB relMSE %.3g)\n", what, differing,
+           pixels, largest, relmse);
+    PF_CHECK_MSG((double)differing <= allowed_differing_share * (double)pixels,
+                 "%s: %zu of %zu pixels differ", what, differing, pixels);
+    PF_CHECK_MSG(relmse <= 1e-4, "%s: RGB relMSE %g between the drivers", what, relmse);
+
+    double device_rays = ref_stage_counter(&device_report, "shade", "rays");
+    double host_rays = ref_stage_counter(&host_report, "shade", "rays");
+    PF_CHECK_MSG(fabs(device_rays - host_rays) <= 0.001 * device_rays,
+                 "%s: %g rays on the device, %g on the host", what, device_rays, host_rays);
+    PF_CHECK(ref_stage_counter(&device_report, "shade", "discarded_samples") ==
+             ref_stage_counter(&host_report, "shade", "discarded_samples"));
+    const pf_stage_timing *device_row = ref_row(&device_report, "shade");
+    const pf_stage_timing *host_row = ref_row(&host_report, "shade");
+    PF_CHECK(device_row && strstr(device_row->reason, "rays traced on the device (forced)"));
+    PF_CHECK(host_row && strstr(host_row->reason, "its rays traced on the host (forced)"));
+    PF_CHECK(isnan(ref_stage_counter(&device_report, "shade", "waves")));
+    /* At least the camera rays' wave and one more per vertex of the longest path. */
+    PF_CHECK(ref_stage_counter(&host_report, "shade", "waves") >= 2.0 * settings->samples_per_pixel);
+    PF_CHECK(ref_stage_counter(&host_report, "shade", "trace_threads") >= 1.0);
+    pf_image_free(&device);
+    pf_image_free(&host);
+}
+
+PF_TEST(the_cornell_box_is_the_same_image_from_both_drivers)
+{
+    pf_scene *scene = NULL;
+    pf_scene_frame frame = {0};
+    if (!ref_load_cornell(&scene, &frame)) {
+        PF_CHECK_MSG(0, "the bundled Cornell box did not load");
+        return;
+    }
+    pf_render_settings settings = ref_settings(48, 36, 4, 3, 1);
+    check_drivers_agree(&frame, &settings, "Cornell box", 0.0);
+    pf_scene_frame_free(&frame);
+    pf_scene_destroy(scene);
+}
+
+/*
+ * A box with punctual lights (several shadow rays a vertex), an emitter (MIS), glass (a
+ * medium, refraction), a mirror and a rough metal: every branch of the path's vertex.
+ */
+static void lit_box(ref_scene *scene)
+{
+    ref_scene_init(scene);
+    uint32_t wall = ref_scene_add_material(scene, ref_material(PF_MATERIAL_LAMBERT, 0.7f, 0.6f,
+                                                               0.5f));
+    pf_material glass_material = ref_material(PF_MATERIAL_GLASS, 1.0f, 1.0f, 1.0f);
+    glass_material.absorption[0] = 1.0f; /* a red-tinting medium inside */
+    uint32_t glass = ref_scene_add_material(scene, glass_material);
+    uint32_t mirror = ref_scene_add_material(scene, ref_material(PF_MATERIAL_MIRROR, 0.9f, 0.9f,
+                                                                 0.9f));
+    pf_material metal = ref_material(PF_MATERIAL_LAMBERT, 0.8f, 0.5f, 0.3f);
+    metal.metallic = 1.0f;
+    metal.roughness = 0.6f;
+    uint32_t rough_metal = ref_scene_add_material(scene, metal);
+    uint32_t lamp = ref_scene_add_material(scene, ref_material_emitter(4.0f, 4.0f, 3.0f));
+    ref_scene_add_box(scene, (float[]){-1, -1, -1}, (float[]){1, 1, 1}, 1, wall);
+    ref_scene_add_sphere(scene, (float[]){-0.4f, -0.5f, 0.1f}, 0.35f, 16, 8, 0, glass);
+    ref_scene_add_sphere(scene, (float[]){0.45f, -0.6f, -0.2f}, 0.3f, 12, 6, 0, rough_metal);
+    ref_scene_add_quad(scene, (float[]){0.0f, 0.2f, -0.99f}, (float[]){0.4f, 0, 0},
+                       (float[]){0, 0.3f, 0}, mirror);
+    ref_scene_add_quad(scene, (float[]){0.0f, 0.98f, 0.0f}, (float[]){0.25f, 0, 0},
+                       (float[]){0, 0, -0.25f}, lamp);
+    pf_light point = {.position = {0.5f, 0.6f, 0.5f}, .kind = PF_LIGHT_POINT,
+                      .intensity = {1.5f, 1.2f, 1.0f}};
+    ref_scene_add_light(scene, point);
+    pf_light spot = {.position = {-0.6f, 0.8f, 0.6f}, .kind = PF_LIGHT_SPOT,
+                     .direction = {0.3f, -1.0f, -0.3f}, .intensity = {2.0f, 2.0f, 2.0f},
+                     .cos_inner_cone = 0.9f, .cos_outer_cone = 0.7f};
+    float length = sqrtf(0.09f + 1.0f + 0.09f);
+    for (int k = 0; k < 3; k++)
+        spot.direction[k] /= length;
+    ref_scene_add_light(scene, spot);
+    ref_scene_look_at(scene, (float[]){0, 0, 0.95f}, (float[]){0, -0.2f, -1}, (float[]){0, 1, 0},
+                      1.2f);
+}
+
+PF_TEST(a_box_with_lights_glass_and_metals_is_the_same_image_from_both_drivers)
+{
+    ref_scene scene;
+    lit_box(&scene);
+    pf_render_settings settings = ref_settings(40, 32, 4, 11, 1);
+    /* Ties between equally distant triangles (the spheres' shared edges) may send a path
+     * another way: a few pixels of a thousand at most. */
+    check_drivers_agree(&scene.frame, &settings, "lit box", 0.01);
+    settings.aovs = 0;
+    check_drivers_agree(&scene.frame, &settings, "lit box without AOVs", 0.01);
+    ref_scene_free(&scene);
+}
+
+PF_TEST(an_image_larger_than_a_slice_gets_every_pixel_once)
+{
+    /* 640 × 420 pixels: more than the wavefront's 2^18 paths at once, so two slices. */
+    ref_scene scene;
+    lit_box(&scene);
+    pf_render_settings settings = ref_settings(640, 420, 1, 5, 0);
+    check_drivers_agree(&scene.frame, &settings, "two slices", 0.01);
+    ref_scene_free(&scene);
+}
+
+PF_TEST(alpha_tested_materials_are_traced_on_the_device_saying_why)
+{
+    ref_scene scene;
+    lit_box(&scene);
+    scene.materials[0].alpha_mode = PF_ALPHA_MASK;
+    scene.materials[0].alpha = 1.0f;
+    scene.materials[0].alpha_cutoff = 0.5f;
+    pf_render_settings settings = ref_settings(16, 16, 1, 1, 0);
+    pf_image image = {0};
+    pf_frame_report report;
+    if (render_with(&scene.frame, &settings, PF_TRACE_AUTO, &image, &report)) {
+        const pf_stage_timing *row = ref_row(&report, "shade");
+        PF_CHECK(row && strstr(row->reason, "rays traced on the device (alpha-tested materials"));
+        PF_CHECK(isnan(ref_stage_counter(&report, "shade", "waves")));
+    }
+    pf_image_free(&image);
+    /* Opaque again, AUTO on lavapipe is the host (the device is the CPU). */
+    scene.materials[0].alpha_mode = PF_ALPHA_OPAQUE;
+    if (render_with(&scene.frame, &settings, PF_TRACE_AUTO, &image, &report)) {
+        const pf_stage_timing *row = ref_row(&report, "shade");
+        int cpu = strcmp(pf_vk_info(ctx)->type, "cpu") == 0 && pf_bih_wide_available();
+        PF_CHECK(row && strstr(row->reason, cpu ? "its rays traced on the host (the device is "
+                                                  "the CPU)"
+                                                : "rays traced on the device"));
+    }
+    pf_image_free(&image);
+    ref_scene_free(&scene);
+}
+
+int main(void)
+{
+    if (!render_test_setup(&ctx, &renderer))
+        return 1;
+    PF_RUN(the_cornell_box_is_the_same_image_from_both_drivers);
+    PF_RUN(a_box_with_lights_glass_and_metals_is_the_same_image_from_both_drivers);
+    PF_RUN(an_image_larger_than_a_slice_gets_every_pixel_once);
+    PF_RUN(alpha_tested_materials_are_traced_on_the_device_saying_why);
+    return render_test_finish(ctx, renderer);
+}
