@@ -11,13 +11,18 @@
 // estimator, the same image but for ties between equally distant triangles.
 //
 // WAVE_MODE (constant_id 0):
-//   WAVE_GENERATE   invocation i starts pixel i's path: its camera ray.
-//   WAVE_SHADE(_RGB) invocation i advances path active_paths[i]: it adds the light
-//                   of the previous vertex's unoccluded shadow rays, then (if
-//                   the path's ray was traced) the vertex at its hit, which
-//                   defers its shadow rays and writes the next ray. A path
-//                   with nothing left to trace adds its sample to the film
-//                   (WAVE_SHADE writes the AOV film too).
+//   WAVE_GENERATE    invocation i starts pixel i's path: its camera ray.
+//   WAVE_SHADE(_RGB) invocation i advances path active_paths[first_active + i],
+//                    whose ray hit a surface: it adds the light of the previous
+//                    vertex's unoccluded shadow rays, then the vertex at the
+//                    hit, which defers its shadow rays and writes the next
+//                    ray. A path with nothing left to trace adds its sample to
+//                    the film (WAVE_SHADE writes the AOV film too).
+//   WAVE_FINISH(_RGB) the same for paths whose ray missed or that have none
+//                    (only shadow rays were left): the shadow rays' light, then
+//                    the film. Its own module without the vertex's code, which
+//                    llvmpipe would run for every invocation, masked, all the
+//                    same (bench/RESULTS.md, "Code that no lane runs").
 // The paths of one dispatch are a slice of the image's pixels (push.first_pixel
 // on), so the buffers stay bounded at any size.
 // Per path p, what the host reads back: queue[p] = ray live (bit 0) | shadow
@@ -31,13 +36,17 @@ layout(local_size_x = 64) in;
 const uint WAVE_SHADE_RGB = 0u;
 const uint WAVE_SHADE = 1u;
 const uint WAVE_GENERATE = 2u;
+const uint WAVE_FINISH_RGB = 3u;
+const uint WAVE_FINISH = 4u;
 layout(constant_id = 0) const uint WAVE_MODE = WAVE_SHADE;
-const bool WRITE_AOVS = WAVE_MODE == WAVE_SHADE;
+const bool WRITE_AOVS = WAVE_MODE == WAVE_SHADE || WAVE_MODE == WAVE_FINISH;
+const bool FINISHING = WAVE_MODE == WAVE_FINISH || WAVE_MODE == WAVE_FINISH_RGB;
 
 layout(push_constant) uniform Push {
     uint sample_index; // 0 starts the film's sums
     uint count;        // invocations: pixels (generate) or active paths
     uint first_pixel;  // path p is pixel first_pixel + p (the image goes in slices of paths)
+    uint first_active; // where this dispatch's paths start in active_paths
 } push;
 
 #include "scene_bindings.glsl"
@@ -167,8 +176,9 @@ void main()
     uint invocation = gl_GlobalInvocationID.x;
     if (invocation >= push.count)
         return;
-    uint p = WAVE_MODE == WAVE_GENERATE ? invocation
-                                        : texelFetch(active_paths, int(invocation)).x;
+    uint p = WAVE_MODE == WAVE_GENERATE
+                 ? invocation
+                 : texelFetch(active_paths, int(push.first_active + invocation)).x;
     uint pixel_index = push.first_pixel + p;
     uvec2 pixel = uvec2(pixel_index % params.width, pixel_index / params.width);
     wave_shadow_base = p * (params.light_count + 1u);
@@ -187,7 +197,7 @@ void main()
                 unoccluded += texelFetch(shadow_light, int(wave_shadow_base + k)).xyz;
         path_add(unoccluded, path_shadow_region, false);
         more = false;
-        if ((waiting & 1u) != 0u) {
+        if (!FINISHING && (waiting & 1u) != 0u) {
             int at = int(4u * p);
             more = path_vertex(BihHit(uintBitsToFloat(texelFetch(hits, at).x),
                                       texelFetch(hits, at + 1).x,

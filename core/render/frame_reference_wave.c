@@ -22,7 +22,7 @@
 #define WAVE_PATH_BYTES (9u * 16u)
 
 typedef struct wave_push {
-    uint32_t sample_index, count, first_pixel;
+    uint32_t sample_index, count, first_pixel, first_active;
 } wave_push;
 
 enum {
@@ -121,20 +121,26 @@ uint32_t pf_reference_wave_threads(const pf_reference_wave *wave)
     return pf_wave_tracer_threads(wave->tracer);
 }
 
-/* One dispatch of pipeline over count paths of the slice at first_pixel, in a submission of
- * its own (setup's, when given: the frame's uploads and the counters' zeroing go first). */
-static pf_status dispatch_wave(pf_reference_wave *wave, pf_vk_pipeline *pipeline,
+/* The dispatches of one wave (pipelines[k] over pushes[k].count paths, those of no paths
+ * left out) in a submission of its own (setup's, when given: the frame's uploads and the
+ * counters' zeroing go first). The dispatches touch disjoint paths and pixels: no barrier. */
+static pf_status dispatch_wave(pf_reference_wave *wave, pf_vk_pipeline *const *pipelines,
+                               const wave_push *pushes, uint32_t dispatches,
                                pf_vk_buffer *const *buffers, uint32_t buffer_count,
-                               pf_vk_commands *setup, wave_push push,
-                               pf_reference_progress *progress, pf_error *err)
+                               pf_vk_commands *setup, pf_reference_progress *progress,
+                               pf_error *err)
 {
     pf_vk_commands *cmds = setup;
     pf_status status = cmds ? PF_OK : pf_vk_commands_begin(wave->renderer->ctx, &cmds, err);
     if (status != PF_OK)
         return status;
     int begin = pf_vk_cmd_timestamp(cmds);
-    status = pf_vk_cmd_dispatch(cmds, pipeline, buffers, buffer_count, &push, sizeof push,
-                                (push.count + WAVE_GROUP_SIZE - 1) / WAVE_GROUP_SIZE, 1, 1, err);
+    for (uint32_t k = 0; status == PF_OK && k < dispatches; k++)
+        if (pushes[k].count > 0)
+            status = pf_vk_cmd_dispatch(cmds, pipelines[k], buffers, buffer_count, &pushes[k],
+                                        sizeof pushes[k],
+                                        (pushes[k].count + WAVE_GROUP_SIZE - 1) / WAVE_GROUP_SIZE,
+                                        1, 1, err);
     int end = pf_vk_cmd_timestamp(cmds);
     if (status == PF_OK)
         status = pf_vk_commands_submit(cmds, err);
@@ -167,13 +173,19 @@ pf_status pf_reference_wave_passes(pf_reference_wave *wave, pf_vk_buffer *const 
     buffers[buffer_count - 3] = wave->buffers[WAVE_PATHS];
     buffers[buffer_count - 2] = wave->buffers[WAVE_QUEUE];
     buffers[buffer_count - 1] = wave->buffers[WAVE_SHADOW_LIGHT];
-    pf_vk_pipeline *generate = NULL, *shade = NULL;
+    /* generate, then per wave: shade the paths with a hit, finish the others. */
+    pf_vk_pipeline *generate = NULL, *wave_pipelines[2] = {NULL, NULL};
     pf_status status =
         pf_renderer_pipeline(renderer, PF_PIPELINE_REFERENCE_WAVE_GENERATE, &generate, err);
     if (status == PF_OK)
         status = pf_renderer_pipeline(
             renderer, settings->aovs ? PF_PIPELINE_REFERENCE_WAVE : PF_PIPELINE_REFERENCE_WAVE_RGB,
-            &shade, err);
+            &wave_pipelines[0], err);
+    if (status == PF_OK)
+        status = pf_renderer_pipeline(renderer,
+                                      settings->aovs ? PF_PIPELINE_REFERENCE_WAVE_FINISH
+                                                     : PF_PIPELINE_REFERENCE_WAVE_FINISH_RGB,
+                                      &wave_pipelines[1], err);
     if (status != PF_OK) {
         pf_vk_commands_destroy(setup);
         return status;
@@ -184,24 +196,29 @@ pf_status pf_reference_wave_passes(pf_reference_wave *wave, pf_vk_buffer *const 
         for (uint64_t first = 0; status == PF_OK && first < pixels; first += wave->capacity) {
             uint32_t slice = (uint32_t)(pixels - first < wave->capacity ? pixels - first
                                                                         : wave->capacity);
-            wave_push push = {sample, slice, (uint32_t)first};
-            status = dispatch_wave(wave, generate, buffers, buffer_count, setup, push, progress,
-                                   err);
+            wave_push start = {sample, slice, (uint32_t)first, 0};
+            status = dispatch_wave(wave, &generate, &start, 1, buffers, buffer_count, setup,
+                                   progress, err);
             setup = NULL;
             for (uint32_t i = 0; i < slice; i++)
                 wave->active[i] = i;
             uint32_t live = slice;
             while (status == PF_OK) {
                 double trace_start = pf_time_ms();
-                uint32_t remaining = 0;
+                uint32_t remaining = 0, hit = 0;
                 status = pf_wave_trace(wave->tracer, &wave->queues, wave->active, live, &remaining,
-                                       &progress->rays, err);
+                                       &hit, &progress->rays, err);
                 progress->host_trace_ms += pf_time_ms() - trace_start;
                 if (status != PF_OK || remaining == 0)
                     break;
-                push.count = live = remaining;
-                status = dispatch_wave(wave, shade, buffers, buffer_count, NULL, push, progress,
-                                       err);
+                /* Only the paths with a hit can have rays to trace after this wave. */
+                wave_push pushes[2] = {{sample, hit, (uint32_t)first, 0},
+                                       {sample, remaining - hit, (uint32_t)first, hit}};
+                status = dispatch_wave(wave, wave_pipelines, pushes, 2, buffers, buffer_count,
+                                       NULL, progress, err);
+                live = hit;
+                if (live == 0)
+                    break;
             }
         }
         if (status == PF_OK)

@@ -55,6 +55,8 @@ typedef enum pf_renderer_pipeline_id {
     PF_PIPELINE_REFERENCE_WAVE_GENERATE, /* render_reference_wave.comp, WAVE_GENERATE */
     PF_PIPELINE_REFERENCE_WAVE,          /* render_reference_wave.comp, WAVE_SHADE (AOVs) */
     PF_PIPELINE_REFERENCE_WAVE_RGB,      /* render_reference_wave.comp, WAVE_SHADE_RGB */
+    PF_PIPELINE_REFERENCE_WAVE_FINISH,   /* render_reference_wave.comp, WAVE_FINISH (AOVs) */
+    PF_PIPELINE_REFERENCE_WAVE_FINISH_RGB, /* render_reference_wave.comp, WAVE_FINISH_RGB */
     PF_PIPELINE_COUNT
 } pf_renderer_pipeline_id;
 
@@ -170,13 +172,15 @@ void pf_wave_tracer_destroy(pf_wave_tracer *tracer);
 uint32_t pf_wave_tracer_threads(const pf_wave_tracer *tracer);
 /*
  * Traces the waiting rays of the paths active[0..count): closest hits for their rays,
- * any hits for their shadow rays. Then rewrites active with the paths that waited (in
- * order; a path whose queue word is 0 is done) and sets *remaining to their number; adds
- * the rays traced to *rays. A traversal failure fails the call (as the device's fails the
+ * any hits for their shadow rays. Then rewrites active with the paths that waited (a path
+ * whose queue word is 0 is done): first the *hit whose ray hit a surface, then those whose
+ * ray missed or that had none, each part in order; *remaining is their total. Adds the
+ * rays traced to *rays. A traversal failure fails the call (as the device's fails the
  * frame).
  */
 pf_status pf_wave_trace(pf_wave_tracer *tracer, const pf_wave_queues *queues, uint32_t *active,
-                        uint32_t count, uint32_t *remaining, uint64_t *rays, pf_error *err);
+                        uint32_t count, uint32_t *remaining, uint32_t *hit, uint64_t *rays,
+                        pf_error *err);
 
 /* reference's totals over the passes of one frame (frame_reference.c). */
 typedef struct pf_reference_progress {

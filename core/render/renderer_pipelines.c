@@ -27,10 +27,11 @@
  * (denoise_filter.glsl). */
 #define DENOISE_BUFFERS 6u
 #define DENOISE_PUSH_BYTES 16u
-/* render_reference_wave.comp: the reference kernel's buffers and 11 of its own, a 12-byte
- * Push, constant_id 0 its mode (WAVE_SHADE_RGB 0, WAVE_SHADE 1, WAVE_GENERATE 2). */
+/* render_reference_wave.comp: the reference kernel's buffers and 11 of its own, a 16-byte
+ * Push, constant_id 0 its mode (WAVE_SHADE_RGB 0, WAVE_SHADE 1, WAVE_GENERATE 2,
+ * WAVE_FINISH_RGB 3, WAVE_FINISH 4). */
 #define REFERENCE_WAVE_BUFFERS (RENDER_REFERENCE_BUFFERS + 11u)
-#define REFERENCE_WAVE_PUSH_BYTES 12u
+#define REFERENCE_WAVE_PUSH_BYTES 16u
 #define MATERIAL_PROBE_BUFFERS 2u
 #define MATERIAL_PROBE_PUSH_BYTES 4u
 
@@ -80,6 +81,10 @@ static const pipeline_spec pipeline_specs[PF_PIPELINE_COUNT] = {
                                     REFERENCE_WAVE_PUSH_BYTES, 1, {0, 1}, 1},
     [PF_PIPELINE_REFERENCE_WAVE_RGB] = {"render_reference_wave", REFERENCE_WAVE_BUFFERS,
                                         REFERENCE_WAVE_PUSH_BYTES, 1, {0, 0}, 1},
+    [PF_PIPELINE_REFERENCE_WAVE_FINISH] = {"render_reference_wave", REFERENCE_WAVE_BUFFERS,
+                                           REFERENCE_WAVE_PUSH_BYTES, 1, {0, 4}, 1},
+    [PF_PIPELINE_REFERENCE_WAVE_FINISH_RGB] = {"render_reference_wave", REFERENCE_WAVE_BUFFERS,
+                                               REFERENCE_WAVE_PUSH_BYTES, 1, {0, 3}, 1},
 };
 
 pf_status pf_renderer_pipeline(pf_renderer *renderer, pf_renderer_pipeline_id id,

@@ -25,8 +25,9 @@ typedef struct wave_worker {
     const pf_wave_queues *queues;
     const uint32_t *active;
     uint32_t begin, end;
-    /* Scratch for the chunk: the paths still waiting, the gathered rays and their hits. */
-    uint32_t *kept, kept_count;
+    /* Scratch for the chunk: the paths still waiting (then: those whose ray hit a surface,
+     * and after them those to finish), the gathered rays and their hits. */
+    uint32_t *kept, kept_count, hit_count;
     pf_ray *rays;
     pf_hit *hits;
     uint32_t *targets; /* where each gathered ray's hit goes */
@@ -93,6 +94,18 @@ static void *wave_worker_run(void *arg)
     w->status = trace_kind(w, 0);
     if (w->status == PF_OK)
         w->status = trace_kind(w, 1);
+    /* Stable partition: paths whose ray hit a surface first, then those with nothing but
+     * shadow rays' light and the film left (their ray missed, or they had none). */
+    w->hit_count = 0;
+    uint32_t finishing = 0;
+    for (uint32_t i = 0; i < w->kept_count; i++) {
+        uint32_t path = w->kept[i];
+        if ((w->queues->queue[path] & 1u) && w->queues->hits[path].triangle != PF_NO_HIT)
+            w->kept[w->hit_count++] = path;
+        else
+            w->targets[finishing++] = path;
+    }
+    memcpy(w->kept + w->hit_count, w->targets, (size_t)finishing * sizeof *w->kept);
     return NULL;
 }
 
@@ -156,7 +169,8 @@ void pf_wave_tracer_destroy(pf_wave_tracer *tracer)
 uint32_t pf_wave_tracer_threads(const pf_wave_tracer *tracer) { return tracer->thread_count; }
 
 pf_status pf_wave_trace(pf_wave_tracer *tracer, const pf_wave_queues *queues, uint32_t *active,
-                        uint32_t count, uint32_t *remaining, uint64_t *rays, pf_error *err)
+                        uint32_t count, uint32_t *remaining, uint32_t *hit, uint64_t *rays,
+                        pf_error *err)
 {
     uint32_t threads = tracer->thread_count;
     uint32_t chunk = (count + threads - 1) / threads;
@@ -179,16 +193,24 @@ pf_status pf_wave_trace(pf_wave_tracer *tracer, const pf_wave_queues *queues, ui
         if (tracer->workers[t].started)
             pthread_join(tracer->workers[t].thread, NULL);
     }
-    /* Every thread has read its chunk of active: the list is rewritten in order now. */
+    /* Every thread has read its chunk of active: the list is rewritten in order now, the
+     * paths with a hit from every chunk first. */
     for (uint32_t t = 0; t < threads; t++) {
         wave_worker *w = &tracer->workers[t];
         if (status == PF_OK && w->status != PF_OK) {
             *err = w->err;
             status = w->status;
         }
-        memcpy(active + kept, w->kept, (size_t)w->kept_count * sizeof *active);
-        kept += w->kept_count;
+        memcpy(active + kept, w->kept, (size_t)w->hit_count * sizeof *active);
+        kept += w->hit_count;
         *rays += w->traced;
+    }
+    *hit = kept;
+    for (uint32_t t = 0; t < threads; t++) {
+        wave_worker *w = &tracer->workers[t];
+        memcpy(active + kept, w->kept + w->hit_count,
+               (size_t)(w->kept_count - w->hit_count) * sizeof *active);
+        kept += w->kept_count - w->hit_count;
     }
     *remaining = kept;
     return status;
