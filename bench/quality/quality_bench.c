@@ -37,6 +37,9 @@
  * PF_QUALITY_ONLY=label,label,...: only those curves ("cycles" for Cycles'); the truth is
  * rendered or read as always.
  *
+ * PF_QUALITY_TRACE=device|host: reference's rays traced by the device (its megakernel) or
+ * the host (the wavefront), instead of where the planner puts them (issue 43).
+ *
  * PF_CYCLES_AS_IMPORTED=1: Cycles renders the file as Blender's importer reads
  * it (cycles_render.py), for users' files such as bench/materials'
  * room-textured.gltf, instead of with photonfarm's material model.
@@ -320,8 +323,16 @@ int main(int argc, char **argv)
         fprintf(stderr, "quality_bench: %s\n", err.message);
         return 1;
     }
-    printf("quality_bench %s %ux%u, %d threads, device %s\n", scene_path, width, height, threads,
-           pf_vk_info(ctx)->name);
+    /* PF_QUALITY_TRACE=device|host forces who traces reference's rays (issue 43: the
+     * wavefront's figures beside the megakernel's). */
+    const char *trace = getenv("PF_QUALITY_TRACE");
+    if (trace && !strcmp(trace, "device"))
+        pf_renderer_set_trace_site(renderer, PF_TRACE_DEVICE);
+    else if (trace && !strcmp(trace, "host"))
+        pf_renderer_set_trace_site(renderer, PF_TRACE_HOST);
+    printf("quality_bench %s %ux%u, %d threads, device %s, reference's rays traced by %s\n",
+           scene_path, width, height, threads, pf_vk_info(ctx)->name,
+           trace ? trace : "the planner's choice");
 
     /* The truth, cached by content. */
     char truth_path[4096], scratch[4096];
