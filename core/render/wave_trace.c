@@ -4,57 +4,72 @@
  * (pf_bih_wide_trace_rays) traces several times faster than the device's GLSL
  * loop (bench/RESULTS.md, "The wide view"), so the host traces the queues a
  * kernel wrote, in place, on every core, and the kernel reads the hits. The
- * active list is split into one contiguous chunk per thread; each thread
- * gathers its chunk's rays, traces them in one call per kind and scatters
- * the hits, so the rays stay in pixel order (coherent) and no two threads
- * write the same path.
+ * active list goes in blocks of consecutive paths, handed to the tracer's
+ * threads (created with it, kept for every wave of the frame) as each asks
+ * for the next, so a thread whose rays were cheap takes more blocks. A
+ * thread gathers its block's rays, traces them in one call per kind and
+ * scatters the hits: the rays stay in pixel order (coherent), no two threads
+ * write the same path, and the blocks' results are joined in block order, so
+ * the next active list does not depend on which thread took which block.
  */
 #include "render_internal.h"
 
 #include <pthread.h>
+#include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
 
 /* Threads beyond this many cores are not started (each has its own scratch). */
 #define WAVE_MAX_THREADS 64u
+/* Paths a block: large enough that a block's gathered rays amortise a trace call, small
+ * enough that two threads end a wave of a few thousand paths together. */
+#define WAVE_BLOCK_PATHS 1024u
 
-/* One thread's chunk and scratch. */
+/* One thread's scratch: a block's gathered rays, their hits and where each goes. */
 typedef struct wave_worker {
-    const pf_wave_tracer *tracer;
-    const pf_wave_queues *queues;
-    const uint32_t *active;
-    uint32_t begin, end;
-    /* Scratch for the chunk: the paths still waiting (then: those whose ray hit a surface,
-     * and after them those to finish), the gathered rays and their hits. */
-    uint32_t *kept, kept_count, hit_count;
+    struct pf_wave_tracer *tracer;
     pf_ray *rays;
     pf_hit *hits;
-    uint32_t *targets; /* where each gathered ray's hit goes */
+    uint32_t *targets;
     uint64_t traced;
-    pthread_t thread;
-    int started; /* on a thread of its own (else the caller ran it) */
     pf_status status;
     pf_error err;
+    pthread_t thread;
+    int started;
 } wave_worker;
 
 struct pf_wave_tracer {
     const pf_bih *bih;
     pf_bih_wide wide;
     uint32_t thread_count;
-    uint32_t chunk_capacity; /* paths per chunk at most */
     uint32_t shadow_slots;
+    /* Per block b: its waiting paths, those with a hit first, at b × WAVE_BLOCK_PATHS. */
+    uint32_t *block_paths;
+    uint32_t *block_hit, *block_kept;
+    /* The wave being traced. */
+    const pf_wave_queues *queues;
+    const uint32_t *active;
+    uint32_t count, block_count;
+    atomic_uint next_block;
+    /* The pool: a wave is a new generation; running counts the threads still at it. */
+    pthread_mutex_t lock;
+    pthread_cond_t wake, done;
+    uint64_t generation;
+    uint32_t running;
+    int quit, pool_ready;
     wave_worker workers[WAVE_MAX_THREADS];
 };
 
-/* Gathers the rays of kind (closest: the paths' own; any: their shadow rays), traces and
- * scatters them. */
-static pf_status trace_kind(wave_worker *w, int any_hit)
+/* Gathers the rays of kind (closest: the paths' own; any: their shadow rays) of paths,
+ * traces and scatters them. */
+static pf_status trace_kind(wave_worker *w, const uint32_t *paths, uint32_t path_count,
+                            int any_hit)
 {
-    const pf_wave_queues *q = w->queues;
+    const pf_wave_queues *q = w->tracer->queues;
     uint32_t slots = w->tracer->shadow_slots, count = 0;
-    for (uint32_t i = 0; i < w->kept_count; i++) {
-        uint32_t path = w->kept[i], waiting = q->queue[path];
+    for (uint32_t i = 0; i < path_count; i++) {
+        uint32_t path = paths[i], waiting = q->queue[path];
         if (!any_hit) {
             if (waiting & 1u) {
                 w->targets[count] = path;
@@ -81,31 +96,70 @@ static pf_status trace_kind(wave_worker *w, int any_hit)
     return PF_OK;
 }
 
-static void *wave_worker_run(void *arg)
+/* Block b: its waiting paths traced, then split (stably) into those whose ray hit a
+ * surface and those with only the shadow rays' light and the film left. */
+static pf_status trace_block(wave_worker *w, uint32_t b)
 {
-    wave_worker *w = arg;
-    w->kept_count = 0;
-    w->traced = 0;
-    for (uint32_t i = w->begin; i < w->end; i++) {
-        uint32_t path = w->active[i];
-        if (w->queues->queue[path] != 0)
-            w->kept[w->kept_count++] = path;
-    }
-    w->status = trace_kind(w, 0);
-    if (w->status == PF_OK)
-        w->status = trace_kind(w, 1);
-    /* Stable partition: paths whose ray hit a surface first, then those with nothing but
-     * shadow rays' light and the film left (their ray missed, or they had none). */
-    w->hit_count = 0;
-    uint32_t finishing = 0;
-    for (uint32_t i = 0; i < w->kept_count; i++) {
-        uint32_t path = w->kept[i];
-        if ((w->queues->queue[path] & 1u) && w->queues->hits[path].triangle != PF_NO_HIT)
-            w->kept[w->hit_count++] = path;
+    pf_wave_tracer *tracer = w->tracer;
+    const pf_wave_queues *q = tracer->queues;
+    uint32_t begin = b * WAVE_BLOCK_PATHS;
+    uint32_t end = begin + WAVE_BLOCK_PATHS < tracer->count ? begin + WAVE_BLOCK_PATHS
+                                                            : tracer->count;
+    uint32_t *paths = tracer->block_paths + begin, kept = 0;
+    for (uint32_t i = begin; i < end; i++)
+        if (q->queue[tracer->active[i]] != 0)
+            paths[kept++] = tracer->active[i];
+    pf_status status = trace_kind(w, paths, kept, 0);
+    if (status == PF_OK)
+        status = trace_kind(w, paths, kept, 1);
+    uint32_t hit = 0, finishing = 0;
+    for (uint32_t i = 0; i < kept; i++) {
+        uint32_t path = paths[i];
+        if ((q->queue[path] & 1u) && q->hits[path].triangle != PF_NO_HIT)
+            paths[hit++] = path;
         else
             w->targets[finishing++] = path;
     }
-    memcpy(w->kept + w->hit_count, w->targets, (size_t)finishing * sizeof *w->kept);
+    memcpy(paths + hit, w->targets, (size_t)finishing * sizeof *paths);
+    tracer->block_hit[b] = hit;
+    tracer->block_kept[b] = kept;
+    return status;
+}
+
+/* Takes blocks until none is left; the first error stays in the worker. */
+static void take_blocks(wave_worker *w)
+{
+    pf_wave_tracer *tracer = w->tracer;
+    for (;;) {
+        uint32_t b = atomic_fetch_add(&tracer->next_block, 1u);
+        if (b >= tracer->block_count)
+            return;
+        if (w->status == PF_OK)
+            w->status = trace_block(w, b);
+        else
+            tracer->block_hit[b] = tracer->block_kept[b] = 0;
+    }
+}
+
+static void *pool_thread(void *arg)
+{
+    wave_worker *w = arg;
+    pf_wave_tracer *tracer = w->tracer;
+    uint64_t seen = 0;
+    pthread_mutex_lock(&tracer->lock);
+    for (;;) {
+        while (!tracer->quit && tracer->generation == seen)
+            pthread_cond_wait(&tracer->wake, &tracer->lock);
+        if (tracer->quit)
+            break;
+        seen = tracer->generation;
+        pthread_mutex_unlock(&tracer->lock);
+        take_blocks(w);
+        pthread_mutex_lock(&tracer->lock);
+        if (--tracer->running == 0)
+            pthread_cond_signal(&tracer->done);
+    }
+    pthread_mutex_unlock(&tracer->lock);
     return NULL;
 }
 
@@ -126,24 +180,39 @@ pf_status pf_wave_tracer_create(const pf_bih *bih, uint32_t paths, uint32_t shad
         return pf_error_set(err, PF_ERR_NOMEM, "wavefront: out of memory");
     tracer->bih = bih;
     tracer->shadow_slots = shadow_slots;
+    uint32_t blocks = (paths + WAVE_BLOCK_PATHS - 1) / WAVE_BLOCK_PATHS;
     tracer->thread_count = online_cores();
-    if (tracer->thread_count > paths)
-        tracer->thread_count = paths > 0 ? paths : 1;
-    tracer->chunk_capacity = (paths + tracer->thread_count - 1) / tracer->thread_count;
+    if (tracer->thread_count > blocks)
+        tracer->thread_count = blocks > 0 ? blocks : 1;
     pf_status status = pf_bih_wide_build(bih, &tracer->wide, err);
-    /* A chunk's gathered rays: its closest rays, or its shadow rays (up to shadow_slots a path). */
-    size_t ray_capacity = (size_t)tracer->chunk_capacity * (shadow_slots > 1 ? shadow_slots : 1);
+    tracer->block_paths = malloc(((size_t)paths + 1) * sizeof *tracer->block_paths);
+    tracer->block_hit = malloc(((size_t)blocks + 1) * sizeof *tracer->block_hit);
+    tracer->block_kept = malloc(((size_t)blocks + 1) * sizeof *tracer->block_kept);
+    if (status == PF_OK && (!tracer->block_paths || !tracer->block_hit || !tracer->block_kept))
+        status = pf_error_set(err, PF_ERR_NOMEM, "wavefront: out of memory for %u paths", paths);
+    /* A block's gathered rays: its closest rays, or its shadow rays (up to shadow_slots a
+     * path); the targets double as the partition's scratch. */
+    size_t ray_capacity = (size_t)WAVE_BLOCK_PATHS * (shadow_slots > 1 ? shadow_slots : 1);
     for (uint32_t t = 0; status == PF_OK && t < tracer->thread_count; t++) {
         wave_worker *w = &tracer->workers[t];
         w->tracer = tracer;
-        w->kept = malloc((size_t)tracer->chunk_capacity * sizeof *w->kept + 1);
         w->rays = malloc(ray_capacity * sizeof *w->rays);
         w->hits = malloc(ray_capacity * sizeof *w->hits);
         w->targets = malloc(ray_capacity * sizeof *w->targets);
-        if (!w->kept || !w->rays || !w->hits || !w->targets)
+        if (!w->rays || !w->hits || !w->targets)
             status = pf_error_set(err, PF_ERR_NOMEM,
                                   "wavefront: out of memory for %zu rays a thread", ray_capacity);
     }
+    if (status == PF_OK && (pthread_mutex_init(&tracer->lock, NULL) != 0 ||
+                            pthread_cond_init(&tracer->wake, NULL) != 0 ||
+                            pthread_cond_init(&tracer->done, NULL) != 0))
+        status = pf_error_set(err, PF_ERR_NOMEM, "wavefront: no thread synchronisation");
+    if (status == PF_OK)
+        tracer->pool_ready = 1;
+    /* Thread 0 is the caller's; a thread that cannot start leaves its share to the others. */
+    for (uint32_t t = 1; status == PF_OK && t < tracer->thread_count; t++)
+        tracer->workers[t].started =
+            pthread_create(&tracer->workers[t].thread, NULL, pool_thread, &tracer->workers[t]) == 0;
     if (status != PF_OK) {
         pf_wave_tracer_destroy(tracer);
         return status;
@@ -156,61 +225,90 @@ void pf_wave_tracer_destroy(pf_wave_tracer *tracer)
 {
     if (!tracer)
         return;
+    if (tracer->pool_ready) {
+        pthread_mutex_lock(&tracer->lock);
+        tracer->quit = 1;
+        pthread_cond_broadcast(&tracer->wake);
+        pthread_mutex_unlock(&tracer->lock);
+        for (uint32_t t = 1; t < tracer->thread_count; t++)
+            if (tracer->workers[t].started)
+                pthread_join(tracer->workers[t].thread, NULL);
+        pthread_cond_destroy(&tracer->done);
+        pthread_cond_destroy(&tracer->wake);
+        pthread_mutex_destroy(&tracer->lock);
+    }
     for (uint32_t t = 0; t < WAVE_MAX_THREADS; t++) {
-        free(tracer->workers[t].kept);
         free(tracer->workers[t].rays);
         free(tracer->workers[t].hits);
         free(tracer->workers[t].targets);
     }
+    free(tracer->block_paths);
+    free(tracer->block_hit);
+    free(tracer->block_kept);
     pf_bih_wide_free(&tracer->wide);
     free(tracer);
 }
 
-uint32_t pf_wave_tracer_threads(const pf_wave_tracer *tracer) { return tracer->thread_count; }
+uint32_t pf_wave_tracer_threads(const pf_wave_tracer *tracer)
+{
+    uint32_t started = 1;
+    for (uint32_t t = 1; t < tracer->thread_count; t++)
+        started += (uint32_t)tracer->workers[t].started;
+    return started;
+}
 
 pf_status pf_wave_trace(pf_wave_tracer *tracer, const pf_wave_queues *queues, uint32_t *active,
                         uint32_t count, uint32_t *remaining, uint32_t *hit, uint64_t *rays,
                         pf_error *err)
 {
-    uint32_t threads = tracer->thread_count;
-    uint32_t chunk = (count + threads - 1) / threads;
-    for (uint32_t t = 0; t < threads; t++) {
-        wave_worker *w = &tracer->workers[t];
-        w->queues = queues;
-        w->active = active;
-        w->begin = t * chunk < count ? t * chunk : count;
-        w->end = w->begin + chunk < count ? w->begin + chunk : count;
-        w->status = PF_OK;
-        /* Thread 0 is the caller; a thread that cannot start leaves its chunk to the caller. */
-        w->started = t > 0 && pthread_create(&w->thread, NULL, wave_worker_run, w) == 0;
-        if (t > 0 && !w->started)
-            wave_worker_run(w);
+    tracer->queues = queues;
+    tracer->active = active;
+    tracer->count = count;
+    tracer->block_count = (count + WAVE_BLOCK_PATHS - 1) / WAVE_BLOCK_PATHS;
+    atomic_store(&tracer->next_block, 0u);
+    uint32_t helpers = 0;
+    for (uint32_t t = 0; t < tracer->thread_count; t++) {
+        tracer->workers[t].status = PF_OK;
+        tracer->workers[t].traced = 0;
+        helpers += t > 0 && tracer->workers[t].started;
     }
-    wave_worker_run(&tracer->workers[0]);
+    if (helpers > 0 && tracer->block_count > 1) {
+        pthread_mutex_lock(&tracer->lock);
+        tracer->running = helpers;
+        tracer->generation++;
+        pthread_cond_broadcast(&tracer->wake);
+        pthread_mutex_unlock(&tracer->lock);
+        take_blocks(&tracer->workers[0]);
+        pthread_mutex_lock(&tracer->lock);
+        while (tracer->running > 0)
+            pthread_cond_wait(&tracer->done, &tracer->lock);
+        pthread_mutex_unlock(&tracer->lock);
+    } else {
+        take_blocks(&tracer->workers[0]);
+    }
     pf_status status = PF_OK;
-    uint32_t kept = 0;
-    for (uint32_t t = 0; t < threads; t++) {
-        if (tracer->workers[t].started)
-            pthread_join(tracer->workers[t].thread, NULL);
-    }
-    /* Every thread has read its chunk of active: the list is rewritten in order now, the
-     * paths with a hit from every chunk first. */
-    for (uint32_t t = 0; t < threads; t++) {
+    for (uint32_t t = 0; t < tracer->thread_count; t++) {
         wave_worker *w = &tracer->workers[t];
         if (status == PF_OK && w->status != PF_OK) {
             *err = w->err;
             status = w->status;
         }
-        memcpy(active + kept, w->kept, (size_t)w->hit_count * sizeof *active);
-        kept += w->hit_count;
         *rays += w->traced;
     }
+    /* Every block has read its part of active: the list is rewritten now, in block order,
+     * the paths with a hit from every block first. */
+    uint32_t kept = 0;
+    for (uint32_t b = 0; b < tracer->block_count; b++) {
+        memcpy(active + kept, tracer->block_paths + (size_t)b * WAVE_BLOCK_PATHS,
+               (size_t)tracer->block_hit[b] * sizeof *active);
+        kept += tracer->block_hit[b];
+    }
     *hit = kept;
-    for (uint32_t t = 0; t < threads; t++) {
-        wave_worker *w = &tracer->workers[t];
-        memcpy(active + kept, w->kept + w->hit_count,
-               (size_t)(w->kept_count - w->hit_count) * sizeof *active);
-        kept += w->kept_count - w->hit_count;
+    for (uint32_t b = 0; b < tracer->block_count; b++) {
+        memcpy(active + kept,
+               tracer->block_paths + (size_t)b * WAVE_BLOCK_PATHS + tracer->block_hit[b],
+               (size_t)(tracer->block_kept[b] - tracer->block_hit[b]) * sizeof *active);
+        kept += tracer->block_kept[b] - tracer->block_hit[b];
     }
     *remaining = kept;
     return status;
