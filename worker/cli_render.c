@@ -113,7 +113,7 @@ static void session_close(render_session *session)
 /* Renders and writes one frame (pf_render.h, shared with the worker);
  * 0 or an exit code after printing why. */
 static int render_one(const render_options *options, render_session *session, int64_t frame_number,
-                      const char *path, double *elapsed_ms)
+                      uint32_t following, const char *path, double *elapsed_ms)
 {
     double start = pf_time_ms();
     char temp_tag[32];
@@ -125,7 +125,8 @@ static int render_one(const render_options *options, render_session *session, in
                                 path,
                                 temp_tag,
                                 pf_vk_info(session->ctx)->name,
-                                NULL};
+                                NULL,
+                                following};
     pf_frame_output output;
     pf_error err = {0};
     pf_status status = pf_frame_render(session->renderer, &request, &output, &err);
@@ -230,7 +231,12 @@ int pf_cli_render(int argc, char **argv)
             break;
         }
         double elapsed_ms = 0.0;
-        code = render_one(&options, &session, frames.frames[i], path, &elapsed_ms);
+        /* The frames after this one that follow it one by one (a run the denoiser reuses). */
+        uint32_t following = 0;
+        while (i + following + 1 < frames.count &&
+               frames.frames[i + following + 1] == frames.frames[i] + (int64_t)following + 1)
+            following++;
+        code = render_one(&options, &session, frames.frames[i], following, path, &elapsed_ms);
         if (code == 0) {
             printf("[%zu/%zu] frame %" PRId32 "  %.1f ms  %s\n", i + 1, frames.count,
                    frames.frames[i], elapsed_ms, path);

@@ -582,8 +582,12 @@ static void render_work(uv_work_t *request)
                     w->job.job_id, frame, stale);
         char tag[96];
         pf_frame_task_tag(w->task.task_id, w->task.lease_token, tag, sizeof tag);
+        /* The task's frames after this one, when they follow it one by one. */
+        uint32_t following =
+            w->task.frame_step == 1 ? (uint32_t)(w->task.frame_count - 1 - i) : 0u;
         pf_frame_request frame_request = {w->scene, scene_path, frame,          settings,
-                                          path,     tag,               w->device_name, &w->abort};
+                                          path,     tag,        w->device_name, &w->abort,
+                                          following};
         int peak_from_frame = pf_peak_rss_reset();
         w->render_status = pf_frame_render(w->renderer, &frame_request, &w->outputs[i],
                                            &w->render_err);

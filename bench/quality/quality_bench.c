@@ -32,7 +32,8 @@
  * still shot costs in steady state, not what one frame alone needs. Each also prints the
  * flicker between the last two frames (their difference over truth² + ε, the relMSE's
  * scale) and the seam: the last frame denoised without history (another worker's) against
- * the one before.
+ * the one before, with the samples asked and with the warm-up a run's first frame gets
+ * (PF_TEMPORAL_WARM_UP× samples; the still shot's own first frame has it, in its time).
  *
  * PF_QUALITY_ONLY=label,label,...: only those curves ("cycles" for Cycles'); the truth is
  * rendered or read as always.
@@ -230,27 +231,39 @@ static int render_still_shot(pf_renderer *renderer, const pf_scene_frame *frame,
     if (pf_denoise_history_create(&history, &err) != PF_OK)
         return 0;
     pf_image previous = {0};
-    double total_ms = 0.0, seam = 0.0, last_flicker = 0.0;
+    double total_ms = 0.0, seam = 0.0, seam_warm = 0.0, last_flicker = 0.0;
     int ok = 1;
     for (int64_t number = 1; ok && number <= TEMPORAL_FRAMES; number++) {
         pf_render_settings s = *settings;
         s.sample_salt = (uint64_t)number;
-        pf_image current = {0}, alone = {0};
+        /* The run's first frame has nothing to blend: PF_TEMPORAL_WARM_UP× its samples, as
+         * the frame pipeline renders it (its time is in the mean). */
+        s.sample_scale = number == 1 ? PF_TEMPORAL_WARM_UP : 0;
+        pf_image current = {0}, alone = {0}, warm = {0};
         double start = pf_time_ms();
         ok = pf_render_frame(renderer, frame, &s, &current, NULL, &err) == PF_OK;
         double rendered_ms = pf_time_ms() - start;
-        if (ok && number == TEMPORAL_FRAMES) { /* another worker's: no history (not timed) */
+        if (ok && number == TEMPORAL_FRAMES) {
+            /* Another worker's frame without history (not timed): this one's samples
+             * denoised alone, and the warmed-up frame a run of it would start with. */
+            pf_render_settings first = s;
+            first.sample_scale = PF_TEMPORAL_WARM_UP;
             ok = pf_image_append_channels(&current, NULL, 0, &alone, &err) == PF_OK && /* a copy */
-                 pf_denoise_image(&alone, 0, NULL, NULL, &err) == PF_OK;
+                 pf_denoise_image(&alone, 0, NULL, NULL, &err) == PF_OK &&
+                 pf_render_frame(renderer, frame, &first, &warm, NULL, &err) == PF_OK &&
+                 pf_denoise_image(&warm, 0, NULL, NULL, &err) == PF_OK;
         }
-        pf_denoise_sequence sequence = {history, sequence_id, number, 1, 1, NULL};
+        pf_denoise_sequence sequence = {history, sequence_id, number, 1, 1, NULL,
+                                        number == 1 ? (float)PF_TEMPORAL_WARM_UP : 1.0f};
         start = pf_time_ms();
         ok = ok && pf_denoise_image(&current, 0, &sequence, NULL, &err) == PF_OK;
         total_ms += rendered_ms + pf_time_ms() - start;
         if (ok && number == TEMPORAL_FRAMES)
             ok = pf_image_flicker(&alone, &previous, truth, &seam, &err) == PF_OK &&
+                 pf_image_flicker(&warm, &previous, truth, &seam_warm, &err) == PF_OK &&
                  pf_image_flicker(&current, &previous, truth, &last_flicker, &err) == PF_OK;
         pf_image_free(&alone);
+        pf_image_free(&warm);
         pf_image_free(&previous);
         previous = current;
     }
@@ -261,8 +274,8 @@ static int render_still_shot(pf_renderer *renderer, const pf_scene_frame *frame,
         return 0;
     }
     printf("  (still shot of %d frames: flicker %.6g between the last two; the last without "
-           "history against the one before %.6g)\n",
-           TEMPORAL_FRAMES, last_flicker, seam);
+           "history against the one before %.6g, warmed up (%ux samples) %.6g)\n",
+           TEMPORAL_FRAMES, last_flicker, seam, PF_TEMPORAL_WARM_UP, seam_warm);
     *image = previous;
     *seconds = total_ms / TEMPORAL_FRAMES / 1000.0;
     return rgb_only(image);

@@ -398,6 +398,12 @@ static pf_status denoise_run(pf_renderer *renderer, pf_image *image, int keep_no
                                                 image->height, why_not, sizeof why_not);
         if (blended)
             denoise_temporal_blend(sequence->history, sequence, image, &planes, &stats);
+        else if (sequence->first_length > 1.0f)
+            /* A run's first frame rendered with more samples starts a longer history: the
+             * next frame weighs it as that many frames. */
+            for (size_t p = 0; p < pixels; p++)
+                if (planes.history_length[p] > 0.0f)
+                    planes.history_length[p] = sequence->first_length;
         /* Kept whatever happened, for the next frame (a fresh history where none was used);
          * out of memory only costs the next frame its reuse. */
         if (sequence->history && sequence->sequence)

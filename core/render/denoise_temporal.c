@@ -85,6 +85,13 @@ void pf_denoise_history_destroy(pf_denoise_history *history)
     free(history);
 }
 
+int pf_denoise_history_continues(const pf_denoise_history *history, uint64_t sequence,
+                                 int64_t frame, uint32_t width, uint32_t height)
+{
+    return history && history->valid && sequence && history->sequence == sequence &&
+           history->frame == frame - 1 && history->width == width && history->height == height;
+}
+
 int pf_denoise_history_usable(const pf_denoise_history *history,
                               const pf_denoise_sequence *sequence, uint32_t width,
                               uint32_t height, char *reason, size_t size)

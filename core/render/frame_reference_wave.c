@@ -14,9 +14,12 @@
 
 /*
  * Paths in flight at once: the image goes in slices of at most this many pixels, so the
- * wavefront's buffers (~250 bytes a path plus 64 a shadow ray) stay bounded at any size.
+ * wavefront's buffers (~200 bytes a path plus 64 a shadow slot) stay bounded at any size...
  */
 #define WAVE_MAX_PATHS (1u << 18)
+/* ... and the buffers of a slice at most this many bytes (a scene with many punctual lights:
+ * each adds a shadow slot, 64 bytes, to every path). */
+#define WAVE_MAX_BYTES (256ull << 20)
 #define WAVE_GROUP_SIZE 64u
 /* WavePath in render_reference_wave.comp: 9 vec4. */
 #define WAVE_PATH_BYTES (9u * 16u)
@@ -72,6 +75,11 @@ pf_status pf_reference_wave_create(pf_renderer *renderer, const pf_render_settin
     uint64_t per_path_limit = limit / ((uint64_t)wave->shadow_slots * sizeof(pf_ray));
     if (capacity > per_path_limit)
         capacity = per_path_limit;
+    /* Many lights make many shadow slots a path: fewer paths a slice, not more memory. */
+    uint64_t path_bytes = WAVE_PATH_BYTES + sizeof(pf_ray) + sizeof(pf_hit) + 8u +
+                          (uint64_t)wave->shadow_slots * (sizeof(pf_ray) + 16u + sizeof(pf_hit));
+    if (capacity > WAVE_MAX_BYTES / path_bytes)
+        capacity = WAVE_MAX_BYTES / path_bytes;
     if (capacity == 0) {
         free(wave);
         return pf_error_set(err, PF_ERR_LIMIT,

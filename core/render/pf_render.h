@@ -141,7 +141,18 @@ typedef struct pf_render_settings {
      * independent and their average converges. 0, or any other frame: the seed alone.
      */
     uint64_t sample_salt;
+    /*
+     * Not a job setting either: the frame pipeline sets it (PF_TEMPORAL_WARM_UP) on a frame
+     * that starts a run of consecutive frames on this worker with no previous frame to blend,
+     * and the planner multiplies the preset's samples (final: passes) by it, so that the
+     * frame meets its neighbours from another worker, whose history averages many frames,
+     * with a fraction of the difference (issue 40's seam). 0 or 1: as planned.
+     */
+    uint32_t sample_scale;
 } pf_render_settings;
+
+/* The sample scale of a run's first frame without history (pf_render_settings.sample_scale). */
+#define PF_TEMPORAL_WARM_UP 4u
 
 /* What every field means when nobody asked otherwise: auto quality, AOVs on, the rest 0. */
 static inline pf_render_settings pf_render_settings_default(void)
@@ -392,10 +403,16 @@ typedef struct pf_denoise_sequence {
     /* pf_render_motion's depth_change for this image (NULL: every point is where it was).
      * The image's motion.X/Y channels say where each pixel's point was (none: nowhere else). */
     const float *depth_change;
+    /* Frames this image counts as in the history it starts (its sample scale; 0: 1). */
+    float first_length;
 } pf_denoise_sequence;
 
 /* Whether history holds the frame before sequence's, at this size: 1, else 0 and why not
  * in reason ("no previous frame on this worker", "frame 12 came before: not consecutive"). */
+/* Whether history holds the frame before frame of sequence, at this size: the usable check
+ * without the fingerprints, which a frame has only once it is planned. */
+int pf_denoise_history_continues(const pf_denoise_history *history, uint64_t sequence,
+                                 int64_t frame, uint32_t width, uint32_t height);
 int pf_denoise_history_usable(const pf_denoise_history *history,
                               const pf_denoise_sequence *sequence, uint32_t width,
                               uint32_t height, char *reason, size_t size);
@@ -471,6 +488,10 @@ typedef struct pf_frame_request {
     /* Checked between stages; non-zero stops the frame (NULL: never). Set
      * from another thread, e.g. when a lease is lost. */
     const atomic_int *abort;
+    /* Frames this process renders next with the same renderer, each the one after the one
+     * before (frame + 1, + 2, ...): a task's chunk, a --frames range. 0: none or unknown.
+     * A run's first frame with no history to blend gets PF_TEMPORAL_WARM_UP× samples. */
+    uint32_t following;
 } pf_frame_request;
 
 /*

@@ -166,6 +166,17 @@ static pf_status motion(pf_renderer *renderer, const pf_scene *scene, double tim
     return status;
 }
 
+/* The sequence a frame belongs to: the scene's load (one job's, on one worker) and the job's
+ * settings; 0 where the settings do not format. */
+static uint64_t sequence_id(const pf_scene_frame *frame, const pf_render_settings *settings)
+{
+    char json[1024];
+    if (!frame->texture_set || !pf_settings_format(settings, json, sizeof json))
+        return 0;
+    uint64_t h = pf_hash_bytes(PF_HASH_START, &frame->texture_set, sizeof frame->texture_set);
+    return pf_hash_bytes(h, json, strlen(json)) | 1u;
+}
+
 /*
  * What the denoiser needs to know of a frame to reuse the one before it: frames of one
  * sequence share the scene's load (one job's, on one worker) and the job's settings; the
@@ -181,16 +192,34 @@ static void sequence_of(pf_renderer *renderer, const pf_frame_request *request,
     if (!pf_denoise_temporal(settings->denoise, preset))
         return; /* spatial: history NULL */
     sequence->history = pf_renderer_denoise_history(renderer);
-    char json[1024];
-    if (frame->texture_set && pf_settings_format(settings, json, sizeof json)) {
-        uint64_t h = pf_hash_bytes(PF_HASH_START, &frame->texture_set, sizeof frame->texture_set);
-        sequence->sequence = pf_hash_bytes(h, json, strlen(json)) | 1u;
-    }
+    sequence->sequence = sequence_id(frame, settings);
     /* The planner's fingerprints of this frame (pf_render_frame has just planned it). */
     const uint64_t *inputs = renderer->frame_inputs;
     sequence->lighting = pf_hash_bytes(inputs[PF_INPUT_LIGHTS], &inputs[PF_INPUT_SURFACES],
                                        sizeof inputs[PF_INPUT_SURFACES]);
     sequence->geometry = inputs[PF_INPUT_GEOMETRY];
+}
+
+/*
+ * PF_TEMPORAL_WARM_UP for the first frame of a run (more frames follow on this renderer)
+ * that will be denoised with temporal reuse but has no previous frame to blend; else 1.
+ * Its neighbour on another worker has a history of many frames, and the two would differ
+ * by a whole frame's error where they meet (issue 40's seam). Not where a time budget or
+ * auto's target governs the samples, nor for a frame alone (nothing follows to gain).
+ */
+static uint32_t warm_up_scale(pf_renderer *renderer, const pf_frame_request *request,
+                              const pf_render_settings *settings, const pf_scene_frame *frame)
+{
+    /* auto without a budget or a target is fast (plan.c); with either, the planner counts. */
+    pf_quality preset = settings->quality == PF_QUALITY_AUTO ? PF_QUALITY_FAST : settings->quality;
+    if (request->following == 0 || !pf_denoise_temporal(settings->denoise, preset) ||
+        settings->time_budget_ms > 0.0 || settings->budget_ms > 0.0 ||
+        settings->target_relmse > 0.0)
+        return 1;
+    int continues = pf_denoise_history_continues(pf_renderer_denoise_history(renderer),
+                                                 sequence_id(frame, settings), request->frame,
+                                                 settings->width, settings->height);
+    return continues ? 1 : PF_TEMPORAL_WARM_UP;
 }
 
 pf_status pf_frame_render(pf_renderer *renderer, const pf_frame_request *request,
@@ -251,6 +280,7 @@ pf_status pf_frame_render(pf_renderer *renderer, const pf_frame_request *request
                                                               ? PF_QUALITY_FINAL
                                                               : settings.quality);
     rendered.sample_salt = (uint64_t)request->frame;
+    rendered.sample_scale = warm_up_scale(renderer, request, &settings, &frame);
     status = pf_render_frame(renderer, &frame, &rendered, &image, &out->report, err);
     out->peak_device_bytes = pf_vk_memory_use_of(pf_renderer_context(renderer)).peak;
     int denoised = status == PF_OK && pf_denoise_applies(settings.denoise, out->report.quality);
@@ -258,6 +288,7 @@ pf_status pf_frame_render(pf_renderer *renderer, const pf_frame_request *request
     int reusing = 0;
     if (denoised) {
         sequence_of(renderer, request, &settings, out->report.quality, &frame, &sequence);
+        sequence.first_length = rendered.sample_scale > 1 ? (float)rendered.sample_scale : 1.0f;
         reusing = pf_denoise_history_usable(sequence.history, &sequence, image.width,
                                             image.height, NULL, 0);
     }

@@ -207,9 +207,16 @@ static uint32_t samples_of(const pf_render_settings *settings, uint32_t preset_d
                            pf_stage_plan *plan, const char *what)
 {
     uint32_t samples = settings->samples_per_pixel ? settings->samples_per_pixel : preset_default;
-    snprintf(plan->stages[PF_STAGE_SHADE].reason, sizeof plan->stages[PF_STAGE_SHADE].reason,
-             "%s: %u per pixel (%s)", what, samples,
+    char *reason = plan->stages[PF_STAGE_SHADE].reason;
+    snprintf(reason, PF_STAGE_REASON_MAX, "%s: %u per pixel (%s)", what, samples,
              settings->samples_per_pixel ? "asked" : "the preset's default");
+    uint32_t scale = settings->sample_scale;
+    if (scale > 1 && samples <= UINT32_MAX / scale) {
+        samples *= scale;
+        size_t used = strlen(reason);
+        snprintf(reason + used, PF_STAGE_REASON_MAX - used,
+                 " × %u (first of a run, nothing to blend)", scale);
+    }
     return samples;
 }
 
@@ -240,7 +247,7 @@ static void plan_trace(const pf_scene_frame *frame, const pf_stage_previous *pre
     size_t used = strlen(reason);
     if (plan->host_traces)
         snprintf(reason + used, PF_STAGE_REASON_MAX - used,
-                 "; a wavefront, its rays traced on the host%s",
+                 "; wavefront, rays traced on the host%s",
                  previous->trace_site == PF_TRACE_HOST ? " (forced)"
                                                         : " (the device is the CPU)");
     else

@@ -106,10 +106,12 @@ PF_TEST(renders_a_frame_range_to_numbered_exr_files)
 }
 
 /*
- * Temporal reuse through `render --frames` (issue 40): frame 1 has no history, frames 2 and 3
- * blend the frame before (their motion vectors traced for it even without AOVs, which the
- * file then leaves out), a moving light stops the reuse, --denoise spatial keeps every frame
- * alone, and a bad mode is exit 2.
+ * Temporal reuse through `render --frames` (issue 40): frame 1 has no history and starts
+ * the run with 4× the samples (its neighbour on another worker would have a long history),
+ * frames 2 and 3 blend the frame before with the samples asked (their motion vectors traced
+ * for it even without AOVs, which the file then leaves out), a moving light stops the reuse,
+ * --denoise spatial keeps every frame alone (no warm-up), a frame alone gets none either,
+ * and a bad mode is exit 2.
  */
 PF_TEST(consecutive_frames_reuse_the_one_before)
 {
@@ -123,6 +125,10 @@ PF_TEST(consecutive_frames_reuse_the_one_before)
     PF_CHECK(log_contains("temporal       skipped: no previous frame of this sequence"));
     PF_CHECK(log_contains("previous frame (1) on this worker;"));
     PF_CHECK(log_contains("previous frame (2) on this worker;"));
+    PF_CHECK(log_contains("path samples: 2 per pixel (asked) × 4 (first of a run, nothing to "
+                          "blend)"));
+    PF_CHECK(log_contains("samples_per_pixel=8 "));
+    PF_CHECK(log_contains("samples_per_pixel=2 "));
     snprintf(path, sizeof path, "%s/t.0003.exr", tmpdir);
     pf_image image = {0};
     pf_error err = {0};
@@ -136,6 +142,13 @@ PF_TEST(consecutive_frames_reuse_the_one_before)
     PF_REQUIRE(run_photonfarm(args) == 0);
     PF_CHECK(log_contains("skipped: --denoise spatial: every frame filtered alone"));
     PF_CHECK(!log_contains_quietly("on this worker;"));
+    PF_CHECK(!log_contains_quietly("first of a run"));
+    snprintf(args, sizeof args,
+             "render '%s' --frame 2 --size 16x12 --quality reference --spp 2 --timings "
+             "-o '%s/one.exr'",
+             scene, tmpdir);
+    PF_REQUIRE(run_photonfarm(args) == 0);
+    PF_CHECK(!log_contains_quietly("first of a run"));
     /* caustic-anim's light moves: the light on every surface changed, nothing is reused. */
     char moving_light[1024];
     pf_test_shared_scene("caustic-anim", moving_light, sizeof moving_light);

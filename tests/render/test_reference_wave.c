@@ -82,7 +82,7 @@ static void check_drivers_agree(const pf_scene_frame *frame, const pf_render_set
     const pf_stage_timing *device_row = ref_row(&device_report, "shade");
     const pf_stage_timing *host_row = ref_row(&host_report, "shade");
     PF_CHECK(device_row && strstr(device_row->reason, "rays traced on the device (forced)"));
-    PF_CHECK(host_row && strstr(host_row->reason, "its rays traced on the host (forced)"));
+    PF_CHECK(host_row && strstr(host_row->reason, "rays traced on the host (forced)"));
     PF_CHECK(isnan(ref_stage_counter(&device_report, "shade", "waves")));
     /* At least the camera rays' wave and one more per vertex of the longest path. */
     PF_CHECK(ref_stage_counter(&host_report, "shade", "waves") >= 2.0 * settings->samples_per_pixel);
@@ -189,7 +189,7 @@ PF_TEST(alpha_tested_materials_are_traced_on_the_device_saying_why)
     if (render_with(&scene.frame, &settings, PF_TRACE_AUTO, &image, &report)) {
         const pf_stage_timing *row = ref_row(&report, "shade");
         int cpu = strcmp(pf_vk_info(ctx)->type, "cpu") == 0 && pf_bih_wide_available();
-        PF_CHECK(row && strstr(row->reason, cpu ? "its rays traced on the host (the device is "
+        PF_CHECK(row && strstr(row->reason, cpu ? "rays traced on the host (the device is "
                                                   "the CPU)"
                                                 : "rays traced on the device"));
     }

@@ -209,8 +209,8 @@ static void check_trace(const pf_stage_previous *previous, int host, const char 
 PF_TEST(reference_rays_go_where_they_are_traced_best)
 {
     pf_stage_previous previous = cpu_device(PF_TRACE_AUTO);
-    check_trace(&previous, 1, "path samples: 64 per pixel (the preset's default); a wavefront, "
-                              "its rays traced on the host (the device is the CPU)");
+    check_trace(&previous, 1, "path samples: 64 per pixel (the preset's default); wavefront, "
+                              "rays traced on the host (the device is the CPU)");
     previous.device_is_host = 0;
     check_trace(&previous, 0, "; rays traced on the device (the device is not the CPU)");
     previous.trace_site = PF_TRACE_HOST;
@@ -218,7 +218,7 @@ PF_TEST(reference_rays_go_where_they_are_traced_best)
     previous = cpu_device(PF_TRACE_DEVICE);
     check_trace(&previous, 0, "; rays traced on the device (forced)");
     previous = cpu_device(PF_TRACE_HOST);
-    check_trace(&previous, 1, "its rays traced on the host (forced)");
+    check_trace(&previous, 1, "rays traced on the host (forced)");
     previous.host_traversal = 0;
     check_trace(&previous, 0, "(this CPU has no AVX2 for the host's wide traversal)");
     previous = cpu_device(PF_TRACE_AUTO);
