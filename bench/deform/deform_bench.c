@@ -5,6 +5,10 @@
  *     per frame: scene_eval and deform on the host (ms, median of 5), then the
  *     tree: a refit of frame FRAME[0]'s SAH tree against a fresh SAH build of
  *     this frame (ms and SAH cost of each), as bih_build decides between them.
+ *   deform_bench sites SCENE FRAME...
+ *     per frame: the deform stage (pf_render_deform) on the host's loop and on the device
+ *     (shaders/deform.comp), wall ms (median of 5, after a warm-up that compiles the kernel
+ *     and sends the rest poses) and the device's GPU ms: where each measures faster.
  *   deform_bench vectors CYCLES.exr PHOTONFARM.exr
  *     how photonfarm's motion.X/Y agree with Cycles' Vector pass (multilayer
  *     EXR, ViewLayer.Vector.X/Y) on the pixels Cycles says move.
@@ -13,7 +17,9 @@
  */
 #include "pf_bih.h"
 #include "pf_image.h"
+#include "pf_render.h"
 #include "pf_scene.h"
+#include "pf_vk.h"
 #include "../bench_stats.h"
 
 #include <math.h>
@@ -92,6 +98,66 @@ static int cost(const char *path, int frame_count, char **frames)
     return status ? 2 : 0;
 }
 
+/* One deform stage at site: wall ms, and the row's GPU ms into *gpu_ms. */
+static double deform_at(pf_renderer *renderer, const pf_scene *scene, double time,
+                        pf_deform_site site, double *gpu_ms, pf_error *err)
+{
+    pf_scene_frame frame = {0};
+    pf_frame_report report = {0};
+    pf_renderer_set_deform_site(renderer, site);
+    if (pf_scene_eval_rigid(scene, time, &frame, err) != PF_OK)
+        return -1.0;
+    double start = pf_time_ms();
+    pf_status status = pf_render_deform(renderer, scene, time, &frame, &report, err);
+    double wall = pf_time_ms() - start;
+    *gpu_ms = report.stage_count ? report.stages[0].gpu_ms : -1.0;
+    pf_scene_frame_free(&frame);
+    return status == PF_OK ? wall : -1.0;
+}
+
+static int sites(const char *path, int frame_count, char **frames)
+{
+    pf_scene *scene = NULL;
+    pf_vk_context *ctx = NULL;
+    pf_renderer *renderer = NULL;
+    pf_error err = {0};
+    pf_vk_options options = {NULL, 0};
+    if (pf_scene_load(path, &scene, &err) != PF_OK || pf_vk_create(&options, &ctx, &err) != PF_OK ||
+        pf_renderer_create(ctx, &renderer, &err) != PF_OK) {
+        fprintf(stderr, "deform_bench: %s\n", err.message);
+        pf_renderer_destroy(renderer);
+        pf_vk_destroy(ctx);
+        pf_scene_destroy(scene);
+        return 2;
+    }
+    printf("scene %s: %llu deformed vertices, device %s\n", path,
+           (unsigned long long)pf_scene_get_info(scene)->deformed_vertex_count,
+           pf_vk_info(ctx)->name);
+    printf("%6s %10s %12s %12s %8s\n", "frame", "host_ms", "device_ms", "device_gpu", "host/dev");
+    double gpu = 0.0;
+    int status = deform_at(renderer, scene, 0.0, PF_DEFORM_DEVICE, &gpu, &err) < 0.0;
+    for (int f = 0; f < frame_count && !status; f++) {
+        double time = pf_scene_frame_time(scene, atoll(frames[f]));
+        double host[REPEATS], device[REPEATS], device_gpu[REPEATS];
+        for (int r = 0; r < REPEATS && !status; r++) {
+            host[r] = deform_at(renderer, scene, time, PF_DEFORM_HOST, &gpu, &err);
+            device[r] = deform_at(renderer, scene, time, PF_DEFORM_DEVICE, &device_gpu[r], &err);
+            status = host[r] < 0.0 || device[r] < 0.0;
+        }
+        if (!status) {
+            double h = bench_median(host, REPEATS), d = bench_median(device, REPEATS);
+            printf("%6s %10.3f %12.3f %12.3f %8.2f\n", frames[f], h, d,
+                   bench_median(device_gpu, REPEATS), h / d);
+        }
+    }
+    if (status)
+        fprintf(stderr, "deform_bench: %s\n", err.message);
+    pf_renderer_destroy(renderer);
+    pf_vk_destroy(ctx);
+    pf_scene_destroy(scene);
+    return status ? 2 : 0;
+}
+
 static int vectors(const char *cycles_path, const char *ours_path)
 {
     pf_image cycles = {0}, ours = {0};
@@ -144,9 +210,12 @@ int main(int argc, char **argv)
 {
     if (argc >= 4 && strcmp(argv[1], "cost") == 0)
         return cost(argv[2], argc - 3, argv + 3);
+    if (argc >= 4 && strcmp(argv[1], "sites") == 0)
+        return sites(argv[2], argc - 3, argv + 3);
     if (argc == 4 && strcmp(argv[1], "vectors") == 0)
         return vectors(argv[2], argv[3]);
     fprintf(stderr, "usage: deform_bench cost SCENE FRAME...\n"
+                    "       deform_bench sites SCENE FRAME...\n"
                     "       deform_bench vectors CYCLES.exr PHOTONFARM.exr\n");
     return 2;
 }

@@ -227,6 +227,28 @@ void pf_renderer_set_lpv_site(pf_renderer *renderer, pf_lpv_site site);
  * test) or the tree was built on the device; elsewhere the device, in one kernel a pass.
  * The shade row says which ran and why. Tests and benches force either.
  */
+/*
+ * Where the `deform` stage deforms vertices (issue 39; deform_device.c). AUTO: the host
+ * where the device is the CPU (its vector loop is faster there), else the device. Tests
+ * force either.
+ */
+typedef enum pf_deform_site {
+    PF_DEFORM_AUTO = 0,
+    PF_DEFORM_HOST,
+    PF_DEFORM_DEVICE
+} pf_deform_site;
+
+void pf_renderer_set_deform_site(pf_renderer *renderer, pf_deform_site site);
+
+/*
+ * The `deform` stage of a frame pf_scene_eval_rigid evaluated at time_seconds: fills the
+ * deforming meshes' vertices (pf_scene_deform) where the renderer's site says, and adds its
+ * row ("2 skinned meshes, 1 morphed, 18,432 vertices, on the host (...)", counters
+ * skinned_meshes, morphed_meshes, vertices, on_device), or a skipped row without them.
+ */
+pf_status pf_render_deform(pf_renderer *renderer, const pf_scene *scene, double time_seconds,
+                           pf_scene_frame *frame, pf_frame_report *report, pf_error *err);
+
 typedef enum pf_trace_site {
     PF_TRACE_AUTO = 0,
     PF_TRACE_DEVICE,

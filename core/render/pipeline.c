@@ -120,37 +120,6 @@ static void fill_attributes(const pf_frame_request *request, const pf_render_set
     snprintf(attributes[8].value, sizeof attributes[8].value, "%s", denoised ? "on" : "off");
 }
 
-/*
- * The `deform` stage: skins and morph targets blended into the frame (pf_scene_deform),
- * on the host. Its row names what was deformed, or is skipped when nothing in the scene
- * deforms, so only deformed meshes pay for it.
- */
-static pf_status deform(const pf_scene *scene, double time, pf_scene_frame *frame,
-                        pf_frame_report *report, pf_error *err)
-{
-    if (pf_scene_get_info(scene)->deformed_node_count == 0) {
-        pf_frame_report_row(report, "deform", "no skins or morph targets", 0.0, -1.0);
-        return PF_OK;
-    }
-    double start = pf_time_ms();
-    pf_deform_report deformed;
-    pf_status status = pf_scene_deform(scene, time, frame, &deformed, err);
-    if (status != PF_OK)
-        return status;
-    pf_stage_timing *row = pf_frame_report_row(report, "deform", NULL, pf_time_ms() - start, -1.0);
-    if (row) {
-        snprintf(row->reason, sizeof row->reason,
-                 "%u skinned mesh%s, %u morphed, %llu vertices, on the host",
-                 deformed.skinned_meshes, deformed.skinned_meshes == 1 ? "" : "es",
-                 deformed.morphed_meshes, (unsigned long long)deformed.vertices);
-        pf_stage_add_counter(row, "skinned_meshes", deformed.skinned_meshes);
-        pf_stage_add_counter(row, "morphed_meshes", deformed.morphed_meshes);
-        pf_stage_add_counter(row, "vertices", (double)deformed.vertices);
-        pf_stage_add_counter(row, "on_device", 0);
-    }
-    return PF_OK;
-}
-
 /* The motion AOV: the scene one frame earlier (a pure function of the frame number, so any
  * worker computes the same vectors), its points found through this frame's tree. */
 static pf_status motion(pf_renderer *renderer, const pf_scene *scene, double time,
@@ -248,7 +217,7 @@ pf_status pf_frame_render(pf_renderer *renderer, const pf_frame_request *request
             pf_stage_add_counter(eval_row, "triangles", frame.triangle_count);
             pf_stage_add_counter(eval_row, "lights", frame.light_count);
         }
-        status = deform(request->scene, time, &frame, &out->report, err);
+        status = pf_render_deform(renderer, request->scene, time, &frame, &out->report, err);
     }
     if (status != PF_OK) {
         pf_scene_frame_free(&frame);

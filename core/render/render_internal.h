@@ -57,6 +57,7 @@ typedef enum pf_renderer_pipeline_id {
     PF_PIPELINE_REFERENCE_WAVE_RGB,      /* render_reference_wave.comp, WAVE_SHADE_RGB */
     PF_PIPELINE_REFERENCE_WAVE_FINISH,   /* render_reference_wave.comp, WAVE_FINISH (AOVs) */
     PF_PIPELINE_REFERENCE_WAVE_FINISH_RGB, /* render_reference_wave.comp, WAVE_FINISH_RGB */
+    PF_PIPELINE_DEFORM,                  /* deform.comp */
     PF_PIPELINE_COUNT
 } pf_renderer_pipeline_id;
 
@@ -344,7 +345,13 @@ struct pf_renderer {
     pf_denoise_history *denoise_history;
     pf_denoise_site denoise_site; /* pf_renderer_set_denoise_site */
     pf_trace_site trace_site;     /* pf_renderer_set_trace_site */
+    pf_deform_site deform_site;   /* pf_renderer_set_deform_site */
+    /* The deforming nodes' rest poses on the device (deform_device.c; NULL until used). */
+    struct pf_deform_cache *deform_cache;
 };
+
+typedef struct pf_deform_cache pf_deform_cache;
+void pf_deform_cache_destroy(pf_vk_context *ctx, pf_deform_cache *cache);
 
 /* Where bih_build builds a fresh tree for this renderer: its forced site, else the device's. */
 pf_bih_build_site pf_renderer_bih_site(const pf_renderer *renderer);

@@ -41,6 +41,7 @@ void pf_renderer_destroy(pf_renderer *renderer)
     pf_fast_cache_destroy(renderer->ctx, renderer->fast_cache);
     pf_photon_tracer_destroy(renderer->photon_tracer);
     pf_denoise_history_destroy(renderer->denoise_history);
+    pf_deform_cache_destroy(renderer->ctx, renderer->deform_cache);
     pf_bih_gpu_destroy(renderer->bih_gpu);
     pf_render_buffer_release(renderer->ctx, &renderer->textures.textures);
     pf_render_buffer_release(renderer->ctx, &renderer->textures.texels);

@@ -32,6 +32,9 @@
  * WAVE_FINISH_RGB 3, WAVE_FINISH 4). */
 #define REFERENCE_WAVE_BUFFERS (RENDER_REFERENCE_BUFFERS + 11u)
 #define REFERENCE_WAVE_PUSH_BYTES 16u
+/* deform.comp: 13 buffers and a 16-byte Push (deform_device.c). */
+#define DEFORM_BUFFERS 13u
+#define DEFORM_PUSH_BYTES 16u
 #define MATERIAL_PROBE_BUFFERS 2u
 #define MATERIAL_PROBE_PUSH_BYTES 4u
 
@@ -85,6 +88,7 @@ static const pipeline_spec pipeline_specs[PF_PIPELINE_COUNT] = {
                                            REFERENCE_WAVE_PUSH_BYTES, 1, {0, 4}, 1},
     [PF_PIPELINE_REFERENCE_WAVE_FINISH_RGB] = {"render_reference_wave", REFERENCE_WAVE_BUFFERS,
                                                REFERENCE_WAVE_PUSH_BYTES, 1, {0, 3}, 1},
+    [PF_PIPELINE_DEFORM] = {"deform", DEFORM_BUFFERS, DEFORM_PUSH_BYTES, 0, {0, 0}},
 };
 
 pf_status pf_renderer_pipeline(pf_renderer *renderer, pf_renderer_pipeline_id id,

@@ -71,31 +71,29 @@ static void node_weights(const pf_scene *scene, uint32_t index, double time, flo
 }
 
 /* Rest positions and normals plus the weighted target deltas; tangent deltas too. */
-static void morph(const scene_deform_mesh *deform, const float *weights, deform_scratch *s,
-                  int *tangent_deltas)
+static void morph(const pf_deform_node *node, const pf_deform_vertices *out)
 {
-    uint32_t vertices = deform->vertex_count, targets = deform->target_count;
-    memcpy(s->position, deform->positions, vertices * sizeof *s->position);
-    memcpy(s->normal, deform->normals, vertices * sizeof *s->normal);
-    *tangent_deltas = deform->target_tangents != NULL;
-    if (*tangent_deltas)
-        memset(s->tangent, 0, vertices * sizeof *s->tangent);
+    uint32_t vertices = node->vertex_count, targets = node->target_count;
+    memcpy(out->position, node->positions, vertices * sizeof *out->position);
+    memcpy(out->normal, node->normals, vertices * sizeof *out->normal);
+    if (node->target_tangents)
+        memset(out->tangent, 0, vertices * sizeof *out->tangent);
     for (uint32_t t = 0; t < targets; t++) {
-        float w = weights[t];
+        float w = node->weights[t];
         if (w == 0.0f)
             continue;
-        const float *dp = deform->target_positions;
-        const float *dn = deform->target_normals;
-        const float *dt = deform->target_tangents;
+        const float *dp = node->target_positions;
+        const float *dn = node->target_normals;
+        const float *dt = node->target_tangents;
         for (uint32_t v = 0; v < vertices; v++) {
             size_t at = ((size_t)v * targets + t) * 3;
             for (int k = 0; k < 3; k++) {
                 if (dp)
-                    s->position[v][k] += w * dp[at + k];
+                    out->position[v][k] += w * dp[at + k];
                 if (dn)
-                    s->normal[v][k] += w * dn[at + k];
+                    out->normal[v][k] += w * dn[at + k];
                 if (dt)
-                    s->tangent[v][k] += w * dt[at + k];
+                    out->tangent[v][k] += w * dt[at + k];
             }
         }
     }
@@ -112,20 +110,24 @@ static void joint_matrices(const scene_skin *skin, const float (*world)[16], flo
     }
 }
 
-/* M of every vertex: the weighted sum of its joints' matrices (identity without weight). */
-static void blend_matrices(const scene_deform_mesh *deform, const float (*joints)[12],
-                           float (*matrix)[12])
+/* M of every vertex: the weighted sum of its joints' matrices (identity without weight), or
+ * the node's one matrix for a node without influences. */
+static void blend_matrices(const pf_deform_node *node, float (*matrix)[12])
 {
     static const float identity[12] = {1, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0};
-    uint32_t influences = deform->influences;
-    for (uint32_t v = 0; v < deform->vertex_count; v++) {
+    uint32_t influences = node->influences;
+    for (uint32_t v = 0; v < node->vertex_count; v++) {
+        if (influences == 0) {
+            memcpy(matrix[v], node->matrices[0], sizeof matrix[v]);
+            continue;
+        }
         float m[12] = {0};
         float total = 0.0f;
         for (uint32_t i = 0; i < influences; i++) {
-            float w = deform->weights[v][i];
+            float w = node->joint_weights[v][i];
             if (w == 0.0f)
                 continue;
-            const float *joint = joints[deform->joints[v][i]];
+            const float *joint = node->matrices[node->joints[v][i]];
             for (int k = 0; k < 12; k++)
                 m[k] += w * joint[k];
             total += w;
@@ -163,15 +165,26 @@ static void apply_vector(const float m[12], const float v[3], float out[3])
 }
 
 /* World positions and normals of every vertex from its M. */
-static void transform_vertices(uint32_t vertices, deform_scratch *s)
+static void transform_vertices(uint32_t vertices, const pf_deform_vertices *out)
 {
     for (uint32_t v = 0; v < vertices; v++) {
         float p[3], n[3];
-        apply_point(s->matrix[v], s->position[v], p);
-        cofactor_apply(s->matrix[v], s->normal[v], n);
-        memcpy(s->position[v], p, sizeof p);
-        memcpy(s->normal[v], n, sizeof n);
+        apply_point(out->matrix[v], out->position[v], p);
+        cofactor_apply(out->matrix[v], out->normal[v], n);
+        memcpy(out->position[v], p, sizeof p);
+        memcpy(out->normal[v], n, sizeof n);
     }
+}
+
+pf_status pf_deform_vertices_host(void *user, const pf_deform_node *node,
+                                  const pf_deform_vertices *out, pf_error *err)
+{
+    (void)user;
+    (void)err;
+    morph(node, out);
+    blend_matrices(node, out->matrix);
+    transform_vertices(node->vertex_count, out);
+    return PF_OK;
 }
 
 static float det3(const float m[12])
@@ -229,10 +242,12 @@ static void gather_triangles(const scene_mesh *mesh, uint32_t first, const defor
 }
 
 pf_status scene_deform_nodes(const pf_scene *scene, double time_seconds,
-                             const float (*world)[16], pf_scene_frame *frame,
-                             pf_deform_report *report, pf_error *err)
+                             const float (*world)[16], pf_scene_frame *frame, pf_deform_fn fn,
+                             void *user, pf_deform_report *report, pf_error *err)
 {
     memset(report, 0, sizeof *report);
+    if (!fn)
+        fn = pf_deform_vertices_host;
     uint32_t most_joints = 0, most_targets = 0;
     for (uint32_t k = 0; k < scene->skin_count; k++)
         if (scene->skins[k].joint_count > most_joints)
@@ -257,29 +272,43 @@ pf_status scene_deform_nodes(const pf_scene *scene, double time_seconds,
                                   scene->path, deform->vertex_count);
             break;
         }
-        int tangent_deltas = 0;
         if (deform->target_count > 0)
             node_weights(scene, index, time_seconds, scratch.weights);
         else
             scratch.weights[0] = 0.0f;
-        morph(deform, scratch.weights, &scratch, &tangent_deltas);
         int skinned = node->skin != SCENE_NONE && deform->influences > 0;
         float node_det = 1.0f;
+        pf_deform_node in = {deform->vertex_count,
+                             deform->target_count,
+                             skinned ? deform->influences : 0,
+                             1,
+                             (const float(*)[3])deform->positions,
+                             (const float(*)[3])deform->normals,
+                             deform->target_positions,
+                             deform->target_normals,
+                             deform->target_tangents,
+                             scratch.weights,
+                             (const uint16_t(*)[PF_DEFORM_MAX_INFLUENCES])deform->joints,
+                             (const float(*)[PF_DEFORM_MAX_INFLUENCES])deform->weights,
+                             (const float(*)[12])joints,
+                             /* one node's rest pose: unique in the process */
+                             (scene->texture_set << 24) ^ index};
         if (skinned) {
             /* glTF §3.7.3.3: only the joints place a skinned mesh, not its node. */
             joint_matrices(&scene->skins[node->skin], world, joints);
-            blend_matrices(deform, (const float(*)[12])joints, scratch.matrix);
+            in.matrix_count = scene->skins[node->skin].joint_count;
         } else {
-            float m[12];
             for (int column = 0; column < 4; column++)
-                memcpy(m + 3 * column, world[index] + 4 * column, 3 * sizeof(float));
-            node_det = det3(m);
-            for (uint32_t v = 0; v < deform->vertex_count; v++)
-                memcpy(scratch.matrix[v], m, sizeof m);
+                memcpy(joints[0] + 3 * column, world[index] + 4 * column, 3 * sizeof(float));
+            node_det = det3(joints[0]);
         }
-        transform_vertices(deform->vertex_count, &scratch);
+        pf_deform_vertices out = {scratch.position, scratch.normal, scratch.tangent,
+                                  scratch.matrix};
+        status = fn(user, &in, &out, err);
+        if (status != PF_OK)
+            break;
         gather_triangles(mesh, node->first_triangle, &scratch, skinned, node_det,
-                         tangent_deltas, frame);
+                         deform->target_tangents != NULL, frame);
         report->skinned_meshes += skinned;
         report->morphed_meshes += deform->target_count > 0;
         report->vertices += deform->vertex_count;

@@ -369,6 +369,52 @@ pf_status pf_scene_deform(const pf_scene *scene, double time_seconds, pf_scene_f
                           pf_deform_report *report, pf_error *err);
 
 /*
+ * Deformation's per-vertex half, which a device may do instead of the host (issue 39): one
+ * deforming mesh node's rest pose and this frame's morph weights and matrices in, every
+ * vertex's result out. Per vertex v: p = positions[v] + Σ_t weights[t]·target_positions[v][t]
+ * (the same for normals and, into tangent, the tangent deltas); M = Σ_i joint_weights[v][i]
+ * · matrices[joints[v][i]] over its influences (identity where they sum to 0), or
+ * matrices[0] for every vertex when influences is 0 (a node only morphed); then
+ * position = M·p, normal = cof(M)·n (unnormalised), matrix = M (3×4, column-major).
+ */
+#define PF_DEFORM_MAX_INFLUENCES 8
+typedef struct pf_deform_node {
+    uint32_t vertex_count, target_count;
+    uint32_t influences;       /* 0, 4 or 8 a vertex */
+    uint32_t matrix_count;
+    const float (*positions)[3];
+    const float (*normals)[3];
+    const float *target_positions; /* [vertex][target][3]; NULL: no such deltas */
+    const float *target_normals;
+    const float *target_tangents;
+    const float *weights;          /* target_count */
+    const uint16_t (*joints)[PF_DEFORM_MAX_INFLUENCES];
+    const float (*joint_weights)[PF_DEFORM_MAX_INFLUENCES];
+    const float (*matrices)[12];   /* the skin's joint world × inverse bind, or the node's */
+    uint64_t key;                  /* the same rest pose has the same key (a device keeps it) */
+} pf_deform_node;
+
+/* Where the results go, vertex_count each (tangent only with target_tangents). */
+typedef struct pf_deform_vertices {
+    float (*position)[3];
+    float (*normal)[3];
+    float (*tangent)[3];
+    float (*matrix)[12];
+} pf_deform_vertices;
+
+typedef pf_status (*pf_deform_fn)(void *user, const pf_deform_node *node,
+                                  const pf_deform_vertices *out, pf_error *err);
+
+/* The per-vertex half on the host's vector code (what pf_scene_deform uses). */
+pf_status pf_deform_vertices_host(void *user, const pf_deform_node *node,
+                                  const pf_deform_vertices *out, pf_error *err);
+
+/* pf_scene_deform with vertices deformed by fn (NULL: pf_deform_vertices_host). */
+pf_status pf_scene_deform_with(const pf_scene *scene, double time_seconds, pf_scene_frame *frame,
+                               pf_deform_fn fn, void *user, pf_deform_report *report,
+                               pf_error *err);
+
+/*
  * Camera for rendering width×height: when the file gives an aspect ratio that
  * differs from the image's, yfov is kept and the image's aspect is used (glTF
  * §3.10.3: the viewport's aspect wins). Writes the half extents of the image

@@ -445,6 +445,13 @@ pf_status pf_scene_eval_rigid(const pf_scene *scene, double time_seconds, pf_sce
 pf_status pf_scene_deform(const pf_scene *scene, double time_seconds, pf_scene_frame *frame,
                           pf_deform_report *report, pf_error *err)
 {
+    return pf_scene_deform_with(scene, time_seconds, frame, NULL, NULL, report, err);
+}
+
+pf_status pf_scene_deform_with(const pf_scene *scene, double time_seconds, pf_scene_frame *frame,
+                               pf_deform_fn fn, void *user, pf_deform_report *report,
+                               pf_error *err)
+{
     memset(report, 0, sizeof *report);
     if (scene->info.deformed_node_count == 0)
         return PF_OK;
@@ -459,8 +466,8 @@ pf_status pf_scene_deform(const pf_scene *scene, double time_seconds, pf_scene_f
     pf_status status = scene_world_matrices(scene, time_seconds, &world, err);
     if (status)
         return status;
-    status = scene_deform_nodes(scene, time_seconds, (const float(*)[16])world, frame, report,
-                                err);
+    status = scene_deform_nodes(scene, time_seconds, (const float(*)[16])world, frame, fn, user,
+                                report, err);
     close_bounds(frame);
     free(world);
     return status;
@@ -476,8 +483,8 @@ pf_status pf_scene_eval(const pf_scene *scene, double time_seconds, pf_scene_fra
         return status;
     }
     pf_deform_report report;
-    status = scene_deform_nodes(scene, time_seconds, (const float(*)[16])world, out, &report,
-                                err);
+    status = scene_deform_nodes(scene, time_seconds, (const float(*)[16])world, out, NULL, NULL,
+                                &report, err);
     close_bounds(out);
     free(world);
     if (status)

@@ -251,9 +251,10 @@ pf_status scene_world_matrices(const pf_scene *scene, double time_seconds, float
                                pf_error *err);
 /* deform.c: fills the triangles of every deforming node into frame (rest of the frame
  * already evaluated at time_seconds with those matrices) and widens its bounds. */
+/* fn (NULL: pf_deform_vertices_host) deforms each node's vertices; the host gathers them. */
 pf_status scene_deform_nodes(const pf_scene *scene, double time_seconds,
-                             const float (*world)[16], pf_scene_frame *frame,
-                             pf_deform_report *report, pf_error *err);
+                             const float (*world)[16], pf_scene_frame *frame, pf_deform_fn fn,
+                             void *user, pf_deform_report *report, pf_error *err);
 void scene_deform_mesh_free(scene_deform_mesh *deform);
 
 #endif
