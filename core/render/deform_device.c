@@ -213,11 +213,8 @@ static pf_status device_vertices(void *user, const pf_deform_node *node,
                                     4u * vec3s, err);
     if (status == PF_OK)
         status = pf_vk_commands_submit(cmds, err);
-    if (status == PF_OK && begin >= 0 && end >= 0) {
-        double elapsed = pf_vk_commands_elapsed_ms(cmds, begin, end);
-        if (elapsed >= 0.0)
-            run->gpu_ms = (run->gpu_ms < 0.0 ? 0.0 : run->gpu_ms) + elapsed;
-    }
+    if (status == PF_OK)
+        pf_gpu_ms_add(&run->gpu_ms, pf_commands_gpu_ms(cmds, begin, end));
     pf_vk_commands_destroy(cmds);
     return status;
 }

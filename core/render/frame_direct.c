@@ -117,11 +117,8 @@ static pf_status render_tile(pf_renderer *renderer, pf_vk_buffer *const *buffers
                                     sizeof *counters, err);
     if (status == PF_OK)
         status = pf_vk_commands_submit(cmds, err);
-    if (status == PF_OK && begin >= 0 && end >= 0) {
-        double elapsed = pf_vk_commands_elapsed_ms(cmds, begin, end);
-        if (elapsed >= 0.0)
-            *gpu_ms = (*gpu_ms < 0.0 ? 0.0 : *gpu_ms) + elapsed;
-    }
+    if (status == PF_OK)
+        pf_gpu_ms_add(gpu_ms, pf_commands_gpu_ms(cmds, begin, end));
     pf_vk_commands_destroy(cmds);
     return status;
 }

@@ -194,12 +194,6 @@ typedef struct final_progress {
     double shade_gpu_ms;
 } final_progress;
 
-static void add_gpu(double *sum, double ms)
-{
-    if (ms >= 0.0)
-        *sum = (*sum < 0.0 ? 0.0 : *sum) + ms;
-}
-
 /* The frame's state between its stages (pf_frame_run.state). */
 typedef struct final_frame final_frame;
 
@@ -221,7 +215,7 @@ static pf_status trace_pass(pf_renderer *renderer, const pf_photon_frame *inputs
     if (status != PF_OK)
         return status;
     progress->trace_ms += pf_time_ms() - start;
-    add_gpu(&progress->trace_gpu_ms, maps->gpu_ms);
+    pf_gpu_ms_add(&progress->trace_gpu_ms, maps->gpu_ms);
     if (maps->traversal_failures > 0) {
         pf_photon_maps_release(renderer->ctx, maps);
         return pf_error_set(err, PF_ERR_LIMIT, "%u photons overflowed the BIH traversal stack",
@@ -273,13 +267,13 @@ static pf_status grid_pass(pf_vk_context *ctx, const pf_scene_frame *frame,
                                              frame->bounds_min, frame->bounds_max, slot->radius,
                                              err);
     if (status == PF_OK) {
-        add_gpu(&progress->grid_gpu_ms, pf_photon_grid_gpu_ms(slot->global));
-        add_gpu(&progress->map_grid_gpu_ms, pf_photon_grid_gpu_ms(slot->global));
+        pf_gpu_ms_add(&progress->grid_gpu_ms, pf_photon_grid_gpu_ms(slot->global));
+        pf_gpu_ms_add(&progress->map_grid_gpu_ms, pf_photon_grid_gpu_ms(slot->global));
         progress->grid_ms += pf_time_ms() - start;
         slot->points_built = lookups;
         if (lookups) {
-            add_gpu(&progress->grid_gpu_ms, pf_photon_grid_gpu_ms(slot->points));
-            add_gpu(&progress->points_gpu_ms, pf_photon_grid_gpu_ms(slot->points));
+            pf_gpu_ms_add(&progress->grid_gpu_ms, pf_photon_grid_gpu_ms(slot->points));
+            pf_gpu_ms_add(&progress->points_gpu_ms, pf_photon_grid_gpu_ms(slot->points));
         }
         progress->points += counts.points;
         progress->points_skipped += counts.truncated;
@@ -369,8 +363,7 @@ static void bind_points(const pf_photon_grid *points, pf_vk_buffer *empty, final
 /* Records the sample's timestamps' span into the shade row's GPU time and destroys cmds. */
 static void finish_commands(pf_vk_commands *cmds, int begin, int end, final_progress *progress)
 {
-    if (begin >= 0 && end >= 0)
-        add_gpu(&progress->shade_gpu_ms, pf_vk_commands_elapsed_ms(cmds, begin, end));
+    pf_gpu_ms_add(&progress->shade_gpu_ms, pf_commands_gpu_ms(cmds, begin, end));
     pf_vk_commands_destroy(cmds);
 }
 

@@ -152,11 +152,8 @@ static pf_status dispatch_wave(pf_reference_wave *wave, pf_vk_pipeline *const *p
     int end = pf_vk_cmd_timestamp(cmds);
     if (status == PF_OK)
         status = pf_vk_commands_submit(cmds, err);
-    if (status == PF_OK && begin >= 0 && end >= 0) {
-        double elapsed = pf_vk_commands_elapsed_ms(cmds, begin, end);
-        if (elapsed >= 0.0)
-            progress->gpu_ms = (progress->gpu_ms < 0.0 ? 0.0 : progress->gpu_ms) + elapsed;
-    }
+    if (status == PF_OK)
+        pf_gpu_ms_add(&progress->gpu_ms, pf_commands_gpu_ms(cmds, begin, end));
     pf_vk_commands_destroy(cmds);
     progress->waves++;
     return status;

@@ -183,6 +183,20 @@ pf_status pf_wave_trace(pf_wave_tracer *tracer, const pf_wave_queues *queues, ui
                         uint32_t count, uint32_t *remaining, uint32_t *hit, uint64_t *rays,
                         pf_error *err);
 
+/* Adds ms to a GPU-time total that stays < 0 while nothing was timed; an ms < 0 (no
+ * timestamps) adds nothing. */
+static inline void pf_gpu_ms_add(double *total, double ms)
+{
+    if (ms >= 0.0)
+        *total = (*total < 0.0 ? 0.0 : *total) + ms;
+}
+
+/* The GPU time between two timestamp slots of submitted cmds; -1 where either is missing. */
+static inline double pf_commands_gpu_ms(const pf_vk_commands *cmds, int begin, int end)
+{
+    return begin >= 0 && end >= 0 ? pf_vk_commands_elapsed_ms(cmds, begin, end) : -1.0;
+}
+
 /* reference's totals over the passes of one frame (frame_reference.c). */
 typedef struct pf_reference_progress {
     uint32_t passes;
