@@ -1,9 +1,11 @@
 /*
- * The reference integrator (shaders/render_reference.comp): uploads the
- * frame's scene, adds whole-image passes of one sample per pixel to a film
- * that stays on the device until the sample count or the time budget is
- * reached, reads the film back into the pf_image and reports the `shade`
- * stage. Channel meanings: pf_render.h.
+ * The reference integrator: uploads the frame's scene, adds whole-image
+ * passes of one sample per pixel to a film that stays on the device until
+ * the sample count or the time budget is reached, reads the film back into
+ * the pf_image and reports the `shade` stage. A pass is one dispatch of the
+ * megakernel (shaders/render_reference.comp), or, where the plan has the
+ * host trace the rays, the wavefront's dispatches (frame_reference_wave.c).
+ * Channel meanings: pf_render.h.
  */
 #include "render_internal.h"
 
