@@ -5,10 +5,15 @@
 # Blender writes one action per object, so the file holds two animations (the
 # armature's and the sheet's shape keys), which play together.
 #
-#   blender -b --factory-startup --python make_character.py -- OUTDIR [RINGS SEGMENTS]
+#   blender -b --factory-startup --python make_character.py -- OUTDIR [RINGS SEGMENTS [SPECULAR]]
 #
 # writes OUTDIR/character.gltf (one file, buffers embedded). RINGS × SEGMENTS
 # sets the arm's vertex count (default 24 × 16); the deform benchmark raises it.
+# SPECULAR (default 0.5, Blender's) is every Principled BSDF's Specular. 0 is the
+# control that takes the specular layer out of both material models: Blender's
+# exporter writes it as KHR_materials_specular (specularColorFactor 0), and Cycles
+# renders Principled without it, so what is left to compare is the pose, the
+# lights and the diffuse transport (bench/RESULTS.md, "Skins and morph targets").
 # scenes/character/character.gltf is this script's output at the defaults
 # (Blender 3.4.1), committed so that the tests render a file as Blender writes it
 # without needing Blender.
@@ -127,6 +132,7 @@ def main():
     out = args[0]
     rings = int(args[1]) if len(args) > 1 else 24
     segments = int(args[2]) if len(args) > 2 else 16
+    specular = float(args[3]) if len(args) > 3 else 0.5
     os.makedirs(out, exist_ok=True)
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
@@ -143,6 +149,10 @@ def main():
                      strength=12.0))
     add_arm(principled("arm", (0.8, 0.3, 0.1), roughness=0.5), rings, segments)
     add_sheet(principled("sheet", (0.1, 0.3, 0.8), roughness=0.5))
+
+    for material in bpy.data.materials:
+        if material.use_nodes and "Principled BSDF" in material.node_tree.nodes:
+            material.node_tree.nodes["Principled BSDF"].inputs["Specular"].default_value = specular
 
     bpy.ops.object.camera_add(location=(0.0, -6.0, 1.6), rotation=(math.radians(88), 0.0, 0.0))
     camera = bpy.context.object

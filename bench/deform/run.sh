@@ -45,3 +45,16 @@ for frame in 1 24; do
   "$photonfarm" compare "$out/pf-ref.$(printf %04d "$frame").exr" "$out/cycles-$frame.exr" --rgb \
     2>/dev/null | grep -E 'relMSE|^[RGB] '
 done
+
+echo "== the control: Specular 0 in Blender, so neither model has a specular layer (frames 1, 24)"
+control=$out/specular-0
+blend "$here/make_character.py" -- "$control" 24 16 0
+for frame in 1 24; do
+  blend "$root/bench/materials/cycles_import_render.py" -- "$control/character.gltf" \
+    "$control/cycles-$frame.exr" 256 256 256 64 "$frame"
+  "$photonfarm" render "$control/character.gltf" --frame "$frame" --quality reference --spp 64 \
+    --size 256x256 --filter blackman-harris -o "$control/pf-ref.####.exr" >/dev/null 2>&1
+  echo "-- frame $frame"
+  "$photonfarm" compare "$control/pf-ref.$(printf %04d "$frame").exr" "$control/cycles-$frame.exr" \
+    --rgb 2>/dev/null | grep -E 'relMSE|^[RGB] '
+done
