@@ -342,8 +342,8 @@ static int on_device(const pf_renderer *renderer)
         return 0;
     pf_denoise_site site = renderer->denoise_site;
     if (site == PF_DENOISE_SITE_AUTO)
-        site = strcmp(pf_vk_info(renderer->ctx)->type, "cpu") ? PF_DENOISE_SITE_DEVICE
-                                                              : PF_DENOISE_SITE_HOST;
+        site = pf_vk_device_is_cpu(renderer->ctx) ? PF_DENOISE_SITE_HOST
+                                                  : PF_DENOISE_SITE_DEVICE;
     return site == PF_DENOISE_SITE_DEVICE;
 }
 
@@ -443,7 +443,8 @@ static pf_status denoise_run(pf_renderer *renderer, pf_image *image, int keep_no
         free(estimate);
         planes_free(&planes);
         return status;
-    }    pf_image *out = keep_noisy ? &grown : image;
+    }
+    pf_image *out = keep_noisy ? &grown : image;
     uint32_t first_added = image->channel_count;
     for (size_t p = 0; p < pixels; p++) {
         float *texel = out->pixels + p * out->channel_count;

@@ -85,29 +85,40 @@ void pf_denoise_history_destroy(pf_denoise_history *history)
     free(history);
 }
 
+/* Why history does not hold the frame before frame of sequence at this size (text may hold
+ * the words), or NULL: the checks that need no fingerprints. */
+static const char *history_gap(const pf_denoise_history *history, uint64_t sequence,
+                               int64_t frame, uint32_t width, uint32_t height,
+                               char text[PF_STAGE_REASON_MAX])
+{
+    if (!history || !history->valid || !sequence || history->sequence != sequence)
+        return "no previous frame of this sequence on this worker";
+    if (history->frame != frame - 1) {
+        snprintf(text, PF_STAGE_REASON_MAX,
+                 "frame %lld came before frame %lld on this worker: not consecutive",
+                 (long long)history->frame, (long long)frame);
+        return text;
+    }
+    if (history->width != width || history->height != height)
+        return "the image size changed";
+    return NULL;
+}
+
 int pf_denoise_history_continues(const pf_denoise_history *history, uint64_t sequence,
                                  int64_t frame, uint32_t width, uint32_t height)
 {
-    return history && history->valid && sequence && history->sequence == sequence &&
-           history->frame == frame - 1 && history->width == width && history->height == height;
+    char text[PF_STAGE_REASON_MAX];
+    return history_gap(history, sequence, frame, width, height, text) == NULL;
 }
 
 int pf_denoise_history_usable(const pf_denoise_history *history,
                               const pf_denoise_sequence *sequence, uint32_t width,
                               uint32_t height, char *reason, size_t size)
 {
-    const char *why = NULL;
     char text[PF_STAGE_REASON_MAX];
-    if (!history || !history->valid || !sequence->sequence ||
-        history->sequence != sequence->sequence)
-        why = "no previous frame of this sequence on this worker";
-    else if (history->frame != sequence->frame - 1) {
-        snprintf(text, sizeof text, "frame %lld came before frame %lld on this worker: not "
-                 "consecutive", (long long)history->frame, (long long)sequence->frame);
-        why = text;
-    } else if (history->width != width || history->height != height)
-        why = "the image size changed";
-    else if (history->lighting_fingerprint != sequence->lighting) {
+    const char *why =
+        history_gap(history, sequence->sequence, sequence->frame, width, height, text);
+    if (!why && history->lighting_fingerprint != sequence->lighting) {
         snprintf(text, sizeof text, "lights or materials changed since frame %lld",
                  (long long)history->frame);
         why = text;
