@@ -204,7 +204,7 @@ int pf_lpv_propagates_on_host(const pf_lpv *lpv)
 {
     if (lpv->site != PF_LPV_SITE_AUTO)
         return lpv->site == PF_LPV_SITE_HOST;
-    return strcmp(pf_vk_info(lpv->ctx)->type, "cpu") == 0;
+    return pf_vk_device_is_cpu(lpv->ctx);
 }
 
 /* The iterations on the host, then the volumes the lookups read uploaded. */

@@ -291,7 +291,7 @@ pf_status pf_photon_trace(pf_photon_tracer *tracer, const pf_photon_scene *scene
         [PF_SCENE_BINDING_COUNT + 4] = out->caustic,
         [PF_SCENE_BINDING_COUNT + 5] = counter_buffer};
     uint32_t per_invocation = settings->per_invocation ? settings->per_invocation
-                              : strcmp(info->type, "cpu") == 0 ? PF_PHOTON_TRACE_PER_INVOCATION
+                              : pf_vk_device_is_cpu(ctx) ? PF_PHOTON_TRACE_PER_INVOCATION
                                                               : 1u;
     trace_counters counters = zero;
     trace_uploads uploads = {&params, emitters, placeholder};

@@ -40,8 +40,7 @@ pf_bih_build_site pf_renderer_bih_site(const pf_renderer *renderer)
 {
     if (renderer->bih_build_site != PF_BIH_BUILD_AUTO)
         return renderer->bih_build_site;
-    return strcmp(pf_vk_info(renderer->ctx)->type, "cpu") == 0 ? PF_BIH_BUILD_CPU
-                                                                : PF_BIH_BUILD_GPU;
+    return pf_vk_device_is_cpu(renderer->ctx) ? PF_BIH_BUILD_CPU : PF_BIH_BUILD_GPU;
 }
 
 void pf_renderer_set_bih_build(pf_renderer *renderer, pf_bih_build_site site)

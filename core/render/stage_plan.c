@@ -355,7 +355,7 @@ pf_stage_previous pf_stage_previous_of(const pf_renderer *renderer, pf_quality p
         renderer->bih_valid ? &renderer->bih : NULL, renderer->bih_frames,
         renderer->bih_pilot_replaced, pf_vk_info(renderer->ctx)->max_storage_buffer_range};
     previous.trace_site = renderer->trace_site;
-    previous.device_is_host = strcmp(pf_vk_info(renderer->ctx)->type, "cpu") == 0;
+    previous.device_is_host = pf_vk_device_is_cpu(renderer->ctx);
     previous.host_traversal = pf_bih_wide_available();
     previous.tree_on_host = pf_renderer_bih_site(renderer) == PF_BIH_BUILD_CPU;
     return previous;

@@ -213,6 +213,8 @@ void pf_vk_destroy(pf_vk_context *ctx)
 
 const pf_vk_device_info *pf_vk_info(const pf_vk_context *ctx) { return &ctx->info; }
 
+int pf_vk_device_is_cpu(const pf_vk_context *ctx) { return strcmp(ctx->info.type, "cpu") == 0; }
+
 int pf_vk_validation_enabled(const pf_vk_context *ctx) { return ctx->validation; }
 
 uint32_t pf_vk_validation_message_count(const pf_vk_context *ctx)

@@ -69,6 +69,9 @@ pf_status pf_vk_enumerate(pf_vk_device_info **devices, uint32_t *count, pf_error
 pf_status pf_vk_create(const pf_vk_options *options, pf_vk_context **out, pf_error *err);
 void pf_vk_destroy(pf_vk_context *ctx);
 const pf_vk_device_info *pf_vk_info(const pf_vk_context *ctx);
+/* Whether the device is the CPU (lavapipe): its memory is the host's, and stages that have a
+ * host path of their own pick it there when it measures faster. */
+int pf_vk_device_is_cpu(const pf_vk_context *ctx);
 int pf_vk_validation_enabled(const pf_vk_context *ctx);
 /* Validation messages (warnings and errors) seen since creation. */
 uint32_t pf_vk_validation_message_count(const pf_vk_context *ctx);
