@@ -5,7 +5,8 @@
  * (pf_scene_deform_with). Where the device is the CPU the host's loop is the faster one
  * (bench/RESULTS.md, "Skins and morph targets"), as for lpv_propagate; elsewhere the
  * device. A node's rest pose, targets and influences go to the device once and stay there
- * for as long as the scene is loaded (keyed by pf_deform_node.key); a frame sends its
+ * while frames of the same scene load come (pf_deform_node.scene_load; the first node of
+ * another load releases them, as the texture cache does); a frame sends its
  * weights and matrices, one dispatch and the results' readback, in one submission a node.
  */
 #include "render_internal.h"
@@ -39,12 +40,14 @@ typedef struct deform_push {
 
 /* One node's buffers on the device. */
 typedef struct deform_entry {
-    uint64_t key;
+    uint32_t node;
     uint32_t vertex_count, target_count, influences, matrix_count;
     pf_vk_buffer *buffers[DEFORM_BUFFER_COUNT];
 } deform_entry;
 
+/* The nodes of one scene load. */
 struct pf_deform_cache {
+    uint64_t scene_load;
     deform_entry *entries;
     uint32_t count, capacity;
 };
@@ -97,9 +100,16 @@ static pf_status entry_for(deform_device_run *run, pf_vk_commands *cmds,
     if (!renderer->deform_cache && !(renderer->deform_cache = calloc(1, sizeof(pf_deform_cache))))
         return pf_error_set(err, PF_ERR_NOMEM, "deform: out of memory");
     pf_deform_cache *cache = renderer->deform_cache;
+    if (cache->scene_load != node->scene_load) {
+        /* Another scene: what the last one left is not needed again (a worker's next job). */
+        for (uint32_t e = 0; e < cache->count; e++)
+            entry_release(renderer->ctx, &cache->entries[e]);
+        cache->count = 0;
+        cache->scene_load = node->scene_load;
+    }
     for (uint32_t e = 0; e < cache->count; e++) {
         deform_entry *entry = &cache->entries[e];
-        if (entry->key == node->key && entry->vertex_count == node->vertex_count &&
+        if (entry->node == node->node && entry->vertex_count == node->vertex_count &&
             entry->target_count == node->target_count && entry->influences == node->influences &&
             entry->matrix_count >= node->matrix_count) {
             *out = entry;
@@ -116,7 +126,7 @@ static pf_status entry_for(deform_device_run *run, pf_vk_commands *cmds,
     }
     deform_entry *entry = &cache->entries[cache->count];
     memset(entry, 0, sizeof *entry);
-    entry->key = node->key;
+    entry->node = node->node;
     entry->vertex_count = node->vertex_count;
     entry->target_count = node->target_count;
     entry->influences = node->influences;
@@ -227,7 +237,7 @@ pf_status pf_render_deform(pf_renderer *renderer, const pf_scene *scene, double 
         return PF_OK;
     }
     double start = pf_time_ms();
-    int cpu = strcmp(pf_vk_info(renderer->ctx)->type, "cpu") == 0;
+    int cpu = pf_vk_device_is_cpu(renderer->ctx);
     int on_device = renderer->deform_site == PF_DEFORM_DEVICE ||
                     (renderer->deform_site == PF_DEFORM_AUTO && !cpu);
     const char *why = renderer->deform_site != PF_DEFORM_AUTO ? "forced"

@@ -291,8 +291,8 @@ pf_status scene_deform_nodes(const pf_scene *scene, double time_seconds,
                              (const uint16_t(*)[PF_DEFORM_MAX_INFLUENCES])deform->joints,
                              (const float(*)[PF_DEFORM_MAX_INFLUENCES])deform->weights,
                              (const float(*)[12])joints,
-                             /* one node's rest pose: unique in the process */
-                             (scene->texture_set << 24) ^ index};
+                             scene->texture_set,
+                             index};
         if (skinned) {
             /* glTF §3.7.3.3: only the joints place a skinned mesh, not its node. */
             joint_matrices(&scene->skins[node->skin], world, joints);

@@ -377,6 +377,7 @@ pf_status pf_scene_deform(const pf_scene *scene, double time_seconds, pf_scene_f
  * matrices[0] for every vertex when influences is 0 (a node only morphed); then
  * position = M·p, normal = cof(M)·n (unnormalised), matrix = M (3×4, column-major).
  */
+/* JOINTS_0/WEIGHTS_0 and JOINTS_1/WEIGHTS_1: 8 influences a vertex at most. */
 #define PF_DEFORM_MAX_INFLUENCES 8
 typedef struct pf_deform_node {
     uint32_t vertex_count, target_count;
@@ -391,7 +392,10 @@ typedef struct pf_deform_node {
     const uint16_t (*joints)[PF_DEFORM_MAX_INFLUENCES];
     const float (*joint_weights)[PF_DEFORM_MAX_INFLUENCES];
     const float (*matrices)[12];   /* the skin's joint world × inverse bind, or the node's */
-    uint64_t key;                  /* the same rest pose has the same key (a device keeps it) */
+    /* Whose rest pose this is: the scene's load (pf_scene_frame.texture_set, unique in the
+     * process) and the node's index; a device keeps it under these. */
+    uint64_t scene_load;
+    uint32_t node;
 } pf_deform_node;
 
 /* Where the results go, vertex_count each (tangent only with target_tangents). */

@@ -21,8 +21,9 @@
 /* A corner's attributes in the mesh: uv0 (2), uv1 (2), colour (4), tangent (4). */
 #define SCENE_CORNER_FLOATS 12
 
-/* Most joint influences a vertex may have: JOINTS_0/WEIGHTS_0 and JOINTS_1/WEIGHTS_1. */
-#define SCENE_MAX_INFLUENCES 8
+/* Most joint influences a vertex may have: JOINTS_0/WEIGHTS_0 and JOINTS_1/WEIGHTS_1 (the
+ * per-vertex deformers read them as pf_deform_node's rows). */
+#define SCENE_MAX_INFLUENCES PF_DEFORM_MAX_INFLUENCES
 
 /*
  * What a mesh that can deform (a skinned mesh, or one with morph targets) keeps

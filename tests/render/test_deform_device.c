@@ -4,7 +4,8 @@
  * scenes/character, Blender's export of an arm skinned to a bending two-bone armature and a
  * sheet bulged by a shape key, every vertex, normal and corner texel of frames 1, 12 and 24
  * agree to float rounding; the rows say where it ran; the rest poses go to the device once
- * and stay (the second frame uploads none); one submission a deformed node.
+ * and stay (the second frame uploads none) until another load of a scene comes; one
+ * submission a deformed node.
  */
 #include "pf_test.h"
 #include "render_test_env.h"
@@ -119,6 +120,21 @@ PF_TEST(the_device_deforms_as_the_host_does)
                                                  : "on the device (a GPU)") != NULL);
     }
     pf_scene_frame_free(&frame);
+    /* The same file loaded again is another load (a worker's next job): its rest poses go
+     * to the device anew, in place of the first load's. */
+    pf_scene *again = NULL;
+    PF_REQUIRE_OK(pf_scene_load(path, &again, &err), &err);
+    uint64_t held = pf_vk_memory_use_of(ctx).current;
+    if (deformed_frame(again, 0.0, PF_DEFORM_DEVICE, &frame, &report)) {
+        PF_CHECK(row_counter(&report, "rest_poses_uploaded") ==
+                 row_counter(&report, "skinned_meshes") + row_counter(&report, "morphed_meshes"));
+        /* The first load's buffers were released: the device holds no more than before. */
+        uint64_t now = pf_vk_memory_use_of(ctx).current;
+        PF_CHECK_MSG(now <= held, "device memory %llu bytes, %llu before the second load",
+                     (unsigned long long)now, (unsigned long long)held);
+    }
+    pf_scene_frame_free(&frame);
+    pf_scene_destroy(again);
     pf_scene_destroy(scene);
 }
 
