@@ -84,8 +84,9 @@ pf_status pf_reference_wave_create(pf_renderer *renderer, const pf_render_settin
         free(wave);
         return pf_error_set(err, PF_ERR_LIMIT,
                             "wavefront: %u lights' shadow rays of one path exceed the device's "
-                            "largest buffer (%llu bytes)",
-                            light_count, (unsigned long long)limit);
+                            "largest buffer (%llu bytes) or the wavefront's %llu MiB",
+                            light_count, (unsigned long long)limit,
+                            (unsigned long long)(WAVE_MAX_BYTES >> 20));
     }
     wave->capacity = (uint32_t)capacity;
     uint64_t slots = capacity * wave->shadow_slots;
