@@ -81,17 +81,6 @@ typedef struct deform_device_run {
     uint32_t uploaded_nodes; /* nodes whose rest pose went to the device this frame */
 } deform_device_run;
 
-/* A buffer of at least one word, with size bytes of data recorded into cmds (data NULL:
- * nothing to send). */
-static pf_status buffer_with(pf_vk_context *ctx, pf_vk_commands *cmds, const char *label,
-                             const void *data, uint64_t size, pf_vk_buffer **out, pf_error *err)
-{
-    pf_status status = pf_vk_buffer_create(ctx, size > 4 ? size : 4, label, out, err);
-    if (status == PF_OK && data && size > 0)
-        status = pf_vk_cmd_upload(cmds, *out, 0, data, size, err);
-    return status;
-}
-
 /* The node's entry, created with its kept inputs recorded into cmds on first use. */
 static pf_status entry_for(deform_device_run *run, pf_vk_commands *cmds,
                            const pf_deform_node *node, deform_entry **out, pf_error *err)
@@ -164,9 +153,12 @@ static pf_status entry_for(deform_device_run *run, pf_vk_commands *cmds,
         {"deform tangents", NULL, node->target_tangents ? vec3s : 0},
         {"deform matrices per vertex", NULL, vertices * 12u * sizeof(float)},
     };
+    /* Every buffer at least a word; those a frame or the kernel fills start zeroed. */
     for (int b = 0; status == PF_OK && b < DEFORM_BUFFER_COUNT; b++)
-        status = buffer_with(ctx, cmds, inputs[b].label, inputs[b].data, inputs[b].size,
-                             &entry->buffers[b], err);
+        status = pf_render_buffer_recorded(ctx, cmds, inputs[b].label, inputs[b].data,
+                                           inputs[b].data ? inputs[b].size : 0,
+                                           inputs[b].size > 4 ? inputs[b].size : 4,
+                                           &entry->buffers[b], err);
     free(joints);
     free(joint_weights);
     if (status != PF_OK) {
