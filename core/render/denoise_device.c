@@ -90,8 +90,8 @@ pf_status denoise_device_filter(pf_renderer *renderer, denoise_planes *planes,
         status = pf_vk_cmd_download(cmds, buffers[5], 0, estimate, 4 * pixels, err);
     if (status == PF_OK)
         status = pf_vk_commands_submit(cmds, err);
-    if (status == PF_OK && begin >= 0 && end >= 0)
-        *gpu_ms = pf_vk_commands_elapsed_ms(cmds, begin, end);
+    if (status == PF_OK)
+        *gpu_ms = pf_commands_gpu_ms(cmds, begin, end);
     if (status == PF_OK)
         for (size_t p = 0; p < pixels; p++) {
             memcpy(planes->lighting + 3 * p, lit + 4 * p, 3 * sizeof(float));

@@ -388,8 +388,8 @@ static pf_status shade(pf_renderer *renderer, struct pf_fast_cache *cache,
                                            image, &readback, err);
     if (status == PF_OK)
         status = pf_vk_commands_submit(cmds, err);
-    if (status == PF_OK && begin >= 0 && end >= 0)
-        progress->shade_gpu_ms = pf_vk_commands_elapsed_ms(cmds, begin, end);
+    if (status == PF_OK)
+        progress->shade_gpu_ms = pf_commands_gpu_ms(cmds, begin, end);
     pf_vk_commands_destroy(cmds);
     if (status == PF_OK) {
         progress->samples = samples;
