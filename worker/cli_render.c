@@ -224,6 +224,7 @@ int pf_cli_render(int argc, char **argv)
         return code;
     }
 
+    size_t run_end = 0; /* one past the last frame of the run of consecutive frames i is in */
     for (size_t i = 0; i < frames.count && code == 0; i++) {
         char path[MAX_PATH_BYTES];
         if (!pf_frame_output_path(options.output, frames.frames[i], path, sizeof path)) {
@@ -231,11 +232,14 @@ int pf_cli_render(int argc, char **argv)
             break;
         }
         double elapsed_ms = 0.0;
-        /* The frames after this one that follow it one by one (a run the denoiser reuses). */
-        uint32_t following = 0;
-        while (i + following + 1 < frames.count &&
-               frames.frames[i + following + 1] == frames.frames[i] + (int64_t)following + 1)
-            following++;
+        /* The frames after this one that follow it one by one (a run the denoiser reuses),
+         * found once a run. */
+        if (run_end <= i)
+            for (run_end = i + 1;
+                 run_end < frames.count && frames.frames[run_end] == frames.frames[run_end - 1] + 1;
+                 run_end++)
+                ;
+        uint32_t following = (uint32_t)(run_end - i - 1);
         code = render_one(&options, &session, frames.frames[i], following, path, &elapsed_ms);
         if (code == 0) {
             printf("[%zu/%zu] frame %" PRId32 "  %.1f ms  %s\n", i + 1, frames.count,
