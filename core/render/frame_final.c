@@ -97,6 +97,12 @@ static const uint32_t points_bindings[3] = {PF_SCENE_BINDING_COUNT + 11u,
  * estimates then, so there is nothing to gather up).
  */
 #define FALLBACK_REQUEST_BYTES 48u
+/*
+ * Where the host traces the gather rays' first segments (plan->host_traces), the gather goes
+ * in bands of rows of at most this many pixels, so that the rays' buffers (52 bytes a ray,
+ * FINAL_GATHER_RAYS_PER_DISPATCH rays a pixel) stay bounded at any image size: ~54 MB.
+ */
+#define GATHER_BAND_PIXELS (1u << 18)
 _Static_assert(FINAL_GATHER_RAYS <= 4, "final_gather.comp keeps a pixel's requests in a uvec4");
 
 
@@ -116,9 +122,10 @@ typedef struct final_push {
     uint32_t points_count;
     pf_photon_grid_push points;
     uint32_t gather_retrace; /* final_gather_estimate.comp: only the rays marked OVERFLOW */
+    uint32_t gather_row_first; /* the gather's first row (the host traces bands of rows) */
 } final_push;
 
-_Static_assert(sizeof(final_push) == 120, "final_push must match final_shared.glsl's Push");
+_Static_assert(sizeof(final_push) == 124, "final_push must match final_shared.glsl's Push");
 _Static_assert(offsetof(final_push, points) % 16 == 0, "points_origin is a vec3");
 
 typedef struct final_counters {
@@ -192,6 +199,9 @@ typedef struct final_progress {
     uint64_t rays, discarded, truncated, dropped, failures;
     uint64_t deferred, estimated_at_once; /* gather estimates run by final_deferred.comp, and not */
     double shade_gpu_ms;
+    /* Where the host traced the gather rays: its trace steps, their time, its threads. */
+    uint32_t host_traces, trace_threads;
+    double host_trace_ms;
 } final_progress;
 
 /* The frame's state between its stages (pf_frame_run.state). */
@@ -309,6 +319,9 @@ typedef struct final_buffers {
     pf_vk_buffer *caustic_radii; /* per pixel: the caustic radius the first pass chose */
     pf_vk_buffer *fallback_requests, *pixel_fallbacks; /* the gather's deferred estimates */
     uint32_t fallback_capacity;  /* requests fallback_requests holds */
+    /* Where the host traces: the gather rays' queue, for bands of band_rows rows. */
+    pf_host_rays *gather_rays;
+    uint32_t band_rows;
 } final_buffers;
 
 static void final_buffers_release(pf_vk_context *ctx, final_buffers *b)
@@ -319,6 +332,8 @@ static void final_buffers_release(pf_vk_context *ctx, final_buffers *b)
                             &b->pixel_fallbacks};
     for (size_t i = 0; i < sizeof all / sizeof all[0]; i++)
         pf_render_buffer_release(ctx, all[i]);
+    pf_host_rays_destroy(b->gather_rays);
+    b->gather_rays = NULL;
 }
 
 /* A built grid's push parameters and buffers (at bindings: records, flux, ranges); returns its
@@ -368,6 +383,57 @@ static void finish_commands(pf_vk_commands *cmds, int begin, int end, final_prog
 }
 
 /*
+ * The gather where the host traces its rays' first segments (plan->host_traces): per band of
+ * rows, the kernel writes the band's rays (GATHER_WRITE_RAYS) at the end of the open
+ * submission *cmds, which goes; the host traces them in place; a new submission gathers the
+ * band with their hits (given: GATHER_HITS_GIVEN, the estimates in place without lookups). *cmds is
+ * left open after the last band's gather, *begin its first timestamp; on failure *cmds may be
+ * NULL.
+ */
+static pf_status gather_host_traced(pf_renderer *renderer, pf_vk_commands **cmds, int *begin,
+                                    pf_vk_buffer **buffers, const final_buffers *owned,
+                                    const pf_render_settings *settings, pf_vk_pipeline *given,
+                                    final_push *push, final_progress *progress, pf_error *err)
+{
+    pf_vk_pipeline *write = NULL;
+    pf_status status = pf_renderer_pipeline(renderer, PF_PIPELINE_FINAL_GATHER_RAYS, &write, err);
+    uint32_t groups_x = (settings->width + GROUP_EDGE - 1) / GROUP_EDGE;
+    for (uint32_t row = 0; status == PF_OK && row < settings->height; row += owned->band_rows) {
+        uint32_t rows = settings->height - row < owned->band_rows ? settings->height - row
+                                                                  : owned->band_rows;
+        uint32_t groups_y = (rows + GROUP_EDGE - 1) / GROUP_EDGE;
+        for (uint32_t first = 0; status == PF_OK && first < FINAL_GATHER_RAYS;
+             first += FINAL_GATHER_RAYS_PER_DISPATCH) {
+            push->gather_row_first = row;
+            push->gather_first = first;
+            push->gather_count = FINAL_GATHER_RAYS_PER_DISPATCH;
+            pf_vk_cmd_barrier(*cmds);
+            status = pf_vk_cmd_dispatch(*cmds, write, buffers, PF_FINAL_BUFFERS, push,
+                                        sizeof *push, groups_x, groups_y, 1, err);
+            int end = pf_vk_cmd_timestamp(*cmds);
+            if (status == PF_OK)
+                status = pf_vk_commands_submit(*cmds, err);
+            finish_commands(*cmds, *begin, status == PF_OK ? end : -1, progress);
+            *cmds = NULL;
+            if (status == PF_OK)
+                status = pf_host_rays_trace(owned->gather_rays,
+                                            rows * settings->width * FINAL_GATHER_RAYS_PER_DISPATCH,
+                                            &progress->rays, &progress->host_trace_ms, err);
+            progress->host_traces++;
+            if (status == PF_OK)
+                status = pf_vk_commands_begin(renderer->ctx, cmds, err);
+            if (status != PF_OK)
+                break;
+            *begin = pf_vk_cmd_timestamp(*cmds);
+            status = pf_vk_cmd_dispatch(*cmds, given, buffers, PF_FINAL_BUFFERS, push,
+                                        sizeof *push, groups_x, groups_y, 1, err);
+        }
+    }
+    push->gather_row_first = 0;
+    return status;
+}
+
+/*
  * Renders camera sample sample_index with pass's grids (pass NULL: no photon maps), in two
  * submissions: the primary (and caustic) kernel and the gather, then the deferred estimates and
  * the resolve. Between them the host reads whether the gather's requests overflowed
@@ -389,6 +455,7 @@ static pf_status shade_sample(pf_renderer *renderer, pf_vk_buffer **buffers,
                    *resolve = NULL;
     /* The primary and the caustic kernel gather from the caustic map. */
     final_push push;
+    memset(&push, 0, sizeof push);
     bind_grid(pass ? pass->caustic : NULL, pass ? pass->radius : 0.0f,
               pass ? pass->flux_scale : 0.0f, owned->empty_grid, &push, buffers);
     /* The caustic kernel only for a pass with caustic photons (scenes without a specular
@@ -396,13 +463,21 @@ static pf_status shade_sample(pf_renderer *renderer, pf_vk_buffer **buffers,
      * frame) gathers by estimates. */
     int caustics = push.grid_photons > 0;
     int lookups = pass && pass->points_built && wants_lookups(settings, plan, pass->global_stored);
+    /* Where the host traces the gather rays' first segments, the gather reads their hits. */
+    int host_traced = owned->gather_rays != NULL;
     pf_renderer_pipeline_id gather_id =
-        lookups ? PF_PIPELINE_FINAL_GATHER : PF_PIPELINE_FINAL_GATHER_ESTIMATE;
-    pf_renderer_pipeline_id kernels[5] = {PF_PIPELINE_FINAL_PRIMARY, gather_id,
-                                          PF_PIPELINE_FINAL_FALLBACK, PF_PIPELINE_FINAL_RESOLVE,
-                                          PF_PIPELINE_FINAL_CAUSTIC};
+        host_traced ? (lookups ? PF_PIPELINE_FINAL_GATHER_GIVEN
+                               : PF_PIPELINE_FINAL_GATHER_ESTIMATE_GIVEN)
+                    : (lookups ? PF_PIPELINE_FINAL_GATHER : PF_PIPELINE_FINAL_GATHER_ESTIMATE);
+    pf_renderer_pipeline_id kernels[6] = {PF_PIPELINE_FINAL_PRIMARY, gather_id,
+                                          PF_PIPELINE_FINAL_FALLBACK, PF_PIPELINE_FINAL_RESOLVE};
+    uint32_t kernel_count = 4;
+    if (caustics)
+        kernels[kernel_count++] = PF_PIPELINE_FINAL_CAUSTIC;
+    if (host_traced)
+        kernels[kernel_count++] = PF_PIPELINE_FINAL_GATHER_RAYS;
     if (status == PF_OK)
-        status = pf_renderer_pipelines_prepare(renderer, kernels, caustics ? 5 : 4, err);
+        status = pf_renderer_pipelines_prepare(renderer, kernels, kernel_count, err);
     if (status == PF_OK)
         status = pf_renderer_pipeline(renderer, PF_PIPELINE_FINAL_PRIMARY, &primary, err);
     if (status == PF_OK && caustics)
@@ -453,7 +528,15 @@ static pf_status shade_sample(pf_renderer *renderer, pf_vk_buffer **buffers,
     push.fallback_capacity = !lookups ? 0
                              : cap && cap < owned->fallback_capacity ? cap
                                                                      : owned->fallback_capacity;
-    for (uint32_t first = 0; status == PF_OK && first < FINAL_GATHER_RAYS;
+    if (host_traced && status == PF_OK) {
+        status = gather_host_traced(renderer, &cmds, &begin, buffers, owned, settings, gather,
+                                    &push, progress, err);
+        if (status != PF_OK) {
+            pf_vk_commands_destroy(cmds);
+            return status;
+        }
+    }
+    for (uint32_t first = 0; !host_traced && status == PF_OK && first < FINAL_GATHER_RAYS;
          first += FINAL_GATHER_RAYS_PER_DISPATCH) {
         pf_vk_cmd_barrier(cmds);
         push.gather_first = first;
@@ -571,6 +654,11 @@ static void report_rows(pf_frame_report *report, const pf_stage_plan *plan,
         pf_stage_add_counter(row, "deferred_estimates", (double)progress->deferred);
         pf_stage_add_counter(row, "deferred_overflow", (double)progress->estimated_at_once);
         pf_stage_add_counter(row, "triangles", frame->triangle_count);
+        if (progress->host_traces) {
+            pf_stage_add_counter(row, "host_traces", progress->host_traces);
+            pf_stage_add_counter(row, "host_trace_ms", progress->host_trace_ms);
+            pf_stage_add_counter(row, "trace_threads", progress->trace_threads);
+        }
     }
     if (report)
         report->discarded_samples += progress->discarded;
@@ -686,6 +774,17 @@ static pf_status final_begin(pf_frame_run *run, pf_error *err)
         status = pf_vk_buffer_create(ctx, pixels * 4 * sizeof(uint32_t),
                                      "final deferred estimates per pixel",
                                      &owned->pixel_fallbacks, err);
+    if (status == PF_OK && plan->host_traces) {
+        /* Whole groups of rows, so that no group's pixels lie in two bands. */
+        uint32_t rows = GATHER_BAND_PIXELS / settings->width / GROUP_EDGE * GROUP_EDGE;
+        owned->band_rows = rows > GROUP_EDGE ? rows : GROUP_EDGE;
+        status = pf_host_rays_create(renderer,
+                                     owned->band_rows * settings->width *
+                                         FINAL_GATHER_RAYS_PER_DISPATCH,
+                                     "final gather rays", &owned->gather_rays, err);
+        if (status == PF_OK)
+            f->progress.trace_threads = pf_host_rays_threads(owned->gather_rays);
+    }
     if (status != PF_OK) {
         pf_stage_forget(&renderer->stage_memory[PF_QUALITY_FINAL]);
         pf_image_free(run->image);
@@ -694,6 +793,10 @@ static pf_status final_begin(pf_frame_run *run, pf_error *err)
                         settings->height, run->frame->triangle_count);
         return status;
     }
+    /* 23..25: the gather rays' queue where the host traces, else a stand-in never read. */
+    pf_vk_buffer *queue[3] = {owned->empty_grid, owned->empty_grid, owned->empty_grid};
+    if (owned->gather_rays)
+        pf_host_rays_buffers(owned->gather_rays, queue);
     pf_vk_buffer *own[] = {
         owned->film,
         owned->film_aov,   owned->counters,  bih->nodes,      bih->vertices,
@@ -703,7 +806,7 @@ static pf_status final_begin(pf_frame_run *run, pf_error *err)
         /* 17..22 after the scene's: texel views of the film, the AOVs, the vertices, the sample sums, the
          * deferred estimates and their per-pixel slots (final_shared.glsl) */
         owned->film,       owned->film_aov,  owned->vertices, owned->samples,
-        owned->fallback_requests, owned->pixel_fallbacks};
+        owned->fallback_requests, owned->pixel_fallbacks, queue[0], queue[1], queue[2]};
     pf_gpu_scene_bindings(scene, owned->params, own, sizeof own / sizeof *own, f->buffers);
     run->state = f;
     return PF_OK;

@@ -48,6 +48,9 @@ typedef enum pf_renderer_pipeline_id {
     PF_PIPELINE_FINAL_FALLBACK,  /* final_deferred.comp */
     PF_PIPELINE_FINAL_RESOLVE,   /* final_resolve.comp */
     PF_PIPELINE_FINAL_CAUSTIC,   /* final_caustic.comp */
+    PF_PIPELINE_FINAL_GATHER_RAYS,  /* final_gather.comp, GATHER_WRITE_RAYS (the host traces) */
+    PF_PIPELINE_FINAL_GATHER_GIVEN, /* final_gather.comp, GATHER_HITS_GIVEN */
+    PF_PIPELINE_FINAL_GATHER_ESTIMATE_GIVEN, /* final_gather_estimate.comp, GATHER_HITS_GIVEN */
     PF_PIPELINE_FAST,            /* render_fast.comp */
     PF_PIPELINE_FAST_CAUSTIC,    /* render_fast_caustic.comp */
     PF_PIPELINE_DENOISE_VARIANCE, /* denoise_variance.comp */
@@ -62,8 +65,8 @@ typedef enum pf_renderer_pipeline_id {
 } pf_renderer_pipeline_id;
 
 
-/* The final kernels' bindings (final_shared.glsl), the same in all six pipelines. */
-#define PF_FINAL_BUFFERS (PF_SCENE_BINDING_COUNT + 23u)
+/* The final kernels' bindings (final_shared.glsl), the same in all of its pipelines. */
+#define PF_FINAL_BUFFERS (PF_SCENE_BINDING_COUNT + 26u)
 /* The fast kernels' bindings (fast_shade.glsl), the same in both pipelines. */
 #define PF_FAST_BUFFERS (PF_SCENE_BINDING_COUNT + 13u)
 
@@ -128,7 +131,9 @@ typedef struct pf_stage_plan {
     pf_photon_emitters emitters; /* fast, final: what photons are emitted from (plan-owned) */
     uint32_t reused_passes;
     pf_lpv_layout layout;
-    int host_traces; /* reference: the host traces the rays (a wavefront), else the device */
+    /* reference: the host traces the rays (a wavefront), else the device; final: the host
+     * traces the gather rays' first segments */
+    int host_traces;
 } pf_stage_plan;
 
 /*
@@ -142,9 +147,10 @@ typedef struct pf_stage_previous {
     uint64_t bih_frames;           /* frames that got a tree so far */
     int bih_pilot_replaced;        /* auto's pilot dropped the previous frame's tree */
     uint64_t max_buffer_range;     /* the device's largest storage buffer (the LPV's bound) */
-    /* Who may trace reference's rays: the renderer's setting, whether the device is the
-     * CPU with its memory the host's, whether this CPU has the wide traversal, and
-     * whether bih_build leaves its tree on the host. */
+    /* Who may trace reference's rays and final's gather rays: the renderer's setting,
+     * whether the device is the CPU with its buffers in host memory
+     * (pf_vk_storage_is_host_memory), whether this CPU has the wide traversal, and whether
+     * bih_build leaves its tree on the host. */
     pf_trace_site trace_site;
     int device_is_host, host_traversal, tree_on_host;
 } pf_stage_previous;
@@ -226,6 +232,25 @@ pf_status pf_reference_wave_passes(pf_reference_wave *wave, pf_vk_buffer *const 
                                    const pf_render_settings *settings, uint32_t count,
                                    pf_vk_commands *setup, pf_reference_progress *progress,
                                    pf_error *err);
+
+/*
+ * A queue of closest-hit rays that kernels write and the host traces in place
+ * (host_rays.c): final's gather rays where the device is the CPU. Three device buffers in
+ * host memory, bound where the kernel expects them: the rays (pf_ray), their hits (pf_hit)
+ * and a word per slot, 1 where the slot holds a ray. Created once bih_build has left the
+ * frame's tree in renderer->bih, for up to `slots` rays at a time.
+ */
+typedef struct pf_host_rays pf_host_rays;
+pf_status pf_host_rays_create(pf_renderer *renderer, uint32_t slots, const char *label,
+                              pf_host_rays **out, pf_error *err);
+void pf_host_rays_destroy(pf_host_rays *queue);
+/* rays, hits, queue words, in that order. */
+void pf_host_rays_buffers(const pf_host_rays *queue, pf_vk_buffer *out[3]);
+uint32_t pf_host_rays_threads(const pf_host_rays *queue);
+/* Traces the rays of slots [0, count) that the queue marks, writing their hits; adds the
+ * rays traced to *rays and the time taken to *host_ms. */
+pf_status pf_host_rays_trace(pf_host_rays *queue, uint32_t count, uint64_t *rays,
+                             double *host_ms, pf_error *err);
 
 /* The fingerprints' 64-bit hash, from h (PF_HASH_START for a fresh one). */
 #define PF_HASH_START 0xcbf29ce484222325ull

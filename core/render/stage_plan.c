@@ -221,13 +221,15 @@ static uint32_t samples_of(const pf_render_settings *settings, uint32_t preset_d
 }
 
 /*
- * reference: who traces its rays (pf_trace_site), appended to the shade row's reason. The
- * host traces where it can and the device is the CPU: its wide traversal runs several
- * times the device's speed there (bench/RESULTS.md, "Rays where the device traces them
- * best"); a forced site the frame cannot honour falls back to the device, saying why.
+ * reference and final: who traces their rays (pf_trace_site; final: its gather rays' first
+ * segments), appended to the shade row's reason, which names them `rays` (`host_rays` where
+ * the host traces). The host traces where it can and the device is the CPU: its wide
+ * traversal runs several times the device's speed there (bench/RESULTS.md, "Rays where the
+ * device traces them best"); a forced site the frame cannot honour falls back to the device,
+ * saying why.
  */
 static void plan_trace(const pf_scene_frame *frame, const pf_stage_previous *previous,
-                       pf_stage_plan *plan)
+                       const char *host_rays, const char *rays, pf_stage_plan *plan)
 {
     const char *why_not = NULL;
     if (previous->trace_site == PF_TRACE_DEVICE)
@@ -246,13 +248,12 @@ static void plan_trace(const pf_scene_frame *frame, const pf_stage_previous *pre
     char *reason = plan->stages[PF_STAGE_SHADE].reason;
     size_t used = strlen(reason);
     if (plan->host_traces)
-        snprintf(reason + used, PF_STAGE_REASON_MAX - used,
-                 "; wavefront, rays traced on the host%s",
+        snprintf(reason + used, PF_STAGE_REASON_MAX - used, "; %s traced on the host%s", host_rays,
                  previous->trace_site == PF_TRACE_HOST ? " (forced)"
                                                         : " (the device is the CPU)");
     else
-        snprintf(reason + used, PF_STAGE_REASON_MAX - used, "; rays traced on the device (%s)",
-                 why_not);
+        snprintf(reason + used, PF_STAGE_REASON_MAX - used, "; %s traced on the device (%s)",
+                 rays, why_not);
 }
 
 /* final and fast: the photon stages from the scene's emitters and specular surfaces. */
@@ -355,7 +356,7 @@ pf_stage_previous pf_stage_previous_of(const pf_renderer *renderer, pf_quality p
         renderer->bih_valid ? &renderer->bih : NULL, renderer->bih_frames,
         renderer->bih_pilot_replaced, pf_vk_info(renderer->ctx)->max_storage_buffer_range};
     previous.trace_site = renderer->trace_site;
-    previous.device_is_host = pf_vk_device_is_cpu(renderer->ctx);
+    previous.device_is_host = pf_vk_storage_is_host_memory(renderer->ctx);
     previous.host_traversal = pf_bih_wide_available();
     previous.tree_on_host = pf_renderer_bih_site(renderer) == PF_BIH_BUILD_CPU;
     return previous;
@@ -377,7 +378,7 @@ pf_status pf_plan_stages(const pf_scene_frame *frame, const pf_render_settings *
         return PF_OK;
     case PF_QUALITY_REFERENCE:
         plan->samples = samples_of(settings, REFERENCE_DEFAULT_SAMPLES, plan, "path samples");
-        plan_trace(frame, previous, plan);
+        plan_trace(frame, previous, "wavefront, rays", "rays", plan);
         return PF_OK;
     case PF_QUALITY_FAST:
     case PF_QUALITY_FINAL:
@@ -404,6 +405,7 @@ pf_status pf_plan_stages(const pf_scene_frame *frame, const pf_render_settings *
                      plan->photon_depth);
         plan_photons(plan, memory, 1);
         plan_final_passes(plan, memory);
+        plan_trace(frame, previous, "gather rays", "gather rays", plan);
         return PF_OK;
     }
     pf_lpv_setting which;

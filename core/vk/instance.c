@@ -215,6 +215,11 @@ const pf_vk_device_info *pf_vk_info(const pf_vk_context *ctx) { return &ctx->inf
 
 int pf_vk_device_is_cpu(const pf_vk_context *ctx) { return strcmp(ctx->info.type, "cpu") == 0; }
 
+int pf_vk_storage_is_host_memory(const pf_vk_context *ctx)
+{
+    return pf_vk_device_is_cpu(ctx) && !ctx->force_staging;
+}
+
 int pf_vk_validation_enabled(const pf_vk_context *ctx) { return ctx->validation; }
 
 uint32_t pf_vk_validation_message_count(const pf_vk_context *ctx)

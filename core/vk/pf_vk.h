@@ -72,6 +72,9 @@ const pf_vk_device_info *pf_vk_info(const pf_vk_context *ctx);
 /* Whether the device is the CPU (lavapipe): its memory is the host's, and stages that have a
  * host path of their own pick it there when it measures faster. */
 int pf_vk_device_is_cpu(const pf_vk_context *ctx);
+/* Whether the host reads and writes the storage buffers in place (pf_vk_buffer_host_memory):
+ * the device is the CPU and no staging is forced (tests force it to count a GPU's copies). */
+int pf_vk_storage_is_host_memory(const pf_vk_context *ctx);
 int pf_vk_validation_enabled(const pf_vk_context *ctx);
 /* Validation messages (warnings and errors) seen since creation. */
 uint32_t pf_vk_validation_message_count(const pf_vk_context *ctx);

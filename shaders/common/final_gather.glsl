@@ -15,10 +15,28 @@
 // same (both sides of every `if`, one pass of every loop): the estimate's
 // code in final_gather.comp cost ~20 % of it at 640×480 on the Cornell box
 // although no ray ran it (bench/RESULTS.md).
+//
+// Who traces a gather ray's first segment, the one nearly every gather ray
+// ends with (GATHER_STEP, constant_id 0; issue 43):
+//   GATHER_TRACED_HERE  this kernel, every segment (a GPU's: its traversal
+//                       kernel is the one to use);
+//   GATHER_WRITE_RAYS   nothing but the first segments, into gather_rays
+//                       (final_shared.glsl) for the host to trace where the
+//                       device is the CPU (core/render/wave_trace.c: the wide
+//                       AVX2 traversal on every core, in place);
+//   GATHER_HITS_GIVEN   the gather with the host's hits for the first
+//                       segments; the segments after a mirror or glass, few,
+//                       are traced here.
+// The rays are the same either way: gather_start computes a ray's first
+// segment for both steps, from the same random numbers.
 #ifndef PF_FINAL_GATHER_GLSL
 #define PF_FINAL_GATHER_GLSL
 
 layout(local_size_x = 8, local_size_y = 8) in;
+const uint GATHER_TRACED_HERE = 0u;
+const uint GATHER_WRITE_RAYS = 1u;
+const uint GATHER_HITS_GIVEN = 2u;
+layout(constant_id = 0) const uint GATHER_STEP = GATHER_TRACED_HERE;
 
 #include "scene_bindings.glsl"
 #include "photon_types.glsl"
@@ -60,6 +78,35 @@ bool global_irradiance_lookup(vec3 position, vec3 geometric_normal, out vec3 irr
     return found;
 }
 
+// A gather ray's first segment from D₁, its sampler left after the draw.
+struct GatherStart {
+    Sampler samples;
+    BsdfSample first;
+    vec3 path;   // its weight; zero: the ray carries nothing and is not traced
+    vec3 origin;
+};
+
+GatherStart gather_start(uint pixel_index, uint gather_index, Material d1_material,
+                         vec3 d1_position, vec3 shading_normal, vec3 geometric_normal,
+                         vec3 d1_throughput, vec3 wo)
+{
+    GatherStart s;
+    s.samples = sampler_init(pixel_index, push.sample_index * push.gather_total + gather_index,
+                             params.seed_lo ^ GATHER_SEED_SALT, params.seed_hi);
+    s.first = bsdf_sample(d1_material, wo, shading_normal, geometric_normal, true,
+                          sampler_next_4d(s.samples).xyz, TRANSPORT_RADIANCE);
+    s.path = d1_throughput * s.first.weight / float(push.gather_total);
+    s.origin = d1_position + params.camera_right.w * geometric_normal;
+    return s;
+}
+
+// The slot of gather ray gather_index of pixel_index among this dispatch's (final_shared.glsl).
+uint gather_slot(uint pixel_index, uint gather_index)
+{
+    return (pixel_index - push.gather_row_first * params.width) * push.gather_count +
+           (gather_index - push.gather_first);
+}
+
 // Radiance arriving at D₁ along one gather ray, weighted by the ray's BSDF
 // factor; emission hit straight from D₁ goes to direct (MIS), the rest to indirect.
 void gather_ray(uint pixel_index, uint gather_index, Material d1_material, vec3 d1_position,
@@ -69,23 +116,32 @@ void gather_ray(uint pixel_index, uint gather_index, Material d1_material, vec3 
 {
     const float infinity = uintBitsToFloat(0x7f800000u);
     float ray_offset = params.camera_right.w;
-    Sampler samples = sampler_init(pixel_index,
-                                   push.sample_index * push.gather_total + gather_index,
-                                   params.seed_lo ^ GATHER_SEED_SALT, params.seed_hi);
-    BsdfSample first = bsdf_sample(d1_material, wo, shading_normal, geometric_normal, true,
-                                   sampler_next_4d(samples).xyz, TRANSPORT_RADIANCE);
+    GatherStart start = gather_start(pixel_index, gather_index, d1_material, d1_position,
+                                     shading_normal, geometric_normal, d1_throughput, wo);
+    Sampler samples = start.samples;
+    BsdfSample first = start.first;
     float gather_total = float(push.gather_total);
-    vec3 path = d1_throughput * first.weight / gather_total;
+    vec3 path = start.path;
     if (!any(greaterThan(path, vec3(0.0))))
         return;
-    vec3 origin = d1_position + ray_offset * geometric_normal;
+    vec3 origin = start.origin;
     vec3 direction = first.direction;
     // Absorption of the medium the gather ray travels in: D₁ is taken to lie
     // in clear space (a floor under absorbing water gathers unattenuated).
     vec3 medium = vec3(0.0);
     for (uint bounce = 0u; bounce <= GATHER_MAX_SPECULAR; bounce++) {
-        BihHit hit = trace(origin, direction, infinity, false);
-        rays++;
+        BihHit hit;
+        if (GATHER_STEP == GATHER_HITS_GIVEN && bounce == 0u) {
+            // The host traced it (and counted it).
+            int at = int(4u * gather_slot(pixel_index, gather_index));
+            hit = BihHit(uintBitsToFloat(texelFetch(gather_hits, at).x),
+                         texelFetch(gather_hits, at + 1).x,
+                         uintBitsToFloat(texelFetch(gather_hits, at + 2).x),
+                         uintBitsToFloat(texelFetch(gather_hits, at + 3).x));
+        } else {
+            hit = trace(origin, direction, infinity, false);
+            rays++;
+        }
         if (hit.triangle == NO_HIT)
             return;
         path *= medium_transmittance(medium, hit.t);
@@ -209,12 +265,44 @@ void gather(uint pixel_index)
     count_rays(push.gather_retrace != 0u ? 0u : rays); // a retrace's rays were counted
 }
 
+// GATHER_WRITE_RAYS: the first segments of the dispatch's gather rays from pixel_index's D₁,
+// for the host; a slot without a ray (no D₁, a dropped sample, a zero weight) is marked so.
+void write_rays(uint pixel_index)
+{
+    const float infinity = uintBitsToFloat(0x7f800000u);
+    uint base = 5u * pixel_index;
+    vec4 d1 = texel_vec4(vertex_texels, base);
+    uint end = min(push.gather_first + push.gather_count, push.gather_total);
+    if (d1.w <= 0.0) {
+        for (uint g = push.gather_first; g < end; g++)
+            gather_queue[gather_slot(pixel_index, g)] = 0u;
+        return;
+    }
+    vec4 shading = texel_vec4(vertex_texels, base + 1u);
+    vec3 geometric_normal = texel_vec4(vertex_texels, base + 2u).xyz;
+    vec4 throughput_u = texel_vec4(vertex_texels, base + 3u);
+    vec4 wo_v = texel_vec4(vertex_texels, base + 4u);
+    Material material = scene_material_at(floatBitsToUint(shading.w), throughput_u.w, wo_v.w);
+    for (uint g = push.gather_first; g < end; g++) {
+        GatherStart start = gather_start(pixel_index, g, material, d1.xyz, shading.xyz,
+                                         geometric_normal, throughput_u.xyz, wo_v.xyz);
+        bool live = any(greaterThan(start.path, vec3(0.0)));
+        uint slot = gather_slot(pixel_index, g);
+        if (live)
+            gather_rays[slot] = Ray(vec4(start.origin, 0.0), vec4(start.first.direction, infinity));
+        gather_queue[slot] = live ? 1u : 0u;
+    }
+}
+
 void main()
 {
-    uvec2 pixel = gl_GlobalInvocationID.xy;
+    uvec2 pixel = uvec2(gl_GlobalInvocationID.x, gl_GlobalInvocationID.y + push.gather_row_first);
     if (pixel.x >= params.width || pixel.y >= params.height)
         return;
-    gather(pixel.y * params.width + pixel.x);
+    if (GATHER_STEP == GATHER_WRITE_RAYS)
+        write_rays(pixel.y * params.width + pixel.x);
+    else
+        gather(pixel.y * params.width + pixel.x);
 }
 
 #endif

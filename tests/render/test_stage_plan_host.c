@@ -194,9 +194,10 @@ static pf_stage_previous cpu_device(pf_trace_site site)
     return previous;
 }
 
-static void check_trace(const pf_stage_previous *previous, int host, const char *reason)
+static void check_trace_of(pf_quality quality, const pf_stage_previous *previous, int host,
+                           const char *reason)
 {
-    pf_render_settings settings = settings_of(PF_QUALITY_REFERENCE);
+    pf_render_settings settings = settings_of(quality);
     pf_stage_plan plan;
     pf_error err = {0};
     PF_CHECK(pf_plan_stages(&room.frame, &settings, previous, &plan, &err) == PF_OK);
@@ -204,6 +205,11 @@ static void check_trace(const pf_stage_previous *previous, int host, const char 
                  "host_traces %d, reason '%s' (expected %d, '%s')", plan.host_traces,
                  plan.stages[PF_STAGE_SHADE].reason, host, reason);
     pf_stage_plan_release(&plan);
+}
+
+static void check_trace(const pf_stage_previous *previous, int host, const char *reason)
+{
+    check_trace_of(PF_QUALITY_REFERENCE, previous, host, reason);
 }
 
 PF_TEST(reference_rays_go_where_they_are_traced_best)
@@ -230,6 +236,33 @@ PF_TEST(reference_rays_go_where_they_are_traced_best)
     room.materials[0].alpha_mode = PF_ALPHA_OPAQUE;
 }
 
+/* final's gather rays, by the same rules; fast and preview trace on the device, unsaid. */
+PF_TEST(final_gather_rays_go_where_they_are_traced_best)
+{
+    pf_stage_previous previous = cpu_device(PF_TRACE_AUTO);
+    check_trace_of(PF_QUALITY_FINAL, &previous, 1,
+                   "passes: 4 per pixel (the preset's default); gather rays traced on the host "
+                   "(the device is the CPU)");
+    previous.device_is_host = 0;
+    check_trace_of(PF_QUALITY_FINAL, &previous, 0,
+                   "; gather rays traced on the device (the device is not the CPU)");
+    previous = cpu_device(PF_TRACE_AUTO);
+    previous.tree_on_host = 0;
+    check_trace_of(PF_QUALITY_FINAL, &previous, 0, "(the BIH is built on the device)");
+    previous = cpu_device(PF_TRACE_AUTO);
+    pf_quality others[] = {PF_QUALITY_FAST, PF_QUALITY_PREVIEW};
+    for (size_t q = 0; q < sizeof others / sizeof others[0]; q++) {
+        pf_render_settings settings = settings_of(others[q]);
+        pf_stage_plan plan;
+        pf_error err = {0};
+        PF_CHECK_OK(pf_plan_stages(&room.frame, &settings, &previous, &plan, &err), &err);
+        PF_CHECK_MSG(!plan.host_traces && !strstr(plan.stages[PF_STAGE_SHADE].reason, "traced"),
+                     "%s: host_traces %d, '%s'", pf_quality_name(others[q]), plan.host_traces,
+                     plan.stages[PF_STAGE_SHADE].reason);
+        pf_stage_plan_release(&plan);
+    }
+}
+
 int main(void)
 {
     build_room();
@@ -238,6 +271,7 @@ int main(void)
     PF_RUN(the_bih_decision_follows_the_kept_tree);
     PF_RUN(lpv_settings_are_checked_against_the_device_limit);
     PF_RUN(reference_rays_go_where_they_are_traced_best);
+    PF_RUN(final_gather_rays_go_where_they_are_traced_best);
     ref_scene_free(&room);
     return pf_test_finish();
 }

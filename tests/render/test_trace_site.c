@@ -1,12 +1,21 @@
 /*
- * reference's two drivers (issue 43): the megakernel, whose rays the device
- * traces inside its one dispatch a pass, and the wavefront, whose rays the
- * host traces between dispatches (pf_renderer_set_trace_site). Both run
- * shaders/common/reference_path.glsl's paths from the same random numbers,
- * so the images must agree but for ties between equally distant triangles;
- * the shade row must say which ran and why; a frame the host cannot trace
- * (alpha-tested materials) goes to the device, saying so; an image larger
- * than the wavefront's slice is rendered slice by slice, every pixel once.
+ * Who traces the rays (issue 43, pf_renderer_set_trace_site).
+ *
+ * reference's two drivers: the megakernel, whose rays the device traces
+ * inside its one dispatch a pass, and the wavefront, whose rays the host
+ * traces between dispatches. Both run shaders/common/reference_path.glsl's
+ * paths from the same random numbers, so the images must agree but for ties
+ * between equally distant triangles; the shade row must say which ran and
+ * why; a frame the host cannot trace (alpha-tested materials) goes to the
+ * device, saying so; an image larger than the wavefront's slice is rendered
+ * slice by slice, every pixel once.
+ *
+ * final's gather: its rays' first segments traced by the device inside the
+ * gather, or written out, traced by the host and read back as hits
+ * (final_gather.glsl's GATHER_STEP). The same rays either way, so the images
+ * agree but for the photon maps' atomic order and ties; with precomputed
+ * irradiance and without; an image larger than a band of rows is gathered
+ * band by band.
  */
 #include "pf_test.h"
 #include "reference_test_util.h"
@@ -196,6 +205,83 @@ PF_TEST(alpha_tested_materials_are_traced_on_the_device_saying_why)
     ref_scene_free(&scene);
 }
 
+/* final's settings: passes, photons a pass. */
+static pf_render_settings final_settings(uint32_t width, uint32_t height, uint32_t passes,
+                                         uint32_t photons, uint64_t seed)
+{
+    pf_render_settings settings = ref_settings(width, height, passes, seed, 1);
+    settings.quality = PF_QUALITY_FINAL;
+    settings.photons_per_pass = photons;
+    return settings;
+}
+
+/* Renders final both ways; checks the images, the rays and the rows; returns the host's
+ * shade-row counter `counter` (NAN when a render failed). */
+static double check_gathers_agree(const pf_scene_frame *frame, const pf_render_settings *settings,
+                                  const char *what, const char *counter)
+{
+    pf_image device = {0}, host = {0};
+    pf_frame_report device_report, host_report;
+    double value = NAN;
+    if (render_with(frame, settings, PF_TRACE_DEVICE, &device, &device_report) &&
+        render_with(frame, settings, PF_TRACE_HOST, &host, &host_report)) {
+        PF_CHECK(device.channel_count == host.channel_count);
+        /* The photon maps' stores land in another order from run to run: sums round
+         * differently, far below the noise (two device runs differ by ~1e-12). */
+        double relmse = ref_layer_relmse(&host, &device, REF_CH_RGB);
+        double indirect = ref_layer_relmse(&host, &device, REF_CH_INDIRECT);
+        double device_rays = ref_stage_counter(&device_report, "shade", "rays");
+        double host_rays = ref_stage_counter(&host_report, "shade", "rays");
+        printf("  %s: RGB relMSE %.3g, indirect %.3g; rays %g (device) %g (host)\n", what,
+               relmse, indirect, device_rays, host_rays);
+        PF_CHECK_MSG(relmse <= 1e-6 && indirect <= 1e-6, "%s: relMSE %g, indirect %g", what,
+                     relmse, indirect);
+        PF_CHECK_MSG(device_rays > 0 && fabs(device_rays - host_rays) <= 0.001 * device_rays,
+                     "%s: %g rays on the device, %g on the host", what, device_rays, host_rays);
+        PF_CHECK(ref_stage_counter(&device_report, "shade", "lookup_passes") ==
+                 ref_stage_counter(&host_report, "shade", "lookup_passes"));
+        const pf_stage_timing *device_row = ref_row(&device_report, "shade");
+        const pf_stage_timing *host_row = ref_row(&host_report, "shade");
+        PF_CHECK(device_row &&
+                 strstr(device_row->reason, "gather rays traced on the device (forced)"));
+        PF_CHECK(host_row && strstr(host_row->reason, "gather rays traced on the host (forced)"));
+        PF_CHECK(isnan(ref_stage_counter(&device_report, "shade", "host_traces")));
+        PF_CHECK(ref_stage_counter(&host_report, "shade", "trace_threads") >= 1.0);
+        value = ref_stage_counter(&host_report, "shade", counter);
+    }
+    pf_image_free(&device);
+    pf_image_free(&host);
+    return value;
+}
+
+PF_TEST(final_gathers_the_same_light_from_host_traced_rays)
+{
+    ref_scene scene;
+    lit_box(&scene);
+    /* Few gather rays for the photons stored: estimates in place, no irradiance points. The
+     * glass and the mirror send gather rays on, traced in the gather. */
+    pf_render_settings settings = final_settings(40, 32, 2, 20000, 3);
+    double lookups = check_gathers_agree(&scene.frame, &settings, "lit box, estimates",
+                                         "lookup_passes");
+    PF_CHECK_MSG(lookups == 0.0, "lit box at 40x32: %g passes with lookups", lookups);
+    /* Many gather rays a stored photon: the irradiance points and the deferred estimates. */
+    settings = final_settings(160, 120, 2, 4000, 4);
+    lookups = check_gathers_agree(&scene.frame, &settings, "lit box, lookups", "lookup_passes");
+    PF_CHECK_MSG(lookups == 2.0, "lit box at 160x120: %g passes with lookups", lookups);
+    ref_scene_free(&scene);
+}
+
+PF_TEST(an_image_larger_than_a_band_is_gathered_band_by_band)
+{
+    /* 640 × 420 pixels: more than a band's 2^18 pixels, so two bands a pass. */
+    ref_scene scene;
+    lit_box(&scene);
+    pf_render_settings settings = final_settings(640, 420, 1, 20000, 5);
+    double traces = check_gathers_agree(&scene.frame, &settings, "two bands", "host_traces");
+    PF_CHECK_MSG(traces == 2.0, "640x420, 1 pass: %g host traces", traces);
+    ref_scene_free(&scene);
+}
+
 int main(void)
 {
     if (!render_test_setup(&ctx, &renderer))
@@ -204,5 +290,7 @@ int main(void)
     PF_RUN(a_box_with_lights_glass_and_metals_is_the_same_image_from_both_drivers);
     PF_RUN(an_image_larger_than_a_slice_gets_every_pixel_once);
     PF_RUN(alpha_tested_materials_are_traced_on_the_device_saying_why);
+    PF_RUN(final_gathers_the_same_light_from_host_traced_rays);
+    PF_RUN(an_image_larger_than_a_band_is_gathered_band_by_band);
     return render_test_finish(ctx, renderer);
 }
