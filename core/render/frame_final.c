@@ -98,9 +98,10 @@ static const uint32_t points_bindings[3] = {PF_SCENE_BINDING_COUNT + 11u,
  */
 #define FALLBACK_REQUEST_BYTES 48u
 /*
- * Where the host traces the gather rays' first segments (plan->host_traces), the gather goes
- * in bands of rows of at most this many pixels, so that the rays' buffers (52 bytes a ray,
- * FINAL_GATHER_RAYS_PER_DISPATCH rays a pixel) stay bounded at any image size: ~54 MB.
+ * Where the host traces the camera rays and the gather rays' first segments
+ * (plan->host_traces), the primary and the gather go in bands of rows of at most this many
+ * pixels, so that the rays' buffers (52 bytes a ray, FINAL_GATHER_RAYS_PER_DISPATCH rays a
+ * pixel) stay bounded at any image size: ~54 MB.
  */
 #define GATHER_BAND_PIXELS (1u << 18)
 _Static_assert(FINAL_GATHER_RAYS <= 4, "final_gather.comp keeps a pixel's requests in a uvec4");
@@ -122,7 +123,7 @@ typedef struct final_push {
     uint32_t points_count;
     pf_photon_grid_push points;
     uint32_t gather_retrace; /* final_gather_estimate.comp: only the rays marked OVERFLOW */
-    uint32_t gather_row_first; /* the gather's first row (the host traces bands of rows) */
+    uint32_t row_first; /* the primary's and gather's first row (where the host traces: bands) */
 } final_push;
 
 _Static_assert(sizeof(final_push) == 124, "final_push must match final_shared.glsl's Push");
@@ -319,8 +320,8 @@ typedef struct final_buffers {
     pf_vk_buffer *caustic_radii; /* per pixel: the caustic radius the first pass chose */
     pf_vk_buffer *fallback_requests, *pixel_fallbacks; /* the gather's deferred estimates */
     uint32_t fallback_capacity;  /* requests fallback_requests holds */
-    /* Where the host traces: the gather rays' queue, for bands of band_rows rows. */
-    pf_host_rays *gather_rays;
+    /* Where the host traces: the camera and gather rays' queue, for bands of band_rows rows. */
+    pf_host_rays *host_rays;
     uint32_t band_rows;
 } final_buffers;
 
@@ -332,8 +333,8 @@ static void final_buffers_release(pf_vk_context *ctx, final_buffers *b)
                             &b->pixel_fallbacks};
     for (size_t i = 0; i < sizeof all / sizeof all[0]; i++)
         pf_render_buffer_release(ctx, all[i]);
-    pf_host_rays_destroy(b->gather_rays);
-    b->gather_rays = NULL;
+    pf_host_rays_destroy(b->host_rays);
+    b->host_rays = NULL;
 }
 
 /* A built grid's push parameters and buffers (at bindings: records, flux, ranges); returns its
@@ -383,53 +384,46 @@ static void finish_commands(pf_vk_commands *cmds, int begin, int end, final_prog
 }
 
 /*
- * The gather where the host traces its rays' first segments (plan->host_traces): per band of
- * rows, the kernel writes the band's rays (GATHER_WRITE_RAYS) at the end of the open
- * submission *cmds, which goes; the host traces them in place; a new submission gathers the
- * band with their hits (given: GATHER_HITS_GIVEN, the estimates in place without lookups). *cmds is
- * left open after the last band's gather, *begin its first timestamp; on failure *cmds may be
- * NULL.
+ * A kernel whose rays' first segments the host traces (final_host_rays.glsl), per band of
+ * rows: `write` writes the band's rays (rays_per_pixel a pixel) at the end of the open
+ * submission *cmds, which goes; the host traces them in place; a new submission runs `given`
+ * over the band with their hits. *cmds is left open after the last band, *begin its first
+ * timestamp; on failure *cmds may be NULL.
  */
-static pf_status gather_host_traced(pf_renderer *renderer, pf_vk_commands **cmds, int *begin,
-                                    pf_vk_buffer **buffers, const final_buffers *owned,
-                                    const pf_render_settings *settings, pf_vk_pipeline *given,
-                                    final_push *push, final_progress *progress, pf_error *err)
+static pf_status dispatch_host_traced(pf_renderer *renderer, pf_vk_commands **cmds, int *begin,
+                                      pf_vk_buffer **buffers, const final_buffers *owned,
+                                      const pf_render_settings *settings, pf_vk_pipeline *write,
+                                      pf_vk_pipeline *given, uint32_t rays_per_pixel,
+                                      final_push *push, final_progress *progress, pf_error *err)
 {
-    pf_vk_pipeline *write = NULL;
-    pf_status status = pf_renderer_pipeline(renderer, PF_PIPELINE_FINAL_GATHER_RAYS, &write, err);
+    pf_status status = PF_OK;
     uint32_t groups_x = (settings->width + GROUP_EDGE - 1) / GROUP_EDGE;
     for (uint32_t row = 0; status == PF_OK && row < settings->height; row += owned->band_rows) {
         uint32_t rows = settings->height - row < owned->band_rows ? settings->height - row
                                                                   : owned->band_rows;
         uint32_t groups_y = (rows + GROUP_EDGE - 1) / GROUP_EDGE;
-        for (uint32_t first = 0; status == PF_OK && first < FINAL_GATHER_RAYS;
-             first += FINAL_GATHER_RAYS_PER_DISPATCH) {
-            push->gather_row_first = row;
-            push->gather_first = first;
-            push->gather_count = FINAL_GATHER_RAYS_PER_DISPATCH;
-            pf_vk_cmd_barrier(*cmds);
-            status = pf_vk_cmd_dispatch(*cmds, write, buffers, PF_FINAL_BUFFERS, push,
-                                        sizeof *push, groups_x, groups_y, 1, err);
-            int end = pf_vk_cmd_timestamp(*cmds);
-            if (status == PF_OK)
-                status = pf_vk_commands_submit(*cmds, err);
-            finish_commands(*cmds, *begin, status == PF_OK ? end : -1, progress);
-            *cmds = NULL;
-            if (status == PF_OK)
-                status = pf_host_rays_trace(owned->gather_rays,
-                                            rows * settings->width * FINAL_GATHER_RAYS_PER_DISPATCH,
-                                            &progress->rays, &progress->host_trace_ms, err);
-            progress->host_traces++;
-            if (status == PF_OK)
-                status = pf_vk_commands_begin(renderer->ctx, cmds, err);
-            if (status != PF_OK)
-                break;
-            *begin = pf_vk_cmd_timestamp(*cmds);
-            status = pf_vk_cmd_dispatch(*cmds, given, buffers, PF_FINAL_BUFFERS, push,
-                                        sizeof *push, groups_x, groups_y, 1, err);
-        }
+        push->row_first = row;
+        pf_vk_cmd_barrier(*cmds);
+        status = pf_vk_cmd_dispatch(*cmds, write, buffers, PF_FINAL_BUFFERS, push, sizeof *push,
+                                    groups_x, groups_y, 1, err);
+        int end = pf_vk_cmd_timestamp(*cmds);
+        if (status == PF_OK)
+            status = pf_vk_commands_submit(*cmds, err);
+        finish_commands(*cmds, *begin, status == PF_OK ? end : -1, progress);
+        *cmds = NULL;
+        if (status == PF_OK)
+            status = pf_host_rays_trace(owned->host_rays, rows * settings->width * rays_per_pixel,
+                                        &progress->rays, &progress->host_trace_ms, err);
+        progress->host_traces++;
+        if (status == PF_OK)
+            status = pf_vk_commands_begin(renderer->ctx, cmds, err);
+        if (status != PF_OK)
+            break;
+        *begin = pf_vk_cmd_timestamp(*cmds);
+        status = pf_vk_cmd_dispatch(*cmds, given, buffers, PF_FINAL_BUFFERS, push, sizeof *push,
+                                    groups_x, groups_y, 1, err);
     }
-    push->gather_row_first = 0;
+    push->row_first = 0;
     return status;
 }
 
@@ -463,23 +457,30 @@ static pf_status shade_sample(pf_renderer *renderer, pf_vk_buffer **buffers,
      * frame) gathers by estimates. */
     int caustics = push.grid_photons > 0;
     int lookups = pass && pass->points_built && wants_lookups(settings, plan, pass->global_stored);
-    /* Where the host traces the gather rays' first segments, the gather reads their hits. */
-    int host_traced = owned->gather_rays != NULL;
+    /* Where the host traces the camera rays and the gather rays' first segments
+     * (final_host_rays.glsl), the primary and the gather read their hits, after kernels of
+     * their modules that write the rays. */
+    int host_traced = owned->host_rays != NULL;
+    pf_renderer_pipeline_id primary_id =
+        host_traced ? PF_PIPELINE_FINAL_PRIMARY_GIVEN : PF_PIPELINE_FINAL_PRIMARY;
     pf_renderer_pipeline_id gather_id =
         host_traced ? (lookups ? PF_PIPELINE_FINAL_GATHER_GIVEN
                                : PF_PIPELINE_FINAL_GATHER_ESTIMATE_GIVEN)
                     : (lookups ? PF_PIPELINE_FINAL_GATHER : PF_PIPELINE_FINAL_GATHER_ESTIMATE);
-    pf_renderer_pipeline_id kernels[6] = {PF_PIPELINE_FINAL_PRIMARY, gather_id,
-                                          PF_PIPELINE_FINAL_FALLBACK, PF_PIPELINE_FINAL_RESOLVE};
+    pf_renderer_pipeline_id kernels[7] = {primary_id, gather_id, PF_PIPELINE_FINAL_FALLBACK,
+                                          PF_PIPELINE_FINAL_RESOLVE};
     uint32_t kernel_count = 4;
     if (caustics)
         kernels[kernel_count++] = PF_PIPELINE_FINAL_CAUSTIC;
-    if (host_traced)
+    if (host_traced) {
+        kernels[kernel_count++] = PF_PIPELINE_FINAL_PRIMARY_RAYS;
         kernels[kernel_count++] = PF_PIPELINE_FINAL_GATHER_RAYS;
+    }
+    pf_vk_pipeline *primary_rays = NULL, *gather_rays = NULL;
     if (status == PF_OK)
         status = pf_renderer_pipelines_prepare(renderer, kernels, kernel_count, err);
     if (status == PF_OK)
-        status = pf_renderer_pipeline(renderer, PF_PIPELINE_FINAL_PRIMARY, &primary, err);
+        status = pf_renderer_pipeline(renderer, primary_id, &primary, err);
     if (status == PF_OK && caustics)
         status = pf_renderer_pipeline(renderer, PF_PIPELINE_FINAL_CAUSTIC, &caustic, err);
     if (status == PF_OK)
@@ -488,9 +489,14 @@ static pf_status shade_sample(pf_renderer *renderer, pf_vk_buffer **buffers,
         status = pf_renderer_pipeline(renderer, PF_PIPELINE_FINAL_FALLBACK, &fallback, err);
     if (status == PF_OK)
         status = pf_renderer_pipeline(renderer, PF_PIPELINE_FINAL_RESOLVE, &resolve, err);
+    if (status == PF_OK && host_traced)
+        status = pf_renderer_pipeline(renderer, PF_PIPELINE_FINAL_PRIMARY_RAYS, &primary_rays, err);
+    if (status == PF_OK && host_traced)
+        status = pf_renderer_pipeline(renderer, PF_PIPELINE_FINAL_GATHER_RAYS, &gather_rays, err);
     /* Two submissions a sample: the counters zeroed, the primary, caustic and gather
      * kernels and the counters' readback, which says whether the deferred requests
-     * overflowed; then the retrace, fallback and resolve with the counters again. */
+     * overflowed; then the retrace, fallback and resolve with the counters again. Where the
+     * host traces, the first is cut where it does, twice a band. */
     pf_vk_commands *cmds = NULL;
     if (status == PF_OK)
         status = pf_vk_commands_begin(ctx, &cmds, err);
@@ -509,7 +515,10 @@ static pf_status shade_sample(pf_renderer *renderer, pf_vk_buffer **buffers,
     push.loop_sentinel = 1;
     push.gather_retrace = 0;
     bind_points(NULL, owned->empty_grid, &push, buffers);
-    if (status == PF_OK)
+    if (status == PF_OK && host_traced)
+        status = dispatch_host_traced(renderer, &cmds, &begin, buffers, owned, settings,
+                                      primary_rays, primary, 1, &push, progress, err);
+    else if (status == PF_OK)
         status = pf_vk_cmd_dispatch(cmds, primary, buffers, PF_FINAL_BUFFERS,
                                     &push, sizeof push, groups_x, groups_y, 1, err);
     if (status == PF_OK && caustics) {
@@ -528,21 +537,23 @@ static pf_status shade_sample(pf_renderer *renderer, pf_vk_buffer **buffers,
     push.fallback_capacity = !lookups ? 0
                              : cap && cap < owned->fallback_capacity ? cap
                                                                      : owned->fallback_capacity;
-    if (host_traced && status == PF_OK) {
-        status = gather_host_traced(renderer, &cmds, &begin, buffers, owned, settings, gather,
-                                    &push, progress, err);
-        if (status != PF_OK) {
-            pf_vk_commands_destroy(cmds);
-            return status;
-        }
-    }
-    for (uint32_t first = 0; !host_traced && status == PF_OK && first < FINAL_GATHER_RAYS;
+    for (uint32_t first = 0; status == PF_OK && first < FINAL_GATHER_RAYS;
          first += FINAL_GATHER_RAYS_PER_DISPATCH) {
-        pf_vk_cmd_barrier(cmds);
         push.gather_first = first;
         push.gather_count = FINAL_GATHER_RAYS_PER_DISPATCH;
+        if (host_traced) {
+            status = dispatch_host_traced(renderer, &cmds, &begin, buffers, owned, settings,
+                                          gather_rays, gather, FINAL_GATHER_RAYS_PER_DISPATCH,
+                                          &push, progress, err);
+            continue;
+        }
+        pf_vk_cmd_barrier(cmds);
         status = pf_vk_cmd_dispatch(cmds, gather, buffers, PF_FINAL_BUFFERS,
                                     &push, sizeof push, groups_x, groups_y, 1, err);
+    }
+    if (status != PF_OK) { /* the host's trace may have left none open */
+        pf_vk_commands_destroy(cmds);
+        return status;
     }
     int end = pf_vk_cmd_timestamp(cmds);
     final_counters counters;
@@ -781,9 +792,9 @@ static pf_status final_begin(pf_frame_run *run, pf_error *err)
         status = pf_host_rays_create(renderer,
                                      owned->band_rows * settings->width *
                                          FINAL_GATHER_RAYS_PER_DISPATCH,
-                                     "final gather rays", &owned->gather_rays, err);
+                                     "final host-traced rays", &owned->host_rays, err);
         if (status == PF_OK)
-            f->progress.trace_threads = pf_host_rays_threads(owned->gather_rays);
+            f->progress.trace_threads = pf_host_rays_threads(owned->host_rays);
     }
     if (status != PF_OK) {
         pf_stage_forget(&renderer->stage_memory[PF_QUALITY_FINAL]);
@@ -795,8 +806,8 @@ static pf_status final_begin(pf_frame_run *run, pf_error *err)
     }
     /* 23..25: the gather rays' queue where the host traces, else a stand-in never read. */
     pf_vk_buffer *queue[3] = {owned->empty_grid, owned->empty_grid, owned->empty_grid};
-    if (owned->gather_rays)
-        pf_host_rays_buffers(owned->gather_rays, queue);
+    if (owned->host_rays)
+        pf_host_rays_buffers(owned->host_rays, queue);
     pf_vk_buffer *own[] = {
         owned->film,
         owned->film_aov,   owned->counters,  bih->nodes,      bih->vertices,

@@ -48,9 +48,12 @@ typedef enum pf_renderer_pipeline_id {
     PF_PIPELINE_FINAL_FALLBACK,  /* final_deferred.comp */
     PF_PIPELINE_FINAL_RESOLVE,   /* final_resolve.comp */
     PF_PIPELINE_FINAL_CAUSTIC,   /* final_caustic.comp */
-    PF_PIPELINE_FINAL_GATHER_RAYS,  /* final_gather.comp, GATHER_WRITE_RAYS (the host traces) */
-    PF_PIPELINE_FINAL_GATHER_GIVEN, /* final_gather.comp, GATHER_HITS_GIVEN */
-    PF_PIPELINE_FINAL_GATHER_ESTIMATE_GIVEN, /* final_gather_estimate.comp, GATHER_HITS_GIVEN */
+    /* final where the host traces (final_host_rays.glsl's TRACE_STEP) */
+    PF_PIPELINE_FINAL_PRIMARY_RAYS,  /* render_final.comp, WRITE_RAYS */
+    PF_PIPELINE_FINAL_PRIMARY_GIVEN, /* render_final.comp, HITS_GIVEN */
+    PF_PIPELINE_FINAL_GATHER_RAYS,   /* final_gather.comp, WRITE_RAYS */
+    PF_PIPELINE_FINAL_GATHER_GIVEN,  /* final_gather.comp, HITS_GIVEN */
+    PF_PIPELINE_FINAL_GATHER_ESTIMATE_GIVEN, /* final_gather_estimate.comp, HITS_GIVEN */
     PF_PIPELINE_FAST,            /* render_fast.comp */
     PF_PIPELINE_FAST_CAUSTIC,    /* render_fast_caustic.comp */
     PF_PIPELINE_DENOISE_VARIANCE, /* denoise_variance.comp */

@@ -18,10 +18,11 @@
 #define RENDER_REFERENCE_PUSH_BYTES 4u
 /* render_final.comp (primary), final_caustic.comp, final_gather.comp,
  * final_gather_estimate.comp, final_deferred.comp and final_resolve.comp: PF_FINAL_BUFFERS
- * buffers and the same 124-byte Push (final_shared.glsl); the gathers' constant_id 0 says who
- * traces their first segments (GATHER_TRACED_HERE 0, GATHER_WRITE_RAYS 1, GATHER_HITS_GIVEN 2). */
+ * buffers and the same 124-byte Push (final_shared.glsl); the primary's and the gathers'
+ * constant_id 0 says who traces their rays' first segments (final_host_rays.glsl: TRACED_HERE
+ * 0, WRITE_RAYS 1, HITS_GIVEN 2). */
 #define RENDER_FINAL_PUSH_BYTES 124u
-#define FINAL_GATHER_STEP 0u
+#define FINAL_TRACE_STEP 0u
 /* render_fast.comp and render_fast_caustic.comp: PF_FAST_BUFFERS buffers and the same 72-byte
  * Push (fast_shade.glsl). */
 #define RENDER_FAST_PUSH_BYTES 72u
@@ -73,13 +74,17 @@ static const pipeline_spec pipeline_specs[PF_PIPELINE_COUNT] = {
                                    0, {0, 0}, 1},
     [PF_PIPELINE_FINAL_CAUSTIC] = {"final_caustic", PF_FINAL_BUFFERS, RENDER_FINAL_PUSH_BYTES,
                                    0, {0, 0}, 1},
+    [PF_PIPELINE_FINAL_PRIMARY_RAYS] = {"render_final", PF_FINAL_BUFFERS,
+                                        RENDER_FINAL_PUSH_BYTES, 1, {FINAL_TRACE_STEP, 1}, 1},
+    [PF_PIPELINE_FINAL_PRIMARY_GIVEN] = {"render_final", PF_FINAL_BUFFERS,
+                                         RENDER_FINAL_PUSH_BYTES, 1, {FINAL_TRACE_STEP, 2}, 1},
     [PF_PIPELINE_FINAL_GATHER_RAYS] = {"final_gather", PF_FINAL_BUFFERS, RENDER_FINAL_PUSH_BYTES,
-                                       1, {FINAL_GATHER_STEP, 1}, 1},
+                                       1, {FINAL_TRACE_STEP, 1}, 1},
     [PF_PIPELINE_FINAL_GATHER_GIVEN] = {"final_gather", PF_FINAL_BUFFERS,
-                                        RENDER_FINAL_PUSH_BYTES, 1, {FINAL_GATHER_STEP, 2}, 1},
+                                        RENDER_FINAL_PUSH_BYTES, 1, {FINAL_TRACE_STEP, 2}, 1},
     [PF_PIPELINE_FINAL_GATHER_ESTIMATE_GIVEN] = {"final_gather_estimate", PF_FINAL_BUFFERS,
                                                  RENDER_FINAL_PUSH_BYTES, 1,
-                                                 {FINAL_GATHER_STEP, 2}, 1},
+                                                 {FINAL_TRACE_STEP, 2}, 1},
     [PF_PIPELINE_FAST] = {"render_fast", PF_FAST_BUFFERS, RENDER_FAST_PUSH_BYTES, 0, {0, 0}, 1},
     [PF_PIPELINE_FAST_CAUSTIC] = {"render_fast_caustic", PF_FAST_BUFFERS, RENDER_FAST_PUSH_BYTES,
                                   0, {0, 0}, 1},

@@ -221,8 +221,8 @@ static uint32_t samples_of(const pf_render_settings *settings, uint32_t preset_d
 }
 
 /*
- * reference and final: who traces their rays (pf_trace_site; final: its gather rays' first
- * segments), appended to the shade row's reason, which names them `rays` (`host_rays` where
+ * reference and final: who traces their rays (pf_trace_site; final: its camera rays and its
+ * gather rays' first segments), appended to the shade row's reason, which names them `rays` (`host_rays` where
  * the host traces). The host traces where it can and the device is the CPU: its wide
  * traversal runs several times the device's speed there (bench/RESULTS.md, "Rays where the
  * device traces them best"); a forced site the frame cannot honour falls back to the device,
@@ -405,7 +405,7 @@ pf_status pf_plan_stages(const pf_scene_frame *frame, const pf_render_settings *
                      plan->photon_depth);
         plan_photons(plan, memory, 1);
         plan_final_passes(plan, memory);
-        plan_trace(frame, previous, "gather rays", "gather rays", plan);
+        plan_trace(frame, previous, "camera and gather rays", "camera and gather rays", plan);
         return PF_OK;
     }
     pf_lpv_setting which;

@@ -16,27 +16,14 @@
 // code in final_gather.comp cost ~20 % of it at 640×480 on the Cornell box
 // although no ray ran it (bench/RESULTS.md).
 //
-// Who traces a gather ray's first segment, the one nearly every gather ray
-// ends with (GATHER_STEP, constant_id 0; issue 43):
-//   GATHER_TRACED_HERE  this kernel, every segment (a GPU's: its traversal
-//                       kernel is the one to use);
-//   GATHER_WRITE_RAYS   nothing but the first segments, into gather_rays
-//                       (final_shared.glsl) for the host to trace where the
-//                       device is the CPU (core/render/wave_trace.c: the wide
-//                       AVX2 traversal on every core, in place);
-//   GATHER_HITS_GIVEN   the gather with the host's hits for the first
-//                       segments; the segments after a mirror or glass, few,
-//                       are traced here.
-// The rays are the same either way: gather_start computes a ray's first
-// segment for both steps, from the same random numbers.
+// Where the host traces the gather rays' first segments (final_host_rays.glsl's
+// TRACE_STEP), WRITE_RAYS writes them and HITS_GIVEN gathers with their hits;
+// the segments after a mirror or glass, few, are traced here. gather_start
+// computes a ray's first segment for both steps.
 #ifndef PF_FINAL_GATHER_GLSL
 #define PF_FINAL_GATHER_GLSL
 
 layout(local_size_x = 8, local_size_y = 8) in;
-const uint GATHER_TRACED_HERE = 0u;
-const uint GATHER_WRITE_RAYS = 1u;
-const uint GATHER_HITS_GIVEN = 2u;
-layout(constant_id = 0) const uint GATHER_STEP = GATHER_TRACED_HERE;
 
 #include "scene_bindings.glsl"
 #include "photon_types.glsl"
@@ -45,6 +32,7 @@ layout(constant_id = 0) const uint GATHER_STEP = GATHER_TRACED_HERE;
 
 #define BIH_BINDING (PF_SCENE_BINDING_COUNT + 3)
 #include "scene_trace.glsl"
+#include "final_host_rays.glsl"
 #include "area_lights.glsl"
 #include "lights.glsl"
 #include "materials.glsl"
@@ -100,10 +88,10 @@ GatherStart gather_start(uint pixel_index, uint gather_index, Material d1_materi
     return s;
 }
 
-// The slot of gather ray gather_index of pixel_index among this dispatch's (final_shared.glsl).
+// The slot of gather ray gather_index of pixel_index among this dispatch's (final_host_rays.glsl).
 uint gather_slot(uint pixel_index, uint gather_index)
 {
-    return (pixel_index - push.gather_row_first * params.width) * push.gather_count +
+    return (pixel_index - push.row_first * params.width) * push.gather_count +
            (gather_index - push.gather_first);
 }
 
@@ -131,13 +119,8 @@ void gather_ray(uint pixel_index, uint gather_index, Material d1_material, vec3 
     vec3 medium = vec3(0.0);
     for (uint bounce = 0u; bounce <= GATHER_MAX_SPECULAR; bounce++) {
         BihHit hit;
-        if (GATHER_STEP == GATHER_HITS_GIVEN && bounce == 0u) {
-            // The host traced it (and counted it).
-            int at = int(4u * gather_slot(pixel_index, gather_index));
-            hit = BihHit(uintBitsToFloat(texelFetch(gather_hits, at).x),
-                         texelFetch(gather_hits, at + 1).x,
-                         uintBitsToFloat(texelFetch(gather_hits, at + 2).x),
-                         uintBitsToFloat(texelFetch(gather_hits, at + 3).x));
+        if (TRACE_STEP == HITS_GIVEN && bounce == 0u) {
+            hit = host_hit(gather_slot(pixel_index, gather_index)); // traced and counted there
         } else {
             hit = trace(origin, direction, infinity, false);
             rays++;
@@ -265,17 +248,16 @@ void gather(uint pixel_index)
     count_rays(push.gather_retrace != 0u ? 0u : rays); // a retrace's rays were counted
 }
 
-// GATHER_WRITE_RAYS: the first segments of the dispatch's gather rays from pixel_index's D₁,
+// WRITE_RAYS: the first segments of the dispatch's gather rays from pixel_index's D₁,
 // for the host; a slot without a ray (no D₁, a dropped sample, a zero weight) is marked so.
 void write_rays(uint pixel_index)
 {
-    const float infinity = uintBitsToFloat(0x7f800000u);
     uint base = 5u * pixel_index;
     vec4 d1 = texel_vec4(vertex_texels, base);
     uint end = min(push.gather_first + push.gather_count, push.gather_total);
     if (d1.w <= 0.0) {
         for (uint g = push.gather_first; g < end; g++)
-            gather_queue[gather_slot(pixel_index, g)] = 0u;
+            host_ray_write(gather_slot(pixel_index, g), false, vec3(0.0), vec3(0.0));
         return;
     }
     vec4 shading = texel_vec4(vertex_texels, base + 1u);
@@ -286,20 +268,17 @@ void write_rays(uint pixel_index)
     for (uint g = push.gather_first; g < end; g++) {
         GatherStart start = gather_start(pixel_index, g, material, d1.xyz, shading.xyz,
                                          geometric_normal, throughput_u.xyz, wo_v.xyz);
-        bool live = any(greaterThan(start.path, vec3(0.0)));
-        uint slot = gather_slot(pixel_index, g);
-        if (live)
-            gather_rays[slot] = Ray(vec4(start.origin, 0.0), vec4(start.first.direction, infinity));
-        gather_queue[slot] = live ? 1u : 0u;
+        host_ray_write(gather_slot(pixel_index, g), any(greaterThan(start.path, vec3(0.0))),
+                       start.origin, start.first.direction);
     }
 }
 
 void main()
 {
-    uvec2 pixel = uvec2(gl_GlobalInvocationID.x, gl_GlobalInvocationID.y + push.gather_row_first);
+    uvec2 pixel = band_pixel();
     if (pixel.x >= params.width || pixel.y >= params.height)
         return;
-    if (GATHER_STEP == GATHER_WRITE_RAYS)
+    if (TRACE_STEP == WRITE_RAYS)
         write_rays(pixel.y * params.width + pixel.x);
     else
         gather(pixel.y * params.width + pixel.x);

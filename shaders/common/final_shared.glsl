@@ -9,7 +9,6 @@
 #ifndef PF_FINAL_SHARED_GLSL
 #define PF_FINAL_SHARED_GLSL
 
-#include "ray_types.glsl"
 
 layout(push_constant) uniform Push {
     vec3 grid_origin;
@@ -35,7 +34,7 @@ layout(push_constant) uniform Push {
     uint points_hashed;
     uint points_table_size;
     uint gather_retrace; // final_gather_estimate.comp: trace only the OVERFLOW_REQUEST rays
-    uint gather_row_first; // gather: the first image row of this dispatch (a band of rows)
+    uint row_first;     // primary, gather: the first image row of this dispatch (a band of rows)
 } push;
 
 layout(std430, set = 0, binding = PF_SCENE_BINDING_COUNT + 0) buffer Film { vec4 film[]; };
@@ -71,14 +70,6 @@ layout(std430, set = 0, binding = PF_SCENE_BINDING_COUNT + 13) buffer FallbackRe
 layout(std430, set = 0, binding = PF_SCENE_BINDING_COUNT + 14) buffer PixelFallbacks { uvec4 pixel_fallbacks[]; };
 layout(set = 0, binding = PF_SCENE_BINDING_COUNT + 15) uniform usamplerBuffer grid_flux;
 layout(set = 0, binding = PF_SCENE_BINDING_COUNT + 16) uniform usamplerBuffer points_flux;
-// The gather rays' first segments where the host traces them (final_gather.glsl's
-// GATHER_STEP): slot ((row - push.gather_row_first) · width + column) ·
-// push.gather_count + (ray - push.gather_first) of the band's rays; queue 1
-// where the slot holds a ray, 0 where not; the hits (HitRecord, 4 words)
-// the host wrote, read through a texel view.
-layout(std430, set = 0, binding = PF_SCENE_BINDING_COUNT + 23) writeonly buffer GatherRays { Ray gather_rays[]; };
-layout(set = 0, binding = PF_SCENE_BINDING_COUNT + 24) uniform usamplerBuffer gather_hits;
-layout(std430, set = 0, binding = PF_SCENE_BINDING_COUNT + 25) writeonly buffer GatherQueue { uint gather_queue[]; };
 const uint NO_REQUEST = 0xFFFFFFFFu;
 // A gather ray whose request found fallback_requests full: its estimate is
 // left to final_gather_estimate.comp's retrace, before the resolve.

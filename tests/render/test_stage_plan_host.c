@@ -236,16 +236,16 @@ PF_TEST(reference_rays_go_where_they_are_traced_best)
     room.materials[0].alpha_mode = PF_ALPHA_OPAQUE;
 }
 
-/* final's gather rays, by the same rules; fast and preview trace on the device, unsaid. */
-PF_TEST(final_gather_rays_go_where_they_are_traced_best)
+/* final's camera and gather rays, by the same rules; fast and preview trace on the device, unsaid. */
+PF_TEST(final_rays_go_where_they_are_traced_best)
 {
     pf_stage_previous previous = cpu_device(PF_TRACE_AUTO);
     check_trace_of(PF_QUALITY_FINAL, &previous, 1,
-                   "passes: 4 per pixel (the preset's default); gather rays traced on the host "
-                   "(the device is the CPU)");
+                   "passes: 4 per pixel (the preset's default); camera and gather rays traced on "
+                   "the host (the device is the CPU)");
     previous.device_is_host = 0;
     check_trace_of(PF_QUALITY_FINAL, &previous, 0,
-                   "; gather rays traced on the device (the device is not the CPU)");
+                   "; camera and gather rays traced on the device (the device is not the CPU)");
     previous = cpu_device(PF_TRACE_AUTO);
     previous.tree_on_host = 0;
     check_trace_of(PF_QUALITY_FINAL, &previous, 0, "(the BIH is built on the device)");
@@ -271,7 +271,7 @@ int main(void)
     PF_RUN(the_bih_decision_follows_the_kept_tree);
     PF_RUN(lpv_settings_are_checked_against_the_device_limit);
     PF_RUN(reference_rays_go_where_they_are_traced_best);
-    PF_RUN(final_gather_rays_go_where_they_are_traced_best);
+    PF_RUN(final_rays_go_where_they_are_traced_best);
     ref_scene_free(&room);
     return pf_test_finish();
 }

@@ -42,7 +42,8 @@ PF_TEST(integrators_read_the_tree_and_photon_maps_through_texel_buffers)
      * integrator; a photon map adds 2 records views (its records, its ranges) and 1 uint (its
      * flux): fast's caustic map,
      * final's bound map and its irradiance points, and final's kernels 6 more records views
-     * of their per-pixel buffers and 1 uint view of the hits the host traced for the gather. Each kernel's own bindings follow the scene's
+     * of their per-pixel buffers; the primary and the gathers 1 uint view of the hits the host
+     * traced for them. Each kernel's own bindings follow the scene's
      * (PF_SCENE_BINDING_COUNT of them). The scene's triangles, materials and textures
      * (scene_geometry.glsl, scene_textures.glsl) are texel buffers in all of them and counted
      * apart.
@@ -53,8 +54,8 @@ PF_TEST(integrators_read_the_tree_and_photon_maps_through_texel_buffers)
         uint32_t texel_uint, texel_records, texel_float;
     } integrators[] = {{"render_direct", 1, 1, 1},    {"render_fast", 2, 3, 5},
                        {"render_final", 4, 11, 1},    {"final_gather", 4, 11, 1},
-                       {"render_reference", 1, 1, 1}, {"final_deferred", 3, 10, 0},
-                       {"final_caustic", 3, 10, 0},   {"final_resolve", 3, 10, 0},
+                       {"render_reference", 1, 1, 1}, {"final_deferred", 2, 10, 0},
+                       {"final_caustic", 2, 10, 0},   {"final_resolve", 2, 10, 0},
                        {"final_gather_estimate", 4, 11, 1}, {"render_fast_caustic", 2, 3, 5}};
     /* final's kernels have the most bindings (PF_FINAL_BUFFERS); the others read as storage
      * past their own. */
@@ -120,7 +121,8 @@ PF_TEST(integrators_read_the_tree_and_photon_maps_through_texel_buffers)
              kinds[S + 13] == PF_VK_BINDING_STORAGE); /* film, vertices, deferred estimates */
     for (int b = S + 17; b < S + 23; b++) /* the same buffers' texel views, for reading */
         PF_CHECK(kinds[b] == PF_VK_BINDING_TEXEL_INT4);
-    /* The gather rays the host traces: rays and queue written, hits read as words. */
+    /* The rays the host traces (final_host_rays.glsl): rays and queue written, hits read as
+     * words. */
     PF_CHECK(kinds[S + 23] == PF_VK_BINDING_STORAGE && kinds[S + 24] == PF_VK_BINDING_TEXEL_UINT &&
              kinds[S + 25] == PF_VK_BINDING_STORAGE);
     kinds_of("photon_trace", kinds, S + 6);
