@@ -13,9 +13,9 @@
 // held all four.
 //
 // Where the device is the CPU, the host traces the camera rays and the gather
-// rays' first segments, band by band (final_host_rays.glsl's TRACE_STEP): the
-// primary and the gather each run twice a band, writing the rays, then with
-// their hits.
+// rays' first segments, band by band (host_rays.glsl's TRACE_STEP): per band,
+// camera_rays.comp writes the camera rays, this kernel shades their hits
+// (HITS_GIVEN); the gather writes its rays, then gathers with their hits.
 //
 // The primary (this kernel): a camera ray through the
 //   pixel filter (pixel_filter.glsl), specular chain (bsdf_sample through
@@ -98,8 +98,8 @@ layout(local_size_x = 8, local_size_y = 8) in;
 
 #define BIH_BINDING (PF_SCENE_BINDING_COUNT + 3)
 #include "scene_trace.glsl"
-#include "final_host_rays.glsl"
-#include "camera.glsl"
+#include "host_rays.glsl"
+#include "camera_sample.glsl"
 #include "area_lights.glsl"
 #include "lights.glsl"
 #include "materials.glsl"
@@ -111,32 +111,13 @@ layout(local_size_x = 8, local_size_y = 8) in;
 #include "kernel_guard.glsl"
 #include "ray_count.glsl"
 
-// The pixel's camera ray for this sample, its sampler left after the draw (WRITE_RAYS and
-// the primary compute it alike: final_host_rays.glsl).
-vec3 camera_ray(uint pixel_index, uvec2 pixel, out Sampler samples)
-{
-    samples = sampler_init(pixel_index, push.sample_index, params.seed_lo, params.seed_hi);
-    vec4 camera_xi = sampler_next_4d(samples);
-    vec2 film_position = vec2(pixel) + 0.5 + filter_sample(params.pixel_filter, camera_xi.xy);
-    return camera_ray_direction(params.camera_forward.xyz, params.camera_right.xyz,
-                                params.camera_up.xyz, params.camera_position.w,
-                                params.camera_forward.w, film_position,
-                                vec2(params.width, params.height));
-}
-
-// The pixel's slot in this band's camera rays.
-uint camera_slot(uint pixel_index)
-{
-    return pixel_index - push.row_first * params.width;
-}
-
 void primary(uint pixel_index, uvec2 pixel)
 {
     const float infinity = uintBitsToFloat(0x7f800000u);
     float ray_offset = params.camera_right.w;
     Sampler samples;
     vec3 origin = params.camera_position.xyz;
-    vec3 direction = camera_ray(pixel_index, pixel, samples);
+    vec3 direction = camera_sample_ray(pixel, push.sample_index, samples);
     vec3 throughput = vec3(1.0);
     vec3 direct = vec3(0.0);
     float coverage = 0.0, depth_aov = 0.0;
@@ -267,12 +248,5 @@ void main()
     uvec2 pixel = band_pixel();
     if (pixel.x >= params.width || pixel.y >= params.height)
         return;
-    uint pixel_index = pixel.y * params.width + pixel.x;
-    if (TRACE_STEP == WRITE_RAYS) {
-        Sampler samples;
-        host_ray_write(camera_slot(pixel_index), true, params.camera_position.xyz,
-                       camera_ray(pixel_index, pixel, samples));
-        return;
-    }
-    primary(pixel_index, pixel);
+    primary(pixel.y * params.width + pixel.x, pixel);
 }

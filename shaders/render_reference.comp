@@ -68,7 +68,7 @@ layout(std430, set = 0, binding = PF_SCENE_BINDING_COUNT + 2) buffer Counters {
 
 #define BIH_BINDING (PF_SCENE_BINDING_COUNT + 3)
 #include "scene_trace.glsl"
-#include "camera.glsl"
+#include "camera_sample.glsl"
 #include "area_lights.glsl"
 #include "lights.glsl"
 #include "materials.glsl"

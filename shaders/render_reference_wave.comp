@@ -106,7 +106,7 @@ void shadow_ray_defer(vec3 origin, vec3 direction, float tmax, vec3 contribution
 }
 
 #define PF_DEFERRED_SHADOWS
-#include "camera.glsl"
+#include "camera_sample.glsl"
 #include "area_lights.glsl"
 #include "lights.glsl"
 #include "materials.glsl"

@@ -145,7 +145,7 @@ int main(int argc, char **argv)
             pf_image_metrics metrics;
             if (pf_image_compare(&host_image, &device_image, &metrics, &err) != PF_OK)
                 memset(&metrics, 0, sizeof metrics);
-            /* final's host traces only its gather rays' first segments: no rays/s of them. */
+            /* final's host traces only some of its rays: no rays/s of them. */
             printf("  best: device %.1f ms (%.3g paths/s), host %.1f ms (%.3g paths/s): "
                    "host/device %.2fx; host's trace step %.3g rays/s; images: RMSE %.3g, "
                    "max abs %.3g\n",

@@ -97,13 +97,6 @@ static const uint32_t points_bindings[3] = {PF_SCENE_BINDING_COUNT + 11u,
  * estimates then, so there is nothing to gather up).
  */
 #define FALLBACK_REQUEST_BYTES 48u
-/*
- * Where the host traces the camera rays and the gather rays' first segments
- * (plan->host_traces), the primary and the gather go in bands of rows of at most this many
- * pixels, so that the rays' buffers (52 bytes a ray, FINAL_GATHER_RAYS_PER_DISPATCH rays a
- * pixel) stay bounded at any image size: ~54 MB.
- */
-#define GATHER_BAND_PIXELS (1u << 18)
 _Static_assert(FINAL_GATHER_RAYS <= 4, "final_gather.comp keeps a pixel's requests in a uvec4");
 
 
@@ -200,9 +193,9 @@ typedef struct final_progress {
     uint64_t rays, discarded, truncated, dropped, failures;
     uint64_t deferred, estimated_at_once; /* gather estimates run by final_deferred.comp, and not */
     double shade_gpu_ms;
-    /* Where the host traced the gather rays: its trace steps, their time, its threads. */
-    uint32_t host_traces, trace_threads;
-    double host_trace_ms;
+    /* Where the host traced the camera and gather rays: its traces, and its threads. */
+    pf_host_trace_totals host;
+    uint32_t trace_threads;
 } final_progress;
 
 /* The frame's state between its stages (pf_frame_run.state). */
@@ -320,9 +313,8 @@ typedef struct final_buffers {
     pf_vk_buffer *caustic_radii; /* per pixel: the caustic radius the first pass chose */
     pf_vk_buffer *fallback_requests, *pixel_fallbacks; /* the gather's deferred estimates */
     uint32_t fallback_capacity;  /* requests fallback_requests holds */
-    /* Where the host traces: the camera and gather rays' queue, for bands of band_rows rows. */
+    /* Where the host traces: the camera and gather rays' queue. */
     pf_host_rays *host_rays;
-    uint32_t band_rows;
 } final_buffers;
 
 static void final_buffers_release(pf_vk_context *ctx, final_buffers *b)
@@ -384,50 +376,6 @@ static void finish_commands(pf_vk_commands *cmds, int begin, int end, final_prog
 }
 
 /*
- * A kernel whose rays' first segments the host traces (final_host_rays.glsl), per band of
- * rows: `write` writes the band's rays (rays_per_pixel a pixel) at the end of the open
- * submission *cmds, which goes; the host traces them in place; a new submission runs `given`
- * over the band with their hits. *cmds is left open after the last band, *begin its first
- * timestamp; on failure *cmds may be NULL.
- */
-static pf_status dispatch_host_traced(pf_renderer *renderer, pf_vk_commands **cmds, int *begin,
-                                      pf_vk_buffer **buffers, const final_buffers *owned,
-                                      const pf_render_settings *settings, pf_vk_pipeline *write,
-                                      pf_vk_pipeline *given, uint32_t rays_per_pixel,
-                                      final_push *push, final_progress *progress, pf_error *err)
-{
-    pf_status status = PF_OK;
-    uint32_t groups_x = (settings->width + GROUP_EDGE - 1) / GROUP_EDGE;
-    for (uint32_t row = 0; status == PF_OK && row < settings->height; row += owned->band_rows) {
-        uint32_t rows = settings->height - row < owned->band_rows ? settings->height - row
-                                                                  : owned->band_rows;
-        uint32_t groups_y = (rows + GROUP_EDGE - 1) / GROUP_EDGE;
-        push->row_first = row;
-        pf_vk_cmd_barrier(*cmds);
-        status = pf_vk_cmd_dispatch(*cmds, write, buffers, PF_FINAL_BUFFERS, push, sizeof *push,
-                                    groups_x, groups_y, 1, err);
-        int end = pf_vk_cmd_timestamp(*cmds);
-        if (status == PF_OK)
-            status = pf_vk_commands_submit(*cmds, err);
-        finish_commands(*cmds, *begin, status == PF_OK ? end : -1, progress);
-        *cmds = NULL;
-        if (status == PF_OK)
-            status = pf_host_rays_trace(owned->host_rays, rows * settings->width * rays_per_pixel,
-                                        &progress->rays, &progress->host_trace_ms, err);
-        progress->host_traces++;
-        if (status == PF_OK)
-            status = pf_vk_commands_begin(renderer->ctx, cmds, err);
-        if (status != PF_OK)
-            break;
-        *begin = pf_vk_cmd_timestamp(*cmds);
-        status = pf_vk_cmd_dispatch(*cmds, given, buffers, PF_FINAL_BUFFERS, push, sizeof *push,
-                                    groups_x, groups_y, 1, err);
-    }
-    push->row_first = 0;
-    return status;
-}
-
-/*
  * Renders camera sample sample_index with pass's grids (pass NULL: no photon maps), in two
  * submissions: the primary (and caustic) kernel and the gather, then the deferred estimates and
  * the resolve. Between them the host reads whether the gather's requests overflowed
@@ -458,7 +406,7 @@ static pf_status shade_sample(pf_renderer *renderer, pf_vk_buffer **buffers,
     int caustics = push.grid_photons > 0;
     int lookups = pass && pass->points_built && wants_lookups(settings, plan, pass->global_stored);
     /* Where the host traces the camera rays and the gather rays' first segments
-     * (final_host_rays.glsl), the primary and the gather read their hits, after kernels of
+     * (host_rays.glsl), the primary and the gather read their hits, after kernels of
      * their modules that write the rays. */
     int host_traced = owned->host_rays != NULL;
     pf_renderer_pipeline_id primary_id =
@@ -473,10 +421,10 @@ static pf_status shade_sample(pf_renderer *renderer, pf_vk_buffer **buffers,
     if (caustics)
         kernels[kernel_count++] = PF_PIPELINE_FINAL_CAUSTIC;
     if (host_traced) {
-        kernels[kernel_count++] = PF_PIPELINE_FINAL_PRIMARY_RAYS;
+        kernels[kernel_count++] = PF_PIPELINE_CAMERA_RAYS;
         kernels[kernel_count++] = PF_PIPELINE_FINAL_GATHER_RAYS;
     }
-    pf_vk_pipeline *primary_rays = NULL, *gather_rays = NULL;
+    pf_vk_pipeline *gather_rays = NULL;
     if (status == PF_OK)
         status = pf_renderer_pipelines_prepare(renderer, kernels, kernel_count, err);
     if (status == PF_OK)
@@ -489,8 +437,15 @@ static pf_status shade_sample(pf_renderer *renderer, pf_vk_buffer **buffers,
         status = pf_renderer_pipeline(renderer, PF_PIPELINE_FINAL_FALLBACK, &fallback, err);
     if (status == PF_OK)
         status = pf_renderer_pipeline(renderer, PF_PIPELINE_FINAL_RESOLVE, &resolve, err);
+    /* The camera rays' step (camera_rays.comp), bound to the scene and the queue. */
+    pf_vk_buffer *camera_buffers[PF_CAMERA_RAYS_BUFFERS];
+    pf_camera_rays_push camera_push;
+    pf_host_traced_kernel traced = {{0}, {primary, buffers, PF_FINAL_BUFFERS, &push, sizeof push,
+                                          &push.row_first},
+                                    settings->width, settings->height, 1};
     if (status == PF_OK && host_traced)
-        status = pf_renderer_pipeline(renderer, PF_PIPELINE_FINAL_PRIMARY_RAYS, &primary_rays, err);
+        status = pf_host_rays_camera_step(renderer, owned->host_rays, buffers, camera_buffers,
+                                          &camera_push, &traced.write, err);
     if (status == PF_OK && host_traced)
         status = pf_renderer_pipeline(renderer, PF_PIPELINE_FINAL_GATHER_RAYS, &gather_rays, err);
     /* Two submissions a sample: the counters zeroed, the primary, caustic and gather
@@ -515,9 +470,10 @@ static pf_status shade_sample(pf_renderer *renderer, pf_vk_buffer **buffers,
     push.loop_sentinel = 1;
     push.gather_retrace = 0;
     bind_points(NULL, owned->empty_grid, &push, buffers);
+    camera_push.sample_index = sample_index;
     if (status == PF_OK && host_traced)
-        status = dispatch_host_traced(renderer, &cmds, &begin, buffers, owned, settings,
-                                      primary_rays, primary, 1, &push, progress, err);
+        status = pf_host_rays_dispatch(owned->host_rays, &traced, &cmds, &begin, &progress->host,
+                                       err);
     else if (status == PF_OK)
         status = pf_vk_cmd_dispatch(cmds, primary, buffers, PF_FINAL_BUFFERS,
                                     &push, sizeof push, groups_x, groups_y, 1, err);
@@ -542,9 +498,12 @@ static pf_status shade_sample(pf_renderer *renderer, pf_vk_buffer **buffers,
         push.gather_first = first;
         push.gather_count = FINAL_GATHER_RAYS_PER_DISPATCH;
         if (host_traced) {
-            status = dispatch_host_traced(renderer, &cmds, &begin, buffers, owned, settings,
-                                          gather_rays, gather, FINAL_GATHER_RAYS_PER_DISPATCH,
-                                          &push, progress, err);
+            traced.write = traced.given;
+            traced.write.pipeline = gather_rays;
+            traced.given.pipeline = gather;
+            traced.rays_per_pixel = FINAL_GATHER_RAYS_PER_DISPATCH;
+            status = pf_host_rays_dispatch(owned->host_rays, &traced, &cmds, &begin,
+                                           &progress->host, err);
             continue;
         }
         pf_vk_cmd_barrier(cmds);
@@ -652,22 +611,25 @@ static void report_rows(pf_frame_report *report, const pf_stage_plan *plan,
         pf_stage_add_counter(row, "photons", (double)progress->caustic_stored);
         pf_stage_add_counter(row, "passes", plan->caustic_map ? progress->passes : 0);
     }
-    row = pf_stage_row(report, plan, PF_STAGE_SHADE, shade_ms, progress->shade_gpu_ms);
+    /* The host's traces cut the submissions: their GPU time is the shade's too. */
+    double shade_gpu_ms = progress->shade_gpu_ms;
+    pf_gpu_ms_add(&shade_gpu_ms, progress->host.gpu_ms);
+    row = pf_stage_row(report, plan, PF_STAGE_SHADE, shade_ms, shade_gpu_ms);
     if (row) {
         pf_stage_add_counter(row, "samples_per_pixel", progress->passes);
         pf_stage_add_counter(row, "gather_rays", FINAL_GATHER_RAYS);
         pf_stage_add_counter(row, "lookup_passes", progress->lookup_passes);
         pf_stage_add_counter(row, "paths", (double)pixels * progress->passes);
-        pf_stage_add_counter(row, "rays", (double)progress->rays);
+        pf_stage_add_counter(row, "rays", (double)(progress->rays + progress->host.rays));
         pf_stage_add_counter(row, "discarded_samples", (double)progress->discarded);
         pf_stage_add_counter(row, "loop_truncated", (double)progress->truncated);
         pf_stage_add_counter(row, "gather_dropped", (double)progress->dropped);
         pf_stage_add_counter(row, "deferred_estimates", (double)progress->deferred);
         pf_stage_add_counter(row, "deferred_overflow", (double)progress->estimated_at_once);
         pf_stage_add_counter(row, "triangles", frame->triangle_count);
-        if (progress->host_traces) {
-            pf_stage_add_counter(row, "host_traces", progress->host_traces);
-            pf_stage_add_counter(row, "host_trace_ms", progress->host_trace_ms);
+        if (progress->host.traces) {
+            pf_stage_add_counter(row, "host_traces", progress->host.traces);
+            pf_stage_add_counter(row, "host_trace_ms", progress->host.host_ms);
             pf_stage_add_counter(row, "trace_threads", progress->trace_threads);
         }
     }
@@ -734,6 +696,7 @@ static pf_status final_begin(pf_frame_run *run, pf_error *err)
         return status;
     f->start_ms = pf_time_ms();
     f->progress.trace_gpu_ms = f->progress.grid_gpu_ms = f->progress.shade_gpu_ms = -1.0;
+    f->progress.host.gpu_ms = -1.0;
     f->progress.map_grid_gpu_ms = f->progress.points_gpu_ms = -1.0;
     status = pf_split_image_create(run->image, settings->width, settings->height, settings->aovs,
                                    err);
@@ -786,12 +749,7 @@ static pf_status final_begin(pf_frame_run *run, pf_error *err)
                                      "final deferred estimates per pixel",
                                      &owned->pixel_fallbacks, err);
     if (status == PF_OK && plan->host_traces) {
-        /* Whole groups of rows, so that no group's pixels lie in two bands. */
-        uint32_t rows = GATHER_BAND_PIXELS / settings->width / GROUP_EDGE * GROUP_EDGE;
-        owned->band_rows = rows > GROUP_EDGE ? rows : GROUP_EDGE;
-        status = pf_host_rays_create(renderer,
-                                     owned->band_rows * settings->width *
-                                         FINAL_GATHER_RAYS_PER_DISPATCH,
+        status = pf_host_rays_create(renderer, settings->width, FINAL_GATHER_RAYS_PER_DISPATCH,
                                      "final host-traced rays", &owned->host_rays, err);
         if (status == PF_OK)
             f->progress.trace_threads = pf_host_rays_threads(owned->host_rays);

@@ -48,12 +48,12 @@ typedef enum pf_renderer_pipeline_id {
     PF_PIPELINE_FINAL_FALLBACK,  /* final_deferred.comp */
     PF_PIPELINE_FINAL_RESOLVE,   /* final_resolve.comp */
     PF_PIPELINE_FINAL_CAUSTIC,   /* final_caustic.comp */
-    /* final where the host traces (final_host_rays.glsl's TRACE_STEP) */
-    PF_PIPELINE_FINAL_PRIMARY_RAYS,  /* render_final.comp, WRITE_RAYS */
+    /* final where the host traces (host_rays.glsl's TRACE_STEP) */
     PF_PIPELINE_FINAL_PRIMARY_GIVEN, /* render_final.comp, HITS_GIVEN */
     PF_PIPELINE_FINAL_GATHER_RAYS,   /* final_gather.comp, WRITE_RAYS */
     PF_PIPELINE_FINAL_GATHER_GIVEN,  /* final_gather.comp, HITS_GIVEN */
     PF_PIPELINE_FINAL_GATHER_ESTIMATE_GIVEN, /* final_gather_estimate.comp, HITS_GIVEN */
+    PF_PIPELINE_CAMERA_RAYS,         /* camera_rays.comp: final's camera rays */
     PF_PIPELINE_FAST,            /* render_fast.comp */
     PF_PIPELINE_FAST_CAUSTIC,    /* render_fast_caustic.comp */
     PF_PIPELINE_DENOISE_VARIANCE, /* denoise_variance.comp */
@@ -135,7 +135,7 @@ typedef struct pf_stage_plan {
     uint32_t reused_passes;
     pf_lpv_layout layout;
     /* reference: the host traces the rays (a wavefront), else the device; final: the host
-     * traces the gather rays' first segments */
+     * traces the camera rays and the gather rays' first segments */
     int host_traces;
 } pf_stage_plan;
 
@@ -237,23 +237,72 @@ pf_status pf_reference_wave_passes(pf_reference_wave *wave, pf_vk_buffer *const 
                                    pf_error *err);
 
 /*
- * A queue of closest-hit rays that kernels write and the host traces in place
- * (host_rays.c): final's gather rays where the device is the CPU. Three device buffers in
- * host memory, bound where the kernel expects them: the rays (pf_ray), their hits (pf_hit)
- * and a word per slot, 1 where the slot holds a ray. Created once bih_build has left the
- * frame's tree in renderer->bih, for up to `slots` rays at a time.
+ * A queue of closest-hit rays that shade kernels write and the host traces in place
+ * (host_rays.c; shaders/common/host_rays.glsl): final's and fast's camera rays and final's
+ * gather rays where the device is the CPU. Three device buffers in host memory, bound where
+ * the kernel expects them: the rays (pf_ray), their hits (pf_hit) and a word per slot, 1
+ * where the slot holds a ray. Created once bih_build has left the frame's tree in
+ * renderer->bih, for images width pixels wide and up to rays_per_pixel rays a pixel; the
+ * kernels then run in bands of rows, each band's rays traced at once.
  */
 typedef struct pf_host_rays pf_host_rays;
-pf_status pf_host_rays_create(pf_renderer *renderer, uint32_t slots, const char *label,
-                              pf_host_rays **out, pf_error *err);
+pf_status pf_host_rays_create(pf_renderer *renderer, uint32_t width, uint32_t rays_per_pixel,
+                              const char *label, pf_host_rays **out, pf_error *err);
 void pf_host_rays_destroy(pf_host_rays *queue);
 /* rays, hits, queue words, in that order. */
 void pf_host_rays_buffers(const pf_host_rays *queue, pf_vk_buffer *out[3]);
 uint32_t pf_host_rays_threads(const pf_host_rays *queue);
-/* Traces the rays of slots [0, count) that the queue marks, writing their hits; adds the
- * rays traced to *rays and the time taken to *host_ms. */
-pf_status pf_host_rays_trace(pf_host_rays *queue, uint32_t count, uint64_t *rays,
-                             double *host_ms, pf_error *err);
+
+/* One dispatch of a host-traced kernel: pipeline, buffers, push constants, whose row_first
+ * the dispatch sets. */
+typedef struct pf_host_traced_step {
+    pf_vk_pipeline *pipeline;
+    pf_vk_buffer *const *buffers;
+    uint32_t buffer_count;
+    void *push;
+    uint32_t push_bytes;
+    uint32_t *row_first; /* in push */
+} pf_host_traced_step;
+
+/* A kernel whose rays the host traces: the step that writes them (camera_rays.comp, or the
+ * kernel's own WRITE_RAYS) and the kernel's HITS_GIVEN step (host_rays.glsl). */
+typedef struct pf_host_traced_kernel {
+    pf_host_traced_step write, given;
+    uint32_t width, height, rays_per_pixel;
+} pf_host_traced_kernel;
+
+/* camera_rays.comp's Push: the sample, the band's first row. */
+typedef struct pf_camera_rays_push {
+    uint32_t sample_index, row_first;
+} pf_camera_rays_push;
+/* camera_rays.comp's buffers: the scene's, then the queue's three. */
+#define PF_CAMERA_RAYS_BUFFERS (PF_SCENE_BINDING_COUNT + 3u)
+/* Fills steps's write step with camera_rays.comp over queue, its buffers (the scene's from
+ * kernel_buffers, then the queue's) in buffers and its push in push. */
+pf_status pf_host_rays_camera_step(pf_renderer *renderer, const pf_host_rays *queue,
+                                   pf_vk_buffer *const *kernel_buffers,
+                                   pf_vk_buffer *buffers[PF_CAMERA_RAYS_BUFFERS],
+                                   pf_camera_rays_push *push, pf_host_traced_step *step,
+                                   pf_error *err);
+
+/* What the host's traces of a frame came to, for its shade row. */
+typedef struct pf_host_trace_totals {
+    double gpu_ms;  /* the submissions' GPU time (< 0: none timed) */
+    double host_ms; /* the host's trace steps */
+    uint64_t rays;  /* rays the host traced */
+    uint32_t traces;
+} pf_host_trace_totals;
+
+/*
+ * Per band of rows: `write` writes the band's rays at the end of the open submission *cmds,
+ * which goes; the host traces them in place; a new submission runs `given` over the band
+ * with their hits. *cmds is left open after the last band, *begin its first timestamp (the
+ * GPU time of each submission from *begin to its end goes to totals). On failure *cmds may be
+ * NULL.
+ */
+pf_status pf_host_rays_dispatch(pf_host_rays *queue, const pf_host_traced_kernel *kernel,
+                                pf_vk_commands **cmds, int *begin, pf_host_trace_totals *totals,
+                                pf_error *err);
 
 /* The fingerprints' 64-bit hash, from h (PF_HASH_START for a fresh one). */
 #define PF_HASH_START 0xcbf29ce484222325ull

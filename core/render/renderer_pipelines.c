@@ -19,10 +19,10 @@
 /* render_final.comp (primary), final_caustic.comp, final_gather.comp,
  * final_gather_estimate.comp, final_deferred.comp and final_resolve.comp: PF_FINAL_BUFFERS
  * buffers and the same 124-byte Push (final_shared.glsl); the primary's and the gathers'
- * constant_id 0 says who traces their rays' first segments (final_host_rays.glsl: TRACED_HERE
+ * constant_id 0 says who traces their rays' first segments (host_rays.glsl: TRACED_HERE
  * 0, WRITE_RAYS 1, HITS_GIVEN 2). */
 #define RENDER_FINAL_PUSH_BYTES 124u
-#define FINAL_TRACE_STEP 0u
+#define TRACE_STEP_CONSTANT 0u
 /* render_fast.comp and render_fast_caustic.comp: PF_FAST_BUFFERS buffers and the same 72-byte
  * Push (fast_shade.glsl). */
 #define RENDER_FAST_PUSH_BYTES 72u
@@ -74,17 +74,17 @@ static const pipeline_spec pipeline_specs[PF_PIPELINE_COUNT] = {
                                    0, {0, 0}, 1},
     [PF_PIPELINE_FINAL_CAUSTIC] = {"final_caustic", PF_FINAL_BUFFERS, RENDER_FINAL_PUSH_BYTES,
                                    0, {0, 0}, 1},
-    [PF_PIPELINE_FINAL_PRIMARY_RAYS] = {"render_final", PF_FINAL_BUFFERS,
-                                        RENDER_FINAL_PUSH_BYTES, 1, {FINAL_TRACE_STEP, 1}, 1},
     [PF_PIPELINE_FINAL_PRIMARY_GIVEN] = {"render_final", PF_FINAL_BUFFERS,
-                                         RENDER_FINAL_PUSH_BYTES, 1, {FINAL_TRACE_STEP, 2}, 1},
+                                         RENDER_FINAL_PUSH_BYTES, 1, {TRACE_STEP_CONSTANT, 2}, 1},
     [PF_PIPELINE_FINAL_GATHER_RAYS] = {"final_gather", PF_FINAL_BUFFERS, RENDER_FINAL_PUSH_BYTES,
-                                       1, {FINAL_TRACE_STEP, 1}, 1},
+                                       1, {TRACE_STEP_CONSTANT, 1}, 1},
     [PF_PIPELINE_FINAL_GATHER_GIVEN] = {"final_gather", PF_FINAL_BUFFERS,
-                                        RENDER_FINAL_PUSH_BYTES, 1, {FINAL_TRACE_STEP, 2}, 1},
+                                        RENDER_FINAL_PUSH_BYTES, 1, {TRACE_STEP_CONSTANT, 2}, 1},
     [PF_PIPELINE_FINAL_GATHER_ESTIMATE_GIVEN] = {"final_gather_estimate", PF_FINAL_BUFFERS,
                                                  RENDER_FINAL_PUSH_BYTES, 1,
-                                                 {FINAL_TRACE_STEP, 2}, 1},
+                                                 {TRACE_STEP_CONSTANT, 2}, 1},
+    [PF_PIPELINE_CAMERA_RAYS] = {"camera_rays", PF_CAMERA_RAYS_BUFFERS,
+                                 sizeof(pf_camera_rays_push), 0, {0, 0}},
     [PF_PIPELINE_FAST] = {"render_fast", PF_FAST_BUFFERS, RENDER_FAST_PUSH_BYTES, 0, {0, 0}, 1},
     [PF_PIPELINE_FAST_CAUSTIC] = {"render_fast_caustic", PF_FAST_BUFFERS, RENDER_FAST_PUSH_BYTES,
                                   0, {0, 0}, 1},

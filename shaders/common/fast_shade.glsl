@@ -74,7 +74,7 @@ layout(set = 0, binding = PF_SCENE_BINDING_COUNT + 12) uniform usamplerBuffer gr
 
 #define BIH_BINDING (PF_SCENE_BINDING_COUNT + 3)
 #include "scene_trace.glsl"
-#include "camera.glsl"
+#include "camera_sample.glsl"
 #include "area_lights.glsl"
 #include "lights.glsl"
 #include "materials.glsl"
@@ -124,14 +124,9 @@ void main()
     uint pixel_index = pixel.y * params.width + pixel.x;
     const float infinity = uintBitsToFloat(0x7f800000u);
     float ray_offset = params.camera_right.w;
-    Sampler samples = sampler_init(pixel_index, push.sample_index, params.seed_lo, params.seed_hi);
-    vec4 camera_xi = sampler_next_4d(samples);
-    vec2 film_position = vec2(pixel) + 0.5 + filter_sample(params.pixel_filter, camera_xi.xy);
+    Sampler samples;
     vec3 origin = params.camera_position.xyz;
-    vec3 direction = camera_ray_direction(params.camera_forward.xyz, params.camera_right.xyz,
-                                          params.camera_up.xyz, params.camera_position.w,
-                                          params.camera_forward.w, film_position,
-                                          vec2(params.width, params.height));
+    vec3 direction = camera_sample_ray(pixel, push.sample_index, samples);
     vec3 throughput = vec3(1.0);
     vec3 direct = vec3(0.0), indirect = vec3(0.0), caustic = vec3(0.0);
     float coverage = 0.0, depth_aov = 0.0;

@@ -16,7 +16,7 @@
 // code in final_gather.comp cost ~20 % of it at 640×480 on the Cornell box
 // although no ray ran it (bench/RESULTS.md).
 //
-// Where the host traces the gather rays' first segments (final_host_rays.glsl's
+// Where the host traces the gather rays' first segments (host_rays.glsl's
 // TRACE_STEP), WRITE_RAYS writes them and HITS_GIVEN gathers with their hits;
 // the segments after a mirror or glass, few, are traced here. gather_start
 // computes a ray's first segment for both steps.
@@ -32,7 +32,7 @@ layout(local_size_x = 8, local_size_y = 8) in;
 
 #define BIH_BINDING (PF_SCENE_BINDING_COUNT + 3)
 #include "scene_trace.glsl"
-#include "final_host_rays.glsl"
+#include "host_rays.glsl"
 #include "area_lights.glsl"
 #include "lights.glsl"
 #include "materials.glsl"
@@ -88,7 +88,7 @@ GatherStart gather_start(uint pixel_index, uint gather_index, Material d1_materi
     return s;
 }
 
-// The slot of gather ray gather_index of pixel_index among this dispatch's (final_host_rays.glsl).
+// The slot of gather ray gather_index of pixel_index among this dispatch's (host_rays.glsl).
 uint gather_slot(uint pixel_index, uint gather_index)
 {
     return (pixel_index - push.row_first * params.width) * push.gather_count +

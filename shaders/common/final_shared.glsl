@@ -48,6 +48,8 @@ layout(std430, set = 0, binding = PF_SCENE_BINDING_COUNT + 2) buffer Counters {
     uint gather_dropped;    // gather rays past GATHER_MAX_SPECULAR specular vertices
     uint fallback_requests; // estimates the gather deferred (those past the capacity ran at once)
 } counters;
+// host_rays.glsl's queue, where the primary and the gather include it.
+#define HOST_RAYS_BINDING (PF_SCENE_BINDING_COUNT + 23)
 layout(std430, set = 0, binding = PF_SCENE_BINDING_COUNT + 6) buffer Vertices { vec4 vertices[]; };
 layout(std430, set = 0, binding = PF_SCENE_BINDING_COUNT + 7) buffer SampleSums { vec4 sample_sums[]; };
 // The bound map (photon_estimate.glsl: texel buffers; its flux at grid_flux below).

@@ -7,12 +7,14 @@
 //
 // The including shader declares params (FrameParams), the scene arrays,
 // `counters` with a uint discarded_samples, the films `film` and `film_aov`,
-// the bool WRITE_AOVS, and includes camera, area_lights, lights, materials,
-// surface and sampler first; direct_light.glsl is included here (with
-// PF_DEFERRED_SHADOWS defined, its shadow rays go to shadow_ray_defer).
+// the bool WRITE_AOVS, and includes area_lights, lights, materials, surface
+// and sampler first; direct_light.glsl and camera_sample.glsl are included
+// here (with PF_DEFERRED_SHADOWS defined, direct_light's shadow rays go to
+// shadow_ray_defer).
 #ifndef PF_REFERENCE_PATH_GLSL
 #define PF_REFERENCE_PATH_GLSL
 
+#include "camera_sample.glsl"
 #include "direct_light.glsl"
 
 // Russian roulette starts after this many bounces (issue 5), and then only
@@ -67,15 +69,8 @@ void path_add(vec3 value, uint region, bool caustic_chain)
 // The camera ray of pixel's sample sample_index.
 void path_begin(uvec2 pixel, uint sample_index)
 {
-    uint pixel_index = pixel.y * params.width + pixel.x;
-    path_samples = sampler_init(pixel_index, sample_index, params.seed_lo, params.seed_hi);
-    vec4 camera_xi = sampler_next_4d(path_samples);
-    vec2 film_position = vec2(pixel) + 0.5 + filter_sample(params.pixel_filter, camera_xi.xy);
     path_origin = params.camera_position.xyz;
-    path_direction = camera_ray_direction(params.camera_forward.xyz, params.camera_right.xyz,
-                                          params.camera_up.xyz, params.camera_position.w,
-                                          params.camera_forward.w, film_position,
-                                          vec2(params.width, params.height));
+    path_direction = camera_sample_ray(pixel, sample_index, path_samples);
     path_throughput = vec3(1.0);
     path_medium = vec3(0.0);
     path_direct = vec3(0.0);

@@ -12,7 +12,7 @@
  *
  * final's camera rays and gather rays' first segments: traced by the device
  * inside the primary and the gather, or written out, traced by the host and
- * read back as hits (final_host_rays.glsl's TRACE_STEP). The same rays
+ * read back as hits (host_rays.glsl's TRACE_STEP). The same rays
  * either way, so the images agree but for the photon maps' atomic order and
  * ties; with precomputed irradiance and without; an image larger than a band
  * of rows is shaded band by band.

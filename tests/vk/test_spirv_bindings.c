@@ -121,7 +121,7 @@ PF_TEST(integrators_read_the_tree_and_photon_maps_through_texel_buffers)
              kinds[S + 13] == PF_VK_BINDING_STORAGE); /* film, vertices, deferred estimates */
     for (int b = S + 17; b < S + 23; b++) /* the same buffers' texel views, for reading */
         PF_CHECK(kinds[b] == PF_VK_BINDING_TEXEL_INT4);
-    /* The rays the host traces (final_host_rays.glsl): rays and queue written, hits read as
+    /* The rays the host traces (host_rays.glsl): rays and queue written, hits read as
      * words. */
     PF_CHECK(kinds[S + 23] == PF_VK_BINDING_STORAGE && kinds[S + 24] == PF_VK_BINDING_TEXEL_UINT &&
              kinds[S + 25] == PF_VK_BINDING_STORAGE);
