@@ -35,13 +35,31 @@
 // with P = min(1, max channel of the scattering weight), flux ⊙ weight / P,
 // so the expected flux is exact and the colour survives. At most
 // params.max_depth hits per photon.
+//
+// Who traces (PHOTON_STEP, constant_id 0; issue 43):
+//   PHOTON_TRACED_HERE  the flat loop above, every ray traced here (a GPU's);
+//   PHOTON_EMIT         invocation i emits photon first_photon + i of a batch:
+//                       its state and first ray into the wave buffers;
+//   PHOTON_BOUNCE       invocation i takes photon active[i], whose ray the host
+//                       traced and hit a surface: one bounce (store, scatter,
+//                       roulette), then its next ray, or its end (queue 0).
+// Where the device is the CPU the host traces the rays between the waves
+// (core/bih/bih_wave_trace.c: the wide traversal on every core, in place).
+// Both drive photon_start and photon_bounce, so a photon's path is the same
+// either way; only the maps' order differs.
 
 layout(local_size_x = 64) in;
+
+const uint PHOTON_TRACED_HERE = 0u;
+const uint PHOTON_EMIT = 1u;
+const uint PHOTON_BOUNCE = 2u;
+layout(constant_id = 0) const uint PHOTON_STEP = PHOTON_TRACED_HERE;
 
 // Big passes take several dispatches (the workgroup count is bounded).
 layout(push_constant) uniform Push {
     uint first_photon;  // index of this dispatch's first photon within the pass
     uint photon_count;  // photons of this dispatch: first_photon + [0, photon_count)
+                        // (PHOTON_BOUNCE: the photons of active[] it takes)
     uint photon_stride; // invocations of this dispatch: invocation i traces i, i + stride, ...
     uint loop_sentinel; // 1; kernel_guard.glsl's end-of-invocation proof loop
 } push;
@@ -99,6 +117,24 @@ layout(std430, set = 0, binding = PF_SCENE_BINDING_COUNT + 5) buffer Counters {
 
 #define BIH_BINDING (PF_SCENE_BINDING_COUNT + 0) // nodes, vertices, triangle index: its first three
 #include "bih_traverse.glsl"
+#include "ray_types.glsl"
+
+// The waves' buffers (PHOTON_EMIT, PHOTON_BOUNCE), per photon p of the batch: its state
+// (PhotonWave, 3 vec4), its next ray, the host's hit, queue[p] = 1 while a ray waits; the
+// active photons; the state and rays read back through texel views (llvmpipe loads a texel
+// in one gather, a storage word lane by lane).
+struct PhotonWave {
+    vec4 flux_range;
+    vec4 medium_rng;       // w: the rng's bits
+    vec4 depth_specular;   // x: depth's bits, y: specular_only
+};
+layout(std430, set = 0, binding = PF_SCENE_BINDING_COUNT + 6) writeonly buffer WaveState { PhotonWave wave_state[]; };
+layout(std430, set = 0, binding = PF_SCENE_BINDING_COUNT + 7) writeonly buffer WaveRays { Ray wave_rays[]; };
+layout(set = 0, binding = PF_SCENE_BINDING_COUNT + 8) uniform usamplerBuffer wave_hits; // HitRecord
+layout(std430, set = 0, binding = PF_SCENE_BINDING_COUNT + 9) writeonly buffer WaveQueue { uint wave_queue[]; };
+layout(set = 0, binding = PF_SCENE_BINDING_COUNT + 10) uniform usamplerBuffer wave_active;
+layout(set = 0, binding = PF_SCENE_BINDING_COUNT + 11) uniform samplerBuffer wave_state_in;
+layout(set = 0, binding = PF_SCENE_BINDING_COUNT + 12) uniform samplerBuffer wave_rays_in;
 #include "lights.glsl"
 #include "materials.glsl"
 #include "surface.glsl"
@@ -227,48 +263,108 @@ void store(bool caustic, bool global, vec3 position, vec3 flux, vec3 reflected, 
     }
 }
 
-void main()
+// A photon in flight.
+struct PhotonPath {
+    vec3 origin, direction, flux;
+    float range;         // the light's range window, applied at the first hit (0: none)
+    vec3 medium;         // absorption of the medium the photon travels in
+    uint rng, depth;
+    bool specular_only;  // every bounce so far was specular (caustic path)
+};
+
+// Photon index of the pass, emitted.
+PhotonPath photon_start(uint index)
 {
-    if (params.emitter_count == 0u)
-        return;
-    // The current photon's state; alive = false: start the next one.
+    PhotonPath p;
+    p.rng = rng_init(index, 0x9e3779b9u, params.seed_lo, params.seed_hi);
+    // Stratified emitter column: photon i takes (i + ξ) / N of the table.
+    float stratum = (float(index) + rng_float(p.rng)) / float(params.photon_count);
+    uint column = min(uint(stratum * float(params.emitter_count)), params.emitter_count - 1u);
+    PhotonEmitter emitter = emitters[rng_float(p.rng) < emitters[column].alias_threshold
+                                         ? column
+                                         : emitters[column].alias];
+    vec2 xi_position = vec2(rng_float(p.rng), rng_float(p.rng));
+    vec2 xi_direction = vec2(rng_float(p.rng), rng_float(p.rng));
+    Emission e = emit(emitter, xi_position, xi_direction);
+    p.origin = e.origin;
+    p.direction = e.direction;
+    p.flux = e.flux;
+    p.range = e.range;
+    p.medium = vec3(0.0);
+    p.specular_only = true;
+    p.depth = 0u;
+    return p;
+}
+
+// One bounce at the photon's hit: what it stores there, then whether it goes on (its next
+// ray in origin and direction).
+bool photon_bounce(inout PhotonPath p, BihHit hit)
+{
+    if (hit.triangle == NO_HIT)
+        return false;
+    if (p.depth == 0u)
+        p.flux *= light_range_window(hit.t, p.range);
+    p.flux *= medium_transmittance(p.medium, hit.t);
+    Surface surface = surface_at(hit, p.origin, p.direction);
+    if (!surface.valid || !all_finite(p.flux)) {
+        atomicAdd(counters.non_finite, 1u);
+        return false;
+    }
+    Material material = surface.material;
+    bool front = surface.front;
+    vec3 geometric_normal = surface.geometric_normal;
+    vec3 shading_normal = surface.shading_normal;
+    vec3 position = surface.position;
+    // Stored where light is estimated (both maps), and on a metal too sharp for that
+    // only when it arrives by a caustic chain: `final` estimates there, where the
+    // camera sees it, the light its gather rays cannot find (material_estimated_at_d1).
+    // Passing it, the photon stays on its caustic chain.
+    bool diffuse = material_stores_photons(material);
+    bool caustic = p.specular_only && p.depth > 0u;
+    bool sharp_metal = !diffuse && material_estimated_at_d1(material);
+    if ((diffuse && (p.depth > 0u || params.store_direct != 0u)) || (sharp_metal && caustic))
+        store(caustic, diffuse, position, p.flux,
+              p.flux * material_rough_albedo(material, -p.direction, shading_normal, front),
+              p.direction, geometric_normal);
+    p.specular_only = p.specular_only && !diffuse;
+
+    vec3 xi = vec3(rng_float(p.rng), rng_float(p.rng), rng_float(p.rng));
+    BsdfSample scattered = bsdf_sample(material, -p.direction, shading_normal, geometric_normal,
+                                       front, xi, TRANSPORT_IMPORTANCE);
+    float survival = min(1.0, max(scattered.weight.r, max(scattered.weight.g, scattered.weight.b)));
+    if (!(survival > 0.0) || rng_float(p.rng) >= survival)
+        return false;
+    p.flux *= scattered.weight / survival;
+    p.origin = position +
+               (scattered.transmitted ? -params.ray_offset : params.ray_offset) * geometric_normal;
+    p.direction = scattered.direction;
+    if (scattered.transmitted)
+        p.medium = medium_after_transmission(material, front);
+    return ++p.depth < params.max_depth;
+}
+
+// PHOTON_TRACED_HERE: photons in turn, in one flat loop of bounces.
+void trace_here()
+{
+    // The current photon; alive = false: start the next one.
     bool alive = false;
     uint next = gl_GlobalInvocationID.x; // within this dispatch
-    uint rng = 0u, depth = 0u;
-    vec3 origin = vec3(0.0), direction = vec3(0.0, 0.0, 1.0), flux = vec3(0.0);
-    float range = 0.0;
-    vec3 medium = vec3(0.0); // absorption of the medium the photon travels in
-    bool specular_only = true; // every bounce so far was specular (caustic path)
+    PhotonPath p;
+    p.direction = vec3(0.0, 0.0, 1.0);
     while (true) {
         if (!alive) {
             if (next >= push.photon_count)
                 break;
             uint index = push.first_photon + next;
             next += push.photon_stride;
-            rng = rng_init(index, 0x9e3779b9u, params.seed_lo, params.seed_hi);
-            // Stratified emitter column: photon i takes (i + ξ) / N of the table.
-            float stratum = (float(index) + rng_float(rng)) / float(params.photon_count);
-            uint column = min(uint(stratum * float(params.emitter_count)), params.emitter_count - 1u);
-            PhotonEmitter emitter = emitters[rng_float(rng) < emitters[column].alias_threshold
-                                                 ? column
-                                                 : emitters[column].alias];
-            vec2 xi_position = vec2(rng_float(rng), rng_float(rng));
-            vec2 xi_direction = vec2(rng_float(rng), rng_float(rng));
-            Emission e = emit(emitter, xi_position, xi_direction);
-            origin = e.origin;
-            direction = e.direction;
-            flux = e.flux;
-            range = e.range;
-            medium = vec3(0.0);
-            specular_only = true;
-            depth = 0u;
+            p = photon_start(index);
             // On into its first bounce in this same step: a lane never idles a step to start.
             alive = params.max_depth > 0u;
             if (!alive)
                 continue;
         }
         bool failed;
-        BihHit hit = trace_bih_surfaces(origin, direction, 0.0, uintBitsToFloat(0x7f800000u),
+        BihHit hit = trace_bih_surfaces(p.origin, p.direction, 0.0, uintBitsToFloat(0x7f800000u),
                                         false, params.bih_bounds_min.xyz,
                                         params.bih_bounds_max.xyz, params.triangle_count,
                                         params.bih_node_count, failed);
@@ -277,52 +373,61 @@ void main()
             alive = false;
             continue;
         }
-        if (hit.triangle == NO_HIT) {
-            alive = false;
-            continue;
-        }
-        if (depth == 0u)
-            flux *= light_range_window(hit.t, range);
-        flux *= medium_transmittance(medium, hit.t);
-        Surface surface = surface_at(hit, origin, direction);
-        if (!surface.valid || !all_finite(flux)) {
-            atomicAdd(counters.non_finite, 1u);
-            alive = false;
-            continue;
-        }
-        Material material = surface.material;
-        bool front = surface.front;
-        vec3 geometric_normal = surface.geometric_normal;
-        vec3 shading_normal = surface.shading_normal;
-        vec3 position = surface.position;
-        // Stored where light is estimated (both maps), and on a metal too sharp for that
-        // only when it arrives by a caustic chain: `final` estimates there, where the
-        // camera sees it, the light its gather rays cannot find (material_estimated_at_d1).
-        // Passing it, the photon stays on its caustic chain.
-        bool diffuse = material_stores_photons(material);
-        bool caustic = specular_only && depth > 0u;
-        bool sharp_metal = !diffuse && material_estimated_at_d1(material);
-        if ((diffuse && (depth > 0u || params.store_direct != 0u)) || (sharp_metal && caustic))
-            store(caustic, diffuse, position, flux,
-                  flux * material_rough_albedo(material, -direction, shading_normal, front),
-                  direction, geometric_normal);
-        specular_only = specular_only && !diffuse;
+        alive = photon_bounce(p, hit);
+    }
+}
 
-        vec3 xi = vec3(rng_float(rng), rng_float(rng), rng_float(rng));
-        BsdfSample scattered = bsdf_sample(material, -direction, shading_normal, geometric_normal,
-                                           front, xi, TRANSPORT_IMPORTANCE);
-        float survival = min(1.0, max(scattered.weight.r, max(scattered.weight.g, scattered.weight.b)));
-        if (!(survival > 0.0) || rng_float(rng) >= survival) {
-            alive = false;
-            continue;
+// The waves: photon slot's state and next ray written (queue 1), or its end (queue 0).
+void wave_store(uint slot, PhotonPath p, bool alive)
+{
+    if (alive) {
+        wave_state[slot] = PhotonWave(vec4(p.flux, p.range), vec4(p.medium, uintBitsToFloat(p.rng)),
+                                      vec4(uintBitsToFloat(p.depth), p.specular_only ? 1.0 : 0.0,
+                                           0.0, 0.0));
+        wave_rays[slot] = Ray(vec4(p.origin, 0.0), vec4(p.direction, uintBitsToFloat(0x7f800000u)));
+    }
+    wave_queue[slot] = alive ? 1u : 0u;
+}
+
+PhotonPath wave_load(uint slot)
+{
+    int at = int(3u * slot);
+    vec4 flux_range = texelFetch(wave_state_in, at);
+    vec4 medium_rng = texelFetch(wave_state_in, at + 1);
+    vec4 depth_specular = texelFetch(wave_state_in, at + 2);
+    PhotonPath p;
+    p.origin = texelFetch(wave_rays_in, int(2u * slot)).xyz;
+    p.direction = texelFetch(wave_rays_in, int(2u * slot + 1u)).xyz;
+    p.flux = flux_range.xyz;
+    p.range = flux_range.w;
+    p.medium = medium_rng.xyz;
+    p.rng = floatBitsToUint(medium_rng.w);
+    p.depth = floatBitsToUint(depth_specular.x);
+    p.specular_only = depth_specular.y != 0.0;
+    return p;
+}
+
+void main()
+{
+    if (params.emitter_count == 0u)
+        return;
+    if (PHOTON_STEP == PHOTON_TRACED_HERE) {
+        trace_here();
+    } else if (gl_GlobalInvocationID.x < push.photon_count) {
+        uint i = gl_GlobalInvocationID.x;
+        if (PHOTON_STEP == PHOTON_EMIT) {
+            wave_store(i, photon_start(push.first_photon + i), params.max_depth > 0u);
+        } else {
+            uint slot = texelFetch(wave_active, int(i)).x;
+            int at = int(4u * slot);
+            BihHit hit = BihHit(uintBitsToFloat(texelFetch(wave_hits, at).x),
+                                texelFetch(wave_hits, at + 1).x,
+                                uintBitsToFloat(texelFetch(wave_hits, at + 2).x),
+                                uintBitsToFloat(texelFetch(wave_hits, at + 3).x));
+            PhotonPath p = wave_load(slot);
+            bool alive = photon_bounce(p, hit);
+            wave_store(slot, p, alive);
         }
-        flux *= scattered.weight / survival;
-        origin = position +
-                 (scattered.transmitted ? -params.ray_offset : params.ray_offset) * geometric_normal;
-        direction = scattered.direction;
-        if (scattered.transmitted)
-            medium = medium_after_transmission(material, front);
-        alive = ++depth < params.max_depth;
     }
     if (!loops_completed())
         atomicAdd(counters.loop_truncated, 1u);

@@ -444,4 +444,40 @@ pf_status pf_bih_sort_record(pf_bih_sorter *sorter, pf_vk_commands *cmds, pf_vk_
                              pf_vk_buffer *values[2], pf_vk_buffer *histogram, uint32_t count,
                              uint32_t key_bits, pf_error *err);
 
+/*
+ * The host's trace step of a wavefront (bih_wave_trace.c; issue 43): the queues a wave
+ * kernel wrote, in the device's memory as the host sees it (where the device is the CPU),
+ * traced with the wide traversal on every core. Per path p: queue[p] = its ray waits (bit
+ * 0) | its shadow rays << 1; rays[p] and hits[p]; shadow_rays and shadow_hits at
+ * p × shadow_slots + k.
+ */
+typedef struct pf_bih_wave_queues {
+    const uint32_t *queue;
+    const pf_ray *rays;
+    pf_hit *hits;
+    const pf_ray *shadow_rays;
+    pf_hit *shadow_hits;
+} pf_bih_wave_queues;
+
+typedef struct pf_bih_wave_tracer pf_bih_wave_tracer;
+
+/* A tracer for up to paths paths of shadow_slots shadow rays each, through bih (kept by
+ * the caller while the tracer lives): builds bih's wide view and one scratch per core. */
+pf_status pf_bih_wave_tracer_create(const pf_bih *bih, uint32_t paths, uint32_t shadow_slots,
+                                    pf_bih_wave_tracer **out, pf_error *err);
+void pf_bih_wave_tracer_destroy(pf_bih_wave_tracer *tracer);
+uint32_t pf_bih_wave_tracer_threads(const pf_bih_wave_tracer *tracer);
+/*
+ * Traces the waiting rays of the paths active[0..count): closest hits for their rays,
+ * any hits for their shadow rays. Then rewrites active with the paths that waited (a path
+ * whose queue word is 0 is done): first the *hit whose ray hit a surface, then those whose
+ * ray missed or that had none, each part in order; *remaining is their total. Adds the
+ * rays traced to *rays. A traversal failure fails the call (as the device's fails the
+ * frame).
+ */
+pf_status pf_bih_wave_trace(pf_bih_wave_tracer *tracer, const pf_bih_wave_queues *queues,
+                            uint32_t *active, uint32_t count, uint32_t *remaining, uint32_t *hit,
+                            uint64_t *rays, pf_error *err);
+
+
 #endif

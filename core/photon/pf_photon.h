@@ -379,6 +379,10 @@ typedef struct pf_photon_trace_settings {
                                      (PF_PHOTON_TRACE_PER_INVOCATION on a CPU device, else 1;
                                      the maps hold the same photons whatever it is, only
                                      their order differs) */
+    const pf_bih *host_tree;      /* non-NULL: the host traces the photons' rays through this
+                                     tree (the frame's, as the device's), in waves of a bounce
+                                     each, where the device is the CPU (issue 43); the same
+                                     photons, only the maps' order differs */
 } pf_photon_trace_settings;
 
 typedef struct pf_photon_maps {
@@ -393,6 +397,8 @@ typedef struct pf_photon_maps {
     uint32_t per_invocation;      /* photons an invocation traced: the settings', or 1 where
                                      they met the loop cap together and were traced again */
     double gpu_ms;                /* < 0 without timestamps */
+    uint32_t waves;               /* with a host_tree: the dispatches of the waves */
+    double host_trace_ms;         /* with a host_tree: the host's traces */
 } pf_photon_maps;
 
 typedef struct pf_photon_tracer pf_photon_tracer;

@@ -1,8 +1,9 @@
 /*
  * Host side of photon tracing (pf_photon_trace in pf_photon.h;
- * shaders/photon_trace.comp does the work).
+ * shaders/photon_trace.comp does the work): in one submission where the
+ * device traces the rays, in waves where the host does (photon_trace_wave.c).
  */
-#include "pf_photon.h"
+#include "photon_internal.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -13,67 +14,34 @@
 #define TRACE_MAX_GROUPS 16384u
 /* Default map capacity: stores per emitted photon (a bounce or two survive roulette on average). */
 #define DEFAULT_STORES_PER_PHOTON 4u
-#define TRACE_BUFFERS (PF_SCENE_BINDING_COUNT + 6u)
-
-/* PhotonTraceParams in photon_trace.comp (std430, 96 bytes). */
-typedef struct photon_trace_params {
-    float bih_bounds_min[4];
-    float bih_bounds_max[4];
-    float scene_sphere[4];
-    uint32_t photon_count;
-    uint32_t emitter_count;
-    uint32_t store_direct;
-    uint32_t triangle_count;
-    uint32_t bih_node_count;
-    uint32_t seed_lo, seed_hi;
-    uint32_t max_depth;
-    uint32_t global_capacity;
-    uint32_t caustic_capacity;
-    float ray_offset;
-    uint32_t global_reflected;
-} photon_trace_params;
 
 _Static_assert(sizeof(photon_trace_params) == 96, "photon_trace_params must match PhotonTraceParams");
 
-typedef struct trace_counters {
-    uint32_t global_stored;
-    uint32_t caustic_stored;
-    uint32_t traversal_failures;
-    uint32_t non_finite;
-    uint32_t loop_truncated;
-} trace_counters;
-
-/* photon_trace.comp's Push. */
-typedef struct trace_push {
-    uint32_t first_photon;
-    uint32_t photon_count;
-    uint32_t photon_stride;
-    uint32_t loop_sentinel;
-} trace_push;
-
 struct pf_photon_tracer {
     pf_vk_context *ctx;
-    /* Per PF_SURFACE_* combination: the plain kernel, or its "_surfaces" variant specialised
-     * for the scene's (pf_scene.h), each made at first use. */
-    pf_vk_pipeline *trace[PF_SURFACE_VARIANTS];
+    /* Per step (PHOTON_STEP: traced here, emit, bounce) and PF_SURFACE_* combination: the
+     * plain kernel, or its "_surfaces" variant specialised for the scene's (pf_scene.h),
+     * each made at first use. */
+    pf_vk_pipeline *trace[PF_PHOTON_STEPS][PF_SURFACE_VARIANTS];
 };
 
-/* The kernel for a scene with these surface features. */
-static pf_status trace_pipeline(pf_photon_tracer *tracer, uint32_t features,
-                                pf_vk_pipeline **out, pf_error *err)
+pf_status pf_photon_trace_pipeline(pf_photon_tracer *tracer, pf_photon_step step,
+                                   uint32_t features, pf_vk_pipeline **out, pf_error *err)
 {
     features %= PF_SURFACE_VARIANTS;
-    if (!tracer->trace[features]) {
-        pf_vk_spec_constant constants[2] = {
+    pf_vk_pipeline **slot = &tracer->trace[step][features];
+    if (!*slot) {
+        pf_vk_spec_constant constants[3] = {
             {PF_SPEC_SCENE_HAS_ALPHA, (features & PF_SURFACE_ALPHA) ? 1u : 0u},
-            {PF_SPEC_SCENE_HAS_CORNERS, (features & PF_SURFACE_CORNERS) ? 1u : 0u}};
+            {PF_SPEC_SCENE_HAS_CORNERS, (features & PF_SURFACE_CORNERS) ? 1u : 0u},
+            {PHOTON_STEP_CONSTANT, (uint32_t)step}};
         pf_status status = pf_vk_pipeline_create_named(
             tracer->ctx, features ? "photon_trace_surfaces" : "photon_trace", TRACE_BUFFERS,
-            sizeof(trace_push), constants, 2, &tracer->trace[features], err);
+            sizeof(trace_push), constants, step == PF_PHOTON_TRACED_HERE ? 2 : 3, slot, err);
         if (status != PF_OK)
             return status;
     }
-    *out = tracer->trace[features];
+    *out = *slot;
     return PF_OK;
 }
 
@@ -85,7 +53,7 @@ pf_status pf_photon_tracer_create(pf_vk_context *ctx, pf_photon_tracer **out, pf
         return pf_error_set(err, PF_ERR_NOMEM, "photon tracer: out of memory");
     tracer->ctx = ctx;
     pf_vk_pipeline *plain;
-    pf_status status = trace_pipeline(tracer, 0, &plain, err);
+    pf_status status = pf_photon_trace_pipeline(tracer, PF_PHOTON_TRACED_HERE, 0, &plain, err);
     if (status != PF_OK) {
         free(tracer);
         return status;
@@ -98,9 +66,10 @@ void pf_photon_tracer_destroy(pf_photon_tracer *tracer)
 {
     if (!tracer)
         return;
-    for (uint32_t v = 0; v < PF_SURFACE_VARIANTS; v++)
-        if (tracer->trace[v])
-            pf_vk_pipeline_destroy(tracer->ctx, tracer->trace[v]);
+    for (uint32_t step = 0; step < PF_PHOTON_STEPS; step++)
+        for (uint32_t v = 0; v < PF_SURFACE_VARIANTS; v++)
+            if (tracer->trace[step][v])
+                pf_vk_pipeline_destroy(tracer->ctx, tracer->trace[step][v]);
     free(tracer);
 }
 
@@ -143,35 +112,13 @@ static pf_status map_capacity(const pf_vk_device_info *info, uint32_t requested,
     return PF_OK;
 }
 
-/*
- * Traces count photons into the maps bound in buffers (their counters zeroed first), each
- * invocation per_invocation of them in turn (photon_trace.comp), and reads back the counters
- * and the GPU time (< 0 without timestamps).
- */
-/* What a trace uploads before its dispatches: recorded with them (issue 44). */
-typedef struct trace_uploads {
-    const photon_trace_params *params;
-    const pf_photon_emitters *emitters;
-    pf_vk_buffer *placeholder; /* zeroed: the texture bindings of a scene without them */
-} trace_uploads;
-
-/* One submission and one wait: the uploads, the counters zeroed, the dispatches and the
- * counters' readback. */
-static pf_status trace_photons(pf_photon_tracer *tracer, pf_vk_pipeline *kernel,
-                               pf_vk_buffer **buffers, const trace_uploads *uploads,
-                               uint32_t count, uint32_t per_invocation, trace_counters *counters,
-                               double *gpu_ms, pf_error *err)
+pf_status pf_photon_trace_uploads(pf_vk_commands *cmds, pf_vk_buffer *const *buffers,
+                                  const trace_uploads *uploads, pf_error *err)
 {
-    pf_vk_context *ctx = tracer->ctx;
-    pf_vk_buffer *counter_buffer = buffers[TRACE_BUFFERS - 1];
     static const trace_counters zero = {0, 0, 0, 0, 0};
     static const uint32_t zeros[4];
-    *counters = zero;
-    *gpu_ms = -1.0;
-    pf_vk_commands *cmds = NULL;
-    pf_status status = pf_vk_commands_begin(ctx, &cmds, err);
-    if (status == PF_OK)
-        status = pf_vk_cmd_upload(cmds, counter_buffer, 0, &zero, sizeof zero, err);
+    pf_status status =
+        pf_vk_cmd_upload(cmds, buffers[TRACE_COUNTERS], 0, &zero, sizeof zero, err);
     if (status == PF_OK)
         status = pf_vk_cmd_upload(cmds, buffers[PF_SCENE_BINDING_PARAMS], 0, uploads->params,
                                   sizeof *uploads->params, err);
@@ -182,6 +129,28 @@ static pf_status trace_photons(pf_photon_tracer *tracer, pf_vk_pipeline *kernel,
                                   err);
     if (status == PF_OK && uploads->placeholder)
         status = pf_vk_cmd_upload(cmds, uploads->placeholder, 0, zeros, sizeof zeros, err);
+    return status;
+}
+
+/*
+ * Traces count photons into the maps bound in buffers (their counters zeroed first), each
+ * invocation per_invocation of them in turn (photon_trace.comp), and reads back the counters
+ * and the GPU time (< 0 without timestamps). One submission and one wait: the uploads, the
+ * counters zeroed, the dispatches and the counters' readback.
+ */
+static pf_status trace_photons(pf_photon_tracer *tracer, pf_vk_pipeline *kernel,
+                               pf_vk_buffer **buffers, const trace_uploads *uploads,
+                               uint32_t count, uint32_t per_invocation, trace_counters *counters,
+                               double *gpu_ms, pf_error *err)
+{
+    pf_vk_context *ctx = tracer->ctx;
+    pf_vk_buffer *counter_buffer = buffers[TRACE_COUNTERS];
+    memset(counters, 0, sizeof *counters);
+    *gpu_ms = -1.0;
+    pf_vk_commands *cmds = NULL;
+    pf_status status = pf_vk_commands_begin(ctx, &cmds, err);
+    if (status == PF_OK)
+        status = pf_photon_trace_uploads(cmds, buffers, uploads, err);
     int begin = status == PF_OK ? pf_vk_cmd_timestamp(cmds) : -1;
     const uint64_t per_dispatch = (uint64_t)TRACE_GROUP_SIZE * TRACE_MAX_GROUPS * per_invocation;
     for (uint64_t first = 0; status == PF_OK && first < count; first += per_dispatch) {
@@ -247,7 +216,8 @@ pf_status pf_photon_trace(pf_photon_tracer *tracer, const pf_photon_scene *scene
     pf_vk_buffer *params_buffer = NULL, *emitter_buffer = NULL, *counter_buffer = NULL;
     pf_vk_buffer *placeholder = NULL; /* the texture bindings of a scene without textures */
     pf_vk_pipeline *kernel = NULL;
-    status = trace_pipeline(tracer, scene->surface_features, &kernel, err);
+    status = pf_photon_trace_pipeline(tracer, PF_PHOTON_TRACED_HERE, scene->surface_features,
+                                      &kernel, err);
     const trace_counters zero = {0, 0, 0, 0, 0};
     if (status == PF_OK)
         status = pf_vk_buffer_create(ctx, sizeof params, "photon trace parameters",
@@ -289,15 +259,24 @@ pf_status pf_photon_trace(pf_photon_tracer *tracer, const pf_photon_scene *scene
         [PF_SCENE_BINDING_COUNT + 2] = scene->bih.triangle_index,
         [PF_SCENE_BINDING_COUNT + 3] = out->global,
         [PF_SCENE_BINDING_COUNT + 4] = out->caustic,
-        [PF_SCENE_BINDING_COUNT + 5] = counter_buffer};
+        [TRACE_COUNTERS] = counter_buffer};
+    /* The waves' buffers, where the host traces (photon_trace_wave.c binds its own). */
+    for (uint32_t b = TRACE_COUNTERS + 1; b < TRACE_BUFFERS; b++)
+        buffers[b] = counter_buffer;
     uint32_t per_invocation = settings->per_invocation ? settings->per_invocation
                               : pf_vk_device_is_cpu(ctx) ? PF_PHOTON_TRACE_PER_INVOCATION
                                                               : 1u;
     trace_counters counters = zero;
     trace_uploads uploads = {&params, emitters, placeholder};
-    if (status == PF_OK && emitters->count > 0)
+    if (status == PF_OK && emitters->count > 0 && settings->host_tree) {
+        per_invocation = 1;
+        status = pf_photon_trace_waves(ctx, tracer, scene->surface_features, buffers, &uploads,
+                                       settings->host_tree, settings->photon_count, &counters,
+                                       out, err);
+    } else if (status == PF_OK && emitters->count > 0) {
         status = trace_photons(tracer, kernel, buffers, &uploads, settings->photon_count,
                                per_invocation, &counters, &out->gpu_ms, err);
+    }
     /* Photons that share an invocation add up its loop iterations: where that met the cap,
      * the pass is traced again with one photon each (slots restart at 0: nothing is kept). */
     if (status == PF_OK && counters.loop_truncated > 0 && per_invocation > 1) {

@@ -111,25 +111,31 @@ typedef struct fast_progress {
     uint32_t samples;
     uint64_t rays, discarded, truncated, failures, lpv_outside;
     double shade_gpu_ms;
+    /* Where the host traced the photons: the waves' dispatches and its traces' time. */
+    uint32_t photon_waves;
+    double photon_host_ms;
 } fast_progress;
 
 /* Traces the frame's photons into *maps and keeps the VPLs (every diffuse hit, reflected
  * flux): the global map, which stays on the device. */
 static pf_status trace_photons(struct pf_fast_cache *cache, const pf_photon_frame *inputs,
                                const pf_scene_frame *frame, const pf_render_settings *settings,
-                               const pf_stage_plan *plan, pf_photon_maps *maps,
-                               fast_progress *progress, pf_error *err)
+                               const pf_stage_plan *plan, const pf_bih *tree,
+                               pf_photon_maps *maps, fast_progress *progress, pf_error *err)
 {
     double start = pf_time_ms();
     pf_photon_trace_settings trace = {.photon_count = plan->photons,
                                       .seed = settings->seed,
                                       .store_direct = 1,
-                                      .global_reflected = 1};
+                                      .global_reflected = 1,
+                                      .host_tree = plan->host_traces ? tree : NULL};
     pf_status status = pf_photon_trace(inputs->tracer, &inputs->photons, inputs->emitters,
                                        &trace, maps, err);
     if (status != PF_OK)
         return status;
     cache->trace_gpu_ms = maps->gpu_ms;
+    progress->photon_waves = maps->waves;
+    progress->photon_host_ms = maps->host_trace_ms;
     if (maps->traversal_failures > 0)
         status = pf_error_set(err, PF_ERR_LIMIT,
                               "%u photons overflowed the BIH traversal stack",
@@ -418,6 +424,10 @@ static void report_rows(pf_frame_report *report, const struct pf_fast_cache *cac
         pf_stage_add_counter(row, "photons", cache->emitted);
         pf_stage_add_counter(row, "vpls", cache->vpl_count);
         pf_stage_add_counter(row, "caustic_photons", cache->caustic_count);
+        if (progress->photon_waves) {
+            pf_stage_add_counter(row, "waves", progress->photon_waves);
+            pf_stage_add_counter(row, "host_trace_ms", progress->photon_host_ms);
+        }
     }
     /* The plan traced for a caustic map; the photons found no mirror or glass. */
     if (plan->stages[PF_STAGE_CAUSTIC_MAP].action == PF_STAGE_RUN && cache->caustic_count == 0)
@@ -589,7 +599,8 @@ static pf_status fast_run(pf_frame_run *run, pf_stage_id stage, uint32_t pass, p
         memory->valid[stage] = 0;
     switch (stage) {
     case PF_STAGE_PHOTON_TRACE:
-        status = trace_photons(cache, &f->inputs, run->frame, run->settings, plan, &f->maps,
+        status = trace_photons(cache, &f->inputs, run->frame, run->settings, plan,
+                               &renderer->bih, &f->maps,
                                &f->progress, err);
         f->maps_held = status == PF_OK;
         /* Without a caustic stage the caustic photons are not wanted. */

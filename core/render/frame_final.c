@@ -187,6 +187,9 @@ typedef struct final_progress {
     uint64_t emitted, global_stored, caustic_stored, points, points_skipped;
     uint32_t lookup_passes; /* passes shaded with precomputed irradiance */
     double trace_ms, trace_gpu_ms, grid_ms, grid_gpu_ms, caustic_ms;
+    /* Where the host traced the photons: the waves' dispatches and its traces' time. */
+    uint32_t photon_waves;
+    double photon_host_ms;
     /* grid_gpu_ms's two parts: the maps' grids, and the irradiance points with theirs. */
     double map_grid_gpu_ms, points_gpu_ms;
     float radius_first, radius_last;
@@ -213,12 +216,15 @@ static pf_status trace_pass(pf_renderer *renderer, const pf_photon_frame *inputs
     pf_photon_trace_settings trace = {.photon_count = plan->photons,
                                       .seed = pf_seed_mix(settings->seed, index),
                                       .max_depth = plan->photon_depth,
-                                      .store_direct = 1};
+                                      .store_direct = 1,
+                                      .host_tree = plan->host_traces ? &renderer->bih : NULL};
     pf_status status =
         pf_photon_trace(inputs->tracer, &inputs->photons, inputs->emitters, &trace, maps, err);
     if (status != PF_OK)
         return status;
     progress->trace_ms += pf_time_ms() - start;
+    progress->photon_waves += maps->waves;
+    progress->photon_host_ms += maps->host_trace_ms;
     pf_gpu_ms_add(&progress->trace_gpu_ms, maps->gpu_ms);
     if (maps->traversal_failures > 0) {
         pf_photon_maps_release(renderer->ctx, maps);
@@ -588,6 +594,10 @@ static void report_rows(pf_frame_report *report, const pf_stage_plan *plan,
         pf_stage_add_counter(row, "passes", progress->passes);
         pf_stage_add_counter(row, "traced_passes", progress->traced);
         pf_stage_add_counter(row, "reused_passes", progress->reused);
+        if (progress->photon_waves) {
+            pf_stage_add_counter(row, "waves", progress->photon_waves);
+            pf_stage_add_counter(row, "host_trace_ms", progress->photon_host_ms);
+        }
     }
     row = pf_stage_row(report, plan, PF_STAGE_PHOTON_GRID, progress->grid_ms,
                        progress->grid_gpu_ms);
@@ -749,8 +759,9 @@ static pf_status final_begin(pf_frame_run *run, pf_error *err)
                                      "final deferred estimates per pixel",
                                      &owned->pixel_fallbacks, err);
     if (status == PF_OK && plan->host_traces) {
-        status = pf_host_rays_create(renderer, settings->width, FINAL_GATHER_RAYS_PER_DISPATCH,
-                                     "final host-traced rays", &owned->host_rays, err);
+        status = pf_host_rays_create(renderer, settings->width, settings->height,
+                                     FINAL_GATHER_RAYS_PER_DISPATCH, "final host-traced rays",
+                                     &owned->host_rays, err);
         if (status == PF_OK)
             f->progress.trace_threads = pf_host_rays_threads(owned->host_rays);
     }

@@ -317,5 +317,9 @@ const pf_integrator pf_integrator_reference = {0, NULL, reference_run, NULL};
 
 void pf_renderer_set_trace_site(pf_renderer *renderer, pf_trace_site site)
 {
+    if (site != renderer->trace_site) {
+        pf_stage_forget(&renderer->stage_memory[PF_QUALITY_FAST]);
+        pf_stage_forget(&renderer->stage_memory[PF_QUALITY_FINAL]);
+    }
     renderer->trace_site = site;
 }

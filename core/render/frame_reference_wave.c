@@ -45,9 +45,9 @@ struct pf_reference_wave {
     uint32_t capacity;     /* paths a slice */
     uint32_t shadow_slots; /* 1 + the frame's punctual lights */
     pf_vk_buffer *buffers[WAVE_BUFFER_COUNT];
-    pf_wave_queues queues; /* the buffers as the host sees them */
+    pf_bih_wave_queues queues; /* the buffers as the host sees them */
     uint32_t *active;
-    pf_wave_tracer *tracer;
+    pf_bih_wave_tracer *tracer;
 };
 
 void pf_reference_wave_destroy(pf_reference_wave *wave)
@@ -56,7 +56,7 @@ void pf_reference_wave_destroy(pf_reference_wave *wave)
         return;
     for (int b = 0; b < WAVE_BUFFER_COUNT; b++)
         pf_render_buffer_release(wave->renderer->ctx, &wave->buffers[b]);
-    pf_wave_tracer_destroy(wave->tracer);
+    pf_bih_wave_tracer_destroy(wave->tracer);
     free(wave);
 }
 
@@ -114,7 +114,7 @@ pf_status pf_reference_wave_create(pf_renderer *renderer, const pf_render_settin
         wave->queues.shadow_rays = pf_vk_buffer_host_memory(wave->buffers[WAVE_SHADOW_RAYS]);
         wave->queues.shadow_hits = pf_vk_buffer_host_memory(wave->buffers[WAVE_SHADOW_HITS]);
         wave->active = pf_vk_buffer_host_memory(wave->buffers[WAVE_ACTIVE]);
-        status = pf_wave_tracer_create(&renderer->bih, wave->capacity, wave->shadow_slots,
+        status = pf_bih_wave_tracer_create(&renderer->bih, wave->capacity, wave->shadow_slots,
                                        &wave->tracer, err);
     }
     if (status != PF_OK) {
@@ -127,7 +127,7 @@ pf_status pf_reference_wave_create(pf_renderer *renderer, const pf_render_settin
 
 uint32_t pf_reference_wave_threads(const pf_reference_wave *wave)
 {
-    return pf_wave_tracer_threads(wave->tracer);
+    return pf_bih_wave_tracer_threads(wave->tracer);
 }
 
 /* The dispatches of one wave (pipelines[k] over pushes[k].count paths, those of no paths
@@ -212,8 +212,8 @@ pf_status pf_reference_wave_passes(pf_reference_wave *wave, pf_vk_buffer *const 
             while (status == PF_OK) {
                 double trace_start = pf_time_ms();
                 uint32_t remaining = 0, hit = 0;
-                status = pf_wave_trace(wave->tracer, &wave->queues, wave->active, live, &remaining,
-                                       &hit, &progress->rays, err);
+                status = pf_bih_wave_trace(wave->tracer, &wave->queues, wave->active, live,
+                                           &remaining, &hit, &progress->rays, err);
                 progress->host_trace_ms += pf_time_ms() - trace_start;
                 if (status != PF_OK || remaining == 0)
                     break;

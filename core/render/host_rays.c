@@ -26,9 +26,9 @@ struct pf_host_rays {
     pf_vk_context *ctx;
     uint32_t band_rows, slots;
     pf_vk_buffer *buffers[HOST_BUFFER_COUNT];
-    pf_wave_queues queues; /* the buffers as the host sees them */
+    pf_bih_wave_queues queues; /* the buffers as the host sees them */
     uint32_t *active;      /* the trace step's list of slots, rewritten by each trace */
-    pf_wave_tracer *tracer;
+    pf_bih_wave_tracer *tracer;
 };
 
 void pf_host_rays_destroy(pf_host_rays *queue)
@@ -37,13 +37,14 @@ void pf_host_rays_destroy(pf_host_rays *queue)
         return;
     for (int b = 0; b < HOST_BUFFER_COUNT; b++)
         pf_render_buffer_release(queue->ctx, &queue->buffers[b]);
-    pf_wave_tracer_destroy(queue->tracer);
+    pf_bih_wave_tracer_destroy(queue->tracer);
     free(queue->active);
     free(queue);
 }
 
-pf_status pf_host_rays_create(pf_renderer *renderer, uint32_t width, uint32_t rays_per_pixel,
-                              const char *label, pf_host_rays **out, pf_error *err)
+pf_status pf_host_rays_create(pf_renderer *renderer, uint32_t width, uint32_t height,
+                              uint32_t rays_per_pixel, const char *label, pf_host_rays **out,
+                              pf_error *err)
 {
     *out = NULL;
     pf_host_rays *queue = calloc(1, sizeof *queue);
@@ -51,7 +52,12 @@ pf_status pf_host_rays_create(pf_renderer *renderer, uint32_t width, uint32_t ra
         return pf_error_set(err, PF_ERR_NOMEM, "%s: out of memory", label);
     queue->ctx = renderer->ctx;
     uint32_t rows = HOST_RAYS_BAND_PIXELS / width / HOST_RAYS_GROUP_EDGE * HOST_RAYS_GROUP_EDGE;
+    uint32_t image_rows = (height + HOST_RAYS_GROUP_EDGE - 1) / HOST_RAYS_GROUP_EDGE *
+                          HOST_RAYS_GROUP_EDGE;
+    /* No more rows than the image has: a small image's queue is small. */
     queue->band_rows = rows > HOST_RAYS_GROUP_EDGE ? rows : HOST_RAYS_GROUP_EDGE;
+    if (queue->band_rows > image_rows)
+        queue->band_rows = image_rows;
     queue->slots = queue->band_rows * width * rays_per_pixel;
     const uint64_t sizes[HOST_BUFFER_COUNT] = {(uint64_t)queue->slots * sizeof(pf_ray),
                                                (uint64_t)queue->slots * sizeof(pf_hit),
@@ -75,7 +81,7 @@ pf_status pf_host_rays_create(pf_renderer *renderer, uint32_t width, uint32_t ra
         queue->queues.hits = pf_vk_buffer_host_memory(queue->buffers[HOST_HITS]);
         queue->queues.queue = pf_vk_buffer_host_memory(queue->buffers[HOST_QUEUE]);
         /* Closest hits only: a slot's word is 1 or 0, no shadow rays. */
-        status = pf_wave_tracer_create(&renderer->bih, queue->slots, 1, &queue->tracer, err);
+        status = pf_bih_wave_tracer_create(&renderer->bih, queue->slots, 1, &queue->tracer, err);
     }
     if (status != PF_OK) {
         pf_host_rays_destroy(queue);
@@ -92,7 +98,7 @@ void pf_host_rays_buffers(const pf_host_rays *queue, pf_vk_buffer *out[3])
 
 uint32_t pf_host_rays_threads(const pf_host_rays *queue)
 {
-    return pf_wave_tracer_threads(queue->tracer);
+    return pf_bih_wave_tracer_threads(queue->tracer);
 }
 
 /* Traces the rays of slots [0, count) that the queue marks, writing their hits. */
@@ -106,7 +112,7 @@ static pf_status trace(pf_host_rays *queue, uint32_t count, pf_host_trace_totals
     for (uint32_t i = 0; i < count; i++)
         queue->active[i] = i;
     uint32_t remaining = 0, hit = 0;
-    pf_status status = pf_wave_trace(queue->tracer, &queue->queues, queue->active, count,
+    pf_status status = pf_bih_wave_trace(queue->tracer, &queue->queues, queue->active, count,
                                      &remaining, &hit, &totals->rays, err);
     totals->host_ms += pf_time_ms() - start;
     totals->traces++;

@@ -249,6 +249,12 @@ void pf_renderer_set_deform_site(pf_renderer *renderer, pf_deform_site site);
 pf_status pf_render_deform(pf_renderer *renderer, const pf_scene *scene, double time_seconds,
                            pf_scene_frame *frame, pf_frame_report *report, pf_error *err);
 
+/*
+ * Who traces the rays the host can trace (issue 43): reference's, final's camera and gather
+ * rays, final's and fast's photons. AUTO: the host where the device is the CPU (the stage
+ * planner says why, in the rows); tests and benches force either. Setting it forgets what
+ * the photon stages kept, so that the next frame traces its photons where it says.
+ */
 typedef enum pf_trace_site {
     PF_TRACE_AUTO = 0,
     PF_TRACE_DEVICE,

@@ -134,8 +134,8 @@ typedef struct pf_stage_plan {
     pf_photon_emitters emitters; /* fast, final: what photons are emitted from (plan-owned) */
     uint32_t reused_passes;
     pf_lpv_layout layout;
-    /* reference: the host traces the rays (a wavefront), else the device; final: the host
-     * traces the camera rays and the gather rays' first segments */
+    /* The host traces, else the device: reference's rays (a wavefront); final's camera rays,
+     * gather rays' first segments and photons; fast's photons */
     int host_traces;
 } pf_stage_plan;
 
@@ -157,40 +157,6 @@ typedef struct pf_stage_previous {
     pf_trace_site trace_site;
     int device_is_host, host_traversal, tree_on_host;
 } pf_stage_previous;
-
-/*
- * The host's trace step of a wavefront (wave_trace.c): the queues a wave kernel wrote,
- * in the device's memory as the host sees it. Per path p: queue[p] = its ray waits (bit
- * 0) | its shadow rays << 1; rays[p] and hits[p]; shadow_rays and shadow_hits at
- * p × shadow_slots + k.
- */
-typedef struct pf_wave_queues {
-    const uint32_t *queue;
-    const pf_ray *rays;
-    pf_hit *hits;
-    const pf_ray *shadow_rays;
-    pf_hit *shadow_hits;
-} pf_wave_queues;
-
-typedef struct pf_wave_tracer pf_wave_tracer;
-
-/* A tracer for up to paths paths of shadow_slots shadow rays each, through bih (kept by
- * the caller while the tracer lives): builds bih's wide view and one scratch per core. */
-pf_status pf_wave_tracer_create(const pf_bih *bih, uint32_t paths, uint32_t shadow_slots,
-                                pf_wave_tracer **out, pf_error *err);
-void pf_wave_tracer_destroy(pf_wave_tracer *tracer);
-uint32_t pf_wave_tracer_threads(const pf_wave_tracer *tracer);
-/*
- * Traces the waiting rays of the paths active[0..count): closest hits for their rays,
- * any hits for their shadow rays. Then rewrites active with the paths that waited (a path
- * whose queue word is 0 is done): first the *hit whose ray hit a surface, then those whose
- * ray missed or that had none, each part in order; *remaining is their total. Adds the
- * rays traced to *rays. A traversal failure fails the call (as the device's fails the
- * frame).
- */
-pf_status pf_wave_trace(pf_wave_tracer *tracer, const pf_wave_queues *queues, uint32_t *active,
-                        uint32_t count, uint32_t *remaining, uint32_t *hit, uint64_t *rays,
-                        pf_error *err);
 
 /* Adds ms to a GPU-time total that stays < 0 while nothing was timed; an ms < 0 (no
  * timestamps) adds nothing. */
@@ -242,12 +208,13 @@ pf_status pf_reference_wave_passes(pf_reference_wave *wave, pf_vk_buffer *const 
  * gather rays where the device is the CPU. Three device buffers in host memory, bound where
  * the kernel expects them: the rays (pf_ray), their hits (pf_hit) and a word per slot, 1
  * where the slot holds a ray. Created once bih_build has left the frame's tree in
- * renderer->bih, for images width pixels wide and up to rays_per_pixel rays a pixel; the
+ * renderer->bih, for images of width × height pixels and up to rays_per_pixel rays a pixel; the
  * kernels then run in bands of rows, each band's rays traced at once.
  */
 typedef struct pf_host_rays pf_host_rays;
-pf_status pf_host_rays_create(pf_renderer *renderer, uint32_t width, uint32_t rays_per_pixel,
-                              const char *label, pf_host_rays **out, pf_error *err);
+pf_status pf_host_rays_create(pf_renderer *renderer, uint32_t width, uint32_t height,
+                              uint32_t rays_per_pixel, const char *label, pf_host_rays **out,
+                              pf_error *err);
 void pf_host_rays_destroy(pf_host_rays *queue);
 /* rays, hits, queue words, in that order. */
 void pf_host_rays_buffers(const pf_host_rays *queue, pf_vk_buffer *out[3]);

@@ -221,15 +221,15 @@ static uint32_t samples_of(const pf_render_settings *settings, uint32_t preset_d
 }
 
 /*
- * reference and final: who traces their rays (pf_trace_site; final: its camera rays and its
- * gather rays' first segments), appended to the shade row's reason, which names them `rays` (`host_rays` where
- * the host traces). The host traces where it can and the device is the CPU: its wide
- * traversal runs several times the device's speed there (bench/RESULTS.md, "Rays where the
- * device traces them best"); a forced site the frame cannot honour falls back to the device,
- * saying why.
+ * Who traces the rays the host can trace (pf_trace_site): reference's (its wavefront),
+ * final's camera rays and gather rays' first segments, and final's and fast's photons. The
+ * host traces where it can and the device is the CPU: its wide traversal runs several times
+ * the device's speed there (bench/RESULTS.md, "Rays where the device traces them best"); a
+ * forced site the frame cannot honour falls back to the device. Sets plan->host_traces;
+ * returns why the device traces, or NULL.
  */
-static void plan_trace(const pf_scene_frame *frame, const pf_stage_previous *previous,
-                       const char *host_rays, const char *rays, pf_stage_plan *plan)
+static const char *plan_trace_site(const pf_scene_frame *frame, const pf_stage_previous *previous,
+                                   pf_stage_plan *plan)
 {
     const char *why_not = NULL;
     if (previous->trace_site == PF_TRACE_DEVICE)
@@ -245,9 +245,20 @@ static void plan_trace(const pf_scene_frame *frame, const pf_stage_previous *pre
     else if (pf_scene_frame_surface_features(frame) & PF_SURFACE_ALPHA)
         why_not = "alpha-tested materials: the host's traversal has no alpha test";
     plan->host_traces = why_not == NULL;
-    char *reason = plan->stages[PF_STAGE_SHADE].reason;
+    return why_not;
+}
+
+/* Appends who traces to stage's reason where the stage runs: `host_rays` traced on the host
+ * (why), or `rays` on the device (why_not). */
+static void say_trace_site(pf_stage_plan *plan, pf_stage_id stage,
+                           const pf_stage_previous *previous, const char *why_not,
+                           const char *host_rays, const char *rays)
+{
+    if (plan->stages[stage].action != PF_STAGE_RUN)
+        return;
+    char *reason = plan->stages[stage].reason;
     size_t used = strlen(reason);
-    if (plan->host_traces)
+    if (!why_not)
         snprintf(reason + used, PF_STAGE_REASON_MAX - used, "; %s traced on the host%s", host_rays,
                  previous->trace_site == PF_TRACE_HOST ? " (forced)"
                                                         : " (the device is the CPU)");
@@ -378,7 +389,8 @@ pf_status pf_plan_stages(const pf_scene_frame *frame, const pf_render_settings *
         return PF_OK;
     case PF_QUALITY_REFERENCE:
         plan->samples = samples_of(settings, REFERENCE_DEFAULT_SAMPLES, plan, "path samples");
-        plan_trace(frame, previous, "wavefront, rays", "rays", plan);
+        say_trace_site(plan, PF_STAGE_SHADE, previous, plan_trace_site(frame, previous, plan),
+                       "wavefront, rays", "rays");
         return PF_OK;
     case PF_QUALITY_FAST:
     case PF_QUALITY_FINAL:
@@ -405,7 +417,10 @@ pf_status pf_plan_stages(const pf_scene_frame *frame, const pf_render_settings *
                      plan->photon_depth);
         plan_photons(plan, memory, 1);
         plan_final_passes(plan, memory);
-        plan_trace(frame, previous, "camera and gather rays", "camera and gather rays", plan);
+        const char *why_not = plan_trace_site(frame, previous, plan);
+        say_trace_site(plan, PF_STAGE_SHADE, previous, why_not, "camera and gather rays",
+                       "camera and gather rays");
+        say_trace_site(plan, PF_STAGE_PHOTON_TRACE, previous, why_not, "photons", "photons");
         return PF_OK;
     }
     pf_lpv_setting which;
@@ -428,5 +443,7 @@ pf_status pf_plan_stages(const pf_scene_frame *frame, const pf_render_settings *
     pf_stage_decide(plan, PF_STAGE_LPV_GEOMETRY, memory);
     pf_stage_decide(plan, PF_STAGE_LPV_INJECT, memory);
     pf_stage_decide(plan, PF_STAGE_LPV_PROPAGATE, memory);
+    say_trace_site(plan, PF_STAGE_PHOTON_TRACE, previous, plan_trace_site(frame, previous, plan),
+                   "photons", "photons");
     return PF_OK;
 }

@@ -249,13 +249,14 @@ void gather(uint pixel_index)
 }
 
 // WRITE_RAYS: the first segments of the dispatch's gather rays from pixel_index's D₁,
-// for the host; a slot without a ray (no D₁, a dropped sample, a zero weight) is marked so.
+// for the host; every slot of the pixel is written, and one without a ray (no D₁, a dropped
+// sample, a zero weight, past the sample's gather rays) is marked so.
 void write_rays(uint pixel_index)
 {
     uint base = 5u * pixel_index;
     vec4 d1 = texel_vec4(vertex_texels, base);
-    uint end = min(push.gather_first + push.gather_count, push.gather_total);
-    if (d1.w <= 0.0) {
+    uint end = push.gather_first + push.gather_count;
+    if (d1.w <= 0.0 || push.gather_first >= push.gather_total) {
         for (uint g = push.gather_first; g < end; g++)
             host_ray_write(gather_slot(pixel_index, g), false, vec3(0.0), vec3(0.0));
         return;
@@ -268,7 +269,8 @@ void write_rays(uint pixel_index)
     for (uint g = push.gather_first; g < end; g++) {
         GatherStart start = gather_start(pixel_index, g, material, d1.xyz, shading.xyz,
                                          geometric_normal, throughput_u.xyz, wo_v.xyz);
-        host_ray_write(gather_slot(pixel_index, g), any(greaterThan(start.path, vec3(0.0))),
+        host_ray_write(gather_slot(pixel_index, g),
+                       g < push.gather_total && any(greaterThan(start.path, vec3(0.0))),
                        start.origin, start.first.direction);
     }
 }

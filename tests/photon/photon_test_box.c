@@ -60,10 +60,9 @@ pf_status box_trace(box_tracer *t, const box_scene *s, const pf_photon_trace_set
     pf_bih_build_options options = {0};
     if (status == PF_OK)
         status = pf_bih_build_cpu(frame, &options, &bih, err);
-    if (status == PF_OK) {
+    int built = status == PF_OK;
+    if (status == PF_OK)
         status = pf_bih_gpu_upload(t->bih_gpu, &bih, err);
-        pf_bih_free(&bih);
-    }
     pf_photon_scene scene = {buffers[0], buffers[1], buffers[2], buffers[3], buffers[4],
                              frame->triangle_count, {0}, 1e-4f};
     if (status == PF_OK)
@@ -71,8 +70,13 @@ pf_status box_trace(box_tracer *t, const box_scene *s, const pf_photon_trace_set
     pf_photon_emitters emitters = {0};
     if (status == PF_OK)
         status = pf_photon_emitters_build(frame, &emitters, err);
+    pf_photon_trace_settings traced = *settings;
+    if (t->host_traces)
+        traced.host_tree = &bih;
     if (status == PF_OK)
-        status = pf_photon_trace(t->tracer, &scene, &emitters, settings, maps, err);
+        status = pf_photon_trace(t->tracer, &scene, &emitters, &traced, maps, err);
+    if (built)
+        pf_bih_free(&bih);
     if (status == PF_OK && global)
         status = pf_photon_map_download(ctx, maps->global, maps->global_count, global, err);
     if (status == PF_OK && caustic)

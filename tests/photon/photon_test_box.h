@@ -22,6 +22,7 @@ typedef struct box_tracer {
     pf_vk_context *ctx;
     pf_photon_tracer *tracer;
     pf_bih_gpu *bih_gpu;
+    int host_traces; /* box_trace: the host traces the rays, through the scene's CPU tree */
 } box_tracer;
 
 /* Appends the quad a b c d (two triangles) with material. */

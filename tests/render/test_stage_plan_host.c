@@ -236,19 +236,42 @@ PF_TEST(reference_rays_go_where_they_are_traced_best)
     room.materials[0].alpha_mode = PF_ALPHA_OPAQUE;
 }
 
-/* final's camera and gather rays, by the same rules; fast and preview trace on the device, unsaid. */
-PF_TEST(final_rays_go_where_they_are_traced_best)
+/* The photon_trace row's reason (plan of quality on previous). */
+static void check_photon_site(pf_quality quality, const pf_stage_previous *previous, int host,
+                              const char *reason)
+{
+    pf_render_settings settings = settings_of(quality);
+    pf_stage_plan plan;
+    pf_error err = {0};
+    PF_CHECK_OK(pf_plan_stages(&room.frame, &settings, previous, &plan, &err), &err);
+    const char *said = plan.stages[PF_STAGE_PHOTON_TRACE].reason;
+    PF_CHECK_MSG(plan.host_traces == host && strstr(said, reason),
+                 "%s: host_traces %d, photon_trace '%s' (expected %d, '%s')",
+                 pf_quality_name(quality), plan.host_traces, said, host, reason);
+    pf_stage_plan_release(&plan);
+}
+
+/* final's camera and gather rays and final's and fast's photons, by the same rules; fast's
+ * shading and preview trace on the device, unsaid. */
+PF_TEST(final_and_fast_rays_go_where_they_are_traced_best)
 {
     pf_stage_previous previous = cpu_device(PF_TRACE_AUTO);
     check_trace_of(PF_QUALITY_FINAL, &previous, 1,
                    "passes: 4 per pixel (the preset's default); camera and gather rays traced on "
                    "the host (the device is the CPU)");
+    check_photon_site(PF_QUALITY_FINAL, &previous, 1,
+                      "traced: first frame; photons traced on the host (the device is the CPU)");
+    check_photon_site(PF_QUALITY_FAST, &previous, 1,
+                      "traced: first frame; photons traced on the host (the device is the CPU)");
     previous.device_is_host = 0;
     check_trace_of(PF_QUALITY_FINAL, &previous, 0,
                    "; camera and gather rays traced on the device (the device is not the CPU)");
+    check_photon_site(PF_QUALITY_FAST, &previous, 0,
+                      "; photons traced on the device (the device is not the CPU)");
     previous = cpu_device(PF_TRACE_AUTO);
     previous.tree_on_host = 0;
     check_trace_of(PF_QUALITY_FINAL, &previous, 0, "(the BIH is built on the device)");
+    check_photon_site(PF_QUALITY_FINAL, &previous, 0, "photons traced on the device (the BIH");
     previous = cpu_device(PF_TRACE_AUTO);
     pf_quality others[] = {PF_QUALITY_FAST, PF_QUALITY_PREVIEW};
     for (size_t q = 0; q < sizeof others / sizeof others[0]; q++) {
@@ -256,9 +279,8 @@ PF_TEST(final_rays_go_where_they_are_traced_best)
         pf_stage_plan plan;
         pf_error err = {0};
         PF_CHECK_OK(pf_plan_stages(&room.frame, &settings, &previous, &plan, &err), &err);
-        PF_CHECK_MSG(!plan.host_traces && !strstr(plan.stages[PF_STAGE_SHADE].reason, "traced"),
-                     "%s: host_traces %d, '%s'", pf_quality_name(others[q]), plan.host_traces,
-                     plan.stages[PF_STAGE_SHADE].reason);
+        PF_CHECK_MSG(!strstr(plan.stages[PF_STAGE_SHADE].reason, "traced"), "%s: shade '%s'",
+                     pf_quality_name(others[q]), plan.stages[PF_STAGE_SHADE].reason);
         pf_stage_plan_release(&plan);
     }
 }
@@ -271,7 +293,7 @@ int main(void)
     PF_RUN(the_bih_decision_follows_the_kept_tree);
     PF_RUN(lpv_settings_are_checked_against_the_device_limit);
     PF_RUN(reference_rays_go_where_they_are_traced_best);
-    PF_RUN(final_rays_go_where_they_are_traced_best);
+    PF_RUN(final_and_fast_rays_go_where_they_are_traced_best);
     ref_scene_free(&room);
     return pf_test_finish();
 }

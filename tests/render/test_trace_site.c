@@ -16,6 +16,11 @@
  * either way, so the images agree but for the photon maps' atomic order and
  * ties; with precomputed irradiance and without; an image larger than a band
  * of rows is shaded band by band.
+ *
+ * final's and fast's photons: traced by the device in one flat loop, or in
+ * waves whose rays the host traces (photon_trace.comp's PHOTON_STEP). The
+ * same photons either way: the same counts stored, the same image but for
+ * the maps' order.
  */
 #include "pf_test.h"
 #include "reference_test_util.h"
@@ -247,6 +252,9 @@ static double check_gathers_agree(const pf_scene_frame *frame, const pf_render_s
         PF_CHECK(host_row &&
                  strstr(host_row->reason, "camera and gather rays traced on the host (forced)"));
         PF_CHECK(isnan(ref_stage_counter(&device_report, "shade", "host_traces")));
+        PF_CHECK(ref_stage_counter(&device_report, "photon_trace", "stored") ==
+                 ref_stage_counter(&host_report, "photon_trace", "stored"));
+        PF_CHECK(ref_stage_counter(&host_report, "photon_trace", "waves") > 0.0);
         PF_CHECK(ref_stage_counter(&host_report, "shade", "trace_threads") >= 1.0);
         value = ref_stage_counter(&host_report, "shade", counter);
     }
@@ -284,15 +292,55 @@ PF_TEST(an_image_larger_than_a_band_is_shaded_band_by_band)
     ref_scene_free(&scene);
 }
 
+PF_TEST(fast_traces_the_same_photons_on_the_host)
+{
+    ref_scene scene;
+    lit_box(&scene);
+    pf_render_settings settings = ref_settings(40, 32, 2, 6, 1);
+    settings.quality = PF_QUALITY_FAST;
+    settings.photons_per_pass = 20000;
+    pf_image device = {0}, host = {0};
+    pf_frame_report device_report, host_report;
+    if (render_with(&scene.frame, &settings, PF_TRACE_DEVICE, &device, &device_report) &&
+        render_with(&scene.frame, &settings, PF_TRACE_HOST, &host, &host_report)) {
+        double relmse = ref_layer_relmse(&host, &device, REF_CH_RGB);
+        double device_vpls = ref_stage_counter(&device_report, "photon_trace", "vpls");
+        double host_vpls = ref_stage_counter(&host_report, "photon_trace", "vpls");
+        printf("  fast: RGB relMSE %.3g; VPLs %g (device) %g (host), caustic photons %g %g\n",
+               relmse, device_vpls, host_vpls,
+               ref_stage_counter(&device_report, "photon_trace", "caustic_photons"),
+               ref_stage_counter(&host_report, "photon_trace", "caustic_photons"));
+        PF_CHECK_MSG(relmse <= 1e-6, "fast: relMSE %g between the sites", relmse);
+        PF_CHECK(device_vpls > 0 && device_vpls == host_vpls);
+        PF_CHECK(ref_stage_counter(&device_report, "photon_trace", "caustic_photons") ==
+                 ref_stage_counter(&host_report, "photon_trace", "caustic_photons"));
+        const pf_stage_timing *device_row = ref_row(&device_report, "photon_trace");
+        const pf_stage_timing *host_row = ref_row(&host_report, "photon_trace");
+        PF_CHECK(device_row && strstr(device_row->reason, "photons traced on the device (forced)"));
+        PF_CHECK(host_row && strstr(host_row->reason, "photons traced on the host (forced)"));
+        PF_CHECK(isnan(ref_stage_counter(&device_report, "photon_trace", "waves")));
+        PF_CHECK(ref_stage_counter(&host_report, "photon_trace", "waves") >= 2.0);
+    }
+    pf_image_free(&device);
+    pf_image_free(&host);
+    ref_scene_free(&scene);
+}
+
 int main(void)
 {
     if (!render_test_setup(&ctx, &renderer))
         return 1;
+    /* The host traces only where the device is the CPU (its memory the host's), with AVX2. */
+    if (!pf_vk_device_is_cpu(ctx) || !pf_bih_wide_available()) {
+        printf("skipped: the host traces only where the device is the CPU, with AVX2\n");
+        return render_test_finish(ctx, renderer);
+    }
     PF_RUN(the_cornell_box_is_the_same_image_from_both_drivers);
     PF_RUN(a_box_with_lights_glass_and_metals_is_the_same_image_from_both_drivers);
     PF_RUN(an_image_larger_than_a_slice_gets_every_pixel_once);
     PF_RUN(alpha_tested_materials_are_traced_on_the_device_saying_why);
     PF_RUN(final_gathers_the_same_light_from_host_traced_rays);
     PF_RUN(an_image_larger_than_a_band_is_shaded_band_by_band);
+    PF_RUN(fast_traces_the_same_photons_on_the_host);
     return render_test_finish(ctx, renderer);
 }

@@ -125,11 +125,18 @@ PF_TEST(integrators_read_the_tree_and_photon_maps_through_texel_buffers)
      * words. */
     PF_CHECK(kinds[S + 23] == PF_VK_BINDING_STORAGE && kinds[S + 24] == PF_VK_BINDING_TEXEL_UINT &&
              kinds[S + 25] == PF_VK_BINDING_STORAGE);
-    kinds_of("photon_trace", kinds, S + 6);
+    kinds_of("photon_trace", kinds, S + 13);
     PF_CHECK(kinds[1] == PF_VK_BINDING_TEXEL_FLOAT && kinds[4] == PF_VK_BINDING_TEXEL_INT4 &&
              kinds[6] == PF_VK_BINDING_STORAGE); /* scene_geometry.glsl; the emitters */
     PF_CHECK(kinds[S] == PF_VK_BINDING_TEXEL_INT4 && kinds[S + 1] == PF_VK_BINDING_TEXEL_FLOAT &&
              kinds[S + 2] == PF_VK_BINDING_TEXEL_UINT); /* BIH_BINDING */
+    /* The waves (photon_trace_wave.c): state, rays and queue written; the hits and the active
+     * photons read as words, the state and rays as float texels. */
+    PF_CHECK(kinds[S + 6] == PF_VK_BINDING_STORAGE && kinds[S + 7] == PF_VK_BINDING_STORAGE &&
+             kinds[S + 8] == PF_VK_BINDING_TEXEL_UINT && kinds[S + 9] == PF_VK_BINDING_STORAGE &&
+             kinds[S + 10] == PF_VK_BINDING_TEXEL_UINT &&
+             kinds[S + 11] == PF_VK_BINDING_TEXEL_FLOAT &&
+             kinds[S + 12] == PF_VK_BINDING_TEXEL_FLOAT);
     kinds_of("render_fast", kinds, S + 13);
     PF_CHECK(kinds[S + 6] == PF_VK_BINDING_TEXEL_FLOAT &&
              kinds[S + 7] == PF_VK_BINDING_TEXEL_FLOAT &&

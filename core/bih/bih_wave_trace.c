@@ -12,7 +12,7 @@
  * write the same path, and the blocks' results are joined in block order, so
  * the next active list does not depend on which thread took which block.
  */
-#include "render_internal.h"
+#include "bih_internal.h"
 
 #include <pthread.h>
 #include <stdatomic.h>
@@ -28,7 +28,7 @@
 
 /* One thread's scratch: a block's gathered rays, their hits and where each goes. */
 typedef struct wave_worker {
-    struct pf_wave_tracer *tracer;
+    struct pf_bih_wave_tracer *tracer;
     pf_ray *rays;
     pf_hit *hits;
     uint32_t *targets;
@@ -39,7 +39,7 @@ typedef struct wave_worker {
     int started;
 } wave_worker;
 
-struct pf_wave_tracer {
+struct pf_bih_wave_tracer {
     const pf_bih *bih;
     pf_bih_wide wide;
     uint32_t thread_count;
@@ -48,7 +48,7 @@ struct pf_wave_tracer {
     uint32_t *block_paths;
     uint32_t *block_hit, *block_kept;
     /* The wave being traced. */
-    const pf_wave_queues *queues;
+    const pf_bih_wave_queues *queues;
     const uint32_t *active;
     uint32_t count, block_count;
     atomic_uint next_block;
@@ -66,7 +66,7 @@ struct pf_wave_tracer {
 static pf_status trace_kind(wave_worker *w, const uint32_t *paths, uint32_t path_count,
                             int any_hit)
 {
-    const pf_wave_queues *q = w->tracer->queues;
+    const pf_bih_wave_queues *q = w->tracer->queues;
     uint32_t slots = w->tracer->shadow_slots, count = 0;
     for (uint32_t i = 0; i < path_count; i++) {
         uint32_t path = paths[i], waiting = q->queue[path];
@@ -100,8 +100,8 @@ static pf_status trace_kind(wave_worker *w, const uint32_t *paths, uint32_t path
  * surface and those with only the shadow rays' light and the film left. */
 static pf_status trace_block(wave_worker *w, uint32_t b)
 {
-    pf_wave_tracer *tracer = w->tracer;
-    const pf_wave_queues *q = tracer->queues;
+    pf_bih_wave_tracer *tracer = w->tracer;
+    const pf_bih_wave_queues *q = tracer->queues;
     uint32_t begin = b * WAVE_BLOCK_PATHS;
     uint32_t end = begin + WAVE_BLOCK_PATHS < tracer->count ? begin + WAVE_BLOCK_PATHS
                                                             : tracer->count;
@@ -129,7 +129,7 @@ static pf_status trace_block(wave_worker *w, uint32_t b)
 /* Takes blocks until none is left; the first error stays in the worker. */
 static void take_blocks(wave_worker *w)
 {
-    pf_wave_tracer *tracer = w->tracer;
+    pf_bih_wave_tracer *tracer = w->tracer;
     for (;;) {
         uint32_t b = atomic_fetch_add(&tracer->next_block, 1u);
         if (b >= tracer->block_count)
@@ -144,7 +144,7 @@ static void take_blocks(wave_worker *w)
 static void *pool_thread(void *arg)
 {
     wave_worker *w = arg;
-    pf_wave_tracer *tracer = w->tracer;
+    pf_bih_wave_tracer *tracer = w->tracer;
     uint64_t seen = 0;
     pthread_mutex_lock(&tracer->lock);
     for (;;) {
@@ -171,11 +171,11 @@ static uint32_t online_cores(void)
     return cores > (long)WAVE_MAX_THREADS ? WAVE_MAX_THREADS : (uint32_t)cores;
 }
 
-pf_status pf_wave_tracer_create(const pf_bih *bih, uint32_t paths, uint32_t shadow_slots,
-                                pf_wave_tracer **out, pf_error *err)
+pf_status pf_bih_wave_tracer_create(const pf_bih *bih, uint32_t paths, uint32_t shadow_slots,
+                                pf_bih_wave_tracer **out, pf_error *err)
 {
     *out = NULL;
-    pf_wave_tracer *tracer = calloc(1, sizeof *tracer);
+    pf_bih_wave_tracer *tracer = calloc(1, sizeof *tracer);
     if (!tracer)
         return pf_error_set(err, PF_ERR_NOMEM, "wavefront: out of memory");
     tracer->bih = bih;
@@ -214,14 +214,14 @@ pf_status pf_wave_tracer_create(const pf_bih *bih, uint32_t paths, uint32_t shad
         tracer->workers[t].started =
             pthread_create(&tracer->workers[t].thread, NULL, pool_thread, &tracer->workers[t]) == 0;
     if (status != PF_OK) {
-        pf_wave_tracer_destroy(tracer);
+        pf_bih_wave_tracer_destroy(tracer);
         return status;
     }
     *out = tracer;
     return PF_OK;
 }
 
-void pf_wave_tracer_destroy(pf_wave_tracer *tracer)
+void pf_bih_wave_tracer_destroy(pf_bih_wave_tracer *tracer)
 {
     if (!tracer)
         return;
@@ -249,7 +249,7 @@ void pf_wave_tracer_destroy(pf_wave_tracer *tracer)
     free(tracer);
 }
 
-uint32_t pf_wave_tracer_threads(const pf_wave_tracer *tracer)
+uint32_t pf_bih_wave_tracer_threads(const pf_bih_wave_tracer *tracer)
 {
     uint32_t started = 1;
     for (uint32_t t = 1; t < tracer->thread_count; t++)
@@ -257,9 +257,9 @@ uint32_t pf_wave_tracer_threads(const pf_wave_tracer *tracer)
     return started;
 }
 
-pf_status pf_wave_trace(pf_wave_tracer *tracer, const pf_wave_queues *queues, uint32_t *active,
-                        uint32_t count, uint32_t *remaining, uint32_t *hit, uint64_t *rays,
-                        pf_error *err)
+pf_status pf_bih_wave_trace(pf_bih_wave_tracer *tracer, const pf_bih_wave_queues *queues,
+                            uint32_t *active, uint32_t count, uint32_t *remaining, uint32_t *hit,
+                            uint64_t *rays, pf_error *err)
 {
     tracer->queues = queues;
     tracer->active = active;
