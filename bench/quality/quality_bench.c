@@ -336,14 +336,16 @@ int main(int argc, char **argv)
         fprintf(stderr, "quality_bench: %s\n", err.message);
         return 1;
     }
-    /* PF_QUALITY_TRACE=device|host forces who traces reference's rays (issue 43: the
-     * wavefront's figures beside the megakernel's). */
+    /* PF_QUALITY_TRACE=device|host forces who traces the rays the host can trace (issue 43:
+     * reference's wavefront, final's camera and gather rays, final's and fast's photons),
+     * for their figures beside the device's. */
     const char *trace = getenv("PF_QUALITY_TRACE");
     if (trace && !strcmp(trace, "device"))
         pf_renderer_set_trace_site(renderer, PF_TRACE_DEVICE);
     else if (trace && !strcmp(trace, "host"))
         pf_renderer_set_trace_site(renderer, PF_TRACE_HOST);
-    printf("quality_bench %s %ux%u, %d threads, device %s, reference's rays traced by %s\n",
+    printf("quality_bench %s %ux%u, %d threads, device %s, the host-traceable rays traced "
+           "by %s\n",
            scene_path, width, height, threads, pf_vk_info(ctx)->name,
            trace ? trace : "the planner's choice");
 

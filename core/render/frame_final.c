@@ -773,7 +773,8 @@ static pf_status final_begin(pf_frame_run *run, pf_error *err)
                         settings->height, run->frame->triangle_count);
         return status;
     }
-    /* 23..25: the gather rays' queue where the host traces, else a stand-in never read. */
+    /* 23..25: the camera and gather rays' queue where the host traces, else a stand-in never
+     * read. */
     pf_vk_buffer *queue[3] = {owned->empty_grid, owned->empty_grid, owned->empty_grid};
     if (owned->host_rays)
         pf_host_rays_buffers(owned->host_rays, queue);
