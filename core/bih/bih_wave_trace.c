@@ -41,7 +41,8 @@ typedef struct wave_worker {
 
 struct pf_bih_wave_tracer {
     const pf_bih *bih;
-    pf_bih_wide wide;
+    pf_bih_wide own_wide;    /* built here where the caller gave none */
+    const pf_bih_wide *wide; /* the view traced: own_wide or the caller's */
     uint32_t thread_count;
     uint32_t shadow_slots;
     /* Per block b: its waiting paths, those with a hit first, at b × WAVE_BLOCK_PATHS. */
@@ -85,7 +86,7 @@ static pf_status trace_kind(wave_worker *w, const uint32_t *paths, uint32_t path
     }
     if (count == 0)
         return PF_OK;
-    pf_status status = pf_bih_wide_trace_rays(w->tracer->bih, &w->tracer->wide, w->rays, count,
+    pf_status status = pf_bih_wide_trace_rays(w->tracer->bih, w->tracer->wide, w->rays, count,
                                               any_hit, w->hits, &w->err);
     if (status != PF_OK)
         return status;
@@ -171,8 +172,8 @@ static uint32_t online_cores(void)
     return cores > (long)WAVE_MAX_THREADS ? WAVE_MAX_THREADS : (uint32_t)cores;
 }
 
-pf_status pf_bih_wave_tracer_create(const pf_bih *bih, uint32_t paths, uint32_t shadow_slots,
-                                pf_bih_wave_tracer **out, pf_error *err)
+pf_status pf_bih_wave_tracer_create(const pf_bih *bih, const pf_bih_wide *wide, uint32_t paths,
+                                    uint32_t shadow_slots, pf_bih_wave_tracer **out, pf_error *err)
 {
     *out = NULL;
     pf_bih_wave_tracer *tracer = calloc(1, sizeof *tracer);
@@ -184,7 +185,13 @@ pf_status pf_bih_wave_tracer_create(const pf_bih *bih, uint32_t paths, uint32_t 
     tracer->thread_count = online_cores();
     if (tracer->thread_count > blocks)
         tracer->thread_count = blocks > 0 ? blocks : 1;
-    pf_status status = pf_bih_wide_build(bih, &tracer->wide, err);
+    pf_status status = PF_OK;
+    if (wide) {
+        tracer->wide = wide;
+    } else {
+        status = pf_bih_wide_build(bih, &tracer->own_wide, err);
+        tracer->wide = &tracer->own_wide;
+    }
     tracer->block_paths = malloc(((size_t)paths + 1) * sizeof *tracer->block_paths);
     tracer->block_hit = malloc(((size_t)blocks + 1) * sizeof *tracer->block_hit);
     tracer->block_kept = malloc(((size_t)blocks + 1) * sizeof *tracer->block_kept);
@@ -245,7 +252,7 @@ void pf_bih_wave_tracer_destroy(pf_bih_wave_tracer *tracer)
     free(tracer->block_paths);
     free(tracer->block_hit);
     free(tracer->block_kept);
-    pf_bih_wide_free(&tracer->wide);
+    pf_bih_wide_free(&tracer->own_wide);
     free(tracer);
 }
 

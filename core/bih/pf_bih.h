@@ -461,10 +461,12 @@ typedef struct pf_bih_wave_queues {
 
 typedef struct pf_bih_wave_tracer pf_bih_wave_tracer;
 
-/* A tracer for up to paths paths of shadow_slots shadow rays each, through bih (kept by
- * the caller while the tracer lives): builds bih's wide view and one scratch per core. */
-pf_status pf_bih_wave_tracer_create(const pf_bih *bih, uint32_t paths, uint32_t shadow_slots,
-                                    pf_bih_wave_tracer **out, pf_error *err);
+/* A tracer for up to paths paths of shadow_slots shadow rays each, through bih and its wide
+ * view wide (both kept by the caller while the tracer lives; wide NULL: the tracer builds
+ * its own), with one scratch per core. */
+pf_status pf_bih_wave_tracer_create(const pf_bih *bih, const pf_bih_wide *wide, uint32_t paths,
+                                    uint32_t shadow_slots, pf_bih_wave_tracer **out,
+                                    pf_error *err);
 void pf_bih_wave_tracer_destroy(pf_bih_wave_tracer *tracer);
 uint32_t pf_bih_wave_tracer_threads(const pf_bih_wave_tracer *tracer);
 /*

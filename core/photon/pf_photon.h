@@ -383,6 +383,8 @@ typedef struct pf_photon_trace_settings {
                                      tree (the frame's, as the device's), in waves of a bounce
                                      each, where the device is the CPU (issue 43); the same
                                      photons, only the maps' order differs */
+    const pf_bih_wide *host_wide; /* host_tree's wide view, kept by the caller (NULL: built
+                                     for the pass) */
 } pf_photon_trace_settings;
 
 typedef struct pf_photon_maps {

@@ -76,7 +76,8 @@ pf_status pf_photon_trace_uploads(pf_vk_commands *cmds, pf_vk_buffer *const *buf
  */
 pf_status pf_photon_trace_waves(pf_vk_context *ctx, pf_photon_tracer *tracer, uint32_t features,
                                 pf_vk_buffer *const *buffers, const trace_uploads *uploads,
-                                const pf_bih *host_tree, uint32_t count, trace_counters *counters,
-                                pf_photon_maps *out, pf_error *err);
+                                const pf_bih *host_tree, const pf_bih_wide *host_wide,
+                                uint32_t count, trace_counters *counters, pf_photon_maps *out,
+                                pf_error *err);
 
 #endif

@@ -271,8 +271,8 @@ pf_status pf_photon_trace(pf_photon_tracer *tracer, const pf_photon_scene *scene
     if (status == PF_OK && emitters->count > 0 && settings->host_tree) {
         per_invocation = 1;
         status = pf_photon_trace_waves(ctx, tracer, scene->surface_features, buffers, &uploads,
-                                       settings->host_tree, settings->photon_count, &counters,
-                                       out, err);
+                                       settings->host_tree, settings->host_wide,
+                                       settings->photon_count, &counters, out, err);
     } else if (status == PF_OK && emitters->count > 0) {
         status = trace_photons(tracer, kernel, buffers, &uploads, settings->photon_count,
                                per_invocation, &counters, &out->gpu_ms, err);

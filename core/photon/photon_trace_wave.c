@@ -38,8 +38,9 @@ static void waves_release(photon_waves *w)
     pf_bih_wave_tracer_destroy(w->tracer);
 }
 
-static pf_status waves_create(pf_vk_context *ctx, const pf_bih *host_tree, uint32_t capacity,
-                              photon_waves *w, pf_error *err)
+static pf_status waves_create(pf_vk_context *ctx, const pf_bih *host_tree,
+                              const pf_bih_wide *host_wide, uint32_t capacity, photon_waves *w,
+                              pf_error *err)
 {
     memset(w, 0, sizeof *w);
     w->ctx = ctx;
@@ -64,7 +65,7 @@ static pf_status waves_create(pf_vk_context *ctx, const pf_bih *host_tree, uint3
         w->queues.queue = pf_vk_buffer_host_memory(w->buffers[WAVE_QUEUE]);
         w->active = pf_vk_buffer_host_memory(w->buffers[WAVE_ACTIVE]);
         /* Closest hits only: a photon's word is 1 or 0, no shadow rays. */
-        status = pf_bih_wave_tracer_create(host_tree, capacity, 1, &w->tracer, err);
+        status = pf_bih_wave_tracer_create(host_tree, host_wide, capacity, 1, &w->tracer, err);
     }
     if (status != PF_OK)
         waves_release(w);
@@ -104,8 +105,9 @@ static pf_status wave_dispatch(pf_vk_context *ctx, pf_vk_pipeline *kernel,
 
 pf_status pf_photon_trace_waves(pf_vk_context *ctx, pf_photon_tracer *tracer, uint32_t features,
                                 pf_vk_buffer *const *buffers, const trace_uploads *uploads,
-                                const pf_bih *host_tree, uint32_t count, trace_counters *counters,
-                                pf_photon_maps *out, pf_error *err)
+                                const pf_bih *host_tree, const pf_bih_wide *host_wide,
+                                uint32_t count, trace_counters *counters, pf_photon_maps *out,
+                                pf_error *err)
 {
     memset(counters, 0, sizeof *counters);
     pf_vk_pipeline *emit = NULL, *bounce = NULL;
@@ -115,7 +117,7 @@ pf_status pf_photon_trace_waves(pf_vk_context *ctx, pf_photon_tracer *tracer, ui
     uint32_t capacity = count < WAVE_MAX_PHOTONS ? count : WAVE_MAX_PHOTONS;
     photon_waves w;
     if (status == PF_OK)
-        status = waves_create(ctx, host_tree, capacity, &w, err);
+        status = waves_create(ctx, host_tree, host_wide, capacity, &w, err);
     if (status != PF_OK)
         return status;
     pf_vk_buffer *bound[TRACE_BUFFERS];

@@ -182,6 +182,9 @@ pf_status pf_render_prepare_bih(pf_renderer *renderer, const pf_scene_frame *fra
     int built_on_gpu = 0, resident = 0;
     status = update_tree(renderer, frame, planned, site, &decision, reason, sizeof reason,
                          &built_on_gpu, &resident, err);
+    /* A tree built or refit (or lost to a failure): its wide view is another. */
+    if (status != PF_OK || decision != BIH_REUSED)
+        pf_renderer_bih_wide_drop(renderer);
     if (status == PF_OK && decision != BIH_REUSED && !resident)
         status = pf_bih_gpu_upload(renderer->bih_gpu, &renderer->bih, err);
     if (status != PF_OK) {
@@ -219,6 +222,28 @@ pf_status pf_render_prepare_bih(pf_renderer *renderer, const pf_scene_frame *fra
         }
     }
     return PF_OK;
+}
+
+pf_status pf_renderer_bih_wide(pf_renderer *renderer, const pf_bih_wide **out, pf_error *err)
+{
+    *out = NULL;
+    if (!renderer->bih_valid)
+        return pf_error_set(err, PF_ERR_INTERNAL, "no BIH for the host to trace");
+    if (!renderer->bih_wide_valid) {
+        pf_status status = pf_bih_wide_build(&renderer->bih, &renderer->bih_wide, err);
+        if (status != PF_OK)
+            return status;
+        renderer->bih_wide_valid = 1;
+    }
+    *out = &renderer->bih_wide;
+    return PF_OK;
+}
+
+void pf_renderer_bih_wide_drop(pf_renderer *renderer)
+{
+    if (renderer->bih_wide_valid)
+        pf_bih_wide_free(&renderer->bih_wide);
+    renderer->bih_wide_valid = 0;
 }
 
 pf_status pf_render_check_traversal(const pf_renderer *renderer, uint64_t failures,

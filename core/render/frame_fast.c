@@ -120,17 +120,22 @@ typedef struct fast_progress {
  * flux): the global map, which stays on the device. */
 static pf_status trace_photons(struct pf_fast_cache *cache, const pf_photon_frame *inputs,
                                const pf_scene_frame *frame, const pf_render_settings *settings,
-                               const pf_stage_plan *plan, const pf_bih *tree,
+                               const pf_stage_plan *plan, pf_renderer *renderer,
                                pf_photon_maps *maps, fast_progress *progress, pf_error *err)
 {
     double start = pf_time_ms();
     pf_photon_trace_settings trace = {.photon_count = plan->photons,
                                       .seed = settings->seed,
                                       .store_direct = 1,
-                                      .global_reflected = 1,
-                                      .host_tree = plan->host_traces ? tree : NULL};
-    pf_status status = pf_photon_trace(inputs->tracer, &inputs->photons, inputs->emitters,
-                                       &trace, maps, err);
+                                      .global_reflected = 1};
+    pf_status status = PF_OK;
+    if (plan->host_traces) {
+        trace.host_tree = &renderer->bih;
+        status = pf_renderer_bih_wide(renderer, &trace.host_wide, err);
+    }
+    if (status == PF_OK)
+        status = pf_photon_trace(inputs->tracer, &inputs->photons, inputs->emitters, &trace,
+                                 maps, err);
     if (status != PF_OK)
         return status;
     cache->trace_gpu_ms = maps->gpu_ms;
@@ -599,9 +604,8 @@ static pf_status fast_run(pf_frame_run *run, pf_stage_id stage, uint32_t pass, p
         memory->valid[stage] = 0;
     switch (stage) {
     case PF_STAGE_PHOTON_TRACE:
-        status = trace_photons(cache, &f->inputs, run->frame, run->settings, plan,
-                               &renderer->bih, &f->maps,
-                               &f->progress, err);
+        status = trace_photons(cache, &f->inputs, run->frame, run->settings, plan, renderer,
+                               &f->maps, &f->progress, err);
         f->maps_held = status == PF_OK;
         /* Without a caustic stage the caustic photons are not wanted. */
         if (f->maps_held && plan->stages[PF_STAGE_CAUSTIC_MAP].action != PF_STAGE_RUN) {

@@ -35,6 +35,7 @@ void pf_pilot_end(pf_renderer *renderer, const pf_pilot_history *saved)
         if (renderer->bih_valid)
             pf_bih_free(&renderer->bih);
         renderer->bih_valid = 0;
+        pf_renderer_bih_wide_drop(renderer);
         renderer->bih_frames = saved->bih_frames;
         renderer->bih_pilot_replaced = saved->bih_frames > 0;
     }

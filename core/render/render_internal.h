@@ -277,6 +277,12 @@ uint64_t pf_hash_bytes(uint64_t h, const void *data, size_t bytes);
 
 pf_stage_previous pf_stage_previous_of(const pf_renderer *renderer, pf_quality preset);
 
+/* The wide view of renderer->bih, built once per tree (frame_bih.c); the host's traces of a
+ * frame (reference's wavefront, final's rays, the photons) share it. */
+pf_status pf_renderer_bih_wide(pf_renderer *renderer, const pf_bih_wide **out, pf_error *err);
+/* Forgets the wide view: renderer->bih changed or is gone. */
+void pf_renderer_bih_wide_drop(pf_renderer *renderer);
+
 /* Plans the frame's stages for settings->quality (not auto): a pure function of its
  * arguments. PF_ERR_LIMIT for LPV settings the device cannot hold, PF_ERR_NOMEM. */
 pf_status pf_plan_stages(const pf_scene_frame *frame, const pf_render_settings *settings,
@@ -367,6 +373,10 @@ struct pf_renderer {
      */
     pf_bih bih;
     int bih_valid;
+    /* bih's wide view for the host's traces (pf_renderer_bih_wide): built at first use,
+     * dropped whenever bih changes (a build, a refit, auto's pilot freeing it). */
+    pf_bih_wide bih_wide;
+    int bih_wide_valid;
     /*
      * Reuse state (frame_bih.c): the tree's own leaf-order vertices are the
      * previous frame's geometry; bih_sah is the current tree's SAH cost and

@@ -48,5 +48,6 @@ void pf_renderer_destroy(pf_renderer *renderer)
     pf_bih_gpu_builder_destroy(renderer->bih_builder);
     if (renderer->bih_valid)
         pf_bih_free(&renderer->bih);
+    pf_renderer_bih_wide_drop(renderer);
     free(renderer);
 }

@@ -326,6 +326,38 @@ PF_TEST(fast_traces_the_same_photons_on_the_host)
     ref_scene_free(&scene);
 }
 
+PF_TEST(a_moved_scene_is_traced_through_its_own_tree)
+{
+    /* The host's traces share one wide view of the frame's tree (pf_renderer_bih_wide). A
+     * frame whose geometry moved refits the tree: the view must be built again, or the host
+     * would trace the old geometry. */
+    ref_scene scene;
+    lit_box(&scene);
+    pf_render_settings settings = ref_settings(32, 24, 2, 8, 0);
+    pf_image before = {0}, host = {0}, device = {0};
+    pf_frame_report report;
+    int rendered = render_with(&scene.frame, &settings, PF_TRACE_HOST, &before, &report);
+    /* Everything 5 cm to the side: the same triangles, moved (a refit). */
+    for (uint32_t v = 0; v < 3 * scene.frame.triangle_count; v++)
+        scene.frame.vertices[v][0] += 0.05f;
+    rendered = rendered && render_with(&scene.frame, &settings, PF_TRACE_HOST, &host, &report);
+    const pf_stage_timing *bih = rendered ? ref_row(&report, "bih_build") : NULL;
+    PF_CHECK_MSG(bih && strstr(bih->reason, "refit"), "bih_build: '%s'", bih ? bih->reason : "");
+    rendered = rendered && render_with(&scene.frame, &settings, PF_TRACE_DEVICE, &device, &report);
+    if (rendered) {
+        double moved = ref_layer_relmse(&host, &before, REF_CH_RGB);
+        double relmse = ref_layer_relmse(&host, &device, REF_CH_RGB);
+        printf("  moved: relMSE %.3g against the device, %.3g against before the move\n", relmse,
+               moved);
+        PF_CHECK_MSG(relmse <= 1e-6, "moved: relMSE %g between the sites", relmse);
+        PF_CHECK(moved > 1e-4); /* the move shows */
+    }
+    pf_image_free(&before);
+    pf_image_free(&host);
+    pf_image_free(&device);
+    ref_scene_free(&scene);
+}
+
 int main(void)
 {
     if (!render_test_setup(&ctx, &renderer))
@@ -342,5 +374,6 @@ int main(void)
     PF_RUN(final_gathers_the_same_light_from_host_traced_rays);
     PF_RUN(an_image_larger_than_a_band_is_shaded_band_by_band);
     PF_RUN(fast_traces_the_same_photons_on_the_host);
+    PF_RUN(a_moved_scene_is_traced_through_its_own_tree);
     return render_test_finish(ctx, renderer);
 }
