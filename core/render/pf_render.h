@@ -220,14 +220,6 @@ void pf_renderer_set_bih_build(pf_renderer *renderer, pf_bih_build_site site);
 void pf_renderer_set_lpv_site(pf_renderer *renderer, pf_lpv_site site);
 
 /*
- * Who traces reference's rays (issue 43). AUTO: the host, with the wide AVX2 BIH
- * traversal on every core, where the device is the CPU and its memory the host's
- * (the kernels then run as a wavefront, one path vertex a dispatch: render_reference_wave
- * .comp), unless the scene has alpha-tested materials (the host's traversal has no alpha
- * test) or the tree was built on the device; elsewhere the device, in one kernel a pass.
- * The shade row says which ran and why. Tests and benches force either.
- */
-/*
  * Where the `deform` stage deforms vertices (issue 39; deform_device.c). AUTO: the host
  * where the device is the CPU (its vector loop is faster there), else the device. Tests
  * force either.
@@ -250,10 +242,14 @@ pf_status pf_render_deform(pf_renderer *renderer, const pf_scene *scene, double 
                            pf_scene_frame *frame, pf_frame_report *report, pf_error *err);
 
 /*
- * Who traces the rays the host can trace (issue 43): reference's, final's camera and gather
- * rays, final's and fast's photons. AUTO: the host where the device is the CPU (the stage
- * planner says why, in the rows); tests and benches force either. Setting it forgets what
- * the photon stages kept, so that the next frame traces its photons where it says.
+ * Who traces the rays the host can trace (issue 43): reference's (a wavefront, one path
+ * vertex a dispatch: render_reference_wave.comp), final's camera and gather rays, final's
+ * and fast's photons. AUTO: the host, with the wide AVX2 BIH traversal on every core, where
+ * the device is the CPU and its memory the host's, unless the scene has alpha-tested
+ * materials (the host's traversal has no alpha test) or the tree was built on the device;
+ * elsewhere the device. The stage planner says which and why, in the rows; tests and
+ * benches force either. Setting it forgets what the photon stages kept, so that the next
+ * frame traces its photons where it says.
  */
 typedef enum pf_trace_site {
     PF_TRACE_AUTO = 0,
