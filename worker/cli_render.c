@@ -10,10 +10,12 @@
 #include "pf_image.h"
 #include "pf_scene.h"
 #include "pf_vk.h"
+#include "frame_writer.h"
 
 #include <errno.h>
 #include <inttypes.h>
 #include <math.h>
+#include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -110,12 +112,55 @@ static void session_close(render_session *session)
     pf_scene_destroy(session->scene);
 }
 
-/* Renders and writes one frame (pf_render.h, shared with the worker);
- * 0 or an exit code after printing why. */
-static int render_one(const render_options *options, render_session *session, int64_t frame_number,
-                      uint32_t following, const char *path, double *elapsed_ms)
+/*
+ * The frames of one run, each rendered and then written behind the render (frame_writer.h,
+ * as the worker does): frame i is written, committed and reported on the writer's thread
+ * while frame i + 1 renders. Two outputs suffice, as a handover waits for the write before it.
+ */
+typedef struct render_run {
+    const render_options *options;
+    size_t frame_count;
+    pf_frame_output outputs[2];
+    size_t indices[2];           /* the frame list's index of what each output holds */
+    int64_t frame_numbers[2];
+    char failure[PF_ERROR_MESSAGE_MAX]; /* the first failed write or commit ("": none) */
+    int failure_code;
+    atomic_int failed;
+} render_run;
+
+/* The writer's thread: commits a written frame and reports it, or keeps the failure. */
+static void frame_written(void *user, pf_frame_output *output, pf_status status,
+                          const pf_error *err)
 {
-    double start = pf_time_ms();
+    render_run *run = user;
+    int slot = output == &run->outputs[1];
+    pf_error commit_err = {0};
+    if (status == PF_OK)
+        status = pf_frame_commit(output, &commit_err);
+    else
+        commit_err = *err;
+    if (status != PF_OK) {
+        pf_frame_discard(output);
+        if (!atomic_load(&run->failed)) {
+            snprintf(run->failure, sizeof run->failure, "%s", commit_err.message);
+            run->failure_code = pf_status_exit_code(status);
+            atomic_store(&run->failed, 1);
+        }
+        return;
+    }
+    if (run->options->timings)
+        print_stage_rows(&output->report);
+    printf("[%zu/%zu] frame %" PRId64 "  %.1f ms  %s\n", run->indices[slot] + 1,
+           run->frame_count, run->frame_numbers[slot], output->total_ms, output->final_path);
+    fflush(stdout);
+}
+
+/* Renders one frame (pf_render.h, shared with the worker) into output and hands it to the
+ * writer; 0 or an exit code after printing why. */
+static int render_one(const render_options *options, render_session *session,
+                      pf_frame_writer *writer, render_run *run, size_t index,
+                      int64_t frame_number, uint32_t following, const char *path)
+{
     char temp_tag[32];
     snprintf(temp_tag, sizeof temp_tag, "render-%ld", (long)getpid());
     pf_frame_request request = {session->scene,
@@ -126,25 +171,27 @@ static int render_one(const render_options *options, render_session *session, in
                                 temp_tag,
                                 pf_vk_info(session->ctx)->name,
                                 NULL,
-                                following};
-    pf_frame_output output;
+                                following,
+                                1};
+    int slot = (int)(index % 2);
+    pf_frame_output *output = &run->outputs[slot];
     pf_error err = {0};
-    pf_status status = pf_frame_render(session->renderer, &request, &output, &err);
-    if (status == PF_OK)
-        status = pf_frame_commit(&output, &err);
-    if (status != PF_OK)
+    pf_status status = pf_frame_render(session->renderer, &request, output, &err);
+    if (status != PF_OK) {
+        pf_frame_discard(output);
         return pf_cli_fail(COMMAND, pf_status_exit_code(status), "%s", err.message);
+    }
     /* Compiled pipelines are kept for the next process as soon as they exist. */
     pf_error cache_err = {0};
     if (pf_vk_pipeline_cache_save(session->ctx, &cache_err) != PF_OK)
         fprintf(stderr, "photonfarm render: warning: %s\n", cache_err.message);
-    if (output.report.discarded_samples > 0)
+    if (output->report.discarded_samples > 0)
         fprintf(stderr, "photonfarm render: frame %" PRId64 ": %" PRIu64
                         " NaN/Inf samples discarded\n",
-                frame_number, output.report.discarded_samples);
-    *elapsed_ms = pf_time_ms() - start;
-    if (options->timings)
-        print_stage_rows(&output.report);
+                frame_number, output->report.discarded_samples);
+    run->indices[slot] = index;
+    run->frame_numbers[slot] = frame_number;
+    pf_frame_writer_hand(writer, output, run);
     return 0;
 }
 
@@ -224,14 +271,25 @@ int pf_cli_render(int argc, char **argv)
         return code;
     }
 
+    render_run *run = calloc(1, sizeof *run);
+    pf_frame_writer *writer = NULL;
+    status = run ? pf_frame_writer_start(frame_written, &writer, &err)
+                 : pf_error_set(&err, PF_ERR_NOMEM, "out of memory");
+    if (status != PF_OK) {
+        free(run);
+        pf_frame_list_free(&frames);
+        session_close(&session);
+        return pf_cli_fail(COMMAND, pf_status_exit_code(status), "%s", err.message);
+    }
+    run->options = &options;
+    run->frame_count = frames.count;
     size_t run_end = 0; /* one past the last frame of the run of consecutive frames i is in */
-    for (size_t i = 0; i < frames.count && code == 0; i++) {
+    for (size_t i = 0; i < frames.count && code == 0 && !atomic_load(&run->failed); i++) {
         char path[MAX_PATH_BYTES];
         if (!pf_frame_output_path(options.output, frames.frames[i], path, sizeof path)) {
             code = pf_cli_fail(COMMAND, 2, "-o '%s': output path too long", options.output);
             break;
         }
-        double elapsed_ms = 0.0;
         /* The frames after this one that follow it one by one (a run the denoiser reuses),
          * found once a run. */
         if (run_end <= i)
@@ -240,13 +298,12 @@ int pf_cli_render(int argc, char **argv)
                  run_end++)
                 ;
         uint32_t following = (uint32_t)(run_end - i - 1);
-        code = render_one(&options, &session, frames.frames[i], following, path, &elapsed_ms);
-        if (code == 0) {
-            printf("[%zu/%zu] frame %" PRId32 "  %.1f ms  %s\n", i + 1, frames.count,
-                   frames.frames[i], elapsed_ms, path);
-            fflush(stdout);
-        }
+        code = render_one(&options, &session, writer, run, i, frames.frames[i], following, path);
     }
+    pf_frame_writer_stop(writer);
+    if (atomic_load(&run->failed) && code == 0)
+        code = pf_cli_fail(COMMAND, run->failure_code, "%s", run->failure);
+    free(run);
     if (pf_vk_validation_enabled(session.ctx)) {
         uint32_t messages = pf_vk_validation_message_count(session.ctx);
         if (messages > 0 && code == 0)

@@ -1,8 +1,11 @@
 /*
  * The queue worker (DESIGN.md §7): a libuv loop that claims tasks, renders
- * them one at a time off the loop thread, renews the lease by a heartbeat
- * timer, completes or fails them fenced by the lease token, reaps expired
- * leases of dead workers, and drains on SIGINT/SIGTERM. Every database call
+ * them one at a time off the loop thread, writes each frame's EXR on a writer
+ * thread while the next frame renders (frame_writer.h: the next task is
+ * claimed as soon as the last has rendered, so at most two are held), renews
+ * their leases by a heartbeat timer, completes or fails them fenced by the
+ * lease token, reaps expired leases of dead workers, and drains on
+ * SIGINT/SIGTERM. Every database call
  * runs on libuv's thread pool, serialized by one mutex around the one
  * connection. Core's log messages are routed into the worker's log
  * (event=core) while it runs. Tests hold a worker mid-frame from outside

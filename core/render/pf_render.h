@@ -484,7 +484,12 @@ pf_status pf_render_denoise(pf_renderer *renderer, pf_image *image, int keep_noi
  *   pf_render_denoise        → stage rows "temporal" and "denoise" (where --denoise applies)
  *   pf_exr_write to a temporary name beside the output → stage row "exr_write"
  *
- * pf_frame_render stops there and hands the temporary back, so the caller can
+ * With write_behind the frame stops before the write and keeps the image:
+ * pf_frame_write then writes it, on any thread, so that a worker renders the
+ * next frame meanwhile (issue 43: a GPU is not left idle for the EXR's
+ * compression). The file is the same either way.
+ *
+ * The frame stops at the temporary and hands it back, so the caller can
  * re-check its lease before pf_frame_commit renames it into place (or
  * pf_frame_discard deletes it). Temporaries are named "<output>.partial-<tag>"
  * (and pf_exr_write's own "<that>.tmp-<pid>-<n>"), so every leftover of a
@@ -516,6 +521,10 @@ typedef struct pf_frame_request {
      * before (frame + 1, + 2, ...): a task's chunk, a --frames range. 0: none or unknown.
      * A run's first frame with no history to blend gets PF_TEMPORAL_WARM_UP× samples. */
     uint32_t following;
+    /* Non-zero: stop before the EXR write, keeping the image in out->pending for
+     * pf_frame_write. The memory check then counts two frames' images: this one is
+     * held while the next renders. */
+    int write_behind;
 } pf_frame_request;
 
 /*
@@ -541,6 +550,9 @@ typedef struct pf_frame_output {
      * it keeps across frames included), and the bytes of the EXR it wrote. */
     uint64_t peak_device_bytes;
     uint64_t bytes_written;
+    /* write_behind: the rendered image and its metadata until pf_frame_write (or
+     * pf_frame_discard) takes them; NULL otherwise. */
+    struct pf_frame_pending *pending;
 } pf_frame_output;
 
 /*
@@ -553,6 +565,16 @@ typedef struct pf_frame_output {
  */
 pf_status pf_frame_render(pf_renderer *renderer, const pf_frame_request *request,
                           pf_frame_output *out, pf_error *err);
+
+/*
+ * Writes a frame rendered with write_behind (out->pending) to its temporary
+ * and adds its "exr_write" row; out->total_ms grows by the write's time. The
+ * outcomes are pf_frame_render's for the write: on failure nothing is left
+ * on disk and out->failed is PF_FRAME_FAILED_OUTPUT. The pending image is
+ * freed either way. Touches nothing but out, so it may run on another thread
+ * while the renderer renders the next frame.
+ */
+pf_status pf_frame_write(pf_frame_output *out, pf_error *err);
 
 /* Renames the temporary into place and fsyncs the directory. On failure the
  * temporary is removed, err names both paths and out->failed is PF_FRAME_FAILED_OUTPUT. */
@@ -580,7 +602,7 @@ pf_status pf_frame_output_check(const char *pattern, char *absolute, size_t size
 pf_status pf_frame_memory_check(uint32_t width, uint32_t height, uint64_t available_bytes,
                                 pf_error *err);
 
-/* Deletes the temporary, if any (a lost lease, an error). */
+/* Deletes the temporary, if any, and frees a pending image (a lost lease, an error). */
 void pf_frame_discard(pf_frame_output *out);
 
 /*

@@ -15,6 +15,20 @@
 #define PARTIAL_INFIX ".partial-"
 #define ATTRIBUTE_COUNT 9
 
+/* A rendered frame waiting for its write (pf_frame_request.write_behind): what the
+ * file will hold, exactly as a write at once would have written it. */
+struct pf_frame_pending {
+    pf_image image; /* the channels written: the beauty alone without AOVs */
+    pf_image_attribute attributes[ATTRIBUTE_COUNT];
+    pf_exr_pixel_type pixel_type;
+    int64_t frame;
+    int behind; /* written behind the next frame's render (write_behind) */
+};
+typedef struct pf_frame_pending pf_frame_pending;
+
+static pf_status frame_memory_check(uint32_t width, uint32_t height, uint32_t frames_held,
+                                    uint64_t available_bytes, pf_error *err);
+
 static int aborted(const pf_frame_request *request)
 {
     return request->abort && atomic_load(request->abort);
@@ -235,7 +249,8 @@ pf_status pf_frame_render(pf_renderer *renderer, const pf_frame_request *request
     resolve_size(&request->settings, &frame, &settings);
     out->width = settings.width;
     out->height = settings.height;
-    status = pf_frame_memory_check(settings.width, settings.height, 0, err);
+    status = frame_memory_check(settings.width, settings.height, request->write_behind ? 2 : 1,
+                                0, err);
     if (status != PF_OK) {
         pf_scene_frame_free(&frame);
         return status;
@@ -286,52 +301,86 @@ pf_status pf_frame_render(pf_renderer *renderer, const pf_frame_request *request
         return PF_OK;
     }
 
-    double write_start = pf_time_ms();
-    pf_image_attribute attributes[ATTRIBUTE_COUNT];
-    fill_attributes(request, &settings, out->report.quality, denoised, write_start - start,
-                    attributes);
+    double render_end = pf_time_ms();
+    pf_frame_pending *pending = calloc(1, sizeof *pending);
+    if (!pending) {
+        pf_image_free(&image);
+        out->failed = PF_FRAME_FAILED_RENDER;
+        return pf_error_set(err, PF_ERR_NOMEM, "frame %" PRId64 ": out of memory", request->frame);
+    }
+    fill_attributes(request, &settings, out->report.quality, denoised, render_end - start,
+                    pending->attributes);
+    pending->pixel_type = settings.float_pixels ? PF_EXR_FLOAT : PF_EXR_HALF;
+    pending->frame = request->frame;
+    pending->behind = request->write_behind != 0;
     if (snprintf(out->temp_path, sizeof out->temp_path, "%s" PARTIAL_INFIX "%s",
                  request->output_path, request->temp_tag ? request->temp_tag : "0") >=
         (int)sizeof out->temp_path) {
         pf_image_free(&image);
+        free(pending);
         out->temp_path[0] = '\0';
         out->failed = PF_FRAME_FAILED_OUTPUT;
         return pf_error_set(err, PF_ERR_INVALID, "output path too long: %s", request->output_path);
     }
     /* Without AOVs the file is the beauty alone: RGBA, which every EXR reader opens
-     * as a plain image (the lighting split is an AOV too). */
+     * as a plain image (the lighting split is an AOV too). What is kept is what is
+     * written, so a frame held for write_behind holds no more than that. */
     static const char *const rgba[] = {"R", "G", "B", "A"};
-    pf_image beauty = {0};
-    const pf_image *written = &image;
     if (!settings.aovs && image.channel_count > 4) {
-        status = pf_image_select(&image, rgba, 4, &beauty, err);
-        written = &beauty;
+        status = pf_image_select(&image, rgba, 4, &pending->image, err);
+        pf_image_free(&image);
+    } else {
+        pending->image = image;
     }
-    int writing = status == PF_OK; /* a failure from here on is the file's */
-    if (writing)
-        status = pf_exr_write(out->temp_path, written,
-                              settings.float_pixels ? PF_EXR_FLOAT : PF_EXR_HALF, attributes,
-                              ATTRIBUTE_COUNT, err);
-    pf_image_free(&beauty);
-    pf_image_free(&image);
+    out->pending = pending;
+    out->total_ms = pf_time_ms() - start;
+    if (status != PF_OK) {
+        pf_frame_discard(out);
+        out->failed = PF_FRAME_FAILED_RENDER;
+        pf_error_prefix(err, "writing frame %" PRId64, request->frame);
+        return status;
+    }
+    return request->write_behind ? PF_OK : pf_frame_write(out, err);
+}
+
+pf_status pf_frame_write(pf_frame_output *out, pf_error *err)
+{
+    pf_frame_pending *pending = out->pending;
+    if (!pending || !out->temp_path[0])
+        return pf_error_set(err, PF_ERR_INTERNAL, "no rendered frame to write for %s",
+                            out->final_path);
+    double write_start = pf_time_ms();
+    const pf_image *written = &pending->image;
+    pf_status status = pf_exr_write(out->temp_path, written, pending->pixel_type,
+                                    pending->attributes, ATTRIBUTE_COUNT, err);
+    int64_t frame = pending->frame;
+    int behind = pending->behind;
+    double pixels = (double)written->width * written->height;
+    out->pending = NULL;
+    pf_image_free(&pending->image);
+    free(pending);
     if (status != PF_OK) {
         unlink(out->temp_path);
         out->temp_path[0] = '\0';
-        out->failed = writing ? PF_FRAME_FAILED_OUTPUT : PF_FRAME_FAILED_RENDER;
-        pf_error_prefix(err, "writing frame %" PRId64, request->frame);
+        out->failed = PF_FRAME_FAILED_OUTPUT;
+        pf_error_prefix(err, "writing frame %" PRId64, frame);
         return status;
     }
     struct stat written_file;
     if (stat(out->temp_path, &written_file) == 0)
         out->bytes_written = (uint64_t)written_file.st_size;
     pf_stage_timing *write_row = pf_frame_report_add(&out->report, "exr_write");
+    double write_ms = pf_time_ms() - write_start;
     if (write_row) {
-        write_row->wall_ms = pf_time_ms() - write_start;
+        write_row->wall_ms = write_ms;
         write_row->gpu_ms = -1.0;
-        pf_stage_add_counter(write_row, "pixels", (double)settings.width * settings.height);
+        pf_stage_add_counter(write_row, "pixels", pixels);
         pf_stage_add_counter(write_row, "bytes", (double)out->bytes_written);
+        /* 1: on the writer's thread, while the next frame rendered; its wall time then
+         * overlaps that frame's rows instead of adding to this worker's time. */
+        pf_stage_add_counter(write_row, "behind", behind);
     }
-    out->total_ms = pf_time_ms() - start;
+    out->total_ms += write_ms;
     return PF_OK;
 }
 
@@ -361,8 +410,10 @@ pf_status pf_frame_output_check(const char *pattern, char *absolute, size_t size
     return PF_OK;
 }
 
-pf_status pf_frame_memory_check(uint32_t width, uint32_t height, uint64_t available_bytes,
-                                pf_error *err)
+/* pf_frame_memory_check for frames_held frames of this size at once (write_behind holds
+ * one while the next renders). */
+static pf_status frame_memory_check(uint32_t width, uint32_t height, uint32_t frames_held,
+                                    uint64_t available_bytes, pf_error *err)
 {
     if (available_bytes == 0) {
         long pages = sysconf(_SC_PHYS_PAGES), page_size = sysconf(_SC_PAGESIZE);
@@ -370,14 +421,22 @@ pf_status pf_frame_memory_check(uint32_t width, uint32_t height, uint64_t availa
             return PF_OK; /* unknown: nothing to compare against */
         available_bytes = (uint64_t)pages * (uint64_t)page_size / 2u;
     }
-    uint64_t needed = (uint64_t)width * height * PF_FRAME_HOST_BYTES_PER_PIXEL;
+    uint64_t needed = (uint64_t)width * height * PF_FRAME_HOST_BYTES_PER_PIXEL * frames_held;
     if (needed > available_bytes)
         return pf_error_set(err, PF_ERR_INVALID,
-                            "a %ux%u frame needs about %.1f GiB of memory; at most %.1f GiB "
+                            "a %ux%u frame needs about %.1f GiB of memory%s; at most %.1f GiB "
                             "(half of this machine's) is allowed: render a smaller image",
                             width, height, (double)needed / (1u << 30),
+                            frames_held > 1 ? " (one frame rendering while the last is written)"
+                                            : "",
                             (double)available_bytes / (1u << 30));
     return PF_OK;
+}
+
+pf_status pf_frame_memory_check(uint32_t width, uint32_t height, uint64_t available_bytes,
+                                pf_error *err)
+{
+    return frame_memory_check(width, height, 1, available_bytes, err);
 }
 
 pf_status pf_frame_commit(pf_frame_output *out, pf_error *err)
@@ -412,6 +471,11 @@ pf_status pf_frame_commit(pf_frame_output *out, pf_error *err)
 
 void pf_frame_discard(pf_frame_output *out)
 {
+    if (out->pending) {
+        pf_image_free(&out->pending->image);
+        free(out->pending);
+        out->pending = NULL;
+    }
     if (out->temp_path[0]) {
         unlink(out->temp_path);
         out->temp_path[0] = '\0';

@@ -21,6 +21,10 @@
  *                    rename onto the temporary is held too, unmarked): the
  *                    worker renewed its lease just before, so a test can take
  *                    the lease at exactly that point
+ *   PF_FAULT_RELEASE   the EXR writer's rename onto a frame's temporary in the
+ *                    directory waits until this file exists (at most 120 s), so
+ *                    a test holds a frame's write for as long as it takes to see
+ *                    what the worker does meanwhile, whatever the machine's speed
  */
 #define _GNU_SOURCE
 #include <dlfcn.h>
@@ -117,12 +121,18 @@ int openat(int dirfd, const char *path, int flags, ...)
     return NEXT(openat_fn, "openat")(dirfd, path, flags, mode);
 }
 
-/* PF_FAULT_HOLD_MS before the rename of a frame's temporary under PF_FAULT_DIR. */
+/* PF_FAULT_HOLD_MS before the rename of a frame's temporary under PF_FAULT_DIR, and the
+ * wait for PF_FAULT_RELEASE before the writer's rename onto it. */
 static void hold_frame(const char *from, const char *to)
 {
     const char *dir = getenv("PF_FAULT_DIR"), *hold = getenv("PF_FAULT_HOLD_MS");
-    if (!dir || !*dir || !hold || strncmp(from, dir, strlen(dir)) != 0 ||
-        !strstr(from, ".partial-"))
+    if (!dir || !*dir || strncmp(from, dir, strlen(dir)) != 0 || !strstr(from, ".partial-"))
+        return;
+    const char *release = getenv("PF_FAULT_RELEASE");
+    if (release && *release && strstr(to, ".partial-"))
+        for (int waited = 0; waited < 120000 && access(release, F_OK) != 0; waited += 10)
+            usleep(10 * 1000);
+    if (!hold)
         return;
     long ms = atol(hold);
     const char *mark = getenv("PF_FAULT_HELD_MARK");

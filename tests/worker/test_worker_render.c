@@ -1005,6 +1005,113 @@ PF_TEST(a_task_of_consecutive_frames_reuses_the_frame_before)
     PF_CHECK(wt_file_contains(log_path, "previous frame (2) on this worker"));
 }
 
+/* The job's exr_write rows whose counters say they were written behind the next render. */
+static int rows_written_behind(const char *db_path, int64_t job_id)
+{
+    sqlite3 *db = NULL;
+    sqlite3_stmt *statement = NULL;
+    int rows = -1;
+    if (sqlite3_open_v2(db_path, &db, SQLITE_OPEN_READONLY, NULL) == SQLITE_OK &&
+        sqlite3_prepare_v2(db,
+                           "SELECT count(*) FROM stage_timings s JOIN tasks t ON t.id = "
+                           "s.task_id WHERE t.job_id = ? AND s.stage = 'exr_write' AND "
+                           "json_extract(s.counters, '$.behind') = 1",
+                           -1, &statement, NULL) == SQLITE_OK) {
+        sqlite3_bind_int64(statement, 1, job_id);
+        if (sqlite3_step(statement) == SQLITE_ROW)
+            rows = sqlite3_column_int(statement, 0);
+    }
+    sqlite3_finalize(statement);
+    sqlite3_close(db);
+    return rows;
+}
+
+/* Where text first occurs in the file at path (-1: nowhere). */
+static long offset_in_file(const char *path, const char *text)
+{
+    char *content = wt_read_file(path, NULL);
+    const char *at = content ? strstr(content, text) : NULL;
+    long offset = at ? (long)(at - content) : -1;
+    free(content);
+    return offset;
+}
+
+/*
+ * Issue 43: a frame is written behind the render. Frame 1's EXR write is held (its rename
+ * onto the temporary waits for a file the test makes); meanwhile the worker renders frame
+ * 2, claimed ahead as the next task or as the next frame of a chunk. A serial worker would
+ * never render frame 2 while frame 1's write waits, and this test would fail after its
+ * timeout. With tasks of one frame the write is then held past the lease (3 s): the
+ * written task's lease is renewed meanwhile, so both tasks complete.
+ */
+static void frame_2_renders_while_frame_1_is_written(int frames_per_task)
+{
+    char out[WT_PATH_MAX + 32], db[WT_PATH_MAX + 32], pattern[2 * WT_PATH_MAX],
+        worker_log[WT_PATH_MAX + 32], release[WT_PATH_MAX + 32], extra[64];
+    wt_fresh_dir(frames_per_task == 1 ? "behind-out" : "behind-chunk-out", out, sizeof out);
+    wt_format(db, sizeof db, "%s/behind%d.db", dir, frames_per_task);
+    wt_format(worker_log, sizeof worker_log, "%s/behind%d.log", dir, frames_per_task);
+    wt_format(release, sizeof release, "%s/behind%d.release", dir, frames_per_task);
+    unlink(db);
+    unlink(worker_log);
+    unlink(release);
+    wt_format(pattern, sizeof pattern, "%s/b.####.exr", out);
+    wt_format(extra, sizeof extra, "--frames-per-task %d", frames_per_task);
+    int64_t job_id = enqueue(db, scene, "1-2", pattern, extra);
+    PF_REQUIRE(job_id > 0);
+    const char *worker_args[] = {"worker", "--once", "--lease-seconds", "3", "--db", db, NULL};
+    char env[9 * WT_PATH_MAX], faults[8 * WT_PATH_MAX];
+    wt_fault_environment(faults, sizeof faults, out, NULL, NULL, 0);
+    wt_format(env, sizeof env, "%s\nPF_FAULT_RELEASE=%s", faults, release);
+    pid_t pid = wt_spawn(worker_args, worker_log, env);
+    int rendered_meanwhile = 0;
+    for (int waited = 0; waited < WORKER_TIMEOUT_MS && !rendered_meanwhile; waited += 20) {
+        rendered_meanwhile = wt_file_contains(worker_log, "event=rendered job=1 frame=2 ");
+        if (!rendered_meanwhile)
+            wt_sleep_ms(20);
+    }
+    PF_CHECK_MSG(rendered_meanwhile, "frame 2 did not render while frame 1's write was held");
+    if (frames_per_task == 1)
+        wt_sleep_ms(4000); /* past the 3 s lease */
+    FILE *file = fopen(release, "w");
+    PF_REQUIRE(file != NULL);
+    fclose(file);
+    int code = wt_wait(pid, WORKER_TIMEOUT_MS);
+    PF_CHECK_MSG(code == 0, "worker exited %d", code);
+    /* Frame 1 was written after frame 2 rendered, and each write only then. */
+    long written_1 = offset_in_file(worker_log, "event=written job=1 frame=1 ");
+    long rendered_2 = offset_in_file(worker_log, "event=rendered job=1 frame=2 ");
+    PF_CHECK_MSG(written_1 > rendered_2 && rendered_2 >= 0, "written 1 at %ld, rendered 2 at %ld",
+                 written_1, rendered_2);
+    PF_CHECK(wt_count_in_file(worker_log, "event=written ") == 2);
+    PF_CHECK(wt_count_in_file(worker_log, "event=completed ") == (frames_per_task == 1 ? 2 : 1));
+    PF_CHECK(!wt_file_contains(worker_log, "event=lease_lost"));
+    PF_CHECK(!wt_file_contains(worker_log, "event=db_error"));
+    pf_queue *queue = wt_open_queue(db);
+    PF_REQUIRE(queue != NULL);
+    pf_queue_job job = {0};
+    pf_error err = {0};
+    PF_CHECK_OK(pf_queue_job_get(queue, job_id, &job, &err), &err);
+    PF_CHECK_MSG(!strcmp(job.status, "done") && job.frames_done == 2, "job %s, %lld frames done",
+                 job.status, (long long)job.frames_done);
+    pf_queue_job_clear(&job);
+    pf_queue_close(queue);
+    for (int frame = 1; frame <= 2; frame++) {
+        char path[3 * WT_PATH_MAX];
+        wt_format(path, sizeof path, "%s/b.%04d.exr", out, frame);
+        PF_CHECK_MSG(wt_exr_frame(path) == frame, "%s", path);
+    }
+    PF_CHECK(wt_count_files(out, "partial") == 0);
+    PF_CHECK_MSG(rows_written_behind(db, job_id) == 2, "%d exr_write rows behind",
+                 rows_written_behind(db, job_id));
+}
+
+PF_TEST(the_next_frame_renders_while_the_last_is_written)
+{
+    frame_2_renders_while_frame_1_is_written(1);
+    frame_2_renders_while_frame_1_is_written(2);
+}
+
 int main(void)
 {
     pf_test_tmpdir(dir, sizeof dir);
@@ -1027,5 +1134,6 @@ int main(void)
     PF_RUN(render_frames_deforms_a_blender_character_and_refits_its_tree);
     PF_RUN(a_job_over_a_skinned_scene_reports_its_deform_rows);
     PF_RUN(a_task_of_consecutive_frames_reuses_the_frame_before);
+    PF_RUN(the_next_frame_renders_while_the_last_is_written);
     return pf_test_finish();
 }
