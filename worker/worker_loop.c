@@ -98,6 +98,7 @@ typedef struct db_op {
     bool flag;          /* claim: claimed; finish: lease lost */
     bool committed;     /* finish: the lease was lost after the frame was renamed into place */
     bool job_fault;     /* finish: the commit failed on the job's output (the job is paused) */
+    bool locks_itself;  /* run_fn takes queue_mutex itself, only around its database calls */
     int64_t count;      /* reap: tasks reaped; finish: 1 when a failed commit was recorded */
 } db_op;
 
@@ -151,12 +152,17 @@ static void begin_shutdown(worker *w);
 static void claim_next(worker *w);
 static void arm_poll(worker *w);
 static void go_on(worker *w);
+static void finish_run(struct db_op *op);
 
 /* ---- database operations ------------------------------------------------- */
 
 static void db_op_work(uv_work_t *request)
 {
     db_op *op = request->data;
+    if (op->locks_itself) {
+        op->run_fn(op);
+        return;
+    }
     uv_mutex_lock(&op->owner->queue_mutex);
     op->run_fn(op);
     uv_mutex_unlock(&op->owner->queue_mutex);
@@ -186,6 +192,7 @@ static void db_submit(worker *w, task_run *run, void (*run_fn)(db_op *),
     op->run = run;
     op->run_fn = run_fn;
     op->done = done;
+    op->locks_itself = run_fn == finish_run;
     op->request.data = op;
     if (run)
         memcpy(op->token, run->task.lease_token, sizeof op->token);
@@ -452,13 +459,20 @@ static char *counters_json(const pf_stage_timing *stage)
     return json;
 }
 
+/*
+ * Renews the lease, renames the frames into place, completes: the database calls under
+ * queue_mutex, the renames (and their fsyncs, slow on some volumes) outside it, so that
+ * the heartbeats of the task rendering meanwhile are not held up behind them.
+ */
 static void finish_run(db_op *op)
 {
     worker *w = op->owner;
     task_run *run = op->run;
+    uv_mutex_lock(&w->queue_mutex);
     /* Renew first: a rename with a lease about to lapse could race the reaper. */
     op->status = pf_queue_heartbeat(w->queue, op->token, NULL, &op->err);
     store_attempt_log(w, run);
+    uv_mutex_unlock(&w->queue_mutex);
     if (op->status == PF_ERR_INVALID) {
         op->flag = true;
         discard_outputs(run);
@@ -508,6 +522,7 @@ static void finish_run(db_op *op)
         op->job_fault = op->status != PF_OK &&
                         pf_frame_fault_of(run->outputs[i].failed) != PF_FRAME_FAULT_WORKER;
     }
+    uv_mutex_lock(&w->queue_mutex);
     if (op->status == PF_OK) {
         op->status = pf_queue_complete_frames(w->queue, op->token, rows, row_count, resources,
                                               run->output_count, NULL, &op->err);
@@ -538,6 +553,7 @@ static void finish_run(db_op *op)
         pf_error ignored;
         pf_queue_job_get(w->queue, run->task.job_id, &run->job, &ignored);
     }
+    uv_mutex_unlock(&w->queue_mutex);
     for (size_t i = 0; i < row_count; i++)
         free(counters[i]);
     free(counters);
