@@ -389,14 +389,15 @@ static pf_status shade(pf_renderer *renderer, struct pf_fast_cache *cache,
                                     &push, sizeof push, groups_x, groups_y, 1, err);
         pf_vk_cmd_barrier(cmds);
     }
-    int end = status == PF_OK ? pf_vk_cmd_timestamp(cmds) : -1;
     fast_counters counters;
     pf_split_film_readback readback = {0};
     if (status == PF_OK)
         status = pf_vk_cmd_download(cmds, owned.counters, 0, &counters, sizeof counters, err);
+    /* The film's split into the image's channels is the stage's device work too. */
     if (status == PF_OK)
-        status = pf_split_film_record_read(cmds, owned.film, owned.film_aov, settings->aovs,
-                                           image, &readback, err);
+        status = pf_split_film_record_read(renderer, cmds, owned.film, owned.film_aov,
+                                           settings->aovs, 1, image, &readback, err);
+    int end = status == PF_OK ? pf_vk_cmd_timestamp(cmds) : -1;
     if (status == PF_OK)
         status = pf_vk_commands_submit(cmds, err);
     if (status == PF_OK)
@@ -410,10 +411,7 @@ static pf_status shade(pf_renderer *renderer, struct pf_fast_cache *cache,
         progress->failures = counters.traversal_failures;
         progress->lpv_outside = counters.lpv_outside;
     }
-    if (status == PF_OK)
-        pf_split_film_finish_read(&readback, 1, image);
-    else
-        pf_split_film_readback_free(&readback);
+    pf_split_film_finish_read(&readback);
     fast_buffers_release(ctx, &owned);
     return status;
 }

@@ -875,7 +875,7 @@ static pf_status final_end(pf_frame_run *run, pf_status status, pf_error *err)
     final_progress *progress = &f->progress;
     pf_stage_memory *memory = &renderer->stage_memory[PF_QUALITY_FINAL];
     if (status == PF_OK)
-        status = pf_split_film_read(renderer->ctx, f->owned.film, f->owned.film_aov,
+        status = pf_split_film_read(renderer, f->owned.film, f->owned.film_aov,
                                     settings->aovs, 1, run->image, err);
     uint64_t pixels = (uint64_t)settings->width * settings->height;
     if (status == PF_OK)

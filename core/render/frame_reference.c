@@ -210,8 +210,8 @@ static pf_status shade(pf_renderer *renderer, const pf_scene_frame *frame,
     }
     pf_reference_wave_destroy(wave);
     if (status == PF_OK)
-        status = pf_split_film_read(ctx, owned.film, owned.film_aov, settings->aovs, 0, image,
-                                    err);
+        status = pf_split_film_read(renderer, owned.film, owned.film_aov, settings->aovs, 0,
+                                    image, err);
     reference_buffers_release(ctx, &owned);
     pf_gpu_scene_release(ctx, &scene);
     return status;

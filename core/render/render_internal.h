@@ -64,6 +64,7 @@ typedef enum pf_renderer_pipeline_id {
     PF_PIPELINE_REFERENCE_WAVE_FINISH,   /* render_reference_wave.comp, WAVE_FINISH (AOVs) */
     PF_PIPELINE_REFERENCE_WAVE_FINISH_RGB, /* render_reference_wave.comp, WAVE_FINISH_RGB */
     PF_PIPELINE_DEFORM,                  /* deform.comp */
+    PF_PIPELINE_SPLIT_FILM,              /* split_film.comp: the film into the image */
     PF_PIPELINE_COUNT
 } pf_renderer_pipeline_id;
 
@@ -652,7 +653,8 @@ pf_status pf_split_image_create(pf_image *image, uint32_t width, uint32_t height
 /*
  * Film sums → channel values: means over each pixel's kept samples; the AOVs
  * over the kept samples too, or with aov_own_count over the count the AOV
- * film keeps in its second vec4's w.
+ * film keeps in its second vec4's w. The host's arithmetic of split_film.comp,
+ * which does it on the device: test_split_film's oracle.
  */
 void pf_split_film_to_image(const float *film, const float *film_aov, int aovs,
                             int aov_own_count, pf_image *image);
@@ -666,24 +668,26 @@ pf_status pf_split_film_create(pf_vk_context *ctx, const pf_render_settings *set
                                int full_aov, const char *integrator, pf_vk_buffer **film,
                                pf_vk_buffer **film_aov, pf_error *err);
 
-/* Reads both films back into image (pf_split_film_to_image; the AOV film only with aovs). */
-pf_status pf_split_film_read(pf_vk_context *ctx, pf_vk_buffer *film, pf_vk_buffer *film_aov,
+/* Reads both films back into image, split into its channels on the device (the AOV film
+ * only with aovs): one submission. */
+pf_status pf_split_film_read(pf_renderer *renderer, pf_vk_buffer *film, pf_vk_buffer *film_aov,
                              int aovs, int aov_own_count, pf_image *image, pf_error *err);
 
 /* The same readback recorded in cmds, to go with a stage's dispatches (issue 44):
- * pf_split_film_record_read records the downloads into host copies it allocates, and once
- * cmds is submitted pf_split_film_finish_read fills image and frees them (call it, or
- * pf_split_film_readback_free after a failure, whenever the first succeeded). */
+ * pf_split_film_record_read records split_film.comp into device image buffers it creates
+ * (bands of rows within the storage-buffer range) and their downloads straight into
+ * image's pixels; once cmds is submitted the pixels are there, and
+ * pf_split_film_finish_read releases the buffers (call it after a failure too). */
 typedef struct pf_split_film_readback {
-    float *film, *film_aov;
-    int aovs;
+    pf_vk_context *ctx;
+    pf_vk_buffer **bands; /* the image's channels on the device, in bands of rows */
+    uint32_t band_count;
 } pf_split_film_readback;
-pf_status pf_split_film_record_read(pf_vk_commands *cmds, pf_vk_buffer *film,
-                                    pf_vk_buffer *film_aov, int aovs, const pf_image *image,
+pf_status pf_split_film_record_read(pf_renderer *renderer, pf_vk_commands *cmds,
+                                    pf_vk_buffer *film, pf_vk_buffer *film_aov, int aovs,
+                                    int aov_own_count, pf_image *image,
                                     pf_split_film_readback *out, pf_error *err);
-void pf_split_film_finish_read(pf_split_film_readback *readback, int aov_own_count,
-                               pf_image *image);
-void pf_split_film_readback_free(pf_split_film_readback *readback);
+void pf_split_film_finish_read(pf_split_film_readback *readback);
 
 /* How far secondary rays start off a surface in this frame (FrameParams' camera_right.w). */
 float pf_render_ray_offset(const pf_scene_frame *frame);

@@ -38,6 +38,10 @@
 /* deform.comp: 13 buffers and a 16-byte Push (deform_device.c). */
 #define DEFORM_BUFFERS 13u
 #define DEFORM_PUSH_BYTES 16u
+/* split_film.comp: film, AOV film, a band of the image; Push width, rows, aovs,
+ * aov_own_count, row_first. */
+#define SPLIT_FILM_BUFFERS 3u
+#define SPLIT_FILM_PUSH_BYTES 20u
 #define MATERIAL_PROBE_BUFFERS 2u
 #define MATERIAL_PROBE_PUSH_BYTES 4u
 
@@ -103,6 +107,8 @@ static const pipeline_spec pipeline_specs[PF_PIPELINE_COUNT] = {
     [PF_PIPELINE_REFERENCE_WAVE_FINISH_RGB] = {"render_reference_wave", REFERENCE_WAVE_BUFFERS,
                                                REFERENCE_WAVE_PUSH_BYTES, 1, {0, 3}, 1},
     [PF_PIPELINE_DEFORM] = {"deform", DEFORM_BUFFERS, DEFORM_PUSH_BYTES, 0, {0, 0}},
+    [PF_PIPELINE_SPLIT_FILM] = {"split_film", SPLIT_FILM_BUFFERS, SPLIT_FILM_PUSH_BYTES, 0,
+                                {0, 0}},
 };
 
 pf_status pf_renderer_pipeline(pf_renderer *renderer, pf_renderer_pipeline_id id,

@@ -73,58 +73,83 @@ pf_status pf_split_film_create(pf_vk_context *ctx, const pf_render_settings *set
     return status;
 }
 
-pf_status pf_split_film_record_read(pf_vk_commands *cmds, pf_vk_buffer *film,
-                                    pf_vk_buffer *film_aov, int aovs, const pf_image *image,
+pf_status pf_split_film_record_read(pf_renderer *renderer, pf_vk_commands *cmds,
+                                    pf_vk_buffer *film, pf_vk_buffer *film_aov, int aovs,
+                                    int aov_own_count, pf_image *image,
                                     pf_split_film_readback *out, pf_error *err)
 {
-    uint64_t pixels = (uint64_t)image->width * image->height;
-    uint64_t film_bytes = pixels * PF_SPLIT_FILM_VEC4_PER_PIXEL * 16;
-    uint64_t aov_bytes = aovs ? pixels * PF_SPLIT_FILM_AOV_VEC4_PER_PIXEL * 16 : 16;
-    out->aovs = aovs;
-    out->film = malloc(film_bytes);
-    out->film_aov = malloc(aov_bytes);
-    pf_status status = out->film && out->film_aov
-                           ? PF_OK
-                           : pf_error_set(err, PF_ERR_NOMEM, "film: out of memory (%llu bytes)",
-                                          (unsigned long long)(film_bytes + aov_bytes));
-    if (status == PF_OK)
-        status = pf_vk_cmd_download(cmds, film, 0, out->film, film_bytes, err);
-    if (status == PF_OK && aovs)
-        status = pf_vk_cmd_download(cmds, film_aov, 0, out->film_aov, aov_bytes, err);
+    *out = (pf_split_film_readback){renderer->ctx, NULL, 0};
+    uint64_t row_bytes = (uint64_t)image->width * image->channel_count * sizeof *image->pixels;
+    /* Bands of rows, each in a buffer of its own within the device's storage-buffer range
+     * (a 1920x1080 image with AOVs is 158 MiB, lavapipe binds 128): each band's download
+     * lands in its own rows of the image, even where downloads are copies made after the
+     * submission (mapped memory). */
+    uint64_t range = pf_vk_info(renderer->ctx)->max_storage_buffer_range;
+    uint32_t band_rows = range / row_bytes < image->height ? (uint32_t)(range / row_bytes)
+                                                           : image->height;
+    if (band_rows == 0)
+        return pf_error_set(err, PF_ERR_LIMIT,
+                            "an image row of %llu bytes exceeds the device's storage-buffer "
+                            "range (%llu bytes)",
+                            (unsigned long long)row_bytes, (unsigned long long)range);
+    uint32_t band_count = (image->height + band_rows - 1) / band_rows;
+    pf_vk_pipeline *split = NULL;
+    pf_status status = pf_renderer_pipeline(renderer, PF_PIPELINE_SPLIT_FILM, &split, err);
     if (status != PF_OK)
-        pf_split_film_readback_free(out);
+        return status;
+    out->bands = calloc(band_count, sizeof *out->bands);
+    if (!out->bands)
+        return pf_error_set(err, PF_ERR_NOMEM, "split image: out of memory");
+    out->band_count = band_count;
+    pf_vk_cmd_barrier(cmds); /* after the kernels that filled the film */
+    for (uint32_t band = 0; band < band_count && status == PF_OK; band++) {
+        uint32_t row_first = band * band_rows;
+        uint32_t rows = image->height - row_first < band_rows ? image->height - row_first
+                                                              : band_rows;
+        status = pf_vk_buffer_create(renderer->ctx, rows * row_bytes, "split image band",
+                                     &out->bands[band], err);
+        struct {
+            uint32_t width, height, aovs, aov_own_count, row_first;
+        } push = {image->width, rows, aovs ? 1u : 0u, aov_own_count ? 1u : 0u, row_first};
+        pf_vk_buffer *buffers[3] = {film, film_aov, out->bands[band]};
+        if (status == PF_OK)
+            status = pf_vk_cmd_dispatch(cmds, split, buffers, 3, &push, sizeof push,
+                                        (image->width + 63u) / 64u, rows, 1, err);
+    }
+    pf_vk_cmd_barrier(cmds);
+    for (uint32_t band = 0; band < band_count && status == PF_OK; band++) {
+        uint64_t row_first = (uint64_t)band * band_rows;
+        uint64_t rows = image->height - row_first < band_rows ? image->height - row_first
+                                                              : band_rows;
+        status = pf_vk_cmd_download(cmds, out->bands[band], 0,
+                                    image->pixels + row_first * row_bytes / sizeof *image->pixels,
+                                    rows * row_bytes, err);
+    }
     return status;
 }
 
-void pf_split_film_finish_read(pf_split_film_readback *readback, int aov_own_count,
-                               pf_image *image)
+void pf_split_film_finish_read(pf_split_film_readback *readback)
 {
-    pf_split_film_to_image(readback->film, readback->film_aov, readback->aovs, aov_own_count,
-                           image);
-    pf_split_film_readback_free(readback);
+    for (uint32_t band = 0; band < readback->band_count; band++)
+        if (readback->bands[band])
+            pf_vk_buffer_destroy(readback->ctx, readback->bands[band]);
+    free(readback->bands);
+    readback->bands = NULL;
+    readback->band_count = 0;
 }
 
-void pf_split_film_readback_free(pf_split_film_readback *readback)
-{
-    free(readback->film);
-    free(readback->film_aov);
-    readback->film = readback->film_aov = NULL;
-}
-
-pf_status pf_split_film_read(pf_vk_context *ctx, pf_vk_buffer *film, pf_vk_buffer *film_aov,
+pf_status pf_split_film_read(pf_renderer *renderer, pf_vk_buffer *film, pf_vk_buffer *film_aov,
                              int aovs, int aov_own_count, pf_image *image, pf_error *err)
 {
     pf_vk_commands *cmds = NULL;
     pf_split_film_readback readback = {0};
-    pf_status status = pf_vk_commands_begin(ctx, &cmds, err);
+    pf_status status = pf_vk_commands_begin(renderer->ctx, &cmds, err);
     if (status == PF_OK)
-        status = pf_split_film_record_read(cmds, film, film_aov, aovs, image, &readback, err);
+        status = pf_split_film_record_read(renderer, cmds, film, film_aov, aovs, aov_own_count,
+                                           image, &readback, err);
     if (status == PF_OK)
         status = pf_vk_commands_submit(cmds, err);
     pf_vk_commands_destroy(cmds);
-    if (status == PF_OK)
-        pf_split_film_finish_read(&readback, aov_own_count, image);
-    else
-        pf_split_film_readback_free(&readback);
+    pf_split_film_finish_read(&readback);
     return status;
 }
