@@ -17,7 +17,6 @@
 #include "worker_test_util.h"
 
 #include <signal.h>
-#include <sqlite3.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -86,22 +85,10 @@ static void count_failures(const char *db, int64_t job_id, size_t *total, size_t
 /* Rows of one stage for the job (direct SQL). */
 static int stage_rows(const char *db_path, int64_t job_id, const char *stage)
 {
-    sqlite3 *db = NULL;
-    sqlite3_stmt *statement = NULL;
-    int rows = -1;
-    if (sqlite3_open_v2(db_path, &db, SQLITE_OPEN_READONLY, NULL) == SQLITE_OK &&
-        sqlite3_prepare_v2(db,
-                           "SELECT count(*) FROM stage_timings s JOIN tasks t ON t.id = "
-                           "s.task_id WHERE t.job_id = ? AND s.stage = ?",
-                           -1, &statement, NULL) == SQLITE_OK) {
-        sqlite3_bind_int64(statement, 1, job_id);
-        sqlite3_bind_text(statement, 2, stage, -1, SQLITE_STATIC);
-        if (sqlite3_step(statement) == SQLITE_ROW)
-            rows = sqlite3_column_int(statement, 0);
-    }
-    sqlite3_finalize(statement);
-    sqlite3_close(db);
-    return rows;
+    return wt_count_query(db_path,
+                          "SELECT count(*) FROM stage_timings s JOIN tasks t ON t.id = "
+                          "s.task_id WHERE t.job_id = ?1 AND s.stage = ?2",
+                          job_id, stage);
 }
 
 /* Every frame 1..count of pattern dir/f.####.exr opens and says it is that frame. */

@@ -1008,22 +1008,11 @@ PF_TEST(a_task_of_consecutive_frames_reuses_the_frame_before)
 /* The job's exr_write rows whose counters say they were written behind the next render. */
 static int rows_written_behind(const char *db_path, int64_t job_id)
 {
-    sqlite3 *db = NULL;
-    sqlite3_stmt *statement = NULL;
-    int rows = -1;
-    if (sqlite3_open_v2(db_path, &db, SQLITE_OPEN_READONLY, NULL) == SQLITE_OK &&
-        sqlite3_prepare_v2(db,
-                           "SELECT count(*) FROM stage_timings s JOIN tasks t ON t.id = "
-                           "s.task_id WHERE t.job_id = ? AND s.stage = 'exr_write' AND "
-                           "json_extract(s.counters, '$.behind') = 1",
-                           -1, &statement, NULL) == SQLITE_OK) {
-        sqlite3_bind_int64(statement, 1, job_id);
-        if (sqlite3_step(statement) == SQLITE_ROW)
-            rows = sqlite3_column_int(statement, 0);
-    }
-    sqlite3_finalize(statement);
-    sqlite3_close(db);
-    return rows;
+    return wt_count_query(db_path,
+                          "SELECT count(*) FROM stage_timings s JOIN tasks t ON t.id = "
+                          "s.task_id WHERE t.job_id = ?1 AND s.stage = ?2 AND "
+                          "json_extract(s.counters, '$.behind') = 1",
+                          job_id, "exr_write");
 }
 
 /* Where text first occurs in the file at path (-1: nowhere). */

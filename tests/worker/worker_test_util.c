@@ -256,7 +256,7 @@ pf_queue *wt_open_queue(const char *path)
     return queue;
 }
 
-int wt_stage_rows_for_task(const char *db_path, int64_t task_id, const char *stage)
+int wt_count_query(const char *db_path, const char *sql, int64_t id, const char *text)
 {
     sqlite3 *db = NULL;
     if (sqlite3_open_v2(db_path, &db, SQLITE_OPEN_READONLY, NULL) != SQLITE_OK) {
@@ -265,14 +265,21 @@ int wt_stage_rows_for_task(const char *db_path, int64_t task_id, const char *sta
     }
     sqlite3_stmt *statement = NULL;
     int count = -1;
-    if (sqlite3_prepare_v2(db, "SELECT count(*) FROM stage_timings WHERE task_id = ? AND stage = ?",
-                           -1, &statement, NULL) == SQLITE_OK) {
-        sqlite3_bind_int64(statement, 1, task_id);
-        sqlite3_bind_text(statement, 2, stage, -1, SQLITE_STATIC);
+    if (sqlite3_prepare_v2(db, sql, -1, &statement, NULL) == SQLITE_OK) {
+        sqlite3_bind_int64(statement, 1, id);
+        if (text)
+            sqlite3_bind_text(statement, 2, text, -1, SQLITE_STATIC);
         if (sqlite3_step(statement) == SQLITE_ROW)
             count = sqlite3_column_int(statement, 0);
     }
     sqlite3_finalize(statement);
     sqlite3_close(db);
     return count;
+}
+
+int wt_stage_rows_for_task(const char *db_path, int64_t task_id, const char *stage)
+{
+    return wt_count_query(db_path,
+                          "SELECT count(*) FROM stage_timings WHERE task_id = ?1 AND stage = ?2",
+                          task_id, stage);
 }

@@ -61,6 +61,9 @@ int wt_count_files(const char *dir, const char *text);
 
 /* Opens the queue at path (a failed open fails the calling test). */
 pf_queue *wt_open_queue(const char *path);
+/* The count a query of the queue file gives (direct SQL, read-only): sql's ?1 is id, its
+ * ?2 text (NULL: none); -1 if it cannot be run. */
+int wt_count_query(const char *db_path, const char *sql, int64_t id, const char *text);
 /* Number of stage rows for task_id in the queue file (direct SQL). */
 int wt_stage_rows_for_task(const char *db_path, int64_t task_id, const char *stage);
 /* snprintf that reports truncation by failing the current test (paths in
