@@ -243,6 +243,32 @@ PF_TEST(read_only_output_and_killed_workers_lose_and_repeat_nothing)
             wt_wait((kill(pids[i], SIGKILL), pids[i]), WAIT_MS);
 }
 
+/*
+ * `photonfarm render --frames` writes its frames behind the render too (frame_writer.h): a
+ * write that fails on a full disk, on the writer's thread, still ends the run with exit 2
+ * naming the cause, no frame after it, and no temporary left.
+ */
+PF_TEST(render_frames_on_a_full_disk_exits_2_and_leaves_nothing)
+{
+    char out[WT_PATH_MAX + 32], flip[WT_PATH_MAX + 32], pattern[2 * WT_PATH_MAX],
+        env[8 * WT_PATH_MAX], render_log[WT_PATH_MAX + 32];
+    wt_fresh_dir("render-full-out", out, sizeof out);
+    wt_format(flip, sizeof flip, "%s/render-full.switch", dir);
+    wt_format(render_log, sizeof render_log, "%s/render-full.log", dir);
+    wt_format(pattern, sizeof pattern, "%s/r.####.exr", out);
+    touch(flip);
+    wt_fault_environment(env, sizeof env, out, flip, "full", 0);
+    const char *render_args[] = {"render", scene,    "--frames", "1-3",       "--size", "16x16",
+                                 "--quality", "preview", "-o",   pattern, NULL};
+    int code = wt_wait(wt_spawn(render_args, render_log, env), WAIT_MS);
+    unlink(flip);
+    PF_CHECK_MSG(code == 2, "render exited %d", code);
+    PF_CHECK(wt_file_contains(render_log, "writing frame 1"));
+    PF_CHECK(wt_file_contains(render_log, "No space left on device"));
+    PF_CHECK(!wt_file_contains(render_log, "] frame "));
+    PF_CHECK_MSG(wt_count_files(out, "") == 0, "%d file(s) left", wt_count_files(out, ""));
+}
+
 int main(void)
 {
     pf_test_tmpdir(dir, sizeof dir);
@@ -251,5 +277,6 @@ int main(void)
     wt_write_tiny_scene(scene, CHAOS_FRAMES);
     PF_RUN(a_full_output_disk_pauses_the_job_and_resume_finishes_it);
     PF_RUN(read_only_output_and_killed_workers_lose_and_repeat_nothing);
+    PF_RUN(render_frames_on_a_full_disk_exits_2_and_leaves_nothing);
     return pf_test_finish();
 }
