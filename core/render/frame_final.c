@@ -426,9 +426,10 @@ static pf_status shade_sample(pf_renderer *renderer, pf_vk_buffer **buffers,
         host_traced ? (lookups ? PF_PIPELINE_FINAL_GATHER_GIVEN
                                : PF_PIPELINE_FINAL_GATHER_ESTIMATE_GIVEN)
                     : (lookups ? PF_PIPELINE_FINAL_GATHER : PF_PIPELINE_FINAL_GATHER_ESTIMATE);
-    pf_renderer_pipeline_id kernels[7] = {primary_id, gather_id, PF_PIPELINE_FINAL_FALLBACK,
-                                          PF_PIPELINE_FINAL_RESOLVE};
-    uint32_t kernel_count = 4;
+    /* The film's split (split_film.comp) is made with them, not alone at the frame's end. */
+    pf_renderer_pipeline_id kernels[8] = {primary_id, gather_id, PF_PIPELINE_FINAL_FALLBACK,
+                                          PF_PIPELINE_FINAL_RESOLVE, PF_PIPELINE_SPLIT_FILM};
+    uint32_t kernel_count = 5;
     if (caustics)
         kernels[kernel_count++] = PF_PIPELINE_FINAL_CAUSTIC;
     if (host_traced) {
