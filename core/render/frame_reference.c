@@ -30,10 +30,11 @@
 #define REFERENCE_BATCH_TARGET_MS 250.0
 #define REFERENCE_BATCH_MAX_PASSES 64u
 
-/* render_reference.comp's bindings: params, 6 scene arrays, 2 films, counters, 3 BIH buffers. */
+/* render_reference.comp's bindings: the scene's (PF_SCENE_BINDINGS), 2 films, counters,
+ * 3 BIH buffers. */
 #define REFERENCE_BUFFERS (PF_SCENE_BINDING_COUNT + 6u)
-#define REFERENCE_FILM_BINDING 7u
-#define REFERENCE_AOV_BINDING 8u
+#define REFERENCE_FILM_BINDING PF_SCENE_BINDING_COUNT
+#define REFERENCE_AOV_BINDING (PF_SCENE_BINDING_COUNT + 1u)
 #define REFERENCE_COUNTER_BINDING (PF_SCENE_BINDING_COUNT + 2u)
 
 
@@ -50,11 +51,12 @@ typedef struct reference_counters {
 
 /*
  * Runs passes [progress->passes, progress->passes + count) in one submission
- * and adds their counters to progress.
+ * and adds their counters to progress. With image (the frame's last passes), the film's
+ * split into it goes in the same submission (issue 44: no submission of its own).
  */
 static pf_status run_passes(pf_renderer *renderer, pf_vk_pipeline *pipeline,
                             pf_vk_buffer *const *buffers, const pf_render_settings *settings,
-                            uint32_t count, pf_vk_commands *setup,
+                            uint32_t count, pf_vk_commands *setup, pf_image *image,
                             pf_reference_progress *progress, pf_error *err)
 {
     pf_vk_context *ctx = renderer->ctx;
@@ -82,11 +84,17 @@ static pf_status run_passes(pf_renderer *renderer, pf_vk_pipeline *pipeline,
     if (status == PF_OK)
         status = pf_vk_cmd_download(cmds, buffers[REFERENCE_COUNTER_BINDING], 0, &counters,
                                     sizeof counters, err);
+    pf_split_film_readback readback = {0};
+    if (status == PF_OK && image)
+        status = pf_split_film_record_read(renderer, cmds, buffers[REFERENCE_FILM_BINDING],
+                                           buffers[REFERENCE_AOV_BINDING], settings->aovs,
+                                           0, image, &readback, err);
     if (status == PF_OK)
         status = pf_vk_commands_submit(cmds, err);
     if (status == PF_OK)
         pf_gpu_ms_add(&progress->gpu_ms, pf_commands_gpu_ms(cmds, begin, end));
     pf_vk_commands_destroy(cmds);
+    pf_split_film_finish_read(&readback);
     if (status == PF_OK) {
         progress->passes += count;
         progress->rays += ((uint64_t)counters.rays_high << 32) | counters.rays_low;
@@ -189,6 +197,7 @@ static pf_status shade(pf_renderer *renderer, const pf_scene_frame *frame,
         status = pf_vk_cmd_upload(setup, owned.counters, 0, &zero, sizeof zero, err);
     }
     double pass_ms = 0.0;
+    int image_read = 0;
     for (uint32_t batch = next_batch(settings, spp, 0, frame_start, 0.0);
          status == PF_OK && batch > 0;
          batch = next_batch(settings, spp, progress->passes, frame_start, pass_ms)) {
@@ -196,9 +205,12 @@ static pf_status shade(pf_renderer *renderer, const pf_scene_frame *frame,
         if (wave)
             status = pf_reference_wave_passes(wave, buffers, REFERENCE_BUFFERS, settings, batch,
                                               setup, progress, err);
-        else
-            status =
-                run_passes(renderer, pipeline, buffers, settings, batch, setup, progress, err);
+        else {
+            /* The frame's last passes read the film back with them. */
+            image_read = progress->passes + batch >= spp;
+            status = run_passes(renderer, pipeline, buffers, settings, batch, setup,
+                                image_read ? image : NULL, progress, err);
+        }
         setup = NULL; /* run_passes took it */
         pass_ms = (pf_time_ms() - batch_start) / batch;
     }
@@ -209,7 +221,7 @@ static pf_status shade(pf_renderer *renderer, const pf_scene_frame *frame,
         progress->discarded += counters.discarded_samples;
     }
     pf_reference_wave_destroy(wave);
-    if (status == PF_OK)
+    if (status == PF_OK && !image_read) /* the wavefront's, or a budget's early end */
         status = pf_split_film_read(renderer, owned.film, owned.film_aov, settings->aovs, 0,
                                     image, err);
     reference_buffers_release(ctx, &owned);

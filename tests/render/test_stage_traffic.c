@@ -108,6 +108,16 @@ static void check_preset(pf_quality quality, uint32_t samples)
                          pf_quality_name(quality), row->stage, counter(row, "submits"),
                          counter(row, "host_waits"), goals[g].most);
     }
+    /* reference's 2 samples are 2 submissions whatever the machine's speed (the first
+     * pass alone, to time it, then the one left); the scene's uploads go with the first,
+     * the film's split and readback with the last (3 when the readback was its own). */
+    if (quality == PF_QUALITY_REFERENCE) {
+        const pf_stage_timing *shade = ref_row(&report, "shade");
+        PF_REQUIRE(shade != NULL);
+        PF_CHECK_MSG(counter(shade, "submits") == 2 && counter(shade, "host_waits") == 2,
+                     "reference shade: %.0f submits, %.0f waits", counter(shade, "submits"),
+                     counter(shade, "host_waits"));
+    }
     const pf_stage_timing *bih = ref_row(&report, "bih_build");
     PF_REQUIRE(bih != NULL);
     if (!bih->skipped) {
