@@ -135,6 +135,7 @@ struct worker {
     int64_t last_job_id; /* the last rendered task's: the claim prefers its next frame */
     int32_t last_frame;
 
+    task_run *rendering; /* the run render work renders (NULL: none) */
     /* Render work's own state: the scene cache. */
     int64_t scene_job_id;
     pf_scene *scene;
@@ -855,24 +856,17 @@ static void render_task(worker *w, task_run *run)
     }
 }
 
-static task_run *rendering_run(worker *w)
-{
-    for (int i = 0; i < RUN_SLOTS; i++)
-        if (w->runs[i].state == RUN_RENDERING)
-            return &w->runs[i];
-    return NULL;
-}
-
 static void render_work(uv_work_t *request)
 {
     worker *w = request->data;
-    render_task(w, rendering_run(w));
+    render_task(w, w->rendering);
 }
 
 static void render_after(uv_work_t *request, int uv_status)
 {
     worker *w = request->data;
-    task_run *run = rendering_run(w);
+    task_run *run = w->rendering;
+    w->rendering = NULL;
     (void)uv_status;
     /* The attempt's log: what was logged from its claim to here. */
     run->log = pf_wlog_capture_end();
@@ -947,6 +941,9 @@ static void start_render(worker *w, task_run *run)
     memset(&run->write_err, 0, sizeof run->write_err);
     atomic_store(&run->abort, 0);
     atomic_store(&run->write_failed, 0);
+    /* Set before the work is queued and read by it: the render never looks at the other
+     * slot, whose state the loop thread changes meanwhile. */
+    w->rendering = run;
     w->render_request.data = w;
     uv_queue_work(&w->loop, &w->render_request, render_work, render_after);
 }
