@@ -398,7 +398,7 @@ static void finish_commands(pf_vk_commands *cmds, int begin, int end, final_prog
 static pf_status shade_sample(pf_renderer *renderer, pf_vk_buffer **buffers,
                               const final_buffers *owned, const pf_render_settings *settings,
                               const pf_stage_plan *plan, const final_pass *pass,
-                              uint32_t sample_index,
+                              uint32_t sample_index, pf_image *read_into,
                               final_progress *progress, pf_error *err)
 {
     pf_vk_context *ctx = renderer->ctx;
@@ -564,6 +564,12 @@ static pf_status shade_sample(pf_renderer *renderer, pf_vk_buffer **buffers,
     if (status == PF_OK)
         status = pf_vk_cmd_dispatch(cmds, resolve, buffers, PF_FINAL_BUFFERS, &push, sizeof push,
                                     groups_x, groups_y, 1, err);
+    /* The frame's last sample: the film's split into the image and its readback go with
+     * it (issue 44: no submission of their own). */
+    pf_split_film_readback readback = {0};
+    if (status == PF_OK && read_into)
+        status = pf_split_film_record_read(renderer, cmds, owned->film, owned->film_aov,
+                                           settings->aovs, 1, read_into, &readback, err);
     end = pf_vk_cmd_timestamp(cmds);
     /* The counters again: the retrace's truncations and failures are the sample's too. */
     if (status == PF_OK)
@@ -571,6 +577,7 @@ static pf_status shade_sample(pf_renderer *renderer, pf_vk_buffer **buffers,
     if (status == PF_OK)
         status = pf_vk_commands_submit(cmds, err);
     finish_commands(cmds, begin, status == PF_OK ? end : -1, progress);
+    pf_split_film_finish_read(&readback);
     if (status == PF_OK) {
         progress->rays += ((uint64_t)counters.rays_high << 32) | counters.rays_low;
         progress->discarded += counters.discarded_samples;
@@ -680,6 +687,7 @@ struct final_frame {
     pf_photon_maps maps;      /* the pass being built: traced, not yet all gridded */
     int maps_held;
     int pass_traced;          /* the current pass was traced in this frame (not kept) */
+    int film_read;            /* the last pass read the film into the image with its own */
 };
 
 static void final_frame_free(pf_vk_context *ctx, final_frame *f)
@@ -853,8 +861,11 @@ static pf_status final_run(pf_frame_run *run, pf_stage_id stage, uint32_t pass, 
         /* A pass traced whole in this frame is kept for the next (as a prefix). */
         if (f->pass_traced && pass < FINAL_KEPT_PASSES && pass == memory->kept_passes)
             memory->kept_passes = pass + 1;
+        /* The plan's last pass is the frame's (a time budget ends passes only before it). */
+        f->film_read = pass + 1 == run->plan->samples;
         status = shade_sample(renderer, f->buffers, &f->owned, run->settings, run->plan,
-                              run->plan->emitters.count > 0 ? slot : NULL, pass, progress, err);
+                              run->plan->emitters.count > 0 ? slot : NULL, pass,
+                              f->film_read ? run->image : NULL, progress, err);
         if (status == PF_OK)
             progress->passes++;
         break;
@@ -875,7 +886,7 @@ static pf_status final_end(pf_frame_run *run, pf_status status, pf_error *err)
     const pf_stage_plan *plan = run->plan;
     final_progress *progress = &f->progress;
     pf_stage_memory *memory = &renderer->stage_memory[PF_QUALITY_FINAL];
-    if (status == PF_OK)
+    if (status == PF_OK && !f->film_read) /* a time budget ended the passes early */
         status = pf_split_film_read(renderer, f->owned.film, f->owned.film_aov,
                                     settings->aovs, 1, run->image, err);
     uint64_t pixels = (uint64_t)settings->width * settings->height;
