@@ -288,9 +288,11 @@ static pf_status propagate(struct pf_fast_cache *cache, const pf_lpv_layout *lay
     return status;
 }
 
-/* The cascades' origins and cell sizes for the shading kernel. */
-static pf_status upload_cascades(pf_vk_context *ctx, struct pf_fast_cache *cache,
-                                 const pf_lpv_layout *layout, pf_error *err)
+/* The cascades' origins and cell sizes for the shading kernel, uploaded with its
+ * dispatches (issue 44: no submission of their own). */
+static pf_status record_cascades(pf_vk_context *ctx, pf_vk_commands *cmds,
+                                 struct pf_fast_cache *cache, const pf_lpv_layout *layout,
+                                 pf_error *err)
 {
     float cascades[PF_LPV_MAX_CASCADES][4];
     for (uint32_t k = 0; k < layout->count; k++) {
@@ -301,8 +303,8 @@ static pf_status upload_cascades(pf_vk_context *ctx, struct pf_fast_cache *cache
     if (!cache->cascades)
         status = pf_vk_buffer_create(ctx, sizeof cascades, "LPV cascades", &cache->cascades, err);
     if (status == PF_OK)
-        status = pf_vk_buffer_upload(ctx, cache->cascades, 0, cascades,
-                                     layout->count * sizeof cascades[0], err);
+        status = pf_vk_cmd_upload(cmds, cache->cascades, 0, cascades,
+                                  layout->count * sizeof cascades[0], err);
     return status;
 }
 
@@ -336,6 +338,8 @@ static pf_status shade(pf_renderer *renderer, struct pf_fast_cache *cache,
      * submission (issue 44). */
     pf_vk_commands *cmds = NULL;
     pf_status status = pf_vk_commands_begin(ctx, &cmds, err);
+    if (status == PF_OK)
+        status = record_cascades(ctx, cmds, cache, &plan->layout, err);
     if (status == PF_OK)
         status = pf_render_buffer_recorded(ctx, cmds, "frame parameters", &params, sizeof params,
                                            sizeof params, &owned.params, err);
@@ -573,8 +577,6 @@ static pf_status fast_begin(pf_frame_run *run, pf_error *err)
         status = pf_lpv_create(renderer->ctx, &cache->lpv, err);
     if (status == PF_OK)
         pf_lpv_set_site(cache->lpv, renderer->lpv_site);
-    if (status == PF_OK)
-        status = upload_cascades(renderer->ctx, cache, layout, err);
     cache->layout = *layout;
     if (status != PF_OK) {
         pf_stage_forget(memory);
