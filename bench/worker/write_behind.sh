@@ -30,10 +30,10 @@ run() { # label, binary
   start=$(date +%s.%N)
   "$2" worker --once --db "$dir/q.db" >"$dir/log" 2>&1
   end=$(date +%s.%N)
-  local sums
-  sums=$(sqlite3 "$dir/q.db" "SELECT printf('exr_write %.0f ms, shade %.0f ms',
-           sum(CASE WHEN stage = 'exr_write' THEN wall_ms END),
-           sum(CASE WHEN stage = 'shade' THEN wall_ms END)) FROM stage_timings")
+  local sums # the job's summed wall times, from its own timings (column 8: wall_total_ms)
+  sums=$("$2" timings 1 --format csv --db "$dir/q.db" 2>/dev/null |
+    awk -F, '$1 == "exr_write" { w = $8 } $1 == "shade" { s = $8 }
+             END { printf "exr_write %.0f ms, shade %.0f ms", w, s }')
   awk -v a="$start" -v b="$end" -v l="$1" -v s="$sums" -v n="$(ls "$dir"/*.exr | wc -l)" \
     'BEGIN { printf "%-4s %7.2f s  %d frames  (%s)\n", l, b - a, n, s }'
 }
