@@ -399,7 +399,7 @@ static pf_status shade_sample(pf_renderer *renderer, pf_vk_buffer **buffers,
                               const final_buffers *owned, const pf_render_settings *settings,
                               const pf_stage_plan *plan, const final_pass *pass,
                               uint32_t sample_index, pf_image *read_into,
-                              final_progress *progress, pf_error *err)
+                              pf_vk_commands **setup, final_progress *progress, pf_error *err)
 {
     pf_vk_context *ctx = renderer->ctx;
     static const final_counters zero = {0};
@@ -464,11 +464,15 @@ static pf_status shade_sample(pf_renderer *renderer, pf_vk_buffer **buffers,
      * kernels and the counters' readback, which says whether the deferred requests
      * overflowed; then the retrace, fallback and resolve with the counters again. Where the
      * host traces, the first is cut where it does, twice a band. */
-    pf_vk_commands *cmds = NULL;
-    if (status == PF_OK)
+    /* The frame's uploads, where they are still to be submitted, go first. */
+    pf_vk_commands *cmds = *setup;
+    *setup = NULL;
+    if (status == PF_OK && !cmds)
         status = pf_vk_commands_begin(ctx, &cmds, err);
-    if (status != PF_OK)
+    if (status != PF_OK) {
+        pf_vk_commands_destroy(cmds);
         return status;
+    }
     status = pf_vk_cmd_upload(cmds, owned->counters, 0, &zero, sizeof zero, err);
     uint32_t groups_x = (settings->width + GROUP_EDGE - 1) / GROUP_EDGE;
     uint32_t groups_y = (settings->height + GROUP_EDGE - 1) / GROUP_EDGE;
@@ -688,10 +692,14 @@ struct final_frame {
     int maps_held;
     int pass_traced;          /* the current pass was traced in this frame (not kept) */
     int film_read;            /* the last pass read the film into the image with its own */
+    /* The frame's own uploads (its parameters, the empty grid), recorded at its start and
+     * submitted with the first sample's kernels, which are their first readers. */
+    pf_vk_commands *setup;
 };
 
 static void final_frame_free(pf_vk_context *ctx, final_frame *f)
 {
+    pf_vk_commands_destroy(f->setup);
     if (f->maps_held)
         pf_photon_maps_release(ctx, &f->maps);
     final_buffers_release(ctx, &f->owned);
@@ -737,11 +745,13 @@ static pf_status final_begin(pf_frame_run *run, pf_error *err)
     const pf_gpu_scene *scene = &f->inputs.scene;
     const pf_bih_gpu_view *bih = &f->inputs.bih;
     pf_frame_params params;
+    if (status == PF_OK)
+        status = pf_vk_commands_begin(ctx, &f->setup, err);
     if (status == PF_OK) {
         pf_frame_params_fill(run->frame, settings, plan->samples, scene, bih, &params);
         params.max_specular_depth = FINAL_MAX_SPECULAR_DEPTH;
-        status = pf_render_buffer_with_data(ctx, "frame parameters", &params, sizeof params,
-                                            sizeof params, &owned->params, err);
+        status = pf_render_buffer_recorded(ctx, f->setup, "frame parameters", &params,
+                                           sizeof params, sizeof params, &owned->params, err);
     }
     if (status == PF_OK)
         status = pf_split_film_create(ctx, settings, 1, "final", &owned->film, &owned->film_aov,
@@ -756,8 +766,8 @@ static pf_status final_begin(pf_frame_run *run, pf_error *err)
         status = pf_vk_buffer_create(ctx, pixels * PF_SPLIT_FILM_VEC4_PER_PIXEL * 16,
                                      "final sample sums", &owned->samples, err);
     if (status == PF_OK)
-        status = pf_render_buffer_with_data(ctx, "empty photon grid", NULL, 0, 16,
-                                            &owned->empty_grid, err);
+        status = pf_render_buffer_recorded(ctx, f->setup, "empty photon grid", NULL, 0, 16,
+                                           &owned->empty_grid, err);
     if (status == PF_OK)
         status = pf_vk_buffer_create(ctx, pixels * sizeof(float), "final caustic radii",
                                      &owned->caustic_radii, err);
@@ -865,7 +875,7 @@ static pf_status final_run(pf_frame_run *run, pf_stage_id stage, uint32_t pass, 
         f->film_read = pass + 1 == run->plan->samples;
         status = shade_sample(renderer, f->buffers, &f->owned, run->settings, run->plan,
                               run->plan->emitters.count > 0 ? slot : NULL, pass,
-                              f->film_read ? run->image : NULL, progress, err);
+                              f->film_read ? run->image : NULL, &f->setup, progress, err);
         if (status == PF_OK)
             progress->passes++;
         break;
