@@ -405,6 +405,7 @@ typedef struct pf_photon_maps {
 
 typedef struct pf_photon_tracer pf_photon_tracer;
 
+/* The tracer's kernels are made at their first use (the flat loop's, or the waves'). */
 pf_status pf_photon_tracer_create(pf_vk_context *ctx, pf_photon_tracer **out, pf_error *err);
 void pf_photon_tracer_destroy(pf_photon_tracer *tracer);
 

@@ -52,12 +52,8 @@ pf_status pf_photon_tracer_create(pf_vk_context *ctx, pf_photon_tracer **out, pf
     if (!tracer)
         return pf_error_set(err, PF_ERR_NOMEM, "photon tracer: out of memory");
     tracer->ctx = ctx;
-    pf_vk_pipeline *plain;
-    pf_status status = pf_photon_trace_pipeline(tracer, PF_PHOTON_TRACED_HERE, 0, &plain, err);
-    if (status != PF_OK) {
-        free(tracer);
-        return status;
-    }
+    /* No kernel yet: a tracer whose photons the host traces never makes the flat loop's
+     * (one compile of the large module less in a process's first frame). */
     *out = tracer;
     return PF_OK;
 }
