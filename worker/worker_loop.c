@@ -81,6 +81,7 @@ typedef struct task_run {
     atomic_int write_failed; /* the render stops handing over frames of this task */
     pf_status write_status;  /* the first failed write's */
     pf_error write_err;
+    int64_t write_failed_frame;
 } task_run;
 
 #define RUN_SLOTS 2
@@ -629,6 +630,7 @@ static void frame_written(void *user, pf_frame_output *frame, pf_status status,
     if (status != PF_OK && run->write_status == PF_OK) {
         run->write_status = status;
         run->write_err = *err;
+        run->write_failed_frame = run->task.first_frame + index * run->task.frame_step;
         atomic_store(&run->write_failed, 1);
     }
     run->written++;
@@ -658,8 +660,8 @@ static void run_written(worker *w, task_run *run)
         run->render_fault = pf_frame_fault_of(PF_FRAME_FAILED_OUTPUT);
         char quoted[PF_ERROR_MESSAGE_MAX + 8];
         pf_wlog(PF_LOG_WARN, "render_failed",
-                "job=%" PRId64 " frame=%d task=%" PRId64 " worker=%s fault=%s error=%s",
-                run->task.job_id, run->task.first_frame, run->task.task_id, w->name,
+                "job=%" PRId64 " frame=%" PRId64 " task=%" PRId64 " worker=%s fault=%s error=%s",
+                run->task.job_id, run->write_failed_frame, run->task.task_id, w->name,
                 pf_frame_fault_name(run->render_fault),
                 pf_wlog_quote(run->render_err.message, quoted, sizeof quoted));
     }
