@@ -217,14 +217,7 @@ static pf_status trace_pass(pf_renderer *renderer, const pf_photon_frame *inputs
                                       .seed = pf_seed_mix(settings->seed, index),
                                       .max_depth = plan->photon_depth,
                                       .store_direct = 1};
-    pf_status status = PF_OK;
-    if (plan->host_traces) {
-        trace.host_tree = &renderer->bih;
-        status = pf_renderer_bih_wide(renderer, &trace.host_wide, err);
-    }
-    if (status == PF_OK)
-        status =
-            pf_photon_trace(inputs->tracer, &inputs->photons, inputs->emitters, &trace, maps, err);
+    pf_status status = pf_photon_frame_trace(renderer, inputs, plan, &trace, maps, err);
     if (status != PF_OK)
         return status;
     progress->trace_ms += pf_time_ms() - start;

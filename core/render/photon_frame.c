@@ -48,3 +48,18 @@ void pf_photon_frame_release(pf_vk_context *ctx, pf_photon_frame *photon_frame)
 {
     pf_gpu_scene_release(ctx, &photon_frame->scene);
 }
+
+pf_status pf_photon_frame_trace(pf_renderer *renderer, const pf_photon_frame *inputs,
+                                const pf_stage_plan *plan, pf_photon_trace_settings *trace,
+                                pf_photon_maps *maps, pf_error *err)
+{
+    pf_status status = PF_OK;
+    if (plan->host_traces) {
+        trace->host_tree = &renderer->bih;
+        status = pf_renderer_bih_wide(renderer, &trace->host_wide, err);
+    }
+    if (status == PF_OK)
+        status = pf_photon_trace(inputs->tracer, &inputs->photons, inputs->emitters, trace, maps,
+                                 err);
+    return status;
+}
