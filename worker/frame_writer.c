@@ -74,14 +74,6 @@ void pf_frame_writer_hand(pf_frame_writer *writer, pf_frame_output *frame, void 
     uv_mutex_unlock(&writer->mutex);
 }
 
-void pf_frame_writer_drain(pf_frame_writer *writer)
-{
-    uv_mutex_lock(&writer->mutex);
-    while (writer->frame)
-        uv_cond_wait(&writer->changed, &writer->mutex);
-    uv_mutex_unlock(&writer->mutex);
-}
-
 void pf_frame_writer_stop(pf_frame_writer *writer)
 {
     if (!writer)

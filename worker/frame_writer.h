@@ -24,9 +24,6 @@ pf_status pf_frame_writer_start(pf_frame_written_fn written, pf_frame_writer **o
  * taken it, that is once the frame handed before it is written. */
 void pf_frame_writer_hand(pf_frame_writer *writer, pf_frame_output *frame, void *user);
 
-/* Waits until every frame handed over is written (its callback returned). */
-void pf_frame_writer_drain(pf_frame_writer *writer);
-
 /* Writes what was handed over, then ends the thread (NULL: nothing). */
 void pf_frame_writer_stop(pf_frame_writer *writer);
 
