@@ -161,6 +161,12 @@ void pf_bih_gpu_adopt(pf_bih_gpu *gpu, const pf_bih *bih, pf_vk_buffer *tree[3])
     gpu->uploaded = 1;
 }
 
+void pf_bih_gpu_set_bounds(pf_bih_gpu *device, const float lo[3], const float hi[3])
+{
+    memcpy(device->bounds_min, lo, sizeof device->bounds_min);
+    memcpy(device->bounds_max, hi, sizeof device->bounds_max);
+}
+
 pf_status pf_bih_gpu_view_get(const pf_bih_gpu *gpu, pf_bih_gpu_view *out, pf_error *err)
 {
     memset(out, 0, sizeof *out);

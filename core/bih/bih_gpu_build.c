@@ -50,10 +50,7 @@ static const struct {
     {"bih_collapse", 6, 8},
 };
 
-struct pf_bih_gpu_builder {
-    pf_vk_context *ctx;
-    pf_vk_pipeline *pipelines[PASS_COUNT];
-};
+_Static_assert(PASS_COUNT == PF_BIH_BUILD_PIPELINES, "bih_internal.h sizes the builder's array");
 
 enum {
     BUF_VERTICES,
@@ -103,6 +100,9 @@ void pf_bih_gpu_builder_destroy(pf_bih_gpu_builder *builder)
     for (int p = 0; p < PASS_COUNT; p++)
         if (builder->pipelines[p])
             pf_vk_pipeline_destroy(builder->ctx, builder->pipelines[p]);
+    for (int p = 0; p < PF_BIH_REFIT_PIPELINES; p++)
+        if (builder->refit[p])
+            pf_vk_pipeline_destroy(builder->ctx, builder->refit[p]);
     free(builder);
 }
 

@@ -157,6 +157,28 @@ static inline void pf_bih_copy_leaf_triangle(float (*leaf)[4], const pf_scene_fr
 }
 
 /*
+ * The refit's first half (pf_bih_refit without the bounds): frame checked as
+ * pf_bih_refit checks it (PF_ERR_INVALID, the tree unchanged), then its
+ * triangles gathered into the leaf order with their degenerate flags. The clip
+ * values and the root box are left as they were: pf_bih_refit_bounds, or the
+ * device's refit (bih_gpu_refit.c), fits them.
+ */
+pf_status pf_bih_refit_vertices(pf_bih *bih, const pf_scene_frame *frame, pf_error *err);
+
+/* The GPU builder: the build's passes (bih_gpu_build.c) and the refit's
+ * (bih_gpu_refit.c), the latter made at the first refit. */
+#define PF_BIH_BUILD_PIPELINES 7
+#define PF_BIH_REFIT_PIPELINES 4
+struct pf_bih_gpu_builder {
+    pf_vk_context *ctx;
+    pf_vk_pipeline *pipelines[PF_BIH_BUILD_PIPELINES];
+    pf_vk_pipeline *refit[PF_BIH_REFIT_PIPELINES];
+};
+
+/* The root box of the tree device holds, after the device changed it (a refit). */
+void pf_bih_gpu_set_bounds(pf_bih_gpu *device, const float lo[3], const float hi[3]);
+
+/*
  * The one-ray traversal in parts, for bih_cpu_packet_body.h to hand a ray left
  * alone in its packet to: a ray's per-ray setup; its interval in the scene
  * box (0: it misses the box); and the walk of the subtree at node from the

@@ -58,7 +58,8 @@ static pf_status list_top_down(const pf_bih *bih, uint32_t *order, uint32_t *lis
     return PF_OK;
 }
 
-pf_status pf_bih_refit(pf_bih *bih, const pf_scene_frame *frame, pf_error *err)
+/* Same count, finite vertices: else PF_ERR_INVALID, nothing changed. */
+static pf_status check_frame(const pf_bih *bih, const pf_scene_frame *frame, pf_error *err)
 {
     if (!bih || !frame)
         return pf_error_set(err, PF_ERR_INVALID, "pf_bih_refit: NULL argument");
@@ -69,15 +70,56 @@ pf_status pf_bih_refit(pf_bih *bih, const pf_scene_frame *frame, pf_error *err)
                             "BIH refit: the tree holds %u triangles, the frame %u (a refit "
                             "keeps the triangles: build a new tree)",
                             bih->triangle_count, frame->triangle_count);
-    uint32_t n = bih->triangle_count;
-    /* Checked before anything changes, so a refused frame leaves the tree as it was. */
-    for (uint32_t t = 0; t < n; t++)
+    for (uint32_t t = 0; t < frame->triangle_count; t++)
         for (int c = 0; c < 3; c++)
             for (int k = 0; k < 3; k++)
                 if (!isfinite(frame->vertices[3 * t + c][k]))
                     return pf_error_set(err, PF_ERR_INVALID,
                                         "BIH refit: triangle %u vertex %d: non-finite coordinate",
                                         t, c);
+    return PF_OK;
+}
+
+/* frame's triangles into the leaf order, with their degenerate flags. */
+static void gather_vertices(pf_bih *bih, const pf_scene_frame *frame)
+{
+    for (uint32_t p = 0; p < bih->triangle_count; p++)
+        pf_bih_copy_leaf_triangle(&bih->vertices[3 * (size_t)p], frame, bih->triangle_index[p]);
+    pf_bih_flag_degenerate(bih->vertices, bih->triangle_count);
+}
+
+/* Every clip value and the root box from the leaf-order vertices, bottom up (order: listed
+ * nodes, parents first); boxes holds node_count. */
+static void fit_bounds(pf_bih *bih, const uint32_t *order, uint32_t listed, pf_bih_box *boxes)
+{
+    for (uint32_t i = listed; i-- > 0;) {
+        uint32_t node = order[i];
+        pf_bih_node *current = &bih->nodes[node];
+        pf_bih_box *box = &boxes[node];
+        *box = pf_bih_box_empty();
+        if (pf_bih_is_leaf(current)) {
+            uint32_t first = pf_bih_leaf_first(current);
+            for (uint32_t p = first; p < first + pf_bih_leaf_count(current); p++)
+                for (int c = 0; c < 3; c++)
+                    pf_bih_box_merge(box, bih->vertices[3 * p + c], bih->vertices[3 * p + c]);
+            continue;
+        }
+        uint32_t child = pf_bih_first_child(current), axis = pf_bih_axis(current);
+        current->clip[0] = boxes[child].hi[axis];
+        current->clip[1] = boxes[child + 1].lo[axis];
+        pf_bih_box_merge(box, boxes[child].lo, boxes[child].hi);
+        pf_bih_box_merge(box, boxes[child + 1].lo, boxes[child + 1].hi);
+    }
+    /* The build's convention: an empty tree has a zero box. */
+    for (int k = 0; k < 3; k++) {
+        bih->bounds_min[k] = bih->triangle_count > 0 ? boxes[0].lo[k] : 0.0f;
+        bih->bounds_max[k] = bih->triangle_count > 0 ? boxes[0].hi[k] : 0.0f;
+    }
+}
+
+/* The tree listed (validated) and, when fit, its bounds fitted; gather first when frame. */
+static pf_status refit_with(pf_bih *bih, const pf_scene_frame *frame, pf_error *err)
+{
     uint32_t *order = malloc(bih->node_count * sizeof *order);
     pf_bih_box *boxes = malloc(bih->node_count * sizeof *boxes);
     pf_status status = PF_OK;
@@ -87,34 +129,33 @@ pf_status pf_bih_refit(pf_bih *bih, const pf_scene_frame *frame, pf_error *err)
     if (status == PF_OK)
         status = list_top_down(bih, order, &listed, err);
     if (status == PF_OK) {
-        for (uint32_t p = 0; p < n; p++)
-            pf_bih_copy_leaf_triangle(&bih->vertices[3 * (size_t)p], frame, bih->triangle_index[p]);
-        pf_bih_flag_degenerate(bih->vertices, n);
-        for (uint32_t i = listed; i-- > 0;) {
-            uint32_t node = order[i];
-            pf_bih_node *current = &bih->nodes[node];
-            pf_bih_box *box = &boxes[node];
-            *box = pf_bih_box_empty();
-            if (pf_bih_is_leaf(current)) {
-                uint32_t first = pf_bih_leaf_first(current);
-                for (uint32_t p = first; p < first + pf_bih_leaf_count(current); p++)
-                    for (int c = 0; c < 3; c++)
-                        pf_bih_box_merge(box, bih->vertices[3 * p + c], bih->vertices[3 * p + c]);
-                continue;
-            }
-            uint32_t child = pf_bih_first_child(current), axis = pf_bih_axis(current);
-            current->clip[0] = boxes[child].hi[axis];
-            current->clip[1] = boxes[child + 1].lo[axis];
-            pf_bih_box_merge(box, boxes[child].lo, boxes[child].hi);
-            pf_bih_box_merge(box, boxes[child + 1].lo, boxes[child + 1].hi);
-        }
-        /* The build's convention: an empty tree has a zero box. */
-        for (int k = 0; k < 3; k++) {
-            bih->bounds_min[k] = n > 0 ? boxes[0].lo[k] : 0.0f;
-            bih->bounds_max[k] = n > 0 ? boxes[0].hi[k] : 0.0f;
-        }
+        if (frame)
+            gather_vertices(bih, frame);
+        fit_bounds(bih, order, listed, boxes);
     }
     free(order);
     free(boxes);
     return status;
+}
+
+pf_status pf_bih_refit(pf_bih *bih, const pf_scene_frame *frame, pf_error *err)
+{
+    /* Checked before anything changes, so a refused frame leaves the tree as it was. */
+    pf_status status = check_frame(bih, frame, err);
+    return status == PF_OK ? refit_with(bih, frame, err) : status;
+}
+
+pf_status pf_bih_refit_vertices(pf_bih *bih, const pf_scene_frame *frame, pf_error *err)
+{
+    pf_status status = check_frame(bih, frame, err);
+    if (status == PF_OK)
+        gather_vertices(bih, frame);
+    return status;
+}
+
+pf_status pf_bih_refit_bounds(pf_bih *bih, pf_error *err)
+{
+    if (!bih || !bih->nodes || bih->node_count == 0)
+        return pf_error_set(err, PF_ERR_INVALID, "BIH refit: the tree has no nodes");
+    return refit_with(bih, NULL, err);
 }

@@ -417,6 +417,47 @@ pf_status pf_bih_build_gpu_resident(pf_bih_gpu_builder *builder, const pf_scene_
  * PF_ERR_NOMEM.
  */
 pf_status pf_bih_refit(pf_bih *bih, const pf_scene_frame *frame, pf_error *err);
+/*
+ * The second half of a refit alone: bih's clip values and root box fitted bottom up to
+ * the leaf-order vertices it holds, after pf_bih_refit_gpu left the host's fitting to
+ * whoever traces the tree on the host. Fails as pf_bih_refit on a malformed tree.
+ */
+pf_status pf_bih_refit_bounds(pf_bih *bih, pf_error *err);
+
+/*
+ * The refit on the device (issue 44), for the tree device holds as bih's copy (built by
+ * pf_bih_build_gpu_resident or uploaded by pf_bih_gpu_upload, refit since only through
+ * this call). The host gathers frame's triangles into bih's leaf order (checked as
+ * pf_bih_refit checks them: PF_ERR_INVALID leaves both copies as they were); one
+ * submission uploads them and fits the device's clip values and root box bottom up
+ * (shaders/bih_refit_link, _bounds: bit for bit pf_bih_refit's) and measures the refit
+ * tree's SAH cost (bih_refit_sah, _sum: pf_bih_quality_measure's, summed in float),
+ * and one wait reads back the cost and the root box, 36 bytes. bih's vertices and
+ * bounds are then current, but not its clip values: call pf_bih_refit_bounds before
+ * tracing or checking bih on the host. PF_ERR_LIMIT where the device's buffers cannot
+ * hold the tree's boxes (refit on the host instead); after any other failure the
+ * device's tree is unusable until the next build or upload.
+ */
+typedef enum pf_bih_refit_pass {
+    PF_BIH_REFIT_PASS_LINK,   /* parents, arrival counters */
+    PF_BIH_REFIT_PASS_BOUNDS, /* clip values and boxes, bottom up */
+    PF_BIH_REFIT_PASS_SAH,    /* the cost's terms and sum */
+    PF_BIH_REFIT_PASSES
+} pf_bih_refit_pass;
+/* "link", "bounds", "sah". */
+const char *pf_bih_refit_pass_name(pf_bih_refit_pass pass);
+
+typedef struct pf_bih_gpu_refit_report {
+    double sah_cost;
+    /* Device time of each pass and of them all, from timestamps inside the submission;
+     * -1 without timestamps. */
+    double pass_ms[PF_BIH_REFIT_PASSES];
+    double gpu_ms;
+} pf_bih_gpu_refit_report;
+
+pf_status pf_bih_refit_gpu(pf_bih_gpu_builder *builder, pf_bih_gpu *device, pf_bih *bih,
+                           const pf_scene_frame *frame, pf_bih_gpu_refit_report *report,
+                           pf_error *err);
 
 /*
  * The GPU radix sort of the BIH build (shaders/bih_radix_histogram.comp,

@@ -26,8 +26,14 @@
  * shared scenes (bench/RESULTS.md, "SAH tree for rendering"); the GPU build
  * stays the Morton tree.
  * pf_renderer_set_bih_build overrides the choice (tests use it to cover
- * both paths). A refit always runs on the CPU: one O(n) pass over the
- * CPU copy that every build leaves in the renderer.
+ * both paths). A refit runs where a fresh tree would be built. On the CPU it
+ * is one O(n) pass over the copy every build leaves in the renderer. On the
+ * device (issue 44) the host gathers the moved triangles into that copy's
+ * leaf order (the next frame's reuse check reads them), and one submission
+ * uploads them and fits the device's tree, its SAH cost read back for the
+ * keep-or-rebuild decision: the tree itself is not read back, and the host's
+ * copy gets its clip values only when the host traces it
+ * (pf_renderer_bih_host).
  */
 #include "render_internal.h"
 
@@ -109,8 +115,49 @@ static pf_status build_fresh(pf_renderer *renderer, const pf_scene_frame *frame,
     if (status != PF_OK)
         return status;
     renderer->bih_valid = 1;
+    renderer->bih_host_unfitted = 0;
     renderer->bih_sah = sah_of(&renderer->bih);
     renderer->bih_fresh_sah = renderer->bih_sah;
+    return PF_OK;
+}
+
+/*
+ * renderer->bih refit to frame where site says, with its SAH cost in *sah: on the
+ * device, the tree the device holds (every decision leaves it the host's tree) and
+ * the host's clip values left for pf_renderer_bih_host; on the CPU, or where the
+ * device's limits refuse the refit, on the host.
+ */
+static pf_status refit_tree(pf_renderer *renderer, const pf_scene_frame *frame,
+                            pf_bih_build_site site, double *sah, int *on_gpu, pf_error *err)
+{
+    *on_gpu = 0;
+    if (site == PF_BIH_BUILD_GPU) {
+        pf_status status = PF_OK;
+        if (!renderer->bih_builder)
+            status = pf_bih_gpu_builder_create(renderer->ctx, &renderer->bih_builder, err);
+        if (status != PF_OK)
+            return status;
+        pf_error refused = {0};
+        pf_bih_gpu_refit_report *report = &renderer->bih_refit_report;
+        status = pf_bih_refit_gpu(renderer->bih_builder, renderer->bih_gpu, &renderer->bih,
+                                  frame, report, &refused);
+        if (status == PF_OK) {
+            renderer->bih_host_unfitted = 1;
+            *sah = report->sah_cost;
+            *on_gpu = 1;
+            return PF_OK;
+        }
+        if (status != PF_ERR_LIMIT) {
+            *err = refused;
+            return status;
+        }
+        pf_log(PF_LOG_WARN, "%s; refit on the host instead", refused.message);
+    }
+    pf_status status = pf_bih_refit(&renderer->bih, frame, err);
+    if (status != PF_OK)
+        return status;
+    renderer->bih_host_unfitted = 0;
+    *sah = sah_of(&renderer->bih);
     return PF_OK;
 }
 
@@ -124,9 +171,10 @@ static pf_status build_fresh(pf_renderer *renderer, const pf_scene_frame *frame,
 static pf_status update_tree(pf_renderer *renderer, const pf_scene_frame *frame,
                              const pf_stage_decision *planned, pf_bih_build_site site,
                              bih_decision *decision, char *reason, size_t reason_size,
-                             int *built_on_gpu, int *resident, pf_error *err)
+                             int *built_on_gpu, int *refit_on_gpu, int *resident, pf_error *err)
 {
     *built_on_gpu = 0;
+    *refit_on_gpu = 0;
     *resident = 0;
     snprintf(reason, reason_size, "%s", planned->reason);
     if (planned->action == PF_STAGE_REUSE) {
@@ -137,9 +185,11 @@ static pf_status update_tree(pf_renderer *renderer, const pf_scene_frame *frame,
         *decision = BIH_BUILT;
         return build_fresh(renderer, frame, site, built_on_gpu, resident, err);
     }
-    pf_status status = pf_bih_refit(&renderer->bih, frame, err);
+    double refit_sah = 0.0;
+    pf_status status = refit_tree(renderer, frame, site, &refit_sah, refit_on_gpu, err);
     if (status != PF_OK)
         return status;
+    *resident = *refit_on_gpu;
     /*
      * The yardstick is the last fresh build's SAH, not a fresh build of this
      * frame: building one every frame to compare against would cost the very
@@ -151,7 +201,6 @@ static pf_status update_tree(pf_renderer *renderer, const pf_scene_frame *frame,
      * while a torn-apart tree (leaves spanning far-apart triangles) does not:
      * tests/render/test_bih_reuse.c shows refit SAH 55-77 against 11.
      */
-    double refit_sah = sah_of(&renderer->bih);
     if (refit_sah <= BIH_REFIT_SAH_TOLERANCE * renderer->bih_fresh_sah) {
         snprintf(reason, reason_size, "refit: SAH %.1f within 10%% of last build's %.1f",
                  refit_sah, renderer->bih_fresh_sah);
@@ -179,9 +228,9 @@ pf_status pf_render_prepare_bih(pf_renderer *renderer, const pf_scene_frame *fra
     }
     bih_decision decision = BIH_BUILT;
     char reason[PF_STAGE_REASON_MAX];
-    int built_on_gpu = 0, resident = 0;
+    int built_on_gpu = 0, refit_on_gpu = 0, resident = 0;
     status = update_tree(renderer, frame, planned, site, &decision, reason, sizeof reason,
-                         &built_on_gpu, &resident, err);
+                         &built_on_gpu, &refit_on_gpu, &resident, err);
     /* A tree built or refit (or lost to a failure): its wide view is another. */
     if (status != PF_OK || decision != BIH_REUSED)
         pf_renderer_bih_wide_drop(renderer);
@@ -209,6 +258,7 @@ pf_status pf_render_prepare_bih(pf_renderer *renderer, const pf_scene_frame *fra
         pf_stage_add_counter(row, "depth", renderer->bih.depth);
         pf_stage_add_counter(row, "sah", renderer->bih_sah);
         pf_stage_add_counter(row, "built_on_gpu", built_on_gpu);
+        pf_stage_add_counter(row, "refit_on_gpu", refit_on_gpu);
         pf_stage_add_counter(row, "decision", decision);
         /* Where the GPU build's device time went, from its timestamps (issue 44). */
         const pf_bih_gpu_build_report *gpu = &renderer->bih_gpu_report;
@@ -220,17 +270,44 @@ pf_status pf_render_prepare_bih(pf_renderer *renderer, const pf_scene_frame *fra
                 pf_stage_add_counter(row, name, gpu->pass_ms[p]);
             }
         }
+        const pf_bih_gpu_refit_report *refit = &renderer->bih_refit_report;
+        if (refit_on_gpu && refit->gpu_ms >= 0.0) {
+            row->gpu_ms = refit->gpu_ms;
+            for (int p = 0; p < PF_BIH_REFIT_PASSES; p++) {
+                char name[32];
+                snprintf(name, sizeof name, "gpu_ms_%s",
+                         pf_bih_refit_pass_name((pf_bih_refit_pass)p));
+                pf_stage_add_counter(row, name, refit->pass_ms[p]);
+            }
+        }
     }
+    return PF_OK;
+}
+
+pf_status pf_renderer_bih_host(pf_renderer *renderer, const pf_bih **out, pf_error *err)
+{
+    *out = NULL;
+    if (!renderer->bih_valid)
+        return pf_error_set(err, PF_ERR_INTERNAL, "no BIH for the host to trace");
+    if (renderer->bih_host_unfitted) {
+        pf_status status = pf_bih_refit_bounds(&renderer->bih, err);
+        if (status != PF_OK)
+            return status;
+        renderer->bih_host_unfitted = 0;
+    }
+    *out = &renderer->bih;
     return PF_OK;
 }
 
 pf_status pf_renderer_bih_wide(pf_renderer *renderer, const pf_bih_wide **out, pf_error *err)
 {
     *out = NULL;
-    if (!renderer->bih_valid)
-        return pf_error_set(err, PF_ERR_INTERNAL, "no BIH for the host to trace");
+    const pf_bih *tree = NULL;
+    pf_status status = pf_renderer_bih_host(renderer, &tree, err);
+    if (status != PF_OK)
+        return status;
     if (!renderer->bih_wide_valid) {
-        pf_status status = pf_bih_wide_build(&renderer->bih, &renderer->bih_wide, err);
+        status = pf_bih_wide_build(tree, &renderer->bih_wide, err);
         if (status != PF_OK)
             return status;
         renderer->bih_wide_valid = 1;

@@ -82,6 +82,10 @@ pf_status pf_render_motion(pf_renderer *renderer, const pf_scene_frame *frame,
     double start = pf_time_ms();
     if (!renderer->bih_valid || renderer->bih.triangle_count != frame->triangle_count)
         return pf_error_set(err, PF_ERR_INVALID, "motion: no tree of this frame's triangles");
+    const pf_bih *tree = NULL;
+    pf_status fitted = pf_renderer_bih_host(renderer, &tree, err);
+    if (fitted != PF_OK)
+        return fitted;
     if (previous->triangle_count != frame->triangle_count)
         return pf_error_set(err, PF_ERR_INVALID,
                             "motion: the previous frame has %u triangles, this one %u",
@@ -136,7 +140,7 @@ pf_status pf_render_motion(pf_renderer *renderer, const pf_scene_frame *frame,
             rays[i].tmin = 0.0f;
             rays[i].tmax = INFINITY;
         }
-        status = pf_bih_trace_cpu_rays(&renderer->bih, rays, count, 0, hits, err);
+        status = pf_bih_trace_cpu_rays(tree, rays, count, 0, hits, err);
         for (uint32_t i = 0; status == PF_OK && i < count; i++) {
             size_t p = first + i;
             float *out = grown.pixels + p * channels + channels - 2;

@@ -55,8 +55,9 @@ pf_status pf_photon_frame_trace(pf_renderer *renderer, const pf_photon_frame *in
 {
     pf_status status = PF_OK;
     if (plan->host_traces) {
-        trace->host_tree = &renderer->bih;
-        status = pf_renderer_bih_wide(renderer, &trace->host_wide, err);
+        status = pf_renderer_bih_host(renderer, &trace->host_tree, err);
+        if (status == PF_OK)
+            status = pf_renderer_bih_wide(renderer, &trace->host_wide, err);
     }
     if (status == PF_OK)
         status = pf_photon_trace(inputs->tracer, &inputs->photons, inputs->emitters, trace, maps,

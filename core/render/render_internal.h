@@ -278,6 +278,9 @@ uint64_t pf_hash_bytes(uint64_t h, const void *data, size_t bytes);
 
 pf_stage_previous pf_stage_previous_of(const pf_renderer *renderer, pf_quality preset);
 
+/* renderer's tree for the host to trace or measure, its clip values fitted first where a
+ * device refit left them (frame_bih.c); PF_ERR_INTERNAL without a tree. */
+pf_status pf_renderer_bih_host(pf_renderer *renderer, const pf_bih **out, pf_error *err);
 /* The wide view of renderer->bih, built once per tree (frame_bih.c); the host's traces of a
  * frame (reference's wavefront, final's rays, the photons) share it. */
 pf_status pf_renderer_bih_wide(pf_renderer *renderer, const pf_bih_wide **out, pf_error *err);
@@ -389,6 +392,10 @@ struct pf_renderer {
     pf_bih_build_site bih_build_site; /* pf_renderer_set_bih_build */
     pf_lpv_site lpv_site;             /* pf_renderer_set_lpv_site */
     pf_bih_gpu_build_report bih_gpu_report; /* the last GPU build's, for its row */
+    pf_bih_gpu_refit_report bih_refit_report; /* the last device refit's, for its row */
+    /* bih's clip values wait for pf_bih_refit_bounds: the device refit the tree and the
+     * host has not traced it since (pf_renderer_bih_host fits them). */
+    int bih_host_unfitted;
     uint64_t bih_frames;
     int bih_pilot_replaced; /* auto's pilot dropped the previous frame's tree (pilot.c) */
     pf_bih_gpu *bih_gpu;

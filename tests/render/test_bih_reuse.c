@@ -48,6 +48,7 @@ static const pf_stage_timing *bih_row(const pf_frame_report *report)
 typedef struct rendered {
     int decision;
     int skipped;
+    int refit_on_gpu;
     double sah;
     char reason[PF_STAGE_REASON_MAX];
 } rendered;
@@ -58,7 +59,7 @@ static rendered render(pf_renderer *renderer, const pf_scene_frame *frame, pf_im
     pf_render_settings settings = {IMAGE_WIDTH, IMAGE_HEIGHT, PF_QUALITY_PREVIEW, 1, 7, 1};
     pf_frame_report report = {0};
     pf_error err = {0};
-    rendered result = {-1, -1, -1.0, ""};
+    rendered result = {-1, -1, -1, -1.0, ""};
     PF_CHECK_OK(pf_render_frame(renderer, frame, &settings, image, &report, &err), &err);
     const pf_stage_timing *row = bih_row(&report);
     PF_CHECK(row != NULL);
@@ -66,6 +67,7 @@ static rendered render(pf_renderer *renderer, const pf_scene_frame *frame, pf_im
         return result;
     result.decision = (int)counter(row, "decision");
     result.skipped = row->skipped;
+    result.refit_on_gpu = (int)counter(row, "refit_on_gpu");
     result.sah = counter(row, "sah");
     snprintf(result.reason, sizeof result.reason, "%s", row->reason);
     PF_CHECK(counter(row, "triangles") == frame->triangle_count);
@@ -334,7 +336,18 @@ static void hand_built_sequence(const char *build_site)
     result = render(renderer, &scene->frame, &image);
     PF_CHECK_MSG(result.decision == DECISION_REFIT, "%s: small motion: %s", build_site,
                  result.reason);
+    /* A refit runs where a build would (issue 44: on the device, the tree not read back). */
+    PF_CHECK_MSG(result.refit_on_gpu == (forced_build == PF_BIH_BUILD_GPU),
+                 "%s: refit on the GPU %d", build_site, result.refit_on_gpu);
     check_matches_fresh_renderer("hand-built, refit", &scene->frame, &image, &result);
+    pf_image refit_image = image;
+    memset(&image, 0, sizeof image);
+    /* The refit frame again: the host's copy holds its triangles, wherever it was fit. */
+    result = render(renderer, &scene->frame, &image);
+    PF_CHECK_MSG(result.decision == DECISION_REUSED, "%s: refit frame again: %s", build_site,
+                 result.reason);
+    PF_CHECK(same_image(&image, &refit_image));
+    pf_image_free(&refit_image);
     pf_image_free(&image);
 
     /* Scattered triangles: the refit tree's SAH is far off, so it is rebuilt; within the

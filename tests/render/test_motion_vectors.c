@@ -19,20 +19,33 @@
 static pf_vk_context *ctx;
 static pf_renderer *renderer;
 
-/* A grey wall at z = WALL_Z (facing +z), a quad at z = -2 offset by (dx, dy), lit by a
- * point light; the camera at (cx, 0, 0) looking along -z. */
-static void build(ref_scene *scene, float cx, float dx, float dy)
+/* A grey wall at z = WALL_Z (facing +z), or in its place a grid of tiles × tiles small
+ * quads, a quad at z = -2 offset by (dx, dy), lit by a point light; the camera at (cx, 0, 0)
+ * looking along -z. */
+static void build_tiled(ref_scene *scene, float cx, float dx, float dy, int tiles)
 {
     ref_scene_init(scene);
     uint32_t grey = ref_scene_add_material(scene, ref_material(PF_MATERIAL_LAMBERT, 0.5f, 0.5f, 0.5f));
     const float wall[3] = {0, 0, WALL_Z}, wall_u[3] = {20, 0, 0}, wall_v[3] = {0, 20, 0};
-    ref_scene_add_quad(scene, wall, wall_u, wall_v, grey);
+    if (tiles == 0)
+        ref_scene_add_quad(scene, wall, wall_u, wall_v, grey);
+    for (int t = 0; t < tiles * tiles; t++) {
+        const float tile[3] = {-2.0f + 4.0f * (float)(t % tiles) / (float)(tiles - 1),
+                               -1.5f + 3.0f * (float)(t / tiles) / (float)(tiles - 1), WALL_Z};
+        const float tile_u[3] = {0.2f, 0, 0}, tile_v[3] = {0, 0.2f, 0};
+        ref_scene_add_quad(scene, tile, tile_u, tile_v, grey);
+    }
     const float quad[3] = {dx, dy, -2.0f}, quad_u[3] = {0.3f, 0, 0}, quad_v[3] = {0, 0.3f, 0};
     ref_scene_add_quad(scene, quad, quad_u, quad_v, grey);
     pf_light light = {.position = {0, 0, 2}, .kind = PF_LIGHT_POINT, .intensity = {5, 5, 5}};
     ref_scene_add_light(scene, light);
     const float eye[3] = {cx, 0, 0}, target[3] = {cx, 0, -1}, up[3] = {0, 1, 0};
     ref_scene_look_at(scene, eye, target, up, YFOV);
+}
+
+static void build(ref_scene *scene, float cx, float dx, float dy)
+{
+    build_tiled(scene, cx, dx, dy, 0);
 }
 
 /* Renders `now` (preview, AOVs on) and its motion from `before`. */
@@ -135,6 +148,67 @@ PF_TEST(a_moving_object_moves_by_the_closed_form_and_the_still_wall_reads_zero)
     ref_scene_free(&now);
 }
 
+/*
+ * A renderer that builds and refits its tree on the device (issue 44) traces the motion
+ * through the host's copy, whose clip values the device refit left for it to fit: the same
+ * vectors, bit for bit, as a renderer whose host refit the tree. Small tiles instead of
+ * the wall, whose triangles would span every node's clip planes: an unfitted clip cuts
+ * the moved quad's new edge away (the test fails so when pf_renderer_bih_host skips the
+ * fit).
+ */
+PF_TEST(a_tree_refit_on_the_device_traces_the_same_motion)
+{
+    ref_scene before, now;
+    build_tiled(&before, 0.0f, 0.0f, 0.0f, 4);
+    build_tiled(&now, 0.0f, 0.3f, 0.2f, 4);
+    const pf_bih_build_site sites[2] = {PF_BIH_BUILD_CPU, PF_BIH_BUILD_GPU};
+    pf_image images[2] = {{0}};
+    int channel[2] = {-1, -1};
+    for (int s = 0; s < 2; s++) {
+        pf_renderer *own = NULL;
+        pf_error err = {0};
+        PF_REQUIRE_OK(pf_renderer_create(ctx, &own, &err), &err);
+        pf_renderer_set_bih_build(own, sites[s]);
+        pf_render_settings settings = pf_render_settings_default();
+        settings.quality = PF_QUALITY_PREVIEW;
+        settings.width = WIDTH;
+        settings.height = HEIGHT;
+        pf_image first = {0};
+        pf_frame_report report = {0};
+        PF_CHECK_OK(pf_render_frame(own, &before.frame, &settings, &first, &report, &err), &err);
+        pf_image_free(&first);
+        report = (pf_frame_report){0};
+        PF_CHECK_OK(pf_render_frame(own, &now.frame, &settings, &images[s], &report, &err),
+                    &err);
+        PF_CHECK_MSG(ref_stage_counter(&report, "bih_build", "decision") == 1.0 &&
+                         ref_stage_counter(&report, "bih_build", "refit_on_gpu") == (double)s,
+                     "site %d: decision %g (%s), refit on the GPU %g", s,
+                     ref_stage_counter(&report, "bih_build", "decision"),
+                     ref_row(&report, "bih_build") ? ref_row(&report, "bih_build")->reason : "",
+                     ref_stage_counter(&report, "bih_build", "refit_on_gpu"));
+        PF_CHECK_OK(pf_render_motion(own, &now.frame, &before.frame, &images[s], NULL, &report,
+                                     &err),
+                    &err);
+        channel[s] = pf_image_channel(&images[s], "motion.X");
+        pf_renderer_destroy(own);
+    }
+    PF_REQUIRE(channel[0] >= 0 && channel[0] == channel[1]);
+    size_t differ = 0, moving = 0;
+    for (uint32_t y = 0; y < HEIGHT; y++)
+        for (uint32_t x = 0; x < WIDTH; x++)
+            for (int k = 0; k < 2; k++) {
+                double a = ref_pixel(&images[0], channel[0] + k, x, y);
+                differ += a != ref_pixel(&images[1], channel[1] + k, x, y);
+                moving += k == 0 && a != 0.0;
+            }
+    PF_CHECK_MSG(differ == 0 && moving > 0, "%zu motion values differ (%zu pixels move)", differ,
+                 moving);
+    pf_image_free(&images[0]);
+    pf_image_free(&images[1]);
+    ref_scene_free(&before);
+    ref_scene_free(&now);
+}
+
 int main(void)
 {
     if (!render_test_setup(&ctx, &renderer))
@@ -142,5 +216,6 @@ int main(void)
     PF_RUN(a_still_shot_reads_zero_without_tracing);
     PF_RUN(a_sliding_camera_moves_the_wall_by_the_closed_form);
     PF_RUN(a_moving_object_moves_by_the_closed_form_and_the_still_wall_reads_zero);
+    PF_RUN(a_tree_refit_on_the_device_traces_the_same_motion);
     return render_test_finish(ctx, renderer);
 }
