@@ -14,6 +14,7 @@ layout(local_size_x = 256) in;
 
 layout(push_constant) uniform Push {
     uint node_count;
+    uint levels;  // the tree's depth + 1: no climb is longer
 } push;
 
 struct Box {
@@ -29,7 +30,6 @@ layout(std430, set = 0, binding = 4) coherent buffer Boxes { Box boxes[]; };
 
 const uint NO_PARENT = 0xFFFFFFFFu;
 const uint LEAF = 3u;           // PF_BIH_LEAF
-const uint MOST_LEVELS = 64u;   // PF_BIH_STACK_SIZE: no build makes a deeper tree
 
 // pf_bih_box_merge: a coordinate replaces the box's only where it is strictly beyond.
 void merge(inout Box box, vec3 lo, vec3 hi)
@@ -45,8 +45,10 @@ Box empty_box()
 }
 
 // Every invocation runs the loop to its end, climbing or not, as bih_clip.comp's
-// does: written with an early return and a break, the climb stopped short on
-// llvmpipe (Mesa 22.3): 169 of a 600-triangle tree's 216 inner nodes were reached.
+// does: written with an early return and a break, or with a break once no
+// invocation of the subgroup climbs, the climb stopped short on llvmpipe (Mesa
+// 22.3): 169 of a 600-triangle tree's 216 inner nodes were reached. The loop runs
+// the tree's depth + 1 rounds, not the deepest tree's 65.
 void main()
 {
     uint node = gl_GlobalInvocationID.x;
@@ -65,7 +67,7 @@ void main()
         }
     }
     memoryBarrierBuffer();
-    for (uint level = 0u; level < MOST_LEVELS; level++) {
+    for (uint level = 0u; level < push.levels; level++) {
         uint parent = climbing ? parents[node] : NO_PARENT;
         climbing = parent != NO_PARENT && atomicAdd(arrivals[parent], 1u) != 0u;
         memoryBarrierBuffer();

@@ -73,6 +73,7 @@ static int run(pf_vk_context *ctx, pf_bih_gpu_builder *builder, uint32_t wanted)
                  !built.resident ||
                  pf_bih_build_gpu(builder, &frame, NULL, &on_host, NULL, &err) != PF_OK;
     double host_ms[FRAMES], device_ms[FRAMES], host_sah = 0.0, device_sah = 0.0;
+    double pass_ms[PF_BIH_REFIT_PASSES][FRAMES];
     pf_vk_traffic host_traffic = {0}, device_traffic = {0};
     for (int f = 0; !failed && f < FRAMES; f++) {
         wavy_sheet(&frame, side, 0.4f * (float)(f + 1));
@@ -91,6 +92,8 @@ static int run(pf_vk_context *ctx, pf_bih_gpu_builder *builder, uint32_t wanted)
         device_ms[f] = pf_time_ms() - start;
         device_traffic = pf_vk_traffic_since(ctx, before);
         device_sah = report.sah_cost;
+        for (int p = 0; p < PF_BIH_REFIT_PASSES; p++)
+            pass_ms[p][f] = report.pass_ms[p];
     }
     if (failed) {
         fprintf(stderr, "bih_refit_bench: %u triangles: %s\n", n, err.message);
@@ -103,6 +106,11 @@ static int run(pf_vk_context *ctx, pf_bih_gpu_builder *builder, uint32_t wanted)
                host_sah, bench_median(device_ms, FRAMES), device_traffic.upload_bytes / 1e6,
                (unsigned long long)device_traffic.readback_bytes,
                (unsigned long long)device_traffic.submits, device_sah);
+        printf("%9s device passes (GPU ms, median):", "");
+        for (int p = 0; p < PF_BIH_REFIT_PASSES; p++)
+            printf(" %s %.1f", pf_bih_refit_pass_name((pf_bih_refit_pass)p),
+                   bench_median(pass_ms[p], FRAMES));
+        printf("\n");
     }
     pf_bih_free(&on_device);
     pf_bih_free(&on_host);

@@ -23,11 +23,12 @@ enum { PIPE_LINK, PIPE_BOUNDS, PIPE_SAH, PIPE_SUM };
 static const struct {
     const char *shader;
     uint32_t buffers;
+    uint32_t push_bytes;
 } pipe_desc[PF_BIH_REFIT_PIPELINES] = {
-    [PIPE_LINK] = {"bih_refit_link", 3},
-    [PIPE_BOUNDS] = {"bih_refit_bounds", 5},
-    [PIPE_SAH] = {"bih_refit_sah", 4},
-    [PIPE_SUM] = {"bih_refit_sum", 2},
+    [PIPE_LINK] = {"bih_refit_link", 3, 4},
+    [PIPE_BOUNDS] = {"bih_refit_bounds", 5, 8},
+    [PIPE_SAH] = {"bih_refit_sah", 4, 4},
+    [PIPE_SUM] = {"bih_refit_sum", 2, 4},
 };
 
 enum { BUF_PARENTS, BUF_ARRIVALS, BUF_BOXES, BUF_PARTIALS, BUF_COST, BUF_COUNT };
@@ -46,7 +47,8 @@ static pf_status refit_pipelines(pf_bih_gpu_builder *builder, pf_error *err)
         if (builder->refit[p])
             continue;
         pf_status status = pf_vk_pipeline_create_named(builder->ctx, pipe_desc[p].shader,
-                                                       pipe_desc[p].buffers, 4, NULL, 0,
+                                                       pipe_desc[p].buffers,
+                                                       pipe_desc[p].push_bytes, NULL, 0,
                                                        &builder->refit[p], err);
         if (status != PF_OK)
             return status;
@@ -57,11 +59,14 @@ static pf_status refit_pipelines(pf_bih_gpu_builder *builder, pf_error *err)
 /* The passes, timestamps around each: stamps[0] before the first, stamps[p + 1] after
  * pass p (pf_bih_refit_pass). */
 static pf_status record_refit(pf_bih_gpu_builder *b, pf_vk_commands *cmds,
-                              const pf_bih_gpu_view *tree, pf_vk_buffer **buf,
+                              const pf_bih_gpu_view *tree, uint32_t depth, pf_vk_buffer **buf,
                               uint32_t groups, int stamps[PF_BIH_REFIT_PASSES + 1],
                               pf_error *err)
 {
     uint32_t nodes = tree->node_count;
+    /* The bounds pass climbs in lockstep for as many rounds as the deepest leaf needs (no
+     * build makes a tree deeper than the traversal's stack). */
+    uint32_t bounds_push[2] = {nodes, (depth < PF_BIH_STACK_SIZE ? depth : PF_BIH_STACK_SIZE) + 1};
     stamps[0] = pf_vk_cmd_timestamp(cmds);
     pf_vk_buffer *link[] = {tree->nodes, buf[BUF_PARENTS], buf[BUF_ARRIVALS]};
     pf_status status = pf_vk_cmd_dispatch(cmds, b->refit[PIPE_LINK], link, 3, &nodes,
@@ -71,8 +76,8 @@ static pf_status record_refit(pf_bih_gpu_builder *b, pf_vk_commands *cmds,
     pf_vk_buffer *bounds[] = {tree->nodes, tree->vertices, buf[BUF_PARENTS], buf[BUF_ARRIVALS],
                               buf[BUF_BOXES]};
     if (status == PF_OK)
-        status = pf_vk_cmd_dispatch(cmds, b->refit[PIPE_BOUNDS], bounds, 5, &nodes,
-                                    sizeof nodes, groups, 1, 1, err);
+        status = pf_vk_cmd_dispatch(cmds, b->refit[PIPE_BOUNDS], bounds, 5, bounds_push,
+                                    sizeof bounds_push, groups, 1, 1, err);
     stamps[1 + PF_BIH_REFIT_PASS_BOUNDS] = pf_vk_cmd_timestamp(cmds);
     pf_vk_cmd_barrier(cmds);
     pf_vk_buffer *sah[] = {tree->nodes, buf[BUF_PARENTS], buf[BUF_BOXES], buf[BUF_PARTIALS]};
@@ -150,7 +155,7 @@ pf_status pf_bih_refit_gpu(pf_bih_gpu_builder *builder, pf_bih_gpu *device, pf_b
                                   3 * (uint64_t)bih->triangle_count * sizeof bih->vertices[0],
                                   err);
     if (status == PF_OK)
-        status = record_refit(builder, cmds, &tree, buf, groups, stamps, err);
+        status = record_refit(builder, cmds, &tree, bih->depth, buf, groups, stamps, err);
     if (status == PF_OK)
         status = pf_vk_cmd_download(cmds, buf[BUF_COST], 0, &cost, sizeof cost, err);
     if (status == PF_OK)
