@@ -13,8 +13,8 @@
 layout(local_size_x = 256) in;
 
 layout(push_constant) uniform Push {
-    uint node_count;
-    uint levels;  // the tree's depth + 1: no climb is longer
+    uint node_bound; // invocations (the node count is stats.w)
+    uint levels;     // the tree's depth + 1: no climb is longer
 } push;
 
 struct Box {
@@ -27,6 +27,7 @@ layout(std430, set = 0, binding = 1) readonly buffer Vertices { vec4 vertices[];
 layout(std430, set = 0, binding = 2) readonly buffer Parents { uint parents[]; };
 layout(std430, set = 0, binding = 3) buffer Arrivals { uint arrivals[]; };
 layout(std430, set = 0, binding = 4) coherent buffer Boxes { Box boxes[]; };
+layout(std430, set = 0, binding = 5) readonly buffer Stats { uvec4 stats; };
 
 const uint NO_PARENT = 0xFFFFFFFFu;
 const uint LEAF = 3u;           // PF_BIH_LEAF
@@ -53,7 +54,7 @@ void main()
 {
     uint node = gl_GlobalInvocationID.x;
     bool climbing = false;
-    if (node < push.node_count) {
+    if (node < stats.w) {
         uvec4 texel = nodes[node];
         if ((texel.z & 3u) == LEAF) {
             Box box = empty_box();

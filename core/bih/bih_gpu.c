@@ -167,6 +167,40 @@ void pf_bih_gpu_set_bounds(pf_bih_gpu *device, const float lo[3], const float hi
     memcpy(device->bounds_max, hi, sizeof device->bounds_max);
 }
 
+pf_status pf_bih_gpu_download_nodes(pf_bih_gpu *device, pf_bih *bih, pf_error *err)
+{
+    if (!device || !bih || !device->uploaded || bih->nodes ||
+        device->node_count != bih->node_count || device->triangle_count != bih->triangle_count)
+        return pf_error_set(err, PF_ERR_INVALID,
+                            "BIH nodes download: the device's tree is not the host copy's, or "
+                            "the host has its nodes");
+    uint32_t (*texels)[4] = malloc((size_t)bih->node_count * sizeof *texels);
+    pf_bih_node *nodes = malloc((size_t)bih->node_count * sizeof *nodes);
+    pf_status status = PF_OK;
+    if (!texels || !nodes)
+        status = pf_error_set(err, PF_ERR_NOMEM, "BIH nodes download: %u nodes", bih->node_count);
+    if (status == PF_OK)
+        status = pf_vk_buffer_download(device->ctx, device->nodes, 0, texels,
+                                       (uint64_t)bih->node_count * sizeof *texels, err);
+    for (uint32_t i = 0; status == PF_OK && i < bih->node_count; i++)
+        nodes[i] = (pf_bih_node){{pf_bih_bits_to_float(texels[i][0]),
+                                  pf_bih_bits_to_float(texels[i][1])},
+                                 texels[i][2]};
+    free(texels);
+    /* Walked on a copy of the statistics, so that a malformed tree leaves bih as it was. */
+    pf_bih walked = *bih;
+    walked.nodes = nodes;
+    if (status == PF_OK)
+        status = pf_bih_measure_walk(&walked, err);
+    if (status != PF_OK) {
+        free(nodes);
+        pf_error_prefix(err, "BIH nodes download (%u nodes)", bih->node_count);
+        return status;
+    }
+    *bih = walked;
+    return PF_OK;
+}
+
 pf_status pf_bih_gpu_view_get(const pf_bih_gpu *gpu, pf_bih_gpu_view *out, pf_error *err)
 {
     memset(out, 0, sizeof *out);

@@ -131,7 +131,7 @@ static uint32_t groups_for(uint32_t items)
 const char *pf_bih_gpu_pass_name(pf_bih_gpu_pass pass)
 {
     static const char *const names[PF_BIH_GPU_PASSES] = {"morton", "sort", "emit", "clip",
-                                                         "collapse"};
+                                                         "collapse", "fit"};
     return (unsigned)pass < PF_BIH_GPU_PASSES ? names[pass] : "?";
 }
 
@@ -220,8 +220,9 @@ static pf_status record_build(pf_bih_gpu_builder *b, pf_vk_commands *cmds, pf_vk
  * reached once (so the walk ends on any input), and the depth and leaf
  * statistics pf_bih carries.
  */
-static pf_status measure_tree(pf_bih *bih, pf_error *err)
+pf_status pf_bih_measure_walk(pf_bih *bih, pf_error *err)
 {
+    bih->depth = bih->leaf_count = bih->largest_leaf = 0;
     /* (node, depth) pairs; each node pushes its children once: <= 1 + 2 * node_count pushes. */
     uint32_t *stack = malloc(2 * (2 * (size_t)bih->node_count + 1) * sizeof *stack);
     uint32_t *seen = calloc(bih->node_count, sizeof *seen);
@@ -261,11 +262,43 @@ static pf_status measure_tree(pf_bih *bih, pf_error *err)
     return status;
 }
 
+/*
+ * A tree whose nodes stay on the device: the host's copy gets the node count, the device's
+ * statistics (checked against the count) and the leaf-order vertices, gathered here from
+ * frame through the downloaded triangle index as the device copied them (pf_bih_check's
+ * rule: the same degenerate flags); its nodes stay NULL (pf_bih_gpu_download_nodes).
+ */
+static pf_status adopt_measures(pf_bih *out, const pf_scene_frame *frame, uint32_t kept,
+                                const pf_bih_fit *fit, pf_bih_gpu_build_report *report,
+                                pf_error *err)
+{
+    out->node_count = 1 + 2 * kept;
+    if (fit->stats[3] != out->node_count || fit->stats[1] != kept + 1 ||
+        fit->stats[2] == 0)
+        return pf_error_set(err, PF_ERR_INTERNAL,
+                            "BIH GPU build: the device measured %u nodes, %u leaves (largest "
+                            "%u) where %u inner nodes were kept",
+                            fit->stats[3], fit->stats[1], fit->stats[2], kept);
+    out->depth = fit->stats[0];
+    out->leaf_count = fit->stats[1];
+    out->largest_leaf = fit->stats[2];
+    for (uint32_t p = 0; p < out->triangle_count; p++) {
+        if (out->triangle_index[p] >= frame->triangle_count)
+            return pf_error_set(err, PF_ERR_INTERNAL,
+                                "BIH GPU build: leaf position %u holds triangle %u of %u", p,
+                                out->triangle_index[p], frame->triangle_count);
+        pf_bih_copy_leaf_triangle(&out->vertices[3 * (size_t)p], frame, out->triangle_index[p]);
+    }
+    pf_bih_flag_degenerate(out->vertices, out->triangle_count);
+    report->sah_cost = fit->cost;
+    return PF_OK;
+}
+
 /* The build; with tree non-NULL its nodes, leaf-order vertices and triangle index stay on
  * the device there (tree[0..2], the caller's to destroy or hand to a pf_bih_gpu). */
 static pf_status run_gpu_build(pf_bih_gpu_builder *b, const pf_scene_frame *frame,
                                uint32_t leaf_size, const float lo[3], const float hi[3],
-                               pf_bih *out, pf_vk_buffer *tree[3],
+                               pf_bih *out, pf_vk_buffer *tree[3], int nodes_stay,
                                pf_bih_gpu_build_report *report, pf_error *err)
 {
     pf_vk_context *ctx = b->ctx;
@@ -304,14 +337,19 @@ static pf_status run_gpu_build(pf_bih_gpu_builder *b, const pf_scene_frame *fram
     pf_status status = PF_OK;
     for (int i = 0; status == PF_OK && i < BUF_COUNT; i++)
         status = pf_vk_buffer_create(ctx, sizes[i].bytes, sizes[i].label, &buf[i], err);
-    /* The host's copies, at their bounds: 2n - 1 node texels, of which 1 + 2 kept are read. */
+    /* The host's copies, at their bounds: 2n - 1 node texels, of which 1 + 2 kept are read;
+     * none where the nodes stay on the device, which measures the tree instead. */
     out->triangle_count = n;
-    uint32_t (*texels)[NODE_TEXEL_WORDS] = malloc((size_t)nodes * sizeof *texels);
-    out->nodes = malloc((size_t)nodes * sizeof *out->nodes);
+    uint32_t (*texels)[NODE_TEXEL_WORDS] =
+        nodes_stay ? NULL : malloc((size_t)nodes * sizeof *texels);
+    out->nodes = nodes_stay ? NULL : malloc((size_t)nodes * sizeof *out->nodes);
     out->vertices = malloc(3 * (size_t)n * sizeof *out->vertices);
     out->triangle_index = malloc((size_t)n * sizeof *out->triangle_index);
-    if (status == PF_OK && (!texels || !out->nodes || !out->vertices || !out->triangle_index))
+    if (status == PF_OK &&
+        ((!nodes_stay && (!texels || !out->nodes)) || !out->vertices || !out->triangle_index))
         status = pf_error_set(err, PF_ERR_NOMEM, "BIH GPU build: %u triangles", n);
+    if (status == PF_OK && nodes_stay)
+        status = pf_bih_fit_check(b, (uint32_t)nodes, err);
     /* One submission and one wait (issue 44): the upload, every pass and the readbacks. */
     uint32_t kept = 0;
     pf_vk_commands *cmds = NULL;
@@ -321,14 +359,23 @@ static pf_status run_gpu_build(pf_bih_gpu_builder *b, const pf_scene_frame *fram
         status = pf_vk_cmd_upload(cmds, buf[BUF_VERTICES], 0, frame->vertices,
                                   sizes[BUF_VERTICES].bytes, err);
     int stamps[PF_BIH_GPU_PASSES + 1];
+    pf_bih_fit fit = {0};
     if (status == PF_OK)
         status = record_build(b, cmds, buf, n, leaf_size, lo, hi, stamps, err);
+    /* Kept on the device: its SAH, depth and leaves measured there (the refit's passes). */
+    if (status == PF_OK && nodes_stay) {
+        pf_vk_cmd_barrier(cmds);
+        status = pf_bih_fit_record(b, cmds, buf[BUF_NODES], buf[BUF_LEAF_VERTICES],
+                                   (uint32_t)nodes, buf[BUF_RANK], (uint32_t)inner,
+                                   PF_BIH_STACK_SIZE, &fit, err);
+    }
+    stamps[1 + PF_BIH_GPU_PASS_FIT] = pf_vk_cmd_timestamp(cmds);
     if (status == PF_OK)
         status = pf_vk_cmd_download(cmds, buf[BUF_RANK], 4 * inner, &kept, sizeof kept, err);
-    if (status == PF_OK)
+    if (status == PF_OK && !nodes_stay)
         status = pf_vk_cmd_download(cmds, buf[BUF_NODES], 0, texels, sizes[BUF_NODES].bytes,
                                     err);
-    if (status == PF_OK)
+    if (status == PF_OK && !nodes_stay)
         status = pf_vk_cmd_download(cmds, buf[BUF_LEAF_VERTICES], 0, out->vertices,
                                     sizes[BUF_LEAF_VERTICES].bytes, err);
     if (status == PF_OK)
@@ -341,11 +388,14 @@ static pf_status run_gpu_build(pf_bih_gpu_builder *b, const pf_scene_frame *fram
     if (status == PF_OK)
         report->gpu_ms = pf_vk_commands_elapsed_ms(cmds, stamps[0], stamps[PF_BIH_GPU_PASSES]);
     pf_vk_commands_destroy(cmds);
+    pf_bih_fit_release(ctx, &fit);
     if (status == PF_OK && (kept == 0 || kept > inner))
         status = pf_error_set(err, PF_ERR_INTERNAL,
                               "BIH GPU build: %u kept inner nodes of %u (n = %u > K = %u)", kept,
                               (uint32_t)inner, n, leaf_size);
-    if (status == PF_OK) {
+    if (status == PF_OK && nodes_stay)
+        status = adopt_measures(out, frame, kept, &fit, report, err);
+    if (status == PF_OK && !nodes_stay) {
         out->node_count = 1 + 2 * kept;
         for (uint32_t i = 0; i < out->node_count; i++)
             out->nodes[i] = (pf_bih_node){{pf_bih_bits_to_float(texels[i][0]),
@@ -358,8 +408,9 @@ static pf_status run_gpu_build(pf_bih_gpu_builder *b, const pf_scene_frame *fram
     if (status == PF_OK) {
         memcpy(out->bounds_min, lo, sizeof out->bounds_min);
         memcpy(out->bounds_max, hi, sizeof out->bounds_max);
-        status = measure_tree(out, err);
     }
+    if (status == PF_OK && !nodes_stay)
+        status = pf_bih_measure_walk(out, err);
     if (status == PF_OK && tree) { /* kept on the device, as built */
         const int kept_buffers[3] = {BUF_NODES, BUF_LEAF_VERTICES, BUF_TRIANGLE_INDEX};
         for (int i = 0; i < 3; i++) {
@@ -380,12 +431,13 @@ pf_status pf_bih_build_gpu(pf_bih_gpu_builder *builder, const pf_scene_frame *fr
     return pf_bih_build_gpu_resident(builder, frame, options, out, NULL, report, err);
 }
 
-pf_status pf_bih_build_gpu_resident(pf_bih_gpu_builder *builder, const pf_scene_frame *frame,
-                                    const pf_bih_build_options *options, pf_bih *out,
-                                    pf_bih_gpu *device, pf_bih_gpu_build_report *report,
-                                    pf_error *err)
+/* pf_bih_build_gpu_resident, or with nodes_stay pf_bih_build_gpu_kept. */
+static pf_status build_on_device(pf_bih_gpu_builder *builder, const pf_scene_frame *frame,
+                                 const pf_bih_build_options *options, pf_bih *out,
+                                 pf_bih_gpu *device, int nodes_stay,
+                                 pf_bih_gpu_build_report *report, pf_error *err)
 {
-    if (!builder || !frame || !out)
+    if (!builder || !frame || !out || (nodes_stay && !device))
         return pf_error_set(err, PF_ERR_INVALID, "pf_bih_build_gpu: NULL argument");
     memset(out, 0, sizeof *out);
     pf_bih_gpu_build_report local;
@@ -410,7 +462,7 @@ pf_status pf_bih_build_gpu_resident(pf_bih_gpu_builder *builder, const pf_scene_
     pf_status status = scene_box(frame, lo, hi, err);
     if (status == PF_OK)
         status = run_gpu_build(builder, frame, leaf_size, lo, hi, out, device ? tree : NULL,
-                               report, err);
+                               nodes_stay, report, err);
     if (status != PF_OK) {
         pf_bih_free(out);
         memset(out, 0, sizeof *out);
@@ -435,4 +487,20 @@ pf_status pf_bih_build_gpu_resident(pf_bih_gpu_builder *builder, const pf_scene_
     }
     report->path = PF_BIH_BUILT_ON_GPU;
     return PF_OK;
+}
+
+pf_status pf_bih_build_gpu_resident(pf_bih_gpu_builder *builder, const pf_scene_frame *frame,
+                                    const pf_bih_build_options *options, pf_bih *out,
+                                    pf_bih_gpu *device, pf_bih_gpu_build_report *report,
+                                    pf_error *err)
+{
+    return build_on_device(builder, frame, options, out, device, 0, report, err);
+}
+
+pf_status pf_bih_build_gpu_kept(pf_bih_gpu_builder *builder, const pf_scene_frame *frame,
+                                const pf_bih_build_options *options, pf_bih *out,
+                                pf_bih_gpu *device, pf_bih_gpu_build_report *report,
+                                pf_error *err)
+{
+    return build_on_device(builder, frame, options, out, device, 1, report, err);
 }

@@ -1,13 +1,15 @@
 /*
- * The BIH refit on the device (pf_bih_refit_gpu in pf_bih.h, issue 44): the
- * host gathers the frame's triangles into the tree's leaf order (it needs them
- * anyway: the stage planner compares the next frame against them), and one
- * submission uploads them and fits the device's copy: parents and zeroed
- * arrival counters (bih_refit_link), clip values and boxes bottom up
- * (bih_refit_bounds), and the SAH cost that decides whether the refit tree is
- * kept (bih_refit_sah, bih_refit_sum). The host reads back 36 bytes: the cost
- * and the root box. The host's clip values are fitted later only where the
- * host traces the tree (pf_bih_refit_bounds).
+ * The BIH fitted on the device (issue 44): pf_bih_refit_gpu (pf_bih.h), and the statistics
+ * of a tree the GPU build keeps on the device (bih_gpu_build.c), through one set of passes
+ * recorded into the caller's submission: parents, zeroed arrival counters and statistics
+ * (bih_refit_link), clip values and boxes bottom up (bih_refit_bounds), the SAH cost with
+ * the depth, leaf count and largest leaf (bih_refit_sah, bih_refit_sum). What comes back
+ * is the cost, the root box and the statistics: 52 bytes, never the tree.
+ *
+ * A refit: the host gathers the frame's triangles into the tree's leaf order (it needs
+ * them anyway: the stage planner compares the next frame against them), and one
+ * submission uploads them and fits the device's copy. The host's clip values are fitted
+ * later, only where the host traces the tree (pf_bih_refit_bounds).
  */
 #include "bih_internal.h"
 
@@ -17,6 +19,8 @@
 #define REFIT_GROUP_SIZE 256u
 /* A node's box on the device: two vec4. */
 #define BOX_BYTES 32u
+/* bih_refit_link.comp's kept_index when the node count is known. */
+#define NO_KEPT 0xFFFFFFFFu
 
 enum { PIPE_LINK, PIPE_BOUNDS, PIPE_SAH, PIPE_SUM };
 
@@ -25,13 +29,11 @@ static const struct {
     uint32_t buffers;
     uint32_t push_bytes;
 } pipe_desc[PF_BIH_REFIT_PIPELINES] = {
-    [PIPE_LINK] = {"bih_refit_link", 3, 4},
-    [PIPE_BOUNDS] = {"bih_refit_bounds", 5, 8},
-    [PIPE_SAH] = {"bih_refit_sah", 4, 4},
+    [PIPE_LINK] = {"bih_refit_link", 5, 8},
+    [PIPE_BOUNDS] = {"bih_refit_bounds", 6, 8},
+    [PIPE_SAH] = {"bih_refit_sah", 5, 4},
     [PIPE_SUM] = {"bih_refit_sum", 2, 4},
 };
-
-enum { BUF_PARENTS, BUF_ARRIVALS, BUF_BOXES, BUF_PARTIALS, BUF_COST, BUF_COUNT };
 
 const char *pf_bih_refit_pass_name(pf_bih_refit_pass pass)
 {
@@ -39,9 +41,9 @@ const char *pf_bih_refit_pass_name(pf_bih_refit_pass pass)
     return (unsigned)pass < PF_BIH_REFIT_PASSES ? names[pass] : "?";
 }
 
-/* The refit's kernels, made at the first refit: a renderer that never refits on the
- * device (lavapipe: the host refits) never compiles them. */
-static pf_status refit_pipelines(pf_bih_gpu_builder *builder, pf_error *err)
+/* The fit's kernels, made at the first fit: a renderer that never fits on the device
+ * (lavapipe: the host builds and refits) never compiles them. */
+static pf_status fit_pipelines(pf_bih_gpu_builder *builder, pf_error *err)
 {
     for (int p = 0; p < PF_BIH_REFIT_PIPELINES; p++) {
         if (builder->refit[p])
@@ -56,41 +58,104 @@ static pf_status refit_pipelines(pf_bih_gpu_builder *builder, pf_error *err)
     return PF_OK;
 }
 
-/* The passes, timestamps around each: stamps[0] before the first, stamps[p + 1] after
- * pass p (pf_bih_refit_pass). */
-static pf_status record_refit(pf_bih_gpu_builder *b, pf_vk_commands *cmds,
-                              const pf_bih_gpu_view *tree, uint32_t depth, pf_vk_buffer **buf,
-                              uint32_t groups, int stamps[PF_BIH_REFIT_PASSES + 1],
-                              pf_error *err)
+pf_status pf_bih_fit_check(pf_bih_gpu_builder *builder, uint32_t node_bound, pf_error *err)
 {
-    uint32_t nodes = tree->node_count;
-    /* The bounds pass climbs in lockstep for as many rounds as the deepest leaf needs (no
-     * build makes a tree deeper than the traversal's stack). */
-    uint32_t bounds_push[2] = {nodes, (depth < PF_BIH_STACK_SIZE ? depth : PF_BIH_STACK_SIZE) + 1};
+    const pf_vk_device_info *info = pf_vk_info(builder->ctx);
+    uint64_t box_bytes = (uint64_t)BOX_BYTES * node_bound;
+    uint32_t groups = (node_bound + REFIT_GROUP_SIZE - 1) / REFIT_GROUP_SIZE;
+    if (box_bytes > info->max_storage_buffer_range || groups > info->max_workgroup_count[0])
+        return pf_error_set(err, PF_ERR_LIMIT,
+                            "BIH fit on the device: %u nodes need %llu bytes of boxes and %u "
+                            "workgroups; device '%s' allows %llu and %u",
+                            node_bound, (unsigned long long)box_bytes, groups, info->name,
+                            (unsigned long long)info->max_storage_buffer_range,
+                            info->max_workgroup_count[0]);
+    return fit_pipelines(builder, err);
+}
+
+pf_status pf_bih_fit_record(pf_bih_gpu_builder *b, pf_vk_commands *cmds, pf_vk_buffer *nodes,
+                            pf_vk_buffer *vertices, uint32_t node_bound, pf_vk_buffer *kept,
+                            uint32_t kept_index, uint32_t levels, pf_bih_fit *fit,
+                            pf_error *err)
+{
+    memset(fit, 0, sizeof *fit);
+    for (int p = 0; p <= PF_BIH_REFIT_PASSES; p++)
+        fit->stamps[p] = -1;
+    uint32_t groups = (node_bound + REFIT_GROUP_SIZE - 1) / REFIT_GROUP_SIZE;
+    const uint64_t sizes[PF_BIH_FIT_BUFFERS] = {
+        [PF_BIH_FIT_PARENTS] = 4 * (uint64_t)node_bound,
+        [PF_BIH_FIT_ARRIVALS] = 4 * (uint64_t)node_bound,
+        [PF_BIH_FIT_BOXES] = (uint64_t)BOX_BYTES * node_bound,
+        [PF_BIH_FIT_PARTIALS] = 4 * (uint64_t)groups,
+        [PF_BIH_FIT_COST] = 16,
+        [PF_BIH_FIT_STATS] = 16,
+    };
+    static const char *const labels[PF_BIH_FIT_BUFFERS] = {
+        "BIH fit parents",      "BIH fit arrivals", "BIH fit boxes",
+        "BIH fit partial sums", "BIH fit cost",     "BIH fit statistics"};
+    pf_vk_buffer **buf = fit->buffers;
+    pf_status status = PF_OK;
+    for (int i = 0; status == PF_OK && i < PF_BIH_FIT_BUFFERS; i++)
+        status = pf_vk_buffer_create(b->ctx, sizes[i], labels[i], &buf[i], err);
+    if (status != PF_OK)
+        return status;
+    int *stamps = fit->stamps;
     stamps[0] = pf_vk_cmd_timestamp(cmds);
-    pf_vk_buffer *link[] = {tree->nodes, buf[BUF_PARENTS], buf[BUF_ARRIVALS]};
-    pf_status status = pf_vk_cmd_dispatch(cmds, b->refit[PIPE_LINK], link, 3, &nodes,
-                                          sizeof nodes, groups, 1, 1, err);
+    uint32_t link_push[2] = {node_bound, kept ? kept_index : NO_KEPT};
+    pf_vk_buffer *link[] = {nodes, buf[PF_BIH_FIT_PARENTS], buf[PF_BIH_FIT_ARRIVALS],
+                            buf[PF_BIH_FIT_STATS], kept ? kept : buf[PF_BIH_FIT_STATS]};
+    status = pf_vk_cmd_dispatch(cmds, b->refit[PIPE_LINK], link, 5, link_push, sizeof link_push,
+                                groups, 1, 1, err);
     stamps[1 + PF_BIH_REFIT_PASS_LINK] = pf_vk_cmd_timestamp(cmds);
     pf_vk_cmd_barrier(cmds);
-    pf_vk_buffer *bounds[] = {tree->nodes, tree->vertices, buf[BUF_PARENTS], buf[BUF_ARRIVALS],
-                              buf[BUF_BOXES]};
+    /* The climb runs in lockstep for as many rounds as the deepest leaf needs; no build
+     * makes a tree deeper than the traversal's stack. */
+    uint32_t bounds_push[2] = {node_bound,
+                               (levels < PF_BIH_STACK_SIZE ? levels : PF_BIH_STACK_SIZE) + 1};
+    pf_vk_buffer *bounds[] = {nodes, vertices, buf[PF_BIH_FIT_PARENTS], buf[PF_BIH_FIT_ARRIVALS],
+                              buf[PF_BIH_FIT_BOXES], buf[PF_BIH_FIT_STATS]};
     if (status == PF_OK)
-        status = pf_vk_cmd_dispatch(cmds, b->refit[PIPE_BOUNDS], bounds, 5, bounds_push,
+        status = pf_vk_cmd_dispatch(cmds, b->refit[PIPE_BOUNDS], bounds, 6, bounds_push,
                                     sizeof bounds_push, groups, 1, 1, err);
     stamps[1 + PF_BIH_REFIT_PASS_BOUNDS] = pf_vk_cmd_timestamp(cmds);
     pf_vk_cmd_barrier(cmds);
-    pf_vk_buffer *sah[] = {tree->nodes, buf[BUF_PARENTS], buf[BUF_BOXES], buf[BUF_PARTIALS]};
+    pf_vk_buffer *sah[] = {nodes, buf[PF_BIH_FIT_PARENTS], buf[PF_BIH_FIT_BOXES],
+                           buf[PF_BIH_FIT_PARTIALS], buf[PF_BIH_FIT_STATS]};
     if (status == PF_OK)
-        status = pf_vk_cmd_dispatch(cmds, b->refit[PIPE_SAH], sah, 4, &nodes, sizeof nodes,
-                                    groups, 1, 1, err);
+        status = pf_vk_cmd_dispatch(cmds, b->refit[PIPE_SAH], sah, 5, &node_bound,
+                                    sizeof node_bound, groups, 1, 1, err);
     pf_vk_cmd_barrier(cmds);
-    pf_vk_buffer *sum[] = {buf[BUF_PARTIALS], buf[BUF_COST]};
+    pf_vk_buffer *sum[] = {buf[PF_BIH_FIT_PARTIALS], buf[PF_BIH_FIT_COST]};
     if (status == PF_OK)
         status = pf_vk_cmd_dispatch(cmds, b->refit[PIPE_SUM], sum, 2, &groups, sizeof groups,
                                     1, 1, 1, err);
     stamps[1 + PF_BIH_REFIT_PASS_SAH] = pf_vk_cmd_timestamp(cmds);
+    if (status == PF_OK)
+        status = pf_vk_cmd_download(cmds, buf[PF_BIH_FIT_COST], 0, &fit->cost, sizeof fit->cost,
+                                    err);
+    if (status == PF_OK)
+        status = pf_vk_cmd_download(cmds, buf[PF_BIH_FIT_BOXES], 0, fit->root, sizeof fit->root,
+                                    err);
+    if (status == PF_OK)
+        status = pf_vk_cmd_download(cmds, buf[PF_BIH_FIT_STATS], 0, fit->stats,
+                                    sizeof fit->stats, err);
     return status;
+}
+
+void pf_bih_fit_times(const pf_bih_fit *fit, const pf_vk_commands *cmds,
+                      double pass_ms[PF_BIH_REFIT_PASSES], double *gpu_ms)
+{
+    for (int p = 0; p < PF_BIH_REFIT_PASSES; p++)
+        pass_ms[p] = pf_vk_commands_elapsed_ms(cmds, fit->stamps[p], fit->stamps[p + 1]);
+    *gpu_ms = pf_vk_commands_elapsed_ms(cmds, fit->stamps[0], fit->stamps[PF_BIH_REFIT_PASSES]);
+}
+
+void pf_bih_fit_release(pf_vk_context *ctx, pf_bih_fit *fit)
+{
+    for (int i = 0; i < PF_BIH_FIT_BUFFERS; i++)
+        if (fit->buffers[i])
+            pf_vk_buffer_destroy(ctx, fit->buffers[i]);
+    memset(fit->buffers, 0, sizeof fit->buffers);
 }
 
 pf_status pf_bih_refit_gpu(pf_bih_gpu_builder *builder, pf_bih_gpu *device, pf_bih *bih,
@@ -116,61 +181,28 @@ pf_status pf_bih_refit_gpu(pf_bih_gpu_builder *builder, pf_bih_gpu *device, pf_b
                             "the host's tree %u over %u",
                             tree.node_count, tree.triangle_count, bih->node_count,
                             bih->triangle_count);
-    const pf_vk_device_info *info = pf_vk_info(builder->ctx);
-    uint64_t box_bytes = (uint64_t)BOX_BYTES * tree.node_count;
-    uint32_t groups = (tree.node_count + REFIT_GROUP_SIZE - 1) / REFIT_GROUP_SIZE;
-    if (box_bytes > info->max_storage_buffer_range || groups > info->max_workgroup_count[0])
-        return pf_error_set(err, PF_ERR_LIMIT,
-                            "BIH device refit: %u nodes need %llu bytes of boxes and %u "
-                            "workgroups; device '%s' allows %llu and %u",
-                            tree.node_count, (unsigned long long)box_bytes, groups, info->name,
-                            (unsigned long long)info->max_storage_buffer_range,
-                            info->max_workgroup_count[0]);
-    status = refit_pipelines(builder, err);
+    status = pf_bih_fit_check(builder, tree.node_count, err);
     if (status == PF_OK)
         status = pf_bih_refit_vertices(bih, frame, err);
     if (status != PF_OK)
         return status;
-    const uint64_t sizes[BUF_COUNT] = {
-        [BUF_PARENTS] = 4 * (uint64_t)tree.node_count,
-        [BUF_ARRIVALS] = 4 * (uint64_t)tree.node_count,
-        [BUF_BOXES] = box_bytes,
-        [BUF_PARTIALS] = 4 * (uint64_t)groups,
-        [BUF_COST] = 16,
-    };
-    static const char *const labels[BUF_COUNT] = {"BIH refit parents", "BIH refit arrivals",
-                                                  "BIH refit boxes", "BIH refit partial sums",
-                                                  "BIH refit cost"};
-    pf_vk_buffer *buf[BUF_COUNT] = {0};
-    for (int i = 0; status == PF_OK && i < BUF_COUNT; i++)
-        status = pf_vk_buffer_create(builder->ctx, sizes[i], labels[i], &buf[i], err);
-    /* One submission and one wait: the vertices' upload, the passes, the 36-byte readback. */
+    /* One submission and one wait: the vertices' upload, the passes, the 52-byte readback. */
     pf_vk_commands *cmds = NULL;
-    int stamps[PF_BIH_REFIT_PASSES + 1];
-    float cost = 0.0f, root[8] = {0};
-    if (status == PF_OK)
-        status = pf_vk_commands_begin(builder->ctx, &cmds, err);
+    pf_bih_fit fit = {0};
+    status = pf_vk_commands_begin(builder->ctx, &cmds, err);
     if (status == PF_OK && bih->triangle_count > 0)
         status = pf_vk_cmd_upload(cmds, tree.vertices, 0, bih->vertices,
                                   3 * (uint64_t)bih->triangle_count * sizeof bih->vertices[0],
                                   err);
     if (status == PF_OK)
-        status = record_refit(builder, cmds, &tree, bih->depth, buf, groups, stamps, err);
-    if (status == PF_OK)
-        status = pf_vk_cmd_download(cmds, buf[BUF_COST], 0, &cost, sizeof cost, err);
-    if (status == PF_OK)
-        status = pf_vk_cmd_download(cmds, buf[BUF_BOXES], 0, root, sizeof root, err);
+        status = pf_bih_fit_record(builder, cmds, tree.nodes, tree.vertices, tree.node_count,
+                                   NULL, 0, bih->depth, &fit, err);
     if (status == PF_OK)
         status = pf_vk_commands_submit(cmds, err);
-    for (int p = 0; status == PF_OK && p < PF_BIH_REFIT_PASSES; p++)
-        report->pass_ms[p] = pf_vk_commands_elapsed_ms(cmds, stamps[p], stamps[p + 1]);
     if (status == PF_OK)
-        report->gpu_ms =
-            pf_vk_commands_elapsed_ms(cmds, stamps[0], stamps[PF_BIH_REFIT_PASSES]);
+        pf_bih_fit_times(&fit, cmds, report->pass_ms, &report->gpu_ms);
     pf_vk_commands_destroy(cmds);
-    for (int i = 0; i < BUF_COUNT; i++)
-        if (buf[i])
-            pf_vk_buffer_destroy(builder->ctx, buf[i]);
+    pf_bih_fit_release(builder->ctx, &fit);
     if (status != PF_OK) {
         pf_error_prefix(err, "BIH device refit (%u nodes, %u triangles)", tree.node_count,
                         tree.triangle_count);
@@ -178,10 +210,10 @@ pf_status pf_bih_refit_gpu(pf_bih_gpu_builder *builder, pf_bih_gpu *device, pf_b
     }
     /* The build's convention: an empty tree has a zero box (pf_bih_refit's). */
     for (int k = 0; k < 3; k++) {
-        bih->bounds_min[k] = bih->triangle_count > 0 ? root[k] : 0.0f;
-        bih->bounds_max[k] = bih->triangle_count > 0 ? root[4 + k] : 0.0f;
+        bih->bounds_min[k] = bih->triangle_count > 0 ? fit.root[k] : 0.0f;
+        bih->bounds_max[k] = bih->triangle_count > 0 ? fit.root[4 + k] : 0.0f;
     }
     pf_bih_gpu_set_bounds(device, bih->bounds_min, bih->bounds_max);
-    report->sah_cost = cost;
+    report->sah_cost = fit.cost;
     return PF_OK;
 }

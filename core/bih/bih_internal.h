@@ -175,6 +175,47 @@ struct pf_bih_gpu_builder {
     pf_vk_pipeline *refit[PF_BIH_REFIT_PIPELINES];
 };
 
+/*
+ * A tree fitted on the device (bih_gpu_refit.c): the passes of pf_bih_refit_gpu recorded
+ * into cmds over the node texels and leaf-order vertices of a tree of node_bound nodes
+ * (or, with kept, 1 + 2 × kept[kept_index]: a build's count on the device, node_bound its
+ * bound), whose deepest leaf is at most levels deep. After the submission fit holds the
+ * SAH cost, the root box and the statistics; release its buffers after the submission.
+ * pf_bih_fit_check first: PF_ERR_LIMIT where the device cannot hold the boxes, and the
+ * kernels made.
+ */
+enum {
+    PF_BIH_FIT_PARENTS,
+    PF_BIH_FIT_ARRIVALS,
+    PF_BIH_FIT_BOXES,
+    PF_BIH_FIT_PARTIALS,
+    PF_BIH_FIT_COST,
+    PF_BIH_FIT_STATS,
+    PF_BIH_FIT_BUFFERS
+};
+typedef struct pf_bih_fit {
+    pf_vk_buffer *buffers[PF_BIH_FIT_BUFFERS];
+    int stamps[PF_BIH_REFIT_PASSES + 1];
+    float cost;
+    float root[8];       /* lo xyz, 0, hi xyz, 0 */
+    uint32_t stats[4];   /* depth (> PF_BIH_STACK_SIZE: deeper), leaves, largest leaf, nodes */
+} pf_bih_fit;
+pf_status pf_bih_fit_check(pf_bih_gpu_builder *builder, uint32_t node_bound, pf_error *err);
+pf_status pf_bih_fit_record(pf_bih_gpu_builder *builder, pf_vk_commands *cmds,
+                            pf_vk_buffer *nodes, pf_vk_buffer *vertices, uint32_t node_bound,
+                            pf_vk_buffer *kept, uint32_t kept_index, uint32_t levels,
+                            pf_bih_fit *fit, pf_error *err);
+void pf_bih_fit_times(const pf_bih_fit *fit, const pf_vk_commands *cmds,
+                      double pass_ms[PF_BIH_REFIT_PASSES], double *gpu_ms);
+void pf_bih_fit_release(pf_vk_context *ctx, pf_bih_fit *fit);
+
+/*
+ * Walks a downloaded tree once (bih_gpu_build.c): every child index in range, every node
+ * reached once (PF_ERR_INTERNAL otherwise, so the walk ends on any input), and the depth
+ * and leaf statistics set from it.
+ */
+pf_status pf_bih_measure_walk(pf_bih *bih, pf_error *err);
+
 /* The root box of the tree device holds, after the device changed it (a refit). */
 void pf_bih_gpu_set_bounds(pf_bih_gpu *device, const float lo[3], const float hi[3]);
 

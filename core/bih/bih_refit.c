@@ -58,12 +58,13 @@ static pf_status list_top_down(const pf_bih *bih, uint32_t *order, uint32_t *lis
     return PF_OK;
 }
 
-/* Same count, finite vertices: else PF_ERR_INVALID, nothing changed. */
+/* A tree (its nodes may be on the device alone), the same count, finite vertices: else
+ * PF_ERR_INVALID, nothing changed. */
 static pf_status check_frame(const pf_bih *bih, const pf_scene_frame *frame, pf_error *err)
 {
     if (!bih || !frame)
         return pf_error_set(err, PF_ERR_INVALID, "pf_bih_refit: NULL argument");
-    if (!bih->nodes || bih->node_count == 0)
+    if (bih->node_count == 0)
         return pf_error_set(err, PF_ERR_INVALID, "BIH refit: the tree has no nodes");
     if (bih->triangle_count != frame->triangle_count)
         return pf_error_set(err, PF_ERR_INVALID,
@@ -141,6 +142,8 @@ static pf_status refit_with(pf_bih *bih, const pf_scene_frame *frame, pf_error *
 pf_status pf_bih_refit(pf_bih *bih, const pf_scene_frame *frame, pf_error *err)
 {
     /* Checked before anything changes, so a refused frame leaves the tree as it was. */
+    if (bih && !bih->nodes)
+        return pf_error_set(err, PF_ERR_INVALID, "BIH refit: the tree has no nodes");
     pf_status status = check_frame(bih, frame, err);
     return status == PF_OK ? refit_with(bih, frame, err) : status;
 }

@@ -358,9 +358,10 @@ typedef enum pf_bih_gpu_pass {
     PF_BIH_GPU_PASS_EMIT,     /* the hierarchy */
     PF_BIH_GPU_PASS_CLIP,     /* bounds, counts, clip planes, leaf layout, kept ranks */
     PF_BIH_GPU_PASS_COLLAPSE, /* compaction into node texels */
+    PF_BIH_GPU_PASS_FIT,      /* pf_bih_build_gpu_kept: the tree measured on the device */
     PF_BIH_GPU_PASSES
 } pf_bih_gpu_pass;
-/* "morton", "sort", "emit", "clip", "collapse". */
+/* "morton", "sort", "emit", "clip", "collapse", "fit". */
 const char *pf_bih_gpu_pass_name(pf_bih_gpu_pass pass);
 
 typedef struct pf_bih_gpu_build_report {
@@ -372,6 +373,9 @@ typedef struct pf_bih_gpu_build_report {
      * nothing was built on it. */
     double pass_ms[PF_BIH_GPU_PASSES];
     double gpu_ms;
+    /* pf_bih_build_gpu_kept: the tree's SAH cost as the device measured it (summed in float),
+     * else 0. */
+    double sah_cost;
 } pf_bih_gpu_build_report;
 
 pf_status pf_bih_gpu_builder_create(pf_vk_context *ctx, pf_bih_gpu_builder **out, pf_error *err);
@@ -404,6 +408,26 @@ pf_status pf_bih_build_gpu_resident(pf_bih_gpu_builder *builder, const pf_scene_
                                     pf_error *err);
 
 /*
+ * The same, and the nodes stay on the device alone (issue 44): out gets the node count,
+ * depth, leaf statistics, bounds, triangle index and the leaf-order vertices (the host
+ * gathers them from frame through the index), but its nodes are NULL. The device measures
+ * the tree (the refit's passes: report->sah_cost), and the host reads back 4n + 56 bytes
+ * instead of 68n. Whoever traces or measures out on the host first fetches its nodes,
+ * pf_bih_gpu_download_nodes. A CPU build's out (report->path says so) has its nodes.
+ */
+pf_status pf_bih_build_gpu_kept(pf_bih_gpu_builder *builder, const pf_scene_frame *frame,
+                                const pf_bih_build_options *options, pf_bih *out,
+                                pf_bih_gpu *device, pf_bih_gpu_build_report *report,
+                                pf_error *err);
+
+/*
+ * The nodes of the tree device holds into bih, its host copy (node count and triangles
+ * equal; bih's nodes NULL, as pf_bih_build_gpu_kept leaves them): one submission, the
+ * tree walked once (every child in range, every node reached once: else PF_ERR_INTERNAL).
+ */
+pf_status pf_bih_gpu_download_nodes(pf_bih_gpu *device, pf_bih *bih, pf_error *err);
+
+/*
  * Refits bih (from any build, or an earlier refit) to frame's triangles,
  * which must be the same triangles moved (same count and order): topology
  * and leaf assignment stay, the leaf-order vertices are replaced from frame,
@@ -432,7 +456,7 @@ pf_status pf_bih_refit_bounds(pf_bih *bih, pf_error *err);
  * submission uploads them and fits the device's clip values and root box bottom up
  * (shaders/bih_refit_link, _bounds: bit for bit pf_bih_refit's) and measures the refit
  * tree's SAH cost (bih_refit_sah, _sum: pf_bih_quality_measure's, summed in float),
- * and one wait reads back the cost and the root box, 36 bytes. bih's vertices and
+ * and one wait reads back the cost, the root box and the statistics, 52 bytes. bih's vertices and
  * bounds are then current, but not its clip values: call pf_bih_refit_bounds before
  * tracing or checking bih on the host. PF_ERR_LIMIT where the device's buffers cannot
  * hold the tree's boxes (refit on the host instead); after any other failure the

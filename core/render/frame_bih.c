@@ -33,7 +33,11 @@
  * uploads them and fits the device's tree, its SAH cost read back for the
  * keep-or-rebuild decision: the tree itself is not read back, and the host's
  * copy gets its clip values only when the host traces it
- * (pf_renderer_bih_host).
+ * (pf_renderer_bih_host). A tree built on the device stays there the same way:
+ * the device measures it (SAH, depth, leaves), the host reads back its triangle
+ * index and gathers the leaf-order vertices itself, and fetches the nodes only
+ * to trace them (motion vectors; the host traces on a CPU device, which builds
+ * on the host).
  */
 #include "render_internal.h"
 
@@ -73,8 +77,8 @@ static pf_status build_tree(pf_renderer *renderer, const pf_scene_frame *frame,
             return status;
     }
     pf_bih_gpu_build_report *build_report = &renderer->bih_gpu_report;
-    pf_status status = pf_bih_build_gpu_resident(renderer->bih_builder, frame, &options, out,
-                                                 renderer->bih_gpu, build_report, err);
+    pf_status status = pf_bih_build_gpu_kept(renderer->bih_builder, frame, &options, out,
+                                             renderer->bih_gpu, build_report, err);
     *built_on_gpu = status == PF_OK && build_report->path == PF_BIH_BUILT_ON_GPU;
     *resident = status == PF_OK && build_report->resident;
     return status;
@@ -115,8 +119,11 @@ static pf_status build_fresh(pf_renderer *renderer, const pf_scene_frame *frame,
     if (status != PF_OK)
         return status;
     renderer->bih_valid = 1;
-    renderer->bih_host_unfitted = 0;
-    renderer->bih_sah = sah_of(&renderer->bih);
+    /* Kept on the device, the tree was measured there; the host fetches its nodes when it
+     * traces it. */
+    renderer->bih_host = *resident ? PF_BIH_HOST_NO_NODES : PF_BIH_HOST_COMPLETE;
+    renderer->bih_sah =
+        *resident ? renderer->bih_gpu_report.sah_cost : sah_of(&renderer->bih);
     renderer->bih_fresh_sah = renderer->bih_sah;
     return PF_OK;
 }
@@ -142,7 +149,8 @@ static pf_status refit_tree(pf_renderer *renderer, const pf_scene_frame *frame,
         status = pf_bih_refit_gpu(renderer->bih_builder, renderer->bih_gpu, &renderer->bih,
                                   frame, report, &refused);
         if (status == PF_OK) {
-            renderer->bih_host_unfitted = 1;
+            if (renderer->bih_host == PF_BIH_HOST_COMPLETE)
+                renderer->bih_host = PF_BIH_HOST_UNFITTED;
             *sah = report->sah_cost;
             *on_gpu = 1;
             return PF_OK;
@@ -153,10 +161,12 @@ static pf_status refit_tree(pf_renderer *renderer, const pf_scene_frame *frame,
         }
         pf_log(PF_LOG_WARN, "%s; refit on the host instead", refused.message);
     }
-    pf_status status = pf_bih_refit(&renderer->bih, frame, err);
+    const pf_bih *complete = NULL; /* the host refits the nodes it has: fetch them first */
+    pf_status status = pf_renderer_bih_host(renderer, &complete, err);
+    if (status == PF_OK)
+        status = pf_bih_refit(&renderer->bih, frame, err);
     if (status != PF_OK)
         return status;
-    renderer->bih_host_unfitted = 0;
     *sah = sah_of(&renderer->bih);
     return PF_OK;
 }
@@ -289,12 +299,14 @@ pf_status pf_renderer_bih_host(pf_renderer *renderer, const pf_bih **out, pf_err
     *out = NULL;
     if (!renderer->bih_valid)
         return pf_error_set(err, PF_ERR_INTERNAL, "no BIH for the host to trace");
-    if (renderer->bih_host_unfitted) {
-        pf_status status = pf_bih_refit_bounds(&renderer->bih, err);
-        if (status != PF_OK)
-            return status;
-        renderer->bih_host_unfitted = 0;
-    }
+    pf_status status = PF_OK;
+    if (renderer->bih_host == PF_BIH_HOST_NO_NODES)
+        status = pf_bih_gpu_download_nodes(renderer->bih_gpu, &renderer->bih, err);
+    else if (renderer->bih_host == PF_BIH_HOST_UNFITTED)
+        status = pf_bih_refit_bounds(&renderer->bih, err);
+    if (status != PF_OK)
+        return status;
+    renderer->bih_host = PF_BIH_HOST_COMPLETE;
     *out = &renderer->bih;
     return PF_OK;
 }

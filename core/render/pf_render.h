@@ -168,7 +168,7 @@ static inline uint32_t pf_bounce_limit(uint32_t bounces) { return bounces + 1u; 
 
 #define PF_STAGE_NAME_MAX 32
 #define PF_STAGE_REASON_MAX 160
-#define PF_STAGE_COUNTERS_MAX 16
+#define PF_STAGE_COUNTERS_MAX 24
 /* Rows a frame's report holds: a `fast` frame under auto with denoising has 15 (plan,
  * scene_eval, deform, textures, bih_build, photon_trace, caustic_map, the three LPV stages,
  * shade, motion, temporal, denoise, exr_write); a row past the last is dropped. */

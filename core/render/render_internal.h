@@ -393,9 +393,10 @@ struct pf_renderer {
     pf_lpv_site lpv_site;             /* pf_renderer_set_lpv_site */
     pf_bih_gpu_build_report bih_gpu_report; /* the last GPU build's, for its row */
     pf_bih_gpu_refit_report bih_refit_report; /* the last device refit's, for its row */
-    /* bih's clip values wait for pf_bih_refit_bounds: the device refit the tree and the
-     * host has not traced it since (pf_renderer_bih_host fits them). */
-    int bih_host_unfitted;
+    /* What the host's copy of bih lacks until the host traces it (pf_renderer_bih_host):
+     * nothing; its clip values (the device refit the tree: pf_bih_refit_bounds); or its
+     * nodes (the device built the tree and keeps them: pf_bih_gpu_download_nodes). */
+    enum { PF_BIH_HOST_COMPLETE, PF_BIH_HOST_UNFITTED, PF_BIH_HOST_NO_NODES } bih_host;
     uint64_t bih_frames;
     int bih_pilot_replaced; /* auto's pilot dropped the previous frame's tree (pilot.c) */
     pf_bih_gpu *bih_gpu;

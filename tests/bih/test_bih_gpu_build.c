@@ -231,6 +231,86 @@ PF_TEST(the_gpu_build_is_one_submission)
     bih_frame_free(&frame);
 }
 
+/*
+ * pf_bih_build_gpu_kept (issue 44): the nodes stay on the device. The host's copy holds
+ * what the downloaded build holds but the nodes (counts, depth, leaves, vertices, index,
+ * box), the device's SAH is the host's measure to float rounding, 4n + 56 bytes come back
+ * in one submission, and the nodes downloaded afterwards are the build's, bit for bit.
+ * The too-deep fallback's CPU tree has its nodes.
+ */
+PF_TEST(a_tree_kept_on_the_device_is_the_downloaded_one)
+{
+    const int cases[] = {BIH_CASE_SOUP, BIH_CASE_CUBE, BIH_CASE_CUBE_OFFSET, BIH_CASE_FLAT,
+                         BIH_CASE_COPLANAR, BIH_CASE_DEGENERATE, BIH_CASE_CLUSTERED};
+    for (size_t c = 0; c < sizeof cases / sizeof cases[0]; c++) {
+        pf_scene_frame frame;
+        const char *name;
+        PF_REQUIRE(bih_make_case(cases[c], &frame, &name));
+        for (int staged = 0; staged < 2; staged++) {
+            pf_vk_force_staging(env.ctx, staged);
+            pf_bih full, kept;
+            pf_bih_gpu_build_report report;
+            pf_error err = {0};
+            PF_REQUIRE_OK(pf_bih_build_gpu(env.builder, &frame, NULL, &full, NULL, &err), &err);
+            pf_vk_traffic before = pf_vk_traffic_of(env.ctx);
+            PF_REQUIRE_OK(pf_bih_build_gpu_kept(env.builder, &frame, NULL, &kept, env.gpu,
+                                                &report, &err),
+                          &err);
+            pf_vk_traffic used = pf_vk_traffic_since(env.ctx, before);
+            uint64_t n = frame.triangle_count;
+            PF_CHECK_MSG(report.path == PF_BIH_BUILT_ON_GPU && report.resident &&
+                             kept.nodes == NULL,
+                         "%s: path %d, resident %d", name, (int)report.path, report.resident);
+            PF_CHECK_MSG(used.submits == 1 && used.host_waits == 1 &&
+                             used.readback_bytes == 4 * n + 56,
+                         "%s: %llu submits, %llu waits, %llu bytes back", name,
+                         (unsigned long long)used.submits, (unsigned long long)used.host_waits,
+                         (unsigned long long)used.readback_bytes);
+            PF_CHECK_MSG(kept.node_count == full.node_count && kept.depth == full.depth &&
+                             kept.leaf_count == full.leaf_count &&
+                             kept.largest_leaf == full.largest_leaf,
+                         "%s: nodes %u/%u depth %u/%u leaves %u/%u largest %u/%u", name,
+                         kept.node_count, full.node_count, kept.depth, full.depth,
+                         kept.leaf_count, full.leaf_count, kept.largest_leaf, full.largest_leaf);
+            PF_CHECK(!memcmp(kept.vertices, full.vertices, 3 * n * sizeof *full.vertices) &&
+                     !memcmp(kept.triangle_index, full.triangle_index,
+                             n * sizeof *full.triangle_index) &&
+                     !memcmp(kept.bounds_min, full.bounds_min, sizeof full.bounds_min) &&
+                     !memcmp(kept.bounds_max, full.bounds_max, sizeof full.bounds_max));
+            pf_bih_quality quality;
+            pf_bih_quality_measure(&full, &quality);
+            PF_CHECK_MSG(fabs(report.sah_cost - quality.sah_cost) <= 1e-4 * quality.sah_cost,
+                         "%s: device SAH %.7g, host %.7g", name, report.sah_cost,
+                         quality.sah_cost);
+            if (report.gpu_ms >= 0.0)
+                PF_CHECK(report.pass_ms[PF_BIH_GPU_PASS_FIT] >= 0.0);
+            PF_CHECK_OK(pf_bih_gpu_download_nodes(env.gpu, &kept, &err), &err);
+            PF_CHECK_MSG(kept.nodes && !memcmp(kept.nodes, full.nodes,
+                                               full.node_count * sizeof *full.nodes),
+                         "%s: the downloaded nodes differ from the build's", name);
+            PF_CHECK_OK(pf_bih_check(&kept, &frame, &err), &err);
+            pf_bih_free(&kept);
+            pf_bih_free(&full);
+        }
+        pf_vk_force_staging(env.ctx, 0);
+        bih_frame_free(&frame);
+    }
+    pf_scene_frame deep;
+    PF_REQUIRE(bih_make_soup(&deep, FALLBACK_TRIANGLES, 29));
+    pf_bih_build_options options = {0, FALLBACK_DEPTH};
+    pf_bih bih;
+    pf_bih_gpu_build_report report;
+    pf_error err = {0};
+    PF_REQUIRE_OK(pf_bih_build_gpu_kept(env.builder, &deep, &options, &bih, env.gpu, &report,
+                                        &err),
+                  &err);
+    PF_CHECK(report.path == PF_BIH_BUILT_CPU_FALLBACK && !report.resident && bih.nodes);
+    PF_CHECK(report.gpu_depth > FALLBACK_DEPTH && bih.depth <= FALLBACK_DEPTH);
+    PF_CHECK_OK(pf_bih_check(&bih, &deep, &err), &err);
+    pf_bih_free(&bih);
+    bih_frame_free(&deep);
+}
+
 PF_TEST(bad_input_is_refused)
 {
     pf_scene_frame frame;
@@ -350,6 +430,7 @@ int main(void)
     PF_RUN(leaf_size_option);
     PF_RUN(too_deep_falls_back_to_cpu);
     PF_RUN(the_gpu_build_is_one_submission);
+    PF_RUN(a_tree_kept_on_the_device_is_the_downloaded_one);
     PF_RUN(bad_input_is_refused);
     PF_RUN(radix_sort_is_stable);
     bih_gpu_env_destroy(&env);
