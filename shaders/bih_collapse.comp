@@ -6,7 +6,9 @@
 // two children at 1 + 2 * rank[i] and 1 + 2 * rank[i] + 1 — adjacent, as the
 // node word requires. Its own slot follows from its parent's rank (the root,
 // node 0, is slot 0). A child with at most K triangles becomes a leaf over
-// its contiguous sorted range, which is the leaf order.
+// its contiguous sorted range, which is the leaf order. With write_boxes, each
+// slot's box (bih_clip.comp's, of the same subtree) goes to slot_boxes too: a
+// tree kept on the device is measured from them (core/bih/bih_gpu_refit.c).
 
 #include "bih_build.glsl"
 
@@ -15,7 +17,13 @@ layout(local_size_x = 256) in;
 layout(push_constant) uniform Push {
     uint count;          // sorted triangles n (>= 2)
     uint max_leaf_size;  // K
+    uint write_boxes;    // 1: slot_boxes[slot] = boxes[node] for every slot written
 } push;
+
+struct Box {
+    vec4 lo;
+    vec4 hi;
+};
 
 layout(std430, set = 0, binding = 0) readonly buffer Inner { BihInner inner[]; };
 layout(std430, set = 0, binding = 1) readonly buffer Parents { uint parents[]; };
@@ -23,6 +31,8 @@ layout(std430, set = 0, binding = 2) readonly buffer Counts { uint counts[]; };
 layout(std430, set = 0, binding = 3) readonly buffer Clips { vec2 clips[]; };
 layout(std430, set = 0, binding = 4) readonly buffer Rank { uint rank[]; };
 layout(std430, set = 0, binding = 5) writeonly buffer Nodes { uint nodes[]; };
+layout(std430, set = 0, binding = 6) readonly buffer Boxes { Box boxes[]; };
+layout(std430, set = 0, binding = 7) writeonly buffer SlotBoxes { Box slot_boxes[]; };
 
 const uint LEAF_WORD = 3u;
 
@@ -51,6 +61,8 @@ void main()
     BihInner record = inner[node];
     uint base = 1u + 2u * rank[node];
     write_node(slot, floatBitsToUint(clips[node].x), floatBitsToUint(clips[node].y), (base << 2) | record.axis);
+    if (push.write_boxes != 0u)
+        slot_boxes[slot] = boxes[node];
     uint leaf_base = push.count - 1u;
     uint children[2] = uint[2](record.left, record.right);
     for (uint k = 0u; k < 2u; k++) {
@@ -58,6 +70,8 @@ void main()
         if (child >= leaf_base || counts[child] <= push.max_leaf_size) {
             uint first = child >= leaf_base ? child - leaf_base : inner[child].first;
             write_node(base + k, first, counts[child], LEAF_WORD);
+            if (push.write_boxes != 0u)
+                slot_boxes[base + k] = boxes[child];
         }
     }
 }

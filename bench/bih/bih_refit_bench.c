@@ -5,7 +5,9 @@
  * measured on the host, and the tree uploaded (nodes, leaf vertices, index). The device's
  * is pf_bih_refit_gpu: the host gathers the leaf vertices, one submission uploads them and
  * fits the tree, 36 bytes come back. Prints the median wall time of each, the bytes each
- * moves, and the two SAH figures (they must agree to float rounding).
+ * moves, and the two SAH figures (they must agree to float rounding). Then the build
+ * itself both ways: the tree read back for the host's copy (pf_bih_build_gpu_resident, as
+ * bih_build did before) against its nodes kept on the device (pf_bih_build_gpu_kept).
  *
  *   bih_refit_bench [triangles ...]   (default 100000 1000000)
  */
@@ -112,6 +114,30 @@ static int run(pf_vk_context *ctx, pf_bih_gpu_builder *builder, uint32_t wanted)
                    bench_median(pass_ms[p], FRAMES));
         printf("\n");
     }
+    /* The build: read back, against kept on the device (the frame as the last refit's). */
+    double read_ms[FRAMES], kept_ms[FRAMES];
+    pf_vk_traffic read_traffic = {0}, kept_traffic = {0};
+    for (int f = 0; !failed && f < FRAMES; f++) {
+        for (int keep = 0; keep < 2 && !failed; keep++) {
+            pf_bih tree = {0};
+            pf_vk_traffic before = pf_vk_traffic_of(ctx);
+            double start = pf_time_ms();
+            failed = (keep ? pf_bih_build_gpu_kept(builder, &frame, NULL, &tree, device, &built,
+                                                   &err)
+                           : pf_bih_build_gpu_resident(builder, &frame, NULL, &tree, device,
+                                                       &built, &err)) != PF_OK;
+            (keep ? kept_ms : read_ms)[f] = pf_time_ms() - start;
+            *(keep ? &kept_traffic : &read_traffic) = pf_vk_traffic_since(ctx, before);
+            pf_bih_free(&tree);
+        }
+    }
+    if (failed)
+        fprintf(stderr, "bih_refit_bench: %u triangles: %s\n", n, err.message);
+    else
+        printf("%9s GPU build, tree read back %8.1f ms, %6.1f MB back | nodes kept on the "
+               "device %8.1f ms, %6.1f MB back\n",
+               "", bench_median(read_ms, FRAMES), read_traffic.readback_bytes / 1e6,
+               bench_median(kept_ms, FRAMES), kept_traffic.readback_bytes / 1e6);
     pf_bih_free(&on_device);
     pf_bih_free(&on_host);
     pf_bih_gpu_destroy(device);

@@ -47,7 +47,7 @@ static const struct {
     {"bih_radix_scatter", 5, 12},
     {"bih_emit", 4, 4},
     {"bih_clip", 11, 8},
-    {"bih_collapse", 6, 8},
+    {"bih_collapse", 8, 12},
 };
 
 _Static_assert(PASS_COUNT == PF_BIH_BUILD_PIPELINES, "bih_internal.h sizes the builder's array");
@@ -140,8 +140,8 @@ const char *pf_bih_gpu_pass_name(pf_bih_gpu_pass pass)
  * without timestamps). */
 static pf_status record_build(pf_bih_gpu_builder *b, pf_vk_commands *cmds, pf_vk_buffer **buf,
                               uint32_t n, uint32_t leaf_size, const float lo[3],
-                              const float hi[3], int stamps[PF_BIH_GPU_PASSES + 1],
-                              pf_error *err)
+                              const float hi[3], pf_vk_buffer *slot_boxes,
+                              int stamps[PF_BIH_GPU_PASSES + 1], pf_error *err)
 {
     stamps[0] = pf_vk_cmd_timestamp(cmds);
     uint32_t groups = groups_for(n);
@@ -206,11 +206,15 @@ static pf_status record_build(pf_bih_gpu_builder *b, pf_vk_commands *cmds, pf_vk
                                     &inner_count, sizeof inner_count, 1, 1, 1, err);
     stamps[1 + PF_BIH_GPU_PASS_CLIP] = pf_vk_cmd_timestamp(cmds);
     pf_vk_cmd_barrier(cmds);
-    pf_vk_buffer *collapse_buffers[] = {buf[BUF_INNER],  buf[BUF_PARENTS], buf[BUF_COUNTS],
-                                        buf[BUF_CLIPS],  buf[BUF_RANK],    buf[BUF_NODES]};
+    /* With slot_boxes, every slot's box too (a tree kept on the device is measured so). */
+    uint32_t collapse_push[3] = {n, leaf_size, slot_boxes != NULL};
+    pf_vk_buffer *collapse_buffers[] = {buf[BUF_INNER], buf[BUF_PARENTS], buf[BUF_COUNTS],
+                                        buf[BUF_CLIPS], buf[BUF_RANK],    buf[BUF_NODES],
+                                        buf[BUF_BOXES], slot_boxes ? slot_boxes : buf[BUF_BOXES]};
     if (status == PF_OK)
-        status = pf_vk_cmd_dispatch(cmds, b->pipelines[PASS_COLLAPSE], collapse_buffers, 6,
-                                    tree_push, sizeof tree_push, inner_groups, 1, 1, err);
+        status = pf_vk_cmd_dispatch(cmds, b->pipelines[PASS_COLLAPSE], collapse_buffers, 8,
+                                    collapse_push, sizeof collapse_push, inner_groups, 1, 1,
+                                    err);
     stamps[1 + PF_BIH_GPU_PASS_COLLAPSE] = pf_vk_cmd_timestamp(cmds);
     return status;
 }
@@ -360,14 +364,18 @@ static pf_status run_gpu_build(pf_bih_gpu_builder *b, const pf_scene_frame *fram
                                   sizes[BUF_VERTICES].bytes, err);
     int stamps[PF_BIH_GPU_PASSES + 1];
     pf_bih_fit fit = {0};
+    if (status == PF_OK && nodes_stay)
+        status = pf_bih_fit_create(b, (uint32_t)nodes, &fit, err);
     if (status == PF_OK)
-        status = record_build(b, cmds, buf, n, leaf_size, lo, hi, stamps, err);
-    /* Kept on the device: its SAH, depth and leaves measured there (the refit's passes). */
+        status = record_build(b, cmds, buf, n, leaf_size, lo, hi,
+                              nodes_stay ? fit.buffers[PF_BIH_FIT_BOXES] : NULL, stamps, err);
+    /* Kept on the device: its SAH, depth and leaves measured there (the refit's passes, but
+     * the bounds: the collapse wrote the slots' boxes). */
     if (status == PF_OK && nodes_stay) {
         pf_vk_cmd_barrier(cmds);
         status = pf_bih_fit_record(b, cmds, buf[BUF_NODES], buf[BUF_LEAF_VERTICES],
-                                   (uint32_t)nodes, buf[BUF_RANK], (uint32_t)inner,
-                                   PF_BIH_STACK_SIZE, &fit, err);
+                                   (uint32_t)nodes, buf[BUF_RANK], (uint32_t)inner, 0, &fit,
+                                   err);
     }
     stamps[1 + PF_BIH_GPU_PASS_FIT] = pf_vk_cmd_timestamp(cmds);
     if (status == PF_OK)

@@ -73,14 +73,13 @@ pf_status pf_bih_fit_check(pf_bih_gpu_builder *builder, uint32_t node_bound, pf_
     return fit_pipelines(builder, err);
 }
 
-pf_status pf_bih_fit_record(pf_bih_gpu_builder *b, pf_vk_commands *cmds, pf_vk_buffer *nodes,
-                            pf_vk_buffer *vertices, uint32_t node_bound, pf_vk_buffer *kept,
-                            uint32_t kept_index, uint32_t levels, pf_bih_fit *fit,
+pf_status pf_bih_fit_create(pf_bih_gpu_builder *b, uint32_t node_bound, pf_bih_fit *fit,
                             pf_error *err)
 {
     memset(fit, 0, sizeof *fit);
     for (int p = 0; p <= PF_BIH_REFIT_PASSES; p++)
         fit->stamps[p] = -1;
+    fit->node_bound = node_bound;
     uint32_t groups = (node_bound + REFIT_GROUP_SIZE - 1) / REFIT_GROUP_SIZE;
     const uint64_t sizes[PF_BIH_FIT_BUFFERS] = {
         [PF_BIH_FIT_PARENTS] = 4 * (uint64_t)node_bound,
@@ -93,13 +92,26 @@ pf_status pf_bih_fit_record(pf_bih_gpu_builder *b, pf_vk_commands *cmds, pf_vk_b
     static const char *const labels[PF_BIH_FIT_BUFFERS] = {
         "BIH fit parents",      "BIH fit arrivals", "BIH fit boxes",
         "BIH fit partial sums", "BIH fit cost",     "BIH fit statistics"};
-    pf_vk_buffer **buf = fit->buffers;
     pf_status status = PF_OK;
     for (int i = 0; status == PF_OK && i < PF_BIH_FIT_BUFFERS; i++)
-        status = pf_vk_buffer_create(b->ctx, sizes[i], labels[i], &buf[i], err);
+        status = pf_vk_buffer_create(b->ctx, sizes[i], labels[i], &fit->buffers[i], err);
     if (status != PF_OK)
-        return status;
+        pf_bih_fit_release(b->ctx, fit);
+    return status;
+}
+
+pf_status pf_bih_fit_record(pf_bih_gpu_builder *b, pf_vk_commands *cmds, pf_vk_buffer *nodes,
+                            pf_vk_buffer *vertices, uint32_t node_bound, pf_vk_buffer *kept,
+                            uint32_t kept_index, uint32_t levels, pf_bih_fit *fit,
+                            pf_error *err)
+{
+    if (fit->node_bound != node_bound || !fit->buffers[0])
+        return pf_error_set(err, PF_ERR_INTERNAL, "BIH fit: buffers for %u nodes, not %u",
+                            fit->node_bound, node_bound);
+    uint32_t groups = (node_bound + REFIT_GROUP_SIZE - 1) / REFIT_GROUP_SIZE;
+    pf_vk_buffer **buf = fit->buffers;
     int *stamps = fit->stamps;
+    pf_status status;
     stamps[0] = pf_vk_cmd_timestamp(cmds);
     uint32_t link_push[2] = {node_bound, kept ? kept_index : NO_KEPT};
     pf_vk_buffer *link[] = {nodes, buf[PF_BIH_FIT_PARENTS], buf[PF_BIH_FIT_ARRIVALS],
@@ -108,13 +120,14 @@ pf_status pf_bih_fit_record(pf_bih_gpu_builder *b, pf_vk_commands *cmds, pf_vk_b
                                 groups, 1, 1, err);
     stamps[1 + PF_BIH_REFIT_PASS_LINK] = pf_vk_cmd_timestamp(cmds);
     pf_vk_cmd_barrier(cmds);
+    /* levels 0: the boxes are there already (a build's collapse wrote them), no bounds. */
     /* The climb runs in lockstep for as many rounds as the deepest leaf needs; no build
      * makes a tree deeper than the traversal's stack. */
-    uint32_t bounds_push[2] = {node_bound,
-                               (levels < PF_BIH_STACK_SIZE ? levels : PF_BIH_STACK_SIZE) + 1};
+    uint32_t bounds_push[2] = {node_bound, levels < PF_BIH_STACK_SIZE + 1 ? levels
+                                                                           : PF_BIH_STACK_SIZE + 1};
     pf_vk_buffer *bounds[] = {nodes, vertices, buf[PF_BIH_FIT_PARENTS], buf[PF_BIH_FIT_ARRIVALS],
                               buf[PF_BIH_FIT_BOXES], buf[PF_BIH_FIT_STATS]};
-    if (status == PF_OK)
+    if (status == PF_OK && levels > 0)
         status = pf_vk_cmd_dispatch(cmds, b->refit[PIPE_BOUNDS], bounds, 6, bounds_push,
                                     sizeof bounds_push, groups, 1, 1, err);
     stamps[1 + PF_BIH_REFIT_PASS_BOUNDS] = pf_vk_cmd_timestamp(cmds);
@@ -195,8 +208,10 @@ pf_status pf_bih_refit_gpu(pf_bih_gpu_builder *builder, pf_bih_gpu *device, pf_b
                                   3 * (uint64_t)bih->triangle_count * sizeof bih->vertices[0],
                                   err);
     if (status == PF_OK)
+        status = pf_bih_fit_create(builder, tree.node_count, &fit, err);
+    if (status == PF_OK)
         status = pf_bih_fit_record(builder, cmds, tree.nodes, tree.vertices, tree.node_count,
-                                   NULL, 0, bih->depth, &fit, err);
+                                   NULL, 0, bih->depth + 1, &fit, err);
     if (status == PF_OK)
         status = pf_vk_commands_submit(cmds, err);
     if (status == PF_OK)

@@ -176,13 +176,15 @@ struct pf_bih_gpu_builder {
 };
 
 /*
- * A tree fitted on the device (bih_gpu_refit.c): the passes of pf_bih_refit_gpu recorded
- * into cmds over the node texels and leaf-order vertices of a tree of node_bound nodes
- * (or, with kept, 1 + 2 × kept[kept_index]: a build's count on the device, node_bound its
- * bound), whose deepest leaf is at most levels deep. After the submission fit holds the
- * SAH cost, the root box and the statistics; release its buffers after the submission.
- * pf_bih_fit_check first: PF_ERR_LIMIT where the device cannot hold the boxes, and the
- * kernels made.
+ * A tree fitted on the device (bih_gpu_refit.c): pf_bih_fit_check (PF_ERR_LIMIT where the
+ * device cannot hold the boxes; the kernels made), pf_bih_fit_create (the buffers, for
+ * node_bound nodes), then pf_bih_fit_record: the passes of pf_bih_refit_gpu recorded into
+ * cmds over the node texels and leaf-order vertices of a tree of node_bound nodes (or,
+ * with kept, 1 + 2 × kept[kept_index]: a build's count on the device, node_bound its
+ * bound). levels: the climb's rounds, the tree's depth + 1; 0 skips the bounds pass where
+ * the boxes buffer holds every node's box already (the build's collapse wrote them). After
+ * the submission fit holds the SAH cost, the root box and the statistics; release its
+ * buffers then.
  */
 enum {
     PF_BIH_FIT_PARENTS,
@@ -195,12 +197,15 @@ enum {
 };
 typedef struct pf_bih_fit {
     pf_vk_buffer *buffers[PF_BIH_FIT_BUFFERS];
+    uint32_t node_bound;
     int stamps[PF_BIH_REFIT_PASSES + 1];
     float cost;
     float root[8];       /* lo xyz, 0, hi xyz, 0 */
     uint32_t stats[4];   /* depth (> PF_BIH_STACK_SIZE: deeper), leaves, largest leaf, nodes */
 } pf_bih_fit;
 pf_status pf_bih_fit_check(pf_bih_gpu_builder *builder, uint32_t node_bound, pf_error *err);
+pf_status pf_bih_fit_create(pf_bih_gpu_builder *builder, uint32_t node_bound, pf_bih_fit *fit,
+                            pf_error *err);
 pf_status pf_bih_fit_record(pf_bih_gpu_builder *builder, pf_vk_commands *cmds,
                             pf_vk_buffer *nodes, pf_vk_buffer *vertices, uint32_t node_bound,
                             pf_vk_buffer *kept, uint32_t kept_index, uint32_t levels,
