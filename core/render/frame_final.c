@@ -316,6 +316,7 @@ typedef struct final_buffers {
     pf_vk_buffer *params, *film, *film_aov, *counters, *vertices, *samples, *empty_grid;
     pf_vk_buffer *caustic_radii; /* per pixel: the caustic radius the first pass chose */
     pf_vk_buffer *fallback_requests, *pixel_fallbacks; /* the gather's deferred estimates */
+    pf_vk_buffer *retrace_groups; /* final_retrace_args.comp's indirect dispatch */
     uint32_t fallback_capacity;  /* requests fallback_requests holds */
     /* Where the host traces: the camera and gather rays' queue. */
     pf_host_rays *host_rays;
@@ -326,7 +327,7 @@ static void final_buffers_release(pf_vk_context *ctx, final_buffers *b)
     pf_vk_buffer **all[] = {&b->params,          &b->film,           &b->film_aov,
                             &b->counters,        &b->vertices,       &b->samples,
                             &b->empty_grid,      &b->caustic_radii,  &b->fallback_requests,
-                            &b->pixel_fallbacks};
+                            &b->pixel_fallbacks, &b->retrace_groups};
     for (size_t i = 0; i < sizeof all / sizeof all[0]; i++)
         pf_render_buffer_release(ctx, all[i]);
     pf_host_rays_destroy(b->host_rays);
@@ -380,13 +381,17 @@ static void finish_commands(pf_vk_commands *cmds, int begin, int end, final_prog
 }
 
 /*
- * Renders camera sample sample_index with pass's grids (pass NULL: no photon maps), in two
- * submissions: the primary (and caustic) kernel and the gather, then the deferred estimates and
- * the resolve. Between them the host reads whether the gather's requests overflowed
- * fallback_requests; if they did, final_gather_estimate.comp retraces the marked rays with their
- * estimates in place before the resolve, so that final_gather.comp never carries the estimate's
- * code (final_gather.glsl says why). Without irradiance points the gather is
- * final_gather_estimate.comp itself.
+ * Renders camera sample sample_index with pass's grids (pass NULL: no photon maps): the
+ * primary (and caustic) kernel and the gather, then the deferred estimates and the resolve.
+ * Where the gather's requests overflowed fallback_requests, final_gather_estimate.comp
+ * retraces the marked rays with their estimates in place before the resolve, so that
+ * final_gather.comp never carries the estimate's code (final_gather.glsl says why). Whether
+ * they did, the device decides: final_retrace_args.comp writes the retrace's indirect
+ * dispatch, and the sample is one submission (issue 43: no host round trip inside it).
+ * Where the host traces the rays (a CPU device) the sample is cut where the host traces,
+ * and the host reads the counters after the gather as before, rather than compile the
+ * retrace's kernel for every frame. Without irradiance points the gather is
+ * final_gather_estimate.comp itself, defers nothing and needs no retrace.
  */
 static pf_status shade_sample(pf_renderer *renderer, pf_vk_buffer **buffers,
                               const final_buffers *owned, const pf_render_settings *settings,
@@ -429,6 +434,12 @@ static pf_status shade_sample(pf_renderer *renderer, pf_vk_buffer **buffers,
         kernels[kernel_count++] = PF_PIPELINE_CAMERA_RAYS;
         kernels[kernel_count++] = PF_PIPELINE_FINAL_GATHER_RAYS;
     }
+    /* The retrace dispatched by the device, in the sample's one submission. */
+    int device_retrace = lookups && !host_traced;
+    if (device_retrace) {
+        kernels[kernel_count++] = PF_PIPELINE_FINAL_GATHER_ESTIMATE;
+        kernels[kernel_count++] = PF_PIPELINE_FINAL_RETRACE_ARGS;
+    }
     pf_vk_pipeline *gather_rays = NULL;
     if (status == PF_OK)
         status = pf_renderer_pipelines_prepare(renderer, kernels, kernel_count, err);
@@ -453,10 +464,10 @@ static pf_status shade_sample(pf_renderer *renderer, pf_vk_buffer **buffers,
                                           &camera_push, &traced.write, err);
     if (status == PF_OK && host_traced)
         status = pf_renderer_pipeline(renderer, PF_PIPELINE_FINAL_GATHER_RAYS, &gather_rays, err);
-    /* Two submissions a sample: the counters zeroed, the primary, caustic and gather
-     * kernels and the counters' readback, which says whether the deferred requests
-     * overflowed; then the retrace, fallback and resolve with the counters again. Where the
-     * host traces, the first is cut where it does, twice a band. */
+    /* The counters zeroed, the primary, caustic and gather kernels, the retrace, fallback
+     * and resolve, the counters read back: one submission, or where the host traces, cut
+     * where it does (twice a band) and after the gather, whose counters say whether the
+     * deferred requests overflowed. */
     /* The frame's uploads, where they are still to be submitted, go first. */
     pf_vk_commands *cmds = *setup;
     *setup = NULL;
@@ -523,30 +534,52 @@ static pf_status shade_sample(pf_renderer *renderer, pf_vk_buffer **buffers,
         pf_vk_commands_destroy(cmds);
         return status;
     }
-    int end = pf_vk_cmd_timestamp(cmds);
     final_counters counters;
-    if (status == PF_OK)
-        status = pf_vk_cmd_download(cmds, owned->counters, 0, &counters, sizeof counters, err);
-    if (status == PF_OK)
-        status = pf_vk_commands_submit(cmds, err);
-    finish_commands(cmds, begin, status == PF_OK ? end : -1, progress);
-    int overflow =
-        status == PF_OK && lookups && counters.fallback_requests > push.fallback_capacity;
+    int overflow = 0;
     pf_vk_pipeline *retrace = NULL;
-    if (overflow)
-        status = pf_renderer_pipeline(renderer, PF_PIPELINE_FINAL_GATHER_ESTIMATE, &retrace, err);
-    cmds = NULL;
-    if (status == PF_OK)
-        status = pf_vk_commands_begin(ctx, &cmds, err);
-    if (status != PF_OK)
-        return status;
-    begin = pf_vk_cmd_timestamp(cmds);
+    if (host_traced) {
+        int end = pf_vk_cmd_timestamp(cmds);
+        status = pf_vk_cmd_download(cmds, owned->counters, 0, &counters, sizeof counters, err);
+        if (status == PF_OK)
+            status = pf_vk_commands_submit(cmds, err);
+        finish_commands(cmds, begin, status == PF_OK ? end : -1, progress);
+        overflow =
+            status == PF_OK && lookups && counters.fallback_requests > push.fallback_capacity;
+        if (overflow)
+            status =
+                pf_renderer_pipeline(renderer, PF_PIPELINE_FINAL_GATHER_ESTIMATE, &retrace, err);
+        cmds = NULL;
+        if (status == PF_OK)
+            status = pf_vk_commands_begin(ctx, &cmds, err);
+        if (status != PF_OK)
+            return status;
+        begin = pf_vk_cmd_timestamp(cmds);
+    }
     /* The rays past the capacity, all of the sample's gather rays in one dispatch (retraced
-     * rays follow the same paths as in the gather, whatever dispatch they were in). */
-    if (overflow) {
+     * rays follow the same paths as in the gather, whatever dispatch they were in): where
+     * the device decides, of as many groups as it writes, none without an overflow. */
+    push.gather_first = 0;
+    push.gather_count = FINAL_GATHER_RAYS;
+    if (device_retrace) {
+        pf_vk_pipeline *args = NULL;
+        status = pf_renderer_pipeline(renderer, PF_PIPELINE_FINAL_GATHER_ESTIMATE, &retrace, err);
+        if (status == PF_OK)
+            status = pf_renderer_pipeline(renderer, PF_PIPELINE_FINAL_RETRACE_ARGS, &args, err);
+        uint32_t args_push[3] = {groups_x, groups_y, push.fallback_capacity};
+        pf_vk_buffer *args_buffers[] = {owned->counters, owned->retrace_groups};
+        pf_vk_cmd_barrier(cmds);
+        if (status == PF_OK)
+            status = pf_vk_cmd_dispatch(cmds, args, args_buffers, 2, args_push, sizeof args_push,
+                                        1, 1, 1, err);
+        pf_vk_cmd_barrier(cmds);
         push.gather_retrace = 1;
-        push.gather_first = 0;
-        push.gather_count = FINAL_GATHER_RAYS;
+        if (status == PF_OK)
+            status = pf_vk_cmd_dispatch_indirect(cmds, retrace, buffers, PF_FINAL_BUFFERS, &push,
+                                                 sizeof push, owned->retrace_groups, 0, err);
+        push.gather_retrace = 0;
+        pf_vk_cmd_barrier(cmds);
+    } else if (overflow) {
+        push.gather_retrace = 1;
         status = pf_vk_cmd_dispatch(cmds, retrace, buffers, PF_FINAL_BUFFERS, &push, sizeof push,
                                     groups_x, groups_y, 1, err);
         push.gather_retrace = 0;
@@ -567,8 +600,8 @@ static pf_status shade_sample(pf_renderer *renderer, pf_vk_buffer **buffers,
     if (status == PF_OK && read_into)
         status = pf_split_film_record_read(renderer, cmds, owned->film, owned->film_aov,
                                            settings->aovs, 1, read_into, &readback, err);
-    end = pf_vk_cmd_timestamp(cmds);
-    /* The counters again: the retrace's truncations and failures are the sample's too. */
+    int end = pf_vk_cmd_timestamp(cmds);
+    /* The counters (again): the retrace's truncations and failures are the sample's too. */
     if (status == PF_OK)
         status = pf_vk_cmd_download(cmds, owned->counters, 0, &counters, sizeof counters, err);
     if (status == PF_OK)
@@ -752,6 +785,9 @@ static pf_status final_begin(pf_frame_run *run, pf_error *err)
     if (status == PF_OK)
         status = pf_vk_buffer_create(ctx, sizeof(final_counters), "final counters",
                                      &owned->counters, err);
+    if (status == PF_OK)
+        status = pf_vk_buffer_create(ctx, 16, "final retrace groups", &owned->retrace_groups,
+                                     err);
     if (status == PF_OK)
         status = pf_vk_buffer_create(ctx, pixels * VERTEX_VEC4_PER_PIXEL * 16,
                                      "final gather vertices", &owned->vertices, err);

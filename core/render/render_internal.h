@@ -65,6 +65,7 @@ typedef enum pf_renderer_pipeline_id {
     PF_PIPELINE_REFERENCE_WAVE_FINISH_RGB, /* render_reference_wave.comp, WAVE_FINISH_RGB */
     PF_PIPELINE_DEFORM,                  /* deform.comp */
     PF_PIPELINE_SPLIT_FILM,              /* split_film.comp: the film into the image */
+    PF_PIPELINE_FINAL_RETRACE_ARGS,      /* final_retrace_args.comp: the retrace's groups */
     PF_PIPELINE_COUNT
 } pf_renderer_pipeline_id;
 

@@ -109,6 +109,7 @@ static const pipeline_spec pipeline_specs[PF_PIPELINE_COUNT] = {
     [PF_PIPELINE_DEFORM] = {"deform", DEFORM_BUFFERS, DEFORM_PUSH_BYTES, 0, {0, 0}},
     [PF_PIPELINE_SPLIT_FILM] = {"split_film", SPLIT_FILM_BUFFERS, SPLIT_FILM_PUSH_BYTES, 0,
                                 {0, 0}},
+    [PF_PIPELINE_FINAL_RETRACE_ARGS] = {"final_retrace_args", 2, 12, 0, {0, 0}},
 };
 
 pf_status pf_renderer_pipeline(pf_renderer *renderer, pf_renderer_pipeline_id id,

@@ -261,17 +261,13 @@ static int note_bound(pf_vk_commands *cmds, const pf_vk_buffer *buffer)
     return 1;
 }
 
-pf_status pf_vk_cmd_dispatch(pf_vk_commands *cmds, pf_vk_pipeline *pipeline,
-                             pf_vk_buffer *const *buffers, uint32_t buffer_count,
-                             const void *push_constants, uint32_t push_constant_bytes,
-                             uint32_t groups_x, uint32_t groups_y, uint32_t groups_z,
-                             pf_error *err)
+/* Binds pipeline, its buffers and push constants for a dispatch recorded next. */
+static pf_status bind_for_dispatch(pf_vk_commands *cmds, pf_vk_pipeline *pipeline,
+                                   pf_vk_buffer *const *buffers, uint32_t buffer_count,
+                                   const void *push_constants, uint32_t push_constant_bytes,
+                                   pf_error *err)
 {
-    const uint32_t groups[3] = {groups_x, groups_y, groups_z};
-    pf_status status = check_dispatch(cmds, pipeline, buffers, buffer_count, push_constants,
-                                      push_constant_bytes, groups, err);
-    if (status != PF_OK)
-        return status;
+    pf_status status = PF_OK;
     vkCmdBindPipeline(cmds->command, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline->pipeline);
     if (buffer_count > 0) {
         VkDescriptorSet set;
@@ -322,11 +318,53 @@ pf_status pf_vk_cmd_dispatch(pf_vk_commands *cmds, pf_vk_pipeline *pipeline,
     if (push_constant_bytes > 0)
         vkCmdPushConstants(cmds->command, pipeline->layout, VK_SHADER_STAGE_COMPUTE_BIT, 0,
                            push_constant_bytes, push_constants);
-    vkCmdDispatch(cmds->command, groups_x, groups_y, groups_z);
-    cmds->device_work++;
     for (uint32_t i = 0; i < buffer_count; i++)
         if (!note_bound(cmds, buffers[i]))
             return pf_error_set(err, PF_ERR_NOMEM, "out of host memory recording a dispatch");
+    return PF_OK;
+}
+
+pf_status pf_vk_cmd_dispatch(pf_vk_commands *cmds, pf_vk_pipeline *pipeline,
+                             pf_vk_buffer *const *buffers, uint32_t buffer_count,
+                             const void *push_constants, uint32_t push_constant_bytes,
+                             uint32_t groups_x, uint32_t groups_y, uint32_t groups_z,
+                             pf_error *err)
+{
+    const uint32_t groups[3] = {groups_x, groups_y, groups_z};
+    pf_status status = check_dispatch(cmds, pipeline, buffers, buffer_count, push_constants,
+                                      push_constant_bytes, groups, err);
+    if (status == PF_OK)
+        status = bind_for_dispatch(cmds, pipeline, buffers, buffer_count, push_constants,
+                                   push_constant_bytes, err);
+    if (status != PF_OK)
+        return status;
+    vkCmdDispatch(cmds->command, groups_x, groups_y, groups_z);
+    cmds->device_work++;
+    return PF_OK;
+}
+
+pf_status pf_vk_cmd_dispatch_indirect(pf_vk_commands *cmds, pf_vk_pipeline *pipeline,
+                                      pf_vk_buffer *const *buffers, uint32_t buffer_count,
+                                      const void *push_constants, uint32_t push_constant_bytes,
+                                      pf_vk_buffer *groups, uint64_t offset, pf_error *err)
+{
+    const uint32_t none[3] = {0, 0, 0};
+    pf_status status = check_dispatch(cmds, pipeline, buffers, buffer_count, push_constants,
+                                      push_constant_bytes, none, err);
+    if (status == PF_OK && (!groups || offset % 4 != 0 || offset + 12 > groups->size))
+        status = pf_error_set(err, PF_ERR_INVALID,
+                              "shader '%s': indirect dispatch at byte %llu of a %llu-byte buffer",
+                              pipeline->name, (unsigned long long)offset,
+                              (unsigned long long)(groups ? groups->size : 0));
+    if (status == PF_OK)
+        status = bind_for_dispatch(cmds, pipeline, buffers, buffer_count, push_constants,
+                                   push_constant_bytes, err);
+    if (status == PF_OK && !note_bound(cmds, groups))
+        status = pf_error_set(err, PF_ERR_NOMEM, "out of host memory recording a dispatch");
+    if (status != PF_OK)
+        return status;
+    vkCmdDispatchIndirect(cmds->command, groups->buffer, offset);
+    cmds->device_work++;
     return PF_OK;
 }
 
@@ -334,13 +372,17 @@ void pf_vk_cmd_barrier(pf_vk_commands *cmds)
 {
     if (cmds->state != RECORDING)
         return;
+    /* An indirect dispatch's group counts are read at the draw-indirect stage. */
     VkMemoryBarrier barrier = {
         .sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER,
         .srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT,
-        .dstAccessMask = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT,
+        .dstAccessMask = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT |
+                         VK_ACCESS_INDIRECT_COMMAND_READ_BIT,
     };
     vkCmdPipelineBarrier(cmds->command, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
-                         VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, 0, 1, &barrier, 0, NULL, 0, NULL);
+                         VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT |
+                             VK_PIPELINE_STAGE_DRAW_INDIRECT_BIT,
+                         0, 1, &barrier, 0, NULL, 0, NULL);
 }
 
 /* Every earlier command's writes before the copies and dispatches after. */

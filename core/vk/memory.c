@@ -191,7 +191,8 @@ pf_status pf_vk_buffer_create(pf_vk_context *ctx, uint64_t size, const char *lab
     pf_status status = allocate(
         ctx, buffer->allocated,
         VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_UNIFORM_TEXEL_BUFFER_BIT |
-            VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+            VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT |
+            VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT,
         VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, 0, buffer->label, &buffer->buffer, &buffer->memory,
         &buffer->mapped, &buffer->memory_bytes, err);
     if (status != PF_OK) {

@@ -197,7 +197,18 @@ pf_status pf_vk_cmd_dispatch(pf_vk_commands *cmds, pf_vk_pipeline *pipeline,
                              const void *push_constants, uint32_t push_constant_bytes,
                              uint32_t groups_x, uint32_t groups_y, uint32_t groups_z,
                              pf_error *err);
-/* Makes all earlier shader writes visible to later shader reads and writes. */
+/*
+ * A dispatch whose workgroup counts the device reads from groups at offset (3 uint32: x, y,
+ * z; 0 groups dispatch nothing), written by an earlier dispatch with a pf_vk_cmd_barrier
+ * between: work that only the device knows it has, without a readback. The writer keeps the
+ * counts within maxComputeWorkGroupCount (the host cannot check them).
+ */
+pf_status pf_vk_cmd_dispatch_indirect(pf_vk_commands *cmds, pf_vk_pipeline *pipeline,
+                                      pf_vk_buffer *const *buffers, uint32_t buffer_count,
+                                      const void *push_constants, uint32_t push_constant_bytes,
+                                      pf_vk_buffer *groups, uint64_t offset, pf_error *err);
+/* Makes all earlier shader writes visible to later shader reads and writes, and to the
+ * group counts of an indirect dispatch. */
 void pf_vk_cmd_barrier(pf_vk_commands *cmds);
 /* Writes a GPU timestamp; returns its slot (< 0 when timestamps are unsupported). */
 int pf_vk_cmd_timestamp(pf_vk_commands *cmds);

@@ -172,10 +172,14 @@ PF_TEST(cornell_with_precomputed_irradiance_matches_reference)
  * The gather defers the estimates of the lookups that find no point to a
  * dispatch of their own (final_deferred.comp); past the
  * buffer's capacity (here capped at 1 per sample) it runs them at once. Both
- * give the same light: only the order of the sums differs.
+ * give the same light: only the order of the sums differs. Both where the host
+ * traces the rays (it reads the counters to decide the retrace) and where the
+ * device does (final_retrace_args.comp decides it in the sample's one
+ * submission).
  */
-PF_TEST(deferred_estimates_match_those_run_in_the_gather)
+static void deferred_estimates_at(pf_trace_site site)
 {
+    pf_renderer_set_trace_site(renderer, site);
     pf_error err = {0};
     pf_render_settings settings =
         final_settings(CORNELL_WIDTH, CORNELL_HEIGHT, CORNELL_PASSES, 3, LOOKUP_PHOTONS);
@@ -207,8 +211,21 @@ PF_TEST(deferred_estimates_match_those_run_in_the_gather)
     PF_CHECK(overflow == deferred_count - CORNELL_PASSES);
     PF_CHECK_MSG(rgb < 1e-9 && indirect < 1e-9, "RGB relMSE %.3g, indirect %.3g", rgb, indirect);
     PF_CHECK(deferred_report.discarded_samples == 0 && at_once_report.discarded_samples == 0);
+    /* The shade's submissions: the device's retrace adds none. */
+    printf("  %s traces: shade %g submissions, %g with the cap\n",
+           site == PF_TRACE_DEVICE ? "the device" : "the host", counter_of(shade, "submits"),
+           counter_of(capped, "submits"));
+    if (site == PF_TRACE_DEVICE)
+        PF_CHECK(counter_of(capped, "submits") == counter_of(shade, "submits"));
     pf_image_free(&deferred);
     pf_image_free(&at_once);
+    pf_renderer_set_trace_site(renderer, PF_TRACE_AUTO);
+}
+
+PF_TEST(deferred_estimates_match_those_run_in_the_gather)
+{
+    deferred_estimates_at(PF_TRACE_HOST);
+    deferred_estimates_at(PF_TRACE_DEVICE);
 }
 
 /*

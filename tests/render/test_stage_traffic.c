@@ -110,12 +110,13 @@ static void check_preset(pf_quality quality, uint32_t samples)
     }
     /* shade's submissions, none of them a copy on its own (issue 44): the film's split and
      * readback go with the last passes, fast's cascade table with its dispatches, final's
-     * parameters and empty grid with its first sample (final: 2 a pass and the scene's
-     * upload, which the photon stages need first). The counts do not depend on the
-     * machine's speed: reference's 2 samples are its first pass alone (timed) and the one
-     * left, whatever the batch size. Before: fast 3, final 8, reference 3. */
+     * parameters and empty grid with its first sample (final: 1 a pass, the device deciding
+     * any retrace, and the scene's upload, which the photon stages need first). The counts
+     * do not depend on the machine's speed: reference's 2 samples are its first pass alone
+     * (timed) and the one left, whatever the batch size. Before: fast 3, final 8 (then 5),
+     * reference 3. */
     static const double shade_most[] = {[PF_QUALITY_PREVIEW] = 1, [PF_QUALITY_FAST] = 2,
-                                        [PF_QUALITY_FINAL] = 2 * FINAL_PASSES + 1,
+                                        [PF_QUALITY_FINAL] = FINAL_PASSES + 1,
                                         [PF_QUALITY_REFERENCE] = 2};
     if ((size_t)quality < sizeof shade_most / sizeof shade_most[0] && shade_most[quality] > 0) {
         const pf_stage_timing *shade = ref_row(&report, "shade");
