@@ -77,13 +77,20 @@ PF_TEST(a_still_shot_reads_zero_without_tracing)
     ref_scene_free(&scene);
 }
 
-static int render_motion_report(const ref_scene *now, const ref_scene *before, pf_image *image,
-                                pf_frame_report *out)
+/* preview at WIDTH × HEIGHT, AOVs on. */
+static pf_render_settings motion_settings(void)
 {
     pf_render_settings settings = pf_render_settings_default();
     settings.quality = PF_QUALITY_PREVIEW;
     settings.width = WIDTH;
     settings.height = HEIGHT;
+    return settings;
+}
+
+static int render_motion_report(const ref_scene *now, const ref_scene *before, pf_image *image,
+                                pf_frame_report *out)
+{
+    pf_render_settings settings = motion_settings();
     pf_frame_report report = {0};
     pf_error err = {0};
     PF_CHECK_OK(pf_render_frame(renderer, &now->frame, &settings, image, &report, &err), &err);
@@ -169,10 +176,7 @@ PF_TEST(a_tree_refit_on_the_device_traces_the_same_motion)
         pf_error err = {0};
         PF_REQUIRE_OK(pf_renderer_create(ctx, &own, &err), &err);
         pf_renderer_set_bih_build(own, sites[s]);
-        pf_render_settings settings = pf_render_settings_default();
-        settings.quality = PF_QUALITY_PREVIEW;
-        settings.width = WIDTH;
-        settings.height = HEIGHT;
+        pf_render_settings settings = motion_settings();
         pf_image first = {0};
         pf_frame_report report = {0};
         PF_CHECK_OK(pf_render_frame(own, &before.frame, &settings, &first, &report, &err), &err);
