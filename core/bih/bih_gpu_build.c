@@ -5,7 +5,11 @@
  * and the readbacks of the compacted nodes (at their bound, 2n - 1), the
  * leaf-order vertices and the triangle index into one command buffer: one
  * submission and one wait (issue 44). It then measures the tree (depth,
- * leaves) while walking it once.
+ * leaves) while walking it once. Where the nodes stay on the device
+ * (pf_bih_build_gpu_kept), the device measures the tree instead (the refit's
+ * passes, bih_gpu_refit.c, over the boxes the collapse writes) and only the
+ * triangle index and the measures come back; the host gathers the leaf-order
+ * vertices itself.
  */
 #include "bih_internal.h"
 
@@ -299,7 +303,8 @@ static pf_status adopt_measures(pf_bih *out, const pf_scene_frame *frame, uint32
 }
 
 /* The build; with tree non-NULL its nodes, leaf-order vertices and triangle index stay on
- * the device there (tree[0..2], the caller's to destroy or hand to a pf_bih_gpu). */
+ * the device there (tree[0..2], the caller's to destroy or hand to a pf_bih_gpu), and with
+ * nodes_stay (tree non-NULL) the host gets no nodes (adopt_measures). */
 static pf_status run_gpu_build(pf_bih_gpu_builder *b, const pf_scene_frame *frame,
                                uint32_t leaf_size, const float lo[3], const float hi[3],
                                pf_bih *out, pf_vk_buffer *tree[3], int nodes_stay,

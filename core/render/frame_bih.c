@@ -280,9 +280,10 @@ pf_status pf_render_prepare_bih(pf_renderer *renderer, const pf_scene_frame *fra
                 pf_stage_add_counter(row, name, gpu->pass_ms[p]);
             }
         }
+        /* A device refit's too; a rebuild after it adds both. */
         const pf_bih_gpu_refit_report *refit = &renderer->bih_refit_report;
         if (refit_on_gpu && refit->gpu_ms >= 0.0) {
-            row->gpu_ms = refit->gpu_ms;
+            row->gpu_ms = (row->gpu_ms >= 0.0 ? row->gpu_ms : 0.0) + refit->gpu_ms;
             for (int p = 0; p < PF_BIH_REFIT_PASSES; p++) {
                 char name[32];
                 snprintf(name, sizeof name, "gpu_ms_%s",
