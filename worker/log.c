@@ -2,6 +2,7 @@
 #include "log.h"
 
 #include <pthread.h>
+#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -23,6 +24,7 @@ static void *log_hook_user;
 #define TAIL_LINES 2048
 static struct {
     int active;
+    const void *owner; /* pf_wlog_capture_begin's */
     char head[HEAD_BYTES];
     size_t head_used;
     int head_full; /* a line did not fit: every later line goes to the tail */
@@ -74,12 +76,46 @@ static void capture_line(const char *line, size_t length)
     capture.tail_bytes += length;
 }
 
-void pf_wlog_capture_begin(void)
+void pf_wlog_capture_begin(const void *owner)
 {
     pthread_mutex_lock(&log_mutex);
     capture_reset();
     capture.active = 1;
+    capture.owner = owner;
     pthread_mutex_unlock(&log_mutex);
+}
+
+/* Under log_mutex: line at the end of late, within PF_WLOG_LATE_MAX. */
+static void late_line(pf_wlog_late *late, const char *line, size_t length)
+{
+    char *grown = late->used + length <= PF_WLOG_LATE_MAX
+                      ? realloc(late->text, late->used + length + 1)
+                      : NULL;
+    if (!grown) {
+        late->dropped++;
+        return;
+    }
+    memcpy(grown + late->used, line, length + 1);
+    late->text = grown;
+    late->used += length;
+}
+
+char *pf_wlog_late_take(pf_wlog_late *late)
+{
+    pthread_mutex_lock(&log_mutex);
+    char *text = late->text;
+    size_t used = late->used;
+    long dropped = late->dropped;
+    *late = (pf_wlog_late){0};
+    pthread_mutex_unlock(&log_mutex);
+    if (dropped > 0) {
+        char *grown = realloc(text, used + MARKER_BYTES);
+        if (grown) {
+            snprintf(grown + used, MARKER_BYTES, "... %ld lines left out ...\n", dropped);
+            text = grown;
+        }
+    }
+    return text;
 }
 
 char *pf_wlog_capture_end(void)
@@ -131,7 +167,15 @@ static const char *level_name(pf_log_level level)
     }
 }
 
-void pf_wlog(pf_log_level level, const char *event, const char *format, ...)
+/* A line's routes: every capture (pf_wlog), or only owner's with late for the rest. */
+typedef struct line_route {
+    int about; /* pf_wlog_about */
+    const void *owner;
+    pf_wlog_late *late;
+} line_route;
+
+static void log_line(line_route route, pf_log_level level, const char *event,
+                     const char *format, va_list args)
 {
     char line[LINE_MAX_BYTES];
     struct timeval now;
@@ -144,10 +188,7 @@ void pf_wlog(pf_log_level level, const char *event, const char *format, ...)
     length += written > 0 ? (size_t)written : 0;
     if (format && *format && length + 1 < sizeof line) {
         line[length++] = ' ';
-        va_list args;
-        va_start(args, format);
         written = vsnprintf(line + length, sizeof line - length, format, args);
-        va_end(args);
         length += written > 0 ? (size_t)written : 0;
     }
     if (length > sizeof line - 2)
@@ -159,11 +200,31 @@ void pf_wlog(pf_log_level level, const char *event, const char *format, ...)
         log_hook(1, log_hook_user);
     fputs(line, stderr);
     fflush(stderr);
-    if (capture.active)
+    int captured = capture.active && (!route.about || capture.owner == route.owner);
+    if (captured)
         capture_line(line, length);
+    else if (route.about && route.late)
+        late_line(route.late, line, length);
     if (log_hook)
         log_hook(0, log_hook_user);
     pthread_mutex_unlock(&log_mutex);
+}
+
+void pf_wlog(pf_log_level level, const char *event, const char *format, ...)
+{
+    va_list args;
+    va_start(args, format);
+    log_line((line_route){0, NULL, NULL}, level, event, format, args);
+    va_end(args);
+}
+
+void pf_wlog_about(const void *owner, pf_wlog_late *late, pf_log_level level,
+                   const char *event, const char *format, ...)
+{
+    va_list args;
+    va_start(args, format);
+    log_line((line_route){1, owner, late}, level, event, format, args);
+    va_end(args);
 }
 
 const char *pf_wlog_quote(const char *text, char *out, size_t size)

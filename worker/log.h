@@ -42,9 +42,32 @@ void pf_wlog_capture_core(void);
  * discarded.
  */
 #define PF_WLOG_CAPTURE_MAX (64 * 1024)
-void pf_wlog_capture_begin(void);
+/* owner: the attempt the capture is for (pf_wlog_about's), NULL for none in particular. */
+void pf_wlog_capture_begin(const void *owner);
 /* Ends the capture: its text (malloc'ed), or NULL when none ran or out of memory. */
 char *pf_wlog_capture_end(void);
+
+/*
+ * Lines about an attempt logged while its capture is not running (the worker renders the
+ * next task while the last one's frames are written): kept here, under the log's lock, for
+ * its log, at most PF_WLOG_LATE_MAX bytes (later ones are counted). Zero-initialised.
+ */
+#define PF_WLOG_LATE_MAX (8 * 1024)
+typedef struct pf_wlog_late {
+    char *text;
+    size_t used;
+    long dropped;
+} pf_wlog_late;
+/*
+ * pf_wlog for a line about owner's attempt: into the capture while it is owner's, else
+ * into late (when not NULL), never into another attempt's capture.
+ */
+void pf_wlog_about(const void *owner, pf_wlog_late *late, pf_log_level level,
+                   const char *event, const char *format, ...)
+    __attribute__((format(printf, 5, 6)));
+/* late's lines (malloc'ed, with a line saying how many were left out; NULL for none), and
+ * late emptied. */
+char *pf_wlog_late_take(pf_wlog_late *late);
 
 /* Writes text into out as a double-quoted value with '"', '\\' and control
  * characters escaped, truncating to fit; returns out. */

@@ -66,6 +66,7 @@ typedef struct task_run {
     int lease_lost;
     int heartbeat_in_flight;
     char *log;               /* the attempt's log, from the claim to the render's end */
+    pf_wlog_late late_log;   /* lines about it logged after that, until its log is stored */
 
     /* The render's (render work owns them until render_after). */
     pf_frame_output *outputs;
@@ -208,21 +209,38 @@ static void log_db_error(worker *w, const char *what, const db_op *op)
             pf_wlog_quote(op->err.message, quoted, sizeof quoted));
 }
 
-/* Stores the lines logged from the claim to the render's end as this attempt's log
- * (issue 41), first thing when the task is let go, whatever the outcome. On the thread
+/*
+ * A line about run's attempt: in its own log (its capture while it renders, its late lines
+ * while its frames are written), never in the attempt of the task claimed meanwhile.
+ */
+#define RUN_LOG(run, level, event, ...) \
+    pf_wlog_about((run), &(run)->late_log, (level), (event), __VA_ARGS__)
+
+/* Stores the lines logged from the claim to the render's end, and those about it logged
+ * since (its frames' writes), as this attempt's log (issue 41), first thing when the task
+ * is let go, whatever the outcome. On the thread
  * pool, under queue_mutex. A log the queue refuses is reported, and the task is settled
  * all the same. */
 static void store_attempt_log(worker *w, task_run *run)
 {
-    char *text = run->log;
+    char *text = run->log, *late = pf_wlog_late_take(&run->late_log);
     run->log = NULL;
+    if (text && late) { /* the lines about it logged while its frames were written */
+        size_t length = strlen(text);
+        char *both = realloc(text, length + strlen(late) + 1);
+        if (both) {
+            strcpy(both + length, late);
+            text = both;
+        }
+    }
+    free(late);
     if (!text)
         return;
     pf_error err = {0};
     if (pf_queue_attempt_log_store(w->queue, run->task.task_id, run->task.attempt,
                                    w->worker_id, text, &err) != PF_OK) {
         char quoted[PF_ERROR_MESSAGE_MAX + 8];
-        pf_wlog(PF_LOG_WARN, "log_not_stored", "job=%" PRId64 " task=%" PRId64 " worker=%s "
+        RUN_LOG(run, PF_LOG_WARN, "log_not_stored", "job=%" PRId64 " task=%" PRId64 " worker=%s "
                 "error=%s", run->task.job_id, run->task.task_id, w->name,
                 pf_wlog_quote(err.message, quoted, sizeof quoted));
     }
@@ -277,6 +295,7 @@ static void run_settled(worker *w, task_run *run)
     discard_outputs(run);
     free(run->log);
     run->log = NULL;
+    free(pf_wlog_late_take(&run->late_log));
     w->frames_processed += run->task.frame_count;
     pf_queue_job_clear(&run->job);
     run->state = RUN_FREE;
@@ -343,7 +362,7 @@ static void release_done(db_op *op)
     worker *w = op->owner;
     task_run *run = op->run;
     if (op->status == PF_OK)
-        pf_wlog(PF_LOG_INFO, "released", "job=%" PRId64 " frame=%d task=%" PRId64 " worker=%s",
+        RUN_LOG(run, PF_LOG_INFO, "released", "job=%" PRId64 " frame=%d task=%" PRId64 " worker=%s",
                 run->task.job_id, run->task.first_frame, run->task.task_id, w->name);
     else if (op->status != PF_ERR_INVALID)
         log_db_error(w, "release", op);
@@ -359,9 +378,9 @@ static void fail_run(db_op *op)
     op->status = pf_queue_fail(op->owner->queue, op->token, run->render_err.message, &op->err);
 }
 
-static void log_lease_lost(worker *w, const task_run *run, const char *action)
+static void log_lease_lost(worker *w, task_run *run, const char *action)
 {
-    pf_wlog(PF_LOG_WARN, "lease_lost", "job=%" PRId64 " frame=%d task=%" PRId64 " worker=%s%s%s",
+    RUN_LOG(run, PF_LOG_WARN, "lease_lost", "job=%" PRId64 " frame=%d task=%" PRId64 " worker=%s%s%s",
             run->task.job_id, run->task.first_frame, run->task.task_id, w->name,
             action ? " action=" : "", action ? action : "");
 }
@@ -371,7 +390,7 @@ static void fail_done(db_op *op)
     worker *w = op->owner;
     task_run *run = op->run;
     char quoted[PF_ERROR_MESSAGE_MAX + 8];
-    pf_wlog(PF_LOG_WARN, "failed",
+    RUN_LOG(run, PF_LOG_WARN, "failed",
             "job=%" PRId64 " frame=%d task=%" PRId64 " attempt=%d worker=%s error=%s",
             run->task.job_id, run->task.first_frame, run->task.task_id, run->task.attempt,
             w->name, pf_wlog_quote(run->render_err.message, quoted, sizeof quoted));
@@ -395,11 +414,11 @@ static void fail_job_run(db_op *op)
 }
 
 /* Logs a failure that is the job's: the job is paused, this worker stays eligible. */
-static void log_job_fault(worker *w, const task_run *run, pf_frame_fault fault,
+static void log_job_fault(worker *w, task_run *run, pf_frame_fault fault,
                           const char *message)
 {
     char quoted[PF_ERROR_MESSAGE_MAX + 8];
-    pf_wlog(PF_LOG_WARN, "job_fault",
+    RUN_LOG(run, PF_LOG_WARN, "job_fault",
             "job=%" PRId64 " frame=%d task=%" PRId64 " worker=%s fault=%s action=job_paused "
             "error=%s",
             run->task.job_id, run->task.first_frame, run->task.task_id, w->name,
@@ -435,7 +454,7 @@ static void reject_done(db_op *op)
     task_run *run = op->run;
     char quoted[PF_ERROR_MESSAGE_MAX + 8];
     if (op->status == PF_OK)
-        pf_wlog(PF_LOG_WARN, "rejected",
+        RUN_LOG(run, PF_LOG_WARN, "rejected",
                 "job=%" PRId64 " frame=%d task=%" PRId64 " worker=%s action=task_failed error=%s",
                 run->task.job_id, run->task.first_frame, run->task.task_id, w->name,
                 pf_wlog_quote(run->render_err.message, quoted, sizeof quoted));
@@ -587,7 +606,7 @@ static void finish_done(db_op *op)
     } else if (op->status != PF_OK) {
         log_db_error(w, "complete", op);
         if (op->count)
-            pf_wlog(PF_LOG_WARN, "commit_failed",
+            RUN_LOG(run, PF_LOG_WARN, "commit_failed",
                     "job=%" PRId64 " frame=%d task=%" PRId64 " worker=%s action=failed_for_retry",
                     run->task.job_id, run->task.first_frame, run->task.task_id, w->name);
         w->exit_code = 1;
@@ -595,7 +614,7 @@ static void finish_done(db_op *op)
         double total_ms = 0;
         for (size_t i = 0; i < run->output_count; i++)
             total_ms += run->outputs[i].total_ms;
-        pf_wlog(PF_LOG_INFO, "completed",
+        RUN_LOG(run, PF_LOG_INFO, "completed",
                 "job=%" PRId64 " frame=%d frames=%d task=%" PRId64 " worker=%s ms=%.1f "
                 "job_frames_done=%" PRId64 " job_frames=%" PRId64 " job_status=%s",
                 run->task.job_id, run->task.first_frame, run->task.frame_count,
@@ -619,7 +638,7 @@ static void frame_written(void *user, pf_frame_output *frame, pf_status status,
     worker *w = run->owner;
     int64_t index = frame - run->outputs;
     if (status == PF_OK)
-        pf_wlog(PF_LOG_INFO, "written",
+        RUN_LOG(run, PF_LOG_INFO, "written",
                 "job=%" PRId64 " frame=%" PRId64 " worker=%s ms=%.1f bytes=%" PRIu64,
                 run->task.job_id, run->task.first_frame + index * run->task.frame_step,
                 w->name, frame->report.stage_count
@@ -659,7 +678,7 @@ static void run_written(worker *w, task_run *run)
         run->render_err = run->write_err;
         run->render_fault = pf_frame_fault_of(PF_FRAME_FAILED_OUTPUT);
         char quoted[PF_ERROR_MESSAGE_MAX + 8];
-        pf_wlog(PF_LOG_WARN, "render_failed",
+        RUN_LOG(run, PF_LOG_WARN, "render_failed",
                 "job=%" PRId64 " frame=%" PRId64 " task=%" PRId64 " worker=%s fault=%s error=%s",
                 run->task.job_id, run->write_failed_frame, run->task.task_id, w->name,
                 pf_frame_fault_name(run->render_fault),
@@ -843,7 +862,7 @@ static void render_task(worker *w, task_run *run)
         if (run->render_status != PF_OK) {
             run->render_fault = pf_frame_fault_of(run->outputs[i].failed);
             char quoted[PF_ERROR_MESSAGE_MAX + 8];
-            pf_wlog(PF_LOG_WARN, "render_failed",
+            RUN_LOG(run, PF_LOG_WARN, "render_failed",
                     "job=%" PRId64 " frame=%" PRId64 " worker=%s fault=%s error=%s",
                     run->job.job_id, frame, w->name, pf_frame_fault_name(run->render_fault),
                     pf_wlog_quote(run->render_err.message, quoted, sizeof quoted));
@@ -972,7 +991,7 @@ static void claim_done(db_op *op)
             db_submit(w, run, release_run, release_done);
             return;
         }
-        pf_wlog_capture_begin();
+        pf_wlog_capture_begin(run);
         pf_wlog(PF_LOG_INFO, "claimed",
                 "job=%" PRId64 " frame=%d frames=%d task=%" PRId64 " attempt=%d worker=%s",
                 run->task.job_id, run->task.first_frame, run->task.frame_count,

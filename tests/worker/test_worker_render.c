@@ -1093,6 +1093,22 @@ static void frame_2_renders_while_frame_1_is_written(int frames_per_task)
     PF_CHECK(wt_count_files(out, "partial") == 0);
     PF_CHECK_MSG(rows_written_behind(db, job_id) == 2, "%d exr_write rows behind",
                  rows_written_behind(db, job_id));
+    /* Each frame's `written` line is in its own task's attempt log, also frame 1's, written
+     * while task 2 rendered: not in task 2's. */
+    static const char *const logs_with =
+        "SELECT count(*) FROM attempt_logs l JOIN tasks t ON t.id = l.task_id "
+        "WHERE t.job_id = ?1 AND instr(l.log, ?2) > 0 AND t.first_frame = %d";
+    for (int frame = 1; frame <= 2; frame++) {
+        char sql[512], line[64];
+        wt_format(sql, sizeof sql, logs_with, frames_per_task == 1 ? frame : 1);
+        wt_format(line, sizeof line, "event=written job=1 frame=%d ", frame);
+        int own = wt_count_query(db, sql, job_id, line);
+        wt_format(sql, sizeof sql, logs_with, frames_per_task == 1 ? 3 - frame : 0);
+        int other = wt_count_query(db, sql, job_id, line);
+        PF_CHECK_MSG(own == 1 && other == 0,
+                     "frame %d's written line: in %d logs of its task, %d of the other", frame,
+                     own, other);
+    }
 }
 
 PF_TEST(the_next_frame_renders_while_the_last_is_written)
