@@ -283,7 +283,7 @@ pf_status pf_render_prepare_bih(pf_renderer *renderer, const pf_scene_frame *fra
         /* A device refit's too; a rebuild after it adds both. */
         const pf_bih_gpu_refit_report *refit = &renderer->bih_refit_report;
         if (refit_on_gpu && refit->gpu_ms >= 0.0) {
-            row->gpu_ms = (row->gpu_ms >= 0.0 ? row->gpu_ms : 0.0) + refit->gpu_ms;
+            pf_gpu_ms_add(&row->gpu_ms, refit->gpu_ms);
             for (int p = 0; p < PF_BIH_REFIT_PASSES; p++) {
                 char name[32];
                 snprintf(name, sizeof name, "gpu_ms_%s",
@@ -327,6 +327,18 @@ pf_status pf_renderer_bih_wide(pf_renderer *renderer, const pf_bih_wide **out, p
     }
     *out = &renderer->bih_wide;
     return PF_OK;
+}
+
+pf_status pf_renderer_wave_tracer_create(pf_renderer *renderer, uint32_t paths,
+                                         uint32_t shadow_slots, pf_bih_wave_tracer **out,
+                                         pf_error *err)
+{
+    *out = NULL;
+    const pf_bih_wide *wide = NULL;
+    pf_status status = pf_renderer_bih_wide(renderer, &wide, err);
+    if (status == PF_OK)
+        status = pf_bih_wave_tracer_create(&renderer->bih, wide, paths, shadow_slots, out, err);
+    return status;
 }
 
 void pf_renderer_bih_wide_drop(pf_renderer *renderer)

@@ -114,11 +114,8 @@ pf_status pf_reference_wave_create(pf_renderer *renderer, const pf_render_settin
         wave->queues.shadow_rays = pf_vk_buffer_host_memory(wave->buffers[WAVE_SHADOW_RAYS]);
         wave->queues.shadow_hits = pf_vk_buffer_host_memory(wave->buffers[WAVE_SHADOW_HITS]);
         wave->active = pf_vk_buffer_host_memory(wave->buffers[WAVE_ACTIVE]);
-        const pf_bih_wide *wide = NULL;
-        status = pf_renderer_bih_wide(renderer, &wide, err);
-        if (status == PF_OK)
-            status = pf_bih_wave_tracer_create(&renderer->bih, wide, wave->capacity,
-                                               wave->shadow_slots, &wave->tracer, err);
+        status = pf_renderer_wave_tracer_create(renderer, wave->capacity, wave->shadow_slots,
+                                                &wave->tracer, err);
     }
     if (status != PF_OK) {
         pf_reference_wave_destroy(wave);

@@ -81,11 +81,7 @@ pf_status pf_host_rays_create(pf_renderer *renderer, uint32_t width, uint32_t he
         queue->queues.hits = pf_vk_buffer_host_memory(queue->buffers[HOST_HITS]);
         queue->queues.queue = pf_vk_buffer_host_memory(queue->buffers[HOST_QUEUE]);
         /* Closest hits only: a slot's word is 1 or 0, no shadow rays. */
-        const pf_bih_wide *wide = NULL;
-        status = pf_renderer_bih_wide(renderer, &wide, err);
-        if (status == PF_OK)
-            status = pf_bih_wave_tracer_create(&renderer->bih, wide, queue->slots, 1,
-                                               &queue->tracer, err);
+        status = pf_renderer_wave_tracer_create(renderer, queue->slots, 1, &queue->tracer, err);
     }
     if (status != PF_OK) {
         pf_host_rays_destroy(queue);

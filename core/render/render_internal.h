@@ -285,6 +285,12 @@ pf_status pf_renderer_bih_host(pf_renderer *renderer, const pf_bih **out, pf_err
 /* The wide view of renderer->bih, built once per tree (frame_bih.c); the host's traces of a
  * frame (reference's wavefront, final's rays, the photons) share it. */
 pf_status pf_renderer_bih_wide(pf_renderer *renderer, const pf_bih_wide **out, pf_error *err);
+/* A host tracer of the frame's tree for up to paths paths of shadow_slots shadow rays each
+ * (pf_bih_wave_tracer_create over renderer's tree and wide view); destroy it before the
+ * tree changes. */
+pf_status pf_renderer_wave_tracer_create(pf_renderer *renderer, uint32_t paths,
+                                         uint32_t shadow_slots, pf_bih_wave_tracer **out,
+                                         pf_error *err);
 /* Forgets the wide view: renderer->bih changed or is gone. */
 void pf_renderer_bih_wide_drop(pf_renderer *renderer);
 
