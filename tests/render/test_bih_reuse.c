@@ -391,6 +391,41 @@ static void hand_built_sequence(const char *build_site)
     forced_build = PF_BIH_BUILD_AUTO;
 }
 
+/*
+ * A tree built on the device keeps its nodes there (issue 44); a renderer told to build on
+ * the CPU from then on refits it on the host, which first fetches the nodes: the refit
+ * frame's image is a fresh CPU-built renderer's. And back: the host's refit tree, uploaded,
+ * refits on the device.
+ */
+PF_TEST(a_tree_kept_on_the_device_refits_on_the_host_when_the_site_changes)
+{
+    pf_renderer *renderer = NULL;
+    pf_error err = {0};
+    PF_REQUIRE_OK(pf_renderer_create(ctx, &renderer, &err), &err);
+    hand_frame *scene = malloc(sizeof *scene);
+    PF_REQUIRE(scene);
+    pf_image image = {0};
+    const pf_bih_build_site sites[3] = {PF_BIH_BUILD_GPU, PF_BIH_BUILD_CPU, PF_BIH_BUILD_GPU};
+    for (int step = 0; step < 3; step++) {
+        forced_build = sites[step];
+        pf_renderer_set_bih_build(renderer, forced_build);
+        make_hand_frame(scene, GRID * GRID, 1.0f, 0.02f * (float)step);
+        rendered result = render(renderer, &scene->frame, &image);
+        PF_CHECK_MSG(result.decision == (step == 0 ? DECISION_BUILT : DECISION_REFIT) &&
+                         result.refit_on_gpu == (step == 2),
+                     "step %d: %s, refit on the GPU %d", step, result.reason,
+                     result.refit_on_gpu);
+        if (step > 0)
+            check_matches_fresh_renderer(step == 1 ? "device tree refit on the host"
+                                                   : "host tree refit on the device",
+                                         &scene->frame, &image, &result);
+        pf_image_free(&image);
+    }
+    forced_build = PF_BIH_BUILD_AUTO;
+    pf_renderer_destroy(renderer);
+    free(scene);
+}
+
 PF_TEST(hand_built_frames_with_cpu_builds)
 {
     hand_built_sequence("cpu");
@@ -410,6 +445,7 @@ int main(void)
     PF_RUN(cornell_moving_reuses_refits_and_matches_fresh_builds);
     PF_RUN(hand_built_frames_with_cpu_builds);
     PF_RUN(hand_built_frames_with_gpu_builds);
+    PF_RUN(a_tree_kept_on_the_device_refits_on_the_host_when_the_site_changes);
     VK_TEST_FINISH(ctx);
     return pf_test_finish();
 }
