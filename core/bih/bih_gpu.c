@@ -182,10 +182,8 @@ pf_status pf_bih_gpu_download_nodes(pf_bih_gpu *device, pf_bih *bih, pf_error *e
     if (status == PF_OK)
         status = pf_vk_buffer_download(device->ctx, device->nodes, 0, texels,
                                        (uint64_t)bih->node_count * sizeof *texels, err);
-    for (uint32_t i = 0; status == PF_OK && i < bih->node_count; i++)
-        nodes[i] = (pf_bih_node){{pf_bih_bits_to_float(texels[i][0]),
-                                  pf_bih_bits_to_float(texels[i][1])},
-                                 texels[i][2]};
+    if (status == PF_OK)
+        pf_bih_nodes_from_texels((const uint32_t(*)[4])texels, bih->node_count, nodes);
     free(texels);
     /* Walked on a copy of the statistics, so that a malformed tree leaves bih as it was. */
     pf_bih walked = *bih;

@@ -290,14 +290,12 @@ static pf_status adopt_measures(pf_bih *out, const pf_scene_frame *frame, uint32
     out->depth = fit->stats[0];
     out->leaf_count = fit->stats[1];
     out->largest_leaf = fit->stats[2];
-    for (uint32_t p = 0; p < out->triangle_count; p++) {
+    for (uint32_t p = 0; p < out->triangle_count; p++)
         if (out->triangle_index[p] >= frame->triangle_count)
             return pf_error_set(err, PF_ERR_INTERNAL,
                                 "BIH GPU build: leaf position %u holds triangle %u of %u", p,
                                 out->triangle_index[p], frame->triangle_count);
-        pf_bih_copy_leaf_triangle(&out->vertices[3 * (size_t)p], frame, out->triangle_index[p]);
-    }
-    pf_bih_flag_degenerate(out->vertices, out->triangle_count);
+    pf_bih_gather_leaf_vertices(out, frame);
     report->sah_cost = fit->cost;
     return PF_OK;
 }
@@ -410,10 +408,7 @@ static pf_status run_gpu_build(pf_bih_gpu_builder *b, const pf_scene_frame *fram
         status = adopt_measures(out, frame, kept, &fit, report, err);
     if (status == PF_OK && !nodes_stay) {
         out->node_count = 1 + 2 * kept;
-        for (uint32_t i = 0; i < out->node_count; i++)
-            out->nodes[i] = (pf_bih_node){{pf_bih_bits_to_float(texels[i][0]),
-                                           pf_bih_bits_to_float(texels[i][1])},
-                                          texels[i][2]};
+        pf_bih_nodes_from_texels((const uint32_t(*)[4])texels, out->node_count, out->nodes);
         pf_bih_node *fitted = realloc(out->nodes, out->node_count * sizeof *out->nodes);
         out->nodes = fitted ? fitted : out->nodes;
     }

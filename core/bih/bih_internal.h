@@ -157,6 +157,24 @@ static inline void pf_bih_copy_leaf_triangle(float (*leaf)[4], const pf_scene_fr
 }
 
 /*
+ * frame's triangles into bih's leaf order (bih->vertices from bih->triangle_index, every
+ * index below frame's count), with their degenerate flags: the refit's gather, and a kept
+ * GPU build's copy of what the device holds (bih_refit.c).
+ */
+void pf_bih_gather_leaf_vertices(pf_bih *bih, const pf_scene_frame *frame);
+
+/* count nodes from the device's 16-byte texels (clip0 bits, clip1 bits, word, 0), as
+ * pf_bih_gpu_upload writes them: the GPU build's readback and the nodes' download. */
+static inline void pf_bih_nodes_from_texels(const uint32_t (*texels)[4], uint32_t count,
+                                            pf_bih_node *nodes)
+{
+    for (uint32_t i = 0; i < count; i++)
+        nodes[i] = (pf_bih_node){{pf_bih_bits_to_float(texels[i][0]),
+                                  pf_bih_bits_to_float(texels[i][1])},
+                                 texels[i][2]};
+}
+
+/*
  * The refit's first half (pf_bih_refit without the bounds): frame checked as
  * pf_bih_refit checks it (PF_ERR_INVALID, the tree unchanged), then its
  * triangles gathered into the leaf order with their degenerate flags. The clip

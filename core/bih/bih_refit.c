@@ -81,8 +81,7 @@ static pf_status check_frame(const pf_bih *bih, const pf_scene_frame *frame, pf_
     return PF_OK;
 }
 
-/* frame's triangles into the leaf order, with their degenerate flags. */
-static void gather_vertices(pf_bih *bih, const pf_scene_frame *frame)
+void pf_bih_gather_leaf_vertices(pf_bih *bih, const pf_scene_frame *frame)
 {
     for (uint32_t p = 0; p < bih->triangle_count; p++)
         pf_bih_copy_leaf_triangle(&bih->vertices[3 * (size_t)p], frame, bih->triangle_index[p]);
@@ -118,7 +117,8 @@ static void fit_bounds(pf_bih *bih, const uint32_t *order, uint32_t listed, pf_b
     }
 }
 
-/* The tree listed (validated) and, when fit, its bounds fitted; gather first when frame. */
+/* Lists (so validates) the tree, gathers frame's triangles when frame is given, then fits
+ * every clip value and the root box. */
 static pf_status refit_with(pf_bih *bih, const pf_scene_frame *frame, pf_error *err)
 {
     uint32_t *order = malloc(bih->node_count * sizeof *order);
@@ -131,7 +131,7 @@ static pf_status refit_with(pf_bih *bih, const pf_scene_frame *frame, pf_error *
         status = list_top_down(bih, order, &listed, err);
     if (status == PF_OK) {
         if (frame)
-            gather_vertices(bih, frame);
+            pf_bih_gather_leaf_vertices(bih, frame);
         fit_bounds(bih, order, listed, boxes);
     }
     free(order);
@@ -152,7 +152,7 @@ pf_status pf_bih_refit_vertices(pf_bih *bih, const pf_scene_frame *frame, pf_err
 {
     pf_status status = check_frame(bih, frame, err);
     if (status == PF_OK)
-        gather_vertices(bih, frame);
+        pf_bih_gather_leaf_vertices(bih, frame);
     return status;
 }
 
