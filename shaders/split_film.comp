@@ -3,7 +3,8 @@
 // samples (split_film.c's layout: direct RGB + coverage, indirect RGB + kept
 // samples, caustic RGB; the AOV film's albedo RGB + depth, normal XYZ + its
 // own sample count) divided into means and written as the image's interleaved
-// channels (R G B A, direct, indirect, caustic, then albedo, normal, depth).
+// channels (R G B A, direct, indirect, caustic, then albedo, normal, depth;
+// the channels of later stages' layers after them are zeroed).
 // The host reads the image back as it lies, instead of dividing 80 bytes a
 // pixel on one core (110 ms at 1920x1080 on this VM); the arithmetic is the
 // host loop's it replaced, operation for operation.
@@ -15,6 +16,7 @@ layout(push_constant) uniform Push {
     uint aovs;          // 1: albedo, normal and depth follow (20 channels, else 13)
     uint aov_own_count; // 1: the AOV means divide by the AOV film's own count
     uint row_first;     // the band's first row of the image (the film is the image's)
+    uint channels;      // the image's: 13 or 20, and the layers later stages fill (zero here)
 } push;
 
 layout(std430, binding = 0) readonly buffer Film { vec4 film[]; };
@@ -31,8 +33,9 @@ void main()
          caustic_sum = film[3u * p + 2u];
     float kept = indirect_sum.w;
     float inverse = kept > 0.0 ? 1.0 / kept : 0.0;
-    uint channels = push.aovs != 0u ? 20u : 13u;
-    uint o = (y * push.width + x) * channels;
+    uint o = (y * push.width + x) * push.channels;
+    for (uint c = push.aovs != 0u ? 20u : 13u; c < push.channels; c++)
+        pixels[o + c] = 0.0;
     for (uint c = 0u; c < 3u; c++) {
         // precise: no fused multiply-add, so the sum rounds as the host's did.
         precise float direct = direct_sum[c] * inverse;

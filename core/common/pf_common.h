@@ -70,6 +70,15 @@ uint32_t pf_log_warning_count(void);
 /* Monotonic clock in milliseconds. */
 double pf_time_ms(void);
 
+/* The cores online, 1..most: how many slices pf_run_parallel is worth given. */
+uint32_t pf_cpu_cores(uint32_t most);
+/*
+ * Runs fn(items + i·item_size) for every i in [0, count): item 0 on the calling thread,
+ * each other on a thread of its own (the caller runs an item whose thread could not
+ * start), and returns when all are done. Items that write disjoint memory need no locks.
+ */
+void pf_run_parallel(void *items, size_t item_size, uint32_t count, void (*fn)(void *item));
+
 /*
  * Vose's alias method (Vose 1991, "A linear algorithm for generating random
  * numbers with a given distribution"; pbrt-v4 AliasTable): picks index i

@@ -42,11 +42,9 @@
 #include "render_internal.h"
 
 #include <math.h>
-#include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <unistd.h>
 
 #define DENOISE_PASSES 5
 #define DENOISE_NORMAL_SQUARINGS 7 /* the normal weight's exponent: 2^7 = 128 */
@@ -266,39 +264,27 @@ typedef struct denoise_slice {
     int step, row_begin, row_end;
 } denoise_slice;
 
-static void *slice_entry(void *argument)
+static void slice_entry(void *argument)
 {
     denoise_slice *slice = argument;
     if (slice->step == 0)
         estimate_variance(slice->planes, slice->row_begin, slice->row_end);
     else
         atrous_rows(slice->planes, slice->step, slice->row_begin, slice->row_end);
-    return NULL;
 }
 
 /* Runs step (0: the variance estimate) over every row, split between the cores; rows only
  * read the planes a pass does not write, so the slices need no locks. */
 static void run_rows(denoise_planes *planes, int step)
 {
-    long cores = sysconf(_SC_NPROCESSORS_ONLN);
-    int threads = cores < 1 ? 1 : cores > DENOISE_MAX_THREADS ? DENOISE_MAX_THREADS : (int)cores;
+    int threads = (int)pf_cpu_cores(DENOISE_MAX_THREADS);
     int h = (int)planes->height;
     if (threads > h)
         threads = h;
     denoise_slice slices[DENOISE_MAX_THREADS];
-    pthread_t ids[DENOISE_MAX_THREADS];
-    int started[DENOISE_MAX_THREADS] = {0};
     for (int t = 0; t < threads; t++)
         slices[t] = (denoise_slice){planes, step, h * t / threads, h * (t + 1) / threads};
-    for (int t = 1; t < threads; t++)
-        started[t] = pthread_create(&ids[t], NULL, slice_entry, &slices[t]) == 0;
-    slice_entry(&slices[0]);
-    for (int t = 1; t < threads; t++) {
-        if (started[t])
-            pthread_join(ids[t], NULL);
-        else
-            slice_entry(&slices[t]); /* no thread: this one does the slice */
-    }
+    pf_run_parallel(slices, sizeof slices[0], (uint32_t)threads, slice_entry);
 }
 
 /* One à-trous pass of spread `step` from planes->lighting/variance into them again. */
@@ -435,19 +421,16 @@ static pf_status denoise_run(pf_renderer *renderer, pf_image *image, int keep_no
     }
     free(noisy);
 
-    static const char *const added[4] = {"noisy.R", "noisy.G", "noisy.B", "variance.Y"};
-    pf_image grown = {0};
+    uint32_t first_added = 0, channels_before = image->channel_count;
     if (status == PF_OK && keep_noisy)
-        status = pf_image_append_channels(image, added, 4, &grown, err);
+        status = pf_image_later_layer(image, pf_noisy_channels, 4, &first_added, err);
     if (status != PF_OK) {
         free(estimate);
         planes_free(&planes);
         return status;
     }
-    pf_image *out = keep_noisy ? &grown : image;
-    uint32_t first_added = image->channel_count;
     for (size_t p = 0; p < pixels; p++) {
-        float *texel = out->pixels + p * out->channel_count;
+        float *texel = image->pixels + p * image->channel_count;
         if (keep_noisy) {
             for (int c = 0; c < 3; c++)
                 texel[first_added + c] = finite_or_zero(texel[at.beauty[c]]);
@@ -467,10 +450,6 @@ static pf_status denoise_run(pf_renderer *renderer, pf_image *image, int keep_no
     }
     free(estimate);
     planes_free(&planes);
-    if (keep_noisy) {
-        pf_image_free(image);
-        *image = grown;
-    }
     pf_stage_timing *row = pf_frame_report_row(report, "denoise", NULL, pf_time_ms() - start,
                                                gpu_ms);
     if (row) {
@@ -481,6 +460,8 @@ static pf_status denoise_run(pf_renderer *renderer, pf_image *image, int keep_no
         pf_stage_add_counter(row, "passes", DENOISE_PASSES);
         pf_stage_add_counter(row, "mean_variance", noisy_variance / (double)pixels);
         pf_stage_add_counter(row, "on_device", device);
+        /* 1: the noisy layer appended to a copy of the image (not created with it). */
+        pf_stage_add_counter(row, "image_copied", image->channel_count != channels_before);
         if (device) /* one submission, one wait (issue 44) */
             pf_stage_add_traffic(row, traffic);
     }

@@ -545,7 +545,7 @@ static pf_status fast_begin(pf_frame_run *run, pf_error *err)
     f->start_ms = pf_time_ms();
     f->progress.shade_gpu_ms = f->progress.propagate_gpu_ms = f->progress.inject_gpu_ms = -1.0;
     status = pf_split_image_create(run->image, settings->width, settings->height, settings->aovs,
-                                   err);
+                                   settings->later_layers, err);
     if (status == PF_OK)
         status = pf_photon_frame_prepare(renderer, run->frame, &plan->emitters, &f->inputs, err);
     f->inputs_ready = status == PF_OK;

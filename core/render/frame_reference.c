@@ -284,7 +284,8 @@ static pf_status reference_run(pf_frame_run *run, pf_stage_id stage, uint32_t pa
                             (unsigned long long)(film_bytes >> 20),
                             (unsigned long long)(buffer_limit >> 20));
     pf_status status =
-        pf_split_image_create(image, settings->width, settings->height, settings->aovs, err);
+        pf_split_image_create(image, settings->width, settings->height, settings->aovs,
+                              settings->later_layers, err);
     if (status != PF_OK)
         return status;
     double shade_start = pf_time_ms();

@@ -3,10 +3,11 @@
  * Blender's compositor or Nuke, and a temporal denoiser, read. For each pixel
  * the surface seen through the pixel's centre is found by tracing that ray
  * through the frame's BIH on the host (the CPU copy every bih_build leaves in
- * the renderer; packets of coherent primary rays), its point is carried to the
- * previous frame by its triangle's barycentric coordinates (triangles keep
- * their index from frame to frame, so skinning, morphing and node animation
- * all move it), and projected by the previous frame's camera.
+ * the renderer; packets of coherent primary rays, the image in slices on every
+ * core), its point is carried to the previous frame by its triangle's
+ * barycentric coordinates (triangles keep their index from frame to frame, so
+ * skinning, morphing and node animation all move it), and projected by the
+ * previous frame's camera.
  *
  * Convention, as Cycles' Vector pass (checked against Blender 3.4's: a plane
  * moving 8 px right and 4 px up reads (-8, -4)): motion.X and motion.Y are
@@ -75,6 +76,98 @@ static void barycentric(const float (*v)[4], const double p[3], double w[3])
     w[0] = 1.0 - w[1] - w[2];
 }
 
+/* Most threads tracing the stage's rays (one a core). */
+#define MOTION_MAX_THREADS 64u
+
+/* One thread's slice of the image: pixels [first, end), traced and projected into out. */
+typedef struct motion_slice {
+    const pf_bih *tree;
+    const pf_scene_frame *frame, *previous;
+    float tan_x, tan_y, previous_tan_x, previous_tan_y;
+    uint32_t width, height, channels; /* out's channels, of which motion.X/Y */
+    uint32_t first_channel;           /* are these two */
+    int same_camera;
+    float *out;
+    float *depth_change;
+    size_t first, end;
+    uint64_t moving, seen;
+    pf_status status;
+    pf_error err;
+} motion_slice;
+
+static void motion_rows(void *argument)
+{
+    motion_slice *s = argument;
+    const pf_scene_frame *frame = s->frame, *previous = s->previous;
+    uint32_t width = s->width, height = s->height, channels = s->channels;
+    pf_ray *rays = malloc(MOTION_RAY_BATCH * sizeof *rays);
+    pf_hit *hits = malloc(MOTION_RAY_BATCH * sizeof *hits);
+    s->status = rays && hits ? PF_OK : pf_error_set(&s->err, PF_ERR_NOMEM, "out of memory");
+    for (size_t first = s->first; s->status == PF_OK && first < s->end;
+         first += MOTION_RAY_BATCH) {
+        uint32_t count = (uint32_t)(s->end - first < MOTION_RAY_BATCH ? s->end - first
+                                                                      : MOTION_RAY_BATCH);
+        for (uint32_t i = 0; i < count; i++) {
+            size_t p = first + i;
+            double ndc_x = 2.0 * ((double)(p % width) + 0.5) / width - 1.0;
+            double ndc_y = 1.0 - 2.0 * ((double)(p / width) + 0.5) / height;
+            double d[3], length = 0.0;
+            for (int k = 0; k < 3; k++) {
+                d[k] = frame->camera.forward[k] + ndc_x * s->tan_x * frame->camera.right[k] +
+                       ndc_y * s->tan_y * frame->camera.up[k];
+                length += d[k] * d[k];
+            }
+            length = sqrt(length);
+            for (int k = 0; k < 3; k++) {
+                rays[i].origin[k] = frame->camera.position[k];
+                rays[i].direction[k] = (float)(d[k] / length);
+            }
+            rays[i].tmin = 0.0f;
+            rays[i].tmax = INFINITY;
+        }
+        s->status = pf_bih_trace_cpu_rays(s->tree, rays, count, 0, hits, &s->err);
+        for (uint32_t i = 0; s->status == PF_OK && i < count; i++) {
+            size_t p = first + i;
+            float *out = s->out + p * channels + s->first_channel;
+            out[0] = out[1] = 0.0f;
+            if (s->depth_change)
+                s->depth_change[p] = 0.0f;
+            if (hits[i].triangle == PF_NO_HIT)
+                continue;
+            s->seen++;
+            double point[3], w[3], before[3] = {0, 0, 0};
+            for (int k = 0; k < 3; k++)
+                point[k] = rays[i].origin[k] + (double)hits[i].t * rays[i].direction[k];
+            const float(*now)[4] = frame->vertices + 3 * (size_t)hits[i].triangle;
+            const float(*then)[4] = previous->vertices + 3 * (size_t)hits[i].triangle;
+            /* A still triangle under a still camera: exactly 0, not the rounding of a
+             * round trip through the projection. */
+            if (s->same_camera && memcmp(now, then, 3 * sizeof *now) == 0)
+                continue;
+            barycentric(now, point, w);
+            for (int c = 0; c < 3; c++)
+                for (int k = 0; k < 3; k++)
+                    before[k] += w[c] * then[c][k];
+            double x, y;
+            if (!project(&previous->camera, s->previous_tan_x, s->previous_tan_y, width, height,
+                         before, &x, &y))
+                continue;
+            if (s->depth_change) {
+                double away[3];
+                for (int k = 0; k < 3; k++)
+                    away[k] = before[k] - previous->camera.position[k];
+                s->depth_change[p] = (float)(sqrt(dot3(away, away)) - (double)hits[i].t);
+            }
+            /* Previous minus this pixel's centre, y up (Cycles' Vector pass). */
+            out[0] = (float)(x - ((double)(p % width) + 0.5));
+            out[1] = (float)(((double)(p / width) + 0.5) - y);
+            s->moving += out[0] != 0.0f || out[1] != 0.0f;
+        }
+    }
+    free(rays);
+    free(hits);
+}
+
 pf_status pf_render_motion(pf_renderer *renderer, const pf_scene_frame *frame,
                            const pf_scene_frame *previous, pf_image *image, float *depth_change,
                            pf_frame_report *report, pf_error *err)
@@ -90,19 +183,14 @@ pf_status pf_render_motion(pf_renderer *renderer, const pf_scene_frame *frame,
         return pf_error_set(err, PF_ERR_INVALID,
                             "motion: the previous frame has %u triangles, this one %u",
                             previous->triangle_count, frame->triangle_count);
-    static const char *const added[2] = {"motion.X", "motion.Y"};
-    pf_image grown = {0};
-    pf_status status = pf_image_append_channels(image, added, 2, &grown, err);
+    uint32_t motion_channel = 0, channels_before = image->channel_count;
+    pf_status status = pf_image_later_layer(image, pf_motion_channels, 2, &motion_channel, err);
     if (status != PF_OK)
         return status;
-    uint32_t width = image->width, height = image->height, channels = grown.channel_count;
+    uint32_t width = image->width, height = image->height, channels = image->channel_count;
     float tan_x, tan_y, previous_tan_x, previous_tan_y;
     pf_camera_image_plane(&frame->camera, width, height, &tan_x, &tan_y);
     pf_camera_image_plane(&previous->camera, width, height, &previous_tan_x, &previous_tan_y);
-    pf_ray *rays = malloc(MOTION_RAY_BATCH * sizeof *rays);
-    pf_hit *hits = malloc(MOTION_RAY_BATCH * sizeof *hits);
-    if (!rays || !hits)
-        status = pf_error_set(err, PF_ERR_NOMEM, "motion: out of memory");
     size_t pixels = (size_t)width * height;
     uint64_t moving = 0, seen = 0;
     int same_camera = memcmp(&frame->camera, &previous->camera, sizeof frame->camera) == 0;
@@ -110,85 +198,48 @@ pf_status pf_render_motion(pf_renderer *renderer, const pf_scene_frame *frame,
      * tracing a ray. */
     int still = same_camera && memcmp(frame->vertices, previous->vertices,
                                       (size_t)frame->triangle_count * 3 * sizeof *frame->vertices) == 0;
-    if (still && status == PF_OK) {
+    if (still) {
         for (size_t p = 0; p < pixels; p++) {
-            float *out = grown.pixels + p * channels + channels - 2;
+            float *out = image->pixels + p * channels + motion_channel;
             out[0] = out[1] = 0.0f;
         }
         if (depth_change)
             memset(depth_change, 0, pixels * sizeof *depth_change);
     }
-    for (size_t first = 0; !still && status == PF_OK && first < pixels;
-         first += MOTION_RAY_BATCH) {
-        uint32_t count = (uint32_t)(pixels - first < MOTION_RAY_BATCH ? pixels - first
-                                                                      : MOTION_RAY_BATCH);
-        for (uint32_t i = 0; i < count; i++) {
-            size_t p = first + i;
-            double ndc_x = 2.0 * ((double)(p % width) + 0.5) / width - 1.0;
-            double ndc_y = 1.0 - 2.0 * ((double)(p / width) + 0.5) / height;
-            double d[3], length = 0.0;
-            for (int k = 0; k < 3; k++) {
-                d[k] = frame->camera.forward[k] + ndc_x * tan_x * frame->camera.right[k] +
-                       ndc_y * tan_y * frame->camera.up[k];
-                length += d[k] * d[k];
-            }
-            length = sqrt(length);
-            for (int k = 0; k < 3; k++) {
-                rays[i].origin[k] = frame->camera.position[k];
-                rays[i].direction[k] = (float)(d[k] / length);
-            }
-            rays[i].tmin = 0.0f;
-            rays[i].tmax = INFINITY;
-        }
-        status = pf_bih_trace_cpu_rays(tree, rays, count, 0, hits, err);
-        for (uint32_t i = 0; status == PF_OK && i < count; i++) {
-            size_t p = first + i;
-            float *out = grown.pixels + p * channels + channels - 2;
-            out[0] = out[1] = 0.0f;
-            if (depth_change)
-                depth_change[p] = 0.0f;
-            if (hits[i].triangle == PF_NO_HIT)
-                continue;
-            seen++;
-            double point[3], w[3], before[3] = {0, 0, 0};
-            for (int k = 0; k < 3; k++)
-                point[k] = rays[i].origin[k] + (double)hits[i].t * rays[i].direction[k];
-            const float(*now)[4] = frame->vertices + 3 * (size_t)hits[i].triangle;
-            const float(*then)[4] = previous->vertices + 3 * (size_t)hits[i].triangle;
-            /* A still triangle under a still camera: exactly 0, not the rounding of a
-             * round trip through the projection. */
-            if (same_camera && memcmp(now, then, 3 * sizeof *now) == 0)
-                continue;
-            barycentric(now, point, w);
-            for (int c = 0; c < 3; c++)
-                for (int k = 0; k < 3; k++)
-                    before[k] += w[c] * then[c][k];
-            double x, y;
-            if (!project(&previous->camera, previous_tan_x, previous_tan_y, width, height,
-                         before, &x, &y))
-                continue;
-            if (depth_change) {
-                double away[3];
-                for (int k = 0; k < 3; k++)
-                    away[k] = before[k] - previous->camera.position[k];
-                depth_change[p] = (float)(sqrt(dot3(away, away)) - (double)hits[i].t);
-            }
-            /* Previous minus this pixel's centre, y up (Cycles' Vector pass). */
-            out[0] = (float)(x - ((double)(p % width) + 0.5));
-            out[1] = (float)(((double)(p / width) + 0.5) - y);
-            moving += out[0] != 0.0f || out[1] != 0.0f;
+    /* Otherwise the pixels in slices of whole batches, one a core: the tree is only read,
+     * and each slice writes its own pixels. */
+    uint32_t batches = (uint32_t)((pixels + MOTION_RAY_BATCH - 1) / MOTION_RAY_BATCH);
+    uint32_t threads = pf_cpu_cores(MOTION_MAX_THREADS);
+    if (threads > batches)
+        threads = batches;
+    motion_slice slices[MOTION_MAX_THREADS];
+    for (uint32_t t = 0; !still && t < threads; t++) {
+        size_t first = (size_t)batches * t / threads * MOTION_RAY_BATCH;
+        size_t end = (size_t)batches * (t + 1) / threads * MOTION_RAY_BATCH;
+        slices[t] = (motion_slice){tree, frame, previous, tan_x, tan_y, previous_tan_x,
+                                   previous_tan_y, width, height, channels,
+                                   motion_channel, same_camera, image->pixels,
+                                   depth_change, first,
+                                   end < pixels ? end : pixels, 0, 0, PF_OK, {0}};
+    }
+    if (!still)
+        pf_run_parallel(slices, sizeof slices[0], threads, motion_rows);
+    for (uint32_t t = 0; !still && t < threads; t++) {
+        moving += slices[t].moving;
+        seen += slices[t].seen;
+        if (status == PF_OK && slices[t].status != PF_OK) {
+            status = slices[t].status;
+            if (err)
+                *err = slices[t].err;
         }
     }
-    free(rays);
-    free(hits);
     if (status != PF_OK) {
-        pf_image_free(&grown);
         pf_error_prefix(err, "motion");
         return status;
     }
-    pf_image_free(image);
-    *image = grown;
     pf_stage_timing *row = pf_frame_report_row(report, "motion", NULL, pf_time_ms() - start, -1.0);
+    /* 0: written into the layer the image was created with (PF_LATER_LAYER_MOTION). */
+    int image_copied = image->channel_count != channels_before;
     if (row && still) {
         snprintf(row->reason, sizeof row->reason,
                  "camera and geometry still, not traced; 0 of %llu pixels moved",
@@ -205,5 +256,7 @@ pf_status pf_render_motion(pf_renderer *renderer, const pf_scene_frame *frame,
         pf_stage_add_counter(row, "moving_pixels", (double)moving);
         pf_stage_add_counter(row, "traced", 1);
     }
+    if (row)
+        pf_stage_add_counter(row, "image_copied", image_copied);
     return PF_OK;
 }

@@ -149,7 +149,21 @@ typedef struct pf_render_settings {
      * with a fraction of the difference (issue 40's seam). 0 or 1: as planned.
      */
     uint32_t sample_scale;
+    /*
+     * Not a job setting either: the layers that stages after the render will add to the
+     * image (PF_LATER_LAYER_*), which the frame pipeline knows before it renders. The split
+     * integrators (fast, final, reference) then create the image with their channels
+     * (zero), and the motion and denoise stages fill them in place instead of copying the
+     * whole image into a wider one (two copies of ~170 MB for a 1920x1080 frame with AOVs).
+     * 0: none; the stages append them.
+     */
+    uint32_t later_layers;
 } pf_render_settings;
+
+/* pf_render_settings.later_layers: motion.X/Y (the motion stage), noisy.R/G/B and
+ * variance.Y (the denoise stage keeping the beauty as rendered). */
+#define PF_LATER_LAYER_MOTION 1u
+#define PF_LATER_LAYER_NOISY 2u
 
 /* The sample scale of a run's first frame without history (pf_render_settings.sample_scale). */
 #define PF_TEMPORAL_WARM_UP 4u

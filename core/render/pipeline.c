@@ -265,6 +265,14 @@ pf_status pf_frame_render(pf_renderer *renderer, const pf_frame_request *request
                                                               : settings.quality);
     rendered.sample_salt = (uint64_t)request->frame;
     rendered.sample_scale = warm_up_scale(renderer, request, &settings, &frame);
+    /* The layers the stages below add, where known before the render: motion whenever
+     * the AOVs are written; the noisy beauty where they are and the denoiser will run
+     * (auto's preset is only known once it rendered: its layers are appended). */
+    if (settings.aovs)
+        rendered.later_layers |= PF_LATER_LAYER_MOTION;
+    if (settings.aovs && settings.quality != PF_QUALITY_AUTO &&
+        pf_denoise_applies(settings.denoise, settings.quality))
+        rendered.later_layers |= PF_LATER_LAYER_NOISY;
     status = pf_render_frame(renderer, &frame, &rendered, &image, &out->report, err);
     out->peak_device_bytes = pf_vk_memory_use_of(pf_renderer_context(renderer)).peak;
     int denoised = status == PF_OK && pf_denoise_applies(settings.denoise, out->report.quality);

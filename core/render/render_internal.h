@@ -666,9 +666,21 @@ void pf_fast_cache_destroy(pf_vk_context *ctx, struct pf_fast_cache *cache);
 #define PF_SPLIT_FILM_VEC4_PER_PIXEL 3u
 #define PF_SPLIT_FILM_AOV_VEC4_PER_PIXEL 2u
 
-/* Creates the image with pf_render.h's channels for these integrators (AOVs or not). */
+/* Creates the image with pf_render.h's channels for these integrators (AOVs or not),
+ * followed by those of later_layers (pf_render_settings.later_layers), zero. */
 pf_status pf_split_image_create(pf_image *image, uint32_t width, uint32_t height, int aovs,
-                                pf_error *err);
+                                uint32_t later_layers, pf_error *err);
+
+/* The channels the motion and denoise stages add (PF_LATER_LAYER_MOTION, _NOISY). */
+extern const char *const pf_motion_channels[2];
+extern const char *const pf_noisy_channels[4];
+/*
+ * Where image's count channels names[0..count) are, in *first on: in place where the
+ * image has them in that order (created with them: pf_split_image_create's later layers),
+ * else after a copy of the image with them appended (zero).
+ */
+pf_status pf_image_later_layer(pf_image *image, const char *const *names, uint32_t count,
+                               uint32_t *first, pf_error *err);
 
 /*
  * Film sums → channel values: means over each pixel's kept samples; the AOVs

@@ -41,7 +41,7 @@
 /* split_film.comp: film, AOV film, a band of the image; Push width, rows, aovs,
  * aov_own_count, row_first. */
 #define SPLIT_FILM_BUFFERS 3u
-#define SPLIT_FILM_PUSH_BYTES 20u
+#define SPLIT_FILM_PUSH_BYTES 24u
 #define MATERIAL_PROBE_BUFFERS 2u
 #define MATERIAL_PROBE_PUSH_BYTES 4u
 

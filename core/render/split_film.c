@@ -7,6 +7,7 @@
 
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 
 static const char *const split_channels[] = {
     "R",          "G",          "B",         "A",         "direct.R",   "direct.G",
@@ -16,13 +17,45 @@ static const char *const split_channels[] = {
 /* Channels without AOVs: everything before albedo.R. */
 #define SPLIT_BEAUTY_CHANNELS 13u
 
+const char *const pf_motion_channels[2] = {"motion.X", "motion.Y"};
+const char *const pf_noisy_channels[4] = {"noisy.R", "noisy.G", "noisy.B", "variance.Y"};
+
 pf_status pf_split_image_create(pf_image *image, uint32_t width, uint32_t height, int aovs,
-                                pf_error *err)
+                                uint32_t later_layers, pf_error *err)
 {
-    return pf_image_create(image, width, height,
-                           aovs ? sizeof split_channels / sizeof split_channels[0]
-                                : SPLIT_BEAUTY_CHANNELS,
-                           split_channels, err);
+    const char *names[sizeof split_channels / sizeof split_channels[0] + 6];
+    uint32_t count = aovs ? sizeof split_channels / sizeof split_channels[0]
+                          : SPLIT_BEAUTY_CHANNELS;
+    memcpy(names, split_channels, count * sizeof *names);
+    /* In the order the stages run: motion, then denoise. */
+    if (later_layers & PF_LATER_LAYER_MOTION)
+        for (uint32_t c = 0; c < 2; c++)
+            names[count++] = pf_motion_channels[c];
+    if (later_layers & PF_LATER_LAYER_NOISY)
+        for (uint32_t c = 0; c < 4; c++)
+            names[count++] = pf_noisy_channels[c];
+    return pf_image_create(image, width, height, count, names, err);
+}
+
+pf_status pf_image_later_layer(pf_image *image, const char *const *names, uint32_t count,
+                               uint32_t *first, pf_error *err)
+{
+    int at = pf_image_channel(image, names[0]);
+    int in_place = at >= 0;
+    for (uint32_t c = 1; in_place && c < count; c++)
+        in_place = pf_image_channel(image, names[c]) == at + (int)c;
+    if (in_place) {
+        *first = (uint32_t)at;
+        return PF_OK;
+    }
+    pf_image grown = {0};
+    pf_status status = pf_image_append_channels(image, names, count, &grown, err);
+    if (status != PF_OK)
+        return status;
+    *first = image->channel_count;
+    pf_image_free(image);
+    *image = grown;
+    return PF_OK;
 }
 
 void pf_split_film_to_image(const float *film, const float *film_aov, int aovs,
@@ -109,8 +142,9 @@ pf_status pf_split_film_record_read(pf_renderer *renderer, pf_vk_commands *cmds,
         status = pf_vk_buffer_create(renderer->ctx, rows * row_bytes, "split image band",
                                      &out->bands[band], err);
         struct {
-            uint32_t width, height, aovs, aov_own_count, row_first;
-        } push = {image->width, rows, aovs ? 1u : 0u, aov_own_count ? 1u : 0u, row_first};
+            uint32_t width, height, aovs, aov_own_count, row_first, channels;
+        } push = {image->width, rows,      aovs ? 1u : 0u, aov_own_count ? 1u : 0u,
+                  row_first,   image->channel_count};
         pf_vk_buffer *buffers[3] = {film, film_aov, out->bands[band]};
         if (status == PF_OK)
             status = pf_vk_cmd_dispatch(cmds, split, buffers, 3, &push, sizeof push,

@@ -42,6 +42,22 @@ static int log_search(const char *text, int loud)
 static int log_contains(const char *text) { return log_search(text, 1); }
 static int log_contains_quietly(const char *text) { return log_search(text, 0); }
 
+/* How many times text occurs in the last run's output. */
+static int log_count(const char *text)
+{
+    char buffer[16384] = {0};
+    FILE *file = fopen(log_path, "rb");
+    if (!file)
+        return 0;
+    size_t length = fread(buffer, 1, sizeof buffer - 1, file);
+    fclose(file);
+    buffer[length] = '\0';
+    int count = 0;
+    for (const char *at = strstr(buffer, text); at; at = strstr(at + 1, text))
+        count++;
+    return count;
+}
+
 static int file_exists(const char *path)
 {
     FILE *file = fopen(path, "rb");
@@ -163,6 +179,61 @@ PF_TEST(consecutive_frames_reuse_the_one_before)
              tmpdir);
     PF_CHECK(run_photonfarm(args) == 2);
     PF_CHECK(log_contains("expected auto, on, spatial or off"));
+}
+
+/*
+ * The layers the motion and denoise stages add (motion.X/Y, noisy.R/G/B and variance.Y) are
+ * in the image the split integrators create, so the stages write them in place instead of
+ * copying the whole image into a wider one: the rows say image_copied=0, and the file has
+ * the layers in the order appending gave them. preview's image is not created with them:
+ * its motion stage appends (image_copied=1).
+ */
+PF_TEST(later_layers_are_written_in_place)
+{
+    char scene[1024], args[4096], path[2048];
+    pf_test_shared_scene("cornell-anim", scene, sizeof scene);
+    static const char *const presets[2] = {"reference", "preview"};
+    for (int p = 0; p < 2; p++) {
+        snprintf(args, sizeof args,
+                 "render '%s' --frame 2 --size 16x12 --quality %s --spp 1 --denoise spatial "
+                 "--timings -o '%s/layers-%s.exr'",
+                 scene, presets[p], tmpdir, presets[p]);
+        PF_REQUIRE(run_photonfarm(args) == 0);
+        int moved = log_count("traced=1 image_copied=");
+        int in_place = log_count("image_copied=0"), copied = log_count("image_copied=1");
+        PF_CHECK_MSG(moved == 1, "%s: the motion row traced %d times", presets[p], moved);
+        if (p == 0)
+            PF_CHECK_MSG(in_place == 2 && copied == 0,
+                         "reference: motion and denoise in place %d times, copied %d",
+                         in_place, copied);
+        else
+            PF_CHECK_MSG(in_place == 0 && copied == 1,
+                         "preview: motion in place %d times, copied %d", in_place, copied);
+        snprintf(path, sizeof path, "%s/layers-%s.exr", tmpdir, presets[p]);
+        pf_image image = {0};
+        pf_error err = {0};
+        PF_CHECK_OK(pf_exr_read(path, &image, NULL, NULL, &err), &err);
+        /* The file's channels come sorted by name; the layers' are the last of each. */
+        uint32_t expected = p == 0 ? 26u : 13u;
+        PF_CHECK_MSG(image.channel_count == expected, "%s: %u channels, expected %u",
+                     presets[p], image.channel_count, expected);
+        PF_CHECK(pf_image_channel(&image, "motion.X") >= 0 &&
+                 pf_image_channel(&image, "motion.Y") >= 0);
+        if (p == 0) {
+            PF_CHECK(pf_image_channel(&image, "noisy.R") >= 0 &&
+                     pf_image_channel(&image, "variance.Y") >= 0);
+            /* Filled, not the zero they were created with. */
+            int motion = pf_image_channel(&image, "motion.X");
+            int noisy = pf_image_channel(&image, "noisy.G");
+            int moving = 0, lit = 0;
+            for (uint32_t i = 0; motion >= 0 && noisy >= 0 && i < 16u * 12u; i++) {
+                moving += image.pixels[(size_t)i * image.channel_count + (uint32_t)motion] != 0.0f;
+                lit += image.pixels[(size_t)i * image.channel_count + (uint32_t)noisy] > 0.0f;
+            }
+            PF_CHECK_MSG(moving > 0 && lit > 0, "%d pixels moving, %d lit", moving, lit);
+        }
+        pf_image_free(&image);
+    }
 }
 
 /* An unusable cache directory costs compile time, never the frame. */
@@ -319,6 +390,7 @@ int main(void)
     snprintf(log_path, sizeof log_path, "%s/photonfarm.log", tmpdir);
     PF_RUN(renders_a_frame_range_to_numbered_exr_files);
     PF_RUN(consecutive_frames_reuse_the_one_before);
+    PF_RUN(later_layers_are_written_in_place);
     PF_RUN(unusable_cache_directory_warns_and_renders);
     PF_RUN(the_environment_picks_the_device_through_the_cli);
     PF_RUN(bad_frames_scenes_and_options_exit_2);

@@ -40,8 +40,11 @@ static float *random_film(uint32_t pixels, uint32_t vec4_per_pixel, uint32_t cou
     return film;
 }
 
-/* Splits the films on the device and on the host; the number of values that differ. */
-static size_t split_both_ways(uint32_t width, uint32_t height, int aovs, int aov_own_count)
+/* Splits the films on the device and on the host into images with the channels of
+ * later_layers after the split's; the number of values that differ, or that are not zero
+ * in those channels. */
+static size_t split_both_ways(uint32_t width, uint32_t height, int aovs, int aov_own_count,
+                              uint32_t later_layers)
 {
     uint32_t pixels = width * height;
     /* The kept samples are the second vec4's w; the AOV film's own count likewise. */
@@ -67,15 +70,21 @@ static size_t split_both_ways(uint32_t width, uint32_t height, int aovs, int aov
                                     &err),
                 &err);
     pf_image device = {0}, host = {0};
-    PF_CHECK_OK(pf_split_image_create(&device, width, height, aovs, &err), &err);
-    PF_CHECK_OK(pf_split_image_create(&host, width, height, aovs, &err), &err);
+    PF_CHECK_OK(pf_split_image_create(&device, width, height, aovs, later_layers, &err), &err);
+    PF_CHECK_OK(pf_split_image_create(&host, width, height, aovs, later_layers, &err), &err);
+    uint32_t split_channels = aovs ? 20u : 13u;
+    uint32_t later = (later_layers & PF_LATER_LAYER_MOTION ? 2u : 0u) +
+                     (later_layers & PF_LATER_LAYER_NOISY ? 4u : 0u);
+    PF_CHECK_MSG(host.channel_count == split_channels + later, "%u channels, expected %u",
+                 host.channel_count, split_channels + later);
     PF_CHECK_OK(pf_split_film_read(renderer, film_buffer, aov_buffer, aovs, aov_own_count,
                                    &device, &err),
                 &err);
     pf_split_film_to_image(film, film_aov, aovs, aov_own_count, &host);
     size_t values = (size_t)pixels * host.channel_count, differing = 0;
     for (size_t i = 0; i < values; i++)
-        differing += memcmp(&device.pixels[i], &host.pixels[i], sizeof(float)) != 0;
+        differing += memcmp(&device.pixels[i], &host.pixels[i], sizeof(float)) != 0 ||
+                     (i % host.channel_count >= split_channels && device.pixels[i] != 0.0f);
     /* Not a vacuous match: the host's image is not all zero. */
     size_t nonzero = 0;
     for (size_t i = 0; i < values; i++)
@@ -94,13 +103,22 @@ PF_TEST(the_device_splits_the_film_as_the_host_did)
 {
     for (int aovs = 0; aovs <= 1; aovs++)
         for (int own = 0; own <= 1; own++) {
-            size_t differing = split_both_ways(83, 21, aovs, own);
+            size_t differing = split_both_ways(83, 21, aovs, own, 0);
             PF_CHECK_MSG(differing == 0, "aovs %d, own count %d: %zu values differ", aovs, own,
                          differing);
         }
+    /* With the later stages' layers after the split's (the image's stride grows). */
+    static const uint32_t layers[3] = {PF_LATER_LAYER_MOTION, PF_LATER_LAYER_NOISY,
+                                       PF_LATER_LAYER_MOTION | PF_LATER_LAYER_NOISY};
+    for (int aovs = 0; aovs <= 1; aovs++)
+        for (int l = 0; l < 3; l++) {
+            size_t differing = split_both_ways(83, 21, aovs, 1, layers[l]);
+            PF_CHECK_MSG(differing == 0, "aovs %d, later layers %u: %zu values differ", aovs,
+                         layers[l], differing);
+        }
     /* 136 MB of channels: past lavapipe's 128 MiB storage-buffer range, so the image is
      * split in two bands of rows (the second one partial) where the device binds no more. */
-    size_t differing = split_both_ways(1700, 1000, 1, 1);
+    size_t differing = split_both_ways(1700, 1000, 1, 1, 0);
     PF_CHECK_MSG(differing == 0, "1700x1000 with AOVs: %zu values differ", differing);
 }
 
