@@ -66,16 +66,16 @@ vec3 caustic_radiance(Material material, vec3 wo, vec3 shading_normal, vec3 posi
 // would have), and the gather then skips it.
 void caustic(uint pixel_index)
 {
-    uint base = 5u * pixel_index;
+    uint base = 3u * pixel_index, weight_base = 2u * pixel_index;
     uint sample_base = 3u * pixel_index;
     vec4 d1 = texel_vec4(vertex_texels, base);
     vec4 geometric = texel_vec4(vertex_texels, base + 2u);
     vec4 sample_indirect = texel_vec4(sample_sum_texels, sample_base + 1u);
     if (geometric.w == 0.0 || sample_indirect.w == 0.0)
         return;
-    vec4 throughput = texel_vec4(vertex_texels, base + 3u);
+    vec4 throughput = texel_vec4(vertex_weight_texels, weight_base);
     vec4 shading = texel_vec4(vertex_texels, base + 1u);
-    vec4 wo = texel_vec4(vertex_texels, base + 4u);
+    vec4 wo = texel_vec4(vertex_weight_texels, weight_base + 1u);
     Material material = scene_material_at(floatBitsToUint(shading.w), throughput.w, wo.w);
     bool truncated = false;
     vec3 light = throughput.xyz *

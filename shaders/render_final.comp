@@ -77,11 +77,14 @@
 // frame above 1% of samples, never a silent bias.
 //
 // Records (one per pixel, rewritten by every sample):
-//   vertices[5p]      (D₁ position, gather from it: 0 no, 1 yes)
-//   vertices[5p + 1]  (shading normal, triangle index bits)
-//   vertices[5p + 2]  (geometric normal, D₁ found: 0 no, 1 yes)
-//   vertices[5p + 3]  (throughput up to D₁, barycentric u)
-//   vertices[5p + 4]  (wo at D₁, barycentric v)
+//   vertices[3p]      (D₁ position, gather from it: 0 no, 1 yes)
+//   vertices[3p + 1]  (shading normal, triangle index bits)
+//   vertices[3p + 2]  (geometric normal, D₁ found: 0 no, 1 yes)
+//   vertex_weights[2p]     (throughput up to D₁, barycentric u)
+//   vertex_weights[2p + 1] (wo at D₁, barycentric v)
+// (two buffers, each no larger than the film, so that final renders every image size
+// the other presets do where the device's storage-buffer range is small: a 1920x1080
+// record of 5 vec4 a pixel is 158 MiB, past lavapipe's 128)
 // (the triangle and barycentrics give the deferred passes D₁'s textured material:
 // scene_material_at)
 //   sample_sums[3p]   (direct, coverage), (indirect, kept 1/0), (caustic, 0)
@@ -124,7 +127,7 @@ void primary(uint pixel_index, uvec2 pixel)
     vec3 albedo_aov = vec3(0.0), normal_aov = vec3(0.0);
     bool valid = true;
     uint rays = 0u;
-    uint base = 5u * pixel_index;
+    uint base = 3u * pixel_index, weight_base = 2u * pixel_index;
     vertices[base] = vec4(0.0);
     vertices[base + 2u] = vec4(0.0);
     if (push.sample_index == 0u)
@@ -196,8 +199,8 @@ void primary(uint pixel_index, uvec2 pixel)
             vertices[base] = vec4(surface.position, push.gather_total > 0u ? 1.0 : 0.0);
             vertices[base + 1u] = vec4(surface.shading_normal, uintBitsToFloat(hit.triangle));
             vertices[base + 2u] = vec4(surface.geometric_normal, 1.0); // w: D₁ found
-            vertices[base + 3u] = vec4(throughput, hit.u);
-            vertices[base + 4u] = vec4(wo, hit.v);
+            vertex_weights[weight_base] = vec4(throughput, hit.u);
+            vertex_weights[weight_base + 1u] = vec4(wo, hit.v);
             break;
         }
         BsdfSample scattered = bsdf_sample(material, wo, surface.shading_normal,

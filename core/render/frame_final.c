@@ -78,8 +78,14 @@
 #define FINAL_KEPT_PASSES 16u
 /* A frame fails when more than this fraction of its samples hit the loop cap. */
 #define FINAL_TRUNCATED_LIMIT 0.01
-/* render_final.comp's gather-vertex buffer: vec4s per pixel. */
-#define VERTEX_VEC4_PER_PIXEL 5u
+/* render_final.comp's record of each pixel's D₁, vec4s per pixel: its vertex, then its
+ * weights, in two buffers so that neither is larger than the film (a 1920x1080 record of 5
+ * vec4 in one buffer is 158 MiB, past lavapipe's 128 MiB range). */
+#define VERTEX_VEC4_PER_PIXEL 3u
+#define VERTEX_WEIGHT_VEC4_PER_PIXEL 2u
+_Static_assert(VERTEX_VEC4_PER_PIXEL <= PF_SPLIT_FILM_VEC4_PER_PIXEL &&
+                   VERTEX_WEIGHT_VEC4_PER_PIXEL <= PF_SPLIT_FILM_VEC4_PER_PIXEL,
+               "check_buffers: no per-pixel buffer of final is larger than the film");
 #define GROUP_EDGE 8u
 /* The shade kernels' bindings (final_shared.glsl) of the photon grid they gather from and of its
  * irradiance points: records, flux, ranges. */
@@ -313,7 +319,8 @@ static pf_status caustic_pass(pf_vk_context *ctx, const pf_scene_frame *frame,
 
 /* Device buffers of one frame; every pointer NULL or owned. */
 typedef struct final_buffers {
-    pf_vk_buffer *params, *film, *film_aov, *counters, *vertices, *samples, *empty_grid;
+    pf_vk_buffer *params, *film, *film_aov, *counters, *vertices, *vertex_weights, *samples;
+    pf_vk_buffer *empty_grid;
     pf_vk_buffer *caustic_radii; /* per pixel: the caustic radius the first pass chose */
     pf_vk_buffer *fallback_requests, *pixel_fallbacks; /* the gather's deferred estimates */
     pf_vk_buffer *retrace_groups; /* final_retrace_args.comp's indirect dispatch */
@@ -325,7 +332,8 @@ typedef struct final_buffers {
 static void final_buffers_release(pf_vk_context *ctx, final_buffers *b)
 {
     pf_vk_buffer **all[] = {&b->params,          &b->film,           &b->film_aov,
-                            &b->counters,        &b->vertices,       &b->samples,
+                            &b->counters,        &b->vertices,       &b->vertex_weights,
+                            &b->samples,
                             &b->empty_grid,      &b->caustic_radii,  &b->fallback_requests,
                             &b->pixel_fallbacks, &b->retrace_groups};
     for (size_t i = 0; i < sizeof all / sizeof all[0]; i++)
@@ -690,17 +698,19 @@ static void report_rows(pf_frame_report *report, const pf_stage_plan *plan,
         report->discarded_samples += progress->discarded;
 }
 
-/* PF_ERR_LIMIT when a per-pixel buffer of the frame would exceed the device's limit. */
+/* PF_ERR_LIMIT when a per-pixel buffer of the frame would exceed the device's limit: the
+ * largest are the film, the sample sums and the D₁ vertices, 3 vec4 a pixel each. */
 static pf_status check_buffers(const pf_renderer *renderer, const pf_render_settings *settings,
                                pf_error *err)
 {
     uint64_t pixels = (uint64_t)settings->width * settings->height;
-    uint64_t largest = pixels * VERTEX_VEC4_PER_PIXEL * 16;
+    uint64_t largest = pixels * PF_SPLIT_FILM_VEC4_PER_PIXEL * 16;
     uint64_t limit = pf_vk_info(renderer->ctx)->max_storage_buffer_range;
     if (largest > limit)
         return pf_error_set(err, PF_ERR_LIMIT,
-                            "final render of %ux%u needs %llu MiB in one buffer (gather "
-                            "vertices); the device allows %llu MiB (render a smaller image)",
+                            "final render of %ux%u needs %llu MiB in one buffer (film, sample "
+                            "sums, gather vertices); the device allows %llu MiB (render a "
+                            "smaller image)",
                             settings->width, settings->height,
                             (unsigned long long)(largest >> 20),
                             (unsigned long long)(limit >> 20));
@@ -792,6 +802,9 @@ static pf_status final_begin(pf_frame_run *run, pf_error *err)
         status = pf_vk_buffer_create(ctx, pixels * VERTEX_VEC4_PER_PIXEL * 16,
                                      "final gather vertices", &owned->vertices, err);
     if (status == PF_OK)
+        status = pf_vk_buffer_create(ctx, pixels * VERTEX_WEIGHT_VEC4_PER_PIXEL * 16,
+                                     "final gather vertex weights", &owned->vertex_weights, err);
+    if (status == PF_OK)
         status = pf_vk_buffer_create(ctx, pixels * PF_SPLIT_FILM_VEC4_PER_PIXEL * 16,
                                      "final sample sums", &owned->samples, err);
     if (status == PF_OK)
@@ -840,7 +853,9 @@ static pf_status final_begin(pf_frame_run *run, pf_error *err)
         /* 17..22 after the scene's: texel views of the film, the AOVs, the vertices, the sample sums, the
          * deferred estimates and their per-pixel slots (final_shared.glsl) */
         owned->film,       owned->film_aov,  owned->vertices, owned->samples,
-        owned->fallback_requests, owned->pixel_fallbacks, queue[0], queue[1], queue[2]};
+        owned->fallback_requests, owned->pixel_fallbacks, queue[0], queue[1], queue[2],
+        /* 26, 27: the D₁ records' weights, and their texel view */
+        owned->vertex_weights, owned->vertex_weights};
     pf_gpu_scene_bindings(scene, owned->params, own, sizeof own / sizeof *own, f->buffers);
     run->state = f;
     return PF_OK;

@@ -71,7 +71,7 @@ typedef enum pf_renderer_pipeline_id {
 
 
 /* The final kernels' bindings (final_shared.glsl), the same in all of its pipelines. */
-#define PF_FINAL_BUFFERS (PF_SCENE_BINDING_COUNT + 26u)
+#define PF_FINAL_BUFFERS (PF_SCENE_BINDING_COUNT + 28u)
 /* The fast kernels' bindings (fast_shade.glsl), the same in both pipelines. */
 #define PF_FAST_BUFFERS (PF_SCENE_BINDING_COUNT + 13u)
 

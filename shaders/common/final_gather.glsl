@@ -192,7 +192,7 @@ void gather_ray(uint pixel_index, uint gather_index, Material d1_material, vec3 
 
 void gather(uint pixel_index)
 {
-    uint base = 5u * pixel_index;
+    uint base = 3u * pixel_index, weight_base = 2u * pixel_index;
     uint sample_base = 3u * pixel_index;
     vec4 d1 = texel_vec4(vertex_texels, base);
     bool valid = true, truncated = false;
@@ -206,8 +206,8 @@ void gather(uint pixel_index)
         vec4 shading = texel_vec4(vertex_texels, base + 1u);
         vec3 direct = vec3(0.0), indirect = vec3(0.0);
         vec3 geometric_normal = texel_vec4(vertex_texels, base + 2u).xyz;
-        vec4 throughput_u = texel_vec4(vertex_texels, base + 3u);
-        vec4 wo_v = texel_vec4(vertex_texels, base + 4u);
+        vec4 throughput_u = texel_vec4(vertex_weight_texels, weight_base);
+        vec4 wo_v = texel_vec4(vertex_weight_texels, weight_base + 1u);
         vec3 throughput = throughput_u.xyz;
         vec3 wo = wo_v.xyz;
         Material material = scene_material_at(floatBitsToUint(shading.w), throughput_u.w, wo_v.w);
@@ -253,7 +253,7 @@ void gather(uint pixel_index)
 // sample, a zero weight, past the sample's gather rays) is marked so.
 void write_rays(uint pixel_index)
 {
-    uint base = 5u * pixel_index;
+    uint base = 3u * pixel_index, weight_base = 2u * pixel_index;
     vec4 d1 = texel_vec4(vertex_texels, base);
     uint end = push.gather_first + push.gather_count;
     if (d1.w <= 0.0 || push.gather_first >= push.gather_total) {
@@ -263,8 +263,8 @@ void write_rays(uint pixel_index)
     }
     vec4 shading = texel_vec4(vertex_texels, base + 1u);
     vec3 geometric_normal = texel_vec4(vertex_texels, base + 2u).xyz;
-    vec4 throughput_u = texel_vec4(vertex_texels, base + 3u);
-    vec4 wo_v = texel_vec4(vertex_texels, base + 4u);
+    vec4 throughput_u = texel_vec4(vertex_weight_texels, weight_base);
+    vec4 wo_v = texel_vec4(vertex_weight_texels, weight_base + 1u);
     Material material = scene_material_at(floatBitsToUint(shading.w), throughput_u.w, wo_v.w);
     for (uint g = push.gather_first; g < end; g++) {
         GatherStart start = gather_start(pixel_index, g, material, d1.xyz, shading.xyz,

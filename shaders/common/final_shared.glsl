@@ -90,6 +90,10 @@ layout(set = 0, binding = PF_SCENE_BINDING_COUNT + 19) uniform isamplerBuffer ve
 layout(set = 0, binding = PF_SCENE_BINDING_COUNT + 20) uniform isamplerBuffer sample_sum_texels;
 layout(set = 0, binding = PF_SCENE_BINDING_COUNT + 21) uniform isamplerBuffer fallback_request_texels;
 layout(set = 0, binding = PF_SCENE_BINDING_COUNT + 22) uniform isamplerBuffer pixel_fallback_texels;
+// 23..25: host_rays.glsl's queue. The second part of each pixel's D₁ record
+// (render_final.comp), and its texel view.
+layout(std430, set = 0, binding = PF_SCENE_BINDING_COUNT + 26) buffer VertexWeights { vec4 vertex_weights[]; };
+layout(set = 0, binding = PF_SCENE_BINDING_COUNT + 27) uniform isamplerBuffer vertex_weight_texels;
 
 vec4 texel_vec4(isamplerBuffer texels, uint index)
 {

@@ -505,6 +505,51 @@ PF_TEST(time_budget_stops_after_at_least_one_pass)
     pf_image_free(&image);
 }
 
+/*
+ * final renders every size its film fits in one device buffer, as reference and fast do: its
+ * record of each pixel's D₁ is split in two buffers, neither larger than the film (in one
+ * buffer of 5 vec4 a pixel, 1920x1080 needed 158 MiB, past lavapipe's 128 MiB range). The
+ * smallest frame 1920 wide that one buffer could not hold renders; one row more than the
+ * film allows is refused up front, naming the film. The camera looks away from the box, so
+ * the frame's rays all miss and it stays cheap.
+ */
+PF_TEST(a_frame_as_large_as_its_film_allows_renders)
+{
+    uint64_t limit = pf_vk_info(ctx)->max_storage_buffer_range;
+    const uint64_t film_bytes_per_pixel = 3 * 16, one_record_bytes_per_pixel = 5 * 16;
+    uint32_t width = 1920;
+    uint64_t film_rows = limit / film_bytes_per_pixel / width;
+    uint64_t rows = limit / one_record_bytes_per_pixel / width + 1;
+    if (film_rows > 2048) {
+        printf("  skipped: this device's %llu-byte buffers hold a film far past a testable size\n",
+               (unsigned long long)limit);
+        return;
+    }
+    PF_REQUIRE(rows <= film_rows && (uint64_t)width * rows * one_record_bytes_per_pixel > limit);
+    pf_scene_frame away = cornell_frame;
+    for (int k = 0; k < 3; k++) {
+        away.camera.forward[k] = -cornell_frame.camera.forward[k];
+        away.camera.right[k] = -cornell_frame.camera.right[k];
+    }
+    away.camera.aspect = 0.0f;
+    pf_error err = {0};
+    pf_render_settings settings = final_settings(width, (uint32_t)rows, 1, 1, 1000);
+    pf_image image = {0};
+    pf_frame_report report = {0};
+    double start = pf_time_ms();
+    PF_REQUIRE_OK(pf_render_frame(renderer, &away, &settings, &image, &report, &err), &err);
+    printf("  final %ux%u (its D1 record %.0f MiB in one buffer, the device allows %.0f): %.0f ms\n",
+           width, (unsigned)rows, (double)width * rows * one_record_bytes_per_pixel / 1048576.0,
+           (double)limit / 1048576.0, pf_time_ms() - start);
+    PF_CHECK(image.width == width && image.height == rows);
+    PF_CHECK(counter_of(ref_row(&report, "shade"), "paths") == (double)width * rows);
+    pf_image_free(&image);
+    settings.height = (uint32_t)film_rows + 1;
+    PF_CHECK(pf_render_frame(renderer, &away, &settings, &image, NULL, &err) == PF_ERR_LIMIT);
+    PF_CHECK_MSG(strstr(err.message, "in one buffer (film") != NULL, "%s", err.message);
+    PF_CHECK(image.pixels == NULL);
+}
+
 int main(void)
 {
     pf_error err = {0};
@@ -528,6 +573,7 @@ int main(void)
     PF_RUN(no_lights_skips_photon_stages);
     PF_RUN(time_budget_stops_after_at_least_one_pass);
     PF_RUN(clustered_photons_fail_the_frame_at_the_loop_cap);
+    PF_RUN(a_frame_as_large_as_its_film_allows_renders);
     pf_image_free(&cornell_reference);
     pf_scene_frame_free(&cornell_frame);
     pf_scene_destroy(cornell_scene);
