@@ -116,7 +116,7 @@ FAILED=0
 # run_suite DIR [CMAKE_ARGS...]: builds DIR and runs its ctest suite, adding to
 # PASSED/FAILED. A build failure counts as one failure (its tests cannot run).
 run_suite() {
-  local dir=$1 log total failed
+  local dir=$1 log total failed start=$SECONDS
   shift
   echo "bootstrap: === $dir ==="
   if ! configure_and_build "$dir" "$@"; then
@@ -124,8 +124,13 @@ run_suite() {
     FAILED=$((FAILED + 1))
     return 0
   fi
+  # Each phase's seconds, so that the suite's time (the brief: under 12 minutes on 2 cores)
+  # can be watched where it goes.
+  echo "bootstrap: $dir: built in $((SECONDS - start)) s"
+  start=$SECONDS
   log="$ROOT/$dir/ctest-summary.log"
   ctest --test-dir "$ROOT/$dir" --output-on-failure -j "$TEST_JOBS" 2>&1 | tee "$log" || true
+  echo "bootstrap: $dir: tests ran in $((SECONDS - start)) s"
   # ctest's closing line: "NN% tests passed, F tests failed out of T"
   if read -r failed total < <(sed -n \
       's/^[0-9]*% tests passed, \([0-9]*\) tests\{0,1\} failed out of \([0-9]*\)$/\1 \2/p' "$log"); then
@@ -147,10 +152,12 @@ cmd_test() {
   run_suite build-asan -DPF_SANITIZE=ON
   # A warning that only -O3 shows (issue 17) must not land: compile Release too.
   echo "bootstrap: === build-release (compile only) ==="
+  local start=$SECONDS
   if ! configure_and_build build-release -DCMAKE_BUILD_TYPE=Release; then
     echo "bootstrap: build-release: build failed"
     FAILED=$((FAILED + 1))
   fi
+  echo "bootstrap: build-release: built in $((SECONDS - start)) s; the whole run $SECONDS s"
   echo "$PASSED passed, $FAILED failed"
   [ "$FAILED" -eq 0 ]
 }
