@@ -12,35 +12,43 @@
 //
 // WAVE_MODE (constant_id 0):
 //   WAVE_GENERATE    invocation i starts pixel i's path: its camera ray.
-//   WAVE_SHADE(_RGB) invocation i advances path active_paths[first_active + i],
+//   WAVE_SHADE       invocation i advances path active_paths[first_active + i],
 //                    whose ray hit a surface: it adds the light of the previous
 //                    vertex's unoccluded shadow rays, then the vertex at the
 //                    hit, which defers its shadow rays and writes the next
-//                    ray. A path with nothing left to trace adds its sample to
-//                    the film (WAVE_SHADE writes the AOV film too).
-//   WAVE_FINISH(_RGB) the same for paths whose ray missed or that have none
-//                    (only shadow rays were left): the shadow rays' light, then
-//                    the film. Its own module without the vertex's code, which
-//                    llvmpipe would run for every invocation, masked, all the
-//                    same (bench/RESULTS.md, "Code that no lane runs").
+//                    ray. A path left with nothing to trace is stored marked
+//                    QUEUE_PENDING, for the next WAVE_FINISH.
+//   WAVE_FINISH(_RGB) paths whose ray missed or that have none (only shadow
+//                    rays were left, or pending): the shadow rays' light, then
+//                    the film (WAVE_FINISH writes the AOV film too). Its own
+//                    module without the vertex's code, and the only one with
+//                    the film's: llvmpipe runs every line of a module for
+//                    every invocation, masked where no lane takes it
+//                    (bench/RESULTS.md, "Code that no lane runs"), so a shade
+//                    that finished its ended paths paid the film's loads and
+//                    stores for all of them.
 // The paths of one dispatch are a slice of the image's pixels (push.first_pixel
 // on), so the buffers stay bounded at any size.
 // Per path p, what the host reads back: queue[p] = ray live (bit 0) | shadow
-// rays << 1, the ray rays[p] and the shadow rays shadow_rays[p·K + k]
-// (K = 1 + params.light_count, direct_light.glsl's candidates); what it
-// writes: hits[p] and shadow_hits[p·K + k]. The host drops paths whose queue
-// word is 0 from the next dispatch's active list.
+// rays << 1 | QUEUE_PENDING (pf_bih.h's PF_BIH_WAVE_*), the ray rays[p] and the
+// shadow rays shadow_rays[p·K + k] (K = 1 + params.light_count,
+// direct_light.glsl's candidates); what it writes: hits[p] and
+// shadow_hits[p·K + k]. The host drops paths whose queue word is 0 from the
+// next dispatch's active list.
 
 layout(local_size_x = 64) in;
 
-const uint WAVE_SHADE_RGB = 0u;
-const uint WAVE_SHADE = 1u;
-const uint WAVE_GENERATE = 2u;
-const uint WAVE_FINISH_RGB = 3u;
-const uint WAVE_FINISH = 4u;
+const uint WAVE_SHADE = 0u;
+const uint WAVE_GENERATE = 1u;
+const uint WAVE_FINISH_RGB = 2u;
+const uint WAVE_FINISH = 3u;
 layout(constant_id = 0) const uint WAVE_MODE = WAVE_SHADE;
-const bool WRITE_AOVS = WAVE_MODE == WAVE_SHADE || WAVE_MODE == WAVE_FINISH;
 const bool FINISHING = WAVE_MODE == WAVE_FINISH || WAVE_MODE == WAVE_FINISH_RGB;
+// The film is written only where paths finish; WAVE_SHADE's AOV paths finish in WAVE_FINISH.
+const bool WRITE_AOVS = WAVE_MODE == WAVE_FINISH;
+// The queue word (pf_bih.h PF_BIH_WAVE_SHADOW_MAX, PF_BIH_WAVE_PENDING).
+const uint QUEUE_SHADOWS = 0x3FFFFFFFu;
+const uint QUEUE_PENDING = 0x80000000u;
 
 layout(push_constant) uniform Push {
     uint sample_index; // 0 starts the film's sums
@@ -192,7 +200,7 @@ void main()
         // The previous vertex's light samples, in the megakernel's order: before this
         // vertex's emission.
         vec3 unoccluded = vec3(0.0);
-        for (uint k = 0u; k < (waiting >> 1u); k++)
+        for (uint k = 0u; k < ((waiting >> 1u) & QUEUE_SHADOWS); k++)
             if (texelFetch(shadow_hits, int(4u * (wave_shadow_base + k) + 1u)).x == NO_HIT)
                 unoccluded += texelFetch(shadow_light, int(wave_shadow_base + k)).xyz;
         path_add(unoccluded, path_shadow_region, false);
@@ -207,11 +215,12 @@ void main()
     }
     if (more)
         rays[p] = Ray(vec4(path_origin, 0.0), vec4(path_direction, infinity));
-    if (more || wave_shadow_count > 0u) {
-        path_store(p);
-        queue[p] = (more ? 1u : 0u) | wave_shadow_count << 1u;
-    } else {
+    if (FINISHING) {
         path_finish(pixel_index, push.sample_index);
         queue[p] = 0u;
+    } else {
+        path_store(p);
+        queue[p] = (more ? 1u : 0u) | wave_shadow_count << 1u |
+                   (more || wave_shadow_count > 0u ? 0u : QUEUE_PENDING);
     }
 }

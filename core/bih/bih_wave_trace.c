@@ -78,7 +78,7 @@ static pf_status trace_kind(wave_worker *w, const uint32_t *paths, uint32_t path
             }
             continue;
         }
-        for (uint32_t k = 0; k < (waiting >> 1); k++) {
+        for (uint32_t k = 0; k < ((waiting >> 1) & PF_BIH_WAVE_SHADOW_MAX); k++) {
             size_t slot = (size_t)path * slots + k;
             w->targets[count] = (uint32_t)slot;
             w->rays[count++] = q->shadow_rays[slot];

@@ -513,9 +513,12 @@ pf_status pf_bih_sort_record(pf_bih_sorter *sorter, pf_vk_commands *cmds, pf_vk_
  * The host's trace step of a wavefront (bih_wave_trace.c; issue 43): the queues a wave
  * kernel wrote, in the device's memory as the host sees it (where the device is the CPU),
  * traced with the wide traversal on every core. Per path p: queue[p] = its ray waits (bit
- * 0) | its shadow rays << 1; rays[p] and hits[p]; shadow_rays and shadow_hits at
- * p × shadow_slots + k.
+ * 0) | its shadow rays << 1 (at most PF_BIH_WAVE_SHADOW_MAX) | PF_BIH_WAVE_PENDING where it
+ * has nothing to trace but is not done (its kernel finishes it next); rays[p] and hits[p];
+ * shadow_rays and shadow_hits at p × shadow_slots + k.
  */
+#define PF_BIH_WAVE_SHADOW_MAX 0x3FFFFFFFu
+#define PF_BIH_WAVE_PENDING 0x80000000u
 typedef struct pf_bih_wave_queues {
     const uint32_t *queue;
     const pf_ray *rays;
@@ -538,7 +541,8 @@ uint32_t pf_bih_wave_tracer_threads(const pf_bih_wave_tracer *tracer);
  * Traces the waiting rays of the paths active[0..count): closest hits for their rays,
  * any hits for their shadow rays. Then rewrites active with the paths that waited (a path
  * whose queue word is 0 is done): first the *hit whose ray hit a surface, then those whose
- * ray missed or that had none, each part in order; *remaining is their total. Adds the
+ * ray missed or that had none (PF_BIH_WAVE_PENDING among them), each part in order;
+ * *remaining is their total. Adds the
  * rays traced to *rays. A traversal failure fails the call (as the device's fails the
  * frame).
  */

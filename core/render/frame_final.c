@@ -85,7 +85,7 @@
 #define VERTEX_WEIGHT_VEC4_PER_PIXEL 2u
 _Static_assert(VERTEX_VEC4_PER_PIXEL <= PF_SPLIT_FILM_VEC4_PER_PIXEL &&
                    VERTEX_WEIGHT_VEC4_PER_PIXEL <= PF_SPLIT_FILM_VEC4_PER_PIXEL,
-               "check_buffers: no per-pixel buffer of final is larger than the film");
+               "pf_split_film_fits: no per-pixel buffer of final is larger than the film");
 #define GROUP_EDGE 8u
 /* The shade kernels' bindings (final_shared.glsl) of the photon grid they gather from and of its
  * irradiance points: records, flux, ranges. */
@@ -698,25 +698,6 @@ static void report_rows(pf_frame_report *report, const pf_stage_plan *plan,
         report->discarded_samples += progress->discarded;
 }
 
-/* PF_ERR_LIMIT when a per-pixel buffer of the frame would exceed the device's limit: the
- * largest are the film, the sample sums and the D₁ vertices, 3 vec4 a pixel each. */
-static pf_status check_buffers(const pf_renderer *renderer, const pf_render_settings *settings,
-                               pf_error *err)
-{
-    uint64_t pixels = (uint64_t)settings->width * settings->height;
-    uint64_t largest = pixels * PF_SPLIT_FILM_VEC4_PER_PIXEL * 16;
-    uint64_t limit = pf_vk_info(renderer->ctx)->max_storage_buffer_range;
-    if (largest > limit)
-        return pf_error_set(err, PF_ERR_LIMIT,
-                            "final render of %ux%u needs %llu MiB in one buffer (film, sample "
-                            "sums, gather vertices); the device allows %llu MiB (render a "
-                            "smaller image)",
-                            settings->width, settings->height,
-                            (unsigned long long)(largest >> 20),
-                            (unsigned long long)(limit >> 20));
-    return PF_OK;
-}
-
 struct final_frame {
     pf_photon_frame inputs;
     int inputs_ready;
@@ -751,8 +732,8 @@ static pf_status final_begin(pf_frame_run *run, pf_error *err)
     const pf_render_settings *settings = run->settings;
     const pf_stage_plan *plan = run->plan;
     pf_vk_context *ctx = renderer->ctx;
-    pf_status status = check_buffers(renderer, settings, err);
-    if (status == PF_OK && !renderer->final_cache) {
+    pf_status status = PF_OK; /* its buffers fit: pf_split_film_fits */
+    if (!renderer->final_cache) {
         renderer->final_cache = calloc(1, sizeof *renderer->final_cache);
         if (!renderer->final_cache)
             status = pf_error_set(err, PF_ERR_NOMEM, "final: out of memory");

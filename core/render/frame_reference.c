@@ -274,15 +274,6 @@ static pf_status reference_run(pf_frame_run *run, pf_stage_id stage, uint32_t pa
     double frame_start = run->start_ms;
     uint32_t spp = plan->samples;
     uint64_t pixels = (uint64_t)settings->width * settings->height;
-    uint64_t film_bytes = pixels * PF_SPLIT_FILM_VEC4_PER_PIXEL * 4 * sizeof(float);
-    uint64_t buffer_limit = pf_vk_info(renderer->ctx)->max_storage_buffer_range;
-    if (film_bytes > buffer_limit)
-        return pf_error_set(err, PF_ERR_LIMIT,
-                            "reference film of %ux%u needs %llu MiB in one buffer; the device "
-                            "allows %llu MiB (render a smaller image)",
-                            settings->width, settings->height,
-                            (unsigned long long)(film_bytes >> 20),
-                            (unsigned long long)(buffer_limit >> 20));
     pf_status status =
         pf_split_image_create(image, settings->width, settings->height, settings->aovs,
                               settings->later_layers, err);

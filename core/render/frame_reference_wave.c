@@ -183,10 +183,10 @@ pf_status pf_reference_wave_passes(pf_reference_wave *wave, pf_vk_buffer *const 
     pf_vk_pipeline *generate = NULL, *wave_pipelines[2] = {NULL, NULL};
     pf_status status =
         pf_renderer_pipeline(renderer, PF_PIPELINE_REFERENCE_WAVE_GENERATE, &generate, err);
+    /* One shade module either way: only the finish writes the film (and the AOVs). */
     if (status == PF_OK)
-        status = pf_renderer_pipeline(
-            renderer, settings->aovs ? PF_PIPELINE_REFERENCE_WAVE : PF_PIPELINE_REFERENCE_WAVE_RGB,
-            &wave_pipelines[0], err);
+        status = pf_renderer_pipeline(renderer, PF_PIPELINE_REFERENCE_WAVE, &wave_pipelines[0],
+                                      err);
     if (status == PF_OK)
         status = pf_renderer_pipeline(renderer,
                                       settings->aovs ? PF_PIPELINE_REFERENCE_WAVE_FINISH

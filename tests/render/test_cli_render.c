@@ -21,17 +21,24 @@ static int run_photonfarm(const char *arguments)
     return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }
 
+/* The last run's output (at most size - 1 bytes of it) in buffer; "" when unreadable. */
+static void log_read(char *buffer, size_t size)
+{
+    buffer[0] = '\0';
+    FILE *file = fopen(log_path, "rb");
+    if (!file)
+        return;
+    size_t length = fread(buffer, 1, size - 1, file);
+    fclose(file);
+    buffer[length] = '\0';
+}
+
 /* Whether the last run's output contains text, printing the output when it does not
  * and loud is set. */
 static int log_search(const char *text, int loud)
 {
-    char buffer[8192] = {0};
-    FILE *file = fopen(log_path, "rb");
-    if (!file)
-        return 0;
-    size_t length = fread(buffer, 1, sizeof buffer - 1, file);
-    fclose(file);
-    buffer[length] = '\0';
+    char buffer[8192];
+    log_read(buffer, sizeof buffer);
     if (strstr(buffer, text))
         return 1;
     if (loud)
@@ -45,13 +52,8 @@ static int log_contains_quietly(const char *text) { return log_search(text, 0); 
 /* How many times text occurs in the last run's output. */
 static int log_count(const char *text)
 {
-    char buffer[16384] = {0};
-    FILE *file = fopen(log_path, "rb");
-    if (!file)
-        return 0;
-    size_t length = fread(buffer, 1, sizeof buffer - 1, file);
-    fclose(file);
-    buffer[length] = '\0';
+    char buffer[16384];
+    log_read(buffer, sizeof buffer);
     int count = 0;
     for (const char *at = strstr(buffer, text); at; at = strstr(at + 1, text))
         count++;

@@ -510,8 +510,8 @@ PF_TEST(time_budget_stops_after_at_least_one_pass)
  * record of each pixel's D₁ is split in two buffers, neither larger than the film (in one
  * buffer of 5 vec4 a pixel, 1920x1080 needed 158 MiB, past lavapipe's 128 MiB range). The
  * smallest frame 1920 wide that one buffer could not hold renders; one row more than the
- * film allows is refused up front, naming the film. The camera looks away from the box, so
- * the frame's rays all miss and it stays cheap.
+ * film allows is refused by every split preset before any stage runs, naming the film. The
+ * camera looks away from the box, so the frame's rays all miss and it stays cheap.
  */
 PF_TEST(a_frame_as_large_as_its_film_allows_renders)
 {
@@ -544,10 +544,25 @@ PF_TEST(a_frame_as_large_as_its_film_allows_renders)
     PF_CHECK(image.width == width && image.height == rows);
     PF_CHECK(counter_of(ref_row(&report, "shade"), "paths") == (double)width * rows);
     pf_image_free(&image);
-    settings.height = (uint32_t)film_rows + 1;
-    PF_CHECK(pf_render_frame(renderer, &away, &settings, &image, NULL, &err) == PF_ERR_LIMIT);
-    PF_CHECK_MSG(strstr(err.message, "in one buffer (film") != NULL, "%s", err.message);
-    PF_CHECK(image.pixels == NULL);
+    /* One row more than the film allows: every split preset refuses it before any stage
+     * runs (no row in the report), naming itself and the size. */
+    static const pf_quality split[3] = {PF_QUALITY_FAST, PF_QUALITY_FINAL,
+                                        PF_QUALITY_REFERENCE};
+    for (int q = 0; q < 3; q++) {
+        settings.quality = split[q];
+        settings.height = (uint32_t)film_rows + 1;
+        pf_frame_report refused = {0};
+        PF_CHECK(pf_render_frame(renderer, &away, &settings, &image, &refused, &err) ==
+                 PF_ERR_LIMIT);
+        char expected[128];
+        snprintf(expected, sizeof expected, "%s render of %ux%u needs", pf_quality_name(split[q]),
+                 width, settings.height);
+        PF_CHECK_MSG(strstr(err.message, expected) && strstr(err.message, "(its film)"),
+                     "%s", err.message);
+        PF_CHECK_MSG(refused.stage_count == 0, "%s: %u stage rows", pf_quality_name(split[q]),
+                     refused.stage_count);
+        PF_CHECK(image.pixels == NULL);
+    }
 }
 
 int main(void)

@@ -41,7 +41,7 @@ PF_TEST(integrators_read_the_tree_and_photon_maps_through_texel_buffers)
     /* The tree is 1 records view (its nodes), 1 uint and 1 float texel buffer in every
      * integrator; a photon map adds 2 records views (its records, its ranges) and 1 uint (its
      * flux): fast's caustic map,
-     * final's bound map and its irradiance points, and final's kernels 6 more records views
+     * final's bound map and its irradiance points, and final's kernels 7 more records views
      * of their per-pixel buffers; the primary and the gathers 1 uint view of the hits the host
      * traced for them. Each kernel's own bindings follow the scene's
      * (PF_SCENE_BINDING_COUNT of them). The scene's triangles, materials and textures
@@ -53,13 +53,13 @@ PF_TEST(integrators_read_the_tree_and_photon_maps_through_texel_buffers)
         const char *name;
         uint32_t texel_uint, texel_records, texel_float;
     } integrators[] = {{"render_direct", 1, 1, 1},    {"render_fast", 2, 3, 5},
-                       {"render_final", 4, 11, 1},    {"final_gather", 4, 11, 1},
-                       {"render_reference", 1, 1, 1}, {"final_deferred", 2, 10, 0},
-                       {"final_caustic", 2, 10, 0},   {"final_resolve", 2, 10, 0},
-                       {"final_gather_estimate", 4, 11, 1}, {"render_fast_caustic", 2, 3, 5}};
-    /* final's kernels have the most bindings (PF_FINAL_BUFFERS); the others read as storage
-     * past their own. */
-    enum { S = PF_SCENE_BINDING_COUNT, ALL = PF_SCENE_BINDING_COUNT + 26 };
+                       {"render_final", 4, 12, 1},    {"final_gather", 4, 12, 1},
+                       {"render_reference", 1, 1, 1}, {"final_deferred", 2, 11, 0},
+                       {"final_caustic", 2, 11, 0},   {"final_resolve", 2, 11, 0},
+                       {"final_gather_estimate", 4, 12, 1}, {"render_fast_caustic", 2, 3, 5}};
+    /* final's kernels have the most bindings (PF_FINAL_BUFFERS: the scene's and 28); the
+     * others read as storage past their own. */
+    enum { S = PF_SCENE_BINDING_COUNT, ALL = PF_SCENE_BINDING_COUNT + 28 };
     for (size_t i = 0; i < sizeof integrators / sizeof *integrators; i++) {
         uint8_t kinds[ALL];
         kinds_of(integrators[i].name, kinds, ALL);
