@@ -142,7 +142,8 @@ static int planes_fill(const pf_image *image, const denoise_channels *at, denois
 }
 
 /* Normal and depth weight of tap q for pixel p, offset pixels apart. */
-static float geometry_weight(const denoise_planes *planes, size_t p, size_t q, float offset)
+static inline float geometry_weight(const denoise_planes *planes, size_t p, size_t q,
+                                    float offset)
 {
     float zp = planes->depth[p], zq = planes->depth[q];
     if ((zp > 0.0f) != (zq > 0.0f))
@@ -155,6 +156,11 @@ static float geometry_weight(const denoise_planes *planes, size_t p, size_t q, f
     float w_normal = cosine > 0.0f ? cosine : 0.0f;
     for (int k = 0; k < DENOISE_NORMAL_SQUARINGS; k++)
         w_normal *= w_normal;
+    /* The depth weight is in [0, 1] (zp > 0: a positive denominator), so a normal weight
+     * of 0 (facing apart, or cosine^128 below the smallest float) is the product: exactly
+     * the value the exponential would have given, without it. */
+    if (w_normal == 0.0f)
+        return 0.0f;
     float w_depth =
         expf(-fabsf(zp - zq) / (planes->depth_step[p] * offset + 1e-3f * zp));
     return w_normal * w_depth;
@@ -170,6 +176,11 @@ static float geometry_weight(const denoise_planes *planes, size_t p, size_t q, f
 static void estimate_variance(denoise_planes *planes, int row_begin, int row_end)
 {
     int w = (int)planes->width, h = (int)planes->height;
+    /* Each tap's distance, the same floats the loop computed tap by tap. */
+    float offsets[DENOISE_VARIANCE_RADIUS + 1][DENOISE_VARIANCE_RADIUS + 1];
+    for (int j = 0; j <= DENOISE_VARIANCE_RADIUS; j++)
+        for (int i = 0; i <= DENOISE_VARIANCE_RADIUS; i++)
+            offsets[j][i] = sqrtf((float)(i * i + j * j));
     for (int y = row_begin; y < row_end; y++)
         for (int x = 0; x < w; x++) {
             size_t p = (size_t)y * w + x;
@@ -184,8 +195,8 @@ static void estimate_variance(denoise_planes *planes, int row_begin, int row_end
                         if (qx < 0 || qy < 0 || qx >= w || qy >= h)
                             continue;
                         size_t q = (size_t)qy * w + qx;
-                        float offset = sqrtf((float)(i * i + j * j));
-                        float weight = q == p ? 1.0f : geometry_weight(planes, p, q, offset);
+                        float weight =
+                            q == p ? 1.0f : geometry_weight(planes, p, q, offsets[j][i]);
                         double l = luminance(planes->lighting + 3 * q);
                         sum += weight * l;
                         sum2 += weight * l * l;
@@ -226,12 +237,20 @@ static float blurred_variance(const denoise_planes *planes, int x, int y)
 static void atrous_rows(denoise_planes *planes, int step, int row_begin, int row_end)
 {
     int w = (int)planes->width, h = (int)planes->height;
+    /* Each tap's distance, the same floats the loop computed tap by tap. */
+    float offsets[5][5];
+    for (int j = -2; j <= 2; j++)
+        for (int i = -2; i <= 2; i++)
+            offsets[j + 2][i + 2] = (float)step * sqrtf((float)(i * i + j * j));
+    const float *lighting = planes->lighting;
     for (int y = row_begin; y < row_end; y++)
         for (int x = 0; x < w; x++) {
             size_t p = (size_t)y * w + x;
-            float lp = luminance(planes->lighting + 3 * p);
+            float lp = luminance(lighting + 3 * p);
             float scale = DENOISE_SIGMA_LUMINANCE * sqrtf(blurred_variance(planes, x, y)) + 1e-6f;
-            float sum[3] = {0, 0, 0}, variance = 0.0f, weights = 0.0f;
+            /* The sums in locals, not an array the compiler keeps in memory: the same
+             * additions in the same order. */
+            float sum_r = 0.0f, sum_g = 0.0f, sum_b = 0.0f, variance = 0.0f, weights = 0.0f;
             for (int j = -2; j <= 2; j++)
                 for (int i = -2; i <= 2; i++) {
                     int qx = x + i * step, qy = y + j * step;
@@ -240,19 +259,24 @@ static void atrous_rows(denoise_planes *planes, int step, int row_begin, int row
                     size_t q = (size_t)qy * w + qx;
                     float weight = b3[i + 2] * b3[j + 2];
                     if (q != p) {
-                        float offset = (float)step * sqrtf((float)(i * i + j * j));
-                        float lq = luminance(planes->lighting + 3 * q);
-                        weight *= geometry_weight(planes, p, q, offset) *
-                                  expf(-fabsf(lp - lq) / scale);
+                        float geometry = geometry_weight(planes, p, q, offsets[j + 2][i + 2]);
+                        /* A zero geometry weight is the product (the luminance term is in
+                         * [0, 1]): the exponential is not needed. */
+                        weight *= geometry == 0.0f
+                                      ? 0.0f
+                                      : geometry * expf(-fabsf(lp - luminance(lighting + 3 * q)) /
+                                                        scale);
                     }
-                    for (int c = 0; c < 3; c++)
-                        sum[c] += weight * planes->lighting[3 * q + c];
+                    sum_r += weight * lighting[3 * q];
+                    sum_g += weight * lighting[3 * q + 1];
+                    sum_b += weight * lighting[3 * q + 2];
                     variance += weight * weight * planes->variance[q];
                     weights += weight;
                 }
             float *out = planes->scratch + 4 * p;
-            for (int c = 0; c < 3; c++)
-                out[c] = sum[c] / weights;
+            out[0] = sum_r / weights;
+            out[1] = sum_g / weights;
+            out[2] = sum_b / weights;
             out[3] = variance / (weights * weights);
         }
 }
