@@ -396,7 +396,7 @@ static pf_status shade(pf_renderer *renderer, struct pf_fast_cache *cache,
                                            settings->aovs, 1, image, &readback, err);
     int end = status == PF_OK ? pf_vk_cmd_timestamp(cmds) : -1;
     if (status == PF_OK)
-        status = pf_vk_commands_submit(cmds, err);
+        status = pf_split_film_submit(renderer, cmds, &readback, err);
     if (status == PF_OK)
         progress->shade_gpu_ms = pf_commands_gpu_ms(cmds, begin, end);
     pf_vk_commands_destroy(cmds);

@@ -613,7 +613,7 @@ static pf_status shade_sample(pf_renderer *renderer, pf_vk_buffer **buffers,
     if (status == PF_OK)
         status = pf_vk_cmd_download(cmds, owned->counters, 0, &counters, sizeof counters, err);
     if (status == PF_OK)
-        status = pf_vk_commands_submit(cmds, err);
+        status = pf_split_film_submit(renderer, cmds, &readback, err);
     finish_commands(cmds, begin, status == PF_OK ? end : -1, progress);
     pf_split_film_finish_read(&readback);
     if (status == PF_OK) {

@@ -90,7 +90,7 @@ static pf_status run_passes(pf_renderer *renderer, pf_vk_pipeline *pipeline,
                                            buffers[REFERENCE_AOV_BINDING], settings->aovs,
                                            0, image, &readback, err);
     if (status == PF_OK)
-        status = pf_vk_commands_submit(cmds, err);
+        status = pf_split_film_submit(renderer, cmds, &readback, err);
     if (status == PF_OK)
         pf_gpu_ms_add(&progress->gpu_ms, pf_commands_gpu_ms(cmds, begin, end));
     pf_vk_commands_destroy(cmds);

@@ -168,44 +168,40 @@ static void motion_rows(void *argument)
     free(hits);
 }
 
-pf_status pf_render_motion(pf_renderer *renderer, const pf_scene_frame *frame,
-                           const pf_scene_frame *previous, pf_image *image, float *depth_change,
-                           pf_frame_report *report, pf_error *err)
+pf_status pf_motion_compute(pf_renderer *renderer, const pf_scene_frame *frame,
+                            const pf_scene_frame *previous, uint32_t width, uint32_t height,
+                            pf_motion_field *out, pf_error *err)
 {
     double start = pf_time_ms();
+    memset(out, 0, sizeof *out);
     if (!renderer->bih_valid || renderer->bih.triangle_count != frame->triangle_count)
         return pf_error_set(err, PF_ERR_INVALID, "motion: no tree of this frame's triangles");
     const pf_bih *tree = NULL;
-    pf_status fitted = pf_renderer_bih_host(renderer, &tree, err);
-    if (fitted != PF_OK)
-        return fitted;
+    pf_status status = pf_renderer_bih_host(renderer, &tree, err);
+    if (status != PF_OK)
+        return status;
     if (previous->triangle_count != frame->triangle_count)
         return pf_error_set(err, PF_ERR_INVALID,
                             "motion: the previous frame has %u triangles, this one %u",
                             previous->triangle_count, frame->triangle_count);
-    uint32_t motion_channel = 0, channels_before = image->channel_count;
-    pf_status status = pf_image_later_layer(image, pf_motion_channels, 2, &motion_channel, err);
-    if (status != PF_OK)
-        return status;
-    uint32_t width = image->width, height = image->height, channels = image->channel_count;
+    size_t pixels = (size_t)width * height;
+    out->width = width;
+    out->height = height;
+    out->vectors = calloc(2 * pixels, sizeof *out->vectors);
+    out->depth_change = calloc(pixels, sizeof *out->depth_change);
+    if (!out->vectors || !out->depth_change) {
+        pf_motion_field_free(out);
+        return pf_error_set(err, PF_ERR_NOMEM, "motion: out of memory");
+    }
     float tan_x, tan_y, previous_tan_x, previous_tan_y;
     pf_camera_image_plane(&frame->camera, width, height, &tan_x, &tan_y);
     pf_camera_image_plane(&previous->camera, width, height, &previous_tan_x, &previous_tan_y);
-    size_t pixels = (size_t)width * height;
-    uint64_t moving = 0, seen = 0;
     int same_camera = memcmp(&frame->camera, &previous->camera, sizeof frame->camera) == 0;
-    /* A still shot (camera and every vertex as they were): every vector is 0, known without
-     * tracing a ray. */
-    int still = same_camera && memcmp(frame->vertices, previous->vertices,
-                                      (size_t)frame->triangle_count * 3 * sizeof *frame->vertices) == 0;
-    if (still) {
-        for (size_t p = 0; p < pixels; p++) {
-            float *out = image->pixels + p * channels + motion_channel;
-            out[0] = out[1] = 0.0f;
-        }
-        if (depth_change)
-            memset(depth_change, 0, pixels * sizeof *depth_change);
-    }
+    /* A still shot (camera and every vertex as they were): every vector is 0 (as calloc left
+     * them), known without tracing a ray. */
+    out->still = same_camera && memcmp(frame->vertices, previous->vertices,
+                                       (size_t)frame->triangle_count * 3 *
+                                           sizeof *frame->vertices) == 0;
     /* Otherwise the pixels in slices of whole batches, one a core: the tree is only read,
      * and each slice writes its own pixels. */
     uint32_t batches = (uint32_t)((pixels + MOTION_RAY_BATCH - 1) / MOTION_RAY_BATCH);
@@ -213,20 +209,19 @@ pf_status pf_render_motion(pf_renderer *renderer, const pf_scene_frame *frame,
     if (threads > batches)
         threads = batches;
     motion_slice slices[MOTION_MAX_THREADS];
-    for (uint32_t t = 0; !still && t < threads; t++) {
+    for (uint32_t t = 0; !out->still && t < threads; t++) {
         size_t first = (size_t)batches * t / threads * MOTION_RAY_BATCH;
         size_t end = (size_t)batches * (t + 1) / threads * MOTION_RAY_BATCH;
         slices[t] = (motion_slice){tree, frame, previous, tan_x, tan_y, previous_tan_x,
-                                   previous_tan_y, width, height, channels,
-                                   motion_channel, same_camera, image->pixels,
-                                   depth_change, first,
+                                   previous_tan_y, width, height, 2, 0, same_camera,
+                                   out->vectors, out->depth_change, first,
                                    end < pixels ? end : pixels, 0, 0, PF_OK, {0}};
     }
-    if (!still)
+    if (!out->still)
         pf_run_parallel(slices, sizeof slices[0], threads, motion_rows);
-    for (uint32_t t = 0; !still && t < threads; t++) {
-        moving += slices[t].moving;
-        seen += slices[t].seen;
+    for (uint32_t t = 0; !out->still && t < threads; t++) {
+        out->moving += slices[t].moving;
+        out->seen += slices[t].seen;
         if (status == PF_OK && slices[t].status != PF_OK) {
             status = slices[t].status;
             if (err)
@@ -234,13 +229,46 @@ pf_status pf_render_motion(pf_renderer *renderer, const pf_scene_frame *frame,
         }
     }
     if (status != PF_OK) {
+        pf_motion_field_free(out);
         pf_error_prefix(err, "motion");
         return status;
     }
-    pf_stage_timing *row = pf_frame_report_row(report, "motion", NULL, pf_time_ms() - start, -1.0);
+    out->ms = pf_time_ms() - start;
+    return PF_OK;
+}
+
+void pf_motion_field_free(pf_motion_field *field)
+{
+    free(field->vectors);
+    free(field->depth_change);
+    field->vectors = field->depth_change = NULL;
+}
+
+pf_status pf_motion_apply(const pf_motion_field *field, pf_image *image, float *depth_change,
+                          int overlapped, pf_frame_report *report, pf_error *err)
+{
+    double start = pf_time_ms();
+    if (!field->vectors || field->width != image->width || field->height != image->height)
+        return pf_error_set(err, PF_ERR_INTERNAL, "motion: no vectors of a %ux%u image",
+                            image->width, image->height);
+    uint32_t motion_channel = 0, channels_before = image->channel_count;
+    pf_status status = pf_image_later_layer(image, pf_motion_channels, 2, &motion_channel, err);
+    if (status != PF_OK)
+        return status;
+    size_t pixels = (size_t)image->width * image->height;
+    uint32_t channels = image->channel_count;
+    for (size_t p = 0; p < pixels; p++) {
+        float *out = image->pixels + p * channels + motion_channel;
+        out[0] = field->vectors[2 * p];
+        out[1] = field->vectors[2 * p + 1];
+    }
+    if (depth_change)
+        memcpy(depth_change, field->depth_change, pixels * sizeof *depth_change);
+    pf_stage_timing *row =
+        pf_frame_report_row(report, "motion", NULL, field->ms + pf_time_ms() - start, -1.0);
     /* 0: written into the layer the image was created with (PF_LATER_LAYER_MOTION). */
     int image_copied = image->channel_count != channels_before;
-    if (row && still) {
+    if (row && field->still) {
         snprintf(row->reason, sizeof row->reason,
                  "camera and geometry still, not traced; 0 of %llu pixels moved",
                  (unsigned long long)pixels);
@@ -250,13 +278,30 @@ pf_status pf_render_motion(pf_renderer *renderer, const pf_scene_frame *frame,
     } else if (row) {
         snprintf(row->reason, sizeof row->reason,
                  "pixel centres traced on the host; %llu of %llu pixels moved",
-                 (unsigned long long)moving, (unsigned long long)seen);
+                 (unsigned long long)field->moving, (unsigned long long)field->seen);
         pf_stage_add_counter(row, "pixels", (double)pixels);
-        pf_stage_add_counter(row, "surface_pixels", (double)seen);
-        pf_stage_add_counter(row, "moving_pixels", (double)moving);
+        pf_stage_add_counter(row, "surface_pixels", (double)field->seen);
+        pf_stage_add_counter(row, "moving_pixels", (double)field->moving);
         pf_stage_add_counter(row, "traced", 1);
     }
-    if (row)
+    if (row) {
         pf_stage_add_counter(row, "image_copied", image_copied);
+        /* 1: computed while the device finished the frame's last submission (shade's
+         * overlap_ms): its wall time is inside shade's, not after it. */
+        pf_stage_add_counter(row, "overlapped", overlapped);
+    }
     return PF_OK;
+}
+
+pf_status pf_render_motion(pf_renderer *renderer, const pf_scene_frame *frame,
+                           const pf_scene_frame *previous, pf_image *image, float *depth_change,
+                           pf_frame_report *report, pf_error *err)
+{
+    pf_motion_field field;
+    pf_status status =
+        pf_motion_compute(renderer, frame, previous, image->width, image->height, &field, err);
+    if (status == PF_OK)
+        status = pf_motion_apply(&field, image, depth_change, 0, report, err);
+    pf_motion_field_free(&field);
+    return status;
 }

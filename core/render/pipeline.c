@@ -135,18 +135,32 @@ static void fill_attributes(const pf_frame_request *request, const pf_render_set
 }
 
 /* The motion AOV: the scene one frame earlier (a pure function of the frame number, so any
- * worker computes the same vectors), its points found through this frame's tree. */
-static pf_status motion(pf_renderer *renderer, const pf_scene *scene, double time,
-                        const pf_scene_frame *frame, pf_image *image, float *depth_change,
-                        pf_frame_report *report, pf_error *err)
+ * worker computes the same vectors), its points found through this frame's tree, into a
+ * field the image takes once it is read back. Run as the renderer's overlap, while the
+ * device finishes the frame, or after the render where none ran (preview). */
+typedef struct motion_overlap {
+    pf_renderer *renderer;
+    const pf_scene *scene;
+    double time;
+    const pf_scene_frame *frame;
+    uint32_t width, height;
+    int ran;
+    pf_status status;
+    pf_error err;
+    pf_motion_field field;
+} motion_overlap;
+
+static void motion_overlap_run(void *argument)
 {
+    motion_overlap *m = argument;
+    m->ran = 1;
     pf_scene_frame previous;
-    double previous_time = time - 1.0 / pf_scene_get_info(scene)->fps;
-    pf_status status = pf_scene_eval(scene, previous_time, &previous, err);
-    if (status == PF_OK)
-        status = pf_render_motion(renderer, frame, &previous, image, depth_change, report, err);
+    double previous_time = m->time - 1.0 / pf_scene_get_info(m->scene)->fps;
+    m->status = pf_scene_eval(m->scene, previous_time, &previous, &m->err);
+    if (m->status == PF_OK)
+        m->status = pf_motion_compute(m->renderer, m->frame, &previous, m->width, m->height,
+                                      &m->field, &m->err);
     pf_scene_frame_free(&previous);
-    return status;
 }
 
 /* The sequence a frame belongs to: the scene's load (one job's, on one worker) and the job's
@@ -273,7 +287,19 @@ pf_status pf_frame_render(pf_renderer *renderer, const pf_frame_request *request
     if (settings.aovs && settings.quality != PF_QUALITY_AUTO &&
         pf_denoise_applies(settings.denoise, settings.quality))
         rendered.later_layers |= PF_LATER_LAYER_NOISY;
+    /* With AOVs the motion vectors are wanted whatever the denoiser decides: computed while
+     * the device renders the frame's last submission (the split integrators'), and written
+     * into the image once it is back. */
+    motion_overlap overlap = {renderer, request->scene, time, &frame, settings.width,
+                              settings.height, 0, PF_OK, {0}, {0}};
+    if (settings.aovs) {
+        renderer->overlap = motion_overlap_run;
+        renderer->overlap_arg = &overlap;
+    }
     status = pf_render_frame(renderer, &frame, &rendered, &image, &out->report, err);
+    renderer->overlap = NULL;
+    renderer->overlap_arg = NULL;
+    int overlapped = overlap.ran;
     out->peak_device_bytes = pf_vk_memory_use_of(pf_renderer_context(renderer)).peak;
     int denoised = status == PF_OK && pf_denoise_applies(settings.denoise, out->report.quality);
     pf_denoise_sequence sequence = {0};
@@ -291,9 +317,25 @@ pf_status pf_frame_render(pf_renderer *renderer, const pf_frame_request *request
         if (!depth_change)
             status = pf_error_set(err, PF_ERR_NOMEM, "motion: out of memory");
     }
-    if (status == PF_OK && (settings.aovs || reusing))
-        status = motion(renderer, request->scene, time, &frame, &image, depth_change,
-                        &out->report, err);
+    if (status == PF_OK && (settings.aovs || reusing)) {
+        if (!overlapped)
+            motion_overlap_run(&overlap);
+        status = overlap.status;
+        if (status != PF_OK && err)
+            *err = overlap.err;
+    }
+    if (status == PF_OK && (settings.aovs || reusing)) {
+        status =
+            pf_motion_apply(&overlap.field, &image, depth_change, overlapped, &out->report, err);
+        /* The shade row's wall time holds the vectors' (computed during its last wait). */
+        pf_stage_timing *shade = NULL;
+        for (uint32_t s = 0; overlapped && s < out->report.stage_count; s++)
+            if (!strcmp(out->report.stages[s].stage, "shade"))
+                shade = &out->report.stages[s];
+        if (shade)
+            pf_stage_add_counter(shade, "overlap_ms", overlap.field.ms);
+    }
+    pf_motion_field_free(&overlap.field);
     sequence.depth_change = depth_change;
     if (status == PF_OK && denoised)
         status = pf_render_denoise(renderer, &image, settings.aovs, &sequence, &out->report, err);

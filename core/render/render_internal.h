@@ -431,6 +431,11 @@ struct pf_renderer {
     pf_deform_site deform_site;   /* pf_renderer_set_deform_site */
     /* The deforming nodes' rest poses on the device (deform_device.c; NULL until used). */
     struct pf_deform_cache *deform_cache;
+    /* Host work to run while the device finishes the frame's last submission, the one that
+     * reads its film back (pf_split_film_submit), once; NULL: none. pf_frame_render's motion
+     * vectors (issue 43: the readback in the background). */
+    void (*overlap)(void *arg);
+    void *overlap_arg;
 };
 
 typedef struct pf_deform_cache pf_deform_cache;
@@ -670,6 +675,29 @@ void pf_fast_cache_destroy(pf_vk_context *ctx, struct pf_fast_cache *cache);
 pf_status pf_split_image_create(pf_image *image, uint32_t width, uint32_t height, int aovs,
                                 uint32_t later_layers, pf_error *err);
 
+/*
+ * pf_render_motion in two halves (motion_vectors.c), so that pf_frame_render computes the
+ * vectors while the device finishes the frame (pf_renderer.overlap) and writes them into
+ * the image once it is read back: compute traces the pixel centres of a width × height
+ * image into the field (two floats a pixel, and each pixel's depth change); apply writes
+ * them into image's motion layer and depth_change (NULL: not wanted), and adds the
+ * `motion` row (overlapped: computed during the device's work).
+ */
+typedef struct pf_motion_field {
+    float *vectors;      /* motion.X, motion.Y a pixel */
+    float *depth_change; /* pf_render_motion's, a pixel */
+    uint32_t width, height;
+    uint64_t moving, seen;
+    int still;           /* camera and geometry as they were: nothing traced */
+    double ms;           /* compute's wall time */
+} pf_motion_field;
+pf_status pf_motion_compute(pf_renderer *renderer, const pf_scene_frame *frame,
+                            const pf_scene_frame *previous, uint32_t width, uint32_t height,
+                            pf_motion_field *out, pf_error *err);
+pf_status pf_motion_apply(const pf_motion_field *field, pf_image *image, float *depth_change,
+                          int overlapped, pf_frame_report *report, pf_error *err);
+void pf_motion_field_free(pf_motion_field *field);
+
 /* The channels the motion and denoise stages add (PF_LATER_LAYER_MOTION, _NOISY). */
 extern const char *const pf_motion_channels[2];
 extern const char *const pf_noisy_channels[4];
@@ -727,6 +755,11 @@ pf_status pf_split_film_record_read(pf_renderer *renderer, pf_vk_commands *cmds,
                                     int aov_own_count, pf_image *image,
                                     pf_split_film_readback *out, pf_error *err);
 void pf_split_film_finish_read(pf_split_film_readback *readback);
+/* Submits cmds and waits for them; where they read the film back (readback has bands),
+ * the renderer's overlap runs between the submission and the wait, while the device
+ * renders. */
+pf_status pf_split_film_submit(pf_renderer *renderer, pf_vk_commands *cmds,
+                               const pf_split_film_readback *readback, pf_error *err);
 
 /* How far secondary rays start off a surface in this frame (FrameParams' camera_right.w). */
 float pf_render_ray_offset(const pf_scene_frame *frame);

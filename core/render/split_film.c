@@ -188,6 +188,18 @@ void pf_split_film_finish_read(pf_split_film_readback *readback)
     readback->band_count = 0;
 }
 
+pf_status pf_split_film_submit(pf_renderer *renderer, pf_vk_commands *cmds,
+                               const pf_split_film_readback *readback, pf_error *err)
+{
+    pf_status status = pf_vk_commands_submit_async(cmds, err);
+    if (status == PF_OK && readback->band_count > 0 && renderer->overlap) {
+        void (*overlap)(void *) = renderer->overlap;
+        renderer->overlap = NULL;
+        overlap(renderer->overlap_arg);
+    }
+    return status == PF_OK ? pf_vk_commands_wait(cmds, err) : status;
+}
+
 pf_status pf_split_film_read(pf_renderer *renderer, pf_vk_buffer *film, pf_vk_buffer *film_aov,
                              int aovs, int aov_own_count, pf_image *image, pf_error *err)
 {
@@ -198,7 +210,7 @@ pf_status pf_split_film_read(pf_renderer *renderer, pf_vk_buffer *film, pf_vk_bu
         status = pf_split_film_record_read(renderer, cmds, film, film_aov, aovs, aov_own_count,
                                            image, &readback, err);
     if (status == PF_OK)
-        status = pf_vk_commands_submit(cmds, err);
+        status = pf_split_film_submit(renderer, cmds, &readback, err);
     pf_vk_commands_destroy(cmds);
     pf_split_film_finish_read(&readback);
     return status;

@@ -10,7 +10,8 @@
 #define SETS_PER_POOL 64u
 #define BUFFERS_PER_POOL (SETS_PER_POOL * 8u)
 
-typedef enum commands_state { RECORDING, SUBMITTED, BROKEN } commands_state;
+/* IN_FLIGHT: submitted, not yet waited for (pf_vk_commands_submit_async). */
+typedef enum commands_state { RECORDING, IN_FLIGHT, SUBMITTED, BROKEN } commands_state;
 
 typedef struct descriptor_pool {
     VkDescriptorPool pool;
@@ -482,7 +483,7 @@ int pf_vk_cmd_timestamp(pf_vk_commands *cmds)
     return (int)slot;
 }
 
-pf_status pf_vk_commands_submit(pf_vk_commands *cmds, pf_error *err)
+pf_status pf_vk_commands_submit_async(pf_vk_commands *cmds, pf_error *err)
 {
     if (cmds->state != RECORDING)
         return pf_error_set(err, PF_ERR_INVALID,
@@ -490,12 +491,9 @@ pf_status pf_vk_commands_submit(pf_vk_commands *cmds, pf_error *err)
     cmds->state = BROKEN;
     pf_vk_context *ctx = cmds->ctx;
     if (cmds->device_work == 0) {
-        /* Only mapped copies (lavapipe): nothing for the device to do, no submission. The
-         * uploads are in place and every earlier submission was waited for. */
-        for (uint32_t i = 0; i < cmds->copy_count; i++)
-            if (cmds->copies[i].host)
-                memcpy(cmds->copies[i].host, cmds->copies[i].source, cmds->copies[i].size);
-        cmds->state = SUBMITTED;
+        /* Only mapped copies (lavapipe): nothing for the device to do, no submission; the
+         * wait makes the copies. */
+        cmds->state = IN_FLIGHT;
         return PF_OK;
     }
     /* Downloads may read mapped memory right after the fence: make writes host-visible. */
@@ -514,23 +512,41 @@ pf_status pf_vk_commands_submit(pf_vk_commands *cmds, pf_error *err)
     atomic_fetch_add(&ctx->submits, 1);
     if (result != VK_SUCCESS)
         return vulkan_error(cmds, "vkQueueSubmit", result, err);
-    atomic_fetch_add(&ctx->host_waits, 1);
-    result = vkWaitForFences(ctx->device, 1, &cmds->fence, VK_TRUE, UINT64_MAX);
-    if (result != VK_SUCCESS)
-        return vulkan_error(cmds, "vkWaitForFences", result, err);
-    if (cmds->timestamps_written > 0) {
-        result = vkGetQueryPoolResults(ctx->device, cmds->query_pool, 0, cmds->timestamps_written,
-                                       sizeof cmds->timestamps, cmds->timestamps,
-                                       sizeof cmds->timestamps[0],
-                                       VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT);
+    cmds->state = IN_FLIGHT;
+    return PF_OK;
+}
+
+pf_status pf_vk_commands_wait(pf_vk_commands *cmds, pf_error *err)
+{
+    if (cmds->state != IN_FLIGHT)
+        return pf_error_set(err, PF_ERR_INVALID, "commands waited for before their submission");
+    cmds->state = BROKEN;
+    pf_vk_context *ctx = cmds->ctx;
+    if (cmds->device_work > 0) {
+        atomic_fetch_add(&ctx->host_waits, 1);
+        VkResult result = vkWaitForFences(ctx->device, 1, &cmds->fence, VK_TRUE, UINT64_MAX);
         if (result != VK_SUCCESS)
-            return vulkan_error(cmds, "vkGetQueryPoolResults", result, err);
+            return vulkan_error(cmds, "vkWaitForFences", result, err);
+        if (cmds->timestamps_written > 0) {
+            result = vkGetQueryPoolResults(ctx->device, cmds->query_pool, 0,
+                                           cmds->timestamps_written, sizeof cmds->timestamps,
+                                           cmds->timestamps, sizeof cmds->timestamps[0],
+                                           VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT);
+            if (result != VK_SUCCESS)
+                return vulkan_error(cmds, "vkGetQueryPoolResults", result, err);
+        }
     }
     for (uint32_t i = 0; i < cmds->copy_count; i++)
         if (cmds->copies[i].host)
             memcpy(cmds->copies[i].host, cmds->copies[i].source, cmds->copies[i].size);
     cmds->state = SUBMITTED;
     return PF_OK;
+}
+
+pf_status pf_vk_commands_submit(pf_vk_commands *cmds, pf_error *err)
+{
+    pf_status status = pf_vk_commands_submit_async(cmds, err);
+    return status == PF_OK ? pf_vk_commands_wait(cmds, err) : status;
 }
 
 double pf_vk_commands_elapsed_ms(const pf_vk_commands *cmds, int slot_begin, int slot_end)
@@ -551,6 +567,10 @@ void pf_vk_commands_destroy(pf_vk_commands *cmds)
     if (!cmds)
         return;
     VkDevice device = cmds->ctx->device;
+    /* Submitted and never waited for (an error between the halves): the device may still
+     * run them, and their pool and fence must outlive that. */
+    if (cmds->state == IN_FLIGHT && cmds->device_work > 0)
+        vkWaitForFences(device, 1, &cmds->fence, VK_TRUE, UINT64_MAX);
     for (uint32_t i = 0; i < cmds->copy_count; i++)
         pf_vk_staging_destroy(cmds->ctx, &cmds->copies[i].staging);
     free(cmds->copies);

@@ -230,6 +230,12 @@ pf_status pf_vk_cmd_download(pf_vk_commands *cmds, pf_vk_buffer *buffer, uint64_
 /* Submits and waits. Commands with nothing for the device (no dispatch, timestamp or
  * staged copy: only copies to and from mapped buffers) are not submitted. */
 pf_status pf_vk_commands_submit(pf_vk_commands *cmds, pf_error *err);
+/* The same in two halves, so that the host works while the device runs them (issue 43's
+ * readback in the background): submit_async returns once they are queued; wait waits for
+ * them, then fills the downloads and the timestamps. pf_vk_commands_submit is both. The
+ * buffers they use stay untouched by the host between the two. */
+pf_status pf_vk_commands_submit_async(pf_vk_commands *cmds, pf_error *err);
+pf_status pf_vk_commands_wait(pf_vk_commands *cmds, pf_error *err);
 /* GPU milliseconds between two timestamp slots after submit; negative if unavailable. */
 double pf_vk_commands_elapsed_ms(const pf_vk_commands *cmds, int slot_begin, int slot_end);
 void pf_vk_commands_destroy(pf_vk_commands *cmds);

@@ -188,13 +188,16 @@ PF_TEST(consecutive_frames_reuse_the_one_before)
  * in the image the split integrators create, so the stages write them in place instead of
  * copying the whole image into a wider one: the rows say image_copied=0, and the file has
  * the layers in the order appending gave them. preview's image is not created with them:
- * its motion stage appends (image_copied=1).
+ * its motion stage appends (image_copied=1). The split integrators' motion vectors are
+ * computed while the device renders the frame's last submission (overlapped=1, and shade's
+ * row says overlap_ms); preview's after it (overlapped=0): the same vectors either way.
  */
 PF_TEST(later_layers_are_written_in_place)
 {
     char scene[1024], args[4096], path[2048];
     pf_test_shared_scene("cornell-anim", scene, sizeof scene);
     static const char *const presets[2] = {"reference", "preview"};
+    pf_image vectors[2] = {{0}, {0}}; /* each file, for its motion layer */
     for (int p = 0; p < 2; p++) {
         snprintf(args, sizeof args,
                  "render '%s' --frame 2 --size 16x12 --quality %s --spp 1 --denoise spatial "
@@ -203,6 +206,11 @@ PF_TEST(later_layers_are_written_in_place)
         PF_REQUIRE(run_photonfarm(args) == 0);
         int moved = log_count("traced=1 image_copied=");
         int in_place = log_count("image_copied=0"), copied = log_count("image_copied=1");
+        int overlapped = log_count("overlapped=1"), after = log_count("overlapped=0");
+        PF_CHECK_MSG(overlapped == (p == 0) && after == (p == 1) &&
+                         log_count("overlap_ms=") == (p == 0),
+                     "%s: motion overlapped %d times, after the render %d", presets[p],
+                     overlapped, after);
         PF_CHECK_MSG(moved == 1, "%s: the motion row traced %d times", presets[p], moved);
         if (p == 0)
             PF_CHECK_MSG(in_place == 2 && copied == 0,
@@ -234,8 +242,23 @@ PF_TEST(later_layers_are_written_in_place)
             }
             PF_CHECK_MSG(moving > 0 && lit > 0, "%d pixels moving, %d lit", moving, lit);
         }
-        pf_image_free(&image);
+        vectors[p] = image; /* kept for the comparison below */
     }
+    /* The vectors computed during the device's work are those computed after it. */
+    size_t differing = 0;
+    for (int c = 0; c < 2; c++) {
+        const char *name = c ? "motion.Y" : "motion.X";
+        int a = pf_image_channel(&vectors[0], name), b = pf_image_channel(&vectors[1], name);
+        PF_REQUIRE(a >= 0 && b >= 0);
+        for (size_t i = 0; i < 16u * 12u; i++)
+            differing += memcmp(&vectors[0].pixels[i * vectors[0].channel_count + (size_t)a],
+                                &vectors[1].pixels[i * vectors[1].channel_count + (size_t)b],
+                                sizeof(float)) != 0;
+    }
+    PF_CHECK_MSG(differing == 0, "%zu motion values differ between reference and preview",
+                 differing);
+    pf_image_free(&vectors[0]);
+    pf_image_free(&vectors[1]);
 }
 
 /* An unusable cache directory costs compile time, never the frame. */
