@@ -11,16 +11,22 @@
 
 #include <string.h>
 
-void pf_pilot_begin(const pf_renderer *renderer, pf_pilot_history *saved)
+void pf_pilot_begin(pf_renderer *renderer, pf_pilot_history *saved)
 {
     for (int q = 0; q < PF_QUALITY_AUTO; q++)
         saved->frames[q] = renderer->stage_memory[q].frames;
     saved->bih_frames = renderer->bih_frames;
     saved->texture_set = renderer->textures.texture_set;
+    /* The host work meant to overlap the real frame's last submission waits for it. */
+    saved->overlap = renderer->overlap;
+    saved->overlap_arg = renderer->overlap_arg;
+    renderer->overlap = NULL;
 }
 
 void pf_pilot_end(pf_renderer *renderer, const pf_pilot_history *saved)
 {
+    renderer->overlap = saved->overlap;
+    renderer->overlap_arg = saved->overlap_arg;
     /* Every kept stage output may be the pilot's now: none is reused. */
     for (int q = 0; q < PF_QUALITY_AUTO; q++) {
         pf_stage_memory *memory = &renderer->stage_memory[q];

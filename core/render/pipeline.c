@@ -150,10 +150,20 @@ typedef struct motion_overlap {
     pf_motion_field field;
 } motion_overlap;
 
-static void motion_overlap_run(void *argument)
+static void motion_overlap_run(void *argument, int phase)
 {
     motion_overlap *m = argument;
+    if (phase == PF_OVERLAP_PREPARE) {
+        /* A tree kept on the device comes to the host now, before the device is busy:
+         * asked for during the frame's last submission, the download would wait for it. */
+        const pf_bih *tree = NULL;
+        m->status = m->renderer->bih_valid ? pf_renderer_bih_host(m->renderer, &tree, &m->err)
+                                           : PF_OK;
+        return;
+    }
     m->ran = 1;
+    if (m->status != PF_OK)
+        return;
     pf_scene_frame previous;
     double previous_time = m->time - 1.0 / pf_scene_get_info(m->scene)->fps;
     m->status = pf_scene_eval(m->scene, previous_time, &previous, &m->err);
@@ -319,7 +329,7 @@ pf_status pf_frame_render(pf_renderer *renderer, const pf_frame_request *request
     }
     if (status == PF_OK && (settings.aovs || reusing)) {
         if (!overlapped)
-            motion_overlap_run(&overlap);
+            motion_overlap_run(&overlap, PF_OVERLAP_RUN);
         status = overlap.status;
         if (status != PF_OK && err)
             *err = overlap.err;

@@ -433,10 +433,16 @@ struct pf_renderer {
     struct pf_deform_cache *deform_cache;
     /* Host work to run while the device finishes the frame's last submission, the one that
      * reads its film back (pf_split_film_submit), once; NULL: none. pf_frame_render's motion
-     * vectors (issue 43: the readback in the background). */
-    void (*overlap)(void *arg);
+     * vectors (issue 43: the readback in the background). Called with PF_OVERLAP_PREPARE just
+     * before that submission (what needs the device first: the host's copy of a tree kept
+     * on the device), then with PF_OVERLAP_RUN while the device works. */
+    void (*overlap)(void *arg, int phase);
     void *overlap_arg;
 };
+
+/* pf_renderer.overlap's phases. */
+#define PF_OVERLAP_PREPARE 0
+#define PF_OVERLAP_RUN 1
 
 typedef struct pf_deform_cache pf_deform_cache;
 void pf_deform_cache_destroy(pf_vk_context *ctx, pf_deform_cache *cache);
@@ -638,9 +644,12 @@ typedef struct pf_pilot_history {
     uint64_t frames[PF_QUALITY_AUTO];
     uint64_t bih_frames;
     uint64_t texture_set;
+    /* The frame's overlap (pf_renderer.overlap), held back for the real frame's readback. */
+    void (*overlap)(void *arg, int phase);
+    void *overlap_arg;
 } pf_pilot_history;
 
-void pf_pilot_begin(const pf_renderer *renderer, pf_pilot_history *saved);
+void pf_pilot_begin(pf_renderer *renderer, pf_pilot_history *saved);
 void pf_pilot_end(pf_renderer *renderer, const pf_pilot_history *saved);
 
 /* The request's image size, budgets and target in range (PF_ERR_INVALID naming them). */

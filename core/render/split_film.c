@@ -191,12 +191,14 @@ void pf_split_film_finish_read(pf_split_film_readback *readback)
 pf_status pf_split_film_submit(pf_renderer *renderer, pf_vk_commands *cmds,
                                const pf_split_film_readback *readback, pf_error *err)
 {
-    pf_status status = pf_vk_commands_submit_async(cmds, err);
-    if (status == PF_OK && readback->band_count > 0 && renderer->overlap) {
-        void (*overlap)(void *) = renderer->overlap;
+    void (*overlap)(void *, int) = readback->band_count > 0 ? renderer->overlap : NULL;
+    if (overlap) {
         renderer->overlap = NULL;
-        overlap(renderer->overlap_arg);
+        overlap(renderer->overlap_arg, PF_OVERLAP_PREPARE);
     }
+    pf_status status = pf_vk_commands_submit_async(cmds, err);
+    if (status == PF_OK && overlap)
+        overlap(renderer->overlap_arg, PF_OVERLAP_RUN);
     return status == PF_OK ? pf_vk_commands_wait(cmds, err) : status;
 }
 

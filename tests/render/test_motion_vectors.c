@@ -213,6 +213,87 @@ PF_TEST(a_tree_refit_on_the_device_traces_the_same_motion)
     ref_scene_free(&now);
 }
 
+/*
+ * pf_frame_render computes the vectors while the device renders the frame's last submission
+ * (the one that reads its film back); a tree kept on the device (the GPU build) is fetched
+ * to the host in the overlap's prepare phase, just before that submission. For a tree built
+ * on the CPU and one kept on the device, the vectors in the file equal those
+ * pf_render_motion traces afterwards through the same renderer's tree, bit for bit, and the
+ * rows say they were computed during the device's work.
+ */
+PF_TEST(vectors_computed_during_the_last_submission_match_those_after_it)
+{
+    char path[1024];
+    const char *source = getenv("PF_SOURCE_DIR");
+    snprintf(path, sizeof path, "%s/scenes/cornell-moving/cornell-moving.gltf",
+             source ? source : ".");
+    pf_scene *scene = NULL;
+    pf_error err = {0};
+    PF_REQUIRE_OK(pf_scene_load(path, &scene, &err), &err);
+    char dir[1024];
+    pf_test_tmpdir(dir, sizeof dir);
+    const pf_bih_build_site sites[2] = {PF_BIH_BUILD_CPU, PF_BIH_BUILD_GPU};
+    for (int s = 0; s < 2; s++) {
+        pf_renderer *own = NULL;
+        PF_REQUIRE_OK(pf_renderer_create(ctx, &own, &err), &err);
+        pf_renderer_set_bih_build(own, sites[s]);
+        char output[1200];
+        snprintf(output, sizeof output, "%s/overlap-%d.exr", dir, s);
+        pf_render_settings settings = pf_render_settings_default();
+        settings.width = WIDTH;
+        settings.height = HEIGHT;
+        settings.quality = PF_QUALITY_REFERENCE;
+        settings.samples_per_pixel = 1;
+        settings.seed = 1;
+        settings.float_pixels = 1;
+        settings.denoise = PF_DENOISE_OFF;
+        pf_frame_request request = {scene, path, 2, settings, output, "t", "test", NULL, 0, 0};
+        pf_frame_output out;
+        PF_REQUIRE_OK(pf_frame_render(own, &request, &out, &err), &err);
+        PF_CHECK_MSG(ref_stage_counter(&out.report, "motion", "overlapped") == 1.0 &&
+                         ref_stage_counter(&out.report, "shade", "overlap_ms") > 0.0 &&
+                         ref_stage_counter(&out.report, "bih_build", "built_on_gpu") == (double)s,
+                     "site %d: overlapped %g, overlap_ms %g, built on the GPU %g", s,
+                     ref_stage_counter(&out.report, "motion", "overlapped"),
+                     ref_stage_counter(&out.report, "shade", "overlap_ms"),
+                     ref_stage_counter(&out.report, "bih_build", "built_on_gpu"));
+        pf_image written = {0};
+        PF_CHECK_OK(pf_exr_read(out.temp_path, &written, NULL, NULL, &err), &err);
+        /* The same frame and the one before it, traced again through the renderer's tree. */
+        double time = pf_scene_frame_time(scene, 2);
+        pf_scene_frame now, before;
+        PF_REQUIRE_OK(pf_scene_eval(scene, time, &now, &err), &err);
+        PF_REQUIRE_OK(pf_scene_eval(scene, time - 1.0 / pf_scene_get_info(scene)->fps, &before,
+                                    &err),
+                      &err);
+        static const char *const beauty[1] = {"R"};
+        pf_image traced = {0};
+        PF_REQUIRE_OK(pf_image_create(&traced, WIDTH, HEIGHT, 1, beauty, &err), &err);
+        PF_CHECK_OK(pf_render_motion(own, &now, &before, &traced, NULL, NULL, &err), &err);
+        size_t differ = 0, moving = 0;
+        for (int k = 0; k < 2; k++) {
+            const char *name = k ? "motion.Y" : "motion.X";
+            int a = pf_image_channel(&written, name), b = pf_image_channel(&traced, name);
+            PF_REQUIRE(a >= 0 && b >= 0);
+            for (uint32_t y = 0; y < HEIGHT; y++)
+                for (uint32_t x = 0; x < WIDTH; x++) {
+                    double value = ref_pixel(&written, a, x, y);
+                    differ += value != ref_pixel(&traced, b, x, y);
+                    moving += value != 0.0;
+                }
+        }
+        PF_CHECK_MSG(differ == 0 && moving > 0, "site %d: %zu motion values differ (%zu move)",
+                     s, differ, moving);
+        pf_image_free(&written);
+        pf_image_free(&traced);
+        pf_scene_frame_free(&now);
+        pf_scene_frame_free(&before);
+        pf_frame_discard(&out);
+        pf_renderer_destroy(own);
+    }
+    pf_scene_destroy(scene);
+}
+
 int main(void)
 {
     if (!render_test_setup(&ctx, &renderer))
@@ -221,5 +302,6 @@ int main(void)
     PF_RUN(a_sliding_camera_moves_the_wall_by_the_closed_form);
     PF_RUN(a_moving_object_moves_by_the_closed_form_and_the_still_wall_reads_zero);
     PF_RUN(a_tree_refit_on_the_device_traces_the_same_motion);
+    PF_RUN(vectors_computed_during_the_last_submission_match_those_after_it);
     return render_test_finish(ctx, renderer);
 }
