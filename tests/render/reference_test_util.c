@@ -284,14 +284,22 @@ void ref_camera_ray(const pf_camera *camera, uint32_t width, uint32_t height, do
     normalize3(direction);
 }
 
+pf_status ref_load_project_scene(const char *relative, char *path, size_t size,
+                                 pf_scene **scene, pf_error *err)
+{
+    const char *root = getenv("PF_SOURCE_DIR");
+    snprintf(path, size, "%s/%s", root ? root : ".", relative);
+    return pf_scene_load(path, scene, err);
+}
+
 int ref_load_cornell(pf_scene **scene, pf_scene_frame *frame)
 {
     pf_error err = {0};
-    const char *root = getenv("PF_SOURCE_DIR");
     char path[1024];
-    snprintf(path, sizeof path, "%s/scenes/cornell/cornell.gltf", root ? root : ".");
     memset(frame, 0, sizeof *frame);
-    if (pf_scene_load(path, scene, &err) != PF_OK || pf_scene_eval(*scene, 0.0, frame, &err) != PF_OK) {
+    if (ref_load_project_scene("scenes/cornell/cornell.gltf", path, sizeof path, scene, &err) !=
+            PF_OK ||
+        pf_scene_eval(*scene, 0.0, frame, &err) != PF_OK) {
         fprintf(stderr, "cornell: %s\n", err.message);
         return 0;
     }

@@ -96,6 +96,10 @@ void ref_camera_ray(const pf_camera *camera, uint32_t width, uint32_t height, do
  */
 int ref_load_cornell(pf_scene **scene, pf_scene_frame *frame);
 
+/* Loads the project's scene at relative ($PF_SOURCE_DIR/relative), its path left in path. */
+pf_status ref_load_project_scene(const char *relative, char *path, size_t size,
+                                 pf_scene **scene, pf_error *err);
+
 /* Settings for a reference render: width × height, spp samples per pixel, seed. */
 pf_render_settings ref_settings(uint32_t width, uint32_t height, uint32_t spp, uint64_t seed,
                                 int aovs);

@@ -10,6 +10,7 @@
 #include "../vk/vk_test_util.h"
 #include "pf_render.h"
 #include "pf_test.h"
+#include "reference_test_util.h"
 
 #include <math.h>
 #include <stdint.h>
@@ -119,12 +120,11 @@ static int same_vertices(const pf_scene_frame *a, const pf_scene_frame *b)
 PF_TEST(cornell_moving_reuses_refits_and_matches_fresh_builds)
 {
     char path[1024];
-    const char *source = getenv("PF_SOURCE_DIR");
-    snprintf(path, sizeof path, "%s/scenes/cornell-moving/cornell-moving.gltf",
-             source ? source : ".");
     pf_scene *scene = NULL;
     pf_error err = {0};
-    PF_REQUIRE_OK(pf_scene_load(path, &scene, &err), &err);
+    PF_REQUIRE_OK(ref_load_project_scene("scenes/cornell-moving/cornell-moving.gltf", path,
+                                         sizeof path, &scene, &err),
+                  &err);
     uint32_t frame_count = pf_scene_get_info(scene)->frame_count;
     PF_CHECK(pf_scene_get_info(scene)->geometry_animated);
     pf_renderer *renderer = NULL;

@@ -224,12 +224,11 @@ PF_TEST(a_tree_refit_on_the_device_traces_the_same_motion)
 PF_TEST(vectors_computed_during_the_last_submission_match_those_after_it)
 {
     char path[1024];
-    const char *source = getenv("PF_SOURCE_DIR");
-    snprintf(path, sizeof path, "%s/scenes/cornell-moving/cornell-moving.gltf",
-             source ? source : ".");
     pf_scene *scene = NULL;
     pf_error err = {0};
-    PF_REQUIRE_OK(pf_scene_load(path, &scene, &err), &err);
+    PF_REQUIRE_OK(ref_load_project_scene("scenes/cornell-moving/cornell-moving.gltf", path,
+                                         sizeof path, &scene, &err),
+                  &err);
     char dir[1024];
     pf_test_tmpdir(dir, sizeof dir);
     const pf_bih_build_site sites[2] = {PF_BIH_BUILD_CPU, PF_BIH_BUILD_GPU};
