@@ -85,7 +85,7 @@
 #define VERTEX_WEIGHT_VEC4_PER_PIXEL 2u
 _Static_assert(VERTEX_VEC4_PER_PIXEL <= PF_SPLIT_FILM_VEC4_PER_PIXEL &&
                    VERTEX_WEIGHT_VEC4_PER_PIXEL <= PF_SPLIT_FILM_VEC4_PER_PIXEL,
-               "pf_split_film_fits: no per-pixel buffer of final is larger than the film");
+               "pf_render_size_check: no per-pixel buffer of final is larger than the film");
 #define GROUP_EDGE 8u
 /* The shade kernels' bindings (final_shared.glsl) of the photon grid they gather from and of its
  * irradiance points: records, flux, ranges. */
@@ -732,7 +732,7 @@ static pf_status final_begin(pf_frame_run *run, pf_error *err)
     const pf_render_settings *settings = run->settings;
     const pf_stage_plan *plan = run->plan;
     pf_vk_context *ctx = renderer->ctx;
-    pf_status status = PF_OK; /* its buffers fit: pf_split_film_fits */
+    pf_status status = PF_OK; /* its buffers fit: pf_render_size_check */
     if (!renderer->final_cache) {
         renderer->final_cache = calloc(1, sizeof *renderer->final_cache);
         if (!renderer->final_cache)

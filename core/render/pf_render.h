@@ -405,6 +405,16 @@ int pf_settings_format(const pf_render_settings *settings, char *out, size_t siz
 pf_status pf_settings_parse(const char *json, pf_render_settings *settings, pf_error *err);
 
 /*
+ * PF_ERR_LIMIT, naming the preset and the size, when a frame of these settings keeps a
+ * per-pixel buffer larger than max_buffer_bytes (a device's maxStorageBufferRange): the film
+ * of fast, final and reference (auto renders one of them), 48 bytes a pixel, their largest;
+ * preview keeps none. pf_render_frame checks it before any stage runs; `render` checks an
+ * asked --size against its device before it loads anything more (split_film.c).
+ */
+pf_status pf_render_size_check(const pf_render_settings *settings, uint64_t max_buffer_bytes,
+                               pf_error *err);
+
+/*
  * The motion vectors AOV (motion_vectors.c): appends channels motion.X and motion.Y to
  * image, the screen-space offset in pixels from each pixel's visible point to where that
  * point was in `previous` (the scene evaluated one frame earlier), with Cycles' Vector

@@ -126,11 +126,10 @@ pf_status pf_render_preset(pf_renderer *renderer, const pf_scene_frame *frame,
         report->quality = settings->quality;
     /* The split integrators' per-pixel buffers must each fit one device buffer: refused
      * before any stage runs, naming the size. */
-    if (settings->quality != PF_QUALITY_PREVIEW) {
-        status = pf_split_film_fits(pf_renderer_context(renderer), settings, err);
-        if (status != PF_OK)
-            return status;
-    }
+    status = pf_render_size_check(
+        settings, pf_vk_info(pf_renderer_context(renderer))->max_storage_buffer_range, err);
+    if (status != PF_OK)
+        return status;
     /* The planner decides every stage before any runs; the loop carries the plan out. */
     pf_stage_plan plan;
     pf_stage_previous previous = pf_stage_previous_of(renderer, settings->quality);

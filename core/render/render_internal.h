@@ -735,14 +735,6 @@ void pf_split_film_to_image(const float *film, const float *film_aov, int aovs,
 pf_status pf_split_film_create(pf_vk_context *ctx, const pf_render_settings *settings,
                                int full_aov, const char *integrator, pf_vk_buffer **film,
                                pf_vk_buffer **film_aov, pf_error *err);
-/*
- * PF_ERR_LIMIT, naming the size, when the film of a frame of these settings exceeds one
- * device buffer: the largest per-pixel buffer of the split integrators (fast, final,
- * reference; final's other per-pixel buffers are no larger). pf_render_preset checks it
- * before any stage runs.
- */
-pf_status pf_split_film_fits(pf_vk_context *ctx, const pf_render_settings *settings,
-                             pf_error *err);
 
 /* Reads both films back into image, split into its channels on the device (the AOV film
  * only with aovs): one submission. */
