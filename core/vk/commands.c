@@ -513,6 +513,7 @@ pf_status pf_vk_commands_submit_async(pf_vk_commands *cmds, pf_error *err)
     if (result != VK_SUCCESS)
         return vulkan_error(cmds, "vkQueueSubmit", result, err);
     cmds->state = IN_FLIGHT;
+    atomic_fetch_add(&ctx->in_flight, 1);
     return PF_OK;
 }
 
@@ -524,6 +525,10 @@ pf_status pf_vk_commands_wait(pf_vk_commands *cmds, pf_error *err)
     pf_vk_context *ctx = cmds->ctx;
     if (cmds->device_work > 0) {
         atomic_fetch_add(&ctx->host_waits, 1);
+        /* Not counting itself: another submission still in flight is what this one
+         * queued behind. */
+        if (atomic_fetch_sub(&ctx->in_flight, 1) > 1)
+            atomic_fetch_add(&ctx->waits_behind, 1);
         VkResult result = vkWaitForFences(ctx->device, 1, &cmds->fence, VK_TRUE, UINT64_MAX);
         if (result != VK_SUCCESS)
             return vulkan_error(cmds, "vkWaitForFences", result, err);
@@ -569,8 +574,10 @@ void pf_vk_commands_destroy(pf_vk_commands *cmds)
     VkDevice device = cmds->ctx->device;
     /* Submitted and never waited for (an error between the halves): the device may still
      * run them, and their pool and fence must outlive that. */
-    if (cmds->state == IN_FLIGHT && cmds->device_work > 0)
+    if (cmds->state == IN_FLIGHT && cmds->device_work > 0) {
         vkWaitForFences(device, 1, &cmds->fence, VK_TRUE, UINT64_MAX);
+        atomic_fetch_sub(&cmds->ctx->in_flight, 1);
+    }
     for (uint32_t i = 0; i < cmds->copy_count; i++)
         pf_vk_staging_destroy(cmds->ctx, &cmds->copies[i].staging);
     free(cmds->copies);

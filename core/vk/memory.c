@@ -37,6 +37,11 @@ pf_vk_traffic pf_vk_traffic_of(pf_vk_context *ctx)
                            atomic_load(&ctx->readback_bytes), atomic_load(&ctx->upload_bytes)};
 }
 
+uint64_t pf_vk_waits_behind(pf_vk_context *ctx)
+{
+    return atomic_load(&ctx->waits_behind);
+}
+
 pf_vk_traffic pf_vk_traffic_since(pf_vk_context *ctx, pf_vk_traffic before)
 {
     pf_vk_traffic now = pf_vk_traffic_of(ctx);
@@ -382,6 +387,8 @@ static pf_status staged_copy(pf_vk_context *ctx, pf_vk_buffer *buffer, uint64_t 
         result = vkWaitForFences(ctx->device, 1, &fence, VK_TRUE, UINT64_MAX);
         failed_call = "vkWaitForFences";
         atomic_fetch_add(&ctx->host_waits, 1);
+        if (atomic_load(&ctx->in_flight) > 0) /* it queued behind that submission */
+            atomic_fetch_add(&ctx->waits_behind, 1);
     }
     if (fence)
         vkDestroyFence(ctx->device, fence, NULL);

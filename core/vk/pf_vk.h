@@ -103,6 +103,10 @@ typedef struct pf_vk_traffic {
     uint64_t submits, host_waits, readback_bytes, upload_bytes;
 } pf_vk_traffic;
 pf_vk_traffic pf_vk_traffic_of(pf_vk_context *ctx);
+/* Host waits made while a submission of pf_vk_commands_submit_async was still in flight:
+ * each stalled behind it on the one queue, the host's work meant to overlap the device's
+ * included. 0 where the overlap fetched what it needed first. */
+uint64_t pf_vk_waits_behind(pf_vk_context *ctx);
 /* What was added since before (a read of pf_vk_traffic_of). */
 pf_vk_traffic pf_vk_traffic_since(pf_vk_context *ctx, pf_vk_traffic before);
 

@@ -44,6 +44,9 @@ struct pf_vk_context {
     _Atomic uint64_t memory_in_use, memory_peak;
     /* pf_vk_traffic's counters (any thread). */
     _Atomic uint64_t submits, host_waits, readback_bytes, upload_bytes;
+    /* Submissions made with pf_vk_commands_submit_async not yet waited for, and the waits
+     * for other commands made meanwhile (pf_vk_waits_behind). */
+    _Atomic uint64_t in_flight, waits_behind;
 
     struct {
         VkPipelineCache handle; /* the file is stats.path ("" without a directory) */
