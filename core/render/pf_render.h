@@ -415,8 +415,9 @@ pf_status pf_render_size_check(const pf_render_settings *settings, uint64_t max_
                                pf_error *err);
 
 /*
- * The motion vectors AOV (motion_vectors.c): appends channels motion.X and motion.Y to
- * image, the screen-space offset in pixels from each pixel's visible point to where that
+ * The motion vectors AOV (motion_vectors.c): fills channels motion.X and motion.Y of
+ * image (where it was created with them: PF_LATER_LAYER_MOTION; else appended), the
+ * screen-space offset in pixels from each pixel's visible point to where that
  * point was in `previous` (the scene evaluated one frame earlier), with Cycles' Vector
  * pass convention: previous raster position minus this one, x right, y up; 0 where the
  * pixel sees nothing. Uses the tree pf_render_frame left for frame; adds a `motion` row.
