@@ -18,7 +18,6 @@
 #include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
-#include <unistd.h>
 
 /* Threads beyond this many cores are not started (each has its own scratch). */
 #define WAVE_MAX_THREADS 64u
@@ -164,14 +163,6 @@ static void *pool_thread(void *arg)
     return NULL;
 }
 
-static uint32_t online_cores(void)
-{
-    long cores = sysconf(_SC_NPROCESSORS_ONLN);
-    if (cores < 1)
-        return 1;
-    return cores > (long)WAVE_MAX_THREADS ? WAVE_MAX_THREADS : (uint32_t)cores;
-}
-
 pf_status pf_bih_wave_tracer_create(const pf_bih *bih, const pf_bih_wide *wide, uint32_t paths,
                                     uint32_t shadow_slots, pf_bih_wave_tracer **out, pf_error *err)
 {
@@ -182,7 +173,7 @@ pf_status pf_bih_wave_tracer_create(const pf_bih *bih, const pf_bih_wide *wide, 
     tracer->bih = bih;
     tracer->shadow_slots = shadow_slots;
     uint32_t blocks = (paths + WAVE_BLOCK_PATHS - 1) / WAVE_BLOCK_PATHS;
-    tracer->thread_count = online_cores();
+    tracer->thread_count = pf_cpu_cores(WAVE_MAX_THREADS);
     if (tracer->thread_count > blocks)
         tracer->thread_count = blocks > 0 ? blocks : 1;
     pf_status status = PF_OK;

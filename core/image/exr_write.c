@@ -295,10 +295,7 @@ static void *encode_chunks(void *argument)
 
 static uint32_t encode_thread_count(uint32_t chunk_count)
 {
-    long online = sysconf(_SC_NPROCESSORS_ONLN);
-    uint32_t threads = online > 0 ? (uint32_t)online : 1u;
-    if (threads > ENCODE_MAX_THREADS)
-        threads = ENCODE_MAX_THREADS;
+    uint32_t threads = pf_cpu_cores(ENCODE_MAX_THREADS);
     return threads < chunk_count ? threads : chunk_count;
 }
 
