@@ -32,6 +32,8 @@ struct pf_vk_commands {
     recorded_copy *copies;
     uint32_t copy_count, copy_capacity;
     uint32_t device_work; /* dispatches, staged copies and timestamps recorded */
+    /* A dispatch was recorded since the last barrier: the next dispatch gets one first. */
+    int unordered;
     /* The buffers the recorded dispatches use: an upload to one of them must be ordered
      * after those dispatches, so it is staged even where the buffer is mapped. */
     const pf_vk_buffer **bound;
@@ -269,6 +271,12 @@ static pf_status bind_for_dispatch(pf_vk_commands *cmds, pf_vk_pipeline *pipelin
                                    pf_error *err)
 {
     pf_status status = PF_OK;
+    /* Every dispatch runs after the ones recorded before it and sees their writes: a GPU
+     * overlaps dispatches that have no barrier between them (lavapipe runs them in order,
+     * so a missing barrier showed only on GPUs: final's resolve read the gather's sums
+     * before it wrote them). */
+    if (cmds->unordered)
+        pf_vk_cmd_barrier(cmds);
     vkCmdBindPipeline(cmds->command, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline->pipeline);
     if (buffer_count > 0) {
         VkDescriptorSet set;
@@ -341,6 +349,7 @@ pf_status pf_vk_cmd_dispatch(pf_vk_commands *cmds, pf_vk_pipeline *pipeline,
         return status;
     vkCmdDispatch(cmds->command, groups_x, groups_y, groups_z);
     cmds->device_work++;
+    cmds->unordered = 1;
     return PF_OK;
 }
 
@@ -366,6 +375,7 @@ pf_status pf_vk_cmd_dispatch_indirect(pf_vk_commands *cmds, pf_vk_pipeline *pipe
         return status;
     vkCmdDispatchIndirect(cmds->command, groups->buffer, offset);
     cmds->device_work++;
+    cmds->unordered = 1;
     return PF_OK;
 }
 
@@ -373,6 +383,7 @@ void pf_vk_cmd_barrier(pf_vk_commands *cmds)
 {
     if (cmds->state != RECORDING)
         return;
+    cmds->unordered = 0;
     /* An indirect dispatch's group counts are read at the draw-indirect stage. */
     VkMemoryBarrier barrier = {
         .sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER,
@@ -455,6 +466,7 @@ static pf_status record_copy(pf_vk_commands *cmds, pf_vk_buffer *buffer, uint64_
     vkCmdCopyBuffer(cmds->command, to_device ? copy->staging.buffer : buffer->buffer,
                     to_device ? buffer->buffer : copy->staging.buffer, 1, &region);
     copy_barrier(cmds->command);
+    cmds->unordered = 0;
     return PF_OK;
 }
 

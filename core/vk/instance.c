@@ -99,17 +99,27 @@ pf_status pf_vk_instance_create(pf_vk_context *ctx, int validation, pf_error *er
         .apiVersion = PF_VK_MIN_API_VERSION,
     };
     const char *layers[] = {PF_VK_VALIDATION_LAYER};
-    const char *extensions[] = {VK_EXT_DEBUG_UTILS_EXTENSION_NAME};
+    const char *extensions[] = {VK_EXT_DEBUG_UTILS_EXTENSION_NAME,
+                                VK_EXT_VALIDATION_FEATURES_EXTENSION_NAME};
+    int sync = validation == PF_VK_VALIDATION_SYNC;
     /* Chained so that instance creation and destruction are reported too. */
     VkDebugUtilsMessengerCreateInfoEXT messenger;
     messenger_info(ctx, &messenger);
+    VkValidationFeatureEnableEXT sync_feature =
+        VK_VALIDATION_FEATURE_ENABLE_SYNCHRONIZATION_VALIDATION_EXT;
+    VkValidationFeaturesEXT features = {
+        .sType = VK_STRUCTURE_TYPE_VALIDATION_FEATURES_EXT,
+        .pNext = &messenger,
+        .enabledValidationFeatureCount = 1,
+        .pEnabledValidationFeatures = &sync_feature,
+    };
     VkInstanceCreateInfo info = {
         .sType = VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO,
-        .pNext = validation ? &messenger : NULL,
+        .pNext = sync ? (const void *)&features : validation ? (const void *)&messenger : NULL,
         .pApplicationInfo = &app,
         .enabledLayerCount = validation ? 1 : 0,
         .ppEnabledLayerNames = layers,
-        .enabledExtensionCount = validation ? 1 : 0,
+        .enabledExtensionCount = sync ? 2 : validation ? 1 : 0,
         .ppEnabledExtensionNames = extensions,
     };
     VkResult result = vkCreateInstance(&info, NULL, &ctx->instance);
@@ -162,7 +172,7 @@ pf_status pf_vk_create(const pf_vk_options *options, pf_vk_context **out, pf_err
     *out = NULL;
     /* Core reads no environment: the CLI maps $PHOTONFARM_DEVICE and
      * $PF_VK_VALIDATION to these options in one place (worker/cli_environment.c). */
-    int validation = options && options->validation;
+    int validation = options ? options->validation : 0;
     const char *selector = options ? options->device_selector : NULL;
 
     pf_vk_context *ctx = calloc(1, sizeof *ctx);

@@ -50,9 +50,16 @@ typedef struct pf_vk_device_info {
     int has_denorm_preserve;
 } pf_vk_device_info;
 
+#define PF_VK_VALIDATION_SYNC 2
+
 typedef struct pf_vk_options {
     const char *device_selector; /* NULL: the automatic choice */
-    int validation;              /* non-zero: the Khronos validation layer on (must be installed) */
+    /* Non-zero: the Khronos validation layer on (must be installed); PF_VK_VALIDATION_SYNC:
+     * its synchronization validation too (hazards between commands; it also reports a
+     * dispatch that reads a buffer through a texel view and writes it through a storage
+     * binding, which the renderer's kernels do per invocation, so only tests of ordering
+     * ask for it). */
+    int validation;
     /* Directory of the persistent pipeline cache (created if missing); NULL or
      * "": pipelines are cached in memory for this context only. */
     const char *pipeline_cache_dir;
@@ -212,7 +219,10 @@ pf_status pf_vk_cmd_dispatch_indirect(pf_vk_commands *cmds, pf_vk_pipeline *pipe
                                       const void *push_constants, uint32_t push_constant_bytes,
                                       pf_vk_buffer *groups, uint64_t offset, pf_error *err);
 /* Makes all earlier shader writes visible to later shader reads and writes, and to the
- * group counts of an indirect dispatch. */
+ * group counts of an indirect dispatch. Each dispatch records one itself where a dispatch
+ * came before it since the last barrier or copy, so recorded dispatches run in order, each
+ * seeing the writes of those before it, on every device; an explicit barrier is needed only
+ * before work that is not a dispatch. */
 void pf_vk_cmd_barrier(pf_vk_commands *cmds);
 /* Writes a GPU timestamp; returns its slot (< 0 when timestamps are unsupported). */
 int pf_vk_cmd_timestamp(pf_vk_commands *cmds);

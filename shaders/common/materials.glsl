@@ -62,6 +62,7 @@
 #ifndef PF_MATERIALS_GLSL
 #define PF_MATERIALS_GLSL
 
+#include "divide_exact.glsl"
 #include "scene_types.glsl"
 
 const float PI = 3.14159265358979323846;
@@ -283,9 +284,11 @@ LobeChoice material_lobe_choice(Material material, float cos_o, float eta)
     if (!(total > 0.0)) {
         choice.specular = choice.diffuse = choice.transmission = 0.0;
     } else if (total != 1.0) {
-        choice.specular /= total;
-        choice.diffuse /= total;
-        choice.transmission /= total;
+        // Rounded as the host divides (divide_exact.glsl), as are the smooth lobes' weights
+        // below: a white glass's lobes then weigh exactly 1 on every device.
+        choice.specular = divide_exact(choice.specular, total);
+        choice.diffuse = divide_exact(choice.diffuse, total);
+        choice.transmission = divide_exact(choice.transmission, total);
     }
     return choice;
 }
@@ -496,7 +499,9 @@ BsdfSample bsdf_sample(Material material, vec3 wo, vec3 shading_normal, vec3 geo
     if (pick < choice.specular && delta_specular) {
         s.direction = material_reflect(wo, normal, geometric_normal);
         s.specular = true;
-        s.weight = choice.reflectance / choice.specular;
+        s.weight = vec3(divide_exact(choice.reflectance.r, choice.specular),
+                        divide_exact(choice.reflectance.g, choice.specular),
+                        divide_exact(choice.reflectance.b, choice.specular));
         return s;
     }
     bool glossy = pick < choice.specular;
@@ -537,8 +542,10 @@ BsdfSample bsdf_sample(Material material, vec3 wo, vec3 shading_normal, vec3 geo
         s.transmitted = true;
         // eta = η_t/η_i: (η_i/η_t)² = 1/eta² for radiance.
         float scale = transport == TRANSPORT_RADIANCE ? 1.0 / (eta * eta) : 1.0;
-        s.weight = (1.0 - material.metallic) * material.transmission * choice.base *
-                   material.albedo * (scale / choice.transmission);
+        s.weight = material.albedo *
+                   divide_exact((1.0 - material.metallic) * material.transmission *
+                                    choice.base * scale,
+                                choice.transmission);
         return s;
     }
 

@@ -17,6 +17,8 @@
 #ifndef PF_RAY_TRIANGLE_GLSL
 #define PF_RAY_TRIANGLE_GLSL
 
+#include "divide_exact.glsl"
+
 // A triangle whose height is within rounding of its vertex coordinates is
 // degenerate: |e1 x e2| <= K * eps * M * (|e1| + |e2|), M the largest vertex
 // coordinate magnitude, K = 16 ulps (eps = 2^-24). Squared, without sqrt:
@@ -45,36 +47,6 @@ bool triangle_is_degenerate(vec3 v0, vec3 v1, vec3 v2)
     precise float edges2 = ((e1.x * e1.x + e1.y * e1.y) + e1.z * e1.z) +
                            ((e2.x * e2.x + e2.y * e2.y) + e2.z * e2.z);
     return !(n2 > DEGENERATE_BOUND2 * edges2);
-}
-
-// 1 (the host's default for every device but llvmpipe, PF_VK_SPEC_DIVIDE_REFINE
-// in core/vk/pf_vk.h): the device's division needs divide_exact's refinement.
-layout(constant_id = 1000) const bool DIVIDE_REFINE = true;
-
-// x / y rounded to nearest, as the CPU divides. Vulkan lets a shader's `/`
-// be 2.5 ulp off; lavapipe's is exact, NVIDIA's is not (on an H200 the t of
-// 1 in ~400 hits differed from the CPU's by 1-4 ulp, which moved hits at a
-// ray's tmax across it). A Newton step from the device's quotient brings it
-// within an ulp, and of it and its two neighbours the one whose exact
-// remainder x - q y (one fma) is smallest is the rounded quotient (a
-// quotient of floats is never a tie). Infinite, NaN or zero quotients are
-// left as the device gives them. Skipped where the division is exact
-// already (llvmpipe, whose fma() may also round its product, which would
-// make the remainders inexact).
-float divide_exact(float x, float y)
-{
-    precise float q = x / y;
-    if (!DIVIDE_REFINE || isinf(q) || isnan(q) || q == 0.0)
-        return q;
-    precise float r = fma(-q, y, x);
-    precise float step_q = fma(r, 1.0 / y, q);
-    uint bits = floatBitsToUint(step_q);
-    float below = uintBitsToFloat(bits - 1u), above = uintBitsToFloat(bits + 1u);
-    precise float r_mid = abs(fma(-step_q, y, x));
-    precise float r_below = abs(fma(-below, y, x));
-    precise float r_above = abs(fma(-above, y, x));
-    float best = r_below < r_mid ? below : step_q;
-    return r_above < min(r_mid, r_below) ? above : best;
 }
 
 // Per-ray setup of the watertight test: permutation and shear.
