@@ -17,6 +17,10 @@
 /* DESIGN.md §3: Vulkan 1.2 core is the floor. */
 #define PF_VK_MIN_API_VERSION VK_API_VERSION_1_2
 
+/* Staging buffers a context keeps for reuse, at most, and their bytes at most. */
+#define PF_VK_STAGING_KEPT 8
+#define PF_VK_STAGING_KEPT_BYTES (1024ull * 1024 * 1024)
+
 struct pf_vk_context {
     VkInstance instance;
     VkDebugUtilsMessengerEXT messenger;
@@ -39,6 +43,16 @@ struct pf_vk_context {
     int exact_division;
     uint32_t max_texel_buffer_elements;
     pthread_mutex_t view_lock; /* a buffer's texel views are made on first use, from any thread */
+    /* Staging buffers kept for the next copy of their direction (memory.c says why). */
+    pthread_mutex_t staging_lock;
+    struct pf_vk_staging_kept {
+        VkBuffer buffer;
+        VkDeviceMemory memory;
+        void *mapped;
+        uint64_t bytes;
+        int to_device;
+    } staging_kept[PF_VK_STAGING_KEPT];
+    uint32_t staging_kept_count;
     /* Device memory held by buffers now, and the most held since creation or the last
      * pf_vk_memory_peak_reset (bytes; buffers are made from any thread). */
     _Atomic uint64_t memory_in_use, memory_peak;
@@ -186,10 +200,16 @@ typedef struct pf_vk_staging {
     VkDeviceMemory memory;
     void *mapped;
     uint64_t bytes;
+    int to_device;
 } pf_vk_staging;
 pf_status pf_vk_staging_create(pf_vk_context *ctx, uint64_t size, int to_device,
                                const char *label, pf_vk_staging *out, pf_error *err);
+/* Hands staging back: kept for a later pf_vk_staging_create of its direction, or freed. */
 void pf_vk_staging_destroy(pf_vk_context *ctx, pf_vk_staging *staging);
+/* Frees the kept staging buffers (before the device is destroyed). */
+void pf_vk_staging_release_kept(pf_vk_context *ctx);
+/* How many staging buffers are kept now (tests). */
+uint32_t pf_vk_staging_kept_count(pf_vk_context *ctx);
 /* A copy's range within buffer and its host data (PF_ERR_INVALID naming them when not). */
 pf_status pf_vk_buffer_range_check(const pf_vk_buffer *buffer, uint64_t offset,
                                    const void *data, uint64_t size, const char *what,
