@@ -30,6 +30,9 @@ void pf_traffic_add(pf_vk_traffic *sum, pf_vk_traffic more)
     sum->host_waits += more.host_waits;
     sum->readback_bytes += more.readback_bytes;
     sum->upload_bytes += more.upload_bytes;
+    sum->wait_ms += more.wait_ms;
+    sum->allocate_ms += more.allocate_ms;
+    sum->copy_ms += more.copy_ms;
 }
 
 void pf_stage_add_traffic(pf_stage_timing *row, pf_vk_traffic traffic)
@@ -38,6 +41,9 @@ void pf_stage_add_traffic(pf_stage_timing *row, pf_vk_traffic traffic)
     pf_stage_add_counter(row, "host_waits", (double)traffic.host_waits);
     pf_stage_add_counter(row, "readback_bytes", (double)traffic.readback_bytes);
     pf_stage_add_counter(row, "upload_bytes", (double)traffic.upload_bytes);
+    pf_stage_add_counter(row, "wait_ms", traffic.wait_ms);
+    pf_stage_add_counter(row, "allocate_ms", traffic.allocate_ms);
+    pf_stage_add_counter(row, "copy_ms", traffic.copy_ms);
 }
 
 pf_stage_timing *pf_frame_report_row(pf_frame_report *report, const char *stage,

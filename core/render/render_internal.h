@@ -537,10 +537,11 @@ pf_status pf_render_prepare_bih(pf_renderer *renderer, const pf_scene_frame *fra
  * Appends a stage row with its times, skipped with skip_reason when that is
  * not NULL; NULL when report is NULL or full.
  */
-/* Adds traffic's submits, host_waits, readback_bytes and upload_bytes to row as counters
- * (issue 44; nothing when row is NULL). The stage loop adds them after the integrator's
- * own: a row's optional counters leave PF_STAGE_TRAFFIC_COUNTERS free. */
-#define PF_STAGE_TRAFFIC_COUNTERS 4u
+/* Adds traffic's submits, host_waits, readback_bytes and upload_bytes, and its wait_ms,
+ * allocate_ms and copy_ms, to row as counters (issue 44; nothing when row is NULL). The
+ * stage loop adds them after the integrator's own: a row's optional counters leave
+ * PF_STAGE_TRAFFIC_COUNTERS free. */
+#define PF_STAGE_TRAFFIC_COUNTERS 7u
 void pf_stage_add_traffic(pf_stage_timing *row, pf_vk_traffic traffic);
 /* sum += more. */
 void pf_traffic_add(pf_vk_traffic *sum, pf_vk_traffic more);

@@ -437,7 +437,7 @@ static pf_status record_copy(pf_vk_commands *cmds, pf_vk_buffer *buffer, uint64_
      * that the copy lands between that dispatch and the ones after, as on a GPU. */
     int staged = !buffer->mapped || (to_device && is_bound(cmds, buffer));
     if (!staged && to_device) {
-        memcpy((char *)buffer->mapped + offset, host, size);
+        pf_vk_copy(ctx, (char *)buffer->mapped + offset, host, size);
         return PF_OK;
     }
     recorded_copy *copy = add_copy(cmds);
@@ -455,7 +455,7 @@ static pf_status record_copy(pf_vk_commands *cmds, pf_vk_buffer *buffer, uint64_
         return status;
     }
     if (to_device) {
-        memcpy(copy->staging.mapped, host, size);
+        pf_vk_copy(ctx, copy->staging.mapped, host, size);
     } else {
         copy->host = host;
         copy->source = copy->staging.mapped;
@@ -541,7 +541,9 @@ pf_status pf_vk_commands_wait(pf_vk_commands *cmds, pf_error *err)
          * queued behind. */
         if (atomic_fetch_sub(&ctx->in_flight, 1) > 1)
             atomic_fetch_add(&ctx->waits_behind, 1);
+        double wait_start = pf_time_ms();
         VkResult result = vkWaitForFences(ctx->device, 1, &cmds->fence, VK_TRUE, UINT64_MAX);
+        pf_vk_time_add(&ctx->wait_ns, wait_start);
         if (result != VK_SUCCESS)
             return vulkan_error(cmds, "vkWaitForFences", result, err);
         if (cmds->timestamps_written > 0) {
@@ -555,7 +557,8 @@ pf_status pf_vk_commands_wait(pf_vk_commands *cmds, pf_error *err)
     }
     for (uint32_t i = 0; i < cmds->copy_count; i++)
         if (cmds->copies[i].host)
-            memcpy(cmds->copies[i].host, cmds->copies[i].source, cmds->copies[i].size);
+            pf_vk_copy(ctx, cmds->copies[i].host, cmds->copies[i].source,
+                       cmds->copies[i].size);
     cmds->state = SUBMITTED;
     return PF_OK;
 }

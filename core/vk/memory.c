@@ -33,8 +33,13 @@ pf_vk_memory_use pf_vk_memory_use_of(pf_vk_context *ctx)
 
 pf_vk_traffic pf_vk_traffic_of(pf_vk_context *ctx)
 {
-    return (pf_vk_traffic){atomic_load(&ctx->submits), atomic_load(&ctx->host_waits),
-                           atomic_load(&ctx->readback_bytes), atomic_load(&ctx->upload_bytes)};
+    return (pf_vk_traffic){atomic_load(&ctx->submits),
+                           atomic_load(&ctx->host_waits),
+                           atomic_load(&ctx->readback_bytes),
+                           atomic_load(&ctx->upload_bytes),
+                           atomic_load(&ctx->wait_ns) / 1e6,
+                           atomic_load(&ctx->allocate_ns) / 1e6,
+                           atomic_load(&ctx->copy_ns) / 1e6};
 }
 
 uint64_t pf_vk_waits_behind(pf_vk_context *ctx)
@@ -45,9 +50,54 @@ uint64_t pf_vk_waits_behind(pf_vk_context *ctx)
 pf_vk_traffic pf_vk_traffic_since(pf_vk_context *ctx, pf_vk_traffic before)
 {
     pf_vk_traffic now = pf_vk_traffic_of(ctx);
-    return (pf_vk_traffic){now.submits - before.submits, now.host_waits - before.host_waits,
+    return (pf_vk_traffic){now.submits - before.submits,
+                           now.host_waits - before.host_waits,
                            now.readback_bytes - before.readback_bytes,
-                           now.upload_bytes - before.upload_bytes};
+                           now.upload_bytes - before.upload_bytes,
+                           now.wait_ms - before.wait_ms,
+                           now.allocate_ms - before.allocate_ms,
+                           now.copy_ms - before.copy_ms};
+}
+
+void pf_vk_time_add(_Atomic uint64_t *total_ns, double start_ms)
+{
+    double ns = (pf_time_ms() - start_ms) * 1e6;
+    atomic_fetch_add(total_ns, ns > 0.0 ? (uint64_t)ns : 0);
+}
+
+/* A large copy in slices, one per core: the first touch of fresh host pages (an image
+ * allocated for the frame) costs a page fault each, which one core pays serially. */
+#define COPY_SLICE_MIN (8u * 1024 * 1024)
+
+typedef struct copy_slice {
+    char *to;
+    const char *from;
+    uint64_t size;
+} copy_slice;
+
+static void copy_one_slice(void *item)
+{
+    copy_slice *slice = item;
+    memcpy(slice->to, slice->from, slice->size);
+}
+
+void pf_vk_copy(pf_vk_context *ctx, void *to, const void *from, uint64_t size)
+{
+    double start = pf_time_ms();
+    uint32_t slices = size / COPY_SLICE_MIN > 64 ? 64 : (uint32_t)(size / COPY_SLICE_MIN);
+    slices = pf_cpu_cores(slices > 0 ? slices : 1);
+    if (slices <= 1) {
+        memcpy(to, from, size);
+    } else {
+        copy_slice parts[64];
+        uint64_t step = (size + slices - 1) / slices;
+        uint32_t count = 0;
+        for (uint64_t at = 0; at < size; at += step, count++)
+            parts[count] = (copy_slice){(char *)to + at, (const char *)from + at,
+                                        size - at < step ? size - at : step};
+        pf_run_parallel(parts, sizeof parts[0], count, copy_one_slice);
+    }
+    pf_vk_time_add(&ctx->copy_ns, start);
 }
 
 void pf_vk_memory_peak_reset(pf_vk_context *ctx)
@@ -66,7 +116,9 @@ static void memory_held(pf_vk_context *ctx, uint64_t bytes)
 
 static void memory_freed(pf_vk_context *ctx, VkDeviceMemory memory, uint64_t bytes)
 {
+    double start = pf_time_ms();
     vkFreeMemory(ctx->device, memory, NULL);
+    pf_vk_time_add(&ctx->allocate_ns, start);
     atomic_fetch_sub(&ctx->memory_in_use, bytes);
 }
 
@@ -108,6 +160,7 @@ static pf_status allocate(pf_vk_context *ctx, uint64_t size, VkBufferUsageFlags 
         .allocationSize = requirements.size,
         .memoryTypeIndex = type,
     };
+    double start = pf_time_ms();
     result = vkAllocateMemory(ctx->device, &allocation, NULL, memory);
     if (result != VK_SUCCESS) {
         *memory = VK_NULL_HANDLE; /* a failed call leaves its output undefined */
@@ -120,6 +173,7 @@ static pf_status allocate(pf_vk_context *ctx, uint64_t size, VkBufferUsageFlags 
     if (result == VK_SUCCESS && (flags & host_coherent) == host_coherent &&
         !(ctx->force_staging && (usage & VK_BUFFER_USAGE_STORAGE_BUFFER_BIT)))
         result = vkMapMemory(ctx->device, *memory, 0, VK_WHOLE_SIZE, 0, mapped);
+    pf_vk_time_add(&ctx->allocate_ns, start);
     if (result != VK_SUCCESS) {
         if (*memory)
             memory_freed(ctx, *memory, *bytes);
@@ -415,7 +469,7 @@ static pf_status staged_copy(pf_vk_context *ctx, pf_vk_buffer *buffer, uint64_t 
     if (status != PF_OK)
         return status;
     if (to_device)
-        memcpy(staging.mapped, host, size);
+        pf_vk_copy(ctx, staging.mapped, host, size);
 
     VkCommandBuffer command = VK_NULL_HANDLE;
     VkFence fence = VK_NULL_HANDLE;
@@ -479,7 +533,9 @@ static pf_status staged_copy(pf_vk_context *ctx, pf_vk_buffer *buffer, uint64_t 
         atomic_fetch_add(&ctx->submits, 1);
     }
     if (result == VK_SUCCESS) {
+        double wait_start = pf_time_ms();
         result = vkWaitForFences(ctx->device, 1, &fence, VK_TRUE, UINT64_MAX);
+        pf_vk_time_add(&ctx->wait_ns, wait_start);
         failed_call = "vkWaitForFences";
         atomic_fetch_add(&ctx->host_waits, 1);
         if (atomic_load(&ctx->in_flight) > 0) /* it queued behind that submission */
@@ -492,7 +548,7 @@ static pf_status staged_copy(pf_vk_context *ctx, pf_vk_buffer *buffer, uint64_t 
     pthread_mutex_unlock(&ctx->queue_lock);
 
     if (result == VK_SUCCESS && !to_device)
-        memcpy(host, staging.mapped, size);
+        pf_vk_copy(ctx, host, staging.mapped, size);
     pf_vk_staging_destroy(ctx, &staging);
     if (result != VK_SUCCESS)
         return pf_error_set(err, PF_ERR_VULKAN,
@@ -510,7 +566,7 @@ pf_status pf_vk_buffer_upload(pf_vk_context *ctx, pf_vk_buffer *buffer, uint64_t
         return status;
     pf_vk_count_copy(ctx, size, 1);
     if (buffer->mapped) {
-        memcpy((char *)buffer->mapped + offset, data, size);
+        pf_vk_copy(ctx, (char *)buffer->mapped + offset, data, size);
         return PF_OK;
     }
     return staged_copy(ctx, buffer, offset, (void *)data, size, 1, err);
@@ -524,7 +580,7 @@ pf_status pf_vk_buffer_download(pf_vk_context *ctx, pf_vk_buffer *buffer, uint64
         return status;
     pf_vk_count_copy(ctx, size, 0);
     if (buffer->mapped) {
-        memcpy(data, (const char *)buffer->mapped + offset, size);
+        pf_vk_copy(ctx, data, (const char *)buffer->mapped + offset, size);
         return PF_OK;
     }
     return staged_copy(ctx, buffer, offset, data, size, 0, err);

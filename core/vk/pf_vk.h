@@ -101,13 +101,18 @@ void pf_vk_memory_peak_reset(pf_vk_context *ctx);
 
 /*
  * The host's traffic with the device since the context was made (issue 44): queue
- * submissions, times the host waited for the device (a fence), and the bytes
+ * submissions, times the host waited for the device (a fence), the bytes
  * pf_vk_buffer_upload and pf_vk_buffer_download copied (through a mapping or a staging
- * submission). A stage's share is the difference of two reads (pf_vk_traffic_since);
+ * submission), and the host's time in each. A stage's share is the difference of two reads (pf_vk_traffic_since);
  * stages run one after another, so nothing else adds to it meanwhile.
  */
 typedef struct pf_vk_traffic {
     uint64_t submits, host_waits, readback_bytes, upload_bytes;
+    /* Where a stage's host time went beside its own work (ms): blocked in fence waits
+     * (the device's busy time and its latency), creating and freeing buffers' memory (a
+     * GPU driver pins host memory page by page), and copying between the host's arrays and
+     * mapped or staging memory. Wall time minus these is the stage's own host work. */
+    double wait_ms, allocate_ms, copy_ms;
 } pf_vk_traffic;
 pf_vk_traffic pf_vk_traffic_of(pf_vk_context *ctx);
 /* Host waits made while a submission of pf_vk_commands_submit_async was still in flight:

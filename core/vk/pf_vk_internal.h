@@ -58,6 +58,8 @@ struct pf_vk_context {
     _Atomic uint64_t memory_in_use, memory_peak;
     /* pf_vk_traffic's counters (any thread). */
     _Atomic uint64_t submits, host_waits, readback_bytes, upload_bytes;
+    /* pf_vk_traffic's times, in nanoseconds (pf_vk_time_add). */
+    _Atomic uint64_t wait_ns, allocate_ns, copy_ns;
     /* Submissions made with pf_vk_commands_submit_async not yet waited for, and the waits
      * for other commands made meanwhile (pf_vk_waits_behind). */
     _Atomic uint64_t in_flight, waits_behind;
@@ -214,6 +216,10 @@ uint32_t pf_vk_staging_kept_count(pf_vk_context *ctx);
 pf_status pf_vk_buffer_range_check(const pf_vk_buffer *buffer, uint64_t offset,
                                    const void *data, uint64_t size, const char *what,
                                    pf_error *err);
+/* Adds the time since start_ms (pf_time_ms) to one of pf_vk_traffic's times. */
+void pf_vk_time_add(_Atomic uint64_t *total_ns, double start_ms);
+/* memcpy that counts its time in pf_vk_traffic's copy_ms, on several cores when large. */
+void pf_vk_copy(pf_vk_context *ctx, void *to, const void *from, uint64_t size);
 /* Counts bytes copied to (upload) or from the device in pf_vk_traffic. */
 void pf_vk_count_copy(pf_vk_context *ctx, uint64_t bytes, int upload);
 
