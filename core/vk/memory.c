@@ -350,16 +350,15 @@ static int take_kept(pf_vk_context *ctx, uint64_t size, int to_device, pf_vk_sta
     pthread_mutex_lock(&ctx->staging_lock);
     uint32_t best = UINT32_MAX;
     for (uint32_t i = 0; i < ctx->staging_kept_count; i++) {
-        const struct pf_vk_staging_kept *kept = &ctx->staging_kept[i];
-        if (kept->to_device == to_device && kept->bytes >= size && kept->bytes / 2 <= size &&
-            (best == UINT32_MAX || kept->bytes < ctx->staging_kept[best].bytes))
+        const pf_vk_staging *kept = &ctx->staging_kept[i];
+        if (kept->to_device == to_device && kept->capacity >= size &&
+            kept->capacity / 2 <= size &&
+            (best == UINT32_MAX || kept->capacity < ctx->staging_kept[best].capacity))
             best = i;
     }
     if (best != UINT32_MAX) {
-        const struct pf_vk_staging_kept *kept = &ctx->staging_kept[best];
-        *out = (pf_vk_staging){kept->buffer, kept->memory, kept->mapped, kept->bytes,
-                               kept->to_device};
-        memory_held(ctx, kept->bytes); /* in use again */
+        *out = ctx->staging_kept[best];
+        memory_held(ctx, out->bytes); /* in use again */
         memmove(&ctx->staging_kept[best], &ctx->staging_kept[best + 1],
                 (ctx->staging_kept_count - best - 1) * sizeof ctx->staging_kept[0]);
         ctx->staging_kept_count--;
@@ -374,6 +373,7 @@ pf_status pf_vk_staging_create(pf_vk_context *ctx, uint64_t size, int to_device,
     if (take_kept(ctx, size, to_device, out))
         return PF_OK;
     out->to_device = to_device;
+    out->capacity = size;
     return allocate(ctx, size,
                     to_device ? VK_BUFFER_USAGE_TRANSFER_SRC_BIT : VK_BUFFER_USAGE_TRANSFER_DST_BIT,
                     host_coherent, to_device ? 0 : VK_MEMORY_PROPERTY_HOST_CACHED_BIT, label,
@@ -405,17 +405,13 @@ void pf_vk_staging_destroy(pf_vk_context *ctx, pf_vk_staging *staging)
         /* The oldest go first until this one fits. */
         while (ctx->staging_kept_count > 0 && (ctx->staging_kept_count == PF_VK_STAGING_KEPT ||
                                                bytes > PF_VK_STAGING_KEPT_BYTES)) {
-            const struct pf_vk_staging_kept *old = &ctx->staging_kept[0];
-            evicted[evicted_count++] =
-                (pf_vk_staging){old->buffer, old->memory, old->mapped, old->bytes, old->to_device};
-            bytes -= old->bytes;
+            evicted[evicted_count++] = ctx->staging_kept[0];
+            bytes -= ctx->staging_kept[0].bytes;
             memmove(&ctx->staging_kept[0], &ctx->staging_kept[1],
                     (ctx->staging_kept_count - 1) * sizeof ctx->staging_kept[0]);
             ctx->staging_kept_count--;
         }
-        ctx->staging_kept[ctx->staging_kept_count++] = (struct pf_vk_staging_kept){
-            staging->buffer, staging->memory, staging->mapped, staging->bytes,
-            staging->to_device};
+        ctx->staging_kept[ctx->staging_kept_count++] = *staging;
         /* Kept memory is not in use: the memory rows count what frames use. */
         atomic_fetch_sub(&ctx->memory_in_use, staging->bytes);
         kept = 1;
@@ -440,15 +436,12 @@ void pf_vk_staging_release_kept(pf_vk_context *ctx)
 {
     pthread_mutex_lock(&ctx->staging_lock);
     uint32_t count = ctx->staging_kept_count;
-    struct pf_vk_staging_kept kept[PF_VK_STAGING_KEPT];
+    pf_vk_staging kept[PF_VK_STAGING_KEPT];
     memcpy(kept, ctx->staging_kept, count * sizeof kept[0]);
     ctx->staging_kept_count = 0;
     pthread_mutex_unlock(&ctx->staging_lock);
     for (uint32_t i = 0; i < count; i++)
-        staging_free(ctx,
-                     &(pf_vk_staging){kept[i].buffer, kept[i].memory, kept[i].mapped,
-                                      kept[i].bytes, kept[i].to_device},
-                     0);
+        staging_free(ctx, &kept[i], 0);
 }
 
 void pf_vk_count_copy(pf_vk_context *ctx, uint64_t bytes, int upload)

@@ -17,6 +17,15 @@
 /* DESIGN.md §3: Vulkan 1.2 core is the floor. */
 #define PF_VK_MIN_API_VERSION VK_API_VERSION_1_2
 
+typedef struct pf_vk_staging {
+    VkBuffer buffer;
+    VkDeviceMemory memory;
+    void *mapped;
+    uint64_t bytes;    /* the memory's size (it may exceed the buffer's) */
+    uint64_t capacity; /* the buffer's size: the largest copy it takes */
+    int to_device;
+} pf_vk_staging;
+
 /* Staging buffers a context keeps for reuse, at most, and their bytes at most. */
 #define PF_VK_STAGING_KEPT 8
 #define PF_VK_STAGING_KEPT_BYTES (1024ull * 1024 * 1024)
@@ -45,13 +54,7 @@ struct pf_vk_context {
     pthread_mutex_t view_lock; /* a buffer's texel views are made on first use, from any thread */
     /* Staging buffers kept for the next copy of their direction (memory.c says why). */
     pthread_mutex_t staging_lock;
-    struct pf_vk_staging_kept {
-        VkBuffer buffer;
-        VkDeviceMemory memory;
-        void *mapped;
-        uint64_t bytes;
-        int to_device;
-    } staging_kept[PF_VK_STAGING_KEPT];
+    pf_vk_staging staging_kept[PF_VK_STAGING_KEPT];
     uint32_t staging_kept_count;
     /* Device memory held by buffers now, and the most held since creation or the last
      * pf_vk_memory_peak_reset (bytes; buffers are made from any thread). */
@@ -197,13 +200,6 @@ void pf_vk_force_staging(pf_vk_context *ctx, int on);
 
 /* A host-visible, coherent buffer for one copy to (to_device) or from a device buffer
  * (memory.c; commands.c's recorded copies and the blocking ones). */
-typedef struct pf_vk_staging {
-    VkBuffer buffer;
-    VkDeviceMemory memory;
-    void *mapped;
-    uint64_t bytes;
-    int to_device;
-} pf_vk_staging;
 pf_status pf_vk_staging_create(pf_vk_context *ctx, uint64_t size, int to_device,
                                const char *label, pf_vk_staging *out, pf_error *err);
 /* Hands staging back: kept for a later pf_vk_staging_create of its direction, or freed. */

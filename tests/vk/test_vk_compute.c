@@ -336,6 +336,21 @@ PF_TEST(staging_buffers_are_kept_for_the_next_copy_of_their_size)
     for (int i = 0; i < MANY; i++)
         pf_vk_staging_destroy(ctx, &many[i]);
     PF_CHECK(pf_vk_staging_kept_count(ctx) == PF_VK_STAGING_KEPT);
+    /* A kept buffer takes copies up to its own size, not its memory's (which the driver
+     * rounds up: on an H200 a 4-byte buffer's memory took a 16-byte copy, which the layer
+     * refused): staged copies of growing sizes, each checked. */
+    pf_vk_force_staging(ctx, 1);
+    pf_vk_buffer *buffer = NULL;
+    PF_REQUIRE_OK(pf_vk_buffer_create(ctx, 256, "kept copies", &buffer, &err), &err);
+    for (uint32_t size = 4; size <= 256; size *= 2) {
+        uint8_t sent[256], back[256];
+        for (uint32_t i = 0; i < size; i++)
+            sent[i] = (uint8_t)(size + 7 * i);
+        PF_CHECK_OK(pf_vk_buffer_upload(ctx, buffer, 0, sent, size, &err), &err);
+        PF_CHECK_OK(pf_vk_buffer_download(ctx, buffer, 0, back, size, &err), &err);
+        PF_CHECK_MSG(memcmp(sent, back, size) == 0, "a staged copy of %u bytes", size);
+    }
+    pf_vk_buffer_destroy(ctx, buffer);
     VK_TEST_FINISH(ctx); /* frees what is kept (LeakSanitizer and the layer would say) */
 }
 
