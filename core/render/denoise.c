@@ -88,6 +88,85 @@ static void planes_free(denoise_planes *planes)
 }
 
 /* Demodulated lighting and the guides from the image's channels. */
+typedef struct rows_job {
+    void (*rows)(void *context, uint32_t begin, uint32_t end);
+    void *context;
+    uint32_t begin, end;
+} rows_job;
+
+static void rows_job_entry(void *argument)
+{
+    rows_job *job = argument;
+    job->rows(job->context, job->begin, job->end);
+}
+
+void denoise_rows_parallel(uint32_t height, void (*rows)(void *context, uint32_t begin,
+                                                          uint32_t end),
+                           void *context)
+{
+    uint32_t threads = pf_cpu_cores(DENOISE_MAX_THREADS);
+    if (threads > height)
+        threads = height > 0 ? height : 1;
+    rows_job jobs[DENOISE_MAX_THREADS];
+    for (uint32_t t = 0; t < threads; t++)
+        jobs[t] = (rows_job){rows, context, (uint32_t)((uint64_t)height * t / threads),
+                             (uint32_t)((uint64_t)height * (t + 1) / threads)};
+    pf_run_parallel(jobs, sizeof jobs[0], threads, rows_job_entry);
+}
+
+typedef struct fill_job {
+    const pf_image *image;
+    const denoise_channels *at;
+    denoise_planes *planes;
+} fill_job;
+
+/* Rows [begin, end) of the planes from the image's layers. */
+static void fill_rows(void *context, uint32_t begin, uint32_t end)
+{
+    const fill_job *job = context;
+    const pf_image *image = job->image;
+    const denoise_channels *at = job->at;
+    denoise_planes *planes = job->planes;
+    for (size_t p = (size_t)begin * image->width; p < (size_t)end * image->width; p++) {
+        const float *in = image->pixels + p * image->channel_count;
+        for (int c = 0; c < 3; c++) {
+            float albedo = finite_or_zero(in[at->albedo[c]]);
+            float signal = finite_or_zero(in[at->indirect[c]]) - finite_or_zero(in[at->caustic[c]]);
+            int demodulate = albedo >= DENOISE_MIN_ALBEDO;
+            planes->albedo[3 * p + c] = demodulate ? albedo : 1.0f;
+            planes->lighting[3 * p + c] = demodulate ? signal / albedo : signal;
+            planes->direct[3 * p + c] = finite_or_zero(in[at->direct[c]]);
+            planes->normal[3 * p + c] = finite_or_zero(in[at->normal[c]]);
+        }
+        float depth = finite_or_zero(in[at->depth]);
+        planes->depth[p] = depth > 0.0f ? depth : 0.0f;
+        /* A frame's own lighting: a history of one, kept for the next frame where the
+         * pixel sees a surface. */
+        planes->history_length[p] = depth > 0.0f ? 1.0f : 0.0f;
+        planes->variance_factor[p] = 1.0f;
+    }
+}
+
+/* Rows [begin, end) of the depth steps (after every row's depth is in). */
+static void depth_step_rows(void *context, uint32_t begin, uint32_t end)
+{
+    denoise_planes *planes = context;
+    uint32_t w = planes->width, h = planes->height;
+    for (uint32_t y = begin; y < end; y++)
+        for (uint32_t x = 0; x < w; x++) {
+            size_t p = (size_t)y * w + x;
+            float z = planes->depth[p];
+            float left = planes->depth[y * (size_t)w + (x > 0 ? x - 1 : x)];
+            float right = planes->depth[y * (size_t)w + (x + 1 < w ? x + 1 : x)];
+            float up = planes->depth[(size_t)(y > 0 ? y - 1 : y) * w + x];
+            float down = planes->depth[(size_t)(y + 1 < h ? y + 1 : y) * w + x];
+            /* Only neighbours on a surface count (the background's 0 is no depth). */
+            float dx = left > 0.0f && right > 0.0f ? 0.5f * fabsf(right - left) : 0.0f;
+            float dy = up > 0.0f && down > 0.0f ? 0.5f * fabsf(down - up) : 0.0f;
+            planes->depth_step[p] = z > 0.0f ? fmaxf(dx, dy) : 0.0f;
+        }
+}
+
 static int planes_fill(const pf_image *image, const denoise_channels *at, denoise_planes *planes)
 {
     size_t pixels = (size_t)image->width * image->height;
@@ -106,38 +185,9 @@ static int planes_fill(const pf_image *image, const denoise_channels *at, denois
         !planes->depth_step || !planes->variance || !planes->history_length ||
         !planes->variance_factor)
         return 0;
-    for (size_t p = 0; p < pixels; p++) {
-        const float *in = image->pixels + p * image->channel_count;
-        for (int c = 0; c < 3; c++) {
-            float albedo = finite_or_zero(in[at->albedo[c]]);
-            float signal = finite_or_zero(in[at->indirect[c]]) - finite_or_zero(in[at->caustic[c]]);
-            int demodulate = albedo >= DENOISE_MIN_ALBEDO;
-            planes->albedo[3 * p + c] = demodulate ? albedo : 1.0f;
-            planes->lighting[3 * p + c] = demodulate ? signal / albedo : signal;
-            planes->direct[3 * p + c] = finite_or_zero(in[at->direct[c]]);
-            planes->normal[3 * p + c] = finite_or_zero(in[at->normal[c]]);
-        }
-        float depth = finite_or_zero(in[at->depth]);
-        planes->depth[p] = depth > 0.0f ? depth : 0.0f;
-        /* A frame's own lighting: a history of one, kept for the next frame where the
-         * pixel sees a surface. */
-        planes->history_length[p] = depth > 0.0f ? 1.0f : 0.0f;
-        planes->variance_factor[p] = 1.0f;
-    }
-    uint32_t w = image->width, h = image->height;
-    for (uint32_t y = 0; y < h; y++)
-        for (uint32_t x = 0; x < w; x++) {
-            size_t p = (size_t)y * w + x;
-            float z = planes->depth[p];
-            float left = planes->depth[y * (size_t)w + (x > 0 ? x - 1 : x)];
-            float right = planes->depth[y * (size_t)w + (x + 1 < w ? x + 1 : x)];
-            float up = planes->depth[(size_t)(y > 0 ? y - 1 : y) * w + x];
-            float down = planes->depth[(size_t)(y + 1 < h ? y + 1 : y) * w + x];
-            /* Only neighbours on a surface count (the background's 0 is no depth). */
-            float dx = left > 0.0f && right > 0.0f ? 0.5f * fabsf(right - left) : 0.0f;
-            float dy = up > 0.0f && down > 0.0f ? 0.5f * fabsf(down - up) : 0.0f;
-            planes->depth_step[p] = z > 0.0f ? fmaxf(dx, dy) : 0.0f;
-        }
+    fill_job job = {image, at, planes};
+    denoise_rows_parallel(image->height, fill_rows, &job);
+    denoise_rows_parallel(image->height, depth_step_rows, planes);
     return 1;
 }
 
@@ -281,34 +331,27 @@ static void atrous_rows(denoise_planes *planes, int step, int row_begin, int row
         }
 }
 
-/* What one thread does: rows [row_begin, row_end) of the variance estimate (step 0) or of
- * an à-trous pass of spread step. */
-typedef struct denoise_slice {
+/* Rows of the variance estimate (step 0) or of an à-trous pass of spread step. */
+typedef struct filter_job {
     denoise_planes *planes;
-    int step, row_begin, row_end;
-} denoise_slice;
+    int step;
+} filter_job;
 
-static void slice_entry(void *argument)
+static void filter_rows(void *context, uint32_t begin, uint32_t end)
 {
-    denoise_slice *slice = argument;
-    if (slice->step == 0)
-        estimate_variance(slice->planes, slice->row_begin, slice->row_end);
+    const filter_job *job = context;
+    if (job->step == 0)
+        estimate_variance(job->planes, (int)begin, (int)end);
     else
-        atrous_rows(slice->planes, slice->step, slice->row_begin, slice->row_end);
+        atrous_rows(job->planes, job->step, (int)begin, (int)end);
 }
 
 /* Runs step (0: the variance estimate) over every row, split between the cores; rows only
  * read the planes a pass does not write, so the slices need no locks. */
 static void run_rows(denoise_planes *planes, int step)
 {
-    int threads = (int)pf_cpu_cores(DENOISE_MAX_THREADS);
-    int h = (int)planes->height;
-    if (threads > h)
-        threads = h;
-    denoise_slice slices[DENOISE_MAX_THREADS];
-    for (int t = 0; t < threads; t++)
-        slices[t] = (denoise_slice){planes, step, h * t / threads, h * (t + 1) / threads};
-    pf_run_parallel(slices, sizeof slices[0], (uint32_t)threads, slice_entry);
+    filter_job job = {planes, step};
+    denoise_rows_parallel(planes->height, filter_rows, &job);
 }
 
 /* One à-trous pass of spread `step` from planes->lighting/variance into them again. */
@@ -355,6 +398,46 @@ static int on_device(const pf_renderer *renderer)
         site = pf_vk_device_is_cpu(renderer->ctx) ? PF_DENOISE_SITE_HOST
                                                   : PF_DENOISE_SITE_DEVICE;
     return site == PF_DENOISE_SITE_DEVICE;
+}
+
+typedef struct write_back_job {
+    pf_image *image;
+    const denoise_channels *at;
+    const denoise_planes *planes;
+    const float *estimate;
+    int keep_noisy;
+    uint32_t first_added;
+} write_back_job;
+
+/* Rows [begin, end) of the image from the filtered planes (and the noisy layer first). */
+static void write_back_rows(void *context, uint32_t begin, uint32_t end)
+{
+    const write_back_job *job = context;
+    pf_image *image = job->image;
+    const denoise_channels *at = job->at;
+    const denoise_planes *planes = job->planes;
+    const float *estimate = job->estimate;
+    int keep_noisy = job->keep_noisy;
+    uint32_t first_added = job->first_added;
+    for (size_t p = (size_t)begin * image->width; p < (size_t)end * image->width; p++) {
+        float *texel = image->pixels + p * image->channel_count;
+        if (keep_noisy) {
+            for (int c = 0; c < 3; c++)
+                texel[first_added + c] = finite_or_zero(texel[at->beauty[c]]);
+            texel[first_added + 3] = estimate[p];
+        }
+        /* The direct light where the blend averaged it over frames (else as rendered);
+         * beauty = direct + indirect, caustic ⊆ indirect: still so after filtering. */
+        if (planes->history_length[p] > 1.0f)
+            for (int c = 0; c < 3; c++)
+                texel[at->direct[c]] = planes->direct[3 * p + c];
+        for (int c = 0; c < 3; c++) {
+            float indirect = finite_or_zero(texel[at->caustic[c]]) +
+                             planes->lighting[3 * p + c] * planes->albedo[3 * p + c];
+            texel[at->indirect[c]] = indirect;
+            texel[at->beauty[c]] = finite_or_zero(texel[at->direct[c]]) + indirect;
+        }
+    }
 }
 
 /* The stage, the filter on renderer's device (NULL: on the host). */
@@ -453,25 +536,8 @@ static pf_status denoise_run(pf_renderer *renderer, pf_image *image, int keep_no
         planes_free(&planes);
         return status;
     }
-    for (size_t p = 0; p < pixels; p++) {
-        float *texel = image->pixels + p * image->channel_count;
-        if (keep_noisy) {
-            for (int c = 0; c < 3; c++)
-                texel[first_added + c] = finite_or_zero(texel[at.beauty[c]]);
-            texel[first_added + 3] = estimate[p];
-        }
-        /* The direct light where the blend averaged it over frames (else as rendered);
-         * beauty = direct + indirect, caustic ⊆ indirect: still so after filtering. */
-        if (planes.history_length[p] > 1.0f)
-            for (int c = 0; c < 3; c++)
-                texel[at.direct[c]] = planes.direct[3 * p + c];
-        for (int c = 0; c < 3; c++) {
-            float indirect = finite_or_zero(texel[at.caustic[c]]) +
-                             planes.lighting[3 * p + c] * planes.albedo[3 * p + c];
-            texel[at.indirect[c]] = indirect;
-            texel[at.beauty[c]] = finite_or_zero(texel[at.direct[c]]) + indirect;
-        }
-    }
+    write_back_job job = {image, &at, &planes, estimate, keep_noisy, first_added};
+    denoise_rows_parallel(image->height, write_back_rows, &job);
     free(estimate);
     planes_free(&planes);
     pf_stage_timing *row = pf_frame_report_row(report, "denoise", NULL, pf_time_ms() - start,

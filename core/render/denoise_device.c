@@ -15,6 +15,41 @@
 #define DENOISE_GROUP 8u
 #define DENOISE_DEVICE_BUFFERS 6u
 
+/* The host's planes as the kernels' vec4 and vec2 arrays, and the result back. */
+typedef struct repack_job {
+    denoise_planes *planes;
+    const float *noisy;
+    float *noisy4, *guides, *aux, *lit;
+} repack_job;
+
+static void repack_rows(void *context, uint32_t begin, uint32_t end)
+{
+    const repack_job *job = context;
+    const denoise_planes *planes = job->planes;
+    for (size_t p = (size_t)begin * planes->width; p < (size_t)end * planes->width; p++) {
+        for (int c = 0; c < 3; c++) {
+            job->noisy4[4 * p + c] = job->noisy[3 * p + c];
+            job->guides[4 * p + c] = planes->normal[3 * p + c];
+            job->lit[4 * p + c] = planes->lighting[3 * p + c];
+        }
+        job->noisy4[4 * p + 3] = 0.0f;
+        job->guides[4 * p + 3] = planes->depth[p];
+        job->lit[4 * p + 3] = 0.0f;
+        job->aux[2 * p] = planes->depth_step[p];
+        job->aux[2 * p + 1] = planes->variance_factor[p];
+    }
+}
+
+static void unpack_rows(void *context, uint32_t begin, uint32_t end)
+{
+    const repack_job *job = context;
+    denoise_planes *planes = job->planes;
+    for (size_t p = (size_t)begin * planes->width; p < (size_t)end * planes->width; p++) {
+        memcpy(planes->lighting + 3 * p, job->lit + 4 * p, 3 * sizeof(float));
+        planes->variance[p] = job->lit[4 * p + 3];
+    }
+}
+
 pf_status denoise_device_filter(pf_renderer *renderer, denoise_planes *planes,
                                 const float *noisy, int passes, float *estimate,
                                 double *gpu_ms, pf_error *err)
@@ -29,7 +64,6 @@ pf_status denoise_device_filter(pf_renderer *renderer, denoise_planes *planes,
         status = pf_renderer_pipeline(renderer, PF_PIPELINE_DENOISE_ATROUS, &atrous_kernel, err);
     if (status != PF_OK)
         return status;
-    /* The host's planes as the kernels' vec4 and vec2 arrays. */
     float *noisy4 = malloc(4 * pixels * sizeof(float));
     float *guides = malloc(4 * pixels * sizeof(float));
     float *aux = malloc(2 * pixels * sizeof(float));
@@ -41,18 +75,8 @@ pf_status denoise_device_filter(pf_renderer *renderer, denoise_planes *planes,
         free(lit);
         return pf_error_set(err, PF_ERR_NOMEM, "denoise: out of memory for the device's copy");
     }
-    for (size_t p = 0; p < pixels; p++) {
-        for (int c = 0; c < 3; c++) {
-            noisy4[4 * p + c] = noisy[3 * p + c];
-            guides[4 * p + c] = planes->normal[3 * p + c];
-            lit[4 * p + c] = planes->lighting[3 * p + c];
-        }
-        noisy4[4 * p + 3] = 0.0f;
-        guides[4 * p + 3] = planes->depth[p];
-        lit[4 * p + 3] = 0.0f;
-        aux[2 * p] = planes->depth_step[p];
-        aux[2 * p + 1] = planes->variance_factor[p];
-    }
+    repack_job repack = {planes, noisy, noisy4, guides, aux, lit};
+    denoise_rows_parallel(planes->height, repack_rows, &repack);
     pf_vk_commands *cmds = NULL;
     pf_vk_buffer *buffers[DENOISE_DEVICE_BUFFERS] = {0};
     static const char *const labels[DENOISE_DEVICE_BUFFERS] = {
@@ -93,10 +117,7 @@ pf_status denoise_device_filter(pf_renderer *renderer, denoise_planes *planes,
     if (status == PF_OK)
         *gpu_ms = pf_commands_gpu_ms(cmds, begin, end);
     if (status == PF_OK)
-        for (size_t p = 0; p < pixels; p++) {
-            memcpy(planes->lighting + 3 * p, lit + 4 * p, 3 * sizeof(float));
-            planes->variance[p] = lit[4 * p + 3];
-        }
+        denoise_rows_parallel(planes->height, unpack_rows, &repack);
     if (cmds)
         pf_vk_commands_destroy(cmds);
     for (int b = 0; b < (int)DENOISE_DEVICE_BUFFERS; b++)

@@ -55,6 +55,13 @@ void denoise_temporal_blend(const pf_denoise_history *history,
 int denoise_temporal_keep(pf_denoise_history *history, const pf_denoise_sequence *sequence,
                           const denoise_planes *planes);
 
+/* Calls rows(context, begin, end) over [0, height) in slices of rows, one per core: the
+ * stage's per-pixel loops touch every pixel of a frame's planes (on a GPU host they were
+ * most of the stage's wall time, one core paying the fresh planes' page faults). */
+void denoise_rows_parallel(uint32_t height, void (*rows)(void *context, uint32_t begin,
+                                                          uint32_t end),
+                           void *context);
+
 /*
  * The filter on the device (denoise_device.c): the variance estimate of noisy (this frame's
  * own demodulated lighting, 3 per pixel) times planes' variance factors, then `passes`
