@@ -26,9 +26,12 @@ typedef struct pf_vk_staging {
     int to_device;
 } pf_vk_staging;
 
-/* Staging buffers a context keeps for reuse, at most, and their bytes at most. */
+/* Staging buffers a context keeps for reuse, at most, and their bytes at most; the same
+ * for device-local storage buffers. */
 #define PF_VK_STAGING_KEPT 8
 #define PF_VK_STAGING_KEPT_BYTES (1024ull * 1024 * 1024)
+#define PF_VK_BUFFERS_KEPT 64
+#define PF_VK_BUFFERS_KEPT_BYTES (4096ull * 1024 * 1024)
 
 struct pf_vk_context {
     VkInstance instance;
@@ -56,6 +59,10 @@ struct pf_vk_context {
     pthread_mutex_t staging_lock;
     pf_vk_staging staging_kept[PF_VK_STAGING_KEPT];
     uint32_t staging_kept_count;
+    /* Device-local storage buffers kept for a pf_vk_buffer_create of their allocated size
+     * (memory.c says why), oldest first; guarded by staging_lock too. */
+    struct pf_vk_buffer *buffers_kept[PF_VK_BUFFERS_KEPT];
+    uint32_t buffers_kept_count;
     /* Device memory held by buffers now, and the most held since creation or the last
      * pf_vk_memory_peak_reset (bytes; buffers are made from any thread). */
     _Atomic uint64_t memory_in_use, memory_peak;
@@ -204,10 +211,12 @@ pf_status pf_vk_staging_create(pf_vk_context *ctx, uint64_t size, int to_device,
                                const char *label, pf_vk_staging *out, pf_error *err);
 /* Hands staging back: kept for a later pf_vk_staging_create of its direction, or freed. */
 void pf_vk_staging_destroy(pf_vk_context *ctx, pf_vk_staging *staging);
-/* Frees the kept staging buffers (before the device is destroyed). */
+/* Frees the kept staging and storage buffers (before the device is destroyed). */
 void pf_vk_staging_release_kept(pf_vk_context *ctx);
 /* How many staging buffers are kept now (tests). */
 uint32_t pf_vk_staging_kept_count(pf_vk_context *ctx);
+/* How many device-local storage buffers are kept now (tests). */
+uint32_t pf_vk_buffers_kept_count(pf_vk_context *ctx);
 /* A copy's range within buffer and its host data (PF_ERR_INVALID naming them when not). */
 pf_status pf_vk_buffer_range_check(const pf_vk_buffer *buffer, uint64_t offset,
                                    const void *data, uint64_t size, const char *what,
