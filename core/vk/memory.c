@@ -162,6 +162,9 @@ static pf_status allocate(pf_vk_context *ctx, uint64_t size, VkBufferUsageFlags 
     };
     double start = pf_time_ms();
     result = vkAllocateMemory(ctx->device, &allocation, NULL, memory);
+    if ((result == VK_ERROR_OUT_OF_DEVICE_MEMORY || result == VK_ERROR_OUT_OF_HOST_MEMORY) &&
+        pf_vk_staging_release_kept(ctx) > 0) /* what is kept for reuse goes first */
+        result = vkAllocateMemory(ctx->device, &allocation, NULL, memory);
     if (result != VK_SUCCESS) {
         *memory = VK_NULL_HANDLE; /* a failed call leaves its output undefined */
     } else {
@@ -230,8 +233,10 @@ uint64_t pf_vk_buffer_allocation_size(uint64_t size, uint64_t limit)
  * (film, path vertices, bands of the split image, the denoiser's planes), which took
  * 90-145 ms of shade's and 70-100 ms of denoise's wall time a frame on an H200. A kept
  * buffer serves a request of exactly its allocated size (pf_vk_buffer_allocation_size:
- * its texel views stay valid); at most PF_VK_BUFFERS_KEPT of them and
- * PF_VK_BUFFERS_KEPT_BYTES, the oldest freed first. Kept memory holds the last user's data:
+ * its texel views stay valid); at most PF_VK_BUFFERS_KEPT of them, and
+ * PF_VK_BUFFERS_KEPT_BYTES or a quarter of the device's memory, the oldest freed first (a
+ * frame holds some 60 at once: fewer slots had every frame allocate anew); where the device
+ * runs out of memory, the kept ones are freed and the allocation tried again. Kept memory holds the last user's data:
  * no kernel may read what it did not write first (with validation, lavapipe's new buffers
  * start as NaN bytes to check that).
  */
@@ -325,13 +330,16 @@ void pf_vk_buffer_destroy(pf_vk_context *ctx, pf_vk_buffer *buffer)
     pf_vk_buffer *evicted[PF_VK_BUFFERS_KEPT];
     uint32_t evicted_count = 0;
     /* Device-local buffers are kept (mapped ones are the host's memory: cheap to make). */
-    if (!buffer->mapped && buffer->memory_bytes <= PF_VK_BUFFERS_KEPT_BYTES) {
+    uint64_t most = ctx->info.device_local_bytes / 4 < PF_VK_BUFFERS_KEPT_BYTES
+                        ? ctx->info.device_local_bytes / 4
+                        : PF_VK_BUFFERS_KEPT_BYTES;
+    if (!buffer->mapped && buffer->memory_bytes <= most) {
         pthread_mutex_lock(&ctx->staging_lock);
         uint64_t bytes = buffer->memory_bytes;
         for (uint32_t i = 0; i < ctx->buffers_kept_count; i++)
             bytes += ctx->buffers_kept[i]->memory_bytes;
-        while (ctx->buffers_kept_count > 0 && (ctx->buffers_kept_count == PF_VK_BUFFERS_KEPT ||
-                                               bytes > PF_VK_BUFFERS_KEPT_BYTES)) {
+        while (ctx->buffers_kept_count > 0 &&
+               (ctx->buffers_kept_count == PF_VK_BUFFERS_KEPT || bytes > most)) {
             evicted[evicted_count++] = ctx->buffers_kept[0];
             bytes -= ctx->buffers_kept[0]->memory_bytes;
             memmove(&ctx->buffers_kept[0], &ctx->buffers_kept[1],
@@ -513,7 +521,7 @@ uint32_t pf_vk_staging_kept_count(pf_vk_context *ctx)
     return count;
 }
 
-void pf_vk_staging_release_kept(pf_vk_context *ctx)
+uint32_t pf_vk_staging_release_kept(pf_vk_context *ctx)
 {
     pthread_mutex_lock(&ctx->staging_lock);
     uint32_t buffer_count = ctx->buffers_kept_count;
@@ -529,6 +537,7 @@ void pf_vk_staging_release_kept(pf_vk_context *ctx)
         staging_free(ctx, &kept[i], 0);
     for (uint32_t i = 0; i < buffer_count; i++)
         buffer_free(ctx, buffers[i], 0);
+    return count + buffer_count;
 }
 
 void pf_vk_count_copy(pf_vk_context *ctx, uint64_t bytes, int upload)

@@ -28,10 +28,10 @@ typedef struct pf_vk_staging {
 
 /* Staging buffers a context keeps for reuse, at most, and their bytes at most; the same
  * for device-local storage buffers. */
-#define PF_VK_STAGING_KEPT 8
+#define PF_VK_STAGING_KEPT 32
 #define PF_VK_STAGING_KEPT_BYTES (1024ull * 1024 * 1024)
-#define PF_VK_BUFFERS_KEPT 64
-#define PF_VK_BUFFERS_KEPT_BYTES (4096ull * 1024 * 1024)
+#define PF_VK_BUFFERS_KEPT 256
+#define PF_VK_BUFFERS_KEPT_BYTES (4096ull * 1024 * 1024) /* and a quarter of the device's */
 
 struct pf_vk_context {
     VkInstance instance;
@@ -211,8 +211,9 @@ pf_status pf_vk_staging_create(pf_vk_context *ctx, uint64_t size, int to_device,
                                const char *label, pf_vk_staging *out, pf_error *err);
 /* Hands staging back: kept for a later pf_vk_staging_create of its direction, or freed. */
 void pf_vk_staging_destroy(pf_vk_context *ctx, pf_vk_staging *staging);
-/* Frees the kept staging and storage buffers (before the device is destroyed). */
-void pf_vk_staging_release_kept(pf_vk_context *ctx);
+/* Frees the kept staging and storage buffers (before the device is destroyed, or where it
+ * runs out of memory); returns how many. */
+uint32_t pf_vk_staging_release_kept(pf_vk_context *ctx);
 /* How many staging buffers are kept now (tests). */
 uint32_t pf_vk_staging_kept_count(pf_vk_context *ctx);
 /* How many device-local storage buffers are kept now (tests). */
