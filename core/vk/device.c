@@ -393,7 +393,7 @@ void pf_vk_device_close(pf_vk_context *ctx)
     if (!ctx->device)
         return;
     vkDeviceWaitIdle(ctx->device);
-    pf_vk_staging_release_kept(ctx);
+    pf_vk_kept_release(ctx);
     if (ctx->transfer_pool)
         vkDestroyCommandPool(ctx->device, ctx->transfer_pool, NULL);
     ctx->transfer_pool = VK_NULL_HANDLE;

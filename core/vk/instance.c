@@ -194,7 +194,7 @@ pf_status pf_vk_create(const pf_vk_options *options, pf_vk_context **out, pf_err
         free(ctx);
         return pf_error_set(err, PF_ERR_INTERNAL, "pthread_mutex_init failed");
     }
-    if (pthread_mutex_init(&ctx->staging_lock, NULL) != 0) {
+    if (pthread_mutex_init(&ctx->kept_lock, NULL) != 0) {
         pthread_mutex_destroy(&ctx->view_lock);
         pthread_mutex_destroy(&ctx->cache.lock);
         pthread_mutex_destroy(&ctx->queue_lock);
@@ -222,7 +222,7 @@ void pf_vk_destroy(pf_vk_context *ctx)
         pf_vk_pipeline_cache_close(ctx);
     pf_vk_device_close(ctx);
     pf_vk_instance_destroy(ctx);
-    pthread_mutex_destroy(&ctx->staging_lock);
+    pthread_mutex_destroy(&ctx->kept_lock);
     pthread_mutex_destroy(&ctx->view_lock);
     pthread_mutex_destroy(&ctx->cache.lock);
     pthread_mutex_destroy(&ctx->queue_lock);

@@ -31,82 +31,12 @@ pf_vk_memory_use pf_vk_memory_use_of(pf_vk_context *ctx)
     return (pf_vk_memory_use){atomic_load(&ctx->memory_in_use), atomic_load(&ctx->memory_peak)};
 }
 
-pf_vk_traffic pf_vk_traffic_of(pf_vk_context *ctx)
-{
-    return (pf_vk_traffic){atomic_load(&ctx->submits),
-                           atomic_load(&ctx->host_waits),
-                           atomic_load(&ctx->readback_bytes),
-                           atomic_load(&ctx->upload_bytes),
-                           atomic_load(&ctx->wait_ns) / 1e6,
-                           atomic_load(&ctx->allocate_ns) / 1e6,
-                           atomic_load(&ctx->copy_ns) / 1e6};
-}
-
-uint64_t pf_vk_waits_behind(pf_vk_context *ctx)
-{
-    return atomic_load(&ctx->waits_behind);
-}
-
-pf_vk_traffic pf_vk_traffic_since(pf_vk_context *ctx, pf_vk_traffic before)
-{
-    pf_vk_traffic now = pf_vk_traffic_of(ctx);
-    return (pf_vk_traffic){now.submits - before.submits,
-                           now.host_waits - before.host_waits,
-                           now.readback_bytes - before.readback_bytes,
-                           now.upload_bytes - before.upload_bytes,
-                           now.wait_ms - before.wait_ms,
-                           now.allocate_ms - before.allocate_ms,
-                           now.copy_ms - before.copy_ms};
-}
-
-void pf_vk_time_add(_Atomic uint64_t *total_ns, double start_ms)
-{
-    double ns = (pf_time_ms() - start_ms) * 1e6;
-    atomic_fetch_add(total_ns, ns > 0.0 ? (uint64_t)ns : 0);
-}
-
-/* A large copy in slices, one per core: the first touch of fresh host pages (an image
- * allocated for the frame) costs a page fault each, which one core pays serially. */
-#define COPY_SLICE_MIN (8u * 1024 * 1024)
-
-typedef struct copy_slice {
-    char *to;
-    const char *from;
-    uint64_t size;
-} copy_slice;
-
-static void copy_one_slice(void *item)
-{
-    copy_slice *slice = item;
-    memcpy(slice->to, slice->from, slice->size);
-}
-
-void pf_vk_copy(pf_vk_context *ctx, void *to, const void *from, uint64_t size)
-{
-    double start = pf_time_ms();
-    uint32_t slices = size / COPY_SLICE_MIN > 64 ? 64 : (uint32_t)(size / COPY_SLICE_MIN);
-    slices = pf_cpu_cores(slices > 0 ? slices : 1);
-    if (slices <= 1) {
-        memcpy(to, from, size);
-    } else {
-        copy_slice parts[64];
-        uint64_t step = (size + slices - 1) / slices;
-        uint32_t count = 0;
-        for (uint64_t at = 0; at < size; at += step, count++)
-            parts[count] = (copy_slice){(char *)to + at, (const char *)from + at,
-                                        size - at < step ? size - at : step};
-        pf_run_parallel(parts, sizeof parts[0], count, copy_one_slice);
-    }
-    pf_vk_time_add(&ctx->copy_ns, start);
-}
-
 void pf_vk_memory_peak_reset(pf_vk_context *ctx)
 {
     atomic_store(&ctx->memory_peak, atomic_load(&ctx->memory_in_use));
 }
 
-/* Counts an allocation of bytes, raising the peak when it is passed. */
-static void memory_held(pf_vk_context *ctx, uint64_t bytes)
+void pf_vk_memory_held(pf_vk_context *ctx, uint64_t bytes)
 {
     uint64_t now = atomic_fetch_add(&ctx->memory_in_use, bytes) + bytes;
     uint64_t peak = atomic_load(&ctx->memory_peak);
@@ -114,12 +44,18 @@ static void memory_held(pf_vk_context *ctx, uint64_t bytes)
         continue;
 }
 
+void pf_vk_memory_released(pf_vk_context *ctx, uint64_t bytes)
+{
+    atomic_fetch_sub(&ctx->memory_in_use, bytes);
+}
+
+/* Frees memory and stops counting its bytes (0: already not counted). */
 static void memory_freed(pf_vk_context *ctx, VkDeviceMemory memory, uint64_t bytes)
 {
     double start = pf_time_ms();
     vkFreeMemory(ctx->device, memory, NULL);
     pf_vk_time_add(&ctx->allocate_ns, start);
-    atomic_fetch_sub(&ctx->memory_in_use, bytes);
+    pf_vk_memory_released(ctx, bytes);
 }
 
 /* A VkBuffer with bound memory of *bytes (counted as held until memory_freed);
@@ -163,13 +99,13 @@ static pf_status allocate(pf_vk_context *ctx, uint64_t size, VkBufferUsageFlags 
     double start = pf_time_ms();
     result = vkAllocateMemory(ctx->device, &allocation, NULL, memory);
     if ((result == VK_ERROR_OUT_OF_DEVICE_MEMORY || result == VK_ERROR_OUT_OF_HOST_MEMORY) &&
-        pf_vk_staging_release_kept(ctx) > 0) /* what is kept for reuse goes first */
+        pf_vk_kept_release(ctx) > 0) /* what is kept for reuse goes first (kept.c) */
         result = vkAllocateMemory(ctx->device, &allocation, NULL, memory);
     if (result != VK_SUCCESS) {
         *memory = VK_NULL_HANDLE; /* a failed call leaves its output undefined */
     } else {
         *bytes = requirements.size;
-        memory_held(ctx, *bytes);
+        pf_vk_memory_held(ctx, *bytes);
         result = vkBindBufferMemory(ctx->device, *buffer, *memory, 0);
     }
     VkMemoryPropertyFlags flags = ctx->memory_properties.memoryTypes[type].propertyFlags;
@@ -227,37 +163,6 @@ uint64_t pf_vk_buffer_allocation_size(uint64_t size, uint64_t limit)
     return padded <= limit ? padded : size;
 }
 
-/*
- * Device-local buffers are kept for reuse, as staging buffers are (below): a GPU driver
- * clears each new allocation, and a 1080p frame creates and frees some 700 MB of them
- * (film, path vertices, bands of the split image, the denoiser's planes), which took
- * 90-145 ms of shade's and 70-100 ms of denoise's wall time a frame on an H200. A kept
- * buffer serves a request of exactly its allocated size (pf_vk_buffer_allocation_size:
- * its texel views stay valid); at most PF_VK_BUFFERS_KEPT of them, and
- * PF_VK_BUFFERS_KEPT_BYTES or a quarter of the device's memory, the oldest freed first (a
- * frame holds some 60 at once: fewer slots had every frame allocate anew); where the device
- * runs out of memory, the kept ones are freed and the allocation tried again. Kept memory holds the last user's data:
- * no kernel may read what it did not write first (with validation, lavapipe's new buffers
- * start as NaN bytes to check that).
- */
-static pf_vk_buffer *take_kept_buffer(pf_vk_context *ctx, uint64_t allocated)
-{
-    pf_vk_buffer *found = NULL;
-    pthread_mutex_lock(&ctx->staging_lock);
-    for (uint32_t i = ctx->buffers_kept_count; i-- > 0 && !found;) {
-        if (ctx->buffers_kept[i]->allocated != allocated)
-            continue;
-        found = ctx->buffers_kept[i];
-        memmove(&ctx->buffers_kept[i], &ctx->buffers_kept[i + 1],
-                (ctx->buffers_kept_count - i - 1) * sizeof ctx->buffers_kept[0]);
-        ctx->buffers_kept_count--;
-    }
-    pthread_mutex_unlock(&ctx->staging_lock);
-    if (found)
-        memory_held(ctx, found->memory_bytes); /* in use again */
-    return found;
-}
-
 pf_status pf_vk_buffer_create(pf_vk_context *ctx, uint64_t size, const char *label,
                               pf_vk_buffer **out, pf_error *err)
 {
@@ -276,7 +181,7 @@ pf_status pf_vk_buffer_create(pf_vk_context *ctx, uint64_t size, const char *lab
                             (unsigned long long)ctx->info.max_storage_buffer_range,
                             (double)ctx->info.max_storage_buffer_range / MIB, ctx->info.name);
     uint64_t allocated = pf_vk_buffer_allocation_size(size, ctx->info.max_storage_buffer_range);
-    pf_vk_buffer *buffer = take_kept_buffer(ctx, allocated);
+    pf_vk_buffer *buffer = pf_vk_kept_buffer_take(ctx, allocated); /* kept.c */
     if (buffer) {
         snprintf(buffer->label, sizeof buffer->label, "%s", label);
         buffer->size = size;
@@ -310,8 +215,7 @@ pf_status pf_vk_buffer_create(pf_vk_context *ctx, uint64_t size, const char *lab
     return PF_OK;
 }
 
-/* counted: whether the buffer's memory is in ctx->memory_in_use (a kept one's is not). */
-static void buffer_free(pf_vk_context *ctx, pf_vk_buffer *buffer, int counted)
+void pf_vk_buffer_free(pf_vk_context *ctx, pf_vk_buffer *buffer, int counted)
 {
     if (buffer->mapped)
         vkUnmapMemory(ctx->device, buffer->memory);
@@ -325,44 +229,8 @@ static void buffer_free(pf_vk_context *ctx, pf_vk_buffer *buffer, int counted)
 
 void pf_vk_buffer_destroy(pf_vk_context *ctx, pf_vk_buffer *buffer)
 {
-    if (!buffer)
-        return;
-    pf_vk_buffer *evicted[PF_VK_BUFFERS_KEPT];
-    uint32_t evicted_count = 0;
-    /* Device-local buffers are kept (mapped ones are the host's memory: cheap to make). */
-    uint64_t most = ctx->info.device_local_bytes / 4 < PF_VK_BUFFERS_KEPT_BYTES
-                        ? ctx->info.device_local_bytes / 4
-                        : PF_VK_BUFFERS_KEPT_BYTES;
-    if (!buffer->mapped && buffer->memory_bytes <= most) {
-        pthread_mutex_lock(&ctx->staging_lock);
-        uint64_t bytes = buffer->memory_bytes;
-        for (uint32_t i = 0; i < ctx->buffers_kept_count; i++)
-            bytes += ctx->buffers_kept[i]->memory_bytes;
-        while (ctx->buffers_kept_count > 0 &&
-               (ctx->buffers_kept_count == PF_VK_BUFFERS_KEPT || bytes > most)) {
-            evicted[evicted_count++] = ctx->buffers_kept[0];
-            bytes -= ctx->buffers_kept[0]->memory_bytes;
-            memmove(&ctx->buffers_kept[0], &ctx->buffers_kept[1],
-                    (ctx->buffers_kept_count - 1) * sizeof ctx->buffers_kept[0]);
-            ctx->buffers_kept_count--;
-        }
-        ctx->buffers_kept[ctx->buffers_kept_count++] = buffer;
-        atomic_fetch_sub(&ctx->memory_in_use, buffer->memory_bytes);
-        pthread_mutex_unlock(&ctx->staging_lock);
-        buffer = NULL;
-    }
-    for (uint32_t i = 0; i < evicted_count; i++)
-        buffer_free(ctx, evicted[i], 0);
-    if (buffer)
-        buffer_free(ctx, buffer, 1);
-}
-
-uint32_t pf_vk_buffers_kept_count(pf_vk_context *ctx)
-{
-    pthread_mutex_lock(&ctx->staging_lock);
-    uint32_t count = ctx->buffers_kept_count;
-    pthread_mutex_unlock(&ctx->staging_lock);
-    return count;
+    if (buffer && !pf_vk_kept_buffer_put(ctx, buffer)) /* kept.c */
+        pf_vk_buffer_free(ctx, buffer, 1);
 }
 
 uint64_t pf_vk_buffer_size(const pf_vk_buffer *buffer) { return buffer->size; }
@@ -425,41 +293,10 @@ pf_status pf_vk_buffer_range_check(const pf_vk_buffer *buffer, uint64_t offset,
     return PF_OK;
 }
 
-/*
- * Staging buffers are kept for reuse: a frame's readbacks and uploads have the same sizes
- * frame after frame (a 1920x1080 film with AOVs is 215 MB back), and on a GPU each
- * allocation of host memory the device can reach is pinned page by page by the driver and
- * then touched page by page on the first copy, which took most of a 1080p frame's host time
- * on an H200 (shade: 277 ms of wall for 17 ms of GPU). A kept buffer serves a request of its
- * direction that it holds and that needs at least half of it; at most PF_VK_STAGING_KEPT
- * buffers and PF_VK_STAGING_KEPT_BYTES are kept, the oldest freed first.
- */
-static int take_kept(pf_vk_context *ctx, uint64_t size, int to_device, pf_vk_staging *out)
-{
-    pthread_mutex_lock(&ctx->staging_lock);
-    uint32_t best = UINT32_MAX;
-    for (uint32_t i = 0; i < ctx->staging_kept_count; i++) {
-        const pf_vk_staging *kept = &ctx->staging_kept[i];
-        if (kept->to_device == to_device && kept->capacity >= size &&
-            kept->capacity / 2 <= size &&
-            (best == UINT32_MAX || kept->capacity < ctx->staging_kept[best].capacity))
-            best = i;
-    }
-    if (best != UINT32_MAX) {
-        *out = ctx->staging_kept[best];
-        memory_held(ctx, out->bytes); /* in use again */
-        memmove(&ctx->staging_kept[best], &ctx->staging_kept[best + 1],
-                (ctx->staging_kept_count - best - 1) * sizeof ctx->staging_kept[0]);
-        ctx->staging_kept_count--;
-    }
-    pthread_mutex_unlock(&ctx->staging_lock);
-    return best != UINT32_MAX;
-}
-
 pf_status pf_vk_staging_create(pf_vk_context *ctx, uint64_t size, int to_device,
                                const char *label, pf_vk_staging *out, pf_error *err)
 {
-    if (take_kept(ctx, size, to_device, out))
+    if (pf_vk_kept_staging_take(ctx, size, to_device, out)) /* kept.c */
         return PF_OK;
     out->to_device = to_device;
     out->capacity = size;
@@ -469,8 +306,7 @@ pf_status pf_vk_staging_create(pf_vk_context *ctx, uint64_t size, int to_device,
                     &out->buffer, &out->memory, &out->mapped, &out->bytes, err);
 }
 
-/* counted: whether the memory is in ctx->memory_in_use (a kept buffer's is not). */
-static void staging_free(pf_vk_context *ctx, const pf_vk_staging *staging, int counted)
+void pf_vk_staging_free(pf_vk_context *ctx, const pf_vk_staging *staging, int counted)
 {
     if (staging->memory)
         vkUnmapMemory(ctx->device, staging->memory);
@@ -482,67 +318,9 @@ static void staging_free(pf_vk_context *ctx, const pf_vk_staging *staging, int c
 
 void pf_vk_staging_destroy(pf_vk_context *ctx, pf_vk_staging *staging)
 {
-    pf_vk_staging evicted[PF_VK_STAGING_KEPT];
-    uint32_t evicted_count = 0;
-    int kept = 0;
-    if (staging->buffer && staging->memory && staging->mapped &&
-        staging->bytes <= PF_VK_STAGING_KEPT_BYTES) {
-        pthread_mutex_lock(&ctx->staging_lock);
-        uint64_t bytes = staging->bytes;
-        for (uint32_t i = 0; i < ctx->staging_kept_count; i++)
-            bytes += ctx->staging_kept[i].bytes;
-        /* The oldest go first until this one fits. */
-        while (ctx->staging_kept_count > 0 && (ctx->staging_kept_count == PF_VK_STAGING_KEPT ||
-                                               bytes > PF_VK_STAGING_KEPT_BYTES)) {
-            evicted[evicted_count++] = ctx->staging_kept[0];
-            bytes -= ctx->staging_kept[0].bytes;
-            memmove(&ctx->staging_kept[0], &ctx->staging_kept[1],
-                    (ctx->staging_kept_count - 1) * sizeof ctx->staging_kept[0]);
-            ctx->staging_kept_count--;
-        }
-        ctx->staging_kept[ctx->staging_kept_count++] = *staging;
-        /* Kept memory is not in use: the memory rows count what frames use. */
-        atomic_fetch_sub(&ctx->memory_in_use, staging->bytes);
-        kept = 1;
-        pthread_mutex_unlock(&ctx->staging_lock);
-    }
-    for (uint32_t i = 0; i < evicted_count; i++)
-        staging_free(ctx, &evicted[i], 0);
-    if (!kept)
-        staging_free(ctx, staging, 1);
+    if (!pf_vk_kept_staging_put(ctx, staging)) /* kept.c */
+        pf_vk_staging_free(ctx, staging, 1);
     memset(staging, 0, sizeof *staging);
-}
-
-uint32_t pf_vk_staging_kept_count(pf_vk_context *ctx)
-{
-    pthread_mutex_lock(&ctx->staging_lock);
-    uint32_t count = ctx->staging_kept_count;
-    pthread_mutex_unlock(&ctx->staging_lock);
-    return count;
-}
-
-uint32_t pf_vk_staging_release_kept(pf_vk_context *ctx)
-{
-    pthread_mutex_lock(&ctx->staging_lock);
-    uint32_t buffer_count = ctx->buffers_kept_count;
-    pf_vk_buffer *buffers[PF_VK_BUFFERS_KEPT];
-    memcpy(buffers, ctx->buffers_kept, buffer_count * sizeof buffers[0]);
-    ctx->buffers_kept_count = 0;
-    uint32_t count = ctx->staging_kept_count;
-    pf_vk_staging kept[PF_VK_STAGING_KEPT];
-    memcpy(kept, ctx->staging_kept, count * sizeof kept[0]);
-    ctx->staging_kept_count = 0;
-    pthread_mutex_unlock(&ctx->staging_lock);
-    for (uint32_t i = 0; i < count; i++)
-        staging_free(ctx, &kept[i], 0);
-    for (uint32_t i = 0; i < buffer_count; i++)
-        buffer_free(ctx, buffers[i], 0);
-    return count + buffer_count;
-}
-
-void pf_vk_count_copy(pf_vk_context *ctx, uint64_t bytes, int upload)
-{
-    atomic_fetch_add(upload ? &ctx->upload_bytes : &ctx->readback_bytes, bytes);
 }
 
 /*

@@ -55,12 +55,10 @@ struct pf_vk_context {
     int exact_division;
     uint32_t max_texel_buffer_elements;
     pthread_mutex_t view_lock; /* a buffer's texel views are made on first use, from any thread */
-    /* Staging buffers kept for the next copy of their direction (memory.c says why). */
-    pthread_mutex_t staging_lock;
+    /* Buffers kept for reuse (kept.c says why), oldest first. */
+    pthread_mutex_t kept_lock;
     pf_vk_staging staging_kept[PF_VK_STAGING_KEPT];
     uint32_t staging_kept_count;
-    /* Device-local storage buffers kept for a pf_vk_buffer_create of their allocated size
-     * (memory.c says why), oldest first; guarded by staging_lock too. */
     struct pf_vk_buffer *buffers_kept[PF_VK_BUFFERS_KEPT];
     uint32_t buffers_kept_count;
     /* Device memory held by buffers now, and the most held since creation or the last
@@ -211,18 +209,29 @@ pf_status pf_vk_staging_create(pf_vk_context *ctx, uint64_t size, int to_device,
                                const char *label, pf_vk_staging *out, pf_error *err);
 /* Hands staging back: kept for a later pf_vk_staging_create of its direction, or freed. */
 void pf_vk_staging_destroy(pf_vk_context *ctx, pf_vk_staging *staging);
-/* Frees the kept staging and storage buffers (before the device is destroyed, or where it
- * runs out of memory); returns how many. */
-uint32_t pf_vk_staging_release_kept(pf_vk_context *ctx);
-/* How many staging buffers are kept now (tests). */
-uint32_t pf_vk_staging_kept_count(pf_vk_context *ctx);
-/* How many device-local storage buffers are kept now (tests). */
-uint32_t pf_vk_buffers_kept_count(pf_vk_context *ctx);
+/* Frees a staging or storage buffer; counted: whether its bytes are in memory_in_use. */
+void pf_vk_staging_free(pf_vk_context *ctx, const pf_vk_staging *staging, int counted);
+void pf_vk_buffer_free(pf_vk_context *ctx, pf_vk_buffer *buffer, int counted);
+/* memory_in_use += bytes (raising the peak), and -= bytes. */
+void pf_vk_memory_held(pf_vk_context *ctx, uint64_t bytes);
+void pf_vk_memory_released(pf_vk_context *ctx, uint64_t bytes);
+
+/* Buffers kept for reuse (kept.c): take one that serves the request (NULL / 0: none), put
+ * one back (0: not kept, the caller frees it), free all that are kept (returns how many;
+ * before the device goes, and where it runs out of memory), and count them (tests). */
+pf_vk_buffer *pf_vk_kept_buffer_take(pf_vk_context *ctx, uint64_t allocated);
+int pf_vk_kept_buffer_put(pf_vk_context *ctx, pf_vk_buffer *buffer);
+int pf_vk_kept_staging_take(pf_vk_context *ctx, uint64_t size, int to_device,
+                            pf_vk_staging *out);
+int pf_vk_kept_staging_put(pf_vk_context *ctx, const pf_vk_staging *staging);
+uint32_t pf_vk_kept_release(pf_vk_context *ctx);
+void pf_vk_kept_counts(pf_vk_context *ctx, uint32_t *buffers, uint32_t *staging);
+
 /* A copy's range within buffer and its host data (PF_ERR_INVALID naming them when not). */
 pf_status pf_vk_buffer_range_check(const pf_vk_buffer *buffer, uint64_t offset,
                                    const void *data, uint64_t size, const char *what,
                                    pf_error *err);
-/* Adds the time since start_ms (pf_time_ms) to one of pf_vk_traffic's times. */
+/* traffic.c. Adds the time since start_ms (pf_time_ms) to one of pf_vk_traffic's times. */
 void pf_vk_time_add(_Atomic uint64_t *total_ns, double start_ms);
 /* memcpy that counts its time in pf_vk_traffic's copy_ms, on several cores when large. */
 void pf_vk_copy(pf_vk_context *ctx, void *to, const void *from, uint64_t size);
