@@ -2,7 +2,7 @@
 // GPU BIH build, radix sort pass A: each workgroup counts the 8-bit digits
 // (key >> shift) of its 256 keys and writes its counts digit-major,
 // histogram[digit * group_count + group], so that one exclusive scan of the
-// whole array (bih_scan.comp) gives every (digit, group) its first output slot.
+// whole array (prefix_sum.comp) gives every (digit, group) its first output slot.
 
 layout(local_size_x = 256) in;
 

@@ -1,7 +1,7 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
 // Photon grid build around the counting sort (photon_grid_keys.comp counts,
-// photon_grid_scan.comp turns the counts into each key's first slot), one
+// prefix_sum.comp turns the counts into each key's first slot), one
 // pass per dispatch, chosen by push.mode, each separated by a barrier:
 //   MODE_CLEAR    every cell's range = [0, 0) (empty) and every count 0;
 //   MODE_SCATTER  each photon to slot start[key] + rank, so a cell's photons

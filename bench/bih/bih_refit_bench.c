@@ -118,6 +118,7 @@ static int run(pf_vk_context *ctx, pf_bih_gpu_builder *builder, uint32_t wanted)
     }
     /* The build: read back, against kept on the device (the frame as the last refit's). */
     double read_ms[FRAMES], kept_ms[FRAMES], read_gpu[FRAMES], kept_gpu[FRAMES];
+    double build_pass_ms[PF_BIH_GPU_PASSES][FRAMES];
     pf_vk_traffic read_traffic = {0}, kept_traffic = {0};
     for (int f = 0; !failed && f < FRAMES; f++) {
         for (int keep = 0; keep < 2 && !failed; keep++) {
@@ -130,6 +131,9 @@ static int run(pf_vk_context *ctx, pf_bih_gpu_builder *builder, uint32_t wanted)
                                                        &built, &err)) != PF_OK;
             (keep ? kept_ms : read_ms)[f] = pf_time_ms() - start;
             (keep ? kept_gpu : read_gpu)[f] = built.gpu_ms;
+            if (keep)
+                for (int p = 0; p < PF_BIH_GPU_PASSES; p++)
+                    build_pass_ms[p][f] = built.pass_ms[p];
             *(keep ? &kept_traffic : &read_traffic) = pf_vk_traffic_since(ctx, before);
             pf_bih_free(&tree);
         }
@@ -142,6 +146,13 @@ static int run(pf_vk_context *ctx, pf_bih_gpu_builder *builder, uint32_t wanted)
                "", bench_median(read_ms, FRAMES), bench_median(read_gpu, FRAMES),
                read_traffic.readback_bytes / 1e6, bench_median(kept_ms, FRAMES),
                bench_median(kept_gpu, FRAMES), kept_traffic.readback_bytes / 1e6);
+    if (!failed) {
+        printf("%9s GPU build kept, passes (GPU ms, median):", "");
+        for (int p = 0; p < PF_BIH_GPU_PASSES; p++)
+            printf(" %s %.2f", pf_bih_gpu_pass_name((pf_bih_gpu_pass)p),
+                   bench_median(build_pass_ms[p], FRAMES));
+        printf("\n");
+    }
     pf_bih_free(&on_device);
     pf_bih_free(&on_host);
     pf_bih_gpu_destroy(device);

@@ -47,7 +47,7 @@ static const struct {
 } pass_desc[PASS_COUNT] = {
     {"bih_morton", 3, 36},
     {"bih_radix_histogram", 2, 12},
-    {"bih_scan", 1, 4},
+    {"prefix_sum", 1, 8},
     {"bih_radix_scatter", 5, 12},
     {"bih_emit", 4, 4},
     {"bih_clip", 11, 8},
@@ -172,12 +172,9 @@ static pf_status record_build(pf_bih_gpu_builder *b, pf_vk_commands *cmds, pf_vk
         pf_vk_buffer *histogram_buffers[] = {keys_in, buf[BUF_HISTOGRAM]};
         status = pf_vk_cmd_dispatch(cmds, b->pipelines[PASS_HISTOGRAM], histogram_buffers, 2,
                                     radix_push, sizeof radix_push, groups, 1, 1, err);
-        pf_vk_cmd_barrier(cmds);
-        uint32_t scan_push = RADIX_BINS * groups;
         if (status == PF_OK)
-            status = pf_vk_cmd_dispatch(cmds, b->pipelines[PASS_SCAN], &buf[BUF_HISTOGRAM], 1,
-                                        &scan_push, sizeof scan_push, 1, 1, 1, err);
-        pf_vk_cmd_barrier(cmds);
+            status = pf_bih_prefix_sum_record(cmds, b->pipelines[PASS_SCAN], buf[BUF_HISTOGRAM],
+                                              RADIX_BINS * groups, err);
         pf_vk_buffer *scatter_buffers[] = {keys_in, values_in, keys_out, values_out,
                                            buf[BUF_HISTOGRAM]};
         if (status == PF_OK)
@@ -203,11 +200,9 @@ static pf_status record_build(pf_bih_gpu_builder *b, pf_vk_commands *cmds, pf_vk
     if (status == PF_OK)
         status = pf_vk_cmd_dispatch(cmds, b->pipelines[PASS_CLIP], clip_buffers, 11, tree_push,
                                     sizeof tree_push, groups, 1, 1, err);
-    pf_vk_cmd_barrier(cmds);
-    uint32_t inner_count = n - 1;
     if (status == PF_OK)
-        status = pf_vk_cmd_dispatch(cmds, b->pipelines[PASS_SCAN], &buf[BUF_RANK], 1,
-                                    &inner_count, sizeof inner_count, 1, 1, 1, err);
+        status = pf_bih_prefix_sum_record(cmds, b->pipelines[PASS_SCAN], buf[BUF_RANK], n - 1,
+                                          err);
     stamps[1 + PF_BIH_GPU_PASS_CLIP] = pf_vk_cmd_timestamp(cmds);
     pf_vk_cmd_barrier(cmds);
     /* With slot_boxes, every slot's box too (a tree kept on the device is measured so). */
@@ -328,14 +323,15 @@ static pf_status run_gpu_build(pf_bih_gpu_builder *b, const pf_scene_frame *fram
         [BUF_VALUES_A] = {4 * (uint64_t)n, "BIH build values A"},
         [BUF_KEYS_B] = {4 * (uint64_t)n, "BIH build keys B"},
         [BUF_VALUES_B] = {4 * (uint64_t)n, "BIH build values B"},
-        [BUF_HISTOGRAM] = {4 * ((uint64_t)RADIX_BINS * groups_for(n) + 1), "BIH build histogram"},
+        [BUF_HISTOGRAM] = {4 * pf_bih_prefix_sum_words(RADIX_BINS * groups_for(n)),
+                           "BIH build histogram"},
         [BUF_INNER] = {16 * inner, "BIH build inner nodes"},
         [BUF_PARENTS] = {4 * nodes, "BIH build parents"},
         [BUF_ARRIVALS] = {4 * inner, "BIH build arrivals"},
         [BUF_BOXES] = {BOX_BYTES * nodes, "BIH build boxes"},
         [BUF_COUNTS] = {4 * nodes, "BIH build counts"},
         [BUF_CLIPS] = {8 * inner, "BIH build clips"},
-        [BUF_RANK] = {4 * (inner + 1), "BIH build ranks"},
+        [BUF_RANK] = {4 * pf_bih_prefix_sum_words((uint32_t)inner), "BIH build ranks"},
         [BUF_LEAF_VERTICES] = {3 * (uint64_t)n * 16, "BIH vertices"},
         [BUF_TRIANGLE_INDEX] = {4 * (uint64_t)n, "BIH triangle index"},
         [BUF_NODES] = {4 * NODE_TEXEL_WORDS * nodes, "BIH nodes"},

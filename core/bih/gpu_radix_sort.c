@@ -20,7 +20,7 @@ static const struct {
     uint32_t push_bytes;
 } sort_pass[SORT_PASSES] = {
     {"bih_radix_histogram", 2, 12},
-    {"bih_scan", 1, 4},
+    {"prefix_sum", 1, 8},
     {"bih_radix_scatter", 5, 12},
 };
 
@@ -68,9 +68,9 @@ static uint32_t sort_groups(uint32_t count)
 
 uint64_t pf_bih_sort_histogram_bytes(uint32_t count)
 {
-    /* One count per (digit, workgroup), plus the total bih_scan.comp appends. */
+    /* One count per (digit, workgroup), and the prefix sum's total and block sums. */
     uint32_t groups = sort_groups(count);
-    return 4 * ((uint64_t)SORT_BINS * (groups ? groups : 1) + 1);
+    return 4 * pf_bih_prefix_sum_words(SORT_BINS * (groups ? groups : 1));
 }
 
 pf_status pf_bih_sort_record(pf_bih_sorter *sorter, pf_vk_commands *cmds, pf_vk_buffer *keys[2],
@@ -97,12 +97,9 @@ pf_status pf_bih_sort_record(pf_bih_sorter *sorter, pf_vk_commands *cmds, pf_vk_
         pf_vk_buffer *histogram_buffers[] = {keys[from], histogram};
         status = pf_vk_cmd_dispatch(cmds, sorter->pipelines[SORT_HISTOGRAM], histogram_buffers, 2,
                                     push, sizeof push, groups, 1, 1, err);
-        pf_vk_cmd_barrier(cmds);
-        uint32_t scan_count = SORT_BINS * groups;
         if (status == PF_OK)
-            status = pf_vk_cmd_dispatch(cmds, sorter->pipelines[SORT_SCAN], &histogram, 1,
-                                        &scan_count, sizeof scan_count, 1, 1, 1, err);
-        pf_vk_cmd_barrier(cmds);
+            status = pf_bih_prefix_sum_record(cmds, sorter->pipelines[SORT_SCAN], histogram,
+                                              SORT_BINS * groups, err);
         pf_vk_buffer *scatter_buffers[] = {keys[from], values[from], keys[1 - from],
                                            values[1 - from], histogram};
         if (status == PF_OK)

@@ -484,8 +484,21 @@ pf_status pf_bih_refit_gpu(pf_bih_gpu_builder *builder, pf_bih_gpu *device, pf_b
                            pf_error *err);
 
 /*
+ * The one GPU prefix sum (gpu_prefix_sum.c, shaders/prefix_sum.comp): the exclusive prefix
+ * sum of data[0..count) in place with its total at data[count], recorded into cmds as
+ * three dispatches in blocks (each ordered after what came before, pf_vk_cmd_dispatch).
+ * data holds pf_bih_prefix_sum_words(count) words: the sums of its blocks follow the
+ * total. The BIH build's radix passes and node ranks, the radix sort below and the photon
+ * grid's counting sort scan with it; callers make the pipeline once.
+ */
+uint64_t pf_bih_prefix_sum_words(uint32_t count);
+pf_status pf_bih_prefix_sum_pipeline(pf_vk_context *ctx, pf_vk_pipeline **out, pf_error *err);
+pf_status pf_bih_prefix_sum_record(pf_vk_commands *cmds, pf_vk_pipeline *pipeline,
+                                   pf_vk_buffer *data, uint32_t count, pf_error *err);
+
+/*
  * The GPU radix sort of the BIH build (shaders/bih_radix_histogram.comp,
- * bih_scan.comp, bih_radix_scatter.comp), for other modules that sort on the
+ * prefix_sum.comp, bih_radix_scatter.comp), for other modules that sort on the
  * GPU (the photon grid): a stable LSD sort of (uint key, uint value) pairs in
  * 8-bit digits, each pass a histogram per workgroup, one scan and a stable
  * scatter, recorded into the caller's command buffer (no spin-waits).

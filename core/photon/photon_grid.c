@@ -1,7 +1,7 @@
 /*
  * The GPU photon grid (pf_photon_grid_* in pf_photon.h): host side of its
- * counting sort (shaders/photon_grid_keys.comp, photon_grid_scan.comp with
- * bih_scan.comp, photon_grid_finish.comp); pf_photon_grid_gather runs
+ * counting sort (shaders/photon_grid_keys.comp, prefix_sum.comp,
+ * photon_grid_finish.comp); pf_photon_grid_gather runs
  * shaders/photon_gather_probe.comp.
  */
 #include "pf_photon.h"
@@ -19,10 +19,6 @@
 #define CELL_MARGIN (1.0f + 1.0f / 64.0f)
 /* Modes of photon_grid_finish.comp. */
 enum { FINISH_CLEAR = 0, FINISH_SCATTER = 1 };
-/* Modes of photon_grid_scan.comp (bih_scan.comp scans the block sums between the two). */
-enum { SCAN_REDUCE = 0, SCAN_BLOCKS = 1 };
-/* Entries of photon_grid_scan.comp's block (256 invocations of SCAN_RUN 16). */
-#define SCAN_BLOCK 4096u
 /* Modes of photon_irradiance_probe.comp. */
 enum { ESTIMATE_FIXED = 0, ESTIMATE_KNN = 1, ESTIMATE_LOOKUP = 2 };
 /* Push constants of photon_irradiance_mark.comp and photon_irradiance_precompute.comp
@@ -49,8 +45,7 @@ _Static_assert(sizeof(photon_grid_push) == 48, "photon_grid_push must match phot
 struct pf_photon_grid {
     pf_vk_context *ctx;
     pf_vk_pipeline *keys_pipeline;
-    pf_vk_pipeline *scan_pipeline;       /* photon_grid_scan.comp */
-    pf_vk_pipeline *block_scan_pipeline; /* bih_scan.comp over the scan's block sums */
+    pf_vk_pipeline *scan_pipeline;       /* prefix_sum.comp (pf_bih_prefix_sum_record) */
     pf_vk_pipeline *finish_pipeline;
     pf_vk_pipeline *gather_pipeline;
     pf_vk_pipeline *irradiance_pipeline;
@@ -102,11 +97,7 @@ pf_status pf_photon_grid_create(pf_vk_context *ctx, pf_photon_grid **out, pf_err
                                                    sizeof(photon_grid_push), NULL, 0,
                                                    &grid->keys_pipeline, err);
     if (status == PF_OK)
-        status = pf_vk_pipeline_create_named(ctx, "photon_grid_scan", 2, sizeof(photon_grid_push),
-                                             NULL, 0, &grid->scan_pipeline, err);
-    if (status == PF_OK)
-        status = pf_vk_pipeline_create_named(ctx, "bih_scan", 1, sizeof(uint32_t), NULL, 0,
-                                             &grid->block_scan_pipeline, err);
+        status = pf_bih_prefix_sum_pipeline(ctx, &grid->scan_pipeline, err);
     if (status == PF_OK)
         status = pf_vk_pipeline_create_named(ctx, "photon_grid_finish", 8,
                                              sizeof(photon_grid_push), NULL, 0,
@@ -125,10 +116,10 @@ void pf_photon_grid_destroy(pf_photon_grid *grid)
     if (!grid)
         return;
     release_grid(grid);
-    pf_vk_pipeline *pipelines[] = {grid->keys_pipeline,       grid->scan_pipeline,
-                                   grid->block_scan_pipeline, grid->finish_pipeline,
-                                   grid->gather_pipeline,     grid->irradiance_pipeline,
-                                   grid->mark_pipeline,       grid->precompute_pipeline};
+    pf_vk_pipeline *pipelines[] = {grid->keys_pipeline,   grid->scan_pipeline,
+                                   grid->finish_pipeline, grid->gather_pipeline,
+                                   grid->irradiance_pipeline, grid->mark_pipeline,
+                                   grid->precompute_pipeline};
     for (size_t i = 0; i < sizeof pipelines / sizeof pipelines[0]; i++) {
         if (pipelines[i])
             pf_vk_pipeline_destroy(grid->ctx, pipelines[i]);
@@ -241,7 +232,7 @@ static pf_status check_fits(pf_vk_context *ctx, const pf_photon_grid_info *info,
 
 /* A recorded build's scratch buffers, released once its submission is done. */
 typedef struct grid_scratch {
-    pf_vk_buffer *keys, *ranks, *starts, *block_sums;
+    pf_vk_buffer *keys, *ranks, *starts;
 } grid_scratch;
 
 static void release_scratch(pf_vk_context *ctx, grid_scratch *scratch)
@@ -249,7 +240,6 @@ static void release_scratch(pf_vk_context *ctx, grid_scratch *scratch)
     release(ctx, &scratch->keys);
     release(ctx, &scratch->ranks);
     release(ctx, &scratch->starts);
-    release(ctx, &scratch->block_sums);
 }
 
 /*
@@ -276,9 +266,8 @@ static pf_status record_grid(pf_photon_grid *grid, pf_vk_commands *cmds, pf_vk_b
     uint64_t range_bytes = range_bytes_of(info.table_size);
     uint64_t index_bytes = (uint64_t)(count ? count : 1) * 4;
     /* The counts, then each key's first slot: the cells, the records without a photon, the
-     * total (photon_grid_scan.comp). */
+     * total (pf_bih_prefix_sum_record), and the prefix sum's block sums after them. */
     uint64_t scan_entries = (uint64_t)info.table_size + 2;
-    uint32_t scan_blocks = groups_for(scan_entries, SCAN_BLOCK);
     status = pf_vk_buffer_create(ctx, record_bytes, "photon records (cell order)",
                                  &grid->sorted_records, err);
     if (status == PF_OK)
@@ -294,11 +283,8 @@ static pf_status record_grid(pf_photon_grid *grid, pf_vk_commands *cmds, pf_vk_b
     if (status == PF_OK)
         status = pf_vk_buffer_create(ctx, index_bytes, "photon grid ranks", &scratch->ranks, err);
     if (status == PF_OK)
-        status = pf_vk_buffer_create(ctx, scan_entries * 4, "photon grid counts",
-                                     &scratch->starts, err);
-    if (status == PF_OK)
-        status = pf_vk_buffer_create(ctx, ((uint64_t)scan_blocks + 1) * 4,
-                                     "photon grid block sums", &scratch->block_sums, err);
+        status = pf_vk_buffer_create(ctx, 4 * pf_bih_prefix_sum_words(info.table_size + 1),
+                                     "photon grid counts", &scratch->starts, err);
     if (status != PF_OK)
         return status;
     *begin = pf_vk_cmd_timestamp(cmds);
@@ -314,23 +300,10 @@ static pf_status record_grid(pf_photon_grid *grid, pf_vk_commands *cmds, pf_vk_b
         pf_vk_buffer *key_buffers[] = {input, scratch->keys, scratch->ranks, scratch->starts};
         status = pf_vk_cmd_dispatch(cmds, grid->keys_pipeline, key_buffers, 4, &push, sizeof push,
                                     groups_for(count, GRID_GROUP_SIZE), 1, 1, err);
-        /* Counts to first slots: block sums, their scan, each block's scan from its sum. */
-        photon_grid_push scan = push_for(&info, (uint32_t)scan_entries, SCAN_REDUCE);
-        pf_vk_buffer *scan_buffers[] = {scratch->starts, scratch->block_sums};
-        pf_vk_cmd_barrier(cmds);
+        /* Counts to first slots. */
         if (status == PF_OK)
-            status = pf_vk_cmd_dispatch(cmds, grid->scan_pipeline, scan_buffers, 2, &scan,
-                                        sizeof scan, scan_blocks, 1, 1, err);
-        pf_vk_cmd_barrier(cmds);
-        if (status == PF_OK)
-            status = pf_vk_cmd_dispatch(cmds, grid->block_scan_pipeline, &scratch->block_sums, 1,
-                                        &scan_blocks, sizeof scan_blocks, 1, 1, 1, err);
-        pf_vk_cmd_barrier(cmds);
-        scan.mode = SCAN_BLOCKS;
-        if (status == PF_OK)
-            status = pf_vk_cmd_dispatch(cmds, grid->scan_pipeline, scan_buffers, 2, &scan,
-                                        sizeof scan, scan_blocks, 1, 1, err);
-        pf_vk_cmd_barrier(cmds);
+            status = pf_bih_prefix_sum_record(cmds, grid->scan_pipeline, scratch->starts,
+                                              info.table_size + 1, err);
         push.mode = FINISH_SCATTER;
         if (status == PF_OK)
             status = pf_vk_cmd_dispatch(cmds, grid->finish_pipeline, finish_buffers, 8, &push,

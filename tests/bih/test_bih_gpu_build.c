@@ -325,6 +325,63 @@ static uint32_t sort_random(uint32_t *state)
     return *state;
 }
 
+/*
+ * The one GPU prefix sum (pf_bih_prefix_sum_record: blocks of 4096 entries, their sums,
+ * then each block from its sum) against the host's, at the block edges and past them:
+ * every entry the exclusive sum, the total after the last, none for an empty array.
+ */
+PF_TEST(prefix_sum_matches_the_hosts_at_block_edges)
+{
+    static const uint32_t counts[] = {0, 1, 255, 4095, 4096, 4097, 8192, 70001, 1048577};
+    pf_error err = {0};
+    pf_vk_pipeline *pipeline = NULL;
+    PF_REQUIRE_OK(pf_bih_prefix_sum_pipeline(env.ctx, &pipeline, &err), &err);
+    for (size_t c = 0; c < sizeof counts / sizeof counts[0]; c++) {
+        uint32_t count = counts[c];
+        uint64_t words = pf_bih_prefix_sum_words(count);
+        uint32_t *data = malloc(words * 4), *back = malloc(words * 4);
+        PF_REQUIRE(data && back);
+        uint32_t rng = 7u + count;
+        for (uint64_t i = 0; i < words; i++) /* past count too: the scan must not read it */
+            data[i] = i < count ? sort_random(&rng) % 1000u : 0xdeadbeefu;
+        pf_vk_buffer *buffer = NULL;
+        pf_vk_commands *cmds = NULL;
+        pf_status status = pf_vk_buffer_create(env.ctx, words * 4, "prefix sum", &buffer, &err);
+        if (status == PF_OK)
+            status = pf_vk_buffer_upload(env.ctx, buffer, 0, data, words * 4, &err);
+        if (status == PF_OK)
+            status = pf_vk_commands_begin(env.ctx, &cmds, &err);
+        if (status == PF_OK)
+            status = pf_bih_prefix_sum_record(cmds, pipeline, buffer, count, &err);
+        if (status == PF_OK)
+            status = pf_vk_commands_submit(cmds, &err);
+        pf_vk_commands_destroy(cmds);
+        if (status == PF_OK)
+            status = pf_vk_buffer_download(env.ctx, buffer, 0, back, words * 4, &err);
+        PF_CHECK_OK(status, &err);
+        uint32_t running = 0, wrong = 0;
+        for (uint32_t i = 0; status == PF_OK && i < count; i++) {
+            wrong += back[i] != running;
+            running += data[i];
+        }
+        PF_CHECK_MSG(status != PF_OK || (wrong == 0 && back[count] == running),
+                     "%u entries: %u wrong, total %u against %u", count, wrong, back[count],
+                     running);
+        pf_vk_buffer_destroy(env.ctx, buffer);
+        free(data);
+        free(back);
+    }
+    /* A buffer without room for the block sums is refused before anything is recorded. */
+    pf_vk_buffer *small = NULL;
+    pf_vk_commands *cmds = NULL;
+    PF_REQUIRE_OK(pf_vk_buffer_create(env.ctx, 4 * 5000, "too small", &small, &err), &err);
+    PF_REQUIRE_OK(pf_vk_commands_begin(env.ctx, &cmds, &err), &err);
+    PF_CHECK(pf_bih_prefix_sum_record(cmds, pipeline, small, 4999, &err) == PF_ERR_INVALID);
+    pf_vk_commands_destroy(cmds);
+    pf_vk_buffer_destroy(env.ctx, small);
+    pf_vk_pipeline_destroy(env.ctx, pipeline);
+}
+
 PF_TEST(radix_sort_is_stable)
 {
     /*
@@ -424,6 +481,7 @@ int main(void)
     PF_RUN(the_gpu_build_is_one_submission);
     PF_RUN(a_tree_kept_on_the_device_is_the_downloaded_one);
     PF_RUN(bad_input_is_refused);
+    PF_RUN(prefix_sum_matches_the_hosts_at_block_edges);
     PF_RUN(radix_sort_is_stable);
     bih_gpu_env_destroy(&env);
     return pf_test_finish();
