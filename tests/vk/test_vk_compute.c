@@ -194,12 +194,15 @@ PF_TEST(an_upload_between_dispatches_lands_between_them)
     VK_TEST_FINISH(ctx);
 }
 
-/* a → b → a → b with barriers in between; each pass depends on the previous one. */
-PF_TEST(dispatch_chain_with_barriers)
+/*
+ * a → b → a → b, each pass reading what the one before wrote, recorded in one command
+ * buffer with the upload before and the download after; caller_barriers: the caller
+ * records a barrier after each dispatch (else pf_vk_cmd_dispatch's own must order them).
+ * Checks the values and, with single_use, that the submitted commands take no more.
+ */
+static void dispatch_chain(pf_vk_context *ctx, int caller_barriers, int single_use)
 {
     pf_error err = {0};
-    pf_vk_context *ctx = vk_test_context(&err);
-    PF_REQUIRE(ctx);
     enum { COUNT = 1000, PASSES = 4 };
     pf_vk_pipeline *pipeline = selftest_pipeline(ctx, &err);
     pf_vk_buffer *a = NULL, *b = NULL;
@@ -211,36 +214,47 @@ PF_TEST(dispatch_chain_with_barriers)
     if (cmds) {
         static uint32_t values[COUNT], result[COUNT];
         for (uint32_t i = 0; i < COUNT; i++)
-            values[i] = i;
-        PF_CHECK_OK(pf_vk_buffer_upload(ctx, a, 0, values, sizeof values, &err), &err);
+            values[i] = 7 * i;
+        PF_CHECK_OK(pf_vk_cmd_upload(cmds, a, 0, values, sizeof values, &err), &err);
         uint32_t groups = (COUNT + SELFTEST_WORKGROUP - 1) / SELFTEST_WORKGROUP;
         for (uint32_t pass = 0; pass < PASSES; pass++) {
-            selftest_push push = {COUNT, pass};
+            selftest_push push = {COUNT, pass + 1};
             pf_vk_buffer *buffers[2] = {pass % 2 ? b : a, pass % 2 ? a : b};
             PF_CHECK_OK(pf_vk_cmd_dispatch(cmds, pipeline, buffers, 2, &push, sizeof push,
                                            groups, 1, 1, &err),
                         &err);
-            pf_vk_cmd_barrier(cmds);
+            if (caller_barriers)
+                pf_vk_cmd_barrier(cmds);
         }
+        /* PASSES is even, so the last pass wrote a. */
+        PF_CHECK_OK(pf_vk_cmd_download(cmds, a, 0, result, sizeof result, &err), &err);
         PF_CHECK_OK(pf_vk_commands_submit(cmds, &err), &err);
         for (uint32_t pass = 0; pass < PASSES; pass++) {
             for (uint32_t i = 0; i < COUNT; i++)
-                values[i] = expected_value(values[i], i, pass);
+                values[i] = expected_value(values[i], i, pass + 1);
         }
-        /* PASSES is even, so the last pass wrote a. */
-        PF_CHECK_OK(pf_vk_buffer_download(ctx, a, 0, result, sizeof result, &err), &err);
         PF_CHECK(memcmp(result, values, sizeof values) == 0);
-        /* Recording after submit is refused: commands are single-use. */
-        selftest_push push = {COUNT, 0};
-        pf_vk_buffer *buffers[2] = {a, b};
-        PF_CHECK(pf_vk_cmd_dispatch(cmds, pipeline, buffers, 2, &push, sizeof push, 1, 1, 1,
-                                    &err) == PF_ERR_INVALID);
-        PF_CHECK(pf_vk_commands_submit(cmds, &err) == PF_ERR_INVALID);
+        if (single_use && pipeline) {
+            /* Recording after submit is refused: commands are single-use. */
+            selftest_push push = {COUNT, 0};
+            pf_vk_buffer *buffers[2] = {a, b};
+            PF_CHECK(pf_vk_cmd_dispatch(cmds, pipeline, buffers, 2, &push, sizeof push, 1, 1,
+                                        1, &err) == PF_ERR_INVALID);
+            PF_CHECK(pf_vk_commands_submit(cmds, &err) == PF_ERR_INVALID);
+        }
         pf_vk_commands_destroy(cmds);
     }
     pf_vk_buffer_destroy(ctx, a);
     pf_vk_buffer_destroy(ctx, b);
     pf_vk_pipeline_destroy(ctx, pipeline);
+}
+
+PF_TEST(dispatch_chain_with_barriers)
+{
+    pf_error err = {0};
+    pf_vk_context *ctx = vk_test_context(&err);
+    PF_REQUIRE(ctx);
+    dispatch_chain(ctx, 1, 1);
     VK_TEST_FINISH(ctx);
 }
 
@@ -263,39 +277,7 @@ PF_TEST(dispatches_see_the_writes_of_those_before_them)
     options.validation = PF_VK_VALIDATION_SYNC;
     pf_vk_context *ctx = NULL;
     PF_REQUIRE_OK(pf_vk_create(&options, &ctx, &err), &err);
-    enum { COUNT = 1000, PASSES = 4 };
-    pf_vk_pipeline *pipeline = selftest_pipeline(ctx, &err);
-    pf_vk_buffer *a = NULL, *b = NULL;
-    PF_CHECK_OK(pf_vk_buffer_create(ctx, COUNT * 4, "unfenced a", &a, &err), &err);
-    PF_CHECK_OK(pf_vk_buffer_create(ctx, COUNT * 4, "unfenced b", &b, &err), &err);
-    pf_vk_commands *cmds = NULL;
-    if (pipeline && a && b)
-        PF_CHECK_OK(pf_vk_commands_begin(ctx, &cmds, &err), &err);
-    if (cmds) {
-        static uint32_t values[COUNT], result[COUNT];
-        for (uint32_t i = 0; i < COUNT; i++)
-            values[i] = 7 * i;
-        PF_CHECK_OK(pf_vk_cmd_upload(cmds, a, 0, values, sizeof values, &err), &err);
-        uint32_t groups = (COUNT + SELFTEST_WORKGROUP - 1) / SELFTEST_WORKGROUP;
-        for (uint32_t pass = 0; pass < PASSES; pass++) {
-            selftest_push push = {COUNT, pass + 1};
-            pf_vk_buffer *buffers[2] = {pass % 2 ? b : a, pass % 2 ? a : b};
-            PF_CHECK_OK(pf_vk_cmd_dispatch(cmds, pipeline, buffers, 2, &push, sizeof push,
-                                           groups, 1, 1, &err),
-                        &err);
-        }
-        PF_CHECK_OK(pf_vk_cmd_download(cmds, a, 0, result, sizeof result, &err), &err);
-        PF_CHECK_OK(pf_vk_commands_submit(cmds, &err), &err);
-        pf_vk_commands_destroy(cmds);
-        for (uint32_t pass = 0; pass < PASSES; pass++) {
-            for (uint32_t i = 0; i < COUNT; i++)
-                values[i] = expected_value(values[i], i, pass + 1);
-        }
-        PF_CHECK(memcmp(result, values, sizeof values) == 0);
-    }
-    pf_vk_buffer_destroy(ctx, a);
-    pf_vk_buffer_destroy(ctx, b);
-    pf_vk_pipeline_destroy(ctx, pipeline);
+    dispatch_chain(ctx, 0, 0);
     VK_TEST_FINISH(ctx);
 }
 
