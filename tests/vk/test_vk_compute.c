@@ -274,6 +274,12 @@ PF_TEST(dispatches_see_the_writes_of_those_before_them)
         printf("  skipped: needs the validation layer (PF_VK_VALIDATION=1)\n");
         return;
     }
+#ifdef __SANITIZE_ADDRESS__
+    /* Debian 12's layer (1.3.239) leaks its synchronization state at vkDestroyInstance:
+     * every allocation LeakSanitizer lists is the layer's own. The plain build checks it. */
+    printf("  skipped under AddressSanitizer: the layer's synchronization validation leaks\n");
+    return;
+#endif
     options.validation = PF_VK_VALIDATION_SYNC;
     pf_vk_context *ctx = NULL;
     PF_REQUIRE_OK(pf_vk_create(&options, &ctx, &err), &err);

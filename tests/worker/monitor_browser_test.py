@@ -37,8 +37,17 @@ def free_port():
         return s.getsockname()[1]
 
 
+# photonfarm's environment: under AddressSanitizer the build asks for libraries to preload
+# into it (PF_CHILD_PRELOAD: lavapipe stays mapped, as in the other CLI tests, so its one
+# global buffer is not reported as a leak), which this Python process must not get itself.
+CHILD_ENV = dict(os.environ)
+if os.environ.get("PF_CHILD_PRELOAD"):
+    CHILD_ENV["LD_PRELOAD"] = os.environ["PF_CHILD_PRELOAD"]
+
+
 def run(*args):
-    return subprocess.run([photonfarm, *args], capture_output=True, text=True, timeout=300)
+    return subprocess.run([photonfarm, *args], capture_output=True, text=True, timeout=300,
+                          env=CHILD_ENV)
 
 
 class DevTools:
@@ -147,7 +156,7 @@ with sqlite3.connect(db) as connection:  # states a test cannot wait for a worke
                        (running,))
 
 server = subprocess.Popen([photonfarm, "serve", "--listen", "127.0.0.1:0", "--poll-ms", "200",
-                           "--db", db], stdout=subprocess.PIPE, text=True)
+                           "--db", db], stdout=subprocess.PIPE, text=True, env=CHILD_ENV)
 line = server.stdout.readline()
 port = int(line.rsplit(":", 1)[1].strip("/\n")) if "listening" in line else 0
 check("serve listens", port > 0)
