@@ -399,6 +399,9 @@ static pf_status staged_copy(pf_vk_context *ctx, pf_vk_buffer *buffer, uint64_t 
         failed_call = "vkQueueSubmit";
         atomic_fetch_add(&ctx->submits, 1);
     }
+    /* The wait holds no lock: other threads' submissions (the EXR writer's, a motion
+     * overlap's) go on meanwhile; the pool is locked again to free the command buffer. */
+    pthread_mutex_unlock(&ctx->queue_lock);
     if (result == VK_SUCCESS) {
         double wait_start = pf_time_ms();
         result = vkWaitForFences(ctx->device, 1, &fence, VK_TRUE, UINT64_MAX);
@@ -410,9 +413,11 @@ static pf_status staged_copy(pf_vk_context *ctx, pf_vk_buffer *buffer, uint64_t 
     }
     if (fence)
         vkDestroyFence(ctx->device, fence, NULL);
-    if (command)
+    if (command) {
+        pthread_mutex_lock(&ctx->queue_lock);
         vkFreeCommandBuffers(ctx->device, ctx->transfer_pool, 1, &command);
-    pthread_mutex_unlock(&ctx->queue_lock);
+        pthread_mutex_unlock(&ctx->queue_lock);
+    }
 
     if (result == VK_SUCCESS && !to_device)
         pf_vk_copy(ctx, host, staging.mapped, size);
