@@ -118,7 +118,7 @@ PF_TEST(a_budgeted_auto_job_stores_reuse_only_from_real_frames)
     unlink(db_path);
     wt_format(pattern, sizeof pattern, "%s/a.####.exr", out);
     wt_format(args, sizeof args,
-              "'%s' --frames 1-2 --out '%s' --size 16x16 --quality auto --budget-ms 2000 "
+              "'%s' --frames 1-2 --out '%s' --size 16x16 --quality auto --budget-ms 500 "
               "--db '%s'",
               scene, pattern, db_path);
     int64_t job_id = wt_enqueue(args, log_path);
