@@ -466,21 +466,19 @@ static pf_status denoise_run(pf_renderer *renderer, pf_image *image, int keep_no
     denoise_planes planes = {0};
     size_t pixels = (size_t)image->width * image->height;
     int device = on_device(renderer);
-    /* The device estimates the variance from this frame's own lighting after the blend has
-     * replaced it on the host: a copy goes along. The variance layer is the estimate the
-     * filter started from (after any blend's factor). */
-    float *noisy = device ? malloc(3 * pixels * sizeof *noisy) : NULL;
+    /* The device estimates the variance from this frame's own lighting after a blend has
+     * replaced it on the host: then a copy goes along (NULL: the lighting is the frame's
+     * own). The variance layer is the estimate the filter started from (after any blend's
+     * factor). */
+    float *noisy = NULL;
     float *estimate = malloc(pixels * sizeof *estimate + 1); /* the row's mean, the layer */
-    if (!planes_fill(image, &at, &planes) || (device && !noisy) || !estimate) {
+    if (!planes_fill(image, &at, &planes) || !estimate) {
         planes_free(&planes);
-        free(noisy);
         free(estimate);
         return pf_error_set(err, PF_ERR_NOMEM, "denoise: out of memory for %ux%u",
                             image->width, image->height);
     }
-    if (device)
-        memcpy(noisy, planes.lighting, 3 * pixels * sizeof *noisy);
-    else
+    if (!device)
         run_rows(&planes, 0);
     if (sequence) {
         double temporal_start = pf_time_ms();
@@ -489,6 +487,14 @@ static pf_status denoise_run(pf_renderer *renderer, pf_image *image, int keep_no
         int blended = sequence->history &&
                       pf_denoise_history_usable(sequence->history, sequence, image->width,
                                                 image->height, why_not, sizeof why_not);
+        if (blended && device && !(noisy = malloc(3 * pixels * sizeof *noisy))) {
+            planes_free(&planes);
+            free(estimate);
+            return pf_error_set(err, PF_ERR_NOMEM, "denoise: out of memory for %ux%u",
+                                image->width, image->height);
+        }
+        if (noisy)
+            memcpy(noisy, planes.lighting, 3 * pixels * sizeof *noisy);
         if (blended)
             denoise_temporal_blend(sequence->history, sequence, image, &planes, &stats);
         else if (sequence->first_length > 1.0f)

@@ -64,7 +64,8 @@ void denoise_rows_parallel(uint32_t height, void (*rows)(void *context, uint32_t
 
 /*
  * The filter on the device (denoise_device.c): the variance estimate of noisy (this frame's
- * own demodulated lighting, 3 per pixel) times planes' variance factors, then `passes`
+ * own demodulated lighting, 3 per pixel; NULL: planes' lighting, where no blend changed it)
+ * times planes' variance factors, then `passes`
  * à-trous passes of planes' lighting, in one submission. Leaves the filtered lighting and
  * its variance in planes, the estimate the passes started from in estimate (one float per
  * pixel), the kernels' GPU time in gpu_ms (< 0 without timestamps).

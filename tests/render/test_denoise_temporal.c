@@ -385,6 +385,7 @@ PF_TEST(the_device_filters_as_the_host_does)
     PF_REQUIRE_OK(pf_denoise_history_create(&host_history, &err), &err);
     PF_REQUIRE_OK(pf_denoise_history_create(&device_history, &err), &err);
     pf_render_settings low = ref_settings(40, 30, 4, 7, 1);
+    double first_upload = 0.0;
     for (int64_t number = 1; number <= 3; number++) {
         pf_image host = {0}, device = {0};
         low.sample_salt = (uint64_t)number;
@@ -411,6 +412,15 @@ PF_TEST(the_device_filters_as_the_host_does)
                      ref_stage_counter(&device_report, "denoise", "host_waits"));
         PF_CHECK(ref_stage_counter(&device_report, "denoise", "readback_bytes") ==
                  20.0 * host.width * host.height);
+        /* The frame's own noisy lighting goes up (16 bytes a pixel) only where a blend
+         * replaced the lighting: frames 2 and 3, not frame 1, which has no history. */
+        double uploaded = ref_stage_counter(&device_report, "denoise", "upload_bytes");
+        if (number == 1)
+            first_upload = uploaded;
+        PF_CHECK_MSG(uploaded - first_upload == (number > 1 ? 16.0 : 0.0) * host.width *
+                                                    host.height,
+                     "frame %lld: %g bytes uploaded, %g for frame 1", (long long)number,
+                     uploaded, first_upload);
         /* Every channel, the variance layer included: within 1e-4 of the larger value. */
         double worst = 0.0;
         size_t values = (size_t)host.width * host.height * host.channel_count;
