@@ -103,8 +103,9 @@ void pf_vk_memory_peak_reset(pf_vk_context *ctx);
  * The host's traffic with the device since the context was made (issue 44): queue
  * submissions, times the host waited for the device (a fence), the bytes
  * pf_vk_buffer_upload and pf_vk_buffer_download copied (through a mapping or a staging
- * submission), and the host's time in each. A stage's share is the difference of two reads (pf_vk_traffic_since);
- * stages run one after another, so nothing else adds to it meanwhile.
+ * submission), and the host's time in each. A stage's share is the difference of two
+ * reads (pf_vk_traffic_since); stages run one after another, so nothing else adds to it
+ * meanwhile.
  */
 typedef struct pf_vk_traffic {
     uint64_t submits, host_waits, readback_bytes, upload_bytes;
