@@ -150,8 +150,15 @@ static void frame_written(void *user, pf_frame_output *output, pf_status status,
     }
     if (run->options->timings)
         print_stage_rows(&output->report);
-    printf("[%zu/%zu] frame %" PRId64 "  %.1f ms  %s\n", run->indices[slot] + 1,
-           run->frame_count, run->frame_numbers[slot], output->total_ms, output->final_path);
+    /* The total is the render and its EXR write; the write ran on this thread while the
+     * next frame rendered, so a run's frames follow each other at about the render's time. */
+    double write_ms = 0.0;
+    for (uint32_t i = 0; i < output->report.stage_count; i++)
+        if (!strcmp(output->report.stages[i].stage, "exr_write"))
+            write_ms = output->report.stages[i].wall_ms;
+    printf("[%zu/%zu] frame %" PRId64 "  %.1f ms (render %.1f, write %.1f behind)  %s\n",
+           run->indices[slot] + 1, run->frame_count, run->frame_numbers[slot],
+           output->total_ms, output->total_ms - write_ms, write_ms, output->final_path);
     fflush(stdout);
 }
 
