@@ -56,3 +56,31 @@ void pf_run_parallel(void *items, size_t item_size, uint32_t count, void (*fn)(v
     free(ids);
     free(started);
 }
+
+typedef struct range_job {
+    void (*fn)(void *context, uint64_t begin, uint64_t end);
+    void *context;
+    uint64_t begin, end;
+} range_job;
+
+static void range_entry(void *item)
+{
+    range_job *job = item;
+    job->fn(job->context, job->begin, job->end);
+}
+
+void pf_run_ranges(uint64_t count, uint32_t most, uint64_t min_length,
+                   void (*fn)(void *context, uint64_t begin, uint64_t end), void *context)
+{
+    if (count == 0)
+        return;
+    uint64_t by_length = count / (min_length > 0 ? min_length : 1);
+    uint32_t slices = most < PF_RUN_RANGES_MAX ? most : PF_RUN_RANGES_MAX;
+    if (by_length < slices)
+        slices = (uint32_t)by_length;
+    slices = pf_cpu_cores(slices > 0 ? slices : 1);
+    range_job jobs[PF_RUN_RANGES_MAX];
+    for (uint32_t t = 0; t < slices; t++)
+        jobs[t] = (range_job){fn, context, count * t / slices, count * (t + 1) / slices};
+    pf_run_parallel(jobs, sizeof jobs[0], slices, range_entry);
+}

@@ -78,6 +78,16 @@ uint32_t pf_cpu_cores(uint32_t most);
  * start), and returns when all are done. Items that write disjoint memory need no locks.
  */
 void pf_run_parallel(void *items, size_t item_size, uint32_t count, void (*fn)(void *item));
+/*
+ * Calls fn(context, begin, end) over [0, count) in contiguous slices, one a thread as
+ * pf_run_parallel runs them: as many slices as there are cores, at most `most` (and
+ * PF_RUN_RANGES_MAX), each at least min_length long where count allows (a small range
+ * runs whole on the calling thread). For loops whose iterations write disjoint memory: a
+ * frame's pixels, a copy's bytes.
+ */
+#define PF_RUN_RANGES_MAX 64u
+void pf_run_ranges(uint64_t count, uint32_t most, uint64_t min_length,
+                   void (*fn)(void *context, uint64_t begin, uint64_t end), void *context);
 
 /*
  * Vose's alias method (Vose 1991, "A linear algorithm for generating random

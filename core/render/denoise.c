@@ -53,8 +53,6 @@
 #define DENOISE_MIN_ALBEDO 0.01f
 /* Reach of the spatial variance estimate: quadrants of (1 + this)² pixels. */
 #define DENOISE_VARIANCE_RADIUS 3
-/* Threads the passes' rows are split between: the machine's cores, at most this many. */
-#define DENOISE_MAX_THREADS 16
 
 static const float b3[5] = {1.0f / 16.0f, 1.0f / 4.0f, 3.0f / 8.0f, 1.0f / 4.0f, 1.0f / 16.0f};
 
@@ -88,32 +86,6 @@ static void planes_free(denoise_planes *planes)
 }
 
 /* Demodulated lighting and the guides from the image's channels. */
-typedef struct rows_job {
-    void (*rows)(void *context, uint32_t begin, uint32_t end);
-    void *context;
-    uint32_t begin, end;
-} rows_job;
-
-static void rows_job_entry(void *argument)
-{
-    rows_job *job = argument;
-    job->rows(job->context, job->begin, job->end);
-}
-
-void denoise_rows_parallel(uint32_t height, void (*rows)(void *context, uint32_t begin,
-                                                          uint32_t end),
-                           void *context)
-{
-    uint32_t threads = pf_cpu_cores(DENOISE_MAX_THREADS);
-    if (threads > height)
-        threads = height > 0 ? height : 1;
-    rows_job jobs[DENOISE_MAX_THREADS];
-    for (uint32_t t = 0; t < threads; t++)
-        jobs[t] = (rows_job){rows, context, (uint32_t)((uint64_t)height * t / threads),
-                             (uint32_t)((uint64_t)height * (t + 1) / threads)};
-    pf_run_parallel(jobs, sizeof jobs[0], threads, rows_job_entry);
-}
-
 typedef struct fill_job {
     const pf_image *image;
     const denoise_channels *at;
@@ -121,7 +93,7 @@ typedef struct fill_job {
 } fill_job;
 
 /* Rows [begin, end) of the planes from the image's layers. */
-static void fill_rows(void *context, uint32_t begin, uint32_t end)
+static void fill_rows(void *context, uint64_t begin, uint64_t end)
 {
     const fill_job *job = context;
     const pf_image *image = job->image;
@@ -148,11 +120,11 @@ static void fill_rows(void *context, uint32_t begin, uint32_t end)
 }
 
 /* Rows [begin, end) of the depth steps (after every row's depth is in). */
-static void depth_step_rows(void *context, uint32_t begin, uint32_t end)
+static void depth_step_rows(void *context, uint64_t begin, uint64_t end)
 {
     denoise_planes *planes = context;
     uint32_t w = planes->width, h = planes->height;
-    for (uint32_t y = begin; y < end; y++)
+    for (uint32_t y = (uint32_t)begin; y < end; y++)
         for (uint32_t x = 0; x < w; x++) {
             size_t p = (size_t)y * w + x;
             float z = planes->depth[p];
@@ -186,8 +158,8 @@ static int planes_fill(const pf_image *image, const denoise_channels *at, denois
         !planes->variance_factor)
         return 0;
     fill_job job = {image, at, planes};
-    denoise_rows_parallel(image->height, fill_rows, &job);
-    denoise_rows_parallel(image->height, depth_step_rows, planes);
+    pf_run_ranges(image->height, DENOISE_MAX_THREADS, 1, fill_rows, &job);
+    pf_run_ranges(image->height, DENOISE_MAX_THREADS, 1, depth_step_rows, planes);
     return 1;
 }
 
@@ -337,7 +309,7 @@ typedef struct filter_job {
     int step;
 } filter_job;
 
-static void filter_rows(void *context, uint32_t begin, uint32_t end)
+static void filter_rows(void *context, uint64_t begin, uint64_t end)
 {
     const filter_job *job = context;
     if (job->step == 0)
@@ -351,7 +323,7 @@ static void filter_rows(void *context, uint32_t begin, uint32_t end)
 static void run_rows(denoise_planes *planes, int step)
 {
     filter_job job = {planes, step};
-    denoise_rows_parallel(planes->height, filter_rows, &job);
+    pf_run_ranges(planes->height, DENOISE_MAX_THREADS, 1, filter_rows, &job);
 }
 
 /* One à-trous pass of spread `step` from planes->lighting/variance into them again. */
@@ -410,7 +382,7 @@ typedef struct write_back_job {
 } write_back_job;
 
 /* Rows [begin, end) of the image from the filtered planes (and the noisy layer first). */
-static void write_back_rows(void *context, uint32_t begin, uint32_t end)
+static void write_back_rows(void *context, uint64_t begin, uint64_t end)
 {
     const write_back_job *job = context;
     pf_image *image = job->image;
@@ -543,7 +515,7 @@ static pf_status denoise_run(pf_renderer *renderer, pf_image *image, int keep_no
         return status;
     }
     write_back_job job = {image, &at, &planes, estimate, keep_noisy, first_added};
-    denoise_rows_parallel(image->height, write_back_rows, &job);
+    pf_run_ranges(image->height, DENOISE_MAX_THREADS, 1, write_back_rows, &job);
     free(estimate);
     planes_free(&planes);
     pf_stage_timing *row = pf_frame_report_row(report, "denoise", NULL, pf_time_ms() - start,

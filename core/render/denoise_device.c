@@ -22,7 +22,7 @@ typedef struct repack_job {
     float *noisy4, *guides, *aux, *lit;
 } repack_job;
 
-static void repack_rows(void *context, uint32_t begin, uint32_t end)
+static void repack_rows(void *context, uint64_t begin, uint64_t end)
 {
     const repack_job *job = context;
     const denoise_planes *planes = job->planes;
@@ -42,7 +42,7 @@ static void repack_rows(void *context, uint32_t begin, uint32_t end)
     }
 }
 
-static void unpack_rows(void *context, uint32_t begin, uint32_t end)
+static void unpack_rows(void *context, uint64_t begin, uint64_t end)
 {
     const repack_job *job = context;
     denoise_planes *planes = job->planes;
@@ -80,7 +80,7 @@ pf_status denoise_device_filter(pf_renderer *renderer, denoise_planes *planes,
         return pf_error_set(err, PF_ERR_NOMEM, "denoise: out of memory for the device's copy");
     }
     repack_job repack = {planes, noisy, noisy4, guides, aux, lit};
-    denoise_rows_parallel(planes->height, repack_rows, &repack);
+    pf_run_ranges(planes->height, DENOISE_MAX_THREADS, 1, repack_rows, &repack);
     pf_vk_commands *cmds = NULL;
     pf_vk_buffer *buffers[DENOISE_DEVICE_BUFFERS] = {0};
     static const char *const labels[DENOISE_DEVICE_BUFFERS] = {
@@ -123,7 +123,7 @@ pf_status denoise_device_filter(pf_renderer *renderer, denoise_planes *planes,
     if (status == PF_OK)
         *gpu_ms = pf_commands_gpu_ms(cmds, begin, end);
     if (status == PF_OK)
-        denoise_rows_parallel(planes->height, unpack_rows, &repack);
+        pf_run_ranges(planes->height, DENOISE_MAX_THREADS, 1, unpack_rows, &repack);
     if (cmds)
         pf_vk_commands_destroy(cmds);
     if (!noisy)

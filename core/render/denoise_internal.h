@@ -9,6 +9,10 @@
 
 #include <stdint.h>
 
+/* Slices the stage's per-pixel loops split their rows into (pf_run_ranges): the machine's
+ * cores, at most this many. */
+#define DENOISE_MAX_THREADS 16
+
 /* The guides and the signal of one image, one float array each. */
 typedef struct denoise_planes {
     uint32_t width, height;
@@ -54,13 +58,6 @@ void denoise_temporal_blend(const pf_denoise_history *history,
  * 0: out of memory (history is then emptied). */
 int denoise_temporal_keep(pf_denoise_history *history, const pf_denoise_sequence *sequence,
                           const denoise_planes *planes);
-
-/* Calls rows(context, begin, end) over [0, height) in slices of rows, one per core: the
- * stage's per-pixel loops touch every pixel of a frame's planes (on a GPU host they were
- * most of the stage's wall time, one core paying the fresh planes' page faults). */
-void denoise_rows_parallel(uint32_t height, void (*rows)(void *context, uint32_t begin,
-                                                          uint32_t end),
-                           void *context);
 
 /*
  * The filter on the device (denoise_device.c): the variance estimate of noisy (this frame's

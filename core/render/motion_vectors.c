@@ -245,21 +245,20 @@ void pf_motion_field_free(pf_motion_field *field)
 }
 
 /* Pixels [begin, end) of the motion layer from the field. */
-typedef struct apply_slice {
+typedef struct apply_job {
     const pf_motion_field *field;
     pf_image *image;
     uint32_t channel;
-    size_t begin, end;
-} apply_slice;
+} apply_job;
 
-static void apply_rows(void *item)
+static void apply_pixels(void *context, uint64_t begin, uint64_t end)
 {
-    const apply_slice *slice = item;
-    uint32_t channels = slice->image->channel_count;
-    for (size_t p = slice->begin; p < slice->end; p++) {
-        float *out = slice->image->pixels + p * channels + slice->channel;
-        out[0] = slice->field->vectors[2 * p];
-        out[1] = slice->field->vectors[2 * p + 1];
+    const apply_job *job = context;
+    uint32_t channels = job->image->channel_count;
+    for (uint64_t p = begin; p < end; p++) {
+        float *out = job->image->pixels + p * channels + job->channel;
+        out[0] = job->field->vectors[2 * p];
+        out[1] = job->field->vectors[2 * p + 1];
     }
 }
 
@@ -275,19 +274,11 @@ pf_status pf_motion_apply(const pf_motion_field *field, pf_image *image, float *
     if (status != PF_OK)
         return status;
     size_t pixels = (size_t)image->width * image->height;
-    /* In slices of rows, one a core: each pixel's two words sit a whole texel apart (26
-     * channels at 1080p), so the loop is a cache line a pixel, 24-32 ms of a 1080p frame on
-     * one core of a GPU host. */
-    uint32_t threads = pf_cpu_cores(MOTION_MAX_THREADS);
-    if (threads > image->height)
-        threads = image->height;
-    apply_slice slices[MOTION_MAX_THREADS];
-    for (uint32_t t = 0; t < threads; t++)
-        slices[t] = (apply_slice){field, image, motion_channel,
-                                  (size_t)image->width * (image->height * (uint64_t)t / threads),
-                                  (size_t)image->width *
-                                      (image->height * (uint64_t)(t + 1) / threads)};
-    pf_run_parallel(slices, sizeof slices[0], threads, apply_rows);
+    /* In slices, one a core: each pixel's two words sit a whole texel apart (26 channels at
+     * 1080p), so the loop is a cache line a pixel, 24-32 ms of a 1080p frame on one core of
+     * a GPU host. */
+    apply_job job = {field, image, motion_channel};
+    pf_run_ranges(pixels, MOTION_MAX_THREADS, image->width, apply_pixels, &job);
     if (depth_change)
         memcpy(depth_change, field->depth_change, pixels * sizeof *depth_change);
     pf_stage_timing *row =

@@ -37,38 +37,27 @@ void pf_vk_time_add(_Atomic uint64_t *total_ns, double start_ms)
     atomic_fetch_add(total_ns, ns > 0.0 ? (uint64_t)ns : 0);
 }
 
-/* A large copy in slices, one per core: the first touch of fresh host pages (an image
- * allocated for the frame) costs a page fault each, which one core pays serially. */
+/* A large copy in slices, one per core (pf_run_ranges): the first touch of fresh host
+ * pages (an image allocated for the frame) costs a page fault each, which one core pays
+ * serially. Slices of 8 MB at least. */
 #define COPY_SLICE_MIN (8u * 1024 * 1024)
 
-typedef struct copy_slice {
+typedef struct copy_job {
     char *to;
     const char *from;
-    uint64_t size;
-} copy_slice;
+} copy_job;
 
-static void copy_one_slice(void *item)
+static void copy_range(void *context, uint64_t begin, uint64_t end)
 {
-    copy_slice *slice = item;
-    memcpy(slice->to, slice->from, slice->size);
+    const copy_job *job = context;
+    memcpy(job->to + begin, job->from + begin, end - begin);
 }
 
 void pf_vk_copy(pf_vk_context *ctx, void *to, const void *from, uint64_t size)
 {
     double start = pf_time_ms();
-    uint32_t slices = size / COPY_SLICE_MIN > 64 ? 64 : (uint32_t)(size / COPY_SLICE_MIN);
-    slices = pf_cpu_cores(slices > 0 ? slices : 1);
-    if (slices <= 1) {
-        memcpy(to, from, size);
-    } else {
-        copy_slice parts[64];
-        uint64_t step = (size + slices - 1) / slices;
-        uint32_t count = 0;
-        for (uint64_t at = 0; at < size; at += step, count++)
-            parts[count] = (copy_slice){(char *)to + at, (const char *)from + at,
-                                        size - at < step ? size - at : step};
-        pf_run_parallel(parts, sizeof parts[0], count, copy_one_slice);
-    }
+    copy_job job = {to, from};
+    pf_run_ranges(size, PF_RUN_RANGES_MAX, COPY_SLICE_MIN, copy_range, &job);
     pf_vk_time_add(&ctx->copy_ns, start);
 }
 
