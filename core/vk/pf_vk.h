@@ -216,8 +216,8 @@ pf_status pf_vk_cmd_dispatch(pf_vk_commands *cmds, pf_vk_pipeline *pipeline,
                              pf_error *err);
 /*
  * A dispatch whose workgroup counts the device reads from groups at offset (3 uint32: x, y,
- * z; 0 groups dispatch nothing), written by an earlier dispatch with a pf_vk_cmd_barrier
- * between: work that only the device knows it has, without a readback. The writer keeps the
+ * z; 0 groups dispatch nothing), written by an earlier dispatch (the barrier every dispatch
+ * gets covers the group counts): work that only the device knows it has, without a readback. The writer keeps the
  * counts within maxComputeWorkGroupCount (the host cannot check them).
  */
 pf_status pf_vk_cmd_dispatch_indirect(pf_vk_commands *cmds, pf_vk_pipeline *pipeline,
