@@ -212,6 +212,25 @@ pf_status pf_photon_grid_build_with_irradiance(pf_photon_grid *map, pf_photon_gr
                                                pf_photon_irradiance_counts *counts,
                                                pf_error *err);
 /*
+ * Several grids in one submission (issue 44: a frame's passes are one photon_grid): each
+ * job's grid over its count records of photons (a device buffer read, not kept) at its
+ * radius, and, with points, that map's irradiance points as
+ * pf_photon_grid_build_with_irradiance builds them (counts filled). All lie in bounds. A
+ * job whose points list was full is listed again with room for every photon, in a second
+ * submission. On failure no job's grids are left built.
+ */
+typedef struct pf_photon_grid_job {
+    pf_photon_grid *grid;
+    pf_vk_buffer *photons;
+    uint32_t count;
+    float radius;
+    pf_photon_grid *points;              /* NULL: the map alone */
+    pf_photon_irradiance_counts counts;  /* out, with points */
+} pf_photon_grid_job;
+pf_status pf_photon_grid_build_batch(pf_photon_grid_job *jobs, uint32_t count,
+                                     const float bounds_min[3], const float bounds_max[3],
+                                     pf_error *err);
+/*
  * photon_irradiance_lookup at query points (xyz + the points' estimate
  * radius in w) with unit normals: irradiance[q] rgb as
  * pf_photon_grid_irradiance, w 1 where a point was found, 0 where none was
@@ -421,7 +440,23 @@ pf_status pf_photon_trace(pf_photon_tracer *tracer, const pf_photon_scene *scene
                           const pf_photon_emitters *emitters,
                           const pf_photon_trace_settings *settings, pf_photon_maps *out,
                           pf_error *err);
+/*
+ * Traces count passes (settings[i] into out[i]: their own seeds, maps and counts) in one
+ * submission and one wait where the device traces the rays (issue 44: a frame's passes
+ * are one photon_trace), each pass in its own waves where settings[i].host_tree has the
+ * host trace them. Passes whose shared invocations met the loop cap are traced again
+ * together, one photon an invocation (a second submission). Each pass's maps hold what
+ * pf_photon_trace would give it. On failure every out[i] is released and the error names
+ * the pass, or the batch where their common submission failed.
+ */
+pf_status pf_photon_trace_passes(pf_photon_tracer *tracer, const pf_photon_scene *scene,
+                                 const pf_photon_emitters *emitters,
+                                 const pf_photon_trace_settings *settings, uint32_t count,
+                                 pf_photon_maps *out, pf_error *err);
 void pf_photon_maps_release(pf_vk_context *ctx, pf_photon_maps *maps);
+/* The bytes a pass of these settings' maps hold on the device (both maps, at capacity). */
+uint64_t pf_photon_trace_bytes(const pf_vk_device_info *info,
+                               const pf_photon_trace_settings *settings);
 
 /*
  * Photon budgets beyond one pass. A pass's maps, and the grid over each,

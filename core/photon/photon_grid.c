@@ -17,6 +17,9 @@
  * gather widens its box by 2^-8 r, and the box must span at most 3 cells).
  */
 #define CELL_MARGIN (1.0f + 1.0f / 64.0f)
+/* What a job of a batch builds (build_jobs): nothing (this submission), its map and the
+ * map's points, or the points of a map built before. */
+enum { WORK_NONE = 0, WORK_MAP = 1, WORK_POINTS = 2 };
 /* Modes of photon_grid_finish.comp. */
 enum { FINISH_CLEAR = 0, FINISH_SCATTER = 1 };
 /* Modes of photon_irradiance_probe.comp. */
@@ -316,35 +319,8 @@ static pf_status record_grid(pf_photon_grid *grid, pf_vk_commands *cmds, pf_vk_b
     return status;
 }
 
-/* Builds the grid over count photons in input (a device buffer the caller keeps) lying in
- * [lo, hi]: one submission. */
-static pf_status build_grid(pf_photon_grid *grid, pf_vk_buffer *input, uint32_t count,
-                            const float lo[3], const float hi[3], float radius, pf_error *err)
-{
-    pf_vk_context *ctx = grid->ctx;
-    grid_scratch scratch = {0};
-    pf_vk_commands *cmds = NULL;
-    int begin = -1, end = -1;
-    pf_status status = pf_vk_commands_begin(ctx, &cmds, err);
-    if (status == PF_OK)
-        status = record_grid(grid, cmds, input, count, count, lo, hi, radius, &scratch, &begin,
-                             &end, err);
-    if (status == PF_OK)
-        status = pf_vk_commands_submit(cmds, err);
-    double gpu_ms = status == PF_OK && begin >= 0 && end >= 0
-                        ? pf_vk_commands_elapsed_ms(cmds, begin, end)
-                        : -1.0;
-    pf_vk_commands_destroy(cmds);
-    release_scratch(ctx, &scratch);
-    if (status != PF_OK) {
-        release_grid(grid);
-        pf_error_prefix(err, "photon grid build (%u photons, radius %g)", count, (double)radius);
-        return status;
-    }
-    grid->gpu_ms = gpu_ms;
-    grid->built = 1;
-    return PF_OK;
-}
+static pf_status build_jobs(pf_vk_context *ctx, pf_photon_grid_job *jobs, uint32_t count,
+                            int what, const float lo[3], const float hi[3], pf_error *err);
 
 static pf_status check_radius(float radius, pf_error *err)
 {
@@ -378,8 +354,11 @@ pf_status pf_photon_grid_build(pf_photon_grid *grid, const pf_photon *photons, u
     if (status == PF_OK && count > 0)
         status = pf_vk_buffer_upload(grid->ctx, input, 0, photons,
                                      (uint64_t)count * sizeof(pf_photon), err);
+    pf_photon_grid_job job = {.grid = grid, .photons = input, .count = count, .radius = radius};
     if (status == PF_OK)
-        status = build_grid(grid, input, count, lo, hi, radius, err);
+        status = build_jobs(grid->ctx, &job, 1, WORK_MAP, lo, hi, err);
+    if (status != PF_OK)
+        pf_error_prefix(err, "photon grid build (%u photons, radius %g)", count, (double)radius);
     release(grid->ctx, &input);
     return status;
 }
@@ -391,8 +370,11 @@ pf_status pf_photon_grid_build_device(pf_photon_grid *grid, pf_vk_buffer *photon
     pf_status status = check_radius(radius, err);
     if (status != PF_OK)
         return status;
-    release_grid(grid);
-    return build_grid(grid, photons, count, bounds_min, bounds_max, radius, err);
+    pf_photon_grid_job job = {.grid = grid, .photons = photons, .count = count, .radius = radius};
+    status = build_jobs(grid->ctx, &job, 1, WORK_MAP, bounds_min, bounds_max, err);
+    if (status != PF_OK)
+        pf_error_prefix(err, "photon grid build (%u photons, radius %g)", count, (double)radius);
+    return status;
 }
 
 double pf_photon_grid_gpu_ms(const pf_photon_grid *grid)
@@ -693,54 +675,148 @@ static pf_status finish_points(pf_photon_grid *points, const uint32_t counts[2],
     return PF_OK;
 }
 
-/*
- * The points of map with room for capacity of them, in one submission. building: NULL
- * when map is built, else map itself, whose grid over photons (count records) is built
- * first in the same submission. gpu_ms[0] and [1]: the map's build and the points' (< 0
- * without timestamps). On failure the points are not left built, nor the map unless only
- * the list was full (PF_ERR_LIMIT).
- */
-static pf_status submit_grids(const pf_photon_grid *map, pf_photon_grid *building,
-                              pf_vk_buffer *photons, uint32_t count, pf_photon_grid *points,
-                              float radius, const float lo[3], const float hi[3],
-                              uint32_t capacity, uint32_t found[2], double gpu_ms[2],
-                              pf_error *err)
+/* One job of a batch while its submission runs: its scratch, timestamps and point counts. */
+typedef struct grid_work {
+    int what;          /* WORK_MAP: the map (and its points); WORK_POINTS: points only */
+    grid_scratch map_scratch;
+    points_scratch points_scratch;
+    int stamps[4];     /* around the map's build, then the points' (< 0: none) */
+    uint32_t found[2]; /* points listed, estimates stopped */
+    uint32_t capacity; /* the points' room */
+    double points_ms;  /* an earlier try's points time (a full list) */
+    int full;          /* the list had no room for every point: listed again */
+} grid_work;
+
+static void release_work(pf_vk_context *ctx, grid_work *work)
 {
-    pf_vk_context *ctx = points->ctx;
-    release_grid(points);
-    if (building)
-        release_grid(building);
-    grid_scratch map_scratch = {0};
-    points_scratch scratch = {0};
-    int stamps[4] = {-1, -1, -1, -1};
+    release_scratch(ctx, &work->map_scratch);
+    release_points_scratch(ctx, &work->points_scratch);
+}
+
+/* Records job's map build (WORK_MAP) and its points (with job->points) into cmds. */
+static pf_status record_job(pf_vk_commands *cmds, pf_photon_grid_job *job, grid_work *work,
+                            const float lo[3], const float hi[3], pf_error *err)
+{
+    for (int s = 0; s < 4; s++)
+        work->stamps[s] = -1;
+    pf_status status = PF_OK;
+    if (work->what == WORK_MAP) {
+        release_grid(job->grid);
+        status = record_grid(job->grid, cmds, job->photons, job->count, job->count, lo, hi,
+                             job->radius, &work->map_scratch, &work->stamps[0],
+                             &work->stamps[1], err);
+    }
+    if (status == PF_OK && job->points) {
+        release_grid(job->points);
+        status = record_points(job->points, job->grid, cmds, job->radius, lo, hi,
+                               work->capacity, &work->points_scratch, work->found,
+                               &work->stamps[2], &work->stamps[3], err);
+    }
+    return status;
+}
+
+/* The job's grids once their submission is done: built, timed, the points' counts checked
+ * (a full list marks the work full, for a second try with room for every photon). */
+static pf_status finish_job(const pf_vk_commands *cmds, pf_photon_grid_job *job,
+                            grid_work *work, pf_error *err)
+{
+    if (work->what == WORK_MAP) {
+        job->grid->gpu_ms = pf_vk_commands_elapsed_ms(cmds, work->stamps[0], work->stamps[1]);
+        job->grid->built = 1;
+    }
+    if (!job->points)
+        return PF_OK;
+    double ms = pf_vk_commands_elapsed_ms(cmds, work->stamps[2], work->stamps[3]);
+    if (work->full) /* the first try's time counts too */
+        ms = ms >= 0.0 && work->points_ms >= 0.0 ? ms + work->points_ms : -1.0;
+    uint32_t photons = job->grid->info.photon_count;
+    pf_status status = finish_points(job->points, work->found, photons, work->capacity, ms, err);
+    if (status == PF_ERR_LIMIT && work->capacity < photons) {
+        work->full = 1;
+        work->points_ms = ms;
+        return PF_OK;
+    }
+    job->counts.points = work->found[0];
+    job->counts.truncated = work->found[1];
+    return status;
+}
+
+/* The jobs whose work is not WORK_NONE, recorded in one submission and finished. */
+static pf_status submit_jobs(pf_vk_context *ctx, pf_photon_grid_job *jobs, grid_work *work,
+                             uint32_t count, const float lo[3], const float hi[3],
+                             pf_error *err)
+{
     pf_vk_commands *cmds = NULL;
     pf_status status = pf_vk_commands_begin(ctx, &cmds, err);
-    if (status == PF_OK && building)
-        status = record_grid(building, cmds, photons, count, count, lo, hi, radius, &map_scratch,
-                             &stamps[0], &stamps[1], err);
-    if (status == PF_OK)
-        status = record_points(points, map, cmds, radius, lo, hi, capacity, &scratch, found,
-                               &stamps[2], &stamps[3], err);
+    for (uint32_t i = 0; status == PF_OK && i < count; i++)
+        if (work[i].what != WORK_NONE)
+            status = record_job(cmds, &jobs[i], &work[i], lo, hi, err);
     if (status == PF_OK)
         status = pf_vk_commands_submit(cmds, err);
-    for (int g = 0; g < 2; g++)
-        gpu_ms[g] = status == PF_OK ? pf_vk_commands_elapsed_ms(cmds, stamps[2 * g],
-                                                                 stamps[2 * g + 1])
-                                    : -1.0;
+    for (uint32_t i = 0; status == PF_OK && i < count; i++)
+        if (work[i].what != WORK_NONE)
+            status = finish_job(cmds, &jobs[i], &work[i], err);
     pf_vk_commands_destroy(cmds);
-    release_scratch(ctx, &map_scratch);
-    release_points_scratch(ctx, &scratch);
-    if (status == PF_OK && building) {
-        building->gpu_ms = gpu_ms[0];
-        building->built = 1;
+    for (uint32_t i = 0; i < count; i++)
+        release_work(ctx, &work[i]);
+    return status;
+}
+
+/*
+ * Builds the jobs' grids (what: WORK_MAP, their maps and points; WORK_POINTS, the points
+ * of maps already built) in one submission; where a points list was full, those points
+ * again with room for every photon, in a second. On failure the points are left unbuilt,
+ * and the maps too where this built them.
+ */
+static pf_status build_jobs(pf_vk_context *ctx, pf_photon_grid_job *jobs, uint32_t count,
+                            int what, const float lo[3], const float hi[3], pf_error *err)
+{
+    grid_work *work = calloc(count ? count : 1, sizeof *work);
+    if (!work)
+        return pf_error_set(err, PF_ERR_NOMEM, "photon grids: out of memory (%u)", count);
+    for (uint32_t i = 0; i < count; i++) {
+        work[i].what = what;
+        uint32_t photons = what == WORK_MAP ? jobs[i].count : jobs[i].grid->info.photon_count;
+        work[i].capacity = points_capacity(photons);
+        memset(&jobs[i].counts, 0, sizeof jobs[i].counts);
+    }
+    pf_status status = submit_jobs(ctx, jobs, work, count, lo, hi, err);
+    int again = 0;
+    for (uint32_t i = 0; status == PF_OK && i < count; i++) {
+        work[i].what = work[i].full ? WORK_POINTS : WORK_NONE;
+        if (work[i].full)
+            work[i].capacity = jobs[i].grid->info.photon_count;
+        again |= work[i].full;
+    }
+    if (status == PF_OK && again)
+        status = submit_jobs(ctx, jobs, work, count, lo, hi, err);
+    free(work);
+    for (uint32_t i = 0; status != PF_OK && i < count; i++) {
+        if (jobs[i].points)
+            release_grid(jobs[i].points);
+        if (what == WORK_MAP)
+            release_grid(jobs[i].grid);
+    }
+    return status;
+}
+
+pf_status pf_photon_grid_build_batch(pf_photon_grid_job *jobs, uint32_t count,
+                                     const float bounds_min[3], const float bounds_max[3],
+                                     pf_error *err)
+{
+    if (count == 0)
+        return PF_OK;
+    pf_status status = PF_OK;
+    for (uint32_t i = 0; status == PF_OK && i < count; i++) {
+        if (!jobs[i].grid || (jobs[i].count > 0 && !jobs[i].photons))
+            return pf_error_set(err, PF_ERR_INVALID, "photon grids: job %u lacks its grid or photons", i);
+        status = check_radius(jobs[i].radius, err);
     }
     if (status == PF_OK)
-        status = finish_points(points, found, map->info.photon_count, capacity, gpu_ms[1], err);
-    if (status != PF_OK) {
-        release_grid(points);
-        if (building && status != PF_ERR_LIMIT) /* a full list leaves the map built */
-            release_grid(building);
-    }
+        status = build_jobs(jobs[0].grid->ctx, jobs, count, WORK_MAP, bounds_min, bounds_max,
+                            err);
+    if (status != PF_OK && count > 1)
+        pf_error_prefix(err, "photon grids of %u passes", count);
     return status;
 }
 
@@ -759,20 +835,14 @@ pf_status pf_photon_grid_build_irradiance(pf_photon_grid *points, const pf_photo
         return pf_error_set(err, PF_ERR_INVALID,
                             "irradiance points: radius %g exceeds the map's cell %g",
                             (double)radius, (double)map->info.cell_size);
-    uint32_t photons = map->info.photon_count;
-    uint32_t found[2] = {0, 0};
-    double gpu_ms[2];
-    status = submit_grids(map, NULL, NULL, 0, points, radius, bounds_min, bounds_max,
-                          points_capacity(photons), found, gpu_ms, err);
-    if (status == PF_ERR_LIMIT) /* more points than the bound: room for every photon */
-        status = submit_grids(map, NULL, NULL, 0, points, radius, bounds_min, bounds_max,
-                              photons, found, gpu_ms, err);
+    /* The map is only read: its build is not part of this job. */
+    pf_photon_grid_job job = {.grid = (pf_photon_grid *)map, .radius = radius, .points = points};
+    status = build_jobs(points->ctx, &job, 1, WORK_POINTS, bounds_min, bounds_max, err);
     if (status != PF_OK) {
-        pf_error_prefix(err, "irradiance points (%u photons)", photons);
+        pf_error_prefix(err, "irradiance points (%u photons)", map->info.photon_count);
         return status;
     }
-    counts->points = found[0];
-    counts->truncated = found[1];
+    *counts = job.counts;
     return PF_OK;
 }
 
@@ -787,25 +857,14 @@ pf_status pf_photon_grid_build_with_irradiance(pf_photon_grid *map, pf_photon_gr
     pf_status status = check_radius(radius, err);
     if (status != PF_OK)
         return status;
-    uint32_t found[2] = {0, 0};
-    double gpu_ms[2];
-    status = submit_grids(map, map, photons, count, points, radius, bounds_min, bounds_max,
-                          points_capacity(count), found, gpu_ms, err);
-    if (status == PF_ERR_LIMIT) { /* more points than the bound: again, room for every photon */
-        double first_ms = gpu_ms[1];
-        status = submit_grids(map, NULL, NULL, 0, points, radius, bounds_min, bounds_max, count,
-                              found, gpu_ms, err);
-        if (status == PF_OK && first_ms >= 0.0 && gpu_ms[1] >= 0.0)
-            points->gpu_ms = first_ms + gpu_ms[1];
-    }
+    pf_photon_grid_job job = {.grid = map, .photons = photons, .count = count, .radius = radius,
+                              .points = points};
+    status = build_jobs(map->ctx, &job, 1, WORK_MAP, bounds_min, bounds_max, err);
     if (status != PF_OK) {
-        release_grid(map);
-        release_grid(points);
         pf_error_prefix(err, "photon grid and irradiance points (%u photons, radius %g)", count,
                         (double)radius);
         return status;
     }
-    counts->points = found[0];
-    counts->truncated = found[1];
+    *counts = job.counts;
     return PF_OK;
 }

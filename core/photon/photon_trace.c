@@ -108,6 +108,21 @@ static pf_status map_capacity(const pf_vk_device_info *info, uint32_t requested,
     return PF_OK;
 }
 
+uint64_t pf_photon_trace_bytes(const pf_vk_device_info *info,
+                               const pf_photon_trace_settings *settings)
+{
+    uint32_t capacity[2] = {settings->global_capacity, settings->caustic_capacity};
+    uint64_t bytes = 0;
+    pf_error ignored = {0};
+    for (int m = 0; m < 2; m++) {
+        uint32_t slots = capacity[m];
+        if (map_capacity(info, capacity[m], settings->photon_count, "", &slots, &ignored) != PF_OK)
+            slots = capacity[m]; /* the trace refuses it: count what was asked */
+        bytes += (uint64_t)(slots ? slots : 1) * sizeof(pf_photon);
+    }
+    return bytes;
+}
+
 pf_status pf_photon_trace_uploads(pf_vk_commands *cmds, pf_vk_buffer *const *buffers,
                                   const trace_uploads *uploads, pf_error *err)
 {
@@ -129,25 +144,138 @@ pf_status pf_photon_trace_uploads(pf_vk_commands *cmds, pf_vk_buffer *const *buf
 }
 
 /*
- * Traces count photons into the maps bound in buffers (their counters zeroed first), each
- * invocation per_invocation of them in turn (photon_trace.comp), and reads back the counters
- * and the GPU time (< 0 without timestamps). One submission and one wait: the uploads, the
- * counters zeroed, the dispatches and the counters' readback.
+ * One pass of a trace (pf_photon_trace_passes): its parameters, its own buffers and what
+ * its submission reads back, until the batch's submission is done.
  */
-static pf_status trace_photons(pf_photon_tracer *tracer, pf_vk_pipeline *kernel,
-                               pf_vk_buffer **buffers, const trace_uploads *uploads,
-                               uint32_t count, uint32_t per_invocation, trace_counters *counters,
-                               double *gpu_ms, pf_error *err)
+typedef struct trace_job {
+    const pf_photon_trace_settings *settings;
+    photon_trace_params params;
+    pf_vk_buffer *params_buffer, *emitter_buffer, *counter_buffer;
+    pf_vk_buffer *placeholder; /* the texture bindings of a scene without textures */
+    pf_vk_buffer *buffers[TRACE_BUFFERS];
+    trace_uploads uploads;
+    uint32_t per_invocation;
+    trace_counters counters;
+    int begin, end; /* timestamp slots around its dispatches (< 0: none) */
+    uint32_t submitted; /* its submissions so far */
+    double gpu_ms;      /* their GPU time (< 0 without timestamps) */
+} trace_job;
+
+static void job_release(pf_vk_context *ctx, trace_job *job)
 {
+    release(ctx, &job->params_buffer);
+    release(ctx, &job->emitter_buffer);
+    release(ctx, &job->counter_buffer);
+    release(ctx, &job->placeholder);
+}
+
+/* The pass's parameters and buffers (its maps into out), bound as photon_trace.comp reads them. */
+static pf_status job_prepare(pf_photon_tracer *tracer, const pf_photon_scene *scene,
+                             const pf_photon_emitters *emitters,
+                             const pf_photon_trace_settings *settings, trace_job *job,
+                             pf_photon_maps *out, pf_error *err)
+{
+    memset(job, 0, sizeof *job);
+    job->settings = settings;
+    job->begin = job->end = -1;
+    job->gpu_ms = -1.0;
+    if (settings->photon_count == 0)
+        return pf_error_set(err, PF_ERR_INVALID, "photon trace: 0 photons requested");
     pf_vk_context *ctx = tracer->ctx;
-    pf_vk_buffer *counter_buffer = buffers[TRACE_COUNTERS];
-    memset(counters, 0, sizeof *counters);
-    *gpu_ms = -1.0;
-    pf_vk_commands *cmds = NULL;
-    pf_status status = pf_vk_commands_begin(ctx, &cmds, err);
+    const pf_vk_device_info *info = pf_vk_info(ctx);
+    photon_trace_params *params = &job->params;
+    pf_status status = map_capacity(info, settings->global_capacity, settings->photon_count,
+                                    "global", &params->global_capacity, err);
     if (status == PF_OK)
-        status = pf_photon_trace_uploads(cmds, buffers, uploads, err);
-    int begin = status == PF_OK ? pf_vk_cmd_timestamp(cmds) : -1;
+        status = map_capacity(info, settings->caustic_capacity, settings->photon_count,
+                              "caustic", &params->caustic_capacity, err);
+    if (status != PF_OK)
+        return status;
+    double total_luminance = luminance(emitters->total_power);
+    out->flux_scale = emitters->count > 0 ? (float)(total_luminance / settings->photon_count) : 0.0f;
+    for (int k = 0; k < 3; k++) {
+        params->bih_bounds_min[k] = scene->bih.bounds_min[k];
+        params->bih_bounds_max[k] = scene->bih.bounds_max[k];
+        params->scene_sphere[k] = emitters->scene_center[k];
+    }
+    params->scene_sphere[3] = emitters->scene_radius;
+    params->photon_count = settings->photon_count;
+    params->emitter_count = emitters->count;
+    params->store_direct = settings->store_direct ? 1u : 0u;
+    params->global_reflected = settings->global_reflected ? 1u : 0u;
+    params->triangle_count = scene->triangle_count;
+    params->bih_node_count = scene->bih.node_count;
+    params->seed_lo = (uint32_t)settings->seed;
+    params->seed_hi = (uint32_t)(settings->seed >> 32);
+    params->max_depth = settings->max_depth ? settings->max_depth : PF_PHOTON_DEFAULT_MAX_DEPTH;
+    params->ray_offset = scene->ray_offset;
+
+    status = pf_vk_buffer_create(ctx, sizeof *params, "photon trace parameters",
+                                 &job->params_buffer, err);
+    if (status == PF_OK)
+        status = pf_vk_buffer_create(ctx,
+                                     (uint64_t)(emitters->count ? emitters->count : 1) *
+                                         sizeof(pf_photon_emitter),
+                                     "photon emitters", &job->emitter_buffer, err);
+    if (status == PF_OK)
+        status = pf_vk_buffer_create(ctx, sizeof(trace_counters), "photon trace counters",
+                                     &job->counter_buffer, err);
+    if (status == PF_OK)
+        status = pf_vk_buffer_create(ctx,
+                                     (uint64_t)(params->global_capacity ? params->global_capacity
+                                                                        : 1) *
+                                         sizeof(pf_photon),
+                                     "global photon map", &out->global, err);
+    if (status == PF_OK)
+        status = pf_vk_buffer_create(ctx,
+                                     (uint64_t)(params->caustic_capacity ? params->caustic_capacity
+                                                                         : 1) *
+                                         sizeof(pf_photon),
+                                     "caustic photon map", &out->caustic, err);
+    if (status == PF_OK && !(scene->corners && scene->textures && scene->texels))
+        status = pf_vk_buffer_create(ctx, 4 * sizeof(uint32_t), "no textures", &job->placeholder,
+                                     err);
+    if (status != PF_OK)
+        return status;
+    pf_vk_buffer **buffers = job->buffers;
+    buffers[PF_SCENE_BINDING_PARAMS] = job->params_buffer;
+    buffers[PF_SCENE_BINDING_VERTICES] = scene->vertices;
+    buffers[PF_SCENE_BINDING_NORMALS] = scene->normals;
+    buffers[PF_SCENE_BINDING_TRIANGLE_MATERIALS] = scene->triangle_material;
+    buffers[PF_SCENE_BINDING_MATERIALS] = scene->materials;
+    buffers[PF_SCENE_BINDING_LIGHTS] = scene->lights;
+    buffers[PF_SCENE_BINDING_EMISSIVE] = job->emitter_buffer;
+    buffers[PF_SCENE_BINDING_CORNERS] = scene->corners ? scene->corners : job->placeholder;
+    buffers[PF_SCENE_BINDING_TEXTURES] = scene->textures ? scene->textures : job->placeholder;
+    buffers[PF_SCENE_BINDING_TEXELS] = scene->texels ? scene->texels : job->placeholder;
+    buffers[PF_SCENE_BINDING_COUNT + 0] = scene->bih.nodes;
+    buffers[PF_SCENE_BINDING_COUNT + 1] = scene->bih.vertices;
+    buffers[PF_SCENE_BINDING_COUNT + 2] = scene->bih.triangle_index;
+    buffers[PF_SCENE_BINDING_COUNT + 3] = out->global;
+    buffers[PF_SCENE_BINDING_COUNT + 4] = out->caustic;
+    buffers[TRACE_COUNTERS] = job->counter_buffer;
+    /* The waves' buffers, where the host traces (photon_trace_wave.c binds its own). */
+    for (uint32_t b = TRACE_COUNTERS + 1; b < TRACE_BUFFERS; b++)
+        buffers[b] = job->counter_buffer;
+    job->per_invocation = settings->per_invocation ? settings->per_invocation
+                          : pf_vk_device_is_cpu(ctx) ? PF_PHOTON_TRACE_PER_INVOCATION
+                                                     : 1u;
+    job->uploads = (trace_uploads){&job->params, emitters, job->placeholder};
+    return PF_OK;
+}
+
+/*
+ * Records the job's uploads, its counters zeroed, its dispatches (each invocation tracing
+ * per_invocation photons in turn: photon_trace.comp) between two timestamps, and the
+ * counters' readback.
+ */
+static pf_status job_record(pf_vk_commands *cmds, pf_vk_pipeline *kernel, trace_job *job,
+                            pf_error *err)
+{
+    uint32_t count = job->settings->photon_count, per_invocation = job->per_invocation;
+    memset(&job->counters, 0, sizeof job->counters);
+    pf_status status = pf_photon_trace_uploads(cmds, job->buffers, &job->uploads, err);
+    job->begin = status == PF_OK ? pf_vk_cmd_timestamp(cmds) : -1;
     const uint64_t per_dispatch = (uint64_t)TRACE_GROUP_SIZE * TRACE_MAX_GROUPS * per_invocation;
     for (uint64_t first = 0; status == PF_OK && first < count; first += per_dispatch) {
         trace_push push = {(uint32_t)first, count - (uint32_t)first, 0, 1};
@@ -156,17 +284,157 @@ static pf_status trace_photons(pf_photon_tracer *tracer, pf_vk_pipeline *kernel,
         uint32_t invocations = (push.photon_count + per_invocation - 1) / per_invocation;
         uint32_t groups = (invocations + TRACE_GROUP_SIZE - 1) / TRACE_GROUP_SIZE;
         push.photon_stride = groups * TRACE_GROUP_SIZE;
-        status = pf_vk_cmd_dispatch(cmds, kernel, buffers, TRACE_BUFFERS, &push,
+        status = pf_vk_cmd_dispatch(cmds, kernel, job->buffers, TRACE_BUFFERS, &push,
                                     sizeof push, groups, 1, 1, err);
     }
-    int end = status == PF_OK ? pf_vk_cmd_timestamp(cmds) : -1;
+    job->end = status == PF_OK ? pf_vk_cmd_timestamp(cmds) : -1;
     if (status == PF_OK)
-        status = pf_vk_cmd_download(cmds, counter_buffer, 0, counters, sizeof *counters, err);
+        status = pf_vk_cmd_download(cmds, job->counter_buffer, 0, &job->counters,
+                                    sizeof job->counters, err);
+    return status;
+}
+
+/*
+ * Traces the selected jobs (every one the device traces at first; again those whose shared
+ * invocations met the loop cap) in one submission and one wait; adds each one's GPU time
+ * to its own.
+ */
+static pf_status submit_jobs(pf_photon_tracer *tracer, pf_vk_pipeline *kernel, trace_job *jobs,
+                             const int *selected, uint32_t count, pf_error *err)
+{
+    pf_vk_commands *cmds = NULL;
+    pf_status status = pf_vk_commands_begin(tracer->ctx, &cmds, err);
+    for (uint32_t i = 0; status == PF_OK && i < count; i++)
+        if (selected[i])
+            status = job_record(cmds, kernel, &jobs[i], err);
     if (status == PF_OK)
         status = pf_vk_commands_submit(cmds, err);
-    if (status == PF_OK && begin >= 0 && end >= 0)
-        *gpu_ms = pf_vk_commands_elapsed_ms(cmds, begin, end);
+    for (uint32_t i = 0; status == PF_OK && i < count; i++) {
+        if (!selected[i])
+            continue;
+        trace_job *job = &jobs[i];
+        double ms = job->begin >= 0 && job->end >= 0
+                        ? pf_vk_commands_elapsed_ms(cmds, job->begin, job->end)
+                        : -1.0;
+        job->gpu_ms = job->submitted == 0 ? ms
+                      : job->gpu_ms >= 0.0 && ms >= 0.0 ? job->gpu_ms + ms
+                                                         : -1.0;
+        job->submitted++;
+    }
     pf_vk_commands_destroy(cmds);
+    return status;
+}
+
+/* The job's counters as its maps' counts, or the error they name. */
+static pf_status job_finish(const trace_job *job, const pf_photon_emitters *emitters,
+                            pf_photon_maps *out, pf_error *err)
+{
+    const trace_counters *counters = &job->counters;
+    out->per_invocation = job->per_invocation;
+    if (counters->traversal_failures > 0)
+        return pf_error_set(err, PF_ERR_LIMIT,
+                            "%u photons overflowed the %u-entry BIH traversal stack",
+                            counters->traversal_failures, PF_BIH_STACK_SIZE);
+    if (counters->loop_truncated > 0)
+        return pf_error_set(err, PF_ERR_LIMIT,
+                            "%u invocations (%u photons each) stopped at the device's loop cap "
+                            "(llvmpipe: 65,535 loop iterations an invocation), cutting their "
+                            "photons' paths short",
+                            counters->loop_truncated, job->per_invocation);
+    const photon_trace_params *params = &job->params;
+    out->emitted = emitters->count > 0 ? job->settings->photon_count : 0;
+    out->global_offered = counters->global_stored;
+    out->caustic_offered = counters->caustic_stored;
+    out->global_count = counters->global_stored < params->global_capacity
+                            ? counters->global_stored
+                            : params->global_capacity;
+    out->caustic_count = counters->caustic_stored < params->caustic_capacity
+                             ? counters->caustic_stored
+                             : params->caustic_capacity;
+    out->non_finite = counters->non_finite;
+    return PF_OK;
+}
+
+pf_status pf_photon_trace_passes(pf_photon_tracer *tracer, const pf_photon_scene *scene,
+                                 const pf_photon_emitters *emitters,
+                                 const pf_photon_trace_settings *settings, uint32_t count,
+                                 pf_photon_maps *out, pf_error *err)
+{
+    pf_vk_context *ctx = tracer->ctx;
+    for (uint32_t i = 0; i < count; i++) {
+        memset(&out[i], 0, sizeof out[i]);
+        out[i].gpu_ms = -1.0;
+    }
+    trace_job *jobs = calloc(count ? count : 1, sizeof *jobs);
+    int *selected = calloc(count ? count : 1, sizeof *selected);
+    pf_status status = jobs && selected ? PF_OK
+                                        : pf_error_set(err, PF_ERR_NOMEM,
+                                                       "photon trace: out of memory (%u passes)",
+                                                       count);
+    uint32_t failed = count; /* the pass an error names (count: the batch's submission) */
+    for (uint32_t i = 0; status == PF_OK && i < count; i++)
+        if ((status = job_prepare(tracer, scene, emitters, &settings[i], &jobs[i], &out[i],
+                                  err)) != PF_OK)
+            failed = i;
+    pf_vk_pipeline *kernel = NULL;
+    if (status == PF_OK)
+        status = pf_photon_trace_pipeline(tracer, PF_PHOTON_TRACED_HERE, scene->surface_features,
+                                          &kernel, err);
+    /* Where the host traces the rays, each pass in its waves; else every pass in one
+     * submission. */
+    int batched = 0;
+    for (uint32_t i = 0; status == PF_OK && i < count; i++) {
+        selected[i] = emitters->count > 0 && !settings[i].host_tree;
+        batched += selected[i];
+        if (emitters->count > 0 && settings[i].host_tree) {
+            jobs[i].per_invocation = 1;
+            status = pf_photon_trace_waves(ctx, tracer, scene->surface_features, jobs[i].buffers,
+                                           &jobs[i].uploads, settings[i].host_tree,
+                                           settings[i].host_wide, settings[i].photon_count,
+                                           &jobs[i].counters, &out[i], err);
+            if (status != PF_OK)
+                failed = i;
+        }
+    }
+    if (status == PF_OK && batched > 0)
+        status = submit_jobs(tracer, kernel, jobs, selected, count, err);
+    /* Photons that share an invocation add up its loop iterations: where that met the cap,
+     * the pass is traced again with one photon each (slots restart at 0: nothing is kept). */
+    int again = 0;
+    for (uint32_t i = 0; status == PF_OK && i < count; i++) {
+        selected[i] = selected[i] && jobs[i].counters.loop_truncated > 0 &&
+                      jobs[i].per_invocation > 1;
+        if (selected[i])
+            jobs[i].per_invocation = 1;
+        again += selected[i];
+    }
+    if (status == PF_OK && again > 0)
+        status = submit_jobs(tracer, kernel, jobs, selected, count, err);
+    for (uint32_t i = 0; status == PF_OK && i < count; i++) {
+        if (jobs[i].submitted > 0)
+            out[i].gpu_ms = jobs[i].gpu_ms;
+        if ((status = job_finish(&jobs[i], emitters, &out[i], err)) != PF_OK)
+            failed = i;
+    }
+    for (uint32_t i = 0; jobs && i < count; i++)
+        job_release(ctx, &jobs[i]);
+    free(jobs);
+    free(selected);
+    if (status != PF_OK) {
+        for (uint32_t i = 0; i < count; i++) {
+            pf_photon_maps_release(ctx, &out[i]);
+            out[i].gpu_ms = -1.0;
+        }
+        if (count > 1 && failed < count)
+            pf_error_prefix(err, "photon trace of pass %u of %u (%u photons, %u emitters)",
+                            failed + 1, count, settings[failed].photon_count, emitters->count);
+        else if (count > 1)
+            pf_error_prefix(err, "photon trace of %u passes (%u photons each, %u emitters)",
+                            count, settings[0].photon_count, emitters->count);
+        else
+            pf_error_prefix(err, "photon trace (%u photons, %u emitters)",
+                            count ? settings[0].photon_count : 0, emitters->count);
+    }
     return status;
 }
 
@@ -175,145 +443,7 @@ pf_status pf_photon_trace(pf_photon_tracer *tracer, const pf_photon_scene *scene
                           const pf_photon_trace_settings *settings, pf_photon_maps *out,
                           pf_error *err)
 {
-    memset(out, 0, sizeof *out);
-    out->gpu_ms = -1.0;
-    if (settings->photon_count == 0)
-        return pf_error_set(err, PF_ERR_INVALID, "photon trace: 0 photons requested");
-    pf_vk_context *ctx = tracer->ctx;
-    const pf_vk_device_info *info = pf_vk_info(ctx);
-    photon_trace_params params;
-    memset(&params, 0, sizeof params);
-    pf_status status = map_capacity(info, settings->global_capacity, settings->photon_count,
-                                    "global", &params.global_capacity, err);
-    if (status == PF_OK)
-        status = map_capacity(info, settings->caustic_capacity, settings->photon_count,
-                              "caustic", &params.caustic_capacity, err);
-    if (status != PF_OK)
-        return status;
-    double total_luminance = luminance(emitters->total_power);
-    out->flux_scale = emitters->count > 0 ? (float)(total_luminance / settings->photon_count) : 0.0f;
-    for (int k = 0; k < 3; k++) {
-        params.bih_bounds_min[k] = scene->bih.bounds_min[k];
-        params.bih_bounds_max[k] = scene->bih.bounds_max[k];
-        params.scene_sphere[k] = emitters->scene_center[k];
-    }
-    params.scene_sphere[3] = emitters->scene_radius;
-    params.photon_count = settings->photon_count;
-    params.emitter_count = emitters->count;
-    params.store_direct = settings->store_direct ? 1u : 0u;
-    params.global_reflected = settings->global_reflected ? 1u : 0u;
-    params.triangle_count = scene->triangle_count;
-    params.bih_node_count = scene->bih.node_count;
-    params.seed_lo = (uint32_t)settings->seed;
-    params.seed_hi = (uint32_t)(settings->seed >> 32);
-    params.max_depth = settings->max_depth ? settings->max_depth : PF_PHOTON_DEFAULT_MAX_DEPTH;
-    params.ray_offset = scene->ray_offset;
-
-    pf_vk_buffer *params_buffer = NULL, *emitter_buffer = NULL, *counter_buffer = NULL;
-    pf_vk_buffer *placeholder = NULL; /* the texture bindings of a scene without textures */
-    pf_vk_pipeline *kernel = NULL;
-    status = pf_photon_trace_pipeline(tracer, PF_PHOTON_TRACED_HERE, scene->surface_features,
-                                      &kernel, err);
-    const trace_counters zero = {0, 0, 0, 0, 0};
-    if (status == PF_OK)
-        status = pf_vk_buffer_create(ctx, sizeof params, "photon trace parameters",
-                                     &params_buffer, err);
-    if (status == PF_OK)
-        status = pf_vk_buffer_create(ctx,
-                                     (uint64_t)(emitters->count ? emitters->count : 1) *
-                                         sizeof(pf_photon_emitter),
-                                     "photon emitters", &emitter_buffer, err);
-    if (status == PF_OK)
-        status = pf_vk_buffer_create(ctx, sizeof zero, "photon trace counters", &counter_buffer,
-                                     err);
-    if (status == PF_OK)
-        status = pf_vk_buffer_create(ctx,
-                                     (uint64_t)(params.global_capacity ? params.global_capacity : 1) *
-                                         sizeof(pf_photon),
-                                     "global photon map", &out->global, err);
-    if (status == PF_OK)
-        status = pf_vk_buffer_create(ctx,
-                                     (uint64_t)(params.caustic_capacity ? params.caustic_capacity : 1) *
-                                         sizeof(pf_photon),
-                                     "caustic photon map", &out->caustic, err);
-
-    if (status == PF_OK && !(scene->corners && scene->textures && scene->texels))
-        status = pf_vk_buffer_create(ctx, 4 * sizeof(uint32_t), "no textures", &placeholder, err);
-    pf_vk_buffer *buffers[TRACE_BUFFERS] = {
-        [PF_SCENE_BINDING_PARAMS] = params_buffer,
-        [PF_SCENE_BINDING_VERTICES] = scene->vertices,
-        [PF_SCENE_BINDING_NORMALS] = scene->normals,
-        [PF_SCENE_BINDING_TRIANGLE_MATERIALS] = scene->triangle_material,
-        [PF_SCENE_BINDING_MATERIALS] = scene->materials,
-        [PF_SCENE_BINDING_LIGHTS] = scene->lights,
-        [PF_SCENE_BINDING_EMISSIVE] = emitter_buffer,
-        [PF_SCENE_BINDING_CORNERS] = scene->corners ? scene->corners : placeholder,
-        [PF_SCENE_BINDING_TEXTURES] = scene->textures ? scene->textures : placeholder,
-        [PF_SCENE_BINDING_TEXELS] = scene->texels ? scene->texels : placeholder,
-        [PF_SCENE_BINDING_COUNT + 0] = scene->bih.nodes,
-        [PF_SCENE_BINDING_COUNT + 1] = scene->bih.vertices,
-        [PF_SCENE_BINDING_COUNT + 2] = scene->bih.triangle_index,
-        [PF_SCENE_BINDING_COUNT + 3] = out->global,
-        [PF_SCENE_BINDING_COUNT + 4] = out->caustic,
-        [TRACE_COUNTERS] = counter_buffer};
-    /* The waves' buffers, where the host traces (photon_trace_wave.c binds its own). */
-    for (uint32_t b = TRACE_COUNTERS + 1; b < TRACE_BUFFERS; b++)
-        buffers[b] = counter_buffer;
-    uint32_t per_invocation = settings->per_invocation ? settings->per_invocation
-                              : pf_vk_device_is_cpu(ctx) ? PF_PHOTON_TRACE_PER_INVOCATION
-                                                              : 1u;
-    trace_counters counters = zero;
-    trace_uploads uploads = {&params, emitters, placeholder};
-    if (status == PF_OK && emitters->count > 0 && settings->host_tree) {
-        per_invocation = 1;
-        status = pf_photon_trace_waves(ctx, tracer, scene->surface_features, buffers, &uploads,
-                                       settings->host_tree, settings->host_wide,
-                                       settings->photon_count, &counters, out, err);
-    } else if (status == PF_OK && emitters->count > 0) {
-        status = trace_photons(tracer, kernel, buffers, &uploads, settings->photon_count,
-                               per_invocation, &counters, &out->gpu_ms, err);
-    }
-    /* Photons that share an invocation add up its loop iterations: where that met the cap,
-     * the pass is traced again with one photon each (slots restart at 0: nothing is kept). */
-    if (status == PF_OK && counters.loop_truncated > 0 && per_invocation > 1) {
-        per_invocation = 1;
-        double first_ms = out->gpu_ms;
-        status = trace_photons(tracer, kernel, buffers, &uploads, settings->photon_count,
-                               per_invocation, &counters, &out->gpu_ms, err);
-        out->gpu_ms = first_ms >= 0.0 && out->gpu_ms >= 0.0 ? first_ms + out->gpu_ms : -1.0;
-    }
-    out->per_invocation = per_invocation;
-    release(ctx, &params_buffer);
-    release(ctx, &emitter_buffer);
-    release(ctx, &counter_buffer);
-    release(ctx, &placeholder);
-    if (status == PF_OK && counters.traversal_failures > 0)
-        status = pf_error_set(err, PF_ERR_LIMIT,
-                              "%u photons overflowed the %u-entry BIH traversal stack",
-                              counters.traversal_failures, PF_BIH_STACK_SIZE);
-    if (status == PF_OK && counters.loop_truncated > 0)
-        status = pf_error_set(err, PF_ERR_LIMIT,
-                              "%u invocations (%u photons each) stopped at the device's loop cap "
-                              "(llvmpipe: 65,535 loop iterations an invocation), cutting their "
-                              "photons' paths short",
-                              counters.loop_truncated, per_invocation);
-    if (status != PF_OK) {
-        pf_photon_maps_release(ctx, out);
-        out->gpu_ms = -1.0;
-        pf_error_prefix(err, "photon trace (%u photons, %u emitters)", settings->photon_count,
-                        emitters->count);
-        return status;
-    }
-    out->emitted = emitters->count > 0 ? settings->photon_count : 0;
-    out->global_offered = counters.global_stored;
-    out->caustic_offered = counters.caustic_stored;
-    out->global_count = counters.global_stored < params.global_capacity ? counters.global_stored
-                                                                         : params.global_capacity;
-    out->caustic_count = counters.caustic_stored < params.caustic_capacity
-                             ? counters.caustic_stored
-                             : params.caustic_capacity;
-    out->non_finite = counters.non_finite;
-    return PF_OK;
+    return pf_photon_trace_passes(tracer, scene, emitters, settings, 1, out, err);
 }
 
 pf_status pf_photon_map_download(pf_vk_context *ctx, pf_vk_buffer *map, uint32_t count,

@@ -128,7 +128,7 @@ static pf_status trace_photons(struct pf_fast_cache *cache, const pf_photon_fram
                                       .seed = settings->seed,
                                       .store_direct = 1,
                                       .global_reflected = 1};
-    pf_status status = pf_photon_frame_trace(renderer, inputs, plan, &trace, maps, err);
+    pf_status status = pf_photon_frame_trace(renderer, inputs, plan, &trace, 1, maps, err);
     if (status != PF_OK)
         return status;
     cache->trace_gpu_ms = maps->gpu_ms;

@@ -76,6 +76,15 @@
 #define FINAL_LOOKUP_MAX_PASSES 16u
 /* Passes whose grids are kept for reuse (memory: ~5 MB each at the default photons). */
 #define FINAL_KEPT_PASSES 16u
+/*
+ * Passes traced, gridded and caustic-gridded together (issue 44: each photon stage one
+ * submission a frame, not one a pass), and the most bytes their maps may hold at once
+ * (both maps of each pass until it is shaded: 16 MB a pass at the default photons), or an
+ * eighth of the device's memory where less. A time budget traces one pass at a time: a
+ * pass the budget ends before its shade would be traced for nothing.
+ */
+#define FINAL_BATCH_PASSES 16u
+#define FINAL_BATCH_BYTES (1ull << 30)
 /* A frame fails when more than this fraction of its samples hit the loop cap. */
 #define FINAL_TRUNCATED_LIMIT 0.01
 /* render_final.comp's record of each pixel's D₁, vec4s per pixel: its vertex, then its
@@ -149,7 +158,8 @@ typedef struct final_pass {
 } final_pass;
 
 struct pf_final_cache {
-    final_pass passes[FINAL_KEPT_PASSES + 1]; /* the last slot: passes never kept */
+    /* The kept passes' slots, then the slots of passes never kept (one a pass of a batch). */
+    final_pass passes[FINAL_KEPT_PASSES + FINAL_BATCH_PASSES];
     float first_radius;                       /* valid passes: stage memory's kept_passes */
 };
 
@@ -157,7 +167,7 @@ void pf_final_cache_destroy(struct pf_final_cache *cache)
 {
     if (!cache)
         return;
-    for (uint32_t i = 0; i <= FINAL_KEPT_PASSES; i++) {
+    for (uint32_t i = 0; i < FINAL_KEPT_PASSES + FINAL_BATCH_PASSES; i++) {
         pf_photon_grid_destroy(cache->passes[i].global);
         pf_photon_grid_destroy(cache->passes[i].points);
         pf_photon_grid_destroy(cache->passes[i].caustic);
@@ -210,38 +220,64 @@ typedef struct final_progress {
 /* The frame's state between its stages (pf_frame_run.state). */
 typedef struct final_frame final_frame;
 
-/* Traces pass index into *maps and sets slot's figures (radius, counts). */
-static pf_status trace_pass(pf_renderer *renderer, const pf_photon_frame *inputs,
-                            const pf_scene_frame *frame, const pf_render_settings *settings,
-                            const pf_stage_plan *plan, uint32_t index,
-                            struct pf_final_cache *cache, final_pass *slot, pf_photon_maps *maps,
-                            final_progress *progress, pf_error *err)
+/* The slot of pass index: its own while it can be kept, else one of the scratch slots,
+ * distinct for the passes of a batch. */
+static final_pass *pass_slot(struct pf_final_cache *cache, uint32_t index)
+{
+    return &cache->passes[index < FINAL_KEPT_PASSES
+                              ? index
+                              : FINAL_KEPT_PASSES + (index - FINAL_KEPT_PASSES) % FINAL_BATCH_PASSES];
+}
+
+/* The end of the batch of passes that starts at first (FINAL_BATCH_PASSES). */
+static uint32_t batch_end(pf_vk_context *ctx, const pf_render_settings *settings,
+                          const pf_stage_plan *plan, uint32_t first)
+{
+    if (settings->time_budget_ms > 0.0)
+        return first + 1;
+    pf_photon_trace_settings trace = {.photon_count = plan->photons};
+    uint64_t per_pass = pf_photon_trace_bytes(pf_vk_info(ctx), &trace);
+    uint64_t most = pf_vk_info(ctx)->device_local_bytes / 8;
+    if (most == 0 || most > FINAL_BATCH_BYTES)
+        most = FINAL_BATCH_BYTES;
+    uint64_t fits = per_pass > 0 ? most / per_pass : FINAL_BATCH_PASSES;
+    uint32_t count = fits < 1 ? 1u : fits > FINAL_BATCH_PASSES ? FINAL_BATCH_PASSES : (uint32_t)fits;
+    return first + count < plan->samples ? first + count : plan->samples;
+}
+
+/* Traces passes [first, first + count) into maps[0 .. count) and sets their slots' figures
+ * (radius, counts): one submission where the device traces (pf_photon_trace_passes). */
+static pf_status trace_batch(pf_renderer *renderer, const pf_photon_frame *inputs,
+                             const pf_scene_frame *frame, const pf_render_settings *settings,
+                             const pf_stage_plan *plan, uint32_t first, uint32_t count,
+                             struct pf_final_cache *cache, pf_photon_maps *maps,
+                             final_progress *progress, pf_error *err)
 {
     double start = pf_time_ms();
+    pf_photon_trace_settings trace[FINAL_BATCH_PASSES];
     /* First hits too: the gather's secondary vertices take all their light from the map. */
-    pf_photon_trace_settings trace = {.photon_count = plan->photons,
-                                      .seed = pf_seed_mix(settings->seed, index),
-                                      .max_depth = plan->photon_depth,
-                                      .store_direct = 1};
-    pf_status status = pf_photon_frame_trace(renderer, inputs, plan, &trace, maps, err);
+    for (uint32_t i = 0; i < count; i++)
+        trace[i] = (pf_photon_trace_settings){.photon_count = plan->photons,
+                                              .seed = pf_seed_mix(settings->seed, first + i),
+                                              .max_depth = plan->photon_depth,
+                                              .store_direct = 1};
+    pf_status status = pf_photon_frame_trace(renderer, inputs, plan, trace, count, maps, err);
     if (status != PF_OK)
         return status;
     progress->trace_ms += pf_time_ms() - start;
-    progress->photon_waves += maps->waves;
-    progress->photon_host_ms += maps->host_trace_ms;
-    pf_gpu_ms_add(&progress->trace_gpu_ms, maps->gpu_ms);
-    if (maps->traversal_failures > 0) {
-        pf_photon_maps_release(renderer->ctx, maps);
-        return pf_error_set(err, PF_ERR_LIMIT, "%u photons overflowed the BIH traversal stack",
-                            maps->traversal_failures);
+    if (first == 0 && cache->first_radius <= 0.0f)
+        cache->first_radius = first_radius(frame, maps[0].global_count);
+    for (uint32_t i = 0; i < count; i++) {
+        progress->photon_waves += maps[i].waves;
+        progress->photon_host_ms += maps[i].host_trace_ms;
+        pf_gpu_ms_add(&progress->trace_gpu_ms, maps[i].gpu_ms);
+        final_pass *slot = pass_slot(cache, first + i);
+        slot->radius = pass_radius(cache->first_radius, first + i);
+        slot->flux_scale = maps[i].flux_scale;
+        slot->emitted = maps[i].emitted;
+        slot->global_stored = maps[i].global_count;
+        slot->caustic_stored = plan->caustic_map ? maps[i].caustic_count : 0;
     }
-    if (index == 0 && cache->first_radius <= 0.0f)
-        cache->first_radius = first_radius(frame, maps->global_count);
-    slot->radius = pass_radius(cache->first_radius, index);
-    slot->flux_scale = maps->flux_scale;
-    slot->emitted = maps->emitted;
-    slot->global_stored = maps->global_count;
-    slot->caustic_stored = plan->caustic_map ? maps->caustic_count : 0;
     return PF_OK;
 }
 
@@ -255,64 +291,77 @@ static int wants_lookups(const pf_render_settings *settings, const pf_stage_plan
            rays >= FINAL_LOOKUP_MIN_RATIO * stored;
 }
 
-/* Grids the pass's global photons into slot, with their precomputed irradiance points when the
- * frame wants them (and drops a caustic grid the plan has none of). */
-static pf_status grid_pass(pf_vk_context *ctx, const pf_scene_frame *frame,
-                           const pf_render_settings *settings, const pf_stage_plan *plan,
-                           const pf_photon_maps *maps, final_pass *slot,
-                           final_progress *progress, pf_error *err)
+/* Grids the global photons of passes [first, first + count) into their slots, with their
+ * precomputed irradiance points where the frame wants them (and drops caustic grids the
+ * plan has none of): one submission (pf_photon_grid_build_batch). */
+static pf_status grid_batch(pf_vk_context *ctx, const pf_scene_frame *frame,
+                            const pf_render_settings *settings, const pf_stage_plan *plan,
+                            struct pf_final_cache *cache, const pf_photon_maps *maps,
+                            uint32_t first, uint32_t count, final_progress *progress,
+                            pf_error *err)
 {
     double start = pf_time_ms();
+    pf_photon_grid_job jobs[FINAL_BATCH_PASSES];
     pf_status status = PF_OK;
-    if (!slot->global)
-        status = pf_photon_grid_create(ctx, &slot->global, err);
-    slot->points_built = 0;
-    int lookups = status == PF_OK && wants_lookups(settings, plan, maps->global_count);
-    if (lookups && !slot->points)
-        status = pf_photon_grid_create(ctx, &slot->points, err);
-    /* The map's grid and its irradiance points: one submission either way (issue 44). */
-    pf_photon_irradiance_counts counts = {0, 0};
-    if (status == PF_OK && lookups)
-        status = pf_photon_grid_build_with_irradiance(
-            slot->global, slot->points, maps->global, maps->global_count, frame->bounds_min,
-            frame->bounds_max, slot->radius, &counts, err);
-    else if (status == PF_OK)
-        status = pf_photon_grid_build_device(slot->global, maps->global, maps->global_count,
-                                             frame->bounds_min, frame->bounds_max, slot->radius,
-                                             err);
-    if (status == PF_OK) {
-        pf_gpu_ms_add(&progress->grid_gpu_ms, pf_photon_grid_gpu_ms(slot->global));
-        pf_gpu_ms_add(&progress->map_grid_gpu_ms, pf_photon_grid_gpu_ms(slot->global));
-        progress->grid_ms += pf_time_ms() - start;
-        slot->points_built = lookups;
-        if (lookups) {
-            pf_gpu_ms_add(&progress->grid_gpu_ms, pf_photon_grid_gpu_ms(slot->points));
-            pf_gpu_ms_add(&progress->points_gpu_ms, pf_photon_grid_gpu_ms(slot->points));
+    for (uint32_t i = 0; status == PF_OK && i < count; i++) {
+        final_pass *slot = pass_slot(cache, first + i);
+        slot->points_built = 0;
+        if (!slot->global)
+            status = pf_photon_grid_create(ctx, &slot->global, err);
+        int lookups = status == PF_OK && wants_lookups(settings, plan, maps[i].global_count);
+        if (lookups && !slot->points)
+            status = pf_photon_grid_create(ctx, &slot->points, err);
+        jobs[i] = (pf_photon_grid_job){slot->global, maps[i].global, maps[i].global_count,
+                                       slot->radius, lookups ? slot->points : NULL, {0, 0}};
+        if (!plan->caustic_map) {
+            /* A grid left from an earlier scene must not be gathered from. */
+            pf_photon_grid_destroy(slot->caustic);
+            slot->caustic = NULL;
         }
-        progress->points += counts.points;
-        progress->points_skipped += counts.truncated;
     }
-    if (!plan->caustic_map) {
-        /* A grid left from an earlier scene must not be gathered from. */
-        pf_photon_grid_destroy(slot->caustic);
-        slot->caustic = NULL;
+    if (status == PF_OK)
+        status = pf_photon_grid_build_batch(jobs, count, frame->bounds_min, frame->bounds_max,
+                                            err);
+    if (status != PF_OK)
+        return status;
+    progress->grid_ms += pf_time_ms() - start;
+    for (uint32_t i = 0; i < count; i++) {
+        final_pass *slot = pass_slot(cache, first + i);
+        double map_ms = pf_photon_grid_gpu_ms(slot->global);
+        pf_gpu_ms_add(&progress->grid_gpu_ms, map_ms);
+        pf_gpu_ms_add(&progress->map_grid_gpu_ms, map_ms);
+        slot->points_built = jobs[i].points != NULL;
+        if (slot->points_built) {
+            double points_ms = pf_photon_grid_gpu_ms(slot->points);
+            pf_gpu_ms_add(&progress->grid_gpu_ms, points_ms);
+            pf_gpu_ms_add(&progress->points_gpu_ms, points_ms);
+        }
+        progress->points += jobs[i].counts.points;
+        progress->points_skipped += jobs[i].counts.truncated;
     }
-    return status;
+    return PF_OK;
 }
 
-/* Grids the pass's caustic photons into slot. */
-static pf_status caustic_pass(pf_vk_context *ctx, const pf_scene_frame *frame,
-                              const pf_photon_maps *maps, final_pass *slot,
-                              final_progress *progress, pf_error *err)
+/* Grids the caustic photons of passes [first, first + count) into their slots: one
+ * submission. */
+static pf_status caustic_batch(pf_vk_context *ctx, const pf_scene_frame *frame,
+                               struct pf_final_cache *cache, const pf_photon_maps *maps,
+                               uint32_t first, uint32_t count, final_progress *progress,
+                               pf_error *err)
 {
     double start = pf_time_ms();
+    pf_photon_grid_job jobs[FINAL_BATCH_PASSES];
     pf_status status = PF_OK;
-    if (!slot->caustic)
-        status = pf_photon_grid_create(ctx, &slot->caustic, err);
+    for (uint32_t i = 0; status == PF_OK && i < count; i++) {
+        final_pass *slot = pass_slot(cache, first + i);
+        if (!slot->caustic)
+            status = pf_photon_grid_create(ctx, &slot->caustic, err);
+        jobs[i] = (pf_photon_grid_job){slot->caustic, maps[i].caustic, maps[i].caustic_count,
+                                       slot->radius, NULL, {0, 0}};
+    }
     if (status == PF_OK)
-        status = pf_photon_grid_build_device(slot->caustic, maps->caustic, maps->caustic_count,
-                                             frame->bounds_min, frame->bounds_max, slot->radius,
-                                             err);
+        status = pf_photon_grid_build_batch(jobs, count, frame->bounds_min, frame->bounds_max,
+                                            err);
     progress->caustic_ms += pf_time_ms() - start;
     return status;
 }
@@ -705,8 +754,11 @@ struct final_frame {
     pf_vk_buffer *buffers[PF_FINAL_BUFFERS];
     final_progress progress;
     double start_ms;          /* after the BIH: the shade row gets what the photon stages leave */
-    pf_photon_maps maps;      /* the pass being built: traced, not yet all gridded */
-    int maps_held;
+    /* The passes traced together, [batch_first, batch_end), and their maps until each is
+     * shaded; the batch's grids and caustic grids made (each once for the batch). */
+    pf_photon_maps batch[FINAL_BATCH_PASSES];
+    uint32_t batch_first, batch_end;
+    int batch_gridded, batch_caustics;
     int pass_traced;          /* the current pass was traced in this frame (not kept) */
     int film_read;            /* the last pass read the film into the image with its own */
     /* The frame's own uploads (its parameters, the empty grid), recorded at its start and
@@ -717,8 +769,8 @@ struct final_frame {
 static void final_frame_free(pf_vk_context *ctx, final_frame *f)
 {
     pf_vk_commands_destroy(f->setup);
-    if (f->maps_held)
-        pf_photon_maps_release(ctx, &f->maps);
+    for (uint32_t i = 0; i < FINAL_BATCH_PASSES; i++)
+        pf_photon_maps_release(ctx, &f->batch[i]);
     final_buffers_release(ctx, &f->owned);
     if (f->inputs_ready)
         pf_photon_frame_release(ctx, &f->inputs);
@@ -842,12 +894,6 @@ static pf_status final_begin(pf_frame_run *run, pf_error *err)
     return PF_OK;
 }
 
-/* The slot of pass index: its own while it can be kept, else the scratch slot. */
-static final_pass *pass_slot(struct pf_final_cache *cache, uint32_t index)
-{
-    return &cache->passes[index < FINAL_KEPT_PASSES ? index : FINAL_KEPT_PASSES];
-}
-
 /* One planned stage of pass `pass`: the photon stages build the pass (unless kept), shade adds
  * its camera sample. */
 static pf_status final_run(pf_frame_run *run, pf_stage_id stage, uint32_t pass, pf_error *err)
@@ -862,10 +908,17 @@ static pf_status final_run(pf_frame_run *run, pf_stage_id stage, uint32_t pass, 
     switch (stage) {
     case PF_STAGE_PHOTON_TRACE:
         f->pass_traced = pass >= memory->kept_passes;
+        /* The first pass to trace traces its batch; the batch's later passes are traced. */
+        if (f->pass_traced && !(pass >= f->batch_first && pass < f->batch_end)) {
+            f->batch_first = pass;
+            f->batch_end = batch_end(renderer->ctx, run->settings, run->plan, pass);
+            f->batch_gridded = f->batch_caustics = 0;
+            status = trace_batch(renderer, &f->inputs, run->frame, run->settings, run->plan,
+                                 pass, f->batch_end - pass, cache, f->batch, progress, err);
+            if (status != PF_OK)
+                f->batch_end = f->batch_first; /* nothing held */
+        }
         if (f->pass_traced) {
-            status = trace_pass(renderer, &f->inputs, run->frame, run->settings, run->plan, pass,
-                                cache, slot, &f->maps, progress, err);
-            f->maps_held = status == PF_OK;
             progress->traced += status == PF_OK;
         } else {
             progress->reused++;
@@ -880,19 +933,24 @@ static pf_status final_run(pf_frame_run *run, pf_stage_id stage, uint32_t pass, 
         }
         break;
     case PF_STAGE_PHOTON_GRID:
-        if (f->maps_held)
-            status = grid_pass(renderer->ctx, run->frame, run->settings, run->plan, &f->maps, slot,
-                               progress, err);
+        if (f->pass_traced && !f->batch_gridded) {
+            status = grid_batch(renderer->ctx, run->frame, run->settings, run->plan, cache,
+                                f->batch, f->batch_first, f->batch_end - f->batch_first,
+                                progress, err);
+            f->batch_gridded = 1;
+        }
         break;
     case PF_STAGE_CAUSTIC_MAP:
-        if (f->maps_held)
-            status = caustic_pass(renderer->ctx, run->frame, &f->maps, slot, progress, err);
+        if (f->pass_traced && !f->batch_caustics) {
+            status = caustic_batch(renderer->ctx, run->frame, cache, f->batch, f->batch_first,
+                                   f->batch_end - f->batch_first, progress, err);
+            f->batch_caustics = 1;
+        }
         break;
     case PF_STAGE_SHADE:
-        if (f->maps_held) {
-            pf_photon_maps_release(renderer->ctx, &f->maps);
-            f->maps_held = 0;
-        }
+        /* Its maps are gridded: the device memory goes back before the sample's kernels. */
+        if (f->pass_traced)
+            pf_photon_maps_release(renderer->ctx, &f->batch[pass - f->batch_first]);
         /* A pass traced whole in this frame is kept for the next (as a prefix). */
         if (f->pass_traced && pass < FINAL_KEPT_PASSES && pass == memory->kept_passes)
             memory->kept_passes = pass + 1;

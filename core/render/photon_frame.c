@@ -51,16 +51,16 @@ void pf_photon_frame_release(pf_vk_context *ctx, pf_photon_frame *photon_frame)
 
 pf_status pf_photon_frame_trace(pf_renderer *renderer, const pf_photon_frame *inputs,
                                 const pf_stage_plan *plan, pf_photon_trace_settings *trace,
-                                pf_photon_maps *maps, pf_error *err)
+                                uint32_t count, pf_photon_maps *maps, pf_error *err)
 {
     pf_status status = PF_OK;
-    if (plan->host_traces) {
-        status = pf_renderer_bih_host(renderer, &trace->host_tree, err);
+    for (uint32_t i = 0; status == PF_OK && plan->host_traces && i < count; i++) {
+        status = pf_renderer_bih_host(renderer, &trace[i].host_tree, err);
         if (status == PF_OK)
-            status = pf_renderer_bih_wide(renderer, &trace->host_wide, err);
+            status = pf_renderer_bih_wide(renderer, &trace[i].host_wide, err);
     }
     if (status == PF_OK)
-        status = pf_photon_trace(inputs->tracer, &inputs->photons, inputs->emitters, trace, maps,
-                                 err);
+        status = pf_photon_trace_passes(inputs->tracer, &inputs->photons, inputs->emitters,
+                                        trace, count, maps, err);
     return status;
 }

@@ -576,11 +576,12 @@ pf_status pf_photon_frame_prepare(pf_renderer *renderer, const pf_scene_frame *f
                                   const pf_photon_emitters *emitters, pf_photon_frame *out,
                                   pf_error *err);
 void pf_photon_frame_release(pf_vk_context *ctx, pf_photon_frame *photon_frame);
-/* Traces a photon pass of the frame into maps, its rays traced on the host through the
- * renderer's tree (and its shared wide view) where the plan says the host traces. */
+/* Traces count photon passes of the frame (trace[i] into maps[i]; pf_photon_trace_passes),
+ * their rays traced on the host through the renderer's tree (and its shared wide view)
+ * where the plan says the host traces. */
 pf_status pf_photon_frame_trace(pf_renderer *renderer, const pf_photon_frame *inputs,
                                 const pf_stage_plan *plan, pf_photon_trace_settings *trace,
-                                pf_photon_maps *maps, pf_error *err);
+                                uint32_t count, pf_photon_maps *maps, pf_error *err);
 
 /*
  * The `textures` stage (before bih_build): uploads the frame's textures into the renderer's
