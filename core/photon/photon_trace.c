@@ -31,13 +31,16 @@ pf_status pf_photon_trace_pipeline(pf_photon_tracer *tracer, pf_photon_step step
     features %= PF_SURFACE_VARIANTS;
     pf_vk_pipeline **slot = &tracer->trace[step][features];
     if (!*slot) {
-        pf_vk_spec_constant constants[3] = {
-            {PF_SPEC_SCENE_HAS_ALPHA, (features & PF_SURFACE_ALPHA) ? 1u : 0u},
-            {PF_SPEC_SCENE_HAS_CORNERS, (features & PF_SURFACE_CORNERS) ? 1u : 0u},
-            {PHOTON_STEP_CONSTANT, (uint32_t)step}};
+        pf_vk_spec_constant constants[PF_SCENE_SPEC_CONSTANTS + 1];
+        uint32_t ids[PF_SCENE_SPEC_CONSTANTS], values[PF_SCENE_SPEC_CONSTANTS];
+        pf_scene_spec_constants(features, ids, values);
+        for (uint32_t c = 0; c < PF_SCENE_SPEC_CONSTANTS; c++)
+            constants[c] = (pf_vk_spec_constant){ids[c], values[c]};
+        constants[PF_SCENE_SPEC_CONSTANTS] = (pf_vk_spec_constant){PHOTON_STEP_CONSTANT, step};
         pf_status status = pf_vk_pipeline_create_named(
-            tracer->ctx, features ? "photon_trace_surfaces" : "photon_trace", TRACE_BUFFERS,
-            sizeof(trace_push), constants, step == PF_PHOTON_TRACED_HERE ? 2 : 3, slot, err);
+            tracer->ctx, (features & PF_SURFACE_TEXTURED) ? "photon_trace_surfaces" : "photon_trace",
+            TRACE_BUFFERS, sizeof(trace_push), constants,
+            PF_SCENE_SPEC_CONSTANTS + (step == PF_PHOTON_TRACED_HERE ? 0 : 1), slot, err);
         if (status != PF_OK)
             return status;
     }

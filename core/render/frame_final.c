@@ -27,6 +27,10 @@
  * Stage rows: photon_trace and photon_grid (one each per frame, totals over
  * the passes), caustic_map (the caustic grids; skipped without specular
  * materials), shade, run as the stage planner (stage_plan.c) decided them.
+ * The stage loop calls the photon stages once a pass; the first pass to trace traces a
+ * batch of them (FINAL_BATCH_PASSES) in one submission, grids them in one and their caustic
+ * maps in one, and the batch's later passes find theirs made (issue 44: no host round trip
+ * a pass). The pass images are those of the passes made one at a time.
  * Reuse: the passes' grids stay in the renderer (renderer->final_cache, up
  * to FINAL_KEPT_PASSES of them; the renderer's stage memory says what they
  * were made from); the next final frame reuses them as its first passes

@@ -119,17 +119,19 @@ pf_status pf_renderer_pipeline(pf_renderer *renderer, pf_renderer_pipeline_id id
     pf_vk_pipeline **slot = &renderer->pipelines[features][id];
     if (!*slot) {
         const pipeline_spec *spec = &pipeline_specs[id];
-        pf_vk_spec_constant constants[3] = {
-            {PF_SPEC_SCENE_HAS_ALPHA, (features & PF_SURFACE_ALPHA) ? 1u : 0u},
-            {PF_SPEC_SCENE_HAS_CORNERS, (features & PF_SURFACE_CORNERS) ? 1u : 0u},
-            spec->constant};
+        pf_vk_spec_constant constants[PF_SCENE_SPEC_CONSTANTS + 1];
+        uint32_t ids[PF_SCENE_SPEC_CONSTANTS], values[PF_SCENE_SPEC_CONSTANTS];
+        pf_scene_spec_constants(features, ids, values);
+        for (uint32_t c = 0; c < PF_SCENE_SPEC_CONSTANTS; c++)
+            constants[c] = (pf_vk_spec_constant){ids[c], values[c]};
+        constants[PF_SCENE_SPEC_CONSTANTS] = spec->constant;
         /* The kernel's "_surfaces" variant where the frame uses them (pf_scene.h). */
         char name[64];
         snprintf(name, sizeof name, "%s%s", spec->shader,
-                 features && spec->surfaces ? "_surfaces" : "");
+                 (features & PF_SURFACE_TEXTURED) && spec->surfaces ? "_surfaces" : "");
         pf_status status = pf_vk_pipeline_create_named(
             renderer->ctx, name, spec->buffers, spec->push_bytes, constants,
-            spec->specialized ? 3 : 2, slot, err);
+            PF_SCENE_SPEC_CONSTANTS + (spec->specialized ? 1 : 0), slot, err);
         if (status != PF_OK)
             return status;
     }

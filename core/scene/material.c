@@ -12,10 +12,33 @@
 uint32_t pf_scene_frame_surface_features(const pf_scene_frame *frame)
 {
     uint32_t features = frame->corners ? PF_SURFACE_CORNERS : 0u;
-    for (uint32_t m = 0; m < frame->material_count; m++)
+    if (frame->light_count > 0)
+        features |= PF_SURFACE_LIGHTS;
+    for (uint32_t m = 0; m < frame->material_count; m++) {
         if (frame->materials[m].alpha_mode != PF_ALPHA_OPAQUE)
             features |= PF_SURFACE_ALPHA;
+        if (frame->materials[m].transmission > 0.0f)
+            features |= PF_SURFACE_TRANSMISSION;
+        for (int c = 0; c < 3; c++)
+            if (frame->materials[m].emission[c] > 0.0f)
+                features |= PF_SURFACE_EMISSIVE;
+    }
     return features;
+}
+
+void pf_scene_spec_constants(uint32_t features, uint32_t ids[PF_SCENE_SPEC_CONSTANTS],
+                             uint32_t values[PF_SCENE_SPEC_CONSTANTS])
+{
+    static const uint32_t bits[PF_SCENE_SPEC_CONSTANTS] = {
+        PF_SURFACE_ALPHA, PF_SURFACE_CORNERS, PF_SURFACE_LIGHTS, PF_SURFACE_TRANSMISSION,
+        PF_SURFACE_EMISSIVE};
+    static const uint32_t constant_ids[PF_SCENE_SPEC_CONSTANTS] = {
+        PF_SPEC_SCENE_HAS_ALPHA, PF_SPEC_SCENE_HAS_CORNERS, PF_SPEC_SCENE_HAS_LIGHTS,
+        PF_SPEC_SCENE_HAS_TRANSMISSION, PF_SPEC_SCENE_HAS_EMITTERS};
+    for (uint32_t i = 0; i < PF_SCENE_SPEC_CONSTANTS; i++) {
+        ids[i] = constant_ids[i];
+        values[i] = (features & bits[i]) ? 1u : 0u;
+    }
 }
 
 void pf_material_classify(pf_material *material)

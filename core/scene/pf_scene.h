@@ -178,18 +178,34 @@ typedef enum pf_scene_binding {
 } pf_scene_binding;
 
 /*
- * What a frame's surfaces use beyond the plain BSDF: alpha-tested materials
- * (MASK, BLEND) and per-corner attributes (textures, COLOR_0). A kernel that
- * reads surfaces has a plain variant, compiled without that code, and a
- * "<kernel>_surfaces" one (shaders/pf_shaders.cmake's pf-variant), whose
- * specialisation constants PF_SPEC_SCENE_HAS_ALPHA and _CORNERS
- * (scene_binding_numbers.glsl) say which of the two the frame has.
+ * What a frame's scene uses beyond the plain BSDF and its emitters: alpha-tested materials
+ * (MASK, BLEND), per-corner attributes (textures, COLOR_0), punctual lights, transmissive
+ * materials, emissive materials. A kernel that reads surfaces has a plain variant, compiled without the first
+ * two's code, and a "<kernel>_surfaces" one (shaders/pf_shaders.cmake's pf-variant) for a
+ * frame with either (PF_SURFACE_TEXTURED); each pipeline is made for the frame's whole set,
+ * its specialisation constants (pf_scene_spec_constants; scene_binding_numbers.glsl) saying
+ * what the frame has, so that code for what it lacks is compiled out. llvmpipe runs every
+ * line of a module for every invocation, masked where no lane takes it: the reference
+ * wavefront's vertex kernel on the Cornell box (no punctual light, no glass) ran 15-22 %
+ * faster without the lights' loop and the transmission lobes (bench/RESULTS.md); a scene lit
+ * by punctual lights alone (Blender's exports) drops the emitters' sampling and MIS.
  */
 #define PF_SURFACE_ALPHA 1u
 #define PF_SURFACE_CORNERS 2u
-#define PF_SURFACE_VARIANTS 4u
+#define PF_SURFACE_LIGHTS 4u       /* punctual lights (point, spot, directional) */
+#define PF_SURFACE_TRANSMISSION 8u /* a material with transmission > 0 */
+#define PF_SURFACE_EMISSIVE 16u    /* a material with emission > 0 */
+#define PF_SURFACE_TEXTURED (PF_SURFACE_ALPHA | PF_SURFACE_CORNERS)
+#define PF_SURFACE_VARIANTS 32u
 #define PF_SPEC_SCENE_HAS_ALPHA 1001u
 #define PF_SPEC_SCENE_HAS_CORNERS 1002u
+#define PF_SPEC_SCENE_HAS_LIGHTS 1003u
+#define PF_SPEC_SCENE_HAS_TRANSMISSION 1004u
+#define PF_SPEC_SCENE_HAS_EMITTERS 1005u
+#define PF_SCENE_SPEC_CONSTANTS 5u
+/* The specialisation constants of features: constant ids and their values (0 or 1). */
+void pf_scene_spec_constants(uint32_t features, uint32_t ids[PF_SCENE_SPEC_CONSTANTS],
+                             uint32_t values[PF_SCENE_SPEC_CONSTANTS]);
 
 typedef enum pf_light_kind {
     PF_LIGHT_POINT = 0,
@@ -255,7 +271,9 @@ typedef struct pf_scene_frame {
     const uint32_t *texels;
 } pf_scene_frame;
 
-/* The PF_SURFACE_* bits of frame: corners when it has them, alpha when a material tests it. */
+/* The PF_SURFACE_* bits of frame: corners when it has them, alpha when a material tests it,
+ * lights when it has punctual ones, transmission when a material transmits, emissive when a
+ * material emits. */
 uint32_t pf_scene_frame_surface_features(const pf_scene_frame *frame);
 
 /* Measures of a frame (frame_measures.c). 1 when some triangle's material is passed

@@ -56,7 +56,7 @@ vec3 direct_light(Material material, vec3 position, vec3 surface_origin, vec3 wo
     vec3 area_contribution = vec3(0.0);
     vec3 area_direction = vec3(0.0, 0.0, 1.0);
     float area_tmax = 0.0;
-    if (params.emissive_count > 0u) {
+    if (SCENE_HAS_EMITTERS && params.emissive_count > 0u) {
         AreaLightSample light = emissive_sample(position, light_xi, params.emissive_count,
                                                 params.emissive_weight_total);
         vec3 reflected = bsdf_eval_cos(material, wo, light.to_light, shading_normal,
@@ -75,12 +75,14 @@ vec3 direct_light(Material material, vec3 position, vec3 surface_origin, vec3 wo
         area_direction = light.to_light;
         area_tmax = light.distance - 2.0 * ray_offset;
     }
-    // Candidate 0 is the emissive sample, candidate i > 0 punctual light i - 1.
-    for (uint candidate = 0u; candidate <= params.light_count; candidate++) {
+    // Candidate 0 is the emissive sample, candidate i > 0 punctual light i - 1 (none compiled
+    // in for a frame without them: llvmpipe would run the light's code masked).
+    uint light_count = SCENE_HAS_LIGHTS ? params.light_count : 0u;
+    for (uint candidate = 0u; candidate <= light_count; candidate++) {
         vec3 contribution = area_contribution;
         vec3 to_light = area_direction;
         float tmax = area_tmax;
-        if (candidate > 0u) {
+        if (SCENE_HAS_LIGHTS && candidate > 0u) {
             LightSample light = light_sample(lights[candidate - 1u], position);
             contribution = throughput * light.irradiance *
                            bsdf_eval_cos(material, wo, light.to_light, shading_normal,

@@ -25,5 +25,12 @@
 // to false: a pipeline made without them reads no corner buffer it was not given.
 layout(constant_id = 1001) const bool SCENE_HAS_ALPHA = false;
 layout(constant_id = 1002) const bool SCENE_HAS_CORNERS = false;
+// Punctual lights (direct_light.glsl's loop over them), transmissive materials (the
+// transmission lobes: scene_material reads transmission as 0 without) and emissive ones
+// (the emitters' sampling and MIS: scene_material reads emission as 0 without): true unless
+// the pipeline says the frame has none, so a pipeline made without the constants is complete.
+layout(constant_id = 1003) const bool SCENE_HAS_LIGHTS = true;
+layout(constant_id = 1004) const bool SCENE_HAS_TRANSMISSION = true;
+layout(constant_id = 1005) const bool SCENE_HAS_EMITTERS = true;
 
 #endif

@@ -55,8 +55,12 @@ Material scene_material(uint index)
     vec4 t4 = uintBitsToFloat(uvec4(texelFetch(scene_materials, first + 4)));
     uvec4 t5 = uvec4(texelFetch(scene_materials, first + 5));
     uvec4 t6 = uvec4(texelFetch(scene_materials, first + 6));
-    return Material(uintBitsToFloat(t0.xyz), t0.w, uintBitsToFloat(t1.xyz),
-                    uintBitsToFloat(t1.w), t2.x, t2.y, t2.z, t2.w, uintBitsToFloat(t3.xyz), t3.w,
+    // transmission and emission: 0 in a frame without a transmissive or an emissive material,
+    // so that their code is compiled out (SCENE_HAS_TRANSMISSION, SCENE_HAS_EMITTERS).
+    return Material(uintBitsToFloat(t0.xyz), t0.w,
+                    SCENE_HAS_EMITTERS ? uintBitsToFloat(t1.xyz) : vec3(0.0),
+                    uintBitsToFloat(t1.w), t2.x, t2.y, SCENE_HAS_TRANSMISSION ? t2.z : 0.0, t2.w,
+                    uintBitsToFloat(t3.xyz), t3.w,
                     t4.xyz, t4.w, t5.x, t5.y, t5.z, t5.w, t6.x, uintBitsToFloat(t6.y),
                     uintBitsToFloat(t6.z));
 }
