@@ -47,14 +47,10 @@
 #include <string.h>
 
 #define DENOISE_PASSES 5
-#define DENOISE_NORMAL_SQUARINGS 7 /* the normal weight's exponent: 2^7 = 128 */
-#define DENOISE_SIGMA_LUMINANCE 4.0f
 /* Albedo below which a pixel is filtered as it is (a light source, black paint, nothing). */
 #define DENOISE_MIN_ALBEDO 0.01f
 /* Reach of the spatial variance estimate: quadrants of (1 + this)² pixels. */
 #define DENOISE_VARIANCE_RADIUS 3
-
-static const float b3[5] = {1.0f / 16.0f, 1.0f / 4.0f, 3.0f / 8.0f, 1.0f / 4.0f, 1.0f / 16.0f};
 
 /* Where the stage reads and writes in the image (channel indices). */
 typedef struct denoise_channels {
@@ -235,74 +231,6 @@ static void estimate_variance(denoise_planes *planes, int row_begin, int row_end
         }
 }
 
-/* The 3×3 Gaussian of the variance at p (SVGF: a steadier edge-stopping scale). */
-static float blurred_variance(const denoise_planes *planes, int x, int y)
-{
-    static const float g[2] = {0.25f, 0.125f}; /* centre 1/4, edges 1/8, corners 1/16 */
-    int w = (int)planes->width, h = (int)planes->height;
-    float sum = 0.0f, weights = 0.0f;
-    for (int dy = -1; dy <= 1; dy++)
-        for (int dx = -1; dx <= 1; dx++) {
-            int qx = x + dx, qy = y + dy;
-            if (qx < 0 || qy < 0 || qx >= w || qy >= h)
-                continue;
-            int ring = abs(dx) + abs(dy);
-            float k = ring == 0 ? g[0] : ring == 1 ? g[1] : 0.0625f;
-            sum += k * planes->variance[(size_t)qy * w + qx];
-            weights += k;
-        }
-    return sum / weights;
-}
-
-/* Rows [row_begin, row_end) of one à-trous pass of spread `step`, from planes->lighting and
- * variance into planes->scratch. */
-static void atrous_rows(denoise_planes *planes, int step, int row_begin, int row_end)
-{
-    int w = (int)planes->width, h = (int)planes->height;
-    /* Each tap's distance, the same floats the loop computed tap by tap. */
-    float offsets[5][5];
-    for (int j = -2; j <= 2; j++)
-        for (int i = -2; i <= 2; i++)
-            offsets[j + 2][i + 2] = (float)step * sqrtf((float)(i * i + j * j));
-    const float *lighting = planes->lighting;
-    for (int y = row_begin; y < row_end; y++)
-        for (int x = 0; x < w; x++) {
-            size_t p = (size_t)y * w + x;
-            float lp = luminance(lighting + 3 * p);
-            float scale = DENOISE_SIGMA_LUMINANCE * sqrtf(blurred_variance(planes, x, y)) + 1e-6f;
-            /* The sums in locals, not an array the compiler keeps in memory: the same
-             * additions in the same order. */
-            float sum_r = 0.0f, sum_g = 0.0f, sum_b = 0.0f, variance = 0.0f, weights = 0.0f;
-            for (int j = -2; j <= 2; j++)
-                for (int i = -2; i <= 2; i++) {
-                    int qx = x + i * step, qy = y + j * step;
-                    if (qx < 0 || qy < 0 || qx >= w || qy >= h)
-                        continue;
-                    size_t q = (size_t)qy * w + qx;
-                    float weight = b3[i + 2] * b3[j + 2];
-                    if (q != p) {
-                        float geometry = geometry_weight(planes, p, q, offsets[j + 2][i + 2]);
-                        /* A zero geometry weight is the product (the luminance term is in
-                         * [0, 1]): the exponential is not needed. */
-                        weight *= geometry == 0.0f
-                                      ? 0.0f
-                                      : geometry * expf(-fabsf(lp - luminance(lighting + 3 * q)) /
-                                                        scale);
-                    }
-                    sum_r += weight * lighting[3 * q];
-                    sum_g += weight * lighting[3 * q + 1];
-                    sum_b += weight * lighting[3 * q + 2];
-                    variance += weight * weight * planes->variance[q];
-                    weights += weight;
-                }
-            float *out = planes->scratch + 4 * p;
-            out[0] = sum_r / weights;
-            out[1] = sum_g / weights;
-            out[2] = sum_b / weights;
-            out[3] = variance / (weights * weights);
-        }
-}
-
 /* Rows of the variance estimate (step 0) or of an à-trous pass of spread step. */
 typedef struct filter_job {
     denoise_planes *planes;
@@ -315,7 +243,7 @@ static void filter_rows(void *context, uint64_t begin, uint64_t end)
     if (job->step == 0)
         estimate_variance(job->planes, (int)begin, (int)end);
     else
-        atrous_rows(job->planes, job->step, (int)begin, (int)end);
+        pf_denoise_atrous_rows(job->planes, job->step, (int)begin, (int)end);
 }
 
 /* Runs step (0: the variance estimate) over every row, split between the cores; rows only

@@ -13,6 +13,10 @@
  * cores, at most this many. */
 #define DENOISE_MAX_THREADS 16
 
+/* The filter's constants (denoise.c's header says what they weigh). */
+#define DENOISE_NORMAL_SQUARINGS 7 /* the normal weight's exponent: 2^7 = 128 */
+#define DENOISE_SIGMA_LUMINANCE 4.0f
+
 /* The guides and the signal of one image, one float array each. */
 typedef struct denoise_planes {
     uint32_t width, height;
@@ -58,6 +62,15 @@ void denoise_temporal_blend(const pf_denoise_history *history,
  * 0: out of memory (history is then emptied). */
 int denoise_temporal_keep(pf_denoise_history *history, const pf_denoise_sequence *sequence,
                           const denoise_planes *planes);
+
+/*
+ * Rows [row_begin, row_end) of one à-trous pass of spread step on the host, from planes'
+ * lighting and variance into planes->scratch (4 floats a pixel): 8 pixels a vector where
+ * the CPU has AVX2, else 4 (denoise_atrous_body.h; the two agree bit for bit).
+ */
+void pf_denoise_atrous_rows(denoise_planes *planes, int step, int row_begin, int row_end);
+void pf_denoise_atrous_rows_4(denoise_planes *planes, int step, int row_begin, int row_end);
+void pf_denoise_atrous_rows_8(denoise_planes *planes, int step, int row_begin, int row_end);
 
 /*
  * The filter on the device (denoise_device.c): the variance estimate of noisy (this frame's
