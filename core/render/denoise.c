@@ -49,18 +49,11 @@
 #define DENOISE_PASSES 5
 /* Albedo below which a pixel is filtered as it is (a light source, black paint, nothing). */
 #define DENOISE_MIN_ALBEDO 0.01f
-/* Reach of the spatial variance estimate: quadrants of (1 + this)² pixels. */
-#define DENOISE_VARIANCE_RADIUS 3
 
 /* Where the stage reads and writes in the image (channel indices). */
 typedef struct denoise_channels {
     int beauty[3], direct[3], indirect[3], caustic[3], albedo[3], normal[3], depth;
 } denoise_channels;
-
-static float luminance(const float *rgb)
-{
-    return 0.2126f * rgb[0] + 0.7152f * rgb[1] + 0.0722f * rgb[2];
-}
 
 static float finite_or_zero(float value)
 {
@@ -79,6 +72,7 @@ static void planes_free(denoise_planes *planes)
     free(planes->history_length);
     free(planes->variance_factor);
     free(planes->scratch);
+    free(planes->planar);
 }
 
 /* Demodulated lighting and the guides from the image's channels. */
@@ -159,105 +153,47 @@ static int planes_fill(const pf_image *image, const denoise_channels *at, denois
     return 1;
 }
 
-/* Normal and depth weight of tap q for pixel p, offset pixels apart. */
-static inline float geometry_weight(const denoise_planes *planes, size_t p, size_t q,
-                                    float offset)
-{
-    float zp = planes->depth[p], zq = planes->depth[q];
-    if ((zp > 0.0f) != (zq > 0.0f))
-        return 0.0f;
-    if (zp == 0.0f)
-        return 1.0f; /* both see nothing */
-    const float *np = planes->normal + 3 * p, *nq = planes->normal + 3 * q;
-    float cosine = np[0] * nq[0] + np[1] * nq[1] + np[2] * nq[2];
-    /* cosine^128 by seven squarings: powf was most of the stage's time. */
-    float w_normal = cosine > 0.0f ? cosine : 0.0f;
-    for (int k = 0; k < DENOISE_NORMAL_SQUARINGS; k++)
-        w_normal *= w_normal;
-    /* The depth weight is in [0, 1] (zp > 0: a positive denominator), so a normal weight
-     * of 0 (facing apart, or cosine^128 below the smallest float) is the product: exactly
-     * the value the exponential would have given, without it. */
-    if (w_normal == 0.0f)
-        return 0.0f;
-    float w_depth =
-        expf(-fabsf(zp - zq) / (planes->depth_step[p] * offset + 1e-3f * zp));
-    return w_normal * w_depth;
-}
+/* What a run over the rows does: the à-trous pass's planar inputs (with its luminance scale,
+ * or before the variance estimate without), the variance estimate, an à-trous pass. */
+typedef enum filter_work { FILTER_GUIDES, FILTER_PREPARE, FILTER_VARIANCE, FILTER_ATROUS } filter_work;
 
-/*
- * The variance of the lighting's luminance at each pixel, from its neighbours: the
- * smallest of the guided variances of the four 4×4 windows that have p in a corner
- * (Kuwahara's quadrants). A window across an edge (a light source beside the ceiling,
- * a shadow's border) sees the edge's contrast, not noise; the quadrant on p's own side
- * of it does not, so the edge keeps a low variance and the filter keeps the edge.
- */
-static void estimate_variance(denoise_planes *planes, int row_begin, int row_end)
-{
-    int w = (int)planes->width, h = (int)planes->height;
-    /* Each tap's distance, the same floats the loop computed tap by tap. */
-    float offsets[DENOISE_VARIANCE_RADIUS + 1][DENOISE_VARIANCE_RADIUS + 1];
-    for (int j = 0; j <= DENOISE_VARIANCE_RADIUS; j++)
-        for (int i = 0; i <= DENOISE_VARIANCE_RADIUS; i++)
-            offsets[j][i] = sqrtf((float)(i * i + j * j));
-    for (int y = row_begin; y < row_end; y++)
-        for (int x = 0; x < w; x++) {
-            size_t p = (size_t)y * w + x;
-            double smallest = INFINITY;
-            for (int quadrant = 0; quadrant < 4; quadrant++) {
-                int sx = quadrant & 1 ? 1 : -1, sy = quadrant & 2 ? 1 : -1;
-                double sum = 0.0, sum2 = 0.0, weights = 0.0;
-                int taps = 0;
-                for (int j = 0; j <= DENOISE_VARIANCE_RADIUS; j++)
-                    for (int i = 0; i <= DENOISE_VARIANCE_RADIUS; i++) {
-                        int qx = x + sx * i, qy = y + sy * j;
-                        if (qx < 0 || qy < 0 || qx >= w || qy >= h)
-                            continue;
-                        size_t q = (size_t)qy * w + qx;
-                        float weight =
-                            q == p ? 1.0f : geometry_weight(planes, p, q, offsets[j][i]);
-                        double l = luminance(planes->lighting + 3 * q);
-                        sum += weight * l;
-                        sum2 += weight * l * l;
-                        weights += weight;
-                        taps += weight > 0.5f;
-                    }
-                /* A quadrant cut off by the border or the geometry says little. */
-                if (taps < 4)
-                    continue;
-                double mean = sum / weights;
-                smallest = fmin(smallest, fmax(0.0, sum2 / weights - mean * mean));
-            }
-            planes->variance[p] = isfinite(smallest) ? (float)smallest : 0.0f;
-        }
-}
-
-/* Rows of the variance estimate (step 0) or of an à-trous pass of spread step. */
 typedef struct filter_job {
     denoise_planes *planes;
-    int step;
+    filter_work work;
+    int step; /* FILTER_ATROUS's spread */
 } filter_job;
 
 static void filter_rows(void *context, uint64_t begin, uint64_t end)
 {
     const filter_job *job = context;
-    if (job->step == 0)
-        estimate_variance(job->planes, (int)begin, (int)end);
-    else
+    switch (job->work) {
+    case FILTER_GUIDES:
+    case FILTER_PREPARE:
+        pf_denoise_atrous_prepare(job->planes, (int)begin, (int)end,
+                                  job->work == FILTER_PREPARE);
+        break;
+    case FILTER_VARIANCE:
+        pf_denoise_variance_rows(job->planes, (int)begin, (int)end);
+        break;
+    case FILTER_ATROUS:
         pf_denoise_atrous_rows(job->planes, job->step, (int)begin, (int)end);
+        break;
+    }
 }
 
-/* Runs step (0: the variance estimate) over every row, split between the cores; rows only
- * read the planes a pass does not write, so the slices need no locks. */
-static void run_rows(denoise_planes *planes, int step)
+/* Runs work over every row, split between the cores; rows only read the planes the work does
+ * not write, so the slices need no locks. */
+static void run_rows(denoise_planes *planes, filter_work work, int step)
 {
-    filter_job job = {planes, step};
+    filter_job job = {planes, work, step};
     pf_run_ranges(planes->height, DENOISE_MAX_THREADS, 1, filter_rows, &job);
 }
 
 /* One à-trous pass of spread `step` from planes->lighting/variance into them again. */
 static void atrous_pass(denoise_planes *planes, int step)
 {
-    run_rows(planes, step);
+    run_rows(planes, FILTER_PREPARE, 0);
+    run_rows(planes, FILTER_ATROUS, step);
     size_t pixels = (size_t)planes->width * planes->height;
     for (size_t p = 0; p < pixels; p++) {
         memcpy(planes->lighting + 3 * p, planes->scratch + 4 * p, 3 * sizeof(float));
@@ -378,8 +314,17 @@ static pf_status denoise_run(pf_renderer *renderer, pf_image *image, int keep_no
         return pf_error_set(err, PF_ERR_NOMEM, "denoise: out of memory for %ux%u",
                             image->width, image->height);
     }
-    if (!device)
-        run_rows(&planes, 0);
+    /* The variance from this frame's own lighting, before any blend (the host's filter). */
+    if (!device && !(planes.planar = malloc(PLANAR_COUNT * pixels * sizeof(float)))) {
+        planes_free(&planes);
+        free(estimate);
+        return pf_error_set(err, PF_ERR_NOMEM, "denoise: out of memory for %ux%u",
+                            image->width, image->height);
+    }
+    if (!device) {
+        run_rows(&planes, FILTER_GUIDES, 0);
+        run_rows(&planes, FILTER_VARIANCE, 0);
+    }
     if (sequence) {
         double temporal_start = pf_time_ms();
         char why_not[PF_STAGE_REASON_MAX] = "--denoise spatial: every frame filtered alone";

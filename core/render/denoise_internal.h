@@ -16,6 +16,8 @@
 /* The filter's constants (denoise.c's header says what they weigh). */
 #define DENOISE_NORMAL_SQUARINGS 7 /* the normal weight's exponent: 2^7 = 128 */
 #define DENOISE_SIGMA_LUMINANCE 4.0f
+/* Reach of the spatial variance estimate: quadrants of (1 + this)² pixels. */
+#define DENOISE_VARIANCE_RADIUS 3
 
 /* The guides and the signal of one image, one float array each. */
 typedef struct denoise_planes {
@@ -36,7 +38,15 @@ typedef struct denoise_planes {
     float *variance_factor;
     float *scratch;    /* 4 per pixel: the next pass's lighting and variance (the host's
                         * filter alone allocates it) */
+    float *planar;     /* PLANAR_COUNT planes of one float a pixel: the host's à-trous pass's
+                        * inputs in runs a vector loads at once (pf_denoise_atrous_prepare;
+                        * the host's filter alone allocates it) */
 } denoise_planes;
+
+/* The planes of denoise_planes.planar: the lighting, the normal, the pass's luminance scale
+ * (SVGF's 4 √(3×3 Gaussian of the variance) + 1e-6). */
+enum { PLANAR_R, PLANAR_G, PLANAR_B, PLANAR_NX, PLANAR_NY, PLANAR_NZ, PLANAR_SCALE,
+       PLANAR_COUNT };
 
 /* What the temporal blend did, for its row. */
 typedef struct denoise_temporal_stats {
@@ -69,6 +79,15 @@ int denoise_temporal_keep(pf_denoise_history *history, const pf_denoise_sequence
  * the CPU has AVX2, else 4 (denoise_atrous_body.h; the two agree bit for bit).
  */
 void pf_denoise_atrous_rows(denoise_planes *planes, int step, int row_begin, int row_end);
+/* Rows [row_begin, row_end) of planes->planar from the lighting and normals, and with scale
+ * the luminance scale from the variance: before the variance estimate (scale 0) and before
+ * each pass (every row before any pass reads them). */
+void pf_denoise_atrous_prepare(denoise_planes *planes, int row_begin, int row_end, int scale);
+/* Rows [row_begin, row_end) of the variance estimate on the host into planes->variance, from
+ * planes->planar's lighting and normals; 8 or 4 wide as the pass. */
+void pf_denoise_variance_rows(denoise_planes *planes, int row_begin, int row_end);
+void pf_denoise_variance_rows_4(denoise_planes *planes, int row_begin, int row_end);
+void pf_denoise_variance_rows_8(denoise_planes *planes, int row_begin, int row_end);
 void pf_denoise_atrous_rows_4(denoise_planes *planes, int step, int row_begin, int row_end);
 void pf_denoise_atrous_rows_8(denoise_planes *planes, int step, int row_begin, int row_end);
 

@@ -252,22 +252,71 @@ static void atrous_pixel(const denoise_planes *planes, int step, int x, int y, d
     out[3] = var / (weights * weights);
 }
 
+/* The variance estimate at one pixel as denoise.c's header states it (the smallest guided
+ * variance of the four quadrants with 4 or more taps of weight > 0.5), in doubles. */
+static double variance_pixel(const denoise_planes *planes, int x, int y)
+{
+    int w = (int)planes->width, h = (int)planes->height;
+    size_t p = (size_t)y * w + x;
+    const float *L = planes->lighting;
+    double smallest = INFINITY;
+    for (int quadrant = 0; quadrant < 4; quadrant++) {
+        int sx = quadrant & 1 ? 1 : -1, sy = quadrant & 2 ? 1 : -1;
+        double sum = 0, sum2 = 0, weights = 0;
+        int taps = 0;
+        for (int j = 0; j <= DENOISE_VARIANCE_RADIUS; j++)
+            for (int i = 0; i <= DENOISE_VARIANCE_RADIUS; i++) {
+                int qx = x + sx * i, qy = y + sy * j;
+                if (qx < 0 || qy < 0 || qx >= w || qy >= h)
+                    continue;
+                size_t q = (size_t)qy * w + qx;
+                double weight = 1.0, zp = planes->depth[p], zq = planes->depth[q];
+                if (q != p) {
+                    if ((zp > 0) != (zq > 0))
+                        weight = 0.0;
+                    else if (zp > 0) {
+                        const float *np = planes->normal + 3 * p, *nq = planes->normal + 3 * q;
+                        double c = np[0] * nq[0] + np[1] * nq[1] + np[2] * nq[2];
+                        weight = pow(c > 0 ? c : 0, 128) *
+                                 exp(-fabs(zp - zq) / (planes->depth_step[p] *
+                                                           sqrt((double)(i * i + j * j)) +
+                                                       1e-3 * zp));
+                    }
+                }
+                double l = 0.2126 * L[3 * q] + 0.7152 * L[3 * q + 1] + 0.0722 * L[3 * q + 2];
+                sum += weight * l;
+                sum2 += weight * l * l;
+                weights += weight;
+                taps += weight > 0.5;
+            }
+        if (taps >= 4) {
+            double mean = sum / weights;
+            smallest = fmin(smallest, fmax(0.0, sum2 / weights - mean * mean));
+        }
+    }
+    return isfinite(smallest) ? smallest : 0.0;
+}
+
 /*
- * The host's à-trous pass (denoise_atrous_body.h, a run of pixels a vector): 4 wide and as
- * dispatched (8 wide with AVX2) give the same floats, and both the formula's value within
- * float rounding, on odd-sized planes (runs cut by the row's end) with background pixels,
+ * The host's variance estimate and à-trous pass (denoise_atrous_body.h, a run of pixels a
+ * vector): 4 wide and as dispatched (8 wide with AVX2) give the same floats, and both the
+ * formula's value within float rounding, on odd-sized planes (runs cut by the row's end) with background pixels,
  * surfaces at different depths and normals, for every spread the filter uses.
  */
-PF_TEST(the_host_pass_is_the_formula_at_every_width)
+PF_TEST(the_host_filter_is_the_formula_at_every_width)
 {
     enum { W = 37, H = 23 };
     size_t n = (size_t)W * H;
-    denoise_planes planes = {W, H, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL};
+    denoise_planes planes;
+    memset(&planes, 0, sizeof planes);
+    planes.width = W;
+    planes.height = H;
     float *lighting = malloc(3 * n * sizeof(float)), *normal = malloc(3 * n * sizeof(float));
     float *depth = malloc(n * sizeof(float)), *depth_step = malloc(n * sizeof(float));
     float *variance = malloc(n * sizeof(float));
     float *out4 = malloc(4 * n * sizeof(float)), *out = malloc(4 * n * sizeof(float));
-    PF_REQUIRE(lighting && normal && depth && depth_step && variance && out4 && out);
+    float *planar = malloc(PLANAR_COUNT * n * sizeof(float));
+    PF_REQUIRE(lighting && normal && depth && depth_step && variance && out4 && out && planar);
     uint64_t state = 99;
     for (size_t p = 0; p < n; p++) {
         for (int c = 0; c < 3; c++)
@@ -287,6 +336,32 @@ PF_TEST(the_host_pass_is_the_formula_at_every_width)
     planes.depth = depth;
     planes.depth_step = depth_step;
     planes.variance = variance;
+    planes.planar = planar;
+    /* The variance estimate: 4 wide, as dispatched, and the formula (absolute: the spread
+     * of a quadrant is a difference of nearly equal sums). */
+    float *variance4 = malloc(n * sizeof(float));
+    PF_REQUIRE(variance4);
+    pf_denoise_atrous_prepare(&planes, 0, H, 0);
+    planes.variance = variance4;
+    pf_denoise_variance_rows_4(&planes, 0, H);
+    planes.variance = variance;
+    pf_denoise_variance_rows(&planes, 0, H / 2);
+    pf_denoise_variance_rows(&planes, H / 2, H);
+    PF_CHECK_MSG(memcmp(variance4, variance, n * sizeof(float)) == 0,
+                 "the 4-wide and the dispatched variance estimates differ");
+    double worst_variance = 0.0, largest = 0.0;
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++) {
+            double expected = variance_pixel(&planes, x, y);
+            largest = fmax(largest, expected);
+            worst_variance = fmax(worst_variance, fabs(variance[(size_t)y * W + x] - expected));
+        }
+    printf("  host variance estimate: largest difference from the formula %.2e (largest "
+           "variance %.3f)\n",
+           worst_variance, largest);
+    PF_CHECK(largest > 0.01 && worst_variance < 1e-5 * largest);
+    free(variance4);
+    pf_denoise_atrous_prepare(&planes, 0, H, 1);
     for (int step = 1; step <= 16; step *= 2) {
         planes.scratch = out4;
         pf_denoise_atrous_rows_4(&planes, step, 0, H);
@@ -317,11 +392,12 @@ PF_TEST(the_host_pass_is_the_formula_at_every_width)
     free(variance);
     free(out4);
     free(out);
+    free(planar);
 }
 
 int main(void)
 {
-    PF_RUN(the_host_pass_is_the_formula_at_every_width);
+    PF_RUN(the_host_filter_is_the_formula_at_every_width);
     PF_RUN(a_constant_image_is_unchanged);
     PF_RUN(a_checker_keeps_its_edges_and_loses_its_noise);
     PF_RUN(a_bad_pixel_does_not_spread);
