@@ -60,7 +60,9 @@ static int write_one_thread(const char *path, const pf_image *image)
     ok = exr_add_part(context, NULL, EXR_STORAGE_SCANLINE, &part) == EXR_ERR_SUCCESS &&
          exr_initialize_required_attr_simple(context, part, (int32_t)image->width,
                                              (int32_t)image->height,
-                                             EXR_COMPRESSION_ZIP) == EXR_ERR_SUCCESS;
+                                             EXR_COMPRESSION_ZIP) == EXR_ERR_SUCCESS &&
+         /* the same level as pf_exr_write's: the comparison is of the threads */
+         exr_set_zip_compression_level(context, part, PF_EXR_ZIP_LEVEL) == EXR_ERR_SUCCESS;
     for (uint32_t c = 0; ok && c < image->channel_count; c++)
         ok = exr_add_channel(context, part, image->channel_names[c], EXR_PIXEL_HALF,
                              EXR_PERCEPTUALLY_LOGARITHMIC, 1, 1) == EXR_ERR_SUCCESS;

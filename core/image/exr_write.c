@@ -105,6 +105,9 @@ static pf_status define_header(exr_context_t context, const char *path, const pf
     if (rc == EXR_ERR_SUCCESS)
         rc = exr_initialize_required_attr_simple(context, part, (int32_t)image->width,
                                                  (int32_t)image->height, EXR_COMPRESSION_ZIP);
+    /* pf_image.h says why not the library's default level. */
+    if (rc == EXR_ERR_SUCCESS)
+        rc = exr_set_zip_compression_level(context, part, PF_EXR_ZIP_LEVEL);
     if (rc != EXR_ERR_SUCCESS)
         return pf_error_set(err, PF_ERR_INTERNAL, "%s: EXR header: %s", path,
                             pf_exr_message(stream, rc));
