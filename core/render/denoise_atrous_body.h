@@ -125,6 +125,24 @@ static inline lanes_f load_clamped(const float *plane, size_t row_start, int fir
     return v;
 }
 
+/* The lanes of the run at x0 whose tap at column first + lane lies inside the row (and
+ * whose own pixel does: lanes past the row's end take no taps). */
+static inline lanes_i taps_inside(int first, int x0, int w)
+{
+    lanes_i inside;
+    for (int l = 0; l < ATROUS_WIDTH; l++)
+        inside[l] = first + l >= 0 && first + l < w && x0 + l < w ? -1 : 0;
+    return inside;
+}
+
+/* A tap's values for the run: one load where every lane's tap lies inside the row. */
+static inline lanes_f tap_load(const float *plane, int inside_all, size_t tap_row, int first,
+                               int w)
+{
+    return inside_all ? load_lanes(plane, tap_row + first)
+                      : load_clamped(plane, tap_row, first, w);
+}
+
 void ATROUS_NAME(denoise_planes *planes, int step, int row_begin, int row_end)
 {
     static const float b3[5] = {1.0f / 16.0f, 1.0f / 4.0f, 3.0f / 8.0f, 1.0f / 4.0f,
@@ -143,7 +161,7 @@ void ATROUS_NAME(denoise_planes *planes, int step, int row_begin, int row_end)
             size_t row = (size_t)y * w;
             /* The run's pixels; lanes past the row's end repeat its last pixel. */
             int whole = x0 + ATROUS_WIDTH <= w;
-#define RUN_LOAD(plane) (whole ? load_lanes(plane, row + x0) : load_clamped(plane, row, x0, w))
+#define RUN_LOAD(plane) tap_load(plane, whole, row, x0, w)
             lanes_f lp = luminance_lanes(RUN_LOAD(red), RUN_LOAD(green), RUN_LOAD(blue));
             lanes_f scale = RUN_LOAD(scales), zp = RUN_LOAD(depth);
             lanes_f step_p = RUN_LOAD(planes->depth_step);
@@ -157,13 +175,9 @@ void ATROUS_NAME(denoise_planes *planes, int step, int row_begin, int row_end)
                 size_t tap_row = (size_t)qy * w;
                 for (int i = -2; i <= 2; i++) {
                     int first = x0 + i * step;
-                    /* Every lane's tap inside the row: one load a plane. */
                     int inside_all = whole && first >= 0 && first + ATROUS_WIDTH <= w;
-                    lanes_i inside;
-                    for (int l = 0; l < ATROUS_WIDTH; l++)
-                        inside[l] = first + l >= 0 && first + l < w && x0 + l < w ? -1 : 0;
-#define TAP_LOAD(plane) \
-    (inside_all ? load_lanes(plane, tap_row + first) : load_clamped(plane, tap_row, first, w))
+                    lanes_i inside = taps_inside(first, x0, w);
+#define TAP_LOAD(plane) tap_load(plane, inside_all, tap_row, first, w)
                     lanes_f q_r = TAP_LOAD(red), q_g = TAP_LOAD(green), q_b = TAP_LOAD(blue);
                     lanes_f vq = TAP_LOAD(variance);
                     lanes_f weight = every_lane(b3[i + 2] * b3[j + 2]);
@@ -217,7 +231,7 @@ void VARIANCE_NAME(denoise_planes *planes, int row_begin, int row_end)
         for (int x0 = 0; x0 < w; x0 += ATROUS_WIDTH) {
             size_t row = (size_t)y * w;
             int whole = x0 + ATROUS_WIDTH <= w;
-#define RUN_LOAD(plane) (whole ? load_lanes(plane, row + x0) : load_clamped(plane, row, x0, w))
+#define RUN_LOAD(plane) tap_load(plane, whole, row, x0, w)
             lanes_f zp = RUN_LOAD(depth), step_p = RUN_LOAD(planes->depth_step);
             lanes_f np[3] = {RUN_LOAD(normal[0]), RUN_LOAD(normal[1]), RUN_LOAD(normal[2])};
 #undef RUN_LOAD
@@ -233,11 +247,8 @@ void VARIANCE_NAME(denoise_planes *planes, int row_begin, int row_end)
                     for (int i = 0; i <= DENOISE_VARIANCE_RADIUS; i++) {
                         int first = x0 + sx * i;
                         int inside_all = whole && first >= 0 && first + ATROUS_WIDTH <= w;
-                        lanes_i inside;
-                        for (int l = 0; l < ATROUS_WIDTH; l++)
-                            inside[l] = first + l >= 0 && first + l < w && x0 + l < w ? -1 : 0;
-#define TAP_LOAD(plane)                                                                     \
-    (inside_all ? load_lanes(plane, tap_row + first) : load_clamped(plane, tap_row, first, w))
+                        lanes_i inside = taps_inside(first, x0, w);
+#define TAP_LOAD(plane) tap_load(plane, inside_all, tap_row, first, w)
                         lanes_f weight = one;
                         if (i != 0 || j != 0) {
                             lanes_f nq[3] = {TAP_LOAD(normal[0]), TAP_LOAD(normal[1]),
