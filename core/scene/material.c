@@ -12,32 +12,43 @@
 uint32_t pf_scene_frame_surface_features(const pf_scene_frame *frame)
 {
     uint32_t features = frame->corners ? PF_SURFACE_CORNERS : 0u;
-    if (frame->light_count > 0)
-        features |= PF_SURFACE_LIGHTS;
+    uint32_t has = frame->light_count > 0 ? PF_SURFACE_NO_LIGHTS : 0u; /* bits it has not */
     for (uint32_t m = 0; m < frame->material_count; m++) {
-        if (frame->materials[m].alpha_mode != PF_ALPHA_OPAQUE)
+        const pf_material *material = &frame->materials[m];
+        if (material->alpha_mode != PF_ALPHA_OPAQUE)
             features |= PF_SURFACE_ALPHA;
-        if (frame->materials[m].transmission > 0.0f)
-            features |= PF_SURFACE_TRANSMISSION;
+        if (material->transmission > 0.0f)
+            has |= PF_SURFACE_NO_TRANSMISSION;
         for (int c = 0; c < 3; c++)
-            if (frame->materials[m].emission[c] > 0.0f)
-                features |= PF_SURFACE_EMISSIVE;
+            if (material->emission[c] > 0.0f)
+                has |= PF_SURFACE_NO_EMISSION;
+        /* A texture scales roughness and metallic down: a texel may be a mirror. */
+        if (material->kind != PF_MATERIAL_LAMBERT ||
+            material->metallic_roughness_texture != PF_NO_TEXTURE)
+            has |= PF_SURFACE_NO_SPECULAR;
     }
-    return features;
+    const uint32_t absent = PF_SURFACE_NO_LIGHTS | PF_SURFACE_NO_TRANSMISSION |
+                            PF_SURFACE_NO_EMISSION | PF_SURFACE_NO_SPECULAR;
+    return features | (absent & ~has);
 }
 
 void pf_scene_spec_constants(uint32_t features, uint32_t ids[PF_SCENE_SPEC_CONSTANTS],
                              uint32_t values[PF_SCENE_SPEC_CONSTANTS])
 {
-    static const uint32_t bits[PF_SCENE_SPEC_CONSTANTS] = {
-        PF_SURFACE_ALPHA, PF_SURFACE_CORNERS, PF_SURFACE_LIGHTS, PF_SURFACE_TRANSMISSION,
-        PF_SURFACE_EMISSIVE};
-    static const uint32_t constant_ids[PF_SCENE_SPEC_CONSTANTS] = {
-        PF_SPEC_SCENE_HAS_ALPHA, PF_SPEC_SCENE_HAS_CORNERS, PF_SPEC_SCENE_HAS_LIGHTS,
-        PF_SPEC_SCENE_HAS_TRANSMISSION, PF_SPEC_SCENE_HAS_EMITTERS};
+    /* Each constant's bit, and whether the bit says the frame has it (1) or lacks it (0). */
+    static const struct {
+        uint32_t constant_id, bit, has;
+    } map[PF_SCENE_SPEC_CONSTANTS] = {
+        {PF_SPEC_SCENE_HAS_ALPHA, PF_SURFACE_ALPHA, 1},
+        {PF_SPEC_SCENE_HAS_CORNERS, PF_SURFACE_CORNERS, 1},
+        {PF_SPEC_SCENE_HAS_LIGHTS, PF_SURFACE_NO_LIGHTS, 0},
+        {PF_SPEC_SCENE_HAS_TRANSMISSION, PF_SURFACE_NO_TRANSMISSION, 0},
+        {PF_SPEC_SCENE_HAS_EMITTERS, PF_SURFACE_NO_EMISSION, 0},
+        {PF_SPEC_SCENE_HAS_SPECULAR, PF_SURFACE_NO_SPECULAR, 0}};
     for (uint32_t i = 0; i < PF_SCENE_SPEC_CONSTANTS; i++) {
-        ids[i] = constant_ids[i];
-        values[i] = (features & bits[i]) ? 1u : 0u;
+        ids[i] = map[i].constant_id;
+        uint32_t set = (features & map[i].bit) != 0;
+        values[i] = set == map[i].has ? 1u : 0u;
     }
 }
 

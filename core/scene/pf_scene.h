@@ -180,7 +180,8 @@ typedef enum pf_scene_binding {
 /*
  * What a frame's scene uses beyond the plain BSDF and its emitters: alpha-tested materials
  * (MASK, BLEND), per-corner attributes (textures, COLOR_0), punctual lights, transmissive
- * materials, emissive materials. A kernel that reads surfaces has a plain variant, compiled without the first
+ * materials, emissive materials, specular ones (a mirror-like metal or a glass, passed
+ * through by sampling: pf_material_kind). A kernel that reads surfaces has a plain variant, compiled without the first
  * two's code, and a "<kernel>_surfaces" one (shaders/pf_shaders.cmake's pf-variant) for a
  * frame with either (PF_SURFACE_TEXTURED); each pipeline is made for the frame's whole set,
  * its specialisation constants (pf_scene_spec_constants; scene_binding_numbers.glsl) saying
@@ -188,21 +189,27 @@ typedef enum pf_scene_binding {
  * line of a module for every invocation, masked where no lane takes it: the reference
  * wavefront's vertex kernel on the Cornell box (no punctual light, no glass) ran 15-22 %
  * faster without the lights' loop and the transmission lobes (bench/RESULTS.md); a scene lit
- * by punctual lights alone (Blender's exports) drops the emitters' sampling and MIS.
+ * by punctual lights alone (Blender's exports) drops the emitters' sampling and MIS, and
+ * one without specular materials the kernels' specular chains (their in-kernel traversal).
  */
 #define PF_SURFACE_ALPHA 1u
 #define PF_SURFACE_CORNERS 2u
-#define PF_SURFACE_LIGHTS 4u       /* punctual lights (point, spot, directional) */
-#define PF_SURFACE_TRANSMISSION 8u /* a material with transmission > 0 */
-#define PF_SURFACE_EMISSIVE 16u    /* a material with emission > 0 */
+/* The rest say what the frame lacks, so that a features word left 0 (a caller that never
+ * asked pf_scene_frame_surface_features) compiles everything in. */
+#define PF_SURFACE_NO_LIGHTS 4u        /* no punctual light (point, spot, directional) */
+#define PF_SURFACE_NO_TRANSMISSION 8u  /* no material with transmission > 0 */
+#define PF_SURFACE_NO_EMISSION 16u     /* no material with emission > 0 */
+#define PF_SURFACE_NO_SPECULAR 32u     /* every material PF_MATERIAL_LAMBERT, and no
+                                        * metallic-roughness texture that may make one not */
 #define PF_SURFACE_TEXTURED (PF_SURFACE_ALPHA | PF_SURFACE_CORNERS)
-#define PF_SURFACE_VARIANTS 32u
+#define PF_SURFACE_VARIANTS 64u
 #define PF_SPEC_SCENE_HAS_ALPHA 1001u
 #define PF_SPEC_SCENE_HAS_CORNERS 1002u
 #define PF_SPEC_SCENE_HAS_LIGHTS 1003u
 #define PF_SPEC_SCENE_HAS_TRANSMISSION 1004u
 #define PF_SPEC_SCENE_HAS_EMITTERS 1005u
-#define PF_SCENE_SPEC_CONSTANTS 5u
+#define PF_SPEC_SCENE_HAS_SPECULAR 1006u
+#define PF_SCENE_SPEC_CONSTANTS 6u
 /* The specialisation constants of features: constant ids and their values (0 or 1). */
 void pf_scene_spec_constants(uint32_t features, uint32_t ids[PF_SCENE_SPEC_CONSTANTS],
                              uint32_t values[PF_SCENE_SPEC_CONSTANTS]);
@@ -272,8 +279,8 @@ typedef struct pf_scene_frame {
 } pf_scene_frame;
 
 /* The PF_SURFACE_* bits of frame: corners when it has them, alpha when a material tests it,
- * lights when it has punctual ones, transmission when a material transmits, emissive when a
- * material emits. */
+ * and the NO_ bits for what it lacks: punctual lights, a transmissive, an emissive, a specular
+ * material (a mirror or a glass, or one a texture may make so). */
 uint32_t pf_scene_frame_surface_features(const pf_scene_frame *frame);
 
 /* Measures of a frame (frame_measures.c). 1 when some triangle's material is passed

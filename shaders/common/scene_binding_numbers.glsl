@@ -32,5 +32,9 @@ layout(constant_id = 1002) const bool SCENE_HAS_CORNERS = false;
 layout(constant_id = 1003) const bool SCENE_HAS_LIGHTS = true;
 layout(constant_id = 1004) const bool SCENE_HAS_TRANSMISSION = true;
 layout(constant_id = 1005) const bool SCENE_HAS_EMITTERS = true;
+// Specular materials (pf_material_kind MIRROR or GLASS, passed through by sampling): without
+// them every material reads as MATERIAL_LAMBERT, and the kernels' specular chains (their
+// in-kernel traversal after a mirror or glass) are compiled out.
+layout(constant_id = 1006) const bool SCENE_HAS_SPECULAR = true;
 
 #endif

@@ -56,8 +56,9 @@ Material scene_material(uint index)
     uvec4 t5 = uvec4(texelFetch(scene_materials, first + 5));
     uvec4 t6 = uvec4(texelFetch(scene_materials, first + 6));
     // transmission and emission: 0 in a frame without a transmissive or an emissive material,
-    // so that their code is compiled out (SCENE_HAS_TRANSMISSION, SCENE_HAS_EMITTERS).
-    return Material(uintBitsToFloat(t0.xyz), t0.w,
+    // the kind Lambert in one without a specular material, so that their code is compiled out
+    // (SCENE_HAS_TRANSMISSION, SCENE_HAS_EMITTERS, SCENE_HAS_SPECULAR).
+    return Material(uintBitsToFloat(t0.xyz), SCENE_HAS_SPECULAR ? t0.w : MATERIAL_LAMBERT,
                     SCENE_HAS_EMITTERS ? uintBitsToFloat(t1.xyz) : vec3(0.0),
                     uintBitsToFloat(t1.w), t2.x, t2.y, SCENE_HAS_TRANSMISSION ? t2.z : 0.0, t2.w,
                     uintBitsToFloat(t3.xyz), t3.w,

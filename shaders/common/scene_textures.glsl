@@ -192,7 +192,7 @@ Material scene_material_textured(Material m, uint triangle, float u, float v, fl
         vec4 t = scene_slot_sample(m.metallic_roughness_texture, surface_uv);
         m.roughness *= t.g;
         m.metallic *= t.b;
-        m.kind = material_kind_of(m);
+        m.kind = SCENE_HAS_SPECULAR ? material_kind_of(m) : MATERIAL_LAMBERT;
     }
     if (m.emissive_texture != NO_TEXTURE)
         m.emission *= scene_slot_sample(m.emissive_texture, surface_uv).rgb;
