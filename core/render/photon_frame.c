@@ -54,10 +54,16 @@ pf_status pf_photon_frame_trace(pf_renderer *renderer, const pf_photon_frame *in
                                 uint32_t count, pf_photon_maps *maps, pf_error *err)
 {
     pf_status status = PF_OK;
-    for (uint32_t i = 0; status == PF_OK && plan->host_traces && i < count; i++) {
-        status = pf_renderer_bih_host(renderer, &trace[i].host_tree, err);
+    const pf_bih *tree = NULL;
+    const pf_bih_wide *wide = NULL;
+    if (plan->host_traces) {
+        status = pf_renderer_bih_host(renderer, &tree, err);
         if (status == PF_OK)
-            status = pf_renderer_bih_wide(renderer, &trace[i].host_wide, err);
+            status = pf_renderer_bih_wide(renderer, &wide, err);
+    }
+    for (uint32_t i = 0; status == PF_OK && i < count; i++) {
+        trace[i].host_tree = tree;
+        trace[i].host_wide = wide;
     }
     if (status == PF_OK)
         status = pf_photon_trace_passes(inputs->tracer, &inputs->photons, inputs->emitters,
