@@ -153,8 +153,9 @@ static int planes_fill(const pf_image *image, const denoise_channels *at, denois
     return 1;
 }
 
-/* What a run over the rows does: the à-trous pass's planar inputs (with its luminance scale,
- * or before the variance estimate without), the variance estimate, an à-trous pass. */
+/* What a run over the rows does: the planar guides (lighting and normals, before the variance
+ * estimate), a pass's planar inputs (lighting and luminance scale), the variance estimate, an
+ * à-trous pass. */
 typedef enum filter_work { FILTER_GUIDES, FILTER_PREPARE, FILTER_VARIANCE, FILTER_ATROUS } filter_work;
 
 typedef struct filter_job {

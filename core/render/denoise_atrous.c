@@ -28,18 +28,19 @@ static float blurred_variance(const denoise_planes *planes, int x, int y)
     return sum / weights;
 }
 
-void pf_denoise_atrous_prepare(denoise_planes *planes, int row_begin, int row_end, int scale)
+void pf_denoise_atrous_prepare(denoise_planes *planes, int row_begin, int row_end, int pass)
 {
     size_t pixels = (size_t)planes->width * planes->height;
     float *planar = planes->planar;
     for (int y = row_begin; y < row_end; y++)
         for (int x = 0; x < (int)planes->width; x++) {
             size_t p = (size_t)y * planes->width + x;
-            for (int c = 0; c < 3; c++) {
+            for (int c = 0; c < 3; c++)
                 planar[(PLANAR_R + c) * pixels + p] = planes->lighting[3 * p + c];
-                planar[(PLANAR_NX + c) * pixels + p] = planes->normal[3 * p + c];
-            }
-            if (scale)
+            if (!pass) /* the normals never change: once, with the guides */
+                for (int c = 0; c < 3; c++)
+                    planar[(PLANAR_NX + c) * pixels + p] = planes->normal[3 * p + c];
+            else
                 planar[PLANAR_SCALE * pixels + p] =
                     DENOISE_SIGMA_LUMINANCE * sqrtf(blurred_variance(planes, x, y)) + 1e-6f;
         }

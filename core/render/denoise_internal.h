@@ -79,10 +79,11 @@ int denoise_temporal_keep(pf_denoise_history *history, const pf_denoise_sequence
  * the CPU has AVX2, else 4 (denoise_atrous_body.h; the two agree bit for bit).
  */
 void pf_denoise_atrous_rows(denoise_planes *planes, int step, int row_begin, int row_end);
-/* Rows [row_begin, row_end) of planes->planar from the lighting and normals, and with scale
- * the luminance scale from the variance: before the variance estimate (scale 0) and before
- * each pass (every row before any pass reads them). */
-void pf_denoise_atrous_prepare(denoise_planes *planes, int row_begin, int row_end, int scale);
+/* Rows [row_begin, row_end) of planes->planar: the lighting and the normals before the
+ * variance estimate (pass 0), the lighting and the luminance scale from the variance before
+ * each à-trous pass (pass 1; the normals stay as the first call left them). Every row
+ * before anything reads them. */
+void pf_denoise_atrous_prepare(denoise_planes *planes, int row_begin, int row_end, int pass);
 /* Rows [row_begin, row_end) of the variance estimate on the host into planes->variance, from
  * planes->planar's lighting and normals; 8 or 4 wide as the pass. */
 void pf_denoise_variance_rows(denoise_planes *planes, int row_begin, int row_end);
