@@ -26,6 +26,13 @@ typedef enum pf_status {
 
 #define PF_ERROR_MESSAGE_MAX 1024
 
+/* Rec. 709 luminance weights: what picks lights by power, weighs photons and stops the
+ * denoiser's edges (the shaders' light_luminance and denoise_luminance hold the same). A
+ * float use casts them (each cast is the float literal's value). */
+#define PF_LUMINANCE_R 0.2126
+#define PF_LUMINANCE_G 0.7152
+#define PF_LUMINANCE_B 0.0722
+
 /* Filled by a failing call; the message names the cause (file, element, row). */
 typedef struct pf_error {
     pf_status status;

@@ -13,7 +13,7 @@
 /* Rec. 709 luminance, as lights.glsl's light_luminance. */
 static double luminance(const float rgb[3])
 {
-    return 0.2126 * rgb[0] + 0.7152 * rgb[1] + 0.0722 * rgb[2];
+    return PF_LUMINANCE_R * rgb[0] + PF_LUMINANCE_G * rgb[1] + PF_LUMINANCE_B * rgb[2];
 }
 
 void pf_photon_light_power(const pf_light *light, float scene_radius, float power[3])

@@ -88,7 +88,7 @@ void pf_photon_maps_release(pf_vk_context *ctx, pf_photon_maps *maps)
 
 static double luminance(const double rgb[3])
 {
-    return 0.2126 * rgb[0] + 0.7152 * rgb[1] + 0.0722 * rgb[2];
+    return PF_LUMINANCE_R * rgb[0] + PF_LUMINANCE_G * rgb[1] + PF_LUMINANCE_B * rgb[2];
 }
 
 /* A map's capacity: the request, or the default bounded by one buffer. */

@@ -80,7 +80,8 @@ static inline __attribute__((always_inline)) lanes_f vector_exp(lanes_f x)
 
 static inline lanes_f luminance_lanes(lanes_f r, lanes_f g, lanes_f b)
 {
-    return every_lane(0.2126f) * r + every_lane(0.7152f) * g + every_lane(0.0722f) * b;
+    return every_lane((float)PF_LUMINANCE_R) * r + every_lane((float)PF_LUMINANCE_G) * g +
+           every_lane((float)PF_LUMINANCE_B) * b;
 }
 
 /* Rows [row_begin, row_end) of one à-trous pass of spread `step`, from planes->lighting and

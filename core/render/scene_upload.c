@@ -5,10 +5,10 @@
 #include <stdlib.h>
 #include <string.h>
 
-/* Rec. 709 luminance weights, the usual choice for picking lights by power. */
-#define LUMINANCE_R 0.2126f
-#define LUMINANCE_G 0.7152f
-#define LUMINANCE_B 0.0722f
+/* Rec. 709 luminance weights (pf_common.h), in floats, for picking lights by power. */
+#define LUMINANCE_R ((float)PF_LUMINANCE_R)
+#define LUMINANCE_G ((float)PF_LUMINANCE_G)
+#define LUMINANCE_B ((float)PF_LUMINANCE_B)
 
 /* Stand-in contents for an empty array (every GPU struct here is at most 64 bytes). */
 #define EMPTY_ARRAY_BYTES 64u
