@@ -57,6 +57,11 @@ typedef enum pf_pixel_filter {
     PF_FILTER_BOX = 1,
     PF_FILTER_BLACKMAN_HARRIS = 2
 } pf_pixel_filter;
+#define PF_PIXEL_FILTER_COUNT 3u
+/* The specialisation constant (pixel_filter.glsl's PIXEL_FILTER) that compiles a kernel
+ * for one filter: llvmpipe runs every filter's code, masked, for every camera ray
+ * otherwise (the Blackman-Harris bisection's sines were ~half of a camera sample). */
+#define PF_SPEC_PIXEL_FILTER 1007u
 
 /* Parses "gaussian", "box", "blackman-harris"; -1 if unknown. */
 int pf_pixel_filter_parse(const char *name);

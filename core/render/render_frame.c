@@ -56,6 +56,8 @@ static pf_status run_stages(const pf_integrator *integrator, pf_frame_run *run, 
     pf_vk_traffic *shade = &run->traffic[PF_STAGE_SHADE];
     uint32_t first_row = run->report ? run->report->stage_count : 0;
     pf_vk_traffic mark = pf_vk_traffic_of(ctx);
+    /* The filter the frame's camera kernels are specialised for (pf_renderer_pipeline). */
+    run->renderer->pixel_filter = (uint32_t)run->settings->pixel_filter % PF_PIXEL_FILTER_COUNT;
     pf_status status = pf_render_prepare_textures(run->renderer, run->frame, run->report, err);
     charge(ctx, &mark, &run->textures_traffic);
     if (status == PF_OK)

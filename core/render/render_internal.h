@@ -409,9 +409,11 @@ struct pf_renderer {
     pf_bih_gpu_builder *bih_builder;
     pf_texture_cache textures;
     /* The integrators' pipelines, each created at its first use (pf_renderer_pipeline), per
-     * combination of the surface features (PF_SURFACE_*) a frame uses. */
-    pf_vk_pipeline *pipelines[PF_SURFACE_VARIANTS][PF_PIPELINE_COUNT];
+     * combination of the surface features (PF_SURFACE_*) a frame uses, and for the kernels
+     * that sample the camera, per pixel filter. */
+    pf_vk_pipeline *pipelines[PF_PIXEL_FILTER_COUNT][PF_SURFACE_VARIANTS][PF_PIPELINE_COUNT];
     uint32_t surface_features; /* the current frame's (pf_render_prepare_textures) */
+    uint32_t pixel_filter;     /* the current frame's (its settings, run_stages) */
     /* The final integrator's photon passes kept for reuse by the next frame (frame_final.c). */
     struct pf_final_cache *final_cache;
     /* Tests: at most this many of the final gather's estimates deferred per sample, the

@@ -33,10 +33,11 @@ void pf_renderer_destroy(pf_renderer *renderer)
 {
     if (!renderer)
         return;
-    for (size_t v = 0; v < PF_SURFACE_VARIANTS; v++)
-        for (size_t i = 0; i < PF_PIPELINE_COUNT; i++)
-            if (renderer->pipelines[v][i])
-                pf_vk_pipeline_destroy(renderer->ctx, renderer->pipelines[v][i]);
+    for (size_t f = 0; f < PF_PIXEL_FILTER_COUNT; f++)
+        for (size_t v = 0; v < PF_SURFACE_VARIANTS; v++)
+            for (size_t i = 0; i < PF_PIPELINE_COUNT; i++)
+                if (renderer->pipelines[f][v][i])
+                    pf_vk_pipeline_destroy(renderer->ctx, renderer->pipelines[f][v][i]);
     pf_final_cache_destroy(renderer->final_cache);
     pf_fast_cache_destroy(renderer->ctx, renderer->fast_cache);
     pf_photon_tracer_destroy(renderer->photon_tracer);

@@ -51,6 +51,7 @@ typedef struct pipeline_spec {
     int specialized;
     pf_vk_spec_constant constant;
     int surfaces; /* reads the scene's surfaces: has a "_surfaces" variant */
+    int camera;   /* samples camera rays: made for the frame's pixel filter */
 } pipeline_spec;
 
 static const pipeline_spec pipeline_specs[PF_PIPELINE_COUNT] = {
@@ -59,15 +60,15 @@ static const pipeline_spec pipeline_specs[PF_PIPELINE_COUNT] = {
     [PF_PIPELINE_RAYCAST_ANY] = {"raycast_brute", RAYCAST_BUFFERS, RAYCAST_PUSH_BYTES, 1,
                                  {RAYCAST_SPEC_ANY_HIT, 1}},
     [PF_PIPELINE_DIRECT] = {"render_direct", RENDER_DIRECT_BUFFERS, RENDER_DIRECT_PUSH_BYTES, 0,
-                            {0, 0}, 1},
+                            {0, 0}, 1, 1},
     [PF_PIPELINE_REFERENCE] = {"render_reference", RENDER_REFERENCE_BUFFERS,
-                               RENDER_REFERENCE_PUSH_BYTES, 1, {REFERENCE_SPEC_AOVS, 1}, 1},
+                               RENDER_REFERENCE_PUSH_BYTES, 1, {REFERENCE_SPEC_AOVS, 1}, 1, 1},
     [PF_PIPELINE_REFERENCE_RGB] = {"render_reference", RENDER_REFERENCE_BUFFERS,
-                                   RENDER_REFERENCE_PUSH_BYTES, 1, {REFERENCE_SPEC_AOVS, 0}, 1},
+                                   RENDER_REFERENCE_PUSH_BYTES, 1, {REFERENCE_SPEC_AOVS, 0}, 1, 1},
     [PF_PIPELINE_MATERIAL_PROBE] = {"material_probe", MATERIAL_PROBE_BUFFERS,
                                     MATERIAL_PROBE_PUSH_BYTES, 0, {0, 0}},
     [PF_PIPELINE_FINAL_PRIMARY] = {"render_final", PF_FINAL_BUFFERS, RENDER_FINAL_PUSH_BYTES,
-                                   0, {0, 0}, 1},
+                                   0, {0, 0}, 1, 1},
     [PF_PIPELINE_FINAL_GATHER] = {"final_gather", PF_FINAL_BUFFERS, RENDER_FINAL_PUSH_BYTES,
                                   0, {0, 0}, 1},
     [PF_PIPELINE_FINAL_GATHER_ESTIMATE] = {"final_gather_estimate", PF_FINAL_BUFFERS,
@@ -79,7 +80,7 @@ static const pipeline_spec pipeline_specs[PF_PIPELINE_COUNT] = {
     [PF_PIPELINE_FINAL_CAUSTIC] = {"final_caustic", PF_FINAL_BUFFERS, RENDER_FINAL_PUSH_BYTES,
                                    0, {0, 0}, 1},
     [PF_PIPELINE_FINAL_PRIMARY_GIVEN] = {"render_final", PF_FINAL_BUFFERS,
-                                         RENDER_FINAL_PUSH_BYTES, 1, {TRACE_STEP_CONSTANT, 2}, 1},
+                                         RENDER_FINAL_PUSH_BYTES, 1, {TRACE_STEP_CONSTANT, 2}, 1, 1},
     [PF_PIPELINE_FINAL_GATHER_RAYS] = {"final_gather", PF_FINAL_BUFFERS, RENDER_FINAL_PUSH_BYTES,
                                        1, {TRACE_STEP_CONSTANT, 1}, 1},
     [PF_PIPELINE_FINAL_GATHER_GIVEN] = {"final_gather", PF_FINAL_BUFFERS,
@@ -88,16 +89,16 @@ static const pipeline_spec pipeline_specs[PF_PIPELINE_COUNT] = {
                                                  RENDER_FINAL_PUSH_BYTES, 1,
                                                  {TRACE_STEP_CONSTANT, 2}, 1},
     [PF_PIPELINE_CAMERA_RAYS] = {"camera_rays", PF_CAMERA_RAYS_BUFFERS,
-                                 sizeof(pf_camera_rays_push), 0, {0, 0}},
-    [PF_PIPELINE_FAST] = {"render_fast", PF_FAST_BUFFERS, RENDER_FAST_PUSH_BYTES, 0, {0, 0}, 1},
+                                 sizeof(pf_camera_rays_push), 0, {0, 0}, 0, 1},
+    [PF_PIPELINE_FAST] = {"render_fast", PF_FAST_BUFFERS, RENDER_FAST_PUSH_BYTES, 0, {0, 0}, 1, 1},
     [PF_PIPELINE_FAST_CAUSTIC] = {"render_fast_caustic", PF_FAST_BUFFERS, RENDER_FAST_PUSH_BYTES,
-                                  0, {0, 0}, 1},
+                                  0, {0, 0}, 1, 1},
     [PF_PIPELINE_DENOISE_VARIANCE] = {"denoise_variance", DENOISE_BUFFERS, DENOISE_PUSH_BYTES, 0,
                                       {0, 0}},
     [PF_PIPELINE_DENOISE_ATROUS] = {"denoise_atrous", DENOISE_BUFFERS, DENOISE_PUSH_BYTES, 0,
                                     {0, 0}},
     [PF_PIPELINE_REFERENCE_WAVE_GENERATE] = {"render_reference_wave", REFERENCE_WAVE_BUFFERS,
-                                             REFERENCE_WAVE_PUSH_BYTES, 1, {0, 1}, 1},
+                                             REFERENCE_WAVE_PUSH_BYTES, 1, {0, 1}, 1, 1},
     [PF_PIPELINE_REFERENCE_WAVE] = {"render_reference_wave", REFERENCE_WAVE_BUFFERS,
                                     REFERENCE_WAVE_PUSH_BYTES, 1, {0, 0}, 1},
     [PF_PIPELINE_REFERENCE_WAVE_FINISH] = {"render_reference_wave", REFERENCE_WAVE_BUFFERS,
@@ -110,28 +111,42 @@ static const pipeline_spec pipeline_specs[PF_PIPELINE_COUNT] = {
     [PF_PIPELINE_FINAL_RETRACE_ARGS] = {"final_retrace_args", 2, 12, 0, {0, 0}},
 };
 
+/* Where pipeline id for the current frame lives: its surface features, and its pixel filter
+ * where it samples the camera (the others share filter 0's slot). */
+static pf_vk_pipeline **pipeline_slot(pf_renderer *renderer, pf_renderer_pipeline_id id)
+{
+    uint32_t filter = pipeline_specs[id].camera ? renderer->pixel_filter % PF_PIXEL_FILTER_COUNT
+                                                : 0u;
+    return &renderer->pipelines[filter][renderer->surface_features % PF_SURFACE_VARIANTS][id];
+}
+
 pf_status pf_renderer_pipeline(pf_renderer *renderer, pf_renderer_pipeline_id id,
                                pf_vk_pipeline **out, pf_error *err)
 {
     if ((unsigned)id >= PF_PIPELINE_COUNT)
         return pf_error_set(err, PF_ERR_INTERNAL, "renderer: no pipeline %d", (int)id);
     uint32_t features = renderer->surface_features % PF_SURFACE_VARIANTS;
-    pf_vk_pipeline **slot = &renderer->pipelines[features][id];
+    pf_vk_pipeline **slot = pipeline_slot(renderer, id);
     if (!*slot) {
         const pipeline_spec *spec = &pipeline_specs[id];
-        pf_vk_spec_constant constants[PF_SCENE_SPEC_CONSTANTS + 1];
+        pf_vk_spec_constant constants[PF_SCENE_SPEC_CONSTANTS + 2];
         uint32_t ids[PF_SCENE_SPEC_CONSTANTS], values[PF_SCENE_SPEC_CONSTANTS];
         pf_scene_spec_constants(features, ids, values);
+        uint32_t count = 0;
         for (uint32_t c = 0; c < PF_SCENE_SPEC_CONSTANTS; c++)
-            constants[c] = (pf_vk_spec_constant){ids[c], values[c]};
-        constants[PF_SCENE_SPEC_CONSTANTS] = spec->constant;
+            constants[count++] = (pf_vk_spec_constant){ids[c], values[c]};
+        if (spec->camera)
+            constants[count++] = (pf_vk_spec_constant){
+                PF_SPEC_PIXEL_FILTER, renderer->pixel_filter % PF_PIXEL_FILTER_COUNT};
+        if (spec->specialized)
+            constants[count++] = spec->constant;
         /* The kernel's "_surfaces" variant where the frame uses them (pf_scene.h). */
         char name[64];
         snprintf(name, sizeof name, "%s%s", spec->shader,
                  (features & PF_SURFACE_TEXTURED) && spec->surfaces ? "_surfaces" : "");
-        pf_status status = pf_vk_pipeline_create_named(
-            renderer->ctx, name, spec->buffers, spec->push_bytes, constants,
-            PF_SCENE_SPEC_CONSTANTS + (spec->specialized ? 1 : 0), slot, err);
+        pf_status status = pf_vk_pipeline_create_named(renderer->ctx, name, spec->buffers,
+                                                       spec->push_bytes, constants, count, slot,
+                                                       err);
         if (status != PF_OK)
             return status;
     }
@@ -165,8 +180,7 @@ pf_status pf_renderer_pipelines_prepare(pf_renderer *renderer, const pf_renderer
     for (size_t i = 0; i < count && missing < PF_PIPELINE_COUNT; i++) {
         if ((unsigned)ids[i] >= PF_PIPELINE_COUNT)
             return pf_error_set(err, PF_ERR_INTERNAL, "renderer: no pipeline %d", (int)ids[i]);
-        int listed =
-            renderer->pipelines[renderer->surface_features % PF_SURFACE_VARIANTS][ids[i]] != NULL;
+        int listed = *pipeline_slot(renderer, ids[i]) != NULL;
         for (size_t j = 0; j < missing; j++)
             listed = listed || jobs[j].id == ids[i];
         if (!listed)

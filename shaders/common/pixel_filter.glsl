@@ -9,6 +9,12 @@
 const uint FILTER_GAUSSIAN = 0u;
 const uint FILTER_BOX = 1u;
 const uint FILTER_BLACKMAN_HARRIS = 2u;
+// The filter a pipeline is made for (PF_SPEC_PIXEL_FILTER in core/render/pf_render.h: the
+// renderer specialises its camera kernels to the frame's), or FILTER_FROM_PARAMS: the
+// filter_kind the caller passes (params.pixel_filter) picks at run time. llvmpipe runs
+// every branch's code for every ray, masked; a fixed filter compiles the others out.
+const uint FILTER_FROM_PARAMS = 3u;
+layout(constant_id = 1007) const uint PIXEL_FILTER = FILTER_FROM_PARAMS;
 
 // Gaussian: radially symmetric, standard deviation FILTER_SIGMA pixels,
 // truncated at FILTER_RADIUS pixels (3σ: the weight left out is e^-4.5 ≈
@@ -61,6 +67,8 @@ float filter_blackman_harris_1d(float xi)
 
 vec2 filter_sample(uint filter_kind, vec2 xi)
 {
+    if (PIXEL_FILTER != FILTER_FROM_PARAMS)
+        filter_kind = PIXEL_FILTER;
     if (filter_kind == FILTER_BOX)
         return xi - 0.5;
     if (filter_kind == FILTER_BLACKMAN_HARRIS)
