@@ -63,6 +63,7 @@
 #define PF_MATERIALS_GLSL
 
 #include "divide_exact.glsl"
+#include "scene_binding_numbers.glsl" // SCENE_HAS_TRANSMISSION
 #include "scene_types.glsl"
 
 const float PI = 3.14159265358979323846;
@@ -462,8 +463,12 @@ vec3 medium_after_transmission(Material material, bool front)
 }
 
 // The fraction of light left after distance t in a medium of coefficient absorption.
+// A medium is entered only through a transmissive surface: a frame without one has no
+// exponentials here (llvmpipe would run them, masked, for every ray).
 vec3 medium_transmittance(vec3 absorption, float t)
 {
+    if (!SCENE_HAS_TRANSMISSION)
+        return vec3(1.0);
     return any(greaterThan(absorption, vec3(0.0))) ? exp(-absorption * t) : vec3(1.0);
 }
 
