@@ -59,15 +59,13 @@ vec3 direct_light(Material material, vec3 position, vec3 surface_origin, vec3 wo
     if (SCENE_HAS_EMITTERS && params.emissive_count > 0u) {
         AreaLightSample light = emissive_sample(position, light_xi, params.emissive_count,
                                                 params.emissive_weight_total);
-        vec3 reflected = bsdf_eval_cos(material, wo, light.to_light, shading_normal,
-                                       geometric_normal, front);
+        float reflected_pdf;
+        vec3 reflected = bsdf_eval_cos_pdf(material, wo, light.to_light, shading_normal,
+                                           geometric_normal, front, reflected_pdf);
         if (light.pdf_solid_angle > 0.0) {
             float weight = bsdf_sample_count > 0.0
                                ? mis_power(light.pdf_solid_angle,
-                                           bsdf_sample_count *
-                                               bsdf_pdf(material, wo, light.to_light,
-                                                        shading_normal, geometric_normal,
-                                                        front))
+                                           bsdf_sample_count * reflected_pdf)
                                : 1.0;
             area_contribution = throughput * reflected * light.radiance *
                                 (weight / light.pdf_solid_angle);

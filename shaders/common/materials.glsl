@@ -377,34 +377,16 @@ float material_reflection_pdf(Material material, LobeChoice choice, float cos_o,
 }
 
 // f·|cos(wi)| of the non-delta lobes for light arriving from wi (unit, away
-// from the surface); 0 for delta-only materials and for wi below the surface.
+// from the surface), and in pdf the solid-angle density with which bsdf_sample
+// returns wi: 0 both for delta-only materials and for wi below the surface (or
+// a direction sampling never returns). One walk for both: next-event
+// estimation needs both for the same direction, and the two share the lobe
+// normal, the half vector and the microfacet terms.
 // front: the side wo lies on (transmissive materials' Fresnel depends on it).
-vec3 bsdf_eval_cos(Material material, vec3 wo, vec3 wi, vec3 shading_normal,
-                   vec3 geometric_normal, bool front)
+vec3 bsdf_eval_cos_pdf(Material material, vec3 wo, vec3 wi, vec3 shading_normal,
+                       vec3 geometric_normal, bool front, out float pdf)
 {
-    vec3 normal = material_lobe_normal(wo, shading_normal, geometric_normal);
-    float cos_i = dot(wi, normal);
-    float cos_o = max(dot(wo, normal), 1e-6);
-    float eta = material_eta(material, front);
-    if (dot(wi, geometric_normal) < 0.0) {
-        vec3 h;
-        if (cos_i >= 0.0 || !material_has_rough_transmission(material) ||
-            !ggx_refraction_half_vector(wo, wi, normal, eta, h))
-            return vec3(0.0);
-        return material_transmission_eval(material, wo, wi, h, normal, eta);
-    }
-    if (cos_i <= 0.0 || dot(wi, geometric_normal) == 0.0)
-        return vec3(0.0);
-    vec3 h = normalize(wo + wi);
-    return material_reflection_eval(material, cos_o, cos_i, dot(h, normal),
-                                     clamp(dot(wo, h), 0.0, 1.0), eta);
-}
-
-// Solid-angle density with which bsdf_sample returns wi (non-delta lobes;
-// 0 for delta-only materials and for directions it never returns).
-float bsdf_pdf(Material material, vec3 wo, vec3 wi, vec3 shading_normal, vec3 geometric_normal,
-               bool front)
-{
+    pdf = 0.0;
     vec3 normal = material_lobe_normal(wo, shading_normal, geometric_normal);
     float cos_i = dot(wi, normal);
     float cos_o = max(dot(wo, normal), 1e-6);
@@ -414,14 +396,33 @@ float bsdf_pdf(Material material, vec3 wo, vec3 wi, vec3 shading_normal, vec3 ge
         vec3 h;
         if (cos_i >= 0.0 || !material_has_rough_transmission(material) ||
             !ggx_refraction_half_vector(wo, wi, normal, eta, h))
-            return 0.0;
-        return choice.transmission *
-               ggx_transmission_pdf(wo, wi, h, normal, eta, material_alpha(material));
+            return vec3(0.0);
+        pdf = choice.transmission *
+              ggx_transmission_pdf(wo, wi, h, normal, eta, material_alpha(material));
+        return material_transmission_eval(material, wo, wi, h, normal, eta);
     }
     if (cos_i <= 0.0 || dot(wi, geometric_normal) == 0.0)
-        return 0.0;
+        return vec3(0.0);
     vec3 h = normalize(wo + wi);
-    return material_reflection_pdf(material, choice, cos_o, cos_i, dot(h, normal));
+    float cos_h = dot(h, normal);
+    pdf = material_reflection_pdf(material, choice, cos_o, cos_i, cos_h);
+    return material_reflection_eval(material, cos_o, cos_i, cos_h, clamp(dot(wo, h), 0.0, 1.0),
+                                    eta);
+}
+
+vec3 bsdf_eval_cos(Material material, vec3 wo, vec3 wi, vec3 shading_normal,
+                   vec3 geometric_normal, bool front)
+{
+    float pdf; // unused: the compiler drops its terms
+    return bsdf_eval_cos_pdf(material, wo, wi, shading_normal, geometric_normal, front, pdf);
+}
+
+float bsdf_pdf(Material material, vec3 wo, vec3 wi, vec3 shading_normal, vec3 geometric_normal,
+               bool front)
+{
+    float pdf;
+    bsdf_eval_cos_pdf(material, wo, wi, shading_normal, geometric_normal, front, pdf);
+    return pdf;
 }
 
 // Whether the material has any non-delta lobe: where next-event estimation
