@@ -17,24 +17,25 @@
 //                    vertex's unoccluded shadow rays, then the vertex at the
 //                    hit, which defers its shadow rays and writes the next
 //                    ray. A path left with nothing to trace is stored marked
-//                    QUEUE_PENDING, for the next WAVE_FINISH.
-//   WAVE_FINISH(_RGB) paths whose ray missed or that have none (only shadow
-//                    rays were left, or pending): the shadow rays' light, then
-//                    the film (WAVE_FINISH writes the AOV film too). Its own
-//                    module without the vertex's code, and the only one with
-//                    the film's: llvmpipe runs every line of a module for
-//                    every invocation, masked where no lane takes it
-//                    (bench/RESULTS.md, "Code that no lane runs"), so a shade
-//                    that finished its ended paths paid the film's loads and
-//                    stores for all of them.
+//                    QUEUE_PENDING (the host traces nothing for it and drops it).
+//   WAVE_FINISH(_RGB) once a pass's waves are done, invocation i finishes
+//                    pixel i's path, ended in whichever wave: the light of its
+//                    last shadow rays (their hits stay in the slot, which no
+//                    other path uses in the pass), then the film (WAVE_FINISH
+//                    writes the AOV film too). One dispatch a pass, not one a
+//                    wave (each a submission's worth of llvmpipe's thread
+//                    handoffs), in its own module without the vertex's code,
+//                    and the only one with the film's: llvmpipe runs every line
+//                    of a module for every invocation, masked where no lane
+//                    takes it (bench/RESULTS.md, "Code that no lane runs").
 // The paths of one dispatch are a slice of the image's pixels (push.first_pixel
 // on), so the buffers stay bounded at any size.
 // Per path p, what the host reads back: queue[p] = ray live (bit 0) | shadow
 // rays << 1 | QUEUE_PENDING (pf_bih.h's PF_BIH_WAVE_*), the ray rays[p] and the
 // shadow rays shadow_rays[p·K + k] (K = 1 + params.light_count,
 // direct_light.glsl's candidates); what it writes: hits[p] and
-// shadow_hits[p·K + k]. The host drops paths whose queue word is 0 from the
-// next dispatch's active list.
+// shadow_hits[p·K + k]. The host keeps only the paths whose ray hit a surface
+// in the next dispatch's active list.
 
 layout(local_size_x = 64) in;
 
@@ -184,7 +185,7 @@ void main()
     uint invocation = gl_GlobalInvocationID.x;
     if (invocation >= push.count)
         return;
-    uint p = WAVE_MODE == WAVE_GENERATE
+    uint p = WAVE_MODE == WAVE_GENERATE || FINISHING
                  ? invocation
                  : texelFetch(active_paths, int(push.first_active + invocation)).x;
     uint pixel_index = push.first_pixel + p;
@@ -216,8 +217,7 @@ void main()
     if (more)
         rays[p] = Ray(vec4(path_origin, 0.0), vec4(path_direction, infinity));
     if (FINISHING) {
-        path_finish(pixel_index, push.sample_index);
-        queue[p] = 0u;
+        path_finish(pixel_index, push.sample_index); // the next pass's generate rewrites queue[p]
     } else {
         path_store(p);
         queue[p] = (more ? 1u : 0u) | wave_shadow_count << 1u |

@@ -3,7 +3,8 @@
  * a device whose memory is the host's: a dispatch advances every live path
  * of a slice of the image by one vertex and writes its rays into device
  * buffers; the host traces them in place (wave_trace.c) and drops the paths
- * that are done; the next dispatch reads the hits. The megakernel
+ * that are done; the next dispatch reads the hits. Once no path of the slice
+ * is left, one dispatch finishes them all into the film. The megakernel
  * (frame_reference.c) traces inside its one dispatch a pass with the
  * device's GLSL traversal instead; both run reference_path.glsl's paths.
  */
@@ -218,14 +219,17 @@ pf_status pf_reference_wave_passes(pf_reference_wave *wave, pf_vk_buffer *const 
                 if (status != PF_OK || remaining == 0)
                     break;
                 /* Only the paths with a hit can have rays to trace after this wave. */
-                wave_push pushes[2] = {{sample, hit, (uint32_t)first, 0},
-                                       {sample, remaining - hit, (uint32_t)first, hit}};
-                status = dispatch_wave(wave, wave_pipelines, pushes, 2, buffers, buffer_count,
-                                       NULL, progress, err);
                 live = hit;
                 if (live == 0)
                     break;
+                wave_push shade = {sample, hit, (uint32_t)first, 0};
+                status = dispatch_wave(wave, wave_pipelines, &shade, 1, buffers, buffer_count,
+                                       NULL, progress, err);
             }
+            wave_push finish = {sample, slice, (uint32_t)first, 0};
+            if (status == PF_OK)
+                status = dispatch_wave(wave, &wave_pipelines[1], &finish, 1, buffers,
+                                       buffer_count, NULL, progress, err);
         }
         if (status == PF_OK)
             progress->passes++;
