@@ -23,15 +23,6 @@ typedef struct stack_entry {
     float t_near, t_far;
 } stack_entry;
 
-void pf_bih_ray_prepare(const pf_ray *ray, pf_bih_ray *prepared)
-{
-    for (int k = 0; k < 3; k++) {
-        prepared->parallel[k] = !(fabsf(ray->direction[k]) >= FLT_MIN);
-        prepared->inv[k] = prepared->parallel[k] ? 0.0f : 1.0f / ray->direction[k];
-    }
-    /* The watertight test's per-ray part once (ray_triangle.glsl's RayShear). */
-    pf_ray_shear_setup(ray->direction, &prepared->shear);
-}
 
 int pf_bih_ray_enter(const pf_bih *bih, const pf_ray *ray, const pf_bih_ray *prepared,
                      float *t_near_out, float *t_far_out)

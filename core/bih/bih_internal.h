@@ -255,7 +255,40 @@ typedef struct pf_bih_ray {
     pf_ray_shear shear;
 } pf_bih_ray;
 
-void pf_bih_ray_prepare(const pf_ray *ray, pf_bih_ray *prepared);
+/*
+ * The watertight test's per-ray part (pf_ray_shear_setup's body, ray_triangle.glsl's
+ * RayShear): inline here because the traversals set it up once a ray, and as a call into
+ * another file it was ~3 % of a wavefront frame's host time.
+ */
+static inline void pf_bih_shear_setup(const float direction[3], pf_ray_shear *s)
+{
+    float ax_abs = fabsf(direction[0]), ay_abs = fabsf(direction[1]), az_abs = fabsf(direction[2]);
+    int kz = ax_abs > ay_abs ? (ax_abs > az_abs ? 0 : 2) : (ay_abs > az_abs ? 1 : 2);
+    int kx = kz == 2 ? 0 : kz + 1;
+    int ky = kx == 2 ? 0 : kx + 1;
+    if (direction[kz] < 0.0f) {
+        int swap_axis = kx;
+        kx = ky;
+        ky = swap_axis;
+    }
+    s->kx = kx;
+    s->ky = ky;
+    s->kz = kz;
+    s->valid = direction[kz] != 0.0f;
+    float dz = direction[kz];
+    s->sx = s->valid ? direction[kx] / dz : 0.0f;
+    s->sy = s->valid ? direction[ky] / dz : 0.0f;
+    s->sz = s->valid ? 1.0f / dz : 0.0f;
+}
+
+static inline void pf_bih_ray_prepare(const pf_ray *ray, pf_bih_ray *prepared)
+{
+    for (int k = 0; k < 3; k++) {
+        prepared->parallel[k] = !(fabsf(ray->direction[k]) >= FLT_MIN);
+        prepared->inv[k] = prepared->parallel[k] ? 0.0f : 1.0f / ray->direction[k];
+    }
+    pf_bih_shear_setup(ray->direction, &prepared->shear);
+}
 int pf_bih_ray_enter(const pf_bih *bih, const pf_ray *ray, const pf_bih_ray *prepared,
                      float *t_near, float *t_far);
 pf_status pf_bih_walk(const pf_bih *bih, const pf_ray *ray, const pf_bih_ray *prepared,

@@ -174,23 +174,7 @@ static int column_exponent(float a, float b, float c)
 
 void pf_ray_shear_setup(const float direction[3], pf_ray_shear *s)
 {
-    float ax_abs = fabsf(direction[0]), ay_abs = fabsf(direction[1]), az_abs = fabsf(direction[2]);
-    int kz = ax_abs > ay_abs ? (ax_abs > az_abs ? 0 : 2) : (ay_abs > az_abs ? 1 : 2);
-    int kx = kz == 2 ? 0 : kz + 1;
-    int ky = kx == 2 ? 0 : kx + 1;
-    if (direction[kz] < 0.0f) {
-        int swap_axis = kx;
-        kx = ky;
-        ky = swap_axis;
-    }
-    s->kx = kx;
-    s->ky = ky;
-    s->kz = kz;
-    s->valid = direction[kz] != 0.0f;
-    float dz = direction[kz];
-    s->sx = s->valid ? direction[kx] / dz : 0.0f;
-    s->sy = s->valid ? direction[ky] / dz : 0.0f;
-    s->sz = s->valid ? 1.0f / dz : 0.0f;
+    pf_bih_shear_setup(direction, s);
 }
 
 int pf_ray_triangle_watertight(const float origin[3], const float direction[3],
