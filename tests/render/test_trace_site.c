@@ -173,11 +173,11 @@ PF_TEST(a_box_with_lights_glass_and_metals_is_the_same_image_from_both_drivers)
 
 PF_TEST(an_image_larger_than_a_slice_gets_every_pixel_once)
 {
-    /* 640 × 420 pixels: more than the wavefront's 2^17 paths at once, so three slices. */
+    /* 640 × 420 pixels: more than the wavefront's 2^18 paths at once, so two slices. */
     ref_scene scene;
     lit_box(&scene);
     pf_render_settings settings = ref_settings(640, 420, 1, 5, 0);
-    check_drivers_agree(&scene.frame, &settings, "three slices", 0.01);
+    check_drivers_agree(&scene.frame, &settings, "two slices", 0.01);
     ref_scene_free(&scene);
 }
 
