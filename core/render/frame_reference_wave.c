@@ -14,14 +14,10 @@
 #include <string.h>
 
 /*
- * Paths in flight at once: the image goes in equal slices of at most this many pixels, so
- * the wavefront's buffers (~200 bytes a path plus 64 a shadow slot) stay bounded at any
- * size, and a slice's paths stay within a CPU's last-level cache: on this project's hosts
- * (32 MiB L3) a 640x480 frame in slices of 2^18 and the rest ran 5-10 % slower than in
- * slices of ~100,000 (bench/RESULTS.md, "Tenth stop"), and fewer, larger waves were
- * slower still...
+ * Paths in flight at once: the image goes in slices of at most this many pixels, so the
+ * wavefront's buffers (~200 bytes a path plus 64 a shadow slot) stay bounded at any size...
  */
-#define WAVE_MAX_PATHS (1u << 17)
+#define WAVE_MAX_PATHS (1u << 18)
 /* ... and the buffers of a slice at most this many bytes (a scene with many punctual lights:
  * each adds a shadow slot, 64 bytes, to every path). */
 #define WAVE_MAX_BYTES (256ull << 20)
@@ -85,9 +81,6 @@ pf_status pf_reference_wave_create(pf_renderer *renderer, const pf_render_settin
                           (uint64_t)wave->shadow_slots * (sizeof(pf_ray) + 16u + sizeof(pf_hit));
     if (capacity > WAVE_MAX_BYTES / path_bytes)
         capacity = WAVE_MAX_BYTES / path_bytes;
-    if (capacity > 0) /* equal slices: no small last one with waves of its own */
-        capacity = (pixels + (pixels + capacity - 1) / capacity - 1) /
-                   ((pixels + capacity - 1) / capacity);
     if (capacity == 0) {
         free(wave);
         return pf_error_set(err, PF_ERR_LIMIT,
