@@ -6,6 +6,7 @@
  * one that does not. Prints ns per invocation-step and the ratios; every
  * path must sum the same words.
  */
+#include "bench_dispatch.h"
 #include "pf_vk.h"
 
 #include <stdio.h>
@@ -17,30 +18,6 @@
 #define PATHS 3 /* storage, R32 texels, RGBA32 texels */
 
 static const char *const path_names[PATHS] = {"storage buffer", "R32 texels", "RGBA32 texels"};
-
-static double run(pf_vk_context *ctx, pf_vk_pipeline *pipeline, pf_vk_buffer **buffers,
-                  uint32_t nodes, pf_error *err)
-{
-    double best = -1.0;
-    for (int r = 0; r < REPEATS; r++) {
-        pf_vk_commands *cmds = NULL;
-        if (pf_vk_commands_begin(ctx, &cmds, err) != PF_OK)
-            return -1.0;
-        const uint32_t push[2] = {nodes, STEPS};
-        double start = pf_time_ms();
-        pf_status status = pf_vk_cmd_dispatch(cmds, pipeline, buffers, 4, push, sizeof push,
-                                              INVOCATIONS / 64, 1, 1, err);
-        if (status == PF_OK)
-            status = pf_vk_commands_submit(cmds, err);
-        double ms = pf_time_ms() - start;
-        pf_vk_commands_destroy(cmds);
-        if (status != PF_OK)
-            return -1.0;
-        if (r > 0 && (best < 0.0 || ms < best)) /* the first run pays the shader compile */
-            best = ms;
-    }
-    return best;
-}
 
 int main(void)
 {
@@ -87,7 +64,9 @@ int main(void)
         buffers[1] = buffers[3] = buffers[0]; /* the same words, bound every way */
         double ms[PATHS] = {-1.0, -1.0, -1.0};
         for (int path = 0; ok && path < PATHS; path++) {
-            ms[path] = run(ctx, pipelines[path], buffers, nodes, &err);
+            const uint32_t push[2] = {nodes, STEPS};
+            ms[path] = bench_best_dispatch_ms(ctx, pipelines[path], buffers, 4, push,
+                                              sizeof push, INVOCATIONS / 64, REPEATS, &err);
             ok = ms[path] > 0.0 && pf_vk_buffer_download(ctx, buffers[2], 0, sums[path],
                                                          INVOCATIONS * 4, &err) == PF_OK;
         }

@@ -5,6 +5,7 @@
  * the dispatch costs) (shaders/store_probe.comp). Prints ns per record and
  * checks that both ways wrote the same bytes.
  */
+#include "bench_dispatch.h"
 #include "pf_vk.h"
 
 #include <stdio.h>
@@ -17,30 +18,6 @@
 #define PATHS 3
 
 static const char *const path_names[PATHS] = {"10 vec4", "5 u64vec4", "one word"};
-
-static double run(pf_vk_context *ctx, pf_vk_pipeline *pipeline, pf_vk_buffer **buffers,
-                  pf_error *err)
-{
-    double best = -1.0;
-    for (int r = 0; r < REPEATS; r++) {
-        pf_vk_commands *cmds = NULL;
-        if (pf_vk_commands_begin(ctx, &cmds, err) != PF_OK)
-            return -1.0;
-        const uint32_t push[1] = {INVOCATIONS};
-        double start = pf_time_ms();
-        pf_status status = pf_vk_cmd_dispatch(cmds, pipeline, buffers, 1, push, sizeof push,
-                                              INVOCATIONS / 64, 1, 1, err);
-        if (status == PF_OK)
-            status = pf_vk_commands_submit(cmds, err);
-        double ms = pf_time_ms() - start;
-        pf_vk_commands_destroy(cmds);
-        if (status != PF_OK)
-            return -1.0;
-        if (r > 0 && (best < 0.0 || ms < best)) /* the first run pays the shader compile */
-            best = ms;
-    }
-    return best;
-}
 
 int main(void)
 {
@@ -66,7 +43,9 @@ int main(void)
     }
     double ms[PATHS] = {-1.0, -1.0, -1.0};
     for (int path = 0; ok && path < PATHS; path++) {
-        ms[path] = run(ctx, pipelines[path], &records, &err);
+        const uint32_t push[1] = {INVOCATIONS};
+        ms[path] = bench_best_dispatch_ms(ctx, pipelines[path], &records, 1, push, sizeof push,
+                                          INVOCATIONS / 64, REPEATS, &err);
         ok = ms[path] > 0.0;
         if (ok && path < 2)
             ok = pf_vk_buffer_download(ctx, records, 0, seen[path], bytes, &err) == PF_OK;
