@@ -23,7 +23,6 @@ typedef struct stack_entry {
     float t_near, t_far;
 } stack_entry;
 
-
 int pf_bih_ray_enter(const pf_bih *bih, const pf_ray *ray, const pf_bih_ray *prepared,
                      float *t_near_out, float *t_far_out)
 {

@@ -112,11 +112,11 @@ static const pipeline_spec pipeline_specs[PF_PIPELINE_COUNT] = {
 };
 
 /* Where pipeline id for the current frame lives: its surface features, and its pixel filter
- * where it samples the camera (the others share filter 0's slot). */
+ * (below PF_PIXEL_FILTER_COUNT: run_stages sets it) where it samples the camera (the others
+ * share filter 0's slot). */
 static pf_vk_pipeline **pipeline_slot(pf_renderer *renderer, pf_renderer_pipeline_id id)
 {
-    uint32_t filter = pipeline_specs[id].camera ? renderer->pixel_filter % PF_PIXEL_FILTER_COUNT
-                                                : 0u;
+    uint32_t filter = pipeline_specs[id].camera ? renderer->pixel_filter : 0u;
     return &renderer->pipelines[filter][renderer->surface_features % PF_SURFACE_VARIANTS][id];
 }
 
@@ -136,8 +136,8 @@ pf_status pf_renderer_pipeline(pf_renderer *renderer, pf_renderer_pipeline_id id
         for (uint32_t c = 0; c < PF_SCENE_SPEC_CONSTANTS; c++)
             constants[count++] = (pf_vk_spec_constant){ids[c], values[c]};
         if (spec->camera)
-            constants[count++] = (pf_vk_spec_constant){
-                PF_SPEC_PIXEL_FILTER, renderer->pixel_filter % PF_PIXEL_FILTER_COUNT};
+            constants[count++] = (pf_vk_spec_constant){PF_SPEC_PIXEL_FILTER,
+                                                       renderer->pixel_filter};
         if (spec->specialized)
             constants[count++] = spec->constant;
         /* The kernel's "_surfaces" variant where the frame uses them (pf_scene.h). */
