@@ -18,6 +18,18 @@
 //                    hit, which defers its shadow rays and writes the next
 //                    ray. A path left with nothing to trace is stored marked
 //                    QUEUE_PENDING (the host traces nothing for it and drops it).
+//   WAVE_TAIL        once few paths are left (frame_reference_wave.c): each lane
+//                    takes the next path of active_paths[first_active...] from
+//                    tail.next, shades it as WAVE_SHADE does, then traces its
+//                    rays itself (the device's GLSL traversal, the megakernel's
+//                    trace), its shadow rays as they are made, vertex by vertex
+//                    to the path's end, and takes the next path; the paths are
+//                    stored ended, nothing left to trace. A wave of a few hundred
+//                    paths costs its submission and dispatch more than its
+//                    work: the tail's paths end in one dispatch, not one a
+//                    vertex, and a lane whose path ended takes another (up to
+//                    a bound, tail_main), so the lanes stay busy until the
+//                    list runs out.
 //   WAVE_FINISH(_RGB) once a pass's waves are done, invocation i finishes
 //                    pixel i's path, ended in whichever wave: the light of its
 //                    last shadow rays (their hits stay in the slot, which no
@@ -43,6 +55,7 @@ const uint WAVE_SHADE = 0u;
 const uint WAVE_GENERATE = 1u;
 const uint WAVE_FINISH_RGB = 2u;
 const uint WAVE_FINISH = 3u;
+const uint WAVE_TAIL = 4u;
 layout(constant_id = 0) const uint WAVE_MODE = WAVE_SHADE;
 const bool FINISHING = WAVE_MODE == WAVE_FINISH || WAVE_MODE == WAVE_FINISH_RGB;
 // The film is written only where paths finish; WAVE_SHADE's AOV paths finish in WAVE_FINISH.
@@ -101,13 +114,23 @@ layout(set = 0, binding = WAVE_BINDING + 7) uniform usamplerBuffer active_paths;
 layout(set = 0, binding = WAVE_BINDING + 8) uniform samplerBuffer paths_in;        // WavePath: 9 texels
 layout(set = 0, binding = WAVE_BINDING + 9) uniform usamplerBuffer queue_in;
 layout(set = 0, binding = WAVE_BINDING + 10) uniform samplerBuffer shadow_light;   // vec4 a slot
+// WAVE_TAIL's next path to take (the host zeroes it before the dispatch).
+layout(std430, set = 0, binding = WAVE_BINDING + 11) buffer TailCursor { uint next; } tail;
 
 // This invocation's shadow rays: the first slot and how many so far.
 uint wave_shadow_base = 0u;
 uint wave_shadow_count = 0u;
 
+// WAVE_TAIL's light samples of this vertex whose shadow rays were unoccluded.
+vec3 tail_unoccluded = vec3(0.0);
+
 void shadow_ray_defer(vec3 origin, vec3 direction, float tmax, vec3 contribution)
 {
+    if (WAVE_MODE == WAVE_TAIL) { // traced now, as the megakernel's direct_light does
+        if (trace(origin, direction, tmax, true).triangle == NO_HIT)
+            tail_unoccluded += contribution;
+        return;
+    }
     uint slot = wave_shadow_base + wave_shadow_count;
     wave_shadow_count++;
     shadow_rays[slot] = Ray(vec4(origin, 0.0), vec4(direction, tmax));
@@ -179,8 +202,91 @@ void path_store(uint p)
                         vec4(path_normal_aov, 0.0));
 }
 
+// Loads path p (pixel's) and adds the light of its previous vertex's unoccluded shadow
+// rays, in the megakernel's order: before this vertex's emission. Returns whether its
+// ray waits for a hit.
+bool path_resume(uint p, uvec2 pixel)
+{
+    path_load(p, pixel);
+    uint waiting = texelFetch(queue_in, int(p)).x;
+    vec3 unoccluded = vec3(0.0);
+    for (uint k = 0u; k < ((waiting >> 1u) & QUEUE_SHADOWS); k++)
+        if (texelFetch(shadow_hits, int(4u * (wave_shadow_base + k) + 1u)).x == NO_HIT)
+            unoccluded += texelFetch(shadow_light, int(wave_shadow_base + k)).xyz;
+    path_add(unoccluded, path_shadow_region, false);
+    return (waiting & 1u) != 0u;
+}
+
+// The hit the host traced for path p's ray.
+BihHit traced_hit(uint p)
+{
+    int at = int(4u * p);
+    return BihHit(uintBitsToFloat(texelFetch(hits, at).x), texelFetch(hits, at + 1).x,
+                  uintBitsToFloat(texelFetch(hits, at + 2).x),
+                  uintBitsToFloat(texelFetch(hits, at + 3).x));
+}
+
+uvec2 pixel_of(uint p)
+{
+    uint pixel_index = push.first_pixel + p;
+    return uvec2(pixel_index % params.width, pixel_index / params.width);
+}
+
+// WAVE_TAIL: every lane runs paths to their ends, taking the next from tail.next until
+// none is left or it has shaded TAIL_LANE_VERTICES vertices: llvmpipe ends every loop of an
+// invocation once all of them together have gone round 65,535 times (gallivm's loop
+// limiter: the paths would end short, silently), so a lane must not run an unbounded share
+// of the list. With the bound, a lane runs at most TAIL_LANE_VERTICES + params.max_path_depth
+// vertices, 1.5 times the megakernel's own worst case. tail.next ends past the paths taken:
+// the host runs the tail again for any left, and fails the frame if a path it was given is
+// still queued (cut short).
+// The loop's shape matters to the image: the megakernel's and the wave's vertex code round
+// alike here (test_trace_site compares them bit for bit); a lane a path, with the hit's
+// vertex before the loop, rounded otherwise in hundreds of pixels (llvmpipe fuses a·b + c
+// where the product has one use, and what has one use depends on the code around it).
+const uint TAIL_LANE_VERTICES = 32u;
+void tail_main()
+{
+    const float infinity = uintBitsToFloat(0x7f800000u);
+    uint p = 0u, vertices = 0u, rays = 0u;
+    bool holding = false; // a path whose next vertex is this lane's to shade
+    for (;;) {
+        BihHit hit = BihHit(-1.0, NO_HIT, 0.0, 0.0);
+        if (!holding) {
+            if (vertices >= TAIL_LANE_VERTICES)
+                break;
+            uint next = atomicAdd(tail.next, 1u);
+            if (next >= push.count)
+                break;
+            p = texelFetch(active_paths, int(push.first_active + next)).x;
+            wave_shadow_base = p * (params.light_count + 1u);
+            if (path_resume(p, pixel_of(p)))
+                hit = traced_hit(p);
+        } else {
+            hit = trace(path_origin, path_direction, infinity, false);
+            path_rays++;
+        }
+        tail_unoccluded = vec3(0.0);
+        holding = path_vertex(hit);
+        vertices++;
+        path_add(tail_unoccluded, path_shadow_region, false);
+        if (!holding) {
+            path_store(p);
+            queue[p] = 0u; // ended, nothing left to trace: the finish adds no shadow rays
+            rays += path_rays;
+        }
+    }
+    uint previous_low = atomicAdd(counters.rays_low, rays);
+    if (previous_low + rays < previous_low)
+        atomicAdd(counters.rays_high, 1u);
+}
+
 void main()
 {
+    if (WAVE_MODE == WAVE_TAIL) {
+        tail_main();
+        return;
+    }
     const float infinity = uintBitsToFloat(0x7f800000u);
     uint invocation = gl_GlobalInvocationID.x;
     if (invocation >= push.count)
@@ -189,30 +295,15 @@ void main()
                  ? invocation
                  : texelFetch(active_paths, int(push.first_active + invocation)).x;
     uint pixel_index = push.first_pixel + p;
-    uvec2 pixel = uvec2(pixel_index % params.width, pixel_index / params.width);
+    uvec2 pixel = pixel_of(p);
     wave_shadow_base = p * (params.light_count + 1u);
     bool more;
     if (WAVE_MODE == WAVE_GENERATE) {
         path_begin(pixel, push.sample_index);
         more = true;
     } else {
-        path_load(p, pixel);
-        uint waiting = texelFetch(queue_in, int(p)).x;
-        // The previous vertex's light samples, in the megakernel's order: before this
-        // vertex's emission.
-        vec3 unoccluded = vec3(0.0);
-        for (uint k = 0u; k < ((waiting >> 1u) & QUEUE_SHADOWS); k++)
-            if (texelFetch(shadow_hits, int(4u * (wave_shadow_base + k) + 1u)).x == NO_HIT)
-                unoccluded += texelFetch(shadow_light, int(wave_shadow_base + k)).xyz;
-        path_add(unoccluded, path_shadow_region, false);
-        more = false;
-        if (!FINISHING && (waiting & 1u) != 0u) {
-            int at = int(4u * p);
-            more = path_vertex(BihHit(uintBitsToFloat(texelFetch(hits, at).x),
-                                      texelFetch(hits, at + 1).x,
-                                      uintBitsToFloat(texelFetch(hits, at + 2).x),
-                                      uintBitsToFloat(texelFetch(hits, at + 3).x)));
-        }
+        bool waits = path_resume(p, pixel);
+        more = !FINISHING && waits && path_vertex(traced_hit(p));
     }
     if (more)
         rays[p] = Ray(vec4(path_origin, 0.0), vec4(path_direction, infinity));

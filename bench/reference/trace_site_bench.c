@@ -1,7 +1,9 @@
 /*
  * trace_site_bench: reference's samples per second with its rays traced on
  * the device (the megakernel, GLSL traversal) against the host (the
- * wavefront, wide AVX2 BIH traversal on every core), issue 43; with
+ * wavefront, wide AVX2 BIH traversal on every core), issue 43, and as the
+ * planner has it (auto: where the device is the CPU, the wavefront with its
+ * tails, each slice's last paths run to their ends on the device); with
  * --quality final, final's shade with its camera rays and gather rays' first
  * segments traced on the device (inside its kernels) against the host, and its
  * photon_trace stage likewise. For each
@@ -72,7 +74,8 @@ static int render(pf_renderer *renderer, const pf_scene_frame *frame, uint32_t w
     double rays = counter(&report, "shade", "rays");
     printf("    %-6s shade %9.1f ms  GPU %9.1f ms  host trace %8.1f ms  waves %5.0f  "
            "%.3g paths/s  %.3g rays/s",
-           site == PF_TRACE_HOST ? "host" : "device", wall, counter(&report, "shade", "gpu"),
+           site == PF_TRACE_HOST ? "host" : site == PF_TRACE_AUTO ? "auto" : "device", wall,
+           counter(&report, "shade", "gpu"),
            counter(&report, "shade", "host_trace_ms"),
            counter(&report, "shade", quality == PF_QUALITY_FINAL ? "host_traces" : "waves"),
            paths / (wall / 1000.0), rays / (wall / 1000.0));
@@ -141,13 +144,17 @@ int main(int argc, char **argv)
         }
         printf("\n%s: %u triangles, %u lights\n", argv[s], frame.triangle_count,
                frame.light_count);
-        pf_image device_image = {0}, host_image = {0};
-        site_result device = {0}, host = {0};
+        pf_image device_image = {0}, host_image = {0}, auto_image = {0};
+        site_result device = {0}, host = {0}, automatic = {0};
+        /* final's planner puts its rays where `host` does on a CPU, `device` elsewhere. */
+        int with_auto = quality == PF_QUALITY_REFERENCE;
         for (unsigned r = 0; r < rounds && !failed; r++)
             failed = !render(renderer, &frame, width, height, spp, PF_TRACE_DEVICE,
                              &device_image, &device) ||
                      !render(renderer, &frame, width, height, spp, PF_TRACE_HOST, &host_image,
-                             &host);
+                             &host) ||
+                     (with_auto && !render(renderer, &frame, width, height, spp, PF_TRACE_AUTO,
+                                           &auto_image, &automatic));
         if (!failed) {
             pf_image_metrics metrics;
             if (pf_image_compare(&host_image, &device_image, &metrics, &err) != PF_OK)
@@ -160,9 +167,18 @@ int main(int argc, char **argv)
                    host.best_paths_per_s, host.best_paths_per_s / device.best_paths_per_s,
                    quality == PF_QUALITY_FINAL ? NAN : host.rays / (host.host / 1000.0),
                    metrics.rmse, metrics.max_abs_error);
+            if (with_auto &&
+                pf_image_compare(&auto_image, &device_image, &metrics, &err) == PF_OK)
+                printf("  best: auto %.1f ms (%.3g paths/s): auto/device %.2fx, auto/host "
+                       "%.2fx; images: RMSE %.3g, max abs %.3g against device's\n",
+                       automatic.best_wall, automatic.best_paths_per_s,
+                       automatic.best_paths_per_s / device.best_paths_per_s,
+                       automatic.best_paths_per_s / host.best_paths_per_s, metrics.rmse,
+                       metrics.max_abs_error);
         }
         pf_image_free(&device_image);
         pf_image_free(&host_image);
+        pf_image_free(&auto_image);
         pf_scene_frame_free(&frame);
         pf_scene_destroy(scene);
     }

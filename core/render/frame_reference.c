@@ -146,7 +146,8 @@ static void reference_buffers_release(pf_vk_context *ctx, reference_buffers *buf
 
 /* Renders the passes and reads the film back into image. */
 static pf_status shade(pf_renderer *renderer, const pf_scene_frame *frame,
-                       const pf_render_settings *settings, uint32_t spp, int host_traces,
+                       const pf_render_settings *settings, uint32_t spp,
+                       const pf_stage_plan *plan,
                        double frame_start, pf_image *image, pf_reference_progress *progress,
                        uint32_t *trace_threads, pf_error *err)
 {
@@ -184,15 +185,17 @@ static pf_status shade(pf_renderer *renderer, const pf_scene_frame *frame,
     pf_gpu_scene_bindings(&scene, owned.params, own, sizeof own / sizeof *own, buffers);
     pf_vk_pipeline *pipeline = NULL;
     pf_reference_wave *wave = NULL;
-    if (status == PF_OK && host_traces)
-        status = pf_reference_wave_create(renderer, settings, frame->light_count, &wave, err);
+    if (status == PF_OK && plan->host_traces)
+        status = pf_reference_wave_create(renderer, settings, frame->light_count,
+                                          plan->wave_tail_paths, &wave, err);
     else if (status == PF_OK)
         status = pf_renderer_pipeline(
             renderer, settings->aovs ? PF_PIPELINE_REFERENCE : PF_PIPELINE_REFERENCE_RGB,
             &pipeline, err);
     if (status == PF_OK && wave) {
         *trace_threads = pf_reference_wave_threads(wave);
-        /* The counters, which the wavefront's kernels only add discarded samples to. */
+        /* The counters: the wavefront's kernels add discarded samples, its tail the rays it
+         * traces and its traversals' failures. */
         static const reference_counters zero = {0, 0, 0, 0};
         status = pf_vk_cmd_upload(setup, owned.counters, 0, &zero, sizeof zero, err);
     }
@@ -219,6 +222,8 @@ static pf_status shade(pf_renderer *renderer, const pf_scene_frame *frame,
         reference_counters counters;
         status = pf_vk_buffer_download(ctx, owned.counters, 0, &counters, sizeof counters, err);
         progress->discarded += counters.discarded_samples;
+        progress->rays += ((uint64_t)counters.rays_high << 32) | counters.rays_low;
+        progress->failures += counters.traversal_failures;
     }
     pf_reference_wave_destroy(wave);
     if (status == PF_OK && !image_read) /* the wavefront's, or a budget's early end */
@@ -280,10 +285,10 @@ static pf_status reference_run(pf_frame_run *run, pf_stage_id stage, uint32_t pa
     if (status != PF_OK)
         return status;
     double shade_start = pf_time_ms();
-    pf_reference_progress progress = {0, 0, 0, 0, -1.0, 0, 0.0};
+    pf_reference_progress progress = {0, 0, 0, 0, -1.0, 0, 0.0, 0};
     uint32_t trace_threads = 0;
     if (status == PF_OK)
-        status = shade(renderer, frame, settings, spp, plan->host_traces, frame_start, image,
+        status = shade(renderer, frame, settings, spp, plan, frame_start, image,
                        &progress, &trace_threads, err);
     if (status == PF_OK)
         status = pf_render_check_traversal(renderer, progress.failures, err);
@@ -309,6 +314,7 @@ static pf_status reference_run(pf_frame_run *run, pf_stage_id stage, uint32_t pa
                 pf_stage_add_counter(row, "waves", progress.waves);
                 pf_stage_add_counter(row, "host_trace_ms", progress.host_trace_ms);
                 pf_stage_add_counter(row, "trace_threads", trace_threads);
+                pf_stage_add_counter(row, "tail_paths", (double)progress.tail_paths);
             }
         }
         report_caustics(report, frame);

@@ -4,7 +4,9 @@
  * of a slice of the image by one vertex and writes its rays into device
  * buffers; the host traces them in place (wave_trace.c) and drops the paths
  * that are done; the next dispatch reads the hits. Once no path of the slice
- * is left, one dispatch finishes them all into the film. The megakernel
+ * is left, one dispatch finishes them all into the film. Once a wave would
+ * shade only a few paths, one tail dispatch runs them to their ends instead,
+ * tracing with the device's GLSL traversal (below). The megakernel
  * (frame_reference.c) traces inside its one dispatch a pass with the
  * device's GLSL traversal instead; both run reference_path.glsl's paths.
  */
@@ -22,6 +24,11 @@
  * each adds a shadow slot, 64 bytes, to every path). */
 #define WAVE_MAX_BYTES (256ull << 20)
 #define WAVE_GROUP_SIZE 64u
+/* The tail's workgroups a trace thread (as many as the device's, on lavapipe): llvmpipe
+ * runs a workgroup's lanes 8 at a time, so a thread's first lanes take paths until the
+ * list is empty or their vertices run out, and the later ones find it empty; a second
+ * workgroup a thread covers a device with more threads than the host traces on. */
+#define WAVE_TAIL_GROUPS_PER_THREAD 2u
 /* WavePath in render_reference_wave.comp: 9 vec4. */
 #define WAVE_PATH_BYTES (9u * 16u)
 
@@ -38,6 +45,7 @@ enum {
     WAVE_SHADOW_HITS,
     WAVE_QUEUE,
     WAVE_ACTIVE,
+    WAVE_TAIL_CURSOR,
     WAVE_BUFFER_COUNT
 };
 
@@ -48,6 +56,8 @@ struct pf_reference_wave {
     pf_vk_buffer *buffers[WAVE_BUFFER_COUNT];
     pf_bih_wave_queues queues; /* the buffers as the host sees them */
     uint32_t *active;
+    uint32_t *tail_cursor;
+    uint32_t tail_paths; /* a wave of at most this many paths goes to the tail; 0: none */
     pf_bih_wave_tracer *tracer;
 };
 
@@ -62,7 +72,8 @@ void pf_reference_wave_destroy(pf_reference_wave *wave)
 }
 
 pf_status pf_reference_wave_create(pf_renderer *renderer, const pf_render_settings *settings,
-                                   uint32_t light_count, pf_reference_wave **out, pf_error *err)
+                                   uint32_t light_count, uint32_t tail_paths,
+                                   pf_reference_wave **out, pf_error *err)
 {
     *out = NULL;
     pf_reference_wave *wave = calloc(1, sizeof *wave);
@@ -94,11 +105,11 @@ pf_status pf_reference_wave_create(pf_renderer *renderer, const pf_render_settin
     static const char *labels[WAVE_BUFFER_COUNT] = {
         "wavefront paths",        "wavefront rays",       "wavefront hits",
         "wavefront shadow rays",  "wavefront shadow light", "wavefront shadow hits",
-        "wavefront queue",        "wavefront active paths"};
+        "wavefront queue",        "wavefront active paths", "wavefront tail cursor"};
     const uint64_t sizes[WAVE_BUFFER_COUNT] = {
         capacity * WAVE_PATH_BYTES, capacity * sizeof(pf_ray), capacity * sizeof(pf_hit),
         slots * sizeof(pf_ray),     slots * 16u,               slots * sizeof(pf_hit),
-        capacity * 4u,              capacity * 4u};
+        capacity * 4u,              capacity * 4u,             4u};
     pf_status status = PF_OK;
     for (int b = 0; status == PF_OK && b < WAVE_BUFFER_COUNT; b++) {
         status = pf_vk_buffer_create(renderer->ctx, sizes[b], labels[b], &wave->buffers[b], err);
@@ -115,6 +126,8 @@ pf_status pf_reference_wave_create(pf_renderer *renderer, const pf_render_settin
         wave->queues.shadow_rays = pf_vk_buffer_host_memory(wave->buffers[WAVE_SHADOW_RAYS]);
         wave->queues.shadow_hits = pf_vk_buffer_host_memory(wave->buffers[WAVE_SHADOW_HITS]);
         wave->active = pf_vk_buffer_host_memory(wave->buffers[WAVE_ACTIVE]);
+        wave->tail_cursor = pf_vk_buffer_host_memory(wave->buffers[WAVE_TAIL_CURSOR]);
+        wave->tail_paths = tail_paths;
         status = pf_renderer_wave_tracer_create(renderer, wave->capacity, wave->shadow_slots,
                                                 &wave->tracer, err);
     }
@@ -131,11 +144,10 @@ uint32_t pf_reference_wave_threads(const pf_reference_wave *wave)
     return pf_bih_wave_tracer_threads(wave->tracer);
 }
 
-/* The dispatches of one wave (pipelines[k] over pushes[k].count paths, those of no paths
- * left out) in a submission of its own (setup's, when given: the frame's uploads and the
- * counters' zeroing go first). The dispatches touch disjoint paths and pixels: no barrier. */
-static pf_status dispatch_wave(pf_reference_wave *wave, pf_vk_pipeline *const *pipelines,
-                               const wave_push *pushes, uint32_t dispatches,
+/* One wave: pipeline's dispatch of groups workgroups in a submission of its own (setup's,
+ * when given: the frame's uploads and the counters' zeroing go first). */
+static pf_status dispatch_wave(pf_reference_wave *wave, pf_vk_pipeline *pipeline,
+                               const wave_push *push, uint32_t groups,
                                pf_vk_buffer *const *buffers, uint32_t buffer_count,
                                pf_vk_commands *setup, pf_reference_progress *progress,
                                pf_error *err)
@@ -145,12 +157,8 @@ static pf_status dispatch_wave(pf_reference_wave *wave, pf_vk_pipeline *const *p
     if (status != PF_OK)
         return status;
     int begin = pf_vk_cmd_timestamp(cmds);
-    for (uint32_t k = 0; status == PF_OK && k < dispatches; k++)
-        if (pushes[k].count > 0)
-            status = pf_vk_cmd_dispatch(cmds, pipelines[k], buffers, buffer_count, &pushes[k],
-                                        sizeof pushes[k],
-                                        (pushes[k].count + WAVE_GROUP_SIZE - 1) / WAVE_GROUP_SIZE,
-                                        1, 1, err);
+    status = pf_vk_cmd_dispatch(cmds, pipeline, buffers, buffer_count, push, sizeof *push,
+                                groups, 1, 1, err);
     int end = pf_vk_cmd_timestamp(cmds);
     if (status == PF_OK)
         status = pf_vk_commands_submit(cmds, err);
@@ -158,6 +166,44 @@ static pf_status dispatch_wave(pf_reference_wave *wave, pf_vk_pipeline *const *p
         pf_gpu_ms_add(&progress->gpu_ms, pf_commands_gpu_ms(cmds, begin, end));
     pf_vk_commands_destroy(cmds);
     progress->waves++;
+    return status;
+}
+
+/* Workgroups for count invocations. */
+static uint32_t groups_for(uint32_t count)
+{
+    return (count + WAVE_GROUP_SIZE - 1) / WAVE_GROUP_SIZE;
+}
+
+/* The tail: one dispatch runs the push->count paths of the active list to their ends (and
+ * another for those its lanes had no vertices left for, which is rare). */
+static pf_status run_tail(pf_reference_wave *wave, pf_vk_pipeline *tail, const wave_push *push,
+                          pf_vk_buffer *const *buffers, uint32_t buffer_count,
+                          pf_reference_progress *progress, pf_error *err)
+{
+    uint32_t groups = WAVE_TAIL_GROUPS_PER_THREAD * pf_bih_wave_tracer_threads(wave->tracer);
+    wave_push rest = *push;
+    pf_status status = PF_OK;
+    while (status == PF_OK && rest.count > 0) {
+        *wave->tail_cursor = 0; /* host memory: visible to the submission */
+        uint32_t needed = groups_for(rest.count);
+        status = dispatch_wave(wave, tail, &rest, needed < groups ? needed : groups, buffers,
+                               buffer_count, NULL, progress, err);
+        /* Every lane that looked for a path moved the cursor, those that found none too. */
+        uint32_t taken = *wave->tail_cursor < rest.count ? *wave->tail_cursor : rest.count;
+        if (status == PF_OK && taken == 0) /* a lane always takes one: never loop on none */
+            status = pf_error_set(err, PF_ERR_INTERNAL, "wavefront: the tail took no paths");
+        /* A path the tail ended has nothing queued; one still queued was cut short (a
+         * device that ends long loops, as llvmpipe's limiter would): never a silent bias. */
+        for (uint32_t i = 0; status == PF_OK && i < taken; i++)
+            if (wave->queues.queue[wave->active[rest.first_active + i]] != 0)
+                status = pf_error_set(err, PF_ERR_INTERNAL,
+                                      "wavefront: the device ended a tail path short (path %u)",
+                                      wave->active[rest.first_active + i]);
+        progress->tail_paths += taken;
+        rest.first_active += taken;
+        rest.count -= taken;
+    }
     return status;
 }
 
@@ -169,30 +215,35 @@ pf_status pf_reference_wave_passes(pf_reference_wave *wave, pf_vk_buffer *const 
 {
     pf_renderer *renderer = wave->renderer;
     pf_vk_buffer *buffers[PF_REFERENCE_WAVE_MAX_BUFFERS];
-    uint32_t buffer_count = reference_buffer_count + WAVE_BUFFER_COUNT + 3u;
+    /* The kernel's bindings after the reference kernel's: the wavefront's buffers up to the
+     * active list, the texel views it reads the previous dispatch's writes through, the
+     * tail's cursor. */
+    uint32_t buffer_count = reference_buffer_count + WAVE_ACTIVE + 1u + 3u + 1u;
     if (buffer_count > PF_REFERENCE_WAVE_MAX_BUFFERS) {
         pf_vk_commands_destroy(setup);
         return pf_error_set(err, PF_ERR_INTERNAL, "wavefront: %u buffers", buffer_count);
     }
     memcpy(buffers, reference_buffers, reference_buffer_count * sizeof *buffers);
-    memcpy(buffers + reference_buffer_count, wave->buffers, sizeof wave->buffers);
-    /* The texel views the kernel reads the previous dispatch's writes through. */
-    buffers[buffer_count - 3] = wave->buffers[WAVE_PATHS];
-    buffers[buffer_count - 2] = wave->buffers[WAVE_QUEUE];
-    buffers[buffer_count - 1] = wave->buffers[WAVE_SHADOW_LIGHT];
-    /* generate, then per wave: shade the paths with a hit, finish the others. */
-    pf_vk_pipeline *generate = NULL, *wave_pipelines[2] = {NULL, NULL};
+    memcpy(buffers + reference_buffer_count, wave->buffers, (WAVE_ACTIVE + 1u) * sizeof *buffers);
+    buffers[buffer_count - 4] = wave->buffers[WAVE_PATHS];
+    buffers[buffer_count - 3] = wave->buffers[WAVE_QUEUE];
+    buffers[buffer_count - 2] = wave->buffers[WAVE_SHADOW_LIGHT];
+    buffers[buffer_count - 1] = wave->buffers[WAVE_TAIL_CURSOR];
+    /* generate, then per wave: shade the paths with a hit (or run the tail to the paths'
+     * ends); once none is left, finish them all. One shade module either way: only the
+     * finish writes the film (and the AOVs). */
+    pf_vk_pipeline *generate = NULL, *shade = NULL, *tail = NULL, *finish = NULL;
     pf_status status =
         pf_renderer_pipeline(renderer, PF_PIPELINE_REFERENCE_WAVE_GENERATE, &generate, err);
-    /* One shade module either way: only the finish writes the film (and the AOVs). */
     if (status == PF_OK)
-        status = pf_renderer_pipeline(renderer, PF_PIPELINE_REFERENCE_WAVE, &wave_pipelines[0],
-                                      err);
+        status = pf_renderer_pipeline(renderer, PF_PIPELINE_REFERENCE_WAVE, &shade, err);
+    if (status == PF_OK && wave->tail_paths > 0)
+        status = pf_renderer_pipeline(renderer, PF_PIPELINE_REFERENCE_WAVE_TAIL, &tail, err);
     if (status == PF_OK)
         status = pf_renderer_pipeline(renderer,
                                       settings->aovs ? PF_PIPELINE_REFERENCE_WAVE_FINISH
                                                      : PF_PIPELINE_REFERENCE_WAVE_FINISH_RGB,
-                                      &wave_pipelines[1], err);
+                                      &finish, err);
     if (status != PF_OK) {
         pf_vk_commands_destroy(setup);
         return status;
@@ -204,8 +255,8 @@ pf_status pf_reference_wave_passes(pf_reference_wave *wave, pf_vk_buffer *const 
             uint32_t slice = (uint32_t)(pixels - first < wave->capacity ? pixels - first
                                                                         : wave->capacity);
             wave_push start = {sample, slice, (uint32_t)first, 0};
-            status = dispatch_wave(wave, &generate, &start, 1, buffers, buffer_count, setup,
-                                   progress, err);
+            status = dispatch_wave(wave, generate, &start, groups_for(slice), buffers,
+                                   buffer_count, setup, progress, err);
             setup = NULL;
             for (uint32_t i = 0; i < slice; i++)
                 wave->active[i] = i;
@@ -222,13 +273,17 @@ pf_status pf_reference_wave_passes(pf_reference_wave *wave, pf_vk_buffer *const 
                 live = hit;
                 if (live == 0)
                     break;
-                wave_push shade = {sample, hit, (uint32_t)first, 0};
-                status = dispatch_wave(wave, wave_pipelines, &shade, 1, buffers, buffer_count,
-                                       NULL, progress, err);
+                wave_push next = {sample, live, (uint32_t)first, 0};
+                if (live <= wave->tail_paths) {
+                    status = run_tail(wave, tail, &next, buffers, buffer_count, progress, err);
+                    break;
+                }
+                status = dispatch_wave(wave, shade, &next, groups_for(live), buffers,
+                                       buffer_count, NULL, progress, err);
             }
-            wave_push finish = {sample, slice, (uint32_t)first, 0};
+            wave_push end = {sample, slice, (uint32_t)first, 0};
             if (status == PF_OK)
-                status = dispatch_wave(wave, &wave_pipelines[1], &finish, 1, buffers,
+                status = dispatch_wave(wave, finish, &end, groups_for(slice), buffers,
                                        buffer_count, NULL, progress, err);
         }
         if (status == PF_OK)

@@ -62,6 +62,7 @@ typedef enum pf_renderer_pipeline_id {
     PF_PIPELINE_REFERENCE_WAVE,          /* render_reference_wave.comp, WAVE_SHADE */
     PF_PIPELINE_REFERENCE_WAVE_FINISH,   /* render_reference_wave.comp, WAVE_FINISH (AOVs) */
     PF_PIPELINE_REFERENCE_WAVE_FINISH_RGB, /* render_reference_wave.comp, WAVE_FINISH_RGB */
+    PF_PIPELINE_REFERENCE_WAVE_TAIL,       /* render_reference_wave.comp, WAVE_TAIL */
     PF_PIPELINE_DEFORM,                  /* deform.comp */
     PF_PIPELINE_SPLIT_FILM,              /* split_film.comp: the film into the image */
     PF_PIPELINE_FINAL_RETRACE_ARGS,      /* final_retrace_args.comp: the retrace's groups */
@@ -138,6 +139,9 @@ typedef struct pf_stage_plan {
     /* The host traces, else the device: reference's rays (a wavefront); final's camera rays,
      * gather rays' first segments and photons; fast's photons */
     int host_traces;
+    /* reference's wavefront: a wave of at most this many paths goes to the tail, which
+     * runs them to their ends on the device (frame_reference_wave.c); 0: none */
+    uint32_t wave_tail_paths;
 } pf_stage_plan;
 
 /*
@@ -182,6 +186,7 @@ typedef struct pf_reference_progress {
     double gpu_ms;        /* < 0: no timestamps */
     uint32_t waves;       /* the wavefront's dispatches */
     double host_trace_ms; /* the wavefront's trace steps on the host */
+    uint64_t tail_paths;  /* paths the wavefront's tail ran to their ends on the device */
 } pf_reference_progress;
 
 /*
@@ -192,9 +197,19 @@ typedef struct pf_reference_progress {
  * and is taken either way.
  */
 #define PF_REFERENCE_WAVE_MAX_BUFFERS 32u
+/*
+ * The wavefront's tail (render_reference_wave.comp's WAVE_TAIL): once at most this many
+ * paths of a slice go on, one dispatch runs them to their ends, tracing on the device.
+ * Roulette leaves a dozen waves a pass of a few hundred paths, each costing a submission's
+ * round trip (~0.2 ms on llvmpipe) more than its vertices; the device traces a ray several
+ * times slower than the host, but on so few rays that costs less (bench/RESULTS.md,
+ * "Eleventh stop": flat between 512 and 2,048).
+ */
+#define PF_REFERENCE_WAVE_TAIL_PATHS 512u
 typedef struct pf_reference_wave pf_reference_wave;
 pf_status pf_reference_wave_create(pf_renderer *renderer, const pf_render_settings *settings,
-                                   uint32_t light_count, pf_reference_wave **out, pf_error *err);
+                                   uint32_t light_count, uint32_t tail_paths,
+                                   pf_reference_wave **out, pf_error *err);
 void pf_reference_wave_destroy(pf_reference_wave *wave);
 uint32_t pf_reference_wave_threads(const pf_reference_wave *wave);
 pf_status pf_reference_wave_passes(pf_reference_wave *wave, pf_vk_buffer *const *reference_buffers,

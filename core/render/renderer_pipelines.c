@@ -30,10 +30,10 @@
  * (denoise_filter.glsl). */
 #define DENOISE_BUFFERS 6u
 #define DENOISE_PUSH_BYTES 16u
-/* render_reference_wave.comp: the reference kernel's buffers and 11 of its own, a 16-byte
+/* render_reference_wave.comp: the reference kernel's buffers and 12 of its own, a 16-byte
  * Push, constant_id 0 its mode (WAVE_SHADE 0, WAVE_GENERATE 1, WAVE_FINISH_RGB 2,
- * WAVE_FINISH 3). */
-#define REFERENCE_WAVE_BUFFERS (RENDER_REFERENCE_BUFFERS + 11u)
+ * WAVE_FINISH 3, WAVE_TAIL 4). */
+#define REFERENCE_WAVE_BUFFERS (RENDER_REFERENCE_BUFFERS + 12u)
 #define REFERENCE_WAVE_PUSH_BYTES 16u
 /* deform.comp: 13 buffers and a 16-byte Push (deform_device.c). */
 #define DEFORM_BUFFERS 13u
@@ -105,6 +105,8 @@ static const pipeline_spec pipeline_specs[PF_PIPELINE_COUNT] = {
                                            REFERENCE_WAVE_PUSH_BYTES, 1, {0, 3}, 1},
     [PF_PIPELINE_REFERENCE_WAVE_FINISH_RGB] = {"render_reference_wave", REFERENCE_WAVE_BUFFERS,
                                                REFERENCE_WAVE_PUSH_BYTES, 1, {0, 2}, 1},
+    [PF_PIPELINE_REFERENCE_WAVE_TAIL] = {"render_reference_wave", REFERENCE_WAVE_BUFFERS,
+                                         REFERENCE_WAVE_PUSH_BYTES, 1, {0, 4}, 1},
     [PF_PIPELINE_DEFORM] = {"deform", DEFORM_BUFFERS, DEFORM_PUSH_BYTES, 0, {0, 0}},
     [PF_PIPELINE_SPLIT_FILM] = {"split_film", SPLIT_FILM_BUFFERS, SPLIT_FILM_PUSH_BYTES, 0,
                                 {0, 0}},

@@ -391,6 +391,15 @@ pf_status pf_plan_stages(const pf_scene_frame *frame, const pf_render_settings *
         plan->samples = samples_of(settings, REFERENCE_DEFAULT_SAMPLES, plan, "path samples");
         say_trace_site(plan, PF_STAGE_SHADE, previous, plan_trace_site(frame, previous, plan),
                        "wavefront, rays", "rays");
+        /* Forced onto the host, the host traces every ray. */
+        if (plan->host_traces && previous->trace_site != PF_TRACE_HOST) {
+            plan->wave_tail_paths = PF_REFERENCE_WAVE_TAIL_PATHS;
+            char *reason = plan->stages[PF_STAGE_SHADE].reason;
+            size_t used = strlen(reason);
+            snprintf(reason + used, PF_STAGE_REASON_MAX - used,
+                     "; a slice's last ≤ %u paths traced on the device",
+                     plan->wave_tail_paths);
+        }
         return PF_OK;
     case PF_QUALITY_FAST:
     case PF_QUALITY_FINAL:

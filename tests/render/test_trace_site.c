@@ -3,7 +3,9 @@
  *
  * reference's two drivers: the megakernel, whose rays the device traces
  * inside its one dispatch a pass, and the wavefront, whose rays the host
- * traces between dispatches. Both run shaders/common/reference_path.glsl's
+ * traces between dispatches (but for each slice's last paths of a pass, which
+ * its tail runs to their ends on the device, unless the host is forced).
+ * Both run shaders/common/reference_path.glsl's
  * paths from the same random numbers, so the images must agree but for ties
  * between equally distant triangles; the shade row must say which ran and
  * why; a frame the host cannot trace (alpha-tested materials) goes to the
@@ -63,45 +65,83 @@ static double largest_difference(const pf_image *a, const pf_image *b, size_t *d
     return largest;
 }
 
-/* Renders frame both ways and checks the images, the counters and the rows' reasons. */
-static void check_drivers_agree(const pf_scene_frame *frame, const pf_render_settings *settings,
-                                const char *what, double allowed_differing_share)
+/* Whether AUTO puts reference's rays on the host here (lavapipe with AVX2). */
+static int host_traces_by_default(void)
 {
-    pf_image device = {0}, host = {0};
-    pf_frame_report device_report, host_report;
-    if (!render_with(frame, settings, PF_TRACE_DEVICE, &device, &device_report) ||
-        !render_with(frame, settings, PF_TRACE_HOST, &host, &host_report)) {
-        pf_image_free(&device);
-        pf_image_free(&host);
-        return;
-    }
-    PF_CHECK(device.channel_count == host.channel_count);
+    return strcmp(pf_vk_info(ctx)->type, "cpu") == 0 && pf_bih_wide_available();
+}
+
+/* Checks a wavefront's render (host, site HOST or AUTO) against the megakernel's (device). */
+static void check_wavefront(const pf_image *device, const pf_frame_report *device_report,
+                            const pf_image *host, const pf_frame_report *host_report,
+                            pf_trace_site site, const pf_render_settings *settings,
+                            const char *what, double allowed_differing_share)
+{
+    PF_CHECK(device->channel_count == host->channel_count);
     size_t differing = 0;
-    double largest = largest_difference(&host, &device, &differing);
-    double relmse = ref_layer_relmse(&host, &device, REF_CH_RGB);
-    size_t pixels = (size_t)device.width * device.height;
-    printf("  %s: %zu of %zu pixels differ (largest %.3g, RGB relMSE %.3g)\n", what, differing,
-           pixels, largest, relmse);
+    double largest = largest_difference(host, device, &differing);
+    double relmse = ref_layer_relmse(host, device, REF_CH_RGB);
+    size_t pixels = (size_t)device->width * device->height;
+    double tail_paths = ref_stage_counter(host_report, "shade", "tail_paths");
+    printf("  %s%s: %zu of %zu pixels differ (largest %.3g, RGB relMSE %.3g), %g paths in "
+           "tails\n",
+           what, site == PF_TRACE_HOST ? "" : " (auto)", differing, pixels, largest, relmse,
+           tail_paths);
     PF_CHECK_MSG((double)differing <= allowed_differing_share * (double)pixels,
                  "%s: %zu of %zu pixels differ", what, differing, pixels);
     PF_CHECK_MSG(relmse <= 1e-4, "%s: RGB relMSE %g between the drivers", what, relmse);
 
-    double device_rays = ref_stage_counter(&device_report, "shade", "rays");
-    double host_rays = ref_stage_counter(&host_report, "shade", "rays");
+    /* The tail's rays are counted on the device, the waves' on the host: together, the
+     * megakernel's. */
+    double device_rays = ref_stage_counter(device_report, "shade", "rays");
+    double host_rays = ref_stage_counter(host_report, "shade", "rays");
     PF_CHECK_MSG(fabs(device_rays - host_rays) <= 0.001 * device_rays,
                  "%s: %g rays on the device, %g on the host", what, device_rays, host_rays);
-    PF_CHECK(ref_stage_counter(&device_report, "shade", "discarded_samples") ==
-             ref_stage_counter(&host_report, "shade", "discarded_samples"));
-    const pf_stage_timing *device_row = ref_row(&device_report, "shade");
-    const pf_stage_timing *host_row = ref_row(&host_report, "shade");
-    PF_CHECK(device_row && strstr(device_row->reason, "rays traced on the device (forced)"));
-    PF_CHECK(host_row && strstr(host_row->reason, "rays traced on the host (forced)"));
-    PF_CHECK(isnan(ref_stage_counter(&device_report, "shade", "waves")));
-    /* At least the camera rays' wave and one more per vertex of the longest path. */
-    PF_CHECK(ref_stage_counter(&host_report, "shade", "waves") >= 2.0 * settings->samples_per_pixel);
-    PF_CHECK(ref_stage_counter(&host_report, "shade", "trace_threads") >= 1.0);
+    PF_CHECK(ref_stage_counter(device_report, "shade", "discarded_samples") ==
+             ref_stage_counter(host_report, "shade", "discarded_samples"));
+    const pf_stage_timing *host_row = ref_row(host_report, "shade");
+    if (site == PF_TRACE_HOST) {
+        /* Forced onto the host, the host traces every ray: no tail. */
+        PF_CHECK(host_row && strstr(host_row->reason, "rays traced on the host (forced)") &&
+                 !strstr(host_row->reason, "on the device"));
+        PF_CHECK(tail_paths == 0.0);
+        /* At least the camera rays' wave and one more per vertex of the longest path. */
+        PF_CHECK(ref_stage_counter(host_report, "shade", "waves") >=
+                 2.0 * settings->samples_per_pixel);
+    } else {
+        /* Each slice's last paths of each pass run to their ends on the device. */
+        PF_CHECK(host_row && strstr(host_row->reason, "rays traced on the host (the device is "
+                                                      "the CPU); a slice's last"));
+        PF_CHECK(tail_paths > 0.0);
+        PF_CHECK(ref_stage_counter(host_report, "shade", "waves") >=
+                 3.0 * settings->samples_per_pixel); /* generate, tail, finish at least */
+    }
+    PF_CHECK(ref_stage_counter(host_report, "shade", "trace_threads") >= 1.0);
+}
+
+/* Renders frame with the megakernel and the wavefront (forced onto the host, and as AUTO
+ * has it where that is the host: with its tails) and checks the images, the counters and
+ * the rows' reasons. */
+static void check_drivers_agree(const pf_scene_frame *frame, const pf_render_settings *settings,
+                                const char *what, double allowed_differing_share)
+{
+    pf_image device = {0};
+    pf_frame_report device_report;
+    if (render_with(frame, settings, PF_TRACE_DEVICE, &device, &device_report)) {
+        const pf_stage_timing *device_row = ref_row(&device_report, "shade");
+        PF_CHECK(device_row && strstr(device_row->reason, "rays traced on the device (forced)"));
+        PF_CHECK(isnan(ref_stage_counter(&device_report, "shade", "waves")));
+        pf_trace_site sites[2] = {PF_TRACE_HOST, PF_TRACE_AUTO};
+        for (int s = 0; s < (host_traces_by_default() ? 2 : 1); s++) {
+            pf_image host = {0};
+            pf_frame_report host_report;
+            if (render_with(frame, settings, sites[s], &host, &host_report))
+                check_wavefront(&device, &device_report, &host, &host_report, sites[s],
+                                settings, what, allowed_differing_share);
+            pf_image_free(&host);
+        }
+    }
     pf_image_free(&device);
-    pf_image_free(&host);
 }
 
 PF_TEST(the_cornell_box_is_the_same_image_from_both_drivers)
@@ -201,7 +241,7 @@ PF_TEST(alpha_tested_materials_are_traced_on_the_device_saying_why)
     scene.materials[0].alpha_mode = PF_ALPHA_OPAQUE;
     if (render_with(&scene.frame, &settings, PF_TRACE_AUTO, &image, &report)) {
         const pf_stage_timing *row = ref_row(&report, "shade");
-        int cpu = strcmp(pf_vk_info(ctx)->type, "cpu") == 0 && pf_bih_wide_available();
+        int cpu = host_traces_by_default();
         PF_CHECK(row && strstr(row->reason, cpu ? "rays traced on the host (the device is "
                                                   "the CPU)"
                                                 : "rays traced on the device"));
