@@ -15,11 +15,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-/*
- * Paths in flight at once: the image goes in slices of at most this many pixels, so the
- * wavefront's buffers (~200 bytes a path plus 64 a shadow slot) stay bounded at any size...
- */
-#define WAVE_MAX_PATHS (1u << 18)
+/* Paths in flight at once (PF_REFERENCE_WAVE_MAX_PATHS, render_internal.h)... */
+#define WAVE_MAX_PATHS PF_REFERENCE_WAVE_MAX_PATHS
 /* ... and the buffers of a slice at most this many bytes (a scene with many punctual lights:
  * each adds a shadow slot, 64 bytes, to every path). */
 #define WAVE_MAX_BYTES (256ull << 20)

@@ -161,6 +161,8 @@ typedef struct pf_stage_previous {
      * bih_build leaves its tree on the host. */
     pf_trace_site trace_site;
     int device_is_host, host_traversal, tree_on_host;
+    /* The wavefront's tail kernel compiled: bit v for the surface variant v. */
+    uint32_t wave_tail_compiled;
 } pf_stage_previous;
 
 /* Adds ms to a GPU-time total that stays < 0 while nothing was timed; an ms < 0 (no
@@ -206,6 +208,17 @@ typedef struct pf_reference_progress {
  * "Eleventh stop": flat between 512 and 2,048).
  */
 #define PF_REFERENCE_WAVE_TAIL_PATHS 512u
+/*
+ * The tail's kernel costs a worker ~0.3 s to compile, once (the renderer keeps it), and saves
+ * ~2 ms a tail on this VM: a frame whose passes × slices (its tails) are fewer than this
+ * goes without, unless the kernel is compiled already.
+ */
+#define PF_REFERENCE_WAVE_TAIL_MIN_TAILS 128u
+/*
+ * Paths in flight at once: the wavefront's image goes in slices of at most this many
+ * pixels, so its buffers (~200 bytes a path plus 64 a shadow slot) stay bounded at any size.
+ */
+#define PF_REFERENCE_WAVE_MAX_PATHS (1u << 18)
 typedef struct pf_reference_wave pf_reference_wave;
 pf_status pf_reference_wave_create(pf_renderer *renderer, const pf_render_settings *settings,
                                    uint32_t light_count, uint32_t tail_paths,

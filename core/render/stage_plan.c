@@ -267,6 +267,21 @@ static void say_trace_site(pf_stage_plan *plan, pf_stage_id stage,
                  rays, why_not);
 }
 
+/*
+ * reference's wavefront: whether its tail kernel pays for its compilation in this frame
+ * (PF_REFERENCE_WAVE_TAIL_MIN_TAILS: a tail a slice a pass), or is compiled already.
+ */
+static int worth_a_tail(const pf_scene_frame *frame, const pf_render_settings *settings,
+                        const pf_stage_previous *previous, uint32_t passes)
+{
+    uint32_t variant = pf_scene_frame_surface_features(frame) % PF_SURFACE_VARIANTS;
+    if ((previous->wave_tail_compiled >> variant) & 1u)
+        return 1;
+    uint64_t pixels = (uint64_t)settings->width * settings->height;
+    uint64_t slices = (pixels + PF_REFERENCE_WAVE_MAX_PATHS - 1) / PF_REFERENCE_WAVE_MAX_PATHS;
+    return (uint64_t)passes * slices >= PF_REFERENCE_WAVE_TAIL_MIN_TAILS;
+}
+
 /* final and fast: the photon stages from the scene's emitters and specular surfaces. */
 static void plan_photons(pf_stage_plan *plan, const pf_stage_memory *memory, int with_grid)
 {
@@ -370,6 +385,9 @@ pf_stage_previous pf_stage_previous_of(const pf_renderer *renderer, pf_quality p
     previous.device_is_host = pf_vk_storage_is_host_memory(renderer->ctx);
     previous.host_traversal = pf_bih_wide_available();
     previous.tree_on_host = pf_renderer_bih_site(renderer) == PF_BIH_BUILD_CPU;
+    for (uint32_t v = 0; v < PF_SURFACE_VARIANTS; v++)
+        if (renderer->pipelines[0][v][PF_PIPELINE_REFERENCE_WAVE_TAIL])
+            previous.wave_tail_compiled |= 1u << v;
     return previous;
 }
 
@@ -392,7 +410,8 @@ pf_status pf_plan_stages(const pf_scene_frame *frame, const pf_render_settings *
         say_trace_site(plan, PF_STAGE_SHADE, previous, plan_trace_site(frame, previous, plan),
                        "wavefront, rays", "rays");
         /* Forced onto the host, the host traces every ray. */
-        if (plan->host_traces && previous->trace_site != PF_TRACE_HOST) {
+        if (plan->host_traces && previous->trace_site != PF_TRACE_HOST &&
+            worth_a_tail(frame, settings, previous, plan->samples)) {
             plan->wave_tail_paths = PF_REFERENCE_WAVE_TAIL_PATHS;
             char *reason = plan->stages[PF_STAGE_SHADE].reason;
             size_t used = strlen(reason);

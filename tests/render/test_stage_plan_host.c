@@ -236,6 +236,52 @@ PF_TEST(reference_rays_go_where_they_are_traced_best)
     room.materials[0].alpha_mode = PF_ALPHA_OPAQUE;
 }
 
+/* reference's wavefront tail (plan of spp at width × height on previous): its paths' bound
+ * or 0, and the reason's line for it checked. */
+static uint32_t tail_of(const pf_stage_previous *previous, uint32_t spp, uint32_t width,
+                        uint32_t height)
+{
+    pf_render_settings settings = settings_of(PF_QUALITY_REFERENCE);
+    settings.samples_per_pixel = spp;
+    settings.width = width;
+    settings.height = height;
+    pf_stage_plan plan;
+    pf_error err = {0};
+    uint32_t tail = UINT32_MAX;
+    if (pf_plan_stages(&room.frame, &settings, previous, &plan, &err) == PF_OK) {
+        tail = plan.wave_tail_paths;
+        int said = has(&plan.stages[PF_STAGE_SHADE], "; a slice's last ≤ 512 paths traced on the "
+                                                     "device");
+        PF_CHECK_MSG(said == (tail > 0), "tail %u, reason '%s'", tail,
+                     plan.stages[PF_STAGE_SHADE].reason);
+        pf_stage_plan_release(&plan);
+    }
+    return tail;
+}
+
+PF_TEST(the_wavefront_tail_runs_where_it_pays_for_its_kernel)
+{
+    pf_stage_previous previous = cpu_device(PF_TRACE_AUTO);
+    /* A tail a slice a pass: 64 passes of one slice are too few for a first compile... */
+    PF_CHECK(tail_of(&previous, 64, 32, 24) == 0);
+    PF_CHECK(tail_of(&previous, PF_REFERENCE_WAVE_TAIL_MIN_TAILS, 32, 24) ==
+             PF_REFERENCE_WAVE_TAIL_PATHS);
+    /* ... 32 passes of 4 slices (1024 × 1024 pixels) are enough... */
+    PF_CHECK(tail_of(&previous, 32, 1024, 1024) == PF_REFERENCE_WAVE_TAIL_PATHS);
+    PF_CHECK(tail_of(&previous, 31, 1024, 1024) == 0);
+    /* ... and once the kernel is compiled for the scene's surfaces, any frame has one. */
+    uint32_t variant = pf_scene_frame_surface_features(&room.frame) % PF_SURFACE_VARIANTS;
+    previous.wave_tail_compiled = 1u << (1u - variant);
+    PF_CHECK(tail_of(&previous, 1, 32, 24) == 0);
+    previous.wave_tail_compiled = 1u << variant;
+    PF_CHECK(tail_of(&previous, 1, 32, 24) == PF_REFERENCE_WAVE_TAIL_PATHS);
+    /* Forced onto the host, or on the device, there is none. */
+    previous.trace_site = PF_TRACE_HOST;
+    PF_CHECK(tail_of(&previous, 1024, 32, 24) == 0);
+    previous = cpu_device(PF_TRACE_DEVICE);
+    PF_CHECK(tail_of(&previous, 1024, 32, 24) == 0);
+}
+
 /* The photon_trace row's reason (plan of quality on previous). */
 static void check_photon_site(pf_quality quality, const pf_stage_previous *previous, int host,
                               const char *reason)
@@ -293,6 +339,7 @@ int main(void)
     PF_RUN(the_bih_decision_follows_the_kept_tree);
     PF_RUN(lpv_settings_are_checked_against_the_device_limit);
     PF_RUN(reference_rays_go_where_they_are_traced_best);
+    PF_RUN(the_wavefront_tail_runs_where_it_pays_for_its_kernel);
     PF_RUN(final_and_fast_rays_go_where_they_are_traced_best);
     ref_scene_free(&room);
     return pf_test_finish();
