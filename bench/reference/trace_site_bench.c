@@ -3,7 +3,9 @@
  * the device (the megakernel, GLSL traversal) against the host (the
  * wavefront, wide AVX2 BIH traversal on every core), issue 43, and as the
  * planner has it (auto: where the device is the CPU, the wavefront with its
- * tails, each slice's last paths run to their ends on the device); with
+ * tails, each slice's last paths run to their ends on the device, as in a
+ * worker's frames once the tail's kernel is compiled: a warm-up frame of 128
+ * passes, PF_REFERENCE_WAVE_TAIL_MIN_TAILS, compiles it first); with
  * --quality final, final's shade with its camera rays and gather rays' first
  * segments traced on the device (inside its kernels) against the host, and its
  * photon_trace stage likewise. For each
@@ -148,6 +150,9 @@ int main(int argc, char **argv)
         site_result device = {0}, host = {0}, automatic = {0};
         /* final's planner puts its rays where `host` does on a CPU, `device` elsewhere. */
         int with_auto = quality == PF_QUALITY_REFERENCE;
+        if (with_auto) /* the tail's kernel compiled, as a worker has it after a few frames */
+            failed = !render(renderer, &frame, 16, 16, 128, PF_TRACE_AUTO, &auto_image,
+                             &(site_result){0});
         for (unsigned r = 0; r < rounds && !failed; r++)
             failed = !render(renderer, &frame, width, height, spp, PF_TRACE_DEVICE,
                              &device_image, &device) ||

@@ -292,6 +292,8 @@ static pf_status reference_run(pf_frame_run *run, pf_stage_id stage, uint32_t pa
                        &progress, &trace_threads, err);
     if (status == PF_OK)
         status = pf_render_check_traversal(renderer, progress.failures, err);
+    if (status == PF_OK)
+        renderer->wave_tails += plan->wave_tails; /* what the tail's compilation weighs */
     if (status != PF_OK) {
         pf_image_free(image);
         pf_error_prefix(err, "reference render (%ux%u, %u spp, %u triangles)", settings->width,

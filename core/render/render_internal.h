@@ -142,6 +142,8 @@ typedef struct pf_stage_plan {
     /* reference's wavefront: a wave of at most this many paths goes to the tail, which
      * runs them to their ends on the device (frame_reference_wave.c); 0: none */
     uint32_t wave_tail_paths;
+    /* ... and the tails its frame would have (passes × slices), tail or not */
+    uint64_t wave_tails;
 } pf_stage_plan;
 
 /*
@@ -161,8 +163,10 @@ typedef struct pf_stage_previous {
      * bih_build leaves its tree on the host. */
     pf_trace_site trace_site;
     int device_is_host, host_traversal, tree_on_host;
-    /* The wavefront's tail kernel compiled: bit v for the surface variant v. */
+    /* The wavefront's tail kernel compiled: bit v for the surface variant v; and the tails
+     * the renderer's earlier frames would have had (pf_stage_plan.wave_tails summed). */
     uint32_t wave_tail_compiled;
+    uint64_t wave_tails_before;
 } pf_stage_previous;
 
 /* Adds ms to a GPU-time total that stays < 0 while nothing was timed; an ms < 0 (no
@@ -210,8 +214,9 @@ typedef struct pf_reference_progress {
 #define PF_REFERENCE_WAVE_TAIL_PATHS 512u
 /*
  * The tail's kernel costs a worker ~0.3 s to compile, once (the renderer keeps it), and saves
- * ~2 ms a tail on this VM: a frame whose passes × slices (its tails) are fewer than this
- * goes without, unless the kernel is compiled already.
+ * ~2 ms a tail on this VM: it is compiled once the renderer's frames, this one included,
+ * would have had this many tails (passes × slices), as a JIT compiles a hot loop: a worker's
+ * job of small frames gets it after a few, a one-frame render of few passes goes without.
  */
 #define PF_REFERENCE_WAVE_TAIL_MIN_TAILS 128u
 /*
@@ -458,6 +463,7 @@ struct pf_renderer {
     pf_denoise_history *denoise_history;
     pf_denoise_site denoise_site; /* pf_renderer_set_denoise_site */
     pf_trace_site trace_site;     /* pf_renderer_set_trace_site */
+    uint64_t wave_tails;          /* reference frames' tails so far (pf_stage_previous) */
     pf_deform_site deform_site;   /* pf_renderer_set_deform_site */
     /* The deforming nodes' rest poses on the device (deform_device.c; NULL until used). */
     struct pf_deform_cache *deform_cache;

@@ -268,18 +268,19 @@ static void say_trace_site(pf_stage_plan *plan, pf_stage_id stage,
 }
 
 /*
- * reference's wavefront: whether its tail kernel pays for its compilation in this frame
- * (PF_REFERENCE_WAVE_TAIL_MIN_TAILS: a tail a slice a pass), or is compiled already.
+ * reference's wavefront: the tails of this frame (a slice a pass) in plan->wave_tails, and
+ * whether its tail kernel has paid or pays for its compilation with them
+ * (PF_REFERENCE_WAVE_TAIL_MIN_TAILS), or is compiled already.
  */
 static int worth_a_tail(const pf_scene_frame *frame, const pf_render_settings *settings,
-                        const pf_stage_previous *previous, uint32_t passes)
+                        const pf_stage_previous *previous, pf_stage_plan *plan)
 {
-    uint32_t variant = pf_scene_frame_surface_features(frame) % PF_SURFACE_VARIANTS;
-    if ((previous->wave_tail_compiled >> variant) & 1u)
-        return 1;
     uint64_t pixels = (uint64_t)settings->width * settings->height;
     uint64_t slices = (pixels + PF_REFERENCE_WAVE_MAX_PATHS - 1) / PF_REFERENCE_WAVE_MAX_PATHS;
-    return (uint64_t)passes * slices >= PF_REFERENCE_WAVE_TAIL_MIN_TAILS;
+    plan->wave_tails = (uint64_t)plan->samples * slices;
+    uint32_t variant = pf_scene_frame_surface_features(frame) % PF_SURFACE_VARIANTS;
+    return ((previous->wave_tail_compiled >> variant) & 1u) ||
+           previous->wave_tails_before + plan->wave_tails >= PF_REFERENCE_WAVE_TAIL_MIN_TAILS;
 }
 
 /* final and fast: the photon stages from the scene's emitters and specular surfaces. */
@@ -388,6 +389,7 @@ pf_stage_previous pf_stage_previous_of(const pf_renderer *renderer, pf_quality p
     for (uint32_t v = 0; v < PF_SURFACE_VARIANTS; v++)
         if (renderer->pipelines[0][v][PF_PIPELINE_REFERENCE_WAVE_TAIL])
             previous.wave_tail_compiled |= 1u << v;
+    previous.wave_tails_before = renderer->wave_tails;
     return previous;
 }
 
@@ -411,7 +413,7 @@ pf_status pf_plan_stages(const pf_scene_frame *frame, const pf_render_settings *
                        "wavefront, rays", "rays");
         /* Forced onto the host, the host traces every ray. */
         if (plan->host_traces && previous->trace_site != PF_TRACE_HOST &&
-            worth_a_tail(frame, settings, previous, plan->samples)) {
+            worth_a_tail(frame, settings, previous, plan)) {
             plan->wave_tail_paths = PF_REFERENCE_WAVE_TAIL_PATHS;
             char *reason = plan->stages[PF_STAGE_SHADE].reason;
             size_t used = strlen(reason);

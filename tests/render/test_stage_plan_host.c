@@ -269,6 +269,11 @@ PF_TEST(the_wavefront_tail_runs_where_it_pays_for_its_kernel)
     /* ... 32 passes of 4 slices (1024 × 1024 pixels) are enough... */
     PF_CHECK(tail_of(&previous, 32, 1024, 1024) == PF_REFERENCE_WAVE_TAIL_PATHS);
     PF_CHECK(tail_of(&previous, 31, 1024, 1024) == 0);
+    /* ... as are 64 passes after the renderer's frames had 64 tails (a worker's job)... */
+    previous.wave_tails_before = PF_REFERENCE_WAVE_TAIL_MIN_TAILS - 64;
+    PF_CHECK(tail_of(&previous, 64, 32, 24) == PF_REFERENCE_WAVE_TAIL_PATHS);
+    PF_CHECK(tail_of(&previous, 63, 32, 24) == 0);
+    previous.wave_tails_before = 0;
     /* ... and once the kernel is compiled for the scene's surfaces, any frame has one. */
     uint32_t variant = pf_scene_frame_surface_features(&room.frame) % PF_SURFACE_VARIANTS;
     previous.wave_tail_compiled = 1u << (1u - variant);
