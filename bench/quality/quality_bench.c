@@ -398,9 +398,12 @@ int main(int argc, char **argv)
             continue;
         pf_image image = {0};
         double seconds;
-        /* Warm-up: pipelines compiled and the scene's BIH built before timing. */
+        /* Warm-up: pipelines compiled and the scene's BIH built before timing; reference's
+         * with enough passes that its wavefront compiles the tail's kernel too, as a worker
+         * has it after a few frames (PF_REFERENCE_WAVE_TAIL_MIN_TAILS, render_internal.h). */
+        uint32_t warm_value = sweeps[s].quality == PF_QUALITY_REFERENCE ? 128u : 1u;
         pf_render_settings warm =
-            settings_for(sweeps[s].quality, width, height, 1, 1, sweeps[s].denoise);
+            settings_for(sweeps[s].quality, width, height, warm_value, 1, sweeps[s].denoise);
         if (!render_ours(renderer, &frame, &warm, &image, &seconds))
             return 1;
         pf_image_free(&image);
