@@ -165,7 +165,7 @@ typedef struct pf_stage_previous {
     int device_is_host, host_traversal, tree_on_host;
     /* The wavefront's tail kernel compiled: bit v for the surface variant v; and the tails
      * the renderer's earlier frames would have had (pf_stage_plan.wave_tails summed). */
-    uint32_t wave_tail_compiled;
+    uint64_t wave_tail_compiled;
     uint64_t wave_tails_before;
 } pf_stage_previous;
 

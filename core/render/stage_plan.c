@@ -272,6 +272,7 @@ static void say_trace_site(pf_stage_plan *plan, pf_stage_id stage,
  * whether its tail kernel has paid or pays for its compilation with them
  * (PF_REFERENCE_WAVE_TAIL_MIN_TAILS), or is compiled already.
  */
+_Static_assert(PF_SURFACE_VARIANTS <= 64, "pf_stage_previous.wave_tail_compiled: a bit a variant");
 static int worth_a_tail(const pf_scene_frame *frame, const pf_render_settings *settings,
                         const pf_stage_previous *previous, pf_stage_plan *plan)
 {
@@ -279,7 +280,7 @@ static int worth_a_tail(const pf_scene_frame *frame, const pf_render_settings *s
     uint64_t slices = (pixels + PF_REFERENCE_WAVE_MAX_PATHS - 1) / PF_REFERENCE_WAVE_MAX_PATHS;
     plan->wave_tails = (uint64_t)plan->samples * slices;
     uint32_t variant = pf_scene_frame_surface_features(frame) % PF_SURFACE_VARIANTS;
-    return ((previous->wave_tail_compiled >> variant) & 1u) ||
+    return ((previous->wave_tail_compiled >> variant) & 1u) != 0 ||
            previous->wave_tails_before + plan->wave_tails >= PF_REFERENCE_WAVE_TAIL_MIN_TAILS;
 }
 
@@ -388,7 +389,7 @@ pf_stage_previous pf_stage_previous_of(const pf_renderer *renderer, pf_quality p
     previous.tree_on_host = pf_renderer_bih_site(renderer) == PF_BIH_BUILD_CPU;
     for (uint32_t v = 0; v < PF_SURFACE_VARIANTS; v++)
         if (renderer->pipelines[0][v][PF_PIPELINE_REFERENCE_WAVE_TAIL])
-            previous.wave_tail_compiled |= 1u << v;
+            previous.wave_tail_compiled |= UINT64_C(1) << v;
     previous.wave_tails_before = renderer->wave_tails;
     return previous;
 }

@@ -276,9 +276,9 @@ PF_TEST(the_wavefront_tail_runs_where_it_pays_for_its_kernel)
     previous.wave_tails_before = 0;
     /* ... and once the kernel is compiled for the scene's surfaces, any frame has one. */
     uint32_t variant = pf_scene_frame_surface_features(&room.frame) % PF_SURFACE_VARIANTS;
-    previous.wave_tail_compiled = 1u << (1u - variant);
+    previous.wave_tail_compiled = UINT64_C(1) << ((variant + 1u) % PF_SURFACE_VARIANTS);
     PF_CHECK(tail_of(&previous, 1, 32, 24) == 0);
-    previous.wave_tail_compiled = 1u << variant;
+    previous.wave_tail_compiled = UINT64_C(1) << variant;
     PF_CHECK(tail_of(&previous, 1, 32, 24) == PF_REFERENCE_WAVE_TAIL_PATHS);
     /* Forced onto the host, or on the device, there is none. */
     previous.trace_site = PF_TRACE_HOST;
