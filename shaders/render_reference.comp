@@ -76,6 +76,7 @@ layout(std430, set = 0, binding = PF_SCENE_BINDING_COUNT + 2) buffer Counters {
 #include "sampler.glsl"
 
 #include "reference_path.glsl"
+#include "ray_count.glsl"
 
 void main()
 {
@@ -91,8 +92,5 @@ void main()
             break;
     }
     path_finish(pixel.y * params.width + pixel.x, push.sample_index);
-    uint rays = path_rays;
-    uint previous_low = atomicAdd(counters.rays_low, rays);
-    if (previous_low + rays < previous_low)
-        atomicAdd(counters.rays_high, 1u);
+    count_rays(path_rays);
 }

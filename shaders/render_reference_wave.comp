@@ -77,7 +77,7 @@ layout(std430, set = 0, binding = PF_SCENE_BINDING_COUNT + 1) buffer FilmAov { v
 layout(std430, set = 0, binding = PF_SCENE_BINDING_COUNT + 2) buffer Counters {
     uint discarded_samples;
     uint traversal_failures; // bih_traverse.glsl's; the host counts its own
-    uint rays_low;           // unused: the host counts the rays it traces
+    uint rays_low;           // the tail's rays (the host counts those it traces)
     uint rays_high;
 } counters;
 
@@ -145,6 +145,7 @@ void shadow_ray_defer(vec3 origin, vec3 direction, float tmax, vec3 contribution
 #include "surface.glsl"
 #include "sampler.glsl"
 #include "reference_path.glsl"
+#include "ray_count.glsl"
 
 const uint FLAG_VALID = 1u, FLAG_CAUSTIC_CHAIN = 2u, FLAG_PREVIOUS_SPECULAR = 4u,
            FLAG_ON_CAMERA_CONE = 8u, FLAG_AOV_RECORDED = 16u;
@@ -276,9 +277,7 @@ void tail_main()
             rays += path_rays;
         }
     }
-    uint previous_low = atomicAdd(counters.rays_low, rays);
-    if (previous_low + rays < previous_low)
-        atomicAdd(counters.rays_high, 1u);
+    count_rays(rays);
 }
 
 void main()

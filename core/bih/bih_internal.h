@@ -256,9 +256,9 @@ typedef struct pf_bih_ray {
 } pf_bih_ray;
 
 /*
- * The watertight test's per-ray part (pf_ray_shear_setup's body, ray_triangle.glsl's
- * RayShear): inline here because the traversals set it up once a ray, and as a call into
- * another file it was ~3 % of a wavefront frame's host time.
+ * The watertight test's per-ray part (pf_ray_triangle_sheared's pf_ray_shear,
+ * ray_triangle.glsl's RayShear): inline here because the traversals set it up once a ray,
+ * and as a call into another file it was ~3 % of a wavefront frame's host time.
  */
 static inline void pf_bih_shear_setup(const float direction[3], pf_ray_shear *s)
 {

@@ -81,7 +81,6 @@ typedef struct pf_ray_shear {
     float sx, sy, sz;
     int valid; /* 0 for a zero direction: nothing hits */
 } pf_ray_shear;
-void pf_ray_shear_setup(const float direction[3], pf_ray_shear *s);
 int pf_ray_triangle_sheared(const float origin[3], const pf_ray_shear *s, const float v0[3],
                             const float v1[3], const float v2[3], float tmin, float tmax, float *t,
                             float *u, float *v);

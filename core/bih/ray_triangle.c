@@ -172,17 +172,12 @@ static int column_exponent(float a, float b, float c)
     return exponent;
 }
 
-void pf_ray_shear_setup(const float direction[3], pf_ray_shear *s)
-{
-    pf_bih_shear_setup(direction, s);
-}
-
 int pf_ray_triangle_watertight(const float origin[3], const float direction[3],
                                const float v0[3], const float v1[3], const float v2[3],
                                float tmin, float tmax, float *t, float *u, float *v)
 {
     pf_ray_shear s;
-    pf_ray_shear_setup(direction, &s);
+    pf_bih_shear_setup(direction, &s);
     float hit_t, hit_u, hit_v;
     if (!pf_ray_triangle_sheared(origin, &s, v0, v1, v2, tmin, tmax, &hit_t, &hit_u, &hit_v) ||
         pf_triangle_is_degenerate(v0, v1, v2))

@@ -49,6 +49,15 @@ typedef struct reference_counters {
     uint32_t rays_high;
 } reference_counters;
 
+/* Adds the kernels' counters, read back, to progress. */
+static void progress_add_counters(pf_reference_progress *progress,
+                                  const reference_counters *counters)
+{
+    progress->rays += ((uint64_t)counters->rays_high << 32) | counters->rays_low;
+    progress->discarded += counters->discarded_samples;
+    progress->failures += counters->traversal_failures;
+}
+
 /*
  * Runs passes [progress->passes, progress->passes + count) in one submission
  * and adds their counters to progress. With image (the frame's last passes), the film's
@@ -97,9 +106,7 @@ static pf_status run_passes(pf_renderer *renderer, pf_vk_pipeline *pipeline,
     pf_split_film_finish_read(&readback);
     if (status == PF_OK) {
         progress->passes += count;
-        progress->rays += ((uint64_t)counters.rays_high << 32) | counters.rays_low;
-        progress->discarded += counters.discarded_samples;
-        progress->failures += counters.traversal_failures;
+        progress_add_counters(progress, &counters);
     }
     return status;
 }
@@ -221,9 +228,8 @@ static pf_status shade(pf_renderer *renderer, const pf_scene_frame *frame,
     if (status == PF_OK && wave) {
         reference_counters counters;
         status = pf_vk_buffer_download(ctx, owned.counters, 0, &counters, sizeof counters, err);
-        progress->discarded += counters.discarded_samples;
-        progress->rays += ((uint64_t)counters.rays_high << 32) | counters.rays_low;
-        progress->failures += counters.traversal_failures;
+        if (status == PF_OK)
+            progress_add_counters(progress, &counters);
     }
     pf_reference_wave_destroy(wave);
     if (status == PF_OK && !image_read) /* the wavefront's, or a budget's early end */
