@@ -425,7 +425,16 @@ void main()
                                 uintBitsToFloat(texelFetch(wave_hits, at + 2).x),
                                 uintBitsToFloat(texelFetch(wave_hits, at + 3).x));
             PhotonPath p = wave_load(slot);
-            bool alive = photon_bounce(p, hit);
+            // On past alpha-tested triangles whose hits do not count (the host has no
+            // textures), as trace_here's trace_bih_surfaces goes.
+            bool failed;
+            hit = trace_bih_surfaces_after(hit, p.origin, p.direction, 0.0,
+                                           uintBitsToFloat(0x7f800000u), false,
+                                           params.bih_bounds_min.xyz, params.bih_bounds_max.xyz,
+                                           params.triangle_count, params.bih_node_count, failed);
+            if (failed)
+                atomicAdd(counters.traversal_failures, 1u);
+            bool alive = !failed && photon_bounce(p, hit);
             wave_store(slot, p, alive);
         }
     }

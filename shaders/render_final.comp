@@ -144,7 +144,8 @@ void primary(uint pixel_index, uvec2 pixel)
     for (uint depth = 0u; depth <= params.max_specular_depth; depth++) {
         BihHit hit;
         if (TRACE_STEP == HITS_GIVEN && depth == 0u) {
-            hit = host_hit(camera_slot(pixel_index)); // traced and counted there
+            hit = trace_after(host_hit(camera_slot(pixel_index)), origin, direction, infinity,
+                              false); // traced and counted there
         } else {
             hit = trace(origin, direction, infinity, false);
             rays++;

@@ -6,7 +6,9 @@
 // between two dispatches are traced by whoever traces them best. Where the
 // device is the CPU that is the host (core/render/wave_trace.c, the wide BIH
 // traversal on every core, reading and writing these buffers in place); the
-// kernel itself never traces. The paths are reference_path.glsl's, as the
+// kernel itself traces only past a hit on an alpha-tested triangle that does
+// not count (the host's traversal has no textures: traced_hit,
+// shadow_unoccluded), and in WAVE_TAIL. The paths are reference_path.glsl's, as the
 // megakernel's (render_reference.comp): the same random numbers, the same
 // estimator, the same image but for ties between equally distant triangles.
 //
@@ -103,7 +105,8 @@ struct WavePath {
 layout(std430, set = 0, binding = WAVE_BINDING + 0) writeonly buffer Paths { WavePath paths[]; };
 layout(std430, set = 0, binding = WAVE_BINDING + 1) writeonly buffer Rays { Ray rays[]; };
 layout(set = 0, binding = WAVE_BINDING + 2) uniform usamplerBuffer hits;          // HitRecord: 4 words
-layout(std430, set = 0, binding = WAVE_BINDING + 3) writeonly buffer ShadowRays { Ray shadow_rays[]; };
+// Read where a shadow ray's host hit is on an alpha-tested triangle (shadow_unoccluded).
+layout(std430, set = 0, binding = WAVE_BINDING + 3) buffer ShadowRays { Ray shadow_rays[]; };
 layout(std430, set = 0, binding = WAVE_BINDING + 4) writeonly buffer ShadowLightOut { vec4 shadow_light_out[]; };
 layout(set = 0, binding = WAVE_BINDING + 5) uniform usamplerBuffer shadow_hits;   // HitRecord: 4 words
 layout(std430, set = 0, binding = WAVE_BINDING + 6) writeonly buffer Queue { uint queue[]; };
@@ -203,6 +206,22 @@ void path_store(uint p)
                         vec4(path_normal_aov, 0.0));
 }
 
+// Whether the shadow ray in slot is unoccluded: the host's any-hit query found nothing, or
+// (alpha-tested triangles) what it found does not count and nothing past it does.
+bool shadow_unoccluded(uint slot)
+{
+    int at = int(4u * slot);
+    uint triangle = texelFetch(shadow_hits, at + 1).x;
+    if (triangle == NO_HIT || !SCENE_HAS_ALPHA)
+        return triangle == NO_HIT;
+    BihHit hit = BihHit(uintBitsToFloat(texelFetch(shadow_hits, at).x), triangle,
+                        uintBitsToFloat(texelFetch(shadow_hits, at + 2).x),
+                        uintBitsToFloat(texelFetch(shadow_hits, at + 3).x));
+    Ray ray = shadow_rays[slot];
+    return trace_after(hit, ray.origin_tmin.xyz, ray.direction_tmax.xyz, ray.direction_tmax.w,
+                       true).triangle == NO_HIT;
+}
+
 // Loads path p (pixel's) and adds the light of its previous vertex's unoccluded shadow
 // rays, in the megakernel's order: before this vertex's emission. Returns whether its
 // ray waits for a hit.
@@ -212,19 +231,20 @@ bool path_resume(uint p, uvec2 pixel)
     uint waiting = texelFetch(queue_in, int(p)).x;
     vec3 unoccluded = vec3(0.0);
     for (uint k = 0u; k < ((waiting >> 1u) & QUEUE_SHADOWS); k++)
-        if (texelFetch(shadow_hits, int(4u * (wave_shadow_base + k) + 1u)).x == NO_HIT)
+        if (shadow_unoccluded(wave_shadow_base + k))
             unoccluded += texelFetch(shadow_light, int(wave_shadow_base + k)).xyz;
     path_add(unoccluded, path_shadow_region, false);
     return (waiting & 1u) != 0u;
 }
 
-// The hit the host traced for path p's ray.
+// The hit that counts of path p's ray (path_origin, path_direction, loaded), from the host's.
 BihHit traced_hit(uint p)
 {
     int at = int(4u * p);
-    return BihHit(uintBitsToFloat(texelFetch(hits, at).x), texelFetch(hits, at + 1).x,
-                  uintBitsToFloat(texelFetch(hits, at + 2).x),
-                  uintBitsToFloat(texelFetch(hits, at + 3).x));
+    BihHit hit = BihHit(uintBitsToFloat(texelFetch(hits, at).x), texelFetch(hits, at + 1).x,
+                        uintBitsToFloat(texelFetch(hits, at + 2).x),
+                        uintBitsToFloat(texelFetch(hits, at + 3).x));
+    return trace_after(hit, path_origin, path_direction, uintBitsToFloat(0x7f800000u), false);
 }
 
 uvec2 pixel_of(uint p)

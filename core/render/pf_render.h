@@ -264,9 +264,10 @@ pf_status pf_render_deform(pf_renderer *renderer, const pf_scene *scene, double 
  * Who traces the rays the host can trace (issue 43): reference's (a wavefront, one path
  * vertex a dispatch: render_reference_wave.comp), final's camera and gather rays, final's
  * and fast's photons. AUTO: the host, with the wide AVX2 BIH traversal on every core, where
- * the device is the CPU and its memory the host's, unless the scene has alpha-tested
- * materials (the host's traversal has no alpha test) or the tree was built on the device;
- * elsewhere the device. The stage planner says which and why, in the rows; tests and
+ * the device is the CPU and its memory the host's, unless the tree was built on the
+ * device; elsewhere the device. Alpha-tested materials stay with the host: its traversal has
+ * no textures, so the kernels test the hits it finds and go on past those that do not count
+ * themselves (bih_traverse.glsl trace_bih_surfaces_after). The stage planner says which and why, in the rows; tests and
  * benches force either. Setting it forgets what the photon stages kept, so that the next
  * frame traces its photons where it says.
  */

@@ -225,11 +225,12 @@ static uint32_t samples_of(const pf_render_settings *settings, uint32_t preset_d
  * final's camera rays and gather rays' first segments, and final's and fast's photons. The
  * host traces where it can and the device is the CPU: its wide traversal runs several times
  * the device's speed there (bench/RESULTS.md, "Rays where the device traces them best"); a
- * forced site the frame cannot honour falls back to the device. Sets plan->host_traces;
- * returns why the device traces, or NULL.
+ * forced site the frame cannot honour falls back to the device. Alpha-tested materials are
+ * no reason: the host's traversal has no textures, so the kernels that read its hits test
+ * them and go on past a hit that does not count themselves (bih_traverse.glsl
+ * trace_bih_surfaces_after). Sets plan->host_traces; returns why the device traces, or NULL.
  */
-static const char *plan_trace_site(const pf_scene_frame *frame, const pf_stage_previous *previous,
-                                   pf_stage_plan *plan)
+static const char *plan_trace_site(const pf_stage_previous *previous, pf_stage_plan *plan)
 {
     const char *why_not = NULL;
     if (previous->trace_site == PF_TRACE_DEVICE)
@@ -242,8 +243,6 @@ static const char *plan_trace_site(const pf_scene_frame *frame, const pf_stage_p
         why_not = "this CPU has no AVX2 for the host's wide traversal";
     else if (!previous->tree_on_host)
         why_not = "the BIH is built on the device";
-    else if (pf_scene_frame_surface_features(frame) & PF_SURFACE_ALPHA)
-        why_not = "alpha-tested materials: the host's traversal has no alpha test";
     plan->host_traces = why_not == NULL;
     return why_not;
 }
@@ -410,7 +409,7 @@ pf_status pf_plan_stages(const pf_scene_frame *frame, const pf_render_settings *
         return PF_OK;
     case PF_QUALITY_REFERENCE:
         plan->samples = samples_of(settings, REFERENCE_DEFAULT_SAMPLES, plan, "path samples");
-        say_trace_site(plan, PF_STAGE_SHADE, previous, plan_trace_site(frame, previous, plan),
+        say_trace_site(plan, PF_STAGE_SHADE, previous, plan_trace_site(previous, plan),
                        "wavefront, rays", "rays");
         /* Forced onto the host, the host traces every ray. */
         if (plan->host_traces && previous->trace_site != PF_TRACE_HOST &&
@@ -448,7 +447,7 @@ pf_status pf_plan_stages(const pf_scene_frame *frame, const pf_render_settings *
                      plan->photon_depth);
         plan_photons(plan, memory, 1);
         plan_final_passes(plan, memory);
-        const char *why_not = plan_trace_site(frame, previous, plan);
+        const char *why_not = plan_trace_site(previous, plan);
         say_trace_site(plan, PF_STAGE_SHADE, previous, why_not, "camera and gather rays",
                        "camera and gather rays");
         say_trace_site(plan, PF_STAGE_PHOTON_TRACE, previous, why_not, "photons", "photons");
@@ -474,7 +473,7 @@ pf_status pf_plan_stages(const pf_scene_frame *frame, const pf_render_settings *
     pf_stage_decide(plan, PF_STAGE_LPV_GEOMETRY, memory);
     pf_stage_decide(plan, PF_STAGE_LPV_INJECT, memory);
     pf_stage_decide(plan, PF_STAGE_LPV_PROPAGATE, memory);
-    say_trace_site(plan, PF_STAGE_PHOTON_TRACE, previous, plan_trace_site(frame, previous, plan),
+    say_trace_site(plan, PF_STAGE_PHOTON_TRACE, previous, plan_trace_site(previous, plan),
                    "photons", "photons");
     return PF_OK;
 }

@@ -315,4 +315,34 @@ BihHit trace_bih_surfaces(vec3 origin, vec3 direction, float tmin, float tmax, b
 #endif
 }
 
+// trace_bih_surfaces for a ray whose first traversal ran elsewhere, without the alpha test
+// (the host's, core/bih: it has no textures): hit is what that traversal found. Where the
+// hit does not count, the ray goes on past it here, as trace_bih_surfaces would have gone
+// on from the same first hit, so the hit that counts is the same either way (an any-hit
+// query's first hit may be another triangle than this device's traversal would have
+// found, but after one that does not count the query goes on as closest-hit queries, and
+// the answer, occluded or not, is the same). Most rays hit an opaque triangle first and
+// trace nothing here; without alpha, nothing is compiled.
+BihHit trace_bih_surfaces_after(BihHit hit, vec3 origin, vec3 direction, float tmin,
+                                float tmax, bool any_hit, vec3 bounds_min, vec3 bounds_max,
+                                uint triangle_count, uint node_count, out bool failed)
+{
+    failed = false;
+#ifdef PF_SCENE_TEXTURES_GLSL
+    if (!SCENE_HAS_ALPHA || hit.triangle == BIH_NO_HIT ||
+        scene_alpha_passes(hit.triangle, hit.u, hit.v, origin, direction))
+        return hit;
+    float from = any_hit ? tmin : hit.t;
+    for (uint layer = 1u; layer <= BIH_ALPHA_LAYERS; layer++) {
+        hit = trace_bih(origin, direction, from, tmax, false, bounds_min, bounds_max,
+                        triangle_count, node_count, failed);
+        if (failed || hit.triangle == BIH_NO_HIT || layer == BIH_ALPHA_LAYERS ||
+            scene_alpha_passes(hit.triangle, hit.u, hit.v, origin, direction))
+            break;
+        from = hit.t;
+    }
+#endif
+    return hit;
+}
+
 #endif

@@ -120,7 +120,8 @@ void gather_ray(uint pixel_index, uint gather_index, Material d1_material, vec3 
     for (uint bounce = 0u; bounce <= GATHER_MAX_SPECULAR; bounce++) {
         BihHit hit;
         if (TRACE_STEP == HITS_GIVEN && bounce == 0u) {
-            hit = host_hit(gather_slot(pixel_index, gather_index)); // traced and counted there
+            hit = trace_after(host_hit(gather_slot(pixel_index, gather_index)), origin,
+                              direction, infinity, false); // traced and counted there
         } else {
             hit = trace(origin, direction, infinity, false);
             rays++;

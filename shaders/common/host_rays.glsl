@@ -7,8 +7,10 @@
 // (constant_id 0) says who traces them:
 //   TRACED_HERE  the kernel, as ever (a GPU's: its traversal is the one to use);
 //   WRITE_RAYS   the kernel writes the rays into host_rays, nothing else;
-//   HITS_GIVEN   the kernel runs, reading those rays' hits from host_hits;
-//                rays after them (specular chains, shadow rays) it traces.
+//   HITS_GIVEN   the kernel runs, reading those rays' hits from host_hits
+//                (going on past a hit that an alpha test says does not count:
+//                scene_trace.glsl trace_after); rays after them (specular
+//                chains, shadow rays) it traces.
 // The kernel computes a ray the same way in both steps, from the same random
 // numbers, so the image is the device's but for ties between equally
 // distant triangles. The kernels run over bands of push.row_first on, so the

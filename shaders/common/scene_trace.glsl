@@ -22,4 +22,18 @@ BihHit trace(vec3 origin, vec3 direction, float tmax, bool any_hit)
     return hit;
 }
 
+// The hit that counts of a ray the host traced (hit: its closest, or with any_hit any, hit
+// of the ray from origin up to tmax), going on past alpha-tested triangles whose hits do not
+// count (bih_traverse.glsl trace_bih_surfaces_after): what trace() would have returned.
+BihHit trace_after(BihHit hit, vec3 origin, vec3 direction, float tmax, bool any_hit)
+{
+    bool failed;
+    hit = trace_bih_surfaces_after(hit, origin, direction, 0.0, tmax, any_hit,
+                                   params.bih_bounds_min.xyz, params.bih_bounds_max.xyz,
+                                   params.triangle_count, params.bih_node_count, failed);
+    if (failed)
+        atomicAdd(counters.traversal_failures, 1u);
+    return hit;
+}
+
 #endif
