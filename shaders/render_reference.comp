@@ -46,14 +46,18 @@
 //   film_aov[2p+1] (normal XYZ there, facing the camera ray, 0)
 // A sample whose values are not all finite (or whose path met a non-finite
 // shading normal) adds nothing anywhere and is counted in
-// counters.discarded_samples; the pixel averages over its kept samples.
+// counters.discarded_samples; the pixel averages over its kept samples. So
+// does one whose invocation met llvmpipe's loop cap (kernel_guard.glsl: a long
+// path with many lights in a large tree), counted in counters.loop_truncated
+// too: the host fails a frame with more than a few (frame_reference.c).
 
 layout(local_size_x = 8, local_size_y = 8) in;
 
 layout(constant_id = 0) const bool WRITE_AOVS = true;
 
 layout(push_constant) uniform Push {
-    uint sample_index; // 0 starts the film's sums
+    uint sample_index;  // 0 starts the film's sums
+    uint loop_sentinel; // 1; kernel_guard.glsl's end-of-invocation proof loop
 } push;
 
 #include "scene_bindings.glsl"
@@ -64,6 +68,7 @@ layout(std430, set = 0, binding = PF_SCENE_BINDING_COUNT + 2) buffer Counters {
     uint traversal_failures; // rays whose BIH traversal overflowed: the host fails the frame
     uint rays_low;           // rays traced, a 64-bit count in two words
     uint rays_high;
+    uint loop_truncated;     // samples whose invocation met the loop cap (also discarded)
 } counters;
 
 #define BIH_BINDING (PF_SCENE_BINDING_COUNT + 3)
@@ -77,6 +82,7 @@ layout(std430, set = 0, binding = PF_SCENE_BINDING_COUNT + 2) buffer Counters {
 
 #include "reference_path.glsl"
 #include "ray_count.glsl"
+#include "kernel_guard.glsl"
 
 void main()
 {
@@ -90,6 +96,10 @@ void main()
         path_rays++;
         if (!path_vertex(hit))
             break;
+    }
+    if (!loops_completed()) {
+        path_valid = false;
+        atomicAdd(counters.loop_truncated, 1u);
     }
     path_finish(pixel.y * params.width + pixel.x, push.sample_index);
     count_rays(path_rays);

@@ -29,6 +29,9 @@
  */
 #define REFERENCE_BATCH_TARGET_MS 250.0
 #define REFERENCE_BATCH_MAX_PASSES 64u
+/* A frame fails when more than this fraction of its samples met llvmpipe's loop cap (as
+ * final's and fast's): each such sample is dropped, a bias towards short paths. */
+#define REFERENCE_TRUNCATED_LIMIT 0.01
 
 /* render_reference.comp's bindings: the scene's (PF_SCENE_BINDINGS), 2 films, counters,
  * 3 BIH buffers. */
@@ -40,6 +43,7 @@
 
 typedef struct reference_push {
     uint32_t sample_index;
+    uint32_t loop_sentinel; /* 1: kernel_guard.glsl's proof loop */
 } reference_push;
 
 typedef struct reference_counters {
@@ -47,6 +51,7 @@ typedef struct reference_counters {
     uint32_t traversal_failures; /* rays whose BIH traversal overflowed its stack */
     uint32_t rays_low;
     uint32_t rays_high;
+    uint32_t loop_truncated; /* samples whose invocation met llvmpipe's loop cap (discarded) */
 } reference_counters;
 
 /* Adds the kernels' counters, read back, to progress. */
@@ -56,6 +61,7 @@ static void progress_add_counters(pf_reference_progress *progress,
     progress->rays += ((uint64_t)counters->rays_high << 32) | counters->rays_low;
     progress->discarded += counters->discarded_samples;
     progress->failures += counters->traversal_failures;
+    progress->truncated += counters->loop_truncated;
 }
 
 /*
@@ -69,7 +75,7 @@ static pf_status run_passes(pf_renderer *renderer, pf_vk_pipeline *pipeline,
                             pf_reference_progress *progress, pf_error *err)
 {
     pf_vk_context *ctx = renderer->ctx;
-    static const reference_counters zero = {0, 0, 0, 0};
+    static const reference_counters zero = {0, 0, 0, 0, 0};
     /* The counters zeroed, the passes and the counters' readback: one submission, the
      * frame's setup (setup: the scene's and parameters' uploads) in the first. */
     pf_vk_commands *cmds = setup;
@@ -80,7 +86,7 @@ static pf_status run_passes(pf_renderer *renderer, pf_vk_pipeline *pipeline,
                               err);
     int begin = pf_vk_cmd_timestamp(cmds);
     for (uint32_t pass = 0; status == PF_OK && pass < count; pass++) {
-        reference_push push = {progress->passes + pass};
+        reference_push push = {progress->passes + pass, 1};
         if (push.sample_index > 0)
             pf_vk_cmd_barrier(cmds); /* the previous pass's film sums are read */
         status = pf_vk_cmd_dispatch(
@@ -203,7 +209,7 @@ static pf_status shade(pf_renderer *renderer, const pf_scene_frame *frame,
         *trace_threads = pf_reference_wave_threads(wave);
         /* The counters: the wavefront's kernels add discarded samples, its tail the rays it
          * traces and its traversals' failures. */
-        static const reference_counters zero = {0, 0, 0, 0};
+        static const reference_counters zero = {0, 0, 0, 0, 0};
         status = pf_vk_cmd_upload(setup, owned.counters, 0, &zero, sizeof zero, err);
     }
     double pass_ms = 0.0;
@@ -291,13 +297,23 @@ static pf_status reference_run(pf_frame_run *run, pf_stage_id stage, uint32_t pa
     if (status != PF_OK)
         return status;
     double shade_start = pf_time_ms();
-    pf_reference_progress progress = {0, 0, 0, 0, -1.0, 0, 0.0, 0};
+    pf_reference_progress progress = {0, 0, 0, 0, 0, -1.0, 0, 0.0, 0};
     uint32_t trace_threads = 0;
     if (status == PF_OK)
         status = shade(renderer, frame, settings, spp, plan, frame_start, image,
                        &progress, &trace_threads, err);
     if (status == PF_OK)
         status = pf_render_check_traversal(renderer, progress.failures, err);
+    if (status == PF_OK && (double)progress.truncated >
+                               REFERENCE_TRUNCATED_LIMIT * (double)pixels * progress.passes)
+        status = pf_error_set(err, PF_ERR_LIMIT,
+                              "%llu of %llu samples stopped at the loop cap (%s: this device "
+                              "ends an invocation's loops after 65,535 iterations; long paths "
+                              "past many lights)",
+                              (unsigned long long)progress.truncated,
+                              (unsigned long long)(pixels * progress.passes),
+                              plan->host_traces ? "the wavefront's tail traces on the device"
+                                                : "the device traces every path");
     if (status == PF_OK)
         renderer->wave_tails += plan->wave_tails; /* what the tail's compilation weighs */
     if (status != PF_OK) {
@@ -317,6 +333,7 @@ static pf_status reference_run(pf_frame_run *run, pf_stage_id stage, uint32_t pa
             pf_stage_add_counter(row, "paths", (double)pixels * progress.passes);
             pf_stage_add_counter(row, "rays", (double)progress.rays);
             pf_stage_add_counter(row, "discarded_samples", (double)progress.discarded);
+            pf_stage_add_counter(row, "loop_truncated", (double)progress.truncated);
             pf_stage_add_counter(row, "triangles", frame->triangle_count);
             if (plan->host_traces) {
                 pf_stage_add_counter(row, "waves", progress.waves);

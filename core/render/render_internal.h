@@ -189,6 +189,7 @@ typedef struct pf_reference_progress {
     uint64_t rays;
     uint64_t discarded;
     uint64_t failures;
+    uint64_t truncated;   /* samples cut at llvmpipe's loop cap (discarded too) */
     double gpu_ms;        /* < 0: no timestamps */
     uint32_t waves;       /* the wavefront's dispatches */
     double host_trace_ms; /* the wavefront's trace steps on the host */

@@ -15,7 +15,7 @@
 /* render_reference.comp: constant_id 0 says whether the AOV film is written. */
 #define REFERENCE_SPEC_AOVS 0u
 #define RENDER_REFERENCE_BUFFERS (PF_SCENE_BINDING_COUNT + 6u)
-#define RENDER_REFERENCE_PUSH_BYTES 4u
+#define RENDER_REFERENCE_PUSH_BYTES 8u
 /* render_final.comp (primary), final_caustic.comp, final_gather.comp,
  * final_gather_estimate.comp, final_deferred.comp and final_resolve.comp: PF_FINAL_BUFFERS
  * buffers and the same 124-byte Push (final_shared.glsl); the primary's and the gathers'
@@ -30,11 +30,12 @@
  * (denoise_filter.glsl). */
 #define DENOISE_BUFFERS 6u
 #define DENOISE_PUSH_BYTES 16u
-/* render_reference_wave.comp: the reference kernel's buffers and 12 of its own, a 16-byte
- * Push, constant_id 0 its mode (WAVE_SHADE 0, WAVE_GENERATE 1, WAVE_FINISH_RGB 2,
- * WAVE_FINISH 3, WAVE_TAIL 4). */
+/* The reference wavefront's modules (reference_wave.glsl): the reference kernel's buffers
+ * and 12 of their own, a 20-byte Push, constant_id 0 the mode (render_reference_wave.comp's
+ * WAVE_SHADE 0; render_reference_wave_ends.comp's WAVE_GENERATE 1, WAVE_FINISH_RGB 2 and
+ * WAVE_FINISH 3; render_reference_wave_tail.comp's WAVE_TAIL 4). */
 #define REFERENCE_WAVE_BUFFERS (RENDER_REFERENCE_BUFFERS + 12u)
-#define REFERENCE_WAVE_PUSH_BYTES 16u
+#define REFERENCE_WAVE_PUSH_BYTES 20u
 /* deform.comp: 13 buffers and a 16-byte Push (deform_device.c). */
 #define DEFORM_BUFFERS 13u
 #define DEFORM_PUSH_BYTES 16u
@@ -97,15 +98,16 @@ static const pipeline_spec pipeline_specs[PF_PIPELINE_COUNT] = {
                                       {0, 0}},
     [PF_PIPELINE_DENOISE_ATROUS] = {"denoise_atrous", DENOISE_BUFFERS, DENOISE_PUSH_BYTES, 0,
                                     {0, 0}},
-    [PF_PIPELINE_REFERENCE_WAVE_GENERATE] = {"render_reference_wave", REFERENCE_WAVE_BUFFERS,
+    [PF_PIPELINE_REFERENCE_WAVE_GENERATE] = {"render_reference_wave_ends", REFERENCE_WAVE_BUFFERS,
                                              REFERENCE_WAVE_PUSH_BYTES, 1, {0, 1}, 1, 1},
     [PF_PIPELINE_REFERENCE_WAVE] = {"render_reference_wave", REFERENCE_WAVE_BUFFERS,
                                     REFERENCE_WAVE_PUSH_BYTES, 1, {0, 0}, 1},
-    [PF_PIPELINE_REFERENCE_WAVE_FINISH] = {"render_reference_wave", REFERENCE_WAVE_BUFFERS,
+    [PF_PIPELINE_REFERENCE_WAVE_FINISH] = {"render_reference_wave_ends", REFERENCE_WAVE_BUFFERS,
                                            REFERENCE_WAVE_PUSH_BYTES, 1, {0, 3}, 1},
-    [PF_PIPELINE_REFERENCE_WAVE_FINISH_RGB] = {"render_reference_wave", REFERENCE_WAVE_BUFFERS,
+    [PF_PIPELINE_REFERENCE_WAVE_FINISH_RGB] = {"render_reference_wave_ends",
+                                               REFERENCE_WAVE_BUFFERS,
                                                REFERENCE_WAVE_PUSH_BYTES, 1, {0, 2}, 1},
-    [PF_PIPELINE_REFERENCE_WAVE_TAIL] = {"render_reference_wave", REFERENCE_WAVE_BUFFERS,
+    [PF_PIPELINE_REFERENCE_WAVE_TAIL] = {"render_reference_wave_tail", REFERENCE_WAVE_BUFFERS,
                                          REFERENCE_WAVE_PUSH_BYTES, 1, {0, 4}, 1},
     [PF_PIPELINE_DEFORM] = {"deform", DEFORM_BUFFERS, DEFORM_PUSH_BYTES, 0, {0, 0}},
     [PF_PIPELINE_SPLIT_FILM] = {"split_film", SPLIT_FILM_BUFFERS, SPLIT_FILM_PUSH_BYTES, 0,

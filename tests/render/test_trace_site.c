@@ -417,6 +417,56 @@ PF_TEST(alpha_tested_materials_are_the_same_image_from_both_sites)
     ref_scene_free(&scene);
 }
 
+/*
+ * llvmpipe's loop cap, never silent: the lit box with 400 more point lights. A vertex's
+ * next-event estimation loops over every light; the megakernel traces each shadow ray inside
+ * that loop, so a path of a few vertices goes past 65,535 loop iterations in one invocation
+ * and the rest of its loops would end short, silently darker (kernel_guard.glsl): the frame
+ * fails saying so. The wavefront's vertex only writes the shadow rays (the host traces
+ * them): the same frame renders whole there.
+ */
+PF_TEST(paths_past_many_lights_meet_the_loop_cap_only_in_the_megakernel)
+{
+    ref_scene scene;
+    lit_box(&scene);
+    /* More than ref_scene holds: the frame's own array for the render. */
+    enum { MORE_LIGHTS = 400 };
+    pf_light *own_lights = scene.frame.lights;
+    uint32_t own_count = scene.frame.light_count;
+    pf_light lights[MORE_LIGHTS + REF_SCENE_LIGHTS_MAX];
+    memcpy(lights, own_lights, own_count * sizeof *lights);
+    for (int i = 0; i < MORE_LIGHTS; i++)
+        lights[own_count + i] = (pf_light){
+            .position = {-0.9f + 1.8f * (float)(i % 25) / 24.0f, 0.9f,
+                         -0.9f + 1.8f * (float)(i / 25) / 15.0f},
+            .kind = PF_LIGHT_POINT, .intensity = {0.01f, 0.01f, 0.01f}};
+    scene.frame.lights = lights;
+    scene.frame.light_count = own_count + MORE_LIGHTS;
+    pf_render_settings settings = ref_settings(16, 12, 1, 15, 0);
+    pf_renderer_set_trace_site(renderer, PF_TRACE_DEVICE);
+    pf_image image = {0};
+    pf_frame_report report = {0};
+    pf_error err = {0};
+    pf_status status = pf_render_frame(renderer, &scene.frame, &settings, &image, &report, &err);
+    pf_renderer_set_trace_site(renderer, PF_TRACE_AUTO);
+    printf("  megakernel: status %d: %s\n", (int)status, err.message);
+    PF_CHECK(status == PF_ERR_LIMIT && strstr(err.message, "loop cap") &&
+             strstr(err.message, "the device traces every path"));
+    PF_CHECK(image.pixels == NULL);
+    pf_image_free(&image);
+    if (render_with(&scene.frame, &settings, PF_TRACE_HOST, &image, &report)) {
+        double truncated = ref_stage_counter(&report, "shade", "loop_truncated");
+        printf("  wavefront: %g samples cut, %g discarded\n", truncated,
+               ref_stage_counter(&report, "shade", "discarded_samples"));
+        PF_CHECK(truncated == 0.0);
+        PF_CHECK(ref_stage_counter(&report, "shade", "discarded_samples") == 0.0);
+    }
+    pf_image_free(&image);
+    scene.frame.lights = own_lights;
+    scene.frame.light_count = own_count;
+    ref_scene_free(&scene);
+}
+
 PF_TEST(a_moved_scene_is_traced_through_its_own_tree)
 {
     /* The host's traces share one wide view of the frame's tree (pf_renderer_bih_wide). A
@@ -466,6 +516,7 @@ int main(void)
     PF_RUN(an_image_larger_than_a_band_is_shaded_band_by_band);
     PF_RUN(fast_traces_the_same_photons_on_the_host);
     PF_RUN(alpha_tested_materials_are_the_same_image_from_both_sites);
+    PF_RUN(paths_past_many_lights_meet_the_loop_cap_only_in_the_megakernel);
     PF_RUN(a_moved_scene_is_traced_through_its_own_tree);
     return render_test_finish(ctx, renderer);
 }
