@@ -221,6 +221,12 @@ typedef struct pf_reference_progress {
  */
 #define PF_REFERENCE_WAVE_TAIL_MIN_TAILS 128u
 /*
+ * A tail's lane traces a shadow ray a punctual light at each of up to ~100 vertices in one
+ * invocation, whose loops llvmpipe ends after 65,535 rounds in all (kernel_guard.glsl: the
+ * paths cut would be dropped, counted): a frame with more lights than this has no tail.
+ */
+#define PF_REFERENCE_WAVE_TAIL_MAX_LIGHTS 8u
+/*
  * Paths in flight at once: the wavefront's image goes in slices of at most this many
  * pixels, so its buffers (~200 bytes a path plus 64 a shadow slot) stay bounded at any size.
  */

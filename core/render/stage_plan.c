@@ -269,7 +269,8 @@ static void say_trace_site(pf_stage_plan *plan, pf_stage_id stage,
 /*
  * reference's wavefront: the tails of this frame (a slice a pass) in plan->wave_tails, and
  * whether its tail kernel has paid or pays for its compilation with them
- * (PF_REFERENCE_WAVE_TAIL_MIN_TAILS), or is compiled already.
+ * (PF_REFERENCE_WAVE_TAIL_MIN_TAILS), or is compiled already; never past
+ * PF_REFERENCE_WAVE_TAIL_MAX_LIGHTS punctual lights.
  */
 _Static_assert(PF_SURFACE_VARIANTS <= 64, "pf_stage_previous.wave_tail_compiled: a bit a variant");
 static int worth_a_tail(const pf_scene_frame *frame, const pf_render_settings *settings,
@@ -279,6 +280,8 @@ static int worth_a_tail(const pf_scene_frame *frame, const pf_render_settings *s
     uint64_t slices = (pixels + PF_REFERENCE_WAVE_MAX_PATHS - 1) / PF_REFERENCE_WAVE_MAX_PATHS;
     plan->wave_tails = (uint64_t)plan->samples * slices;
     uint32_t variant = pf_scene_frame_surface_features(frame) % PF_SURFACE_VARIANTS;
+    if (frame->light_count > PF_REFERENCE_WAVE_TAIL_MAX_LIGHTS)
+        return 0;
     return ((previous->wave_tail_compiled >> variant) & 1u) != 0 ||
            previous->wave_tails_before + plan->wave_tails >= PF_REFERENCE_WAVE_TAIL_MIN_TAILS;
 }

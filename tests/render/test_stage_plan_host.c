@@ -281,6 +281,21 @@ PF_TEST(the_wavefront_tail_runs_where_it_pays_for_its_kernel)
     PF_CHECK(tail_of(&previous, 1, 32, 24) == 0);
     previous.wave_tail_compiled = UINT64_C(1) << variant;
     PF_CHECK(tail_of(&previous, 1, 32, 24) == PF_REFERENCE_WAVE_TAIL_PATHS);
+    /* Past PF_REFERENCE_WAVE_TAIL_MAX_LIGHTS punctual lights, none (a lane's shadow rays would
+     * reach llvmpipe's loop cap). */
+    pf_light *own_lights = room.frame.lights;
+    uint32_t own_count = room.frame.light_count;
+    pf_light lights[PF_REFERENCE_WAVE_TAIL_MAX_LIGHTS + 1] = {0};
+    for (uint32_t i = 0; i <= PF_REFERENCE_WAVE_TAIL_MAX_LIGHTS; i++)
+        lights[i] = (pf_light){.position = {0.0f, 0.5f, 0.0f}, .kind = PF_LIGHT_POINT,
+                               .intensity = {1.0f, 1.0f, 1.0f}};
+    room.frame.lights = lights;
+    room.frame.light_count = PF_REFERENCE_WAVE_TAIL_MAX_LIGHTS;
+    PF_CHECK(tail_of(&previous, 1, 32, 24) == PF_REFERENCE_WAVE_TAIL_PATHS);
+    room.frame.light_count = PF_REFERENCE_WAVE_TAIL_MAX_LIGHTS + 1;
+    PF_CHECK(tail_of(&previous, 1, 32, 24) == 0);
+    room.frame.lights = own_lights;
+    room.frame.light_count = own_count;
     /* Forced onto the host, or on the device, there is none. */
     previous.trace_site = PF_TRACE_HOST;
     PF_CHECK(tail_of(&previous, 1024, 32, 24) == 0);
