@@ -6,6 +6,7 @@
 #include "photon_internal.h"
 
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -37,9 +38,14 @@ pf_status pf_photon_trace_pipeline(pf_photon_tracer *tracer, pf_photon_step step
         for (uint32_t c = 0; c < PF_SCENE_SPEC_CONSTANTS; c++)
             constants[c] = (pf_vk_spec_constant){ids[c], values[c]};
         constants[PF_SCENE_SPEC_CONSTANTS] = (pf_vk_spec_constant){PHOTON_STEP_CONSTANT, step};
+        /* A module a step (photon_path.glsl), its "_surfaces" variant where the scene has them. */
+        static const char *const modules[PF_PHOTON_STEPS] = {"photon_trace", "photon_wave_emit",
+                                                             "photon_wave_bounce"};
+        char name[48];
+        snprintf(name, sizeof name, "%s%s", modules[step],
+                 (features & PF_SURFACE_TEXTURED) ? "_surfaces" : "");
         pf_status status = pf_vk_pipeline_create_named(
-            tracer->ctx, (features & PF_SURFACE_TEXTURED) ? "photon_trace_surfaces" : "photon_trace",
-            TRACE_BUFFERS, sizeof(trace_push), constants,
+            tracer->ctx, name, TRACE_BUFFERS, sizeof(trace_push), constants,
             PF_SCENE_SPEC_CONSTANTS + (step == PF_PHOTON_TRACED_HERE ? 0 : 1), slot, err);
         if (status != PF_OK)
             return status;
@@ -379,12 +385,9 @@ pf_status pf_photon_trace_passes(pf_photon_tracer *tracer, const pf_photon_scene
         if ((status = job_prepare(tracer, scene, emitters, &settings[i], &jobs[i], &out[i],
                                   err)) != PF_OK)
             failed = i;
-    pf_vk_pipeline *kernel = NULL;
-    if (status == PF_OK)
-        status = pf_photon_trace_pipeline(tracer, PF_PHOTON_TRACED_HERE, scene->surface_features,
-                                          &kernel, err);
     /* Where the host traces the rays, each pass in its waves; else every pass in one
-     * submission. */
+     * submission (the flat loop's kernel made only then: 0.1-0.3 s of llvmpipe's a process). */
+    pf_vk_pipeline *kernel = NULL;
     int batched = 0;
     for (uint32_t i = 0; status == PF_OK && i < count; i++) {
         selected[i] = emitters->count > 0 && !settings[i].host_tree;
@@ -399,6 +402,9 @@ pf_status pf_photon_trace_passes(pf_photon_tracer *tracer, const pf_photon_scene
                 failed = i;
         }
     }
+    if (status == PF_OK && batched > 0)
+        status = pf_photon_trace_pipeline(tracer, PF_PHOTON_TRACED_HERE, scene->surface_features,
+                                          &kernel, err);
     if (status == PF_OK && batched > 0)
         status = submit_jobs(tracer, kernel, jobs, selected, count, err);
     /* Photons that share an invocation add up its loop iterations: where that met the cap,
