@@ -50,7 +50,7 @@ typedef enum pf_renderer_pipeline_id {
     PF_PIPELINE_FINAL_CAUSTIC,   /* final_caustic.comp */
     /* final where the host traces (host_rays.glsl's TRACE_STEP) */
     PF_PIPELINE_FINAL_PRIMARY_GIVEN, /* render_final.comp, HITS_GIVEN */
-    PF_PIPELINE_FINAL_GATHER_RAYS,   /* final_gather.comp, WRITE_RAYS */
+    PF_PIPELINE_FINAL_GATHER_RAYS,   /* final_gather_rays.comp (WRITE_RAYS) */
     PF_PIPELINE_FINAL_GATHER_GIVEN,  /* final_gather.comp, HITS_GIVEN */
     PF_PIPELINE_FINAL_GATHER_ESTIMATE_GIVEN, /* final_gather_estimate.comp, HITS_GIVEN */
     PF_PIPELINE_CAMERA_RAYS,         /* camera_rays.comp: final's camera rays */

@@ -281,10 +281,14 @@ void main()
     uvec2 pixel = band_pixel();
     if (pixel.x >= params.width || pixel.y >= params.height)
         return;
+#ifdef FINAL_GATHER_RAYS_ONLY
+    write_rays(pixel.y * params.width + pixel.x); // final_gather_rays.comp: no gather's code
+#else
     if (TRACE_STEP == WRITE_RAYS)
         write_rays(pixel.y * params.width + pixel.x);
     else
         gather(pixel.y * params.width + pixel.x);
+#endif
 }
 
 #endif
