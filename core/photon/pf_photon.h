@@ -345,7 +345,7 @@ pf_status pf_photon_emitters_build(const pf_scene_frame *frame, pf_photon_emitte
 void pf_photon_emitters_free(pf_photon_emitters *emitters);
 
 /*
- * Photon tracing on the GPU (shaders/photon_trace.comp documents emission,
+ * Photon tracing on the GPU (shaders/common/photon_path.glsl documents emission,
  * storage rules and Russian roulette). The scene comes as the buffers the
  * renderer already uploaded for the frame (pf_scene.h layouts: vertices and
  * normals vec4 × 3 per triangle, a material index per triangle, pf_material

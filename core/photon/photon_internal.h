@@ -1,6 +1,6 @@
 /*
  * What photon_trace.c and photon_trace_wave.c share (not part of the module's
- * interface, pf_photon.h): photon_trace.comp's parameters, push constants,
+ * interface, pf_photon.h): photon_path.glsl's parameters, push constants,
  * counters and bindings, and its pipelines.
  */
 #ifndef PF_PHOTON_INTERNAL_H
@@ -8,11 +8,13 @@
 
 #include "pf_photon.h"
 
-/* photon_trace.comp's bindings: the scene's, the tree's three, the two maps, the counters,
- * then the waves' seven (state, rays, hits, queue, active; state and rays as texel views). */
+/* The photon modules' bindings (photon_path.glsl): the scene's, the tree's three, the two
+ * maps, the counters, then the waves' seven (state, rays, hits, queue, active; state and rays
+ * as texel views). */
 #define TRACE_COUNTERS (PF_SCENE_BINDING_COUNT + 5u)
 #define TRACE_BUFFERS (PF_SCENE_BINDING_COUNT + 13u)
-/* photon_trace.comp's PHOTON_STEP specialisation constant. */
+/* photon_path.glsl's PHOTON_STEP specialisation constant; its modules by step: photon_trace.comp
+ * (the flat loop), photon_wave_emit.comp, photon_wave_bounce.comp. */
 #define PHOTON_STEP_CONSTANT 0u
 
 typedef enum pf_photon_step {
@@ -22,7 +24,7 @@ typedef enum pf_photon_step {
     PF_PHOTON_STEPS
 } pf_photon_step;
 
-/* PhotonTraceParams in photon_trace.comp (std430, 96 bytes). */
+/* PhotonTraceParams in photon_path.glsl (std430, 96 bytes). */
 typedef struct photon_trace_params {
     float bih_bounds_min[4];
     float bih_bounds_max[4];
@@ -48,7 +50,7 @@ typedef struct trace_counters {
     uint32_t loop_truncated;
 } trace_counters;
 
-/* photon_trace.comp's Push. */
+/* photon_path.glsl's Push. */
 typedef struct trace_push {
     uint32_t first_photon;
     uint32_t photon_count;

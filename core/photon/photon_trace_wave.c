@@ -6,7 +6,7 @@
  * photon's state and first ray into the waves' buffers); then, until none is
  * left, the host traces the rays in place and a dispatch bounces the photons
  * whose ray hit a surface (PHOTON_BOUNCE: store, scatter, roulette, the next
- * ray). photon_trace.comp's photon_start and photon_bounce are the flat
+ * ray). photon_path.glsl's photon_start and photon_bounce are the flat
  * loop's, so the photons are the same; only the maps' order differs.
  */
 #include "photon_internal.h"
@@ -17,7 +17,7 @@
 #define WAVE_GROUP_SIZE 64u
 /* Photons in flight at once: the waves' buffers (~110 bytes a photon) stay ~28 MB. */
 #define WAVE_MAX_PHOTONS (1u << 18)
-/* PhotonWave in photon_trace.comp: 3 vec4. */
+/* PhotonWave in photon_path.glsl: 3 vec4. */
 #define WAVE_STATE_BYTES 48u
 
 enum { WAVE_STATE, WAVE_RAYS, WAVE_HITS, WAVE_QUEUE, WAVE_ACTIVE, WAVE_BUFFER_COUNT };

@@ -1,8 +1,8 @@
 /*
- * reference's passes as a wavefront (shaders/render_reference_wave.comp), for
+ * reference's passes as a wavefront (shaders/common/reference_wave.glsl), for
  * a device whose memory is the host's: a dispatch advances every live path
  * of a slice of the image by one vertex and writes its rays into device
- * buffers; the host traces them in place (wave_trace.c) and drops the paths
+ * buffers; the host traces them in place (core/bih/bih_wave_trace.c) and drops the paths
  * that are done; the next dispatch reads the hits. Once no path of the slice
  * is left, one dispatch finishes them all into the film. Once a wave would
  * shade only a few paths, one tail dispatch runs them to their ends instead,
@@ -26,7 +26,7 @@
  * list is empty or their vertices run out, and the later ones find it empty; a second
  * workgroup a thread covers a device with more threads than the host traces on. */
 #define WAVE_TAIL_GROUPS_PER_THREAD 2u
-/* WavePath in render_reference_wave.comp: 9 vec4. */
+/* WavePath in reference_wave.glsl: 9 vec4. */
 #define WAVE_PATH_BYTES (9u * 16u)
 
 typedef struct wave_push {

@@ -267,8 +267,8 @@ pf_status pf_render_deform(pf_renderer *renderer, const pf_scene *scene, double 
  * the device is the CPU and its memory the host's, unless the tree was built on the
  * device; elsewhere the device. Alpha-tested materials stay with the host: its traversal has
  * no textures, so the kernels test the hits it finds and go on past those that do not count
- * themselves (bih_traverse.glsl trace_bih_surfaces_after). The stage planner says which and why, in the rows; tests and
- * benches force either. Setting it forgets what the photon stages kept, so that the next
+ * themselves (bih_traverse.glsl trace_bih_surfaces_after). The stage planner says which
+ * and why, in the rows; tests and benches force either. Setting it forgets what the photon stages kept, so that the next
  * frame traces its photons where it says.
  */
 typedef enum pf_trace_site {

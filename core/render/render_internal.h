@@ -58,11 +58,11 @@ typedef enum pf_renderer_pipeline_id {
     PF_PIPELINE_FAST_CAUSTIC,    /* render_fast_caustic.comp */
     PF_PIPELINE_DENOISE_VARIANCE, /* denoise_variance.comp */
     PF_PIPELINE_DENOISE_ATROUS,  /* denoise_atrous.comp */
-    PF_PIPELINE_REFERENCE_WAVE_GENERATE, /* render_reference_wave.comp, WAVE_GENERATE */
+    PF_PIPELINE_REFERENCE_WAVE_GENERATE, /* render_reference_wave_ends.comp, WAVE_GENERATE */
     PF_PIPELINE_REFERENCE_WAVE,          /* render_reference_wave.comp, WAVE_SHADE */
-    PF_PIPELINE_REFERENCE_WAVE_FINISH,   /* render_reference_wave.comp, WAVE_FINISH (AOVs) */
-    PF_PIPELINE_REFERENCE_WAVE_FINISH_RGB, /* render_reference_wave.comp, WAVE_FINISH_RGB */
-    PF_PIPELINE_REFERENCE_WAVE_TAIL,       /* render_reference_wave.comp, WAVE_TAIL */
+    PF_PIPELINE_REFERENCE_WAVE_FINISH,   /* render_reference_wave_ends.comp, WAVE_FINISH (AOVs) */
+    PF_PIPELINE_REFERENCE_WAVE_FINISH_RGB, /* render_reference_wave_ends.comp, WAVE_FINISH_RGB */
+    PF_PIPELINE_REFERENCE_WAVE_TAIL,       /* render_reference_wave_tail.comp, WAVE_TAIL */
     PF_PIPELINE_DEFORM,                  /* deform.comp */
     PF_PIPELINE_SPLIT_FILM,              /* split_film.comp: the film into the image */
     PF_PIPELINE_FINAL_RETRACE_ARGS,      /* final_retrace_args.comp: the retrace's groups */
@@ -205,7 +205,7 @@ typedef struct pf_reference_progress {
  */
 #define PF_REFERENCE_WAVE_MAX_BUFFERS 32u
 /*
- * The wavefront's tail (render_reference_wave.comp's WAVE_TAIL): once at most this many
+ * The wavefront's tail (render_reference_wave_tail.comp): once at most this many
  * paths of a slice go on, one dispatch runs them to their ends, tracing on the device.
  * Roulette leaves a dozen waves a pass of a few hundred paths, each costing a submission's
  * round trip (~0.2 ms on llvmpipe) more than its vertices; the device traces a ray several

@@ -19,7 +19,7 @@
  * of rows is shaded band by band.
  *
  * final's and fast's photons: traced by the device in one flat loop, or in
- * waves whose rays the host traces (photon_trace.comp's PHOTON_STEP). The
+ * waves whose rays the host traces (photon_path.glsl's PHOTON_STEP). The
  * same photons either way: the same counts stored, the same image but for
  * the maps' order.
  *
