@@ -445,7 +445,7 @@ bool material_stores_photons(Material material)
 // Where a camera path of `final` (and `preview`) ends its specular chain: at a
 // surface estimated from photons, or at a metal too sharp for that, whose own
 // lobe the gather rays (preview: the light samples) then sample. Photons reach
-// it through caustic chains only (photon_trace.comp): light it receives from
+// it through caustic chains only (photon_path.glsl): light it receives from
 // mirrors, glass and other sharp metals is estimated there from the caustic
 // map, the rest is found by its gather rays.
 bool material_estimated_at_d1(Material material)

@@ -1,6 +1,7 @@
 // The shading kernels' ray counter (render_final.comp, final_gather.comp,
-// render_fast.comp, render_reference.comp, render_reference_wave.comp's tail): the including shader declares counters.rays_low and
-// counters.rays_high, a 64-bit count in two 32-bit words.
+// render_fast.comp, render_reference.comp, render_reference_wave_tail.comp):
+// the including shader declares counters.rays_low and counters.rays_high, a
+// 64-bit count in two 32-bit words.
 #ifndef PF_RAY_COUNT_GLSL
 #define PF_RAY_COUNT_GLSL
 

@@ -1,11 +1,12 @@
 #ifndef PF_REFERENCE_WAVE_GLSL
 #define PF_REFERENCE_WAVE_GLSL
 
-// The reference path tracer as a wavefront: what its two modules share
-// (render_reference_wave.comp: WAVE_SHADE and WAVE_TAIL, the path vertex;
-// render_reference_wave_ends.comp: WAVE_GENERATE and WAVE_FINISH, a pass's
-// first and last dispatches, without the vertex's code: llvmpipe builds each
-// pipeline from its whole module before specialising it, 0.1-0.5 s a module).
+// The reference path tracer as a wavefront: what its three modules share
+// (render_reference_wave.comp: WAVE_SHADE, the path vertex;
+// render_reference_wave_tail.comp: WAVE_TAIL; render_reference_wave_ends.comp:
+// WAVE_GENERATE and WAVE_FINISH, a pass's first and last dispatches, without
+// the vertex's code: llvmpipe builds each pipeline from its whole module
+// before specialising it, 0.1-0.5 s a module).
 //
 // The reference path tracer as a wavefront (issue 43; Laine, Karras & Aila
 // 2013): the paths of one pass advance one vertex per dispatch, and the rays
@@ -36,7 +37,7 @@
 //                    paths costs its submission and dispatch more than its
 //                    work: the tail's paths end in one dispatch, not one a
 //                    vertex, and a lane whose path ended takes another (up to
-//                    a bound, tail_main), so the lanes stay busy until the
+//                    a bound, render_reference_wave_tail.comp), so the lanes stay busy until the
 //                    list runs out.
 //   WAVE_FINISH(_RGB) once a pass's waves are done, invocation i finishes
 //                    pixel i's path, ended in whichever wave: the light of its
