@@ -423,9 +423,10 @@ PF_TEST(alpha_tested_materials_are_the_same_image_from_both_sites)
  * that loop, so a path of a few vertices goes past 65,535 loop iterations in one invocation
  * and the rest of its loops would end short, silently darker (kernel_guard.glsl): the frame
  * fails saying so. The wavefront's vertex only writes the shadow rays (the host traces
- * them): the same frame renders whole there.
+ * them): the same frame renders whole there. final's primary traces its shadow rays in the
+ * kernel: it fails too.
  */
-PF_TEST(paths_past_many_lights_meet_the_loop_cap_only_in_the_megakernel)
+PF_TEST(many_lights_meet_the_loop_cap_where_the_device_traces_shadow_rays)
 {
     ref_scene scene;
     lit_box(&scene);
@@ -461,6 +462,15 @@ PF_TEST(paths_past_many_lights_meet_the_loop_cap_only_in_the_megakernel)
         PF_CHECK(truncated == 0.0);
         PF_CHECK(ref_stage_counter(&report, "shade", "discarded_samples") == 0.0);
     }
+    pf_image_free(&image);
+    /* final's primary traces its shadow rays in the kernel, wherever its camera rays are
+     * traced: caught there too (kernel_guard.glsl, the guard that had never fired). */
+    settings = final_settings(16, 12, 1, 20000, 16);
+    memset(&report, 0, sizeof report);
+    status = pf_render_frame(renderer, &scene.frame, &settings, &image, &report, &err);
+    printf("  final: status %d: %s\n", (int)status, err.message);
+    PF_CHECK(status == PF_ERR_LIMIT && strstr(err.message, "loop cap") &&
+             strstr(err.message, "punctual lights"));
     pf_image_free(&image);
     scene.frame.lights = own_lights;
     scene.frame.light_count = own_count;
@@ -516,7 +526,7 @@ int main(void)
     PF_RUN(an_image_larger_than_a_band_is_shaded_band_by_band);
     PF_RUN(fast_traces_the_same_photons_on_the_host);
     PF_RUN(alpha_tested_materials_are_the_same_image_from_both_sites);
-    PF_RUN(paths_past_many_lights_meet_the_loop_cap_only_in_the_megakernel);
+    PF_RUN(many_lights_meet_the_loop_cap_where_the_device_traces_shadow_rays);
     PF_RUN(a_moved_scene_is_traced_through_its_own_tree);
     return render_test_finish(ctx, renderer);
 }
