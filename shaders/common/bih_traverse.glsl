@@ -287,18 +287,22 @@ BihHit trace_bih(vec3 origin, vec3 direction, float tmin, float tmax, bool any_h
 // last hit counts (no light leaks through a dense stack of cut-out cards).
 const uint BIH_ALPHA_LAYERS = 32u;
 
-BihHit trace_bih_surfaces(vec3 origin, vec3 direction, float tmin, float tmax, bool any_hit,
-                          vec3 bounds_min, vec3 bounds_max, uint triangle_count, uint node_count,
-                          out bool failed)
-{
 #ifdef PF_SCENE_TEXTURES_GLSL
-    // One traversal in the loop (llvmpipe inlines each call site's copy).
-    BihHit hit;
+// trace_bih_surfaces's loop, and trace_bih_surfaces_after's: traced says that hit is the
+// first traversal's already (layer 0 is not traced here). One traversal in the loop
+// (llvmpipe inlines each call site's copy).
+BihHit trace_bih_surfaces_from(bool traced, BihHit hit, vec3 origin, vec3 direction,
+                               float tmin, float tmax, bool any_hit, vec3 bounds_min,
+                               vec3 bounds_max, uint triangle_count, uint node_count,
+                               out bool failed)
+{
+    failed = false;
     float from = tmin;
     bool any = any_hit;
     for (uint layer = 0u; layer <= BIH_ALPHA_LAYERS; layer++) {
-        hit = trace_bih(origin, direction, from, tmax, any, bounds_min, bounds_max,
-                        triangle_count, node_count, failed);
+        if (layer > 0u || !traced)
+            hit = trace_bih(origin, direction, from, tmax, any, bounds_min, bounds_max,
+                            triangle_count, node_count, failed);
         if (!SCENE_HAS_ALPHA || failed || hit.triangle == BIH_NO_HIT ||
             layer == BIH_ALPHA_LAYERS ||
             scene_alpha_passes(hit.triangle, hit.u, hit.v, origin, direction))
@@ -308,6 +312,17 @@ BihHit trace_bih_surfaces(vec3 origin, vec3 direction, float tmin, float tmax, b
         any = false;
     }
     return hit;
+}
+#endif
+
+BihHit trace_bih_surfaces(vec3 origin, vec3 direction, float tmin, float tmax, bool any_hit,
+                          vec3 bounds_min, vec3 bounds_max, uint triangle_count, uint node_count,
+                          out bool failed)
+{
+#ifdef PF_SCENE_TEXTURES_GLSL
+    return trace_bih_surfaces_from(false, BihHit(-1.0, BIH_NO_HIT, 0.0, 0.0), origin, direction,
+                                   tmin, tmax, any_hit, bounds_min, bounds_max, triangle_count,
+                                   node_count, failed);
 #else
     // The plain variant: no loop around the traversal.
     return trace_bih(origin, direction, tmin, tmax, any_hit, bounds_min, bounds_max,
@@ -327,22 +342,13 @@ BihHit trace_bih_surfaces_after(BihHit hit, vec3 origin, vec3 direction, float t
                                 float tmax, bool any_hit, vec3 bounds_min, vec3 bounds_max,
                                 uint triangle_count, uint node_count, out bool failed)
 {
-    failed = false;
 #ifdef PF_SCENE_TEXTURES_GLSL
-    if (!SCENE_HAS_ALPHA || hit.triangle == BIH_NO_HIT ||
-        scene_alpha_passes(hit.triangle, hit.u, hit.v, origin, direction))
-        return hit;
-    float from = any_hit ? tmin : hit.t;
-    for (uint layer = 1u; layer <= BIH_ALPHA_LAYERS; layer++) {
-        hit = trace_bih(origin, direction, from, tmax, false, bounds_min, bounds_max,
-                        triangle_count, node_count, failed);
-        if (failed || hit.triangle == BIH_NO_HIT || layer == BIH_ALPHA_LAYERS ||
-            scene_alpha_passes(hit.triangle, hit.u, hit.v, origin, direction))
-            break;
-        from = hit.t;
-    }
-#endif
+    return trace_bih_surfaces_from(true, hit, origin, direction, tmin, tmax, any_hit,
+                                   bounds_min, bounds_max, triangle_count, node_count, failed);
+#else
+    failed = false;
     return hit;
+#endif
 }
 
 #endif
