@@ -48,7 +48,7 @@
 // shading normal) adds nothing anywhere and is counted in
 // counters.discarded_samples; the pixel averages over its kept samples. So
 // does one whose invocation met llvmpipe's loop cap (kernel_guard.glsl: a long
-// path with many lights in a large tree), counted in counters.loop_truncated
+// path, or rays through thousands of overlapping triangles), counted in counters.loop_truncated
 // too: the host fails a frame with more than a few (frame_reference.c).
 
 layout(local_size_x = 8, local_size_y = 8) in;

@@ -14,7 +14,7 @@ void main()
         return;
     uint p = texelFetch(active_paths, int(push.first_active + invocation)).x;
     uvec2 pixel = pixel_of(p);
-    wave_shadow_base = p * (params.light_count + 1u);
+    wave_shadow_base = p * direct_light_slots();
     bool waits = path_resume(p, pixel);
     bool more = waits && path_vertex(traced_hit(p));
     if (cut_at_loop_cap()) {

@@ -16,7 +16,7 @@ void main()
         return;
     uint pixel_index = push.first_pixel + p;
     uvec2 pixel = pixel_of(p);
-    wave_shadow_base = p * (params.light_count + 1u);
+    wave_shadow_base = p * direct_light_slots();
     bool more = false;
     if (WAVE_MODE == WAVE_GENERATE) {
         path_begin(pixel, push.sample_index);

@@ -35,7 +35,7 @@ void main()
             if (next >= push.count)
                 break;
             p = texelFetch(active_paths, int(push.first_active + next)).x;
-            wave_shadow_base = p * (params.light_count + 1u);
+            wave_shadow_base = p * direct_light_slots();
             if (path_resume(p, pixel_of(p)))
                 hit = traced_hit(p);
         } else {

@@ -652,8 +652,7 @@ static pf_status fast_end(pf_frame_run *run, pf_status status, pf_error *err)
         status = pf_error_set(err, PF_ERR_LIMIT,
                               "%llu of %llu samples stopped at the loop cap (this device ends "
                               "an invocation's loops after 65,535 iterations: a caustic estimate "
-                              "met more photons than one invocation may visit, or a vertex lit "
-                              "by hundreds of punctual lights)",
+                              "met more photons than one invocation may visit)",
                               (unsigned long long)progress.truncated,
                               (unsigned long long)(pixels * progress.samples));
     if (status != PF_OK) {

@@ -994,9 +994,8 @@ static pf_status final_end(pf_frame_run *run, pf_status status, pf_error *err)
         status = pf_error_set(err, PF_ERR_LIMIT,
                               "%llu of %llu samples stopped at the loop cap (this device ends "
                               "an invocation's loops after 65,535 iterations: a photon estimate "
-                              "met more photons than one invocation may visit, photons clustered "
-                              "far above the scene's mean density, or a vertex lit by hundreds "
-                              "of punctual lights)",
+                              "met more photons than one invocation may visit: photons clustered "
+                              "far above the scene's mean density)",
                               (unsigned long long)progress->truncated,
                               (unsigned long long)(pixels * progress->passes));
     /* Photon stages ran between the shade dispatches: the shade row gets what is left. */

@@ -308,8 +308,8 @@ static pf_status reference_run(pf_frame_run *run, pf_stage_id stage, uint32_t pa
                                REFERENCE_TRUNCATED_LIMIT * (double)pixels * progress.passes)
         status = pf_error_set(err, PF_ERR_LIMIT,
                               "%llu of %llu samples stopped at the loop cap (%s: this device "
-                              "ends an invocation's loops after 65,535 iterations; long paths "
-                              "past many lights)",
+                              "ends an invocation's loops after 65,535 iterations: long paths, or "
+                              "rays that test thousands of overlapping triangles)",
                               (unsigned long long)progress.truncated,
                               (unsigned long long)(pixels * progress.passes),
                               plan->host_traces ? "the wavefront's tail traces on the device"

@@ -17,8 +17,8 @@
 
 /* Paths in flight at once (PF_REFERENCE_WAVE_MAX_PATHS, render_internal.h)... */
 #define WAVE_MAX_PATHS PF_REFERENCE_WAVE_MAX_PATHS
-/* ... and the buffers of a slice at most this many bytes (a scene with many punctual lights:
- * each adds a shadow slot, 64 bytes, to every path). */
+/* ... and the buffers of a slice at most this many bytes (each shadow slot adds 64 bytes to
+ * every path: pf_direct_light_slots). */
 #define WAVE_MAX_BYTES (256ull << 20)
 #define WAVE_GROUP_SIZE 64u
 /* The tail's workgroups a trace thread (as many as the device's, on lavapipe): llvmpipe
@@ -50,7 +50,7 @@ enum {
 struct pf_reference_wave {
     pf_renderer *renderer;
     uint32_t capacity;     /* paths a slice */
-    uint32_t shadow_slots; /* 1 + the frame's punctual lights */
+    uint32_t shadow_slots; /* pf_direct_light_slots of the frame's punctual lights */
     pf_vk_buffer *buffers[WAVE_BUFFER_COUNT];
     pf_bih_wave_queues queues; /* the buffers as the host sees them */
     uint32_t *active;
@@ -78,7 +78,7 @@ pf_status pf_reference_wave_create(pf_renderer *renderer, const pf_render_settin
     if (!wave)
         return pf_error_set(err, PF_ERR_NOMEM, "wavefront: out of memory");
     wave->renderer = renderer;
-    wave->shadow_slots = light_count + 1u;
+    wave->shadow_slots = pf_direct_light_slots(light_count);
     uint64_t pixels = (uint64_t)settings->width * settings->height;
     uint64_t limit = pf_vk_info(renderer->ctx)->max_storage_buffer_range;
     uint64_t capacity = pixels < WAVE_MAX_PATHS ? pixels : WAVE_MAX_PATHS;

@@ -81,6 +81,58 @@ static pf_status alias_table_fill(pf_emissive_entry *table, const double *weight
     return status;
 }
 
+/*
+ * The frame's lights as the kernels read them: with their alias table by power
+ * (pf_light.pick_*), which direct_light.glsl samples from past PF_DIRECT_LIGHTS_EVERY_MAX
+ * lights. A light of no (or no finite) power is never picked: it lights nothing. NULL with
+ * PF_OK for a frame without lights.
+ */
+static pf_status lights_with_picks(const pf_scene_frame *frame, pf_light **out, pf_error *err)
+{
+    *out = NULL;
+    uint32_t count = frame->light_count;
+    if (count == 0)
+        return PF_OK;
+    pf_light *lights = malloc(count * sizeof *lights);
+    double *weights = malloc(count * sizeof *weights);
+    float *threshold = malloc(count * sizeof *threshold);
+    uint32_t *alias = malloc(count * sizeof *alias);
+    pf_status status = lights && weights && threshold && alias
+                           ? PF_OK
+                           : pf_error_set(err, PF_ERR_NOMEM, "light table: %u lights", count);
+    double radius2 = 0.0, total = 0.0;
+    for (int k = 0; k < 3; k++) {
+        double half = 0.5 * ((double)frame->bounds_max[k] - frame->bounds_min[k]);
+        radius2 += half * half;
+    }
+    for (uint32_t i = 0; status == PF_OK && i < count; i++) {
+        lights[i] = frame->lights[i];
+        float power[3];
+        pf_photon_light_power(&lights[i], (float)sqrt(radius2), power);
+        double weight = PF_LUMINANCE_R * power[0] + PF_LUMINANCE_G * power[1] +
+                        PF_LUMINANCE_B * power[2];
+        weights[i] = weight > 0.0 && isfinite(weight) ? weight : 0.0;
+        total += weights[i];
+    }
+    int table = status == PF_OK && total > 0.0 && isfinite(total);
+    if (table)
+        status = pf_alias_table_build(weights, count, threshold, alias, err);
+    for (uint32_t i = 0; status == PF_OK && i < count; i++) {
+        lights[i].pick_threshold = table ? threshold[i] : 0.0f;
+        lights[i].pick_alias = table ? alias[i] : i;
+        lights[i].pick_pdf = table ? (float)(weights[i] / total) : 0.0f;
+    }
+    free(weights);
+    free(threshold);
+    free(alias);
+    if (status != PF_OK) {
+        free(lights);
+        return status;
+    }
+    *out = lights;
+    return PF_OK;
+}
+
 pf_status pf_emissive_table_build(const pf_scene_frame *frame, pf_emissive_entry **entries,
                                   uint32_t *count, double *weight_total, pf_error *err)
 {
@@ -315,10 +367,14 @@ pf_status pf_gpu_scene_record(pf_vk_context *ctx, pf_vk_commands *cmds,
         status = buffer_with_data(ctx, cmds, "materials", frame->materials,
                                   frame->material_count * sizeof(pf_material),
                                   sizeof(pf_material), &out->materials, err);
+    pf_light *lights = NULL;
     if (status == PF_OK)
-        status = buffer_with_data(ctx, cmds, "lights", frame->lights,
+        status = lights_with_picks(frame, &lights, err);
+    if (status == PF_OK)
+        status = buffer_with_data(ctx, cmds, "lights", lights,
                                   frame->light_count * sizeof(pf_light), sizeof(pf_light),
                                   &out->lights, err);
+    free(lights);
     if (status == PF_OK)
         status = pf_emissive_table_build(frame, &table, &out->emissive_count, &weight_total, err);
     if (status == PF_OK)

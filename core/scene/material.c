@@ -13,6 +13,8 @@ uint32_t pf_scene_frame_surface_features(const pf_scene_frame *frame)
 {
     uint32_t features = frame->corners ? PF_SURFACE_CORNERS : 0u;
     uint32_t has = frame->light_count > 0 ? PF_SURFACE_NO_LIGHTS : 0u; /* bits it has not */
+    if (frame->light_count > PF_DIRECT_LIGHTS_EVERY_MAX)
+        has |= PF_SURFACE_NO_MANY_LIGHTS;
     for (uint32_t m = 0; m < frame->material_count; m++) {
         const pf_material *material = &frame->materials[m];
         if (material->alpha_mode != PF_ALPHA_OPAQUE)
@@ -28,7 +30,8 @@ uint32_t pf_scene_frame_surface_features(const pf_scene_frame *frame)
             has |= PF_SURFACE_NO_SPECULAR;
     }
     const uint32_t absent = PF_SURFACE_NO_LIGHTS | PF_SURFACE_NO_TRANSMISSION |
-                            PF_SURFACE_NO_EMISSION | PF_SURFACE_NO_SPECULAR;
+                            PF_SURFACE_NO_EMISSION | PF_SURFACE_NO_SPECULAR |
+                            PF_SURFACE_NO_MANY_LIGHTS;
     return features | (absent & ~has);
 }
 
@@ -44,7 +47,8 @@ void pf_scene_spec_constants(uint32_t features, uint32_t ids[PF_SCENE_SPEC_CONST
         {PF_SPEC_SCENE_HAS_LIGHTS, PF_SURFACE_NO_LIGHTS, 0},
         {PF_SPEC_SCENE_HAS_TRANSMISSION, PF_SURFACE_NO_TRANSMISSION, 0},
         {PF_SPEC_SCENE_HAS_EMITTERS, PF_SURFACE_NO_EMISSION, 0},
-        {PF_SPEC_SCENE_HAS_SPECULAR, PF_SURFACE_NO_SPECULAR, 0}};
+        {PF_SPEC_SCENE_HAS_SPECULAR, PF_SURFACE_NO_SPECULAR, 0},
+        {PF_SPEC_SCENE_HAS_MANY_LIGHTS, PF_SURFACE_NO_MANY_LIGHTS, 0}};
     for (uint32_t i = 0; i < PF_SCENE_SPEC_CONSTANTS; i++) {
         ids[i] = map[i].constant_id;
         uint32_t set = (features & map[i].bit) != 0;

@@ -201,15 +201,34 @@ typedef enum pf_scene_binding {
 #define PF_SURFACE_NO_EMISSION 16u     /* no material with emission > 0 */
 #define PF_SURFACE_NO_SPECULAR 32u     /* every material PF_MATERIAL_LAMBERT, and no
                                         * metallic-roughness texture that may make one not */
+#define PF_SURFACE_NO_MANY_LIGHTS 64u  /* at most PF_DIRECT_LIGHTS_EVERY_MAX punctual lights */
 #define PF_SURFACE_TEXTURED (PF_SURFACE_ALPHA | PF_SURFACE_CORNERS)
-#define PF_SURFACE_VARIANTS 64u
+#define PF_SURFACE_VARIANTS 128u
+/*
+ * Next-event estimation (shaders/common/direct_light.glsl) casts a shadow ray to every
+ * punctual light of a frame with at most this many; past it, each vertex resamples
+ * PF_DIRECT_LIGHT_SAMPLES lights, each kept from PF_DIRECT_LIGHT_CANDIDATES picked by
+ * power (resampled importance sampling), so that a vertex's work no longer grows with the
+ * lights (a frame with hundreds met llvmpipe's loop cap). The shader's constants of the
+ * same names must match.
+ */
+#define PF_DIRECT_LIGHTS_EVERY_MAX 8u
+#define PF_DIRECT_LIGHT_SAMPLES 4u
+#define PF_DIRECT_LIGHT_CANDIDATES 8u
+/* Shadow rays a vertex's direct light casts at most: the emissive sample's and a punctual
+ * light's each, or the sampled ones' (direct_light.glsl's direct_light_slots). */
+static inline uint32_t pf_direct_light_slots(uint32_t light_count)
+{
+    return 1u + (light_count > PF_DIRECT_LIGHTS_EVERY_MAX ? PF_DIRECT_LIGHT_SAMPLES : light_count);
+}
 #define PF_SPEC_SCENE_HAS_ALPHA 1001u
 #define PF_SPEC_SCENE_HAS_CORNERS 1002u
 #define PF_SPEC_SCENE_HAS_LIGHTS 1003u
 #define PF_SPEC_SCENE_HAS_TRANSMISSION 1004u
 #define PF_SPEC_SCENE_HAS_EMITTERS 1005u
 #define PF_SPEC_SCENE_HAS_SPECULAR 1006u
-#define PF_SCENE_SPEC_CONSTANTS 6u
+#define PF_SPEC_SCENE_HAS_MANY_LIGHTS 1008u /* 1007 is the pixel filter's */
+#define PF_SCENE_SPEC_CONSTANTS 7u
 /* The specialisation constants of features: constant ids and their values (0 or 1). */
 void pf_scene_spec_constants(uint32_t features, uint32_t ids[PF_SCENE_SPEC_CONSTANTS],
                              uint32_t values[PF_SCENE_SPEC_CONSTANTS]);
@@ -229,7 +248,12 @@ typedef struct pf_light {
     float intensity[3];    /* color × intensity: W/sr (point, spot), W/m² (directional) */
     float cos_inner_cone;  /* spot: full intensity inside this */
     float cos_outer_cone;  /* spot: zero outside this; smooth falloff between */
-    float padding[3];
+    /* The lights' alias table by power, where direct light samples them (Vose 1991: column i
+     * keeps light i below pick_threshold, else gives pick_alias; pick_pdf the probability
+     * of light i): the renderer fills these on upload; the scene leaves them 0. */
+    float pick_threshold;
+    uint32_t pick_alias;
+    float pick_pdf;
 } pf_light;
 
 typedef struct pf_camera {

@@ -8,6 +8,9 @@
 // (n_i p_i)² / Σ (n_k p_k)²); bsdf_sample_count 0 means no BSDF ray looks
 // for emission, so the light sample carries full weight. Every punctual
 // light is added without MIS (a delta light is reachable only this way).
+// Past DIRECT_LIGHTS_EVERY_MAX punctual lights, the vertex instead resamples
+// DIRECT_LIGHT_SAMPLES of them (light_resample), so that its work does not grow
+// with the lights.
 // Each candidate with a non-zero contribution casts one any-hit shadow ray;
 // where the including shader defines PF_DEFERRED_SHADOWS (the wavefront), it
 // hands the ray and its contribution to
@@ -20,6 +23,65 @@
 // and includes area_lights.glsl, lights.glsl and materials.glsl first.
 #ifndef PF_DIRECT_LIGHT_GLSL
 #define PF_DIRECT_LIGHT_GLSL
+
+#include "rng.glsl"
+
+// pf_scene.h's PF_DIRECT_LIGHTS_EVERY_MAX, PF_DIRECT_LIGHT_SAMPLES and
+// PF_DIRECT_LIGHT_CANDIDATES (the wavefront's shadow slots a path follow them).
+const uint DIRECT_LIGHTS_EVERY_MAX = 8u;
+const uint DIRECT_LIGHT_SAMPLES = 4u;
+const uint DIRECT_LIGHT_CANDIDATES = 8u;
+
+// Whether direct_light samples the frame's punctual lights rather than visiting each.
+bool direct_light_samples_lights()
+{
+    return SCENE_HAS_LIGHTS && SCENE_HAS_MANY_LIGHTS &&
+           params.light_count > DIRECT_LIGHTS_EVERY_MAX;
+}
+
+// direct_light's candidates (shadow rays) at most: the emissive sample, then a punctual
+// light each or the sampled ones (pf_direct_light_slots on the host).
+uint direct_light_slots()
+{
+    return 1u + (direct_light_samples_lights() ? DIRECT_LIGHT_SAMPLES
+                 : SCENE_HAS_LIGHTS             ? params.light_count
+                                                : 0u);
+}
+
+// One punctual light by resampled importance sampling (Talbot et al. 2005, "Importance
+// Resampling for Global Illumination"; ReSTIR's streaming form, Bitterli et al. 2020):
+// DIRECT_LIGHT_CANDIDATES lights picked by power (the lights' alias table), one kept in
+// proportion to w = p̂ / p_pick, with p̂ its unoccluded irradiance's luminance at position
+// times |cos| at the shading normal plus 0.01 (positive wherever the light can add anything,
+// transmission included, so the estimate stays unbiased). Returns the kept light's weight,
+// (Σw / M) / p̂(kept) / DIRECT_LIGHT_SAMPLES, its contribution's factor in one of the
+// vertex's samples; 0 when no candidate reaches position.
+float light_resample(vec3 position, vec3 normal, inout uint rng, out uint kept)
+{
+    uint count = params.light_count;
+    float weight_sum = 0.0;
+    float kept_target = 0.0;
+    kept = 0u;
+    for (uint m = 0u; m < DIRECT_LIGHT_CANDIDATES; m++) {
+        uint column = min(uint(rng_float(rng) * float(count)), count - 1u);
+        uint index = rng_float(rng) < lights[column].pick_threshold ? column
+                                                                     : lights[column].pick_alias;
+        float select = rng_float(rng);
+        float pick_pdf = lights[index].pick_pdf;
+        LightSample light = light_sample(lights[index], position);
+        float target = light_luminance(light.irradiance) *
+                       (abs(dot(normal, light.to_light)) + 0.01);
+        float weight = pick_pdf > 0.0 ? target / pick_pdf : 0.0;
+        weight_sum += weight;
+        if (weight > 0.0 && select * weight_sum < weight) {
+            kept = index;
+            kept_target = target;
+        }
+    }
+    return kept_target > 0.0
+               ? weight_sum / (float(DIRECT_LIGHT_CANDIDATES * DIRECT_LIGHT_SAMPLES) * kept_target)
+               : 0.0;
+}
 
 // Power heuristic, β = 2 (Veach 1997); pdfs already multiplied by their sample counts.
 float mis_power(float pdf_this, float pdf_other)
@@ -73,18 +135,29 @@ vec3 direct_light(Material material, vec3 position, vec3 surface_origin, vec3 wo
         area_direction = light.to_light;
         area_tmax = light.distance - 2.0 * ray_offset;
     }
-    // Candidate 0 is the emissive sample, candidate i > 0 punctual light i - 1 (none compiled
-    // in for a frame without them: llvmpipe would run the light's code masked).
-    uint light_count = SCENE_HAS_LIGHTS ? params.light_count : 0u;
-    for (uint candidate = 0u; candidate <= light_count; candidate++) {
+    // Candidate 0 is the emissive sample, candidate i > 0 punctual light i - 1, or the i-th
+    // light resampled (none compiled in for a frame without them: llvmpipe would run the
+    // light's code masked). The resampling's random numbers hash the vertex's light_xi.
+    bool sampled = direct_light_samples_lights();
+    uint rng = sampled ? pcg_hash(floatBitsToUint(light_xi.x) ^
+                                  pcg_hash(floatBitsToUint(light_xi.y) ^
+                                           pcg_hash(floatBitsToUint(light_xi.z) ^
+                                                    pcg_hash(floatBitsToUint(light_xi.w)))))
+                       : 0u;
+    uint candidates = direct_light_slots() - 1u;
+    for (uint candidate = 0u; candidate <= candidates; candidate++) {
         vec3 contribution = area_contribution;
         vec3 to_light = area_direction;
         float tmax = area_tmax;
         if (SCENE_HAS_LIGHTS && candidate > 0u) {
-            LightSample light = light_sample(lights[candidate - 1u], position);
+            uint index = candidate - 1u;
+            float weight = sampled ? light_resample(position, shading_normal, rng, index) : 1.0;
+            LightSample light = light_sample(lights[index], position);
             contribution = throughput * light.irradiance *
                            bsdf_eval_cos(material, wo, light.to_light, shading_normal,
                                          geometric_normal, front);
+            if (sampled)
+                contribution *= weight;
             to_light = light.to_light;
             tmax = light.distance - ray_offset;
         }

@@ -53,7 +53,7 @@
 // on), so the buffers stay bounded at any size.
 // Per path p, what the host reads back: queue[p] = ray live (bit 0) | shadow
 // rays << 1 | QUEUE_PENDING (pf_bih.h's PF_BIH_WAVE_*), the ray rays[p] and the
-// shadow rays shadow_rays[p·K + k] (K = 1 + params.light_count,
+// shadow rays shadow_rays[p·K + k] (K = direct_light_slots(),
 // direct_light.glsl's candidates); what it writes: hits[p] and
 // shadow_hits[p·K + k]. The host keeps only the paths whose ray hit a surface
 // in the next dispatch's active list.

@@ -36,5 +36,9 @@ layout(constant_id = 1005) const bool SCENE_HAS_EMITTERS = true;
 // them every material reads as MATERIAL_LAMBERT, and the kernels' specular chains (their
 // in-kernel traversal after a mirror or glass) are compiled out.
 layout(constant_id = 1006) const bool SCENE_HAS_SPECULAR = true;
+// More than PF_DIRECT_LIGHTS_EVERY_MAX punctual lights: direct_light.glsl resamples a few
+// instead of visiting each (true unless the pipeline says otherwise: the light count decides
+// at run time as well).
+layout(constant_id = 1008) const bool SCENE_HAS_MANY_LIGHTS = true;
 
 #endif

@@ -93,7 +93,11 @@ struct Light {
     vec3 intensity; // W/sr (point, spot), W/m² (directional)
     float cos_inner_cone;
     float cos_outer_cone;
-    float padding0, padding1, padding2;
+    // The lights' alias table by power (pf_light.pick_*): column i keeps light i below
+    // pick_threshold, else gives pick_alias; pick_pdf is light i's probability.
+    float pick_threshold;
+    uint pick_alias;
+    float pick_pdf;
 };
 
 // One column of the emissive-triangle alias table (pf_emissive_entry, 32

@@ -33,7 +33,7 @@ void hard_case_build_water(ref_scene *scene, float min_y, float max_y)
     double theta = HARD_WATER_THETA_DEG * pi / 180.0;
     const float e = (float)HARD_WATER_IRRADIANCE;
     pf_light sun = {{0, 0, 0}, PF_LIGHT_DIRECTIONAL, {(float)sin(theta), (float)-cos(theta), 0},
-                    0, {e, e, e}, 1, 1, {0, 0, 0}};
+                    0, {e, e, e}, 1, 1};
     ref_scene_add_light(scene, sun);
     const float eye[3] = {0, 1, 0}, target[3] = {0, 0, 0}, up[3] = {0, 0, -1};
     ref_scene_look_at(scene, eye, target, up, 0.35f);

@@ -103,7 +103,7 @@ static void build_scene(void)
     const float wall_centre[3] = {1, 1, 0}, wall_u[3] = {0, 0, 2}, wall_v[3] = {0, 1, 0};
     ref_scene_add_quad(&scene, wall_centre, wall_u, wall_v, wall);
     ref_scene_add_light(&scene, (pf_light){{0.3f, 1.2f, 0.0f}, PF_LIGHT_POINT, {0, -1, 0}, 0,
-                                           {4, 4, 4}, 1, 1, {0, 0, 0}});
+                                           {4, 4, 4}, 1, 1});
     const float eye[3] = {-0.1f, 2.4f, 0.0f}, target[3] = {-0.1f, 0.0f, 0.0f},
                 up[3] = {0.0f, 0.0f, -1.0f};
     ref_scene_look_at(&scene, eye, target, up, 0.7f);

@@ -99,7 +99,7 @@ PF_TEST(lights_inside_a_closed_box_light_nothing_outside)
     const float box_min[3] = {-0.5f, -0.5f, 0.01f}, box_max[3] = {0.5f, 0.5f, 1.01f};
     ref_scene_add_box(&scene, box_min, box_max, 0, walls);
     ref_scene_add_light(&scene, (pf_light){{0.1f, -0.1f, 0.5f}, PF_LIGHT_POINT, {0, 0, -1}, 0,
-                                           {50, 50, 50}, 1, 1, {0, 0, 0}});
+                                           {50, 50, 50}, 1, 1});
     uint32_t emitter = ref_scene_add_material(&scene, ref_material_emitter(20, 20, 20));
     const float down_centre[3] = {0, 0, 0.9f}, down_u[3] = {0.1f, 0, 0}, down_v[3] = {0, -0.1f, 0};
     ref_scene_add_quad(&scene, down_centre, down_u, down_v, emitter);
@@ -136,9 +136,9 @@ PF_TEST(lights_exactly_on_a_surface_stay_finite)
     ref_scene_add_quad(&scene, patch_centre, patch_u, patch_v, emitter);
     /* Point lights exactly in the wall's plane and in the floor's plane. */
     ref_scene_add_light(&scene, (pf_light){{-0.5f, 1.0f, 0.5f}, PF_LIGHT_POINT, {0, 0, -1}, 0,
-                                           {4, 4, 4}, 1, 1, {0, 0, 0}});
+                                           {4, 4, 4}, 1, 1});
     ref_scene_add_light(&scene, (pf_light){{0.3f, 0.2f, 0.0f}, PF_LIGHT_POINT, {0, 0, -1}, 0,
-                                           {4, 4, 4}, 1, 1, {0, 0, 0}});
+                                           {4, 4, 4}, 1, 1});
     const float eye[3] = {0, -2.0f, 1.0f}, target[3] = {0, 1, 0.5f}, up_hint[3] = {0, 0, 1};
     ref_scene_look_at(&scene, eye, target, up_hint, 1.0f);
     pf_image image = {0};
@@ -162,9 +162,9 @@ PF_TEST(camera_inside_a_closed_box)
     /* Lights outside only: a point light above, a directional light, an emitter
      * facing the box. None may get in. */
     ref_scene_add_light(&scene, (pf_light){{0.2f, 0.1f, 3.0f}, PF_LIGHT_POINT, {0, 0, -1}, 0,
-                                           {100, 100, 100}, 1, 1, {0, 0, 0}});
+                                           {100, 100, 100}, 1, 1});
     ref_scene_add_light(&scene, (pf_light){{0, 0, 0}, PF_LIGHT_DIRECTIONAL, {0.3f, 0.4f, -0.866f},
-                                           0, {5, 5, 5}, 1, 1, {0, 0, 0}});
+                                           0, {5, 5, 5}, 1, 1});
     uint32_t emitter = ref_scene_add_material(&scene, ref_material_emitter(10, 10, 10));
     const float outside_centre[3] = {0, -1.5f, 0}, outside_u[3] = {-0.5f, 0, 0},
                 outside_v[3] = {0, 0, 0.5f};
@@ -183,7 +183,7 @@ PF_TEST(camera_inside_a_closed_box)
     pf_image_free(&image);
     /* A light inside as well: whatever the walls show, the image is finite and covered. */
     ref_scene_add_light(&scene, (pf_light){{-0.3f, 0.2f, 0.4f}, PF_LIGHT_POINT, {0, 0, -1}, 0,
-                                           {3, 3, 3}, 1, 1, {0, 0, 0}});
+                                           {3, 3, 3}, 1, 1});
     if (render_checked(&scene, 44, "camera in a box, light inside", &image, &report))
         PF_CHECK(ref_region_stats(&image, pf_image_channel(&image, "A"), whole).mean == 1.0);
     pf_image_free(&image);
@@ -219,7 +219,7 @@ PF_TEST(degenerate_normals_and_triangles_never_reach_the_film)
                 light_v[3] = {0, -0.4f, 0};
     ref_scene_add_quad(&scene, light_centre, light_u, light_v, emitter); /* 38, 39 */
     ref_scene_add_light(&scene, (pf_light){{-0.5f, -1.0f, 1.5f}, PF_LIGHT_POINT, {0, 0, -1}, 0,
-                                           {3, 3, 3}, 1, 1, {0, 0, 0}});
+                                           {3, 3, 3}, 1, 1});
     /* Zero-area triangles: collinear corners (a grey one and an emissive one)
      * and one collapsed to a point, all in view. */
     const float line_a[3] = {-0.5f, -0.6f, 0.2f}, line_b[3] = {0.0f, -0.6f, 0.4f},

@@ -120,7 +120,7 @@ PF_TEST(textured_plane_mean_is_mean_albedo_times_irradiance)
     ref_scene_add_quad(&scene, centre, half_u, half_v, plane);
     const float e = 3.0f, cos_theta = 0.8f;
     ref_scene_add_light(&scene, (pf_light){{0, 0, 0}, PF_LIGHT_DIRECTIONAL, {0.6f, 0, -0.8f}, 0,
-                                           {e, e, e}, 1, 1, {0, 0, 0}});
+                                           {e, e, e}, 1, 1});
     look_down(&scene);
     pf_scene_frame *frame = &scene.frame;
     /* uv over the plane [-2, 2]²: [0, 2]², two periods; the view [-1, 1]² is one. */
@@ -177,7 +177,7 @@ PF_TEST(constant_normal_map_shades_as_the_turned_plane)
     const double light[3] = {0.6, 0.0, -0.8};
     ref_scene_add_light(&scene, (pf_light){{0, 0, 0}, PF_LIGHT_DIRECTIONAL,
                                            {(float)light[0], 0, (float)light[2]}, 0, {e, e, e}, 1,
-                                           1, {0, 0, 0}});
+                                           1});
     look_down(&scene);
     pf_scene_frame *frame = &scene.frame;
     PF_REQUIRE(corners_alloc(frame));
@@ -230,7 +230,7 @@ PF_TEST(camera_ray_cones_pick_the_mip_level)
     ref_scene_add_quad(&scene, centre, half_u, half_v, plane);
     const float e = 2.0f;
     ref_scene_add_light(&scene, (pf_light){{0, 0, 0}, PF_LIGHT_DIRECTIONAL, {0, 0, -1}, 0,
-                                           {e, e, e}, 1, 1, {0, 0, 0}});
+                                           {e, e, e}, 1, 1});
     look_down(&scene);
     pf_scene_frame *frame = &scene.frame;
     PF_REQUIRE(corners_alloc(frame));
@@ -296,7 +296,7 @@ PF_TEST(alpha_masked_card_hides_and_shadows_only_its_opaque_half)
     ref_scene_add_quad(&scene, card_centre, card_u, card_v, card_material);
     const float e = 3.0f;
     ref_scene_add_light(&scene, (pf_light){{0, 0, 0}, PF_LIGHT_DIRECTIONAL, {0, 0, -1}, 0,
-                                           {e, e, e}, 1, 1, {0, 0, 0}});
+                                           {e, e, e}, 1, 1});
     look_down(&scene);
     pf_scene_frame *frame = &scene.frame;
     PF_REQUIRE(corners_alloc(frame));

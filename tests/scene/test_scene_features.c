@@ -31,7 +31,7 @@ static uint32_t features_of(uint32_t light_count, pf_material material, int corn
 /* The bits of a frame that lacks everything the NO_ bits name. */
 #define LACKS_ALL                                                                          \
     (PF_SURFACE_NO_LIGHTS | PF_SURFACE_NO_TRANSMISSION | PF_SURFACE_NO_EMISSION |         \
-     PF_SURFACE_NO_SPECULAR)
+     PF_SURFACE_NO_SPECULAR | PF_SURFACE_NO_MANY_LIGHTS)
 
 PF_TEST(each_feature_sets_its_own_bit)
 {
@@ -40,6 +40,11 @@ PF_TEST(each_feature_sets_its_own_bit)
     plain.albedo[0] = 0.8f;
     PF_CHECK(features_of(0, plain, 0) == LACKS_ALL);
     PF_CHECK(features_of(2, plain, 0) == (LACKS_ALL & ~PF_SURFACE_NO_LIGHTS));
+    PF_CHECK(features_of(PF_DIRECT_LIGHTS_EVERY_MAX, plain, 0) ==
+             (LACKS_ALL & ~PF_SURFACE_NO_LIGHTS));
+    /* One more, and direct light samples them. */
+    PF_CHECK(features_of(PF_DIRECT_LIGHTS_EVERY_MAX + 1, plain, 0) ==
+             (LACKS_ALL & ~(PF_SURFACE_NO_LIGHTS | PF_SURFACE_NO_MANY_LIGHTS)));
     pf_material glass = plain;
     glass.transmission = 0.5f;
     PF_CHECK(features_of(0, glass, 0) == (LACKS_ALL & ~PF_SURFACE_NO_TRANSMISSION));
@@ -61,7 +66,8 @@ PF_TEST(each_feature_sets_its_own_bit)
     all.transmission = 1.0f;
     all.kind = PF_MATERIAL_GLASS;
     all.alpha_mode = PF_ALPHA_BLEND;
-    PF_CHECK(features_of(1, all, 1) == (PF_SURFACE_ALPHA | PF_SURFACE_CORNERS));
+    PF_CHECK(features_of(1, all, 1) ==
+             (PF_SURFACE_ALPHA | PF_SURFACE_CORNERS | PF_SURFACE_NO_MANY_LIGHTS));
 }
 
 PF_TEST(each_bit_sets_its_own_constant_and_none_leaves_everything_in)
@@ -73,7 +79,8 @@ PF_TEST(each_bit_sets_its_own_constant_and_none_leaves_everything_in)
                  {PF_SURFACE_NO_LIGHTS, PF_SPEC_SCENE_HAS_LIGHTS, 0},
                  {PF_SURFACE_NO_TRANSMISSION, PF_SPEC_SCENE_HAS_TRANSMISSION, 0},
                  {PF_SURFACE_NO_EMISSION, PF_SPEC_SCENE_HAS_EMITTERS, 0},
-                 {PF_SURFACE_NO_SPECULAR, PF_SPEC_SCENE_HAS_SPECULAR, 0}};
+                 {PF_SURFACE_NO_SPECULAR, PF_SPEC_SCENE_HAS_SPECULAR, 0},
+                 {PF_SURFACE_NO_MANY_LIGHTS, PF_SPEC_SCENE_HAS_MANY_LIGHTS, 0}};
     PF_REQUIRE(sizeof pairs / sizeof pairs[0] == PF_SCENE_SPEC_CONSTANTS);
     /* A word left 0: alpha tests and corners out (they read buffers not given), the rest in. */
     uint32_t ids[PF_SCENE_SPEC_CONSTANTS], none[PF_SCENE_SPEC_CONSTANTS];
