@@ -208,7 +208,8 @@ void main()
         vec3 shadow_origin = path.position + ray_offset * path.geometric_normal;
         path.radiance += direct_light(path.surface, path.position, shadow_origin, -path.direction,
                                       path.shading_normal, path.geometric_normal, path.front,
-                                      path.throughput, xi, 0.0, sums.rays);
+                                      path.throughput, xi, 0.0, DIRECT_LIGHT_PIXEL_SAMPLES,
+                                      sums.rays);
     }
 
     if (!path.poisoned && all_finite(path.radiance)) {

@@ -195,7 +195,7 @@ void primary(uint pixel_index, uvec2 pixel)
             direct += direct_light(material, surface.position, surface_origin, wo,
                                    surface.shading_normal, surface.geometric_normal,
                                    surface.front, throughput, sampler_next_4d(samples),
-                                   bsdf_rays, rays);
+                                   bsdf_rays, DIRECT_LIGHT_PIXEL_SAMPLES, rays);
         if (d1) {
             vertices[base] = vec4(surface.position, push.gather_total > 0u ? 1.0 : 0.0);
             vertices[base + 1u] = vec4(surface.shading_normal, uintBitsToFloat(hit.triangle));

@@ -198,7 +198,7 @@ void main()
             direct += direct_light(material, surface.position, surface_origin, wo,
                                    surface.shading_normal, surface.geometric_normal,
                                    surface.front, throughput, sampler_next_4d(samples),
-                                   mis ? 1.0 : 0.0, rays);
+                                   mis ? 1.0 : 0.0, DIRECT_LIGHT_PIXEL_SAMPLES, rays);
         vec4 bsdf_xi = sampler_next_4d(samples);
         if (estimated) {
             vec3 reflectance = throughput *

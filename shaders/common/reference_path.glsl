@@ -155,7 +155,7 @@ bool path_vertex(BihHit hit)
     if (rough)
         path_add(direct_light(material, position, surface_origin, wo, shading_normal,
                               geometric_normal, surface.front, path_throughput, light_xi, 1.0,
-                              path_rays),
+                              DIRECT_LIGHT_SAMPLES, path_rays),
                  diffuse_region, false);
 
     vec4 bsdf_xi = sampler_next_4d(path_samples);
