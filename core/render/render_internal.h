@@ -163,10 +163,10 @@ typedef struct pf_stage_previous {
      * bih_build leaves its tree on the host. */
     pf_trace_site trace_site;
     int device_is_host, host_traversal, tree_on_host;
-    /* The wavefront's tail kernel compiled: bit v % 64 for the surface variant v (a variant
-     * with a tail has PF_SURFACE_NO_MANY_LIGHTS, stage_plan.c); and the tails
-     * the renderer's earlier frames would have had (pf_stage_plan.wave_tails summed). */
-    uint64_t wave_tail_compiled;
+    /* The wavefront's tail kernel compiled: bit v % 64 of word v / 64 for the surface
+     * variant v; and the tails the renderer's earlier frames would have had
+     * (pf_stage_plan.wave_tails summed). */
+    uint64_t wave_tail_compiled[(PF_SURFACE_VARIANTS + 63u) / 64u];
     uint64_t wave_tails_before;
 } pf_stage_previous;
 
@@ -221,14 +221,6 @@ typedef struct pf_reference_progress {
  * job of small frames gets it after a few, a one-frame render of few passes goes without.
  */
 #define PF_REFERENCE_WAVE_TAIL_MIN_TAILS 128u
-/*
- * A tail's lane traces a shadow ray a punctual light at each of up to ~100 vertices in one
- * invocation, whose loops llvmpipe ends after 65,535 rounds in all (kernel_guard.glsl: the
- * paths cut would be dropped, counted): a frame with more lights than this has no tail. (Past
- * PF_DIRECT_LIGHTS_EVERY_MAX a vertex samples 4 lights, but the tail has not been measured
- * against the cap there, and its mask of compiled variants assumes none: stage_plan.c.)
- */
-#define PF_REFERENCE_WAVE_TAIL_MAX_LIGHTS 8u
 /*
  * Paths in flight at once: the wavefront's image goes in slices of at most this many
  * pixels, so its buffers (~200 bytes a path plus 64 a shadow slot) stay bounded at any size.

@@ -269,20 +269,11 @@ static void say_trace_site(pf_stage_plan *plan, pf_stage_id stage,
 /*
  * reference's wavefront: the tails of this frame (a slice a pass) in plan->wave_tails, and
  * whether its tail kernel has paid or pays for its compilation with them
- * (PF_REFERENCE_WAVE_TAIL_MIN_TAILS), or is compiled already; never past
- * PF_REFERENCE_WAVE_TAIL_MAX_LIGHTS punctual lights.
+ * (PF_REFERENCE_WAVE_TAIL_MIN_TAILS), or is compiled already. (A tail's lane traces a
+ * shadow ray a light at each of up to ~100 vertices in one invocation, whose loops llvmpipe
+ * ends after 65,535 rounds in all: direct light visits at most PF_DIRECT_LIGHTS_EVERY_MAX
+ * lights a vertex and samples a few past that, so no frame has too many for a tail.)
  */
-/* pf_stage_previous.wave_tail_compiled's bit for a variant: a frame with a tail has at most
- * PF_DIRECT_LIGHTS_EVERY_MAX lights, so its variant has PF_SURFACE_NO_MANY_LIGHTS (the
- * variants' highest bit) and the bits below name it. */
-_Static_assert(PF_SURFACE_NO_MANY_LIGHTS == 64u && PF_SURFACE_VARIANTS == 128u &&
-                   PF_REFERENCE_WAVE_TAIL_MAX_LIGHTS <= PF_DIRECT_LIGHTS_EVERY_MAX,
-               "pf_stage_previous.wave_tail_compiled: a bit a variant with a tail");
-static uint32_t wave_tail_bit(uint32_t variant)
-{
-    return variant % 64u;
-}
-
 static int worth_a_tail(const pf_scene_frame *frame, const pf_render_settings *settings,
                         const pf_stage_previous *previous, pf_stage_plan *plan)
 {
@@ -290,9 +281,7 @@ static int worth_a_tail(const pf_scene_frame *frame, const pf_render_settings *s
     uint64_t slices = (pixels + PF_REFERENCE_WAVE_MAX_PATHS - 1) / PF_REFERENCE_WAVE_MAX_PATHS;
     plan->wave_tails = (uint64_t)plan->samples * slices;
     uint32_t variant = pf_scene_frame_surface_features(frame) % PF_SURFACE_VARIANTS;
-    if (frame->light_count > PF_REFERENCE_WAVE_TAIL_MAX_LIGHTS)
-        return 0;
-    return ((previous->wave_tail_compiled >> wave_tail_bit(variant)) & 1u) != 0 ||
+    return ((previous->wave_tail_compiled[variant / 64u] >> (variant % 64u)) & 1u) != 0 ||
            previous->wave_tails_before + plan->wave_tails >= PF_REFERENCE_WAVE_TAIL_MIN_TAILS;
 }
 
@@ -399,9 +388,9 @@ pf_stage_previous pf_stage_previous_of(const pf_renderer *renderer, pf_quality p
     previous.device_is_host = pf_vk_storage_is_host_memory(renderer->ctx);
     previous.host_traversal = pf_bih_wide_available();
     previous.tree_on_host = pf_renderer_bih_site(renderer) == PF_BIH_BUILD_CPU;
-    for (uint32_t v = PF_SURFACE_NO_MANY_LIGHTS; v < PF_SURFACE_VARIANTS; v++)
+    for (uint32_t v = 0; v < PF_SURFACE_VARIANTS; v++)
         if (renderer->pipelines[0][v][PF_PIPELINE_REFERENCE_WAVE_TAIL])
-            previous.wave_tail_compiled |= UINT64_C(1) << wave_tail_bit(v);
+            previous.wave_tail_compiled[v / 64u] |= UINT64_C(1) << (v % 64u);
     previous.wave_tails_before = renderer->wave_tails;
     return previous;
 }

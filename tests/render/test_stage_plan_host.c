@@ -277,24 +277,28 @@ PF_TEST(the_wavefront_tail_runs_where_it_pays_for_its_kernel)
     previous.wave_tails_before = 0;
     /* ... and once the kernel is compiled for the scene's surfaces, any frame has one. */
     uint32_t variant = pf_scene_frame_surface_features(&room.frame) % PF_SURFACE_VARIANTS;
-    PF_REQUIRE(variant & PF_SURFACE_NO_MANY_LIGHTS); /* the mask's bits: variant % 64 */
-    previous.wave_tail_compiled = UINT64_C(1) << ((variant + 1u) % 64u);
+    previous.wave_tail_compiled[0] = UINT64_C(1) << ((variant + 1u) % 64u);
     PF_CHECK(tail_of(&previous, 1, 32, 24) == 0);
-    previous.wave_tail_compiled = UINT64_C(1) << (variant % 64u);
+    previous.wave_tail_compiled[0] = 0;
+    previous.wave_tail_compiled[variant / 64u] = UINT64_C(1) << (variant % 64u);
     PF_CHECK(tail_of(&previous, 1, 32, 24) == PF_REFERENCE_WAVE_TAIL_PATHS);
-    /* Past PF_REFERENCE_WAVE_TAIL_MAX_LIGHTS punctual lights, none (a lane's shadow rays would
-     * reach llvmpipe's loop cap). */
+    /* Past PF_DIRECT_LIGHTS_EVERY_MAX punctual lights (a vertex samples a few), a tail too,
+     * once compiled for that frame's surfaces (another variant). */
     pf_light *own_lights = room.frame.lights;
     uint32_t own_count = room.frame.light_count;
-    pf_light lights[PF_REFERENCE_WAVE_TAIL_MAX_LIGHTS + 1] = {0};
-    for (uint32_t i = 0; i <= PF_REFERENCE_WAVE_TAIL_MAX_LIGHTS; i++)
+    pf_light lights[PF_DIRECT_LIGHTS_EVERY_MAX + 1] = {0};
+    for (uint32_t i = 0; i <= PF_DIRECT_LIGHTS_EVERY_MAX; i++)
         lights[i] = (pf_light){.position = {0.0f, 0.5f, 0.0f}, .kind = PF_LIGHT_POINT,
                                .intensity = {1.0f, 1.0f, 1.0f}};
     room.frame.lights = lights;
-    room.frame.light_count = PF_REFERENCE_WAVE_TAIL_MAX_LIGHTS;
-    PF_CHECK(tail_of(&previous, 1, 32, 24) == PF_REFERENCE_WAVE_TAIL_PATHS);
-    room.frame.light_count = PF_REFERENCE_WAVE_TAIL_MAX_LIGHTS + 1;
+    room.frame.light_count = PF_DIRECT_LIGHTS_EVERY_MAX + 1;
+    uint32_t many = pf_scene_frame_surface_features(&room.frame) % PF_SURFACE_VARIANTS;
+    PF_CHECK(many != variant);
     PF_CHECK(tail_of(&previous, 1, 32, 24) == 0);
+    previous.wave_tail_compiled[many / 64u] |= UINT64_C(1) << (many % 64u);
+    PF_CHECK(tail_of(&previous, 1, 32, 24) == PF_REFERENCE_WAVE_TAIL_PATHS);
+    memset(previous.wave_tail_compiled, 0, sizeof previous.wave_tail_compiled);
+    PF_CHECK(tail_of(&previous, 64, 1024, 1024) == PF_REFERENCE_WAVE_TAIL_PATHS);
     room.frame.lights = own_lights;
     room.frame.light_count = own_count;
     /* Forced onto the host, or on the device, there is none. */
