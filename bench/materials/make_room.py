@@ -7,7 +7,9 @@
 # (normalTexture, tangents left to the renderer as Blender exports them), a cube
 # whose metallicRoughnessTexture alternates metal and rough plastic, and an
 # alpha-masked leaf card (alphaMode MASK). The images are made here, so the
-# exporter writes them as PNG files beside the scene.
+# exporter writes them as PNG files beside the scene. room-string.gltf is the
+# room lit by strings of fairy lights alone: 140 coloured 1.5 W point lights,
+# more than a renderer can afford a shadow ray each at every shaded point.
 #
 #   blender -b --factory-startup --python make_room.py -- OUTDIR
 import math
@@ -179,6 +181,23 @@ def main():
     spot.spot_blend = 0.3
     spot.shadow_soft_size = 0.0
     export(os.path.join(out, "room-lamps.gltf"), lights=True)
+
+    build_room()
+    # Two strings of fairy lights: 80 sagging across the wall, 60 across the room
+    # above the spheres; warm white, red, green and blue in turn.
+    colours = [(1.0, 0.8, 0.5), (1.0, 0.15, 0.1), (0.2, 1.0, 0.2), (0.2, 0.3, 1.0)]
+    strings = [(80, 1.9, 1.6, 0.6), (60, 0.3, 2.0, 0.4)]  # lights, y, lowest z, sag
+    n = 0
+    for count, y, low, sag in strings:
+        for i in range(count):
+            x = -2.5 + 5.0 * i / (count - 1)
+            bpy.ops.object.light_add(type="POINT", location=(x, y, low + sag * (x / 2.5) ** 2))
+            bulb = bpy.context.object.data
+            bulb.energy = 1.5
+            bulb.color = colours[n % len(colours)]
+            bulb.shadow_soft_size = 0.0
+            n += 1
+    export(os.path.join(out, "room-string.gltf"), lights=True)
 
     build_room()
     floor, wall, cube, card = textured_materials()

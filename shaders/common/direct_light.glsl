@@ -57,12 +57,15 @@ uint direct_light_slots()
 // One punctual light by resampled importance sampling (Talbot et al. 2005, "Importance
 // Resampling for Global Illumination"; ReSTIR's streaming form, Bitterli et al. 2020):
 // DIRECT_LIGHT_CANDIDATES lights picked by power (the lights' alias table), one kept in
-// proportion to w = p̂ / p_pick, with p̂ its unoccluded irradiance's luminance at position
-// times |cos| at the shading normal plus 0.01 (positive wherever the light can add anything,
-// transmission included, so the estimate stays unbiased). Returns the kept light's weight,
+// proportion to w = p̂ / p_pick, with p̂ the luminance of the light it would reflect towards
+// wo unoccluded (its irradiance times the BSDF and cosine: zero exactly where the light
+// adds nothing, so the estimate stays unbiased; without the BSDF, a glossy highlight of one
+// of many lights came out as rare fireflies). Returns the kept light's weight,
 // (Σw / M) / p̂(kept) / samples, its contribution's factor in one of the vertex's samples;
-// 0 when no candidate reaches position.
-float light_resample(vec3 position, vec3 normal, uint samples, inout uint rng, out uint kept)
+// 0 when no candidate adds anything.
+float light_resample(Material material, vec3 position, vec3 wo, vec3 shading_normal,
+                     vec3 geometric_normal, bool front, uint samples, inout uint rng,
+                     out uint kept)
 {
     uint count = params.light_count;
     float weight_sum = 0.0;
@@ -75,8 +78,9 @@ float light_resample(vec3 position, vec3 normal, uint samples, inout uint rng, o
         float select = rng_float(rng);
         float pick_pdf = lights[index].pick_pdf;
         LightSample light = light_sample(lights[index], position);
-        float target = light_luminance(light.irradiance) *
-                       (abs(dot(normal, light.to_light)) + 0.01);
+        float target = light_luminance(light.irradiance *
+                                       bsdf_eval_cos(material, wo, light.to_light,
+                                                     shading_normal, geometric_normal, front));
         float weight = pick_pdf > 0.0 ? target / pick_pdf : 0.0;
         weight_sum += weight;
         if (weight > 0.0 && select * weight_sum < weight) {
@@ -162,7 +166,8 @@ vec3 direct_light(Material material, vec3 position, vec3 surface_origin, vec3 wo
         if (SCENE_HAS_LIGHTS && candidate > 0u) {
             uint index = candidate - 1u;
             float weight =
-                sampled ? light_resample(position, shading_normal, light_samples, rng, index)
+                sampled ? light_resample(material, position, wo, shading_normal, geometric_normal,
+                                         front, light_samples, rng, index)
                         : 1.0;
             LightSample light = light_sample(lights[index], position);
             contribution = throughput * light.irradiance *
