@@ -47,8 +47,8 @@ AreaLightSample emissive_sample(vec3 position, vec4 xi, uint count, float weight
     vec3 a = scene_vertex(first);
     vec3 b = scene_vertex(first + 1u);
     vec3 c = scene_vertex(first + 2u);
-    float root = sqrt(xi.z);
-    vec3 point = (1.0 - root) * a + root * (1.0 - xi.w) * b + root * xi.w * c;
+    vec2 barycentrics;
+    vec3 point = triangle_uniform_point(a, b, c, xi.zw, barycentrics);
     vec3 light_normal = normalize(cross(b - a, c - a));
     vec3 offset = point - position;
     float distance2 = dot(offset, offset);
@@ -67,8 +67,8 @@ AreaLightSample emissive_sample(vec3 position, vec4 xi, uint count, float weight
     s.pdf_solid_angle = emissive_pdf_area(material.emission, weight_total) * distance2 / cos_light;
     s.radiance = material.emission;
     if (material.emissive_texture != NO_TEXTURE)
-        s.radiance = scene_material_textured(material, triangle, root * (1.0 - xi.w), root * xi.w,
-                                             0.0, 1.0, a, b, c).emission;
+        s.radiance = scene_material_textured(material, triangle, barycentrics.x,
+                                             barycentrics.y, 0.0, 1.0, a, b, c).emission;
     return s;
 }
 

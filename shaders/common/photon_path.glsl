@@ -189,17 +189,16 @@ Emission emit(PhotonEmitter emitter, vec2 xi_position, vec2 xi_direction)
         vec3 a = scene_vertex(first);
         vec3 b = scene_vertex(first + 1u);
         vec3 c = scene_vertex(first + 2u);
-        float root = sqrt(xi_position.x);
-        vec3 point = (1.0 - root) * a + root * (1.0 - xi_position.y) * b + root * xi_position.y * c;
+        vec2 barycentrics;
+        vec3 point = triangle_uniform_point(a, b, c, xi_position, barycentrics);
         vec3 normal = normalize(cross(b - a, c - a));
         Material material = scene_material(scene_triangle_material(emitter.index));
         // The emitter's power is its emissive factor's (pf_photon_emitters); an emissive
         // texture scales the photon by its value at the point over that factor, channel by
         // channel: unbiased, as the point is drawn uniformly over the area.
         if (material.emissive_texture != NO_TEXTURE) {
-            vec3 textured = scene_material_textured(material, emitter.index,
-                                                    root * (1.0 - xi_position.y),
-                                                    root * xi_position.y, 0.0, 1.0, a, b, c)
+            vec3 textured = scene_material_textured(material, emitter.index, barycentrics.x,
+                                                    barycentrics.y, 0.0, 1.0, a, b, c)
                                 .emission;
             bvec3 lit = greaterThan(material.emission, vec3(0.0));
             e.flux *= mix(vec3(0.0), textured / max(material.emission, vec3(1e-30)), lit);

@@ -128,4 +128,14 @@ Material scene_material_at(uint triangle, float u, float v)
 }
 #endif
 
+// A uniform point on the triangle (a, b, c) from xi in [0,1)² (pbrt-v4 SampleUniformTriangle,
+// square-root form), with its barycentrics of b and c (a texture's lookup there): area
+// lights' samples and photons' origins.
+vec3 triangle_uniform_point(vec3 a, vec3 b, vec3 c, vec2 xi, out vec2 barycentrics)
+{
+    float root = sqrt(xi.x);
+    barycentrics = vec2(root * (1.0 - xi.y), root * xi.y);
+    return (1.0 - root) * a + barycentrics.x * b + barycentrics.y * c;
+}
+
 #endif
