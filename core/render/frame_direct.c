@@ -233,6 +233,7 @@ static pf_status preview_run(pf_frame_run *run, pf_stage_id stage, uint32_t pass
             row->wall_ms = pf_time_ms() - shade_start;
             row->gpu_ms = gpu_ms;
             pf_stage_add_counter(row, "rays", (double)rays);
+            pf_stage_add_light_samples(row, frame->light_count, PF_DIRECT_LIGHT_PIXEL_SAMPLES);
             pf_stage_add_counter(row, "triangles", frame->triangle_count);
             pf_stage_add_counter(row, "samples_per_pixel", spp);
             pf_stage_add_counter(row, "discarded_samples", (double)discarded);

@@ -415,7 +415,7 @@ static pf_status shade(pf_renderer *renderer, struct pf_fast_cache *cache,
 
 static void report_rows(pf_frame_report *report, const struct pf_fast_cache *cache,
                         const pf_stage_plan *plan, const fast_progress *progress,
-                        double shade_ms, uint64_t pixels)
+                        double shade_ms, uint64_t pixels, const pf_scene_frame *frame)
 {
     const pf_lpv_layout *layout = &cache->layout;
     pf_stage_timing *row = pf_stage_row(report, plan, PF_STAGE_PHOTON_TRACE, progress->trace_ms,
@@ -489,6 +489,7 @@ static void report_rows(pf_frame_report *report, const struct pf_fast_cache *cac
         pf_stage_add_counter(row, "samples_per_pixel", progress->samples);
         pf_stage_add_counter(row, "paths", (double)pixels * progress->samples);
         pf_stage_add_counter(row, "rays", (double)progress->rays);
+        pf_stage_add_light_samples(row, frame->light_count, PF_DIRECT_LIGHT_PIXEL_SAMPLES);
         pf_stage_add_counter(row, "discarded_samples", (double)progress->discarded);
         pf_stage_add_counter(row, "loop_truncated", (double)progress->truncated);
         pf_stage_add_counter(row, "lpv_outside", (double)progress->lpv_outside);
@@ -665,7 +666,7 @@ static pf_status fast_end(pf_frame_run *run, pf_status status, pf_error *err)
     double shade_ms = elapsed - progress.trace_ms - progress.caustic_ms - progress.geometry_ms -
                       progress.inject_ms - progress.propagate_ms;
     report_rows(run->report, renderer->fast_cache, run->plan, &progress,
-                shade_ms > 0.0 ? shade_ms : 0.0, pixels);
+                shade_ms > 0.0 ? shade_ms : 0.0, pixels, run->frame);
     return PF_OK;
 }
 

@@ -735,6 +735,7 @@ static void report_rows(pf_frame_report *report, const pf_stage_plan *plan,
         pf_stage_add_counter(row, "lookup_passes", progress->lookup_passes);
         pf_stage_add_counter(row, "paths", (double)pixels * progress->passes);
         pf_stage_add_counter(row, "rays", (double)(progress->rays + progress->host.rays));
+        pf_stage_add_light_samples(row, frame->light_count, PF_DIRECT_LIGHT_PIXEL_SAMPLES);
         pf_stage_add_counter(row, "discarded_samples", (double)progress->discarded);
         pf_stage_add_counter(row, "loop_truncated", (double)progress->truncated);
         pf_stage_add_counter(row, "gather_dropped", (double)progress->dropped);

@@ -332,6 +332,7 @@ static pf_status reference_run(pf_frame_run *run, pf_stage_id stage, uint32_t pa
             pf_stage_add_counter(row, "samples_per_pixel", progress.passes);
             pf_stage_add_counter(row, "paths", (double)pixels * progress.passes);
             pf_stage_add_counter(row, "rays", (double)progress.rays);
+            pf_stage_add_light_samples(row, frame->light_count, PF_DIRECT_LIGHT_SAMPLES);
             pf_stage_add_counter(row, "discarded_samples", (double)progress.discarded);
             pf_stage_add_counter(row, "loop_truncated", (double)progress.truncated);
             pf_stage_add_counter(row, "triangles", frame->triangle_count);

@@ -46,6 +46,12 @@ void pf_stage_add_traffic(pf_stage_timing *row, pf_vk_traffic traffic)
     pf_stage_add_counter(row, "copy_ms", traffic.copy_ms);
 }
 
+void pf_stage_add_light_samples(pf_stage_timing *row, uint32_t light_count, uint32_t per_vertex)
+{
+    if (light_count > PF_DIRECT_LIGHTS_EVERY_MAX)
+        pf_stage_add_counter(row, "light_samples", per_vertex);
+}
+
 pf_stage_timing *pf_frame_report_row(pf_frame_report *report, const char *stage,
                                      const char *skip_reason, double wall_ms, double gpu_ms)
 {

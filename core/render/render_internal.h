@@ -581,6 +581,9 @@ pf_status pf_render_prepare_bih(pf_renderer *renderer, const pf_scene_frame *fra
  * PF_STAGE_TRAFFIC_COUNTERS free. */
 #define PF_STAGE_TRAFFIC_COUNTERS 7u
 void pf_stage_add_traffic(pf_stage_timing *row, pf_vk_traffic traffic);
+/* A shade row's light_samples: the punctual lights a vertex resamples (per_vertex) where the
+ * frame has more than PF_DIRECT_LIGHTS_EVERY_MAX; no counter where it visits each. */
+void pf_stage_add_light_samples(pf_stage_timing *row, uint32_t light_count, uint32_t per_vertex);
 /* sum += more. */
 void pf_traffic_add(pf_vk_traffic *sum, pf_vk_traffic more);
 

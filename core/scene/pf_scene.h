@@ -208,13 +208,15 @@ typedef enum pf_scene_binding {
  * Next-event estimation (shaders/common/direct_light.glsl) casts a shadow ray to every
  * punctual light of a frame with at most this many; past it, each vertex resamples
  * PF_DIRECT_LIGHT_SAMPLES lights (a path tracer's vertex; a pixel's first vertex in the
- * presets that estimate it once a pass, 16), each kept from PF_DIRECT_LIGHT_CANDIDATES
+ * presets that estimate it once a pass, PF_DIRECT_LIGHT_PIXEL_SAMPLES), each kept from
+ * PF_DIRECT_LIGHT_CANDIDATES
  * picked by power (resampled importance sampling), so that a vertex's work no longer grows
  * with the lights (a frame with hundreds met llvmpipe's loop cap). The shader's constants of
  * the same names must match.
  */
 #define PF_DIRECT_LIGHTS_EVERY_MAX 8u
 #define PF_DIRECT_LIGHT_SAMPLES 4u
+#define PF_DIRECT_LIGHT_PIXEL_SAMPLES 16u /* final's, fast's and preview's first vertex */
 #define PF_DIRECT_LIGHT_CANDIDATES 8u
 /* Shadow rays a vertex's direct light casts at most: the emissive sample's and a punctual
  * light's each, or the sampled ones' (direct_light.glsl's direct_light_slots). */

@@ -26,8 +26,9 @@
 
 #include "rng.glsl"
 
-// pf_scene.h's PF_DIRECT_LIGHTS_EVERY_MAX, PF_DIRECT_LIGHT_SAMPLES and
-// PF_DIRECT_LIGHT_CANDIDATES (the wavefront's shadow slots a path follow them).
+// pf_scene.h's PF_DIRECT_LIGHTS_EVERY_MAX, PF_DIRECT_LIGHT_SAMPLES,
+// PF_DIRECT_LIGHT_PIXEL_SAMPLES and PF_DIRECT_LIGHT_CANDIDATES (the wavefront's shadow
+// slots a path follow them; the shade rows' light_samples report them).
 // A path tracer's vertex (reference: many samples a pixel) resamples
 // DIRECT_LIGHT_SAMPLES lights; a pixel whose direct light is estimated once a
 // pass (final's, fast's and preview's first vertices) DIRECT_LIGHT_PIXEL_SAMPLES,

@@ -455,8 +455,10 @@ PF_TEST(many_lights_are_sampled_alike_by_every_kernel)
     pf_image image = {0};
     pf_frame_report report = {0};
     double few_rays = 0.0;
-    if (render_with(&scene.frame, &settings, PF_TRACE_DEVICE, &image, &report))
+    if (render_with(&scene.frame, &settings, PF_TRACE_DEVICE, &image, &report)) {
         few_rays = ref_stage_counter(&report, "shade", "rays");
+        PF_CHECK(isnan(ref_stage_counter(&report, "shade", "light_samples"))); /* each visited */
+    }
     pf_image_free(&image);
     pf_light *own_lights = scene.frame.lights;
     uint32_t own_count = scene.frame.light_count;
@@ -468,6 +470,7 @@ PF_TEST(many_lights_are_sampled_alike_by_every_kernel)
                scene.frame.light_count, few_rays, own_count,
                ref_stage_counter(&report, "shade", "loop_truncated"));
         PF_CHECK(ref_stage_counter(&report, "shade", "loop_truncated") == 0.0);
+        PF_CHECK(ref_stage_counter(&report, "shade", "light_samples") == PF_DIRECT_LIGHT_SAMPLES);
         /* A vertex casts up to 1 + 4 shadow rays instead of 1 + 2, not 1 + 402 (~100 times
          * as many rays as with 2 lights). */
         PF_CHECK_MSG(rays <= 3.0 * few_rays, "%g rays against %g", rays, few_rays);
@@ -481,8 +484,11 @@ PF_TEST(many_lights_are_sampled_alike_by_every_kernel)
     PF_CHECK(tails || !host_traces_by_default());
     /* final's primary traces its shadow rays in the kernel. */
     settings = final_settings(16, 12, 1, 20000, 16);
-    if (render_with(&scene.frame, &settings, PF_TRACE_AUTO, &image, &report))
+    if (render_with(&scene.frame, &settings, PF_TRACE_AUTO, &image, &report)) {
         PF_CHECK(ref_stage_counter(&report, "shade", "loop_truncated") == 0.0);
+        PF_CHECK(ref_stage_counter(&report, "shade", "light_samples") ==
+                 PF_DIRECT_LIGHT_PIXEL_SAMPLES);
+    }
     pf_image_free(&image);
     scene.frame.lights = own_lights;
     scene.frame.light_count = own_count;
