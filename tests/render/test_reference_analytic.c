@@ -444,8 +444,9 @@ static int many_lights_radiance(const void *opaque, const pf_camera *camera, uin
 PF_TEST(many_point_lights_over_a_plane_average_to_their_sum)
 {
     /* Past PF_DIRECT_LIGHTS_EVERY_MAX punctual lights a vertex resamples a few of them
-     * (direct_light.glsl), so the light carries noise: it must carry no bias. 24 lights of
-     * unequal colours and powers, 0.3-3 m over the plane, some far to the side. */
+     * (direct_light.glsl), so the light carries noise: it must carry no bias. 23 point
+     * lights of unequal colours and powers, 0.3-3 m over the plane, some far to the side, and
+     * a sun. */
     PF_REQUIRE(PLANE_MANY_LIGHTS > PF_DIRECT_LIGHTS_EVERY_MAX);
     static many_lights_setup setup;
     pf_light lights[PLANE_MANY_LIGHTS];
@@ -463,6 +464,11 @@ PF_TEST(many_point_lights_over_a_plane_average_to_their_sum)
                                1};
         setup.each[i] = (plane_setup){{0.6, 0.5, 0.4}, lights[i]};
     }
+    /* One a sun: picked by its power over the scene's disc (pf_photon_light_power). */
+    lights[PLANE_MANY_LIGHTS - 1] = (pf_light){{0, 0, 0}, PF_LIGHT_DIRECTIONAL,
+                                               {0.36f, 0.0f, -0.933f}, 0, {0.3f, 0.25f, 0.2f},
+                                               1, 1};
+    setup.each[PLANE_MANY_LIGHTS - 1].light = lights[PLANE_MANY_LIGHTS - 1];
     ref_scene scene;
     plane_scene(&scene, &setup.each[0]);
     scene.frame.lights = lights;
