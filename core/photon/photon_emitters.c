@@ -80,13 +80,9 @@ pf_status pf_photon_emitters_build(const pf_scene_frame *frame, pf_photon_emitte
                                    pf_error *err)
 {
     memset(out, 0, sizeof *out);
-    double radius2 = 0.0;
-    for (int k = 0; k < 3; k++) {
+    for (int k = 0; k < 3; k++)
         out->scene_center[k] = 0.5f * (frame->bounds_min[k] + frame->bounds_max[k]);
-        double half = 0.5 * ((double)frame->bounds_max[k] - frame->bounds_min[k]);
-        radius2 += half * half;
-    }
-    out->scene_radius = (float)sqrt(radius2);
+    out->scene_radius = (float)(0.5 * pf_scene_frame_diagonal(frame));
     uint32_t capacity = frame->light_count + frame->triangle_count;
     out->entries = malloc((capacity ? capacity : 1) * sizeof *out->entries);
     double *weights = malloc((capacity ? capacity : 1) * sizeof *weights);

@@ -100,15 +100,13 @@ static pf_status lights_with_picks(const pf_scene_frame *frame, pf_light **out, 
     pf_status status = lights && weights && threshold && alias
                            ? PF_OK
                            : pf_error_set(err, PF_ERR_NOMEM, "light table: %u lights", count);
-    double radius2 = 0.0, total = 0.0;
-    for (int k = 0; k < 3; k++) {
-        double half = 0.5 * ((double)frame->bounds_max[k] - frame->bounds_min[k]);
-        radius2 += half * half;
-    }
+    /* Directional lights' power is over the scene's bounding disc, as photon emission's. */
+    float radius = (float)(0.5 * pf_scene_frame_diagonal(frame));
+    double total = 0.0;
     for (uint32_t i = 0; status == PF_OK && i < count; i++) {
         lights[i] = frame->lights[i];
         float power[3];
-        pf_photon_light_power(&lights[i], (float)sqrt(radius2), power);
+        pf_photon_light_power(&lights[i], radius, power);
         double weight = PF_LUMINANCE_R * power[0] + PF_LUMINANCE_G * power[1] +
                         PF_LUMINANCE_B * power[2];
         weights[i] = weight > 0.0 && isfinite(weight) ? weight : 0.0;
