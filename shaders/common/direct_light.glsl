@@ -62,16 +62,18 @@ uint direct_light_slots()
 // wo unoccluded (its irradiance times the BSDF and cosine: zero exactly where the light
 // adds nothing, so the estimate stays unbiased; without the BSDF, a glossy highlight of one
 // of many lights came out as rare fireflies). Returns the kept light's weight,
-// (Σw / M) / p̂(kept) / samples, its contribution's factor in one of the vertex's samples;
-// 0 when no candidate adds anything.
+// (Σw / M) / p̂(kept) / samples, its contribution's factor in one of the vertex's samples,
+// with the kept light's sample and the light it would reflect (irradiance × BSDF × cosine:
+// its contribution but for throughput and weight); 0 when no candidate adds anything.
 float light_resample(Material material, vec3 position, vec3 wo, vec3 shading_normal,
                      vec3 geometric_normal, bool front, uint samples, inout uint rng,
-                     out uint kept)
+                     out LightSample kept, out vec3 kept_reflected)
 {
     uint count = params.light_count;
     float weight_sum = 0.0;
     float kept_target = 0.0;
-    kept = 0u;
+    kept = LightSample(vec3(0.0, 0.0, 1.0), 0.0, vec3(0.0));
+    kept_reflected = vec3(0.0);
     for (uint m = 0u; m < DIRECT_LIGHT_CANDIDATES; m++) {
         uint column = min(uint(rng_float(rng) * float(count)), count - 1u);
         uint index = rng_float(rng) < lights[column].pick_threshold ? column
@@ -79,13 +81,15 @@ float light_resample(Material material, vec3 position, vec3 wo, vec3 shading_nor
         float select = rng_float(rng);
         float pick_pdf = lights[index].pick_pdf;
         LightSample light = light_sample(lights[index], position);
-        float target = light_luminance(light.irradiance *
-                                       bsdf_eval_cos(material, wo, light.to_light,
-                                                     shading_normal, geometric_normal, front));
+        vec3 reflected = light.irradiance * bsdf_eval_cos(material, wo, light.to_light,
+                                                          shading_normal, geometric_normal,
+                                                          front);
+        float target = light_luminance(reflected);
         float weight = pick_pdf > 0.0 ? target / pick_pdf : 0.0;
         weight_sum += weight;
         if (weight > 0.0 && select * weight_sum < weight) {
-            kept = index;
+            kept = light;
+            kept_reflected = reflected;
             kept_target = target;
         }
     }
@@ -165,17 +169,19 @@ vec3 direct_light(Material material, vec3 position, vec3 surface_origin, vec3 wo
         vec3 to_light = area_direction;
         float tmax = area_tmax;
         if (SCENE_HAS_LIGHTS && candidate > 0u) {
-            uint index = candidate - 1u;
-            float weight =
-                sampled ? light_resample(material, position, wo, shading_normal, geometric_normal,
-                                         front, light_samples, rng, index)
-                        : 1.0;
-            LightSample light = light_sample(lights[index], position);
-            contribution = throughput * light.irradiance *
-                           bsdf_eval_cos(material, wo, light.to_light, shading_normal,
-                                         geometric_normal, front);
-            if (sampled)
-                contribution *= weight;
+            LightSample light;
+            if (sampled) {
+                vec3 reflected;
+                float weight = light_resample(material, position, wo, shading_normal,
+                                              geometric_normal, front, light_samples, rng, light,
+                                              reflected);
+                contribution = throughput * reflected * weight;
+            } else {
+                light = light_sample(lights[candidate - 1u], position);
+                contribution = throughput * light.irradiance *
+                               bsdf_eval_cos(material, wo, light.to_light, shading_normal,
+                                             geometric_normal, front);
+            }
             to_light = light.to_light;
             tmax = light.distance - ray_offset;
         }
