@@ -96,7 +96,7 @@ void path_follow_hit(inout Path path, BihHit hit, uint depth, float ray_offset, 
     path.cone_distance += hit.t;
     Surface surface = surface_at_cone(
         hit, path.origin, path.direction,
-        path.cone_distance * camera_cone_spread(params.camera_forward.w, params.height));
+        path.cone_distance * camera_cone_spread(params.camera_forward.w, params.image_height));
     if (!surface.valid) {
         path.tracing = false;
         path.poisoned = true; // a non-finite normal: the sample is discarded, not repaired

@@ -135,7 +135,7 @@ void primary(uint pixel_index, uvec2 pixel)
 
     vec3 medium = vec3(0.0); // absorption of the medium the ray travels in
     // The camera's ray cone along its specular chain (camera.glsl).
-    float cone_spread = camera_cone_spread(params.camera_forward.w, params.height);
+    float cone_spread = camera_cone_spread(params.camera_forward.w, params.image_height);
     float cone_distance = 0.0;
     // The BSDF half of the direct light's MIS at a sharp vertex passed through (below): the
     // pdf of the ray traced next (0: a delta choice, emission it finds has full weight).

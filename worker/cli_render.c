@@ -272,11 +272,6 @@ int pf_cli_render(int argc, char **argv)
     /* Volumes beyond this device's buffers: refused before anything is rendered or written. */
     code = pf_cli_lpv_check(COMMAND, &options.settings.lpv,
                             pf_vk_info(session.ctx)->max_storage_buffer_range);
-    /* So is an asked size whose film exceeds them (the default size never does). */
-    if (!code && options.settings.width &&
-        pf_render_size_check(&options.settings,
-                             pf_vk_info(session.ctx)->max_storage_buffer_range, &err) != PF_OK)
-        code = pf_cli_fail(COMMAND, 2, "--size: %s", err.message);
     if (code) {
         pf_frame_list_free(&frames);
         session_close(&session);

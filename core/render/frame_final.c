@@ -98,7 +98,7 @@
 #define VERTEX_WEIGHT_VEC4_PER_PIXEL 2u
 _Static_assert(VERTEX_VEC4_PER_PIXEL <= PF_SPLIT_FILM_VEC4_PER_PIXEL &&
                    VERTEX_WEIGHT_VEC4_PER_PIXEL <= PF_SPLIT_FILM_VEC4_PER_PIXEL,
-               "pf_render_size_check: no per-pixel buffer of final is larger than the film");
+               "render_bands.c: no per-pixel buffer of final is larger than the film");
 #define GROUP_EDGE 8u
 /* The shade kernels' bindings (final_shared.glsl) of the photon grid they gather from and of its
  * irradiance points: records, flux, ranges. */
@@ -286,11 +286,13 @@ static pf_status trace_batch(pf_renderer *renderer, const pf_photon_frame *input
 }
 
 /* Whether a frame of these settings and plan gathers through precomputed irradiance when a pass
- * stores `stored` global photons (FINAL_LOOKUP_MIN_RATIO, FINAL_LOOKUP_MAX_PASSES). */
+ * stores `stored` global photons (FINAL_LOOKUP_MIN_RATIO, FINAL_LOOKUP_MAX_PASSES). The whole
+ * image's rays, so that the bands of a frame (render_bands.c) all decide as it would. */
 static int wants_lookups(const pf_render_settings *settings, const pf_stage_plan *plan,
                          uint64_t stored)
 {
-    uint64_t rays = (uint64_t)settings->width * settings->height * final_gather_rays(settings);
+    uint64_t rays = (uint64_t)settings->width * pf_render_image_height(settings) *
+                    final_gather_rays(settings);
     return plan->samples <= FINAL_LOOKUP_MAX_PASSES && rays > 0 &&
            rays >= FINAL_LOOKUP_MIN_RATIO * stored;
 }
@@ -789,7 +791,7 @@ static pf_status final_begin(pf_frame_run *run, pf_error *err)
     const pf_render_settings *settings = run->settings;
     const pf_stage_plan *plan = run->plan;
     pf_vk_context *ctx = renderer->ctx;
-    pf_status status = PF_OK; /* its buffers fit: pf_render_size_check */
+    pf_status status = PF_OK; /* its buffers fit: render_bands.c */
     if (!renderer->final_cache) {
         renderer->final_cache = calloc(1, sizeof *renderer->final_cache);
         if (!renderer->final_cache)

@@ -34,7 +34,8 @@ void pf_frame_params_fill(const pf_scene_frame *frame, const pf_render_settings 
     memset(params, 0, sizeof *params);
     const pf_camera *camera = &frame->camera;
     float tan_half_x = 0.0f, tan_half_y = 0.0f;
-    pf_camera_image_plane(camera, settings->width, settings->height, &tan_half_x, &tan_half_y);
+    uint32_t image_height = pf_render_image_height(settings);
+    pf_camera_image_plane(camera, settings->width, image_height, &tan_half_x, &tan_half_y);
     for (int i = 0; i < 3; i++) {
         params->camera_position[i] = camera->position[i];
         params->camera_forward[i] = camera->forward[i];
@@ -46,6 +47,8 @@ void pf_frame_params_fill(const pf_scene_frame *frame, const pf_render_settings 
     params->camera_right[3] = pf_render_ray_offset(frame);
     params->width = settings->width;
     params->height = settings->height;
+    params->row_offset = settings->band_row_first;
+    params->image_height = image_height;
     params->samples_per_pixel = spp;
     params->triangle_count = frame->triangle_count;
     params->light_count = frame->light_count;

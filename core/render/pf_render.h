@@ -163,6 +163,14 @@ typedef struct pf_render_settings {
      * 0: none; the stages append them.
      */
     uint32_t later_layers;
+    /*
+     * Not a job setting either: the band of rows this render is of a taller image, which
+     * pf_render_preset renders in bands where its film would exceed one device buffer
+     * (render_bands.c). The camera, the samples' seeds and every decision that follows the
+     * image's size are the whole image's, so each band renders the rows the whole would.
+     * band_image_height 0: the render is the whole image.
+     */
+    uint32_t band_row_first, band_image_height;
 } pf_render_settings;
 
 /* pf_render_settings.later_layers: motion.X/Y (the motion stage), noisy.R/G/B and
@@ -362,6 +370,9 @@ void pf_renderer_set_trace_site(pf_renderer *renderer, pf_trace_site site);
  *   Samples cut by lavapipe's loop cap are dropped and counted (shade row
  *   `loop_truncated`, discarded_samples); over 1% of them fails the frame
  *   with PF_ERR_LIMIT.
+ *
+ * fast, final and reference render a frame whose film exceeds one device buffer in bands of
+ * rows (pf_renderer_set_band_bytes says how), the same image with one row a stage.
  */
 pf_status pf_render_frame(pf_renderer *renderer, const pf_scene_frame *frame,
                           const pf_render_settings *settings, pf_image *image,
@@ -411,14 +422,13 @@ int pf_settings_format(const pf_render_settings *settings, char *out, size_t siz
 pf_status pf_settings_parse(const char *json, pf_render_settings *settings, pf_error *err);
 
 /*
- * PF_ERR_LIMIT, naming the preset and the size, when a frame of these settings keeps a
- * per-pixel buffer larger than max_buffer_bytes (a device's maxStorageBufferRange): the film
- * of fast, final and reference (auto renders one of them), 48 bytes a pixel, their largest;
- * preview keeps none. pf_render_frame checks it before any stage runs; `render` checks an
- * asked --size against its device before it loads anything more (split_film.c).
+ * A frame of fast, final or reference whose film (48 bytes a pixel, the largest of their
+ * per-pixel buffers) exceeds one device buffer (maxStorageBufferRange: 128 MiB on lavapipe,
+ * a 2560x1440 film is 169 MiB) is rendered in bands of rows, each its own film, and the
+ * bands' images and rows joined (render_bands.c); the image is the one a single band would
+ * make. Tests: bands of at most this many film bytes (0: the device's range).
  */
-pf_status pf_render_size_check(const pf_render_settings *settings, uint64_t max_buffer_bytes,
-                               pf_error *err);
+void pf_renderer_set_band_bytes(pf_renderer *renderer, uint64_t film_bytes);
 
 /*
  * The motion vectors AOV (motion_vectors.c): fills channels motion.X and motion.Y of

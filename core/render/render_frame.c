@@ -77,8 +77,10 @@ static pf_status run_stages(const pf_integrator *integrator, pf_frame_run *run, 
     double budget = run->settings->time_budget_ms;
     for (uint32_t pass = 0; integrator->per_pass && status == PF_OK && pass < plan->samples;
          pass++) {
-        if (pass > 0 && budget > 0.0 && pf_time_ms() - run->start_ms >= budget)
+        if (pass > 0 && budget > 0.0 && pf_time_ms() - run->start_ms >= budget) {
+            run->passes = pass;
             break;
+        }
         for (int stage = 0; status == PF_OK && stage < PF_STAGE_COUNT; stage++)
             if (per_pass(integrator, stage) && (plan->stages[stage].action == PF_STAGE_RUN ||
                                                 plan->stages[stage].action == PF_STAGE_REUSE)) {
@@ -110,32 +112,15 @@ pf_status pf_render_settings_check(const pf_render_settings *settings, pf_error 
     return PF_OK;
 }
 
-pf_status pf_render_preset(pf_renderer *renderer, const pf_scene_frame *frame,
-                           const pf_render_settings *settings, pf_image *image,
-                           pf_frame_report *report, pf_error *err)
+pf_status pf_render_band(pf_renderer *renderer, const pf_scene_frame *frame,
+                         const pf_render_settings *settings, pf_image *image,
+                         pf_frame_report *report, uint32_t *samples, pf_error *err)
 {
     double start_ms = pf_time_ms();
-    memset(image, 0, sizeof *image);
-    pf_status status = pf_render_settings_check(settings, err);
-    if (status != PF_OK)
-        return status;
-    if ((unsigned)settings->quality > PF_QUALITY_REFERENCE)
-        return pf_error_set(err, PF_ERR_UNSUPPORTED,
-                            "quality '%s' is not available (available: preview, fast, final, "
-                            "reference, auto)",
-                            pf_quality_name(settings->quality));
-    if (report)
-        report->quality = settings->quality;
-    /* The split integrators' per-pixel buffers must each fit one device buffer: refused
-     * before any stage runs, naming the size. */
-    status = pf_render_size_check(
-        settings, pf_vk_info(pf_renderer_context(renderer))->max_storage_buffer_range, err);
-    if (status != PF_OK)
-        return status;
     /* The planner decides every stage before any runs; the loop carries the plan out. */
     pf_stage_plan plan;
     pf_stage_previous previous = pf_stage_previous_of(renderer, settings->quality);
-    status = pf_plan_stages(frame, settings, &previous, &plan, err);
+    pf_status status = pf_plan_stages(frame, settings, &previous, &plan, err);
     if (status != PF_OK)
         return status;
     memcpy(renderer->frame_inputs, plan.inputs, sizeof plan.inputs);
@@ -147,7 +132,32 @@ pf_status pf_render_preset(pf_renderer *renderer, const pf_scene_frame *frame,
         [PF_QUALITY_FINAL] = &pf_integrator_final,
         [PF_QUALITY_REFERENCE] = &pf_integrator_reference};
     pf_frame_run run = {renderer, frame, settings, &plan, image, report, start_ms, NULL};
+    run.passes = plan.samples;
     status = run_stages(integrators[settings->quality], &run, err);
+    if (samples)
+        *samples = run.passes;
     pf_stage_plan_release(&plan);
     return status;
+}
+
+pf_status pf_render_preset(pf_renderer *renderer, const pf_scene_frame *frame,
+                           const pf_render_settings *settings, pf_image *image,
+                           pf_frame_report *report, pf_error *err)
+{
+    memset(image, 0, sizeof *image);
+    pf_status status = pf_render_settings_check(settings, err);
+    if (status != PF_OK)
+        return status;
+    if ((unsigned)settings->quality > PF_QUALITY_REFERENCE)
+        return pf_error_set(err, PF_ERR_UNSUPPORTED,
+                            "quality '%s' is not available (available: preview, fast, final, "
+                            "reference, auto)",
+                            pf_quality_name(settings->quality));
+    if (report)
+        report->quality = settings->quality;
+    /* A film past one device buffer: the frame in bands of rows (render_bands.c). */
+    uint32_t band_rows = pf_render_band_rows(renderer, settings);
+    if (band_rows < settings->height)
+        return pf_render_bands(renderer, frame, settings, band_rows, image, report, err);
+    return pf_render_band(renderer, frame, settings, image, report, NULL, err);
 }

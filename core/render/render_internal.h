@@ -369,6 +369,7 @@ typedef struct pf_frame_run {
      * readback); added to the rows as counters once end has written them. */
     pf_vk_traffic traffic[PF_STAGE_COUNT];
     pf_vk_traffic textures_traffic;
+    uint32_t passes; /* the plan's samples (final: passes), or fewer where a time budget ended them */
 } pf_frame_run;
 
 /*
@@ -467,6 +468,7 @@ struct pf_renderer {
     pf_trace_site trace_site;     /* pf_renderer_set_trace_site */
     uint64_t wave_tails;          /* reference frames' tails so far (pf_stage_previous) */
     pf_deform_site deform_site;   /* pf_renderer_set_deform_site */
+    uint64_t band_bytes;          /* pf_renderer_set_band_bytes (0: the device's range) */
     /* The deforming nodes' rest poses on the device (deform_device.c; NULL until used). */
     struct pf_deform_cache *deform_cache;
     /* Host work to run while the device finishes the frame's last submission, the one that
@@ -516,7 +518,9 @@ typedef struct pf_frame_params {
     float bih_bounds_max[4];
     float emissive_weight_total; /* Σ area × luminance of the emissive table's triangles */
     uint32_t max_path_depth;     /* reference: most vertices of one path */
-    uint32_t padding2[2];
+    /* The film's first row in the image, and the image's height: a band's render
+     * (pf_render_settings.band_*; 0 and height where the film is the whole image). */
+    uint32_t row_offset, image_height;
 } pf_frame_params;
 
 /*
@@ -703,6 +707,17 @@ pf_status pf_render_settings_check(const pf_render_settings *settings, pf_error 
 pf_status pf_render_preset(pf_renderer *renderer, const pf_scene_frame *frame,
                            const pf_render_settings *settings, pf_image *image,
                            pf_frame_report *report, pf_error *err);
+/* One render of the stage loop: the whole image, or a band of it (settings->band_*); the
+ * samples (final: passes) it rendered in *samples (NULL: not wanted). Settings checked. */
+pf_status pf_render_band(pf_renderer *renderer, const pf_scene_frame *frame,
+                         const pf_render_settings *settings, pf_image *image,
+                         pf_frame_report *report, uint32_t *samples, pf_error *err);
+/* render_bands.c: the rows of a band of a frame of these settings (its height where the
+ * film fits one device buffer), and the frame in bands of band_rows. */
+uint32_t pf_render_band_rows(const pf_renderer *renderer, const pf_render_settings *settings);
+pf_status pf_render_bands(pf_renderer *renderer, const pf_scene_frame *frame,
+                          const pf_render_settings *settings, uint32_t band_rows,
+                          pf_image *image, pf_frame_report *report, pf_error *err);
 
 pf_status pf_plan_frame(pf_renderer *renderer, const pf_scene_frame *frame,
                         const pf_render_settings *settings, pf_render_settings *chosen,
@@ -808,14 +823,22 @@ pf_status pf_split_film_submit(pf_renderer *renderer, pf_vk_commands *cmds,
 /* How far secondary rays start off a surface in this frame (FrameParams' camera_right.w). */
 float pf_render_ray_offset(const pf_scene_frame *frame);
 
-/*
- * Fills the FrameParams the integrators share: camera, image, counts, seed,
- * ray offset, the emissive table's total weight and the BIH's root box and
- * node count (integrator-specific fields are left 0 for the caller).
- */
 /* splitmix64 of seed and index: unrelated seeds for nearby indices (final's photon passes,
  * the camera samples of a frame whose settings carry sample_salt). */
 uint64_t pf_seed_mix(uint64_t seed, uint64_t index);
+
+/* The height of the image the settings render: the whole image's where they are a
+ * band of it (pf_render_settings.band_image_height). */
+static inline uint32_t pf_render_image_height(const pf_render_settings *settings)
+{
+    return settings->band_image_height ? settings->band_image_height : settings->height;
+}
+
+/*
+ * Fills the FrameParams the integrators share: camera, image (and the band of it the film
+ * holds), counts, seed, ray offset, the emissive table's total weight and the BIH's root box
+ * and node count (integrator-specific fields are left 0 for the caller).
+ */
 void pf_frame_params_fill(const pf_scene_frame *frame, const pf_render_settings *settings,
                           uint32_t spp, const pf_gpu_scene *scene, const pf_bih_gpu_view *bih,
                           pf_frame_params *params);

@@ -90,23 +90,6 @@ void pf_split_film_to_image(const float *film, const float *film_aov, int aovs,
     }
 }
 
-pf_status pf_render_size_check(const pf_render_settings *settings, uint64_t max_buffer_bytes,
-                               pf_error *err)
-{
-    if (settings->quality == PF_QUALITY_PREVIEW)
-        return PF_OK;
-    uint64_t pixels = (uint64_t)settings->width * settings->height;
-    uint64_t film_bytes = pixels * PF_SPLIT_FILM_VEC4_PER_PIXEL * 16;
-    if (film_bytes > max_buffer_bytes)
-        return pf_error_set(err, PF_ERR_LIMIT,
-                            "%s render of %ux%u needs %llu MiB in one buffer (its film); the "
-                            "device allows %llu MiB (render a smaller image)",
-                            pf_quality_name(settings->quality), settings->width,
-                            settings->height, (unsigned long long)(film_bytes >> 20),
-                            (unsigned long long)(max_buffer_bytes >> 20));
-    return PF_OK;
-}
-
 pf_status pf_split_film_create(pf_vk_context *ctx, const pf_render_settings *settings,
                                int full_aov, const char *integrator, pf_vk_buffer **film,
                                pf_vk_buffer **film_aov, pf_error *err)

@@ -136,7 +136,7 @@ void main()
 
     vec3 medium = vec3(0.0); // absorption of the medium the ray travels in
     // The camera's ray cone along its specular chain (camera.glsl).
-    float cone_spread = camera_cone_spread(params.camera_forward.w, params.height);
+    float cone_spread = camera_cone_spread(params.camera_forward.w, params.image_height);
     float cone_distance = 0.0;
     // The BSDF half of the direct light's MIS where a vertex's lobe is sharp (below): the
     // pdf of the ray the loop traces next (0: a delta choice, or no light sampled at the

@@ -79,7 +79,8 @@ GatherStart gather_start(uint pixel_index, uint gather_index, Material d1_materi
                          vec3 d1_throughput, vec3 wo)
 {
     GatherStart s;
-    s.samples = sampler_init(pixel_index, push.sample_index * push.gather_total + gather_index,
+    s.samples = sampler_init(image_pixel_index(pixel_index),
+                             push.sample_index * push.gather_total + gather_index,
                              params.seed_lo ^ GATHER_SEED_SALT, params.seed_hi);
     s.first = bsdf_sample(d1_material, wo, shading_normal, geometric_normal, true,
                           sampler_next_4d(s.samples).xyz, TRANSPORT_RADIANCE);

@@ -104,7 +104,7 @@ bool path_vertex(BihHit hit)
     vec3 direction = path_direction;
     path_throughput *= medium_transmittance(path_medium, hit.t);
     path_cone_distance += hit.t;
-    float cone_spread = camera_cone_spread(params.camera_forward.w, params.height);
+    float cone_spread = camera_cone_spread(params.camera_forward.w, params.image_height);
     Surface surface = surface_at_cone(hit, path_origin, direction,
                                       path_on_camera_cone ? path_cone_distance * cone_spread : 0.0);
     // A non-finite shading normal poisons the sample (discarded and

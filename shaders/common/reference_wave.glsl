@@ -207,8 +207,8 @@ void path_load(uint p, uvec2 pixel)
     path_shadow_region = regions >> 8u;
     path_albedo_aov = w.albedo_group.xyz;
     path_normal_aov = w.normal.xyz;
-    path_samples = sampler_init(pixel.y * params.width + pixel.x, push.sample_index,
-                                params.seed_lo, params.seed_hi); // as path_begin's
+    path_samples = sampler_init(image_pixel_index(pixel.y * params.width + pixel.x),
+                                push.sample_index, params.seed_lo, params.seed_hi); // as path_begin's
     path_samples.group = floatBitsToUint(w.albedo_group.w);
     path_rays = 0u;
 }

@@ -128,7 +128,10 @@ struct FrameParams {
     // Appended for the reference integrator:
     float emissive_weight_total; // Σ area·luminance over the emissive table (light pick pdfs)
     uint max_path_depth;         // bound on the vertices of a path (reference)
-    uint padding2, padding3;
+    // The film's first row in the image, and the image's height (a band of a frame whose
+    // film exceeds one buffer: render_bands.c; else 0 and height). The camera and the
+    // samples' seeds are the image's (camera_sample.glsl), the film's pixels the band's.
+    uint row_offset, image_height;
 };
 
 #endif

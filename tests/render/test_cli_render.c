@@ -261,45 +261,6 @@ PF_TEST(later_layers_are_written_in_place)
     pf_image_free(&vectors[1]);
 }
 
-/*
- * A --size whose film (48 bytes a pixel) exceeds the device's buffers is bad input for that
- * device: exit 2 naming the option, the preset and the size, before any frame renders or a
- * file is written. The size is the device's own limit plus one row (`photonfarm devices`
- * says the limit).
- */
-PF_TEST(a_size_past_the_devices_buffers_exits_2_before_rendering)
-{
-    char scene[1024], args[4096], path[2048], log[8192];
-    pf_test_shared_scene("cornell-anim", scene, sizeof scene);
-    PF_REQUIRE(run_photonfarm("devices") == 0);
-    log_read(log, sizeof log);
-    const char *at = strstr(log, "(default)");
-    at = at ? strstr(at, "maxStorageBufferRange ") : NULL;
-    PF_REQUIRE(at != NULL);
-    unsigned long long range = strtoull(at + strlen("maxStorageBufferRange "), NULL, 10);
-    const unsigned width = 2560;
-    unsigned long long rows = range / 48 / width + 1;
-    if (rows > 2048) {
-        printf("  skipped: the device's %llu-byte buffers hold a film far past a testable size\n",
-               range);
-        return;
-    }
-    static const char *const presets[4] = {"fast", "final", "reference", "auto"};
-    for (int p = 0; p < 4; p++) {
-        snprintf(args, sizeof args,
-                 "render '%s' --frame 2 --quality %s --size %ux%llu -o '%s/past-%s.exr'", scene,
-                 presets[p], width, rows, tmpdir, presets[p]);
-        PF_CHECK_MSG(run_photonfarm(args) == 2, "%s", presets[p]);
-        char expected[256];
-        snprintf(expected, sizeof expected, "--size: %s render of %ux%llu needs", presets[p],
-                 width, rows);
-        PF_CHECK(log_contains(expected) && log_contains("(its film)"));
-        PF_CHECK(!log_contains_quietly("[1/1]"));
-        snprintf(path, sizeof path, "%s/past-%s.exr", tmpdir, presets[p]);
-        PF_CHECK_MSG(!file_exists(path), "%s written", path);
-    }
-}
-
 /* An unusable cache directory costs compile time, never the frame. */
 PF_TEST(unusable_cache_directory_warns_and_renders)
 {
@@ -455,7 +416,6 @@ int main(void)
     PF_RUN(renders_a_frame_range_to_numbered_exr_files);
     PF_RUN(consecutive_frames_reuse_the_one_before);
     PF_RUN(later_layers_are_written_in_place);
-    PF_RUN(a_size_past_the_devices_buffers_exits_2_before_rendering);
     PF_RUN(unusable_cache_directory_warns_and_renders);
     PF_RUN(the_environment_picks_the_device_through_the_cli);
     PF_RUN(bad_frames_scenes_and_options_exit_2);

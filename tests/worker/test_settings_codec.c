@@ -14,7 +14,7 @@
 #include <string.h>
 
 /* A new field must be added to settings_equal, every_field and the codec: this fails first. */
-_Static_assert(sizeof(pf_render_settings) == 144,
+_Static_assert(sizeof(pf_render_settings) == 152,
                "pf_render_settings changed: cover the new field in this test and core/render/settings.c");
 
 static char last_failure[1024];
@@ -45,8 +45,8 @@ static int settings_equal_report(const pf_render_settings *a, const pf_render_se
     SAME(budget_ms) SAME(target_relmse) SAME(float_pixels) SAME(denoise) SAME(lpv.cascades)
     SAME(lpv.size)
     SAME(lpv.cell_size) SAME(lpv.offset_cells) SAME(lpv.undamped)
-    /* sample_salt and sample_scale are the frame pipeline's, not a job's: the codec leaves
-     * them out (below). */
+    /* sample_salt, sample_scale and the band are the frame pipeline's, not a job's: the codec
+     * leaves them out (below). */
     for (uint32_t k = 0; k < PF_LPV_MAX_CASCADES; k++)
         SAME(lpv.iterations[k])
 #undef SAME
@@ -161,14 +161,16 @@ PF_TEST(every_field_survives_the_job_json_alone_and_together)
     }
 }
 
-/* The frame number the pipeline salts the camera samples with, and the sample scale of a
- * run's first frame, are no settings of the job: two frames of one job store and stamp the
- * same JSON. */
+/* The frame number the pipeline salts the camera samples with, the sample scale of a run's
+ * first frame and the band of rows a render is of its frame are no settings of the job: two
+ * frames of one job store and stamp the same JSON. */
 PF_TEST(the_codec_leaves_the_sample_salt_out)
 {
     pf_render_settings plain = every_field(), salted = plain;
     salted.sample_salt = 17;
     salted.sample_scale = PF_TEMPORAL_WARM_UP;
+    salted.band_row_first = 720;
+    salted.band_image_height = 2160;
     char a[1024], b[1024];
     PF_REQUIRE(pf_settings_format(&plain, a, sizeof a));
     PF_REQUIRE(pf_settings_format(&salted, b, sizeof b));
@@ -178,6 +180,7 @@ PF_TEST(the_codec_leaves_the_sample_salt_out)
     PF_REQUIRE_OK(pf_settings_parse(b, &parsed, &err), &err);
     PF_CHECK(parsed.sample_salt == 0);
     PF_CHECK(parsed.sample_scale == 0);
+    PF_CHECK(parsed.band_row_first == 0 && parsed.band_image_height == 0);
 }
 
 PF_TEST(the_parser_and_the_codec_share_their_bounds)
