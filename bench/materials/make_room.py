@@ -10,6 +10,9 @@
 # exporter writes them as PNG files beside the scene. room-string.gltf is the
 # room lit by strings of fairy lights alone: 140 coloured 1.5 W point lights,
 # more than a renderer can afford a shadow ray each at every shaded point.
+# room-coated.gltf is the panel room with clear coats (KHR_materials_clearcoat): a varnished
+# floor (coat 1, roughness 0.1), a lacquered red sphere (coat 1, Blender's default coat
+# roughness 0.03) and a satin-coated white one (coat 0.5, roughness 0.3).
 #
 #   blender -b --factory-startup --python make_room.py -- OUTDIR
 import math
@@ -198,6 +201,16 @@ def main():
             bulb.shadow_soft_size = 0.0
             n += 1
     export(os.path.join(out, "room-string.gltf"), lights=True)
+
+    build_room()
+    coats = {"Floor": (1.0, 0.1), "RedPlastic": (1.0, 0.03), "WhitePlastic": (0.5, 0.3)}
+    for name, (coat, roughness) in coats.items():
+        node = bpy.data.materials[name].node_tree.nodes["Principled BSDF"]
+        node.inputs["Clearcoat"].default_value = coat
+        node.inputs["Clearcoat Roughness"].default_value = roughness
+    panel = principled("Panel", (0.0, 0.0, 0.0), emission=(1.0, 1.0, 1.0), strength=8.0)
+    plane("Panel", 1.0, (0, 0.3, 2.5), (math.pi, 0, 0), panel)
+    export(os.path.join(out, "room-coated.gltf"), lights=False)
 
     build_room()
     floor, wall, cube, card = textured_materials()

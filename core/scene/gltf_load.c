@@ -57,6 +57,7 @@ static const char *const supported_extensions[] = {
     "KHR_materials_ior",
     "KHR_materials_specular",
     "KHR_materials_volume",
+    "KHR_materials_clearcoat",
     "KHR_texture_transform",
     "EXT_texture_webp",
 };

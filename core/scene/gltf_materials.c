@@ -9,6 +9,9 @@
  *   coefficient -ln(colour)/distance, where thicknessFactor (0) says the mesh
  *   is a volume (> 0; the thickness itself is for rasterisers: a ray tracer
  *   measures the distance travelled inside).
+ * KHR_materials_clearcoat: clearcoatFactor (0) and clearcoatRoughnessFactor (0), scaled by
+ * clearcoatTexture's R and clearcoatRoughnessTexture's G; clearcoatNormalTexture is not read
+ * (the coat follows the base's shading normal: materials.glsl says why).
  * Emission = emissiveFactor x KHR_materials_emissive_strength.emissiveStrength,
  * from both faces when the material is doubleSided.
  * Textures (gltf_textures.c): baseColor and emissive (sRGB) and
@@ -32,7 +35,7 @@
 
 static const char *const known_material_extensions[] = {
     "KHR_materials_emissive_strength", "KHR_materials_transmission", "KHR_materials_ior",
-    "KHR_materials_specular", "KHR_materials_volume"};
+    "KHR_materials_specular", "KHR_materials_volume", "KHR_materials_clearcoat"};
 
 static void warn_unhandled(gltf_context *ctx, const cJSON *material, const cJSON *pbr,
                            const char *element)
@@ -115,6 +118,48 @@ static pf_status load_texture_slots(gltf_context *ctx, const cJSON *material, co
                                    1, slot_element, &out->emissive_texture, NULL, err);
     }
     return status;
+}
+
+/* KHR_materials_clearcoat (NULL: none): the coat's factors and their textures. */
+static pf_status load_clearcoat(gltf_context *ctx, const cJSON *coat, const char *element,
+                                pf_material *out, pf_error *err)
+{
+    if (!coat)
+        return PF_OK;
+    char coat_element[192], slot_element[256];
+    snprintf(coat_element, sizeof coat_element, "%s.extensions.KHR_materials_clearcoat",
+             element);
+    double factor = 0, roughness = 0;
+    pf_status status = gltf_number(ctx, coat, "clearcoatFactor", 0, &factor, coat_element, err);
+    if (!status)
+        status = gltf_number(ctx, coat, "clearcoatRoughnessFactor", 0, &roughness,
+                             coat_element, err);
+    if (!status && !(factor >= 0 && factor <= 1 && roughness >= 0 && roughness <= 1))
+        status = gltf_fail(ctx, err, PF_ERR_FORMAT, coat_element,
+                           "clearcoatFactor %g and clearcoatRoughnessFactor %g must be in [0, 1]",
+                           factor, roughness);
+    if (!status) {
+        snprintf(slot_element, sizeof slot_element, "%s.clearcoatTexture", coat_element);
+        status = gltf_texture_slot(ctx, cJSON_GetObjectItemCaseSensitive(coat, "clearcoatTexture"),
+                                   0, slot_element, &out->clearcoat_texture, NULL, err);
+    }
+    if (!status) {
+        snprintf(slot_element, sizeof slot_element, "%s.clearcoatRoughnessTexture",
+                 coat_element);
+        status = gltf_texture_slot(
+            ctx, cJSON_GetObjectItemCaseSensitive(coat, "clearcoatRoughnessTexture"), 0,
+            slot_element, &out->clearcoat_roughness_texture, NULL, err);
+    }
+    if (status)
+        return status;
+    if (cJSON_GetObjectItemCaseSensitive(coat, "clearcoatNormalTexture"))
+        scene_warn_once(ctx->scene, "clearcoatNormalTexture",
+                        "%s: %s.clearcoatNormalTexture is not read: the coat follows the base's "
+                        "normal",
+                        ctx->path, coat_element);
+    out->clearcoat = (float)factor;
+    out->clearcoat_roughness = (float)roughness;
+    return PF_OK;
 }
 
 static pf_status load_material(gltf_context *ctx, const cJSON *material, const char *element,
@@ -228,6 +273,10 @@ static pf_status load_material(gltf_context *ctx, const cJSON *material, const c
     status = load_alpha(ctx, material, element, out, err);
     if (!status)
         status = load_texture_slots(ctx, material, pbr, element, out, err);
+    if (!status)
+        status = load_clearcoat(
+            ctx, cJSON_GetObjectItemCaseSensitive(extensions, "KHR_materials_clearcoat"), element,
+            out, err);
     if (status)
         return status;
     memcpy(out->albedo, base_color, sizeof out->albedo);

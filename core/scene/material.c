@@ -21,6 +21,8 @@ uint32_t pf_scene_frame_surface_features(const pf_scene_frame *frame)
             features |= PF_SURFACE_ALPHA;
         if (material->transmission > 0.0f)
             has |= PF_SURFACE_NO_TRANSMISSION;
+        if (material->clearcoat > 0.0f)
+            has |= PF_SURFACE_NO_CLEARCOAT;
         for (int c = 0; c < 3; c++)
             if (material->emission[c] > 0.0f)
                 has |= PF_SURFACE_NO_EMISSION;
@@ -31,7 +33,7 @@ uint32_t pf_scene_frame_surface_features(const pf_scene_frame *frame)
     }
     const uint32_t absent = PF_SURFACE_NO_LIGHTS | PF_SURFACE_NO_TRANSMISSION |
                             PF_SURFACE_NO_EMISSION | PF_SURFACE_NO_SPECULAR |
-                            PF_SURFACE_NO_MANY_LIGHTS;
+                            PF_SURFACE_NO_MANY_LIGHTS | PF_SURFACE_NO_CLEARCOAT;
     return features | (absent & ~has);
 }
 
@@ -48,7 +50,8 @@ void pf_scene_spec_constants(uint32_t features, uint32_t ids[PF_SCENE_SPEC_CONST
         {PF_SPEC_SCENE_HAS_TRANSMISSION, PF_SURFACE_NO_TRANSMISSION, 0},
         {PF_SPEC_SCENE_HAS_EMITTERS, PF_SURFACE_NO_EMISSION, 0},
         {PF_SPEC_SCENE_HAS_SPECULAR, PF_SURFACE_NO_SPECULAR, 0},
-        {PF_SPEC_SCENE_HAS_MANY_LIGHTS, PF_SURFACE_NO_MANY_LIGHTS, 0}};
+        {PF_SPEC_SCENE_HAS_MANY_LIGHTS, PF_SURFACE_NO_MANY_LIGHTS, 0},
+        {PF_SPEC_SCENE_HAS_CLEARCOAT, PF_SURFACE_NO_CLEARCOAT, 0}};
     for (uint32_t i = 0; i < PF_SCENE_SPEC_CONSTANTS; i++) {
         ids[i] = map[i].constant_id;
         uint32_t set = (features & map[i].bit) != 0;

@@ -107,7 +107,13 @@ typedef struct pf_material {
     uint32_t alpha_mode;     /* pf_alpha_mode */
     float alpha_cutoff;      /* MASK: 0.5 unless the file says */
     float normal_scale;      /* normalTexture.scale (1) */
-    float padding;
+    /* KHR_materials_clearcoat: a dielectric coat (index 1.5) over everything above, of this
+     * strength (0: none) and perceptual roughness; its textures' R and G scale them. */
+    float clearcoat;
+    float clearcoat_roughness;
+    uint32_t clearcoat_texture;
+    uint32_t clearcoat_roughness_texture;
+    uint32_t padding;
 } pf_material;
 
 /* glTF material.doubleSided: its emission leaves both faces (Blender's exporter
@@ -181,7 +187,7 @@ typedef enum pf_scene_binding {
  * What a frame's scene uses beyond the plain BSDF and its emitters: alpha-tested materials
  * (MASK, BLEND), per-corner attributes (textures, COLOR_0), punctual lights, transmissive
  * materials, emissive materials, specular ones (a mirror-like metal or a glass, passed
- * through by sampling: pf_material_kind). A kernel that reads surfaces has a plain variant, compiled without the first
+ * through by sampling: pf_material_kind), clear-coated ones. A kernel that reads surfaces has a plain variant, compiled without the first
  * two's code, and a "<kernel>_surfaces" one (shaders/pf_shaders.cmake's pf-variant) for a
  * frame with either (PF_SURFACE_TEXTURED); each pipeline is made for the frame's whole set,
  * its specialisation constants (pf_scene_spec_constants; scene_binding_numbers.glsl) saying
@@ -202,8 +208,9 @@ typedef enum pf_scene_binding {
 #define PF_SURFACE_NO_SPECULAR 32u     /* every material PF_MATERIAL_LAMBERT, and no
                                         * metallic-roughness texture that may make one not */
 #define PF_SURFACE_NO_MANY_LIGHTS 64u  /* at most PF_DIRECT_LIGHTS_EVERY_MAX punctual lights */
+#define PF_SURFACE_NO_CLEARCOAT 128u   /* no material with clearcoat > 0 */
 #define PF_SURFACE_TEXTURED (PF_SURFACE_ALPHA | PF_SURFACE_CORNERS)
-#define PF_SURFACE_VARIANTS 128u
+#define PF_SURFACE_VARIANTS 256u
 /*
  * Next-event estimation (shaders/common/direct_light.glsl) casts a shadow ray to every
  * punctual light of a frame with at most this many; past it, each vertex resamples
@@ -231,7 +238,8 @@ static inline uint32_t pf_direct_light_slots(uint32_t light_count)
 #define PF_SPEC_SCENE_HAS_EMITTERS 1005u
 #define PF_SPEC_SCENE_HAS_SPECULAR 1006u
 #define PF_SPEC_SCENE_HAS_MANY_LIGHTS 1008u /* 1007 is the pixel filter's */
-#define PF_SCENE_SPEC_CONSTANTS 7u
+#define PF_SPEC_SCENE_HAS_CLEARCOAT 1009u
+#define PF_SCENE_SPEC_CONSTANTS 8u
 /* The specialisation constants of features: constant ids and their values (0 or 1). */
 void pf_scene_spec_constants(uint32_t features, uint32_t ids[PF_SCENE_SPEC_CONSTANTS],
                              uint32_t values[PF_SCENE_SPEC_CONSTANTS]);

@@ -48,6 +48,20 @@
 // shading normals can produce) is never returned: the geometric normal
 // decides reflection and transmission, so no light leaks through a surface.
 //
+// The clear coat (KHR_materials_clearcoat): a dielectric layer of index 1.5 over all of the
+// above, of strength c = clearcoat and GGX α_c = clearcoatRoughness²:
+//
+//   coated      = (1 − c·F_c) · bsdf + c · F_c · D_c·V_c
+//
+// F_c the exact Fresnel of index 1.5 at the microfacet normal, as the dielectric layer's (the
+// spec's fresnel_coat takes Schlick's at the coat normal·wo; both are 0.04 at normal
+// incidence), a mirror at clearcoatRoughness ≤ DELTA_ROUGHNESS. The coat follows the base's
+// shading normal: every lobe here is built around one normal, and the spec's coat keeps the
+// mesh's normal under a base normal map (or its own clearcoatNormalTexture), which the loader
+// does not read. Sampling picks the coat first along xi.z, with probability ∝ c·F_c(n·wo), the
+// other lobes' choices scaled by 1 − c·F_c(n·wo). A frame without a coated material compiles
+// all of it out (SCENE_HAS_CLEARCOAT): its images are bit for bit those before the coat.
+//
 // Smooth transmission: reflection with probability ∝ F, else refraction.
 // Reflection is untinted and transmission is tinted by baseColor, so glass
 // with baseColor 1 has weights exactly 1 and throughput F + (1 − F) = 1 for
@@ -235,6 +249,30 @@ float material_alpha(Material material)
     return material.roughness * material.roughness;
 }
 
+// KHR_materials_clearcoat's index (the spec's fixed 1.5: F0 = 0.04).
+const float COAT_IOR = 1.5;
+
+bool material_has_coat(Material material)
+{
+    return SCENE_HAS_CLEARCOAT && material.clearcoat > 0.0;
+}
+
+bool material_coat_is_delta(Material material)
+{
+    return material.clearcoat_roughness <= DELTA_ROUGHNESS;
+}
+
+float material_coat_alpha(Material material)
+{
+    return material.clearcoat_roughness * material.clearcoat_roughness;
+}
+
+// c·F_c at the cosine cos (the coat's reflectance, and what it takes from the layers below).
+float material_coat_fresnel(Material material, float cos_theta)
+{
+    return material.clearcoat * fresnel_dielectric(cos_theta, COAT_IOR);
+}
+
 // A rough (non-delta) transmission lobe: some transmission, not all metal, rough.
 bool material_has_rough_transmission(Material material)
 {
@@ -255,8 +293,12 @@ struct LobeChoice {
     float specular;
     float diffuse;
     float transmission;
-    vec3 reflectance; // metal and dielectric Fresnel at n·wo, mixed by metallic
+    float coat;       // the clear coat's (0 without one)
+    vec3 reflectance; // metal and dielectric Fresnel at n·wo, mixed by metallic (under a
+                      // coat: times 1 − c·F_c at n·wo)
     float base;       // 1 − max(dielectric F) at n·wo: the base's and transmission's share
+                      // (likewise)
+    float coat_reflectance; // c·F_c at n·wo: a smooth coat's reflectance
 };
 
 LobeChoice material_lobe_choice(Material material, float cos_o, float eta)
@@ -281,15 +323,31 @@ LobeChoice material_lobe_choice(Material material, float cos_o, float eta)
                                ? max(choice.base, ROUGH_TRANSMISSION_MIN_SHARE)
                                : choice.base;
     choice.transmission = dielectric * material.transmission * transmit_share * albedo;
+    choice.coat = 0.0;
+    choice.coat_reflectance = 0.0;
     float total = choice.specular + choice.diffuse + choice.transmission;
+    if (material_has_coat(material)) {
+        // What the coat reflects, the layers below do not receive.
+        choice.coat_reflectance = material_coat_fresnel(material, cos_o);
+        float below = 1.0 - choice.coat_reflectance;
+        choice.reflectance *= below;
+        choice.base *= below;
+        choice.specular *= below;
+        choice.diffuse *= below;
+        choice.transmission *= below;
+        choice.coat = choice.coat_reflectance;
+        total = choice.specular + choice.diffuse + choice.transmission + choice.coat;
+    }
     if (!(total > 0.0)) {
-        choice.specular = choice.diffuse = choice.transmission = 0.0;
+        choice.specular = choice.diffuse = choice.transmission = choice.coat = 0.0;
     } else if (total != 1.0) {
         // Rounded as the host divides (divide_exact.glsl), as are the smooth lobes' weights
         // below: a white glass's lobes then weigh exactly 1 on every device.
         choice.specular = divide_exact(choice.specular, total);
         choice.diffuse = divide_exact(choice.diffuse, total);
         choice.transmission = divide_exact(choice.transmission, total);
+        if (material_has_coat(material))
+            choice.coat = divide_exact(choice.coat, total);
     }
     return choice;
 }
@@ -317,6 +375,15 @@ vec3 material_reflection_eval(Material material, float cos_o, float cos_i, float
         vec3 fresnel = mix(dielectric_f, fresnel_schlick(material.albedo, cos_oh),
                            material.metallic);
         value += fresnel * (ggx_d(cos_h, alpha) * ggx_visibility(cos_o, cos_i, alpha) * cos_i);
+    }
+    if (material_has_coat(material)) {
+        float coat = material_coat_fresnel(material, cos_oh);
+        value *= 1.0 - coat;
+        if (!material_coat_is_delta(material)) {
+            float alpha = material_coat_alpha(material);
+            value += vec3(coat * ggx_d(cos_h, alpha) * ggx_visibility(cos_o, cos_i, alpha) *
+                          cos_i);
+        }
     }
     return value;
 }
@@ -350,6 +417,8 @@ vec3 material_transmission_eval(Material material, vec3 wo, vec3 wi, vec3 h, vec
     float denominator = -cos_ih + cos_oh / eta; // dot(wi, h) + dot(wo, h)/eta, < 0
     float btdf_cos = (1.0 - fresnel) * ggx_d(dot(h, normal), alpha) * g2 * cos_ih * cos_oh /
                      (cos_o * denominator * denominator * eta * eta);
+    if (material_has_coat(material)) // through the coat, as the lobe choice weighs it
+        btdf_cos *= 1.0 - material_coat_fresnel(material, cos_o);
     return (1.0 - material.metallic) * material.transmission * material.albedo * btdf_cos;
 }
 
@@ -373,6 +442,8 @@ float material_reflection_pdf(Material material, LobeChoice choice, float cos_o,
     float pdf = choice.diffuse * cos_i / PI;
     if (!material_specular_is_delta(material))
         pdf += choice.specular * ggx_reflection_pdf(cos_o, cos_h, material_alpha(material));
+    if (material_has_coat(material) && !material_coat_is_delta(material))
+        pdf += choice.coat * ggx_reflection_pdf(cos_o, cos_h, material_coat_alpha(material));
     return pdf;
 }
 
@@ -429,7 +500,8 @@ float bsdf_pdf(Material material, vec3 wo, vec3 wi, vec3 shading_normal, vec3 ge
 // (and its MIS) applies. Rough glass has one, though it stores no photons.
 bool material_has_rough_lobe(Material material)
 {
-    return material.kind == MATERIAL_LAMBERT || !material_specular_is_delta(material);
+    return material.kind == MATERIAL_LAMBERT || !material_specular_is_delta(material) ||
+           (material_has_coat(material) && !material_coat_is_delta(material));
 }
 
 // Whether light is estimated at the surface from stored photons, the LPV or
@@ -499,10 +571,22 @@ BsdfSample bsdf_sample(Material material, vec3 wo, vec3 shading_normal, vec3 geo
     LobeChoice choice = material_lobe_choice(material, cos_o, eta);
     float pick = xi.z;
     bool delta_specular = material_specular_is_delta(material);
+    bool coat_glossy = false;
+    // The coat first along xi.z.
+    if (material_has_coat(material)) {
+        if (pick < choice.coat && material_coat_is_delta(material)) {
+            s.direction = material_reflect(wo, normal, geometric_normal);
+            s.specular = true;
+            s.weight = vec3(divide_exact(choice.coat_reflectance, choice.coat));
+            return s;
+        }
+        coat_glossy = pick < choice.coat;
+        pick -= choice.coat;
+    }
 
     // Lobes in the order specular, transmission, diffuse along xi.z, so a
     // smooth glass reflects exactly when xi.z < F.
-    if (pick < choice.specular && delta_specular) {
+    if (!coat_glossy && pick < choice.specular && delta_specular) {
         s.direction = material_reflect(wo, normal, geometric_normal);
         s.specular = true;
         s.weight = vec3(divide_exact(choice.reflectance.r, choice.specular),
@@ -510,11 +594,12 @@ BsdfSample bsdf_sample(Material material, vec3 wo, vec3 shading_normal, vec3 geo
                         divide_exact(choice.reflectance.b, choice.specular));
         return s;
     }
-    bool glossy = pick < choice.specular;
+    bool glossy = !coat_glossy && pick < choice.specular;
     pick -= choice.specular;
     vec3 tangent, bitangent;
     material_basis(normal, tangent, bitangent);
-    if (!glossy && pick < choice.transmission && material_has_rough_transmission(material)) {
+    if (!coat_glossy && !glossy && pick < choice.transmission &&
+        material_has_rough_transmission(material)) {
         vec3 wo_local = vec3(dot(wo, tangent), dot(wo, bitangent), cos_o);
         vec3 m_local = ggx_sample_visible_normal(wo_local, material_alpha(material), xi.xy);
         vec3 m = m_local.x * tangent + m_local.y * bitangent + m_local.z * normal;
@@ -537,7 +622,7 @@ BsdfSample bsdf_sample(Material material, vec3 wo, vec3 shading_normal, vec3 geo
                    (scale / s.pdf);
         return s;
     }
-    if (!glossy && pick < choice.transmission) {
+    if (!coat_glossy && !glossy && pick < choice.transmission) {
         vec3 refracted = refract(-wo, normal, 1.0 / eta);
         if (refracted != vec3(0.0) && dot(refracted, geometric_normal) >= 0.0)
             refracted = refract(-wo, geometric_normal, 1.0 / eta);
@@ -555,9 +640,10 @@ BsdfSample bsdf_sample(Material material, vec3 wo, vec3 shading_normal, vec3 geo
         return s;
     }
 
-    if (glossy) {
+    if (glossy || coat_glossy) {
         vec3 wo_local = vec3(dot(wo, tangent), dot(wo, bitangent), cos_o);
-        vec3 h_local = ggx_sample_visible_normal(wo_local, material_alpha(material), xi.xy);
+        float alpha = coat_glossy ? material_coat_alpha(material) : material_alpha(material);
+        vec3 h_local = ggx_sample_visible_normal(wo_local, alpha, xi.xy);
         vec3 h = h_local.x * tangent + h_local.y * bitangent + h_local.z * normal;
         s.direction = reflect(-wo, h);
     } else if (choice.diffuse > 0.0) {
@@ -578,6 +664,15 @@ BsdfSample bsdf_sample(Material material, vec3 wo, vec3 shading_normal, vec3 geo
     return s;
 }
 
+// Karis's fit of the GGX lobe's ∫ F·D·V·cos as F0's scale and F90's bias, at perceptual
+// roughness and n·wo.
+vec2 ggx_split_sum(float roughness, float cos_o)
+{
+    vec4 r = roughness * vec4(-1.0, -0.0275, -0.572, 0.022) + vec4(1.0, 0.0425, 1.04, -0.04);
+    float a004 = min(r.x * r.x, exp2(-9.28 * cos_o)) * r.x + r.y;
+    return vec2(-1.04, 1.04) * a004 + r.zw;
+}
+
 // The surface's directional albedo towards wo for its non-delta lobes: what a
 // kernel multiplies an irradiance estimate by (over π) where it does not
 // sample the BSDF (photon, LPV and gather lookups). Exact for a pure Lambert
@@ -592,18 +687,26 @@ vec3 material_rough_albedo(Material material, vec3 wo, vec3 shading_normal, bool
     float eta = material_eta(material, front);
     vec3 dielectric_f0 = dielectric_fresnel(material, 1.0, eta);
     float cos_half = sqrt(0.5 * (1.0 + cos_o));
-    vec3 base = (1.0 - material.metallic) * (1.0 - material.transmission) *
-                (1.0 - material_max3(dielectric_fresnel(material, cos_half, eta))) *
-                material.albedo;
-    if (material_specular_is_delta(material))
-        return base;
-    vec4 r = material.roughness * vec4(-1.0, -0.0275, -0.572, 0.022) +
-             vec4(1.0, 0.0425, 1.04, -0.04);
-    float a004 = min(r.x * r.x, exp2(-9.28 * cos_o)) * r.x + r.y;
-    vec2 scale_bias = vec2(-1.04, 1.04) * a004 + r.zw;
-    vec3 f0 = mix(dielectric_f0, material.albedo, material.metallic);
-    vec3 f90 = vec3(mix(material.specular, 1.0, material.metallic));
-    return base + f0 * scale_bias.x + f90 * scale_bias.y;
+    vec3 albedo = (1.0 - material.metallic) * (1.0 - material.transmission) *
+                  (1.0 - material_max3(dielectric_fresnel(material, cos_half, eta))) *
+                  material.albedo;
+    if (!material_specular_is_delta(material)) {
+        vec2 scale_bias = ggx_split_sum(material.roughness, cos_o);
+        vec3 f0 = mix(dielectric_f0, material.albedo, material.metallic);
+        vec3 f90 = vec3(mix(material.specular, 1.0, material.metallic));
+        albedo = albedo + f0 * scale_bias.x + f90 * scale_bias.y;
+    }
+    if (material_has_coat(material)) {
+        // Below the coat what it lets through (at the half vector, as the base's 1 − F),
+        // and its own lobe where rough (F0 0.04, F90 1).
+        albedo *= 1.0 - material_coat_fresnel(material, cos_half);
+        if (!material_coat_is_delta(material)) {
+            vec2 scale_bias = ggx_split_sum(material.clearcoat_roughness, cos_o);
+            float f0 = fresnel_dielectric(1.0, COAT_IOR);
+            albedo += vec3(material.clearcoat * (f0 * scale_bias.x + scale_bias.y));
+        }
+    }
+    return albedo;
 }
 
 #endif

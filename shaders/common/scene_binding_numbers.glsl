@@ -40,5 +40,8 @@ layout(constant_id = 1006) const bool SCENE_HAS_SPECULAR = true;
 // instead of visiting each (true unless the pipeline says otherwise: the light count decides
 // at run time as well).
 layout(constant_id = 1008) const bool SCENE_HAS_MANY_LIGHTS = true;
+// Clear-coated materials (KHR_materials_clearcoat): without them scene_material reads every
+// coat as 0 and the coat's lobe is compiled out of materials.glsl.
+layout(constant_id = 1009) const bool SCENE_HAS_CLEARCOAT = true;
 
 #endif

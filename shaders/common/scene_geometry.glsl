@@ -7,7 +7,7 @@
 //   scene_vertices           3 RGBA32F texels per triangle (xyz, w unused)
 //   scene_normals            3 RGBA32F texels per triangle (shading normals)
 //   scene_triangle_materials one word per triangle: its material
-//   scene_materials          7 texels per material (pf_material, 112 bytes)
+//   scene_materials          8 texels per material (pf_material, 128 bytes)
 //   scene_corners            PF_CORNER_TEXELS texels per triangle corner (uv0, uv1;
 //                            colour; tangent), when the scene has textures or colours
 //   scene_textures           3 texels per TextureRef
@@ -47,7 +47,7 @@ uint scene_triangle_material(uint triangle)
 
 Material scene_material(uint index)
 {
-    int first = int(7u * index);
+    int first = int(8u * index);
     uvec4 t0 = uvec4(texelFetch(scene_materials, first));
     uvec4 t1 = uvec4(texelFetch(scene_materials, first + 1));
     vec4 t2 = uintBitsToFloat(uvec4(texelFetch(scene_materials, first + 2)));
@@ -55,15 +55,19 @@ Material scene_material(uint index)
     vec4 t4 = uintBitsToFloat(uvec4(texelFetch(scene_materials, first + 4)));
     uvec4 t5 = uvec4(texelFetch(scene_materials, first + 5));
     uvec4 t6 = uvec4(texelFetch(scene_materials, first + 6));
-    // transmission and emission: 0 in a frame without a transmissive or an emissive material,
-    // the kind Lambert in one without a specular material, so that their code is compiled out
-    // (SCENE_HAS_TRANSMISSION, SCENE_HAS_EMITTERS, SCENE_HAS_SPECULAR).
+    uvec4 t7 = uvec4(texelFetch(scene_materials, first + 7));
+    // transmission, emission and the coat: 0 in a frame without a transmissive, an emissive
+    // or a coated material, the kind Lambert in one without a specular material, so that
+    // their code is compiled out (SCENE_HAS_TRANSMISSION, SCENE_HAS_EMITTERS,
+    // SCENE_HAS_CLEARCOAT, SCENE_HAS_SPECULAR).
     return Material(uintBitsToFloat(t0.xyz), SCENE_HAS_SPECULAR ? t0.w : MATERIAL_LAMBERT,
                     SCENE_HAS_EMITTERS ? uintBitsToFloat(t1.xyz) : vec3(0.0),
                     uintBitsToFloat(t1.w), t2.x, t2.y, SCENE_HAS_TRANSMISSION ? t2.z : 0.0, t2.w,
                     uintBitsToFloat(t3.xyz), t3.w,
                     t4.xyz, t4.w, t5.x, t5.y, t5.z, t5.w, t6.x, uintBitsToFloat(t6.y),
-                    uintBitsToFloat(t6.z));
+                    uintBitsToFloat(t6.z),
+                    SCENE_HAS_CLEARCOAT ? uintBitsToFloat(t6.w) : 0.0, uintBitsToFloat(t7.x),
+                    SCENE_HAS_CLEARCOAT ? t7.y : NO_TEXTURE, t7.z);
 }
 
 #ifdef PF_SURFACE_TEXTURES

@@ -40,6 +40,10 @@ struct Material {
     uint alpha_mode;      // ALPHA_OPAQUE, ALPHA_MASK, ALPHA_BLEND
     float alpha_cutoff;
     float normal_scale;
+    float clearcoat;      // KHR_materials_clearcoat: the coat's strength (0: none)
+    float clearcoat_roughness; // perceptual
+    uint clearcoat_texture;    // R scales clearcoat
+    uint clearcoat_roughness_texture; // G scales clearcoat_roughness
 };
 
 // pf_scene.h PF_MATERIAL_DELTA_ROUGHNESS: at or below it the specular lobe is a mirror.

@@ -277,7 +277,8 @@ PF_TEST(required_extension_unsupported)
     /* The supported ones may be required. */
     spec.name = "required_ok";
     spec.extensions_required = "[\"KHR_lights_punctual\",\"KHR_materials_emissive_strength\","
-                               "\"KHR_materials_transmission\",\"KHR_materials_ior\"]";
+                               "\"KHR_materials_transmission\",\"KHR_materials_ior\","
+                               "\"KHR_materials_clearcoat\"]";
     spec.extensions_used = spec.extensions_required;
     pf_scene *scene = NULL;
     pf_error err;
@@ -328,6 +329,11 @@ PF_TEST(malformed_structure)
                      "\"attenuationColor\":[2,0,0]}}}]";
     st_write_gltf(&spec, path, sizeof path);
     st_expect_error(path, PF_ERR_FORMAT, "KHR_materials_volume", "attenuationColor");
+
+    spec.name = "badclearcoat";
+    spec.materials = "[{\"extensions\":{\"KHR_materials_clearcoat\":{\"clearcoatFactor\":1.5}}}]";
+    st_write_gltf(&spec, path, sizeof path);
+    st_expect_error(path, PF_ERR_FORMAT, "KHR_materials_clearcoat", "clearcoatFactor");
 
     spec.name = "baddoublesided";
     spec.extensions = NULL;

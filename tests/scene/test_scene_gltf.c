@@ -184,6 +184,41 @@ PF_TEST(volume_absorption)
     pf_scene_destroy(scene);
 }
 
+/* KHR_materials_clearcoat: its factors (0 without the extension, as the spec's defaults). */
+PF_TEST(clearcoat_factors)
+{
+    char path[512];
+    st_gltf spec = {
+        .name = "clearcoat",
+        .nodes = "[" QUAD_NODE_MESH "]",
+        .materials = "[{\"extensions\":{\"KHR_materials_clearcoat\":{\"clearcoatFactor\":0.75,"
+                     "\"clearcoatRoughnessFactor\":0.125}}}]",
+    };
+    pf_scene *scene = st_load_ok(st_write_gltf(&spec, path, sizeof path));
+    PF_REQUIRE(scene);
+    pf_scene_frame frame;
+    pf_error err;
+    PF_REQUIRE_OK(pf_scene_eval(scene, 0.0, &frame, &err), &err);
+    const pf_material *m = &frame.materials[frame.triangle_material[0]];
+    PF_CHECK(m->clearcoat == 0.75f && m->clearcoat_roughness == 0.125f);
+    PF_CHECK(m->clearcoat_texture == PF_NO_TEXTURE &&
+             m->clearcoat_roughness_texture == PF_NO_TEXTURE);
+    PF_CHECK((pf_scene_frame_surface_features(&frame) & PF_SURFACE_NO_CLEARCOAT) == 0);
+    pf_scene_frame_free(&frame);
+    pf_scene_destroy(scene);
+
+    spec.name = "no_clearcoat";
+    spec.materials = "[{\"extensions\":{\"KHR_materials_clearcoat\":{}}}]";
+    scene = st_load_ok(st_write_gltf(&spec, path, sizeof path));
+    PF_REQUIRE(scene);
+    PF_REQUIRE_OK(pf_scene_eval(scene, 0.0, &frame, &err), &err);
+    m = &frame.materials[frame.triangle_material[0]];
+    PF_CHECK(m->clearcoat == 0.0f && m->clearcoat_roughness == 0.0f);
+    PF_CHECK((pf_scene_frame_surface_features(&frame) & PF_SURFACE_NO_CLEARCOAT) != 0);
+    pf_scene_frame_free(&frame);
+    pf_scene_destroy(scene);
+}
+
 PF_TEST(camera_values)
 {
     char path[512];
@@ -488,11 +523,11 @@ PF_TEST(unsupported_extension_used_warns_once)
     st_gltf spec = {
         .name = "ext_used",
         .nodes = "[" QUAD_NODE_MESH "]",
-        .materials = "[{\"extensions\":{\"KHR_materials_clearcoat\":{\"clearcoatFactor\":1}},"
+        .materials = "[{\"extensions\":{\"KHR_materials_sheen\":{\"sheenRoughnessFactor\":1}},"
                      "\"pbrMetallicRoughness\":{\"metallicFactor\":0}},"
-                     "{\"extensions\":{\"KHR_materials_clearcoat\":{\"clearcoatFactor\":1}},"
+                     "{\"extensions\":{\"KHR_materials_sheen\":{\"sheenRoughnessFactor\":1}},"
                      "\"pbrMetallicRoughness\":{\"metallicFactor\":0}}]",
-        .extensions_used = "[\"KHR_materials_clearcoat\"]",
+        .extensions_used = "[\"KHR_materials_sheen\"]",
     };
     uint32_t warnings_before = pf_log_warning_count();
     pf_scene *scene = st_load_ok(st_write_gltf(&spec, path, sizeof path));
@@ -599,6 +634,7 @@ int main(void)
     PF_RUN(lights_converted);
     PF_RUN(camera_values);
     PF_RUN(volume_absorption);
+    PF_RUN(clearcoat_factors);
     PF_RUN(materials_mapped);
     PF_RUN(linear_translation_and_clamping);
     PF_RUN(linear_rotation_slerp);

@@ -362,6 +362,44 @@ PF_TEST(linear_and_srgb_slots_sampler_and_transform)
     pf_scene_destroy(scene);
 }
 
+
+/* KHR_materials_clearcoat's textures are linear slots of their own (R scales the coat, G its
+ * roughness): the same image as metallicRoughness shares its chain. */
+PF_TEST(clearcoat_textures_are_linear_slots)
+{
+    uint8_t rgba[IMAGE_W * IMAGE_H * 4];
+    test_pixels(rgba);
+    size_t size;
+    unsigned char *bytes = encode_png(rgba, IMAGE_W, IMAGE_H, &size);
+    char images[256], path[512];
+    image_file("coat.png", bytes, size, images, sizeof images);
+    free(bytes);
+    const char *material =
+        "{\"pbrMetallicRoughness\":{\"metallicRoughnessTexture\":{\"index\":0}},"
+        "\"extensions\":{\"KHR_materials_clearcoat\":{\"clearcoatFactor\":1,"
+        "\"clearcoatTexture\":{\"index\":0},\"clearcoatRoughnessFactor\":0.5,"
+        "\"clearcoatRoughnessTexture\":{\"index\":0,\"texCoord\":1}}}}";
+    write_textured_quad("coat", material, images, "[{\"source\":0}]", "[]", 0, path,
+                        sizeof path);
+    pf_scene *scene = NULL;
+    pf_error err = {0};
+    PF_REQUIRE_OK(pf_scene_load(path, &scene, &err), &err);
+    PF_CHECK(pf_scene_get_info(scene)->image_count == 1); /* decoded once, linear */
+    pf_scene_frame frame;
+    PF_REQUIRE_OK(pf_scene_eval(scene, 0.0, &frame, &err), &err);
+    const pf_material *m = &frame.materials[0];
+    PF_CHECK(m->clearcoat == 1.0f && m->clearcoat_roughness == 0.5f);
+    PF_REQUIRE(m->clearcoat_texture != PF_NO_TEXTURE &&
+               m->clearcoat_roughness_texture != PF_NO_TEXTURE);
+    const pf_texture_ref *coat = &frame.textures[m->clearcoat_texture - 1];
+    const pf_texture_ref *coat_roughness = &frame.textures[m->clearcoat_roughness_texture - 1];
+    PF_CHECK((coat->sampling & PF_TEXTURE_SRGB) == 0);
+    PF_CHECK((coat->sampling & PF_TEXTURE_TEXCOORD_1) == 0);
+    PF_CHECK((coat_roughness->sampling & PF_TEXTURE_TEXCOORD_1) != 0);
+    PF_CHECK(coat->first_texel == frame.textures[m->metallic_roughness_texture - 1].first_texel);
+    pf_scene_frame_free(&frame);
+    pf_scene_destroy(scene);
+}
 /* Loads path expecting a failure with status; the message names the image and the slot. */
 static void expect_image_error(const char *path, pf_status expected, const char *word)
 {
@@ -599,6 +637,7 @@ int main(void)
     PF_RUN(srgb_decoding_and_mip_levels);
     PF_RUN(png_jpeg_and_webp_decode_with_their_mip_chains);
     PF_RUN(linear_and_srgb_slots_sampler_and_transform);
+    PF_RUN(clearcoat_textures_are_linear_slots);
     PF_RUN(malformed_images_are_named_errors);
     PF_RUN(mutated_images_never_crash);
     PF_RUN(normal_map_without_tangents_gets_them_generated);
