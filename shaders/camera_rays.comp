@@ -26,6 +26,7 @@ void main()
     if (pixel.x >= params.width || pixel.y >= params.height)
         return;
     Sampler samples;
-    host_ray_write(camera_slot(pixel.y * params.width + pixel.x), true,
-                   params.camera_position.xyz, camera_sample_ray(pixel, push.sample_index, samples));
+    CameraRay ray = camera_sample_ray(pixel, push.sample_index, samples);
+    host_ray_write(camera_slot(pixel.y * params.width + pixel.x), true, ray.origin,
+                   ray.direction);
 }

@@ -96,7 +96,8 @@ void path_follow_hit(inout Path path, BihHit hit, uint depth, float ray_offset, 
     path.cone_distance += hit.t;
     Surface surface = surface_at_cone(
         hit, path.origin, path.direction,
-        path.cone_distance * camera_cone_spread(params.camera_forward.w, params.image_height));
+        path.cone_distance * camera_cone_spread(params.camera_forward.w, params.image_height,
+                                                     params.camera_up.w != 0.0));
     if (!surface.valid) {
         path.tracing = false;
         path.poisoned = true; // a non-finite normal: the sample is discarded, not repaired
@@ -167,11 +168,12 @@ void main()
         jitter += filter_sample(params.pixel_filter, xi);
     }
     Path path;
-    path.origin = params.camera_position.xyz;
-    path.direction = camera_ray_direction(params.camera_forward.xyz, params.camera_right.xyz,
-                                          params.camera_up.xyz, params.camera_position.w,
-                                          params.camera_forward.w, vec2(pixel) + jitter,
-                                          image_size);
+    CameraRay ray = camera_ray(params.camera_position.xyz, params.camera_forward.xyz,
+                               params.camera_right.xyz, params.camera_up.xyz,
+                               params.camera_position.w, params.camera_forward.w,
+                               params.camera_up.w != 0.0, vec2(pixel) + jitter, image_size);
+    path.origin = ray.origin;
+    path.direction = ray.direction;
     path.throughput = vec3(1.0);
     path.radiance = vec3(0.0);
     path.tracing = true;

@@ -119,8 +119,9 @@ void primary(uint pixel_index, uvec2 pixel)
     const float infinity = uintBitsToFloat(0x7f800000u);
     float ray_offset = params.camera_right.w;
     Sampler samples;
-    vec3 origin = params.camera_position.xyz;
-    vec3 direction = camera_sample_ray(pixel, push.sample_index, samples);
+    CameraRay ray = camera_sample_ray(pixel, push.sample_index, samples);
+    vec3 origin = ray.origin;
+    vec3 direction = ray.direction;
     vec3 throughput = vec3(1.0);
     vec3 direct = vec3(0.0);
     float coverage = 0.0, depth_aov = 0.0;
@@ -135,7 +136,8 @@ void primary(uint pixel_index, uvec2 pixel)
 
     vec3 medium = vec3(0.0); // absorption of the medium the ray travels in
     // The camera's ray cone along its specular chain (camera.glsl).
-    float cone_spread = camera_cone_spread(params.camera_forward.w, params.image_height);
+    float cone_spread = camera_cone_spread(params.camera_forward.w, params.image_height,
+                                           camera_orthographic());
     float cone_distance = 0.0;
     // The BSDF half of the direct light's MIS at a sharp vertex passed through (below): the
     // pdf of the ray traced next (0: a delta choice, emission it finds has full weight).

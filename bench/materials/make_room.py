@@ -12,7 +12,9 @@
 # more than a renderer can afford a shadow ray each at every shaded point.
 # room-coated.gltf is the panel room with clear coats (KHR_materials_clearcoat): a varnished
 # floor (coat 1, roughness 0.1), a lacquered red sphere (coat 1, Blender's default coat
-# roughness 0.03) and a satin-coated white one (coat 0.5, roughness 0.3).
+# roughness 0.03) and a satin-coated white one (coat 0.5, roughness 0.3). room-ortho.gltf
+# is the panel room seen through an orthographic camera (ortho scale 4 m), as an
+# architectural elevation is.
 #
 #   blender -b --factory-startup --python make_room.py -- OUTDIR
 import math
@@ -201,6 +203,14 @@ def main():
             bulb.shadow_soft_size = 0.0
             n += 1
     export(os.path.join(out, "room-string.gltf"), lights=True)
+
+    build_room()
+    camera = bpy.context.scene.camera.data
+    camera.type = "ORTHO"
+    camera.ortho_scale = 4.0
+    panel = principled("Panel", (0.0, 0.0, 0.0), emission=(1.0, 1.0, 1.0), strength=8.0)
+    plane("Panel", 1.0, (0, 0.3, 2.5), (math.pi, 0, 0), panel)
+    export(os.path.join(out, "room-ortho.gltf"), lights=False)
 
     build_room()
     coats = {"Floor": (1.0, 0.1), "RedPlastic": (1.0, 0.03), "WhitePlastic": (0.5, 0.3)}

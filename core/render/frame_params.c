@@ -45,6 +45,7 @@ void pf_frame_params_fill(const pf_scene_frame *frame, const pf_render_settings 
     params->camera_position[3] = tan_half_x;
     params->camera_forward[3] = tan_half_y;
     params->camera_right[3] = pf_render_ray_offset(frame);
+    params->camera_up[3] = camera->orthographic ? 1.0f : 0.0f;
     params->width = settings->width;
     params->height = settings->height;
     params->row_offset = settings->band_row_first;

@@ -32,8 +32,9 @@ static double dot3(const double a[3], const double b[3])
 }
 
 /* Raster position (x right from the left edge, y down from the top, in pixels) of world
- * point p seen by camera, whose image plane's half extents are tan_x, tan_y; 0 when it
- * lies behind the camera. */
+ * point p seen by camera, whose image plane's half extents are tan_x, tan_y (an
+ * orthographic camera's view's, in world units: pf_camera_image_plane); 0 when it lies
+ * behind the camera. */
 static int project(const pf_camera *camera, float tan_x, float tan_y, uint32_t width,
                    uint32_t height, const double p[3], double *x, double *y)
 {
@@ -47,6 +48,8 @@ static int project(const pf_camera *camera, float tan_x, float tan_y, uint32_t w
     double z = dot3(d, forward);
     if (!(z > 0.0))
         return 0;
+    if (camera->orthographic)
+        z = 1.0; /* parallel rays: the offset from the axis alone */
     double ndc_x = dot3(d, right) / (z * tan_x), ndc_y = dot3(d, up) / (z * tan_y);
     *x = (ndc_x + 1.0) * 0.5 * width;
     *y = (1.0 - ndc_y) * 0.5 * height;
@@ -111,16 +114,11 @@ static void motion_rows(void *argument)
             size_t p = first + i;
             double ndc_x = 2.0 * ((double)(p % width) + 0.5) / width - 1.0;
             double ndc_y = 1.0 - 2.0 * ((double)(p / width) + 0.5) / height;
-            double d[3], length = 0.0;
+            double origin[3], direction[3];
+            pf_camera_ray(&frame->camera, s->tan_x, s->tan_y, ndc_x, ndc_y, origin, direction);
             for (int k = 0; k < 3; k++) {
-                d[k] = frame->camera.forward[k] + ndc_x * s->tan_x * frame->camera.right[k] +
-                       ndc_y * s->tan_y * frame->camera.up[k];
-                length += d[k] * d[k];
-            }
-            length = sqrt(length);
-            for (int k = 0; k < 3; k++) {
-                rays[i].origin[k] = frame->camera.position[k];
-                rays[i].direction[k] = (float)(d[k] / length);
+                rays[i].origin[k] = (float)origin[k];
+                rays[i].direction[k] = (float)direction[k];
             }
             rays[i].tmin = 0.0f;
             rays[i].tmax = INFINITY;
@@ -153,10 +151,16 @@ static void motion_rows(void *argument)
                          before, &x, &y))
                 continue;
             if (s->depth_change) {
-                double away[3];
-                for (int k = 0; k < 3; k++)
+                /* The depth the previous camera saw the point at: its distance from the
+                 * pinhole, or from the view's plane (orthographic), as the depth layer's. */
+                double away[3], forward[3];
+                for (int k = 0; k < 3; k++) {
                     away[k] = before[k] - previous->camera.position[k];
-                s->depth_change[p] = (float)(sqrt(dot3(away, away)) - (double)hits[i].t);
+                    forward[k] = previous->camera.forward[k];
+                }
+                double depth_then = previous->camera.orthographic ? dot3(away, forward)
+                                                                  : sqrt(dot3(away, away));
+                s->depth_change[p] = (float)(depth_then - (double)hits[i].t);
             }
             /* Previous minus this pixel's centre, y up (Cycles' Vector pass). */
             out[0] = (float)(x - ((double)(p % width) + 0.5));

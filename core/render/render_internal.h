@@ -508,7 +508,8 @@ typedef struct pf_frame_params {
     float camera_position[4]; /* w: half width of the image plane at distance 1 */
     float camera_forward[4];  /* w: half height of the image plane at distance 1 */
     float camera_right[4];    /* w: ray offset along the geometric normal */
-    float camera_up[4];       /* w: unused */
+    float camera_up[4];       /* w: 1 for an orthographic camera (the half extents are
+                               * then the view's, in world units), else 0 */
     uint32_t width, height, samples_per_pixel, triangle_count;
     uint32_t light_count, emissive_count, seed_lo, seed_hi;
     uint32_t max_specular_depth, bih_node_count;

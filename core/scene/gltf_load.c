@@ -36,9 +36,6 @@
 #define GLTF_MODE_TRIANGLE_STRIP 5
 #define GLTF_MODE_TRIANGLE_FAN 6
 
-/* Default for an orthographic camera mapped to perspective (no fov in the file):
- * 45°, the common viewer default. */
-#define GLTF_ORTHO_FALLBACK_YFOV 0.78539816f
 /* KHR_lights_punctual spot.outerConeAngle default: π/4. */
 #define GLTF_SPOT_OUTER_DEFAULT 0.78539816
 #define GLTF_PI 3.141592653589793
@@ -724,7 +721,7 @@ static pf_status load_cameras(gltf_context *ctx, pf_error *err)
         scene_camera_def *def = &scene->cameras[k];
         const cJSON *type = cJSON_GetObjectItemCaseSensitive(camera, "type");
         const char *type_name = cJSON_IsString(type) ? type->valuestring : "";
-        double yfov, aspect, znear, zfar;
+        double yfov = 0, aspect, znear, zfar, ymag = 0;
         if (strcmp(type_name, "perspective") == 0) {
             snprintf(element, sizeof element, "cameras[%u].perspective", k);
             const cJSON *perspective = cJSON_GetObjectItemCaseSensitive(camera, "perspective");
@@ -745,28 +742,32 @@ static pf_status load_cameras(gltf_context *ctx, pf_error *err)
                 return gltf_fail(ctx, err, PF_ERR_FORMAT, element,
                                  "yfov %g must be in (0, pi) radians", yfov);
         } else if (strcmp(type_name, "orthographic") == 0) {
-            scene_warn_once(scene, "orthographic camera",
-                            "%s: %s: orthographic cameras are not supported: rendered as "
-                            "perspective with a 45 degree vertical fov",
-                            ctx->path, element);
+            /* Parallel rays over a view xmag × ymag half extents (world units), which the
+             * image's aspect stretches in x as it does a perspective camera's. */
             snprintf(element, sizeof element, "cameras[%u].orthographic", k);
             const cJSON *orthographic = cJSON_GetObjectItemCaseSensitive(camera, "orthographic");
-            double xmag, ymag;
+            double xmag;
             if (!cJSON_IsObject(orthographic))
                 return gltf_fail(ctx, err, PF_ERR_FORMAT, element, "missing");
-            status = gltf_number(ctx, orthographic, "xmag", 1, &xmag, element, err);
+            status = gltf_number(ctx, orthographic, "xmag", NAN, &xmag, element, err);
             if (!status)
-                status = gltf_number(ctx, orthographic, "ymag", 1, &ymag, element, err);
+                status = gltf_number(ctx, orthographic, "ymag", NAN, &ymag, element, err);
             if (!status)
                 status = gltf_number(ctx, orthographic, "znear", 0.01, &znear, element, err);
             if (!status)
                 status = gltf_number(ctx, orthographic, "zfar", 0, &zfar, element, err);
             if (status)
                 return status;
-            yfov = GLTF_ORTHO_FALLBACK_YFOV;
-            aspect = xmag > 0 && ymag > 0 ? xmag / ymag : 0;
+            /* The spec asks for non-zero magnifications; a negative one would mirror the
+             * image, which no exporter means. */
+            if (!(xmag > 0 && ymag > 0))
+                return gltf_fail(ctx, err, PF_ERR_FORMAT, element,
+                                 "xmag %g and ymag %g must be given and > 0", xmag, ymag);
+            aspect = xmag / ymag;
+            /* znear 0 is allowed for a parallel projection; rays start on the view plane. */
             if (!(znear > 0))
                 znear = 0.01;
+            def->orthographic = 1;
         } else {
             return gltf_fail(ctx, err, PF_ERR_FORMAT, element,
                              "type \"%s\" is not perspective or orthographic", type_name);
@@ -781,6 +782,7 @@ static pf_status load_cameras(gltf_context *ctx, pf_error *err)
             return gltf_fail(ctx, err, PF_ERR_FORMAT, element, "zfar %g must exceed znear %g",
                              zfar, znear);
         def->yfov = (float)yfov;
+        def->ymag = (float)ymag;
         def->aspect = (float)aspect;
         def->znear = (float)znear;
         def->zfar = (float)zfar;

@@ -272,9 +272,11 @@ typedef struct pf_camera {
     float forward[3];      /* unit view direction (-Z of the camera node) */
     float up[3];           /* unit, orthogonal to forward (+Y of the node) */
     float right[3];        /* unit, forward × up */
-    float yfov;            /* vertical field of view, radians */
+    float yfov;            /* vertical field of view, radians (perspective) */
     float aspect;          /* width/height from the file, 0 = use the image's */
     float znear, zfar;     /* zfar 0 = infinite */
+    uint32_t orthographic; /* 1: parallel rays (glTF orthographic), 0: a pinhole */
+    float ymag;            /* orthographic: half the view's height, world units */
 } pf_camera;
 
 /*
@@ -480,12 +482,18 @@ pf_status pf_scene_deform_with(const pf_scene *scene, double time_seconds, pf_sc
 
 /*
  * Camera for rendering width×height: when the file gives an aspect ratio that
- * differs from the image's, yfov is kept and the image's aspect is used (glTF
- * §3.10.3: the viewport's aspect wins). Writes the half extents of the image
- * plane at distance 1 in *tan_half_x and *tan_half_y.
+ * differs from the image's, yfov (orthographic: ymag) is kept and the image's aspect is
+ * used (glTF §3.10.3: the viewport's aspect wins). Writes the half extents of the image
+ * plane at distance 1 in *tan_half_x and *tan_half_y; an orthographic camera's, in world
+ * units, at any distance.
  */
 void pf_camera_image_plane(const pf_camera *camera, uint32_t width, uint32_t height,
                            float *tan_half_x, float *tan_half_y);
+/* The camera ray through ndc (x right, y up, each -1..1 across the image) for the half
+ * extents of pf_camera_image_plane: origin and unit direction (shaders/common/camera.glsl's
+ * camera_ray on the host). */
+void pf_camera_ray(const pf_camera *camera, float tan_half_x, float tan_half_y, double ndc_x,
+                   double ndc_y, double origin[3], double direction[3]);
 
 /*
  * Animation primitives, exposed so tests can check them against hand-computed

@@ -184,8 +184,24 @@ void pf_camera_image_plane(const pf_camera *camera, uint32_t width, uint32_t hei
         aspect = (float)width / (float)height;
     else if (camera->aspect > 0.0f)
         aspect = camera->aspect;
-    *tan_half_y = tanf(0.5f * camera->yfov);
+    *tan_half_y = camera->orthographic ? camera->ymag : tanf(0.5f * camera->yfov);
     *tan_half_x = *tan_half_y * aspect;
+}
+
+void pf_camera_ray(const pf_camera *camera, float tan_half_x, float tan_half_y, double ndc_x,
+                   double ndc_y, double origin[3], double direction[3])
+{
+    double length = 0.0;
+    for (int k = 0; k < 3; k++) {
+        double x = ndc_x * tan_half_x * camera->right[k], y = ndc_y * tan_half_y * camera->up[k];
+        /* Parallel rays start on the view's plane; a pinhole's leave its position. */
+        origin[k] = camera->orthographic ? camera->position[k] + x + y : camera->position[k];
+        direction[k] = camera->orthographic ? camera->forward[k] : camera->forward[k] + x + y;
+        length += direction[k] * direction[k];
+    }
+    length = sqrt(length);
+    for (int k = 0; k < 3; k++)
+        direction[k] /= length;
 }
 
 pf_status scene_world_matrices(const pf_scene *scene, double time_seconds, float (**out)[16],
@@ -252,6 +268,8 @@ static void camera_from_matrix(const float world[16], const scene_camera_def *de
     camera->aspect = def->aspect;
     camera->znear = def->znear;
     camera->zfar = def->zfar;
+    camera->orthographic = def->orthographic;
+    camera->ymag = def->ymag;
 }
 
 void scene_corner_texels(const float corner[SCENE_CORNER_FLOATS], const float tangent[3],

@@ -93,6 +93,8 @@ typedef struct scene_node {
 
 typedef struct scene_camera_def {
     float yfov, aspect, znear, zfar;
+    uint32_t orthographic; /* pf_camera's */
+    float ymag;
 } scene_camera_def;
 
 typedef struct scene_light_def {

@@ -125,8 +125,9 @@ void main()
     const float infinity = uintBitsToFloat(0x7f800000u);
     float ray_offset = params.camera_right.w;
     Sampler samples;
-    vec3 origin = params.camera_position.xyz;
-    vec3 direction = camera_sample_ray(pixel, push.sample_index, samples);
+    CameraRay ray = camera_sample_ray(pixel, push.sample_index, samples);
+    vec3 origin = ray.origin;
+    vec3 direction = ray.direction;
     vec3 throughput = vec3(1.0);
     vec3 direct = vec3(0.0), indirect = vec3(0.0), caustic = vec3(0.0);
     float coverage = 0.0, depth_aov = 0.0;
@@ -136,7 +137,8 @@ void main()
 
     vec3 medium = vec3(0.0); // absorption of the medium the ray travels in
     // The camera's ray cone along its specular chain (camera.glsl).
-    float cone_spread = camera_cone_spread(params.camera_forward.w, params.image_height);
+    float cone_spread = camera_cone_spread(params.camera_forward.w, params.image_height,
+                                           camera_orthographic());
     float cone_distance = 0.0;
     // The BSDF half of the direct light's MIS where a vertex's lobe is sharp (below): the
     // pdf of the ray the loop traces next (0: a delta choice, or no light sampled at the

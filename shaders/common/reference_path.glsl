@@ -69,8 +69,9 @@ void path_add(vec3 value, uint region, bool caustic_chain)
 // The camera ray of pixel's sample sample_index.
 void path_begin(uvec2 pixel, uint sample_index)
 {
-    path_origin = params.camera_position.xyz;
-    path_direction = camera_sample_ray(pixel, sample_index, path_samples);
+    CameraRay ray = camera_sample_ray(pixel, sample_index, path_samples);
+    path_origin = ray.origin;
+    path_direction = ray.direction;
     path_throughput = vec3(1.0);
     path_medium = vec3(0.0);
     path_direct = vec3(0.0);
@@ -104,7 +105,8 @@ bool path_vertex(BihHit hit)
     vec3 direction = path_direction;
     path_throughput *= medium_transmittance(path_medium, hit.t);
     path_cone_distance += hit.t;
-    float cone_spread = camera_cone_spread(params.camera_forward.w, params.image_height);
+    float cone_spread = camera_cone_spread(params.camera_forward.w, params.image_height,
+                                           camera_orthographic());
     Surface surface = surface_at_cone(hit, path_origin, direction,
                                       path_on_camera_cone ? path_cone_distance * cone_spread : 0.0);
     // A non-finite shading normal poisons the sample (discarded and

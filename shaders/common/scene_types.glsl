@@ -121,7 +121,7 @@ struct FrameParams {
     vec4 camera_position; // w: tan(yfov/2)·aspect (half width of the image plane at distance 1)
     vec4 camera_forward;  // w: tan(yfov/2)
     vec4 camera_right;    // w: ray offset along the geometric normal, scene-scaled
-    vec4 camera_up;       // w: unused
+    vec4 camera_up;       // w: 1 orthographic (the half extents are the view's, world units)
     uint width, height, samples_per_pixel, triangle_count;
     uint light_count, emissive_count, seed_lo, seed_hi;
     uint max_specular_depth, bih_node_count;

@@ -157,6 +157,35 @@ PF_TEST(a_moving_object_moves_by_the_closed_form_and_the_still_wall_reads_zero)
 }
 
 /*
+ * Under an orthographic camera (ymag 1: the view 2 m high) a sliding camera moves every
+ * point by the same pixels, near or far: 0.2 m right is 0.2 / (2 ymag · W/H) · W px, on the
+ * wall 5 m away as on the quad 2 m away (a pinhole's would differ by 2.5×).
+ */
+PF_TEST(an_orthographic_camera_moves_near_and_far_alike)
+{
+    ref_scene before, now;
+    build(&before, 0.0f, 0.0f, 0.0f);
+    build(&now, 0.2f, 0.2f, 0.0f); /* the quad moves with the camera: it reads 0 */
+    for (int k = 0; k < 2; k++) {
+        ref_scene *scene = k == 0 ? &before : &now;
+        scene->frame.camera.orthographic = 1;
+        scene->frame.camera.ymag = 1.0f;
+    }
+    pf_image image = {0};
+    int mx = render_motion(&now, &before, &image);
+    PF_REQUIRE(mx >= 0);
+    double half_x = 1.0 * WIDTH / HEIGHT;
+    double expected = 0.2 / (2.0 * half_x) * WIDTH;
+    /* The wall in a corner, the quad (0.6 m wide about the view's centre) in the middle. */
+    PF_CHECK_NEAR(ref_pixel(&image, mx, 1, 1), expected, 1e-3);
+    PF_CHECK_NEAR(ref_pixel(&image, mx + 1, 1, 1), 0.0, 1e-3);
+    PF_CHECK_NEAR(ref_pixel(&image, mx, WIDTH / 2, HEIGHT / 2), 0.0, 1e-3);
+    pf_image_free(&image);
+    ref_scene_free(&before);
+    ref_scene_free(&now);
+}
+
+/*
  * A renderer that builds and refits its tree on the device (issue 44) traces the motion
  * through the host's copy, whose clip values the device refit left for it to fit: the same
  * vectors, bit for bit, as a renderer whose host refit the tree. Small tiles instead of
@@ -310,6 +339,7 @@ int main(void)
     PF_RUN(a_still_shot_reads_zero_without_tracing);
     PF_RUN(a_sliding_camera_moves_the_wall_by_the_closed_form);
     PF_RUN(a_moving_object_moves_by_the_closed_form_and_the_still_wall_reads_zero);
+    PF_RUN(an_orthographic_camera_moves_near_and_far_alike);
     PF_RUN(a_tree_refit_on_the_device_traces_the_same_motion);
     PF_RUN(vectors_computed_during_the_last_submission_match_those_after_it);
     return render_test_finish(ctx, renderer);

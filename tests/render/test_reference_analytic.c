@@ -814,6 +814,54 @@ PF_TEST(absorbing_slab_attenuates_by_beer_lambert)
     }
 }
 
+/*
+ * An orthographic camera (glTF's: parallel rays over ymag half extents, world units): a
+ * 1 × 1 quad 2 m in front of it, seen with ymag 1 in a 32 × 24 image (x half extent 4/3),
+ * covers exactly the 12 × 12 pixels of [10, 22) × [6, 18), whatever its distance, each at
+ * depth 2 (a pinhole would see the quad's middle nearer than its corners). Every preset's
+ * camera rays (the box filter: a sample stays in its pixel).
+ */
+PF_TEST(orthographic_camera_sees_a_quad_at_one_depth_in_every_preset)
+{
+    ref_scene scene;
+    ref_scene_init(&scene);
+    uint32_t white = ref_scene_add_material(&scene, ref_material(PF_MATERIAL_LAMBERT, 0.8f, 0.8f,
+                                                                 0.8f));
+    const float centre[3] = {0.0f, 0.0f, -2.0f}, half_u[3] = {0.5f, 0.0f, 0.0f},
+                half_v[3] = {0.0f, 0.5f, 0.0f};
+    ref_scene_add_quad(&scene, centre, half_u, half_v, white);
+    ref_scene_add_light(&scene, (pf_light){{0, 0, 0}, PF_LIGHT_DIRECTIONAL, {0.0f, 0.0f, -1.0f},
+                                           0, {1.0f, 1.0f, 1.0f}});
+    scene.frame.camera.orthographic = 1;
+    scene.frame.camera.ymag = 1.0f;
+    static const pf_quality presets[4] = {PF_QUALITY_PREVIEW, PF_QUALITY_FAST,
+                                          PF_QUALITY_FINAL, PF_QUALITY_REFERENCE};
+    for (int q = 0; q < 4; q++) {
+        pf_render_settings settings = ref_settings(32, 24, 2, 5, 1);
+        settings.quality = presets[q];
+        settings.pixel_filter = PF_FILTER_BOX;
+        settings.photons_per_pass = 4000;
+        pf_image image = {0};
+        pf_error err = {0};
+        PF_REQUIRE_OK(pf_render_frame(renderer, &scene.frame, &settings, &image, NULL, &err),
+                      &err);
+        int depth = pf_image_channel(&image, "depth.Z");
+        PF_REQUIRE(depth >= 0);
+        uint32_t seen = 0, wrong = 0;
+        for (uint32_t y = 0; y < 24; y++)
+            for (uint32_t x = 0; x < 32; x++) {
+                double z = image.pixels[(y * 32 + x) * image.channel_count + depth];
+                int inside = x >= 10 && x < 22 && y >= 6 && y < 18;
+                seen += z > 0.0;
+                wrong += inside ? !(fabs(z - 2.0) <= 1e-5) : z != 0.0;
+            }
+        PF_CHECK_MSG(seen == 144 && wrong == 0, "%s: %u pixels see the quad, %u wrong",
+                     pf_quality_name(presets[q]), seen, wrong);
+        pf_image_free(&image);
+    }
+    ref_scene_free(&scene);
+}
+
 int main(void)
 {
     if (!render_test_setup(&ctx, &renderer))
@@ -826,5 +874,6 @@ int main(void)
     PF_RUN(double_sided_emitter_lights_from_its_back_face_too);
     PF_RUN(visible_emitter_is_direct_light_from_its_emitting_faces_only);
     PF_RUN(absorbing_slab_attenuates_by_beer_lambert);
+    PF_RUN(orthographic_camera_sees_a_quad_at_one_depth_in_every_preset);
     return render_test_finish(ctx, renderer);
 }

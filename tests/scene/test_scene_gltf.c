@@ -575,7 +575,11 @@ PF_TEST(sparse_accessor)
     pf_scene_destroy(scene);
 }
 
-PF_TEST(orthographic_camera_mapped)
+/* An orthographic camera: parallel rays over xmag × ymag half extents (world units), read
+ * without a warning; the image plane's half extents are ymag, and ymag times the image's
+ * aspect; its rays start on the view's plane, all along forward. Magnifications of 0 are
+ * refused. */
+PF_TEST(orthographic_camera_renders_parallel_rays)
 {
     char path[512];
     st_gltf spec = {
@@ -588,16 +592,32 @@ PF_TEST(orthographic_camera_mapped)
     uint32_t warnings_before = pf_log_warning_count();
     pf_scene *scene = st_load_ok(st_write_gltf(&spec, path, sizeof path));
     PF_REQUIRE(scene);
-    PF_CHECK(pf_log_warning_count() - warnings_before == 1);
+    PF_CHECK(pf_log_warning_count() - warnings_before == 0);
     pf_scene_frame frame;
     pf_error err;
     PF_REQUIRE_OK(pf_scene_eval(scene, 0, &frame, &err), &err);
+    PF_CHECK(frame.camera.orthographic == 1);
     PF_CHECK_NEAR(frame.camera.aspect, 2, 0);
-    PF_CHECK_NEAR(frame.camera.yfov, 0.78539816, 1e-6);
+    PF_CHECK_NEAR(frame.camera.ymag, 1, 0);
     PF_CHECK_NEAR(frame.camera.znear, 0.1, 1e-7);
     PF_CHECK_NEAR(frame.camera.position[2], 3, 0);
+    float half_x, half_y;
+    pf_camera_image_plane(&frame.camera, 300, 100, &half_x, &half_y);
+    PF_CHECK(half_y == 1.0f && half_x == 3.0f); /* the image's aspect, 3 */
+    double origin[3], direction[3];
+    pf_camera_ray(&frame.camera, half_x, half_y, 1.0, -0.5, origin, direction);
+    PF_CHECK_NEAR(origin[0], 3, 1e-6);
+    PF_CHECK_NEAR(origin[1], -0.5, 1e-6);
+    PF_CHECK_NEAR(origin[2], 3, 1e-6);
+    PF_CHECK(direction[0] == 0 && direction[1] == 0 && direction[2] == -1);
     pf_scene_frame_free(&frame);
     pf_scene_destroy(scene);
+
+    spec.name = "ortho_zero";
+    spec.cameras = "[{\"type\":\"orthographic\",\"orthographic\":{\"xmag\":0,\"ymag\":1,"
+                   "\"znear\":0.1,\"zfar\":10}}]";
+    st_write_gltf(&spec, path, sizeof path);
+    st_expect_error(path, PF_ERR_FORMAT, "cameras[0].orthographic", "xmag");
 }
 
 PF_TEST(animated_ancestor_marks_descendants)
@@ -646,6 +666,6 @@ int main(void)
     PF_RUN(unsupported_extension_used_warns_once);
     PF_RUN(animated_ancestor_marks_descendants);
     PF_RUN(sparse_accessor);
-    PF_RUN(orthographic_camera_mapped);
+    PF_RUN(orthographic_camera_renders_parallel_rays);
     return pf_test_finish();
 }
