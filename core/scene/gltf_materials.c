@@ -4,7 +4,9 @@
  *   baseColorFactor.rgb, metallicFactor, roughnessFactor (both default 1);
  *   KHR_materials_transmission.transmissionFactor (0), KHR_materials_ior.ior
  *   (1.5), KHR_materials_specular.specularFactor (1) and
- *   .specularColorFactor (1, 1, 1); KHR_materials_volume's attenuationColor
+ *   .specularColorFactor (1, 1, 1), scaled by specularTexture's A and specularColorTexture's
+ *   RGB (sRGB; Blender writes one where its specular tint or specular is textured);
+ *   KHR_materials_volume's attenuationColor
  *   (1, 1, 1) and attenuationDistance (infinite) as the Beer-Lambert
  *   coefficient -ln(colour)/distance, where thicknessFactor (0) says the mesh
  *   is a volume (> 0; the thickness itself is for rasterisers: a ray tracer
@@ -87,7 +89,8 @@ static pf_status load_alpha(gltf_context *ctx, const cJSON *material, const char
     return PF_OK;
 }
 
-/* The textured slots: baseColor and emissive in sRGB, metallicRoughness and normal linear. */
+/* The textured slots: baseColor, emissive and specularColor in sRGB, metallicRoughness, normal
+ * and specular linear. */
 static pf_status load_texture_slots(gltf_context *ctx, const cJSON *material, const cJSON *pbr,
                                     const char *element, pf_material *out, pf_error *err)
 {
@@ -116,6 +119,22 @@ static pf_status load_texture_slots(gltf_context *ctx, const cJSON *material, co
         status = gltf_texture_slot(ctx, cJSON_GetObjectItemCaseSensitive(material,
                                                                          "emissiveTexture"),
                                    1, slot_element, &out->emissive_texture, NULL, err);
+    }
+    const cJSON *specular = cJSON_GetObjectItemCaseSensitive(
+        cJSON_GetObjectItemCaseSensitive(material, "extensions"), "KHR_materials_specular");
+    if (!status) {
+        snprintf(slot_element, sizeof slot_element,
+                 "%s.extensions.KHR_materials_specular.specularTexture", element);
+        status = gltf_texture_slot(ctx, cJSON_GetObjectItemCaseSensitive(specular,
+                                                                         "specularTexture"),
+                                   0, slot_element, &out->specular_texture, NULL, err);
+    }
+    if (!status) {
+        snprintf(slot_element, sizeof slot_element,
+                 "%s.extensions.KHR_materials_specular.specularColorTexture", element);
+        status = gltf_texture_slot(
+            ctx, cJSON_GetObjectItemCaseSensitive(specular, "specularColorTexture"), 1,
+            slot_element, &out->specular_color_texture, NULL, err);
     }
     return status;
 }

@@ -113,7 +113,10 @@ typedef struct pf_material {
     float clearcoat_roughness;
     uint32_t clearcoat_texture;
     uint32_t clearcoat_roughness_texture;
-    uint32_t padding;
+    /* KHR_materials_specular's textures: A scales specular, RGB (sRGB) specular_color. */
+    uint32_t specular_texture;
+    uint32_t specular_color_texture;
+    uint32_t padding[3];
 } pf_material;
 
 /* glTF material.doubleSided: its emission leaves both faces (Blender's exporter

@@ -7,7 +7,7 @@
 //   scene_vertices           3 RGBA32F texels per triangle (xyz, w unused)
 //   scene_normals            3 RGBA32F texels per triangle (shading normals)
 //   scene_triangle_materials one word per triangle: its material
-//   scene_materials          8 texels per material (pf_material, 128 bytes)
+//   scene_materials          9 texels per material (pf_material, 144 bytes)
 //   scene_corners            PF_CORNER_TEXELS texels per triangle corner (uv0, uv1;
 //                            colour; tangent), when the scene has textures or colours
 //   scene_textures           3 texels per TextureRef
@@ -47,7 +47,7 @@ uint scene_triangle_material(uint triangle)
 
 Material scene_material(uint index)
 {
-    int first = int(8u * index);
+    int first = int(9u * index);
     uvec4 t0 = uvec4(texelFetch(scene_materials, first));
     uvec4 t1 = uvec4(texelFetch(scene_materials, first + 1));
     vec4 t2 = uintBitsToFloat(uvec4(texelFetch(scene_materials, first + 2)));
@@ -56,6 +56,7 @@ Material scene_material(uint index)
     uvec4 t5 = uvec4(texelFetch(scene_materials, first + 5));
     uvec4 t6 = uvec4(texelFetch(scene_materials, first + 6));
     uvec4 t7 = uvec4(texelFetch(scene_materials, first + 7));
+    uvec4 t8 = uvec4(texelFetch(scene_materials, first + 8));
     // transmission, emission and the coat: 0 in a frame without a transmissive, an emissive
     // or a coated material, the kind Lambert in one without a specular material, so that
     // their code is compiled out (SCENE_HAS_TRANSMISSION, SCENE_HAS_EMITTERS,
@@ -67,7 +68,7 @@ Material scene_material(uint index)
                     t4.xyz, t4.w, t5.x, t5.y, t5.z, t5.w, t6.x, uintBitsToFloat(t6.y),
                     uintBitsToFloat(t6.z),
                     SCENE_HAS_CLEARCOAT ? uintBitsToFloat(t6.w) : 0.0, uintBitsToFloat(t7.x),
-                    SCENE_HAS_CLEARCOAT ? t7.y : NO_TEXTURE, t7.z);
+                    SCENE_HAS_CLEARCOAT ? t7.y : NO_TEXTURE, t7.z, t7.w, t8.x);
 }
 
 #ifdef PF_SURFACE_TEXTURES

@@ -181,7 +181,8 @@ Material scene_material_textured(Material m, uint triangle, float u, float v, fl
     bool coat_textured = SCENE_HAS_CLEARCOAT && (m.clearcoat_texture != NO_TEXTURE ||
                                                  m.clearcoat_roughness_texture != NO_TEXTURE);
     if (m.base_color_texture == NO_TEXTURE && m.metallic_roughness_texture == NO_TEXTURE &&
-        m.emissive_texture == NO_TEXTURE && !coat_textured)
+        m.emissive_texture == NO_TEXTURE && !coat_textured &&
+        m.specular_texture == NO_TEXTURE && m.specular_color_texture == NO_TEXTURE)
         return m;
     SurfaceUv surface_uv =
         scene_surface_uv(triangle, u, v, cone_width, cos_arrival, p0, p1, p2);
@@ -198,6 +199,10 @@ Material scene_material_textured(Material m, uint triangle, float u, float v, fl
     }
     if (m.emissive_texture != NO_TEXTURE)
         m.emission *= scene_slot_sample(m.emissive_texture, surface_uv).rgb;
+    if (m.specular_texture != NO_TEXTURE)
+        m.specular *= scene_slot_sample(m.specular_texture, surface_uv).a;
+    if (m.specular_color_texture != NO_TEXTURE)
+        m.specular_color *= scene_slot_sample(m.specular_color_texture, surface_uv).rgb;
     if (coat_textured && m.clearcoat_texture != NO_TEXTURE)
         m.clearcoat *= scene_slot_sample(m.clearcoat_texture, surface_uv).r;
     if (coat_textured && m.clearcoat_roughness_texture != NO_TEXTURE)

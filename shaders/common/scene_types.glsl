@@ -44,6 +44,8 @@ struct Material {
     float clearcoat_roughness; // perceptual
     uint clearcoat_texture;    // R scales clearcoat
     uint clearcoat_roughness_texture; // G scales clearcoat_roughness
+    uint specular_texture;       // KHR_materials_specular: A scales specular
+    uint specular_color_texture; // RGB (sRGB) scales specular_color
 };
 
 // pf_scene.h PF_MATERIAL_DELTA_ROUGHNESS: at or below it the specular lobe is a mirror.

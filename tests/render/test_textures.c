@@ -163,6 +163,76 @@ PF_TEST(textured_plane_mean_is_mean_albedo_times_irradiance)
     scene_free_textured(&scene);
 }
 
+/*
+ * The layers' textures scale their factors: a black dielectric plane (specular 1, roughness
+ * 0.4) under a directional light reflects only its specular lobe, nothing where
+ * specularTexture's A or specularColorTexture's RGB is 0, as much as without them where
+ * they are 1; a coat (clearcoat 1, roughness 0.4) over a black base without specular
+ * reflects nothing where clearcoatTexture's R is 0. preview: the direct light alone.
+ */
+PF_TEST(specular_and_clearcoat_textures_scale_their_factors)
+{
+    ref_scene scene;
+    ref_scene_init(&scene);
+    pf_material black = pf_material_lambert(0, 0, 0);
+    black.specular = 1.0f;
+    black.roughness = 0.4f;
+    pf_material_classify(&black);
+    uint32_t plane = ref_scene_add_material(&scene, black);
+    const float centre[3] = {0, 0, 0}, half_u[3] = {2, 0, 0}, half_v[3] = {0, 2, 0};
+    ref_scene_add_quad(&scene, centre, half_u, half_v, plane);
+    ref_scene_add_light(&scene, (pf_light){{0, 0, 0}, PF_LIGHT_DIRECTIONAL, {0.3f, 0, -0.95f},
+                                           0, {3, 3, 3}, 1, 1});
+    look_down(&scene);
+    pf_scene_frame *frame = &scene.frame;
+    PF_REQUIRE(corners_alloc(frame));
+    set_corners(frame, 0, frame->triangle_count, -2.0f, 2.0f, 0.25f, 0.25f);
+    /* Texture 1: every channel 0; texture 2: every channel 255 (one texel each). */
+    uint32_t texels[2] = {0u, 0xFFFFFFFFu};
+    pf_texture_ref refs[2] = {{0, 1, 1, PF_TEXTURE_NO_MIPS, {1, 0, 0, 0, 1, 0}, {0, 0}},
+                              {1, 1, 1, PF_TEXTURE_NO_MIPS, {1, 0, 0, 0, 1, 0}, {0, 0}}};
+    frame->texture_count = 2;
+    frame->textures = refs;
+    frame->texel_count = 2;
+    frame->texels = texels;
+    frame->texture_set = 0x5BEC;
+    pf_material *m = &scene.materials[plane];
+    struct {
+        const char *name;
+        uint32_t specular, specular_color, coat, coat_texture; /* slots; coat: clearcoat on */
+        int lit;                                                /* -1 dark, 1 as untextured */
+    } cases[] = {{"specular, untextured", 0, 0, 0, 0, 1},
+                 {"specularTexture A 0", 1, 0, 0, 0, -1},
+                 {"specularTexture A 1", 2, 0, 0, 0, 1},
+                 {"specularColorTexture 0", 0, 1, 0, 0, -1},
+                 {"clearcoat, untextured", 0, 0, 1, 0, 1},
+                 {"clearcoatTexture R 0", 0, 0, 1, 1, -1}};
+    double untextured[2] = {0.0, 0.0};
+    for (size_t c = 0; c < sizeof cases / sizeof cases[0]; c++) {
+        int coat = cases[c].coat != 0;
+        m->specular = coat ? 0.0f : 1.0f;
+        m->specular_texture = cases[c].specular;
+        m->specular_color_texture = cases[c].specular_color;
+        m->clearcoat = coat ? 1.0f : 0.0f;
+        m->clearcoat_roughness = 0.4f;
+        m->clearcoat_texture = cases[c].coat_texture;
+        pf_image image = {0};
+        if (render(frame, PF_QUALITY_PREVIEW, &image) != PF_OK)
+            continue;
+        double mean = red_mean(&image);
+        printf("  %s: mean %.6f\n", cases[c].name, mean);
+        if (c == 0 || c == 4)
+            untextured[coat] = mean;
+        if (cases[c].lit < 0)
+            PF_CHECK_MSG(mean == 0.0, "%s: mean %g", cases[c].name, mean);
+        else
+            PF_CHECK_MSG(mean > 0.0 && fabs(mean - untextured[coat]) <= 1e-6 * mean,
+                         "%s: mean %g, untextured %g", cases[c].name, mean, untextured[coat]);
+        pf_image_free(&image);
+    }
+    scene_free_textured(&scene);
+}
+
 PF_TEST(constant_normal_map_shades_as_the_turned_plane)
 {
     ref_scene scene;
@@ -449,6 +519,7 @@ int main(void)
     if (!render_test_setup(&ctx, &renderer))
         return 1;
     PF_RUN(textured_plane_mean_is_mean_albedo_times_irradiance);
+    PF_RUN(specular_and_clearcoat_textures_scale_their_factors);
     PF_RUN(constant_normal_map_shades_as_the_turned_plane);
     PF_RUN(camera_ray_cones_pick_the_mip_level);
     PF_RUN(alpha_masked_card_hides_and_shadows_only_its_opaque_half);

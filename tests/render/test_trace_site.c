@@ -205,8 +205,9 @@ static void lit_box(ref_scene *scene)
     ref_scene_add_sphere(scene, (float[]){0.45f, -0.6f, -0.2f}, 0.3f, 12, 6, 0, rough_metal);
     ref_scene_add_quad(scene, (float[]){0.0f, 0.2f, -0.99f}, (float[]){0.4f, 0, 0},
                        (float[]){0, 0.3f, 0}, mirror);
+    /* Facing down (u × v = -y) into the box. */
     ref_scene_add_quad(scene, (float[]){0.0f, 0.98f, 0.0f}, (float[]){0.25f, 0, 0},
-                       (float[]){0, 0, -0.25f}, lamp);
+                       (float[]){0, 0, 0.25f}, lamp);
     pf_light point = {.position = {0.5f, 0.6f, 0.5f}, .kind = PF_LIGHT_POINT,
                       .intensity = {1.5f, 1.2f, 1.0f}};
     ref_scene_add_light(scene, point);

@@ -364,8 +364,9 @@ PF_TEST(linear_and_srgb_slots_sampler_and_transform)
 
 
 /* KHR_materials_clearcoat's textures are linear slots of their own (R scales the coat, G its
- * roughness): the same image as metallicRoughness shares its chain. */
-PF_TEST(clearcoat_textures_are_linear_slots)
+ * roughness): the same image as metallicRoughness shares its chain; KHR_materials_specular's
+ * specularTexture is linear (A), its specularColorTexture sRGB (a chain of its own). */
+PF_TEST(clearcoat_and_specular_textures_are_slots)
 {
     uint8_t rgba[IMAGE_W * IMAGE_H * 4];
     test_pixels(rgba);
@@ -378,13 +379,15 @@ PF_TEST(clearcoat_textures_are_linear_slots)
         "{\"pbrMetallicRoughness\":{\"metallicRoughnessTexture\":{\"index\":0}},"
         "\"extensions\":{\"KHR_materials_clearcoat\":{\"clearcoatFactor\":1,"
         "\"clearcoatTexture\":{\"index\":0},\"clearcoatRoughnessFactor\":0.5,"
-        "\"clearcoatRoughnessTexture\":{\"index\":0,\"texCoord\":1}}}}";
+        "\"clearcoatRoughnessTexture\":{\"index\":0,\"texCoord\":1}},"
+        "\"KHR_materials_specular\":{\"specularTexture\":{\"index\":0},"
+        "\"specularColorTexture\":{\"index\":0}}}}";
     write_textured_quad("coat", material, images, "[{\"source\":0}]", "[]", 0, path,
                         sizeof path);
     pf_scene *scene = NULL;
     pf_error err = {0};
     PF_REQUIRE_OK(pf_scene_load(path, &scene, &err), &err);
-    PF_CHECK(pf_scene_get_info(scene)->image_count == 1); /* decoded once, linear */
+    PF_CHECK(pf_scene_get_info(scene)->image_count == 2); /* decoded linear and sRGB */
     pf_scene_frame frame;
     PF_REQUIRE_OK(pf_scene_eval(scene, 0.0, &frame, &err), &err);
     const pf_material *m = &frame.materials[0];
@@ -397,6 +400,14 @@ PF_TEST(clearcoat_textures_are_linear_slots)
     PF_CHECK((coat->sampling & PF_TEXTURE_TEXCOORD_1) == 0);
     PF_CHECK((coat_roughness->sampling & PF_TEXTURE_TEXCOORD_1) != 0);
     PF_CHECK(coat->first_texel == frame.textures[m->metallic_roughness_texture - 1].first_texel);
+    PF_REQUIRE(m->specular_texture != PF_NO_TEXTURE &&
+               m->specular_color_texture != PF_NO_TEXTURE);
+    const pf_texture_ref *specular = &frame.textures[m->specular_texture - 1];
+    const pf_texture_ref *specular_color = &frame.textures[m->specular_color_texture - 1];
+    PF_CHECK((specular->sampling & PF_TEXTURE_SRGB) == 0 &&
+             specular->first_texel == coat->first_texel);
+    PF_CHECK((specular_color->sampling & PF_TEXTURE_SRGB) != 0 &&
+             specular_color->first_texel != coat->first_texel);
     pf_scene_frame_free(&frame);
     pf_scene_destroy(scene);
 }
@@ -637,7 +648,7 @@ int main(void)
     PF_RUN(srgb_decoding_and_mip_levels);
     PF_RUN(png_jpeg_and_webp_decode_with_their_mip_chains);
     PF_RUN(linear_and_srgb_slots_sampler_and_transform);
-    PF_RUN(clearcoat_textures_are_linear_slots);
+    PF_RUN(clearcoat_and_specular_textures_are_slots);
     PF_RUN(malformed_images_are_named_errors);
     PF_RUN(mutated_images_never_crash);
     PF_RUN(normal_map_without_tangents_gets_them_generated);
