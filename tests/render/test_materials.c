@@ -359,6 +359,41 @@ static int sample_inconsistent(const pf_material_probe_result *s, double toleran
            fabs(s->weight[0] - s->eval_cos[0] / s->eval_pdf) > tolerance * (1.0 + s->weight[0]);
 }
 
+/* What FURNACE_EDGE² stratified samples of material at polar angle theta carry (seeded by
+ * seed; the samples left in results): the mean weight (red) and its standard error, the
+ * non-delta samples whose weight is not eval/pdf, and the delta samples with a weight. */
+typedef struct furnace_stats {
+    double mean, sigma;
+    uint32_t inconsistent, deltas;
+} furnace_stats;
+
+static furnace_stats furnace_run(const pf_material *material, double theta, uint64_t seed,
+                                 pf_material_probe_query *queries,
+                                 pf_material_probe_result *results)
+{
+    furnace_stats stats = {0};
+    uint32_t count = FURNACE_EDGE * FURNACE_EDGE;
+    uint64_t state = seed;
+    for (uint32_t i = 0; i < count; i++) {
+        queries[i] = query_at(material, theta, 1, 0.0f, 0);
+        stratified_xi(&queries[i], i, &state);
+    }
+    pf_error err = {0};
+    PF_CHECK_OK(pf_material_probe(renderer, queries, count, results, &err), &err);
+    double mean_square = 0.0;
+    for (uint32_t i = 0; i < count; i++) {
+        const pf_material_probe_result *r = &results[i];
+        stats.mean += r->weight[0] / count;
+        mean_square += (double)r->weight[0] * r->weight[0] / count;
+        if (r->pdf > 0.0f)
+            stats.inconsistent += sample_inconsistent(r, 1e-4);
+        else
+            stats.deltas += r->weight[0] != 0.0f;
+    }
+    stats.sigma = sqrt(fmax(mean_square - stats.mean * stats.mean, 0.0) / count);
+    return stats;
+}
+
 PF_TEST(ggx_white_furnace_loses_what_single_scattering_predicts)
 {
     const float roughnesses[4] = {0.25f, 0.5f, 0.75f, 1.0f};
@@ -376,26 +411,12 @@ PF_TEST(ggx_white_furnace_loses_what_single_scattering_predicts)
             pf_material_classify(&material);
             for (int a = 0; a < 3; a++) {
                 double theta = angles[a] * DEGREES;
-                uint64_t state = 7 + (uint64_t)(r * 3 + a);
-                for (uint32_t i = 0; i < count; i++) {
-                    queries[i] = query_at(&material, theta, 1, 0.0f, 0);
-                    stratified_xi(&queries[i], i, &state);
-                }
-                pf_error err = {0};
-                PF_REQUIRE_OK(pf_material_probe(renderer, queries, count, results, &err), &err);
-                double mean = 0.0, mean_square = 0.0;
-                uint32_t inconsistent = 0;
-                for (uint32_t i = 0; i < count; i++) {
-                    const pf_material_probe_result *s = &results[i];
-                    mean += s->weight[0] / count;
-                    mean_square += (double)s->weight[0] * s->weight[0] / count;
-                    if (s->pdf > 0.0f)
-                        inconsistent += sample_inconsistent(s, 1e-4);
-                    else
-                        inconsistent += s->weight[0] != 0.0f; /* no delta lobe when rough */
-                }
+                furnace_stats stats =
+                    furnace_run(&material, theta, 7 + (uint64_t)(r * 3 + a), queries, results);
+                double mean = stats.mean, sigma = stats.sigma;
+                /* No delta lobe when rough. */
+                uint32_t inconsistent = stats.inconsistent + stats.deltas;
                 double expected = oracle_albedo(&material, theta, 0);
-                double sigma = sqrt(fmax(mean_square - mean * mean, 0.0) / count);
                 const char *name = kind == 0 ? "metal" : "dielectric";
                 PF_CHECK_MSG(inconsistent == 0, "%s r %.2f at %.0f°: %u samples whose weight is "
                              "not eval/pdf", name, roughnesses[r], angles[a], inconsistent);
@@ -447,30 +468,16 @@ PF_TEST(a_clear_coat_reflects_over_its_base_as_the_oracle_says)
             pf_material_classify(&material);
             for (int a = 0; a < 3; a++) {
                 double theta = angles[a] * DEGREES;
-                uint64_t state = 91 + (uint64_t)(base * 6 + r * 3 + a);
-                for (uint32_t i = 0; i < count; i++) {
-                    queries[i] = query_at(&material, theta, 1, 0.0f, 0);
-                    stratified_xi(&queries[i], i, &state);
-                }
-                pf_error err = {0};
-                PF_REQUIRE_OK(pf_material_probe(renderer, queries, count, results, &err), &err);
-                double mean = 0.0, mean_square = 0.0;
-                uint32_t inconsistent = 0, mirrored = 0;
+                furnace_stats stats = furnace_run(
+                    &material, theta, 91 + (uint64_t)(base * 6 + r * 3 + a), queries, results);
+                double mean = stats.mean, sigma = stats.sigma;
+                uint32_t inconsistent = stats.inconsistent, mirrored = stats.deltas;
                 double coat_f = material.clearcoat * ref_fresnel_dielectric(cos(theta), 1.5);
-                for (uint32_t i = 0; i < count; i++) {
-                    const pf_material_probe_result *s = &results[i];
-                    mean += s->weight[0] / count;
-                    mean_square += (double)s->weight[0] * s->weight[0] / count;
-                    if (s->pdf > 0.0f) {
-                        inconsistent += sample_inconsistent(s, 1e-4);
-                    } else if (s->weight[0] != 0.0f) {
-                        /* Only a smooth coat has a delta lobe here: the mirror of wo. */
-                        mirrored++;
-                        inconsistent += r == 0 || fabs(s->direction[2] - cos(theta)) > 1e-4;
-                    }
-                }
+                /* Only a smooth coat has a delta lobe here: the mirror of wo. */
+                for (uint32_t i = 0; i < count; i++)
+                    if (!(results[i].pdf > 0.0f) && results[i].weight[0] != 0.0f)
+                        inconsistent += r == 0 || fabs(results[i].direction[2] - cos(theta)) > 1e-4;
                 double expected = oracle_albedo(&material, theta, 0);
-                double sigma = sqrt(fmax(mean_square - mean * mean, 0.0) / count);
                 static const char *const names[3] = {"white Lambert", "grey metal", "black"};
                 PF_CHECK_MSG(inconsistent == 0, "coat %.1f over %s at %.0f°: %u inconsistent "
                              "samples", coat_roughness[r], names[base], angles[a], inconsistent);

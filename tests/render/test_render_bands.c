@@ -127,18 +127,27 @@ PF_TEST(every_split_preset_renders_in_bands_what_it_renders_whole)
     }
 }
 
+/* Renders settings in bands of BAND_BYTES; 0 after failing the test. */
+static int render_in_bands(const pf_render_settings *settings, pf_image *image,
+                           pf_frame_report *report)
+{
+    pf_error err = {0};
+    memset(report, 0, sizeof *report);
+    pf_renderer_set_band_bytes(renderer, BAND_BYTES);
+    pf_status status = pf_render_frame(renderer, &cornell, settings, image, report, &err);
+    pf_renderer_set_band_bytes(renderer, 0);
+    PF_CHECK_OK(status, &err);
+    return status == PF_OK && ref_stage_counter(report, "shade", "bands") == 3.0;
+}
+
 /* A band of the frame whose photon maps the first band traced: the later bands trace none. */
 PF_TEST(later_bands_reuse_the_first_bands_photon_maps)
 {
     pf_render_settings settings = settings_of(PF_QUALITY_FINAL, 2);
     settings.seed = 8; /* maps no earlier frame kept */
-    pf_error err = {0};
     pf_image image = {0};
-    pf_frame_report report = {0};
-    pf_renderer_set_band_bytes(renderer, BAND_BYTES);
-    PF_REQUIRE_OK(pf_render_frame(renderer, &cornell, &settings, &image, &report, &err), &err);
-    pf_renderer_set_band_bytes(renderer, 0);
-    PF_CHECK(ref_stage_counter(&report, "shade", "bands") == 3.0);
+    pf_frame_report report;
+    PF_REQUIRE(render_in_bands(&settings, &image, &report));
     /* The first band traced both passes; the row is its own (the others reused them). */
     PF_CHECK(ref_stage_counter(&report, "photon_trace", "traced_passes") == 2.0);
     PF_CHECK(ref_stage_counter(&report, "photon_trace", "reused_passes") == 0.0);
@@ -152,13 +161,9 @@ PF_TEST(a_time_budget_gives_every_band_the_first_bands_passes)
 {
     pf_render_settings settings = settings_of(PF_QUALITY_FINAL, 8);
     settings.time_budget_ms = 1e-6;
-    pf_error err = {0};
     pf_image image = {0};
-    pf_frame_report report = {0};
-    pf_renderer_set_band_bytes(renderer, BAND_BYTES);
-    PF_REQUIRE_OK(pf_render_frame(renderer, &cornell, &settings, &image, &report, &err), &err);
-    pf_renderer_set_band_bytes(renderer, 0);
-    PF_CHECK(ref_stage_counter(&report, "shade", "bands") == 3.0);
+    pf_frame_report report;
+    PF_REQUIRE(render_in_bands(&settings, &image, &report));
     PF_CHECK(ref_stage_counter(&report, "shade", "samples_per_pixel") == 1.0);
     PF_CHECK(ref_stage_counter(&report, "shade", "paths") == (double)WIDTH * HEIGHT);
     pf_image_free(&image);
