@@ -195,7 +195,10 @@ static inline uint32_t pf_bounce_limit(uint32_t bounces) { return bounces + 1u; 
 
 #define PF_STAGE_NAME_MAX 32
 #define PF_STAGE_REASON_MAX 160
-#define PF_STAGE_COUNTERS_MAX 24
+/* Counters a row holds: final's shade row has 26 with many lights in bands (its work, the
+ * host's traces, the device traffic, light_samples, bands, band_rows, overlap_ms); one past the
+ * last is dropped. */
+#define PF_STAGE_COUNTERS_MAX 32
 /* Rows a frame's report holds: a `fast` frame under auto with denoising has 15 (plan,
  * scene_eval, deform, textures, bih_build, photon_trace, caustic_map, the three LPV stages,
  * shade, motion, temporal, denoise, exr_write); a row past the last is dropped. */
