@@ -94,10 +94,9 @@ void path_follow_hit(inout Path path, BihHit hit, uint depth, float ray_offset, 
     path.throughput *= medium_transmittance(path.medium, hit.t);
     // The camera's ray cone along the specular chain (camera.glsl).
     path.cone_distance += hit.t;
-    Surface surface = surface_at_cone(
-        hit, path.origin, path.direction,
-        path.cone_distance * camera_cone_spread(params.camera_forward.w, params.image_height,
-                                                     params.camera_up.w != 0.0));
+    vec2 cone = camera_cone(params.camera_forward.w, params.image_height, params.camera_up.w != 0.0);
+    Surface surface = surface_at_cone(hit, path.origin, path.direction,
+                                      cone.x + path.cone_distance * cone.y);
     if (!surface.valid) {
         path.tracing = false;
         path.poisoned = true; // a non-finite normal: the sample is discarded, not repaired

@@ -22,15 +22,15 @@ CameraRay camera_ray(vec3 position, vec3 forward, vec3 right, vec3 up, float hal
                      normalize(forward + (ndc.x * half_x) * right + (ndc.y * half_y) * up));
 }
 
-// The angle one pixel spans at the image's centre: the spread of a camera ray's
-// cone (ray cones, Akenine-Möller et al. 2019). Its width at distance d along the
-// camera's path (through mirrors and glass too, whose curvature it ignores) is
-// d times this: surface_at_cone's cone_width, which picks the textures' mip level.
-// Parallel rays spread by nothing (their cone keeps a pixel's width, which this model of a
-// cone from a point leaves out: the finest texture level, sharp and noisier).
-float camera_cone_spread(float tan_half_y, uint height, bool orthographic)
+// A camera ray's cone (ray cones, Akenine-Möller et al. 2019): its width where it leaves the
+// camera, and its spread, the angle one pixel spans at the image's centre. Its width at
+// distance d along the camera's path (through mirrors and glass too, whose curvature it
+// ignores) is x + d y: surface_at_cone's cone_width, which picks the textures' mip level. A
+// pinhole's cone starts at a point; parallel rays keep a pixel's width and do not spread.
+vec2 camera_cone(float half_y, uint height, bool orthographic)
 {
-    return orthographic ? 0.0 : 2.0 * tan_half_y / float(height);
+    float pixel = 2.0 * half_y / float(height);
+    return orthographic ? vec2(pixel, 0.0) : vec2(0.0, pixel);
 }
 
 #endif

@@ -137,8 +137,7 @@ void main()
 
     vec3 medium = vec3(0.0); // absorption of the medium the ray travels in
     // The camera's ray cone along its specular chain (camera.glsl).
-    float cone_spread = camera_cone_spread(params.camera_forward.w, params.image_height,
-                                           camera_orthographic());
+    vec2 cone = camera_cone(params.camera_forward.w, params.image_height, camera_orthographic());
     float cone_distance = 0.0;
     // The BSDF half of the direct light's MIS where a vertex's lobe is sharp (below): the
     // pdf of the ray the loop traces next (0: a delta choice, or no light sampled at the
@@ -154,7 +153,8 @@ void main()
             break;
         throughput *= medium_transmittance(medium, hit.t);
         cone_distance += hit.t;
-        Surface surface = surface_at_cone(hit, origin, direction, cone_distance * cone_spread);
+        Surface surface =
+            surface_at_cone(hit, origin, direction, cone.x + cone_distance * cone.y);
         if (!surface.valid) {
             valid = !emitter_probe && valid;
             break;

@@ -105,10 +105,10 @@ bool path_vertex(BihHit hit)
     vec3 direction = path_direction;
     path_throughput *= medium_transmittance(path_medium, hit.t);
     path_cone_distance += hit.t;
-    float cone_spread = camera_cone_spread(params.camera_forward.w, params.image_height,
-                                           camera_orthographic());
-    Surface surface = surface_at_cone(hit, path_origin, direction,
-                                      path_on_camera_cone ? path_cone_distance * cone_spread : 0.0);
+    vec2 cone = camera_cone(params.camera_forward.w, params.image_height, camera_orthographic());
+    Surface surface = surface_at_cone(
+        hit, path_origin, direction,
+        path_on_camera_cone ? cone.x + path_cone_distance * cone.y : 0.0);
     // A non-finite shading normal poisons the sample (discarded and
     // counted, never silently repaired).
     if (!surface.valid) {

@@ -8,7 +8,8 @@
  * - the mip level a camera ray's cone picks: a 256² single-texel checker
  *   whose coarser levels are uniform grey, seen at 2 texels a pixel (level
  *   1): every pixel is grey (relative spread under 2 %), where sampling level 0
- *   would leave each pixel 16 samples of black and white (25 %);
+ *   would leave each pixel 16 samples of black and white (25 %); through a pinhole
+ *   and through an orthographic camera of the same view;
  * - a constant normal map on a flat plane shades as the plane turned to the
  *   map's normal: E·cos(light, mapped normal)/π;
  * - every preset on a textured room (checker walls, a half-metal
@@ -324,9 +325,13 @@ PF_TEST(camera_ray_cones_pick_the_mip_level)
     frame->texels = texels;
     double expected = 128.0 / 255.0 * e / M_PI;
     const pf_quality qualities[] = {PF_QUALITY_PREVIEW, PF_QUALITY_REFERENCE};
-    for (size_t q = 0; q < 2; q++) {
+    /* The pinhole, then an orthographic camera of the same view (ymag 1): its rays' cones
+     * keep a pixel's width from the start. */
+    for (size_t q = 0; q < 4; q++) {
+        frame->camera.orthographic = q >= 2;
+        frame->camera.ymag = 1.0f;
         pf_image image = {0};
-        if (render(frame, qualities[q], &image) != PF_OK)
+        if (render(frame, qualities[q % 2], &image) != PF_OK)
             continue;
         double sum = 0.0, sum2 = 0.0;
         for (uint32_t i = 0; i < EDGE * EDGE; i++) {
@@ -336,10 +341,11 @@ PF_TEST(camera_ray_cones_pick_the_mip_level)
         }
         double mean = sum / (EDGE * EDGE);
         double spread = sqrt(fmax(sum2 / (EDGE * EDGE) - mean * mean, 0.0)) / mean;
-        printf("  %s: mean %.5f (level 1: %.5f), pixels' relative spread %.4f\n",
-               pf_quality_name(qualities[q]), mean, expected, spread);
-        PF_CHECK_MSG(spread < 0.02, "%s: relative spread %g: level 0 was read",
-                     pf_quality_name(qualities[q]), spread);
+        printf("  %s%s: mean %.5f (level 1: %.5f), pixels' relative spread %.4f\n",
+               pf_quality_name(qualities[q % 2]), q >= 2 ? ", orthographic" : "", mean,
+               expected, spread);
+        PF_CHECK_MSG(spread < 0.02, "%s%s: relative spread %g: level 0 was read",
+                     pf_quality_name(qualities[q % 2]), q >= 2 ? ", orthographic" : "", spread);
         PF_CHECK(fabs(mean / expected - 1.0) < 0.01);
         pf_image_free(&image);
     }
