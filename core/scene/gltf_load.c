@@ -55,6 +55,7 @@ static const char *const supported_extensions[] = {
     "KHR_materials_specular",
     "KHR_materials_volume",
     "KHR_materials_clearcoat",
+    "EXT_mesh_gpu_instancing",
     "KHR_texture_transform",
     "EXT_texture_webp",
 };
@@ -953,6 +954,108 @@ static pf_status load_node(gltf_context *ctx, uint32_t index, const cJSON *node,
 }
 
 /*
+ * EXT_mesh_gpu_instancing: a node whose mesh is drawn once per instance, each under the
+ * instance's TRANSLATION, ROTATION and SCALE (accessors of one element an instance; any may be
+ * absent) in the node's space. Each instance becomes a node of its own after the file's, a
+ * child of the node carrying its mesh (the node itself then carries none), so animation of
+ * the node moves every instance and the rest of the loader sees plain nodes. A skin or morph
+ * weights of the node are not carried to its instances (the extension leaves them undefined:
+ * one warning).
+ */
+static pf_status expand_instances(gltf_context *ctx, const cJSON *nodes, pf_error *err)
+{
+    pf_scene *scene = ctx->scene;
+    uint32_t file_nodes = scene->node_count;
+    static const char *const names[3] = {"TRANSLATION", "ROTATION", "SCALE"};
+    static const uint32_t components[3] = {3, 4, 3};
+    for (uint32_t k = 0; k < file_nodes; k++) {
+        const cJSON *instancing = cJSON_GetObjectItemCaseSensitive(
+            cJSON_GetObjectItemCaseSensitive(cJSON_GetArrayItem(nodes, (int)k), "extensions"),
+            "EXT_mesh_gpu_instancing");
+        if (!instancing)
+            continue;
+        char element[96];
+        snprintf(element, sizeof element, "nodes[%u].extensions.EXT_mesh_gpu_instancing", k);
+        const cJSON *attributes = cJSON_GetObjectItemCaseSensitive(instancing, "attributes");
+        if (!cJSON_IsObject(attributes))
+            return gltf_fail(ctx, err, PF_ERR_FORMAT, element, "attributes missing");
+        float *values[3] = {NULL, NULL, NULL};
+        uint32_t count = 0;
+        int has_count = 0;
+        pf_status status = PF_OK;
+        for (int a = 0; a < 3 && !status; a++) {
+            int32_t index;
+            status = gltf_index(ctx, attributes, names[a],
+                                (uint32_t)cJSON_GetArraySize(
+                                    cJSON_GetObjectItemCaseSensitive(ctx->root, "accessors")),
+                                &index, element, err);
+            uint32_t n = 0;
+            if (!status && index != SCENE_NONE)
+                status = gltf_read_floats(ctx, index, components[a], &values[a], &n, element,
+                                          err);
+            if (!status && index != SCENE_NONE) {
+                if (has_count && n != count)
+                    status = gltf_fail(ctx, err, PF_ERR_FORMAT, element,
+                                       "%s has %u instances, another attribute %u", names[a],
+                                       n, count);
+                count = n;
+                has_count = 1;
+            }
+        }
+        if (!status && (!has_count || count == 0))
+            status = gltf_fail(ctx, err, PF_ERR_FORMAT, element,
+                               "no TRANSLATION, ROTATION or SCALE instances");
+        scene_node *grown = NULL;
+        if (!status) {
+            grown = realloc(scene->nodes, ((size_t)scene->node_count + count) * sizeof *grown);
+            if (!grown)
+                status = gltf_fail(ctx, err, PF_ERR_NOMEM, element, "out of memory");
+        }
+        if (!status) {
+            scene->nodes = grown;
+            scene_node *node = &scene->nodes[k];
+            if (node->skin != SCENE_NONE || node->weights)
+                scene_warn_once(scene, "instanced skin",
+                                "%s: %s: a skin or morph weights of an instanced node are not "
+                                "carried to its instances",
+                                ctx->path, element);
+            node->first_instance = scene->node_count;
+            node->instance_count = count;
+            for (uint32_t i = 0; i < count && !status; i++) {
+                scene_node *instance = &scene->nodes[scene->node_count + i];
+                memset(instance, 0, sizeof *instance);
+                instance->parent = (int32_t)k;
+                instance->mesh = node->mesh;
+                instance->camera = instance->light = instance->skin = SCENE_NONE;
+                instance->rotation[3] = 1.0f;
+                instance->scale[0] = instance->scale[1] = instance->scale[2] = 1.0f;
+                if (values[0])
+                    memcpy(instance->translation, values[0] + 3 * (size_t)i, 3 * sizeof(float));
+                if (values[1])
+                    memcpy(instance->rotation, values[1] + 4 * (size_t)i, 4 * sizeof(float));
+                if (values[2])
+                    memcpy(instance->scale, values[2] + 3 * (size_t)i, 3 * sizeof(float));
+                float length_squared = 0.0f;
+                for (int c = 0; c < 4; c++)
+                    length_squared += instance->rotation[c] * instance->rotation[c];
+                if (!(length_squared > 1e-12f))
+                    status = gltf_fail(ctx, err, PF_ERR_FORMAT, element,
+                                       "ROTATION of instance %u is a zero quaternion", i);
+                else
+                    scene_quat_normalize(instance->rotation);
+            }
+            node->mesh = SCENE_NONE;
+            scene->node_count += count;
+        }
+        for (int a = 0; a < 3; a++)
+            free(values[a]);
+        if (status)
+            return status;
+    }
+    return PF_OK;
+}
+
+/*
  * Depth-first walk from the scene's root nodes: records parents and the order
  * (parents before children, children in file order) that eval composes in.
  */
@@ -1003,9 +1106,14 @@ static pf_status walk_hierarchy(gltf_context *ctx, const cJSON *roots, pf_error 
             scene->order[scene->order_count++] = current;
             const cJSON *children = cJSON_GetObjectItemCaseSensitive(
                 cJSON_GetArrayItem(nodes, (int)current), "children");
-            /* Pushed in reverse so the first child is visited first. */
-            for (int c = cJSON_GetArraySize(children) - 1; c >= 0; c--)
-                stack[depth++] = (uint32_t)cJSON_GetArrayItem(children, c)->valuedouble;
+            /* Pushed in reverse so the first child is visited first; a node's instances
+             * (expand_instances) after its children. */
+            const scene_node *walked = &scene->nodes[current];
+            for (uint32_t i = walked->instance_count; i > 0; i--)
+                stack[depth++] = walked->first_instance + i - 1;
+            if (current < (uint32_t)cJSON_GetArraySize(nodes))
+                for (int c = cJSON_GetArraySize(children) - 1; c >= 0; c--)
+                    stack[depth++] = (uint32_t)cJSON_GetArrayItem(children, c)->valuedouble;
         }
     }
     free(stack);
@@ -1055,6 +1163,9 @@ static pf_status load_nodes(gltf_context *ctx, pf_error *err)
             scene->nodes[child].parent = (int32_t)k;
         }
     }
+    status = expand_instances(ctx, nodes, err);
+    if (status)
+        return status;
 
     const cJSON *scenes;
     uint32_t scene_count;

@@ -89,6 +89,9 @@ typedef struct scene_node {
     uint32_t first_triangle; /* its mesh's first triangle in a frame (scene_finalize) */
     int animated;      /* has_channel here or on an ancestor (scene_finalize) */
     int in_scene;      /* reached from the scene's roots */
+    /* EXT_mesh_gpu_instancing: the node's instances, nodes [first_instance, + instance_count)
+     * after the file's, its children each carrying its mesh under an instance's TRS. */
+    uint32_t first_instance, instance_count;
 } scene_node;
 
 typedef struct scene_camera_def {

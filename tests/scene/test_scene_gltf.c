@@ -219,6 +219,59 @@ PF_TEST(clearcoat_factors)
     pf_scene_destroy(scene);
 }
 
+/* EXT_mesh_gpu_instancing: the quad drawn once per instance (three TRANSLATIONs, the second
+ * instance turned a quarter about z and scaled 2), each under the node's own translation;
+ * the node itself draws no quad of its own. Mismatched instance counts are refused. */
+PF_TEST(gpu_instancing_draws_the_mesh_once_per_instance)
+{
+    /* accessors[3]: 3 translations; [4]: 3 rotations; [5]: 3 scales. */
+    static const float data[30] = {0, 0, 0, 5, 0, 0, 0, 5, 0,
+                                   0, 0, 0, 1, 0, 0, 0.70710678f, 0.70710678f, 0, 0, 0, 1,
+                                   1, 1, 1, 2, 2, 2, 1, 1, 1};
+    char path[512];
+    st_gltf spec = {
+        .name = "instanced",
+        .nodes = "[{\"mesh\":0,\"translation\":[0,0,1],\"extensions\":{\"EXT_mesh_gpu_instancing\":"
+                 "{\"attributes\":{\"TRANSLATION\":3,\"ROTATION\":4,\"SCALE\":5}}}}]",
+        .extra = data,
+        .extra_floats = 30,
+        .extra_accessors = ",{\"bufferView\":3,\"componentType\":5126,\"count\":3,\"type\":\"VEC3\"},"
+                           "{\"bufferView\":3,\"byteOffset\":36,\"componentType\":5126,\"count\":3,"
+                           "\"type\":\"VEC4\"},"
+                           "{\"bufferView\":3,\"byteOffset\":84,\"componentType\":5126,\"count\":3,"
+                           "\"type\":\"VEC3\"}",
+        .extensions_used = "[\"EXT_mesh_gpu_instancing\"]",
+        .extensions_required = "[\"EXT_mesh_gpu_instancing\"]",
+    };
+    uint32_t warnings_before = pf_log_warning_count();
+    pf_scene *scene = st_load_ok(st_write_gltf(&spec, path, sizeof path));
+    PF_REQUIRE(scene);
+    PF_CHECK(pf_scene_get_info(scene)->triangle_count == 6);
+    pf_scene_frame frame;
+    pf_error err;
+    PF_REQUIRE_OK(pf_scene_eval(scene, 0.0, &frame, &err), &err);
+    PF_REQUIRE(frame.triangle_count == 6);
+    /* Instance 0: the quad at z 1; instance 1: at x 5, turned a quarter (x → y) and
+     * doubled, so its corner (1, 0, 0) lands at (5, 2, 1); instance 2: at y 5. */
+    st_check_vec3(frame.vertices[0], 0, 0, 1, 1e-6);
+    st_check_vec3(frame.vertices[1], 1, 0, 1, 1e-6);
+    st_check_vec3(frame.vertices[6], 5, 0, 1, 1e-5);
+    st_check_vec3(frame.vertices[7], 5, 2, 1, 1e-5);
+    st_check_vec3(frame.vertices[13], 1, 5, 1, 1e-6);
+    PF_CHECK(pf_log_warning_count() - warnings_before <= 1); /* the missing camera's */
+    pf_scene_frame_free(&frame);
+    pf_scene_destroy(scene);
+
+    spec.name = "instanced_mismatch";
+    spec.extra_accessors = ",{\"bufferView\":3,\"componentType\":5126,\"count\":3,\"type\":\"VEC3\"},"
+                           "{\"bufferView\":3,\"byteOffset\":36,\"componentType\":5126,\"count\":2,"
+                           "\"type\":\"VEC4\"},"
+                           "{\"bufferView\":3,\"byteOffset\":84,\"componentType\":5126,\"count\":3,"
+                           "\"type\":\"VEC3\"}";
+    st_write_gltf(&spec, path, sizeof path);
+    st_expect_error(path, PF_ERR_FORMAT, "EXT_mesh_gpu_instancing", "instances");
+}
+
 PF_TEST(camera_values)
 {
     char path[512];
@@ -655,6 +708,7 @@ int main(void)
     PF_RUN(camera_values);
     PF_RUN(volume_absorption);
     PF_RUN(clearcoat_factors);
+    PF_RUN(gpu_instancing_draws_the_mesh_once_per_instance);
     PF_RUN(materials_mapped);
     PF_RUN(linear_translation_and_clamping);
     PF_RUN(linear_rotation_slerp);
