@@ -101,9 +101,10 @@ static void merge_row(pf_frame_report *report, uint32_t first, const pf_stage_ti
     }
 }
 
-/* The frame's shade row says the bands, and why. */
+/* The frame's shade row says the bands (its reason, where they fit in it: the counters
+ * always). */
 static void note_bands(pf_frame_report *report, uint32_t first, uint32_t bands,
-                       uint32_t band_rows, uint64_t film_bytes, uint64_t limit)
+                       uint32_t band_rows)
 {
     for (uint32_t i = first; i < report->stage_count; i++) {
         pf_stage_timing *row = &report->stages[i];
@@ -112,10 +113,8 @@ static void note_bands(pf_frame_report *report, uint32_t first, uint32_t bands,
         pf_stage_add_counter(row, "bands", bands);
         pf_stage_add_counter(row, "band_rows", band_rows);
         size_t used = strlen(row->reason);
-        snprintf(row->reason + used, sizeof row->reason - used,
-                 "; %u bands of %u rows (film %llu > %llu MiB)", bands, band_rows,
-                 (unsigned long long)((film_bytes + (1u << 20) - 1) >> 20),
-                 (unsigned long long)(limit >> 20));
+        snprintf(row->reason + used, sizeof row->reason - used, "; %u bands of %u rows", bands,
+                 band_rows);
     }
 }
 
@@ -193,8 +192,6 @@ pf_status pf_render_bands(pf_renderer *renderer, const pf_scene_frame *frame,
         return status;
     }
     if (report)
-        note_bands(report, first_row, bands, band_rows,
-                   (uint64_t)settings->width * settings->height * BAND_FILM_BYTES_PER_PIXEL,
-                   band_limit(renderer));
+        note_bands(report, first_row, bands, band_rows);
     return PF_OK;
 }
