@@ -76,7 +76,9 @@ void caustic(uint pixel_index)
     vec4 throughput = texel_vec4(vertex_weight_texels, weight_base);
     vec4 shading = texel_vec4(vertex_texels, base + 1u);
     vec4 wo = texel_vec4(vertex_weight_texels, weight_base + 1u);
-    Material material = scene_material_at(floatBitsToUint(shading.w), throughput.w, wo.w);
+    Material material =
+        scene_coat_normal(scene_material_at(floatBitsToUint(shading.w), throughput.w, wo.w),
+                          floatBitsToUint(shading.w), throughput.w, wo.w, geometric.xyz);
     bool truncated = false;
     vec3 light = throughput.xyz *
                  caustic_radiance(material, wo.xyz, shading.xyz, d1.xyz, geometric.xyz,

@@ -13,7 +13,7 @@
  *   measures the distance travelled inside).
  * KHR_materials_clearcoat: clearcoatFactor (0) and clearcoatRoughnessFactor (0), scaled by
  * clearcoatTexture's R and clearcoatRoughnessTexture's G; clearcoatNormalTexture is not read
- * (the coat follows the base's shading normal: materials.glsl says why).
+ * (the coat keeps the mesh's normal under a base normal map, as without one).
  * Emission = emissiveFactor x KHR_materials_emissive_strength.emissiveStrength,
  * from both faces when the material is doubleSided.
  * Textures (gltf_textures.c): baseColor and emissive (sRGB) and
@@ -173,7 +173,7 @@ static pf_status load_clearcoat(gltf_context *ctx, const cJSON *coat, const char
         return status;
     if (cJSON_GetObjectItemCaseSensitive(coat, "clearcoatNormalTexture"))
         scene_warn_once(ctx->scene, "clearcoatNormalTexture",
-                        "%s: %s.clearcoatNormalTexture is not read: the coat follows the base's "
+                        "%s: %s.clearcoatNormalTexture is not read: the coat keeps the mesh's "
                         "normal",
                         ctx->path, coat_element);
     out->clearcoat = (float)factor;

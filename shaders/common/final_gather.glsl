@@ -212,7 +212,9 @@ void gather(uint pixel_index)
         vec4 wo_v = texel_vec4(vertex_weight_texels, weight_base + 1u);
         vec3 throughput = throughput_u.xyz;
         vec3 wo = wo_v.xyz;
-        Material material = scene_material_at(floatBitsToUint(shading.w), throughput_u.w, wo_v.w);
+        Material material =
+            scene_coat_normal(scene_material_at(floatBitsToUint(shading.w), throughput_u.w, wo_v.w),
+                              floatBitsToUint(shading.w), throughput_u.w, wo_v.w, geometric_normal);
         uint end = min(push.gather_first + push.gather_count, push.gather_total);
         for (uint g = push.gather_first; g < end; g++) {
 #ifdef FINAL_GATHER_ESTIMATES
@@ -267,7 +269,9 @@ void write_rays(uint pixel_index)
     vec3 geometric_normal = texel_vec4(vertex_texels, base + 2u).xyz;
     vec4 throughput_u = texel_vec4(vertex_weight_texels, weight_base);
     vec4 wo_v = texel_vec4(vertex_weight_texels, weight_base + 1u);
-    Material material = scene_material_at(floatBitsToUint(shading.w), throughput_u.w, wo_v.w);
+    Material material =
+        scene_coat_normal(scene_material_at(floatBitsToUint(shading.w), throughput_u.w, wo_v.w),
+                          floatBitsToUint(shading.w), throughput_u.w, wo_v.w, geometric_normal);
     for (uint g = push.gather_first; g < end; g++) {
         GatherStart start = gather_start(pixel_index, g, material, d1.xyz, shading.xyz,
                                          geometric_normal, throughput_u.xyz, wo_v.xyz);

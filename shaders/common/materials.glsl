@@ -55,12 +55,13 @@
 //
 // F_c the exact Fresnel of index 1.5 at the microfacet normal, as the dielectric layer's (the
 // spec's fresnel_coat takes Schlick's at the coat normal·wo; both are 0.04 at normal
-// incidence), a mirror at clearcoatRoughness ≤ DELTA_ROUGHNESS. The coat follows the base's
-// shading normal: every lobe here is built around one normal, and the spec's coat keeps the
-// mesh's normal under a base normal map (or its own clearcoatNormalTexture), which the loader
-// does not read. Sampling picks the coat first along xi.z, with probability ∝ c·F_c(n·wo), the
-// other lobes' choices scaled by 1 − c·F_c(n·wo). A frame without a coated material compiles
-// all of it out (SCENE_HAS_CLEARCOAT): its images are bit for bit those before the coat.
+// incidence), a mirror at clearcoatRoughness ≤ DELTA_ROUGHNESS. The coat's lobe is built
+// around the coat's own normal (material_coat_normal): the mesh's where a base normal map
+// tilts the shading normal, as the spec asks without a clearcoatNormalTexture (which the
+// loader does not read), so the coat's cosines travel beside the base's (coat_cos). Sampling
+// picks the coat first along xi.z, with probability ∝ c·F_c(n_c·wo), the other lobes' choices
+// scaled by 1 − c·F_c(n_c·wo). A frame without a coated material compiles all of it out
+// (SCENE_HAS_CLEARCOAT): its images are bit for bit those before the coat.
 //
 // Smooth transmission: reflection with probability ∝ F, else refraction.
 // Reflection is untinted and transmission is tinted by baseColor, so glass
@@ -301,7 +302,8 @@ struct LobeChoice {
     float coat_reflectance; // c·F_c at n·wo: a smooth coat's reflectance
 };
 
-LobeChoice material_lobe_choice(Material material, float cos_o, float eta)
+// coat_cos_o: n·wo about the coat's normal (material_coat_normal).
+LobeChoice material_lobe_choice(Material material, float cos_o, float coat_cos_o, float eta)
 {
     // Largest channels, not luminance: white surfaces then split exactly by
     // F and 1 − F, so a white glass's weights are exactly 1.
@@ -328,7 +330,7 @@ LobeChoice material_lobe_choice(Material material, float cos_o, float eta)
     float total = choice.specular + choice.diffuse + choice.transmission;
     if (material_has_coat(material)) {
         // What the coat reflects, the layers below do not receive.
-        choice.coat_reflectance = material_coat_fresnel(material, cos_o);
+        choice.coat_reflectance = material_coat_fresnel(material, coat_cos_o);
         float below = 1.0 - choice.coat_reflectance;
         choice.reflectance *= below;
         choice.base *= below;
@@ -361,28 +363,45 @@ vec3 material_lobe_normal(vec3 wo, vec3 shading_normal, vec3 geometric_normal)
     return dot(wo, shading_normal) > 0.0 ? shading_normal : geometric_normal;
 }
 
-// f·cos of the non-delta lobes for wo and wi on the same side (cos_o, cos_i
-// against the shading normal, both > 0; cos_h = n·h, cos_oh = wo·h).
-vec3 material_reflection_eval(Material material, float cos_o, float cos_i, float cos_h,
-                              float cos_oh, float eta)
+// The normal the coat's lobe is built around: its own where the hit set one (the mesh's under
+// a base normal map: scene_coat_normal), turned to the geometric one as material_lobe_normal
+// turns the shading normal; else the lobe normal (lobe_normal).
+vec3 material_coat_normal(Material material, vec3 wo, vec3 lobe_normal, vec3 geometric_normal)
 {
-    vec3 dielectric_f = dielectric_fresnel(material, cos_oh, eta);
-    float base = 1.0 - material_max3(dielectric_f);
-    vec3 value = (1.0 - material.metallic) * (1.0 - material.transmission) * base *
-                 material.albedo * (cos_i / PI);
-    if (!material_specular_is_delta(material)) {
-        float alpha = material_alpha(material);
-        vec3 fresnel = mix(dielectric_f, fresnel_schlick(material.albedo, cos_oh),
-                           material.metallic);
-        value += fresnel * (ggx_d(cos_h, alpha) * ggx_visibility(cos_o, cos_i, alpha) * cos_i);
+    vec3 n = vec3(material.coat_normal_x, material.coat_normal_y, material.coat_normal_z);
+    if (!material_has_coat(material) || dot(n, n) == 0.0)
+        return lobe_normal;
+    return dot(wo, n) > 0.0 ? n : geometric_normal;
+}
+
+// f·cos of the non-delta lobes for wo and wi on the same side of the geometric surface
+// (cos_o, cos_i against the lobe normal, the base's lobes where cos_i > 0; cos_h = n·h,
+// cos_oh = wo·h; coat_cos: the same three cosines about the coat's normal, its lobe where
+// coat_cos.y > 0).
+vec3 material_reflection_eval(Material material, float cos_o, float cos_i, float cos_h,
+                              float cos_oh, float eta, vec3 coat_cos)
+{
+    vec3 value = vec3(0.0);
+    if (cos_i > 0.0) {
+        vec3 dielectric_f = dielectric_fresnel(material, cos_oh, eta);
+        float base = 1.0 - material_max3(dielectric_f);
+        value = (1.0 - material.metallic) * (1.0 - material.transmission) * base *
+                material.albedo * (cos_i / PI);
+        if (!material_specular_is_delta(material)) {
+            float alpha = material_alpha(material);
+            vec3 fresnel = mix(dielectric_f, fresnel_schlick(material.albedo, cos_oh),
+                               material.metallic);
+            value +=
+                fresnel * (ggx_d(cos_h, alpha) * ggx_visibility(cos_o, cos_i, alpha) * cos_i);
+        }
     }
     if (material_has_coat(material)) {
         float coat = material_coat_fresnel(material, cos_oh);
         value *= 1.0 - coat;
-        if (!material_coat_is_delta(material)) {
+        if (!material_coat_is_delta(material) && coat_cos.y > 0.0) {
             float alpha = material_coat_alpha(material);
-            value += vec3(coat * ggx_d(cos_h, alpha) * ggx_visibility(cos_o, cos_i, alpha) *
-                          cos_i);
+            value += vec3(coat * ggx_d(coat_cos.z, alpha) *
+                          ggx_visibility(coat_cos.x, coat_cos.y, alpha) * coat_cos.y);
         }
     }
     return value;
@@ -407,7 +426,7 @@ bool ggx_refraction_half_vector(vec3 wo, vec3 wi, vec3 normal, float eta, out ve
 // half vector h from ggx_refraction_half_vector; radiance transport: the
 // (η_i/η_t)² of refraction included (see the header).
 vec3 material_transmission_eval(Material material, vec3 wo, vec3 wi, vec3 h, vec3 normal,
-                                float eta)
+                                float eta, float coat_cos_o)
 {
     float alpha = material_alpha(material);
     float cos_o = dot(wo, normal), cos_i = -dot(wi, normal);
@@ -418,7 +437,7 @@ vec3 material_transmission_eval(Material material, vec3 wo, vec3 wi, vec3 h, vec
     float btdf_cos = (1.0 - fresnel) * ggx_d(dot(h, normal), alpha) * g2 * cos_ih * cos_oh /
                      (cos_o * denominator * denominator * eta * eta);
     if (material_has_coat(material)) // through the coat, as the lobe choice weighs it
-        btdf_cos *= 1.0 - material_coat_fresnel(material, cos_o);
+        btdf_cos *= 1.0 - material_coat_fresnel(material, coat_cos_o);
     return (1.0 - material.metallic) * material.transmission * material.albedo * btdf_cos;
 }
 
@@ -435,15 +454,20 @@ float ggx_transmission_pdf(vec3 wo, vec3 wi, vec3 h, vec3 normal, float eta, flo
            (denominator * denominator);
 }
 
-// pdf with which bsdf_sample returns wi among its non-delta lobes.
+// pdf with which bsdf_sample returns wi among its non-delta lobes (the cosines as
+// material_reflection_eval's).
 float material_reflection_pdf(Material material, LobeChoice choice, float cos_o, float cos_i,
-                              float cos_h)
+                              float cos_h, vec3 coat_cos)
 {
-    float pdf = choice.diffuse * cos_i / PI;
-    if (!material_specular_is_delta(material))
-        pdf += choice.specular * ggx_reflection_pdf(cos_o, cos_h, material_alpha(material));
-    if (material_has_coat(material) && !material_coat_is_delta(material))
-        pdf += choice.coat * ggx_reflection_pdf(cos_o, cos_h, material_coat_alpha(material));
+    float pdf = 0.0;
+    if (cos_i > 0.0) {
+        pdf = choice.diffuse * cos_i / PI;
+        if (!material_specular_is_delta(material))
+            pdf += choice.specular * ggx_reflection_pdf(cos_o, cos_h, material_alpha(material));
+    }
+    if (material_has_coat(material) && !material_coat_is_delta(material) && coat_cos.y > 0.0)
+        pdf += choice.coat *
+               ggx_reflection_pdf(coat_cos.x, coat_cos.z, material_coat_alpha(material));
     return pdf;
 }
 
@@ -459,10 +483,12 @@ vec3 bsdf_eval_cos_pdf(Material material, vec3 wo, vec3 wi, vec3 shading_normal,
 {
     pdf = 0.0;
     vec3 normal = material_lobe_normal(wo, shading_normal, geometric_normal);
+    vec3 coat_normal = material_coat_normal(material, wo, normal, geometric_normal);
     float cos_i = dot(wi, normal);
     float cos_o = max(dot(wo, normal), 1e-6);
+    float coat_cos_o = max(dot(wo, coat_normal), 1e-6);
     float eta = material_eta(material, front);
-    LobeChoice choice = material_lobe_choice(material, cos_o, eta);
+    LobeChoice choice = material_lobe_choice(material, cos_o, coat_cos_o, eta);
     if (dot(wi, geometric_normal) < 0.0) {
         vec3 h;
         if (cos_i >= 0.0 || !material_has_rough_transmission(material) ||
@@ -470,15 +496,18 @@ vec3 bsdf_eval_cos_pdf(Material material, vec3 wo, vec3 wi, vec3 shading_normal,
             return vec3(0.0);
         pdf = choice.transmission *
               ggx_transmission_pdf(wo, wi, h, normal, eta, material_alpha(material));
-        return material_transmission_eval(material, wo, wi, h, normal, eta);
+        return material_transmission_eval(material, wo, wi, h, normal, eta, coat_cos_o);
     }
-    if (cos_i <= 0.0 || dot(wi, geometric_normal) == 0.0)
+    float coat_cos_i = dot(wi, coat_normal);
+    bool coat_side = material_has_coat(material) && coat_cos_i > 0.0;
+    if ((cos_i <= 0.0 && !coat_side) || dot(wi, geometric_normal) == 0.0)
         return vec3(0.0);
     vec3 h = normalize(wo + wi);
     float cos_h = dot(h, normal);
-    pdf = material_reflection_pdf(material, choice, cos_o, cos_i, cos_h);
+    vec3 coat_cos = vec3(coat_cos_o, coat_cos_i, dot(h, coat_normal));
+    pdf = material_reflection_pdf(material, choice, cos_o, cos_i, cos_h, coat_cos);
     return material_reflection_eval(material, cos_o, cos_i, cos_h, clamp(dot(wo, h), 0.0, 1.0),
-                                    eta);
+                                    eta, coat_cos);
 }
 
 vec3 bsdf_eval_cos(Material material, vec3 wo, vec3 wi, vec3 shading_normal,
@@ -567,15 +596,17 @@ BsdfSample bsdf_sample(Material material, vec3 wo, vec3 shading_normal, vec3 geo
     BsdfSample s = BsdfSample(vec3(0.0), vec3(0.0), 0.0, false, false);
     float eta = material_eta(material, front);
     vec3 normal = material_lobe_normal(wo, shading_normal, geometric_normal);
+    vec3 coat_normal = material_coat_normal(material, wo, normal, geometric_normal);
     float cos_o = max(dot(wo, normal), 1e-6);
-    LobeChoice choice = material_lobe_choice(material, cos_o, eta);
+    float coat_cos_o = max(dot(wo, coat_normal), 1e-6);
+    LobeChoice choice = material_lobe_choice(material, cos_o, coat_cos_o, eta);
     float pick = xi.z;
     bool delta_specular = material_specular_is_delta(material);
     bool coat_glossy = false;
     // The coat first along xi.z.
     if (material_has_coat(material)) {
         if (pick < choice.coat && material_coat_is_delta(material)) {
-            s.direction = material_reflect(wo, normal, geometric_normal);
+            s.direction = material_reflect(wo, coat_normal, geometric_normal);
             s.specular = true;
             s.weight = vec3(divide_exact(choice.coat_reflectance, choice.coat));
             return s;
@@ -618,7 +649,7 @@ BsdfSample bsdf_sample(Material material, vec3 wo, vec3 shading_normal, vec3 geo
             return s;
         // Photons carry flux: without radiance's (η_i/η_t)².
         float scale = transport == TRANSPORT_RADIANCE ? 1.0 : eta * eta;
-        s.weight = material_transmission_eval(material, wo, wi, h, normal, eta) *
+        s.weight = material_transmission_eval(material, wo, wi, h, normal, eta, coat_cos_o) *
                    (scale / s.pdf);
         return s;
     }
@@ -641,10 +672,15 @@ BsdfSample bsdf_sample(Material material, vec3 wo, vec3 shading_normal, vec3 geo
     }
 
     if (glossy || coat_glossy) {
-        vec3 wo_local = vec3(dot(wo, tangent), dot(wo, bitangent), cos_o);
+        // The coat's lobe about its own normal (the lobe normal but under a base normal map).
+        vec3 axis = coat_glossy ? coat_normal : normal;
+        if (coat_glossy)
+            material_basis(axis, tangent, bitangent);
+        vec3 wo_local =
+            vec3(dot(wo, tangent), dot(wo, bitangent), coat_glossy ? coat_cos_o : cos_o);
         float alpha = coat_glossy ? material_coat_alpha(material) : material_alpha(material);
         vec3 h_local = ggx_sample_visible_normal(wo_local, alpha, xi.xy);
-        vec3 h = h_local.x * tangent + h_local.y * bitangent + h_local.z * normal;
+        vec3 h = h_local.x * tangent + h_local.y * bitangent + h_local.z * axis;
         s.direction = reflect(-wo, h);
     } else if (choice.diffuse > 0.0) {
         s.direction = material_cosine_direction(normal, xi.xy);
@@ -652,15 +688,18 @@ BsdfSample bsdf_sample(Material material, vec3 wo, vec3 shading_normal, vec3 geo
         return s;
     }
     float cos_i = dot(s.direction, normal);
-    if (cos_i <= 0.0 || dot(s.direction, geometric_normal) <= 0.0)
+    float coat_cos_i = dot(s.direction, coat_normal);
+    bool coat_side = material_has_coat(material) && coat_cos_i > 0.0;
+    if ((cos_i <= 0.0 && !coat_side) || dot(s.direction, geometric_normal) <= 0.0)
         return s; // below the surface: absorbed
     vec3 h = normalize(wo + s.direction);
     float cos_h = dot(h, normal);
-    s.pdf = material_reflection_pdf(material, choice, cos_o, cos_i, cos_h);
+    vec3 coat_cos = vec3(coat_cos_o, coat_cos_i, dot(h, coat_normal));
+    s.pdf = material_reflection_pdf(material, choice, cos_o, cos_i, cos_h, coat_cos);
     if (!(s.pdf > 0.0))
         return s;
     s.weight = material_reflection_eval(material, cos_o, cos_i, cos_h, clamp(dot(wo, h), 0.0, 1.0),
-                                        eta) / s.pdf;
+                                        eta, coat_cos) / s.pdf;
     return s;
 }
 
@@ -698,10 +737,12 @@ vec3 material_rough_albedo(Material material, vec3 wo, vec3 shading_normal, bool
     }
     if (material_has_coat(material)) {
         // Below the coat what it lets through (at the half vector, as the base's 1 − F),
-        // and its own lobe where rough (F0 0.04, F90 1).
-        albedo *= 1.0 - material_coat_fresnel(material, cos_half);
+        // and its own lobe where rough (F0 0.04, F90 1), about the coat's normal.
+        vec3 coat_normal = material_coat_normal(material, wo, shading_normal, shading_normal);
+        float coat_cos_o = clamp(dot(wo, coat_normal), 1e-4, 1.0);
+        albedo *= 1.0 - material_coat_fresnel(material, sqrt(0.5 * (1.0 + coat_cos_o)));
         if (!material_coat_is_delta(material)) {
-            vec2 scale_bias = ggx_split_sum(material.clearcoat_roughness, cos_o);
+            vec2 scale_bias = ggx_split_sum(material.clearcoat_roughness, coat_cos_o);
             float f0 = fresnel_dielectric(1.0, COAT_IOR);
             albedo += vec3(material.clearcoat * (f0 * scale_bias.x + scale_bias.y));
         }

@@ -68,7 +68,7 @@ Material scene_material(uint index)
                     t4.xyz, t4.w, t5.x, t5.y, t5.z, t5.w, t6.x, uintBitsToFloat(t6.y),
                     uintBitsToFloat(t6.z),
                     SCENE_HAS_CLEARCOAT ? uintBitsToFloat(t6.w) : 0.0, uintBitsToFloat(t7.x),
-                    SCENE_HAS_CLEARCOAT ? t7.y : NO_TEXTURE, t7.z, t7.w, t8.x);
+                    SCENE_HAS_CLEARCOAT ? t7.y : NO_TEXTURE, t7.z, t7.w, t8.x, 0.0, 0.0, 0.0);
 }
 
 #ifdef PF_SURFACE_TEXTURES
@@ -113,6 +113,26 @@ bool scene_alpha_passes(uint triangle, float u, float v, vec3 origin, vec3 direc
                  d.x ^ pcg_hash(d.y ^ pcg_hash(d.z ^ floatBitsToUint(u))))))));
     return float(h >> 8) * (1.0 / 16777216.0) < alpha;
 }
+
+// KHR_materials_clearcoat's normal where the base's normal map tilts the shading normal: the
+// mesh's at (u, v) of triangle, as the spec's coat keeps it (it has no map of its own here),
+// on geometric_normal's side, in m's coat_normal; left 0 elsewhere, where the coat follows the
+// shading normal (the mesh's itself without a map).
+Material scene_coat_normal(Material m, uint triangle, float u, float v, vec3 geometric_normal)
+{
+    if (!SCENE_HAS_CLEARCOAT || !(m.clearcoat > 0.0) || m.normal_texture == NO_TEXTURE ||
+        !scene_has_corners())
+        return m;
+    uint first = 3u * triangle;
+    vec3 n = (1.0 - u - v) * scene_normal(first) + u * scene_normal(first + 1u) +
+             v * scene_normal(first + 2u);
+    n = dot(n, n) > 0.0 ? normalize(n) : geometric_normal;
+    n = dot(n, geometric_normal) < 0.0 ? -n : n;
+    m.coat_normal_x = n.x;
+    m.coat_normal_y = n.y;
+    m.coat_normal_z = n.z;
+    return m;
+}
 #else
 // The plain variant: the materials' factors, the mesh's normals, every hit counts.
 Material scene_material_textured(Material m, uint triangle, float u, float v, float cone_width,
@@ -130,6 +150,11 @@ vec3 scene_normal_mapped(Material m, uint triangle, float u, float v, vec3 n, fl
 Material scene_material_at(uint triangle, float u, float v)
 {
     return scene_material(scene_triangle_material(triangle));
+}
+
+Material scene_coat_normal(Material m, uint triangle, float u, float v, vec3 geometric_normal)
+{
+    return m;
 }
 #endif
 

@@ -53,6 +53,7 @@ Surface surface_at_cone(BihHit hit, vec3 origin, vec3 direction, float cone_widt
     s.valid = all_finite(s.shading_normal) && all_finite(s.face_normal);
     if (dot(s.shading_normal, s.geometric_normal) < 0.0)
         s.shading_normal = -s.shading_normal;
+    s.material = scene_coat_normal(s.material, hit.triangle, hit.u, hit.v, s.geometric_normal);
     s.position = origin + hit.t * direction;
     return s;
 }
