@@ -360,15 +360,16 @@ static int sample_inconsistent(const pf_material_probe_result *s, double toleran
 }
 
 /* What FURNACE_EDGE² stratified samples of material at polar angle theta carry (seeded by
- * seed; the samples left in results): the mean weight (red) and its standard error, the
- * non-delta samples whose weight is not eval/pdf, and the delta samples with a weight. */
+ * seed; the samples left in results; shading normal: NULL for the geometric one, z): the mean
+ * weight (red) and its standard error, the non-delta samples whose weight is not eval/pdf, and
+ * the delta samples with a weight. */
 typedef struct furnace_stats {
     double mean, sigma;
     uint32_t inconsistent, deltas;
 } furnace_stats;
 
 static furnace_stats furnace_run(const pf_material *material, double theta, uint64_t seed,
-                                 pf_material_probe_query *queries,
+                                 const float *shading_normal, pf_material_probe_query *queries,
                                  pf_material_probe_result *results)
 {
     furnace_stats stats = {0};
@@ -376,6 +377,8 @@ static furnace_stats furnace_run(const pf_material *material, double theta, uint
     uint64_t state = seed;
     for (uint32_t i = 0; i < count; i++) {
         queries[i] = query_at(material, theta, 1, 0.0f, 0);
+        if (shading_normal)
+            memcpy(queries[i].normal, shading_normal, sizeof queries[i].normal);
         stratified_xi(&queries[i], i, &state);
     }
     pf_error err = {0};
@@ -412,7 +415,8 @@ PF_TEST(ggx_white_furnace_loses_what_single_scattering_predicts)
             for (int a = 0; a < 3; a++) {
                 double theta = angles[a] * DEGREES;
                 furnace_stats stats =
-                    furnace_run(&material, theta, 7 + (uint64_t)(r * 3 + a), queries, results);
+                    furnace_run(&material, theta, 7 + (uint64_t)(r * 3 + a), NULL, queries,
+                                results);
                 double mean = stats.mean, sigma = stats.sigma;
                 /* No delta lobe when rough. */
                 uint32_t inconsistent = stats.inconsistent + stats.deltas;
@@ -468,8 +472,9 @@ PF_TEST(a_clear_coat_reflects_over_its_base_as_the_oracle_says)
             pf_material_classify(&material);
             for (int a = 0; a < 3; a++) {
                 double theta = angles[a] * DEGREES;
-                furnace_stats stats = furnace_run(
-                    &material, theta, 91 + (uint64_t)(base * 6 + r * 3 + a), queries, results);
+                furnace_stats stats =
+                    furnace_run(&material, theta, 91 + (uint64_t)(base * 6 + r * 3 + a), NULL,
+                                queries, results);
                 double mean = stats.mean, sigma = stats.sigma;
                 uint32_t inconsistent = stats.inconsistent, mirrored = stats.deltas;
                 double coat_f = material.clearcoat * ref_fresnel_dielectric(cos(theta), 1.5);
@@ -561,7 +566,7 @@ PF_TEST(a_base_normal_map_does_not_tilt_the_coat)
     pf_material_probe_query *queries = calloc(count, sizeof *queries);
     pf_material_probe_result *results = calloc(count, sizeof *results);
     PF_REQUIRE(queries && results);
-    const double tilt = 30.0 * DEGREES;
+    const float tilted[3] = {(float)sin(30.0 * DEGREES), 0.0f, (float)cos(30.0 * DEGREES)};
     for (int r = 0; r < 2; r++) {
         pf_material material = pf_material_lambert(0.0f, 0.0f, 0.0f);
         material.clearcoat = 1.0f;
@@ -571,37 +576,22 @@ PF_TEST(a_base_normal_map_does_not_tilt_the_coat)
         coated.coat_normal[2] = 1.0f;
         for (int a = 0; a < 3; a++) {
             double theta = angles[a] * DEGREES;
-            uint64_t state = 131 + (uint64_t)(r * 3 + a);
-            for (uint32_t i = 0; i < count; i++) {
-                queries[i] = query_at(&coated, theta, 1, 0.0f, 0);
-                queries[i].normal[0] = (float)sin(tilt);
-                queries[i].normal[2] = (float)cos(tilt);
-                stratified_xi(&queries[i], i, &state);
-            }
-            pf_error err = {0};
-            PF_REQUIRE_OK(pf_material_probe(renderer, queries, count, results, &err), &err);
-            double mean = 0.0, mean_square = 0.0;
-            uint32_t inconsistent = 0;
-            for (uint32_t i = 0; i < count; i++) {
-                const pf_material_probe_result *s = &results[i];
-                mean += s->weight[0] / count;
-                mean_square += (double)s->weight[0] * s->weight[0] / count;
-                if (s->pdf > 0.0f)
-                    inconsistent += sample_inconsistent(s, 1e-4);
-                else if (s->weight[0] != 0.0f) /* the mirror of wo about z */
-                    inconsistent += fabs(s->direction[0] + sin(theta)) > 1e-4 ||
-                                    fabs(s->direction[2] - cos(theta)) > 1e-4;
-            }
-            double sigma = sqrt(fmax(mean_square - mean * mean, 0.0) / count);
+            furnace_stats stats = furnace_run(&coated, theta, 131 + (uint64_t)(r * 3 + a),
+                                              tilted, queries, results);
+            uint32_t inconsistent = stats.inconsistent;
+            for (uint32_t i = 0; i < count; i++) /* a delta sample: the mirror of wo about z */
+                if (!(results[i].pdf > 0.0f) && results[i].weight[0] != 0.0f)
+                    inconsistent += fabs(results[i].direction[0] + sin(theta)) > 1e-4 ||
+                                    fabs(results[i].direction[2] - cos(theta)) > 1e-4;
             double expected = oracle_albedo(&material, theta, 0);
             printf("coat %.1f under a 30° normal map at %2.0f°: mean %.4f ± %.4f, untilted "
                    "oracle %.4f\n",
-                   coat_roughness[r], angles[a], mean, sigma, expected);
+                   coat_roughness[r], angles[a], stats.mean, stats.sigma, expected);
             PF_CHECK_MSG(inconsistent == 0, "coat %.1f at %.0f°: %u inconsistent samples",
                          coat_roughness[r], angles[a], inconsistent);
-            PF_CHECK_MSG(fabs(mean - expected) <= 0.002 + 4 * sigma,
+            PF_CHECK_MSG(fabs(stats.mean - expected) <= 0.002 + 4 * stats.sigma,
                          "coat %.1f at %.0f°: mean %.4f, the untilted coat %.4f",
-                         coat_roughness[r], angles[a], mean, expected);
+                         coat_roughness[r], angles[a], stats.mean, expected);
         }
     }
     free(queries);
