@@ -630,8 +630,14 @@ static pf_status load_primitive(gltf_context *ctx, scene_mesh *mesh, const cJSON
         if (material == SCENE_NONE)
             status = gltf_fail(ctx, err, PF_ERR_NOMEM, element, "out of memory");
     }
-    /* A normal map needs tangents: the file's, else generated from its UV set. */
-    uint32_t normal_slot = status ? PF_NO_TEXTURE : scene->materials[material].normal_texture;
+    /* A normal map (the base's, else the coat's) needs tangents: the file's, else generated
+     * from its UV set. */
+    uint32_t normal_slot = PF_NO_TEXTURE;
+    if (!status) {
+        const pf_material *m = &scene->materials[material];
+        normal_slot = m->normal_texture != PF_NO_TEXTURE ? m->normal_texture
+                                                          : m->clearcoat_normal_texture;
+    }
     if (!status && normal_slot != PF_NO_TEXTURE && !extra.tangent) {
         int set = (scene->textures[normal_slot - 1].sampling & PF_TEXTURE_TEXCOORD_1) ? 1 : 0;
         if (extra.uv[set])

@@ -12,8 +12,8 @@
  *   is a volume (> 0; the thickness itself is for rasterisers: a ray tracer
  *   measures the distance travelled inside).
  * KHR_materials_clearcoat: clearcoatFactor (0) and clearcoatRoughnessFactor (0), scaled by
- * clearcoatTexture's R and clearcoatRoughnessTexture's G; clearcoatNormalTexture is not read
- * (the coat keeps the mesh's normal under a base normal map, as without one).
+ * clearcoatTexture's R and clearcoatRoughnessTexture's G; clearcoatNormalTexture (with its
+ * scale) tilts the coat's normal, which is otherwise the mesh's even under a base normal map.
  * Emission = emissiveFactor x KHR_materials_emissive_strength.emissiveStrength,
  * from both faces when the material is doubleSided.
  * Textures (gltf_textures.c): baseColor and emissive (sRGB) and
@@ -169,13 +169,16 @@ static pf_status load_clearcoat(gltf_context *ctx, const cJSON *coat, const char
             ctx, cJSON_GetObjectItemCaseSensitive(coat, "clearcoatRoughnessTexture"), 0,
             slot_element, &out->clearcoat_roughness_texture, NULL, err);
     }
+    if (!status) {
+        snprintf(slot_element, sizeof slot_element, "%s.clearcoatNormalTexture", coat_element);
+        status = gltf_texture_slot(
+            ctx, cJSON_GetObjectItemCaseSensitive(coat, "clearcoatNormalTexture"), 0,
+            slot_element, &out->clearcoat_normal_texture, &out->clearcoat_normal_scale, err);
+    }
     if (status)
         return status;
-    if (cJSON_GetObjectItemCaseSensitive(coat, "clearcoatNormalTexture"))
-        scene_warn_once(ctx->scene, "clearcoatNormalTexture",
-                        "%s: %s.clearcoatNormalTexture is not read: the coat keeps the mesh's "
-                        "normal",
-                        ctx->path, coat_element);
+    if (out->clearcoat_normal_texture == PF_NO_TEXTURE)
+        out->clearcoat_normal_scale = 1.0f;
     out->clearcoat = (float)factor;
     out->clearcoat_roughness = (float)roughness;
     return PF_OK;

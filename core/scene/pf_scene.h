@@ -116,10 +116,14 @@ typedef struct pf_material {
     /* KHR_materials_specular's textures: A scales specular, RGB (sRGB) specular_color. */
     uint32_t specular_texture;
     uint32_t specular_color_texture;
-    /* The coat's normal at one hit, where a base normal map tilts the shading normal (the
-     * kernels' surface_at sets it: the mesh's normal, as KHR_materials_clearcoat asks); 0 in
-     * a scene's materials, where the coat follows the shading normal. */
+    /* The coat's normal at one hit, where a normal map tilts the shading normal or the
+     * coat's (the kernels' surface_at sets it: the mesh's normal, or clearcoatNormalTexture's,
+     * as KHR_materials_clearcoat asks); 0 in a scene's materials, where the coat follows the
+     * shading normal. */
     float coat_normal[3];
+    uint32_t clearcoat_normal_texture; /* tangent space, scaled as normalTexture */
+    float clearcoat_normal_scale;
+    uint32_t padding[2];
 } pf_material;
 
 /* glTF material.doubleSided: its emission leaves both faces (Blender's exporter

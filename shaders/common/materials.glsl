@@ -57,8 +57,8 @@
 // spec's fresnel_coat takes Schlick's at the coat normal·wo; both are 0.04 at normal
 // incidence), a mirror at clearcoatRoughness ≤ DELTA_ROUGHNESS. The coat's lobe is built
 // around the coat's own normal (material_coat_normal): the mesh's where a base normal map
-// tilts the shading normal, as the spec asks without a clearcoatNormalTexture (which the
-// loader does not read), so the coat's cosines travel beside the base's (coat_cos). Sampling
+// tilts the shading normal, as the spec asks, or its clearcoatNormalTexture's, so the coat's
+// cosines travel beside the base's (coat_cos). Sampling
 // picks the coat first along xi.z, with probability ∝ c·F_c(n_c·wo), the other lobes' choices
 // scaled by 1 − c·F_c(n_c·wo). A frame without a coated material compiles all of it out
 // (SCENE_HAS_CLEARCOAT): its images are bit for bit those before the coat.

@@ -7,7 +7,7 @@
 //   scene_vertices           3 RGBA32F texels per triangle (xyz, w unused)
 //   scene_normals            3 RGBA32F texels per triangle (shading normals)
 //   scene_triangle_materials one word per triangle: its material
-//   scene_materials          9 texels per material (pf_material, 144 bytes)
+//   scene_materials          10 texels per material (pf_material, 160 bytes)
 //   scene_corners            PF_CORNER_TEXELS texels per triangle corner (uv0, uv1;
 //                            colour; tangent), when the scene has textures or colours
 //   scene_textures           3 texels per TextureRef
@@ -47,7 +47,7 @@ uint scene_triangle_material(uint triangle)
 
 Material scene_material(uint index)
 {
-    int first = int(9u * index);
+    int first = int(10u * index);
     uvec4 t0 = uvec4(texelFetch(scene_materials, first));
     uvec4 t1 = uvec4(texelFetch(scene_materials, first + 1));
     vec4 t2 = uintBitsToFloat(uvec4(texelFetch(scene_materials, first + 2)));
@@ -57,6 +57,7 @@ Material scene_material(uint index)
     uvec4 t6 = uvec4(texelFetch(scene_materials, first + 6));
     uvec4 t7 = uvec4(texelFetch(scene_materials, first + 7));
     uvec4 t8 = uvec4(texelFetch(scene_materials, first + 8));
+    uvec4 t9 = uvec4(texelFetch(scene_materials, first + 9));
     // transmission, emission and the coat: 0 in a frame without a transmissive, an emissive
     // or a coated material, the kind Lambert in one without a specular material, so that
     // their code is compiled out (SCENE_HAS_TRANSMISSION, SCENE_HAS_EMITTERS,
@@ -68,7 +69,8 @@ Material scene_material(uint index)
                     t4.xyz, t4.w, t5.x, t5.y, t5.z, t5.w, t6.x, uintBitsToFloat(t6.y),
                     uintBitsToFloat(t6.z),
                     SCENE_HAS_CLEARCOAT ? uintBitsToFloat(t6.w) : 0.0, uintBitsToFloat(t7.x),
-                    SCENE_HAS_CLEARCOAT ? t7.y : NO_TEXTURE, t7.z, t7.w, t8.x, 0.0, 0.0, 0.0);
+                    SCENE_HAS_CLEARCOAT ? t7.y : NO_TEXTURE, t7.z, t7.w, t8.x, 0.0, 0.0, 0.0,
+                    SCENE_HAS_CLEARCOAT ? t9.x : NO_TEXTURE, uintBitsToFloat(t9.y));
 }
 
 #ifdef PF_SURFACE_TEXTURES
@@ -114,19 +116,27 @@ bool scene_alpha_passes(uint triangle, float u, float v, vec3 origin, vec3 direc
     return float(h >> 8) * (1.0 / 16777216.0) < alpha;
 }
 
-// KHR_materials_clearcoat's normal where the base's normal map tilts the shading normal: the
-// mesh's at (u, v) of triangle, as the spec's coat keeps it (it has no map of its own here),
-// on geometric_normal's side, in m's coat_normal; left 0 elsewhere, where the coat follows the
+// KHR_materials_clearcoat's normal where a normal map tilts the base's or the coat's: the
+// mesh's at (u, v) of triangle, as the spec's coat keeps it under a base normal map, tilted by
+// the coat's own clearcoatNormalTexture where it has one (its finest level), on
+// geometric_normal's side, in m's coat_normal; left 0 elsewhere, where the coat follows the
 // shading normal (the mesh's itself without a map).
 Material scene_coat_normal(Material m, uint triangle, float u, float v, vec3 geometric_normal)
 {
-    if (!SCENE_HAS_CLEARCOAT || !(m.clearcoat > 0.0) || m.normal_texture == NO_TEXTURE ||
-        !scene_has_corners())
+    if (!SCENE_HAS_CLEARCOAT || !(m.clearcoat > 0.0) || !scene_has_corners() ||
+        (m.normal_texture == NO_TEXTURE && m.clearcoat_normal_texture == NO_TEXTURE))
         return m;
     uint first = 3u * triangle;
     vec3 n = (1.0 - u - v) * scene_normal(first) + u * scene_normal(first + 1u) +
              v * scene_normal(first + 2u);
     n = dot(n, n) > 0.0 ? normalize(n) : geometric_normal;
+    if (m.clearcoat_normal_texture != NO_TEXTURE) {
+        Material coat_map = m;
+        coat_map.normal_texture = m.clearcoat_normal_texture;
+        coat_map.normal_scale = m.clearcoat_normal_scale;
+        n = scene_normal_mapped(coat_map, triangle, u, v, n, 0.0, 1.0, vec3(0.0), vec3(0.0),
+                                vec3(0.0));
+    }
     n = dot(n, geometric_normal) < 0.0 ? -n : n;
     m.coat_normal_x = n.x;
     m.coat_normal_y = n.y;

@@ -46,9 +46,11 @@ struct Material {
     uint clearcoat_roughness_texture; // G scales clearcoat_roughness
     uint specular_texture;       // KHR_materials_specular: A scales specular
     uint specular_color_texture; // RGB (sRGB) scales specular_color
-    // The coat's normal at this hit where a base normal map tilts the shading normal
-    // (scene_coat_normal: the mesh's); 0: the coat follows the shading normal.
+    // The coat's normal at this hit where a normal map tilts the shading normal or the coat's
+    // (scene_coat_normal: the mesh's, or its own map's); 0: the coat follows the shading normal.
     float coat_normal_x, coat_normal_y, coat_normal_z;
+    uint clearcoat_normal_texture; // the coat's own normal map (tangent space)
+    float clearcoat_normal_scale;
 };
 
 // pf_scene.h PF_MATERIAL_DELTA_ROUGHNESS: at or below it the specular lobe is a mirror.

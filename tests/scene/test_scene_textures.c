@@ -364,8 +364,9 @@ PF_TEST(linear_and_srgb_slots_sampler_and_transform)
 
 
 /* KHR_materials_clearcoat's textures are linear slots of their own (R scales the coat, G its
- * roughness): the same image as metallicRoughness shares its chain; KHR_materials_specular's
- * specularTexture is linear (A), its specularColorTexture sRGB (a chain of its own). */
+ * roughness, its normal map with its scale): the same image as metallicRoughness shares its
+ * chain; KHR_materials_specular's specularTexture is linear (A), its specularColorTexture sRGB
+ * (a chain of its own). */
 PF_TEST(clearcoat_and_specular_textures_are_slots)
 {
     uint8_t rgba[IMAGE_W * IMAGE_H * 4];
@@ -379,7 +380,8 @@ PF_TEST(clearcoat_and_specular_textures_are_slots)
         "{\"pbrMetallicRoughness\":{\"metallicRoughnessTexture\":{\"index\":0}},"
         "\"extensions\":{\"KHR_materials_clearcoat\":{\"clearcoatFactor\":1,"
         "\"clearcoatTexture\":{\"index\":0},\"clearcoatRoughnessFactor\":0.5,"
-        "\"clearcoatRoughnessTexture\":{\"index\":0,\"texCoord\":1}},"
+        "\"clearcoatRoughnessTexture\":{\"index\":0,\"texCoord\":1},"
+        "\"clearcoatNormalTexture\":{\"index\":0,\"scale\":0.5}},"
         "\"KHR_materials_specular\":{\"specularTexture\":{\"index\":0},"
         "\"specularColorTexture\":{\"index\":0}}}}";
     write_textured_quad("coat", material, images, "[{\"source\":0}]", "[]", 0, path,
@@ -408,6 +410,13 @@ PF_TEST(clearcoat_and_specular_textures_are_slots)
              specular->first_texel == coat->first_texel);
     PF_CHECK((specular_color->sampling & PF_TEXTURE_SRGB) != 0 &&
              specular_color->first_texel != coat->first_texel);
+    /* The coat's normal map: linear, its scale read; the quad gets tangents for it (it has
+     * no base normal map). */
+    PF_REQUIRE(m->clearcoat_normal_texture != PF_NO_TEXTURE);
+    PF_CHECK(m->clearcoat_normal_scale == 0.5f);
+    PF_CHECK((frame.textures[m->clearcoat_normal_texture - 1].sampling & PF_TEXTURE_SRGB) == 0);
+    const float *tangent = frame.corners[2]; /* corner 0's tangent texel */
+    PF_CHECK(tangent[0] * tangent[0] + tangent[1] * tangent[1] + tangent[2] * tangent[2] > 0.5f);
     pf_scene_frame_free(&frame);
     pf_scene_destroy(scene);
 }
