@@ -225,16 +225,25 @@ static void temporal_row(pf_frame_report *report, const pf_denoise_sequence *seq
     pf_stage_add_counter(row, "memory_frames", stats->memory);
 }
 
-/* Where the filter runs: the device (renderer given) or the host's cores. */
-static int on_device(const pf_renderer *renderer)
+/* The bytes a pixel of the device filter's largest plane (denoise_device.c: RGBA32F). */
+#define DENOISE_DEVICE_PLANE_BYTES 16u
+
+/* Where the filter runs: the device (renderer given, and its planes fit one device buffer
+ * each; a larger frame is filtered on the host, and the row says why) or the host's cores. */
+static int on_device(const pf_renderer *renderer, size_t pixels, int *too_large)
 {
+    *too_large = 0;
     if (!renderer)
         return 0;
     pf_denoise_site site = renderer->denoise_site;
     if (site == PF_DENOISE_SITE_AUTO)
         site = pf_vk_device_is_cpu(renderer->ctx) ? PF_DENOISE_SITE_HOST
                                                   : PF_DENOISE_SITE_DEVICE;
-    return site == PF_DENOISE_SITE_DEVICE;
+    if (site != PF_DENOISE_SITE_DEVICE)
+        return 0;
+    *too_large = (uint64_t)pixels * DENOISE_DEVICE_PLANE_BYTES >
+                 pf_renderer_buffer_limit(renderer);
+    return !*too_large;
 }
 
 typedef struct write_back_job {
@@ -302,7 +311,8 @@ static pf_status denoise_run(pf_renderer *renderer, pf_image *image, int keep_no
         return pf_error_set(err, PF_ERR_INVALID, "denoise: the image has no depth.Z channel");
     denoise_planes planes = {0};
     size_t pixels = (size_t)image->width * image->height;
-    int device = on_device(renderer);
+    int too_large;
+    int device = on_device(renderer, pixels, &too_large);
     /* The device estimates the variance from this frame's own lighting after a blend has
      * replaced it on the host: then a copy goes along (NULL: the lighting is the frame's
      * own). The variance layer is the estimate the filter started from (after any blend's
@@ -396,8 +406,9 @@ static pf_status denoise_run(pf_renderer *renderer, pf_image *image, int keep_no
                                                gpu_ms);
     if (row) {
         snprintf(row->reason, sizeof row->reason,
-                 "à-trous (%d passes) on the demodulated indirect light, on the %s",
-                 DENOISE_PASSES, device ? "device" : "host");
+                 "à-trous (%d passes) on the demodulated indirect light, on the %s%s",
+                 DENOISE_PASSES, device ? "device" : "host",
+                 too_large ? " (its planes exceed one device buffer)" : "");
         pf_stage_add_counter(row, "pixels", (double)pixels);
         pf_stage_add_counter(row, "passes", DENOISE_PASSES);
         pf_stage_add_counter(row, "mean_variance", noisy_variance / (double)pixels);

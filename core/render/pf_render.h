@@ -429,7 +429,9 @@ pf_status pf_settings_parse(const char *json, pf_render_settings *settings, pf_e
  * per-pixel buffers) exceeds one device buffer (maxStorageBufferRange: 128 MiB on lavapipe,
  * a 2560x1440 film is 169 MiB) is rendered in bands of rows, each its own film, and the
  * bands' images and rows joined (render_bands.c); the image is the one a single band would
- * make. Tests: bands of at most this many film bytes (0: the device's range).
+ * make. The device's denoiser, whose planes are 16 bytes a pixel, leaves a frame past one
+ * buffer to the host's. Tests: at most this many bytes a buffer, for both (0: the device's
+ * range).
  */
 void pf_renderer_set_band_bytes(pf_renderer *renderer, uint64_t film_bytes);
 

@@ -40,8 +40,7 @@ void pf_renderer_set_band_bytes(pf_renderer *renderer, uint64_t film_bytes)
     renderer->band_bytes = film_bytes;
 }
 
-/* The most bytes a band's film may hold. */
-static uint64_t band_limit(const pf_renderer *renderer)
+uint64_t pf_renderer_buffer_limit(const pf_renderer *renderer)
 {
     uint64_t limit = pf_vk_info(renderer->ctx)->max_storage_buffer_range;
     return renderer->band_bytes && renderer->band_bytes < limit ? renderer->band_bytes : limit;
@@ -51,7 +50,7 @@ uint32_t pf_render_band_rows(const pf_renderer *renderer, const pf_render_settin
 {
     if (settings->quality == PF_QUALITY_PREVIEW) /* tiles of its own, no film of the image */
         return settings->height;
-    uint64_t limit = band_limit(renderer);
+    uint64_t limit = pf_renderer_buffer_limit(renderer);
     uint64_t row_bytes = (uint64_t)settings->width * BAND_FILM_BYTES_PER_PIXEL;
     uint64_t fits = limit / row_bytes; /* ≥ 1: a 16384-pixel row is 768 KiB */
     if (fits == 0)

@@ -713,8 +713,11 @@ pf_status pf_render_preset(pf_renderer *renderer, const pf_scene_frame *frame,
 pf_status pf_render_band(pf_renderer *renderer, const pf_scene_frame *frame,
                          const pf_render_settings *settings, pf_image *image,
                          pf_frame_report *report, uint32_t *samples, pf_error *err);
-/* render_bands.c: the rows of a band of a frame of these settings (its height where the
- * film fits one device buffer), and the frame in bands of band_rows. */
+/* render_bands.c: the most bytes one device buffer of per-pixel data may hold (the device's
+ * maxStorageBufferRange, or less where a test set pf_renderer_set_band_bytes); the rows of a
+ * band of a frame of these settings (its height where the film fits one device buffer), and
+ * the frame in bands of band_rows. */
+uint64_t pf_renderer_buffer_limit(const pf_renderer *renderer);
 uint32_t pf_render_band_rows(const pf_renderer *renderer, const pf_render_settings *settings);
 pf_status pf_render_bands(pf_renderer *renderer, const pf_scene_frame *frame,
                           const pf_render_settings *settings, uint32_t band_rows,

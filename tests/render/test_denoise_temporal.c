@@ -450,8 +450,28 @@ PF_TEST(the_device_filters_as_the_host_does)
     double device_mean = ref_stage_counter(&device_report, "denoise", "mean_variance");
     PF_CHECK_MSG(host_mean > 0.0 && fabs(device_mean / host_mean - 1.0) < 1e-4,
                  "mean variance %g on the host, %g on the device", host_mean, device_mean);
-    pf_image_free(&host);
     pf_image_free(&device);
+    /* A frame whose planes (16 bytes a pixel) exceed one device buffer (a limit lowered
+     * below this frame's 19,200 bytes) is filtered on the host, as the host filters it, and
+     * the row says why. */
+    pf_image unfiltered = {0}, fallback = {0};
+    PF_REQUIRE_OK(pf_render_frame(renderer, &frame, &low, &unfiltered, NULL, &err), &err);
+    pf_frame_report fallback_report = {0};
+    PF_REQUIRE_OK(pf_image_append_channels(&unfiltered, NULL, 0, &fallback, &err), &err);
+    pf_renderer_set_denoise_site(renderer, PF_DENOISE_SITE_DEVICE);
+    pf_renderer_set_band_bytes(renderer, 16u * 40u * 30u - 1u);
+    PF_REQUIRE_OK(pf_render_denoise(renderer, &fallback, 0, NULL, &fallback_report, &err), &err);
+    pf_renderer_set_band_bytes(renderer, 0);
+    pf_renderer_set_denoise_site(renderer, PF_DENOISE_SITE_AUTO);
+    PF_CHECK(ref_stage_counter(&fallback_report, "denoise", "on_device") == 0.0);
+    const pf_stage_timing *fallback_row = ref_row(&fallback_report, "denoise");
+    PF_CHECK(fallback_row && strstr(fallback_row->reason, "exceed one device buffer"));
+    PF_CHECK(fallback.channel_count == host.channel_count &&
+             memcmp(fallback.pixels, host.pixels,
+                    (size_t)host.width * host.height * host.channel_count * sizeof(float)) == 0);
+    pf_image_free(&unfiltered);
+    pf_image_free(&fallback);
+    pf_image_free(&host);
     pf_denoise_history_destroy(host_history);
     pf_denoise_history_destroy(device_history);
     pf_scene_frame_free(&frame);
