@@ -61,16 +61,26 @@ static float triangle_area(const float (*vertices)[4])
     return 0.5f * sqrtf(cx * cx + cy * cy + cz * cz);
 }
 
-/* Fills the alias columns of table from weights (pf_alias_table_build, core/common). */
+/* The alias columns of weights (pf_alias_table_build, core/common) in *threshold and *alias,
+ * malloc'ed (the caller frees both, also on failure); what names the table in errors. */
+static pf_status alias_columns(const double *weights, uint32_t count, const char *what,
+                               float **threshold, uint32_t **alias, pf_error *err)
+{
+    *threshold = malloc(count * sizeof **threshold);
+    *alias = malloc(count * sizeof **alias);
+    return *threshold && *alias
+               ? pf_alias_table_build(weights, count, *threshold, *alias, err)
+               : pf_error_set(err, PF_ERR_NOMEM, "%s: %u entries", what, count);
+}
+
+/* Fills the alias columns of table from weights. */
 static pf_status alias_table_fill(pf_emissive_entry *table, const double *weights, uint32_t count,
                                   double total, pf_error *err)
 {
-    float *threshold = malloc(count * sizeof *threshold);
-    uint32_t *alias = malloc(count * sizeof *alias);
-    pf_status status = threshold && alias
-                           ? pf_alias_table_build(weights, count, threshold, alias, err)
-                           : pf_error_set(err, PF_ERR_NOMEM, "emissive alias table: %u entries",
-                                          count);
+    float *threshold;
+    uint32_t *alias;
+    pf_status status =
+        alias_columns(weights, count, "emissive alias table", &threshold, &alias, err);
     for (uint32_t i = 0; status == PF_OK && i < count; i++) {
         table[i].alias_threshold = threshold[i];
         table[i].alias = alias[i];
@@ -95,9 +105,9 @@ static pf_status lights_with_picks(const pf_scene_frame *frame, pf_light **out, 
         return PF_OK;
     pf_light *lights = malloc(count * sizeof *lights);
     double *weights = malloc(count * sizeof *weights);
-    float *threshold = malloc(count * sizeof *threshold);
-    uint32_t *alias = malloc(count * sizeof *alias);
-    pf_status status = lights && weights && threshold && alias
+    float *threshold = NULL;
+    uint32_t *alias = NULL;
+    pf_status status = lights && weights
                            ? PF_OK
                            : pf_error_set(err, PF_ERR_NOMEM, "light table: %u lights", count);
     /* Directional lights' power is over the scene's bounding disc, as photon emission's. */
@@ -114,7 +124,7 @@ static pf_status lights_with_picks(const pf_scene_frame *frame, pf_light **out, 
     }
     int table = status == PF_OK && total > 0.0 && isfinite(total);
     if (table)
-        status = pf_alias_table_build(weights, count, threshold, alias, err);
+        status = alias_columns(weights, count, "light table", &threshold, &alias, err);
     for (uint32_t i = 0; status == PF_OK && i < count; i++) {
         lights[i].pick_threshold = table ? threshold[i] : 0.0f;
         lights[i].pick_alias = table ? alias[i] : i;

@@ -908,14 +908,34 @@ static pf_status load_lights(gltf_context *ctx, pf_error *err)
 
 /* ---- nodes and the scene ------------------------------------------------ */
 
+/* A node's transform before the file's: the identity (TRS with unit rotation and scale). */
+static void node_identity(scene_node *node)
+{
+    node->rotation[3] = 1.0f;
+    node->scale[0] = node->scale[1] = node->scale[2] = 1.0f;
+}
+
+/* Normalises a node's (or an instance's) rotation; a zero quaternion is refused with what,
+ * naming element. */
+static pf_status unit_rotation(gltf_context *ctx, float rotation[4], const char *element,
+                               const char *what, pf_error *err)
+{
+    float length_squared = 0;
+    for (int k = 0; k < 4; k++)
+        length_squared += rotation[k] * rotation[k];
+    if (!(length_squared > 1e-12f))
+        return gltf_fail(ctx, err, PF_ERR_FORMAT, element, "%s is a zero quaternion", what);
+    scene_quat_normalize(rotation);
+    return PF_OK;
+}
+
 static pf_status load_node(gltf_context *ctx, uint32_t index, const cJSON *node,
                            scene_node *out, pf_error *err)
 {
     pf_scene *scene = ctx->scene;
     char element[64];
     snprintf(element, sizeof element, "nodes[%u]", index);
-    out->rotation[3] = 1.0f;
-    out->scale[0] = out->scale[1] = out->scale[2] = 1.0f;
+    node_identity(out);
     pf_status status = gltf_floats(ctx, node, "translation", 3, out->translation, element, err);
     if (!status)
         status = gltf_floats(ctx, node, "rotation", 4, out->rotation, element, err);
@@ -931,14 +951,10 @@ static pf_status load_node(gltf_context *ctx, uint32_t index, const cJSON *node,
                             (uint32_t)cJSON_GetArraySize(
                                 cJSON_GetObjectItemCaseSensitive(ctx->root, "skins")),
                             &out->skin, element, err);
+    if (!status)
+        status = unit_rotation(ctx, out->rotation, element, "rotation", err);
     if (status)
         return status;
-    float length_squared = 0;
-    for (int k = 0; k < 4; k++)
-        length_squared += out->rotation[k] * out->rotation[k];
-    if (!(length_squared > 1e-12f))
-        return gltf_fail(ctx, err, PF_ERR_FORMAT, element, "rotation is a zero quaternion");
-    scene_quat_normalize(out->rotation);
     if (cJSON_GetObjectItemCaseSensitive(node, "matrix")) {
         status = gltf_floats(ctx, node, "matrix", 16, out->matrix, element, err);
         if (status)
@@ -1033,22 +1049,16 @@ static pf_status expand_instances(gltf_context *ctx, const cJSON *nodes, pf_erro
                 instance->parent = (int32_t)k;
                 instance->mesh = node->mesh;
                 instance->camera = instance->light = instance->skin = SCENE_NONE;
-                instance->rotation[3] = 1.0f;
-                instance->scale[0] = instance->scale[1] = instance->scale[2] = 1.0f;
+                node_identity(instance);
                 if (values[0])
                     memcpy(instance->translation, values[0] + 3 * (size_t)i, 3 * sizeof(float));
                 if (values[1])
                     memcpy(instance->rotation, values[1] + 4 * (size_t)i, 4 * sizeof(float));
                 if (values[2])
                     memcpy(instance->scale, values[2] + 3 * (size_t)i, 3 * sizeof(float));
-                float length_squared = 0.0f;
-                for (int c = 0; c < 4; c++)
-                    length_squared += instance->rotation[c] * instance->rotation[c];
-                if (!(length_squared > 1e-12f))
-                    status = gltf_fail(ctx, err, PF_ERR_FORMAT, element,
-                                       "ROTATION of instance %u is a zero quaternion", i);
-                else
-                    scene_quat_normalize(instance->rotation);
+                char what[48];
+                snprintf(what, sizeof what, "ROTATION of instance %u", i);
+                status = unit_rotation(ctx, instance->rotation, element, what, err);
             }
             node->mesh = SCENE_NONE;
             scene->node_count += count;
