@@ -89,53 +89,46 @@ static pf_status load_alpha(gltf_context *ctx, const cJSON *material, const char
     return PF_OK;
 }
 
+/* One texture slot, the textureInfo at parent's key (absent: none), named in errors as
+ * parent_element.key. */
+static pf_status material_slot(gltf_context *ctx, const cJSON *parent, const char *parent_element,
+                               const char *key, int srgb, uint32_t *slot, float *scale,
+                               pf_error *err)
+{
+    char element[256];
+    snprintf(element, sizeof element, "%s.%s", parent_element, key);
+    return gltf_texture_slot(ctx, cJSON_GetObjectItemCaseSensitive(parent, key), srgb, element,
+                             slot, scale, err);
+}
+
 /* The textured slots: baseColor, emissive and specularColor in sRGB, metallicRoughness, normal
  * and specular linear. */
 static pf_status load_texture_slots(gltf_context *ctx, const cJSON *material, const cJSON *pbr,
                                     const char *element, pf_material *out, pf_error *err)
 {
-    char slot_element[192];
-    snprintf(slot_element, sizeof slot_element, "%s.pbrMetallicRoughness.baseColorTexture",
+    char pbr_element[160], specular_element[192];
+    snprintf(pbr_element, sizeof pbr_element, "%s.pbrMetallicRoughness", element);
+    snprintf(specular_element, sizeof specular_element, "%s.extensions.KHR_materials_specular",
              element);
-    pf_status status = gltf_texture_slot(
-        ctx, cJSON_GetObjectItemCaseSensitive(pbr, "baseColorTexture"), 1, slot_element,
-        &out->base_color_texture, NULL, err);
-    if (!status) {
-        snprintf(slot_element, sizeof slot_element,
-                 "%s.pbrMetallicRoughness.metallicRoughnessTexture", element);
-        status = gltf_texture_slot(
-            ctx, cJSON_GetObjectItemCaseSensitive(pbr, "metallicRoughnessTexture"), 0,
-            slot_element, &out->metallic_roughness_texture, NULL, err);
-    }
-    if (!status) {
-        snprintf(slot_element, sizeof slot_element, "%s.normalTexture", element);
-        status = gltf_texture_slot(ctx, cJSON_GetObjectItemCaseSensitive(material,
-                                                                         "normalTexture"),
-                                   0, slot_element, &out->normal_texture, &out->normal_scale,
-                                   err);
-    }
-    if (!status) {
-        snprintf(slot_element, sizeof slot_element, "%s.emissiveTexture", element);
-        status = gltf_texture_slot(ctx, cJSON_GetObjectItemCaseSensitive(material,
-                                                                         "emissiveTexture"),
-                                   1, slot_element, &out->emissive_texture, NULL, err);
-    }
     const cJSON *specular = cJSON_GetObjectItemCaseSensitive(
         cJSON_GetObjectItemCaseSensitive(material, "extensions"), "KHR_materials_specular");
-    if (!status) {
-        snprintf(slot_element, sizeof slot_element,
-                 "%s.extensions.KHR_materials_specular.specularTexture", element);
-        status = gltf_texture_slot(ctx, cJSON_GetObjectItemCaseSensitive(specular,
-                                                                         "specularTexture"),
-                                   0, slot_element, &out->specular_texture, NULL, err);
-    }
-    if (!status) {
-        snprintf(slot_element, sizeof slot_element,
-                 "%s.extensions.KHR_materials_specular.specularColorTexture", element);
-        status = gltf_texture_slot(
-            ctx, cJSON_GetObjectItemCaseSensitive(specular, "specularColorTexture"), 1,
-            slot_element, &out->specular_color_texture, NULL, err);
-    }
+    pf_status status = material_slot(ctx, pbr, pbr_element, "baseColorTexture", 1,
+                                     &out->base_color_texture, NULL, err);
+    if (!status)
+        status = material_slot(ctx, pbr, pbr_element, "metallicRoughnessTexture", 0,
+                               &out->metallic_roughness_texture, NULL, err);
+    if (!status)
+        status = material_slot(ctx, material, element, "normalTexture", 0, &out->normal_texture,
+                               &out->normal_scale, err);
+    if (!status)
+        status = material_slot(ctx, material, element, "emissiveTexture", 1,
+                               &out->emissive_texture, NULL, err);
+    if (!status)
+        status = material_slot(ctx, specular, specular_element, "specularTexture", 0,
+                               &out->specular_texture, NULL, err);
+    if (!status)
+        status = material_slot(ctx, specular, specular_element, "specularColorTexture", 1,
+                               &out->specular_color_texture, NULL, err);
     return status;
 }
 
@@ -145,7 +138,7 @@ static pf_status load_clearcoat(gltf_context *ctx, const cJSON *coat, const char
 {
     if (!coat)
         return PF_OK;
-    char coat_element[192], slot_element[256];
+    char coat_element[192];
     snprintf(coat_element, sizeof coat_element, "%s.extensions.KHR_materials_clearcoat",
              element);
     double factor = 0, roughness = 0;
@@ -157,24 +150,16 @@ static pf_status load_clearcoat(gltf_context *ctx, const cJSON *coat, const char
         status = gltf_fail(ctx, err, PF_ERR_FORMAT, coat_element,
                            "clearcoatFactor %g and clearcoatRoughnessFactor %g must be in [0, 1]",
                            factor, roughness);
-    if (!status) {
-        snprintf(slot_element, sizeof slot_element, "%s.clearcoatTexture", coat_element);
-        status = gltf_texture_slot(ctx, cJSON_GetObjectItemCaseSensitive(coat, "clearcoatTexture"),
-                                   0, slot_element, &out->clearcoat_texture, NULL, err);
-    }
-    if (!status) {
-        snprintf(slot_element, sizeof slot_element, "%s.clearcoatRoughnessTexture",
-                 coat_element);
-        status = gltf_texture_slot(
-            ctx, cJSON_GetObjectItemCaseSensitive(coat, "clearcoatRoughnessTexture"), 0,
-            slot_element, &out->clearcoat_roughness_texture, NULL, err);
-    }
-    if (!status) {
-        snprintf(slot_element, sizeof slot_element, "%s.clearcoatNormalTexture", coat_element);
-        status = gltf_texture_slot(
-            ctx, cJSON_GetObjectItemCaseSensitive(coat, "clearcoatNormalTexture"), 0,
-            slot_element, &out->clearcoat_normal_texture, &out->clearcoat_normal_scale, err);
-    }
+    if (!status)
+        status = material_slot(ctx, coat, coat_element, "clearcoatTexture", 0,
+                               &out->clearcoat_texture, NULL, err);
+    if (!status)
+        status = material_slot(ctx, coat, coat_element, "clearcoatRoughnessTexture", 0,
+                               &out->clearcoat_roughness_texture, NULL, err);
+    if (!status)
+        status = material_slot(ctx, coat, coat_element, "clearcoatNormalTexture", 0,
+                               &out->clearcoat_normal_texture, &out->clearcoat_normal_scale,
+                               err);
     if (status)
         return status;
     if (out->clearcoat_normal_texture == PF_NO_TEXTURE)
