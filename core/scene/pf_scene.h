@@ -492,10 +492,11 @@ pf_status pf_scene_deform_with(const pf_scene *scene, double time_seconds, pf_sc
 
 /*
  * Camera for rendering width×height: when the file gives an aspect ratio that
- * differs from the image's, yfov (orthographic: ymag) is kept and the image's aspect is
- * used (glTF §3.10.3: the viewport's aspect wins). Writes the half extents of the image
- * plane at distance 1 in *tan_half_x and *tan_half_y; an orthographic camera's, in world
- * units, at any distance.
+ * differs from the image's, yfov is kept and the image's aspect is used (glTF §3.10.3: the
+ * viewport's aspect wins); an orthographic camera's larger magnification spans the image's
+ * longer side, as Blender's importer reads it. Writes the half extents of the image plane
+ * at distance 1 in *tan_half_x and *tan_half_y; an orthographic camera's, in world units,
+ * at any distance.
  */
 void pf_camera_image_plane(const pf_camera *camera, uint32_t width, uint32_t height,
                            float *tan_half_x, float *tan_half_y);

@@ -184,7 +184,17 @@ void pf_camera_image_plane(const pf_camera *camera, uint32_t width, uint32_t hei
         aspect = (float)width / (float)height;
     else if (camera->aspect > 0.0f)
         aspect = camera->aspect;
-    *tan_half_y = camera->orthographic ? camera->ymag : tanf(0.5f * camera->yfov);
+    if (camera->orthographic) {
+        /* The larger magnification spans the image's longer side, as Blender's importer
+         * (ortho_scale = 2 max(xmag, ymag), fitted automatically) and Cycles read the file:
+         * the same view as the file's where the aspects agree. */
+        float xmag = camera->aspect > 0.0f ? camera->ymag * camera->aspect : camera->ymag;
+        float mag = xmag > camera->ymag ? xmag : camera->ymag;
+        *tan_half_x = aspect >= 1.0f ? mag : mag * aspect;
+        *tan_half_y = aspect >= 1.0f ? mag / aspect : mag;
+        return;
+    }
+    *tan_half_y = tanf(0.5f * camera->yfov);
     *tan_half_x = *tan_half_y * aspect;
 }
 

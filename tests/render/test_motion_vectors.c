@@ -157,8 +157,8 @@ PF_TEST(a_moving_object_moves_by_the_closed_form_and_the_still_wall_reads_zero)
 }
 
 /*
- * Under an orthographic camera (ymag 1: the view 2 m high) a sliding camera moves every
- * point by the same pixels, near or far: 0.2 m right is 0.2 / (2 ymag · W/H) · W px, on the
+ * Under an orthographic camera (ymag 1: the view 2 m wide, its longer side) a sliding camera
+ * moves every point by the same pixels, near or far: 0.2 m right is 0.2 / 2 · W px, on the
  * wall 5 m away as on the quad 2 m away (a pinhole's would differ by 2.5×).
  */
 PF_TEST(an_orthographic_camera_moves_near_and_far_alike)
@@ -174,7 +174,7 @@ PF_TEST(an_orthographic_camera_moves_near_and_far_alike)
     pf_image image = {0};
     int mx = render_motion(&now, &before, &image);
     PF_REQUIRE(mx >= 0);
-    double half_x = 1.0 * WIDTH / HEIGHT;
+    double half_x = 1.0; /* ymag spans the longer side, the width */
     double expected = 0.2 / (2.0 * half_x) * WIDTH;
     /* The wall in a corner, the quad (0.6 m wide about the view's centre) in the middle. */
     PF_CHECK_NEAR(ref_pixel(&image, mx, 1, 1), expected, 1e-3);

@@ -816,8 +816,9 @@ PF_TEST(absorbing_slab_attenuates_by_beer_lambert)
 
 /*
  * An orthographic camera (glTF's: parallel rays over ymag half extents, world units): a
- * 1 × 1 quad 2 m in front of it, seen with ymag 1 in a 32 × 24 image (x half extent 4/3),
- * covers exactly the 12 × 12 pixels of [10, 22) × [6, 18), whatever its distance, each at
+ * 1 × 1 quad 2 m in front of it, seen with ymag 1 in a 32 × 24 image (1 m spans the longer
+ * side, so the half extents are 1 and 0.75), covers exactly the 16 × 16 pixels of
+ * [8, 24) × [4, 20), whatever its distance, each at
  * depth 2 (a pinhole would see the quad's middle nearer than its corners). Every preset's
  * camera rays (the box filter: a sample stays in its pixel).
  */
@@ -851,11 +852,11 @@ PF_TEST(orthographic_camera_sees_a_quad_at_one_depth_in_every_preset)
         for (uint32_t y = 0; y < 24; y++)
             for (uint32_t x = 0; x < 32; x++) {
                 double z = image.pixels[(y * 32 + x) * image.channel_count + depth];
-                int inside = x >= 10 && x < 22 && y >= 6 && y < 18;
+                int inside = x >= 8 && x < 24 && y >= 4 && y < 20;
                 seen += z > 0.0;
                 wrong += inside ? !(fabs(z - 2.0) <= 1e-5) : z != 0.0;
             }
-        PF_CHECK_MSG(seen == 144 && wrong == 0, "%s: %u pixels see the quad, %u wrong",
+        PF_CHECK_MSG(seen == 256 && wrong == 0, "%s: %u pixels see the quad, %u wrong",
                      pf_quality_name(presets[q]), seen, wrong);
         pf_image_free(&image);
     }

@@ -629,9 +629,9 @@ PF_TEST(sparse_accessor)
 }
 
 /* An orthographic camera: parallel rays over xmag × ymag half extents (world units), read
- * without a warning; the image plane's half extents are ymag, and ymag times the image's
- * aspect; its rays start on the view's plane, all along forward. Magnifications of 0 are
- * refused. */
+ * without a warning; the larger magnification spans the image's longer side (Blender's
+ * importer's reading), the image's aspect the other; its rays start on the view's plane, all
+ * along forward. Magnifications of 0 are refused. */
 PF_TEST(orthographic_camera_renders_parallel_rays)
 {
     char path[512];
@@ -656,10 +656,14 @@ PF_TEST(orthographic_camera_renders_parallel_rays)
     PF_CHECK_NEAR(frame.camera.position[2], 3, 0);
     float half_x, half_y;
     pf_camera_image_plane(&frame.camera, 300, 100, &half_x, &half_y);
-    PF_CHECK(half_y == 1.0f && half_x == 3.0f); /* the image's aspect, 3 */
+    /* xmag 2 spans the image's longer side; the image's aspect, 3, gives the other. */
+    PF_CHECK(half_x == 2.0f && fabsf(half_y - 2.0f / 3.0f) < 1e-6f);
+    pf_camera_image_plane(&frame.camera, 100, 300, &half_x, &half_y);
+    PF_CHECK(half_y == 2.0f && fabsf(half_x - 2.0f / 3.0f) < 1e-6f);
+    pf_camera_image_plane(&frame.camera, 300, 100, &half_x, &half_y);
     double origin[3], direction[3];
-    pf_camera_ray(&frame.camera, half_x, half_y, 1.0, -0.5, origin, direction);
-    PF_CHECK_NEAR(origin[0], 3, 1e-6);
+    pf_camera_ray(&frame.camera, half_x, half_y, 1.0, -0.75, origin, direction);
+    PF_CHECK_NEAR(origin[0], 2, 1e-6);
     PF_CHECK_NEAR(origin[1], -0.5, 1e-6);
     PF_CHECK_NEAR(origin[2], 3, 1e-6);
     PF_CHECK(direction[0] == 0 && direction[1] == 0 && direction[2] == -1);
