@@ -116,6 +116,9 @@ typedef struct pf_lpv_settings {
     float offset_cells;                          /* VPL offset along its normal, 0 = default */
     int undamped;                                /* 1: no light-bleeding dampening at lookup
                                                     (lpv_lookup.glsl; for measurements) */
+    int unscaled;                                /* 1: the irradiance is not scaled to the
+                                                    photons' energy (fast_shade.glsl; for
+                                                    measurements) */
 } pf_lpv_settings;
 
 /* Which setting pf_lpv_settings_check refused (for the caller's message). */
@@ -227,6 +230,17 @@ void pf_lpv_inject(const pf_lpv_layout *layout, const pf_lpv_vpl *vpls, uint32_t
  */
 uint64_t pf_lpv_geometry_build(const pf_lpv_layout *layout, const pf_scene_frame *frame,
                                float *gv);
+
+/*
+ * Where `fast` weighs its volumes' energy (frame_fast.c, render_fast_energy.comp): count
+ * points spread over the frame's diffuse (PF_MATERIAL_LAMBERT) triangles by area, each
+ * PF_LPV_ENERGY_SAMPLE_FLOATS floats: position xyz, 1 where the material is double-sided
+ * (both faces lit) else 0, the face's unit normal xyz (counter-clockwise front), 0. The
+ * same frame gives the same points. Returns the triangles' total area (m²; 0: no diffuse
+ * surface, and every sample zero): each point stands for total / count of it.
+ */
+#define PF_LPV_ENERGY_SAMPLE_FLOATS 8u
+double pf_lpv_energy_samples(const pf_scene_frame *frame, uint32_t count, float *samples);
 
 /* Area of a triangle clipped to an axis-aligned box (exact up to rounding). */
 double pf_lpv_clipped_area(const float a[3], const float b[3], const float c[3],

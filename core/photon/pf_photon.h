@@ -404,6 +404,9 @@ typedef struct pf_photon_trace_settings {
                                      photons, only the maps' order differs */
     const pf_bih_wide *host_wide; /* host_tree's wide view, kept by the caller (NULL: built
                                      for the pass) */
+    /* Arrivals (pf_photon_maps.arrival_flux) are counted strictly inside this box; all zero:
+     * none. */
+    float arrival_box_min[3], arrival_box_max[3];
 } pf_photon_trace_settings;
 
 typedef struct pf_photon_maps {
@@ -420,6 +423,10 @@ typedef struct pf_photon_maps {
     double gpu_ms;                /* < 0 without timestamps */
     uint32_t waves;               /* with a host_tree: the dispatches of the waves */
     double host_trace_ms;         /* with a host_tree: the host's traces */
+    /* Luminance flux (map units) of the photons that reached a diffuse surface, on a side
+     * it shades, inside the settings' arrival box after at least one diffuse bounce: the
+     * energy the diffuse-to-diffuse light deposits there (fast's LPV is scaled to it). */
+    double arrival_flux;
 } pf_photon_maps;
 
 typedef struct pf_photon_tracer pf_photon_tracer;

@@ -24,7 +24,7 @@ typedef enum pf_photon_step {
     PF_PHOTON_STEPS
 } pf_photon_step;
 
-/* PhotonTraceParams in photon_path.glsl (std430, 96 bytes). */
+/* PhotonTraceParams in photon_path.glsl (std430, 128 bytes). */
 typedef struct photon_trace_params {
     float bih_bounds_min[4];
     float bih_bounds_max[4];
@@ -40,6 +40,8 @@ typedef struct photon_trace_params {
     uint32_t caustic_capacity;
     float ray_offset;
     uint32_t global_reflected;
+    float arrival_box_min[4]; /* xyz; an empty box counts no arrival */
+    float arrival_box_max[4];
 } photon_trace_params;
 
 typedef struct trace_counters {
@@ -48,6 +50,7 @@ typedef struct trace_counters {
     uint32_t traversal_failures;
     uint32_t non_finite;
     uint32_t loop_truncated;
+    uint32_t arrivals_lo, arrivals_hi; /* 2^-16 flux units (count_arrival) */
 } trace_counters;
 
 /* photon_path.glsl's Push. */

@@ -16,7 +16,7 @@
 /* Default map capacity: stores per emitted photon (a bounce or two survive roulette on average). */
 #define DEFAULT_STORES_PER_PHOTON 4u
 
-_Static_assert(sizeof(photon_trace_params) == 96, "photon_trace_params must match PhotonTraceParams");
+_Static_assert(sizeof(photon_trace_params) == 128, "photon_trace_params must match PhotonTraceParams");
 
 struct pf_photon_tracer {
     pf_vk_context *ctx;
@@ -218,6 +218,10 @@ static pf_status job_prepare(pf_photon_tracer *tracer, const pf_photon_scene *sc
     params->seed_hi = (uint32_t)(settings->seed >> 32);
     params->max_depth = settings->max_depth ? settings->max_depth : PF_PHOTON_DEFAULT_MAX_DEPTH;
     params->ray_offset = scene->ray_offset;
+    for (int k = 0; k < 3; k++) {
+        params->arrival_box_min[k] = settings->arrival_box_min[k];
+        params->arrival_box_max[k] = settings->arrival_box_max[k];
+    }
 
     status = pf_vk_buffer_create(ctx, sizeof *params, "photon trace parameters",
                                  &job->params_buffer, err);
@@ -361,6 +365,8 @@ static pf_status job_finish(const trace_job *job, const pf_photon_emitters *emit
                              ? counters->caustic_stored
                              : params->caustic_capacity;
     out->non_finite = counters->non_finite;
+    out->arrival_flux =
+        ((double)counters->arrivals_hi * 4294967296.0 + counters->arrivals_lo) / 65536.0;
     return PF_OK;
 }
 

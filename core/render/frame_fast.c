@@ -42,8 +42,13 @@
 #define GROUP_EDGE 8u
 /* A frame fails when more than this fraction of its samples hit the loop cap (as final). */
 #define FAST_TRUNCATED_LIMIT 0.01
+/* Points on the diffuse surfaces where the LPV's delivered energy is weighed (shade): its
+ * irradiance is smooth, and 16,384 points put the sum's noise under a percent. */
+#define FAST_ENERGY_SAMPLES 16384u
+/* fast_shade.glsl's LPV_ENERGY_SCALE_MAX. */
+#define FAST_ENERGY_SCALE_MAX 4.0
 
-/* fast_shade.glsl's Push (72 bytes). */
+/* fast_shade.glsl's Push (80 bytes). */
 typedef struct fast_push {
     pf_photon_grid_push grid;
     uint32_t grid_photons;
@@ -54,10 +59,17 @@ typedef struct fast_push {
     float flux_scale;
     uint32_t loop_sentinel;
     uint32_t lpv_damping;
-    uint32_t padding;
+    float lpv_arrivals;
+    uint32_t energy_samples;
+    float energy_weight;
 } fast_push;
 
-_Static_assert(sizeof(fast_push) == 72, "fast_push must match fast_shade.glsl's Push");
+_Static_assert(sizeof(fast_push) == 80, "fast_push must match fast_shade.glsl's Push");
+
+/* fast_shade.glsl's LpvEnergy: 2^-16 map flux units, a 64-bit sum in two words. */
+typedef struct fast_energy {
+    uint32_t lo, hi;
+} fast_energy;
 
 typedef struct fast_counters {
     uint32_t discarded_samples;
@@ -74,6 +86,9 @@ struct pf_fast_cache {
     uint32_t vpl_count;
     float vpl_flux_scale;
     uint32_t emitted, caustic_count;
+    /* The photons' arrival flux inside the coarsest cascade (pf_photon_maps.arrival_flux):
+     * what the LPV's delivered energy is scaled to. */
+    double arrival_flux;
     pf_photon_grid *caustic;      /* NULL: no caustic map */
     float caustic_radius, caustic_flux_scale;
     double trace_gpu_ms;
@@ -86,6 +101,10 @@ struct pf_fast_cache {
     int injected_on_device;
     pf_lpv_inject_stats inject_stats;
     uint64_t geometry_pieces;
+    /* Points on the diffuse surfaces (pf_lpv_energy_samples), made with the geometry volume,
+     * and the area they cover. */
+    float *energy_samples;
+    double energy_area;
     pf_vk_buffer *cascades;       /* vec4 per cascade: origin, cell size */
 };
 
@@ -96,6 +115,7 @@ void pf_fast_cache_destroy(pf_vk_context *ctx, struct pf_fast_cache *cache)
     pf_render_buffer_release(ctx, &cache->vpls);
     free(cache->geometry);
     free(cache->injected);
+    free(cache->energy_samples);
     pf_photon_grid_destroy(cache->caustic);
     pf_render_buffer_release(ctx, &cache->cascades);
     pf_lpv_destroy(cache->lpv);
@@ -110,6 +130,7 @@ typedef struct fast_progress {
     int propagate_on_host; /* the propagation ran on the host's CPUs (pf_lpv_propagate_stats) */
     uint32_t samples;
     uint64_t rays, discarded, truncated, failures, lpv_outside;
+    double lpv_delivered;  /* the LPV's delivered flux at the points (map units; 0: not weighed) */
     double shade_gpu_ms;
     /* Where the host traced the photons: the waves' dispatches and its traces' time. */
     uint32_t photon_waves;
@@ -128,6 +149,14 @@ static pf_status trace_photons(struct pf_fast_cache *cache, const pf_photon_fram
                                       .seed = settings->seed,
                                       .store_direct = 1,
                                       .global_reflected = 1};
+    /* Arrivals are counted where a lookup finds the coarsest cascade (lpv_lookup.glsl):
+     * between its first and last cells' centres. */
+    const pf_lpv_cascade *coarsest = &plan->layout.cascades[plan->layout.count - 1];
+    for (int k = 0; k < 3; k++) {
+        trace.arrival_box_min[k] = coarsest->origin[k] + 0.5f * coarsest->cell_size;
+        trace.arrival_box_max[k] =
+            coarsest->origin[k] + ((float)plan->layout.size - 0.5f) * coarsest->cell_size;
+    }
     pf_status status = pf_photon_frame_trace(renderer, inputs, plan, &trace, 1, maps, err);
     if (status != PF_OK)
         return status;
@@ -145,6 +174,7 @@ static pf_status trace_photons(struct pf_fast_cache *cache, const pf_photon_fram
         cache->vpl_flux_scale = maps->flux_scale;
     }
     cache->emitted = maps->emitted;
+    cache->arrival_flux = maps->arrival_flux;
     cache->caustic_count = plan->caustic_map && status == PF_OK ? maps->caustic_count : 0;
     cache->caustic_flux_scale = maps->flux_scale;
     cache->caustic_radius = pf_photon_radius_for_density(frame, FAST_CAUSTIC_NEIGHBOURS,
@@ -198,6 +228,15 @@ static pf_status build_geometry_volume(struct pf_fast_cache *cache, const pf_sce
         &cache->geometry, pf_lpv_volume_floats(layout, PF_LPV_GV_FLOATS_PER_CELL), err);
     if (status == PF_OK)
         cache->geometry_pieces = pf_lpv_geometry_build(layout, frame, cache->geometry);
+    if (status == PF_OK && !cache->energy_samples) {
+        cache->energy_samples = malloc((size_t)FAST_ENERGY_SAMPLES *
+                                       PF_LPV_ENERGY_SAMPLE_FLOATS * sizeof(float));
+        if (!cache->energy_samples)
+            status = pf_error_set(err, PF_ERR_NOMEM, "fast: out of memory for the LPV's points");
+    }
+    if (status == PF_OK)
+        cache->energy_area =
+            pf_lpv_energy_samples(frame, FAST_ENERGY_SAMPLES, cache->energy_samples);
     progress->geometry_ms = pf_time_ms() - start;
     return status;
 }
@@ -303,12 +342,13 @@ static pf_status record_cascades(pf_vk_context *ctx, pf_vk_commands *cmds,
 
 /* Device buffers of one frame's shading; every pointer NULL or owned. */
 typedef struct fast_buffers {
-    pf_vk_buffer *params, *film, *film_aov, *counters, *empty_grid;
+    pf_vk_buffer *params, *film, *film_aov, *counters, *empty_grid, *energy, *energy_samples;
 } fast_buffers;
 
 static void fast_buffers_release(pf_vk_context *ctx, fast_buffers *b)
 {
-    pf_vk_buffer **all[] = {&b->params, &b->film, &b->film_aov, &b->counters, &b->empty_grid};
+    pf_vk_buffer **all[] = {&b->params,     &b->film,   &b->film_aov,      &b->counters,
+                            &b->empty_grid, &b->energy, &b->energy_samples};
     for (size_t i = 0; i < sizeof all / sizeof all[0]; i++)
         pf_render_buffer_release(ctx, all[i]);
 }
@@ -349,6 +389,28 @@ static pf_status shade(pf_renderer *renderer, struct pf_fast_cache *cache,
     push.lpv_damping = settings->lpv.undamped ? 0u : 1u;
     push.cascade_count = cache->layout.count;
     push.lpv_size = cache->layout.size;
+    /* The LPV's energy scale (fast_shade.glsl): its delivered flux at the points, weighed on
+     * the device before the samples, against the photons' arrivals. */
+    int weighed = !settings->lpv.unscaled && cache->energy_area > 0.0 &&
+                  cache->vpl_flux_scale > 0.0f && cache->layout.count > 0;
+    static const fast_energy no_energy = {0};
+    if (status == PF_OK)
+        status = pf_render_buffer_recorded(ctx, cmds, "LPV energy", &no_energy, sizeof no_energy,
+                                           sizeof no_energy, &owned.energy, err);
+    uint64_t sample_bytes = (uint64_t)FAST_ENERGY_SAMPLES * PF_LPV_ENERGY_SAMPLE_FLOATS *
+                            sizeof(float);
+    if (status == PF_OK)
+        status = pf_render_buffer_recorded(ctx, cmds, "LPV energy points",
+                                           weighed ? cache->energy_samples : NULL,
+                                           weighed ? sample_bytes : 0,
+                                           weighed ? sample_bytes : 32, &owned.energy_samples,
+                                           err);
+    if (weighed) {
+        push.lpv_arrivals = (float)cache->arrival_flux;
+        push.energy_samples = FAST_ENERGY_SAMPLES;
+        push.energy_weight = (float)(cache->energy_area / FAST_ENERGY_SAMPLES /
+                                     cache->vpl_flux_scale);
+    }
     pf_vk_buffer *records = owned.empty_grid, *flux = owned.empty_grid;
     pf_vk_buffer *ranges = owned.empty_grid;
     if (cache->caustic) {
@@ -368,7 +430,8 @@ static pf_status shade(pf_renderer *renderer, struct pf_fast_cache *cache,
                            pf_lpv_accumulated(cache->lpv), cache->cascades,
                            records,          ranges,
                            pf_lpv_far_fields(cache->lpv),  pf_lpv_geometry(cache->lpv),
-                           flux};
+                           flux,             owned.energy,
+                           owned.energy_samples};
     pf_vk_buffer *buffers[PF_FAST_BUFFERS];
     pf_gpu_scene_bindings(scene, owned.params, own, sizeof own / sizeof *own, buffers);
     /* The kernel with the caustic estimate only for a frame with caustic photons. */
@@ -377,9 +440,19 @@ static pf_status shade(pf_renderer *renderer, struct pf_fast_cache *cache,
         status = pf_renderer_pipeline(
             renderer, push.grid_photons > 0 ? PF_PIPELINE_FAST_CAUSTIC : PF_PIPELINE_FAST, &kernel,
             err);
+    pf_vk_pipeline *weigh = NULL;
+    if (status == PF_OK && weighed)
+        status = pf_renderer_pipeline(renderer, PF_PIPELINE_FAST_ENERGY, &weigh, err);
     uint32_t groups_x = (settings->width + GROUP_EDGE - 1) / GROUP_EDGE;
     uint32_t groups_y = (settings->height + GROUP_EDGE - 1) / GROUP_EDGE;
     int begin = status == PF_OK ? pf_vk_cmd_timestamp(cmds) : -1;
+    if (status == PF_OK && weighed) {
+        status = pf_vk_cmd_dispatch(cmds, weigh, buffers, PF_FAST_BUFFERS, &push, sizeof push,
+                                    (FAST_ENERGY_SAMPLES + GROUP_EDGE * GROUP_EDGE - 1) /
+                                        (GROUP_EDGE * GROUP_EDGE),
+                                    1, 1, err);
+        pf_vk_cmd_barrier(cmds);
+    }
     for (uint32_t s = 0; status == PF_OK && s < samples; s++) {
         push.sample_index = s;
         status = pf_vk_cmd_dispatch(cmds, kernel, buffers, PF_FAST_BUFFERS,
@@ -387,9 +460,12 @@ static pf_status shade(pf_renderer *renderer, struct pf_fast_cache *cache,
         pf_vk_cmd_barrier(cmds);
     }
     fast_counters counters;
+    fast_energy energy = {0};
     pf_split_film_readback readback = {0};
     if (status == PF_OK)
         status = pf_vk_cmd_download(cmds, owned.counters, 0, &counters, sizeof counters, err);
+    if (status == PF_OK)
+        status = pf_vk_cmd_download(cmds, owned.energy, 0, &energy, sizeof energy, err);
     /* The film's split into the image's channels is the stage's device work too. */
     if (status == PF_OK)
         status = pf_split_film_record_read(renderer, cmds, owned.film, owned.film_aov,
@@ -407,6 +483,7 @@ static pf_status shade(pf_renderer *renderer, struct pf_fast_cache *cache,
         progress->truncated = counters.loop_truncated;
         progress->failures = counters.traversal_failures;
         progress->lpv_outside = counters.lpv_outside;
+        progress->lpv_delivered = ((double)energy.hi * 4294967296.0 + energy.lo) / 65536.0;
     }
     pf_split_film_finish_read(&readback);
     fast_buffers_release(ctx, &owned);
@@ -493,6 +570,11 @@ static void report_rows(pf_frame_report *report, const struct pf_fast_cache *cac
         pf_stage_add_counter(row, "discarded_samples", (double)progress->discarded);
         pf_stage_add_counter(row, "loop_truncated", (double)progress->truncated);
         pf_stage_add_counter(row, "lpv_outside", (double)progress->lpv_outside);
+        /* The scale fast_shade.glsl's lpv_energy_scale gave the LPV (1: not weighed). */
+        double scale = 1.0;
+        if (progress->lpv_delivered > 0.0)
+            scale = fmin(cache->arrival_flux / progress->lpv_delivered, FAST_ENERGY_SCALE_MAX);
+        pf_stage_add_counter(row, "lpv_energy_scale", scale);
     }
     if (report)
         report->discarded_samples += progress->discarded;

@@ -56,6 +56,7 @@ typedef enum pf_renderer_pipeline_id {
     PF_PIPELINE_CAMERA_RAYS,         /* camera_rays.comp: final's camera rays */
     PF_PIPELINE_FAST,            /* render_fast.comp */
     PF_PIPELINE_FAST_CAUSTIC,    /* render_fast_caustic.comp */
+    PF_PIPELINE_FAST_ENERGY,     /* render_fast_energy.comp */
     PF_PIPELINE_DENOISE_VARIANCE, /* denoise_variance.comp */
     PF_PIPELINE_DENOISE_ATROUS,  /* denoise_atrous.comp */
     PF_PIPELINE_REFERENCE_WAVE_GENERATE, /* render_reference_wave_ends.comp, WAVE_GENERATE */
@@ -73,7 +74,7 @@ typedef enum pf_renderer_pipeline_id {
 /* The final kernels' bindings (final_shared.glsl), the same in all of its pipelines. */
 #define PF_FINAL_BUFFERS (PF_SCENE_BINDING_COUNT + 28u)
 /* The fast kernels' bindings (fast_shade.glsl), the same in both pipelines. */
-#define PF_FAST_BUFFERS (PF_SCENE_BINDING_COUNT + 13u)
+#define PF_FAST_BUFFERS (PF_SCENE_BINDING_COUNT + 15u)
 
 /*
  * The stage plan (stage_plan.c): each stage of a frame, its decision and

@@ -23,9 +23,9 @@
  * 0, WRITE_RAYS 1, HITS_GIVEN 2). */
 #define RENDER_FINAL_PUSH_BYTES 124u
 #define TRACE_STEP_CONSTANT 0u
-/* render_fast.comp and render_fast_caustic.comp: PF_FAST_BUFFERS buffers and the same 72-byte
- * Push (fast_shade.glsl). */
-#define RENDER_FAST_PUSH_BYTES 72u
+/* render_fast.comp, render_fast_caustic.comp and render_fast_energy.comp: PF_FAST_BUFFERS
+ * buffers and the same 80-byte Push (fast_shade.glsl). */
+#define RENDER_FAST_PUSH_BYTES 80u
 /* denoise_variance.comp and denoise_atrous.comp: the same 6 buffers and 16-byte Push
  * (denoise_filter.glsl). */
 #define DENOISE_BUFFERS 6u
@@ -94,6 +94,8 @@ static const pipeline_spec pipeline_specs[PF_PIPELINE_COUNT] = {
     [PF_PIPELINE_FAST] = {"render_fast", PF_FAST_BUFFERS, RENDER_FAST_PUSH_BYTES, 0, {0, 0}, 1, 1},
     [PF_PIPELINE_FAST_CAUSTIC] = {"render_fast_caustic", PF_FAST_BUFFERS, RENDER_FAST_PUSH_BYTES,
                                   0, {0, 0}, 1, 1},
+    [PF_PIPELINE_FAST_ENERGY] = {"render_fast_energy", PF_FAST_BUFFERS, RENDER_FAST_PUSH_BYTES,
+                                 0, {0, 0}, 1},
     [PF_PIPELINE_DENOISE_VARIANCE] = {"denoise_variance", DENOISE_BUFFERS, DENOISE_PUSH_BYTES, 0,
                                       {0, 0}},
     [PF_PIPELINE_DENOISE_ATROUS] = {"denoise_atrous", DENOISE_BUFFERS, DENOISE_PUSH_BYTES, 0,

@@ -75,7 +75,7 @@ static void add_lpv(cJSON *root, const pf_lpv_settings *lpv)
             iteration_count = k + 1;
     }
     if (!lpv->cascades && !lpv->size && !iteration_count && !(lpv->cell_size > 0.0f) &&
-        !(lpv->offset_cells > 0.0f) && !lpv->undamped)
+        !(lpv->offset_cells > 0.0f) && !lpv->undamped && !lpv->unscaled)
         return;
     cJSON *object = cJSON_AddObjectToObject(root, "lpv");
     if (!object)
@@ -96,6 +96,8 @@ static void add_lpv(cJSON *root, const pf_lpv_settings *lpv)
         cJSON_AddNumberToObject(object, "offset_cells", lpv->offset_cells);
     if (lpv->undamped)
         cJSON_AddBoolToObject(object, "undamped", 1);
+    if (lpv->unscaled)
+        cJSON_AddBoolToObject(object, "unscaled", 1);
 }
 
 /* Reads "lpv" (absent: defaults); PF_ERR_FORMAT naming the key when a value is out of range. */
@@ -154,6 +156,9 @@ static pf_status read_lpv(const cJSON *root, pf_lpv_settings *lpv, pf_error *err
     pf_status undamped = read_bool(object, "undamped", &lpv->undamped, err);
     if (undamped != PF_OK)
         return pf_error_prefix(err, "\"lpv\""), undamped;
+    pf_status unscaled = read_bool(object, "unscaled", &lpv->unscaled, err);
+    if (unscaled != PF_OK)
+        return pf_error_prefix(err, "\"lpv\""), unscaled;
     pf_lpv_setting which;
     if (pf_lpv_settings_check(lpv, 0, &which, err) != PF_OK)
         return pf_error_prefix(err, "job parameters: \"lpv\""), PF_ERR_FORMAT;

@@ -47,6 +47,9 @@ layout(push_constant) uniform Push {
     float flux_scale;    // W per unit of the caustic map's stored flux
     uint loop_sentinel;  // 1 (kernel_guard.glsl)
     uint lpv_damping;    // 1: lpv_lookup.glsl's light-bleeding dampening
+    float lpv_arrivals;  // the photons' arrival flux in the LPV's cascades (map units)
+    uint energy_samples; // render_fast_energy.comp's surface points (0: the LPV is not scaled)
+    float energy_weight; // area each point stands for over the map's flux unit (m² / W)
 } push;
 
 #include "scene_bindings.glsl"
@@ -71,6 +74,16 @@ layout(set = 0, binding = PF_SCENE_BINDING_COUNT + 9) uniform isamplerBuffer gri
 layout(set = 0, binding = PF_SCENE_BINDING_COUNT + 10) uniform samplerBuffer lpv_far_texels;
 layout(set = 0, binding = PF_SCENE_BINDING_COUNT + 11) uniform samplerBuffer lpv_geometry_texels;
 layout(set = 0, binding = PF_SCENE_BINDING_COUNT + 12) uniform usamplerBuffer grid_flux;
+// The energy the LPV delivers to the points, in 2^-16 of the map's flux unit (a 64-bit sum
+// in two words: integer sums do not depend on the order of the additions).
+layout(std430, set = 0, binding = PF_SCENE_BINDING_COUNT + 13) buffer LpvEnergy {
+    uint energy_lo;
+    uint energy_hi;
+} lpv_energy;
+// The points (pf_lpv_energy_samples): xyz and 1 where both faces are lit; the normal.
+layout(std430, set = 0, binding = PF_SCENE_BINDING_COUNT + 14) readonly buffer LpvSamples {
+    vec4 lpv_samples[];
+};
 
 #define BIH_BINDING (PF_SCENE_BINDING_COUNT + 3)
 #include "scene_trace.glsl"
@@ -116,6 +129,52 @@ vec3 caustic_irradiance(vec3 position, vec3 geometric_normal, inout bool truncat
 #endif
 }
 
+// Most the LPV's irradiance is scaled up: a volume that delivers almost nothing where the
+// photons arrive is not made to carry many times its light.
+const float LPV_ENERGY_SCALE_MAX = 4.0;
+
+// The LPV's energy scale (frame_fast.c): the photons' arrival flux in the cascades over the
+// flux the LPV's irradiance delivers to the surfaces there (render_fast_energy.comp). The
+// propagation spreads light like a diffusion, and light that leaves an open floor comes
+// back to it (an infinite lit plane gets a third to a half of its own light back, where
+// the truth is none), while in a closed room it lands about where it should: the scale is
+// ~1 in a closed room and below 1 in an open one (bench/RESULTS.md).
+float lpv_energy_scale()
+{
+    if (push.energy_samples == 0u)
+        return 1.0;
+    float delivered = (float(lpv_energy.energy_hi) * 4294967296.0 + float(lpv_energy.energy_lo)) /
+                      65536.0;
+    return delivered > 0.0 ? min(push.lpv_arrivals / delivered, LPV_ENERGY_SCALE_MAX) : 1.0;
+}
+
+#ifdef FAST_ENERGY
+// render_fast_energy.comp: invocation i adds the LPV's irradiance at point i (both faces
+// where the material is double-sided), in luminance, times the area the point stands for,
+// to lpv_energy: the flux the LPV delivers to the diffuse surfaces its cascades hold.
+void main()
+{
+    uint i = gl_WorkGroupID.x * (gl_WorkGroupSize.x * gl_WorkGroupSize.y) +
+             gl_LocalInvocationIndex;
+    if (i >= push.energy_samples)
+        return;
+    vec4 point = lpv_samples[2u * i];
+    vec3 normal = lpv_samples[2u * i + 1u].xyz;
+    bool covered;
+    vec3 irradiance = lpv_irradiance(point.xyz, normal, push.cascade_count, push.lpv_size,
+                                     push.lpv_damping != 0u, covered);
+    if (point.w != 0.0)
+        irradiance += lpv_irradiance(point.xyz, -normal, push.cascade_count, push.lpv_size,
+                                     push.lpv_damping != 0u, covered);
+    float flux = light_luminance(irradiance) * push.energy_weight;
+    if (!(flux > 0.0))
+        return;
+    uint units = uint(min(flux, 65535.0) * 65536.0 + 0.5);
+    uint before = atomicAdd(lpv_energy.energy_lo, units);
+    if (before + units < before) // the low word wrapped: carry
+        atomicAdd(lpv_energy.energy_hi, 1u);
+}
+#else
 void main()
 {
     uvec2 pixel = gl_GlobalInvocationID.xy;
@@ -146,6 +205,7 @@ void main()
     float bsdf_pdf = 0.0;
     bool emitter_probe = false;
     bool aov_recorded = false;
+    float lpv_scale = push.cascade_count > 0u ? lpv_energy_scale() : 1.0;
     for (uint depth = 0u; depth <= params.max_specular_depth; depth++) {
         BihHit hit = trace(origin, direction, infinity, false);
         rays++;
@@ -208,9 +268,10 @@ void main()
                                                      surface.front) / PI;
             if (push.cascade_count > 0u) {
                 bool covered;
-                indirect += reflectance * lpv_irradiance(surface.position, surface.shading_normal,
-                                                         push.cascade_count, push.lpv_size,
-                                                         push.lpv_damping != 0u, covered);
+                indirect += lpv_scale * reflectance *
+                            lpv_irradiance(surface.position, surface.shading_normal,
+                                           push.cascade_count, push.lpv_size,
+                                           push.lpv_damping != 0u, covered);
                 if (!covered)
                     atomicAdd(counters.lpv_outside, 1u);
             }
@@ -274,5 +335,6 @@ void main()
         atomicAdd(counters.discarded_samples, 1u);
     count_rays(rays);
 }
+#endif
 
 #endif

@@ -90,6 +90,9 @@ struct PhotonTraceParams {
     uint caustic_capacity;
     float ray_offset;          // secondary rays leave surfaces this far along the normal
     uint global_reflected;     // 1: the global map holds reflected flux (flux ⊙ albedo): VPLs
+    // Arrivals counted inside this box (an empty box: none), below.
+    vec4 arrival_box_min;      // xyz
+    vec4 arrival_box_max;      // xyz
 };
 
 // PhotonEmitter: pf_photon_emitter (32 bytes).
@@ -119,6 +122,10 @@ layout(std430, set = 0, binding = PF_SCENE_BINDING_COUNT + 5) buffer Counters {
     uint traversal_failures;
     uint non_finite;         // photons dropped for a non-finite flux or direction
     uint loop_truncated;     // invocations llvmpipe's loop cap stopped (their photons cut short)
+    // The arrivals' luminance flux in units of 2^-16 of the map's flux unit, a 64-bit sum in
+    // two words (count_arrival): integer sums do not depend on the order of the additions.
+    uint arrivals_lo;
+    uint arrivals_hi;
 } counters;
 
 #define BIH_BINDING (PF_SCENE_BINDING_COUNT + 0) // nodes, vertices, triangle index: its first three
@@ -268,6 +275,22 @@ void store(bool caustic, bool global, vec3 position, vec3 flux, vec3 reflected, 
     }
 }
 
+// An arrival: light that left a diffuse surface reaching another one (or the same) on a
+// side the surfaces shade, inside params' arrival box. Its luminance flux, summed over the
+// pass, is the energy that `fast`'s light propagation volumes should deliver to surfaces
+// there (frame_fast.c scales their irradiance to it).
+void count_arrival(vec3 position, vec3 flux)
+{
+    if (!all(greaterThan(position, params.arrival_box_min.xyz)) ||
+        !all(lessThan(position, params.arrival_box_max.xyz)))
+        return;
+    float luminance = light_luminance(flux);
+    uint units = uint(clamp(luminance, 0.0, 65535.0) * 65536.0 + 0.5);
+    uint before = atomicAdd(counters.arrivals_lo, units);
+    if (before + units < before) // the low word wrapped: carry
+        atomicAdd(counters.arrivals_hi, 1u);
+}
+
 // A photon in flight.
 struct PhotonPath {
     vec3 origin, direction, flux;
@@ -331,6 +354,9 @@ bool photon_bounce(inout PhotonPath p, BihHit hit)
         store(caustic, diffuse, position, p.flux,
               p.flux * material_rough_albedo(material, -p.direction, shading_normal, front),
               p.direction, geometric_normal);
+    if (diffuse && !p.specular_only &&
+        (front || (material.flags & MATERIAL_DOUBLE_SIDED) != 0u))
+        count_arrival(position, p.flux);
     p.specular_only = p.specular_only && !diffuse;
 
     vec3 xi = vec3(rng_float(p.rng), rng_float(p.rng), rng_float(p.rng));

@@ -1,7 +1,8 @@
 /*
  * core/lpv on the CPU: SH projection and evaluation of a cosine lobe against
  * analytic values, exact clipped areas, the geometry volume's totals, the
- * cascade layout's snapping, injection's flux, and settings checks.
+ * cascade layout's snapping, injection's flux, the energy points' spread over the diffuse
+ * area, and settings checks.
  */
 #include "lpv_test_quad.h"
 #include "pf_lpv.h"
@@ -160,6 +161,54 @@ PF_TEST(geometry_volume_holds_the_exact_area)
     free(gv);
 }
 
+PF_TEST(energy_points_spread_over_the_diffuse_area)
+{
+    /* A 1 × 1 floor (single-sided), a 1 × 3 wall (double-sided) and a 2 × 2 mirror. */
+    quad_frame q;
+    quad_frame_init(&q);
+    float f0[3] = {0, 0, 0}, f1[3] = {1, 0, 0}, f2[3] = {1, 0, -1}, f3[3] = {0, 0, -1};
+    float w0[3] = {0, 0, -1}, w1[3] = {3, 0, -1}, w2[3] = {3, 1, -1}, w3[3] = {0, 1, -1};
+    float m0[3] = {0, 0, 1}, m1[3] = {0, 2, 1}, m2[3] = {0, 2, 3}, m3[3] = {0, 0, 3};
+    quad_frame_add(&q, f0, f1, f2, f3);
+    quad_frame_add(&q, w0, w1, w2, w3);
+    quad_frame_add(&q, m0, m1, m2, m3);
+    pf_material materials[3] = {q.material, q.material, q.material};
+    materials[1].flags = PF_MATERIAL_DOUBLE_SIDED;
+    materials[2].kind = PF_MATERIAL_MIRROR;
+    q.frame.materials = materials;
+    q.frame.material_count = 3;
+    for (uint32_t t = 0; t < 6; t++)
+        q.triangle_material[t] = t / 2;
+    enum { COUNT = 1000 };
+    float *points = malloc(COUNT * PF_LPV_ENERGY_SAMPLE_FLOATS * sizeof *points);
+    PF_REQUIRE(points);
+    PF_CHECK_NEAR(pf_lpv_energy_samples(&q.frame, COUNT, points), 4.0, 1e-9);
+    int on_floor = 0, on_wall = 0;
+    for (int i = 0; i < COUNT; i++) {
+        const float *p = points + i * PF_LPV_ENERGY_SAMPLE_FLOATS;
+        if (p[1] == 0.0f && p[2] >= -1.0f && p[2] <= 0.0f && p[0] >= 0.0f && p[0] <= 1.0f &&
+            p[5] == 1.0f && p[3] == 0.0f)
+            on_floor++; /* on the floor, its normal +y, one face */
+        else if (p[2] == -1.0f && p[0] >= 0.0f && p[0] <= 3.0f && p[1] >= 0.0f &&
+                 p[1] <= 1.0f && p[6] == 1.0f && p[3] == 1.0f)
+            on_wall++;  /* on the wall, its normal +z, both faces */
+    }
+    /* Every point on a diffuse surface, spread by area (1 : 3), none on the mirror. */
+    PF_CHECK_MSG(on_floor + on_wall == COUNT, "%d + %d points", on_floor, on_wall);
+    PF_CHECK_MSG(abs(on_floor - COUNT / 4) <= 1, "%d on the floor", on_floor);
+    /* The same frame, the same points. */
+    float *again = malloc(COUNT * PF_LPV_ENERGY_SAMPLE_FLOATS * sizeof *again);
+    PF_REQUIRE(again);
+    pf_lpv_energy_samples(&q.frame, COUNT, again);
+    PF_CHECK(memcmp(points, again, COUNT * PF_LPV_ENERGY_SAMPLE_FLOATS * sizeof *again) == 0);
+    /* No diffuse surface: area 0 and zeroed points. */
+    materials[0].kind = materials[1].kind = PF_MATERIAL_MIRROR;
+    PF_CHECK(pf_lpv_energy_samples(&q.frame, COUNT, points) == 0.0);
+    PF_CHECK(points[0] == 0.0f && points[5] == 0.0f);
+    free(points);
+    free(again);
+}
+
 PF_TEST(cascades_snap_to_their_cell_size)
 {
     pf_lpv_settings settings = {.cascades = 3, .size = 32};
@@ -286,6 +335,7 @@ int main(void)
     PF_RUN(solid_angles_sum_to_the_sphere);
     PF_RUN(clipped_area_is_exact);
     PF_RUN(geometry_volume_holds_the_exact_area);
+    PF_RUN(energy_points_spread_over_the_diffuse_area);
     PF_RUN(cascades_snap_to_their_cell_size);
     PF_RUN(default_cell_is_a_power_of_two_covering_the_scene);
     PF_RUN(injection_keeps_the_flux_and_offsets_along_the_normal);

@@ -14,7 +14,7 @@
 #include <string.h>
 
 /* A new field must be added to settings_equal, every_field and the codec: this fails first. */
-_Static_assert(sizeof(pf_render_settings) == 152,
+_Static_assert(sizeof(pf_render_settings) == 160,
                "pf_render_settings changed: cover the new field in this test and core/render/settings.c");
 
 static char last_failure[1024];
@@ -44,7 +44,7 @@ static int settings_equal_report(const pf_render_settings *a, const pf_render_se
     SAME(time_budget_ms) SAME(photons_per_pass) SAME(pixel_filter) SAME(bounce_limit)
     SAME(budget_ms) SAME(target_relmse) SAME(float_pixels) SAME(denoise) SAME(lpv.cascades)
     SAME(lpv.size)
-    SAME(lpv.cell_size) SAME(lpv.offset_cells) SAME(lpv.undamped)
+    SAME(lpv.cell_size) SAME(lpv.offset_cells) SAME(lpv.undamped) SAME(lpv.unscaled)
     /* sample_salt, sample_scale and the band are the frame pipeline's, not a job's: the codec
      * leaves them out (below). */
     for (uint32_t k = 0; k < PF_LPV_MAX_CASCADES; k++)
@@ -148,6 +148,7 @@ PF_TEST(every_field_survives_the_job_json_alone_and_together)
     pf_render_settings all = every_field();
     all.lpv.offset_cells = 0.75f; /* the measurement-only fields (no option) too */
     all.lpv.undamped = 1;
+    all.lpv.unscaled = 1;
     expect_json_round_trip(&all, "every field");
     /* One option at a time on top of the defaults: no field depends on another to survive. */
     for (size_t i = 0; i < OPTION_COUNT; i++) {
