@@ -235,7 +235,7 @@ uint64_t pf_lpv_geometry_build(const pf_lpv_layout *layout, const pf_scene_frame
  * Where `fast` weighs its volumes' energy (frame_fast.c, render_fast_energy.comp): count
  * points spread over the frame's diffuse (PF_MATERIAL_LAMBERT) triangles by area, each
  * PF_LPV_ENERGY_SAMPLE_FLOATS floats: position xyz, 1 where the material is double-sided
- * (both faces lit) else 0, the face's unit normal xyz (counter-clockwise front), 0. The
+ * (either face may be lit) else 0, the face's unit normal xyz (counter-clockwise front), 0. The
  * same frame gives the same points. Returns the triangles' total area (m²; 0: no diffuse
  * surface, and every sample zero): each point stands for total / count of it.
  */
