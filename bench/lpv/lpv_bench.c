@@ -29,6 +29,10 @@
  * caustics of: as in bench/final, the light is replaced by an equal-power
  * 5 cm sphere in the evaluated frame for every preset.
  *
+ * Part 4, the energy scale (also alone: `lpv_bench energy [SHARED_SCENES_DIR [W H [SPP]]]`):
+ * per scene, fast's indirect layer against the reference's, the LPV scaled to the photons'
+ * energy and not (lpv.unscaled), with shade's lpv_energy_scale.
+ *
  * Part 0 alone, `lpv_bench sites`: the propagation on the device
  * (lpv_propagate.comp) against the host (pf_lpv_propagate_host), the same
  * volumes in 7 alternating rounds: 4 cascades of 32³ and of 64³, 8
@@ -36,7 +40,7 @@
  * on the data). Medians of wall ms (and the device's GPU ms), and how far
  * apart the two accumulations are.
  *
- * Usage: lpv_bench [SHARED_SCENES_DIR [ERROR_W ERROR_H [LONG_SPP]]] | lpv_bench sites
+ * Usage: lpv_bench [energy] [SHARED_SCENES_DIR [ERROR_W ERROR_H [LONG_SPP]]] | lpv_bench sites
  * (defaults: $PF_SHARED_SCENES or ../shared/scenes, 160 120, 512). The
  * Cornell box is the project's scenes/cornell ($PF_SOURCE_DIR or .). Run
  * with LP_NUM_THREADS=2 on lavapipe.
@@ -355,6 +359,33 @@ static int timing_row(pf_vk_context *ctx, const bench_scene *scene, pf_quality q
     return 0;
 }
 
+/* Part 4: fast's indirect light scaled to the photons' energy and not, against the truth. */
+static int part_energy(pf_renderer *renderer, const bench_scene *scene, const pf_image *truth,
+                       uint32_t width, uint32_t height)
+{
+    for (int unscaled = 0; unscaled < 2; unscaled++) {
+        pf_render_settings settings = preset(PF_QUALITY_FAST, width, height);
+        settings.samples_per_pixel = 8;
+        settings.seed = 11;
+        settings.lpv.unscaled = unscaled;
+        pf_image image;
+        pf_frame_report report = {0};
+        pf_error err = {0};
+        if (pf_render_frame(renderer, &scene->frame, &settings, &image, &report, &err) != PF_OK)
+            return fail("energy render", &err);
+        double relmse = NAN, ratio = NAN, scale = NAN;
+        indirect_error(&image, truth, &relmse, &ratio, &err);
+        const pf_stage_timing *shade = row_named(&report, "shade");
+        for (uint32_t c = 0; shade && c < shade->counter_count; c++)
+            if (!strcmp(shade->counters[c].name, "lpv_energy_scale"))
+                scale = shade->counters[c].value;
+        printf("  %-12s %-9s scale %.3f: indirect relMSE %.5f, mean %.3f of the reference's\n",
+               scene->name, unscaled ? "unscaled" : "scaled", scale, relmse, ratio);
+        pf_image_free(&image);
+    }
+    return 0;
+}
+
 static int load_scene(bench_scene *scene, const char *name, const char *path)
 {
     pf_error err = {0};
@@ -385,6 +416,11 @@ int main(int argc, char **argv)
         pf_vk_destroy(ctx);
         return failed;
     }
+    int energy_only = argc > 1 && !strcmp(argv[1], "energy");
+    if (energy_only) { /* the rest as for the whole run */
+        argc--;
+        argv++;
+    }
     const char *shared = argc > 1 ? argv[1] : getenv("PF_SHARED_SCENES");
     if (!shared)
         shared = "../shared/scenes";
@@ -411,6 +447,26 @@ int main(int argc, char **argv)
         return fail("vulkan", &err);
     setvbuf(stdout, NULL, _IOLBF, 0);
     printf("device: %s\n", pf_vk_info(ctx)->name);
+    if (energy_only) {
+        printf("== the LPV's energy scale (fast, 8 spp, indirect layer at %ux%u against %u-spp "
+               "references)\n",
+               width, height, long_spp);
+        pf_renderer *renderer = NULL;
+        if (pf_renderer_create(ctx, &renderer, &err) != PF_OK)
+            return fail("renderer", &err);
+        for (int s = 0; s < 3; s++) {
+            pf_image truth;
+            if (long_reference(renderer, &scenes[s], width, height, long_spp, &truth) ||
+                part_energy(renderer, &scenes[s], &truth, width, height))
+                return 1;
+            pf_image_free(&truth);
+            pf_scene_frame_free(&scenes[s].frame);
+            pf_scene_destroy(scenes[s].scene);
+        }
+        pf_renderer_destroy(renderer);
+        pf_vk_destroy(ctx);
+        return 0;
+    }
     if (part_stages(ctx, &scenes[0].frame))
         return 1;
 
@@ -468,6 +524,10 @@ int main(int argc, char **argv)
                offsets[o], relmse, ratio);
         pf_image_free(&image);
     }
+    printf("== the LPV's energy scale (fast, 8 spp, indirect layer against the references)\n");
+    for (int s = 0; s < 3; s++)
+        if (part_energy(renderer, &scenes[s], &truths[s], width, height))
+            return 1;
     for (int s = 0; s < 3; s++) {
         pf_image_free(&truths[s]);
         pf_scene_frame_free(&scenes[s].frame);

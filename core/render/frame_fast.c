@@ -16,7 +16,9 @@
  *   lpv_geometry   the geometry volume of the frame's triangles (core/lpv)
  *   lpv_inject     the VPLs into every cascade
  *   lpv_propagate  each cascade's iterations on the device
- *   shade          the plan's camera samples per pixel
+ *   shade          the LPV's delivered energy weighed against the photons' arrivals
+ *                  (fast_shade.glsl's lpv_energy_scale), then the plan's camera
+ *                  samples per pixel
  *
  * Reuse (renderer->fast_cache holds the outputs, the renderer's stage
  * memory what they were made from): the VPLs and the caustic grid while

@@ -350,7 +350,9 @@ void pf_renderer_set_trace_site(pf_renderer *renderer, pf_trace_site site);
  *   channels with the same split (indirect = LPV + caustic). One photon
  *   pass of settings->photons_per_pass photons (0 = 32,768) gives the VPLs
  *   (every diffuse hit, reflected flux) and the caustic map; settings->lpv
- *   the cascades; samples_per_pixel (0 = 2) camera samples. Rows:
+ *   the cascades; the LPV's light is scaled to the photons' energy (shade's
+ *   lpv_energy_scale; lpv.unscaled: not); samples_per_pixel (0 = 2) camera
+ *   samples. Rows:
  *   bih_build, photon_trace, caustic_map, lpv_geometry, lpv_inject,
  *   lpv_propagate, shade, each skipped with its reason when the scene does
  *   not need it or the previous frame's result still holds.
