@@ -68,7 +68,9 @@ typedef struct fast_push {
 
 _Static_assert(sizeof(fast_push) == 80, "fast_push must match fast_shade.glsl's Push");
 
-/* fast_shade.glsl's LpvEnergy: 2^-16 map flux units, a 64-bit sum in two words. */
+/* fast_shade.glsl's LpvEnergy: a 64-bit sum in two words, in 1 / FAST_ENERGY_UNITS of the
+ * map's flux unit (its LPV_ENERGY_UNITS). */
+#define FAST_ENERGY_UNITS 256.0
 typedef struct fast_energy {
     uint32_t lo, hi;
 } fast_energy;
@@ -485,7 +487,8 @@ static pf_status shade(pf_renderer *renderer, struct pf_fast_cache *cache,
         progress->truncated = counters.loop_truncated;
         progress->failures = counters.traversal_failures;
         progress->lpv_outside = counters.lpv_outside;
-        progress->lpv_delivered = ((double)energy.hi * 4294967296.0 + energy.lo) / 65536.0;
+        progress->lpv_delivered =
+            ((double)energy.hi * 4294967296.0 + energy.lo) / FAST_ENERGY_UNITS;
     }
     pf_split_film_finish_read(&readback);
     fast_buffers_release(ctx, &owned);

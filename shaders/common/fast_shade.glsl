@@ -74,8 +74,8 @@ layout(set = 0, binding = PF_SCENE_BINDING_COUNT + 9) uniform isamplerBuffer gri
 layout(set = 0, binding = PF_SCENE_BINDING_COUNT + 10) uniform samplerBuffer lpv_far_texels;
 layout(set = 0, binding = PF_SCENE_BINDING_COUNT + 11) uniform samplerBuffer lpv_geometry_texels;
 layout(set = 0, binding = PF_SCENE_BINDING_COUNT + 12) uniform usamplerBuffer grid_flux;
-// The energy the LPV delivers to the points, in 2^-16 of the map's flux unit (a 64-bit sum
-// in two words: integer sums do not depend on the order of the additions).
+// The energy the LPV delivers to the points, in LPV_ENERGY_UNIT of the map's flux unit (a
+// 64-bit sum in two words: integer sums do not depend on the order of the additions).
 layout(std430, set = 0, binding = PF_SCENE_BINDING_COUNT + 13) buffer LpvEnergy {
     uint energy_lo;
     uint energy_hi;
@@ -129,6 +129,11 @@ vec3 caustic_irradiance(vec3 position, vec3 geometric_normal, inout bool truncat
 #endif
 }
 
+// lpv_energy's unit, 2^-8 of the map's flux unit: a point stands for about the photons'
+// arrivals over the point count (each photon carries about 1 unit), and a bright point up
+// to 2^24 units of the map (3 × 10^4 times the mean with 10^7 photons) still fits one add.
+const float LPV_ENERGY_UNITS = 256.0;
+
 // Most the LPV's irradiance is scaled up: a volume that delivers almost nothing where the
 // photons arrive is not made to carry many times its light.
 const float LPV_ENERGY_SCALE_MAX = 4.0;
@@ -144,7 +149,7 @@ float lpv_energy_scale()
     if (push.energy_samples == 0u)
         return 1.0;
     float delivered = (float(lpv_energy.energy_hi) * 4294967296.0 + float(lpv_energy.energy_lo)) /
-                      65536.0;
+                      LPV_ENERGY_UNITS;
     return delivered > 0.0 ? min(push.lpv_arrivals / delivered, LPV_ENERGY_SCALE_MAX) : 1.0;
 }
 
@@ -177,7 +182,7 @@ void main()
     float flux = light_luminance(irradiance) * push.energy_weight;
     if (!(flux > 0.0))
         return;
-    uint units = uint(min(flux, 65535.0) * 65536.0 + 0.5);
+    uint units = uint(min(flux, 16777215.0) * LPV_ENERGY_UNITS + 0.5);
     uint before = atomicAdd(lpv_energy.energy_lo, units);
     if (before + units < before) // the low word wrapped: carry
         atomicAdd(lpv_energy.energy_hi, 1u);
