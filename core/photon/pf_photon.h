@@ -383,6 +383,9 @@ typedef struct pf_photon_scene {
  * and 8 per invocation took an H100's staircase2 pass from 23 to 85 ms. */
 #define PF_PHOTON_TRACE_PER_INVOCATION 8u
 
+/* The directions arrivals are counted by (pf_photon_maps.arrival_direction_flux). */
+#define PF_PHOTON_ARRIVAL_DIRECTIONS 6u
+
 typedef struct pf_photon_trace_settings {
     uint32_t photon_count;        /* photons emitted in the pass */
     uint64_t seed;
@@ -423,10 +426,13 @@ typedef struct pf_photon_maps {
     double gpu_ms;                /* < 0 without timestamps */
     uint32_t waves;               /* with a host_tree: the dispatches of the waves */
     double host_trace_ms;         /* with a host_tree: the host's traces */
-    /* Luminance flux (map units) of the photons that reached a diffuse surface, on a side
-     * it shades, inside the settings' arrival box after at least one diffuse bounce: the
-     * energy the diffuse-to-diffuse light deposits there (fast's LPV is scaled to it). */
+    /* Luminance flux (map units) of the photons that reached a diffuse surface, on either
+     * face, inside the settings' arrival box after at least one diffuse bounce: the energy
+     * the diffuse-to-diffuse light deposits there (fast's LPV is scaled to it). */
     double arrival_flux;
+    /* The same by the direction the surfaces face, the six of the axes: +x, −x, +y, −y, +z,
+     * −z, each arrival split by the squares of its normal's components. */
+    double arrival_direction_flux[PF_PHOTON_ARRIVAL_DIRECTIONS];
 } pf_photon_maps;
 
 typedef struct pf_photon_tracer pf_photon_tracer;

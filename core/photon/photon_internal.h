@@ -50,7 +50,8 @@ typedef struct trace_counters {
     uint32_t traversal_failures;
     uint32_t non_finite;
     uint32_t loop_truncated;
-    uint32_t arrivals_lo, arrivals_hi; /* 2^-16 flux units (count_arrival) */
+    /* By facing direction, 2^-16 flux units, low word at 2d (count_arrival). */
+    uint32_t arrivals[2 * PF_PHOTON_ARRIVAL_DIRECTIONS];
 } trace_counters;
 
 /* photon_path.glsl's Push. */

@@ -72,7 +72,8 @@ _Static_assert(sizeof(fast_push) == 80, "fast_push must match fast_shade.glsl's 
  * map's flux unit (its LPV_ENERGY_UNITS). */
 #define FAST_ENERGY_UNITS 256.0
 typedef struct fast_energy {
-    uint32_t lo, hi;
+    float arrivals[8]; /* PF_PHOTON_ARRIVAL_DIRECTIONS used */
+    uint32_t delivered[2 * PF_PHOTON_ARRIVAL_DIRECTIONS];
 } fast_energy;
 
 typedef struct fast_counters {
@@ -93,6 +94,7 @@ struct pf_fast_cache {
     /* The photons' arrival flux inside the coarsest cascade (pf_photon_maps.arrival_flux):
      * what the LPV's delivered energy is scaled to. */
     double arrival_flux;
+    double arrival_direction_flux[PF_PHOTON_ARRIVAL_DIRECTIONS];
     pf_photon_grid *caustic;      /* NULL: no caustic map */
     float caustic_radius, caustic_flux_scale;
     double trace_gpu_ms;
@@ -134,7 +136,9 @@ typedef struct fast_progress {
     int propagate_on_host; /* the propagation ran on the host's CPUs (pf_lpv_propagate_stats) */
     uint32_t samples;
     uint64_t rays, discarded, truncated, failures, lpv_outside;
-    double lpv_delivered;  /* the LPV's delivered flux at the points (map units; 0: not weighed) */
+    /* The LPV's delivered flux at the points (map units; 0: not weighed), in all and by the
+     * direction the surfaces face (pf_photon_maps.arrival_direction_flux's). */
+    double lpv_delivered, lpv_direction_delivered[PF_PHOTON_ARRIVAL_DIRECTIONS];
     double shade_gpu_ms;
     /* Where the host traced the photons: the waves' dispatches and its traces' time. */
     uint32_t photon_waves;
@@ -179,6 +183,8 @@ static pf_status trace_photons(struct pf_fast_cache *cache, const pf_photon_fram
     }
     cache->emitted = maps->emitted;
     cache->arrival_flux = maps->arrival_flux;
+    memcpy(cache->arrival_direction_flux, maps->arrival_direction_flux,
+           sizeof cache->arrival_direction_flux);
     cache->caustic_count = plan->caustic_map && status == PF_OK ? maps->caustic_count : 0;
     cache->caustic_flux_scale = maps->flux_scale;
     cache->caustic_radius = pf_photon_radius_for_density(frame, FAST_CAUSTIC_NEIGHBOURS,
@@ -397,10 +403,12 @@ static pf_status shade(pf_renderer *renderer, struct pf_fast_cache *cache,
      * the device before the samples, against the photons' arrivals. */
     int weighed = !settings->lpv.unscaled && cache->energy_area > 0.0 &&
                   cache->vpl_flux_scale > 0.0f && cache->layout.count > 0;
-    static const fast_energy no_energy = {0};
+    fast_energy energy = {0};
+    for (uint32_t d = 0; d < PF_PHOTON_ARRIVAL_DIRECTIONS; d++)
+        energy.arrivals[d] = (float)cache->arrival_direction_flux[d];
     if (status == PF_OK)
-        status = pf_render_buffer_recorded(ctx, cmds, "LPV energy", &no_energy, sizeof no_energy,
-                                           sizeof no_energy, &owned.energy, err);
+        status = pf_render_buffer_recorded(ctx, cmds, "LPV energy", &energy, sizeof energy,
+                                           sizeof energy, &owned.energy, err);
     uint64_t sample_bytes = (uint64_t)FAST_ENERGY_SAMPLES * PF_LPV_ENERGY_SAMPLE_FLOATS *
                             sizeof(float);
     if (status == PF_OK)
@@ -464,7 +472,6 @@ static pf_status shade(pf_renderer *renderer, struct pf_fast_cache *cache,
         pf_vk_cmd_barrier(cmds);
     }
     fast_counters counters;
-    fast_energy energy = {0};
     pf_split_film_readback readback = {0};
     if (status == PF_OK)
         status = pf_vk_cmd_download(cmds, owned.counters, 0, &counters, sizeof counters, err);
@@ -487,8 +494,13 @@ static pf_status shade(pf_renderer *renderer, struct pf_fast_cache *cache,
         progress->truncated = counters.loop_truncated;
         progress->failures = counters.traversal_failures;
         progress->lpv_outside = counters.lpv_outside;
-        progress->lpv_delivered =
-            ((double)energy.hi * 4294967296.0 + energy.lo) / FAST_ENERGY_UNITS;
+        progress->lpv_delivered = 0.0;
+        for (uint32_t d = 0; d < PF_PHOTON_ARRIVAL_DIRECTIONS; d++) {
+            progress->lpv_direction_delivered[d] =
+                ((double)energy.delivered[2 * d + 1] * 4294967296.0 + energy.delivered[2 * d]) /
+                FAST_ENERGY_UNITS;
+            progress->lpv_delivered += progress->lpv_direction_delivered[d];
+        }
     }
     pf_split_film_finish_read(&readback);
     fast_buffers_release(ctx, &owned);
@@ -575,11 +587,23 @@ static void report_rows(pf_frame_report *report, const struct pf_fast_cache *cac
         pf_stage_add_counter(row, "discarded_samples", (double)progress->discarded);
         pf_stage_add_counter(row, "loop_truncated", (double)progress->truncated);
         pf_stage_add_counter(row, "lpv_outside", (double)progress->lpv_outside);
-        /* The scale fast_shade.glsl's lpv_energy_scale gave the LPV (1: not weighed). */
+        /* The scales fast_shade.glsl gave the LPV (1: not weighed): the whole scene's, and
+         * each direction's (the whole's where the LPV delivers nothing facing that way). */
         double scale = 1.0;
         if (progress->lpv_delivered > 0.0)
             scale = fmin(cache->arrival_flux / progress->lpv_delivered, FAST_ENERGY_SCALE_MAX);
         pf_stage_add_counter(row, "lpv_energy_scale", scale);
+        static const char *const directions[PF_PHOTON_ARRIVAL_DIRECTIONS] = {
+            "lpv_scale_px", "lpv_scale_nx", "lpv_scale_py",
+            "lpv_scale_ny", "lpv_scale_pz", "lpv_scale_nz"};
+        for (uint32_t d = 0; d < PF_PHOTON_ARRIVAL_DIRECTIONS && progress->lpv_delivered > 0.0;
+             d++)
+            pf_stage_add_counter(row, directions[d],
+                                 progress->lpv_direction_delivered[d] > 0.0
+                                     ? fmin(cache->arrival_direction_flux[d] /
+                                                progress->lpv_direction_delivered[d],
+                                            FAST_ENERGY_SCALE_MAX)
+                                     : scale);
     }
     if (report)
         report->discarded_samples += progress->discarded;

@@ -122,10 +122,10 @@ layout(std430, set = 0, binding = PF_SCENE_BINDING_COUNT + 5) buffer Counters {
     uint traversal_failures;
     uint non_finite;         // photons dropped for a non-finite flux or direction
     uint loop_truncated;     // invocations llvmpipe's loop cap stopped (their photons cut short)
-    // The arrivals' luminance flux in units of 2^-16 of the map's flux unit, a 64-bit sum in
-    // two words (count_arrival): integer sums do not depend on the order of the additions.
-    uint arrivals_lo;
-    uint arrivals_hi;
+    // The arrivals' luminance flux by the direction their surface faces (count_arrival), in
+    // units of 2^-16 of the map's flux unit, each a 64-bit sum in two words (low at 2d):
+    // integer sums do not depend on the order of the additions.
+    uint arrivals[2u * 6u];
 } counters;
 
 #define BIH_BINDING (PF_SCENE_BINDING_COUNT + 0) // nodes, vertices, triangle index: its first three
@@ -275,20 +275,28 @@ void store(bool caustic, bool global, vec3 position, vec3 flux, vec3 reflected, 
     }
 }
 
-// An arrival: light that left a diffuse surface reaching another one (or the same) on a
-// side the surfaces shade, inside params' arrival box. Its luminance flux, summed over the
+// An arrival: light that left a diffuse surface reaching another one (or the same), on
+// either face (a single-sided surface reflects from its back too), inside params' arrival
+// box. Its luminance flux, summed over the
 // pass, is the energy that `fast`'s light propagation volumes should deliver to surfaces
-// there (frame_fast.c scales their irradiance to it).
-void count_arrival(vec3 position, vec3 flux)
+// there (frame_fast.c scales their irradiance to it), split over the six directions of the
+// axes by the squares of the normal's components (facing: the side it arrived on): the
+// directions d = 2 × axis + (component < 0), as fast_shade.glsl weighs the LPV's.
+void count_arrival(vec3 position, vec3 facing, vec3 flux)
 {
     if (!all(greaterThan(position, params.arrival_box_min.xyz)) ||
         !all(lessThan(position, params.arrival_box_max.xyz)))
         return;
-    float luminance = light_luminance(flux);
-    uint units = uint(clamp(luminance, 0.0, 65535.0) * 65536.0 + 0.5);
-    uint before = atomicAdd(counters.arrivals_lo, units);
-    if (before + units < before) // the low word wrapped: carry
-        atomicAdd(counters.arrivals_hi, 1u);
+    float luminance = clamp(light_luminance(flux), 0.0, 65535.0);
+    for (uint axis = 0u; axis < 3u; axis++) {
+        uint units = uint(luminance * facing[axis] * facing[axis] * 65536.0 + 0.5);
+        uint d = 2u * axis + (facing[axis] < 0.0 ? 1u : 0u);
+        if (units == 0u)
+            continue;
+        uint before = atomicAdd(counters.arrivals[2u * d], units);
+        if (before + units < before) // the low word wrapped: carry
+            atomicAdd(counters.arrivals[2u * d + 1u], 1u);
+    }
 }
 
 // A photon in flight.
@@ -354,9 +362,8 @@ bool photon_bounce(inout PhotonPath p, BihHit hit)
         store(caustic, diffuse, position, p.flux,
               p.flux * material_rough_albedo(material, -p.direction, shading_normal, front),
               p.direction, geometric_normal);
-    if (diffuse && !p.specular_only &&
-        (front || (material.flags & MATERIAL_DOUBLE_SIDED) != 0u))
-        count_arrival(position, p.flux);
+    if (diffuse && !p.specular_only)
+        count_arrival(position, geometric_normal, p.flux);
     p.specular_only = p.specular_only && !diffuse;
 
     vec3 xi = vec3(rng_float(p.rng), rng_float(p.rng), rng_float(p.rng));

@@ -88,16 +88,16 @@ PF_TEST(cornell_indirect_matches_reference)
            preview_metrics.relmse / fast_metrics.relmse);
     /*
      * Guards against regression (measured at 32×24, 8 spp: indirect relMSE
-     * 0.0124, mean 1.09 of the reference's with the LPV scaled by 1.18 to the
-     * photons' energy, 0.0095 and 0.93 unscaled; the image's relMSE 0.025 is
-     * mostly the direct light's sampling noise at 8 spp against preview's
-     * 0.075): indirect relMSE below 0.015, indirect mean within 20%, and
-     * at least 2.5× preview's error on the whole image.
+     * 0.0080, mean 1.08 of the reference's with the LPV scaled to the photons'
+     * energy by the direction surfaces face, 0.0095 and 0.93 unscaled; the
+     * image's relMSE 0.022 is mostly the direct light's sampling noise at 8 spp
+     * against preview's 0.075): indirect relMSE below 0.015, indirect mean
+     * within 20%, and at least 3× preview's error on the whole image.
      */
     PF_CHECK_MSG(indirect < 0.015, "indirect relMSE %.5f", indirect);
     PF_CHECK_MSG(fabs(indirect_mean / reference_mean - 1.0) < 0.20, "indirect mean ratio %.3f",
                  indirect_mean / reference_mean);
-    PF_CHECK_MSG(preview_metrics.relmse > 2.5 * fast_metrics.relmse,
+    PF_CHECK_MSG(preview_metrics.relmse > 3.0 * fast_metrics.relmse,
                  "preview %.5f vs fast %.5f", preview_metrics.relmse, fast_metrics.relmse);
     /* No specular material: no caustic map, caustic layer exactly 0. */
     PF_CHECK(row_skipped_because(&report, "caustic_map", "no specular"));
@@ -274,9 +274,9 @@ PF_TEST(closed_box_indirect_matches_reference)
      * Every bounce is in the VPLs, but the propagation loses some of it
      * (0.79 of the reference's mean unscaled: 2-band lobes spread light
      * sideways, and light crossing the box diagonally runs out of
-     * iterations); scaled to the photons' energy (by 1.21) the mean is 0.96
-     * and the relMSE 0.0047 (0.035 unscaled). Guard the mean within 10% and
-     * the relMSE below 0.015.
+     * iterations); scaled to the photons' energy (1.21 over the whole box) the
+     * mean is 1.01 and the relMSE 0.0026 (0.035 unscaled). Guard the mean
+     * within 10% and the relMSE below 0.015.
      */
     PF_CHECK_MSG(fabs(fast / exact - 1.0) < 0.10, "ratio %.3f", fast / exact);
     PF_CHECK_MSG(relmse < 0.015, "relMSE %.5f", relmse);
@@ -369,12 +369,27 @@ PF_TEST(thin_wall_leaks_little_light_into_the_dark_room)
                   &err);
     double lit_indirect = ref_layer_mean(&lit_image, REF_CH_INDIRECT);
     double leak = ref_layer_mean(&dark_image, REF_CH_RGB);
-    printf("  lit room indirect %.5f, dark room %.6f: leak %.2f%%\n", lit_indirect, leak,
-           100.0 * leak / lit_indirect);
+    pf_render_settings reference = ref_settings(24, 24, 256, 3, 0);
+    pf_image expected;
+    PF_REQUIRE_OK(pf_render_frame(renderer, &lit.frame, &reference, &expected, NULL, &err), &err);
+    double exact = ref_layer_mean(&expected, REF_CH_INDIRECT);
+    double relmse = ref_layer_relmse(&lit_image, &expected, REF_CH_INDIRECT);
+    printf("  lit room indirect %.5f (reference %.5f, %.3f; relMSE %.5f), dark room %.6f: leak "
+           "%.2f%%\n",
+           lit_indirect, exact, lit_indirect / exact, relmse, leak, 100.0 * leak / lit_indirect);
     PF_CHECK(lit_indirect > 0.0);
+    /*
+     * The wall the camera faces is two quads back to back: photons land on either, and each
+     * arrival counts on the side it reached (measured 0.96 of the reference, relMSE 0.009;
+     * counting only front faces of single-sided quads lost half of them, 0.48 and 0.42;
+     * unscaled 0.67).
+     */
+    PF_CHECK_MSG(fabs(lit_indirect / exact - 1.0) < 0.15, "ratio %.3f", lit_indirect / exact);
+    PF_CHECK_MSG(relmse < 0.04, "relMSE %.5f", relmse);
+    pf_image_free(&expected);
     /* The dark room sees no direct light at all; what it shows is LPV light through the wall. */
     PF_CHECK(ref_layer_mean(&dark_image, REF_CH_DIRECT) == 0.0);
-    /* Measured 4.3% (face-exact geometry volume, no interpolation across it); bound 6%. */
+    /* Measured 3.6% (face-exact geometry volume, no interpolation across it); bound 6%. */
     PF_CHECK_MSG(leak < 0.06 * lit_indirect, "leak %.6f vs lit indirect %.5f", leak,
                  lit_indirect);
     pf_image_free(&lit_image);
