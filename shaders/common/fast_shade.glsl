@@ -17,7 +17,7 @@
 // looks for an emitter), else it has full weight. Indirect light at D₁
 // is albedo/π × the LPV irradiance (lpv_lookup.glsl: light that left a
 // diffuse surface at least once, the photon VPLs propagated through the
-// cascades) plus, when a caustic map is bound, albedo/π × its k-nearest
+// cascades; scaled to the photons' energy, lpv_energy_scale_facing) plus, when a caustic map is bound, albedo/π × its k-nearest
 // irradiance estimate (L S+ D₁), which also goes to `caustic`. So, as in
 // the other integrators, R,G,B = direct + indirect and caustic ⊆ indirect.
 //
@@ -83,7 +83,7 @@ layout(std430, set = 0, binding = PF_SCENE_BINDING_COUNT + 13) buffer LpvEnergy 
     float arrivals[8]; // 6 used
     uint delivered[2u * 6u];
 } lpv_energy;
-// The points (pf_lpv_energy_samples): xyz and 1 where both faces are lit; the normal.
+// The points (pf_lpv_energy_samples): xyz and 1 where double-sided; the face's normal.
 layout(std430, set = 0, binding = PF_SCENE_BINDING_COUNT + 14) readonly buffer LpvSamples {
     vec4 lpv_samples[];
 };
