@@ -70,12 +70,16 @@ double pf_lpv_energy_samples(const pf_scene_frame *frame, uint32_t count, float 
             const float *a = frame->vertices[3 * t], *b = frame->vertices[3 * t + 1],
                         *c = frame->vertices[3 * t + 2];
             float *out = samples + (size_t)i * PF_LPV_ENERGY_SAMPLE_FLOATS;
+            double u = r1 * (1.0 - r2), v = r1 * r2;
             for (int k = 0; k < 3; k++) {
-                out[k] = (float)((1.0 - r1) * a[k] + r1 * (1.0 - r2) * b[k] + r1 * r2 * c[k]);
+                out[k] = (float)((1.0 - u - v) * a[k] + u * b[k] + v * c[k]);
                 out[4 + k] = (float)normal[k];
             }
             uint32_t m = frame->triangle_material[t];
             out[3] = (frame->materials[m].flags & PF_MATERIAL_DOUBLE_SIDED) ? 1.0f : 0.0f;
+            memcpy(&out[7], &t, sizeof t);
+            out[8] = (float)u;
+            out[9] = (float)v;
             i++;
         }
         before += area;

@@ -2,7 +2,8 @@
  * The geometry volume (pf_lpv.h): each non-glass triangle clipped exactly
  * against the face cells it touches (Sutherland–Hodgman against the six
  * planes of the cell), its clipped area A adding (A / s²) / 0.75 × the
- * clamped-cosine lobe of its face normal.
+ * clamped-cosine lobe of its face normal, times the part of it an alpha
+ * factor leaves opaque (opaque_fraction).
  */
 #include "pf_lpv.h"
 
@@ -94,6 +95,23 @@ static double face_cell_area(const float *v[3], const float box_min[3], const fl
     return clipped_area(v[0], v[1], v[2], box_min, box_max, 1);
 }
 
+/*
+ * How much of a triangle of material m blocks light, as the traversal's alpha test
+ * (scene_geometry.glsl) lets rays through it by its factors: glass none, a MASK whose
+ * baseColorFactor alpha is below its cutoff none, a BLEND its alpha; the rest all
+ * (a texture's alpha, per point, is not seen here).
+ */
+static double opaque_fraction(const pf_material *m)
+{
+    if (m->kind == PF_MATERIAL_GLASS)
+        return 0.0;
+    if (m->alpha_mode == PF_ALPHA_MASK)
+        return m->alpha >= m->alpha_cutoff ? 1.0 : 0.0;
+    if (m->alpha_mode == PF_ALPHA_BLEND)
+        return m->alpha < 0.0f ? 0.0 : m->alpha > 1.0f ? 1.0 : m->alpha;
+    return 1.0;
+}
+
 /* Unit face normal (counter-clockwise front) and area; 0 for a degenerate triangle. */
 static int face_normal(const float *a, const float *b, const float *c, float normal[3])
 {
@@ -121,7 +139,8 @@ uint64_t pf_lpv_geometry_build(const pf_lpv_layout *layout, const pf_scene_frame
     int32_t size = (int32_t)layout->size;
     for (uint32_t t = 0; t < frame->triangle_count; t++) {
         uint32_t m = frame->triangle_material[t];
-        if (m < frame->material_count && frame->materials[m].kind == PF_MATERIAL_GLASS)
+        double coverage = m < frame->material_count ? opaque_fraction(&frame->materials[m]) : 1.0;
+        if (!(coverage > 0.0))
             continue;
         const float *v[3] = {frame->vertices[3 * t], frame->vertices[3 * t + 1],
                              frame->vertices[3 * t + 2]};
@@ -172,7 +191,8 @@ uint64_t pf_lpv_geometry_build(const pf_lpv_layout *layout, const pf_scene_frame
                             if (!(area > 0.0))
                                 continue;
                             pieces++;
-                            float weight = (float)(area / ((double)s * s) / LOBE_PEAK);
+                            float weight =
+                                (float)(coverage * area / ((double)s * s) / LOBE_PEAK);
                             float *out =
                                 gv + (k * cells + ((uint64_t)z * size + y) * size + x) *
                                          PF_LPV_GV_FLOATS_PER_CELL +

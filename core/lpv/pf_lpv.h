@@ -235,11 +235,13 @@ uint64_t pf_lpv_geometry_build(const pf_lpv_layout *layout, const pf_scene_frame
  * Where `fast` weighs its volumes' energy (frame_fast.c, render_fast_energy.comp): count
  * points spread over the frame's diffuse (PF_MATERIAL_LAMBERT) triangles by area, each
  * PF_LPV_ENERGY_SAMPLE_FLOATS floats: position xyz, 1 where the material is double-sided
- * (either face may be lit) else 0, the face's unit normal xyz (counter-clockwise front), 0. The
+ * (either face may be lit) else 0; the face's unit normal xyz (counter-clockwise front),
+ * the triangle's index as the float's bits; the point's barycentrics u, v (position =
+ * (1 − u − v) a + u b + v c, the traversal's: an alpha test reads the texture there), 0, 0. The
  * same frame gives the same points. Returns the triangles' total area (m²; 0: no diffuse
  * surface, and every sample zero): each point stands for total / count of it.
  */
-#define PF_LPV_ENERGY_SAMPLE_FLOATS 8u
+#define PF_LPV_ENERGY_SAMPLE_FLOATS 12u
 double pf_lpv_energy_samples(const pf_scene_frame *frame, uint32_t count, float *samples);
 
 /* Area of a triangle clipped to an axis-aligned box (exact up to rounding). */

@@ -83,7 +83,8 @@ layout(std430, set = 0, binding = PF_SCENE_BINDING_COUNT + 13) buffer LpvEnergy 
     float arrivals[8]; // 6 used
     uint delivered[2u * 6u];
 } lpv_energy;
-// The points (pf_lpv_energy_samples): xyz and 1 where double-sided; the face's normal.
+// The points (pf_lpv_energy_samples): xyz and 1 where double-sided; the face's normal and
+// the triangle (its bits); the barycentrics u, v.
 layout(std430, set = 0, binding = PF_SCENE_BINDING_COUNT + 14) readonly buffer LpvSamples {
     vec4 lpv_samples[];
 };
@@ -202,8 +203,18 @@ void main()
              gl_LocalInvocationIndex;
     if (i >= push.energy_samples)
         return;
-    vec4 point = lpv_samples[2u * i];
-    vec3 normal = lpv_samples[2u * i + 1u].xyz;
+    vec4 point = lpv_samples[3u * i];
+    vec4 face = lpv_samples[3u * i + 1u];
+    vec2 barycentrics = lpv_samples[3u * i + 2u].xy;
+    vec3 normal = face.xyz;
+    // Where an alpha test cuts the surface away photons pass and arrive nowhere, and the
+    // LPV's light there is not delivered either (leaves of a masked texture count their
+    // opaque part); the ray the test hashes is the point's own, along its normal.
+#ifdef PF_SURFACE_TEXTURES
+    if (SCENE_HAS_ALPHA && !scene_alpha_passes(floatBitsToUint(face.w), barycentrics.x,
+                                               barycentrics.y, point.xyz, normal))
+        return;
+#endif
     bool covered;
     vec3 irradiance = lpv_irradiance(point.xyz, normal, push.cascade_count, push.lpv_size,
                                      push.lpv_damping != 0u, covered);

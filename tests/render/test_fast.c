@@ -270,6 +270,34 @@ PF_TEST(closed_box_indirect_matches_reference)
     PF_CHECK_MSG(fabs(flipped_mean / fast - 1.0) < 0.05, "mean %.5f vs %.5f", flipped_mean, fast);
     pf_image_free(&flipped_image);
     ref_scene_free(&flipped);
+    /* A shelf across the box that an alpha mask cuts away whole: photons pass it, and so
+     * must the LPV's light (the geometry volume) and its weighing (the points on it). */
+    ref_scene shelved;
+    lit_box(&shelved, 0.5f);
+    pf_material cut = ref_material(PF_MATERIAL_LAMBERT, 0.5f, 0.5f, 0.5f);
+    cut.alpha = 0.2f;
+    cut.alpha_mode = PF_ALPHA_MASK;
+    cut.alpha_cutoff = 0.5f;
+    uint32_t shelf = ref_scene_add_material(&shelved, cut);
+    const float shelf_centre[3] = {0.0f, -0.5f, 0.0f}, along_z[3] = {0, 0, 1},
+                along_x[3] = {1, 0, 0};
+    ref_scene_add_quad(&shelved, shelf_centre, along_z, along_x, shelf); /* faces +y */
+    pf_image shelved_image;
+    pf_frame_report shelved_report = {0};
+    PF_REQUIRE_OK(pf_render_frame(renderer, &shelved.frame, &settings, &shelved_image,
+                                  &shelved_report, &err),
+                  &err);
+    double shelved_scale = ref_stage_counter(&shelved_report, "shade", "lpv_scale_py");
+    double box_scale = ref_stage_counter(&report, "shade", "lpv_scale_py");
+    double shelved_mean = ref_layer_mean(&shelved_image, REF_CH_INDIRECT);
+    printf("  with a shelf cut away by its alpha: indirect mean %.5f (%.3f), floor's scale %.3f "
+           "(the box's %.3f)\n",
+           shelved_mean, shelved_mean / exact, shelved_scale, box_scale);
+    PF_CHECK_MSG(fabs(shelved_scale / box_scale - 1.0) < 0.05, "scale %.3f vs %.3f",
+                 shelved_scale, box_scale);
+    PF_CHECK_MSG(fabs(shelved_mean / fast - 1.0) < 0.05, "mean %.5f vs %.5f", shelved_mean, fast);
+    pf_image_free(&shelved_image);
+    ref_scene_free(&shelved);
     /*
      * Every bounce is in the VPLs, but the propagation loses some of it
      * (0.79 of the reference's mean unscaled: 2-band lobes spread light
