@@ -224,8 +224,8 @@ void pf_lpv_inject(const pf_lpv_layout *layout, const pf_lpv_vpl *vpls, uint32_t
 
 /*
  * The geometry volume of frame's non-glass triangles (see the header
- * comment) into gv (pf_lpv_volume_floats(layout, PF_LPV_GV_FLOATS_PER_CELL)
- * floats, zeroed here).
+ * comment; each weighed by the part its alpha factor leaves opaque) into gv
+ * (pf_lpv_volume_floats(layout, PF_LPV_GV_FLOATS_PER_CELL) floats, zeroed here).
  * Returns the number of (triangle, cell) pieces accumulated.
  */
 uint64_t pf_lpv_geometry_build(const pf_lpv_layout *layout, const pf_scene_frame *frame,
