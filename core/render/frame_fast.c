@@ -48,7 +48,7 @@
  * irradiance is smooth, and 16,384 points put the sum's noise under a percent. */
 #define FAST_ENERGY_SAMPLES 16384u
 /* fast_shade.glsl's LPV_ENERGY_SCALE_MAX. */
-#define FAST_ENERGY_SCALE_MAX 4.0
+#define FAST_ENERGY_SCALE_MAX 1.0
 
 /* fast_shade.glsl's Push (80 bytes). */
 typedef struct fast_push {

@@ -138,20 +138,22 @@ vec3 caustic_irradiance(vec3 position, vec3 geometric_normal, inout bool truncat
 // to 2^24 units of the map (3 × 10^4 times the mean with 10^7 photons) still fits one add.
 const float LPV_ENERGY_UNITS = 256.0;
 
-// Most the LPV's irradiance is scaled up: a volume that delivers almost nothing where the
-// photons arrive is not made to carry many times its light.
-const float LPV_ENERGY_SCALE_MAX = 4.0;
+// The scale takes light off, never adds it: where the LPV delivers less than the photons
+// (a closed room, whose propagation loses some light), what it delivers is where it
+// should be only in places, and making up the total brightened the walls it already lit
+// right (the demo's Cornell box: indirect relMSE 0.025 unscaled, 0.038 scaled up to 4×,
+// 0.024 capped at 1; bench/RESULTS.md).
+const float LPV_ENERGY_SCALE_MAX = 1.0;
 
 // The LPV's energy scale (frame_fast.c): the photons' arrival flux in the cascades over the
 // flux the LPV's irradiance delivers to the surfaces there (render_fast_energy.comp), by
-// the direction the surfaces face. The propagation spreads light like a diffusion, and
-// light that leaves an open floor comes back to it (an infinite lit plane gets a third to
-// a half of its own light back, where the truth is none), while in a closed room it lands
-// about where it should: the scale is ~1 in a closed room and below 1 in an open one. By
-// direction, a floor's own light is taken off the floor and not the walls it lights, and
-// a closed room's ceiling, which the propagation under-lights, gets its own (bench/RESULTS.md:
-// indirect relMSE against a single scale 0.019 → 0.0074 on the Cornell box, 0.096 → 0.065
-// on staircase2, 0.026 → 0.020 in Blender's open room).
+// the direction the surfaces face, at most 1. The propagation spreads light like a
+// diffusion, and light that leaves an open floor comes back to it (an infinite lit plane
+// gets a third to a half of its own light back, where the truth is none): the scale is
+// below 1 in an open scene and about 1 in a closed one. By direction, a floor's own light
+// is taken off the floor and not off the walls it lights (bench/RESULTS.md: indirect
+// relMSE against the references, unscaled → scaled, Blender's open room 0.20 → 0.021,
+// staircase2 0.086 → 0.081, the shared Cornell box 0.015 → 0.0093).
 float lpv_delivered(uint d)
 {
     return (float(lpv_energy.delivered[2u * d + 1u]) * 4294967296.0 +
