@@ -363,6 +363,48 @@ static void fast_buffers_release(pf_vk_context *ctx, fast_buffers *b)
         pf_render_buffer_release(ctx, all[i]);
 }
 
+/*
+ * The LPV's energy scale (fast_shade.glsl): the photons' arrivals by direction and the
+ * points where the LPV's delivered flux is weighed on the device before the samples,
+ * uploaded with them; *weighed 0 where the LPV is not scaled (lpv.unscaled, no diffuse
+ * surface, no photon flux), the points' buffer then a placeholder.
+ */
+static pf_status record_energy(pf_vk_context *ctx, pf_vk_commands *cmds,
+                               const struct pf_fast_cache *cache,
+                               const pf_render_settings *settings, fast_buffers *owned,
+                               fast_push *push, int *weighed, pf_error *err)
+{
+    *weighed = !settings->lpv.unscaled && cache->energy_area > 0.0 &&
+               cache->vpl_flux_scale > 0.0f && cache->layout.count > 0;
+    fast_energy energy = {0};
+    for (uint32_t d = 0; d < PF_PHOTON_ARRIVAL_DIRECTIONS; d++)
+        energy.arrivals[d] = (float)cache->arrival_direction_flux[d];
+    pf_status status = pf_render_buffer_recorded(ctx, cmds, "LPV energy", &energy,
+                                                 sizeof energy, sizeof energy, &owned->energy,
+                                                 err);
+    uint64_t sample_bytes = (uint64_t)FAST_ENERGY_SAMPLES * PF_LPV_ENERGY_SAMPLE_FLOATS *
+                            sizeof(float);
+    if (status == PF_OK)
+        status = pf_render_buffer_recorded(ctx, cmds, "LPV energy points",
+                                           *weighed ? cache->energy_samples : NULL,
+                                           *weighed ? sample_bytes : 0,
+                                           *weighed ? sample_bytes : 32,
+                                           &owned->energy_samples, err);
+    if (*weighed) {
+        push->lpv_arrivals = (float)cache->arrival_flux;
+        push->energy_samples = FAST_ENERGY_SAMPLES;
+        push->energy_weight = (float)(cache->energy_area / FAST_ENERGY_SAMPLES /
+                                      cache->vpl_flux_scale);
+    }
+    return status;
+}
+
+/* The scale fast_shade.glsl gives the LPV for these arrivals and this delivered flux. */
+static double energy_scale(double arrivals, double delivered, double otherwise)
+{
+    return delivered > 0.0 ? fmin(arrivals / delivered, FAST_ENERGY_SCALE_MAX) : otherwise;
+}
+
 /* The shade stage: samples dispatches of the fast kernel into the split film, then the image. */
 static pf_status shade(pf_renderer *renderer, struct pf_fast_cache *cache,
                        const pf_scene_frame *frame, const pf_render_settings *settings,
@@ -399,30 +441,9 @@ static pf_status shade(pf_renderer *renderer, struct pf_fast_cache *cache,
     push.lpv_damping = settings->lpv.undamped ? 0u : 1u;
     push.cascade_count = cache->layout.count;
     push.lpv_size = cache->layout.size;
-    /* The LPV's energy scale (fast_shade.glsl): its delivered flux at the points, weighed on
-     * the device before the samples, against the photons' arrivals. */
-    int weighed = !settings->lpv.unscaled && cache->energy_area > 0.0 &&
-                  cache->vpl_flux_scale > 0.0f && cache->layout.count > 0;
-    fast_energy energy = {0};
-    for (uint32_t d = 0; d < PF_PHOTON_ARRIVAL_DIRECTIONS; d++)
-        energy.arrivals[d] = (float)cache->arrival_direction_flux[d];
+    int weighed = 0;
     if (status == PF_OK)
-        status = pf_render_buffer_recorded(ctx, cmds, "LPV energy", &energy, sizeof energy,
-                                           sizeof energy, &owned.energy, err);
-    uint64_t sample_bytes = (uint64_t)FAST_ENERGY_SAMPLES * PF_LPV_ENERGY_SAMPLE_FLOATS *
-                            sizeof(float);
-    if (status == PF_OK)
-        status = pf_render_buffer_recorded(ctx, cmds, "LPV energy points",
-                                           weighed ? cache->energy_samples : NULL,
-                                           weighed ? sample_bytes : 0,
-                                           weighed ? sample_bytes : 32, &owned.energy_samples,
-                                           err);
-    if (weighed) {
-        push.lpv_arrivals = (float)cache->arrival_flux;
-        push.energy_samples = FAST_ENERGY_SAMPLES;
-        push.energy_weight = (float)(cache->energy_area / FAST_ENERGY_SAMPLES /
-                                     cache->vpl_flux_scale);
-    }
+        status = record_energy(ctx, cmds, cache, settings, &owned, &push, &weighed, err);
     pf_vk_buffer *records = owned.empty_grid, *flux = owned.empty_grid;
     pf_vk_buffer *ranges = owned.empty_grid;
     if (cache->caustic) {
@@ -472,6 +493,7 @@ static pf_status shade(pf_renderer *renderer, struct pf_fast_cache *cache,
         pf_vk_cmd_barrier(cmds);
     }
     fast_counters counters;
+    fast_energy energy = {0};
     pf_split_film_readback readback = {0};
     if (status == PF_OK)
         status = pf_vk_cmd_download(cmds, owned.counters, 0, &counters, sizeof counters, err);
@@ -589,9 +611,7 @@ static void report_rows(pf_frame_report *report, const struct pf_fast_cache *cac
         pf_stage_add_counter(row, "lpv_outside", (double)progress->lpv_outside);
         /* The scales fast_shade.glsl gave the LPV (1: not weighed): the whole scene's, and
          * each direction's (the whole's where the LPV delivers nothing facing that way). */
-        double scale = 1.0;
-        if (progress->lpv_delivered > 0.0)
-            scale = fmin(cache->arrival_flux / progress->lpv_delivered, FAST_ENERGY_SCALE_MAX);
+        double scale = energy_scale(cache->arrival_flux, progress->lpv_delivered, 1.0);
         pf_stage_add_counter(row, "lpv_energy_scale", scale);
         static const char *const directions[PF_PHOTON_ARRIVAL_DIRECTIONS] = {
             "lpv_scale_px", "lpv_scale_nx", "lpv_scale_py",
@@ -599,11 +619,8 @@ static void report_rows(pf_frame_report *report, const struct pf_fast_cache *cac
         for (uint32_t d = 0; d < PF_PHOTON_ARRIVAL_DIRECTIONS && progress->lpv_delivered > 0.0;
              d++)
             pf_stage_add_counter(row, directions[d],
-                                 progress->lpv_direction_delivered[d] > 0.0
-                                     ? fmin(cache->arrival_direction_flux[d] /
-                                                progress->lpv_direction_delivered[d],
-                                            FAST_ENERGY_SCALE_MAX)
-                                     : scale);
+                                 energy_scale(cache->arrival_direction_flux[d],
+                                              progress->lpv_direction_delivered[d], scale));
     }
     if (report)
         report->discarded_samples += progress->discarded;
