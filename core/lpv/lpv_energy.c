@@ -19,24 +19,11 @@ static double next_uniform(uint64_t *state)
     return (double)(z >> 11) * 0x1.0p-53;
 }
 
-/* Twice the area and the unit normal (counter-clockwise front) of triangle t; 0 if degenerate. */
+/* Triangle t's area and unit normal (pf_lpv_triangle_normal). */
 static double triangle_frame(const pf_scene_frame *frame, uint32_t t, double normal[3])
 {
-    const float *a = frame->vertices[3 * t], *b = frame->vertices[3 * t + 1],
-                *c = frame->vertices[3 * t + 2];
-    double u[3], w[3];
-    for (int k = 0; k < 3; k++) {
-        u[k] = (double)b[k] - a[k];
-        w[k] = (double)c[k] - a[k];
-    }
-    double n[3] = {u[1] * w[2] - u[2] * w[1], u[2] * w[0] - u[0] * w[2],
-                   u[0] * w[1] - u[1] * w[0]};
-    double length = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
-    if (!(length > 0.0) || !isfinite(length))
-        return 0.0;
-    for (int k = 0; k < 3; k++)
-        normal[k] = n[k] / length;
-    return length;
+    return pf_lpv_triangle_normal(frame->vertices[3 * t], frame->vertices[3 * t + 1],
+                                  frame->vertices[3 * t + 2], normal);
 }
 
 /* The triangles the samples cover: those the LPV's light is estimated on. */
@@ -51,7 +38,7 @@ double pf_lpv_energy_samples(const pf_scene_frame *frame, uint32_t count, float 
     double total = 0.0, normal[3];
     for (uint32_t t = 0; t < frame->triangle_count; t++)
         if (diffuse_triangle(frame, t))
-            total += 0.5 * triangle_frame(frame, t, normal);
+            total += triangle_frame(frame, t, normal);
     memset(samples, 0, (size_t)count * PF_LPV_ENERGY_SAMPLE_FLOATS * sizeof *samples);
     if (!(total > 0.0) || count == 0)
         return 0.0;
@@ -64,7 +51,7 @@ double pf_lpv_energy_samples(const pf_scene_frame *frame, uint32_t count, float 
     for (uint32_t t = 0; t < frame->triangle_count && i < count; t++) {
         if (!diffuse_triangle(frame, t))
             continue;
-        double area = 0.5 * triangle_frame(frame, t, normal);
+        double area = triangle_frame(frame, t, normal);
         while (i < count && (i + 0.5) / count * total < before + area) {
             double r1 = sqrt(next_uniform(&state)), r2 = next_uniform(&state);
             const float *a = frame->vertices[3 * t], *b = frame->vertices[3 * t + 1],

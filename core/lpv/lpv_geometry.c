@@ -112,8 +112,8 @@ static double opaque_fraction(const pf_material *m)
     return 1.0;
 }
 
-/* Unit face normal (counter-clockwise front) and area; 0 for a degenerate triangle. */
-static int face_normal(const float *a, const float *b, const float *c, float normal[3])
+double pf_lpv_triangle_normal(const float a[3], const float b[3], const float c[3],
+                              double normal[3])
 {
     double u[3], w[3];
     for (int k = 0; k < 3; k++) {
@@ -124,10 +124,10 @@ static int face_normal(const float *a, const float *b, const float *c, float nor
                    u[0] * w[1] - u[1] * w[0]};
     double length = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
     if (!(length > 0.0) || !isfinite(length))
-        return 0;
+        return 0.0;
     for (int k = 0; k < 3; k++)
-        normal[k] = (float)(n[k] / length);
-    return 1;
+        normal[k] = n[k] / length;
+    return 0.5 * length;
 }
 
 uint64_t pf_lpv_geometry_build(const pf_lpv_layout *layout, const pf_scene_frame *frame,
@@ -144,9 +144,10 @@ uint64_t pf_lpv_geometry_build(const pf_lpv_layout *layout, const pf_scene_frame
             continue;
         const float *v[3] = {frame->vertices[3 * t], frame->vertices[3 * t + 1],
                              frame->vertices[3 * t + 2]};
-        float normal[3], lobe[4];
-        if (!face_normal(v[0], v[1], v[2], normal))
+        double face[3];
+        if (!(pf_lpv_triangle_normal(v[0], v[1], v[2], face) > 0.0))
             continue;
+        float normal[3] = {(float)face[0], (float)face[1], (float)face[2]}, lobe[4];
         pf_sh_cosine_lobe(normal, lobe);
         for (uint32_t k = 0; k < layout->count; k++) {
             const pf_lpv_cascade *cascade = &layout->cascades[k];

@@ -244,6 +244,11 @@ uint64_t pf_lpv_geometry_build(const pf_lpv_layout *layout, const pf_scene_frame
 #define PF_LPV_ENERGY_SAMPLE_FLOATS 12u
 double pf_lpv_energy_samples(const pf_scene_frame *frame, uint32_t count, float *samples);
 
+/* Area of triangle a b c and its unit normal (counter-clockwise front), in doubles; 0 (normal
+ * unset) for a degenerate one. */
+double pf_lpv_triangle_normal(const float a[3], const float b[3], const float c[3],
+                              double normal[3]);
+
 /* Area of a triangle clipped to an axis-aligned box (exact up to rounding). */
 double pf_lpv_clipped_area(const float a[3], const float b[3], const float c[3],
                            const float box_min[3], const float box_max[3]);
