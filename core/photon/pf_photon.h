@@ -407,7 +407,7 @@ typedef struct pf_photon_trace_settings {
                                      photons, only the maps' order differs */
     const pf_bih_wide *host_wide; /* host_tree's wide view, kept by the caller (NULL: built
                                      for the pass) */
-    /* Arrivals (pf_photon_maps.arrival_flux) are counted strictly inside this box; all zero:
+    /* Arrivals (pf_photon_maps.arrival_direction_flux) are counted strictly inside this box; all zero:
      * none. */
     float arrival_box_min[3], arrival_box_max[3];
 } pf_photon_trace_settings;
@@ -428,10 +428,9 @@ typedef struct pf_photon_maps {
     double host_trace_ms;         /* with a host_tree: the host's traces */
     /* Luminance flux (map units) of the photons that reached a diffuse surface, on either
      * face, inside the settings' arrival box after at least one diffuse bounce: the energy
-     * the diffuse-to-diffuse light deposits there (fast's LPV is scaled to it). */
-    double arrival_flux;
-    /* The same by the direction the surfaces face, the six of the axes: +x, −x, +y, −y, +z,
-     * −z, each arrival split by the squares of its normal's components. */
+     * the diffuse-to-diffuse light deposits there (fast's LPV is scaled to it), by the
+     * direction the surfaces face, the six of the axes: +x, −x, +y, −y, +z, −z, each
+     * arrival split by the squares of its normal's components. */
     double arrival_direction_flux[PF_PHOTON_ARRIVAL_DIRECTIONS];
 } pf_photon_maps;
 

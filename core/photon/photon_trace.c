@@ -365,13 +365,10 @@ static pf_status job_finish(const trace_job *job, const pf_photon_emitters *emit
                              ? counters->caustic_stored
                              : params->caustic_capacity;
     out->non_finite = counters->non_finite;
-    out->arrival_flux = 0.0;
-    for (uint32_t d = 0; d < PF_PHOTON_ARRIVAL_DIRECTIONS; d++) {
+    for (uint32_t d = 0; d < PF_PHOTON_ARRIVAL_DIRECTIONS; d++)
         out->arrival_direction_flux[d] =
             ((double)counters->arrivals[2 * d + 1] * 4294967296.0 + counters->arrivals[2 * d]) /
             65536.0;
-        out->arrival_flux += out->arrival_direction_flux[d];
-    }
     return PF_OK;
 }
 

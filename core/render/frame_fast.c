@@ -50,7 +50,7 @@
 /* fast_shade.glsl's LPV_ENERGY_SCALE_MAX. */
 #define FAST_ENERGY_SCALE_MAX 1.0
 
-/* fast_shade.glsl's Push (80 bytes). */
+/* fast_shade.glsl's Push (76 bytes). */
 typedef struct fast_push {
     pf_photon_grid_push grid;
     uint32_t grid_photons;
@@ -61,12 +61,11 @@ typedef struct fast_push {
     float flux_scale;
     uint32_t loop_sentinel;
     uint32_t lpv_damping;
-    float lpv_arrivals;
     uint32_t energy_samples;
     float energy_weight;
 } fast_push;
 
-_Static_assert(sizeof(fast_push) == 80, "fast_push must match fast_shade.glsl's Push");
+_Static_assert(sizeof(fast_push) == 76, "fast_push must match fast_shade.glsl's Push");
 
 /* fast_shade.glsl's LpvEnergy: a 64-bit sum in two words, in 1 / FAST_ENERGY_UNITS of the
  * map's flux unit (its LPV_ENERGY_UNITS). */
@@ -91,9 +90,8 @@ struct pf_fast_cache {
     uint32_t vpl_count;
     float vpl_flux_scale;
     uint32_t emitted, caustic_count;
-    /* The photons' arrival flux inside the coarsest cascade (pf_photon_maps.arrival_flux):
-     * what the LPV's delivered energy is scaled to. */
-    double arrival_flux;
+    /* The photons' arrival flux inside the coarsest cascade by direction
+     * (pf_photon_maps.arrival_direction_flux): what the LPV's delivered energy is scaled to. */
     double arrival_direction_flux[PF_PHOTON_ARRIVAL_DIRECTIONS];
     pf_photon_grid *caustic;      /* NULL: no caustic map */
     float caustic_radius, caustic_flux_scale;
@@ -138,7 +136,7 @@ typedef struct fast_progress {
     uint64_t rays, discarded, truncated, failures, lpv_outside;
     /* The LPV's delivered flux at the points (map units; 0: not weighed), in all and by the
      * direction the surfaces face (pf_photon_maps.arrival_direction_flux's). */
-    double lpv_delivered, lpv_direction_delivered[PF_PHOTON_ARRIVAL_DIRECTIONS];
+    double lpv_direction_delivered[PF_PHOTON_ARRIVAL_DIRECTIONS];
     double shade_gpu_ms;
     /* Where the host traced the photons: the waves' dispatches and its traces' time. */
     uint32_t photon_waves;
@@ -182,7 +180,6 @@ static pf_status trace_photons(struct pf_fast_cache *cache, const pf_photon_fram
         cache->vpl_flux_scale = maps->flux_scale;
     }
     cache->emitted = maps->emitted;
-    cache->arrival_flux = maps->arrival_flux;
     memcpy(cache->arrival_direction_flux, maps->arrival_direction_flux,
            sizeof cache->arrival_direction_flux);
     cache->caustic_count = plan->caustic_map && status == PF_OK ? maps->caustic_count : 0;
@@ -391,7 +388,6 @@ static pf_status record_energy(pf_vk_context *ctx, pf_vk_commands *cmds,
                                            *weighed ? sample_bytes : 32,
                                            &owned->energy_samples, err);
     if (*weighed) {
-        push->lpv_arrivals = (float)cache->arrival_flux;
         push->energy_samples = FAST_ENERGY_SAMPLES;
         push->energy_weight = (float)(cache->energy_area / FAST_ENERGY_SAMPLES /
                                       cache->vpl_flux_scale);
@@ -516,13 +512,10 @@ static pf_status shade(pf_renderer *renderer, struct pf_fast_cache *cache,
         progress->truncated = counters.loop_truncated;
         progress->failures = counters.traversal_failures;
         progress->lpv_outside = counters.lpv_outside;
-        progress->lpv_delivered = 0.0;
-        for (uint32_t d = 0; d < PF_PHOTON_ARRIVAL_DIRECTIONS; d++) {
+        for (uint32_t d = 0; d < PF_PHOTON_ARRIVAL_DIRECTIONS; d++)
             progress->lpv_direction_delivered[d] =
                 ((double)energy.delivered[2 * d + 1] * 4294967296.0 + energy.delivered[2 * d]) /
                 FAST_ENERGY_UNITS;
-            progress->lpv_delivered += progress->lpv_direction_delivered[d];
-        }
     }
     pf_split_film_finish_read(&readback);
     fast_buffers_release(ctx, &owned);
@@ -611,12 +604,17 @@ static void report_rows(pf_frame_report *report, const struct pf_fast_cache *cac
         pf_stage_add_counter(row, "lpv_outside", (double)progress->lpv_outside);
         /* The scales fast_shade.glsl gave the LPV (1: not weighed): the whole scene's, and
          * each direction's (the whole's where the LPV delivers nothing facing that way). */
-        double scale = energy_scale(cache->arrival_flux, progress->lpv_delivered, 1.0);
+        double arrivals = 0.0, delivered = 0.0;
+        for (uint32_t d = 0; d < PF_PHOTON_ARRIVAL_DIRECTIONS; d++) {
+            arrivals += cache->arrival_direction_flux[d];
+            delivered += progress->lpv_direction_delivered[d];
+        }
+        double scale = energy_scale(arrivals, delivered, 1.0);
         pf_stage_add_counter(row, "lpv_energy_scale", scale);
         static const char *const directions[PF_PHOTON_ARRIVAL_DIRECTIONS] = {
             "lpv_scale_px", "lpv_scale_nx", "lpv_scale_py",
             "lpv_scale_ny", "lpv_scale_pz", "lpv_scale_nz"};
-        for (uint32_t d = 0; d < PF_PHOTON_ARRIVAL_DIRECTIONS && progress->lpv_delivered > 0.0;
+        for (uint32_t d = 0; d < PF_PHOTON_ARRIVAL_DIRECTIONS && delivered > 0.0;
              d++)
             pf_stage_add_counter(row, directions[d],
                                  energy_scale(cache->arrival_direction_flux[d],

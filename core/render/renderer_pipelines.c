@@ -24,8 +24,8 @@
 #define RENDER_FINAL_PUSH_BYTES 124u
 #define TRACE_STEP_CONSTANT 0u
 /* render_fast.comp, render_fast_caustic.comp and render_fast_energy.comp: PF_FAST_BUFFERS
- * buffers and the same 80-byte Push (fast_shade.glsl). */
-#define RENDER_FAST_PUSH_BYTES 80u
+ * buffers and the same 76-byte Push (fast_shade.glsl). */
+#define RENDER_FAST_PUSH_BYTES 76u
 /* denoise_variance.comp and denoise_atrous.comp: the same 6 buffers and 16-byte Push
  * (denoise_filter.glsl). */
 #define DENOISE_BUFFERS 6u

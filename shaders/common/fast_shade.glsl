@@ -47,7 +47,6 @@ layout(push_constant) uniform Push {
     float flux_scale;    // W per unit of the caustic map's stored flux
     uint loop_sentinel;  // 1 (kernel_guard.glsl)
     uint lpv_damping;    // 1: lpv_lookup.glsl's light-bleeding dampening
-    float lpv_arrivals;  // the photons' arrival flux in the LPV's cascades (map units)
     uint energy_samples; // render_fast_energy.comp's surface points (0: the LPV is not scaled)
     float energy_weight; // area each point stands for over the map's flux unit (m² / W)
 } push;
@@ -166,10 +165,12 @@ float lpv_energy_scale()
 {
     if (push.energy_samples == 0u)
         return 1.0;
-    float delivered = 0.0;
-    for (uint d = 0u; d < 6u; d++)
+    float arrivals = 0.0, delivered = 0.0;
+    for (uint d = 0u; d < 6u; d++) {
+        arrivals += lpv_energy.arrivals[d];
         delivered += lpv_delivered(d);
-    return delivered > 0.0 ? min(push.lpv_arrivals / delivered, LPV_ENERGY_SCALE_MAX) : 1.0;
+    }
+    return delivered > 0.0 ? min(arrivals / delivered, LPV_ENERGY_SCALE_MAX) : 1.0;
 }
 
 // The scale of a surface facing `facing`: each direction's own, weighted by the squares of
