@@ -233,6 +233,32 @@ static void lit_box(ref_scene *scene, float albedo)
     lit_box_faces(scene, albedo, 0);
 }
 
+/*
+ * A variant of the closed box that must render as the box itself: the scale counter named
+ * and the indirect mean within 5 % of the box's (box_report, box_mean; exact: the
+ * reference's mean, printed).
+ */
+static void check_like_the_box(const ref_scene *variant, const pf_render_settings *settings,
+                               const char *what, const char *scale_counter,
+                               const pf_frame_report *box_report, double box_mean, double exact)
+{
+    pf_error err = {0};
+    pf_image image;
+    pf_frame_report report = {0};
+    PF_REQUIRE_OK(pf_render_frame(renderer, &variant->frame, settings, &image, &report, &err),
+                  &err);
+    double scale = ref_stage_counter(&report, "shade", scale_counter);
+    double box_scale = ref_stage_counter(box_report, "shade", scale_counter);
+    double mean = ref_layer_mean(&image, REF_CH_INDIRECT);
+    printf("  %s: indirect mean %.5f (%.3f), %s %.3f (the box's %.3f)\n", what, mean,
+           mean / exact, scale_counter, scale, box_scale);
+    PF_CHECK_MSG(fabs(scale / box_scale - 1.0) < 0.05, "%s: scale %.3f vs %.3f", what, scale,
+                 box_scale);
+    PF_CHECK_MSG(fabs(mean / box_mean - 1.0) < 0.05, "%s: mean %.5f vs %.5f", what, mean,
+                 box_mean);
+    pf_image_free(&image);
+}
+
 PF_TEST(closed_box_indirect_matches_reference)
 {
     pf_error err = {0};
@@ -258,19 +284,8 @@ PF_TEST(closed_box_indirect_matches_reference)
      * (weighing front faces only, the scale was near 0 and so was the light). */
     ref_scene flipped;
     lit_box_faces(&flipped, 0.5f, 1);
-    pf_image flipped_image;
-    pf_frame_report flipped_report = {0};
-    PF_REQUIRE_OK(pf_render_frame(renderer, &flipped.frame, &settings, &flipped_image,
-                                  &flipped_report, &err),
-                  &err);
-    double flipped_scale = ref_stage_counter(&flipped_report, "shade", "lpv_energy_scale");
-    double flipped_mean = ref_layer_mean(&flipped_image, REF_CH_INDIRECT);
-    printf("  the same box facing outward, double-sided: indirect mean %.5f (%.3f), scale %.3f\n",
-           flipped_mean, flipped_mean / exact, flipped_scale);
-    PF_CHECK_MSG(fabs(flipped_scale / scale - 1.0) < 0.05, "scale %.3f vs %.3f", flipped_scale,
-                 scale);
-    PF_CHECK_MSG(fabs(flipped_mean / fast - 1.0) < 0.05, "mean %.5f vs %.5f", flipped_mean, fast);
-    pf_image_free(&flipped_image);
+    check_like_the_box(&flipped, &settings, "the same box facing outward, double-sided",
+                       "lpv_energy_scale", &report, fast, exact);
     ref_scene_free(&flipped);
     /* A shelf across the box that an alpha mask cuts away whole: photons pass it, and so
      * must the LPV's light (the geometry volume) and its weighing (the points on it). */
@@ -284,21 +299,8 @@ PF_TEST(closed_box_indirect_matches_reference)
     const float shelf_centre[3] = {0.0f, -0.5f, 0.0f}, along_z[3] = {0, 0, 1},
                 along_x[3] = {1, 0, 0};
     ref_scene_add_quad(&shelved, shelf_centre, along_z, along_x, shelf); /* faces +y */
-    pf_image shelved_image;
-    pf_frame_report shelved_report = {0};
-    PF_REQUIRE_OK(pf_render_frame(renderer, &shelved.frame, &settings, &shelved_image,
-                                  &shelved_report, &err),
-                  &err);
-    double shelved_scale = ref_stage_counter(&shelved_report, "shade", "lpv_scale_py");
-    double box_scale = ref_stage_counter(&report, "shade", "lpv_scale_py");
-    double shelved_mean = ref_layer_mean(&shelved_image, REF_CH_INDIRECT);
-    printf("  with a shelf cut away by its alpha: indirect mean %.5f (%.3f), floor's scale %.3f "
-           "(the box's %.3f)\n",
-           shelved_mean, shelved_mean / exact, shelved_scale, box_scale);
-    PF_CHECK_MSG(fabs(shelved_scale / box_scale - 1.0) < 0.05, "scale %.3f vs %.3f",
-                 shelved_scale, box_scale);
-    PF_CHECK_MSG(fabs(shelved_mean / fast - 1.0) < 0.05, "mean %.5f vs %.5f", shelved_mean, fast);
-    pf_image_free(&shelved_image);
+    check_like_the_box(&shelved, &settings, "with a shelf cut away by its alpha", "lpv_scale_py",
+                       &report, fast, exact);
     ref_scene_free(&shelved);
     /*
      * Every bounce is in the VPLs, but the propagation loses some of it
