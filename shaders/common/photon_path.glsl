@@ -277,11 +277,12 @@ void store(bool caustic, bool global, vec3 position, vec3 flux, vec3 reflected, 
 
 // An arrival: light that left a diffuse surface reaching another one (or the same), on
 // either face (a single-sided surface reflects from its back too), inside params' arrival
-// box. Its luminance flux, summed over the
-// pass, is the energy that `fast`'s light propagation volumes should deliver to surfaces
-// there (frame_fast.c scales their irradiance to it), split over the six directions of the
-// axes by the squares of the normal's components (facing: the side it arrived on): the
-// directions d = 2 × axis + (component < 0), as fast_shade.glsl weighs the LPV's.
+// box. Its luminance flux, summed over the pass, is the energy that `fast`'s light
+// propagation volumes should deliver to surfaces there (frame_fast.c scales their
+// irradiance to it), split over the six directions of the axes by the squares of the
+// normal's components (facing: the side it arrived on): the directions d = 2 × axis +
+// (component < 0), as fast_shade.glsl weighs the LPV's. (The 64-bit add with its carry is
+// written out here and there: an atomic takes a buffer's member, not a parameter.)
 void count_arrival(vec3 position, vec3 facing, vec3 flux)
 {
     if (!all(greaterThan(position, params.arrival_box_min.xyz)) ||
