@@ -28,7 +28,7 @@ void trace_here()
         }
         bool failed;
         BihHit hit = trace_bih_surfaces(p.origin, p.direction, 0.0, uintBitsToFloat(0x7f800000u),
-                                        false, params.bih_bounds_min.xyz,
+                                        false, false, params.bih_bounds_min.xyz,
                                         params.bih_bounds_max.xyz, params.triangle_count,
                                         params.bih_node_count, failed);
         if (failed) {

@@ -25,7 +25,7 @@ void main()
         // textures), as the flat loop's trace_bih_surfaces goes.
         bool failed;
         hit = trace_bih_surfaces_after(hit, p.origin, p.direction, 0.0,
-                                       uintBitsToFloat(0x7f800000u), false,
+                                       uintBitsToFloat(0x7f800000u), false, false,
                                        params.bih_bounds_min.xyz, params.bih_bounds_max.xyz,
                                        params.triangle_count, params.bih_node_count, failed);
         if (failed)

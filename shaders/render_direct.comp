@@ -192,7 +192,7 @@ void main()
 
     // Camera ray, then the specular chain through mirrors and glass.
     for (uint depth = 0u; depth <= params.max_specular_depth && path.tracing; depth++) {
-        BihHit hit = trace(path.origin, path.direction, infinity, false);
+        BihHit hit = trace_seen(path.origin, path.direction, infinity, false, depth == 0u);
         sums.rays++;
         path_follow_hit(path, hit, depth, ray_offset, rng, sums);
     }

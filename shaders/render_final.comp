@@ -146,9 +146,9 @@ void primary(uint pixel_index, uvec2 pixel)
         BihHit hit;
         if (TRACE_STEP == HITS_GIVEN && depth == 0u) {
             hit = trace_after(host_hit(camera_slot(pixel_index)), origin, direction, infinity,
-                              false); // traced and counted there
+                              false, true); // traced and counted there
         } else {
-            hit = trace(origin, direction, infinity, false);
+            hit = trace_seen(origin, direction, infinity, false, depth == 0u);
             rays++;
         }
         if (hit.triangle == NO_HIT)

@@ -92,7 +92,8 @@ void main()
         return;
     path_begin(pixel, push.sample_index);
     for (uint depth = 0u; depth < params.max_path_depth; depth++) {
-        BihHit hit = trace(path_origin, path_direction, infinity, false);
+        BihHit hit = trace_seen(path_origin, path_direction, infinity, false,
+                                path_depth == 0u);
         path_rays++;
         if (!path_vertex(hit))
             break;

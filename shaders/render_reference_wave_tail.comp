@@ -39,7 +39,7 @@ void main()
             if (path_resume(p, pixel_of(p)))
                 hit = traced_hit(p);
         } else {
-            hit = trace(path_origin, path_direction, infinity, false);
+            hit = trace_seen(path_origin, path_direction, infinity, false, path_depth == 0u);
             path_rays++;
         }
         tail_unoccluded = vec3(0.0);

@@ -14,7 +14,11 @@
 # floor (coat 1, roughness 0.1), a lacquered red sphere (coat 1, Blender's default coat
 # roughness 0.03) and a satin-coated white one (coat 0.5, roughness 0.3). room-ortho.gltf
 # is the panel room seen through an orthographic camera (ortho scale 4 m), as an
-# architectural elevation is.
+# architectural elevation is. room-unlit.gltf is the panel room with two shadeless
+# (KHR_materials_unlit) surfaces made as Blender users make them, an emission only camera
+# rays see (the "lightpath trick" the exporter looks for): a poster on the wall, its colour
+# an image, and a bright sign standing between the panel and the floor, which must neither
+# cast a shadow nor light the room.
 #
 #   blender -b --factory-startup --python make_room.py -- OUTDIR
 import math
@@ -133,6 +137,28 @@ def textured_materials():
     return floor, wall, cube, card
 
 
+def unlit(name, colour=None, img=None):
+    """A shadeless material: Emission (a colour or an image) for camera rays, Transparent
+    for every other ray, as the exporter detects KHR_materials_unlit."""
+    material = bpy.data.materials.new(name)
+    material.use_nodes = True
+    tree = material.node_tree
+    tree.nodes.remove(tree.nodes["Principled BSDF"])
+    emission = tree.nodes.new("ShaderNodeEmission")
+    if img is not None:
+        tree.links.new(image_node(material, img).outputs["Color"], emission.inputs["Color"])
+    else:
+        emission.inputs["Color"].default_value = (*colour, 1.0)
+    light_path = tree.nodes.new("ShaderNodeLightPath")
+    transparent = tree.nodes.new("ShaderNodeBsdfTransparent")
+    mix = tree.nodes.new("ShaderNodeMixShader")
+    tree.links.new(light_path.outputs["Is Camera Ray"], mix.inputs["Fac"])
+    tree.links.new(transparent.outputs[0], mix.inputs[1])
+    tree.links.new(emission.outputs[0], mix.inputs[2])
+    tree.links.new(mix.outputs[0], tree.nodes["Material Output"].inputs["Surface"])
+    return material
+
+
 def build_room():
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
@@ -234,6 +260,20 @@ def main():
     panel = principled("Panel", (0.0, 0.0, 0.0), emission=(1.0, 1.0, 1.0), strength=8.0)
     plane("Panel", 1.0, (0, 0.3, 2.5), (math.pi, 0, 0), panel)
     export(os.path.join(out, "room-textured.gltf"), lights=False)
+
+    build_room()
+    # A poster of coloured bands, 1.2 × 0.8 m on the wall (5 mm in front of it).
+    bands = [(0.9, 0.2, 0.1), (0.95, 0.8, 0.2), (0.1, 0.5, 0.8), (0.1, 0.1, 0.1)]
+    poster = unlit("Poster", img=image("poster", 64, lambda x, y: (*bands[(x + y) // 32], 1.0)))
+    plane("Poster", 1.0, (-1.0, 1.995, 1.15), (math.pi / 2, 0, 0), poster)
+    bpy.context.object.scale = (1.2, 0.8, 1.0)
+    # A sign 0.8 × 0.5 m standing upright right of the chrome sphere, under the panel.
+    sign = unlit("Sign", colour=(0.1, 0.9, 0.3))
+    plane("Sign", 1.0, (0.5, -0.2, 0.6), (math.pi / 2, 0, math.radians(15)), sign)
+    bpy.context.object.scale = (0.8, 0.5, 1.0)
+    panel = principled("Panel", (0.0, 0.0, 0.0), emission=(1.0, 1.0, 1.0), strength=8.0)
+    plane("Panel", 1.0, (0, 0.3, 2.5), (math.pi, 0, 0), panel)
+    export(os.path.join(out, "room-unlit.gltf"), lights=False)
 
 
 if __name__ == "__main__":

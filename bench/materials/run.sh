@@ -4,7 +4,7 @@
 # error and the channel means of each against Cycles.
 #
 #   bench/materials/run.sh [OUTDIR] [WxH] [CYCLES_SPP] [REFERENCE_SPP]
-# PF_MATERIALS_SCENES picks rooms (default: panel lamps textured string coated ortho).
+# PF_MATERIALS_SCENES picks rooms (default: panel lamps textured string coated ortho unlit).
 # Needs Debian's blender (./bootstrap.sh quality installs it) and a build in build/.
 set -euo pipefail
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
@@ -16,7 +16,7 @@ reference_spp=${4:-64}
 photonfarm=$root/build/worker/photonfarm
 mkdir -p "$out"
 blender -b --factory-startup --python "$here/make_room.py" -- "$out" >/dev/null
-for scene in ${PF_MATERIALS_SCENES:-panel lamps textured string coated ortho}; do
+for scene in ${PF_MATERIALS_SCENES:-panel lamps textured string coated ortho unlit}; do
   blender -b --factory-startup --python "$here/cycles_import_render.py" -- \
     "$out/room-$scene.gltf" "$out/cycles-$scene.exr" "${size%x*}" "${size#*x}" "$cycles_spp" \
     >/dev/null

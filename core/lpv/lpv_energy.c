@@ -26,11 +26,13 @@ static double triangle_frame(const pf_scene_frame *frame, uint32_t t, double nor
                                   frame->vertices[3 * t + 2], normal);
 }
 
-/* The triangles the samples cover: those the LPV's light is estimated on. */
+/* The triangles the samples cover: those the LPV's light is estimated on (not unlit ones,
+ * which photons pass and which shade no light). */
 static int diffuse_triangle(const pf_scene_frame *frame, uint32_t t)
 {
     uint32_t m = frame->triangle_material[t];
-    return m < frame->material_count && frame->materials[m].kind == PF_MATERIAL_LAMBERT;
+    return m < frame->material_count && frame->materials[m].kind == PF_MATERIAL_LAMBERT &&
+           !(frame->materials[m].flags & PF_MATERIAL_UNLIT);
 }
 
 double pf_lpv_energy_samples(const pf_scene_frame *frame, uint32_t count, float *samples)

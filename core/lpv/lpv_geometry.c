@@ -97,13 +97,14 @@ static double face_cell_area(const float *v[3], const float box_min[3], const fl
 
 /*
  * How much of a triangle of material m blocks light, as the traversal's alpha test
- * (scene_geometry.glsl) lets rays through it by its factors: glass none, a MASK whose
+ * (scene_geometry.glsl) lets rays through it by its factors: glass and unlit surfaces (which
+ * only camera rays see) none, a MASK whose
  * baseColorFactor alpha is below its cutoff none, a BLEND its alpha; the rest all
  * (a texture's alpha, per point, is not seen here).
  */
 static double opaque_fraction(const pf_material *m)
 {
-    if (m->kind == PF_MATERIAL_GLASS)
+    if (m->kind == PF_MATERIAL_GLASS || (m->flags & PF_MATERIAL_UNLIT))
         return 0.0;
     if (m->alpha_mode == PF_ALPHA_MASK)
         return m->alpha >= m->alpha_cutoff ? 1.0 : 0.0;

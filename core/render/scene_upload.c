@@ -238,8 +238,8 @@ uint32_t pf_gpu_scene_bindings(const pf_gpu_scene *scene, pf_vk_buffer *params,
 
 /*
  * The triangle material words with TRIANGLE_ALPHA_TESTED (scene_geometry.glsl) set where the
- * material's alphaMode is MASK or BLEND; *words NULL when no material is (the frame's array
- * is uploaded as it is).
+ * material's alphaMode is MASK or BLEND, or it is unlit (seen by camera rays only); *words
+ * NULL when no material is (the frame's array is uploaded as it is).
  */
 #define TRIANGLE_ALPHA_TESTED 0x80000000u
 static pf_status triangle_material_words(const pf_scene_frame *frame, uint32_t **words,
@@ -255,7 +255,9 @@ static pf_status triangle_material_words(const pf_scene_frame *frame, uint32_t *
         return pf_error_set(err, PF_ERR_NOMEM, "triangle materials: out of memory");
     for (uint32_t t = 0; t < frame->triangle_count; t++) {
         uint32_t m = frame->triangle_material[t];
-        (*words)[t] = m | (frame->materials[m].alpha_mode != PF_ALPHA_OPAQUE
+        const pf_material *material = &frame->materials[m];
+        (*words)[t] = m | (material->alpha_mode != PF_ALPHA_OPAQUE ||
+                                   (material->flags & PF_MATERIAL_UNLIT)
                                ? TRIANGLE_ALPHA_TESTED
                                : 0u);
     }

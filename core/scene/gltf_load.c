@@ -55,6 +55,7 @@ static const char *const supported_extensions[] = {
     "KHR_materials_specular",
     "KHR_materials_volume",
     "KHR_materials_clearcoat",
+    "KHR_materials_unlit",
     "EXT_mesh_gpu_instancing",
     "KHR_texture_transform",
     "EXT_texture_webp",

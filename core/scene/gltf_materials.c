@@ -14,6 +14,7 @@
  * KHR_materials_clearcoat: clearcoatFactor (0) and clearcoatRoughnessFactor (0), scaled by
  * clearcoatTexture's R and clearcoatRoughnessTexture's G; clearcoatNormalTexture (with its
  * scale) tilts the coat's normal, which is otherwise the mesh's even under a base normal map.
+ * KHR_materials_unlit: the base colour as the camera sees it, nothing else (make_unlit).
  * Emission = emissiveFactor x KHR_materials_emissive_strength.emissiveStrength,
  * from both faces when the material is doubleSided.
  * Textures (gltf_textures.c): baseColor and emissive (sRGB) and
@@ -37,7 +38,8 @@
 
 static const char *const known_material_extensions[] = {
     "KHR_materials_emissive_strength", "KHR_materials_transmission", "KHR_materials_ior",
-    "KHR_materials_specular", "KHR_materials_volume", "KHR_materials_clearcoat"};
+    "KHR_materials_specular", "KHR_materials_volume", "KHR_materials_clearcoat",
+    "KHR_materials_unlit"};
 
 static void warn_unhandled(gltf_context *ctx, const cJSON *material, const cJSON *pbr,
                            const char *element)
@@ -167,6 +169,28 @@ static pf_status load_clearcoat(gltf_context *ctx, const cJSON *coat, const char
     out->clearcoat = (float)factor;
     out->clearcoat_roughness = (float)roughness;
     return PF_OK;
+}
+
+/*
+ * KHR_materials_unlit: the base colour (its factor, texture, COLOR_0 and alpha mode) is all
+ * that counts; the spec has the rest ignored, so the lobes the kernels would sample are
+ * zeroed (an unlit surface reflects nothing) and its emission is left to the camera hit
+ * (pf_scene.h PF_MATERIAL_UNLIT).
+ */
+static void make_unlit(pf_material *m)
+{
+    m->flags |= PF_MATERIAL_UNLIT;
+    m->metallic = 0.0f;
+    m->roughness = 1.0f;
+    m->transmission = 0.0f;
+    m->specular = 0.0f;
+    m->clearcoat = 0.0f;
+    memset(m->emission, 0, sizeof m->emission);
+    memset(m->absorption, 0, sizeof m->absorption);
+    m->metallic_roughness_texture = m->normal_texture = m->emissive_texture = PF_NO_TEXTURE;
+    m->specular_texture = m->specular_color_texture = PF_NO_TEXTURE;
+    m->clearcoat_texture = m->clearcoat_roughness_texture = PF_NO_TEXTURE;
+    m->clearcoat_normal_texture = PF_NO_TEXTURE;
 }
 
 static pf_status load_material(gltf_context *ctx, const cJSON *material, const char *element,
@@ -309,6 +333,12 @@ static pf_status load_material(gltf_context *ctx, const cJSON *material, const c
         return gltf_fail(ctx, err, PF_ERR_FORMAT, element, "doubleSided must be true or false");
     if (cJSON_IsTrue(double_sided))
         out->flags |= PF_MATERIAL_DOUBLE_SIDED;
+    const cJSON *unlit = cJSON_GetObjectItemCaseSensitive(extensions, "KHR_materials_unlit");
+    if (unlit && !cJSON_IsObject(unlit))
+        return gltf_fail(ctx, err, PF_ERR_FORMAT, element,
+                         "extensions.KHR_materials_unlit must be an object");
+    if (unlit)
+        make_unlit(out);
     pf_material_classify(out);
     return PF_OK;
 }

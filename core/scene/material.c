@@ -17,7 +17,8 @@ uint32_t pf_scene_frame_surface_features(const pf_scene_frame *frame)
         has |= PF_SURFACE_NO_MANY_LIGHTS;
     for (uint32_t m = 0; m < frame->material_count; m++) {
         const pf_material *material = &frame->materials[m];
-        if (material->alpha_mode != PF_ALPHA_OPAQUE)
+        /* An unlit surface is tested as alpha is: only camera rays see it. */
+        if (material->alpha_mode != PF_ALPHA_OPAQUE || (material->flags & PF_MATERIAL_UNLIT))
             features |= PF_SURFACE_ALPHA;
         if (material->transmission > 0.0f)
             has |= PF_SURFACE_NO_TRANSMISSION;

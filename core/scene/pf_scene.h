@@ -92,7 +92,7 @@ typedef struct pf_material {
     float specular;          /* KHR_materials_specular factor: the dielectric's reflection
                               * (1 glTF default; 0 leaves a pure Lambert base) */
     float specular_color[3]; /* KHR_materials_specular colour, tints the dielectric's F0 */
-    uint32_t flags;          /* PF_MATERIAL_DOUBLE_SIDED */
+    uint32_t flags;          /* PF_MATERIAL_DOUBLE_SIDED, PF_MATERIAL_UNLIT */
     float absorption[3];     /* KHR_materials_volume: Beer-Lambert coefficient inside the
                               * closed mesh, 1/m (-ln(attenuationColor)/attenuationDistance);
                               * 0: clear, or thin-walled (thicknessFactor 0) */
@@ -129,6 +129,12 @@ typedef struct pf_material {
 /* glTF material.doubleSided: its emission leaves both faces (Blender's exporter
  * writes it for every material whose backface culling is off, the default). */
 #define PF_MATERIAL_DOUBLE_SIDED 1u
+/* KHR_materials_unlit: the camera sees the base colour (factor x texture x COLOR_0) as it is,
+ * and nothing else sees the surface: rays from a surface, shadow rays and photons pass
+ * through it, as Blender's importer (and Cycles) renders it (an emission only camera rays
+ * see, transparent to the rest). Its albedo stays the base colour here; the kernels turn it
+ * into the emission at a camera hit (scene_textures.glsl). */
+#define PF_MATERIAL_UNLIT 2u
 
 /*
  * One texture as a material slot reads it (std430, 48 bytes; scene_types.glsl

@@ -292,9 +292,9 @@ const uint BIH_ALPHA_LAYERS = 32u;
 // first traversal's already (layer 0 is not traced here). One traversal in the loop
 // (llvmpipe inlines each call site's copy).
 BihHit trace_bih_surfaces_from(bool traced, BihHit hit, vec3 origin, vec3 direction,
-                               float tmin, float tmax, bool any_hit, vec3 bounds_min,
-                               vec3 bounds_max, uint triangle_count, uint node_count,
-                               out bool failed)
+                               float tmin, float tmax, bool any_hit, bool camera,
+                               vec3 bounds_min, vec3 bounds_max, uint triangle_count,
+                               uint node_count, out bool failed)
 {
     failed = false;
     float from = tmin;
@@ -305,7 +305,7 @@ BihHit trace_bih_surfaces_from(bool traced, BihHit hit, vec3 origin, vec3 direct
                             triangle_count, node_count, failed);
         if (!SCENE_HAS_ALPHA || failed || hit.triangle == BIH_NO_HIT ||
             layer == BIH_ALPHA_LAYERS ||
-            scene_alpha_passes(hit.triangle, hit.u, hit.v, origin, direction))
+            scene_alpha_passes(hit.triangle, hit.u, hit.v, origin, direction, camera))
             break;
         // On past this hit; after an any-hit query's, from the start as closest-hit ones.
         from = any ? from : hit.t;
@@ -315,14 +315,16 @@ BihHit trace_bih_surfaces_from(bool traced, BihHit hit, vec3 origin, vec3 direct
 }
 #endif
 
+// camera: the ray leaves the camera, the only rays that see unlit surfaces
+// (scene_alpha_passes).
 BihHit trace_bih_surfaces(vec3 origin, vec3 direction, float tmin, float tmax, bool any_hit,
-                          vec3 bounds_min, vec3 bounds_max, uint triangle_count, uint node_count,
-                          out bool failed)
+                          bool camera, vec3 bounds_min, vec3 bounds_max, uint triangle_count,
+                          uint node_count, out bool failed)
 {
 #ifdef PF_SCENE_TEXTURES_GLSL
     return trace_bih_surfaces_from(false, BihHit(-1.0, BIH_NO_HIT, 0.0, 0.0), origin, direction,
-                                   tmin, tmax, any_hit, bounds_min, bounds_max, triangle_count,
-                                   node_count, failed);
+                                   tmin, tmax, any_hit, camera, bounds_min, bounds_max,
+                                   triangle_count, node_count, failed);
 #else
     // The plain variant: no loop around the traversal.
     return trace_bih(origin, direction, tmin, tmax, any_hit, bounds_min, bounds_max,
@@ -339,11 +341,12 @@ BihHit trace_bih_surfaces(vec3 origin, vec3 direction, float tmin, float tmax, b
 // the answer, occluded or not, is the same). Most rays hit an opaque triangle first and
 // trace nothing here; without alpha, nothing is compiled.
 BihHit trace_bih_surfaces_after(BihHit hit, vec3 origin, vec3 direction, float tmin,
-                                float tmax, bool any_hit, vec3 bounds_min, vec3 bounds_max,
-                                uint triangle_count, uint node_count, out bool failed)
+                                float tmax, bool any_hit, bool camera, vec3 bounds_min,
+                                vec3 bounds_max, uint triangle_count, uint node_count,
+                                out bool failed)
 {
 #ifdef PF_SCENE_TEXTURES_GLSL
-    return trace_bih_surfaces_from(true, hit, origin, direction, tmin, tmax, any_hit,
+    return trace_bih_surfaces_from(true, hit, origin, direction, tmin, tmax, any_hit, camera,
                                    bounds_min, bounds_max, triangle_count, node_count, failed);
 #else
     failed = false;

@@ -215,7 +215,7 @@ void main()
     // opaque part); the ray the test hashes is the point's own, along its normal.
 #ifdef PF_SURFACE_TEXTURES
     if (SCENE_HAS_ALPHA && !scene_alpha_passes(floatBitsToUint(face.w), barycentrics.x,
-                                               barycentrics.y, point.xyz, normal))
+                                               barycentrics.y, point.xyz, normal, false))
         return;
 #endif
     bool covered;
@@ -275,7 +275,7 @@ void main()
     bool aov_recorded = false;
     float lpv_scale = push.cascade_count > 0u ? lpv_energy_scale() : 1.0;
     for (uint depth = 0u; depth <= params.max_specular_depth; depth++) {
-        BihHit hit = trace(origin, direction, infinity, false);
+        BihHit hit = trace_seen(origin, direction, infinity, false, depth == 0u);
         rays++;
         if (hit.triangle == NO_HIT)
             break;

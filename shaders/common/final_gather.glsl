@@ -122,7 +122,7 @@ void gather_ray(uint pixel_index, uint gather_index, Material d1_material, vec3 
         BihHit hit;
         if (TRACE_STEP == HITS_GIVEN && bounce == 0u) {
             hit = trace_after(host_hit(gather_slot(pixel_index, gather_index)), origin,
-                              direction, infinity, false); // traced and counted there
+                              direction, infinity, false, false); // traced and counted there
         } else {
             hit = trace(origin, direction, infinity, false);
             rays++;

@@ -242,7 +242,7 @@ bool shadow_unoccluded(uint slot)
                         uintBitsToFloat(texelFetch(shadow_hits, at + 3).x));
     Ray ray = shadow_rays[slot];
     return trace_after(hit, ray.origin_tmin.xyz, ray.direction_tmax.xyz, ray.direction_tmax.w,
-                       true).triangle == NO_HIT;
+                       true, false).triangle == NO_HIT;
 }
 
 // Loads path p (pixel's) and adds the light of its previous vertex's unoccluded shadow
@@ -267,7 +267,8 @@ BihHit traced_hit(uint p)
     BihHit hit = BihHit(uintBitsToFloat(texelFetch(hits, at).x), texelFetch(hits, at + 1).x,
                         uintBitsToFloat(texelFetch(hits, at + 2).x),
                         uintBitsToFloat(texelFetch(hits, at + 3).x));
-    return trace_after(hit, path_origin, path_direction, uintBitsToFloat(0x7f800000u), false);
+    return trace_after(hit, path_origin, path_direction, uintBitsToFloat(0x7f800000u), false,
+                       path_depth == 0u);
 }
 
 uvec2 pixel_of(uint p)

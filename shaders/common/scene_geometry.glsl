@@ -37,7 +37,8 @@ vec3 scene_normal(uint element)
 }
 
 // A triangle's material word: the index, and TRIANGLE_ALPHA_TESTED where its material's
-// alphaMode is MASK or BLEND (scene_upload.c), so the traversal tests alpha only there.
+// alphaMode is MASK or BLEND or it is unlit (scene_upload.c), so the traversal tests alpha
+// only there.
 const uint TRIANGLE_ALPHA_TESTED = 0x80000000u;
 
 uint scene_triangle_material(uint triangle)
@@ -92,13 +93,20 @@ Material scene_material_at(uint triangle, float u, float v)
 // (baseColorFactor × COLOR_0 × baseColorTexture, level 0) is below alphaCutoff, and BLEND,
 // where it counts with probability alpha: stochastic transparency, decided by a hash of
 // the ray and the triangle, so camera, shadow, photon and gather rays all see the same
-// coverage on average (a masked leaf casts a leaf-shaped shadow).
-bool scene_alpha_passes(uint triangle, float u, float v, vec3 origin, vec3 direction)
+// coverage on average (a masked leaf casts a leaf-shaped shadow). An unlit surface's hit
+// counts for camera rays only (camera: the ray leaves the camera), as Blender's importer
+// has Cycles render KHR_materials_unlit: other rays pass it (pf_scene.h PF_MATERIAL_UNLIT).
+bool scene_alpha_passes(uint triangle, float u, float v, vec3 origin, vec3 direction,
+                        bool camera)
 {
     uint word = texelFetch(scene_triangle_materials, int(triangle)).x;
     if ((word & TRIANGLE_ALPHA_TESTED) == 0u)
         return true;
     Material m = scene_material(word & ~TRIANGLE_ALPHA_TESTED);
+    if ((m.flags & MATERIAL_UNLIT) != 0u && !camera)
+        return false;
+    if (m.alpha_mode == ALPHA_OPAQUE)
+        return true;
     float alpha = m.alpha;
     if (scene_has_corners()) {
         alpha *= scene_corner(triangle, 1u, u, v).a;

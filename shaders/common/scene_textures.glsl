@@ -169,9 +169,9 @@ vec4 scene_slot_sample(uint slot, SurfaceUv surface_uv)
     return texture_sample(ref, set1 ? surface_uv.uvs.zw : surface_uv.uvs.xy, lod);
 }
 
-// The material of triangle at barycentrics (u, v) with its textures and COLOR_0 applied.
-Material scene_material_textured(Material m, uint triangle, float u, float v, float cone_width,
-                                 float cos_arrival, vec3 p0, vec3 p1, vec3 p2)
+// scene_material_textured's textures and COLOR_0.
+Material scene_material_sampled(Material m, uint triangle, float u, float v, float cone_width,
+                                float cos_arrival, vec3 p0, vec3 p1, vec3 p2)
 {
     if (!scene_has_corners())
         return m;
@@ -207,6 +207,22 @@ Material scene_material_textured(Material m, uint triangle, float u, float v, fl
         m.clearcoat *= scene_slot_sample(m.clearcoat_texture, surface_uv).r;
     if (coat_textured && m.clearcoat_roughness_texture != NO_TEXTURE)
         m.clearcoat_roughness *= scene_slot_sample(m.clearcoat_roughness_texture, surface_uv).g;
+    return m;
+}
+
+// The material of triangle at barycentrics (u, v) with its textures and COLOR_0 applied. An
+// unlit one (KHR_materials_unlit) emits its base colour there and reflects nothing: only a
+// camera ray reaches it (scene_alpha_passes), and the camera sees the colour as it is, from
+// either face, as Cycles renders Blender's import of it (an emission shader, two-sided).
+Material scene_material_textured(Material m, uint triangle, float u, float v, float cone_width,
+                                 float cos_arrival, vec3 p0, vec3 p1, vec3 p2)
+{
+    m = scene_material_sampled(m, triangle, u, v, cone_width, cos_arrival, p0, p1, p2);
+    if ((m.flags & MATERIAL_UNLIT) != 0u) {
+        m.emission = m.albedo;
+        m.albedo = vec3(0.0);
+        m.flags |= MATERIAL_DOUBLE_SIDED;
+    }
     return m;
 }
 

@@ -8,8 +8,10 @@ const uint MATERIAL_LAMBERT = 0u;
 const uint MATERIAL_MIRROR = 1u; // smooth or sharp glossy metal (pf_scene.h)
 const uint MATERIAL_GLASS = 2u;
 
-// pf_material.flags (pf_scene.h PF_MATERIAL_DOUBLE_SIDED): emits from both faces.
+// pf_material.flags (pf_scene.h): MATERIAL_DOUBLE_SIDED emits from both faces;
+// MATERIAL_UNLIT (KHR_materials_unlit) is seen by camera rays only, as its base colour.
 const uint MATERIAL_DOUBLE_SIDED = 1u;
+const uint MATERIAL_UNLIT = 2u;
 
 const uint LIGHT_POINT = 0u;
 const uint LIGHT_SPOT = 1u;
@@ -28,7 +30,7 @@ struct Material {
     float transmission;
     float specular;       // KHR_materials_specular factor (0: diffuse base only)
     vec3 specular_color;  // KHR_materials_specular colour
-    uint flags;           // MATERIAL_DOUBLE_SIDED
+    uint flags;           // MATERIAL_DOUBLE_SIDED, MATERIAL_UNLIT
     vec3 absorption;      // KHR_materials_volume: Beer-Lambert coefficient inside, 1/m
     float alpha;          // baseColorFactor's alpha (MASK, BLEND)
     // Texture slots: 1 + the TextureRef's index, 0 (NO_TEXTURE) if none. surface_at has

@@ -21,7 +21,12 @@
  *   (its shadow lies hidden under it), 0.5 m² seen from 1.5 m, i.e.
  *   0.5·(2/1.5)²/4 = 2/9 of the view, in every preset: camera rays see
  *   through the cut-away half and shadow rays pass it (a card without its
- *   mask would darken 4/9; shadow rays that ignored it, 2/9 + 1/8).
+ *   mask would darken 4/9; shadow rays that ignored it, 2/9 + 1/8);
+ * - an unlit card (KHR_materials_unlit) of the same shape, its texture coloured, under a
+ *   light at 45°: in every preset the camera sees its base colour (factor × texel) exactly,
+ *   and the plane around it is lit as if it were not there (shadow rays, photons and
+ *   bounce rays pass it, as Cycles renders Blender's import), where a lit card's shadow
+ *   would darken the plane beside it.
  */
 #include "pf_test.h"
 #include "reference_test_util.h"
@@ -466,6 +471,92 @@ PF_TEST(alpha_masked_card_hides_and_shadows_only_its_opaque_half)
     scene_free_textured(&scene);
 }
 
+PF_TEST(unlit_card_is_its_colour_to_the_camera_and_invisible_to_the_rest)
+{
+    ref_scene scene;
+    ref_scene_init(&scene);
+    uint32_t plane = ref_scene_add_material(&scene, pf_material_lambert(1, 1, 1));
+    pf_material card = pf_material_lambert(0.5f, 0.5f, 0.5f);
+    card.flags |= PF_MATERIAL_UNLIT;
+    card.base_color_texture = 1;
+    card.alpha = 1.0f;
+    card.alpha_mode = PF_ALPHA_MASK;
+    card.alpha_cutoff = 0.5f;
+    uint32_t card_material = ref_scene_add_material(&scene, card);
+    const float centre[3] = {0, 0, 0}, half_u[3] = {2, 0, 0}, half_v[3] = {0, 2, 0};
+    ref_scene_add_quad(&scene, centre, half_u, half_v, plane);
+    uint32_t card_first = scene.frame.triangle_count;
+    const float card_centre[3] = {0, 0, 0.5f}, card_u[3] = {0.5f, 0, 0},
+                card_v[3] = {0, 0.5f, 0};
+    ref_scene_add_quad(&scene, card_centre, card_u, card_v, card_material);
+    /* Travelling along +x and down at 45°: a lit card's left half would shadow the plane
+     * at x in [0, 0.5], seen through the card's cut-away right half. */
+    const float e = 3.0f, s = (float)M_SQRT1_2;
+    ref_scene_add_light(&scene, (pf_light){{0, 0, 0}, PF_LIGHT_DIRECTIONAL, {s, 0, -s}, 0,
+                                           {e, e, e}, 1, 1});
+    look_down(&scene);
+    pf_scene_frame *frame = &scene.frame;
+    PF_REQUIRE(corners_alloc(frame));
+    set_corners(frame, 0, card_first, -2.0f, 2.0f, 0.25f, 0.25f);
+    set_corners(frame, card_first, frame->triangle_count - card_first, -0.5f, 0.5f, 1.0f, 1.0f);
+    /* 4×1: sRGB (255, 200, 50) opaque twice, then cut away; nearest, clamped. */
+    uint32_t texels[4] = {0xFF32C8FFu, 0xFF32C8FFu, 0x00000000u, 0x00000000u};
+    pf_texture_ref ref = {0, 4, 1,
+                          PF_TEXTURE_NO_MIPS | PF_TEXTURE_MAG_NEAREST | PF_TEXTURE_MIN_NEAREST |
+                              PF_TEXTURE_WRAP_CLAMP << PF_TEXTURE_WRAP_S_SHIFT |
+                              PF_TEXTURE_WRAP_CLAMP << PF_TEXTURE_WRAP_T_SHIFT |
+                              PF_TEXTURE_SRGB,
+                          {1, 0, 0, 0, 1, 0}, {0, 0}};
+    frame->texture_count = 1;
+    frame->textures = &ref;
+    frame->texel_count = 4;
+    frame->texels = texels;
+    const double colour[3] = {0.5, 0.5 * srgb_to_linear(200.0 / 255.0),
+                              0.5 * srgb_to_linear(50.0 / 255.0)};
+    double lit = e * M_SQRT1_2 / M_PI; /* the white plane, the card or not */
+    const pf_quality qualities[] = {PF_QUALITY_PREVIEW, PF_QUALITY_REFERENCE, PF_QUALITY_FAST,
+                                    PF_QUALITY_FINAL};
+    for (size_t q = 0; q < sizeof qualities / sizeof *qualities; q++) {
+        pf_image image = {0};
+        if (render(frame, qualities[q], &image) != PF_OK)
+            continue;
+        double card_error = 0.0, plane_error = 0.0, plane_min = INFINITY;
+        uint32_t card_pixels = 0, plane_pixels = 0;
+        for (uint32_t j = 0; j < EDGE; j++)
+            for (uint32_t i = 0; i < EDGE; i++) {
+                /* Where the pixel's centre ray crosses the card's plane (0.75 of the way). */
+                double x = 0.75 * (-1.0 + (i + 0.5) * 2.0 / EDGE);
+                double y = 0.75 * (1.0 - (j + 0.5) * 2.0 / EDGE);
+                const float *px = image.pixels + ((size_t)j * EDGE + i) * image.channel_count;
+                const double margin = 0.08; /* the pixel filter's reach, ~2 pixels */
+                if (x > -0.5 + margin && x < -margin && fabs(y) < 0.5 - margin) {
+                    for (int c = 0; c < 3; c++)
+                        card_error = fmax(card_error, fabs(px[c] / colour[c] - 1.0));
+                    card_pixels++;
+                } else if (!(x > -0.5 - margin && x < margin && fabs(y) < 0.5 + margin)) {
+                    for (int c = 0; c < 3; c++) {
+                        plane_error = fmax(plane_error, fabs(px[c] / lit - 1.0));
+                        plane_min = fmin(plane_min, px[c] / lit);
+                    }
+                    plane_pixels++;
+                }
+            }
+        printf("  %s: card %u pixels within %.2e of its colour; plane %u pixels within %.2e of "
+               "lit (least %.4f)\n",
+               pf_quality_name(qualities[q]), card_pixels, card_error, plane_pixels,
+               plane_error, plane_min);
+        PF_CHECK(card_pixels > 100 && plane_pixels > 1000);
+        PF_CHECK_MSG(card_error < 1e-3, "%s: the card's colour off by %g",
+                     pf_quality_name(qualities[q]), card_error);
+        /* A shadow would leave its pixels at 0; light from the card would add to them. */
+        PF_CHECK_MSG(plane_error < 0.02, "%s: the plane off by %g", pf_quality_name(qualities[q]),
+                     plane_error);
+        PF_CHECK(ref_image_non_finite(&image) == 0);
+        pf_image_free(&image);
+    }
+    scene_free_textured(&scene);
+}
+
 /* An sRGB checker of two colours, 8×8 single-texel squares, level 0 only. */
 static void checker_texels(uint32_t *texels, uint32_t a, uint32_t b)
 {
@@ -584,6 +675,7 @@ int main(void)
     PF_RUN(constant_normal_map_shades_as_the_turned_plane);
     PF_RUN(camera_ray_cones_pick_the_mip_level);
     PF_RUN(alpha_masked_card_hides_and_shadows_only_its_opaque_half);
+    PF_RUN(unlit_card_is_its_colour_to_the_camera_and_invisible_to_the_rest);
     PF_RUN(every_preset_on_a_textured_room_stays_within_bounds_of_the_reference);
     return render_test_finish(ctx, renderer);
 }

@@ -219,6 +219,45 @@ PF_TEST(clearcoat_factors)
     pf_scene_destroy(scene);
 }
 
+/* KHR_materials_unlit: the flag and the base colour, the other lobes zeroed as the spec has
+ * them ignored (no emission, metal, transmission or coat); the frame is alpha-tested (only
+ * camera rays see it). A value that is not an object is a format error. */
+PF_TEST(unlit_keeps_its_base_colour_only)
+{
+    char path[512];
+    st_gltf spec = {
+        .name = "unlit",
+        .nodes = "[" QUAD_NODE_MESH "]",
+        .materials = "[{\"pbrMetallicRoughness\":{\"baseColorFactor\":[0.25,0.5,0.75,1],"
+                     "\"metallicFactor\":1},\"emissiveFactor\":[1,1,1],\"extensions\":{"
+                     "\"KHR_materials_unlit\":{},\"KHR_materials_transmission\":{"
+                     "\"transmissionFactor\":1},\"KHR_materials_clearcoat\":{"
+                     "\"clearcoatFactor\":1}}}]",
+    };
+    pf_scene *scene = st_load_ok(st_write_gltf(&spec, path, sizeof path));
+    PF_REQUIRE(scene);
+    pf_scene_frame frame;
+    pf_error err;
+    PF_REQUIRE_OK(pf_scene_eval(scene, 0.0, &frame, &err), &err);
+    const pf_material *m = &frame.materials[frame.triangle_material[0]];
+    PF_CHECK((m->flags & PF_MATERIAL_UNLIT) != 0);
+    PF_CHECK(m->albedo[0] == 0.25f && m->albedo[1] == 0.5f && m->albedo[2] == 0.75f);
+    PF_CHECK(m->emission[0] == 0.0f && m->metallic == 0.0f && m->transmission == 0.0f &&
+             m->clearcoat == 0.0f && m->specular == 0.0f);
+    PF_CHECK(m->kind == PF_MATERIAL_LAMBERT);
+    uint32_t features = pf_scene_frame_surface_features(&frame);
+    PF_CHECK((features & PF_SURFACE_ALPHA) != 0);
+    /* Nothing emits light into the scene: its emission is the camera's alone. */
+    PF_CHECK((features & PF_SURFACE_NO_EMISSION) != 0);
+    pf_scene_frame_free(&frame);
+    pf_scene_destroy(scene);
+
+    spec.name = "unlit_bad";
+    spec.materials = "[{\"extensions\":{\"KHR_materials_unlit\":true}}]";
+    st_expect_error(st_write_gltf(&spec, path, sizeof path), PF_ERR_FORMAT, "materials[0]",
+                    "KHR_materials_unlit must be an object");
+}
+
 /* EXT_mesh_gpu_instancing: the quad drawn once per instance (three TRANSLATIONs, the second
  * instance turned a quarter about z and scaled 2), each under the node's own translation;
  * the node itself draws no quad of its own. Mismatched instance counts are refused. */
@@ -712,6 +751,7 @@ int main(void)
     PF_RUN(camera_values);
     PF_RUN(volume_absorption);
     PF_RUN(clearcoat_factors);
+    PF_RUN(unlit_keeps_its_base_colour_only);
     PF_RUN(gpu_instancing_draws_the_mesh_once_per_instance);
     PF_RUN(materials_mapped);
     PF_RUN(linear_translation_and_clamping);
