@@ -12,7 +12,7 @@ layout(push_constant) uniform Push {
 
 #include "materials.glsl"
 
-// pf_material_probe_query, 176 bytes.
+// pf_material_probe_query, 240 bytes.
 struct ProbeQuery {
     Material material;
     vec3 wo;          // unit, away from the surface
@@ -34,11 +34,19 @@ struct ProbeResult {
     vec3 eval_cos;    // bsdf_eval_cos at direction
     float eval_pdf;   // bsdf_pdf at direction
     float fresnel;    // fresnel_dielectric(fresnel_cos, fresnel_eta)
-    float padding0, padding1, padding2;
+    float rough_albedo_r, rough_albedo_g, rough_albedo_b; // material_rough_albedo(wo)
 };
 
 layout(std430, set = 0, binding = 0) readonly buffer Queries { ProbeQuery queries[]; };
 layout(std430, set = 0, binding = 1) writeonly buffer Results { ProbeResult results[]; };
+// KHR_materials_sheen's albedo tables (core/scene/pf_scene.h pf_sheen_albedo), as the scene's
+// materials buffer begins with them.
+layout(set = 0, binding = 2) uniform samplerBuffer sheen_tables;
+
+float sheen_albedo_entry(int at)
+{
+    return texelFetch(sheen_tables, at >> 2)[at & 3];
+}
 
 void main()
 {
@@ -60,8 +68,9 @@ void main()
     result.eval_pdf = bsdf_pdf(query.material, query.wo, s.direction, query.normal,
                                query.geometric_normal, front);
     result.fresnel = fresnel_dielectric(query.fresnel_cos, query.fresnel_eta);
-    result.padding0 = 0.0;
-    result.padding1 = 0.0;
-    result.padding2 = 0.0;
+    vec3 rough_albedo = material_rough_albedo(query.material, query.wo, query.normal, front);
+    result.rough_albedo_r = rough_albedo.r;
+    result.rough_albedo_g = rough_albedo.g;
+    result.rough_albedo_b = rough_albedo.b;
     results[index] = result;
 }

@@ -188,7 +188,7 @@ void main()
                             vec3(1.0), 0u, vec3(0.0), 1.0, NO_TEXTURE, NO_TEXTURE, NO_TEXTURE,
                             NO_TEXTURE, ALPHA_OPAQUE, 0.5, 1.0, 0.0, 0.0, NO_TEXTURE,
                             NO_TEXTURE, NO_TEXTURE, NO_TEXTURE, 0.0, 0.0, 0.0, NO_TEXTURE,
-                            1.0);
+                            1.0, NO_TEXTURE, NO_TEXTURE, vec3(0.0), 0.0);
 
     // Camera ray, then the specular chain through mirrors and glass.
     for (uint depth = 0u; depth <= params.max_specular_depth && path.tracing; depth++) {

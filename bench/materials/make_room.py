@@ -18,7 +18,11 @@
 # (KHR_materials_unlit) surfaces made as Blender users make them, an emission only camera
 # rays see (the "lightpath trick" the exporter looks for): a poster on the wall, its colour
 # an image, and a bright sign standing between the panel and the floor, which must neither
-# cast a shadow nor light the room.
+# cast a shadow nor light the room. room-velvet.gltf is the panel room with velvet as Blender
+# 3.4 users author it for glTF: a Velvet BSDF added to the Principled one, which the exporter
+# writes as KHR_materials_sheen (its colour and sigma as the sheen's colour and roughness) on
+# the floor and the red and white spheres. Cycles renders Blender's import of it (Principled
+# plus Ashikhmin's velvet, added, no albedo scaling), not the spec's Charlie sheen.
 #
 #   blender -b --factory-startup --python make_room.py -- OUTDIR
 import math
@@ -159,6 +163,19 @@ def unlit(name, colour=None, img=None):
     return material
 
 
+def velvet(material, colour, sigma):
+    """Adds a Velvet BSDF to the material's Principled one (Add Shader), as KHR_materials_sheen
+    is authored in Blender 3.4."""
+    tree = material.node_tree
+    node = tree.nodes.new("ShaderNodeBsdfVelvet")
+    node.inputs["Color"].default_value = (*colour, 1.0)
+    node.inputs["Sigma"].default_value = sigma
+    add = tree.nodes.new("ShaderNodeAddShader")
+    tree.links.new(tree.nodes["Principled BSDF"].outputs[0], add.inputs[0])
+    tree.links.new(node.outputs[0], add.inputs[1])
+    tree.links.new(add.outputs[0], tree.nodes["Material Output"].inputs["Surface"])
+
+
 def build_room():
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
@@ -274,6 +291,14 @@ def main():
     panel = principled("Panel", (0.0, 0.0, 0.0), emission=(1.0, 1.0, 1.0), strength=8.0)
     plane("Panel", 1.0, (0, 0.3, 2.5), (math.pi, 0, 0), panel)
     export(os.path.join(out, "room-unlit.gltf"), lights=False)
+
+    build_room()
+    velvet(bpy.data.materials["Floor"], (0.9, 0.35, 0.3), 0.6)
+    velvet(bpy.data.materials["RedPlastic"], (1.0, 0.6, 0.6), 0.5)
+    velvet(bpy.data.materials["WhitePlastic"], (1.0, 1.0, 1.0), 0.3)
+    panel = principled("Panel", (0.0, 0.0, 0.0), emission=(1.0, 1.0, 1.0), strength=8.0)
+    plane("Panel", 1.0, (0, 0.3, 2.5), (math.pi, 0, 0), panel)
+    export(os.path.join(out, "room-velvet.gltf"), lights=False)
 
 
 if __name__ == "__main__":

@@ -4,7 +4,8 @@
 # error and the channel means of each against Cycles.
 #
 #   bench/materials/run.sh [OUTDIR] [WxH] [CYCLES_SPP] [REFERENCE_SPP]
-# PF_MATERIALS_SCENES picks rooms (default: panel lamps textured string coated ortho unlit).
+# PF_MATERIALS_SCENES picks rooms (default: panel lamps textured string coated ortho unlit
+# velvet).
 # Needs Debian's blender (./bootstrap.sh quality installs it) and a build in build/.
 set -euo pipefail
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
@@ -16,7 +17,7 @@ reference_spp=${4:-64}
 photonfarm=$root/build/worker/photonfarm
 mkdir -p "$out"
 blender -b --factory-startup --python "$here/make_room.py" -- "$out" >/dev/null
-for scene in ${PF_MATERIALS_SCENES:-panel lamps textured string coated ortho unlit}; do
+for scene in ${PF_MATERIALS_SCENES:-panel lamps textured string coated ortho unlit velvet}; do
   blender -b --factory-startup --python "$here/cycles_import_render.py" -- \
     "$out/room-$scene.gltf" "$out/cycles-$scene.exr" "${size%x*}" "${size#*x}" "$cycles_spp" \
     >/dev/null

@@ -75,12 +75,17 @@ static pf_status scene_gpu_upload(pf_vk_context *ctx, const pf_scene_frame *fram
     memset(g, 0, sizeof *g);
     pf_light no_light;
     memset(&no_light, 0, sizeof no_light);
-    const void *data[5] = {frame->vertices, frame->normals, frame->triangle_material,
-                           frame->materials, frame->light_count ? (const void *)frame->lights
-                                                                : (const void *)&no_light};
+    /* The materials buffer as the kernels read it: the sheen's tables first. */
+    uint64_t material_bytes = pf_materials_buffer_bytes(frame->material_count);
+    void *materials = malloc(material_bytes);
+    if (!materials)
+        return pf_error_set(err, PF_ERR_NOMEM, "bench scene: out of memory");
+    pf_materials_buffer_write(frame->materials, frame->material_count, materials);
+    const void *data[5] = {frame->vertices, frame->normals, frame->triangle_material, materials,
+                           frame->light_count ? (const void *)frame->lights
+                                              : (const void *)&no_light};
     uint64_t sizes[5] = {(uint64_t)frame->triangle_count * 48, (uint64_t)frame->triangle_count * 48,
-                         (uint64_t)frame->triangle_count * 4,
-                         (uint64_t)frame->material_count * sizeof(pf_material),
+                         (uint64_t)frame->triangle_count * 4, material_bytes,
                          (uint64_t)(frame->light_count ? frame->light_count : 1) * sizeof(pf_light)};
     pf_status status = PF_OK;
     for (int i = 0; status == PF_OK && i < 5; i++) {
@@ -88,6 +93,7 @@ static pf_status scene_gpu_upload(pf_vk_context *ctx, const pf_scene_frame *fram
         if (status == PF_OK)
             status = pf_vk_buffer_upload(ctx, g->buffers[i], 0, data[i], sizes[i], err);
     }
+    free(materials);
     pf_bih bih;
     pf_bih_build_options options = {0};
     if (status == PF_OK)

@@ -541,7 +541,8 @@ typedef struct pf_emissive_entry {
 /* The GLSL mirrors assume these std430 sizes. */
 _Static_assert(sizeof(pf_frame_params) == 160, "pf_frame_params must match FrameParams");
 _Static_assert(sizeof(pf_emissive_entry) == 32, "pf_emissive_entry must match EmissiveEntry");
-_Static_assert(sizeof(pf_material) == 160, "pf_material must match Material");
+_Static_assert(sizeof(pf_material) == 176, "pf_material must match Material");
+
 _Static_assert(sizeof(pf_texture_ref) == 48, "pf_texture_ref must match TextureRef");
 _Static_assert(sizeof(pf_light) == 64, "pf_light must match Light");
 _Static_assert(sizeof(pf_ray) == 32, "pf_ray must match raycast_brute.comp's Ray");
@@ -848,7 +849,7 @@ void pf_frame_params_fill(const pf_scene_frame *frame, const pf_render_settings 
                           uint32_t spp, const pf_gpu_scene *scene, const pf_bih_gpu_view *bih,
                           pf_frame_params *params);
 
-/* material_probe.comp's input (std430 ProbeQuery, 224 bytes). */
+/* material_probe.comp's input (std430 ProbeQuery, 240 bytes). */
 typedef struct pf_material_probe_query {
     pf_material material;
     float wo[3];          /* unit, away from the surface */
@@ -877,10 +878,10 @@ typedef struct pf_material_probe_result {
     float eval_cos[3];    /* bsdf_eval_cos(direction) */
     float eval_pdf;       /* bsdf_pdf(direction) */
     float fresnel;        /* fresnel_dielectric(fresnel_cos, fresnel_eta) */
-    float padding[3];
+    float rough_albedo[3]; /* material_rough_albedo(wo): what estimates multiply by */
 } pf_material_probe_result;
 
-_Static_assert(sizeof(pf_material_probe_query) == 224, "must match ProbeQuery");
+_Static_assert(sizeof(pf_material_probe_query) == 240, "must match ProbeQuery");
 _Static_assert(sizeof(pf_material_probe_result) == 64, "must match ProbeResult");
 
 /*

@@ -43,7 +43,7 @@
  * aov_own_count, row_first. */
 #define SPLIT_FILM_BUFFERS 3u
 #define SPLIT_FILM_PUSH_BYTES 24u
-#define MATERIAL_PROBE_BUFFERS 2u
+#define MATERIAL_PROBE_BUFFERS 3u
 #define MATERIAL_PROBE_PUSH_BYTES 4u
 
 typedef struct pipeline_spec {

@@ -264,6 +264,20 @@ static pf_status triangle_material_words(const pf_scene_frame *frame, uint32_t *
     return PF_OK;
 }
 
+/* The materials buffer (pf_materials_buffer_write: the sheen's tables, then the materials). */
+static pf_status materials_upload(pf_vk_context *ctx, pf_vk_commands *cmds,
+                                  const pf_scene_frame *frame, pf_vk_buffer **out, pf_error *err)
+{
+    uint64_t bytes = pf_materials_buffer_bytes(frame->material_count);
+    void *data = malloc(bytes);
+    if (!data)
+        return pf_error_set(err, PF_ERR_NOMEM, "materials: out of memory");
+    pf_materials_buffer_write(frame->materials, frame->material_count, data);
+    pf_status status = buffer_with_data(ctx, cmds, "materials", data, bytes, bytes, out, err);
+    free(data);
+    return status;
+}
+
 /* The frame's texture table and texels in two new buffers (16-byte placeholders if none). */
 static pf_status texture_upload(pf_vk_context *ctx, pf_vk_commands *cmds,
                                 const pf_scene_frame *frame, pf_vk_buffer **textures,
@@ -374,9 +388,7 @@ pf_status pf_gpu_scene_record(pf_vk_context *ctx, pf_vk_commands *cmds,
             triangles * sizeof(uint32_t), sizeof(uint32_t), &out->triangle_material, err);
     free(material_words);
     if (status == PF_OK)
-        status = buffer_with_data(ctx, cmds, "materials", frame->materials,
-                                  frame->material_count * sizeof(pf_material),
-                                  sizeof(pf_material), &out->materials, err);
+        status = materials_upload(ctx, cmds, frame, &out->materials, err);
     pf_light *lights = NULL;
     if (status == PF_OK)
         status = lights_with_picks(frame, &lights, err);

@@ -56,6 +56,7 @@ static const char *const supported_extensions[] = {
     "KHR_materials_volume",
     "KHR_materials_clearcoat",
     "KHR_materials_unlit",
+    "KHR_materials_sheen",
     "EXT_mesh_gpu_instancing",
     "KHR_texture_transform",
     "EXT_texture_webp",

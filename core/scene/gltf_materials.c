@@ -14,6 +14,8 @@
  * KHR_materials_clearcoat: clearcoatFactor (0) and clearcoatRoughnessFactor (0), scaled by
  * clearcoatTexture's R and clearcoatRoughnessTexture's G; clearcoatNormalTexture (with its
  * scale) tilts the coat's normal, which is otherwise the mesh's even under a base normal map.
+ * KHR_materials_sheen: sheenColorFactor (0, 0, 0: no sheen) and sheenRoughnessFactor (0),
+ * scaled by sheenColorTexture's RGB (sRGB) and sheenRoughnessTexture's A.
  * KHR_materials_unlit: the base colour as the camera sees it, nothing else (make_unlit).
  * Emission = emissiveFactor x KHR_materials_emissive_strength.emissiveStrength,
  * from both faces when the material is doubleSided.
@@ -39,7 +41,7 @@
 static const char *const known_material_extensions[] = {
     "KHR_materials_emissive_strength", "KHR_materials_transmission", "KHR_materials_ior",
     "KHR_materials_specular", "KHR_materials_volume", "KHR_materials_clearcoat",
-    "KHR_materials_unlit"};
+    "KHR_materials_unlit", "KHR_materials_sheen"};
 
 static void warn_unhandled(gltf_context *ctx, const cJSON *material, const cJSON *pbr,
                            const char *element)
@@ -173,9 +175,9 @@ static pf_status load_clearcoat(gltf_context *ctx, const cJSON *coat, const char
 
 /*
  * KHR_materials_unlit: the base colour (its factor, texture, COLOR_0 and alpha mode) is all
- * that counts; the spec has the rest ignored, so the lobes the kernels would sample are
- * zeroed (an unlit surface reflects nothing) and its emission is left to the camera hit
- * (pf_scene.h PF_MATERIAL_UNLIT).
+ * that counts; the spec has the rest ignored (and forbids a sheen beside it), so the lobes
+ * the kernels would sample are zeroed (an unlit surface reflects nothing) and its emission
+ * is left to the camera hit (pf_scene.h PF_MATERIAL_UNLIT).
  */
 static void make_unlit(pf_material *m)
 {
@@ -191,6 +193,43 @@ static void make_unlit(pf_material *m)
     m->specular_texture = m->specular_color_texture = PF_NO_TEXTURE;
     m->clearcoat_texture = m->clearcoat_roughness_texture = PF_NO_TEXTURE;
     m->clearcoat_normal_texture = PF_NO_TEXTURE;
+    memset(m->sheen_color, 0, sizeof m->sheen_color);
+    m->sheen_roughness = 0.0f;
+    m->sheen_color_texture = m->sheen_roughness_texture = PF_NO_TEXTURE;
+}
+
+/* KHR_materials_sheen (NULL: none): the fibres' colour and roughness, and their textures. */
+static pf_status load_sheen(gltf_context *ctx, const cJSON *sheen, const char *element,
+                            pf_material *out, pf_error *err)
+{
+    if (!sheen)
+        return PF_OK;
+    char sheen_element[192];
+    snprintf(sheen_element, sizeof sheen_element, "%s.extensions.KHR_materials_sheen", element);
+    float colour[3] = {0, 0, 0};
+    double roughness = 0;
+    pf_status status = gltf_floats(ctx, sheen, "sheenColorFactor", 3, colour, sheen_element, err);
+    if (!status)
+        status = gltf_number(ctx, sheen, "sheenRoughnessFactor", 0, &roughness, sheen_element,
+                             err);
+    for (int c = 0; !status && c < 3; c++)
+        if (!(colour[c] >= 0 && colour[c] <= 1))
+            status = gltf_fail(ctx, err, PF_ERR_FORMAT, sheen_element,
+                               "sheenColorFactor %g is outside [0, 1]", colour[c]);
+    if (!status && !(roughness >= 0 && roughness <= 1))
+        status = gltf_fail(ctx, err, PF_ERR_FORMAT, sheen_element,
+                           "sheenRoughnessFactor %g is outside [0, 1]", roughness);
+    if (!status)
+        status = material_slot(ctx, sheen, sheen_element, "sheenColorTexture", 1,
+                               &out->sheen_color_texture, NULL, err);
+    if (!status)
+        status = material_slot(ctx, sheen, sheen_element, "sheenRoughnessTexture", 0,
+                               &out->sheen_roughness_texture, NULL, err);
+    if (status)
+        return status;
+    memcpy(out->sheen_color, colour, sizeof out->sheen_color);
+    out->sheen_roughness = (float)roughness;
+    return PF_OK;
 }
 
 static pf_status load_material(gltf_context *ctx, const cJSON *material, const char *element,
@@ -308,6 +347,10 @@ static pf_status load_material(gltf_context *ctx, const cJSON *material, const c
         status = load_clearcoat(
             ctx, cJSON_GetObjectItemCaseSensitive(extensions, "KHR_materials_clearcoat"), element,
             out, err);
+    if (!status)
+        status = load_sheen(ctx, cJSON_GetObjectItemCaseSensitive(extensions,
+                                                                  "KHR_materials_sheen"),
+                            element, out, err);
     if (status)
         return status;
     memcpy(out->albedo, base_color, sizeof out->albedo);

@@ -24,6 +24,9 @@ uint32_t pf_scene_frame_surface_features(const pf_scene_frame *frame)
             has |= PF_SURFACE_NO_TRANSMISSION;
         if (material->clearcoat > 0.0f)
             has |= PF_SURFACE_NO_CLEARCOAT;
+        if (material->sheen_color[0] > 0.0f || material->sheen_color[1] > 0.0f ||
+            material->sheen_color[2] > 0.0f)
+            has |= PF_SURFACE_NO_SHEEN;
         for (int c = 0; c < 3; c++)
             if (material->emission[c] > 0.0f)
                 has |= PF_SURFACE_NO_EMISSION;
@@ -34,7 +37,8 @@ uint32_t pf_scene_frame_surface_features(const pf_scene_frame *frame)
     }
     const uint32_t absent = PF_SURFACE_NO_LIGHTS | PF_SURFACE_NO_TRANSMISSION |
                             PF_SURFACE_NO_EMISSION | PF_SURFACE_NO_SPECULAR |
-                            PF_SURFACE_NO_MANY_LIGHTS | PF_SURFACE_NO_CLEARCOAT;
+                            PF_SURFACE_NO_MANY_LIGHTS | PF_SURFACE_NO_CLEARCOAT |
+                            PF_SURFACE_NO_SHEEN;
     return features | (absent & ~has);
 }
 
@@ -52,12 +56,25 @@ void pf_scene_spec_constants(uint32_t features, uint32_t ids[PF_SCENE_SPEC_CONST
         {PF_SPEC_SCENE_HAS_EMITTERS, PF_SURFACE_NO_EMISSION, 0},
         {PF_SPEC_SCENE_HAS_SPECULAR, PF_SURFACE_NO_SPECULAR, 0},
         {PF_SPEC_SCENE_HAS_MANY_LIGHTS, PF_SURFACE_NO_MANY_LIGHTS, 0},
-        {PF_SPEC_SCENE_HAS_CLEARCOAT, PF_SURFACE_NO_CLEARCOAT, 0}};
+        {PF_SPEC_SCENE_HAS_CLEARCOAT, PF_SURFACE_NO_CLEARCOAT, 0},
+        {PF_SPEC_SCENE_HAS_SHEEN, PF_SURFACE_NO_SHEEN, 0}};
     for (uint32_t i = 0; i < PF_SCENE_SPEC_CONSTANTS; i++) {
         ids[i] = map[i].constant_id;
         uint32_t set = (features & map[i].bit) != 0;
         values[i] = set == map[i].has ? 1u : 0u;
     }
+}
+
+uint64_t pf_materials_buffer_bytes(uint32_t count)
+{
+    return sizeof pf_sheen_albedo + (uint64_t)count * sizeof(pf_material);
+}
+
+void pf_materials_buffer_write(const pf_material *materials, uint32_t count, void *out)
+{
+    memcpy(out, pf_sheen_albedo, sizeof pf_sheen_albedo);
+    if (count > 0)
+        memcpy((char *)out + sizeof pf_sheen_albedo, materials, count * sizeof(pf_material));
 }
 
 void pf_material_classify(pf_material *material)

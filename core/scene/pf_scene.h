@@ -80,7 +80,7 @@ typedef enum pf_alpha_mode {
     PF_ALPHA_BLEND = 2 /* a hit counts with probability alpha (stochastic transparency) */
 } pf_alpha_mode;
 
-/* std430-compatible (112 bytes): uploaded as-is (scene_types.glsl Material). */
+/* std430-compatible (176 bytes): uploaded as-is (scene_types.glsl Material). */
 typedef struct pf_material {
     float albedo[3];         /* glTF baseColor, linear: diffuse colour, metal F0, glass tint */
     uint32_t kind;           /* pf_material_kind, set by pf_material_classify */
@@ -123,7 +123,13 @@ typedef struct pf_material {
     float coat_normal[3];
     uint32_t clearcoat_normal_texture; /* tangent space, scaled as normalTexture */
     float clearcoat_normal_scale;
-    uint32_t padding[2];
+    /* KHR_materials_sheen: a layer of fibres over the base (under the coat) of this colour
+     * (0: none) and sheen roughness, scaled by sheenColorTexture's RGB (sRGB) and
+     * sheenRoughnessTexture's A. */
+    uint32_t sheen_color_texture;
+    uint32_t sheen_roughness_texture;
+    float sheen_color[3];
+    float sheen_roughness;
 } pf_material;
 
 /* glTF material.doubleSided: its emission leaves both faces (Blender's exporter
@@ -172,6 +178,25 @@ typedef struct pf_texture_ref {
 /* The longest edge and the most pixels an image may have before it is decoded. */
 #define PF_IMAGE_MAX_EDGE 16384u
 #define PF_IMAGE_MAX_PIXELS (64u << 20)
+
+/*
+ * KHR_materials_sheen's directional albedo E(μ, r) and a Lambert base's share B(μ, r) under
+ * it (sheen_albedo_table.c, made by sheen_albedo_gen.c): two PF_SHEEN_ALBEDO_SIZE² tables,
+ * μ = k/31 by row, r = j/31 by column (materials.glsl sheen_table).
+ */
+#define PF_SHEEN_ALBEDO_SIZE 32u
+#define PF_SHEEN_ALBEDO_ENTRIES (PF_SHEEN_ALBEDO_SIZE * PF_SHEEN_ALBEDO_SIZE)
+extern const float pf_sheen_albedo[2 * PF_SHEEN_ALBEDO_ENTRIES];
+
+/*
+ * The materials buffer every kernel that reads surfaces binds (scene_geometry.glsl
+ * scene_material): the sheen's tables, then the count materials. The tables travel in it
+ * because a const array of their size in GLSL makes llvmpipe copy it into every
+ * invocation's scratch at each look-up, and compile for minutes. pf_materials_buffer_write
+ * fills pf_materials_buffer_bytes(count) bytes at out.
+ */
+uint64_t pf_materials_buffer_bytes(uint32_t count);
+void pf_materials_buffer_write(const pf_material *materials, uint32_t count, void *out);
 
 /* Sets material->kind from its parameters (see pf_material_kind). */
 void pf_material_classify(pf_material *material);
@@ -225,8 +250,9 @@ typedef enum pf_scene_binding {
                                         * metallic-roughness texture that may make one not */
 #define PF_SURFACE_NO_MANY_LIGHTS 64u  /* at most PF_DIRECT_LIGHTS_EVERY_MAX punctual lights */
 #define PF_SURFACE_NO_CLEARCOAT 128u   /* no material with clearcoat > 0 */
+#define PF_SURFACE_NO_SHEEN 256u       /* no material with a sheen colour > 0 */
 #define PF_SURFACE_TEXTURED (PF_SURFACE_ALPHA | PF_SURFACE_CORNERS)
-#define PF_SURFACE_VARIANTS 256u
+#define PF_SURFACE_VARIANTS 512u
 /*
  * Next-event estimation (shaders/common/direct_light.glsl) casts a shadow ray to every
  * punctual light of a frame with at most this many; past it, each vertex resamples
@@ -255,7 +281,8 @@ static inline uint32_t pf_direct_light_slots(uint32_t light_count)
 #define PF_SPEC_SCENE_HAS_SPECULAR 1006u
 #define PF_SPEC_SCENE_HAS_MANY_LIGHTS 1008u /* 1007 is the pixel filter's */
 #define PF_SPEC_SCENE_HAS_CLEARCOAT 1009u
-#define PF_SCENE_SPEC_CONSTANTS 8u
+#define PF_SPEC_SCENE_HAS_SHEEN 1010u
+#define PF_SCENE_SPEC_CONSTANTS 9u
 /* The specialisation constants of features: constant ids and their values (0 or 1). */
 void pf_scene_spec_constants(uint32_t features, uint32_t ids[PF_SCENE_SPEC_CONSTANTS],
                              uint32_t values[PF_SCENE_SPEC_CONSTANTS]);

@@ -63,6 +63,20 @@
 // scaled by 1 − c·F_c(n_c·wo). A frame without a coated material compiles all of it out
 // (SCENE_HAS_CLEARCOAT): its images are bit for bit those before the coat.
 //
+// The sheen (KHR_materials_sheen): a layer of fibres between the coat and the base, of colour
+// s = sheenColor and α_s = max(sheenRoughness, SHEEN_ROUGHNESS_MIN)², by the spec's
+// albedo-scaling form:
+//
+//   sheened     = s · D_s·V_s + bsdf · min(1 − max(s)·E(n·wo), 1 − max(s)·E(n·wi))
+//
+// D_s and V_s the "Charlie" distribution and visibility (Conty Estevez and Kulla 2017,
+// "Production Friendly Microfacet Sheen BRDF"), E their directional albedo (a table integrated
+// by core/scene/sheen_albedo_gen.c: sheen_table), about the lobe normal. The coat covers it as
+// it covers the rest. Sampling picks the sheen after the transmission with probability
+// ∝ max(s)·E(n·wo), the other lobes' choices scaled by 1 − max(s)·E(n·wo), and samples the
+// hemisphere uniformly (the lobe is broad, and brightest at grazing angles, where a cosine
+// density would be thinnest). Without a sheen material it is compiled out (SCENE_HAS_SHEEN).
+//
 // Smooth transmission: reflection with probability ∝ F, else refraction.
 // Reflection is untinted and transmission is tinted by baseColor, so glass
 // with baseColor 1 has weights exactly 1 and throughput F + (1 − F) = 1 for
@@ -80,6 +94,14 @@
 #include "divide_exact.glsl"
 #include "scene_binding_numbers.glsl" // SCENE_HAS_TRANSMISSION
 #include "scene_types.glsl"
+
+// Entry at of KHR_materials_sheen's albedo tables (32 × 32 floats each, at n·ω = k/31 by row
+// and sheen roughness j/31 by column: the lobe's E, then a Lambert base's share B under it,
+// core/scene/sheen_albedo_table.c), from a buffer the including kernel binds:
+// scene_geometry.glsl reads the materials buffer's first texels, material_probe.comp its own
+// binding. (A const array in GLSL made llvmpipe copy the table into scratch at every look-up
+// and compile for minutes.)
+float sheen_albedo_entry(int at);
 
 const float PI = 3.14159265358979323846;
 
@@ -148,6 +170,17 @@ vec3 material_cosine_direction(vec3 n, vec2 xi)
     vec3 tangent, bitangent;
     material_basis(n, tangent, bitangent);
     return normalize(disk.x * tangent + disk.y * bitangent + height * n);
+}
+
+// A direction about n uniform over the hemisphere (density 1/(2π)) from xi in [0,1)².
+vec3 material_uniform_direction(vec3 n, vec2 xi)
+{
+    float z = xi.x;
+    float r = sqrt(max(0.0, 1.0 - z * z));
+    float phi = 2.0 * PI * xi.y;
+    vec3 tangent, bitangent;
+    material_basis(n, tangent, bitangent);
+    return normalize(r * cos(phi) * tangent + r * sin(phi) * bitangent + z * n);
 }
 
 // Mirror direction of wo about the shading normal, or about the geometric
@@ -274,6 +307,77 @@ float material_coat_fresnel(Material material, float cos_theta)
     return material.clearcoat * fresnel_dielectric(cos_theta, COAT_IOR);
 }
 
+// The least sheen roughness the lobe takes (α_s ≥ 0.0049): the spec allows 0, where the
+// Charlie lobe is a sliver at grazing angles whose pow() no float can hold; the directional
+// albedo at 0.07 is under 0.006 but for n·wo < 0.4 (core/scene/sheen_albedo_table.c).
+const float SHEEN_ROUGHNESS_MIN = 0.07;
+
+bool material_has_sheen(Material material)
+{
+    return SCENE_HAS_SHEEN && material_max3(material.sheen_color) > 0.0;
+}
+
+float material_sheen_alpha(Material material)
+{
+    float r = max(material.sheen_roughness, SHEEN_ROUGHNESS_MIN);
+    return r * r;
+}
+
+// The Charlie distribution D_s(h) for cos_h = n·h (the spec's sheenDistribution).
+float sheen_d(float cos_h, float alpha)
+{
+    float sin2 = max(1.0 - cos_h * cos_h, 0.0);
+    return (2.0 + 1.0 / alpha) * pow(sin2, 0.5 / alpha) / (2.0 * PI);
+}
+
+// The Charlie visibility's fitted Λ (the spec's l() and lambdaSheen()).
+float sheen_l(float x, float alpha)
+{
+    float t = (1.0 - alpha) * (1.0 - alpha);
+    float a = mix(21.5473, 25.3245, t), b = mix(3.82987, 3.32435, t);
+    float c = mix(0.19823, 0.16801, t), d = mix(-1.97760, -1.27393, t);
+    float e = mix(-4.32054, -4.85967, t);
+    return a / (1.0 + b * pow(x, c)) + d * x + e;
+}
+
+float sheen_lambda(float cos_theta, float alpha)
+{
+    return cos_theta < 0.5 ? exp(sheen_l(cos_theta, alpha))
+                           : exp(2.0 * sheen_l(0.5, alpha) - sheen_l(1.0 - cos_theta, alpha));
+}
+
+// D_s·V_s·cos_i of the sheen of colour 1 (V_s = 1 / ((1 + Λ_o + Λ_i)·4·cos_o·cos_i)).
+float sheen_eval_cos(float cos_o, float cos_i, float cos_h, float alpha)
+{
+    return sheen_d(cos_h, alpha) /
+           ((1.0 + sheen_lambda(cos_o, alpha) + sheen_lambda(cos_i, alpha)) * 4.0 * cos_o);
+}
+
+// Table `table` (0: E, 1: B) at (cos_theta, roughness), bilinear (sheen_albedo_entry).
+float sheen_table(int table, float cos_theta, float roughness)
+{
+    float x = clamp(cos_theta, 0.0, 1.0) * 31.0, y = clamp(roughness, 0.0, 1.0) * 31.0;
+    int i = min(int(x), 30), j = min(int(y), 30);
+    float fx = x - float(i), fy = y - float(j);
+    int at = 1024 * table + 32 * i + j;
+    return mix(mix(sheen_albedo_entry(at), sheen_albedo_entry(at + 1), fy),
+               mix(sheen_albedo_entry(at + 32), sheen_albedo_entry(at + 33), fy), fx);
+}
+
+// E(cos_theta, roughness): the lobe's directional albedo (sheen colour 1).
+float sheen_albedo(float cos_theta, float roughness)
+{
+    return sheen_table(0, cos_theta, roughness);
+}
+
+// What the sheen leaves the layers below at a direction of cosine cos_theta: 1 − max(s)·E.
+float material_sheen_base_scale(Material material, float cos_theta)
+{
+    return max(1.0 - material_max3(material.sheen_color) *
+                         sheen_albedo(cos_theta, material.sheen_roughness),
+               0.0);
+}
+
 // A rough (non-delta) transmission lobe: some transmission, not all metal, rough.
 bool material_has_rough_transmission(Material material)
 {
@@ -295,8 +399,9 @@ struct LobeChoice {
     float diffuse;
     float transmission;
     float coat;       // the clear coat's (0 without one)
+    float sheen;      // the sheen's (0 without one)
     vec3 reflectance; // metal and dielectric Fresnel at n·wo, mixed by metallic (under a
-                      // coat: times 1 − c·F_c at n·wo)
+                      // sheen: times 1 − max(s)·E at n·wo; under a coat: times 1 − c·F_c)
     float base;       // 1 − max(dielectric F) at n·wo: the base's and transmission's share
                       // (likewise)
     float coat_reflectance; // c·F_c at n·wo: a smooth coat's reflectance
@@ -327,7 +432,19 @@ LobeChoice material_lobe_choice(Material material, float cos_o, float coat_cos_o
     choice.transmission = dielectric * material.transmission * transmit_share * albedo;
     choice.coat = 0.0;
     choice.coat_reflectance = 0.0;
-    float total = choice.specular + choice.diffuse + choice.transmission;
+    choice.sheen = 0.0;
+    if (material_has_sheen(material)) {
+        // The sheen's albedo at wo, and what it leaves the lobes below.
+        float albedo = sheen_albedo(cos_o, material.sheen_roughness);
+        float below = max(1.0 - material_max3(material.sheen_color) * albedo, 0.0);
+        choice.reflectance *= below;
+        choice.base *= below;
+        choice.specular *= below;
+        choice.diffuse *= below;
+        choice.transmission *= below;
+        choice.sheen = material_max3(material.sheen_color) * albedo;
+    }
+    float total = choice.specular + choice.diffuse + choice.transmission + choice.sheen;
     if (material_has_coat(material)) {
         // What the coat reflects, the layers below do not receive.
         choice.coat_reflectance = material_coat_fresnel(material, coat_cos_o);
@@ -337,11 +454,14 @@ LobeChoice material_lobe_choice(Material material, float cos_o, float coat_cos_o
         choice.specular *= below;
         choice.diffuse *= below;
         choice.transmission *= below;
+        choice.sheen *= below;
         choice.coat = choice.coat_reflectance;
-        total = choice.specular + choice.diffuse + choice.transmission + choice.coat;
+        total = choice.specular + choice.diffuse + choice.transmission + choice.sheen +
+                choice.coat;
     }
     if (!(total > 0.0)) {
         choice.specular = choice.diffuse = choice.transmission = choice.coat = 0.0;
+        choice.sheen = 0.0;
     } else if (total != 1.0) {
         // Rounded as the host divides (divide_exact.glsl), as are the smooth lobes' weights
         // below: a white glass's lobes then weigh exactly 1 on every device.
@@ -350,6 +470,8 @@ LobeChoice material_lobe_choice(Material material, float cos_o, float coat_cos_o
         choice.transmission = divide_exact(choice.transmission, total);
         if (material_has_coat(material))
             choice.coat = divide_exact(choice.coat, total);
+        if (material_has_sheen(material))
+            choice.sheen = divide_exact(choice.sheen, total);
     }
     return choice;
 }
@@ -393,6 +515,12 @@ vec3 material_reflection_eval(Material material, float cos_o, float cos_i, float
                                material.metallic);
             value +=
                 fresnel * (ggx_d(cos_h, alpha) * ggx_visibility(cos_o, cos_i, alpha) * cos_i);
+        }
+        if (material_has_sheen(material)) {
+            value *= min(material_sheen_base_scale(material, cos_o),
+                         material_sheen_base_scale(material, cos_i));
+            value += material.sheen_color *
+                     sheen_eval_cos(cos_o, cos_i, cos_h, material_sheen_alpha(material));
         }
     }
     if (material_has_coat(material)) {
@@ -461,7 +589,7 @@ float material_reflection_pdf(Material material, LobeChoice choice, float cos_o,
 {
     float pdf = 0.0;
     if (cos_i > 0.0) {
-        pdf = choice.diffuse * cos_i / PI;
+        pdf = choice.diffuse * cos_i / PI + choice.sheen / (2.0 * PI);
         if (!material_specular_is_delta(material))
             pdf += choice.specular * ggx_reflection_pdf(cos_o, cos_h, material_alpha(material));
     }
@@ -530,7 +658,8 @@ float bsdf_pdf(Material material, vec3 wo, vec3 wi, vec3 shading_normal, vec3 ge
 bool material_has_rough_lobe(Material material)
 {
     return material.kind == MATERIAL_LAMBERT || !material_specular_is_delta(material) ||
-           (material_has_coat(material) && !material_coat_is_delta(material));
+           (material_has_coat(material) && !material_coat_is_delta(material)) ||
+           material_has_sheen(material);
 }
 
 // Whether light is estimated at the surface from stored photons, the LPV or
@@ -671,6 +800,9 @@ BsdfSample bsdf_sample(Material material, vec3 wo, vec3 shading_normal, vec3 geo
         return s;
     }
 
+    // The sheen after the transmission along xi.z, then the diffuse base.
+    pick -= choice.transmission;
+    bool sheen = !coat_glossy && !glossy && pick < choice.sheen;
     if (glossy || coat_glossy) {
         // The coat's lobe about its own normal (the lobe normal but under a base normal map).
         vec3 axis = coat_glossy ? coat_normal : normal;
@@ -682,6 +814,8 @@ BsdfSample bsdf_sample(Material material, vec3 wo, vec3 shading_normal, vec3 geo
         vec3 h_local = ggx_sample_visible_normal(wo_local, alpha, xi.xy);
         vec3 h = h_local.x * tangent + h_local.y * bitangent + h_local.z * axis;
         s.direction = reflect(-wo, h);
+    } else if (sheen) {
+        s.direction = material_uniform_direction(normal, xi.xy);
     } else if (choice.diffuse > 0.0) {
         s.direction = material_cosine_direction(normal, xi.xy);
     } else {
@@ -719,7 +853,7 @@ vec2 ggx_split_sum(float roughness, float cos_o)
 // (where the base reflects most: the spec's F(wo·h) is smallest there, and
 // F at n·wo itself would darken grazing views ~10 % below the model); the
 // glossy lobe's ∫ F·D·V·cos is the split-sum fit of Karis 2014 ("Physically
-// Based Shading on Mobile", after Lazarov 2013).
+// Based Shading on Mobile", after Lazarov 2013); a sheen's is its table's E.
 vec3 material_rough_albedo(Material material, vec3 wo, vec3 shading_normal, bool front)
 {
     float cos_o = clamp(dot(wo, shading_normal), 1e-4, 1.0);
@@ -734,6 +868,14 @@ vec3 material_rough_albedo(Material material, vec3 wo, vec3 shading_normal, bool
         vec3 f0 = mix(dielectric_f0, material.albedo, material.metallic);
         vec3 f90 = vec3(mix(material.specular, 1.0, material.metallic));
         albedo = albedo + f0 * scale_bias.x + f90 * scale_bias.y;
+    }
+    if (material_has_sheen(material)) {
+        // Under the sheen what it leaves (exact for a Lambert base: 1 − max(s)·B, the
+        // scaling's min over every wi), and its own lobe's albedo, E.
+        float e = sheen_albedo(cos_o, material.sheen_roughness);
+        float share = sheen_table(1, cos_o, material.sheen_roughness);
+        albedo = albedo * max(1.0 - material_max3(material.sheen_color) * share, 0.0) +
+                 material.sheen_color * e;
     }
     if (material_has_coat(material)) {
         // Below the coat what it lets through (at the half vector, as the base's 1 − F),

@@ -43,5 +43,8 @@ layout(constant_id = 1008) const bool SCENE_HAS_MANY_LIGHTS = true;
 // Clear-coated materials (KHR_materials_clearcoat): without them scene_material reads every
 // coat as 0 and the coat's lobe is compiled out of materials.glsl.
 layout(constant_id = 1009) const bool SCENE_HAS_CLEARCOAT = true;
+// Sheen materials (KHR_materials_sheen): without them scene_material reads every sheen colour
+// as 0 and the sheen's lobe is compiled out of materials.glsl.
+layout(constant_id = 1010) const bool SCENE_HAS_SHEEN = true;
 
 #endif

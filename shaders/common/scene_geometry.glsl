@@ -7,7 +7,8 @@
 //   scene_vertices           3 RGBA32F texels per triangle (xyz, w unused)
 //   scene_normals            3 RGBA32F texels per triangle (shading normals)
 //   scene_triangle_materials one word per triangle: its material
-//   scene_materials          10 texels per material (pf_material, 160 bytes)
+//   scene_materials          the sheen's albedo tables (SHEEN_ALBEDO_TEXELS), then 11 texels
+//                            per material (pf_material, 176 bytes)
 //   scene_corners            PF_CORNER_TEXELS texels per triangle corner (uv0, uv1;
 //                            colour; tangent), when the scene has textures or colours
 //   scene_textures           3 texels per TextureRef
@@ -46,9 +47,19 @@ uint scene_triangle_material(uint triangle)
     return texelFetch(scene_triangle_materials, int(triangle)).x & ~TRIANGLE_ALPHA_TESTED;
 }
 
+// The materials buffer's first texels: KHR_materials_sheen's two 32 × 32 tables
+// (core/scene/pf_scene.h pf_sheen_albedo, pf_materials_buffer_write).
+const int SHEEN_ALBEDO_TEXELS = 512;
+
+// Entry at of the sheen's albedo table (materials.glsl sheen_albedo).
+float sheen_albedo_entry(int at)
+{
+    return intBitsToFloat(texelFetch(scene_materials, at >> 2)[at & 3]);
+}
+
 Material scene_material(uint index)
 {
-    int first = int(10u * index);
+    int first = SHEEN_ALBEDO_TEXELS + int(11u * index);
     uvec4 t0 = uvec4(texelFetch(scene_materials, first));
     uvec4 t1 = uvec4(texelFetch(scene_materials, first + 1));
     vec4 t2 = uintBitsToFloat(uvec4(texelFetch(scene_materials, first + 2)));
@@ -59,10 +70,11 @@ Material scene_material(uint index)
     uvec4 t7 = uvec4(texelFetch(scene_materials, first + 7));
     uvec4 t8 = uvec4(texelFetch(scene_materials, first + 8));
     uvec4 t9 = uvec4(texelFetch(scene_materials, first + 9));
-    // transmission, emission and the coat: 0 in a frame without a transmissive, an emissive
-    // or a coated material, the kind Lambert in one without a specular material, so that
-    // their code is compiled out (SCENE_HAS_TRANSMISSION, SCENE_HAS_EMITTERS,
-    // SCENE_HAS_CLEARCOAT, SCENE_HAS_SPECULAR).
+    vec4 t10 = uintBitsToFloat(uvec4(texelFetch(scene_materials, first + 10)));
+    // transmission, emission, the coat and the sheen: 0 in a frame without a transmissive,
+    // an emissive, a coated or a sheen material, the kind Lambert in one without a specular
+    // material, so that their code is compiled out (SCENE_HAS_TRANSMISSION,
+    // SCENE_HAS_EMITTERS, SCENE_HAS_CLEARCOAT, SCENE_HAS_SHEEN, SCENE_HAS_SPECULAR).
     return Material(uintBitsToFloat(t0.xyz), SCENE_HAS_SPECULAR ? t0.w : MATERIAL_LAMBERT,
                     SCENE_HAS_EMITTERS ? uintBitsToFloat(t1.xyz) : vec3(0.0),
                     uintBitsToFloat(t1.w), t2.x, t2.y, SCENE_HAS_TRANSMISSION ? t2.z : 0.0, t2.w,
@@ -71,7 +83,9 @@ Material scene_material(uint index)
                     uintBitsToFloat(t6.z),
                     SCENE_HAS_CLEARCOAT ? uintBitsToFloat(t6.w) : 0.0, uintBitsToFloat(t7.x),
                     SCENE_HAS_CLEARCOAT ? t7.y : NO_TEXTURE, t7.z, t7.w, t8.x, 0.0, 0.0, 0.0,
-                    SCENE_HAS_CLEARCOAT ? t9.x : NO_TEXTURE, uintBitsToFloat(t9.y));
+                    SCENE_HAS_CLEARCOAT ? t9.x : NO_TEXTURE, uintBitsToFloat(t9.y),
+                    SCENE_HAS_SHEEN ? t9.z : NO_TEXTURE, SCENE_HAS_SHEEN ? t9.w : NO_TEXTURE,
+                    SCENE_HAS_SHEEN ? t10.xyz : vec3(0.0), t10.w);
 }
 
 #ifdef PF_SURFACE_TEXTURES

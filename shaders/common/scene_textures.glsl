@@ -180,8 +180,10 @@ Material scene_material_sampled(Material m, uint triangle, float u, float v, flo
     m.alpha *= color.a;
     bool coat_textured = SCENE_HAS_CLEARCOAT && (m.clearcoat_texture != NO_TEXTURE ||
                                                  m.clearcoat_roughness_texture != NO_TEXTURE);
+    bool sheen_textured = SCENE_HAS_SHEEN && (m.sheen_color_texture != NO_TEXTURE ||
+                                              m.sheen_roughness_texture != NO_TEXTURE);
     if (m.base_color_texture == NO_TEXTURE && m.metallic_roughness_texture == NO_TEXTURE &&
-        m.emissive_texture == NO_TEXTURE && !coat_textured &&
+        m.emissive_texture == NO_TEXTURE && !coat_textured && !sheen_textured &&
         m.specular_texture == NO_TEXTURE && m.specular_color_texture == NO_TEXTURE)
         return m;
     SurfaceUv surface_uv =
@@ -207,6 +209,10 @@ Material scene_material_sampled(Material m, uint triangle, float u, float v, flo
         m.clearcoat *= scene_slot_sample(m.clearcoat_texture, surface_uv).r;
     if (coat_textured && m.clearcoat_roughness_texture != NO_TEXTURE)
         m.clearcoat_roughness *= scene_slot_sample(m.clearcoat_roughness_texture, surface_uv).g;
+    if (sheen_textured && m.sheen_color_texture != NO_TEXTURE)
+        m.sheen_color *= scene_slot_sample(m.sheen_color_texture, surface_uv).rgb;
+    if (sheen_textured && m.sheen_roughness_texture != NO_TEXTURE)
+        m.sheen_roughness *= scene_slot_sample(m.sheen_roughness_texture, surface_uv).a;
     return m;
 }
 

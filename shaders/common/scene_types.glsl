@@ -19,7 +19,7 @@ const uint LIGHT_DIRECTIONAL = 2u;
 
 const uint NO_HIT = 0xFFFFFFFFu;
 
-// pf_material, 112 bytes (pf_scene.h: the glTF metallic-roughness parameters).
+// pf_material, 176 bytes (pf_scene.h: the glTF metallic-roughness parameters).
 struct Material {
     vec3 albedo;          // glTF baseColor: diffuse colour, metal F0, transmission tint
     uint kind;            // pf_material_kind: a summary of the parameters below
@@ -53,6 +53,10 @@ struct Material {
     float coat_normal_x, coat_normal_y, coat_normal_z;
     uint clearcoat_normal_texture; // the coat's own normal map (tangent space)
     float clearcoat_normal_scale;
+    uint sheen_color_texture;      // KHR_materials_sheen: RGB (sRGB) scales sheen_color
+    uint sheen_roughness_texture;  // A scales sheen_roughness
+    vec3 sheen_color;              // the fibres' colour (0: no sheen)
+    float sheen_roughness;
 };
 
 // pf_scene.h PF_MATERIAL_DELTA_ROUGHNESS: at or below it the specular lobe is a mirror.

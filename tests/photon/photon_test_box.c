@@ -1,5 +1,6 @@
 #include "photon_test_box.h"
 
+#include <stdlib.h>
 #include <string.h>
 
 void box_add_quad(box_scene *s, const float a[3], const float b[3], const float c[3],
@@ -45,17 +46,24 @@ pf_status box_trace(box_tracer *t, const box_scene *s, const pf_photon_trace_set
     pf_vk_context *ctx = t->ctx;
     const pf_scene_frame *frame = &s->frame;
     pf_vk_buffer *buffers[5] = {0};
-    const void *data[5] = {frame->vertices, frame->normals, frame->triangle_material,
-                           frame->materials, frame->lights};
+    /* The materials buffer as the kernels read it: the sheen's tables first. */
+    uint32_t material_count = sizeof s->materials / sizeof s->materials[0];
+    uint64_t material_bytes = pf_materials_buffer_bytes(material_count);
+    void *materials = malloc(material_bytes);
+    if (!materials)
+        return pf_error_set(err, PF_ERR_NOMEM, "test scene: out of memory");
+    pf_materials_buffer_write(s->materials, material_count, materials);
+    const void *data[5] = {frame->vertices, frame->normals, frame->triangle_material, materials,
+                           frame->lights};
     uint64_t sizes[5] = {(uint64_t)frame->triangle_count * 48, (uint64_t)frame->triangle_count * 48,
-                         (uint64_t)frame->triangle_count * 4, sizeof s->materials,
-                         sizeof s->lights};
+                         (uint64_t)frame->triangle_count * 4, material_bytes, sizeof s->lights};
     pf_status status = PF_OK;
     for (int i = 0; status == PF_OK && i < 5; i++) {
         status = pf_vk_buffer_create(ctx, sizes[i], "test scene", &buffers[i], err);
         if (status == PF_OK)
             status = pf_vk_buffer_upload(ctx, buffers[i], 0, data[i], sizes[i], err);
     }
+    free(materials);
     pf_bih bih;
     pf_bih_build_options options = {0};
     if (status == PF_OK)

@@ -63,6 +63,43 @@ double ref_fresnel_dielectric(double cos_i, double eta)
     return 0.5 * (rp * rp + rs * rs);
 }
 
+double ref_sheen_table(int table, double mu, double roughness)
+{
+    double x = fmin(fmax(mu, 0.0), 1.0) * 31, y = fmin(fmax(roughness, 0.0), 1.0) * 31;
+    int i = x >= 30 ? 30 : (int)x, j = y >= 30 ? 30 : (int)y;
+    double fx = x - i, fy = y - j;
+    const float *e = pf_sheen_albedo + PF_SHEEN_ALBEDO_ENTRIES * table + 32 * i + j;
+    return (1 - fx) * ((1 - fy) * e[0] + fy * e[1]) + fx * ((1 - fy) * e[32] + fy * e[33]);
+}
+
+/* The Charlie visibility's Λ (Conty Estevez and Kulla 2017, as the spec writes it). */
+static double sheen_lambda(double c, double alpha)
+{
+    double t = (1 - alpha) * (1 - alpha);
+    double a = 21.5473 + (25.3245 - 21.5473) * t, b = 3.82987 + (3.32435 - 3.82987) * t;
+    double p = 0.19823 + (0.16801 - 0.19823) * t, d = -1.97760 + (-1.27393 + 1.97760) * t;
+    double e = -4.32054 + (-4.85967 + 4.32054) * t;
+    double at_c = a / (1 + b * pow(c, p)) + d * c + e;
+    double at_half = a / (1 + b * pow(0.5, p)) + d * 0.5 + e;
+    double at_rest = a / (1 + b * pow(1 - c, p)) + d * (1 - c) + e;
+    return c < 0.5 ? exp(at_c) : exp(2 * at_half - at_rest);
+}
+
+double ref_sheen_f_cos(double sheen_c, double sheen_max, double roughness, double base_c,
+                       double cos_o, double cos_i, double cos_h)
+{
+    if (!(cos_o > 0) || !(cos_i > 0))
+        return 0.0;
+    double r = fmax(roughness, 0.07), alpha = r * r; /* materials.glsl SHEEN_ROUGHNESS_MIN */
+    double sin2_h = fmax(1 - cos_h * cos_h, 0.0);
+    double d = (2 + 1 / alpha) * pow(sin2_h, 0.5 / alpha) / (2 * M_PI);
+    double lobe = d / ((1 + sheen_lambda(cos_o, alpha) + sheen_lambda(cos_i, alpha)) * 4 * cos_o);
+    double scale = fmax(fmin(1 - sheen_max * ref_sheen_table(0, cos_o, roughness),
+                             1 - sheen_max * ref_sheen_table(0, cos_i, roughness)),
+                        0.0);
+    return sheen_c * lobe + base_c / M_PI * cos_i * scale;
+}
+
 pf_material ref_material_emitter(float r, float g, float b)
 {
     pf_material emitter = pf_material_lambert(0, 0, 0);

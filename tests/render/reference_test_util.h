@@ -49,6 +49,14 @@ pf_material ref_material(pf_material_kind kind, float r, float g, float b);
  * for the shaders' (cos_i on the incident side, eta = η_t/η_i; 1 under total
  * internal reflection). */
 double ref_fresnel_dielectric(double cos_i, double eta);
+/* KHR_materials_sheen's oracle in doubles, from the spec's formulas (materials.glsl's header):
+ * table 0 (E) or 1 (B) of the sheen's albedo tables at (mu, roughness), bilinear as the
+ * shader reads them; and f·cos_i of one channel of a sheen (that channel sheen_c, its
+ * largest sheen_max, sheen roughness) over a Lambert base of albedo base_c, the cosines
+ * about the normal (cos_h: of the half vector). */
+double ref_sheen_table(int table, double mu, double roughness);
+double ref_sheen_f_cos(double sheen_c, double sheen_max, double roughness, double base_c,
+                       double cos_o, double cos_i, double cos_h);
 /* A black Lambert emitter of radiance (r, g, b) W/(sr·m²). */
 pf_material ref_material_emitter(float r, float g, float b);
 /* Appends a light. Aborts beyond REF_SCENE_LIGHTS_MAX. */

@@ -5,7 +5,10 @@
  * analytic value and the indirect and caustic layers must be exactly zero.
  *
  * - Point, spot (inside its inner cone) and directional light over a Lambert
- *   plane: L = albedo/π · E with E = I cosθ / d² (E = E⊥ cosθ), pixel by pixel.
+ *   plane: L = albedo/π · E with E = I cosθ / d² (E = E⊥ cosθ), pixel by pixel;
+ *   and under a KHR_materials_sheen (its Charlie lobe over the albedo-scaled base:
+ *   ref_sheen_f_cos, from the spec's formulas), where the view angle changes the
+ *   radiance from pixel to pixel.
  *   Light from a punctual source through NEE carries no noise, so each pixel
  *   must lie within the range the exact value takes over the pixel filter's
  *   footprint.
@@ -37,10 +40,12 @@ static pf_renderer *renderer;
 typedef int (*radiance_fn)(const void *setup, const pf_camera *camera, uint32_t width,
                            uint32_t height, double film_x, double film_y, double radiance[3]);
 
-/* Plane z = 0 (Lambert, front face +z) and one punctual light. */
+/* Plane z = 0 (Lambert, front face +z; a sheen over it where sheen is not 0) and one
+ * punctual light. */
 typedef struct plane_setup {
     double albedo[3];
     pf_light light;
+    double sheen[3], sheen_roughness;
 } plane_setup;
 
 /* Hit point of the camera ray with the plane z = 0; 0 when the ray misses it. */
@@ -81,10 +86,12 @@ static int plane_radiance(const void *opaque, const pf_camera *camera, uint32_t 
     double point[3];
     if (!hit_plane(camera, width, height, film_x, film_y, point))
         return 0;
-    double irradiance_scale;
+    double irradiance_scale, wi[3];
     if (light->kind == PF_LIGHT_DIRECTIONAL) {
         /* The light travels along direction; the plane's normal is +z. */
         irradiance_scale = fmax(0.0, -(double)light->direction[2]);
+        for (int k = 0; k < 3; k++)
+            wi[k] = -(double)light->direction[k];
     } else {
         double to_light[3], d2 = 0.0;
         for (int k = 0; k < 3; k++) {
@@ -92,6 +99,24 @@ static int plane_radiance(const void *opaque, const pf_camera *camera, uint32_t 
             d2 += to_light[k] * to_light[k];
         }
         irradiance_scale = fmax(0.0, to_light[2] / sqrt(d2)) / d2;
+        for (int k = 0; k < 3; k++)
+            wi[k] = to_light[k] / sqrt(d2);
+    }
+    double sheen_max = fmax(setup->sheen[0], fmax(setup->sheen[1], setup->sheen[2]));
+    if (sheen_max > 0.0) {
+        /* f·cos_i of the sheen over the base, times what the light delivers (I / d², or E⊥). */
+        double wo[3], h[3], hl = 0.0;
+        ref_camera_ray(camera, width, height, film_x, film_y, wo);
+        for (int k = 0; k < 3; k++) {
+            h[k] = wi[k] - wo[k];
+            hl += h[k] * h[k];
+        }
+        double falloff = wi[2] > 0.0 ? irradiance_scale / wi[2] : 0.0;
+        for (int c = 0; c < 3; c++)
+            radiance[c] = light->intensity[c] * falloff *
+                          ref_sheen_f_cos(setup->sheen[c], sheen_max, setup->sheen_roughness,
+                                          setup->albedo[c], -wo[2], wi[2], h[2] / sqrt(hl));
+        return 1;
     }
     for (int c = 0; c < 3; c++)
         radiance[c] = setup->albedo[c] / PI * light->intensity[c] * irradiance_scale;
@@ -211,9 +236,12 @@ static uint32_t check_single_bounce_layers(const char *what, const pf_image *ima
 static void plane_scene(ref_scene *scene, const plane_setup *setup)
 {
     ref_scene_init(scene);
-    uint32_t plane = ref_scene_add_material(
-        scene, ref_material(PF_MATERIAL_LAMBERT, (float)setup->albedo[0], (float)setup->albedo[1],
-                            (float)setup->albedo[2]));
+    pf_material material = ref_material(PF_MATERIAL_LAMBERT, (float)setup->albedo[0],
+                                        (float)setup->albedo[1], (float)setup->albedo[2]);
+    for (int c = 0; c < 3; c++)
+        material.sheen_color[c] = (float)setup->sheen[c];
+    material.sheen_roughness = (float)setup->sheen_roughness;
+    uint32_t plane = ref_scene_add_material(scene, material);
     const float centre[3] = {0, 0, 0}, half_u[3] = {20, 0, 0}, half_v[3] = {0, 20, 0};
     ref_scene_add_quad(scene, centre, half_u, half_v, plane);
     ref_scene_add_light(scene, setup->light);
@@ -414,6 +442,24 @@ PF_TEST(directional_light_over_a_plane_matches_cosine_law)
                          (pf_light){{0, 0, 0}, PF_LIGHT_DIRECTIONAL, {0.6f, 0.0f, -0.8f}, 0,
                                     {3.0f, 3.0f, 3.0f}, 1, 1}};
     PF_CHECK(check_plane("directional light", &setup, NULL) == PLANE_EDGE * PLANE_EDGE);
+}
+
+PF_TEST(sheen_over_a_plane_matches_its_lobe_over_the_scaled_base)
+{
+    /* 3 W/m² along (0.8, 0, -0.6): light at 53° from the normal, views from 40° to 70°. */
+    plane_setup setup = {{0.5, 0.5, 0.5},
+                         (pf_light){{0, 0, 0}, PF_LIGHT_DIRECTIONAL, {0.8f, 0.0f, -0.6f}, 0,
+                                    {3.0f, 3.0f, 3.0f}, 1, 1},
+                         {0.9, 0.5, 0.2},
+                         0.5};
+    PF_CHECK(check_plane("sheen, directional light", &setup, NULL) == PLANE_EDGE * PLANE_EDGE);
+    /* A point light over a rougher, whiter sheen. */
+    setup = (plane_setup){{0.2, 0.4, 0.6},
+                          (pf_light){{0.5f, 1.0f, 1.5f}, PF_LIGHT_POINT, {0, 0, -1}, 0,
+                                     {4.0f, 4.0f, 4.0f}, 1, 1},
+                          {1.0, 1.0, 1.0},
+                          0.9};
+    PF_CHECK(check_plane("sheen, point light", &setup, NULL) > PLANE_EDGE * PLANE_EDGE / 2);
 }
 
 /* Point lights over the plane, more than direct light visits one by one. */
@@ -870,6 +916,7 @@ int main(void)
     PF_RUN(point_light_over_a_plane_matches_inverse_square_cosine);
     PF_RUN(spot_light_inside_its_inner_cone_matches_a_point_light);
     PF_RUN(directional_light_over_a_plane_matches_cosine_law);
+    PF_RUN(sheen_over_a_plane_matches_its_lobe_over_the_scaled_base);
     PF_RUN(many_point_lights_over_a_plane_average_to_their_sum);
     PF_RUN(area_light_over_a_parallel_square_matches_the_form_factor);
     PF_RUN(double_sided_emitter_lights_from_its_back_face_too);

@@ -174,9 +174,10 @@ PF_TEST(textured_plane_mean_is_mean_albedo_times_irradiance)
  * 0.4) under a directional light reflects only its specular lobe, nothing where
  * specularTexture's A or specularColorTexture's RGB is 0, as much as without them where
  * they are 1; a coat (clearcoat 1, roughness 0.4) over a black base without specular
- * reflects nothing where clearcoatTexture's R is 0. preview: the direct light alone.
+ * reflects nothing where clearcoatTexture's R is 0, and a white sheen (roughness 0.5)
+ * nothing where sheenColorTexture's RGB is 0. preview: the direct light alone.
  */
-PF_TEST(specular_and_clearcoat_textures_scale_their_factors)
+PF_TEST(specular_clearcoat_and_sheen_textures_scale_their_factors)
 {
     ref_scene scene;
     ref_scene_init(&scene);
@@ -206,34 +207,41 @@ PF_TEST(specular_and_clearcoat_textures_scale_their_factors)
     struct {
         const char *name;
         uint32_t specular, specular_color, coat, coat_texture; /* slots; coat: clearcoat on */
-        int lit;                                                /* -1 dark, 1 as untextured */
-    } cases[] = {{"specular, untextured", 0, 0, 0, 0, 1},
-                 {"specularTexture A 0", 1, 0, 0, 0, -1},
-                 {"specularTexture A 1", 2, 0, 0, 0, 1},
-                 {"specularColorTexture 0", 0, 1, 0, 0, -1},
-                 {"clearcoat, untextured", 0, 0, 1, 0, 1},
-                 {"clearcoatTexture R 0", 0, 0, 1, 1, -1}};
-    double untextured[2] = {0.0, 0.0};
+        uint32_t sheen, sheen_texture; /* sheen: a white sheen on (and the other layers off) */
+        int lit;                       /* -1 dark, 1 as untextured */
+    } cases[] = {{"specular, untextured", 0, 0, 0, 0, 0, 0, 1},
+                 {"specularTexture A 0", 1, 0, 0, 0, 0, 0, -1},
+                 {"specularTexture A 1", 2, 0, 0, 0, 0, 0, 1},
+                 {"specularColorTexture 0", 0, 1, 0, 0, 0, 0, -1},
+                 {"clearcoat, untextured", 0, 0, 1, 0, 0, 0, 1},
+                 {"clearcoatTexture R 0", 0, 0, 1, 1, 0, 0, -1},
+                 {"sheen, untextured", 0, 0, 0, 0, 1, 0, 1},
+                 {"sheenColorTexture 0", 0, 0, 0, 0, 1, 1, -1}};
+    double untextured[3] = {0.0, 0.0, 0.0};
     for (size_t c = 0; c < sizeof cases / sizeof cases[0]; c++) {
-        int coat = cases[c].coat != 0;
-        m->specular = coat ? 0.0f : 1.0f;
+        int coat = cases[c].coat != 0, sheen = cases[c].sheen != 0;
+        int layer = sheen ? 2 : coat;
+        m->specular = coat || sheen ? 0.0f : 1.0f;
         m->specular_texture = cases[c].specular;
         m->specular_color_texture = cases[c].specular_color;
         m->clearcoat = coat ? 1.0f : 0.0f;
         m->clearcoat_roughness = 0.4f;
         m->clearcoat_texture = cases[c].coat_texture;
+        m->sheen_color[0] = m->sheen_color[1] = m->sheen_color[2] = sheen ? 1.0f : 0.0f;
+        m->sheen_roughness = 0.5f;
+        m->sheen_color_texture = cases[c].sheen_texture;
         pf_image image = {0};
         if (render(frame, PF_QUALITY_PREVIEW, &image) != PF_OK)
             continue;
         double mean = red_mean(&image);
         printf("  %s: mean %.6f\n", cases[c].name, mean);
-        if (c == 0 || c == 4)
-            untextured[coat] = mean;
+        if (c == 0 || c == 4 || c == 6)
+            untextured[layer] = mean;
         if (cases[c].lit < 0)
             PF_CHECK_MSG(mean == 0.0, "%s: mean %g", cases[c].name, mean);
         else
-            PF_CHECK_MSG(mean > 0.0 && fabs(mean - untextured[coat]) <= 1e-6 * mean,
-                         "%s: mean %g, untextured %g", cases[c].name, mean, untextured[coat]);
+            PF_CHECK_MSG(mean > 0.0 && fabs(mean - untextured[layer]) <= 1e-6 * mean,
+                         "%s: mean %g, untextured %g", cases[c].name, mean, untextured[layer]);
         pf_image_free(&image);
     }
     scene_free_textured(&scene);
@@ -671,7 +679,7 @@ int main(void)
     if (!render_test_setup(&ctx, &renderer))
         return 1;
     PF_RUN(textured_plane_mean_is_mean_albedo_times_irradiance);
-    PF_RUN(specular_and_clearcoat_textures_scale_their_factors);
+    PF_RUN(specular_clearcoat_and_sheen_textures_scale_their_factors);
     PF_RUN(constant_normal_map_shades_as_the_turned_plane);
     PF_RUN(camera_ray_cones_pick_the_mip_level);
     PF_RUN(alpha_masked_card_hides_and_shadows_only_its_opaque_half);

@@ -278,7 +278,8 @@ PF_TEST(required_extension_unsupported)
     spec.name = "required_ok";
     spec.extensions_required = "[\"KHR_lights_punctual\",\"KHR_materials_emissive_strength\","
                                "\"KHR_materials_transmission\",\"KHR_materials_ior\","
-                               "\"KHR_materials_clearcoat\",\"KHR_materials_unlit\"]";
+                               "\"KHR_materials_clearcoat\",\"KHR_materials_unlit\","
+                               "\"KHR_materials_sheen\"]";
     spec.extensions_used = spec.extensions_required;
     pf_scene *scene = NULL;
     pf_error err;

@@ -31,7 +31,8 @@ static uint32_t features_of(uint32_t light_count, pf_material material, int corn
 /* The bits of a frame that lacks everything the NO_ bits name. */
 #define LACKS_ALL                                                                          \
     (PF_SURFACE_NO_LIGHTS | PF_SURFACE_NO_TRANSMISSION | PF_SURFACE_NO_EMISSION |         \
-     PF_SURFACE_NO_SPECULAR | PF_SURFACE_NO_MANY_LIGHTS | PF_SURFACE_NO_CLEARCOAT)
+     PF_SURFACE_NO_SPECULAR | PF_SURFACE_NO_MANY_LIGHTS | PF_SURFACE_NO_CLEARCOAT |        \
+     PF_SURFACE_NO_SHEEN)
 
 PF_TEST(each_feature_sets_its_own_bit)
 {
@@ -65,8 +66,16 @@ PF_TEST(each_feature_sets_its_own_bit)
     pf_material coated = plain;
     coated.clearcoat = 0.25f;
     PF_CHECK(features_of(0, coated, 0) == (LACKS_ALL & ~PF_SURFACE_NO_CLEARCOAT));
+    pf_material velvet = plain;
+    velvet.sheen_color[1] = 0.5f; /* green alone counts */
+    PF_CHECK(features_of(0, velvet, 0) == (LACKS_ALL & ~PF_SURFACE_NO_SHEEN));
+    /* Unlit: tested as alpha is (camera rays only), and no emitter for the light sampling. */
+    pf_material unlit = plain;
+    unlit.flags = PF_MATERIAL_UNLIT;
+    PF_CHECK(features_of(0, unlit, 0) == (LACKS_ALL | PF_SURFACE_ALPHA));
     pf_material all = lamp;
     all.clearcoat = 1.0f;
+    all.sheen_color[0] = 1.0f;
     all.transmission = 1.0f;
     all.kind = PF_MATERIAL_GLASS;
     all.alpha_mode = PF_ALPHA_BLEND;
@@ -85,7 +94,8 @@ PF_TEST(each_bit_sets_its_own_constant_and_none_leaves_everything_in)
                  {PF_SURFACE_NO_EMISSION, PF_SPEC_SCENE_HAS_EMITTERS, 0},
                  {PF_SURFACE_NO_SPECULAR, PF_SPEC_SCENE_HAS_SPECULAR, 0},
                  {PF_SURFACE_NO_MANY_LIGHTS, PF_SPEC_SCENE_HAS_MANY_LIGHTS, 0},
-                 {PF_SURFACE_NO_CLEARCOAT, PF_SPEC_SCENE_HAS_CLEARCOAT, 0}};
+                 {PF_SURFACE_NO_CLEARCOAT, PF_SPEC_SCENE_HAS_CLEARCOAT, 0},
+                 {PF_SURFACE_NO_SHEEN, PF_SPEC_SCENE_HAS_SHEEN, 0}};
     PF_REQUIRE(sizeof pairs / sizeof pairs[0] == PF_SCENE_SPEC_CONSTANTS);
     /* A word left 0: alpha tests and corners out (they read buffers not given), the rest in. */
     uint32_t ids[PF_SCENE_SPEC_CONSTANTS], none[PF_SCENE_SPEC_CONSTANTS];

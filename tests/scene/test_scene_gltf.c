@@ -219,6 +219,49 @@ PF_TEST(clearcoat_factors)
     pf_scene_destroy(scene);
 }
 
+/* KHR_materials_sheen: its factors (none without the extension: the frame lacks a sheen);
+ * factors outside [0, 1] are format errors naming the field. */
+PF_TEST(sheen_factors)
+{
+    char path[512];
+    st_gltf spec = {
+        .name = "sheen",
+        .nodes = "[" QUAD_NODE_MESH "]",
+        .materials = "[{\"extensions\":{\"KHR_materials_sheen\":{\"sheenColorFactor\":"
+                     "[0.5,0.25,1],\"sheenRoughnessFactor\":0.75}}}]",
+    };
+    pf_scene *scene = st_load_ok(st_write_gltf(&spec, path, sizeof path));
+    PF_REQUIRE(scene);
+    pf_scene_frame frame;
+    pf_error err;
+    PF_REQUIRE_OK(pf_scene_eval(scene, 0.0, &frame, &err), &err);
+    const pf_material *m = &frame.materials[frame.triangle_material[0]];
+    PF_CHECK(m->sheen_color[0] == 0.5f && m->sheen_color[1] == 0.25f &&
+             m->sheen_color[2] == 1.0f && m->sheen_roughness == 0.75f);
+    PF_CHECK(m->sheen_color_texture == PF_NO_TEXTURE &&
+             m->sheen_roughness_texture == PF_NO_TEXTURE);
+    PF_CHECK((pf_scene_frame_surface_features(&frame) & PF_SURFACE_NO_SHEEN) == 0);
+    pf_scene_frame_free(&frame);
+    pf_scene_destroy(scene);
+
+    spec.name = "no_sheen";
+    spec.materials = "[{\"extensions\":{\"KHR_materials_sheen\":{}}}]";
+    scene = st_load_ok(st_write_gltf(&spec, path, sizeof path));
+    PF_REQUIRE(scene);
+    PF_REQUIRE_OK(pf_scene_eval(scene, 0.0, &frame, &err), &err);
+    m = &frame.materials[frame.triangle_material[0]];
+    PF_CHECK(m->sheen_color[0] == 0.0f && m->sheen_roughness == 0.0f);
+    PF_CHECK((pf_scene_frame_surface_features(&frame) & PF_SURFACE_NO_SHEEN) != 0);
+    pf_scene_frame_free(&frame);
+    pf_scene_destroy(scene);
+
+    spec.name = "sheen_bad";
+    spec.materials = "[{\"extensions\":{\"KHR_materials_sheen\":{\"sheenRoughnessFactor\":"
+                     "1.5}}}]";
+    st_expect_error(st_write_gltf(&spec, path, sizeof path), PF_ERR_FORMAT,
+                    "KHR_materials_sheen", "sheenRoughnessFactor 1.5 is outside [0, 1]");
+}
+
 /* KHR_materials_unlit: the flag and the base colour, the other lobes zeroed as the spec has
  * them ignored (no emission, metal, transmission or coat); the frame is alpha-tested (only
  * camera rays see it). A value that is not an object is a format error. */
@@ -232,7 +275,8 @@ PF_TEST(unlit_keeps_its_base_colour_only)
                      "\"metallicFactor\":1},\"emissiveFactor\":[1,1,1],\"extensions\":{"
                      "\"KHR_materials_unlit\":{},\"KHR_materials_transmission\":{"
                      "\"transmissionFactor\":1},\"KHR_materials_clearcoat\":{"
-                     "\"clearcoatFactor\":1}}}]",
+                     "\"clearcoatFactor\":1},\"KHR_materials_sheen\":{"
+                     "\"sheenColorFactor\":[1,1,1]}}}]",
     };
     pf_scene *scene = st_load_ok(st_write_gltf(&spec, path, sizeof path));
     PF_REQUIRE(scene);
@@ -243,7 +287,7 @@ PF_TEST(unlit_keeps_its_base_colour_only)
     PF_CHECK((m->flags & PF_MATERIAL_UNLIT) != 0);
     PF_CHECK(m->albedo[0] == 0.25f && m->albedo[1] == 0.5f && m->albedo[2] == 0.75f);
     PF_CHECK(m->emission[0] == 0.0f && m->metallic == 0.0f && m->transmission == 0.0f &&
-             m->clearcoat == 0.0f && m->specular == 0.0f);
+             m->clearcoat == 0.0f && m->specular == 0.0f && m->sheen_color[0] == 0.0f);
     PF_CHECK(m->kind == PF_MATERIAL_LAMBERT);
     uint32_t features = pf_scene_frame_surface_features(&frame);
     PF_CHECK((features & PF_SURFACE_ALPHA) != 0);
@@ -615,11 +659,11 @@ PF_TEST(unsupported_extension_used_warns_once)
     st_gltf spec = {
         .name = "ext_used",
         .nodes = "[" QUAD_NODE_MESH "]",
-        .materials = "[{\"extensions\":{\"KHR_materials_sheen\":{\"sheenRoughnessFactor\":1}},"
-                     "\"pbrMetallicRoughness\":{\"metallicFactor\":0}},"
-                     "{\"extensions\":{\"KHR_materials_sheen\":{\"sheenRoughnessFactor\":1}},"
-                     "\"pbrMetallicRoughness\":{\"metallicFactor\":0}}]",
-        .extensions_used = "[\"KHR_materials_sheen\"]",
+        .materials = "[{\"extensions\":{\"KHR_materials_iridescence\":{"
+                     "\"iridescenceFactor\":1}},\"pbrMetallicRoughness\":{\"metallicFactor\":0}},"
+                     "{\"extensions\":{\"KHR_materials_iridescence\":{"
+                     "\"iridescenceFactor\":1}},\"pbrMetallicRoughness\":{\"metallicFactor\":0}}]",
+        .extensions_used = "[\"KHR_materials_iridescence\"]",
     };
     uint32_t warnings_before = pf_log_warning_count();
     pf_scene *scene = st_load_ok(st_write_gltf(&spec, path, sizeof path));
@@ -751,6 +795,7 @@ int main(void)
     PF_RUN(camera_values);
     PF_RUN(volume_absorption);
     PF_RUN(clearcoat_factors);
+    PF_RUN(sheen_factors);
     PF_RUN(unlit_keeps_its_base_colour_only);
     PF_RUN(gpu_instancing_draws_the_mesh_once_per_instance);
     PF_RUN(materials_mapped);
