@@ -58,6 +58,9 @@ static const char *const supported_extensions[] = {
     "KHR_materials_unlit",
     "KHR_materials_sheen",
     "EXT_mesh_gpu_instancing",
+    /* Integer positions, normals, tangents and texture coordinates (gltfpack -cc): every
+     * attribute is read through gltf_read_floats, which converts any component type. */
+    "KHR_mesh_quantization",
     "KHR_texture_transform",
     "EXT_texture_webp",
 };

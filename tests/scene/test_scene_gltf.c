@@ -62,6 +62,62 @@ PF_TEST(static_quad_basics)
     pf_scene_destroy(scene);
 }
 
+/* KHR_mesh_quantization (what gltfpack -cc writes): positions as SHORT under a node scale that
+ * dequantizes them, normals as normalized BYTE, texture coordinates as normalized UNSIGNED
+ * SHORT, indices as UNSIGNED_BYTE, vertex attributes at 4-byte strides as the spec has
+ * them: the frame holds the unit quad in floats. Without the extension listed, the file
+ * still says it needs it, and loads the same. */
+PF_TEST(quantized_mesh_loads_as_its_floats)
+{
+    unsigned char bin[72] = {0};
+    const int16_t positions[4][4] = {{0, 0, 0, 0}, {100, 0, 0, 0}, {100, 100, 0, 0},
+                                     {0, 100, 0, 0}};
+    const int8_t normals[4][4] = {{0, 0, 127, 0}, {0, 0, 127, 0}, {0, 0, 127, 0},
+                                  {0, 0, 127, 0}};
+    const uint16_t uvs[4][2] = {{0, 65535}, {65535, 65535}, {65535, 0}, {0, 0}};
+    const uint8_t indices[6] = {0, 1, 2, 0, 2, 3};
+    memcpy(bin, positions, 32);
+    memcpy(bin + 32, normals, 16);
+    memcpy(bin + 48, uvs, 16);
+    memcpy(bin + 64, indices, 6);
+    char path[512], bin_path[512];
+    PF_REQUIRE(st_write(st_path(bin_path, sizeof bin_path, "quantized.bin"), bin, sizeof bin) ==
+               0);
+    const char *json =
+        "{\"asset\":{\"version\":\"2.0\"},\"extensionsUsed\":[\"KHR_mesh_quantization\"],"
+        "\"extensionsRequired\":[\"KHR_mesh_quantization\"],\"scene\":0,"
+        "\"scenes\":[{\"nodes\":[0]}],\"nodes\":[{\"mesh\":0,\"scale\":[0.01,0.01,0.01]}],"
+        "\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0,\"NORMAL\":1,"
+        "\"TEXCOORD_0\":2},\"indices\":3}]}],"
+        "\"buffers\":[{\"uri\":\"quantized.bin\",\"byteLength\":72}],"
+        "\"bufferViews\":[{\"buffer\":0,\"byteOffset\":0,\"byteLength\":32,\"byteStride\":8},"
+        "{\"buffer\":0,\"byteOffset\":32,\"byteLength\":16,\"byteStride\":4},"
+        "{\"buffer\":0,\"byteOffset\":48,\"byteLength\":16,\"byteStride\":4},"
+        "{\"buffer\":0,\"byteOffset\":64,\"byteLength\":6}],"
+        "\"accessors\":[{\"bufferView\":0,\"componentType\":5122,\"count\":4,"
+        "\"type\":\"VEC3\",\"min\":[0,0,0],\"max\":[100,100,0]},"
+        "{\"bufferView\":1,\"componentType\":5120,\"normalized\":true,\"count\":4,"
+        "\"type\":\"VEC3\"},"
+        "{\"bufferView\":2,\"componentType\":5123,\"normalized\":true,\"count\":4,"
+        "\"type\":\"VEC2\"},"
+        "{\"bufferView\":3,\"componentType\":5121,\"count\":6,\"type\":\"SCALAR\"}]}";
+    PF_REQUIRE(st_write_text(st_path(path, sizeof path, "quantized.gltf"), json) == 0);
+    pf_scene *scene = st_load_ok(path);
+    PF_REQUIRE(scene);
+    pf_scene_frame frame;
+    pf_error err;
+    PF_REQUIRE_OK(pf_scene_eval(scene, 0.0, &frame, &err), &err);
+    PF_CHECK(frame.triangle_count == 2);
+    st_check_vec3(frame.vertices[0], 0, 0, 0, 1e-6);
+    st_check_vec3(frame.vertices[1], 1, 0, 0, 1e-6);
+    st_check_vec3(frame.vertices[2], 1, 1, 0, 1e-6);
+    st_check_vec3(frame.vertices[5], 0, 1, 0, 1e-6);
+    st_check_vec3(frame.normals[4], 0, 0, 1, 1e-6);
+    st_check_vec3(frame.bounds_max, 1, 1, 0, 1e-6);
+    pf_scene_frame_free(&frame);
+    pf_scene_destroy(scene);
+}
+
 PF_TEST(hierarchy_trs_and_matrix)
 {
     /* Parent: T (10,0,0), R 90° about Z, S 2; child: matrix translating (0,1,0).
@@ -790,6 +846,7 @@ int main(void)
 {
     pf_log_set_level(PF_LOG_ERROR);
     PF_RUN(static_quad_basics);
+    PF_RUN(quantized_mesh_loads_as_its_floats);
     PF_RUN(hierarchy_trs_and_matrix);
     PF_RUN(lights_converted);
     PF_RUN(camera_values);
