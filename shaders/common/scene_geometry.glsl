@@ -70,7 +70,8 @@ Material scene_material(uint index)
     uvec4 t7 = uvec4(texelFetch(scene_materials, first + 7));
     uvec4 t8 = uvec4(texelFetch(scene_materials, first + 8));
     uvec4 t9 = uvec4(texelFetch(scene_materials, first + 9));
-    vec4 t10 = uintBitsToFloat(uvec4(texelFetch(scene_materials, first + 10)));
+    vec4 t10 = SCENE_HAS_SHEEN ? uintBitsToFloat(uvec4(texelFetch(scene_materials, first + 10)))
+                               : vec4(0.0);
     // transmission, emission, the coat and the sheen: 0 in a frame without a transmissive,
     // an emissive, a coated or a sheen material, the kind Lambert in one without a specular
     // material, so that their code is compiled out (SCENE_HAS_TRANSMISSION,
@@ -85,7 +86,7 @@ Material scene_material(uint index)
                     SCENE_HAS_CLEARCOAT ? t7.y : NO_TEXTURE, t7.z, t7.w, t8.x, 0.0, 0.0, 0.0,
                     SCENE_HAS_CLEARCOAT ? t9.x : NO_TEXTURE, uintBitsToFloat(t9.y),
                     SCENE_HAS_SHEEN ? t9.z : NO_TEXTURE, SCENE_HAS_SHEEN ? t9.w : NO_TEXTURE,
-                    SCENE_HAS_SHEEN ? t10.xyz : vec3(0.0), t10.w);
+                    t10.xyz, t10.w);
 }
 
 #ifdef PF_SURFACE_TEXTURES
