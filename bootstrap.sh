@@ -45,6 +45,8 @@ PACKAGES=(
   libspng-dev             # texture images: PNG
   libturbojpeg0-dev       # texture images: JPEG
   libwebp-dev             # texture images: WebP (EXT_texture_webp)
+  libdraco-dev            # glTF meshes compressed with Draco (KHR_draco_mesh_compression)
+  draco                   # tests: draco_transcoder compresses the glTF the tests decode
   libembree-dev           # bench/: CPU ray-casting peer for speed comparisons
 )
 

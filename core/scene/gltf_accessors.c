@@ -396,6 +396,48 @@ static pf_status apply_sparse(gltf_context *ctx, const cJSON *sparse, uint32_t c
     return PF_OK;
 }
 
+uint32_t gltf_accessor_components(gltf_context *ctx, int32_t index)
+{
+    const cJSON *accessor =
+        cJSON_GetArrayItem(cJSON_GetObjectItemCaseSensitive(ctx->root, "accessors"), index);
+    const cJSON *type = cJSON_GetObjectItemCaseSensitive(accessor, "type");
+    return index >= 0 && cJSON_IsString(type) ? type_components(type->valuestring) : 0;
+}
+
+/* The accessor's values as the primitive's decoder produced them (gltf_decoded_accessor),
+ * normalized as read_component would: *out NULL where it has none. */
+static pf_status decoded_values(gltf_context *ctx, int32_t index, uint32_t count,
+                                uint32_t components, int component_type, int normalized,
+                                double **out, const char *element, pf_error *err)
+{
+    *out = NULL;
+    const gltf_decoded_accessor *decoded = NULL;
+    for (uint32_t k = 0; k < ctx->decoded_count; k++)
+        if (ctx->decoded[k].accessor == index)
+            decoded = &ctx->decoded[k];
+    if (!decoded)
+        return PF_OK;
+    if (decoded->count != count || decoded->components != components)
+        return gltf_fail(ctx, err, PF_ERR_FORMAT, element,
+                         "count %u, but its compressed stream decodes to %u", count,
+                         decoded->count);
+    double *values = malloc((size_t)count * components * sizeof *values);
+    if (!values)
+        return gltf_fail(ctx, err, PF_ERR_NOMEM, element, "out of memory for %u elements", count);
+    /* The largest value of the accessor's integer type: a normalized one maps it to 1. */
+    double scale = 0.0;
+    if (normalized)
+        scale = component_type == GLTF_BYTE             ? 127.0
+                : component_type == GLTF_UNSIGNED_BYTE  ? 255.0
+                : component_type == GLTF_SHORT          ? 32767.0
+                : component_type == GLTF_UNSIGNED_SHORT ? 65535.0
+                                                        : 0.0;
+    for (size_t k = 0; k < (size_t)count * components; k++)
+        values[k] = scale > 0.0 ? fmax(decoded->values[k] / scale, -1.0) : decoded->values[k];
+    *out = values;
+    return PF_OK;
+}
+
 /*
  * Reads accessor `index` as doubles after checking its type against
  * `components` and (when integer_only) an index componentType.
@@ -446,6 +488,14 @@ static pf_status read_accessor(gltf_context *ctx, int32_t index, uint32_t compon
     const cJSON *normalized_item = cJSON_GetObjectItemCaseSensitive(accessor, "normalized");
     int normalized = cJSON_IsTrue(normalized_item);
     uint32_t count = (uint32_t)count_value;
+    double *decoded;
+    status = decoded_values(ctx, index, count, components, component_type, normalized, &decoded,
+                            element, err);
+    if (status || decoded) {
+        *out = decoded;
+        *out_count = count;
+        return status;
+    }
     /* Bounds are checked before allocating, so a corrupt count cannot ask for gigabytes. */
     strided_view view = {0};
     uint32_t size = component_size(component_type);

@@ -18,6 +18,14 @@ typedef struct gltf_buffer {
     int owned;
 } gltf_buffer;
 
+/* A compressed primitive's accessor as its decoder produced it (gltf_draco.c): while the
+ * primitive loads, the accessor readers take these values instead of a bufferView's. */
+typedef struct gltf_decoded_accessor {
+    int32_t accessor;
+    uint32_t count, components;
+    double *values; /* count × components, before the accessor's normalization */
+} gltf_decoded_accessor;
+
 typedef struct gltf_context {
     pf_scene *scene;
     const char *path;
@@ -35,6 +43,9 @@ typedef struct gltf_context {
     uint32_t image_count;
     uint64_t (*image_chain)[2];
     uint32_t (*image_size)[3];
+    /* The primitive being loaded's decoded accessors (KHR_draco_mesh_compression). */
+    gltf_decoded_accessor *decoded;
+    uint32_t decoded_count;
 } gltf_context;
 
 /* PF_ERR_FORMAT (or the given status) with "path: element: message". */
@@ -77,6 +88,17 @@ uint32_t gltf_read_u32le(const unsigned char *bytes);
  * malloc'ed. */
 pf_status gltf_read_uri(gltf_context *ctx, const cJSON *uri, const char *element,
                         unsigned char **data, size_t *size, pf_error *err);
+/* The component count of accessors[index]'s type (SCALAR 1 … MAT4 16), 0 if it has none. */
+uint32_t gltf_accessor_components(gltf_context *ctx, int32_t index);
+/*
+ * gltf_draco.c: KHR_draco_mesh_compression. gltf_draco_decode_primitive decodes the
+ * primitive's compressed stream, where it has one, into ctx->decoded (the accessors of the
+ * attributes it compresses, and of its indices); gltf_draco_release frees them after the
+ * primitive is loaded.
+ */
+pf_status gltf_draco_decode_primitive(gltf_context *ctx, const cJSON *primitive,
+                                      const char *element, pf_error *err);
+void gltf_draco_release(gltf_context *ctx);
 /* The bytes of bufferViews[view_index], checked against its buffer; *data points into it. */
 pf_status gltf_view_bytes(gltf_context *ctx, int32_t view_index, const char *element,
                           const unsigned char **data, size_t *size, pf_error *err);

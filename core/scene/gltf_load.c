@@ -61,6 +61,7 @@ static const char *const supported_extensions[] = {
     /* Integer positions, normals, tangents and texture coordinates (gltfpack -cc): every
      * attribute is read through gltf_read_floats, which converts any component type. */
     "KHR_mesh_quantization",
+    "KHR_draco_mesh_compression",
     "KHR_texture_transform",
     "EXT_texture_webp",
 };
@@ -698,8 +699,11 @@ static pf_status load_meshes(gltf_context *ctx, pf_error *err)
             const cJSON *primitive;
             status = array_object(ctx, primitives, p, &primitive, primitive_element, err);
             if (!status)
+                status = gltf_draco_decode_primitive(ctx, primitive, primitive_element, err);
+            if (!status)
                 status = load_primitive(ctx, &scene->meshes[m], primitive, deforms,
                                         primitive_element, err);
+            gltf_draco_release(ctx);
         }
         if (!status)
             status = gltf_load_mesh_weights(ctx, mesh, &scene->meshes[m], element, err);

@@ -3,7 +3,10 @@
 #include "pf_test.h"
 #include "scene_test_util.h"
 
+#include <cjson/cJSON.h>
 #include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #define QUAD_NODE_MESH "{\"mesh\":0}"
@@ -116,6 +119,110 @@ PF_TEST(quantized_mesh_loads_as_its_floats)
     st_check_vec3(frame.bounds_max, 1, 1, 0, 1e-6);
     pf_scene_frame_free(&frame);
     pf_scene_destroy(scene);
+}
+
+/* Runs draco_transcoder (Debian's draco, which ./bootstrap.sh installs) on in, writing out
+ * with positions quantized to `bits`; 0 on success. */
+static int draco_transcode(const char *in, const char *out, int bits)
+{
+    char command[1200];
+    snprintf(command, sizeof command, "draco_transcoder -i '%s' -o '%s' -qp %d > /dev/null 2>&1",
+             in, out, bits);
+    return system(command);
+}
+
+/* Whether corner c of triangle t of frame a is a corner of triangle u of frame b: position
+ * within tolerance, normal within 0.01. */
+static int corner_in(const pf_scene_frame *a, uint32_t t, uint32_t c, const pf_scene_frame *b,
+                     uint32_t u, float tolerance)
+{
+    for (uint32_t d = 0; d < 3; d++) {
+        const float *p = a->vertices[3 * t + c], *q = b->vertices[3 * u + d];
+        const float *n = a->normals[3 * t + c], *m = b->normals[3 * u + d];
+        int same = 1;
+        for (int k = 0; k < 3; k++)
+            same &= fabsf(p[k] - q[k]) < tolerance && fabsf(n[k] - m[k]) < 1e-2f;
+        if (same)
+            return 1;
+    }
+    return 0;
+}
+
+/* KHR_draco_mesh_compression: a mesh of two primitives (the quad, and the quad moved up 1 and
+ * turned about x) compressed by Draco's own transcoder loads as the uncompressed file does:
+ * the same triangles (Draco reorders faces and vertices, so each triangle is matched as a
+ * set of corners among the other file's) within the 14-bit quantization of its positions,
+ * the same normals; the file requires the extension, as Blender's exporter writes it. A
+ * stream cut short is refused, naming the extension and the primitive. */
+PF_TEST(draco_compressed_mesh_loads_as_uncompressed)
+{
+    char path[512], compressed[512];
+    st_gltf spec = {.name = "draco_source",
+                    .nodes = "[{\"mesh\":0},{\"mesh\":1,\"translation\":[0,0,1],"
+                             "\"rotation\":[0.7071068,0,0,0.7071068]}]",
+                    .scenes = "[{\"nodes\":[0,1]}]",
+                    .meshes = "[{\"primitives\":[{\"attributes\":{\"POSITION\":0,"
+                              "\"NORMAL\":1},\"indices\":2}]},{\"primitives\":[{"
+                              "\"attributes\":{\"POSITION\":0,\"NORMAL\":1},"
+                              "\"indices\":2}]}]"};
+    st_write_gltf(&spec, path, sizeof path);
+    st_path(compressed, sizeof compressed, "draco.gltf");
+    PF_REQUIRE_MSG(draco_transcode(path, compressed, 14) == 0,
+                   "draco_transcoder (Debian's draco package) failed or is missing; "
+                   "./bootstrap.sh test installs it");
+    pf_scene *plain = st_load_ok(path), *scene = st_load_ok(compressed);
+    PF_REQUIRE(plain && scene);
+    pf_scene_frame a, b;
+    pf_error err;
+    PF_REQUIRE_OK(pf_scene_eval(plain, 0.0, &a, &err), &err);
+    PF_REQUIRE_OK(pf_scene_eval(scene, 0.0, &b, &err), &err);
+    PF_CHECK(a.triangle_count == 4 && b.triangle_count == 4);
+    uint32_t unmatched = 0;
+    for (uint32_t t = 0; t < a.triangle_count; t++) {
+        int found = 0;
+        for (uint32_t u = 0; !found && u < b.triangle_count; u++)
+            found = corner_in(&a, t, 0, &b, u, 2e-4f) && corner_in(&a, t, 1, &b, u, 2e-4f) &&
+                    corner_in(&a, t, 2, &b, u, 2e-4f);
+        unmatched += !found;
+    }
+    PF_CHECK_MSG(unmatched == 0, "%u triangles of the plain mesh not in the compressed one",
+                 unmatched);
+    st_check_vec3(b.bounds_min, 0, 0, 0, 2e-4);
+    st_check_vec3(b.bounds_max, 1, 1, 2, 2e-4);
+    pf_scene_frame_free(&a);
+    pf_scene_frame_free(&b);
+    pf_scene_destroy(plain);
+    pf_scene_destroy(scene);
+
+    /* The same file with its stream cut to 8 bytes. */
+    char bin[512];
+    PF_REQUIRE(st_write(st_path(bin, sizeof bin, "draco.bin"), "DRACO\2\2\1", 8) == 0);
+    char *json = NULL;
+    FILE *f = fopen(compressed, "rb");
+    PF_REQUIRE(f);
+    fseek(f, 0, SEEK_END);
+    long length = ftell(f);
+    fseek(f, 0, SEEK_SET);
+    json = calloc((size_t)length + 1, 1);
+    PF_REQUIRE(json && fread(json, 1, (size_t)length, f) == (size_t)length);
+    fclose(f);
+    cJSON *root = cJSON_Parse(json);
+    free(json);
+    PF_REQUIRE(root);
+    /* Every bufferView of the stream and the buffer now 8 bytes long. */
+    cJSON *view;
+    cJSON_ArrayForEach(view, cJSON_GetObjectItem(root, "bufferViews"))
+    {
+        cJSON_ReplaceItemInObject(view, "byteOffset", cJSON_CreateNumber(0));
+        cJSON_ReplaceItemInObject(view, "byteLength", cJSON_CreateNumber(8));
+    }
+    cJSON_ReplaceItemInObject(cJSON_GetArrayItem(cJSON_GetObjectItem(root, "buffers"), 0),
+                              "byteLength", cJSON_CreateNumber(8));
+    char *text = cJSON_PrintUnformatted(root);
+    cJSON_Delete(root);
+    PF_REQUIRE(text && st_write_text(compressed, text) == 0);
+    free(text);
+    st_expect_error(compressed, PF_ERR_FORMAT, "KHR_draco_mesh_compression", "not a Draco mesh");
 }
 
 PF_TEST(hierarchy_trs_and_matrix)
@@ -847,6 +954,7 @@ int main(void)
     pf_log_set_level(PF_LOG_ERROR);
     PF_RUN(static_quad_basics);
     PF_RUN(quantized_mesh_loads_as_its_floats);
+    PF_RUN(draco_compressed_mesh_loads_as_uncompressed);
     PF_RUN(hierarchy_trs_and_matrix);
     PF_RUN(lights_converted);
     PF_RUN(camera_values);
