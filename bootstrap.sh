@@ -47,6 +47,8 @@ PACKAGES=(
   libwebp-dev             # texture images: WebP (EXT_texture_webp)
   libdraco-dev            # glTF meshes compressed with Draco (KHR_draco_mesh_compression)
   draco                   # tests: draco_transcoder compresses the glTF the tests decode
+  libmeshoptimizer-dev    # glTF buffers compressed by meshoptimizer (EXT_meshopt_compression)
+  gltfpack                # tests: gltfpack compresses the glTF the tests decode
   libembree-dev           # bench/: CPU ray-casting peer for speed comparisons
 )
 

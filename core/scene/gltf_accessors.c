@@ -110,6 +110,14 @@ static pf_status load_buffer(gltf_context *ctx, uint32_t index, const cJSON *buf
                          byte_length);
     out->size = (size_t)byte_length;
     const cJSON *uri = cJSON_GetObjectItemCaseSensitive(buffer, "uri");
+    const cJSON *meshopt = cJSON_GetObjectItemCaseSensitive(
+        cJSON_GetObjectItemCaseSensitive(buffer, "extensions"), "EXT_meshopt_compression");
+    if (!uri && cJSON_IsTrue(cJSON_GetObjectItemCaseSensitive(meshopt, "fallback"))) {
+        /* EXT_meshopt_compression's fallback: the size of the decoded views, no data. */
+        out->data = NULL;
+        out->owned = 0;
+        return PF_OK;
+    }
     if (!uri) {
         if (index != 0 || !ctx->glb_bin)
             return gltf_fail(ctx, err, PF_ERR_FORMAT, element,
@@ -299,11 +307,20 @@ static pf_status resolve_view(gltf_context *ctx, int32_t view_index, double byte
     if (buffer_index == SCENE_NONE)
         return gltf_fail(ctx, err, PF_ERR_FORMAT, view_element, "buffer is missing");
     const gltf_buffer *buffer = &ctx->buffers[buffer_index];
+    /* A view decoded from its EXT_meshopt_compression stream reads the decoded bytes. */
+    const gltf_view_data *decoded = view_index < (int32_t)ctx->view_count &&
+                                            ctx->view_data[view_index].data
+                                        ? &ctx->view_data[view_index]
+                                        : NULL;
+    if (!decoded && !buffer->data)
+        return gltf_fail(ctx, err, PF_ERR_FORMAT, view_element,
+                         "buffers[%d] is a fallback without data, and the view is not "
+                         "compressed", buffer_index);
     if (!(view_offset >= 0 && view_length >= 1 && view_offset == floor(view_offset) &&
           view_length == floor(view_length)))
         return gltf_fail(ctx, err, PF_ERR_FORMAT, view_element,
                          "byteOffset/byteLength must be non-negative integers (byteLength >= 1)");
-    if (view_offset + view_length > (double)buffer->size)
+    if (!decoded && view_offset + view_length > (double)buffer->size)
         return gltf_fail(ctx, err, PF_ERR_FORMAT, view_element,
                          "byteOffset %.0f + byteLength %.0f runs past buffers[%d] (%zu bytes)",
                          view_offset, view_length, buffer_index, buffer->size);
@@ -322,7 +339,8 @@ static pf_status resolve_view(gltf_context *ctx, int32_t view_index, double byte
                          "bytes but bufferViews[%d] has %.0f",
                          count, element_size, stride, byte_offset, needed, view_index,
                          view_length);
-    out->base = buffer->data + (size_t)view_offset + (size_t)byte_offset;
+    out->base = decoded ? decoded->data + (size_t)byte_offset
+                        : buffer->data + (size_t)view_offset + (size_t)byte_offset;
     out->stride = (size_t)stride;
     return PF_OK;
 }

@@ -13,10 +13,17 @@
 #include <stddef.h>
 
 typedef struct gltf_buffer {
-    unsigned char *data; /* owned unless it points into the .glb BIN chunk */
+    unsigned char *data; /* owned unless it points into the .glb BIN chunk; NULL for an
+                          * EXT_meshopt_compression fallback buffer, which has no data */
     size_t size;         /* the buffer's byteLength (data holds at least this) */
     int owned;
 } gltf_buffer;
+
+/* A bufferView's bytes decoded from its EXT_meshopt_compression stream (gltf_meshopt.c). */
+typedef struct gltf_view_data {
+    unsigned char *data; /* NULL: the view reads its buffer */
+    size_t size;
+} gltf_view_data;
 
 /* A compressed primitive's accessor as its decoder produced it (gltf_draco.c): while the
  * primitive loads, the accessor readers take these values instead of a bufferView's. */
@@ -46,6 +53,9 @@ typedef struct gltf_context {
     /* The primitive being loaded's decoded accessors (KHR_draco_mesh_compression). */
     gltf_decoded_accessor *decoded;
     uint32_t decoded_count;
+    /* Per bufferView, its decoded bytes where it is compressed (NULL when none is). */
+    gltf_view_data *view_data;
+    uint32_t view_count;
 } gltf_context;
 
 /* PF_ERR_FORMAT (or the given status) with "path: element: message". */
@@ -99,6 +109,10 @@ uint32_t gltf_accessor_components(gltf_context *ctx, int32_t index);
 pf_status gltf_draco_decode_primitive(gltf_context *ctx, const cJSON *primitive,
                                       const char *element, pf_error *err);
 void gltf_draco_release(gltf_context *ctx);
+/* gltf_meshopt.c: EXT_meshopt_compression. Decodes every compressed bufferView into
+ * ctx->view_data (after gltf_load_buffers); gltf_meshopt_free frees them. */
+pf_status gltf_meshopt_decode_views(gltf_context *ctx, pf_error *err);
+void gltf_meshopt_free(gltf_context *ctx);
 /* The bytes of bufferViews[view_index], checked against its buffer; *data points into it. */
 pf_status gltf_view_bytes(gltf_context *ctx, int32_t view_index, const char *element,
                           const unsigned char **data, size_t *size, pf_error *err);

@@ -62,6 +62,7 @@ static const char *const supported_extensions[] = {
      * attribute is read through gltf_read_floats, which converts any component type. */
     "KHR_mesh_quantization",
     "KHR_draco_mesh_compression",
+    "EXT_meshopt_compression",
     "KHR_texture_transform",
     "EXT_texture_webp",
 };
@@ -1228,6 +1229,7 @@ static void context_free(gltf_context *ctx)
         if (ctx->buffers[k].owned)
             free(ctx->buffers[k].data);
     free(ctx->buffers);
+    gltf_meshopt_free(ctx);
     gltf_textures_free(ctx);
     cJSON_Delete(ctx->root);
     free(ctx->file_data);
@@ -1253,6 +1255,8 @@ pf_status scene_load_gltf(pf_scene *scene, int binary_hint, pf_error *err)
         status = read_asset_extras(&ctx, err);
     if (!status)
         status = gltf_load_buffers(&ctx, err);
+    if (!status)
+        status = gltf_meshopt_decode_views(&ctx, err);
     if (!status)
         status = gltf_load_materials(&ctx, err);
     if (!status)
