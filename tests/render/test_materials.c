@@ -512,7 +512,7 @@ PF_TEST(a_clear_coat_reflects_over_its_base_as_the_oracle_says)
  */
 static double sheen_oracle(double roughness, double base, double theta_o)
 {
-    const int steps_theta = 1024, steps_phi = 256;
+    const int steps_theta = 512, steps_phi = 128;
     double wo[3] = {sin(theta_o), 0.0, cos(theta_o)}, sum = 0.0;
     for (int i = 0; i < steps_theta; i++) {
         double theta = (i + 0.5) * (PI_D / 2) / steps_theta, ci = cos(theta);

@@ -421,42 +421,61 @@ PF_TEST(camera_ray_cones_pick_the_mip_level)
     scene_free_textured(&scene);
 }
 
-PF_TEST(alpha_masked_card_hides_and_shadows_only_its_opaque_half)
+/*
+ * A white plane (4 m square at z = 0) and a 1 m card of material `card` 0.5 m over its
+ * centre, its texture (slot 1: the 4×1 texels, nearest, clamped, the card's u across it,
+ * plus `sampling`'s flags, such as PF_TEXTURE_SRGB) in ref, an alpha MASK at 0.5 on it,
+ * lit by light, seen by look_down. The frame points at texels and ref (the test's own:
+ * scene_free_textured forgets them); 0 when its corners could not be allocated.
+ */
+static int card_scene(ref_scene *scene, pf_material card, pf_light light, uint32_t *texels,
+                      uint32_t sampling, pf_texture_ref *ref)
 {
-    ref_scene scene;
-    ref_scene_init(&scene);
-    uint32_t plane = ref_scene_add_material(&scene, pf_material_lambert(1, 1, 1));
-    pf_material card = pf_material_lambert(0, 0, 0);
+    ref_scene_init(scene);
+    uint32_t plane = ref_scene_add_material(scene, pf_material_lambert(1, 1, 1));
     card.base_color_texture = 1;
     card.alpha = 1.0f;
     card.alpha_mode = PF_ALPHA_MASK;
     card.alpha_cutoff = 0.5f;
-    uint32_t card_material = ref_scene_add_material(&scene, card);
+    uint32_t card_material = ref_scene_add_material(scene, card);
     const float centre[3] = {0, 0, 0}, half_u[3] = {2, 0, 0}, half_v[3] = {0, 2, 0};
-    ref_scene_add_quad(&scene, centre, half_u, half_v, plane);
-    uint32_t card_first = scene.frame.triangle_count;
+    ref_scene_add_quad(scene, centre, half_u, half_v, plane);
+    uint32_t card_first = scene->frame.triangle_count;
     const float card_centre[3] = {0, 0, 0.5f}, card_u[3] = {0.5f, 0, 0},
                 card_v[3] = {0, 0.5f, 0};
-    ref_scene_add_quad(&scene, card_centre, card_u, card_v, card_material);
-    const float e = 3.0f;
-    ref_scene_add_light(&scene, (pf_light){{0, 0, 0}, PF_LIGHT_DIRECTIONAL, {0, 0, -1}, 0,
-                                           {e, e, e}, 1, 1});
-    look_down(&scene);
-    pf_scene_frame *frame = &scene.frame;
-    PF_REQUIRE(corners_alloc(frame));
+    ref_scene_add_quad(scene, card_centre, card_u, card_v, card_material);
+    ref_scene_add_light(scene, light);
+    look_down(scene);
+    pf_scene_frame *frame = &scene->frame;
+    if (!corners_alloc(frame))
+        return 0;
     set_corners(frame, 0, card_first, -2.0f, 2.0f, 0.25f, 0.25f);
     set_corners(frame, card_first, frame->triangle_count - card_first, -0.5f, 0.5f, 1.0f, 1.0f);
-    /* 4×1: alpha 1, 1, 0, 0 from left to right; nearest, clamped. */
-    uint32_t texels[4] = {0xFF000000u, 0xFF000000u, 0x00000000u, 0x00000000u};
-    pf_texture_ref ref = {0, 4, 1,
-                          PF_TEXTURE_NO_MIPS | PF_TEXTURE_MAG_NEAREST | PF_TEXTURE_MIN_NEAREST |
-                              PF_TEXTURE_WRAP_CLAMP << PF_TEXTURE_WRAP_S_SHIFT |
-                              PF_TEXTURE_WRAP_CLAMP << PF_TEXTURE_WRAP_T_SHIFT,
-                          {1, 0, 0, 0, 1, 0}, {0, 0}};
+    *ref = (pf_texture_ref){0, 4, 1,
+                            PF_TEXTURE_NO_MIPS | PF_TEXTURE_MAG_NEAREST | PF_TEXTURE_MIN_NEAREST |
+                                PF_TEXTURE_WRAP_CLAMP << PF_TEXTURE_WRAP_S_SHIFT |
+                                PF_TEXTURE_WRAP_CLAMP << PF_TEXTURE_WRAP_T_SHIFT | sampling,
+                            {1, 0, 0, 0, 1, 0}, {0, 0}};
     frame->texture_count = 1;
-    frame->textures = &ref;
+    frame->textures = ref;
     frame->texel_count = 4;
     frame->texels = texels;
+    return 1;
+}
+
+PF_TEST(alpha_masked_card_hides_and_shadows_only_its_opaque_half)
+{
+    pf_material card = pf_material_lambert(0, 0, 0);
+    const float e = 3.0f;
+    /* 4×1: alpha 1, 1, 0, 0 from left to right. */
+    uint32_t texels[4] = {0xFF000000u, 0xFF000000u, 0x00000000u, 0x00000000u};
+    pf_texture_ref ref;
+    ref_scene scene;
+    PF_REQUIRE(card_scene(&scene, card,
+                          (pf_light){{0, 0, 0}, PF_LIGHT_DIRECTIONAL, {0, 0, -1}, 0, {e, e, e},
+                                     1, 1},
+                          texels, 0, &ref));
+    pf_scene_frame *frame = &scene.frame;
     double lit = e / M_PI; /* a white plane under E straight down */
     const pf_quality qualities[] = {PF_QUALITY_PREVIEW, PF_QUALITY_REFERENCE, PF_QUALITY_FAST,
                                     PF_QUALITY_FINAL};
@@ -481,44 +500,20 @@ PF_TEST(alpha_masked_card_hides_and_shadows_only_its_opaque_half)
 
 PF_TEST(unlit_card_is_its_colour_to_the_camera_and_invisible_to_the_rest)
 {
-    ref_scene scene;
-    ref_scene_init(&scene);
-    uint32_t plane = ref_scene_add_material(&scene, pf_material_lambert(1, 1, 1));
     pf_material card = pf_material_lambert(0.5f, 0.5f, 0.5f);
     card.flags |= PF_MATERIAL_UNLIT;
-    card.base_color_texture = 1;
-    card.alpha = 1.0f;
-    card.alpha_mode = PF_ALPHA_MASK;
-    card.alpha_cutoff = 0.5f;
-    uint32_t card_material = ref_scene_add_material(&scene, card);
-    const float centre[3] = {0, 0, 0}, half_u[3] = {2, 0, 0}, half_v[3] = {0, 2, 0};
-    ref_scene_add_quad(&scene, centre, half_u, half_v, plane);
-    uint32_t card_first = scene.frame.triangle_count;
-    const float card_centre[3] = {0, 0, 0.5f}, card_u[3] = {0.5f, 0, 0},
-                card_v[3] = {0, 0.5f, 0};
-    ref_scene_add_quad(&scene, card_centre, card_u, card_v, card_material);
     /* Travelling along +x and down at 45°: a lit card's left half would shadow the plane
      * at x in [0, 0.5], seen through the card's cut-away right half. */
     const float e = 3.0f, s = (float)M_SQRT1_2;
-    ref_scene_add_light(&scene, (pf_light){{0, 0, 0}, PF_LIGHT_DIRECTIONAL, {s, 0, -s}, 0,
-                                           {e, e, e}, 1, 1});
-    look_down(&scene);
-    pf_scene_frame *frame = &scene.frame;
-    PF_REQUIRE(corners_alloc(frame));
-    set_corners(frame, 0, card_first, -2.0f, 2.0f, 0.25f, 0.25f);
-    set_corners(frame, card_first, frame->triangle_count - card_first, -0.5f, 0.5f, 1.0f, 1.0f);
-    /* 4×1: sRGB (255, 200, 50) opaque twice, then cut away; nearest, clamped. */
+    /* 4×1: sRGB (255, 200, 50) opaque twice, then cut away. */
     uint32_t texels[4] = {0xFF32C8FFu, 0xFF32C8FFu, 0x00000000u, 0x00000000u};
-    pf_texture_ref ref = {0, 4, 1,
-                          PF_TEXTURE_NO_MIPS | PF_TEXTURE_MAG_NEAREST | PF_TEXTURE_MIN_NEAREST |
-                              PF_TEXTURE_WRAP_CLAMP << PF_TEXTURE_WRAP_S_SHIFT |
-                              PF_TEXTURE_WRAP_CLAMP << PF_TEXTURE_WRAP_T_SHIFT |
-                              PF_TEXTURE_SRGB,
-                          {1, 0, 0, 0, 1, 0}, {0, 0}};
-    frame->texture_count = 1;
-    frame->textures = &ref;
-    frame->texel_count = 4;
-    frame->texels = texels;
+    pf_texture_ref ref;
+    ref_scene scene;
+    PF_REQUIRE(card_scene(&scene, card,
+                          (pf_light){{0, 0, 0}, PF_LIGHT_DIRECTIONAL, {s, 0, -s}, 0, {e, e, e},
+                                     1, 1},
+                          texels, PF_TEXTURE_SRGB, &ref));
+    pf_scene_frame *frame = &scene.frame;
     const double colour[3] = {0.5, 0.5 * srgb_to_linear(200.0 / 255.0),
                               0.5 * srgb_to_linear(50.0 / 255.0)};
     double lit = e * M_SQRT1_2 / M_PI; /* the white plane, the card or not */

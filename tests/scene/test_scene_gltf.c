@@ -393,106 +393,109 @@ PF_TEST(volume_absorption)
     pf_scene_destroy(scene);
 }
 
+/* Writes the quad with `materials` (a JSON array) as <name>.gltf, loads it and evaluates its
+ * frame 0: the quad's material, or NULL after a failed check. The caller frees the frame and
+ * the scene (quad_material_free). */
+static const pf_material *quad_material(const char *name, const char *materials,
+                                        pf_scene **scene, pf_scene_frame *frame)
+{
+    char path[512];
+    st_gltf spec = {.name = name, .nodes = "[" QUAD_NODE_MESH "]", .materials = materials};
+    *scene = st_load_ok(st_write_gltf(&spec, path, sizeof path));
+    pf_error err;
+    if (!*scene)
+        return NULL;
+    if (pf_scene_eval(*scene, 0.0, frame, &err) != PF_OK) {
+        PF_CHECK_MSG(0, "%s: %s", name, err.message);
+        pf_scene_destroy(*scene);
+        *scene = NULL;
+        return NULL;
+    }
+    return &frame->materials[frame->triangle_material[0]];
+}
+
+static void quad_material_free(pf_scene *scene, pf_scene_frame *frame)
+{
+    pf_scene_frame_free(frame);
+    pf_scene_destroy(scene);
+}
+
 /* KHR_materials_clearcoat: its factors (0 without the extension, as the spec's defaults). */
 PF_TEST(clearcoat_factors)
 {
-    char path[512];
-    st_gltf spec = {
-        .name = "clearcoat",
-        .nodes = "[" QUAD_NODE_MESH "]",
-        .materials = "[{\"extensions\":{\"KHR_materials_clearcoat\":{\"clearcoatFactor\":0.75,"
-                     "\"clearcoatRoughnessFactor\":0.125}}}]",
-    };
-    pf_scene *scene = st_load_ok(st_write_gltf(&spec, path, sizeof path));
-    PF_REQUIRE(scene);
+    pf_scene *scene;
     pf_scene_frame frame;
-    pf_error err;
-    PF_REQUIRE_OK(pf_scene_eval(scene, 0.0, &frame, &err), &err);
-    const pf_material *m = &frame.materials[frame.triangle_material[0]];
+    const pf_material *m =
+        quad_material("clearcoat",
+                      "[{\"extensions\":{\"KHR_materials_clearcoat\":{\"clearcoatFactor\":0.75,"
+                      "\"clearcoatRoughnessFactor\":0.125}}}]",
+                      &scene, &frame);
+    PF_REQUIRE(m);
     PF_CHECK(m->clearcoat == 0.75f && m->clearcoat_roughness == 0.125f);
     PF_CHECK(m->clearcoat_texture == PF_NO_TEXTURE &&
              m->clearcoat_roughness_texture == PF_NO_TEXTURE);
     PF_CHECK((pf_scene_frame_surface_features(&frame) & PF_SURFACE_NO_CLEARCOAT) == 0);
-    pf_scene_frame_free(&frame);
-    pf_scene_destroy(scene);
+    quad_material_free(scene, &frame);
 
-    spec.name = "no_clearcoat";
-    spec.materials = "[{\"extensions\":{\"KHR_materials_clearcoat\":{}}}]";
-    scene = st_load_ok(st_write_gltf(&spec, path, sizeof path));
-    PF_REQUIRE(scene);
-    PF_REQUIRE_OK(pf_scene_eval(scene, 0.0, &frame, &err), &err);
-    m = &frame.materials[frame.triangle_material[0]];
+    m = quad_material("no_clearcoat", "[{\"extensions\":{\"KHR_materials_clearcoat\":{}}}]",
+                      &scene, &frame);
+    PF_REQUIRE(m);
     PF_CHECK(m->clearcoat == 0.0f && m->clearcoat_roughness == 0.0f);
     PF_CHECK((pf_scene_frame_surface_features(&frame) & PF_SURFACE_NO_CLEARCOAT) != 0);
-    pf_scene_frame_free(&frame);
-    pf_scene_destroy(scene);
+    quad_material_free(scene, &frame);
 }
 
 /* KHR_materials_sheen: its factors (none without the extension: the frame lacks a sheen);
  * factors outside [0, 1] are format errors naming the field. */
 PF_TEST(sheen_factors)
 {
-    char path[512];
-    st_gltf spec = {
-        .name = "sheen",
-        .nodes = "[" QUAD_NODE_MESH "]",
-        .materials = "[{\"extensions\":{\"KHR_materials_sheen\":{\"sheenColorFactor\":"
-                     "[0.5,0.25,1],\"sheenRoughnessFactor\":0.75}}}]",
-    };
-    pf_scene *scene = st_load_ok(st_write_gltf(&spec, path, sizeof path));
-    PF_REQUIRE(scene);
+    pf_scene *scene;
     pf_scene_frame frame;
-    pf_error err;
-    PF_REQUIRE_OK(pf_scene_eval(scene, 0.0, &frame, &err), &err);
-    const pf_material *m = &frame.materials[frame.triangle_material[0]];
+    const pf_material *m =
+        quad_material("sheen",
+                      "[{\"extensions\":{\"KHR_materials_sheen\":{\"sheenColorFactor\":"
+                      "[0.5,0.25,1],\"sheenRoughnessFactor\":0.75}}}]",
+                      &scene, &frame);
+    PF_REQUIRE(m);
     PF_CHECK(m->sheen_color[0] == 0.5f && m->sheen_color[1] == 0.25f &&
              m->sheen_color[2] == 1.0f && m->sheen_roughness == 0.75f);
     PF_CHECK(m->sheen_color_texture == PF_NO_TEXTURE &&
              m->sheen_roughness_texture == PF_NO_TEXTURE);
     PF_CHECK((pf_scene_frame_surface_features(&frame) & PF_SURFACE_NO_SHEEN) == 0);
-    pf_scene_frame_free(&frame);
-    pf_scene_destroy(scene);
+    quad_material_free(scene, &frame);
 
-    spec.name = "no_sheen";
-    spec.materials = "[{\"extensions\":{\"KHR_materials_sheen\":{}}}]";
-    scene = st_load_ok(st_write_gltf(&spec, path, sizeof path));
-    PF_REQUIRE(scene);
-    PF_REQUIRE_OK(pf_scene_eval(scene, 0.0, &frame, &err), &err);
-    m = &frame.materials[frame.triangle_material[0]];
+    m = quad_material("no_sheen", "[{\"extensions\":{\"KHR_materials_sheen\":{}}}]", &scene,
+                      &frame);
+    PF_REQUIRE(m);
     PF_CHECK(m->sheen_color[0] == 0.0f && m->sheen_roughness == 0.0f);
     PF_CHECK((pf_scene_frame_surface_features(&frame) & PF_SURFACE_NO_SHEEN) != 0);
-    pf_scene_frame_free(&frame);
-    pf_scene_destroy(scene);
+    quad_material_free(scene, &frame);
 
-    spec.name = "sheen_bad";
-    spec.materials = "[{\"extensions\":{\"KHR_materials_sheen\":{\"sheenRoughnessFactor\":"
-                     "1.5}}}]";
+    char path[512];
+    st_gltf spec = {.name = "sheen_bad",
+                    .nodes = "[" QUAD_NODE_MESH "]",
+                    .materials = "[{\"extensions\":{\"KHR_materials_sheen\":{"
+                                 "\"sheenRoughnessFactor\":1.5}}}]"};
     st_expect_error(st_write_gltf(&spec, path, sizeof path), PF_ERR_FORMAT,
                     "KHR_materials_sheen", "sheenRoughnessFactor 1.5 is outside [0, 1]");
 }
 
 /* KHR_materials_unlit: the flag and the base colour, the other lobes zeroed as the spec has
- * them ignored (no emission, metal, transmission or coat); the frame is alpha-tested (only
- * camera rays see it). A value that is not an object is a format error. */
+ * them ignored (no emission, metal, transmission, coat or sheen); the frame is alpha-tested
+ * (only camera rays see it). A value that is not an object is a format error. */
 PF_TEST(unlit_keeps_its_base_colour_only)
 {
-    char path[512];
-    st_gltf spec = {
-        .name = "unlit",
-        .nodes = "[" QUAD_NODE_MESH "]",
-        .materials = "[{\"pbrMetallicRoughness\":{\"baseColorFactor\":[0.25,0.5,0.75,1],"
-                     "\"metallicFactor\":1},\"emissiveFactor\":[1,1,1],\"extensions\":{"
-                     "\"KHR_materials_unlit\":{},\"KHR_materials_transmission\":{"
-                     "\"transmissionFactor\":1},\"KHR_materials_clearcoat\":{"
-                     "\"clearcoatFactor\":1},\"KHR_materials_sheen\":{"
-                     "\"sheenColorFactor\":[1,1,1]}}}]",
-    };
-    pf_scene *scene = st_load_ok(st_write_gltf(&spec, path, sizeof path));
-    PF_REQUIRE(scene);
+    pf_scene *scene;
     pf_scene_frame frame;
-    pf_error err;
-    PF_REQUIRE_OK(pf_scene_eval(scene, 0.0, &frame, &err), &err);
-    const pf_material *m = &frame.materials[frame.triangle_material[0]];
+    const pf_material *m = quad_material(
+        "unlit",
+        "[{\"pbrMetallicRoughness\":{\"baseColorFactor\":[0.25,0.5,0.75,1],"
+        "\"metallicFactor\":1},\"emissiveFactor\":[1,1,1],\"extensions\":{"
+        "\"KHR_materials_unlit\":{},\"KHR_materials_transmission\":{"
+        "\"transmissionFactor\":1},\"KHR_materials_clearcoat\":{\"clearcoatFactor\":1},"
+        "\"KHR_materials_sheen\":{\"sheenColorFactor\":[1,1,1]}}}]",
+        &scene, &frame);
+    PF_REQUIRE(m);
     PF_CHECK((m->flags & PF_MATERIAL_UNLIT) != 0);
     PF_CHECK(m->albedo[0] == 0.25f && m->albedo[1] == 0.5f && m->albedo[2] == 0.75f);
     PF_CHECK(m->emission[0] == 0.0f && m->metallic == 0.0f && m->transmission == 0.0f &&
@@ -502,11 +505,12 @@ PF_TEST(unlit_keeps_its_base_colour_only)
     PF_CHECK((features & PF_SURFACE_ALPHA) != 0);
     /* Nothing emits light into the scene: its emission is the camera's alone. */
     PF_CHECK((features & PF_SURFACE_NO_EMISSION) != 0);
-    pf_scene_frame_free(&frame);
-    pf_scene_destroy(scene);
+    quad_material_free(scene, &frame);
 
-    spec.name = "unlit_bad";
-    spec.materials = "[{\"extensions\":{\"KHR_materials_unlit\":true}}]";
+    char path[512];
+    st_gltf spec = {.name = "unlit_bad",
+                    .nodes = "[" QUAD_NODE_MESH "]",
+                    .materials = "[{\"extensions\":{\"KHR_materials_unlit\":true}}]"};
     st_expect_error(st_write_gltf(&spec, path, sizeof path), PF_ERR_FORMAT, "materials[0]",
                     "KHR_materials_unlit must be an object");
 }
