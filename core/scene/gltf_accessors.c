@@ -239,24 +239,36 @@ static uint32_t type_components(const char *type)
 }
 
 /* glTF 2.0 §3.11 "Animations" normalization formulas (also used for attributes). */
+/* A normalized integer component's value (glTF §3.11: the type's largest value maps to 1,
+ * a signed one clamped at -1); floats and 32-bit integers are not normalized. */
+static double normalized_value(double value, int component_type)
+{
+    double largest = component_type == GLTF_BYTE             ? 127.0
+                     : component_type == GLTF_UNSIGNED_BYTE  ? 255.0
+                     : component_type == GLTF_SHORT          ? 32767.0
+                     : component_type == GLTF_UNSIGNED_SHORT ? 65535.0
+                                                             : 0.0;
+    return largest > 0.0 ? fmax(value / largest, -1.0) : value;
+}
+
 static double read_component(const unsigned char *at, int component_type, int normalized)
 {
     switch (component_type) {
     case GLTF_BYTE: {
         int8_t value;
         memcpy(&value, at, 1);
-        return normalized ? fmax(value / 127.0, -1.0) : value;
+        return normalized ? normalized_value(value, component_type) : value;
     }
-    case GLTF_UNSIGNED_BYTE: return normalized ? at[0] / 255.0 : at[0];
+    case GLTF_UNSIGNED_BYTE: return normalized ? normalized_value(at[0], component_type) : at[0];
     case GLTF_SHORT: {
         int16_t value;
         memcpy(&value, at, 2);
-        return normalized ? fmax(value / 32767.0, -1.0) : value;
+        return normalized ? normalized_value(value, component_type) : value;
     }
     case GLTF_UNSIGNED_SHORT: {
         uint16_t value;
         memcpy(&value, at, 2);
-        return normalized ? value / 65535.0 : value;
+        return normalized ? normalized_value(value, component_type) : value;
     }
     case GLTF_UNSIGNED_INT: {
         uint32_t value;
@@ -442,16 +454,9 @@ static pf_status decoded_values(gltf_context *ctx, int32_t index, uint32_t count
     double *values = malloc((size_t)count * components * sizeof *values);
     if (!values)
         return gltf_fail(ctx, err, PF_ERR_NOMEM, element, "out of memory for %u elements", count);
-    /* The largest value of the accessor's integer type: a normalized one maps it to 1. */
-    double scale = 0.0;
-    if (normalized)
-        scale = component_type == GLTF_BYTE             ? 127.0
-                : component_type == GLTF_UNSIGNED_BYTE  ? 255.0
-                : component_type == GLTF_SHORT          ? 32767.0
-                : component_type == GLTF_UNSIGNED_SHORT ? 65535.0
-                                                        : 0.0;
     for (size_t k = 0; k < (size_t)count * components; k++)
-        values[k] = scale > 0.0 ? fmax(decoded->values[k] / scale, -1.0) : decoded->values[k];
+        values[k] = normalized ? normalized_value(decoded->values[k], component_type)
+                               : decoded->values[k];
     *out = values;
     return PF_OK;
 }
