@@ -370,12 +370,17 @@ float sheen_albedo(float cos_theta, float roughness)
     return sheen_table(0, cos_theta, roughness);
 }
 
+// What a sheen leaves the layers below where it takes `share` of white light (its albedo E at
+// one direction, or the base's mean share B): 1 − max(s)·share, at least 0.
+float material_sheen_leaves(Material material, float share)
+{
+    return max(1.0 - material_max3(material.sheen_color) * share, 0.0);
+}
+
 // What the sheen leaves the layers below at a direction of cosine cos_theta: 1 − max(s)·E.
 float material_sheen_base_scale(Material material, float cos_theta)
 {
-    return max(1.0 - material_max3(material.sheen_color) *
-                         sheen_albedo(cos_theta, material.sheen_roughness),
-               0.0);
+    return material_sheen_leaves(material, sheen_albedo(cos_theta, material.sheen_roughness));
 }
 
 // A rough (non-delta) transmission lobe: some transmission, not all metal, rough.
@@ -436,7 +441,7 @@ LobeChoice material_lobe_choice(Material material, float cos_o, float coat_cos_o
     if (material_has_sheen(material)) {
         // The sheen's albedo at wo, and what it leaves the lobes below.
         float albedo = sheen_albedo(cos_o, material.sheen_roughness);
-        float below = max(1.0 - material_max3(material.sheen_color) * albedo, 0.0);
+        float below = material_sheen_leaves(material, albedo);
         choice.reflectance *= below;
         choice.base *= below;
         choice.specular *= below;
@@ -874,8 +879,7 @@ vec3 material_rough_albedo(Material material, vec3 wo, vec3 shading_normal, bool
         // scaling's min over every wi), and its own lobe's albedo, E.
         float e = sheen_albedo(cos_o, material.sheen_roughness);
         float share = sheen_table(1, cos_o, material.sheen_roughness);
-        albedo = albedo * max(1.0 - material_max3(material.sheen_color) * share, 0.0) +
-                 material.sheen_color * e;
+        albedo = albedo * material_sheen_leaves(material, share) + material.sheen_color * e;
     }
     if (material_has_coat(material)) {
         // Below the coat what it lets through (at the half vector, as the base's 1 − F),
