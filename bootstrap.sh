@@ -31,7 +31,7 @@ PACKAGES=(
   mesa-vulkan-drivers     # lavapipe: the CPU Vulkan device when there is no GPU
   vulkan-validationlayers # tests run with validation on
   glslang-tools           # glslangValidator: GLSL -> SPIR-V at build time
-  spirv-tools             # spirv-val checks every shader at build time
+  spirv-tools             # spirv-opt optimises, spirv-val checks every shader at build time
   libopenexr-dev          # EXR output and the reader behind `compare`
   openexr                 # exrheader: tests read every output layout with OpenEXR's own tools
   libuv1-dev              # worker event loop
@@ -106,8 +106,10 @@ install_packages() {
 configure_and_build() {
   local dir=$1
   shift
+  # One shader cache for every build directory: spirv-opt's modules do not depend on the C
+  # flags, so the ASan and Release builds copy what the first build optimised.
   cmake -S "$ROOT" -B "$ROOT/$dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
-    -DPF_WERROR=ON "$@"
+    -DPF_WERROR=ON -DPF_SHADER_CACHE_DIR="$ROOT/build/shader-cache" "$@"
   cmake --build "$ROOT/$dir" -j "$JOBS"
 }
 

@@ -2,9 +2,10 @@
 #
 # Compiles every <SOURCE_DIR>/*.comp to SPIR-V with
 #   glslangValidator -V --target-env vulkan1.2 -I<INCLUDE_DIR>
-# checks each module with `spirv-val --target-env vulkan1.2`, and embeds them
-# all into the static library <target>, whose generated header pf_shaders.h
-# offers pf_shader_find("<file stem>").
+# optimises it with spirv-opt -O (pf_shader_optimize.cmake says why; PF_SHADER_CACHE_DIR,
+# when set, keeps the results for other build directories), checks each module with
+# `spirv-val --target-env vulkan1.2`, and embeds them all into the static library
+# <target>, whose generated header pf_shaders.h offers pf_shader_find("<file stem>").
 #
 # A shader with a line `// pf-variant: <suffix> <MACRO>` is compiled a second
 # time with -D<MACRO>, embedded as "<stem>_<suffix>" (the kernels' textured
@@ -13,8 +14,8 @@
 # The glob is CONFIGURE_DEPENDS, so a new shader needs no CMake edit. Each
 # shader rebuilds when it, anything it includes (glslang's depfile), or any
 # <INCLUDE_DIR>/*.glsl changes. A compile error fails the build with glslang's
-# "ERROR: <file>:<line>: ..." line. Uses GLSLANG_VALIDATOR and SPIRV_VAL when
-# the caller found them, else looks them up.
+# "ERROR: <file>:<line>: ..." line. Uses GLSLANG_VALIDATOR, SPIRV_OPT and SPIRV_VAL
+# when the caller found them, else looks them up.
 
 # Script mode, run by the build for each shader:
 #   cmake -DINPUT=<x.spv> -DOUTPUT=<x.spv.c> -DNAME=<stem> -DSYMBOL=<c identifier> -P pf_shaders.cmake
@@ -51,6 +52,8 @@ function(pf_add_shader_library target)
   # This file, run in script mode by the build (a variable set beside the include_guard
   # would be seen only in the directory that included the file first).
   set(embed_script "${CMAKE_CURRENT_FUNCTION_LIST_FILE}")
+  get_filename_component(script_dir "${CMAKE_CURRENT_FUNCTION_LIST_FILE}" DIRECTORY)
+  set(optimize_script "${script_dir}/pf_shader_optimize.cmake")
   cmake_parse_arguments(S "" "SOURCE_DIR;INCLUDE_DIR" "" ${ARGN})
   if(NOT S_SOURCE_DIR OR NOT S_INCLUDE_DIR)
     message(FATAL_ERROR "pf_add_shader_library(${target}): SOURCE_DIR and INCLUDE_DIR are required")
@@ -60,6 +63,9 @@ function(pf_add_shader_library target)
   endif()
   if(NOT SPIRV_VAL)
     find_program(SPIRV_VAL spirv-val REQUIRED)
+  endif()
+  if(NOT SPIRV_OPT)
+    find_program(SPIRV_OPT spirv-opt REQUIRED)
   endif()
 
   file(GLOB shader_sources CONFIGURE_DEPENDS "${S_SOURCE_DIR}/*.comp")
@@ -98,9 +104,12 @@ function(pf_add_shader_library target)
     add_custom_command(
       OUTPUT "${spv}"
       COMMAND "${GLSLANG_VALIDATOR}" -V --target-env vulkan1.2 "-I${S_INCLUDE_DIR}" ${define}
-              --depfile "${spv}.d" -o "${spv}" "${source}"
+              --depfile "${spv}.d" -o "${spv}.glslang" "${source}"
+      COMMAND "${CMAKE_COMMAND}" "-DINPUT=${spv}.glslang" "-DOUTPUT=${spv}" "-DNAME=${stem}"
+              "-DSPIRV_OPT=${SPIRV_OPT}" "-DCACHE_DIR=${PF_SHADER_CACHE_DIR}"
+              -P "${optimize_script}"
       COMMAND "${SPIRV_VAL}" --target-env vulkan1.2 "${spv}"
-      DEPENDS "${source}" ${shader_includes}
+      DEPENDS "${source}" ${shader_includes} "${optimize_script}"
       DEPFILE "${spv}.d"
       COMMENT "Compiling shader ${stem} (${source})"
       VERBATIM)

@@ -295,25 +295,29 @@ static pf_status bind_for_dispatch(pf_vk_commands *cmds, pf_vk_pipeline *pipelin
             return pf_error_set(err, PF_ERR_NOMEM, "shader '%s': out of host memory",
                                 pipeline->name);
         }
+        uint32_t write_count = 0;
         for (uint32_t i = 0; i < buffer_count && status == PF_OK; i++) {
             int kind = pipeline->binding_kinds[i];
-            writes[i] = (VkWriteDescriptorSet){
+            if (kind == PF_VK_BINDING_ABSENT)
+                continue; /* not in the layout: the kernel never reads it */
+            VkWriteDescriptorSet *write = &writes[write_count++];
+            *write = (VkWriteDescriptorSet){
                 .sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET,
                 .dstSet = set,
                 .dstBinding = i,
                 .descriptorCount = 1,
+                .descriptorType = pf_vk_descriptor_type(kind),
             };
-            writes[i].descriptorType = pf_vk_descriptor_type(kind);
             if (kind == PF_VK_BINDING_STORAGE) {
                 infos[i] = (VkDescriptorBufferInfo){buffers[i]->buffer, 0, VK_WHOLE_SIZE};
-                writes[i].pBufferInfo = &infos[i];
+                write->pBufferInfo = &infos[i];
             } else {
                 status = pf_vk_buffer_texel_view(cmds->ctx, buffers[i], kind, &views[i], err);
-                writes[i].pTexelBufferView = &views[i];
+                write->pTexelBufferView = &views[i];
             }
         }
-        if (status == PF_OK)
-            vkUpdateDescriptorSets(cmds->ctx->device, buffer_count, writes, 0, NULL);
+        if (status == PF_OK && write_count > 0)
+            vkUpdateDescriptorSets(cmds->ctx->device, write_count, writes, 0, NULL);
         free(infos);
         free(views);
         free(writes);

@@ -92,7 +92,10 @@ enum {
      * SPIR-V of a sampled buffer carries no format: the sampled type is what tells the two
      * uint views apart. Integer, not float: a float view may flush or canonicalise bits. */
     PF_VK_BINDING_TEXEL_INT4 = 3,
-    PF_VK_BINDING_KINDS = 4
+    PF_VK_BINDING_KINDS = 4,
+    /* No variable of the module has the binding (spirv-opt removed one the kernel never
+     * reads): out of the pipeline's layout, and the dispatch writes no descriptor for it. */
+    PF_VK_BINDING_ABSENT = 0xff
 };
 
 struct pf_vk_buffer {
@@ -156,8 +159,9 @@ pf_status pf_vk_spirv_preserve_denormals(const uint32_t *words, size_t count, ui
 /*
  * kinds[b] (b < binding_count) := PF_VK_BINDING_TEXEL_UINT / _FLOAT / _INT4 where the
  * module declares a uniform texel buffer (usamplerBuffer / samplerBuffer / isamplerBuffer) at
- * set 0, binding b; PF_VK_BINDING_STORAGE elsewhere. PF_ERR_FORMAT for a
- * malformed module, PF_ERR_INVALID for a texel binding >= binding_count.
+ * set 0, binding b; PF_VK_BINDING_STORAGE where it declares any other variable there;
+ * PF_VK_BINDING_ABSENT where it declares none. PF_ERR_FORMAT for a
+ * malformed module, PF_ERR_INVALID for a binding >= binding_count.
  */
 pf_status pf_vk_spirv_binding_kinds(const uint32_t *words, size_t count, uint8_t *kinds,
                                     uint32_t binding_count, pf_error *err);

@@ -31,7 +31,8 @@ static pf_status check_desc(const pf_vk_context *ctx, const pf_vk_pipeline_desc 
 }
 
 /* The device's per-stage descriptor limits, checked once the module's binding kinds are known:
- * storage buffers and uniform texel buffers (sampled images) count against separate limits. */
+ * storage buffers and uniform texel buffers (sampled images) count against separate limits,
+ * bindings the module does not read against none. */
 static pf_status check_descriptor_limits(pf_vk_context *ctx, const char *name,
                                          const uint8_t *kinds, uint32_t count, pf_error *err)
 {
@@ -41,7 +42,7 @@ static pf_status check_descriptor_limits(pf_vk_context *ctx, const char *name,
     for (uint32_t i = 0; i < count; i++) {
         if (kinds[i] == PF_VK_BINDING_STORAGE)
             storage++;
-        else
+        else if (kinds[i] != PF_VK_BINDING_ABSENT)
             texel++;
     }
     const VkPhysicalDeviceLimits *limits = &properties.limits;
@@ -57,11 +58,11 @@ static pf_status check_descriptor_limits(pf_vk_context *ctx, const char *name,
                             "maxPerStageDescriptorSampledImages %u of device '%s'",
                             name, texel, limits->maxPerStageDescriptorSampledImages,
                             ctx->info.name);
-    if (count > limits->maxPerStageResources)
+    if (storage + texel > limits->maxPerStageResources)
         return pf_error_set(err, PF_ERR_LIMIT,
                             "shader '%s': %u bindings exceed maxPerStageResources %u of device "
                             "'%s'",
-                            name, count, limits->maxPerStageResources, ctx->info.name);
+                            name, storage + texel, limits->maxPerStageResources, ctx->info.name);
     return PF_OK;
 }
 
@@ -138,8 +139,11 @@ pf_status pf_vk_pipeline_create(pf_vk_context *ctx, const pf_vk_pipeline_desc *d
         pipeline->module = module;
 
     if (result == VK_SUCCESS) {
+        uint32_t present = 0;
         for (uint32_t i = 0; i < checked.buffer_count; i++) {
-            bindings[i] = (VkDescriptorSetLayoutBinding){
+            if (pipeline->binding_kinds[i] == PF_VK_BINDING_ABSENT)
+                continue;
+            bindings[present++] = (VkDescriptorSetLayoutBinding){
                 .binding = i,
                 .descriptorType = pf_vk_descriptor_type(pipeline->binding_kinds[i]),
                 .descriptorCount = 1,
@@ -148,7 +152,7 @@ pf_status pf_vk_pipeline_create(pf_vk_context *ctx, const pf_vk_pipeline_desc *d
         }
         VkDescriptorSetLayoutCreateInfo set_info = {
             .sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO,
-            .bindingCount = checked.buffer_count,
+            .bindingCount = present,
             .pBindings = bindings,
         };
         failed_call = "vkCreateDescriptorSetLayout";

@@ -1,11 +1,14 @@
 /*
- * Which bindings of a compute module are uniform texel buffers. Every other
- * binding of set 0 is a storage buffer; a shader that reads a buffer through
- * `usamplerBuffer` / `samplerBuffer` gets the texel descriptor without the
- * caller saying so. Why texel buffers at all: llvmpipe (Mesa 22.x) loads a
- * storage-buffer word lane by lane in a branchy loop (~11 ns a word on this
- * project's 2-core hosts), where a texel fetch is one vector gather (~1 ns);
- * the BIH traversal reads three node words per step.
+ * What each binding of a compute module is: a uniform texel buffer, a storage
+ * buffer, or absent. A shader that reads a buffer through `usamplerBuffer` /
+ * `samplerBuffer` gets the texel descriptor without the caller saying so. Why
+ * texel buffers at all: llvmpipe (Mesa 22.x) loads a storage-buffer word lane
+ * by lane in a branchy loop (~11 ns a word on this project's 2-core hosts),
+ * where a texel fetch is one vector gather (~1 ns); the BIH traversal reads
+ * three node words per step. Absent bindings exist because the build runs
+ * spirv-opt, which removes the variables a kernel never reads: they are left
+ * out of the pipeline's layout, so that a kernel is held to the device's
+ * descriptor limits by what it uses, not by the shared binding numbers.
  */
 #include "pf_vk_internal.h"
 
@@ -38,7 +41,7 @@ typedef struct id_info {
 pf_status pf_vk_spirv_binding_kinds(const uint32_t *words, size_t count, uint8_t *kinds,
                                     uint32_t binding_count, pf_error *err)
 {
-    memset(kinds, PF_VK_BINDING_STORAGE, binding_count);
+    memset(kinds, PF_VK_BINDING_ABSENT, binding_count);
     if (count < PF_SPIRV_HEADER_WORDS || words[0] != PF_SPIRV_MAGIC)
         return pf_error_set(err, PF_ERR_FORMAT, "not a SPIR-V module (%zu words)", count);
     uint32_t bound = words[3];
@@ -117,11 +120,10 @@ pf_status pf_vk_spirv_binding_kinds(const uint32_t *words, size_t count, uint8_t
         if (sampled < bound && ids[sampled].op == OP_TYPE_SAMPLED_IMAGE &&
             ids[sampled].target < bound)
             kind = ids[ids[sampled].target].texel;
-        if (kind == PF_VK_BINDING_STORAGE)
-            continue;
         if ((uint32_t)variable->binding >= binding_count) {
             status = pf_error_set(err, PF_ERR_INVALID,
-                                  "texel buffer at binding %d, but the pipeline has %u bindings",
+                                  "%s buffer at binding %d, but the pipeline has %u bindings",
+                                  kind == PF_VK_BINDING_STORAGE ? "storage" : "texel",
                                   variable->binding, binding_count);
             break;
         }

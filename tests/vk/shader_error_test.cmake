@@ -2,7 +2,7 @@
 # a scratch project uses shaders/pf_shaders.cmake on a shader whose line 6 is
 # wrong, plus a shader that includes a common file whose line 3 is wrong.
 #   cmake -DPF_SHADERS_CMAKE=<path> -DWORK_DIR=<dir> -DGENERATOR=<gen>
-#         -DGLSLANG_VALIDATOR=<exe> -DSPIRV_VAL=<exe> -P shader_error_test.cmake
+#         -DGLSLANG_VALIDATOR=<exe> -DSPIRV_VAL=<exe> -DSPIRV_OPT=<exe> -P shader_error_test.cmake
 file(REMOVE_RECURSE "${WORK_DIR}")
 file(MAKE_DIRECTORY "${WORK_DIR}/src/common")
 file(WRITE "${WORK_DIR}/src/CMakeLists.txt" "
@@ -10,6 +10,7 @@ cmake_minimum_required(VERSION 3.25)
 project(shader_error_test LANGUAGES C)
 set(GLSLANG_VALIDATOR \"${GLSLANG_VALIDATOR}\")
 set(SPIRV_VAL \"${SPIRV_VAL}\")
+set(SPIRV_OPT \"${SPIRV_OPT}\")
 include(\"${PF_SHADERS_CMAKE}\")
 pf_add_shader_library(scratch_shaders SOURCE_DIR \${CMAKE_SOURCE_DIR} INCLUDE_DIR \${CMAKE_SOURCE_DIR}/common)
 ")

@@ -2,7 +2,8 @@
  * spirv_bindings.c: the descriptor kind core/vk gives each binding, read from
  * the module: uniform texel buffers where a shader declares usamplerBuffer (R32
  * words), samplerBuffer (RGBA32 float) or isamplerBuffer (16-byte records),
- * storage buffers everywhere else. The kernels' declarations decide it, so these are checked
+ * storage buffers for the other variables, absent where the (optimized) module has
+ * none. The kernels' declarations decide it, so these are checked
  * on the embedded shaders themselves (the pipelines' layouts must match what
  * the dispatches bind: the VULKAN tests run with the validation layer).
  */
@@ -38,27 +39,38 @@ PF_TEST(traversal_reads_the_tree_through_texel_buffers)
 
 PF_TEST(integrators_read_the_tree_and_photon_maps_through_texel_buffers)
 {
-    /* The tree is 1 records view (its nodes), 1 uint and 1 float texel buffer in every
-     * integrator; a photon map adds 2 records views (its records, its ranges) and 1 uint (its
-     * flux): fast's caustic map,
-     * final's bound map and its irradiance points, and final's kernels 7 more records views
-     * of their per-pixel buffers; the primary and the gathers 1 uint view of the hits the host
-     * traced for them. Each kernel's own bindings follow the scene's
-     * (PF_SCENE_BINDING_COUNT of them). The scene's triangles, materials and textures
-     * (scene_geometry.glsl, scene_textures.glsl) are texel buffers in all of them and counted
-     * apart.
-     * Float texels: the tree's vertices where there is a tree, and fast's four LPV arrays (cells,
-     * cascades, far fields, geometry; lpv_lookup.glsl). */
+    /* What each kernel reads (the build's spirv-opt removes every variable a kernel never
+     * reads: its binding is absent, and left out of the layout). Every kernel that traces
+     * reads the tree as 1 records, 1 float and 1 uint view; fast adds the LPV's four float
+     * arrays (cells, cascades, far fields, geometry; lpv_lookup.glsl), its caustic kernel the
+     * caustic map (records, ranges) and its flux (words); final's kernels read the photon map,
+     * the irradiance points and the per-pixel buffers of the passes before them as records and
+     * the fluxes as words, the primary and the gathers the hits the host traced for them
+     * (words). Counted from the kernel's own bindings on (after PF_SCENE_BINDING_COUNT). */
     static const struct {
         const char *name;
         uint32_t texel_uint, texel_records, texel_float;
-    } integrators[] = {{"render_direct", 1, 1, 1},    {"render_fast", 2, 3, 5},
-                       {"render_final", 4, 12, 1},    {"final_gather", 4, 12, 1},
-                       {"render_reference", 1, 1, 1}, {"final_deferred", 2, 11, 0},
-                       {"final_caustic", 2, 11, 0},   {"final_resolve", 2, 11, 0},
-                       {"final_gather_estimate", 4, 12, 1}, {"render_fast_caustic", 2, 3, 5}};
-    /* final's kernels have the most bindings (PF_FINAL_BUFFERS: the scene's and 28); the
-     * others read as storage past their own. */
+        int reads_textures; /* its "_surfaces" variant reads the texture bindings */
+    } integrators[] = {{"render_direct", 1, 1, 1, 1},         {"render_fast", 1, 1, 5, 1},
+                       {"render_final", 2, 2, 1, 1},          {"final_gather", 3, 7, 1, 1},
+                       {"render_reference", 1, 1, 1, 1},      {"final_deferred", 1, 3, 0, 0},
+                       {"final_caustic", 1, 5, 0, 1},         {"final_resolve", 0, 4, 0, 0},
+                       {"final_gather_estimate", 4, 9, 1, 1}, {"render_fast_caustic", 2, 3, 5, 1}};
+    /* The scene's bindings where a kernel reads them: the parameters, lights and emissive table
+     * storage; vertices and normals float texels, a triangle's material a word, the materials
+     * 16-byte records; corners float texels, the texture table records, the texels words. */
+    static const uint8_t scene_kinds[PF_SCENE_BINDING_COUNT] = {
+        [PF_SCENE_BINDING_PARAMS] = PF_VK_BINDING_STORAGE,
+        [PF_SCENE_BINDING_VERTICES] = PF_VK_BINDING_TEXEL_FLOAT,
+        [PF_SCENE_BINDING_NORMALS] = PF_VK_BINDING_TEXEL_FLOAT,
+        [PF_SCENE_BINDING_TRIANGLE_MATERIALS] = PF_VK_BINDING_TEXEL_UINT,
+        [PF_SCENE_BINDING_MATERIALS] = PF_VK_BINDING_TEXEL_INT4,
+        [PF_SCENE_BINDING_LIGHTS] = PF_VK_BINDING_STORAGE,
+        [PF_SCENE_BINDING_EMISSIVE] = PF_VK_BINDING_STORAGE,
+        [PF_SCENE_BINDING_CORNERS] = PF_VK_BINDING_TEXEL_FLOAT,
+        [PF_SCENE_BINDING_TEXTURES] = PF_VK_BINDING_TEXEL_INT4,
+        [PF_SCENE_BINDING_TEXELS] = PF_VK_BINDING_TEXEL_UINT};
+    /* final's kernels have the most bindings (PF_FINAL_BUFFERS: the scene's and 28). */
     enum { S = PF_SCENE_BINDING_COUNT, ALL = PF_SCENE_BINDING_COUNT + 28 };
     for (size_t i = 0; i < sizeof integrators / sizeof *integrators; i++) {
         uint8_t kinds[ALL];
@@ -69,58 +81,51 @@ PF_TEST(integrators_read_the_tree_and_photon_maps_through_texel_buffers)
             texel_float += kinds[b] == PF_VK_BINDING_TEXEL_FLOAT;
             texel_records += kinds[b] == PF_VK_BINDING_TEXEL_INT4;
         }
-        /* final_deferred, final_caustic and final_resolve have final_shared.glsl's maps and no
-         * tree; the two gathers have both. */
         PF_CHECK_MSG(texel_uint == integrators[i].texel_uint &&
                          texel_float == integrators[i].texel_float &&
                          texel_records == integrators[i].texel_records,
                      "%s: %u uint, %u float and %u records texel", integrators[i].name,
                      texel_uint, texel_float, texel_records);
-        /* Vertices and normals as float texels, a triangle's material as a word, the materials
-         * as 16-byte records; the frame parameters, lights and emissive table stay storage. */
-        PF_CHECK_MSG(kinds[1] == PF_VK_BINDING_TEXEL_FLOAT &&
-                         kinds[2] == PF_VK_BINDING_TEXEL_FLOAT &&
-                         kinds[3] == PF_VK_BINDING_TEXEL_UINT &&
-                         kinds[4] == PF_VK_BINDING_TEXEL_INT4,
-                     "%s: scene bindings 1..4 of kinds %d %d %d %d", integrators[i].name, kinds[1],
-                     kinds[2], kinds[3], kinds[4]);
-        PF_CHECK(kinds[0] == PF_VK_BINDING_STORAGE && kinds[5] == PF_VK_BINDING_STORAGE &&
-                 kinds[6] == PF_VK_BINDING_STORAGE);
-        /* The plain variant reads no texture; the "_surfaces" one has the same bindings
-         * otherwise, and corners as float texels, the texture table as records, the texels
-         * as words (pf_scene.h PF_SURFACE_*). */
-        PF_CHECK(kinds[PF_SCENE_BINDING_CORNERS] == PF_VK_BINDING_STORAGE &&
-                 kinds[PF_SCENE_BINDING_TEXTURES] == PF_VK_BINDING_STORAGE &&
-                 kinds[PF_SCENE_BINDING_TEXELS] == PF_VK_BINDING_STORAGE);
+        PF_CHECK_MSG(kinds[PF_SCENE_BINDING_PARAMS] == PF_VK_BINDING_STORAGE,
+                     "%s: no parameters", integrators[i].name);
+        for (int b = 0; b < S; b++)
+            PF_CHECK_MSG(kinds[b] == scene_kinds[b] || kinds[b] == PF_VK_BINDING_ABSENT,
+                         "%s: scene binding %d of kind %d", integrators[i].name, b, kinds[b]);
+        /* The plain variant reads no texture. */
+        PF_CHECK(kinds[PF_SCENE_BINDING_CORNERS] == PF_VK_BINDING_ABSENT &&
+                 kinds[PF_SCENE_BINDING_TEXTURES] == PF_VK_BINDING_ABSENT &&
+                 kinds[PF_SCENE_BINDING_TEXELS] == PF_VK_BINDING_ABSENT);
+        /* The "_surfaces" variant reads what the plain one does (and may read more of the
+         * scene: normals for a normal map), and the textures where it shades surfaces. */
         char surfaces[64];
         snprintf(surfaces, sizeof surfaces, "%s_surfaces", integrators[i].name);
         uint8_t variant[ALL];
         kinds_of(surfaces, variant, ALL);
         for (int b = 0; b < ALL; b++)
             if (b < PF_SCENE_BINDING_CORNERS || b > PF_SCENE_BINDING_TEXELS)
-                PF_CHECK_MSG(variant[b] == kinds[b], "%s: binding %d of kind %d, plain %d",
-                             surfaces, b, variant[b], kinds[b]);
-        PF_CHECK_MSG(variant[PF_SCENE_BINDING_CORNERS] == PF_VK_BINDING_TEXEL_FLOAT &&
-                         variant[PF_SCENE_BINDING_TEXTURES] == PF_VK_BINDING_TEXEL_INT4 &&
-                         variant[PF_SCENE_BINDING_TEXELS] == PF_VK_BINDING_TEXEL_UINT,
-                     "%s: texture bindings of kinds %d %d %d", surfaces,
-                     variant[PF_SCENE_BINDING_CORNERS], variant[PF_SCENE_BINDING_TEXTURES],
-                     variant[PF_SCENE_BINDING_TEXELS]);
+                PF_CHECK_MSG(variant[b] == kinds[b] || (kinds[b] == PF_VK_BINDING_ABSENT &&
+                                                        b < S && variant[b] == scene_kinds[b]),
+                             "%s: binding %d of kind %d, plain %d", surfaces, b, variant[b],
+                             kinds[b]);
+        for (int b = PF_SCENE_BINDING_CORNERS; b <= PF_SCENE_BINDING_TEXELS; b++)
+            PF_CHECK_MSG(variant[b] == (integrators[i].reads_textures ? scene_kinds[b]
+                                                                      : PF_VK_BINDING_ABSENT),
+                         "%s: texture binding %d of kind %d", surfaces, b, variant[b]);
     }
     uint8_t kinds[ALL];
     kinds_of("render_final", kinds, ALL);
     PF_CHECK(kinds[S + 3] == PF_VK_BINDING_TEXEL_INT4 &&
              kinds[S + 4] == PF_VK_BINDING_TEXEL_FLOAT &&
              kinds[S + 5] == PF_VK_BINDING_TEXEL_UINT); /* BIH_BINDING */
+    kinds_of("final_gather_estimate", kinds, ALL);
     /* Records and ranges of the map (S+8, S+9) and the points (S+11, S+12); their flux. */
     PF_CHECK(kinds[S + 8] == PF_VK_BINDING_TEXEL_INT4 && kinds[S + 9] == PF_VK_BINDING_TEXEL_INT4 &&
              kinds[S + 11] == PF_VK_BINDING_TEXEL_INT4 &&
              kinds[S + 12] == PF_VK_BINDING_TEXEL_INT4);
     PF_CHECK(kinds[S + 15] == PF_VK_BINDING_TEXEL_UINT && kinds[S + 16] == PF_VK_BINDING_TEXEL_UINT);
-    PF_CHECK(kinds[S] == PF_VK_BINDING_STORAGE && kinds[S + 6] == PF_VK_BINDING_STORAGE &&
-             kinds[S + 13] == PF_VK_BINDING_STORAGE); /* film, vertices, deferred estimates */
-    for (int b = S + 17; b < S + 23; b++) /* the same buffers' texel views, for reading */
-        PF_CHECK(kinds[b] == PF_VK_BINDING_TEXEL_INT4);
+    PF_CHECK(kinds[S + 6] == PF_VK_BINDING_STORAGE); /* the vertices it writes */
+    for (int b = S + 17; b < S + 23; b++) /* per-pixel buffers' texel views, for reading */
+        PF_CHECK(kinds[b] == PF_VK_BINDING_TEXEL_INT4 || kinds[b] == PF_VK_BINDING_ABSENT);
     /* The rays the host traces (host_rays.glsl): rays and queue written, hits read as
      * words. */
     PF_CHECK(kinds[S + 23] == PF_VK_BINDING_STORAGE && kinds[S + 24] == PF_VK_BINDING_TEXEL_UINT &&
@@ -130,14 +135,15 @@ PF_TEST(integrators_read_the_tree_and_photon_maps_through_texel_buffers)
              kinds[6] == PF_VK_BINDING_STORAGE); /* scene_geometry.glsl; the emitters */
     PF_CHECK(kinds[S] == PF_VK_BINDING_TEXEL_INT4 && kinds[S + 1] == PF_VK_BINDING_TEXEL_FLOAT &&
              kinds[S + 2] == PF_VK_BINDING_TEXEL_UINT); /* BIH_BINDING */
-    /* The waves (photon_trace_wave.c): state, rays and queue written; the hits and the active
-     * photons read as words, the state and rays as float texels. */
+    /* The waves (photon_trace_wave.c, photon_wave_bounce.comp): state, rays and queue written;
+     * the hits and the active photons read as words, the state and rays as float texels. */
+    kinds_of("photon_wave_bounce", kinds, S + 13);
     PF_CHECK(kinds[S + 6] == PF_VK_BINDING_STORAGE && kinds[S + 7] == PF_VK_BINDING_STORAGE &&
              kinds[S + 8] == PF_VK_BINDING_TEXEL_UINT && kinds[S + 9] == PF_VK_BINDING_STORAGE &&
              kinds[S + 10] == PF_VK_BINDING_TEXEL_UINT &&
              kinds[S + 11] == PF_VK_BINDING_TEXEL_FLOAT &&
              kinds[S + 12] == PF_VK_BINDING_TEXEL_FLOAT);
-    kinds_of("render_fast", kinds, S + 13);
+    kinds_of("render_fast", kinds, S + 15); /* PF_FAST_BUFFERS */
     PF_CHECK(kinds[S + 6] == PF_VK_BINDING_TEXEL_FLOAT &&
              kinds[S + 7] == PF_VK_BINDING_TEXEL_FLOAT &&
              kinds[S + 10] == PF_VK_BINDING_TEXEL_FLOAT &&
@@ -173,6 +179,10 @@ PF_TEST(bad_modules_and_too_few_bindings_are_refused)
     PF_CHECK(pf_vk_spirv_binding_kinds(blob->words, blob->bytes / 4, kinds, 2, &err) ==
              PF_ERR_INVALID);
     PF_CHECK(strstr(err.message, "texel buffer at binding 2") != NULL);
+    /* Nor a storage buffer (the vertex count at 3) in 3 bindings. */
+    PF_CHECK(pf_vk_spirv_binding_kinds(blob->words, blob->bytes / 4, kinds, 3, &err) ==
+             PF_ERR_INVALID);
+    PF_CHECK(strstr(err.message, "storage buffer at binding") != NULL);
     uint32_t *copy = malloc(blob->bytes);
     PF_REQUIRE(copy != NULL);
     memcpy(copy, blob->words, blob->bytes);

@@ -4,6 +4,7 @@
 #include "pf_vk_internal.h"
 
 #include <stdint.h>
+#include <stdlib.h>
 
 /* shaders/vk_selftest.comp: spec constant 0 = workgroup size, 1 = multiplier. */
 #define SELFTEST_WORKGROUP 64u
@@ -441,6 +442,43 @@ PF_TEST(timestamps_measure_elapsed_time)
 }
 
 /* Misuse of dispatch is refused before anything reaches Vulkan. */
+/*
+ * A SPIR-V module of count storage-buffer variables at set 0, bindings 0..count-1, and
+ * nothing else: as far as core/vk reads a module before the driver sees it (its bindings).
+ * *words_count its length; malloc'd, NULL when out of memory.
+ */
+static uint32_t *storage_buffers_module(uint32_t count, uint32_t *words_count)
+{
+    enum { HEADER = 5, OP_DECORATE = 71, OP_TYPE_INT = 21, OP_TYPE_POINTER = 32,
+           OP_VARIABLE = 59, BINDING = 33, DESCRIPTOR_SET = 34, STORAGE_BUFFER = 12 };
+    const uint32_t uint_id = 1, pointer_id = 2, first_variable = 3;
+    *words_count = HEADER + count * 8 + 4 + 4 + count * 4;
+    uint32_t *w = malloc(*words_count * sizeof *w), at = 0;
+    if (!w)
+        return NULL;
+    const uint32_t header[HEADER] = {0x07230203u, 0x00010500u, 0, first_variable + count, 0};
+    for (; at < HEADER; at++)
+        w[at] = header[at];
+    for (uint32_t i = 0; i < count; i++) {
+        const uint32_t decorations[8] = {4u << 16 | OP_DECORATE, first_variable + i, BINDING, i,
+                                         4u << 16 | OP_DECORATE, first_variable + i,
+                                         DESCRIPTOR_SET, 0};
+        for (int k = 0; k < 8; k++)
+            w[at++] = decorations[k];
+    }
+    const uint32_t types[8] = {4u << 16 | OP_TYPE_INT, uint_id, 32, 0,
+                               4u << 16 | OP_TYPE_POINTER, pointer_id, STORAGE_BUFFER, uint_id};
+    for (int k = 0; k < 8; k++)
+        w[at++] = types[k];
+    for (uint32_t i = 0; i < count; i++) {
+        const uint32_t variable[4] = {4u << 16 | OP_VARIABLE, pointer_id, first_variable + i,
+                                      STORAGE_BUFFER};
+        for (int k = 0; k < 4; k++)
+            w[at++] = variable[k];
+    }
+    return w;
+}
+
 PF_TEST(dispatch_arguments_are_checked)
 {
     pf_error err = {0};
@@ -477,8 +515,10 @@ PF_TEST(dispatch_arguments_are_checked)
     PF_CHECK(pf_vk_pipeline_create_named(ctx, "no_such_shader", 1, 0, NULL, 0, &unknown, &err) ==
              PF_ERR_INVALID);
     PF_CHECK(strstr(err.message, "no_such_shader") != NULL);
-    /* Bindings past the module's own are storage buffers: more than the device allows of
-     * those is refused naming the limit (texel buffers count against another one). */
+    /* Bindings a module declares count against the device's limits, those it lacks against
+     * none (they stay out of the layout): a module of one more storage buffer than the device
+     * allows is refused naming the limit, before the driver sees it (texel buffers count
+     * against another one); vk_selftest in as many bindings is made. */
     uint32_t storage_limit = 0;
     {
         VkPhysicalDeviceProperties properties;
@@ -486,9 +526,19 @@ PF_TEST(dispatch_arguments_are_checked)
         storage_limit = properties.limits.maxPerStageDescriptorStorageBuffers;
     }
     if (storage_limit < 4096) {
-        PF_CHECK(pf_vk_pipeline_create_named(ctx, "vk_selftest", storage_limit + 1, 0, NULL, 0,
-                                             &unknown, &err) == PF_ERR_LIMIT);
+        uint32_t variables = storage_limit + 1, words_count = 0;
+        uint32_t *words = storage_buffers_module(variables, &words_count);
+        PF_REQUIRE(words != NULL);
+        pf_vk_pipeline_desc wide = {.name = "wide", .spirv = words, .spirv_bytes = words_count * 4,
+                                    .buffer_count = variables};
+        PF_CHECK(pf_vk_pipeline_create(ctx, &wide, &unknown, &err) == PF_ERR_LIMIT);
         PF_CHECK(strstr(err.message, "maxPerStageDescriptorStorageBuffers") != NULL);
+        free(words);
+        pf_vk_pipeline *sparse = NULL;
+        PF_CHECK_OK(pf_vk_pipeline_create_named(ctx, "vk_selftest", variables, 8, NULL, 0,
+                                                &sparse, &err),
+                    &err);
+        pf_vk_pipeline_destroy(ctx, sparse);
     }
     const uint32_t not_spirv[8] = {1, 2, 3, 4, 5, 6, 7, 8};
     pf_vk_pipeline_desc bad = {.name = "garbage", .spirv = not_spirv,
