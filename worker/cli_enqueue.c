@@ -266,7 +266,7 @@ int pf_cli_enqueue(int argc, char **argv)
             code = pf_cli_fail(COMMAND, 2, "--out: %s", err.message);
     char parameters[PARAMETERS_MAX];
     pf_job_extras extras = {options.name, options.scene.load.allow_outside_scene_dir,
-                            options.scene.load.animation};
+                            options.scene.load.animation, options.scene.load.material_variant};
     if (!code && !pf_job_parameters_format(&options.settings, &extras, parameters,
                                        sizeof parameters))
         code = pf_cli_fail(COMMAND, 2, "--name is too long");

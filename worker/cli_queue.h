@@ -69,17 +69,18 @@ int pf_cli_settings_option(const char *command, const char *arg, const char *val
 /* The scene a job renders and how it is loaded. */
 typedef struct pf_cli_scene {
     const char *path;
-    pf_scene_load_options load; /* --allow-outside-scene-dir, --animation */
+    pf_scene_load_options load; /* --allow-outside-scene-dir, --animation, --variant */
 } pf_cli_scene;
 
 /*
  * What render and enqueue parse alike, as rows of the one option table
  * (cli_options.h): every settings option above, stored into *settings by
- * pf_cli_settings_option, and --allow-outside-scene-dir and --animation into *scene.
+ * pf_cli_settings_option, and --allow-outside-scene-dir, --animation and --variant into
+ * *scene.
  */
-#define PF_CLI_SETTINGS_OPTIONS 19
+#define PF_CLI_SETTINGS_OPTIONS 20
 /* The settings rows that store into the pf_cli_scene, last in the table. */
-#define PF_CLI_SCENE_OPTIONS 2
+#define PF_CLI_SCENE_OPTIONS 3
 size_t pf_cli_settings_table(pf_render_settings *settings, pf_cli_scene *scene,
                              pf_cli_option rows[PF_CLI_SETTINGS_OPTIONS]);
 /*

@@ -202,6 +202,15 @@ static int store_animation(const char *command, const pf_cli_option *option, con
     return 0;
 }
 
+/* pf_cli_store for --variant NAME|INDEX (target: the pf_cli_scene). */
+static int store_variant(const char *command, const pf_cli_option *option, const char *value)
+{
+    if (!*value)
+        return pf_cli_fail(command, 2, "--variant needs a name or an index");
+    ((pf_cli_scene *)option->target)->load.material_variant = value;
+    return 0;
+}
+
 size_t pf_cli_settings_table(pf_render_settings *settings, pf_cli_scene *scene,
                              pf_cli_option rows[PF_CLI_SETTINGS_OPTIONS])
 {
@@ -264,6 +273,10 @@ size_t pf_cli_settings_table(pf_render_settings *settings, pf_cli_scene *scene,
          "play only this glTF animation (its name, or its index\nin the file); the frame range "
          "is then its own",
          "every animation plays, as in the authoring tool", store_animation, NULL, 0, 0, NULL},
+        {"--variant", NULL, "NAME|INDEX",
+         "dress the scene in this glTF material variant\n(KHR_materials_variants: its name, "
+         "or its index in the\nfile)",
+         "each primitive's own material", store_variant, NULL, 0, 0, NULL},
     };
     for (size_t i = 0; i < PF_CLI_SETTINGS_OPTIONS; i++) {
         rows[i] = table[i];

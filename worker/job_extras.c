@@ -23,6 +23,8 @@ int pf_job_parameters_format(const pf_render_settings *settings, const pf_job_ex
         cJSON_AddBoolToObject(root, "allow_outside_scene_dir", 1);
     if (extras && extras->animation)
         cJSON_AddStringToObject(root, "animation", extras->animation);
+    if (extras && extras->material_variant)
+        cJSON_AddStringToObject(root, "material_variant", extras->material_variant);
     char *keys = root->child ? cJSON_PrintUnformatted(root) : NULL;
     cJSON_Delete(root);
     /* The extras' members, then the settings' as the codec wrote them: not parsed and
@@ -54,6 +56,11 @@ void pf_job_name(const char *json, char *out, size_t size)
 int pf_job_animation(const char *json, char *out, size_t size)
 {
     return job_string(json, "animation", out, size);
+}
+
+int pf_job_material_variant(const char *json, char *out, size_t size)
+{
+    return job_string(json, "material_variant", out, size);
 }
 
 int pf_job_allow_outside(const char *json)

@@ -14,6 +14,7 @@ typedef struct pf_job_extras {
     const char *name;            /* "name": a label for status (NULL: none) */
     int allow_outside_scene_dir; /* "allow_outside_scene_dir": true (pf_scene_load_options) */
     const char *animation;       /* "animation": the one that plays (NULL: every one) */
+    const char *material_variant; /* "material_variant": the one worn (NULL: none) */
 } pf_job_extras;
 
 /* The job's parameters: extras (when not NULL) and settings as one JSON object into out
@@ -27,5 +28,7 @@ void pf_job_name(const char *json, char *out, size_t size);
 int pf_job_allow_outside(const char *json);
 /* Copies the job's "animation" into out; returns 0 (out "") when it has none. */
 int pf_job_animation(const char *json, char *out, size_t size);
+/* Copies the job's "material_variant" into out; returns 0 (out "") when it has none. */
+int pf_job_material_variant(const char *json, char *out, size_t size);
 
 #endif

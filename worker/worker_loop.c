@@ -797,10 +797,12 @@ static void render_task(worker *w, task_run *run)
         pf_scene_destroy(w->scene);
         w->scene = NULL;
         w->scene_job_id = 0;
-        char animation[256];
-        pf_scene_load_options load = {pf_job_allow_outside(run->job.parameters_json), NULL};
+        char animation[256], variant[256];
+        pf_scene_load_options load = {pf_job_allow_outside(run->job.parameters_json), NULL, NULL};
         if (pf_job_animation(run->job.parameters_json, animation, sizeof animation))
             load.animation = animation;
+        if (pf_job_material_variant(run->job.parameters_json, variant, sizeof variant))
+            load.material_variant = variant;
         run->render_status = pf_scene_load_with(scene_path, &load, &w->scene,
                                                 &run->render_err);
         if (run->render_status != PF_OK) {

@@ -127,6 +127,12 @@ void gltf_textures_free(gltf_context *ctx);
 /* gltf_accessors.c: every entry of "buffers" into ctx->buffers, sizes checked. */
 pf_status gltf_load_buffers(gltf_context *ctx, pf_error *err);
 pf_status gltf_load_materials(gltf_context *ctx, pf_error *err);
+/* KHR_materials_variants: the file's variants, and the one chosen (scene->variant_choice). */
+pf_status gltf_load_material_variants(gltf_context *ctx, pf_error *err);
+/* The material primitive wears: the chosen variant's where the primitive maps it, else
+ * *material (its own) as read. */
+pf_status gltf_primitive_variant(gltf_context *ctx, const cJSON *primitive, const char *element,
+                                 int32_t *material, pf_error *err);
 pf_status gltf_load_animations(gltf_context *ctx, pf_error *err);
 
 /*

@@ -57,6 +57,7 @@ static const char *const supported_extensions[] = {
     "KHR_materials_clearcoat",
     "KHR_materials_unlit",
     "KHR_materials_sheen",
+    "KHR_materials_variants",
     "EXT_mesh_gpu_instancing",
     /* Integer positions, normals, tangents and texture coordinates (gltfpack -cc): every
      * attribute is read through gltf_read_floats, which converts any component type. */
@@ -559,6 +560,8 @@ static pf_status load_primitive(gltf_context *ctx, scene_mesh *mesh, const cJSON
     if (!status)
         status = gltf_index(ctx, primitive, "material", ctx->file_material_count, &material,
                             element, err);
+    if (!status)
+        status = gltf_primitive_variant(ctx, primitive, element, &material, err);
     if (!status)
         status = gltf_index(ctx, primitive, "indices", accessor_count, &indices_index, element,
                             err);
@@ -1259,6 +1262,8 @@ pf_status scene_load_gltf(pf_scene *scene, int binary_hint, pf_error *err)
         status = gltf_meshopt_decode_views(&ctx, err);
     if (!status)
         status = gltf_load_materials(&ctx, err);
+    if (!status)
+        status = gltf_load_material_variants(&ctx, err);
     if (!status)
         status = load_meshes(&ctx, err);
     if (!status)

@@ -380,6 +380,8 @@ typedef struct pf_scene_info {
     uint32_t light_count;          /* punctual lights */
     uint32_t animation_count;      /* in the file (all play unless one was chosen) */
     int32_t animation;             /* the one chosen to play (pf_scene_load_options), else -1 */
+    uint32_t material_variant_count; /* KHR_materials_variants in the file */
+    int32_t material_variant;      /* the one the primitives wear (pf_scene_load_options), else -1 */
     uint32_t triangle_count;       /* per frame (constant across frames) */
     uint32_t emissive_triangle_count;
     double fps;                    /* asset.extras.fps, else 24 */
@@ -426,6 +428,14 @@ typedef struct pf_scene_load_options {
      * index the file lacks is PF_ERR_INVALID naming it and the file's animations.
      */
     const char *animation;
+    /*
+     * NULL (the default): each primitive's own material (glTF's "material"). Else the
+     * KHR_materials_variants variant whose materials the primitives wear (a product's
+     * colourways, which Blender exports from its glTF Variants panel): its name, or its index
+     * in the file; a primitive without a mapping for it keeps its own. A name or index the
+     * file lacks is PF_ERR_INVALID naming it and the file's variants.
+     */
+    const char *material_variant;
 } pf_scene_load_options;
 
 /* pf_scene_load with options (NULL: the defaults above). */

@@ -105,14 +105,22 @@ pf_status pf_scene_load_with(const char *path, const pf_scene_load_options *opti
     scene->camera_node = SCENE_NONE;
     scene->allow_outside_dir = options && options->allow_outside_scene_dir;
     scene->animation = SCENE_NONE;
+    scene->variant = SCENE_NONE;
     if (options && options->animation)
         scene->animation_choice = strdup(options->animation);
-    pf_status status = scene->path && (!options || !options->animation || scene->animation_choice)
-                           ? PF_OK
-                           : pf_error_set(err, PF_ERR_NOMEM, "out of memory");
+    if (options && options->material_variant)
+        scene->variant_choice = strdup(options->material_variant);
+    pf_status status =
+        scene->path && (!options || !options->animation || scene->animation_choice) &&
+                (!options || !options->material_variant || scene->variant_choice)
+            ? PF_OK
+            : pf_error_set(err, PF_ERR_NOMEM, "out of memory");
     if (!status && scene->animation_choice && is_obj)
         status = pf_error_set(err, PF_ERR_INVALID, "%s: --animation '%s': an OBJ file has no "
                               "animations", path, scene->animation_choice);
+    if (!status && scene->variant_choice && is_obj)
+        status = pf_error_set(err, PF_ERR_INVALID, "%s: --variant '%s': an OBJ file has no "
+                              "material variants", path, scene->variant_choice);
     if (!status)
         status = is_obj ? scene_load_obj(scene, err) : scene_load_gltf(scene, is_glb, err);
     if (!status)
@@ -156,6 +164,7 @@ void pf_scene_destroy(pf_scene *scene)
         free(scene->warned[k]);
     free(scene->warned);
     free(scene->animation_choice);
+    free(scene->variant_choice);
     free(scene->channels);
     free(scene->meshes);
     free(scene->materials);
@@ -676,6 +685,8 @@ pf_status scene_finalize(pf_scene *scene, pf_error *err)
     info->light_count = lights;
     info->animation_count = scene->animation_count;
     info->animation = scene->animation;
+    info->material_variant_count = scene->variant_count;
+    info->material_variant = scene->variant;
     info->triangle_count = (uint32_t)triangles;
     info->emissive_triangle_count = (uint32_t)emissive;
     info->has_emissive = emissive > 0;

@@ -137,6 +137,9 @@ struct pf_scene {
     int allow_outside_dir; /* pf_scene_load_options.allow_outside_scene_dir */
     char *animation_choice; /* pf_scene_load_options.animation (NULL: every animation) */
     int32_t animation;      /* the chosen animation's index, SCENE_NONE: every one plays */
+    char *variant_choice;   /* pf_scene_load_options.material_variant (NULL: none) */
+    int32_t variant;        /* the chosen material variant's index, SCENE_NONE: none */
+    uint32_t variant_count; /* KHR_materials_variants' variants in the file */
 
     uint32_t node_count;
     scene_node *nodes;

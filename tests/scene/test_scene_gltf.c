@@ -602,6 +602,76 @@ PF_TEST(camera_values)
     pf_scene_destroy(scene);
 }
 
+/*
+ * KHR_materials_variants: the quad wears material 0 of its own, material 1 in variant "red"
+ * and material 2 in "blue"; the variant is chosen by name or index at load, and one the file
+ * lacks, or a mapping that names a variant the file lacks, is refused naming it.
+ */
+#define VARIANT_MATERIALS                                                                     \
+    "[{\"pbrMetallicRoughness\":{\"baseColorFactor\":[0.5,0.5,0.5,1],\"metallicFactor\":0}}," \
+    "{\"pbrMetallicRoughness\":{\"baseColorFactor\":[0.8,0.1,0.1,1],\"metallicFactor\":0}},"  \
+    "{\"pbrMetallicRoughness\":{\"baseColorFactor\":[0.1,0.1,0.8,1],\"metallicFactor\":0}}]"
+#define VARIANT_MESH(mappings)                                                                  \
+    "[{\"primitives\":[{\"attributes\":{\"POSITION\":0,\"NORMAL\":1},\"indices\":2,"        \
+    "\"material\":0,\"extensions\":{\"KHR_materials_variants\":{\"mappings\":" mappings "}}}]}]"
+
+static void check_variant(const char *path, const char *choice, int32_t index, float red)
+{
+    pf_scene_load_options options = {.material_variant = choice};
+    pf_scene *scene = NULL;
+    pf_scene_frame frame;
+    pf_error err = {0};
+    PF_REQUIRE_OK(pf_scene_load_with(path, &options, &scene, &err), &err);
+    PF_CHECK(pf_scene_get_info(scene)->material_variant_count == 2);
+    PF_CHECK_MSG(pf_scene_get_info(scene)->material_variant == index, "%s: variant %d",
+                 choice ? choice : "none", pf_scene_get_info(scene)->material_variant);
+    PF_REQUIRE_OK(pf_scene_eval(scene, 0.0, &frame, &err), &err);
+    for (uint32_t t = 0; t < frame.triangle_count; t++)
+        PF_CHECK_MSG(fabsf(frame.materials[frame.triangle_material[t]].albedo[0] - red) < 1e-6f,
+                     "%s: triangle %u of red %g", choice ? choice : "none", t,
+                     frame.materials[frame.triangle_material[t]].albedo[0]);
+    pf_scene_frame_free(&frame);
+    pf_scene_destroy(scene);
+}
+
+PF_TEST(material_variants_dress_the_primitives)
+{
+    char path[512];
+    st_gltf spec = {
+        .name = "variants",
+        .nodes = "[" QUAD_NODE_MESH "]",
+        .materials = VARIANT_MATERIALS,
+        .meshes = VARIANT_MESH("[{\"material\":1,\"variants\":[0]},"
+                               "{\"material\":2,\"variants\":[1]}]"),
+        .extensions = "{\"KHR_materials_variants\":{\"variants\":[{\"name\":\"red\"},"
+                      "{\"name\":\"blue\"}]}}",
+        .extensions_used = "[\"KHR_materials_variants\"]",
+    };
+    st_write_gltf(&spec, path, sizeof path);
+    uint32_t warnings_before = pf_log_warning_count();
+    check_variant(path, NULL, -1, 0.5f); /* baseColorFactor is linear: as written */
+    PF_CHECK(pf_log_warning_count() - warnings_before == 1); /* the missing camera only */
+    check_variant(path, "blue", 1, 0.1f);
+    check_variant(path, "0", 0, 0.8f);
+    pf_scene_load_options options = {.material_variant = "green"};
+    pf_scene *scene = NULL;
+    pf_error err = {0};
+    PF_CHECK(pf_scene_load_with(path, &options, &scene, &err) == PF_ERR_INVALID);
+    PF_CHECK_MSG(strstr(err.message, "'green'") && strstr(err.message, "0 'red', 1 'blue'"),
+                 "%s", err.message);
+    options.material_variant = "2";
+    PF_CHECK(pf_scene_load_with(path, &options, &scene, &err) == PF_ERR_INVALID);
+
+    spec.name = "variants_bad";
+    spec.meshes = VARIANT_MESH("[{\"material\":1,\"variants\":[0,5]}]");
+    st_expect_error(st_write_gltf(&spec, path, sizeof path), PF_ERR_FORMAT,
+                    "primitives[0].extensions.KHR_materials_variants.mappings[0]",
+                    "variants[1]: not one of the file's 2 variants");
+    spec.meshes = VARIANT_MESH("[{\"variants\":[0]}]");
+    st_expect_error(st_write_gltf(&spec, path, sizeof path), PF_ERR_FORMAT, "mappings[0]",
+                    "material: missing");
+}
+
 PF_TEST(materials_mapped)
 {
     char path[512];
@@ -1015,6 +1085,7 @@ int main(void)
     PF_RUN(unlit_keeps_its_base_colour_only);
     PF_RUN(gpu_instancing_draws_the_mesh_once_per_instance);
     PF_RUN(materials_mapped);
+    PF_RUN(material_variants_dress_the_primitives);
     PF_RUN(linear_translation_and_clamping);
     PF_RUN(linear_rotation_slerp);
     PF_RUN(rotation_shortest_path_in_file);

@@ -373,6 +373,9 @@ PF_TEST(bad_input_exits_2_and_inserts_nothing)
          out_dir);
     CASE("--target-relmse", "enqueue '%s' --frames 1 --out '%s/f.exr' --target-relmse -0.1",
          scene, out_dir);
+    /* A material variant the scene lacks (it has none), named with the file's (none). */
+    CASE("--variant 'blue': no material variant of that name or index (the file's: none)",
+         "enqueue '%s' --frames 1 --out '%s/f.exr' --variant blue", scene, out_dir);
     /* Requirements (issue 42). */
     CASE("gpu|cpu", "enqueue '%s' --frames 1 --out '%s/f.exr' --requires tpu", scene, out_dir);
     CASE("24X", "enqueue '%s' --frames 1 --out '%s/f.exr' --min-device-memory 24X", scene,

@@ -11,6 +11,7 @@
  * touch the new owner's output.
  */
 #include "pf_test.h"
+#include "pf_image.h"
 #include "worker_test_util.h"
 
 #include <sys/stat.h>
@@ -977,6 +978,51 @@ PF_TEST(a_job_over_a_skinned_scene_reports_its_deform_rows)
     PF_CHECK(wt_file_contains(log_path, "1 skinned mesh, 1 morphed, "));
 }
 
+/* KHR_materials_variants: --variant is stored in the job, and its worker loads the scene
+ * dressed in it (the triangle blue at the image's centre, red in the file's own material). */
+PF_TEST(a_job_renders_the_material_variant_it_names)
+{
+    char scene_path[WT_PATH_MAX + 32], out[WT_PATH_MAX + 32], db[WT_PATH_MAX + 32];
+    char pattern[2 * WT_PATH_MAX], args[8 * WT_PATH_MAX];
+    wt_format(scene_path, sizeof scene_path, "%s/variants.gltf", dir);
+    wt_write_variant_scene(scene_path);
+    wt_fresh_dir("variant-out", out, sizeof out);
+    wt_format(db, sizeof db, "%s/variant.db", dir);
+    unlink(db);
+    const char *variants[2] = {"", "--variant blue"};
+    for (int v = 0; v < 2; v++) {
+        wt_format(pattern, sizeof pattern, "%s/v%d.####.exr", out, v);
+        int64_t job_id = enqueue(db, scene_path, "1", pattern, variants[v]);
+        PF_REQUIRE(job_id > 0);
+        pf_queue *queue = wt_open_queue(db);
+        PF_REQUIRE(queue != NULL);
+        pf_queue_job job = {0};
+        pf_error err = {0};
+        PF_CHECK_OK(pf_queue_job_get(queue, job_id, &job, &err), &err);
+        PF_CHECK_MSG(job.parameters_json &&
+                         (strstr(job.parameters_json, "\"material_variant\":\"blue\"") != NULL) ==
+                             (v == 1),
+                     "parameters %s", job.parameters_json ? job.parameters_json : "(none)");
+        pf_queue_job_clear(&job);
+        pf_queue_close(queue);
+    }
+    wt_format(args, sizeof args, "worker --once --db '%s'", db);
+    PF_REQUIRE(wt_run(args, log_path) == 0);
+    for (int v = 0; v < 2; v++) {
+        char path[2 * WT_PATH_MAX];
+        wt_format(path, sizeof path, "%s/v%d.0001.exr", out, v);
+        pf_image image = {0};
+        pf_error err = {0};
+        PF_REQUIRE_OK(pf_exr_read(path, &image, NULL, NULL, &err), &err);
+        const float *centre =
+            &image.pixels[((size_t)image.height / 2 * image.width + image.width / 2) *
+                          image.channel_count];
+        PF_CHECK_MSG(v == 0 ? centre[0] > 10 * centre[2] : centre[2] > 10 * centre[0],
+                     "%s: centre %g %g %g", path, centre[0], centre[1], centre[2]);
+        pf_image_free(&image);
+    }
+}
+
 /* Issue 40: a task of consecutive frames on one worker reuses each frame's denoised light in
  * the next; `timings` shows the temporal rows (the first skipped, the others run). The
  * project's own animated character (its lights and materials still, as reuse needs), so
@@ -1141,6 +1187,7 @@ int main(void)
     PF_RUN(a_frame_that_cannot_be_committed_pauses_its_job_at_once);
     PF_RUN(render_frames_deforms_a_blender_character_and_refits_its_tree);
     PF_RUN(a_job_over_a_skinned_scene_reports_its_deform_rows);
+    PF_RUN(a_job_renders_the_material_variant_it_names);
     PF_RUN(a_task_of_consecutive_frames_reuses_the_frame_before);
     PF_RUN(the_next_frame_renders_while_the_last_is_written);
     return pf_test_finish();

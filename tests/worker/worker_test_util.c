@@ -209,6 +209,36 @@ void wt_write_tiny_scene(const char *path, int frame_count)
     fclose(file);
 }
 
+void wt_write_variant_scene(const char *path)
+{
+    FILE *file = fopen(path, "wb");
+    if (!file)
+        return;
+    fputs("{\"asset\":{\"version\":\"2.0\"},\n"
+          " \"extensionsUsed\":[\"KHR_materials_unlit\",\"KHR_materials_variants\"],\n"
+          " \"extensions\":{\"KHR_materials_variants\":{\"variants\":[{\"name\":\"red\"},"
+          "{\"name\":\"blue\"}]}},\n"
+          " \"scene\":0,\"scenes\":[{\"nodes\":[0,1]}],\n"
+          " \"nodes\":[{\"mesh\":0},{\"camera\":0,\"translation\":[0,0,3]}],\n"
+          " \"cameras\":[{\"type\":\"perspective\",\"perspective\":{\"yfov\":0.8,\"znear\":0.1}}],\n"
+          " \"materials\":[{\"pbrMetallicRoughness\":{\"baseColorFactor\":[0.8,0.05,0.05,1]},"
+          "\"extensions\":{\"KHR_materials_unlit\":{}}},\n"
+          "  {\"pbrMetallicRoughness\":{\"baseColorFactor\":[0.05,0.05,0.8,1]},"
+          "\"extensions\":{\"KHR_materials_unlit\":{}}}],\n"
+          " \"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0},\"indices\":1,"
+          "\"material\":0,\"extensions\":{\"KHR_materials_variants\":{\"mappings\":["
+          "{\"material\":1,\"variants\":[1]}]}}}]}],\n"
+          " \"buffers\":[{\"byteLength\":44,\"uri\":\"data:application/octet-stream;base64,"
+          TINY_BUFFER_BASE64 "\"}],\n"
+          " \"bufferViews\":[{\"buffer\":0,\"byteOffset\":0,\"byteLength\":36},\n"
+          "  {\"buffer\":0,\"byteOffset\":36,\"byteLength\":6}],\n"
+          " \"accessors\":[{\"bufferView\":0,\"componentType\":5126,\"count\":3,\"type\":\"VEC3\","
+          "\"min\":[-1,-1,0],\"max\":[1,1,0]},\n"
+          "  {\"bufferView\":1,\"componentType\":5123,\"count\":3,\"type\":\"SCALAR\"}]}\n",
+          file);
+    fclose(file);
+}
+
 const char *wt_fresh_dir(const char *name, char *out, size_t size)
 {
     char tmp[WT_PATH_MAX];

@@ -53,6 +53,9 @@ int wt_wait(pid_t pid, int timeout_ms);
 /* Writes a one-triangle glTF lit by a point light, with asset.extras.frames =
  * frame_count, to path. */
 void wt_write_tiny_scene(const char *path, int frame_count);
+/* The tiny scene's triangle, unlit (its colour to the camera, whatever the light), red, and
+ * blue in its KHR_materials_variants variant "blue" (index 1; "red" is index 0). */
+void wt_write_variant_scene(const char *path);
 
 /* Creates (if needed) and empties directory $PF_TEST_TMP/name; fills out. */
 const char *wt_fresh_dir(const char *name, char *out, size_t size);
