@@ -17,6 +17,15 @@
 
 /* One triangle (-1,-1,0) (1,-1,0) (0,1,0) as float32 positions + uint16 indices 0,1,2 + 2 bytes of padding. */
 #define TINY_BUFFER_BASE64 "AACAvwAAgL8AAAAAAACAPwAAgL8AAAAAAAAAAAAAgD8AAAAAAAABAAIAAAA="
+/* The tiny triangle's buffer, views and accessors (0 positions, 1 indices), the glTF's end. */
+#define TINY_TRIANGLE_DATA                                                                   \
+    " \"buffers\":[{\"byteLength\":44,\"uri\":\"data:application/octet-stream;base64,"         \
+    TINY_BUFFER_BASE64 "\"}],\n"                                                              \
+    " \"bufferViews\":[{\"buffer\":0,\"byteOffset\":0,\"byteLength\":36},\n"                  \
+    "  {\"buffer\":0,\"byteOffset\":36,\"byteLength\":6}],\n"                                  \
+    " \"accessors\":[{\"bufferView\":0,\"componentType\":5126,\"count\":3,\"type\":\"VEC3\","    \
+    "\"min\":[-1,-1,0],\"max\":[1,1,0]},\n"                                                   \
+    "  {\"bufferView\":1,\"componentType\":5123,\"count\":3,\"type\":\"SCALAR\"}]}\n"
 
 void wt_format(char *out, size_t size, const char *format, ...)
 {
@@ -198,13 +207,7 @@ void wt_write_tiny_scene(const char *path, int frame_count)
             "  {\"translation\":[0,0,2],\"extensions\":{\"KHR_lights_punctual\":{\"light\":0}}}],\n"
             " \"cameras\":[{\"type\":\"perspective\",\"perspective\":{\"yfov\":0.8,\"znear\":0.1}}],\n"
             " \"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0},\"indices\":1}]}],\n"
-            " \"buffers\":[{\"byteLength\":44,\"uri\":\"data:application/octet-stream;base64,"
-            TINY_BUFFER_BASE64 "\"}],\n"
-            " \"bufferViews\":[{\"buffer\":0,\"byteOffset\":0,\"byteLength\":36},\n"
-            "  {\"buffer\":0,\"byteOffset\":36,\"byteLength\":6}],\n"
-            " \"accessors\":[{\"bufferView\":0,\"componentType\":5126,\"count\":3,\"type\":\"VEC3\","
-            "\"min\":[-1,-1,0],\"max\":[1,1,0]},\n"
-            "  {\"bufferView\":1,\"componentType\":5123,\"count\":3,\"type\":\"SCALAR\"}]}\n",
+            TINY_TRIANGLE_DATA,
             frame_count);
     fclose(file);
 }
@@ -228,13 +231,7 @@ void wt_write_variant_scene(const char *path)
           " \"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0},\"indices\":1,"
           "\"material\":0,\"extensions\":{\"KHR_materials_variants\":{\"mappings\":["
           "{\"material\":1,\"variants\":[1]}]}}}]}],\n"
-          " \"buffers\":[{\"byteLength\":44,\"uri\":\"data:application/octet-stream;base64,"
-          TINY_BUFFER_BASE64 "\"}],\n"
-          " \"bufferViews\":[{\"buffer\":0,\"byteOffset\":0,\"byteLength\":36},\n"
-          "  {\"buffer\":0,\"byteOffset\":36,\"byteLength\":6}],\n"
-          " \"accessors\":[{\"bufferView\":0,\"componentType\":5126,\"count\":3,\"type\":\"VEC3\","
-          "\"min\":[-1,-1,0],\"max\":[1,1,0]},\n"
-          "  {\"bufferView\":1,\"componentType\":5123,\"count\":3,\"type\":\"SCALAR\"}]}\n",
+          TINY_TRIANGLE_DATA,
           file);
     fclose(file);
 }
