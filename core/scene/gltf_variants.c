@@ -56,6 +56,11 @@ pf_status gltf_load_material_variants(gltf_context *ctx, pf_error *err)
         }
     }
     scene->variant_count = count;
+    if (!choice && count > 0)
+        pf_log(PF_LOG_INFO,
+               "%s: %u material variants (%s): each primitive wears its own material; "
+               "--variant picks one",
+               ctx->path, count, names);
     if (!choice || scene->variant != SCENE_NONE)
         return PF_OK;
     char *end = NULL;
