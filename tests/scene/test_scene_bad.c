@@ -344,6 +344,39 @@ PF_TEST(malformed_structure)
     st_expect_error(path, PF_ERR_FORMAT, "materials[0]", "doubleSided");
     spec.materials = NULL;
 
+    /* KHR_materials_variants, checked whether a variant is chosen or not. */
+    spec.name = "badvariants";
+    spec.materials = "[{},{}]";
+    spec.extensions = "{\"KHR_materials_variants\":{\"variants\":{\"name\":\"red\"}}}";
+    st_write_gltf(&spec, path, sizeof path);
+    st_expect_error(path, PF_ERR_FORMAT, "KHR_materials_variants", "variants");
+    spec.extensions = "{\"KHR_materials_variants\":{\"variants\":[{\"title\":\"red\"}]}}";
+    st_write_gltf(&spec, path, sizeof path);
+    st_expect_error(path, PF_ERR_FORMAT, "KHR_materials_variants.variants[0]", "name");
+    spec.extensions = "{\"KHR_materials_variants\":{\"variants\":[{\"name\":\"red\"}]}}";
+    static const struct {
+        const char *mappings, *needle;
+    } bad_mappings[] = {
+        {"[3]", "mappings[0]"},
+        {"[{\"material\":5,\"variants\":[0]}]", "material"},
+        {"[{\"material\":1,\"variants\":[\"red\"]}]", "not one of the file's 1 variants"},
+        {"[{\"material\":1,\"variants\":[0.5]}]", "not one of the file's 1 variants"},
+        {"{\"material\":1}", "mappings"},
+    };
+    for (size_t k = 0; k < sizeof bad_mappings / sizeof *bad_mappings; k++) {
+        char meshes[512];
+        snprintf(meshes, sizeof meshes,
+                 "[{\"primitives\":[{\"attributes\":{\"POSITION\":0,\"NORMAL\":1},"
+                 "\"indices\":2,\"material\":0,\"extensions\":{\"KHR_materials_variants\":"
+                 "{\"mappings\":%s}}}]}]",
+                 bad_mappings[k].mappings);
+        spec.meshes = meshes;
+        st_write_gltf(&spec, path, sizeof path);
+        st_expect_error(path, PF_ERR_FORMAT, "KHR_materials_variants", bad_mappings[k].needle);
+    }
+    spec.meshes = NULL;
+    spec.materials = NULL;
+
     spec.name = "badcamera";
     spec.extensions = NULL;
     spec.cameras = "[{\"type\":\"perspective\",\"perspective\":{\"znear\":0.1}}]";
