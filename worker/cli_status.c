@@ -92,9 +92,17 @@ static void print_job(pf_queue *queue, const pf_queue_job *job, int64_t now,
     printf("job %" PRId64 "%s%s%s  %-8s %s  priority %d\n", job->job_id, name[0] ? " (" : "",
            pf_cli_printable(name, shown[0], sizeof shown[0]), name[0] ? ")" : "", job->status,
            bar, job->priority);
-    printf("  scene %s  frames %s  -> %s\n",
-           shown_path(&storage->scene, job->scene_path, 0, shown[1], sizeof shown[1]),
-           pf_cli_printable(job->frame_range, shown[2], sizeof shown[2]),
+    /* What the job loads besides the file: the animation it plays, the variant it wears. */
+    char animation[128], variant[128], loads[2][160] = {"", ""}, shown_load[128];
+    if (pf_job_animation(job->parameters_json, animation, sizeof animation))
+        snprintf(loads[0], sizeof loads[0], "  animation '%s'",
+                 pf_cli_printable(animation, shown_load, sizeof shown_load));
+    if (pf_job_material_variant(job->parameters_json, variant, sizeof variant))
+        snprintf(loads[1], sizeof loads[1], "  variant '%s'",
+                 pf_cli_printable(variant, shown_load, sizeof shown_load));
+    printf("  scene %s%s%s  frames %s  -> %s\n",
+           shown_path(&storage->scene, job->scene_path, 0, shown[1], sizeof shown[1]), loads[0],
+           loads[1], pf_cli_printable(job->frame_range, shown[2], sizeof shown[2]),
            shown_path(&storage->output, job->output_pattern, 1, shown[3], sizeof shown[3]));
     printf("  tasks: %" PRId64 " queued, %" PRId64 " running, %" PRId64 " done, %" PRId64
            " failed, %" PRId64 " canceled\n",

@@ -976,6 +976,9 @@ PF_TEST(a_job_over_a_skinned_scene_reports_its_deform_rows)
                              "--frames-per-task 2 --animation KeyAction");
     PF_REQUIRE(job_id > 0);
     PF_CHECK(job_parameters_hold(db, job_id, "\"animation\":\"KeyAction\"") == 1);
+    wt_format(args, sizeof args, "status %lld --db '%s'", (long long)job_id, db);
+    PF_REQUIRE(wt_run(args, log_path) == 0);
+    PF_CHECK(wt_file_contains(log_path, "  animation 'KeyAction'  frames 1-2"));
     wt_format(args, sizeof args, "worker --once --db '%s'", db);
     PF_REQUIRE(wt_run(args, log_path) == 0);
     PF_CHECK(wt_count_files(out, "") == 2);
@@ -1007,6 +1010,11 @@ PF_TEST(a_job_renders_the_material_variant_it_names)
         PF_REQUIRE(job_id > 0);
         PF_CHECK(job_parameters_hold(db, job_id, "\"material_variant\":\"blue\"") == v);
     }
+    /* status shows what each job wears. */
+    wt_format(args, sizeof args, "status --db '%s'", db);
+    PF_REQUIRE(wt_run(args, log_path) == 0);
+    PF_CHECK(wt_file_contains(log_path, "variants.gltf  frames 1"));
+    PF_CHECK(wt_file_contains(log_path, "variants.gltf  variant 'blue'  frames 1"));
     wt_format(args, sizeof args, "worker --once --db '%s'", db);
     PF_REQUIRE(wt_run(args, log_path) == 0);
     for (int v = 0; v < 2; v++) {
