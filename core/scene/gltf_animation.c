@@ -140,32 +140,13 @@ static pf_status choose_animation(gltf_context *ctx, const cJSON *animations, ui
                                   pf_error *err)
 {
     pf_scene *scene = ctx->scene;
-    const char *choice = scene->animation_choice;
-    char names[512] = "";
-    size_t used = 0;
-    for (uint32_t a = 0; a < count; a++) {
-        const cJSON *name = cJSON_GetObjectItemCaseSensitive(
-            cJSON_GetArrayItem(animations, (int)a), "name");
-        const char *text = cJSON_IsString(name) ? name->valuestring : "";
-        if (*text && strcmp(text, choice) == 0) {
-            scene->animation = (int32_t)a;
-            return PF_OK;
-        }
-        if (used < sizeof names) {
-            int wrote = snprintf(names + used, sizeof names - used, "%s%u '%s'", a ? ", " : "", a,
-                                 text);
-            used += wrote > 0 ? (size_t)wrote : 0;
-        }
-    }
-    char *end = NULL;
-    unsigned long index = strtoul(choice, &end, 10);
-    if (*choice >= '0' && *choice <= '9' && end && *end == '\0' && index < count) {
-        scene->animation = (int32_t)index;
+    char names[512];
+    scene->animation = gltf_named_entry(animations, count, scene->animation_choice, names,
+                                        sizeof names);
+    if (scene->animation != SCENE_NONE)
         return PF_OK;
-    }
     return pf_error_set(err, PF_ERR_INVALID, "%s: --animation '%s': no animation of that name or "
-                        "index (the file's: %s)", ctx->path, choice,
-                        count ? names : "none");
+                        "index (the file's: %s)", ctx->path, scene->animation_choice, names);
 }
 
 pf_status gltf_load_animations(gltf_context *ctx, pf_error *err)

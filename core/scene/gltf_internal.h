@@ -71,6 +71,14 @@ pf_status gltf_index(gltf_context *ctx, const cJSON *object, const char *key, ui
 /* Array of exactly n finite numbers at key; out unchanged if absent. */
 pf_status gltf_floats(gltf_context *ctx, const cJSON *object, const char *key, int n,
                       float *out, const char *element, pf_error *err);
+/*
+ * The entry of array (count objects, each with an optional "name") that choice names (the
+ * load options' --animation, --variant): the first whose name it is, else the one whose
+ * decimal index it is; SCENE_NONE when none, or when choice is NULL. names gets the entries
+ * as "0 'walk', 1 'run'" (cut to its size), or "none" when there are none.
+ */
+int32_t gltf_named_entry(const cJSON *array, uint32_t count, const char *choice, char *names,
+                         size_t size);
 /* Length of the array at key (0 if absent); error if present and not an array. */
 pf_status gltf_array(gltf_context *ctx, const cJSON *object, const char *key,
                      const cJSON **out, uint32_t *count, const char *element, pf_error *err);

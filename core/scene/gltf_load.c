@@ -150,6 +150,31 @@ pf_status gltf_array(gltf_context *ctx, const cJSON *object, const char *key,
     return PF_OK;
 }
 
+int32_t gltf_named_entry(const cJSON *array, uint32_t count, const char *choice, char *names,
+                         size_t size)
+{
+    int32_t named = SCENE_NONE;
+    size_t used = 0;
+    snprintf(names, size, "%s", count ? "" : "none");
+    for (uint32_t k = 0; k < count; k++) {
+        const cJSON *name =
+            cJSON_GetObjectItemCaseSensitive(cJSON_GetArrayItem(array, (int)k), "name");
+        const char *text = cJSON_IsString(name) ? name->valuestring : "";
+        if (named == SCENE_NONE && choice && *text && strcmp(text, choice) == 0)
+            named = (int32_t)k;
+        if (used < size) {
+            int wrote = snprintf(names + used, size - used, "%s%u '%s'", k ? ", " : "", k, text);
+            used += wrote > 0 ? (size_t)wrote : 0;
+        }
+    }
+    char *end = NULL;
+    unsigned long index = choice ? strtoul(choice, &end, 10) : 0;
+    if (named == SCENE_NONE && choice && *choice >= '0' && *choice <= '9' && end && !*end &&
+        index < count)
+        named = (int32_t)index;
+    return named;
+}
+
 /* Object entry i of a top-level array such as "meshes"; error if not an object. */
 static pf_status array_object(gltf_context *ctx, const cJSON *array, uint32_t i,
                               const cJSON **out, const char *element, pf_error *err)

@@ -35,27 +35,19 @@ pf_status gltf_load_material_variants(gltf_context *ctx, pf_error *err)
         if (status)
             return status;
     }
-    char names[512] = "";
-    size_t used = 0;
-    const char *choice = scene->variant_choice;
     for (uint32_t v = 0; v < count; v++) {
-        const cJSON *name = cJSON_GetObjectItemCaseSensitive(
-            cJSON_GetArrayItem(variants, (int)v), "name");
-        if (!cJSON_IsString(name)) {
+        if (!cJSON_IsString(cJSON_GetObjectItemCaseSensitive(cJSON_GetArrayItem(variants, (int)v),
+                                                             "name"))) {
             char element[96];
             snprintf(element, sizeof element, "extensions." VARIANTS_EXTENSION ".variants[%u]",
                      v);
             return gltf_fail(ctx, err, PF_ERR_FORMAT, element, "name: expected a string");
         }
-        if (choice && scene->variant == SCENE_NONE && strcmp(name->valuestring, choice) == 0)
-            scene->variant = (int32_t)v;
-        if (used < sizeof names) {
-            int wrote = snprintf(names + used, sizeof names - used, "%s%u '%s'", v ? ", " : "",
-                                 v, name->valuestring);
-            used += wrote > 0 ? (size_t)wrote : 0;
-        }
     }
+    char names[512];
+    const char *choice = scene->variant_choice;
     scene->variant_count = count;
+    scene->variant = gltf_named_entry(variants, count, choice, names, sizeof names);
     if (!choice && count > 0)
         pf_log(PF_LOG_INFO,
                "%s: %u material variants (%s): each primitive wears its own material; "
@@ -63,16 +55,10 @@ pf_status gltf_load_material_variants(gltf_context *ctx, pf_error *err)
                ctx->path, count, names);
     if (!choice || scene->variant != SCENE_NONE)
         return PF_OK;
-    char *end = NULL;
-    unsigned long index = strtoul(choice, &end, 10);
-    if (*choice >= '0' && *choice <= '9' && end && *end == '\0' && index < count) {
-        scene->variant = (int32_t)index;
-        return PF_OK;
-    }
     return pf_error_set(err, PF_ERR_INVALID,
                         "%s: --variant '%s': no material variant of that name or index (the "
                         "file's: %s)",
-                        ctx->path, choice, count ? names : "none");
+                        ctx->path, choice, names);
 }
 
 pf_status gltf_primitive_variant(gltf_context *ctx, const cJSON *primitive, const char *element,
